@@ -1,0 +1,3 @@
+//! Calibration: identification of model parameters from datasets.
+
+pub mod optim;

@@ -1,0 +1,691 @@
+//! Differential evolution (DE) family over a box, sharing one engine.
+//!
+//! # Variants
+//!
+//! * [`DeVariant::Classic`] — DE/rand/1/bin (Storn & Price 1997) with fixed `F` and `CR`:
+//!   `v = x_r1 + F·(x_r2 − x_r3)`.
+//! * [`DeVariant::Jade`] — JADE (Zhang & Sanderson 2009): DE/current-to-pbest/1 with an external
+//!   archive of replaced parents, `v = x_i + F·(x_pbest − x_i) + F·(x_r1 − x̃_r2)` where `x_pbest`
+//!   is drawn from the best `⌈p·N⌉` individuals and `x̃_r2` from population ∪ archive.
+//!   Per individual `CR ~ N(μCR, 0.1)` clipped to `[0, 1]`, `F ~ Cauchy(μF, 0.1)` (redrawn while
+//!   `≤ 0`, truncated at 1). After each generation `μCR ← (1−c)·μCR + c·mean(S_CR)` and
+//!   `μF ← (1−c)·μF + c·mean_Lehmer(S_F)` over the successful parameters.
+//! * [`DeVariant::Shade`] — SHADE (Tanabe & Fukunaga 2013): like JADE but `F`/`CR` are drawn
+//!   around a randomly chosen slot of `memory`-long success-history memories `M_F`, `M_CR`;
+//!   each generation with successes overwrites one slot (round robin) with the improvement-
+//!   weighted Lehmer mean of `S_F` and weighted arithmetic mean of `S_CR`. The pbest fraction
+//!   is the fixed `p`.
+//! * [`DeVariant::LShade`] — L-SHADE (Tanabe & Fukunaga 2014): SHADE plus linear population size
+//!   reduction from `pop` to `min_pop` over the evaluation budget (`max_evals`, or
+//!   `pop·(generations + 1)` when unset), the weighted Lehmer mean for `M_CR`, a "terminal" `CR`
+//!   memory value (once all successful `CR` are 0, that slot always gives `CR = 0`) and an
+//!   archive of 2.6·N.
+//!
+//! # Engine
+//!
+//! Every generation is synchronous: all trial vectors are built from the current population
+//! (mutation → binomial crossover with one forced coordinate → bound repair), evaluated together
+//! in parallel with rayon, then selected one-to-one (`trial ≤ parent` replaces it; a *strict*
+//! improvement is a success that feeds adaptation and the archive). All random numbers are drawn
+//! on the calling thread in a fixed order and all ties are broken by index, so results depend
+//! only on the seed, never on the thread count. NaN costs count as +∞.
+//!
+//! Bound repair: a trial coordinate outside `[lower, upper]` is set to the midpoint between the
+//! parent's coordinate and the violated bound, `(lower + x_i)/2` or `(upper + x_i)/2`.
+//!
+//! # Extension point: adding a variant
+//!
+//! The engine knows only two things about a variant, both behind the private `Controller`
+//! trait built by `controller_for`:
+//!
+//! 1. **per trial**, `Controller::plan` returns a `TrialPlan`: the `F`, `CR` *and mutation
+//!    operator* (`Mutation`) to use, plus a free `tag` for the controller's bookkeeping;
+//! 2. **per generation**, `Controller::end_generation` receives every `Outcome` (the plan that
+//!    was used, parent and trial cost, success flag), and `Controller::next_pop_size` /
+//!    `Controller::archive_rate` steer population size and archive.
+//!
+//! A dual-strategy variant (e.g. choosing between DE/rand/1 and DE/current-to-pbest/1 with a
+//! probability learned from each operator's success history) is therefore one new
+//! `DeVariant` arm, one `Controller` implementation whose `plan` picks the operator (recording
+//! it in the plan, so `end_generation` can credit successes to it), and one line in
+//! `controller_for`. A genuinely new mutation formula is one new `Mutation` arm plus its
+//! branch in `Engine::mutate`; nothing else in the engine changes.
+//!
+//! # Stopping
+//!
+//! After `generations`, when the next generation would exceed `max_evals`, or early when the
+//! best cost has not improved by more than `tol·|best|` for `patience` consecutive generations
+//! (`patience = 0` disables early stopping; this is reported as `converged`).
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+use super::util::{argmin, eval_rows, Stall};
+use super::{Bounds, Cost, Event, Observer, Report};
+
+/// Which DE algorithm to run. See the module documentation.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DeVariant {
+    /// DE/rand/1/bin with fixed scale factor `f` and crossover rate `cr`.
+    Classic { f: f64, cr: f64 },
+    /// JADE: current-to-pbest/1 with archive; `c` is the adaptation rate of μF/μCR, `p` the
+    /// pbest fraction.
+    Jade { c: f64, p: f64 },
+    /// SHADE: success-history memories of length `memory`; `p` the pbest fraction.
+    Shade { memory: usize, p: f64 },
+    /// L-SHADE: SHADE with linear population size reduction down to `min_pop`.
+    LShade { memory: usize, p: f64, min_pop: usize },
+}
+
+impl Default for DeVariant {
+    fn default() -> Self {
+        DeVariant::LShade { memory: 6, p: 0.11, min_pop: 4 }
+    }
+}
+
+impl DeVariant {
+    fn name(&self) -> &'static str {
+        match self {
+            DeVariant::Classic { .. } => "de",
+            DeVariant::Jade { .. } => "jade",
+            DeVariant::Shade { .. } => "shade",
+            DeVariant::LShade { .. } => "lshade",
+        }
+    }
+}
+
+/// Differential evolution settings. See the module documentation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct De {
+    pub variant: DeVariant,
+    /// (Initial) population size; at least 4 is used.
+    pub pop: usize,
+    /// Maximum number of generations.
+    pub generations: usize,
+    /// Optional cap on cost evaluations (never exceeded); also the L-SHADE reduction horizon.
+    pub max_evals: Option<usize>,
+    /// RNG seed (ChaCha8).
+    pub seed: u64,
+    /// Relative improvement below which a generation counts as stalled.
+    pub tol: f64,
+    /// Stalled generations before stopping (0 = never stop early).
+    pub patience: usize,
+}
+
+impl Default for De {
+    fn default() -> Self {
+        De { variant: DeVariant::default(), pop: 50, generations: 1000, max_evals: None, seed: 0, tol: 1e-12, patience: 100 }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Engine ↔ variant interface
+// ---------------------------------------------------------------------------------------------
+
+/// Mutation operators the engine implements.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Mutation {
+    /// `v = x_r1 + F·(x_r2 − x_r3)`, r1, r2, r3 distinct and ≠ i.
+    Rand1,
+    /// `v = x_i + F·(x_pbest − x_i) + F·(x_r1 − x̃_r2)`, pbest among the best `max(2, round(p·N))`,
+    /// r1 from the population, r2 from population ∪ archive, all distinct from i and each other.
+    CurrentToPBest1 { p: f64 },
+}
+
+/// What a controller decides for one trial vector.
+#[derive(Clone, Copy, Debug)]
+struct TrialPlan {
+    f: f64,
+    cr: f64,
+    op: Mutation,
+    /// Controller-private bookkeeping (memory slot, strategy id, ...).
+    #[allow(dead_code)]
+    tag: usize,
+}
+
+/// Result of one parent/trial comparison, handed back to the controller.
+#[derive(Clone, Copy, Debug)]
+struct Outcome {
+    plan: TrialPlan,
+    parent_cost: f64,
+    #[allow(dead_code)]
+    trial_cost: f64,
+    /// Strictly better than the parent.
+    success: bool,
+}
+
+impl Outcome {
+    /// Improvement used as a weight; +∞ when a finite trial replaced an infinite (NaN) parent.
+    fn gain(&self) -> f64 {
+        self.parent_cost - self.trial_cost
+    }
+}
+
+/// The per-variant policy. See "Extension point" in the module documentation.
+trait Controller {
+    /// Parameters and operator for the next trial vector.
+    fn plan(&mut self, rng: &mut ChaCha8Rng) -> TrialPlan;
+    /// Learn from the generation's outcomes (all of them, successful or not, in index order).
+    fn end_generation(&mut self, outcomes: &[Outcome]);
+    /// Archive capacity as a multiple of the current population size (0 = no archive).
+    fn archive_rate(&self) -> f64 {
+        0.0
+    }
+    /// Population size for the next generation, given evaluations so far and the budget.
+    fn next_pop_size(&self, current: usize, _evals: usize, _budget: usize) -> usize {
+        current
+    }
+}
+
+fn controller_for(v: &DeVariant, pop: usize) -> Box<dyn Controller> {
+    match *v {
+        DeVariant::Classic { f, cr } => Box::new(Classic { f, cr }),
+        DeVariant::Jade { c, p } => Box::new(Jade { c, p, mu_f: 0.5, mu_cr: 0.5, s_f: Vec::new(), s_cr: Vec::new() }),
+        DeVariant::Shade { memory, p } => Box::new(Shade::new(memory, p, None, pop)),
+        DeVariant::LShade { memory, p, min_pop } => Box::new(Shade::new(memory, p, Some(min_pop.max(4)), pop)),
+    }
+}
+
+/// `N(mean, sd)` clipped to `[0, 1]`.
+fn sample_cr(rng: &mut ChaCha8Rng, mean: f64) -> f64 {
+    let e: f64 = rng.sample(StandardNormal);
+    (mean + 0.1 * e).clamp(0.0, 1.0)
+}
+
+/// `Cauchy(loc, 0.1)` redrawn while ≤ 0, truncated at 1.
+fn sample_f(rng: &mut ChaCha8Rng, loc: f64) -> f64 {
+    for _ in 0..64 {
+        let u: f64 = rng.random();
+        let f = loc + 0.1 * (std::f64::consts::PI * (u - 0.5)).tan();
+        if f > 0.0 {
+            return f.min(1.0);
+        }
+    }
+    loc.clamp(0.1, 1.0)
+}
+
+/// `Σ wᵢ·vᵢ² / Σ wᵢ·vᵢ`.
+fn lehmer(v: impl Iterator<Item = (f64, f64)>) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (w, x) in v {
+        num += w * x * x;
+        den += w * x;
+    }
+    if den > 0.0 {
+        num / den
+    } else {
+        0.0
+    }
+}
+
+/// DE/rand/1/bin.
+struct Classic {
+    f: f64,
+    cr: f64,
+}
+impl Controller for Classic {
+    fn plan(&mut self, _rng: &mut ChaCha8Rng) -> TrialPlan {
+        TrialPlan { f: self.f, cr: self.cr, op: Mutation::Rand1, tag: 0 }
+    }
+    fn end_generation(&mut self, _outcomes: &[Outcome]) {}
+}
+
+/// JADE adaptation.
+struct Jade {
+    c: f64,
+    p: f64,
+    mu_f: f64,
+    mu_cr: f64,
+    s_f: Vec<f64>,
+    s_cr: Vec<f64>,
+}
+impl Controller for Jade {
+    fn plan(&mut self, rng: &mut ChaCha8Rng) -> TrialPlan {
+        let cr = sample_cr(rng, self.mu_cr);
+        let f = sample_f(rng, self.mu_f);
+        TrialPlan { f, cr, op: Mutation::CurrentToPBest1 { p: self.p }, tag: 0 }
+    }
+    fn end_generation(&mut self, outcomes: &[Outcome]) {
+        self.s_f.clear();
+        self.s_cr.clear();
+        for o in outcomes.iter().filter(|o| o.success) {
+            self.s_f.push(o.plan.f);
+            self.s_cr.push(o.plan.cr);
+        }
+        if self.s_f.is_empty() {
+            return;
+        }
+        let mean_cr = self.s_cr.iter().sum::<f64>() / self.s_cr.len() as f64;
+        self.mu_cr = (1.0 - self.c) * self.mu_cr + self.c * mean_cr;
+        self.mu_f = (1.0 - self.c) * self.mu_f + self.c * lehmer(self.s_f.iter().map(|&f| (1.0, f)));
+    }
+    fn archive_rate(&self) -> f64 {
+        1.0
+    }
+}
+
+/// SHADE, or L-SHADE when `lshade` holds `(min_pop, initial_pop)`.
+struct Shade {
+    p: f64,
+    m_f: Vec<f64>,
+    /// NaN marks L-SHADE's terminal value ⊥ (CR = 0 from that slot).
+    m_cr: Vec<f64>,
+    next: usize,
+    lshade: Option<(usize, usize)>,
+    /// Scratch: (weight, F, CR) of the generation's successes.
+    succ: Vec<(f64, f64, f64)>,
+}
+impl Shade {
+    fn new(memory: usize, p: f64, min_pop: Option<usize>, pop: usize) -> Self {
+        let h = memory.max(1);
+        Shade { p, m_f: vec![0.5; h], m_cr: vec![0.5; h], next: 0, lshade: min_pop.map(|m| (m, pop)), succ: Vec::new() }
+    }
+}
+impl Controller for Shade {
+    fn plan(&mut self, rng: &mut ChaCha8Rng) -> TrialPlan {
+        let slot = rng.random_range(0..self.m_f.len());
+        let mcr = self.m_cr[slot];
+        let cr = if mcr.is_nan() { 0.0 } else { sample_cr(rng, mcr) };
+        let f = sample_f(rng, self.m_f[slot]);
+        TrialPlan { f, cr, op: Mutation::CurrentToPBest1 { p: self.p }, tag: slot }
+    }
+    fn end_generation(&mut self, outcomes: &[Outcome]) {
+        self.succ.clear();
+        let any_inf = outcomes.iter().any(|o| o.success && !o.gain().is_finite());
+        for o in outcomes.iter().filter(|o| o.success) {
+            let g = o.gain();
+            // Improvements from +∞ parents dominate: weight them equally, the rest zero.
+            let w = if any_inf { f64::from(u8::from(!g.is_finite())) } else { g };
+            self.succ.push((w, o.plan.f, o.plan.cr));
+        }
+        if self.succ.is_empty() {
+            return;
+        }
+        let mut wsum: f64 = self.succ.iter().map(|s| s.0).sum();
+        if !(wsum > 0.0 && wsum.is_finite()) {
+            self.succ.iter_mut().for_each(|s| s.0 = 1.0);
+            wsum = self.succ.len() as f64;
+        }
+        let k = self.next;
+        self.m_f[k] = lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.1)));
+        if self.lshade.is_some() {
+            let max_cr = self.succ.iter().map(|s| s.2).fold(0.0, f64::max);
+            self.m_cr[k] = if self.m_cr[k].is_nan() || max_cr == 0.0 {
+                f64::NAN
+            } else {
+                lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.2)))
+            };
+        } else {
+            self.m_cr[k] = self.succ.iter().map(|s| s.0 / wsum * s.2).sum();
+        }
+        self.next = (k + 1) % self.m_f.len();
+    }
+    fn archive_rate(&self) -> f64 {
+        if self.lshade.is_some() {
+            2.6
+        } else {
+            1.0
+        }
+    }
+    fn next_pop_size(&self, current: usize, evals: usize, budget: usize) -> usize {
+        match self.lshade {
+            Some((min_pop, init)) if budget > 0 => {
+                let frac = (evals as f64 / budget as f64).min(1.0);
+                let target = (init as f64 + (min_pop as f64 - init as f64) * frac).round() as usize;
+                target.clamp(min_pop.min(current), current)
+            }
+            _ => current,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Engine
+// ---------------------------------------------------------------------------------------------
+
+/// Population state and work buffers (row-major `n × d` matrices).
+struct Engine<'b> {
+    d: usize,
+    b: &'b Bounds,
+    x: Vec<f64>,
+    fx: Vec<f64>,
+    trials: Vec<f64>,
+    tcost: Vec<f64>,
+    plans: Vec<TrialPlan>,
+    /// Population indices sorted by cost (for pbest), refreshed each generation.
+    rank: Vec<usize>,
+    archive: Vec<f64>,
+    archive_len: usize,
+}
+
+impl Engine<'_> {
+    fn n(&self) -> usize {
+        self.fx.len()
+    }
+
+    fn row(&self, i: usize) -> &[f64] {
+        &self.x[i * self.d..(i + 1) * self.d]
+    }
+
+    /// Row `j` of population ∪ archive.
+    fn pool_row(&self, j: usize) -> &[f64] {
+        let n = self.n();
+        if j < n {
+            self.row(j)
+        } else {
+            &self.archive[(j - n) * self.d..(j - n + 1) * self.d]
+        }
+    }
+
+    /// Build trial `i` (mutation, crossover, bound repair) into `self.trials`.
+    fn mutate(&mut self, i: usize, plan: &TrialPlan, rng: &mut ChaCha8Rng) {
+        let (n, d) = (self.n(), self.d);
+        let pick = |rng: &mut ChaCha8Rng, upto: usize, avoid: &[usize]| loop {
+            let r = rng.random_range(0..upto);
+            if !avoid.contains(&r) {
+                break r;
+            }
+        };
+        let jrand = rng.random_range(0..d);
+        let mut t = std::mem::take(&mut self.trials);
+        {
+            let out = &mut t[i * d..(i + 1) * d];
+            let xi = self.row(i);
+            let f = plan.f;
+            match plan.op {
+                Mutation::Rand1 => {
+                    let r1 = pick(rng, n, &[i]);
+                    let r2 = pick(rng, n, &[i, r1]);
+                    let r3 = pick(rng, n, &[i, r1, r2]);
+                    let (a, bb, c) = (self.row(r1), self.row(r2), self.row(r3));
+                    for k in 0..d {
+                        out[k] = a[k] + f * (bb[k] - c[k]);
+                    }
+                }
+                Mutation::CurrentToPBest1 { p } => {
+                    let top = ((p * n as f64).round() as usize).clamp(2, n);
+                    let pb = self.rank[rng.random_range(0..top)];
+                    let r1 = pick(rng, n, &[i]);
+                    let r2 = pick(rng, n + self.archive_len, &[i, r1]);
+                    let (xp, a, c) = (self.row(pb), self.row(r1), self.pool_row(r2));
+                    for k in 0..d {
+                        out[k] = xi[k] + f * (xp[k] - xi[k]) + f * (a[k] - c[k]);
+                    }
+                }
+            }
+            // Binomial crossover (coordinate jrand always from the mutant), then bound repair.
+            for k in 0..d {
+                if k != jrand && rng.random::<f64>() >= plan.cr {
+                    out[k] = xi[k];
+                }
+                let (lo, hi) = (self.b.lower[k], self.b.upper[k]);
+                if out[k] < lo {
+                    out[k] = 0.5 * (lo + xi[k]);
+                } else if out[k] > hi {
+                    out[k] = 0.5 * (hi + xi[k]);
+                } else if out[k].is_nan() {
+                    out[k] = xi[k];
+                }
+            }
+        }
+        self.trials = t;
+    }
+
+    fn sort_rank(&mut self) {
+        let n = self.n();
+        self.rank.clear();
+        self.rank.extend(0..n);
+        let fx = &self.fx;
+        self.rank.sort_unstable_by(|&a, &b| fx[a].total_cmp(&fx[b]).then(a.cmp(&b)));
+    }
+
+    /// Put parent `i` into the archive (random replacement when full).
+    fn archive_push(&mut self, i: usize, cap: usize, rng: &mut ChaCha8Rng) {
+        if cap == 0 {
+            return;
+        }
+        let d = self.d;
+        let slot = if self.archive_len < cap {
+            self.archive_len += 1;
+            if self.archive.len() < self.archive_len * d {
+                self.archive.resize(self.archive_len * d, 0.0);
+            }
+            self.archive_len - 1
+        } else {
+            rng.random_range(0..cap)
+        };
+        let (src, dst) = (i * d, slot * d);
+        let (x, a) = (&self.x, &mut self.archive);
+        a[dst..dst + d].copy_from_slice(&x[src..src + d]);
+    }
+
+    /// Shrink the archive to `cap` by deleting random members.
+    fn archive_trim(&mut self, cap: usize, rng: &mut ChaCha8Rng) {
+        let d = self.d;
+        while self.archive_len > cap {
+            let j = rng.random_range(0..self.archive_len);
+            let last = self.archive_len - 1;
+            if j != last {
+                self.archive.copy_within(last * d..(last + 1) * d, j * d);
+            }
+            self.archive_len -= 1;
+        }
+    }
+
+    /// Keep the best `keep` individuals (ties by index), preserving their relative order.
+    fn shrink(&mut self, keep: usize) {
+        let (n, d) = (self.n(), self.d);
+        if keep >= n {
+            return;
+        }
+        self.sort_rank();
+        let mut alive = vec![false; n];
+        for &i in &self.rank[..keep] {
+            alive[i] = true;
+        }
+        let mut w = 0;
+        for i in 0..n {
+            if alive[i] {
+                if w != i {
+                    self.x.copy_within(i * d..(i + 1) * d, w * d);
+                    self.fx[w] = self.fx[i];
+                }
+                w += 1;
+            }
+        }
+        self.x.truncate(keep * d);
+        self.fx.truncate(keep);
+        self.trials.truncate(keep * d);
+        self.tcost.truncate(keep);
+    }
+}
+
+impl De {
+    /// Minimise `c` over `b`. With `init`, individual 0 starts at `init` (clamped into the box);
+    /// the rest are uniform in the box.
+    ///
+    /// One [`Event`] per generation with the best individual. `Report::evaluations` counts
+    /// cost evaluations; `converged` is true when the run stopped on the stall criterion.
+    ///
+    /// # Panics
+    /// If `b.dim() != c.dim()` or `init` has the wrong length.
+    pub fn minimize<C: Cost>(&self, c: &C, b: &Bounds, init: Option<&[f64]>, obs: &mut dyn Observer) -> Report {
+        let d = c.dim();
+        assert_eq!(b.dim(), d, "bounds have {} dimensions, cost has {d}", b.dim());
+        assert_eq!(b.upper.len(), d, "bounds lower/upper lengths differ");
+        let method = self.variant.name();
+        let n0 = self.pop.max(4);
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+        let mut ctl = controller_for(&self.variant, n0);
+
+        let mut x = vec![0.0; n0 * d];
+        for row in x.chunks_exact_mut(d) {
+            for k in 0..d {
+                row[k] = b.lower[k] + (b.upper[k] - b.lower[k]) * rng.random::<f64>();
+            }
+        }
+        if let Some(x0) = init {
+            assert_eq!(x0.len(), d, "init has {} entries, cost has {d} dimensions", x0.len());
+            x[..d].copy_from_slice(x0);
+            b.clamp(&mut x[..d]);
+        }
+        let dummy = TrialPlan { f: 0.0, cr: 0.0, op: Mutation::Rand1, tag: 0 };
+        let mut e = Engine {
+            d,
+            b,
+            trials: x.clone(),
+            x,
+            fx: vec![0.0; n0],
+            tcost: vec![0.0; n0],
+            plans: vec![dummy; n0],
+            rank: Vec::with_capacity(n0),
+            archive: Vec::new(),
+            archive_len: 0,
+        };
+        eval_rows(c, &e.x, d, &mut e.fx);
+        let mut evaluations = n0;
+        let budget = self.max_evals.unwrap_or(n0.saturating_mul(self.generations.saturating_add(1)));
+        let mut outcomes: Vec<Outcome> = Vec::with_capacity(n0);
+
+        let mut bi = argmin(&e.fx);
+        let mut best = e.row(bi).to_vec();
+        let mut best_cost = e.fx[bi];
+        let mut stall = Stall::new(self.tol, self.patience, best_cost);
+        let mut generations = 0;
+        let mut converged = false;
+        let mut reason = "maximum number of generations reached";
+
+        while generations < self.generations {
+            let n = e.n();
+            if let Some(me) = self.max_evals {
+                if evaluations + n > me {
+                    reason = "evaluation budget (max_evals) exhausted";
+                    break;
+                }
+            }
+            generations += 1;
+            e.sort_rank();
+            for i in 0..n {
+                let plan = ctl.plan(&mut rng);
+                e.plans[i] = plan;
+                e.mutate(i, &plan, &mut rng);
+            }
+            eval_rows(c, &e.trials, d, &mut e.tcost);
+            evaluations += n;
+
+            // One-to-one selection, in index order.
+            let cap = (ctl.archive_rate() * n as f64).round() as usize;
+            outcomes.clear();
+            for i in 0..n {
+                let (pc, tc) = (e.fx[i], e.tcost[i]);
+                let success = tc < pc;
+                outcomes.push(Outcome { plan: e.plans[i], parent_cost: pc, trial_cost: tc, success });
+                if tc <= pc {
+                    if success {
+                        e.archive_push(i, cap, &mut rng);
+                    }
+                    let (src, t) = (i * d..(i + 1) * d, &e.trials);
+                    e.x[src.clone()].copy_from_slice(&t[src]);
+                    e.fx[i] = tc;
+                }
+            }
+            ctl.end_generation(&outcomes);
+
+            // Population size reduction (L-SHADE); archive follows the population size.
+            let next = ctl.next_pop_size(n, evaluations, budget).max(4).min(n);
+            if next < n {
+                e.shrink(next);
+            }
+            let cap = (ctl.archive_rate() * e.n() as f64).round() as usize;
+            e.archive_trim(cap, &mut rng);
+
+            bi = argmin(&e.fx);
+            if e.fx[bi] < best_cost {
+                best_cost = e.fx[bi];
+                best.copy_from_slice(e.row(bi));
+            }
+            obs.observe(&Event { method, iteration: generations, cost: best_cost, x: &best });
+            if stall.update(best_cost) {
+                converged = true;
+                reason = "no relative improvement above tol within patience";
+                break;
+            }
+        }
+
+        Report { x: best, cost: best_cost, iterations: generations, evaluations, converged, reason: reason.to_owned(), covariance: None }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::util::testfns::{NanHole, Rosenbrock, Sphere};
+    use super::super::{History, NoObserver};
+    use super::*;
+
+    fn box5(d: usize) -> Bounds {
+        Bounds::new(vec![-5.0; d], vec![5.0; d])
+    }
+
+    fn variants() -> Vec<DeVariant> {
+        vec![
+            DeVariant::Classic { f: 0.5, cr: 0.9 },
+            DeVariant::Jade { c: 0.1, p: 0.05 },
+            DeVariant::Shade { memory: 6, p: 0.11 },
+            DeVariant::LShade { memory: 6, p: 0.11, min_pop: 4 },
+        ]
+    }
+
+    fn solver(v: DeVariant) -> De {
+        De { variant: v, pop: 40, generations: 600, max_evals: None, seed: 1, tol: 1e-12, patience: 100 }
+    }
+
+    #[test]
+    fn sphere_5d_all_variants() {
+        for v in variants() {
+            let rep = solver(v.clone()).minimize(&Sphere(5), &box5(5), None, &mut NoObserver);
+            assert!(rep.cost < 1e-6, "{v:?}: {rep:?}");
+        }
+    }
+
+    #[test]
+    fn rosenbrock_2d_all_variants() {
+        for v in variants() {
+            let rep = solver(v.clone()).minimize(&Rosenbrock, &box5(2), None, &mut NoObserver);
+            assert!(rep.cost < 1e-2, "{v:?}: {rep:?}");
+            assert!(rep.x.iter().all(|x| (-5.0..=5.0).contains(x)));
+        }
+    }
+
+    #[test]
+    fn deterministic_all_variants() {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        for v in variants() {
+            let s = De { generations: 60, ..solver(v.clone()) };
+            let a = s.minimize(&Rosenbrock, &box5(2), Some(&[0.0, 0.0]), &mut NoObserver);
+            let b = s.minimize(&Rosenbrock, &box5(2), Some(&[0.0, 0.0]), &mut NoObserver);
+            let c = pool.install(|| s.minimize(&Rosenbrock, &box5(2), Some(&[0.0, 0.0]), &mut NoObserver));
+            assert_eq!(a.x, b.x, "{v:?}");
+            assert_eq!(a.x, c.x, "{v:?} depends on thread count");
+        }
+    }
+
+    #[test]
+    fn max_evals_and_lshade_reduction() {
+        let s = De { variant: DeVariant::LShade { memory: 6, p: 0.11, min_pop: 4 }, max_evals: Some(3000), patience: 0, ..solver(DeVariant::default()) };
+        let mut h = History::default();
+        let rep = s.minimize(&Sphere(5), &box5(5), None, &mut h);
+        assert!(rep.evaluations <= 3000, "{rep:?}");
+        // With shrinking population, far more generations fit into the budget than 3000/40.
+        assert!(rep.iterations > 3000 / 40, "{rep:?}");
+        assert!(h.cost.windows(2).all(|w| w[1] <= w[0]));
+    }
+
+    #[test]
+    fn nan_costs_do_not_panic() {
+        for v in variants() {
+            let rep = De { generations: 200, ..solver(v.clone()) }.minimize(&NanHole, &box5(2), None, &mut NoObserver);
+            assert!(rep.cost.is_finite() && rep.cost < 1e-6, "{v:?}: {rep:?}");
+        }
+    }
+}

@@ -1,0 +1,336 @@
+//! Extended Kalman filter for *static* parameter estimation from scalar observations.
+//!
+//! The state is the parameter vector itself, with a random-walk process model `x_{k+1} = x_k + w`,
+//! `w ~ N(0, q·I)` on the free parameters (a small `q` keeps the filter from becoming
+//! overconfident and lets it track mismodelling; `q = 0` gives recursive least squares).
+//! Each scalar observation `z_i = h_i(x) + v`, `v ~ N(0, r)`, is processed as:
+//!
+//! ```text
+//! P ← P + q·I_free                        (predict)
+//! y = z_i − h_i(x),  H = ∂h_i/∂x          (innovation, linearised at the current x)
+//! s = H·P·Hᵀ + r,    K = P·Hᵀ / s         (scalar innovation variance, gain)
+//! x ← x + K·y
+//! P ← (I − K·H)·P·(I − K·H)ᵀ + r·K·Kᵀ      (Joseph form)
+//! P ← ½(P + Pᵀ)                           (symmetry enforcement)
+//! ```
+//!
+//! The Joseph form stays positive semi-definite for any gain and is robust to round-off.
+//! Because `H` is a single row, the product is evaluated exactly with rank-one updates in
+//! O(n²) per observation and no allocation: with `u = P·Hᵀ`,
+//! `(I − KH)P = P − K·uᵀ`, then `(I − KH)P(I − KH)ᵀ = (P − K·uᵀ) − w·Kᵀ` with `w = u − s₀·K`,
+//! `s₀ = H·P·Hᵀ`.
+//!
+//! An *epoch* processes the observations listed in `order` once. After every epoch the cost
+//! `½ Σ_{i∈order} (z_i − h_i(x))²` is evaluated, an [`Event`] is emitted, and the run stops when
+//! the relative cost change falls below `tol`.
+//!
+//! Observations whose innovation, gradient or innovation variance is not finite are skipped
+//! (the state is left unchanged), so a NaN prediction never corrupts the filter.
+//!
+//! Caveat: running several epochs re-uses the same data, so `P` keeps shrinking roughly like
+//! 1/epochs (the data are counted once per epoch). With one epoch, a diffuse prior and `q ≈ 0`,
+//! `P` equals the least-squares covariance `r·(JᵀJ)⁻¹`.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::util::free_indices;
+use super::{Event, Observations, Observer, Report};
+
+const METHOD: &str = "ekf";
+
+/// Extended Kalman filter settings. See the module documentation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ekf {
+    /// Maximum number of passes over `order`.
+    pub epochs: usize,
+    /// Process-noise variance added to every free state before each measurement update.
+    pub q: f64,
+    /// Measurement-noise variance.
+    pub r: f64,
+    /// Initial variance per state. A single value applies to all states; missing entries repeat
+    /// the last one; empty means 1.
+    pub p0: Vec<f64>,
+    /// Stop when the relative change of the epoch cost is below this.
+    pub tol: f64,
+}
+
+impl Default for Ekf {
+    fn default() -> Self {
+        Ekf { epochs: 10, q: 0.0, r: 1.0, p0: vec![1.0], tol: 1e-9 }
+    }
+}
+
+/// `½ Σ (z_i − h_i(x))²` over `order`, NaN → +∞.
+fn epoch_cost<O: Observations>(o: &O, x: &[f64], order: &[usize]) -> f64 {
+    let c = 0.5
+        * order
+            .iter()
+            .map(|&i| {
+                let e = o.measured(i) - o.predict(x, i);
+                e * e
+            })
+            .sum::<f64>();
+    if c.is_nan() {
+        f64::INFINITY
+    } else {
+        c
+    }
+}
+
+impl Ekf {
+    /// Run the filter from `x0`. `fixed[k] == true` keeps `x[k] = x0[k]` with zero variance.
+    /// `order` lists the observation indices processed in every epoch (repeats allowed).
+    ///
+    /// `Report::covariance` is the final `P` (zero rows/columns for fixed states);
+    /// `Report::evaluations` counts calls to `predict`. `converged` means the relative
+    /// cost change dropped below `tol` (or the cost reached zero) before `epochs` ran out.
+    ///
+    /// # Panics
+    /// If `x0.len() != o.n_params()`.
+    pub fn run<O: Observations>(&self, o: &O, x0: &[f64], fixed: &[bool], order: &[usize], obs: &mut dyn Observer) -> Report {
+        let n = o.n_params();
+        assert_eq!(x0.len(), n, "x0 has {} entries, problem has {n} parameters", x0.len());
+        let free = free_indices(fixed, n);
+        let mut is_free = vec![false; n];
+        for &k in &free {
+            is_free[k] = true;
+        }
+
+        let mut x = x0.to_vec();
+        let mut p = DMatrix::<f64>::zeros(n, n);
+        for &k in &free {
+            let v = self.p0.get(k).or(self.p0.last()).copied().unwrap_or(1.0);
+            p[(k, k)] = v;
+        }
+        let q = if self.q.is_finite() { self.q.max(0.0) } else { 0.0 };
+        let r = self.r;
+
+        // Buffers for the update (allocation-free inner loop).
+        let mut hrow = vec![0.0; n];
+        let mut h = DVector::<f64>::zeros(n);
+        let mut u = DVector::<f64>::zeros(n); // P·Hᵀ
+        let mut gain = DVector::<f64>::zeros(n);
+        let mut w = DVector::<f64>::zeros(n);
+
+        let mut evaluations = order.len();
+        let mut cost = epoch_cost(o, &x, order);
+        let mut iterations = 0;
+        let mut converged = false;
+        let mut reason = String::from("maximum number of epochs reached");
+        let mut skipped = 0usize;
+
+        if free.is_empty() || order.is_empty() {
+            return Report {
+                x,
+                cost,
+                iterations,
+                evaluations,
+                converged: true,
+                reason: "nothing to estimate (no free parameters or no observations)".into(),
+                covariance: Some(p),
+            };
+        }
+
+        while iterations < self.epochs {
+            iterations += 1;
+            for &i in order {
+                if q > 0.0 {
+                    for &k in &free {
+                        p[(k, k)] += q;
+                    }
+                }
+                let y = o.measured(i) - o.predict(&x, i);
+                evaluations += 1;
+                o.gradient(&x, i, &mut hrow);
+                for k in 0..n {
+                    h[k] = if is_free[k] { hrow[k] } else { 0.0 };
+                }
+                if !y.is_finite() || h.iter().any(|v| !v.is_finite()) {
+                    skipped += 1;
+                    continue;
+                }
+                u.gemv(1.0, &p, &h, 0.0);
+                let s0 = h.dot(&u);
+                let s = s0 + r;
+                if !(s > 0.0 && s.is_finite()) {
+                    skipped += 1;
+                    continue;
+                }
+                gain.copy_from(&u);
+                gain /= s;
+                for &k in &free {
+                    x[k] += gain[k] * y;
+                }
+                // Joseph form via rank-one updates:
+                // P ← P − K·uᵀ;  w = u − s₀·K;  P ← P − w·Kᵀ + r·K·Kᵀ = P + (r·K − w)·Kᵀ.
+                p.ger(-1.0, &gain, &u, 1.0);
+                w.copy_from(&gain);
+                w *= r + s0;
+                w -= &u; // w = r·K − (u − s₀·K)
+                p.ger(1.0, &w, &gain, 1.0);
+                for a in 0..n {
+                    for b in a + 1..n {
+                        let m = 0.5 * (p[(a, b)] + p[(b, a)]);
+                        p[(a, b)] = m;
+                        p[(b, a)] = m;
+                    }
+                }
+            }
+
+            let new_cost = epoch_cost(o, &x, order);
+            evaluations += order.len();
+            obs.observe(&Event { method: METHOD, iteration: iterations, cost: new_cost, x: &x });
+            let change = (cost - new_cost).abs();
+            let rel = if cost.is_finite() && new_cost.is_finite() {
+                change / cost.abs().max(f64::MIN_POSITIVE)
+            } else {
+                f64::INFINITY
+            };
+            cost = new_cost;
+            if cost == 0.0 {
+                converged = true;
+                reason = "zero cost".into();
+                break;
+            }
+            if rel < self.tol {
+                converged = true;
+                reason = "relative cost change below tol".into();
+                break;
+            }
+        }
+        if skipped > 0 {
+            reason.push_str(&format!(" ({skipped} non-finite observation updates skipped)"));
+        }
+
+        Report { x, cost, iterations, evaluations, converged, reason, covariance: Some(p) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::NoObserver;
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    /// z = a + b·t + c·t² with Gaussian noise of standard deviation `sigma`.
+    pub(crate) struct Poly {
+        pub t: Vec<f64>,
+        pub z: Vec<f64>,
+    }
+    impl Poly {
+        pub fn new(truth: &[f64], m: usize, sigma: f64, seed: u64) -> Self {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let nd = Normal::new(0.0, sigma).unwrap();
+            let t: Vec<f64> = (0..m).map(|i| -1.0 + 2.0 * i as f64 / (m - 1) as f64).collect();
+            let z = t.iter().map(|&t| truth.iter().enumerate().map(|(k, c)| c * t.powi(k as i32)).sum::<f64>() + nd.sample(&mut rng)).collect();
+            Poly { t, z }
+        }
+        pub fn design(&self, n: usize) -> DMatrix<f64> {
+            DMatrix::from_fn(self.t.len(), n, |i, k| self.t[i].powi(k as i32))
+        }
+    }
+    impl Observations for Poly {
+        fn n_params(&self) -> usize {
+            3
+        }
+        fn n_obs(&self) -> usize {
+            self.t.len()
+        }
+        fn predict(&self, x: &[f64], i: usize) -> f64 {
+            x[0] + x[1] * self.t[i] + x[2] * self.t[i] * self.t[i]
+        }
+        fn measured(&self, i: usize) -> f64 {
+            self.z[i]
+        }
+        fn gradient(&self, _x: &[f64], i: usize, g: &mut [f64]) {
+            g[0] = 1.0;
+            g[1] = self.t[i];
+            g[2] = self.t[i] * self.t[i];
+        }
+    }
+
+    #[test]
+    fn linear_model_matches_least_squares() {
+        let sigma = 0.1;
+        let p = Poly::new(&[0.7, -1.2, 0.5], 60, sigma, 3);
+        let xm = p.design(3);
+        let xtx = xm.transpose() * &xm;
+        let xtx_inv = xtx.clone().try_inverse().unwrap();
+        let ls = &xtx_inv * (xm.transpose() * DVector::from_column_slice(&p.z));
+        let ls_cov = &xtx_inv * (sigma * sigma);
+
+        let order: Vec<usize> = (0..p.t.len()).collect();
+        let ekf = Ekf { epochs: 1, q: 1e-16, r: sigma * sigma, p0: vec![1e6], tol: 1e-12 };
+        let rep = ekf.run(&p, &[0.0; 3], &[], &order, &mut NoObserver);
+        for k in 0..3 {
+            let rel = (rep.x[k] - ls[k]).abs() / ls[k].abs();
+            assert!(rel < 1e-6, "x {:?} vs LS {ls}", rep.x);
+        }
+        let pm = rep.covariance.clone().unwrap();
+        for a in 0..3 {
+            for b in 0..3 {
+                let rel = (pm[(a, b)] - ls_cov[(a, b)]).abs() / (ls_cov[(a, a)] * ls_cov[(b, b)]).sqrt();
+                assert!(rel < 1e-4, "P {pm} vs LS cov {ls_cov}");
+            }
+            assert_eq!(pm[(a, a)], pm[(a, a)].abs());
+        }
+        assert!(pm.iter().zip(pm.transpose().iter()).all(|(a, b)| a == b), "P symmetric");
+
+        // More epochs: the estimate stays at the LS solution and the run stops on tol.
+        let ekf = Ekf { epochs: 50, tol: 1e-10, ..ekf };
+        let mut hist = super::super::History::default();
+        let rep = ekf.run(&p, &[0.0; 3], &[], &order, &mut hist);
+        assert!(rep.converged && rep.iterations < 50, "{rep:?}");
+        assert_eq!(hist.cost.len(), rep.iterations);
+        for k in 0..3 {
+            assert!((rep.x[k] - ls[k]).abs() / ls[k].abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn fixed_state_untouched() {
+        let p = Poly::new(&[0.7, -1.2, 0.5], 40, 0.05, 5);
+        let order: Vec<usize> = (0..p.t.len()).collect();
+        let ekf = Ekf { epochs: 3, q: 0.0, r: 0.0025, p0: vec![100.0], tol: 1e-12 };
+        let rep = ekf.run(&p, &[0.0, 0.0, 0.5], &[false, false, true], &order, &mut NoObserver);
+        assert_eq!(rep.x[2].to_bits(), 0.5f64.to_bits());
+        let pm = rep.covariance.clone().unwrap();
+        for k in 0..3 {
+            assert_eq!(pm[(2, k)], 0.0);
+            assert_eq!(pm[(k, 2)], 0.0);
+        }
+        assert!((rep.x[0] - 0.7).abs() < 0.05 && (rep.x[1] + 1.2).abs() < 0.05, "{rep:?}");
+    }
+
+    struct NanObs;
+    impl Observations for NanObs {
+        fn n_params(&self) -> usize {
+            1
+        }
+        fn n_obs(&self) -> usize {
+            4
+        }
+        fn predict(&self, x: &[f64], i: usize) -> f64 {
+            if i == 2 {
+                f64::NAN
+            } else {
+                x[0]
+            }
+        }
+        fn measured(&self, _i: usize) -> f64 {
+            1.0
+        }
+        fn gradient(&self, _x: &[f64], _i: usize, g: &mut [f64]) {
+            g[0] = 1.0;
+        }
+    }
+
+    #[test]
+    fn nan_observation_skipped() {
+        let rep = Ekf { epochs: 2, q: 0.0, r: 0.01, p0: vec![10.0], tol: 0.0 }.run(&NanObs, &[0.0], &[], &[0, 1, 2, 3], &mut NoObserver);
+        assert!(rep.x[0].is_finite() && (rep.x[0] - 1.0).abs() < 1e-2, "{rep:?}");
+        assert!(rep.cost.is_infinite());
+    }
+}

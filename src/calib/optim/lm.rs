@@ -1,0 +1,572 @@
+//! Levenberg–Marquardt for nonlinear least squares, `min ½‖r(x)‖²`.
+//!
+//! # Algorithm
+//!
+//! Every outer iteration evaluates the Jacobian `J` once and forms the normal equations over
+//! the free parameters only, `A = JᵀJ`, `g = Jᵀr`. A step δ then solves the damped system
+//!
+//! ```text
+//! (A + λ·D) δ = −g,      D = diag(A) (Marquardt scaling, kept as a running maximum)
+//! ```
+//!
+//! The running maximum of `diag(A)` (Moré's variant) keeps the damping from collapsing in a
+//! direction whose curvature temporarily vanishes; a floor keeps `D` positive for parameters
+//! the residuals do not depend on, so their step is exactly zero.
+//!
+//! The step is accepted when the gain ratio `ρ = (f − f(x+δ)) / (L(0) − L(δ))` of actual to
+//! predicted (quadratic-model) reduction is positive. λ follows Nielsen's rule:
+//! on acceptance `λ ← λ·max(⅓, 1 − (2ρ − 1)³)`, `ν ← 2`; on rejection `λ ← λ·ν`, `ν ← 2ν`.
+//!
+//! The damped system is solved by an in-place Cholesky factorisation (no allocation). If it is
+//! not numerically positive definite (NaN entries, extreme ill-conditioning) the solver falls
+//! back to an SVD pseudo-solve, and if that fails too it simply raises λ and tries again.
+//!
+//! A NaN or infinite cost at a trial point counts as +∞: the step is rejected and λ grows.
+//!
+//! # Stopping
+//!
+//! * `gtol`: the largest cosine between `r` and a column of `J` (MINPACK's scale-free gradient
+//!   test) is at most `gtol` — a stationary point of a non-zero-residual problem;
+//! * `ftol`: both actual and predicted relative reductions of an accepted step are at most `ftol`;
+//! * `xtol`: `‖δ‖ ≤ xtol·(‖x_free‖ + xtol)`;
+//! * the cost is exactly zero;
+//! * `max_iter` outer iterations (Jacobian evaluations) — reported as not converged.
+//!
+//! See also [`covariance`] for the parameter covariance at the solution.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::util::free_indices;
+use super::{Event, LeastSquares, Observer, Report};
+
+const METHOD: &str = "levenberg-marquardt";
+/// Consecutive rejected steps tolerated inside one outer iteration before giving up.
+const MAX_REJECTIONS: usize = 60;
+/// λ above this means no step along the gradient lowers the cost any more.
+const LAMBDA_MAX: f64 = 1e32;
+
+/// Levenberg–Marquardt settings. See the module documentation for the algorithm.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevenbergMarquardt {
+    /// Maximum number of outer iterations (Jacobian evaluations).
+    pub max_iter: usize,
+    /// Relative cost-reduction tolerance.
+    pub ftol: f64,
+    /// Relative step-size tolerance.
+    pub xtol: f64,
+    /// Tolerance on the cosine between the residual and the Jacobian columns.
+    pub gtol: f64,
+    /// Initial damping factor λ (relative to `diag(JᵀJ)`).
+    pub initial_lambda: f64,
+}
+
+impl Default for LevenbergMarquardt {
+    fn default() -> Self {
+        LevenbergMarquardt { max_iter: 200, ftol: 1e-12, xtol: 1e-12, gtol: 1e-10, initial_lambda: 1e-3 }
+    }
+}
+
+/// ½‖r‖², with NaN mapped to +∞.
+fn half_sq(r: &[f64]) -> f64 {
+    let s = 0.5 * r.iter().map(|v| v * v).sum::<f64>();
+    if s.is_nan() {
+        f64::INFINITY
+    } else {
+        s
+    }
+}
+
+/// In-place Cholesky factorisation `M = L·Lᵀ` of the symmetric matrix in `l` (only the lower
+/// triangle is read; `L` overwrites it). Returns false if `M` is not numerically positive definite.
+fn cholesky_in_place(l: &mut DMatrix<f64>) -> bool {
+    let n = l.nrows();
+    for j in 0..n {
+        let mut d = l[(j, j)];
+        for k in 0..j {
+            d -= l[(j, k)] * l[(j, k)];
+        }
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let djj = d.sqrt();
+        l[(j, j)] = djj;
+        for i in j + 1..n {
+            let mut s = l[(i, j)];
+            for k in 0..j {
+                s -= l[(i, k)] * l[(j, k)];
+            }
+            l[(i, j)] = s / djj;
+        }
+    }
+    true
+}
+
+/// Solve `L·Lᵀ·x = b` in place (`x` holds `b` on entry) given the factor from [`cholesky_in_place`].
+fn cholesky_solve(l: &DMatrix<f64>, x: &mut [f64]) {
+    let n = l.nrows();
+    for i in 0..n {
+        let mut s = x[i];
+        for k in 0..i {
+            s -= l[(i, k)] * x[k];
+        }
+        x[i] = s / l[(i, i)];
+    }
+    for i in (0..n).rev() {
+        let mut s = x[i];
+        for k in i + 1..n {
+            s -= l[(k, i)] * x[k];
+        }
+        x[i] = s / l[(i, i)];
+    }
+}
+
+/// Fallback: minimum-norm solution of `M·x = b` by SVD (allocates; only used when Cholesky fails).
+fn svd_solve(m: &DMatrix<f64>, b: &[f64], x: &mut [f64]) -> bool {
+    if m.iter().any(|v| !v.is_finite()) || b.iter().any(|v| !v.is_finite()) {
+        return false;
+    }
+    let svd = m.clone().svd(true, true);
+    let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
+    if !(smax > 0.0) {
+        return false;
+    }
+    match svd.solve(&DVector::from_column_slice(b), 1e-14 * smax) {
+        Ok(sol) if sol.iter().all(|v| v.is_finite()) => {
+            x.copy_from_slice(sol.as_slice());
+            true
+        }
+        _ => false,
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+impl LevenbergMarquardt {
+    /// Minimise `½‖r(x)‖²` from `x0`. Parameters with `fixed[k] == true` stay exactly at `x0[k]`
+    /// (a `fixed` slice shorter than `x0` leaves the remaining parameters free).
+    ///
+    /// One [`Event`] is emitted per outer iteration with the current (best) cost and `x`.
+    /// `Report::evaluations` counts residual-vector evaluations (Jacobians not included);
+    /// `Report::covariance` is `None` — use [`covariance`].
+    ///
+    /// # Panics
+    /// If `x0.len() != p.n_params()`.
+    pub fn minimize<P: LeastSquares>(&self, p: &P, x0: &[f64], fixed: &[bool], obs: &mut dyn Observer) -> Report {
+        let n = p.n_params();
+        let m = p.n_residuals();
+        assert_eq!(x0.len(), n, "x0 has {} entries, problem has {n} parameters", x0.len());
+        let free = free_indices(fixed, n);
+        let nf = free.len();
+
+        let mut x = x0.to_vec();
+        let mut r = vec![0.0; m];
+        p.residuals(&x, &mut r);
+        let mut evaluations = 1;
+        let mut f = half_sq(&r);
+        let report = |x: Vec<f64>, cost, iterations, evaluations, converged, reason: &str| Report {
+            x,
+            cost,
+            iterations,
+            evaluations,
+            converged,
+            reason: reason.to_owned(),
+            covariance: None,
+        };
+        if !f.is_finite() {
+            return report(x, f, 0, evaluations, false, "non-finite cost at the initial point");
+        }
+        if nf == 0 {
+            return report(x, f, 0, evaluations, true, "no free parameters");
+        }
+        if f == 0.0 {
+            return report(x, f, 0, evaluations, true, "zero cost at the initial point");
+        }
+
+        // Work buffers, allocated once.
+        let mut jac = DMatrix::<f64>::zeros(m, n);
+        let mut a = DMatrix::<f64>::zeros(nf, nf); // JᵀJ over the free parameters
+        let mut chol = DMatrix::<f64>::zeros(nf, nf); // A + λD, then its Cholesky factor
+        let mut g = vec![0.0; nf]; // Jᵀr
+        let mut scale = vec![0.0f64; nf]; // D: running max of diag(A)
+        let mut delta = vec![0.0; nf];
+        let mut x_new = x.clone();
+        let mut r_new = vec![0.0; m];
+
+        let mut lambda = if self.initial_lambda.is_finite() && self.initial_lambda > 0.0 {
+            self.initial_lambda
+        } else {
+            1e-3
+        };
+        let mut nu = 2.0;
+        let mut iterations = 0;
+        let mut converged = false;
+        let mut reason = "maximum number of iterations reached";
+
+        'outer: while iterations < self.max_iter {
+            iterations += 1;
+            p.jacobian(&x, &mut jac);
+            // Normal equations over the free columns (J is column-major: columns are contiguous).
+            let js = jac.as_slice();
+            for (ia, &ca) in free.iter().enumerate() {
+                let col_a = &js[ca * m..(ca + 1) * m];
+                g[ia] = dot(col_a, &r);
+                for (ib, &cb) in free.iter().enumerate().skip(ia) {
+                    let v = dot(col_a, &js[cb * m..(cb + 1) * m]);
+                    a[(ia, ib)] = v;
+                    a[(ib, ia)] = v;
+                }
+            }
+            if g.iter().chain(a.iter()).any(|v| !v.is_finite()) {
+                reason = "non-finite Jacobian";
+                break;
+            }
+
+            // Scale-free gradient test: max_k |cos∠(r, J_k)|.
+            let rnorm = (2.0 * f).sqrt();
+            let mut gcos: f64 = 0.0;
+            for k in 0..nf {
+                let cn = a[(k, k)].sqrt();
+                if cn > 0.0 {
+                    gcos = gcos.max(g[k].abs() / (cn * rnorm));
+                }
+            }
+            if gcos <= self.gtol {
+                converged = true;
+                reason = "gradient tolerance (gtol) reached";
+                obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
+                break;
+            }
+
+            let mut dmax: f64 = 0.0;
+            for k in 0..nf {
+                scale[k] = scale[k].max(a[(k, k)]);
+                dmax = dmax.max(scale[k]);
+            }
+            let dfloor = (dmax * 1e-15).max(f64::MIN_POSITIVE);
+
+            let mut rejections = 0;
+            loop {
+                // Solve (A + λD) δ = −g.
+                for k in 0..nf {
+                    for i in k..nf {
+                        chol[(i, k)] = a[(i, k)];
+                    }
+                    chol[(k, k)] += lambda * scale[k].max(dfloor);
+                }
+                let mut solved = cholesky_in_place(&mut chol);
+                if solved {
+                    for k in 0..nf {
+                        delta[k] = -g[k];
+                    }
+                    cholesky_solve(&chol, &mut delta);
+                    solved = delta.iter().all(|v| v.is_finite());
+                }
+                if !solved {
+                    let mut damped = a.clone();
+                    for k in 0..nf {
+                        damped[(k, k)] += lambda * scale[k].max(dfloor);
+                    }
+                    let neg_g: Vec<f64> = g.iter().map(|v| -v).collect();
+                    solved = svd_solve(&damped, &neg_g, &mut delta);
+                }
+
+                let mut step_small = false;
+                if solved {
+                    // Predicted reduction of the quadratic model: ½ δᵀ(λDδ − g).
+                    let mut pred = 0.0;
+                    let mut dnorm2 = 0.0;
+                    let mut xnorm2 = 0.0;
+                    for k in 0..nf {
+                        pred += delta[k] * (lambda * scale[k].max(dfloor) * delta[k] - g[k]);
+                        dnorm2 += delta[k] * delta[k];
+                        xnorm2 += x[free[k]] * x[free[k]];
+                    }
+                    pred *= 0.5;
+                    step_small = dnorm2.sqrt() <= self.xtol * (xnorm2.sqrt() + self.xtol);
+
+                    for (k, &c) in free.iter().enumerate() {
+                        x_new[c] = x[c] + delta[k];
+                    }
+                    p.residuals(&x_new, &mut r_new);
+                    evaluations += 1;
+                    let f_new = half_sq(&r_new);
+                    let actual = f - f_new;
+                    let rho = if pred > 0.0 { actual / pred } else { -1.0 };
+
+                    if rho > 0.0 && f_new < f {
+                        std::mem::swap(&mut x, &mut x_new);
+                        std::mem::swap(&mut r, &mut r_new);
+                        let f_old = f;
+                        f = f_new;
+                        let t = 2.0 * rho - 1.0;
+                        lambda *= (1.0 - t * t * t).max(1.0 / 3.0);
+                        lambda = lambda.max(f64::MIN_POSITIVE);
+                        nu = 2.0;
+                        obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
+                        if f == 0.0 {
+                            converged = true;
+                            reason = "zero cost";
+                            break 'outer;
+                        }
+                        if actual <= self.ftol * f_old && pred <= self.ftol * f_old {
+                            converged = true;
+                            reason = "relative cost reduction below ftol";
+                            break 'outer;
+                        }
+                        if step_small {
+                            converged = true;
+                            reason = "relative step below xtol";
+                            break 'outer;
+                        }
+                        continue 'outer;
+                    }
+                    // Restore the trial buffer to the current point for the free entries.
+                    for &c in &free {
+                        x_new[c] = x[c];
+                    }
+                }
+
+                // Rejected (or unsolvable): more damping.
+                if step_small {
+                    converged = true;
+                    reason = "relative step below xtol";
+                    obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
+                    break 'outer;
+                }
+                lambda *= nu;
+                nu *= 2.0;
+                rejections += 1;
+                if !(lambda < LAMBDA_MAX) || rejections >= MAX_REJECTIONS || !nu.is_finite() {
+                    reason = "no step reduces the cost (damping overflow)";
+                    obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
+                    break 'outer;
+                }
+            }
+        }
+
+        report(x, f, iterations, evaluations, converged, reason)
+    }
+}
+
+/// Covariance of the least-squares estimate at `x`: `σ²·(JᵀJ)⁺` over the free parameters with
+/// `σ² = 2·cost / (m − n_free)` (the residual variance), embedded in an `n × n` matrix whose
+/// rows and columns for fixed parameters are zero.
+///
+/// The pseudo-inverse is formed from the SVD of the free Jacobian columns, `J = UΣVᵀ`, as
+/// `V·Σ⁻²·Vᵀ`, dropping singular values with `σ_i² < 1e-10·σ_max²` — the same truncation as a
+/// pseudo-inverse of `JᵀJ` with relative tolerance 1e-10, without squaring the condition number.
+/// Caveat of the pseudo-inverse convention: a direction that the data do not determine at all
+/// gets *zero* variance, not infinite variance; check identifiability separately.
+///
+/// Returns `None` if there are no more residuals than free parameters, or if the cost or the
+/// Jacobian at `x` is not finite.
+pub fn covariance<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool]) -> Option<DMatrix<f64>> {
+    let n = p.n_params();
+    let m = p.n_residuals();
+    if x.len() != n {
+        return None;
+    }
+    let free = free_indices(fixed, n);
+    let nf = free.len();
+    let mut out = DMatrix::<f64>::zeros(n, n);
+    if nf == 0 {
+        return Some(out);
+    }
+    if m <= nf {
+        return None;
+    }
+    let mut r = vec![0.0; m];
+    p.residuals(x, &mut r);
+    let cost = half_sq(&r);
+    if !cost.is_finite() {
+        return None;
+    }
+    let mut jac = DMatrix::<f64>::zeros(m, n);
+    p.jacobian(x, &mut jac);
+    let jf = DMatrix::from_fn(m, nf, |i, k| jac[(i, free[k])]);
+    if jf.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let sigma2 = 2.0 * cost / (m - nf) as f64;
+    let svd = jf.svd(false, true);
+    let vt = svd.v_t.as_ref()?;
+    let s = &svd.singular_values;
+    let smax2 = s.iter().map(|v| v * v).fold(0.0, f64::max);
+    if !(smax2 > 0.0) {
+        return Some(out);
+    }
+    for (i, &si) in s.iter().enumerate() {
+        let s2 = si * si;
+        if s2 < 1e-10 * smax2 {
+            continue;
+        }
+        let w = sigma2 / s2;
+        for a in 0..nf {
+            let va = vt[(i, a)] * w;
+            for b in 0..nf {
+                out[(free[a], free[b])] += va * vt[(i, b)];
+            }
+        }
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::NoObserver;
+    use super::*;
+
+    /// y = a·exp(−b·t) + c, noiseless.
+    struct ExpDecay {
+        t: Vec<f64>,
+        y: Vec<f64>,
+    }
+    impl ExpDecay {
+        fn new(truth: [f64; 3]) -> Self {
+            let t: Vec<f64> = (0..40).map(|i| i as f64 * 0.1).collect();
+            let y = t.iter().map(|&t| truth[0] * (-truth[1] * t).exp() + truth[2]).collect();
+            ExpDecay { t, y }
+        }
+    }
+    impl LeastSquares for ExpDecay {
+        fn n_params(&self) -> usize {
+            3
+        }
+        fn n_residuals(&self) -> usize {
+            self.t.len()
+        }
+        fn residuals(&self, x: &[f64], r: &mut [f64]) {
+            for i in 0..self.t.len() {
+                r[i] = x[0] * (-x[1] * self.t[i]).exp() + x[2] - self.y[i];
+            }
+        }
+    }
+
+    struct Rosen;
+    impl LeastSquares for Rosen {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            2
+        }
+        fn residuals(&self, x: &[f64], r: &mut [f64]) {
+            r[0] = 10.0 * (x[1] - x[0] * x[0]);
+            r[1] = 1.0 - x[0];
+        }
+        fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
+            j[(0, 0)] = -20.0 * x[0];
+            j[(0, 1)] = 10.0;
+            j[(1, 0)] = -1.0;
+            j[(1, 1)] = 0.0;
+        }
+    }
+
+    /// y = a + b·t with deterministic pseudo-noise.
+    struct Linear {
+        t: Vec<f64>,
+        y: Vec<f64>,
+    }
+    impl Linear {
+        fn new() -> Self {
+            let t: Vec<f64> = (0..25).map(|i| i as f64 * 0.2 - 1.0).collect();
+            let y = t.iter().enumerate().map(|(i, &t)| 1.0 + 2.0 * t + 0.05 * ((i * 7 % 11) as f64 - 5.0) / 5.0).collect();
+            Linear { t, y }
+        }
+    }
+    impl LeastSquares for Linear {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            self.t.len()
+        }
+        fn residuals(&self, x: &[f64], r: &mut [f64]) {
+            for i in 0..self.t.len() {
+                r[i] = x[0] + x[1] * self.t[i] - self.y[i];
+            }
+        }
+    }
+
+    #[test]
+    fn exp_decay_noiseless() {
+        let truth = [2.5, 1.3, 0.4];
+        let p = ExpDecay::new(truth);
+        let rep = LevenbergMarquardt::default().minimize(&p, &[1.0, 0.5, 0.0], &[], &mut NoObserver);
+        assert!(rep.converged, "{rep:?}");
+        for k in 0..3 {
+            assert!((rep.x[k] - truth[k]).abs() < 1e-9, "{:?} vs {truth:?}", rep.x);
+        }
+    }
+
+    #[test]
+    fn rosenbrock() {
+        let mut hist = super::super::History::default();
+        let rep = LevenbergMarquardt::default().minimize(&Rosen, &[-1.2, 1.0], &[false, false], &mut hist);
+        assert!(rep.converged, "{rep:?}");
+        assert!((rep.x[0] - 1.0).abs() < 1e-8 && (rep.x[1] - 1.0).abs() < 1e-8, "{rep:?}");
+        assert!(!hist.cost.is_empty());
+        assert!(hist.cost.windows(2).all(|w| w[1] <= w[0]), "costs must not increase");
+    }
+
+    #[test]
+    fn fixed_parameters_untouched() {
+        let truth = [2.5, 1.3, 0.4];
+        let p = ExpDecay::new(truth);
+        // Fixed at the true value: the others are recovered.
+        let rep = LevenbergMarquardt::default().minimize(&p, &[1.0, 0.5, 0.4], &[false, false, true], &mut NoObserver);
+        assert_eq!(rep.x[2].to_bits(), 0.4f64.to_bits());
+        assert!((rep.x[0] - 2.5).abs() < 1e-9 && (rep.x[1] - 1.3).abs() < 1e-9, "{rep:?}");
+        // Fixed at a wrong value: stays there, bit for bit.
+        let rep = LevenbergMarquardt::default().minimize(&p, &[1.0, 0.777, 0.0], &[false, true, false], &mut NoObserver);
+        assert_eq!(rep.x[1].to_bits(), 0.777f64.to_bits());
+        assert!(rep.cost > 0.0);
+    }
+
+    #[test]
+    fn linear_covariance_matches_closed_form() {
+        let p = Linear::new();
+        let rep = LevenbergMarquardt::default().minimize(&p, &[0.0, 0.0], &[], &mut NoObserver);
+        assert!(rep.converged, "{rep:?}");
+        let cov = covariance(&p, &rep.x, &[]).unwrap();
+        let m = p.t.len();
+        let xm = DMatrix::from_fn(m, 2, |i, k| if k == 0 { 1.0 } else { p.t[i] });
+        let sigma2 = 2.0 * rep.cost / (m - 2) as f64;
+        let expect = (xm.transpose() * &xm).try_inverse().unwrap() * sigma2;
+        for i in 0..2 {
+            for j in 0..2 {
+                let rel = (cov[(i, j)] - expect[(i, j)]).abs() / expect[(i, i)].abs().max(1e-300);
+                assert!(rel < 1e-6, "cov {cov} expect {expect}");
+            }
+        }
+        // Fixed intercept: zero row/column, slope variance from the one-column design.
+        let cov = covariance(&p, &rep.x, &[true, false]).unwrap();
+        assert_eq!(cov[(0, 0)], 0.0);
+        assert_eq!(cov[(0, 1)], 0.0);
+        assert!(cov[(1, 1)] > 0.0);
+    }
+
+    /// Residuals that are NaN for x > 2: Gauss–Newton steps on atan overshoot into the NaN region,
+    /// and the solver must reject those steps, not panic.
+    struct NanWall;
+    impl LeastSquares for NanWall {
+        fn n_params(&self) -> usize {
+            1
+        }
+        fn n_residuals(&self) -> usize {
+            1
+        }
+        fn residuals(&self, x: &[f64], r: &mut [f64]) {
+            r[0] = if x[0] > 2.0 { f64::NAN } else { (x[0] - 1.5).atan() };
+        }
+    }
+
+    #[test]
+    fn nan_cost_rejected() {
+        let rep = LevenbergMarquardt { initial_lambda: 1e-9, ..Default::default() }.minimize(&NanWall, &[-5.0], &[], &mut NoObserver);
+        assert!((rep.x[0] - 1.5).abs() < 1e-9, "{rep:?}");
+        assert!(rep.cost.is_finite());
+    }
+}

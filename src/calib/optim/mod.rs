@@ -1,0 +1,146 @@
+//! Optimisers, generic over the problem (after argmin: problem, solver and observer are separate).
+//!
+//! * [`LeastSquares`]: residual vector and Jacobian — solved by Levenberg–Marquardt.
+//! * [`Observations`]: one scalar measurement per sample — filtered by EKF and particle filters.
+//! * [`Cost`] with [`Bounds`]: a scalar cost over a box — searched by PSO and the DE family.
+//!
+//! Progress goes to an [`Observer`], never to stdout.
+
+use nalgebra::DMatrix;
+
+/// A nonlinear least-squares problem: minimise ½‖r(x)‖².
+pub trait LeastSquares: Sync {
+    fn n_params(&self) -> usize;
+    fn n_residuals(&self) -> usize;
+    /// Residuals at `x` into `r` (len = n_residuals).
+    fn residuals(&self, x: &[f64], r: &mut [f64]);
+    /// Jacobian ∂r/∂x (n_residuals × n_params) into `j`. Default: central differences.
+    fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
+        let (m, n) = (self.n_residuals(), self.n_params());
+        let mut xp = x.to_vec();
+        let mut rp = vec![0.0; m];
+        let mut rm = vec![0.0; m];
+        for k in 0..n {
+            let h = 1e-6 * (1.0 + x[k].abs());
+            xp[k] = x[k] + h;
+            self.residuals(&xp, &mut rp);
+            xp[k] = x[k] - h;
+            self.residuals(&xp, &mut rm);
+            xp[k] = x[k];
+            for i in 0..m {
+                j[(i, k)] = (rp[i] - rm[i]) / (2.0 * h);
+            }
+        }
+    }
+    /// ½‖r(x)‖².
+    fn cost(&self, x: &[f64]) -> f64 {
+        let mut r = vec![0.0; self.n_residuals()];
+        self.residuals(x, &mut r);
+        0.5 * r.iter().map(|v| v * v).sum::<f64>()
+    }
+}
+
+/// Scalar observations z_i = h_i(x) + noise, one per sample, for sequential filters.
+pub trait Observations: Sync {
+    fn n_params(&self) -> usize;
+    fn n_obs(&self) -> usize;
+    fn predict(&self, x: &[f64], i: usize) -> f64;
+    fn measured(&self, i: usize) -> f64;
+    /// ∂h_i/∂x into `g` (len = n_params).
+    fn gradient(&self, x: &[f64], i: usize, g: &mut [f64]);
+}
+
+/// A scalar cost to minimise over a box.
+pub trait Cost: Sync {
+    fn dim(&self) -> usize;
+    fn cost(&self, x: &[f64]) -> f64;
+}
+
+/// Box bounds, lower[k] < upper[k].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bounds {
+    pub lower: Vec<f64>,
+    pub upper: Vec<f64>,
+}
+
+impl Bounds {
+    pub fn new(lower: Vec<f64>, upper: Vec<f64>) -> Self {
+        Bounds { lower, upper }
+    }
+    /// A box of half-width `half[k]` around `centre`.
+    pub fn around(centre: &[f64], half: &[f64]) -> Self {
+        Bounds {
+            lower: centre.iter().zip(half).map(|(c, h)| c - h).collect(),
+            upper: centre.iter().zip(half).map(|(c, h)| c + h).collect(),
+        }
+    }
+    pub fn dim(&self) -> usize {
+        self.lower.len()
+    }
+    pub fn clamp(&self, x: &mut [f64]) {
+        for k in 0..x.len() {
+            x[k] = x[k].clamp(self.lower[k], self.upper[k]);
+        }
+    }
+}
+
+/// One progress event.
+#[derive(Clone, Debug)]
+pub struct Event<'a> {
+    pub method: &'a str,
+    pub iteration: usize,
+    /// Best cost so far (½ sum of squares for least squares; the method's cost otherwise).
+    pub cost: f64,
+    /// Current best parameters.
+    pub x: &'a [f64],
+}
+
+/// Receives progress events (progress bars, convergence recordings, ...).
+pub trait Observer {
+    fn observe(&mut self, _event: &Event) {}
+}
+
+/// Ignores everything.
+pub struct NoObserver;
+impl Observer for NoObserver {}
+
+/// Records the cost and parameters at every iteration.
+#[derive(Clone, Debug, Default)]
+pub struct History {
+    pub cost: Vec<f64>,
+    pub x: Vec<Vec<f64>>,
+}
+impl Observer for History {
+    fn observe(&mut self, e: &Event) {
+        self.cost.push(e.cost);
+        self.x.push(e.x.to_vec());
+    }
+}
+
+/// What a solver returns.
+#[derive(Clone, Debug)]
+pub struct Report {
+    pub x: Vec<f64>,
+    pub cost: f64,
+    pub iterations: usize,
+    /// Objective evaluations (residual vectors, costs or observations, as the method counts them).
+    pub evaluations: usize,
+    pub converged: bool,
+    /// Why it stopped.
+    pub reason: String,
+    /// Method-specific covariance of x where the method has one (EKF, PF), else None.
+    pub covariance: Option<DMatrix<f64>>,
+}
+
+pub mod de;
+pub mod ekf;
+pub mod lm;
+pub mod pf;
+pub mod pso;
+mod util;
+
+pub use de::{De, DeVariant};
+pub use ekf::Ekf;
+pub use lm::{covariance, LevenbergMarquardt};
+pub use pf::ParticleFilter;
+pub use pso::Pso;

@@ -1,0 +1,489 @@
+//! Calibration datasets: one row per static robot configuration, six joint angles (degrees,
+//! controller convention) and the draw-wire cable length `L` (millimetres), with optional time,
+//! temperature and train/test split.
+//!
+//! # File formats
+//!
+//! [`Dataset::load`] reads
+//! * a dataset folder (`DIR/dataset.csv`, see [`DATASET_FILE`]),
+//! * a `.csv` file,
+//! * a spreadsheet (`.xlsx`, also `.xlsm`/`.xlsb`/`.xls`/`.ods`): the first sheet, or the sheet
+//!   named after a `#`, as in `pool.xlsx#Sheet1`.
+//!
+//! The header row must hold `q1`..`q6` and `L`; `t` (s), `temp` (°C) and `split` (`train`/`test`)
+//! are optional. Names are matched case-insensitively with surrounding whitespace ignored; column
+//! order is free and other columns are ignored. Blank rows are skipped.
+//!
+//! # Validation
+//!
+//! Every problem is reported as [`Error::Data`] naming the file, the line (spreadsheet line number:
+//! the header is line 1, so the first data row is usually line 2) and the column:
+//! missing or duplicated columns, empty/non-numeric/NaN/infinite cells, malformed CSV rows, unknown
+//! split values, a split column filled on some rows only, `L <= 0`, `|q| > 720°`, decreasing `t`,
+//! and two unit mistakes detected by heuristics:
+//!
+//! * **radians**: with at least [`RADIANS_MIN_ROWS`] rows, if every joint angle satisfies
+//!   `|q| <= 2π·1.05` *and* at least one joint spans more than [`RADIANS_MIN_SPAN`] (max − min),
+//!   the joints are taken to be in radians. Degree data essentially never stays inside ±6.6° on all
+//!   six joints while moving; the span condition keeps a repeated home pose (all zeros, or a fixed
+//!   pose near zero) from being flagged. The span threshold is deliberately low (0.1): the real
+//!   HSR-RobotCali pool, converted to radians, has joint spans of 0.0001–0.62 rad.
+//! * **metres**: if every `L < 5` the lengths are taken to be metres (no draw-wire setup measures
+//!   under 5 mm everywhere).
+
+mod csv_io;
+mod xlsx;
+
+use crate::error::{Error, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// File name of the CSV inside a dataset folder.
+pub const DATASET_FILE: &str = "dataset.csv";
+/// Largest plausible |joint angle| in degrees; anything beyond is rejected.
+pub const MAX_ABS_JOINT_DEG: f64 = 720.0;
+/// Radians heuristic: minimum number of rows before it is applied.
+pub const RADIANS_MIN_ROWS: usize = 10;
+/// Radians heuristic: every |q| at most this (2π plus 5 %).
+pub const RADIANS_MAX_ABS: f64 = 2.0 * std::f64::consts::PI * 1.05;
+/// Radians heuristic: at least one joint must span more than this (same unit as the file).
+pub const RADIANS_MIN_SPAN: f64 = 0.1;
+/// Metres heuristic: every `L` below this is taken as metres.
+pub const METRES_MAX_L: f64 = 5.0;
+
+/// Which subset a row belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Split {
+    Train,
+    Test,
+}
+
+impl Split {
+    /// The lowercase word used in files (`train` / `test`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Split::Train => "train",
+            Split::Test => "test",
+        }
+    }
+}
+
+/// One static configuration and its measurement.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// Joint angles, degrees, controller convention.
+    pub q_deg: [f64; 6],
+    /// Measured cable length, mm.
+    pub l_mm: f64,
+    /// Seconds from acquisition start.
+    pub t_s: Option<f64>,
+    /// Temperature, °C.
+    pub temp_c: Option<f64>,
+    pub split: Option<Split>,
+}
+
+/// A dataset and where it came from (a path, or a label for in-memory sources).
+#[derive(Clone, Debug, Default)]
+pub struct Dataset {
+    pub rows: Vec<Row>,
+    pub source: String,
+}
+
+impl Dataset {
+    /// Load from a dataset folder (reads `DIR/dataset.csv`), a `.csv` file, or an `.xlsx` file (first
+    /// sheet, or sheet named by `path.xlsx#SheetName`). See the [module docs](self) for the accepted
+    /// columns and the validation performed.
+    pub fn load(path: &Path) -> Result<Dataset> {
+        if path.is_dir() {
+            return Self::load_csv_file(&path.join(DATASET_FILE));
+        }
+        let (file, sheet) = split_sheet(path);
+        let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+        match ext.as_str() {
+            "csv" if sheet.is_none() => Self::load_csv_file(&file),
+            "xlsx" | "xlsm" | "xlsb" | "xls" | "ods" => {
+                let (table, source) = xlsx::read_table(&file, sheet.as_deref())?;
+                from_table(table, source)
+            }
+            _ => Err(Error::data(
+                path.display(),
+                "unsupported dataset path: expected a folder containing dataset.csv, a .csv file, \
+                 or an .xlsx file (optionally file.xlsx#Sheet)",
+            )),
+        }
+    }
+
+    fn load_csv_file(path: &Path) -> Result<Dataset> {
+        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        Self::from_csv_reader(std::io::BufReader::new(file), &path.display().to_string())
+    }
+
+    /// Parse and validate CSV text; `source` names the input in error messages and becomes
+    /// [`Dataset::source`].
+    pub fn from_csv_reader<R: std::io::Read>(r: R, source: &str) -> Result<Dataset> {
+        from_table(csv_io::read_table(r, source)?, source.to_owned())
+    }
+
+    /// CSV text with header `q1,q2,q3,q4,q5,q6,L,t,temp,split`, one line per row in row order.
+    /// Numbers use `f64`'s `Display` (shortest representation that round-trips exactly), so the
+    /// output is deterministic and reloads to identical values. Columns `t`, `temp` and `split` are
+    /// written only if every row has them (and there is at least one row).
+    pub fn to_csv_string(&self) -> String {
+        let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
+        let (has_t, has_temp, has_split) =
+            (all(|r| r.t_s.is_some()), all(|r| r.temp_c.is_some()), all(|r| r.split.is_some()));
+
+        let mut out = String::from("q1,q2,q3,q4,q5,q6,L");
+        for (present, name) in [(has_t, "t"), (has_temp, "temp"), (has_split, "split")] {
+            if present {
+                out.push(',');
+                out.push_str(name);
+            }
+        }
+        out.push('\n');
+        // `write!` into a String cannot fail.
+        for row in &self.rows {
+            for q in row.q_deg {
+                let _ = write!(out, "{q},");
+            }
+            let _ = write!(out, "{}", row.l_mm);
+            if let (true, Some(t)) = (has_t, row.t_s) {
+                let _ = write!(out, ",{t}");
+            }
+            if let (true, Some(temp)) = (has_temp, row.temp_c) {
+                let _ = write!(out, ",{temp}");
+            }
+            if let (true, Some(split)) = (has_split, row.split) {
+                let _ = write!(out, ",{}", split.as_str());
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    /// Writes [`Self::to_csv_string`] to `path` atomically (all or nothing). For the folder layout
+    /// read by [`Self::load`], pass `dir.join(DATASET_FILE)`.
+    pub fn write_csv(&self, path: &Path) -> Result<()> {
+        crate::io::write_atomic(path, self.to_csv_string().as_bytes())
+    }
+
+    /// Indices of training rows: rows marked `train`, or every row when no row has a split.
+    pub fn train_indices(&self) -> Vec<usize> {
+        if self.rows.iter().all(|r| r.split.is_none()) {
+            return (0..self.rows.len()).collect();
+        }
+        self.indices_of(Split::Train)
+    }
+
+    /// Indices of rows marked `test` (empty when no row has a split).
+    pub fn test_indices(&self) -> Vec<usize> {
+        self.indices_of(Split::Test)
+    }
+
+    fn indices_of(&self, split: Split) -> Vec<usize> {
+        self.rows.iter().enumerate().filter(|(_, r)| r.split == Some(split)).map(|(i, _)| i).collect()
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// True when there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+}
+
+/// Splits `book.xlsx#Sheet` into the file and the sheet name. A path that exists as given is never
+/// split; otherwise the first `#` whose prefix ends in a spreadsheet extension is the separator.
+fn split_sheet(path: &Path) -> (PathBuf, Option<String>) {
+    if path.exists() {
+        return (path.to_path_buf(), None);
+    }
+    if let Some(s) = path.to_str() {
+        for (i, _) in s.match_indices('#') {
+            let (file, sheet) = (&s[..i], &s[i + 1..]);
+            let lower = file.to_ascii_lowercase();
+            let is_book = [".xlsx", ".xlsm", ".xlsb", ".xls", ".ods"].iter().any(|e| lower.ends_with(e));
+            if is_book && !sheet.is_empty() {
+                return (PathBuf::from(file), Some(sheet.to_owned()));
+            }
+        }
+    }
+    (path.to_path_buf(), None)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Format-independent table and its interpretation.
+
+/// A cell as read from the file, before interpretation.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Cell {
+    Empty,
+    /// A native numeric cell (spreadsheets).
+    Number(f64),
+    /// Text, trimmed, non-empty.
+    Text(String),
+    /// Anything else (booleans, dates, spreadsheet errors), described for messages.
+    Other(String),
+}
+
+/// A non-blank data row with its line number in the file.
+#[derive(Clone, Debug)]
+pub(crate) struct RawRow {
+    pub line: usize,
+    pub cells: Vec<Cell>,
+}
+
+/// Header plus data rows, as read.
+#[derive(Clone, Debug)]
+pub(crate) struct RawTable {
+    pub header: Vec<String>,
+    pub rows: Vec<RawRow>,
+}
+
+/// The columns this module understands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Column {
+    Q(usize),
+    L,
+    T,
+    Temp,
+    Split,
+}
+
+impl Column {
+    const ALL: [Column; 10] = [
+        Column::Q(0),
+        Column::Q(1),
+        Column::Q(2),
+        Column::Q(3),
+        Column::Q(4),
+        Column::Q(5),
+        Column::L,
+        Column::T,
+        Column::Temp,
+        Column::Split,
+    ];
+    const NAMES: [&'static str; 10] = ["q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split"];
+    /// Number of required columns at the start of `ALL` (q1..q6, L).
+    const REQUIRED: usize = 7;
+
+    fn index(self) -> usize {
+        match self {
+            Column::Q(j) => j,
+            Column::L => 6,
+            Column::T => 7,
+            Column::Temp => 8,
+            Column::Split => 9,
+        }
+    }
+
+    fn name(self) -> &'static str {
+        Self::NAMES[self.index()]
+    }
+
+    fn from_header(h: &str) -> Option<Column> {
+        let h = h.trim();
+        Self::ALL.into_iter().find(|c| c.name().eq_ignore_ascii_case(h))
+    }
+}
+
+/// Positions of the known columns in the file's header.
+struct Layout {
+    pos: [Option<usize>; 10],
+}
+
+impl Layout {
+    fn new(header: &[String], source: &str) -> Result<Layout> {
+        let found = || header.join(",");
+        let mut pos = [None; 10];
+        for (i, h) in header.iter().enumerate() {
+            if let Some(c) = Column::from_header(h) {
+                if let Some(first) = pos[c.index()] {
+                    return Err(Error::data(
+                        source,
+                        format!(
+                            "line 1: duplicate column {} (fields {} and {}); header found: {}",
+                            c.name(),
+                            first + 1,
+                            i + 1,
+                            found()
+                        ),
+                    ));
+                }
+                pos[c.index()] = Some(i);
+            }
+        }
+        let missing: Vec<&str> =
+            Column::ALL[..Column::REQUIRED].iter().filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
+        if !missing.is_empty() {
+            return Err(Error::data(
+                source,
+                format!(
+                    "missing required column(s) {}; header found: {} (need q1..q6 and L, optional t, temp, split)",
+                    missing.join(", "),
+                    found()
+                ),
+            ));
+        }
+        Ok(Layout { pos })
+    }
+
+    fn cell<'a>(&self, row: &'a RawRow, c: Column) -> Option<&'a Cell> {
+        self.pos[c.index()].map(|i| row.cells.get(i).unwrap_or(&Cell::Empty))
+    }
+}
+
+fn cell_error(source: &str, line: usize, c: Column, msg: impl std::fmt::Display) -> Error {
+    Error::data(source, format!("line {line}, column {}: {msg}", c.name()))
+}
+
+/// Interprets a cell as a finite number; `Ok(None)` for an empty cell or an absent column.
+fn number(cell: Option<&Cell>, c: Column, line: usize, source: &str) -> Result<Option<f64>> {
+    let v = match cell {
+        None | Some(Cell::Empty) => return Ok(None),
+        Some(Cell::Number(v)) => *v,
+        Some(Cell::Text(s)) => {
+            s.parse::<f64>().map_err(|_| cell_error(source, line, c, format!("'{s}' is not a number")))?
+        }
+        Some(Cell::Other(what)) => return Err(cell_error(source, line, c, format!("{what} is not a number"))),
+    };
+    if v.is_nan() {
+        return Err(cell_error(source, line, c, "NaN is not allowed"));
+    }
+    if v.is_infinite() {
+        return Err(cell_error(source, line, c, "infinite value is not allowed"));
+    }
+    Ok(Some(v))
+}
+
+fn required(cell: Option<&Cell>, c: Column, line: usize, source: &str) -> Result<f64> {
+    number(cell, c, line, source)?.ok_or_else(|| cell_error(source, line, c, "empty cell (value required)"))
+}
+
+fn split_value(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<Split>> {
+    let text = match cell {
+        None | Some(Cell::Empty) => return Ok(None),
+        Some(Cell::Text(s)) => s.clone(),
+        Some(Cell::Number(v)) => v.to_string(),
+        Some(Cell::Other(what)) => what.clone(),
+    };
+    match text.to_ascii_lowercase().as_str() {
+        "train" => Ok(Some(Split::Train)),
+        "test" => Ok(Some(Split::Test)),
+        _ => Err(cell_error(
+            source,
+            line,
+            Column::Split,
+            format!("unknown split value '{text}' (must be train or test)"),
+        )),
+    }
+}
+
+fn from_table(table: RawTable, source: String) -> Result<Dataset> {
+    let src = source.as_str();
+    let layout = Layout::new(&table.header, src)?;
+    if table.rows.is_empty() {
+        return Err(Error::data(src, "no data rows (only a header)"));
+    }
+
+    let mut rows = Vec::with_capacity(table.rows.len());
+    let mut last_t: Option<(f64, usize)> = None;
+    let mut first_split_missing: Option<usize> = None;
+    for raw in &table.rows {
+        let line = raw.line;
+        let mut q_deg = [0.0; 6];
+        for (j, q) in q_deg.iter_mut().enumerate() {
+            let c = Column::Q(j);
+            *q = required(layout.cell(raw, c), c, line, src)?;
+            if q.abs() > MAX_ABS_JOINT_DEG {
+                return Err(cell_error(
+                    src,
+                    line,
+                    c,
+                    format!("joint angle {q} deg is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)"),
+                ));
+            }
+        }
+        let l_mm = required(layout.cell(raw, Column::L), Column::L, line, src)?;
+        if l_mm <= 0.0 {
+            return Err(cell_error(src, line, Column::L, format!("cable length must be positive, found {l_mm}")));
+        }
+        let t_s = number(layout.cell(raw, Column::T), Column::T, line, src)?;
+        if let Some(t) = t_s {
+            if let Some((prev, prev_line)) = last_t {
+                if t < prev {
+                    return Err(cell_error(
+                        src,
+                        line,
+                        Column::T,
+                        format!("t = {t} s is earlier than t = {prev} s on line {prev_line}; t must be non-decreasing"),
+                    ));
+                }
+            }
+            last_t = Some((t, line));
+        }
+        let temp_c = number(layout.cell(raw, Column::Temp), Column::Temp, line, src)?;
+        let split = split_value(layout.cell(raw, Column::Split), line, src)?;
+        if split.is_none() && first_split_missing.is_none() {
+            first_split_missing = Some(line);
+        }
+        rows.push(Row { q_deg, l_mm, t_s, temp_c, split });
+    }
+
+    // A split column is all-or-nothing: a partially filled one would silently drop rows.
+    if let Some(line) = first_split_missing {
+        if rows.iter().any(|r| r.split.is_some()) {
+            return Err(cell_error(
+                src,
+                line,
+                Column::Split,
+                "empty split value; when some rows have a split, every row must be train or test",
+            ));
+        }
+    }
+    check_units(&rows, src)?;
+    Ok(Dataset { rows, source })
+}
+
+/// The radians and metres heuristics described in the module docs.
+fn check_units(rows: &[Row], source: &str) -> Result<()> {
+    if rows.len() >= RADIANS_MIN_ROWS {
+        let max_abs = rows.iter().flat_map(|r| r.q_deg).fold(0.0_f64, |m, q| m.max(q.abs()));
+        let spans: Vec<f64> = (0..6)
+            .map(|j| {
+                let (lo, hi) = rows
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r.q_deg[j]), hi.max(r.q_deg[j])));
+                hi - lo
+            })
+            .collect();
+        let (widest, span) =
+            spans.iter().copied().enumerate().fold((0, 0.0), |best, (j, s)| if s > best.1 { (j, s) } else { best });
+        if max_abs <= RADIANS_MAX_ABS && span > RADIANS_MIN_SPAN {
+            return Err(Error::data(
+                source,
+                format!(
+                    "columns q1..q6 look like radians (all {} rows have |q| <= {max_abs:.3}, q{} spans {span:.3}); \
+                     the file must hold joint angles in degrees",
+                    rows.len(),
+                    widest + 1
+                ),
+            ));
+        }
+    }
+    let max_l = rows.iter().fold(0.0_f64, |m, r| m.max(r.l_mm));
+    if !rows.is_empty() && max_l < METRES_MAX_L {
+        return Err(Error::data(
+            source,
+            format!("column L looks like metres (every L < {METRES_MAX_L}, max {max_l}); L must be in millimetres"),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

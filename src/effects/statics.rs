@@ -1,0 +1,206 @@
+//! Quasi-static form of the load-dependent effects: joint torques from gravity, payload and cable
+//! tension, and the transmission law (compliance in series with backlash) that turns them into
+//! link-side deflections. The twin's rapier simulation must settle where this model says.
+
+use super::Effects;
+use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
+use crate::robot::Robot;
+use nalgebra::Vector3;
+
+/// Stiffness used for a joint with backlash when compliance is off: the gear is then practically rigid
+/// on its flanks (30 N·m deflect it by 0.3 µrad).
+pub const RIGID_STIFFNESS: f64 = 1e8;
+
+/// Standard gravity, m/s², along −z of the base frame.
+pub const GRAVITY: f64 = 9.81;
+
+/// Cable tension acting on the tool point, pulling it towards the cable exit point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CableLoad {
+    /// Exit point in the base frame, m.
+    pub exit_point: Vector3<f64>,
+    /// Attachment point in the flange frame, m.
+    pub tool_point: Vector3<f64>,
+    /// Tension, N.
+    pub tension: f64,
+}
+
+impl CableLoad {
+    /// Force on the tool point at world position `p`.
+    pub fn force_at(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        let d = self.exit_point - p;
+        let n = d.norm();
+        if n < 1e-12 {
+            Vector3::zeros()
+        } else {
+            d * (self.tension / n)
+        }
+    }
+}
+
+/// Everything that loads the joints of a resting arm.
+#[derive(Clone, Debug)]
+pub struct LoadModel {
+    pub gravity: Vector3<f64>,
+    /// Per moving link: mass (kg) and COM in the link frame (m).
+    pub links: Vec<(f64, Vector3<f64>)>,
+    /// Payload mass (kg) and COM in the flange frame (m).
+    pub payload: Option<(f64, Vector3<f64>)>,
+    pub cable: Option<CableLoad>,
+}
+
+impl LoadModel {
+    pub fn new(robot: &Robot, effects: &Effects, cable: Option<CableLoad>) -> Self {
+        LoadModel {
+            gravity: Vector3::new(0.0, 0.0, -GRAVITY),
+            links: robot.links.iter().map(|l| (l.mass, l.com)).collect(),
+            payload: effects
+                .payload
+                .as_ref()
+                .filter(|p| p.mass_kg > 0.0)
+                .map(|p| (p.mass_kg, Vector3::from(p.com_mm) * 1e-3)),
+            cable,
+        }
+    }
+
+    /// Generalised joint torques (N·m) of all loads, from frames already evaluated in `ws`.
+    /// A positive torque pushes the joint towards larger angles.
+    pub fn torques(&self, chain: &Chain, ws: &FkWork, jac: &mut PointJacobian, out: &mut [f64]) {
+        out.iter_mut().for_each(|t| *t = 0.0);
+        let mut add = |f: usize, local: &Vector3<f64>, force: Option<Vector3<f64>>, mass: f64, jac: &mut PointJacobian| {
+            chain.point_jacobian(ws, f, local, jac);
+            let force = force.unwrap_or(self.gravity * mass);
+            for (t, d) in out.iter_mut().zip(&jac.dq) {
+                *t += d.dot(&force);
+            }
+        };
+        for (j, (m, com)) in self.links.iter().enumerate() {
+            if *m > 0.0 {
+                add(j + 1, com, None, *m, jac);
+            }
+        }
+        let flange = chain.flange();
+        if let Some((m, com)) = &self.payload {
+            add(flange, com, None, *m, jac);
+        }
+        if let Some(c) = &self.cable {
+            let p = chain.frame(ws, flange).point(&c.tool_point);
+            let force = c.force_at(&p);
+            add(flange, &c.tool_point, Some(force), 0.0, jac);
+        }
+    }
+}
+
+/// The joint transmission: a torsional spring in series with a dead band.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Transmission {
+    /// N·m/rad per joint.
+    pub stiffness: Vec<f64>,
+    /// Half the backlash band per joint, rad.
+    pub half_band: Vec<f64>,
+    /// Dry friction inside the band, N·m.
+    pub breakaway: f64,
+}
+
+/// Which flank a joint rests on, or free inside the band.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Contact {
+    /// No backlash: plain spring.
+    Spring,
+    /// On the positive / negative flank, spring loaded.
+    Positive,
+    Negative,
+    /// Held at the approach flank by static friction against a load pulling it into the band
+    /// (the shaft still twists by load/stiffness).
+    Held,
+    /// Inside the band, not settled on either flank (only seen when a simulation stops early).
+    Free,
+}
+
+impl Transmission {
+    /// `None` when the joints are rigid (no compliance, no backlash).
+    pub fn from_effects(effects: &Effects, n: usize) -> Option<Self> {
+        if !effects.joints_yield() {
+            return None;
+        }
+        let stiffness = match &effects.compliance {
+            Some(c) => c.stiffness_nm_per_rad.clone(),
+            None => vec![RIGID_STIFFNESS; n],
+        };
+        let (half_band, breakaway) = match &effects.backlash {
+            Some(b) => ((0..n).map(|j| b.half_width_rad(j)).collect(), b.breakaway_nm),
+            None => (vec![0.0; n], 0.0),
+        };
+        Some(Transmission { stiffness, half_band, breakaway })
+    }
+
+    /// Link-side deflection δ = q_link − q_motor of joint `j` at rest under load torque `tau`,
+    /// having arrived on the flank `side` (±1: the link trails the motor, so a positive approach
+    /// motion leaves it on the negative flank).
+    pub fn deflection(&self, j: usize, tau: f64, side: f64) -> (f64, Contact) {
+        let k = self.stiffness[j];
+        let h = self.half_band[j];
+        if h == 0.0 {
+            return (tau / k, Contact::Spring);
+        }
+        let flank = |s: f64| if s > 0.0 { Contact::Positive } else { Contact::Negative };
+        if tau * side >= 0.0 {
+            (side * h + tau / k, flank(side))
+        } else if tau.abs() <= self.breakaway {
+            (side * h + tau / k, Contact::Held)
+        } else {
+            (-side * h + tau / k, flank(-side))
+        }
+    }
+}
+
+/// A resting state of the arm.
+#[derive(Clone, Debug)]
+pub struct Equilibrium {
+    /// Link-side joint angles, as seen by the chain (rad, commanded + deflection).
+    pub q: Vec<f64>,
+    pub deflection: Vec<f64>,
+    pub torque: Vec<f64>,
+    pub contact: Vec<Contact>,
+    pub iterations: usize,
+}
+
+/// Solves the quasi-static equilibrium by fixed-point iteration on the deflections.
+/// `q_cmd` are the commanded angles (rad), `sides` the approach flanks (±1).
+pub fn equilibrium(
+    chain: &Chain,
+    params: &[f64],
+    scale: f64,
+    q_cmd: &[f64],
+    load: &LoadModel,
+    trans: Option<&Transmission>,
+    sides: &[f64],
+) -> Equilibrium {
+    let n = chain.n_joints;
+    let mut ws = FkWork::new(chain);
+    let mut jac = PointJacobian::new(chain);
+    let mut delta = vec![0.0; n];
+    let mut tau = vec![0.0; n];
+    let mut contact = vec![Contact::Spring; n];
+    let mut q: Vec<f64> = q_cmd.to_vec();
+    let mut iterations = 0;
+    for it in 0..100 {
+        iterations = it + 1;
+        chain.forward(&q, params, scale, &mut ws);
+        load.torques(chain, &ws, &mut jac, &mut tau);
+        let Some(t) = trans else { break };
+        let mut change: f64 = 0.0;
+        for j in 0..n {
+            let (d, c) = t.deflection(j, tau[j], sides[j]);
+            change = change.max((d - delta[j]).abs());
+            delta[j] = d;
+            contact[j] = c;
+            q[j] = q_cmd[j] + d;
+        }
+        if change < 1e-15 {
+            break;
+        }
+    }
+    Equilibrium { q, deflection: delta, torque: tau, contact, iterations }
+}

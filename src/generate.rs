@@ -1,0 +1,320 @@
+//! Dataset generation: scenario → sampled poses → twin (rapier) → sensor → dataset + truth.
+
+use crate::dataset::{Dataset, Row, Split};
+use crate::effects::statics::Contact;
+use crate::error::{Error, Result};
+use crate::robot::kinematics::Frame;
+use crate::robot::Robot;
+use crate::scenario::{halton, stream_seed, Order, Scenario, Stream, HALTON_BASES};
+use crate::twin::{approach_sides, PoseCommand, RestingPose, Twin};
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Reports progress of long runs (a progress bar in the CLI, nothing in tests).
+pub trait Progress: Sync {
+    fn start(&self, _total: u64, _what: &str) {}
+    fn inc(&self, _n: u64) {}
+    fn finish(&self) {}
+}
+
+/// No progress reporting.
+pub struct Silent;
+impl Progress for Silent {}
+
+/// Per-pose ground truth.
+#[derive(Clone, Debug, Serialize)]
+pub struct PoseTruth {
+    pub index: usize,
+    pub split: Split,
+    pub t_s: f64,
+    pub delta_t_k: f64,
+    pub q_cmd_deg: Vec<f64>,
+    /// Link-side angles the chain sees (commanded + deflection), degrees.
+    pub q_link_deg: Vec<f64>,
+    pub deflection_mdeg: Vec<f64>,
+    pub joint_torque_nm: Vec<f64>,
+    pub approach_side: Vec<f64>,
+    pub contact: Vec<Contact>,
+    /// True tool position, base frame, mm.
+    pub tool_mm: [f64; 3],
+    /// Distance + length offset, mm (no linearity error, no noise).
+    pub length_true_mm: f64,
+    /// What a perfect reading would give: true length + linearity error, mm.
+    pub length_noise_free_mm: f64,
+    pub length_measured_mm: f64,
+    pub settle_steps: usize,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Rejected {
+    pub index: usize,
+    pub q_cmd_deg: Vec<f64>,
+    pub reason: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SensorTruth {
+    pub exit_point_mm: [f64; 3],
+    pub length_offset_mm: f64,
+    pub noise_std_mm: f64,
+    pub averaged_noise_std_mm: f64,
+    pub resolution_mm: f64,
+    pub linearity_pct_fs: f64,
+    pub range_mm: [f64; 2],
+    pub tension_n: f64,
+    pub samples: usize,
+    pub hold_s: f64,
+    pub rate_hz: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ToolTruth {
+    pub point_mm: [f64; 3],
+}
+
+/// Everything true about a generated dataset.
+#[derive(Clone, Debug, Serialize)]
+pub struct Truth {
+    pub scenario: String,
+    pub seed: u64,
+    pub robot: String,
+    pub units: BTreeMap<&'static str, &'static str>,
+    /// True geometric deviations: mm for dx/dy/dz, degrees for rx/ry/rz/dtheta.
+    pub parameters: BTreeMap<String, f64>,
+    pub effects: crate::effects::Effects,
+    pub sensor: SensorTruth,
+    pub tool: ToolTruth,
+    pub noise_std_mm: f64,
+    pub poses: Vec<PoseTruth>,
+    pub rejected: Vec<Rejected>,
+}
+
+/// A generated dataset with its truth and the link frames (for recordings).
+pub struct Generated {
+    pub dataset: Dataset,
+    pub truth: Truth,
+    pub frames: Vec<Vec<Frame>>,
+    pub twin: Twin,
+}
+
+/// Builds the twin a scenario describes.
+pub fn build_twin(s: &Scenario, robot: &Robot) -> Twin {
+    Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.sensor.clone(), s.simulation.clone())
+}
+
+/// Samples commanded poses (rad) by a Halton sequence over the joint ranges, keeping those whose
+/// nominal tool point is above `min_tool_z_mm` and whose nominal reading is inside the sensor range.
+pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
+    let n = robot.dof();
+    if n > HALTON_BASES.len() {
+        return Err(Error::Invalid(format!("Halton sampling supports up to {} joints", HALTON_BASES.len())));
+    }
+    let ranges = s.ranges_rad(robot);
+    let chain = robot.error_chain();
+    let zero = vec![0.0; chain.n_params()];
+    let tool = s.sensor.tool_point_m();
+    let [lo, hi] = s.sensor.range_mm;
+    let margin = 0.01 * (hi - lo);
+    let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Sampling, 0));
+    let start: u64 = rng.random_range(100..10_000);
+    let mut out = Vec::with_capacity(s.sampling.poses);
+    let mut i = start;
+    let limit = start + 200 * s.sampling.poses as u64 + 10_000;
+    while out.len() < s.sampling.poses {
+        if i > limit {
+            return Err(Error::Scenario {
+                path: s.name.clone(),
+                msg: format!("only {} of {} poses are reachable inside the sensor range and above min_tool_z_mm", out.len(), s.sampling.poses),
+            });
+        }
+        let q: Vec<f64> = (0..n).map(|j| ranges[j].0 + halton(i, HALTON_BASES[j]) * (ranges[j].1 - ranges[j].0)).collect();
+        i += 1;
+        let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool);
+        let l = s.sensor.ideal_length(&p);
+        if p.z * 1e3 >= s.sampling.min_tool_z_mm && l > lo + margin && l < hi - margin {
+            out.push(q);
+        }
+    }
+    if s.sampling.order == Order::Shuffled {
+        out.shuffle(&mut ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Sampling, 1)));
+    }
+    Ok(out)
+}
+
+/// Test poses stratified over the nominal cable length: poses sorted by length are cut into
+/// `test` strata of equal size and one pose per stratum, chosen at random, is held out.
+pub fn stratified_split(lengths: &[f64], test: usize, seed: u64) -> Vec<Split> {
+    let mut split = vec![Split::Train; lengths.len()];
+    if test == 0 {
+        return split;
+    }
+    let mut order: Vec<usize> = (0..lengths.len()).collect();
+    order.sort_by(|a, b| lengths[*a].total_cmp(&lengths[*b]).then(a.cmp(b)));
+    let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, Stream::Split, 0));
+    for k in 0..test {
+        let a = k * lengths.len() / test;
+        let b = ((k + 1) * lengths.len() / test).max(a + 1);
+        split[order[rng.random_range(a..b)]] = Split::Test;
+    }
+    split
+}
+
+/// Acquisition time of each pose: move at `speed_fraction` of the joint speed limits, hold still,
+/// then sample. The time recorded is the middle of the sampling window.
+pub fn acquisition_times(s: &Scenario, robot: &Robot, poses: &[Vec<f64>]) -> Vec<f64> {
+    let mut t = 0.0;
+    let mut prev = vec![0.0; robot.dof()];
+    poses
+        .iter()
+        .map(|q| {
+            let move_s = q
+                .iter()
+                .zip(&prev)
+                .zip(&robot.joints)
+                .map(|((a, b), j)| (a - b).abs() / (s.sampling.speed_fraction * j.max_velocity.max(1e-3)))
+                .fold(0.0, f64::max);
+            prev = q.clone();
+            let at = t + move_s + s.sensor.hold_s + 0.5 * s.sensor.window_s();
+            t += move_s + s.sensor.hold_s + s.sensor.window_s();
+            at
+        })
+        .collect()
+}
+
+/// Runs a scenario end to end. Poses are simulated in parallel; results do not depend on the
+/// number of threads.
+pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<Generated> {
+    let twin = build_twin(s, robot);
+    let poses = sample_poses(s, robot)?;
+    let times = acquisition_times(s, robot, &poses);
+    let sides = approach_sides(&vec![0.0; robot.dof()], &poses);
+    let chain = &twin.chain;
+    let zero = vec![0.0; chain.n_params()];
+    let nominal_lengths: Vec<f64> = poses
+        .iter()
+        .map(|q| s.sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &s.sensor.tool_point_m())))
+        .collect();
+    let split = stratified_split(&nominal_lengths, s.sampling.test, s.seed);
+
+    progress.start(poses.len() as u64, "settling poses");
+    let results: Vec<Result<RestingPose>> = (0..poses.len())
+        .into_par_iter()
+        .map(|i| {
+            let cmd = PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: times[i] };
+            let r = twin.simulate(&cmd);
+            progress.inc(1);
+            r
+        })
+        .collect();
+    progress.finish();
+
+    let deg = |v: &[f64]| v.iter().map(|x| x.to_degrees()).collect::<Vec<f64>>();
+    let mut rows = Vec::new();
+    let mut truth_poses = Vec::new();
+    let mut frames = Vec::new();
+    let mut rejected = Vec::new();
+    for (i, r) in results.into_iter().enumerate() {
+        let rest = match r {
+            Ok(r) => r,
+            Err(e) => {
+                rejected.push(Rejected { index: i, q_cmd_deg: deg(&poses[i]), reason: e.to_string() });
+                continue;
+            }
+        };
+        let l_true = s.sensor.ideal_length(&rest.tool);
+        let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Noise, i as u64));
+        let reading = match s.sensor.read(l_true, &mut rng) {
+            Ok(v) => v,
+            Err(e) => {
+                rejected.push(Rejected { index: i, q_cmd_deg: deg(&poses[i]), reason: e.to_string() });
+                continue;
+            }
+        };
+        let dt = twin.effects.thermal.as_ref().map(|th| th.delta_t(times[i])).unwrap_or(0.0);
+        let ambient = twin.effects.thermal.as_ref().map(|th| th.ambient_c).unwrap_or(20.0);
+        rows.push(Row {
+            q_deg: std::array::from_fn(|j| poses[i][j].to_degrees()),
+            l_mm: reading,
+            t_s: Some(times[i]),
+            temp_c: Some(ambient + dt),
+            split: Some(split[i]),
+        });
+        truth_poses.push(PoseTruth {
+            index: i,
+            split: split[i],
+            t_s: times[i],
+            delta_t_k: dt,
+            q_cmd_deg: deg(&poses[i]),
+            q_link_deg: deg(&rest.q_link),
+            deflection_mdeg: rest.deflection.iter().map(|d| d.to_degrees() * 1e3).collect(),
+            joint_torque_nm: rest.torque.clone(),
+            approach_side: sides[i].clone(),
+            contact: rest.contact.clone(),
+            tool_mm: [rest.tool.x * 1e3, rest.tool.y * 1e3, rest.tool.z * 1e3],
+            length_true_mm: l_true,
+            length_noise_free_mm: l_true + s.sensor.linearity_error(l_true),
+            length_measured_mm: reading,
+            settle_steps: rest.steps,
+        });
+        frames.push(rest.frames);
+    }
+    if rows.is_empty() {
+        return Err(Error::Sensor(format!("every pose was rejected; first reason: {}", rejected.first().map(|r| r.reason.as_str()).unwrap_or("?"))));
+    }
+
+    let names = robot.param_names();
+    let parameters = names
+        .iter()
+        .zip(&twin.params)
+        .map(|(n, v)| {
+            let is_len = n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz");
+            (n.clone(), if is_len { v * 1e3 } else { v.to_degrees() })
+        })
+        .collect();
+    let sn = &s.sensor;
+    let averaged = sn.noise_std_mm / (sn.samples as f64).sqrt();
+    let units = BTreeMap::from([
+        ("parameters", "mm for <joint>.dx/dy/dz, degrees for <joint>.rx/ry/rz/dtheta"),
+        ("angles", "degrees, controller convention"),
+        ("lengths", "mm"),
+        ("time", "s from the start of acquisition"),
+        ("deflection_mdeg", "millidegrees, link side minus motor side"),
+    ]);
+    let truth = Truth {
+        scenario: s.name.clone(),
+        seed: s.seed,
+        robot: robot.name.clone(),
+        units,
+        parameters,
+        effects: s.effects.clone(),
+        sensor: SensorTruth {
+            exit_point_mm: sn.exit_point_mm,
+            length_offset_mm: sn.length_offset_mm,
+            noise_std_mm: sn.noise_std_mm,
+            averaged_noise_std_mm: averaged,
+            resolution_mm: sn.resolution_mm,
+            linearity_pct_fs: sn.linearity_pct_fs,
+            range_mm: sn.range_mm,
+            tension_n: sn.tension_n,
+            samples: sn.samples,
+            hold_s: sn.hold_s,
+            rate_hz: sn.rate_hz,
+        },
+        tool: ToolTruth { point_mm: sn.tool_point_mm },
+        noise_std_mm: averaged,
+        poses: truth_poses,
+        rejected,
+    };
+    Ok(Generated { dataset: Dataset { rows, source: s.name.clone() }, truth, frames, twin })
+}
+
+/// Writes `dataset.csv` and `truth.json` into `dir`, each whole or not at all.
+pub fn write_outputs(g: &Generated, dir: &std::path::Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    g.dataset.write_csv(&dir.join("dataset.csv"))?;
+    crate::io::write_json(&dir.join("truth.json"), &g.truth)
+}

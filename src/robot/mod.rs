@@ -1,0 +1,278 @@
+//! Robot description: a serial arm of revolute joints loaded from a URDF, with its inertial data,
+//! and the kinematic chain with per-joint geometric error parameters built from it.
+//!
+//! Nothing here is specific to one robot: any URDF whose joints from the root link to the flange
+//! form a single serial chain of revolute joints (fixed joints may sit between them) loads the same way.
+
+pub mod kinematics;
+
+use crate::error::{Error, Result};
+use kinematics::{Chain, ChainBuilder, Frame};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use std::path::Path;
+
+/// The IRB 120 description shipped with twincal (used when no URDF path is given).
+pub const IRB120_URDF: &str = include_str!("../../urdf/irb120.urdf");
+
+/// Mass, centre of mass and inertia tensor about the COM, in the link frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Inertial {
+    pub mass: f64,
+    pub com: Vector3<f64>,
+    pub inertia: Matrix3<f64>,
+}
+
+impl Inertial {
+    pub fn zero() -> Self {
+        Inertial { mass: 0.0, com: Vector3::zeros(), inertia: Matrix3::zeros() }
+    }
+    /// Combines two bodies given in the same frame (parallel-axis theorem).
+    pub fn combine(&self, other: &Inertial) -> Inertial {
+        let m = self.mass + other.mass;
+        if m <= 0.0 {
+            return Inertial::zero();
+        }
+        let com = (self.com * self.mass + other.com * other.mass) / m;
+        let shift = |i: &Inertial| {
+            let d = i.com - com;
+            i.inertia + (Matrix3::identity() * d.dot(&d) - d * d.transpose()) * i.mass
+        };
+        Inertial { mass: m, com, inertia: shift(self) + shift(other) }
+    }
+    /// Expresses this body in a parent frame where the body's frame is `f`.
+    pub fn transformed(&self, f: &Frame) -> Inertial {
+        Inertial { mass: self.mass, com: f.point(&self.com), inertia: f.rot * self.inertia * f.rot.transpose() }
+    }
+}
+
+/// One revolute joint of the serial chain.
+#[derive(Clone, Debug)]
+pub struct JointSpec {
+    pub name: String,
+    /// Child link of this joint.
+    pub link: String,
+    /// Origin of the joint in the parent link frame (fixed joints in between folded in).
+    pub origin_xyz: Vector3<f64>,
+    /// URDF roll-pitch-yaw of the origin (R = Rz(yaw)·Ry(pitch)·Rx(roll)).
+    pub origin_rpy: Vector3<f64>,
+    /// Unit rotation axis in the joint frame.
+    pub axis: Vector3<f64>,
+    pub lower: f64,
+    pub upper: f64,
+    pub max_velocity: f64,
+}
+
+/// A serial revolute arm.
+#[derive(Clone, Debug)]
+pub struct Robot {
+    pub name: String,
+    pub base_link: String,
+    pub joints: Vec<JointSpec>,
+    /// Inertials of the moving links, `links[j]` is the child of joint `j` (fixed children merged).
+    pub links: Vec<Inertial>,
+    /// Name of the flange frame and its pose in the last link's frame.
+    pub flange_name: String,
+    pub flange: Frame,
+}
+
+/// Number of geometric error parameters per joint: origin offset (x, y, z), origin rotation
+/// (about x, y, z of the origin frame) and joint zero offset.
+pub const PARAMS_PER_JOINT: usize = 7;
+pub const PARAM_SUFFIXES: [&str; PARAMS_PER_JOINT] = ["dx", "dy", "dz", "rx", "ry", "rz", "dtheta"];
+
+fn frame_from_xyz_rpy(xyz: &[f64; 3], rpy: &[f64; 3]) -> Frame {
+    Frame {
+        rot: *Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]).matrix(),
+        pos: Vector3::new(xyz[0], xyz[1], xyz[2]),
+    }
+}
+
+fn inertial_of(link: &urdf_rs::Link) -> Inertial {
+    let i = &link.inertial;
+    let f = frame_from_xyz_rpy(&i.origin.xyz.0, &i.origin.rpy.0);
+    let t = &i.inertia;
+    let local = Matrix3::new(t.ixx, t.ixy, t.ixz, t.ixy, t.iyy, t.iyz, t.ixz, t.iyz, t.izz);
+    Inertial { mass: i.mass.value, com: f.pos, inertia: f.rot * local * f.rot.transpose() }
+}
+
+impl Robot {
+    /// The IRB 120 shipped with twincal.
+    pub fn irb120() -> Robot {
+        Robot::from_urdf_str(IRB120_URDF, "urdf/irb120.urdf (embedded)").expect("embedded URDF is valid")
+    }
+
+    pub fn from_urdf_file(path: &Path) -> Result<Robot> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Robot::from_urdf_str(&text, &path.display().to_string())
+    }
+
+    /// Parses a URDF and extracts the serial chain of revolute joints from the root link.
+    pub fn from_urdf_str(text: &str, origin: &str) -> Result<Robot> {
+        let err = |msg: String| Error::Urdf { path: origin.to_string(), msg };
+        let urdf = urdf_rs::read_from_string(text).map_err(|e| err(format!("cannot parse: {e}")))?;
+        let children: std::collections::HashSet<&str> = urdf.joints.iter().map(|j| j.child.link.as_str()).collect();
+        let roots: Vec<&urdf_rs::Link> = urdf.links.iter().filter(|l| !children.contains(l.name.as_str())).collect();
+        if roots.len() != 1 {
+            return Err(err(format!("expected exactly one root link, found {}", roots.len())));
+        }
+        let base = roots[0].name.clone();
+        let link_by_name = |n: &str| urdf.links.iter().find(|l| l.name == n);
+
+        let mut joints = Vec::new();
+        let mut links: Vec<Inertial> = Vec::new();
+        let mut current = base.clone();
+        // Fixed transform accumulated since the last revolute joint's child frame.
+        let mut pending = Frame::identity();
+        let mut pending_names: Vec<String> = Vec::new();
+        let mut flange_name = base.clone();
+        let mut flange = Frame::identity();
+        loop {
+            let outgoing: Vec<&urdf_rs::Joint> = urdf.joints.iter().filter(|j| j.parent.link == current).collect();
+            // Branches made only of fixed joints to inertia-free links (frames like tool0) are allowed.
+            let moving: Vec<&&urdf_rs::Joint> =
+                outgoing.iter().filter(|j| j.joint_type != urdf_rs::JointType::Fixed).collect();
+            let next = if moving.len() > 1 {
+                return Err(err(format!("link '{current}' has {} moving child joints: not a serial arm", moving.len())));
+            } else if let Some(j) = moving.first() {
+                Some(**j)
+            } else if outgoing.len() == 1 {
+                Some(outgoing[0])
+            } else if outgoing.is_empty() {
+                None
+            } else {
+                // Several fixed children and no moving one: follow a link named like a flange, else the first.
+                outgoing.iter().find(|j| j.child.link.contains("flange")).copied().or(outgoing.first().copied())
+            };
+            let Some(j) = next else { break };
+            let origin = frame_from_xyz_rpy(&j.origin.xyz.0, &j.origin.rpy.0);
+            let child_inertial = link_by_name(&j.child.link).map(inertial_of).unwrap_or(Inertial::zero());
+            match &j.joint_type {
+                urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
+                    let axis = Vector3::from(j.axis.xyz.0);
+                    if axis.norm() < 1e-9 {
+                        return Err(err(format!("joint '{}' has a zero axis", j.name)));
+                    }
+                    let full = pending.compose(&origin);
+                    let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(full.rot).euler_angles();
+                    let (lower, upper) = if j.joint_type == urdf_rs::JointType::Continuous {
+                        (-std::f64::consts::PI, std::f64::consts::PI)
+                    } else {
+                        (j.limit.lower, j.limit.upper)
+                    };
+                    if !(lower.is_finite() && upper.is_finite() && lower < upper) {
+                        return Err(err(format!("joint '{}' has invalid limits [{lower}, {upper}]", j.name)));
+                    }
+                    joints.push(JointSpec {
+                        name: j.name.clone(),
+                        link: j.child.link.clone(),
+                        origin_xyz: full.pos,
+                        origin_rpy: Vector3::new(roll, pitch, yaw),
+                        axis: axis.normalize(),
+                        lower,
+                        upper,
+                        max_velocity: j.limit.velocity,
+                    });
+                    links.push(child_inertial);
+                    pending = Frame::identity();
+                    pending_names.clear();
+                    flange_name = j.child.link.clone();
+                    flange = Frame::identity();
+                }
+                urdf_rs::JointType::Fixed => {
+                    pending = pending.compose(&origin);
+                    pending_names.push(j.child.link.clone());
+                    // Mass on a fixed child belongs to the last moving link.
+                    if child_inertial.mass > 0.0 {
+                        if let Some(last) = links.last_mut() {
+                            *last = last.combine(&child_inertial.transformed(&pending));
+                        }
+                    }
+                    if j.child.link.contains("flange") || flange_name == base || joints.is_empty() {
+                        flange_name = j.child.link.clone();
+                        flange = pending;
+                    }
+                }
+                other => {
+                    return Err(err(format!("joint '{}' has type {other:?}; only revolute, continuous and fixed are supported", j.name)));
+                }
+            }
+            current = j.child.link.clone();
+        }
+        if joints.is_empty() {
+            return Err(err("no revolute joints found".into()));
+        }
+        Ok(Robot { name: urdf.name, base_link: base, joints, links, flange_name, flange })
+    }
+
+    pub fn dof(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Names of the geometric error parameters: `<joint>.<dx|dy|dz|rx|ry|rz|dtheta>`.
+    pub fn param_names(&self) -> Vec<String> {
+        self.joints
+            .iter()
+            .flat_map(|j| PARAM_SUFFIXES.iter().map(move |s| format!("{}.{s}", j.name)))
+            .collect()
+    }
+
+    /// The kinematic chain with per-joint frame errors: for joint `j`, the origin translation
+    /// (thermally scaled) plus (dx, dy, dz), the nominal origin rotation, error rotations about the
+    /// origin frame's x, y, z, then the joint rotation plus its zero offset.
+    pub fn error_chain(&self) -> Chain {
+        let mut b = ChainBuilder::new();
+        let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
+        for j in &self.joints {
+            let idx: Vec<usize> = PARAM_SUFFIXES.iter().map(|s| b.param(format!("{}.{s}", j.name))).collect();
+            b.trans(x, j.origin_xyz.x, Some(idx[0]), true);
+            b.trans(y, j.origin_xyz.y, Some(idx[1]), true);
+            b.trans(z, j.origin_xyz.z, Some(idx[2]), true);
+            b.rot(z, j.origin_rpy.z, None);
+            b.rot(y, j.origin_rpy.y, None);
+            b.rot(x, j.origin_rpy.x, None);
+            b.rot(x, 0.0, Some(idx[3]));
+            b.rot(y, 0.0, Some(idx[4]));
+            b.rot(z, 0.0, Some(idx[5]));
+            b.joint(j.axis, 0.0, Some(idx[6]));
+        }
+        let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(self.flange.rot).euler_angles();
+        b.trans(x, self.flange.pos.x, None, true);
+        b.trans(y, self.flange.pos.y, None, true);
+        b.trans(z, self.flange.pos.z, None, true);
+        b.rot(z, yaw, None);
+        b.rot(y, pitch, None);
+        b.rot(x, roll, None);
+        b.finish()
+    }
+
+    /// Joint limits in radians.
+    pub fn limits(&self) -> Vec<(f64, f64)> {
+        self.joints.iter().map(|j| (j.lower, j.upper)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn irb120_loads_with_six_joints_and_known_flange() {
+        let r = Robot::irb120();
+        assert_eq!(r.dof(), 6);
+        assert_eq!(r.flange_name, "flange");
+        let c = r.error_chain();
+        let p = vec![0.0; c.n_params()];
+        let f = c.point(&[0.0; 6], &p, 1.0, c.flange(), &Vector3::zeros());
+        assert!((f - Vector3::new(0.374, 0.0, 0.630)).norm() < 1e-12, "{f}");
+        assert!((r.links[1].mass - 3.909).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rejects_branching_and_prismatic() {
+        let bad = r#"<robot name="x"><link name="a"/><link name="b"/>
+            <joint name="j" type="prismatic"><parent link="a"/><child link="b"/><axis xyz="1 0 0"/>
+            <limit lower="0" upper="1" effort="0" velocity="1"/></joint></robot>"#;
+        let e = Robot::from_urdf_str(bad, "bad.urdf").unwrap_err().to_string();
+        assert!(e.contains("prismatic") || e.contains("Prismatic"), "{e}");
+    }
+}

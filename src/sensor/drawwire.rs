@@ -1,0 +1,143 @@
+//! Draw-wire length sensor: a cable from a fixed exit point in the base frame to a tool point
+//! on the flange. A reading is the cable length plus a length offset, with a smooth linearity error,
+//! Gaussian noise and quantisation, averaged over a stationary window.
+
+use crate::effects::statics::CableLoad;
+use nalgebra::Vector3;
+use rand::Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DrawWire {
+    /// Cable exit point in the base frame, mm.
+    pub exit_point_mm: [f64; 3],
+    /// Cable attachment point in the flange frame, mm.
+    pub tool_point_mm: [f64; 3],
+    /// Added to the geometric distance, mm.
+    #[serde(default)]
+    pub length_offset_mm: f64,
+    /// Standard deviation of one raw sample, mm.
+    #[serde(default)]
+    pub noise_std_mm: f64,
+    /// Quantisation step of one raw sample, mm (0 = none).
+    #[serde(default)]
+    pub resolution_mm: f64,
+    /// Amplitude of the linearity error, % of full scale (range width).
+    #[serde(default)]
+    pub linearity_pct_fs: f64,
+    /// Valid reading range [min, max], mm.
+    #[serde(default = "DrawWire::default_range")]
+    pub range_mm: [f64; 2],
+    /// Cable tension acting on the tool, N.
+    #[serde(default)]
+    pub tension_n: f64,
+    /// Hold time before sampling, s.
+    #[serde(default = "DrawWire::default_hold")]
+    pub hold_s: f64,
+    /// Samples averaged per pose.
+    #[serde(default = "DrawWire::default_samples")]
+    pub samples: usize,
+    /// Sampling rate, Hz.
+    #[serde(default = "DrawWire::default_rate")]
+    pub rate_hz: f64,
+}
+
+/// A reading the sensor could not give.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OutOfRange {
+    pub value_mm: f64,
+    pub range_mm: [f64; 2],
+}
+
+impl std::fmt::Display for OutOfRange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "cable length {:.3} mm is outside the sensor range [{}, {}] mm", self.value_mm, self.range_mm[0], self.range_mm[1])
+    }
+}
+
+impl DrawWire {
+    fn default_range() -> [f64; 2] {
+        [0.0, 2000.0]
+    }
+    fn default_hold() -> f64 {
+        2.0
+    }
+    fn default_samples() -> usize {
+        50
+    }
+    fn default_rate() -> f64 {
+        1000.0
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = self.exit_point_mm.iter().chain(&self.tool_point_mm).chain(&self.range_mm).all(|v| v.is_finite())
+            && [self.length_offset_mm, self.noise_std_mm, self.resolution_mm, self.linearity_pct_fs, self.tension_n, self.hold_s, self.rate_hz]
+                .iter()
+                .all(|v| v.is_finite());
+        if !finite {
+            return Err("sensor: every value must be finite".into());
+        }
+        if self.range_mm[0] >= self.range_mm[1] {
+            return Err(format!("sensor.range_mm must be [min, max] with min < max, got {:?}", self.range_mm));
+        }
+        if self.noise_std_mm < 0.0 || self.resolution_mm < 0.0 || self.tension_n < 0.0 || self.hold_s < 0.0 {
+            return Err("sensor: noise_std_mm, resolution_mm, tension_n and hold_s must be >= 0".into());
+        }
+        if self.samples == 0 || self.rate_hz <= 0.0 {
+            return Err("sensor: samples must be >= 1 and rate_hz > 0".into());
+        }
+        if self.linearity_pct_fs.abs() > 5.0 {
+            return Err("sensor.linearity_pct_fs must be within ±5 %".into());
+        }
+        Ok(())
+    }
+
+    pub fn exit_point_m(&self) -> Vector3<f64> {
+        Vector3::from(self.exit_point_mm) * 1e-3
+    }
+    pub fn tool_point_m(&self) -> Vector3<f64> {
+        Vector3::from(self.tool_point_mm) * 1e-3
+    }
+    /// Duration of the sampling window, s.
+    pub fn window_s(&self) -> f64 {
+        self.samples as f64 / self.rate_hz
+    }
+
+    /// The cable's pull on the tool, for the statics and the simulation.
+    pub fn cable_load(&self) -> Option<CableLoad> {
+        (self.tension_n > 0.0).then(|| CableLoad { exit_point: self.exit_point_m(), tool_point: self.tool_point_m(), tension: self.tension_n })
+    }
+
+    /// Noise-free length (mm) for a tool point at `p_m` (base frame, m): distance + offset.
+    pub fn ideal_length(&self, p_m: &Vector3<f64>) -> f64 {
+        (p_m * 1e3 - Vector3::from(self.exit_point_mm)).norm() + self.length_offset_mm
+    }
+
+    /// Smooth linearity error at a true reading `l` (mm): zero at both range ends.
+    pub fn linearity_error(&self, l: f64) -> f64 {
+        let fs = self.range_mm[1] - self.range_mm[0];
+        let u = ((l - self.range_mm[0]) / fs).clamp(0.0, 1.0);
+        self.linearity_pct_fs / 100.0 * fs * (2.0 * std::f64::consts::PI * u).sin()
+    }
+
+    /// The instrument's reading for a true length `l` (mm): linearity error, then `samples` noisy,
+    /// quantised samples averaged. Out-of-range readings are errors, never clipped.
+    pub fn read<R: Rng>(&self, l: f64, rng: &mut R) -> Result<f64, OutOfRange> {
+        let signal = l + self.linearity_error(l);
+        if !(self.range_mm[0]..=self.range_mm[1]).contains(&signal) {
+            return Err(OutOfRange { value_mm: signal, range_mm: self.range_mm });
+        }
+        let normal = Normal::new(0.0, self.noise_std_mm.max(0.0)).map_err(|_| OutOfRange { value_mm: f64::NAN, range_mm: self.range_mm })?;
+        let mut sum = 0.0;
+        for _ in 0..self.samples {
+            let mut s = signal + if self.noise_std_mm > 0.0 { normal.sample(rng) } else { 0.0 };
+            if self.resolution_mm > 0.0 {
+                s = (s / self.resolution_mm).round() * self.resolution_mm;
+            }
+            sum += s;
+        }
+        Ok(sum / self.samples as f64)
+    }
+}

@@ -1,0 +1,178 @@
+//! The digital twin: the true robot (geometry with errors) as a rapier3d multibody under gravity,
+//! with joint compliance, backlash, thermal drift, payload and cable tension, and the draw-wire sensor.
+//!
+//! Each pose is simulated in a world of its own: the arm arrives on the backlash flanks its approach
+//! motion leaves it on, then settles under load until motion has died out. Poses depend on each
+//! other only through the approach flanks and the acquisition time, both known in advance, so they
+//! can be simulated in parallel and still give the same result as a sequential run.
+
+pub mod rapier_sim;
+
+use crate::effects::statics::{equilibrium, Contact, LoadModel, Transmission};
+use crate::effects::Effects;
+use crate::robot::kinematics::{Chain, FkWork, Frame};
+use crate::robot::Robot;
+use crate::sensor::DrawWire;
+use nalgebra::Vector3;
+
+/// Options of the rapier settling loop.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SettleOptions {
+    /// Time step, s.
+    #[serde(default = "SettleOptions::default_dt")]
+    pub dt_s: f64,
+    /// Settled when no joint moves by more than this per step (rad) ...
+    #[serde(default = "SettleOptions::default_tol")]
+    pub step_tolerance_rad: f64,
+    /// ... for this many consecutive steps.
+    #[serde(default = "SettleOptions::default_quiet")]
+    pub quiet_steps: usize,
+    /// Give up after this many steps (an error for that pose).
+    #[serde(default = "SettleOptions::default_max")]
+    pub max_steps: usize,
+    /// Damping ratio used for joints whose damping is not given.
+    #[serde(default = "SettleOptions::default_zeta")]
+    pub damping_ratio: f64,
+}
+
+impl SettleOptions {
+    fn default_dt() -> f64 {
+        1e-3
+    }
+    fn default_tol() -> f64 {
+        1e-13
+    }
+    fn default_quiet() -> usize {
+        5
+    }
+    fn default_max() -> usize {
+        20_000
+    }
+    fn default_zeta() -> f64 {
+        1.0
+    }
+}
+
+impl Default for SettleOptions {
+    fn default() -> Self {
+        SettleOptions {
+            dt_s: Self::default_dt(),
+            step_tolerance_rad: Self::default_tol(),
+            quiet_steps: Self::default_quiet(),
+            max_steps: Self::default_max(),
+            damping_ratio: Self::default_zeta(),
+        }
+    }
+}
+
+/// What the twin is asked to do for one pose.
+#[derive(Clone, Debug)]
+pub struct PoseCommand {
+    /// Commanded (controller) joint angles, rad.
+    pub q_cmd: Vec<f64>,
+    /// Backlash flank each joint arrives on (±1).
+    pub sides: Vec<f64>,
+    /// Acquisition time, s from start (thermal state).
+    pub t: f64,
+}
+
+/// The resting state of the true arm at one pose.
+#[derive(Clone, Debug)]
+pub struct RestingPose {
+    /// Link-side angles as the chain sees them (commanded + deflection), rad.
+    pub q_link: Vec<f64>,
+    pub deflection: Vec<f64>,
+    pub torque: Vec<f64>,
+    pub contact: Vec<Contact>,
+    /// Tool point, base frame, m.
+    pub tool: Vector3<f64>,
+    /// Link frames (base, links, flange).
+    pub frames: Vec<Frame>,
+    /// Simulation steps to settle (0 for the quasi-static model or a rigid arm).
+    pub steps: usize,
+}
+
+/// The immutable true robot: geometry with its errors, effects and sensor.
+#[derive(Clone, Debug)]
+pub struct Twin {
+    pub robot: Robot,
+    pub chain: Chain,
+    /// True geometric error parameters (chain units: m, rad).
+    pub params: Vec<f64>,
+    pub effects: Effects,
+    pub sensor: DrawWire,
+    pub load: LoadModel,
+    pub transmission: Option<Transmission>,
+    pub settle: SettleOptions,
+}
+
+impl Twin {
+    pub fn new(robot: Robot, params: Vec<f64>, effects: Effects, sensor: DrawWire, settle: SettleOptions) -> Self {
+        let chain = robot.error_chain();
+        let load = LoadModel::new(&robot, &effects, sensor.cable_load());
+        let transmission = Transmission::from_effects(&effects, robot.dof());
+        Twin { robot, chain, params, effects, sensor, load, transmission, settle }
+    }
+
+    /// Parameters and length scale in force at time `t` (thermal drift applied).
+    pub fn params_at(&self, t: f64) -> (Vec<f64>, f64) {
+        let mut p = self.params.clone();
+        let mut scale = 1.0;
+        if let Some(th) = &self.effects.thermal {
+            scale = th.scale(t);
+            for j in 0..self.chain.n_joints {
+                if let Some(op) = self.chain.joint_op(j) {
+                    if let Some(i) = self.chain.ops[op].param {
+                        p[i] += th.zero_shift_rad(j, t);
+                    }
+                }
+            }
+        }
+        (p, scale)
+    }
+
+    fn resting(&self, q_link: Vec<f64>, p: &[f64], scale: f64) -> (Vector3<f64>, Vec<Frame>) {
+        let mut ws = FkWork::new(&self.chain);
+        self.chain.forward(&q_link, p, scale, &mut ws);
+        let frames: Vec<Frame> = (0..self.chain.n_frames()).map(|f| self.chain.frame(&ws, f)).collect();
+        let tool = frames[self.chain.flange()].point(&self.sensor.tool_point_m());
+        (tool, frames)
+    }
+
+    /// The quasi-static resting pose from torque equilibrium (no dynamics).
+    pub fn quasi_static(&self, cmd: &PoseCommand) -> RestingPose {
+        let (p, scale) = self.params_at(cmd.t);
+        let eq = equilibrium(&self.chain, &p, scale, &cmd.q_cmd, &self.load, self.transmission.as_ref(), &cmd.sides);
+        let (tool, frames) = self.resting(eq.q.clone(), &p, scale);
+        RestingPose { q_link: eq.q, deflection: eq.deflection, torque: eq.torque, contact: eq.contact, tool, frames, steps: 0 }
+    }
+
+    /// The resting pose simulated in rapier.
+    pub fn simulate(&self, cmd: &PoseCommand) -> crate::Result<RestingPose> {
+        rapier_sim::simulate(self, cmd)
+    }
+}
+
+/// Backlash approach flanks for a sequence of commanded poses (rad), starting from `home`:
+/// the link trails the motor, so a joint that last moved towards larger angles rests on its
+/// negative flank. A joint that does not move keeps its previous flank.
+pub fn approach_sides(home: &[f64], poses: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let mut prev = home.to_vec();
+    let mut sides = vec![-1.0; home.len()];
+    poses
+        .iter()
+        .map(|q| {
+            for j in 0..q.len() {
+                let d = q[j] - prev[j];
+                if d > 0.0 {
+                    sides[j] = -1.0;
+                } else if d < 0.0 {
+                    sides[j] = 1.0;
+                }
+            }
+            prev = q.clone();
+            sides.clone()
+        })
+        .collect()
+}

@@ -1,0 +1,428 @@
+//! Rerun-backed implementation of [`super::Recorder`]. This is the only file in the crate that
+//! names a `rerun` type.
+//!
+//! Design notes (rerun 0.36):
+//! * We do **not** use rerun's own `FileSink`: its writer thread only *logs* I/O errors (and the
+//!   footer is written when the sink is dropped, with the error discarded). Instead [`RrdSink`]
+//!   drives rerun's `re_log_encoding::Encoder` itself over a `BufWriter<File>`, so every write
+//!   error is kept and reported by `finish()`.
+//! * Rerun keeps the "current time" per *thread*. A `Recorder` may be moved between threads, so we
+//!   keep our own time point and re-apply it right before every temporal log call.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+use rerun::external::re_log_encoding::{self, Encoder};
+use rerun::sink::{LogSink, SinkFlushError};
+use rerun::{AsComponents, RecordingStream, TimeCell, TimePoint, TimelineName};
+
+use crate::error::{Error, Result};
+
+type RrdEncoder = Encoder<BufWriter<File>>;
+
+/// What the sink shares with the [`Backend`]: the encoder (taken out by `finish`) and the first
+/// write error.
+struct SinkState {
+    encoder: Option<RrdEncoder>,
+    error: Option<String>,
+}
+
+fn lock(state: &Mutex<SinkState>) -> MutexGuard<'_, SinkState> {
+    // A panic while holding the lock cannot leave the state inconsistent in a way we care about.
+    state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// A rerun log sink that encodes `.rrd` into our temporary file and remembers the first error.
+struct RrdSink {
+    state: Arc<Mutex<SinkState>>,
+}
+
+impl LogSink for RrdSink {
+    fn send(&self, msg: rerun::log::LogMsg) {
+        let mut st = lock(&self.state);
+        if st.error.is_some() {
+            return;
+        }
+        if let Some(encoder) = st.encoder.as_mut() {
+            if let Err(err) = encoder.append(&msg) {
+                st.error = Some(err.to_string());
+            }
+        }
+    }
+
+    fn flush_blocking(&self, _timeout: Duration) -> std::result::Result<(), SinkFlushError> {
+        let mut st = lock(&self.state);
+        if let Some(err) = &st.error {
+            return Err(SinkFlushError::failed(err.clone()));
+        }
+        if let Some(encoder) = st.encoder.as_mut() {
+            if let Err(err) = encoder.flush_blocking() {
+                let msg = err.to_string();
+                st.error = Some(msg.clone());
+                return Err(SinkFlushError::failed(msg));
+            }
+        }
+        Ok(())
+    }
+
+    fn defers_finalization_to_shutdown(&self) -> bool {
+        // Like rerun's FileSink: the footer is only written by `finish()`.
+        true
+    }
+}
+
+/// The rerun-backed state behind a [`super::Recorder`].
+pub(super) struct Backend {
+    /// `None` once finished (or torn down by `Drop`).
+    rec: Option<RecordingStream>,
+    sink: Arc<Mutex<SinkState>>,
+    tmp_path: PathBuf,
+    final_path: PathBuf,
+    /// Our own notion of "now" on every timeline (see module docs).
+    time: BTreeMap<TimelineName, TimeCell>,
+    /// First error seen by any logging method.
+    error: Option<Error>,
+}
+
+fn write_err(path: &Path, what: &str, err: impl std::fmt::Display) -> Error {
+    Error::Invalid(format!("cannot write Rerun recording {}: {what}: {err}", path.display()))
+}
+
+/// `dir/.name.<pid>.<n>.tmp`: same directory (so the final rename is atomic), hidden, unique per
+/// process and per recorder.
+fn temp_path_for(path: &Path) -> PathBuf {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()))
+}
+
+fn f32x3(p: &[f64; 3]) -> [f32; 3] {
+    [p[0] as f32, p[1] as f32, p[2] as f32]
+}
+
+impl Backend {
+    pub(super) fn create(app_id: &str, path: &Path) -> Result<Backend> {
+        if path.file_name().is_none() || path.as_os_str().is_empty() {
+            return Err(Error::Invalid(format!(
+                "Rerun recording path {:?} does not name a file",
+                path.display()
+            )));
+        }
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent)
+                .map_err(|e| write_err(path, &format!("cannot create directory {}", parent.display()), e))?;
+        }
+        let tmp_path = temp_path_for(path);
+        let file = File::create(&tmp_path)
+            .map_err(|e| write_err(path, &format!("cannot create {}", tmp_path.display()), e))?;
+        // Same encoding as rerun's own FileSink.
+        let encoder = Encoder::new_eager(
+            re_log_encoding::CrateVersion::LOCAL,
+            re_log_encoding::EncodingOptions::PROTOBUF_COMPRESSED,
+            BufWriter::new(file),
+        );
+        let encoder = match encoder {
+            Ok(enc) => enc,
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp_path);
+                return Err(write_err(path, "cannot start .rrd stream", e));
+            }
+        };
+        let sink = Arc::new(Mutex::new(SinkState { encoder: Some(encoder), error: None }));
+
+        // `enabled(true)`: an explicit recording request must not be silently turned off by the
+        // `RERUN=off` environment variable.
+        let rec = rerun::RecordingStreamBuilder::new(app_id)
+            .enabled(true)
+            .buffered()
+            .map(|rec| {
+                rec.set_sink(Box::new(RrdSink { state: Arc::clone(&sink) }));
+                rec
+            });
+        let rec = match rec {
+            Ok(rec) => rec,
+            Err(e) => {
+                drop(lock(&sink).encoder.take());
+                let _ = std::fs::remove_file(&tmp_path);
+                return Err(write_err(path, "cannot start Rerun recording stream", e));
+            }
+        };
+
+        let mut backend = Backend {
+            rec: Some(rec),
+            sink,
+            tmp_path,
+            final_path: path.to_path_buf(),
+            time: BTreeMap::new(),
+            error: None,
+        };
+        // We log in millimetres in a right-handed, Z-up world.
+        backend.log("world", true, &rerun::ViewCoordinates::RIGHT_HAND_Z_UP());
+        backend.send_default_blueprint();
+        if let Some(err) = backend.error.take() {
+            return Err(err); // `Drop` removes the temporary file.
+        }
+        Ok(backend)
+    }
+
+    /// Remember the first error only.
+    fn fail(&mut self, err: Error) {
+        if self.error.is_none() {
+            self.error = Some(err);
+        }
+    }
+
+    fn invalid(&mut self, entity: &str, msg: impl std::fmt::Display) {
+        self.fail(Error::Invalid(format!("Rerun recording, entity {entity:?}: {msg}")));
+    }
+
+    fn log<AS: ?Sized + AsComponents>(&mut self, entity: &str, is_static: bool, data: &AS) {
+        if self.error.is_some() {
+            return; // the recording is already lost; do not waste time on it
+        }
+        let Some(rec) = &self.rec else { return };
+        if !is_static {
+            rec.reset_time();
+            rec.set_timepoint(TimePoint::from(self.time.clone()));
+        }
+        if let Err(e) = rec.log_with_static(entity, is_static, data) {
+            let e = write_err(&self.final_path, &format!("logging {entity:?} failed"), e);
+            self.fail(e);
+        }
+    }
+
+    /// A default viewer layout for the entities twincal logs (see `viz/README.md`).
+    fn send_default_blueprint(&mut self) {
+        use rerun::blueprint::{
+            Blueprint, BlueprintActivation, BarChartView, Horizontal, Spatial3DView, Tabs,
+            TextDocumentView, TextLogView, TimeSeriesView, Vertical,
+        };
+        let Some(rec) = &self.rec else { return };
+        // rerun 0.36's `Blueprint::send` builds the blueprint through an internal recording that
+        // honours the `RERUN` env var, and panics when that disables it. Skip the layout then.
+        if !rerun::decide_logging_enabled(true) {
+            return;
+        }
+        let blueprint = Blueprint::new(Horizontal::new([
+            Spatial3DView::new("World (mm)").with_origin("/world").into(),
+            Vertical::new([
+                BarChartView::new("Residual histogram").with_origin("/residuals").into(),
+                TimeSeriesView::new("Calibration parameters").with_origin("/calib").into(),
+                Tabs::new([
+                    TextDocumentView::new("Docs").with_origin("/docs").into(),
+                    TextLogView::new("Log").with_origin("/").into(),
+                ])
+                .into(),
+            ])
+            .into(),
+        ]))
+        .with_auto_views(false);
+        let activation = BlueprintActivation { make_active: true, make_default: true };
+        if let Err(e) = blueprint.send(rec, activation) {
+            let e = write_err(&self.final_path, "cannot send the viewer layout", e);
+            self.fail(e);
+        }
+    }
+
+    fn set_time_cell(&mut self, timeline: &str, cell: TimeCell) {
+        let name = TimelineName::from(timeline);
+        if let Some(old) = self.time.get(&name) {
+            if old.typ() != cell.typ() {
+                self.fail(Error::Invalid(format!(
+                    "Rerun recording: timeline {timeline:?} used both as a sequence and as seconds"
+                )));
+                return;
+            }
+        }
+        self.time.insert(name, cell);
+    }
+
+    pub(super) fn set_time_index(&mut self, timeline: &str, idx: i64) {
+        self.set_time_cell(timeline, TimeCell::from_sequence(idx));
+    }
+
+    pub(super) fn set_time_seconds(&mut self, timeline: &str, secs: f64) {
+        let nanos = (secs * 1e9).round();
+        if !nanos.is_finite() || nanos.abs() >= i64::MAX as f64 {
+            self.fail(Error::Invalid(format!(
+                "Rerun recording: timeline {timeline:?}: time {secs} s is not representable"
+            )));
+            return;
+        }
+        self.set_time_cell(timeline, TimeCell::from_duration_nanos(nanos as i64));
+    }
+
+    pub(super) fn points(
+        &mut self,
+        entity: &str,
+        pts_mm: &[[f64; 3]],
+        colors: Option<&[[u8; 4]]>,
+        radii_mm: Option<f32>,
+        labels: Option<&[String]>,
+    ) {
+        let n = pts_mm.len();
+        let mut arch = rerun::Points3D::new(pts_mm.iter().map(f32x3));
+        if let Some(colors) = colors {
+            if colors.len() != n && colors.len() != 1 {
+                return self.invalid(entity, format!("{} colours for {n} points", colors.len()));
+            }
+            arch = arch.with_colors(colors.iter().copied());
+        }
+        if let Some(r) = radii_mm {
+            if !(r.is_finite() && r > 0.0) {
+                return self.invalid(entity, format!("point radius {r} mm must be > 0"));
+            }
+            arch = arch.with_radii([rerun::Radius::new_scene_units(r)]);
+        }
+        if let Some(labels) = labels {
+            if labels.len() != n && labels.len() != 1 {
+                return self.invalid(entity, format!("{} labels for {n} points", labels.len()));
+            }
+            arch = arch.with_labels(labels.iter().map(String::as_str));
+        }
+        self.log(entity, false, &arch);
+    }
+
+    pub(super) fn line_strips(
+        &mut self,
+        entity: &str,
+        strips: &[Vec<[f64; 3]>],
+        color: [u8; 4],
+        radius_mm: f32,
+    ) {
+        if !(radius_mm.is_finite() && radius_mm > 0.0) {
+            return self.invalid(entity, format!("line radius {radius_mm} mm must be > 0"));
+        }
+        let arch = rerun::LineStrips3D::new(
+            strips.iter().map(|s| rerun::LineStrip3D::from_iter(s.iter().map(f32x3))),
+        )
+        .with_colors([color])
+        .with_radii([rerun::Radius::new_scene_units(radius_mm)]);
+        self.log(entity, false, &arch);
+    }
+
+    pub(super) fn transform(
+        &mut self,
+        entity: &str,
+        translation_mm: [f64; 3],
+        rotation_matrix_rowmajor: [[f64; 3]; 3],
+    ) {
+        let finite = translation_mm.iter().chain(rotation_matrix_rowmajor.iter().flatten());
+        if !finite.into_iter().all(|v| v.is_finite()) {
+            return self.invalid(entity, "transform has non-finite entries");
+        }
+        let r = rotation_matrix_rowmajor;
+        // Careful: rerun's `Mat3x3` is COLUMN-major, and `From<[[f32; 3]; 3]>` takes *columns*.
+        let col_major = [
+            r[0][0] as f32, r[1][0] as f32, r[2][0] as f32, // column 0
+            r[0][1] as f32, r[1][1] as f32, r[2][1] as f32, // column 1
+            r[0][2] as f32, r[1][2] as f32, r[2][2] as f32, // column 2
+        ];
+        let arch = rerun::Transform3D::from_translation_mat3x3(
+            f32x3(&translation_mm),
+            rerun::datatypes::Mat3x3(col_major),
+        );
+        self.log(entity, false, &arch);
+    }
+
+    pub(super) fn scalar(&mut self, entity: &str, value: f64) {
+        self.log(entity, false, &rerun::Scalars::single(value));
+    }
+
+    pub(super) fn bar_chart(&mut self, entity: &str, values: &[f64]) {
+        self.log(entity, false, &rerun::BarChart::new(values.to_vec()));
+    }
+
+    pub(super) fn histogram_chart(&mut self, entity: &str, edges: &[f64], counts: &[f64]) {
+        if edges.len() != counts.len() + 1 {
+            return self.invalid(
+                entity,
+                format!("histogram has {} edges for {} bins", edges.len(), counts.len()),
+            );
+        }
+        // The bar chart view draws bar i over [abscissa[i], abscissa[i] + widths[i]].
+        let left: Vec<f64> = edges[..counts.len()].to_vec();
+        let widths: Vec<f32> = edges.windows(2).map(|w| (w[1] - w[0]) as f32).collect();
+        let arch = rerun::BarChart::new(counts.to_vec())
+            .with_abscissa(left)
+            .with_widths(widths);
+        self.log(entity, false, &arch);
+    }
+
+    pub(super) fn text(&mut self, entity: &str, text: &str) {
+        self.log(entity, false, &rerun::TextLog::new(text));
+    }
+
+    pub(super) fn static_text(&mut self, entity: &str, markdown: &str) {
+        self.log(entity, true, &rerun::TextDocument::from_markdown(markdown));
+    }
+
+    pub(super) fn finish(mut self) -> Result<()> {
+        let result = self.finish_inner();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&self.tmp_path);
+        }
+        result
+    }
+
+    fn finish_inner(&mut self) -> Result<()> {
+        let path = self.final_path.clone();
+        if let Some(rec) = self.rec.take() {
+            let flushed = rec.flush_blocking();
+            // Dropping the last handle flushes the batcher and joins rerun's sink thread, so
+            // everything logged is in our encoder afterwards.
+            drop(rec);
+            if let Err(e) = flushed {
+                self.fail(write_err(&path, "flushing failed", e));
+            }
+        }
+        let (encoder, sink_error) = {
+            let mut st = lock(&self.sink);
+            (st.encoder.take(), st.error.take())
+        };
+        if let Some(err) = self.error.take() {
+            return Err(err);
+        }
+        if let Some(err) = sink_error {
+            return Err(write_err(&path, "encoding failed", err));
+        }
+        let Some(mut encoder) = encoder else {
+            return Err(write_err(&path, "internal error", "recording already finished"));
+        };
+        // End-of-stream marker + footer (chunk manifest), then flush and fsync.
+        encoder.finish().map_err(|e| write_err(&path, "cannot write footer", e))?;
+        let writer = encoder.into_inner().map_err(|e| write_err(&path, "internal error", e))?;
+        let file = writer.into_inner().map_err(|e| write_err(&path, "cannot flush", e.error()))?;
+        file.sync_all().map_err(|e| write_err(&path, "cannot sync", e))?;
+        drop(file);
+        std::fs::rename(&self.tmp_path, &path).map_err(|e| {
+            write_err(&path, &format!("cannot rename {} into place", self.tmp_path.display()), e)
+        })?;
+        Ok(())
+    }
+}
+
+impl Drop for Backend {
+    /// Dropped without a successful `finish()`: discard everything, leave no temporary file.
+    fn drop(&mut self) {
+        drop(self.rec.take());
+        let encoder = lock(&self.sink).encoder.take();
+        if let Some(encoder) = encoder {
+            // `into_inner` skips the footer that `Encoder`'s own `Drop` would try to write.
+            drop(encoder.into_inner());
+            let _ = std::fs::remove_file(&self.tmp_path);
+        }
+    }
+}
+
+#[allow(dead_code)]
+fn assert_send() {
+    fn is_send<T: Send>() {}
+    is_send::<Backend>();
+}
