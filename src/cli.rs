@@ -177,3 +177,218 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
     }
     Ok(())
 }
+
+/// Arguments of `twincal calibrate`.
+pub struct CalibrateArgs {
+    pub data: std::path::PathBuf,
+    pub method: String,
+    pub model: String,
+    pub params: String,
+    pub test_fraction: Option<f64>,
+    pub seed: u64,
+    pub sensor_guess: Option<Vec<f64>>,
+    pub rank_tol: f64,
+    pub out: std::path::PathBuf,
+    pub urdf: Option<std::path::PathBuf>,
+    pub rrd: Option<std::path::PathBuf>,
+}
+
+/// `twincal calibrate`.
+pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
+    use crate::calib::model::SensorGuess;
+    use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
+    let method = Method::parse(&a.method)?;
+    let spec = ModelSpec::parse(&a.model, &a.params)?;
+    if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
+        return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
+    }
+    let data = crate::dataset::Dataset::load(&a.data)?;
+    let truth = TruthFile::find(&a.data)?;
+    let mut opts = CalibOptions::new(spec.clone(), method);
+    opts.test_fraction = a.test_fraction;
+    opts.seed = a.seed;
+    opts.rank_tol = a.rank_tol;
+    if let Some(g) = &a.sensor_guess {
+        if g.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
+        }
+        opts.sensor_guess = Some(SensorGuess { exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3], offset_m: g[3] * 1e-3, tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3] });
+    }
+    let result = run(&data, truth.as_ref(), &opts)?;
+    if let Some(p) = &a.rrd {
+        crate::viz::scenes::record_calibration(&result, &data, &opts, p)?;
+    }
+    if let Some(p) = &a.urdf {
+        let nominal = match &spec {
+            ModelSpec::Nominal { robot, .. } => Some(robot),
+            ModelSpec::Generic6r => None,
+        };
+        crate::io::write_atomic(p, crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
+    }
+    crate::io::write_json(&a.out, &result)?;
+    if !quiet {
+        print_summary(&result);
+    }
+    Ok(())
+}
+
+fn print_summary(r: &crate::calib::run::CalibResult) {
+    let m = &r.metrics;
+    let row = |label: &str, s: &crate::calib::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
+    eprintln!("{} / {} on {} ({} train, {} test rows), {} iterations, {:.3} s", r.method.name(), r.model_name, r.data, r.n_train, r.n_test, r.iterations, r.wall_time_s);
+    eprintln!("  {:<14} {:>10} {:>10} {:>10}   (mm)", "residuals", "RMSE", "STD", "MAX");
+    eprintln!("{}", row("train before", &m.train_before));
+    eprintln!("{}", row("train after", &m.train_after));
+    if let (Some(b), Some(a)) = (&m.test_before, &m.test_after) {
+        eprintln!("{}", row("test before", b));
+        eprintln!("{}", row("test after", a));
+    }
+    let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
+    eprintln!("  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}", r.parameters.len() - fixed.len(), r.parameters.len(), fixed.join(", "));
+    if let Some(c) = r.identifiability.get("condition_identifiable").and_then(|v| v.as_f64()) {
+        eprintln!("  condition number of the identifiable set: {c:.3e}");
+    }
+    if let Some(rep) = &r.repeatability {
+        eprintln!("  repeatability floor: {:.4} mm from {} repeated configurations ({} rows)", rep.pooled_std, rep.groups, rep.rows);
+        if let Some(t) = &m.test_after {
+            eprintln!("  held-out RMSE / floor = {:.3}", t.rmse / rep.pooled_std);
+        }
+    }
+    if let Some(t) = &r.truth_comparison {
+        eprintln!("  truth: {}/{} identifiable parameters within 3σ (max |z| = {:.2}); sensor noise floor {:.4} mm", t.within_3_sigma, t.identifiable, t.max_abs_z, t.noise_floor_mm);
+    }
+}
+
+/// `twincal predict`.
+pub fn predict(model: &Path, data: &Path, out: &Path, quiet: bool) -> Result<()> {
+    let result = crate::calib::run::CalibResult::load(model)?;
+    let ds = crate::dataset::Dataset::load(data)?;
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,L,L_pred,residual\n");
+    let mut res = Vec::new();
+    for r in &ds.rows {
+        let p = result.predict_mm(&r.q_deg);
+        if !p.is_finite() {
+            return Err(Error::Calibration("the model predicted a non-finite length".into()));
+        }
+        res.push(r.l_mm - p);
+        let q: Vec<String> = r.q_deg.iter().map(|v| v.to_string()).collect();
+        text.push_str(&format!("{},{},{},{}\n", q.join(","), r.l_mm, p, r.l_mm - p));
+    }
+    crate::io::write_atomic(out, text.as_bytes())?;
+    if !quiet {
+        let s = crate::calib::metrics::ErrorStats::of(&res);
+        eprintln!("{} rows: RMSE {:.4} mm, STD {:.4} mm, MAX {:.4} mm; wrote {}", ds.rows.len(), s.rmse, s.std, s.max, out.display());
+    }
+    Ok(())
+}
+
+/// One calibration run inside `compare`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CompareRun {
+    pub method: String,
+    pub seed: u64,
+    pub train: crate::calib::metrics::ErrorStats,
+    pub test: crate::calib::metrics::ErrorStats,
+    pub iterations: usize,
+    pub seconds: f64,
+    #[serde(skip)]
+    pub test_abs_residuals: Vec<f64>,
+}
+
+/// `twincal compare`: every method on every seed (a fresh stratified split per seed), then the
+/// accuracy / time table and Wilcoxon signed-rank tests of each method against the first one,
+/// across seeds (test RMSE) and per sample (|test residual| of seed 0).
+#[allow(clippy::too_many_arguments)]
+pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params: &str, test_fraction: Option<f64>, effort: f64, out: Option<&Path>, quiet: bool) -> Result<()> {
+    use crate::calib::run::{calibrate as run, split_rows, CalibOptions, Method, ModelSpec};
+    use crate::calib::stats::{mean_std, wilcoxon_signed_rank};
+    use rayon::prelude::*;
+    let ds = crate::dataset::Dataset::load(data)?;
+    let methods: Vec<Method> = methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
+    if methods.is_empty() || seeds == 0 {
+        return Err(Error::Invalid("compare needs at least one method and one seed".into()));
+    }
+    if !(effort > 0.0 && effort <= 10.0) {
+        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {effort}")));
+    }
+    let spec = ModelSpec::parse(model, params)?;
+    let n = ds.rows.len();
+    let frac = test_fraction.unwrap_or_else(|| {
+        let t = ds.test_indices().len();
+        if t > 0 && t < n { t as f64 / n as f64 } else { 0.2 }
+    });
+    let jobs: Vec<(u64, Method)> = (0..seeds).flat_map(|s| methods.iter().map(move |m| (s, *m))).collect();
+    let bar = progress(quiet);
+    bar.start(jobs.len() as u64, "calibrations");
+    let runs: Vec<Result<CompareRun>> = jobs
+        .par_iter()
+        .map(|(seed, m)| {
+            let mut o = CalibOptions::new(spec.clone(), *m);
+            o.test_fraction = Some(frac);
+            o.seed = *seed;
+            o.effort = effort;
+            let r = run(&ds, None, &o)?;
+            let (_, test_idx) = split_rows(&ds, Some(frac), *seed)?;
+            let test_abs_residuals = test_idx.iter().map(|&i| (ds.rows[i].l_mm - r.predict_mm(&ds.rows[i].q_deg)).abs()).collect();
+            bar.inc(1);
+            Ok(CompareRun {
+                method: m.name().into(),
+                seed: *seed,
+                train: r.metrics.train_after,
+                test: r.metrics.test_after.unwrap_or_default(),
+                iterations: r.iterations,
+                seconds: r.wall_time_s,
+                test_abs_residuals,
+            })
+        })
+        .collect();
+    bar.finish();
+    let runs: Vec<CompareRun> = runs.into_iter().collect::<Result<_>>()?;
+    let by = |m: &str| runs.iter().filter(|r| r.method == m).cloned().collect::<Vec<_>>();
+    let mut table = String::new();
+    table.push_str(&format!("# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n", ds.source, n));
+    table.push_str("| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n");
+    let ms = |v: Vec<f64>| {
+        let (m, s) = mean_std(&v);
+        format!("{m:.4} ± {s:.4}")
+    };
+    for m in &methods {
+        let r = by(m.name());
+        table.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            m.name(),
+            ms(r.iter().map(|x| x.train.rmse).collect()),
+            ms(r.iter().map(|x| x.train.std).collect()),
+            ms(r.iter().map(|x| x.train.max).collect()),
+            ms(r.iter().map(|x| x.test.rmse).collect()),
+            ms(r.iter().map(|x| x.test.std).collect()),
+            ms(r.iter().map(|x| x.test.max).collect()),
+            ms(r.iter().map(|x| x.iterations as f64).collect()),
+            ms(r.iter().map(|x| x.seconds).collect()),
+        ));
+    }
+    let mut tests = Vec::new();
+    let reference = methods[0].name();
+    let ref_runs = by(reference);
+    table.push_str(&format!("\n## Wilcoxon signed-rank tests against `{reference}` (two-sided)\n\n| method | across seeds: W | p | per sample (seed 0): W | p |\n|---|---|---|---|---|\n"));
+    for m in methods.iter().skip(1) {
+        let r = by(m.name());
+        let a: Vec<f64> = ref_runs.iter().map(|x| x.test.rmse).collect();
+        let b: Vec<f64> = r.iter().map(|x| x.test.rmse).collect();
+        let across = wilcoxon_signed_rank(&a, &b).ok();
+        let per = wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
+        let cell = |w: &Option<crate::calib::stats::Wilcoxon>| match w {
+            Some(w) => (format!("{:.1}", w.statistic), format!("{:.3e}", w.p_value)),
+            None => ("–".into(), "–".into()),
+        };
+        let (wa, pa) = cell(&across);
+        let (wp, pp) = cell(&per);
+        table.push_str(&format!("| {} | {wa} | {pa} | {wp} | {pp} |\n", m.name()));
+        tests.push(serde_json::json!({"method": m.name(), "against": reference, "across_seeds": across.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n})), "per_sample": per.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n}))}));
+    }
+    println!("{table}");
+    if let Some(p) = out {
+        crate::io::write_json(p, &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
+    }
+    Ok(())
+}

@@ -32,6 +32,70 @@ enum Command {
         #[arg(long)]
         seed: Option<u64>,
     },
+    /// Calibrate a model on measured data (dataset folder, CSV or xlsx).
+    Calibrate {
+        #[arg(long)]
+        data: PathBuf,
+        /// lm, ekf, pf, pso or rbf.
+        #[arg(long, default_value = "lm")]
+        method: String,
+        /// irb120 (embedded URDF), a .urdf path, or generic6r (no nominal).
+        #[arg(long, default_value = "irb120")]
+        model: String,
+        /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes), dh (papers' 24) or frame.
+        #[arg(long, default_value = "hayati")]
+        params: String,
+        /// Hold out this fraction instead of the dataset's split column (0 trains on every row).
+        #[arg(long)]
+        test_fraction: Option<f64>,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
+        #[arg(long, value_delimiter = ',', num_args = 7)]
+        sensor_guess: Option<Vec<f64>>,
+        /// Relative singular-value threshold for identifiability.
+        #[arg(long, default_value_t = 1e-7)]
+        rank_tol: f64,
+        #[arg(long, default_value = "result.json")]
+        out: PathBuf,
+        /// Also write the calibrated model as a URDF.
+        #[arg(long)]
+        urdf: Option<PathBuf>,
+        /// Rerun recording of the residual field before and after.
+        #[arg(long)]
+        rrd: Option<PathBuf>,
+    },
+    /// Predict cable lengths with a calibrated model.
+    Predict {
+        #[arg(long)]
+        model: PathBuf,
+        #[arg(long)]
+        data: PathBuf,
+        #[arg(long, default_value = "predictions.csv")]
+        out: PathBuf,
+    },
+    /// Compare methods over seeds: accuracy and time tables with Wilcoxon signed-rank tests.
+    Compare {
+        #[arg(long)]
+        data: PathBuf,
+        #[arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf")]
+        methods: Vec<String>,
+        #[arg(long, default_value_t = 30)]
+        seeds: u64,
+        #[arg(long, default_value = "irb120")]
+        model: String,
+        #[arg(long, default_value = "hayati")]
+        params: String,
+        /// Test fraction of each seed's re-split (default: the dataset's split size, else 0.2).
+        #[arg(long)]
+        test_fraction: Option<f64>,
+        /// Effort of the stochastic methods (1 = full budget).
+        #[arg(long, default_value_t = 1.0)]
+        effort: f64,
+        /// Also write the tables as JSON.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Benchmark the twin: settled poses per second for a scenario with all effects.
     Bench {
         #[arg(long)]
@@ -46,6 +110,14 @@ fn main() -> ExitCode {
     let args = Cli::parse();
     let result = match args.command {
         Command::Generate { scenario, out, rrd, seed } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
+        Command::Calibrate { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, out, urdf, rrd } => cli::calibrate(
+            &cli::CalibrateArgs { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, out, urdf, rrd },
+            args.quiet,
+        ),
+        Command::Predict { model, data, out } => cli::predict(&model, &data, &out, args.quiet),
+        Command::Compare { data, methods, seeds, model, params, test_fraction, effort, out } => {
+            cli::compare(&data, &methods, seeds, &model, &params, test_fraction, effort, out.as_deref(), args.quiet)
+        }
         Command::Bench { scenario, repeat } => cli::bench(scenario.as_deref(), repeat, args.quiet),
     };
     match result {

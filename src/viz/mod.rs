@@ -18,8 +18,8 @@
 //!   ([`Recorder::static_text`]) has no time.
 //! * **Entity paths** are `/`-separated (`world/tool_points`). The entities twincal logs, and a
 //!   default viewer layout that shows them, are described in `viz/README.md`:
-//!   `world/**` (3D), `residuals/**` (bar charts), `calib/**` (time series), `docs/**`
-//!   (markdown documents such as legends); text log entries may go anywhere.
+//!   `world/**` (3D), `residuals/**` (bar charts, time series), `calib/**` (time series);
+//!   markdown documents (legends) and text log entries may go anywhere (e.g. `docs/legend`).
 //! * **Errors:** logging methods never panic and return nothing. The first problem (bad input
 //!   such as a colour count that does not match the point count, or an I/O error) is remembered,
 //!   later logging is skipped, and [`Recorder::finish`] returns that error. The file is written
@@ -35,6 +35,8 @@ mod backend;
 #[cfg(feature = "rerun")]
 #[path = "recorder.rs"]
 mod backend;
+
+pub mod scenes;
 
 /// A recording sink. With the `rerun` feature it writes an `.rrd` file; without it,
 /// [`Recorder::create`] returns an error saying twincal was built without Rerun support.
@@ -136,7 +138,6 @@ impl Recorder {
     }
 
     /// A static markdown document (e.g. a legend, see [`colormap_legend`]), independent of time.
-    /// Put documents under `docs/` to have them shown by the default layout.
     pub fn static_text(&mut self, entity: &str, markdown: &str) {
         self.inner.static_text(entity, markdown);
     }
@@ -378,11 +379,19 @@ mod tests {
             let bytes = std::fs::read(&path).unwrap();
             let mut it = DecoderApp::decode_lazy(bytes.as_slice());
             let mut entities = std::collections::BTreeSet::new();
+            let mut blueprint_activations = 0;
             for msg in it.by_ref() {
-                if let LogMsg::ArrowMsg(_, arrow) = msg.expect("decodable .rrd") {
-                    let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
-                    entities.insert(chunk.entity_path().to_string());
+                match msg.expect("decodable .rrd") {
+                    LogMsg::ArrowMsg(store, arrow) if store.is_recording() => {
+                        let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+                        entities.insert(chunk.entity_path().to_string());
+                    }
+                    LogMsg::BlueprintActivationCommand(_) => blueprint_activations += 1,
+                    _ => {}
                 }
+            }
+            if rerun::decide_logging_enabled(true) {
+                assert_eq!(blueprint_activations, 1, "default layout missing");
             }
             assert!(!it.rrd_manifests().unwrap().is_empty(), "no footer/manifest");
             for e in [
@@ -462,4 +471,3 @@ mod tests {
         }
     }
 }
-pub mod scenes;

@@ -33,7 +33,9 @@ struct SinkState {
 
 fn lock(state: &Mutex<SinkState>) -> MutexGuard<'_, SinkState> {
     // A panic while holding the lock cannot leave the state inconsistent in a way we care about.
-    state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    state
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// A rerun log sink that encodes `.rrd` into our temporary file and remembers the first error.
@@ -89,7 +91,10 @@ pub(super) struct Backend {
 }
 
 fn write_err(path: &Path, what: &str, err: impl std::fmt::Display) -> Error {
-    Error::Invalid(format!("cannot write Rerun recording {}: {what}: {err}", path.display()))
+    Error::Invalid(format!(
+        "cannot write Rerun recording {}: {what}: {err}",
+        path.display()
+    ))
 }
 
 /// `dir/.name.<pid>.<n>.tmp`: same directory (so the final rename is atomic), hidden, unique per
@@ -98,7 +103,10 @@ fn temp_path_for(path: &Path) -> PathBuf {
     use std::sync::atomic::{AtomicU64, Ordering};
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()))
 }
 
@@ -115,9 +123,17 @@ impl Backend {
             )));
         }
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(parent)
-                .map_err(|e| write_err(path, &format!("cannot create directory {}", parent.display()), e))?;
+            std::fs::create_dir_all(parent).map_err(|e| {
+                write_err(
+                    path,
+                    &format!("cannot create directory {}", parent.display()),
+                    e,
+                )
+            })?;
         }
+        // rerun 0.36: only `&'static str` converts infallibly (and panics when empty).
+        let app = rerun::ApplicationId::try_new(app_id)
+            .map_err(|e| Error::Invalid(format!("invalid Rerun application id {app_id:?}: {e}")))?;
         let tmp_path = temp_path_for(path);
         let file = File::create(&tmp_path)
             .map_err(|e| write_err(path, &format!("cannot create {}", tmp_path.display()), e))?;
@@ -134,16 +150,20 @@ impl Backend {
                 return Err(write_err(path, "cannot start .rrd stream", e));
             }
         };
-        let sink = Arc::new(Mutex::new(SinkState { encoder: Some(encoder), error: None }));
+        let sink = Arc::new(Mutex::new(SinkState {
+            encoder: Some(encoder),
+            error: None,
+        }));
 
         // `enabled(true)`: an explicit recording request must not be silently turned off by the
         // `RERUN=off` environment variable.
-        let rec = rerun::RecordingStreamBuilder::new(app_id)
+        let rec = rerun::RecordingStreamBuilder::new(app)
             .enabled(true)
             .buffered()
-            .map(|rec| {
-                rec.set_sink(Box::new(RrdSink { state: Arc::clone(&sink) }));
-                rec
+            .inspect(|rec| {
+                rec.set_sink(Box::new(RrdSink {
+                    state: Arc::clone(&sink),
+                }))
             });
         let rec = match rec {
             Ok(rec) => rec,
@@ -179,7 +199,9 @@ impl Backend {
     }
 
     fn invalid(&mut self, entity: &str, msg: impl std::fmt::Display) {
-        self.fail(Error::Invalid(format!("Rerun recording, entity {entity:?}: {msg}")));
+        self.fail(Error::Invalid(format!(
+            "Rerun recording, entity {entity:?}: {msg}"
+        )));
     }
 
     fn log<AS: ?Sized + AsComponents>(&mut self, entity: &str, is_static: bool, data: &AS) {
@@ -200,7 +222,7 @@ impl Backend {
     /// A default viewer layout for the entities twincal logs (see `viz/README.md`).
     fn send_default_blueprint(&mut self) {
         use rerun::blueprint::{
-            Blueprint, BlueprintActivation, BarChartView, Horizontal, Spatial3DView, Tabs,
+            BarChartView, Blueprint, BlueprintActivation, Horizontal, Spatial3DView, Tabs,
             TextDocumentView, TextLogView, TimeSeriesView, Vertical,
         };
         let Some(rec) = &self.rec else { return };
@@ -210,12 +232,21 @@ impl Backend {
             return;
         }
         let blueprint = Blueprint::new(Horizontal::new([
-            Spatial3DView::new("World (mm)").with_origin("/world").into(),
+            Spatial3DView::new("World (mm)")
+                .with_origin("/world")
+                .into(),
             Vertical::new([
-                BarChartView::new("Residual histogram").with_origin("/residuals").into(),
-                TimeSeriesView::new("Calibration parameters").with_origin("/calib").into(),
+                BarChartView::new("Residual histogram")
+                    .with_origin("/residuals")
+                    .into(),
+                TimeSeriesView::new("Calibration parameters")
+                    .with_origin("/calib")
+                    .into(),
                 Tabs::new([
-                    TextDocumentView::new("Docs").with_origin("/docs").into(),
+                    TimeSeriesView::new("Residual series")
+                        .with_origin("/residuals")
+                        .into(),
+                    TextDocumentView::new("Docs").with_origin("/").into(),
                     TextLogView::new("Log").with_origin("/").into(),
                 ])
                 .into(),
@@ -223,7 +254,10 @@ impl Backend {
             .into(),
         ]))
         .with_auto_views(false);
-        let activation = BlueprintActivation { make_active: true, make_default: true };
+        let activation = BlueprintActivation {
+            make_active: true,
+            make_default: true,
+        };
         if let Err(e) = blueprint.send(rec, activation) {
             let e = write_err(&self.final_path, "cannot send the viewer layout", e);
             self.fail(e);
@@ -231,7 +265,15 @@ impl Backend {
     }
 
     fn set_time_cell(&mut self, timeline: &str, cell: TimeCell) {
-        let name = TimelineName::from(timeline);
+        // rerun 0.36: `From` only for `&'static str`; dynamic names go through `try_new`.
+        let name = match TimelineName::try_new(timeline) {
+            Ok(name) => name,
+            Err(e) => {
+                return self.fail(Error::Invalid(format!(
+                    "Rerun recording: invalid timeline name {timeline:?}: {e}"
+                )))
+            }
+        };
         if let Some(old) = self.time.get(&name) {
             if old.typ() != cell.typ() {
                 self.fail(Error::Invalid(format!(
@@ -300,7 +342,9 @@ impl Backend {
             return self.invalid(entity, format!("line radius {radius_mm} mm must be > 0"));
         }
         let arch = rerun::LineStrips3D::new(
-            strips.iter().map(|s| rerun::LineStrip3D::from_iter(s.iter().map(f32x3))),
+            strips
+                .iter()
+                .map(|s| rerun::LineStrip3D::from_iter(s.iter().map(f32x3))),
         )
         .with_colors([color])
         .with_radii([rerun::Radius::new_scene_units(radius_mm)]);
@@ -313,12 +357,15 @@ impl Backend {
         translation_mm: [f64; 3],
         rotation_matrix_rowmajor: [[f64; 3]; 3],
     ) {
-        let finite = translation_mm.iter().chain(rotation_matrix_rowmajor.iter().flatten());
+        let finite = translation_mm
+            .iter()
+            .chain(rotation_matrix_rowmajor.iter().flatten());
         if !finite.into_iter().all(|v| v.is_finite()) {
             return self.invalid(entity, "transform has non-finite entries");
         }
         let r = rotation_matrix_rowmajor;
         // Careful: rerun's `Mat3x3` is COLUMN-major, and `From<[[f32; 3]; 3]>` takes *columns*.
+        #[rustfmt::skip]
         let col_major = [
             r[0][0] as f32, r[1][0] as f32, r[2][0] as f32, // column 0
             r[0][1] as f32, r[1][1] as f32, r[2][1] as f32, // column 1
@@ -343,7 +390,11 @@ impl Backend {
         if edges.len() != counts.len() + 1 {
             return self.invalid(
                 entity,
-                format!("histogram has {} edges for {} bins", edges.len(), counts.len()),
+                format!(
+                    "histogram has {} edges for {} bins",
+                    edges.len(),
+                    counts.len()
+                ),
             );
         }
         // The bar chart view draws bar i over [abscissa[i], abscissa[i] + widths[i]].
@@ -393,16 +444,31 @@ impl Backend {
             return Err(write_err(&path, "encoding failed", err));
         }
         let Some(mut encoder) = encoder else {
-            return Err(write_err(&path, "internal error", "recording already finished"));
+            return Err(write_err(
+                &path,
+                "internal error",
+                "recording already finished",
+            ));
         };
         // End-of-stream marker + footer (chunk manifest), then flush and fsync.
-        encoder.finish().map_err(|e| write_err(&path, "cannot write footer", e))?;
-        let writer = encoder.into_inner().map_err(|e| write_err(&path, "internal error", e))?;
-        let file = writer.into_inner().map_err(|e| write_err(&path, "cannot flush", e.error()))?;
-        file.sync_all().map_err(|e| write_err(&path, "cannot sync", e))?;
+        encoder
+            .finish()
+            .map_err(|e| write_err(&path, "cannot write footer", e))?;
+        let writer = encoder
+            .into_inner()
+            .map_err(|e| write_err(&path, "internal error", e))?;
+        let file = writer
+            .into_inner()
+            .map_err(|e| write_err(&path, "cannot flush", e.error()))?;
+        file.sync_all()
+            .map_err(|e| write_err(&path, "cannot sync", e))?;
         drop(file);
         std::fs::rename(&self.tmp_path, &path).map_err(|e| {
-            write_err(&path, &format!("cannot rename {} into place", self.tmp_path.display()), e)
+            write_err(
+                &path,
+                &format!("cannot rename {} into place", self.tmp_path.display()),
+                e,
+            )
         })?;
         Ok(())
     }

@@ -1,0 +1,124 @@
+//! Export of a calibrated model as a URDF: one revolute joint per chain joint, with the
+//! calibrated frame between consecutive joint axes as its origin (joint zero offsets folded in),
+//! fixed frames for the flange, the draw-wire tool point and the cable exit point. Inertial data
+//! are carried over from the nominal robot when there is one, moved into the calibrated frames.
+
+use super::model::CalibModel;
+use crate::robot::kinematics::{FkWork, Frame};
+use crate::robot::Robot;
+use nalgebra::{Rotation3, Vector3};
+use std::fmt::Write;
+
+fn origin(f: &Frame) -> String {
+    let (r, p, y) = Rotation3::from_matrix_unchecked(f.rot).euler_angles();
+    format!("<origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>", f.pos.x, f.pos.y, f.pos.z, r, p, y)
+}
+
+/// Link frames of a chain at zero joint angles: the frame right after each joint rotation.
+fn joint_frames(model: &CalibModel, x: &[f64]) -> (Vec<Frame>, Vec<Vector3<f64>>, Frame) {
+    let chain = &model.chain;
+    let mut ws = FkWork::new(chain);
+    chain.forward(&vec![0.0; chain.n_joints], &x[..model.n_chain()], 1.0, &mut ws);
+    let mut frames = Vec::new();
+    let mut axes = Vec::new();
+    for j in 0..chain.n_joints {
+        let k = chain.joint_op(j).expect("every joint has an op");
+        frames.push(ws.pre[k + 1]);
+        axes.push(chain.ops[k].axis);
+    }
+    (frames, axes, chain.frame(&ws, chain.flange()))
+}
+
+/// The calibrated URDF text. `nominal` supplies inertials (moved into the calibrated frames).
+pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) -> String {
+    let (frames, axes, flange) = joint_frames(model, x);
+    let n = frames.len();
+    // Where the nominal robot's link frames sit in the model's own frames (at nominal parameters).
+    let (nom_frames, _, _) = joint_frames(model, &model.nominal);
+    let nominal_urdf_frames: Option<Vec<Frame>> = nominal.map(|r| {
+        let c = r.error_chain();
+        let mut ws = FkWork::new(&c);
+        c.forward(&vec![0.0; c.n_joints], &vec![0.0; c.n_params()], 1.0, &mut ws);
+        (0..c.n_joints).map(|j| c.frame(&ws, j + 1)).collect()
+    });
+    let s = &x[model.n_chain()..];
+    let mut out = String::new();
+    let _ = writeln!(out, "<?xml version=\"1.0\"?>");
+    let _ = writeln!(out, "<!-- Calibrated by twincal ({} model). Units: m, rad, kg. -->", model.name);
+    let _ = writeln!(out, "<robot name=\"{name}\">");
+    let _ = writeln!(out, "  <link name=\"base_link\"/>");
+    let mut parent = "base_link".to_string();
+    let mut parent_frame = Frame::identity();
+    for j in 0..n {
+        let link = format!("link_{}", j + 1);
+        let _ = writeln!(out, "  <link name=\"{link}\">");
+        if let (Some(r), Some(uf)) = (nominal, &nominal_urdf_frames) {
+            if let Some(inertial) = r.links.get(j) {
+                // URDF link frame expressed in the model's link frame.
+                let rel = uf[j].relative_to(&nom_frames[j]);
+                let i = inertial.transformed(&rel);
+                let t = &i.inertia;
+                let _ = writeln!(
+                    out,
+                    "    <inertial><origin xyz=\"{} {} {}\" rpy=\"0 0 0\"/><mass value=\"{}\"/><inertia ixx=\"{}\" ixy=\"{}\" ixz=\"{}\" iyy=\"{}\" iyz=\"{}\" izz=\"{}\"/></inertial>",
+                    i.com.x, i.com.y, i.com.z, i.mass, t[(0, 0)], t[(0, 1)], t[(0, 2)], t[(1, 1)], t[(1, 2)], t[(2, 2)]
+                );
+            }
+        }
+        let _ = writeln!(out, "  </link>");
+        let rel = frames[j].relative_to(&parent_frame);
+        let (lo, hi) = nominal.and_then(|r| r.joints.get(j)).map(|jt| (jt.lower, jt.upper)).unwrap_or((-std::f64::consts::PI, std::f64::consts::PI));
+        let vel = nominal.and_then(|r| r.joints.get(j)).map(|jt| jt.max_velocity).unwrap_or(1.0);
+        let a = axes[j];
+        let _ = writeln!(out, "  <joint name=\"joint_{}\" type=\"revolute\">", j + 1);
+        let _ = writeln!(out, "    <parent link=\"{parent}\"/>\n    <child link=\"{link}\"/>");
+        let _ = writeln!(out, "    {}", origin(&rel));
+        let _ = writeln!(out, "    <axis xyz=\"{} {} {}\"/>", a.x, a.y, a.z);
+        let _ = writeln!(out, "    <limit lower=\"{lo}\" upper=\"{hi}\" effort=\"0\" velocity=\"{vel}\"/>");
+        let _ = writeln!(out, "  </joint>");
+        parent = link;
+        parent_frame = frames[j];
+    }
+    let fixed = |out: &mut String, name: &str, parent: &str, f: &Frame| {
+        let _ = writeln!(out, "  <link name=\"{name}\"/>");
+        let _ = writeln!(out, "  <joint name=\"{parent}-{name}\" type=\"fixed\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{name}\"/>\n    {}\n  </joint>", origin(f));
+    };
+    fixed(&mut out, "flange", &parent, &flange.relative_to(&parent_frame));
+    fixed(&mut out, "cable_tool_point", "flange", &Frame { rot: nalgebra::Matrix3::identity(), pos: Vector3::new(s[4], s[5], s[6]) });
+    fixed(&mut out, "cable_exit_point", "base_link", &Frame { rot: nalgebra::Matrix3::identity(), pos: Vector3::new(s[0], s[1], s[2]) });
+    let _ = writeln!(out, "  <!-- draw-wire length offset: {} m -->", s[3]);
+    let _ = writeln!(out, "</robot>");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::model::SensorGuess;
+
+    #[test]
+    fn exported_urdf_reproduces_the_calibrated_model() {
+        let robot = Robot::irb120();
+        let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        for m in [CalibModel::dh(&robot, &g, true), CalibModel::frame(&robot, &g)] {
+            let mut x = m.nominal.clone();
+            for k in 0..m.n_chain() {
+                x[k] += 1e-3 * ((k as f64) * 2.1).sin();
+            }
+            let text = urdf(&m, &x, Some(&robot), "calibrated");
+            let r = Robot::from_urdf_str(&text, "exported").unwrap();
+            assert_eq!(r.flange_name, "flange");
+            let c = r.error_chain();
+            let p0 = vec![0.0; c.n_params()];
+            let mut w = m.work();
+            let tool = Vector3::new(x[m.n_chain() + 4], x[m.n_chain() + 5], x[m.n_chain() + 6]);
+            for k in 0..10 {
+                let q: Vec<f64> = (0..6).map(|j| ((k * 5 + j) as f64 * 0.61).sin() * 1.5).collect();
+                let a = m.tool_point(&x, &q, &mut w);
+                let b = c.point(&q, &p0, 1.0, c.flange(), &tool);
+                assert!((a - b).norm() < 1e-9, "{}: {a} vs {b}", m.name);
+            }
+            assert!((r.links.iter().map(|l| l.mass).sum::<f64>() - robot.links.iter().map(|l| l.mass).sum::<f64>()).abs() < 1e-9);
+        }
+    }
+}

@@ -1,0 +1,170 @@
+//! Identifiability of a model's parameters from a given set of poses.
+//!
+//! The Jacobian of the predicted lengths is scaled column by column (unit norm, so that millimetres
+//! and degrees compare), then:
+//! * its singular values give the rank and the condition number,
+//! * the right singular vectors of the (numerically) zero singular values are the parameter
+//!   combinations the data cannot see,
+//! * a greedy Gram–Schmidt pass in the model's parameter order picks the identifiable set: a
+//!   parameter is kept when its column is not (within tolerance) a combination of those kept before.
+//!   The rest are fixed at their nominal values and named.
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Combination {
+    /// Singular value relative to the largest.
+    pub relative_singular_value: f64,
+    /// Largest components of the right singular vector, by parameter name.
+    pub terms: Vec<(String, f64)>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Identifiability {
+    pub n_params: usize,
+    pub n_poses: usize,
+    pub rank: usize,
+    pub tolerance: f64,
+    /// Condition number of the full scaled Jacobian (inf when rank-deficient).
+    pub condition_full: f64,
+    /// Condition number of the scaled Jacobian of the identifiable parameters.
+    pub condition_identifiable: f64,
+    pub singular_values: Vec<f64>,
+    pub identifiable: Vec<String>,
+    pub fixed: Vec<String>,
+    /// Parameter combinations the data cannot see (null space), strongest terms first.
+    pub invisible: Vec<Combination>,
+    /// Index mask: true = fixed.
+    #[serde(skip)]
+    pub fixed_mask: Vec<bool>,
+}
+
+fn scaled(j: &DMatrix<f64>) -> (DMatrix<f64>, Vec<f64>) {
+    let mut s = j.clone();
+    let mut norms = Vec::with_capacity(j.ncols());
+    for mut c in s.column_iter_mut() {
+        let n = c.norm();
+        norms.push(n);
+        if n > 0.0 {
+            c /= n;
+        }
+    }
+    (s, norms)
+}
+
+fn condition(m: &DMatrix<f64>) -> f64 {
+    if m.ncols() == 0 {
+        return 1.0;
+    }
+    let sv = m.clone().svd(false, false).singular_values;
+    let max = sv.max();
+    let min = sv.min();
+    if min <= 0.0 {
+        f64::INFINITY
+    } else {
+        max / min
+    }
+}
+
+/// Analyses the Jacobian `j` (poses × parameters). `always_fixed` parameters are fixed regardless
+/// (e.g. chosen by the user); `tol` is the relative singular value / residual-norm threshold.
+/// `priority` is the order in which parameters are offered to the identifiable set (earlier ones
+/// are kept, later ones fixed when they repeat what is already there); empty = model order.
+pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f64, priority: &[usize]) -> Identifiability {
+    let (m, n) = j.shape();
+    let (s, norms) = scaled(j);
+    let svd = s.clone().svd(false, true);
+    let mut sv: Vec<f64> = svd.singular_values.iter().copied().collect();
+    sv.sort_by(|a, b| b.total_cmp(a));
+    let smax = sv.first().copied().unwrap_or(0.0).max(1e-300);
+    let rank = sv.iter().filter(|v| **v > tol * smax).count();
+    let condition_full = if rank < n { f64::INFINITY } else { smax / sv[n - 1] };
+
+    // Null space combinations.
+    let mut invisible = Vec::new();
+    if let Some(vt) = &svd.v_t {
+        for (i, sigma) in svd.singular_values.iter().enumerate() {
+            if *sigma <= tol * smax {
+                let row = vt.row(i);
+                let mut terms: Vec<(String, f64)> = row.iter().enumerate().filter(|(_, v)| v.abs() > 0.05).map(|(k, v)| (names[k].clone(), *v)).collect();
+                terms.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+                terms.truncate(6);
+                invisible.push(Combination { relative_singular_value: sigma / smax, terms });
+            }
+        }
+    }
+    // Zero columns are invisible on their own.
+    for (k, nrm) in norms.iter().enumerate() {
+        if *nrm == 0.0 && !invisible.iter().any(|c| c.terms.len() == 1 && c.terms[0].0 == names[k]) {
+            invisible.push(Combination { relative_singular_value: 0.0, terms: vec![(names[k].clone(), 1.0)] });
+        }
+    }
+
+    // Greedy selection in parameter order.
+    let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
+    let mut fixed_mask = vec![false; n];
+    let order: Vec<usize> = if priority.len() == n { priority.to_vec() } else { (0..n).collect() };
+    for k in order {
+        if always_fixed.get(k).copied().unwrap_or(false) || norms[k] == 0.0 {
+            fixed_mask[k] = true;
+            continue;
+        }
+        let mut v = s.column(k).into_owned();
+        for _ in 0..2 {
+            for b in &basis {
+                let p = b.dot(&v);
+                v -= b * p;
+            }
+        }
+        let r = v.norm();
+        if r > tol && basis.len() < m {
+            basis.push(v / r);
+        } else {
+            fixed_mask[k] = true;
+        }
+    }
+    let keep: Vec<usize> = (0..n).filter(|k| !fixed_mask[*k]).collect();
+    let sub = DMatrix::from_fn(m, keep.len(), |r, c| s[(r, keep[c])]);
+    Identifiability {
+        n_params: n,
+        n_poses: m,
+        rank,
+        tolerance: tol,
+        condition_full,
+        condition_identifiable: condition(&sub),
+        singular_values: sv.iter().map(|v| v / smax).collect(),
+        identifiable: keep.iter().map(|k| names[*k].clone()).collect(),
+        fixed: (0..n).filter(|k| fixed_mask[*k]).map(|k| names[k].clone()).collect(),
+        invisible,
+        fixed_mask,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_dependent_columns_and_names_them() {
+        // c2 = c0 + c1: one of the three is unidentifiable; c3 is zero.
+        let m = 20;
+        let j = DMatrix::from_fn(m, 4, |r, c| {
+            let t = r as f64 * 0.3;
+            match c {
+                0 => t.sin(),
+                1 => t.cos(),
+                2 => t.sin() + t.cos(),
+                _ => 0.0,
+            }
+        });
+        let names: Vec<String> = ["a", "b", "c", "d"].iter().map(|s| s.to_string()).collect();
+        let id = analyse(&j, &names, &[false; 4], 1e-8, &[]);
+        assert_eq!(id.rank, 2);
+        assert_eq!(id.identifiable, vec!["a", "b"]);
+        assert_eq!(id.fixed, vec!["c", "d"]);
+        assert!(id.condition_full.is_infinite());
+        assert!(id.condition_identifiable < 10.0);
+        assert!(id.invisible.iter().any(|c| c.terms.iter().any(|t| t.0 == "c")));
+    }
+}

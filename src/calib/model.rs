@@ -1,0 +1,364 @@
+//! Calibration models: a kinematic chain plus the draw-wire sensor's geometry, as one parameter
+//! vector. All models predict the cable length through the same [`Chain`] evaluator.
+//!
+//! * `dh`: the papers' 24-parameter standard D-H model (Δa, Δd, Δα, Δθ per joint), derived from the
+//!   robot's URDF so that at zero deviation it reproduces the URDF exactly.
+//! * `hayati`: the same, with Δd replaced by a rotation β about y on joints whose axis is parallel
+//!   to the next one (IRB 120 joints 2–3), where Δd is not identifiable.
+//! * `frame`: the twin's own per-joint frame errors (7 per joint), heavily redundant; the
+//!   identifiability analysis reduces it to its base parameters.
+//! * `generic6r`: absolute D-H values for an arm without a published nominal, found by a global search.
+//!
+//! Every model ends with 7 sensor parameters: cable exit point (base frame), length offset and tool
+//! point (flange frame). Internal units are metres and radians; lengths are predicted in metres.
+
+use crate::robot::kinematics::{Chain, ChainBuilder, FkWork, Frame, PointJacobian};
+use crate::robot::Robot;
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Physical kind of a parameter (for units and scaling).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Kind {
+    Length,
+    Angle,
+}
+
+impl Kind {
+    /// Factor from internal units to display units (mm, degrees).
+    pub fn display(self) -> f64 {
+        match self {
+            Kind::Length => 1e3,
+            Kind::Angle => 180.0 / std::f64::consts::PI,
+        }
+    }
+    pub fn unit(self) -> &'static str {
+        match self {
+            Kind::Length => "mm",
+            Kind::Angle => "deg",
+        }
+    }
+}
+
+/// Names of the sensor parameters appended to every model.
+pub const SENSOR_PARAMS: [&str; 7] = ["exit.x", "exit.y", "exit.z", "length_offset", "tool.x", "tool.y", "tool.z"];
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CalibModel {
+    pub name: String,
+    pub chain: Chain,
+    pub names: Vec<String>,
+    pub kinds: Vec<Kind>,
+    /// Nominal parameter vector (deviations zero, sensor at its nominal guess).
+    pub nominal: Vec<f64>,
+}
+
+/// Reusable buffers for model evaluations.
+pub struct ModelWork {
+    pub fk: FkWork,
+    pub jac: PointJacobian,
+}
+
+impl CalibModel {
+    pub fn n_params(&self) -> usize {
+        self.names.len()
+    }
+    pub fn n_chain(&self) -> usize {
+        self.chain.n_params()
+    }
+    pub fn work(&self) -> ModelWork {
+        ModelWork { fk: FkWork::new(&self.chain), jac: PointJacobian::new(&self.chain) }
+    }
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    fn sensor(&self, x: &[f64]) -> (Vector3<f64>, f64, Vector3<f64>) {
+        let s = &x[self.n_chain()..];
+        (Vector3::new(s[0], s[1], s[2]), s[3], Vector3::new(s[4], s[5], s[6]))
+    }
+
+    /// Tool point in the base frame for joint angles `q` (rad), m.
+    pub fn tool_point(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> Vector3<f64> {
+        let (_, _, tool) = self.sensor(x);
+        self.chain.forward(q, &x[..self.n_chain()], 1.0, &mut w.fk);
+        self.chain.frame(&w.fk, self.chain.flange()).point(&tool)
+    }
+
+    /// Predicted cable length (m).
+    pub fn predict(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> f64 {
+        let (e, c, _) = self.sensor(x);
+        (self.tool_point(x, q, w) - e).norm() + c
+    }
+
+    /// Predicted length (m) and its gradient with respect to every parameter into `g`.
+    pub fn predict_grad(&self, x: &[f64], q: &[f64], w: &mut ModelWork, g: &mut [f64]) -> f64 {
+        let nc = self.n_chain();
+        let (e, c, tool) = self.sensor(x);
+        self.chain.forward(q, &x[..nc], 1.0, &mut w.fk);
+        let flange = self.chain.flange();
+        self.chain.point_jacobian(&w.fk, flange, &tool, &mut w.jac);
+        let d = w.jac.point - e;
+        let dist = d.norm().max(1e-12);
+        let u = d / dist;
+        for k in 0..nc {
+            g[k] = u.dot(&w.jac.dparam[k]);
+        }
+        g[nc] = -u.x;
+        g[nc + 1] = -u.y;
+        g[nc + 2] = -u.z;
+        g[nc + 3] = 1.0;
+        let rot = self.chain.frame(&w.fk, flange).rot;
+        let ut = rot.transpose() * u;
+        g[nc + 4] = ut.x;
+        g[nc + 5] = ut.y;
+        g[nc + 6] = ut.z;
+        dist + c
+    }
+
+    /// Display value (mm / degrees) of parameter `k`.
+    pub fn display(&self, k: usize, v: f64) -> f64 {
+        v * self.kinds[k].display()
+    }
+
+    fn with_sensor(name: &str, chain: Chain, kinds: Vec<Kind>, sensor: &SensorGuess) -> CalibModel {
+        let mut names = chain.param_names.clone();
+        names.extend(SENSOR_PARAMS.iter().map(|s| s.to_string()));
+        let mut kinds = kinds;
+        kinds.extend([Kind::Length; 7]);
+        let mut nominal = vec![0.0; chain.n_params()];
+        nominal.extend(sensor.exit_m.iter());
+        nominal.push(sensor.offset_m);
+        nominal.extend(sensor.tool_m.iter());
+        CalibModel { name: name.into(), chain, names, kinds, nominal }
+    }
+
+    /// The twin's per-joint frame-error model.
+    pub fn frame(robot: &Robot, sensor: &SensorGuess) -> CalibModel {
+        let chain = robot.error_chain();
+        let kinds = chain.param_names.iter().map(|n| if n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz") { Kind::Length } else { Kind::Angle }).collect();
+        CalibModel::with_sensor("frame", chain, kinds, sensor)
+    }
+
+    /// Standard D-H (`hayati = false`) or D-H with Hayati's β on parallel axes.
+    pub fn dh(robot: &Robot, sensor: &SensorGuess, hayati: bool) -> CalibModel {
+        let table = DhTable::from_robot(robot);
+        let (chain, kinds) = table.chain(hayati, true);
+        CalibModel::with_sensor(if hayati { "hayati" } else { "dh" }, chain, kinds, sensor)
+    }
+
+    /// A 6R model with absolute D-H values as parameters (no nominal robot), base = D-H frame 0.
+    pub fn generic(n: usize, sensor: &SensorGuess) -> CalibModel {
+        let table = DhTable { base: Frame::identity(), rows: vec![DhRow { theta: 0.0, d: 0.0, a: 0.0, alpha: 0.0, parallel: false }; n], tool: Frame::identity() };
+        let (chain, kinds) = table.chain(false, false);
+        CalibModel::with_sensor("generic6r", chain, kinds, sensor)
+    }
+}
+
+/// Initial guess of the sensor geometry.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SensorGuess {
+    pub exit_m: [f64; 3],
+    pub offset_m: f64,
+    pub tool_m: [f64; 3],
+}
+
+/// One standard D-H row (Craig's distal convention: Rz(θ)·Tz(d)·Tx(a)·Rx(α)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DhRow {
+    pub theta: f64,
+    pub d: f64,
+    pub a: f64,
+    pub alpha: f64,
+    /// This joint's axis is parallel to the next one (Hayati's β replaces Δd).
+    pub parallel: bool,
+}
+
+/// A D-H description of a serial arm: fixed base transform, rows, fixed flange transform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DhTable {
+    pub base: Frame,
+    pub rows: Vec<DhRow>,
+    pub tool: Frame,
+}
+
+fn signed_angle(from: &Vector3<f64>, to: &Vector3<f64>, about: &Vector3<f64>) -> f64 {
+    from.cross(to).dot(about).atan2(from.dot(to))
+}
+
+impl DhTable {
+    /// Derives the D-H table of a robot from its joint axes at zero angles.
+    pub fn from_robot(robot: &Robot) -> DhTable {
+        let chain = robot.error_chain();
+        let n = chain.n_joints;
+        let mut ws = FkWork::new(&chain);
+        chain.forward(&vec![0.0; n], &vec![0.0; chain.n_params()], 1.0, &mut ws);
+        let lines: Vec<(Vector3<f64>, Vector3<f64>)> = (0..n)
+            .map(|j| {
+                let k = chain.joint_op(j).expect("joint op");
+                let f = ws.pre[k];
+                (f.pos, (f.rot * chain.ops[k].axis).normalize())
+            })
+            .collect();
+        let flange = chain.frame(&ws, chain.flange());
+        // Frame 0 on joint 1's axis, at the foot of the base origin; x0 from world x.
+        let (p1, z0) = lines[0];
+        let o0 = p1 + z0 * (-p1).dot(&z0);
+        let mut x0 = Vector3::x() - z0 * z0.x;
+        if x0.norm() < 1e-9 {
+            x0 = Vector3::y() - z0 * z0.y;
+        }
+        let x0 = x0.normalize();
+        let mut frames = vec![Frame { rot: Matrix3::from_columns(&[x0, z0.cross(&x0), z0]), pos: o0 }];
+        let mut rows = Vec::with_capacity(n);
+        for i in 1..=n {
+            let prev = frames[i - 1];
+            let (zp, op) = (prev.rot.column(2).into_owned(), prev.pos);
+            let (pi, zi) = if i < n { lines[i] } else { (flange.pos, zp) };
+            let cross = zp.cross(&zi);
+            let parallel = cross.norm() < 1e-9;
+            let (foot_prev, foot_i, xi) = if !parallel {
+                // Closest points of the two lines.
+                let w0 = op - pi;
+                let (a, b, c, d, e) = (zp.dot(&zp), zp.dot(&zi), zi.dot(&zi), zp.dot(&w0), zi.dot(&w0));
+                let den = a * c - b * b;
+                let s = (b * e - c * d) / den;
+                let t = (a * e - b * d) / den;
+                let fp = op + zp * s;
+                let fi = pi + zi * t;
+                let gap = fi - fp;
+                let x = if gap.norm() > 1e-9 { gap.normalize() } else { cross.normalize() };
+                (fp, fi, x)
+            } else {
+                // Parallel axes: the common normal through the previous origin (d = 0), or for the
+                // flange the foot of the flange origin on the last axis.
+                let fi = if i < n { pi + zi * (op - pi).dot(&zi) } else { op + zp * (flange.pos - op).dot(&zp) };
+                let fp = if i < n { op } else { fi };
+                let gap = fi - fp;
+                let x = if gap.norm() > 1e-9 { gap.normalize() } else { prev.rot.column(0).into_owned() };
+                (fp, fi, x)
+            };
+            let xp = prev.rot.column(0).into_owned();
+            let theta = signed_angle(&xp, &xi, &zp);
+            let d = (foot_prev - op).dot(&zp);
+            let a = (foot_i - foot_prev).dot(&xi);
+            let alpha = signed_angle(&zp, &zi, &xi);
+            rows.push(DhRow { theta, d, a, alpha, parallel: parallel && i < n });
+            frames.push(Frame { rot: Matrix3::from_columns(&[xi, zi.cross(&xi), zi]), pos: foot_i });
+        }
+        let tool = flange.relative_to(&frames[n]);
+        DhTable { base: frames[0], rows, tool }
+    }
+
+    /// The chain of this table with deviation parameters (`absolute = false`: values are nominal +
+    /// parameter) or absolute parameters (`absolute = true` is expressed by nominal zeros).
+    pub fn chain(&self, hayati: bool, with_fixed: bool) -> (Chain, Vec<Kind>) {
+        let mut b = ChainBuilder::new();
+        let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
+        let mut kinds = Vec::new();
+        let fixed = |b: &mut ChainBuilder, f: &Frame| {
+            b.trans(x, f.pos.x, None, true);
+            b.trans(y, f.pos.y, None, true);
+            b.trans(z, f.pos.z, None, true);
+            let (r, p, yw) = Rotation3::from_matrix_unchecked(f.rot).euler_angles();
+            b.rot(z, yw, None);
+            b.rot(y, p, None);
+            b.rot(x, r, None);
+        };
+        if with_fixed {
+            fixed(&mut b, &self.base);
+        }
+        for (i, row) in self.rows.iter().enumerate() {
+            let j = i + 1;
+            let th = b.param(format!("joint_{j}.theta"));
+            kinds.push(Kind::Angle);
+            b.joint(z, row.theta, Some(th));
+            let beta = hayati && row.parallel;
+            if beta {
+                b.trans(z, row.d, None, true);
+            } else {
+                let d = b.param(format!("joint_{j}.d"));
+                kinds.push(Kind::Length);
+                b.trans(z, row.d, Some(d), true);
+            }
+            let a = b.param(format!("joint_{j}.a"));
+            kinds.push(Kind::Length);
+            b.trans(x, row.a, Some(a), true);
+            let al = b.param(format!("joint_{j}.alpha"));
+            kinds.push(Kind::Angle);
+            b.rot(x, row.alpha, Some(al));
+            if beta {
+                let be = b.param(format!("joint_{j}.beta"));
+                kinds.push(Kind::Angle);
+                b.rot(y, 0.0, Some(be));
+            }
+        }
+        // The joint ops close link frames right after the joint rotation; D-H puts the link's
+        // geometry after it, which is the same serial product.
+        if with_fixed {
+            fixed(&mut b, &self.tool);
+        }
+        (b.finish(), kinds)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn guess() -> SensorGuess {
+        SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] }
+    }
+
+    #[test]
+    fn dh_tables_reproduce_the_urdf() {
+        let robot = Robot::irb120();
+        let t = DhTable::from_robot(&robot);
+        let mm: Vec<(f64, f64, f64, f64)> = t.rows.iter().map(|r| (r.theta.to_degrees(), r.d * 1e3, r.a * 1e3, r.alpha.to_degrees())).collect();
+        // d1 = 290, a2 = 270, a3 = 70, d4 = 302, d6 = 72 (IRB 120 data sheet).
+        assert!((mm[0].1 - 290.0).abs() < 1e-9 && (mm[1].2 - 270.0).abs() < 1e-9 && (mm[2].2 - 70.0).abs() < 1e-9, "{mm:?}");
+        assert!((mm[3].1 - 302.0).abs() < 1e-9 && (mm[5].1 - 72.0).abs() < 1e-9, "{mm:?}");
+        assert!(t.rows[1].parallel && !t.rows[0].parallel && !t.rows[2].parallel);
+        let frame = CalibModel::frame(&robot, &guess());
+        for hayati in [false, true] {
+            let m = CalibModel::dh(&robot, &guess(), hayati);
+            assert_eq!(m.n_params(), 31);
+            let (mut w1, mut w2) = (m.work(), frame.work());
+            for k in 0..20 {
+                let q: Vec<f64> = (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin() * 2.0).collect();
+                let a = m.tool_point(&m.nominal, &q, &mut w1);
+                let b = frame.tool_point(&frame.nominal, &q, &mut w2);
+                assert!((a - b).norm() < 1e-12, "hayati={hayati}: {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn length_gradient_matches_finite_differences() {
+        let robot = Robot::irb120();
+        for m in [CalibModel::dh(&robot, &guess(), true), CalibModel::frame(&robot, &guess()), CalibModel::generic(6, &guess())] {
+            let mut x = m.nominal.clone();
+            for (k, v) in x.iter_mut().enumerate() {
+                *v += 0.01 * ((k as f64) * 1.3).sin();
+            }
+            if m.name == "generic6r" {
+                for k in 0..m.n_chain() {
+                    x[k] += 0.3 * ((k as f64) * 0.7).cos();
+                }
+            }
+            let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
+            let mut w = m.work();
+            let mut g = vec![0.0; m.n_params()];
+            m.predict_grad(&x, &q, &mut w, &mut g);
+            for k in 0..m.n_params() {
+                let h = 1e-7;
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[k] += h;
+                xm[k] -= h;
+                let fd = (m.predict(&xp, &q, &mut w) - m.predict(&xm, &q, &mut w)) / (2.0 * h);
+                assert!((fd - g[k]).abs() < 1e-7, "{} {}: {fd} vs {}", m.name, m.names[k], g[k]);
+            }
+        }
+    }
+}

@@ -1,0 +1,305 @@
+//! Small statistics helpers: the Wilcoxon signed-rank test for paired samples, median, mean/std.
+//!
+//! # Wilcoxon signed-rank test
+//!
+//! For paired samples `a`, `b` the differences `d_i = a_i − b_i` are formed, zero differences are
+//! dropped (Wilcoxon's "wilcox" zero method), and the `n` remaining `|d_i|` are ranked with
+//! average ranks for ties. `W+` (`W−`) is the rank sum of the positive (negative) differences,
+//! `W+ + W− = n(n+1)/2`, and the statistic is `T = min(W+, W−)`.
+//!
+//! * **Exact** (`n ≤ 50` and no tied `|d|`): under H₀ every sign pattern is equally likely, so
+//!   the null distribution of `W+` is obtained by dynamic programming over the ranks 1..n
+//!   (counts of subsets with each rank sum, as `f64`, exact up to 2⁵³ > 2⁵⁰). The two-sided
+//!   p-value is `min(1, 2·P(W+ ≤ T))` (the distribution is symmetric).
+//! * **Normal approximation** otherwise: `μ = n(n+1)/4`,
+//!   `σ² = n(n+1)(2n+1)/24 − Σ_t (t³ − t)/48` over tie groups of size `t`, and
+//!   `z = sign(T − μ)·max(|T − μ| − 0.5, 0)/σ` (continuity correction 0.5, never crossing zero),
+//!   two-sided `p = erfc(|z|/√2)`. [`wilcoxon_signed_rank_with`] can switch the correction off
+//!   (this matches SciPy's default `correction=False`).
+//!
+//! Reference values (the classic textbook example in the tests, n = 9 with one tie pair):
+//! `W+ = 27`, `W− = 18`, `σ² = 71.125`; with continuity correction `z ≈ −0.4743`,
+//! `p ≈ 0.6352`; without it `z ≈ −0.5336`, `p ≈ 0.5936`.
+
+/// Result of [`wilcoxon_signed_rank`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Wilcoxon {
+    /// Number of non-zero differences used.
+    pub n: usize,
+    /// Rank sum of the positive differences `a − b > 0`.
+    pub w_plus: f64,
+    /// Rank sum of the negative differences.
+    pub w_minus: f64,
+    /// `min(W+, W−)`.
+    pub statistic: f64,
+    /// Normal-approximation z score (`None` when the exact distribution was used).
+    pub z: Option<f64>,
+    /// Two-sided p-value.
+    pub p_value: f64,
+    /// Whether the p-value comes from the exact null distribution.
+    pub exact: bool,
+}
+
+/// Largest `n` for which the exact (tie-free) distribution is used.
+pub const WILCOXON_EXACT_MAX_N: usize = 50;
+
+/// Wilcoxon signed-rank test of `a` against `b` (paired), with continuity correction in the
+/// normal approximation. See the module docs for the method.
+///
+/// Errors when the lengths differ, the input is empty, a value is not finite, or every
+/// difference is zero.
+pub fn wilcoxon_signed_rank(a: &[f64], b: &[f64]) -> Result<Wilcoxon, String> {
+    wilcoxon_signed_rank_with(a, b, true)
+}
+
+/// [`wilcoxon_signed_rank`] with the continuity correction of the normal approximation
+/// selectable (`continuity = false` reproduces SciPy's default). The exact path is unaffected.
+pub fn wilcoxon_signed_rank_with(a: &[f64], b: &[f64], continuity: bool) -> Result<Wilcoxon, String> {
+    if a.len() != b.len() {
+        return Err(format!("wilcoxon: length mismatch ({} vs {})", a.len(), b.len()));
+    }
+    if a.is_empty() {
+        return Err("wilcoxon: empty input".into());
+    }
+    if a.iter().chain(b).any(|v| !v.is_finite()) {
+        return Err("wilcoxon: non-finite value in input".into());
+    }
+    let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).filter(|&d| d != 0.0).collect();
+    if d.iter().any(|v| !v.is_finite()) {
+        return Err("wilcoxon: difference overflows".into());
+    }
+    let n = d.len();
+    if n == 0 {
+        return Err("wilcoxon: all differences are zero".into());
+    }
+
+    // Average ranks of |d| and tie-group sizes.
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs()));
+    let mut rank = vec![0.0; n];
+    let mut tie_term = 0.0; // Σ (t³ − t)
+    let mut i = 0;
+    while i < n {
+        let mut j = i + 1;
+        while j < n && d[order[j]].abs() == d[order[i]].abs() {
+            j += 1;
+        }
+        let avg = (i + 1 + j) as f64 / 2.0; // mean of ranks i+1..=j
+        for &k in &order[i..j] {
+            rank[k] = avg;
+        }
+        let t = (j - i) as f64;
+        tie_term += t * t * t - t;
+        i = j;
+    }
+    let w_plus: f64 = (0..n).filter(|&k| d[k] > 0.0).map(|k| rank[k]).sum();
+    let w_minus: f64 = (0..n).filter(|&k| d[k] < 0.0).map(|k| rank[k]).sum();
+    let statistic = w_plus.min(w_minus);
+    let nf = n as f64;
+
+    if n <= WILCOXON_EXACT_MAX_N && tie_term == 0.0 {
+        // Without ties all ranks are integers, so the statistic is an integer.
+        let p = 2.0 * exact_cdf(n, statistic.round() as usize);
+        return Ok(Wilcoxon { n, w_plus, w_minus, statistic, z: None, p_value: p.min(1.0), exact: true });
+    }
+
+    let mu = nf * (nf + 1.0) / 4.0;
+    let var = nf * (nf + 1.0) * (2.0 * nf + 1.0) / 24.0 - tie_term / 48.0;
+    if var.is_nan() || var <= 0.0 {
+        return Err("wilcoxon: zero variance of the statistic".into());
+    }
+    let dev = statistic - mu;
+    let num = if continuity { dev.signum() * (dev.abs() - 0.5).max(0.0) } else { dev };
+    let z = if dev == 0.0 { 0.0 } else { num / var.sqrt() };
+    let p = erfc(z.abs() / std::f64::consts::SQRT_2).min(1.0);
+    Ok(Wilcoxon { n, w_plus, w_minus, statistic, z: Some(z), p_value: p, exact: false })
+}
+
+/// `P(W+ ≤ t)` under H₀ for `n` untied ranks 1..n.
+fn exact_cdf(n: usize, t: usize) -> f64 {
+    let max = n * (n + 1) / 2;
+    // counts[s] = number of subsets of {1..k} with sum s.
+    let mut counts = vec![0.0f64; max + 1];
+    counts[0] = 1.0;
+    for k in 1..=n {
+        let top = k * (k + 1) / 2;
+        for s in (k..=top).rev() {
+            counts[s] += counts[s - k];
+        }
+    }
+    let below: f64 = counts[..=t.min(max)].iter().sum();
+    below / 2f64.powi(n as i32)
+}
+
+/// Complementary error function, accurate to ~1e-14 relative for the range used by p-values.
+///
+/// Maclaurin series of `erf` for `|x| < 2`, Laplace continued fraction for larger `x`.
+pub fn erfc(x: f64) -> f64 {
+    if x.is_nan() {
+        return f64::NAN;
+    }
+    if x < 0.0 {
+        return 2.0 - erfc(-x);
+    }
+    if x < 2.0 {
+        // erf(x) = 2/√π Σ (−1)^k x^(2k+1) / (k! (2k+1))
+        let x2 = x * x;
+        let mut term = x; // (−1)^k x^(2k+1)/k!
+        let mut sum = x;
+        for k in 1..200 {
+            term *= -x2 / k as f64;
+            let add = term / (2 * k + 1) as f64;
+            sum += add;
+            if add.abs() < 1e-17 * sum.abs() {
+                break;
+            }
+        }
+        return 1.0 - sum * std::f64::consts::FRAC_2_SQRT_PI;
+    }
+    if x > 27.0 {
+        return 0.0; // below the smallest subnormal
+    }
+    // erfc(x) = e^{−x²}/√π · 1/(x + (1/2)/(x + 1/(x + (3/2)/(x + 2/(x + …)))))
+    let mut t = x;
+    for k in (1..=120).rev() {
+        t = x + (k as f64 / 2.0) / t;
+    }
+    (-x * x).exp() / (std::f64::consts::PI.sqrt() * t)
+}
+
+/// Median of the non-NaN values of `v` (mean of the two middle values for even counts);
+/// `NaN` when there are none.
+pub fn median(v: &[f64]) -> f64 {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| !x.is_nan()).collect();
+    if s.is_empty() {
+        return f64::NAN;
+    }
+    s.sort_by(f64::total_cmp);
+    let m = s.len() / 2;
+    if s.len() % 2 == 1 {
+        s[m]
+    } else {
+        0.5 * (s[m - 1] + s[m])
+    }
+}
+
+/// Mean and sample standard deviation (`n − 1` denominator) of the non-NaN values of `v`.
+/// `(NaN, NaN)` when there are none; the std is 0 for a single value.
+pub fn mean_std(v: &[f64]) -> (f64, f64) {
+    let vals = || v.iter().copied().filter(|x| !x.is_nan());
+    let n = vals().count();
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let mean = vals().sum::<f64>() / n as f64;
+    if n == 1 {
+        return (mean, 0.0);
+    }
+    let ss: f64 = vals().map(|x| (x - mean) * (x - mean)).sum();
+    (mean, (ss / (n - 1) as f64).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol
+    }
+
+    #[test]
+    fn erfc_reference_values() {
+        let refs = [
+            (0.0, 1.0),
+            (0.5, 0.4795001221869535),
+            (1.0, 0.15729920705028513),
+            (1.9, 0.007209570764742524),
+            (2.0, 0.004677734981047266),
+            (3.0, 2.209049699858544e-05),
+            (5.0, 1.537_459_794_428_035e-12),
+            (-1.0, 1.8427007929497148),
+        ];
+        for (x, e) in refs {
+            assert!(((erfc(x) - e) / e).abs() < 1e-12, "erfc({x}) = {} vs {e}", erfc(x));
+        }
+    }
+
+    #[test]
+    fn wilcoxon_classic_example() {
+        let a = [125.0, 115.0, 130.0, 140.0, 140.0, 115.0, 140.0, 125.0, 140.0, 135.0];
+        let b = [110.0, 122.0, 125.0, 120.0, 140.0, 124.0, 123.0, 137.0, 135.0, 145.0];
+        let w = wilcoxon_signed_rank(&a, &b).unwrap();
+        assert_eq!(w.n, 9);
+        assert_eq!((w.w_plus, w.w_minus, w.statistic), (27.0, 18.0, 18.0));
+        assert!(!w.exact);
+        // σ² = 9·10·19/24 − (2³−2)/48 = 71.125; z = (18 − 22.5 + 0.5)/√71.125
+        let z = w.z.unwrap();
+        assert!(close(z, -4.0 / 71.125f64.sqrt(), 1e-12), "z = {z}");
+        assert!(close(z, -0.4743, 1e-4));
+        assert!(close(w.p_value, 0.6352, 1e-4), "p = {}", w.p_value);
+        // Without continuity correction (SciPy default): z ≈ −0.5336, p ≈ 0.5936.
+        let w = wilcoxon_signed_rank_with(&a, &b, false).unwrap();
+        assert!(close(w.z.unwrap(), -0.5336, 1e-4));
+        assert!(close(w.p_value, 0.5936, 1e-4), "p = {}", w.p_value);
+    }
+
+    #[test]
+    fn wilcoxon_exact_small_n() {
+        // n = 5, all positive: P(W+ ≤ 0) = 1/32, two-sided p = 1/16.
+        let w = wilcoxon_signed_rank(&[1.0, 2.0, 3.0, 4.0, 5.0], &[0.0; 5]).unwrap();
+        assert!(w.exact && w.z.is_none());
+        assert_eq!((w.n, w.w_plus, w.w_minus, w.statistic), (5, 15.0, 0.0, 0.0));
+        assert!(close(w.p_value, 0.0625, 1e-15));
+        // n = 6, ranks 1 and 2 negative: T = 3; subsets of {1..6} with sum ≤ 3:
+        // {}, {1}, {2}, {3}, {1,2} → 5/64, p = 10/64.
+        let d = [-1.0, -2.0, 3.0, 4.0, 5.0, 6.0];
+        let w = wilcoxon_signed_rank(&d, &[0.0; 6]).unwrap();
+        assert_eq!((w.w_minus, w.statistic), (3.0, 3.0));
+        assert!(close(w.p_value, 10.0 / 64.0, 1e-15));
+        // Symmetric case caps at 1.
+        let w = wilcoxon_signed_rank(&[1.0, -2.0, -3.0, 4.0], &[0.0; 4]).unwrap();
+        assert_eq!(w.statistic, 5.0);
+        assert_eq!(w.p_value, 1.0);
+    }
+
+    #[test]
+    fn wilcoxon_exact_matches_brute_force() {
+        // n = 12 with a fixed sign pattern: compare the DP with enumeration of 2¹² patterns.
+        let d: Vec<f64> = (1..=12).map(|k| if k % 3 == 0 { -(k as f64) } else { k as f64 * 1.0 }).collect();
+        let w = wilcoxon_signed_rank(&d, &[0.0; 12]).unwrap();
+        let t = w.statistic as usize;
+        let below = (0u32..1 << 12).filter(|m| (0..12).filter(|b| m & (1 << b) != 0).map(|b| b + 1).sum::<usize>() <= t).count();
+        assert!(close(w.p_value, (2.0 * below as f64 / 4096.0).min(1.0), 1e-15));
+    }
+
+    #[test]
+    fn wilcoxon_large_n_uses_normal() {
+        let a: Vec<f64> = (0..80).map(|i| i as f64 + 0.3).collect();
+        let b: Vec<f64> = (0..80).map(|i| i as f64 + if i % 4 == 0 { 1.0 } else { -0.1 * i as f64 / 80.0 }).collect();
+        let w = wilcoxon_signed_rank(&a, &b).unwrap();
+        assert!(!w.exact && w.z.is_some());
+        assert!(w.p_value > 0.0 && w.p_value <= 1.0);
+    }
+
+    #[test]
+    fn wilcoxon_degenerate_inputs() {
+        assert!(wilcoxon_signed_rank(&[], &[]).is_err());
+        assert!(wilcoxon_signed_rank(&[1.0], &[1.0, 2.0]).is_err());
+        assert!(wilcoxon_signed_rank(&[1.0, f64::NAN], &[1.0, 2.0]).is_err());
+        assert!(wilcoxon_signed_rank(&[1.0, 2.0], &[1.0, 2.0]).is_err());
+        assert!(wilcoxon_signed_rank(&[f64::MAX], &[-f64::MAX]).is_err());
+    }
+
+    #[test]
+    fn median_and_mean_std() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(&[f64::NAN, 1.0]), 1.0);
+        assert!(median(&[]).is_nan());
+        let (m, s) = mean_std(&[2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0]);
+        assert_eq!(m, 5.0);
+        assert!(close(s, (32.0f64 / 7.0).sqrt(), 1e-15));
+        assert_eq!(mean_std(&[3.0]), (3.0, 0.0));
+        assert!(mean_std(&[]).0.is_nan());
+    }
+}
