@@ -188,6 +188,7 @@ pub struct CalibrateArgs {
     pub seed: u64,
     pub sensor_guess: Option<Vec<f64>>,
     pub rank_tol: f64,
+    pub effort: f64,
     pub out: std::path::PathBuf,
     pub urdf: Option<std::path::PathBuf>,
     pub rrd: Option<std::path::PathBuf>,
@@ -208,6 +209,10 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     opts.test_fraction = a.test_fraction;
     opts.seed = a.seed;
     opts.rank_tol = a.rank_tol;
+    if !(a.effort > 0.0 && a.effort <= 10.0) {
+        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {}", a.effort)));
+    }
+    opts.effort = a.effort;
     if let Some(g) = &a.sensor_guess {
         if g.iter().any(|v| !v.is_finite()) {
             return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));

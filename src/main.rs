@@ -56,6 +56,9 @@ enum Command {
         /// Relative singular-value threshold for identifiability.
         #[arg(long, default_value_t = 1e-7)]
         rank_tol: f64,
+        /// Budget of the stochastic methods and of the generic model's global search (1 = default).
+        #[arg(long, default_value_t = 1.0)]
+        effort: f64,
         #[arg(long, default_value = "result.json")]
         out: PathBuf,
         /// Also write the calibrated model as a URDF.
@@ -110,8 +113,8 @@ fn main() -> ExitCode {
     let args = Cli::parse();
     let result = match args.command {
         Command::Generate { scenario, out, rrd, seed } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
-        Command::Calibrate { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, out, urdf, rrd } => cli::calibrate(
-            &cli::CalibrateArgs { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, out, urdf, rrd },
+        Command::Calibrate { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, effort, out, urdf, rrd } => cli::calibrate(
+            &cli::CalibrateArgs { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, effort, out, urdf, rrd },
             args.quiet,
         ),
         Command::Predict { model, data, out } => cli::predict(&model, &data, &out, args.quiet),

@@ -15,6 +15,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Calibration methods.
@@ -386,7 +387,9 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
     let train = samples(data, &train_idx);
     let test = samples(data, &test_idx);
     let mut model = initial(&opts.model, opts, &train)?;
-    let lm = LevenbergMarquardt { max_iter: 500, ..Default::default() };
+    // Narrow-range data leave the generic model badly conditioned: LM then needs many small steps.
+    let max_iter = if matches!(opts.model, ModelSpec::Generic6r) { 5000 } else { 500 };
+    let lm = LevenbergMarquardt { max_iter, ..Default::default() };
     let mut history = History::default();
 
     // The generic model first needs a structure: global search, then local refinement.
@@ -573,28 +576,34 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
 fn generic_search(model: &CalibModel, train: &Samples, opts: &CalibOptions) -> Result<Vec<f64>> {
     let bounds = generic_bounds(model);
     let all: Vec<usize> = (0..model.n_params()).collect();
+    // The global search sees an evenly spread subset (every k-th row, at most 400); LM then
+    // polishes each candidate on every training row.
+    let step = train.len().div_ceil(400).max(1);
+    let subset = Samples { q: train.q.iter().step_by(step).cloned().collect(), l: train.l.iter().step_by(step).copied().collect() };
     let fit = LengthFit { model, data: train };
     let lm = LevenbergMarquardt { max_iter: 300, ..Default::default() };
-    let mut best: Option<(f64, Vec<f64>)> = None;
     let restarts = (4.0 * opts.effort).ceil() as u64;
-    for r in 0..restarts {
-        let cost = FreeCost { fit: LengthFit { model, data: train }, base: model.nominal.clone(), free: all.clone() };
-        let de = De {
-            variant: DeVariant::LShade { memory: 6, p: 0.11, min_pop: 6 },
-            pop: 120,
-            generations: 100_000,
-            max_evals: Some((60_000.0 * opts.effort) as usize),
-            seed: opts.seed.wrapping_mul(31).wrapping_add(r),
-            tol: 1e-12,
-            patience: 300,
-        };
-        let g = de.minimize(&cost, &bounds, None, &mut super::optim::NoObserver);
-        let id = identify(&fit, &g.x, opts.rank_tol);
-        let polished = lm.minimize(&fit, &g.x, &id.fixed_mask, &mut super::optim::NoObserver);
-        let c = LeastSquares::cost(&fit, &polished.x);
-        if best.as_ref().is_none_or(|(bc, _)| c < *bc) {
-            best = Some((c, polished.x));
-        }
-    }
+    // Restarts are independent (own seeds) and run in parallel; the result does not depend on
+    // the number of threads.
+    let candidates: Vec<(f64, Vec<f64>)> = (0..restarts)
+        .into_par_iter()
+        .map(|r| {
+            let cost = FreeCost { fit: LengthFit { model, data: &subset }, base: model.nominal.clone(), free: all.clone() };
+            let de = De {
+                variant: DeVariant::LShade { memory: 6, p: 0.11, min_pop: 6 },
+                pop: 120,
+                generations: 100_000,
+                max_evals: Some((60_000.0 * opts.effort.min(1.0)) as usize),
+                seed: opts.seed.wrapping_mul(31).wrapping_add(r),
+                tol: 1e-12,
+                patience: 300,
+            };
+            let g = de.minimize(&cost, &bounds, None, &mut super::optim::NoObserver);
+            let id = identify(&fit, &g.x, opts.rank_tol);
+            let polished = lm.minimize(&fit, &g.x, &id.fixed_mask, &mut super::optim::NoObserver);
+            (LeastSquares::cost(&fit, &polished.x), polished.x)
+        })
+        .collect();
+    let best = candidates.into_iter().filter(|c| c.0.is_finite()).min_by(|a, b| a.0.total_cmp(&b.0));
     best.map(|b| b.1).ok_or_else(|| Error::Calibration("global search found nothing".into()))
 }
