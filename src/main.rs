@@ -99,13 +99,22 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Benchmark the twin: settled poses per second for a scenario with all effects.
+    /// Benchmarks: `twin` (settled poses per second) or `calib` (LM speed, accuracy over seeds,
+    /// the full comparison, HSR-RobotCali when present).
     Bench {
+        #[arg(default_value = "twin")]
+        what: String,
         #[arg(long)]
         scenario: Option<PathBuf>,
         /// Repetitions (the median is reported).
         #[arg(long, default_value_t = 3)]
         repeat: usize,
+        /// calib: number of seeds for the accuracy targets.
+        #[arg(long, default_value_t = 20)]
+        seeds: u64,
+        /// calib: also time `compare` over 30 seeds with every method.
+        #[arg(long)]
+        compare: bool,
     },
 }
 
@@ -121,7 +130,11 @@ fn main() -> ExitCode {
         Command::Compare { data, methods, seeds, model, params, test_fraction, effort, out } => {
             cli::compare(&data, &methods, seeds, &model, &params, test_fraction, effort, out.as_deref(), args.quiet)
         }
-        Command::Bench { scenario, repeat } => cli::bench(scenario.as_deref(), repeat, args.quiet),
+        Command::Bench { what, scenario, repeat, seeds, compare } => match what.as_str() {
+            "twin" => cli::bench(scenario.as_deref(), repeat, args.quiet),
+            "calib" => cli::bench_calib(repeat, seeds, compare),
+            other => Err(twincal::Error::Invalid(format!("unknown benchmark '{other}' (expected twin or calib)"))),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -335,6 +335,23 @@ fn generic_bounds(model: &CalibModel) -> Bounds {
     Bounds::new(lo, hi)
 }
 
+/// A spread per parameter: `sensor` (m) for the draw-wire geometry, `length` (m) and `angle`
+/// (rad) for the robot's parameters.
+fn prior_std(model: &CalibModel, sensor: f64, length: f64, angle: f64) -> Vec<f64> {
+    let nc = model.n_chain();
+    (0..model.n_params())
+        .map(|k| {
+            if k >= nc {
+                sensor
+            } else if model.kinds[k] == super::model::Kind::Length {
+                length
+            } else {
+                angle
+            }
+        })
+        .collect()
+}
+
 /// Sensor parameters first: they are the unknowns of every set-up, while the robot's own
 /// parameters have nominal values; where the two repeat each other the robot's are fixed.
 fn priority(model: &CalibModel) -> Vec<usize> {
@@ -415,18 +432,8 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
             r
         }
         Method::Ekf => {
-            // Prior: 1 mm on lengths, 0.1° on angles, 20 mm on the sensor guess; R from an
-            // LM-free noise guess of 0.05 mm.
-            let p0: Vec<f64> = model
-                .names
-                .iter()
-                .zip(&model.kinds)
-                .map(|(n, k)| match k {
-                    _ if n.starts_with("exit.") || n == "length_offset" || n.starts_with("tool.") => (0.02f64).powi(2),
-                    super::model::Kind::Length => (1e-3f64).powi(2),
-                    super::model::Kind::Angle => (0.1f64.to_radians()).powi(2),
-                })
-                .collect();
+            // Prior: 20 mm on the sensor, 1 mm on lengths, 0.1° on angles; R from a noise guess of 0.05 mm.
+            let p0: Vec<f64> = prior_std(&model, 0.02, 1e-3, 0.1f64.to_radians()).iter().map(|s| s * s).collect();
             let ekf = Ekf { epochs: (20.0 * opts.effort).ceil() as usize, q: 0.0, r: 0.05f64.powi(2), p0, tol: 1e-10 };
             let mut order: Vec<usize> = (0..train.len()).collect();
             order.shuffle(&mut ChaCha8Rng::seed_from_u64(opts.seed));
@@ -434,16 +441,7 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
         }
         Method::Pf => {
             // Prior around the aligned start: 1 mm on the sensor, 0.5 mm and 0.05° on the robot.
-            let std: Vec<f64> = model
-                .names
-                .iter()
-                .zip(&model.kinds)
-                .map(|(n, k)| match k {
-                    _ if n.starts_with("exit.") || n == "length_offset" || n.starts_with("tool.") => 1e-3,
-                    super::model::Kind::Length => 5e-4,
-                    super::model::Kind::Angle => 0.05f64.to_radians(),
-                })
-                .collect();
+            let std = prior_std(&model, 1e-3, 5e-4, 0.05f64.to_radians());
             // Measurement variance tempered to the starting misfit, so the weights do not collapse
             // onto a handful of particles in the first batches.
             let r0 = 2.0 * LeastSquares::cost(&fit, &x0) / train.len() as f64;
@@ -460,19 +458,8 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
             pf.run(&fit, &x0, &std, &fixed, &order, &mut history)
         }
         Method::Pso => {
-            let half: Vec<f64> = free
-                .iter()
-                .map(|&k| {
-                    let n = &model.names[k];
-                    if n.starts_with("exit.") || n == "length_offset" || n.starts_with("tool.") {
-                        0.05
-                    } else if model.kinds[k] == super::model::Kind::Length {
-                        3e-3
-                    } else {
-                        0.3f64.to_radians()
-                    }
-                })
-                .collect();
+            let prior = prior_std(&model, 0.05, 3e-3, 0.3f64.to_radians());
+            let half: Vec<f64> = free.iter().map(|&k| prior[k]).collect();
             let centre: Vec<f64> = free.iter().map(|&k| x0[k]).collect();
             let bounds = Bounds::around(&centre, &half);
             let cost = FreeCost { fit: LengthFit { model: &model, data: &train }, base: x0.clone(), free: free.clone() };
