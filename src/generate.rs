@@ -47,6 +47,9 @@ pub struct PoseTruth {
     pub length_noise_free_mm: f64,
     pub length_measured_mm: f64,
     pub settle_steps: usize,
+    /// Simulated time the arm took to come to rest, s. Longer than the sensor's hold time means
+    /// a real reading would have been taken while the arm still moved.
+    pub settle_time_s: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -259,6 +262,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             length_noise_free_mm: l_true + s.sensor.linearity_error(l_true),
             length_measured_mm: reading,
             settle_steps: rest.steps,
+            settle_time_s: rest.steps as f64 * s.simulation.dt_s,
         });
         frames.push(rest.frames);
     }

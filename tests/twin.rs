@@ -189,3 +189,39 @@ fn out_of_range_reading_is_an_error_not_clipped() {
     assert!(e.to_string().contains("outside the sensor range"), "{e}");
     assert!(s.read(-5.0, &mut rng).is_err());
 }
+
+/// Nothing in the path is IRB-120 specific: another 6R URDF (tilted origins, skew axes, a fixed
+/// joint inside the chain, a continuous joint) loads, simulates and agrees with its statics.
+#[test]
+fn another_six_r_urdf_loads_and_simulates_the_same_way() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+    let (s, robot) = Scenario::load(&dir.join("fixture_6r.toml")).unwrap();
+    assert_eq!(robot.dof(), 6);
+    // No link is named like a flange: the flange is the last moving link.
+    assert_eq!(robot.flange_name, "l6");
+    // The fixed joint's child mass is merged into the previous moving link.
+    assert!((robot.links.iter().map(|l| l.mass).sum::<f64>() - 11.3).abs() < 1e-9);
+    let g = generate(&s, &robot, &Silent).unwrap();
+    assert_eq!(g.dataset.rows.len() + g.truth.rejected.len(), 40);
+    assert!(g.dataset.rows.len() >= 30);
+    let twin = &g.twin;
+    let poses = twincal::generate::sample_poses(&s, &robot).unwrap();
+    let sides = twincal::twin::approach_sides(&[0.0; 6], &poses);
+    for i in 0..10 {
+        let cmd = PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: 0.0 };
+        let sim = twin.simulate(&cmd).unwrap();
+        let qs = twin.quasi_static(&cmd);
+        assert!((sim.tool - qs.tool).norm() * 1e3 < 1e-3, "pose {i}");
+        assert!(sim.deflection.iter().any(|d| d.abs() > 1e-6));
+    }
+    // Its D-H description reproduces its URDF kinematics.
+    let guess = twincal::calib::model::SensorGuess { exit_m: [0.9, -0.2, 0.0], offset_m: 0.08, tool_m: [0.04, 0.0, 0.005] };
+    let dh = twincal::calib::model::CalibModel::dh(&robot, &guess, true);
+    let fr = twincal::calib::model::CalibModel::frame(&robot, &guess);
+    let (mut a, mut b) = (dh.work(), fr.work());
+    for q in poses.iter().take(10) {
+        let p = dh.tool_point(&dh.nominal, q, &mut a);
+        let r = fr.tool_point(&fr.nominal, q, &mut b);
+        assert!((p - r).norm() < 1e-12);
+    }
+}

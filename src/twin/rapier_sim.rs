@@ -113,6 +113,7 @@ pub(super) fn simulate(twin: &Twin, cmd: &PoseCommand) -> Result<RestingPose> {
     // The root is the fixed base: let rapier take its pose and drop the root's free degrees of freedom.
     {
         let (mb, _) = world.multibody_joints.get_mut(handles[0]).ok_or_else(|| Error::Simulation("multibody missing".into()))?;
+        mb.set_self_contacts_enabled(false);
         mb.forward_kinematics(&world.bodies, true);
         mb.update_rigid_bodies(&mut world.bodies, true);
     }
