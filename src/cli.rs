@@ -384,7 +384,7 @@ pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params:
         let across = wilcoxon_signed_rank(&a, &b).ok();
         let per = wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
         let cell = |w: &Option<crate::calib::stats::Wilcoxon>| match w {
-            Some(w) => (format!("{:.1}", w.statistic), format!("{:.3e}", w.p_value)),
+            Some(w) => (format!("{:.1}", w.statistic.abs()), format!("{:.3e}", w.p_value)),
             None => ("–".into(), "–".into()),
         };
         let (wa, pa) = cell(&across);
