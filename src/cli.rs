@@ -215,6 +215,9 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     }
     opts.effort = a.effort;
     if let Some(g) = &a.sensor_guess {
+        if g.len() != 7 {
+            return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
+        }
         if g.iter().any(|v| !v.is_finite()) {
             return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
         }

@@ -15,6 +15,17 @@ struct Cli {
     command: Command,
 }
 
+/// Which model a calibration fits.
+#[derive(clap::Args)]
+struct ModelArgs {
+    /// irb120 (embedded URDF), a .urdf path, or generic6r (no nominal).
+    #[arg(long, default_value = "irb120")]
+    model: String,
+    /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes), dh (papers' 24) or frame.
+    #[arg(long, default_value = "hayati")]
+    params: String,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Simulate a scenario and write DIR/dataset.csv and DIR/truth.json.
@@ -34,24 +45,22 @@ enum Command {
     },
     /// Calibrate a model on measured data (dataset folder, CSV or xlsx).
     Calibrate {
+        /// Dataset folder (DIR/dataset.csv, with truth.json when the twin made it), CSV, or xlsx (file.xlsx#Sheet).
         #[arg(long)]
         data: PathBuf,
         /// lm, ekf, pf, pso or rbf.
         #[arg(long, default_value = "lm")]
         method: String,
-        /// irb120 (embedded URDF), a .urdf path, or generic6r (no nominal).
-        #[arg(long, default_value = "irb120")]
-        model: String,
-        /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes), dh (papers' 24) or frame.
-        #[arg(long, default_value = "hayati")]
-        params: String,
+        #[command(flatten)]
+        model: ModelArgs,
         /// Hold out this fraction instead of the dataset's split column (0 trains on every row).
         #[arg(long)]
         test_fraction: Option<f64>,
+        /// Seed of the hold-out split and of the stochastic methods.
         #[arg(long, default_value_t = 0)]
         seed: u64,
         /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
-        #[arg(long, value_delimiter = ',', num_args = 7)]
+        #[arg(long, value_delimiter = ',', value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
         sensor_guess: Option<Vec<f64>>,
         /// Relative singular-value threshold for identifiability.
         #[arg(long, default_value_t = 1e-7)]
@@ -59,6 +68,7 @@ enum Command {
         /// Budget of the stochastic methods and of the generic model's global search (1 = default).
         #[arg(long, default_value_t = 1.0)]
         effort: f64,
+        /// The calibrated model and its report.
         #[arg(long, default_value = "result.json")]
         out: PathBuf,
         /// Also write the calibrated model as a URDF.
@@ -85,10 +95,8 @@ enum Command {
         methods: Vec<String>,
         #[arg(long, default_value_t = 30)]
         seeds: u64,
-        #[arg(long, default_value = "irb120")]
-        model: String,
-        #[arg(long, default_value = "hayati")]
-        params: String,
+        #[command(flatten)]
+        model: ModelArgs,
         /// Test fraction of each seed's re-split (default: the dataset's split size, else 0.2).
         #[arg(long)]
         test_fraction: Option<f64>,
@@ -122,12 +130,12 @@ fn main() -> ExitCode {
     let args = Cli::parse();
     let result = match args.command {
         Command::Generate { scenario, out, rrd, seed } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
-        Command::Calibrate { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, effort, out, urdf, rrd } => cli::calibrate(
+        Command::Calibrate { data, method, model: ModelArgs { model, params }, test_fraction, seed, sensor_guess, rank_tol, effort, out, urdf, rrd } => cli::calibrate(
             &cli::CalibrateArgs { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, effort, out, urdf, rrd },
             args.quiet,
         ),
         Command::Predict { model, data, out } => cli::predict(&model, &data, &out, args.quiet),
-        Command::Compare { data, methods, seeds, model, params, test_fraction, effort, out } => {
+        Command::Compare { data, methods, seeds, model: ModelArgs { model, params }, test_fraction, effort, out } => {
             cli::compare(&data, &methods, seeds, &model, &params, test_fraction, effort, out.as_deref(), args.quiet)
         }
         Command::Bench { what, scenario, repeat, seeds, compare } => match what.as_str() {

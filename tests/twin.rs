@@ -96,8 +96,6 @@ fn rapier_agrees_with_quasi_static_with_every_effect() {
         let qs = twin.quasi_static(&cmd);
         assert_eq!(sim.contact, qs.contact, "pose {i}");
         worst = worst.max((sim.tool - qs.tool).norm() * 1e3);
-        let rigid = PoseCommand { sides: vec![0.0; 6], ..cmd.clone() };
-        let _ = rigid;
         moved = moved.max(qs.deflection.iter().fold(0.0f64, |m, d| m.max(d.abs())));
     }
     assert!(moved > 1e-5, "effects should deflect the joints");

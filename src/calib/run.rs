@@ -466,6 +466,8 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
             let pso = Pso { particles: 60, iterations: (1500.0 * opts.effort) as usize, seed: opts.seed, patience: 200, ..Default::default() };
             let mut r = pso.minimize(&cost, &bounds, Some(&centre), &mut history);
             r.x = cost.expand(&r.x);
+            // The swarm works on the free parameters only; record full vectors like the others.
+            history.x = history.x.iter().map(|xf| cost.expand(xf)).collect();
             r
         }
     };
@@ -532,7 +534,7 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
     let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
     let l: Vec<f64> = data.rows.iter().map(|r| r.l_mm).collect();
     let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
-    let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k.min(model.n_params() - 1), *v)).collect()).collect();
+    let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
     Ok(CalibResult {
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),

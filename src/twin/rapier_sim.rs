@@ -226,8 +226,8 @@ fn settle(
                     State::Flank(s) => (trans.stiffness[j], s * h, 0.0),
                     State::Free => (0.0, 0.0, trans.breakaway),
                 };
-                let (_, link_id) = (0, j + 1);
-                if let Some(link) = mb.link_mut(link_id) {
+                // Link 0 is the fixed base; joint j moves link j + 1.
+                if let Some(link) = mb.link_mut(j + 1) {
                     link.joint.set_spring(3, k, rest);
                 }
                 mb.frictions_mut()[j] = friction;
