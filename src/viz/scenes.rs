@@ -72,8 +72,8 @@ pub fn record_dataset(g: &Generated, path: &Path) -> Result<()> {
         rec.points("world/tool_points", &tool_pts, Some(&colors), Some(4.0), None);
         rec.scalar("residuals/nominal_mm", res[i]);
     }
-    let (_, counts) = histogram(&res, 30, -vmax, vmax);
-    rec.bar_chart("residuals/histogram", &counts);
+    let (edges, counts) = histogram(&res, 30, -vmax, vmax);
+    rec.histogram_chart("residuals/histogram", &edges, &counts);
     rec.finish()
 }
 
@@ -127,8 +127,8 @@ pub fn record_calibration(
         rec.set_time_index("stage", stage);
         let colors: Vec<[u8; 4]> = res.iter().map(|v| colormap(v.abs(), vmax)).collect();
         rec.points("world/tool_points", &pts, Some(&colors), Some(4.0), Some(&labels));
-        let (_, counts) = histogram(res, 40, -vmax, vmax);
-        rec.bar_chart("residuals/histogram", &counts);
+        let (edges, counts) = histogram(res, 40, -vmax, vmax);
+        rec.histogram_chart("residuals/histogram", &edges, &counts);
     }
     for (it, xs) in r.history.iter().enumerate() {
         rec.set_time_index("iteration", it as i64);
