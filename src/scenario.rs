@@ -136,6 +136,9 @@ impl Scenario {
 
     pub fn validate(&self, robot: &Robot, origin: &str) -> Result<()> {
         let err = |msg: String| Error::Scenario { path: origin.to_string(), msg };
+        if robot.dof() != 6 {
+            return Err(err(format!("robot '{}' has {} revolute joints; datasets hold six joint angles (q1..q6)", robot.name, robot.dof())));
+        }
         self.effects.validate(robot.dof()).map_err(err)?;
         self.sensor.validate().map_err(err)?;
         let names = robot.param_names();

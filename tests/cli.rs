@@ -140,3 +140,26 @@ fn recordings_are_written_for_generate_and_calibrate() {
     let names: Vec<String> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
     assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");
 }
+
+#[test]
+fn robots_without_six_joints_and_foreign_result_files_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = r#"<robot name="two"><link name="a"/><link name="b"/><link name="c"/>
+      <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="0" velocity="1"/></joint>
+      <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0.3 0 0"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="0" velocity="1"/></joint></robot>"#;
+    std::fs::write(dir.path().join("two.urdf"), urdf).unwrap();
+    let text = std::fs::read_to_string(scenario("irb120_ideal")).unwrap().replace("robot = \"irb120\"", "robot = \"two.urdf\"");
+    let sc = dir.path().join("two.toml");
+    std::fs::write(&sc, text).unwrap();
+    let out = dir.path().join("out");
+    let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_rejected(&o, "six joint angles", &out);
+
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, "{\"method\": \"lm\"}").unwrap();
+    let csv = dir.path().join("d.csv");
+    std::fs::write(&csv, "q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,300\n").unwrap();
+    let pred = dir.path().join("pred");
+    let o = twincal(&["predict", "--model", bad.to_str().unwrap(), "--data", csv.to_str().unwrap(), "--out", pred.join("p.csv").to_str().unwrap()]);
+    assert_rejected(&o, "not a twincal calibration result", &pred);
+}

@@ -70,7 +70,13 @@ impl ModelSpec {
         match model {
             "irb120" => Ok(ModelSpec::Nominal { robot: Robot::irb120(), parametrisation: p }),
             "generic6r" => Ok(ModelSpec::Generic6r),
-            path if path.ends_with(".urdf") => Ok(ModelSpec::Nominal { robot: Robot::from_urdf_file(Path::new(path))?, parametrisation: p }),
+            path if path.ends_with(".urdf") => {
+                let robot = Robot::from_urdf_file(Path::new(path))?;
+                if robot.dof() != 6 {
+                    return Err(Error::Invalid(format!("{path}: {} revolute joints; calibration data hold six joint angles (q1..q6)", robot.dof())));
+                }
+                Ok(ModelSpec::Nominal { robot, parametrisation: p })
+            }
             other => Err(Error::Invalid(format!("unknown model '{other}' (expected irb120, generic6r or a .urdf path)"))),
         }
     }
@@ -178,7 +184,19 @@ impl CalibResult {
 
     pub fn load(path: &Path) -> Result<CalibResult> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        serde_json::from_str(&text).map_err(|e| Error::data(path.display(), format!("not a twincal calibration result: {e}")))
+        let r: CalibResult =
+            serde_json::from_str(&text).map_err(|e| Error::data(path.display(), format!("not a twincal calibration result: {e}")))?;
+        let chain = &r.model.chain;
+        let consistent = chain.n_joints == 6
+            && r.x.len() == r.model.n_params()
+            && r.model.kinds.len() == r.model.n_params()
+            && r.model.n_params() == chain.n_params() + super::model::SENSOR_PARAMS.len()
+            && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
+            && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < 6) && o.param.is_none_or(|k| k < chain.n_params()));
+        if !consistent || r.x.iter().any(|v| !v.is_finite()) {
+            return Err(Error::data(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
+        }
+        Ok(r)
     }
 }
 
