@@ -405,7 +405,7 @@ pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params:
 /// `twincal bench calib`: the calibration core's targets, measured.
 pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> {
     use crate::calib::optim::LeastSquares;
-    use crate::calib::problem::{LengthFit, Samples};
+    use crate::calib::problem::LengthFit;
     use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
     use rayon::prelude::*;
     let (base, robot) = Scenario::from_toml(include_str!("../scenarios/irb120_geometric.toml"), "irb120_geometric")
@@ -436,7 +436,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     }
     let t_lm = median(&mut times);
     let train: Vec<usize> = ds.train_indices();
-    let samples = Samples { q: train.iter().map(|&i| ds.rows[i].q_deg.iter().map(|d| d.to_radians()).collect()).collect(), l: train.iter().map(|&i| ds.rows[i].l_mm * 1e-3).collect() };
+    let samples = crate::calib::run::samples(&ds, &train);
     let model = run(&ds, None, &opts)?.model;
     let fit = LengthFit { model: &model, data: &samples };
     let mut jt = Vec::new();

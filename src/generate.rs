@@ -109,6 +109,12 @@ pub fn build_twin(s: &Scenario, robot: &Robot) -> Twin {
     Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.sensor.clone(), s.simulation.clone())
 }
 
+/// Length (mm) the nominal arm (no geometric error, no effect) gives at joint angles `q` (rad).
+pub fn nominal_length(chain: &crate::robot::kinematics::Chain, sensor: &crate::sensor::DrawWire, q: &[f64]) -> f64 {
+    let zero = vec![0.0; chain.n_params()];
+    sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &sensor.tool_point_m()))
+}
+
 /// Samples commanded poses (rad) by a Halton sequence over the joint ranges, keeping those whose
 /// nominal tool point is above `min_tool_z_mm` and whose nominal reading is inside the sensor range.
 pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
@@ -196,11 +202,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
     let times = acquisition_times(s, robot, &poses);
     let sides = approach_sides(&vec![0.0; robot.dof()], &poses);
     let chain = &twin.chain;
-    let zero = vec![0.0; chain.n_params()];
-    let nominal_lengths: Vec<f64> = poses
-        .iter()
-        .map(|q| s.sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &s.sensor.tool_point_m())))
-        .collect();
+    let nominal_lengths: Vec<f64> = poses.iter().map(|q| nominal_length(chain, &s.sensor, q)).collect();
     let split = stratified_split(&nominal_lengths, s.sampling.test, s.seed);
 
     progress.start(poses.len() as u64, "settling poses");

@@ -253,7 +253,8 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
     }
 }
 
-fn samples(data: &Dataset, idx: &[usize]) -> Samples {
+/// The rows `idx` of a dataset as calibration samples (radians, metres).
+pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     Samples {
         q: idx.iter().map(|&i| data.rows[i].q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
         l: idx.iter().map(|&i| data.rows[i].l_mm * 1e-3).collect(),

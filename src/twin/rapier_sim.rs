@@ -121,31 +121,27 @@ pub(super) fn simulate(twin: &Twin, cmd: &PoseCommand) -> Result<RestingPose> {
         // Rigid arm: nothing moves, the multibody's own forward kinematics gives the pose.
         return read_back(twin, &world, &handles, cmd, vec![0.0; n], vec![Contact::Spring; n], 0, &params, scale);
     };
-    settle(twin, trans, &mut world, &handles, &bodies, cmd, &params, scale)
+    settle(twin, trans, &mut world, &handles, &bodies, cmd, &frames, &params, scale)
 }
 
-/// Inertia about each joint axis of everything distal to it (payload included), kg·m².
-fn joint_inertias(twin: &Twin, cmd: &PoseCommand, params: &[f64], scale: f64) -> Vec<f64> {
+/// Inertia about each joint axis of everything distal to it (payload included), kg·m², from the
+/// frames at the commanded pose. Frame `j + 1` closes right after joint `j`'s rotation, so its
+/// origin lies on that joint's axis and the axis keeps its direction.
+fn joint_inertias(twin: &Twin, frames: &[Frame]) -> Vec<f64> {
     let chain = &twin.chain;
     let n = chain.n_joints;
-    let mut ws = FkWork::new(chain);
-    chain.forward(&cmd.q_cmd, params, scale, &mut ws);
-    let mut bodies: Vec<Inertial> = (0..n)
-        .map(|i| twin.robot.links[i].transformed(&chain.frame(&ws, i + 1)))
-        .collect();
+    let mut bodies: Vec<Inertial> = (0..n).map(|i| twin.robot.links[i].transformed(&frames[i + 1])).collect();
     if let Some((m, com)) = &twin.load.payload {
-        let p = chain.frame(&ws, chain.flange()).point(com);
-        bodies.push(Inertial { mass: *m, com: p, inertia: Matrix3::zeros() });
+        bodies.push(Inertial { mass: *m, com: frames[chain.flange()].point(com), inertia: Matrix3::zeros() });
     }
     (0..n)
         .map(|j| {
-            let op = chain.joint_op(j).unwrap_or(0);
-            let pre = &ws.pre[op];
-            let w = pre.rot * chain.ops[op].axis;
+            let axis = chain.joint_op(j).map(|op| chain.ops[op].axis).unwrap_or_else(Vector3::z);
+            let (o, w) = (frames[j + 1].pos, frames[j + 1].rot * axis);
             bodies[j..]
                 .iter()
                 .map(|b| {
-                    let r = b.com - pre.pos;
+                    let r = b.com - o;
                     let r_perp = r - w * w.dot(&r);
                     w.dot(&(b.inertia * w)) + b.mass * r_perp.norm_squared()
                 })
@@ -162,6 +158,7 @@ fn settle(
     handles: &[MultibodyJointHandle],
     bodies: &[RigidBodyHandle],
     cmd: &PoseCommand,
+    frames: &[Frame],
     params: &[f64],
     scale: f64,
 ) -> Result<RestingPose> {
@@ -180,7 +177,7 @@ fn settle(
         mb.forward_kinematics(&world.bodies, false);
         mb.update_rigid_bodies(&mut world.bodies, true);
         // Damping: given, or near-critical from the inertia each joint moves with the rest held.
-        let inertia = joint_inertias(twin, cmd, params, scale);
+        let inertia = joint_inertias(twin, frames);
         let damping: Vec<f64> = (0..n)
             .map(|j| {
                 twin.effects
@@ -197,11 +194,7 @@ fn settle(
     }
 
     let tool_local = twin.sensor.tool_point_m();
-    let flange_in_last = {
-        let mut ws = FkWork::new(chain);
-        chain.forward(&cmd.q_cmd, params, scale, &mut ws);
-        chain.frame(&ws, chain.flange()).relative_to(&chain.frame(&ws, n))
-    };
+    let flange_in_last = frames[chain.flange()].relative_to(&frames[n]);
     let tool_in_last = flange_in_last.point(&tool_local);
     let last_body = bodies[n];
 

@@ -14,15 +14,12 @@ fn mm(v: &Vector3<f64>) -> [f64; 3] {
 /// (no geometric errors, no effects) predicts with the scenario's sensor geometry, mm.
 pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
     let chain = &g.twin.chain;
-    let zero = vec![0.0; chain.n_params()];
-    let tool = g.twin.sensor.tool_point_m();
     g.dataset
         .rows
         .iter()
         .map(|r| {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool);
-            r.l_mm - g.twin.sensor.ideal_length(&p)
+            r.l_mm - crate::generate::nominal_length(chain, &g.twin.sensor, &q)
         })
         .collect()
 }
@@ -94,14 +91,11 @@ pub fn record_calibration(
     opts: &crate::calib::run::CalibOptions,
     path: &Path,
 ) -> Result<()> {
-    use crate::calib::problem::{LengthFit, Samples};
+    use crate::calib::problem::LengthFit;
     let mut rec = Recorder::create("twincal", path)?;
     let all: Vec<usize> = (0..data.rows.len()).collect();
     let (train_idx, _) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed)?;
-    let samples = Samples {
-        q: all.iter().map(|&i| data.rows[i].q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
-        l: all.iter().map(|&i| data.rows[i].l_mm * 1e-3).collect(),
-    };
+    let samples = crate::calib::run::samples(data, &all);
     let fit = LengthFit { model: &r.model, data: &samples };
     let x0: Vec<f64> = r.parameters.iter().enumerate().map(|(k, p)| p.nominal / r.model.kinds[k].display()).collect();
     let before = fit.residuals_mm(&x0);
