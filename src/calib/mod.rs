@@ -8,4 +8,5 @@ pub mod problem;
 pub mod run;
 pub mod rbf;
 pub mod stats;
+pub mod truth;
 pub mod metrics;

@@ -6,6 +6,7 @@ use super::model::{CalibModel, SensorGuess};
 use super::optim::{Bounds, De, DeVariant, Ekf, History, LeastSquares, LevenbergMarquardt, ParticleFilter, Pso, Report};
 use super::problem::{FreeCost, LengthFit, Samples};
 use super::rbf::RbfNetwork;
+pub use super::truth::TruthFile;
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::robot::Robot;
@@ -197,41 +198,6 @@ impl CalibResult {
             return Err(Error::data(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
         }
         Ok(r)
-    }
-}
-
-/// What a truth file says, as far as calibration needs it.
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthFile {
-    pub sensor: TruthSensor,
-    pub tool: TruthTool,
-    pub noise_std_mm: f64,
-    pub poses: Vec<TruthPose>,
-}
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthSensor {
-    pub exit_point_mm: [f64; 3],
-    pub length_offset_mm: f64,
-}
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthTool {
-    pub point_mm: [f64; 3],
-}
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthPose {
-    pub length_true_mm: f64,
-}
-
-impl TruthFile {
-    /// `DIR/truth.json` next to a dataset folder or file, if present.
-    pub fn find(data: &Path) -> Result<Option<TruthFile>> {
-        let dir = if data.is_dir() { data.to_path_buf() } else { data.parent().map(|p| p.to_path_buf()).unwrap_or_default() };
-        let p = dir.join("truth.json");
-        if !p.exists() {
-            return Ok(None);
-        }
-        let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
-        serde_json::from_str(&text).map(Some).map_err(|e| Error::data(p.display(), format!("malformed truth file: {e}")))
     }
 }
 
