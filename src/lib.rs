@@ -6,6 +6,7 @@
 
 pub mod calib;
 pub mod dataset;
+pub mod diagnose;
 pub mod effects;
 pub mod error;
 pub mod generate;

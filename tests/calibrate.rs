@@ -30,24 +30,141 @@ fn irb120(method: Method, params: &str) -> CalibOptions {
     CalibOptions::new(ModelSpec::parse("irb120", params).unwrap(), method)
 }
 
+/// irb120_geometric-like datasets over several seeds, optionally with other spreads and noise.
+fn seeded(seeds: std::ops::Range<u64>, edit: impl Fn(&mut Scenario)) -> Vec<(Dataset, TruthFile)> {
+    let (base, robot) = Scenario::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_geometric.toml")).unwrap();
+    seeds
+        .map(|seed| {
+            let mut s = base.clone();
+            s.seed = seed;
+            edit(&mut s);
+            let dir = tempfile::tempdir().unwrap();
+            let g = generate(&s, &robot, &Silent).unwrap();
+            write_outputs(&g, dir.path()).unwrap();
+            (Dataset::load(dir.path()).unwrap(), TruthFile::find(dir.path()).unwrap().unwrap())
+        })
+        .collect()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
 #[test]
-fn lm_reaches_the_noise_floor_and_the_truth() {
-    let (_, ds, truth) = geometric();
-    let r = calibrate(ds, Some(truth), &irb120(Method::Lm, "hayati")).unwrap();
-    let floor = truth.noise_std_mm;
-    let test = r.metrics.test_after.unwrap();
-    let before = r.metrics.test_before.unwrap();
-    assert!(before.rmse > 20.0 * floor, "the nominal model should be far off: {}", before.rmse);
-    assert!(test.rmse < 1.10 * floor && test.rmse > 0.8 * floor, "test RMSE {} vs noise floor {floor}", test.rmse);
-    let cmp = r.truth_comparison.unwrap();
-    assert!(cmp.identifiable >= 20);
-    assert_eq!(cmp.within_3_sigma, cmp.identifiable, "every identifiable parameter within 3σ (max |z| {})", cmp.max_abs_z);
-    // Fixed parameters are named and stay at their nominal values.
-    for p in r.parameters.iter().filter(|p| p.fixed) {
-        assert_eq!(p.value, p.nominal, "{}", p.name);
-        assert!(p.std_uncertainty.is_none());
+fn lm_reaches_the_noise_floor_and_the_truth_over_seeds() {
+    let sets = seeded(11..16, |_| {});
+    let mut ratios = Vec::new();
+    for (ds, truth) in &sets {
+        let r = calibrate(ds, Some(truth), &irb120(Method::Lm, "hayati")).unwrap();
+        let floor = truth.noise_std_mm;
+        let (before, test) = (r.metrics.test_before.unwrap(), r.metrics.test_after.unwrap());
+        assert!(before.rmse > 20.0 * floor, "the nominal model should be far off: {}", before.rmse);
+        ratios.push(test.rmse / floor);
+        let cmp = r.truth_comparison.unwrap();
+        assert!(cmp.identifiable >= 20);
+        assert!(cmp.within_3_sigma + 1 >= cmp.identifiable, "{}/{} identifiable parameters within 3σ (max |z| {})", cmp.within_3_sigma, cmp.identifiable, cmp.max_abs_z);
+        // Fixed parameters are named and stay at their nominal values.
+        for p in r.parameters.iter().filter(|p| p.fixed) {
+            assert_eq!(p.value, p.nominal, "{}", p.name);
+            assert!(p.std_uncertainty.is_none());
+        }
+        assert!(r.parameters.iter().filter(|p| p.fixed).count() >= 4);
     }
-    assert!(r.parameters.iter().filter(|p| p.fixed).count() >= 4);
+    // An RMSE over 100 test poses scatters by about ±7 %; its expectation is √(1 + p/n) ≈ 1.04.
+    let m = median(ratios.clone());
+    assert!(m > 0.9 && m < 1.12, "median test RMSE / noise floor {m} ({ratios:?})");
+}
+
+/// The methods' hyper-parameters come from documented tolerances and the data's own noise: on a
+/// scenario whose spreads and noise differ from the defaults they still reach the noise floor.
+#[test]
+fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
+    let sets = seeded(21..26, |s| {
+        s.geometry.origin_offset_std_mm = 0.8;
+        s.geometry.origin_rotation_std_deg = 0.12;
+        s.geometry.joint_zero_std_deg = 0.15;
+        s.sensor.noise_std_mm = 0.2;
+        s.sensor.samples = 20;
+    });
+    // (PSO, the slowest, is measured over the same kind of scenario by `twincal bench calib`.)
+    for (m, limit) in [(Method::Lm, 1.12), (Method::Ekf, 1.15), (Method::Rbf, 1.2)] {
+        let t0 = std::time::Instant::now();
+        let mut ratios = Vec::new();
+        for (ds, truth) in &sets {
+            let mut o = irb120(m, "hayati");
+            let r = calibrate(ds, Some(truth), &o).unwrap();
+            ratios.push(r.metrics.test_after.unwrap().rmse / truth.noise_std_mm);
+            if m == Method::Ekf {
+                // The noise the method was given came from the data: near the true reading noise.
+                assert!((r.noise_estimate_mm / truth.noise_std_mm - 1.0).abs() < 0.25, "{m:?}: noise estimate {} vs {}", r.noise_estimate_mm, truth.noise_std_mm);
+            }
+        }
+        let med = median(ratios.clone());
+        eprintln!("{m:?}: median test RMSE / floor {med:.3} ({ratios:.3?}) in {:.1} s", t0.elapsed().as_secs_f64());
+        assert!(med < limit, "{m:?}: median test RMSE / floor {med} ({ratios:?})");
+    }
+    // The particle filter is the weak baseline in 25 dimensions: it must still improve a lot on
+    // the nominal model, on every seed.
+    for (ds, truth) in sets.iter().take(3) {
+        let t0 = std::time::Instant::now();
+        let mut o = irb120(Method::Pf, "hayati");
+        o.effort = 0.5;
+        let r = calibrate(ds, Some(truth), &o).unwrap();
+        let (before, after) = (r.metrics.test_before.unwrap().rmse, r.metrics.test_after.unwrap().rmse);
+        eprintln!("pf: test RMSE {after:.4} vs {before:.4} before, {:.1} s", t0.elapsed().as_secs_f64());
+        assert!(after < 0.5 * before, "pf: test RMSE {after} vs {before} before");
+    }
+}
+
+/// A solver that starts Levenberg–Marquardt with joint zeros far off (a wrong basin).
+struct FarOff(f64);
+impl twincal::calib::method::Solver for FarOff {
+    fn method(&self) -> Method {
+        Method::Lm
+    }
+    fn solve(&self, p: &twincal::calib::method::Problem, obs: &mut dyn twincal::calib::optim::Observer) -> twincal::Result<twincal::calib::method::Solution> {
+        let mut x0 = p.x0.to_vec();
+        for name in ["joint_2.theta", "joint_3.theta", "joint_5.theta"] {
+            if let Some(k) = p.fit.model.index(name) {
+                x0[k] += self.0.to_radians();
+            }
+        }
+        let lm = twincal::calib::optim::LevenbergMarquardt { max_iter: 500, ..Default::default() };
+        Ok(twincal::calib::method::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), rbf: None })
+    }
+}
+
+/// The truth-equivalent values are computed from the truth, never from the estimate: a
+/// calibration deliberately started in a wrong basin is caught, where a refit started from its
+/// own estimate would have agreed with it.
+#[test]
+fn truth_comparison_catches_a_calibration_started_far_off() {
+    use twincal::calib::optim::{LevenbergMarquardt, NoObserver};
+    use twincal::calib::problem::{LengthFit, Samples};
+    use twincal::calib::run::calibrate_with;
+    let (_, ds, truth) = geometric();
+    // Joint zeros started 120° off: LM lands on another description of the arm that fits the
+    // lengths as well as the truth does, with parameters far from the truth's.
+    let r = calibrate_with(ds, Some(truth), &irb120(Method::Lm, "hayati"), &FarOff(120.0)).unwrap();
+    let test = r.metrics.test_after.unwrap().rmse;
+    assert!(test < 1.1 * truth.noise_std_mm, "the wrong basin fits the data: {test}");
+    let cmp = r.truth_comparison.clone().unwrap();
+    assert!(cmp.within_3_sigma + 3 <= cmp.identifiable && cmp.max_abs_z > 100.0, "the far-off calibration must be caught: {cmp:?}");
+    // What a comparison started from the estimate would have said: nothing moves, all agrees.
+    let fixed: Vec<bool> = r.parameters.iter().map(|p| p.fixed).collect();
+    let train = ds.train_indices();
+    let clean = Samples::new(
+        train.iter().map(|&i| ds.rows[i].q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
+        train.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(),
+    );
+    let fit = LengthFit { model: &r.model, data: &clean };
+    let from_estimate = LevenbergMarquardt { max_iter: 500, ..Default::default() }.minimize(&fit, &r.x, &fixed, &mut NoObserver).x;
+    let moved = (0..r.x.len())
+        .filter(|&k| r.parameters[k].std_uncertainty.is_some_and(|s| ((from_estimate[k] - r.x[k]) * r.model.kinds[k].display()).abs() > 3.0 * s))
+        .count();
+    assert_eq!(moved, 0, "a refit from the estimate agrees with the estimate");
 }
 
 #[test]
@@ -65,19 +182,6 @@ fn papers_dh_model_flags_the_parallel_axes() {
     // has: it stays well above the noise floor where the Hayati model reaches it.
     let (a, b) = (dh.metrics.test_after.unwrap().rmse, hay.metrics.test_after.unwrap().rmse);
     assert!(a > 2.0 * b && b < 1.1 * truth.noise_std_mm, "dh {a} vs hayati {b}");
-}
-
-#[test]
-fn every_method_improves_on_the_nominal_model() {
-    let (_, ds, truth) = geometric();
-    for (m, limit) in [(Method::Ekf, 0.02), (Method::Rbf, 0.01), (Method::Pso, 0.05), (Method::Pf, 0.3)] {
-        let mut o = irb120(m, "hayati");
-        o.effort = if m == Method::Pso { 0.5 } else { 1.0 };
-        let r = calibrate(ds, Some(truth), &o).unwrap();
-        let (before, after) = (r.metrics.test_before.unwrap().rmse, r.metrics.test_after.unwrap().rmse);
-        assert!(after < before, "{m:?}: {after} vs {before}");
-        assert!(after < limit, "{m:?}: test RMSE {after} mm");
-    }
 }
 
 #[test]

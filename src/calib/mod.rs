@@ -1,12 +1,19 @@
 //! Calibration: identification of model parameters from datasets.
 
+pub mod effects;
+pub mod equivalent;
 pub mod export;
+pub mod generic;
 pub mod identify;
+pub mod inputs;
+pub mod method;
 pub mod model;
 pub mod optim;
+pub mod placement;
 pub mod problem;
 pub mod run;
 pub mod rbf;
 pub mod stats;
+pub mod tolerance;
 pub mod truth;
 pub mod metrics;

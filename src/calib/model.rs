@@ -12,6 +12,7 @@
 //! Every model ends with 7 sensor parameters: cable exit point (base frame), length offset and tool
 //! point (flange frame). Internal units are metres and radians; lengths are predicted in metres.
 
+use super::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::robot::kinematics::{Chain, ChainBuilder, FkWork, Frame, PointJacobian};
 use crate::robot::Robot;
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -23,6 +24,8 @@ use serde::{Deserialize, Serialize};
 pub enum Kind {
     Length,
     Angle,
+    /// A parameter of a non-geometric effect block.
+    Effect(EffectUnit),
 }
 
 impl Kind {
@@ -31,12 +34,14 @@ impl Kind {
         match self {
             Kind::Length => 1e3,
             Kind::Angle => 180.0 / std::f64::consts::PI,
+            Kind::Effect(u) => u.display(),
         }
     }
     pub fn unit(self) -> &'static str {
         match self {
             Kind::Length => "mm",
             Kind::Angle => "deg",
+            Kind::Effect(u) => u.unit(),
         }
     }
 }
@@ -50,14 +55,19 @@ pub struct CalibModel {
     pub chain: Chain,
     pub names: Vec<String>,
     pub kinds: Vec<Kind>,
-    /// Nominal parameter vector (deviations zero, sensor at its nominal guess).
+    /// Nominal parameter vector (deviations zero, sensor at its nominal guess, effects off).
     pub nominal: Vec<f64>,
+    /// Non-geometric effect blocks; their parameters follow the sensor's.
+    #[serde(default)]
+    pub effects: Vec<EffectBlock>,
 }
 
 /// Reusable buffers for model evaluations.
 pub struct ModelWork {
     pub fk: FkWork,
     pub jac: PointJacobian,
+    pub eff: EffectState,
+    q: Vec<f64>,
 }
 
 impl CalibModel {
@@ -68,7 +78,58 @@ impl CalibModel {
         self.chain.n_params()
     }
     pub fn work(&self) -> ModelWork {
-        ModelWork { fk: FkWork::new(&self.chain), jac: PointJacobian::new(&self.chain) }
+        ModelWork { fk: FkWork::new(&self.chain), jac: PointJacobian::new(&self.chain), eff: EffectState::default(), q: vec![0.0; self.chain.n_joints] }
+    }
+    /// Index of the first effect parameter.
+    pub fn first_effect(&self) -> usize {
+        self.n_chain() + SENSOR_PARAMS.len()
+    }
+    /// Adds an effect block (no-op if an equal block is present); its parameters start at
+    /// "no effect" in `nominal`. `t_span_s` is the data's time span (warm-up starting value).
+    pub fn add_effect(&mut self, block: EffectBlock, t_span_s: f64) {
+        if self.effects.contains(&block) {
+            return;
+        }
+        for ((name, unit), v) in block.params().into_iter().zip(block.start(t_span_s)) {
+            self.names.push(name);
+            self.kinds.push(Kind::Effect(unit));
+            self.nominal.push(v);
+        }
+        self.effects.push(block);
+    }
+    /// Parameter range of effect block `b`.
+    pub fn effect_params(&self, b: usize) -> std::ops::Range<usize> {
+        let start = self.first_effect() + self.effects[..b].iter().map(|e| e.params().len()).sum::<usize>();
+        start..start + self.effects[b].params().len()
+    }
+    /// The sensor nonlinearity block: its first parameter and normalisation range.
+    fn nonlinearity(&self) -> Option<(usize, [f64; 2])> {
+        let b = self.effects.iter().position(|e| e.kind == EffectKind::SensorNonlinearity)?;
+        Some((self.effect_params(b).start, self.effects[b].range_m.unwrap_or([0.0, 1.0])))
+    }
+    /// Joint angles and scale with the joint-offset and thermal effects applied (into `w`).
+    fn apply_effects(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
+        w.q.clear();
+        w.q.extend_from_slice(q);
+        if self.effects.is_empty() {
+            return 1.0;
+        }
+        joint_and_scale_effects(&self.effects, self.first_effect(), x, q, inp, &mut w.eff);
+        for (qj, d) in w.q.iter_mut().zip(w.eff.dq) {
+            *qj += d;
+        }
+        w.eff.scale
+    }
+    /// Reading correction of the sensor nonlinearity at geometric length `l` (m) and its
+    /// derivative with respect to `l`.
+    fn reading_correction(&self, x: &[f64], l: f64) -> (f64, f64, Option<(usize, [f64; 3])>) {
+        let Some((k, [lo, hi])) = self.nonlinearity() else { return (0.0, 0.0, None) };
+        let half = 0.5 * (hi - lo).max(1e-9);
+        let v = (l - 0.5 * (lo + hi)) / half;
+        let (p, dp) = legendre(v);
+        let val = (0..3).map(|m| x[k + m] * p[m]).sum::<f64>();
+        let dval = (0..3).map(|m| x[k + m] * dp[m]).sum::<f64>() / half;
+        (val, dval, Some((k, p)))
     }
     pub fn index(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| n == name)
@@ -79,24 +140,42 @@ impl CalibModel {
         (Vector3::new(s[0], s[1], s[2]), s[3], Vector3::new(s[4], s[5], s[6]))
     }
 
-    /// Tool point in the base frame for joint angles `q` (rad), m.
+    /// Tool point in the base frame for joint angles `q` (rad), m (geometry only).
     pub fn tool_point(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> Vector3<f64> {
+        self.tool_point_with(x, q, &RowInputs::default(), w)
+    }
+
+    /// Tool point with the joint-offset and thermal effects of the row applied, m.
+    pub fn tool_point_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Vector3<f64> {
         let (_, _, tool) = self.sensor(x);
-        self.chain.forward(q, &x[..self.n_chain()], 1.0, &mut w.fk);
+        let scale = self.apply_effects(x, q, inp, w);
+        self.chain.forward(&w.q, &x[..self.n_chain()], scale, &mut w.fk);
         self.chain.frame(&w.fk, self.chain.flange()).point(&tool)
     }
 
-    /// Predicted cable length (m).
+    /// Predicted cable length (m) of a row with no per-row inputs.
     pub fn predict(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> f64 {
+        self.predict_with(x, q, &RowInputs::default(), w)
+    }
+
+    /// Predicted cable length (m), every effect included.
+    pub fn predict_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
         let (e, c, _) = self.sensor(x);
-        (self.tool_point(x, q, w) - e).norm() + c
+        let l = (self.tool_point_with(x, q, inp, w) - e).norm() + c;
+        l + self.reading_correction(x, l).0
+    }
+
+    /// Predicted length (m) of a row with no per-row inputs and its gradient into `g`.
+    pub fn predict_grad(&self, x: &[f64], q: &[f64], w: &mut ModelWork, g: &mut [f64]) -> f64 {
+        self.predict_grad_with(x, q, &RowInputs::default(), w, g)
     }
 
     /// Predicted length (m) and its gradient with respect to every parameter into `g`.
-    pub fn predict_grad(&self, x: &[f64], q: &[f64], w: &mut ModelWork, g: &mut [f64]) -> f64 {
+    pub fn predict_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, g: &mut [f64]) -> f64 {
         let nc = self.n_chain();
         let (e, c, tool) = self.sensor(x);
-        self.chain.forward(q, &x[..nc], 1.0, &mut w.fk);
+        let scale = self.apply_effects(x, q, inp, w);
+        self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let flange = self.chain.flange();
         self.chain.point_jacobian(&w.fk, flange, &tool, &mut w.jac);
         let d = w.jac.point - e;
@@ -114,7 +193,25 @@ impl CalibModel {
         g[nc + 4] = ut.x;
         g[nc + 5] = ut.y;
         g[nc + 6] = ut.z;
-        dist + c
+        if self.effects.is_empty() {
+            return dist + c;
+        }
+        g[nc + 7..].iter_mut().for_each(|v| *v = 0.0);
+        for &(k, j, d) in &w.eff.joint_terms {
+            g[k] += u.dot(&w.jac.dq[j]) * d;
+        }
+        let ds = u.dot(&w.jac.dscale);
+        for &(k, d) in &w.eff.scale_terms {
+            g[k] += ds * d;
+        }
+        let l = dist + c;
+        let (corr, dcorr, nl) = self.reading_correction(x, l);
+        if let Some((k, p)) = nl {
+            // The correction depends on the geometric length: chain rule on everything else.
+            g.iter_mut().for_each(|v| *v *= 1.0 + dcorr);
+            g[k..k + 3].copy_from_slice(&p);
+        }
+        l + corr
     }
 
     /// Display value (mm / degrees) of parameter `k`.
@@ -131,7 +228,7 @@ impl CalibModel {
         nominal.extend(sensor.exit_m.iter());
         nominal.push(sensor.offset_m);
         nominal.extend(sensor.tool_m.iter());
-        CalibModel { name: name.into(), chain, names, kinds, nominal }
+        CalibModel { name: name.into(), chain, names, kinds, nominal, effects: Vec::new() }
     }
 
     /// The twin's per-joint frame-error model.
@@ -331,6 +428,54 @@ mod tests {
                 let b = frame.tool_point(&frame.nominal, &q, &mut w2);
                 assert!((a - b).norm() < 1e-12, "hayati={hayati}: {a} vs {b}");
             }
+        }
+    }
+
+    #[test]
+    fn effect_gradients_match_finite_differences() {
+        use crate::calib::effects::{EffectBlock, EffectKind, RowInputs, ThermalDrive};
+        let robot = Robot::irb120();
+        for thermal in [ThermalDrive::WarmUp, ThermalDrive::Temperature { ref_c: 21.0 }] {
+            let mut m = CalibModel::dh(&robot, &guess(), true);
+            for j in 0..6 {
+                m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, j), 3600.0);
+                m.add_effect(EffectBlock::joint(EffectKind::Backlash, j), 3600.0);
+                m.add_effect(EffectBlock::joint(EffectKind::EncoderEccentricity, j), 3600.0);
+            }
+            m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: None, thermal: Some(thermal), range_m: None }, 3600.0);
+            m.add_effect(EffectBlock { kind: EffectKind::SensorNonlinearity, joint: None, thermal: None, range_m: Some([0.4, 1.6]) }, 3600.0);
+            let mut x = m.nominal.clone();
+            let first = m.first_effect();
+            for (k, v) in x.iter_mut().enumerate() {
+                let scale = match m.kinds[k] {
+                    Kind::Effect(crate::calib::effects::EffectUnit::Compliance) => 1e-5,
+                    Kind::Effect(crate::calib::effects::EffectUnit::Seconds) => 0.0,
+                    Kind::Effect(crate::calib::effects::EffectUnit::Ratio | crate::calib::effects::EffectUnit::PerKelvin) => 1e-4,
+                    Kind::Effect(_) => 1e-3,
+                    _ => 0.01,
+                };
+                *v += scale * ((k as f64) * 1.3).sin();
+            }
+            assert!(x.len() >= first + 28);
+            let inp = RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: [1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: [1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
+            let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
+            let mut w = m.work();
+            let mut g = vec![0.0; m.n_params()];
+            m.predict_grad_with(&x, &q, &inp, &mut w, &mut g);
+            for k in 0..m.n_params() {
+                let h = if m.kinds[k] == Kind::Effect(crate::calib::effects::EffectUnit::Seconds) { 1e-2 } else { 1e-7 };
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[k] += h;
+                xm[k] -= h;
+                let fd = (m.predict_with(&xp, &q, &inp, &mut w) - m.predict_with(&xm, &q, &inp, &mut w)) / (2.0 * h);
+                let tol = 1e-7 * (1.0 + g[k].abs());
+                assert!((fd - g[k]).abs() < tol, "{:?} {}: {fd} vs {}", thermal, m.names[k], g[k]);
+            }
+            // With no effect active the prediction equals the rigid model's.
+            let rigid = CalibModel::dh(&robot, &guess(), true);
+            let mut wr = rigid.work();
+            let l0 = m.predict_with(&m.nominal, &q, &inp, &mut w);
+            assert!((l0 - rigid.predict(&rigid.nominal, &q, &mut wr)).abs() < 1e-15);
         }
     }
 

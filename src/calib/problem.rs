@@ -2,6 +2,7 @@
 //! sequential scalar observations (EKF, PF) and a bounded scalar cost (PSO, DE).
 //! Residuals are in millimetres: measured minus predicted cable length.
 
+use super::effects::RowInputs;
 use super::model::{CalibModel, ModelWork};
 use super::optim::{Cost, LeastSquares, Observations};
 use nalgebra::DMatrix;
@@ -30,9 +31,20 @@ pub struct Samples {
     pub q: Vec<Vec<f64>>,
     /// Measured lengths, m.
     pub l: Vec<f64>,
+    /// What each row carries besides q and L (time, temperature, torques, backlash sides).
+    pub inputs: Vec<RowInputs>,
 }
 
 impl Samples {
+    /// Samples with no per-row inputs.
+    pub fn new(q: Vec<Vec<f64>>, l: Vec<f64>) -> Self {
+        let inputs = vec![RowInputs::default(); l.len()];
+        Samples { q, l, inputs }
+    }
+    /// The rows `idx`.
+    pub fn subset(&self, idx: &[usize]) -> Samples {
+        Samples { q: idx.iter().map(|&i| self.q[i].clone()).collect(), l: idx.iter().map(|&i| self.l[i]).collect(), inputs: idx.iter().map(|&i| self.inputs[i]).collect() }
+    }
     pub fn len(&self) -> usize {
         self.l.len()
     }
@@ -66,7 +78,7 @@ impl LeastSquares for LengthFit<'_> {
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
         with_work(self.model, |w| {
             for (i, ri) in r.iter_mut().enumerate() {
-                *ri = (self.data.l[i] - self.model.predict(x, &self.data.q[i], w)) * 1e3;
+                *ri = (self.data.l[i] - self.model.predict_with(x, &self.data.q[i], &self.data.inputs[i], w)) * 1e3;
             }
         })
     }
@@ -75,7 +87,7 @@ impl LeastSquares for LengthFit<'_> {
         let mut g = vec![0.0; n];
         with_work(self.model, |w| {
             for i in 0..self.data.len() {
-                self.model.predict_grad(x, &self.data.q[i], w, &mut g);
+                self.model.predict_grad_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut g);
                 for k in 0..n {
                     j[(i, k)] = -g[k] * 1e3;
                 }
@@ -92,13 +104,13 @@ impl Observations for LengthFit<'_> {
         self.data.len()
     }
     fn predict(&self, x: &[f64], i: usize) -> f64 {
-        with_work(self.model, |w| self.model.predict(x, &self.data.q[i], w) * 1e3)
+        with_work(self.model, |w| self.model.predict_with(x, &self.data.q[i], &self.data.inputs[i], w) * 1e3)
     }
     fn measured(&self, i: usize) -> f64 {
         self.data.l[i] * 1e3
     }
     fn gradient(&self, x: &[f64], i: usize, g: &mut [f64]) {
-        with_work(self.model, |w| self.model.predict_grad(x, &self.data.q[i], w, g));
+        with_work(self.model, |w| self.model.predict_grad_with(x, &self.data.q[i], &self.data.inputs[i], w, g));
         g.iter_mut().for_each(|v| *v *= 1e3);
     }
 }

@@ -1,56 +1,33 @@
-//! `twincal calibrate`: data → model → identifiability → method → calibrated model and report.
+//! `twincal calibrate` as a pipeline of named stages:
+//!
+//! ```text
+//! rows ─ split ─► sensor placement ─► identifiability ─► noise estimate ─► solve ─► uncertainty
+//!                 (placement.rs)       (identify.rs)                        (method.rs)
+//!      ─► metrics ─► truth comparison (equivalent.rs) ─► CalibResult
+//! ```
+//!
+//! Each stage is a function of its own below or in the module named; the method is a
+//! [`Solver`] value that carries its own settings.
 
+pub use super::method::{Method, Solver};
 use super::identify::{analyse, Identifiability};
 use super::metrics::ErrorStats;
+use super::method::{Problem, Solution};
 use super::model::{CalibModel, SensorGuess};
-use super::optim::{Bounds, De, DeVariant, Ekf, History, LeastSquares, LevenbergMarquardt, ParticleFilter, Pso, Report};
-use super::problem::{FreeCost, LengthFit, Samples};
+use super::optim::{covariance, History, LeastSquares, LevenbergMarquardt, NoObserver};
+use super::problem::{LengthFit, Samples};
 use super::rbf::RbfNetwork;
+use super::effects::EffectKind;
+use super::inputs::LoadOptions;
+use super::tolerance::Tolerances;
 pub use super::truth::TruthFile;
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::robot::Robot;
-use nalgebra::{DMatrix, DVector};
-use rand::seq::SliceRandom;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-use rayon::prelude::*;
 use std::time::Instant;
-
-/// Calibration methods.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Method {
-    Lm,
-    Ekf,
-    Pf,
-    Pso,
-    Rbf,
-}
-
-impl Method {
-    pub fn parse(s: &str) -> Result<Method> {
-        Ok(match s.trim().to_ascii_lowercase().as_str() {
-            "lm" => Method::Lm,
-            "ekf" => Method::Ekf,
-            "pf" => Method::Pf,
-            "pso" => Method::Pso,
-            "rbf" => Method::Rbf,
-            other => return Err(Error::Invalid(format!("unknown method '{other}' (expected lm, ekf, pf, pso or rbf)"))),
-        })
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Lm => "lm",
-            Method::Ekf => "ekf",
-            Method::Pf => "pf",
-            Method::Pso => "pso",
-            Method::Rbf => "rbf",
-        }
-    }
-}
 
 /// Which kinematic model to calibrate.
 #[derive(Clone, Debug)]
@@ -81,6 +58,13 @@ impl ModelSpec {
             other => Err(Error::Invalid(format!("unknown model '{other}' (expected irb120, generic6r or a .urdf path)"))),
         }
     }
+    /// The nominal robot, where there is one.
+    pub fn robot(&self) -> Option<&Robot> {
+        match self {
+            ModelSpec::Nominal { robot, .. } => Some(robot),
+            ModelSpec::Generic6r => None,
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -96,11 +80,37 @@ pub struct CalibOptions {
     pub sensor_guess: Option<SensorGuess>,
     /// Effort scale for the stochastic methods (1 = default budget).
     pub effort: f64,
+    /// Manufacturing and set-up tolerances (priors and search boxes of the methods).
+    pub tolerances: Tolerances,
+    /// Non-geometric effects to fit beside the geometry: a kind, on one joint (0-based) or,
+    /// for per-joint kinds given without a joint, on every joint.
+    pub effects: Vec<(EffectKind, Option<usize>)>,
+    /// What loads the joints (payload, cable tension), for the torque-driven effects.
+    pub loads: LoadOptions,
+    /// Inertial model for the joint torques when the calibrated model has none (generic 6R).
+    pub inertial: Option<Robot>,
 }
 
 impl CalibOptions {
     pub fn new(model: ModelSpec, method: Method) -> Self {
-        CalibOptions { model, method, test_fraction: None, seed: 0, rank_tol: 1e-7, sensor_guess: None, effort: 1.0 }
+        CalibOptions {
+            model,
+            method,
+            test_fraction: None,
+            seed: 0,
+            rank_tol: 1e-7,
+            sensor_guess: None,
+            effort: 1.0,
+            tolerances: Tolerances::default(),
+            effects: Vec::new(),
+            loads: LoadOptions::default(),
+            inertial: None,
+        }
+    }
+    /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
+    /// the one given for the purpose.
+    pub fn inertial_robot(&self) -> Option<&Robot> {
+        self.model.robot().or(self.inertial.as_ref())
     }
 }
 
@@ -137,6 +147,8 @@ pub struct TruthComparison {
     pub within_3_sigma: usize,
     pub identifiable: usize,
     pub max_abs_z: f64,
+    /// How the truth-equivalent values were obtained.
+    pub method: String,
     /// Sensor noise floor (std of an averaged reading), mm.
     pub noise_floor_mm: f64,
 }
@@ -159,6 +171,13 @@ pub struct CalibResult {
     pub converged: bool,
     pub stop_reason: String,
     pub wall_time_s: f64,
+    /// Standard deviation of one reading estimated from the data, mm (the residual spread of
+    /// the fit, or the repeatability of repeated configurations where there are enough).
+    #[serde(default)]
+    pub noise_estimate_mm: f64,
+    /// Things a user should know before trusting the result (did not converge, few rows, ...).
+    #[serde(default)]
+    pub warnings: Vec<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub truth_comparison: Option<TruthComparison>,
     /// Repeated configurations in the data and the spread of L over them.
@@ -219,40 +238,132 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
     }
 }
 
-/// The rows `idx` of a dataset as calibration samples (radians, metres).
+/// The rows `idx` of a dataset as calibration samples (radians, metres), with their time and
+/// temperature; torques and backlash sides are added by [`super::inputs`] where needed.
 pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
+    let rows = idx.iter().map(|&i| &data.rows[i]);
     Samples {
-        q: idx.iter().map(|&i| data.rows[i].q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
-        l: idx.iter().map(|&i| data.rows[i].l_mm * 1e-3).collect(),
+        q: rows.clone().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
+        l: rows.clone().map(|r| r.l_mm * 1e-3).collect(),
+        inputs: rows.map(|r| super::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
     }
 }
 
-/// Exit point and length offset by linear multilateration from known tool points (m):
-/// (L − c)² = |p − e|² is linear in (e, c, |e|² − c²).
-pub fn multilaterate(points: &[nalgebra::Vector3<f64>], lengths: &[f64]) -> Option<([f64; 3], f64)> {
-    let m = points.len();
-    if m < 6 {
-        return None;
-    }
-    let a = DMatrix::from_fn(m, 5, |i, k| match k {
-        0..=2 => -2.0 * points[i][k],
-        3 => 2.0 * lengths[i],
-        _ => 1.0,
-    });
-    let b = DVector::from_fn(m, |i, _| lengths[i] * lengths[i] - points[i].norm_squared());
-    let sol = a.svd(true, true).solve(&b, 1e-12).ok()?;
-    Some(([sol[0], sol[1], sol[2]], sol[3]))
+
+/// How far outside a joint's limits (degrees) a row may be before it is refused: encoders read
+/// a little past a soft limit, nothing reads far past a hard stop.
+pub const JOINT_LIMIT_SLACK_DEG: f64 = 2.0;
+
+/// Stage "split": training and test samples, with the checks that make a calibration meaningful.
+pub struct SplitData {
+    pub train_idx: Vec<usize>,
+    pub test_idx: Vec<usize>,
+    pub train: Samples,
+    pub test: Samples,
 }
 
-fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
-    match spec {
-        ModelSpec::Nominal { robot, parametrisation } => match parametrisation.as_str() {
-            "frame" => CalibModel::frame(robot, guess),
-            "dh" => CalibModel::dh(robot, guess, false),
-            _ => CalibModel::dh(robot, guess, true),
-        },
-        ModelSpec::Generic6r => CalibModel::generic(6, guess),
+/// Number of distinct joint configurations among `rows` (angles compared to 1e-6 degrees).
+fn distinct_configurations(data: &Dataset, rows: &[usize]) -> usize {
+    let mut keys: Vec<[i64; 6]> = rows.iter().map(|&i| data.rows[i].q_deg.map(|v| (v * 1e6).round() as i64)).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    keys.len()
+}
+
+pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
+    if let Some(robot) = opts.model.robot() {
+        check_joint_limits(data, robot)?;
     }
+    let (train_idx, test_idx) = split_rows(data, opts.test_fraction, opts.seed)?;
+    if train_idx.len() < 8 {
+        return Err(Error::Calibration(format!("only {} training rows; at least 8 are needed", train_idx.len())));
+    }
+    let distinct = distinct_configurations(data, &train_idx);
+    if distinct < 8 {
+        return Err(Error::Calibration(format!(
+            "the {} training rows hold only {distinct} distinct joint configurations; a calibration needs many different poses",
+            train_idx.len()
+        )));
+    }
+    let train = samples(data, &train_idx);
+    let test = samples(data, &test_idx);
+    Ok(SplitData { train_idx, test_idx, train, test })
+}
+
+/// Refuses rows whose joint angles lie beyond the robot's limits (more than the slack).
+fn check_joint_limits(data: &Dataset, robot: &Robot) -> Result<()> {
+    for (i, r) in data.rows.iter().enumerate() {
+        for (j, (q, spec)) in r.q_deg.iter().zip(&robot.joints).enumerate() {
+            let (lo, hi) = (spec.lower.to_degrees(), spec.upper.to_degrees());
+            if *q < lo - JOINT_LIMIT_SLACK_DEG || *q > hi + JOINT_LIMIT_SLACK_DEG {
+                return Err(Error::data(
+                    &data.source,
+                    format!("row {}: q{} = {q} deg is outside {}'s limits [{lo:.2}, {hi:.2}] deg", i + 1, j + 1, robot.joints[j].name),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Stage "effects": adds the requested effect blocks to the model and gives every sample the
+/// per-row inputs they need (computed over the whole file in acquisition order, then split).
+pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Dataset, opts: &CalibOptions) -> Result<()> {
+    if opts.effects.is_empty() {
+        return Ok(());
+    }
+    let nc = model.n_chain();
+    let x = &model.nominal;
+    let exit = nalgebra::Vector3::new(x[nc], x[nc + 1], x[nc + 2]);
+    let tool = nalgebra::Vector3::new(x[nc + 4], x[nc + 5], x[nc + 6]);
+    let robot = opts.inertial_robot();
+    let all = super::inputs::row_inputs(data, robot, &opts.loads, exit, tool);
+    split.train.inputs = split.train_idx.iter().map(|&i| all[i]).collect();
+    split.test.inputs = split.test_idx.iter().map(|&i| all[i]).collect();
+    let span = super::inputs::time_span(data);
+    for &(kind, joint) in &opts.effects {
+        let joints: Vec<Option<usize>> = match (kind.per_joint(), joint) {
+            (true, None) => (0..6).map(Some).collect(),
+            (true, j) => vec![j],
+            (false, _) => vec![None],
+        };
+        for j in joints {
+            model.add_effect(super::inputs::block_for(data, kind, j, robot.is_some())?, span);
+        }
+    }
+    Ok(())
+}
+
+/// Stage "identifiability": which parameters these poses determine (the rest are fixed where
+/// the start put them). Sensor parameters come first: they are the unknowns of every set-up,
+/// while the robot's own parameters have nominal values.
+pub fn identify(fit: &LengthFit, x: &[f64], tol: f64) -> Identifiability {
+    let nc = fit.model.n_chain();
+    let priority: Vec<usize> = (nc..fit.model.n_params()).chain(0..nc).collect();
+    analyse(&jacobian(fit, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority)
+}
+
+fn jacobian(fit: &LengthFit, x: &[f64]) -> DMatrix<f64> {
+    let mut j = DMatrix::zeros(fit.data.len(), fit.model.n_params());
+    LeastSquares::jacobian(fit, x, &mut j);
+    j
+}
+
+/// Stage "noise estimate": the standard deviation of one reading, mm, from the data alone: the
+/// pooled spread of repeated configurations when at least five repeat, else the residual
+/// spread of a Levenberg–Marquardt fit corrected for the parameters it used.
+pub fn estimate_noise(fit: &LengthFit, x0: &[f64], fixed: &[bool], repeat: Option<&super::metrics::Repeatability>) -> f64 {
+    if let Some(r) = repeat.filter(|r| r.groups >= 5 && r.pooled_std > 0.0) {
+        return r.pooled_std;
+    }
+    let x = LevenbergMarquardt { max_iter: 100, ..Default::default() }.minimize(fit, x0, fixed, &mut NoObserver).x;
+    residual_sigma(fit, &x, fixed)
+}
+
+/// √(2·cost / (m − n_free)), the residual standard deviation of a least-squares fit, mm.
+fn residual_sigma(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 {
+    let dof = fit.data.len().saturating_sub(fixed.iter().filter(|f| !**f).count()).max(1);
+    (2.0 * LeastSquares::cost(fit, x) / dof as f64).sqrt()
 }
 
 fn stats(fit: &LengthFit, x: &[f64], rbf: Option<&RbfNetwork>) -> ErrorStats {
@@ -265,228 +376,133 @@ fn stats(fit: &LengthFit, x: &[f64], rbf: Option<&RbfNetwork>) -> ErrorStats {
     ErrorStats::of(&r)
 }
 
-/// Initial parameter vector: nominal geometry and a sensor guess (given or multilaterated), or
-/// for the generic model a global search from broad bounds.
-fn initial(spec: &ModelSpec, opts: &CalibOptions, train: &Samples) -> Result<CalibModel> {
-    let zero_guess = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
-    if let Some(g) = &opts.sensor_guess {
-        return Ok(build_model(spec, g));
-    }
-    match spec {
-        ModelSpec::Nominal { .. } => {
-            let m = build_model(spec, &zero_guess);
-            let mut w = m.work();
-            let pts: Vec<_> = train.q.iter().map(|q| m.tool_point(&m.nominal, q, &mut w)).collect();
-            let (e, c) = multilaterate(&pts, &train.l)
-                .ok_or_else(|| Error::Calibration("cannot locate the cable exit point: need at least 6 well-spread poses".into()))?;
-            // Then align the sensor alone (exit point, offset, tool point) to the nominal robot,
-            // so that every method starts from "nominal kinematics, best-fitting sensor".
-            let mut model = build_model(spec, &SensorGuess { exit_m: e, offset_m: c, tool_m: [0.0; 3] });
-            let nc = model.n_chain();
-            let fixed: Vec<bool> = (0..model.n_params()).map(|k| k < nc).collect();
-            let fit = LengthFit { model: &model, data: train };
-            let lm = LevenbergMarquardt { max_iter: 200, ..Default::default() };
-            let x = lm.minimize(&fit, &model.nominal, &fixed, &mut super::optim::NoObserver).x;
-            if x.iter().all(|v| v.is_finite()) {
-                model.nominal = x;
-            }
-            Ok(model)
-        }
-        ModelSpec::Generic6r => Ok(build_model(spec, &zero_guess)),
+/// Stage "metrics": RMSE / STD / MAX before (start) and after, on training and test rows.
+pub fn metrics_stage(fit: &LengthFit, test_fit: &LengthFit, x0: &[f64], x: &[f64], rbf: Option<&RbfNetwork>) -> Metrics {
+    let has_test = !test_fit.data.is_empty();
+    Metrics {
+        train_before: stats(fit, x0, None),
+        test_before: has_test.then(|| stats(test_fit, x0, None)),
+        train_after: stats(fit, x, rbf),
+        test_after: has_test.then(|| stats(test_fit, x, rbf)),
     }
 }
 
-/// Broad bounds for the generic 6R search: D-H angles over the full circle, lengths within ±1.5 m,
-/// exit point within ±3 m, offset within ±2 m, tool point within ±0.3 m.
-fn generic_bounds(model: &CalibModel) -> Bounds {
-    let pi = std::f64::consts::PI;
-    let (lo, hi): (Vec<f64>, Vec<f64>) = model
-        .names
-        .iter()
-        .map(|n| {
-            if n.ends_with(".theta") || n.ends_with(".alpha") {
-                (-pi, pi)
-            } else if n.starts_with("exit.") {
-                (-3.0, 3.0)
-            } else if n == "length_offset" {
-                (-2.0, 2.0)
-            } else if n.starts_with("tool.") {
-                (-0.3, 0.3)
-            } else {
-                (-1.5, 1.5)
-            }
-        })
-        .unzip();
-    Bounds::new(lo, hi)
-}
-
-/// A spread per parameter: `sensor` (m) for the draw-wire geometry, `length` (m) and `angle`
-/// (rad) for the robot's parameters.
-fn prior_std(model: &CalibModel, sensor: f64, length: f64, angle: f64) -> Vec<f64> {
-    let nc = model.n_chain();
-    (0..model.n_params())
-        .map(|k| {
-            if k >= nc {
-                sensor
-            } else if model.kinds[k] == super::model::Kind::Length {
-                length
-            } else {
-                angle
-            }
-        })
-        .collect()
-}
-
-/// Sensor parameters first: they are the unknowns of every set-up, while the robot's own
-/// parameters have nominal values; where the two repeat each other the robot's are fixed.
-fn priority(model: &CalibModel) -> Vec<usize> {
-    let nc = model.n_chain();
-    (nc..model.n_params()).chain(0..nc).collect()
-}
-
-/// Identifiability of `model` on `fit`'s poses at `x`.
-pub fn identify(fit: &LengthFit, x: &[f64], tol: f64) -> Identifiability {
-    analyse(&jacobian(fit, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority(fit.model))
-}
-
-/// Covariance of the free parameters, σ²·(JᵀJ)⁻¹ with σ² = 2·cost / (m − n_free), computed on
-/// unit-norm columns so that millimetres and radians do not spoil the conditioning.
-pub fn covariance(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> Option<DMatrix<f64>> {
-    let n = fit.model.n_params();
-    let free: Vec<usize> = (0..n).filter(|k| !fixed[*k]).collect();
-    let m = fit.data.len();
-    if m <= free.len() {
+/// Stage "truth comparison": each identifiable parameter against its truth-equivalent value
+/// (computed from the truth, see [`super::equivalent`]), with z = error / standard uncertainty.
+/// Returns the truth-equivalent vector (internal units) where it could be computed.
+pub fn truth_stage(
+    model: &CalibModel,
+    spec: &ModelSpec,
+    truth: Option<&TruthFile>,
+    data: &Dataset,
+    split: &SplitData,
+    x0: &[f64],
+    fixed: &[bool],
+) -> Option<Vec<f64>> {
+    let (t, robot) = (truth?, spec.robot()?);
+    if t.poses.len() != data.rows.len() {
         return None;
     }
-    let j = jacobian(fit, x);
-    let norms: Vec<f64> = free.iter().map(|&k| j.column(k).norm().max(1e-300)).collect();
-    let js = DMatrix::from_fn(m, free.len(), |r, c| j[(r, free[c])] / norms[c]);
-    let sigma2 = 2.0 * LeastSquares::cost(fit, x) / (m - free.len()) as f64;
-    let jtj = js.transpose() * &js;
-    let inv = jtj.clone().cholesky().map(|c| c.inverse()).or_else(|| jtj.pseudo_inverse(1e-14).ok())?;
-    let mut cov = DMatrix::zeros(n, n);
-    for (a, &ka) in free.iter().enumerate() {
-        for (b, &kb) in free.iter().enumerate() {
-            cov[(ka, kb)] = sigma2 * inv[(a, b)] / (norms[a] * norms[b]);
-        }
-    }
-    Some(cov)
+    let clean = Samples { l: split.train_idx.iter().map(|&i| t.poses[i].length_true_mm * 1e-3).collect(), ..split.train.clone() };
+    super::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)
 }
 
-fn jacobian(fit: &LengthFit, x: &[f64]) -> DMatrix<f64> {
-    let mut j = DMatrix::zeros(fit.data.len(), fit.model.n_params());
-    LeastSquares::jacobian(fit, x, &mut j);
-    j
-}
-
-/// Runs a calibration. `truth` enables the parameter-error report.
+/// Runs a calibration with the method named in `opts` at its default settings.
 pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions) -> Result<CalibResult> {
-    let t0 = Instant::now();
-    let (train_idx, test_idx) = split_rows(data, opts.test_fraction, opts.seed)?;
-    if train_idx.len() < 8 {
-        return Err(Error::Calibration(format!("only {} training rows; at least 8 are needed", train_idx.len())));
-    }
-    let train = samples(data, &train_idx);
-    let test = samples(data, &test_idx);
-    let mut model = initial(&opts.model, opts, &train)?;
-    // Narrow-range data leave the generic model badly conditioned: LM then needs many small steps.
-    let max_iter = if matches!(opts.model, ModelSpec::Generic6r) { 5000 } else { 500 };
-    let lm = LevenbergMarquardt { max_iter, ..Default::default() };
-    let mut history = History::default();
+    calibrate_with(data, truth, opts, opts.method.solver(opts.effort).as_ref())
+}
 
-    // The generic model first needs a structure: global search, then local refinement.
-    if matches!(opts.model, ModelSpec::Generic6r) && opts.sensor_guess.is_none() {
-        model.nominal = generic_search(&model, &train, opts)?;
-    }
+/// Runs a calibration with a given solver. `truth` enables the parameter-error report.
+pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions, solver: &dyn Solver) -> Result<CalibResult> {
+    let t0 = Instant::now();
+    let mut warnings = Vec::new();
+    let mut split = split_stage(data, opts)?;
+    let mut model = super::placement::place_sensor(opts, &split.train)?;
+    effects_stage(&mut model, &mut split, data, opts)?;
     let x0 = model.nominal.clone();
-    let fit = LengthFit { model: &model, data: &train };
+    let fit = LengthFit { model: &model, data: &split.train };
     let id = identify(&fit, &x0, opts.rank_tol);
     let fixed = id.fixed_mask.clone();
-    let free: Vec<usize> = (0..model.n_params()).filter(|k| !fixed[*k]).collect();
+    let n_free = fixed.iter().filter(|f| !**f).count();
+    let distinct = distinct_configurations(data, &split.train_idx);
+    if distinct <= n_free {
+        return Err(Error::Calibration(format!(
+            "{distinct} distinct training configurations for {n_free} identifiable parameters: an exact fit says nothing; \
+             measure more poses (at least {} recommended)",
+            3 * n_free
+        )));
+    }
+    if split.train.len() < 3 * n_free {
+        warnings.push(format!("only {} training rows for {n_free} identifiable parameters (3x as many recommended): uncertainties are large", split.train.len()));
+    }
+    let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
+    let l: Vec<f64> = data.rows.iter().map(|r| r.l_mm).collect();
+    let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
 
-    let mut rbf = None;
-    let report: Report = match opts.method {
-        Method::Lm | Method::Rbf => {
-            let r = lm.minimize(&fit, &x0, &fixed, &mut history);
-            if opts.method == Method::Rbf {
-                let res = fit.residuals_mm(&r.x);
-                let (net, _) = RbfNetwork::fit_cv(&train.q, &res, &[5, 10, 20, 40], &[1e-6, 1e-4, 1e-2], opts.seed)
-                    .map_err(|e| Error::Calibration(format!("RBF network: {e}")))?;
-                rbf = Some(net);
-            }
-            r
-        }
-        Method::Ekf => {
-            // Prior: 20 mm on the sensor, 1 mm on lengths, 0.1° on angles; R from a noise guess of 0.05 mm.
-            let p0: Vec<f64> = prior_std(&model, 0.02, 1e-3, 0.1f64.to_radians()).iter().map(|s| s * s).collect();
-            let ekf = Ekf { epochs: (20.0 * opts.effort).ceil() as usize, q: 0.0, r: 0.05f64.powi(2), p0, tol: 1e-10 };
-            let mut order: Vec<usize> = (0..train.len()).collect();
-            order.shuffle(&mut ChaCha8Rng::seed_from_u64(opts.seed));
-            ekf.run(&fit, &x0, &fixed, &order, &mut history)
-        }
-        Method::Pf => {
-            // Prior around the aligned start: 1 mm on the sensor, 0.5 mm and 0.05° on the robot.
-            let std = prior_std(&model, 1e-3, 5e-4, 0.05f64.to_radians());
-            // Measurement variance tempered to the starting misfit, so the weights do not collapse
-            // onto a handful of particles in the first batches.
-            let r0 = 2.0 * LeastSquares::cost(&fit, &x0) / train.len() as f64;
-            let pf = ParticleFilter {
-                particles: (4000.0 * opts.effort) as usize,
-                epochs: 4,
-                batch: 10,
-                r: r0.max(0.05f64.powi(2)),
-                roughening: 0.1,
-                seed: opts.seed,
-            };
-            let mut order: Vec<usize> = (0..train.len()).collect();
-            order.shuffle(&mut ChaCha8Rng::seed_from_u64(opts.seed));
-            pf.run(&fit, &x0, &std, &fixed, &order, &mut history)
-        }
-        Method::Pso => {
-            let prior = prior_std(&model, 0.05, 3e-3, 0.3f64.to_radians());
-            let half: Vec<f64> = free.iter().map(|&k| prior[k]).collect();
-            let centre: Vec<f64> = free.iter().map(|&k| x0[k]).collect();
-            let bounds = Bounds::around(&centre, &half);
-            let cost = FreeCost { fit: LengthFit { model: &model, data: &train }, base: x0.clone(), free: free.clone() };
-            let pso = Pso { particles: 60, iterations: (1500.0 * opts.effort) as usize, seed: opts.seed, patience: 200, ..Default::default() };
-            let mut r = pso.minimize(&cost, &bounds, Some(&centre), &mut history);
-            r.x = cost.expand(&r.x);
-            // The swarm works on the free parameters only; record full vectors like the others.
-            history.x = history.x.iter().map(|xf| cost.expand(xf)).collect();
-            r
-        }
-    };
+    let noise = if solver.needs_noise() { estimate_noise(&fit, &x0, &fixed, repeatability.as_ref()) } else { f64::NAN };
+    let prior_std = opts.tolerances.prior_std(&model);
+    let mut history = History::default();
+    let problem = Problem { fit: &fit, x0: &x0, fixed: &fixed, prior_std: &prior_std, noise_mm: noise, seed: opts.seed };
+    let Solution { report, rbf } = solver.solve(&problem, &mut history)?;
     let x = report.x.clone();
     if x.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Calibration(format!("{} diverged (non-finite parameters)", opts.method.name())));
+        return Err(Error::Calibration(format!("{} diverged (non-finite parameters)", solver.method().name())));
+    }
+    if !report.converged {
+        warnings.push(format!("{} did not converge ({}); the result may not be a minimum", solver.method().name(), report.reason));
     }
 
-    // Standard uncertainties from the Jacobian at the solution (all methods alike).
+    // Stage "uncertainty": standard uncertainties from the Jacobian at the solution (all methods alike).
     let cov = covariance(&fit, &x, &fixed);
-    let test_fit = LengthFit { model: &model, data: &test };
-    let metrics = Metrics {
-        train_before: stats(&fit, &x0, None),
-        test_before: (!test.is_empty()).then(|| stats(&test_fit, &x0, None)),
-        train_after: stats(&fit, &x, rbf.as_ref()),
-        test_after: (!test.is_empty()).then(|| stats(&test_fit, &x, rbf.as_ref())),
-    };
+    let noise_estimate_mm = if noise.is_finite() { noise } else { residual_sigma(&fit, &x, &fixed) };
+    let test_fit = LengthFit { model: &model, data: &split.test };
+    let metrics = metrics_stage(&fit, &test_fit, &x0, &x, rbf.as_ref());
+    let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
+    let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
+    let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
+    Ok(CalibResult {
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+        data: data.source.clone(),
+        method: solver.method(),
+        model_name: model.name.clone(),
+        seed: opts.seed,
+        n_train: split.train.len(),
+        n_test: split.test.len(),
+        parameters,
+        identifiability: serde_json::to_value(&id).unwrap_or_default(),
+        metrics,
+        iterations: report.iterations,
+        evaluations: report.evaluations,
+        converged: report.converged,
+        stop_reason: report.reason.clone(),
+        wall_time_s: t0.elapsed().as_secs_f64(),
+        noise_estimate_mm,
+        warnings,
+        truth_comparison,
+        repeatability,
+        x,
+        rbf,
+        history: history_disp,
+        model,
+    })
+}
 
-    // Truth: the parameters this model reaches on noise-free lengths of the same poses.
-    let truth_x = match truth {
-        Some(t) if t.poses.len() == data.rows.len() => {
-            let clean = Samples { q: train.q.clone(), l: train_idx.iter().map(|&i| t.poses[i].length_true_mm * 1e-3).collect() };
-            let cfit = LengthFit { model: &model, data: &clean };
-            Some(lm.minimize(&cfit, &x, &fixed, &mut super::optim::NoObserver).x)
-        }
-        _ => None,
-    };
+/// Every parameter in display units with its uncertainty and, with a truth, its error and z.
+fn parameter_reports(
+    model: &CalibModel,
+    x0: &[f64],
+    x: &[f64],
+    fixed: &[bool],
+    cov: Option<&DMatrix<f64>>,
+    truth_x: Option<&[f64]>,
+    truth: Option<&TruthFile>,
+) -> (Vec<ParamReport>, Option<TruthComparison>) {
     let mut parameters = Vec::with_capacity(model.n_params());
-    let mut within = 0;
-    let mut max_z: f64 = 0.0;
+    let (mut within, mut max_z) = (0, 0.0f64);
     for k in 0..model.n_params() {
         let d = model.kinds[k].display();
-        let sd = cov.as_ref().map(|c| c[(k, k)].max(0.0).sqrt() * d).filter(|_| !fixed[k]);
-        let truth_v = truth_x.as_ref().map(|t| t[k] * d);
+        let sd = cov.map(|c| c[(k, k)].max(0.0).sqrt() * d).filter(|_| !fixed[k]);
+        let truth_v = truth_x.map(|t| t[k] * d);
         let error = truth_v.map(|t| x[k] * d - t);
         let z = match (error, sd) {
             (Some(e), Some(s)) if s > 0.0 => Some(e / s),
@@ -510,74 +526,12 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
             z,
         });
     }
-    let truth_comparison = truth.filter(|_| truth_x.is_some()).map(|t| TruthComparison {
+    let comparison = truth.filter(|_| truth_x.is_some()).map(|t| TruthComparison {
         within_3_sigma: within,
-        identifiable: free.len(),
+        identifiable: fixed.iter().filter(|f| !**f).count(),
         max_abs_z: max_z,
+        method: "mapped from the true frame errors, then fitted to the noise-free lengths from there".into(),
         noise_floor_mm: t.noise_std_mm,
     });
-    let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
-    let l: Vec<f64> = data.rows.iter().map(|r| r.l_mm).collect();
-    let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
-    let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
-    Ok(CalibResult {
-        twincal_version: env!("CARGO_PKG_VERSION").into(),
-        data: data.source.clone(),
-        method: opts.method,
-        model_name: model.name.clone(),
-        seed: opts.seed,
-        n_train: train.len(),
-        n_test: test.len(),
-        parameters,
-        identifiability: serde_json::to_value(&id).unwrap_or_default(),
-        metrics,
-        iterations: report.iterations,
-        evaluations: report.evaluations,
-        converged: report.converged,
-        stop_reason: report.reason.clone(),
-        wall_time_s: t0.elapsed().as_secs_f64(),
-        truth_comparison,
-        repeatability,
-        x,
-        rbf,
-        history: history_disp,
-        model,
-    })
-}
-
-/// Global search for the generic model: L-SHADE over broad bounds, several restarts, each
-/// polished by LM; the best training fit wins.
-fn generic_search(model: &CalibModel, train: &Samples, opts: &CalibOptions) -> Result<Vec<f64>> {
-    let bounds = generic_bounds(model);
-    let all: Vec<usize> = (0..model.n_params()).collect();
-    // The global search sees an evenly spread subset (every k-th row, at most 400); LM then
-    // polishes each candidate on every training row.
-    let step = train.len().div_ceil(400).max(1);
-    let subset = Samples { q: train.q.iter().step_by(step).cloned().collect(), l: train.l.iter().step_by(step).copied().collect() };
-    let fit = LengthFit { model, data: train };
-    let lm = LevenbergMarquardt { max_iter: 300, ..Default::default() };
-    let restarts = (4.0 * opts.effort).ceil() as u64;
-    // Restarts are independent (own seeds) and run in parallel; the result does not depend on
-    // the number of threads.
-    let candidates: Vec<(f64, Vec<f64>)> = (0..restarts)
-        .into_par_iter()
-        .map(|r| {
-            let cost = FreeCost { fit: LengthFit { model, data: &subset }, base: model.nominal.clone(), free: all.clone() };
-            let de = De {
-                variant: DeVariant::LShade { memory: 6, p: 0.11, min_pop: 6 },
-                pop: 120,
-                generations: 100_000,
-                max_evals: Some((60_000.0 * opts.effort.min(1.0)) as usize),
-                seed: opts.seed.wrapping_mul(31).wrapping_add(r),
-                tol: 1e-12,
-                patience: 300,
-            };
-            let g = de.minimize(&cost, &bounds, None, &mut super::optim::NoObserver);
-            let id = identify(&fit, &g.x, opts.rank_tol);
-            let polished = lm.minimize(&fit, &g.x, &id.fixed_mask, &mut super::optim::NoObserver);
-            (LeastSquares::cost(&fit, &polished.x), polished.x)
-        })
-        .collect();
-    let best = candidates.into_iter().filter(|c| c.0.is_finite()).min_by(|a, b| a.0.total_cmp(&b.0));
-    best.map(|b| b.1).ok_or_else(|| Error::Calibration("global search found nothing".into()))
+    (parameters, comparison)
 }

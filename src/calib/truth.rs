@@ -7,6 +7,9 @@ use std::path::Path;
 /// What a truth file says, as far as calibration needs it.
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthFile {
+    /// True geometric deviations by name: mm for `.dx/.dy/.dz`, degrees otherwise.
+    #[serde(default)]
+    pub parameters: std::collections::BTreeMap<String, f64>,
     pub sensor: TruthSensor,
     pub tool: TruthTool,
     pub noise_std_mm: f64,

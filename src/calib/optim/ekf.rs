@@ -33,7 +33,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::util::free_indices;
+use super::util::{free_indices, obs_cost};
 use super::{Event, Observations, Observer, Report};
 
 const METHOD: &str = "ekf";
@@ -57,23 +57,6 @@ pub struct Ekf {
 impl Default for Ekf {
     fn default() -> Self {
         Ekf { epochs: 10, q: 0.0, r: 1.0, p0: vec![1.0], tol: 1e-9 }
-    }
-}
-
-/// `½ Σ (z_i − h_i(x))²` over `order`, NaN → +∞.
-fn epoch_cost<O: Observations>(o: &O, x: &[f64], order: &[usize]) -> f64 {
-    let c = 0.5
-        * order
-            .iter()
-            .map(|&i| {
-                let e = o.measured(i) - o.predict(x, i);
-                e * e
-            })
-            .sum::<f64>();
-    if c.is_nan() {
-        f64::INFINITY
-    } else {
-        c
     }
 }
 
@@ -113,7 +96,7 @@ impl Ekf {
         let mut w = DVector::<f64>::zeros(n);
 
         let mut evaluations = order.len();
-        let mut cost = epoch_cost(o, &x, order);
+        let mut cost = obs_cost(o, &x, order);
         let mut iterations = 0;
         let mut converged = false;
         let mut reason = String::from("maximum number of epochs reached");
@@ -177,7 +160,7 @@ impl Ekf {
                 }
             }
 
-            let new_cost = epoch_cost(o, &x, order);
+            let new_cost = obs_cost(o, &x, order);
             evaluations += order.len();
             obs.observe(&Event { method: METHOD, iteration: iterations, cost: new_cost, x: &x });
             let change = (cost - new_cost).abs();

@@ -385,7 +385,10 @@ pub fn covariance<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool]) -> Option<D
     }
     let mut jac = DMatrix::<f64>::zeros(m, n);
     p.jacobian(x, &mut jac);
-    let jf = DMatrix::from_fn(m, nf, |i, k| jac[(i, free[k])]);
+    // Unit-norm columns, so that parameters in mm and in rad do not spoil the conditioning;
+    // the scaling is undone below.
+    let norms: Vec<f64> = free.iter().map(|&k| jac.column(k).norm().max(1e-300)).collect();
+    let jf = DMatrix::from_fn(m, nf, |i, k| jac[(i, free[k])] / norms[k]);
     if jf.iter().any(|v| !v.is_finite()) {
         return None;
     }
@@ -404,9 +407,9 @@ pub fn covariance<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool]) -> Option<D
         }
         let w = sigma2 / s2;
         for a in 0..nf {
-            let va = vt[(i, a)] * w;
+            let va = vt[(i, a)] * w / norms[a];
             for b in 0..nf {
-                out[(free[a], free[b])] += va * vt[(i, b)];
+                out[(free[a], free[b])] += va * vt[(i, b)] / norms[b];
             }
         }
     }

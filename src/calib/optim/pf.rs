@@ -38,7 +38,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
-use super::util::free_indices;
+use super::util::{free_indices, obs_cost};
 use super::{Event, Observations, Observer, Report};
 
 const METHOD: &str = "particle-filter";
@@ -65,23 +65,6 @@ pub struct ParticleFilter {
 impl Default for ParticleFilter {
     fn default() -> Self {
         ParticleFilter { particles: 2000, epochs: 1, batch: 5, r: 1.0, roughening: 0.2, seed: 0 }
-    }
-}
-
-/// `½ Σ (z_i − h_i(x))²` over `order`, NaN → +∞.
-fn cost_at<O: Observations>(o: &O, x: &[f64], order: &[usize]) -> f64 {
-    let c = 0.5
-        * order
-            .iter()
-            .map(|&i| {
-                let e = o.measured(i) - o.predict(x, i);
-                e * e
-            })
-            .sum::<f64>();
-    if c.is_nan() {
-        f64::INFINITY
-    } else {
-        c
     }
 }
 
@@ -251,13 +234,13 @@ impl ParticleFilter {
             }
 
             weighted_mean(&parts, &logw, n, &free, &mut mean);
-            cost = cost_at(o, &mean, order);
+            cost = obs_cost(o, &mean, order);
             evaluations += order.len();
             obs.observe(&Event { method: METHOD, iteration: iterations, cost, x: &mean });
         }
         if iterations == 0 {
             weighted_mean(&parts, &logw, n, &free, &mut mean);
-            cost = cost_at(o, &mean, order);
+            cost = obs_cost(o, &mean, order);
             evaluations += order.len();
         }
 

@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use super::Cost;
+use super::{Cost, Observations};
 
 /// Below this many cost evaluations per batch the swarm / population is evaluated serially:
 /// spawning rayon tasks costs more than it saves for cheap, small batches.
@@ -127,4 +127,18 @@ pub(crate) mod testfns {
             }
         }
     }
+}
+
+/// `½ Σ (z_i − h_i(x))²` over the observations `order` (the epoch cost of the sequential
+/// filters), NaN → +∞.
+pub(crate) fn obs_cost<O: Observations>(o: &O, x: &[f64], order: &[usize]) -> f64 {
+    let c = 0.5
+        * order
+            .iter()
+            .map(|&i| {
+                let e = o.measured(i) - o.predict(x, i);
+                e * e
+            })
+            .sum::<f64>();
+    sanitize(c)
 }

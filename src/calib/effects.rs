@@ -1,0 +1,244 @@
+//! Non-geometric effect blocks of a calibration model. Each block is one physical effect the twin
+//! simulates (`src/effects`), with a few named, interpretable parameters, in the form a
+//! calibration fits from q, L and the optional t / temp columns:
+//!
+//! | block | parameters | what it adds |
+//! |---|---|---|
+//! | `joint_compliance` (joint j) | c_j, rad/(N·m) | joint angle + c_j·τ_j (static torque from the URDF inertials, payload, cable) |
+//! | `backlash` (joint j) | h_j, rad (half band) | joint angle + h_j·side_j (load side, else approach side) |
+//! | `thermal_drift` | α, 1/K (with `temp`) or s, τ (time only) | every link length × (1 + α·(T − T_ref)) or (1 + s·(1 − e^(−t/τ))) |
+//! | `encoder_eccentricity` (joint j) | a_j, b_j, rad | joint angle + a_j·sin q_j + b_j·cos q_j |
+//! | `sensor_nonlinearity` | p1..p3, m | reading + Σ p_k·P_k(v), Legendre polynomials over the data's reading range |
+//!
+//! The per-row inputs they need (torques, sides, time, temperature) travel in one
+//! [`RowInputs`] per sample. Derivatives are analytic and checked against finite differences.
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+/// The effects a calibration model can represent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EffectKind {
+    JointCompliance,
+    Backlash,
+    ThermalDrift,
+    EncoderEccentricity,
+    SensorNonlinearity,
+}
+
+impl EffectKind {
+    pub const ALL: [EffectKind; 5] =
+        [EffectKind::JointCompliance, EffectKind::Backlash, EffectKind::ThermalDrift, EffectKind::EncoderEccentricity, EffectKind::SensorNonlinearity];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            EffectKind::JointCompliance => "joint_compliance",
+            EffectKind::Backlash => "backlash",
+            EffectKind::ThermalDrift => "thermal_drift",
+            EffectKind::EncoderEccentricity => "encoder_eccentricity",
+            EffectKind::SensorNonlinearity => "sensor_nonlinearity",
+        }
+    }
+    /// Whether the effect has one block per joint.
+    pub fn per_joint(self) -> bool {
+        matches!(self, EffectKind::JointCompliance | EffectKind::Backlash | EffectKind::EncoderEccentricity)
+    }
+    /// Accepts the names above and the short forms `compliance`, `thermal`, `eccentricity`,
+    /// `nonlinearity`.
+    pub fn parse(s: &str) -> Result<EffectKind> {
+        let s = s.trim().to_ascii_lowercase();
+        let short = match s.as_str() {
+            "compliance" => Some(EffectKind::JointCompliance),
+            "thermal" => Some(EffectKind::ThermalDrift),
+            "eccentricity" => Some(EffectKind::EncoderEccentricity),
+            "nonlinearity" => Some(EffectKind::SensorNonlinearity),
+            _ => None,
+        };
+        short.or_else(|| EffectKind::ALL.into_iter().find(|k| k.name() == s)).ok_or_else(|| {
+            Error::Invalid(format!(
+                "unknown effect '{s}' (expected compliance, backlash, thermal, eccentricity or nonlinearity, optionally with :JOINT, e.g. compliance:2)"
+            ))
+        })
+    }
+}
+
+/// Physical unit of an effect parameter, for display and priors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EffectUnit {
+    /// rad/(N·m), shown in µrad/(N·m).
+    Compliance,
+    /// rad, shown in millidegrees.
+    SmallAngle,
+    /// 1/K, shown in ppm/K.
+    PerKelvin,
+    /// dimensionless, shown in ppm.
+    Ratio,
+    /// s.
+    Seconds,
+    /// m, shown in mm.
+    Length,
+}
+
+impl EffectUnit {
+    pub fn display(self) -> f64 {
+        match self {
+            EffectUnit::Compliance | EffectUnit::PerKelvin | EffectUnit::Ratio => 1e6,
+            EffectUnit::SmallAngle => 180.0 / std::f64::consts::PI * 1e3,
+            EffectUnit::Seconds => 1.0,
+            EffectUnit::Length => 1e3,
+        }
+    }
+    pub fn unit(self) -> &'static str {
+        match self {
+            EffectUnit::Compliance => "urad/Nm",
+            EffectUnit::SmallAngle => "mdeg",
+            EffectUnit::PerKelvin => "ppm/K",
+            EffectUnit::Ratio => "ppm",
+            EffectUnit::Seconds => "s",
+            EffectUnit::Length => "mm",
+        }
+    }
+}
+
+/// How the thermal block is driven.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ThermalDrive {
+    /// Measured temperature: scale = 1 + α·(T − `ref_c`).
+    Temperature { ref_c: f64 },
+    /// Time only: first-order warm-up, scale = 1 + s·(1 − e^(−t/τ)).
+    WarmUp,
+}
+
+/// One effect in a calibration model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EffectBlock {
+    pub kind: EffectKind,
+    /// Joint (0-based) of a per-joint effect.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<ThermalDrive>,
+    /// Sensor nonlinearity: reading range [lo, hi] (m) its polynomials are normalised over.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub range_m: Option<[f64; 2]>,
+}
+
+impl EffectBlock {
+    pub fn joint(kind: EffectKind, j: usize) -> Self {
+        EffectBlock { kind, joint: Some(j), thermal: None, range_m: None }
+    }
+    /// A short label: `joint_compliance[j2]`, `thermal_drift`.
+    pub fn label(&self) -> String {
+        match self.joint {
+            Some(j) => format!("{}[j{}]", self.kind.name(), j + 1),
+            None => self.kind.name().to_string(),
+        }
+    }
+    /// Names and units of the block's parameters.
+    pub fn params(&self) -> Vec<(String, EffectUnit)> {
+        let j = self.joint.map(|j| j + 1).unwrap_or(0);
+        match self.kind {
+            EffectKind::JointCompliance => vec![(format!("compliance.j{j}"), EffectUnit::Compliance)],
+            EffectKind::Backlash => vec![(format!("backlash.j{j}"), EffectUnit::SmallAngle)],
+            EffectKind::EncoderEccentricity => {
+                vec![(format!("eccentricity.j{j}.sin"), EffectUnit::SmallAngle), (format!("eccentricity.j{j}.cos"), EffectUnit::SmallAngle)]
+            }
+            EffectKind::ThermalDrift => match self.thermal {
+                Some(ThermalDrive::Temperature { .. }) => vec![("thermal.alpha".into(), EffectUnit::PerKelvin)],
+                _ => vec![("thermal.scale".into(), EffectUnit::Ratio), ("thermal.tau".into(), EffectUnit::Seconds)],
+            },
+            EffectKind::SensorNonlinearity => (1..=3).map(|k| (format!("sensor_nl.p{k}"), EffectUnit::Length)).collect(),
+        }
+    }
+    /// Starting values of the parameters (no effect): zero, except a warm-up time constant,
+    /// which starts at a third of the data's time span `t_span_s`.
+    pub fn start(&self, t_span_s: f64) -> Vec<f64> {
+        let mut v = vec![0.0; self.params().len()];
+        if self.kind == EffectKind::ThermalDrift && !matches!(self.thermal, Some(ThermalDrive::Temperature { .. })) {
+            v[1] = (t_span_s / 3.0).max(1.0);
+        }
+        v
+    }
+}
+
+/// What one sample carries besides q and L.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RowInputs {
+    /// Time from the start of acquisition, s.
+    pub t_s: Option<f64>,
+    /// Measured temperature, °C.
+    pub temp_c: Option<f64>,
+    /// Static joint torques, N·m (zero without an inertial model).
+    pub torque: [f64; 6],
+    /// Backlash flank per joint (±1; 0 when unknown).
+    pub side: [f64; 6],
+}
+
+/// Legendre polynomials P1..P3 and their derivatives at v.
+pub fn legendre(v: f64) -> ([f64; 3], [f64; 3]) {
+    ([v, 0.5 * (3.0 * v * v - 1.0), 0.5 * (5.0 * v * v * v - 3.0 * v)], [1.0, 3.0 * v, 0.5 * (15.0 * v * v - 3.0)])
+}
+
+/// The effect state of one row: joint offsets and length scale, with the partial derivatives of
+/// each with respect to the effect parameters.
+#[derive(Clone, Debug, Default)]
+pub struct EffectState {
+    pub dq: [f64; 6],
+    pub scale: f64,
+    /// (parameter index, joint, ∂Δq_joint/∂param).
+    pub joint_terms: Vec<(usize, usize, f64)>,
+    /// (parameter index, ∂scale/∂param).
+    pub scale_terms: Vec<(usize, f64)>,
+}
+
+/// Evaluates the joint-offset and scale effects of `blocks` whose parameters start at `first`
+/// in `x`, for a row with commanded angles `q` (rad) and inputs `inp`.
+pub fn joint_and_scale_effects(blocks: &[EffectBlock], first: usize, x: &[f64], q: &[f64], inp: &RowInputs, st: &mut EffectState) {
+    st.dq = [0.0; 6];
+    st.scale = 1.0;
+    st.joint_terms.clear();
+    st.scale_terms.clear();
+    let mut k = first;
+    for b in blocks {
+        let n = b.params().len();
+        match b.kind {
+            EffectKind::JointCompliance => {
+                let j = b.joint.unwrap_or(0);
+                st.dq[j] += x[k] * inp.torque[j];
+                st.joint_terms.push((k, j, inp.torque[j]));
+            }
+            EffectKind::Backlash => {
+                let j = b.joint.unwrap_or(0);
+                st.dq[j] += x[k] * inp.side[j];
+                st.joint_terms.push((k, j, inp.side[j]));
+            }
+            EffectKind::EncoderEccentricity => {
+                let j = b.joint.unwrap_or(0);
+                let (s, c) = q[j].sin_cos();
+                st.dq[j] += x[k] * s + x[k + 1] * c;
+                st.joint_terms.push((k, j, s));
+                st.joint_terms.push((k + 1, j, c));
+            }
+            EffectKind::ThermalDrift => match b.thermal {
+                Some(ThermalDrive::Temperature { ref_c }) => {
+                    let dt = inp.temp_c.map(|t| t - ref_c).unwrap_or(0.0);
+                    st.scale += x[k] * dt;
+                    st.scale_terms.push((k, dt));
+                }
+                _ => {
+                    let t = inp.t_s.unwrap_or(0.0);
+                    let tau = x[k + 1].max(1e-3);
+                    let e = (-t / tau).exp();
+                    st.scale += x[k] * (1.0 - e);
+                    st.scale_terms.push((k, 1.0 - e));
+                    st.scale_terms.push((k + 1, -x[k] * e * t / (tau * tau)));
+                }
+            },
+            EffectKind::SensorNonlinearity => {}
+        }
+        k += n;
+    }
+}

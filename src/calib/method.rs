@@ -1,0 +1,254 @@
+//! Calibration methods as solver values. Each method is a struct that carries its own settings
+//! and solves a [`Problem`]; the pipeline in [`super::run`] only calls [`Solver::solve`], so a new
+//! method (or one with other settings) is added beside these, not inside the pipeline.
+//!
+//! Nothing here knows how the data were made: spreads come from the documented
+//! [`Tolerances`](super::tolerance::Tolerances) (via [`Problem::prior_std`]) and noise levels
+//! from the data ([`Problem::noise_mm`]).
+
+use super::optim::{Bounds, Ekf, LeastSquares, LevenbergMarquardt, Observer, ParticleFilter, Pso, Report};
+use super::problem::{FreeCost, LengthFit};
+use super::rbf::RbfNetwork;
+use crate::error::{Error, Result};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// The methods the command line offers by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    Lm,
+    Ekf,
+    Pf,
+    Pso,
+    Rbf,
+}
+
+impl Method {
+    pub const ALL: [Method; 5] = [Method::Lm, Method::Ekf, Method::Pf, Method::Pso, Method::Rbf];
+
+    pub fn parse(s: &str) -> Result<Method> {
+        let s = s.trim().to_ascii_lowercase();
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso or rbf)")))
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Lm => "lm",
+            Method::Ekf => "ekf",
+            Method::Pf => "pf",
+            Method::Pso => "pso",
+            Method::Rbf => "rbf",
+        }
+    }
+    /// The method with its default settings; `effort` scales the budget of the stochastic ones.
+    pub fn solver(self, effort: f64) -> Box<dyn Solver> {
+        match self {
+            Method::Lm => Box::new(LmSolver::default()),
+            Method::Ekf => Box::new(EkfSolver { epochs: (20.0 * effort).ceil() as usize }),
+            Method::Pf => Box::new(PfSolver { particles: (4000.0 * effort).max(100.0) as usize, ..Default::default() }),
+            Method::Pso => Box::new(PsoSolver { iterations: (1500.0 * effort).max(10.0) as usize, ..Default::default() }),
+            Method::Rbf => Box::new(RbfSolver::default()),
+        }
+    }
+}
+
+/// What a solver is given: the fit on the training rows, the start, the fixed (non-identifiable)
+/// parameters, a one-sigma prior spread per parameter and the noise level estimated from the data.
+pub struct Problem<'a> {
+    pub fit: &'a LengthFit<'a>,
+    pub x0: &'a [f64],
+    pub fixed: &'a [bool],
+    /// One standard deviation per parameter, internal units (from the tolerances).
+    pub prior_std: &'a [f64],
+    /// Standard deviation of one reading, mm, estimated from the data.
+    pub noise_mm: f64,
+    pub seed: u64,
+}
+
+impl Problem<'_> {
+    fn free(&self) -> Vec<usize> {
+        (0..self.x0.len()).filter(|k| !self.fixed[*k]).collect()
+    }
+    /// The training rows in a seeded random order (for the sequential filters).
+    fn shuffled_rows(&self) -> Vec<usize> {
+        let mut order: Vec<usize> = (0..self.fit.data.len()).collect();
+        order.shuffle(&mut ChaCha8Rng::seed_from_u64(self.seed));
+        order
+    }
+}
+
+/// A solver's answer: the optimiser's report and, for methods that add one, a corrector of the
+/// residual field.
+pub struct Solution {
+    pub report: Report,
+    pub rbf: Option<RbfNetwork>,
+}
+
+/// A calibration method with its settings.
+pub trait Solver: Send + Sync {
+    fn method(&self) -> Method;
+    /// Whether the method uses [`Problem::noise_mm`] (the pipeline then estimates it first).
+    fn needs_noise(&self) -> bool {
+        false
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution>;
+}
+
+/// Levenberg–Marquardt on all identifiable parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LmSolver {
+    pub lm: LevenbergMarquardt,
+}
+
+impl Default for LmSolver {
+    fn default() -> Self {
+        LmSolver { lm: LevenbergMarquardt { max_iter: 500, ..Default::default() } }
+    }
+}
+
+impl Solver for LmSolver {
+    fn method(&self) -> Method {
+        Method::Lm
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
+        Ok(Solution { report: self.lm.minimize(p.fit, p.x0, p.fixed, obs), rbf: None })
+    }
+}
+
+/// Extended Kalman filter over the parameters: prior covariance from the tolerances, measurement
+/// variance from the estimated noise, several passes over the shuffled training rows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EkfSolver {
+    pub epochs: usize,
+}
+
+impl Solver for EkfSolver {
+    fn method(&self) -> Method {
+        Method::Ekf
+    }
+    fn needs_noise(&self) -> bool {
+        true
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
+        // A diffuse prior (3 tolerances): the filter should not pull towards the nominal.
+        let p0 = p.prior_std.iter().map(|s| (3.0 * s).powi(2)).collect();
+        let ekf = Ekf { epochs: self.epochs.max(1), q: 0.0, r: p.noise_mm.powi(2), p0, tol: 1e-10 };
+        Ok(Solution { report: ekf.run(p.fit, p.x0, p.fixed, &p.shuffled_rows(), obs), rbf: None })
+    }
+}
+
+/// Regularised particle filter: particles drawn from the tolerance prior around the start.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PfSolver {
+    pub particles: usize,
+    pub epochs: usize,
+    pub batch: usize,
+    pub roughening: f64,
+}
+
+impl Default for PfSolver {
+    fn default() -> Self {
+        PfSolver { particles: 4000, epochs: 4, batch: 10, roughening: 0.1 }
+    }
+}
+
+impl Solver for PfSolver {
+    fn method(&self) -> Method {
+        Method::Pf
+    }
+    fn needs_noise(&self) -> bool {
+        true
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
+        // The likelihood is tempered to the starting misfit (never sharper than the noise), so
+        // the weights do not collapse onto a handful of particles in the first batches.
+        let r0 = 2.0 * LeastSquares::cost(p.fit, p.x0) / p.fit.data.len() as f64;
+        let pf = ParticleFilter {
+            particles: self.particles,
+            epochs: self.epochs,
+            batch: self.batch,
+            r: r0.max(p.noise_mm.powi(2)),
+            roughening: self.roughening,
+            seed: p.seed,
+        };
+        Ok(Solution { report: pf.run(p.fit, p.x0, p.prior_std, p.fixed, &p.shuffled_rows(), obs), rbf: None })
+    }
+}
+
+/// Particle swarm over the identifiable parameters inside ± `width_sigmas` tolerances.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PsoSolver {
+    pub particles: usize,
+    pub iterations: usize,
+    pub patience: usize,
+    pub width_sigmas: f64,
+}
+
+impl Default for PsoSolver {
+    fn default() -> Self {
+        PsoSolver { particles: 60, iterations: 1500, patience: 200, width_sigmas: 5.0 }
+    }
+}
+
+/// Re-expresses observed free-parameter vectors as full vectors for the caller's observer.
+struct Expand<'a, 'b> {
+    cost: &'a FreeCost<'b>,
+    inner: &'a mut dyn Observer,
+}
+
+impl Observer for Expand<'_, '_> {
+    fn observe(&mut self, e: &super::optim::Event) {
+        let x = self.cost.expand(e.x);
+        self.inner.observe(&super::optim::Event { x: &x, ..e.clone() });
+    }
+}
+
+impl Solver for PsoSolver {
+    fn method(&self) -> Method {
+        Method::Pso
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
+        let free = p.free();
+        let half: Vec<f64> = free.iter().map(|&k| self.width_sigmas * p.prior_std[k]).collect();
+        let centre: Vec<f64> = free.iter().map(|&k| p.x0[k]).collect();
+        let bounds = Bounds::around(&centre, &half);
+        let cost = FreeCost { fit: LengthFit { model: p.fit.model, data: p.fit.data }, base: p.x0.to_vec(), free };
+        let pso = Pso { particles: self.particles, iterations: self.iterations, seed: p.seed, patience: self.patience, ..Default::default() };
+        let mut report = pso.minimize(&cost, &bounds, Some(&centre), &mut Expand { cost: &cost, inner: obs });
+        report.x = cost.expand(&report.x);
+        Ok(Solution { report, rbf: None })
+    }
+}
+
+/// LM geometry, then a Gaussian RBF network on the training residuals (centres and ridge by
+/// cross-validation).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RbfSolver {
+    pub lm: LmSolver,
+    pub centres: Vec<usize>,
+    pub ridges: Vec<f64>,
+}
+
+impl Default for RbfSolver {
+    fn default() -> Self {
+        RbfSolver { lm: LmSolver::default(), centres: vec![5, 10, 20, 40], ridges: vec![1e-6, 1e-4, 1e-2] }
+    }
+}
+
+impl Solver for RbfSolver {
+    fn method(&self) -> Method {
+        Method::Rbf
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
+        let report = self.lm.solve(p, obs)?.report;
+        let res = p.fit.residuals_mm(&report.x);
+        let (net, _) = RbfNetwork::fit_cv(&p.fit.data.q, &res, &self.centres, &self.ridges, p.seed)
+            .map_err(|e| Error::Calibration(format!("RBF network: {e}")))?;
+        Ok(Solution { report, rbf: Some(net) })
+    }
+}

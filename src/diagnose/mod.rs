@@ -1,0 +1,573 @@
+//! `twincal diagnose`: from measured data alone (q, L and the optional t / temp columns), what
+//! does the geometric model get wrong, which physical effect causes it, how big is it, and how
+//! much better does the extended model predict rows it has not seen?
+//!
+//! 1. **Baseline.** The geometric model is calibrated (sensor placement unknown, as always).
+//!    Rows far off the fit by a robust criterion (median ± k·1.4826·MAD of the residuals,
+//!    iterated) are named as outliers and kept out of every fit and statistic.
+//! 2. **Evidence.** The baseline residuals against per-row features: joint torques, their
+//!    signs, approach directions, time, temperature, joint-angle harmonics, the reading.
+//! 3. **Forward selection.** Every candidate effect block ([`crate::calib::effects`]) is added in
+//!    turn, everything is refitted, and its held-out gain measured by cross-validation over
+//!    contiguous blocks of acquisition order (so time-dependent effects must extrapolate). The
+//!    gain's significance is a one-sided Wilcoxon signed-rank test on the per-row squared
+//!    held-out residuals, Bonferroni-corrected for the number of candidates. The best
+//!    significant candidate is kept and the search repeats until nothing significant is left.
+//! 4. **Sizes.** Each kept effect's size with its standard uncertainty, in physical units.
+//!
+//! Nothing here reads how the data were made.
+
+use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
+use crate::calib::identify::Identifiability;
+use crate::calib::inputs::{block_for, row_inputs, time_span, LoadOptions};
+use crate::calib::model::CalibModel;
+use crate::calib::optim::{covariance, LevenbergMarquardt, NoObserver};
+use crate::calib::problem::{LengthFit, Samples};
+use crate::calib::run::{identify, samples, split_stage, CalibOptions, Method, ModelSpec};
+use crate::calib::stats::wilcoxon_signed_rank;
+use crate::dataset::Dataset;
+use crate::error::{Error, Result};
+use crate::robot::Robot;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Settings of a diagnosis.
+#[derive(Clone, Debug)]
+pub struct DiagnoseOptions {
+    pub model: ModelSpec,
+    /// Inertial model for joint torques when `model` has none (generic 6R).
+    pub inertial: Option<Robot>,
+    pub loads: LoadOptions,
+    /// Cross-validation folds (contiguous blocks of acquisition order).
+    pub folds: usize,
+    /// Family-wise significance level of one selection step.
+    pub alpha: f64,
+    /// Smallest relative held-out RMSE gain worth a new effect.
+    pub min_gain: f64,
+    /// Most effects to add.
+    pub max_effects: usize,
+    /// Robust outlier threshold, in MAD-based standard deviations.
+    pub outlier_k: f64,
+    pub rank_tol: f64,
+    pub seed: u64,
+    /// Candidate effects; empty = every kind the data support.
+    pub candidates: Vec<EffectKind>,
+}
+
+impl DiagnoseOptions {
+    pub fn new(model: ModelSpec) -> Self {
+        DiagnoseOptions {
+            model,
+            inertial: None,
+            loads: LoadOptions::default(),
+            folds: 5,
+            alpha: 0.01,
+            min_gain: 0.02,
+            max_effects: 4,
+            outlier_k: 6.0,
+            rank_tol: 1e-7,
+            seed: 0,
+            candidates: Vec::new(),
+        }
+    }
+    fn inertial_robot(&self) -> Option<&Robot> {
+        self.model.robot().or(self.inertial.as_ref())
+    }
+}
+
+/// A row kept out of the fit.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Outlier {
+    /// Data row, 1-based (the first row after the header is 1).
+    pub row: usize,
+    pub residual_mm: f64,
+    /// Distance from the median residual in robust standard deviations.
+    pub robust_z: f64,
+}
+
+/// How strongly the baseline residual follows a per-row feature.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Evidence {
+    pub feature: String,
+    /// Pearson correlation of the residual with the feature.
+    pub correlation: f64,
+}
+
+/// One candidate in one selection step.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Candidate {
+    pub cause: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joint: Option<usize>,
+    pub heldout_rmse_mm: f64,
+    /// Bonferroni-corrected one-sided p-value of the held-out gain.
+    pub p_value: f64,
+    pub seconds: f64,
+}
+
+/// A selection step: every candidate tried and the one kept (if any).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Step {
+    pub heldout_rmse_before_mm: f64,
+    pub candidates: Vec<Candidate>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kept: Option<String>,
+}
+
+/// A cause found in the data.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Cause {
+    pub cause: String,
+    /// Joint 1..6 for per-joint effects.
+    pub joint: Option<usize>,
+    pub magnitude: f64,
+    pub unit: String,
+    pub uncertainty: f64,
+    /// What the magnitude is.
+    pub quantity: String,
+    pub heldout_rmse_before_mm: f64,
+    pub heldout_rmse_after_mm: f64,
+    pub p_value: f64,
+    /// Every parameter of the block (display units) with its standard uncertainty.
+    pub parameters: Vec<(String, f64, f64)>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Baseline {
+    pub model: String,
+    pub heldout_rmse_mm: f64,
+    pub train_rmse_mm: f64,
+}
+
+/// The physical extension against a data-driven compensator on the same rows.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Comparison {
+    /// Held-out RMSE (same folds): geometric, geometric + found effects, geometric + RBF network.
+    pub heldout_rmse_mm: [f64; 3],
+    /// Extrapolation: trained on rows with q2 at most `q2_split_deg`, tested on the others.
+    pub q2_split_deg: f64,
+    pub extrapolation_rmse_mm: [f64; 3],
+    pub extrapolation_rows: [usize; 2],
+}
+
+/// Everything `diagnose` found.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Diagnosis {
+    pub twincal_version: String,
+    pub data: String,
+    pub rows: usize,
+    pub outliers: Vec<Outlier>,
+    pub noise_floor_mm: f64,
+    pub noise_floor_source: String,
+    pub baseline: Baseline,
+    pub evidence: Vec<Evidence>,
+    pub steps: Vec<Step>,
+    /// Causes in the order found; empty = `geometric_only`.
+    pub causes: Vec<Cause>,
+    pub verdict: String,
+    pub final_heldout_rmse_mm: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub comparison: Option<Comparison>,
+    pub seconds: f64,
+    /// The effects kept, as calibration effect options (for `calibrate --effects`).
+    pub effects_option: String,
+}
+
+/// A model with its fitted parameters and fixed mask on the kept rows.
+#[derive(Clone)]
+struct Fitted {
+    model: CalibModel,
+    x: Vec<f64>,
+    fixed: Vec<bool>,
+    /// Held-out residual of every kept row, mm.
+    oof: Vec<f64>,
+}
+
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|r| r * r).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+struct Ctx {
+    /// Kept rows (outliers removed), with their inputs.
+    data: Samples,
+    /// Contiguous folds over `data` (in acquisition order).
+    folds: Vec<Vec<usize>>,
+    rank_tol: f64,
+}
+
+impl Ctx {
+    fn lm() -> LevenbergMarquardt {
+        LevenbergMarquardt { max_iter: 300, ..Default::default() }
+    }
+
+    /// Fits `model` from `x0` on every kept row (identifiable parameters only), then the
+    /// held-out residual of each fold from a fit on the other folds.
+    fn evaluate(&self, model: CalibModel, x0: &[f64]) -> Fitted {
+        let fit = LengthFit { model: &model, data: &self.data };
+        let id: Identifiability = identify(&fit, x0, self.rank_tol);
+        let fixed = id.fixed_mask;
+        let x = Self::lm().minimize(&fit, x0, &fixed, &mut NoObserver).x;
+        let mut oof = vec![0.0; self.data.len()];
+        for fold in &self.folds {
+            let train: Vec<usize> = (0..self.data.len()).filter(|i| !fold.contains(i)).collect();
+            let tr = self.data.subset(&train);
+            let xf = Self::lm().minimize(&LengthFit { model: &model, data: &tr }, &x, &fixed, &mut NoObserver).x;
+            let te = self.data.subset(fold);
+            let r = LengthFit { model: &model, data: &te }.residuals_mm(&xf);
+            for (k, &i) in fold.iter().enumerate() {
+                oof[i] = r[k];
+            }
+        }
+        Fitted { model, x, fixed, oof }
+    }
+}
+
+/// Contiguous blocks of `n` rows.
+fn blocked_folds(n: usize, k: usize) -> Vec<Vec<usize>> {
+    let k = k.clamp(2, n.max(2));
+    (0..k).map(|f| (f * n / k..(f + 1) * n / k).collect()).collect()
+}
+
+/// One-sided Wilcoxon p-value that `b` has smaller squared residuals than `a` (per row).
+fn gain_p_value(a: &[f64], b: &[f64]) -> f64 {
+    let a2: Vec<f64> = a.iter().map(|v| v * v).collect();
+    let b2: Vec<f64> = b.iter().map(|v| v * v).collect();
+    match wilcoxon_signed_rank(&a2, &b2) {
+        Ok(w) if w.w_plus > w.w_minus => 0.5 * w.p_value,
+        Ok(w) => 1.0 - 0.5 * w.p_value,
+        Err(_) => 1.0,
+    }
+}
+
+/// Robust outlier screen: rows whose residual is more than `k` MAD-based standard deviations
+/// from the median, iterated with refits until the set is stable (at most four passes).
+fn screen_outliers(model: &CalibModel, x0: &[f64], all: &Samples, k: f64, rank_tol: f64) -> (Vec<usize>, Vec<Outlier>, Vec<f64>) {
+    let n = all.len();
+    let mut keep: Vec<usize> = (0..n).collect();
+    let mut x = x0.to_vec();
+    let mut flagged: Vec<Outlier> = Vec::new();
+    for _ in 0..4 {
+        let data = all.subset(&keep);
+        let fit = LengthFit { model, data: &data };
+        let fixed = identify(&fit, &x, rank_tol).fixed_mask;
+        x = Ctx::lm().minimize(&fit, &x, &fixed, &mut NoObserver).x;
+        let r = LengthFit { model, data: all }.residuals_mm(&x);
+        let kept_r: Vec<f64> = keep.iter().map(|&i| r[i]).collect();
+        let med = crate::calib::stats::median(&kept_r);
+        let dev: Vec<f64> = kept_r.iter().map(|v| (v - med).abs()).collect();
+        let sigma = 1.4826 * crate::calib::stats::median(&dev);
+        if !(sigma > 0.0) {
+            break;
+        }
+        flagged = (0..n)
+            .filter(|&i| (r[i] - med).abs() > k * sigma)
+            .map(|i| Outlier { row: i + 1, residual_mm: r[i], robust_z: (r[i] - med) / sigma })
+            .collect();
+        let new_keep: Vec<usize> = (0..n).filter(|i| !flagged.iter().any(|o| o.row == i + 1)).collect();
+        if new_keep == keep {
+            break;
+        }
+        keep = new_keep;
+    }
+    (keep, flagged, x)
+}
+
+fn pearson(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma) * (x - ma);
+        sbb += (y - mb) * (y - mb);
+    }
+    if saa > 0.0 && sbb > 0.0 {
+        sab / (saa * sbb).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// Correlations of the residual with the per-row features, strongest first.
+fn evidence(data: &Samples, residual: &[f64], has_torques: bool) -> Vec<Evidence> {
+    let mut feats: Vec<(String, Vec<f64>)> = Vec::new();
+    let col = |f: &dyn Fn(usize) -> f64| (0..data.len()).map(f).collect::<Vec<f64>>();
+    for j in 0..6 {
+        if has_torques {
+            feats.push((format!("torque_j{}", j + 1), col(&|i| data.inputs[i].torque[j])));
+            feats.push((format!("sign(torque_j{})", j + 1), col(&|i| data.inputs[i].torque[j].signum())));
+        }
+        feats.push((format!("backlash_side_j{}", j + 1), col(&|i| data.inputs[i].side[j])));
+        feats.push((format!("sin(q{})", j + 1), col(&|i| data.q[i][j].sin())));
+        feats.push((format!("cos(q{})", j + 1), col(&|i| data.q[i][j].cos())));
+    }
+    if data.inputs.iter().all(|r| r.t_s.is_some()) {
+        feats.push(("t".into(), col(&|i| data.inputs[i].t_s.unwrap_or(0.0))));
+    }
+    if data.inputs.iter().all(|r| r.temp_c.is_some()) {
+        feats.push(("temp".into(), col(&|i| data.inputs[i].temp_c.unwrap_or(0.0))));
+    }
+    feats.push(("L".into(), data.l.clone()));
+    let mut ev: Vec<Evidence> = feats.into_iter().map(|(f, v)| Evidence { feature: f, correlation: pearson(residual, &v) }).collect();
+    ev.sort_by(|a, b| b.correlation.abs().total_cmp(&a.correlation.abs()));
+    ev
+}
+
+/// The size of an effect block in physical units with its uncertainty: (quantity, magnitude,
+/// unit, uncertainty).
+fn magnitude(block: &EffectBlock, x: &[f64], cov: Option<&nalgebra::DMatrix<f64>>, range: std::ops::Range<usize>) -> (String, f64, String, f64) {
+    let k = range.start;
+    let var = |a: usize, b: usize| cov.map(|c| c[(a, b)]).unwrap_or(f64::NAN);
+    let deg = 180.0 / std::f64::consts::PI;
+    match block.kind {
+        EffectKind::JointCompliance => ("compliance".into(), x[k] * 1e6, "urad/Nm".into(), var(k, k).max(0.0).sqrt() * 1e6),
+        EffectKind::Backlash => ("band width (2 x half band)".into(), 2.0 * x[k] * deg, "deg".into(), 2.0 * var(k, k).max(0.0).sqrt() * deg),
+        EffectKind::EncoderEccentricity => {
+            let (a, b) = (x[k], x[k + 1]);
+            let amp = a.hypot(b).max(1e-300);
+            let v = (a * a * var(k, k) + b * b * var(k + 1, k + 1) + 2.0 * a * b * var(k, k + 1)) / (amp * amp);
+            ("first-harmonic amplitude".into(), amp * deg, "deg".into(), v.max(0.0).sqrt() * deg)
+        }
+        EffectKind::ThermalDrift => match block.thermal {
+            Some(ThermalDrive::Temperature { .. }) => ("expansion coefficient".into(), x[k] * 1e6, "ppm/K".into(), var(k, k).max(0.0).sqrt() * 1e6),
+            _ => ("warm-up length growth".into(), x[k] * 1e6, "ppm".into(), var(k, k).max(0.0).sqrt() * 1e6),
+        },
+        EffectKind::SensorNonlinearity => {
+            // Largest |correction| over the reading range, and its uncertainty there.
+            let (mut best, mut at) = (0.0f64, [0.0; 3]);
+            for s in 0..=200 {
+                let v = -1.0 + s as f64 / 100.0;
+                let (p, _) = crate::calib::effects::legendre(v);
+                let val = (0..3).map(|m| x[k + m] * p[m]).sum::<f64>();
+                if val.abs() > best.abs() {
+                    best = val;
+                    at = p;
+                }
+            }
+            let mut v = 0.0;
+            for a in 0..3 {
+                for b in 0..3 {
+                    v += at[a] * at[b] * var(k + a, k + b);
+                }
+            }
+            ("largest reading correction".into(), best.abs() * 1e3, "mm".into(), v.max(0.0).sqrt() * 1e3)
+        }
+    }
+}
+
+/// The candidate blocks the data support.
+fn candidates(data: &Dataset, kinds: &[EffectKind], has_torques: bool) -> Vec<EffectBlock> {
+    let kinds: Vec<EffectKind> = if kinds.is_empty() { EffectKind::ALL.to_vec() } else { kinds.to_vec() };
+    let mut out = Vec::new();
+    for kind in kinds {
+        let joints: Vec<Option<usize>> = if kind.per_joint() { (0..6).map(Some).collect() } else { vec![None] };
+        for j in joints {
+            if let Ok(b) = block_for(data, kind, j, has_torques) {
+                out.push(b);
+            }
+        }
+    }
+    out
+}
+
+/// Runs a diagnosis. `progress` receives a line per finished step.
+pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
+    let t0 = Instant::now();
+    if opts.folds < 2 || opts.folds > 20 {
+        return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));
+    }
+    // Baseline placement and model on every row (no split: the diagnosis cross-validates).
+    let mut copts = CalibOptions::new(opts.model.clone(), Method::Lm);
+    copts.test_fraction = Some(0.0);
+    copts.rank_tol = opts.rank_tol;
+    copts.seed = opts.seed;
+    let split = split_stage(data, &copts)?;
+    let base = crate::calib::placement::place_sensor(&copts, &split.train)?;
+    let nc = base.n_chain();
+    let exit = nalgebra::Vector3::new(base.nominal[nc], base.nominal[nc + 1], base.nominal[nc + 2]);
+    let tool = nalgebra::Vector3::new(base.nominal[nc + 4], base.nominal[nc + 5], base.nominal[nc + 6]);
+    let robot = opts.inertial_robot();
+    let has_torques = robot.is_some();
+    let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
+    all.inputs = row_inputs(data, robot, &opts.loads, exit, tool);
+
+    let (keep, outliers, x_base) = screen_outliers(&base, &base.nominal, &all, opts.outlier_k, opts.rank_tol);
+    if !outliers.is_empty() {
+        progress(&format!("{} outlier rows kept out of the fit: {:?}", outliers.len(), outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
+    }
+    let kept = all.subset(&keep);
+    let kept_rows = Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
+    let ctx = Ctx { folds: blocked_folds(kept.len(), opts.folds), data: kept, rank_tol: opts.rank_tol };
+    let baseline = ctx.evaluate(base.clone(), &x_base);
+    let base_in = LengthFit { model: &baseline.model, data: &ctx.data }.residuals_mm(&baseline.x);
+    let evidence = evidence(&ctx.data, &base_in, has_torques);
+    progress(&format!("geometric baseline: held-out RMSE {:.4} mm", rms(&baseline.oof)));
+
+    let span = time_span(&kept_rows);
+    let pool = candidates(&kept_rows, &opts.candidates, has_torques);
+    let mut current = baseline.clone();
+    let mut steps = Vec::new();
+    let mut found: Vec<(EffectBlock, f64, f64, f64)> = Vec::new();
+    for _ in 0..opts.max_effects {
+        let remaining: Vec<&EffectBlock> = pool.iter().filter(|b| !current.model.effects.contains(b)).collect();
+        if remaining.is_empty() {
+            break;
+        }
+        let before = rms(&current.oof);
+        let results: Vec<(Candidate, Fitted)> = remaining
+            .par_iter()
+            .map(|b| {
+                let tc = Instant::now();
+                let mut m = current.model.clone();
+                m.add_effect((*b).clone(), span);
+                let mut x0 = current.x.clone();
+                x0.extend_from_slice(&m.nominal[current.x.len()..]);
+                let f = ctx.evaluate(m, &x0);
+                let p = (gain_p_value(&current.oof, &f.oof) * remaining.len() as f64).min(1.0);
+                let c = Candidate { cause: b.kind.name().into(), joint: b.joint.map(|j| j + 1), heldout_rmse_mm: rms(&f.oof), p_value: p, seconds: tc.elapsed().as_secs_f64() };
+                (c, f)
+            })
+            .collect();
+        let best = results
+            .iter()
+            .enumerate()
+            .filter(|(_, (c, _))| c.p_value < opts.alpha && c.heldout_rmse_mm < (1.0 - opts.min_gain) * before)
+            .min_by(|a, b| a.1 .0.heldout_rmse_mm.total_cmp(&b.1 .0.heldout_rmse_mm))
+            .map(|(i, _)| i);
+        let kept_label = best.map(|i| remaining[i].label());
+        steps.push(Step { heldout_rmse_before_mm: before, candidates: results.iter().map(|r| r.0.clone()).collect(), kept: kept_label.clone() });
+        let Some(i) = best else { break };
+        let (c, f) = results.into_iter().nth(i).expect("index from the same list");
+        progress(&format!("kept {}: held-out RMSE {before:.4} -> {:.4} mm (p = {:.2e})", remaining[i].label(), c.heldout_rmse_mm, c.p_value));
+        found.push((remaining[i].clone(), before, c.heldout_rmse_mm, c.p_value));
+        current = f;
+    }
+
+    // Sizes from the final model on every kept row.
+    let fit = LengthFit { model: &current.model, data: &ctx.data };
+    let cov = covariance(&fit, &current.x, &current.fixed);
+    let mut causes = Vec::new();
+    for (block, before, after, p) in &found {
+        let b = current.model.effects.iter().position(|e| e == block).expect("kept block is in the model");
+        let range = current.model.effect_params(b);
+        let (quantity, mag, unit, unc) = magnitude(block, &current.x, cov.as_ref(), range.clone());
+        let parameters = range
+            .clone()
+            .map(|k| {
+                let d = current.model.kinds[k].display();
+                let sd = cov.as_ref().map(|c| c[(k, k)].max(0.0).sqrt() * d).unwrap_or(f64::NAN);
+                (current.model.names[k].clone(), current.x[k] * d, sd)
+            })
+            .collect();
+        causes.push(Cause {
+            cause: block.kind.name().into(),
+            joint: block.joint.map(|j| j + 1),
+            magnitude: mag,
+            unit,
+            uncertainty: unc,
+            quantity,
+            heldout_rmse_before_mm: *before,
+            heldout_rmse_after_mm: *after,
+            p_value: *p,
+            parameters,
+        });
+    }
+
+    // Noise floor: repeatability where configurations repeat, else the final fit's residual.
+    let q_deg: Vec<[f64; 6]> = kept_rows.rows.iter().map(|r| r.q_deg).collect();
+    let l: Vec<f64> = kept_rows.rows.iter().map(|r| r.l_mm).collect();
+    let (noise_floor_mm, noise_floor_source) = match crate::calib::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups >= 5) {
+        Some(r) => (r.pooled_std, format!("repeatability of {} repeated configurations ({} rows)", r.groups, r.rows)),
+        None => {
+            let r = fit.residuals_mm(&current.x);
+            let n_free = current.fixed.iter().filter(|f| !**f).count();
+            let dof = r.len().saturating_sub(n_free).max(1);
+            ((r.iter().map(|v| v * v).sum::<f64>() / dof as f64).sqrt(), "residual of the final model (no repeated configurations)".into())
+        }
+    };
+    let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
+    let effects_option = current.model.effects.iter().map(|e| match e.joint {
+        Some(j) => format!("{}:{}", e.kind.name(), j + 1),
+        None => e.kind.name().to_string(),
+    }).collect::<Vec<_>>().join(",");
+
+    // The extended model, saved like any calibration result.
+    let mut copts = CalibOptions::new(opts.model.clone(), Method::Lm);
+    copts.test_fraction = Some(0.0);
+    copts.rank_tol = opts.rank_tol;
+    copts.inertial = opts.inertial.clone();
+    copts.loads = opts.loads.clone();
+    copts.effects = current.model.effects.iter().map(|e| (e.kind, e.joint)).collect();
+    let result = crate::calib::run::calibrate(&kept_rows, None, &copts)?;
+
+    let diagnosis = Diagnosis {
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+        data: data.source.clone(),
+        rows: data.rows.len(),
+        outliers,
+        noise_floor_mm,
+        noise_floor_source,
+        baseline: Baseline { model: base.name.clone(), heldout_rmse_mm: rms(&baseline.oof), train_rmse_mm: rms(&base_in) },
+        evidence,
+        steps,
+        verdict: if causes.is_empty() { "geometric_only".into() } else { causes.iter().map(|c| match c.joint { Some(j) => format!("{}[j{j}]", c.cause), None => c.cause.clone() }).collect::<Vec<_>>().join(" + ") },
+        causes,
+        final_heldout_rmse_mm: rms(&current.oof),
+        comparison,
+        seconds: t0.elapsed().as_secs_f64(),
+        effects_option,
+    };
+    Ok((diagnosis, result))
+}
+
+/// Held-out RMSE of the geometric model, the physical extension and an RBF compensator on the
+/// geometric residuals, on the same folds; and their extrapolation to rows with q2 above its
+/// 70th percentile when trained on the rest.
+fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<Comparison> {
+    use crate::calib::rbf::RbfNetwork;
+    let n = ctx.data.len();
+    let rbf_fit = |rows: &[usize], model: &CalibModel, x: &[f64]| -> Option<(Vec<f64>, RbfNetwork)> {
+        let tr = ctx.data.subset(rows);
+        let fixed = identify(&LengthFit { model, data: &tr }, x, ctx.rank_tol).fixed_mask;
+        let xf = Ctx::lm().minimize(&LengthFit { model, data: &tr }, x, &fixed, &mut NoObserver).x;
+        let res = LengthFit { model, data: &tr }.residuals_mm(&xf);
+        let (net, _) = RbfNetwork::fit_cv(&tr.q, &res, &[5, 10, 20, 40], &[1e-6, 1e-4, 1e-2], seed).ok()?;
+        Some((xf, net))
+    };
+    let mut rbf_oof = vec![0.0; n];
+    for fold in &ctx.folds {
+        let train: Vec<usize> = (0..n).filter(|i| !fold.contains(i)).collect();
+        let (xf, net) = rbf_fit(&train, &geo.model, &geo.x)?;
+        let te = ctx.data.subset(fold);
+        let r = LengthFit { model: &geo.model, data: &te }.residuals_mm(&xf);
+        for (k, &i) in fold.iter().enumerate() {
+            rbf_oof[i] = r[k] - net.predict(&te.q[k]);
+        }
+    }
+    // Extrapolation in q2.
+    let mut q2: Vec<f64> = ctx.data.q.iter().map(|q| q[1]).collect();
+    q2.sort_by(f64::total_cmp);
+    let split = q2[(0.7 * (n - 1) as f64) as usize];
+    let train: Vec<usize> = (0..n).filter(|&i| ctx.data.q[i][1] <= split).collect();
+    let test: Vec<usize> = (0..n).filter(|&i| ctx.data.q[i][1] > split).collect();
+    if train.len() < 20 || test.len() < 5 {
+        return None;
+    }
+    let te = ctx.data.subset(&test);
+    let tr = ctx.data.subset(&train);
+    let fit_on = |m: &CalibModel, x: &[f64]| {
+        let fixed = identify(&LengthFit { model: m, data: &tr }, x, ctx.rank_tol).fixed_mask;
+        let xf = Ctx::lm().minimize(&LengthFit { model: m, data: &tr }, x, &fixed, &mut NoObserver).x;
+        rms(&LengthFit { model: m, data: &te }.residuals_mm(&xf))
+    };
+    let (xg, net) = rbf_fit(&train, &geo.model, &geo.x)?;
+    let r = LengthFit { model: &geo.model, data: &te }.residuals_mm(&xg);
+    let rbf_ex = rms(&r.iter().zip(&te.q).map(|(ri, q)| ri - net.predict(q)).collect::<Vec<_>>());
+    Some(Comparison {
+        heldout_rmse_mm: [rms(&geo.oof), rms(&ext.oof), rms(&rbf_oof)],
+        q2_split_deg: split.to_degrees(),
+        extrapolation_rmse_mm: [fit_on(&geo.model, &geo.x), fit_on(&ext.model, &ext.x), rbf_ex],
+        extrapolation_rows: [train.len(), test.len()],
+    })
+}
