@@ -1,10 +1,90 @@
 //! Implementations of the CLI commands (kept in the library so tests can call them).
 
+use crate::calib::stats::median;
+use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::generate::{generate as run_generate, write_outputs, Generated, Progress, Silent};
+use crate::generate::{
+    generate as run_generate, stage_outputs, write_outputs, Generated, Progress, Silent,
+};
+use crate::io::{check_outputs, OutputSet};
 use crate::scenario::Scenario;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// Most seeds `compare` and `bench calib` accept.
+pub const MAX_SEEDS: u64 = 1000;
+/// Most calibrations (methods × seeds) one `compare` runs.
+pub const MAX_COMPARE_JOBS: u64 = 5000;
+/// Most repetitions `bench` accepts.
+pub const MAX_REPEAT: usize = 1000;
+
+/// `--angles`: unit of the joint angles in a dataset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum AngleArg {
+    /// Degrees, unless the values look like radians (then an error says so).
+    Auto,
+    /// Degrees.
+    Deg,
+    /// Radians.
+    Rad,
+}
+
+/// `twincal bench` targets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchTarget {
+    /// The twin: settled poses per second, rapier against the quasi-static model.
+    Twin,
+    /// The calibration core's targets.
+    Calib,
+}
+
+/// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
+/// compare) or may be absent (predict).
+fn load_dataset(path: &Path, angles: AngleArg, require_length: bool) -> Result<Dataset> {
+    // TODO(merge): Dataset::load_with(path, &LoadOptions { angles, require_length }) once the
+    // inputs branch (LoadOptions, AngleUnit) is merged; until then the reader always requires L and
+    // reads degrees (refusing angles that look like radians).
+    let _ = require_length;
+    match angles {
+        AngleArg::Auto | AngleArg::Deg => Dataset::load(path),
+        AngleArg::Rad => Err(Error::Invalid("--angles rad needs the dataset reader's unit option, which this build lacks; convert the angles to degrees".into())),
+    }
+}
+
+/// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without
+/// an xlsx `#Sheet`), plus the truth file `calibrate` reads beside either.
+fn data_inputs(data: &Path) -> Vec<PathBuf> {
+    let file = if data.is_dir() {
+        data.join(crate::dataset::DATASET_FILE)
+    } else {
+        match data.to_string_lossy().rsplit_once('#') {
+            Some((f, _)) if !data.exists() => PathBuf::from(f),
+            _ => data.to_path_buf(),
+        }
+    };
+    let dir = if data.is_dir() {
+        data.to_path_buf()
+    } else {
+        file.parent().map(Path::to_path_buf).unwrap_or_default()
+    };
+    vec![file, dir.join(crate::calib::truth::TRUTH_FILE)]
+}
+
+/// The calibration model a `--model` / `--params` pair names; `--params` is refused for
+/// `generic6r`, which has no nominal model to parametrise.
+fn model_spec(model: &str, params: Option<&str>) -> Result<crate::calib::run::ModelSpec> {
+    if model == "generic6r" {
+        if let Some(p) = params {
+            return Err(Error::Invalid(format!("--params {p} applies to nominal models (irb120 or a .urdf); generic6r has no nominal model to parametrise")));
+        }
+    }
+    crate::calib::run::ModelSpec::parse(model, params.unwrap_or("hayati"))
+}
+
+/// `--model` as an input file, when it names one (a .urdf).
+fn model_input(model: &str) -> Option<PathBuf> {
+    model.ends_with(".urdf").then(|| PathBuf::from(model))
+}
 
 /// A terminal progress bar (hidden when stderr is not a terminal).
 pub struct Bar(indicatif::ProgressBar);
@@ -13,9 +93,11 @@ impl Bar {
     pub fn new() -> Self {
         let pb = indicatif::ProgressBar::new(0);
         pb.set_style(
-            indicatif::ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                .progress_chars("=> "),
+            indicatif::ProgressStyle::with_template(
+                "{msg:>16} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
         );
         Bar(pb)
     }
@@ -57,7 +139,27 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, crate::robot::Rob
 }
 
 /// `twincal generate`.
-pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: Option<u64>, quiet: bool) -> Result<()> {
+pub fn generate(
+    scenario: Option<&Path>,
+    out: &Path,
+    rrd: Option<&Path>,
+    seed: Option<u64>,
+    quiet: bool,
+) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        return Err(Error::Invalid(format!(
+            "--out {} is a file; generate writes a folder (dataset.csv, truth.json)",
+            out.display()
+        )));
+    }
+    let dataset = out.join(crate::dataset::DATASET_FILE);
+    let truth = out.join(crate::calib::truth::TRUTH_FILE);
+    let mut outputs_named = vec![("--out", dataset.as_path()), ("--out", truth.as_path())];
+    if let Some(p) = rrd {
+        outputs_named.push(("--rrd", p));
+    }
+    let inputs: Vec<(&str, &Path)> = scenario.map(|p| ("--scenario", p)).into_iter().collect();
+    check_outputs(&inputs, &outputs_named)?;
     let (mut s, robot) = load_scenario(scenario)?;
     if let Some(seed) = seed {
         s.seed = seed;
@@ -65,11 +167,12 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
     let t0 = Instant::now();
     let g = run_generate(&s, &robot, progress(quiet).as_ref())?;
     let elapsed = t0.elapsed().as_secs_f64();
-    // The recording first: if it fails, no dataset is left half-announced.
+    let mut outputs = OutputSet::new();
     if let Some(path) = rrd {
-        crate::viz::scenes::record_dataset(&g, path)?;
+        crate::viz::scenes::record_dataset(&g, &mut outputs, path)?;
     }
-    write_outputs(&g, out)?;
+    stage_outputs(&g, out, &mut outputs)?;
+    outputs.commit()?;
     if !quiet {
         summary(&g, out, elapsed, rrd);
     }
@@ -79,51 +182,148 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
 fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     let t = &g.truth;
     let n = g.dataset.rows.len();
-    let test = t.poses.iter().filter(|p| p.split == crate::dataset::Split::Test).count();
+    let test = t
+        .poses
+        .iter()
+        .filter(|p| p.split == crate::dataset::Split::Test)
+        .count();
     let steps: Vec<usize> = t.poses.iter().map(|p| p.settle_steps).collect();
     let mean_steps = steps.iter().sum::<usize>() as f64 / steps.len().max(1) as f64;
-    eprintln!("scenario {} (seed {}): {n} poses ({} train / {test} test) in {elapsed:.2} s", t.scenario, t.seed, n - test);
-    let slow = t.poses.iter().filter(|p| p.settle_time_s > g.twin.sensor.hold_s).count();
+    eprintln!(
+        "scenario {} (seed {}): {n} poses ({} train / {test} test) in {elapsed:.2} s",
+        t.scenario,
+        t.seed,
+        n - test
+    );
+    let slow = t
+        .poses
+        .iter()
+        .filter(|p| p.settle_time_s > g.twin.sensor.hold_s)
+        .count();
     eprintln!("  mean settle steps per pose: {mean_steps:.0}; poses still moving after the {} s hold: {slow}", g.twin.sensor.hold_s);
     if !t.rejected.is_empty() {
-        eprintln!("  {} poses rejected (listed in truth.json):", t.rejected.len());
+        eprintln!(
+            "  {} poses rejected (listed in truth.json):",
+            t.rejected.len()
+        );
         for r in t.rejected.iter().take(5) {
             eprintln!("    pose {}: {}", r.index, r.reason);
         }
     }
-    eprintln!("  wrote {}/dataset.csv and {}/truth.json", out.display(), out.display());
+    eprintln!(
+        "  wrote {}/dataset.csv and {}/truth.json",
+        out.display(),
+        out.display()
+    );
     if let Some(p) = rrd {
         eprintln!("  wrote {}", p.display());
     }
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+/// `twincal bench [twin|calib]`: checks that every option given applies to the target, then runs it.
+pub fn bench_command(
+    what: BenchTarget,
+    scenario: Option<&Path>,
+    repeat: usize,
+    seeds: Option<u64>,
+    compare: bool,
+    quiet: bool,
+) -> Result<()> {
+    check_repeat(repeat)?;
+    match what {
+        BenchTarget::Twin => {
+            if seeds.is_some() {
+                return Err(Error::Invalid(
+                    "--seeds applies to bench calib, not bench twin".into(),
+                ));
+            }
+            if compare {
+                return Err(Error::Invalid(
+                    "--compare applies to bench calib, not bench twin".into(),
+                ));
+            }
+            bench(scenario, repeat, quiet)
+        }
+        BenchTarget::Calib => {
+            if scenario.is_some() {
+                return Err(Error::Invalid("--scenario applies to bench twin; bench calib uses the embedded irb120_geometric scenario".into()));
+            }
+            bench_calib(repeat, seeds.unwrap_or(20), compare)
+        }
     }
 }
 
-/// `twincal bench`: settled poses per second, with the quasi-static model and a single thread as
-/// in-process baselines, and cost versus pose count.
+fn check_repeat(repeat: usize) -> Result<()> {
+    if !(1..=MAX_REPEAT).contains(&repeat) {
+        return Err(Error::Invalid(format!(
+            "--repeat must be between 1 and {MAX_REPEAT}, got {repeat}"
+        )));
+    }
+    Ok(())
+}
+
+fn check_seeds(seeds: u64) -> Result<()> {
+    if !(1..=MAX_SEEDS).contains(&seeds) {
+        return Err(Error::Invalid(format!(
+            "--seeds must be between 1 and {MAX_SEEDS}, got {seeds}"
+        )));
+    }
+    Ok(())
+}
+
+/// Rapier's settled poses against the quasi-static model's over the same commands.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TwinAgreement {
+    pub poses: usize,
+    /// Largest tool-point distance, mm.
+    pub worst_tool_mm: f64,
+    /// Poses whose backlash contact states differ.
+    pub contact_differs: usize,
+}
+
+/// Settles every command with rapier and with the quasi-static model and compares the results.
+pub fn twin_agreement(
+    twin: &crate::twin::Twin,
+    cmds: &[crate::twin::PoseCommand],
+) -> Result<TwinAgreement> {
+    use rayon::prelude::*;
+    let per: Vec<Result<(f64, bool)>> = cmds
+        .par_iter()
+        .map(|c| {
+            let sim = twin.simulate(c)?;
+            let qs = twin.quasi_static(c);
+            Ok(((sim.tool - qs.tool).norm() * 1e3, sim.contact != qs.contact))
+        })
+        .collect();
+    let per: Vec<(f64, bool)> = per.into_iter().collect::<Result<_>>()?;
+    Ok(TwinAgreement {
+        poses: per.len(),
+        // `simulate` refuses a diverged (non-finite) pose, so every distance here is finite.
+        worst_tool_mm: per.iter().map(|(d, _)| *d).fold(0.0, f64::max),
+        contact_differs: per.iter().filter(|(_, c)| *c).count(),
+    })
+}
+
+/// `twincal bench twin`: settled poses per second, with the quasi-static model and a single thread
+/// as in-process baselines, cost versus pose count, and rapier's agreement with the quasi-static
+/// model (worst tool-point difference, poses whose backlash contacts differ).
 pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> {
     use crate::generate::{acquisition_times, build_twin, sample_poses};
     use crate::twin::{approach_sides, PoseCommand};
     use rayon::prelude::*;
+    check_repeat(repeat)?;
     let (s, robot) = load_scenario(scenario)?;
-    let repeat = repeat.max(1);
     let twin = build_twin(&s, &robot);
     let poses = sample_poses(&s, &robot)?;
     let times = acquisition_times(&s, &robot, &poses);
     let sides = approach_sides(&vec![0.0; robot.dof()], &poses);
-    let cmds: Vec<PoseCommand> =
-        (0..poses.len()).map(|i| PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: times[i] }).collect();
+    let cmds: Vec<PoseCommand> = (0..poses.len())
+        .map(|i| PoseCommand {
+            q_cmd: poses[i].clone(),
+            sides: sides[i].clone(),
+            t: times[i],
+        })
+        .collect();
     let n = cmds.len();
     let threads = rayon::current_num_threads();
     if !quiet {
@@ -138,13 +338,19 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
             steps = f()?;
             ts.push(t0.elapsed().as_secs_f64());
         }
-        Ok((median(&mut ts), steps))
+        Ok((median(&ts), steps))
     };
     let sim_all = |subset: &[PoseCommand], parallel: bool| -> Result<usize> {
         let r: Result<Vec<usize>> = if parallel {
-            subset.par_iter().map(|c| twin.simulate(c).map(|r| r.steps)).collect()
+            subset
+                .par_iter()
+                .map(|c| twin.simulate(c).map(|r| r.steps))
+                .collect()
         } else {
-            subset.iter().map(|c| twin.simulate(c).map(|r| r.steps)).collect()
+            subset
+                .iter()
+                .map(|c| twin.simulate(c).map(|r| r.steps))
+                .collect()
         };
         Ok(r?.iter().sum())
     };
@@ -162,17 +368,36 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
         let (t, _) = time(&|| sim_all(&cmds[..m], true))?;
         scaling.push((m, t));
     }
+    let agree = twin_agreement(&twin, &cmds)?;
     let per_step_us = t_seq / steps.max(1) as f64 * 1e6;
     println!("twin benchmark ({}, {n} poses, {threads} threads)", s.name);
-    println!("  rapier, parallel      : {t_par:8.3} s  = {:8.1} poses/s   (target: {n} poses < 5 s)", n as f64 / t_par);
-    println!("  rapier, one thread    : {t_seq:8.3} s  = {:8.1} poses/s   (parallel speed-up {:.2}x)", n as f64 / t_seq, t_seq / t_par);
+    println!(
+        "  rapier, parallel      : {t_par:8.3} s  = {:8.1} poses/s   (target: {n} poses < 5 s)",
+        n as f64 / t_par
+    );
+    println!(
+        "  rapier, one thread    : {t_seq:8.3} s  = {:8.1} poses/s   (parallel speed-up {:.2}x)",
+        n as f64 / t_seq,
+        t_seq / t_par
+    );
     println!("  quasi-static baseline : {t_qs:8.3} s  = {:8.1} poses/s   (rapier costs {:.0}x the quasi-static model)", n as f64 / t_qs, t_par / t_qs);
     println!("  where the time goes   : {:.0} settle steps per pose, {per_step_us:.2} µs per step incl. world set-up (one thread)", steps as f64 / n as f64);
     println!("  cost versus pose count (parallel):");
-    let base = scaling.last().map(|(m, t)| t / *m as f64).unwrap_or(f64::NAN);
+    let base = scaling
+        .last()
+        .map(|(m, t)| t / *m as f64)
+        .unwrap_or(f64::NAN);
     for (m, t) in &scaling {
-        println!("    {m:6} poses: {t:8.3} s, {:7.3} ms/pose, ratio to full run per pose {:.2}", t / *m as f64 * 1e3, t / *m as f64 / base);
+        println!(
+            "    {m:6} poses: {t:8.3} s, {:7.3} ms/pose, ratio to full run per pose {:.2}",
+            t / *m as f64 * 1e3,
+            t / *m as f64 / base
+        );
     }
+    println!(
+        "  rapier vs quasi-static: worst tool-point difference {:.1e} mm over {} poses (target < 1e-3 mm); backlash contacts differ in {} poses",
+        agree.worst_tool_mm, agree.poses, agree.contact_differs
+    );
     if t_par.is_nan() {
         return Err(Error::Invalid("benchmark produced no timing".into()));
     }
@@ -181,84 +406,180 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
 
 /// Arguments of `twincal calibrate`.
 pub struct CalibrateArgs {
-    pub data: std::path::PathBuf,
+    pub data: PathBuf,
+    pub angles: AngleArg,
     pub method: String,
     pub model: String,
-    pub params: String,
+    /// Parametrisation of a nominal model (default hayati); refused for generic6r.
+    pub params: Option<String>,
     pub test_fraction: Option<f64>,
     pub seed: u64,
     pub sensor_guess: Option<Vec<f64>>,
     pub rank_tol: f64,
     pub effort: f64,
-    pub out: std::path::PathBuf,
-    pub urdf: Option<std::path::PathBuf>,
-    pub rrd: Option<std::path::PathBuf>,
+    pub out: PathBuf,
+    pub urdf: Option<PathBuf>,
+    pub rrd: Option<PathBuf>,
 }
 
-/// `twincal calibrate`.
+/// `twincal calibrate`. Its outputs (`--out`, `--urdf`, `--rrd`) appear together or not at all.
+/// Warnings (an optimiser that stopped without converging) go to stderr also with `--quiet`.
 pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     use crate::calib::model::SensorGuess;
     use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
     let method = Method::parse(&a.method)?;
-    let spec = ModelSpec::parse(&a.model, &a.params)?;
     if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
-        return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
+        return Err(Error::Invalid(format!(
+            "--rank-tol must be in (0, 1), got {}",
+            a.rank_tol
+        )));
     }
-    let data = crate::dataset::Dataset::load(&a.data)?;
+    if !(a.effort > 0.0 && a.effort <= 10.0) {
+        return Err(Error::Invalid(format!(
+            "--effort must be in (0, 10], got {}",
+            a.effort
+        )));
+    }
+    if let Some(f) = a.test_fraction {
+        if !(0.0..1.0).contains(&f) {
+            return Err(Error::Invalid(format!(
+                "--test-fraction must be in [0, 1), got {f}"
+            )));
+        }
+    }
+    let sensor_guess = match &a.sensor_guess {
+        None => None,
+        Some(g) => {
+            if g.len() != 7 {
+                return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
+            }
+            if g.iter().any(|v| !v.is_finite()) {
+                return Err(Error::Invalid(
+                    "--sensor-guess values must be finite numbers (mm)".into(),
+                ));
+            }
+            Some(SensorGuess {
+                exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3],
+                offset_m: g[3] * 1e-3,
+                tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3],
+            })
+        }
+    };
+    let data_files = data_inputs(&a.data);
+    let model_file = model_input(&a.model);
+    let mut inputs: Vec<(&str, &Path)> =
+        data_files.iter().map(|p| ("--data", p.as_path())).collect();
+    if let Some(m) = &model_file {
+        inputs.push(("--model", m));
+    }
+    let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out)];
+    outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
+    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    check_outputs(&inputs, &outs)?;
+    let spec = model_spec(&a.model, a.params.as_deref())?;
+    let data = load_dataset(&a.data, a.angles, true)?;
     let truth = TruthFile::find(&a.data)?;
     let mut opts = CalibOptions::new(spec.clone(), method);
     opts.test_fraction = a.test_fraction;
     opts.seed = a.seed;
     opts.rank_tol = a.rank_tol;
-    if !(a.effort > 0.0 && a.effort <= 10.0) {
-        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {}", a.effort)));
-    }
     opts.effort = a.effort;
-    if let Some(g) = &a.sensor_guess {
-        if g.len() != 7 {
-            return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
-        }
-        if g.iter().any(|v| !v.is_finite()) {
-            return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
-        }
-        opts.sensor_guess = Some(SensorGuess { exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3], offset_m: g[3] * 1e-3, tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3] });
-    }
+    opts.sensor_guess = sensor_guess;
     let result = run(&data, truth.as_ref(), &opts)?;
+    let mut outputs = OutputSet::new();
     if let Some(p) = &a.rrd {
-        crate::viz::scenes::record_calibration(&result, &data, &opts, p)?;
+        crate::viz::scenes::record_calibration(&result, &data, &opts, &mut outputs, p)?;
     }
     if let Some(p) = &a.urdf {
         let nominal = match &spec {
             ModelSpec::Nominal { robot, .. } => Some(robot),
             ModelSpec::Generic6r => None,
         };
-        crate::io::write_atomic(p, crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
+        outputs.write(
+            p,
+            crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes(),
+        )?;
     }
-    crate::io::write_json(&a.out, &result)?;
+    outputs.write_json(&a.out, &result)?;
+    outputs.commit()?;
     if !quiet {
         print_summary(&result);
+    }
+    for w in calibration_warnings(&result) {
+        eprintln!("warning: {w}");
     }
     Ok(())
 }
 
+/// What a user must know about a calibration that succeeded: an optimiser that stopped on its
+/// iteration / evaluation budget instead of a convergence test.
+// TODO(merge): also the result's own `warnings` once CalibResult carries them.
+pub fn calibration_warnings(r: &crate::calib::run::CalibResult) -> Vec<String> {
+    let mut w = Vec::new();
+    if !r.converged {
+        w.push(format!(
+            "{} stopped without converging ({}, after {} iterations); the parameters may be far from the optimum \
+             (see `converged` / `stop_reason` in the result file; a larger --effort gives the stochastic methods more budget)",
+            r.method.name(),
+            r.stop_reason,
+            r.iterations
+        ));
+    }
+    w
+}
+
 fn print_summary(r: &crate::calib::run::CalibResult) {
     let m = &r.metrics;
-    let row = |label: &str, s: &crate::calib::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
-    eprintln!("{} / {} on {} ({} train, {} test rows), {} iterations, {:.3} s", r.method.name(), r.model_name, r.data, r.n_train, r.n_test, r.iterations, r.wall_time_s);
-    eprintln!("  {:<14} {:>10} {:>10} {:>10}   (mm)", "residuals", "RMSE", "STD", "MAX");
+    let row = |label: &str, s: &crate::calib::metrics::ErrorStats| {
+        format!(
+            "  {label:<14} {:>10.4} {:>10.4} {:>10.4}",
+            s.rmse, s.std, s.max
+        )
+    };
+    eprintln!(
+        "{} / {} on {} ({} train, {} test rows), {} iterations, {:.3} s",
+        r.method.name(),
+        r.model_name,
+        r.data,
+        r.n_train,
+        r.n_test,
+        r.iterations,
+        r.wall_time_s
+    );
+    eprintln!(
+        "  {:<14} {:>10} {:>10} {:>10}   (mm)",
+        "residuals", "RMSE", "STD", "MAX"
+    );
     eprintln!("{}", row("train before", &m.train_before));
     eprintln!("{}", row("train after", &m.train_after));
     if let (Some(b), Some(a)) = (&m.test_before, &m.test_after) {
         eprintln!("{}", row("test before", b));
         eprintln!("{}", row("test after", a));
     }
-    let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
-    eprintln!("  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}", r.parameters.len() - fixed.len(), r.parameters.len(), fixed.join(", "));
-    if let Some(c) = r.identifiability.get("condition_identifiable").and_then(|v| v.as_f64()) {
+    let fixed: Vec<&str> = r
+        .parameters
+        .iter()
+        .filter(|p| p.fixed)
+        .map(|p| p.name.as_str())
+        .collect();
+    eprintln!(
+        "  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}",
+        r.parameters.len() - fixed.len(),
+        r.parameters.len(),
+        fixed.join(", ")
+    );
+    if let Some(c) = r
+        .identifiability
+        .get("condition_identifiable")
+        .and_then(|v| v.as_f64())
+    {
         eprintln!("  condition number of the identifiable set: {c:.3e}");
     }
     if let Some(rep) = &r.repeatability {
-        eprintln!("  repeatability floor: {:.4} mm from {} repeated configurations ({} rows)", rep.pooled_std, rep.groups, rep.rows);
+        eprintln!(
+            "  repeatability floor: {:.4} mm from {} repeated configurations ({} rows)",
+            rep.pooled_std, rep.groups, rep.rows
+        );
         if let Some(t) = &m.test_after {
             eprintln!("  held-out RMSE / floor = {:.3}", t.rmse / rep.pooled_std);
         }
@@ -268,25 +589,81 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
     }
 }
 
-/// `twincal predict`.
-pub fn predict(model: &Path, data: &Path, out: &Path, quiet: bool) -> Result<()> {
-    let result = crate::calib::run::CalibResult::load(model)?;
-    let ds = crate::dataset::Dataset::load(data)?;
-    let mut text = String::from("q1,q2,q3,q4,q5,q6,L,L_pred,residual\n");
-    let mut res = Vec::new();
-    for r in &ds.rows {
-        let p = result.predict_mm(&r.q_deg);
-        if !p.is_finite() {
-            return Err(Error::Calibration("the model predicted a non-finite length".into()));
+/// Loads a calibrated model (result.json); its errors are labelled `model PATH`.
+fn load_model(path: &Path) -> Result<crate::calib::run::CalibResult> {
+    // TODO(merge): CalibResult::load (src/calib/run.rs) labels its format errors `data PATH`; once
+    // it uses Error::model this mapping is a no-op.
+    crate::calib::run::CalibResult::load(path).map_err(|e| match e {
+        Error::Data { path: p, msg } if p == path.display().to_string() => {
+            Error::Model { path: p, msg }
         }
-        res.push(r.l_mm - p);
-        let q: Vec<String> = r.q_deg.iter().map(|v| v.to_string()).collect();
-        text.push_str(&format!("{},{},{},{}\n", q.join(","), r.l_mm, p, r.l_mm - p));
+        other => other,
+    })
+}
+
+/// The CSV `predict` writes: `q1..q6,L,L_pred,residual` when every row has a measured length,
+/// `q1..q6,L_pred` otherwise.
+pub fn prediction_csv(rows: &[([f64; 6], Option<f64>)], predicted: &[f64]) -> String {
+    let with_l = rows.iter().all(|(_, l)| l.is_some());
+    let mut text = String::from(if with_l {
+        "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n"
+    } else {
+        "q1,q2,q3,q4,q5,q6,L_pred\n"
+    });
+    for ((q, l), p) in rows.iter().zip(predicted) {
+        let q: Vec<String> = q.iter().map(|v| v.to_string()).collect();
+        match (with_l, l) {
+            (true, Some(l)) => text.push_str(&format!("{},{l},{p},{}\n", q.join(","), l - p)),
+            _ => text.push_str(&format!("{},{p}\n", q.join(","))),
+        }
     }
-    crate::io::write_atomic(out, text.as_bytes())?;
+    text
+}
+
+/// `twincal predict`: the calibrated model's length for every row of a dataset (which needs no
+/// measured lengths), with the residual where a length was measured.
+pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: bool) -> Result<()> {
+    let data_files = data_inputs(data);
+    check_outputs(
+        &[("--model", model), ("--data", &data_files[0])],
+        &[("--out", out)],
+    )?;
+    let result = load_model(model)?;
+    let ds = load_dataset(data, angles, false)?;
+    // TODO(merge): the row's length becomes optional with Dataset::load_with.
+    let rows: Vec<([f64; 6], Option<f64>)> =
+        ds.rows.iter().map(|r| (r.q_deg, Some(r.l_mm))).collect();
+    let mut predicted = Vec::with_capacity(rows.len());
+    for (i, (q, _)) in rows.iter().enumerate() {
+        let p = result.predict_mm(q);
+        if !p.is_finite() {
+            return Err(Error::Calibration(format!(
+                "the model predicted a non-finite length for row {}",
+                i + 1
+            )));
+        }
+        predicted.push(p);
+    }
+    crate::io::write_atomic(out, prediction_csv(&rows, &predicted).as_bytes())?;
     if !quiet {
-        let s = crate::calib::metrics::ErrorStats::of(&res);
-        eprintln!("{} rows: RMSE {:.4} mm, STD {:.4} mm, MAX {:.4} mm; wrote {}", ds.rows.len(), s.rmse, s.std, s.max, out.display());
+        let res: Vec<f64> = rows
+            .iter()
+            .zip(&predicted)
+            .filter_map(|((_, l), p)| l.map(|l| l - p))
+            .collect();
+        if res.is_empty() {
+            eprintln!("{} rows predicted; wrote {}", rows.len(), out.display());
+        } else {
+            let s = crate::calib::metrics::ErrorStats::of(&res);
+            eprintln!(
+                "{} rows: RMSE {:.4} mm, STD {:.4} mm, MAX {:.4} mm; wrote {}",
+                rows.len(),
+                s.rmse,
+                s.std,
+                s.max,
+                out.display()
+            );
+        }
     }
     Ok(())
 }
@@ -304,29 +681,91 @@ pub struct CompareRun {
     pub test_abs_residuals: Vec<f64>,
 }
 
+/// Arguments of `twincal compare`.
+pub struct CompareArgs<'a> {
+    pub data: &'a Path,
+    pub angles: AngleArg,
+    pub methods: &'a [String],
+    /// 1 to [`MAX_SEEDS`].
+    pub seeds: u64,
+    pub model: &'a str,
+    /// Parametrisation of a nominal model (default hayati); refused for generic6r.
+    pub params: Option<&'a str>,
+    /// In (0, 1); default: the dataset's split size, else 0.2.
+    pub test_fraction: Option<f64>,
+    pub effort: f64,
+    pub out: Option<&'a Path>,
+}
+
 /// `twincal compare`: every method on every seed (a fresh stratified split per seed), then the
 /// accuracy / time table and Wilcoxon signed-rank tests of each method against the first one,
 /// across seeds (test RMSE) and per sample (|test residual| of seed 0).
-#[allow(clippy::too_many_arguments)]
-pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params: &str, test_fraction: Option<f64>, effort: f64, out: Option<&Path>, quiet: bool) -> Result<()> {
-    use crate::calib::run::{calibrate as run, split_rows, CalibOptions, Method, ModelSpec};
+pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
+    use crate::calib::run::{calibrate as run, split_rows, CalibOptions, Method};
     use crate::calib::stats::{mean_std, wilcoxon_signed_rank};
     use rayon::prelude::*;
-    let ds = crate::dataset::Dataset::load(data)?;
-    let methods: Vec<Method> = methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
-    if methods.is_empty() || seeds == 0 {
-        return Err(Error::Invalid("compare needs at least one method and one seed".into()));
+    let (seeds, test_fraction, effort) = (a.seeds, a.test_fraction, a.effort);
+    let methods: Vec<Method> = a
+        .methods
+        .iter()
+        .map(|m| Method::parse(m))
+        .collect::<Result<_>>()?;
+    if methods.is_empty() {
+        return Err(Error::Invalid(
+            "--methods is empty: compare needs at least one method".into(),
+        ));
+    }
+    if let Some(m) = methods
+        .iter()
+        .enumerate()
+        .find_map(|(i, m)| methods[..i].contains(m).then_some(m))
+    {
+        return Err(Error::Invalid(format!(
+            "--methods lists {} twice",
+            m.name()
+        )));
+    }
+    check_seeds(seeds)?;
+    let jobs_count = seeds * methods.len() as u64;
+    if jobs_count > MAX_COMPARE_JOBS {
+        return Err(Error::Invalid(format!("{} methods x {seeds} seeds = {jobs_count} calibrations, more than compare runs at once ({MAX_COMPARE_JOBS})", methods.len())));
+    }
+    if let Some(f) = test_fraction {
+        if !(f > 0.0 && f < 1.0) {
+            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1) for compare (every seed is scored on held-out rows), got {f}")));
+        }
     }
     if !(effort > 0.0 && effort <= 10.0) {
-        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {effort}")));
+        return Err(Error::Invalid(format!(
+            "--effort must be in (0, 10], got {effort}"
+        )));
     }
-    let spec = ModelSpec::parse(model, params)?;
+    let data_files = data_inputs(a.data);
+    if let Some(out) = a.out {
+        let mut inputs: Vec<(&str, &Path)> = vec![("--data", &data_files[0])];
+        let model_file = model_input(a.model);
+        inputs.extend(model_file.as_deref().map(|m| ("--model", m)));
+        check_outputs(&inputs, &[("--out", out)])?;
+    }
+    let spec = model_spec(a.model, a.params)?;
+    let ds = load_dataset(a.data, a.angles, true)?;
     let n = ds.rows.len();
     let frac = test_fraction.unwrap_or_else(|| {
         let t = ds.test_indices().len();
-        if t > 0 && t < n { t as f64 / n as f64 } else { 0.2 }
+        if t > 0 && t < n {
+            t as f64 / n as f64
+        } else {
+            0.2
+        }
     });
-    let jobs: Vec<(u64, Method)> = (0..seeds).flat_map(|s| methods.iter().map(move |m| (s, *m))).collect();
+    if (frac * n as f64).round() < 1.0 || (frac * n as f64).round() as usize >= n {
+        return Err(Error::Invalid(format!(
+            "test fraction {frac} of {n} rows leaves no test rows or no training rows"
+        )));
+    }
+    let jobs: Vec<(u64, Method)> = (0..seeds)
+        .flat_map(|s| methods.iter().map(move |m| (s, *m)))
+        .collect();
     let bar = progress(quiet);
     bar.start(jobs.len() as u64, "calibrations");
     let runs: Vec<Result<CompareRun>> = jobs
@@ -338,7 +777,10 @@ pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params:
             o.effort = effort;
             let r = run(&ds, None, &o)?;
             let (_, test_idx) = split_rows(&ds, Some(frac), *seed)?;
-            let test_abs_residuals = test_idx.iter().map(|&i| (ds.rows[i].l_mm - r.predict_mm(&ds.rows[i].q_deg)).abs()).collect();
+            let test_abs_residuals = test_idx
+                .iter()
+                .map(|&i| (ds.rows[i].l_mm - r.predict_mm(&ds.rows[i].q_deg)).abs())
+                .collect();
             bar.inc(1);
             Ok(CompareRun {
                 method: m.name().into(),
@@ -353,9 +795,17 @@ pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params:
         .collect();
     bar.finish();
     let runs: Vec<CompareRun> = runs.into_iter().collect::<Result<_>>()?;
-    let by = |m: &str| runs.iter().filter(|r| r.method == m).cloned().collect::<Vec<_>>();
+    let by = |m: &str| {
+        runs.iter()
+            .filter(|r| r.method == m)
+            .cloned()
+            .collect::<Vec<_>>()
+    };
     let mut table = String::new();
-    table.push_str(&format!("# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n", ds.source, n));
+    table.push_str(&format!(
+        "# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n",
+        ds.source, n
+    ));
     table.push_str("| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n");
     let ms = |v: Vec<f64>| {
         let (m, s) = mean_std(&v);
@@ -385,9 +835,13 @@ pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params:
         let a: Vec<f64> = ref_runs.iter().map(|x| x.test.rmse).collect();
         let b: Vec<f64> = r.iter().map(|x| x.test.rmse).collect();
         let across = wilcoxon_signed_rank(&a, &b).ok();
-        let per = wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
+        let per =
+            wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
         let cell = |w: &Option<crate::calib::stats::Wilcoxon>| match w {
-            Some(w) => (format!("{:.1}", w.statistic.abs()), format!("{:.3e}", w.p_value)),
+            Some(w) => (
+                format!("{:.1}", w.statistic.abs()),
+                format!("{:.3e}", w.p_value),
+            ),
             None => ("–".into(), "–".into()),
         };
         let (wa, pa) = cell(&across);
@@ -396,33 +850,51 @@ pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params:
         tests.push(serde_json::json!({"method": m.name(), "against": reference, "across_seeds": across.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n})), "per_sample": per.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n}))}));
     }
     println!("{table}");
-    if let Some(p) = out {
-        crate::io::write_json(p, &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
+    if let Some(p) = a.out {
+        crate::io::write_json(
+            p,
+            &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}),
+        )?;
     }
     Ok(())
 }
 
 /// `twincal bench calib`: the calibration core's targets, measured.
 pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> {
+    check_repeat(repeat)?;
+    check_seeds(seeds)?;
     use crate::calib::optim::LeastSquares;
     use crate::calib::problem::LengthFit;
     use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
     use rayon::prelude::*;
-    let (base, robot) = Scenario::from_toml(include_str!("../scenarios/irb120_geometric.toml"), "irb120_geometric")
-        .and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
-    let spec = ModelSpec::Nominal { robot: robot.clone(), parametrisation: "hayati".into() };
-    let tmp = std::env::temp_dir().join(format!("twincal-bench-{}", std::process::id()));
-    let gen = |seed: u64, poses: usize, test: usize| -> Result<(crate::dataset::Dataset, TruthFile)> {
-        let mut s = base.clone();
-        s.seed = seed;
-        s.sampling.poses = poses;
-        s.sampling.test = test;
-        let g = run_generate(&s, &robot, &Silent)?;
-        let dir = tmp.join(format!("s{seed}-{poses}"));
-        write_outputs(&g, &dir)?;
-        let truth = TruthFile::find(&dir)?.ok_or_else(|| Error::Invalid("truth missing".into()))?;
-        Ok((g.dataset, truth))
+    let (base, robot) = Scenario::from_toml(
+        include_str!("../scenarios/irb120_geometric.toml"),
+        "irb120_geometric",
+    )
+    .and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
+    let spec = ModelSpec::Nominal {
+        robot: robot.clone(),
+        parametrisation: "hayati".into(),
     };
+    // Removed on every exit path (by its Drop).
+    let tmp_dir = tempfile::Builder::new()
+        .prefix("twincal-bench-")
+        .tempdir()
+        .map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
+    let tmp = tmp_dir.path();
+    let gen =
+        |seed: u64, poses: usize, test: usize| -> Result<(crate::dataset::Dataset, TruthFile)> {
+            let mut s = base.clone();
+            s.seed = seed;
+            s.sampling.poses = poses;
+            s.sampling.test = test;
+            let g = run_generate(&s, &robot, &Silent)?;
+            let dir = tmp.join(format!("s{seed}-{poses}"));
+            write_outputs(&g, &dir)?;
+            let truth =
+                TruthFile::find(&dir)?.ok_or_else(|| Error::Invalid("truth missing".into()))?;
+            Ok((g.dataset, truth))
+        };
 
     // 1. LM speed on 500 training poses, against one residual + Jacobian evaluation.
     let (ds, truth) = gen(base.seed, 600, 100)?;
@@ -434,11 +906,14 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
         times.push(r.wall_time_s);
         iters = r.iterations;
     }
-    let t_lm = median(&mut times);
+    let t_lm = median(&times);
     let train: Vec<usize> = ds.train_indices();
     let samples = crate::calib::run::samples(&ds, &train);
     let model = run(&ds, None, &opts)?.model;
-    let fit = LengthFit { model: &model, data: &samples };
+    let fit = LengthFit {
+        model: &model,
+        data: &samples,
+    };
     let mut jt = Vec::new();
     for _ in 0..20 {
         let t0 = Instant::now();
@@ -449,7 +924,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
         std::hint::black_box((&j, &r));
         jt.push(t0.elapsed().as_secs_f64());
     }
-    let t_j = median(&mut jt);
+    let t_j = median(&jt);
     println!("calibration benchmark");
     println!("  LM, {} training poses      : {:8.2} ms median (target < 20 ms), {iters} iterations; one residual+Jacobian evaluation {:.3} ms -> LM = {:.1} evaluations", train.len(), t_lm * 1e3, t_j * 1e3, t_lm / t_j);
     println!("    (calibrate wall time includes the sensor pre-alignment, identifiability analysis and covariance)");
@@ -460,31 +935,60 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
         .map(|seed| {
             let (ds, truth) = gen(1000 + seed, 400, 100)?;
             let r = run(&ds, Some(&truth), &opts)?;
-            let c = r.truth_comparison.clone().ok_or_else(|| Error::Invalid("no truth comparison".into()))?;
-            Ok((r.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN) / truth.noise_std_mm, c.within_3_sigma, c.identifiable, c.max_abs_z))
+            let c = r
+                .truth_comparison
+                .clone()
+                .ok_or_else(|| Error::Invalid("no truth comparison".into()))?;
+            Ok((
+                r.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN) / truth.noise_std_mm,
+                c.within_3_sigma,
+                c.identifiable,
+                c.max_abs_z,
+            ))
         })
         .collect();
     let rows: Vec<(f64, usize, usize, f64)> = rows.into_iter().collect::<Result<_>>()?;
-    let mut ratios: Vec<f64> = rows.iter().map(|r| r.0).collect();
+    let ratios: Vec<f64> = rows.iter().map(|r| r.0).collect();
     let within5 = ratios.iter().filter(|r| (*r - 1.0).abs() <= 0.05).count();
     let all_in = rows.iter().filter(|r| r.1 == r.2).count();
     let total_in: usize = rows.iter().map(|r| r.1).sum();
     let total: usize = rows.iter().map(|r| r.2).sum();
-    let mut zs: Vec<f64> = rows.iter().map(|r| r.3).collect();
+    let zs: Vec<f64> = rows.iter().map(|r| r.3).collect();
+    let (r_min, r_max) = ratios
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+            (lo.min(*r), hi.max(*r))
+        });
     println!("  irb120_geometric, {seeds} seeds (400 poses, 300/100):");
-    println!("    test RMSE / noise floor   : median {:.3}, min {:.3}, max {:.3}; within 5 %: {within5}/{seeds} (sampling spread of an RMSE over 100 test poses is about ±7 %)", median(&mut ratios), ratios.first().copied().unwrap_or(f64::NAN), ratios.last().copied().unwrap_or(f64::NAN));
-    println!("    identifiable within 3σ    : {total_in}/{total} parameters; every one in {all_in}/{seeds} seeds; median max |z| {:.2}", median(&mut zs));
+    println!("    test RMSE / noise floor   : median {:.3}, min {:.3}, max {:.3}; within 5 %: {within5}/{seeds} (sampling spread of an RMSE over 100 test poses is about ±7 %)", median(&ratios), r_min, r_max);
+    println!("    identifiable within 3σ    : {total_in}/{total} parameters; every one in {all_in}/{seeds} seeds; median max |z| {:.2}", median(&zs));
 
     // 3. The full comparison over 30 seeds.
     if with_compare {
         let dir = tmp.join(format!("s{}-400", 1000));
         let t0 = Instant::now();
-        compare(&dir, &["lm", "ekf", "pf", "pso", "rbf"].map(String::from), 30, "irb120", "hayati", None, 1.0, None, true)?;
-        println!("  compare, 5 methods x 30 seeds: {:.1} s wall time", t0.elapsed().as_secs_f64());
+        let methods = ["lm", "ekf", "pf", "pso", "rbf"].map(String::from);
+        let args = CompareArgs {
+            data: &dir,
+            angles: AngleArg::Deg,
+            methods: &methods,
+            seeds: 30,
+            model: "irb120",
+            params: None,
+            test_fraction: None,
+            effort: 1.0,
+            out: None,
+        };
+        compare(&args, true)?;
+        println!(
+            "  compare, 5 methods x 30 seeds: {:.1} s wall time",
+            t0.elapsed().as_secs_f64()
+        );
     }
 
     // 4. Real data.
-    let hsr = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/hsr-robotcali/hsr_robotcali_pool.csv");
+    let hsr = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/hsr-robotcali/hsr_robotcali_pool.csv");
     if hsr.exists() {
         let ds = crate::dataset::Dataset::load(&hsr)?;
         let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::Lm);
@@ -496,6 +1000,48 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     } else {
         println!("  HSR-RobotCali: skipped, {} is absent", hsr.display());
     }
-    let _ = std::fs::remove_dir_all(&tmp);
+    drop(tmp_dir);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prediction_csv_has_residuals_only_when_every_row_has_a_length() {
+        let q = [1.0, 2.0, 3.0, 4.0, 5.0, 6.5];
+        let with = prediction_csv(&[(q, Some(300.5)), (q, Some(301.0))], &[300.25, 301.0]);
+        assert_eq!(with, "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n1,2,3,4,5,6.5,300.5,300.25,0.25\n1,2,3,4,5,6.5,301,301,0\n");
+        let without = prediction_csv(&[(q, None), (q, Some(301.0))], &[300.25, 301.0]);
+        assert_eq!(
+            without,
+            "q1,q2,q3,q4,q5,q6,L_pred\n1,2,3,4,5,6.5,300.25\n1,2,3,4,5,6.5,301\n"
+        );
+    }
+
+    #[test]
+    fn generic6r_takes_no_parametrisation() {
+        let e = model_spec("generic6r", Some("dh")).unwrap_err().to_string();
+        assert!(e.contains("--params dh"), "{e}");
+        assert!(model_spec("generic6r", None).is_ok());
+        assert!(model_spec("irb120", Some("frame")).is_ok());
+    }
+
+    #[test]
+    fn data_inputs_name_the_files_read() {
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(
+            data_inputs(dir.path()),
+            vec![
+                dir.path().join("dataset.csv"),
+                dir.path().join("truth.json")
+            ]
+        );
+        let x = dir.path().join("m.xlsx#Sheet1");
+        assert_eq!(
+            data_inputs(&x),
+            vec![dir.path().join("m.xlsx"), dir.path().join("truth.json")]
+        );
+    }
 }

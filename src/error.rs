@@ -1,18 +1,37 @@
-//! One error type for the whole crate: every message names the offending input.
+//! One error type for the whole crate: every message names the offending input or output.
 
 use std::path::PathBuf;
 
 /// Errors that reach the user. Each variant carries enough context to act on.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// Reading an input failed.
     #[error("cannot read {path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// Writing (or renaming into place) an output failed.
+    #[error("cannot write {path}: {source}")]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// Creating an output's folder failed.
+    #[error("cannot create folder {path}: {source}")]
+    CreateDir {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("URDF {path}: {msg}")]
     Urdf { path: String, msg: String },
     #[error("scenario {path}: {msg}")]
     Scenario { path: String, msg: String },
     #[error("data {path}: {msg}")]
     Data { path: String, msg: String },
+    /// A calibrated-model (result.json) file that cannot be used.
+    #[error("model {path}: {msg}")]
+    Model { path: String, msg: String },
     #[error("sensor: {0}")]
     Sensor(String),
     #[error("simulation: {0}")]
@@ -26,10 +45,37 @@ pub enum Error {
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
+    /// A failed read of `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+    /// A failed write of the output `path`.
+    pub fn write(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Write {
+            path: path.into(),
+            source,
+        }
+    }
+    /// A failed creation of the output folder `path`.
+    pub fn create_dir(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::CreateDir {
+            path: path.into(),
+            source,
+        }
     }
     pub fn data(path: impl std::fmt::Display, msg: impl Into<String>) -> Self {
-        Error::Data { path: path.to_string(), msg: msg.into() }
+        Error::Data {
+            path: path.to_string(),
+            msg: msg.into(),
+        }
+    }
+    pub fn model(path: impl std::fmt::Display, msg: impl Into<String>) -> Self {
+        Error::Model {
+            path: path.to_string(),
+            msg: msg.into(),
+        }
     }
 }

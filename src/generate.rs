@@ -318,9 +318,28 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
     Ok(Generated { dataset: Dataset { rows, source: s.name.clone() }, truth, frames, twin })
 }
 
-/// Writes `dataset.csv` and `truth.json` into `dir`, each whole or not at all.
+/// Stages `dataset.csv` and `truth.json` of `dir` in `outputs` (renamed into place, in that order,
+/// by `outputs.commit()`). truth.json starts with a `dataset` link (file name, SHA-256 of the
+/// exact dataset.csv bytes, row count) that [`crate::calib::truth::TruthFile::find`] checks, so a
+/// truth file is never trusted beside a dataset it does not describe.
+pub fn stage_outputs(g: &Generated, dir: &std::path::Path, outputs: &mut crate::io::OutputSet) -> Result<()> {
+    use crate::calib::truth::DatasetLink;
+    /// truth.json as written: the dataset link first, then the truth.
+    #[derive(Serialize)]
+    struct TruthOut<'a> {
+        dataset: DatasetLink,
+        #[serde(flatten)]
+        truth: &'a Truth,
+    }
+    let csv = g.dataset.to_csv_string();
+    let link = DatasetLink::of(crate::dataset::DATASET_FILE, csv.as_bytes(), g.dataset.rows.len());
+    outputs.write(&dir.join(crate::dataset::DATASET_FILE), csv.as_bytes())?;
+    outputs.write_json(&dir.join(crate::calib::truth::TRUTH_FILE), &TruthOut { dataset: link, truth: &g.truth })
+}
+
+/// Writes `dataset.csv` and `truth.json` into `dir`, both or neither (see [`stage_outputs`]).
 pub fn write_outputs(g: &Generated, dir: &std::path::Path) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    g.dataset.write_csv(&dir.join("dataset.csv"))?;
-    crate::io::write_json(&dir.join("truth.json"), &g.truth)
+    let mut outputs = crate::io::OutputSet::new();
+    stage_outputs(g, dir, &mut outputs)?;
+    outputs.commit()
 }

@@ -3,12 +3,16 @@
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use twincal::cli;
+use twincal::cli::{self, AngleArg, BenchTarget};
 
 #[derive(Parser)]
-#[command(name = "twincal", version, about = "Digital twin and calibration of serial arms measured with a draw-wire sensor")]
+#[command(
+    name = "twincal",
+    version,
+    about = "Digital twin and calibration of serial arms measured with a draw-wire sensor"
+)]
 struct Cli {
-    /// No progress bars or summaries on stderr.
+    /// No progress bars or summaries on stderr (warnings and errors are still printed).
     #[arg(long, global = true)]
     quiet: bool,
     #[command(subcommand)]
@@ -21,9 +25,10 @@ struct ModelArgs {
     /// irb120 (embedded URDF), a .urdf path, or generic6r (no nominal).
     #[arg(long, default_value = "irb120")]
     model: String,
-    /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes), dh (papers' 24) or frame.
-    #[arg(long, default_value = "hayati")]
-    params: String,
+    /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes; the default), dh (papers' 24)
+    /// or frame. Not for generic6r.
+    #[arg(long)]
+    params: Option<String>,
 }
 
 #[derive(Subcommand)]
@@ -48,25 +53,33 @@ enum Command {
         /// Dataset folder (DIR/dataset.csv, with truth.json when the twin made it), CSV, or xlsx (file.xlsx#Sheet).
         #[arg(long)]
         data: PathBuf,
+        /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
+        #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+        angles: AngleArg,
         /// lm, ekf, pf, pso or rbf.
         #[arg(long, default_value = "lm")]
         method: String,
         #[command(flatten)]
         model: ModelArgs,
         /// Hold out this fraction instead of the dataset's split column (0 trains on every row).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         test_fraction: Option<f64>,
         /// Seed of the hold-out split and of the stochastic methods.
         #[arg(long, default_value_t = 0)]
         seed: u64,
         /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
-        #[arg(long, value_delimiter = ',', value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
+        #[arg(
+            long,
+            value_delimiter = ',',
+            allow_hyphen_values = true,
+            value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ"
+        )]
         sensor_guess: Option<Vec<f64>>,
         /// Relative singular-value threshold for identifiability.
-        #[arg(long, default_value_t = 1e-7)]
+        #[arg(long, default_value_t = 1e-7, allow_negative_numbers = true)]
         rank_tol: f64,
         /// Budget of the stochastic methods and of the generic model's global search (1 = default).
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
         effort: f64,
         /// The calibrated model and its report.
         #[arg(long, default_value = "result.json")]
@@ -80,10 +93,15 @@ enum Command {
     },
     /// Predict cable lengths with a calibrated model.
     Predict {
+        /// A result.json written by `calibrate`.
         #[arg(long)]
         model: PathBuf,
+        /// Joint angles, with or without measured lengths (dataset folder, CSV or xlsx).
         #[arg(long)]
         data: PathBuf,
+        /// Unit of the joint angles in the data.
+        #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+        angles: AngleArg,
         #[arg(long, default_value = "predictions.csv")]
         out: PathBuf,
     },
@@ -91,35 +109,40 @@ enum Command {
     Compare {
         #[arg(long)]
         data: PathBuf,
+        /// Unit of the joint angles in the data.
+        #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+        angles: AngleArg,
         #[arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf")]
         methods: Vec<String>,
-        #[arg(long, default_value_t = 30)]
+        /// Number of seeds (1 to 1000).
+        #[arg(long, default_value_t = 30, allow_negative_numbers = true)]
         seeds: u64,
         #[command(flatten)]
         model: ModelArgs,
-        /// Test fraction of each seed's re-split (default: the dataset's split size, else 0.2).
-        #[arg(long)]
+        /// Test fraction of each seed's re-split, in (0, 1) (default: the dataset's split size, else 0.2).
+        #[arg(long, allow_negative_numbers = true)]
         test_fraction: Option<f64>,
         /// Effort of the stochastic methods (1 = full budget).
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
         effort: f64,
         /// Also write the tables as JSON.
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Benchmarks: `twin` (settled poses per second) or `calib` (LM speed, accuracy over seeds,
-    /// the full comparison, HSR-RobotCali when present).
+    /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model) or
+    /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present).
     Bench {
-        #[arg(default_value = "twin")]
-        what: String,
+        #[arg(value_enum, default_value_t = BenchTarget::Twin)]
+        what: BenchTarget,
+        /// twin: scenario TOML (default: the embedded one).
         #[arg(long)]
         scenario: Option<PathBuf>,
-        /// Repetitions (the median is reported).
-        #[arg(long, default_value_t = 3)]
+        /// Repetitions, 1 to 1000 (the median is reported).
+        #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
         repeat: usize,
-        /// calib: number of seeds for the accuracy targets.
-        #[arg(long, default_value_t = 20)]
-        seeds: u64,
+        /// calib: number of seeds for the accuracy targets, 1 to 1000 (default 20).
+        #[arg(long, allow_negative_numbers = true)]
+        seeds: Option<u64>,
         /// calib: also time `compare` over 30 seeds with every method.
         #[arg(long)]
         compare: bool,
@@ -128,21 +151,91 @@ enum Command {
 
 fn main() -> ExitCode {
     let args = Cli::parse();
+    if let Err(e) = twincal::io::install_signal_cleanup() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     let result = match args.command {
-        Command::Generate { scenario, out, rrd, seed } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
-        Command::Calibrate { data, method, model: ModelArgs { model, params }, test_fraction, seed, sensor_guess, rank_tol, effort, out, urdf, rrd } => cli::calibrate(
-            &cli::CalibrateArgs { data, method, model, params, test_fraction, seed, sensor_guess, rank_tol, effort, out, urdf, rrd },
+        Command::Generate {
+            scenario,
+            out,
+            rrd,
+            seed,
+        } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
+        Command::Calibrate {
+            data,
+            angles,
+            method,
+            model: ModelArgs { model, params },
+            test_fraction,
+            seed,
+            sensor_guess,
+            rank_tol,
+            effort,
+            out,
+            urdf,
+            rrd,
+        } => cli::calibrate(
+            &cli::CalibrateArgs {
+                data,
+                angles,
+                method,
+                model,
+                params,
+                test_fraction,
+                seed,
+                sensor_guess,
+                rank_tol,
+                effort,
+                out,
+                urdf,
+                rrd,
+            },
             args.quiet,
         ),
-        Command::Predict { model, data, out } => cli::predict(&model, &data, &out, args.quiet),
-        Command::Compare { data, methods, seeds, model: ModelArgs { model, params }, test_fraction, effort, out } => {
-            cli::compare(&data, &methods, seeds, &model, &params, test_fraction, effort, out.as_deref(), args.quiet)
-        }
-        Command::Bench { what, scenario, repeat, seeds, compare } => match what.as_str() {
-            "twin" => cli::bench(scenario.as_deref(), repeat, args.quiet),
-            "calib" => cli::bench_calib(repeat, seeds, compare),
-            other => Err(twincal::Error::Invalid(format!("unknown benchmark '{other}' (expected twin or calib)"))),
-        },
+        Command::Predict {
+            model,
+            data,
+            angles,
+            out,
+        } => cli::predict(&model, &data, angles, &out, args.quiet),
+        Command::Compare {
+            data,
+            angles,
+            methods,
+            seeds,
+            model: ModelArgs { model, params },
+            test_fraction,
+            effort,
+            out,
+        } => cli::compare(
+            &cli::CompareArgs {
+                data: &data,
+                angles,
+                methods: &methods,
+                seeds,
+                model: &model,
+                params: params.as_deref(),
+                test_fraction,
+                effort,
+                out: out.as_deref(),
+            },
+            args.quiet,
+        ),
+        Command::Bench {
+            what,
+            scenario,
+            repeat,
+            seeds,
+            compare,
+        } => cli::bench_command(
+            what,
+            scenario.as_deref(),
+            repeat,
+            seeds,
+            compare,
+            args.quiet,
+        ),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,8 +1,12 @@
-//! The truth file the twin writes beside a dataset, as far as calibration needs it.
+//! The truth file the twin writes beside a dataset, as far as calibration needs it, and the link
+//! that ties it to the exact dataset it describes.
 
 use crate::error::{Error, Result};
-use serde::Deserialize;
-use std::path::Path;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Name of the truth file in a dataset folder.
+pub const TRUTH_FILE: &str = "truth.json";
 
 /// What a truth file says, as far as calibration needs it.
 #[derive(Clone, Debug, Deserialize)]
@@ -10,6 +14,9 @@ pub struct TruthFile {
     /// True geometric deviations by name: mm for `.dx/.dy/.dz`, degrees otherwise.
     #[serde(default)]
     pub parameters: std::collections::BTreeMap<String, f64>,
+    /// The dataset this truth belongs to (absent in files written before twincal recorded it).
+    #[serde(default)]
+    pub dataset: Option<DatasetLink>,
     pub sensor: TruthSensor,
     pub tool: TruthTool,
     pub noise_std_mm: f64,
@@ -29,16 +36,158 @@ pub struct TruthPose {
     pub length_true_mm: f64,
 }
 
+/// The dataset file a truth file was written with: its name, the SHA-256 of its exact bytes
+/// (lower-case hex) and its number of data rows.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DatasetLink {
+    pub file: String,
+    pub sha256: String,
+    pub rows: usize,
+}
+
+impl DatasetLink {
+    pub fn of(file: &str, bytes: &[u8], rows: usize) -> DatasetLink {
+        DatasetLink {
+            file: file.to_string(),
+            sha256: sha256_hex(bytes),
+            rows,
+        }
+    }
+}
+
+/// SHA-256 of `bytes`, lower-case hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// The file a dataset path reads: `DIR/dataset.csv` for a folder, the file itself otherwise
+/// (without an xlsx `#Sheet` suffix).
+fn dataset_file(data: &Path) -> PathBuf {
+    if data.is_dir() {
+        return data.join(crate::dataset::DATASET_FILE);
+    }
+    if !data.exists() {
+        let s = data.to_string_lossy();
+        if let Some((file, _sheet)) = s.rsplit_once('#') {
+            return PathBuf::from(file);
+        }
+    }
+    data.to_path_buf()
+}
+
 impl TruthFile {
-    /// `DIR/truth.json` next to a dataset folder or file, if present.
+    /// `DIR/truth.json` next to a dataset folder or file, if present and if it belongs to that
+    /// dataset. A truth file whose dataset fingerprint does not match the dataset file's bytes
+    /// (the dataset was edited, regenerated or replaced, or an interrupted write left an old
+    /// truth file behind) is refused with an error. A truth file without a fingerprint (written
+    /// by twincal before it recorded one) cannot be checked: it is ignored with a warning on
+    /// stderr.
     pub fn find(data: &Path) -> Result<Option<TruthFile>> {
-        let dir = if data.is_dir() { data.to_path_buf() } else { data.parent().map(|p| p.to_path_buf()).unwrap_or_default() };
-        let p = dir.join("truth.json");
+        let file = dataset_file(data);
+        let dir = if data.is_dir() {
+            data.to_path_buf()
+        } else {
+            file.parent().map(|p| p.to_path_buf()).unwrap_or_default()
+        };
+        let p = dir.join(TRUTH_FILE);
         if !p.exists() {
             return Ok(None);
         }
         let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
-        serde_json::from_str(&text).map(Some).map_err(|e| Error::data(p.display(), format!("malformed truth file: {e}")))
+        let truth: TruthFile = serde_json::from_str(&text)
+            .map_err(|e| Error::data(p.display(), format!("malformed truth file: {e}")))?;
+        let Some(link) = &truth.dataset else {
+            eprintln!(
+                "warning: {} has no dataset fingerprint (written by an older twincal), so it cannot be matched to {}; \
+                 it is ignored (regenerate the dataset to compare against the truth)",
+                p.display(),
+                file.display()
+            );
+            return Ok(None);
+        };
+        let bytes = std::fs::read(&file).map_err(|e| Error::io(&file, e))?;
+        let sha = sha256_hex(&bytes);
+        if sha != link.sha256 {
+            return Err(Error::data(
+                p.display(),
+                format!(
+                    "this truth file does not belong to {}: it was written with a {} of {} rows and SHA-256 {}, \
+                     the file has SHA-256 {} (edited, replaced or half-written?); delete {} or regenerate the folder \
+                     with `twincal generate`",
+                    file.display(),
+                    link.file,
+                    link.rows,
+                    &link.sha256[..link.sha256.len().min(12)],
+                    &sha[..12],
+                    p.display()
+                ),
+            ));
+        }
+        if truth.poses.len() != link.rows {
+            return Err(Error::data(
+                p.display(),
+                format!(
+                    "lists {} poses for a dataset of {} rows (edited truth file?)",
+                    truth.poses.len(),
+                    link.rows
+                ),
+            ));
+        }
+        Ok(Some(truth))
     }
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sha256_matches_the_standard_vector() {
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+
+    #[test]
+    fn truth_is_matched_to_its_dataset_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = "q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,300\n";
+        std::fs::write(dir.path().join("dataset.csv"), csv).unwrap();
+        let truth = |link: Option<DatasetLink>| {
+            let mut v = serde_json::json!({
+                "sensor": {"exit_point_mm": [0.0, 0.0, 0.0], "length_offset_mm": 0.0},
+                "tool": {"point_mm": [0.0, 0.0, 0.0]}, "noise_std_mm": 0.01,
+                "poses": [{"length_true_mm": 300.0}]
+            });
+            if let Some(l) = link {
+                v["dataset"] = serde_json::to_value(l).unwrap();
+            }
+            std::fs::write(dir.path().join(TRUTH_FILE), v.to_string()).unwrap();
+        };
+        truth(Some(DatasetLink::of("dataset.csv", csv.as_bytes(), 1)));
+        assert!(TruthFile::find(dir.path()).unwrap().is_some());
+        assert!(TruthFile::find(&dir.path().join("dataset.csv"))
+            .unwrap()
+            .is_some());
+        // One changed byte in the dataset: refused, by folder and by file.
+        std::fs::write(dir.path().join("dataset.csv"), csv.replace("300", "301")).unwrap();
+        for p in [dir.path().to_path_buf(), dir.path().join("dataset.csv")] {
+            let e = TruthFile::find(&p).unwrap_err().to_string();
+            assert!(
+                e.contains("does not belong to") && e.contains("delete"),
+                "{e}"
+            );
+        }
+        // An older truth file without a link is ignored.
+        truth(None);
+        assert!(TruthFile::find(dir.path()).unwrap().is_none());
+        // No truth file at all.
+        std::fs::remove_file(dir.path().join(TRUTH_FILE)).unwrap();
+        assert!(TruthFile::find(dir.path()).unwrap().is_none());
+    }
+}

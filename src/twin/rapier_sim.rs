@@ -246,7 +246,6 @@ fn settle(
             change = change.max((d - prev[j]).abs());
             delta[j] = d;
         }
-        if std::env::var("TWINCAL_TRACE").is_ok() { eprintln!("step {steps} δ {delta:?} change {change:e}"); }
         prev.copy_from_slice(&delta);
         let sliding = states.contains(&State::Free);
         if change < twin.settle.step_tolerance_rad && !sliding {

@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 pub(super) enum Backend {}
 
 impl Backend {
-    pub(super) fn create(_app_id: &str, path: &Path) -> Result<Backend> {
+    pub(super) fn with_file(_app_id: &str, _file: std::fs::File, path: &Path) -> Result<Backend> {
         Err(Error::Invalid(format!(
             "cannot write {}: twincal was built without the `rerun` feature \
              (rebuild with `cargo build --features rerun`, which is on by default)",

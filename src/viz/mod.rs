@@ -23,9 +23,11 @@
 //! * **Errors:** logging methods never panic and return nothing. The first problem (bad input
 //!   such as a colour count that does not match the point count, or an I/O error) is remembered,
 //!   later logging is skipped, and [`Recorder::finish`] returns that error. The file is written
-//!   to a hidden temporary next to the target and renamed into place by a successful `finish`:
-//!   the target is either a complete recording or untouched. Dropping a `Recorder` without
-//!   `finish` discards the recording.
+//!   to a temporary file staged in a [`crate::io::OutputSet`] next to the target: either the
+//!   recorder's own ([`Recorder::create`], renamed into place by a successful `finish`) or the
+//!   command's ([`Recorder::staged`], renamed with the command's other outputs). The target is
+//!   either a complete recording or untouched. Dropping a `Recorder` without `finish` discards
+//!   the recording.
 
 use std::path::Path;
 
@@ -44,6 +46,9 @@ pub mod scenes;
 /// All lengths are in millimetres. See the [module documentation](self) for the conventions.
 pub struct Recorder {
     inner: backend::Backend,
+    /// The recorder's own output set ([`Recorder::create`]); `None` when the caller's set holds
+    /// the staged file ([`Recorder::staged`]).
+    own: Option<crate::io::OutputSet>,
 }
 
 impl std::fmt::Debug for Recorder {
@@ -59,7 +64,17 @@ impl Recorder {
     /// layouts per application id. Missing parent directories are created. Data goes to a hidden
     /// temporary file next to `path` until [`finish`](Self::finish) renames it into place.
     pub fn create(app_id: &str, path: &Path) -> crate::error::Result<Recorder> {
-        Ok(Recorder { inner: backend::Backend::create(app_id, path)? })
+        let mut own = crate::io::OutputSet::new();
+        let file = own.stage(path)?;
+        Ok(Recorder { inner: backend::Backend::with_file(app_id, file, path)?, own: Some(own) })
+    }
+
+    /// A recording staged as one of a command's outputs: written to a temporary file of
+    /// `outputs`, renamed into place by `outputs.commit()` after a successful
+    /// [`finish`](Self::finish), removed when `outputs` is dropped uncommitted.
+    pub fn staged(app_id: &str, outputs: &mut crate::io::OutputSet, path: &Path) -> crate::error::Result<Recorder> {
+        let file = outputs.stage(path)?;
+        Ok(Recorder { inner: backend::Backend::with_file(app_id, file, path)?, own: None })
     }
 
     /// Set the sequence timeline `timeline` (e.g. `"pose"`, `"iteration"`) to `idx` for all
@@ -142,10 +157,15 @@ impl Recorder {
         self.inner.static_text(entity, markdown);
     }
 
-    /// Flush everything, write the `.rrd` footer, fsync, and rename the temporary file into
-    /// place. Returns the first error met while recording, if any (then nothing is written).
+    /// Flush everything, write the `.rrd` footer, fsync, and (for [`Recorder::create`]) rename the
+    /// temporary file into place. Returns the first error met while recording, if any (then
+    /// nothing is written).
     pub fn finish(self) -> crate::error::Result<()> {
-        self.inner.finish()
+        self.inner.finish()?;
+        match self.own {
+            Some(own) => own.commit(),
+            None => Ok(()),
+        }
     }
 }
 
@@ -461,7 +481,7 @@ mod tests {
             std::fs::write(&blocker, b"x").unwrap();
             // Parent "directory" is a regular file.
             let err = Recorder::create("twincal_test", &blocker.join("x.rrd")).unwrap_err();
-            assert!(err.to_string().contains("x.rrd"), "{err}");
+            assert!(err.to_string().starts_with(&format!("cannot create folder {}", blocker.display())), "{err}");
         }
 
         #[test]

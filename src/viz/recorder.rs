@@ -82,8 +82,8 @@ pub(super) struct Backend {
     /// `None` once finished (or torn down by `Drop`).
     rec: Option<RecordingStream>,
     sink: Arc<Mutex<SinkState>>,
-    tmp_path: PathBuf,
-    final_path: PathBuf,
+    /// The target file, for messages (the data goes to a staged temporary file).
+    path: PathBuf,
     /// Our own notion of "now" on every timeline (see module docs).
     time: BTreeMap<TimelineName, TimeCell>,
     /// First error seen by any logging method.
@@ -97,46 +97,17 @@ fn write_err(path: &Path, what: &str, err: impl std::fmt::Display) -> Error {
     ))
 }
 
-/// `dir/.name.<pid>.<n>.tmp`: same directory (so the final rename is atomic), hidden, unique per
-/// process and per recorder.
-fn temp_path_for(path: &Path) -> PathBuf {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = path
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()))
-}
-
 fn f32x3(p: &[f64; 3]) -> [f32; 3] {
     [p[0] as f32, p[1] as f32, p[2] as f32]
 }
 
 impl Backend {
-    pub(super) fn create(app_id: &str, path: &Path) -> Result<Backend> {
-        if path.file_name().is_none() || path.as_os_str().is_empty() {
-            return Err(Error::Invalid(format!(
-                "Rerun recording path {:?} does not name a file",
-                path.display()
-            )));
-        }
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(parent).map_err(|e| {
-                write_err(
-                    path,
-                    &format!("cannot create directory {}", parent.display()),
-                    e,
-                )
-            })?;
-        }
+    /// A recording encoded into `file` (a temporary file staged by the caller's
+    /// [`crate::io::OutputSet`]); `path` is the target the messages name.
+    pub(super) fn with_file(app_id: &str, file: File, path: &Path) -> Result<Backend> {
         // rerun 0.36: only `&'static str` converts infallibly (and panics when empty).
         let app = rerun::ApplicationId::try_new(app_id)
             .map_err(|e| Error::Invalid(format!("invalid Rerun application id {app_id:?}: {e}")))?;
-        let tmp_path = temp_path_for(path);
-        let file = File::create(&tmp_path)
-            .map_err(|e| write_err(path, &format!("cannot create {}", tmp_path.display()), e))?;
         // Same encoding as rerun's own FileSink.
         let encoder = Encoder::new_eager(
             re_log_encoding::CrateVersion::LOCAL,
@@ -146,7 +117,6 @@ impl Backend {
         let encoder = match encoder {
             Ok(enc) => enc,
             Err(e) => {
-                let _ = std::fs::remove_file(&tmp_path);
                 return Err(write_err(path, "cannot start .rrd stream", e));
             }
         };
@@ -169,7 +139,6 @@ impl Backend {
             Ok(rec) => rec,
             Err(e) => {
                 drop(lock(&sink).encoder.take());
-                let _ = std::fs::remove_file(&tmp_path);
                 return Err(write_err(path, "cannot start Rerun recording stream", e));
             }
         };
@@ -177,8 +146,7 @@ impl Backend {
         let mut backend = Backend {
             rec: Some(rec),
             sink,
-            tmp_path,
-            final_path: path.to_path_buf(),
+            path: path.to_path_buf(),
             time: BTreeMap::new(),
             error: None,
         };
@@ -186,7 +154,7 @@ impl Backend {
         backend.log("world", true, &rerun::ViewCoordinates::RIGHT_HAND_Z_UP());
         backend.send_default_blueprint();
         if let Some(err) = backend.error.take() {
-            return Err(err); // `Drop` removes the temporary file.
+            return Err(err); // the caller's `OutputSet` removes the temporary file
         }
         Ok(backend)
     }
@@ -214,7 +182,7 @@ impl Backend {
             rec.set_timepoint(TimePoint::from(self.time.clone()));
         }
         if let Err(e) = rec.log_with_static(entity, is_static, data) {
-            let e = write_err(&self.final_path, &format!("logging {entity:?} failed"), e);
+            let e = write_err(&self.path, &format!("logging {entity:?} failed"), e);
             self.fail(e);
         }
     }
@@ -259,7 +227,7 @@ impl Backend {
             make_default: true,
         };
         if let Err(e) = blueprint.send(rec, activation) {
-            let e = write_err(&self.final_path, "cannot send the viewer layout", e);
+            let e = write_err(&self.path, "cannot send the viewer layout", e);
             self.fail(e);
         }
     }
@@ -414,16 +382,14 @@ impl Backend {
         self.log(entity, true, &rerun::TextDocument::from_markdown(markdown));
     }
 
+    /// Writes the footer and syncs the file; the caller's `OutputSet` renames it into place (or
+    /// removes it when this fails).
     pub(super) fn finish(mut self) -> Result<()> {
-        let result = self.finish_inner();
-        if result.is_err() {
-            let _ = std::fs::remove_file(&self.tmp_path);
-        }
-        result
+        self.finish_inner()
     }
 
     fn finish_inner(&mut self) -> Result<()> {
-        let path = self.final_path.clone();
+        let path = self.path.clone();
         if let Some(rec) = self.rec.take() {
             let flushed = rec.flush_blocking();
             // Dropping the last handle flushes the batcher and joins rerun's sink thread, so
@@ -463,26 +429,19 @@ impl Backend {
         file.sync_all()
             .map_err(|e| write_err(&path, "cannot sync", e))?;
         drop(file);
-        std::fs::rename(&self.tmp_path, &path).map_err(|e| {
-            write_err(
-                &path,
-                &format!("cannot rename {} into place", self.tmp_path.display()),
-                e,
-            )
-        })?;
         Ok(())
     }
 }
 
 impl Drop for Backend {
-    /// Dropped without a successful `finish()`: discard everything, leave no temporary file.
+    /// Dropped without a successful `finish()`: discard everything (the staged temporary file is
+    /// removed by its `OutputSet`).
     fn drop(&mut self) {
         drop(self.rec.take());
         let encoder = lock(&self.sink).encoder.take();
         if let Some(encoder) = encoder {
             // `into_inner` skips the footer that `Encoder`'s own `Drop` would try to write.
             drop(encoder.into_inner());
-            let _ = std::fs::remove_file(&self.tmp_path);
         }
     }
 }

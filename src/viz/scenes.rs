@@ -3,6 +3,7 @@
 use super::{colormap, histogram, Recorder};
 use crate::error::Result;
 use crate::generate::Generated;
+use crate::io::OutputSet;
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -26,8 +27,9 @@ pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
 
 /// Recording of a generated dataset: per pose (timeline `pose`) the arm's link frames and skeleton,
 /// the cable, and all tool points so far coloured by the nominal model's length residual.
-pub fn record_dataset(g: &Generated, path: &Path) -> Result<()> {
-    let mut rec = Recorder::create("twincal", path)?;
+/// Staged in `outputs` as `path` (renamed into place by `outputs.commit()`).
+pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+    let mut rec = Recorder::staged("twincal", outputs, path)?;
     let res = nominal_residuals(g);
     let vmax = res.iter().fold(0.0f64, |m, r| m.max(r.abs())).max(1e-6);
     rec.static_text(
@@ -84,15 +86,17 @@ impl Generated {
 
 /// Recording of a calibration: tool points (nominal model, tool at the calibrated tool point)
 /// coloured by the residual before (`stage` 0) and after (`stage` 1) calibration, residual
-/// histograms, and each parameter's convergence on the `iteration` timeline.
+/// histograms, and each parameter's convergence on the `iteration` timeline. Staged in `outputs`
+/// as `path`.
 pub fn record_calibration(
     r: &crate::calib::run::CalibResult,
     data: &crate::dataset::Dataset,
     opts: &crate::calib::run::CalibOptions,
+    outputs: &mut OutputSet,
     path: &Path,
 ) -> Result<()> {
     use crate::calib::problem::LengthFit;
-    let mut rec = Recorder::create("twincal", path)?;
+    let mut rec = Recorder::staged("twincal", outputs, path)?;
     let all: Vec<usize> = (0..data.rows.len()).collect();
     let (train_idx, _) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed)?;
     let samples = crate::calib::run::samples(data, &all);
