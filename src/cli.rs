@@ -420,6 +420,76 @@ pub struct CalibrateArgs {
     pub out: PathBuf,
     pub urdf: Option<PathBuf>,
     pub rrd: Option<PathBuf>,
+    /// `--effects`: kind[:joint] list.
+    pub effects: Vec<String>,
+    pub loads: LoadArgs,
+}
+
+/// What loads the joints, for the torque-driven effects (`--robot`, `--payload-kg`,
+/// `--payload-com-mm`, `--cable-tension-n`).
+#[derive(Clone, Debug, Default)]
+pub struct LoadArgs {
+    pub robot: Option<PathBuf>,
+    pub payload_kg: Option<f64>,
+    pub payload_com_mm: Option<Vec<f64>>,
+    pub cable_tension_n: f64,
+}
+
+impl LoadArgs {
+    /// The load options and the inertial robot (`--robot`), validated.
+    pub fn resolve(&self) -> Result<(crate::calib::inputs::LoadOptions, Option<crate::robot::Robot>)> {
+        let mut o = crate::calib::inputs::LoadOptions::default();
+        if !(self.cable_tension_n.is_finite() && (0.0..=1000.0).contains(&self.cable_tension_n)) {
+            return Err(Error::Invalid(format!("--cable-tension-n must be in [0, 1000] N, got {}", self.cable_tension_n)));
+        }
+        o.cable_tension_n = self.cable_tension_n;
+        match (self.payload_kg, &self.payload_com_mm) {
+            (None, None) => {}
+            (Some(m), com) => {
+                if !(m.is_finite() && (0.0..=1000.0).contains(&m)) {
+                    return Err(Error::Invalid(format!("--payload-kg must be in [0, 1000] kg, got {m}")));
+                }
+                let com = com.clone().unwrap_or_else(|| vec![0.0; 3]);
+                if com.len() != 3 || com.iter().any(|v| !v.is_finite() || v.abs() > 5000.0) {
+                    return Err(Error::Invalid("--payload-com-mm needs 3 finite values in mm (x,y,z in the flange frame, each within ±5000)".into()));
+                }
+                o.payload = Some(crate::effects::Payload { mass_kg: m, com_mm: [com[0], com[1], com[2]] });
+            }
+            (None, Some(_)) => return Err(Error::Invalid("--payload-com-mm needs --payload-kg".into())),
+        }
+        let robot = match &self.robot {
+            Some(p) => Some(crate::robot::Robot::from_urdf_file(p)?),
+            None => None,
+        };
+        if robot.as_ref().is_some_and(|r| r.dof() != 6) {
+            return Err(Error::Invalid("--robot: the URDF must have six revolute joints".into()));
+        }
+        Ok((o, robot))
+    }
+}
+
+/// Parses `--effects compliance,backlash:2,thermal`: a kind, optionally `:JOINT` (1..6).
+pub fn parse_effects(list: &[String]) -> Result<Vec<(crate::calib::effects::EffectKind, Option<usize>)>> {
+    use crate::calib::effects::EffectKind;
+    list.iter()
+        .filter(|s| !s.trim().is_empty())
+        .map(|item| {
+            let (kind, joint) = match item.split_once(':') {
+                Some((k, j)) => {
+                    let j: usize = j.trim().parse().map_err(|_| Error::Invalid(format!("--effects {item}: the joint after ':' must be 1..6")))?;
+                    if !(1..=6).contains(&j) {
+                        return Err(Error::Invalid(format!("--effects {item}: the joint after ':' must be 1..6")));
+                    }
+                    (EffectKind::parse(k)?, Some(j - 1))
+                }
+                None => (EffectKind::parse(item)?, None),
+            };
+            if !kind.joint_options().contains(&joint) && !(joint.is_none() && kind.per_joint()) {
+                return Err(Error::Invalid(format!("--effects {item}: {} is not a per-joint effect", kind.name())));
+            }
+            Ok((kind, joint))
+        })
+        .collect()
 }
 
 /// `twincal calibrate`. Its outputs (`--out`, `--urdf`, `--rrd`) appear together or not at all.
@@ -485,6 +555,10 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     opts.rank_tol = a.rank_tol;
     opts.effort = a.effort;
     opts.sensor_guess = sensor_guess;
+    opts.effects = parse_effects(&a.effects)?;
+    let (loads, inertial) = a.loads.resolve()?;
+    opts.loads = loads;
+    opts.inertial = inertial;
     let result = run(&data, truth.as_ref(), &opts)?;
     let mut outputs = OutputSet::new();
     if let Some(p) = &a.rrd {
@@ -513,19 +587,8 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
 
 /// What a user must know about a calibration that succeeded: an optimiser that stopped on its
 /// iteration / evaluation budget instead of a convergence test.
-// TODO(merge): also the result's own `warnings` once CalibResult carries them.
 pub fn calibration_warnings(r: &crate::calib::run::CalibResult) -> Vec<String> {
-    let mut w = Vec::new();
-    if !r.converged {
-        w.push(format!(
-            "{} stopped without converging ({}, after {} iterations); the parameters may be far from the optimum \
-             (see `converged` / `stop_reason` in the result file; a larger --effort gives the stochastic methods more budget)",
-            r.method.name(),
-            r.stop_reason,
-            r.iterations
-        ));
-    }
-    w
+    r.warnings.clone()
 }
 
 fn print_summary(r: &crate::calib::run::CalibResult) {
@@ -591,14 +654,7 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
 
 /// Loads a calibrated model (result.json); its errors are labelled `model PATH`.
 fn load_model(path: &Path) -> Result<crate::calib::run::CalibResult> {
-    // TODO(merge): CalibResult::load (src/calib/run.rs) labels its format errors `data PATH`; once
-    // it uses Error::model this mapping is a no-op.
-    crate::calib::run::CalibResult::load(path).map_err(|e| match e {
-        Error::Data { path: p, msg } if p == path.display().to_string() => {
-            Error::Model { path: p, msg }
-        }
-        other => other,
-    })
+    crate::calib::run::CalibResult::load(path)
 }
 
 /// The CSV `predict` writes: `q1..q6,L,L_pred,residual` when every row has a measured length,
@@ -633,16 +689,14 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: b
     // TODO(merge): the row's length becomes optional with Dataset::load_with.
     let rows: Vec<([f64; 6], Option<f64>)> =
         ds.rows.iter().map(|r| (r.q_deg, Some(r.l_mm))).collect();
-    let mut predicted = Vec::with_capacity(rows.len());
-    for (i, (q, _)) in rows.iter().enumerate() {
-        let p = result.predict_mm(q);
+    let predicted = result.predict_rows(&ds);
+    for (i, p) in predicted.iter().enumerate() {
         if !p.is_finite() {
             return Err(Error::Calibration(format!(
                 "the model predicted a non-finite length for row {}",
                 i + 1
             )));
         }
-        predicted.push(p);
     }
     crate::io::write_atomic(out, prediction_csv(&rows, &predicted).as_bytes())?;
     if !quiet {
@@ -1044,4 +1098,109 @@ mod tests {
             vec![dir.path().join("m.xlsx"), dir.path().join("truth.json")]
         );
     }
+}
+
+/// Arguments of `twincal diagnose`.
+pub struct DiagnoseArgs {
+    pub data: PathBuf,
+    pub angles: AngleArg,
+    pub model: String,
+    pub params: Option<String>,
+    pub loads: LoadArgs,
+    pub candidates: Vec<String>,
+    pub folds: usize,
+    pub alpha: f64,
+    pub seed: u64,
+    pub out: PathBuf,
+    pub result: PathBuf,
+    pub rrd: Option<PathBuf>,
+}
+
+/// `twincal diagnose`: report.json, the extended model (a calibration result) and optionally a
+/// recording, all together or none.
+pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
+    use crate::diagnose::{diagnose as run, DiagnoseOptions};
+    let data_files = data_inputs(&a.data);
+    let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
+    let model_file = model_input(&a.model);
+    if let Some(m) = &model_file {
+        inputs.push(("--model", m));
+    }
+    if let Some(r) = &a.loads.robot {
+        inputs.push(("--robot", r));
+    }
+    let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
+    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    check_outputs(&inputs, &outs)?;
+    if !(a.alpha > 0.0 && a.alpha < 0.5) {
+        return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
+    }
+    let spec = model_spec(&a.model, a.params.as_deref())?;
+    let data = load_dataset(&a.data, a.angles, true)?;
+    let mut opts = DiagnoseOptions::new(spec);
+    let (loads, inertial) = a.loads.resolve()?;
+    opts.loads = loads;
+    opts.inertial = inertial;
+    opts.folds = a.folds;
+    opts.alpha = a.alpha;
+    opts.seed = a.seed;
+    opts.candidates = parse_effects(&a.candidates)?.into_iter().map(|(k, _)| k).collect();
+    let say = |line: &str| {
+        if !quiet {
+            eprintln!("  {line}");
+        }
+    };
+    let (report, result) = run(&data, &opts, &say)?;
+    let mut outputs = OutputSet::new();
+    if let Some(p) = &a.rrd {
+        crate::viz::scenes::record_diagnosis(&report, &result, &data, &mut outputs, p)?;
+    }
+    outputs.write_json(&a.out, &report)?;
+    outputs.write_json(&a.result, &result)?;
+    outputs.commit()?;
+    if !quiet {
+        print_diagnosis(&report, &a.out, &a.result);
+    }
+    Ok(())
+}
+
+fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
+    eprintln!("diagnosis of {} ({} rows, {} outliers kept out) in {:.1} s", d.data, d.rows, d.outliers.len(), d.seconds);
+    for o in &d.outliers {
+        eprintln!("  outlier: row {} residual {:+.3} mm ({:+.1} robust sd)", o.row, o.residual_mm, o.robust_z);
+    }
+    eprintln!("  noise floor {:.4} mm ({})", d.noise_floor_mm, d.noise_floor_source);
+    eprintln!("  geometric model ({}): held-out RMSE {:.4} mm", d.baseline.model, d.baseline.heldout_rmse_mm);
+    let top: Vec<String> = d.evidence.iter().take(4).map(|e| format!("{} r={:+.2}", e.feature, e.correlation)).collect();
+    eprintln!("  residual follows most: {}", top.join(", "));
+    if d.causes.is_empty() {
+        eprintln!("  verdict: geometric_only (no effect improves the held-out fit significantly)");
+    }
+    for (i, c) in d.causes.iter().enumerate() {
+        let joint = c.joint.map(|j| format!(" joint {j}")).unwrap_or_default();
+        eprintln!(
+            "  cause {}: {}{joint}: {} {:.4} ± {:.4} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e})",
+            i + 1,
+            c.cause,
+            c.quantity,
+            c.magnitude,
+            c.uncertainty,
+            c.unit,
+            c.heldout_rmse_before_mm,
+            c.heldout_rmse_after_mm,
+            c.p_value
+        );
+    }
+    eprintln!("  final held-out RMSE {:.4} mm = {:.2} x the noise floor", d.final_heldout_rmse_mm, d.final_heldout_rmse_mm / d.noise_floor_mm);
+    if let Some(c) = &d.comparison {
+        eprintln!(
+            "  held-out RMSE geometric / physical extension / RBF compensator: {:.4} / {:.4} / {:.4} mm",
+            c.heldout_rmse_mm[0], c.heldout_rmse_mm[1], c.heldout_rmse_mm[2]
+        );
+        eprintln!(
+            "  extrapolation to q2 > {:.1} deg ({} rows, trained on {}): {:.4} / {:.4} / {:.4} mm",
+            c.q2_split_deg, c.extrapolation_rows[1], c.extrapolation_rows[0], c.extrapolation_rmse_mm[0], c.extrapolation_rmse_mm[1], c.extrapolation_rmse_mm[2]
+        );
+    }
+    eprintln!("  wrote {} and {} (calibrate --effects {})", out.display(), result.display(), if d.effects_option.is_empty() { "-" } else { &d.effects_option });
 }

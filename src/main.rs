@@ -31,6 +31,30 @@ struct ModelArgs {
     params: Option<String>,
 }
 
+/// What loads the joints, for the torque-driven effects.
+#[derive(clap::Args)]
+struct LoadArgs {
+    /// URDF whose inertial data give the static joint torques (default: the model's own robot;
+    /// needed for joint_compliance with generic6r).
+    #[arg(long)]
+    robot: Option<PathBuf>,
+    /// Payload on the flange, kg.
+    #[arg(long, allow_negative_numbers = true)]
+    payload_kg: Option<f64>,
+    /// Payload centre of mass in the flange frame, mm (x,y,z).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "X,Y,Z")]
+    payload_com_mm: Option<Vec<f64>>,
+    /// Draw-wire cable tension from the sensor's data sheet, N (0: ignored).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    cable_tension_n: f64,
+}
+
+impl LoadArgs {
+    fn into_cli(self) -> cli::LoadArgs {
+        cli::LoadArgs { robot: self.robot, payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm, cable_tension_n: self.cable_tension_n }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Simulate a scenario and write DIR/dataset.csv and DIR/truth.json.
@@ -88,6 +112,46 @@ enum Command {
         #[arg(long)]
         urdf: Option<PathBuf>,
         /// Rerun recording of the residual field before and after.
+        #[arg(long)]
+        rrd: Option<PathBuf>,
+        /// Non-geometric effects to fit with the geometry: compliance, backlash, thermal,
+        /// eccentricity, nonlinearity, each optionally on one joint (backlash:2).
+        #[arg(long, value_delimiter = ',')]
+        effects: Vec<String>,
+        #[command(flatten)]
+        loads: LoadArgs,
+    },
+    /// From measured data: what the geometric model gets wrong, which effect causes it, how big
+    /// it is and how much better the extended model predicts unseen rows.
+    Diagnose {
+        /// Dataset folder, CSV or xlsx (q1..q6, L; optional t, temp). No truth file is read.
+        #[arg(long)]
+        data: PathBuf,
+        /// Unit of the joint angles in the data.
+        #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+        angles: AngleArg,
+        #[command(flatten)]
+        model: ModelArgs,
+        #[command(flatten)]
+        loads: LoadArgs,
+        /// Candidate effects (default: every kind the data support).
+        #[arg(long, value_delimiter = ',')]
+        candidates: Vec<String>,
+        /// Cross-validation folds (contiguous blocks of acquisition order).
+        #[arg(long, default_value_t = 5)]
+        folds: usize,
+        /// Family-wise significance level of each selection step.
+        #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+        alpha: f64,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// The diagnosis report.
+        #[arg(long, default_value = "report.json")]
+        out: PathBuf,
+        /// The extended model, saved like any calibration result.
+        #[arg(long, default_value = "diagnosed.json")]
+        result: PathBuf,
+        /// Rerun recording of the evidence.
         #[arg(long)]
         rrd: Option<PathBuf>,
     },
@@ -175,6 +239,8 @@ fn main() -> ExitCode {
             out,
             urdf,
             rrd,
+            effects,
+            loads,
         } => cli::calibrate(
             &cli::CalibrateArgs {
                 data,
@@ -190,7 +256,13 @@ fn main() -> ExitCode {
                 out,
                 urdf,
                 rrd,
+                effects,
+                loads: loads.into_cli(),
             },
+            args.quiet,
+        ),
+        Command::Diagnose { data, angles, model: ModelArgs { model, params }, loads, candidates, folds, alpha, seed, out, result, rrd } => cli::diagnose(
+            &cli::DiagnoseArgs { data, angles, model, params, loads: loads.into_cli(), candidates, folds, alpha, seed, out, result, rrd },
             args.quiet,
         ),
         Command::Predict {

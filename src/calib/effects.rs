@@ -7,8 +7,9 @@
 //! | `joint_compliance` (joint j) | c_j, rad/(N·m) | joint angle + c_j·τ_j (static torque from the URDF inertials, payload, cable) |
 //! | `backlash` (joint j) | h_j, rad (half band) | joint angle + h_j·side_j (load side, else approach side) |
 //! | `thermal_drift` | α, 1/K (with `temp`) or s, τ (time only) | every link length × (1 + α·(T − T_ref)) or (1 + s·(1 − e^(−t/τ))) |
+//! | `thermal_drift` (joint j) | z_j, rad/K (with `temp`) or z_j, τ_j (time only) | joint angle + z_j·(T − T_ref) or z_j·(1 − e^(−t/τ_j)): joint-zero drift |
 //! | `encoder_eccentricity` (joint j) | a_j, b_j, rad | joint angle + a_j·sin q_j + b_j·cos q_j |
-//! | `sensor_nonlinearity` | p1..p3, m | reading + Σ p_k·P_k(v), Legendre polynomials over the data's reading range |
+//! | `sensor_nonlinearity` | p2..p4, m | reading + Σ p_k·P_k(v), Legendre polynomials P2..P4 over the data's reading range |
 //!
 //! The per-row inputs they need (torques, sides, time, temperature) travel in one
 //! [`RowInputs`] per sample. Derivatives are analytic and checked against finite differences.
@@ -44,6 +45,15 @@ impl EffectKind {
     pub fn per_joint(self) -> bool {
         matches!(self, EffectKind::JointCompliance | EffectKind::Backlash | EffectKind::EncoderEccentricity)
     }
+    /// The joints a block of this kind may sit on: every joint for per-joint effects, none for
+    /// whole-arm effects; thermal drift is both (the length scale, and each joint's zero drift).
+    pub fn joint_options(self) -> Vec<Option<usize>> {
+        match self {
+            EffectKind::ThermalDrift => std::iter::once(None).chain((0..6).map(Some)).collect(),
+            k if k.per_joint() => (0..6).map(Some).collect(),
+            _ => vec![None],
+        }
+    }
     /// Accepts the names above and the short forms `compliance`, `thermal`, `eccentricity`,
     /// `nonlinearity`.
     pub fn parse(s: &str) -> Result<EffectKind> {
@@ -71,6 +81,8 @@ pub enum EffectUnit {
     Compliance,
     /// rad, shown in millidegrees.
     SmallAngle,
+    /// rad/K, shown in millidegrees per kelvin.
+    AnglePerKelvin,
     /// 1/K, shown in ppm/K.
     PerKelvin,
     /// dimensionless, shown in ppm.
@@ -85,7 +97,7 @@ impl EffectUnit {
     pub fn display(self) -> f64 {
         match self {
             EffectUnit::Compliance | EffectUnit::PerKelvin | EffectUnit::Ratio => 1e6,
-            EffectUnit::SmallAngle => 180.0 / std::f64::consts::PI * 1e3,
+            EffectUnit::SmallAngle | EffectUnit::AnglePerKelvin => 180.0 / std::f64::consts::PI * 1e3,
             EffectUnit::Seconds => 1.0,
             EffectUnit::Length => 1e3,
         }
@@ -94,6 +106,7 @@ impl EffectUnit {
         match self {
             EffectUnit::Compliance => "urad/Nm",
             EffectUnit::SmallAngle => "mdeg",
+            EffectUnit::AnglePerKelvin => "mdeg/K",
             EffectUnit::PerKelvin => "ppm/K",
             EffectUnit::Ratio => "ppm",
             EffectUnit::Seconds => "s",
@@ -146,11 +159,13 @@ impl EffectBlock {
             EffectKind::EncoderEccentricity => {
                 vec![(format!("eccentricity.j{j}.sin"), EffectUnit::SmallAngle), (format!("eccentricity.j{j}.cos"), EffectUnit::SmallAngle)]
             }
-            EffectKind::ThermalDrift => match self.thermal {
-                Some(ThermalDrive::Temperature { .. }) => vec![("thermal.alpha".into(), EffectUnit::PerKelvin)],
-                _ => vec![("thermal.scale".into(), EffectUnit::Ratio), ("thermal.tau".into(), EffectUnit::Seconds)],
+            EffectKind::ThermalDrift => match (self.thermal, self.joint) {
+                (Some(ThermalDrive::Temperature { .. }), None) => vec![("thermal.alpha".into(), EffectUnit::PerKelvin)],
+                (_, None) => vec![("thermal.scale".into(), EffectUnit::Ratio), ("thermal.tau".into(), EffectUnit::Seconds)],
+                (Some(ThermalDrive::Temperature { .. }), Some(_)) => vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::AnglePerKelvin)],
+                (_, Some(_)) => vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::SmallAngle), (format!("thermal.zero_drift.j{j}.tau"), EffectUnit::Seconds)],
             },
-            EffectKind::SensorNonlinearity => (1..=3).map(|k| (format!("sensor_nl.p{k}"), EffectUnit::Length)).collect(),
+            EffectKind::SensorNonlinearity => (2..=4).map(|k| (format!("sensor_nl.p{k}"), EffectUnit::Length)).collect(),
         }
     }
     /// Starting values of the parameters (no effect): zero, except a warm-up time constant,
@@ -177,9 +192,15 @@ pub struct RowInputs {
     pub side: [f64; 6],
 }
 
-/// Legendre polynomials P1..P3 and their derivatives at v.
+/// Legendre polynomials P2..P4 and their derivatives at v. (P0, a constant, is the sensor's
+/// length offset; P1, a gain error, is a uniform scale of every measured length, which the
+/// geometry and the offset absorb almost entirely: the data cannot tell it apart.)
 pub fn legendre(v: f64) -> ([f64; 3], [f64; 3]) {
-    ([v, 0.5 * (3.0 * v * v - 1.0), 0.5 * (5.0 * v * v * v - 3.0 * v)], [1.0, 3.0 * v, 0.5 * (15.0 * v * v - 3.0)])
+    let v2 = v * v;
+    (
+        [0.5 * (3.0 * v2 - 1.0), 0.5 * (5.0 * v2 * v - 3.0 * v), 0.125 * (35.0 * v2 * v2 - 30.0 * v2 + 3.0)],
+        [3.0 * v, 0.5 * (15.0 * v2 - 3.0), 0.125 * (140.0 * v2 * v - 60.0 * v)],
+    )
 }
 
 /// The effect state of one row: joint offsets and length scale, with the partial derivatives of
@@ -222,21 +243,34 @@ pub fn joint_and_scale_effects(blocks: &[EffectBlock], first: usize, x: &[f64], 
                 st.joint_terms.push((k, j, s));
                 st.joint_terms.push((k + 1, j, c));
             }
-            EffectKind::ThermalDrift => match b.thermal {
-                Some(ThermalDrive::Temperature { ref_c }) => {
-                    let dt = inp.temp_c.map(|t| t - ref_c).unwrap_or(0.0);
-                    st.scale += x[k] * dt;
-                    st.scale_terms.push((k, dt));
+            EffectKind::ThermalDrift => {
+                // The thermal state: temperature rise (with `temp`) or warm-up fraction.
+                let (f, dfdtau) = match b.thermal {
+                    Some(ThermalDrive::Temperature { ref_c }) => (inp.temp_c.map(|t| t - ref_c).unwrap_or(0.0), None),
+                    _ => {
+                        let t = inp.t_s.unwrap_or(0.0);
+                        let tau = x[k + 1].max(1e-3);
+                        let e = (-t / tau).exp();
+                        (1.0 - e, Some(-e * t / (tau * tau)))
+                    }
+                };
+                match b.joint {
+                    None => {
+                        st.scale += x[k] * f;
+                        st.scale_terms.push((k, f));
+                        if let Some(d) = dfdtau {
+                            st.scale_terms.push((k + 1, x[k] * d));
+                        }
+                    }
+                    Some(j) => {
+                        st.dq[j] += x[k] * f;
+                        st.joint_terms.push((k, j, f));
+                        if let Some(d) = dfdtau {
+                            st.joint_terms.push((k + 1, j, x[k] * d));
+                        }
+                    }
                 }
-                _ => {
-                    let t = inp.t_s.unwrap_or(0.0);
-                    let tau = x[k + 1].max(1e-3);
-                    let e = (-t / tau).exp();
-                    st.scale += x[k] * (1.0 - e);
-                    st.scale_terms.push((k, 1.0 - e));
-                    st.scale_terms.push((k + 1, -x[k] * e * t / (tau * tau)));
-                }
-            },
+            }
             EffectKind::SensorNonlinearity => {}
         }
         k += n;

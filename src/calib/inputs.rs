@@ -9,12 +9,13 @@
 
 use super::effects::{EffectBlock, EffectKind, RowInputs, ThermalDrive};
 use crate::dataset::Dataset;
-use crate::effects::statics::{CableLoad, LoadModel};
+use crate::effects::statics::{CableLoad, LoadModel, GRAVITY};
 use crate::effects::{Effects, Payload};
 use crate::error::{Error, Result};
-use crate::robot::kinematics::{FkWork, PointJacobian};
+use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
 use crate::robot::Robot;
 use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
 
 /// What loads the joints, as far as the user knows it.
 #[derive(Clone, Debug)]
@@ -33,29 +34,66 @@ impl Default for LoadOptions {
     }
 }
 
-/// Inputs of every row of `data` (file order). `robot` is the inertial model (None: torques are
-/// zero and flanks follow the approach motion only); `exit_m` / `tool_m` place the cable.
-pub fn row_inputs(data: &Dataset, robot: Option<&Robot>, loads: &LoadOptions, exit_m: Vector3<f64>, tool_m: Vector3<f64>) -> Vec<RowInputs> {
+/// The static-torque model of a calibration, self-contained so that a saved result can compute
+/// the torques of new rows: the robot's nominal chain, its link masses and centres of mass, the
+/// payload and the cable's pull.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct TorqueModel {
+    pub chain: Chain,
+    /// Per moving link: mass (kg) and centre of mass in the link frame (m).
+    pub links: Vec<(f64, [f64; 3])>,
+    /// Payload mass (kg) and centre of mass in the flange frame (m).
+    pub payload: Option<(f64, [f64; 3])>,
+    /// Cable exit point (base frame, m), tool point (flange frame, m) and tension (N).
+    pub cable: Option<([f64; 3], [f64; 3], f64)>,
+    pub torque_threshold_nm: f64,
+}
+
+impl TorqueModel {
+    pub fn new(robot: &Robot, loads: &LoadOptions, exit_m: Vector3<f64>, tool_m: Vector3<f64>) -> TorqueModel {
+        let effects = Effects { payload: loads.payload.clone(), ..Default::default() };
+        let load = LoadModel::new(robot, &effects, None);
+        TorqueModel {
+            chain: robot.error_chain(),
+            links: load.links.iter().map(|(m, c)| (*m, [c.x, c.y, c.z])).collect(),
+            payload: load.payload.map(|(m, c)| (m, [c.x, c.y, c.z])),
+            cable: (loads.cable_tension_n > 0.0).then(|| ([exit_m.x, exit_m.y, exit_m.z], [tool_m.x, tool_m.y, tool_m.z], loads.cable_tension_n)),
+            torque_threshold_nm: loads.torque_threshold_nm,
+        }
+    }
+
+    /// Static joint torques (N·m) at commanded angles `q` (rad).
+    pub fn torques(&self, q: &[f64]) -> Vec<f64> {
+        let load = LoadModel {
+            gravity: Vector3::new(0.0, 0.0, -GRAVITY),
+            links: self.links.iter().map(|(m, c)| (*m, Vector3::from(*c))).collect(),
+            payload: self.payload.map(|(m, c)| (m, Vector3::from(c))),
+            cable: self.cable.map(|(e, t, f)| CableLoad { exit_point: Vector3::from(e), tool_point: Vector3::from(t), tension: f }),
+        };
+        let zero = vec![0.0; self.chain.n_params()];
+        let mut ws = FkWork::new(&self.chain);
+        let mut jac = PointJacobian::new(&self.chain);
+        let mut tau = vec![0.0; self.chain.n_joints];
+        self.chain.forward(q, &zero, 1.0, &mut ws);
+        load.torques(&self.chain, &ws, &mut jac, &mut tau);
+        tau
+    }
+}
+
+/// Inputs of every row of `data` (file order). Without a torque model the torques are zero and
+/// the flanks follow the approach motion only.
+pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs> {
     let n = data.rows.len();
     let mut out: Vec<RowInputs> = data.rows.iter().map(|r| RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect();
-    if let Some(robot) = robot {
-        let effects = Effects { payload: loads.payload.clone(), ..Default::default() };
-        let cable = (loads.cable_tension_n > 0.0).then(|| CableLoad { exit_point: exit_m, tool_point: tool_m, tension: loads.cable_tension_n });
-        let load = LoadModel::new(robot, &effects, cable);
-        let chain = robot.error_chain();
-        let zero = vec![0.0; chain.n_params()];
-        let mut ws = FkWork::new(&chain);
-        let mut jac = PointJacobian::new(&chain);
-        let mut tau = vec![0.0; chain.n_joints];
+    if let Some(tm) = torque {
         for (i, r) in data.rows.iter().enumerate() {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            chain.forward(&q, &zero, 1.0, &mut ws);
-            load.torques(&chain, &ws, &mut jac, &mut tau);
-            for j in 0..6.min(tau.len()) {
-                out[i].torque[j] = tau[j];
+            for (j, t) in tm.torques(&q).into_iter().enumerate().take(6) {
+                out[i].torque[j] = t;
             }
         }
     }
+    let threshold = torque.map(|t| t.torque_threshold_nm).unwrap_or(f64::INFINITY);
     // Approach flanks in file order from the home pose, then the load rule.
     let mut prev = [0.0f64; 6];
     let mut approach = [-1.0f64; 6];
@@ -68,7 +106,7 @@ pub fn row_inputs(data: &Dataset, robot: Option<&Robot>, loads: &LoadOptions, ex
                 approach[j] = 1.0;
             }
             let tau = out[i].torque[j];
-            out[i].side[j] = if tau.abs() > loads.torque_threshold_nm { tau.signum() } else { approach[j] };
+            out[i].side[j] = if tau.abs() > threshold { tau.signum() } else { approach[j] };
         }
         prev = q;
     }
@@ -80,8 +118,11 @@ pub fn row_inputs(data: &Dataset, robot: Option<&Robot>, loads: &LoadOptions, ex
 /// is normalised over the data's reading range. Errors name what the data lack.
 pub fn block_for(data: &Dataset, kind: EffectKind, joint: Option<usize>, has_torques: bool) -> Result<EffectBlock> {
     let mut b = EffectBlock { kind, joint, thermal: None, range_m: None };
-    if kind.per_joint() && joint.is_none_or(|j| j >= 6) {
-        return Err(Error::Invalid(format!("{} needs a joint 1..6", kind.name())));
+    if !kind.joint_options().contains(&joint) {
+        return Err(Error::Invalid(match joint {
+            None => format!("{} needs a joint 1..6", kind.name()),
+            Some(_) => format!("{} takes no joint", kind.name()),
+        }));
     }
     match kind {
         EffectKind::JointCompliance if !has_torques => {

@@ -443,6 +443,7 @@ mod tests {
                 m.add_effect(EffectBlock::joint(EffectKind::EncoderEccentricity, j), 3600.0);
             }
             m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: None, thermal: Some(thermal), range_m: None }, 3600.0);
+            m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: Some(1), thermal: Some(thermal), range_m: None }, 3600.0);
             m.add_effect(EffectBlock { kind: EffectKind::SensorNonlinearity, joint: None, thermal: None, range_m: Some([0.4, 1.6]) }, 3600.0);
             let mut x = m.nominal.clone();
             let first = m.first_effect();
@@ -456,7 +457,7 @@ mod tests {
                 };
                 *v += scale * ((k as f64) * 1.3).sin();
             }
-            assert!(x.len() >= first + 28);
+            assert!(x.len() >= first + 29);
             let inp = RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: [1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: [1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
             let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
             let mut w = m.work();

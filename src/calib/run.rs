@@ -188,6 +188,9 @@ pub struct CalibResult {
     pub x: Vec<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rbf: Option<RbfNetwork>,
+    /// How the effect blocks get their joint torques on new rows (with effects only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque_model: Option<super::inputs::TorqueModel>,
     /// Parameter values per iteration (display units), for convergence plots.
     #[serde(skip)]
     pub history: Vec<Vec<f64>>,
@@ -202,19 +205,34 @@ impl CalibResult {
         base + self.rbf.as_ref().map(|n| n.predict(&q)).unwrap_or(0.0)
     }
 
+    /// Predicted lengths (mm) of every row of a dataset (rows in acquisition order: backlash
+    /// flanks follow the order), every effect and corrector included.
+    pub fn predict_rows(&self, data: &Dataset) -> Vec<f64> {
+        let inputs = super::inputs::row_inputs(data, self.torque_model.as_ref());
+        let mut w = self.model.work();
+        data.rows
+            .iter()
+            .zip(&inputs)
+            .map(|(r, inp)| {
+                let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
+                self.model.predict_with(&self.x, &q, inp, &mut w) * 1e3 + self.rbf.as_ref().map(|n| n.predict(&q)).unwrap_or(0.0)
+            })
+            .collect()
+    }
+
     pub fn load(path: &Path) -> Result<CalibResult> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let r: CalibResult =
-            serde_json::from_str(&text).map_err(|e| Error::data(path.display(), format!("not a twincal calibration result: {e}")))?;
+            serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
         let chain = &r.model.chain;
         let consistent = chain.n_joints == 6
             && r.x.len() == r.model.n_params()
             && r.model.kinds.len() == r.model.n_params()
-            && r.model.n_params() == chain.n_params() + super::model::SENSOR_PARAMS.len()
+            && r.model.n_params() == chain.n_params() + super::model::SENSOR_PARAMS.len() + r.model.effects.iter().map(|e| e.params().len()).sum::<usize>()
             && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
             && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < 6) && o.param.is_none_or(|k| k < chain.n_params()));
         if !consistent || r.x.iter().any(|v| !v.is_finite()) {
-            return Err(Error::data(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
+            return Err(Error::model(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
         }
         Ok(r)
     }
@@ -256,6 +274,8 @@ pub const JOINT_LIMIT_SLACK_DEG: f64 = 2.0;
 
 /// Stage "split": training and test samples, with the checks that make a calibration meaningful.
 pub struct SplitData {
+    /// The static-torque model of the effects (set by the effects stage where there is one).
+    pub torque_model: Option<super::inputs::TorqueModel>,
     pub train_idx: Vec<usize>,
     pub test_idx: Vec<usize>,
     pub train: Samples,
@@ -287,7 +307,7 @@ pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
     }
     let train = samples(data, &train_idx);
     let test = samples(data, &test_idx);
-    Ok(SplitData { train_idx, test_idx, train, test })
+    Ok(SplitData { torque_model: None, train_idx, test_idx, train, test })
 }
 
 /// Refuses rows whose joint angles lie beyond the robot's limits (more than the slack).
@@ -317,15 +337,16 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
     let exit = nalgebra::Vector3::new(x[nc], x[nc + 1], x[nc + 2]);
     let tool = nalgebra::Vector3::new(x[nc + 4], x[nc + 5], x[nc + 6]);
     let robot = opts.inertial_robot();
-    let all = super::inputs::row_inputs(data, robot, &opts.loads, exit, tool);
+    let torque = robot.map(|r| super::inputs::TorqueModel::new(r, &opts.loads, exit, tool));
+    let all = super::inputs::row_inputs(data, torque.as_ref());
+    split.torque_model = torque;
     split.train.inputs = split.train_idx.iter().map(|&i| all[i]).collect();
     split.test.inputs = split.test_idx.iter().map(|&i| all[i]).collect();
     let span = super::inputs::time_span(data);
     for &(kind, joint) in &opts.effects {
         let joints: Vec<Option<usize>> = match (kind.per_joint(), joint) {
             (true, None) => (0..6).map(Some).collect(),
-            (true, j) => vec![j],
-            (false, _) => vec![None],
+            (_, j) => vec![j],
         };
         for j in joints {
             model.add_effect(super::inputs::block_for(data, kind, j, robot.is_some())?, span);
@@ -449,7 +470,13 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         return Err(Error::Calibration(format!("{} diverged (non-finite parameters)", solver.method().name())));
     }
     if !report.converged {
-        warnings.push(format!("{} did not converge ({}); the result may not be a minimum", solver.method().name(), report.reason));
+        warnings.push(format!(
+            "{} stopped without converging ({}, after {} iterations); the parameters may be far from the optimum \
+             (see `converged` / `stop_reason` in the result file; a larger --effort gives the stochastic methods more budget)",
+            solver.method().name(),
+            report.reason,
+            report.iterations
+        ));
     }
 
     // Stage "uncertainty": standard uncertainties from the Jacobian at the solution (all methods alike).
@@ -482,6 +509,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         repeatability,
         x,
         rbf,
+        torque_model: split.torque_model.clone(),
         history: history_disp,
         model,
     })

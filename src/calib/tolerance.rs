@@ -45,12 +45,13 @@ impl Tolerances {
 
 /// A plausible size of an effect parameter on an industrial arm, one standard deviation:
 /// 50 µrad/(N·m) of joint compliance (a 20 kN·m/rad gear), 10 millidegrees of backlash or
-/// eccentricity, 25 ppm/K of expansion (aluminium 23, steel 12), 100 ppm of warm-up growth, a
+/// eccentricity, 2 millidegrees per kelvin of joint-zero drift, 25 ppm/K of expansion (aluminium 23, steel 12), 100 ppm of warm-up growth, a
 /// warm-up time constant of half an hour, 0.1 mm of reading nonlinearity.
 fn effect_scale(u: EffectUnit) -> f64 {
     match u {
         EffectUnit::Compliance => 50e-6,
         EffectUnit::SmallAngle => 0.01f64.to_radians(),
+        EffectUnit::AnglePerKelvin => 0.002f64.to_radians(),
         EffectUnit::PerKelvin => 25e-6,
         EffectUnit::Ratio => 1e-4,
         EffectUnit::Seconds => 1800.0,

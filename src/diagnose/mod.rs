@@ -19,7 +19,7 @@
 
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
 use crate::calib::identify::Identifiability;
-use crate::calib::inputs::{block_for, row_inputs, time_span, LoadOptions};
+use crate::calib::inputs::{block_for, row_inputs, time_span, LoadOptions, TorqueModel};
 use crate::calib::model::CalibModel;
 use crate::calib::optim::{covariance, LevenbergMarquardt, NoObserver};
 use crate::calib::problem::{LengthFit, Samples};
@@ -198,7 +198,8 @@ struct Ctx {
 
 impl Ctx {
     fn lm() -> LevenbergMarquardt {
-        LevenbergMarquardt { max_iter: 300, ..Default::default() }
+        // Held-out residuals need a few significant digits, not the last one.
+        LevenbergMarquardt { max_iter: 100, ftol: 1e-9, xtol: 1e-9, ..Default::default() }
     }
 
     /// Fits `model` from `x0` on every kept row (identifiable parameters only), then the
@@ -329,9 +330,11 @@ fn magnitude(block: &EffectBlock, x: &[f64], cov: Option<&nalgebra::DMatrix<f64>
             let v = (a * a * var(k, k) + b * b * var(k + 1, k + 1) + 2.0 * a * b * var(k, k + 1)) / (amp * amp);
             ("first-harmonic amplitude".into(), amp * deg, "deg".into(), v.max(0.0).sqrt() * deg)
         }
-        EffectKind::ThermalDrift => match block.thermal {
-            Some(ThermalDrive::Temperature { .. }) => ("expansion coefficient".into(), x[k] * 1e6, "ppm/K".into(), var(k, k).max(0.0).sqrt() * 1e6),
-            _ => ("warm-up length growth".into(), x[k] * 1e6, "ppm".into(), var(k, k).max(0.0).sqrt() * 1e6),
+        EffectKind::ThermalDrift => match (block.thermal, block.joint) {
+            (Some(ThermalDrive::Temperature { .. }), None) => ("expansion coefficient".into(), x[k] * 1e6, "ppm/K".into(), var(k, k).max(0.0).sqrt() * 1e6),
+            (_, None) => ("warm-up length growth".into(), x[k] * 1e6, "ppm".into(), var(k, k).max(0.0).sqrt() * 1e6),
+            (Some(ThermalDrive::Temperature { .. }), Some(_)) => ("joint-zero drift".into(), x[k] * deg, "deg/K".into(), var(k, k).max(0.0).sqrt() * deg),
+            (_, Some(_)) => ("joint-zero drift at full warm-up".into(), x[k] * deg, "deg".into(), var(k, k).max(0.0).sqrt() * deg),
         },
         EffectKind::SensorNonlinearity => {
             // Largest |correction| over the reading range, and its uncertainty there.
@@ -361,8 +364,7 @@ fn candidates(data: &Dataset, kinds: &[EffectKind], has_torques: bool) -> Vec<Ef
     let kinds: Vec<EffectKind> = if kinds.is_empty() { EffectKind::ALL.to_vec() } else { kinds.to_vec() };
     let mut out = Vec::new();
     for kind in kinds {
-        let joints: Vec<Option<usize>> = if kind.per_joint() { (0..6).map(Some).collect() } else { vec![None] };
-        for j in joints {
+        for j in kind.joint_options() {
             if let Ok(b) = block_for(data, kind, j, has_torques) {
                 out.push(b);
             }
@@ -389,8 +391,9 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let tool = nalgebra::Vector3::new(base.nominal[nc + 4], base.nominal[nc + 5], base.nominal[nc + 6]);
     let robot = opts.inertial_robot();
     let has_torques = robot.is_some();
+    let torque = robot.map(|r| TorqueModel::new(r, &opts.loads, exit, tool));
     let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    all.inputs = row_inputs(data, robot, &opts.loads, exit, tool);
+    all.inputs = row_inputs(data, torque.as_ref());
 
     let (keep, outliers, x_base) = screen_outliers(&base, &base.nominal, &all, opts.outlier_k, opts.rank_tol);
     if !outliers.is_empty() {

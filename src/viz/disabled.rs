@@ -21,6 +21,9 @@ impl Backend {
     pub(super) fn set_time_seconds(&mut self, _timeline: &str, _secs: f64) {
         match *self {}
     }
+    pub(super) fn points2d(&mut self, _entity: &str, _pts: &[[f64; 2]], _colors: Option<&[[u8; 4]]>, _radius: Option<f32>) {
+        match *self {}
+    }
     pub(super) fn points(
         &mut self,
         _entity: &str,

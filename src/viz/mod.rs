@@ -106,6 +106,12 @@ impl Recorder {
         self.inner.points(entity, pts_mm, colors, radii_mm, labels);
     }
 
+    /// A 2-D scatter plot at `entity` (x, y in the data's own units), e.g. a residual against a
+    /// feature. `radius` is in screen points.
+    pub fn points2d(&mut self, entity: &str, pts: &[[f64; 2]], colors: Option<&[[u8; 4]]>, radius: Option<f32>) {
+        self.inner.points2d(entity, pts, colors, radius);
+    }
+
     /// Polylines at `entity` (vertices in mm), all drawn with one colour and radius (mm, > 0).
     pub fn line_strips(
         &mut self,

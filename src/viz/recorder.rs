@@ -268,6 +268,24 @@ impl Backend {
         self.set_time_cell(timeline, TimeCell::from_duration_nanos(nanos as i64));
     }
 
+    pub(super) fn points2d(&mut self, entity: &str, pts: &[[f64; 2]], colors: Option<&[[u8; 4]]>, radius: Option<f32>) {
+        let n = pts.len();
+        let mut arch = rerun::Points2D::new(pts.iter().map(|p| [p[0] as f32, p[1] as f32]));
+        if let Some(colors) = colors {
+            if colors.len() != n && colors.len() != 1 {
+                return self.invalid(entity, format!("{} colours for {n} points", colors.len()));
+            }
+            arch = arch.with_colors(colors.iter().copied());
+        }
+        if let Some(r) = radius {
+            if !(r.is_finite() && r > 0.0) {
+                return self.invalid(entity, format!("point radius {r} must be > 0"));
+            }
+            arch = arch.with_radii([rerun::Radius::new_ui_points(r)]);
+        }
+        self.log(entity, false, &arch);
+    }
+
     pub(super) fn points(
         &mut self,
         entity: &str,

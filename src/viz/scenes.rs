@@ -103,7 +103,7 @@ pub fn record_calibration(
     let fit = LengthFit { model: &r.model, data: &samples };
     let x0: Vec<f64> = r.parameters.iter().enumerate().map(|(k, p)| p.nominal / r.model.kinds[k].display()).collect();
     let before = fit.residuals_mm(&x0);
-    let after: Vec<f64> = (0..data.rows.len()).map(|i| data.rows[i].l_mm - r.predict_mm(&data.rows[i].q_deg)).collect();
+    let after: Vec<f64> = data.rows.iter().zip(r.predict_rows(data)).map(|(row, p)| row.l_mm - p).collect();
     let mut w = r.model.work();
     let pts: Vec<[f64; 3]> = samples.q.iter().map(|q| mm(&r.model.tool_point(&r.x, q, &mut w))).collect();
     let vmax = before.iter().chain(&after).fold(0.0f64, |m, v| m.max(v.abs())).max(1e-6);
@@ -137,6 +137,83 @@ pub fn record_calibration(
                 }
             }
         }
+    }
+    rec.finish()
+}
+
+/// Recording of a diagnosis: for every selection step (timeline `step`), the held-out residual
+/// of each kept row against the regressor of the effect that step kept, before (grey) and after
+/// (coloured) it was added, and the residual field on the tool points; the held-out RMSE per step.
+pub fn record_diagnosis(
+    d: &crate::diagnose::Diagnosis,
+    result: &crate::calib::run::CalibResult,
+    data: &crate::dataset::Dataset,
+    outputs: &mut OutputSet,
+    path: &Path,
+) -> Result<()> {
+    let mut rec = Recorder::staged("twincal", outputs, path)?;
+    let ev = &d.evidence;
+    let causes: Vec<String> = d.causes.iter().map(|c| format!("- {} {}: {} {:.4} ± {:.4} {}, held-out RMSE {:.4} → {:.4} mm (p = {:.1e})", c.cause, c.joint.map(|j| format!("joint {j}")).unwrap_or_default(), c.quantity, c.magnitude, c.uncertainty, c.unit, c.heldout_rmse_before_mm, c.heldout_rmse_after_mm, c.p_value)).collect();
+    rec.static_text(
+        "legend",
+        &format!(
+            "# twincal diagnosis of {}\n\nVerdict: **{}**. Noise floor {:.4} mm ({}). Geometric held-out RMSE {:.4} mm, final {:.4} mm.\n\n{}\n\nStrongest residual correlations: {}.\n\nTimeline `step`: 0 = geometric model, k = after the k-th cause. `evidence/*`: held-out residual (mm, y) against the feature of each cause (x); `world/tool_points`: residual on the tool points (colour = |residual| from 0 to the geometric model's largest). `diagnose/heldout_rmse_mm` per step.",
+            d.data,
+            d.verdict,
+            d.noise_floor_mm,
+            d.noise_floor_source,
+            d.baseline.heldout_rmse_mm,
+            d.final_heldout_rmse_mm,
+            if causes.is_empty() { "No effect improves the held-out fit significantly.".to_string() } else { causes.join("\n") },
+            ev.iter().take(5).map(|e| format!("{} (r = {:+.2})", e.feature, e.correlation)).collect::<Vec<_>>().join(", ")
+        ),
+    );
+    // Residuals of the final model and of the geometric part alone (effect parameters at their
+    // starting values), on every row.
+    let all: Vec<usize> = (0..data.rows.len()).collect();
+    let mut samples = crate::calib::run::samples(data, &all);
+    samples.inputs = crate::calib::inputs::row_inputs(data, result.torque_model.as_ref());
+    let fit = crate::calib::problem::LengthFit { model: &result.model, data: &samples };
+    let after = fit.residuals_mm(&result.x);
+    let mut x_geo = result.x.clone();
+    let first = result.model.first_effect();
+    x_geo[first..].copy_from_slice(&result.model.nominal[first..]);
+    let before = fit.residuals_mm(&x_geo);
+    let mut w = result.model.work();
+    let pts: Vec<[f64; 3]> = samples.q.iter().map(|q| mm(&result.model.tool_point(&result.x, q, &mut w))).collect();
+    let vmax = before.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-6);
+    for (step, res) in [(0i64, &before), (d.causes.len() as i64, &after)] {
+        rec.set_time_index("step", step);
+        let colors: Vec<[u8; 4]> = res.iter().map(|v| colormap(v.abs(), vmax)).collect();
+        rec.points("world/tool_points", &pts, Some(&colors), Some(4.0), None);
+        let (edges, counts) = histogram(res, 40, -vmax, vmax);
+        rec.histogram_chart("residuals/histogram", &edges, &counts);
+    }
+    for (k, s) in d.steps.iter().enumerate() {
+        rec.set_time_index("step", k as i64);
+        rec.scalar("diagnose/heldout_rmse_mm", s.heldout_rmse_before_mm);
+    }
+    rec.set_time_index("step", d.steps.len() as i64);
+    rec.scalar("diagnose/heldout_rmse_mm", d.final_heldout_rmse_mm);
+    // Evidence per cause: the residual against the change of length the cause predicts per unit
+    // of its parameters (its regressor), before and after.
+    for (k, b) in result.model.effects.iter().enumerate() {
+        let range = result.model.effect_params(k);
+        let mut g = vec![0.0; result.model.n_params()];
+        let feature: Vec<f64> = (0..samples.len())
+            .map(|i| {
+                result.model.predict_grad_with(&result.x, &samples.q[i], &samples.inputs[i], &mut w, &mut g);
+                range.clone().map(|p| g[p] * result.x[p] * 1e3).sum::<f64>()
+            })
+            .collect();
+        let name = format!("evidence/{}", b.label());
+        rec.set_time_index("step", k as i64);
+        let pre: Vec<[f64; 2]> = feature.iter().zip(&before).map(|(f, r)| [*f, *r]).collect();
+        rec.points2d(&name, &pre, Some(&[[150, 150, 150, 255]]), Some(2.0));
+        rec.set_time_index("step", k as i64 + 1);
+        let post: Vec<[f64; 2]> = feature.iter().zip(&after).map(|(f, r)| [*f, *r]).collect();
+        let colors: Vec<[u8; 4]> = after.iter().map(|v| colormap(v.abs(), vmax)).collect();
+        rec.points2d(&name, &post, Some(&colors), Some(2.0));
     }
     rec.finish()
 }
