@@ -272,16 +272,17 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
 pub fn predict(model: &Path, data: &Path, out: &Path, quiet: bool) -> Result<()> {
     let result = crate::calib::run::CalibResult::load(model)?;
     let ds = crate::dataset::Dataset::load(data)?;
+    let lengths = ds.lengths_mm()?;
     let mut text = String::from("q1,q2,q3,q4,q5,q6,L,L_pred,residual\n");
     let mut res = Vec::new();
-    for r in &ds.rows {
+    for (r, l) in ds.rows.iter().zip(lengths) {
         let p = result.predict_mm(&r.q_deg);
         if !p.is_finite() {
             return Err(Error::Calibration("the model predicted a non-finite length".into()));
         }
-        res.push(r.l_mm - p);
+        res.push(l - p);
         let q: Vec<String> = r.q_deg.iter().map(|v| v.to_string()).collect();
-        text.push_str(&format!("{},{},{},{}\n", q.join(","), r.l_mm, p, r.l_mm - p));
+        text.push_str(&format!("{},{},{},{}\n", q.join(","), l, p, l - p));
     }
     crate::io::write_atomic(out, text.as_bytes())?;
     if !quiet {
@@ -338,7 +339,7 @@ pub fn compare(data: &Path, methods: &[String], seeds: u64, model: &str, params:
             o.effort = effort;
             let r = run(&ds, None, &o)?;
             let (_, test_idx) = split_rows(&ds, Some(frac), *seed)?;
-            let test_abs_residuals = test_idx.iter().map(|&i| (ds.rows[i].l_mm - r.predict_mm(&ds.rows[i].q_deg)).abs()).collect();
+            let test_abs_residuals = test_idx.iter().map(|&i| (ds.rows[i].l_mm.unwrap_or(f64::NAN) - r.predict_mm(&ds.rows[i].q_deg)).abs()).collect();
             bar.inc(1);
             Ok(CompareRun {
                 method: m.name().into(),

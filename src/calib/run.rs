@@ -211,7 +211,7 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
                 return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
             }
             let n_test = (f * n as f64).round() as usize;
-            let lengths: Vec<f64> = data.rows.iter().map(|r| r.l_mm).collect();
+            let lengths = data.lengths_mm()?;
             let split = crate::generate::stratified_split(&lengths, n_test, seed);
             Ok(((0..n).filter(|i| split[*i] == Split::Train).collect(), (0..n).filter(|i| split[*i] == Split::Test).collect()))
         }
@@ -223,7 +223,7 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
 pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     Samples {
         q: idx.iter().map(|&i| data.rows[i].q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
-        l: idx.iter().map(|&i| data.rows[i].l_mm * 1e-3).collect(),
+        l: idx.iter().map(|&i| data.rows[i].l_mm.unwrap_or(f64::NAN) * 1e-3).collect(),
     }
 }
 
@@ -382,6 +382,7 @@ fn jacobian(fit: &LengthFit, x: &[f64]) -> DMatrix<f64> {
 /// Runs a calibration. `truth` enables the parameter-error report.
 pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions) -> Result<CalibResult> {
     let t0 = Instant::now();
+    data.require_length()?;
     let (train_idx, test_idx) = split_rows(data, opts.test_fraction, opts.seed)?;
     if train_idx.len() < 8 {
         return Err(Error::Calibration(format!("only {} training rows; at least 8 are needed", train_idx.len())));
@@ -517,7 +518,7 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
         noise_floor_mm: t.noise_std_mm,
     });
     let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
-    let l: Vec<f64> = data.rows.iter().map(|r| r.l_mm).collect();
+    let l = data.lengths_mm()?;
     let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
     Ok(CalibResult {
