@@ -179,24 +179,24 @@ impl Scenario {
             }
         }
         let g = &self.geometry;
-        if [
-            g.origin_offset_std_mm,
-            g.origin_rotation_std_deg,
-            g.joint_zero_std_deg,
-        ]
-        .iter()
-        .any(|v| !(v.is_finite() && *v >= 0.0))
-            || g.set.values().any(|v| !v.is_finite())
-        {
-            return Err(err(
-                "geometry: standard deviations must be >= 0 and values finite".into(),
-            ));
+        let stds = [
+            ("origin_offset_std_mm", g.origin_offset_std_mm),
+            ("origin_rotation_std_deg", g.origin_rotation_std_deg),
+            ("joint_zero_std_deg", g.joint_zero_std_deg),
+        ];
+        for (key, v) in stds {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(err(format!("geometry.{key} = {v} must be finite and >= 0")));
+            }
+        }
+        if let Some((k, v)) = g.set.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(err(format!("geometry.set.\"{k}\" = {v} must be finite")));
         }
         let sm = &self.sampling;
         if sm.poses == 0 || sm.poses > MAX_POSES || sm.test >= sm.poses {
             return Err(err(format!(
-                "sampling: need 1 <= poses <= {MAX_POSES} and test < poses (got poses = {}, \
-                 test = {})",
+                "sampling.poses = {} and sampling.test = {}: need 1 <= poses <= {MAX_POSES} and \
+                 test < poses",
                 sm.poses, sm.test
             )));
         }
@@ -469,14 +469,9 @@ mod tests {
         // The ideal scenario gives explicit ranges, so the margin is unused there; without them
         // a margin swallowing a joint's range is refused naming the joint.
         let mut doc: toml::Table = toml::from_str(IDEAL).expect("parses");
-        doc["sampling"]
-            .as_table_mut()
-            .expect("table")
-            .remove("ranges_deg");
-        doc["sampling"]
-            .as_table_mut()
-            .expect("table")
-            .insert("limit_margin_deg".into(), toml::Value::Float(170.0));
+        let sampling = doc.get_mut("sampling").and_then(|v| v.as_table_mut()).expect("table");
+        sampling.remove("ranges_deg");
+        sampling.insert("limit_margin_deg".into(), toml::Value::Float(170.0));
         let s =
             Scenario::from_toml(&toml::to_string(&doc).expect("toml"), "m.toml").expect("parses");
         let msg = s

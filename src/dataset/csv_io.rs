@@ -14,20 +14,24 @@ pub(super) fn read_table<R: Read>(mut r: R, source: &str) -> Result<RawTable> {
     let mut bytes = Vec::new();
     r.read_to_end(&mut bytes)
         .map_err(|e| Error::data(source, format!("cannot read: {e}")))?;
+    blank_comments(&mut bytes);
     let delimiter = detect_delimiter(&bytes);
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
         .trim(csv::Trim::All)
-        .comment(Some(b'#'))
         .delimiter(delimiter)
         .from_reader(bytes.as_slice());
 
+    let mut lines = LineCounter::default();
     let mut header: Option<Vec<String>> = None;
     let mut rows = Vec::new();
     for record in reader.records() {
-        let record = record.map_err(|e| malformed(source, &e))?;
-        let line = record.position().map_or(0, |p| p.line() as usize);
+        let record = record.map_err(|e| {
+            let line = e.position().map(|p| lines.at(&bytes, p.byte()));
+            malformed(source, line, &e)
+        })?;
+        let line = record.position().map_or(0, |p| lines.at(&bytes, p.byte()));
         if record.iter().all(str::is_empty) {
             continue;
         }
@@ -88,6 +92,43 @@ pub(super) fn read_table<R: Read>(mut r: R, source: &str) -> Result<RawTable> {
     })
 }
 
+/// Line numbers from byte offsets, counted from the file's line breaks (the csv crate's own line
+/// count skips blank lines, and a record's offset is where the blank lines before it start, so
+/// line breaks right at the offset are skipped first). Offsets must be asked for in increasing
+/// order.
+#[derive(Default)]
+struct LineCounter {
+    byte: usize,
+    newlines: usize,
+}
+
+impl LineCounter {
+    fn at(&mut self, bytes: &[u8], byte: u64) -> usize {
+        let mut byte = (byte as usize).min(bytes.len()).max(self.byte);
+        while byte < bytes.len() && matches!(bytes[byte], b'\r' | b'\n') {
+            byte += 1;
+        }
+        self.newlines += bytes[self.byte..byte].iter().filter(|b| **b == b'\n').count();
+        self.byte = byte;
+        self.newlines + 1
+    }
+}
+
+/// Turns every line starting with `#` into a blank line, keeping its line break so that line
+/// numbers in messages still count it (the csv crate's own comment support does not).
+fn blank_comments(bytes: &mut Vec<u8>) {
+    let mut out = Vec::with_capacity(bytes.len());
+    for line in bytes.split_inclusive(|b| *b == b'\n') {
+        let body = line.strip_prefix(b"\xef\xbb\xbf").unwrap_or(line);
+        if body.starts_with(b"#") {
+            out.extend(line.iter().filter(|b| matches!(b, b'\r' | b'\n')));
+        } else {
+            out.extend_from_slice(line);
+        }
+    }
+    *bytes = out;
+}
+
 /// The delimiter of the header line: the first line that is neither blank nor a `#` comment.
 fn detect_delimiter(bytes: &[u8]) -> u8 {
     let header = bytes
@@ -109,9 +150,9 @@ fn detect_delimiter(bytes: &[u8]) -> u8 {
     }
 }
 
-fn malformed(source: &str, e: &csv::Error) -> Error {
-    match e.position() {
-        Some(p) => Error::data(source, format!("line {}: malformed CSV: {e}", p.line())),
+fn malformed(source: &str, line: Option<usize>, e: &csv::Error) -> Error {
+    match line {
+        Some(line) => Error::data(source, format!("line {line}: malformed CSV: {e}")),
         None => Error::data(source, format!("malformed CSV: {e}")),
     }
 }

@@ -423,9 +423,13 @@ fn semicolon_csv_with_decimal_commas_and_comments() {
     assert_eq!(ds.rows[0].l_mm, Some(350.07));
     assert_eq!(ds.rows[0].temp_c, Some(21.5));
     assert_eq!(ds.rows[1].l_mm, Some(351.0));
-    // Line numbers still count the comment lines.
+    // Line numbers still count the comment and blank lines.
     let msg = err("# c\nq1;q2;q3;q4;q5;q6;L\n# c\n1;2;3;4;5;6;x\n");
     assert_contains(&msg, &["line 4", "column L", "'x'"]);
+    let msg = err(&format!("\n{HEADER}\r\n\r\n{GOOD}\n\n\n1,2,3,4,5,6,x\n"));
+    assert_contains(&msg, &["line 7", "column L"]);
+    let msg = err(&format!("{HEADER}\n\n{GOOD}\n\n1,2,3,4,5,6\n"));
+    assert_contains(&msg, &["line 5", "found 6"]);
     // Tab-separated works the same way; a thousands separator is not a number.
     let ds = parse("q1\tq2\tq3\tq4\tq5\tq6\tL\n1\t2\t3\t4\t5\t6\t300,25\n").expect("tab CSV");
     assert_eq!(ds.rows[0].l_mm, Some(300.25));
@@ -964,7 +968,9 @@ mod props {
             for input in [&bytes[..], &text[..]] {
                 match Dataset::from_csv_reader_with(input, "bytes.csv", &o) {
                     Ok(ds) => assert_invariants(&ds, &o),
-                    Err(e) => prop_assert!(e.to_string().contains("bytes.csv")),
+                    Err(e) => {
+                        prop_assert!(e.to_string().contains("bytes.csv"));
+                    }
                 }
             }
         }
