@@ -213,7 +213,8 @@ impl Scenario {
                     robot.joints[j].lower.to_degrees(),
                     robot.joints[j].upper.to_degrees(),
                 );
-                if !(lo < hi) || *lo < l - 1e-9 || *hi > u + 1e-9 {
+                let increasing = lo.partial_cmp(hi) == Some(std::cmp::Ordering::Less);
+                if !increasing || *lo < l - 1e-9 || *hi > u + 1e-9 {
                     return Err(err(format!(
                         "sampling.ranges_deg[{j}] = [{lo}, {hi}] must be increasing and inside \
                          the joint limits [{l:.2}, {u:.2}] degrees"
@@ -469,7 +470,10 @@ mod tests {
         // The ideal scenario gives explicit ranges, so the margin is unused there; without them
         // a margin swallowing a joint's range is refused naming the joint.
         let mut doc: toml::Table = toml::from_str(IDEAL).expect("parses");
-        let sampling = doc.get_mut("sampling").and_then(|v| v.as_table_mut()).expect("table");
+        let sampling = doc
+            .get_mut("sampling")
+            .and_then(|v| v.as_table_mut())
+            .expect("table");
         sampling.remove("ranges_deg");
         sampling.insert("limit_margin_deg".into(), toml::Value::Float(170.0));
         let s =

@@ -55,10 +55,7 @@ fn generated_numbers_are_written_at_their_precision() {
     assert!(widest[6] <= 4, "L: {widest:?}");
     assert!(widest[7] <= 3 && widest[8] <= 3, "t, temp: {widest:?}");
     // Some value actually uses the precision (rounding did not throw the digits away).
-    assert!(
-        widest[6] >= 3 && widest[..6].iter().any(|d| *d == 4),
-        "{widest:?}"
-    );
+    assert!(widest[6] >= 3 && widest[..6].contains(&4), "{widest:?}");
     // The reader gives back exactly the rows in memory, and the same seed the same bytes.
     let back = Dataset::from_csv_reader(text.as_bytes(), "gen.csv").unwrap();
     assert_eq!(back.rows, g.dataset.rows);

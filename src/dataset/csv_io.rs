@@ -108,7 +108,10 @@ impl LineCounter {
         while byte < bytes.len() && matches!(bytes[byte], b'\r' | b'\n') {
             byte += 1;
         }
-        self.newlines += bytes[self.byte..byte].iter().filter(|b| **b == b'\n').count();
+        self.newlines += bytes[self.byte..byte]
+            .iter()
+            .filter(|b| **b == b'\n')
+            .count();
         self.byte = byte;
         self.newlines + 1
     }

@@ -43,7 +43,10 @@ impl SettleOptions {
     /// Checks every value, naming the key (`simulation.<key>`) of the first bad one.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.dt_s > 0.0 && self.dt_s <= 0.01) {
-            return Err(format!("simulation.dt_s = {} must be in (0, 0.01] s", self.dt_s));
+            return Err(format!(
+                "simulation.dt_s = {} must be in (0, 0.01] s",
+                self.dt_s
+            ));
         }
         if !(self.step_tolerance_rad.is_finite() && self.step_tolerance_rad > 0.0) {
             return Err(format!(
