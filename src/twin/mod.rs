@@ -50,7 +50,7 @@ impl SettleOptions {
         }
         if !(self.step_tolerance_rad.is_finite() && self.step_tolerance_rad > 0.0) {
             return Err(format!(
-                "simulation.step_tolerance_rad = {} must be finite and > 0",
+                "simulation.step_tolerance_rad = {:?} must be finite and > 0",
                 self.step_tolerance_rad
             ));
         }
