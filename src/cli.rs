@@ -41,14 +41,13 @@ pub enum BenchTarget {
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
 /// compare) or may be absent (predict).
 fn load_dataset(path: &Path, angles: AngleArg, require_length: bool) -> Result<Dataset> {
-    // TODO(merge): Dataset::load_with(path, &LoadOptions { angles, require_length }) once the
-    // inputs branch (LoadOptions, AngleUnit) is merged; until then the reader always requires L and
-    // reads degrees (refusing angles that look like radians).
-    let _ = require_length;
-    match angles {
-        AngleArg::Auto | AngleArg::Deg => Dataset::load(path),
-        AngleArg::Rad => Err(Error::Invalid("--angles rad needs the dataset reader's unit option, which this build lacks; convert the angles to degrees".into())),
-    }
+    use crate::dataset::{AngleUnit, LoadOptions};
+    let angles = match angles {
+        AngleArg::Auto => AngleUnit::Auto,
+        AngleArg::Deg => AngleUnit::Deg,
+        AngleArg::Rad => AngleUnit::Rad,
+    };
+    Dataset::load_with(path, &LoadOptions { angles, require_length })
 }
 
 /// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without
@@ -686,9 +685,8 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: b
     )?;
     let result = load_model(model)?;
     let ds = load_dataset(data, angles, false)?;
-    // TODO(merge): the row's length becomes optional with Dataset::load_with.
     let rows: Vec<([f64; 6], Option<f64>)> =
-        ds.rows.iter().map(|r| (r.q_deg, Some(r.l_mm))).collect();
+        ds.rows.iter().map(|r| (r.q_deg, r.l_mm)).collect();
     let predicted = result.predict_rows(&ds);
     for (i, p) in predicted.iter().enumerate() {
         if !p.is_finite() {
@@ -833,7 +831,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
             let (_, test_idx) = split_rows(&ds, Some(frac), *seed)?;
             let test_abs_residuals = test_idx
                 .iter()
-                .map(|&i| (ds.rows[i].l_mm - r.predict_mm(&ds.rows[i].q_deg)).abs())
+                .map(|&i| (ds.rows[i].l_mm.unwrap_or(f64::NAN) - r.predict_mm(&ds.rows[i].q_deg)).abs())
                 .collect();
             bar.inc(1);
             Ok(CompareRun {

@@ -14,6 +14,18 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// Decimals of the time column (ms).
+pub const T_DECIMALS: usize = 3;
+/// Decimals of the temperature column (mK).
+pub const TEMP_DECIMALS: usize = 3;
+
+/// `v` rounded to `decimals` decimals: the f64 nearest to the decimal text `v` prints as with
+/// that precision, so the dataset writer prints it with at most `decimals` decimals and reading
+/// it back gives the same value.
+pub fn round_decimals(v: f64, decimals: usize) -> f64 {
+    format!("{v:.decimals$}").parse().unwrap_or(v)
+}
+
 /// Reports progress of long runs (a progress bar in the CLI, nothing in tests).
 pub trait Progress: Sync {
     fn start(&self, _total: u64, _what: &str) {}
@@ -140,7 +152,11 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
                 msg: format!("only {} of {} poses are reachable inside the sensor range and above min_tool_z_mm", out.len(), s.sampling.poses),
             });
         }
-        let q: Vec<f64> = (0..n).map(|j| ranges[j].0 + halton(i, HALTON_BASES[j]) * (ranges[j].1 - ranges[j].0)).collect();
+        // Commanded angles at the dataset's precision: the written angles are the simulated ones.
+        let q: Vec<f64> = (0..n)
+            .map(|j| ranges[j].0 + halton(i, HALTON_BASES[j]) * (ranges[j].1 - ranges[j].0))
+            .map(|q| round_decimals(q.to_degrees(), s.sampling.angle_decimals).to_radians())
+            .collect();
         i += 1;
         let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool);
         let l = s.sensor.ideal_length(&p);
@@ -241,11 +257,13 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         };
         let dt = twin.effects.thermal.as_ref().map(|th| th.delta_t(times[i])).unwrap_or(0.0);
         let ambient = twin.effects.thermal.as_ref().map(|th| th.ambient_c).unwrap_or(20.0);
+        // Each value at its meaning's precision (see DrawWire::reading_decimals).
+        let reading = round_decimals(reading, s.sensor.reading_decimals());
         rows.push(Row {
-            q_deg: std::array::from_fn(|j| poses[i][j].to_degrees()),
-            l_mm: reading,
-            t_s: Some(times[i]),
-            temp_c: Some(ambient + dt),
+            q_deg: std::array::from_fn(|j| round_decimals(poses[i][j].to_degrees(), s.sampling.angle_decimals)),
+            l_mm: Some(reading),
+            t_s: Some(round_decimals(times[i], T_DECIMALS)),
+            temp_c: Some(round_decimals(ambient + dt, TEMP_DECIMALS)),
             split: Some(split[i]),
         });
         truth_poses.push(PoseTruth {

@@ -13,6 +13,12 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// Largest `sampling.poses`.
+pub const MAX_POSES: usize = 100_000;
+/// Largest `sampling.angle_decimals` (1e-12 degree; an f64 angle below 720° holds about 15
+/// significant digits).
+pub const MAX_ANGLE_DECIMALS: usize = 12;
+
 /// The scenario shipped with twincal and run by `twincal generate` without `--scenario`.
 pub const DEFAULT_SCENARIO: &str = include_str!("../scenarios/irb120_evo_nph.toml");
 pub const DEFAULT_SCENARIO_NAME: &str = "scenarios/irb120_evo_nph.toml (embedded)";
@@ -81,6 +87,11 @@ pub struct Sampling {
     pub speed_fraction: f64,
     #[serde(default = "Sampling::default_order")]
     pub order: Order,
+    /// Decimals of a degree the commanded joint angles are rounded to (before simulation, so the
+    /// dataset holds exactly the angles the twin was commanded to). At most
+    /// [`MAX_ANGLE_DECIMALS`].
+    #[serde(default = "Sampling::default_angle_decimals")]
+    pub angle_decimals: usize,
 }
 
 impl Sampling {
@@ -96,6 +107,9 @@ impl Sampling {
     fn default_order() -> Order {
         Order::Halton
     }
+    fn default_angle_decimals() -> usize {
+        6
+    }
 }
 
 impl Scenario {
@@ -104,7 +118,10 @@ impl Scenario {
     }
 
     pub fn from_toml(text: &str, origin: &str) -> Result<Scenario> {
-        let s: Scenario = toml::from_str(text).map_err(|e| Error::Scenario { path: origin.to_string(), msg: e.to_string() })?;
+        let s: Scenario = toml::from_str(text).map_err(|e| Error::Scenario {
+            path: origin.to_string(),
+            msg: e.to_string(),
+        })?;
         Ok(s)
     }
 
@@ -130,61 +147,135 @@ impl Scenario {
             return Ok(Robot::irb120());
         }
         let p = PathBuf::from(&self.robot);
-        let p = if p.is_relative() { dir.map(|d| d.join(&p)).unwrap_or(p) } else { p };
+        let p = if p.is_relative() {
+            dir.map(|d| d.join(&p)).unwrap_or(p)
+        } else {
+            p
+        };
         Robot::from_urdf_file(&p)
     }
 
     pub fn validate(&self, robot: &Robot, origin: &str) -> Result<()> {
-        let err = |msg: String| Error::Scenario { path: origin.to_string(), msg };
+        let err = |msg: String| Error::Scenario {
+            path: origin.to_string(),
+            msg,
+        };
         if robot.dof() != 6 {
-            return Err(err(format!("robot '{}' has {} revolute joints; datasets hold six joint angles (q1..q6)", robot.name, robot.dof())));
+            return Err(err(format!(
+                "robot '{}' has {} revolute joints; datasets hold six joint angles (q1..q6)",
+                robot.name,
+                robot.dof()
+            )));
         }
         self.effects.validate(robot.dof()).map_err(err)?;
         self.sensor.validate().map_err(err)?;
         let names = robot.param_names();
         for k in self.geometry.set.keys() {
             if !names.contains(k) {
-                return Err(err(format!("geometry.set: unknown parameter '{k}' (expected <joint>.<{}>)", PARAM_SUFFIXES.join("|"))));
+                return Err(err(format!(
+                    "geometry.set: unknown parameter '{k}' (expected <joint>.<{}>)",
+                    PARAM_SUFFIXES.join("|")
+                )));
             }
         }
         let g = &self.geometry;
-        if [g.origin_offset_std_mm, g.origin_rotation_std_deg, g.joint_zero_std_deg].iter().any(|v| !(v.is_finite() && *v >= 0.0))
-            || g.set.values().any(|v| !v.is_finite())
-        {
-            return Err(err("geometry: standard deviations must be >= 0 and values finite".into()));
+        let stds = [
+            ("origin_offset_std_mm", g.origin_offset_std_mm),
+            ("origin_rotation_std_deg", g.origin_rotation_std_deg),
+            ("joint_zero_std_deg", g.joint_zero_std_deg),
+        ];
+        for (key, v) in stds {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(err(format!("geometry.{key} = {v} must be finite and >= 0")));
+            }
+        }
+        if let Some((k, v)) = g.set.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(err(format!("geometry.set.\"{k}\" = {v} must be finite")));
         }
         let sm = &self.sampling;
-        if sm.poses == 0 || sm.test >= sm.poses {
-            return Err(err(format!("sampling: need poses >= 1 and test < poses (got poses = {}, test = {})", sm.poses, sm.test)));
+        if sm.poses == 0 || sm.poses > MAX_POSES || sm.test >= sm.poses {
+            return Err(err(format!(
+                "sampling.poses = {} and sampling.test = {}: need 1 <= poses <= {MAX_POSES} and \
+                 test < poses",
+                sm.poses, sm.test
+            )));
         }
         if let Some(r) = &sm.ranges_deg {
             if r.len() != robot.dof() {
-                return Err(err(format!("sampling.ranges_deg has {} ranges, the robot has {} joints", r.len(), robot.dof())));
+                return Err(err(format!(
+                    "sampling.ranges_deg has {} ranges, the robot has {} joints",
+                    r.len(),
+                    robot.dof()
+                )));
             }
             for (j, [lo, hi]) in r.iter().enumerate() {
-                let (l, u) = (robot.joints[j].lower.to_degrees(), robot.joints[j].upper.to_degrees());
-                if !(lo < hi) || *lo < l - 1e-9 || *hi > u + 1e-9 {
-                    return Err(err(format!("sampling.ranges_deg[{j}] = [{lo}, {hi}] must be increasing and inside the joint limits [{l:.2}, {u:.2}] degrees")));
+                let (l, u) = (
+                    robot.joints[j].lower.to_degrees(),
+                    robot.joints[j].upper.to_degrees(),
+                );
+                let increasing = lo.partial_cmp(hi) == Some(std::cmp::Ordering::Less);
+                if !increasing || *lo < l - 1e-9 || *hi > u + 1e-9 {
+                    return Err(err(format!(
+                        "sampling.ranges_deg[{j}] = [{lo}, {hi}] must be increasing and inside \
+                         the joint limits [{l:.2}, {u:.2}] degrees"
+                    )));
                 }
             }
         }
+        let m = sm.limit_margin_deg;
+        if !(m.is_finite() && m >= 0.0) {
+            return Err(err(format!(
+                "sampling.limit_margin_deg = {m} must be finite and >= 0"
+            )));
+        }
+        if sm.ranges_deg.is_none() {
+            for j in &robot.joints {
+                let (l, u) = (j.lower.to_degrees(), j.upper.to_degrees());
+                if l + m >= u - m {
+                    return Err(err(format!(
+                        "sampling.limit_margin_deg = {m} leaves no range for joint '{}' (limits \
+                         [{l:.2}, {u:.2}] degrees)",
+                        j.name
+                    )));
+                }
+            }
+        }
+        if !sm.min_tool_z_mm.is_finite() {
+            return Err(err(format!(
+                "sampling.min_tool_z_mm = {} must be finite",
+                sm.min_tool_z_mm
+            )));
+        }
         if !(sm.speed_fraction > 0.0 && sm.speed_fraction <= 1.0) {
-            return Err(err("sampling.speed_fraction must be in (0, 1]".into()));
+            return Err(err(format!(
+                "sampling.speed_fraction = {} must be in (0, 1]",
+                sm.speed_fraction
+            )));
         }
-        let st = &self.simulation;
-        if !(st.dt_s > 0.0 && st.dt_s <= 0.01) || st.max_steps == 0 || !(st.damping_ratio > 0.0) {
-            return Err(err("simulation: dt_s must be in (0, 0.01], max_steps >= 1, damping_ratio > 0".into()));
+        if sm.angle_decimals > MAX_ANGLE_DECIMALS {
+            return Err(err(format!(
+                "sampling.angle_decimals = {} must be at most {MAX_ANGLE_DECIMALS}",
+                sm.angle_decimals
+            )));
         }
+        self.simulation.validate().map_err(err)?;
         Ok(())
     }
 
     /// Sampling ranges in radians.
     pub fn ranges_rad(&self, robot: &Robot) -> Vec<(f64, f64)> {
         match &self.sampling.ranges_deg {
-            Some(r) => r.iter().map(|[a, b]| (a.to_radians(), b.to_radians())).collect(),
+            Some(r) => r
+                .iter()
+                .map(|[a, b]| (a.to_radians(), b.to_radians()))
+                .collect(),
             None => {
                 let m = self.sampling.limit_margin_deg.to_radians();
-                robot.joints.iter().map(|j| (j.lower + m, j.upper - m)).collect()
+                robot
+                    .joints
+                    .iter()
+                    .map(|j| (j.lower + m, j.upper - m))
+                    .collect()
             }
         }
     }
@@ -194,7 +285,13 @@ impl Scenario {
         let names = robot.param_names();
         let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(self.seed, Stream::Geometry, 0));
         let g = &self.geometry;
-        let draw = |rng: &mut ChaCha8Rng, std: f64| if std > 0.0 { Normal::new(0.0, std).map(|n| n.sample(rng)).unwrap_or(0.0) } else { 0.0 };
+        let draw = |rng: &mut ChaCha8Rng, std: f64| {
+            if std > 0.0 {
+                Normal::new(0.0, std).map(|n| n.sample(rng)).unwrap_or(0.0)
+            } else {
+                0.0
+            }
+        };
         names
             .iter()
             .map(|name| {
@@ -246,3 +343,148 @@ pub fn halton(mut i: u64, b: u64) -> f64 {
 }
 
 pub const HALTON_BASES: [u64; 12] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const IDEAL: &str = include_str!("../scenarios/irb120_ideal.toml");
+
+    /// The ideal scenario with `table.key = value` set (TOML syntax for the value).
+    fn with(table: &str, key: &str, value: &str) -> String {
+        let mut doc: toml::Table = toml::from_str(IDEAL).expect("ideal scenario parses");
+        let v: toml::Table = toml::from_str(&format!("v = {value}")).expect("value parses");
+        let t = doc
+            .entry(table.to_string())
+            .or_insert_with(|| toml::Value::Table(Default::default()));
+        t.as_table_mut()
+            .expect("a table")
+            .insert(key.into(), v["v"].clone());
+        toml::to_string(&doc).expect("serialise")
+    }
+
+    /// The error for the patched scenario; it must fail to load or to validate.
+    fn error(table: &str, key: &str, value: &str) -> String {
+        let text = with(table, key, value);
+        let robot = Robot::irb120();
+        let e = match Scenario::from_toml(&text, "patched.toml") {
+            Err(e) => e,
+            Ok(s) => s
+                .validate(&robot, "patched.toml")
+                .expect_err(&format!("{table}.{key} = {value}")),
+        };
+        let msg = e.to_string();
+        assert!(msg.contains("patched.toml"), "{msg}");
+        msg
+    }
+
+    fn assert_names(table: &str, key: &str, value: &str) {
+        let msg = error(table, key, value);
+        let full = format!("{table}.{key}");
+        assert!(
+            msg.contains(&full),
+            "{full} = {value}: message does not name the key: {msg}"
+        );
+    }
+
+    fn valid(text: &str) -> bool {
+        let s = Scenario::from_toml(text, "ok.toml").expect("parses");
+        s.validate(&Robot::irb120(), "ok.toml").is_ok()
+    }
+
+    #[test]
+    fn shipped_scenarios_validate() {
+        assert!(valid(IDEAL));
+        for name in [
+            "irb120_geometric",
+            "irb120_pso_ekf",
+            "irb120_full",
+            "irb120_evo_nph",
+        ] {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("scenarios")
+                .join(format!("{name}.toml"));
+            Scenario::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        assert_eq!(
+            Scenario::from_toml(IDEAL, "x")
+                .expect("ideal")
+                .sampling
+                .angle_decimals,
+            6
+        );
+    }
+
+    #[test]
+    fn bad_values_are_refused_naming_the_key() {
+        let cases: &[(&str, &str, &str)] = &[
+            ("sampling", "limit_margin_deg", "-1.0"),
+            ("sampling", "limit_margin_deg", "nan"),
+            ("sampling", "min_tool_z_mm", "inf"),
+            ("sampling", "min_tool_z_mm", "nan"),
+            ("sampling", "speed_fraction", "nan"),
+            ("sampling", "angle_decimals", "13"),
+            ("sensor", "resolution_mm", "300.0"),
+            ("sensor", "resolution_mm", "-0.1"),
+            ("sensor", "noise_std_mm", "250.0"),
+            ("sensor", "noise_std_mm", "nan"),
+            ("sensor", "rate_hz", "0.5"),
+            ("sensor", "rate_hz", "2e6"),
+            ("sensor", "rate_hz", "inf"),
+            ("sensor", "hold_s", "3601.0"),
+            ("sensor", "hold_s", "-1.0"),
+            ("sensor", "samples", "0"),
+            ("sensor", "samples", "100001"),
+            ("sensor", "samples", "4000000000"),
+            ("sensor", "length_offset_mm", "nan"),
+            ("sensor", "exit_point_mm", "[0.0, inf, 0.0]"),
+            ("sensor", "linearity_pct_fs", "6.0"),
+            ("simulation", "step_tolerance_rad", "-1e-13"),
+            ("simulation", "step_tolerance_rad", "0.0"),
+            ("simulation", "step_tolerance_rad", "nan"),
+            ("simulation", "max_steps", "1000001"),
+            ("simulation", "max_steps", "0"),
+            ("simulation", "quiet_steps", "0"),
+            ("simulation", "damping_ratio", "inf"),
+            ("simulation", "dt_s", "nan"),
+        ];
+        for (table, key, value) in cases {
+            assert_names(table, key, value);
+        }
+        // poses: bound and message.
+        let msg = error("sampling", "poses", "100001");
+        assert!(msg.contains("poses") && msg.contains("100000"), "{msg}");
+        // A float where a count is expected is a parse error naming the key, not hours of work.
+        let msg = error("sensor", "samples", "4e9");
+        assert!(msg.contains("samples"), "{msg}");
+        // The limits of what is allowed are allowed.
+        assert!(valid(&with("sensor", "samples", "100000")));
+        assert!(valid(&with("sensor", "rate_hz", "1.0")));
+        assert!(valid(&with("sensor", "noise_std_mm", "200.0")));
+        assert!(valid(&with("simulation", "max_steps", "1000000")));
+        assert!(valid(&with("sampling", "limit_margin_deg", "0.0")));
+    }
+
+    #[test]
+    fn limit_margin_must_leave_a_range_when_it_is_used() {
+        // The ideal scenario gives explicit ranges, so the margin is unused there; without them
+        // a margin swallowing a joint's range is refused naming the joint.
+        let mut doc: toml::Table = toml::from_str(IDEAL).expect("parses");
+        let sampling = doc
+            .get_mut("sampling")
+            .and_then(|v| v.as_table_mut())
+            .expect("table");
+        sampling.remove("ranges_deg");
+        sampling.insert("limit_margin_deg".into(), toml::Value::Float(170.0));
+        let s =
+            Scenario::from_toml(&toml::to_string(&doc).expect("toml"), "m.toml").expect("parses");
+        let msg = s
+            .validate(&Robot::irb120(), "m.toml")
+            .expect_err("no range left")
+            .to_string();
+        assert!(
+            msg.contains("sampling.limit_margin_deg") && msg.contains("joint_"),
+            "{msg}"
+        );
+    }
+}

@@ -193,7 +193,7 @@ fn missing_scenario_file_is_a_clear_error() {
 #[test]
 fn recordings_are_written_for_generate_and_calibrate() {
     let dir = tempfile::tempdir().unwrap();
-    let sc = small_full_scenario(dir.path(), 30);
+    let sc = small_full_scenario(dir.path(), 90);
     let out = dir.path().join("data");
     let rrd = dir.path().join("gen.rrd");
     let o = twincal(&[
@@ -296,7 +296,7 @@ fn assert_no_temp_files(dir: &Path) {
 fn small_geometric(dir: &Path, name: &str) -> PathBuf {
     let text = std::fs::read_to_string(scenario("irb120_geometric"))
         .unwrap()
-        .replace("poses = 400", "poses = 60")
+        .replace("poses = 400", "poses = 100")
         .replace("test = 100", "test = 10");
     let sc = dir.join(format!("{name}.toml"));
     std::fs::write(&sc, text).unwrap();
@@ -444,7 +444,7 @@ fn stale_truth_is_detected() {
     let truth: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(data.join("truth.json")).unwrap()).unwrap();
     assert_eq!(truth["dataset"]["file"], "dataset.csv");
-    assert_eq!(truth["dataset"]["rows"], 60);
+    assert_eq!(truth["dataset"]["rows"], 100);
     assert_eq!(truth["dataset"]["sha256"].as_str().unwrap().len(), 64);
     // Edit one value of the dataset: the truth no longer describes it.
     let csv = std::fs::read_to_string(data.join("dataset.csv")).unwrap();
@@ -490,7 +490,7 @@ fn negative_sensor_guess_is_accepted() {
             "exit_point_mm = [800.0, 300.0, 50.0]",
             "exit_point_mm = [-700.0, -300.0, 50.0]",
         )
-        .replace("poses = 400", "poses = 60")
+        .replace("poses = 400", "poses = 100")
         .replace("test = 100", "test = 10");
     let sc = dir.path().join("neg.toml");
     std::fs::write(&sc, text).unwrap();
@@ -856,7 +856,7 @@ fn predict_writes_lengths_and_residuals() {
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
         .collect();
-    assert_eq!(rows.len(), 60);
+    assert_eq!(rows.len(), 100);
     for r in &rows {
         assert!(
             (r[6] - r[7] - r[8]).abs() < 1e-9 && r[8].abs() < 1.0,

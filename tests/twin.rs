@@ -37,7 +37,7 @@ fn ideal_length_equals_analytic_distance() {
         let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
         let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool) * 1e3;
         let l = (p - e).norm() + s.sensor.length_offset_mm;
-        worst = worst.max((r.l_mm - l).abs());
+        worst = worst.max((r.l_mm.unwrap() - l).abs());
     }
     assert!(worst < 1e-6, "worst |L - analytic| = {worst:e} mm");
 }

@@ -138,7 +138,10 @@ pub fn block_for(data: &Dataset, kind: EffectKind, joint: Option<usize>, has_tor
             }
         }
         EffectKind::SensorNonlinearity => {
-            let (lo, hi) = data.rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| (a.min(r.l_mm), b.max(r.l_mm)));
+            let (lo, hi) = data.rows.iter().filter_map(|r| r.l_mm).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), l| (a.min(l), b.max(l)));
+            if !(lo < hi) {
+                return Err(Error::Invalid("sensor_nonlinearity needs measured lengths over a range".into()));
+            }
             b.range_m = Some([lo * 1e-3, hi * 1e-3]);
         }
         _ => {}

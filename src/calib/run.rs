@@ -248,7 +248,7 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
                 return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
             }
             let n_test = (f * n as f64).round() as usize;
-            let lengths: Vec<f64> = data.rows.iter().map(|r| r.l_mm).collect();
+            let lengths = data.lengths_mm()?;
             let split = crate::generate::stratified_split(&lengths, n_test, seed);
             Ok(((0..n).filter(|i| split[*i] == Split::Train).collect(), (0..n).filter(|i| split[*i] == Split::Test).collect()))
         }
@@ -262,7 +262,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     let rows = idx.iter().map(|&i| &data.rows[i]);
     Samples {
         q: rows.clone().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
-        l: rows.clone().map(|r| r.l_mm * 1e-3).collect(),
+        l: rows.clone().map(|r| r.l_mm.unwrap_or(f64::NAN) * 1e-3).collect(),
         inputs: rows.map(|r| super::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
     }
 }
@@ -436,6 +436,7 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
 /// Runs a calibration with a given solver. `truth` enables the parameter-error report.
 pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions, solver: &dyn Solver) -> Result<CalibResult> {
     let t0 = Instant::now();
+    data.require_length()?;
     let mut warnings = Vec::new();
     let mut split = split_stage(data, opts)?;
     let mut model = super::placement::place_sensor(opts, &split.train)?;
@@ -457,7 +458,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         warnings.push(format!("only {} training rows for {n_free} identifiable parameters (3x as many recommended): uncertainties are large", split.train.len()));
     }
     let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
-    let l: Vec<f64> = data.rows.iter().map(|r| r.l_mm).collect();
+    let l = data.lengths_mm()?;
     let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
 
     let noise = if solver.needs_noise() { estimate_noise(&fit, &x0, &fixed, repeatability.as_ref()) } else { f64::NAN };

@@ -14,20 +14,40 @@
 //! are optional. Names are matched case-insensitively with surrounding whitespace ignored; column
 //! order is free and other columns are ignored. Blank rows are skipped.
 //!
+//! CSV files may come from spreadsheet exports: the delimiter (`,`, `;` or tab) is detected from
+//! the header line, and with `;` or tab a decimal comma (`1,5`) is accepted. Lines starting with
+//! `#` are comments. A spreadsheet extension on a file that is not a spreadsheet (e.g. CSV text
+//! saved as `.xlsx`) is reported as such. Spreadsheets are read cell by cell (xlsx, xlsb), never
+//! as a dense range, so a stray cell far away (e.g. at `XFD1048576`) costs nothing; cells outside
+//! the header's columns are ignored.
+//!
+//! # Load options
+//!
+//! [`Dataset::load_with`] takes [`LoadOptions`]: the joint angle unit ([`AngleUnit::Auto`] applies
+//! the radians heuristic below, [`AngleUnit::Deg`] skips it, [`AngleUnit::Rad`] converts the
+//! angles to degrees on load) and whether `L` is required (`require_length: false` accepts a
+//! file of poses `q1..q6` only, e.g. for prediction; rows then have `l_mm == None`). A dataset
+//! used for calibration must have `L` ([`Dataset::require_length`]). [`Dataset::load`] is
+//! `load_with` with the defaults (`Auto`, `L` required).
+//!
 //! # Validation
 //!
 //! Every problem is reported as [`Error::Data`] naming the file, the line (spreadsheet line number:
 //! the header is line 1, so the first data row is usually line 2) and the column:
 //! missing or duplicated columns, empty/non-numeric/NaN/infinite cells, malformed CSV rows, unknown
-//! split values, a split column filled on some rows only, `L <= 0`, `|q| > 720°`, decreasing `t`,
-//! and two unit mistakes detected by heuristics:
+//! split values, a split column filled on some rows only, and values outside these plausibility
+//! bounds: `0 < L <= `[`MAX_L_MM`], `|q| <= `[`MAX_ABS_JOINT_DEG`],
+//! `0 <= t <= `[`MAX_T_S`] and non-decreasing, [`MIN_TEMP_C`]` <= temp <= `[`MAX_TEMP_C`]; and two
+//! unit mistakes detected by heuristics:
 //!
 //! * **radians**: with at least [`RADIANS_MIN_ROWS`] rows, if every joint angle satisfies
 //!   `|q| <= 2π·1.05` *and* at least one joint spans more than [`RADIANS_MIN_SPAN`] (max − min),
 //!   the joints are taken to be in radians. Degree data essentially never stays inside ±6.6° on all
 //!   six joints while moving; the span condition keeps a repeated home pose (all zeros, or a fixed
 //!   pose near zero) from being flagged. The span threshold is deliberately low (0.1): the real
-//!   HSR-RobotCali pool, converted to radians, has joint spans of 0.0001–0.62 rad.
+//!   HSR-RobotCali pool, converted to radians, has joint spans of 0.0001–0.62 rad. A genuine
+//!   degree dataset over a narrow range (all joints within ±6.6°) trips it: load it with
+//!   [`AngleUnit::Deg`] (`--angles deg`).
 //! * **metres**: if every `L < 5` the lengths are taken to be metres (no draw-wire setup measures
 //!   under 5 mm everywhere).
 
@@ -50,6 +70,72 @@ pub const RADIANS_MAX_ABS: f64 = 2.0 * std::f64::consts::PI * 1.05;
 pub const RADIANS_MIN_SPAN: f64 = 0.1;
 /// Metres heuristic: every `L` below this is taken as metres.
 pub const METRES_MAX_L: f64 = 5.0;
+/// Largest plausible cable length, mm (100 m: the longest draw-wire sensors made measure about
+/// 60 m). Anything beyond is rejected.
+pub const MAX_L_MM: f64 = 100_000.0;
+/// Lowest possible temperature, °C (absolute zero).
+pub const MIN_TEMP_C: f64 = -273.15;
+/// Highest plausible temperature, °C (no robot cell runs hotter).
+pub const MAX_TEMP_C: f64 = 1000.0;
+/// Largest plausible time, s from the start of acquisition (about 3.2 years). Absolute clock
+/// times (e.g. Unix seconds) are beyond it: subtract the first time.
+pub const MAX_T_S: f64 = 1e8;
+
+/// Unit of the joint angle columns in a file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AngleUnit {
+    /// Degrees, with the radians heuristic of the module docs as a guard.
+    #[default]
+    Auto,
+    /// Degrees, no heuristic.
+    Deg,
+    /// Radians, converted to degrees on load.
+    Rad,
+}
+
+impl std::str::FromStr for AngleUnit {
+    type Err = String;
+    /// `auto`, `deg` (also `degrees`) or `rad` (also `radians`), case-insensitive.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "auto" => Ok(AngleUnit::Auto),
+            "deg" | "degree" | "degrees" => Ok(AngleUnit::Deg),
+            "rad" | "radian" | "radians" => Ok(AngleUnit::Rad),
+            _ => Err(format!(
+                "unknown angle unit '{s}' (expected auto, deg or rad)"
+            )),
+        }
+    }
+}
+
+/// How [`Dataset::load_with`] reads a file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Unit of `q1..q6`.
+    pub angles: AngleUnit,
+    /// Whether the `L` column must be present (it always must be for calibration).
+    pub require_length: bool,
+}
+
+impl Default for LoadOptions {
+    /// Today's behaviour of [`Dataset::load`]: [`AngleUnit::Auto`], `L` required.
+    fn default() -> Self {
+        LoadOptions {
+            angles: AngleUnit::Auto,
+            require_length: true,
+        }
+    }
+}
+
+impl LoadOptions {
+    /// Poses (`q1..q6`) with an optional `L` column, e.g. for prediction.
+    pub fn poses() -> Self {
+        LoadOptions {
+            require_length: false,
+            ..Default::default()
+        }
+    }
+}
 
 /// Which subset a row belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -74,8 +160,9 @@ impl Split {
 pub struct Row {
     /// Joint angles, degrees, controller convention.
     pub q_deg: [f64; 6],
-    /// Measured cable length, mm.
-    pub l_mm: f64,
+    /// Measured cable length, mm; `None` when the file has no `L` column (poses only, loaded with
+    /// `require_length: false`).
+    pub l_mm: Option<f64>,
     /// Seconds from acquisition start.
     pub t_s: Option<f64>,
     /// Temperature, °C.
@@ -95,16 +182,25 @@ impl Dataset {
     /// sheet, or sheet named by `path.xlsx#SheetName`). See the [module docs](self) for the accepted
     /// columns and the validation performed.
     pub fn load(path: &Path) -> Result<Dataset> {
+        Self::load_with(path, &LoadOptions::default())
+    }
+
+    /// [`Self::load`] with explicit [`LoadOptions`] (angle unit, whether `L` is required).
+    pub fn load_with(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
         if path.is_dir() {
-            return Self::load_csv_file(&path.join(DATASET_FILE));
+            return Self::load_csv_file(&path.join(DATASET_FILE), opts);
         }
         let (file, sheet) = split_sheet(path);
-        let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+        let ext = file
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .unwrap_or_default();
         match ext.as_str() {
-            "csv" if sheet.is_none() => Self::load_csv_file(&file),
+            "csv" if sheet.is_none() => Self::load_csv_file(&file, opts),
             "xlsx" | "xlsm" | "xlsb" | "xls" | "ods" => {
                 let (table, source) = xlsx::read_table(&file, sheet.as_deref())?;
-                from_table(table, source)
+                from_table(table, source, opts)
             }
             _ => Err(Error::data(
                 path.display(),
@@ -114,28 +210,83 @@ impl Dataset {
         }
     }
 
-    fn load_csv_file(path: &Path) -> Result<Dataset> {
+    fn load_csv_file(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        Self::from_csv_reader(std::io::BufReader::new(file), &path.display().to_string())
+        Self::from_csv_reader_with(
+            std::io::BufReader::new(file),
+            &path.display().to_string(),
+            opts,
+        )
     }
 
     /// Parse and validate CSV text; `source` names the input in error messages and becomes
     /// [`Dataset::source`].
     pub fn from_csv_reader<R: std::io::Read>(r: R, source: &str) -> Result<Dataset> {
-        from_table(csv_io::read_table(r, source)?, source.to_owned())
+        Self::from_csv_reader_with(r, source, &LoadOptions::default())
+    }
+
+    /// [`Self::from_csv_reader`] with explicit [`LoadOptions`].
+    pub fn from_csv_reader_with<R: std::io::Read>(
+        r: R,
+        source: &str,
+        opts: &LoadOptions,
+    ) -> Result<Dataset> {
+        from_table(csv_io::read_table(r, source)?, source.to_owned(), opts)
+    }
+
+    /// True when every row has a cable length (and there is at least one row).
+    pub fn has_length(&self) -> bool {
+        !self.rows.is_empty() && self.rows.iter().all(|r| r.l_mm.is_some())
+    }
+
+    /// An error naming the source unless every row has a cable length: calibration and anything
+    /// that compares against measurements needs `L`.
+    pub fn require_length(&self) -> Result<()> {
+        match self.rows.iter().position(|r| r.l_mm.is_none()) {
+            None => Ok(()),
+            Some(i) => Err(Error::data(
+                &self.source,
+                format!(
+                    "row {} has no cable length L; this needs measured lengths (a file with \
+                     q1..q6 and L)",
+                    i + 1
+                ),
+            )),
+        }
+    }
+
+    /// The cable lengths of every row, mm; an error as [`Self::require_length`] when any is absent.
+    pub fn lengths_mm(&self) -> Result<Vec<f64>> {
+        self.require_length()?;
+        Ok(self
+            .rows
+            .iter()
+            .map(|r| r.l_mm.unwrap_or(f64::NAN))
+            .collect())
     }
 
     /// CSV text with header `q1,q2,q3,q4,q5,q6,L,t,temp,split`, one line per row in row order.
     /// Numbers use `f64`'s `Display` (shortest representation that round-trips exactly), so the
-    /// output is deterministic and reloads to identical values. Columns `t`, `temp` and `split` are
-    /// written only if every row has them (and there is at least one row).
+    /// output is deterministic and reloads to identical values; values rounded to `d` decimals
+    /// beforehand (as the generator does) are written with at most `d` decimals. Columns `t`,
+    /// `temp` and `split` are written only if every row has them (and there is at least one row);
+    /// `L` is written unless no row has it (a row without it gets an empty cell).
     pub fn to_csv_string(&self) -> String {
         let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
-        let (has_t, has_temp, has_split) =
-            (all(|r| r.t_s.is_some()), all(|r| r.temp_c.is_some()), all(|r| r.split.is_some()));
+        let (has_t, has_temp, has_split) = (
+            all(|r| r.t_s.is_some()),
+            all(|r| r.temp_c.is_some()),
+            all(|r| r.split.is_some()),
+        );
+        let has_l = self.rows.is_empty() || self.rows.iter().any(|r| r.l_mm.is_some());
 
-        let mut out = String::from("q1,q2,q3,q4,q5,q6,L");
-        for (present, name) in [(has_t, "t"), (has_temp, "temp"), (has_split, "split")] {
+        let mut out = String::from("q1,q2,q3,q4,q5,q6");
+        for (present, name) in [
+            (has_l, "L"),
+            (has_t, "t"),
+            (has_temp, "temp"),
+            (has_split, "split"),
+        ] {
             if present {
                 out.push(',');
                 out.push_str(name);
@@ -144,10 +295,15 @@ impl Dataset {
         out.push('\n');
         // `write!` into a String cannot fail.
         for row in &self.rows {
-            for q in row.q_deg {
-                let _ = write!(out, "{q},");
+            for (j, q) in row.q_deg.iter().enumerate() {
+                let _ = write!(out, "{}{q}", if j == 0 { "" } else { "," });
             }
-            let _ = write!(out, "{}", row.l_mm);
+            if has_l {
+                out.push(',');
+                if let Some(l) = row.l_mm {
+                    let _ = write!(out, "{l}");
+                }
+            }
             if let (true, Some(t)) = (has_t, row.t_s) {
                 let _ = write!(out, ",{t}");
             }
@@ -182,7 +338,12 @@ impl Dataset {
     }
 
     fn indices_of(&self, split: Split) -> Vec<usize> {
-        self.rows.iter().enumerate().filter(|(_, r)| r.split == Some(split)).map(|(i, _)| i).collect()
+        self.rows
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.split == Some(split))
+            .map(|(i, _)| i)
+            .collect()
     }
 
     /// Number of rows.
@@ -206,7 +367,9 @@ fn split_sheet(path: &Path) -> (PathBuf, Option<String>) {
         for (i, _) in s.match_indices('#') {
             let (file, sheet) = (&s[..i], &s[i + 1..]);
             let lower = file.to_ascii_lowercase();
-            let is_book = [".xlsx", ".xlsm", ".xlsb", ".xls", ".ods"].iter().any(|e| lower.ends_with(e));
+            let is_book = [".xlsx", ".xlsm", ".xlsb", ".xls", ".ods"]
+                .iter()
+                .any(|e| lower.ends_with(e));
             if is_book && !sheet.is_empty() {
                 return (PathBuf::from(file), Some(sheet.to_owned()));
             }
@@ -242,6 +405,8 @@ pub(crate) struct RawRow {
 pub(crate) struct RawTable {
     pub header: Vec<String>,
     pub rows: Vec<RawRow>,
+    /// Text cells may use a decimal comma (`1,5`): set for `;`- or tab-separated CSV.
+    pub decimal_comma: bool,
 }
 
 /// The columns this module understands.
@@ -267,7 +432,9 @@ impl Column {
         Column::Temp,
         Column::Split,
     ];
-    const NAMES: [&'static str; 10] = ["q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split"];
+    const NAMES: [&'static str; 10] = [
+        "q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split",
+    ];
     /// Number of required columns at the start of `ALL` (q1..q6, L).
     const REQUIRED: usize = 7;
 
@@ -287,7 +454,9 @@ impl Column {
 
     fn from_header(h: &str) -> Option<Column> {
         let h = h.trim();
-        Self::ALL.into_iter().find(|c| c.name().eq_ignore_ascii_case(h))
+        Self::ALL
+            .into_iter()
+            .find(|c| c.name().eq_ignore_ascii_case(h))
     }
 }
 
@@ -297,7 +466,7 @@ struct Layout {
 }
 
 impl Layout {
-    fn new(header: &[String], source: &str) -> Result<Layout> {
+    fn new(header: &[String], source: &str, require_length: bool) -> Result<Layout> {
         let found = || header.join(",");
         let mut pos = [None; 10];
         for (i, h) in header.iter().enumerate() {
@@ -317,19 +486,36 @@ impl Layout {
                 pos[c.index()] = Some(i);
             }
         }
-        let missing: Vec<&str> =
-            Column::ALL[..Column::REQUIRED].iter().filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
+        let required = if require_length {
+            Column::REQUIRED
+        } else {
+            Column::REQUIRED - 1
+        };
+        let missing: Vec<&str> = Column::ALL[..required]
+            .iter()
+            .filter(|c| pos[c.index()].is_none())
+            .map(|c| c.name())
+            .collect();
         if !missing.is_empty() {
+            let need = if require_length {
+                "need q1..q6 and L, optional t, temp, split"
+            } else {
+                "need q1..q6, optional L, t, temp, split"
+            };
             return Err(Error::data(
                 source,
                 format!(
-                    "missing required column(s) {}; header found: {} (need q1..q6 and L, optional t, temp, split)",
+                    "missing required column(s) {}; header found: {} ({need})",
                     missing.join(", "),
                     found()
                 ),
             ));
         }
         Ok(Layout { pos })
+    }
+
+    fn has(&self, c: Column) -> bool {
+        self.pos[c.index()].is_some()
     }
 
     fn cell<'a>(&self, row: &'a RawRow, c: Column) -> Option<&'a Cell> {
@@ -341,27 +527,60 @@ fn cell_error(source: &str, line: usize, c: Column, msg: impl std::fmt::Display)
     Error::data(source, format!("line {line}, column {}: {msg}", c.name()))
 }
 
-/// Interprets a cell as a finite number; `Ok(None)` for an empty cell or an absent column.
-fn number(cell: Option<&Cell>, c: Column, line: usize, source: &str) -> Result<Option<f64>> {
-    let v = match cell {
-        None | Some(Cell::Empty) => return Ok(None),
-        Some(Cell::Number(v)) => *v,
-        Some(Cell::Text(s)) => {
-            s.parse::<f64>().map_err(|_| cell_error(source, line, c, format!("'{s}' is not a number")))?
-        }
-        Some(Cell::Other(what)) => return Err(cell_error(source, line, c, format!("{what} is not a number"))),
-    };
-    if v.is_nan() {
-        return Err(cell_error(source, line, c, "NaN is not allowed"));
-    }
-    if v.is_infinite() {
-        return Err(cell_error(source, line, c, "infinite value is not allowed"));
-    }
-    Ok(Some(v))
+/// Reads one table cell: numbers, text and the decimal-comma setting.
+struct Cells<'a> {
+    source: &'a str,
+    decimal_comma: bool,
 }
 
-fn required(cell: Option<&Cell>, c: Column, line: usize, source: &str) -> Result<f64> {
-    number(cell, c, line, source)?.ok_or_else(|| cell_error(source, line, c, "empty cell (value required)"))
+impl Cells<'_> {
+    /// Interprets a cell as a finite number; `Ok(None)` for an empty cell or an absent column.
+    fn number(&self, cell: Option<&Cell>, c: Column, line: usize) -> Result<Option<f64>> {
+        let source = self.source;
+        let v = match cell {
+            None | Some(Cell::Empty) => return Ok(None),
+            Some(Cell::Number(v)) => *v,
+            Some(Cell::Text(s)) => parse_number(s, self.decimal_comma).ok_or_else(|| {
+                let hint = if !self.decimal_comma && s.contains(',') && !s.contains('.') {
+                    " (a decimal comma is accepted only in ';'- or tab-separated files)"
+                } else {
+                    ""
+                };
+                cell_error(source, line, c, format!("'{s}' is not a number{hint}"))
+            })?,
+            Some(Cell::Other(what)) => {
+                return Err(cell_error(
+                    source,
+                    line,
+                    c,
+                    format!("{what} is not a number"),
+                ))
+            }
+        };
+        if v.is_nan() {
+            return Err(cell_error(source, line, c, "NaN is not allowed"));
+        }
+        if v.is_infinite() {
+            return Err(cell_error(source, line, c, "infinite value is not allowed"));
+        }
+        Ok(Some(v))
+    }
+
+    fn required(&self, cell: Option<&Cell>, c: Column, line: usize) -> Result<f64> {
+        self.number(cell, c, line)?
+            .ok_or_else(|| cell_error(self.source, line, c, "empty cell (value required)"))
+    }
+}
+
+/// Parses a decimal number; with `decimal_comma`, one `,` and no `.` reads as a decimal point.
+fn parse_number(s: &str, decimal_comma: bool) -> Option<f64> {
+    if let Ok(v) = s.parse::<f64>() {
+        return Some(v);
+    }
+    if decimal_comma && s.matches(',').count() == 1 && !s.contains('.') {
+        return s.replace(',', ".").parse::<f64>().ok();
+    }
+    None
 }
 
 fn split_value(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<Split>> {
@@ -383,12 +602,36 @@ fn split_value(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<
     }
 }
 
-fn from_table(table: RawTable, source: String) -> Result<Dataset> {
+/// Checks `lo <= v <= hi`, naming the cell and what the value is.
+fn check_bounds(
+    v: f64,
+    (lo, hi): (f64, f64),
+    what: &str,
+    line: usize,
+    c: Column,
+    src: &str,
+) -> Result<()> {
+    if v < lo || v > hi {
+        return Err(cell_error(
+            src,
+            line,
+            c,
+            format!("{what} {v} is implausible (allowed range [{lo}, {hi}])"),
+        ));
+    }
+    Ok(())
+}
+
+fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dataset> {
     let src = source.as_str();
-    let layout = Layout::new(&table.header, src)?;
+    let layout = Layout::new(&table.header, src, opts.require_length)?;
     if table.rows.is_empty() {
         return Err(Error::data(src, "no data rows (only a header)"));
     }
+    let cells = Cells {
+        source: src,
+        decimal_comma: table.decimal_comma,
+    };
 
     let mut rows = Vec::with_capacity(table.rows.len());
     let mut last_t: Option<(f64, usize)> = None;
@@ -398,40 +641,98 @@ fn from_table(table: RawTable, source: String) -> Result<Dataset> {
         let mut q_deg = [0.0; 6];
         for (j, q) in q_deg.iter_mut().enumerate() {
             let c = Column::Q(j);
-            *q = required(layout.cell(raw, c), c, line, src)?;
+            let v = cells.required(layout.cell(raw, c), c, line)?;
+            *q = if opts.angles == AngleUnit::Rad {
+                v.to_degrees()
+            } else {
+                v
+            };
             if q.abs() > MAX_ABS_JOINT_DEG {
+                let shown = if opts.angles == AngleUnit::Rad {
+                    format!("{v} rad ({q} deg)")
+                } else {
+                    format!("{q} deg")
+                };
                 return Err(cell_error(
                     src,
                     line,
                     c,
-                    format!("joint angle {q} deg is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)"),
+                    format!("joint angle {shown} is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)"),
                 ));
             }
         }
-        let l_mm = required(layout.cell(raw, Column::L), Column::L, line, src)?;
-        if l_mm <= 0.0 {
-            return Err(cell_error(src, line, Column::L, format!("cable length must be positive, found {l_mm}")));
-        }
-        let t_s = number(layout.cell(raw, Column::T), Column::T, line, src)?;
+        let l_mm = if layout.has(Column::L) {
+            let l = cells.required(layout.cell(raw, Column::L), Column::L, line)?;
+            if l <= 0.0 {
+                return Err(cell_error(
+                    src,
+                    line,
+                    Column::L,
+                    format!("cable length must be positive, found {l}"),
+                ));
+            }
+            if l > MAX_L_MM {
+                return Err(cell_error(
+                    src,
+                    line,
+                    Column::L,
+                    format!(
+                        "cable length {l} mm is implausible (no draw-wire sensor measures more \
+                         than {MAX_L_MM} mm)"
+                    ),
+                ));
+            }
+            Some(l)
+        } else {
+            None
+        };
+        let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
+            check_bounds(
+                t,
+                (0.0, MAX_T_S),
+                "time (s from the start of acquisition)",
+                line,
+                Column::T,
+                src,
+            )?;
             if let Some((prev, prev_line)) = last_t {
                 if t < prev {
                     return Err(cell_error(
                         src,
                         line,
                         Column::T,
-                        format!("t = {t} s is earlier than t = {prev} s on line {prev_line}; t must be non-decreasing"),
+                        format!(
+                            "t = {t} s is earlier than t = {prev} s on line {prev_line}; t must \
+                             be non-decreasing"
+                        ),
                     ));
                 }
             }
             last_t = Some((t, line));
         }
-        let temp_c = number(layout.cell(raw, Column::Temp), Column::Temp, line, src)?;
+        let temp_c = cells.number(layout.cell(raw, Column::Temp), Column::Temp, line)?;
+        if let Some(temp) = temp_c {
+            check_bounds(
+                temp,
+                (MIN_TEMP_C, MAX_TEMP_C),
+                "temperature (°C)",
+                line,
+                Column::Temp,
+                src,
+            )?;
+        }
         let split = split_value(layout.cell(raw, Column::Split), line, src)?;
         if split.is_none() && first_split_missing.is_none() {
             first_split_missing = Some(line);
         }
-        rows.push(Row { q_deg, l_mm, t_s, temp_c, split });
+        rows.push(Row {
+            q_deg,
+            l_mm,
+            t_s,
+            temp_c,
+            split,
+        });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.
@@ -445,42 +746,63 @@ fn from_table(table: RawTable, source: String) -> Result<Dataset> {
             ));
         }
     }
-    check_units(&rows, src)?;
+    check_units(&rows, src, opts.angles)?;
     Ok(Dataset { rows, source })
 }
 
-/// The radians and metres heuristics described in the module docs.
-fn check_units(rows: &[Row], source: &str) -> Result<()> {
-    if rows.len() >= RADIANS_MIN_ROWS {
-        let max_abs = rows.iter().flat_map(|r| r.q_deg).fold(0.0_f64, |m, q| m.max(q.abs()));
+/// The radians and metres heuristics described in the module docs (radians only with
+/// [`AngleUnit::Auto`]).
+fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
+    if angles == AngleUnit::Auto && rows.len() >= RADIANS_MIN_ROWS {
+        let max_abs = rows
+            .iter()
+            .flat_map(|r| r.q_deg)
+            .fold(0.0_f64, |m, q| m.max(q.abs()));
         let spans: Vec<f64> = (0..6)
             .map(|j| {
                 let (lo, hi) = rows
                     .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r.q_deg[j]), hi.max(r.q_deg[j])));
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                        (lo.min(r.q_deg[j]), hi.max(r.q_deg[j]))
+                    });
                 hi - lo
             })
             .collect();
-        let (widest, span) =
-            spans.iter().copied().enumerate().fold((0, 0.0), |best, (j, s)| if s > best.1 { (j, s) } else { best });
+        let (widest, span) = spans
+            .iter()
+            .copied()
+            .enumerate()
+            .fold(
+                (0, 0.0),
+                |best, (j, s)| if s > best.1 { (j, s) } else { best },
+            );
         if max_abs <= RADIANS_MAX_ABS && span > RADIANS_MIN_SPAN {
             return Err(Error::data(
                 source,
                 format!(
-                    "columns q1..q6 look like radians (all {} rows have |q| <= {max_abs:.3}, q{} spans {span:.3}); \
-                     the file must hold joint angles in degrees",
+                    "columns q1..q6 look like radians (all {} rows have |q| <= {max_abs:.3}, q{} \
+                     spans {span:.3}); the file must hold joint angles in degrees; if they really \
+                     are degrees pass --angles deg (or --angles rad to convert)",
                     rows.len(),
                     widest + 1
                 ),
             ));
         }
     }
-    let max_l = rows.iter().fold(0.0_f64, |m, r| m.max(r.l_mm));
-    if !rows.is_empty() && max_l < METRES_MAX_L {
-        return Err(Error::data(
-            source,
-            format!("column L looks like metres (every L < {METRES_MAX_L}, max {max_l}); L must be in millimetres"),
-        ));
+    let max_l = rows
+        .iter()
+        .filter_map(|r| r.l_mm)
+        .fold(None, |m: Option<f64>, l| Some(m.map_or(l, |m| m.max(l))));
+    if let Some(max_l) = max_l {
+        if max_l < METRES_MAX_L {
+            return Err(Error::data(
+                source,
+                format!(
+                    "column L looks like metres (every L < {METRES_MAX_L}, max {max_l}); L must \
+                     be in millimetres"
+                ),
+            ));
+        }
     }
     Ok(())
 }

@@ -479,7 +479,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
 
     // Noise floor: repeatability where configurations repeat, else the final fit's residual.
     let q_deg: Vec<[f64; 6]> = kept_rows.rows.iter().map(|r| r.q_deg).collect();
-    let l: Vec<f64> = kept_rows.rows.iter().map(|r| r.l_mm).collect();
+    let l = kept_rows.lengths_mm()?;
     let (noise_floor_mm, noise_floor_source) = match crate::calib::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups >= 5) {
         Some(r) => (r.pooled_std, format!("repeatability of {} repeated configurations ({} rows)", r.groups, r.rows)),
         None => {

@@ -8,6 +8,17 @@ use rand::Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
+/// Most raw samples averaged per pose (100 s at 1 kHz).
+pub const MAX_SAMPLES: usize = 100_000;
+/// Sampling rate bounds, Hz.
+pub const RATE_HZ_RANGE: [f64; 2] = [1.0, 1e6];
+/// Longest hold time before sampling, s.
+pub const MAX_HOLD_S: f64 = 3600.0;
+/// Largest noise standard deviation and resolution, as a fraction of the range width.
+pub const MAX_FRACTION_OF_RANGE: f64 = 0.1;
+/// Finest step a written reading is rounded to, mm.
+pub const FINEST_READING_STEP_MM: f64 = 1e-6;
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DrawWire {
@@ -53,7 +64,11 @@ pub struct OutOfRange {
 
 impl std::fmt::Display for OutOfRange {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "cable length {:.3} mm is outside the sensor range [{}, {}] mm", self.value_mm, self.range_mm[0], self.range_mm[1])
+        write!(
+            f,
+            "cable length {:.3} mm is outside the sensor range [{}, {}] mm",
+            self.value_mm, self.range_mm[0], self.range_mm[1]
+        )
     }
 }
 
@@ -71,27 +86,101 @@ impl DrawWire {
         1000.0
     }
 
+    /// Checks every value, naming the key (`sensor.<key>`) of the first bad one.
     pub fn validate(&self) -> Result<(), String> {
-        let finite = self.exit_point_mm.iter().chain(&self.tool_point_mm).chain(&self.range_mm).all(|v| v.is_finite())
-            && [self.length_offset_mm, self.noise_std_mm, self.resolution_mm, self.linearity_pct_fs, self.tension_n, self.hold_s, self.rate_hz]
-                .iter()
-                .all(|v| v.is_finite());
-        if !finite {
-            return Err("sensor: every value must be finite".into());
+        let arrays = [
+            ("exit_point_mm", &self.exit_point_mm[..]),
+            ("tool_point_mm", &self.tool_point_mm[..]),
+            ("range_mm", &self.range_mm[..]),
+        ];
+        for (key, v) in arrays {
+            if v.iter().any(|x| !x.is_finite()) {
+                return Err(format!("sensor.{key} must be finite, got {v:?}"));
+            }
+        }
+        let scalars = [
+            ("length_offset_mm", self.length_offset_mm),
+            ("noise_std_mm", self.noise_std_mm),
+            ("resolution_mm", self.resolution_mm),
+            ("linearity_pct_fs", self.linearity_pct_fs),
+            ("tension_n", self.tension_n),
+            ("hold_s", self.hold_s),
+            ("rate_hz", self.rate_hz),
+        ];
+        for (key, v) in scalars {
+            if !v.is_finite() {
+                return Err(format!("sensor.{key} must be finite, got {v}"));
+            }
         }
         if self.range_mm[0] >= self.range_mm[1] {
-            return Err(format!("sensor.range_mm must be [min, max] with min < max, got {:?}", self.range_mm));
+            return Err(format!(
+                "sensor.range_mm must be [min, max] with min < max, got {:?}",
+                self.range_mm
+            ));
         }
-        if self.noise_std_mm < 0.0 || self.resolution_mm < 0.0 || self.tension_n < 0.0 || self.hold_s < 0.0 {
-            return Err("sensor: noise_std_mm, resolution_mm, tension_n and hold_s must be >= 0".into());
+        let width = self.range_mm[1] - self.range_mm[0];
+        let limit = MAX_FRACTION_OF_RANGE * width;
+        for (key, v) in [
+            ("noise_std_mm", self.noise_std_mm),
+            ("resolution_mm", self.resolution_mm),
+        ] {
+            if !(0.0..=limit).contains(&v) {
+                return Err(format!(
+                    "sensor.{key} = {v} must be in [0, {limit}] mm (at most {} % of the range \
+                     width {width} mm)",
+                    MAX_FRACTION_OF_RANGE * 100.0
+                ));
+            }
         }
-        if self.samples == 0 || self.rate_hz <= 0.0 {
-            return Err("sensor: samples must be >= 1 and rate_hz > 0".into());
+        if self.tension_n < 0.0 {
+            return Err(format!(
+                "sensor.tension_n must be >= 0, got {}",
+                self.tension_n
+            ));
+        }
+        if !(0.0..=MAX_HOLD_S).contains(&self.hold_s) {
+            return Err(format!(
+                "sensor.hold_s = {} must be in [0, {MAX_HOLD_S}] s",
+                self.hold_s
+            ));
+        }
+        if !(1..=MAX_SAMPLES).contains(&self.samples) {
+            return Err(format!(
+                "sensor.samples = {} must be in 1..={MAX_SAMPLES}",
+                self.samples
+            ));
+        }
+        let [lo, hi] = RATE_HZ_RANGE;
+        if !(lo..=hi).contains(&self.rate_hz) {
+            return Err(format!(
+                "sensor.rate_hz = {} must be in [{lo}, {hi}] Hz",
+                self.rate_hz
+            ));
         }
         if self.linearity_pct_fs.abs() > 5.0 {
-            return Err("sensor.linearity_pct_fs must be within ±5 %".into());
+            return Err(format!(
+                "sensor.linearity_pct_fs = {} must be within ±5 %",
+                self.linearity_pct_fs
+            ));
         }
         Ok(())
+    }
+
+    /// Decimals a reading is written with: the step of an averaged reading, `resolution_mm /
+    /// samples` (the mean of `samples` readings quantised at `resolution_mm` is a multiple of it),
+    /// rounded down to a power of ten and no finer than [`FINEST_READING_STEP_MM`] (so 6
+    /// decimals at most, and 6 for a sensor without quantisation, `resolution_mm = 0`); 0
+    /// decimals for steps of 1 mm and more. E.g. 0.01 mm averaged over 50 samples: step 0.0002
+    /// mm, 4 decimals.
+    pub fn reading_decimals(&self) -> usize {
+        let finest = (-FINEST_READING_STEP_MM.log10()).round() as usize;
+        let step = self.resolution_mm / self.samples.max(1) as f64;
+        if !(step.is_finite() && step > FINEST_READING_STEP_MM) {
+            return finest;
+        }
+        // A tiny epsilon keeps exact powers of ten (0.001) from flooring one decimal too far.
+        let d = (-step.log10() - 1e-9).ceil();
+        d.clamp(0.0, finest as f64) as usize
     }
 
     pub fn exit_point_m(&self) -> Vector3<f64> {
@@ -107,7 +196,11 @@ impl DrawWire {
 
     /// The cable's pull on the tool, for the statics and the simulation.
     pub fn cable_load(&self) -> Option<CableLoad> {
-        (self.tension_n > 0.0).then(|| CableLoad { exit_point: self.exit_point_m(), tool_point: self.tool_point_m(), tension: self.tension_n })
+        (self.tension_n > 0.0).then(|| CableLoad {
+            exit_point: self.exit_point_m(),
+            tool_point: self.tool_point_m(),
+            tension: self.tension_n,
+        })
     }
 
     /// Noise-free length (mm) for a tool point at `p_m` (base frame, m): distance + offset.
@@ -127,12 +220,23 @@ impl DrawWire {
     pub fn read<R: Rng>(&self, l: f64, rng: &mut R) -> Result<f64, OutOfRange> {
         let signal = l + self.linearity_error(l);
         if !(self.range_mm[0]..=self.range_mm[1]).contains(&signal) {
-            return Err(OutOfRange { value_mm: signal, range_mm: self.range_mm });
+            return Err(OutOfRange {
+                value_mm: signal,
+                range_mm: self.range_mm,
+            });
         }
-        let normal = Normal::new(0.0, self.noise_std_mm.max(0.0)).map_err(|_| OutOfRange { value_mm: f64::NAN, range_mm: self.range_mm })?;
+        let normal = Normal::new(0.0, self.noise_std_mm.max(0.0)).map_err(|_| OutOfRange {
+            value_mm: f64::NAN,
+            range_mm: self.range_mm,
+        })?;
         let mut sum = 0.0;
         for _ in 0..self.samples {
-            let mut s = signal + if self.noise_std_mm > 0.0 { normal.sample(rng) } else { 0.0 };
+            let mut s = signal
+                + if self.noise_std_mm > 0.0 {
+                    normal.sample(rng)
+                } else {
+                    0.0
+                };
             if self.resolution_mm > 0.0 {
                 s = (s / self.resolution_mm).round() * self.resolution_mm;
             }

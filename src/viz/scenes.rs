@@ -20,7 +20,7 @@ pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
         .iter()
         .map(|r| {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            r.l_mm - crate::generate::nominal_length(chain, &g.twin.sensor, &q)
+            r.l_mm.unwrap_or(f64::NAN) - crate::generate::nominal_length(chain, &g.twin.sensor, &q)
         })
         .collect()
 }
@@ -103,7 +103,7 @@ pub fn record_calibration(
     let fit = LengthFit { model: &r.model, data: &samples };
     let x0: Vec<f64> = r.parameters.iter().enumerate().map(|(k, p)| p.nominal / r.model.kinds[k].display()).collect();
     let before = fit.residuals_mm(&x0);
-    let after: Vec<f64> = data.rows.iter().zip(r.predict_rows(data)).map(|(row, p)| row.l_mm - p).collect();
+    let after: Vec<f64> = data.rows.iter().zip(r.predict_rows(data)).map(|(row, p)| row.l_mm.unwrap_or(f64::NAN) - p).collect();
     let mut w = r.model.work();
     let pts: Vec<[f64; 3]> = samples.q.iter().map(|q| mm(&r.model.tool_point(&r.x, q, &mut w))).collect();
     let vmax = before.iter().chain(&after).fold(0.0f64, |m, v| m.max(v.abs())).max(1e-6);
