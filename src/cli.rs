@@ -3,9 +3,7 @@
 use crate::calib::stats::median;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::generate::{
-    generate as run_generate, stage_outputs, write_outputs, Generated, Progress, Silent,
-};
+use crate::generate::{generate as run_generate, stage_outputs, write_outputs, Generated, Progress, Silent};
 use crate::io::{check_outputs, OutputSet};
 use crate::scenario::Scenario;
 use std::path::{Path, PathBuf};
@@ -61,11 +59,7 @@ fn data_inputs(data: &Path) -> Vec<PathBuf> {
             _ => data.to_path_buf(),
         }
     };
-    let dir = if data.is_dir() {
-        data.to_path_buf()
-    } else {
-        file.parent().map(Path::to_path_buf).unwrap_or_default()
-    };
+    let dir = if data.is_dir() { data.to_path_buf() } else { file.parent().map(Path::to_path_buf).unwrap_or_default() };
     vec![file, dir.join(crate::calib::truth::TRUTH_FILE)]
 }
 
@@ -92,11 +86,9 @@ impl Bar {
     pub fn new() -> Self {
         let pb = indicatif::ProgressBar::new(0);
         pb.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{msg:>16} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
+            indicatif::ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                .progress_chars("=> "),
         );
         Bar(pb)
     }
@@ -138,18 +130,9 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, crate::robot::Rob
 }
 
 /// `twincal generate`.
-pub fn generate(
-    scenario: Option<&Path>,
-    out: &Path,
-    rrd: Option<&Path>,
-    seed: Option<u64>,
-    quiet: bool,
-) -> Result<()> {
+pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: Option<u64>, quiet: bool) -> Result<()> {
     if out.exists() && !out.is_dir() {
-        return Err(Error::Invalid(format!(
-            "--out {} is a file; generate writes a folder (dataset.csv, truth.json)",
-            out.display()
-        )));
+        return Err(Error::Invalid(format!("--out {} is a file; generate writes a folder (dataset.csv, truth.json)", out.display())));
     }
     let dataset = out.join(crate::dataset::DATASET_FILE);
     let truth = out.join(crate::calib::truth::TRUTH_FILE);
@@ -181,65 +164,34 @@ pub fn generate(
 fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     let t = &g.truth;
     let n = g.dataset.rows.len();
-    let test = t
-        .poses
-        .iter()
-        .filter(|p| p.split == crate::dataset::Split::Test)
-        .count();
+    let test = t.poses.iter().filter(|p| p.split == crate::dataset::Split::Test).count();
     let steps: Vec<usize> = t.poses.iter().map(|p| p.settle_steps).collect();
     let mean_steps = steps.iter().sum::<usize>() as f64 / steps.len().max(1) as f64;
-    eprintln!(
-        "scenario {} (seed {}): {n} poses ({} train / {test} test) in {elapsed:.2} s",
-        t.scenario,
-        t.seed,
-        n - test
-    );
-    let slow = t
-        .poses
-        .iter()
-        .filter(|p| p.settle_time_s > g.twin.sensor.hold_s)
-        .count();
+    eprintln!("scenario {} (seed {}): {n} poses ({} train / {test} test) in {elapsed:.2} s", t.scenario, t.seed, n - test);
+    let slow = t.poses.iter().filter(|p| p.settle_time_s > g.twin.sensor.hold_s).count();
     eprintln!("  mean settle steps per pose: {mean_steps:.0}; poses still moving after the {} s hold: {slow}", g.twin.sensor.hold_s);
     if !t.rejected.is_empty() {
-        eprintln!(
-            "  {} poses rejected (listed in truth.json):",
-            t.rejected.len()
-        );
+        eprintln!("  {} poses rejected (listed in truth.json):", t.rejected.len());
         for r in t.rejected.iter().take(5) {
             eprintln!("    pose {}: {}", r.index, r.reason);
         }
     }
-    eprintln!(
-        "  wrote {}/dataset.csv and {}/truth.json",
-        out.display(),
-        out.display()
-    );
+    eprintln!("  wrote {}/dataset.csv and {}/truth.json", out.display(), out.display());
     if let Some(p) = rrd {
         eprintln!("  wrote {}", p.display());
     }
 }
 
 /// `twincal bench [twin|calib]`: checks that every option given applies to the target, then runs it.
-pub fn bench_command(
-    what: BenchTarget,
-    scenario: Option<&Path>,
-    repeat: usize,
-    seeds: Option<u64>,
-    compare: bool,
-    quiet: bool,
-) -> Result<()> {
+pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, seeds: Option<u64>, compare: bool, quiet: bool) -> Result<()> {
     check_repeat(repeat)?;
     match what {
         BenchTarget::Twin => {
             if seeds.is_some() {
-                return Err(Error::Invalid(
-                    "--seeds applies to bench calib, not bench twin".into(),
-                ));
+                return Err(Error::Invalid("--seeds applies to bench calib, not bench twin".into()));
             }
             if compare {
-                return Err(Error::Invalid(
-                    "--compare applies to bench calib, not bench twin".into(),
-                ));
+                return Err(Error::Invalid("--compare applies to bench calib, not bench twin".into()));
             }
             bench(scenario, repeat, quiet)
         }
@@ -254,18 +206,14 @@ pub fn bench_command(
 
 fn check_repeat(repeat: usize) -> Result<()> {
     if !(1..=MAX_REPEAT).contains(&repeat) {
-        return Err(Error::Invalid(format!(
-            "--repeat must be between 1 and {MAX_REPEAT}, got {repeat}"
-        )));
+        return Err(Error::Invalid(format!("--repeat must be between 1 and {MAX_REPEAT}, got {repeat}")));
     }
     Ok(())
 }
 
 fn check_seeds(seeds: u64) -> Result<()> {
     if !(1..=MAX_SEEDS).contains(&seeds) {
-        return Err(Error::Invalid(format!(
-            "--seeds must be between 1 and {MAX_SEEDS}, got {seeds}"
-        )));
+        return Err(Error::Invalid(format!("--seeds must be between 1 and {MAX_SEEDS}, got {seeds}")));
     }
     Ok(())
 }
@@ -281,10 +229,7 @@ pub struct TwinAgreement {
 }
 
 /// Settles every command with rapier and with the quasi-static model and compares the results.
-pub fn twin_agreement(
-    twin: &crate::twin::Twin,
-    cmds: &[crate::twin::PoseCommand],
-) -> Result<TwinAgreement> {
+pub fn twin_agreement(twin: &crate::twin::Twin, cmds: &[crate::twin::PoseCommand]) -> Result<TwinAgreement> {
     use rayon::prelude::*;
     let per: Vec<Result<(f64, bool)>> = cmds
         .par_iter()
@@ -316,13 +261,7 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
     let poses = sample_poses(&s, &robot)?;
     let times = acquisition_times(&s, &robot, &poses);
     let sides = approach_sides(&vec![0.0; robot.dof()], &poses);
-    let cmds: Vec<PoseCommand> = (0..poses.len())
-        .map(|i| PoseCommand {
-            q_cmd: poses[i].clone(),
-            sides: sides[i].clone(),
-            t: times[i],
-        })
-        .collect();
+    let cmds: Vec<PoseCommand> = (0..poses.len()).map(|i| PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: times[i] }).collect();
     let n = cmds.len();
     let threads = rayon::current_num_threads();
     if !quiet {
@@ -341,15 +280,9 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
     };
     let sim_all = |subset: &[PoseCommand], parallel: bool| -> Result<usize> {
         let r: Result<Vec<usize>> = if parallel {
-            subset
-                .par_iter()
-                .map(|c| twin.simulate(c).map(|r| r.steps))
-                .collect()
+            subset.par_iter().map(|c| twin.simulate(c).map(|r| r.steps)).collect()
         } else {
-            subset
-                .iter()
-                .map(|c| twin.simulate(c).map(|r| r.steps))
-                .collect()
+            subset.iter().map(|c| twin.simulate(c).map(|r| r.steps)).collect()
         };
         Ok(r?.iter().sum())
     };
@@ -370,28 +303,14 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
     let agree = twin_agreement(&twin, &cmds)?;
     let per_step_us = t_seq / steps.max(1) as f64 * 1e6;
     println!("twin benchmark ({}, {n} poses, {threads} threads)", s.name);
-    println!(
-        "  rapier, parallel      : {t_par:8.3} s  = {:8.1} poses/s   (target: {n} poses < 5 s)",
-        n as f64 / t_par
-    );
-    println!(
-        "  rapier, one thread    : {t_seq:8.3} s  = {:8.1} poses/s   (parallel speed-up {:.2}x)",
-        n as f64 / t_seq,
-        t_seq / t_par
-    );
+    println!("  rapier, parallel      : {t_par:8.3} s  = {:8.1} poses/s   (target: {n} poses < 5 s)", n as f64 / t_par);
+    println!("  rapier, one thread    : {t_seq:8.3} s  = {:8.1} poses/s   (parallel speed-up {:.2}x)", n as f64 / t_seq, t_seq / t_par);
     println!("  quasi-static baseline : {t_qs:8.3} s  = {:8.1} poses/s   (rapier costs {:.0}x the quasi-static model)", n as f64 / t_qs, t_par / t_qs);
     println!("  where the time goes   : {:.0} settle steps per pose, {per_step_us:.2} µs per step incl. world set-up (one thread)", steps as f64 / n as f64);
     println!("  cost versus pose count (parallel):");
-    let base = scaling
-        .last()
-        .map(|(m, t)| t / *m as f64)
-        .unwrap_or(f64::NAN);
+    let base = scaling.last().map(|(m, t)| t / *m as f64).unwrap_or(f64::NAN);
     for (m, t) in &scaling {
-        println!(
-            "    {m:6} poses: {t:8.3} s, {:7.3} ms/pose, ratio to full run per pose {:.2}",
-            t / *m as f64 * 1e3,
-            t / *m as f64 / base
-        );
+        println!("    {m:6} poses: {t:8.3} s, {:7.3} ms/pose, ratio to full run per pose {:.2}", t / *m as f64 * 1e3, t / *m as f64 / base);
     }
     println!(
         "  rapier vs quasi-static: worst tool-point difference {:.1e} mm over {} poses (target < 1e-3 mm); backlash contacts differ in {} poses",
@@ -498,22 +417,14 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
     let method = Method::parse(&a.method)?;
     if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
-        return Err(Error::Invalid(format!(
-            "--rank-tol must be in (0, 1), got {}",
-            a.rank_tol
-        )));
+        return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
     }
     if !(a.effort > 0.0 && a.effort <= 10.0) {
-        return Err(Error::Invalid(format!(
-            "--effort must be in (0, 10], got {}",
-            a.effort
-        )));
+        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {}", a.effort)));
     }
     if let Some(f) = a.test_fraction {
         if !(0.0..1.0).contains(&f) {
-            return Err(Error::Invalid(format!(
-                "--test-fraction must be in [0, 1), got {f}"
-            )));
+            return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
         }
     }
     let sensor_guess = match &a.sensor_guess {
@@ -523,21 +434,14 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
                 return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
             }
             if g.iter().any(|v| !v.is_finite()) {
-                return Err(Error::Invalid(
-                    "--sensor-guess values must be finite numbers (mm)".into(),
-                ));
+                return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
             }
-            Some(SensorGuess {
-                exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3],
-                offset_m: g[3] * 1e-3,
-                tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3],
-            })
+            Some(SensorGuess { exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3], offset_m: g[3] * 1e-3, tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3] })
         }
     };
     let data_files = data_inputs(&a.data);
     let model_file = model_input(&a.model);
-    let mut inputs: Vec<(&str, &Path)> =
-        data_files.iter().map(|p| ("--data", p.as_path())).collect();
+    let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
     if let Some(m) = &model_file {
         inputs.push(("--model", m));
     }
@@ -568,10 +472,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
             ModelSpec::Nominal { robot, .. } => Some(robot),
             ModelSpec::Generic6r => None,
         };
-        outputs.write(
-            p,
-            crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes(),
-        )?;
+        outputs.write(p, crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
     }
     outputs.write_json(&a.out, &result)?;
     outputs.commit()?;
@@ -592,12 +493,7 @@ pub fn calibration_warnings(r: &crate::calib::run::CalibResult) -> Vec<String> {
 
 fn print_summary(r: &crate::calib::run::CalibResult) {
     let m = &r.metrics;
-    let row = |label: &str, s: &crate::calib::metrics::ErrorStats| {
-        format!(
-            "  {label:<14} {:>10.4} {:>10.4} {:>10.4}",
-            s.rmse, s.std, s.max
-        )
-    };
+    let row = |label: &str, s: &crate::calib::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
     eprintln!(
         "{} / {} on {} ({} train, {} test rows), {} iterations, {:.3} s",
         r.method.name(),
@@ -608,46 +504,34 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
         r.iterations,
         r.wall_time_s
     );
-    eprintln!(
-        "  {:<14} {:>10} {:>10} {:>10}   (mm)",
-        "residuals", "RMSE", "STD", "MAX"
-    );
+    eprintln!("  {:<14} {:>10} {:>10} {:>10}   (mm)", "residuals", "RMSE", "STD", "MAX");
     eprintln!("{}", row("train before", &m.train_before));
     eprintln!("{}", row("train after", &m.train_after));
     if let (Some(b), Some(a)) = (&m.test_before, &m.test_after) {
         eprintln!("{}", row("test before", b));
         eprintln!("{}", row("test after", a));
     }
-    let fixed: Vec<&str> = r
-        .parameters
-        .iter()
-        .filter(|p| p.fixed)
-        .map(|p| p.name.as_str())
-        .collect();
+    let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     eprintln!(
         "  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}",
         r.parameters.len() - fixed.len(),
         r.parameters.len(),
         fixed.join(", ")
     );
-    if let Some(c) = r
-        .identifiability
-        .get("condition_identifiable")
-        .and_then(|v| v.as_f64())
-    {
+    if let Some(c) = r.identifiability.get("condition_identifiable").and_then(|v| v.as_f64()) {
         eprintln!("  condition number of the identifiable set: {c:.3e}");
     }
     if let Some(rep) = &r.repeatability {
-        eprintln!(
-            "  repeatability floor: {:.4} mm from {} repeated configurations ({} rows)",
-            rep.pooled_std, rep.groups, rep.rows
-        );
+        eprintln!("  repeatability floor: {:.4} mm from {} repeated configurations ({} rows)", rep.pooled_std, rep.groups, rep.rows);
         if let Some(t) = &m.test_after {
             eprintln!("  held-out RMSE / floor = {:.3}", t.rmse / rep.pooled_std);
         }
     }
     if let Some(t) = &r.truth_comparison {
-        eprintln!("  truth: {}/{} identifiable parameters within 3σ (max |z| = {:.2}); sensor noise floor {:.4} mm", t.within_3_sigma, t.identifiable, t.max_abs_z, t.noise_floor_mm);
+        eprintln!(
+            "  truth: {}/{} identifiable parameters within 3σ (max |z| = {:.2}); sensor noise floor {:.4} mm",
+            t.within_3_sigma, t.identifiable, t.max_abs_z, t.noise_floor_mm
+        );
     }
 }
 
@@ -660,11 +544,7 @@ fn load_model(path: &Path) -> Result<crate::calib::run::CalibResult> {
 /// `q1..q6,L_pred` otherwise.
 pub fn prediction_csv(rows: &[([f64; 6], Option<f64>)], predicted: &[f64]) -> String {
     let with_l = rows.iter().all(|(_, l)| l.is_some());
-    let mut text = String::from(if with_l {
-        "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n"
-    } else {
-        "q1,q2,q3,q4,q5,q6,L_pred\n"
-    });
+    let mut text = String::from(if with_l { "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n" } else { "q1,q2,q3,q4,q5,q6,L_pred\n" });
     for ((q, l), p) in rows.iter().zip(predicted) {
         let q: Vec<String> = q.iter().map(|v| v.to_string()).collect();
         match (with_l, l) {
@@ -679,42 +559,24 @@ pub fn prediction_csv(rows: &[([f64; 6], Option<f64>)], predicted: &[f64]) -> St
 /// measured lengths), with the residual where a length was measured.
 pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: bool) -> Result<()> {
     let data_files = data_inputs(data);
-    check_outputs(
-        &[("--model", model), ("--data", &data_files[0])],
-        &[("--out", out)],
-    )?;
+    check_outputs(&[("--model", model), ("--data", &data_files[0])], &[("--out", out)])?;
     let result = load_model(model)?;
     let ds = load_dataset(data, angles, false)?;
-    let rows: Vec<([f64; 6], Option<f64>)> =
-        ds.rows.iter().map(|r| (r.q_deg, r.l_mm)).collect();
+    let rows: Vec<([f64; 6], Option<f64>)> = ds.rows.iter().map(|r| (r.q_deg, r.l_mm)).collect();
     let predicted = result.predict_rows(&ds);
     for (i, p) in predicted.iter().enumerate() {
         if !p.is_finite() {
-            return Err(Error::Calibration(format!(
-                "the model predicted a non-finite length for row {}",
-                i + 1
-            )));
+            return Err(Error::Calibration(format!("the model predicted a non-finite length for row {}", i + 1)));
         }
     }
     crate::io::write_atomic(out, prediction_csv(&rows, &predicted).as_bytes())?;
     if !quiet {
-        let res: Vec<f64> = rows
-            .iter()
-            .zip(&predicted)
-            .filter_map(|((_, l), p)| l.map(|l| l - p))
-            .collect();
+        let res: Vec<f64> = rows.iter().zip(&predicted).filter_map(|((_, l), p)| l.map(|l| l - p)).collect();
         if res.is_empty() {
             eprintln!("{} rows predicted; wrote {}", rows.len(), out.display());
         } else {
             let s = crate::calib::metrics::ErrorStats::of(&res);
-            eprintln!(
-                "{} rows: RMSE {:.4} mm, STD {:.4} mm, MAX {:.4} mm; wrote {}",
-                rows.len(),
-                s.rmse,
-                s.std,
-                s.max,
-                out.display()
-            );
+            eprintln!("{} rows: RMSE {:.4} mm, STD {:.4} mm, MAX {:.4} mm; wrote {}", rows.len(), s.rmse, s.std, s.max, out.display());
         }
     }
     Ok(())
@@ -757,30 +619,20 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     use crate::calib::stats::{mean_std, wilcoxon_signed_rank};
     use rayon::prelude::*;
     let (seeds, test_fraction, effort) = (a.seeds, a.test_fraction, a.effort);
-    let methods: Vec<Method> = a
-        .methods
-        .iter()
-        .map(|m| Method::parse(m))
-        .collect::<Result<_>>()?;
+    let methods: Vec<Method> = a.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
     if methods.is_empty() {
-        return Err(Error::Invalid(
-            "--methods is empty: compare needs at least one method".into(),
-        ));
+        return Err(Error::Invalid("--methods is empty: compare needs at least one method".into()));
     }
-    if let Some(m) = methods
-        .iter()
-        .enumerate()
-        .find_map(|(i, m)| methods[..i].contains(m).then_some(m))
-    {
-        return Err(Error::Invalid(format!(
-            "--methods lists {} twice",
-            m.name()
-        )));
+    if let Some(m) = methods.iter().enumerate().find_map(|(i, m)| methods[..i].contains(m).then_some(m)) {
+        return Err(Error::Invalid(format!("--methods lists {} twice", m.name())));
     }
     check_seeds(seeds)?;
     let jobs_count = seeds * methods.len() as u64;
     if jobs_count > MAX_COMPARE_JOBS {
-        return Err(Error::Invalid(format!("{} methods x {seeds} seeds = {jobs_count} calibrations, more than compare runs at once ({MAX_COMPARE_JOBS})", methods.len())));
+        return Err(Error::Invalid(format!(
+            "{} methods x {seeds} seeds = {jobs_count} calibrations, more than compare runs at once ({MAX_COMPARE_JOBS})",
+            methods.len()
+        )));
     }
     if let Some(f) = test_fraction {
         if !(f > 0.0 && f < 1.0) {
@@ -788,9 +640,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         }
     }
     if !(effort > 0.0 && effort <= 10.0) {
-        return Err(Error::Invalid(format!(
-            "--effort must be in (0, 10], got {effort}"
-        )));
+        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {effort}")));
     }
     let data_files = data_inputs(a.data);
     if let Some(out) = a.out {
@@ -811,13 +661,9 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         }
     });
     if (frac * n as f64).round() < 1.0 || (frac * n as f64).round() as usize >= n {
-        return Err(Error::Invalid(format!(
-            "test fraction {frac} of {n} rows leaves no test rows or no training rows"
-        )));
+        return Err(Error::Invalid(format!("test fraction {frac} of {n} rows leaves no test rows or no training rows")));
     }
-    let jobs: Vec<(u64, Method)> = (0..seeds)
-        .flat_map(|s| methods.iter().map(move |m| (s, *m)))
-        .collect();
+    let jobs: Vec<(u64, Method)> = (0..seeds).flat_map(|s| methods.iter().map(move |m| (s, *m))).collect();
     let bar = progress(quiet);
     bar.start(jobs.len() as u64, "calibrations");
     let runs: Vec<Result<CompareRun>> = jobs
@@ -829,10 +675,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
             o.effort = effort;
             let r = run(&ds, None, &o)?;
             let (_, test_idx) = split_rows(&ds, Some(frac), *seed)?;
-            let test_abs_residuals = test_idx
-                .iter()
-                .map(|&i| (ds.rows[i].l_mm.unwrap_or(f64::NAN) - r.predict_mm(&ds.rows[i].q_deg)).abs())
-                .collect();
+            let test_abs_residuals = test_idx.iter().map(|&i| (ds.rows[i].l_mm.unwrap_or(f64::NAN) - r.predict_mm(&ds.rows[i].q_deg)).abs()).collect();
             bar.inc(1);
             Ok(CompareRun {
                 method: m.name().into(),
@@ -847,18 +690,12 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         .collect();
     bar.finish();
     let runs: Vec<CompareRun> = runs.into_iter().collect::<Result<_>>()?;
-    let by = |m: &str| {
-        runs.iter()
-            .filter(|r| r.method == m)
-            .cloned()
-            .collect::<Vec<_>>()
-    };
+    let by = |m: &str| runs.iter().filter(|r| r.method == m).cloned().collect::<Vec<_>>();
     let mut table = String::new();
-    table.push_str(&format!(
-        "# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n",
-        ds.source, n
-    ));
-    table.push_str("| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n");
+    table.push_str(&format!("# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n", ds.source, n));
+    table.push_str(
+        "| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
     let ms = |v: Vec<f64>| {
         let (m, s) = mean_std(&v);
         format!("{m:.4} ± {s:.4}")
@@ -887,13 +724,9 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         let a: Vec<f64> = ref_runs.iter().map(|x| x.test.rmse).collect();
         let b: Vec<f64> = r.iter().map(|x| x.test.rmse).collect();
         let across = wilcoxon_signed_rank(&a, &b).ok();
-        let per =
-            wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
+        let per = wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
         let cell = |w: &Option<crate::calib::stats::Wilcoxon>| match w {
-            Some(w) => (
-                format!("{:.1}", w.statistic.abs()),
-                format!("{:.3e}", w.p_value),
-            ),
+            Some(w) => (format!("{:.1}", w.statistic.abs()), format!("{:.3e}", w.p_value)),
             None => ("–".into(), "–".into()),
         };
         let (wa, pa) = cell(&across);
@@ -903,10 +736,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     }
     println!("{table}");
     if let Some(p) = a.out {
-        crate::io::write_json(
-            p,
-            &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}),
-        )?;
+        crate::io::write_json(p, &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
     }
     Ok(())
 }
@@ -919,34 +749,23 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     use crate::calib::problem::LengthFit;
     use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
     use rayon::prelude::*;
-    let (base, robot) = Scenario::from_toml(
-        include_str!("../scenarios/irb120_geometric.toml"),
-        "irb120_geometric",
-    )
-    .and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
-    let spec = ModelSpec::Nominal {
-        robot: robot.clone(),
-        parametrisation: "hayati".into(),
-    };
+    let (base, robot) =
+        Scenario::from_toml(include_str!("../scenarios/irb120_geometric.toml"), "irb120_geometric").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
+    let spec = ModelSpec::Nominal { robot: robot.clone(), parametrisation: "hayati".into() };
     // Removed on every exit path (by its Drop).
-    let tmp_dir = tempfile::Builder::new()
-        .prefix("twincal-bench-")
-        .tempdir()
-        .map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
+    let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let tmp = tmp_dir.path();
-    let gen =
-        |seed: u64, poses: usize, test: usize| -> Result<(crate::dataset::Dataset, TruthFile)> {
-            let mut s = base.clone();
-            s.seed = seed;
-            s.sampling.poses = poses;
-            s.sampling.test = test;
-            let g = run_generate(&s, &robot, &Silent)?;
-            let dir = tmp.join(format!("s{seed}-{poses}"));
-            write_outputs(&g, &dir)?;
-            let truth =
-                TruthFile::find(&dir)?.ok_or_else(|| Error::Invalid("truth missing".into()))?;
-            Ok((g.dataset, truth))
-        };
+    let gen = |seed: u64, poses: usize, test: usize| -> Result<(crate::dataset::Dataset, TruthFile)> {
+        let mut s = base.clone();
+        s.seed = seed;
+        s.sampling.poses = poses;
+        s.sampling.test = test;
+        let g = run_generate(&s, &robot, &Silent)?;
+        let dir = tmp.join(format!("s{seed}-{poses}"));
+        write_outputs(&g, &dir)?;
+        let truth = TruthFile::find(&dir)?.ok_or_else(|| Error::Invalid("truth missing".into()))?;
+        Ok((g.dataset, truth))
+    };
 
     // 1. LM speed on 500 training poses, against one residual + Jacobian evaluation.
     let (ds, truth) = gen(base.seed, 600, 100)?;
@@ -962,10 +781,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     let train: Vec<usize> = ds.train_indices();
     let samples = crate::calib::run::samples(&ds, &train);
     let model = run(&ds, None, &opts)?.model;
-    let fit = LengthFit {
-        model: &model,
-        data: &samples,
-    };
+    let fit = LengthFit { model: &model, data: &samples };
     let mut jt = Vec::new();
     for _ in 0..20 {
         let t0 = Instant::now();
@@ -987,16 +803,8 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
         .map(|seed| {
             let (ds, truth) = gen(1000 + seed, 400, 100)?;
             let r = run(&ds, Some(&truth), &opts)?;
-            let c = r
-                .truth_comparison
-                .clone()
-                .ok_or_else(|| Error::Invalid("no truth comparison".into()))?;
-            Ok((
-                r.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN) / truth.noise_std_mm,
-                c.within_3_sigma,
-                c.identifiable,
-                c.max_abs_z,
-            ))
+            let c = r.truth_comparison.clone().ok_or_else(|| Error::Invalid("no truth comparison".into()))?;
+            Ok((r.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN) / truth.noise_std_mm, c.within_3_sigma, c.identifiable, c.max_abs_z))
         })
         .collect();
     let rows: Vec<(f64, usize, usize, f64)> = rows.into_iter().collect::<Result<_>>()?;
@@ -1006,11 +814,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     let total_in: usize = rows.iter().map(|r| r.1).sum();
     let total: usize = rows.iter().map(|r| r.2).sum();
     let zs: Vec<f64> = rows.iter().map(|r| r.3).collect();
-    let (r_min, r_max) = ratios
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-            (lo.min(*r), hi.max(*r))
-        });
+    let (r_min, r_max) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(*r), hi.max(*r)));
     println!("  irb120_geometric, {seeds} seeds (400 poses, 300/100):");
     println!("    test RMSE / noise floor   : median {:.3}, min {:.3}, max {:.3}; within 5 %: {within5}/{seeds} (sampling spread of an RMSE over 100 test poses is about ±7 %)", median(&ratios), r_min, r_max);
     println!("    identifiable within 3σ    : {total_in}/{total} parameters; every one in {all_in}/{seeds} seeds; median max |z| {:.2}", median(&zs));
@@ -1032,22 +836,24 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
             out: None,
         };
         compare(&args, true)?;
-        println!(
-            "  compare, 5 methods x 30 seeds: {:.1} s wall time",
-            t0.elapsed().as_secs_f64()
-        );
+        println!("  compare, 5 methods x 30 seeds: {:.1} s wall time", t0.elapsed().as_secs_f64());
     }
 
     // 4. Real data.
-    let hsr = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/hsr-robotcali/hsr_robotcali_pool.csv");
+    let hsr = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/hsr-robotcali/hsr_robotcali_pool.csv");
     if hsr.exists() {
         let ds = crate::dataset::Dataset::load(&hsr)?;
         let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::Lm);
         o.test_fraction = Some(0.2);
         let r = run(&ds, None, &o)?;
         if let (Some(rep), Some(t)) = (&r.repeatability, &r.metrics.test_after) {
-            println!("  HSR-RobotCali (generic6r, 80/20): held-out RMSE {:.4} mm, repeatability floor {:.4} mm, ratio {:.3} (target < 1.3), {:.1} s", t.rmse, rep.pooled_std, t.rmse / rep.pooled_std, r.wall_time_s);
+            println!(
+                "  HSR-RobotCali (generic6r, 80/20): held-out RMSE {:.4} mm, repeatability floor {:.4} mm, ratio {:.3} (target < 1.3), {:.1} s",
+                t.rmse,
+                rep.pooled_std,
+                t.rmse / rep.pooled_std,
+                r.wall_time_s
+            );
         }
     } else {
         println!("  HSR-RobotCali: skipped, {} is absent", hsr.display());
@@ -1066,10 +872,7 @@ mod tests {
         let with = prediction_csv(&[(q, Some(300.5)), (q, Some(301.0))], &[300.25, 301.0]);
         assert_eq!(with, "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n1,2,3,4,5,6.5,300.5,300.25,0.25\n1,2,3,4,5,6.5,301,301,0\n");
         let without = prediction_csv(&[(q, None), (q, Some(301.0))], &[300.25, 301.0]);
-        assert_eq!(
-            without,
-            "q1,q2,q3,q4,q5,q6,L_pred\n1,2,3,4,5,6.5,300.25\n1,2,3,4,5,6.5,301\n"
-        );
+        assert_eq!(without, "q1,q2,q3,q4,q5,q6,L_pred\n1,2,3,4,5,6.5,300.25\n1,2,3,4,5,6.5,301\n");
     }
 
     #[test]
@@ -1083,18 +886,9 @@ mod tests {
     #[test]
     fn data_inputs_name_the_files_read() {
         let dir = tempfile::tempdir().unwrap();
-        assert_eq!(
-            data_inputs(dir.path()),
-            vec![
-                dir.path().join("dataset.csv"),
-                dir.path().join("truth.json")
-            ]
-        );
+        assert_eq!(data_inputs(dir.path()), vec![dir.path().join("dataset.csv"), dir.path().join("truth.json")]);
         let x = dir.path().join("m.xlsx#Sheet1");
-        assert_eq!(
-            data_inputs(&x),
-            vec![dir.path().join("m.xlsx"), dir.path().join("truth.json")]
-        );
+        assert_eq!(data_inputs(&x), vec![dir.path().join("m.xlsx"), dir.path().join("truth.json")]);
     }
 }
 
@@ -1197,7 +991,12 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
         );
         eprintln!(
             "  extrapolation to q2 > {:.1} deg ({} rows, trained on {}): {:.4} / {:.4} / {:.4} mm",
-            c.q2_split_deg, c.extrapolation_rows[1], c.extrapolation_rows[0], c.extrapolation_rmse_mm[0], c.extrapolation_rmse_mm[1], c.extrapolation_rmse_mm[2]
+            c.q2_split_deg,
+            c.extrapolation_rows[1],
+            c.extrapolation_rows[0],
+            c.extrapolation_rmse_mm[0],
+            c.extrapolation_rmse_mm[1],
+            c.extrapolation_rmse_mm[2]
         );
     }
     eprintln!("  wrote {} and {} (calibrate --effects {})", out.display(), result.display(), if d.effects_option.is_empty() { "-" } else { &d.effects_option });

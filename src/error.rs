@@ -7,22 +7,13 @@ use std::path::PathBuf;
 pub enum Error {
     /// Reading an input failed.
     #[error("cannot read {path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Io { path: PathBuf, source: std::io::Error },
     /// Writing (or renaming into place) an output failed.
     #[error("cannot write {path}: {source}")]
-    Write {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Write { path: PathBuf, source: std::io::Error },
     /// Creating an output's folder failed.
     #[error("cannot create folder {path}: {source}")]
-    CreateDir {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    CreateDir { path: PathBuf, source: std::io::Error },
     #[error("URDF {path}: {msg}")]
     Urdf { path: String, msg: String },
     #[error("scenario {path}: {msg}")]
@@ -47,35 +38,20 @@ pub type Result<T> = std::result::Result<T, Error>;
 impl Error {
     /// A failed read of `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io {
-            path: path.into(),
-            source,
-        }
+        Error::Io { path: path.into(), source }
     }
     /// A failed write of the output `path`.
     pub fn write(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Write {
-            path: path.into(),
-            source,
-        }
+        Error::Write { path: path.into(), source }
     }
     /// A failed creation of the output folder `path`.
     pub fn create_dir(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::CreateDir {
-            path: path.into(),
-            source,
-        }
+        Error::CreateDir { path: path.into(), source }
     }
     pub fn data(path: impl std::fmt::Display, msg: impl Into<String>) -> Self {
-        Error::Data {
-            path: path.to_string(),
-            msg: msg.into(),
-        }
+        Error::Data { path: path.to_string(), msg: msg.into() }
     }
     pub fn model(path: impl std::fmt::Display, msg: impl Into<String>) -> Self {
-        Error::Model {
-            path: path.to_string(),
-            msg: msg.into(),
-        }
+        Error::Model { path: path.to_string(), msg: msg.into() }
     }
 }

@@ -47,10 +47,7 @@ fn temp_path_for(target: &Path) -> PathBuf {
     use std::sync::atomic::{AtomicU64, Ordering};
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = target
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     parent_dir(target).join(format!(".{name}.tmp-{}-{n}", std::process::id()))
 }
 
@@ -75,49 +72,33 @@ impl OutputSet {
     /// The caller writes the content; [`commit`](Self::commit) renames it into place.
     pub fn stage(&mut self, target: &Path) -> Result<File> {
         if target.file_name().is_none() {
-            return Err(Error::Invalid(format!(
-                "output path {} does not name a file",
-                target.display()
-            )));
+            return Err(Error::Invalid(format!("output path {} does not name a file", target.display())));
         }
         if self.staged.iter().any(|s| s.target == target) {
-            return Err(Error::Invalid(format!(
-                "output {} is staged twice",
-                target.display()
-            )));
+            return Err(Error::Invalid(format!("output {} is staged twice", target.display())));
         }
         let dir = parent_dir(target);
         std::fs::create_dir_all(&dir).map_err(|e| Error::create_dir(&dir, e))?;
         let tmp = temp_path_for(target);
         let file = {
             let mut reg = staged_registry();
-            let f = OpenOptions::new()
-                .write(true)
-                .create_new(true)
-                .open(&tmp)
-                .map_err(|e| Error::write(target, e))?;
+            let f = OpenOptions::new().write(true).create_new(true).open(&tmp).map_err(|e| Error::write(target, e))?;
             reg.push(tmp.clone());
             f
         };
-        self.staged.push(Staged {
-            tmp,
-            target: target.to_path_buf(),
-        });
+        self.staged.push(Staged { tmp, target: target.to_path_buf() });
         Ok(file)
     }
 
     /// Stages `bytes` as the content of `target` (written and synced now, renamed by `commit`).
     pub fn write(&mut self, target: &Path, bytes: &[u8]) -> Result<()> {
         let mut f = self.stage(target)?;
-        f.write_all(bytes)
-            .and_then(|()| f.sync_all())
-            .map_err(|e| Error::write(target, e))
+        f.write_all(bytes).and_then(|()| f.sync_all()).map_err(|e| Error::write(target, e))
     }
 
     /// Stages `value` as pretty JSON.
     pub fn write_json<T: serde::Serialize>(&mut self, target: &Path, value: &T) -> Result<()> {
-        let s = serde_json::to_string_pretty(value)
-            .map_err(|e| Error::Invalid(format!("cannot serialise {}: {e}", target.display())))?;
+        let s = serde_json::to_string_pretty(value).map_err(|e| Error::Invalid(format!("cannot serialise {}: {e}", target.display())))?;
         self.write(target, s.as_bytes())
     }
 
@@ -180,9 +161,7 @@ pub fn install_signal_cleanup() -> Result<()> {
         let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
             Ok(s) => s,
             Err(e) => {
-                result = Err(Error::Invalid(format!(
-                    "cannot install the SIGINT/SIGTERM handler: {e}"
-                )));
+                result = Err(Error::Invalid(format!("cannot install the SIGINT/SIGTERM handler: {e}")));
                 return;
             }
         };
@@ -205,13 +184,7 @@ pub fn install_signal_cleanup() -> Result<()> {
 /// `path` made absolute with symbolic links resolved, also when it does not exist yet: its
 /// deepest existing ancestor is canonicalised and the remaining components appended.
 pub fn canonical(path: &Path) -> PathBuf {
-    let abs = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        std::env::current_dir()
-            .map(|d| d.join(path))
-            .unwrap_or_else(|_| path.to_path_buf())
-    };
+    let abs = if path.is_absolute() { path.to_path_buf() } else { std::env::current_dir().map(|d| d.join(path)).unwrap_or_else(|_| path.to_path_buf()) };
     let mut rest = Vec::new();
     let mut cur = abs.as_path();
     loop {
@@ -239,30 +212,18 @@ pub type Named<'a> = (&'a str, &'a Path);
 /// two outputs on the same file, or an output that is an existing folder. Paths are compared
 /// canonicalised ([`canonical`]), so `./d/../d/x.csv` and a symbolic link are caught too.
 pub fn check_outputs(inputs: &[Named], outputs: &[Named]) -> Result<()> {
-    let ins: Vec<(&str, &Path, PathBuf)> =
-        inputs.iter().map(|(o, p)| (*o, *p, canonical(p))).collect();
+    let ins: Vec<(&str, &Path, PathBuf)> = inputs.iter().map(|(o, p)| (*o, *p, canonical(p))).collect();
     let mut seen: Vec<(&str, &Path, PathBuf)> = Vec::new();
     for (opt, p) in outputs {
         let c = canonical(p);
         if let Some((iopt, ip, _)) = ins.iter().find(|(_, _, ic)| *ic == c) {
-            return Err(Error::Invalid(format!(
-                "output {} ({opt}) is also an input ({iopt} {}): refusing to overwrite it",
-                p.display(),
-                ip.display()
-            )));
+            return Err(Error::Invalid(format!("output {} ({opt}) is also an input ({iopt} {}): refusing to overwrite it", p.display(), ip.display())));
         }
         if let Some((sopt, sp, _)) = seen.iter().find(|(_, _, sc)| *sc == c) {
-            return Err(Error::Invalid(format!(
-                "outputs {opt} {} and {sopt} {} are the same file",
-                p.display(),
-                sp.display()
-            )));
+            return Err(Error::Invalid(format!("outputs {opt} {} and {sopt} {} are the same file", p.display(), sp.display())));
         }
         if c.is_dir() {
-            return Err(Error::Invalid(format!(
-                "output {} ({opt}) is an existing folder, not a file",
-                p.display()
-            )));
+            return Err(Error::Invalid(format!("output {} ({opt}) is an existing folder, not a file", p.display())));
         }
         seen.push((opt, p, c));
     }
@@ -274,10 +235,7 @@ mod tests {
     use super::*;
 
     fn names(dir: &Path) -> Vec<String> {
-        let mut v: Vec<String> = std::fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
+        let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
         v.sort();
         v
     }
@@ -295,9 +253,7 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&b).unwrap(), "old");
         let tmps = set.temp_paths();
         assert_eq!(tmps.len(), 2);
-        assert!(tmps
-            .iter()
-            .all(|t| t.exists() && staged_registry().contains(t)));
+        assert!(tmps.iter().all(|t| t.exists() && staged_registry().contains(t)));
         set.commit().unwrap();
         assert_eq!(std::fs::read_to_string(&a).unwrap(), "x,y\n");
         assert!(std::fs::read_to_string(&b).unwrap().contains("\"k\": 1"));
@@ -334,10 +290,7 @@ mod tests {
         std::fs::create_dir(&a).unwrap();
         std::fs::write(a.join("keep"), "x").unwrap();
         let e = set.commit().unwrap_err().to_string();
-        assert!(
-            e.starts_with(&format!("cannot write {}", a.display())),
-            "{e}"
-        );
+        assert!(e.starts_with(&format!("cannot write {}", a.display())), "{e}");
         assert_eq!(names(dir.path()), vec!["a.csv"]);
     }
 
@@ -346,13 +299,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let blocker = dir.path().join("file");
         std::fs::write(&blocker, "x").unwrap();
-        let e = write_atomic(&blocker.join("x.csv"), b"1")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.starts_with(&format!("cannot create folder {}", blocker.display())),
-            "{e}"
-        );
+        let e = write_atomic(&blocker.join("x.csv"), b"1").unwrap_err().to_string();
+        assert!(e.starts_with(&format!("cannot create folder {}", blocker.display())), "{e}");
         assert_eq!(names(dir.path()), vec!["file"]);
     }
 
@@ -365,28 +313,15 @@ mod tests {
         std::fs::create_dir(&sub).unwrap();
         // Same file reached through `..`, and a not-yet-existing output in an existing folder.
         let again = sub.join("../d.csv");
-        let e = check_outputs(&[("--data", &data)], &[("--out", &again)])
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("is also an input") && e.contains("--data"),
-            "{e}"
-        );
+        let e = check_outputs(&[("--data", &data)], &[("--out", &again)]).unwrap_err().to_string();
+        assert!(e.contains("is also an input") && e.contains("--data"), "{e}");
         let x = dir.path().join("new/x.json");
         let x2 = dir.path().join("new/./x.json");
-        let e = check_outputs(&[("--data", &data)], &[("--out", &x), ("--urdf", &x2)])
-            .unwrap_err()
-            .to_string();
+        let e = check_outputs(&[("--data", &data)], &[("--out", &x), ("--urdf", &x2)]).unwrap_err().to_string();
         assert!(e.contains("are the same file"), "{e}");
-        let e = check_outputs(&[], &[("--out", &sub)])
-            .unwrap_err()
-            .to_string();
+        let e = check_outputs(&[], &[("--out", &sub)]).unwrap_err().to_string();
         assert!(e.contains("existing folder"), "{e}");
-        check_outputs(
-            &[("--data", &data)],
-            &[("--out", &x), ("--rrd", &dir.path().join("r.rrd"))],
-        )
-        .unwrap();
+        check_outputs(&[("--data", &data)], &[("--out", &x), ("--rrd", &dir.path().join("r.rrd"))]).unwrap();
         #[cfg(unix)]
         {
             let link = dir.path().join("link.csv");

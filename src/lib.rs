@@ -5,12 +5,12 @@
 //! simulation with [`effects`] and a [`sensor`]) → [`dataset`] → calibration → recordings ([`viz`]).
 
 pub mod calib;
+pub mod cli;
 pub mod dataset;
 pub mod diagnose;
 pub mod effects;
 pub mod error;
 pub mod generate;
-pub mod cli;
 pub mod io;
 pub mod robot;
 pub mod scenario;

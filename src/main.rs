@@ -6,11 +6,7 @@ use std::process::ExitCode;
 use twincal::cli::{self, AngleArg, BenchTarget};
 
 #[derive(Parser)]
-#[command(
-    name = "twincal",
-    version,
-    about = "Digital twin and calibration of serial arms measured with a draw-wire sensor"
-)]
+#[command(name = "twincal", version, about = "Digital twin and calibration of serial arms measured with a draw-wire sensor")]
 struct Cli {
     /// No progress bars or summaries on stderr (warnings and errors are still printed).
     #[arg(long, global = true)]
@@ -92,12 +88,7 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         seed: u64,
         /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
-        #[arg(
-            long,
-            value_delimiter = ',',
-            allow_hyphen_values = true,
-            value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ"
-        )]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
         sensor_guess: Option<Vec<f64>>,
         /// Relative singular-value threshold for identifiability.
         #[arg(long, default_value_t = 1e-7, allow_negative_numbers = true)]
@@ -220,12 +211,7 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     let result = match args.command {
-        Command::Generate {
-            scenario,
-            out,
-            rrd,
-            seed,
-        } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
+        Command::Generate { scenario, out, rrd, seed } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
         Command::Calibrate {
             data,
             angles,
@@ -265,22 +251,8 @@ fn main() -> ExitCode {
             &cli::DiagnoseArgs { data, angles, model, params, loads: loads.into_cli(), candidates, folds, alpha, seed, out, result, rrd },
             args.quiet,
         ),
-        Command::Predict {
-            model,
-            data,
-            angles,
-            out,
-        } => cli::predict(&model, &data, angles, &out, args.quiet),
-        Command::Compare {
-            data,
-            angles,
-            methods,
-            seeds,
-            model: ModelArgs { model, params },
-            test_fraction,
-            effort,
-            out,
-        } => cli::compare(
+        Command::Predict { model, data, angles, out } => cli::predict(&model, &data, angles, &out, args.quiet),
+        Command::Compare { data, angles, methods, seeds, model: ModelArgs { model, params }, test_fraction, effort, out } => cli::compare(
             &cli::CompareArgs {
                 data: &data,
                 angles,
@@ -294,20 +266,7 @@ fn main() -> ExitCode {
             },
             args.quiet,
         ),
-        Command::Bench {
-            what,
-            scenario,
-            repeat,
-            seeds,
-            compare,
-        } => cli::bench_command(
-            what,
-            scenario.as_deref(),
-            repeat,
-            seeds,
-            compare,
-            args.quiet,
-        ),
+        Command::Bench { what, scenario, repeat, seeds, compare } => cli::bench_command(what, scenario.as_deref(), repeat, seeds, compare, args.quiet),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

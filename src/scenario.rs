@@ -118,10 +118,7 @@ impl Scenario {
     }
 
     pub fn from_toml(text: &str, origin: &str) -> Result<Scenario> {
-        let s: Scenario = toml::from_str(text).map_err(|e| Error::Scenario {
-            path: origin.to_string(),
-            msg: e.to_string(),
-        })?;
+        let s: Scenario = toml::from_str(text).map_err(|e| Error::Scenario { path: origin.to_string(), msg: e.to_string() })?;
         Ok(s)
     }
 
@@ -147,35 +144,21 @@ impl Scenario {
             return Ok(Robot::irb120());
         }
         let p = PathBuf::from(&self.robot);
-        let p = if p.is_relative() {
-            dir.map(|d| d.join(&p)).unwrap_or(p)
-        } else {
-            p
-        };
+        let p = if p.is_relative() { dir.map(|d| d.join(&p)).unwrap_or(p) } else { p };
         Robot::from_urdf_file(&p)
     }
 
     pub fn validate(&self, robot: &Robot, origin: &str) -> Result<()> {
-        let err = |msg: String| Error::Scenario {
-            path: origin.to_string(),
-            msg,
-        };
+        let err = |msg: String| Error::Scenario { path: origin.to_string(), msg };
         if robot.dof() != 6 {
-            return Err(err(format!(
-                "robot '{}' has {} revolute joints; datasets hold six joint angles (q1..q6)",
-                robot.name,
-                robot.dof()
-            )));
+            return Err(err(format!("robot '{}' has {} revolute joints; datasets hold six joint angles (q1..q6)", robot.name, robot.dof())));
         }
         self.effects.validate(robot.dof()).map_err(err)?;
         self.sensor.validate().map_err(err)?;
         let names = robot.param_names();
         for k in self.geometry.set.keys() {
             if !names.contains(k) {
-                return Err(err(format!(
-                    "geometry.set: unknown parameter '{k}' (expected <joint>.<{}>)",
-                    PARAM_SUFFIXES.join("|")
-                )));
+                return Err(err(format!("geometry.set: unknown parameter '{k}' (expected <joint>.<{}>)", PARAM_SUFFIXES.join("|"))));
             }
         }
         let g = &self.geometry;
@@ -202,17 +185,10 @@ impl Scenario {
         }
         if let Some(r) = &sm.ranges_deg {
             if r.len() != robot.dof() {
-                return Err(err(format!(
-                    "sampling.ranges_deg has {} ranges, the robot has {} joints",
-                    r.len(),
-                    robot.dof()
-                )));
+                return Err(err(format!("sampling.ranges_deg has {} ranges, the robot has {} joints", r.len(), robot.dof())));
             }
             for (j, [lo, hi]) in r.iter().enumerate() {
-                let (l, u) = (
-                    robot.joints[j].lower.to_degrees(),
-                    robot.joints[j].upper.to_degrees(),
-                );
+                let (l, u) = (robot.joints[j].lower.to_degrees(), robot.joints[j].upper.to_degrees());
                 let increasing = lo.partial_cmp(hi) == Some(std::cmp::Ordering::Less);
                 if !increasing || *lo < l - 1e-9 || *hi > u + 1e-9 {
                     return Err(err(format!(
@@ -224,9 +200,7 @@ impl Scenario {
         }
         let m = sm.limit_margin_deg;
         if !(m.is_finite() && m >= 0.0) {
-            return Err(err(format!(
-                "sampling.limit_margin_deg = {m} must be finite and >= 0"
-            )));
+            return Err(err(format!("sampling.limit_margin_deg = {m} must be finite and >= 0")));
         }
         if sm.ranges_deg.is_none() {
             for j in &robot.joints {
@@ -241,22 +215,13 @@ impl Scenario {
             }
         }
         if !sm.min_tool_z_mm.is_finite() {
-            return Err(err(format!(
-                "sampling.min_tool_z_mm = {} must be finite",
-                sm.min_tool_z_mm
-            )));
+            return Err(err(format!("sampling.min_tool_z_mm = {} must be finite", sm.min_tool_z_mm)));
         }
         if !(sm.speed_fraction > 0.0 && sm.speed_fraction <= 1.0) {
-            return Err(err(format!(
-                "sampling.speed_fraction = {} must be in (0, 1]",
-                sm.speed_fraction
-            )));
+            return Err(err(format!("sampling.speed_fraction = {} must be in (0, 1]", sm.speed_fraction)));
         }
         if sm.angle_decimals > MAX_ANGLE_DECIMALS {
-            return Err(err(format!(
-                "sampling.angle_decimals = {} must be at most {MAX_ANGLE_DECIMALS}",
-                sm.angle_decimals
-            )));
+            return Err(err(format!("sampling.angle_decimals = {} must be at most {MAX_ANGLE_DECIMALS}", sm.angle_decimals)));
         }
         self.simulation.validate().map_err(err)?;
         Ok(())
@@ -265,17 +230,10 @@ impl Scenario {
     /// Sampling ranges in radians.
     pub fn ranges_rad(&self, robot: &Robot) -> Vec<(f64, f64)> {
         match &self.sampling.ranges_deg {
-            Some(r) => r
-                .iter()
-                .map(|[a, b]| (a.to_radians(), b.to_radians()))
-                .collect(),
+            Some(r) => r.iter().map(|[a, b]| (a.to_radians(), b.to_radians())).collect(),
             None => {
                 let m = self.sampling.limit_margin_deg.to_radians();
-                robot
-                    .joints
-                    .iter()
-                    .map(|j| (j.lower + m, j.upper - m))
-                    .collect()
+                robot.joints.iter().map(|j| (j.lower + m, j.upper - m)).collect()
             }
         }
     }
@@ -354,12 +312,8 @@ mod tests {
     fn with(table: &str, key: &str, value: &str) -> String {
         let mut doc: toml::Table = toml::from_str(IDEAL).expect("ideal scenario parses");
         let v: toml::Table = toml::from_str(&format!("v = {value}")).expect("value parses");
-        let t = doc
-            .entry(table.to_string())
-            .or_insert_with(|| toml::Value::Table(Default::default()));
-        t.as_table_mut()
-            .expect("a table")
-            .insert(key.into(), v["v"].clone());
+        let t = doc.entry(table.to_string()).or_insert_with(|| toml::Value::Table(Default::default()));
+        t.as_table_mut().expect("a table").insert(key.into(), v["v"].clone());
         toml::to_string(&doc).expect("serialise")
     }
 
@@ -369,9 +323,7 @@ mod tests {
         let robot = Robot::irb120();
         let e = match Scenario::from_toml(&text, "patched.toml") {
             Err(e) => e,
-            Ok(s) => s
-                .validate(&robot, "patched.toml")
-                .expect_err(&format!("{table}.{key} = {value}")),
+            Ok(s) => s.validate(&robot, "patched.toml").expect_err(&format!("{table}.{key} = {value}")),
         };
         let msg = e.to_string();
         assert!(msg.contains("patched.toml"), "{msg}");
@@ -381,10 +333,7 @@ mod tests {
     fn assert_names(table: &str, key: &str, value: &str) {
         let msg = error(table, key, value);
         let full = format!("{table}.{key}");
-        assert!(
-            msg.contains(&full),
-            "{full} = {value}: message does not name the key: {msg}"
-        );
+        assert!(msg.contains(&full), "{full} = {value}: message does not name the key: {msg}");
     }
 
     fn valid(text: &str) -> bool {
@@ -395,24 +344,11 @@ mod tests {
     #[test]
     fn shipped_scenarios_validate() {
         assert!(valid(IDEAL));
-        for name in [
-            "irb120_geometric",
-            "irb120_pso_ekf",
-            "irb120_full",
-            "irb120_evo_nph",
-        ] {
-            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("scenarios")
-                .join(format!("{name}.toml"));
+        for name in ["irb120_geometric", "irb120_pso_ekf", "irb120_full", "irb120_evo_nph"] {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(format!("{name}.toml"));
             Scenario::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
-        assert_eq!(
-            Scenario::from_toml(IDEAL, "x")
-                .expect("ideal")
-                .sampling
-                .angle_decimals,
-            6
-        );
+        assert_eq!(Scenario::from_toml(IDEAL, "x").expect("ideal").sampling.angle_decimals, 6);
     }
 
     #[test]
@@ -470,21 +406,11 @@ mod tests {
         // The ideal scenario gives explicit ranges, so the margin is unused there; without them
         // a margin swallowing a joint's range is refused naming the joint.
         let mut doc: toml::Table = toml::from_str(IDEAL).expect("parses");
-        let sampling = doc
-            .get_mut("sampling")
-            .and_then(|v| v.as_table_mut())
-            .expect("table");
+        let sampling = doc.get_mut("sampling").and_then(|v| v.as_table_mut()).expect("table");
         sampling.remove("ranges_deg");
         sampling.insert("limit_margin_deg".into(), toml::Value::Float(170.0));
-        let s =
-            Scenario::from_toml(&toml::to_string(&doc).expect("toml"), "m.toml").expect("parses");
-        let msg = s
-            .validate(&Robot::irb120(), "m.toml")
-            .expect_err("no range left")
-            .to_string();
-        assert!(
-            msg.contains("sampling.limit_margin_deg") && msg.contains("joint_"),
-            "{msg}"
-        );
+        let s = Scenario::from_toml(&toml::to_string(&doc).expect("toml"), "m.toml").expect("parses");
+        let msg = s.validate(&Robot::irb120(), "m.toml").expect_err("no range left").to_string();
+        assert!(msg.contains("sampling.limit_margin_deg") && msg.contains("joint_"), "{msg}");
     }
 }

@@ -49,7 +49,11 @@ fn seeded(seeds: std::ops::Range<u64>, edit: impl Fn(&mut Scenario)) -> Vec<(Dat
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
-    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 #[test]
@@ -64,7 +68,13 @@ fn lm_reaches_the_noise_floor_and_the_truth_over_seeds() {
         ratios.push(test.rmse / floor);
         let cmp = r.truth_comparison.unwrap();
         assert!(cmp.identifiable >= 20);
-        assert!(cmp.within_3_sigma + 1 >= cmp.identifiable, "{}/{} identifiable parameters within 3σ (max |z| {})", cmp.within_3_sigma, cmp.identifiable, cmp.max_abs_z);
+        assert!(
+            cmp.within_3_sigma + 1 >= cmp.identifiable,
+            "{}/{} identifiable parameters within 3σ (max |z| {})",
+            cmp.within_3_sigma,
+            cmp.identifiable,
+            cmp.max_abs_z
+        );
         // Fixed parameters are named and stay at their nominal values.
         for p in r.parameters.iter().filter(|p| p.fixed) {
             assert_eq!(p.value, p.nominal, "{}", p.name);
@@ -98,7 +108,12 @@ fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
             ratios.push(r.metrics.test_after.unwrap().rmse / truth.noise_std_mm);
             if m == Method::Ekf {
                 // The noise the method was given came from the data: near the true reading noise.
-                assert!((r.noise_estimate_mm / truth.noise_std_mm - 1.0).abs() < 0.25, "{m:?}: noise estimate {} vs {}", r.noise_estimate_mm, truth.noise_std_mm);
+                assert!(
+                    (r.noise_estimate_mm / truth.noise_std_mm - 1.0).abs() < 0.25,
+                    "{m:?}: noise estimate {} vs {}",
+                    r.noise_estimate_mm,
+                    truth.noise_std_mm
+                );
             }
         }
         let med = median(ratios.clone());
@@ -213,10 +228,12 @@ fn calibrate_predict_and_export_through_the_cli() {
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let li = header.iter().position(|h| *h == "L").unwrap();
     let pi = header.iter().position(|h| *h == "L_pred").unwrap();
-    let res: Vec<f64> = lines.map(|l| {
-        let f: Vec<f64> = l.split(',').map(|v| v.parse().unwrap()).collect();
-        f[li] - f[pi]
-    }).collect();
+    let res: Vec<f64> = lines
+        .map(|l| {
+            let f: Vec<f64> = l.split(',').map(|v| v.parse().unwrap()).collect();
+            f[li] - f[pi]
+        })
+        .collect();
     let rmse = (res.iter().map(|r| r * r).sum::<f64>() / res.len() as f64).sqrt();
     let reported = json["metrics"]["test_after"]["rmse"].as_f64().unwrap();
     assert!((rmse - reported).abs() < 1e-9, "{rmse} vs {reported}");

@@ -4,17 +4,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn twincal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_twincal"))
-        .args(args)
-        .arg("--quiet")
-        .output()
-        .expect("runs")
+    Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).arg("--quiet").output().expect("runs")
 }
 
 fn scenario(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenarios")
-        .join(format!("{name}.toml"))
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(format!("{name}.toml"))
 }
 
 fn stderr(o: &Output) -> String {
@@ -24,9 +18,7 @@ fn stderr(o: &Output) -> String {
 /// A small all-effects scenario written next to the test's files.
 fn small_full_scenario(dir: &Path, poses: usize) -> PathBuf {
     let text = std::fs::read_to_string(scenario("irb120_evo_nph")).unwrap();
-    let text = text
-        .replace("poses = 600", &format!("poses = {poses}"))
-        .replace("test = 100", "test = 8");
+    let text = text.replace("poses = 600", &format!("poses = {poses}")).replace("test = 100", "test = 8");
     let p = dir.join("small.toml");
     std::fs::write(&p, text).unwrap();
     p
@@ -39,13 +31,7 @@ fn generate_writes_dataset_and_truth_deterministically() {
     let a = dir.path().join("a");
     let b = dir.path().join("b");
     for out in [&a, &b] {
-        let o = twincal(&[
-            "generate",
-            "--scenario",
-            sc.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap()]);
         assert!(o.status.success(), "{}", stderr(&o));
     }
     for f in ["dataset.csv", "truth.json"] {
@@ -58,36 +44,18 @@ fn generate_writes_dataset_and_truth_deterministically() {
     let mut lines = csv.lines();
     assert_eq!(lines.next().unwrap(), "q1,q2,q3,q4,q5,q6,L,t,temp,split");
     assert_eq!(lines.count(), 40);
-    let truth: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(a.join("truth.json")).unwrap()).unwrap();
-    assert_eq!(
-        truth["sensor"]["exit_point_mm"].as_array().unwrap().len(),
-        3
-    );
+    let truth: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.join("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["sensor"]["exit_point_mm"].as_array().unwrap().len(), 3);
     assert!(truth["sensor"]["length_offset_mm"].is_number());
     assert_eq!(truth["tool"]["point_mm"].as_array().unwrap().len(), 3);
     assert_eq!(truth["poses"].as_array().unwrap().len(), 40);
-    assert!(
-        truth["poses"][0]["tool_mm"].is_array()
-            && truth["poses"][0]["length_noise_free_mm"].is_number()
-    );
+    assert!(truth["poses"][0]["tool_mm"].is_array() && truth["poses"][0]["length_noise_free_mm"].is_number());
     assert_eq!(truth["parameters"].as_object().unwrap().len(), 42);
     // A different seed gives a different dataset.
     let c = dir.path().join("c");
-    let o = twincal(&[
-        "generate",
-        "--scenario",
-        sc.to_str().unwrap(),
-        "--out",
-        c.to_str().unwrap(),
-        "--seed",
-        "5",
-    ]);
+    let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", c.to_str().unwrap(), "--seed", "5"]);
     assert!(o.status.success());
-    assert_ne!(
-        std::fs::read(a.join("dataset.csv")).unwrap(),
-        std::fs::read(c.join("dataset.csv")).unwrap()
-    );
+    assert_ne!(std::fs::read(a.join("dataset.csv")).unwrap(), std::fs::read(c.join("dataset.csv")).unwrap());
 }
 
 fn assert_rejected(o: &Output, needle: &str, out: &Path) {
@@ -95,29 +63,17 @@ fn assert_rejected(o: &Output, needle: &str, out: &Path) {
     let e = stderr(o);
     assert!(e.contains(needle), "error should mention {needle:?}: {e}");
     assert!(!e.contains("panicked"), "{e}");
-    assert!(
-        !out.exists() || std::fs::read_dir(out).unwrap().next().is_none(),
-        "no output may be left in {}",
-        out.display()
-    );
+    assert!(!out.exists() || std::fs::read_dir(out).unwrap().next().is_none(), "no output may be left in {}", out.display());
 }
 
 #[test]
 fn unknown_scenario_key_is_named() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(scenario("irb120_ideal"))
-        .unwrap()
-        .replace("[sampling]", "[sampling]\nposes_count = 3");
+    let text = std::fs::read_to_string(scenario("irb120_ideal")).unwrap().replace("[sampling]", "[sampling]\nposes_count = 3");
     let sc = dir.path().join("bad.toml");
     std::fs::write(&sc, text).unwrap();
     let out = dir.path().join("out");
-    let o = twincal(&[
-        "generate",
-        "--scenario",
-        sc.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_rejected(&o, "poses_count", &out);
 }
 
@@ -126,11 +82,7 @@ fn bad_scenario_values_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let cases = [
-        (
-            "stiffness",
-            "[effects.compliance]\nstiffness_nm_per_rad = [1.0, 2.0]\n",
-            "stiffness_nm_per_rad",
-        ),
+        ("stiffness", "[effects.compliance]\nstiffness_nm_per_rad = [1.0, 2.0]\n", "stiffness_nm_per_rad"),
         ("range", "", "range_mm"),
         ("missing", "", "missing field"),
     ];
@@ -143,13 +95,7 @@ fn bad_scenario_values_are_named() {
         }
         let sc = dir.path().join(format!("{name}.toml"));
         std::fs::write(&sc, text).unwrap();
-        let o = twincal(&[
-            "generate",
-            "--scenario",
-            sc.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap()]);
         assert_rejected(&o, needle, &out);
     }
 }
@@ -159,19 +105,11 @@ fn readings_outside_the_sensor_range_are_reported() {
     let dir = tempfile::tempdir().unwrap();
     // A short sensor range: most poses fall outside it; the sampler keeps only nominal readings
     // inside, and the true arm pushes a few over the edge.
-    let text = std::fs::read_to_string(scenario("irb120_ideal"))
-        .unwrap()
-        .replace("range_mm = [0.0, 2000.0]", "range_mm = [0.0, 40.0]");
+    let text = std::fs::read_to_string(scenario("irb120_ideal")).unwrap().replace("range_mm = [0.0, 2000.0]", "range_mm = [0.0, 40.0]");
     let sc = dir.path().join("short.toml");
     std::fs::write(&sc, text).unwrap();
     let out = dir.path().join("out");
-    let o = twincal(&[
-        "generate",
-        "--scenario",
-        sc.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_rejected(&o, "sensor range", &out);
 }
 
@@ -179,13 +117,7 @@ fn readings_outside_the_sensor_range_are_reported() {
 fn missing_scenario_file_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let o = twincal(&[
-        "generate",
-        "--scenario",
-        "/nonexistent/x.toml",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = twincal(&["generate", "--scenario", "/nonexistent/x.toml", "--out", out.to_str().unwrap()]);
     assert_rejected(&o, "/nonexistent/x.toml", &out);
 }
 
@@ -196,35 +128,16 @@ fn recordings_are_written_for_generate_and_calibrate() {
     let sc = small_full_scenario(dir.path(), 90);
     let out = dir.path().join("data");
     let rrd = dir.path().join("gen.rrd");
-    let o = twincal(&[
-        "generate",
-        "--scenario",
-        sc.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--rrd",
-        rrd.to_str().unwrap(),
-    ]);
+    let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--rrd", rrd.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(std::fs::metadata(&rrd).unwrap().len() > 10_000);
     let cal = dir.path().join("cal.rrd");
     let res = dir.path().join("r.json");
-    let o = twincal(&[
-        "calibrate",
-        "--data",
-        out.to_str().unwrap(),
-        "--out",
-        res.to_str().unwrap(),
-        "--rrd",
-        cal.to_str().unwrap(),
-    ]);
+    let o = twincal(&["calibrate", "--data", out.to_str().unwrap(), "--out", res.to_str().unwrap(), "--rrd", cal.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(std::fs::metadata(&cal).unwrap().len() > 1_000);
     // Nothing temporary is left next to the recordings.
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-        .collect();
+    let names: Vec<String> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
     assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");
 }
 
@@ -235,19 +148,11 @@ fn robots_without_six_joints_and_foreign_result_files_are_refused() {
       <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="0" velocity="1"/></joint>
       <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0.3 0 0"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="0" velocity="1"/></joint></robot>"#;
     std::fs::write(dir.path().join("two.urdf"), urdf).unwrap();
-    let text = std::fs::read_to_string(scenario("irb120_ideal"))
-        .unwrap()
-        .replace("robot = \"irb120\"", "robot = \"two.urdf\"");
+    let text = std::fs::read_to_string(scenario("irb120_ideal")).unwrap().replace("robot = \"irb120\"", "robot = \"two.urdf\"");
     let sc = dir.path().join("two.toml");
     std::fs::write(&sc, text).unwrap();
     let out = dir.path().join("out");
-    let o = twincal(&[
-        "generate",
-        "--scenario",
-        sc.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_rejected(&o, "six joint angles", &out);
 
     let bad = dir.path().join("bad.json");
@@ -255,24 +160,13 @@ fn robots_without_six_joints_and_foreign_result_files_are_refused() {
     let csv = dir.path().join("d.csv");
     std::fs::write(&csv, "q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,300\n").unwrap();
     let pred = dir.path().join("pred");
-    let o = twincal(&[
-        "predict",
-        "--model",
-        bad.to_str().unwrap(),
-        "--data",
-        csv.to_str().unwrap(),
-        "--out",
-        pred.join("p.csv").to_str().unwrap(),
-    ]);
+    let o = twincal(&["predict", "--model", bad.to_str().unwrap(), "--data", csv.to_str().unwrap(), "--out", pred.join("p.csv").to_str().unwrap()]);
     assert_rejected(&o, "not a twincal calibration result", &pred);
 }
 
 /// Names in `dir` (sorted), recursively one level for folders.
 fn names_in(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-        .collect();
+    let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
     v.sort();
     v
 }
@@ -281,11 +175,7 @@ fn assert_no_temp_files(dir: &Path) {
     for entry in std::fs::read_dir(dir).unwrap() {
         let entry = entry.unwrap();
         let name = entry.file_name().to_string_lossy().to_string();
-        assert!(
-            !name.contains(".tmp"),
-            "temporary file {name} left in {}",
-            dir.display()
-        );
+        assert!(!name.contains(".tmp"), "temporary file {name} left in {}", dir.display());
         if entry.file_type().unwrap().is_dir() {
             assert_no_temp_files(&entry.path());
         }
@@ -294,20 +184,11 @@ fn assert_no_temp_files(dir: &Path) {
 
 /// A small noisy dataset with geometric errors (fast to generate and to calibrate).
 fn small_geometric(dir: &Path, name: &str) -> PathBuf {
-    let text = std::fs::read_to_string(scenario("irb120_geometric"))
-        .unwrap()
-        .replace("poses = 400", "poses = 100")
-        .replace("test = 100", "test = 10");
+    let text = std::fs::read_to_string(scenario("irb120_geometric")).unwrap().replace("poses = 400", "poses = 100").replace("test = 100", "test = 10");
     let sc = dir.join(format!("{name}.toml"));
     std::fs::write(&sc, text).unwrap();
     let out = dir.join(name);
-    let o = twincal(&[
-        "generate",
-        "--scenario",
-        sc.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     out
 }
@@ -331,105 +212,22 @@ fn outputs_onto_inputs_or_onto_each_other_are_refused() {
     let sc = dir.path().join("d.toml");
     let via_dots = data.join("../d/dataset.csv");
     let cases: Vec<(Vec<&str>, &str)> = vec![
-        (
-            vec!["calibrate", "--data", s(&data), "--out", s(&csv)],
-            "is also an input",
-        ),
-        (
-            vec!["calibrate", "--data", s(&csv), "--out", s(&via_dots)],
-            "is also an input",
-        ),
-        (
-            vec!["calibrate", "--data", s(&data), "--urdf", s(&truth)],
-            "is also an input",
-        ),
-        (
-            vec![
-                "calibrate",
-                "--data",
-                s(&data),
-                "--out",
-                s(&res),
-                "--rrd",
-                s(&res),
-            ],
-            "are the same file",
-        ),
-        (
-            vec!["calibrate", "--data", s(&data), "--out", s(dir.path())],
-            "existing folder",
-        ),
-        (
-            vec![
-                "predict",
-                "--model",
-                s(&res),
-                "--data",
-                s(&data),
-                "--out",
-                s(&csv),
-            ],
-            "is also an input",
-        ),
-        (
-            vec![
-                "predict",
-                "--model",
-                s(&res),
-                "--data",
-                s(&csv),
-                "--out",
-                s(&res),
-            ],
-            "is also an input",
-        ),
-        (
-            vec![
-                "compare",
-                "--data",
-                s(&data),
-                "--seeds",
-                "1",
-                "--methods",
-                "lm",
-                "--out",
-                s(&csv),
-            ],
-            "is also an input",
-        ),
-        (
-            vec![
-                "generate",
-                "--scenario",
-                s(&sc),
-                "--out",
-                s(dir.path()),
-                "--rrd",
-                s(&sc),
-            ],
-            "is also an input",
-        ),
-        (
-            vec![
-                "generate",
-                "--scenario",
-                s(&sc),
-                "--out",
-                s(&data),
-                "--rrd",
-                s(&csv),
-            ],
-            "are the same file",
-        ),
+        (vec!["calibrate", "--data", s(&data), "--out", s(&csv)], "is also an input"),
+        (vec!["calibrate", "--data", s(&csv), "--out", s(&via_dots)], "is also an input"),
+        (vec!["calibrate", "--data", s(&data), "--urdf", s(&truth)], "is also an input"),
+        (vec!["calibrate", "--data", s(&data), "--out", s(&res), "--rrd", s(&res)], "are the same file"),
+        (vec!["calibrate", "--data", s(&data), "--out", s(dir.path())], "existing folder"),
+        (vec!["predict", "--model", s(&res), "--data", s(&data), "--out", s(&csv)], "is also an input"),
+        (vec!["predict", "--model", s(&res), "--data", s(&csv), "--out", s(&res)], "is also an input"),
+        (vec!["compare", "--data", s(&data), "--seeds", "1", "--methods", "lm", "--out", s(&csv)], "is also an input"),
+        (vec!["generate", "--scenario", s(&sc), "--out", s(dir.path()), "--rrd", s(&sc)], "is also an input"),
+        (vec!["generate", "--scenario", s(&sc), "--out", s(&data), "--rrd", s(&csv)], "are the same file"),
     ];
     for (args, needle) in cases {
         let o = twincal(&args);
         assert!(!o.status.success(), "{args:?} should fail");
         let e = stderr(&o);
-        assert!(
-            e.contains(needle) && !e.contains("panicked"),
-            "{args:?}: {e}"
-        );
+        assert!(e.contains(needle) && !e.contains("panicked"), "{args:?}: {e}");
     }
     assert_eq!(std::fs::read(&csv).unwrap(), before_csv);
     assert_eq!(std::fs::read(&truth).unwrap(), before_truth);
@@ -441,8 +239,7 @@ fn outputs_onto_inputs_or_onto_each_other_are_refused() {
 fn stale_truth_is_detected() {
     let dir = tempfile::tempdir().unwrap();
     let data = small_geometric(dir.path(), "d");
-    let truth: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(data.join("truth.json")).unwrap()).unwrap();
+    let truth: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(data.join("truth.json")).unwrap()).unwrap();
     assert_eq!(truth["dataset"]["file"], "dataset.csv");
     assert_eq!(truth["dataset"]["rows"], 100);
     assert_eq!(truth["dataset"]["sha256"].as_str().unwrap().len(), 64);
@@ -467,17 +264,9 @@ fn stale_truth_is_detected() {
     std::fs::write(data.join("truth.json"), old.to_string()).unwrap();
     let o = twincal(&["calibrate", "--data", s(&data), "--out", s(&res)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("warning:") && stderr(&o).contains("no dataset fingerprint"),
-        "{}",
-        stderr(&o)
-    );
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
-    assert!(
-        r["truth_comparison"].is_null(),
-        "an unmatched truth must not be used"
-    );
+    assert!(stderr(&o).contains("warning:") && stderr(&o).contains("no dataset fingerprint"), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
+    assert!(r["truth_comparison"].is_null(), "an unmatched truth must not be used");
 }
 
 #[test]
@@ -486,10 +275,7 @@ fn negative_sensor_guess_is_accepted() {
     // Exit point behind and to the right of the base: negative x and y.
     let text = std::fs::read_to_string(scenario("irb120_geometric"))
         .unwrap()
-        .replace(
-            "exit_point_mm = [800.0, 300.0, 50.0]",
-            "exit_point_mm = [-700.0, -300.0, 50.0]",
-        )
+        .replace("exit_point_mm = [800.0, 300.0, 50.0]", "exit_point_mm = [-700.0, -300.0, 50.0]")
         .replace("poses = 400", "poses = 100")
         .replace("test = 100", "test = 10");
     let sc = dir.path().join("neg.toml");
@@ -499,43 +285,15 @@ fn negative_sensor_guess_is_accepted() {
     assert!(o.status.success(), "{}", stderr(&o));
     let res = dir.path().join("r.json");
     // Space-separated value starting with '-', as a user types it.
-    let o = twincal(&[
-        "calibrate",
-        "--data",
-        s(&data),
-        "--sensor-guess",
-        "-690,-310,45,118,60,0,0",
-        "--out",
-        s(&res),
-    ]);
+    let o = twincal(&["calibrate", "--data", s(&data), "--sensor-guess", "-690,-310,45,118,60,0,0", "--out", s(&res)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
-    let exit_x = r["parameters"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|p| p["name"] == "exit.x")
-        .unwrap()["value"]
-        .as_f64()
-        .unwrap();
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
+    let exit_x = r["parameters"].as_array().unwrap().iter().find(|p| p["name"] == "exit.x").unwrap()["value"].as_f64().unwrap();
     assert!((exit_x + 700.0).abs() < 5.0, "exit.x = {exit_x}");
     // Other numeric options take negative values too, and are then refused by range, not by the parser.
-    let o = twincal(&[
-        "calibrate",
-        "--data",
-        s(&data),
-        "--test-fraction",
-        "-0.2",
-        "--out",
-        s(&res),
-    ]);
+    let o = twincal(&["calibrate", "--data", s(&data), "--test-fraction", "-0.2", "--out", s(&res)]);
     assert!(!o.status.success());
-    assert!(
-        stderr(&o).contains("--test-fraction must be in"),
-        "{}",
-        stderr(&o)
-    );
+    assert!(stderr(&o).contains("--test-fraction must be in"), "{}", stderr(&o));
 }
 
 #[test]
@@ -544,71 +302,19 @@ fn options_that_do_not_apply_or_make_no_sense_are_refused() {
     let data = small_geometric(dir.path(), "d");
     let d = s(&data);
     let cases: Vec<(Vec<&str>, &str)> = vec![
-        (
-            vec![
-                "calibrate",
-                "--data",
-                d,
-                "--model",
-                "generic6r",
-                "--params",
-                "dh",
-            ],
-            "--params dh applies to nominal models",
-        ),
-        (
-            vec![
-                "compare",
-                "--data",
-                d,
-                "--model",
-                "generic6r",
-                "--params",
-                "frame",
-            ],
-            "--params frame applies to nominal models",
-        ),
-        (
-            vec!["bench", "twin", "--seeds", "3"],
-            "--seeds applies to bench calib",
-        ),
-        (
-            vec!["bench", "--compare"],
-            "--compare applies to bench calib",
-        ),
-        (
-            vec!["bench", "calib", "--seeds", "0"],
-            "--seeds must be between 1 and 1000, got 0",
-        ),
-        (
-            vec!["bench", "calib", "--scenario", "x.toml"],
-            "--scenario applies to bench twin",
-        ),
-        (
-            vec!["bench", "twin", "--repeat", "0"],
-            "--repeat must be between 1 and 1000, got 0",
-        ),
+        (vec!["calibrate", "--data", d, "--model", "generic6r", "--params", "dh"], "--params dh applies to nominal models"),
+        (vec!["compare", "--data", d, "--model", "generic6r", "--params", "frame"], "--params frame applies to nominal models"),
+        (vec!["bench", "twin", "--seeds", "3"], "--seeds applies to bench calib"),
+        (vec!["bench", "--compare"], "--compare applies to bench calib"),
+        (vec!["bench", "calib", "--seeds", "0"], "--seeds must be between 1 and 1000, got 0"),
+        (vec!["bench", "calib", "--scenario", "x.toml"], "--scenario applies to bench twin"),
+        (vec!["bench", "twin", "--repeat", "0"], "--repeat must be between 1 and 1000, got 0"),
         (vec!["bench", "fast"], "invalid value 'fast'"),
-        (
-            vec!["compare", "--data", d, "--test-fraction", "0"],
-            "--test-fraction must be in (0, 1)",
-        ),
-        (
-            vec!["compare", "--data", d, "--seeds", "18000000000000000000"],
-            "--seeds must be between 1 and 1000",
-        ),
-        (
-            vec!["compare", "--data", d, "--seeds", "0"],
-            "--seeds must be between 1 and 1000, got 0",
-        ),
-        (
-            vec!["compare", "--data", d, "--methods", "lm,ekf,lm"],
-            "--methods lists lm twice",
-        ),
-        (
-            vec!["calibrate", "--data", d, "--angles", "grad"],
-            "invalid value 'grad'",
-        ),
+        (vec!["compare", "--data", d, "--test-fraction", "0"], "--test-fraction must be in (0, 1)"),
+        (vec!["compare", "--data", d, "--seeds", "18000000000000000000"], "--seeds must be between 1 and 1000"),
+        (vec!["compare", "--data", d, "--seeds", "0"], "--seeds must be between 1 and 1000, got 0"),
+        (vec!["compare", "--data", d, "--methods", "lm,ekf,lm"], "--methods lists lm twice"),
+        (vec!["calibrate", "--data", d, "--angles", "grad"], "invalid value 'grad'"),
     ];
     for (args, needle) in cases {
         let t0 = std::time::Instant::now();
@@ -616,14 +322,8 @@ fn options_that_do_not_apply_or_make_no_sense_are_refused() {
         assert!(!o.status.success(), "{args:?} should fail");
         assert_eq!(o.status.code(), Some(2), "{args:?}");
         let e = stderr(&o);
-        assert!(
-            e.contains(needle) && !e.contains("panicked"),
-            "{args:?}: {e}"
-        );
-        assert!(
-            t0.elapsed().as_secs_f64() < 10.0,
-            "{args:?} must be refused before any work"
-        );
+        assert!(e.contains(needle) && !e.contains("panicked"), "{args:?}: {e}");
+        assert!(t0.elapsed().as_secs_f64() < 10.0, "{args:?} must be refused before any work");
     }
     assert_no_temp_files(dir.path());
 }
@@ -637,15 +337,7 @@ fn a_failing_command_leaves_no_output_and_no_temporary_file() {
     let outs = dir.path().join("outs");
     std::fs::create_dir(&outs).unwrap();
     // --urdf (and --rrd) are staged before --out, whose folder cannot be created.
-    let mut args = vec![
-        "calibrate",
-        "--data",
-        s(&data),
-        "--urdf",
-        "PLACEHOLDER",
-        "--out",
-        "PLACEHOLDER",
-    ];
+    let mut args = vec!["calibrate", "--data", s(&data), "--urdf", "PLACEHOLDER", "--out", "PLACEHOLDER"];
     let urdf = outs.join("cal.urdf");
     let out = blocker.join("r.json");
     args[4] = s(&urdf);
@@ -657,30 +349,14 @@ fn a_failing_command_leaves_no_output_and_no_temporary_file() {
     let o = twincal(&args);
     assert!(!o.status.success());
     let e = stderr(&o);
-    assert!(
-        e.contains(&format!("cannot create folder {}", blocker.display())),
-        "{e}"
-    );
-    assert!(
-        !e.contains("cannot read"),
-        "a write failure is not a read failure: {e}"
-    );
+    assert!(e.contains(&format!("cannot create folder {}", blocker.display())), "{e}");
+    assert!(!e.contains("cannot read"), "a write failure is not a read failure: {e}");
     assert!(names_in(&outs).is_empty(), "{:?}", names_in(&outs));
     assert_no_temp_files(dir.path());
     // generate into a folder whose parent is a file: a write error naming the folder.
-    let o = twincal(&[
-        "generate",
-        "--scenario",
-        s(&dir.path().join("d.toml")),
-        "--out",
-        s(&blocker.join("g")),
-    ]);
+    let o = twincal(&["generate", "--scenario", s(&dir.path().join("d.toml")), "--out", s(&blocker.join("g"))]);
     assert!(!o.status.success());
-    assert!(
-        stderr(&o).contains("cannot create folder"),
-        "{}",
-        stderr(&o)
-    );
+    assert!(stderr(&o).contains("cannot create folder"), "{}", stderr(&o));
     assert_no_temp_files(dir.path());
 }
 
@@ -690,25 +366,11 @@ fn an_optimiser_stopped_by_its_budget_is_a_warning_even_when_quiet() {
     let data = small_geometric(dir.path(), "d");
     let res = dir.path().join("r.json");
     // 1 % of PSO's iteration budget: it stops on the limit, not on its convergence test.
-    let o = twincal(&[
-        "calibrate",
-        "--data",
-        s(&data),
-        "--method",
-        "pso",
-        "--effort",
-        "0.01",
-        "--out",
-        s(&res),
-    ]);
+    let o = twincal(&["calibrate", "--data", s(&data), "--method", "pso", "--effort", "0.01", "--out", s(&res)]);
     assert!(o.status.success(), "{}", stderr(&o));
     let e = stderr(&o);
-    assert!(
-        e.contains("warning: pso stopped without converging (maximum number of iterations reached"),
-        "{e}"
-    );
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
+    assert!(e.contains("warning: pso stopped without converging (maximum number of iterations reached"), "{e}");
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
     assert_eq!(r["converged"], false);
     // A converged LM run prints no warning.
     let o = twincal(&["calibrate", "--data", s(&data), "--out", s(&res)]);
@@ -722,30 +384,10 @@ fn model_file_errors_are_labelled_model() {
     let data = small_geometric(dir.path(), "d");
     let bad = dir.path().join("bad.json");
     std::fs::write(&bad, "{}").unwrap();
-    let o = twincal(&[
-        "predict",
-        "--model",
-        s(&bad),
-        "--data",
-        s(&data),
-        "--out",
-        s(&dir.path().join("p.csv")),
-    ]);
+    let o = twincal(&["predict", "--model", s(&bad), "--data", s(&data), "--out", s(&dir.path().join("p.csv"))]);
     assert!(!o.status.success());
-    assert!(
-        stderr(&o).starts_with(&format!("error: model {}", bad.display())),
-        "{}",
-        stderr(&o)
-    );
-    let o = twincal(&[
-        "predict",
-        "--model",
-        s(&dir.path().join("missing.json")),
-        "--data",
-        s(&data),
-        "--out",
-        s(&dir.path().join("p.csv")),
-    ]);
+    assert!(stderr(&o).starts_with(&format!("error: model {}", bad.display())), "{}", stderr(&o));
+    let o = twincal(&["predict", "--model", s(&dir.path().join("missing.json")), "--data", s(&data), "--out", s(&dir.path().join("p.csv"))]);
     assert!(stderr(&o).contains("cannot read"), "{}", stderr(&o));
     assert!(!dir.path().join("p.csv").exists());
 }
@@ -757,24 +399,10 @@ fn bench_twin_reports_rapier_against_the_quasi_static_model() {
     let o = twincal(&["bench", "twin", "--scenario", s(&sc), "--repeat", "1"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout).to_string();
-    let line = out
-        .lines()
-        .find(|l| l.contains("rapier vs quasi-static"))
-        .unwrap_or_else(|| panic!("{out}"));
-    let worst: f64 = line
-        .split("difference ")
-        .nth(1)
-        .unwrap()
-        .split(' ')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
+    let line = out.lines().find(|l| l.contains("rapier vs quasi-static")).unwrap_or_else(|| panic!("{out}"));
+    let worst: f64 = line.split("difference ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
     assert!(worst < 1e-3, "{line}");
-    assert!(
-        line.contains("over 16 poses") && line.contains("backlash contacts differ in 0 poses"),
-        "{line}"
-    );
+    assert!(line.contains("over 16 poses") && line.contains("backlash contacts differ in 0 poses"), "{line}");
 }
 
 #[cfg(unix)]
@@ -782,46 +410,24 @@ fn bench_twin_reports_rapier_against_the_quasi_static_model() {
 fn sigint_and_sigterm_leave_no_partial_output() {
     let dir = tempfile::tempdir().unwrap();
     // Large enough to still be settling poses when the signal arrives.
-    let text = std::fs::read_to_string(scenario("irb120_evo_nph"))
-        .unwrap()
-        .replace("poses = 600", "poses = 4000");
+    let text = std::fs::read_to_string(scenario("irb120_evo_nph")).unwrap().replace("poses = 600", "poses = 4000");
     let sc = dir.path().join("big.toml");
     std::fs::write(&sc, text).unwrap();
     for (sig, code) in [("TERM", 143), ("INT", 130)] {
         let out = dir.path().join(format!("out-{sig}"));
         let rrd = dir.path().join(format!("{sig}.rrd"));
         let child = Command::new(env!("CARGO_BIN_EXE_twincal"))
-            .args([
-                "generate",
-                "--quiet",
-                "--scenario",
-                s(&sc),
-                "--out",
-                s(&out),
-                "--rrd",
-                s(&rrd),
-            ])
+            .args(["generate", "--quiet", "--scenario", s(&sc), "--out", s(&out), "--rrd", s(&rrd)])
             .stderr(std::process::Stdio::piped())
             .spawn()
             .unwrap();
         std::thread::sleep(std::time::Duration::from_millis(500));
-        let k = Command::new("kill")
-            .args([&format!("-{sig}"), &child.id().to_string()])
-            .status()
-            .unwrap();
+        let k = Command::new("kill").args([&format!("-{sig}"), &child.id().to_string()]).status().unwrap();
         assert!(k.success());
         let o = child.wait_with_output().unwrap();
         assert_eq!(o.status.code(), Some(code), "SIG{sig}: {}", stderr(&o));
-        assert!(
-            stderr(&o).contains(&format!("interrupted by SIG{sig}")),
-            "{}",
-            stderr(&o)
-        );
-        assert!(
-            !out.exists() || names_in(&out).is_empty(),
-            "{:?}",
-            names_in(&out)
-        );
+        assert!(stderr(&o).contains(&format!("interrupted by SIG{sig}")), "{}", stderr(&o));
+        assert!(!out.exists() || names_in(&out).is_empty(), "{:?}", names_in(&out));
         assert!(!rrd.exists());
         assert_no_temp_files(dir.path());
     }
@@ -832,35 +438,16 @@ fn predict_writes_lengths_and_residuals() {
     let dir = tempfile::tempdir().unwrap();
     let data = small_geometric(dir.path(), "d");
     let res = dir.path().join("r.json");
-    assert!(
-        twincal(&["calibrate", "--data", s(&data), "--out", s(&res)])
-            .status
-            .success()
-    );
+    assert!(twincal(&["calibrate", "--data", s(&data), "--out", s(&res)]).status.success());
     let p = dir.path().join("p/pred.csv");
-    let o = twincal(&[
-        "predict",
-        "--model",
-        s(&res),
-        "--data",
-        s(&data),
-        "--angles",
-        "deg",
-        "--out",
-        s(&p),
-    ]);
+    let o = twincal(&["predict", "--model", s(&res), "--data", s(&data), "--angles", "deg", "--out", s(&p)]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&p).unwrap();
     let mut lines = text.lines();
     assert_eq!(lines.next().unwrap(), "q1,q2,q3,q4,q5,q6,L,L_pred,residual");
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
-        .collect();
+    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|c| c.parse().unwrap()).collect()).collect();
     assert_eq!(rows.len(), 100);
     for r in &rows {
-        assert!(
-            (r[6] - r[7] - r[8]).abs() < 1e-9 && r[8].abs() < 1.0,
-            "{r:?}"
-        );
+        assert!((r[6] - r[7] - r[8]).abs() < 1e-9 && r[8].abs() < 1.0, "{r:?}");
     }
 }

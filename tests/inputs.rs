@@ -7,8 +7,7 @@ use twincal::generate::{generate, Silent};
 use twincal::scenario::Scenario;
 
 fn ideal() -> (Scenario, twincal::robot::Robot) {
-    Scenario::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_ideal.toml"))
-        .unwrap()
+    Scenario::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_ideal.toml")).unwrap()
 }
 
 /// Largest number of decimals of each column in CSV text (header skipped).
@@ -36,22 +35,12 @@ fn generated_numbers_are_written_at_their_precision() {
     s.sensor.samples = 50;
     s.sampling.angle_decimals = 4;
     s.validate(&robot, "patched").unwrap();
-    assert_eq!(
-        s.sensor.reading_decimals(),
-        4,
-        "0.01 mm / 50 samples = 0.0002 mm"
-    );
+    assert_eq!(s.sensor.reading_decimals(), 4, "0.01 mm / 50 samples = 0.0002 mm");
     let g = generate(&s, &robot, &Silent).unwrap();
     let text = g.dataset.to_csv_string();
-    assert!(
-        text.starts_with("q1,q2,q3,q4,q5,q6,L,t,temp,split\n"),
-        "{text}"
-    );
+    assert!(text.starts_with("q1,q2,q3,q4,q5,q6,L,t,temp,split\n"), "{text}");
     let widest = decimals_per_column(&text);
-    assert!(
-        widest[..6].iter().all(|d| *d <= 4),
-        "angles: {widest:?}\n{text}"
-    );
+    assert!(widest[..6].iter().all(|d| *d <= 4), "angles: {widest:?}\n{text}");
     assert!(widest[6] <= 4, "L: {widest:?}");
     assert!(widest[7] <= 3 && widest[8] <= 3, "t, temp: {widest:?}");
     // Some value actually uses the precision (rounding did not throw the digits away).
@@ -87,17 +76,7 @@ fn a_narrow_range_dataset_of_the_twin_reloads_with_angles_deg() {
     let path = dir.path().join("dataset.csv");
     g.dataset.write_csv(&path).unwrap();
     let msg = Dataset::load(&path).unwrap_err().to_string();
-    assert!(
-        msg.contains("look like radians") && msg.contains("--angles deg"),
-        "{msg}"
-    );
-    let ds = Dataset::load_with(
-        &path,
-        &LoadOptions {
-            angles: AngleUnit::Deg,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    assert!(msg.contains("look like radians") && msg.contains("--angles deg"), "{msg}");
+    let ds = Dataset::load_with(&path, &LoadOptions { angles: AngleUnit::Deg, ..Default::default() }).unwrap();
     assert_eq!(ds.rows, g.dataset.rows);
 }

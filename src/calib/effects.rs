@@ -163,7 +163,9 @@ impl EffectBlock {
                 (Some(ThermalDrive::Temperature { .. }), None) => vec![("thermal.alpha".into(), EffectUnit::PerKelvin)],
                 (_, None) => vec![("thermal.scale".into(), EffectUnit::Ratio), ("thermal.tau".into(), EffectUnit::Seconds)],
                 (Some(ThermalDrive::Temperature { .. }), Some(_)) => vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::AnglePerKelvin)],
-                (_, Some(_)) => vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::SmallAngle), (format!("thermal.zero_drift.j{j}.tau"), EffectUnit::Seconds)],
+                (_, Some(_)) => {
+                    vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::SmallAngle), (format!("thermal.zero_drift.j{j}.tau"), EffectUnit::Seconds)]
+                }
             },
             EffectKind::SensorNonlinearity => (2..=4).map(|k| (format!("sensor_nl.p{k}"), EffectUnit::Length)).collect(),
         }

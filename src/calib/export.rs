@@ -81,7 +81,11 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
     }
     let fixed = |out: &mut String, name: &str, parent: &str, f: &Frame| {
         let _ = writeln!(out, "  <link name=\"{name}\"/>");
-        let _ = writeln!(out, "  <joint name=\"{parent}-{name}\" type=\"fixed\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{name}\"/>\n    {}\n  </joint>", origin(f));
+        let _ = writeln!(
+            out,
+            "  <joint name=\"{parent}-{name}\" type=\"fixed\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{name}\"/>\n    {}\n  </joint>",
+            origin(f)
+        );
     };
     fixed(&mut out, "flange", &parent, &flange.relative_to(&parent_frame));
     fixed(&mut out, "cable_tool_point", "flange", &Frame { rot: nalgebra::Matrix3::identity(), pos: Vector3::new(s[4], s[5], s[6]) });

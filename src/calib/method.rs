@@ -31,10 +31,7 @@ impl Method {
 
     pub fn parse(s: &str) -> Result<Method> {
         let s = s.trim().to_ascii_lowercase();
-        Method::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso or rbf)")))
+        Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso or rbf)")))
     }
     pub fn name(self) -> &'static str {
         match self {
@@ -247,8 +244,8 @@ impl Solver for RbfSolver {
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let report = self.lm.solve(p, obs)?.report;
         let res = p.fit.residuals_mm(&report.x);
-        let (net, _) = RbfNetwork::fit_cv(&p.fit.data.q, &res, &self.centres, &self.ridges, p.seed)
-            .map_err(|e| Error::Calibration(format!("RBF network: {e}")))?;
+        let (net, _) =
+            RbfNetwork::fit_cv(&p.fit.data.q, &res, &self.centres, &self.ridges, p.seed).map_err(|e| Error::Calibration(format!("RBF network: {e}")))?;
         Ok(Solution { report, rbf: Some(net) })
     }
 }

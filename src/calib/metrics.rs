@@ -83,9 +83,7 @@ pub fn repeatability(q_deg: &[[f64; 6]], l: &[f64], tol_deg: f64) -> Option<Repe
     if q_deg.len() != l.len() || !tol_deg.is_finite() || tol_deg < 0.0 {
         return None;
     }
-    let rows: Vec<usize> = (0..l.len())
-        .filter(|&i| l[i].is_finite() && q_deg[i].iter().all(|v| v.is_finite()))
-        .collect();
+    let rows: Vec<usize> = (0..l.len()).filter(|&i| l[i].is_finite() && q_deg[i].iter().all(|v| v.is_finite())).collect();
     if rows.len() < 2 {
         return None;
     }
@@ -122,9 +120,7 @@ pub fn repeatability(q_deg: &[[f64; 6]], l: &[f64], tol_deg: f64) -> Option<Repe
 fn link_exact(q: &[[f64; 6]], rows: &[usize], uf: &mut UnionFind) {
     let mut sorted = rows.to_vec();
     // `+ 0.0` maps −0 to +0 so that both sort together.
-    sorted.sort_by(|&a, &b| {
-        q[a].iter().zip(&q[b]).map(|(x, y)| (x + 0.0).total_cmp(&(y + 0.0))).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal)
-    });
+    sorted.sort_by(|&a, &b| q[a].iter().zip(&q[b]).map(|(x, y)| (x + 0.0).total_cmp(&(y + 0.0))).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal));
     for w in sorted.windows(2) {
         if q[w[0]] == q[w[1]] {
             uf.union(w[0], w[1]);

@@ -234,7 +234,8 @@ impl CalibModel {
     /// The twin's per-joint frame-error model.
     pub fn frame(robot: &Robot, sensor: &SensorGuess) -> CalibModel {
         let chain = robot.error_chain();
-        let kinds = chain.param_names.iter().map(|n| if n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz") { Kind::Length } else { Kind::Angle }).collect();
+        let kinds =
+            chain.param_names.iter().map(|n| if n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz") { Kind::Length } else { Kind::Angle }).collect();
         CalibModel::with_sensor("frame", chain, kinds, sensor)
     }
 
@@ -247,7 +248,8 @@ impl CalibModel {
 
     /// A 6R model with absolute D-H values as parameters (no nominal robot), base = D-H frame 0.
     pub fn generic(n: usize, sensor: &SensorGuess) -> CalibModel {
-        let table = DhTable { base: Frame::identity(), rows: vec![DhRow { theta: 0.0, d: 0.0, a: 0.0, alpha: 0.0, parallel: false }; n], tool: Frame::identity() };
+        let table =
+            DhTable { base: Frame::identity(), rows: vec![DhRow { theta: 0.0, d: 0.0, a: 0.0, alpha: 0.0, parallel: false }; n], tool: Frame::identity() };
         let (chain, kinds) = table.chain(false, false);
         CalibModel::with_sensor("generic6r", chain, kinds, sensor)
     }

@@ -43,7 +43,11 @@ impl Samples {
     }
     /// The rows `idx`.
     pub fn subset(&self, idx: &[usize]) -> Samples {
-        Samples { q: idx.iter().map(|&i| self.q[i].clone()).collect(), l: idx.iter().map(|&i| self.l[i]).collect(), inputs: idx.iter().map(|&i| self.inputs[i]).collect() }
+        Samples {
+            q: idx.iter().map(|&i| self.q[i].clone()).collect(),
+            l: idx.iter().map(|&i| self.l[i]).collect(),
+            inputs: idx.iter().map(|&i| self.inputs[i]).collect(),
+        }
     }
     pub fn len(&self) -> usize {
         self.l.len()

@@ -31,8 +31,8 @@
 //! parallel but each candidate is independent, so results do not depend on the thread count.
 
 use nalgebra::{DMatrix, DVector};
-use rand::{Rng, SeedableRng};
 use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
@@ -107,7 +107,11 @@ impl RbfNetwork {
             .map(|d| {
                 let m = x.iter().map(|r| r[d]).sum::<f64>() / n as f64;
                 let s = (x.iter().map(|r| (r[d] - m).powi(2)).sum::<f64>() / n as f64).sqrt();
-                if s.is_finite() && s > 1e-12 * m.abs().max(1e-300) { s } else { 1.0 }
+                if s.is_finite() && s > 1e-12 * m.abs().max(1e-300) {
+                    s
+                } else {
+                    1.0
+                }
             })
             .collect();
         let xs: Vec<Vec<f64>> = x.iter().map(|r| r.iter().zip(&input_scale).map(|(v, s)| v / s).collect()).collect();
@@ -145,13 +149,7 @@ impl RbfNetwork {
     /// Returns the refitted network and the table `(centers, ridge, cv_rmse)` in candidate order.
     /// Errors on invalid data (as [`fit`](Self::fit)), fewer than 2 rows, empty candidate lists,
     /// or when no candidate could be fitted.
-    pub fn fit_cv(
-        x: &[Vec<f64>],
-        y: &[f64],
-        centers: &[usize],
-        ridges: &[f64],
-        seed: u64,
-    ) -> Result<(RbfNetwork, Vec<CvRow>), String> {
+    pub fn fit_cv(x: &[Vec<f64>], y: &[f64], centers: &[usize], ridges: &[f64], seed: u64) -> Result<(RbfNetwork, Vec<CvRow>), String> {
         validate(x, y)?;
         let n = x.len();
         if n < 2 {
@@ -207,11 +205,7 @@ impl RbfNetwork {
 
     /// Gaussian activations at a point already in scaled coordinates.
     fn features(&self, xs: &[f64]) -> Vec<f64> {
-        self.centers
-            .iter()
-            .zip(&self.widths)
-            .map(|(c, s)| (-sq_dist(xs, c) / (2.0 * s * s)).exp())
-            .collect()
+        self.centers.iter().zip(&self.widths).map(|(c, s)| (-sq_dist(xs, c) / (2.0 * s * s)).exp()).collect()
     }
 
     /// Ridge solve for `[w; b]` given centres and widths (bias unpenalised).
@@ -363,7 +357,11 @@ fn center_widths(xs: &[Vec<f64>], centers: &[Vec<f64>], factor: f64) -> Vec<f64>
         let dim = xs[0].len();
         let mean: Vec<f64> = (0..dim).map(|d| xs.iter().map(|r| r[d]).sum::<f64>() / xs.len() as f64).collect();
         let rms = (xs.iter().map(|r| sq_dist(r, &mean)).sum::<f64>() / xs.len() as f64).sqrt() * factor;
-        if rms > 0.0 && rms.is_finite() { rms } else { 1.0 }
+        if rms > 0.0 && rms.is_finite() {
+            rms
+        } else {
+            1.0
+        }
     };
     raw.into_iter().map(|w| w.unwrap_or(global)).collect()
 }

@@ -9,16 +9,16 @@
 //! Each stage is a function of its own below or in the module named; the method is a
 //! [`Solver`] value that carries its own settings.
 
-pub use super::method::{Method, Solver};
+use super::effects::EffectKind;
 use super::identify::{analyse, Identifiability};
-use super::metrics::ErrorStats;
+use super::inputs::LoadOptions;
+pub use super::method::{Method, Solver};
 use super::method::{Problem, Solution};
+use super::metrics::ErrorStats;
 use super::model::{CalibModel, SensorGuess};
 use super::optim::{covariance, History, LeastSquares, LevenbergMarquardt, NoObserver};
 use super::problem::{LengthFit, Samples};
 use super::rbf::RbfNetwork;
-use super::effects::EffectKind;
-use super::inputs::LoadOptions;
 use super::tolerance::Tolerances;
 pub use super::truth::TruthFile;
 use crate::dataset::{Dataset, Split};
@@ -222,8 +222,7 @@ impl CalibResult {
 
     pub fn load(path: &Path) -> Result<CalibResult> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let r: CalibResult =
-            serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        let r: CalibResult = serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
         let chain = &r.model.chain;
         let consistent = chain.n_joints == 6
             && r.x.len() == r.model.n_params()
@@ -266,7 +265,6 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
         inputs: rows.map(|r| super::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
     }
 }
-
 
 /// How far outside a joint's limits (degrees) a row may be before it is refused: encoders read
 /// a little past a soft limit, nothing reads far past a hard stop.
@@ -455,7 +453,8 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         )));
     }
     if split.train.len() < 3 * n_free {
-        warnings.push(format!("only {} training rows for {n_free} identifiable parameters (3x as many recommended): uncertainties are large", split.train.len()));
+        warnings
+            .push(format!("only {} training rows for {n_free} identifiable parameters (3x as many recommended): uncertainties are large", split.train.len()));
     }
     let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
     let l = data.lengths_mm()?;

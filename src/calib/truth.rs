@@ -47,21 +47,14 @@ pub struct DatasetLink {
 
 impl DatasetLink {
     pub fn of(file: &str, bytes: &[u8], rows: usize) -> DatasetLink {
-        DatasetLink {
-            file: file.to_string(),
-            sha256: sha256_hex(bytes),
-            rows,
-        }
+        DatasetLink { file: file.to_string(), sha256: sha256_hex(bytes), rows }
     }
 }
 
 /// SHA-256 of `bytes`, lower-case hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
     use sha2::Digest;
-    sha2::Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
+    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// The file a dataset path reads: `DIR/dataset.csv` for a folder, the file itself otherwise
@@ -88,18 +81,13 @@ impl TruthFile {
     /// stderr.
     pub fn find(data: &Path) -> Result<Option<TruthFile>> {
         let file = dataset_file(data);
-        let dir = if data.is_dir() {
-            data.to_path_buf()
-        } else {
-            file.parent().map(|p| p.to_path_buf()).unwrap_or_default()
-        };
+        let dir = if data.is_dir() { data.to_path_buf() } else { file.parent().map(|p| p.to_path_buf()).unwrap_or_default() };
         let p = dir.join(TRUTH_FILE);
         if !p.exists() {
             return Ok(None);
         }
         let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
-        let truth: TruthFile = serde_json::from_str(&text)
-            .map_err(|e| Error::data(p.display(), format!("malformed truth file: {e}")))?;
+        let truth: TruthFile = serde_json::from_str(&text).map_err(|e| Error::data(p.display(), format!("malformed truth file: {e}")))?;
         let Some(link) = &truth.dataset else {
             eprintln!(
                 "warning: {} has no dataset fingerprint (written by an older twincal), so it cannot be matched to {}; \
@@ -128,14 +116,7 @@ impl TruthFile {
             ));
         }
         if truth.poses.len() != link.rows {
-            return Err(Error::data(
-                p.display(),
-                format!(
-                    "lists {} poses for a dataset of {} rows (edited truth file?)",
-                    truth.poses.len(),
-                    link.rows
-                ),
-            ));
+            return Err(Error::data(p.display(), format!("lists {} poses for a dataset of {} rows (edited truth file?)", truth.poses.len(), link.rows)));
         }
         Ok(Some(truth))
     }
@@ -147,10 +128,7 @@ mod tests {
 
     #[test]
     fn sha256_matches_the_standard_vector() {
-        assert_eq!(
-            sha256_hex(b"abc"),
-            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
-        );
+        assert_eq!(sha256_hex(b"abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
     }
 
     #[test]
@@ -171,17 +149,12 @@ mod tests {
         };
         truth(Some(DatasetLink::of("dataset.csv", csv.as_bytes(), 1)));
         assert!(TruthFile::find(dir.path()).unwrap().is_some());
-        assert!(TruthFile::find(&dir.path().join("dataset.csv"))
-            .unwrap()
-            .is_some());
+        assert!(TruthFile::find(&dir.path().join("dataset.csv")).unwrap().is_some());
         // One changed byte in the dataset: refused, by folder and by file.
         std::fs::write(dir.path().join("dataset.csv"), csv.replace("300", "301")).unwrap();
         for p in [dir.path().to_path_buf(), dir.path().join("dataset.csv")] {
             let e = TruthFile::find(&p).unwrap_err().to_string();
-            assert!(
-                e.contains("does not belong to") && e.contains("delete"),
-                "{e}"
-            );
+            assert!(e.contains("does not belong to") && e.contains("delete"), "{e}");
         }
         // An older truth file without a link is ignored.
         truth(None);

@@ -12,16 +12,10 @@ use std::io::Read;
 /// skipped. Every other record must have exactly as many fields as the header.
 pub(super) fn read_table<R: Read>(mut r: R, source: &str) -> Result<RawTable> {
     let mut bytes = Vec::new();
-    r.read_to_end(&mut bytes)
-        .map_err(|e| Error::data(source, format!("cannot read: {e}")))?;
+    r.read_to_end(&mut bytes).map_err(|e| Error::data(source, format!("cannot read: {e}")))?;
     blank_comments(&mut bytes);
     let delimiter = detect_delimiter(&bytes);
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .delimiter(delimiter)
-        .from_reader(bytes.as_slice());
+    let mut reader = csv::ReaderBuilder::new().has_headers(false).flexible(true).trim(csv::Trim::All).delimiter(delimiter).from_reader(bytes.as_slice());
 
     let mut lines = LineCounter::default();
     let mut header: Option<Vec<String>> = None;
@@ -42,13 +36,7 @@ pub(super) fn read_table<R: Read>(mut r: R, source: &str) -> Result<RawTable> {
                         .iter()
                         .enumerate()
                         // A UTF-8 byte order mark survives trimming: drop it from the first name.
-                        .map(|(i, f)| {
-                            if i == 0 {
-                                f.trim_start_matches('\u{feff}').trim()
-                            } else {
-                                f
-                            }
-                        })
+                        .map(|(i, f)| if i == 0 { f.trim_start_matches('\u{feff}').trim() } else { f })
                         .map(str::to_owned)
                         .collect(),
                 );
@@ -65,31 +53,13 @@ pub(super) fn read_table<R: Read>(mut r: R, source: &str) -> Result<RawTable> {
                         ),
                     ));
                 }
-                let cells = record
-                    .iter()
-                    .map(|f| {
-                        if f.is_empty() {
-                            Cell::Empty
-                        } else {
-                            Cell::Text(f.to_owned())
-                        }
-                    })
-                    .collect();
+                let cells = record.iter().map(|f| if f.is_empty() { Cell::Empty } else { Cell::Text(f.to_owned()) }).collect();
                 rows.push(RawRow { line, cells });
             }
         }
     }
-    let header = header.ok_or_else(|| {
-        Error::data(
-            source,
-            "file is empty: expected a header line with q1..q6 and L, then data rows",
-        )
-    })?;
-    Ok(RawTable {
-        header,
-        rows,
-        decimal_comma: delimiter != b',',
-    })
+    let header = header.ok_or_else(|| Error::data(source, "file is empty: expected a header line with q1..q6 and L, then data rows"))?;
+    Ok(RawTable { header, rows, decimal_comma: delimiter != b',' })
 }
 
 /// Line numbers from byte offsets, counted from the file's line breaks (the csv crate's own line
@@ -108,10 +78,7 @@ impl LineCounter {
         while byte < bytes.len() && matches!(bytes[byte], b'\r' | b'\n') {
             byte += 1;
         }
-        self.newlines += bytes[self.byte..byte]
-            .iter()
-            .filter(|b| **b == b'\n')
-            .count();
+        self.newlines += bytes[self.byte..byte].iter().filter(|b| **b == b'\n').count();
         self.byte = byte;
         self.newlines + 1
     }

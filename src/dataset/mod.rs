@@ -101,9 +101,7 @@ impl std::str::FromStr for AngleUnit {
             "auto" => Ok(AngleUnit::Auto),
             "deg" | "degree" | "degrees" => Ok(AngleUnit::Deg),
             "rad" | "radian" | "radians" => Ok(AngleUnit::Rad),
-            _ => Err(format!(
-                "unknown angle unit '{s}' (expected auto, deg or rad)"
-            )),
+            _ => Err(format!("unknown angle unit '{s}' (expected auto, deg or rad)")),
         }
     }
 }
@@ -120,20 +118,14 @@ pub struct LoadOptions {
 impl Default for LoadOptions {
     /// Today's behaviour of [`Dataset::load`]: [`AngleUnit::Auto`], `L` required.
     fn default() -> Self {
-        LoadOptions {
-            angles: AngleUnit::Auto,
-            require_length: true,
-        }
+        LoadOptions { angles: AngleUnit::Auto, require_length: true }
     }
 }
 
 impl LoadOptions {
     /// Poses (`q1..q6`) with an optional `L` column, e.g. for prediction.
     pub fn poses() -> Self {
-        LoadOptions {
-            require_length: false,
-            ..Default::default()
-        }
+        LoadOptions { require_length: false, ..Default::default() }
     }
 }
 
@@ -191,11 +183,7 @@ impl Dataset {
             return Self::load_csv_file(&path.join(DATASET_FILE), opts);
         }
         let (file, sheet) = split_sheet(path);
-        let ext = file
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .unwrap_or_default();
+        let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
         match ext.as_str() {
             "csv" if sheet.is_none() => Self::load_csv_file(&file, opts),
             "xlsx" | "xlsm" | "xlsb" | "xls" | "ods" => {
@@ -212,11 +200,7 @@ impl Dataset {
 
     fn load_csv_file(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        Self::from_csv_reader_with(
-            std::io::BufReader::new(file),
-            &path.display().to_string(),
-            opts,
-        )
+        Self::from_csv_reader_with(std::io::BufReader::new(file), &path.display().to_string(), opts)
     }
 
     /// Parse and validate CSV text; `source` names the input in error messages and becomes
@@ -226,11 +210,7 @@ impl Dataset {
     }
 
     /// [`Self::from_csv_reader`] with explicit [`LoadOptions`].
-    pub fn from_csv_reader_with<R: std::io::Read>(
-        r: R,
-        source: &str,
-        opts: &LoadOptions,
-    ) -> Result<Dataset> {
+    pub fn from_csv_reader_with<R: std::io::Read>(r: R, source: &str, opts: &LoadOptions) -> Result<Dataset> {
         from_table(csv_io::read_table(r, source)?, source.to_owned(), opts)
     }
 
@@ -258,11 +238,7 @@ impl Dataset {
     /// The cable lengths of every row, mm; an error as [`Self::require_length`] when any is absent.
     pub fn lengths_mm(&self) -> Result<Vec<f64>> {
         self.require_length()?;
-        Ok(self
-            .rows
-            .iter()
-            .map(|r| r.l_mm.unwrap_or(f64::NAN))
-            .collect())
+        Ok(self.rows.iter().map(|r| r.l_mm.unwrap_or(f64::NAN)).collect())
     }
 
     /// CSV text with header `q1,q2,q3,q4,q5,q6,L,t,temp,split`, one line per row in row order.
@@ -273,20 +249,11 @@ impl Dataset {
     /// `L` is written unless no row has it (a row without it gets an empty cell).
     pub fn to_csv_string(&self) -> String {
         let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
-        let (has_t, has_temp, has_split) = (
-            all(|r| r.t_s.is_some()),
-            all(|r| r.temp_c.is_some()),
-            all(|r| r.split.is_some()),
-        );
+        let (has_t, has_temp, has_split) = (all(|r| r.t_s.is_some()), all(|r| r.temp_c.is_some()), all(|r| r.split.is_some()));
         let has_l = self.rows.is_empty() || self.rows.iter().any(|r| r.l_mm.is_some());
 
         let mut out = String::from("q1,q2,q3,q4,q5,q6");
-        for (present, name) in [
-            (has_l, "L"),
-            (has_t, "t"),
-            (has_temp, "temp"),
-            (has_split, "split"),
-        ] {
+        for (present, name) in [(has_l, "L"), (has_t, "t"), (has_temp, "temp"), (has_split, "split")] {
             if present {
                 out.push(',');
                 out.push_str(name);
@@ -338,12 +305,7 @@ impl Dataset {
     }
 
     fn indices_of(&self, split: Split) -> Vec<usize> {
-        self.rows
-            .iter()
-            .enumerate()
-            .filter(|(_, r)| r.split == Some(split))
-            .map(|(i, _)| i)
-            .collect()
+        self.rows.iter().enumerate().filter(|(_, r)| r.split == Some(split)).map(|(i, _)| i).collect()
     }
 
     /// Number of rows.
@@ -367,9 +329,7 @@ fn split_sheet(path: &Path) -> (PathBuf, Option<String>) {
         for (i, _) in s.match_indices('#') {
             let (file, sheet) = (&s[..i], &s[i + 1..]);
             let lower = file.to_ascii_lowercase();
-            let is_book = [".xlsx", ".xlsm", ".xlsb", ".xls", ".ods"]
-                .iter()
-                .any(|e| lower.ends_with(e));
+            let is_book = [".xlsx", ".xlsm", ".xlsb", ".xls", ".ods"].iter().any(|e| lower.ends_with(e));
             if is_book && !sheet.is_empty() {
                 return (PathBuf::from(file), Some(sheet.to_owned()));
             }
@@ -420,21 +380,9 @@ enum Column {
 }
 
 impl Column {
-    const ALL: [Column; 10] = [
-        Column::Q(0),
-        Column::Q(1),
-        Column::Q(2),
-        Column::Q(3),
-        Column::Q(4),
-        Column::Q(5),
-        Column::L,
-        Column::T,
-        Column::Temp,
-        Column::Split,
-    ];
-    const NAMES: [&'static str; 10] = [
-        "q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split",
-    ];
+    const ALL: [Column; 10] =
+        [Column::Q(0), Column::Q(1), Column::Q(2), Column::Q(3), Column::Q(4), Column::Q(5), Column::L, Column::T, Column::Temp, Column::Split];
+    const NAMES: [&'static str; 10] = ["q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split"];
     /// Number of required columns at the start of `ALL` (q1..q6, L).
     const REQUIRED: usize = 7;
 
@@ -454,9 +402,7 @@ impl Column {
 
     fn from_header(h: &str) -> Option<Column> {
         let h = h.trim();
-        Self::ALL
-            .into_iter()
-            .find(|c| c.name().eq_ignore_ascii_case(h))
+        Self::ALL.into_iter().find(|c| c.name().eq_ignore_ascii_case(h))
     }
 }
 
@@ -474,42 +420,17 @@ impl Layout {
                 if let Some(first) = pos[c.index()] {
                     return Err(Error::data(
                         source,
-                        format!(
-                            "line 1: duplicate column {} (fields {} and {}); header found: {}",
-                            c.name(),
-                            first + 1,
-                            i + 1,
-                            found()
-                        ),
+                        format!("line 1: duplicate column {} (fields {} and {}); header found: {}", c.name(), first + 1, i + 1, found()),
                     ));
                 }
                 pos[c.index()] = Some(i);
             }
         }
-        let required = if require_length {
-            Column::REQUIRED
-        } else {
-            Column::REQUIRED - 1
-        };
-        let missing: Vec<&str> = Column::ALL[..required]
-            .iter()
-            .filter(|c| pos[c.index()].is_none())
-            .map(|c| c.name())
-            .collect();
+        let required = if require_length { Column::REQUIRED } else { Column::REQUIRED - 1 };
+        let missing: Vec<&str> = Column::ALL[..required].iter().filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
         if !missing.is_empty() {
-            let need = if require_length {
-                "need q1..q6 and L, optional t, temp, split"
-            } else {
-                "need q1..q6, optional L, t, temp, split"
-            };
-            return Err(Error::data(
-                source,
-                format!(
-                    "missing required column(s) {}; header found: {} ({need})",
-                    missing.join(", "),
-                    found()
-                ),
-            ));
+            let need = if require_length { "need q1..q6 and L, optional t, temp, split" } else { "need q1..q6, optional L, t, temp, split" };
+            return Err(Error::data(source, format!("missing required column(s) {}; header found: {} ({need})", missing.join(", "), found())));
         }
         Ok(Layout { pos })
     }
@@ -548,14 +469,7 @@ impl Cells<'_> {
                 };
                 cell_error(source, line, c, format!("'{s}' is not a number{hint}"))
             })?,
-            Some(Cell::Other(what)) => {
-                return Err(cell_error(
-                    source,
-                    line,
-                    c,
-                    format!("{what} is not a number"),
-                ))
-            }
+            Some(Cell::Other(what)) => return Err(cell_error(source, line, c, format!("{what} is not a number"))),
         };
         if v.is_nan() {
             return Err(cell_error(source, line, c, "NaN is not allowed"));
@@ -567,8 +481,7 @@ impl Cells<'_> {
     }
 
     fn required(&self, cell: Option<&Cell>, c: Column, line: usize) -> Result<f64> {
-        self.number(cell, c, line)?
-            .ok_or_else(|| cell_error(self.source, line, c, "empty cell (value required)"))
+        self.number(cell, c, line)?.ok_or_else(|| cell_error(self.source, line, c, "empty cell (value required)"))
     }
 }
 
@@ -593,31 +506,14 @@ fn split_value(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<
     match text.to_ascii_lowercase().as_str() {
         "train" => Ok(Some(Split::Train)),
         "test" => Ok(Some(Split::Test)),
-        _ => Err(cell_error(
-            source,
-            line,
-            Column::Split,
-            format!("unknown split value '{text}' (must be train or test)"),
-        )),
+        _ => Err(cell_error(source, line, Column::Split, format!("unknown split value '{text}' (must be train or test)"))),
     }
 }
 
 /// Checks `lo <= v <= hi`, naming the cell and what the value is.
-fn check_bounds(
-    v: f64,
-    (lo, hi): (f64, f64),
-    what: &str,
-    line: usize,
-    c: Column,
-    src: &str,
-) -> Result<()> {
+fn check_bounds(v: f64, (lo, hi): (f64, f64), what: &str, line: usize, c: Column, src: &str) -> Result<()> {
     if v < lo || v > hi {
-        return Err(cell_error(
-            src,
-            line,
-            c,
-            format!("{what} {v} is implausible (allowed range [{lo}, {hi}])"),
-        ));
+        return Err(cell_error(src, line, c, format!("{what} {v} is implausible (allowed range [{lo}, {hi}])")));
     }
     Ok(())
 }
@@ -628,10 +524,7 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
     if table.rows.is_empty() {
         return Err(Error::data(src, "no data rows (only a header)"));
     }
-    let cells = Cells {
-        source: src,
-        decimal_comma: table.decimal_comma,
-    };
+    let cells = Cells { source: src, decimal_comma: table.decimal_comma };
 
     let mut rows = Vec::with_capacity(table.rows.len());
     let mut last_t: Option<(f64, usize)> = None;
@@ -642,34 +535,16 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
         for (j, q) in q_deg.iter_mut().enumerate() {
             let c = Column::Q(j);
             let v = cells.required(layout.cell(raw, c), c, line)?;
-            *q = if opts.angles == AngleUnit::Rad {
-                v.to_degrees()
-            } else {
-                v
-            };
+            *q = if opts.angles == AngleUnit::Rad { v.to_degrees() } else { v };
             if q.abs() > MAX_ABS_JOINT_DEG {
-                let shown = if opts.angles == AngleUnit::Rad {
-                    format!("{v} rad ({q} deg)")
-                } else {
-                    format!("{q} deg")
-                };
-                return Err(cell_error(
-                    src,
-                    line,
-                    c,
-                    format!("joint angle {shown} is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)"),
-                ));
+                let shown = if opts.angles == AngleUnit::Rad { format!("{v} rad ({q} deg)") } else { format!("{q} deg") };
+                return Err(cell_error(src, line, c, format!("joint angle {shown} is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)")));
             }
         }
         let l_mm = if layout.has(Column::L) {
             let l = cells.required(layout.cell(raw, Column::L), Column::L, line)?;
             if l <= 0.0 {
-                return Err(cell_error(
-                    src,
-                    line,
-                    Column::L,
-                    format!("cable length must be positive, found {l}"),
-                ));
+                return Err(cell_error(src, line, Column::L, format!("cable length must be positive, found {l}")));
             }
             if l > MAX_L_MM {
                 return Err(cell_error(
@@ -688,14 +563,7 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
         };
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
-            check_bounds(
-                t,
-                (0.0, MAX_T_S),
-                "time (s from the start of acquisition)",
-                line,
-                Column::T,
-                src,
-            )?;
+            check_bounds(t, (0.0, MAX_T_S), "time (s from the start of acquisition)", line, Column::T, src)?;
             if let Some((prev, prev_line)) = last_t {
                 if t < prev {
                     return Err(cell_error(
@@ -713,37 +581,19 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
         }
         let temp_c = cells.number(layout.cell(raw, Column::Temp), Column::Temp, line)?;
         if let Some(temp) = temp_c {
-            check_bounds(
-                temp,
-                (MIN_TEMP_C, MAX_TEMP_C),
-                "temperature (°C)",
-                line,
-                Column::Temp,
-                src,
-            )?;
+            check_bounds(temp, (MIN_TEMP_C, MAX_TEMP_C), "temperature (°C)", line, Column::Temp, src)?;
         }
         let split = split_value(layout.cell(raw, Column::Split), line, src)?;
         if split.is_none() && first_split_missing.is_none() {
             first_split_missing = Some(line);
         }
-        rows.push(Row {
-            q_deg,
-            l_mm,
-            t_s,
-            temp_c,
-            split,
-        });
+        rows.push(Row { q_deg, l_mm, t_s, temp_c, split });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.
     if let Some(line) = first_split_missing {
         if rows.iter().any(|r| r.split.is_some()) {
-            return Err(cell_error(
-                src,
-                line,
-                Column::Split,
-                "empty split value; when some rows have a split, every row must be train or test",
-            ));
+            return Err(cell_error(src, line, Column::Split, "empty split value; when some rows have a split, every row must be train or test"));
         }
     }
     check_units(&rows, src, opts.angles)?;
@@ -754,28 +604,14 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
 /// [`AngleUnit::Auto`]).
 fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
     if angles == AngleUnit::Auto && rows.len() >= RADIANS_MIN_ROWS {
-        let max_abs = rows
-            .iter()
-            .flat_map(|r| r.q_deg)
-            .fold(0.0_f64, |m, q| m.max(q.abs()));
+        let max_abs = rows.iter().flat_map(|r| r.q_deg).fold(0.0_f64, |m, q| m.max(q.abs()));
         let spans: Vec<f64> = (0..6)
             .map(|j| {
-                let (lo, hi) = rows
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-                        (lo.min(r.q_deg[j]), hi.max(r.q_deg[j]))
-                    });
+                let (lo, hi) = rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r.q_deg[j]), hi.max(r.q_deg[j])));
                 hi - lo
             })
             .collect();
-        let (widest, span) = spans
-            .iter()
-            .copied()
-            .enumerate()
-            .fold(
-                (0, 0.0),
-                |best, (j, s)| if s > best.1 { (j, s) } else { best },
-            );
+        let (widest, span) = spans.iter().copied().enumerate().fold((0, 0.0), |best, (j, s)| if s > best.1 { (j, s) } else { best });
         if max_abs <= RADIANS_MAX_ABS && span > RADIANS_MIN_SPAN {
             return Err(Error::data(
                 source,
@@ -789,10 +625,7 @@ fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
             ));
         }
     }
-    let max_l = rows
-        .iter()
-        .filter_map(|r| r.l_mm)
-        .fold(None, |m: Option<f64>, l| Some(m.map_or(l, |m| m.max(l))));
+    let max_l = rows.iter().filter_map(|r| r.l_mm).fold(None, |m: Option<f64>, l| Some(m.map_or(l, |m| m.max(l))));
     if let Some(max_l) = max_l {
         if max_l < METRES_MAX_L {
             return Err(Error::data(

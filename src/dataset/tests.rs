@@ -14,10 +14,7 @@ fn err(text: &str) -> String {
         Ok(d) => panic!("expected an error, loaded {} rows", d.rows.len()),
         Err(e) => e.to_string(),
     };
-    assert!(
-        msg.contains("test.csv"),
-        "message does not name the file: {msg}"
-    );
+    assert!(msg.contains("test.csv"), "message does not name the file: {msg}");
     msg
 }
 
@@ -28,13 +25,7 @@ fn assert_contains(msg: &str, parts: &[&str]) {
 }
 
 fn row(q: [f64; 6], l: f64) -> Row {
-    Row {
-        q_deg: q,
-        l_mm: Some(l),
-        t_s: None,
-        temp_c: None,
-        split: None,
-    }
+    Row { q_deg: q, l_mm: Some(l), t_s: None, temp_c: None, split: None }
 }
 
 fn real_data_dir() -> PathBuf {
@@ -45,23 +36,10 @@ fn real_data_dir() -> PathBuf {
 
 #[test]
 fn round_trip_is_exact() {
-    let awkward = [
-        0.1 + 0.2,
-        -1.0 / 3.0,
-        719.999_999_999_999_9,
-        1e-300,
-        -0.0,
-        123.456_789_012_345_68,
-    ];
+    let awkward = [0.1 + 0.2, -1.0 / 3.0, 719.999_999_999_999_9, 1e-300, -0.0, 123.456_789_012_345_68];
     let ds = Dataset {
         rows: vec![
-            Row {
-                q_deg: awkward,
-                l_mm: Some(350.07),
-                t_s: Some(0.0),
-                temp_c: Some(21.5),
-                split: Some(Split::Train),
-            },
+            Row { q_deg: awkward, l_mm: Some(350.07), t_s: Some(0.0), temp_c: Some(21.5), split: Some(Split::Train) },
             Row {
                 q_deg: [1.405, -74.025, 220.99, -166.357, 41.989, 65.122],
                 l_mm: Some(std::f64::consts::PI * 100.0),
@@ -73,10 +51,7 @@ fn round_trip_is_exact() {
         source: "mem".into(),
     };
     let text = ds.to_csv_string();
-    assert!(
-        text.starts_with("q1,q2,q3,q4,q5,q6,L,t,temp,split\n"),
-        "{text}"
-    );
+    assert!(text.starts_with("q1,q2,q3,q4,q5,q6,L,t,temp,split\n"), "{text}");
     assert_eq!(text, ds.to_csv_string(), "output must be deterministic");
     let back = parse(&text).expect("reload");
     assert_eq!(back.rows, ds.rows);
@@ -91,14 +66,7 @@ fn round_trip_is_exact() {
 fn write_csv_then_load_folder_and_file() {
     let dir = tempfile::tempdir().expect("tempdir");
     let ds = Dataset {
-        rows: (0..12)
-            .map(|i| {
-                row(
-                    [i as f64, -74.0, 220.0 + i as f64 * 0.5, -166.0, 41.0, 65.0],
-                    300.0 + i as f64,
-                )
-            })
-            .collect(),
+        rows: (0..12).map(|i| row([i as f64, -74.0, 220.0 + i as f64 * 0.5, -166.0, 41.0, 65.0], 300.0 + i as f64)).collect(),
         source: String::new(),
     };
     let file = dir.path().join(DATASET_FILE);
@@ -118,15 +86,9 @@ fn optional_columns_written_only_when_every_row_has_them() {
     let mut b = a.clone();
     b.t_s = None;
     b.split = Some(Split::Test);
-    let ds = Dataset {
-        rows: vec![a, b],
-        source: String::new(),
-    };
+    let ds = Dataset { rows: vec![a, b], source: String::new() };
     let text = ds.to_csv_string();
-    assert_eq!(
-        text,
-        "q1,q2,q3,q4,q5,q6,L,split\n1,2,3,4,5,6,300,train\n1,2,3,4,5,6,300,test\n"
-    );
+    assert_eq!(text, "q1,q2,q3,q4,q5,q6,L,split\n1,2,3,4,5,6,300,train\n1,2,3,4,5,6,300,test\n");
     assert_eq!(Dataset::default().to_csv_string(), "q1,q2,q3,q4,q5,q6,L\n");
 }
 
@@ -170,17 +132,9 @@ fn train_and_test_indices() {
 fn radians_heuristic_spares_fixed_home_pose_and_small_files() {
     // Repeated zero pose: small values but no motion.
     let zeros: String = (0..15).map(|_| "0,0,0,0,0,0,400\n").collect();
-    assert_eq!(
-        parse(&format!("{HEADER}\n{zeros}"))
-            .expect("home pose")
-            .rows
-            .len(),
-        15
-    );
+    assert_eq!(parse(&format!("{HEADER}\n{zeros}")).expect("home pose").rows.len(), 15);
     // Fewer than RADIANS_MIN_ROWS rows: not judged.
-    let few: String = (0..RADIANS_MIN_ROWS - 1)
-        .map(|i| format!("{},1,1,1,1,1,400\n", i as f64 * 0.3))
-        .collect();
+    let few: String = (0..RADIANS_MIN_ROWS - 1).map(|i| format!("{},1,1,1,1,1,400\n", i as f64 * 0.3)).collect();
     assert!(parse(&format!("{HEADER}\n{few}")).is_ok());
 }
 
@@ -189,10 +143,7 @@ fn radians_heuristic_spares_fixed_home_pose_and_small_files() {
 #[test]
 fn error_missing_columns() {
     let msg = err("q1,q2,q4,q5,q6,length\n1,2,3,4,5,6\n");
-    assert_contains(
-        &msg,
-        &["missing", "q3", "L", "header found: q1,q2,q4,q5,q6,length"],
-    );
+    assert_contains(&msg, &["missing", "q3", "L", "header found: q1,q2,q4,q5,q6,length"]);
 }
 
 #[test]
@@ -233,23 +184,15 @@ fn error_empty_file_and_no_rows() {
 #[test]
 fn error_wrong_field_count() {
     let msg = err(&format!("{HEADER}\n{GOOD}\n{GOOD}\n{GOOD}\n1,2,3,4,5,6\n"));
-    assert_contains(
-        &msg,
-        &["line 5", "malformed", "expected 7 fields", "found 6"],
-    );
+    assert_contains(&msg, &["line 5", "malformed", "expected 7 fields", "found 6"]);
     let msg = err(&format!("{HEADER}\n{GOOD},9\n"));
     assert_contains(&msg, &["line 2", "found 8"]);
 }
 
 #[test]
 fn error_unknown_or_partial_split() {
-    let msg = err(&format!(
-        "{HEADER},split\n{GOOD},train\n{GOOD},validation\n"
-    ));
-    assert_contains(
-        &msg,
-        &["line 3", "column split", "'validation'", "train or test"],
-    );
+    let msg = err(&format!("{HEADER},split\n{GOOD},train\n{GOOD},validation\n"));
+    assert_contains(&msg, &["line 3", "column split", "'validation'", "train or test"]);
     let msg = err(&format!("{HEADER},split\n{GOOD},train\n{GOOD},\n"));
     assert_contains(&msg, &["line 3", "column split", "every row"]);
 }
@@ -264,15 +207,7 @@ fn error_non_positive_length() {
 
 #[test]
 fn error_radians() {
-    let rows: String = (0..12)
-        .map(|i| {
-            format!(
-                "{},{},3.85,-2.9,0.73,1.136,350\n",
-                0.02 * i as f64,
-                -1.3 + 0.01 * i as f64
-            )
-        })
-        .collect();
+    let rows: String = (0..12).map(|i| format!("{},{},3.85,-2.9,0.73,1.136,350\n", 0.02 * i as f64, -1.3 + 0.01 * i as f64)).collect();
     let msg = err(&format!("{HEADER}\n{rows}"));
     assert_contains(&msg, &["radians", "degrees", "q1"]);
 }
@@ -281,17 +216,12 @@ fn error_radians() {
 fn error_implausible_angle() {
     let msg = err(&format!("{HEADER}\n{GOOD}\n1,2,3,4,-720.5,6,300\n"));
     assert_contains(&msg, &["line 3", "column q5", "implausible", "720"]);
-    assert!(
-        parse(&format!("{HEADER}\n1,2,3,4,-720,6,300\n")).is_ok(),
-        "720 itself is allowed"
-    );
+    assert!(parse(&format!("{HEADER}\n1,2,3,4,-720,6,300\n")).is_ok(), "720 itself is allowed");
 }
 
 #[test]
 fn error_time_decreasing() {
-    let msg = err(&format!(
-        "{HEADER},t\n{GOOD},0\n{GOOD},2\n{GOOD},2\n{GOOD},1.5\n"
-    ));
+    let msg = err(&format!("{HEADER},t\n{GOOD},0\n{GOOD},2\n{GOOD},2\n{GOOD},1.5\n"));
     assert_contains(&msg, &["line 5", "column t", "non-decreasing", "line 4"]);
     // Empty t cells are allowed and do not reset the ordering.
     let msg = err(&format!("{HEADER},t\n{GOOD},3\n{GOOD},\n{GOOD},1\n"));
@@ -307,9 +237,7 @@ fn error_metres() {
 #[test]
 fn error_malformed_quoting_or_utf8() {
     let bytes: &[u8] = b"q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,\xff\xfe\n";
-    let msg = Dataset::from_csv_reader(bytes, "test.csv")
-        .expect_err("invalid UTF-8")
-        .to_string();
+    let msg = Dataset::from_csv_reader(bytes, "test.csv").expect_err("invalid UTF-8").to_string();
     assert_contains(&msg, &["test.csv", "line 2"]);
 }
 
@@ -325,15 +253,11 @@ fn load_errors_name_the_path() {
     let msg = Dataset::load(&missing).expect_err("missing").to_string();
     assert_contains(&msg, &["nope.csv"]);
 
-    let msg = Dataset::load(&dir.path().join("data.txt"))
-        .expect_err("unsupported")
-        .to_string();
+    let msg = Dataset::load(&dir.path().join("data.txt")).expect_err("unsupported").to_string();
     assert_contains(&msg, &["data.txt", "unsupported"]);
 
     // A folder without dataset.csv.
-    let msg = Dataset::load(dir.path())
-        .expect_err("empty folder")
-        .to_string();
+    let msg = Dataset::load(dir.path()).expect_err("empty folder").to_string();
     assert_contains(&msg, &[DATASET_FILE]);
 }
 
@@ -344,10 +268,7 @@ fn check_real_pool(ds: &Dataset) {
     let first = &ds.rows[0];
     assert_eq!(first.q_deg[0], 1.405);
     assert_eq!(first.l_mm, Some(350.07));
-    assert_eq!(
-        first.q_deg,
-        [1.405, -74.025, 220.99, -166.357, 41.989, 65.122]
-    );
+    assert_eq!(first.q_deg, [1.405, -74.025, 220.99, -166.357, 41.989, 65.122]);
     assert!(first.t_s.is_none() && first.temp_c.is_none() && first.split.is_none());
     assert_eq!(ds.train_indices().len(), 1614);
 }
@@ -366,31 +287,18 @@ fn real_pool_csv() {
 #[test]
 fn real_pool_xlsx_matches_csv() {
     let dir = real_data_dir();
-    let (xlsx, csv) = (
-        dir.join("hsr_robotcali_pool.xlsx"),
-        dir.join("hsr_robotcali_pool.csv"),
-    );
+    let (xlsx, csv) = (dir.join("hsr_robotcali_pool.xlsx"), dir.join("hsr_robotcali_pool.csv"));
     if !xlsx.exists() {
-        eprintln!(
-            "SKIP real_pool_xlsx_matches_csv: {} not found",
-            xlsx.display()
-        );
+        eprintln!("SKIP real_pool_xlsx_matches_csv: {} not found", xlsx.display());
         return;
     }
     let ds = Dataset::load(&xlsx).expect("load real xlsx");
     check_real_pool(&ds);
-    assert!(
-        ds.source.ends_with("hsr_robotcali_pool.xlsx#Sheet1"),
-        "{}",
-        ds.source
-    );
+    assert!(ds.source.ends_with("hsr_robotcali_pool.xlsx#Sheet1"), "{}", ds.source);
 
-    let named =
-        Dataset::load(Path::new(&format!("{}#Sheet1", xlsx.display()))).expect("load named sheet");
+    let named = Dataset::load(Path::new(&format!("{}#Sheet1", xlsx.display()))).expect("load named sheet");
     assert_eq!(named.rows, ds.rows);
-    let msg = Dataset::load(Path::new(&format!("{}#NoSuchSheet", xlsx.display())))
-        .expect_err("unknown sheet")
-        .to_string();
+    let msg = Dataset::load(Path::new(&format!("{}#NoSuchSheet", xlsx.display()))).expect_err("unknown sheet").to_string();
     assert_contains(&msg, &["NoSuchSheet", "Sheet1"]);
 
     if csv.exists() {
@@ -416,10 +324,7 @@ fn semicolon_csv_with_decimal_commas_and_comments() {
                 2;-74;221;-166;42;65;351;22\n";
     let ds = parse(text).expect("semicolon CSV");
     assert_eq!(ds.rows.len(), 2);
-    assert_eq!(
-        ds.rows[0].q_deg,
-        [1.405, -74.025, 220.99, -166.357, 41.989, 65.122]
-    );
+    assert_eq!(ds.rows[0].q_deg, [1.405, -74.025, 220.99, -166.357, 41.989, 65.122]);
     assert_eq!(ds.rows[0].l_mm, Some(350.07));
     assert_eq!(ds.rows[0].temp_c, Some(21.5));
     assert_eq!(ds.rows[1].l_mm, Some(351.0));
@@ -448,16 +353,10 @@ fn implausible_length_time_and_temperature_are_refused() {
         let msg = err(&format!("{HEADER}\n{GOOD}\n1,2,3,4,5,6,{l}\n"));
         assert_contains(&msg, &["line 3", "column L", "implausible", "100000"]);
     }
-    assert!(
-        parse(&format!("{HEADER}\n1,2,3,4,5,6,{MAX_L_MM}\n")).is_ok(),
-        "the bound itself is allowed"
-    );
+    assert!(parse(&format!("{HEADER}\n1,2,3,4,5,6,{MAX_L_MM}\n")).is_ok(), "the bound itself is allowed");
     let msg = err(&format!("{HEADER},temp\n{GOOD},20\n{GOOD},-400\n"));
     assert_contains(&msg, &["line 3", "column temp", "-400", "implausible"]);
-    assert!(
-        parse(&format!("{HEADER},temp\n{GOOD},-273.15\n")).is_ok(),
-        "absolute zero itself"
-    );
+    assert!(parse(&format!("{HEADER},temp\n{GOOD},-273.15\n")).is_ok(), "absolute zero itself");
     let msg = err(&format!("{HEADER},temp\n{GOOD},1e300\n"));
     assert_contains(&msg, &["line 2", "column temp"]);
     let msg = err(&format!("{HEADER},t\n{GOOD},-1\n"));
@@ -482,39 +381,18 @@ fn angle_unit_options() {
     let text = narrow_degrees();
     let msg = err(&text);
     assert_contains(&msg, &["look like radians", "--angles deg", "--angles rad"]);
-    let deg = parse_with(
-        &text,
-        &LoadOptions {
-            angles: AngleUnit::Deg,
-            ..Default::default()
-        },
-    )
-    .expect("degrees on request");
+    let deg = parse_with(&text, &LoadOptions { angles: AngleUnit::Deg, ..Default::default() }).expect("degrees on request");
     assert_eq!(deg.rows.len(), 12);
     assert_eq!(deg.rows[0].q_deg[0], -3.0);
-    let rad = parse_with(
-        &text,
-        &LoadOptions {
-            angles: AngleUnit::Rad,
-            ..Default::default()
-        },
-    )
-    .expect("radians converted");
+    let rad = parse_with(&text, &LoadOptions { angles: AngleUnit::Rad, ..Default::default() }).expect("radians converted");
     for (r, d) in rad.rows.iter().zip(&deg.rows) {
         for j in 0..6 {
             assert_eq!(r.q_deg[j], d.q_deg[j].to_degrees());
         }
     }
     // Radians beyond 720° after conversion are still refused, naming both values.
-    let msg = parse_with(
-        &format!("{HEADER}\n1,2,3,4,13,6,300\n"),
-        &LoadOptions {
-            angles: AngleUnit::Rad,
-            ..Default::default()
-        },
-    )
-    .expect_err("13 rad")
-    .to_string();
+    let msg =
+        parse_with(&format!("{HEADER}\n1,2,3,4,13,6,300\n"), &LoadOptions { angles: AngleUnit::Rad, ..Default::default() }).expect_err("13 rad").to_string();
     assert_contains(&msg, &["line 2", "column q5", "13 rad", "implausible"]);
     assert_eq!("DEG".parse::<AngleUnit>(), Ok(AngleUnit::Deg));
     assert_eq!("radians".parse::<AngleUnit>(), Ok(AngleUnit::Rad));
@@ -537,25 +415,15 @@ fn poses_without_length() {
     // Written without an L column, and read back the same.
     let out = ds.to_csv_string();
     assert_eq!(out, "q1,q2,q3,q4,q5,q6\n1,2,3,4,5,6\n7,8,9,10,11,12\n");
-    assert_eq!(
-        parse_with(&out, &LoadOptions::poses())
-            .expect("reload")
-            .rows,
-        ds.rows
-    );
+    assert_eq!(parse_with(&out, &LoadOptions::poses()).expect("reload").rows, ds.rows);
     // With an L column present it must still be filled and valid; q1..q6 stay required.
-    let with_l =
-        parse_with(&format!("{HEADER}\n{GOOD}\n"), &LoadOptions::poses()).expect("L given");
+    let with_l = parse_with(&format!("{HEADER}\n{GOOD}\n"), &LoadOptions::poses()).expect("L given");
     assert_eq!(with_l.rows[0].l_mm, Some(350.07));
     assert!(with_l.has_length());
     assert_eq!(with_l.lengths_mm().expect("lengths"), vec![350.07]);
-    let msg = parse_with(&format!("{HEADER}\n1,2,3,4,5,6,\n"), &LoadOptions::poses())
-        .expect_err("empty L")
-        .to_string();
+    let msg = parse_with(&format!("{HEADER}\n1,2,3,4,5,6,\n"), &LoadOptions::poses()).expect_err("empty L").to_string();
     assert_contains(&msg, &["line 2", "column L", "empty"]);
-    let msg = parse_with("q1,q2,q3,q5,q6\n1,2,3,5,6\n", &LoadOptions::poses())
-        .expect_err("q4")
-        .to_string();
+    let msg = parse_with("q1,q2,q3,q5,q6\n1,2,3,5,6\n", &LoadOptions::poses()).expect_err("q4").to_string();
     assert_contains(&msg, &["missing", "q4", "optional L"]);
 }
 
@@ -569,10 +437,7 @@ fn write_xlsx(path: &Path, shared: &[&str], dimension: &str, sheet_data: &str) {
     let mut zip = zip::ZipWriter::new(file);
     let opts = zip::write::SimpleFileOptions::default();
     const MAIN: &str = "http://schemas.openxmlformats.org/spreadsheetml/2006/main";
-    let sst: String = shared
-        .iter()
-        .map(|s| format!("<si><t>{s}</t></si>"))
-        .collect();
+    let sst: String = shared.iter().map(|s| format!("<si><t>{s}</t></si>")).collect();
     let files = [
         (
             "[Content_Types].xml",
@@ -626,15 +491,7 @@ fn header_and_rows(n: usize) -> String {
     for i in 0..n {
         let r = i + 2;
         xml += &format!(r#"<row r="{r}">"#);
-        let vals = [
-            i as f64,
-            -74.0,
-            220.0 + i as f64,
-            -166.0,
-            41.0,
-            65.0,
-            350.5 + i as f64,
-        ];
+        let vals = [i as f64, -74.0, 220.0 + i as f64, -166.0, 41.0, 65.0, 350.5 + i as f64];
         for (c, v) in vals.iter().enumerate() {
             xml += &format!(r#"<c r="{}{r}"><v>{v}</v></c>"#, col_name(c));
         }
@@ -674,9 +531,7 @@ fn xlsx_stray_cell_far_away_is_not_a_dense_allocation() {
     let path = dir.path().join("stray_in_column.xlsx");
     let data = header_and_rows(12) + r#"<row r="1048576"><c r="C1048576"><v>7</v></c></row>"#;
     write_xlsx(&path, &XLSX_HEADER, "A1:XFD1048576", &data);
-    let msg = Dataset::load(&path)
-        .expect_err("stray cell in q3")
-        .to_string();
+    let msg = Dataset::load(&path).expect_err("stray cell in q3").to_string();
     assert_contains(&msg, &["line 1048576", "column q1", "empty"]);
 
     // A header far to the right still reads (only filled cells are kept).
@@ -687,11 +542,7 @@ fn xlsx_stray_cell_far_away_is_not_a_dense_allocation() {
     }
     xml += r#"</row><row r="1048575">"#;
     for (k, c) in (16377..16384).enumerate() {
-        xml += &format!(
-            r#"<c r="{}1048575"><v>{}</v></c>"#,
-            col_name(c),
-            10 + k * 100
-        );
+        xml += &format!(r#"<c r="{}1048575"><v>{}</v></c>"#, col_name(c), 10 + k * 100);
     }
     xml += "</row>";
     write_xlsx(&path, &XLSX_HEADER, "A1:XFD1048576", &xml);
@@ -705,16 +556,10 @@ fn xlsx_missing_shared_string_is_an_error_not_a_panic() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("bad_sst.xlsx");
     // Header cell G1 points at shared string 99; only 7 exist.
-    let data = header_and_rows(2).replacen(
-        r#"<c r="G1" t="s"><v>6</v></c>"#,
-        r#"<c r="G1" t="s"><v>99</v></c>"#,
-        1,
-    );
+    let data = header_and_rows(2).replacen(r#"<c r="G1" t="s"><v>6</v></c>"#, r#"<c r="G1" t="s"><v>99</v></c>"#, 1);
     assert!(data.contains("<v>99</v>"));
     write_xlsx(&path, &XLSX_HEADER, "A1:G3", &data);
-    let msg = Dataset::load(&path)
-        .expect_err("missing shared string")
-        .to_string();
+    let msg = Dataset::load(&path).expect_err("missing shared string").to_string();
     assert_contains(&msg, &["bad_sst.xlsx", "malformed"]);
 }
 
@@ -723,57 +568,32 @@ fn files_that_are_not_spreadsheets() {
     let dir = tempfile::tempdir().expect("tempdir");
     let csv_named_xlsx = dir.path().join("pool.xlsx");
     std::fs::write(&csv_named_xlsx, format!("{HEADER}\n{GOOD}\n")).expect("write");
-    let msg = Dataset::load(&csv_named_xlsx)
-        .expect_err("csv text")
-        .to_string();
-    assert_contains(
-        &msg,
-        &[
-            "pool.xlsx",
-            "not a spreadsheet",
-            "looks like CSV text",
-            "rename it to .csv",
-        ],
-    );
+    let msg = Dataset::load(&csv_named_xlsx).expect_err("csv text").to_string();
+    assert_contains(&msg, &["pool.xlsx", "not a spreadsheet", "looks like CSV text", "rename it to .csv"]);
     assert!(!msg.contains("EOCD"), "{msg}");
 
     let empty = dir.path().join("empty.xlsx");
     std::fs::write(&empty, b"").expect("write");
-    assert_contains(
-        &Dataset::load(&empty).expect_err("empty").to_string(),
-        &["not a spreadsheet", "empty"],
-    );
+    assert_contains(&Dataset::load(&empty).expect_err("empty").to_string(), &["not a spreadsheet", "empty"]);
 
     let binary = dir.path().join("noise.ods");
     std::fs::write(&binary, [0u8, 159, 146, 150, 1, 2, 3]).expect("write");
-    assert_contains(
-        &Dataset::load(&binary).expect_err("binary").to_string(),
-        &["not a spreadsheet", "00 9f 92 96"],
-    );
+    assert_contains(&Dataset::load(&binary).expect_err("binary").to_string(), &["not a spreadsheet", "00 9f 92 96"]);
 
     // A zip that is not a workbook: calamine's own error, no panic.
     let zip_only = dir.path().join("archive.xlsx");
     {
         let mut z = zip::ZipWriter::new(std::fs::File::create(&zip_only).expect("create"));
-        z.start_file("readme.txt", zip::write::SimpleFileOptions::default())
-            .expect("entry");
+        z.start_file("readme.txt", zip::write::SimpleFileOptions::default()).expect("entry");
         std::io::Write::write_all(&mut z, b"hello").expect("write");
         z.finish().expect("finish");
     }
-    assert_contains(
-        &Dataset::load(&zip_only)
-            .expect_err("not a workbook")
-            .to_string(),
-        &["archive.xlsx", "cannot open spreadsheet"],
-    );
+    assert_contains(&Dataset::load(&zip_only).expect_err("not a workbook").to_string(), &["archive.xlsx", "cannot open spreadsheet"]);
 
     // An .xlsx saved as .xls.
     let xls = dir.path().join("renamed.xls");
     std::fs::copy(&zip_only, &xls).expect("copy");
-    assert_contains(
-        &Dataset::load(&xls).expect_err("zip as xls").to_string(),
-        &["rename it to .xlsx"],
-    );
+    assert_contains(&Dataset::load(&xls).expect_err("zip as xls").to_string(), &["rename it to .xlsx"]);
 }
 
 // ---- property tests ----------------------------------------------------------------------
@@ -792,17 +612,11 @@ fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
             None => assert!(!opts.require_length, "L missing although required"),
         }
         if let Some(t) = r.t_s {
-            assert!(
-                t.is_finite() && (0.0..=MAX_T_S).contains(&t) && t >= last_t,
-                "t = {t}"
-            );
+            assert!(t.is_finite() && (0.0..=MAX_T_S).contains(&t) && t >= last_t, "t = {t}");
             last_t = t;
         }
         if let Some(temp) = r.temp_c {
-            assert!(
-                temp.is_finite() && (MIN_TEMP_C..=MAX_TEMP_C).contains(&temp),
-                "temp = {temp}"
-            );
+            assert!(temp.is_finite() && (MIN_TEMP_C..=MAX_TEMP_C).contains(&temp), "temp = {temp}");
         }
     }
     // L is all or nothing, and so is the split.
@@ -813,23 +627,12 @@ fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
     }
     // What the writer writes reads back to the same rows (angles are degrees by now; optional
     // columns only some rows fill are not written).
-    let again = LoadOptions {
-        angles: AngleUnit::Deg,
-        ..*opts
-    };
+    let again = LoadOptions { angles: AngleUnit::Deg, ..*opts };
     let back = Dataset::from_csv_reader_with(ds.to_csv_string().as_bytes(), "again.csv", &again);
     let back = back.expect("a written dataset reloads");
     let all = |f: fn(&Row) -> bool| ds.rows.iter().all(f);
     let (has_t, has_temp) = (all(|r| r.t_s.is_some()), all(|r| r.temp_c.is_some()));
-    let expected: Vec<Row> = ds
-        .rows
-        .iter()
-        .map(|r| Row {
-            t_s: r.t_s.filter(|_| has_t),
-            temp_c: r.temp_c.filter(|_| has_temp),
-            ..r.clone()
-        })
-        .collect();
+    let expected: Vec<Row> = ds.rows.iter().map(|r| Row { t_s: r.t_s.filter(|_| has_t), temp_c: r.temp_c.filter(|_| has_temp), ..r.clone() }).collect();
     assert_eq!(back.rows, expected);
 }
 
@@ -838,18 +641,8 @@ mod props {
     use proptest::prelude::*;
 
     fn opts() -> impl Strategy<Value = LoadOptions> {
-        (
-            prop_oneof![
-                Just(AngleUnit::Auto),
-                Just(AngleUnit::Deg),
-                Just(AngleUnit::Rad)
-            ],
-            any::<bool>(),
-        )
-            .prop_map(|(angles, require_length)| LoadOptions {
-                angles,
-                require_length,
-            })
+        (prop_oneof![Just(AngleUnit::Auto), Just(AngleUnit::Deg), Just(AngleUnit::Rad)], any::<bool>())
+            .prop_map(|(angles, require_length)| LoadOptions { angles, require_length })
     }
 
     /// Numbers a spreadsheet or a CSV could hold, weighted towards the awkward ones.
@@ -878,44 +671,29 @@ mod props {
 
     /// A header: a random order of some known columns (sometimes duplicated) and strangers.
     fn header() -> impl Strategy<Value = Vec<String>> {
-        let names = [
-            "q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split", "note", "Q3", " l ",
-        ];
-        (
-            proptest::sample::subsequence(names.to_vec(), 5..=names.len()),
-            any::<u64>(),
-        )
-            .prop_map(|(mut h, seed)| {
-                // A deterministic shuffle from the seed.
-                let n = h.len();
-                let mut s = seed;
-                for i in (1..n).rev() {
-                    s = s
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    h.swap(i, (s >> 33) as usize % (i + 1));
-                }
-                h.into_iter().map(String::from).collect()
-            })
+        let names = ["q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split", "note", "Q3", " l "];
+        (proptest::sample::subsequence(names.to_vec(), 5..=names.len()), any::<u64>()).prop_map(|(mut h, seed)| {
+            // A deterministic shuffle from the seed.
+            let n = h.len();
+            let mut s = seed;
+            for i in (1..n).rev() {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                h.swap(i, (s >> 33) as usize % (i + 1));
+            }
+            h.into_iter().map(String::from).collect()
+        })
     }
 
     fn table() -> impl Strategy<Value = RawTable> {
         (header(), 1..14usize, any::<bool>()).prop_flat_map(|(header, n, decimal_comma)| {
             let w = header.len();
-            (
-                Just(header),
-                proptest::collection::vec(proptest::collection::vec(cell(), 0..=w + 1), n),
-                Just(decimal_comma),
-            )
-                .prop_map(|(header, rows, decimal_comma)| RawTable {
+            (Just(header), proptest::collection::vec(proptest::collection::vec(cell(), 0..=w + 1), n), Just(decimal_comma)).prop_map(
+                |(header, rows, decimal_comma)| RawTable {
                     header,
-                    rows: rows
-                        .into_iter()
-                        .enumerate()
-                        .map(|(i, cells)| RawRow { line: i + 2, cells })
-                        .collect(),
+                    rows: rows.into_iter().enumerate().map(|(i, cells)| RawRow { line: i + 2, cells }).collect(),
                     decimal_comma,
-                })
+                },
+            )
         })
     }
 
@@ -929,19 +707,14 @@ mod props {
             ],
             0..10,
         );
-        (
-            header(),
-            prop_oneof![Just(","), Just(";"), Just("\t")],
-            proptest::collection::vec(line, 0..12),
-        )
-            .prop_map(|(h, sep, lines)| {
-                let mut s = h.join(sep);
-                for l in lines {
-                    s.push('\n');
-                    s += &l.join(sep);
-                }
-                s
-            })
+        (header(), prop_oneof![Just(","), Just(";"), Just("\t")], proptest::collection::vec(line, 0..12)).prop_map(|(h, sep, lines)| {
+            let mut s = h.join(sep);
+            for l in lines {
+                s.push('\n');
+                s += &l.join(sep);
+            }
+            s
+        })
     }
 
     proptest! {

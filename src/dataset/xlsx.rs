@@ -30,9 +30,7 @@ type Sparse = BTreeMap<u32, Vec<(u32, Data)>>;
 pub(super) fn read_table(path: &Path, sheet: Option<&str>) -> Result<(RawTable, String)> {
     let file = path.display().to_string();
     check_magic(path, &file)?;
-    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        read_sparse(path, sheet, &file)
-    }));
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read_sparse(path, sheet, &file)));
     let (cells, source) = match read {
         Ok(r) => r?,
         Err(panic) => {
@@ -41,12 +39,7 @@ pub(super) fn read_table(path: &Path, sheet: Option<&str>) -> Result<(RawTable, 
                 .map(|s| s.to_string())
                 .or_else(|| panic.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown failure".into());
-            return Err(Error::data(
-                &file,
-                format!(
-                    "cannot read spreadsheet: the file is malformed (the reader failed: {what})"
-                ),
-            ));
+            return Err(Error::data(&file, format!("cannot read spreadsheet: the file is malformed (the reader failed: {what})")));
         }
     };
     Ok((to_table(cells, &source)?, source))
@@ -56,16 +49,10 @@ pub(super) fn read_table(path: &Path, sheet: Option<&str>) -> Result<(RawTable, 
 /// like instead (CSV text, the other spreadsheet family, nothing at all).
 fn check_magic(path: &Path, file: &str) -> Result<()> {
     let mut head = Vec::with_capacity(4096);
-    std::fs::File::open(path)
-        .and_then(|f| f.take(4096).read_to_end(&mut head))
-        .map_err(|e| Error::io(path, e))?;
+    std::fs::File::open(path).and_then(|f| f.take(4096).read_to_end(&mut head)).map_err(|e| Error::io(path, e))?;
     const ZIP: &[u8] = b"PK\x03\x04";
     const OLE: &[u8] = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1";
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     let expect_ole = ext == "xls";
     if (expect_ole && head.starts_with(OLE)) || (!expect_ole && head.starts_with(ZIP)) {
         return Ok(());
@@ -87,15 +74,9 @@ fn check_magic(path: &Path, file: &str) -> Result<()> {
         }
     } else {
         let hex: Vec<String> = head.iter().take(4).map(|b| format!("{b:02x}")).collect();
-        format!(
-            "it starts with bytes {} (an .{ext} file is a zip archive)",
-            hex.join(" ")
-        )
+        format!("it starts with bytes {} (an .{ext} file is a zip archive)", hex.join(" "))
     };
-    Err(Error::data(
-        file,
-        format!("the file is not a spreadsheet: {what}"),
-    ))
+    Err(Error::data(file, format!("the file is not a spreadsheet: {what}")))
 }
 
 /// No NUL byte and valid UTF-8 (an incomplete character at the cut is allowed).
@@ -109,36 +90,19 @@ fn looks_like_text(head: &[u8]) -> bool {
 
 /// Opens the workbook and collects the filled cells of the sheet.
 fn read_sparse(path: &Path, sheet: Option<&str>, file: &str) -> Result<(Sparse, String)> {
-    let mut workbook = calamine::open_workbook_auto(path)
-        .map_err(|e| Error::data(file, format!("cannot open spreadsheet: {e}")))?;
+    let mut workbook = calamine::open_workbook_auto(path).map_err(|e| Error::data(file, format!("cannot open spreadsheet: {e}")))?;
     let names = workbook.sheet_names();
     let name = match sheet {
         Some(wanted) => names
             .iter()
             .find(|n| n.as_str() == wanted)
             .cloned()
-            .ok_or_else(|| {
-                Error::data(
-                    file,
-                    format!(
-                        "no sheet named '{wanted}'; sheets found: {}",
-                        names.join(", ")
-                    ),
-                )
-            })?,
-        None => names
-            .first()
-            .cloned()
-            .ok_or_else(|| Error::data(file, "workbook has no sheets"))?,
+            .ok_or_else(|| Error::data(file, format!("no sheet named '{wanted}'; sheets found: {}", names.join(", "))))?,
+        None => names.first().cloned().ok_or_else(|| Error::data(file, "workbook has no sheets"))?,
     };
     let source = format!("{file}#{name}");
-    let cannot =
-        |e: &dyn std::fmt::Display| Error::data(&source, format!("cannot read sheet: {e}"));
-    let mut cells = Collector {
-        cells: Sparse::new(),
-        count: 0,
-        source: &source,
-    };
+    let cannot = |e: &dyn std::fmt::Display| Error::data(&source, format!("cannot read sheet: {e}"));
+    let mut cells = Collector { cells: Sparse::new(), count: 0, source: &source };
     match &mut workbook {
         calamine::Sheets::Xlsx(x) => {
             let mut r = x.worksheet_cells_reader(&name).map_err(|e| cannot(&e))?;
@@ -176,12 +140,7 @@ impl Collector<'_> {
         }
         self.count += 1;
         if self.count > MAX_SHEET_CELLS {
-            return Err(Error::data(
-                self.source,
-                format!(
-                    "sheet has more than {MAX_SHEET_CELLS} filled cells; a dataset is far smaller"
-                ),
-            ));
+            return Err(Error::data(self.source, format!("sheet has more than {MAX_SHEET_CELLS} filled cells; a dataset is far smaller")));
         }
         self.cells.entry(row).or_default().push((col, v));
         Ok(())
@@ -191,43 +150,24 @@ impl Collector<'_> {
 /// The header (first filled row) and data rows, each only as wide as needed.
 fn to_table(cells: Sparse, source: &str) -> Result<RawTable> {
     let mut rows = cells.into_iter();
-    let (_, header_cells) = rows.next().ok_or_else(|| {
-        Error::data(
-            source,
-            "sheet is empty: expected a header row with q1..q6 and L, then data rows",
-        )
-    })?;
-    let width = header_cells
-        .iter()
-        .map(|(c, _)| *c as usize + 1)
-        .max()
-        .unwrap_or(0);
+    let (_, header_cells) = rows.next().ok_or_else(|| Error::data(source, "sheet is empty: expected a header row with q1..q6 and L, then data rows"))?;
+    let width = header_cells.iter().map(|(c, _)| *c as usize + 1).max().unwrap_or(0);
     let mut header = vec![String::new(); width];
     for (c, v) in &header_cells {
         header[*c as usize] = v.to_string().trim().to_owned();
     }
     let rows = rows
         .filter_map(|(r, filled)| {
-            let inside: Vec<&(u32, Data)> = filled
-                .iter()
-                .filter(|(c, _)| (*c as usize) < width)
-                .collect();
+            let inside: Vec<&(u32, Data)> = filled.iter().filter(|(c, _)| (*c as usize) < width).collect();
             let len = inside.iter().map(|(c, _)| *c as usize + 1).max()?;
             let mut out = vec![Cell::Empty; len];
             for (c, v) in inside {
                 out[*c as usize] = cell(v);
             }
-            Some(RawRow {
-                line: r as usize + 1,
-                cells: out,
-            })
+            Some(RawRow { line: r as usize + 1, cells: out })
         })
         .collect();
-    Ok(RawTable {
-        header,
-        rows,
-        decimal_comma: false,
-    })
+    Ok(RawTable { header, rows, decimal_comma: false })
 }
 
 fn is_blank(d: &Data) -> bool {

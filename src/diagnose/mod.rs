@@ -261,10 +261,8 @@ fn screen_outliers(model: &CalibModel, x0: &[f64], all: &Samples, k: f64, rank_t
         if !(sigma > 0.0) {
             break;
         }
-        flagged = (0..n)
-            .filter(|&i| (r[i] - med).abs() > k * sigma)
-            .map(|i| Outlier { row: i + 1, residual_mm: r[i], robust_z: (r[i] - med) / sigma })
-            .collect();
+        flagged =
+            (0..n).filter(|&i| (r[i] - med).abs() > k * sigma).map(|i| Outlier { row: i + 1, residual_mm: r[i], robust_z: (r[i] - med) / sigma }).collect();
         let new_keep: Vec<usize> = (0..n).filter(|i| !flagged.iter().any(|o| o.row == i + 1)).collect();
         if new_keep == keep {
             break;
@@ -428,7 +426,13 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
                 x0.extend_from_slice(&m.nominal[current.x.len()..]);
                 let f = ctx.evaluate(m, &x0);
                 let p = (gain_p_value(&current.oof, &f.oof) * remaining.len() as f64).min(1.0);
-                let c = Candidate { cause: b.kind.name().into(), joint: b.joint.map(|j| j + 1), heldout_rmse_mm: rms(&f.oof), p_value: p, seconds: tc.elapsed().as_secs_f64() };
+                let c = Candidate {
+                    cause: b.kind.name().into(),
+                    joint: b.joint.map(|j| j + 1),
+                    heldout_rmse_mm: rms(&f.oof),
+                    p_value: p,
+                    seconds: tc.elapsed().as_secs_f64(),
+                };
                 (c, f)
             })
             .collect();
@@ -490,10 +494,16 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         }
     };
     let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
-    let effects_option = current.model.effects.iter().map(|e| match e.joint {
-        Some(j) => format!("{}:{}", e.kind.name(), j + 1),
-        None => e.kind.name().to_string(),
-    }).collect::<Vec<_>>().join(",");
+    let effects_option = current
+        .model
+        .effects
+        .iter()
+        .map(|e| match e.joint {
+            Some(j) => format!("{}:{}", e.kind.name(), j + 1),
+            None => e.kind.name().to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join(",");
 
     // The extended model, saved like any calibration result.
     let mut copts = CalibOptions::new(opts.model.clone(), Method::Lm);
@@ -514,7 +524,18 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         baseline: Baseline { model: base.name.clone(), heldout_rmse_mm: rms(&baseline.oof), train_rmse_mm: rms(&base_in) },
         evidence,
         steps,
-        verdict: if causes.is_empty() { "geometric_only".into() } else { causes.iter().map(|c| match c.joint { Some(j) => format!("{}[j{j}]", c.cause), None => c.cause.clone() }).collect::<Vec<_>>().join(" + ") },
+        verdict: if causes.is_empty() {
+            "geometric_only".into()
+        } else {
+            causes
+                .iter()
+                .map(|c| match c.joint {
+                    Some(j) => format!("{}[j{j}]", c.cause),
+                    None => c.cause.clone(),
+                })
+                .collect::<Vec<_>>()
+                .join(" + ")
+        },
         causes,
         final_heldout_rmse_mm: rms(&current.oof),
         comparison,

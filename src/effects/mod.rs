@@ -74,12 +74,7 @@ impl Thermal {
     }
     /// Joint zero shift of joint `j` at time `t`, radians.
     pub fn zero_shift_rad(&self, j: usize, t: f64) -> f64 {
-        self.zero_drift_deg_per_k
-            .get(j)
-            .copied()
-            .unwrap_or(0.0)
-            .to_radians()
-            * self.delta_t(t)
+        self.zero_drift_deg_per_k.get(j).copied().unwrap_or(0.0).to_radians() * self.delta_t(t)
     }
 }
 
@@ -109,24 +104,15 @@ pub struct Effects {
 impl Effects {
     /// Whether the joints can move at all under load (otherwise the arm is rigid).
     pub fn joints_yield(&self) -> bool {
-        self.compliance.is_some()
-            || self
-                .backlash
-                .as_ref()
-                .is_some_and(|b| b.width_deg.iter().any(|w| *w > 0.0))
+        self.compliance.is_some() || self.backlash.as_ref().is_some_and(|b| b.width_deg.iter().any(|w| *w > 0.0))
     }
     pub fn validate(&self, n_joints: usize) -> Result<(), String> {
         if let Some(c) = &self.compliance {
             if c.stiffness_nm_per_rad.len() != n_joints {
                 return Err(format!("effects.compliance.stiffness_nm_per_rad has {} values, the robot has {n_joints} joints", c.stiffness_nm_per_rad.len()));
             }
-            if c.stiffness_nm_per_rad
-                .iter()
-                .any(|k| !(k.is_finite() && *k > 0.0))
-            {
-                return Err(
-                    "effects.compliance.stiffness_nm_per_rad must be finite and > 0".into(),
-                );
+            if c.stiffness_nm_per_rad.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
+                return Err("effects.compliance.stiffness_nm_per_rad must be finite and > 0".into());
             }
             if let Some(d) = &c.damping_nms_per_rad {
                 if d.len() != n_joints || d.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
@@ -136,15 +122,9 @@ impl Effects {
         }
         if let Some(b) = &self.backlash {
             if b.width_deg.len() != n_joints {
-                return Err(format!(
-                    "effects.backlash.width_deg has {} values, the robot has {n_joints} joints",
-                    b.width_deg.len()
-                ));
+                return Err(format!("effects.backlash.width_deg has {} values, the robot has {n_joints} joints", b.width_deg.len()));
             }
-            if b.width_deg
-                .iter()
-                .any(|w| !(w.is_finite() && *w >= 0.0 && *w < 5.0))
-            {
+            if b.width_deg.iter().any(|w| !(w.is_finite() && *w >= 0.0 && *w < 5.0)) {
                 return Err("effects.backlash.width_deg must be in [0, 5) degrees".into());
             }
             if !(b.breakaway_nm.is_finite() && b.breakaway_nm >= 0.0) {
@@ -152,27 +132,16 @@ impl Effects {
             }
         }
         if let Some(t) = &self.thermal {
-            let ok = [
-                t.alpha_per_k,
-                t.delta_t_max_k,
-                t.time_constant_s,
-                t.ambient_c,
-            ]
-            .iter()
-            .all(|v| v.is_finite());
+            let ok = [t.alpha_per_k, t.delta_t_max_k, t.time_constant_s, t.ambient_c].iter().all(|v| v.is_finite());
             if !ok || t.time_constant_s < 0.0 || t.alpha_per_k.abs() > 1e-3 {
                 return Err("effects.thermal: values must be finite, time_constant_s >= 0, |alpha_per_k| <= 1e-3".into());
             }
             if !t.zero_drift_deg_per_k.is_empty() && t.zero_drift_deg_per_k.len() != n_joints {
-                return Err(format!(
-                    "effects.thermal.zero_drift_deg_per_k needs {n_joints} values"
-                ));
+                return Err(format!("effects.thermal.zero_drift_deg_per_k needs {n_joints} values"));
             }
         }
         if let Some(p) = &self.payload {
-            if !(p.mass_kg.is_finite() && p.mass_kg >= 0.0)
-                || p.com_mm.iter().any(|v| !v.is_finite())
-            {
+            if !(p.mass_kg.is_finite() && p.mass_kg >= 0.0) || p.com_mm.iter().any(|v| !v.is_finite()) {
                 return Err("effects.payload: mass_kg must be >= 0 and com_mm finite".into());
             }
         }

@@ -54,11 +54,7 @@ impl LoadModel {
         LoadModel {
             gravity: Vector3::new(0.0, 0.0, -GRAVITY),
             links: robot.links.iter().map(|l| (l.mass, l.com)).collect(),
-            payload: effects
-                .payload
-                .as_ref()
-                .filter(|p| p.mass_kg > 0.0)
-                .map(|p| (p.mass_kg, Vector3::from(p.com_mm) * 1e-3)),
+            payload: effects.payload.as_ref().filter(|p| p.mass_kg > 0.0).map(|p| (p.mass_kg, Vector3::from(p.com_mm) * 1e-3)),
             cable,
         }
     }
@@ -168,15 +164,7 @@ pub struct Equilibrium {
 
 /// Solves the quasi-static equilibrium by fixed-point iteration on the deflections.
 /// `q_cmd` are the commanded angles (rad), `sides` the approach flanks (±1).
-pub fn equilibrium(
-    chain: &Chain,
-    params: &[f64],
-    scale: f64,
-    q_cmd: &[f64],
-    load: &LoadModel,
-    trans: Option<&Transmission>,
-    sides: &[f64],
-) -> Equilibrium {
+pub fn equilibrium(chain: &Chain, params: &[f64], scale: f64, q_cmd: &[f64], load: &LoadModel, trans: Option<&Transmission>, sides: &[f64]) -> Equilibrium {
     let n = chain.n_joints;
     let mut ws = FkWork::new(chain);
     let mut jac = PointJacobian::new(chain);

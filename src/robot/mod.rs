@@ -24,11 +24,7 @@ pub struct Inertial {
 
 impl Inertial {
     pub fn zero() -> Self {
-        Inertial {
-            mass: 0.0,
-            com: Vector3::zeros(),
-            inertia: Matrix3::zeros(),
-        }
+        Inertial { mass: 0.0, com: Vector3::zeros(), inertia: Matrix3::zeros() }
     }
     /// Combines two bodies given in the same frame (parallel-axis theorem).
     pub fn combine(&self, other: &Inertial) -> Inertial {
@@ -41,19 +37,11 @@ impl Inertial {
             let d = i.com - com;
             i.inertia + (Matrix3::identity() * d.dot(&d) - d * d.transpose()) * i.mass
         };
-        Inertial {
-            mass: m,
-            com,
-            inertia: shift(self) + shift(other),
-        }
+        Inertial { mass: m, com, inertia: shift(self) + shift(other) }
     }
     /// Expresses this body in a parent frame where the body's frame is `f`.
     pub fn transformed(&self, f: &Frame) -> Inertial {
-        Inertial {
-            mass: self.mass,
-            com: f.point(&self.com),
-            inertia: f.rot * self.inertia * f.rot.transpose(),
-        }
+        Inertial { mass: self.mass, com: f.point(&self.com), inertia: f.rot * self.inertia * f.rot.transpose() }
     }
 }
 
@@ -93,10 +81,7 @@ pub const PARAMS_PER_JOINT: usize = 7;
 pub const PARAM_SUFFIXES: [&str; PARAMS_PER_JOINT] = ["dx", "dy", "dz", "rx", "ry", "rz", "dtheta"];
 
 fn frame_from_xyz_rpy(xyz: &[f64; 3], rpy: &[f64; 3]) -> Frame {
-    Frame {
-        rot: *Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]).matrix(),
-        pos: Vector3::new(xyz[0], xyz[1], xyz[2]),
-    }
+    Frame { rot: *Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]).matrix(), pos: Vector3::new(xyz[0], xyz[1], xyz[2]) }
 }
 
 /// Refuses a link whose inertial data are not finite, whose mass is negative or whose principal
@@ -106,20 +91,11 @@ fn check_inertial(link: &urdf_rs::Link) -> std::result::Result<(), String> {
     let name = &link.name;
     let m = i.mass.value;
     if !(m.is_finite() && m >= 0.0) {
-        return Err(format!(
-            "link '{name}' has mass {m}; it must be finite and >= 0"
-        ));
+        return Err(format!("link '{name}' has mass {m}; it must be finite and >= 0"));
     }
     let t = &i.inertia;
     // (name, value, is a principal moment)
-    let terms = [
-        ("ixx", t.ixx, true),
-        ("iyy", t.iyy, true),
-        ("izz", t.izz, true),
-        ("ixy", t.ixy, false),
-        ("ixz", t.ixz, false),
-        ("iyz", t.iyz, false),
-    ];
+    let terms = [("ixx", t.ixx, true), ("iyy", t.iyy, true), ("izz", t.izz, true), ("ixy", t.ixy, false), ("ixz", t.ixz, false), ("iyz", t.iyz, false)];
     for (k, v, principal) in terms {
         if !v.is_finite() || (principal && v < 0.0) {
             return Err(format!(
@@ -128,13 +104,7 @@ fn check_inertial(link: &urdf_rs::Link) -> std::result::Result<(), String> {
             ));
         }
     }
-    if i.origin
-        .xyz
-        .0
-        .iter()
-        .chain(&i.origin.rpy.0)
-        .any(|v| !v.is_finite())
-    {
+    if i.origin.xyz.0.iter().chain(&i.origin.rpy.0).any(|v| !v.is_finite()) {
         return Err(format!("link '{name}' has a non-finite inertial origin"));
     }
     Ok(())
@@ -144,21 +114,14 @@ fn inertial_of(link: &urdf_rs::Link) -> Inertial {
     let i = &link.inertial;
     let f = frame_from_xyz_rpy(&i.origin.xyz.0, &i.origin.rpy.0);
     let t = &i.inertia;
-    let local = Matrix3::new(
-        t.ixx, t.ixy, t.ixz, t.ixy, t.iyy, t.iyz, t.ixz, t.iyz, t.izz,
-    );
-    Inertial {
-        mass: i.mass.value,
-        com: f.pos,
-        inertia: f.rot * local * f.rot.transpose(),
-    }
+    let local = Matrix3::new(t.ixx, t.ixy, t.ixz, t.ixy, t.iyy, t.iyz, t.ixz, t.iyz, t.izz);
+    Inertial { mass: i.mass.value, com: f.pos, inertia: f.rot * local * f.rot.transpose() }
 }
 
 impl Robot {
     /// The IRB 120 shipped with twincal.
     pub fn irb120() -> Robot {
-        Robot::from_urdf_str(IRB120_URDF, "urdf/irb120.urdf (embedded)")
-            .expect("embedded URDF is valid")
+        Robot::from_urdf_str(IRB120_URDF, "urdf/irb120.urdf (embedded)").expect("embedded URDF is valid")
     }
 
     pub fn from_urdf_file(path: &Path) -> Result<Robot> {
@@ -168,49 +131,25 @@ impl Robot {
 
     /// Parses a URDF and extracts the serial chain of revolute joints from the root link.
     pub fn from_urdf_str(text: &str, origin: &str) -> Result<Robot> {
-        let err = |msg: String| Error::Urdf {
-            path: origin.to_string(),
-            msg,
-        };
-        let urdf =
-            urdf_rs::read_from_string(text).map_err(|e| err(format!("cannot parse: {e}")))?;
+        let err = |msg: String| Error::Urdf { path: origin.to_string(), msg };
+        let urdf = urdf_rs::read_from_string(text).map_err(|e| err(format!("cannot parse: {e}")))?;
         for link in &urdf.links {
             check_inertial(link).map_err(err)?;
         }
         let mut parents: std::collections::HashMap<&str, &str> = std::collections::HashMap::new();
         for j in &urdf.joints {
             if let Some(other) = parents.insert(j.child.link.as_str(), j.name.as_str()) {
-                return Err(err(format!(
-                    "link '{}' is the child of two joints ('{other}' and '{}'): not a tree",
-                    j.child.link, j.name
-                )));
+                return Err(err(format!("link '{}' is the child of two joints ('{other}' and '{}'): not a tree", j.child.link, j.name)));
             }
             let o = &j.origin;
-            if o.xyz
-                .0
-                .iter()
-                .chain(&o.rpy.0)
-                .chain(&j.axis.xyz.0)
-                .any(|v| !v.is_finite())
-            {
-                return Err(err(format!(
-                    "joint '{}' has a non-finite origin or axis",
-                    j.name
-                )));
+            if o.xyz.0.iter().chain(&o.rpy.0).chain(&j.axis.xyz.0).any(|v| !v.is_finite()) {
+                return Err(err(format!("joint '{}' has a non-finite origin or axis", j.name)));
             }
         }
-        let children: std::collections::HashSet<&str> =
-            urdf.joints.iter().map(|j| j.child.link.as_str()).collect();
-        let roots: Vec<&urdf_rs::Link> = urdf
-            .links
-            .iter()
-            .filter(|l| !children.contains(l.name.as_str()))
-            .collect();
+        let children: std::collections::HashSet<&str> = urdf.joints.iter().map(|j| j.child.link.as_str()).collect();
+        let roots: Vec<&urdf_rs::Link> = urdf.links.iter().filter(|l| !children.contains(l.name.as_str())).collect();
         if roots.len() != 1 {
-            return Err(err(format!(
-                "expected exactly one root link, found {}",
-                roots.len()
-            )));
+            return Err(err(format!("expected exactly one root link, found {}", roots.len())));
         }
         let base = roots[0].name.clone();
         let link_by_name = |n: &str| urdf.links.iter().find(|l| l.name == n);
@@ -227,25 +166,13 @@ impl Robot {
         let mut visited: std::collections::HashSet<String> = std::collections::HashSet::new();
         loop {
             if !visited.insert(current.clone()) {
-                return Err(err(format!(
-                    "the joints form a cycle through link '{current}'"
-                )));
+                return Err(err(format!("the joints form a cycle through link '{current}'")));
             }
-            let outgoing: Vec<&urdf_rs::Joint> = urdf
-                .joints
-                .iter()
-                .filter(|j| j.parent.link == current)
-                .collect();
+            let outgoing: Vec<&urdf_rs::Joint> = urdf.joints.iter().filter(|j| j.parent.link == current).collect();
             // Branches made only of fixed joints to inertia-free links (frames like tool0) are allowed.
-            let moving: Vec<&&urdf_rs::Joint> = outgoing
-                .iter()
-                .filter(|j| j.joint_type != urdf_rs::JointType::Fixed)
-                .collect();
+            let moving: Vec<&&urdf_rs::Joint> = outgoing.iter().filter(|j| j.joint_type != urdf_rs::JointType::Fixed).collect();
             let next = if moving.len() > 1 {
-                return Err(err(format!(
-                    "link '{current}' has {} moving child joints: not a serial arm",
-                    moving.len()
-                )));
+                return Err(err(format!("link '{current}' has {} moving child joints: not a serial arm", moving.len())));
             } else if let Some(j) = moving.first() {
                 Some(**j)
             } else if outgoing.len() == 1 {
@@ -254,17 +181,11 @@ impl Robot {
                 None
             } else {
                 // Several fixed children and no moving one: follow a link named like a flange, else the first.
-                outgoing
-                    .iter()
-                    .find(|j| j.child.link.contains("flange"))
-                    .copied()
-                    .or(outgoing.first().copied())
+                outgoing.iter().find(|j| j.child.link.contains("flange")).copied().or(outgoing.first().copied())
             };
             let Some(j) = next else { break };
             let origin = frame_from_xyz_rpy(&j.origin.xyz.0, &j.origin.rpy.0);
-            let child_inertial = link_by_name(&j.child.link)
-                .map(inertial_of)
-                .unwrap_or(Inertial::zero());
+            let child_inertial = link_by_name(&j.child.link).map(inertial_of).unwrap_or(Inertial::zero());
             match &j.joint_type {
                 urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
                     let axis = Vector3::from(j.axis.xyz.0);
@@ -272,25 +193,18 @@ impl Robot {
                         return Err(err(format!("joint '{}' has a zero axis", j.name)));
                     }
                     let full = pending.compose(&origin);
-                    let (roll, pitch, yaw) =
-                        Rotation3::from_matrix_unchecked(full.rot).euler_angles();
+                    let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(full.rot).euler_angles();
                     let (lower, upper) = if j.joint_type == urdf_rs::JointType::Continuous {
                         (-std::f64::consts::PI, std::f64::consts::PI)
                     } else {
                         (j.limit.lower, j.limit.upper)
                     };
                     if !(lower.is_finite() && upper.is_finite() && lower < upper) {
-                        return Err(err(format!(
-                            "joint '{}' has invalid limits [{lower}, {upper}]",
-                            j.name
-                        )));
+                        return Err(err(format!("joint '{}' has invalid limits [{lower}, {upper}]", j.name)));
                     }
                     let v = j.limit.velocity;
                     if !(v.is_finite() && v >= 0.0) {
-                        return Err(err(format!(
-                            "joint '{}' has velocity limit {v}; it must be finite and >= 0",
-                            j.name
-                        )));
+                        return Err(err(format!("joint '{}' has velocity limit {v}; it must be finite and >= 0", j.name)));
                     }
                     joints.push(JointSpec {
                         name: j.name.clone(),
@@ -331,14 +245,7 @@ impl Robot {
         if joints.is_empty() {
             return Err(err("no revolute joints found".into()));
         }
-        Ok(Robot {
-            name: urdf.name,
-            base_link: base,
-            joints,
-            links,
-            flange_name,
-            flange,
-        })
+        Ok(Robot { name: urdf.name, base_link: base, joints, links, flange_name, flange })
     }
 
     pub fn dof(&self) -> usize {
@@ -347,14 +254,7 @@ impl Robot {
 
     /// Names of the geometric error parameters: `<joint>.<dx|dy|dz|rx|ry|rz|dtheta>`.
     pub fn param_names(&self) -> Vec<String> {
-        self.joints
-            .iter()
-            .flat_map(|j| {
-                PARAM_SUFFIXES
-                    .iter()
-                    .map(move |s| format!("{}.{s}", j.name))
-            })
-            .collect()
+        self.joints.iter().flat_map(|j| PARAM_SUFFIXES.iter().map(move |s| format!("{}.{s}", j.name))).collect()
     }
 
     /// The kinematic chain with per-joint frame errors: for joint `j`, the origin translation
@@ -364,10 +264,7 @@ impl Robot {
         let mut b = ChainBuilder::new();
         let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
         for j in &self.joints {
-            let idx: Vec<usize> = PARAM_SUFFIXES
-                .iter()
-                .map(|s| b.param(format!("{}.{s}", j.name)))
-                .collect();
+            let idx: Vec<usize> = PARAM_SUFFIXES.iter().map(|s| b.param(format!("{}.{s}", j.name))).collect();
             b.trans(x, j.origin_xyz.x, Some(idx[0]), true);
             b.trans(y, j.origin_xyz.y, Some(idx[1]), true);
             b.trans(z, j.origin_xyz.z, Some(idx[2]), true);
@@ -416,9 +313,7 @@ mod tests {
         let bad = r#"<robot name="x"><link name="a"/><link name="b"/>
             <joint name="j" type="prismatic"><parent link="a"/><child link="b"/><axis xyz="1 0 0"/>
             <limit lower="0" upper="1" effort="0" velocity="1"/></joint></robot>"#;
-        let e = Robot::from_urdf_str(bad, "bad.urdf")
-            .unwrap_err()
-            .to_string();
+        let e = Robot::from_urdf_str(bad, "bad.urdf").unwrap_err().to_string();
         assert!(e.contains("prismatic") || e.contains("Prismatic"), "{e}");
     }
 
@@ -451,19 +346,10 @@ mod tests {
             revolute("j3", "b", "c"),
             revolute("j4", "c", "a"),
         );
-        let e = Robot::from_urdf_str(&text, "loop.urdf")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("loop.urdf") && e.contains("link 'a'") && e.contains("not a tree"),
-            "{e}"
-        );
+        let e = Robot::from_urdf_str(&text, "loop.urdf").unwrap_err().to_string();
+        assert!(e.contains("loop.urdf") && e.contains("link 'a'") && e.contains("not a tree"), "{e}");
         // A cycle of fixed joints only, reached from the root, is caught by the walk itself.
-        let fixed = |n: &str, p: &str, c: &str| {
-            format!(
-                r#"<joint name="{n}" type="fixed"><parent link="{p}"/><child link="{c}"/></joint>"#
-            )
-        };
+        let fixed = |n: &str, p: &str, c: &str| format!(r#"<joint name="{n}" type="fixed"><parent link="{p}"/><child link="{c}"/></joint>"#);
         let text = format!(
             r#"<robot name="loop2">{}{}{}{}{}{}</robot>"#,
             link("base", "1", "0.01"),
@@ -473,46 +359,21 @@ mod tests {
             fixed("f1", "a", "b"),
             fixed("f2", "b", "a"),
         );
-        let e = Robot::from_urdf_str(&text, "loop2.urdf")
-            .unwrap_err()
-            .to_string();
+        let e = Robot::from_urdf_str(&text, "loop2.urdf").unwrap_err().to_string();
         assert!(e.contains("not a tree") || e.contains("cycle"), "{e}");
     }
 
     #[test]
     fn non_physical_mass_or_inertia_is_refused_naming_the_link() {
-        for (mass, ixx, what) in [
-            ("NaN", "0.01", "mass"),
-            ("-2", "0.01", "mass"),
-            ("inf", "0.01", "mass"),
-            ("1", "NaN", "ixx"),
-            ("1", "-0.5", "ixx"),
-            ("1", "inf", "ixx"),
-        ] {
-            let text = format!(
-                r#"<robot name="r">{}{}{}</robot>"#,
-                link("base", "1", "0.01"),
-                link("arm", mass, ixx),
-                revolute("j1", "base", "arm"),
-            );
-            let e = Robot::from_urdf_str(&text, "m.urdf")
-                .unwrap_err()
-                .to_string();
-            assert!(
-                e.contains("m.urdf") && e.contains("link 'arm'") && e.contains(what),
-                "{mass} {ixx}: {e}"
-            );
+        for (mass, ixx, what) in
+            [("NaN", "0.01", "mass"), ("-2", "0.01", "mass"), ("inf", "0.01", "mass"), ("1", "NaN", "ixx"), ("1", "-0.5", "ixx"), ("1", "inf", "ixx")]
+        {
+            let text = format!(r#"<robot name="r">{}{}{}</robot>"#, link("base", "1", "0.01"), link("arm", mass, ixx), revolute("j1", "base", "arm"),);
+            let e = Robot::from_urdf_str(&text, "m.urdf").unwrap_err().to_string();
+            assert!(e.contains("m.urdf") && e.contains("link 'arm'") && e.contains(what), "{mass} {ixx}: {e}");
         }
         // The same robot with sane values loads.
-        let ok = format!(
-            r#"<robot name="r">{}{}{}</robot>"#,
-            link("base", "1", "0.01"),
-            link("arm", "1", "0.01"),
-            revolute("j1", "base", "arm"),
-        );
-        assert_eq!(
-            Robot::from_urdf_str(&ok, "ok.urdf").expect("loads").dof(),
-            1
-        );
+        let ok = format!(r#"<robot name="r">{}{}{}</robot>"#, link("base", "1", "0.01"), link("arm", "1", "0.01"), revolute("j1", "base", "arm"),);
+        assert_eq!(Robot::from_urdf_str(&ok, "ok.urdf").expect("loads").dof(), 1);
     }
 }

@@ -64,11 +64,7 @@ pub struct OutOfRange {
 
 impl std::fmt::Display for OutOfRange {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "cable length {:.3} mm is outside the sensor range [{}, {}] mm",
-            self.value_mm, self.range_mm[0], self.range_mm[1]
-        )
+        write!(f, "cable length {:.3} mm is outside the sensor range [{}, {}] mm", self.value_mm, self.range_mm[0], self.range_mm[1])
     }
 }
 
@@ -88,11 +84,7 @@ impl DrawWire {
 
     /// Checks every value, naming the key (`sensor.<key>`) of the first bad one.
     pub fn validate(&self) -> Result<(), String> {
-        let arrays = [
-            ("exit_point_mm", &self.exit_point_mm[..]),
-            ("tool_point_mm", &self.tool_point_mm[..]),
-            ("range_mm", &self.range_mm[..]),
-        ];
+        let arrays = [("exit_point_mm", &self.exit_point_mm[..]), ("tool_point_mm", &self.tool_point_mm[..]), ("range_mm", &self.range_mm[..])];
         for (key, v) in arrays {
             if v.iter().any(|x| !x.is_finite()) {
                 return Err(format!("sensor.{key} must be finite, got {v:?}"));
@@ -113,17 +105,11 @@ impl DrawWire {
             }
         }
         if self.range_mm[0] >= self.range_mm[1] {
-            return Err(format!(
-                "sensor.range_mm must be [min, max] with min < max, got {:?}",
-                self.range_mm
-            ));
+            return Err(format!("sensor.range_mm must be [min, max] with min < max, got {:?}", self.range_mm));
         }
         let width = self.range_mm[1] - self.range_mm[0];
         let limit = MAX_FRACTION_OF_RANGE * width;
-        for (key, v) in [
-            ("noise_std_mm", self.noise_std_mm),
-            ("resolution_mm", self.resolution_mm),
-        ] {
+        for (key, v) in [("noise_std_mm", self.noise_std_mm), ("resolution_mm", self.resolution_mm)] {
             if !(0.0..=limit).contains(&v) {
                 return Err(format!(
                     "sensor.{key} = {v} must be in [0, {limit}] mm (at most {} % of the range \
@@ -133,35 +119,20 @@ impl DrawWire {
             }
         }
         if self.tension_n < 0.0 {
-            return Err(format!(
-                "sensor.tension_n must be >= 0, got {}",
-                self.tension_n
-            ));
+            return Err(format!("sensor.tension_n must be >= 0, got {}", self.tension_n));
         }
         if !(0.0..=MAX_HOLD_S).contains(&self.hold_s) {
-            return Err(format!(
-                "sensor.hold_s = {} must be in [0, {MAX_HOLD_S}] s",
-                self.hold_s
-            ));
+            return Err(format!("sensor.hold_s = {} must be in [0, {MAX_HOLD_S}] s", self.hold_s));
         }
         if !(1..=MAX_SAMPLES).contains(&self.samples) {
-            return Err(format!(
-                "sensor.samples = {} must be in 1..={MAX_SAMPLES}",
-                self.samples
-            ));
+            return Err(format!("sensor.samples = {} must be in 1..={MAX_SAMPLES}", self.samples));
         }
         let [lo, hi] = RATE_HZ_RANGE;
         if !(lo..=hi).contains(&self.rate_hz) {
-            return Err(format!(
-                "sensor.rate_hz = {} must be in [{lo}, {hi}] Hz",
-                self.rate_hz
-            ));
+            return Err(format!("sensor.rate_hz = {} must be in [{lo}, {hi}] Hz", self.rate_hz));
         }
         if self.linearity_pct_fs.abs() > 5.0 {
-            return Err(format!(
-                "sensor.linearity_pct_fs = {} must be within ±5 %",
-                self.linearity_pct_fs
-            ));
+            return Err(format!("sensor.linearity_pct_fs = {} must be within ±5 %", self.linearity_pct_fs));
         }
         Ok(())
     }
@@ -196,11 +167,7 @@ impl DrawWire {
 
     /// The cable's pull on the tool, for the statics and the simulation.
     pub fn cable_load(&self) -> Option<CableLoad> {
-        (self.tension_n > 0.0).then(|| CableLoad {
-            exit_point: self.exit_point_m(),
-            tool_point: self.tool_point_m(),
-            tension: self.tension_n,
-        })
+        (self.tension_n > 0.0).then(|| CableLoad { exit_point: self.exit_point_m(), tool_point: self.tool_point_m(), tension: self.tension_n })
     }
 
     /// Noise-free length (mm) for a tool point at `p_m` (base frame, m): distance + offset.
@@ -220,23 +187,12 @@ impl DrawWire {
     pub fn read<R: Rng>(&self, l: f64, rng: &mut R) -> Result<f64, OutOfRange> {
         let signal = l + self.linearity_error(l);
         if !(self.range_mm[0]..=self.range_mm[1]).contains(&signal) {
-            return Err(OutOfRange {
-                value_mm: signal,
-                range_mm: self.range_mm,
-            });
+            return Err(OutOfRange { value_mm: signal, range_mm: self.range_mm });
         }
-        let normal = Normal::new(0.0, self.noise_std_mm.max(0.0)).map_err(|_| OutOfRange {
-            value_mm: f64::NAN,
-            range_mm: self.range_mm,
-        })?;
+        let normal = Normal::new(0.0, self.noise_std_mm.max(0.0)).map_err(|_| OutOfRange { value_mm: f64::NAN, range_mm: self.range_mm })?;
         let mut sum = 0.0;
         for _ in 0..self.samples {
-            let mut s = signal
-                + if self.noise_std_mm > 0.0 {
-                    normal.sample(rng)
-                } else {
-                    0.0
-                };
+            let mut s = signal + if self.noise_std_mm > 0.0 { normal.sample(rng) } else { 0.0 };
             if self.resolution_mm > 0.0 {
                 s = (s / self.resolution_mm).round() * self.resolution_mm;
             }

@@ -43,34 +43,19 @@ impl SettleOptions {
     /// Checks every value, naming the key (`simulation.<key>`) of the first bad one.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.dt_s > 0.0 && self.dt_s <= 0.01) {
-            return Err(format!(
-                "simulation.dt_s = {} must be in (0, 0.01] s",
-                self.dt_s
-            ));
+            return Err(format!("simulation.dt_s = {} must be in (0, 0.01] s", self.dt_s));
         }
         if !(self.step_tolerance_rad.is_finite() && self.step_tolerance_rad > 0.0) {
-            return Err(format!(
-                "simulation.step_tolerance_rad = {:?} must be finite and > 0",
-                self.step_tolerance_rad
-            ));
+            return Err(format!("simulation.step_tolerance_rad = {:?} must be finite and > 0", self.step_tolerance_rad));
         }
         if !(1..=MAX_SETTLE_STEPS).contains(&self.max_steps) {
-            return Err(format!(
-                "simulation.max_steps = {} must be in 1..={MAX_SETTLE_STEPS}",
-                self.max_steps
-            ));
+            return Err(format!("simulation.max_steps = {} must be in 1..={MAX_SETTLE_STEPS}", self.max_steps));
         }
         if !(1..=self.max_steps).contains(&self.quiet_steps) {
-            return Err(format!(
-                "simulation.quiet_steps = {} must be in 1..=max_steps ({})",
-                self.quiet_steps, self.max_steps
-            ));
+            return Err(format!("simulation.quiet_steps = {} must be in 1..=max_steps ({})", self.quiet_steps, self.max_steps));
         }
         if !(self.damping_ratio.is_finite() && self.damping_ratio > 0.0) {
-            return Err(format!(
-                "simulation.damping_ratio = {} must be finite and > 0",
-                self.damping_ratio
-            ));
+            return Err(format!("simulation.damping_ratio = {} must be finite and > 0", self.damping_ratio));
         }
         Ok(())
     }

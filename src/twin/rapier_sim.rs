@@ -83,11 +83,7 @@ pub(super) fn simulate(twin: &Twin, cmd: &PoseCommand) -> Result<RestingPose> {
                 inertial = inertial.combine(&payload);
             }
         }
-        let rb = RigidBodyBuilder::dynamic()
-            .pose(pose(&frames[j + 1]))
-            .additional_mass_properties(mass_props(&inertial))
-            .can_sleep(false)
-            .build();
+        let rb = RigidBodyBuilder::dynamic().pose(pose(&frames[j + 1])).additional_mass_properties(mass_props(&inertial)).can_sleep(false).build();
         bodies.push(world.bodies.insert(rb));
     }
 
@@ -99,14 +95,8 @@ pub(super) fn simulate(twin: &Twin, cmd: &PoseCommand) -> Result<RestingPose> {
         let parent_to_child = frames[j + 1].relative_to(&frames[j]);
         let align = Frame { rot: align_x_to(&axis), pos: Vector3::zeros() };
         let mask = if twin.transmission.is_some() { JointAxesMask::LOCKED_REVOLUTE_AXES } else { JointAxesMask::LOCKED_FIXED_AXES };
-        let joint = GenericJointBuilder::new(mask)
-            .local_frame1(pose(&parent_to_child.compose(&align)))
-            .local_frame2(pose(&align))
-            .build();
-        let h = world
-            .multibody_joints
-            .insert(bodies[j], bodies[j + 1], joint, true)
-            .ok_or_else(|| Error::Simulation(format!("rapier refused joint {j}")))?;
+        let joint = GenericJointBuilder::new(mask).local_frame1(pose(&parent_to_child.compose(&align))).local_frame2(pose(&align)).build();
+        let h = world.multibody_joints.insert(bodies[j], bodies[j + 1], joint, true).ok_or_else(|| Error::Simulation(format!("rapier refused joint {j}")))?;
         handles.push(h);
     }
 
@@ -165,8 +155,7 @@ fn settle(
     let chain = &twin.chain;
     let n = chain.n_joints;
     // Every joint arrives resting on the flank its approach motion leaves it on.
-    let mut states: Vec<State> =
-        (0..n).map(|j| if trans.half_band[j] == 0.0 { State::Spring } else { State::Flank(cmd.sides[j]) }).collect();
+    let mut states: Vec<State> = (0..n).map(|j| if trans.half_band[j] == 0.0 { State::Spring } else { State::Flank(cmd.sides[j]) }).collect();
     let initial: Vec<f64> = (0..n).map(|j| cmd.sides[j] * trans.half_band[j]).collect();
     {
         let (mb, _) = world.multibody_joints.get_mut(handles[0]).ok_or_else(|| Error::Simulation("multibody missing".into()))?;

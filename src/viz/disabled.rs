@@ -24,23 +24,10 @@ impl Backend {
     pub(super) fn points2d(&mut self, _entity: &str, _pts: &[[f64; 2]], _colors: Option<&[[u8; 4]]>, _radius: Option<f32>) {
         match *self {}
     }
-    pub(super) fn points(
-        &mut self,
-        _entity: &str,
-        _pts_mm: &[[f64; 3]],
-        _colors: Option<&[[u8; 4]]>,
-        _radii_mm: Option<f32>,
-        _labels: Option<&[String]>,
-    ) {
+    pub(super) fn points(&mut self, _entity: &str, _pts_mm: &[[f64; 3]], _colors: Option<&[[u8; 4]]>, _radii_mm: Option<f32>, _labels: Option<&[String]>) {
         match *self {}
     }
-    pub(super) fn line_strips(
-        &mut self,
-        _entity: &str,
-        _strips: &[Vec<[f64; 3]>],
-        _color: [u8; 4],
-        _radius_mm: f32,
-    ) {
+    pub(super) fn line_strips(&mut self, _entity: &str, _strips: &[Vec<[f64; 3]>], _color: [u8; 4], _radius_mm: f32) {
         match *self {}
     }
     pub(super) fn transform(&mut self, _entity: &str, _t: [f64; 3], _r: [[f64; 3]; 3]) {

@@ -95,14 +95,7 @@ impl Recorder {
     /// (RGBA; note that the viewer uses alpha as brightness, not transparency, for points).
     /// `radii_mm` is one radius for all points, in mm (> 0). Replaces the previous cloud at
     /// `entity` from the current time on.
-    pub fn points(
-        &mut self,
-        entity: &str,
-        pts_mm: &[[f64; 3]],
-        colors: Option<&[[u8; 4]]>,
-        radii_mm: Option<f32>,
-        labels: Option<&[String]>,
-    ) {
+    pub fn points(&mut self, entity: &str, pts_mm: &[[f64; 3]], colors: Option<&[[u8; 4]]>, radii_mm: Option<f32>, labels: Option<&[String]>) {
         self.inner.points(entity, pts_mm, colors, radii_mm, labels);
     }
 
@@ -113,25 +106,14 @@ impl Recorder {
     }
 
     /// Polylines at `entity` (vertices in mm), all drawn with one colour and radius (mm, > 0).
-    pub fn line_strips(
-        &mut self,
-        entity: &str,
-        strips: &[Vec<[f64; 3]>],
-        color: [u8; 4],
-        radius_mm: f32,
-    ) {
+    pub fn line_strips(&mut self, entity: &str, strips: &[Vec<[f64; 3]>], color: [u8; 4], radius_mm: f32) {
         self.inner.line_strips(entity, strips, color, radius_mm);
     }
 
     /// The pose of `entity`'s frame in its parent entity's frame:
     /// `p_parent = R · p_entity + t`, with `R` given row-major (`R[row][col]`) and `t` in mm.
     /// `R` should be a rotation; it is not re-orthonormalised.
-    pub fn transform(
-        &mut self,
-        entity: &str,
-        translation_mm: [f64; 3],
-        rotation_matrix_rowmajor: [[f64; 3]; 3],
-    ) {
+    pub fn transform(&mut self, entity: &str, translation_mm: [f64; 3], rotation_matrix_rowmajor: [[f64; 3]; 3]) {
         self.inner.transform(entity, translation_mm, rotation_matrix_rowmajor);
     }
 
@@ -245,9 +227,7 @@ pub fn histogram(values: &[f64], bins: usize, lo: f64, hi: f64) -> (Vec<f64>, Ve
     if bins == 0 {
         return (Vec::new(), Vec::new());
     }
-    let edges: Vec<f64> = (0..=bins)
-        .map(|i| if i == bins { hi } else { lo + (hi - lo) * i as f64 / bins as f64 })
-        .collect();
+    let edges: Vec<f64> = (0..=bins).map(|i| if i == bins { hi } else { lo + (hi - lo) * i as f64 / bins as f64 }).collect();
     let mut counts = vec![0.0; bins];
     if !(lo.is_finite() && hi.is_finite() && lo < hi) {
         return (edges, counts);
@@ -332,10 +312,7 @@ mod tests {
         use std::path::Path;
 
         fn files_in(dir: &Path) -> Vec<String> {
-            let mut v: Vec<String> = std::fs::read_dir(dir)
-                .unwrap()
-                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-                .collect();
+            let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
             v.sort();
             v
         }
@@ -348,24 +325,10 @@ mod tests {
                 let c = (pose as f64).cos();
                 let s = (pose as f64).sin();
                 for k in 0..2 {
-                    rec.transform(
-                        &format!("world/arm/link_{k}"),
-                        [100.0 * k as f64, 0.0, 400.0],
-                        [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
-                    );
+                    rec.transform(&format!("world/arm/link_{k}"), [100.0 * k as f64, 0.0, 400.0], [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]);
                 }
-                rec.line_strips(
-                    "world/arm/skeleton",
-                    &[vec![[0.0, 0.0, 0.0], [0.0, 0.0, 400.0], [300.0, 0.0, 600.0]]],
-                    [200, 200, 200, 255],
-                    8.0,
-                );
-                rec.line_strips(
-                    "world/cable",
-                    &[vec![[500.0, 0.0, 0.0], [300.0, 0.0, 600.0]]],
-                    [255, 128, 0, 255],
-                    1.0,
-                );
+                rec.line_strips("world/arm/skeleton", &[vec![[0.0, 0.0, 0.0], [0.0, 0.0, 400.0], [300.0, 0.0, 600.0]]], [200, 200, 200, 255], 8.0);
+                rec.line_strips("world/cable", &[vec![[500.0, 0.0, 0.0], [300.0, 0.0, 600.0]]], [255, 128, 0, 255], 1.0);
                 let pts = [[300.0, 0.0, 600.0], [310.0, 5.0, 590.0]];
                 let res = [0.2, 1.7];
                 let colors: Vec<[u8; 4]> = res.iter().map(|r| colormap(*r, 2.0)).collect();

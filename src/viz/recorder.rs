@@ -33,9 +33,7 @@ struct SinkState {
 
 fn lock(state: &Mutex<SinkState>) -> MutexGuard<'_, SinkState> {
     // A panic while holding the lock cannot leave the state inconsistent in a way we care about.
-    state
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
+    state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// A rerun log sink that encodes `.rrd` into our temporary file and remembers the first error.
@@ -91,10 +89,7 @@ pub(super) struct Backend {
 }
 
 fn write_err(path: &Path, what: &str, err: impl std::fmt::Display) -> Error {
-    Error::Invalid(format!(
-        "cannot write Rerun recording {}: {what}: {err}",
-        path.display()
-    ))
+    Error::Invalid(format!("cannot write Rerun recording {}: {what}: {err}", path.display()))
 }
 
 fn f32x3(p: &[f64; 3]) -> [f32; 3] {
@@ -106,35 +101,20 @@ impl Backend {
     /// [`crate::io::OutputSet`]); `path` is the target the messages name.
     pub(super) fn with_file(app_id: &str, file: File, path: &Path) -> Result<Backend> {
         // rerun 0.36: only `&'static str` converts infallibly (and panics when empty).
-        let app = rerun::ApplicationId::try_new(app_id)
-            .map_err(|e| Error::Invalid(format!("invalid Rerun application id {app_id:?}: {e}")))?;
+        let app = rerun::ApplicationId::try_new(app_id).map_err(|e| Error::Invalid(format!("invalid Rerun application id {app_id:?}: {e}")))?;
         // Same encoding as rerun's own FileSink.
-        let encoder = Encoder::new_eager(
-            re_log_encoding::CrateVersion::LOCAL,
-            re_log_encoding::EncodingOptions::PROTOBUF_COMPRESSED,
-            BufWriter::new(file),
-        );
+        let encoder = Encoder::new_eager(re_log_encoding::CrateVersion::LOCAL, re_log_encoding::EncodingOptions::PROTOBUF_COMPRESSED, BufWriter::new(file));
         let encoder = match encoder {
             Ok(enc) => enc,
             Err(e) => {
                 return Err(write_err(path, "cannot start .rrd stream", e));
             }
         };
-        let sink = Arc::new(Mutex::new(SinkState {
-            encoder: Some(encoder),
-            error: None,
-        }));
+        let sink = Arc::new(Mutex::new(SinkState { encoder: Some(encoder), error: None }));
 
         // `enabled(true)`: an explicit recording request must not be silently turned off by the
         // `RERUN=off` environment variable.
-        let rec = rerun::RecordingStreamBuilder::new(app)
-            .enabled(true)
-            .buffered()
-            .inspect(|rec| {
-                rec.set_sink(Box::new(RrdSink {
-                    state: Arc::clone(&sink),
-                }))
-            });
+        let rec = rerun::RecordingStreamBuilder::new(app).enabled(true).buffered().inspect(|rec| rec.set_sink(Box::new(RrdSink { state: Arc::clone(&sink) })));
         let rec = match rec {
             Ok(rec) => rec,
             Err(e) => {
@@ -143,13 +123,7 @@ impl Backend {
             }
         };
 
-        let mut backend = Backend {
-            rec: Some(rec),
-            sink,
-            path: path.to_path_buf(),
-            time: BTreeMap::new(),
-            error: None,
-        };
+        let mut backend = Backend { rec: Some(rec), sink, path: path.to_path_buf(), time: BTreeMap::new(), error: None };
         // We log in millimetres in a right-handed, Z-up world.
         backend.log("world", true, &rerun::ViewCoordinates::RIGHT_HAND_Z_UP());
         backend.send_default_blueprint();
@@ -167,9 +141,7 @@ impl Backend {
     }
 
     fn invalid(&mut self, entity: &str, msg: impl std::fmt::Display) {
-        self.fail(Error::Invalid(format!(
-            "Rerun recording, entity {entity:?}: {msg}"
-        )));
+        self.fail(Error::Invalid(format!("Rerun recording, entity {entity:?}: {msg}")));
     }
 
     fn log<AS: ?Sized + AsComponents>(&mut self, entity: &str, is_static: bool, data: &AS) {
@@ -190,8 +162,7 @@ impl Backend {
     /// A default viewer layout for the entities twincal logs (see `viz/README.md`).
     fn send_default_blueprint(&mut self) {
         use rerun::blueprint::{
-            BarChartView, Blueprint, BlueprintActivation, Horizontal, Spatial3DView, Tabs,
-            TextDocumentView, TextLogView, TimeSeriesView, Vertical,
+            BarChartView, Blueprint, BlueprintActivation, Horizontal, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimeSeriesView, Vertical,
         };
         let Some(rec) = &self.rec else { return };
         // rerun 0.36's `Blueprint::send` builds the blueprint through an internal recording that
@@ -200,20 +171,12 @@ impl Backend {
             return;
         }
         let blueprint = Blueprint::new(Horizontal::new([
-            Spatial3DView::new("World (mm)")
-                .with_origin("/world")
-                .into(),
+            Spatial3DView::new("World (mm)").with_origin("/world").into(),
             Vertical::new([
-                BarChartView::new("Residual histogram")
-                    .with_origin("/residuals")
-                    .into(),
-                TimeSeriesView::new("Calibration parameters")
-                    .with_origin("/calib")
-                    .into(),
+                BarChartView::new("Residual histogram").with_origin("/residuals").into(),
+                TimeSeriesView::new("Calibration parameters").with_origin("/calib").into(),
                 Tabs::new([
-                    TimeSeriesView::new("Residual series")
-                        .with_origin("/residuals")
-                        .into(),
+                    TimeSeriesView::new("Residual series").with_origin("/residuals").into(),
                     TextDocumentView::new("Docs").with_origin("/").into(),
                     TextLogView::new("Log").with_origin("/").into(),
                 ])
@@ -222,10 +185,7 @@ impl Backend {
             .into(),
         ]))
         .with_auto_views(false);
-        let activation = BlueprintActivation {
-            make_active: true,
-            make_default: true,
-        };
+        let activation = BlueprintActivation { make_active: true, make_default: true };
         if let Err(e) = blueprint.send(rec, activation) {
             let e = write_err(&self.path, "cannot send the viewer layout", e);
             self.fail(e);
@@ -236,17 +196,11 @@ impl Backend {
         // rerun 0.36: `From` only for `&'static str`; dynamic names go through `try_new`.
         let name = match TimelineName::try_new(timeline) {
             Ok(name) => name,
-            Err(e) => {
-                return self.fail(Error::Invalid(format!(
-                    "Rerun recording: invalid timeline name {timeline:?}: {e}"
-                )))
-            }
+            Err(e) => return self.fail(Error::Invalid(format!("Rerun recording: invalid timeline name {timeline:?}: {e}"))),
         };
         if let Some(old) = self.time.get(&name) {
             if old.typ() != cell.typ() {
-                self.fail(Error::Invalid(format!(
-                    "Rerun recording: timeline {timeline:?} used both as a sequence and as seconds"
-                )));
+                self.fail(Error::Invalid(format!("Rerun recording: timeline {timeline:?} used both as a sequence and as seconds")));
                 return;
             }
         }
@@ -260,9 +214,7 @@ impl Backend {
     pub(super) fn set_time_seconds(&mut self, timeline: &str, secs: f64) {
         let nanos = (secs * 1e9).round();
         if !nanos.is_finite() || nanos.abs() >= i64::MAX as f64 {
-            self.fail(Error::Invalid(format!(
-                "Rerun recording: timeline {timeline:?}: time {secs} s is not representable"
-            )));
+            self.fail(Error::Invalid(format!("Rerun recording: timeline {timeline:?}: time {secs} s is not representable")));
             return;
         }
         self.set_time_cell(timeline, TimeCell::from_duration_nanos(nanos as i64));
@@ -286,14 +238,7 @@ impl Backend {
         self.log(entity, false, &arch);
     }
 
-    pub(super) fn points(
-        &mut self,
-        entity: &str,
-        pts_mm: &[[f64; 3]],
-        colors: Option<&[[u8; 4]]>,
-        radii_mm: Option<f32>,
-        labels: Option<&[String]>,
-    ) {
+    pub(super) fn points(&mut self, entity: &str, pts_mm: &[[f64; 3]], colors: Option<&[[u8; 4]]>, radii_mm: Option<f32>, labels: Option<&[String]>) {
         let n = pts_mm.len();
         let mut arch = rerun::Points3D::new(pts_mm.iter().map(f32x3));
         if let Some(colors) = colors {
@@ -317,35 +262,18 @@ impl Backend {
         self.log(entity, false, &arch);
     }
 
-    pub(super) fn line_strips(
-        &mut self,
-        entity: &str,
-        strips: &[Vec<[f64; 3]>],
-        color: [u8; 4],
-        radius_mm: f32,
-    ) {
+    pub(super) fn line_strips(&mut self, entity: &str, strips: &[Vec<[f64; 3]>], color: [u8; 4], radius_mm: f32) {
         if !(radius_mm.is_finite() && radius_mm > 0.0) {
             return self.invalid(entity, format!("line radius {radius_mm} mm must be > 0"));
         }
-        let arch = rerun::LineStrips3D::new(
-            strips
-                .iter()
-                .map(|s| rerun::LineStrip3D::from_iter(s.iter().map(f32x3))),
-        )
-        .with_colors([color])
-        .with_radii([rerun::Radius::new_scene_units(radius_mm)]);
+        let arch = rerun::LineStrips3D::new(strips.iter().map(|s| rerun::LineStrip3D::from_iter(s.iter().map(f32x3))))
+            .with_colors([color])
+            .with_radii([rerun::Radius::new_scene_units(radius_mm)]);
         self.log(entity, false, &arch);
     }
 
-    pub(super) fn transform(
-        &mut self,
-        entity: &str,
-        translation_mm: [f64; 3],
-        rotation_matrix_rowmajor: [[f64; 3]; 3],
-    ) {
-        let finite = translation_mm
-            .iter()
-            .chain(rotation_matrix_rowmajor.iter().flatten());
+    pub(super) fn transform(&mut self, entity: &str, translation_mm: [f64; 3], rotation_matrix_rowmajor: [[f64; 3]; 3]) {
+        let finite = translation_mm.iter().chain(rotation_matrix_rowmajor.iter().flatten());
         if !finite.into_iter().all(|v| v.is_finite()) {
             return self.invalid(entity, "transform has non-finite entries");
         }
@@ -357,10 +285,7 @@ impl Backend {
             r[0][1] as f32, r[1][1] as f32, r[2][1] as f32, // column 1
             r[0][2] as f32, r[1][2] as f32, r[2][2] as f32, // column 2
         ];
-        let arch = rerun::Transform3D::from_translation_mat3x3(
-            f32x3(&translation_mm),
-            rerun::datatypes::Mat3x3(col_major),
-        );
+        let arch = rerun::Transform3D::from_translation_mat3x3(f32x3(&translation_mm), rerun::datatypes::Mat3x3(col_major));
         self.log(entity, false, &arch);
     }
 
@@ -374,21 +299,12 @@ impl Backend {
 
     pub(super) fn histogram_chart(&mut self, entity: &str, edges: &[f64], counts: &[f64]) {
         if edges.len() != counts.len() + 1 {
-            return self.invalid(
-                entity,
-                format!(
-                    "histogram has {} edges for {} bins",
-                    edges.len(),
-                    counts.len()
-                ),
-            );
+            return self.invalid(entity, format!("histogram has {} edges for {} bins", edges.len(), counts.len()));
         }
         // The bar chart view draws bar i over [abscissa[i], abscissa[i] + widths[i]].
         let left: Vec<f64> = edges[..counts.len()].to_vec();
         let widths: Vec<f32> = edges.windows(2).map(|w| (w[1] - w[0]) as f32).collect();
-        let arch = rerun::BarChart::new(counts.to_vec())
-            .with_abscissa(left)
-            .with_widths(widths);
+        let arch = rerun::BarChart::new(counts.to_vec()).with_abscissa(left).with_widths(widths);
         self.log(entity, false, &arch);
     }
 
@@ -428,24 +344,13 @@ impl Backend {
             return Err(write_err(&path, "encoding failed", err));
         }
         let Some(mut encoder) = encoder else {
-            return Err(write_err(
-                &path,
-                "internal error",
-                "recording already finished",
-            ));
+            return Err(write_err(&path, "internal error", "recording already finished"));
         };
         // End-of-stream marker + footer (chunk manifest), then flush and fsync.
-        encoder
-            .finish()
-            .map_err(|e| write_err(&path, "cannot write footer", e))?;
-        let writer = encoder
-            .into_inner()
-            .map_err(|e| write_err(&path, "internal error", e))?;
-        let file = writer
-            .into_inner()
-            .map_err(|e| write_err(&path, "cannot flush", e.error()))?;
-        file.sync_all()
-            .map_err(|e| write_err(&path, "cannot sync", e))?;
+        encoder.finish().map_err(|e| write_err(&path, "cannot write footer", e))?;
+        let writer = encoder.into_inner().map_err(|e| write_err(&path, "internal error", e))?;
+        let file = writer.into_inner().map_err(|e| write_err(&path, "cannot flush", e.error()))?;
+        file.sync_all().map_err(|e| write_err(&path, "cannot sync", e))?;
         drop(file);
         Ok(())
     }

@@ -54,11 +54,8 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
             rec.set_time_seconds("acquisition_time", t);
         }
         for (k, f) in frames.iter().enumerate() {
-            let rot = [
-                [f.rot[(0, 0)], f.rot[(0, 1)], f.rot[(0, 2)]],
-                [f.rot[(1, 0)], f.rot[(1, 1)], f.rot[(1, 2)]],
-                [f.rot[(2, 0)], f.rot[(2, 1)], f.rot[(2, 2)]],
-            ];
+            let rot =
+                [[f.rot[(0, 0)], f.rot[(0, 1)], f.rot[(0, 2)]], [f.rot[(1, 0)], f.rot[(1, 1)], f.rot[(1, 2)]], [f.rot[(2, 0)], f.rot[(2, 1)], f.rot[(2, 2)]]];
             rec.transform(&format!("world/arm/frame_{k}"), mm(&f.pos), rot);
         }
         let tool = mm(&g.truth_tool(i));
@@ -153,7 +150,24 @@ pub fn record_diagnosis(
 ) -> Result<()> {
     let mut rec = Recorder::staged("twincal", outputs, path)?;
     let ev = &d.evidence;
-    let causes: Vec<String> = d.causes.iter().map(|c| format!("- {} {}: {} {:.4} ± {:.4} {}, held-out RMSE {:.4} → {:.4} mm (p = {:.1e})", c.cause, c.joint.map(|j| format!("joint {j}")).unwrap_or_default(), c.quantity, c.magnitude, c.uncertainty, c.unit, c.heldout_rmse_before_mm, c.heldout_rmse_after_mm, c.p_value)).collect();
+    let causes: Vec<String> = d
+        .causes
+        .iter()
+        .map(|c| {
+            format!(
+                "- {} {}: {} {:.4} ± {:.4} {}, held-out RMSE {:.4} → {:.4} mm (p = {:.1e})",
+                c.cause,
+                c.joint.map(|j| format!("joint {j}")).unwrap_or_default(),
+                c.quantity,
+                c.magnitude,
+                c.uncertainty,
+                c.unit,
+                c.heldout_rmse_before_mm,
+                c.heldout_rmse_after_mm,
+                c.p_value
+            )
+        })
+        .collect();
     rec.static_text(
         "legend",
         &format!(

@@ -311,11 +311,7 @@ impl Controller for Shade {
         self.m_f[k] = lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.1)));
         if self.lshade.is_some() {
             let max_cr = self.succ.iter().map(|s| s.2).fold(0.0, f64::max);
-            self.m_cr[k] = if self.m_cr[k].is_nan() || max_cr == 0.0 {
-                f64::NAN
-            } else {
-                lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.2)))
-            };
+            self.m_cr[k] = if self.m_cr[k].is_nan() || max_cr == 0.0 { f64::NAN } else { lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.2))) };
         } else {
             self.m_cr[k] = self.succ.iter().map(|s| s.0 / wsum * s.2).sum();
         }

@@ -164,11 +164,7 @@ impl Ekf {
             evaluations += order.len();
             obs.observe(&Event { method: METHOD, iteration: iterations, cost: new_cost, x: &x });
             let change = (cost - new_cost).abs();
-            let rel = if cost.is_finite() && new_cost.is_finite() {
-                change / cost.abs().max(f64::MIN_POSITIVE)
-            } else {
-                f64::INFINITY
-            };
+            let rel = if cost.is_finite() && new_cost.is_finite() { change / cost.abs().max(f64::MIN_POSITIVE) } else { f64::INFINITY };
             cost = new_cost;
             if cost == 0.0 {
                 converged = true;

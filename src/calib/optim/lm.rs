@@ -194,11 +194,7 @@ impl LevenbergMarquardt {
         let mut x_new = x.clone();
         let mut r_new = vec![0.0; m];
 
-        let mut lambda = if self.initial_lambda.is_finite() && self.initial_lambda > 0.0 {
-            self.initial_lambda
-        } else {
-            1e-3
-        };
+        let mut lambda = if self.initial_lambda.is_finite() && self.initial_lambda > 0.0 { self.initial_lambda } else { 1e-3 };
         let mut nu = 2.0;
         let mut iterations = 0;
         let mut converged = false;

@@ -69,10 +69,7 @@ impl Bounds {
     }
     /// A box of half-width `half[k]` around `centre`.
     pub fn around(centre: &[f64], half: &[f64]) -> Self {
-        Bounds {
-            lower: centre.iter().zip(half).map(|(c, h)| c - h).collect(),
-            upper: centre.iter().zip(half).map(|(c, h)| c + h).collect(),
-        }
+        Bounds { lower: centre.iter().zip(half).map(|(c, h)| c - h).collect(), upper: centre.iter().zip(half).map(|(c, h)| c + h).collect() }
     }
     pub fn dim(&self) -> usize {
         self.lower.len()

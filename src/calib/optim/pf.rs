@@ -110,15 +110,7 @@ impl ParticleFilter {
     ///
     /// # Panics
     /// If `prior_mean` or `prior_std` do not have `o.n_params()` entries.
-    pub fn run<O: Observations>(
-        &self,
-        o: &O,
-        prior_mean: &[f64],
-        prior_std: &[f64],
-        fixed: &[bool],
-        order: &[usize],
-        obs: &mut dyn Observer,
-    ) -> Report {
+    pub fn run<O: Observations>(&self, o: &O, prior_mean: &[f64], prior_std: &[f64], fixed: &[bool], order: &[usize], obs: &mut dyn Observer) -> Report {
         let n = o.n_params();
         assert_eq!(prior_mean.len(), n, "prior_mean must have {n} entries");
         assert_eq!(prior_std.len(), n, "prior_std must have {n} entries");
@@ -158,10 +150,7 @@ impl ParticleFilter {
             iterations += 1;
             for chunk in order.chunks(batch) {
                 if np * chunk.len() >= PAR_MIN_WORK {
-                    loglik
-                        .par_iter_mut()
-                        .zip(parts.par_chunks_exact(n))
-                        .for_each(|(l, x)| *l = log_lik(o, x, chunk, inv_r));
+                    loglik.par_iter_mut().zip(parts.par_chunks_exact(n)).for_each(|(l, x)| *l = log_lik(o, x, chunk, inv_r));
                 } else {
                     for (l, x) in loglik.iter_mut().zip(parts.chunks_exact(n)) {
                         *l = log_lik(o, x, chunk, inv_r);

@@ -54,17 +54,7 @@ pub struct Pso {
 
 impl Default for Pso {
     fn default() -> Self {
-        Pso {
-            particles: 40,
-            iterations: 1000,
-            inertia: (0.9, 0.4),
-            c1: 1.5,
-            c2: 1.5,
-            vmax_fraction: 0.2,
-            seed: 0,
-            tol: 1e-12,
-            patience: 100,
-        }
+        Pso { particles: 40, iterations: 1000, inertia: (0.9, 0.4), c1: 1.5, c2: 1.5, vmax_fraction: 0.2, seed: 0, tol: 1e-12, patience: 100 }
     }
 }
 

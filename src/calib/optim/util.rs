@@ -31,9 +31,7 @@ pub(crate) fn free_indices(fixed: &[bool], n: usize) -> Vec<usize> {
 pub(crate) fn eval_rows<C: Cost>(c: &C, xs: &[f64], d: usize, out: &mut [f64]) {
     debug_assert_eq!(xs.len(), out.len() * d);
     if out.len() >= PAR_MIN_BATCH {
-        out.par_iter_mut()
-            .zip(xs.par_chunks_exact(d))
-            .for_each(|(o, x)| *o = sanitize(c.cost(x)));
+        out.par_iter_mut().zip(xs.par_chunks_exact(d)).for_each(|(o, x)| *o = sanitize(c.cost(x)));
     } else {
         for (o, x) in out.iter_mut().zip(xs.chunks_exact(d)) {
             *o = sanitize(c.cost(x));
@@ -59,11 +57,7 @@ impl Stall {
 
     /// Feed the best cost after an iteration; returns true when the run should stop.
     pub(crate) fn update(&mut self, best: f64) -> bool {
-        let improved = if self.best.is_finite() {
-            self.best - best > self.tol * self.best.abs()
-        } else {
-            best < self.best
-        };
+        let improved = if self.best.is_finite() { self.best - best > self.tol * self.best.abs() } else { best < self.best };
         if improved {
             self.count = 0;
         } else {
