@@ -34,6 +34,8 @@ pub enum BenchTarget {
     Twin,
     /// The calibration core's targets.
     Calib,
+    /// The diagnosis: detection and false-alarm rates over hidden-effect scenarios, time.
+    Diagnose,
 }
 
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
@@ -201,7 +203,100 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             }
             bench_calib(repeat, seeds.unwrap_or(20), compare)
         }
+        BenchTarget::Diagnose => {
+            if scenario.is_some() || compare {
+                return Err(Error::Invalid("--scenario and --compare do not apply to bench diagnose".into()));
+            }
+            let seeds = seeds.unwrap_or(20);
+            check_seeds(seeds)?;
+            bench_diagnose(seeds, quiet)
+        }
     }
+}
+
+/// `twincal bench diagnose`: the 600-pose all-effects diagnosis timed (median of three, time per
+/// candidate), then `seeds` scenarios with one hidden effect (cause, joint and size from the
+/// seed) and `seeds` clean ones: detection rate (cause and joint named first, size within its
+/// uncertainty band or 30 %) and false-alarm rate.
+pub fn bench_diagnose(seeds: u64, quiet: bool) -> Result<()> {
+    use crate::dataset::Row;
+    use crate::diagnose::hidden::{clean, hidden};
+    use crate::diagnose::{diagnose, DiagnoseOptions};
+    let opts = DiagnoseOptions::new(crate::calib::run::ModelSpec::parse("irb120", "hayati")?);
+    let strip = |g: &Generated| Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: g.dataset.source.clone() };
+    println!("diagnosis benchmark");
+    // 1. Speed on the embedded 600-pose scenario with every effect.
+    let (s, robot) = Scenario::default_embedded()?;
+    let g = run_generate(&s, &robot, &Silent)?;
+    let data = strip(&g);
+    let mut times = Vec::new();
+    let mut per_candidate = Vec::new();
+    let mut evaluated = 0;
+    let mut verdict = String::new();
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        let (d, _) = diagnose(&data, &opts, &|_| {})?;
+        times.push(t0.elapsed().as_secs_f64());
+        let c: Vec<f64> = d.steps.iter().flat_map(|st| st.candidates.iter().map(|c| c.seconds)).collect();
+        evaluated = c.len();
+        per_candidate.push(crate::calib::stats::median(&c));
+        verdict = d.verdict.clone();
+    }
+    println!(
+        "  {} poses, every effect, {} threads: {:.2} s median (target < 10 s); {evaluated} candidate fits, {:.0} ms each (median, one thread each); found {verdict}",
+        data.rows.len(),
+        rayon::current_num_threads(),
+        crate::calib::stats::median(&times),
+        crate::calib::stats::median(&per_candidate) * 1e3
+    );
+    // 2. Detection and false alarms.
+    let bar = progress(quiet);
+    bar.start(2 * seeds, "diagnoses");
+    let mut detected = 0;
+    let mut sized = 0;
+    let mut alarms = 0;
+    let mut rows = Vec::new();
+    for seed in 1..=seeds {
+        let (s, robot, truth) = hidden(seed, 1)?;
+        let h = &truth[0];
+        let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+        let first = d.causes.first();
+        let named = first.is_some_and(|c| c.cause == h.cause.name() && c.joint == h.joint.map(|j| j + 1));
+        let size = first.filter(|_| named).is_some_and(|c| {
+            let e = (c.magnitude - h.magnitude).abs();
+            e <= 3.0 * c.uncertainty || e <= 0.3 * h.magnitude.abs()
+        });
+        detected += named as usize;
+        sized += size as usize;
+        rows.push(format!(
+            "    seed {seed:3}: hidden {}{} {:.4} ({:.1}x) -> {}{}",
+            h.cause.name(),
+            h.joint.map(|j| format!("[j{}]", j + 1)).unwrap_or_default(),
+            h.magnitude,
+            h.factor,
+            d.verdict,
+            first.map(|c| format!(" {:.4} ± {:.4} {}", c.magnitude, c.uncertainty, c.unit)).unwrap_or_default()
+        ));
+        bar.inc(1);
+        let (s, robot) = clean(10_000 + seed)?;
+        let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+        if !d.causes.is_empty() {
+            alarms += 1;
+            rows.push(format!("    clean seed {}: false alarm {}", 10_000 + seed, d.verdict));
+        }
+        bar.inc(1);
+    }
+    bar.finish();
+    for r in &rows {
+        println!("{r}");
+    }
+    let n = seeds as f64;
+    println!(
+        "  hidden effects: {detected}/{seeds} named first with the right joint ({:.0} %, target >= 95 %), {sized}/{seeds} also sized right",
+        100.0 * detected as f64 / n
+    );
+    println!("  clean datasets: {alarms}/{seeds} false alarms ({:.0} %, target <= 5 %)", 100.0 * alarms as f64 / n);
+    Ok(())
 }
 
 fn check_repeat(repeat: usize) -> Result<()> {

@@ -9,13 +9,16 @@
 //!    signs, approach directions, time, temperature, joint-angle harmonics, the reading.
 //! 3. **Forward selection.** Every candidate effect block ([`crate::calib::effects`]) is added in
 //!    turn, everything is refitted, and its held-out gain measured by cross-validation over
-//!    contiguous blocks of acquisition order (so time-dependent effects must extrapolate). The
-//!    gain's significance is a one-sided Wilcoxon signed-rank test on the per-row squared
-//!    held-out residuals, Bonferroni-corrected for the number of candidates. The best
-//!    significant candidate is kept and the search repeats until nothing significant is left.
+//!    contiguous blocks of acquisition order (so time-dependent effects must extrapolate). Its
+//!    significance is the F test of the nested least-squares fits on every kept row,
+//!    Bonferroni-corrected for the number of candidates. The candidate with the lowest held-out
+//!    RMSE among those that are significant and gain at least `min_gain` is kept, and the
+//!    search repeats until nothing is left to gain.
 //! 4. **Sizes.** Each kept effect's size with its standard uncertainty, in physical units.
 //!
 //! Nothing here reads how the data were made.
+
+pub mod hidden;
 
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
 use crate::calib::identify::Identifiability;
@@ -24,7 +27,7 @@ use crate::calib::model::CalibModel;
 use crate::calib::optim::{covariance, LevenbergMarquardt, NoObserver};
 use crate::calib::problem::{LengthFit, Samples};
 use crate::calib::run::{identify, samples, split_stage, CalibOptions, Method, ModelSpec};
-use crate::calib::stats::wilcoxon_signed_rank;
+use crate::calib::stats::nested_f_test;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
@@ -101,7 +104,7 @@ pub struct Candidate {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub joint: Option<usize>,
     pub heldout_rmse_mm: f64,
-    /// Bonferroni-corrected one-sided p-value of the held-out gain.
+    /// Bonferroni-corrected p-value of the F test of the nested fits.
     pub p_value: f64,
     pub seconds: f64,
 }
@@ -182,6 +185,9 @@ struct Fitted {
     fixed: Vec<bool>,
     /// Held-out residual of every kept row, mm.
     oof: Vec<f64>,
+    /// In-sample residual sum of squares (mm²) and free parameters.
+    rss: f64,
+    n_free: usize,
 }
 
 fn rms(v: &[f64]) -> f64 {
@@ -220,7 +226,9 @@ impl Ctx {
                 oof[i] = r[k];
             }
         }
-        Fitted { model, x, fixed, oof }
+        let rss = fit.residuals_mm(&x).iter().map(|r| r * r).sum();
+        let n_free = fixed.iter().filter(|f| !**f).count();
+        Fitted { model, x, fixed, oof, rss, n_free }
     }
 }
 
@@ -230,15 +238,10 @@ fn blocked_folds(n: usize, k: usize) -> Vec<Vec<usize>> {
     (0..k).map(|f| (f * n / k..(f + 1) * n / k).collect()).collect()
 }
 
-/// One-sided Wilcoxon p-value that `b` has smaller squared residuals than `a` (per row).
-fn gain_p_value(a: &[f64], b: &[f64]) -> f64 {
-    let a2: Vec<f64> = a.iter().map(|v| v * v).collect();
-    let b2: Vec<f64> = b.iter().map(|v| v * v).collect();
-    match wilcoxon_signed_rank(&a2, &b2) {
-        Ok(w) if w.w_plus > w.w_minus => 0.5 * w.p_value,
-        Ok(w) => 1.0 - 0.5 * w.p_value,
-        Err(_) => 1.0,
-    }
+/// p-value of the F test that `b` (the model with the candidate) fits the kept rows better than
+/// `a` (nested least-squares models, Gaussian reading noise).
+fn gain_p_value(a: &Fitted, b: &Fitted, n: usize) -> f64 {
+    nested_f_test(a.rss, b.rss, b.n_free.saturating_sub(a.n_free), n.saturating_sub(b.n_free))
 }
 
 /// Robust outlier screen: rows whose residual is more than `k` MAD-based standard deviations
@@ -425,7 +428,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
                 let mut x0 = current.x.clone();
                 x0.extend_from_slice(&m.nominal[current.x.len()..]);
                 let f = ctx.evaluate(m, &x0);
-                let p = (gain_p_value(&current.oof, &f.oof) * remaining.len() as f64).min(1.0);
+                let p = (gain_p_value(&current, &f, ctx.data.len()) * remaining.len() as f64).min(1.0);
                 let c = Candidate {
                     cause: b.kind.name().into(),
                     joint: b.joint.map(|j| j + 1),

@@ -1,0 +1,200 @@
+//! Hidden-effect scenarios for the diagnosis tests and benchmark (generator side: this module
+//! knows the truth; [`super::diagnose`] never calls it).
+//!
+//! A scenario is the geometric IRB 120 scenario with one (or more) non-geometric effects drawn
+//! from a recorded seed: the cause, the joint, and a size at 1.5–4× what a rigid fit absorbs.
+//! "What a rigid fit absorbs" is measured, not guessed: the change of length the effect causes
+//! per unit of its parameter is projected onto the rigid model's Jacobian (everything a
+//! geometric calibration can explain), and the size is set so that what is left over has an RMS
+//! of `factor` × the reading noise.
+
+use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
+use crate::calib::inputs::{row_inputs, LoadOptions, TorqueModel};
+use crate::calib::model::{CalibModel, SensorGuess};
+use crate::calib::optim::LeastSquares;
+use crate::calib::problem::{LengthFit, Samples};
+use crate::dataset::{Dataset, Row};
+use crate::effects::{Backlash, Compliance, Thermal};
+use crate::error::{Error, Result};
+use crate::generate::{acquisition_times, sample_poses};
+use crate::robot::Robot;
+use crate::scenario::Scenario;
+use nalgebra::{DMatrix, DVector};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+/// The geometric scenario every hidden-effect scenario starts from.
+pub const BASE_SCENARIO: &str = include_str!("../../scenarios/irb120_geometric.toml");
+
+/// Warm-up of the thermal scenarios: 5 K over a 600 s time constant.
+const THERMAL_RISE_K: f64 = 5.0;
+const THERMAL_TAU_S: f64 = 600.0;
+
+/// What was hidden, in the units the diagnosis reports.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Hidden {
+    pub cause: EffectKind,
+    /// 0-based joint of a per-joint effect.
+    pub joint: Option<usize>,
+    /// Size in the diagnosis report's unit (see [`super::Cause::unit`]).
+    pub magnitude: f64,
+    /// Size in the calibration block's internal unit.
+    pub internal: f64,
+    /// Multiple of the reading noise left over after a rigid fit.
+    pub factor: f64,
+}
+
+/// The block that represents `kind` on `joint` (thermal blocks driven by temperature).
+fn block(kind: EffectKind, joint: Option<usize>, ref_c: f64) -> EffectBlock {
+    let thermal = (kind == EffectKind::ThermalDrift).then_some(ThermalDrive::Temperature { ref_c });
+    EffectBlock { kind, joint, thermal, range_m: None }
+}
+
+/// The hideable causes: kind and joint.
+pub fn causes() -> Vec<(EffectKind, Option<usize>)> {
+    let mut v = Vec::new();
+    for j in 0..6 {
+        v.push((EffectKind::JointCompliance, Some(j)));
+        v.push((EffectKind::Backlash, Some(j)));
+    }
+    v.push((EffectKind::ThermalDrift, None));
+    for j in 0..3 {
+        v.push((EffectKind::ThermalDrift, Some(j)));
+    }
+    v
+}
+
+/// Largest plausible size of a cause (internal units): beyond it the scenario would be absurd.
+fn plausible(kind: EffectKind, joint: Option<usize>) -> f64 {
+    match (kind, joint) {
+        (EffectKind::JointCompliance, _) => 200e-6,
+        (EffectKind::Backlash, _) => 0.25f64.to_radians(),
+        (EffectKind::ThermalDrift, None) => 100e-6,
+        (EffectKind::ThermalDrift, Some(_)) => 0.02f64.to_radians(),
+        _ => 0.1f64.to_radians(),
+    }
+}
+
+/// The scenario's commanded poses as a dataset of q, t and temperature (no lengths), with the
+/// temperature the thermal scenarios would give.
+fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
+    let q = sample_poses(s, robot)?;
+    let t = acquisition_times(s, robot, &q);
+    let th = Thermal { alpha_per_k: 0.0, delta_t_max_k: THERMAL_RISE_K, time_constant_s: THERMAL_TAU_S, ambient_c: 21.0, zero_drift_deg_per_k: vec![] };
+    let rows = q
+        .iter()
+        .zip(&t)
+        .map(|(qi, ti)| Row {
+            q_deg: std::array::from_fn(|j| qi[j].to_degrees()),
+            l_mm: None,
+            t_s: Some(*ti),
+            temp_c: Some(th.ambient_c + th.delta_t(*ti)),
+            split: None,
+        })
+        .collect();
+    Ok(Dataset { rows, source: s.name.clone() })
+}
+
+/// RMS (mm) per unit of the block's (first) parameter of the length change a rigid fit cannot
+/// absorb, at the scenario's poses.
+pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Option<usize>) -> Result<f64> {
+    let data = poses(s, robot)?;
+    let sn = &s.sensor;
+    let guess = SensorGuess { exit_m: sn.exit_point_mm.map(|v| v * 1e-3), offset_m: sn.length_offset_mm * 1e-3, tool_m: sn.tool_point_mm.map(|v| v * 1e-3) };
+    let mut model = CalibModel::dh(robot, &guess, true);
+    let ref_c = data.rows[0].temp_c.unwrap_or(21.0);
+    model.add_effect(block(kind, joint, ref_c), 0.0);
+    let loads = LoadOptions { cable_tension_n: sn.tension_n, ..Default::default() };
+    let torque = TorqueModel::new(robot, &loads, sn.exit_point_m(), sn.tool_point_m());
+    let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
+    let mut samples = Samples::new(q, vec![0.0; data.rows.len()]);
+    samples.inputs = row_inputs(&data, Some(&torque));
+    let fit = LengthFit { model: &model, data: &samples };
+    let mut j = DMatrix::zeros(samples.len(), model.n_params());
+    LeastSquares::jacobian(&fit, &model.nominal, &mut j);
+    let k = model.effect_params(0).start;
+    let g = DVector::from_column_slice(j.column(k).as_slice());
+    let rigid = j.columns(0, model.first_effect()).into_owned();
+    let coef = rigid.clone().svd(true, true).solve(&g, 1e-10).map_err(|e| Error::Invalid(format!("projection: {e}")))?;
+    let rest = &g - &rigid * coef;
+    Ok(rest.norm() / (samples.len() as f64).sqrt())
+}
+
+/// Puts a cause of internal size `v` into the scenario.
+fn apply(s: &mut Scenario, kind: EffectKind, joint: Option<usize>, v: f64) {
+    let j = joint.unwrap_or(0);
+    match kind {
+        EffectKind::JointCompliance => {
+            let c = s.effects.compliance.get_or_insert(Compliance { stiffness_nm_per_rad: vec![1e12; 6], damping_nms_per_rad: None });
+            c.stiffness_nm_per_rad[j] = 1.0 / v;
+        }
+        EffectKind::Backlash => {
+            let b = s.effects.backlash.get_or_insert(Backlash { width_deg: vec![0.0; 6], breakaway_nm: 0.3 });
+            b.width_deg[j] = 2.0 * v.to_degrees();
+        }
+        EffectKind::ThermalDrift => {
+            let t = s.effects.thermal.get_or_insert(Thermal {
+                alpha_per_k: 0.0,
+                delta_t_max_k: THERMAL_RISE_K,
+                time_constant_s: THERMAL_TAU_S,
+                ambient_c: 21.0,
+                zero_drift_deg_per_k: vec![],
+            });
+            match joint {
+                None => t.alpha_per_k = v,
+                Some(j) => {
+                    t.zero_drift_deg_per_k.resize(6, 0.0);
+                    t.zero_drift_deg_per_k[j] = v.to_degrees();
+                }
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The size in the diagnosis report's unit.
+fn reported(kind: EffectKind, joint: Option<usize>, v: f64) -> f64 {
+    match (kind, joint) {
+        (EffectKind::JointCompliance, _) | (EffectKind::ThermalDrift, None) => v * 1e6,
+        (EffectKind::Backlash, _) => 2.0 * v.to_degrees(),
+        _ => v.to_degrees(),
+    }
+}
+
+/// The base scenario with `seed` (no hidden effect).
+pub fn clean(seed: u64) -> Result<(Scenario, Robot)> {
+    let mut s = Scenario::from_toml(BASE_SCENARIO, "scenarios/irb120_geometric.toml (embedded)")?;
+    s.seed = seed;
+    s.sampling.poses = 400;
+    s.sampling.test = 0;
+    let robot = s.load_robot(None)?;
+    Ok((s, robot))
+}
+
+/// A scenario with `n` different causes drawn from `seed`, each at 1.5–4× what a rigid fit
+/// absorbs, among the causes that stay plausible at that size.
+pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
+    let (mut s, robot) = clean(seed)?;
+    let sigma = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x4849_4444_454e);
+    let mut pool: Vec<(EffectKind, Option<usize>, f64)> = Vec::new();
+    for (kind, joint) in causes() {
+        let a = unabsorbed_rms(&s, &robot, kind, joint)?;
+        if a > 0.0 && 4.0 * sigma / a <= plausible(kind, joint) {
+            pool.push((kind, joint, a));
+        }
+    }
+    let mut out = Vec::new();
+    while out.len() < n && !pool.is_empty() {
+        let (kind, joint, a) = pool.remove(rng.random_range(0..pool.len()));
+        // Two causes on one joint of the same mechanism would be one cause.
+        pool.retain(|(k, j, _)| !(*k == kind && joint.is_none()) && !(*j == joint && joint.is_some() && *k == kind));
+        let factor = rng.random_range(1.5..4.0);
+        let v = factor * sigma / a;
+        apply(&mut s, kind, joint, v);
+        out.push(Hidden { cause: kind, joint, magnitude: reported(kind, joint, v), internal: v, factor });
+    }
+    s.name = format!("hidden-{seed}");
+    Ok((s, robot, out))
+}
