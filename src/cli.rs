@@ -497,7 +497,8 @@ pub fn parse_effects(list: &[String]) -> Result<Vec<(crate::calib::effects::Effe
                 }
                 None => (EffectKind::parse(item)?, None),
             };
-            if !kind.joint_options().contains(&joint) && !(joint.is_none() && kind.per_joint()) {
+            let allowed = kind.joint_options().contains(&joint) || (joint.is_none() && kind.per_joint());
+            if !allowed {
                 return Err(Error::Invalid(format!("--effects {item}: {} is not a per-joint effect", kind.name())));
             }
             Ok((kind, joint))
@@ -564,7 +565,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     }
     if let Some(p) = &a.urdf {
         let nominal = match &spec {
-            ModelSpec::Nominal { robot, .. } => Some(robot),
+            ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
             ModelSpec::Generic6r => None,
         };
         outputs.write(p, crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
@@ -846,7 +847,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     use rayon::prelude::*;
     let (base, robot) =
         Scenario::from_toml(include_str!("../scenarios/irb120_geometric.toml"), "irb120_geometric").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
-    let spec = ModelSpec::Nominal { robot: robot.clone(), parametrisation: "hayati".into() };
+    let spec = ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: "hayati".into() };
     // Removed on every exit path (by its Drop).
     let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let tmp = tmp_dir.path();
@@ -957,36 +958,6 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     Ok(())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn prediction_csv_has_residuals_only_when_every_row_has_a_length() {
-        let q = [1.0, 2.0, 3.0, 4.0, 5.0, 6.5];
-        let with = prediction_csv(&[(q, Some(300.5)), (q, Some(301.0))], &[300.25, 301.0]);
-        assert_eq!(with, "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n1,2,3,4,5,6.5,300.5,300.25,0.25\n1,2,3,4,5,6.5,301,301,0\n");
-        let without = prediction_csv(&[(q, None), (q, Some(301.0))], &[300.25, 301.0]);
-        assert_eq!(without, "q1,q2,q3,q4,q5,q6,L_pred\n1,2,3,4,5,6.5,300.25\n1,2,3,4,5,6.5,301\n");
-    }
-
-    #[test]
-    fn generic6r_takes_no_parametrisation() {
-        let e = model_spec("generic6r", Some("dh")).unwrap_err().to_string();
-        assert!(e.contains("--params dh"), "{e}");
-        assert!(model_spec("generic6r", None).is_ok());
-        assert!(model_spec("irb120", Some("frame")).is_ok());
-    }
-
-    #[test]
-    fn data_inputs_name_the_files_read() {
-        let dir = tempfile::tempdir().unwrap();
-        assert_eq!(data_inputs(dir.path()), vec![dir.path().join("dataset.csv"), dir.path().join("truth.json")]);
-        let x = dir.path().join("m.xlsx#Sheet1");
-        assert_eq!(data_inputs(&x), vec![dir.path().join("m.xlsx"), dir.path().join("truth.json")]);
-    }
-}
-
 /// Arguments of `twincal diagnose`.
 pub struct DiagnoseArgs {
     pub data: PathBuf,
@@ -1095,4 +1066,34 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
         );
     }
     eprintln!("  wrote {} and {} (calibrate --effects {})", out.display(), result.display(), if d.effects_option.is_empty() { "-" } else { &d.effects_option });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prediction_csv_has_residuals_only_when_every_row_has_a_length() {
+        let q = [1.0, 2.0, 3.0, 4.0, 5.0, 6.5];
+        let with = prediction_csv(&[(q, Some(300.5)), (q, Some(301.0))], &[300.25, 301.0]);
+        assert_eq!(with, "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n1,2,3,4,5,6.5,300.5,300.25,0.25\n1,2,3,4,5,6.5,301,301,0\n");
+        let without = prediction_csv(&[(q, None), (q, Some(301.0))], &[300.25, 301.0]);
+        assert_eq!(without, "q1,q2,q3,q4,q5,q6,L_pred\n1,2,3,4,5,6.5,300.25\n1,2,3,4,5,6.5,301\n");
+    }
+
+    #[test]
+    fn generic6r_takes_no_parametrisation() {
+        let e = model_spec("generic6r", Some("dh")).unwrap_err().to_string();
+        assert!(e.contains("--params dh"), "{e}");
+        assert!(model_spec("generic6r", None).is_ok());
+        assert!(model_spec("irb120", Some("frame")).is_ok());
+    }
+
+    #[test]
+    fn data_inputs_name_the_files_read() {
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(data_inputs(dir.path()), vec![dir.path().join("dataset.csv"), dir.path().join("truth.json")]);
+        let x = dir.path().join("m.xlsx#Sheet1");
+        assert_eq!(data_inputs(&x), vec![dir.path().join("m.xlsx"), dir.path().join("truth.json")]);
+    }
 }

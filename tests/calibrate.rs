@@ -103,7 +103,7 @@ fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
         let t0 = std::time::Instant::now();
         let mut ratios = Vec::new();
         for (ds, truth) in &sets {
-            let mut o = irb120(m, "hayati");
+            let o = irb120(m, "hayati");
             let r = calibrate(ds, Some(truth), &o).unwrap();
             ratios.push(r.metrics.test_after.unwrap().rmse / truth.noise_std_mm);
             if m == Method::Ekf {

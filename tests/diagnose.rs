@@ -76,3 +76,52 @@ fn debug_dump() {
     let g = generate(&s, &robot, &Silent).unwrap();
     twincal::generate::write_outputs(&g, std::path::Path::new("/tmp/hid")).unwrap();
 }
+
+/// The command end to end: report.json with the documented fields, the extended model usable
+/// by `predict`, a recording, and named errors for bad options.
+#[test]
+fn diagnose_through_the_cli() {
+    let (s, robot, truth) = hidden(1, 1).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let g = generate(&s, &robot, &Silent).unwrap();
+    twincal::generate::write_outputs(&g, &data).unwrap();
+    let (report, model, rrd) = (dir.path().join("report.json"), dir.path().join("model.json"), dir.path().join("d.rrd"));
+    let bin = env!("CARGO_BIN_EXE_twincal");
+    let p = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let o = std::process::Command::new(bin)
+        .args(["diagnose", "--data", &p(&data), "--out", &p(&report), "--result", &p(&model), "--rrd", &p(&rrd)])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("cause 1: joint_compliance joint 2"), "{err}");
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert!(r["noise_floor_mm"].as_f64().unwrap() > 0.0 && r["baseline"]["heldout_rmse_mm"].as_f64().unwrap() > r["final_heldout_rmse_mm"].as_f64().unwrap());
+    let c = &r["causes"][0];
+    for key in ["cause", "joint", "magnitude", "unit", "uncertainty", "heldout_rmse_before_mm", "heldout_rmse_after_mm", "p_value"] {
+        assert!(!c[key].is_null(), "cause lacks {key}: {c}");
+    }
+    assert_eq!(c["cause"], "joint_compliance");
+    assert_eq!(c["joint"], 2);
+    assert!((c["magnitude"].as_f64().unwrap() - truth[0].magnitude).abs() < 0.3 * truth[0].magnitude);
+    assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
+    // The extended model predicts the data through `predict`, effects included.
+    let pred = dir.path().join("pred.csv");
+    let o = std::process::Command::new(bin).args(["predict", "--model", &p(&model), "--data", &p(&data), "--out", &p(&pred), "--quiet"]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&pred).unwrap();
+    let res: Vec<f64> = text.lines().skip(1).map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect();
+    let rmse = (res.iter().map(|v| v * v).sum::<f64>() / res.len() as f64).sqrt();
+    assert!(rmse < 1.2 * r["noise_floor_mm"].as_f64().unwrap(), "predict RMSE {rmse}");
+    // Bad options are named; nothing is written.
+    let out2 = dir.path().join("r2.json");
+    for (args, needle) in [(vec!["--candidates", "gravity"], "unknown effect"), (vec!["--folds", "1"], "--folds"), (vec!["--alpha", "2"], "--alpha")] {
+        let mut a = vec!["diagnose", "--data", data.to_str().unwrap(), "--out", out2.to_str().unwrap()];
+        a.extend(args);
+        let o = std::process::Command::new(bin).args(&a).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(needle), "{a:?}: {err}");
+        assert!(!out2.exists());
+    }
+}

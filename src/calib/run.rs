@@ -34,7 +34,7 @@ use std::time::Instant;
 pub enum ModelSpec {
     /// A robot with a nominal URDF (the embedded IRB 120 or a file) in a parametrisation:
     /// `dh`, `hayati` or `frame`.
-    Nominal { robot: Robot, parametrisation: String },
+    Nominal { robot: Box<Robot>, parametrisation: String },
     /// A 6R arm with no published nominal.
     Generic6r,
 }
@@ -46,14 +46,14 @@ impl ModelSpec {
             return Err(Error::Invalid(format!("unknown parametrisation '{parametrisation}' (expected dh, hayati or frame)")));
         }
         match model {
-            "irb120" => Ok(ModelSpec::Nominal { robot: Robot::irb120(), parametrisation: p }),
+            "irb120" => Ok(ModelSpec::Nominal { robot: Box::new(Robot::irb120()), parametrisation: p }),
             "generic6r" => Ok(ModelSpec::Generic6r),
             path if path.ends_with(".urdf") => {
                 let robot = Robot::from_urdf_file(Path::new(path))?;
                 if robot.dof() != 6 {
                     return Err(Error::Invalid(format!("{path}: {} revolute joints; calibration data hold six joint angles (q1..q6)", robot.dof())));
                 }
-                Ok(ModelSpec::Nominal { robot, parametrisation: p })
+                Ok(ModelSpec::Nominal { robot: Box::new(robot), parametrisation: p })
             }
             other => Err(Error::Invalid(format!("unknown model '{other}' (expected irb120, generic6r or a .urdf path)"))),
         }
@@ -61,7 +61,7 @@ impl ModelSpec {
     /// The nominal robot, where there is one.
     pub fn robot(&self) -> Option<&Robot> {
         match self {
-            ModelSpec::Nominal { robot, .. } => Some(robot),
+            ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
             ModelSpec::Generic6r => None,
         }
     }

@@ -188,8 +188,6 @@ pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
     let mut out = Vec::new();
     while out.len() < n && !pool.is_empty() {
         let (kind, joint, a) = pool.remove(rng.random_range(0..pool.len()));
-        // Two causes on one joint of the same mechanism would be one cause.
-        pool.retain(|(k, j, _)| !(*k == kind && joint.is_none()) && !(*j == joint && joint.is_some() && *k == kind));
         let factor = rng.random_range(1.5..4.0);
         let v = factor * sigma / a;
         apply(&mut s, kind, joint, v);

@@ -81,6 +81,20 @@ pub(crate) fn argmin(v: &[f64]) -> usize {
     b
 }
 
+/// `½ Σ (z_i − h_i(x))²` over the observations `order` (the epoch cost of the sequential
+/// filters), NaN → +∞.
+pub(crate) fn obs_cost<O: Observations>(o: &O, x: &[f64], order: &[usize]) -> f64 {
+    let c = 0.5
+        * order
+            .iter()
+            .map(|&i| {
+                let e = o.measured(i) - o.predict(x, i);
+                e * e
+            })
+            .sum::<f64>();
+    sanitize(c)
+}
+
 #[cfg(test)]
 pub(crate) mod testfns {
     //! Benchmark functions used by the tests of several solvers.
@@ -121,18 +135,4 @@ pub(crate) mod testfns {
             }
         }
     }
-}
-
-/// `½ Σ (z_i − h_i(x))²` over the observations `order` (the epoch cost of the sequential
-/// filters), NaN → +∞.
-pub(crate) fn obs_cost<O: Observations>(o: &O, x: &[f64], order: &[usize]) -> f64 {
-    let c = 0.5
-        * order
-            .iter()
-            .map(|&i| {
-                let e = o.measured(i) - o.predict(x, i);
-                e * e
-            })
-            .sum::<f64>();
-    sanitize(c)
 }
