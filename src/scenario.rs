@@ -278,6 +278,8 @@ pub enum Stream {
     Sampling = 2,
     Split = 3,
     Noise = 4,
+    /// Noise of the temperature sensor (`effects.thermal.temp_noise_k`), one item per pose.
+    TempNoise = 5,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).

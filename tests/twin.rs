@@ -147,7 +147,7 @@ fn backlash_side_flips_with_load_sign_and_approach() {
 
 #[test]
 fn thermal_growth_shows_in_length_over_time() {
-    let th = Thermal { alpha_per_k: 23e-6, delta_t_max_k: 8.0, time_constant_s: 900.0, ambient_c: 20.0, zero_drift_deg_per_k: vec![] };
+    let th = Thermal::new(23e-6, 8.0, 900.0, 20.0);
     let effects = Effects { thermal: Some(th.clone()), ..Default::default() };
     let twin = compliant_twin(effects);
     let q = deg([30.0, 30.0, 10.0, 0.0, 30.0, 0.0]);
