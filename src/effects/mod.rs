@@ -271,3 +271,120 @@ impl Effects {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn thermal(tau: f64, lag: f64) -> Thermal {
+        Thermal { temp_lag_s: lag, ..Thermal::new(23e-6, 10.0, tau, 21.0) }
+    }
+
+    /// The sensor's lag integrated numerically: τs·y' = ΔT(t) − y, y(0) = 0 (RK4).
+    fn integrated(th: &Thermal, t_end: f64) -> f64 {
+        let n = 200_000;
+        let h = t_end / n as f64;
+        let f = |t: f64, y: f64| (th.delta_t(t) - y) / th.temp_lag_s;
+        let mut y = 0.0;
+        for i in 0..n {
+            let t = i as f64 * h;
+            let k1 = f(t, y);
+            let k2 = f(t + 0.5 * h, y + 0.5 * h * k1);
+            let k3 = f(t + 0.5 * h, y + 0.5 * h * k2);
+            let k4 = f(t + h, y + h * k3);
+            y += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+        }
+        y
+    }
+
+    #[test]
+    fn sensed_rise_is_the_lagged_structure_rise() {
+        for (tau, lag) in [(1800.0, 120.0), (900.0, 900.0), (900.0, 900.0 * (1.0 + 1e-12)), (100.0, 1000.0), (600.0, 1.0)] {
+            let th = thermal(tau, lag);
+            for t in [1.0, 60.0, 450.0, 2000.0, 9000.0] {
+                let (closed, numeric) = (th.sensed_delta_t(t), integrated(&th, t));
+                assert!((closed - numeric).abs() < 1e-9, "τ {tau}, τs {lag}, t {t}: closed {closed} vs RK4 {numeric}");
+                assert!(closed < th.delta_t(t) && closed > 0.0, "the sensor lags behind the structure");
+            }
+            assert_eq!(th.sensed_delta_t(0.0), 0.0);
+            assert!((th.sensed_delta_t(1e7) - 10.0).abs() < 1e-12);
+        }
+        // A structure that jumps at once (τ = 0) is followed by the sensor's own first-order rise.
+        let th = thermal(0.0, 50.0);
+        assert!((th.sensed_delta_t(50.0) - 10.0 * (1.0 - (-1.0f64).exp())).abs() < 1e-12);
+        // No lag: the structure's rise itself, bit for bit.
+        let th = thermal(1800.0, 0.0);
+        for t in [0.0, 10.0, 1e4] {
+            assert_eq!(th.sensed_delta_t(t), th.delta_t(t));
+            assert_eq!(th.sensed_temp_c(t), th.ambient_c + th.delta_t(t));
+        }
+        // Offset adds on top.
+        let th = Thermal { temp_offset_k: 0.3, ..thermal(1800.0, 120.0) };
+        assert!((th.sensed_temp_c(500.0) - (21.3 + th.sensed_delta_t(500.0))).abs() < 1e-12);
+    }
+
+    #[test]
+    fn sensed_rise_is_continuous_through_equal_time_constants() {
+        let at = |lag: f64| thermal(900.0, lag).sensed_delta_t(700.0);
+        let equal = at(900.0);
+        let limit = 10.0 * (1.0 - (1.0 + 700.0 / 900.0) * (-700.0f64 / 900.0).exp());
+        assert!((equal - limit).abs() < 1e-13);
+        for rel in [1e-15, 1e-12, 1e-9, 1e-6] {
+            for lag in [900.0 * (1.0 + rel), 900.0 * (1.0 - rel)] {
+                assert!((at(lag) - equal).abs() < 10.0 * rel + 1e-13, "τs = {lag}: {} vs {equal}", at(lag));
+            }
+        }
+    }
+
+    #[test]
+    fn eccentricity_maps_to_sin_and_cos_coefficients() {
+        let e = Eccentricity { amplitude_deg: vec![0.005, -0.01, 0.2, 0.0, 0.0, 0.0], phase_deg: vec![30.0, -120.0, 90.0, 0.0, 0.0, 0.0] };
+        for j in 0..3 {
+            let (a, b) = e.sin_cos_deg(j);
+            for q in [-2.0, -0.3, 0.0, 0.7, 1.9f64] {
+                let expect = (a * q.sin() + b * q.cos()).to_radians();
+                assert!((e.offset_rad(j, q) - expect).abs() < 1e-15, "joint {j} q {q}");
+            }
+        }
+        assert!(e.offset_rad(2, 0.0) > 0.0 && (e.offset_rad(2, 0.0) - 0.2f64.to_radians()).abs() < 1e-15);
+        assert_eq!(e.offset_rad(3, 1.0), 0.0);
+    }
+
+    #[test]
+    fn eccentricity_and_temperature_sensor_values_are_checked_naming_the_key() {
+        let ok = Eccentricity { amplitude_deg: vec![0.005; 6], phase_deg: vec![0.0; 6] };
+        let check = |e: Eccentricity| Effects { eccentricity: Some(e), ..Default::default() }.validate(6);
+        assert!(check(ok.clone()).is_ok());
+        assert!(check(Eccentricity { amplitude_deg: vec![-0.999; 6], ..ok.clone() }).is_ok());
+        let cases = [
+            ("effects.eccentricity.amplitude_deg", Eccentricity { amplitude_deg: vec![0.005; 5], ..ok.clone() }),
+            ("effects.eccentricity.amplitude_deg", Eccentricity { amplitude_deg: vec![0.005, 1.0, 0.0, 0.0, 0.0, 0.0], ..ok.clone() }),
+            ("effects.eccentricity.amplitude_deg", Eccentricity { amplitude_deg: vec![0.005, -1.5, 0.0, 0.0, 0.0, 0.0], ..ok.clone() }),
+            ("effects.eccentricity.amplitude_deg", Eccentricity { amplitude_deg: vec![f64::NAN; 6], ..ok.clone() }),
+            ("effects.eccentricity.phase_deg", Eccentricity { phase_deg: vec![0.0; 7], ..ok.clone() }),
+            ("effects.eccentricity.phase_deg", Eccentricity { phase_deg: vec![0.0, 0.0, f64::INFINITY, 0.0, 0.0, 0.0], ..ok.clone() }),
+        ];
+        for (key, e) in cases {
+            let msg = check(e.clone()).expect_err(key);
+            assert!(msg.contains(key), "{e:?}: {msg}");
+        }
+        let th = |t: Thermal| Effects { thermal: Some(t), ..Default::default() }.validate(6);
+        let base = Thermal::new(23e-6, 10.0, 1800.0, 21.0);
+        assert!(th(Thermal { temp_lag_s: 120.0, temp_offset_k: -0.3, temp_noise_k: 0.05, temp_column: false, ..base.clone() }).is_ok());
+        let cases = [
+            ("effects.thermal.temp_lag_s", Thermal { temp_lag_s: -1.0, ..base.clone() }),
+            ("effects.thermal.temp_lag_s", Thermal { temp_lag_s: f64::NAN, ..base.clone() }),
+            ("effects.thermal.temp_offset_k", Thermal { temp_offset_k: f64::INFINITY, ..base.clone() }),
+            ("effects.thermal.temp_noise_k", Thermal { temp_noise_k: -0.01, ..base.clone() }),
+            ("effects.thermal.temp_noise_k", Thermal { temp_noise_k: f64::NAN, ..base.clone() }),
+            ("effects.thermal.time_constant_s", Thermal { time_constant_s: -5.0, ..base.clone() }),
+            ("effects.thermal.alpha_per_k", Thermal { alpha_per_k: 0.01, ..base.clone() }),
+            ("effects.thermal.delta_t_max_k", Thermal { delta_t_max_k: f64::NAN, ..base.clone() }),
+            ("effects.thermal.zero_drift_deg_per_k", Thermal { zero_drift_deg_per_k: vec![0.001; 3], ..base.clone() }),
+        ];
+        for (key, t) in cases {
+            let msg = th(t.clone()).expect_err(key);
+            assert!(msg.contains(key), "{t:?}: {msg}");
+        }
+    }
+}
