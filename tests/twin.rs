@@ -67,8 +67,8 @@ fn compliance_deflection_is_torque_over_stiffness() {
         assert!(sim.steps > 0);
         // Joint 2 carries the arm: a real, visible deflection.
         assert!(sim.deflection[1].abs() > 1e-5, "joint 2 deflection {}", sim.deflection[1]);
-        for j in 0..6 {
-            let expect = sim.torque[j] / k[j];
+        for (j, kj) in k.iter().enumerate() {
+            let expect = sim.torque[j] / kj;
             assert!((sim.deflection[j] - expect).abs() < 1e-9 + 1e-6 * expect.abs(), "joint {j}: δ = {:e}, τ/k = {expect:e}", sim.deflection[j]);
         }
         let qs = twin.quasi_static(&cmd);
