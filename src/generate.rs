@@ -43,9 +43,17 @@ pub struct PoseTruth {
     pub index: usize,
     pub split: Split,
     pub t_s: f64,
+    /// The structure's true temperature rise over ambient, K (drives the thermal scaling).
     pub delta_t_k: f64,
+    /// What the temperature sensor wrote in the `temp` column, °C (absent without a column).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub temp_measured_c: Option<f64>,
     pub q_cmd_deg: Vec<f64>,
-    /// Link-side angles the chain sees (commanded + deflection), degrees.
+    /// Encoder eccentricity, true motor-side minus commanded angle per joint, millidegrees
+    /// (absent when the effect is off).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eccentricity_mdeg: Option<Vec<f64>>,
+    /// Link-side angles the chain sees (commanded + eccentricity + deflection), degrees.
     pub q_link_deg: Vec<f64>,
     pub deflection_mdeg: Vec<f64>,
     pub joint_torque_nm: Vec<f64>,
@@ -210,6 +218,28 @@ pub fn acquisition_times(s: &Scenario, robot: &Robot, poses: &[Vec<f64>]) -> Vec
         .collect()
 }
 
+/// Ambient temperature written when the thermal effect is off, °C.
+pub const DEFAULT_AMBIENT_C: f64 = 20.0;
+
+/// The `temp` column of pose `i` acquired at `t` s, at the dataset's precision: the temperature
+/// sensor's reading (ambient + offset + the structure's rise through the sensor's lag + seeded
+/// Gaussian noise, see [`crate::effects::Thermal`]); `None` when `temp_column = false`. Without
+/// the thermal effect the column holds the constant [`DEFAULT_AMBIENT_C`].
+pub fn measured_temp(s: &Scenario, i: usize, t: f64) -> Option<f64> {
+    let Some(th) = &s.effects.thermal else {
+        return Some(DEFAULT_AMBIENT_C);
+    };
+    if !th.temp_column {
+        return None;
+    }
+    let mut v = th.sensed_temp_c(t);
+    if th.temp_noise_k > 0.0 {
+        let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TempNoise, i as u64));
+        v += th.temp_noise_k * rng.sample::<f64, _>(rand_distr::StandardNormal);
+    }
+    Some(round_decimals(v, TEMP_DECIMALS))
+}
+
 /// Runs a scenario end to end. Poses are simulated in parallel; results do not depend on the
 /// number of threads.
 pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<Generated> {
@@ -256,14 +286,14 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             }
         };
         let dt = twin.effects.thermal.as_ref().map(|th| th.delta_t(times[i])).unwrap_or(0.0);
-        let ambient = twin.effects.thermal.as_ref().map(|th| th.ambient_c).unwrap_or(20.0);
+        let temp = measured_temp(s, i, times[i]);
         // Each value at its meaning's precision (see DrawWire::reading_decimals).
         let reading = round_decimals(reading, s.sensor.reading_decimals());
         rows.push(Row {
             q_deg: std::array::from_fn(|j| round_decimals(poses[i][j].to_degrees(), s.sampling.angle_decimals)),
             l_mm: Some(reading),
             t_s: Some(round_decimals(times[i], T_DECIMALS)),
-            temp_c: Some(round_decimals(ambient + dt, TEMP_DECIMALS)),
+            temp_c: temp,
             split: Some(split[i]),
         });
         truth_poses.push(PoseTruth {
@@ -271,7 +301,9 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             split: split[i],
             t_s: times[i],
             delta_t_k: dt,
+            temp_measured_c: temp,
             q_cmd_deg: deg(&poses[i]),
+            eccentricity_mdeg: s.effects.eccentricity.as_ref().map(|_| rest.eccentricity.iter().map(|e| e.to_degrees() * 1e3).collect()),
             q_link_deg: deg(&rest.q_link),
             deflection_mdeg: rest.deflection.iter().map(|d| d.to_degrees() * 1e3).collect(),
             joint_torque_nm: rest.torque.clone(),
@@ -307,6 +339,8 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         ("lengths", "mm"),
         ("time", "s from the start of acquisition"),
         ("deflection_mdeg", "millidegrees, link side minus motor side"),
+        ("eccentricity_mdeg", "millidegrees, true motor side minus commanded (encoder) angle"),
+        ("temperature", "°C for temp_measured_c, K for delta_t_k (the structure's true rise)"),
     ]);
     let truth = Truth {
         scenario: s.name.clone(),

@@ -278,6 +278,8 @@ pub enum Stream {
     Sampling = 2,
     Split = 3,
     Noise = 4,
+    /// Noise of the temperature sensor (`effects.thermal.temp_noise_k`), one item per pose.
+    TempNoise = 5,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).
@@ -399,6 +401,47 @@ mod tests {
         assert!(valid(&with("sensor", "noise_std_mm", "200.0")));
         assert!(valid(&with("simulation", "max_steps", "1000000")));
         assert!(valid(&with("sampling", "limit_margin_deg", "0.0")));
+    }
+
+    /// The ideal scenario with TOML `tables` appended; the error it loads or validates with.
+    fn appended_error(tables: &str) -> Option<String> {
+        let text = format!("{IDEAL}\n{tables}");
+        match Scenario::from_toml(&text, "patched.toml") {
+            Err(e) => Some(e.to_string()),
+            Ok(s) => s.validate(&Robot::irb120(), "patched.toml").err().map(|e| e.to_string()),
+        }
+    }
+
+    #[test]
+    fn eccentricity_and_temperature_sensor_keys_are_checked_naming_the_key() {
+        let thermal = "[effects.thermal]\nalpha_per_k = 23e-6\ndelta_t_max_k = 5.0\ntime_constant_s = 900.0\n";
+        let ecc = |a: &str, p: &str| format!("[effects.eccentricity]\namplitude_deg = {a}\nphase_deg = {p}\n");
+        let six = "[0.005, 0.005, 0.005, 0.0, 0.0, 0.0]";
+        let good = format!("{thermal}temp_lag_s = 120.0\ntemp_offset_k = 0.3\ntemp_noise_k = 0.05\ntemp_column = false\n{}", ecc(six, "[0, 90, -45, 0, 0, 0]"));
+        assert_eq!(appended_error(&good), None);
+        let s = Scenario::from_toml(&format!("{IDEAL}\n{thermal}"), "x").expect("parses");
+        let th = s.effects.thermal.expect("thermal");
+        assert!(th.temp_column && th.temp_lag_s == 0.0 && th.temp_offset_k == 0.0 && th.temp_noise_k == 0.0, "defaults: {th:?}");
+        let cases: Vec<(String, &str)> = vec![
+            (format!("{thermal}temp_lag_s = -1.0\n"), "effects.thermal.temp_lag_s"),
+            (format!("{thermal}temp_lag_s = nan\n"), "effects.thermal.temp_lag_s"),
+            (format!("{thermal}temp_offset_k = inf\n"), "effects.thermal.temp_offset_k"),
+            (format!("{thermal}temp_noise_k = -0.05\n"), "effects.thermal.temp_noise_k"),
+            (format!("{thermal}temp_noise_k = nan\n"), "effects.thermal.temp_noise_k"),
+            (format!("{thermal}temp_lagg = 3.0\n"), "temp_lagg"),
+            (format!("{thermal}temp_column = 1\n"), "temp_column"),
+            (ecc("[0.005, 0.005, 0.005]", "[0, 0, 0, 0, 0, 0]"), "effects.eccentricity.amplitude_deg"),
+            (ecc("[0.005, 0.005, 1.0, 0.0, 0.0, 0.0]", "[0, 0, 0, 0, 0, 0]"), "effects.eccentricity.amplitude_deg"),
+            (ecc("[0.005, 0.005, nan, 0.0, 0.0, 0.0]", "[0, 0, 0, 0, 0, 0]"), "effects.eccentricity.amplitude_deg"),
+            (ecc(six, "[0, 0, 0, 0, 0, 0, 0]"), "effects.eccentricity.phase_deg"),
+            (ecc(six, "[0, 0, inf, 0, 0, 0]"), "effects.eccentricity.phase_deg"),
+            (format!("[effects.eccentricity]\namplitude_deg = {six}\n"), "phase_deg"),
+            (format!("{}phase_offset = 1.0\n", ecc(six, "[0, 0, 0, 0, 0, 0]")), "phase_offset"),
+        ];
+        for (tables, key) in cases {
+            let msg = appended_error(&tables).unwrap_or_else(|| panic!("accepted: {tables}"));
+            assert!(msg.contains("patched.toml") && msg.contains(key), "{tables}: message does not name {key}: {msg}");
+        }
     }
 
     #[test]

@@ -3,8 +3,8 @@
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use twincal::effects::statics::Contact;
-use twincal::effects::{Backlash, Compliance, Effects, Payload, Thermal};
-use twincal::generate::{generate, Silent};
+use twincal::effects::{Backlash, Compliance, Eccentricity, Effects, Payload, Thermal};
+use twincal::generate::{build_twin, generate, sample_poses, Silent};
 use twincal::robot::Robot;
 use twincal::scenario::Scenario;
 use twincal::sensor::DrawWire;
@@ -147,7 +147,7 @@ fn backlash_side_flips_with_load_sign_and_approach() {
 
 #[test]
 fn thermal_growth_shows_in_length_over_time() {
-    let th = Thermal { alpha_per_k: 23e-6, delta_t_max_k: 8.0, time_constant_s: 900.0, ambient_c: 20.0, zero_drift_deg_per_k: vec![] };
+    let th = Thermal::new(23e-6, 8.0, 900.0, 20.0);
     let effects = Effects { thermal: Some(th.clone()), ..Default::default() };
     let twin = compliant_twin(effects);
     let q = deg([30.0, 30.0, 10.0, 0.0, 30.0, 0.0]);
@@ -222,4 +222,208 @@ fn another_six_r_urdf_loads_and_simulates_the_same_way() {
         let r = fr.tool_point(&fr.nominal, q, &mut b);
         assert!((p - r).norm() < 1e-12);
     }
+}
+
+fn eccentricity() -> Eccentricity {
+    Eccentricity { amplitude_deg: vec![0.02, -0.015, 0.01, 0.03, 0.02, 0.05], phase_deg: vec![30.0, -60.0, 120.0, 0.0, 90.0, -150.0] }
+}
+
+/// A·sin(q + φ) written as the calibration side models it, a·sin q + b·cos q (rad).
+fn expected_eccentricity(e: &Eccentricity, q: &[f64]) -> Vec<f64> {
+    q.iter()
+        .enumerate()
+        .map(|(j, q)| {
+            let (a, b) = e.sin_cos_deg(j);
+            (a * q.sin() + b * q.cos()).to_radians()
+        })
+        .collect()
+}
+
+#[test]
+fn eccentricity_moves_the_settled_tool_as_the_quasi_static_model_says() {
+    let (s, robot) = scenario("irb120_evo_nph");
+    let plain = build_twin(&s, &robot);
+    let mut se = s.clone();
+    se.effects.eccentricity = Some(eccentricity());
+    se.validate(&robot, "eccentric").unwrap();
+    let ecc = build_twin(&se, &robot);
+    let poses = sample_poses(&s, &robot).unwrap();
+    let sides = twincal::twin::approach_sides(&[0.0; 6], &poses);
+    let (mut worst, mut moved, mut moved_l): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    for i in (0..poses.len()).step_by(40) {
+        let cmd = PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: 600.0 + i as f64 };
+        let sim = ecc.simulate(&cmd).unwrap();
+        let qs = ecc.quasi_static(&cmd);
+        let before = plain.simulate(&cmd).unwrap();
+        assert_eq!(sim.contact, qs.contact, "pose {i}");
+        // Rapier and the quasi-static model see the same eccentricity, and agree where the arm rests.
+        worst = worst.max((sim.tool - qs.tool).norm() * 1e3);
+        let expect = expected_eccentricity(&eccentricity(), &poses[i]);
+        for j in 0..6 {
+            assert!((sim.eccentricity[j] - expect[j]).abs() < 1e-15 && qs.eccentricity[j] == sim.eccentricity[j], "pose {i} joint {j}");
+            // Link side = commanded + eccentricity + deflection.
+            assert!((sim.q_link[j] - (poses[i][j] + expect[j] + sim.deflection[j])).abs() < 1e-14);
+        }
+        // The eccentricity moves the tool by what the quasi-static model says it does.
+        let qs_before = plain.quasi_static(&cmd);
+        let predicted = (qs.tool - qs_before.tool) * 1e3;
+        let simulated = (sim.tool - before.tool) * 1e3;
+        assert!((predicted - simulated).norm() < 1e-3, "pose {i}: rapier shift {simulated:?} vs quasi-static {predicted:?} mm");
+        moved = moved.max(simulated.norm());
+        moved_l = moved_l.max((ecc.sensor.ideal_length(&sim.tool) - plain.sensor.ideal_length(&before.tool)).abs());
+    }
+    assert!(worst < 1e-3, "worst rapier vs quasi-static tool distance {worst:e} mm");
+    assert!(moved > 0.05, "eccentricity should move the tool, at most {moved} mm");
+    assert!(moved_l > 0.01, "eccentricity should change L, at most {moved_l} mm");
+}
+
+#[test]
+fn eccentricity_changes_l_by_its_first_order_sensitivity() {
+    // A rigid arm: the tool sits exactly where the chain puts it at the true motor angles.
+    let robot = Robot::irb120();
+    let chain = robot.error_chain();
+    let zero = vec![0.0; chain.n_params()];
+    let e = eccentricity();
+    let twin = Twin::new(robot, zero.clone(), Effects { eccentricity: Some(e.clone()), ..Default::default() }, sensor(), SettleOptions::default());
+    let rigid = compliant_twin(Effects::default());
+    let tool = twin.sensor.tool_point_m();
+    let length = |q: &[f64]| twin.sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &tool));
+    for q in [[20.0, 30.0, -20.0, 10.0, 45.0, 30.0], [-40.0, 10.0, 20.0, -60.0, -30.0, 90.0]] {
+        let q = deg(q);
+        let cmd = PoseCommand { q_cmd: q.clone(), sides: vec![-1.0; 6], t: 0.0 };
+        let rest = twin.simulate(&cmd).unwrap();
+        let shift = expected_eccentricity(&e, &q);
+        let q_true: Vec<f64> = q.iter().zip(&shift).map(|(a, b)| a + b).collect();
+        assert!((rest.tool - chain.point(&q_true, &zero, 1.0, chain.flange(), &tool)).norm() < 1e-12);
+        // ΔL against Σ ∂L/∂q_j · e_j (central differences; second order ≈ 1e-4 mm).
+        let dl = twin.sensor.ideal_length(&rest.tool) - twin.sensor.ideal_length(&rigid.simulate(&cmd).unwrap().tool);
+        let h = 1e-6;
+        let linear: f64 = (0..6)
+            .map(|j| {
+                let (mut a, mut b) = (q.clone(), q.clone());
+                a[j] += h;
+                b[j] -= h;
+                (length(&a) - length(&b)) / (2.0 * h) * shift[j]
+            })
+            .sum();
+        assert!(dl.abs() > 0.01, "pose {q:?}: ΔL = {dl} mm");
+        assert!((dl - linear).abs() < 2e-4, "ΔL {dl} mm vs first order {linear} mm");
+    }
+}
+
+/// The ideal scenario with `effects` on.
+fn ideal_with(effects: Effects) -> (Scenario, Robot) {
+    let (mut s, robot) = scenario("irb120_ideal");
+    s.effects = effects;
+    s.validate(&robot, "patched").unwrap();
+    (s, robot)
+}
+
+#[test]
+fn dataset_records_the_encoder_angles_and_truth_the_eccentricity() {
+    let (s, robot) = ideal_with(Effects { eccentricity: Some(eccentricity()), ..Default::default() });
+    let g = generate(&s, &robot, &Silent).unwrap();
+    let chain = robot.error_chain();
+    let zero = vec![0.0; chain.n_params()];
+    let tool = s.sensor.tool_point_m();
+    let (mut worst, mut off): (f64, f64) = (0.0, 0.0);
+    for (r, t) in g.dataset.rows.iter().zip(&g.truth.poses) {
+        let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
+        let ecc = expected_eccentricity(&eccentricity(), &q);
+        let recorded = t.eccentricity_mdeg.as_ref().expect("eccentricity recorded per pose");
+        for j in 0..6 {
+            assert!((recorded[j] - ecc[j].to_degrees() * 1e3).abs() < 1e-9);
+            assert!((t.q_cmd_deg[j] - r.q_deg[j]).abs() < 1e-9, "the dataset holds the commanded angles");
+        }
+        let q_true: Vec<f64> = q.iter().zip(&ecc).map(|(a, b)| a + b).collect();
+        let l = |q: &[f64]| s.sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &tool));
+        worst = worst.max((r.l_mm.unwrap() - l(&q_true)).abs());
+        off = off.max((r.l_mm.unwrap() - l(&q)).abs());
+    }
+    assert!(worst < 1e-6, "L vs the analytic distance at the true angles: {worst:e} mm");
+    assert!(off > 0.05, "L should not match the commanded angles, at most {off} mm off");
+    // Without the effect nothing is recorded.
+    let (s, robot) = ideal_with(Effects::default());
+    let g = generate(&s, &robot, &Silent).unwrap();
+    assert!(g.truth.poses.iter().all(|p| p.eccentricity_mdeg.is_none()));
+}
+
+fn warm_up(lag: f64, offset: f64, noise: f64, column: bool) -> Thermal {
+    Thermal { temp_lag_s: lag, temp_offset_k: offset, temp_noise_k: noise, temp_column: column, ..Thermal::new(23e-6, 8.0, 900.0, 20.0) }
+}
+
+#[test]
+fn temp_column_is_a_lagging_sensor_reading() {
+    let th = warm_up(300.0, 0.0, 0.0, true);
+    let (s, robot) = ideal_with(Effects { thermal: Some(th.clone()), ..Default::default() });
+    let g = generate(&s, &robot, &Silent).unwrap();
+    let csv = g.dataset.to_csv_string();
+    assert!(csv.starts_with("q1,q2,q3,q4,q5,q6,L,t,temp,split\n"), "{}", &csv[..60]);
+    for (r, p) in g.dataset.rows.iter().zip(&g.truth.poses) {
+        let temp = r.temp_c.unwrap();
+        assert_eq!(p.temp_measured_c, Some(temp));
+        assert!((p.delta_t_k - th.delta_t(p.t_s)).abs() < 1e-15);
+        // The reading is the closed-form lagged rise at the dataset's precision ...
+        assert!((temp - (20.0 + th.sensed_delta_t(p.t_s))).abs() <= 5e-4 + 1e-12, "t {}: {temp}", p.t_s);
+        // ... and never more than the structure's rise.
+        assert!(temp - 20.0 <= p.delta_t_k + 5e-4);
+    }
+    // Early on the sensor has seen a fraction of the rise: the first rows measure clearly less.
+    let first = &g.truth.poses[..5];
+    for p in first {
+        let measured = p.temp_measured_c.unwrap() - 20.0;
+        assert!(p.delta_t_k > 0.0 && measured < 0.7 * p.delta_t_k, "t {}: sensor {measured} K, structure {} K", p.t_s, p.delta_t_k);
+    }
+    // The structure itself, which drives the length scale, warms as before.
+    let last = g.truth.poses.last().unwrap();
+    assert!(last.delta_t_k > last.temp_measured_c.unwrap() - 20.0);
+}
+
+#[test]
+fn temp_sensor_noise_and_offset_are_seeded_and_deterministic() {
+    let th = warm_up(120.0, 0.3, 0.05, true);
+    let (s, robot) = ideal_with(Effects { thermal: Some(th.clone()), ..Default::default() });
+    let a = generate(&s, &robot, &Silent).unwrap();
+    let b = generate(&s, &robot, &Silent).unwrap();
+    assert_eq!(a.dataset.to_csv_string(), b.dataset.to_csv_string(), "same scenario and seed, same bytes");
+    let residual: Vec<f64> = a.truth.poses.iter().map(|p| p.temp_measured_c.unwrap() - th.sensed_temp_c(p.t_s)).collect();
+    let n = residual.len() as f64;
+    let mean = residual.iter().sum::<f64>() / n;
+    let std = (residual.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    assert!((0.03..0.075).contains(&std), "noise std {std} K, set 0.05 K");
+    assert!(mean.abs() < 4.0 * 0.05 / n.sqrt(), "noise mean {mean} K (the offset is not noise)");
+    // Every reading sits on the 1 mK grid.
+    assert!(a.dataset.rows.iter().all(|r| (r.temp_c.unwrap() * 1e3 - (r.temp_c.unwrap() * 1e3).round()).abs() < 1e-6));
+    // Another seed draws other noise; the noise-free parts (L of the ideal arm) follow their own streams.
+    let mut s2 = s.clone();
+    s2.seed += 1;
+    let c = generate(&s2, &robot, &Silent).unwrap();
+    let r2: Vec<f64> = c.truth.poses.iter().map(|p| p.temp_measured_c.unwrap() - th.sensed_temp_c(p.t_s)).collect();
+    assert_ne!(residual, r2);
+    // Noise off, offset kept: the same rows less the noise.
+    let (s3, _) = ideal_with(Effects { thermal: Some(warm_up(120.0, 0.3, 0.0, true)), ..Default::default() });
+    let d = generate(&s3, &robot, &Silent).unwrap();
+    for (x, y) in a.dataset.rows.iter().zip(&d.dataset.rows) {
+        assert_eq!((x.q_deg, x.l_mm, x.t_s), (y.q_deg, y.l_mm, y.t_s));
+        assert!((x.temp_c.unwrap() - y.temp_c.unwrap()).abs() < 0.25);
+    }
+}
+
+#[test]
+fn temp_column_false_writes_time_only() {
+    let th = warm_up(120.0, 0.3, 0.05, false);
+    let (s, robot) = ideal_with(Effects { thermal: Some(th), ..Default::default() });
+    let g = generate(&s, &robot, &Silent).unwrap();
+    let csv = g.dataset.to_csv_string();
+    assert!(csv.starts_with("q1,q2,q3,q4,q5,q6,L,t,split\n"), "{}", &csv[..60]);
+    assert!(!csv.contains("temp"));
+    assert!(g.dataset.rows.iter().all(|r| r.temp_c.is_none() && r.t_s.is_some()));
+    let json = serde_json::to_value(&g.truth).unwrap();
+    for p in json["poses"].as_array().unwrap() {
+        assert!(p.get("temp_measured_c").is_none() && p["delta_t_k"].as_f64().unwrap() > 0.0, "{p}");
+    }
+    // Without the thermal effect the column stays: a constant ambient.
+    let (s, robot) = ideal_with(Effects::default());
+    let g = generate(&s, &robot, &Silent).unwrap();
+    assert!(g.dataset.rows.iter().all(|r| r.temp_c == Some(20.0)));
 }

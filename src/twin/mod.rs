@@ -103,8 +103,10 @@ pub struct PoseCommand {
 /// The resting state of the true arm at one pose.
 #[derive(Clone, Debug)]
 pub struct RestingPose {
-    /// Link-side angles as the chain sees them (commanded + deflection), rad.
+    /// Link-side angles as the chain sees them (motor side + deflection), rad.
     pub q_link: Vec<f64>,
+    /// Encoder eccentricity: true motor-side minus commanded (reported) angle per joint, rad.
+    pub eccentricity: Vec<f64>,
     pub deflection: Vec<f64>,
     pub torque: Vec<f64>,
     pub contact: Vec<Contact>,
@@ -163,17 +165,38 @@ impl Twin {
         (tool, frames)
     }
 
+    /// Encoder eccentricity at the commanded (reported) angles `q_cmd` (rad): true motor-side
+    /// minus commanded angle per joint, rad (zeros when the effect is off).
+    pub fn eccentricity(&self, q_cmd: &[f64]) -> Vec<f64> {
+        match &self.effects.eccentricity {
+            Some(e) => q_cmd.iter().enumerate().map(|(j, q)| e.offset_rad(j, *q)).collect(),
+            None => vec![0.0; q_cmd.len()],
+        }
+    }
+
+    /// The command as the drive executes it: the true motor-side angles (commanded + encoder
+    /// eccentricity) with the same approach flanks (they follow the commanded motion) and time.
+    /// Both the rapier simulation and the quasi-static model start from it.
+    pub fn motor_command(&self, cmd: &PoseCommand) -> PoseCommand {
+        let q_motor = cmd.q_cmd.iter().zip(self.eccentricity(&cmd.q_cmd)).map(|(q, e)| q + e).collect();
+        PoseCommand { q_cmd: q_motor, sides: cmd.sides.clone(), t: cmd.t }
+    }
+
     /// The quasi-static resting pose from torque equilibrium (no dynamics).
     pub fn quasi_static(&self, cmd: &PoseCommand) -> RestingPose {
-        let (p, scale) = self.params_at(cmd.t);
-        let eq = equilibrium(&self.chain, &p, scale, &cmd.q_cmd, &self.load, self.transmission.as_ref(), &cmd.sides);
+        let motor = self.motor_command(cmd);
+        let (p, scale) = self.params_at(motor.t);
+        let eq = equilibrium(&self.chain, &p, scale, &motor.q_cmd, &self.load, self.transmission.as_ref(), &motor.sides);
         let (tool, frames) = self.resting(eq.q.clone(), &p, scale);
-        RestingPose { q_link: eq.q, deflection: eq.deflection, torque: eq.torque, contact: eq.contact, tool, frames, steps: 0 }
+        let eccentricity = self.eccentricity(&cmd.q_cmd);
+        RestingPose { q_link: eq.q, eccentricity, deflection: eq.deflection, torque: eq.torque, contact: eq.contact, tool, frames, steps: 0 }
     }
 
     /// The resting pose simulated in rapier.
     pub fn simulate(&self, cmd: &PoseCommand) -> crate::Result<RestingPose> {
-        rapier_sim::simulate(self, cmd)
+        let mut rest = rapier_sim::simulate(self, &self.motor_command(cmd))?;
+        rest.eccentricity = self.eccentricity(&cmd.q_cmd);
+        Ok(rest)
     }
 }
 

@@ -1,10 +1,11 @@
 //! One pose of the twin in rapier3d-f64: a fixed base, one dynamic body per link with the URDF
 //! inertia (payload merged into the last link), joined by reduced-coordinate multibody joints.
 //!
-//! Each joint's commanded angle is built into its parent-side frame, so the joint coordinate is the
-//! link-side deflection δ. The transmission acts through rapier's implicit joint spring, switched per
-//! step between "on a flank" (spring with its rest angle at the flank) and "inside the band" (no
-//! spring, dry friction), which is backlash in series with compliance. Cable tension is an external
+//! Each joint's motor-side angle (commanded + encoder eccentricity, see [`Twin::motor_command`]) is
+//! built into its parent-side frame, so the joint coordinate is the link-side deflection δ. The
+//! transmission acts through rapier's implicit joint spring, switched per step between "on a
+//! flank" (spring with its rest angle at the flank) and "inside the band" (no spring, dry
+//! friction), which is backlash in series with compliance. Cable tension is an external
 //! force on the last link at the tool point, recomputed every step.
 
 use super::{PoseCommand, RestingPose, Twin};
@@ -61,6 +62,7 @@ enum State {
     Free,
 }
 
+/// Simulates the pose `cmd`, whose angles are the true motor-side ones (see [`Twin::motor_command`]).
 pub(super) fn simulate(twin: &Twin, cmd: &PoseCommand) -> Result<RestingPose> {
     let chain = &twin.chain;
     let n = chain.n_joints;
@@ -305,5 +307,5 @@ fn read_back(
     let mut torque = vec![0.0; n];
     let mut jac = crate::robot::kinematics::PointJacobian::new(chain);
     twin.load.torques(chain, &ws, &mut jac, &mut torque);
-    Ok(RestingPose { q_link, deflection, torque, contact, tool, frames, steps })
+    Ok(RestingPose { q_link, eccentricity: vec![0.0; n] /* set by Twin::simulate */, deflection, torque, contact, tool, frames, steps })
 }
