@@ -47,7 +47,7 @@ impl Tolerances {
 /// 50 µrad/(N·m) of joint compliance (a 20 kN·m/rad gear), 10 millidegrees of backlash or
 /// eccentricity, 2 millidegrees per kelvin of joint-zero drift, 25 ppm/K of expansion (aluminium 23, steel 12), 100 ppm of warm-up growth, a
 /// warm-up time constant of half an hour, 0.1 mm of reading nonlinearity.
-fn effect_scale(u: EffectUnit) -> f64 {
+pub fn effect_scale(u: EffectUnit) -> f64 {
     match u {
         EffectUnit::Compliance => 50e-6,
         EffectUnit::SmallAngle => 0.01f64.to_radians(),

@@ -14,7 +14,7 @@ use crate::calib::model::{CalibModel, SensorGuess};
 use crate::calib::optim::LeastSquares;
 use crate::calib::problem::{LengthFit, Samples};
 use crate::dataset::{Dataset, Row};
-use crate::effects::{Backlash, Compliance, Thermal};
+use crate::effects::{Backlash, Compliance, Eccentricity, Thermal};
 use crate::error::{Error, Result};
 use crate::generate::{acquisition_times, sample_poses};
 use crate::robot::Robot;
@@ -62,6 +62,9 @@ pub fn causes() -> Vec<(EffectKind, Option<usize>)> {
     for j in 0..3 {
         v.push((EffectKind::ThermalDrift, Some(j)));
     }
+    for j in 0..6 {
+        v.push((EffectKind::EncoderEccentricity, Some(j)));
+    }
     v
 }
 
@@ -81,7 +84,7 @@ fn plausible(kind: EffectKind, joint: Option<usize>) -> f64 {
 fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
     let q = sample_poses(s, robot)?;
     let t = acquisition_times(s, robot, &q);
-    let th = Thermal { alpha_per_k: 0.0, delta_t_max_k: THERMAL_RISE_K, time_constant_s: THERMAL_TAU_S, ambient_c: 21.0, zero_drift_deg_per_k: vec![] };
+    let th = Thermal::new(0.0, THERMAL_RISE_K, THERMAL_TAU_S, 21.0);
     let rows = q
         .iter()
         .zip(&t)
@@ -96,9 +99,10 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
     Ok(Dataset { rows, source: s.name.clone() })
 }
 
-/// RMS (mm) per unit of the block's (first) parameter of the length change a rigid fit cannot
-/// absorb, at the scenario's poses.
-pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Option<usize>) -> Result<f64> {
+/// RMS (mm) per unit size of the length change a rigid fit cannot absorb, at the scenario's
+/// poses. The size is the block's first parameter, or for eccentricity the amplitude at phase
+/// `phase` (A·sin(q + φ) = A cos φ·sin q + A sin φ·cos q).
+pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Option<usize>, phase: f64) -> Result<f64> {
     let data = poses(s, robot)?;
     let sn = &s.sensor;
     let guess = SensorGuess { exit_m: sn.exit_point_mm.map(|v| v * 1e-3), offset_m: sn.length_offset_mm * 1e-3, tool_m: sn.tool_point_mm.map(|v| v * 1e-3) };
@@ -114,17 +118,25 @@ pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Opti
     let mut j = DMatrix::zeros(samples.len(), model.n_params());
     LeastSquares::jacobian(&fit, &model.nominal, &mut j);
     let k = model.effect_params(0).start;
-    let g = DVector::from_column_slice(j.column(k).as_slice());
+    let mut g = DVector::from_column_slice(j.column(k).as_slice());
+    if kind == EffectKind::EncoderEccentricity {
+        g = g * phase.cos() + DVector::from_column_slice(j.column(k + 1).as_slice()) * phase.sin();
+    }
     let rigid = j.columns(0, model.first_effect()).into_owned();
     let coef = rigid.clone().svd(true, true).solve(&g, 1e-10).map_err(|e| Error::Invalid(format!("projection: {e}")))?;
     let rest = &g - &rigid * coef;
     Ok(rest.norm() / (samples.len() as f64).sqrt())
 }
 
-/// Puts a cause of internal size `v` into the scenario.
-fn apply(s: &mut Scenario, kind: EffectKind, joint: Option<usize>, v: f64) {
+/// Puts a cause of internal size `v` (and eccentricity phase `phase`, rad) into the scenario.
+fn apply(s: &mut Scenario, kind: EffectKind, joint: Option<usize>, v: f64, phase: f64) {
     let j = joint.unwrap_or(0);
     match kind {
+        EffectKind::EncoderEccentricity => {
+            let e = s.effects.eccentricity.get_or_insert(Eccentricity { amplitude_deg: vec![0.0; 6], phase_deg: vec![0.0; 6] });
+            e.amplitude_deg[j] = v.to_degrees();
+            e.phase_deg[j] = phase.to_degrees();
+        }
         EffectKind::JointCompliance => {
             let c = s.effects.compliance.get_or_insert(Compliance { stiffness_nm_per_rad: vec![1e12; 6], damping_nms_per_rad: None });
             c.stiffness_nm_per_rad[j] = 1.0 / v;
@@ -134,13 +146,7 @@ fn apply(s: &mut Scenario, kind: EffectKind, joint: Option<usize>, v: f64) {
             b.width_deg[j] = 2.0 * v.to_degrees();
         }
         EffectKind::ThermalDrift => {
-            let t = s.effects.thermal.get_or_insert(Thermal {
-                alpha_per_k: 0.0,
-                delta_t_max_k: THERMAL_RISE_K,
-                time_constant_s: THERMAL_TAU_S,
-                ambient_c: 21.0,
-                zero_drift_deg_per_k: vec![],
-            });
+            let t = s.effects.thermal.get_or_insert(Thermal::new(0.0, THERMAL_RISE_K, THERMAL_TAU_S, 21.0));
             match joint {
                 None => t.alpha_per_k = v,
                 Some(j) => {
@@ -178,19 +184,20 @@ pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
     let (mut s, robot) = clean(seed)?;
     let sigma = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x4849_4444_454e);
-    let mut pool: Vec<(EffectKind, Option<usize>, f64)> = Vec::new();
+    let mut pool: Vec<(EffectKind, Option<usize>, f64, f64)> = Vec::new();
     for (kind, joint) in causes() {
-        let a = unabsorbed_rms(&s, &robot, kind, joint)?;
+        let phase = if kind == EffectKind::EncoderEccentricity { rng.random_range(-std::f64::consts::PI..std::f64::consts::PI) } else { 0.0 };
+        let a = unabsorbed_rms(&s, &robot, kind, joint, phase)?;
         if a > 0.0 && 4.0 * sigma / a <= plausible(kind, joint) {
-            pool.push((kind, joint, a));
+            pool.push((kind, joint, a, phase));
         }
     }
     let mut out = Vec::new();
     while out.len() < n && !pool.is_empty() {
-        let (kind, joint, a) = pool.remove(rng.random_range(0..pool.len()));
+        let (kind, joint, a, phase) = pool.remove(rng.random_range(0..pool.len()));
         let factor = rng.random_range(1.5..4.0);
         let v = factor * sigma / a;
-        apply(&mut s, kind, joint, v);
+        apply(&mut s, kind, joint, v, phase);
         out.push(Hidden { cause: kind, joint, magnitude: reported(kind, joint, v), internal: v, factor });
     }
     s.name = format!("hidden-{seed}");

@@ -12,8 +12,8 @@
 //!    contiguous blocks of acquisition order (so time-dependent effects must extrapolate). Its
 //!    significance is the F test of the nested least-squares fits on every kept row,
 //!    Bonferroni-corrected for the number of candidates. The candidate with the lowest held-out
-//!    RMSE among those that are significant and gain at least `min_gain` is kept, and the
-//!    search repeats until nothing is left to gain.
+//!    RMSE among those that are significant, gain at least `min_gain` and stay of a physical
+//!    size ([`IMPLAUSIBLE`]) is kept, and the search repeats until nothing is left to gain.
 //! 4. **Sizes.** Each kept effect's size with its standard uncertainty, in physical units.
 //!
 //! Nothing here reads how the data were made.
@@ -106,7 +106,27 @@ pub struct Candidate {
     pub heldout_rmse_mm: f64,
     /// Bonferroni-corrected p-value of the F test of the nested fits.
     pub p_value: f64,
+    /// False when a fitted parameter is beyond [`IMPLAUSIBLE`] times its plausible size: the
+    /// block then absorbs something else, and is not kept whatever its gain.
+    pub plausible: bool,
     pub seconds: f64,
+}
+
+/// A fitted effect parameter larger than this many times its plausible one-sigma size
+/// ([`crate::calib::tolerance::effect_scale`]: e.g. 0.3° of eccentricity or backlash, 1.5 mrad/(N·m)
+/// of compliance) is not physical.
+pub const IMPLAUSIBLE: f64 = 30.0;
+
+/// Whether every parameter of the model's last effect block is of a physical size.
+fn plausible(f: &Fitted) -> bool {
+    use crate::calib::effects::EffectUnit;
+    use crate::calib::model::Kind;
+    let b = f.model.effects.len() - 1;
+    f.model.effect_params(b).all(|k| match f.model.kinds[k] {
+        Kind::Effect(EffectUnit::Seconds) => true,
+        Kind::Effect(u) => f.x[k].abs() <= IMPLAUSIBLE * crate::calib::tolerance::effect_scale(u),
+        _ => true,
+    })
 }
 
 /// A selection step: every candidate tried and the one kept (if any).
@@ -434,6 +454,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
                     joint: b.joint.map(|j| j + 1),
                     heldout_rmse_mm: rms(&f.oof),
                     p_value: p,
+                    plausible: plausible(&f),
                     seconds: tc.elapsed().as_secs_f64(),
                 };
                 (c, f)
@@ -442,7 +463,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         let best = results
             .iter()
             .enumerate()
-            .filter(|(_, (c, _))| c.p_value < opts.alpha && c.heldout_rmse_mm < (1.0 - opts.min_gain) * before)
+            .filter(|(_, (c, _))| c.plausible && c.p_value < opts.alpha && c.heldout_rmse_mm < (1.0 - opts.min_gain) * before)
             .min_by(|a, b| a.1 .0.heldout_rmse_mm.total_cmp(&b.1 .0.heldout_rmse_mm))
             .map(|(i, _)| i);
         let kept_label = best.map(|i| remaining[i].label());
