@@ -915,6 +915,43 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     println!("    test RMSE / noise floor   : median {:.3}, min {:.3}, max {:.3}; within 5 %: {within5}/{seeds} (sampling spread of an RMSE over 100 test poses is about ±7 %)", median(&ratios), r_min, r_max);
     println!("    identifiable within 3σ    : {total_in}/{total} parameters; every one in {all_in}/{seeds} seeds; median max |z| {:.2}", median(&zs));
 
+    // 2b. Untuned methods: a scenario whose spreads and noise differ from the defaults (0.8 mm,
+    // 0.12°, 0.15° and 0.2 mm raw noise, 20 samples); priors come from the documented tolerances
+    // and the noise from the data, never from the scenario.
+    let mut other = base.clone();
+    other.geometry.origin_offset_std_mm = 0.8;
+    other.geometry.origin_rotation_std_deg = 0.12;
+    other.geometry.joint_zero_std_deg = 0.15;
+    other.sensor.noise_std_mm = 0.2;
+    other.sensor.samples = 20;
+    let sets: Vec<(crate::dataset::Dataset, f64)> = (0..5u64)
+        .map(|i| {
+            let mut s = other.clone();
+            s.seed = 21 + i;
+            let g = run_generate(&s, &robot, &Silent)?;
+            Ok((g.dataset, g.truth.noise_std_mm))
+        })
+        .collect::<Result<_>>()?;
+    println!("  untuned methods on other spreads and noise (5 seeds, 400 poses, floor {:.4} mm): median test RMSE / floor, time per run", sets[0].1);
+    for m in Method::ALL {
+        let t0 = Instant::now();
+        let ratios: Vec<f64> = sets
+            .par_iter()
+            .map(|(ds, floor)| {
+                let r = run(ds, None, &CalibOptions::new(spec.clone(), m))?;
+                Ok(r.metrics.test_after.map(|t| t.rmse).unwrap_or(f64::NAN) / floor)
+            })
+            .collect::<Result<_>>()?;
+        println!(
+            "    {:<4} {:.3} (range {:.3}–{:.3}), {:.1} s per run",
+            m.name(),
+            median(&ratios),
+            ratios.iter().cloned().fold(f64::INFINITY, f64::min),
+            ratios.iter().cloned().fold(0.0, f64::max),
+            t0.elapsed().as_secs_f64() / 2.5
+        );
+    }
+
     // 3. The full comparison over 30 seeds.
     if with_compare {
         let dir = tmp.join(format!("s{}-400", 1000));

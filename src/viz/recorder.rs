@@ -162,7 +162,8 @@ impl Backend {
     /// A default viewer layout for the entities twincal logs (see `viz/README.md`).
     fn send_default_blueprint(&mut self) {
         use rerun::blueprint::{
-            BarChartView, Blueprint, BlueprintActivation, Horizontal, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimeSeriesView, Vertical,
+            BarChartView, Blueprint, BlueprintActivation, Horizontal, Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimeSeriesView,
+            Vertical,
         };
         let Some(rec) = &self.rec else { return };
         // rerun 0.36's `Blueprint::send` builds the blueprint through an internal recording that
@@ -176,6 +177,7 @@ impl Backend {
                 BarChartView::new("Residual histogram").with_origin("/residuals").into(),
                 TimeSeriesView::new("Calibration parameters").with_origin("/calib").into(),
                 Tabs::new([
+                    Spatial2DView::new("Diagnosis evidence (residual mm vs cause)").with_origin("/evidence").into(),
                     TimeSeriesView::new("Residual series").with_origin("/residuals").into(),
                     TextDocumentView::new("Docs").with_origin("/").into(),
                     TextLogView::new("Log").with_origin("/").into(),

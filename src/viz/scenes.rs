@@ -171,7 +171,7 @@ pub fn record_diagnosis(
     rec.static_text(
         "legend",
         &format!(
-            "# twincal diagnosis of {}\n\nVerdict: **{}**. Noise floor {:.4} mm ({}). Geometric held-out RMSE {:.4} mm, final {:.4} mm.\n\n{}\n\nStrongest residual correlations: {}.\n\nTimeline `step`: 0 = geometric model, k = after the k-th cause. `evidence/*`: held-out residual (mm, y) against the feature of each cause (x); `world/tool_points`: residual on the tool points (colour = |residual| from 0 to the geometric model's largest). `diagnose/heldout_rmse_mm` per step.",
+            "# twincal diagnosis of {}\n\nVerdict: **{}**. Noise floor {:.4} mm ({}). Geometric held-out RMSE {:.4} mm, final {:.4} mm.\n\n{}\n\nStrongest residual correlations: {}.\n\nTimeline `step`: 0 = geometric model, k = after the k-th cause. `evidence/*`: held-out residual (mm, y) against the feature of each cause (x); `world/tool_points`: residual on the tool points (colour = |residual| from 0 to the geometric model's largest). `calib/diagnose/heldout_rmse_mm` per step (Calibration parameters view).",
             d.data,
             d.verdict,
             d.noise_floor_mm,
@@ -205,10 +205,10 @@ pub fn record_diagnosis(
     }
     for (k, s) in d.steps.iter().enumerate() {
         rec.set_time_index("step", k as i64);
-        rec.scalar("diagnose/heldout_rmse_mm", s.heldout_rmse_before_mm);
+        rec.scalar("calib/diagnose/heldout_rmse_mm", s.heldout_rmse_before_mm);
     }
     rec.set_time_index("step", d.steps.len() as i64);
-    rec.scalar("diagnose/heldout_rmse_mm", d.final_heldout_rmse_mm);
+    rec.scalar("calib/diagnose/heldout_rmse_mm", d.final_heldout_rmse_mm);
     // Evidence per cause: the residual against the change of length the cause predicts per unit
     // of its parameters (its regressor), before and after.
     for (k, b) in result.model.effects.iter().enumerate() {
