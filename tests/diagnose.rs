@@ -66,17 +66,6 @@ fn two_hidden_effects_are_both_named() {
     }
 }
 
-#[test]
-#[ignore]
-fn debug_dump() {
-    let seed: u64 = std::env::var("SEED").unwrap().parse().unwrap();
-    let n: usize = std::env::var("N").map(|v| v.parse().unwrap()).unwrap_or(1);
-    let (s, robot, truth) = hidden(seed, n).unwrap();
-    eprintln!("{truth:?}");
-    let g = generate(&s, &robot, &Silent).unwrap();
-    twincal::generate::write_outputs(&g, std::path::Path::new("/tmp/hid")).unwrap();
-}
-
 /// The command end to end: report.json with the documented fields, the extended model usable
 /// by `predict`, a recording, and named errors for bad options.
 #[test]
