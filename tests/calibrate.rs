@@ -46,6 +46,12 @@ fn seeded(seeds: std::ops::Range<u64>, edit: impl Fn(&mut Scenario)) -> Vec<(Dat
         .collect()
 }
 
+/// The default geometric scenario over five seeds, generated once per test binary.
+fn five_seeds() -> &'static Vec<(Dataset, TruthFile)> {
+    static CELL: OnceLock<Vec<(Dataset, TruthFile)>> = OnceLock::new();
+    CELL.get_or_init(|| seeded(11..16, |_| {}))
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
@@ -58,9 +64,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 #[test]
 fn lm_reaches_the_noise_floor_and_the_truth_over_seeds() {
-    let sets = seeded(11..16, |_| {});
     let mut ratios = Vec::new();
-    for (ds, truth) in &sets {
+    for (ds, truth) in five_seeds() {
         let r = calibrate(ds, Some(truth), &irb120(Method::Lm, "hayati")).unwrap();
         let floor = truth.noise_std_mm;
         let (before, test) = (r.metrics.test_before.unwrap(), r.metrics.test_after.unwrap());
@@ -184,19 +189,24 @@ fn truth_comparison_catches_a_calibration_started_far_off() {
 
 #[test]
 fn papers_dh_model_flags_the_parallel_axes() {
-    let (_, ds, truth) = geometric();
-    let dh = calibrate(ds, Some(truth), &irb120(Method::Lm, "dh")).unwrap();
-    let fixed: Vec<&str> = dh.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
-    // Joints 2 and 3 are parallel: their D-H d cannot be told from the offsets around them.
-    assert!(fixed.iter().any(|n| *n == "joint_2.d" || *n == "joint_3.d"), "{fixed:?}");
-    let invisible = dh.identifiability["invisible"].as_array().unwrap();
-    assert!(!invisible.is_empty());
-    let hay = calibrate(ds, Some(truth), &irb120(Method::Lm, "hayati")).unwrap();
-    assert!(hay.parameters.iter().any(|p| p.name == "joint_2.beta" && !p.fixed));
+    let (mut dh_rmse, mut hay_rmse, mut floor) = (Vec::new(), Vec::new(), 0.0);
+    for (ds, truth) in five_seeds() {
+        let dh = calibrate(ds, Some(truth), &irb120(Method::Lm, "dh")).unwrap();
+        let fixed: Vec<&str> = dh.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
+        // Joints 2 and 3 are parallel: their D-H d cannot be told from the offsets around them.
+        assert!(fixed.iter().any(|n| *n == "joint_2.d" || *n == "joint_3.d"), "{fixed:?}");
+        assert!(!dh.identifiability["invisible"].as_array().unwrap().is_empty());
+        let hay = calibrate(ds, Some(truth), &irb120(Method::Lm, "hayati")).unwrap();
+        assert!(hay.parameters.iter().any(|p| p.name == "joint_2.beta" && !p.fixed));
+        dh_rmse.push(dh.metrics.test_after.unwrap().rmse);
+        hay_rmse.push(hay.metrics.test_after.unwrap().rmse);
+        floor = truth.noise_std_mm;
+    }
     // Plain D-H cannot express a tilt between the parallel axes (Hayati's β), which the true arm
-    // has: it stays well above the noise floor where the Hayati model reaches it.
-    let (a, b) = (dh.metrics.test_after.unwrap().rmse, hay.metrics.test_after.unwrap().rmse);
-    assert!(a > 2.0 * b && b < 1.1 * truth.noise_std_mm, "dh {a} vs hayati {b}");
+    // has: it stays well above the noise floor where the Hayati model reaches it (medians over
+    // the seeds).
+    let (a, b) = (median(dh_rmse.clone()), median(hay_rmse.clone()));
+    assert!(a > 2.0 * b && b < 1.1 * floor, "dh {dh_rmse:?} vs hayati {hay_rmse:?}");
 }
 
 #[test]
