@@ -1072,19 +1072,7 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
         eprintln!("  verdict: geometric_only (no effect improves the held-out fit significantly)");
     }
     for (i, c) in d.causes.iter().enumerate() {
-        let joint = c.joint.map(|j| format!(" joint {j}")).unwrap_or_default();
-        eprintln!(
-            "  cause {}: {}{joint}: {} {:.4} ± {:.4} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e})",
-            i + 1,
-            c.cause,
-            c.quantity,
-            c.magnitude,
-            c.uncertainty,
-            c.unit,
-            c.heldout_rmse_before_mm,
-            c.heldout_rmse_after_mm,
-            c.p_value
-        );
+        eprintln!("  cause {}: {}", i + 1, c.summary());
     }
     eprintln!("  final held-out RMSE {:.4} mm = {:.2} x the noise floor", d.final_heldout_rmse_mm, d.final_heldout_rmse_mm / d.noise_floor_mm);
     if let Some(c) = &d.comparison {

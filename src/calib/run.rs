@@ -380,7 +380,7 @@ pub fn estimate_noise(fit: &LengthFit, x0: &[f64], fixed: &[bool], repeat: Optio
 }
 
 /// √(2·cost / (m − n_free)), the residual standard deviation of a least-squares fit, mm.
-fn residual_sigma(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 {
+pub fn residual_sigma(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 {
     let dof = fit.data.len().saturating_sub(fixed.iter().filter(|f| !**f).count()).max(1);
     (2.0 * LeastSquares::cost(fit, x) / dof as f64).sqrt()
 }

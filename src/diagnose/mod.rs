@@ -26,7 +26,7 @@ use crate::calib::inputs::{block_for, row_inputs, time_span, LoadOptions, Torque
 use crate::calib::model::CalibModel;
 use crate::calib::optim::{covariance, LevenbergMarquardt, NoObserver};
 use crate::calib::problem::{LengthFit, Samples};
-use crate::calib::run::{identify, samples, split_stage, CalibOptions, Method, ModelSpec};
+use crate::calib::run::{identify, residual_sigma, samples, split_stage, CalibOptions, Method, ModelSpec};
 use crate::calib::stats::nested_f_test;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
@@ -154,6 +154,18 @@ pub struct Cause {
     pub p_value: f64,
     /// Every parameter of the block (display units) with its standard uncertainty.
     pub parameters: Vec<(String, f64, f64)>,
+}
+
+impl Cause {
+    /// One line: `joint_compliance joint 2: compliance 9.66 ± 0.31 urad/Nm; held-out RMSE
+    /// 0.0121 -> 0.0073 mm (p = 2.8e-25)`.
+    pub fn summary(&self) -> String {
+        let joint = self.joint.map(|j| format!(" joint {j}")).unwrap_or_default();
+        format!(
+            "{}{joint}: {} {:.4} ± {:.4} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e})",
+            self.cause, self.quantity, self.magnitude, self.uncertainty, self.unit, self.heldout_rmse_before_mm, self.heldout_rmse_after_mm, self.p_value
+        )
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -510,12 +522,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let l = kept_rows.lengths_mm()?;
     let (noise_floor_mm, noise_floor_source) = match crate::calib::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups >= 5) {
         Some(r) => (r.pooled_std, format!("repeatability of {} repeated configurations ({} rows)", r.groups, r.rows)),
-        None => {
-            let r = fit.residuals_mm(&current.x);
-            let n_free = current.fixed.iter().filter(|f| !**f).count();
-            let dof = r.len().saturating_sub(n_free).max(1);
-            ((r.iter().map(|v| v * v).sum::<f64>() / dof as f64).sqrt(), "residual of the final model (no repeated configurations)".into())
-        }
+        None => (residual_sigma(&fit, &current.x, &current.fixed), "residual of the final model (no repeated configurations)".into()),
     };
     let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
     let effects_option = current

@@ -150,24 +150,7 @@ pub fn record_diagnosis(
 ) -> Result<()> {
     let mut rec = Recorder::staged("twincal", outputs, path)?;
     let ev = &d.evidence;
-    let causes: Vec<String> = d
-        .causes
-        .iter()
-        .map(|c| {
-            format!(
-                "- {} {}: {} {:.4} ± {:.4} {}, held-out RMSE {:.4} → {:.4} mm (p = {:.1e})",
-                c.cause,
-                c.joint.map(|j| format!("joint {j}")).unwrap_or_default(),
-                c.quantity,
-                c.magnitude,
-                c.uncertainty,
-                c.unit,
-                c.heldout_rmse_before_mm,
-                c.heldout_rmse_after_mm,
-                c.p_value
-            )
-        })
-        .collect();
+    let causes: Vec<String> = d.causes.iter().map(|c| format!("- {}", c.summary())).collect();
     rec.static_text(
         "legend",
         &format!(
