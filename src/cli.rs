@@ -261,11 +261,8 @@ pub fn bench_diagnose(seeds: u64, quiet: bool) -> Result<()> {
         let h = &truth[0];
         let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
         let first = d.causes.first();
-        let named = first.is_some_and(|c| c.cause == h.cause.name() && c.joint == h.joint.map(|j| j + 1));
-        let size = first.filter(|_| named).is_some_and(|c| {
-            let e = (c.magnitude - h.magnitude).abs();
-            e <= 3.0 * c.uncertainty || e <= 0.3 * h.magnitude.abs()
-        });
+        let named = first.is_some_and(|c| h.named_by(c));
+        let size = first.is_some_and(|c| named && h.sized_by(c));
         detected += named as usize;
         sized += size as usize;
         rows.push(format!(

@@ -4,8 +4,8 @@
 
 use twincal::calib::run::ModelSpec;
 use twincal::dataset::{Dataset, Row};
-use twincal::diagnose::hidden::{clean, hidden, Hidden};
-use twincal::diagnose::{diagnose, Cause, DiagnoseOptions, Diagnosis};
+use twincal::diagnose::hidden::{clean, hidden};
+use twincal::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use twincal::generate::{generate, Silent};
 use twincal::robot::Robot;
 use twincal::scenario::Scenario;
@@ -18,16 +18,6 @@ fn run(s: &Scenario, robot: &Robot) -> Diagnosis {
     diagnose(&data, &opts, &|_| {}).unwrap().0
 }
 
-fn matches(h: &Hidden, c: &Cause) -> bool {
-    c.cause == h.cause.name() && c.joint == h.joint.map(|j| j + 1)
-}
-
-/// The size falls within its uncertainty band (3 standard uncertainties) or within 30 %.
-fn size_ok(h: &Hidden, c: &Cause) -> bool {
-    let err = (c.magnitude - h.magnitude).abs();
-    err <= 3.0 * c.uncertainty || err <= 0.3 * h.magnitude.abs()
-}
-
 #[test]
 fn a_hidden_effect_is_named_with_its_size() {
     for seed in [1, 4, 21] {
@@ -36,8 +26,8 @@ fn a_hidden_effect_is_named_with_its_size() {
         let d = run(&s, &robot);
         eprintln!("seed {seed}: hidden {h:?}; found {:?}", d.causes.iter().map(|c| (&c.cause, c.joint, c.magnitude, c.uncertainty)).collect::<Vec<_>>());
         let first = d.causes.first().unwrap_or_else(|| panic!("seed {seed}: {h:?} not found ({})", d.verdict));
-        assert!(matches(h, first), "seed {seed}: hidden {h:?}, named {} joint {:?} first", first.cause, first.joint);
-        assert!(size_ok(h, first), "seed {seed}: size {} ± {} vs true {}", first.magnitude, first.uncertainty, h.magnitude);
+        assert!(h.named_by(first), "seed {seed}: hidden {h:?}, named {} joint {:?} first", first.cause, first.joint);
+        assert!(h.sized_by(first), "seed {seed}: size {} ± {} vs true {}", first.magnitude, first.uncertainty, h.magnitude);
         assert!(first.heldout_rmse_after_mm < first.heldout_rmse_before_mm && first.p_value < 0.01);
         // The extended model predicts unseen rows near the noise floor.
         assert!(d.final_heldout_rmse_mm < 1.25 * d.noise_floor_mm, "seed {seed}: {} vs floor {}", d.final_heldout_rmse_mm, d.noise_floor_mm);
@@ -61,8 +51,8 @@ fn two_hidden_effects_are_both_named() {
     let d = run(&s, &robot);
     eprintln!("hidden {truth:?}; found {:?}", d.causes.iter().map(|c| (&c.cause, c.joint, c.magnitude, c.uncertainty)).collect::<Vec<_>>());
     for h in &truth {
-        let c = d.causes.iter().find(|c| matches(h, c)).unwrap_or_else(|| panic!("{h:?} not named: {}", d.verdict));
-        assert!(size_ok(h, c), "{h:?}: size {} ± {}", c.magnitude, c.uncertainty);
+        let c = d.causes.iter().find(|c| h.named_by(c)).unwrap_or_else(|| panic!("{h:?} not named: {}", d.verdict));
+        assert!(h.sized_by(c), "{h:?}: size {} ± {}", c.magnitude, c.uncertainty);
     }
 }
 

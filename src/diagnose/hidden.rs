@@ -45,6 +45,18 @@ pub struct Hidden {
     pub factor: f64,
 }
 
+impl Hidden {
+    /// Whether a diagnosed cause names this effect: same kind, same joint.
+    pub fn named_by(&self, c: &super::Cause) -> bool {
+        c.cause == self.cause.name() && c.joint == self.joint.map(|j| j + 1)
+    }
+    /// Whether a diagnosed size is right: within 3 standard uncertainties or within 30 %.
+    pub fn sized_by(&self, c: &super::Cause) -> bool {
+        let e = (c.magnitude - self.magnitude).abs();
+        e <= 3.0 * c.uncertainty || e <= 0.3 * self.magnitude.abs()
+    }
+}
+
 /// The block that represents `kind` on `joint` (thermal blocks driven by temperature).
 fn block(kind: EffectKind, joint: Option<usize>, ref_c: f64) -> EffectBlock {
     let thermal = (kind == EffectKind::ThermalDrift).then_some(ThermalDrive::Temperature { ref_c });

@@ -21,7 +21,6 @@
 pub mod hidden;
 
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
-use crate::calib::identify::Identifiability;
 use crate::calib::inputs::{block_for, row_inputs, time_span, LoadOptions, TorqueModel};
 use crate::calib::model::CalibModel;
 use crate::calib::optim::{covariance, LevenbergMarquardt, NoObserver};
@@ -244,9 +243,7 @@ impl Ctx {
     /// held-out residual of each fold from a fit on the other folds.
     fn evaluate(&self, model: CalibModel, x0: &[f64]) -> Fitted {
         let fit = LengthFit { model: &model, data: &self.data };
-        let id: Identifiability = identify(&fit, x0, self.rank_tol);
-        let fixed = id.fixed_mask;
-        let x = Self::lm().minimize(&fit, x0, &fixed, &mut NoObserver).x;
+        let (x, fixed) = refit(&model, &self.data, x0, self.rank_tol);
         let mut oof = vec![0.0; self.data.len()];
         for fold in &self.folds {
             let train: Vec<usize> = (0..self.data.len()).filter(|i| !fold.contains(i)).collect();
@@ -262,6 +259,14 @@ impl Ctx {
         let n_free = fixed.iter().filter(|f| !**f).count();
         Fitted { model, x, fixed, oof, rss, n_free }
     }
+}
+
+/// The parameters of `model` that `data` identify at `x0` (the rest stay fixed there), and the
+/// LM fit of those from `x0`: (fitted vector, fixed mask).
+fn refit(model: &CalibModel, data: &Samples, x0: &[f64], rank_tol: f64) -> (Vec<f64>, Vec<bool>) {
+    let fit = LengthFit { model, data };
+    let fixed = identify(&fit, x0, rank_tol).fixed_mask;
+    (Ctx::lm().minimize(&fit, x0, &fixed, &mut NoObserver).x, fixed)
 }
 
 /// Contiguous blocks of `n` rows.
@@ -284,10 +289,7 @@ fn screen_outliers(model: &CalibModel, x0: &[f64], all: &Samples, k: f64, rank_t
     let mut x = x0.to_vec();
     let mut flagged: Vec<Outlier> = Vec::new();
     for _ in 0..4 {
-        let data = all.subset(&keep);
-        let fit = LengthFit { model, data: &data };
-        let fixed = identify(&fit, &x, rank_tol).fixed_mask;
-        x = Ctx::lm().minimize(&fit, &x, &fixed, &mut NoObserver).x;
+        x = refit(model, &all.subset(&keep), &x, rank_tol).0;
         let r = LengthFit { model, data: all }.residuals_mm(&x);
         let kept_r: Vec<f64> = keep.iter().map(|&i| r[i]).collect();
         let med = crate::calib::stats::median(&kept_r);
@@ -584,8 +586,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
     let n = ctx.data.len();
     let rbf_fit = |rows: &[usize], model: &CalibModel, x: &[f64]| -> Option<(Vec<f64>, RbfNetwork)> {
         let tr = ctx.data.subset(rows);
-        let fixed = identify(&LengthFit { model, data: &tr }, x, ctx.rank_tol).fixed_mask;
-        let xf = Ctx::lm().minimize(&LengthFit { model, data: &tr }, x, &fixed, &mut NoObserver).x;
+        let xf = refit(model, &tr, x, ctx.rank_tol).0;
         let res = LengthFit { model, data: &tr }.residuals_mm(&xf);
         let (net, _) = RbfNetwork::fit_cv(&tr.q, &res, &[5, 10, 20, 40], &[1e-6, 1e-4, 1e-2], seed).ok()?;
         Some((xf, net))
@@ -610,19 +611,16 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
         return None;
     }
     let te = ctx.data.subset(&test);
-    let tr = ctx.data.subset(&train);
-    let fit_on = |m: &CalibModel, x: &[f64]| {
-        let fixed = identify(&LengthFit { model: m, data: &tr }, x, ctx.rank_tol).fixed_mask;
-        let xf = Ctx::lm().minimize(&LengthFit { model: m, data: &tr }, x, &fixed, &mut NoObserver).x;
-        rms(&LengthFit { model: m, data: &te }.residuals_mm(&xf))
-    };
+    // The geometric fit on the training part serves both the geometric model and the RBF.
     let (xg, net) = rbf_fit(&train, &geo.model, &geo.x)?;
     let r = LengthFit { model: &geo.model, data: &te }.residuals_mm(&xg);
     let rbf_ex = rms(&r.iter().zip(&te.q).map(|(ri, q)| ri - net.predict(q)).collect::<Vec<_>>());
+    let xe = refit(&ext.model, &ctx.data.subset(&train), &ext.x, ctx.rank_tol).0;
+    let ext_ex = rms(&LengthFit { model: &ext.model, data: &te }.residuals_mm(&xe));
     Some(Comparison {
         heldout_rmse_mm: [rms(&geo.oof), rms(&ext.oof), rms(&rbf_oof)],
         q2_split_deg: split.to_degrees(),
-        extrapolation_rmse_mm: [fit_on(&geo.model, &geo.x), fit_on(&ext.model, &ext.x), rbf_ex],
+        extrapolation_rmse_mm: [rms(&r), ext_ex, rbf_ex],
         extrapolation_rows: [train.len(), test.len()],
     })
 }
