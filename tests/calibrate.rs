@@ -152,7 +152,7 @@ impl twincal::calib::method::Solver for FarOff {
             }
         }
         let lm = twincal::calib::optim::LevenbergMarquardt { max_iter: 500, ..Default::default() };
-        Ok(twincal::calib::method::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), rbf: None })
+        Ok(twincal::calib::method::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), corrector: None })
     }
 }
 

@@ -210,6 +210,8 @@ pub fn legendre(v: f64) -> ([f64; 3], [f64; 3]) {
 #[derive(Clone, Debug, Default)]
 pub struct EffectState {
     pub dq: [f64; 6],
+    /// ∂Δq_j/∂q_j: how each joint's offset changes with its own commanded angle.
+    pub ddq_dq: [f64; 6],
     pub scale: f64,
     /// (parameter index, joint, ∂Δq_joint/∂param).
     pub joint_terms: Vec<(usize, usize, f64)>,
@@ -221,6 +223,7 @@ pub struct EffectState {
 /// in `x`, for a row with commanded angles `q` (rad) and inputs `inp`.
 pub fn joint_and_scale_effects(blocks: &[EffectBlock], first: usize, x: &[f64], q: &[f64], inp: &RowInputs, st: &mut EffectState) {
     st.dq = [0.0; 6];
+    st.ddq_dq = [0.0; 6];
     st.scale = 1.0;
     st.joint_terms.clear();
     st.scale_terms.clear();
@@ -242,6 +245,7 @@ pub fn joint_and_scale_effects(blocks: &[EffectBlock], first: usize, x: &[f64], 
                 let j = b.joint.unwrap_or(0);
                 let (s, c) = q[j].sin_cos();
                 st.dq[j] += x[k] * s + x[k + 1] * c;
+                st.ddq_dq[j] += x[k] * c - x[k + 1] * s;
                 st.joint_terms.push((k, j, s));
                 st.joint_terms.push((k + 1, j, c));
             }

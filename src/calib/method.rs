@@ -6,6 +6,7 @@
 //! [`Tolerances`](super::tolerance::Tolerances) (via [`Problem::prior_std`]) and noise levels
 //! from the data ([`Problem::noise_mm`]).
 
+use super::corrector::Corrector;
 use super::optim::{Bounds, Ekf, LeastSquares, LevenbergMarquardt, Observer, ParticleFilter, Pso, Report};
 use super::problem::{FreeCost, LengthFit};
 use super::rbf::RbfNetwork;
@@ -79,11 +80,11 @@ impl Problem<'_> {
     }
 }
 
-/// A solver's answer: the optimiser's report and, for methods that add one, a corrector of the
-/// residual field.
+/// A solver's answer: the optimiser's report and, for methods that add one, a learned corrector
+/// of what the geometry leaves (see [`super::corrector`]).
 pub struct Solution {
     pub report: Report,
-    pub rbf: Option<RbfNetwork>,
+    pub corrector: Option<Corrector>,
 }
 
 /// A calibration method with its settings.
@@ -113,7 +114,7 @@ impl Solver for LmSolver {
         Method::Lm
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
-        Ok(Solution { report: self.lm.minimize(p.fit, p.x0, p.fixed, obs), rbf: None })
+        Ok(Solution { report: self.lm.minimize(p.fit, p.x0, p.fixed, obs), corrector: None })
     }
 }
 
@@ -135,7 +136,7 @@ impl Solver for EkfSolver {
         // A diffuse prior (3 tolerances): the filter should not pull towards the nominal.
         let p0 = p.prior_std.iter().map(|s| (3.0 * s).powi(2)).collect();
         let ekf = Ekf { epochs: self.epochs.max(1), q: 0.0, r: p.noise_mm.powi(2), p0, tol: 1e-10 };
-        Ok(Solution { report: ekf.run(p.fit, p.x0, p.fixed, &p.shuffled_rows(), obs), rbf: None })
+        Ok(Solution { report: ekf.run(p.fit, p.x0, p.fixed, &p.shuffled_rows(), obs), corrector: None })
     }
 }
 
@@ -173,7 +174,7 @@ impl Solver for PfSolver {
             roughening: self.roughening,
             seed: p.seed,
         };
-        Ok(Solution { report: pf.run(p.fit, p.x0, p.prior_std, p.fixed, &p.shuffled_rows(), obs), rbf: None })
+        Ok(Solution { report: pf.run(p.fit, p.x0, p.prior_std, p.fixed, &p.shuffled_rows(), obs), corrector: None })
     }
 }
 
@@ -218,7 +219,7 @@ impl Solver for PsoSolver {
         let pso = Pso { particles: self.particles, iterations: self.iterations, seed: p.seed, patience: self.patience, ..Default::default() };
         let mut report = pso.minimize(&cost, &bounds, Some(&centre), &mut Expand { cost: &cost, inner: obs });
         report.x = cost.expand(&report.x);
-        Ok(Solution { report, rbf: None })
+        Ok(Solution { report, corrector: None })
     }
 }
 
@@ -246,6 +247,6 @@ impl Solver for RbfSolver {
         let res = p.fit.residuals_mm(&report.x);
         let (net, _) =
             RbfNetwork::fit_cv(&p.fit.data.q, &res, &self.centres, &self.ridges, p.seed).map_err(|e| Error::Calibration(format!("RBF network: {e}")))?;
-        Ok(Solution { report, rbf: Some(net) })
+        Ok(Solution { report, corrector: Some(Corrector::Rbf(net)) })
     }
 }

@@ -1,5 +1,6 @@
 //! Calibration: identification of model parameters from datasets.
 
+pub mod corrector;
 pub mod effects;
 pub mod equivalent;
 pub mod export;

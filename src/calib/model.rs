@@ -214,6 +214,26 @@ impl CalibModel {
         l + corr
     }
 
+    /// Predicted length (m) and its gradient with respect to the commanded joint angles (m/rad)
+    /// into `g`, every effect included; the row's inputs (torques, flanks, time) are held fixed.
+    pub fn length_grad_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, g: &mut [f64]) -> f64 {
+        let nc = self.n_chain();
+        let (e, c, tool) = self.sensor(x);
+        let scale = self.apply_effects(x, q, inp, w);
+        self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
+        self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
+        let d = w.jac.point - e;
+        let dist = d.norm().max(1e-12);
+        let u = d / dist;
+        let l = dist + c;
+        let (corr, dcorr, _) = self.reading_correction(x, l);
+        let own = if self.effects.is_empty() { [0.0; 6] } else { w.eff.ddq_dq };
+        for (j, gj) in g.iter_mut().enumerate().take(self.chain.n_joints) {
+            *gj = (1.0 + dcorr) * u.dot(&w.jac.dq[j]) * (1.0 + own[j]);
+        }
+        l + corr
+    }
+
     /// Display value (mm / degrees) of parameter `k`.
     pub fn display(&self, k: usize, v: f64) -> f64 {
         v * self.kinds[k].display()

@@ -9,7 +9,9 @@
 //! Each stage is a function of its own below or in the module named; the method is a
 //! [`Solver`] value that carries its own settings.
 
+use super::corrector::{Correct, Corrector, EffectCorrection};
 use super::effects::EffectKind;
+use super::effects::RowInputs;
 use super::identify::{analyse, Identifiability};
 use super::inputs::LoadOptions;
 pub use super::method::{Method, Solver};
@@ -186,8 +188,12 @@ pub struct CalibResult {
     /// The model itself (chain and parameter vector, internal units m / rad).
     pub model: CalibModel,
     pub x: Vec<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub rbf: Option<RbfNetwork>,
+    /// The learned corrector of what the geometry and effects leave, if the method fits one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corrector: Option<Corrector>,
+    /// Result files written before correctors were one interface stored the RBF network here.
+    #[serde(default, rename = "rbf", skip_serializing)]
+    legacy_rbf: Option<RbfNetwork>,
     /// How the effect blocks get their joint torques on new rows (with effects only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub torque_model: Option<super::inputs::TorqueModel>,
@@ -201,8 +207,8 @@ impl CalibResult {
     pub fn predict_mm(&self, q_deg: &[f64; 6]) -> f64 {
         let q: Vec<f64> = q_deg.iter().map(|d| d.to_radians()).collect();
         let mut w = self.model.work();
-        let base = self.model.predict(&self.x, &q, &mut w) * 1e3;
-        base + self.rbf.as_ref().map(|n| n.predict(&q)).unwrap_or(0.0)
+        let inp = RowInputs::default();
+        self.model.predict_with(&self.x, &q, &inp, &mut w) * 1e3 + self.correction_mm(&q, &inp)
     }
 
     /// Predicted lengths (mm) of every row of a dataset (rows in acquisition order: backlash
@@ -215,14 +221,38 @@ impl CalibResult {
             .zip(&inputs)
             .map(|(r, inp)| {
                 let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-                self.model.predict_with(&self.x, &q, inp, &mut w) * 1e3 + self.rbf.as_ref().map(|n| n.predict(&q)).unwrap_or(0.0)
+                self.model.predict_with(&self.x, &q, inp, &mut w) * 1e3 + self.correction_mm(&q, inp)
             })
             .collect()
     }
 
+    /// The learned corrector's length correction (mm; 0 without one).
+    pub fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
+        self.corrector.as_ref().map(|c| c.as_correct().correction_mm(q, inp)).unwrap_or(0.0)
+    }
+
+    /// Every non-geometric part of the calibrated model as a [`Correct`]: the physical effect
+    /// blocks (when the model has any), then the learned corrector.
+    pub fn correctors(&self) -> Vec<Box<dyn Correct + '_>> {
+        let mut out: Vec<Box<dyn Correct + '_>> = Vec::new();
+        if !self.model.effects.is_empty() {
+            out.push(Box::new(EffectCorrection::new(&self.model, &self.x)));
+        }
+        if let Some(c) = &self.corrector {
+            out.push(Box::new(c.as_correct()));
+        }
+        out
+    }
+
     pub fn load(path: &Path) -> Result<CalibResult> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let r: CalibResult = serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        let mut r: CalibResult = serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        if let Some(net) = r.legacy_rbf.take() {
+            r.corrector.get_or_insert(Corrector::Rbf(net));
+        }
+        if let Some(c) = &r.corrector {
+            c.validate(r.model.chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
+        }
         let chain = &r.model.chain;
         let consistent = chain.n_joints == 6
             && r.x.len() == r.model.n_params()
@@ -385,24 +415,24 @@ pub fn residual_sigma(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 {
     (2.0 * LeastSquares::cost(fit, x) / dof as f64).sqrt()
 }
 
-fn stats(fit: &LengthFit, x: &[f64], rbf: Option<&RbfNetwork>) -> ErrorStats {
+fn stats(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorStats {
     let mut r = fit.residuals_mm(x);
-    if let Some(net) = rbf {
+    if let Some(c) = corrector {
         for (i, ri) in r.iter_mut().enumerate() {
-            *ri -= net.predict(&fit.data.q[i]);
+            *ri -= c.correction_mm(&fit.data.q[i], &fit.data.inputs[i]);
         }
     }
     ErrorStats::of(&r)
 }
 
 /// Stage "metrics": RMSE / STD / MAX before (start) and after, on training and test rows.
-pub fn metrics_stage(fit: &LengthFit, test_fit: &LengthFit, x0: &[f64], x: &[f64], rbf: Option<&RbfNetwork>) -> Metrics {
+pub fn metrics_stage(fit: &LengthFit, test_fit: &LengthFit, x0: &[f64], x: &[f64], corrector: Option<&dyn Correct>) -> Metrics {
     let has_test = !test_fit.data.is_empty();
     Metrics {
         train_before: stats(fit, x0, None),
         test_before: has_test.then(|| stats(test_fit, x0, None)),
-        train_after: stats(fit, x, rbf),
-        test_after: has_test.then(|| stats(test_fit, x, rbf)),
+        train_after: stats(fit, x, corrector),
+        test_after: has_test.then(|| stats(test_fit, x, corrector)),
     }
 }
 
@@ -464,7 +494,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let prior_std = opts.tolerances.prior_std(&model);
     let mut history = History::default();
     let problem = Problem { fit: &fit, x0: &x0, fixed: &fixed, prior_std: &prior_std, noise_mm: noise, seed: opts.seed };
-    let Solution { report, rbf } = solver.solve(&problem, &mut history)?;
+    let Solution { report, corrector } = solver.solve(&problem, &mut history)?;
     let x = report.x.clone();
     if x.iter().any(|v| !v.is_finite()) {
         return Err(Error::Calibration(format!("{} diverged (non-finite parameters)", solver.method().name())));
@@ -483,7 +513,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let cov = covariance(&fit, &x, &fixed);
     let noise_estimate_mm = if noise.is_finite() { noise } else { residual_sigma(&fit, &x, &fixed) };
     let test_fit = LengthFit { model: &model, data: &split.test };
-    let metrics = metrics_stage(&fit, &test_fit, &x0, &x, rbf.as_ref());
+    let metrics = metrics_stage(&fit, &test_fit, &x0, &x, corrector.as_ref().map(|c| c.as_correct()));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
@@ -508,7 +538,8 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         truth_comparison,
         repeatability,
         x,
-        rbf,
+        corrector,
+        legacy_rbf: None,
         torque_model: split.torque_model.clone(),
         history: history_disp,
         model,

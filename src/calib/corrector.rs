@@ -1,0 +1,259 @@
+//! Non-geometric correctors: what a calibrated model adds to its geometric length prediction.
+//!
+//! A calibrated model is a geometric backbone (a [`CalibModel`] and its parameter vector) plus a
+//! *corrector* of what the backbone cannot represent. Every corrector implements [`Correct`]:
+//! its length correction in mm at commanded joint angles `q` (rad) and the row's inputs
+//! ([`RowInputs`]: time, temperature, joint torques, backlash flanks), and the gradient of that
+//! correction with respect to `q` (mm/rad), analytically. `predict`, `compare` and `ik` only ever
+//! talk to this trait, so a new corrector needs nothing else.
+//!
+//! Two families implement it:
+//! * learned correctors, stored in a calibration result as one serialisable [`Corrector`] value
+//!   (today the Gaussian RBF network; the papers' networks join the enum);
+//! * the physical effect blocks of the model itself, seen through [`EffectCorrection`]: the
+//!   length change that the effects (compliance, backlash, thermal drift, eccentricity, sensor
+//!   nonlinearity) cause relative to the same geometry without them.
+//!
+//! [`gradient_error`] checks any corrector's gradient against central finite differences.
+
+use super::effects::RowInputs;
+use super::model::{CalibModel, ModelWork};
+use super::rbf::RbfNetwork;
+use serde::{Deserialize, Serialize};
+
+/// A non-geometric length correction, see the module docs.
+pub trait Correct: Send + Sync {
+    /// Short name for reports ("rbf", "effects", ...).
+    fn label(&self) -> String;
+    /// Number of fitted values (weights, centres, ...) it carries.
+    fn n_weights(&self) -> usize;
+    /// Length correction (mm) at commanded joint angles `q` (rad).
+    fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64;
+    /// The correction (mm) and its gradient with respect to `q` (mm/rad) into `g` (len 6).
+    fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64;
+}
+
+impl<T: Correct + ?Sized> Correct for &T {
+    fn label(&self) -> String {
+        (**self).label()
+    }
+    fn n_weights(&self) -> usize {
+        (**self).n_weights()
+    }
+    fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
+        (**self).correction_mm(q, inp)
+    }
+    fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
+        (**self).correction_grad_mm(q, inp, g)
+    }
+}
+
+/// A learned corrector as stored in result.json (`"corrector": {"kind": "rbf", ...}`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Corrector {
+    /// Gaussian RBF network on the joint angles, fitted to the geometric fit's residuals.
+    Rbf(RbfNetwork),
+}
+
+impl Corrector {
+    pub fn as_correct(&self) -> &dyn Correct {
+        match self {
+            Corrector::Rbf(n) => n,
+        }
+    }
+    /// Checks a deserialised corrector against the model it belongs to (a hand-edited or
+    /// truncated file must not produce NaN predictions silently).
+    pub fn validate(&self, n_joints: usize) -> Result<(), String> {
+        match self {
+            Corrector::Rbf(n) => {
+                let ok = n.input_scale.len() == n_joints
+                    && n.centers.len() == n.widths.len()
+                    && n.centers.len() == n.weights.len()
+                    && n.centers.iter().all(|c| c.len() == n_joints && c.iter().all(|v| v.is_finite()))
+                    && n.widths.iter().chain(&n.input_scale).all(|v| v.is_finite() && *v > 0.0)
+                    && n.weights.iter().all(|v| v.is_finite())
+                    && n.bias.is_finite();
+                if ok {
+                    Ok(())
+                } else {
+                    Err("the RBF corrector is inconsistent".into())
+                }
+            }
+        }
+    }
+}
+
+impl Correct for RbfNetwork {
+    fn label(&self) -> String {
+        format!("rbf ({} centres)", self.centers.len())
+    }
+    fn n_weights(&self) -> usize {
+        self.centers.len() * (self.input_scale.len() + 2) + 1
+    }
+    fn correction_mm(&self, q: &[f64], _inp: &RowInputs) -> f64 {
+        self.predict(q)
+    }
+    fn correction_grad_mm(&self, q: &[f64], _inp: &RowInputs, g: &mut [f64]) -> f64 {
+        let d = self.input_scale.len();
+        g.iter_mut().for_each(|v| *v = 0.0);
+        let mut f = self.bias;
+        for ((c, s), w) in self.centers.iter().zip(&self.widths).zip(&self.weights) {
+            let mut d2 = 0.0;
+            for k in 0..d {
+                let e = q[k] / self.input_scale[k] - c[k];
+                d2 += e * e;
+            }
+            let phi = w * (-d2 / (2.0 * s * s)).exp();
+            f += phi;
+            for k in 0..d {
+                g[k] -= phi * (q[k] / self.input_scale[k] - c[k]) / (s * s * self.input_scale[k]);
+            }
+        }
+        f
+    }
+}
+
+/// The model's physical effect blocks as a corrector: the length (mm) with every effect minus
+/// the length of the same geometry without them.
+pub struct EffectCorrection<'a> {
+    pub model: &'a CalibModel,
+    pub x: &'a [f64],
+    /// The same parameters with every effect parameter at "no effect".
+    x_off: Vec<f64>,
+}
+
+impl<'a> EffectCorrection<'a> {
+    pub fn new(model: &'a CalibModel, x: &'a [f64]) -> Self {
+        let mut x_off = x.to_vec();
+        let k = model.first_effect();
+        x_off[k..].copy_from_slice(&model.nominal[k..]);
+        EffectCorrection { model, x, x_off }
+    }
+    fn value(&self, q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
+        (self.model.predict_with(self.x, q, inp, w) - self.model.predict_with(&self.x_off, q, inp, w)) * 1e3
+    }
+}
+
+impl Correct for EffectCorrection<'_> {
+    fn label(&self) -> String {
+        let names: Vec<String> = self.model.effects.iter().map(|e| e.label()).collect();
+        if names.is_empty() {
+            "no effects".into()
+        } else {
+            format!("effects ({})", names.join(", "))
+        }
+    }
+    fn n_weights(&self) -> usize {
+        self.model.n_params() - self.model.first_effect()
+    }
+    fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
+        self.value(q, inp, &mut self.model.work())
+    }
+    fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
+        // The joint torques behind the compliance block are row inputs (fixed here), so the
+        // correction's dependence on q is through the joint angles and the effects that read
+        // them (eccentricity): both differences are differentiated through the one chain
+        // Jacobian, ∂L/∂q_j = u · ∂p/∂q_j at the effect-applied angles.
+        let mut w = self.model.work();
+        let with = self.model.length_grad_q(self.x, q, inp, &mut w, g);
+        let mut g0 = [0.0; 6];
+        let without = self.model.length_grad_q(&self.x_off, q, inp, &mut w, &mut g0);
+        for (a, b) in g.iter_mut().zip(g0) {
+            *a = (*a - b) * 1e3;
+        }
+        (with - without) * 1e3
+    }
+}
+
+/// Largest difference between a corrector's analytic q-gradient and central finite differences
+/// (step `h` rad), relative to max(1, |gradient|), over the given configurations.
+pub fn gradient_error(c: &dyn Correct, qs: &[Vec<f64>], inp: &RowInputs, h: f64) -> f64 {
+    let mut worst = 0.0f64;
+    let mut g = vec![0.0; 6];
+    for q in qs {
+        c.correction_grad_mm(q, inp, &mut g);
+        let scale = g.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for j in 0..q.len() {
+            let mut qp = q.clone();
+            let mut qm = q.clone();
+            qp[j] += h;
+            qm[j] -= h;
+            let fd = (c.correction_mm(&qp, inp) - c.correction_mm(&qm, inp)) / (2.0 * h);
+            worst = worst.max((fd - g[j]).abs() / scale);
+        }
+    }
+    worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
+    use crate::calib::model::SensorGuess;
+    use crate::calib::rbf::RbfOptions;
+    use crate::robot::Robot;
+
+    fn configurations() -> Vec<Vec<f64>> {
+        (0..8).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin() * 1.5).collect()).collect()
+    }
+
+    #[test]
+    fn rbf_gradient_matches_finite_differences() {
+        let qs = configurations();
+        let train: Vec<Vec<f64>> = (0..60).map(|k| (0..6).map(|j| ((k * 11 + j * 5) as f64 * 0.23).cos() * 1.4).collect()).collect();
+        let y: Vec<f64> = train.iter().map(|q| 0.05 * q[1].sin() + 0.02 * (q[2] * q[4]).cos()).collect();
+        let net = RbfNetwork::fit(&train, &y, &RbfOptions { centers: 12, ..Default::default() }).unwrap();
+        let c = Corrector::Rbf(net);
+        c.validate(6).unwrap();
+        let inp = RowInputs::default();
+        let err = gradient_error(c.as_correct(), &qs, &inp, 1e-6);
+        assert!(err < 1e-6, "relative gradient error {err}");
+        // The value agrees with the network's own prediction.
+        let Corrector::Rbf(net) = &c;
+        let mut g = [0.0; 6];
+        assert!((c.as_correct().correction_grad_mm(&qs[0], &inp, &mut g) - net.predict(&qs[0])).abs() < 1e-12);
+    }
+
+    #[test]
+    fn effect_correction_gradient_matches_finite_differences() {
+        let robot = Robot::irb120();
+        let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        let mut m = CalibModel::dh(&robot, &guess, true);
+        for j in 0..6 {
+            m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, j), 3600.0);
+            m.add_effect(EffectBlock::joint(EffectKind::Backlash, j), 3600.0);
+            m.add_effect(EffectBlock::joint(EffectKind::EncoderEccentricity, j), 3600.0);
+        }
+        let thermal = Some(ThermalDrive::Temperature { ref_c: 21.0 });
+        m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: None, thermal, range_m: None }, 3600.0);
+        m.add_effect(EffectBlock { kind: EffectKind::SensorNonlinearity, joint: None, thermal: None, range_m: Some([0.4, 1.6]) }, 3600.0);
+        let mut x = m.nominal.clone();
+        for k in m.first_effect()..x.len() {
+            x[k] += 2e-4 * ((k as f64) * 1.3).sin();
+        }
+        let inp = RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: [1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: [1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
+        let c = EffectCorrection::new(&m, &x);
+        let err = gradient_error(&c, &configurations(), &inp, 1e-6);
+        assert!(err < 1e-6, "relative gradient error {err}");
+        // It is the whole non-geometric part: geometry + correction = the full prediction.
+        let q = &configurations()[3];
+        let mut w = m.work();
+        let full = m.predict_with(&x, q, &inp, &mut w) * 1e3;
+        let mut x_geo = x.clone();
+        x_geo[m.first_effect()..].copy_from_slice(&m.nominal[m.first_effect()..]);
+        let geo = m.predict_with(&x_geo, q, &inp, &mut w) * 1e3;
+        let corr = c.correction_mm(q, &inp);
+        assert!(corr.abs() > 1e-3 && (geo + corr - full).abs() < 1e-9, "{geo} + {corr} vs {full}");
+        // The model's q-gradient itself (every effect on) against finite differences.
+        let mut g = [0.0; 6];
+        m.length_grad_q(&x, q, &inp, &mut w, &mut g);
+        for j in 0..6 {
+            let (mut qp, mut qm) = (q.clone(), q.clone());
+            qp[j] += 1e-7;
+            qm[j] -= 1e-7;
+            let fd = (m.predict_with(&x, &qp, &inp, &mut w) - m.predict_with(&x, &qm, &inp, &mut w)) / 2e-7;
+            assert!((fd - g[j]).abs() < 1e-7 * (1.0 + g[j].abs()), "joint {j}: {fd} vs {}", g[j]);
+        }
+    }
+}
