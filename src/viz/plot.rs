@@ -15,7 +15,7 @@ pub const PLOT_W: f64 = 400.0;
 pub const PLOT_H: f64 = 250.0;
 
 /// The rectangle a 2-D view shows around a plot: the box, its tick values and axis title.
-pub const BOUNDS: [f64; 4] = [-56.0, PLOT_W + 16.0, -12.0, PLOT_H + 58.0];
+pub const BOUNDS: [f64; 4] = [-56.0, PLOT_W + 16.0, -12.0, PLOT_H + 100.0];
 
 const AXIS: [u8; 4] = [170, 170, 170, 255];
 const GRID: [u8; 4] = [70, 70, 70, 255];
@@ -125,7 +125,7 @@ impl Plot {
         if !self.x_label.is_empty() {
             rec.points2d(
                 &format!("{base}/frame/x_title"),
-                &[[PLOT_W / 2.0, PLOT_H + 36.0]],
+                &[[PLOT_W / 2.0, PLOT_H + 34.0]],
                 Some(&[[230, 230, 230, 255]]),
                 Some(0.5),
                 Some(&[self.x_label.clone()]),

@@ -363,7 +363,7 @@ pub fn record_calibration(r: &crate::calib::run::CalibResult, f: &CalibFigures, 
         if ps.is_empty() {
             continue;
         }
-        let names: Vec<String> = ps.iter().map(|p| p.name.clone()).collect();
+        let names: Vec<String> = ps.iter().map(|p| p.name.replace("joint_", "j")).collect();
         let ys = ps
             .iter()
             .flat_map(|p| [Some(p.change + p.sigma.unwrap_or(0.0)), Some(p.change - p.sigma.unwrap_or(0.0)), p.truth_change, Some(0.0)].into_iter().flatten());
@@ -433,7 +433,7 @@ pub fn record_calibration(r: &crate::calib::run::CalibResult, f: &CalibFigures, 
                             vec![],
                         ),
                         Layout::Tabs(series),
-                        Layout::Grid(finals, 2),
+                        Layout::Grid(finals, 4),
                     ],
                     vec![1.0, 1.3, 2.2],
                 ),
@@ -563,8 +563,8 @@ pub fn record_comparison(table_markdown: &str, methods: &[String], rows: &[Compa
     let seeds = rows.iter().map(|r| r.seed).max().unwrap_or(0) + 1;
     for (what, name, pick) in [("test_rmse", "Test RMSE (mm) per seed", 0), ("test_max", "Test MAX (mm) per seed", 1)] {
         let val = |r: &CompareRow| if pick == 0 { r.test_rmse_mm } else { r.test_max_mm };
-        let Some((lo, hi)) = padded_range(rows.iter().map(val).chain([0.0]), 0.08) else { continue };
-        let plot = Plot::categories(name, methods, "mm", (lo.max(0.0).min(0.0), hi));
+        let Some(y) = padded_range(rows.iter().map(val), 0.15) else { continue };
+        let plot = Plot::categories(name, methods, "mm", y);
         let base = format!("spread/{what}");
         plot.frame(&mut rec, &base);
         let mut xy = Vec::new();
