@@ -94,9 +94,9 @@ fn histogram_pair(before: &[f64], after: &[f64], after_name: &str) -> String {
 pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verdict>) -> String {
     let mut s = head(&format!("twincal calibration: {}", f.title));
     let m = &r.metrics;
-    let _ = write!(
+    let _ = writeln!(
         s,
-        "<p>{} training rows, {} test rows; {} iterations, {} ({}), {:.2} s. twincal {}.</p>\n",
+        "<p>{} training rows, {} test rows; {} iterations, {} ({}), {:.2} s. twincal {}.</p>",
         r.n_train,
         r.n_test,
         r.iterations,
@@ -170,9 +170,9 @@ pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verd
 /// The diagnosis page.
 pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verdict: Option<&Verdict>) -> String {
     let mut s = head(&format!("twincal {}", f.title));
-    let _ = write!(
+    let _ = writeln!(
         s,
-        "<p>Verdict of the diagnosis: <b>{}</b>. {} rows, {} outliers kept out. Noise floor {:.4} mm ({}). Geometric model held-out RMSE {:.4} mm, final {:.4} mm ({:.2} × the noise floor). {:.1} s.</p>\n",
+        "<p>Verdict of the diagnosis: <b>{}</b>. {} rows, {} outliers kept out. Noise floor {:.4} mm ({}). Geometric model held-out RMSE {:.4} mm, final {:.4} mm ({:.2} × the noise floor). {:.1} s.</p>",
         esc(&d.verdict),
         d.rows,
         d.outliers.len(),

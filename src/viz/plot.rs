@@ -111,8 +111,9 @@ impl Plot {
                 pos.push([self.map(x, self.y.0)[0], PLOT_H + 14.0]);
                 labels.push(tick_label(x, &xt));
             } else {
-                // Names alternate between two rows so neighbours do not overlap.
-                pos.push([self.map(x, self.y.0)[0], PLOT_H + 12.0 + 14.0 * (i % 2) as f64]);
+                // Names alternate between rows so neighbours do not overlap.
+                let rows = if self.x_names.len() > 8 { 3 } else { 2 };
+                pos.push([self.map(x, self.y.0)[0], PLOT_H + 12.0 + 16.0 * (i % rows) as f64]);
                 labels.push(self.x_names[i].clone());
             }
         }
@@ -128,7 +129,7 @@ impl Plot {
                 &[[PLOT_W / 2.0, PLOT_H + 34.0]],
                 Some(&[[230, 230, 230, 255]]),
                 Some(0.5),
-                Some(&[self.x_label.clone()]),
+                Some(std::slice::from_ref(&self.x_label)),
                 true,
             );
         }

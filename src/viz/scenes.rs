@@ -260,19 +260,21 @@ impl Generated {
     }
 }
 
+/// The residual field of every row before and after (calibration or diagnosis).
+struct Field<'a> {
+    arm: Option<&'a crate::report::ArmPose>,
+    exit: [f64; 3],
+    tools: &'a [[f64; 3]],
+    before: &'a [f64],
+    after: &'a [f64],
+    train: &'a [bool],
+}
+
 /// The static scene shared by calibration and diagnosis: the arm at one row, the cable, and the
 /// tool points coloured by the residual before (`world/before/…`) and after (`world/after/…`),
 /// each with its own colour bar; the two histograms over their own ranges.
-fn before_after(
-    rec: &mut Recorder,
-    arm: Option<&crate::report::ArmPose>,
-    exit: [f64; 3],
-    tools: &[[f64; 3]],
-    before: &[f64],
-    after: &[f64],
-    train: &[bool],
-    names: [&str; 2],
-) {
+fn before_after(rec: &mut Recorder, f: &Field, names: [&str; 2]) {
+    let Field { arm, exit, tools, before, after, train } = *f;
     if let Some(a) = arm {
         let fr: Vec<([f64; 3], [[f64; 3]; 3])> = a.frames.iter().map(|f| ([f.pos.x, f.pos.y, f.pos.z], rows_of(&f.rot))).collect();
         draw_arm(rec, &fr, a.tool_mm, true);
@@ -355,7 +357,8 @@ pub fn record_calibration(r: &crate::calib::run::CalibResult, f: &CalibFigures, 
         doc.push_str(&format!("\n\n**Warning:** {w}"));
     }
     rec.static_text("docs/summary", &doc);
-    before_after(&mut rec, f.arm.as_ref(), f.exit_mm, &f.tool_mm, &f.before_mm, &f.after_mm, &f.train, ["before", "after"]);
+    let field = Field { arm: f.arm.as_ref(), exit: f.exit_mm, tools: &f.tool_mm, before: &f.before_mm, after: &f.after_mm, train: &f.train };
+    before_after(&mut rec, &field, ["before", "after"]);
 
     // Final change of each parameter group with ±1σ and the truth-equivalent change.
     for g in Group::ALL {
@@ -363,7 +366,7 @@ pub fn record_calibration(r: &crate::calib::run::CalibResult, f: &CalibFigures, 
         if ps.is_empty() {
             continue;
         }
-        let names: Vec<String> = ps.iter().map(|p| p.name.replace("joint_", "j")).collect();
+        let names: Vec<String> = ps.iter().map(|p| p.name.replace("joint_", "j").replace("theta", "θ").replace("alpha", "α").replace("beta", "β")).collect();
         let ys = ps
             .iter()
             .flat_map(|p| [Some(p.change + p.sigma.unwrap_or(0.0)), Some(p.change - p.sigma.unwrap_or(0.0)), p.truth_change, Some(0.0)].into_iter().flatten());
@@ -489,7 +492,8 @@ pub fn record_diagnosis(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, ou
     ));
     rec.static_text("docs/summary", &doc);
     let train = vec![true; f.after_mm.len()];
-    before_after(&mut rec, f.arm.as_ref(), f.exit_mm, &f.tool_mm, &f.before_mm, &f.after_mm, &train, ["without causes", "with causes"]);
+    let field = Field { arm: f.arm.as_ref(), exit: f.exit_mm, tools: &f.tool_mm, before: &f.before_mm, after: &f.after_mm, train: &train };
+    before_after(&mut rec, &field, ["without causes", "with causes"]);
     for (k, c) in f.causes.iter().enumerate() {
         let x = padded_range(c.contribution_mm.iter().copied(), 0.05).unwrap_or((-1.0, 1.0));
         let y = padded_range(c.without_mm.iter().chain(&c.with_mm).copied(), 0.05).unwrap_or((-1.0, 1.0));
@@ -589,10 +593,10 @@ pub fn record_comparison(table_markdown: &str, methods: &[String], rows: &[Compa
     }
     rec.set_static(false);
     rec.layout(Blueprint {
-        root: Layout::Horizontal(
+        root: Layout::Vertical(
             vec![
                 Layout::view(K::Text, "Accuracy table", "/docs"),
-                Layout::Vertical(
+                Layout::Horizontal(
                     vec![
                         Layout::plot("Test RMSE per seed (mm); bar = mean ± 1 sd", "/spread/test_rmse"),
                         Layout::plot("Test MAX per seed (mm); bar = mean ± 1 sd", "/spread/test_max"),
@@ -600,7 +604,7 @@ pub fn record_comparison(table_markdown: &str, methods: &[String], rows: &[Compa
                     vec![],
                 ),
             ],
-            vec![1.2, 1.0],
+            vec![1.0, 1.5],
         ),
         timeline: None,
         at_end: false,
