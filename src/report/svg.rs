@@ -59,14 +59,14 @@ impl Frame {
         }
         match x_names {
             Some(names) => {
+                // Names alternate between two rows so neighbours do not overlap.
                 for (i, n) in names.iter().enumerate() {
-                    let x = self.px(i as f64);
                     let _ = write!(
                         out,
-                        r##"<text x="{x:.1}" y="{:.1}" text-anchor="end" transform="rotate(-40 {x:.1} {:.1})" font-size="10">{}</text>"##,
-                        H - MB + 12.0,
-                        H - MB + 12.0,
-                        esc(n)
+                        r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="9">{}</text>"##,
+                        self.px(i as f64),
+                        H - MB + 13.0 + 12.0 * (i % 2) as f64,
+                        esc(&n.replace("joint_", "j"))
                     );
                 }
             }

@@ -43,7 +43,15 @@ pub fn nice_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     }
     let raw = (hi - lo) / n.max(1) as f64;
     let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
+    // The 1-2-5 step whose tick count is closest to n (the larger step on a tie).
+    let count = |step: f64| ((hi / step).floor() - (lo / step).ceil() + 1.0).max(0.0);
+    let step = [10.0, 5.0, 2.0, 1.0, 0.5].iter().map(|m| m * mag).fold(f64::NAN, |best, s| {
+        if best.is_nan() || (count(s) - n as f64).abs() < (count(best) - n as f64).abs() {
+            s
+        } else {
+            best
+        }
+    });
     let first = (lo / step).ceil() as i64;
     let last = (hi / step).floor() as i64;
     (first..=last).map(|k| k as f64 * step).map(|v| if v.abs() < step * 1e-9 { 0.0 } else { v }).collect()
