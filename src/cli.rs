@@ -5,6 +5,7 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::generate::{generate as run_generate, stage_outputs, write_outputs, Generated, Progress, Silent};
 use crate::io::{check_outputs, OutputSet};
+use crate::report::verdict::{judge, with_verdict, Limit};
 use crate::scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -433,6 +434,11 @@ pub struct CalibrateArgs {
     /// `--effects`: kind[:joint] list.
     pub effects: Vec<String>,
     pub loads: LoadArgs,
+    /// `--report`: a self-contained HTML page.
+    pub report: Option<PathBuf>,
+    /// Accuracy limits for the verdict in result.json (`--max-test-rmse-mm`, `--max-test-max-mm`).
+    pub max_test_rmse_mm: Option<f64>,
+    pub max_test_max_mm: Option<f64>,
 }
 
 /// What loads the joints, for the torque-driven effects (`--robot`, `--payload-kg`,
@@ -541,7 +547,12 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out)];
     outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
     outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
     check_outputs(&inputs, &outs)?;
+    let limits = [Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm }, Limit { flag: "--max-test-max-mm", value: a.max_test_max_mm }];
+    for l in &limits {
+        l.validate()?;
+    }
     let spec = model_spec(&a.model, a.params.as_deref())?;
     let data = load_dataset(&a.data, a.angles, true)?;
     let truth = TruthFile::find(&a.data)?;
@@ -556,9 +567,16 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     opts.loads = loads;
     opts.inertial = inertial;
     let result = run(&data, truth.as_ref(), &opts)?;
+    let test = result.metrics.test_after.as_ref();
+    let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
+    let verdict = judge(&[(limits[0], "test_rmse_mm", test.map(|t| t.rmse), source), (limits[1], "test_max_mm", test.map(|t| t.max), source)]);
     let mut outputs = OutputSet::new();
-    if let Some(p) = &a.rrd {
-        crate::viz::scenes::record_calibration(&result, &data, &opts, &mut outputs, p)?;
+    let figures = if a.rrd.is_some() || a.report.is_some() { Some(crate::report::CalibFigures::new(&result, &data, &opts)?) } else { None };
+    if let (Some(p), Some(f)) = (&a.rrd, &figures) {
+        crate::viz::scenes::record_calibration(&result, f, &mut outputs, p)?;
+    }
+    if let (Some(p), Some(f)) = (&a.report, &figures) {
+        outputs.write(p, crate::report::html::calibration_page(&result, f, verdict.as_ref()).as_bytes())?;
     }
     if let Some(p) = &a.urdf {
         let nominal = match &spec {
@@ -567,15 +585,30 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
         };
         outputs.write(p, crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
     }
-    outputs.write_json(&a.out, &result)?;
+    outputs.write_json(&a.out, &with_verdict(&result, verdict.as_ref())?)?;
     outputs.commit()?;
     if !quiet {
         print_summary(&result);
     }
+    print_verdict(verdict.as_ref(), &a.out);
     for w in calibration_warnings(&result) {
         eprintln!("warning: {w}");
     }
     Ok(())
+}
+
+/// The verdict on stderr (also with `--quiet`: it is the answer a user asked for).
+fn print_verdict(v: Option<&crate::report::verdict::Verdict>, file: &Path) {
+    let Some(v) = v else { return };
+    let checks: Vec<String> = v
+        .checks
+        .iter()
+        .map(|c| match c.value {
+            Some(x) => format!("{} {x:.4} {} {:.4} mm", c.name, if c.pass { "<=" } else { ">" }, c.limit),
+            None => format!("{} not measured ({})", c.name, c.source),
+        })
+        .collect();
+    eprintln!("verdict: {} ({}); in {}", if v.pass { "PASS" } else { "FAIL" }, checks.join(", "), file.display());
 }
 
 /// What a user must know about a calibration that succeeded: an optimiser that stopped on its
@@ -702,6 +735,8 @@ pub struct CompareArgs<'a> {
     pub test_fraction: Option<f64>,
     pub effort: f64,
     pub out: Option<&'a Path>,
+    /// `--rrd`: a recording of the table and the per-seed spread.
+    pub rrd: Option<&'a Path>,
 }
 
 /// `twincal compare`: every method on every seed (a fresh stratified split per seed), then the
@@ -736,11 +771,12 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         return Err(Error::Invalid(format!("--effort must be in (0, 10], got {effort}")));
     }
     let data_files = data_inputs(a.data);
-    if let Some(out) = a.out {
+    let outs: Vec<(&str, &Path)> = a.out.map(|p| ("--out", p)).into_iter().chain(a.rrd.map(|p| ("--rrd", p))).collect();
+    if !outs.is_empty() {
         let mut inputs: Vec<(&str, &Path)> = vec![("--data", &data_files[0])];
         let model_file = model_input(a.model);
         inputs.extend(model_file.as_deref().map(|m| ("--model", m)));
-        check_outputs(&inputs, &[("--out", out)])?;
+        check_outputs(&inputs, &outs)?;
     }
     let spec = model_spec(a.model, a.params)?;
     let ds = load_dataset(a.data, a.angles, true)?;
@@ -828,9 +864,19 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         tests.push(serde_json::json!({"method": m.name(), "against": reference, "across_seeds": across.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n})), "per_sample": per.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n}))}));
     }
     println!("{table}");
-    if let Some(p) = a.out {
-        crate::io::write_json(p, &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
+    let mut outputs = OutputSet::new();
+    if let Some(p) = a.rrd {
+        let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
+        let rows: Vec<crate::viz::scenes::CompareRow> = runs
+            .iter()
+            .map(|r| crate::viz::scenes::CompareRow { method: &r.method, seed: r.seed, test_rmse_mm: r.test.rmse, test_max_mm: r.test.max })
+            .collect();
+        crate::viz::scenes::record_comparison(&table, &names, &rows, &mut outputs, p)?;
     }
+    if let Some(p) = a.out {
+        outputs.write_json(p, &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
+    }
+    outputs.commit()?;
     Ok(())
 }
 
@@ -964,6 +1010,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
             test_fraction: None,
             effort: 1.0,
             out: None,
+            rrd: None,
         };
         compare(&args, true)?;
         println!("  compare, 5 methods x 30 seeds: {:.1} s wall time", t0.elapsed().as_secs_f64());
@@ -1006,6 +1053,10 @@ pub struct DiagnoseArgs {
     pub out: PathBuf,
     pub result: PathBuf,
     pub rrd: Option<PathBuf>,
+    /// `--report`: a self-contained HTML page.
+    pub report: Option<PathBuf>,
+    /// `--max-test-rmse-mm`: limit on the final cross-validated held-out RMSE, for the verdict.
+    pub max_test_rmse_mm: Option<f64>,
 }
 
 /// `twincal diagnose`: report.json, the extended model (a calibration result) and optionally a
@@ -1023,7 +1074,10 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     }
     let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
     outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
     check_outputs(&inputs, &outs)?;
+    let limit = Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm };
+    limit.validate()?;
     if !(a.alpha > 0.0 && a.alpha < 0.5) {
         return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
     }
@@ -1043,16 +1097,22 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
         }
     };
     let (report, result) = run(&data, &opts, &say)?;
+    let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
     let mut outputs = OutputSet::new();
-    if let Some(p) = &a.rrd {
-        crate::viz::scenes::record_diagnosis(&report, &result, &data, &mut outputs, p)?;
+    let figures = (a.rrd.is_some() || a.report.is_some()).then(|| crate::report::DiagnosisFigures::new(&report, &result, &data));
+    if let (Some(p), Some(f)) = (&a.rrd, &figures) {
+        crate::viz::scenes::record_diagnosis(&report, f, &mut outputs, p)?;
     }
-    outputs.write_json(&a.out, &report)?;
+    if let (Some(p), Some(f)) = (&a.report, &figures) {
+        outputs.write(p, crate::report::html::diagnosis_page(&report, f, verdict.as_ref()).as_bytes())?;
+    }
+    outputs.write_json(&a.out, &with_verdict(&report, verdict.as_ref())?)?;
     outputs.write_json(&a.result, &result)?;
     outputs.commit()?;
     if !quiet {
         print_diagnosis(&report, &a.out, &a.result);
     }
+    print_verdict(verdict.as_ref(), &a.out);
     Ok(())
 }
 

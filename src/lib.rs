@@ -17,6 +17,7 @@ pub mod effects;
 pub mod error;
 pub mod generate;
 pub mod io;
+pub mod report;
 pub mod robot;
 pub mod scenario;
 pub mod sensor;

@@ -102,9 +102,18 @@ enum Command {
         /// Also write the calibrated model as a URDF.
         #[arg(long)]
         urdf: Option<PathBuf>,
-        /// Rerun recording of the residual field before and after.
+        /// Rerun recording of the residual field before and after, convergence and parameters.
         #[arg(long)]
         rrd: Option<PathBuf>,
+        /// Self-contained HTML report (tables and plots, opens offline in any browser).
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Accuracy limit for the verdict in --out: RMSE of the test rows after calibration, mm.
+        #[arg(long, allow_negative_numbers = true)]
+        max_test_rmse_mm: Option<f64>,
+        /// Accuracy limit for the verdict in --out: largest |residual| of the test rows, mm.
+        #[arg(long, allow_negative_numbers = true)]
+        max_test_max_mm: Option<f64>,
         /// Non-geometric effects to fit with the geometry: compliance, backlash, thermal,
         /// eccentricity, nonlinearity, each optionally on one joint (backlash:2).
         #[arg(long, value_delimiter = ',')]
@@ -145,6 +154,12 @@ enum Command {
         /// Rerun recording of the evidence.
         #[arg(long)]
         rrd: Option<PathBuf>,
+        /// Self-contained HTML report (tables and plots, opens offline in any browser).
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Accuracy limit for the verdict in --out: the final cross-validated held-out RMSE, mm.
+        #[arg(long, allow_negative_numbers = true)]
+        max_test_rmse_mm: Option<f64>,
     },
     /// Predict cable lengths with a calibrated model.
     Predict {
@@ -183,6 +198,9 @@ enum Command {
         /// Also write the tables as JSON.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Rerun recording of the accuracy table and the per-seed spread of each method.
+        #[arg(long)]
+        rrd: Option<PathBuf>,
     },
     /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model) or
     /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present).
@@ -225,6 +243,9 @@ fn main() -> ExitCode {
             out,
             urdf,
             rrd,
+            report,
+            max_test_rmse_mm,
+            max_test_max_mm,
             effects,
             loads,
         } => cli::calibrate(
@@ -244,15 +265,47 @@ fn main() -> ExitCode {
                 rrd,
                 effects,
                 loads: loads.into_cli(),
+                report,
+                max_test_rmse_mm,
+                max_test_max_mm,
             },
             args.quiet,
         ),
-        Command::Diagnose { data, angles, model: ModelArgs { model, params }, loads, candidates, folds, alpha, seed, out, result, rrd } => cli::diagnose(
-            &cli::DiagnoseArgs { data, angles, model, params, loads: loads.into_cli(), candidates, folds, alpha, seed, out, result, rrd },
+        Command::Diagnose {
+            data,
+            angles,
+            model: ModelArgs { model, params },
+            loads,
+            candidates,
+            folds,
+            alpha,
+            seed,
+            out,
+            result,
+            rrd,
+            report,
+            max_test_rmse_mm,
+        } => cli::diagnose(
+            &cli::DiagnoseArgs {
+                data,
+                angles,
+                model,
+                params,
+                loads: loads.into_cli(),
+                candidates,
+                folds,
+                alpha,
+                seed,
+                out,
+                result,
+                rrd,
+                report,
+                max_test_rmse_mm,
+            },
             args.quiet,
         ),
         Command::Predict { model, data, angles, out } => cli::predict(&model, &data, angles, &out, args.quiet),
-        Command::Compare { data, angles, methods, seeds, model: ModelArgs { model, params }, test_fraction, effort, out } => cli::compare(
+        Command::Compare { data, angles, methods, seeds, model: ModelArgs { model, params }, test_fraction, effort, out, rrd } => cli::compare(
             &cli::CompareArgs {
                 data: &data,
                 angles,
@@ -263,6 +316,7 @@ fn main() -> ExitCode {
                 test_fraction,
                 effort,
                 out: out.as_deref(),
+                rrd: rrd.as_deref(),
             },
             args.quiet,
         ),

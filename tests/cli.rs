@@ -121,26 +121,6 @@ fn missing_scenario_file_is_a_clear_error() {
     assert_rejected(&o, "/nonexistent/x.toml", &out);
 }
 
-#[cfg(feature = "rerun")]
-#[test]
-fn recordings_are_written_for_generate_and_calibrate() {
-    let dir = tempfile::tempdir().unwrap();
-    let sc = small_full_scenario(dir.path(), 90);
-    let out = dir.path().join("data");
-    let rrd = dir.path().join("gen.rrd");
-    let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--rrd", rrd.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(std::fs::metadata(&rrd).unwrap().len() > 10_000);
-    let cal = dir.path().join("cal.rrd");
-    let res = dir.path().join("r.json");
-    let o = twincal(&["calibrate", "--data", out.to_str().unwrap(), "--out", res.to_str().unwrap(), "--rrd", cal.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(std::fs::metadata(&cal).unwrap().len() > 1_000);
-    // Nothing temporary is left next to the recordings.
-    let names: Vec<String> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
-    assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");
-}
-
 #[test]
 fn robots_without_six_joints_and_foreign_result_files_are_refused() {
     let dir = tempfile::tempdir().unwrap();

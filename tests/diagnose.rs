@@ -2,6 +2,9 @@
 //! joint and size drawn from a recorded seed at 1.5–4× what a rigid fit absorbs); the diagnosis
 //! sees only q, L, t and temp, like measured data.
 
+#[cfg(feature = "rerun")]
+mod common;
+
 use twincal::calib::run::ModelSpec;
 use twincal::dataset::{Dataset, Row};
 use twincal::diagnose::hidden::{clean, hidden};
@@ -66,10 +69,25 @@ fn diagnose_through_the_cli() {
     let g = generate(&s, &robot, &Silent).unwrap();
     twincal::generate::write_outputs(&g, &data).unwrap();
     let (report, model, rrd) = (dir.path().join("report.json"), dir.path().join("model.json"), dir.path().join("d.rrd"));
+    let html = dir.path().join("d.html");
     let bin = env!("CARGO_BIN_EXE_twincal");
     let p = |p: &std::path::Path| p.to_str().unwrap().to_string();
     let o = std::process::Command::new(bin)
-        .args(["diagnose", "--data", &p(&data), "--out", &p(&report), "--result", &p(&model), "--rrd", &p(&rrd)])
+        .args([
+            "diagnose",
+            "--data",
+            &p(&data),
+            "--out",
+            &p(&report),
+            "--result",
+            &p(&model),
+            "--rrd",
+            &p(&rrd),
+            "--report",
+            &p(&html),
+            "--max-test-rmse-mm",
+            "1",
+        ])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
@@ -85,7 +103,34 @@ fn diagnose_through_the_cli() {
     assert_eq!(c["cause"], h.cause.name());
     assert_eq!(c["joint"], h.joint.unwrap() + 1);
     assert!((c["magnitude"].as_f64().unwrap() - truth[0].magnitude).abs() < 0.3 * truth[0].magnitude);
-    assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
+    // The verdict against the held-out limit, the page, and a recording whose views all have data.
+    assert_eq!(r["verdict"]["pass"], true, "{}", r["verdict"]);
+    assert_eq!(r["verdict"]["checks"][0]["name"], "heldout_rmse_mm");
+    assert_eq!(r["verdict"]["checks"][0]["value"].as_f64(), r["final_heldout_rmse_mm"].as_f64());
+    let page = std::fs::read_to_string(&html).unwrap();
+    assert!(page.contains(h.cause.name()) && page.contains("PASS") && !page.contains("<script"));
+    #[cfg(feature = "rerun")]
+    {
+        let rec = common::read(&rrd);
+        assert_eq!(rec.timeline.as_deref(), Some("step"));
+        rec.assert_no_empty_view();
+        for (e, c) in [
+            ("/evidence/cause_1/with", "Points2D:positions"),
+            ("/evidence/cause_1/without", "Points2D:labels"),
+            ("/world/before/train", "Points3D:colors"),
+            ("/world/after/colorbar/bar", "LineStrips3D:strips"),
+            ("/docs/summary", "TextDocument:text"),
+        ] {
+            assert!(rec.holds(e, c, "static"), "{e} lacks {c}");
+        }
+        let steps = common::scalars(&rrd, "/steps/heldout_rmse_mm");
+        assert_eq!(steps.len(), r["causes"].as_array().unwrap().len() + 1);
+        assert!(
+            (steps[0] - r["baseline"]["heldout_rmse_mm"].as_f64().unwrap()).abs() < 1e-9
+                && (steps[steps.len() - 1] - r["final_heldout_rmse_mm"].as_f64().unwrap()).abs() < 1e-9,
+            "{steps:?}"
+        );
+    }
     // The extended model predicts the data through `predict`, effects included.
     let pred = dir.path().join("pred.csv");
     let o = std::process::Command::new(bin).args(["predict", "--model", &p(&model), "--data", &p(&data), "--out", &p(&pred), "--quiet"]).output().unwrap();

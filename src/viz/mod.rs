@@ -38,7 +38,11 @@ mod backend;
 #[path = "recorder.rs"]
 mod backend;
 
+pub mod layout;
+pub mod plot;
 pub mod scenes;
+
+pub use layout::{Blueprint, Layout, ViewKind, ViewSpec};
 
 /// A recording sink. With the `rerun` feature it writes an `.rrd` file; without it,
 /// [`Recorder::create`] returns an error saying twincal was built without Rerun support.
@@ -99,10 +103,52 @@ impl Recorder {
         self.inner.points(entity, pts_mm, colors, radii_mm, labels);
     }
 
-    /// A 2-D scatter plot at `entity` (x, y in the data's own units), e.g. a residual against a
-    /// feature. `radius` is in screen points.
-    pub fn points2d(&mut self, entity: &str, pts: &[[f64; 2]], colors: Option<&[[u8; 4]]>, radius: Option<f32>) {
-        self.inner.points2d(entity, pts, colors, radius);
+    /// Like [`points`](Self::points), but the labels are not drawn in the scene: the viewer shows
+    /// a point's label when the mouse is over it (and in the selection panel).
+    pub fn points_hover(&mut self, entity: &str, pts_mm: &[[f64; 3]], colors: Option<&[[u8; 4]]>, radii_mm: Option<f32>, labels: &[String]) {
+        self.inner.points_hover(entity, pts_mm, colors, radii_mm, labels);
+    }
+
+    /// 2-D points at `entity` (x, y in the 2-D view's units; y points *down* in the viewer).
+    /// `radius` is in screen points. `labels`: one per point or one for all; `show_labels`:
+    /// draw them next to the points, else only on hover.
+    pub fn points2d(&mut self, entity: &str, pts: &[[f64; 2]], colors: Option<&[[u8; 4]]>, radius: Option<f32>, labels: Option<&[String]>, show_labels: bool) {
+        self.inner.points2d(entity, pts, colors, radius, labels, show_labels);
+    }
+
+    /// 2-D polylines at `entity`, one colour per strip (or one for all), width in screen points.
+    pub fn line_strips2d(&mut self, entity: &str, strips: &[Vec<[f64; 2]>], colors: &[[u8; 4]], width: f32) {
+        self.inner.line_strips2d(entity, strips, colors, width);
+    }
+
+    /// 3-D polylines with one colour per strip (`colors.len() == strips.len()`, or one for all).
+    pub fn segments(&mut self, entity: &str, strips: &[Vec<[f64; 3]>], colors: &[[u8; 4]], radius_mm: f32) {
+        self.inner.segments(entity, strips, colors, radius_mm);
+    }
+
+    /// Draw the frame of `entity` (see [`transform`](Self::transform)) as red/green/blue axes of
+    /// `length_mm`.
+    pub fn axes(&mut self, entity: &str, length_mm: f32) {
+        self.inner.axes(entity, length_mm);
+    }
+
+    /// How a time series at `entity` is drawn: its name in the legend, colour, and as markers
+    /// (`points`, marker size in screen points) or as a line (`points == false`, width). Static.
+    pub fn series_style(&mut self, entity: &str, name: &str, color: [u8; 4], points: bool, size: f32) {
+        self.inner.series_style(entity, name, color, points, size);
+    }
+
+    /// Log everything that follows as static data (shown on every timeline at all times) while
+    /// `on` is true; timed again with `false`.
+    pub fn set_static(&mut self, on: bool) {
+        self.inner.set_static(on);
+    }
+
+    /// The viewer layout sent with the recording (by [`finish`](Self::finish)). Views whose
+    /// entities received no data are left out, and so are containers left empty; without a
+    /// layout a generic default one is sent.
+    pub fn layout(&mut self, blueprint: Blueprint) {
+        self.inner.layout(blueprint);
     }
 
     /// Polylines at `entity` (vertices in mm), all drawn with one colour and radius (mm, > 0).
@@ -132,7 +178,12 @@ impl Recorder {
     /// A histogram as returned by [`histogram`]: bar `i` spans `edges[i]..edges[i + 1]`
     /// (`edges.len() == counts.len() + 1`), so the x axis is in the data's units (e.g. mm).
     pub fn histogram_chart(&mut self, entity: &str, edges: &[f64], counts: &[f64]) {
-        self.inner.histogram_chart(entity, edges, counts);
+        self.inner.histogram_chart(entity, edges, counts, None);
+    }
+
+    /// [`histogram_chart`](Self::histogram_chart) with a bar colour.
+    pub fn histogram_colored(&mut self, entity: &str, edges: &[f64], counts: &[f64], color: [u8; 4]) {
+        self.inner.histogram_chart(entity, edges, counts, Some(color));
     }
 
     /// A log entry (one line of a text log, stamped with the current time).
@@ -174,6 +225,25 @@ pub fn colormap(value: f64, vmax: f64) -> [u8; 4] {
     } else {
         0.0
     };
+    viridis(t)
+}
+
+/// Where residual colours start on viridis: its darkest purple disappears on the viewer's dark
+/// background, so 0 maps to the blue-violet at 0.18 instead.
+pub const RESIDUAL_FLOOR: f64 = 0.18;
+
+/// Colour of a residual for the recordings: `|value|` from 0 to `vmax` on viridis from
+/// [`RESIDUAL_FLOOR`] (blue-violet) to 1 (yellow); above `vmax` yellow, `NaN` grey.
+pub fn residual_color(value: f64, vmax: f64) -> [u8; 4] {
+    let v = value.abs();
+    if v.is_nan() {
+        return [128, 128, 128, 255];
+    }
+    let t = if vmax > 0.0 { (v / vmax).clamp(0.0, 1.0) } else { 1.0 };
+    viridis(RESIDUAL_FLOOR + (1.0 - RESIDUAL_FLOOR) * t)
+}
+
+fn viridis(t: f64) -> [u8; 4] {
     // Polynomial fit of matplotlib's viridis (Matt Zucker, CC0); max error ~1/255 per channel.
     const C: [[f64; 3]; 7] = [
         [0.277_727_327_223_417_7, 0.005_407_344_544_966_578, 0.334_099_805_335_306_1],

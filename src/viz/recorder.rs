@@ -9,7 +9,7 @@
 //! * Rerun keeps the "current time" per *thread*. A `Recorder` may be moved between threads, so we
 //!   keep our own time point and re-apply it right before every temporal log call.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
@@ -86,6 +86,12 @@ pub(super) struct Backend {
     time: BTreeMap<TimelineName, TimeCell>,
     /// First error seen by any logging method.
     error: Option<Error>,
+    /// Every entity that received data (with a leading `/`), to prune the layout.
+    logged: BTreeSet<String>,
+    /// Log as static data ([`Backend::set_static`]).
+    static_mode: bool,
+    /// The layout to send at `finish` (the generic default when `None`).
+    layout: Option<super::Blueprint>,
 }
 
 fn write_err(path: &Path, what: &str, err: impl std::fmt::Display) -> Error {
@@ -123,10 +129,19 @@ impl Backend {
             }
         };
 
-        let mut backend = Backend { rec: Some(rec), sink, path: path.to_path_buf(), time: BTreeMap::new(), error: None };
+        let mut backend = Backend {
+            rec: Some(rec),
+            sink,
+            path: path.to_path_buf(),
+            time: BTreeMap::new(),
+            error: None,
+            logged: BTreeSet::new(),
+            static_mode: false,
+            layout: None,
+        };
         // We log in millimetres in a right-handed, Z-up world.
         backend.log("world", true, &rerun::ViewCoordinates::RIGHT_HAND_Z_UP());
-        backend.send_default_blueprint();
+        backend.logged.clear(); // the coordinate system alone is not data worth a view
         if let Some(err) = backend.error.take() {
             return Err(err); // the caller's `OutputSet` removes the temporary file
         }
@@ -149,6 +164,8 @@ impl Backend {
             return; // the recording is already lost; do not waste time on it
         }
         let Some(rec) = &self.rec else { return };
+        let is_static = is_static || self.static_mode;
+        self.logged.insert(if entity.starts_with('/') { entity.to_string() } else { format!("/{entity}") });
         if !is_static {
             rec.reset_time();
             rec.set_timepoint(TimePoint::from(self.time.clone()));
@@ -159,39 +176,153 @@ impl Backend {
         }
     }
 
-    /// A default viewer layout for the entities twincal logs (see `viz/README.md`).
-    fn send_default_blueprint(&mut self) {
+    /// The generic layout used when a scene sets none.
+    fn default_layout() -> super::Blueprint {
+        use super::{Layout, ViewKind as K};
+        super::Blueprint {
+            root: Layout::Horizontal(
+                vec![
+                    Layout::view(K::Spatial3d, "World (mm)", "/world"),
+                    Layout::Vertical(
+                        vec![
+                            Layout::view(K::BarChart, "Residual histogram", "/residuals"),
+                            Layout::view(K::TimeSeries, "Calibration parameters", "/calib"),
+                            Layout::Tabs(vec![Layout::view(K::Text, "Docs", "/docs"), Layout::view(K::TextLog, "Log", "/log")]),
+                        ],
+                        vec![],
+                    ),
+                ],
+                vec![],
+            ),
+            timeline: None,
+            at_end: false,
+        }
+    }
+
+    /// The rerun blueprint of `layout`; the visible rectangles of 2-D views go to `bounds`
+    /// (blueprint entity path of the view, rectangle), which rerun's Rust API cannot set.
+    fn to_rerun(layout: &super::Layout, bounds: &mut Vec<(String, [f64; 4])>) -> rerun::blueprint::ContainerLike {
+        use super::{Layout, ViewKind as K};
         use rerun::blueprint::{
-            BarChartView, Blueprint, BlueprintActivation, Horizontal, Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimeSeriesView,
-            Vertical,
+            BarChartView, ContainerLike, Grid, Horizontal, Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimeSeriesView, Vertical,
         };
+        let mut rec = |c: &[Layout]| -> Vec<ContainerLike> { c.iter().map(|l| Self::to_rerun(l, bounds)).collect() };
+        match layout {
+            Layout::View(v) => {
+                let contents: Vec<String> = if v.contents.is_empty() { vec!["$origin/**".to_string()] } else { v.contents.clone() };
+                let origin = v.origin.as_str();
+                let view: ContainerLike = match v.kind {
+                    K::Spatial3d => Spatial3DView::new(v.name.clone()).with_origin(origin).with_contents(contents).into(),
+                    K::Spatial2d => Spatial2DView::new(v.name.clone()).with_origin(origin).with_contents(contents).into(),
+                    K::TimeSeries => TimeSeriesView::new(v.name.clone()).with_origin(origin).with_contents(contents).into(),
+                    K::BarChart => BarChartView::new(v.name.clone()).with_origin(origin).with_contents(contents).into(),
+                    K::Text => TextDocumentView::new(v.name.clone()).with_origin(origin).with_contents(contents).into(),
+                    K::TextLog => TextLogView::new(v.name.clone()).with_origin(origin).with_contents(contents).into(),
+                };
+                if let (Some(b), ContainerLike::View(inner)) = (v.bounds, &view) {
+                    bounds.push((inner.blueprint_path().to_string(), b));
+                }
+                view
+            }
+            Layout::Horizontal(c, shares) => {
+                let h = Horizontal::new(rec(c));
+                if shares.len() == c.len() {
+                    h.with_column_shares(shares.clone()).into()
+                } else {
+                    h.into()
+                }
+            }
+            Layout::Vertical(c, shares) => {
+                let h = Vertical::new(rec(c));
+                if shares.len() == c.len() {
+                    h.with_row_shares(shares.clone()).into()
+                } else {
+                    h.into()
+                }
+            }
+            Layout::Grid(c, cols) => Grid::new(rec(c)).with_grid_columns(*cols).into(),
+            Layout::Tabs(c) => Tabs::new(rec(c)).into(),
+        }
+    }
+
+    /// Sends the layout (pruned to the views that have data), with the blueprint and selection
+    /// panels folded away and the time panel on the chosen timeline.
+    fn send_blueprint(&mut self) {
+        use rerun::blueprint::components::{PanelState, PlayState};
+        use rerun::blueprint::{Blueprint, BlueprintActivation, BlueprintPanel, SelectionPanel, TimePanel};
         let Some(rec) = &self.rec else { return };
         // rerun 0.36's `Blueprint::send` builds the blueprint through an internal recording that
         // honours the `RERUN` env var, and panics when that disables it. Skip the layout then.
         if !rerun::decide_logging_enabled(true) {
             return;
         }
-        let blueprint = Blueprint::new(Horizontal::new([
-            Spatial3DView::new("World (mm)").with_origin("/world").into(),
-            Vertical::new([
-                BarChartView::new("Residual histogram").with_origin("/residuals").into(),
-                TimeSeriesView::new("Calibration parameters").with_origin("/calib").into(),
-                Tabs::new([
-                    Spatial2DView::new("Diagnosis evidence (residual mm vs cause)").with_origin("/evidence").into(),
-                    TimeSeriesView::new("Residual series").with_origin("/residuals").into(),
-                    TextDocumentView::new("Docs").with_origin("/").into(),
-                    TextLogView::new("Log").with_origin("/").into(),
-                ])
-                .into(),
-            ])
-            .into(),
-        ]))
-        .with_auto_views(false);
+        let wanted = self.layout.take().unwrap_or_else(Self::default_layout);
+        let Some(root) = wanted.root.prune(&self.logged) else { return };
+        let mut time = TimePanel::new().with_state(PanelState::Collapsed);
+        if let Some(t) = &wanted.timeline {
+            time = time.with_timeline(t.clone());
+        }
+        time = time.with_play_state(if wanted.at_end { PlayState::Following } else { PlayState::Paused });
+        let mut bounds = Vec::new();
+        let blueprint = Blueprint::new(Self::to_rerun(&root, &mut bounds))
+            .with_auto_views(false)
+            .with_auto_layout(false)
+            .with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
+            .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed))
+            .with_time_panel(time);
         let activation = BlueprintActivation { make_active: true, make_default: true };
-        if let Err(e) = blueprint.send(rec, activation) {
+        let sent = if bounds.is_empty() { blueprint.send(rec, activation) } else { Self::send_with_bounds(rec, &blueprint, activation, &bounds) };
+        if let Err(e) = sent {
             let e = write_err(&self.path, "cannot send the viewer layout", e);
             self.fail(e);
         }
+    }
+
+    /// Sends `blueprint` with the visible rectangles of some 2-D views: the blueprint's messages
+    /// are built in memory, the `VisualBounds2D` view properties are logged into the same
+    /// blueprint store, and everything goes to `rec` followed by the activation command.
+    fn send_with_bounds(
+        rec: &RecordingStream,
+        blueprint: &rerun::blueprint::Blueprint,
+        activation: rerun::blueprint::BlueprintActivation,
+        bounds: &[(String, [f64; 4])],
+    ) -> rerun::RecordingStreamResult<()> {
+        use rerun::external::re_sdk_types::blueprint::archetypes::VisualBounds2D;
+        use rerun::external::re_sdk_types::datatypes::{Range1D, Range2D};
+        use rerun::log::LogMsg;
+        let app = rec.store_info().map(|i| i.application_id().clone()).unwrap_or_else(|| rerun::ApplicationId::from("twincal"));
+        let (mem, storage) = rerun::RecordingStreamBuilder::new(app.clone()).enabled(true).memory()?;
+        blueprint.send(&mem, activation)?;
+        let mut msgs = Vec::new();
+        let mut command = None;
+        for m in storage.take() {
+            match m {
+                LogMsg::BlueprintActivationCommand(c) => command = Some(c),
+                m if m.store_id().is_blueprint() => msgs.push(m),
+                _ => {}
+            }
+        }
+        drop(mem);
+        let Some(command) = command else { return Ok(()) };
+        let (props, props_storage) =
+            rerun::RecordingStreamBuilder::new(app).recording_id(command.blueprint_id.recording_id().clone()).blueprint().enabled(true).memory()?;
+        props.set_time_sequence("blueprint", 0);
+        for (view, b) in bounds {
+            let range = Range2D { x_range: Range1D([b[0], b[1]]), y_range: Range1D([b[2], b[3]]) };
+            props.log(format!("{view}/VisualBounds2D"), &VisualBounds2D::new(range))?;
+        }
+        msgs.extend(props_storage.take().into_iter().filter(|m| matches!(m, LogMsg::ArrowMsg(..))));
+        drop(props);
+        rec.send_blueprint(msgs, command);
+        Ok(())
+    }
+
+    pub(super) fn layout(&mut self, blueprint: super::Blueprint) {
+        self.layout = Some(blueprint);
+    }
+
+    pub(super) fn set_static(&mut self, on: bool) {
+        self.static_mode = on;
     }
 
     fn set_time_cell(&mut self, timeline: &str, cell: TimeCell) {
@@ -222,7 +353,15 @@ impl Backend {
         self.set_time_cell(timeline, TimeCell::from_duration_nanos(nanos as i64));
     }
 
-    pub(super) fn points2d(&mut self, entity: &str, pts: &[[f64; 2]], colors: Option<&[[u8; 4]]>, radius: Option<f32>) {
+    pub(super) fn points2d(
+        &mut self,
+        entity: &str,
+        pts: &[[f64; 2]],
+        colors: Option<&[[u8; 4]]>,
+        radius: Option<f32>,
+        labels: Option<&[String]>,
+        show_labels: bool,
+    ) {
         let n = pts.len();
         let mut arch = rerun::Points2D::new(pts.iter().map(|p| [p[0] as f32, p[1] as f32]));
         if let Some(colors) = colors {
@@ -237,10 +376,76 @@ impl Backend {
             }
             arch = arch.with_radii([rerun::Radius::new_ui_points(r)]);
         }
+        if let Some(labels) = labels {
+            if labels.len() != n && labels.len() != 1 {
+                return self.invalid(entity, format!("{} labels for {n} points", labels.len()));
+            }
+            arch = arch.with_labels(labels.iter().map(String::as_str)).with_show_labels(show_labels);
+        }
         self.log(entity, false, &arch);
     }
 
+    pub(super) fn line_strips2d(&mut self, entity: &str, strips: &[Vec<[f64; 2]>], colors: &[[u8; 4]], width: f32) {
+        if !(width.is_finite() && width > 0.0) {
+            return self.invalid(entity, format!("line width {width} must be > 0"));
+        }
+        if colors.len() != strips.len() && colors.len() != 1 {
+            return self.invalid(entity, format!("{} colours for {} lines", colors.len(), strips.len()));
+        }
+        let arch = rerun::LineStrips2D::new(strips.iter().map(|s| rerun::LineStrip2D::from_iter(s.iter().map(|p| [p[0] as f32, p[1] as f32]))))
+            .with_colors(colors.iter().copied())
+            .with_radii([rerun::Radius::new_ui_points(width / 2.0)]);
+        self.log(entity, false, &arch);
+    }
+
+    pub(super) fn segments(&mut self, entity: &str, strips: &[Vec<[f64; 3]>], colors: &[[u8; 4]], radius_mm: f32) {
+        if !(radius_mm.is_finite() && radius_mm > 0.0) {
+            return self.invalid(entity, format!("line radius {radius_mm} mm must be > 0"));
+        }
+        if colors.len() != strips.len() && colors.len() != 1 {
+            return self.invalid(entity, format!("{} colours for {} lines", colors.len(), strips.len()));
+        }
+        let arch = rerun::LineStrips3D::new(strips.iter().map(|s| rerun::LineStrip3D::from_iter(s.iter().map(f32x3))))
+            .with_colors(colors.iter().copied())
+            .with_radii([rerun::Radius::new_scene_units(radius_mm)]);
+        self.log(entity, false, &arch);
+    }
+
+    pub(super) fn axes(&mut self, entity: &str, length_mm: f32) {
+        if !(length_mm.is_finite() && length_mm > 0.0) {
+            return self.invalid(entity, format!("axis length {length_mm} mm must be > 0"));
+        }
+        self.log(entity, true, &rerun::TransformAxes3D::new(length_mm));
+    }
+
+    pub(super) fn series_style(&mut self, entity: &str, name: &str, color: [u8; 4], points: bool, size: f32) {
+        if !(size.is_finite() && size > 0.0) {
+            return self.invalid(entity, format!("series marker size / width {size} must be > 0"));
+        }
+        if points {
+            self.log(entity, true, &rerun::SeriesPoints::new().with_names([name]).with_colors([color]).with_marker_sizes([size]));
+        } else {
+            self.log(entity, true, &rerun::SeriesLines::new().with_names([name]).with_colors([color]).with_widths([size]));
+        }
+    }
+
+    pub(super) fn points_hover(&mut self, entity: &str, pts_mm: &[[f64; 3]], colors: Option<&[[u8; 4]]>, radii_mm: Option<f32>, labels: &[String]) {
+        self.points_impl(entity, pts_mm, colors, radii_mm, Some(labels), Some(false));
+    }
+
     pub(super) fn points(&mut self, entity: &str, pts_mm: &[[f64; 3]], colors: Option<&[[u8; 4]]>, radii_mm: Option<f32>, labels: Option<&[String]>) {
+        self.points_impl(entity, pts_mm, colors, radii_mm, labels, None);
+    }
+
+    fn points_impl(
+        &mut self,
+        entity: &str,
+        pts_mm: &[[f64; 3]],
+        colors: Option<&[[u8; 4]]>,
+        radii_mm: Option<f32>,
+        labels: Option<&[String]>,
+        show: Option<bool>,
+    ) {
         let n = pts_mm.len();
         let mut arch = rerun::Points3D::new(pts_mm.iter().map(f32x3));
         if let Some(colors) = colors {
@@ -260,6 +465,9 @@ impl Backend {
                 return self.invalid(entity, format!("{} labels for {n} points", labels.len()));
             }
             arch = arch.with_labels(labels.iter().map(String::as_str));
+            if let Some(show) = show {
+                arch = arch.with_show_labels(show);
+            }
         }
         self.log(entity, false, &arch);
     }
@@ -299,14 +507,17 @@ impl Backend {
         self.log(entity, false, &rerun::BarChart::new(values.to_vec()));
     }
 
-    pub(super) fn histogram_chart(&mut self, entity: &str, edges: &[f64], counts: &[f64]) {
+    pub(super) fn histogram_chart(&mut self, entity: &str, edges: &[f64], counts: &[f64], color: Option<[u8; 4]>) {
         if edges.len() != counts.len() + 1 {
             return self.invalid(entity, format!("histogram has {} edges for {} bins", edges.len(), counts.len()));
         }
         // The bar chart view draws bar i over [abscissa[i], abscissa[i] + widths[i]].
         let left: Vec<f64> = edges[..counts.len()].to_vec();
         let widths: Vec<f32> = edges.windows(2).map(|w| (w[1] - w[0]) as f32).collect();
-        let arch = rerun::BarChart::new(counts.to_vec()).with_abscissa(left).with_widths(widths);
+        let mut arch = rerun::BarChart::new(counts.to_vec()).with_abscissa(left).with_widths(widths);
+        if let Some(c) = color {
+            arch = arch.with_color(c);
+        }
         self.log(entity, false, &arch);
     }
 
@@ -326,6 +537,9 @@ impl Backend {
 
     fn finish_inner(&mut self) -> Result<()> {
         let path = self.path.clone();
+        if self.error.is_none() {
+            self.send_blueprint();
+        }
         if let Some(rec) = self.rec.take() {
             let flushed = rec.flush_blocking();
             // Dropping the last handle flushes the batcher and joins rerun's sink thread, so

@@ -1,14 +1,42 @@
-//! What twincal draws: scenes built from plain twincal data on top of [`super::Recorder`].
+//! What twincal draws: one recording per command, each with its own layout, built from plain
+//! twincal data on top of [`super::Recorder`]. Entities and layouts are listed in `viz/README.md`.
 
-use super::{colormap, histogram, Recorder};
+use super::plot::{padded_range, Plot};
+use super::{histogram, residual_color, Blueprint, Layout, Recorder, ViewKind as K};
 use crate::error::Result;
 use crate::generate::Generated;
 use crate::io::OutputSet;
+use crate::report::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group};
 use nalgebra::Vector3;
 use std::path::Path;
 
+const ARM: [u8; 4] = [200, 206, 218, 255];
+const JOINT: [u8; 4] = [255, 166, 50, 255];
+const CABLE: [u8; 4] = [255, 96, 40, 255];
+const HIGHLIGHT: [u8; 4] = [255, 255, 255, 255];
+const BEFORE: [u8; 4] = [150, 150, 150, 255];
+const AFTER: [u8; 4] = [60, 190, 230, 255];
+const TRUTH: [u8; 4] = [240, 70, 70, 255];
+/// Distinct colours for per-joint / per-parameter series.
+const PALETTE: [[u8; 4]; 10] = [
+    [31, 119, 180, 255],
+    [255, 127, 14, 255],
+    [44, 160, 44, 255],
+    [214, 39, 40, 255],
+    [148, 103, 189, 255],
+    [140, 86, 75, 255],
+    [227, 119, 194, 255],
+    [160, 160, 160, 255],
+    [188, 189, 34, 255],
+    [23, 190, 207, 255],
+];
+
 fn mm(v: &Vector3<f64>) -> [f64; 3] {
     [v.x * 1e3, v.y * 1e3, v.z * 1e3]
+}
+
+fn rows_of(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
+    [[m[(0, 0)], m[(0, 1)], m[(0, 2)]], [m[(1, 0)], m[(1, 1)], m[(1, 2)]], [m[(2, 0)], m[(2, 1)], m[(2, 2)]]]
 }
 
 /// Residual of the nominal model per row: measured length minus the length the nominal URDF
@@ -25,51 +53,202 @@ pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
         .collect()
 }
 
-/// Recording of a generated dataset: per pose (timeline `pose`) the arm's link frames and skeleton,
-/// the cable, and all tool points so far coloured by the nominal model's length residual.
-/// Staged in `outputs` as `path` (renamed into place by `outputs.commit()`).
+/// The arm at one pose: a transform with axes per frame (`world/arm/frame_k`), the links as a
+/// thick polyline through the frame origins to the tool point, the joints as balls.
+/// `frames`: (origin mm, rotation) per frame. Axes are static and drawn once (`first`).
+fn draw_arm(rec: &mut Recorder, frames: &[([f64; 3], [[f64; 3]; 3])], tool: [f64; 3], first: bool) {
+    for (k, (pos, rot)) in frames.iter().enumerate() {
+        let e = format!("world/arm/frame_{k}");
+        rec.transform(&e, *pos, *rot);
+        if first {
+            rec.axes(&e, 45.0);
+        }
+    }
+    let mut links: Vec<[f64; 3]> = frames.iter().map(|f| f.0).collect();
+    links.dedup_by(|a, b| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-6));
+    let joints = links.clone();
+    links.push(tool);
+    rec.line_strips("world/arm/links", &[links], ARM, 9.0);
+    rec.points("world/arm/joints", &joints, Some(&[JOINT]), Some(15.0), None);
+}
+
+/// A vertical colour bar for [`residual_color`] with `vmax`, standing at `base` (mm), with its
+/// values written beside it.
+fn colorbar(rec: &mut Recorder, entity: &str, base: [f64; 3], height: f64, vmax: f64, title: &str) {
+    let n = 16;
+    let strips: Vec<Vec<[f64; 3]>> = (0..n)
+        .map(|i| {
+            let z0 = base[2] + height * i as f64 / n as f64;
+            let z1 = base[2] + height * (i + 1) as f64 / n as f64;
+            vec![[base[0], base[1], z0], [base[0], base[1], z1]]
+        })
+        .collect();
+    let colors: Vec<[u8; 4]> = (0..n).map(|i| residual_color(vmax * (i as f64 + 0.5) / n as f64, vmax)).collect();
+    rec.segments(&format!("{entity}/bar"), &strips, &colors, 18.0);
+    let ticks = [0.0, 0.25, 0.5, 0.75, 1.0];
+    let pts: Vec<[f64; 3]> = ticks.iter().map(|t| [base[0] + 30.0, base[1], base[2] + height * t]).collect();
+    let labels: Vec<String> = ticks.iter().map(|t| format!("{}{:.3} mm", if *t == 1.0 { "≥ " } else { "" }, vmax * t)).collect();
+    let colors: Vec<[u8; 4]> = ticks.iter().map(|t| residual_color(vmax * t, vmax)).collect();
+    rec.points(&format!("{entity}/values"), &pts, Some(&colors), Some(2.0), Some(&labels));
+    rec.points(&format!("{entity}/title"), &[[base[0], base[1], base[2] + height + 60.0]], Some(&[HIGHLIGHT]), Some(2.0), Some(&[title.to_string()]));
+}
+
+/// Bounding box of points (mm).
+fn bbox(pts: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in pts {
+        for i in 0..3 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    (lo, hi)
+}
+
+/// A colour bar beside a cloud of points.
+fn colorbar_beside(rec: &mut Recorder, entity: &str, pts: &[[f64; 3]], vmax: f64, title: &str) {
+    let (lo, hi) = bbox(pts);
+    if lo[0].is_finite() {
+        colorbar(rec, entity, [hi[0] + 180.0, 0.5 * (lo[1] + hi[1]), lo[2]], (hi[2] - lo[2]).max(200.0), vmax, title);
+    }
+}
+
+/// Residual `res` (mm) against each feature, one 2-D plot per feature at `plots/<name>`.
+fn feature_plots(rec: &mut Recorder, features: &[Feature], res: &[f64], vmax: f64, what: &str) {
+    let y = (-1.08 * vmax, 1.08 * vmax);
+    for f in features {
+        let Some(x) = padded_range(f.values.iter().copied(), 0.03) else { continue };
+        let plot = Plot::new(&format!("{what} vs {}", f.name), &f.label, x, "residual (mm)", y);
+        let base = format!("plots/{}", f.name);
+        plot.frame(rec, &base);
+        let xy: Vec<[f64; 2]> = f.values.iter().zip(res).map(|(x, r)| [*x, *r]).collect();
+        let colors: Vec<[u8; 4]> = res.iter().map(|r| residual_color(*r, vmax)).collect();
+        let labels: Vec<String> = xy.iter().enumerate().map(|(i, p)| format!("row {}: {} = {:.4}, residual {:+.4} mm", i + 1, f.name, p[0], p[1])).collect();
+        plot.scatter(rec, &format!("{base}/points"), &xy, &colors, 2.0, &labels);
+    }
+}
+
+fn feature_grid(features: &[Feature], what: &str) -> Layout {
+    let views: Vec<Layout> = features.iter().map(|f| Layout::plot(&format!("{what} vs {}", f.name), &format!("/plots/{}", f.name))).collect();
+    Layout::Grid(views, 3)
+}
+
+/// Recording of a generated dataset. Timeline `pose` (and `acquisition_time`): the arm with its
+/// frames, the cable and the current tool point highlighted, the per-pose effects from the truth.
+/// Static: every tool point coloured by the nominal model's residual with a colour bar, the
+/// residual against each joint angle, L, time and temperature, its histogram. Staged in
+/// `outputs` as `path` (renamed into place by `outputs.commit()`).
 pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Result<()> {
     let mut rec = Recorder::staged("twincal", outputs, path)?;
     let res = nominal_residuals(g);
-    let vmax = res.iter().fold(0.0f64, |m, r| m.max(r.abs())).max(1e-6);
+    let vmax = max_abs(&res);
+    let n = res.len();
+    let split: Vec<&str> = g.truth.poses.iter().map(|p| if p.split == crate::dataset::Split::Test { "test" } else { "train" }).collect();
+    let tools: Vec<[f64; 3]> = (0..n).map(|i| mm(&g.truth_tool(i))).collect();
+    let exit = g.twin.sensor.exit_point_mm;
+    let features = crate::report::features(&g.dataset);
+
+    rec.set_static(true);
     rec.static_text(
-        "legend",
+        "docs/legend",
         &format!(
-            "# twincal dataset `{}`\n\nUnits: millimetres, base frame, Z up.\n\n\
-             * `world/arm`: link frames and skeleton of the true (simulated) arm at each pose\n\
-             * `world/cable`: the draw wire from its exit point to the tool point\n\
-             * `world/tool_points`: every tool point so far, coloured by |L measured − L nominal| \
-             from 0 (dark) to {vmax:.3} mm (bright)\n\
-             * `residuals/histogram`: nominal-model length residuals, mm\n",
-            g.truth.scenario
+            "# twincal dataset `{}` (seed {})\n\n{n} poses, units mm, base frame, Z up.\n\n\
+             * **3D**: the true (simulated) arm at the current pose with its joint frames (red x, green y, blue z), \
+             the draw wire (orange) from its exit point, the current tool point (white ring); every tool point coloured by \
+             |L measured − L nominal| (colour bar beside the cloud, 0 to {vmax:.3} mm). Hover a point for its residual.\n\
+             * **Residual vs …**: the nominal model's residual (mm) against each joint angle, L, time and temperature; \
+             the white point is the current pose.\n\
+             * **Effects (truth.json)**: joint deflection, backlash approach side and thermal scale of every pose; \
+             the time cursor marks the current pose.\n\n{}",
+            g.truth.scenario,
+            g.truth.seed,
+            super::colormap_legend("Colour scale", vmax, "mm", 4)
         ),
     );
-    let exit = g.twin.sensor.exit_point_mm;
-    rec.points("world/cable_exit", &[exit], Some(&[[255, 80, 0, 255]]), Some(8.0), None);
-    let mut tool_pts: Vec<[f64; 3]> = Vec::with_capacity(g.frames.len());
-    let mut colors: Vec<[u8; 4]> = Vec::with_capacity(g.frames.len());
+    rec.points("world/sensor/cable_exit", &[exit], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
+    let colors: Vec<[u8; 4]> = res.iter().map(|r| residual_color(*r, vmax)).collect();
+    let labels: Vec<String> = (0..n).map(|i| format!("pose {i} ({}): residual {:+.4} mm", split[i], res[i])).collect();
+    rec.points_hover("world/tool_points", &tools, Some(&colors), Some(5.0), &labels);
+    colorbar_beside(&mut rec, "world/colorbar", &tools, vmax, "|L − L nominal|");
+    feature_plots(&mut rec, &features, &res, vmax, "Nominal residual");
+    let (edges, counts) = histogram(&res, 30, -vmax, vmax);
+    rec.histogram_colored("residuals/histogram", &edges, &counts, [90, 160, 220, 255]);
+
+    let has_deflection = g.truth.poses.iter().any(|p| p.deflection_mdeg.iter().any(|d| *d != 0.0));
+    let backlash = g.truth.effects.backlash.is_some();
+    let thermal = g.truth.effects.thermal.as_ref().map(|t| t.alpha_per_k);
+    for j in 0..6 {
+        if has_deflection {
+            rec.series_style(&format!("effects/deflection/j{}", j + 1), &format!("joint {}", j + 1), PALETTE[j], true, 2.5);
+        }
+        if backlash {
+            rec.series_style(&format!("effects/backlash/j{}", j + 1), &format!("joint {} ± side", j + 1), PALETTE[j], true, 2.5);
+        }
+    }
+    if thermal.is_some() {
+        rec.series_style("effects/thermal/scale_ppm", "α·ΔT (ppm)", PALETTE[3], true, 2.5);
+    }
+    rec.set_static(false);
+
     for (i, frames) in g.frames.iter().enumerate() {
         rec.set_time_index("pose", i as i64);
         if let Some(t) = g.dataset.rows[i].t_s {
             rec.set_time_seconds("acquisition_time", t);
         }
-        for (k, f) in frames.iter().enumerate() {
-            let rot =
-                [[f.rot[(0, 0)], f.rot[(0, 1)], f.rot[(0, 2)]], [f.rot[(1, 0)], f.rot[(1, 1)], f.rot[(1, 2)]], [f.rot[(2, 0)], f.rot[(2, 1)], f.rot[(2, 2)]]];
-            rec.transform(&format!("world/arm/frame_{k}"), mm(&f.pos), rot);
+        let fr: Vec<([f64; 3], [[f64; 3]; 3])> = frames.iter().map(|f| (mm(&f.pos), rows_of(&f.rot))).collect();
+        draw_arm(&mut rec, &fr, tools[i], i == 0);
+        rec.line_strips("world/cable", &[vec![exit, tools[i]]], CABLE, 2.0);
+        rec.points("world/current", &[tools[i]], Some(&[HIGHLIGHT]), Some(12.0), Some(&[format!("pose {i}: {:+.4} mm", res[i])]));
+        for f in &features {
+            let Some(x) = padded_range(f.values.iter().copied(), 0.03) else { continue };
+            let plot = Plot::new("", "", x, "", (-1.08 * vmax, 1.08 * vmax));
+            rec.points2d(
+                &format!("plots/{}/current", f.name),
+                &[plot.map(f.values[i], res[i].clamp(-1.08 * vmax, 1.08 * vmax))],
+                Some(&[HIGHLIGHT]),
+                Some(5.0),
+                None,
+                false,
+            );
         }
-        let tool = mm(&g.truth_tool(i));
-        let mut skeleton: Vec<[f64; 3]> = frames.iter().map(|f| mm(&f.pos)).collect();
-        skeleton.push(tool);
-        rec.line_strips("world/arm/skeleton", &[skeleton], [200, 200, 200, 255], 6.0);
-        rec.line_strips("world/cable", &[vec![exit, tool]], [255, 80, 0, 255], 1.0);
-        tool_pts.push(tool);
-        colors.push(colormap(res[i].abs(), vmax));
-        rec.points("world/tool_points", &tool_pts, Some(&colors), Some(4.0), None);
-        rec.scalar("residuals/nominal_mm", res[i]);
+        let p = &g.truth.poses[i];
+        for j in 0..6 {
+            if has_deflection {
+                rec.scalar(&format!("effects/deflection/j{}", j + 1), p.deflection_mdeg[j]);
+            }
+            if backlash {
+                rec.scalar(&format!("effects/backlash/j{}", j + 1), (j + 1) as f64 + 0.3 * p.approach_side[j]);
+            }
+        }
+        if let Some(alpha) = thermal {
+            rec.scalar("effects/thermal/scale_ppm", alpha * p.delta_t_k * 1e6);
+        }
     }
-    let (edges, counts) = histogram(&res, 30, -vmax, vmax);
-    rec.histogram_chart("residuals/histogram", &edges, &counts);
+
+    let plots = feature_grid(&features, "Residual (mm)");
+    rec.layout(Blueprint {
+        root: Layout::Horizontal(
+            vec![
+                Layout::Vertical(
+                    vec![
+                        Layout::view(K::Spatial3d, "Arm, cable, tool points: colour = |nominal residual| (mm)", "/world"),
+                        Layout::Tabs(vec![
+                            Layout::view(K::TimeSeries, "Deflection per joint (mdeg, truth)", "/effects/deflection"),
+                            Layout::view(K::TimeSeries, "Backlash approach side (joint ± 0.3, truth)", "/effects/backlash"),
+                            Layout::view(K::TimeSeries, "Thermal scale α·ΔT (ppm, truth)", "/effects/thermal"),
+                            Layout::view(K::Text, "Legend", "/docs"),
+                        ]),
+                    ],
+                    vec![3.0, 1.6],
+                ),
+                Layout::Vertical(vec![plots, Layout::view(K::BarChart, "Nominal residual histogram (mm)", "/residuals/histogram")], vec![3.0, 1.0]),
+            ],
+            vec![1.0, 1.1],
+        ),
+        timeline: Some("pose".into()),
+        at_end: true,
+    });
     rec.finish()
 }
 
@@ -81,136 +260,354 @@ impl Generated {
     }
 }
 
-/// Recording of a calibration: tool points (nominal model, tool at the calibrated tool point)
-/// coloured by the residual before (`stage` 0) and after (`stage` 1) calibration, residual
-/// histograms, and each parameter's convergence on the `iteration` timeline. Staged in `outputs`
-/// as `path`.
-pub fn record_calibration(
-    r: &crate::calib::run::CalibResult,
-    data: &crate::dataset::Dataset,
-    opts: &crate::calib::run::CalibOptions,
-    outputs: &mut OutputSet,
-    path: &Path,
-) -> Result<()> {
-    use crate::calib::problem::LengthFit;
-    let mut rec = Recorder::staged("twincal", outputs, path)?;
-    let all: Vec<usize> = (0..data.rows.len()).collect();
-    let (train_idx, _) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed)?;
-    let samples = crate::calib::run::samples(data, &all);
-    let fit = LengthFit { model: &r.model, data: &samples };
-    let x0: Vec<f64> = r.parameters.iter().enumerate().map(|(k, p)| p.nominal / r.model.kinds[k].display()).collect();
-    let before = fit.residuals_mm(&x0);
-    let after: Vec<f64> = data.rows.iter().zip(r.predict_rows(data)).map(|(row, p)| row.l_mm.unwrap_or(f64::NAN) - p).collect();
-    let mut w = r.model.work();
-    let pts: Vec<[f64; 3]> = samples.q.iter().map(|q| mm(&r.model.tool_point(&r.x, q, &mut w))).collect();
-    let vmax = before.iter().chain(&after).fold(0.0f64, |m, v| m.max(v.abs())).max(1e-6);
-    let train: std::collections::HashSet<usize> = train_idx.into_iter().collect();
-    let labels: Vec<String> = (0..pts.len()).map(|i| format!("row {} ({})", i + 1, if train.contains(&i) { "train" } else { "test" })).collect();
-    rec.static_text(
-        "legend",
-        &format!(
-            "# twincal calibration: {} / {}\n\nTool points of every row (mm, base frame), coloured by |measured − predicted \
-             cable length| from 0 to {vmax:.3} mm. Timeline `stage`: 0 = before calibration (nominal), 1 = after. \
-             `calib/param/*` shows each free parameter per iteration (mm or degrees).",
-            r.method.name(),
-            r.model_name
-        ),
-    );
-    let exit = [r.x[r.model.n_chain()] * 1e3, r.x[r.model.n_chain() + 1] * 1e3, r.x[r.model.n_chain() + 2] * 1e3];
-    rec.points("world/cable_exit", &[exit], Some(&[[255, 80, 0, 255]]), Some(8.0), None);
-    for (stage, res) in [(0i64, &before), (1, &after)] {
-        rec.set_time_index("stage", stage);
-        let colors: Vec<[u8; 4]> = res.iter().map(|v| colormap(v.abs(), vmax)).collect();
-        rec.points("world/tool_points", &pts, Some(&colors), Some(4.0), Some(&labels));
-        let (edges, counts) = histogram(res, 40, -vmax, vmax);
-        rec.histogram_chart("residuals/histogram", &edges, &counts);
+/// The residual field of every row before and after (calibration or diagnosis).
+struct Field<'a> {
+    arm: Option<&'a crate::report::ArmPose>,
+    exit: [f64; 3],
+    tools: &'a [[f64; 3]],
+    before: &'a [f64],
+    after: &'a [f64],
+    train: &'a [bool],
+}
+
+/// The static scene shared by calibration and diagnosis: the arm at one row, the cable, and the
+/// tool points coloured by the residual before (`world/before/…`) and after (`world/after/…`),
+/// each with its own colour bar; the two histograms over their own ranges.
+fn before_after(rec: &mut Recorder, f: &Field, names: [&str; 2]) {
+    let Field { arm, exit, tools, before, after, train } = *f;
+    if let Some(a) = arm {
+        let fr: Vec<([f64; 3], [[f64; 3]; 3])> = a.frames.iter().map(|f| ([f.pos.x, f.pos.y, f.pos.z], rows_of(&f.rot))).collect();
+        draw_arm(rec, &fr, a.tool_mm, true);
+        rec.line_strips("world/cable", &[vec![exit, a.tool_mm]], CABLE, 2.0);
     }
-    for (it, xs) in r.history.iter().enumerate() {
+    rec.points("world/sensor/cable_exit", &[exit], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
+    for (side, res, name) in [("before", before, names[0]), ("after", after, names[1])] {
+        let vmax = max_abs(res);
+        for (set, want, radius) in [("train", true, 4.5), ("test", false, 8.0)] {
+            let idx: Vec<usize> = (0..res.len()).filter(|i| train[*i] == want).collect();
+            if idx.is_empty() {
+                continue;
+            }
+            let pts: Vec<[f64; 3]> = idx.iter().map(|&i| tools[i]).collect();
+            let colors: Vec<[u8; 4]> = idx.iter().map(|&i| residual_color(res[i], vmax)).collect();
+            let labels: Vec<String> = idx
+                .iter()
+                .map(|&i| {
+                    format!(
+                        "row {} ({set}): {name} {:+.4} mm, {} {:+.4} mm",
+                        i + 1,
+                        res[i],
+                        if side == "before" { names[1] } else { names[0] },
+                        if side == "before" { after[i] } else { before[i] }
+                    )
+                })
+                .collect();
+            rec.points_hover(&format!("world/{side}/{set}"), &pts, Some(&colors), Some(radius), &labels);
+        }
+        colorbar_beside(rec, &format!("world/{side}/colorbar"), tools, vmax, &format!("|residual| {name}"));
+        let (edges, counts) = histogram(res, 30, -vmax, vmax);
+        rec.histogram_colored(&format!("residuals/{side}"), &edges, &counts, if side == "before" { [170, 170, 170, 255] } else { [60, 190, 230, 255] });
+    }
+}
+
+fn world_pair(titles: [&str; 2]) -> [Layout; 2] {
+    [
+        Layout::view_of(K::Spatial3d, titles[0], "/world", &["+ /world/**", "- /world/after/**"]),
+        Layout::view_of(K::Spatial3d, titles[1], "/world", &["+ /world/**", "- /world/before/**"]),
+    ]
+}
+
+fn stats_line(label: &str, s: Option<&crate::calib::metrics::ErrorStats>) -> String {
+    match s {
+        Some(s) => format!("| {label} | {:.4} | {:.4} | {:.4} |\n", s.rmse, s.std, s.max),
+        None => format!("| {label} | – | – | – |\n"),
+    }
+}
+
+/// Recording of a calibration. Static: the calibrated arm at row 1, the tool points of every row
+/// coloured by the residual before and after (side by side, own colour scales; test rows larger),
+/// histograms, the numbers, and each parameter group's final change with ±1σ and the
+/// truth-equivalent value. Timeline `iteration` (0 = start): RMS and cost, parameter changes.
+pub fn record_calibration(r: &crate::calib::run::CalibResult, f: &CalibFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+    let mut rec = Recorder::staged("twincal", outputs, path)?;
+    let m = &r.metrics;
+    rec.set_static(true);
+    let mut doc = format!(
+        "## {}\n\n{} train / {} test rows, {} iterations, {}.\n\n| residual (mm) | RMSE | STD | MAX |\n|---|---:|---:|---:|\n",
+        f.title,
+        r.n_train,
+        r.n_test,
+        r.iterations,
+        if r.converged { "converged" } else { "**did not converge**" }
+    );
+    doc.push_str(&stats_line("train before", Some(&m.train_before)));
+    doc.push_str(&stats_line("train after", Some(&m.train_after)));
+    doc.push_str(&stats_line("test before", m.test_before.as_ref()));
+    doc.push_str(&stats_line("test after", m.test_after.as_ref()));
+    doc.push_str(&format!("\nNoise estimate {:.4} mm.", r.noise_estimate_mm));
+    if let Some(t) = &r.truth_comparison {
+        doc.push_str(&format!(" Truth: {}/{} parameters within 3σ (max |z| {:.2}).", t.within_3_sigma, t.identifiable, t.max_abs_z));
+    }
+    doc.push_str(&format!(
+        "\n\nColour = |measured − predicted length|, own scale per side: before 0–{:.3} mm, after 0–{:.3} mm. Small points: training rows; large: test rows. Hover a point for its residuals.",
+        max_abs(&f.before_mm),
+        max_abs(&f.after_mm)
+    ));
+    for w in &r.warnings {
+        doc.push_str(&format!("\n\n**Warning:** {w}"));
+    }
+    rec.static_text("docs/summary", &doc);
+    let field = Field { arm: f.arm.as_ref(), exit: f.exit_mm, tools: &f.tool_mm, before: &f.before_mm, after: &f.after_mm, train: &f.train };
+    before_after(&mut rec, &field, ["before", "after"]);
+
+    // Final change of each parameter group with ±1σ and the truth-equivalent change.
+    for g in Group::ALL {
+        let ps: Vec<&crate::report::ParamChange> = f.params.iter().filter(|p| p.group == g).collect();
+        if ps.is_empty() {
+            continue;
+        }
+        let names: Vec<String> = ps.iter().map(|p| p.name.replace("joint_", "j").replace("theta", "θ").replace("alpha", "α").replace("beta", "β")).collect();
+        let ys = ps
+            .iter()
+            .flat_map(|p| [Some(p.change + p.sigma.unwrap_or(0.0)), Some(p.change - p.sigma.unwrap_or(0.0)), p.truth_change, Some(0.0)].into_iter().flatten());
+        let y = padded_range(ys, 0.1).unwrap_or((-1.0, 1.0));
+        let plot = Plot::categories(
+            &format!("{}: change from start ±1σ{}", g.title(), if ps.iter().any(|p| p.truth_change.is_some()) { ", red = truth" } else { "" }),
+            &names,
+            "change",
+            y,
+        );
+        let base = format!("final/{}", g.name());
+        plot.frame(&mut rec, &base);
+        let bars: Vec<(f64, f64, f64)> = ps.iter().enumerate().filter_map(|(i, p)| p.sigma.map(|s| (i as f64, p.change - s, p.change + s))).collect();
+        plot.bars(&mut rec, &format!("{base}/sigma"), &bars, AFTER, 2.0);
+        let xy: Vec<[f64; 2]> = ps.iter().enumerate().map(|(i, p)| [i as f64, p.change]).collect();
+        let labels: Vec<String> =
+            ps.iter().map(|p| format!("{}: {:+.5} ± {} {}", p.name, p.change, p.sigma.map(|s| format!("{s:.5}")).unwrap_or("–".into()), p.unit)).collect();
+        plot.scatter(&mut rec, &format!("{base}/change"), &xy, &[AFTER], 4.0, &labels);
+        let truth: Vec<(usize, f64)> = ps.iter().enumerate().filter_map(|(i, p)| p.truth_change.map(|t| (i, t))).collect();
+        if !truth.is_empty() {
+            let xy: Vec<[f64; 2]> = truth.iter().map(|(i, t)| [*i as f64, *t]).collect();
+            let labels: Vec<String> = truth.iter().map(|(i, t)| format!("{}: truth-equivalent {:+.5} {}", ps[*i].name, t, ps[*i].unit)).collect();
+            plot.scatter(&mut rec, &format!("{base}/truth"), &xy, &[TRUTH], 3.0, &labels);
+        }
+    }
+    rec.series_style("convergence/rms/train", "train RMS (mm)", PALETTE[0], false, 2.0);
+    rec.series_style("convergence/rms/test", "test RMS (mm)", PALETTE[1], false, 2.0);
+    rec.series_style("convergence/cost", "½Σr² train (mm²)", PALETTE[2], false, 2.0);
+    for (i, p) in f.params.iter().enumerate() {
+        rec.series_style(&format!("params/{}/{}", p.group.name(), p.name), &format!("{} ({})", p.name, p.unit), PALETTE[i % PALETTE.len()], false, 1.5);
+    }
+    rec.set_static(false);
+
+    let c = &f.convergence;
+    for it in 0..c.train_rms_mm.len() {
         rec.set_time_index("iteration", it as i64);
-        for (k, p) in r.parameters.iter().enumerate() {
-            if !p.fixed {
-                if let Some(v) = xs.get(k) {
-                    rec.scalar(&format!("calib/param/{}", p.name), *v);
-                }
+        rec.scalar("convergence/rms/train", c.train_rms_mm[it]);
+        if let Some(t) = &c.test_rms_mm {
+            rec.scalar("convergence/rms/test", t[it]);
+        }
+        rec.scalar("convergence/cost", c.cost_mm2[it]);
+        for p in &f.params {
+            if let Some(v) = p.history.get(it) {
+                rec.scalar(&format!("params/{}/{}", p.group.name(), p.name), *v);
             }
         }
     }
+
+    let [wb, wa] = world_pair(["Before calibration: |residual| (mm)", "After calibration: |residual| (mm), own scale"]);
+    let finals: Vec<Layout> = Group::ALL.iter().map(|g| Layout::plot(&format!("{} change ±1σ", g.title()), &format!("/final/{}", g.name()))).collect();
+    let mut series = vec![
+        Layout::view(K::TimeSeries, "RMS residual (mm) per iteration", "/convergence/rms"),
+        Layout::view(K::TimeSeries, "Cost ½Σr² (mm²) per iteration", "/convergence/cost"),
+    ];
+    series.extend(Group::ALL.iter().map(|g| Layout::view(K::TimeSeries, &format!("{} change per iteration", g.title()), &format!("/params/{}", g.name()))));
+    rec.layout(Blueprint {
+        root: Layout::Vertical(
+            vec![
+                Layout::Horizontal(vec![wb, wa, Layout::view(K::Text, "Numbers", "/docs")], vec![2.0, 2.0, 1.2]),
+                Layout::Horizontal(
+                    vec![
+                        Layout::Vertical(
+                            vec![
+                                Layout::view(K::BarChart, "Residuals before (mm)", "/residuals/before"),
+                                Layout::view(K::BarChart, "Residuals after (mm)", "/residuals/after"),
+                            ],
+                            vec![],
+                        ),
+                        Layout::Tabs(series),
+                        Layout::Grid(finals, 4),
+                    ],
+                    vec![1.0, 1.3, 2.2],
+                ),
+            ],
+            vec![1.4, 1.0],
+        ),
+        timeline: Some("iteration".into()),
+        at_end: true,
+    });
     rec.finish()
 }
 
-/// Recording of a diagnosis: for every selection step (timeline `step`), the held-out residual
-/// of each kept row against the regressor of the effect that step kept, before (grey) and after
-/// (coloured) it was added, and the residual field on the tool points; the held-out RMSE per step.
-pub fn record_diagnosis(
-    d: &crate::diagnose::Diagnosis,
-    result: &crate::calib::run::CalibResult,
-    data: &crate::dataset::Dataset,
-    outputs: &mut OutputSet,
-    path: &Path,
-) -> Result<()> {
+/// Recording of a diagnosis. Static: per cause, the residual against the length change that
+/// cause predicts, without and with it; the residual field without the causes and with them
+/// (side by side, own colour scales), histograms, the summary. Timeline `step`: held-out RMSE
+/// after each selection step (0 = geometric model).
+pub fn record_diagnosis(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
     let mut rec = Recorder::staged("twincal", outputs, path)?;
-    let ev = &d.evidence;
-    let causes: Vec<String> = d.causes.iter().map(|c| format!("- {}", c.summary())).collect();
-    rec.static_text(
-        "legend",
-        &format!(
-            "# twincal diagnosis of {}\n\nVerdict: **{}**. Noise floor {:.4} mm ({}). Geometric held-out RMSE {:.4} mm, final {:.4} mm.\n\n{}\n\nStrongest residual correlations: {}.\n\nTimeline `step`: 0 = geometric model, k = after the k-th cause. `evidence/*`: held-out residual (mm, y) against the feature of each cause (x); `world/tool_points`: residual on the tool points (colour = |residual| from 0 to the geometric model's largest). `calib/diagnose/heldout_rmse_mm` per step (Calibration parameters view).",
-            d.data,
-            d.verdict,
-            d.noise_floor_mm,
-            d.noise_floor_source,
-            d.baseline.heldout_rmse_mm,
-            d.final_heldout_rmse_mm,
-            if causes.is_empty() { "No effect improves the held-out fit significantly.".to_string() } else { causes.join("\n") },
-            ev.iter().take(5).map(|e| format!("{} (r = {:+.2})", e.feature, e.correlation)).collect::<Vec<_>>().join(", ")
-        ),
+    rec.set_static(true);
+    let mut doc = format!(
+        "## {}\n\nVerdict: **{}**. {} rows, {} outliers kept out. Noise floor {:.4} mm ({}). Held-out RMSE: geometric {:.4} mm, final {:.4} mm.\n\n",
+        f.title,
+        d.verdict,
+        d.rows,
+        d.outliers.len(),
+        d.noise_floor_mm,
+        d.noise_floor_source,
+        d.baseline.heldout_rmse_mm,
+        d.final_heldout_rmse_mm
     );
-    // Residuals of the final model and of the geometric part alone (effect parameters at their
-    // starting values), on every row.
-    let all: Vec<usize> = (0..data.rows.len()).collect();
-    let mut samples = crate::calib::run::samples(data, &all);
-    samples.inputs = crate::calib::inputs::row_inputs(data, result.torque_model.as_ref());
-    let fit = crate::calib::problem::LengthFit { model: &result.model, data: &samples };
-    let after = fit.residuals_mm(&result.x);
-    let mut x_geo = result.x.clone();
-    let first = result.model.first_effect();
-    x_geo[first..].copy_from_slice(&result.model.nominal[first..]);
-    let before = fit.residuals_mm(&x_geo);
-    let mut w = result.model.work();
-    let pts: Vec<[f64; 3]> = samples.q.iter().map(|q| mm(&result.model.tool_point(&result.x, q, &mut w))).collect();
-    let vmax = before.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-6);
-    for (step, res) in [(0i64, &before), (d.causes.len() as i64, &after)] {
-        rec.set_time_index("step", step);
-        let colors: Vec<[u8; 4]> = res.iter().map(|v| colormap(v.abs(), vmax)).collect();
-        rec.points("world/tool_points", &pts, Some(&colors), Some(4.0), None);
-        let (edges, counts) = histogram(res, 40, -vmax, vmax);
-        rec.histogram_chart("residuals/histogram", &edges, &counts);
+    if d.causes.is_empty() {
+        doc.push_str("No effect improves the held-out fit significantly.\n");
+    } else {
+        doc.push_str("| cause | size ± 1σ | held-out RMSE (mm) |\n|---|---:|---|\n");
+        for c in &d.causes {
+            doc.push_str(&format!(
+                "| {}{} | {:.4} ± {:.4} {} | {:.4} → {:.4} |\n",
+                c.cause,
+                c.joint.map(|j| format!(" j{j}")).unwrap_or_default(),
+                c.magnitude,
+                c.uncertainty,
+                c.unit,
+                c.heldout_rmse_before_mm,
+                c.heldout_rmse_after_mm
+            ));
+        }
     }
-    for (k, s) in d.steps.iter().enumerate() {
+    doc.push_str(&format!(
+        "\nEvidence plots: residual (mm) against the length change each cause predicts; grey without the cause, blue with it. \
+         3D: |residual| without the causes (0–{:.3} mm) and with them (0–{:.3} mm), own colour scales; hover a point for its values.",
+        max_abs(&f.before_mm),
+        max_abs(&f.after_mm)
+    ));
+    rec.static_text("docs/summary", &doc);
+    let train = vec![true; f.after_mm.len()];
+    let field = Field { arm: f.arm.as_ref(), exit: f.exit_mm, tools: &f.tool_mm, before: &f.before_mm, after: &f.after_mm, train: &train };
+    before_after(&mut rec, &field, ["without causes", "with causes"]);
+    for (k, c) in f.causes.iter().enumerate() {
+        let x = padded_range(c.contribution_mm.iter().copied(), 0.05).unwrap_or((-1.0, 1.0));
+        let y = padded_range(c.without_mm.iter().chain(&c.with_mm).copied(), 0.05).unwrap_or((-1.0, 1.0));
+        let plot = Plot::new(&c.title.chars().take(60).collect::<String>(), "length change the cause predicts (mm)", x, "residual (mm)", y);
+        let base = format!("evidence/cause_{}", k + 1);
+        plot.frame(&mut rec, &base);
+        for (name, res, color) in [("without", &c.without_mm, BEFORE), ("with", &c.with_mm, AFTER)] {
+            let xy: Vec<[f64; 2]> = c.contribution_mm.iter().zip(res.iter()).map(|(x, y)| [*x, *y]).collect();
+            let labels: Vec<String> = xy
+                .iter()
+                .enumerate()
+                .map(|(i, p)| format!("row {}: predicted change {:+.4} mm, residual {name} the cause {:+.4} mm", i + 1, p[0], p[1]))
+                .collect();
+            plot.scatter(&mut rec, &format!("{base}/{name}"), &xy, &[color], 2.0, &labels);
+        }
+    }
+    rec.series_style("steps/heldout_rmse_mm", "held-out RMSE (mm)", PALETTE[0], false, 2.0);
+    rec.set_static(false);
+    for (k, v) in f.heldout_rmse_mm.iter().enumerate() {
         rec.set_time_index("step", k as i64);
-        rec.scalar("calib/diagnose/heldout_rmse_mm", s.heldout_rmse_before_mm);
+        rec.scalar("steps/heldout_rmse_mm", *v);
     }
-    rec.set_time_index("step", d.steps.len() as i64);
-    rec.scalar("calib/diagnose/heldout_rmse_mm", d.final_heldout_rmse_mm);
-    // Evidence per cause: the residual against the change of length the cause predicts per unit
-    // of its parameters (its regressor), before and after.
-    for (k, b) in result.model.effects.iter().enumerate() {
-        let range = result.model.effect_params(k);
-        let mut g = vec![0.0; result.model.n_params()];
-        let feature: Vec<f64> = (0..samples.len())
-            .map(|i| {
-                result.model.predict_grad_with(&result.x, &samples.q[i], &samples.inputs[i], &mut w, &mut g);
-                range.clone().map(|p| g[p] * result.x[p] * 1e3).sum::<f64>()
-            })
-            .collect();
-        let name = format!("evidence/{}", b.label());
-        rec.set_time_index("step", k as i64);
-        let pre: Vec<[f64; 2]> = feature.iter().zip(&before).map(|(f, r)| [*f, *r]).collect();
-        rec.points2d(&name, &pre, Some(&[[150, 150, 150, 255]]), Some(2.0));
-        rec.set_time_index("step", k as i64 + 1);
-        let post: Vec<[f64; 2]> = feature.iter().zip(&after).map(|(f, r)| [*f, *r]).collect();
-        let colors: Vec<[u8; 4]> = after.iter().map(|v| colormap(v.abs(), vmax)).collect();
-        rec.points2d(&name, &post, Some(&colors), Some(2.0));
+    let [wb, wa] = world_pair(["Without the causes: |residual| (mm)", "With the causes: |residual| (mm), own scale"]);
+    let evidence: Vec<Layout> = f
+        .causes
+        .iter()
+        .enumerate()
+        .map(|(k, c)| Layout::plot(&format!("Cause {}: {}", k + 1, c.title.split(':').next().unwrap_or("")), &format!("/evidence/cause_{}", k + 1)))
+        .collect();
+    rec.layout(Blueprint {
+        root: Layout::Vertical(
+            vec![
+                Layout::Horizontal(vec![wb, wa, Layout::view(K::Text, "Diagnosis", "/docs")], vec![2.0, 2.0, 1.2]),
+                Layout::Horizontal(
+                    vec![
+                        Layout::Grid(evidence, 2),
+                        Layout::Vertical(
+                            vec![
+                                Layout::view(K::BarChart, "Residuals without the causes (mm)", "/residuals/before"),
+                                Layout::view(K::BarChart, "Residuals with the causes (mm)", "/residuals/after"),
+                            ],
+                            vec![],
+                        ),
+                        Layout::view(K::TimeSeries, "Held-out RMSE (mm) per step", "/steps"),
+                    ],
+                    vec![2.2, 1.0, 1.0],
+                ),
+            ],
+            vec![1.4, 1.0],
+        ),
+        timeline: Some("step".into()),
+        at_end: true,
+    });
+    rec.finish()
+}
+
+/// One calibration of a comparison: method, seed, test RMSE, test MAX (mm).
+pub struct CompareRow<'a> {
+    pub method: &'a str,
+    pub seed: u64,
+    pub test_rmse_mm: f64,
+    pub test_max_mm: f64,
+}
+
+/// Recording of `compare`: the accuracy table, and per method the spread over seeds of the test
+/// RMSE and test MAX (every seed a point, mean ± 1 standard deviation as a bar). Static.
+pub fn record_comparison(table_markdown: &str, methods: &[String], rows: &[CompareRow], outputs: &mut OutputSet, path: &Path) -> Result<()> {
+    let mut rec = Recorder::staged("twincal", outputs, path)?;
+    rec.set_static(true);
+    rec.static_text("docs/table", table_markdown);
+    let seeds = rows.iter().map(|r| r.seed).max().unwrap_or(0) + 1;
+    for (what, name, pick) in [("test_rmse", "Test RMSE (mm) per seed", 0), ("test_max", "Test MAX (mm) per seed", 1)] {
+        let val = |r: &CompareRow| if pick == 0 { r.test_rmse_mm } else { r.test_max_mm };
+        let Some(y) = padded_range(rows.iter().map(val), 0.15) else { continue };
+        let plot = Plot::categories(name, methods, "mm", y);
+        let base = format!("spread/{what}");
+        plot.frame(&mut rec, &base);
+        let mut xy = Vec::new();
+        let mut colors = Vec::new();
+        let mut labels = Vec::new();
+        let mut bars = Vec::new();
+        for (i, m) in methods.iter().enumerate() {
+            let v: Vec<&CompareRow> = rows.iter().filter(|r| r.method == m).collect();
+            for r in &v {
+                // Seeds spread across the method's column so equal values stay visible.
+                xy.push([i as f64 - 0.3 + 0.6 * (r.seed as f64 + 0.5) / seeds as f64, val(r)]);
+                colors.push(PALETTE[i % PALETTE.len()]);
+                labels.push(format!("{m}, seed {}: {:.4} mm", r.seed, val(r)));
+            }
+            let (mean, sd) = crate::calib::stats::mean_std(&v.iter().map(|r| val(r)).collect::<Vec<_>>());
+            if mean.is_finite() {
+                bars.push((i as f64 + 0.36, mean - sd.max(0.0), mean + sd.max(0.0)));
+            }
+        }
+        plot.scatter(&mut rec, &format!("{base}/seeds"), &xy, &colors, 3.0, &labels);
+        plot.bars(&mut rec, &format!("{base}/mean_sd"), &bars, HIGHLIGHT, 3.0);
     }
+    rec.set_static(false);
+    rec.layout(Blueprint {
+        root: Layout::Vertical(
+            vec![
+                Layout::view(K::Text, "Accuracy table", "/docs"),
+                Layout::Horizontal(
+                    vec![
+                        Layout::plot("Test RMSE per seed (mm); bar = mean ± 1 sd", "/spread/test_rmse"),
+                        Layout::plot("Test MAX per seed (mm); bar = mean ± 1 sd", "/spread/test_max"),
+                    ],
+                    vec![],
+                ),
+            ],
+            vec![1.0, 1.5],
+        ),
+        timeline: None,
+        at_end: false,
+    });
     rec.finish()
 }

@@ -1,0 +1,238 @@
+//! One self-contained HTML page per calibration or diagnosis (`--report FILE.html`): tables and
+//! inline SVG plots, no scripts and no external resources, so it opens offline in any browser
+//! and prints as it shows.
+
+use super::svg::{error_bars, esc, histograms, plot, Series};
+use super::verdict::Verdict;
+use super::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group};
+use crate::calib::metrics::ErrorStats;
+use crate::calib::run::CalibResult;
+use crate::viz::histogram;
+use std::fmt::Write as _;
+
+const BEFORE: &str = "#9a9a9a";
+const TRAIN: &str = "#1f77b4";
+const TEST: &str = "#ff7f0e";
+
+fn head(title: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title><style>\
+         body{{font-family:sans-serif;max-width:1120px;margin:1.5em auto;padding:0 1em;color:#222}}\
+         table{{border-collapse:collapse;margin:.5em 0 1.2em}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
+         th{{background:#f2f2f2}}td:first-child,th:first-child{{text-align:left}}.figs{{display:flex;flex-wrap:wrap;gap:8px}}\
+         .pass{{color:#0a7a28;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.note{{color:#555;font-size:90%}}\
+         svg{{border:1px solid #eee}}</style></head><body>\n<h1>{}</h1>\n",
+        esc(title),
+        esc(title)
+    )
+}
+
+fn verdict_html(v: Option<&Verdict>) -> String {
+    let Some(v) = v else {
+        return "<h2>Verdict</h2><p class=\"note\">No accuracy limits were given (--max-test-rmse-mm, --max-test-max-mm), so there is no pass/fail verdict.</p>\n".into();
+    };
+    let mut s = format!(
+        "<h2>Verdict: <span class=\"{}\">{}</span></h2>\n<table><tr><th>check</th><th>limit (mm)</th><th>value (mm)</th><th>result</th><th>source</th></tr>",
+        if v.pass { "pass" } else { "fail" },
+        if v.pass { "PASS" } else { "FAIL" }
+    );
+    for c in &v.checks {
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{:.4}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td></tr>",
+            esc(&c.name),
+            c.limit,
+            c.value.map(|v| format!("{v:.4}")).unwrap_or_else(|| "–".into()),
+            if c.pass { "pass" } else { "fail" },
+            if c.pass { "pass" } else { "fail" },
+            esc(&c.source)
+        );
+    }
+    s.push_str("</table>\n");
+    s
+}
+
+fn stats_row(label: &str, s: Option<&ErrorStats>) -> String {
+    match s {
+        Some(s) => format!("<tr><td>{label}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td><td>{:+.4}</td></tr>", s.n, s.rmse, s.std, s.max, s.mean),
+        None => format!("<tr><td>{label}</td><td colspan=\"5\">no rows</td></tr>"),
+    }
+}
+
+/// Residual against each feature: before (grey) and after, train and test told apart.
+fn feature_plots(out: &mut String, features: &[Feature], before: &[f64], after: &[f64], train: &[bool], after_name: &str) {
+    let ymax = max_abs(before).max(max_abs(after)) * 1.08;
+    out.push_str("<div class=\"figs\">");
+    for f in features {
+        let pick = |res: &[f64], want: Option<bool>| -> Vec<[f64; 2]> {
+            f.values.iter().zip(res).enumerate().filter(|(i, _)| want.is_none_or(|w| train[*i] == w)).map(|(_, (x, y))| [*x, *y]).collect()
+        };
+        let mut series = vec![Series { name: "before".into(), points: pick(before, None), color: BEFORE.into(), line: false, radius: 1.6 }];
+        if train.iter().all(|t| *t) {
+            series.push(Series { name: after_name.into(), points: pick(after, None), color: TRAIN.into(), line: false, radius: 1.8 });
+        } else {
+            series.push(Series { name: format!("{after_name}, train"), points: pick(after, Some(true)), color: TRAIN.into(), line: false, radius: 1.8 });
+            series.push(Series { name: format!("{after_name}, test"), points: pick(after, Some(false)), color: TEST.into(), line: false, radius: 2.2 });
+        }
+        out.push_str(&plot(&format!("Residual vs {}", f.name), &f.label, "residual (mm)", &series, Some((-ymax, ymax))));
+    }
+    out.push_str("</div>\n");
+}
+
+fn histogram_pair(before: &[f64], after: &[f64], after_name: &str) -> String {
+    let (mut out, bins) = (String::from("<div class=\"figs\">"), 30);
+    for (name, res, color) in [("before", before, BEFORE), (after_name, after, TRAIN)] {
+        let m = max_abs(res);
+        let (edges, counts) = histogram(res, bins, -m, m);
+        out.push_str(&histograms(&format!("Residuals {name} (own range)"), "residual (mm)", &[(name.to_string(), color.to_string(), edges, counts)]));
+    }
+    out.push_str("</div>\n");
+    out
+}
+
+/// The calibration page.
+pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verdict>) -> String {
+    let mut s = head(&format!("twincal calibration: {}", f.title));
+    let m = &r.metrics;
+    let _ = writeln!(
+        s,
+        "<p>{} training rows, {} test rows; {} iterations, {} ({}), {:.2} s. twincal {}.</p>",
+        r.n_train,
+        r.n_test,
+        r.iterations,
+        if r.converged { "converged" } else { "did not converge" },
+        esc(&r.stop_reason),
+        r.wall_time_s,
+        esc(&r.twincal_version)
+    );
+    s.push_str(&verdict_html(verdict));
+    s.push_str("<h2>Residuals (measured − predicted cable length, mm)</h2><table><tr><th>rows</th><th>n</th><th>RMSE</th><th>STD</th><th>MAX |r|</th><th>mean</th></tr>");
+    s.push_str(&stats_row("train, before", Some(&m.train_before)));
+    s.push_str(&stats_row("train, after", Some(&m.train_after)));
+    s.push_str(&stats_row("test, before", m.test_before.as_ref()));
+    s.push_str(&stats_row("test, after", m.test_after.as_ref()));
+    s.push_str("</table>\n");
+    let _ = write!(s, "<p class=\"note\">Noise estimate from the data: {:.4} mm.", r.noise_estimate_mm);
+    if let Some(t) = &r.truth_comparison {
+        let _ = write!(
+            s,
+            " Truth file: {}/{} identifiable parameters within 3σ of their truth-equivalent values (max |z| = {:.2}); sensor noise floor {:.4} mm.",
+            t.within_3_sigma, t.identifiable, t.max_abs_z, t.noise_floor_mm
+        );
+    }
+    s.push_str("</p>\n");
+    for w in &r.warnings {
+        let _ = writeln!(s, "<p class=\"fail\">Warning: {}</p>", esc(w));
+    }
+    s.push_str("<h2>Residual distributions</h2>\n");
+    s.push_str(&histogram_pair(&f.before_mm, &f.after_mm, "after"));
+    s.push_str("<h2>Residual against joint angles, length, time and temperature</h2>\n");
+    feature_plots(&mut s, &f.features, &f.before_mm, &f.after_mm, &f.train, "after");
+    s.push_str("<h2>Convergence</h2><div class=\"figs\">");
+    let it = |v: &[f64]| -> Vec<[f64; 2]> { v.iter().enumerate().map(|(i, y)| [i as f64, *y]).collect() };
+    let mut conv = vec![Series { name: "train RMS".into(), points: it(&f.convergence.train_rms_mm), color: TRAIN.into(), line: true, radius: 2.0 }];
+    if let Some(t) = &f.convergence.test_rms_mm {
+        conv.push(Series { name: "test RMS".into(), points: it(t), color: TEST.into(), line: true, radius: 2.0 });
+    }
+    s.push_str(&plot("RMS residual per iteration (0 = start)", "iteration", "RMS (mm)", &conv, None));
+    let cost = [Series { name: "½Σr²".into(), points: it(&f.convergence.cost_mm2), color: TRAIN.into(), line: true, radius: 2.0 }];
+    s.push_str(&plot("Cost per iteration (training rows)", "iteration", "cost (mm²)", &cost, None));
+    s.push_str("</div>\n<h2>Parameters: change from the start, ±1σ</h2><div class=\"figs\">");
+    for g in Group::ALL {
+        let items: Vec<(String, f64, Option<f64>, Option<f64>)> =
+            f.params.iter().filter(|p| p.group == g).map(|p| (p.name.clone(), p.change, p.sigma, p.truth_change)).collect();
+        if !items.is_empty() {
+            s.push_str(&error_bars(g.title(), "change from start", &items));
+        }
+    }
+    s.push_str(
+        "</div>\n<table><tr><th>parameter</th><th>unit</th><th>start</th><th>calibrated</th><th>±1σ</th><th>truth-equivalent</th><th>z</th><th>fixed</th></tr>",
+    );
+    for p in &r.parameters {
+        let o = |v: Option<f64>| v.map(|v| format!("{v:.5}")).unwrap_or_else(|| "–".into());
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{:.5}</td><td>{:.5}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&p.name),
+            esc(&p.unit),
+            p.nominal,
+            p.value,
+            o(p.std_uncertainty),
+            o(p.truth),
+            p.z.map(|z| format!("{z:+.2}")).unwrap_or_else(|| "–".into()),
+            if p.fixed { "fixed (not identifiable)" } else { "" }
+        );
+    }
+    s.push_str("</table>\n</body></html>\n");
+    s
+}
+
+/// The diagnosis page.
+pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verdict: Option<&Verdict>) -> String {
+    let mut s = head(&format!("twincal {}", f.title));
+    let _ = writeln!(
+        s,
+        "<p>Verdict of the diagnosis: <b>{}</b>. {} rows, {} outliers kept out. Noise floor {:.4} mm ({}). Geometric model held-out RMSE {:.4} mm, final {:.4} mm ({:.2} × the noise floor). {:.1} s.</p>",
+        esc(&d.verdict),
+        d.rows,
+        d.outliers.len(),
+        d.noise_floor_mm,
+        esc(&d.noise_floor_source),
+        d.baseline.heldout_rmse_mm,
+        d.final_heldout_rmse_mm,
+        d.final_heldout_rmse_mm / d.noise_floor_mm,
+        d.seconds
+    );
+    s.push_str(&verdict_html(verdict));
+    s.push_str("<h2>Causes</h2>");
+    if d.causes.is_empty() {
+        s.push_str("<p>No effect improves the held-out fit significantly: the geometric model explains the data.</p>\n");
+    } else {
+        s.push_str("<table><tr><th>cause</th><th>joint</th><th>quantity</th><th>size</th><th>±1σ</th><th>unit</th><th>held-out RMSE before → after (mm)</th><th>p</th></tr>");
+        for c in &d.causes {
+            let _ = write!(
+                s,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{:.4} → {:.4}</td><td>{:.1e}</td></tr>",
+                esc(&c.cause),
+                c.joint.map(|j| j.to_string()).unwrap_or_else(|| "–".into()),
+                esc(&c.quantity),
+                c.magnitude,
+                c.uncertainty,
+                esc(&c.unit),
+                c.heldout_rmse_before_mm,
+                c.heldout_rmse_after_mm,
+                c.p_value
+            );
+        }
+        s.push_str("</table>\n");
+    }
+    let top: Vec<String> = d.evidence.iter().take(6).map(|e| format!("{} (r = {:+.2})", esc(&e.feature), e.correlation)).collect();
+    let _ = writeln!(s, "<p class=\"note\">Strongest correlations of the geometric model's residual: {}.</p>", top.join(", "));
+    if !f.causes.is_empty() {
+        s.push_str("<h2>Evidence: residual against the length change each cause predicts</h2><p class=\"note\">Grey: residual without the cause (final model, cause removed); blue: with it. A cause that explains the data turns a slope-1 cloud into a flat one.</p><div class=\"figs\">");
+        for c in &f.causes {
+            let pts = |r: &[f64]| -> Vec<[f64; 2]> { c.contribution_mm.iter().zip(r).map(|(x, y)| [*x, *y]).collect() };
+            let series = [
+                Series { name: "without".into(), points: pts(&c.without_mm), color: BEFORE.into(), line: false, radius: 1.6 },
+                Series { name: "with".into(), points: pts(&c.with_mm), color: TRAIN.into(), line: false, radius: 1.8 },
+            ];
+            s.push_str(&plot(&c.title.chars().take(70).collect::<String>(), "length change the cause predicts (mm)", "residual (mm)", &series, None));
+        }
+        s.push_str("</div>\n");
+    }
+    let steps: Vec<[f64; 2]> = f.heldout_rmse_mm.iter().enumerate().map(|(i, v)| [i as f64, *v]).collect();
+    s.push_str("<h2>Held-out RMSE per selection step</h2><div class=\"figs\">");
+    s.push_str(&plot(
+        "Held-out RMSE (0 = geometric model)",
+        "step",
+        "RMSE (mm)",
+        &[Series { name: "held-out".into(), points: steps, color: TRAIN.into(), line: true, radius: 3.0 }],
+        None,
+    ));
+    s.push_str("</div>\n<h2>Residual distributions</h2>\n");
+    s.push_str(&histogram_pair(&f.before_mm, &f.after_mm, "with the causes"));
+    s.push_str("<h2>Residual against joint angles, length, time and temperature</h2>\n");
+    feature_plots(&mut s, &f.features, &f.before_mm, &f.after_mm, &vec![true; f.after_mm.len()], "with the causes");
+    s.push_str("</body></html>\n");
+    s
+}
