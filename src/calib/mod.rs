@@ -3,8 +3,10 @@
 pub mod corrector;
 pub mod effects;
 pub mod equivalent;
+pub mod evonph;
 pub mod export;
 pub mod generic;
+pub mod gkan;
 pub mod identify;
 pub mod inputs;
 pub mod method;
