@@ -16,6 +16,7 @@ pub mod diagnose;
 pub mod effects;
 pub mod error;
 pub mod generate;
+pub mod ikcmd;
 pub mod io;
 pub mod robot;
 pub mod scenario;

@@ -21,9 +21,9 @@
 //! gradient with respect to the joint angles is analytic (derivatives of the bases times the
 //! grid scale).
 //!
-//! The default shape (grid 4, edge grid 1, chain edges among joints 1–5) has 6·7 + 10·16 = 202
-//! coefficients; with the 25 identifiable geometric parameters of the IRB 120 the unified
-//! decision vector has 227 dimensions (over 200, as in the paper).
+//! The default shape (grid 4, edge grid 2, chain edges among joints 1–5) has 6·7 + 10·25 = 292
+//! coefficients; with the 25 identifiable geometric parameters of the IRB 120 (Hayati form) the
+//! unified decision vector has 317 dimensions (over 200, as in the paper).
 //!
 //! # MLP (ablation V2)
 //!
@@ -54,7 +54,7 @@ pub struct GkanShape {
 
 impl Default for GkanShape {
     fn default() -> Self {
-        GkanShape { grid: 4, edge_grid: 1, chain_joints: 5 }
+        GkanShape { grid: 4, edge_grid: 2, chain_joints: 5 }
     }
 }
 
@@ -327,7 +327,7 @@ mod tests {
     fn gkan_counts_rows_and_roughness() {
         let g = Gkan::new(GkanShape::default(), vec![-1.0; 6], vec![1.0; 6]);
         assert_eq!(g.edges.len(), 10);
-        assert_eq!(g.n_coef(), 6 * 7 + 10 * 16);
+        assert_eq!(g.n_coef(), 6 * 7 + 10 * 25);
         g.validate(6).unwrap();
         // Value = basis row · coefficients.
         let mut g = g;
@@ -354,7 +354,7 @@ mod tests {
         let mut m = Mlp::new(5, vec![-1.0; 6], vec![1.0; 6]);
         m.w.iter_mut().enumerate().for_each(|(k, c)| *c = ((k as f64) * 1.3).sin());
         assert_eq!(m.n_weights(), 41);
-        assert_eq!(Mlp::matched_hidden(202, 6), 25);
+        assert_eq!(Mlp::matched_hidden(292, 6), 36);
         let q = [0.3, -0.2, 0.5, 0.9, -0.7, 0.1];
         let mut gw = vec![0.0; m.n_weights()];
         m.eval(&m.w, &q, Some(&mut gw), None);

@@ -8,6 +8,7 @@ pub mod export;
 pub mod generic;
 pub mod gkan;
 pub mod identify;
+pub mod ik;
 pub mod inputs;
 pub mod method;
 pub mod metrics;
