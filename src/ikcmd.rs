@@ -155,11 +155,32 @@ pub fn read_targets(path: &Path) -> Result<Vec<Vector3<f64>>> {
     Ok(out)
 }
 
+/// `n` reachable targets: the true tool points (the twin's, else the calibrated model's own) of
+/// random configurations inside the calibrated joint ranges.
+pub fn random_targets(r: &CalibResult, check: Option<&TwinCheck>, n: usize, seed: u64) -> Vec<Vector3<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let ranges = data_ranges(r);
+    let corr: Option<&dyn Correct> = r.corrector.as_ref().map(|c| c.as_correct());
+    let m = IkModel::new(&r.model, &r.x, corr, Robot::irb120().limits());
+    let mut w = r.model.work();
+    (0..n)
+        .map(|_| {
+            let q = random_in(&ranges, &mut rng);
+            match check {
+                Some(c) => c.true_point(&q),
+                None => m.position(&q, &mut w, None),
+            }
+        })
+        .collect()
+}
+
 /// One solver configuration on every target.
 pub struct IkRun {
     pub label: String,
     pub solutions: Vec<IkSolution>,
     pub seconds_per_query: f64,
+    /// Median time of one query, s.
+    pub median_seconds: f64,
     /// True tool-point error per target, mm (with a twin).
     pub true_error_mm: Option<Vec<f64>>,
 }
@@ -180,10 +201,22 @@ impl IkRun {
 pub fn run_ik(label: &str, m: &IkModel, kind: JacobianKind, targets: &[Vector3<f64>], o: &IkOptions, check: Option<&TwinCheck>) -> IkRun {
     let mut w = m.model.work();
     let t0 = Instant::now();
-    let solutions: Vec<IkSolution> = targets.iter().enumerate().map(|(i, t)| m.solve(t, kind, &IkOptions { seed: o.seed.wrapping_add(i as u64), ..o.clone() }, &mut w)).collect();
+    let mut times = Vec::with_capacity(targets.len());
+    let solutions: Vec<IkSolution> = targets
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let o = IkOptions { seed: o.seed.wrapping_add(i as u64), ..o.clone() };
+            let t1 = Instant::now();
+            let s = m.solve(t, kind, &o, &mut w);
+            times.push(t1.elapsed().as_secs_f64());
+            s
+        })
+        .collect();
     let seconds_per_query = t0.elapsed().as_secs_f64() / targets.len().max(1) as f64;
+    let median_seconds = median(&times);
     let true_error_mm = check.map(|c| solutions.iter().zip(targets).map(|(s, t)| if s.status == IkStatus::Invalid { 0.0 } else { (c.true_point(&s.q) - t).norm() }).collect());
-    IkRun { label: label.into(), solutions, seconds_per_query, true_error_mm }
+    IkRun { label: label.into(), solutions, seconds_per_query, median_seconds, true_error_mm }
 }
 
 /// Arguments of `twincal ik`.
@@ -232,7 +265,7 @@ pub fn ik_runs(r: &CalibResult, targets: &[Vector3<f64>], kinds: &[JacobianKind]
 
 /// The summary table of a set of runs.
 pub fn table(runs: &[IkRun]) -> String {
-    let mut s = String::from("| solver | success | mean iterations | mean model residual (mm) | µs per query | true error median (mm) | true error mean | true error max |\n|---|---|---|---|---|---|---|---|\n");
+    let mut s = String::from("| solver | success | mean iterations | mean model residual (mm) | µs per query (median) | true error median (mm) | true error mean | true error max |\n|---|---|---|---|---|---|---|---|\n");
     for r in runs {
         let te = |f: &dyn Fn(&[f64]) -> f64| r.true_error_mm.as_ref().map(|v| format!("{:.4}", f(v))).unwrap_or_else(|| "–".into());
         s.push_str(&format!(
@@ -241,7 +274,7 @@ pub fn table(runs: &[IkRun]) -> String {
             100.0 * r.success(),
             r.mean_iterations(),
             r.mean_residual(),
-            r.seconds_per_query * 1e6,
+            r.median_seconds * 1e6,
             te(&median),
             te(&|v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64),
             te(&|v: &[f64]| v.iter().cloned().fold(0.0, f64::max)),
@@ -282,24 +315,9 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
         }
     };
     let check = twin_dir.as_deref().map(|d| TwinCheck::load(d, &r)).transpose()?;
-    let mut rng = ChaCha8Rng::seed_from_u64(a.seed);
     let targets: Vec<Vector3<f64>> = match (&a.targets, a.random) {
         (Some(f), _) => read_targets(f)?,
-        (None, Some(n)) => {
-            let ranges = data_ranges(&r);
-            let corr: Option<&dyn Correct> = r.corrector.as_ref().map(|c| c.as_correct());
-            let m = IkModel::new(&r.model, &r.x, corr, Robot::irb120().limits());
-            let mut w = r.model.work();
-            (0..n)
-                .map(|_| {
-                    let q = random_in(&ranges, &mut rng);
-                    match &check {
-                        Some(c) => c.true_point(&q),
-                        None => m.position(&q, &mut w, None),
-                    }
-                })
-                .collect()
-        }
+        (None, Some(n)) => random_targets(&r, check.as_ref(), n, a.seed),
         _ => unreachable!("checked above"),
     };
     let o = IkOptions { tol_mm: a.tol_mm, seed: a.seed, ..Default::default() };

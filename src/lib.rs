@@ -15,6 +15,7 @@ pub mod dataset;
 pub mod diagnose;
 pub mod effects;
 pub mod error;
+pub mod evobench;
 pub mod generate;
 pub mod ikcmd;
 pub mod io;

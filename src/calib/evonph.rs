@@ -99,6 +99,8 @@ pub struct EvoNphSolver {
     pub de: DeVariant,
     pub pop: usize,
     pub generations: usize,
+    /// Cap on objective evaluations (equal budgets across DE variants; L-SHADE's horizon).
+    pub max_evals: Option<usize>,
     pub shape: GkanShape,
     pub weights: EvoWeights,
     /// Geometry box half-width in tolerances.
@@ -121,6 +123,7 @@ impl EvoNphSolver {
             de,
             pop: 40,
             generations: (100.0 * effort).ceil().max(2.0) as usize,
+            max_evals: None,
             shape: GkanShape::default(),
             weights: EvoWeights::default(),
             width_sigmas: 5.0,
@@ -437,6 +440,8 @@ pub struct EvoRun {
     pub evaluations: usize,
     /// Decision-vector dimension.
     pub dim: usize,
+    /// Identifiable geometric parameters in it.
+    pub n_geometry: usize,
     pub de_seconds: f64,
 }
 
@@ -470,7 +475,7 @@ impl EvoNphSolver {
             let cost = obj.cost(&z);
             (z, Report { cost, ..rep }, Vec::new())
         } else {
-            let de = De { variant: self.de.clone(), pop: self.pop, generations: self.generations, max_evals: None, seed: p.seed, tol: 1e-12, patience: 0 };
+            let de = De { variant: self.de.clone(), pop: self.pop, generations: self.generations, max_evals: self.max_evals, seed: p.seed, tol: 1e-12, patience: 0 };
             let mut start = obj.x0_free.clone();
             start.extend(std::iter::repeat_n(0.0, dim - m));
             let mut curve = Curve { costs: Vec::new(), inner: obs };
@@ -499,6 +504,7 @@ impl EvoNphSolver {
             generations: de_report.iterations,
             evaluations,
             dim,
+            n_geometry: m,
             de_seconds,
         })
     }
