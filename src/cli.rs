@@ -217,7 +217,9 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
         }
         BenchTarget::Dsade | BenchTarget::Ik => {
             if scenario.is_some() || compare {
-                return Err(Error::Invalid("--scenario and --compare do not apply to bench dsade / bench ik (they use the embedded irb120_evo_nph scenario)".into()));
+                return Err(Error::Invalid(
+                    "--scenario and --compare do not apply to bench dsade / bench ik (they use the embedded irb120_evo_nph scenario)".into(),
+                ));
             }
             if what == BenchTarget::Ik {
                 if seeds.is_some() {

@@ -47,7 +47,8 @@ pub struct TwinCheck {
 impl TwinCheck {
     /// From the truth file beside `data` (a dataset folder or file) and a result calibrated on it.
     pub fn load(data: &Path, r: &CalibResult) -> Result<TwinCheck> {
-        let truth = TruthFile::find(data)?.ok_or_else(|| Error::Invalid(format!("{}: no truth.json beside the data; twin validation needs the twin's dataset folder", data.display())))?;
+        let truth = TruthFile::find(data)?
+            .ok_or_else(|| Error::Invalid(format!("{}: no truth.json beside the data; twin validation needs the twin's dataset folder", data.display())))?;
         let folder = if data.is_dir() { data.to_path_buf() } else { data.parent().map(Path::to_path_buf).unwrap_or_default() };
         let tpath = folder.join(crate::calib::truth::TRUTH_FILE);
         let text = std::fs::read_to_string(&tpath).map_err(|e| Error::io(&tpath, e))?;
@@ -64,7 +65,8 @@ impl TwinCheck {
                 Ok(if n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz") { v * 1e-3 } else { v.to_radians() })
             })
             .collect::<Result<Vec<f64>>>()?;
-        let effects = serde_json::from_value(raw.get("effects").cloned().unwrap_or_default()).map_err(|e| Error::data(tpath.display(), format!("effects: {e}")))?;
+        let effects =
+            serde_json::from_value(raw.get("effects").cloned().unwrap_or_default()).map_err(|e| Error::data(tpath.display(), format!("effects: {e}")))?;
         let tension = raw.pointer("/sensor/tension_n").and_then(|v| v.as_f64()).unwrap_or(0.0);
         let sensor = serde_json::from_value(serde_json::json!({
             "exit_point_mm": truth.sensor.exit_point_mm,
@@ -78,13 +80,10 @@ impl TwinCheck {
         let mut ts: Vec<f64> = ds.rows.iter().filter_map(|r| r.t_s).collect();
         ts.sort_by(f64::total_cmp);
         let t_ref = ts.get(ts.len() / 2).copied().unwrap_or(0.0);
-        let x_eq = r
-            .parameters
-            .iter()
-            .enumerate()
-            .map(|(k, p)| p.truth.map(|t| t / r.model.kinds[k].display()))
-            .collect::<Option<Vec<f64>>>()
-            .ok_or_else(|| Error::Invalid("the result has no truth-equivalent values: calibrate on the twin's dataset folder (with its truth.json) first".into()))?;
+        let x_eq =
+            r.parameters.iter().enumerate().map(|(k, p)| p.truth.map(|t| t / r.model.kinds[k].display())).collect::<Option<Vec<f64>>>().ok_or_else(|| {
+                Error::Invalid("the result has no truth-equivalent values: calibrate on the twin's dataset folder (with its truth.json) first".into())
+            })?;
         let mut c = TwinCheck { twin, t_ref, x_eq, rot: Matrix3::identity(), trans: Vector3::zeros(), fit_rms_mm: 0.0 };
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let ranges = data_ranges(r);
@@ -215,7 +214,8 @@ pub fn run_ik(label: &str, m: &IkModel, kind: JacobianKind, targets: &[Vector3<f
         .collect();
     let seconds_per_query = t0.elapsed().as_secs_f64() / targets.len().max(1) as f64;
     let median_seconds = median(&times);
-    let true_error_mm = check.map(|c| solutions.iter().zip(targets).map(|(s, t)| if s.status == IkStatus::Invalid { 0.0 } else { (c.true_point(&s.q) - t).norm() }).collect());
+    let true_error_mm =
+        check.map(|c| solutions.iter().zip(targets).map(|(s, t)| if s.status == IkStatus::Invalid { 0.0 } else { (c.true_point(&s.q) - t).norm() }).collect());
     IkRun { label: label.into(), solutions, seconds_per_query, median_seconds, true_error_mm }
 }
 
@@ -298,7 +298,10 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     }
     let kinds: Vec<JacobianKind> = match a.jacobian.to_ascii_lowercase().as_str() {
         "all" => JacobianKind::ALL.to_vec(),
-        s => vec![JacobianKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| Error::Invalid(format!("unknown --jacobian '{s}' (expected analytic, neural, hybrid or all)")))?],
+        s => vec![JacobianKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| Error::Invalid(format!("unknown --jacobian '{s}' (expected analytic, neural, hybrid or all)")))?],
     };
     let mut inputs: Vec<(&str, &Path)> = vec![("--model", a.model.as_path())];
     if let Some(t) = &a.targets {
@@ -327,14 +330,31 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
         for (i, (s, t)) in run.solutions.iter().zip(&targets).enumerate() {
             let q: Vec<String> = s.q.iter().map(|v| format!("{:.6}", v.to_degrees())).collect();
             let te = run.true_error_mm.as_ref().map(|v| format!("{:.6}", v[i])).unwrap_or_default();
-            csv.push_str(&format!("{},{},{},{},{},{},{},{:.6},{},{te}\n", i + 1, t.x, t.y, t.z, run.label, s.status.name(), s.iterations, s.residual_mm, q.join(",")));
+            csv.push_str(&format!(
+                "{},{},{},{},{},{},{},{:.6},{},{te}\n",
+                i + 1,
+                t.x,
+                t.y,
+                t.z,
+                run.label,
+                s.status.name(),
+                s.iterations,
+                s.residual_mm,
+                q.join(",")
+            ));
         }
     }
     let mut outputs = crate::io::OutputSet::new();
     outputs.write(&a.out, csv.as_bytes())?;
     outputs.commit()?;
     if !quiet {
-        eprintln!("ik on {} ({} targets, tolerance {} mm{})", a.model.display(), targets.len(), a.tol_mm, check.as_ref().map(|c| format!("; twin frame fit RMS {:.4} mm", c.fit_rms_mm)).unwrap_or_default());
+        eprintln!(
+            "ik on {} ({} targets, tolerance {} mm{})",
+            a.model.display(),
+            targets.len(),
+            a.tol_mm,
+            check.as_ref().map(|c| format!("; twin frame fit RMS {:.4} mm", c.fit_rms_mm)).unwrap_or_default()
+        );
     }
     println!("{}", table(&runs));
     for run in &runs {

@@ -137,7 +137,12 @@ impl EvoNphSolver {
 enum Net {
     /// Spline bases at the training poses (row-major N × n) and the Cholesky factor of the
     /// normal matrix of the coefficient sub-problem.
-    Gkan { net: Gkan, basis: Vec<f64>, chol: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>, rough: Vec<[(usize, f64); 3]> },
+    Gkan {
+        net: Gkan,
+        basis: Vec<f64>,
+        chol: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+        rough: Vec<[(usize, f64); 3]>,
+    },
     Mlp(Mlp),
 }
 
@@ -287,20 +292,27 @@ impl<'a> Objective<'a> {
         self.fit.residuals_mm(&self.expand(&z[..self.m()]))
     }
     /// The exact minimiser of J over w for the geometry in z (GKAN only), clamped to the box.
-    fn solve_coefficients(&self, y: &[f64], w: &mut [f64]) {
-        if let Net::Gkan { basis, chol: Some(chol), .. } = &self.net {
-            let nw = w.len();
-            let mut rhs = DVector::zeros(nw);
-            for (yi, row) in y.iter().zip(basis.chunks_exact(nw)) {
-                for (r, b) in rhs.iter_mut().zip(row) {
-                    *r += b * yi;
-                }
-            }
-            let sol = chol.solve(&rhs);
-            for k in 0..nw {
-                w[k] = sol[k].clamp(self.w_lo[k], self.w_hi[k]);
+    /// Returns `Some(b·w)` (b = Bᵀy) when nothing was clamped: then the data, magnitude and
+    /// roughness terms together equal `(‖y‖² − b·w)/N` at the minimiser, with no further pass
+    /// over the bases.
+    fn solve_coefficients(&self, y: &[f64], w: &mut [f64]) -> Option<f64> {
+        let Net::Gkan { basis, chol: Some(chol), .. } = &self.net else {
+            return None;
+        };
+        let nw = w.len();
+        let mut rhs = DVector::zeros(nw);
+        for (yi, row) in y.iter().zip(basis.chunks_exact(nw)) {
+            for (r, b) in rhs.iter_mut().zip(row) {
+                *r += b * yi;
             }
         }
+        let sol = chol.solve(&rhs);
+        let mut clamped = false;
+        for k in 0..nw {
+            w[k] = sol[k].clamp(self.w_lo[k], self.w_hi[k]);
+            clamped |= w[k] != sol[k];
+        }
+        (!clamped).then(|| rhs.dot(&sol))
     }
     /// The learned corrector for coefficients `w`.
     fn corrector(&self, w: &[f64]) -> Corrector {
@@ -323,7 +335,11 @@ impl Cost for Objective<'_> {
         let y = self.geometric_residuals(z);
         if self.refine {
             let m = self.m();
-            self.solve_coefficients(&y, &mut z[m..]);
+            if let Some(bw) = self.solve_coefficients(&y, &mut z[m..]) {
+                let n = y.len() as f64;
+                let geo: f64 = (0..m).map(|k| ((z[k] - self.x0_free[k]) / self.s_free[k]).powi(2)).sum();
+                return (y.iter().map(|v| v * v).sum::<f64>() - bw) / n + self.lambda_g * geo;
+            }
         }
         self.objective(z, &y)
     }
@@ -475,7 +491,8 @@ impl EvoNphSolver {
             let cost = obj.cost(&z);
             (z, Report { cost, ..rep }, Vec::new())
         } else {
-            let de = De { variant: self.de.clone(), pop: self.pop, generations: self.generations, max_evals: self.max_evals, seed: p.seed, tol: 1e-12, patience: 0 };
+            let de =
+                De { variant: self.de.clone(), pop: self.pop, generations: self.generations, max_evals: self.max_evals, seed: p.seed, tol: 1e-12, patience: 0 };
             let mut start = obj.x0_free.clone();
             start.extend(std::iter::repeat_n(0.0, dim - m));
             let mut curve = Curve { costs: Vec::new(), inner: obs };
@@ -529,7 +546,8 @@ impl Solver for EvoNphSolver {
             EvoVariant::Sequential => "LM geometry, then the GKAN on the frozen residuals".to_string(),
             _ => format!("{} generations of {:?} over {} dimensions{}", r.generations, self.de, r.dim, if polished { ", then a joint LM polish" } else { "" }),
         };
-        let report = Report { x: r.solution_x, cost: r.objective, iterations: r.generations, evaluations: r.evaluations, converged: true, reason, covariance: None };
+        let report =
+            Report { x: r.solution_x, cost: r.objective, iterations: r.generations, evaluations: r.evaluations, converged: true, reason, covariance: None };
         Ok(Solution { report, corrector: Some(r.corrector) })
     }
 }

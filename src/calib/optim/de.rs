@@ -784,6 +784,25 @@ mod tests {
     }
 
     #[test]
+    fn ds_ade_credits_the_operator_that_gains() {
+        let plan = |op| TrialPlan { f: 0.5, cr: 0.5, op, tag: 0 };
+        let o = |op, gain: f64| Outcome { plan: plan(op), parent_cost: 1.0 + gain, trial_cost: 1.0, success: gain > 0.0 };
+        let (cur, rnd) = (Mutation::CurrentToPBest1 { p: 0.1 }, Mutation::RandToPBest1 { p: 0.1 });
+        let mut c = DualStrategy::new(4, 0.1, 0.1, true);
+        c.end_generation(&[o(cur, 3.0), o(rnd, 1.0)]);
+        assert!((c.p1 - 0.75).abs() < 1e-12, "{}", c.p1);
+        c.end_generation(&[o(rnd, 1.0)]);
+        assert!((c.p1 - 0.1).abs() < 1e-12, "clamped to p_min: {}", c.p1);
+        c.end_generation(&[o(cur, 0.0)]);
+        assert!((c.p1 - 0.1).abs() < 1e-12, "no success, no change: {}", c.p1);
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let picks = (0..1000).filter(|_| matches!(c.plan(&mut rng).op, Mutation::CurrentToPBest1 { .. })).count();
+        assert!((60..140).contains(&picks), "{picks} of 1000 at p1 = 0.1");
+        let mut single = DualStrategy::new(4, 0.1, 0.0, false);
+        assert!((0..200).all(|_| matches!(single.plan(&mut rng).op, Mutation::RandToPBest1 { .. })));
+    }
+
+    #[test]
     fn nan_costs_do_not_panic() {
         for v in variants() {
             let rep = De { generations: 200, ..solver(v.clone()) }.minimize(&NanHole, &box5(2), None, &mut NoObserver);
