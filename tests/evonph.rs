@@ -13,7 +13,7 @@ fn twincal(args: &[&str]) -> Output {
 }
 
 /// irb120_evo_nph with 400 poses (300/100), generated once per test binary.
-fn evo() -> &'static (PathBuf, Dataset) {
+fn evo() -> (&'static PathBuf, &'static Dataset) {
     static CELL: OnceLock<(tempfile::TempDir, PathBuf, Dataset)> = OnceLock::new();
     let c = CELL.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
@@ -76,7 +76,7 @@ fn ik_on_a_dsade_result_solves_reachable_targets_and_beats_the_nominal_on_the_tw
         let line = table.lines().find(|l| l.starts_with(&format!("| {label}"))).unwrap_or_else(|| panic!("no row {label} in\n{table}"));
         line.split('|').map(|c| c.trim().to_string()).collect()
     };
-    let hybrid = row("calibrated, hybrid");
+    let hybrid = row("calibrated/hybrid");
     assert_eq!(hybrid[2], "100.0 %", "{table}");
     let true_median = |r: &[String]| r[6].parse::<f64>().unwrap();
     let nominal = row("nominal");
