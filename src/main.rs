@@ -215,8 +215,9 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model) or
-    /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present).
+    /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model),
+    /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
+    /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30) or `ik`.
     Bench {
         #[arg(value_enum, default_value_t = BenchTarget::Twin)]
         what: BenchTarget,
