@@ -37,6 +37,10 @@ pub enum BenchTarget {
     Calib,
     /// The diagnosis: detection and false-alarm rates over hidden-effect scenarios, time.
     Diagnose,
+    /// Evo-NPH: DS-ADE speed, ablations with the truth, DE engines on one objective (Table 10).
+    Dsade,
+    /// Inverse kinematics: Jacobian variants, time per query, true error on the twin.
+    Ik,
 }
 
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
@@ -211,6 +215,22 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             let seeds = seeds.unwrap_or(20);
             check_seeds(seeds)?;
             bench_diagnose(seeds, quiet)
+        }
+        BenchTarget::Dsade | BenchTarget::Ik => {
+            if scenario.is_some() || compare {
+                return Err(Error::Invalid(
+                    "--scenario and --compare do not apply to bench dsade / bench ik (they use the embedded irb120_evo_nph scenario)".into(),
+                ));
+            }
+            if what == BenchTarget::Ik {
+                if seeds.is_some() {
+                    return Err(Error::Invalid("--seeds applies to bench dsade, not bench ik".into()));
+                }
+                return crate::evobench::bench_ik(repeat);
+            }
+            let seeds = seeds.unwrap_or(30);
+            check_seeds(seeds)?;
+            crate::evobench::bench_dsade(repeat, seeds)
         }
     }
 }

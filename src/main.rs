@@ -76,7 +76,7 @@ enum Command {
         /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
         #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
         angles: AngleArg,
-        /// lm, ekf, pf, pso or rbf.
+        /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH) or its ablations dsade-gkan-v1, -v2, -v3.
         #[arg(long, default_value = "lm")]
         method: String,
         #[command(flatten)]
@@ -175,6 +175,37 @@ enum Command {
         #[arg(long, default_value = "predictions.csv")]
         out: PathBuf,
     },
+    /// Inverse kinematics on a calibrated model (geometry + corrector), per-target status; on a
+    /// twin dataset also the true tool-point error of each solution against nominal and floor.
+    Ik {
+        /// A result.json written by `calibrate`.
+        #[arg(long)]
+        model: PathBuf,
+        /// CSV of target points with columns x,y,z in mm (the calibration's frame).
+        #[arg(long)]
+        targets: Option<PathBuf>,
+        /// N reachable targets: the true tool points of random configurations inside the
+        /// calibrated joint ranges (the twin's, else the model's own).
+        #[arg(long)]
+        random: Option<usize>,
+        /// Twin dataset folder with truth.json (default: the result's data, when it has one).
+        #[arg(long)]
+        twin: Option<PathBuf>,
+        /// Do not validate on a twin even when a truth file is found.
+        #[arg(long)]
+        no_twin: bool,
+        /// analytic, neural, hybrid or all.
+        #[arg(long, default_value = "all")]
+        jacobian: String,
+        /// Model residual (mm) at which a target counts as solved.
+        #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+        tol_mm: f64,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Per-target solutions.
+        #[arg(long, default_value = "ik.csv")]
+        out: PathBuf,
+    },
     /// Compare methods over seeds: accuracy and time tables with Wilcoxon signed-rank tests.
     Compare {
         #[arg(long)]
@@ -202,8 +233,9 @@ enum Command {
         #[arg(long)]
         rrd: Option<PathBuf>,
     },
-    /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model) or
-    /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present).
+    /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model),
+    /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
+    /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30) or `ik`.
     Bench {
         #[arg(value_enum, default_value_t = BenchTarget::Twin)]
         what: BenchTarget,
@@ -320,6 +352,9 @@ fn main() -> ExitCode {
             },
             args.quiet,
         ),
+        Command::Ik { model, targets, random, twin, no_twin, jacobian, tol_mm, seed, out } => {
+            twincal::ikcmd::ik(&twincal::ikcmd::IkArgs { model, targets, random, twin, no_twin, jacobian, tol_mm, seed, out }, args.quiet)
+        }
         Command::Bench { what, scenario, repeat, seeds, compare } => cli::bench_command(what, scenario.as_deref(), repeat, seeds, compare, args.quiet),
     };
     match result {

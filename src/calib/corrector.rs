@@ -17,6 +17,7 @@
 //! [`gradient_error`] checks any corrector's gradient against central finite differences.
 
 use super::effects::RowInputs;
+use super::gkan::{Gkan, Mlp};
 use super::model::{CalibModel, ModelWork};
 use super::rbf::RbfNetwork;
 use serde::{Deserialize, Serialize};
@@ -54,12 +55,18 @@ impl<T: Correct + ?Sized> Correct for &T {
 pub enum Corrector {
     /// Gaussian RBF network on the joint angles, fitted to the geometric fit's residuals.
     Rbf(RbfNetwork),
+    /// Graph KAN over the serial chain (Evo-NPH, see [`super::gkan`]).
+    Gkan(Gkan),
+    /// ReLU perceptron of the GKAN's size (Evo-NPH ablation V2).
+    Mlp(Mlp),
 }
 
 impl Corrector {
     pub fn as_correct(&self) -> &dyn Correct {
         match self {
             Corrector::Rbf(n) => n,
+            Corrector::Gkan(n) => n,
+            Corrector::Mlp(n) => n,
         }
     }
     /// Checks a deserialised corrector against the model it belongs to (a hand-edited or
@@ -80,6 +87,8 @@ impl Corrector {
                     Err("the RBF corrector is inconsistent".into())
                 }
             }
+            Corrector::Gkan(n) => n.validate(n_joints),
+            Corrector::Mlp(n) => n.validate(n_joints),
         }
     }
 }
@@ -111,6 +120,36 @@ impl Correct for RbfNetwork {
             }
         }
         f
+    }
+}
+
+impl Correct for Gkan {
+    fn label(&self) -> String {
+        format!("gkan ({} coefficients, {} chain edges)", self.n_coef(), self.edges.len())
+    }
+    fn n_weights(&self) -> usize {
+        self.n_coef()
+    }
+    fn correction_mm(&self, q: &[f64], _inp: &RowInputs) -> f64 {
+        self.value_with(&self.coef, q)
+    }
+    fn correction_grad_mm(&self, q: &[f64], _inp: &RowInputs, g: &mut [f64]) -> f64 {
+        self.value_grad(q, g)
+    }
+}
+
+impl Correct for Mlp {
+    fn label(&self) -> String {
+        format!("mlp ({} hidden ReLU units)", self.hidden)
+    }
+    fn n_weights(&self) -> usize {
+        Mlp::n_weights(self)
+    }
+    fn correction_mm(&self, q: &[f64], _inp: &RowInputs) -> f64 {
+        self.eval(&self.w, q, None, None)
+    }
+    fn correction_grad_mm(&self, q: &[f64], _inp: &RowInputs, g: &mut [f64]) -> f64 {
+        self.eval(&self.w, q, None, Some(g))
     }
 }
 
@@ -210,9 +249,35 @@ mod tests {
         let err = gradient_error(c.as_correct(), &qs, &inp, 1e-6);
         assert!(err < 1e-6, "relative gradient error {err}");
         // The value agrees with the network's own prediction.
-        let Corrector::Rbf(net) = &c;
+        let Corrector::Rbf(net) = &c else { unreachable!() };
         let mut g = [0.0; 6];
         assert!((c.as_correct().correction_grad_mm(&qs[0], &inp, &mut g) - net.predict(&qs[0])).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gkan_and_mlp_gradients_match_finite_differences() {
+        use crate::calib::gkan::GkanShape;
+        let qs = configurations();
+        let (lo, hi) = Gkan::range_of(&qs);
+        let mut g = Gkan::new(GkanShape { grid: 5, edge_grid: 2, chain_joints: 6 }, lo.clone(), hi.clone());
+        g.coef.iter_mut().enumerate().for_each(|(k, c)| *c = 0.05 * ((k as f64) * 0.77).sin());
+        let c = Corrector::Gkan(g);
+        c.validate(6).unwrap();
+        let inp = RowInputs::default();
+        // Inside the grid (the configurations span it; clamping happens only at the ends).
+        let inner: Vec<Vec<f64>> = qs.iter().map(|q| q.iter().zip(lo.iter().zip(&hi)).map(|(v, (l, h))| 0.9 * v + 0.05 * (l + h)).collect()).collect();
+        let err = gradient_error(c.as_correct(), &inner, &inp, 1e-6);
+        assert!(err < 1e-6, "GKAN relative gradient error {err}");
+        let mut m = Mlp::new(7, lo, hi);
+        m.w.iter_mut().enumerate().for_each(|(k, c)| *c = ((k as f64) * 1.1).cos());
+        let c = Corrector::Mlp(m);
+        c.validate(6).unwrap();
+        let err = gradient_error(c.as_correct(), &inner, &inp, 1e-7);
+        assert!(err < 1e-5, "MLP relative gradient error {err}");
+        // Both survive a round trip through result.json's representation.
+        let text = serde_json::to_string(&c).unwrap();
+        let back: Corrector = serde_json::from_str(&text).unwrap();
+        assert!((back.as_correct().correction_mm(&inner[0], &inp) - c.as_correct().correction_mm(&inner[0], &inp)).abs() < 1e-12);
     }
 
     #[test]

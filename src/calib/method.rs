@@ -7,6 +7,7 @@
 //! from the data ([`Problem::noise_mm`]).
 
 use super::corrector::Corrector;
+use super::evonph::{EvoNphSolver, EvoVariant};
 use super::optim::{Bounds, Ekf, LeastSquares, LevenbergMarquardt, Observer, ParticleFilter, Pso, Report};
 use super::problem::{FreeCost, LengthFit};
 use super::rbf::RbfNetwork;
@@ -25,14 +26,31 @@ pub enum Method {
     Pf,
     Pso,
     Rbf,
+    /// Evo-NPH: DS-ADE over geometry and GKAN coefficients ([`super::evonph`]).
+    #[serde(rename = "dsade-gkan")]
+    DsadeGkan,
+    /// Evo-NPH ablation V1: sequential (LM geometry, then the GKAN).
+    #[serde(rename = "dsade-gkan-v1")]
+    DsadeGkanV1,
+    /// Evo-NPH ablation V2: a matched-size ReLU MLP instead of the GKAN.
+    #[serde(rename = "dsade-gkan-v2")]
+    DsadeGkanV2,
+    /// Evo-NPH ablation V3: single-strategy DE.
+    #[serde(rename = "dsade-gkan-v3")]
+    DsadeGkanV3,
 }
 
 impl Method {
     pub const ALL: [Method; 5] = [Method::Lm, Method::Ekf, Method::Pf, Method::Pso, Method::Rbf];
 
+    /// The Evo-NPH method and its ablations (not in [`Method::ALL`], the core's baselines).
+    pub const EVO_NPH: [Method; 4] = [Method::DsadeGkan, Method::DsadeGkanV1, Method::DsadeGkanV2, Method::DsadeGkanV3];
+
     pub fn parse(s: &str) -> Result<Method> {
         let s = s.trim().to_ascii_lowercase();
-        Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso or rbf)")))
+        Method::ALL.into_iter().chain(Method::EVO_NPH).find(|m| m.name() == s).ok_or_else(|| {
+            Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso, rbf, dsade-gkan or its ablations dsade-gkan-v1, -v2, -v3)"))
+        })
     }
     pub fn name(self) -> &'static str {
         match self {
@@ -41,6 +59,10 @@ impl Method {
             Method::Pf => "pf",
             Method::Pso => "pso",
             Method::Rbf => "rbf",
+            Method::DsadeGkan => "dsade-gkan",
+            Method::DsadeGkanV1 => "dsade-gkan-v1",
+            Method::DsadeGkanV2 => "dsade-gkan-v2",
+            Method::DsadeGkanV3 => "dsade-gkan-v3",
         }
     }
     /// The method with its default settings; `effort` scales the budget of the stochastic ones.
@@ -51,6 +73,10 @@ impl Method {
             Method::Pf => Box::new(PfSolver { particles: (4000.0 * effort).max(100.0) as usize, ..Default::default() }),
             Method::Pso => Box::new(PsoSolver { iterations: (1500.0 * effort).max(10.0) as usize, ..Default::default() }),
             Method::Rbf => Box::new(RbfSolver::default()),
+            Method::DsadeGkan => Box::new(EvoNphSolver::new(EvoVariant::Full, effort)),
+            Method::DsadeGkanV1 => Box::new(EvoNphSolver::new(EvoVariant::Sequential, effort)),
+            Method::DsadeGkanV2 => Box::new(EvoNphSolver::new(EvoVariant::Mlp, effort)),
+            Method::DsadeGkanV3 => Box::new(EvoNphSolver::new(EvoVariant::SingleStrategy, effort)),
         }
     }
 }

@@ -3,9 +3,12 @@
 pub mod corrector;
 pub mod effects;
 pub mod equivalent;
+pub mod evonph;
 pub mod export;
 pub mod generic;
+pub mod gkan;
 pub mod identify;
+pub mod ik;
 pub mod inputs;
 pub mod method;
 pub mod metrics;

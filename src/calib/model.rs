@@ -234,6 +234,21 @@ impl CalibModel {
         l + corr
     }
 
+    /// Tool point (m, effects of the row applied) and its derivative with respect to each
+    /// commanded joint angle (m/rad) into `dp`; the row's inputs are held fixed.
+    pub fn tool_point_jac_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dp: &mut [Vector3<f64>]) -> Vector3<f64> {
+        let nc = self.n_chain();
+        let (_, _, tool) = self.sensor(x);
+        let scale = self.apply_effects(x, q, inp, w);
+        self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
+        self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
+        let own = if self.effects.is_empty() { [0.0; 6] } else { w.eff.ddq_dq };
+        for (j, d) in dp.iter_mut().enumerate().take(self.chain.n_joints) {
+            *d = w.jac.dq[j] * (1.0 + own[j]);
+        }
+        w.jac.point
+    }
+
     /// Display value (mm / degrees) of parameter `k`.
     pub fn display(&self, k: usize, v: f64) -> f64 {
         v * self.kinds[k].display()

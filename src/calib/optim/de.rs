@@ -20,6 +20,14 @@
 //!   `pop·(generations + 1)` when unset), the weighted Lehmer mean for `M_CR`, a "terminal" `CR`
 //!   memory value (once all successful `CR` are 0, that slot always gives `CR = 0`) and an
 //!   archive of 2.6·N.
+//! * [`DeVariant::DsAde`] — dual-strategy adaptive DE (DS-ADE, after the Evo-NPH calibration
+//!   paper): each trial uses DE/current-to-pbest/1 with probability `p1`, else
+//!   DE/rand-to-pbest/1 `v = x_r1 + F·(x_pbest − x_r1) + F·(x_r2 − x̃_r3)`, both with the
+//!   archive. `p1` is the share of the generation's cumulative fitness gain that
+//!   current-to-pbest/1's successes earned (kept in `[p_min, 1 − p_min]`). `F`/`CR` come from
+//!   SHADE-style memories updated by gain-weighted Lehmer means (for both `F` and `CR`).
+//! * [`DeVariant::RandToPBest`] — the same adaptation with rand-to-pbest/1 only (the DS-ADE
+//!   ablation "single-strategy DE").
 //!
 //! # Engine
 //!
@@ -29,6 +37,9 @@
 //! improvement is a success that feeds adaptation and the archive). All random numbers are drawn
 //! on the calling thread in a fixed order and all ties are broken by index, so results depend
 //! only on the seed, never on the thread count. NaN costs count as +∞.
+//!
+//! Costs may refine what they evaluate ([`super::Cost::cost_refine`], Lamarckian: e.g. solving
+//! the coordinates the cost is linear in); the refined vector is what enters the population.
 //!
 //! Bound repair: a trial coordinate outside `[lower, upper]` is set to the midpoint between the
 //! parent's coordinate and the violated bound, `(lower + x_i)/2` or `(upper + x_i)/2`.
@@ -61,7 +72,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-use super::util::{argmin, eval_rows, Stall};
+use super::util::{argmin, eval_rows_refine, Stall};
 use super::{Bounds, Cost, Event, Observer, Report};
 
 /// Which DE algorithm to run. See the module documentation.
@@ -76,6 +87,13 @@ pub enum DeVariant {
     Shade { memory: usize, p: f64 },
     /// L-SHADE: SHADE with linear population size reduction down to `min_pop`.
     LShade { memory: usize, p: f64, min_pop: usize },
+    /// DS-ADE: SHADE-style memories (weighted Lehmer means for both `F` and `CR`) with two
+    /// operators, current-to-pbest/1 and rand-to-pbest/1, chosen per trial with a probability
+    /// learned from each operator's cumulative fitness gains (kept within `[p_min, 1 − p_min]`).
+    DsAde { memory: usize, p: f64, p_min: f64 },
+    /// Single-strategy DE with success-history adaptation: rand-to-pbest/1 only (the DS-ADE
+    /// ablation without the strategy scheduler).
+    RandToPBest { memory: usize, p: f64 },
 }
 
 impl Default for DeVariant {
@@ -91,6 +109,8 @@ impl DeVariant {
             DeVariant::Jade { .. } => "jade",
             DeVariant::Shade { .. } => "shade",
             DeVariant::LShade { .. } => "lshade",
+            DeVariant::DsAde { .. } => "ds-ade",
+            DeVariant::RandToPBest { .. } => "de-rand-to-pbest",
         }
     }
 }
@@ -131,6 +151,9 @@ enum Mutation {
     /// `v = x_i + F·(x_pbest − x_i) + F·(x_r1 − x̃_r2)`, pbest among the best `max(2, round(p·N))`,
     /// r1 from the population, r2 from population ∪ archive, all distinct from i and each other.
     CurrentToPBest1 { p: f64 },
+    /// `v = x_r1 + F·(x_pbest − x_r1) + F·(x_r2 − x̃_r3)`: a random base vector pulled towards a
+    /// pbest individual; r1, r2 from the population, r3 from population ∪ archive, all distinct.
+    RandToPBest1 { p: f64 },
 }
 
 /// What a controller decides for one trial vector.
@@ -184,6 +207,8 @@ fn controller_for(v: &DeVariant, pop: usize) -> Box<dyn Controller> {
         DeVariant::Jade { c, p } => Box::new(Jade { c, p, mu_f: 0.5, mu_cr: 0.5, s_f: Vec::new(), s_cr: Vec::new() }),
         DeVariant::Shade { memory, p } => Box::new(Shade::new(memory, p, None, pop)),
         DeVariant::LShade { memory, p, min_pop } => Box::new(Shade::new(memory, p, Some(min_pop.max(4)), pop)),
+        DeVariant::DsAde { memory, p, p_min } => Box::new(DualStrategy::new(memory, p, p_min.clamp(0.0, 0.5), true)),
+        DeVariant::RandToPBest { memory, p } => Box::new(DualStrategy::new(memory, p, 0.0, false)),
     }
 }
 
@@ -336,6 +361,74 @@ impl Controller for Shade {
     }
 }
 
+/// DS-ADE (and its single-strategy ablation). Per trial: a memory slot `k` at random,
+/// `F ~ Cauchy(M_F[k], 0.1)`, `CR ~ N(M_CR[k], 0.1)`, and operator 1 (current-to-pbest/1) with
+/// probability `p1`, else operator 2 (rand-to-pbest/1). After a generation with successes, slot
+/// `next` of both memories takes the gain-weighted Lehmer mean of the successful values, and
+/// `p1 ← Σ_{S1} Δf / (Σ_{S1} Δf + Σ_{S2} Δf)` over the operators' successful trials (unchanged
+/// without successes), clamped to `[p_min, 1 − p_min]` so neither operator dies out.
+struct DualStrategy {
+    p: f64,
+    p_min: f64,
+    dual: bool,
+    p1: f64,
+    m_f: Vec<f64>,
+    m_cr: Vec<f64>,
+    next: usize,
+    succ: Vec<(f64, f64, f64)>,
+}
+impl DualStrategy {
+    fn new(memory: usize, p: f64, p_min: f64, dual: bool) -> Self {
+        let h = memory.max(1);
+        DualStrategy { p, p_min, dual, p1: if dual { 0.5 } else { 0.0 }, m_f: vec![0.5; h], m_cr: vec![0.5; h], next: 0, succ: Vec::new() }
+    }
+}
+impl Controller for DualStrategy {
+    fn plan(&mut self, rng: &mut ChaCha8Rng) -> TrialPlan {
+        let slot = rng.random_range(0..self.m_f.len());
+        let cr = sample_cr(rng, self.m_cr[slot]);
+        let f = sample_f(rng, self.m_f[slot]);
+        let first = self.dual && rng.random::<f64>() < self.p1;
+        let op = if first { Mutation::CurrentToPBest1 { p: self.p } } else { Mutation::RandToPBest1 { p: self.p } };
+        TrialPlan { f, cr, op, tag: slot }
+    }
+    fn end_generation(&mut self, outcomes: &[Outcome]) {
+        self.succ.clear();
+        let (mut g1, mut g2) = (0.0, 0.0);
+        for o in outcomes.iter().filter(|o| o.success) {
+            // A finite trial replacing an infinite parent counts as one unit of gain.
+            let g = if o.gain().is_finite() { o.gain() } else { 1.0 };
+            self.succ.push((g, o.plan.f, o.plan.cr));
+            match o.plan.op {
+                Mutation::CurrentToPBest1 { .. } => g1 += g,
+                _ => g2 += g,
+            }
+        }
+        if self.succ.is_empty() {
+            return;
+        }
+        if self.dual && g1 + g2 > 0.0 {
+            self.p1 = (g1 / (g1 + g2)).clamp(self.p_min, 1.0 - self.p_min);
+        }
+        let mut wsum: f64 = self.succ.iter().map(|s| s.0).sum();
+        if !(wsum > 0.0 && wsum.is_finite()) {
+            self.succ.iter_mut().for_each(|s| s.0 = 1.0);
+            wsum = self.succ.len() as f64;
+        }
+        let k = self.next;
+        self.m_f[k] = lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.1)));
+        let cr = lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.2)));
+        // All-zero successful CR: keep the slot's value rather than locking CR at 0.
+        if cr > 0.0 {
+            self.m_cr[k] = cr;
+        }
+        self.next = (k + 1) % self.m_f.len();
+    }
+    fn archive_rate(&self) -> f64 {
+        1.0
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Engine
 // ---------------------------------------------------------------------------------------------
@@ -407,6 +500,17 @@ impl Engine<'_> {
                     let (xp, a, c) = (self.row(pb), self.row(r1), self.pool_row(r2));
                     for k in 0..d {
                         out[k] = xi[k] + f * (xp[k] - xi[k]) + f * (a[k] - c[k]);
+                    }
+                }
+                Mutation::RandToPBest1 { p } => {
+                    let top = ((p * n as f64).round() as usize).clamp(2, n);
+                    let pb = self.rank[rng.random_range(0..top)];
+                    let r1 = pick(rng, n, &[i]);
+                    let r2 = pick(rng, n, &[i, r1]);
+                    let r3 = pick(rng, n + self.archive_len, &[i, r1, r2]);
+                    let (xp, a, bb, c) = (self.row(pb), self.row(r1), self.row(r2), self.pool_row(r3));
+                    for k in 0..d {
+                        out[k] = a[k] + f * (xp[k] - a[k]) + f * (bb[k] - c[k]);
                     }
                 }
             }
@@ -539,7 +643,7 @@ impl De {
             archive: Vec::new(),
             archive_len: 0,
         };
-        eval_rows(c, &e.x, d, &mut e.fx);
+        eval_rows_refine(c, &mut e.x, d, &mut e.fx);
         let mut evaluations = n0;
         let budget = self.max_evals.unwrap_or(n0.saturating_mul(self.generations.saturating_add(1)));
         let mut outcomes: Vec<Outcome> = Vec::with_capacity(n0);
@@ -567,7 +671,7 @@ impl De {
                 e.plans[i] = plan;
                 e.mutate(i, &plan, &mut rng);
             }
-            eval_rows(c, &e.trials, d, &mut e.tcost);
+            eval_rows_refine(c, &mut e.trials, d, &mut e.tcost);
             evaluations += n;
 
             // One-to-one selection, in index order.
@@ -629,6 +733,8 @@ mod tests {
             DeVariant::Jade { c: 0.1, p: 0.05 },
             DeVariant::Shade { memory: 6, p: 0.11 },
             DeVariant::LShade { memory: 6, p: 0.11, min_pop: 4 },
+            DeVariant::DsAde { memory: 6, p: 0.11, p_min: 0.1 },
+            DeVariant::RandToPBest { memory: 6, p: 0.11 },
         ]
     }
 
@@ -675,6 +781,25 @@ mod tests {
         // With shrinking population, far more generations fit into the budget than 3000/40.
         assert!(rep.iterations > 3000 / 40, "{rep:?}");
         assert!(h.cost.windows(2).all(|w| w[1] <= w[0]));
+    }
+
+    #[test]
+    fn ds_ade_credits_the_operator_that_gains() {
+        let plan = |op| TrialPlan { f: 0.5, cr: 0.5, op, tag: 0 };
+        let o = |op, gain: f64| Outcome { plan: plan(op), parent_cost: 1.0 + gain, trial_cost: 1.0, success: gain > 0.0 };
+        let (cur, rnd) = (Mutation::CurrentToPBest1 { p: 0.1 }, Mutation::RandToPBest1 { p: 0.1 });
+        let mut c = DualStrategy::new(4, 0.1, 0.1, true);
+        c.end_generation(&[o(cur, 3.0), o(rnd, 1.0)]);
+        assert!((c.p1 - 0.75).abs() < 1e-12, "{}", c.p1);
+        c.end_generation(&[o(rnd, 1.0)]);
+        assert!((c.p1 - 0.1).abs() < 1e-12, "clamped to p_min: {}", c.p1);
+        c.end_generation(&[o(cur, 0.0)]);
+        assert!((c.p1 - 0.1).abs() < 1e-12, "no success, no change: {}", c.p1);
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let picks = (0..1000).filter(|_| matches!(c.plan(&mut rng).op, Mutation::CurrentToPBest1 { .. })).count();
+        assert!((60..140).contains(&picks), "{picks} of 1000 at p1 = 0.1");
+        let mut single = DualStrategy::new(4, 0.1, 0.0, false);
+        assert!((0..200).all(|_| matches!(single.plan(&mut rng).op, Mutation::RandToPBest1 { .. })));
     }
 
     #[test]

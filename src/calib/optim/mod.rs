@@ -54,6 +54,12 @@ pub trait Observations: Sync {
 pub trait Cost: Sync {
     fn dim(&self) -> usize;
     fn cost(&self, x: &[f64]) -> f64;
+    /// The cost of `x` after the cost may have improved `x` in place (a Lamarckian local step,
+    /// such as solving the coordinates the cost is quadratic in; the result must stay inside
+    /// the search box). The DE family evaluates through this. Default: [`Cost::cost`], `x` unchanged.
+    fn cost_refine(&self, x: &mut [f64]) -> f64 {
+        self.cost(x)
+    }
 }
 
 /// Box bounds, lower[k] < upper[k].

@@ -39,6 +39,18 @@ pub(crate) fn eval_rows<C: Cost>(c: &C, xs: &[f64], d: usize, out: &mut [f64]) {
     }
 }
 
+/// Like [`eval_rows`] through [`Cost::cost_refine`]: each row may be refined in place.
+pub(crate) fn eval_rows_refine<C: Cost>(c: &C, xs: &mut [f64], d: usize, out: &mut [f64]) {
+    debug_assert_eq!(xs.len(), out.len() * d);
+    if out.len() >= PAR_MIN_BATCH {
+        out.par_iter_mut().zip(xs.par_chunks_exact_mut(d)).for_each(|(o, x)| *o = sanitize(c.cost_refine(x)));
+    } else {
+        for (o, x) in out.iter_mut().zip(xs.chunks_exact_mut(d)) {
+            *o = sanitize(c.cost_refine(x));
+        }
+    }
+}
+
 /// Early-stopping rule shared by the population methods: stop once the best cost has failed
 /// to improve by more than `tol · |best|` (relative) for `patience` consecutive iterations.
 /// `patience == 0` disables early stopping.

@@ -1,0 +1,553 @@
+//! Evo-NPH (method `dsade-gkan`): joint identification of the geometry and a GKAN length
+//! corrector by dual-strategy adaptive differential evolution, then a joint Gauss–Newton
+//! polish of the same objective.
+//!
+//! # Decision vector and objective
+//!
+//! `z = [θ; w]`: the identifiable geometric (and sensor) parameters θ of the calibration model
+//! (every parametrisation works: `--params dh` gives the paper's D-H form) and the network's
+//! flattened coefficients w (292 spline coefficients for the default GKAN). With `y_i(θ)` the
+//! training residual of the geometric model (mm) and `δ_i(w)` the network's correction at pose
+//! i, the objective has four parts (mm²):
+//!
+//! ```text
+//! J = 1/N Σ (y_i − δ_i)²                       data term on the distance residuals
+//!   + λ_g Σ_k ((θ_k − θ0_k) / s_k)²            geometric deviation, diagonal scaling s_k
+//!   + λ_n 1/N Σ δ_i²                             neural magnitude
+//!   + λ_s 1/N (Σ (D w)² + κ Σ w²)                 spline roughness (second differences)
+//! ```
+//!
+//! * `s_k` is the documented manufacturing tolerance of parameter k
+//!   ([`super::tolerance::Tolerances`]) and `λ_g = σ²/N` with σ the reading noise estimated from
+//!   the data: the geometric term is then exactly the tolerance prior of a MAP estimate
+//!   (`J·N/σ²` = −2 log posterior up to a constant). Geometry may move where the data demand it
+//!   and is held near its nominal where they do not.
+//! * `λ_n = 0.05`: the network may not explain everything; a correction costs 5 % of its square,
+//!   so it only takes residual structure that is consistent over many poses.
+//! * `λ_s = 0.02` per unit second difference: keeps the edge functions smooth between the
+//!   training poses (the gradient that the IK uses must be meaningful there); κ = 0.01 adds a
+//!   small ridge that pins the constants the edge functions could otherwise trade among
+//!   themselves.
+//!
+//! The network's shape (grid 4, chain-edge grid 2) and λ_n, λ_s were chosen on one split of
+//! `irb120_evo_nph` among a handful of settings; `compare` over fresh splits checks them.
+//!
+//! # Search
+//!
+//! DS-ADE ([`DeVariant::DsAde`], population 40, 100 generations at effort 1) over the box:
+//! geometry within ±5 tolerances of the start, each spline coefficient within ± the starting
+//! residual RMS (a B-spline coefficient is a local value of its edge function). The start (nominal
+//! geometry, zero network) is individual 0. Because J is quadratic in w, each evaluated trial's
+//! coefficients are replaced by their exact minimiser for its geometry (a Lamarckian step
+//! through one Cholesky factor computed before the search; the spline bases at the training
+//! poses are computed once as well): the evolution then spends its budget on the nonlinear
+//! geometry. `refine_coefficients = false` gives the paper's literal search over all
+//! dimensions (compare both in `twincal bench dsade`). Finally the best vector is polished by
+//! Levenberg–Marquardt on all of z at once (the same J written as a least-squares problem).
+//!
+//! # Ablations (the paper's Table 9)
+//!
+//! * V1 `dsade-gkan-v1` — sequential: LM geometry alone, then the GKAN fitted to the frozen
+//!   residuals (same λ_n, λ_s).
+//! * V2 `dsade-gkan-v2` — the GKAN replaced by a ReLU perceptron with as many weights; an MLP is
+//!   not linear in its weights, so its DE searches every dimension; then the same joint polish.
+//! * V3 `dsade-gkan-v3` — single-strategy DE (rand-to-pbest/1 with the same success-history
+//!   adaptation, no strategy scheduler), otherwise V4.
+//! * V4 `dsade-gkan` — the full method.
+
+use super::corrector::Corrector;
+use super::gkan::{Gkan, GkanShape, Mlp};
+use super::method::{Method, Problem, Solution, Solver};
+use super::optim::{Bounds, Cost, De, DeVariant, Event, LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
+use super::problem::LengthFit;
+use crate::error::{Error, Result};
+use nalgebra::{DMatrix, DVector};
+
+/// Which Evo-NPH variant (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EvoVariant {
+    /// V4, the full method.
+    Full,
+    /// V1: LM geometry, then the GKAN on the frozen residuals.
+    Sequential,
+    /// V2: a ReLU perceptron of matched size instead of the GKAN.
+    Mlp,
+    /// V3: single-strategy DE.
+    SingleStrategy,
+}
+
+/// Weights of the objective (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EvoWeights {
+    /// Multiplier of the MAP weight σ²/N of the geometric term.
+    pub geometry: f64,
+    pub neural: f64,
+    pub roughness: f64,
+}
+
+impl Default for EvoWeights {
+    fn default() -> Self {
+        EvoWeights { geometry: 1.0, neural: 0.05, roughness: 0.02 }
+    }
+}
+
+/// Evo-NPH settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvoNphSolver {
+    pub variant: EvoVariant,
+    /// The DE engine's strategy (DS-ADE for V4, rand-to-pbest/1 for V3; others for Table 10).
+    pub de: DeVariant,
+    pub pop: usize,
+    pub generations: usize,
+    /// Cap on objective evaluations (equal budgets across DE variants; L-SHADE's horizon).
+    pub max_evals: Option<usize>,
+    pub shape: GkanShape,
+    pub weights: EvoWeights,
+    /// Geometry box half-width in tolerances.
+    pub width_sigmas: f64,
+    /// Replace each trial's coefficients by their exact minimiser (GKAN only).
+    pub refine_coefficients: bool,
+    /// Joint LM polish of the DE's best vector.
+    pub polish: bool,
+}
+
+impl EvoNphSolver {
+    /// The variant with its default settings; `effort` scales the number of generations.
+    pub fn new(variant: EvoVariant, effort: f64) -> Self {
+        let de = match variant {
+            EvoVariant::SingleStrategy => DeVariant::RandToPBest { memory: 6, p: 0.11 },
+            _ => DeVariant::DsAde { memory: 6, p: 0.11, p_min: 0.1 },
+        };
+        EvoNphSolver {
+            variant,
+            de,
+            pop: 40,
+            generations: (100.0 * effort).ceil().max(2.0) as usize,
+            max_evals: None,
+            shape: GkanShape::default(),
+            weights: EvoWeights::default(),
+            width_sigmas: 5.0,
+            refine_coefficients: variant != EvoVariant::Mlp,
+            polish: true,
+        }
+    }
+}
+
+/// The network part of the decision vector.
+enum Net {
+    /// Spline bases at the training poses (row-major N × n) and the Cholesky factor of the
+    /// normal matrix of the coefficient sub-problem.
+    Gkan {
+        net: Gkan,
+        basis: Vec<f64>,
+        chol: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+        rough: Vec<[(usize, f64); 3]>,
+    },
+    Mlp(Mlp),
+}
+
+/// The Evo-NPH objective over `z = [θ_free; w]` (see the module docs).
+pub struct Objective<'a> {
+    fit: &'a LengthFit<'a>,
+    base: Vec<f64>,
+    free: Vec<usize>,
+    x0_free: Vec<f64>,
+    s_free: Vec<f64>,
+    net: Net,
+    lambda_g: f64,
+    lambda_n: f64,
+    lambda_s: f64,
+    /// Coefficient box (for the Lamarckian step).
+    w_lo: Vec<f64>,
+    w_hi: Vec<f64>,
+    refine: bool,
+}
+
+impl<'a> Objective<'a> {
+    fn new(p: &'a Problem<'a>, s: &EvoNphSolver, mlp: bool) -> Result<(Objective<'a>, Bounds)> {
+        let fit = p.fit;
+        let n = fit.data.len();
+        let free: Vec<usize> = (0..p.x0.len()).filter(|k| !p.fixed[*k]).collect();
+        let x0_free: Vec<f64> = free.iter().map(|&k| p.x0[k]).collect();
+        let s_free: Vec<f64> = free.iter().map(|&k| p.prior_std[k]).collect();
+        let y0 = fit.residuals_mm(p.x0);
+        let rms0 = (y0.iter().map(|v| v * v).sum::<f64>() / n.max(1) as f64).sqrt();
+        if !rms0.is_finite() || rms0 <= 0.0 {
+            return Err(Error::Calibration("the starting residuals are not finite or all zero; nothing for the network to learn".into()));
+        }
+        let (lo, hi) = Gkan::range_of(&fit.data.q);
+        let sigma = if p.noise_mm.is_finite() && p.noise_mm > 0.0 { p.noise_mm } else { 0.01 * rms0 };
+        let w = &s.weights;
+        let (net, w_half): (Net, Vec<f64>) = if mlp {
+            let probe = Gkan::new(s.shape, lo.clone(), hi.clone());
+            let h = Mlp::matched_hidden(probe.n_coef(), lo.len());
+            let m = Mlp::new(h, lo, hi);
+            let nj = m.lo.len();
+            let half = (0..m.n_weights())
+                .map(|k| {
+                    if k == h * (nj + 2) {
+                        rms0
+                    } else if k % (nj + 2) == nj + 1 {
+                        rms0 / (h as f64).sqrt()
+                    } else {
+                        3.0
+                    }
+                })
+                .collect();
+            (Net::Mlp(m), half)
+        } else {
+            let net = Gkan::new(s.shape, lo, hi);
+            let nw = net.n_coef();
+            let mut basis = vec![0.0; n * nw];
+            for (i, row) in basis.chunks_exact_mut(nw).enumerate() {
+                net.basis_row(&fit.data.q[i], row);
+            }
+            let mut rough = net.roughness_rows();
+            // A small ridge on every coefficient (row weight 0.1, κ = 0.01 on the squares): edge
+            // functions can trade constants among themselves, this pins that freedom.
+            let kappa = 0.1f64;
+            rough.extend((0..nw).map(|k| [(k, kappa), (k, 0.0), (k, 0.0)]));
+            let bm = DMatrix::from_row_slice(n, nw, &basis);
+            let mut a = bm.transpose() * &bm * (1.0 + w.neural);
+            for r in &rough {
+                for &(i, vi) in r {
+                    for &(j, vj) in r {
+                        a[(i, j)] += w.roughness * vi * vj;
+                    }
+                }
+            }
+            let chol = nalgebra::Cholesky::new(a);
+            let half = vec![rms0; nw];
+            (Net::Gkan { net, basis, chol, rough }, half)
+        };
+        let zero_w = vec![0.0; w_half.len()];
+        let w_lo: Vec<f64> = w_half.iter().map(|h| -h).collect();
+        let w_hi = w_half.clone();
+        let mut centre = x0_free.clone();
+        centre.extend_from_slice(&zero_w);
+        let mut half: Vec<f64> = s_free.iter().map(|sd| sd * s.width_sigmas).collect();
+        half.extend_from_slice(&w_half);
+        let bounds = Bounds::around(&centre, &half);
+        let obj = Objective {
+            fit,
+            base: p.x0.to_vec(),
+            free,
+            x0_free,
+            s_free,
+            net,
+            lambda_g: w.geometry * sigma * sigma / n as f64,
+            lambda_n: w.neural,
+            lambda_s: w.roughness,
+            w_lo,
+            w_hi,
+            refine: s.refine_coefficients && !mlp,
+        };
+        Ok((obj, bounds))
+    }
+
+    fn m(&self) -> usize {
+        self.free.len()
+    }
+    /// The full model vector of `z`.
+    pub fn expand(&self, z: &[f64]) -> Vec<f64> {
+        let mut x = self.base.clone();
+        for (k, &i) in self.free.iter().enumerate() {
+            x[i] = z[k];
+        }
+        x
+    }
+    /// The network's corrections at the training poses for coefficients `w`.
+    fn corrections(&self, w: &[f64], out: &mut [f64]) {
+        match &self.net {
+            Net::Gkan { basis, .. } => {
+                let nw = w.len();
+                for (o, row) in out.iter_mut().zip(basis.chunks_exact(nw)) {
+                    *o = row.iter().zip(w).map(|(a, b)| a * b).sum();
+                }
+            }
+            Net::Mlp(m) => {
+                for (o, q) in out.iter_mut().zip(&self.fit.data.q) {
+                    *o = m.eval(w, q, None, None);
+                }
+            }
+        }
+    }
+    /// J at z given the geometric residuals y (mm).
+    fn objective(&self, z: &[f64], y: &[f64]) -> f64 {
+        let m = self.m();
+        let (theta, w) = z.split_at(m);
+        let n = y.len() as f64;
+        let mut delta = vec![0.0; y.len()];
+        self.corrections(w, &mut delta);
+        let data: f64 = y.iter().zip(&delta).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / n;
+        let mag: f64 = delta.iter().map(|d| d * d).sum::<f64>() / n;
+        let geo: f64 = (0..m).map(|k| ((theta[k] - self.x0_free[k]) / self.s_free[k]).powi(2)).sum();
+        let rough = match &self.net {
+            Net::Gkan { rough, .. } => rough.iter().map(|r| r.iter().map(|(k, v)| w[*k] * v).sum::<f64>().powi(2)).sum::<f64>() / n,
+            Net::Mlp(_) => 0.0,
+        };
+        data + self.lambda_g * geo + self.lambda_n * mag + self.lambda_s * rough
+    }
+    fn geometric_residuals(&self, z: &[f64]) -> Vec<f64> {
+        self.fit.residuals_mm(&self.expand(&z[..self.m()]))
+    }
+    /// The exact minimiser of J over w for the geometry in z (GKAN only), clamped to the box.
+    /// Returns `Some(b·w)` (b = Bᵀy) when nothing was clamped: then the data, magnitude and
+    /// roughness terms together equal `(‖y‖² − b·w)/N` at the minimiser, with no further pass
+    /// over the bases.
+    fn solve_coefficients(&self, y: &[f64], w: &mut [f64]) -> Option<f64> {
+        let Net::Gkan { basis, chol: Some(chol), .. } = &self.net else {
+            return None;
+        };
+        let nw = w.len();
+        let mut rhs = DVector::zeros(nw);
+        for (yi, row) in y.iter().zip(basis.chunks_exact(nw)) {
+            for (r, b) in rhs.iter_mut().zip(row) {
+                *r += b * yi;
+            }
+        }
+        let sol = chol.solve(&rhs);
+        let mut clamped = false;
+        for k in 0..nw {
+            w[k] = sol[k].clamp(self.w_lo[k], self.w_hi[k]);
+            clamped |= w[k] != sol[k];
+        }
+        (!clamped).then(|| rhs.dot(&sol))
+    }
+    /// The learned corrector for coefficients `w`.
+    fn corrector(&self, w: &[f64]) -> Corrector {
+        match &self.net {
+            Net::Gkan { net, .. } => Corrector::Gkan(Gkan { coef: w.to_vec(), ..net.clone() }),
+            Net::Mlp(m) => Corrector::Mlp(Mlp { w: w.to_vec(), ..m.clone() }),
+        }
+    }
+}
+
+impl Cost for Objective<'_> {
+    fn dim(&self) -> usize {
+        self.m() + self.w_lo.len()
+    }
+    fn cost(&self, z: &[f64]) -> f64 {
+        let y = self.geometric_residuals(z);
+        self.objective(z, &y)
+    }
+    fn cost_refine(&self, z: &mut [f64]) -> f64 {
+        let y = self.geometric_residuals(z);
+        if self.refine {
+            let m = self.m();
+            if let Some(bw) = self.solve_coefficients(&y, &mut z[m..]) {
+                let n = y.len() as f64;
+                let geo: f64 = (0..m).map(|k| ((z[k] - self.x0_free[k]) / self.s_free[k]).powi(2)).sum();
+                return (y.iter().map(|v| v * v).sum::<f64>() - bw) / n + self.lambda_g * geo;
+            }
+        }
+        self.objective(z, &y)
+    }
+}
+
+/// J as a least-squares problem for the joint polish: ½‖R‖² = N·J/2 with rows
+/// `y_i − δ_i`, `√(Nλ_g)·(θ_k − θ0_k)/s_k`, `√λ_n·δ_i` and `√λ_s·(D w)_r`.
+struct JointLs<'a, 'b> {
+    obj: &'b Objective<'a>,
+}
+
+impl JointLs<'_, '_> {
+    fn rows(&self) -> (usize, usize, usize, usize) {
+        let n = self.obj.fit.data.len();
+        let r = match &self.obj.net {
+            Net::Gkan { rough, .. } => rough.len(),
+            Net::Mlp(_) => 0,
+        };
+        (n, self.obj.m(), n, r)
+    }
+}
+
+impl LeastSquares for JointLs<'_, '_> {
+    fn n_params(&self) -> usize {
+        self.obj.dim()
+    }
+    fn n_residuals(&self) -> usize {
+        let (a, b, c, d) = self.rows();
+        a + b + c + d
+    }
+    fn residuals(&self, z: &[f64], r: &mut [f64]) {
+        let o = self.obj;
+        let (n, m, _, _) = self.rows();
+        let y = o.geometric_residuals(z);
+        let mut delta = vec![0.0; n];
+        o.corrections(&z[m..], &mut delta);
+        let (sg, sn, ss) = ((n as f64 * o.lambda_g).sqrt(), o.lambda_n.sqrt(), o.lambda_s.sqrt());
+        for i in 0..n {
+            r[i] = y[i] - delta[i];
+            r[n + m + i] = sn * delta[i];
+        }
+        for k in 0..m {
+            r[n + k] = sg * (z[k] - o.x0_free[k]) / o.s_free[k];
+        }
+        if let Net::Gkan { rough, .. } = &o.net {
+            for (t, row) in rough.iter().enumerate() {
+                r[2 * n + m + t] = ss * row.iter().map(|(k, v)| z[m + k] * v).sum::<f64>();
+            }
+        }
+    }
+    fn jacobian(&self, z: &[f64], j: &mut DMatrix<f64>) {
+        let o = self.obj;
+        let (n, m, _, _) = self.rows();
+        j.fill(0.0);
+        let x = o.expand(&z[..m]);
+        let mut jg = DMatrix::zeros(n, x.len());
+        LeastSquares::jacobian(o.fit, &x, &mut jg);
+        let (sg, sn, ss) = ((n as f64 * o.lambda_g).sqrt(), o.lambda_n.sqrt(), o.lambda_s.sqrt());
+        for (k, &c) in o.free.iter().enumerate() {
+            for i in 0..n {
+                j[(i, k)] = jg[(i, c)];
+            }
+            j[(n + k, k)] = sg / o.s_free[k];
+        }
+        let w = &z[m..];
+        let nw = w.len();
+        let mut gw = vec![0.0; nw];
+        for i in 0..n {
+            match &o.net {
+                Net::Gkan { basis, .. } => gw.copy_from_slice(&basis[i * nw..(i + 1) * nw]),
+                Net::Mlp(mlp) => {
+                    mlp.eval(w, &o.fit.data.q[i], Some(&mut gw), None);
+                }
+            }
+            for k in 0..nw {
+                j[(i, m + k)] = -gw[k];
+                j[(n + m + i, m + k)] = sn * gw[k];
+            }
+        }
+        if let Net::Gkan { rough, .. } = &o.net {
+            for (t, row) in rough.iter().enumerate() {
+                for &(k, v) in row {
+                    j[(2 * n + m + t, m + k)] = ss * v;
+                }
+            }
+        }
+    }
+}
+
+/// Re-expresses observed decision vectors as model vectors for the caller's observer.
+struct ExpandObs<'a, 'b, 'c> {
+    obj: &'a Objective<'b>,
+    inner: &'c mut dyn Observer,
+}
+
+impl Observer for ExpandObs<'_, '_, '_> {
+    fn observe(&mut self, e: &Event) {
+        let x = self.obj.expand(&e.x[..self.obj.m()]);
+        self.inner.observe(&Event { x: &x, ..e.clone() });
+    }
+}
+
+/// What one Evo-NPH run produced, beyond the [`Solution`]: for benchmarks and ablation tables.
+#[derive(Clone, Debug)]
+pub struct EvoRun {
+    pub solution_x: Vec<f64>,
+    pub corrector: Corrector,
+    /// J after the DE (before the polish) and at the end.
+    pub de_objective: f64,
+    pub objective: f64,
+    /// Best J after every generation.
+    pub curve: Vec<f64>,
+    pub generations: usize,
+    pub evaluations: usize,
+    /// Decision-vector dimension.
+    pub dim: usize,
+    /// Identifiable geometric parameters in it.
+    pub n_geometry: usize,
+    pub de_seconds: f64,
+}
+
+struct Curve<'a> {
+    costs: Vec<f64>,
+    inner: &'a mut dyn Observer,
+}
+impl Observer for Curve<'_> {
+    fn observe(&mut self, e: &Event) {
+        self.costs.push(e.cost);
+        self.inner.observe(e);
+    }
+}
+
+impl EvoNphSolver {
+    /// Runs the method and returns everything it measured.
+    pub fn run(&self, p: &Problem, obs: &mut dyn Observer) -> Result<EvoRun> {
+        let mlp = self.variant == EvoVariant::Mlp;
+        let (obj, bounds) = Objective::new(p, self, mlp)?;
+        let m = obj.m();
+        let dim = obj.dim();
+        let t0 = std::time::Instant::now();
+        let (mut z, de_report, curve) = if self.variant == EvoVariant::Sequential {
+            // V1: LM on the geometry alone, then the coefficients for the frozen residuals.
+            let lm = super::method::LmSolver::default();
+            let rep = lm.lm.minimize(p.fit, p.x0, p.fixed, obs);
+            let mut z: Vec<f64> = obj.free.iter().map(|&k| rep.x[k]).collect();
+            z.extend(std::iter::repeat_n(0.0, dim - m));
+            let y = obj.geometric_residuals(&z);
+            obj.solve_coefficients(&y, &mut z[m..]);
+            let cost = obj.cost(&z);
+            (z, Report { cost, ..rep }, Vec::new())
+        } else {
+            let de =
+                De { variant: self.de.clone(), pop: self.pop, generations: self.generations, max_evals: self.max_evals, seed: p.seed, tol: 1e-12, patience: 0 };
+            let mut start = obj.x0_free.clone();
+            start.extend(std::iter::repeat_n(0.0, dim - m));
+            let mut curve = Curve { costs: Vec::new(), inner: obs };
+            let rep = de.minimize(&obj, &bounds, Some(&start), &mut ExpandObs { obj: &obj, inner: &mut curve });
+            (rep.x.clone(), rep, curve.costs)
+        };
+        let de_seconds = t0.elapsed().as_secs_f64();
+        let de_objective = obj.cost(&z);
+        let mut evaluations = de_report.evaluations;
+        if self.polish && self.variant != EvoVariant::Sequential {
+            let ls = JointLs { obj: &obj };
+            let lm = LevenbergMarquardt { max_iter: 100, ..Default::default() };
+            let rep = lm.minimize(&ls, &z, &vec![false; dim], &mut NoObserver);
+            if rep.x.iter().all(|v| v.is_finite()) && obj.cost(&rep.x) <= de_objective {
+                z = rep.x;
+            }
+            evaluations += rep.evaluations;
+        }
+        let objective = obj.cost(&z);
+        Ok(EvoRun {
+            solution_x: obj.expand(&z[..m]),
+            corrector: obj.corrector(&z[m..]),
+            de_objective,
+            objective,
+            curve,
+            generations: de_report.iterations,
+            evaluations,
+            dim,
+            n_geometry: m,
+            de_seconds,
+        })
+    }
+}
+
+impl Solver for EvoNphSolver {
+    fn method(&self) -> Method {
+        match self.variant {
+            EvoVariant::Full => Method::DsadeGkan,
+            EvoVariant::Sequential => Method::DsadeGkanV1,
+            EvoVariant::Mlp => Method::DsadeGkanV2,
+            EvoVariant::SingleStrategy => Method::DsadeGkanV3,
+        }
+    }
+    fn needs_noise(&self) -> bool {
+        true
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
+        let r = self.run(p, obs)?;
+        let polished = self.polish && self.variant != EvoVariant::Sequential;
+        let reason = match self.variant {
+            EvoVariant::Sequential => "LM geometry, then the GKAN on the frozen residuals".to_string(),
+            _ => format!("{} generations of {:?} over {} dimensions{}", r.generations, self.de, r.dim, if polished { ", then a joint LM polish" } else { "" }),
+        };
+        let report =
+            Report { x: r.solution_x, cost: r.objective, iterations: r.generations, evaluations: r.evaluations, converged: true, reason, covariance: None };
+        Ok(Solution { report, corrector: Some(r.corrector) })
+    }
+}

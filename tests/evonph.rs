@@ -1,0 +1,118 @@
+//! Evo-NPH (`dsade-gkan`) against LM on the all-effects scenario, and `ik` validated on the twin.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
+use twincal::dataset::Dataset;
+use twincal::generate::{generate, write_outputs, Silent};
+use twincal::scenario::Scenario;
+
+fn twincal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).arg("--quiet").output().expect("runs")
+}
+
+/// irb120_evo_nph with 400 poses (300/100), generated once per test binary.
+fn evo() -> (&'static PathBuf, &'static Dataset) {
+    static CELL: OnceLock<(tempfile::TempDir, PathBuf, Dataset)> = OnceLock::new();
+    let c = CELL.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut s, robot) = Scenario::default_embedded().unwrap();
+        s.sampling.poses = 400;
+        let g = generate(&s, &robot, &Silent).unwrap();
+        let path = dir.path().join("evo");
+        write_outputs(&g, &path).unwrap();
+        let ds = Dataset::load(&path).unwrap();
+        (dir, path, ds)
+    });
+    (&c.1, &c.2)
+}
+
+fn opts(m: Method, seed: u64) -> CalibOptions {
+    let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), m);
+    o.test_fraction = Some(0.25);
+    o.seed = seed;
+    o.effort = 0.1;
+    o
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+#[test]
+fn dsade_gkan_beats_lm_on_held_out_rows_over_seeds_and_is_reproducible() {
+    let (_, ds) = evo();
+    let test = |m: Method, seed: u64| calibrate(ds, None, &opts(m, seed)).unwrap();
+    let mut lm = Vec::new();
+    let mut evo = Vec::new();
+    for seed in 0..3 {
+        lm.push(test(Method::Lm, seed).metrics.test_after.unwrap().rmse);
+        let r = test(Method::DsadeGkan, seed);
+        assert!(matches!(r.corrector, Some(twincal::calib::corrector::Corrector::Gkan(_))));
+        evo.push(r.metrics.test_after.unwrap().rmse);
+    }
+    assert!(median(evo.clone()) < median(lm.clone()), "dsade-gkan {evo:?} vs lm {lm:?}");
+    // Same seed, same result (the DE runs on rayon threads).
+    let a = test(Method::DsadeGkan, 7);
+    let b = test(Method::DsadeGkan, 7);
+    assert_eq!(a.x, b.x);
+    assert_eq!(serde_json::to_string(&a.corrector).unwrap(), serde_json::to_string(&b.corrector).unwrap());
+}
+
+#[test]
+fn ik_on_a_dsade_result_solves_reachable_targets_and_beats_the_nominal_on_the_twin() {
+    let (dir, _) = evo();
+    let work = tempfile::tempdir().unwrap();
+    let result = work.path().join("result.json");
+    let out = twincal(&["calibrate", "--data", dir.to_str().unwrap(), "--method", "dsade-gkan", "--effort", "0.1", "--out", result.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = work.path().join("ik.csv");
+    let out = twincal(&["ik", "--model", result.to_str().unwrap(), "--random", "40", "--out", csv.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let table = String::from_utf8_lossy(&out.stdout).to_string();
+    let row = |label: &str| -> Vec<String> {
+        let line = table.lines().find(|l| l.starts_with(&format!("| {label}"))).unwrap_or_else(|| panic!("no row {label} in\n{table}"));
+        line.split('|').map(|c| c.trim().to_string()).collect()
+    };
+    let hybrid = row("calibrated/hybrid");
+    assert_eq!(hybrid[2], "100.0 %", "{table}");
+    let true_median = |r: &[String]| r[6].parse::<f64>().unwrap();
+    let nominal = row("nominal");
+    assert!(true_median(&hybrid) < 0.5 * true_median(&nominal), "{table}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(text.lines().count(), 1 + 5 * 40);
+    assert!(!text.contains("NaN"));
+
+    // A target file: one good point, one NaN (status invalid), one far away (unreachable).
+    let targets = work.path().join("targets.csv");
+    std::fs::write(&targets, "x,y,z\n400,50,300\nNaN,0,0\n5000,0,0\n").unwrap();
+    let csv2 = work.path().join("ik2.csv");
+    let out = twincal(&[
+        "ik",
+        "--model",
+        result.to_str().unwrap(),
+        "--targets",
+        targets.to_str().unwrap(),
+        "--jacobian",
+        "hybrid",
+        "--no-twin",
+        "--out",
+        csv2.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&csv2).unwrap();
+    let status: Vec<&str> = text.lines().skip(1).map(|l| l.split(',').nth(5).unwrap()).collect();
+    assert_eq!(status, ["converged", "invalid", "unreachable"], "{text}");
+
+    // Malformed input is refused with a clear error and a non-zero exit, and writes nothing.
+    std::fs::write(&targets, "x,y,z\n1,2,abc\n").unwrap();
+    let csv3 = work.path().join("ik3.csv");
+    let out = twincal(&["ik", "--model", result.to_str().unwrap(), "--targets", targets.to_str().unwrap(), "--out", csv3.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("line 2"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!csv3.exists());
+    let out = twincal(&["ik", "--model", result.to_str().unwrap(), "--out", csv3.to_str().unwrap()]);
+    assert!(!out.status.success());
+}
