@@ -16,10 +16,13 @@
 //!   ([`Recorder::set_time_index`] for counters such as `pose`, `iteration`;
 //!   [`Recorder::set_time_seconds`] for durations). A timeline must keep one kind. Static data
 //!   ([`Recorder::static_text`]) has no time.
-//! * **Entity paths** are `/`-separated (`world/tool_points`). The entities twincal logs, and a
-//!   default viewer layout that shows them, are described in `viz/README.md`:
-//!   `world/**` (3D), `residuals/**` (bar charts, time series), `calib/**` (time series);
-//!   markdown documents (legends) and text log entries may go anywhere (e.g. `docs/legend`).
+//! * **Entity paths** are `/`-separated (`world/tool_points`). The entities each command logs
+//!   are described in `viz/README.md`.
+//! * **Layout:** each scene sets its own [`Blueprint`] ([`Recorder::layout`]); views whose
+//!   entities got no data are pruned when the recording finishes, so no view opens empty.
+//!   Without one, a generic layout shows `world/**` (3D), `residuals/**` (bar charts),
+//!   `calib/**` (time series), `docs/**` (markdown) and `log` (text log).
+//! * **Plots:** [`plot::Plot`] draws scatter plots with real axes inside 2-D views.
 //! * **Errors:** logging methods never panic and return nothing. The first problem (bad input
 //!   such as a colour count that does not match the point count, or an I/O error) is remembered,
 //!   later logging is skipped, and [`Recorder::finish`] returns that error. The file is written

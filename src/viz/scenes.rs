@@ -160,10 +160,8 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
              * **Residual vs …**: the nominal model's residual (mm) against each joint angle, L, time and temperature; \
              the white point is the current pose.\n\
              * **Effects (truth.json)**: joint deflection, backlash approach side and thermal scale of every pose; \
-             the time cursor marks the current pose.\n\n{}",
-            g.truth.scenario,
-            g.truth.seed,
-            super::colormap_legend("Colour scale", vmax, "mm", 4)
+             the time cursor marks the current pose.\n\nColours: blue-violet = 0 mm, teal, green, yellow = {vmax:.3} mm and above.",
+            g.truth.scenario, g.truth.seed,
         ),
     );
     rec.points("world/sensor/cable_exit", &[exit], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
