@@ -54,12 +54,16 @@ impl<T: Correct + ?Sized> Correct for &T {
 pub enum Corrector {
     /// Gaussian RBF network on the joint angles, fitted to the geometric fit's residuals.
     Rbf(RbfNetwork),
+    /// Adaptive wavelet network (or its MLP / Morlet ablations) learned from the EKF's
+    /// innovations (method pso-ekf-awnn, see [`super::awnn`]).
+    Awnn(super::awnn::Awnn),
 }
 
 impl Corrector {
     pub fn as_correct(&self) -> &dyn Correct {
         match self {
             Corrector::Rbf(n) => n,
+            Corrector::Awnn(n) => n,
         }
     }
     /// Checks a deserialised corrector against the model it belongs to (a hand-edited or
@@ -80,6 +84,7 @@ impl Corrector {
                     Err("the RBF corrector is inconsistent".into())
                 }
             }
+            Corrector::Awnn(n) => n.validate(n_joints),
         }
     }
 }
@@ -210,7 +215,7 @@ mod tests {
         let err = gradient_error(c.as_correct(), &qs, &inp, 1e-6);
         assert!(err < 1e-6, "relative gradient error {err}");
         // The value agrees with the network's own prediction.
-        let Corrector::Rbf(net) = &c;
+        let Corrector::Rbf(net) = &c else { unreachable!() };
         let mut g = [0.0; 6];
         assert!((c.as_correct().correction_grad_mm(&qs[0], &inp, &mut g) - net.predict(&qs[0])).abs() < 1e-12);
     }

@@ -9,6 +9,7 @@
 use super::corrector::Corrector;
 use super::optim::{Bounds, Ekf, LeastSquares, LevenbergMarquardt, Observer, ParticleFilter, Pso, Report};
 use super::problem::{FreeCost, LengthFit};
+use super::psoekf::{Ablation, PsoEkfAwnn};
 use super::rbf::RbfNetwork;
 use crate::error::{Error, Result};
 use rand::seq::SliceRandom;
@@ -16,15 +17,30 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-/// The methods the command line offers by name.
+/// The methods the command line offers by name (stored in result.json by that name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(into = "String", try_from = "String")]
 pub enum Method {
     Lm,
     Ekf,
     Pf,
     Pso,
     Rbf,
+    /// PSO-EKF-AWNN or one of its ablations (see [`super::psoekf`]).
+    PsoEkfAwnn(Ablation),
+}
+
+impl From<Method> for String {
+    fn from(m: Method) -> String {
+        m.name().into()
+    }
+}
+
+impl TryFrom<String> for Method {
+    type Error = Error;
+    fn try_from(s: String) -> Result<Method> {
+        Method::parse(&s)
+    }
 }
 
 impl Method {
@@ -32,7 +48,11 @@ impl Method {
 
     pub fn parse(s: &str) -> Result<Method> {
         let s = s.trim().to_ascii_lowercase();
-        Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso or rbf)")))
+        Method::ALL
+            .into_iter()
+            .chain(Ablation::ALL.map(Method::PsoEkfAwnn))
+            .find(|m| m.name() == s)
+            .ok_or_else(|| Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso, rbf, pso-ekf-awnn or its ablations pso-ekf-awnn-v1 .. -v5)")))
     }
     pub fn name(self) -> &'static str {
         match self {
@@ -41,6 +61,7 @@ impl Method {
             Method::Pf => "pf",
             Method::Pso => "pso",
             Method::Rbf => "rbf",
+            Method::PsoEkfAwnn(v) => v.method_name(),
         }
     }
     /// The method with its default settings; `effort` scales the budget of the stochastic ones.
@@ -51,6 +72,7 @@ impl Method {
             Method::Pf => Box::new(PfSolver { particles: (4000.0 * effort).max(100.0) as usize, ..Default::default() }),
             Method::Pso => Box::new(PsoSolver { iterations: (1500.0 * effort).max(10.0) as usize, ..Default::default() }),
             Method::Rbf => Box::new(RbfSolver::default()),
+            Method::PsoEkfAwnn(v) => Box::new(PsoEkfAwnn::variant(v)),
         }
     }
 }
