@@ -36,6 +36,9 @@ pub enum BenchTarget {
     Calib,
     /// The diagnosis: detection and false-alarm rates over hidden-effect scenarios, time.
     Diagnose,
+    /// PSO-EKF-AWNN: stage times against LM, accuracy and truth over seeds, data efficiency,
+    /// sensitivity to Q, R and the learning rate, HSR-RobotCali.
+    Awnn,
 }
 
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
@@ -210,6 +213,14 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             let seeds = seeds.unwrap_or(20);
             check_seeds(seeds)?;
             bench_diagnose(seeds, quiet)
+        }
+        BenchTarget::Awnn => {
+            if scenario.is_some() || compare {
+                return Err(Error::Invalid("--scenario and --compare do not apply to bench awnn (it uses the embedded irb120_pso_ekf scenario)".into()));
+            }
+            let seeds = seeds.unwrap_or(5);
+            check_seeds(seeds)?;
+            crate::awnn_bench::bench_awnn(repeat, seeds, quiet)
         }
     }
 }

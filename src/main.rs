@@ -76,7 +76,7 @@ enum Command {
         /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
         #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
         angles: AngleArg,
-        /// lm, ekf, pf, pso or rbf.
+        /// lm, ekf, pf, pso, rbf, pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5).
         #[arg(long, default_value = "lm")]
         method: String,
         #[command(flatten)]
@@ -185,7 +185,8 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model) or
-    /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present).
+    /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
+    /// `diagnose`, or `awnn` (PSO-EKF-AWNN: speed, accuracy, data efficiency, sensitivity).
     Bench {
         #[arg(value_enum, default_value_t = BenchTarget::Twin)]
         what: BenchTarget,

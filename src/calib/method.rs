@@ -72,7 +72,7 @@ impl Method {
             Method::Pf => Box::new(PfSolver { particles: (4000.0 * effort).max(100.0) as usize, ..Default::default() }),
             Method::Pso => Box::new(PsoSolver { iterations: (1500.0 * effort).max(10.0) as usize, ..Default::default() }),
             Method::Rbf => Box::new(RbfSolver::default()),
-            Method::PsoEkfAwnn(v) => Box::new(PsoEkfAwnn::variant(v)),
+            Method::PsoEkfAwnn(v) => Box::new(PsoEkfAwnn { pso_iterations: ((10.0 * effort).ceil() as usize).max(2), ..PsoEkfAwnn::variant(v) }),
         }
     }
 }

@@ -143,10 +143,10 @@ impl Default for PsoEkfAwnn {
         PsoEkfAwnn {
             variant: Ablation::Full,
             neurons: 20,
-            epochs: 5,
+            epochs: 3,
             search: SearchSpace::default(),
-            pso_particles: 12,
-            pso_iterations: 15,
+            pso_particles: 10,
+            pso_iterations: 10,
             hyper: None,
             lm: LevenbergMarquardt { max_iter: 100, ftol: 1e-10, xtol: 1e-10, gtol: 1e-10, initial_lambda: 1e-3, damping: Damping::Factor(10.0) },
         }
@@ -342,7 +342,7 @@ impl PsoEkfAwnn {
         let net = self.new_net(p)?;
         let fitness = Fitness { solver: self, p, net: &net };
         let centre: Vec<f64> = (0..3).map(|k| 0.5 * (b.lower[k] + b.upper[k])).collect();
-        let pso = Pso { particles: self.pso_particles.max(2), iterations: self.pso_iterations.max(1), seed: p.seed, patience: 5, tol: 1e-4, ..Default::default() };
+        let pso = Pso { particles: self.pso_particles.max(2), iterations: self.pso_iterations.max(1), seed: p.seed, patience: 4, tol: 1e-4, ..Default::default() };
         let rep = pso.minimize(&fitness, &b, Some(&centre), &mut NoObserver);
         Ok((SearchSpace::hyper(&rep.x), rep.cost, rep.evaluations))
     }
