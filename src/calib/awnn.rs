@@ -17,10 +17,11 @@
 //! * the rectifier `max(0, z)`, which makes the same structure an ordinary ReLU multilayer
 //!   perceptron (the MLP ablation).
 //!
-//! Initialisation ([`Awnn::init`]): projections are seeded random unit vectors, translations are
-//! spread evenly over the range each projection takes on the training poses, dilations are wide
-//! (half that range, so every neuron first sees the whole workspace) and the output weights are
-//! zero (the network starts as "no correction").
+//! Initialisation ([`Awnn::init`]): the neurons are dealt to the joints in turn; each starts with
+//! its joint's axis as projection (tilted by a small seeded random amount, [`TILT`], so that
+//! learning can mix joints), translations spread evenly over the range that projection takes on
+//! the training poses, dilations wide (the range divided by the joint's neuron count, so
+//! neighbours overlap) and zero output weights (the network starts as "no correction").
 //!
 //! Learning ([`Awnn::sgd_step`]) is plain stochastic gradient descent on `½e²` with
 //! `e = target − f(q)`: `θ ← θ + η·e·∂f/∂θ` for all four groups. Dilations are kept above
@@ -37,6 +38,8 @@ use serde::{Deserialize, Serialize};
 
 /// Smallest dilation (standardised input units) learning may reach.
 pub const MIN_DILATION: f64 = 0.05;
+/// Largest off-axis component of an initial projection (before normalisation).
+pub const TILT: f64 = 0.05;
 /// Centre frequency of the real Morlet wavelet.
 pub const MORLET_OMEGA: f64 = 1.75;
 
@@ -135,14 +138,13 @@ impl Awnn {
         };
         let mut u = vec![0.0; d];
         for j in 0..neurons {
-            // A random direction: normalised Gaussian vector (Box–Muller).
-            let mut v: Vec<f64> = (0..d)
-                .map(|_| {
-                    let (a, b): (f64, f64) = (rng.random::<f64>().max(1e-300), rng.random());
-                    (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-                })
-                .collect();
-            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-12);
+            // Neuron j starts on joint i = j mod d (per = its joint's neuron count, k = its rank
+            // there), its projection that joint's axis plus a small seeded tilt so that learning
+            // can mix joints; translations spread over the joint's range on the training poses.
+            let (i, k) = (j % d, j / d);
+            let per = (neurons - i).div_ceil(d);
+            let mut v: Vec<f64> = (0..d).map(|c| if c == i { 1.0 } else { TILT * (2.0 * rng.random::<f64>() - 1.0) }).collect();
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
             v.iter_mut().for_each(|x| *x /= norm);
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
             for q in qs {
@@ -153,8 +155,8 @@ impl Awnn {
             }
             let span = (hi - lo).max(1e-6);
             net.projection.push(v);
-            net.translation.push(lo + span * (j as f64 + 0.5) / neurons as f64);
-            net.dilation.push((0.5 * span).max(MIN_DILATION));
+            net.translation.push(lo + span * (k as f64 + 0.5) / per as f64);
+            net.dilation.push((span / per as f64).max(MIN_DILATION));
         }
         Ok(net)
     }

@@ -48,11 +48,9 @@ impl Method {
 
     pub fn parse(s: &str) -> Result<Method> {
         let s = s.trim().to_ascii_lowercase();
-        Method::ALL
-            .into_iter()
-            .chain(Ablation::ALL.map(Method::PsoEkfAwnn))
-            .find(|m| m.name() == s)
-            .ok_or_else(|| Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso, rbf, pso-ekf-awnn or its ablations pso-ekf-awnn-v1 .. -v5)")))
+        Method::ALL.into_iter().chain(Ablation::ALL.map(Method::PsoEkfAwnn)).find(|m| m.name() == s).ok_or_else(|| {
+            Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso, rbf, pso-ekf-awnn or its ablations pso-ekf-awnn-v1 .. -v5)"))
+        })
     }
     pub fn name(self) -> &'static str {
         match self {

@@ -308,10 +308,7 @@ pub fn observation_condition(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 
 impl PsoEkfAwnn {
     /// A fresh network for this variant (none for V1).
     pub fn new_net(&self, p: &Problem) -> Result<Option<Awnn>> {
-        self.variant
-            .activation()
-            .map(|act| Awnn::init(&p.fit.data.q, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration))
-            .transpose()
+        self.variant.activation().map(|act| Awnn::init(&p.fit.data.q, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration)).transpose()
     }
 
     /// Stage I with hyperparameters `h`, from `p.x0` and the fresh network `net`.
@@ -342,7 +339,8 @@ impl PsoEkfAwnn {
         let net = self.new_net(p)?;
         let fitness = Fitness { solver: self, p, net: &net };
         let centre: Vec<f64> = (0..3).map(|k| 0.5 * (b.lower[k] + b.upper[k])).collect();
-        let pso = Pso { particles: self.pso_particles.max(2), iterations: self.pso_iterations.max(1), seed: p.seed, patience: 4, tol: 1e-4, ..Default::default() };
+        let pso =
+            Pso { particles: self.pso_particles.max(2), iterations: self.pso_iterations.max(1), seed: p.seed, patience: 4, tol: 1e-4, ..Default::default() };
         let rep = pso.minimize(&fitness, &b, Some(&centre), &mut NoObserver);
         Ok((SearchSpace::hyper(&rep.x), rep.cost, rep.evaluations))
     }

@@ -100,7 +100,15 @@ impl Ekf {
     }
 
     /// [`run`](Self::run) with a per-observation hook (see the module docs).
-    pub fn run_with<O: Observations>(&self, o: &O, x0: &[f64], fixed: &[bool], order: &[usize], hook: &mut dyn ObservationHook, obs: &mut dyn Observer) -> Report {
+    pub fn run_with<O: Observations>(
+        &self,
+        o: &O,
+        x0: &[f64],
+        fixed: &[bool],
+        order: &[usize],
+        hook: &mut dyn ObservationHook,
+        obs: &mut dyn Observer,
+    ) -> Report {
         let n = o.n_params();
         assert_eq!(x0.len(), n, "x0 has {} entries, problem has {n} parameters", x0.len());
         let free = free_indices(fixed, n);
