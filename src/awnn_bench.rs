@@ -30,6 +30,9 @@ impl Solver for Timed {
     fn needs_noise(&self) -> bool {
         true
     }
+    fn needs_row_inputs(&self) -> bool {
+        self.inner.needs_row_inputs()
+    }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let t0 = Instant::now();
         let (h, _, _) = self.inner.stage_zero(p)?;
@@ -57,13 +60,13 @@ fn with_train_rows(ds: &Dataset, keep: &[usize]) -> Dataset {
 /// millidegrees) of the free chain parameters from the mapped true rigid geometry and from the
 /// truth-equivalent values; the fraction of the non-geometric length error left by the model's
 /// geometry on the noise-free test lengths that the corrector removes.
-struct TruthView {
-    to_rigid: f64,
-    to_equivalent: f64,
-    recovered: f64,
+pub struct TruthView {
+    pub to_rigid: f64,
+    pub to_equivalent: f64,
+    pub recovered: f64,
 }
 
-fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &CalibOptions) -> Option<TruthView> {
+pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &CalibOptions) -> Option<TruthView> {
     let robot = opts.model.robot()?;
     let split = split_stage(ds, opts).ok()?;
     let rigid = crate::calib::equivalent::map_truth(&r.model, robot, truth, &split.train.q)?;
@@ -83,7 +86,12 @@ fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &CalibOpti
         (v.iter().map(|d| d * d).sum::<f64>() / v.len().max(1) as f64).sqrt()
     };
     let eq: Vec<f64> = r.parameters.iter().enumerate().map(|(k, p)| p.truth.unwrap_or(f64::NAN) / r.model.kinds[k].display()).collect();
-    let clean = Samples { l: split.test_idx.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(), ..split.test.clone() };
+    let all = crate::calib::inputs::row_inputs(ds, r.torque_model.as_ref());
+    let clean = Samples {
+        l: split.test_idx.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(),
+        inputs: split.test_idx.iter().map(|&i| all[i]).collect(),
+        q: split.test.q.clone(),
+    };
     let left = LengthFit { model: &r.model, data: &clean }.residuals_mm(&r.x);
     let after: Vec<f64> = left.iter().zip(&clean.q).zip(&clean.inputs).map(|((d, q), inp)| d - r.correction_mm(q, inp)).collect();
     let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
@@ -143,26 +151,47 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
         eprintln!("bench awnn: accuracy over {seeds} seeds");
     }
     let mut rows = Vec::new();
+    let q_opts = CalibOptions::new(spec.clone(), Method::PsoEkfAwnn(Ablation::Extended));
+    let mut q_rows = Vec::new();
     for seed in 0..seeds {
         let (ds, truth) = gen(base.seed + 1000 + seed)?;
         let l = calibrate_with(&ds, Some(&truth), &lm_opts, lm.as_ref())?;
         let a = calibrate_with(&ds, Some(&truth), &awnn_opts, &PsoEkfAwnn::default())?;
+        let q = calibrate_with(&ds, Some(&truth), &q_opts, &PsoEkfAwnn::variant(Ablation::Extended))?;
         let (tl, ta) = (truth_view(&l, &ds, &truth, &lm_opts), truth_view(&a, &ds, &truth, &awnn_opts));
+        q_rows.push((test_rmse(&q), truth_view(&q, &ds, &truth, &q_opts).map_or(f64::NAN, |t| t.recovered)));
         rows.push((test_rmse(&l), test_rmse(&a), tl, ta, truth.noise_std_mm));
     }
     let lm_r: Vec<f64> = rows.iter().map(|r| r.0).collect();
     let aw_r: Vec<f64> = rows.iter().map(|r| r.1).collect();
-    let ratio: Vec<f64> = rows.iter().map(|r| r.1 / r.0).collect();
-    let wins = rows.iter().filter(|r| r.1 < r.0).count();
+    let summary = |v: &[f64]| {
+        let ratio: Vec<f64> = v.iter().zip(&lm_r).map(|(a, l)| a / l).collect();
+        let wins = ratio.iter().filter(|r| **r < 1.0).count();
+        format!(
+            "ratio to LM median {:.3} (range {:.3}–{:.3}), lower than LM in {wins}/{seeds}",
+            median(&ratio),
+            ratio.iter().cloned().fold(f64::INFINITY, f64::min),
+            ratio.iter().cloned().fold(0.0, f64::max)
+        )
+    };
+    let net = match PsoEkfAwnn::default().new_net_label() {
+        s if s.is_empty() => "no network".to_string(),
+        s => s,
+    };
     println!("  accuracy over {seeds} seeds (scenario seeds {}..{}):", base.seed + 1000, base.seed + 1000 + seeds - 1);
     println!(
-        "    test RMSE, median          : LM {:.4} mm, pso-ekf-awnn {:.4} mm; ratio median {:.3} (range {:.3}–{:.3}); AWNN lower in {wins}/{seeds}; noise floor {:.4} mm",
+        "    test RMSE, median          : LM {:.4} mm, pso-ekf-awnn {:.4} mm; noise floor {:.4} mm per raw sample",
         median(&lm_r),
         median(&aw_r),
-        median(&ratio),
-        ratio.iter().cloned().fold(f64::INFINITY, f64::min),
-        ratio.iter().cloned().fold(0.0, f64::max),
         rows[0].4
+    );
+    println!("    pso-ekf-awnn (the paper's: {net}, {} network/LM alternations): {}", PsoEkfAwnn::default().rounds, summary(&aw_r));
+    let q_r: Vec<f64> = q_rows.iter().map(|r| r.0).collect();
+    println!(
+        "    pso-ekf-awnn-x (q + temperature (or time) + flanks, 2 network/LM alternations): median {:.4} mm, {}; removes {:.1} % (median)",
+        median(&q_r),
+        summary(&q_r),
+        100.0 * median(&q_rows.iter().map(|r| r.1).collect::<Vec<_>>())
     );
     let col = |f: &dyn Fn(&TruthView) -> f64, pick: usize| -> f64 {
         let v: Vec<f64> = rows.iter().filter_map(|r| if pick == 0 { r.2.as_ref() } else { r.3.as_ref() }).map(f).collect();

@@ -76,7 +76,7 @@ enum Command {
         /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
         #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
         angles: AngleArg,
-        /// lm, ekf, pf, pso, rbf, pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5).
+        /// lm, ekf, pf, pso, rbf, pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5; pso-ekf-awnn-x: network also on temperature and backlash flanks, network/LM alternations).
         #[arg(long, default_value = "lm")]
         method: String,
         #[command(flatten)]

@@ -40,6 +40,9 @@ use serde::{Deserialize, Serialize};
 pub const MIN_DILATION: f64 = 0.05;
 /// Largest off-axis component of an initial projection (before normalisation).
 pub const TILT: f64 = 0.05;
+/// Largest initial component of a projection along an extra (non-joint) input: large enough that
+/// every neuron starts as a mixed function of its joint and those inputs.
+pub const EXTRA_TILT: f64 = 0.5;
 /// Centre frequency of the real Morlet wavelet.
 pub const MORLET_OMEGA: f64 = 1.75;
 
@@ -84,14 +87,57 @@ impl Activation {
     }
 }
 
+/// An input of the network besides the joint angles, read from the row's [`RowInputs`]. The
+/// network's input vector is `[q1..q6, extra...]`; every input is standardised with its mean and
+/// standard deviation over the training rows (so the temperature enters as its rise above the
+/// training rows' mean). A row that lacks the value (no temp column at predict time) gets the
+/// training mean, i.e. no contribution along that input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Feature {
+    /// Measured temperature, °C.
+    Temperature,
+    /// Time since the start of acquisition, s (when the data have no temperature).
+    Time,
+    /// Backlash flank of a joint (0-based), ±1, from the calibration's own rule
+    /// ([`super::inputs::row_inputs`]).
+    Side(usize),
+    /// Static gravity (and payload/cable) torque on a joint (0-based), N·m, from the result's
+    /// torque model.
+    Torque(usize),
+}
+
+impl Feature {
+    /// The value at a row, `None` when the row lacks it.
+    pub fn value(self, inp: &RowInputs) -> Option<f64> {
+        match self {
+            Feature::Temperature => inp.temp_c,
+            Feature::Time => inp.t_s,
+            Feature::Side(j) => inp.side.get(j).copied(),
+            Feature::Torque(j) => inp.torque.get(j).copied(),
+        }
+    }
+    pub fn label(self) -> String {
+        match self {
+            Feature::Temperature => "temp".into(),
+            Feature::Time => "t".into(),
+            Feature::Side(j) => format!("side{}", j + 1),
+            Feature::Torque(j) => format!("tau{}", j + 1),
+        }
+    }
+}
+
 /// An adaptive wavelet network, see the module docs. Stored in result.json as the corrector
 /// `{"kind": "awnn", ...}`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Awnn {
     pub activation: Activation,
-    /// Mean of each joint angle over the training poses, rad.
+    /// Inputs after the joint angles (empty: the paper's network on q alone).
+    #[serde(default)]
+    pub extra: Vec<Feature>,
+    /// Mean of each input (joint angles in rad, then `extra`) over the training rows.
     pub input_mean: Vec<f64>,
-    /// Standard deviation of each joint angle over the training poses, rad.
+    /// Standard deviation of each input over the training rows.
     pub input_scale: Vec<f64>,
     /// Input projection weights, one row of `d` per neuron.
     pub projection: Vec<Vec<f64>>,
@@ -104,21 +150,46 @@ pub struct Awnn {
 }
 
 impl Awnn {
-    /// A fresh network of `neurons` neurons on the joint angles `qs` (see the module docs);
-    /// `seed` draws the projections. Errors on empty or non-finite input.
+    /// A fresh network of `neurons` neurons on the joint angles `qs` alone (the paper's network,
+    /// see the module docs); `seed` draws the projections. Errors on empty or non-finite input.
     pub fn init(qs: &[Vec<f64>], neurons: usize, activation: Activation, seed: u64) -> Result<Awnn, String> {
-        let d = qs.first().map(|q| q.len()).ok_or("awnn: no training poses")?;
-        if d == 0 || neurons == 0 {
+        let inputs = vec![RowInputs::default(); qs.len()];
+        Awnn::init_with(qs, &inputs, &[], neurons, activation, seed)
+    }
+
+    /// A fresh network on the joint angles `qs` and the `extra` inputs of each row `inputs`.
+    /// Neurons are dealt to the joint axes as in [`init`](Self::init); their components along
+    /// the extra inputs start at a small seeded tilt, like the off-axis joint components, so
+    /// the network starts as a function of q and learning moves weight onto the extra inputs.
+    /// Every training row must carry every extra input.
+    pub fn init_with(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], neurons: usize, activation: Activation, seed: u64) -> Result<Awnn, String> {
+        let nq = qs.first().map(|q| q.len()).ok_or("awnn: no training poses")?;
+        if nq == 0 || neurons == 0 {
             return Err("awnn: needs at least one input and one neuron".into());
         }
-        if qs.iter().any(|q| q.len() != d || q.iter().any(|v| !v.is_finite())) {
+        if qs.iter().any(|q| q.len() != nq || q.iter().any(|v| !v.is_finite())) {
             return Err("awnn: joint angles of unequal length or not finite".into());
         }
-        let n = qs.len() as f64;
-        let input_mean: Vec<f64> = (0..d).map(|i| qs.iter().map(|q| q[i]).sum::<f64>() / n).collect();
+        if inputs.len() != qs.len() {
+            return Err("awnn: one row of inputs per pose needed".into());
+        }
+        let mut xs = Vec::with_capacity(qs.len());
+        for (q, inp) in qs.iter().zip(inputs) {
+            let mut x = q.clone();
+            for f in extra {
+                match f.value(inp).filter(|v| v.is_finite()) {
+                    Some(v) => x.push(v),
+                    None => return Err(format!("awnn: input {} missing on a training row", f.label())),
+                }
+            }
+            xs.push(x);
+        }
+        let d = nq + extra.len();
+        let n = xs.len() as f64;
+        let input_mean: Vec<f64> = (0..d).map(|i| xs.iter().map(|x| x[i]).sum::<f64>() / n).collect();
         let input_scale: Vec<f64> = (0..d)
             .map(|i| {
-                let s = (qs.iter().map(|q| (q[i] - input_mean[i]).powi(2)).sum::<f64>() / n).sqrt();
+                let s = (xs.iter().map(|x| (x[i] - input_mean[i]).powi(2)).sum::<f64>() / n).sqrt();
                 if s > 1e-9 {
                     s
                 } else {
@@ -129,6 +200,7 @@ impl Awnn {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut net = Awnn {
             activation,
+            extra: extra.to_vec(),
             input_mean,
             input_scale,
             projection: Vec::with_capacity(neurons),
@@ -136,20 +208,28 @@ impl Awnn {
             dilation: Vec::with_capacity(neurons),
             weights: vec![0.0; neurons],
         };
-        let mut u = vec![0.0; d];
+        let std: Vec<Vec<f64>> = xs.iter().map(|x| x.iter().enumerate().map(|(i, v)| (v - net.input_mean[i]) / net.input_scale[i]).collect()).collect();
         for j in 0..neurons {
-            // Neuron j starts on joint i = j mod d (per = its joint's neuron count, k = its rank
+            // Neuron j starts on joint i = j mod nq (per = its joint's neuron count, k = its rank
             // there), its projection that joint's axis plus a small seeded tilt so that learning
-            // can mix joints; translations spread over the joint's range on the training poses.
-            let (i, k) = (j % d, j / d);
-            let per = (neurons - i).div_ceil(d);
-            let mut v: Vec<f64> = (0..d).map(|c| if c == i { 1.0 } else { TILT * (2.0 * rng.random::<f64>() - 1.0) }).collect();
+            // can mix inputs; translations spread over the projection's range on the training rows.
+            let (i, k) = (j % nq, j / nq);
+            let per = (neurons - i).div_ceil(nq);
+            let mut v: Vec<f64> = (0..d)
+                .map(|c| {
+                    let tilt = if c < nq { TILT } else { EXTRA_TILT };
+                    if c == i {
+                        1.0
+                    } else {
+                        tilt * (2.0 * rng.random::<f64>() - 1.0)
+                    }
+                })
+                .collect();
             let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
             v.iter_mut().for_each(|x| *x /= norm);
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for q in qs {
-                net.standardise(q, &mut u);
-                let s: f64 = v.iter().zip(&u).map(|(a, b)| a * b).sum();
+            for u in &std {
+                let s: f64 = v.iter().zip(u).map(|(a, b)| a * b).sum();
                 lo = lo.min(s);
                 hi = hi.max(s);
             }
@@ -164,17 +244,37 @@ impl Awnn {
     pub fn neurons(&self) -> usize {
         self.weights.len()
     }
+    /// Number of inputs: the joint angles and the extra inputs.
     pub fn inputs(&self) -> usize {
         self.input_scale.len()
+    }
+    /// Number of joint-angle inputs.
+    pub fn joints(&self) -> usize {
+        self.inputs().saturating_sub(self.extra.len())
     }
     /// Number of learned values: `M·(d + 3)`.
     pub fn n_params(&self) -> usize {
         self.neurons() * (self.inputs() + 3)
     }
+    /// The inputs, e.g. "q1..q6" or "q1..q6, temp, side1..side6".
+    pub fn input_label(&self) -> String {
+        let mut s = format!("q1..q{}", self.joints());
+        for f in &self.extra {
+            s.push_str(", ");
+            s.push_str(&f.label());
+        }
+        s
+    }
 
-    fn standardise(&self, q: &[f64], u: &mut [f64]) {
-        for (i, ui) in u.iter_mut().enumerate() {
+    /// Standardised input vector of a row (a missing extra input sits at its training mean).
+    fn standardise(&self, q: &[f64], inp: &RowInputs, u: &mut [f64]) {
+        let nq = self.joints();
+        for (i, ui) in u.iter_mut().enumerate().take(nq) {
             *ui = (q[i] - self.input_mean[i]) / self.input_scale[i];
+        }
+        for (k, f) in self.extra.iter().enumerate() {
+            let i = nq + k;
+            u[i] = f.value(inp).filter(|v| v.is_finite()).map_or(0.0, |v| (v - self.input_mean[i]) / self.input_scale[i]);
         }
     }
 
@@ -185,32 +285,35 @@ impl Awnn {
         (s - self.translation[j]) / self.dilation[j]
     }
 
-    /// Output (mm) at joint angles `q` (rad). NaN when `q` has the wrong length.
+    /// Output (mm) at joint angles `q` (rad) with no row inputs (for the q-only network).
     pub fn eval(&self, q: &[f64]) -> f64 {
-        if q.len() != self.inputs() {
-            return f64::NAN;
-        }
-        if q.len() > 8 {
-            return self.eval_vec(q);
-        }
-        let mut buf = [0.0; 8];
-        let u = &mut buf[..q.len()];
-        self.standardise(q, u);
-        (0..self.neurons()).map(|j| self.weights[j] * self.activation.eval(self.arg(j, u)).0).sum()
+        self.eval_row(q, &RowInputs::default())
     }
 
-    fn eval_vec(&self, q: &[f64]) -> f64 {
-        let mut u = vec![0.0; q.len()];
-        self.standardise(q, &mut u);
-        (0..self.neurons()).map(|j| self.weights[j] * self.activation.eval(self.arg(j, &u)).0).sum()
+    /// Output (mm) at joint angles `q` (rad) and the row's inputs. NaN when `q` has the wrong
+    /// length.
+    pub fn eval_row(&self, q: &[f64], inp: &RowInputs) -> f64 {
+        if q.len() != self.joints() {
+            return f64::NAN;
+        }
+        let mut buf = [0.0; 32];
+        let mut heap = Vec::new();
+        let u: &mut [f64] = if self.inputs() <= 32 {
+            &mut buf[..self.inputs()]
+        } else {
+            heap.resize(self.inputs(), 0.0);
+            &mut heap
+        };
+        self.standardise(q, inp, u);
+        (0..self.neurons()).map(|j| self.weights[j] * self.activation.eval(self.arg(j, u)).0).sum()
     }
 
     /// Output and its gradient with respect to every learned value, in the order of
     /// [`params`](Self::params): `[w (M), b (M), a (M), v (M·d, row by row)]`.
-    pub fn eval_param_grad(&self, q: &[f64], g: &mut [f64]) -> f64 {
+    pub fn eval_param_grad(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
         let (m, d) = (self.neurons(), self.inputs());
         let mut u = vec![0.0; d];
-        self.standardise(q, &mut u);
+        self.standardise(q, inp, &mut u);
         let mut f = 0.0;
         for j in 0..m {
             let z = self.arg(j, &u);
@@ -253,14 +356,14 @@ impl Awnn {
         }
     }
 
-    /// One SGD step on `½e²`, `e = target − f(q)`, given `e`: every learned value moves by
-    /// `η·e·∂f/∂θ`. A step that would make anything non-finite is skipped. `g` is scratch of
+    /// One SGD step on `½e²`, `e = target − f(q, inputs)`, given `e`: every learned value moves
+    /// by `η·e·∂f/∂θ`. A step that would make anything non-finite is skipped. `g` is scratch of
     /// length [`n_params`](Self::n_params).
-    pub fn sgd_step(&mut self, q: &[f64], e: f64, lr: f64, g: &mut [f64]) {
+    pub fn sgd_step(&mut self, q: &[f64], inp: &RowInputs, e: f64, lr: f64, g: &mut [f64]) {
         if !(e.is_finite() && lr.is_finite()) {
             return;
         }
-        self.eval_param_grad(q, g);
+        self.eval_param_grad(q, inp, g);
         if g.iter().any(|v| !v.is_finite()) {
             return;
         }
@@ -279,7 +382,9 @@ impl Awnn {
     /// Checks a deserialised network (a hand-edited or truncated file must not give NaN).
     pub fn validate(&self, n_joints: usize) -> Result<(), String> {
         let (m, d) = (self.neurons(), self.inputs());
-        let ok = d == n_joints
+        let ok = self.joints() == n_joints
+            && d >= n_joints
+            && self.extra.iter().all(|f| !matches!(f, Feature::Side(j) | Feature::Torque(j) if *j >= 6))
             && self.input_mean.len() == d
             && self.translation.len() == m
             && self.dilation.len() == m
@@ -297,25 +402,27 @@ impl Awnn {
 
 impl Correct for Awnn {
     fn label(&self) -> String {
-        format!("awnn ({}, {} neurons)", self.activation.label(), self.neurons())
+        format!("awnn ({}, {} neurons on {})", self.activation.label(), self.neurons(), self.input_label())
     }
     fn n_weights(&self) -> usize {
         self.n_params()
     }
-    fn correction_mm(&self, q: &[f64], _inp: &RowInputs) -> f64 {
-        self.eval(q)
+    fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
+        self.eval_row(q, inp)
     }
-    fn correction_grad_mm(&self, q: &[f64], _inp: &RowInputs, g: &mut [f64]) -> f64 {
-        let d = self.inputs();
+    /// The gradient with respect to q only: the row's other inputs (temperature, flanks,
+    /// torques) are held fixed.
+    fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
+        let (d, nq) = (self.inputs(), self.joints());
         g.iter_mut().for_each(|v| *v = 0.0);
         let mut u = vec![0.0; d];
-        self.standardise(q, &mut u);
+        self.standardise(q, inp, &mut u);
         let mut f = 0.0;
         for j in 0..self.neurons() {
             let (psi, dpsi) = self.activation.eval(self.arg(j, &u));
             f += self.weights[j] * psi;
             let c = self.weights[j] * dpsi / self.dilation[j];
-            for i in 0..d {
+            for i in 0..nq {
                 g[i] += c * self.projection[j][i] / self.input_scale[i];
             }
         }
@@ -365,7 +472,7 @@ mod tests {
             let net = perturbed(act);
             let q = &poses(1, 11)[0];
             let mut g = vec![0.0; net.n_params()];
-            let f = net.eval_param_grad(q, &mut g);
+            let f = net.eval_param_grad(q, &RowInputs::default(), &mut g);
             assert!((f - net.eval(q)).abs() < 1e-12);
             let p = net.params();
             for k in 0..p.len() {
@@ -394,13 +501,89 @@ mod tests {
         for _ in 0..60 {
             for q in &train {
                 let e = field(q) - net.eval(q);
-                net.sgd_step(q, e, 0.05, &mut g);
+                net.sgd_step(q, &RowInputs::default(), e, 0.05, &mut g);
             }
         }
         let after = rms(&net, &test);
         assert!(after < 0.5 * before, "test RMS {before} -> {after}");
         // Reproducible from the seed.
         assert_eq!(Awnn::init(&train, 20, Activation::MexicanHat, 7).unwrap(), Awnn::init(&train, 20, Activation::MexicanHat, 7).unwrap());
+    }
+
+    /// Rows with a temperature and flanks besides q.
+    fn rows(n: usize, seed: u64) -> (Vec<Vec<f64>>, Vec<RowInputs>) {
+        let qs = poses(n, seed);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
+        let inp = (0..n)
+            .map(|_| {
+                let mut r = RowInputs { temp_c: Some(rng.random_range(20.0..26.0)), ..Default::default() };
+                r.side.iter_mut().for_each(|s| *s = if rng.random::<bool>() { 1.0 } else { -1.0 });
+                r
+            })
+            .collect();
+        (qs, inp)
+    }
+
+    #[test]
+    fn extra_inputs_learn_what_q_cannot_see_and_the_q_gradient_holds_them_fixed() {
+        // A temperature-times-pose field and a flank-dependent offset along q2: invisible to a
+        // network on q alone, learnable with the extra inputs.
+        let extra = [Feature::Temperature, Feature::Side(1)];
+        let field = |q: &[f64], r: &RowInputs| 0.3 * (r.temp_c.unwrap() - 23.0) * q[1].cos() + 0.5 * r.side[1] * q[2].sin();
+        let (train, ti) = rows(400, 21);
+        let (test, si) = rows(200, 22);
+        let fit = |extra: &[Feature]| {
+            let mut net = Awnn::init_with(&train, &ti, extra, 20, Activation::MexicanHat, 7).unwrap();
+            let mut g = vec![0.0; net.n_params()];
+            for _ in 0..80 {
+                for (q, r) in train.iter().zip(&ti) {
+                    let e = field(q, r) - net.eval_row(q, r);
+                    net.sgd_step(q, r, e, 0.03, &mut g);
+                }
+            }
+            let rms = (test.iter().zip(&si).map(|(q, r)| (field(q, r) - net.eval_row(q, r)).powi(2)).sum::<f64>() / test.len() as f64).sqrt();
+            (net, rms)
+        };
+        let base = (test.iter().zip(&si).map(|(q, r)| field(q, r).powi(2)).sum::<f64>() / test.len() as f64).sqrt();
+        let (net, with) = fit(&extra);
+        let (_, without) = fit(&[]);
+        assert!(with < 0.6 * base && with < 0.7 * without, "test RMS: field {base}, q only {without}, q + temp + flank {with}");
+        assert_eq!(net.inputs(), 8);
+        assert_eq!(net.input_label(), "q1..q6, temp, side2");
+        // The q-gradient at fixed row inputs against finite differences, and through the
+        // stored form (serde) with the inputs named.
+        let c = Corrector::Awnn(perturbed_with(&extra));
+        c.validate(6).unwrap();
+        for r in &si[..4] {
+            let err = gradient_error(c.as_correct(), &test[..4], r, 1e-7);
+            assert!(err < 1e-5, "relative gradient error {err}");
+        }
+        let json = serde_json::to_string(&c).unwrap();
+        assert!(json.contains("\"extra\":[\"temperature\",{\"side\":1}]"), "{json}");
+        let back: Corrector = serde_json::from_str(&json).unwrap();
+        assert!((back.as_correct().correction_mm(&test[0], &si[0]) - c.as_correct().correction_mm(&test[0], &si[0])).abs() < 1e-9);
+        // A row without the temperature sits at the training mean; one input too many is refused.
+        let no_temp = RowInputs { temp_c: None, ..si[0] };
+        assert!(c.as_correct().correction_mm(&test[0], &no_temp).is_finite());
+        let Corrector::Awnn(mut bad) = c else { unreachable!() };
+        bad.extra.push(Feature::Time);
+        assert!(bad.validate(6).is_err());
+        // A training row missing an extra input is an error, not a silent zero.
+        let mut ti2 = ti.clone();
+        ti2[3].temp_c = None;
+        assert!(Awnn::init_with(&train, &ti2, &extra, 4, Activation::MexicanHat, 0).is_err());
+    }
+
+    fn perturbed_with(extra: &[Feature]) -> Awnn {
+        let (qs, inp) = rows(50, 1);
+        let mut net = Awnn::init_with(&qs, &inp, extra, 12, Activation::MexicanHat, 3).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let mut p = net.params();
+        for v in p.iter_mut() {
+            *v += rng.random_range(-0.3..0.3);
+        }
+        net.set_params(&p);
+        net
     }
 
     #[test]

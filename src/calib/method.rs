@@ -49,7 +49,9 @@ impl Method {
     pub fn parse(s: &str) -> Result<Method> {
         let s = s.trim().to_ascii_lowercase();
         Method::ALL.into_iter().chain(Ablation::ALL.map(Method::PsoEkfAwnn)).find(|m| m.name() == s).ok_or_else(|| {
-            Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso, rbf, pso-ekf-awnn or its ablations pso-ekf-awnn-v1 .. -v5)"))
+            Error::Invalid(format!(
+                "unknown method '{s}' (expected lm, ekf, pf, pso, rbf, pso-ekf-awnn or its ablations pso-ekf-awnn-v1 .. -v5 and pso-ekf-awnn-x)"
+            ))
         })
     }
     pub fn name(self) -> &'static str {
@@ -112,6 +114,12 @@ pub trait Solver: Send + Sync {
     fn method(&self) -> Method;
     /// Whether the method uses [`Problem::noise_mm`] (the pipeline then estimates it first).
     fn needs_noise(&self) -> bool {
+        false
+    }
+    /// Whether the method reads the rows' inputs ([`super::effects::RowInputs`]: time,
+    /// temperature, flanks, torques) even when the model has no effect blocks (the pipeline
+    /// then computes them, with the torque model when the robot has inertial data).
+    fn needs_row_inputs(&self) -> bool {
         false
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution>;

@@ -29,11 +29,13 @@
 //! condition number of the (column-scaled) observation Jacobian of the free parameters over the
 //! training poses, the paper's identifiability check.
 
-use super::awnn::{Activation, Awnn};
+use super::awnn::{Activation, Awnn, Feature};
 use super::corrector::Corrector;
+use super::effects::RowInputs;
 use super::method::{Method, Problem, Solution, Solver};
 use super::optim::{Bounds, Cost, Damping, Ekf, Event, LeastSquares, LevenbergMarquardt, NoObserver, ObservationHook, Observer, Pso, Report};
 use super::problem::LengthFit;
+use super::problem::Samples;
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rand::seq::SliceRandom;
@@ -56,10 +58,14 @@ pub enum Ablation {
     V5Joint,
     /// V6: the full method.
     Full,
+    /// Extended: the network also sees the temperature (or time) and the backlash flanks, and
+    /// two network/LM alternations follow Stage II (see [`PsoEkfAwnn::refine_net`]).
+    Extended,
 }
 
 impl Ablation {
-    pub const ALL: [Ablation; 6] = [Ablation::Full, Ablation::V1Symbolic, Ablation::V2RandomInit, Ablation::V3Mlp, Ablation::V4Morlet, Ablation::V5Joint];
+    pub const ALL: [Ablation; 7] =
+        [Ablation::Full, Ablation::V1Symbolic, Ablation::V2RandomInit, Ablation::V3Mlp, Ablation::V4Morlet, Ablation::V5Joint, Ablation::Extended];
     /// The method name of this variant on the command line.
     pub fn method_name(self) -> &'static str {
         match self {
@@ -69,6 +75,7 @@ impl Ablation {
             Ablation::V3Mlp => "pso-ekf-awnn-v3",
             Ablation::V4Morlet => "pso-ekf-awnn-v4",
             Ablation::V5Joint => "pso-ekf-awnn-v5",
+            Ablation::Extended => "pso-ekf-awnn-x",
         }
     }
     fn activation(self) -> Option<Activation> {
@@ -78,6 +85,43 @@ impl Ablation {
             Ablation::V4Morlet => Some(Activation::Morlet),
             _ => Some(Activation::MexicanHat),
         }
+    }
+}
+
+/// What the network sees besides the joint angles (see [`super::awnn::Feature`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum NetInputs {
+    /// The joint angles alone (the paper's network).
+    Joints,
+    /// q and the temperature (the time when the data have no temp column).
+    Thermal,
+    /// q, temperature (or time) and the backlash flank of every joint.
+    ThermalFlanks,
+    /// q, temperature (or time), flanks and the static joint torques (when the calibration has
+    /// a torque model).
+    ThermalFlanksTorques,
+}
+
+impl NetInputs {
+    /// The extra inputs these training rows can supply.
+    pub fn features(self, data: &Samples) -> Vec<Feature> {
+        let mut f = Vec::new();
+        if self == NetInputs::Joints || data.inputs.is_empty() {
+            return f;
+        }
+        if data.inputs.iter().all(|i| i.temp_c.is_some_and(f64::is_finite)) {
+            f.push(Feature::Temperature);
+        } else if data.inputs.iter().all(|i| i.t_s.is_some_and(f64::is_finite)) {
+            f.push(Feature::Time);
+        }
+        let nq = data.q.first().map_or(0, |q| q.len()).min(6);
+        if matches!(self, NetInputs::ThermalFlanks | NetInputs::ThermalFlanksTorques) {
+            f.extend((0..nq).filter(|&j| data.inputs.iter().any(|i| i.side[j] != data.inputs[0].side[j])).map(Feature::Side));
+        }
+        if self == NetInputs::ThermalFlanksTorques {
+            f.extend((0..nq).filter(|&j| data.inputs.iter().any(|i| i.torque[j].abs() > 1e-9)).map(Feature::Torque));
+        }
+        f
     }
 }
 
@@ -125,6 +169,8 @@ impl SearchSpace {
 #[derive(Clone, Debug, PartialEq)]
 pub struct PsoEkfAwnn {
     pub variant: Ablation,
+    /// The network's inputs.
+    pub inputs: NetInputs,
     /// Wavelet neurons (hidden units of the MLP ablation).
     pub neurons: usize,
     /// Stage I passes over the shuffled training rows.
@@ -136,18 +182,24 @@ pub struct PsoEkfAwnn {
     pub hyper: Option<Hyper>,
     /// Stage II.
     pub lm: LevenbergMarquardt,
+    /// Alternations after Stage II (0: the paper's three stages): the network is trained on the
+    /// residuals of the frozen geometry (see [`PsoEkfAwnn::refine_net`]), then LM refits the
+    /// geometry with that network frozen.
+    pub rounds: usize,
 }
 
 impl Default for PsoEkfAwnn {
     fn default() -> Self {
         PsoEkfAwnn {
             variant: Ablation::Full,
+            inputs: NetInputs::Joints,
             neurons: 20,
             epochs: 3,
             search: SearchSpace::default(),
             pso_particles: 10,
             pso_iterations: 10,
             hyper: None,
+            rounds: 0,
             lm: LevenbergMarquardt { max_iter: 100, ftol: 1e-10, xtol: 1e-10, gtol: 1e-10, initial_lambda: 1e-3, damping: Damping::Factor(10.0) },
         }
     }
@@ -155,7 +207,10 @@ impl Default for PsoEkfAwnn {
 
 impl PsoEkfAwnn {
     pub fn variant(variant: Ablation) -> Self {
-        PsoEkfAwnn { variant, ..Default::default() }
+        match variant {
+            Ablation::Extended => PsoEkfAwnn { variant, inputs: NetInputs::ThermalFlanks, rounds: 2, ..Default::default() },
+            _ => PsoEkfAwnn { variant, ..Default::default() },
+        }
     }
 }
 
@@ -164,6 +219,7 @@ impl PsoEkfAwnn {
 struct Learner<'a> {
     net: Option<Awnn>,
     q: &'a [Vec<f64>],
+    inputs: &'a [RowInputs],
     lr: f64,
     scratch: Vec<f64>,
     sse: f64,
@@ -173,13 +229,13 @@ struct Learner<'a> {
 
 impl ObservationHook for Learner<'_> {
     fn offset(&self, i: usize) -> f64 {
-        self.net.as_ref().map_or(0.0, |n| n.eval(&self.q[i]))
+        self.net.as_ref().map_or(0.0, |n| n.eval_row(&self.q[i], &self.inputs[i]))
     }
     fn innovation(&mut self, i: usize, y: f64) {
         self.sse += y * y;
         self.count += 1;
         if let Some(n) = self.net.as_mut() {
-            n.sgd_step(&self.q[i], y, self.lr, &mut self.scratch);
+            n.sgd_step(&self.q[i], &self.inputs[i], y, self.lr, &mut self.scratch);
         }
     }
     fn end_epoch(&mut self) {
@@ -246,7 +302,8 @@ impl LeastSquares for Joint<'_, '_> {
         let nm = self.fit.model.n_params();
         LeastSquares::residuals(self.fit, &x[..nm], r);
         let net = self.net_at(x);
-        r.iter_mut().zip(&self.fit.data.q).for_each(|(ri, q)| *ri -= net.eval(q));
+        let d = self.fit.data;
+        r.iter_mut().zip(d.q.iter().zip(&d.inputs)).for_each(|(ri, (q, inp))| *ri -= net.eval_row(q, inp));
     }
     fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
         let nm = self.fit.model.n_params();
@@ -255,8 +312,8 @@ impl LeastSquares for Joint<'_, '_> {
         j.view_mut((0, 0), jm.shape()).copy_from(&jm);
         let net = self.net_at(x);
         let mut g = vec![0.0; net.n_params()];
-        for (i, q) in self.fit.data.q.iter().enumerate() {
-            net.eval_param_grad(q, &mut g);
+        for (i, (q, inp)) in self.fit.data.q.iter().zip(&self.fit.data.inputs).enumerate() {
+            net.eval_param_grad(q, inp, &mut g);
             for (k, gk) in g.iter().enumerate() {
                 j[(i, nm + k)] = -gk;
             }
@@ -308,7 +365,24 @@ pub fn observation_condition(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 
 impl PsoEkfAwnn {
     /// A fresh network for this variant (none for V1).
     pub fn new_net(&self, p: &Problem) -> Result<Option<Awnn>> {
-        self.variant.activation().map(|act| Awnn::init(&p.fit.data.q, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration)).transpose()
+        let d = p.fit.data;
+        let extra = self.inputs.features(d);
+        self.variant
+            .activation()
+            .map(|act| Awnn::init_with(&d.q, &d.inputs, &extra, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration))
+            .transpose()
+    }
+
+    /// The inputs of the network this solver would use on these data's kind, e.g.
+    /// "q1..q6, temp, side1..side6" (as far as known without data: the setting's name).
+    pub fn new_net_label(&self) -> String {
+        match (self.variant.activation(), self.inputs) {
+            (None, _) => String::new(),
+            (_, NetInputs::Joints) => "q only".into(),
+            (_, NetInputs::Thermal) => "q + temperature (or time)".into(),
+            (_, NetInputs::ThermalFlanks) => "q + temperature (or time) + backlash flanks".into(),
+            (_, NetInputs::ThermalFlanksTorques) => "q + temperature (or time) + flanks + torques".into(),
+        }
     }
 
     /// Stage I with hyperparameters `h`, from `p.x0` and the fresh network `net`.
@@ -317,7 +391,7 @@ impl PsoEkfAwnn {
         let noise = if p.noise_mm.is_finite() && p.noise_mm > 0.0 { p.noise_mm } else { 0.01 };
         let ekf = Ekf { epochs: self.epochs.max(1), q: h.q_rel * prior_var_scale(p), r: h.r_rel * noise * noise, p0, tol: 0.0 };
         let scratch = vec![0.0; net.as_ref().map_or(0, |n| n.n_params())];
-        let mut learner = Learner { net, q: &p.fit.data.q, lr: h.lr, scratch, sse: 0.0, count: 0, last_rmse: f64::INFINITY };
+        let mut learner = Learner { net, q: &p.fit.data.q, inputs: &p.fit.data.inputs, lr: h.lr, scratch, sse: 0.0, count: 0, last_rmse: f64::INFINITY };
         let order = shuffled(p.fit.data.len(), p.seed);
         let report = ekf.run_with(p.fit, p.x0, p.fixed, &order, &mut learner, obs);
         let rmse = if learner.last_rmse.is_finite() && report.x.iter().all(|v| v.is_finite()) { learner.last_rmse } else { f64::INFINITY };
@@ -361,11 +435,74 @@ impl PsoEkfAwnn {
                 (rep, Some(net))
             }
             (_, net) => {
-                let offset = p.fit.data.q.iter().map(|q| net.as_ref().map_or(0.0, |n| n.eval(q))).collect();
+                let d = p.fit.data;
+                let offset = d.q.iter().zip(&d.inputs).map(|(q, inp)| net.as_ref().map_or(0.0, |n| n.eval_row(q, inp))).collect();
                 let rep = self.lm.minimize(&Corrected { fit: p.fit, offset }, x1, p.fixed, obs);
                 (rep, net)
             }
         }
+    }
+}
+
+/// Learning rates tried by [`PsoEkfAwnn::refine_net`] (plain SGD on mm).
+pub const REFINE_RATES: [f64; 4] = [0.003, 0.01, 0.03, 0.1];
+/// Largest number of passes of one [`PsoEkfAwnn::refine_net`] run.
+pub const REFINE_EPOCHS: usize = 200;
+
+impl PsoEkfAwnn {
+    /// The network trained on what the frozen geometry `x` leaves on the training rows, with
+    /// its own validation: a seeded fifth of the training rows is held out, each rate of
+    /// [`REFINE_RATES`] trains a copy of `net` by SGD on the rest (up to [`REFINE_EPOCHS`]
+    /// passes, stopping 10 passes after the held-out RMSE last improved), and the copy with the
+    /// lowest held-out RMSE is kept, unless `net` itself is better there. The test rows are
+    /// never seen. Returns the network and its held-out RMSE.
+    pub fn refine_net(&self, p: &Problem, x: &[f64], net: &Awnn) -> (Awnn, f64) {
+        let d = p.fit.data;
+        // SGD runs on the residuals in units of their RMS (output weights scaled alike, exact
+        // since the output is linear in them), so that the rates mean the same at any error size.
+        let raw = p.fit.residuals_mm(x);
+        let scale = (raw.iter().map(|v| v * v).sum::<f64>() / raw.len().max(1) as f64).sqrt().max(1e-9);
+        let target: Vec<f64> = raw.iter().map(|v| v / scale).collect();
+        let mut net = net.clone();
+        net.weights.iter_mut().for_each(|w| *w /= scale);
+        let net = &net;
+        let order = shuffled(d.len(), p.seed ^ 0x0DD5_0003);
+        let n_val = (d.len() / 5).max(1).min(d.len().saturating_sub(1));
+        let (val, train) = order.split_at(n_val);
+        let val_rmse = |n: &Awnn| (val.iter().map(|&i| (target[i] - n.eval_row(&d.q[i], &d.inputs[i])).powi(2)).sum::<f64>() / val.len() as f64).sqrt();
+        let mut best = (net.clone(), val_rmse(net));
+        let mut g = vec![0.0; net.n_params()];
+        let mut rng = ChaCha8Rng::seed_from_u64(p.seed ^ 0x0DD5_0004);
+        for lr in REFINE_RATES {
+            let mut cur = net.clone();
+            let mut rows = train.to_vec();
+            let (mut run_best, mut since) = (f64::INFINITY, 0);
+            for _ in 0..REFINE_EPOCHS {
+                rows.shuffle(&mut rng);
+                for &i in &rows {
+                    let e = target[i] - cur.eval_row(&d.q[i], &d.inputs[i]);
+                    cur.sgd_step(&d.q[i], &d.inputs[i], e, lr, &mut g);
+                }
+                let v = val_rmse(&cur);
+                if !v.is_finite() {
+                    break;
+                }
+                if v < run_best {
+                    run_best = v;
+                    since = 0;
+                    if v < best.1 {
+                        best = (cur.clone(), v);
+                    }
+                } else {
+                    since += 1;
+                    if since >= 10 {
+                        break;
+                    }
+                }
+            }
+        }
+        best.0.weights.iter_mut().for_each(|w| *w *= scale);
+        (best.0, best.1 * scale)
     }
 }
 
@@ -404,6 +541,9 @@ impl Solver for PsoEkfAwnn {
     fn needs_noise(&self) -> bool {
         true
     }
+    fn needs_row_inputs(&self) -> bool {
+        self.inputs != NetInputs::Joints
+    }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let (h, fitness, runs) = self.stage_zero(p)?;
         let net = self.new_net(p)?;
@@ -411,7 +551,20 @@ impl Solver for PsoEkfAwnn {
         if one.x.iter().any(|v| !v.is_finite()) {
             return Err(Error::Calibration("pso-ekf-awnn: Stage I diverged (non-finite geometric states)".into()));
         }
-        let (mut rep, net) = self.stage_two(p, &one.x, one.net, obs);
+        let (mut rep, mut net) = self.stage_two(p, &one.x, one.net, obs);
+        let mut refined = Vec::new();
+        if self.variant != Ablation::V5Joint {
+            for _ in 0..self.rounds {
+                let Some(n) = net.as_ref() else { break };
+                let (n, v) = self.refine_net(p, &rep.x, n);
+                refined.push(v);
+                let (r, n) = self.stage_two(p, &rep.x, Some(n), obs);
+                rep.iterations += r.iterations;
+                rep.evaluations += r.evaluations;
+                rep = Report { iterations: rep.iterations, evaluations: rep.evaluations, ..r };
+                net = n;
+            }
+        }
         let cond = observation_condition(p.fit, &rep.x, p.fixed);
         let stage0 = match (self.hyper, self.variant) {
             (Some(_), _) => "fixed".to_string(),
@@ -420,7 +573,7 @@ impl Solver for PsoEkfAwnn {
         };
         rep.reason = format!(
             "stage 0 ({stage0}): Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.3e}; stage I: {} epochs, innovation RMSE {:.4} mm; stage II{}: {}; \
-             observation Jacobian condition number {cond:.3e} over {} training poses",
+             {}observation Jacobian condition number {cond:.3e} over {} training poses",
             h.q_rel,
             h.r_rel,
             h.lr,
@@ -428,6 +581,15 @@ impl Solver for PsoEkfAwnn {
             one.innovation_rmse,
             if self.variant == Ablation::V5Joint { " (joint)" } else { "" },
             rep.reason,
+            if refined.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "{} network/LM alternations (held-out RMSE {}); ",
+                    refined.len(),
+                    refined.iter().map(|v| format!("{v:.4}")).collect::<Vec<_>>().join(", ")
+                )
+            },
             p.fit.data.len()
         );
         rep.iterations += one.report.iterations;
