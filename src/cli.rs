@@ -41,6 +41,9 @@ pub enum BenchTarget {
     Dsade,
     /// Inverse kinematics: Jacobian variants, time per query, true error on the twin.
     Ik,
+    /// PSO-EKF-AWNN: stage times against LM, accuracy and truth over seeds, data efficiency,
+    /// sensitivity to Q, R and the learning rate, HSR-RobotCali.
+    Awnn,
 }
 
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
@@ -231,6 +234,14 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             let seeds = seeds.unwrap_or(30);
             check_seeds(seeds)?;
             crate::evobench::bench_dsade(repeat, seeds)
+        }
+        BenchTarget::Awnn => {
+            if scenario.is_some() || compare {
+                return Err(Error::Invalid("--scenario and --compare do not apply to bench awnn (it uses the embedded irb120_pso_ekf scenario)".into()));
+            }
+            let seeds = seeds.unwrap_or(5);
+            check_seeds(seeds)?;
+            crate::awnn_bench::bench_awnn(repeat, seeds, quiet)
         }
     }
 }

@@ -9,6 +9,7 @@
 // both idioms.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod awnn_bench;
 pub mod calib;
 pub mod cli;
 pub mod dataset;

@@ -76,7 +76,7 @@ enum Command {
         /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
         #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
         angles: AngleArg,
-        /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH) or its ablations dsade-gkan-v1, -v2, -v3.
+        /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH; ablations dsade-gkan-v1, -v2, -v3), pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5; pso-ekf-awnn-x: network also on temperature and backlash flanks, network/LM alternations).
         #[arg(long, default_value = "lm")]
         method: String,
         #[command(flatten)]
@@ -235,7 +235,8 @@ enum Command {
     },
     /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model),
     /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
-    /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30) or `ik`.
+    /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30), `ik`,
+    /// or `awnn` (PSO-EKF-AWNN: speed, accuracy, data efficiency, sensitivity).
     Bench {
         #[arg(value_enum, default_value_t = BenchTarget::Twin)]
         what: BenchTarget,

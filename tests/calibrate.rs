@@ -347,3 +347,91 @@ fn hsr_robotcali_generic_model_reaches_the_repeatability_floor() {
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     assert!(fixed.len() >= 3, "{fixed:?}");
 }
+
+/// Rows whose lengths are the Hayati model's at perturbed geometry plus a smooth joint-space
+/// field (mm) that no geometry represents, plus 0.01 mm of noise; 300 train / 100 test.
+fn hayati_plus_field(seed: u64, field: impl Fn(&[f64]) -> f64) -> Dataset {
+    use rand::{Rng, SeedableRng};
+    use twincal::calib::model::{CalibModel, SensorGuess};
+    use twincal::dataset::{Row, Split};
+    let robot = twincal::robot::Robot::irb120();
+    let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+    let model = CalibModel::dh(&robot, &guess, true);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut x = model.nominal.clone();
+    for (xk, kind) in x.iter_mut().zip(&model.kinds).take(model.n_chain()) {
+        *xk += if kind.unit() == "mm" { 3e-4 } else { 1e-3 } * rng.random_range(-1.0..1.0);
+    }
+    let ranges = [[-90.0, 90.0], [-45.0, 80.0], [-90.0, 50.0], [-150.0, 150.0], [-100.0, 100.0], [-180.0, 180.0]];
+    let mut w = model.work();
+    let rows = (0..400)
+        .map(|i| {
+            let q_deg: [f64; 6] = std::array::from_fn(|j| rng.random_range(ranges[j][0]..ranges[j][1]));
+            let q: Vec<f64> = q_deg.iter().map(|d: &f64| d.to_radians()).collect();
+            let noise = 0.01 * (rng.random_range(-1.0f64..1.0) + rng.random_range(-1.0..1.0) + rng.random_range(-1.0..1.0));
+            let l = model.predict(&x, &q, &mut w) * 1e3 + field(&q) + noise;
+            Row { q_deg, l_mm: Some(l), t_s: None, temp_c: None, split: Some(if i % 4 == 0 { Split::Test } else { Split::Train }) }
+        })
+        .collect();
+    Dataset { rows, source: format!("hayati+field seed {seed}") }
+}
+
+#[test]
+fn pso_ekf_awnn_learns_a_joint_space_field_that_lm_cannot_fit() {
+    use twincal::calib::psoekf::Ablation;
+    // Localised bumps along q2 and q5: configuration-dependent, not a geometric error.
+    let field = |q: &[f64]| 0.12 * (-(q[1] - 0.4).powi(2) / 0.3).exp() + 0.1 * (-0.5 * ((q[4] - 0.3) / 0.35).powi(2)).exp();
+    let (mut lm, mut aw, mut v1) = (Vec::new(), Vec::new(), Vec::new());
+    for seed in 0..3 {
+        let ds = hayati_plus_field(seed, field);
+        let run = |m: Method| {
+            let mut o = irb120(m, "hayati");
+            o.seed = seed;
+            o.effort = 0.5;
+            calibrate(&ds, None, &o).unwrap()
+        };
+        let a = run(Method::PsoEkfAwnn(Ablation::Full));
+        assert!(a.stop_reason.contains("condition number"), "{}", a.stop_reason);
+        assert!(matches!(a.corrector, Some(twincal::calib::corrector::Corrector::Awnn(_))));
+        lm.push(run(Method::Lm).metrics.test_after.unwrap().rmse);
+        aw.push(a.metrics.test_after.unwrap().rmse);
+        v1.push(run(Method::PsoEkfAwnn(Ablation::V1Symbolic)).metrics.test_after.unwrap().rmse);
+    }
+    let (lm, aw, v1) = (median(lm), median(aw), median(v1));
+    assert!(aw < 0.75 * lm, "median test RMSE: pso-ekf-awnn {aw:.4} mm vs LM {lm:.4} mm");
+    // Without the network the same pipeline is only as good as LM.
+    assert!((v1 - lm).abs() < 0.05 * lm, "V1 {v1:.4} vs LM {lm:.4}");
+}
+
+#[test]
+fn pso_ekf_awnn_cli_result_round_trips_and_is_reproducible() {
+    let (dir, ds, _) = geometric();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = |n: &str| tmp.path().join(n);
+    for name in ["a.json", "b.json"] {
+        let o = twincal(&["calibrate", "--data", dir.to_str().unwrap(), "--method", "pso-ekf-awnn", "--effort", "0.3", "--out", out(name).to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let a = twincal::calib::run::CalibResult::load(&out("a.json")).unwrap();
+    let b = twincal::calib::run::CalibResult::load(&out("b.json")).unwrap();
+    assert_eq!(a.x, b.x, "same seed, same result");
+    assert_eq!(a.method.name(), "pso-ekf-awnn");
+    assert!(matches!(&a.corrector, Some(twincal::calib::corrector::Corrector::Awnn(_))), "{:?}", a.corrector);
+    // predict uses the stored network: its predictions are the result's own.
+    let o = twincal(&["predict", "--model", out("a.json").to_str().unwrap(), "--data", dir.to_str().unwrap(), "--out", out("p.csv").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out("p.csv")).unwrap();
+    let expect = a.predict_rows(ds);
+    let col = csv.lines().next().unwrap().split(',').position(|h| h.starts_with("L_pred")).expect("a predicted-length column");
+    for (line, e) in csv.lines().skip(1).zip(&expect) {
+        let v: f64 = line.split(',').nth(col).unwrap().parse().unwrap();
+        assert!((v - e).abs() < 1e-3, "{v} vs {e}");
+    }
+    // A damaged network is refused with a clear error, not a panic.
+    let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out("a.json")).unwrap()).unwrap();
+    v["corrector"]["dilation"][0] = serde_json::json!(-1.0);
+    std::fs::write(out("bad.json"), v.to_string()).unwrap();
+    let o = twincal(&["predict", "--model", out("bad.json").to_str().unwrap(), "--data", dir.to_str().unwrap(), "--out", out("q.csv").to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("inconsistent"), "{}", String::from_utf8_lossy(&o.stderr));
+}

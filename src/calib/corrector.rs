@@ -59,6 +59,9 @@ pub enum Corrector {
     Gkan(Gkan),
     /// ReLU perceptron of the GKAN's size (Evo-NPH ablation V2).
     Mlp(Mlp),
+    /// Adaptive wavelet network (or its MLP / Morlet ablations) learned from the EKF's
+    /// innovations (method pso-ekf-awnn, see [`super::awnn`]).
+    Awnn(super::awnn::Awnn),
 }
 
 impl Corrector {
@@ -67,6 +70,7 @@ impl Corrector {
             Corrector::Rbf(n) => n,
             Corrector::Gkan(n) => n,
             Corrector::Mlp(n) => n,
+            Corrector::Awnn(n) => n,
         }
     }
     /// Checks a deserialised corrector against the model it belongs to (a hand-edited or
@@ -89,6 +93,7 @@ impl Corrector {
             }
             Corrector::Gkan(n) => n.validate(n_joints),
             Corrector::Mlp(n) => n.validate(n_joints),
+            Corrector::Awnn(n) => n.validate(n_joints),
         }
     }
 }

@@ -10,6 +10,7 @@ use super::corrector::Corrector;
 use super::evonph::{EvoNphSolver, EvoVariant};
 use super::optim::{Bounds, Ekf, LeastSquares, LevenbergMarquardt, Observer, ParticleFilter, Pso, Report};
 use super::problem::{FreeCost, LengthFit};
+use super::psoekf::{Ablation, PsoEkfAwnn};
 use super::rbf::RbfNetwork;
 use crate::error::{Error, Result};
 use rand::seq::SliceRandom;
@@ -17,9 +18,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-/// The methods the command line offers by name.
+/// The methods the command line offers by name (stored in result.json by that name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(into = "String", try_from = "String")]
 pub enum Method {
     Lm,
     Ekf,
@@ -38,6 +39,21 @@ pub enum Method {
     /// Evo-NPH ablation V3: single-strategy DE.
     #[serde(rename = "dsade-gkan-v3")]
     DsadeGkanV3,
+    /// PSO-EKF-AWNN or one of its ablations (see [`super::psoekf`]).
+    PsoEkfAwnn(Ablation),
+}
+
+impl From<Method> for String {
+    fn from(m: Method) -> String {
+        m.name().into()
+    }
+}
+
+impl TryFrom<String> for Method {
+    type Error = Error;
+    fn try_from(s: String) -> Result<Method> {
+        Method::parse(&s)
+    }
 }
 
 impl Method {
@@ -48,8 +64,11 @@ impl Method {
 
     pub fn parse(s: &str) -> Result<Method> {
         let s = s.trim().to_ascii_lowercase();
-        Method::ALL.into_iter().chain(Method::EVO_NPH).find(|m| m.name() == s).ok_or_else(|| {
-            Error::Invalid(format!("unknown method '{s}' (expected lm, ekf, pf, pso, rbf, dsade-gkan or its ablations dsade-gkan-v1, -v2, -v3)"))
+        Method::ALL.into_iter().chain(Method::EVO_NPH).chain(Ablation::ALL.map(Method::PsoEkfAwnn)).find(|m| m.name() == s).ok_or_else(|| {
+            Error::Invalid(format!(
+                "unknown method '{s}' (expected lm, ekf, pf, pso, rbf, dsade-gkan or its ablations dsade-gkan-v1, -v2, -v3, \
+                 pso-ekf-awnn or its ablations pso-ekf-awnn-v1 .. -v5 and pso-ekf-awnn-x)"
+            ))
         })
     }
     pub fn name(self) -> &'static str {
@@ -63,6 +82,7 @@ impl Method {
             Method::DsadeGkanV1 => "dsade-gkan-v1",
             Method::DsadeGkanV2 => "dsade-gkan-v2",
             Method::DsadeGkanV3 => "dsade-gkan-v3",
+            Method::PsoEkfAwnn(v) => v.method_name(),
         }
     }
     /// The method with its default settings; `effort` scales the budget of the stochastic ones.
@@ -77,6 +97,7 @@ impl Method {
             Method::DsadeGkanV1 => Box::new(EvoNphSolver::new(EvoVariant::Sequential, effort)),
             Method::DsadeGkanV2 => Box::new(EvoNphSolver::new(EvoVariant::Mlp, effort)),
             Method::DsadeGkanV3 => Box::new(EvoNphSolver::new(EvoVariant::SingleStrategy, effort)),
+            Method::PsoEkfAwnn(v) => Box::new(PsoEkfAwnn { pso_iterations: ((10.0 * effort).ceil() as usize).max(2), ..PsoEkfAwnn::variant(v) }),
         }
     }
 }
@@ -118,6 +139,12 @@ pub trait Solver: Send + Sync {
     fn method(&self) -> Method;
     /// Whether the method uses [`Problem::noise_mm`] (the pipeline then estimates it first).
     fn needs_noise(&self) -> bool {
+        false
+    }
+    /// Whether the method reads the rows' inputs ([`super::effects::RowInputs`]: time,
+    /// temperature, flanks, torques) even when the model has no effect blocks (the pipeline
+    /// then computes them, with the torque model when the robot has inertial data).
+    fn needs_row_inputs(&self) -> bool {
         false
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution>;

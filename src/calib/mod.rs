@@ -1,5 +1,6 @@
 //! Calibration: identification of model parameters from datasets.
 
+pub mod awnn;
 pub mod corrector;
 pub mod effects;
 pub mod equivalent;
@@ -16,6 +17,7 @@ pub mod model;
 pub mod optim;
 pub mod placement;
 pub mod problem;
+pub mod psoekf;
 pub mod rbf;
 pub mod run;
 pub mod stats;

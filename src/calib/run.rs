@@ -357,7 +357,13 @@ fn check_joint_limits(data: &Dataset, robot: &Robot) -> Result<()> {
 /// Stage "effects": adds the requested effect blocks to the model and gives every sample the
 /// per-row inputs they need (computed over the whole file in acquisition order, then split).
 pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Dataset, opts: &CalibOptions) -> Result<()> {
-    if opts.effects.is_empty() {
+    effects_stage_for(model, split, data, opts, false)
+}
+
+/// [`effects_stage`]; with `inputs` the rows get their inputs (and the result its torque model)
+/// even without effect blocks, for a solver that reads them ([`Solver::needs_row_inputs`]).
+pub fn effects_stage_for(model: &mut CalibModel, split: &mut SplitData, data: &Dataset, opts: &CalibOptions, inputs: bool) -> Result<()> {
+    if opts.effects.is_empty() && !inputs {
         return Ok(());
     }
     let nc = model.n_chain();
@@ -468,7 +474,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut warnings = Vec::new();
     let mut split = split_stage(data, opts)?;
     let mut model = super::placement::place_sensor(opts, &split.train)?;
-    effects_stage(&mut model, &mut split, data, opts)?;
+    effects_stage_for(&mut model, &mut split, data, opts, solver.needs_row_inputs())?;
     let x0 = model.nominal.clone();
     let fit = LengthFit { model: &model, data: &split.train };
     let id = identify(&fit, &x0, opts.rank_tol);

@@ -27,16 +27,41 @@
 //! Observations whose innovation, gradient or innovation variance is not finite are skipped
 //! (the state is left unchanged), so a NaN prediction never corrupts the filter.
 //!
+//! A per-observation [`ObservationHook`] ([`Ekf::run_with`]) can add a term of its own to every
+//! prediction, `ẑ_i = h_i(x) + c_i`, and receives every innovation `y = z_i − h_i(x) − c_i`:
+//! a learned correction trained online from the filter's innovations (the PSO-EKF-AWNN method)
+//! uses it. The hook's term does not depend on `x`, so `H` is unchanged; the epoch cost includes it.
+//!
 //! Caveat: running several epochs re-uses the same data, so `P` keeps shrinking roughly like
 //! 1/epochs (the data are counted once per epoch). With one epoch, a diffuse prior and `q ≈ 0`,
 //! `P` equals the least-squares covariance `r·(JᵀJ)⁻¹`.
 
 use nalgebra::{DMatrix, DVector};
 
-use super::util::{free_indices, obs_cost};
+use super::util::{free_indices, sanitize};
 use super::{Event, Observations, Observer, Report};
 
 const METHOD: &str = "ekf";
+
+/// Adds a term to each predicted observation and learns from the innovations (see the module docs).
+pub trait ObservationHook {
+    /// The term added to observation `i`'s prediction (units of the observation).
+    fn offset(&self, i: usize) -> f64;
+    /// The innovation `y = z_i − h_i(x) − offset(i)` of an update that was applied (after the
+    /// state update, which used the same `y`).
+    fn innovation(&mut self, i: usize, y: f64);
+    /// Called after every epoch, before the epoch cost is evaluated.
+    fn end_epoch(&mut self) {}
+}
+
+/// No term, nothing learned: the plain filter.
+pub struct NoHook;
+impl ObservationHook for NoHook {
+    fn offset(&self, _i: usize) -> f64 {
+        0.0
+    }
+    fn innovation(&mut self, _i: usize, _y: f64) {}
+}
 
 /// Extended Kalman filter settings. See the module documentation.
 #[derive(Clone, Debug, PartialEq)]
@@ -71,6 +96,19 @@ impl Ekf {
     /// # Panics
     /// If `x0.len() != o.n_params()`.
     pub fn run<O: Observations>(&self, o: &O, x0: &[f64], fixed: &[bool], order: &[usize], obs: &mut dyn Observer) -> Report {
+        self.run_with(o, x0, fixed, order, &mut NoHook, obs)
+    }
+
+    /// [`run`](Self::run) with a per-observation hook (see the module docs).
+    pub fn run_with<O: Observations>(
+        &self,
+        o: &O,
+        x0: &[f64],
+        fixed: &[bool],
+        order: &[usize],
+        hook: &mut dyn ObservationHook,
+        obs: &mut dyn Observer,
+    ) -> Report {
         let n = o.n_params();
         assert_eq!(x0.len(), n, "x0 has {} entries, problem has {n} parameters", x0.len());
         let free = free_indices(fixed, n);
@@ -96,7 +134,18 @@ impl Ekf {
         let mut w = DVector::<f64>::zeros(n);
 
         let mut evaluations = order.len();
-        let mut cost = obs_cost(o, &x, order);
+        let cost_of = |x: &[f64], hook: &dyn ObservationHook| {
+            sanitize(
+                0.5 * order
+                    .iter()
+                    .map(|&i| {
+                        let e = o.measured(i) - o.predict(x, i) - hook.offset(i);
+                        e * e
+                    })
+                    .sum::<f64>(),
+            )
+        };
+        let mut cost = cost_of(&x, hook);
         let mut iterations = 0;
         let mut converged = false;
         let mut reason = String::from("maximum number of epochs reached");
@@ -122,7 +171,7 @@ impl Ekf {
                         p[(k, k)] += q;
                     }
                 }
-                let y = o.measured(i) - o.predict(&x, i);
+                let y = o.measured(i) - o.predict(&x, i) - hook.offset(i);
                 evaluations += 1;
                 o.gradient(&x, i, &mut hrow);
                 for k in 0..n {
@@ -151,6 +200,7 @@ impl Ekf {
                 w *= r + s0;
                 w -= &u; // w = r·K − (u − s₀·K)
                 p.ger(1.0, &w, &gain, 1.0);
+                hook.innovation(i, y);
                 for a in 0..n {
                     for b in a + 1..n {
                         let m = 0.5 * (p[(a, b)] + p[(b, a)]);
@@ -160,7 +210,8 @@ impl Ekf {
                 }
             }
 
-            let new_cost = obs_cost(o, &x, order);
+            hook.end_epoch();
+            let new_cost = cost_of(&x, hook);
             evaluations += order.len();
             obs.observe(&Event { method: METHOD, iteration: iterations, cost: new_cost, x: &x });
             let change = (cost - new_cost).abs();
@@ -304,6 +355,48 @@ mod tests {
         fn gradient(&self, _x: &[f64], _i: usize, g: &mut [f64]) {
             g[0] = 1.0;
         }
+    }
+
+    /// z = poly(t) + 0.3·sin(5t): a hook that learns the coefficient of sin(5t) from the
+    /// innovations (one SGD step per observation) lets the filter recover the polynomial.
+    struct SineHook<'a> {
+        t: &'a [f64],
+        k: f64,
+        seen: usize,
+        epochs: usize,
+    }
+    impl ObservationHook for SineHook<'_> {
+        fn offset(&self, i: usize) -> f64 {
+            self.k * (5.0 * self.t[i]).sin()
+        }
+        fn innovation(&mut self, i: usize, y: f64) {
+            self.k += 0.2 * y * (5.0 * self.t[i]).sin();
+            self.seen += 1;
+        }
+        fn end_epoch(&mut self) {
+            self.epochs += 1;
+        }
+    }
+
+    #[test]
+    fn hook_term_is_learned_beside_the_states() {
+        let truth = [0.7, -1.2, 0.5];
+        let mut p = Poly::new(&truth, 80, 0.01, 8);
+        for (z, t) in p.z.iter_mut().zip(&p.t) {
+            *z += 0.3 * (5.0 * t).sin();
+        }
+        let order: Vec<usize> = (0..p.t.len()).collect();
+        let ekf = Ekf { epochs: 30, q: 1e-6, r: 1e-4, p0: vec![10.0], tol: 0.0 };
+        let plain = ekf.run(&p, &[0.0; 3], &[], &order, &mut NoObserver);
+        let mut hook = SineHook { t: &p.t, k: 0.0, seen: 0, epochs: 0 };
+        let rep = ekf.run_with(&p, &[0.0; 3], &[], &order, &mut hook, &mut NoObserver);
+        assert_eq!((hook.seen, hook.epochs), (30 * 80, 30));
+        assert!((hook.k - 0.3).abs() < 0.02, "learned {}", hook.k);
+        let err = |x: &[f64]| x.iter().zip(&truth).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(err(&rep.x) < 0.03 && err(&rep.x) < 0.3 * err(&plain.x), "with hook {:?}, plain {:?}", rep.x, plain.x);
+        // The reported cost includes the hook's term.
+        let direct = 0.5 * order.iter().map(|&i| (p.z[i] - p.predict(&rep.x, i) - hook.offset(i)).powi(2)).sum::<f64>();
+        assert!((rep.cost - direct).abs() < 1e-12 * direct.max(1.0));
     }
 
     #[test]

@@ -21,13 +21,18 @@
 //! not numerically positive definite (NaN entries, extreme ill-conditioning) the solver falls
 //! back to an SVD pseudo-solve, and if that fails too it simply raises λ and tries again.
 //!
+//! With [`Damping::Factor`]`(β)` λ follows a fixed adjustment factor instead: `λ ← λ/β` on
+//! acceptance, `λ ← λ·β` on rejection (the classic schedule, and the one of the PSO-EKF-AWNN
+//! paper's refinement stage).
+//!
 //! A NaN or infinite cost at a trial point counts as +∞: the step is rejected and λ grows.
 //!
 //! # Stopping
 //!
 //! * `gtol`: the largest cosine between `r` and a column of `J` (MINPACK's scale-free gradient
 //!   test) is at most `gtol` — a stationary point of a non-zero-residual problem;
-//! * `ftol`: both actual and predicted relative reductions of an accepted step are at most `ftol`;
+//! * `ftol`: both actual and predicted relative reductions of an accepted step are at most `ftol`
+//!   (with [`Damping::Factor`]: the actual relative loss reduction alone);
 //! * `xtol`: `‖δ‖ ≤ xtol·(‖x_free‖ + xtol)`;
 //! * the cost is exactly zero;
 //! * `max_iter` outer iterations (Jacobian evaluations) — reported as not converged.
@@ -45,6 +50,15 @@ const MAX_REJECTIONS: usize = 60;
 /// λ above this means no step along the gradient lowers the cost any more.
 const LAMBDA_MAX: f64 = 1e32;
 
+/// How the damping factor λ moves between trial steps (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Damping {
+    /// Nielsen's gain-ratio rule.
+    Nielsen,
+    /// A fixed adjustment factor β > 1 (a β that is not a finite number above 1 means 10).
+    Factor(f64),
+}
+
 /// Levenberg–Marquardt settings. See the module documentation for the algorithm.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LevenbergMarquardt {
@@ -58,11 +72,13 @@ pub struct LevenbergMarquardt {
     pub gtol: f64,
     /// Initial damping factor λ (relative to `diag(JᵀJ)`).
     pub initial_lambda: f64,
+    /// The damping schedule.
+    pub damping: Damping,
 }
 
 impl Default for LevenbergMarquardt {
     fn default() -> Self {
-        LevenbergMarquardt { max_iter: 200, ftol: 1e-12, xtol: 1e-12, gtol: 1e-10, initial_lambda: 1e-3 }
+        LevenbergMarquardt { max_iter: 200, ftol: 1e-12, xtol: 1e-12, gtol: 1e-10, initial_lambda: 1e-3, damping: Damping::Nielsen }
     }
 }
 
@@ -196,6 +212,11 @@ impl LevenbergMarquardt {
 
         let mut lambda = if self.initial_lambda.is_finite() && self.initial_lambda > 0.0 { self.initial_lambda } else { 1e-3 };
         let mut nu = 2.0;
+        let factor = match self.damping {
+            Damping::Factor(b) if b.is_finite() && b > 1.0 => Some(b),
+            Damping::Factor(_) => Some(10.0),
+            Damping::Nielsen => None,
+        };
         let mut iterations = 0;
         let mut converged = false;
         let mut reason = "maximum number of iterations reached";
@@ -296,8 +317,13 @@ impl LevenbergMarquardt {
                         std::mem::swap(&mut r, &mut r_new);
                         let f_old = f;
                         f = f_new;
-                        let t = 2.0 * rho - 1.0;
-                        lambda *= (1.0 - t * t * t).max(1.0 / 3.0);
+                        match factor {
+                            Some(beta) => lambda /= beta,
+                            None => {
+                                let t = 2.0 * rho - 1.0;
+                                lambda *= (1.0 - t * t * t).max(1.0 / 3.0);
+                            }
+                        }
                         lambda = lambda.max(f64::MIN_POSITIVE);
                         nu = 2.0;
                         obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
@@ -306,7 +332,8 @@ impl LevenbergMarquardt {
                             reason = "zero cost";
                             break 'outer;
                         }
-                        if actual <= self.ftol * f_old && pred <= self.ftol * f_old {
+                        let pred_small = factor.is_some() || pred <= self.ftol * f_old;
+                        if actual <= self.ftol * f_old && pred_small {
                             converged = true;
                             reason = "relative cost reduction below ftol";
                             break 'outer;
@@ -331,8 +358,13 @@ impl LevenbergMarquardt {
                     obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
                     break 'outer;
                 }
-                lambda *= nu;
-                nu *= 2.0;
+                match factor {
+                    Some(beta) => lambda *= beta,
+                    None => {
+                        lambda *= nu;
+                        nu *= 2.0;
+                    }
+                }
                 rejections += 1;
                 if !(lambda < LAMBDA_MAX) || rejections >= MAX_REJECTIONS || !nu.is_finite() {
                     reason = "no step reduces the cost (damping overflow)";
@@ -507,6 +539,21 @@ mod tests {
         assert!(rep.converged, "{rep:?}");
         assert!((rep.x[0] - 1.0).abs() < 1e-8 && (rep.x[1] - 1.0).abs() < 1e-8, "{rep:?}");
         assert!(!hist.cost.is_empty());
+        assert!(hist.cost.windows(2).all(|w| w[1] <= w[0]), "costs must not increase");
+    }
+
+    #[test]
+    fn adjustment_factor_schedule_converges() {
+        let lm = LevenbergMarquardt { damping: Damping::Factor(10.0), initial_lambda: 1e-2, ftol: 1e-10, xtol: 1e-10, ..Default::default() };
+        let truth = [2.5, 1.3, 0.4];
+        let rep = lm.minimize(&ExpDecay::new(truth), &[1.0, 0.5, 0.0], &[], &mut NoObserver);
+        assert!(rep.converged, "{rep:?}");
+        for k in 0..3 {
+            assert!((rep.x[k] - truth[k]).abs() < 1e-7, "{:?} vs {truth:?}", rep.x);
+        }
+        let mut hist = super::super::History::default();
+        let rep = lm.minimize(&Rosen, &[-1.2, 1.0], &[], &mut hist);
+        assert!((rep.x[0] - 1.0).abs() < 1e-6 && (rep.x[1] - 1.0).abs() < 1e-6, "{rep:?}");
         assert!(hist.cost.windows(2).all(|w| w[1] <= w[0]), "costs must not increase");
     }
 

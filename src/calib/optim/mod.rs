@@ -143,7 +143,7 @@ pub mod pso;
 mod util;
 
 pub use de::{De, DeVariant};
-pub use ekf::Ekf;
-pub use lm::{covariance, LevenbergMarquardt};
+pub use ekf::{Ekf, NoHook, ObservationHook};
+pub use lm::{covariance, Damping, LevenbergMarquardt};
 pub use pf::ParticleFilter;
 pub use pso::Pso;

@@ -1,0 +1,599 @@
+//! Method `pso-ekf-awnn`: PSO meta-optimisation, an EKF whose observation carries an adaptive
+//! wavelet network, and a decoupled Levenberg–Marquardt refinement (after Mao, Lai & Li,
+//! "Hybrid neuro-symbolic state-space modeling for industrial robot calibration via adaptive
+//! wavelet networks and PSO").
+//!
+//! ```text
+//! Stage 0  PSO over (Q, R, η) in a fixed box          fitness: training innovation RMSE of Stage I
+//! Stage I  EKF over the geometric states; per row     ẑ = h(x, q) + f_AWNN(q),  y = z − ẑ
+//!          x ← x + K·y (Kalman), θ ← θ + η·y·∂f/∂θ (SGD on every AWNN parameter)
+//! Stage II AWNN frozen; LM over the geometry on       r = z − h(x, q) − f_AWNN(q)
+//!          (damping λ/β on success, λ·β on failure; stop on step or relative loss change)
+//! ```
+//!
+//! The network is the EKF's [`ObservationHook`]: the filter itself is [`Ekf`], unchanged.
+//!
+//! **Search box of Stage 0** (log-uniform, [`SearchSpace::default`]): the process noise is
+//! `Q = q_rel·σ̄²` per state with `σ̄²` the median prior variance of the free parameters (from
+//! the documented tolerances) and `q_rel ∈ [1e-8, 1e-2]`; the measurement noise is
+//! `R = r_rel·σ²` with `σ` the reading noise estimated from the data and `r_rel ∈ [1e-2, 1e2]`;
+//! the learning rate `η ∈ [1e-3, 0.3]` (plain SGD on mm; above about 0.3 a step on one row
+//! overshoots for a 20-neuron network). Nothing comes from the generator of the data.
+//!
+//! **Ablations** (the paper's V1–V5, [`Ablation`]): V1 no network (EKF then LM), V2 the three
+//! hyperparameters drawn at random from the same box instead of searched, V3 a ReLU MLP of the
+//! same size instead of wavelets, V4 the Morlet wavelet, V5 Stage II over the geometry *and*
+//! every network parameter jointly instead of with the network frozen.
+//!
+//! The report's `reason` names the chosen hyperparameters, each stage's outcome and the
+//! condition number of the (column-scaled) observation Jacobian of the free parameters over the
+//! training poses, the paper's identifiability check.
+
+use super::awnn::{Activation, Awnn, Feature};
+use super::corrector::Corrector;
+use super::effects::RowInputs;
+use super::method::{Method, Problem, Solution, Solver};
+use super::optim::{Bounds, Cost, Damping, Ekf, Event, LeastSquares, LevenbergMarquardt, NoObserver, ObservationHook, Observer, Pso, Report};
+use super::problem::LengthFit;
+use super::problem::Samples;
+use crate::error::{Error, Result};
+use nalgebra::DMatrix;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// The paper's ablation variants; `Full` is the method itself (V6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Ablation {
+    /// V1: symbolic EKF then LM, no network.
+    V1Symbolic,
+    /// V2: hyperparameters drawn at random from the search box instead of PSO.
+    V2RandomInit,
+    /// V3: ReLU MLP instead of the wavelet network.
+    V3Mlp,
+    /// V4: Morlet instead of Mexican-hat wavelets.
+    V4Morlet,
+    /// V5: Stage II optimises the geometry and the network jointly.
+    V5Joint,
+    /// V6: the full method.
+    Full,
+    /// Extended: the network also sees the temperature (or time) and the backlash flanks, and
+    /// two network/LM alternations follow Stage II (see [`PsoEkfAwnn::refine_net`]).
+    Extended,
+}
+
+impl Ablation {
+    pub const ALL: [Ablation; 7] =
+        [Ablation::Full, Ablation::V1Symbolic, Ablation::V2RandomInit, Ablation::V3Mlp, Ablation::V4Morlet, Ablation::V5Joint, Ablation::Extended];
+    /// The method name of this variant on the command line.
+    pub fn method_name(self) -> &'static str {
+        match self {
+            Ablation::Full => "pso-ekf-awnn",
+            Ablation::V1Symbolic => "pso-ekf-awnn-v1",
+            Ablation::V2RandomInit => "pso-ekf-awnn-v2",
+            Ablation::V3Mlp => "pso-ekf-awnn-v3",
+            Ablation::V4Morlet => "pso-ekf-awnn-v4",
+            Ablation::V5Joint => "pso-ekf-awnn-v5",
+            Ablation::Extended => "pso-ekf-awnn-x",
+        }
+    }
+    fn activation(self) -> Option<Activation> {
+        match self {
+            Ablation::V1Symbolic => None,
+            Ablation::V3Mlp => Some(Activation::Relu),
+            Ablation::V4Morlet => Some(Activation::Morlet),
+            _ => Some(Activation::MexicanHat),
+        }
+    }
+}
+
+/// What the network sees besides the joint angles (see [`super::awnn::Feature`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum NetInputs {
+    /// The joint angles alone (the paper's network).
+    Joints,
+    /// q and the temperature (the time when the data have no temp column).
+    Thermal,
+    /// q, temperature (or time) and the backlash flank of every joint.
+    ThermalFlanks,
+    /// q, temperature (or time), flanks and the static joint torques (when the calibration has
+    /// a torque model).
+    ThermalFlanksTorques,
+}
+
+impl NetInputs {
+    /// The extra inputs these training rows can supply.
+    pub fn features(self, data: &Samples) -> Vec<Feature> {
+        let mut f = Vec::new();
+        if self == NetInputs::Joints || data.inputs.is_empty() {
+            return f;
+        }
+        if data.inputs.iter().all(|i| i.temp_c.is_some_and(f64::is_finite)) {
+            f.push(Feature::Temperature);
+        } else if data.inputs.iter().all(|i| i.t_s.is_some_and(f64::is_finite)) {
+            f.push(Feature::Time);
+        }
+        let nq = data.q.first().map_or(0, |q| q.len()).min(6);
+        if matches!(self, NetInputs::ThermalFlanks | NetInputs::ThermalFlanksTorques) {
+            f.extend((0..nq).filter(|&j| data.inputs.iter().any(|i| i.side[j] != data.inputs[0].side[j])).map(Feature::Side));
+        }
+        if self == NetInputs::ThermalFlanksTorques {
+            f.extend((0..nq).filter(|&j| data.inputs.iter().any(|i| i.torque[j].abs() > 1e-9)).map(Feature::Torque));
+        }
+        f
+    }
+}
+
+/// Stage I's hyperparameters, relative to documented scales (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Hyper {
+    /// Process noise per state relative to the median prior variance of the free parameters.
+    pub q_rel: f64,
+    /// Measurement noise relative to the data's estimated reading variance.
+    pub r_rel: f64,
+    /// SGD learning rate of the network.
+    pub lr: f64,
+}
+
+/// Stage 0's box: log10 bounds of `q_rel`, `r_rel` and `lr` (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SearchSpace {
+    pub log10_q_rel: (f64, f64),
+    pub log10_r_rel: (f64, f64),
+    pub log10_lr: (f64, f64),
+}
+
+impl Default for SearchSpace {
+    fn default() -> Self {
+        SearchSpace { log10_q_rel: (-8.0, -2.0), log10_r_rel: (-2.0, 2.0), log10_lr: (-3.0, 0.3f64.log10()) }
+    }
+}
+
+impl SearchSpace {
+    fn bounds(&self) -> Bounds {
+        let b = [self.log10_q_rel, self.log10_r_rel, self.log10_lr];
+        Bounds::new(b.iter().map(|v| v.0).collect(), b.iter().map(|v| v.1).collect())
+    }
+    fn hyper(v: &[f64]) -> Hyper {
+        Hyper { q_rel: 10f64.powf(v[0]), r_rel: 10f64.powf(v[1]), lr: 10f64.powf(v[2]) }
+    }
+    /// The box's centre (log scale), PSO's first particle.
+    pub fn centre(&self) -> Hyper {
+        let b = self.bounds();
+        Self::hyper(&(0..3).map(|k| 0.5 * (b.lower[k] + b.upper[k])).collect::<Vec<_>>())
+    }
+}
+
+/// The method's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PsoEkfAwnn {
+    pub variant: Ablation,
+    /// The network's inputs.
+    pub inputs: NetInputs,
+    /// Wavelet neurons (hidden units of the MLP ablation).
+    pub neurons: usize,
+    /// Stage I passes over the shuffled training rows.
+    pub epochs: usize,
+    pub search: SearchSpace,
+    pub pso_particles: usize,
+    pub pso_iterations: usize,
+    /// Fixed hyperparameters: Stage 0 is skipped (the sensitivity study sets these).
+    pub hyper: Option<Hyper>,
+    /// Stage II.
+    pub lm: LevenbergMarquardt,
+    /// Alternations after Stage II (0: the paper's three stages): the network is trained on the
+    /// residuals of the frozen geometry (see [`PsoEkfAwnn::refine_net`]), then LM refits the
+    /// geometry with that network frozen.
+    pub rounds: usize,
+}
+
+impl Default for PsoEkfAwnn {
+    fn default() -> Self {
+        PsoEkfAwnn {
+            variant: Ablation::Full,
+            inputs: NetInputs::Joints,
+            neurons: 20,
+            epochs: 3,
+            search: SearchSpace::default(),
+            pso_particles: 10,
+            pso_iterations: 10,
+            hyper: None,
+            rounds: 0,
+            lm: LevenbergMarquardt { max_iter: 100, ftol: 1e-10, xtol: 1e-10, gtol: 1e-10, initial_lambda: 1e-3, damping: Damping::Factor(10.0) },
+        }
+    }
+}
+
+impl PsoEkfAwnn {
+    pub fn variant(variant: Ablation) -> Self {
+        match variant {
+            Ablation::Extended => PsoEkfAwnn { variant, inputs: NetInputs::ThermalFlanks, rounds: 2, ..Default::default() },
+            _ => PsoEkfAwnn { variant, ..Default::default() },
+        }
+    }
+}
+
+/// The network as the EKF's observation hook: adds its output to each prediction and takes one
+/// SGD step per innovation; keeps the innovation RMSE of the last finished epoch.
+struct Learner<'a> {
+    net: Option<Awnn>,
+    q: &'a [Vec<f64>],
+    inputs: &'a [RowInputs],
+    lr: f64,
+    scratch: Vec<f64>,
+    sse: f64,
+    count: usize,
+    last_rmse: f64,
+}
+
+impl ObservationHook for Learner<'_> {
+    fn offset(&self, i: usize) -> f64 {
+        self.net.as_ref().map_or(0.0, |n| n.eval_row(&self.q[i], &self.inputs[i]))
+    }
+    fn innovation(&mut self, i: usize, y: f64) {
+        self.sse += y * y;
+        self.count += 1;
+        if let Some(n) = self.net.as_mut() {
+            n.sgd_step(&self.q[i], &self.inputs[i], y, self.lr, &mut self.scratch);
+        }
+    }
+    fn end_epoch(&mut self) {
+        self.last_rmse = if self.count > 0 { (self.sse / self.count as f64).sqrt() } else { f64::INFINITY };
+        self.sse = 0.0;
+        self.count = 0;
+    }
+}
+
+/// What Stage I leaves.
+pub struct StageOne {
+    pub x: Vec<f64>,
+    pub net: Option<Awnn>,
+    /// RMS innovation (mm) over the last epoch: Stage 0's fitness.
+    pub innovation_rmse: f64,
+    pub report: Report,
+}
+
+/// The least-squares problem of Stage II: the fit's residuals minus a frozen correction.
+pub struct Corrected<'a, 'b> {
+    pub fit: &'a LengthFit<'b>,
+    /// The frozen correction per training row, mm.
+    pub offset: Vec<f64>,
+}
+
+impl LeastSquares for Corrected<'_, '_> {
+    fn n_params(&self) -> usize {
+        self.fit.model.n_params()
+    }
+    fn n_residuals(&self) -> usize {
+        self.offset.len()
+    }
+    fn residuals(&self, x: &[f64], r: &mut [f64]) {
+        LeastSquares::residuals(self.fit, x, r);
+        r.iter_mut().zip(&self.offset).for_each(|(ri, c)| *ri -= c);
+    }
+    fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
+        LeastSquares::jacobian(self.fit, x, j);
+    }
+}
+
+/// Stage II of ablation V5: geometry and every network parameter in one least-squares problem.
+struct Joint<'a, 'b> {
+    fit: &'a LengthFit<'b>,
+    net: &'a Awnn,
+}
+
+impl Joint<'_, '_> {
+    fn net_at(&self, x: &[f64]) -> Awnn {
+        let mut n = self.net.clone();
+        n.set_params(&x[self.fit.model.n_params()..]);
+        n
+    }
+}
+
+impl LeastSquares for Joint<'_, '_> {
+    fn n_params(&self) -> usize {
+        self.fit.model.n_params() + self.net.n_params()
+    }
+    fn n_residuals(&self) -> usize {
+        self.fit.data.len()
+    }
+    fn residuals(&self, x: &[f64], r: &mut [f64]) {
+        let nm = self.fit.model.n_params();
+        LeastSquares::residuals(self.fit, &x[..nm], r);
+        let net = self.net_at(x);
+        let d = self.fit.data;
+        r.iter_mut().zip(d.q.iter().zip(&d.inputs)).for_each(|(ri, (q, inp))| *ri -= net.eval_row(q, inp));
+    }
+    fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
+        let nm = self.fit.model.n_params();
+        let mut jm = DMatrix::zeros(self.fit.data.len(), nm);
+        LeastSquares::jacobian(self.fit, &x[..nm], &mut jm);
+        j.view_mut((0, 0), jm.shape()).copy_from(&jm);
+        let net = self.net_at(x);
+        let mut g = vec![0.0; net.n_params()];
+        for (i, (q, inp)) in self.fit.data.q.iter().zip(&self.fit.data.inputs).enumerate() {
+            net.eval_param_grad(q, inp, &mut g);
+            for (k, gk) in g.iter().enumerate() {
+                j[(i, nm + k)] = -gk;
+            }
+        }
+    }
+}
+
+/// The training rows in a seeded random order.
+fn shuffled(n: usize, seed: u64) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..n).collect();
+    order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+    order
+}
+
+/// Median prior variance of the free parameters (the scale of Q).
+fn prior_var_scale(p: &Problem) -> f64 {
+    let v: Vec<f64> = (0..p.x0.len()).filter(|k| !p.fixed[*k]).map(|k| p.prior_std[k].powi(2)).collect();
+    if v.is_empty() {
+        1e-6
+    } else {
+        super::stats::median(&v)
+    }
+}
+
+/// Condition number of the column-scaled Jacobian of the free parameters.
+pub fn observation_condition(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 {
+    let mut j = DMatrix::zeros(fit.data.len(), fit.model.n_params());
+    LeastSquares::jacobian(fit, x, &mut j);
+    let cols: Vec<usize> = (0..x.len()).filter(|k| !fixed[*k]).collect();
+    let mut m = DMatrix::zeros(j.nrows(), cols.len());
+    for (c, &k) in cols.iter().enumerate() {
+        let n = j.column(k).norm();
+        if n > 0.0 {
+            m.set_column(c, &(j.column(k) / n));
+        }
+    }
+    if m.ncols() == 0 {
+        return 1.0;
+    }
+    let sv = m.svd(false, false).singular_values;
+    let (lo, hi) = sv.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| (lo.min(*s), hi.max(*s)));
+    if lo > 0.0 {
+        hi / lo
+    } else {
+        f64::INFINITY
+    }
+}
+
+impl PsoEkfAwnn {
+    /// A fresh network for this variant (none for V1).
+    pub fn new_net(&self, p: &Problem) -> Result<Option<Awnn>> {
+        let d = p.fit.data;
+        let extra = self.inputs.features(d);
+        self.variant
+            .activation()
+            .map(|act| Awnn::init_with(&d.q, &d.inputs, &extra, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration))
+            .transpose()
+    }
+
+    /// The inputs of the network this solver would use on these data's kind, e.g.
+    /// "q1..q6, temp, side1..side6" (as far as known without data: the setting's name).
+    pub fn new_net_label(&self) -> String {
+        match (self.variant.activation(), self.inputs) {
+            (None, _) => String::new(),
+            (_, NetInputs::Joints) => "q only".into(),
+            (_, NetInputs::Thermal) => "q + temperature (or time)".into(),
+            (_, NetInputs::ThermalFlanks) => "q + temperature (or time) + backlash flanks".into(),
+            (_, NetInputs::ThermalFlanksTorques) => "q + temperature (or time) + flanks + torques".into(),
+        }
+    }
+
+    /// Stage I with hyperparameters `h`, from `p.x0` and the fresh network `net`.
+    pub fn stage_one(&self, p: &Problem, h: &Hyper, net: Option<Awnn>, obs: &mut dyn Observer) -> StageOne {
+        let p0 = p.prior_std.iter().map(|s| (3.0 * s).powi(2)).collect();
+        let noise = if p.noise_mm.is_finite() && p.noise_mm > 0.0 { p.noise_mm } else { 0.01 };
+        let ekf = Ekf { epochs: self.epochs.max(1), q: h.q_rel * prior_var_scale(p), r: h.r_rel * noise * noise, p0, tol: 0.0 };
+        let scratch = vec![0.0; net.as_ref().map_or(0, |n| n.n_params())];
+        let mut learner = Learner { net, q: &p.fit.data.q, inputs: &p.fit.data.inputs, lr: h.lr, scratch, sse: 0.0, count: 0, last_rmse: f64::INFINITY };
+        let order = shuffled(p.fit.data.len(), p.seed);
+        let report = ekf.run_with(p.fit, p.x0, p.fixed, &order, &mut learner, obs);
+        let rmse = if learner.last_rmse.is_finite() && report.x.iter().all(|v| v.is_finite()) { learner.last_rmse } else { f64::INFINITY };
+        StageOne { x: report.x.clone(), net: learner.net, innovation_rmse: rmse, report }
+    }
+
+    /// Stage 0: the hyperparameters (PSO, or drawn at random for V2, or the fixed ones), the
+    /// fitness of the chosen ones and the number of Stage I runs spent.
+    pub fn stage_zero(&self, p: &Problem) -> Result<(Hyper, f64, usize)> {
+        if let Some(h) = self.hyper {
+            return Ok((h, f64::NAN, 0));
+        }
+        let b = self.search.bounds();
+        if self.variant == Ablation::V2RandomInit {
+            let mut rng = ChaCha8Rng::seed_from_u64(p.seed ^ 0x5EED_0002);
+            let v: Vec<f64> = (0..3).map(|k| rng.random_range(b.lower[k]..=b.upper[k])).collect();
+            return Ok((SearchSpace::hyper(&v), f64::NAN, 0));
+        }
+        let net = self.new_net(p)?;
+        let fitness = Fitness { solver: self, p, net: &net };
+        let centre: Vec<f64> = (0..3).map(|k| 0.5 * (b.lower[k] + b.upper[k])).collect();
+        let pso =
+            Pso { particles: self.pso_particles.max(2), iterations: self.pso_iterations.max(1), seed: p.seed, patience: 4, tol: 1e-4, ..Default::default() };
+        let rep = pso.minimize(&fitness, &b, Some(&centre), &mut NoObserver);
+        Ok((SearchSpace::hyper(&rep.x), rep.cost, rep.evaluations))
+    }
+
+    /// Stage II: LM on the geometry with the network frozen (V5: jointly with it).
+    pub fn stage_two(&self, p: &Problem, x1: &[f64], net: Option<Awnn>, obs: &mut dyn Observer) -> (Report, Option<Awnn>) {
+        match (self.variant, net) {
+            (Ablation::V5Joint, Some(net)) => {
+                let joint = Joint { fit: p.fit, net: &net };
+                let mut x = x1.to_vec();
+                x.extend(net.params());
+                let mut fixed = p.fixed.to_vec();
+                fixed.resize(x.len(), false);
+                let nm = p.x0.len();
+                let mut rep = self.lm.minimize(&joint, &x, &fixed, &mut Truncate { n: nm, inner: obs });
+                let net = joint.net_at(&rep.x);
+                rep.x.truncate(nm);
+                (rep, Some(net))
+            }
+            (_, net) => {
+                let d = p.fit.data;
+                let offset = d.q.iter().zip(&d.inputs).map(|(q, inp)| net.as_ref().map_or(0.0, |n| n.eval_row(q, inp))).collect();
+                let rep = self.lm.minimize(&Corrected { fit: p.fit, offset }, x1, p.fixed, obs);
+                (rep, net)
+            }
+        }
+    }
+}
+
+/// Learning rates tried by [`PsoEkfAwnn::refine_net`] (plain SGD on mm).
+pub const REFINE_RATES: [f64; 4] = [0.003, 0.01, 0.03, 0.1];
+/// Largest number of passes of one [`PsoEkfAwnn::refine_net`] run.
+pub const REFINE_EPOCHS: usize = 200;
+
+impl PsoEkfAwnn {
+    /// The network trained on what the frozen geometry `x` leaves on the training rows, with
+    /// its own validation: a seeded fifth of the training rows is held out, each rate of
+    /// [`REFINE_RATES`] trains a copy of `net` by SGD on the rest (up to [`REFINE_EPOCHS`]
+    /// passes, stopping 10 passes after the held-out RMSE last improved), and the copy with the
+    /// lowest held-out RMSE is kept, unless `net` itself is better there. The test rows are
+    /// never seen. Returns the network and its held-out RMSE.
+    pub fn refine_net(&self, p: &Problem, x: &[f64], net: &Awnn) -> (Awnn, f64) {
+        let d = p.fit.data;
+        // SGD runs on the residuals in units of their RMS (output weights scaled alike, exact
+        // since the output is linear in them), so that the rates mean the same at any error size.
+        let raw = p.fit.residuals_mm(x);
+        let scale = (raw.iter().map(|v| v * v).sum::<f64>() / raw.len().max(1) as f64).sqrt().max(1e-9);
+        let target: Vec<f64> = raw.iter().map(|v| v / scale).collect();
+        let mut net = net.clone();
+        net.weights.iter_mut().for_each(|w| *w /= scale);
+        let net = &net;
+        let order = shuffled(d.len(), p.seed ^ 0x0DD5_0003);
+        let n_val = (d.len() / 5).max(1).min(d.len().saturating_sub(1));
+        let (val, train) = order.split_at(n_val);
+        let val_rmse = |n: &Awnn| (val.iter().map(|&i| (target[i] - n.eval_row(&d.q[i], &d.inputs[i])).powi(2)).sum::<f64>() / val.len() as f64).sqrt();
+        let mut best = (net.clone(), val_rmse(net));
+        let mut g = vec![0.0; net.n_params()];
+        let mut rng = ChaCha8Rng::seed_from_u64(p.seed ^ 0x0DD5_0004);
+        for lr in REFINE_RATES {
+            let mut cur = net.clone();
+            let mut rows = train.to_vec();
+            let (mut run_best, mut since) = (f64::INFINITY, 0);
+            for _ in 0..REFINE_EPOCHS {
+                rows.shuffle(&mut rng);
+                for &i in &rows {
+                    let e = target[i] - cur.eval_row(&d.q[i], &d.inputs[i]);
+                    cur.sgd_step(&d.q[i], &d.inputs[i], e, lr, &mut g);
+                }
+                let v = val_rmse(&cur);
+                if !v.is_finite() {
+                    break;
+                }
+                if v < run_best {
+                    run_best = v;
+                    since = 0;
+                    if v < best.1 {
+                        best = (cur.clone(), v);
+                    }
+                } else {
+                    since += 1;
+                    if since >= 10 {
+                        break;
+                    }
+                }
+            }
+        }
+        best.0.weights.iter_mut().for_each(|w| *w *= scale);
+        (best.0, best.1 * scale)
+    }
+}
+
+/// Passes only the first `n` entries of `x` on (V5's geometry) to the caller's observer.
+struct Truncate<'a> {
+    n: usize,
+    inner: &'a mut dyn Observer,
+}
+
+impl Observer for Truncate<'_> {
+    fn observe(&mut self, e: &Event) {
+        self.inner.observe(&Event { x: &e.x[..self.n], ..e.clone() });
+    }
+}
+
+/// Stage 0's cost: Stage I's last-epoch innovation RMSE at log10 (q_rel, r_rel, lr).
+struct Fitness<'a, 'b> {
+    solver: &'a PsoEkfAwnn,
+    p: &'a Problem<'b>,
+    net: &'a Option<Awnn>,
+}
+
+impl Cost for Fitness<'_, '_> {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn cost(&self, v: &[f64]) -> f64 {
+        self.solver.stage_one(self.p, &SearchSpace::hyper(v), self.net.clone(), &mut NoObserver).innovation_rmse
+    }
+}
+
+impl Solver for PsoEkfAwnn {
+    fn method(&self) -> Method {
+        Method::PsoEkfAwnn(self.variant)
+    }
+    fn needs_noise(&self) -> bool {
+        true
+    }
+    fn needs_row_inputs(&self) -> bool {
+        self.inputs != NetInputs::Joints
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
+        let (h, fitness, runs) = self.stage_zero(p)?;
+        let net = self.new_net(p)?;
+        let one = self.stage_one(p, &h, net, obs);
+        if one.x.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Calibration("pso-ekf-awnn: Stage I diverged (non-finite geometric states)".into()));
+        }
+        let (mut rep, mut net) = self.stage_two(p, &one.x, one.net, obs);
+        let mut refined = Vec::new();
+        if self.variant != Ablation::V5Joint {
+            for _ in 0..self.rounds {
+                let Some(n) = net.as_ref() else { break };
+                let (n, v) = self.refine_net(p, &rep.x, n);
+                refined.push(v);
+                let (r, n) = self.stage_two(p, &rep.x, Some(n), obs);
+                rep.iterations += r.iterations;
+                rep.evaluations += r.evaluations;
+                rep = Report { iterations: rep.iterations, evaluations: rep.evaluations, ..r };
+                net = n;
+            }
+        }
+        let cond = observation_condition(p.fit, &rep.x, p.fixed);
+        let stage0 = match (self.hyper, self.variant) {
+            (Some(_), _) => "fixed".to_string(),
+            (None, Ablation::V2RandomInit) => "drawn at random".to_string(),
+            _ => format!("PSO, {runs} Stage I runs, fitness {fitness:.4} mm"),
+        };
+        rep.reason = format!(
+            "stage 0 ({stage0}): Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.3e}; stage I: {} epochs, innovation RMSE {:.4} mm; stage II{}: {}; \
+             {}observation Jacobian condition number {cond:.3e} over {} training poses",
+            h.q_rel,
+            h.r_rel,
+            h.lr,
+            one.report.iterations,
+            one.innovation_rmse,
+            if self.variant == Ablation::V5Joint { " (joint)" } else { "" },
+            rep.reason,
+            if refined.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "{} network/LM alternations (held-out RMSE {}); ",
+                    refined.len(),
+                    refined.iter().map(|v| format!("{v:.4}")).collect::<Vec<_>>().join(", ")
+                )
+            },
+            p.fit.data.len()
+        );
+        rep.iterations += one.report.iterations;
+        rep.evaluations += one.report.evaluations;
+        Ok(Solution { report: rep, corrector: net.map(Corrector::Awnn) })
+    }
+}
