@@ -88,9 +88,9 @@ pub struct PoseAcquisition {
     /// What the transient adds to L: the window's mean noise-free length minus that of the arm at
     /// rest on the flanks it ends on, mm.
     pub transient_mm: f64,
-    /// When the motion had died out (under 1 nm at the tool by the readings), s after arrival;
-    /// `null` if it had not by the end of the reading window.
-    pub quiet_s: Option<f64>,
+    /// From when on the transient could no longer reach 1 nm at the tool by the readings (its
+    /// amplitude decaying at the slowest modelled rate), s after arrival; `null`: it still could.
+    pub negligible_s: Option<f64>,
     /// The flank the load/approach rule predicts per joint (±1); `contact` is what the motion gave.
     pub rule_side: Vec<f64>,
 }
@@ -349,7 +349,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
                     gate_s: a.gate_s,
                     read_with_gate_closed: closed,
                     transient_mm: a.transient_mm,
-                    quiet_s: a.quiet_s,
+                    negligible_s: a.negligible_s,
                     rule_side: a.rule_sides.clone(),
                 };
                 (a.rest, Some(a.lengths), Some(pa))
@@ -410,7 +410,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             length_measured_mm: reading,
             settle_steps: rest.steps,
             settle_time_s: match &acq {
-                Some(a) => a.quiet_s.unwrap_or(s.sensor.hold_s + s.sensor.window_s()),
+                Some(a) => a.negligible_s.unwrap_or(s.sensor.hold_s + s.sensor.window_s()),
                 None => rest.steps as f64 * s.simulation.dt_s,
             },
             acquisition: acq,

@@ -8,6 +8,7 @@
 
 pub mod motion;
 pub mod rapier_sim;
+pub mod study;
 pub mod tour;
 
 use crate::effects::statics::{equilibrium, Contact, LoadModel, Transmission};

@@ -16,9 +16,11 @@
 //!   ratio is the scenario's); stiffer ones rapier's implicit spring (stable, but it damps their
 //!   fast modes numerically by k·dt).
 //! * **coarse** (`acquisition.coarse_dt_s`, every spring implicit): the move up to its final
-//!   deceleration, and the rest of a hold once the gate is open and the transient, decaying at
-//!   the slowest modelled rate, would have fallen below 1 nm at the tool before the readings.
-//!   Once nothing moves any more the remaining hold is skipped (the state is a fixed point).
+//!   deceleration.
+//! * **none**: once the gate is open and the transient, decaying at the slowest modelled rate,
+//!   would have fallen below 1 nm at the tool before the readings start, the arm is put at rest
+//!   at its static equilibrium on the flanks it is on (the dynamics' fixed point) and the rest
+//!   of the hold and the readings need no steps.
 //!
 //! The tour is cut into chunks of `acquisition.chunk_poses` poses. A chunk starts at rest at the
 //! pose before its first one (the quasi-static equilibrium on the rule's flanks, see
@@ -69,6 +71,11 @@ pub enum OnTimeout {
 pub struct Acquisition {
     #[serde(default)]
     pub model: AcquisitionModel,
+    /// Structural damping ratio ζ of each transmission in the simulated tour (real arms: a few
+    /// percent), used where `effects.compliance.damping_nms_per_rad` is not given. (The settled
+    /// model's `simulation.damping_ratio` only speeds up its settling.)
+    #[serde(default = "Acquisition::default_zeta")]
+    pub damping_ratio: f64,
     /// Time a joint takes to reach its cruise speed at its acceleration limit, s (acceleration
     /// limit = speed limit / ramp_s; URDF files give no acceleration limits).
     #[serde(default = "Acquisition::default_ramp")]
@@ -81,7 +88,7 @@ pub struct Acquisition {
     pub gate_mm: f64,
     #[serde(default)]
     pub on_timeout: OnTimeout,
-    /// Time step of the moves (before their final deceleration) and of the quiet part of holds, s.
+    /// Time step of the moves before their final deceleration, s.
     #[serde(default = "Acquisition::default_coarse_dt")]
     pub coarse_dt_s: f64,
     /// Poses per independently simulated chunk of the tour.
@@ -96,6 +103,7 @@ impl Default for Acquisition {
     fn default() -> Self {
         Acquisition {
             model: AcquisitionModel::default(),
+            damping_ratio: Self::default_zeta(),
             ramp_s: Self::default_ramp(),
             gate_window_s: Self::default_gate_window(),
             gate_mm: Self::default_gate_mm(),
@@ -107,6 +115,9 @@ impl Default for Acquisition {
 }
 
 impl Acquisition {
+    fn default_zeta() -> f64 {
+        0.05
+    }
     fn default_ramp() -> f64 {
         0.1
     }
@@ -117,7 +128,7 @@ impl Acquisition {
         0.02
     }
     fn default_coarse_dt() -> f64 {
-        0.01
+        0.02
     }
     fn default_chunk() -> usize {
         25
@@ -126,6 +137,9 @@ impl Acquisition {
     /// Checks every value, naming the key (`acquisition.<key>`) of the first bad one. `fine_dt_s`
     /// is `simulation.dt_s`, `rate_hz` the sensor's sampling rate.
     pub fn validate(&self, fine_dt_s: f64, rate_hz: f64) -> std::result::Result<(), String> {
+        if !(self.damping_ratio.is_finite() && self.damping_ratio > 0.0 && self.damping_ratio <= 10.0) {
+            return Err(format!("acquisition.damping_ratio = {} must be in (0, 10]", self.damping_ratio));
+        }
         if !(self.ramp_s.is_finite() && self.ramp_s > 0.0 && self.ramp_s <= 10.0) {
             return Err(format!("acquisition.ramp_s = {} must be in (0, 10] s", self.ramp_s));
         }
@@ -195,14 +209,15 @@ impl Schedule {
 /// Steps and wall time per phase of a pose's simulation.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PhaseStats {
-    /// Rapier steps: coarse move, fine deceleration, hold (fine), quiet hold (coarse), reading window.
+    /// Rapier steps: coarse move, fine deceleration, hold (fine), the rest of the hold once the
+    /// transient is negligible (no steps: the arm is put at rest), reading window.
     pub steps: [usize; 5],
     /// Wall time of the same phases, s (not part of any output file).
     pub seconds: [f64; 5],
 }
 
 /// Names of the phases of [`PhaseStats`].
-pub const PHASES: [&str; 5] = ["move (coarse)", "deceleration (fine)", "hold (fine)", "quiet hold (coarse)", "reading window"];
+pub const PHASES: [&str; 5] = ["move (coarse)", "deceleration (fine)", "hold (fine)", "rest of hold (at rest)", "reading window"];
 
 /// One pose as the simulated acquisition read it.
 #[derive(Clone, Debug)]
@@ -215,8 +230,9 @@ pub struct Acquired {
     pub gate_s: Option<f64>,
     /// Mean noise-free length of the window minus that of the arm at rest on the flanks it ends on, mm.
     pub transient_mm: f64,
-    /// When the motion had died out (below 1 nm at the tool by the readings), s after arrival.
-    pub quiet_s: Option<f64>,
+    /// From when on the transient, decaying at the slowest modelled rate, could no longer reach 1 nm
+    /// at the tool by the readings (fine stepping stopped), s after arrival.
+    pub negligible_s: Option<f64>,
     /// Backlash flank the rule predicts (±1) for comparison.
     pub rule_sides: Vec<f64>,
     pub stats: PhaseStats,
@@ -236,8 +252,6 @@ const NEGLIGIBLE_M: f64 = 1e-9;
 const REACH_M: f64 = 1.0;
 /// Explicit springs where ω·dt stays below this.
 const EXPLICIT_LIMIT: f64 = 1.0;
-/// Joint speed (rad/s) below which a held arm is at rest.
-const REST_RAD_S: f64 = 1e-12;
 
 struct Sim<'a> {
     twin: &'a Twin,
@@ -310,7 +324,7 @@ impl<'a> Sim<'a> {
             self.omega[j] = (k / i).sqrt();
             self.damping[j] = match &given {
                 Some(d) => d[j],
-                None => 2.0 * self.twin.settle.damping_ratio * (k * i).sqrt(),
+                None => 2.0 * self.acq.damping_ratio * (k * i).sqrt(),
             };
             self.zeta_min = self.zeta_min.min(self.damping[j] / (2.0 * (k * i).sqrt()));
         }
@@ -435,17 +449,61 @@ impl<'a> Sim<'a> {
         (tool, self.twin.sensor.ideal_length(&tool))
     }
 
-    /// Flank per joint for the quasi-static comparison at the current state.
-    fn sides(&self, delta: &[f64]) -> Vec<f64> {
-        self.states
-            .iter()
-            .zip(delta)
-            .map(|(s, d)| match s {
-                State::Flank(s) => *s,
-                _ if *d >= 0.0 => 1.0,
-                _ => -1.0,
-            })
-            .collect()
+    /// Tool point (m) of the arm at rest at commanded pose `q_cmd` at time `t`, on the flanks the
+    /// joints are on now; a joint inside its band (friction-held) keeps its deflection `delta`.
+    /// The quasi-static fixed point of [`crate::effects::statics::equilibrium`] with that rule.
+    fn rest_reference(&mut self, q_cmd: &[f64], delta: &[f64], t: f64) -> (Vector3<f64>, Vec<f64>) {
+        let twin = self.twin;
+        let chain = &twin.chain;
+        let n = q_cmd.len();
+        let q_motor: Vec<f64> = (0..n).map(|j| motor_of(twin, j, q_cmd[j], 0.0).0).collect();
+        let (p, scale) = twin.params_at(t);
+        let mut q = q_motor.clone();
+        let mut d = delta.to_vec();
+        if let Some(trans) = self.trans {
+            let mut jac = PointJacobian::new(chain);
+            let mut tau = vec![0.0; n];
+            for _ in 0..100 {
+                chain.forward(&q, &p, scale, &mut self.ws);
+                twin.load.torques(chain, &self.ws, &mut jac, &mut tau);
+                let mut change: f64 = 0.0;
+                for j in 0..n {
+                    let new = match self.states[j] {
+                        State::Spring => tau[j] / trans.stiffness[j],
+                        State::Flank(s) => s * trans.half_band[j] + tau[j] / trans.stiffness[j],
+                        State::Free => delta[j],
+                    };
+                    change = change.max((new - d[j]).abs());
+                    d[j] = new;
+                    q[j] = q_motor[j] + new;
+                }
+                if change < 1e-15 {
+                    break;
+                }
+            }
+        }
+        chain.forward(&q, &p, scale, &mut self.ws);
+        (chain.frame(&self.ws, chain.flange()).point(&twin.sensor.tool_point_m()), q)
+    }
+
+    /// Puts the arm at rest (no velocity) at its static equilibrium on its current flanks, at time
+    /// `t` of move `mv` (`t_abs` absolute).
+    fn snap_to_rest(&mut self, mv: &Move, t: f64, t_abs: f64) -> Result<()> {
+        if self.trans.is_none() {
+            return Ok(());
+        }
+        let (_, delta) = self.link(mv, t);
+        let q_cmd: Vec<f64> = (0..delta.len()).map(|j| mv.joint(j, t).0).collect();
+        let (_, q) = self.rest_reference(&q_cmd, &delta, t_abs);
+        let (x, _) = self.coords();
+        let disp: Vec<f64> = (0..q.len()).map(|j| q[j] - self.q_build[j] - x[j]).collect();
+        let (world, handles, _) = self.world.as_mut().expect("built");
+        let (mb, _) = world.multibody_joints.get_mut(handles[0]).ok_or_else(|| Error::Simulation("multibody missing".into()))?;
+        mb.apply_displacements(&disp);
+        mb.generalized_velocity_mut().fill(0.0);
+        mb.forward_kinematics(&world.bodies, false);
+        mb.update_rigid_bodies(&mut world.bodies, true);
+        Ok(())
     }
 
     fn contacts(&self, delta: &[f64]) -> Vec<Contact> {
@@ -622,7 +680,7 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     let mut rng = ChaCha8Rng::seed_from_u64(crate::scenario::stream_seed(settings.seed, crate::scenario::Stream::Gate, i as u64));
     let mut raw: Vec<f64> = Vec::with_capacity(hold_samples.min(1 << 16));
     let mut gate_s = None;
-    let mut quiet_s = None;
+    let mut negligible_s = None;
     let slow = sim.omega.iter().copied().fold(f64::INFINITY, f64::min);
     let recent = if slow.is_finite() && slow > 0.0 { ((std::f64::consts::TAU / slow) * sn.rate_hz).ceil() as usize } else { 1 };
     let mut speeds: std::collections::VecDeque<f64> = std::collections::VecDeque::new();
@@ -661,27 +719,20 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
         if gate_s.is_some() && (sim.trans.is_none() || speeds.len() >= recent) {
             let amplitude = if sim.trans.is_none() { 0.0 } else { speeds.iter().copied().fold(0.0, f64::max) / slow * REACH_M };
             if amplitude * (-sim.zeta_min * slow * (window_start - t)).exp() < NEGLIGIBLE_M {
-                quiet_s = Some(t - arrive);
+                negligible_s = Some(t - arrive);
                 break;
             }
         }
     }
     phase(&mut stats, 2, c, fine_steps);
     if k < hold_samples {
-        // Quiet: coarse implicit steps until at rest, then the rest of the hold passes unchanged.
+        // What is left of the transient decays below 1 nm before the readings: the rest of the
+        // hold passes with the arm at rest where it is heading (the static equilibrium on its
+        // flanks, which is also the fixed point of the dynamics), without stepping.
         let c = Instant::now();
-        let mut s = 0;
-        let count = ((window_start - t) / acq.coarse_dt_s - 1e-9).ceil().max(1.0) as usize;
-        let dt = (window_start - t) / count as f64;
-        for _ in 0..count {
-            s += 1;
-            if sim.step(mv, t, dt, false)? < REST_RAD_S {
-                resting = true;
-                break;
-            }
-            t += dt;
-        }
-        phase(&mut stats, 3, c, s);
+        sim.snap_to_rest(mv, t, t_start + t)?;
+        resting = true;
+        phase(&mut stats, 3, c, 0);
     }
 
     // The reading window after the hold.
@@ -707,12 +758,9 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     phase(&mut stats, 4, c, if sim.trans.is_some() { s } else { 0 });
     let t_read = schedule.read_t[i];
     let (q_link, deflection) = sim.link(mv, t);
-    let sides = sim.sides(&deflection);
     let contact = sim.contacts(&deflection);
-    let cmd = PoseCommand { q_cmd: mv.to.clone(), sides, t: t_read };
-    let at_rest = twin.quasi_static(&cmd);
     let mean_l = lengths.iter().sum::<f64>() / lengths.len() as f64;
-    let transient_mm = mean_l - sn.ideal_length(&at_rest.tool);
+    let transient_mm = mean_l - sn.ideal_length(&sim.rest_reference(&mv.to, &deflection, t_read).0);
     let (p, scale) = twin.params_at(t_read);
     let chain = &twin.chain;
     chain.forward(&q_link, &p, scale, &mut sim.ws);
@@ -730,5 +778,5 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
         frames,
         steps: stats.steps.iter().sum(),
     };
-    Ok(Acquired { rest, lengths, gate_s, transient_mm, quiet_s, rule_sides: rule.to_vec(), stats })
+    Ok(Acquired { rest, lengths, gate_s, transient_mm, negligible_s, rule_sides: rule.to_vec(), stats })
 }

@@ -39,6 +39,7 @@ mod backend;
 mod backend;
 
 pub mod scenes;
+pub mod study;
 
 /// A recording sink. With the `rerun` feature it writes an `.rrd` file; without it,
 /// [`Recorder::create`] returns an error saying twincal was built without Rerun support.
