@@ -349,22 +349,25 @@ impl<'a> Sim<'a> {
                 qd_end[j] = qd1;
                 let (k, h) = (trans.stiffness[j], trans.half_band[j]);
                 let delta = self.q_build[j] + x[j] - qm0;
+                // Contact decided against where the motor will be at the step's end: a coarse step
+                // may carry the motor across the whole band.
+                let ahead = self.q_build[j] + x[j] - qm1;
                 self.states[j] = match self.states[j] {
                     State::Spring => State::Spring,
                     State::Flank(s) => {
-                        let pull = delta - s * h;
+                        let pull = ahead - s * h;
                         if pull * s < 0.0 && k * pull.abs() > trans.breakaway {
                             State::Free
                         } else {
                             State::Flank(s)
                         }
                     }
-                    State::Free if delta.abs() >= h => State::Flank(delta.signum()),
+                    State::Free if ahead.abs() >= h => State::Flank(ahead.signum()),
                     State::Free => State::Free,
                 };
                 let c = self.damping[j];
                 let Some(link) = mb.link_mut(j + 1) else { continue };
-                let (spring, rest, damp, extra, motor) = match self.states[j] {
+                let (spring, rest, damp, extra, friction) = match self.states[j] {
                     State::Free => (0.0, 0.0, 0.0, 0.0, trans.breakaway > 0.0),
                     State::Spring | State::Flank(_) => {
                         let s = if let State::Flank(s) = self.states[j] { s } else { 0.0 };
@@ -379,14 +382,8 @@ impl<'a> Sim<'a> {
                     }
                 };
                 link.joint.set_spring(3, spring, rest);
-                if motor {
-                    link.joint.data.set_motor(JointAxis::AngX, 0.0, qd1, 0.0, 1e9);
-                    link.joint.data.set_motor_model(JointAxis::AngX, MotorModel::ForceBased);
-                    link.joint.data.set_motor_max_force(JointAxis::AngX, trans.breakaway);
-                } else {
-                    link.joint.data.motor_axes.remove(JointAxesMask::ANG_X);
-                }
                 mb.damping_mut()[j] = damp;
+                mb.frictions_mut()[j] = if friction { trans.breakaway } else { 0.0 };
                 torque[j] = extra;
             }
         }
