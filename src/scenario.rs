@@ -393,6 +393,12 @@ mod tests {
             ("simulation", "quiet_steps", "0"),
             ("simulation", "damping_ratio", "inf"),
             ("simulation", "dt_s", "nan"),
+            ("acquisition", "damping_ratio", "-0.05"),
+            ("acquisition", "ramp_s", "0.0"),
+            ("acquisition", "gate_window_s", "inf"),
+            ("acquisition", "gate_mm", "-1.0"),
+            ("acquisition", "coarse_dt_s", "0.0001"),
+            ("acquisition", "chunk_poses", "0"),
         ];
         for (table, key, value) in cases {
             assert_names(table, key, value);

@@ -146,7 +146,7 @@ impl Acquisition {
         if !(self.gate_window_s.is_finite() && self.gate_window_s > 0.0 && self.gate_window_s <= 10.0) {
             return Err(format!("acquisition.gate_window_s = {} must be in (0, 10] s", self.gate_window_s));
         }
-        if self.gate_window_s * rate_hz < 1.0 - 1e-9 {
+        if self.model == AcquisitionModel::Simulated && self.gate_window_s * rate_hz < 1.0 - 1e-9 {
             return Err(format!("acquisition.gate_window_s = {} s holds no sample at sensor.rate_hz = {rate_hz} Hz", self.gate_window_s));
         }
         if !(self.gate_mm.is_finite() && self.gate_mm >= 0.0) {
