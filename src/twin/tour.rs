@@ -447,9 +447,11 @@ impl<'a> Sim<'a> {
     }
 
     /// Tool point (m) of the arm at rest at commanded pose `q_cmd` at time `t`, on the flanks the
-    /// joints are on now; a joint inside its band (friction-held) keeps its deflection `delta`.
+    /// joints are on now (a flank loaded off by more than the breakaway gives way to the other);
+    /// a joint inside its band (friction-held) keeps its deflection `delta`. Also returns the
+    /// link angles and the flank states.
     /// The quasi-static fixed point of [`crate::effects::statics::equilibrium`] with that rule.
-    fn rest_reference(&mut self, q_cmd: &[f64], delta: &[f64], t: f64) -> (Vector3<f64>, Vec<f64>) {
+    fn rest_reference(&mut self, q_cmd: &[f64], delta: &[f64], t: f64) -> (Vector3<f64>, Vec<f64>, Vec<State>) {
         let twin = self.twin;
         let chain = &twin.chain;
         let n = q_cmd.len();
@@ -457,6 +459,7 @@ impl<'a> Sim<'a> {
         let (p, scale) = twin.params_at(t);
         let mut q = q_motor.clone();
         let mut d = delta.to_vec();
+        let mut states = self.states.clone();
         if let Some(trans) = self.trans {
             let mut jac = PointJacobian::new(chain);
             let mut tau = vec![0.0; n];
@@ -465,7 +468,14 @@ impl<'a> Sim<'a> {
                 twin.load.torques(chain, &self.ws, &mut jac, &mut tau);
                 let mut change: f64 = 0.0;
                 for j in 0..n {
-                    let new = match self.states[j] {
+                    // A flank whose load pulls the link off it by more than the breakaway lets go:
+                    // the load carries the link across the band to its own flank.
+                    if let State::Flank(s) = states[j] {
+                        if tau[j] * s < 0.0 && tau[j].abs() > trans.breakaway {
+                            states[j] = State::Flank(-s);
+                        }
+                    }
+                    let new = match states[j] {
                         State::Spring => tau[j] / trans.stiffness[j],
                         State::Flank(s) => s * trans.half_band[j] + tau[j] / trans.stiffness[j],
                         State::Free => delta[j],
@@ -480,7 +490,7 @@ impl<'a> Sim<'a> {
             }
         }
         chain.forward(&q, &p, scale, &mut self.ws);
-        (chain.frame(&self.ws, chain.flange()).point(&twin.sensor.tool_point_m()), q)
+        (chain.frame(&self.ws, chain.flange()).point(&twin.sensor.tool_point_m()), q, states)
     }
 
     /// Puts the arm at rest (no velocity) at its static equilibrium on its current flanks, at time
@@ -491,7 +501,8 @@ impl<'a> Sim<'a> {
         }
         let (_, delta) = self.link(mv, t);
         let q_cmd: Vec<f64> = (0..delta.len()).map(|j| mv.joint(j, t).0).collect();
-        let (_, q) = self.rest_reference(&q_cmd, &delta, t_abs);
+        let (_, q, states) = self.rest_reference(&q_cmd, &delta, t_abs);
+        self.states = states;
         let (x, _) = self.coords();
         let disp: Vec<f64> = (0..q.len()).map(|j| q[j] - self.q_build[j] - x[j]).collect();
         let (world, handles, _) = self.world.as_mut().expect("built");
