@@ -530,7 +530,7 @@ pub fn study(what: StudyTarget, scenario: Option<&Path>, study: &crate::twin::st
     println!("hold study ({}, first {} poses, readings taken even with the gate closed)", s.name, rows.first().map(|r| r.poses).unwrap_or(0));
     println!(
         "  damping ratio {}, gate: {} s windows within {} mm; averaged reading noise {:.2} µm (not included below)",
-        s.simulation.damping_ratio,
+        s.acquisition.damping_ratio,
         s.acquisition.gate_window_s,
         s.acquisition.gate_mm,
         floor * 1e3
