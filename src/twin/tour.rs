@@ -253,6 +253,8 @@ const REACH_M: f64 = 1.0;
 /// Explicit springs where ω·dt stays below this (ω from the joint's inertia with the rest of the
 /// arm held; the coupled modes run higher, and at 1.0 slow tours with short holds diverged).
 const EXPLICIT_LIMIT: f64 = 0.5;
+/// Largest link-to-motor twist before the simulation counts as diverged, rad.
+const MAX_TWIST_RAD: f64 = 0.1;
 
 struct Sim<'a> {
     twin: &'a Twin,
@@ -336,7 +338,7 @@ impl<'a> Sim<'a> {
     fn step(&mut self, mv: &Move, t: f64, dt: f64, fine: bool) -> Result<f64> {
         let Some(trans) = self.trans else { return Ok(0.0) };
         let n = self.q_build.len();
-        let (x, _) = self.coords();
+        let (x, v0) = self.coords();
         let mut torque = vec![0.0; n];
         let mut qd_end = vec![0.0; n];
         let motor0: Vec<(f64, f64)> = (0..n).map(|j| self.motor(mv, j, t)).collect();
@@ -350,10 +352,12 @@ impl<'a> Sim<'a> {
                 qd_end[j] = qd1;
                 let (k, h) = (trans.stiffness[j], trans.half_band[j]);
                 let delta = self.q_build[j] + x[j] - qm0;
-                // Contact decided against where the motor will be at the step's end: a coarse step
-                // may carry the motor across the whole band.
-                let ahead = self.q_build[j] + x[j] - qm1;
-                self.states[j] = match self.states[j] {
+                // Contact decided against where the motor will be at the step's end (a coarse step may
+                // carry it across the whole band), and in a coarse step where the link is heading too
+                // (a link carried along on a flank would otherwise look left behind).
+                let ahead = self.q_build[j] + x[j] + if fine { 0.0 } else { v0[j] * dt } - qm1;
+                let before = self.states[j];
+                self.states[j] = match before {
                     State::Spring => State::Spring,
                     State::Flank(s) => {
                         let pull = ahead - s * h;
@@ -366,6 +370,14 @@ impl<'a> Sim<'a> {
                     State::Free if ahead.abs() >= h => State::Flank(ahead.signum()),
                     State::Free => State::Free,
                 };
+                if !fine && self.states[j] == State::Free {
+                    // A coarse step is far longer than a crossing of the band: the link lands on
+                    // the flank it is heading for (the other one when it just let go of one).
+                    self.states[j] = match before {
+                        State::Flank(s) => State::Flank(-s),
+                        _ => State::Flank(if ahead >= 0.0 { 1.0 } else { -1.0 }),
+                    };
+                }
                 let c = self.damping[j];
                 let Some(link) = mb.link_mut(j + 1) else { continue };
                 let (spring, rest, damp, extra, friction) = match self.states[j] {
@@ -413,11 +425,13 @@ impl<'a> Sim<'a> {
         world.integration_parameters.dt = dt;
         world.step();
         self.steps += 1;
-        let (_, v) = self.coords();
+        let (x, v) = self.coords();
         let mut fastest: f64 = 0.0;
         for j in 0..n {
-            if !v[j].is_finite() {
-                return Err(Error::Simulation(format!("joint {} diverged", j + 1)));
+            // No real transmission twists by a tenth of a radian: that is a diverged integration.
+            let twist = self.q_build[j] + x[j] - motor1[j].0;
+            if !(v[j].is_finite() && twist.abs() < MAX_TWIST_RAD) {
+                return Err(Error::Simulation(format!("joint {} diverged (link {twist:e} rad off its motor)", j + 1)));
             }
             fastest = fastest.max((v[j] - qd_end[j]).abs());
         }
