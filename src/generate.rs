@@ -6,6 +6,7 @@ use crate::error::{Error, Result};
 use crate::robot::kinematics::Frame;
 use crate::robot::Robot;
 use crate::scenario::{halton, stream_seed, Order, Scenario, Stream, HALTON_BASES};
+use crate::twin::tour::{Acquired, AcquisitionModel, OnTimeout, Schedule, TourSettings};
 use crate::twin::{approach_sides, PoseCommand, RestingPose, Twin};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -70,6 +71,28 @@ pub struct PoseTruth {
     /// Simulated time the arm took to come to rest, s. Longer than the sensor's hold time means
     /// a real reading would have been taken while the arm still moved.
     pub settle_time_s: f64,
+    /// How the simulated acquisition went at this pose (absent for settled / quasi-static datasets).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acquisition: Option<PoseAcquisition>,
+}
+
+/// Per pose of a simulated acquisition (`acquisition.model = "simulated"`).
+#[derive(Clone, Debug, Serialize)]
+pub struct PoseAcquisition {
+    /// Duration of the move to this pose, s.
+    pub move_s: f64,
+    /// When the stability gate opened, s after arrival; `null`: still closed when the hold ended.
+    pub gate_s: Option<f64>,
+    /// The readings were taken with the gate closed (`on_timeout = "read"`).
+    pub read_with_gate_closed: bool,
+    /// What the transient adds to L: the window's mean noise-free length minus that of the arm at
+    /// rest on the flanks it ends on, mm.
+    pub transient_mm: f64,
+    /// From when on the transient could no longer reach 1 nm at the tool by the readings (its
+    /// amplitude decaying at the slowest modelled rate), s after arrival; `null`: it still could.
+    pub negligible_s: Option<f64>,
+    /// The flank the load/approach rule predicts per joint (±1); `contact` is what the motion gave.
+    pub rule_side: Vec<f64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -240,45 +263,117 @@ pub fn measured_temp(s: &Scenario, i: usize, t: f64) -> Option<f64> {
     Some(round_decimals(v, TEMP_DECIMALS))
 }
 
+/// What the twin gave for one pose.
+pub enum Outcome {
+    /// At rest (settled in rapier, or the quasi-static model).
+    Rest(RestingPose),
+    /// Read during a simulated acquisition.
+    Acquired(Acquired),
+}
+
+/// Every pose through the scenario's acquisition model, in order; results do not depend on the
+/// number of threads.
+pub fn acquire_all(s: &Scenario, twin: &Twin, poses: &[Vec<f64>], sides: &[Vec<f64>], times: &[f64], progress: &dyn Progress) -> Vec<Result<Outcome>> {
+    let cmd = |i: usize| PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: times[i] };
+    let what = match s.acquisition.model {
+        AcquisitionModel::Settled => "settling poses",
+        AcquisitionModel::QuasiStatic => "quasi-static poses",
+        AcquisitionModel::Simulated => "simulating the tour",
+    };
+    progress.start(poses.len() as u64, what);
+    let out = match s.acquisition.model {
+        AcquisitionModel::Settled => (0..poses.len())
+            .into_par_iter()
+            .map(|i| {
+                let r = twin.simulate(&cmd(i)).map(Outcome::Rest);
+                progress.inc(1);
+                r
+            })
+            .collect(),
+        AcquisitionModel::QuasiStatic => (0..poses.len())
+            .map(|i| {
+                progress.inc(1);
+                Ok(Outcome::Rest(twin.quasi_static(&cmd(i))))
+            })
+            .collect(),
+        AcquisitionModel::Simulated => {
+            let settings = TourSettings { seed: s.seed, speed_fraction: s.sampling.speed_fraction };
+            crate::twin::tour::acquire(twin, &s.acquisition, settings, &vec![0.0; twin.chain.n_joints], poses, progress)
+                .into_iter()
+                .map(|r| r.map(Outcome::Acquired))
+                .collect()
+        }
+    };
+    progress.finish();
+    out
+}
+
 /// Runs a scenario end to end. Poses are simulated in parallel; results do not depend on the
 /// number of threads.
 pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<Generated> {
     let twin = build_twin(s, robot);
     let poses = sample_poses(s, robot)?;
-    let times = acquisition_times(s, robot, &poses);
+    let home = vec![0.0; robot.dof()];
+    let schedule = (s.acquisition.model == AcquisitionModel::Simulated)
+        .then(|| Schedule::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s, s.sensor.window_s(), &home, &poses));
+    let times = match &schedule {
+        Some(sc) => sc.read_t.clone(),
+        None => acquisition_times(s, robot, &poses),
+    };
     let sides = approach_sides(&vec![0.0; robot.dof()], &poses);
     let chain = &twin.chain;
     let nominal_lengths: Vec<f64> = poses.iter().map(|q| nominal_length(chain, &s.sensor, q)).collect();
     let split = stratified_split(&nominal_lengths, s.sampling.test, s.seed);
 
-    progress.start(poses.len() as u64, "settling poses");
-    let results: Vec<Result<RestingPose>> = (0..poses.len())
-        .into_par_iter()
-        .map(|i| {
-            let cmd = PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: times[i] };
-            let r = twin.simulate(&cmd);
-            progress.inc(1);
-            r
-        })
-        .collect();
-    progress.finish();
-
+    let results = acquire_all(s, &twin, &poses, &sides, &times, progress);
     let deg = |v: &[f64]| v.iter().map(|x| x.to_degrees()).collect::<Vec<f64>>();
     let mut rows = Vec::new();
     let mut truth_poses = Vec::new();
     let mut frames = Vec::new();
     let mut rejected = Vec::new();
     for (i, r) in results.into_iter().enumerate() {
-        let rest = match r {
-            Ok(r) => r,
+        let (rest, series, acq) = match r {
+            Ok(Outcome::Rest(r)) => (r, None, None),
+            Ok(Outcome::Acquired(a)) => {
+                let closed = a.gate_s.is_none();
+                if closed && s.acquisition.on_timeout == OnTimeout::Reject {
+                    let reason = format!(
+                        "stability gate still closed when the {} s hold ended (readings differed by {} mm or more between {} s windows)",
+                        s.sensor.hold_s, s.acquisition.gate_mm, s.acquisition.gate_window_s
+                    );
+                    rejected.push(Rejected { index: i, q_cmd_deg: deg(&poses[i]), reason });
+                    continue;
+                }
+                let pa = PoseAcquisition {
+                    move_s: schedule.as_ref().map(|sc| sc.moves[i].duration).unwrap_or(0.0),
+                    gate_s: a.gate_s,
+                    read_with_gate_closed: closed,
+                    transient_mm: a.transient_mm,
+                    negligible_s: a.negligible_s,
+                    rule_side: a.rule_sides.clone(),
+                };
+                (a.rest, Some(a.lengths), Some(pa))
+            }
             Err(e) => {
                 rejected.push(Rejected { index: i, q_cmd_deg: deg(&poses[i]), reason: e.to_string() });
                 continue;
             }
         };
-        let l_true = s.sensor.ideal_length(&rest.tool);
+        // The window's mean noise-free length (constant for an arm at rest).
+        let l_true = match &series {
+            Some(l) => l.iter().sum::<f64>() / l.len().max(1) as f64,
+            None => s.sensor.ideal_length(&rest.tool),
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Noise, i as u64));
-        let reading = match s.sensor.read(l_true, &mut rng) {
+        let read = match &series {
+            Some(l) => s.sensor.read_series(l, &mut rng),
+            None => s.sensor.read(l_true, &mut rng),
+        };
+        let noise_free = match &series {
+            Some(l) => l.iter().map(|v| v + s.sensor.linearity_error(*v)).sum::<f64>() / l.len().max(1) as f64,
+            None => l_true + s.sensor.linearity_error(l_true),
+        };
+        let reading = match read {
             Ok(v) => v,
             Err(e) => {
                 rejected.push(Rejected { index: i, q_cmd_deg: deg(&poses[i]), reason: e.to_string() });
@@ -311,10 +406,14 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             contact: rest.contact.clone(),
             tool_mm: [rest.tool.x * 1e3, rest.tool.y * 1e3, rest.tool.z * 1e3],
             length_true_mm: l_true,
-            length_noise_free_mm: l_true + s.sensor.linearity_error(l_true),
+            length_noise_free_mm: noise_free,
             length_measured_mm: reading,
             settle_steps: rest.steps,
-            settle_time_s: rest.steps as f64 * s.simulation.dt_s,
+            settle_time_s: match &acq {
+                Some(a) => a.negligible_s.unwrap_or(s.sensor.hold_s + s.sensor.window_s()),
+                None => rest.steps as f64 * s.simulation.dt_s,
+            },
+            acquisition: acq,
         });
         frames.push(rest.frames);
     }

@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use twincal::cli::{self, AngleArg, BenchTarget};
+use twincal::cli::{self, AngleArg, BenchTarget, StudyTarget};
 
 #[derive(Parser)]
 #[command(name = "twincal", version, about = "Digital twin and calibration of serial arms measured with a draw-wire sensor")]
@@ -253,6 +253,27 @@ enum Command {
         #[arg(long)]
         compare: bool,
     },
+    /// Studies of the acquisition protocol on the simulated tour: `hold` (bias and spread of the
+    /// readings against the hold time and the approach speed).
+    Study {
+        #[arg(value_enum)]
+        what: StudyTarget,
+        /// Scenario TOML; default: the embedded irb120_evo_nph scenario.
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Hold times, s.
+        #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1,0.2,0.5,1,2", allow_negative_numbers = true)]
+        holds: Vec<f64>,
+        /// Approach speeds, fractions of the URDF speed limits.
+        #[arg(long, value_delimiter = ',', default_value = "0.05,0.2,0.5", allow_negative_numbers = true)]
+        speeds: Vec<f64>,
+        /// The first this many poses of the scenario's tour.
+        #[arg(long, default_value_t = 60)]
+        poses: usize,
+        /// Rerun recording of bias and spread against the hold time.
+        #[arg(long)]
+        rrd: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -356,6 +377,13 @@ fn main() -> ExitCode {
         Command::Ik { model, targets, random, twin, no_twin, jacobian, tol_mm, seed, out } => {
             twincal::ikcmd::ik(&twincal::ikcmd::IkArgs { model, targets, random, twin, no_twin, jacobian, tol_mm, seed, out }, args.quiet)
         }
+        Command::Study { what, scenario, holds, speeds, poses, rrd } => cli::study(
+            what,
+            scenario.as_deref(),
+            &twincal::twin::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses },
+            rrd.as_deref(),
+            args.quiet,
+        ),
         Command::Bench { what, scenario, repeat, seeds, compare } => cli::bench_command(what, scenario.as_deref(), repeat, seeds, compare, args.quiet),
     };
     match result {

@@ -5,6 +5,7 @@ use crate::effects::Effects;
 use crate::error::{Error, Result};
 use crate::robot::{Robot, PARAM_SUFFIXES};
 use crate::sensor::DrawWire;
+use crate::twin::tour::Acquisition;
 use crate::twin::SettleOptions;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -41,6 +42,10 @@ pub struct Scenario {
     pub sampling: Sampling,
     #[serde(default)]
     pub simulation: SettleOptions,
+    /// How the readings are acquired: settled poses (default), the quasi-static model, or the
+    /// simulated tour with moves, holds and a stability gate.
+    #[serde(default)]
+    pub acquisition: Acquisition,
 }
 
 /// True geometric deviations: random with the given standard deviations, then explicit values.
@@ -224,6 +229,7 @@ impl Scenario {
             return Err(err(format!("sampling.angle_decimals = {} must be at most {MAX_ANGLE_DECIMALS}", sm.angle_decimals)));
         }
         self.simulation.validate().map_err(err)?;
+        self.acquisition.validate(self.simulation.dt_s, self.sensor.rate_hz).map_err(err)?;
         Ok(())
     }
 
@@ -280,6 +286,8 @@ pub enum Stream {
     Noise = 4,
     /// Noise of the temperature sensor (`effects.thermal.temp_noise_k`), one item per pose.
     TempNoise = 5,
+    /// Raw readings the stability gate of a simulated acquisition watches during the hold, one item per pose.
+    Gate = 6,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).
@@ -385,6 +393,12 @@ mod tests {
             ("simulation", "quiet_steps", "0"),
             ("simulation", "damping_ratio", "inf"),
             ("simulation", "dt_s", "nan"),
+            ("acquisition", "damping_ratio", "-0.05"),
+            ("acquisition", "ramp_s", "0.0"),
+            ("acquisition", "gate_window_s", "inf"),
+            ("acquisition", "gate_mm", "-1.0"),
+            ("acquisition", "coarse_dt_s", "0.0001"),
+            ("acquisition", "chunk_poses", "0"),
         ];
         for (table, key, value) in cases {
             assert_names(table, key, value);

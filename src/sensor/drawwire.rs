@@ -182,6 +182,37 @@ impl DrawWire {
         self.linearity_pct_fs / 100.0 * fs * (2.0 * std::f64::consts::PI * u).sin()
     }
 
+    /// One raw sample for a true length `l` (mm): linearity error, noise, quantisation (no range check).
+    pub fn raw_sample<R: Rng>(&self, l: f64, rng: &mut R) -> f64 {
+        let mut s = l + self.linearity_error(l);
+        if self.noise_std_mm > 0.0 {
+            s += self.noise_std_mm * rng.sample::<f64, _>(rand_distr::StandardNormal);
+        }
+        if self.resolution_mm > 0.0 {
+            s = (s / self.resolution_mm).round() * self.resolution_mm;
+        }
+        s
+    }
+
+    /// The averaged reading of raw samples whose true lengths (mm) are `lengths`, one per sample
+    /// (a moving arm): each sample as in [`Self::read`]; out of range if any sample's signal is.
+    pub fn read_series<R: Rng>(&self, lengths: &[f64], rng: &mut R) -> Result<f64, OutOfRange> {
+        let normal = Normal::new(0.0, self.noise_std_mm.max(0.0)).map_err(|_| OutOfRange { value_mm: f64::NAN, range_mm: self.range_mm })?;
+        let mut sum = 0.0;
+        for l in lengths {
+            let signal = l + self.linearity_error(*l);
+            if !(self.range_mm[0]..=self.range_mm[1]).contains(&signal) {
+                return Err(OutOfRange { value_mm: signal, range_mm: self.range_mm });
+            }
+            let mut s = signal + if self.noise_std_mm > 0.0 { normal.sample(rng) } else { 0.0 };
+            if self.resolution_mm > 0.0 {
+                s = (s / self.resolution_mm).round() * self.resolution_mm;
+            }
+            sum += s;
+        }
+        Ok(sum / lengths.len().max(1) as f64)
+    }
+
     /// The instrument's reading for a true length `l` (mm): linearity error, then `samples` noisy,
     /// quantised samples averaged. Out-of-range readings are errors, never clipped.
     pub fn read<R: Rng>(&self, l: f64, rng: &mut R) -> Result<f64, OutOfRange> {

@@ -6,7 +6,10 @@
 //! other only through the approach flanks and the acquisition time, both known in advance, so they
 //! can be simulated in parallel and still give the same result as a sequential run.
 
+pub mod motion;
 pub mod rapier_sim;
+pub mod study;
+pub mod tour;
 
 use crate::effects::statics::{equilibrium, Contact, LoadModel, Transmission};
 use crate::effects::Effects;

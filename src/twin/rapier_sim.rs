@@ -17,19 +17,19 @@ use nalgebra::{Matrix3, Vector3};
 use rapier3d_f64::glamx::{DMat3, DQuat, DVec3};
 use rapier3d_f64::prelude::*;
 
-fn dvec(v: &Vector3<f64>) -> DVec3 {
+pub(super) fn dvec(v: &Vector3<f64>) -> DVec3 {
     DVec3::new(v.x, v.y, v.z)
 }
-fn nvec(v: DVec3) -> Vector3<f64> {
+pub(super) fn nvec(v: DVec3) -> Vector3<f64> {
     Vector3::new(v.x, v.y, v.z)
 }
 fn dmat(m: &Matrix3<f64>) -> DMat3 {
     DMat3::from_cols(dvec(&m.column(0).into()), dvec(&m.column(1).into()), dvec(&m.column(2).into()))
 }
-fn pose(f: &Frame) -> Pose {
+pub(super) fn pose(f: &Frame) -> Pose {
     Pose::from_parts(dvec(&f.pos), DQuat::from_mat3(&dmat(&f.rot)).normalize())
 }
-fn frame(p: &Pose) -> Frame {
+pub(super) fn frame(p: &Pose) -> Frame {
     let m = DMat3::from_quat(p.rotation);
     let c = |v: DVec3| nvec(v);
     Frame { rot: Matrix3::from_columns(&[c(m.x_axis), c(m.y_axis), c(m.z_axis)]), pos: nvec(p.translation) }
@@ -70,8 +70,23 @@ pub(super) fn simulate(twin: &Twin, cmd: &PoseCommand) -> Result<RestingPose> {
     let mut ws = FkWork::new(chain);
     chain.forward(&cmd.q_cmd, &params, scale, &mut ws);
     let frames: Vec<Frame> = (0..chain.n_frames()).map(|f| chain.frame(&ws, f)).collect();
-    let flange_in_last = frames[chain.flange()].relative_to(&frames[n]);
 
+    let (mut world, handles, bodies) = build(twin, &frames)?;
+    let Some(trans) = twin.transmission.as_ref() else {
+        // Rigid arm: nothing moves, the multibody's own forward kinematics gives the pose.
+        return read_back(twin, &world, &handles, cmd, vec![0.0; n], vec![Contact::Spring; n], 0, &params, scale);
+    };
+    settle(twin, trans, &mut world, &handles, &bodies, cmd, &frames, &params, scale)
+}
+
+/// The multibody at the configuration whose link frames are `frames` (base, links, flange): a
+/// fixed base and one dynamic body per link (payload merged into the last), joined by revolute
+/// multibody joints (fixed joints for a rigid arm) whose coordinate is the rotation away from
+/// `frames`. Returns the world, the joint handles and the body handles (base first).
+pub(super) fn build(twin: &Twin, frames: &[Frame]) -> Result<(PhysicsWorld, Vec<MultibodyJointHandle>, Vec<RigidBodyHandle>)> {
+    let chain = &twin.chain;
+    let n = chain.n_joints;
+    let flange_in_last = frames[chain.flange()].relative_to(&frames[n]);
     let mut world = PhysicsWorld::new();
     world.gravity = dvec(&twin.load.gravity);
     world.integration_parameters.dt = twin.settle.dt_s;
@@ -109,17 +124,13 @@ pub(super) fn simulate(twin: &Twin, cmd: &PoseCommand) -> Result<RestingPose> {
         mb.forward_kinematics(&world.bodies, true);
         mb.update_rigid_bodies(&mut world.bodies, true);
     }
-    let Some(trans) = twin.transmission.as_ref() else {
-        // Rigid arm: nothing moves, the multibody's own forward kinematics gives the pose.
-        return read_back(twin, &world, &handles, cmd, vec![0.0; n], vec![Contact::Spring; n], 0, &params, scale);
-    };
-    settle(twin, trans, &mut world, &handles, &bodies, cmd, &frames, &params, scale)
+    Ok((world, handles, bodies))
 }
 
 /// Inertia about each joint axis of everything distal to it (payload included), kg·m², from the
 /// frames at the commanded pose. Frame `j + 1` closes right after joint `j`'s rotation, so its
 /// origin lies on that joint's axis and the axis keeps its direction.
-fn joint_inertias(twin: &Twin, frames: &[Frame]) -> Vec<f64> {
+pub(super) fn joint_inertias(twin: &Twin, frames: &[Frame]) -> Vec<f64> {
     let chain = &twin.chain;
     let n = chain.n_joints;
     let mut bodies: Vec<Inertial> = (0..n).map(|i| twin.robot.links[i].transformed(&frames[i + 1])).collect();

@@ -44,6 +44,7 @@ mod backend;
 pub mod layout;
 pub mod plot;
 pub mod scenes;
+pub mod study;
 
 pub use layout::{Blueprint, Layout, ViewKind, ViewSpec};
 

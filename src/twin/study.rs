@@ -1,0 +1,98 @@
+//! `twincal study hold`: what the acquisition protocol costs. The scenario's tour (its first
+//! poses) is simulated for every hold time and approach speed; each reading's transient error
+//! (its noise-free length minus that of the arm at rest on the flanks it ends on) gives a bias and
+//! a spread per setting, next to the robot time the protocol takes.
+
+use super::tour::{acquire, Acquisition, AcquisitionModel, OnTimeout, Schedule, TourSettings};
+use crate::error::Result;
+use crate::generate::{build_twin, sample_poses, Progress};
+use crate::robot::Robot;
+use crate::scenario::Scenario;
+use serde::Serialize;
+
+/// One setting of the study.
+#[derive(Clone, Debug, Serialize)]
+pub struct HoldStudyRow {
+    pub speed_fraction: f64,
+    pub hold_s: f64,
+    pub poses: usize,
+    /// Mean transient error of the readings, mm.
+    pub bias_mm: f64,
+    /// Standard deviation of the transient error, mm.
+    pub spread_mm: f64,
+    /// Largest |transient error|, mm.
+    pub max_mm: f64,
+    /// Poses whose gate was still closed when the hold ended (read anyway here).
+    pub gate_closed: usize,
+    /// Median gate opening time over the poses where it opened, s after arrival.
+    pub median_gate_s: Option<f64>,
+    /// Robot time per pose (move, hold, readings), s.
+    pub time_per_pose_s: f64,
+}
+
+/// The study's settings.
+#[derive(Clone, Debug)]
+pub struct HoldStudy {
+    pub holds_s: Vec<f64>,
+    pub speed_fractions: Vec<f64>,
+    /// The first this many poses of the scenario's tour.
+    pub poses: usize,
+}
+
+impl HoldStudy {
+    /// Checks every value, naming the option.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        if self.holds_s.is_empty() || self.holds_s.iter().any(|h| !(h.is_finite() && (0.0..=crate::sensor::drawwire::MAX_HOLD_S).contains(h))) {
+            return Err(format!("--holds needs values in [0, {}] s, got {:?}", crate::sensor::drawwire::MAX_HOLD_S, self.holds_s));
+        }
+        if self.speed_fractions.is_empty() || self.speed_fractions.iter().any(|v| !(v.is_finite() && *v > 0.0 && *v <= 1.0)) {
+            return Err(format!("--speeds needs fractions in (0, 1], got {:?}", self.speed_fractions));
+        }
+        if !(1..=crate::scenario::MAX_POSES).contains(&self.poses) {
+            return Err(format!("--poses must be in 1..={}, got {}", crate::scenario::MAX_POSES, self.poses));
+        }
+        Ok(())
+    }
+}
+
+/// Runs the study on scenario `s`: its twin, effects, sensor and gate, the acquisition simulated
+/// with readings taken even when the gate is still closed.
+pub fn hold_study(s: &Scenario, robot: &Robot, study: &HoldStudy, progress: &dyn Progress) -> Result<Vec<HoldStudyRow>> {
+    study.validate().map_err(crate::error::Error::Invalid)?;
+    let mut poses = sample_poses(s, robot)?;
+    poses.truncate(study.poses);
+    let home = vec![0.0; robot.dof()];
+    let acq = Acquisition { model: AcquisitionModel::Simulated, on_timeout: OnTimeout::Read, ..s.acquisition.clone() };
+    let mut rows = Vec::new();
+    progress.start((study.holds_s.len() * study.speed_fractions.len() * poses.len()) as u64, "hold study");
+    for &v in &study.speed_fractions {
+        for &h in &study.holds_s {
+            let mut sc = s.clone();
+            sc.sensor.hold_s = h;
+            sc.sampling.speed_fraction = v;
+            let twin = build_twin(&sc, robot);
+            let settings = TourSettings { seed: sc.seed, speed_fraction: v };
+            let acquired: Vec<_> = acquire(&twin, &acq, settings, &home, &poses, progress).into_iter().collect::<Result<_>>()?;
+            let e: Vec<f64> = acquired.iter().map(|a| a.transient_mm).collect();
+            let m = e.len() as f64;
+            let bias = e.iter().sum::<f64>() / m;
+            let spread = if e.len() > 1 { (e.iter().map(|x| (x - bias).powi(2)).sum::<f64>() / (m - 1.0)).sqrt() } else { 0.0 };
+            let gates: Vec<f64> = acquired.iter().filter_map(|a| a.gate_s).collect();
+            let schedule = Schedule::new(robot, v, acq.ramp_s, h, sc.sensor.window_s(), &home, &poses);
+            let end = schedule.read_t.last().copied().unwrap_or(0.0) + 0.5 * sc.sensor.window_s();
+            rows.push(HoldStudyRow {
+                speed_fraction: v,
+                hold_s: h,
+                poses: e.len(),
+                bias_mm: bias,
+                spread_mm: spread,
+                max_mm: e.iter().fold(0.0f64, |a, x| a.max(x.abs())),
+                gate_closed: acquired.len() - gates.len(),
+                median_gate_s: (!gates.is_empty()).then(|| crate::calib::stats::median(&gates)),
+                time_per_pose_s: end / m,
+            });
+        }
+    }
+    progress.finish();
+    Ok(rows)
+}

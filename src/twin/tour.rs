@@ -1,0 +1,805 @@
+//! The acquisition itself simulated in rapier: one multibody runs the tour in order. The
+//! controller moves the motor side of each joint along a joint-space trajectory
+//! ([`super::motion::Move`]); the link follows through the transmission (spring with structural
+//! damping, in series with the backlash band and its dry friction) under gravity, payload and
+//! cable tension. After each move the arm is held for `sensor.hold_s` while the draw-wire sensor
+//! samples at `sensor.rate_hz`; a stability gate watches the readings, and the `samples` readings
+//! after the hold are averaged. The flank each joint rests on comes out of the motion.
+//!
+//! The joint coordinate is the link angle (rotation away from the configuration the multibody was
+//! built at). The transmission acts on δ = link − motor, the motor side being the commanded
+//! trajectory plus the encoder eccentricity. Time stepping:
+//!
+//! * **fine** (`simulation.dt_s`, aligned with the sensor's samples): the final deceleration, the
+//!   hold and the reading window. Joints whose transmission mode is slow enough (ω·dt < 0.5) get
+//!   their spring as an explicit torque (symplectic Euler: no numerical damping, so the damping
+//!   ratio is the scenario's); stiffer ones rapier's implicit spring (stable, but it damps their
+//!   fast modes numerically by k·dt).
+//! * **coarse** (`acquisition.coarse_dt_s`, every spring implicit): the move up to its final
+//!   deceleration.
+//! * **none**: once the gate is open and the transient, decaying at the slowest modelled rate,
+//!   would have fallen below 1 nm at the tool before the readings start, the arm is put at rest
+//!   at its static equilibrium on the flanks it is on (the dynamics' fixed point) and the rest
+//!   of the hold and the readings need no steps.
+//!
+//! The tour is cut into chunks of `acquisition.chunk_poses` poses. A chunk starts at rest at the
+//! pose before its first one (the quasi-static equilibrium on the rule's flanks, see
+//! [`super::approach_sides`]), at the time the schedule gives, so chunks are independent and
+//! run in parallel with results that do not depend on the number of threads.
+
+use super::motion::Move;
+use super::rapier_sim::{build, dvec, joint_inertias, nvec};
+use super::{PoseCommand, RestingPose, Twin};
+use crate::effects::statics::{Contact, Transmission};
+use crate::error::{Error, Result};
+use crate::robot::kinematics::{FkWork, Frame, PointJacobian};
+use crate::robot::Robot;
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rapier3d_f64::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// How `generate` turns commanded poses into readings.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AcquisitionModel {
+    /// Each pose settled in a rapier world of its own, flanks from the load/approach rule, read
+    /// at rest (no transient; `hold_s` and the damping change nothing).
+    #[default]
+    Settled,
+    /// The quasi-static model only (torque equilibrium, same rule): the fastest.
+    QuasiStatic,
+    /// The whole tour simulated: moves, holds, sampling, gate.
+    Simulated,
+}
+
+/// What a simulated acquisition does when the stability gate is still closed at the end of the hold.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OnTimeout {
+    /// The pose is left out of the dataset (listed under `rejected` in truth.json).
+    #[default]
+    Reject,
+    /// The readings after the hold are taken anyway.
+    Read,
+}
+
+/// The `[acquisition]` table of a scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Acquisition {
+    #[serde(default)]
+    pub model: AcquisitionModel,
+    /// Structural damping ratio ζ of each transmission in the simulated tour (real arms: a few
+    /// percent), used where `effects.compliance.damping_nms_per_rad` is not given. (The settled
+    /// model's `simulation.damping_ratio` only speeds up its settling.)
+    #[serde(default = "Acquisition::default_zeta")]
+    pub damping_ratio: f64,
+    /// Time a joint takes to reach its cruise speed at its acceleration limit, s (acceleration
+    /// limit = speed limit / ramp_s; URDF files give no acceleration limits).
+    #[serde(default = "Acquisition::default_ramp")]
+    pub ramp_s: f64,
+    /// The gate compares the mean of the last `gate_window_s` of raw readings with the mean of
+    /// the window before; it opens when they differ by less than `gate_mm`.
+    #[serde(default = "Acquisition::default_gate_window")]
+    pub gate_window_s: f64,
+    #[serde(default = "Acquisition::default_gate_mm")]
+    pub gate_mm: f64,
+    #[serde(default)]
+    pub on_timeout: OnTimeout,
+    /// Time step of the moves before their final deceleration, s.
+    #[serde(default = "Acquisition::default_coarse_dt")]
+    pub coarse_dt_s: f64,
+    /// Poses per independently simulated chunk of the tour.
+    #[serde(default = "Acquisition::default_chunk")]
+    pub chunk_poses: usize,
+}
+
+/// Largest `acquisition.coarse_dt_s`, s.
+pub const MAX_COARSE_DT_S: f64 = 0.05;
+
+impl Default for Acquisition {
+    fn default() -> Self {
+        Acquisition {
+            model: AcquisitionModel::default(),
+            damping_ratio: Self::default_zeta(),
+            ramp_s: Self::default_ramp(),
+            gate_window_s: Self::default_gate_window(),
+            gate_mm: Self::default_gate_mm(),
+            on_timeout: OnTimeout::default(),
+            coarse_dt_s: Self::default_coarse_dt(),
+            chunk_poses: Self::default_chunk(),
+        }
+    }
+}
+
+impl Acquisition {
+    fn default_zeta() -> f64 {
+        0.05
+    }
+    fn default_ramp() -> f64 {
+        0.1
+    }
+    fn default_gate_window() -> f64 {
+        0.02
+    }
+    fn default_gate_mm() -> f64 {
+        0.02
+    }
+    fn default_coarse_dt() -> f64 {
+        0.02
+    }
+    fn default_chunk() -> usize {
+        25
+    }
+
+    /// Checks every value, naming the key (`acquisition.<key>`) of the first bad one. `fine_dt_s`
+    /// is `simulation.dt_s`, `rate_hz` the sensor's sampling rate.
+    pub fn validate(&self, fine_dt_s: f64, rate_hz: f64) -> std::result::Result<(), String> {
+        if !(self.damping_ratio.is_finite() && self.damping_ratio > 0.0 && self.damping_ratio <= 10.0) {
+            return Err(format!("acquisition.damping_ratio = {} must be in (0, 10]", self.damping_ratio));
+        }
+        if !(self.ramp_s.is_finite() && self.ramp_s > 0.0 && self.ramp_s <= 10.0) {
+            return Err(format!("acquisition.ramp_s = {} must be in (0, 10] s", self.ramp_s));
+        }
+        if !(self.gate_window_s.is_finite() && self.gate_window_s > 0.0 && self.gate_window_s <= 10.0) {
+            return Err(format!("acquisition.gate_window_s = {} must be in (0, 10] s", self.gate_window_s));
+        }
+        if self.model == AcquisitionModel::Simulated && self.gate_window_s * rate_hz < 1.0 - 1e-9 {
+            return Err(format!("acquisition.gate_window_s = {} s holds no sample at sensor.rate_hz = {rate_hz} Hz", self.gate_window_s));
+        }
+        if !(self.gate_mm.is_finite() && self.gate_mm >= 0.0) {
+            return Err(format!("acquisition.gate_mm = {} must be finite and >= 0", self.gate_mm));
+        }
+        if !(self.coarse_dt_s.is_finite() && self.coarse_dt_s >= fine_dt_s && self.coarse_dt_s <= MAX_COARSE_DT_S) {
+            return Err(format!("acquisition.coarse_dt_s = {} must be in [simulation.dt_s = {fine_dt_s}, {MAX_COARSE_DT_S}] s", self.coarse_dt_s));
+        }
+        if !(1..=crate::scenario::MAX_POSES).contains(&self.chunk_poses) {
+            return Err(format!("acquisition.chunk_poses = {} must be in 1..={}", self.chunk_poses, crate::scenario::MAX_POSES));
+        }
+        Ok(())
+    }
+
+    /// Raw samples in one gate window.
+    pub fn gate_samples(&self, rate_hz: f64) -> usize {
+        ((self.gate_window_s * rate_hz).round() as usize).max(1)
+    }
+}
+
+/// Timing of a tour: every move and when each pose is reached and read.
+#[derive(Clone, Debug)]
+pub struct Schedule {
+    pub moves: Vec<Move>,
+    /// Start of the move to each pose, s from the start of acquisition.
+    pub move_start: Vec<f64>,
+    /// Arrival (end of the move), s.
+    pub arrival: Vec<f64>,
+    /// Middle of the reading window, s (the dataset's `t`).
+    pub read_t: Vec<f64>,
+}
+
+impl Schedule {
+    /// The tour from `home` through `poses` (commanded angles, rad): each move at `speed_fraction`
+    /// of the URDF speed limits with ramps of `ramp_s`, then `hold_s` still and `window_s` of readings.
+    pub fn new(robot: &Robot, speed_fraction: f64, ramp_s: f64, hold_s: f64, window_s: f64, home: &[f64], poses: &[Vec<f64>]) -> Schedule {
+        let speed: Vec<f64> = robot.joints.iter().map(|j| speed_fraction * j.max_velocity.max(1e-3)).collect();
+        let mut s = Schedule { moves: Vec::new(), move_start: Vec::new(), arrival: Vec::new(), read_t: Vec::new() };
+        let mut t = 0.0;
+        let mut prev = home.to_vec();
+        for q in poses {
+            let m = Move::plan(&prev, q, &speed, ramp_s);
+            s.move_start.push(t);
+            t += m.duration;
+            s.arrival.push(t);
+            s.read_t.push(t + hold_s + 0.5 * window_s);
+            t += hold_s + window_s;
+            s.moves.push(m);
+            prev = q.clone();
+        }
+        s
+    }
+
+    /// When the pose before `i` was left (its move's start time): the chunk starting at `i` begins then.
+    fn chunk_start(&self, i: usize) -> f64 {
+        self.move_start[i]
+    }
+}
+
+/// Steps and wall time per phase of a pose's simulation.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PhaseStats {
+    /// Rapier steps: coarse move, fine deceleration, hold (fine), the rest of the hold once the
+    /// transient is negligible (no steps: the arm is put at rest), reading window.
+    pub steps: [usize; 5],
+    /// Wall time of the same phases, s (not part of any output file).
+    pub seconds: [f64; 5],
+}
+
+/// Names of the phases of [`PhaseStats`].
+pub const PHASES: [&str; 5] = ["move (coarse)", "deceleration (fine)", "hold (fine)", "rest of hold (at rest)", "reading window"];
+
+/// One pose as the simulated acquisition read it.
+#[derive(Clone, Debug)]
+pub struct Acquired {
+    /// The arm at the end of the reading window; `tool` is the mean tool point over the window.
+    pub rest: RestingPose,
+    /// Noise-free length (distance + offset, mm) at each raw sample of the reading window.
+    pub lengths: Vec<f64>,
+    /// When the stability gate opened, s after arrival (`None`: still closed at the end of the hold).
+    pub gate_s: Option<f64>,
+    /// Mean noise-free length of the window minus that of the arm at rest on the flanks it ends on, mm.
+    pub transient_mm: f64,
+    /// From when on the transient, decaying at the slowest modelled rate, could no longer reach 1 nm
+    /// at the tool by the readings (fine stepping stopped), s after arrival.
+    pub negligible_s: Option<f64>,
+    /// Backlash flank the rule predicts (±1) for comparison.
+    pub rule_sides: Vec<f64>,
+    pub stats: PhaseStats,
+}
+
+/// Transmission state of one joint.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum State {
+    Spring,
+    Flank(f64),
+    Free,
+}
+
+/// Below this tool displacement (m) a transient no longer matters.
+const NEGLIGIBLE_M: f64 = 1e-9;
+/// Lever used to turn joint amplitudes into tool displacements, m (bounds the IRB 120's reach).
+const REACH_M: f64 = 1.0;
+/// Explicit springs where ω·dt stays below this (ω from the joint's inertia with the rest of the
+/// arm held; the coupled modes run higher, and at 1.0 slow tours with short holds diverged).
+const EXPLICIT_LIMIT: f64 = 0.5;
+/// Largest link-to-motor twist before the simulation counts as diverged, rad.
+const MAX_TWIST_RAD: f64 = 0.1;
+
+struct Sim<'a> {
+    twin: &'a Twin,
+    acq: &'a Acquisition,
+    trans: Option<&'a Transmission>,
+    world: Option<(PhysicsWorld, Vec<MultibodyJointHandle>, Vec<RigidBodyHandle>)>,
+    /// Motor-side angles (chain inputs) the multibody was built at.
+    q_build: Vec<f64>,
+    axes: Vec<Vector3<f64>>,
+    tool_in_last: Vector3<f64>,
+    states: Vec<State>,
+    /// Per pose: structural damping (N·m·s/rad), transmission mode ω (rad/s).
+    damping: Vec<f64>,
+    omega: Vec<f64>,
+    zeta_min: f64,
+    steps: usize,
+    ws: FkWork,
+}
+
+impl<'a> Sim<'a> {
+    fn motor(&self, mv: &Move, j: usize, t: f64) -> (f64, f64) {
+        let (q, v) = mv.joint(j, t);
+        motor_of(self.twin, j, q, v)
+    }
+
+    fn coords(&self) -> (Vec<f64>, Vec<f64>) {
+        let n = self.q_build.len();
+        match &self.world {
+            Some((world, handles, _)) if self.trans.is_some() => {
+                let (mb, _) = world.multibody_joints.get(handles[0]).expect("built");
+                let x = (0..n).map(|j| mb.link(j + 1).map(|l| l.joint().coords()[3]).unwrap_or(0.0)).collect();
+                let v = mb.generalized_velocity().iter().copied().collect();
+                (x, v)
+            }
+            _ => (vec![0.0; n], vec![0.0; n]),
+        }
+    }
+
+    /// Link-side chain angles and deflections at time `t` of move `mv`.
+    fn link(&self, mv: &Move, t: f64) -> (Vec<f64>, Vec<f64>) {
+        let n = self.q_build.len();
+        let (x, _) = self.coords();
+        let mut q = vec![0.0; n];
+        let mut d = vec![0.0; n];
+        for j in 0..n {
+            let (qm, _) = self.motor(mv, j, t);
+            if self.trans.is_some() {
+                q[j] = self.q_build[j] + x[j];
+                d[j] = q[j] - qm;
+            } else {
+                q[j] = qm;
+            }
+        }
+        (q, d)
+    }
+
+    /// Per-pose dynamics parameters at the move's target.
+    fn prepare(&mut self, mv: &Move, t_abs: f64) {
+        let Some(trans) = self.trans else { return };
+        let n = self.q_build.len();
+        let q_motor: Vec<f64> = (0..n).map(|j| self.motor(mv, j, mv.duration).0).collect();
+        let (p, scale) = self.twin.params_at(t_abs);
+        self.twin.chain.forward(&q_motor, &p, scale, &mut self.ws);
+        let frames: Vec<Frame> = (0..self.twin.chain.n_frames()).map(|f| self.twin.chain.frame(&self.ws, f)).collect();
+        let inertia = joint_inertias(self.twin, &frames);
+        let given = self.twin.effects.compliance.as_ref().and_then(|c| c.damping_nms_per_rad.clone());
+        self.zeta_min = f64::INFINITY;
+        for j in 0..n {
+            let (k, i) = (trans.stiffness[j], inertia[j].max(1e-9));
+            self.omega[j] = (k / i).sqrt();
+            self.damping[j] = match &given {
+                Some(d) => d[j],
+                None => 2.0 * self.acq.damping_ratio * (k * i).sqrt(),
+            };
+            self.zeta_min = self.zeta_min.min(self.damping[j] / (2.0 * (k * i).sqrt()));
+        }
+    }
+
+    /// One rapier step of length `dt` from `t` (time from the move's start). Returns the largest
+    /// joint speed relative to its motor after the step, rad/s.
+    fn step(&mut self, mv: &Move, t: f64, dt: f64, fine: bool) -> Result<f64> {
+        let Some(trans) = self.trans else { return Ok(0.0) };
+        let n = self.q_build.len();
+        let (x, v0) = self.coords();
+        let mut torque = vec![0.0; n];
+        let mut qd_end = vec![0.0; n];
+        let motor0: Vec<(f64, f64)> = (0..n).map(|j| self.motor(mv, j, t)).collect();
+        let motor1: Vec<(f64, f64)> = (0..n).map(|j| self.motor(mv, j, t + dt)).collect();
+        {
+            let (world, handles, _) = self.world.as_mut().expect("built");
+            let (mb, _) = world.multibody_joints.get_mut(handles[0]).expect("built");
+            for j in 0..n {
+                let (qm0, _) = motor0[j];
+                let (qm1, qd1) = motor1[j];
+                qd_end[j] = qd1;
+                let (k, h) = (trans.stiffness[j], trans.half_band[j]);
+                let delta = self.q_build[j] + x[j] - qm0;
+                // Contact decided against where the motor will be at the step's end (a coarse step may
+                // carry it across the whole band), and in a coarse step where the link is heading too
+                // (a link carried along on a flank would otherwise look left behind).
+                let ahead = self.q_build[j] + x[j] + if fine { 0.0 } else { v0[j] * dt } - qm1;
+                let before = self.states[j];
+                self.states[j] = match before {
+                    State::Spring => State::Spring,
+                    State::Flank(s) => {
+                        let pull = ahead - s * h;
+                        if pull * s < 0.0 && k * pull.abs() > trans.breakaway {
+                            State::Free
+                        } else {
+                            State::Flank(s)
+                        }
+                    }
+                    State::Free if ahead.abs() >= h => State::Flank(ahead.signum()),
+                    State::Free => State::Free,
+                };
+                if !fine && self.states[j] == State::Free {
+                    // A coarse step is far longer than a crossing of the band: the link lands on
+                    // the flank it is heading for (the other one when it just let go of one).
+                    self.states[j] = match before {
+                        State::Flank(s) => State::Flank(-s),
+                        _ => State::Flank(if ahead >= 0.0 { 1.0 } else { -1.0 }),
+                    };
+                }
+                let c = self.damping[j];
+                let Some(link) = mb.link_mut(j + 1) else { continue };
+                let (spring, rest, damp, extra, friction) = match self.states[j] {
+                    State::Free => (0.0, 0.0, 0.0, 0.0, trans.breakaway > 0.0),
+                    State::Spring | State::Flank(_) => {
+                        let s = if let State::Flank(s) = self.states[j] { s } else { 0.0 };
+                        if fine && self.omega[j] * dt < EXPLICIT_LIMIT {
+                            // Explicit spring at the step's start, damping relative to the motor.
+                            (0.0, 0.0, c, -k * (delta - s * h) + c * qd1, false)
+                        } else {
+                            // Implicit spring towards the motor's position at the step's end; it damps by k·dt itself.
+                            let d = (c - k * dt).max(0.0);
+                            (k, qm1 - self.q_build[j] + s * h, d, d * qd1, false)
+                        }
+                    }
+                };
+                link.joint.set_spring(3, spring, rest);
+                mb.damping_mut()[j] = damp;
+                mb.frictions_mut()[j] = if friction { trans.breakaway } else { 0.0 };
+                torque[j] = extra;
+            }
+        }
+        let (world, _, bodies) = self.world.as_mut().expect("built");
+        for b in bodies.iter().skip(1) {
+            let rb = &mut world.bodies[*b];
+            rb.reset_forces(false);
+            rb.reset_torques(false);
+        }
+        for j in 0..n {
+            if torque[j] == 0.0 {
+                continue;
+            }
+            let child = &world.bodies[bodies[j + 1]];
+            let axis = nvec(child.position().rotation * dvec(&self.axes[j]));
+            world.bodies[bodies[j + 1]].add_torque(dvec(&(axis * torque[j])), false);
+            if j > 0 {
+                world.bodies[bodies[j]].add_torque(dvec(&(-axis * torque[j])), false);
+            }
+        }
+        if let Some(cable) = &self.twin.load.cable {
+            let rb = &mut world.bodies[bodies[n]];
+            let p = nvec(rb.position().transform_point(dvec(&self.tool_in_last)));
+            rb.add_force_at_point(dvec(&cable.force_at(&p)), dvec(&p), false);
+        }
+        world.integration_parameters.dt = dt;
+        world.step();
+        self.steps += 1;
+        let (x, v) = self.coords();
+        let mut fastest: f64 = 0.0;
+        for j in 0..n {
+            // No real transmission twists by a tenth of a radian: that is a diverged integration.
+            let twist = self.q_build[j] + x[j] - motor1[j].0;
+            if !(v[j].is_finite() && twist.abs() < MAX_TWIST_RAD) {
+                return Err(Error::Simulation(format!("joint {} diverged (link {twist:e} rad off its motor)", j + 1)));
+            }
+            fastest = fastest.max((v[j] - qd_end[j]).abs());
+        }
+        Ok(fastest)
+    }
+
+    /// Steps from `t0` to `t1` (times from the move's start) with steps of at most `dt_max`.
+    fn run(&mut self, mv: &Move, t0: f64, t1: f64, dt_max: f64, fine: bool) -> Result<usize> {
+        if t1 <= t0 || self.trans.is_none() {
+            return Ok(0);
+        }
+        let count = ((t1 - t0) / dt_max - 1e-9).ceil().max(1.0) as usize;
+        let dt = (t1 - t0) / count as f64;
+        for k in 0..count {
+            self.step(mv, t0 + k as f64 * dt, dt, fine)?;
+        }
+        Ok(count)
+    }
+
+    /// Tool point (m) and noise-free length (mm) at time `t` of move `mv`, `t_abs` absolute.
+    fn reading(&mut self, mv: &Move, t: f64, t_abs: f64) -> (Vector3<f64>, f64) {
+        let (q, _) = self.link(mv, t);
+        let (p, scale) = self.twin.params_at(t_abs);
+        let chain = &self.twin.chain;
+        chain.forward(&q, &p, scale, &mut self.ws);
+        let tool = chain.frame(&self.ws, chain.flange()).point(&self.twin.sensor.tool_point_m());
+        (tool, self.twin.sensor.ideal_length(&tool))
+    }
+
+    /// Tool point (m) of the arm at rest at commanded pose `q_cmd` at time `t`, on the flanks the
+    /// joints are on now (a flank loaded off by more than the breakaway gives way to the other);
+    /// a joint inside its band (friction-held) keeps its deflection `delta`. Also returns the
+    /// link angles and the flank states.
+    /// The quasi-static fixed point of [`crate::effects::statics::equilibrium`] with that rule.
+    fn rest_reference(&mut self, q_cmd: &[f64], delta: &[f64], t: f64) -> (Vector3<f64>, Vec<f64>, Vec<State>) {
+        let twin = self.twin;
+        let chain = &twin.chain;
+        let n = q_cmd.len();
+        let q_motor: Vec<f64> = (0..n).map(|j| motor_of(twin, j, q_cmd[j], 0.0).0).collect();
+        let (p, scale) = twin.params_at(t);
+        let mut q = q_motor.clone();
+        let mut d = delta.to_vec();
+        let mut states = self.states.clone();
+        if let Some(trans) = self.trans {
+            let mut jac = PointJacobian::new(chain);
+            let mut tau = vec![0.0; n];
+            for _ in 0..100 {
+                chain.forward(&q, &p, scale, &mut self.ws);
+                twin.load.torques(chain, &self.ws, &mut jac, &mut tau);
+                let mut change: f64 = 0.0;
+                for j in 0..n {
+                    // A flank whose load pulls the link off it by more than the breakaway lets go:
+                    // the load carries the link across the band to its own flank.
+                    if let State::Flank(s) = states[j] {
+                        if tau[j] * s < 0.0 && tau[j].abs() > trans.breakaway {
+                            states[j] = State::Flank(-s);
+                        }
+                    }
+                    let new = match states[j] {
+                        State::Spring => tau[j] / trans.stiffness[j],
+                        State::Flank(s) => s * trans.half_band[j] + tau[j] / trans.stiffness[j],
+                        State::Free => delta[j],
+                    };
+                    change = change.max((new - d[j]).abs());
+                    d[j] = new;
+                    q[j] = q_motor[j] + new;
+                }
+                if change < 1e-15 {
+                    break;
+                }
+            }
+        }
+        chain.forward(&q, &p, scale, &mut self.ws);
+        (chain.frame(&self.ws, chain.flange()).point(&twin.sensor.tool_point_m()), q, states)
+    }
+
+    /// Puts the arm at rest (no velocity) at its static equilibrium on its current flanks, at time
+    /// `t` of move `mv` (`t_abs` absolute).
+    fn snap_to_rest(&mut self, mv: &Move, t: f64, t_abs: f64) -> Result<()> {
+        if self.trans.is_none() {
+            return Ok(());
+        }
+        let (_, delta) = self.link(mv, t);
+        let q_cmd: Vec<f64> = (0..delta.len()).map(|j| mv.joint(j, t).0).collect();
+        let (_, q, states) = self.rest_reference(&q_cmd, &delta, t_abs);
+        self.states = states;
+        let (x, _) = self.coords();
+        let disp: Vec<f64> = (0..q.len()).map(|j| q[j] - self.q_build[j] - x[j]).collect();
+        let (world, handles, _) = self.world.as_mut().expect("built");
+        let (mb, _) = world.multibody_joints.get_mut(handles[0]).ok_or_else(|| Error::Simulation("multibody missing".into()))?;
+        mb.apply_displacements(&disp);
+        mb.generalized_velocity_mut().fill(0.0);
+        mb.forward_kinematics(&world.bodies, false);
+        mb.update_rigid_bodies(&mut world.bodies, true);
+        Ok(())
+    }
+
+    fn contacts(&self, delta: &[f64]) -> Vec<Contact> {
+        let Some(trans) = self.trans else { return vec![Contact::Spring; delta.len()] };
+        self.states
+            .iter()
+            .enumerate()
+            .map(|(j, s)| match s {
+                State::Spring => Contact::Spring,
+                State::Flank(s) if (delta[j] - s * trans.half_band[j]) * s < 0.0 => Contact::Held,
+                State::Flank(s) if *s > 0.0 => Contact::Positive,
+                State::Flank(_) => Contact::Negative,
+                State::Free => Contact::Free,
+            })
+            .collect()
+    }
+}
+
+fn motor_of(twin: &Twin, j: usize, q: f64, v: f64) -> (f64, f64) {
+    match &twin.effects.eccentricity {
+        Some(e) => {
+            let h = 1e-6;
+            let slope = (e.offset_rad(j, q + h) - e.offset_rad(j, q - h)) / (2.0 * h);
+            (q + e.offset_rad(j, q), v * (1.0 + slope))
+        }
+        None => (q, v),
+    }
+}
+
+/// The sensor and gate settings a tour needs.
+#[derive(Clone, Copy, Debug)]
+pub struct TourSettings {
+    pub seed: u64,
+    pub speed_fraction: f64,
+}
+
+/// Simulates the whole tour `poses` (commanded angles, rad) starting from `home`, chunked and in
+/// parallel; one result per pose, in order. `progress` is told of every pose done.
+pub fn acquire(
+    twin: &Twin,
+    acq: &Acquisition,
+    settings: TourSettings,
+    home: &[f64],
+    poses: &[Vec<f64>],
+    progress: &dyn crate::generate::Progress,
+) -> Vec<Result<Acquired>> {
+    use rayon::prelude::*;
+    let sn = &twin.sensor;
+    let schedule = Schedule::new(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses);
+    let rule = super::approach_sides(home, poses);
+    let starts: Vec<usize> = (0..poses.len()).step_by(acq.chunk_poses.max(1)).collect();
+    let chunks: Vec<Vec<Result<Acquired>>> = starts
+        .par_iter()
+        .map(|&a| {
+            let b = (a + acq.chunk_poses).min(poses.len());
+            let r = run_chunk(twin, acq, settings, &schedule, home, poses, &rule, a, b, progress);
+            r.unwrap_or_else(|e| (a..b).map(|_| Err(Error::Simulation(e.to_string()))).collect())
+        })
+        .collect();
+    chunks.into_iter().flatten().collect()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run_chunk(
+    twin: &Twin,
+    acq: &Acquisition,
+    settings: TourSettings,
+    schedule: &Schedule,
+    home: &[f64],
+    poses: &[Vec<f64>],
+    rule: &[Vec<f64>],
+    a: usize,
+    b: usize,
+    progress: &dyn crate::generate::Progress,
+) -> Result<Vec<Result<Acquired>>> {
+    let chain = &twin.chain;
+    let n = chain.n_joints;
+    // At rest at the pose before the chunk, on the rule's flanks.
+    let (q0, sides0) = if a == 0 { (home.to_vec(), vec![-1.0; n]) } else { (poses[a - 1].clone(), rule[a - 1].clone()) };
+    let t0 = schedule.chunk_start(a);
+    let start = twin.quasi_static(&PoseCommand { q_cmd: q0.clone(), sides: sides0.clone(), t: t0 });
+    let q_build = twin.motor_command(&PoseCommand { q_cmd: q0.clone(), sides: sides0.clone(), t: t0 }).q_cmd;
+    let (p, scale) = twin.params_at(t0);
+    let mut ws = FkWork::new(chain);
+    chain.forward(&q_build, &p, scale, &mut ws);
+    let frames: Vec<Frame> = (0..chain.n_frames()).map(|f| chain.frame(&ws, f)).collect();
+    let trans = twin.transmission.as_ref();
+    let world = if trans.is_some() {
+        let (mut world, handles, bodies) = build(twin, &frames)?;
+        world.integration_parameters.num_solver_iterations = 1;
+        {
+            let (mb, _) = world.multibody_joints.get_mut(handles[0]).ok_or_else(|| Error::Simulation("multibody missing".into()))?;
+            if mb.ndofs() != n {
+                return Err(Error::Simulation(format!("multibody has {} degrees of freedom, expected {n}", mb.ndofs())));
+            }
+            mb.apply_displacements(&start.deflection);
+            mb.forward_kinematics(&world.bodies, false);
+            mb.update_rigid_bodies(&mut world.bodies, true);
+        }
+        Some((world, handles, bodies))
+    } else {
+        None
+    };
+    let states = match trans {
+        Some(t) => (0..n).map(|j| if t.half_band[j] == 0.0 { State::Spring } else { State::Flank(sides0[j]) }).collect(),
+        None => vec![State::Spring; n],
+    };
+    let axes = (0..n).map(|j| chain.joint_op(j).map(|op| chain.ops[op].axis).unwrap_or_else(Vector3::z)).collect();
+    let tool_in_last = frames[chain.flange()].relative_to(&frames[n]).point(&twin.sensor.tool_point_m());
+    let mut sim = Sim {
+        twin,
+        acq,
+        trans,
+        world,
+        q_build,
+        axes,
+        tool_in_last,
+        states,
+        damping: vec![0.0; n],
+        omega: vec![0.0; n],
+        zeta_min: 0.0,
+        steps: 0,
+        ws: FkWork::new(chain),
+    };
+    let mut out = Vec::with_capacity(b - a);
+    for i in a..b {
+        let r = acquire_pose(&mut sim, settings, schedule, i, &rule[i]);
+        progress.inc(1);
+        let failed = r.is_err();
+        out.push(r);
+        if failed {
+            // The state is lost: the rest of the chunk cannot be simulated.
+            for _ in i + 1..b {
+                out.push(Err(Error::Simulation(format!("an earlier pose of the chunk (pose {i}) failed"))));
+                progress.inc(1);
+            }
+            break;
+        }
+    }
+    Ok(out)
+}
+
+fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: usize, rule: &[f64]) -> Result<Acquired> {
+    use std::time::Instant;
+    let twin = sim.twin;
+    let sn = &twin.sensor;
+    let acq = sim.acq;
+    let mv = &schedule.moves[i];
+    let t_start = schedule.move_start[i];
+    let mut stats = PhaseStats::default();
+    let phase = |stats: &mut PhaseStats, k: usize, t0: Instant, steps: usize| {
+        stats.steps[k] += steps;
+        stats.seconds[k] += t0.elapsed().as_secs_f64();
+    };
+    sim.prepare(mv, t_start + mv.duration);
+    let period = 1.0 / sn.rate_hz;
+    let sub = (period / twin.settle.dt_s - 1e-9).ceil().max(1.0) as usize;
+    let fine_dt = period / sub as f64;
+
+    // The move: coarse until its final deceleration, fine through it.
+    let t_dec = (mv.duration - mv.ramp).max(0.0);
+    let c = Instant::now();
+    let s = sim.run(mv, 0.0, t_dec, acq.coarse_dt_s, false)?;
+    phase(&mut stats, 0, c, s);
+    let c = Instant::now();
+    let s = sim.run(mv, t_dec, mv.duration, fine_dt, true)?;
+    phase(&mut stats, 1, c, s);
+
+    // The hold: raw readings at rate_hz feed the gate.
+    let arrive = mv.duration;
+    let hold_samples = (sn.hold_s * sn.rate_hz + 1e-9).floor() as usize;
+    let window_start = arrive + sn.hold_s;
+    let ng = acq.gate_samples(sn.rate_hz);
+    let mut rng = ChaCha8Rng::seed_from_u64(crate::scenario::stream_seed(settings.seed, crate::scenario::Stream::Gate, i as u64));
+    let mut raw: Vec<f64> = Vec::with_capacity(hold_samples.min(1 << 16));
+    let mut gate_s = None;
+    let mut negligible_s = None;
+    let slow = sim.omega.iter().copied().fold(f64::INFINITY, f64::min);
+    let recent = if slow.is_finite() && slow > 0.0 { ((std::f64::consts::TAU / slow) * sn.rate_hz).ceil() as usize } else { 1 };
+    let mut speeds: std::collections::VecDeque<f64> = std::collections::VecDeque::new();
+    let c = Instant::now();
+    let mut fine_steps = 0;
+    let mut t = arrive;
+    let mut resting = sim.trans.is_none();
+    let mut k = 0;
+    while k < hold_samples {
+        k += 1;
+        let mut fastest: f64 = 0.0;
+        for _ in 0..sub {
+            fastest = fastest.max(sim.step(mv, t, fine_dt, true)?);
+            fine_steps += usize::from(sim.trans.is_some());
+            t += fine_dt;
+        }
+        t = arrive + k as f64 * period;
+        if gate_s.is_none() {
+            let (_, l) = sim.reading(mv, t, t_start + t);
+            raw.push(sn.raw_sample(l, &mut rng));
+            if raw.len() >= 2 * ng {
+                let m = raw.len();
+                let last: f64 = raw[m - ng..].iter().sum::<f64>() / ng as f64;
+                let before: f64 = raw[m - 2 * ng..m - ng].iter().sum::<f64>() / ng as f64;
+                if (last - before).abs() < acq.gate_mm {
+                    gate_s = Some(k as f64 * period);
+                }
+            }
+        }
+        speeds.push_back(fastest);
+        if speeds.len() > recent {
+            speeds.pop_front();
+        }
+        // Once the gate is open, hand over to coarse steps when the transient, decaying at the
+        // slowest modelled rate, is negligible by the time the readings start.
+        if gate_s.is_some() && (sim.trans.is_none() || speeds.len() >= recent) {
+            let amplitude = if sim.trans.is_none() { 0.0 } else { speeds.iter().copied().fold(0.0, f64::max) / slow * REACH_M };
+            if amplitude * (-sim.zeta_min * slow * (window_start - t)).exp() < NEGLIGIBLE_M {
+                negligible_s = Some(t - arrive);
+                break;
+            }
+        }
+    }
+    phase(&mut stats, 2, c, fine_steps);
+    if k < hold_samples {
+        // What is left of the transient decays below 1 nm before the readings: the rest of the
+        // hold passes with the arm at rest where it is heading (the static equilibrium on its
+        // flanks, which is also the fixed point of the dynamics), without stepping.
+        let c = Instant::now();
+        sim.snap_to_rest(mv, t, t_start + t)?;
+        resting = true;
+        phase(&mut stats, 3, c, 0);
+    }
+
+    // The reading window after the hold.
+    let c = Instant::now();
+    let mut s = 0;
+    let mut lengths = Vec::with_capacity(sn.samples);
+    let mut tool_sum = Vector3::zeros();
+    t = window_start;
+    for k in 1..=sn.samples {
+        let tk = window_start + k as f64 * period;
+        if !resting {
+            for _ in 0..sub {
+                sim.step(mv, t, fine_dt, true)?;
+                s += 1;
+                t += fine_dt;
+            }
+        }
+        t = tk;
+        let (tool, l) = sim.reading(mv, tk, t_start + tk);
+        lengths.push(l);
+        tool_sum += tool;
+    }
+    phase(&mut stats, 4, c, if sim.trans.is_some() { s } else { 0 });
+    let t_read = schedule.read_t[i];
+    let (q_link, deflection) = sim.link(mv, t);
+    let contact = sim.contacts(&deflection);
+    let mean_l = lengths.iter().sum::<f64>() / lengths.len() as f64;
+    let transient_mm = mean_l - sn.ideal_length(&sim.rest_reference(&mv.to, &deflection, t_read).0);
+    let (p, scale) = twin.params_at(t_read);
+    let chain = &twin.chain;
+    chain.forward(&q_link, &p, scale, &mut sim.ws);
+    let frames: Vec<Frame> = (0..chain.n_frames()).map(|f| chain.frame(&sim.ws, f)).collect();
+    let mut torque = vec![0.0; q_link.len()];
+    let mut jac = PointJacobian::new(chain);
+    twin.load.torques(chain, &sim.ws, &mut jac, &mut torque);
+    let rest = RestingPose {
+        q_link,
+        eccentricity: twin.eccentricity(&mv.to),
+        deflection,
+        torque,
+        contact,
+        tool: tool_sum / sn.samples as f64,
+        frames,
+        steps: stats.steps.iter().sum(),
+    };
+    Ok(Acquired { rest, lengths, gate_s, transient_mm, negligible_s, rule_sides: rule.to_vec(), stats })
+}
