@@ -10,8 +10,11 @@ use twincal::twin::study::{hold_study, HoldStudy};
 use twincal::twin::tour::{acquire, Acquired, Acquisition, AcquisitionModel, OnTimeout, TourSettings};
 use twincal::twin::PoseCommand;
 
+/// The embedded scenario with its acquisition simulated (it settles each pose by default).
 fn embedded() -> (Scenario, Robot) {
-    Scenario::default_embedded().unwrap()
+    let (mut s, robot) = Scenario::default_embedded().unwrap();
+    s.acquisition.model = AcquisitionModel::Simulated;
+    (s, robot)
 }
 
 fn tour(s: &Scenario, robot: &Robot, n: usize) -> (Vec<Vec<f64>>, Vec<Acquired>) {
@@ -148,9 +151,11 @@ fn tour_is_deterministic_whatever_the_thread_count() {
 
 #[test]
 fn acquisition_keys_are_checked_naming_the_key() {
-    let (s, robot) = embedded();
-    assert_eq!(s.acquisition.model, AcquisitionModel::Simulated);
-    let text = twincal::scenario::DEFAULT_SCENARIO;
+    let (s, robot) = Scenario::default_embedded().unwrap();
+    assert_eq!(s.acquisition.model, AcquisitionModel::Settled);
+    // The keys of a simulated acquisition, checked on the embedded scenario switched to it.
+    let text = &twincal::scenario::DEFAULT_SCENARIO.replace("model = \"settled\"", "model = \"simulated\"");
+    assert_ne!(text, twincal::scenario::DEFAULT_SCENARIO);
     let cases = [
         ("damping_ratio = 0.05", "damping_ratio = 0.0", "acquisition.damping_ratio"),
         ("ramp_s = 0.1", "ramp_s = -1.0", "acquisition.ramp_s"),
@@ -164,7 +169,7 @@ fn acquisition_keys_are_checked_naming_the_key() {
     ];
     for (from, to, key) in cases {
         let patched = text.replace(from, to);
-        assert_ne!(patched, text);
+        assert_ne!(&patched, text);
         let msg = match Scenario::from_toml(&patched, "p.toml") {
             Err(e) => e.to_string(),
             Ok(s) => s.validate(&robot, "p.toml").expect_err(to).to_string(),
