@@ -230,6 +230,17 @@ fn sample_f(rng: &mut ChaCha8Rng, loc: f64) -> f64 {
     loc.clamp(0.1, 1.0)
 }
 
+/// Sum of the successes' weights (fitness gains); when they are not a positive finite sum,
+/// every success gets weight 1 instead.
+fn success_weight_sum(succ: &mut [(f64, f64, f64)]) -> f64 {
+    let wsum: f64 = succ.iter().map(|s| s.0).sum();
+    if wsum > 0.0 && wsum.is_finite() {
+        return wsum;
+    }
+    succ.iter_mut().for_each(|s| s.0 = 1.0);
+    succ.len() as f64
+}
+
 /// `Σ wᵢ·vᵢ² / Σ wᵢ·vᵢ`.
 fn lehmer(v: impl Iterator<Item = (f64, f64)>) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
@@ -327,11 +338,7 @@ impl Controller for Shade {
         if self.succ.is_empty() {
             return;
         }
-        let mut wsum: f64 = self.succ.iter().map(|s| s.0).sum();
-        if !(wsum > 0.0 && wsum.is_finite()) {
-            self.succ.iter_mut().for_each(|s| s.0 = 1.0);
-            wsum = self.succ.len() as f64;
-        }
+        let wsum = success_weight_sum(&mut self.succ);
         let k = self.next;
         self.m_f[k] = lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.1)));
         if self.lshade.is_some() {
@@ -410,11 +417,7 @@ impl Controller for DualStrategy {
         if self.dual && g1 + g2 > 0.0 {
             self.p1 = (g1 / (g1 + g2)).clamp(self.p_min, 1.0 - self.p_min);
         }
-        let mut wsum: f64 = self.succ.iter().map(|s| s.0).sum();
-        if !(wsum > 0.0 && wsum.is_finite()) {
-            self.succ.iter_mut().for_each(|s| s.0 = 1.0);
-            wsum = self.succ.len() as f64;
-        }
+        let wsum = success_weight_sum(&mut self.succ);
         let k = self.next;
         self.m_f[k] = lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.1)));
         let cr = lehmer(self.succ.iter().map(|s| (s.0 / wsum, s.2)));
