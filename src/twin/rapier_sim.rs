@@ -54,12 +54,29 @@ fn mass_props(i: &Inertial) -> MassProperties {
     MassProperties::with_inertia_matrix(dvec(&i.com), m, dmat(&inertia))
 }
 
-/// Per-joint transmission state inside the settling loop.
-#[derive(Clone, Copy, PartialEq)]
-enum State {
+/// Per-joint transmission state (the settling loop and the simulated tour).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum State {
     Spring,
     Flank(f64),
     Free,
+}
+
+/// The contact each joint is in, from its transmission state and its deflection δ = link − motor
+/// (rad): on a flank but pulled off it (held by friction), on the positive or negative flank,
+/// inside the band, or a plain spring.
+pub(super) fn contacts(states: &[State], delta: &[f64], half_band: &[f64]) -> Vec<Contact> {
+    states
+        .iter()
+        .enumerate()
+        .map(|(j, s)| match s {
+            State::Spring => Contact::Spring,
+            State::Flank(s) if (delta[j] - s * half_band[j]) * s < 0.0 => Contact::Held,
+            State::Flank(s) if *s > 0.0 => Contact::Positive,
+            State::Flank(_) => Contact::Negative,
+            State::Free => Contact::Free,
+        })
+        .collect()
 }
 
 /// Simulates the pose `cmd`, whose angles are the true motor-side ones (see [`Twin::motor_command`]).
@@ -278,17 +295,7 @@ fn settle(
     if steps >= twin.settle.max_steps {
         return Err(Error::Simulation(format!("pose did not settle within {} steps", twin.settle.max_steps)));
     }
-    let contact = states
-        .iter()
-        .enumerate()
-        .map(|(j, s)| match s {
-            State::Spring => Contact::Spring,
-            State::Flank(s) if (delta[j] - s * trans.half_band[j]) * s < 0.0 => Contact::Held,
-            State::Flank(s) if *s > 0.0 => Contact::Positive,
-            State::Flank(_) => Contact::Negative,
-            State::Free => Contact::Free,
-        })
-        .collect();
+    let contact = contacts(&states, &delta, &trans.half_band);
     read_back(twin, world, handles, cmd, delta, contact, steps, params, scale)
 }
 

@@ -28,7 +28,7 @@
 //! run in parallel with results that do not depend on the number of threads.
 
 use super::motion::Move;
-use super::rapier_sim::{build, dvec, joint_inertias, nvec};
+use super::rapier_sim::{build, contacts, dvec, joint_inertias, nvec, State};
 use super::{PoseCommand, RestingPose, Twin};
 use crate::effects::statics::{Contact, Transmission};
 use crate::error::{Error, Result};
@@ -236,14 +236,6 @@ pub struct Acquired {
     /// Backlash flank the rule predicts (±1) for comparison.
     pub rule_sides: Vec<f64>,
     pub stats: PhaseStats,
-}
-
-/// Transmission state of one joint.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum State {
-    Spring,
-    Flank(f64),
-    Free,
 }
 
 /// Below this tool displacement (m) a transient no longer matters.
@@ -531,17 +523,7 @@ impl<'a> Sim<'a> {
 
     fn contacts(&self, delta: &[f64]) -> Vec<Contact> {
         let Some(trans) = self.trans else { return vec![Contact::Spring; delta.len()] };
-        self.states
-            .iter()
-            .enumerate()
-            .map(|(j, s)| match s {
-                State::Spring => Contact::Spring,
-                State::Flank(s) if (delta[j] - s * trans.half_band[j]) * s < 0.0 => Contact::Held,
-                State::Flank(s) if *s > 0.0 => Contact::Positive,
-                State::Flank(_) => Contact::Negative,
-                State::Free => Contact::Free,
-            })
-            .collect()
+        contacts(&self.states, delta, &trans.half_band)
     }
 }
 
