@@ -110,7 +110,9 @@ pub enum Contact {
     /// Held at the approach flank by static friction against a load pulling it into the band
     /// (the shaft still twists by load/stiffness).
     Held,
-    /// Inside the band, not settled on either flank (only seen when a simulation stops early).
+    /// Inside the band, on neither flank: a simulation stopped early, or in the simulated tour a
+    /// link the move's deceleration carried off its flank and friction holds (load at most the
+    /// breakaway).
     Free,
 }
 

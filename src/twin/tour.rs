@@ -455,7 +455,8 @@ impl<'a> Sim<'a> {
 
     /// Tool point (m) of the arm at rest at commanded pose `q_cmd` at time `t`, on the flanks the
     /// joints are on now (a flank loaded off by more than the breakaway gives way to the other);
-    /// a joint inside its band (friction-held) keeps its deflection `delta`. Also returns the
+    /// a joint inside its band keeps its deflection `delta` when friction holds it (load at most the
+    /// breakaway), else the load carries it to its flank. Also returns the
     /// link angles and the flank states.
     /// The quasi-static fixed point of [`crate::effects::statics::equilibrium`] with that rule.
     fn rest_reference(&mut self, q_cmd: &[f64], delta: &[f64], t: f64) -> (Vector3<f64>, Vec<f64>, Vec<State>) {
@@ -477,10 +478,13 @@ impl<'a> Sim<'a> {
                 for j in 0..n {
                     // A flank whose load pulls the link off it by more than the breakaway lets go:
                     // the load carries the link across the band to its own flank.
-                    if let State::Flank(s) = states[j] {
-                        if tau[j] * s < 0.0 && tau[j].abs() > trans.breakaway {
-                            states[j] = State::Flank(-s);
-                        }
+                    // A joint inside its band (between flanks when the transient was judged
+                    // over) is carried by a load above the breakaway to the load's flank; below
+                    // it, friction holds it where it is.
+                    match states[j] {
+                        State::Flank(s) if tau[j] * s < 0.0 && tau[j].abs() > trans.breakaway => states[j] = State::Flank(-s),
+                        State::Free if tau[j].abs() > trans.breakaway => states[j] = State::Flank(tau[j].signum()),
+                        _ => {}
                     }
                     let new = match states[j] {
                         State::Spring => tau[j] / trans.stiffness[j],
