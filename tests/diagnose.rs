@@ -150,3 +150,25 @@ fn diagnose_through_the_cli() {
         assert!(!out2.exists());
     }
 }
+
+/// The embedded scenario acquires by the simulated tour (flanks from the motion, every effect on):
+/// given the loads it knows (payload and cable tension, from the data sheets), the diagnosis names
+/// the joint-2 backlash among its causes at the twin's band width, and reaches the noise floor.
+#[test]
+fn the_simulated_tour_shows_its_backlash() {
+    use twincal::effects::Payload;
+    let (s, robot) = Scenario::default_embedded().unwrap();
+    assert_eq!(s.acquisition.model, twincal::twin::tour::AcquisitionModel::Simulated);
+    let truth_width = s.effects.backlash.as_ref().unwrap().width_deg[1];
+    let g = generate(&s, &robot, &Silent).unwrap();
+    let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
+    let mut opts = DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap());
+    opts.loads.payload = Some(Payload { mass_kg: 0.5, com_mm: [40.0, 0.0, 0.0] });
+    opts.loads.cable_tension_n = 6.0;
+    let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
+    let found: Vec<_> = d.causes.iter().map(|c| (&c.cause, c.joint, c.magnitude, c.uncertainty)).collect();
+    let c = d.causes.iter().find(|c| c.cause == "backlash" && c.joint == Some(2)).unwrap_or_else(|| panic!("no joint-2 backlash: {found:?}"));
+    let e = (c.magnitude - truth_width).abs();
+    assert!(e <= 3.0 * c.uncertainty || e <= 0.3 * truth_width, "width {} ± {} vs {truth_width}: {found:?}", c.magnitude, c.uncertainty);
+    assert!(d.final_heldout_rmse_mm < 1.25 * d.noise_floor_mm && d.final_heldout_rmse_mm < 0.7 * d.baseline.heldout_rmse_mm, "{found:?}");
+}

@@ -159,6 +159,24 @@ fn generate_calibrate_and_compare_recordings_hold_what_their_views_show() {
         assert!(r.holds(e, c, "static"), "compare: {e} lacks {c}");
     }
     assert_eq!(r.views.len(), 3, "{:#?}", r.views);
+    // study hold: three plots (one series per speed, with a legend) and the table; static.
+    let hold = dir.path().join("hold.rrd");
+    let o = twincal(&["study", "hold", "--scenario", s(&sc), "--poses", "4", "--holds", "0.02,0.5", "--speeds", "0.2,0.5", "--rrd", s(&hold)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = common::read(&hold);
+    r.assert_no_empty_view();
+    assert_eq!(r.views.len(), 4, "{:#?}", r.views);
+    for q in ["bias_um", "spread_um", "max_um"] {
+        for (e, c) in [
+            (format!("/study/{q}/speed_0.20/points"), "Points2D:labels"),
+            (format!("/study/{q}/speed_0.50/line"), "LineStrips2D:strips"),
+            (format!("/study/{q}/legend"), "Points2D:labels"),
+            (format!("/study/{q}/frame/ticks"), "Points2D:labels"),
+        ] {
+            assert!(r.holds(&e, c, "static"), "study: {e} lacks {c}");
+        }
+    }
+    assert!(r.holds("/docs/table", "TextDocument:text", "static"));
     // Nothing temporary is left next to the outputs.
     let names: Vec<String> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
     assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");

@@ -18,7 +18,7 @@ const BEFORE: [u8; 4] = [150, 150, 150, 255];
 const AFTER: [u8; 4] = [60, 190, 230, 255];
 const TRUTH: [u8; 4] = [240, 70, 70, 255];
 /// Distinct colours for per-joint / per-parameter series.
-const PALETTE: [[u8; 4]; 10] = [
+pub(super) const PALETTE: [[u8; 4]; 10] = [
     [31, 119, 180, 255],
     [255, 127, 14, 255],
     [44, 160, 44, 255],
