@@ -6,7 +6,7 @@
 //!
 //! `z = [θ; w]`: the identifiable geometric (and sensor) parameters θ of the calibration model
 //! (every parametrisation works: `--params dh` gives the paper's D-H form) and the network's
-//! flattened coefficients w (292 spline coefficients for the default GKAN). With `y_i(θ)` the
+//! flattened coefficients w (196 to 414 spline coefficients, the shape chosen by cross-validation). With `y_i(θ)` the
 //! training residual of the geometric model (mm) and `δ_i(w)` the network's correction at pose
 //! i, the objective has four parts (mm²):
 //!
@@ -22,16 +22,18 @@
 //!   the data: the geometric term is then exactly the tolerance prior of a MAP estimate
 //!   (`J·N/σ²` = −2 log posterior up to a constant). Geometry may move where the data demand it
 //!   and is held near its nominal where they do not.
-//! * `λ_n = 0.05`: the network may not explain everything; a correction costs 5 % of its square,
-//!   so it only takes residual structure that is consistent over many poses.
-//! * `λ_s = 0.02` per unit second difference: keeps the edge functions smooth between the
+//! * `λ_n` (neural magnitude): the network may not explain everything; a correction costs λ_n
+//!   times its square, so it only takes residual structure that is consistent over many poses.
+//! * `λ_s` (roughness, per unit second difference): keeps the edge functions smooth between the
 //!   training poses (the gradient that the IK uses must be meaningful there); κ = 0.01 adds a
 //!   small ridge that pins the constants the edge functions could otherwise trade among
 //!   themselves.
 //!
-//! The network's shape (grid 4, chain-edge grid 2) and λ_n, λ_s were chosen on one split of
-//! `irb120_evo_nph` among a handful of settings; `compare` over fresh splits checks them.
-//!
+//! The network's shape and λ_n, λ_s are chosen on every run by 5-fold cross-validation on the
+//! training rows ([`super::gkan_select`]: LM geometry, then each candidate network fitted to its
+//! residuals on four folds and scored on the fifth); the test rows play no part. Without the
+//! choice (`select = false`) the defaults are grid 4, chain-edge grid 2, λ_n = 0.05, λ_s = 0.02.
+
 //! # Search
 //!
 //! DS-ADE ([`DeVariant::DsAde`], population 40, 100 generations at effort 1) over the box:
@@ -57,6 +59,7 @@
 
 use super::corrector::Corrector;
 use super::gkan::{Gkan, GkanShape, Mlp};
+use super::gkan_select::{penalty_gram, penalty_rows, select, Selection};
 use super::method::{Method, Problem, Solution, Solver};
 use super::optim::{Bounds, Cost, De, DeVariant, Event, LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use super::problem::LengthFit;
@@ -109,6 +112,9 @@ pub struct EvoNphSolver {
     pub refine_coefficients: bool,
     /// Joint LM polish of the DE's best vector.
     pub polish: bool,
+    /// Choose `shape` and the network weights by cross-validation on the training rows first
+    /// ([`super::gkan_select`]); `false` keeps them as set.
+    pub select: bool,
 }
 
 impl EvoNphSolver {
@@ -129,6 +135,7 @@ impl EvoNphSolver {
             width_sigmas: 5.0,
             refine_coefficients: variant != EvoVariant::Mlp,
             polish: true,
+            select: true,
         }
     }
 }
@@ -202,20 +209,9 @@ impl<'a> Objective<'a> {
             for (i, row) in basis.chunks_exact_mut(nw).enumerate() {
                 net.basis_row(&fit.data.q[i], row);
             }
-            let mut rough = net.roughness_rows();
-            // A small ridge on every coefficient (row weight 0.1, κ = 0.01 on the squares): edge
-            // functions can trade constants among themselves, this pins that freedom.
-            let kappa = 0.1f64;
-            rough.extend((0..nw).map(|k| [(k, kappa), (k, 0.0), (k, 0.0)]));
+            let rough = penalty_rows(&net);
             let bm = DMatrix::from_row_slice(n, nw, &basis);
-            let mut a = bm.transpose() * &bm * (1.0 + w.neural);
-            for r in &rough {
-                for &(i, vi) in r {
-                    for &(j, vj) in r {
-                        a[(i, j)] += w.roughness * vi * vj;
-                    }
-                }
-            }
+            let a = bm.transpose() * &bm * (1.0 + w.neural) + penalty_gram(&rough, nw) * w.roughness;
             let chol = nalgebra::Cholesky::new(a);
             let half = vec![rms0; nw];
             (Net::Gkan { net, basis, chol, rough }, half)
@@ -459,6 +455,8 @@ pub struct EvoRun {
     /// Identifiable geometric parameters in it.
     pub n_geometry: usize,
     pub de_seconds: f64,
+    /// The cross-validated choice of the network's shape and weights, when made.
+    pub selection: Option<Selection>,
 }
 
 struct Curve<'a> {
@@ -475,6 +473,19 @@ impl Observer for Curve<'_> {
 impl EvoNphSolver {
     /// Runs the method and returns everything it measured.
     pub fn run(&self, p: &Problem, obs: &mut dyn Observer) -> Result<EvoRun> {
+        let selection = if self.select { Some(select(p)?) } else { None };
+        let chosen;
+        let me = match &selection {
+            Some(sel) => {
+                chosen = EvoNphSolver { shape: sel.chosen.shape, weights: sel.weights(self.weights.geometry), select: false, ..self.clone() };
+                &chosen
+            }
+            None => self,
+        };
+        me.run_as_set(p, obs, selection)
+    }
+
+    fn run_as_set(&self, p: &Problem, obs: &mut dyn Observer, selection: Option<Selection>) -> Result<EvoRun> {
         let mlp = self.variant == EvoVariant::Mlp;
         let (obj, bounds) = Objective::new(p, self, mlp)?;
         let m = obj.m();
@@ -523,6 +534,7 @@ impl EvoNphSolver {
             dim,
             n_geometry: m,
             de_seconds,
+            selection,
         })
     }
 }
@@ -542,10 +554,13 @@ impl Solver for EvoNphSolver {
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let r = self.run(p, obs)?;
         let polished = self.polish && self.variant != EvoVariant::Sequential;
-        let reason = match self.variant {
+        let mut reason = match self.variant {
             EvoVariant::Sequential => "LM geometry, then the GKAN on the frozen residuals".to_string(),
             _ => format!("{} generations of {:?} over {} dimensions{}", r.generations, self.de, r.dim, if polished { ", then a joint LM polish" } else { "" }),
         };
+        if let Some(sel) = &r.selection {
+            reason = format!("{}; {reason}", sel.summary());
+        }
         let report =
             Report { x: r.solution_x, cost: r.objective, iterations: r.generations, evaluations: r.evaluations, converged: true, reason, covariance: None };
         Ok(Solution { report, corrector: Some(r.corrector) })

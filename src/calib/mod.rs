@@ -8,6 +8,7 @@ pub mod evonph;
 pub mod export;
 pub mod generic;
 pub mod gkan;
+pub mod gkan_select;
 pub mod identify;
 pub mod ik;
 pub mod inputs;
