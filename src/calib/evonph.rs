@@ -164,9 +164,8 @@ pub struct Objective<'a> {
     lambda_g: f64,
     lambda_n: f64,
     lambda_s: f64,
-    /// Coefficient box (for the Lamarckian step).
-    w_lo: Vec<f64>,
-    w_hi: Vec<f64>,
+    /// Number of network parameters (the DE's box for them is in the [`Bounds`]).
+    n_w: usize,
     refine: bool,
 }
 
@@ -217,8 +216,6 @@ impl<'a> Objective<'a> {
             (Net::Gkan { net, basis, chol, rough }, half)
         };
         let zero_w = vec![0.0; w_half.len()];
-        let w_lo: Vec<f64> = w_half.iter().map(|h| -h).collect();
-        let w_hi = w_half.clone();
         let mut centre = x0_free.clone();
         centre.extend_from_slice(&zero_w);
         let mut half: Vec<f64> = s_free.iter().map(|sd| sd * s.width_sigmas).collect();
@@ -234,8 +231,7 @@ impl<'a> Objective<'a> {
             lambda_g: w.geometry * sigma * sigma / n as f64,
             lambda_n: w.neural,
             lambda_s: w.roughness,
-            w_lo,
-            w_hi,
+            n_w: w_half.len(),
             refine: s.refine_coefficients && !mlp,
         };
         Ok((obj, bounds))
@@ -287,28 +283,37 @@ impl<'a> Objective<'a> {
     fn geometric_residuals(&self, z: &[f64]) -> Vec<f64> {
         self.fit.residuals_mm(&self.expand(&z[..self.m()]))
     }
-    /// The exact minimiser of J over w for the geometry in z (GKAN only), clamped to the box.
-    /// Returns `Some(b·w)` (b = Bᵀy) when nothing was clamped: then the data, magnitude and
-    /// roughness terms together equal `(‖y‖² − b·w)/N` at the minimiser, with no further pass
-    /// over the bases.
+    /// The exact minimiser of J over w for the geometry in z (GKAN only), written into `w`.
+    /// Returns `b·w` (b = Bᵀy): the data, magnitude and roughness terms together equal
+    /// `(‖y‖² − b·w)/N` at the minimiser, with no further pass over the bases. The minimiser is
+    /// not clamped to the DE's box for the coefficients (that box only seeds the literal search;
+    /// the penalties keep the minimiser bounded).
     fn solve_coefficients(&self, y: &[f64], w: &mut [f64]) -> Option<f64> {
         let Net::Gkan { basis, chol: Some(chol), .. } = &self.net else {
             return None;
         };
         let nw = w.len();
-        let mut rhs = DVector::zeros(nw);
-        for (yi, row) in y.iter().zip(basis.chunks_exact(nw)) {
+        // b = Bᵀy on plain slices, four rows per pass (this is the DE's inner loop).
+        let mut rhs = vec![0.0; nw];
+        let mut rows = basis.chunks_exact(4 * nw).zip(y.chunks_exact(4));
+        for (block, yy) in &mut rows {
+            let (b0, rest) = block.split_at(nw);
+            let (b1, rest) = rest.split_at(nw);
+            let (b2, b3) = rest.split_at(nw);
+            for k in 0..nw {
+                rhs[k] += b0[k] * yy[0] + b1[k] * yy[1] + b2[k] * yy[2] + b3[k] * yy[3];
+            }
+        }
+        let done = y.len() / 4 * 4;
+        for (yi, row) in y[done..].iter().zip(basis[done * nw..].chunks_exact(nw)) {
             for (r, b) in rhs.iter_mut().zip(row) {
                 *r += b * yi;
             }
         }
+        let rhs = DVector::from_vec(rhs);
         let sol = chol.solve(&rhs);
-        let mut clamped = false;
-        for k in 0..nw {
-            w[k] = sol[k].clamp(self.w_lo[k], self.w_hi[k]);
-            clamped |= w[k] != sol[k];
-        }
-        (!clamped).then(|| rhs.dot(&sol))
+        w.copy_from_slice(sol.as_slice());
+        Some(rhs.dot(&sol))
     }
     /// The learned corrector for coefficients `w`.
     fn corrector(&self, w: &[f64]) -> Corrector {
@@ -321,7 +326,7 @@ impl<'a> Objective<'a> {
 
 impl Cost for Objective<'_> {
     fn dim(&self) -> usize {
-        self.m() + self.w_lo.len()
+        self.m() + self.n_w
     }
     fn cost(&self, z: &[f64]) -> f64 {
         let y = self.geometric_residuals(z);
