@@ -84,9 +84,28 @@ fn model_spec(model: &str, params: Option<&str>) -> Result<crate::calib::run::Mo
     crate::calib::run::ModelSpec::parse(model, params.unwrap_or("hayati"))
 }
 
-/// `--model` as an input file, when it names one (a .urdf).
-fn model_input(model: &str) -> Option<PathBuf> {
-    model.ends_with(".urdf").then(|| PathBuf::from(model))
+/// Which model a calibration fits (`--model`, `--params`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct ModelArgs {
+    /// irb120 (embedded URDF), a .urdf path, or generic6r (no nominal).
+    #[arg(long, default_value = "irb120")]
+    pub model: String,
+    /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes; the default), dh (papers' 24)
+    /// or frame. Not for generic6r.
+    #[arg(long)]
+    pub params: Option<String>,
+}
+
+impl ModelArgs {
+    /// The model these options name; `--params` is refused for `generic6r`.
+    pub fn spec(&self) -> Result<crate::calib::run::ModelSpec> {
+        model_spec(&self.model, self.params.as_deref())
+    }
+
+    /// `--model` as an input file, when it names one (a .urdf).
+    fn input(&self) -> Option<PathBuf> {
+        self.model.ends_with(".urdf").then(|| PathBuf::from(&self.model))
+    }
 }
 
 /// A terminal progress bar (hidden when stderr is not a terminal).
@@ -595,39 +614,77 @@ pub fn study(what: StudyTarget, scenario: Option<&Path>, study: &crate::twin::st
     Ok(())
 }
 
-/// Arguments of `twincal calibrate`.
+/// Arguments of `twincal calibrate` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
 pub struct CalibrateArgs {
+    /// Dataset folder (DIR/dataset.csv, with truth.json when the twin made it), CSV, or xlsx (file.xlsx#Sheet).
+    #[arg(long)]
     pub data: PathBuf,
+    /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
+    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
     pub angles: AngleArg,
+    /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH; ablations dsade-gkan-v1, -v2, -v3), pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5; pso-ekf-awnn-x: network also on temperature and backlash flanks, network/LM alternations).
+    #[arg(long, default_value = "lm")]
     pub method: String,
-    pub model: String,
-    /// Parametrisation of a nominal model (default hayati); refused for generic6r.
-    pub params: Option<String>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Hold out this fraction instead of the dataset's split column (0 trains on every row).
+    #[arg(long, allow_negative_numbers = true)]
     pub test_fraction: Option<f64>,
+    /// Seed of the hold-out split and of the stochastic methods.
+    #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
     pub sensor_guess: Option<Vec<f64>>,
+    /// Relative singular-value threshold for identifiability.
+    #[arg(long, default_value_t = 1e-7, allow_negative_numbers = true)]
     pub rank_tol: f64,
+    /// Budget of the stochastic methods and of the generic model's global search (1 = default).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub effort: f64,
+    /// The calibrated model and its report.
+    #[arg(long, default_value = "result.json")]
     pub out: PathBuf,
+    /// Also write the calibrated model as a URDF.
+    #[arg(long)]
     pub urdf: Option<PathBuf>,
+    /// Rerun recording of the residual field before and after, convergence and parameters.
+    #[arg(long)]
     pub rrd: Option<PathBuf>,
-    /// `--effects`: kind[:joint] list.
-    pub effects: Vec<String>,
-    pub loads: LoadArgs,
-    /// `--report`: a self-contained HTML page.
+    /// Self-contained HTML report (tables and plots, opens offline in any browser).
+    #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Accuracy limits for the verdict in result.json (`--max-test-rmse-mm`, `--max-test-max-mm`).
+    /// Accuracy limit for the verdict in --out: RMSE of the test rows after calibration, mm.
+    #[arg(long, allow_negative_numbers = true)]
     pub max_test_rmse_mm: Option<f64>,
+    /// Accuracy limit for the verdict in --out: largest |residual| of the test rows, mm.
+    #[arg(long, allow_negative_numbers = true)]
     pub max_test_max_mm: Option<f64>,
+    /// Non-geometric effects to fit with the geometry: compliance, backlash, thermal,
+    /// eccentricity, nonlinearity, each optionally on one joint (backlash:2).
+    #[arg(long, value_delimiter = ',')]
+    pub effects: Vec<String>,
+    #[command(flatten)]
+    pub loads: LoadArgs,
 }
 
 /// What loads the joints, for the torque-driven effects (`--robot`, `--payload-kg`,
 /// `--payload-com-mm`, `--cable-tension-n`).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, clap::Args)]
 pub struct LoadArgs {
+    /// URDF whose inertial data give the static joint torques (default: the model's own robot;
+    /// needed for joint_compliance with generic6r).
+    #[arg(long)]
     pub robot: Option<PathBuf>,
+    /// Payload on the flange, kg.
+    #[arg(long, allow_negative_numbers = true)]
     pub payload_kg: Option<f64>,
+    /// Payload centre of mass in the flange frame, mm (x,y,z).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "X,Y,Z")]
     pub payload_com_mm: Option<Vec<f64>>,
+    /// Draw-wire cable tension from the sensor's data sheet, N (0: ignored).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub cable_tension_n: f64,
 }
 
@@ -719,7 +776,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
         }
     };
     let data_files = data_inputs(&a.data);
-    let model_file = model_input(&a.model);
+    let model_file = a.model.input();
     let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
     if let Some(m) = &model_file {
         inputs.push(("--model", m));
@@ -733,7 +790,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     for l in &limits {
         l.validate()?;
     }
-    let spec = model_spec(&a.model, a.params.as_deref())?;
+    let spec = a.model.spec()?;
     let data = load_dataset(&a.data, a.angles, true)?;
     let truth = TruthFile::find(&a.data)?;
     let mut opts = CalibOptions::new(spec.clone(), method);
@@ -901,22 +958,33 @@ pub struct CompareRun {
     pub test_abs_residuals: Vec<f64>,
 }
 
-/// Arguments of `twincal compare`.
-pub struct CompareArgs<'a> {
-    pub data: &'a Path,
+/// Arguments of `twincal compare` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct CompareArgs {
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Unit of the joint angles in the data.
+    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
     pub angles: AngleArg,
-    pub methods: &'a [String],
-    /// 1 to [`MAX_SEEDS`].
+    #[arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf")]
+    pub methods: Vec<String>,
+    /// Number of seeds (1 to 1000).
+    #[arg(long, default_value_t = 30, allow_negative_numbers = true)]
     pub seeds: u64,
-    pub model: &'a str,
-    /// Parametrisation of a nominal model (default hayati); refused for generic6r.
-    pub params: Option<&'a str>,
-    /// In (0, 1); default: the dataset's split size, else 0.2.
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Test fraction of each seed's re-split, in (0, 1) (default: the dataset's split size, else 0.2).
+    #[arg(long, allow_negative_numbers = true)]
     pub test_fraction: Option<f64>,
+    /// Effort of the stochastic methods (1 = full budget).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub effort: f64,
-    pub out: Option<&'a Path>,
-    /// `--rrd`: a recording of the table and the per-seed spread.
-    pub rrd: Option<&'a Path>,
+    /// Also write the tables as JSON.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Rerun recording of the accuracy table and the per-seed spread of each method.
+    #[arg(long)]
+    pub rrd: Option<PathBuf>,
 }
 
 /// `twincal compare`: every method on every seed (a fresh stratified split per seed), then the
@@ -950,16 +1018,16 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     if !(effort > 0.0 && effort <= 10.0) {
         return Err(Error::Invalid(format!("--effort must be in (0, 10], got {effort}")));
     }
-    let data_files = data_inputs(a.data);
-    let outs: Vec<(&str, &Path)> = a.out.map(|p| ("--out", p)).into_iter().chain(a.rrd.map(|p| ("--rrd", p))).collect();
+    let data_files = data_inputs(&a.data);
+    let outs: Vec<(&str, &Path)> = a.out.as_deref().map(|p| ("--out", p)).into_iter().chain(a.rrd.as_deref().map(|p| ("--rrd", p))).collect();
     if !outs.is_empty() {
         let mut inputs: Vec<(&str, &Path)> = vec![("--data", &data_files[0])];
-        let model_file = model_input(a.model);
+        let model_file = a.model.input();
         inputs.extend(model_file.as_deref().map(|m| ("--model", m)));
         check_outputs(&inputs, &outs)?;
     }
-    let spec = model_spec(a.model, a.params)?;
-    let ds = load_dataset(a.data, a.angles, true)?;
+    let spec = a.model.spec()?;
+    let ds = load_dataset(&a.data, a.angles, true)?;
     let n = ds.rows.len();
     let frac = test_fraction.unwrap_or_else(|| {
         let t = ds.test_indices().len();
@@ -1045,7 +1113,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     }
     println!("{table}");
     let mut outputs = OutputSet::new();
-    if let Some(p) = a.rrd {
+    if let Some(p) = a.rrd.as_deref() {
         let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
         let rows: Vec<crate::viz::scenes::CompareRow> = runs
             .iter()
@@ -1053,7 +1121,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
             .collect();
         crate::viz::scenes::record_comparison(&table, &names, &rows, &mut outputs, p)?;
     }
-    if let Some(p) = a.out {
+    if let Some(p) = a.out.as_deref() {
         outputs.write_json(p, &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
     }
     outputs.commit()?;
@@ -1179,14 +1247,12 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     if with_compare {
         let dir = tmp.join(format!("s{}-400", 1000));
         let t0 = Instant::now();
-        let methods = ["lm", "ekf", "pf", "pso", "rbf"].map(String::from);
         let args = CompareArgs {
-            data: &dir,
+            data: dir,
             angles: AngleArg::Deg,
-            methods: &methods,
+            methods: ["lm", "ekf", "pf", "pso", "rbf"].map(String::from).to_vec(),
             seeds: 30,
-            model: "irb120",
-            params: None,
+            model: ModelArgs { model: "irb120".into(), params: None },
             test_fraction: None,
             effort: 1.0,
             out: None,
@@ -1219,23 +1285,44 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     Ok(())
 }
 
-/// Arguments of `twincal diagnose`.
+/// Arguments of `twincal diagnose` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
 pub struct DiagnoseArgs {
+    /// Dataset folder, CSV or xlsx (q1..q6, L; optional t, temp). No truth file is read.
+    #[arg(long)]
     pub data: PathBuf,
+    /// Unit of the joint angles in the data.
+    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
     pub angles: AngleArg,
-    pub model: String,
-    pub params: Option<String>,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
     pub loads: LoadArgs,
+    /// Candidate effects (default: every kind the data support).
+    #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
+    /// Cross-validation folds (contiguous blocks of acquisition order).
+    #[arg(long, default_value_t = 5)]
     pub folds: usize,
+    /// Family-wise significance level of each selection step.
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub alpha: f64,
+    #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// The diagnosis report.
+    #[arg(long, default_value = "report.json")]
     pub out: PathBuf,
+    /// The extended model, saved like any calibration result.
+    #[arg(long, default_value = "diagnosed.json")]
     pub result: PathBuf,
+    /// Rerun recording of the evidence.
+    #[arg(long)]
     pub rrd: Option<PathBuf>,
-    /// `--report`: a self-contained HTML page.
+    /// Self-contained HTML report (tables and plots, opens offline in any browser).
+    #[arg(long)]
     pub report: Option<PathBuf>,
-    /// `--max-test-rmse-mm`: limit on the final cross-validated held-out RMSE, for the verdict.
+    /// Accuracy limit for the verdict in --out: the final cross-validated held-out RMSE, mm.
+    #[arg(long, allow_negative_numbers = true)]
     pub max_test_rmse_mm: Option<f64>,
 }
 
@@ -1245,7 +1332,7 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     use crate::diagnose::{diagnose as run, DiagnoseOptions};
     let data_files = data_inputs(&a.data);
     let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
-    let model_file = model_input(&a.model);
+    let model_file = a.model.input();
     if let Some(m) = &model_file {
         inputs.push(("--model", m));
     }
@@ -1261,7 +1348,7 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     if !(a.alpha > 0.0 && a.alpha < 0.5) {
         return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
     }
-    let spec = model_spec(&a.model, a.params.as_deref())?;
+    let spec = a.model.spec()?;
     let data = load_dataset(&a.data, a.angles, true)?;
     let mut opts = DiagnoseOptions::new(spec);
     let (loads, inertial) = a.loads.resolve()?;

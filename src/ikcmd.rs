@@ -219,17 +219,35 @@ pub fn run_ik(label: &str, m: &IkModel, kind: JacobianKind, targets: &[Vector3<f
     IkRun { label: label.into(), solutions, seconds_per_query, median_seconds, true_error_mm }
 }
 
-/// Arguments of `twincal ik`.
+/// Arguments of `twincal ik` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
 pub struct IkArgs {
+    /// A result.json written by `calibrate`.
+    #[arg(long)]
     pub model: PathBuf,
+    /// CSV of target points with columns x,y,z in mm (the calibration's frame).
+    #[arg(long)]
     pub targets: Option<PathBuf>,
+    /// N reachable targets: the true tool points of random configurations inside the
+    /// calibrated joint ranges (the twin's, else the model's own).
+    #[arg(long)]
     pub random: Option<usize>,
-    /// Dataset folder of the twin (default: the result's data, when a truth file is beside it).
+    /// Twin dataset folder with truth.json (default: the result's data, when it has one).
+    #[arg(long)]
     pub twin: Option<PathBuf>,
+    /// Do not validate on a twin even when a truth file is found.
+    #[arg(long)]
     pub no_twin: bool,
+    /// analytic, neural, hybrid or all.
+    #[arg(long, default_value = "all")]
     pub jacobian: String,
+    /// Model residual (mm) at which a target counts as solved.
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub tol_mm: f64,
+    #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Per-target solutions.
+    #[arg(long, default_value = "ik.csv")]
     pub out: PathBuf,
 }
 

@@ -442,7 +442,11 @@ mod tests {
 
     /// A trained-looking network: random non-zero weights, moved translations and dilations.
     fn perturbed(act: Activation) -> Awnn {
-        let mut net = Awnn::init(&poses(50, 1), 12, act, 3).unwrap();
+        perturb(Awnn::init(&poses(50, 1), 12, act, 3).unwrap())
+    }
+
+    /// `net` with every parameter moved by a seeded uniform step in ±0.3.
+    fn perturb(mut net: Awnn) -> Awnn {
         let mut rng = ChaCha8Rng::seed_from_u64(4);
         let mut p = net.params();
         for v in p.iter_mut() {
@@ -574,16 +578,10 @@ mod tests {
         assert!(Awnn::init_with(&train, &ti2, &extra, 4, Activation::MexicanHat, 0).is_err());
     }
 
+    /// [`perturbed`] for a Mexican-hat network that also reads `extra` row inputs.
     fn perturbed_with(extra: &[Feature]) -> Awnn {
         let (qs, inp) = rows(50, 1);
-        let mut net = Awnn::init_with(&qs, &inp, extra, 12, Activation::MexicanHat, 3).unwrap();
-        let mut rng = ChaCha8Rng::seed_from_u64(4);
-        let mut p = net.params();
-        for v in p.iter_mut() {
-            *v += rng.random_range(-0.3..0.3);
-        }
-        net.set_params(&p);
-        net
+        perturb(Awnn::init_with(&qs, &inp, extra, 12, Activation::MexicanHat, 3).unwrap())
     }
 
     #[test]
