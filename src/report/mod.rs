@@ -130,6 +130,14 @@ fn mm3(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
     [v.x * 1e3, v.y * 1e3, v.z * 1e3]
 }
 
+/// The calibrated tool point of every row of `s` and the calibrated cable exit point, mm.
+fn tool_points_and_exit(r: &CalibResult, s: &Samples) -> (Vec<[f64; 3]>, [f64; 3]) {
+    let mut w = r.model.work();
+    let tool_mm = (0..s.len()).map(|i| mm3(&r.model.tool_point_with(&r.x, &s.q[i], &s.inputs[i], &mut w))).collect();
+    let nc = r.model.n_chain();
+    (tool_mm, [r.x[nc] * 1e3, r.x[nc + 1] * 1e3, r.x[nc + 2] * 1e3])
+}
+
 /// Every row of `data` as samples with the model's per-row inputs (torques, flanks, time).
 fn all_samples(r: &CalibResult, data: &Dataset) -> Samples {
     let all: Vec<usize> = (0..data.rows.len()).collect();
@@ -179,10 +187,8 @@ impl CalibFigures {
         let x0 = &r.model.nominal;
         let before_mm = LengthFit { model: &r.model, data: &s }.residuals_mm(x0);
         let after_mm = residuals_after(r, data);
-        let mut w = r.model.work();
-        let tool_mm = (0..s.len()).map(|i| mm3(&r.model.tool_point_with(&r.x, &s.q[i], &s.inputs[i], &mut w))).collect();
+        let (tool_mm, exit_mm) = tool_points_and_exit(r, &s);
         let nc = r.model.n_chain();
-        let exit_mm = [r.x[nc] * 1e3, r.x[nc + 1] * 1e3, r.x[nc + 2] * 1e3];
 
         // Convergence: the start, then every iteration the optimiser reported.
         let to_internal = |xs: &[f64]| -> Vec<f64> { xs.iter().enumerate().map(|(k, v)| v / r.model.kinds[k].display()).collect() };
@@ -298,9 +304,7 @@ impl DiagnosisFigures {
                 .unwrap_or_else(|| block.label());
             causes.push(CauseEvidence { title, contribution_mm, without_mm, with_mm: after_mm.clone() });
         }
-        let mut w = r.model.work();
-        let tool_mm = (0..s.len()).map(|i| mm3(&r.model.tool_point_with(&r.x, &s.q[i], &s.inputs[i], &mut w))).collect();
-        let nc = r.model.n_chain();
+        let (tool_mm, exit_mm) = tool_points_and_exit(r, &s);
         let mut heldout: Vec<f64> = d.steps.iter().map(|s| s.heldout_rmse_before_mm).collect();
         heldout.push(d.final_heldout_rmse_mm);
         heldout.truncate(d.causes.len() + 1);
@@ -309,7 +313,7 @@ impl DiagnosisFigures {
             before_mm,
             after_mm,
             tool_mm,
-            exit_mm: [r.x[nc] * 1e3, r.x[nc + 1] * 1e3, r.x[nc + 2] * 1e3],
+            exit_mm,
             arm: arm_pose(r, &r.x, &s, 0),
             features: features(data),
             causes,
