@@ -6,9 +6,9 @@
 //!
 //! `z = [θ; w]`: the identifiable geometric (and sensor) parameters θ of the calibration model
 //! (every parametrisation works: `--params dh` gives the paper's D-H form) and the network's
-//! flattened coefficients w (196 to 414 spline coefficients, the shape chosen by cross-validation). With `y_i(θ)` the
-//! training residual of the geometric model (mm) and `δ_i(w)` the network's correction at pose
-//! i, the objective has four parts (mm²):
+//! flattened coefficients w (196 to 414 spline coefficients, the shape chosen by
+//! cross-validation). With `y_i(θ)` the training residual of the geometric model (mm) and
+//! `δ_i(w)` the network's correction at pose i, the objective has four parts (mm²):
 //!
 //! ```text
 //! J = 1/N Σ (y_i − δ_i)²                       data term on the distance residuals
@@ -33,7 +33,7 @@
 //! training rows ([`super::gkan_select`]: LM geometry, then each candidate network fitted to its
 //! residuals on four folds and scored on the fifth); the test rows play no part. Without the
 //! choice (`select = false`) the defaults are grid 4, chain-edge grid 2, λ_n = 0.05, λ_s = 0.02.
-
+//!
 //! # Search
 //!
 //! DS-ADE ([`DeVariant::DsAde`], population 40, 100 generations at effort 1) over the box:

@@ -113,8 +113,7 @@ pub fn select(p: &Problem) -> Result<Selection> {
     for shape in SHAPES {
         let net = Gkan::new(shape, lo.clone(), hi.clone());
         let nw = net.n_coef();
-        let basis = DMatrix::from_fn(n, nw, |_, _| 0.0);
-        let mut basis = basis;
+        let mut basis = DMatrix::zeros(n, nw);
         let mut row = vec![0.0; nw];
         for i in 0..n {
             net.basis_row(&fit.data.q[i], &mut row);
