@@ -11,7 +11,7 @@
 //!
 //! Candidates (documented in the README): shapes grid/edge grid 3/1 (196 coefficients), 4/2 (292,
 //! the paper's scale) and 6/3 (414), chain edges among joints 1–5; λ_n ∈ {0.05, 0.2, 1, 5};
-//! λ_s ∈ {0.0002, 0.002, 0.02, 0.2}: 48 candidates, 240 Cholesky solves, about 0.4 s for 500
+//! λ_s ∈ {0.0002, 0.002, 0.02, 0.2}: 48 candidates, 240 Cholesky solves, 0.6–0.8 s for 500
 //! rows. The geometric weight is not searched: it is the tolerance prior (σ²/N, σ from the
 //! data).
 
