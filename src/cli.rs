@@ -197,8 +197,19 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     let steps: Vec<usize> = t.poses.iter().map(|p| p.settle_steps).collect();
     let mean_steps = steps.iter().sum::<usize>() as f64 / steps.len().max(1) as f64;
     eprintln!("scenario {} (seed {}): {n} poses ({} train / {test} test) in {elapsed:.2} s", t.scenario, t.seed, n - test);
-    let slow = t.poses.iter().filter(|p| p.settle_time_s > g.twin.sensor.hold_s).count();
-    eprintln!("  mean settle steps per pose: {mean_steps:.0}; poses still moving after the {} s hold: {slow}", g.twin.sensor.hold_s);
+    let acq: Vec<&crate::generate::PoseAcquisition> = t.poses.iter().filter_map(|p| p.acquisition.as_ref()).collect();
+    if acq.is_empty() {
+        let slow = t.poses.iter().filter(|p| p.settle_time_s > g.twin.sensor.hold_s).count();
+        eprintln!("  mean settle steps per pose: {mean_steps:.0}; poses still moving after the {} s hold: {slow}", g.twin.sensor.hold_s);
+    } else {
+        // The simulated tour: rapier steps per pose, and how the stability gate and the transient fared.
+        let closed = acq.iter().filter(|a| a.gate_s.is_none()).count();
+        let worst = acq.iter().map(|a| a.transient_mm.abs()).fold(0.0f64, f64::max);
+        eprintln!(
+            "  simulated tour: {mean_steps:.0} rapier steps per pose; gate still closed after the {} s hold: {closed} read anyway; largest transient in L {worst:.1e} mm",
+            g.twin.sensor.hold_s
+        );
+    }
     if !t.rejected.is_empty() {
         eprintln!("  {} poses rejected (listed in truth.json):", t.rejected.len());
         for r in t.rejected.iter().take(5) {
