@@ -34,6 +34,15 @@ pub fn record_hold_study(rows: &[HoldStudyRow], scenario: &str, noise_floor_mm: 
     let mut speeds: Vec<f64> = rows.iter().map(|r| r.speed_fraction).collect();
     speeds.sort_by(f64::total_cmp);
     speeds.dedup();
+    // Each speed's rows in hold order (the table and every plot walk them alike).
+    let series: Vec<Vec<&HoldStudyRow>> = speeds
+        .iter()
+        .map(|v| {
+            let mut mine: Vec<&HoldStudyRow> = rows.iter().filter(|r| r.speed_fraction == *v).collect();
+            mine.sort_by(|a, b| a.hold_s.total_cmp(&b.hold_s));
+            mine
+        })
+        .collect();
     let names: Vec<String> = holds.iter().map(|h| format!("{h} s")).collect();
     let column = |h: f64| holds.iter().position(|x| *x == h).unwrap_or(0) as f64;
 
@@ -44,10 +53,8 @@ pub fn record_hold_study(rows: &[HoldStudyRow], scenario: &str, noise_floor_mm: 
          | speed | colour | hold s | bias µm | spread µm | max µm | gate closed | gate s (median) | s/pose |\n|---|---|---|---|---|---|---|---|---|\n",
         noise_floor_mm * 1e3
     );
-    for (k, v) in speeds.iter().enumerate() {
-        let mut mine: Vec<&HoldStudyRow> = rows.iter().filter(|r| r.speed_fraction == *v).collect();
-        mine.sort_by(|a, b| a.hold_s.total_cmp(&b.hold_s));
-        for r in &mine {
+    for (k, (v, mine)) in speeds.iter().zip(&series).enumerate() {
+        for r in mine {
             doc.push_str(&format!(
                 "| {:.2} | {} | {} | {:.3} | {:.3} | {:.3} | {}/{} | {} | {:.2} |\n",
                 v,
@@ -70,10 +77,8 @@ pub fn record_hold_study(rows: &[HoldStudyRow], scenario: &str, noise_floor_mm: 
         let plot = Plot::categories(title, &names, "µm", y);
         let base = format!("study/{what}");
         plot.frame(&mut rec, &base);
-        for (k, v) in speeds.iter().enumerate() {
+        for (k, (v, mine)) in speeds.iter().zip(&series).enumerate() {
             let c = PALETTE[k % PALETTE.len()];
-            let mut mine: Vec<&HoldStudyRow> = rows.iter().filter(|r| r.speed_fraction == *v).collect();
-            mine.sort_by(|a, b| a.hold_s.total_cmp(&b.hold_s));
             let xy: Vec<[f64; 2]> = mine.iter().map(|r| [column(r.hold_s), value(r)]).collect();
             let labels: Vec<String> =
                 mine.iter().map(|r| format!("speed {v:.2}, hold {} s: {:.3} µm ({}/{} gates closed)", r.hold_s, value(r), r.gate_closed, r.poses)).collect();
