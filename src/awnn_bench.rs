@@ -6,7 +6,7 @@
 use crate::calib::method::{Method, Problem, Solution, Solver};
 use crate::calib::optim::Observer;
 use crate::calib::problem::{LengthFit, Samples};
-use crate::calib::psoekf::{Ablation, Hyper, PsoEkfAwnn};
+use crate::calib::psoekf::{Ablation, Hyper, NetStart, PsoEkfAwnn};
 use crate::calib::run::{calibrate_with, split_stage, CalibOptions, CalibResult, ModelSpec, TruthFile};
 use crate::calib::stats::{mean_std, median};
 use crate::dataset::{Dataset, Split};
@@ -35,7 +35,8 @@ impl Solver for Timed {
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let t0 = Instant::now();
-        let (h, _, _) = self.inner.stage_zero(p)?;
+        let (net, _) = self.inner.new_net(p)?;
+        let (h, _, _) = self.inner.stage_zero(p, &net)?;
         let t_zero = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let fixed = PsoEkfAwnn { hyper: Some(h), ..self.inner.clone() };
@@ -153,6 +154,8 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
     let mut rows = Vec::new();
     let q_opts = CalibOptions::new(spec.clone(), Method::PsoEkfAwnn(Ablation::Extended));
     let mut q_rows = Vec::new();
+    let mut z_rows = Vec::new();
+    let zero = PsoEkfAwnn { start: NetStart::Zero, ..Default::default() };
     for seed in 0..seeds {
         let (ds, truth) = gen(base.seed + 1000 + seed)?;
         let l = calibrate_with(&ds, Some(&truth), &lm_opts, lm.as_ref())?;
@@ -160,6 +163,8 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
         let q = calibrate_with(&ds, Some(&truth), &q_opts, &PsoEkfAwnn::variant(Ablation::Extended))?;
         let (tl, ta) = (truth_view(&l, &ds, &truth, &lm_opts), truth_view(&a, &ds, &truth, &awnn_opts));
         q_rows.push((test_rmse(&q), truth_view(&q, &ds, &truth, &q_opts).map_or(f64::NAN, |t| t.recovered)));
+        let z = calibrate_with(&ds, Some(&truth), &awnn_opts, &zero)?;
+        z_rows.push((test_rmse(&z), truth_view(&z, &ds, &truth, &awnn_opts).map_or(f64::NAN, |t| t.recovered)));
         rows.push((test_rmse(&l), test_rmse(&a), tl, ta, truth.noise_std_mm));
     }
     let lm_r: Vec<f64> = rows.iter().map(|r| r.0).collect();
@@ -185,7 +190,15 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
         median(&aw_r),
         rows[0].4
     );
-    println!("    pso-ekf-awnn (the paper's: {net}, {} network/LM alternations): {}", PsoEkfAwnn::default().rounds, summary(&aw_r));
+    println!("    pso-ekf-awnn ({net}, network chosen by CV on the training rows): {}", summary(&aw_r));
+    let z_r: Vec<f64> = z_rows.iter().map(|r| r.0).collect();
+    println!(
+        "    same, Stage I from {} zero-output neurons instead: median {:.4} mm, {}; removes {:.1} % (median)",
+        zero.neurons,
+        median(&z_r),
+        summary(&z_r),
+        100.0 * median(&z_rows.iter().map(|r| r.1).collect::<Vec<_>>())
+    );
     let q_r: Vec<f64> = q_rows.iter().map(|r| r.0).collect();
     println!(
         "    pso-ekf-awnn-x (q + temperature (or time) + flanks, 2 network/LM alternations): median {:.4} mm, {}; removes {:.1} % (median)",

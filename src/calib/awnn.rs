@@ -127,6 +127,52 @@ impl Feature {
     }
 }
 
+/// Joints whose pairs get diagonal directions in a [`Library`] (the wrist roll, joint 6, turns
+/// the tool about its own axis and couples little).
+pub const PAIR_JOINTS: usize = 5;
+
+/// A multiresolution layout of neurons ([`Awnn::library`]). Directions (in standardised input
+/// units): every input axis and, with `pairs`, the sum and difference diagonals
+/// `(e_i ± e_j)/√2` of every pair among the first [`PAIR_JOINTS`] joints, where configuration
+/// coupling lives (the gravity torque on joint 2 depends on joints 2 and 3 together). Along
+/// each direction and for each `per` in `levels`, `per` neurons with translations spread over
+/// the direction's range on the training rows and dilation that range over `per`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Library {
+    pub levels: &'static [usize],
+    pub pairs: bool,
+}
+
+impl Library {
+    /// The unnormalised directions for `nq` joints among `d` inputs.
+    fn directions(&self, nq: usize, d: usize) -> Vec<Vec<f64>> {
+        let axis = |i: usize| (0..d).map(|c| if c == i { 1.0 } else { 0.0 }).collect::<Vec<f64>>();
+        let mut dirs: Vec<Vec<f64>> = (0..d).map(axis).collect();
+        if self.pairs {
+            let c = PAIR_JOINTS.min(nq);
+            for i in 0..c {
+                for j in i + 1..c {
+                    for s in [1.0, -1.0] {
+                        let mut v = axis(i);
+                        v[j] = s;
+                        dirs.push(v);
+                    }
+                }
+            }
+        }
+        dirs
+    }
+    /// Neurons of this layout for `nq` joints among `d` inputs.
+    pub fn neurons(&self, nq: usize, d: usize) -> usize {
+        self.directions(nq, d).len() * self.levels.iter().sum::<usize>()
+    }
+    /// E.g. "axes + pair diagonals, 2+4 per direction".
+    pub fn label(&self) -> String {
+        let levels = self.levels.iter().map(|l| l.to_string()).collect::<Vec<_>>().join("+");
+        format!("{}, {levels} per direction", if self.pairs { "axes + pair diagonals" } else { "axes" })
+    }
+}
+
 /// An adaptive wavelet network, see the module docs. Stored in result.json as the corrector
 /// `{"kind": "awnn", ...}`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -163,9 +209,54 @@ impl Awnn {
     /// the network starts as a function of q and learning moves weight onto the extra inputs.
     /// Every training row must carry every extra input.
     pub fn init_with(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], neurons: usize, activation: Activation, seed: u64) -> Result<Awnn, String> {
+        if neurons == 0 {
+            return Err("awnn: needs at least one neuron".into());
+        }
+        let (mut net, std) = Awnn::empty(qs, inputs, extra, activation)?;
+        let (nq, d) = (net.joints(), net.inputs());
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for j in 0..neurons {
+            // Neuron j starts on joint i = j mod nq (per = its joint's neuron count, k = its rank
+            // there), its projection that joint's axis plus a small seeded tilt so that learning
+            // can mix inputs; translations spread over the projection's range on the training rows.
+            let (i, k) = (j % nq, j / nq);
+            let per = (neurons - i).div_ceil(nq);
+            let v: Vec<f64> = (0..d)
+                .map(|c| {
+                    let tilt = if c < nq { TILT } else { EXTRA_TILT };
+                    if c == i {
+                        1.0
+                    } else {
+                        tilt * (2.0 * rng.random::<f64>() - 1.0)
+                    }
+                })
+                .collect();
+            net.place(v, &std, k, per);
+        }
+        Ok(net)
+    }
+
+    /// A network laid out as a multiresolution library of `shape` (see [`Library`]) with zero
+    /// output weights: its output layer is then fitted by least squares
+    /// ([`super::awnn_select`]).
+    pub fn library(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], shape: &Library, activation: Activation) -> Result<Awnn, String> {
+        let (mut net, std) = Awnn::empty(qs, inputs, extra, activation)?;
+        for v in shape.directions(net.joints(), net.inputs()) {
+            for &per in shape.levels {
+                for k in 0..per {
+                    net.place(v.clone(), &std, k, per);
+                }
+            }
+        }
+        Ok(net)
+    }
+
+    /// A network without neurons whose input standardisation comes from the training rows, and
+    /// those rows standardised.
+    fn empty(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activation: Activation) -> Result<(Awnn, Vec<Vec<f64>>), String> {
         let nq = qs.first().map(|q| q.len()).ok_or("awnn: no training poses")?;
-        if nq == 0 || neurons == 0 {
-            return Err("awnn: needs at least one input and one neuron".into());
+        if nq == 0 {
+            return Err("awnn: needs at least one input".into());
         }
         if qs.iter().any(|q| q.len() != nq || q.iter().any(|v| !v.is_finite())) {
             return Err("awnn: joint angles of unequal length or not finite".into());
@@ -197,48 +288,37 @@ impl Awnn {
                 }
             })
             .collect();
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut net = Awnn {
+        let std = xs.iter().map(|x| x.iter().enumerate().map(|(i, v)| (v - input_mean[i]) / input_scale[i]).collect()).collect();
+        let net = Awnn {
             activation,
             extra: extra.to_vec(),
             input_mean,
             input_scale,
-            projection: Vec::with_capacity(neurons),
-            translation: Vec::with_capacity(neurons),
-            dilation: Vec::with_capacity(neurons),
-            weights: vec![0.0; neurons],
+            projection: Vec::new(),
+            translation: Vec::new(),
+            dilation: Vec::new(),
+            weights: Vec::new(),
         };
-        let std: Vec<Vec<f64>> = xs.iter().map(|x| x.iter().enumerate().map(|(i, v)| (v - net.input_mean[i]) / net.input_scale[i]).collect()).collect();
-        for j in 0..neurons {
-            // Neuron j starts on joint i = j mod nq (per = its joint's neuron count, k = its rank
-            // there), its projection that joint's axis plus a small seeded tilt so that learning
-            // can mix inputs; translations spread over the projection's range on the training rows.
-            let (i, k) = (j % nq, j / nq);
-            let per = (neurons - i).div_ceil(nq);
-            let mut v: Vec<f64> = (0..d)
-                .map(|c| {
-                    let tilt = if c < nq { TILT } else { EXTRA_TILT };
-                    if c == i {
-                        1.0
-                    } else {
-                        tilt * (2.0 * rng.random::<f64>() - 1.0)
-                    }
-                })
-                .collect();
-            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            v.iter_mut().for_each(|x| *x /= norm);
-            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for u in &std {
-                let s: f64 = v.iter().zip(u).map(|(a, b)| a * b).sum();
-                lo = lo.min(s);
-                hi = hi.max(s);
-            }
-            let span = (hi - lo).max(1e-6);
-            net.projection.push(v);
-            net.translation.push(lo + span * (k as f64 + 0.5) / per as f64);
-            net.dilation.push((span / per as f64).max(MIN_DILATION));
+        Ok((net, std))
+    }
+
+    /// Adds a neuron along direction `v` (normalised here): the `k`-th of `per` translations
+    /// spread evenly over the range `v` takes on the standardised training rows `std`, dilation
+    /// that range over `per` (neighbours overlap), zero output weight.
+    fn place(&mut self, mut v: Vec<f64>, std: &[Vec<f64>], k: usize, per: usize) {
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        v.iter_mut().for_each(|x| *x /= norm);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for u in std {
+            let s: f64 = v.iter().zip(u).map(|(a, b)| a * b).sum();
+            lo = lo.min(s);
+            hi = hi.max(s);
         }
-        Ok(net)
+        let span = (hi - lo).max(1e-6);
+        self.projection.push(v);
+        self.translation.push(lo + span * (k as f64 + 0.5) / per as f64);
+        self.dilation.push((span / per as f64).max(MIN_DILATION));
+        self.weights.push(0.0);
     }
 
     pub fn neurons(&self) -> usize {
@@ -306,6 +386,16 @@ impl Awnn {
         };
         self.standardise(q, inp, u);
         (0..self.neurons()).map(|j| self.weights[j] * self.activation.eval(self.arg(j, u)).0).sum()
+    }
+
+    /// Every neuron's activation `ψ(z_j)` at a row (len [`neurons`](Self::neurons)): the output
+    /// is `hidden · weights`.
+    pub fn hidden_row(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
+        let mut u = vec![0.0; self.inputs()];
+        self.standardise(q, inp, &mut u);
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = self.activation.eval(self.arg(j, &u)).0;
+        }
     }
 
     /// Output and its gradient with respect to every learned value, in the order of

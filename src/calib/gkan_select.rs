@@ -6,8 +6,8 @@
 //! minimise the objective's network part on k − 1 folds — `Σ(y − Bw)² + λ_n Σ(Bw)² + λ_s ‖Pw‖²`
 //! with `P` the roughness and ridge rows ([`penalty_rows`]), one Cholesky solve since it is
 //! quadratic in w — and predict the held-out fold. The candidate with the smallest held-out RMSE
-//! over all folds wins; on a tie the smaller network. Folds interleave the rows (row i in fold
-//! i mod k), so each fold spans the whole acquisition (time and temperature).
+//! over all folds wins; on a tie the smaller network. Folds interleave the rows
+//! ([`super::ridge_cv`]).
 //!
 //! Candidates (documented in the README): shapes grid/edge grid 3/1 (196 coefficients), 4/2 (292,
 //! the paper's scale) and 6/3 (414), chain edges among joints 1–5; λ_n ∈ {0.05, 0.2, 1, 5};
@@ -19,8 +19,9 @@ use super::evonph::EvoWeights;
 use super::gkan::{Gkan, GkanShape};
 use super::method::{LmSolver, Problem};
 use super::optim::NoObserver;
+use super::ridge_cv::Folds;
 use crate::error::{Error, Result};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 /// Candidate network shapes, smallest first.
@@ -108,7 +109,6 @@ pub fn select(p: &Problem) -> Result<Selection> {
     }
     let no_network_rmse_mm = (y.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
     let (lo, hi) = Gkan::range_of(&fit.data.q);
-    let fold_of = |i: usize| i % FOLDS;
     let mut candidates = Vec::new();
     for shape in SHAPES {
         let net = Gkan::new(shape, lo.clone(), hi.clone());
@@ -122,35 +122,9 @@ pub fn select(p: &Problem) -> Result<Selection> {
             }
         }
         let pen = penalty_gram(&penalty_rows(&net), nw);
-        // Per fold: the training Gram and right-hand side (total minus the fold's own).
-        let total = basis.transpose() * &basis;
-        let yv = DVector::from_column_slice(&y);
-        let total_b = basis.transpose() * &yv;
-        let folds: Vec<(DMatrix<f64>, DVector<f64>, Vec<usize>)> = (0..FOLDS)
-            .map(|f| {
-                let rows: Vec<usize> = (0..n).filter(|i| fold_of(*i) == f).collect();
-                let bf = basis.select_rows(&rows);
-                let yf = DVector::from_iterator(rows.len(), rows.iter().map(|&i| y[i]));
-                (&total - bf.transpose() * &bf, &total_b - bf.transpose() * yf, rows)
-            })
-            .collect();
+        let folds = Folds::new(basis, &y, FOLDS);
         let grid: Vec<(f64, f64)> = NEURAL.iter().flat_map(|&a| ROUGHNESS.iter().map(move |&b| (a, b))).collect();
-        let scores: Vec<f64> = grid
-            .par_iter()
-            .map(|&(ln, ls)| {
-                let mut sse = 0.0;
-                for (g, b, rows) in &folds {
-                    let a = g * (1.0 + ln) + &pen * ls;
-                    let Some(chol) = nalgebra::Cholesky::new(a) else { return f64::INFINITY };
-                    let w = chol.solve(b);
-                    for &i in rows {
-                        let d = basis.row(i).dot(&w.transpose());
-                        sse += (y[i] - d) * (y[i] - d);
-                    }
-                }
-                (sse / n as f64).sqrt()
-            })
-            .collect();
+        let scores: Vec<f64> = grid.par_iter().map(|&(ln, ls)| folds.cv_rmse(|g| g * (1.0 + ln) + &pen * ls)).collect();
         for (&(neural, roughness), &cv_rmse_mm) in grid.iter().zip(&scores) {
             candidates.push(Candidate { shape, coefficients: nw, neural, roughness, cv_rmse_mm });
         }

@@ -1,6 +1,7 @@
 //! Calibration: identification of model parameters from datasets.
 
 pub mod awnn;
+pub mod awnn_select;
 pub mod corrector;
 pub mod effects;
 pub mod equivalent;
@@ -20,6 +21,7 @@ pub mod placement;
 pub mod problem;
 pub mod psoekf;
 pub mod rbf;
+pub mod ridge_cv;
 pub mod run;
 pub mod stats;
 pub mod tolerance;

@@ -30,6 +30,7 @@
 //! training poses, the paper's identifiability check.
 
 use super::awnn::{Activation, Awnn, Feature};
+use super::awnn_select::{select, Selection};
 use super::corrector::Corrector;
 use super::effects::RowInputs;
 use super::method::{Method, Problem, Solution, Solver};
@@ -125,6 +126,16 @@ impl NetInputs {
     }
 }
 
+/// The network Stage I starts from (see [`PsoEkfAwnn::new_net`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum NetStart {
+    /// Layout and output layer chosen by cross-validation on the training rows.
+    Selected,
+    /// 20 neurons on the joint axes with zero output weights (the network starts as "no
+    /// correction").
+    Zero,
+}
+
 /// Stage I's hyperparameters, relative to documented scales (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Hyper {
@@ -146,7 +157,7 @@ pub struct SearchSpace {
 
 impl Default for SearchSpace {
     fn default() -> Self {
-        SearchSpace { log10_q_rel: (-8.0, -2.0), log10_r_rel: (-2.0, 2.0), log10_lr: (-3.0, 0.3f64.log10()) }
+        SearchSpace { log10_q_rel: (-8.0, -2.0), log10_r_rel: (-2.0, 2.0), log10_lr: (-5.0, 0.3f64.log10()) }
     }
 }
 
@@ -171,7 +182,9 @@ pub struct PsoEkfAwnn {
     pub variant: Ablation,
     /// The network's inputs.
     pub inputs: NetInputs,
-    /// Wavelet neurons (hidden units of the MLP ablation).
+    /// Where the network starts.
+    pub start: NetStart,
+    /// Neurons of the [`NetStart::Zero`] network.
     pub neurons: usize,
     /// Stage I passes over the shuffled training rows.
     pub epochs: usize,
@@ -193,6 +206,7 @@ impl Default for PsoEkfAwnn {
         PsoEkfAwnn {
             variant: Ablation::Full,
             inputs: NetInputs::Joints,
+            start: NetStart::Selected,
             neurons: 20,
             epochs: 3,
             search: SearchSpace::default(),
@@ -363,14 +377,28 @@ pub fn observation_condition(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 
 }
 
 impl PsoEkfAwnn {
-    /// A fresh network for this variant (none for V1).
-    pub fn new_net(&self, p: &Problem) -> Result<Option<Awnn>> {
+    /// The network Stage I starts from (none for V1): with [`NetStart::Selected`] the layout
+    /// and output layer chosen by cross-validation on what a geometric LM fit leaves on the
+    /// training rows ([`super::awnn_select`]), with [`NetStart::Zero`] the small zero-output
+    /// network of [`Awnn::init_with`].
+    pub fn new_net(&self, p: &Problem) -> Result<(Option<Awnn>, Option<Selection>)> {
         let d = p.fit.data;
         let extra = self.inputs.features(d);
-        self.variant
-            .activation()
-            .map(|act| Awnn::init_with(&d.q, &d.inputs, &extra, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration))
-            .transpose()
+        let Some(act) = self.variant.activation() else { return Ok((None, None)) };
+        match self.start {
+            NetStart::Zero => {
+                Ok((Some(Awnn::init_with(&d.q, &d.inputs, &extra, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration)?), None))
+            }
+            NetStart::Selected => {
+                let lm = self.lm.minimize(p.fit, p.x0, p.fixed, &mut NoObserver);
+                let y = p.fit.residuals_mm(&lm.x);
+                let mut jac = DMatrix::zeros(d.len(), lm.x.len());
+                LeastSquares::jacobian(p.fit, &lm.x, &mut jac);
+                let free: Vec<usize> = (0..lm.x.len()).filter(|k| !p.fixed[*k]).collect();
+                let sel = select(&d.q, &d.inputs, &extra, act, &y, &jac.select_columns(&free))?;
+                Ok((Some(sel.net.clone()), Some(sel)))
+            }
+        }
     }
 
     /// The inputs of the network this solver would use on these data's kind, e.g.
@@ -400,7 +428,7 @@ impl PsoEkfAwnn {
 
     /// Stage 0: the hyperparameters (PSO, or drawn at random for V2, or the fixed ones), the
     /// fitness of the chosen ones and the number of Stage I runs spent.
-    pub fn stage_zero(&self, p: &Problem) -> Result<(Hyper, f64, usize)> {
+    pub fn stage_zero(&self, p: &Problem, net: &Option<Awnn>) -> Result<(Hyper, f64, usize)> {
         if let Some(h) = self.hyper {
             return Ok((h, f64::NAN, 0));
         }
@@ -410,8 +438,7 @@ impl PsoEkfAwnn {
             let v: Vec<f64> = (0..3).map(|k| rng.random_range(b.lower[k]..=b.upper[k])).collect();
             return Ok((SearchSpace::hyper(&v), f64::NAN, 0));
         }
-        let net = self.new_net(p)?;
-        let fitness = Fitness { solver: self, p, net: &net };
+        let fitness = Fitness { solver: self, p, net };
         let centre: Vec<f64> = (0..3).map(|k| 0.5 * (b.lower[k] + b.upper[k])).collect();
         let pso =
             Pso { particles: self.pso_particles.max(2), iterations: self.pso_iterations.max(1), seed: p.seed, patience: 4, tol: 1e-4, ..Default::default() };
@@ -545,8 +572,8 @@ impl Solver for PsoEkfAwnn {
         self.inputs != NetInputs::Joints
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
-        let (h, fitness, runs) = self.stage_zero(p)?;
-        let net = self.new_net(p)?;
+        let (net, selection) = self.new_net(p)?;
+        let (h, fitness, runs) = self.stage_zero(p, &net)?;
         let one = self.stage_one(p, &h, net, obs);
         if one.x.iter().any(|v| !v.is_finite()) {
             return Err(Error::Calibration("pso-ekf-awnn: Stage I diverged (non-finite geometric states)".into()));
@@ -571,8 +598,9 @@ impl Solver for PsoEkfAwnn {
             (None, Ablation::V2RandomInit) => "drawn at random".to_string(),
             _ => format!("PSO, {runs} Stage I runs, fitness {fitness:.4} mm"),
         };
+        let start = selection.map_or_else(String::new, |s| format!("network: {}; ", s.summary()));
         rep.reason = format!(
-            "stage 0 ({stage0}): Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.3e}; stage I: {} epochs, innovation RMSE {:.4} mm; stage II{}: {}; \
+            "{start}stage 0 ({stage0}): Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.3e}; stage I: {} epochs, innovation RMSE {:.4} mm; stage II{}: {}; \
              {}observation Jacobian condition number {cond:.3e} over {} training poses",
             h.q_rel,
             h.r_rel,

@@ -1,0 +1,216 @@
+//! The wavelet network's layout and output layer, chosen by k-fold cross-validation on what a
+//! geometric fit leaves on the training rows (the test rows are never seen). This is where
+//! PSO-EKF-AWNN's network starts: Stage I's per-sample learning then adapts every parameter
+//! from there (see [`super::psoekf`]).
+//!
+//! With the translations, dilations and projections of a [`Library`] layout fixed, the network
+//! is linear in its output weights, so for every candidate (layout, ridge ρ) the weights
+//! minimise `Σ(y − Ψw)² + λ‖w‖²` on k − 1 folds — one Cholesky solve — and predict the held-out
+//! fold ([`super::ridge_cv`]). `Ψ` holds every neuron's activation at every training row and
+//! `λ = ρ·tr(ΨᵀΨ)/M` (ρ relative to the mean squared activation, so it means the same for any
+//! layout). The candidate with the smallest held-out RMSE wins, on a tie the smaller layout,
+//! and its weights are refitted on all training rows.
+//!
+//! Candidates (documented in the README): [`LIBRARIES`] × [`RIDGES`], 20 candidates, 100
+//! Cholesky solves.
+
+use super::awnn::{Activation, Awnn, Feature, Library};
+use super::effects::RowInputs;
+use super::ridge_cv::Folds;
+use crate::error::{Error, Result};
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+/// Candidate layouts, smallest first (neuron counts for six joints on q alone).
+pub const LIBRARIES: [Library; 4] = [
+    // 6 axes × 6 = 36
+    Library { levels: &[2, 4], pairs: false },
+    // 26 directions × 2 = 52
+    Library { levels: &[2], pairs: true },
+    // 26 × 6 = 156
+    Library { levels: &[2, 4], pairs: true },
+    // 26 × 9 = 234
+    Library { levels: &[3, 6], pairs: true },
+];
+/// Candidate output-magnitude weights λ_n.
+pub const NEURAL: [f64; 5] = [0.0, 0.5, 1.0, 2.0, 5.0];
+/// Candidate ridge weights ρ (relative to the mean squared activation).
+pub const RIDGES: [f64; 5] = [1e-5, 1e-4, 1e-3, 1e-2, 1e-1];
+/// Folds of the cross-validation.
+pub const FOLDS: usize = 5;
+
+/// One candidate's cross-validated score.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    pub library: Library,
+    pub neurons: usize,
+    pub neural: f64,
+    pub ridge: f64,
+    /// Held-out RMSE over all folds, mm.
+    pub cv_rmse_mm: f64,
+}
+
+/// The chosen network (output layer fitted on every training row), every candidate's score and
+/// the held-out RMSE of no network at all.
+#[derive(Clone, Debug)]
+pub struct Selection {
+    pub net: Awnn,
+    pub chosen: Candidate,
+    pub candidates: Vec<Candidate>,
+    pub no_network_rmse_mm: f64,
+}
+
+impl Selection {
+    /// One line for reports.
+    pub fn summary(&self) -> String {
+        let c = &self.chosen;
+        format!(
+            "{} neurons ({}), λ_n {}, ridge ρ {} chosen by {FOLDS}-fold CV on the training rows (held-out {:.4} mm, no network {:.4} mm)",
+            c.neurons,
+            c.library.label(),
+            c.neural,
+            c.ridge,
+            c.cv_rmse_mm,
+            self.no_network_rmse_mm
+        )
+    }
+}
+
+/// Chooses the layout and fits the output layer to the targets `y` (mm, one per training row
+/// `qs`/`inputs`: what the geometry leaves), see the module docs. `geometry` (n × p, may have
+/// no columns) is the geometric fit's Jacobian at its solution: its columns are fitted
+/// alongside the network, unpenalised, so that the network takes only what a change of the
+/// geometry could not.
+pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activation: Activation, y: &[f64], geometry: &DMatrix<f64>) -> Result<Selection> {
+    let n = y.len();
+    if n < 2 * FOLDS || qs.len() != n {
+        return Err(Error::Calibration(format!("{n} training rows are too few to choose the network by {FOLDS}-fold cross-validation")));
+    }
+    if !y.iter().all(|v| v.is_finite()) {
+        return Err(Error::Calibration("the geometric fit before the network choice gave non-finite residuals".into()));
+    }
+    if geometry.nrows() != n {
+        return Err(Error::Calibration("the geometric Jacobian does not match the training rows".into()));
+    }
+    // Geometric columns scaled to the norm of a unit-RMS column; zero columns dropped.
+    let cols: Vec<_> = geometry.column_iter().filter(|c| c.norm() > 0.0).map(|c| c * ((n as f64).sqrt() / c.norm())).collect();
+    let ng = cols.len();
+    let geo = DMatrix::from_fn(n, ng, |i, k| cols[k][i]);
+    // A tiny ridge on the geometric block keeps a rank-deficient Jacobian solvable.
+    let geo_ridge = 1e-9 * n as f64;
+    let no_network_rmse_mm = if ng == 0 {
+        (y.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt()
+    } else {
+        Folds::new(geo.clone(), y, FOLDS).cv_rmse(|g| system(g, ng, 0.0, 0.0, geo_ridge))
+    };
+    let mut best: Option<(Candidate, Folds, Awnn)> = None;
+    let mut candidates = Vec::new();
+    for library in LIBRARIES {
+        let net = Awnn::library(qs, inputs, extra, &library, activation).map_err(Error::Calibration)?;
+        let m = net.neurons();
+        let mut basis = DMatrix::zeros(n, ng + m);
+        basis.columns_mut(0, ng).copy_from(&geo);
+        let mut row = vec![0.0; m];
+        for i in 0..n {
+            net.hidden_row(&qs[i], &inputs[i], &mut row);
+            for k in 0..m {
+                basis[(i, ng + k)] = row[k];
+            }
+        }
+        let folds = Folds::new(basis, y, FOLDS);
+        let scale = (folds.gram().view((ng, ng), (m, m)).trace() / m as f64).max(1e-12);
+        let grid: Vec<(f64, f64)> = NEURAL.iter().flat_map(|&a| RIDGES.iter().map(move |&b| (a, b))).collect();
+        let scores: Vec<f64> = grid.par_iter().map(|&(ln, rho)| folds.cv_rmse(|g| system(g, ng, ln, rho * scale, geo_ridge))).collect();
+        let mut here = None::<Candidate>;
+        for (&(neural, ridge), &cv_rmse_mm) in grid.iter().zip(&scores) {
+            let c = Candidate { library, neurons: m, neural, ridge, cv_rmse_mm };
+            candidates.push(c);
+            if cv_rmse_mm.is_finite() && here.is_none_or(|h| cv_rmse_mm < h.cv_rmse_mm) {
+                here = Some(c);
+            }
+        }
+        if let Some(c) = here {
+            if best.as_ref().is_none_or(|(b, _, _)| c.cv_rmse_mm < b.cv_rmse_mm) {
+                best = Some((c, folds, net));
+            }
+        }
+    }
+    let (chosen, folds, mut net) = best.ok_or_else(|| Error::Calibration("no network layout could be fitted in the cross-validation".into()))?;
+    let scale = (folds.gram().view((ng, ng), (chosen.neurons, chosen.neurons)).trace() / chosen.neurons as f64).max(1e-12);
+    let w = folds
+        .fit_all(|g| system(g, ng, chosen.neural, chosen.ridge * scale, geo_ridge))
+        .ok_or_else(|| Error::Calibration("the chosen network's output layer could not be fitted".into()))?;
+    net.weights = w.iter().skip(ng).copied().collect();
+    Ok(Selection { net, chosen, candidates, no_network_rmse_mm })
+}
+
+/// The normal matrix of the first `ng` (geometric) columns and the network's: the network
+/// block gets `λ_n·G + λI` added (its output magnitude and a ridge), the geometric block a tiny
+/// ridge.
+fn system(g: &DMatrix<f64>, ng: usize, neural: f64, lambda: f64, geo_ridge: f64) -> DMatrix<f64> {
+    let mut a = g.clone();
+    let m = a.nrows() - ng;
+    let block = g.view((ng, ng), (m, m)) * (1.0 + neural);
+    a.view_mut((ng, ng), (m, m)).copy_from(&block);
+    for k in 0..a.nrows() {
+        a[(k, k)] += if k < ng { geo_ridge } else { lambda };
+    }
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// `n` random poses and targets `field(q)` plus uniform noise of ±`noise` mm.
+    fn rows(n: usize, noise: f64, seed: u64, field: impl Fn(&[f64]) -> f64) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let qs: Vec<Vec<f64>> = (0..n).map(|_| (0..6).map(|_| rng.random_range(-1.5..1.5)).collect()).collect();
+        let y = qs.iter().map(|q| field(q) + noise * rng.random_range(-1.0..1.0)).collect();
+        (qs, y)
+    }
+
+    fn held_out(sel: &Selection, field: impl Fn(&[f64]) -> f64) -> (f64, f64) {
+        let (qs, _) = rows(400, 0.0, 99, |_| 0.0);
+        let truth: Vec<f64> = qs.iter().map(|q| field(q)).collect();
+        let rms = |v: &mut dyn Iterator<Item = f64>| {
+            let v: Vec<f64> = v.collect();
+            (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+        };
+        let after = rms(&mut qs.iter().zip(&truth).map(|(q, t)| t - sel.net.eval(q)));
+        (after, rms(&mut truth.iter().copied()))
+    }
+
+    #[test]
+    fn a_coupled_field_is_learned_and_noise_is_left_alone() {
+        // The gravity-like coupling of joints 2 and 3: no single joint's function.
+        let field = |q: &[f64]| 0.05 * (q[1] + q[2]).cos() * q[1].sin();
+        let (qs, y) = rows(300, 0.01, 1, field);
+        let inputs = vec![RowInputs::default(); qs.len()];
+        let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &y, &DMatrix::zeros(qs.len(), 0)).unwrap();
+        assert!(sel.chosen.library.pairs, "{}", sel.summary());
+        assert!(sel.chosen.cv_rmse_mm < 0.5 * sel.no_network_rmse_mm, "{}", sel.summary());
+        let (after, before) = held_out(&sel, field);
+        assert!(after < 0.3 * before, "unseen poses: {after:.4} mm left of {before:.4} mm");
+        // Pure noise: the chosen network explains (almost) nothing on unseen poses.
+        let (qs, y) = rows(300, 0.01, 2, |_| 0.0);
+        let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &y, &DMatrix::zeros(qs.len(), 0)).unwrap();
+        let (after, _) = held_out(&sel, |_| 0.0);
+        assert!(after < 0.3 * 0.01, "network output on unseen poses {after:.5} mm for pure noise of ±0.01 mm; {}", sel.summary());
+    }
+
+    #[test]
+    fn too_few_rows_or_bad_targets_are_refused() {
+        let (qs, y) = rows(8, 0.01, 3, |_| 0.0);
+        let inputs = vec![RowInputs::default(); qs.len()];
+        let e = select(&qs, &inputs, &[], Activation::MexicanHat, &y, &DMatrix::zeros(qs.len(), 0)).unwrap_err().to_string();
+        assert!(e.contains("too few"), "{e}");
+        let (qs, mut y) = rows(50, 0.01, 3, |_| 0.0);
+        y[7] = f64::NAN;
+        let inputs = vec![RowInputs::default(); qs.len()];
+        let e = select(&qs, &inputs, &[], Activation::MexicanHat, &y, &DMatrix::zeros(qs.len(), 0)).unwrap_err().to_string();
+        assert!(e.contains("non-finite"), "{e}");
+    }
+}
