@@ -20,7 +20,16 @@ use std::time::Instant;
 /// Runs the method and records how long Stage 0 and the core (Stage I + II) took.
 struct Timed {
     inner: PsoEkfAwnn,
-    times: Mutex<Vec<(f64, f64, Hyper)>>,
+    times: Mutex<Vec<Times>>,
+}
+
+/// Seconds spent on the network's start, Stage 0 and the core (Stage I + II) in one run.
+#[derive(Clone, Copy)]
+struct Times {
+    start: f64,
+    zero: f64,
+    core: f64,
+    hyper: Hyper,
 }
 
 impl Solver for Timed {
@@ -35,14 +44,16 @@ impl Solver for Timed {
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let t0 = Instant::now();
-        let (net, _) = self.inner.new_net(p)?;
-        let (h, _, _) = self.inner.stage_zero(p, &net)?;
-        let t_zero = t0.elapsed().as_secs_f64();
+        let start = self.inner.new_net(p)?;
+        let t_start = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let fixed = PsoEkfAwnn { hyper: Some(h), ..self.inner.clone() };
-        let sol = fixed.solve(p, obs)?;
-        let t_core = t1.elapsed().as_secs_f64();
-        self.times.lock().map_err(|_| Error::Invalid("timer poisoned".into()))?.push((t_zero, t_core, h));
+        let zero = self.inner.stage_zero(p, &start.0)?;
+        let t_zero = t1.elapsed().as_secs_f64();
+        let h = zero.0;
+        let t2 = Instant::now();
+        let sol = self.inner.finish(p, start, zero, obs)?;
+        let t_core = t2.elapsed().as_secs_f64();
+        self.times.lock().map_err(|_| Error::Invalid("timer poisoned".into()))?.push(Times { start: t_start, zero: t_zero, core: t_core, hyper: h });
         Ok(sol)
     }
 }
@@ -135,13 +146,15 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
         last = Some(r);
     }
     let times = timed.times.lock().map_err(|_| Error::Invalid("timer poisoned".into()))?.clone();
-    let t_zero = median(&times.iter().map(|t| t.0).collect::<Vec<_>>());
-    let t_core = median(&times.iter().map(|t| t.1).collect::<Vec<_>>());
+    let t_start = median(&times.iter().map(|t| t.start).collect::<Vec<_>>());
+    let t_zero = median(&times.iter().map(|t| t.zero).collect::<Vec<_>>());
+    let t_core = median(&times.iter().map(|t| t.core).collect::<Vec<_>>());
     let (lm_med, full_med) = (median(&t_lm), median(&t_full));
-    let h = times[0].2;
+    let h = times[0].hyper;
     println!("  speed (medians of {}, {} training poses):", t_full.len(), ds.train_indices().len());
     println!("    core, Stage I + II         : {:8.1} ms (target < 500 ms; the paper: 20.15 s)", t_core * 1e3);
     println!("    Stage 0, PSO               : {:8.1} ms (target < 5 s; the paper: about 125 s)", t_zero * 1e3);
+    println!("    network start (LM + CV)    : {:8.1} ms", t_start * 1e3);
     println!("    whole calibration          : {:8.1} ms = {:.1} x LM's {:.1} ms", full_med * 1e3, full_med / lm_med, lm_med * 1e3);
     if let Some(r) = &last {
         println!("    Stage 0 chose Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.2e}; {}", h.q_rel, h.r_rel, h.lr, r.stop_reason.split("; ").last().unwrap_or(""));

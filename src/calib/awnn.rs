@@ -17,11 +17,15 @@
 //! * the rectifier `max(0, z)`, which makes the same structure an ordinary ReLU multilayer
 //!   perceptron (the MLP ablation).
 //!
-//! Initialisation ([`Awnn::init`]): the neurons are dealt to the joints in turn; each starts with
-//! its joint's axis as projection (tilted by a small seeded random amount, [`TILT`], so that
-//! learning can mix joints), translations spread evenly over the range that projection takes on
-//! the training poses, dilations wide (the range divided by the joint's neuron count, so
-//! neighbours overlap) and zero output weights (the network starts as "no correction").
+//! Two layouts:
+//! * [`Awnn::library`], what PSO-EKF-AWNN starts from: a multiresolution [`Library`] along every
+//!   input axis and the sum/difference diagonals of joint pairs, translations spread evenly over
+//!   the range each direction takes on the training poses, dilations that range over the
+//!   level's neuron count (neighbours overlap); its output layer is then fitted by
+//!   cross-validated least squares ([`super::awnn_select`]).
+//! * [`Awnn::init`]: a few neurons dealt to the joints in turn, each on its joint's axis (tilted
+//!   by a small seeded random amount, [`TILT`], so that learning can mix joints), spread and
+//!   dilated alike, with zero output weights (the network starts as "no correction").
 //!
 //! Learning ([`Awnn::sgd_step`]) is plain stochastic gradient descent on `½e²` with
 //! `e = target − f(q)`: `θ ← θ + η·e·∂f/∂θ` for all four groups. Dilations are kept above

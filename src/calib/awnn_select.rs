@@ -4,15 +4,26 @@
 //! from there (see [`super::psoekf`]).
 //!
 //! With the translations, dilations and projections of a [`Library`] layout fixed, the network
-//! is linear in its output weights, so for every candidate (layout, ridge ρ) the weights
-//! minimise `Σ(y − Ψw)² + λ‖w‖²` on k − 1 folds — one Cholesky solve — and predict the held-out
-//! fold ([`super::ridge_cv`]). `Ψ` holds every neuron's activation at every training row and
-//! `λ = ρ·tr(ΨᵀΨ)/M` (ρ relative to the mean squared activation, so it means the same for any
-//! layout). The candidate with the smallest held-out RMSE wins, on a tie the smaller layout,
-//! and its weights are refitted on all training rows.
+//! is linear in its output weights. The geometric fit's Jacobian columns `J` (at its solution)
+//! are fitted alongside, unpenalised, so that the network takes only what no change of the
+//! geometry could. For every candidate (layout, λ_n, ρ) the weights minimise
 //!
-//! Candidates (documented in the README): [`LIBRARIES`] × [`RIDGES`], 20 candidates, 100
-//! Cholesky solves.
+//! ```text
+//! Σ(y − Jδ − Ψw)² + λ_n·Σ(Ψw)² + λ‖w‖²
+//! ```
+//!
+//! on k − 1 folds — one Cholesky solve — and predict the held-out fold ([`super::ridge_cv`]).
+//! `Ψ` holds every neuron's activation at every training row, `λ_n` weighs the network's output
+//! magnitude (as in the Evo-NPH objective) and `λ = ρ·tr(ΨᵀΨ)/M` (ρ relative to the mean
+//! squared activation, so it means the same for any layout). The candidate with the smallest
+//! held-out RMSE wins, on a tie the smaller layout, and its weights are refitted on all
+//! training rows — unless it does not beat the geometric columns alone in the same
+//! cross-validation by more than one standard error of the per-row difference of squared
+//! held-out residuals (a best-of-100 win on a few dozen rows is mostly luck): then the output
+//! weights stay zero.
+//!
+//! Candidates (documented in the README): [`LIBRARIES`] × [`NEURAL`] × [`RIDGES`], 100
+//! candidates, 500 Cholesky solves.
 
 use super::awnn::{Activation, Awnn, Feature, Library};
 use super::effects::RowInputs;
@@ -57,13 +68,26 @@ pub struct Selection {
     pub net: Awnn,
     pub chosen: Candidate,
     pub candidates: Vec<Candidate>,
+    /// Held-out RMSE of the geometric columns alone, mm.
     pub no_network_rmse_mm: f64,
+    /// Whether the chosen candidate beat the geometry alone by more than one standard error; if
+    /// not, `net` keeps the chosen layout with zero output weights.
+    pub fitted: bool,
 }
 
 impl Selection {
     /// One line for reports.
     pub fn summary(&self) -> String {
         let c = &self.chosen;
+        if !self.fitted {
+            return format!(
+                "no network layout beat the geometry alone by one standard error in {FOLDS}-fold CV on the training rows (best {:.4} mm, {} neurons; geometry alone {:.4} mm): {} neurons with zero output weights",
+                c.cv_rmse_mm,
+                c.neurons,
+                self.no_network_rmse_mm,
+                c.neurons
+            );
+        }
         format!(
             "{} neurons ({}), λ_n {}, ridge ρ {} chosen by {FOLDS}-fold CV on the training rows (held-out {:.4} mm, no network {:.4} mm)",
             c.neurons,
@@ -98,11 +122,9 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     let geo = DMatrix::from_fn(n, ng, |i, k| cols[k][i]);
     // A tiny ridge on the geometric block keeps a rank-deficient Jacobian solvable.
     let geo_ridge = 1e-9 * n as f64;
-    let no_network_rmse_mm = if ng == 0 {
-        (y.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt()
-    } else {
-        Folds::new(geo.clone(), y, FOLDS).cv_rmse(|g| system(g, ng, 0.0, 0.0, geo_ridge))
-    };
+    let baseline = if ng == 0 { Some(y.to_vec()) } else { Folds::new(geo.clone(), y, FOLDS).cv_residuals(|g| system(g, ng, 0.0, 0.0, geo_ridge)) }
+        .ok_or_else(|| Error::Calibration("the geometric columns alone could not be fitted in the cross-validation".into()))?;
+    let no_network_rmse_mm = rms(&baseline);
     let mut best: Option<(Candidate, Folds, Awnn)> = None;
     let mut candidates = Vec::new();
     for library in LIBRARIES {
@@ -140,8 +162,22 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     let w = folds
         .fit_all(|g| system(g, ng, chosen.neural, chosen.ridge * scale, geo_ridge))
         .ok_or_else(|| Error::Calibration("the chosen network's output layer could not be fitted".into()))?;
-    net.weights = w.iter().skip(ng).copied().collect();
-    Ok(Selection { net, chosen, candidates, no_network_rmse_mm })
+    // One-standard-error rule against the geometry alone: the per-row change of the squared
+    // held-out residual must be negative by more than its standard error, else a win is the
+    // best of many candidates on noise.
+    let r = folds.cv_residuals(|g| system(g, ng, chosen.neural, chosen.ridge * scale, geo_ridge)).unwrap_or_else(|| baseline.clone());
+    let d: Vec<f64> = r.iter().zip(&baseline).map(|(a, b)| a * a - b * b).collect();
+    let mean = d.iter().sum::<f64>() / n as f64;
+    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n as f64 * (n as f64 - 1.0))).sqrt();
+    let fitted = mean + se < 0.0;
+    if fitted {
+        net.weights = w.iter().skip(ng).copied().collect();
+    }
+    Ok(Selection { net, chosen, candidates, no_network_rmse_mm, fitted })
+}
+
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
 }
 
 /// The normal matrix of the first `ng` (geometric) columns and the network's: the network

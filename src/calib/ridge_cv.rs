@@ -44,16 +44,20 @@ impl Folds {
     /// Held-out RMSE over all folds of the fit whose normal matrix is `system(Gram of the
     /// other folds)`; infinite when a system is not positive definite.
     pub fn cv_rmse(&self, system: impl Fn(&DMatrix<f64>) -> DMatrix<f64>) -> f64 {
-        let mut sse = 0.0;
+        self.cv_residuals(system).map_or(f64::INFINITY, |r| (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt())
+    }
+
+    /// Every row's held-out residual (target minus the prediction of the fit on the other
+    /// folds); `None` when a system is not positive definite.
+    pub fn cv_residuals(&self, system: impl Fn(&DMatrix<f64>) -> DMatrix<f64>) -> Option<Vec<f64>> {
+        let mut r = vec![0.0; self.y.len()];
         for (g, b, rows) in &self.parts {
-            let Some(chol) = Cholesky::new(system(g)) else { return f64::INFINITY };
-            let w = chol.solve(b);
+            let w = Cholesky::new(system(g))?.solve(b);
             for &i in rows {
-                let d = self.basis.row(i).dot(&w.transpose());
-                sse += (self.y[i] - d) * (self.y[i] - d);
+                r[i] = self.y[i] - self.basis.row(i).dot(&w.transpose());
             }
         }
-        (sse / self.y.len().max(1) as f64).sqrt()
+        Some(r)
     }
 
     /// The fit on every row with normal matrix `system(BᵀB)`; `None` when it is not positive
