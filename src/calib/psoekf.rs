@@ -32,8 +32,9 @@
 //!
 //! **Ablations** (the paper's V1–V5, [`Ablation`]): V1 no network (EKF then LM), V2 the three
 //! hyperparameters drawn at random from the same box instead of searched, V3 ReLU hinges in
-//! the same layout instead of wavelets (an MLP of one hidden layer), V4 the Morlet wavelet, V5 Stage II over the geometry *and*
-//! every network parameter jointly instead of with the network frozen.
+//! the same layout instead of wavelets (an MLP of one hidden layer), V4 the Morlet wavelet, V5
+//! Stage II over the geometry *and* the network's output layer jointly, unpenalised, instead of
+//! with the network frozen.
 //!
 //! The report's `reason` names the chosen hyperparameters, each stage's outcome and the
 //! condition number of the (column-scaled) observation Jacobian of the free parameters over the
@@ -301,23 +302,37 @@ impl LeastSquares for Corrected<'_, '_> {
     }
 }
 
-/// Stage II of ablation V5: geometry and every network parameter in one least-squares problem.
+/// Stage II of ablation V5: the geometry and the network's output layer in one least-squares
+/// problem (the output weights are what the network's fit is made of; its hidden layer stays
+/// where Stage I left it, which keeps the problem at geometry + M unknowns).
 struct Joint<'a, 'b> {
     fit: &'a LengthFit<'b>,
     net: &'a Awnn,
+    /// Every neuron's activation at every training row.
+    hidden: DMatrix<f64>,
 }
 
-impl Joint<'_, '_> {
+impl<'a, 'b> Joint<'a, 'b> {
+    fn new(fit: &'a LengthFit<'b>, net: &'a Awnn) -> Self {
+        let d = fit.data;
+        let mut hidden = DMatrix::zeros(d.len(), net.neurons());
+        let mut row = vec![0.0; net.neurons()];
+        for (i, (q, inp)) in d.q.iter().zip(&d.inputs).enumerate() {
+            net.hidden_row(q, inp, &mut row);
+            hidden.row_mut(i).copy_from_slice(&row);
+        }
+        Joint { fit, net, hidden }
+    }
     fn net_at(&self, x: &[f64]) -> Awnn {
         let mut n = self.net.clone();
-        n.set_params(&x[self.fit.model.n_params()..]);
+        n.weights.copy_from_slice(&x[self.fit.model.n_params()..]);
         n
     }
 }
 
 impl LeastSquares for Joint<'_, '_> {
     fn n_params(&self) -> usize {
-        self.fit.model.n_params() + self.net.n_params()
+        self.fit.model.n_params() + self.net.neurons()
     }
     fn n_residuals(&self) -> usize {
         self.fit.data.len()
@@ -325,23 +340,16 @@ impl LeastSquares for Joint<'_, '_> {
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
         let nm = self.fit.model.n_params();
         LeastSquares::residuals(self.fit, &x[..nm], r);
-        let net = self.net_at(x);
-        let d = self.fit.data;
-        r.iter_mut().zip(d.q.iter().zip(&d.inputs)).for_each(|(ri, (q, inp))| *ri -= net.eval_row(q, inp));
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri -= self.hidden.row(i).iter().zip(&x[nm..]).map(|(h, w)| h * w).sum::<f64>();
+        }
     }
     fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
         let nm = self.fit.model.n_params();
         let mut jm = DMatrix::zeros(self.fit.data.len(), nm);
         LeastSquares::jacobian(self.fit, &x[..nm], &mut jm);
         j.view_mut((0, 0), jm.shape()).copy_from(&jm);
-        let net = self.net_at(x);
-        let mut g = vec![0.0; net.n_params()];
-        for (i, (q, inp)) in self.fit.data.q.iter().zip(&self.fit.data.inputs).enumerate() {
-            net.eval_param_grad(q, inp, &mut g);
-            for (k, gk) in g.iter().enumerate() {
-                j[(i, nm + k)] = -gk;
-            }
-        }
+        j.view_mut((0, nm), self.hidden.shape()).copy_from(&(-&self.hidden));
     }
 }
 
@@ -460,9 +468,9 @@ impl PsoEkfAwnn {
     pub fn stage_two(&self, p: &Problem, x1: &[f64], net: Option<Awnn>, obs: &mut dyn Observer) -> (Report, Option<Awnn>) {
         match (self.variant, net) {
             (Ablation::V5Joint, Some(net)) => {
-                let joint = Joint { fit: p.fit, net: &net };
+                let joint = Joint::new(p.fit, &net);
                 let mut x = x1.to_vec();
-                x.extend(net.params());
+                x.extend(&net.weights);
                 let mut fixed = p.fixed.to_vec();
                 fixed.resize(x.len(), false);
                 let nm = p.x0.len();
