@@ -27,8 +27,10 @@
 //! `Q = q_rel·σ̄²` per state with `σ̄²` the median prior variance of the free parameters (from
 //! the documented tolerances) and `q_rel ∈ [1e-8, 1e-2]`; the measurement noise is
 //! `R = r_rel·σ²` with `σ` the reading noise estimated from the data and `r_rel ∈ [1e-2, 1e2]`;
-//! the learning rate `η ∈ [1e-5, 0.3]` (plain SGD on mm; above about 0.3 a step on one row
-//! overshoots for a 20-neuron network). Nothing comes from the generator of the data.
+//! the learning rate `η ∈ [1e-5, 1]`, relative: the SGD step on a row is `η/ḡ²·y·∂f/∂θ` with
+//! `ḡ²` the mean of `‖∂f/∂θ‖²` over the training rows at the start, so that `η = 1` moves an
+//! average row's prediction by its whole innovation whatever the network's size (above about 2
+//! plain SGD diverges). Nothing comes from the generator of the data.
 //!
 //! **Ablations** (the paper's V1–V5, [`Ablation`]): V1 no network (EKF then LM), V2 the three
 //! hyperparameters drawn at random from the same box instead of searched, V3 ReLU hinges in
@@ -154,7 +156,8 @@ pub struct Hyper {
     pub q_rel: f64,
     /// Measurement noise relative to the data's estimated reading variance.
     pub r_rel: f64,
-    /// SGD learning rate of the network.
+    /// SGD learning rate of the network relative to the inverse mean squared norm of its
+    /// parameter gradient over the training rows at the start (see the module docs).
     pub lr: f64,
 }
 
@@ -168,7 +171,7 @@ pub struct SearchSpace {
 
 impl Default for SearchSpace {
     fn default() -> Self {
-        SearchSpace { log10_q_rel: (-8.0, -2.0), log10_r_rel: (-2.0, 2.0), log10_lr: (-5.0, 0.3f64.log10()) }
+        SearchSpace { log10_q_rel: (-8.0, -2.0), log10_r_rel: (-2.0, 2.0), log10_lr: (-5.0, 0.0) }
     }
 }
 
@@ -360,6 +363,26 @@ fn shuffled(n: usize, seed: u64) -> Vec<usize> {
     order
 }
 
+/// Mean over the rows of `data` of `‖∂f/∂θ‖²`, the squared norm of the network's gradient with
+/// respect to all its parameters (the scale of the learning rate); `g` is scratch.
+fn mean_gradient_square(net: &Awnn, data: &Samples, g: &mut [f64]) -> f64 {
+    let s: f64 = data
+        .q
+        .iter()
+        .zip(&data.inputs)
+        .map(|(q, inp)| {
+            net.eval_param_grad(q, inp, g);
+            g.iter().map(|v| v * v).sum::<f64>()
+        })
+        .sum();
+    let m = s / data.len().max(1) as f64;
+    if m.is_finite() && m > 1e-12 {
+        m
+    } else {
+        1.0
+    }
+}
+
 /// Median prior variance of the free parameters (the scale of Q).
 fn prior_var_scale(p: &Problem) -> f64 {
     let v: Vec<f64> = (0..p.x0.len()).filter(|k| !p.fixed[*k]).map(|k| p.prior_std[k].powi(2)).collect();
@@ -436,8 +459,9 @@ impl PsoEkfAwnn {
         let p0 = p.prior_std.iter().map(|s| (3.0 * s).powi(2)).collect();
         let noise = if p.noise_mm.is_finite() && p.noise_mm > 0.0 { p.noise_mm } else { 0.01 };
         let ekf = Ekf { epochs: self.epochs.max(1), q: h.q_rel * prior_var_scale(p), r: h.r_rel * noise * noise, p0, tol: 0.0 };
-        let scratch = vec![0.0; net.as_ref().map_or(0, |n| n.n_params())];
-        let mut learner = Learner { net, q: &p.fit.data.q, inputs: &p.fit.data.inputs, lr: h.lr, scratch, sse: 0.0, count: 0, last_rmse: f64::INFINITY };
+        let mut scratch = vec![0.0; net.as_ref().map_or(0, |n| n.n_params())];
+        let lr = h.lr / net.as_ref().map_or(1.0, |n| mean_gradient_square(n, p.fit.data, &mut scratch));
+        let mut learner = Learner { net, q: &p.fit.data.q, inputs: &p.fit.data.inputs, lr, scratch, sse: 0.0, count: 0, last_rmse: f64::INFINITY };
         let order = shuffled(p.fit.data.len(), p.seed);
         let report = ekf.run_with(p.fit, p.x0, p.fixed, &order, &mut learner, obs);
         let rmse = if learner.last_rmse.is_finite() && report.x.iter().all(|v| v.is_finite()) { learner.last_rmse } else { f64::INFINITY };
