@@ -13,6 +13,10 @@
 //! ```
 //!
 //! on k − 1 folds — one Cholesky solve — and predict the held-out fold ([`super::ridge_cv`]).
+//! Each fold's targets are the residuals of the geometry fitted by LM *without* that fold
+//! ([`GeometricFit`]): residuals of a fit on every row would tie the held-out rows to the others
+//! through the fit's normal equations, and an interpolating network on 50 rows then looked 20 %
+//! better in CV while it was worse on unseen poses.
 //! `Ψ` holds every neuron's activation at every training row, `λ_n` weighs the network's output
 //! magnitude (as in the Evo-NPH objective) and `λ = ρ·tr(ΨᵀΨ)/M` (ρ relative to the mean
 //! squared activation, so it means the same for any layout). The candidate with the smallest
@@ -27,7 +31,9 @@
 
 use super::awnn::{Activation, Awnn, Feature, Library};
 use super::effects::RowInputs;
-use super::ridge_cv::Folds;
+use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
+use super::problem::{LengthFit, Samples};
+use super::ridge_cv::{fold_rows, Folds};
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -100,17 +106,57 @@ impl Selection {
     }
 }
 
-/// Chooses the layout and fits the output layer to the targets `y` (mm, one per training row
-/// `qs`/`inputs`: what the geometry leaves), see the module docs. `geometry` (n × p, may have
-/// no columns) is the geometric fit's Jacobian at its solution: its columns are fitted
+/// What the geometry leaves on the training rows, for the network's choice: the residuals (mm)
+/// of the geometric fit on every row, the Jacobian of the free parameters there, and per fold
+/// of [`FOLDS`] the residuals on every row of the fit without that fold's rows.
+pub struct GeometricFit {
+    pub residuals: Vec<f64>,
+    pub jacobian: DMatrix<f64>,
+    pub per_fold: Vec<Vec<f64>>,
+}
+
+impl GeometricFit {
+    /// Fits the geometry of `fit` by `lm` from `x0` on every row, then once per fold without
+    /// that fold's rows (starting from the all-rows solution).
+    pub fn new(fit: &LengthFit, lm: &LevenbergMarquardt, x0: &[f64], fixed: &[bool]) -> GeometricFit {
+        let all = lm.minimize(fit, x0, fixed, &mut NoObserver);
+        let residuals = fit.residuals_mm(&all.x);
+        let mut jac = DMatrix::zeros(fit.data.len(), all.x.len());
+        LeastSquares::jacobian(fit, &all.x, &mut jac);
+        let free: Vec<usize> = (0..all.x.len()).filter(|k| !fixed[*k]).collect();
+        let d = fit.data;
+        let n = d.len();
+        let per_fold = (0..FOLDS)
+            .into_par_iter()
+            .map(|f| {
+                let keep: Vec<usize> = (0..n).filter(|i| !fold_rows(n, FOLDS, f).contains(i)).collect();
+                let sub = Samples {
+                    q: keep.iter().map(|&i| d.q[i].clone()).collect(),
+                    l: keep.iter().map(|&i| d.l[i]).collect(),
+                    inputs: keep.iter().map(|&i| d.inputs[i]).collect(),
+                };
+                let x = lm.minimize(&LengthFit { model: fit.model, data: &sub }, &all.x, fixed, &mut NoObserver).x;
+                fit.residuals_mm(&x)
+            })
+            .collect();
+        GeometricFit { residuals, jacobian: jac.select_columns(&free), per_fold }
+    }
+}
+
+/// Chooses the layout and fits the output layer (see the module docs) to what the geometry
+/// leaves on the training rows `qs`/`inputs`. The geometric Jacobian's columns are fitted
 /// alongside the network, unpenalised, so that the network takes only what a change of the
-/// geometry could not.
-pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activation: Activation, y: &[f64], geometry: &DMatrix<f64>) -> Result<Selection> {
+/// geometry could not; each fold is scored on the residuals of the geometry fitted without it.
+pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activation: Activation, g: &GeometricFit) -> Result<Selection> {
+    let (y, geometry) = (&g.residuals[..], &g.jacobian);
     let n = y.len();
     if n < 2 * FOLDS || qs.len() != n {
         return Err(Error::Calibration(format!("{n} training rows are too few to choose the network by {FOLDS}-fold cross-validation")));
     }
-    if !y.iter().all(|v| v.is_finite()) {
+    if g.per_fold.len() != FOLDS || g.per_fold.iter().any(|f| f.len() != n) {
+        return Err(Error::Calibration("the out-of-fold geometric fits do not match the training rows".into()));
+    }
+    if !y.iter().chain(g.per_fold.iter().flatten()).all(|v| v.is_finite()) {
         return Err(Error::Calibration("the geometric fit before the network choice gave non-finite residuals".into()));
     }
     if geometry.nrows() != n {
@@ -122,8 +168,9 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     let geo = DMatrix::from_fn(n, ng, |i, k| cols[k][i]);
     // A tiny ridge on the geometric block keeps a rank-deficient Jacobian solvable.
     let geo_ridge = 1e-9 * n as f64;
-    let baseline = if ng == 0 { Some(y.to_vec()) } else { Folds::new(geo.clone(), y, FOLDS).cv_residuals(|g| system(g, ng, 0.0, 0.0, geo_ridge)) }
-        .ok_or_else(|| Error::Calibration("the geometric columns alone could not be fitted in the cross-validation".into()))?;
+    let baseline =
+        if ng == 0 { Some(y.to_vec()) } else { Folds::with_fold_targets(geo.clone(), y, &g.per_fold).cv_residuals(|g| system(g, ng, 0.0, 0.0, geo_ridge)) }
+            .ok_or_else(|| Error::Calibration("the geometric columns alone could not be fitted in the cross-validation".into()))?;
     let no_network_rmse_mm = rms(&baseline);
     let mut best: Option<(Candidate, Folds, Awnn)> = None;
     let mut candidates = Vec::new();
@@ -139,7 +186,7 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
                 basis[(i, ng + k)] = row[k];
             }
         }
-        let folds = Folds::new(basis, y, FOLDS);
+        let folds = Folds::with_fold_targets(basis, y, &g.per_fold);
         let scale = (folds.gram().view((ng, ng), (m, m)).trace() / m as f64).max(1e-12);
         let grid: Vec<(f64, f64)> = NEURAL.iter().flat_map(|&a| RIDGES.iter().map(move |&b| (a, b))).collect();
         let scores: Vec<f64> = grid.par_iter().map(|&(ln, rho)| folds.cv_rmse(|g| system(g, ng, ln, rho * scale, geo_ridge))).collect();
@@ -208,6 +255,11 @@ mod tests {
         (qs, y)
     }
 
+    /// Targets with no geometry fitted alongside.
+    fn no_geometry(y: &[f64]) -> GeometricFit {
+        GeometricFit { residuals: y.to_vec(), jacobian: DMatrix::zeros(y.len(), 0), per_fold: vec![y.to_vec(); FOLDS] }
+    }
+
     fn held_out(sel: &Selection, field: impl Fn(&[f64]) -> f64) -> (f64, f64) {
         let (qs, _) = rows(400, 0.0, 99, |_| 0.0);
         let truth: Vec<f64> = qs.iter().map(|q| field(q)).collect();
@@ -225,14 +277,14 @@ mod tests {
         let field = |q: &[f64]| 0.05 * (q[1] + q[2]).cos() * q[1].sin();
         let (qs, y) = rows(300, 0.01, 1, field);
         let inputs = vec![RowInputs::default(); qs.len()];
-        let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &y, &DMatrix::zeros(qs.len(), 0)).unwrap();
+        let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &no_geometry(&y)).unwrap();
         assert!(sel.chosen.library.pairs, "{}", sel.summary());
         assert!(sel.chosen.cv_rmse_mm < 0.5 * sel.no_network_rmse_mm, "{}", sel.summary());
         let (after, before) = held_out(&sel, field);
         assert!(after < 0.3 * before, "unseen poses: {after:.4} mm left of {before:.4} mm");
         // Pure noise: the chosen network explains (almost) nothing on unseen poses.
         let (qs, y) = rows(300, 0.01, 2, |_| 0.0);
-        let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &y, &DMatrix::zeros(qs.len(), 0)).unwrap();
+        let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &no_geometry(&y)).unwrap();
         let (after, _) = held_out(&sel, |_| 0.0);
         assert!(after < 0.3 * 0.01, "network output on unseen poses {after:.5} mm for pure noise of ±0.01 mm; {}", sel.summary());
     }
@@ -241,12 +293,12 @@ mod tests {
     fn too_few_rows_or_bad_targets_are_refused() {
         let (qs, y) = rows(8, 0.01, 3, |_| 0.0);
         let inputs = vec![RowInputs::default(); qs.len()];
-        let e = select(&qs, &inputs, &[], Activation::MexicanHat, &y, &DMatrix::zeros(qs.len(), 0)).unwrap_err().to_string();
+        let e = select(&qs, &inputs, &[], Activation::MexicanHat, &no_geometry(&y)).unwrap_err().to_string();
         assert!(e.contains("too few"), "{e}");
         let (qs, mut y) = rows(50, 0.01, 3, |_| 0.0);
         y[7] = f64::NAN;
         let inputs = vec![RowInputs::default(); qs.len()];
-        let e = select(&qs, &inputs, &[], Activation::MexicanHat, &y, &DMatrix::zeros(qs.len(), 0)).unwrap_err().to_string();
+        let e = select(&qs, &inputs, &[], Activation::MexicanHat, &no_geometry(&y)).unwrap_err().to_string();
         assert!(e.contains("non-finite"), "{e}");
     }
 }

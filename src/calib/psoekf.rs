@@ -43,7 +43,7 @@
 //! training poses, the paper's identifiability check.
 
 use super::awnn::{Activation, Awnn, Feature};
-use super::awnn_select::{select, Selection};
+use super::awnn_select::{select, GeometricFit, Selection};
 use super::corrector::Corrector;
 use super::effects::RowInputs;
 use super::method::{Method, Problem, Solution, Solver};
@@ -431,12 +431,8 @@ impl PsoEkfAwnn {
                 Ok((Some(Awnn::init_with(&d.q, &d.inputs, &extra, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration)?), None))
             }
             NetStart::Selected => {
-                let lm = self.lm.minimize(p.fit, p.x0, p.fixed, &mut NoObserver);
-                let y = p.fit.residuals_mm(&lm.x);
-                let mut jac = DMatrix::zeros(d.len(), lm.x.len());
-                LeastSquares::jacobian(p.fit, &lm.x, &mut jac);
-                let free: Vec<usize> = (0..lm.x.len()).filter(|k| !p.fixed[*k]).collect();
-                let sel = select(&d.q, &d.inputs, &extra, act, &y, &jac.select_columns(&free))?;
+                let geometric = GeometricFit::new(p.fit, &self.lm, p.x0, p.fixed);
+                let sel = select(&d.q, &d.inputs, &extra, act, &geometric)?;
                 Ok((Some(sel.net.clone()), Some(sel)))
             }
         }

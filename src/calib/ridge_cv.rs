@@ -2,38 +2,69 @@
 //! `A(BᵀB)` (the penalty is the caller's: a ridge, roughness rows, ...). Shared by the network
 //! choices of Evo-NPH ([`super::gkan_select`]) and PSO-EKF-AWNN ([`super::awnn_select`]).
 //!
-//! Folds interleave the rows (row i in fold i mod k), so each fold spans the whole acquisition
-//! (time and temperature). Each fold's training Gram matrix is the total minus the fold's own,
-//! so a candidate penalty costs one Cholesky solve per fold.
+//! Folds interleave the rows (row i in fold i mod k, [`fold_rows`]), so each fold spans the whole
+//! acquisition (time and temperature). Each fold's training Gram matrix is the total minus the
+//! fold's own, so a candidate penalty costs one Cholesky solve per fold.
+//!
+//! When the targets are what a fitted model leaves, the model must be fitted without the fold
+//! too ([`Folds::with_fold_targets`]): residuals of a least-squares fit on every row satisfy
+//! `Jᵀy = 0`, as many linear constraints as the model has parameters, which tie the held-out
+//! rows' residuals to the others' — a flexible basis then "predicts" them, most of all when a
+//! fold has about as many rows as the model has parameters.
 
 use nalgebra::{Cholesky, DMatrix, DVector};
+
+/// The rows of fold `f` of `k` among `n`.
+pub fn fold_rows(n: usize, k: usize, f: usize) -> Vec<usize> {
+    (0..n).filter(|i| i % k == f).collect()
+}
+
+/// One fold: Gram matrix and right-hand side of the other folds' rows, the fold's rows, and
+/// the targets of every row as this fold sees them.
+struct Part {
+    gram: DMatrix<f64>,
+    rhs: DVector<f64>,
+    rows: Vec<usize>,
+    y: Vec<f64>,
+}
 
 /// A basis matrix, its targets and the per-fold normal equations.
 pub struct Folds {
     basis: DMatrix<f64>,
-    y: Vec<f64>,
     gram: DMatrix<f64>,
     rhs: DVector<f64>,
-    /// Per fold: Gram and right-hand side of the other folds, and the fold's rows.
-    parts: Vec<(DMatrix<f64>, DVector<f64>, Vec<usize>)>,
+    parts: Vec<Part>,
 }
 
 impl Folds {
-    /// `basis` has one row per target in `y`; `k` folds (at least 2).
+    /// `basis` has one row per target in `y`; `k` folds (at least 2), every fold with the same
+    /// targets.
     pub fn new(basis: DMatrix<f64>, y: &[f64], k: usize) -> Folds {
+        let per_fold = vec![y.to_vec(); k.max(2)];
+        Folds::with_fold_targets(basis, y, &per_fold)
+    }
+
+    /// As [`new`](Self::new) with `per_fold.len()` folds, fold `f` training on and predicting
+    /// `per_fold[f]` (e.g. the residuals of a model fitted without fold `f`); `y` is what the
+    /// fit on every row ([`fit_all`](Self::fit_all)) uses.
+    pub fn with_fold_targets(basis: DMatrix<f64>, y: &[f64], per_fold: &[Vec<f64>]) -> Folds {
         let n = y.len();
-        let k = k.max(2);
+        let k = per_fold.len().max(2);
         let gram = basis.transpose() * &basis;
         let rhs = basis.transpose() * DVector::from_column_slice(y);
-        let parts = (0..k)
-            .map(|f| {
-                let rows: Vec<usize> = (0..n).filter(|i| i % k == f).collect();
+        let parts = per_fold
+            .iter()
+            .enumerate()
+            .map(|(f, yf)| {
+                let rows = fold_rows(n, k, f);
+                let train: Vec<usize> = (0..n).filter(|i| i % k != f).collect();
+                let bt = basis.select_rows(&train);
+                let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| yf[i]));
                 let bf = basis.select_rows(&rows);
-                let yf = DVector::from_iterator(rows.len(), rows.iter().map(|&i| y[i]));
-                (&gram - bf.transpose() * &bf, &rhs - bf.transpose() * yf, rows)
+                Part { gram: &gram - bf.transpose() * &bf, rhs: bt.transpose() * yt, rows, y: yf.clone() }
             })
             .collect();
-        Folds { basis, y: y.to_vec(), gram, rhs, parts }
+        Folds { basis, gram, rhs, parts }
     }
 
     /// The Gram matrix `BᵀB` over every row.
@@ -50,11 +81,11 @@ impl Folds {
     /// Every row's held-out residual (target minus the prediction of the fit on the other
     /// folds); `None` when a system is not positive definite.
     pub fn cv_residuals(&self, system: impl Fn(&DMatrix<f64>) -> DMatrix<f64>) -> Option<Vec<f64>> {
-        let mut r = vec![0.0; self.y.len()];
-        for (g, b, rows) in &self.parts {
-            let w = Cholesky::new(system(g))?.solve(b);
-            for &i in rows {
-                r[i] = self.y[i] - self.basis.row(i).dot(&w.transpose());
+        let mut r = vec![0.0; self.basis.nrows()];
+        for part in &self.parts {
+            let w = Cholesky::new(system(&part.gram))?.solve(&part.rhs);
+            for &i in &part.rows {
+                r[i] = part.y[i] - self.basis.row(i).dot(&w.transpose());
             }
         }
         Some(r)
