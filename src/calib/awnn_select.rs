@@ -31,9 +31,7 @@
 
 use super::awnn::{Activation, Awnn, Feature, Library};
 use super::effects::RowInputs;
-use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
-use super::problem::{LengthFit, Samples};
-use super::ridge_cv::{fold_rows, Folds};
+use super::ridge_cv::{Folds, GeometricFit, FOLDS};
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -53,8 +51,6 @@ pub const LIBRARIES: [Library; 4] = [
 pub const NEURAL: [f64; 5] = [0.0, 0.5, 1.0, 2.0, 5.0];
 /// Candidate ridge weights ρ (relative to the mean squared activation).
 pub const RIDGES: [f64; 5] = [1e-5, 1e-4, 1e-3, 1e-2, 1e-1];
-/// Folds of the cross-validation.
-pub const FOLDS: usize = 5;
 
 /// One candidate's cross-validated score.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,43 +99,6 @@ impl Selection {
             c.cv_rmse_mm,
             self.no_network_rmse_mm
         )
-    }
-}
-
-/// What the geometry leaves on the training rows, for the network's choice: the residuals (mm)
-/// of the geometric fit on every row, the Jacobian of the free parameters there, and per fold
-/// of [`FOLDS`] the residuals on every row of the fit without that fold's rows.
-pub struct GeometricFit {
-    pub residuals: Vec<f64>,
-    pub jacobian: DMatrix<f64>,
-    pub per_fold: Vec<Vec<f64>>,
-}
-
-impl GeometricFit {
-    /// Fits the geometry of `fit` by `lm` from `x0` on every row, then once per fold without
-    /// that fold's rows (starting from the all-rows solution).
-    pub fn new(fit: &LengthFit, lm: &LevenbergMarquardt, x0: &[f64], fixed: &[bool]) -> GeometricFit {
-        let all = lm.minimize(fit, x0, fixed, &mut NoObserver);
-        let residuals = fit.residuals_mm(&all.x);
-        let mut jac = DMatrix::zeros(fit.data.len(), all.x.len());
-        LeastSquares::jacobian(fit, &all.x, &mut jac);
-        let free: Vec<usize> = (0..all.x.len()).filter(|k| !fixed[*k]).collect();
-        let d = fit.data;
-        let n = d.len();
-        let per_fold = (0..FOLDS)
-            .into_par_iter()
-            .map(|f| {
-                let keep: Vec<usize> = (0..n).filter(|i| !fold_rows(n, FOLDS, f).contains(i)).collect();
-                let sub = Samples {
-                    q: keep.iter().map(|&i| d.q[i].clone()).collect(),
-                    l: keep.iter().map(|&i| d.l[i]).collect(),
-                    inputs: keep.iter().map(|&i| d.inputs[i]).collect(),
-                };
-                let x = lm.minimize(&LengthFit { model: fit.model, data: &sub }, &all.x, fixed, &mut NoObserver).x;
-                fit.residuals_mm(&x)
-            })
-            .collect();
-        GeometricFit { residuals, jacobian: jac.select_columns(&free), per_fold }
     }
 }
 

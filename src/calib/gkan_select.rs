@@ -2,7 +2,8 @@
 //! cross-validation on the training rows only (the test rows are never seen).
 //!
 //! The geometry is first fitted alone by Levenberg–Marquardt; its training residuals `y` are what
-//! a network has to explain. For every candidate (shape, λ_n, λ_s) the network's coefficients
+//! a network has to explain (each fold is scored on the residuals of the geometry fitted without
+//! it, [`GeometricFit`]). For every candidate (shape, λ_n, λ_s) the network's coefficients
 //! minimise the objective's network part on k − 1 folds — `Σ(y − Bw)² + λ_n Σ(Bw)² + λ_s ‖Pw‖²`
 //! with `P` the roughness and ridge rows ([`penalty_rows`]), one Cholesky solve since it is
 //! quadratic in w — and predict the held-out fold. The candidate with the smallest held-out RMSE
@@ -18,8 +19,7 @@
 use super::evonph::EvoWeights;
 use super::gkan::{Gkan, GkanShape};
 use super::method::{LmSolver, Problem};
-use super::optim::NoObserver;
-use super::ridge_cv::Folds;
+use super::ridge_cv::{Folds, GeometricFit};
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -34,8 +34,7 @@ pub const SHAPES: [GkanShape; 3] = [
 pub const NEURAL: [f64; 4] = [0.05, 0.2, 1.0, 5.0];
 /// Candidate roughness weights λ_s.
 pub const ROUGHNESS: [f64; 4] = [0.0002, 0.002, 0.02, 0.2];
-/// Folds of the cross-validation.
-pub const FOLDS: usize = 5;
+pub use super::ridge_cv::FOLDS;
 
 /// Weight of the ridge rows added to the roughness rows (κ = 0.01 on the squares): edge
 /// functions could otherwise trade constants among themselves.
@@ -102,12 +101,12 @@ pub fn select(p: &Problem) -> Result<Selection> {
     if n < 2 * FOLDS {
         return Err(Error::Calibration(format!("{n} training rows are too few to choose the network by {FOLDS}-fold cross-validation")));
     }
-    let lm = LmSolver::default().lm.minimize(fit, p.x0, p.fixed, &mut NoObserver);
-    let y = fit.residuals_mm(&lm.x);
-    if !y.iter().all(|v| v.is_finite()) {
+    let g = GeometricFit::new(fit, &LmSolver::default().lm, p.x0, p.fixed);
+    let y = &g.residuals;
+    if !y.iter().chain(g.per_fold.iter().flatten()).all(|v| v.is_finite()) {
         return Err(Error::Calibration("the geometric fit before the network choice gave non-finite residuals".into()));
     }
-    let no_network_rmse_mm = (y.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+    let no_network_rmse_mm = ((0..n).map(|i| g.per_fold[i % FOLDS][i].powi(2)).sum::<f64>() / n as f64).sqrt();
     let (lo, hi) = Gkan::range_of(&fit.data.q);
     let mut candidates = Vec::new();
     for shape in SHAPES {
@@ -122,7 +121,7 @@ pub fn select(p: &Problem) -> Result<Selection> {
             }
         }
         let pen = penalty_gram(&penalty_rows(&net), nw);
-        let folds = Folds::new(basis, &y, FOLDS);
+        let folds = Folds::with_fold_targets(basis, y, &g.per_fold);
         let grid: Vec<(f64, f64)> = NEURAL.iter().flat_map(|&a| ROUGHNESS.iter().map(move |&b| (a, b))).collect();
         let scores: Vec<f64> = grid.par_iter().map(|&(ln, ls)| folds.cv_rmse(|g| g * (1.0 + ln) + &pen * ls)).collect();
         for (&(neural, roughness), &cv_rmse_mm) in grid.iter().zip(&scores) {

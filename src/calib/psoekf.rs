@@ -43,13 +43,14 @@
 //! training poses, the paper's identifiability check.
 
 use super::awnn::{Activation, Awnn, Feature};
-use super::awnn_select::{select, GeometricFit, Selection};
+use super::awnn_select::{select, Selection};
 use super::corrector::Corrector;
 use super::effects::RowInputs;
 use super::method::{Method, Problem, Solution, Solver};
 use super::optim::{Bounds, Cost, Damping, Ekf, Event, LeastSquares, LevenbergMarquardt, NoObserver, ObservationHook, Observer, Pso, Report};
 use super::problem::LengthFit;
 use super::problem::Samples;
+use super::ridge_cv::GeometricFit;
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rand::seq::SliceRandom;

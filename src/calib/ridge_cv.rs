@@ -12,7 +12,50 @@
 //! rows' residuals to the others' — a flexible basis then "predicts" them, most of all when a
 //! fold has about as many rows as the model has parameters.
 
+use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
+use super::problem::{LengthFit, Samples};
 use nalgebra::{Cholesky, DMatrix, DVector};
+use rayon::prelude::*;
+
+/// Folds of the networks' cross-validations.
+pub const FOLDS: usize = 5;
+
+/// What the geometry leaves on the training rows, for the network's choice: the residuals (mm)
+/// of the geometric fit on every row, the Jacobian of the free parameters there, and per fold
+/// of [`FOLDS`] the residuals on every row of the fit without that fold's rows.
+pub struct GeometricFit {
+    pub residuals: Vec<f64>,
+    pub jacobian: DMatrix<f64>,
+    pub per_fold: Vec<Vec<f64>>,
+}
+
+impl GeometricFit {
+    /// Fits the geometry of `fit` by `lm` from `x0` on every row, then once per fold without
+    /// that fold's rows (starting from the all-rows solution).
+    pub fn new(fit: &LengthFit, lm: &LevenbergMarquardt, x0: &[f64], fixed: &[bool]) -> GeometricFit {
+        let all = lm.minimize(fit, x0, fixed, &mut NoObserver);
+        let residuals = fit.residuals_mm(&all.x);
+        let mut jac = DMatrix::zeros(fit.data.len(), all.x.len());
+        LeastSquares::jacobian(fit, &all.x, &mut jac);
+        let free: Vec<usize> = (0..all.x.len()).filter(|k| !fixed[*k]).collect();
+        let d = fit.data;
+        let n = d.len();
+        let per_fold = (0..FOLDS)
+            .into_par_iter()
+            .map(|f| {
+                let keep: Vec<usize> = (0..n).filter(|i| !fold_rows(n, FOLDS, f).contains(i)).collect();
+                let sub = Samples {
+                    q: keep.iter().map(|&i| d.q[i].clone()).collect(),
+                    l: keep.iter().map(|&i| d.l[i]).collect(),
+                    inputs: keep.iter().map(|&i| d.inputs[i]).collect(),
+                };
+                let x = lm.minimize(&LengthFit { model: fit.model, data: &sub }, &all.x, fixed, &mut NoObserver).x;
+                fit.residuals_mm(&x)
+            })
+            .collect();
+        GeometricFit { residuals, jacobian: jac.select_columns(&free), per_fold }
+    }
+}
 
 /// The rows of fold `f` of `k` among `n`.
 pub fn fold_rows(n: usize, k: usize, f: usize) -> Vec<usize> {
