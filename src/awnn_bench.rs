@@ -247,6 +247,7 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
     for n in [50usize, 100, 150, 200, 250, 300] {
         let mut la = Vec::new();
         let mut aa = Vec::new();
+        let mut kept = 0;
         for k in 0..10u64 {
             let mut idx = train.clone();
             use rand::seq::SliceRandom;
@@ -259,13 +260,19 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
             la.push(test_rmse(&calibrate_with(&sub, None, &o, lm.as_ref())?));
             let mut o = awnn_opts.clone();
             o.seed = k;
-            aa.push(test_rmse(&calibrate_with(&sub, None, &o, &PsoEkfAwnn::default())?));
+            let r = calibrate_with(&sub, None, &o, &PsoEkfAwnn::default())?;
+            kept += usize::from(!r.stop_reason.contains("zero output weights"));
+            aa.push(test_rmse(&r));
             if n == 300 {
                 break;
             }
         }
         let ((lm_m, lm_s), (aw_m, aw_s)) = (mean_std(&la), mean_std(&aa));
-        println!("    n = {n:3}: LM {lm_m:.4} ± {lm_s:.4}, pso-ekf-awnn {aw_m:.4} ± {aw_s:.4}{}", if n == 300 { " (all rows: one run)" } else { "" });
+        println!(
+            "    n = {n:3}: LM {lm_m:.4} ± {lm_s:.4}, pso-ekf-awnn {aw_m:.4} ± {aw_s:.4} (network kept in {kept} of {}){}",
+            aa.len(),
+            if n == 300 { "; all rows: one run" } else { "" }
+        );
     }
 
     // 4. Sensitivity: one hyperparameter at a time around Stage 0's choice.

@@ -8,6 +8,8 @@ use twincal::dataset::Dataset;
 use twincal::generate::{generate, write_outputs, Silent};
 use twincal::scenario::Scenario;
 
+mod datasets;
+
 fn twincal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).arg("--quiet").output().expect("runs")
 }
@@ -414,7 +416,6 @@ fn pso_ekf_awnn_learns_a_joint_space_field_that_lm_cannot_fit() {
 #[test]
 fn pso_ekf_awnn_beats_lm_on_the_all_effects_scenario() {
     use twincal::calib::psoekf::Ablation;
-    use twincal::dataset::{Row, Split};
     let sets = scenario_seeds("irb120_pso_ekf", 1077..1082, |_| {});
     let mut ratios = Vec::new();
     for (ds, _) in &sets {
@@ -429,16 +430,7 @@ fn pso_ekf_awnn_beats_lm_on_the_all_effects_scenario() {
     let ds = &sets[0].0;
     let o = irb120(Method::PsoEkfAwnn(Ablation::Full), "hayati");
     let a = calibrate(ds, None, &o).unwrap();
-    let rows = ds
-        .rows
-        .iter()
-        .enumerate()
-        .map(|(i, r)| match r.split {
-            Some(Split::Test) => Row { l_mm: r.l_mm.map(|l| l + if i % 2 == 0 { 0.5 } else { -0.7 }), ..r.clone() },
-            _ => r.clone(),
-        })
-        .collect();
-    let b = calibrate(&Dataset { rows, source: ds.source.clone() }, None, &o).unwrap();
+    let b = calibrate(&datasets::test_lengths_scrambled(ds), None, &o).unwrap();
     assert_eq!(a.stop_reason, b.stop_reason);
     assert_eq!(a.x, b.x);
 }

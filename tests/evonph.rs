@@ -8,6 +8,8 @@ use twincal::dataset::Dataset;
 use twincal::generate::{generate, write_outputs, Silent};
 use twincal::scenario::Scenario;
 
+mod datasets;
+
 fn twincal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).arg("--quiet").output().expect("runs")
 }
@@ -122,25 +124,12 @@ fn ik_on_a_dsade_result_solves_reachable_targets_and_beats_the_nominal_on_the_tw
 /// 24-parameter D-H form (`--params dh`) runs the same method.
 #[test]
 fn the_network_is_chosen_on_training_rows_only_and_dh_form_works() {
-    use twincal::dataset::{Row, Split};
     let (_, ds) = evo();
     let mut o = opts(Method::DsadeGkan, 5);
     o.test_fraction = None;
     let a = calibrate(ds, None, &o).unwrap();
     assert!(a.stop_reason.contains("chosen by 5-fold CV on the training rows"), "{}", a.stop_reason);
-    let scrambled = Dataset {
-        rows: ds
-            .rows
-            .iter()
-            .enumerate()
-            .map(|(i, r)| match r.split {
-                Some(Split::Test) => Row { l_mm: r.l_mm.map(|l| l + if i % 2 == 0 { 0.5 } else { -0.7 }), ..r.clone() },
-                _ => r.clone(),
-            })
-            .collect(),
-        source: ds.source.clone(),
-    };
-    let b = calibrate(&scrambled, None, &o).unwrap();
+    let b = calibrate(&datasets::test_lengths_scrambled(ds), None, &o).unwrap();
     assert_eq!(a.stop_reason, b.stop_reason);
     assert_eq!(a.x, b.x);
     assert!(b.metrics.test_after.unwrap().rmse > 2.0 * a.metrics.test_after.unwrap().rmse);
