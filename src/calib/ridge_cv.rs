@@ -43,7 +43,7 @@ impl GeometricFit {
         let per_fold = (0..FOLDS)
             .into_par_iter()
             .map(|f| {
-                let keep: Vec<usize> = (0..n).filter(|i| !fold_rows(n, FOLDS, f).contains(i)).collect();
+                let keep: Vec<usize> = (0..n).filter(|i| i % FOLDS != f).collect();
                 let sub = Samples {
                     q: keep.iter().map(|&i| d.q[i].clone()).collect(),
                     l: keep.iter().map(|&i| d.l[i]).collect(),
@@ -138,5 +138,35 @@ impl Folds {
     /// definite.
     pub fn fit_all(&self, system: impl Fn(&DMatrix<f64>) -> DMatrix<f64>) -> Option<DVector<f64>> {
         Cholesky::new(system(&self.gram)).map(|c| c.solve(&self.rhs))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The held-out residuals from the Gram-subtraction shortcut equal those of an explicit
+    /// ridge fit on each fold's training rows, with per-fold targets.
+    #[test]
+    fn held_out_residuals_match_explicit_fold_fits() {
+        let n = 23;
+        let basis = DMatrix::from_fn(n, 4, |i, k| ((i * 7 + k * 3) as f64 * 0.37).sin() + if k == 0 { 1.0 } else { 0.0 });
+        let y: Vec<f64> = (0..n).map(|i| (i as f64 * 0.11).cos()).collect();
+        let per_fold: Vec<Vec<f64>> = (0..3).map(|f| y.iter().map(|v| v + 0.01 * f as f64).collect()).collect();
+        let folds = Folds::with_fold_targets(basis.clone(), &y, &per_fold);
+        let ridge = |g: &DMatrix<f64>| g + DMatrix::identity(4, 4) * 0.3;
+        let r = folds.cv_residuals(ridge).unwrap();
+        for (f, yf) in per_fold.iter().enumerate() {
+            let train: Vec<usize> = (0..n).filter(|i| i % 3 != f).collect();
+            let bt = basis.select_rows(&train);
+            let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| yf[i]));
+            let w = Cholesky::new(ridge(&(bt.transpose() * &bt))).unwrap().solve(&(bt.transpose() * yt));
+            for i in fold_rows(n, 3, f) {
+                let e = yf[i] - basis.row(i).dot(&w.transpose());
+                assert!((e - r[i]).abs() < 1e-12, "row {i}: {e} vs {}", r[i]);
+            }
+        }
+        let rmse = (r.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+        assert!((folds.cv_rmse(ridge) - rmse).abs() < 1e-15);
     }
 }
