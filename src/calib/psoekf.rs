@@ -365,14 +365,15 @@ fn shuffled(n: usize, seed: u64) -> Vec<usize> {
 }
 
 /// Mean over the rows of `data` of `‖∂f/∂θ‖²`, the squared norm of the network's gradient with
-/// respect to all its parameters (the scale of the learning rate); `g` is scratch.
-fn mean_gradient_square(net: &Awnn, data: &Samples, g: &mut [f64]) -> f64 {
+/// respect to all its parameters (the scale of the learning rate).
+fn mean_gradient_square(net: &Awnn, data: &Samples) -> f64 {
+    let mut g = vec![0.0; net.n_params()];
     let s: f64 = data
         .q
         .iter()
         .zip(&data.inputs)
         .map(|(q, inp)| {
-            net.eval_param_grad(q, inp, g);
+            net.eval_param_grad(q, inp, &mut g);
             g.iter().map(|v| v * v).sum::<f64>()
         })
         .sum();
@@ -453,11 +454,17 @@ impl PsoEkfAwnn {
 
     /// Stage I with hyperparameters `h`, from `p.x0` and the fresh network `net`.
     pub fn stage_one(&self, p: &Problem, h: &Hyper, net: Option<Awnn>, obs: &mut dyn Observer) -> StageOne {
+        let scale = net.as_ref().map_or(1.0, |n| mean_gradient_square(n, p.fit.data));
+        self.stage_one_scaled(p, h, net, scale, obs)
+    }
+
+    /// [`stage_one`](Self::stage_one) with the learning rate's scale `ḡ²` of `net` given.
+    fn stage_one_scaled(&self, p: &Problem, h: &Hyper, net: Option<Awnn>, scale: f64, obs: &mut dyn Observer) -> StageOne {
         let p0 = p.prior_std.iter().map(|s| (3.0 * s).powi(2)).collect();
         let noise = if p.noise_mm.is_finite() && p.noise_mm > 0.0 { p.noise_mm } else { 0.01 };
         let ekf = Ekf { epochs: self.epochs.max(1), q: h.q_rel * prior_var_scale(p), r: h.r_rel * noise * noise, p0, tol: 0.0 };
-        let mut scratch = vec![0.0; net.as_ref().map_or(0, |n| n.n_params())];
-        let lr = h.lr / net.as_ref().map_or(1.0, |n| mean_gradient_square(n, p.fit.data, &mut scratch));
+        let scratch = vec![0.0; net.as_ref().map_or(0, |n| n.n_params())];
+        let lr = h.lr / scale;
         let mut learner = Learner { net, q: &p.fit.data.q, inputs: &p.fit.data.inputs, lr, scratch, sse: 0.0, count: 0, last_rmse: f64::INFINITY };
         let order = shuffled(p.fit.data.len(), p.seed);
         let report = ekf.run_with(p.fit, p.x0, p.fixed, &order, &mut learner, obs);
@@ -477,7 +484,8 @@ impl PsoEkfAwnn {
             let v: Vec<f64> = (0..3).map(|k| rng.random_range(b.lower[k]..=b.upper[k])).collect();
             return Ok((SearchSpace::hyper(&v), f64::NAN, 0));
         }
-        let fitness = Fitness { solver: self, p, net };
+        let scale = net.as_ref().map_or(1.0, |n| mean_gradient_square(n, p.fit.data));
+        let fitness = Fitness { solver: self, p, net, scale };
         let centre: Vec<f64> = (0..3).map(|k| 0.5 * (b.lower[k] + b.upper[k])).collect();
         let pso =
             Pso { particles: self.pso_particles.max(2), iterations: self.pso_iterations.max(1), seed: p.seed, patience: 4, tol: 1e-4, ..Default::default() };
@@ -589,6 +597,8 @@ struct Fitness<'a, 'b> {
     solver: &'a PsoEkfAwnn,
     p: &'a Problem<'b>,
     net: &'a Option<Awnn>,
+    /// The learning rate's scale for `net`, computed once.
+    scale: f64,
 }
 
 impl Cost for Fitness<'_, '_> {
@@ -596,7 +606,7 @@ impl Cost for Fitness<'_, '_> {
         3
     }
     fn cost(&self, v: &[f64]) -> f64 {
-        self.solver.stage_one(self.p, &SearchSpace::hyper(v), self.net.clone(), &mut NoObserver).innovation_rmse
+        self.solver.stage_one_scaled(self.p, &SearchSpace::hyper(v), self.net.clone(), self.scale, &mut NoObserver).innovation_rmse
     }
 }
 
