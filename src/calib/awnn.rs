@@ -402,6 +402,17 @@ impl Awnn {
         }
     }
 
+    /// [`hidden_row`](Self::hidden_row) at every row: one row per pose, one column per neuron.
+    pub fn hidden_matrix(&self, qs: &[Vec<f64>], inputs: &[RowInputs]) -> nalgebra::DMatrix<f64> {
+        let mut h = nalgebra::DMatrix::zeros(qs.len(), self.neurons());
+        let mut row = vec![0.0; self.neurons()];
+        for (i, (q, inp)) in qs.iter().zip(inputs).enumerate() {
+            self.hidden_row(q, inp, &mut row);
+            h.row_mut(i).copy_from_slice(&row);
+        }
+        h
+    }
+
     /// Output and its gradient with respect to every learned value, in the order of
     /// [`params`](Self::params): `[w (M), b (M), a (M), v (M·d, row by row)]`.
     pub fn eval_param_grad(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {

@@ -131,20 +131,14 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
         if ng == 0 { Some(y.to_vec()) } else { Folds::with_fold_targets(geo.clone(), y, &g.per_fold).cv_residuals(|g| system(g, ng, 0.0, 0.0, geo_ridge)) }
             .ok_or_else(|| Error::Calibration("the geometric columns alone could not be fitted in the cross-validation".into()))?;
     let no_network_rmse_mm = rms(&baseline);
-    let mut best: Option<(Candidate, Folds, Awnn)> = None;
+    let mut best: Option<(Candidate, Folds, Awnn, f64)> = None;
     let mut candidates = Vec::new();
     for library in LIBRARIES {
         let net = Awnn::library(qs, inputs, extra, &library, activation).map_err(Error::Calibration)?;
         let m = net.neurons();
         let mut basis = DMatrix::zeros(n, ng + m);
         basis.columns_mut(0, ng).copy_from(&geo);
-        let mut row = vec![0.0; m];
-        for i in 0..n {
-            net.hidden_row(&qs[i], &inputs[i], &mut row);
-            for k in 0..m {
-                basis[(i, ng + k)] = row[k];
-            }
-        }
+        basis.columns_mut(ng, m).copy_from(&net.hidden_matrix(qs, inputs));
         let folds = Folds::with_fold_targets(basis, y, &g.per_fold);
         let scale = (folds.gram().view((ng, ng), (m, m)).trace() / m as f64).max(1e-12);
         let grid: Vec<(f64, f64)> = NEURAL.iter().flat_map(|&a| RIDGES.iter().map(move |&b| (a, b))).collect();
@@ -158,20 +152,18 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
             }
         }
         if let Some(c) = here {
-            if best.as_ref().is_none_or(|(b, _, _)| c.cv_rmse_mm < b.cv_rmse_mm) {
-                best = Some((c, folds, net));
+            if best.as_ref().is_none_or(|(b, ..)| c.cv_rmse_mm < b.cv_rmse_mm) {
+                best = Some((c, folds, net, scale));
             }
         }
     }
-    let (chosen, folds, mut net) = best.ok_or_else(|| Error::Calibration("no network layout could be fitted in the cross-validation".into()))?;
-    let scale = (folds.gram().view((ng, ng), (chosen.neurons, chosen.neurons)).trace() / chosen.neurons as f64).max(1e-12);
-    let w = folds
-        .fit_all(|g| system(g, ng, chosen.neural, chosen.ridge * scale, geo_ridge))
-        .ok_or_else(|| Error::Calibration("the chosen network's output layer could not be fitted".into()))?;
+    let (chosen, folds, mut net, scale) = best.ok_or_else(|| Error::Calibration("no network layout could be fitted in the cross-validation".into()))?;
+    let chosen_system = |g: &DMatrix<f64>| system(g, ng, chosen.neural, chosen.ridge * scale, geo_ridge);
+    let w = folds.fit_all(chosen_system).ok_or_else(|| Error::Calibration("the chosen network's output layer could not be fitted".into()))?;
     // One-standard-error rule against the geometry alone: the per-row change of the squared
     // held-out residual must be negative by more than its standard error, else a win is the
     // best of many candidates on noise.
-    let r = folds.cv_residuals(|g| system(g, ng, chosen.neural, chosen.ridge * scale, geo_ridge)).unwrap_or_else(|| baseline.clone());
+    let r = folds.cv_residuals(chosen_system).unwrap_or_else(|| baseline.clone());
     let d: Vec<f64> = r.iter().zip(&baseline).map(|(a, b)| a * a - b * b).collect();
     let mean = d.iter().sum::<f64>() / n as f64;
     let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n as f64 * (n as f64 - 1.0))).sqrt();

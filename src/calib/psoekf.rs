@@ -318,14 +318,7 @@ struct Joint<'a, 'b> {
 
 impl<'a, 'b> Joint<'a, 'b> {
     fn new(fit: &'a LengthFit<'b>, net: &'a Awnn) -> Self {
-        let d = fit.data;
-        let mut hidden = DMatrix::zeros(d.len(), net.neurons());
-        let mut row = vec![0.0; net.neurons()];
-        for (i, (q, inp)) in d.q.iter().zip(&d.inputs).enumerate() {
-            net.hidden_row(q, inp, &mut row);
-            hidden.row_mut(i).copy_from_slice(&row);
-        }
-        Joint { fit, net, hidden }
+        Joint { fit, net, hidden: net.hidden_matrix(&fit.data.q, &fit.data.inputs) }
     }
     fn net_at(&self, x: &[f64]) -> Awnn {
         let mut n = self.net.clone();
