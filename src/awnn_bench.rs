@@ -17,7 +17,8 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// Runs the method and records how long Stage 0 and the core (Stage I + II) took.
+/// Runs the method and records how long the network start, Stage 0 and the core (Stage I + II)
+/// took.
 struct Timed {
     inner: PsoEkfAwnn,
     times: Mutex<Vec<Times>>,
