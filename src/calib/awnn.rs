@@ -166,10 +166,6 @@ impl Library {
         }
         dirs
     }
-    /// Neurons of this layout for `nq` joints among `d` inputs.
-    pub fn neurons(&self, nq: usize, d: usize) -> usize {
-        self.directions(nq, d).len() * self.levels.iter().sum::<usize>()
-    }
     /// E.g. "axes + pair diagonals, 2+4 per direction".
     pub fn label(&self) -> String {
         let levels = self.levels.iter().map(|l| l.to_string()).collect::<Vec<_>>().join("+");
@@ -392,23 +388,16 @@ impl Awnn {
         (0..self.neurons()).map(|j| self.weights[j] * self.activation.eval(self.arg(j, u)).0).sum()
     }
 
-    /// Every neuron's activation `ψ(z_j)` at a row (len [`neurons`](Self::neurons)): the output
-    /// is `hidden · weights`.
-    pub fn hidden_row(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
-        let mut u = vec![0.0; self.inputs()];
-        self.standardise(q, inp, &mut u);
-        for (j, o) in out.iter_mut().enumerate() {
-            *o = self.activation.eval(self.arg(j, &u)).0;
-        }
-    }
-
-    /// [`hidden_row`](Self::hidden_row) at every row: one row per pose, one column per neuron.
+    /// Every neuron's activation `ψ(z_j)` at every row: one row per pose, one column per
+    /// neuron (the output is this matrix times `weights`).
     pub fn hidden_matrix(&self, qs: &[Vec<f64>], inputs: &[RowInputs]) -> nalgebra::DMatrix<f64> {
         let mut h = nalgebra::DMatrix::zeros(qs.len(), self.neurons());
-        let mut row = vec![0.0; self.neurons()];
+        let mut u = vec![0.0; self.inputs()];
         for (i, (q, inp)) in qs.iter().zip(inputs).enumerate() {
-            self.hidden_row(q, inp, &mut row);
-            h.row_mut(i).copy_from_slice(&row);
+            self.standardise(q, inp, &mut u);
+            for j in 0..self.neurons() {
+                h[(i, j)] = self.activation.eval(self.arg(j, &u)).0;
+            }
         }
         h
     }
