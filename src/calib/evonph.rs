@@ -31,7 +31,8 @@
 //!
 //! The network's shape and λ_n, λ_s are chosen on every run by 5-fold cross-validation on the
 //! training rows ([`super::gkan_select`]: LM geometry, then each candidate network fitted to its
-//! residuals on four folds and scored on the fifth); the test rows play no part. Without the
+//! residuals on four folds and scored on the fifth, against the geometry refitted without it);
+//! the test rows play no part. Without the
 //! choice (`select = false`) the defaults are grid 4, chain-edge grid 2, λ_n = 0.05, λ_s = 0.02.
 //!
 //! # Search
