@@ -648,8 +648,9 @@ pub struct CalibrateArgs {
     /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
     pub sensor_guess: Option<Vec<f64>>,
-    /// Relative singular-value threshold for identifiability.
-    #[arg(long, default_value_t = 1e-7, allow_negative_numbers = true)]
+    /// Relative singular-value threshold for identifiability (combinations the data see below
+    /// this fraction of the strongest are fixed).
+    #[arg(long, default_value_t = crate::calib::run::DEFAULT_RANK_TOL, allow_negative_numbers = true)]
     pub rank_tol: f64,
     /// Budget of the stochastic methods and of the generic model's global search (1 = default).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
@@ -678,6 +679,39 @@ pub struct CalibrateArgs {
     pub effects: Vec<String>,
     #[command(flatten)]
     pub loads: LoadArgs,
+    #[command(flatten)]
+    pub robust: RobustArgs,
+}
+
+/// Robust estimation and the data's floor (`--outliers`, `--loss`, `--angle-resolution-deg`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct RobustArgs {
+    /// Training rows more than this many robust standard deviations (1.4826 MAD) off the fit
+    /// are outliers: kept out and listed in the result (0: keep every row).
+    #[arg(long, default_value_t = crate::calib::run::DEFAULT_OUTLIER_K, allow_negative_numbers = true)]
+    pub outliers: f64,
+    /// Least-squares loss of `--method lm`: l2, huber or cauchy (by IRLS, robust scale from the data).
+    #[arg(long, default_value = "l2")]
+    pub loss: String,
+    /// Logging step of the joint angles in degrees, for the noise floor (default: read from the
+    /// data's decimals).
+    #[arg(long, allow_negative_numbers = true)]
+    pub angle_resolution_deg: Option<f64>,
+}
+
+impl RobustArgs {
+    /// (outlier threshold, loss, angle step), validated.
+    pub fn resolve(&self) -> Result<(f64, crate::calib::robust::Loss, Option<f64>)> {
+        if !(self.outliers.is_finite() && (self.outliers == 0.0 || (2.0..=100.0).contains(&self.outliers))) {
+            return Err(Error::Invalid(format!("--outliers must be 0 (off) or in [2, 100] robust standard deviations, got {}", self.outliers)));
+        }
+        if let Some(r) = self.angle_resolution_deg {
+            if !(r.is_finite() && r > 0.0 && r <= 10.0) {
+                return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
+            }
+        }
+        Ok((self.outliers, crate::calib::robust::Loss::parse(&self.loss)?, self.angle_resolution_deg))
+    }
 }
 
 /// What loads the joints, for the torque-driven effects (`--robot`, `--payload-kg`,
@@ -814,6 +848,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     let (loads, inertial) = a.loads.resolve()?;
     opts.loads = loads;
     opts.inertial = inertial;
+    (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
     let result = run(&data, truth.as_ref(), &opts)?;
     let test = result.metrics.test_after.as_ref();
     let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
@@ -892,13 +927,33 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
         r.parameters.len(),
         fixed.join(", ")
     );
-    if let Some(c) = r.identifiability.get("condition_identifiable").and_then(|v| v.as_f64()) {
-        eprintln!("  condition number of the identifiable set: {c:.3e}");
+    let id = |k: &str| r.identifiability.get(k).and_then(|v| v.as_f64());
+    if let (Some(all), Some(c)) = (id("condition_all"), id("condition_identifiable")) {
+        eprintln!("  condition number: {all:.3e} with every parameter free, {c:.3e} for the identifiable set");
     }
-    if let Some(rep) = &r.repeatability {
-        eprintln!("  repeatability floor: {:.4} mm from {} repeated configurations ({} rows)", rep.pooled_std, rep.groups, rep.rows);
-        if let Some(t) = &m.test_after {
-            eprintln!("  held-out RMSE / floor = {:.3}", t.rmse / rep.pooled_std);
+    if let Some(still) = r.identifiability.get("still_joints").and_then(|v| v.as_array()).filter(|v| !v.is_empty()) {
+        let joints: Vec<String> = still.iter().map(|j| j.to_string()).collect();
+        eprintln!("  joints that do not move in the data (held for the identifiability analysis): {}", joints.join(", "));
+    }
+    if r.outlier_k > 0.0 {
+        let runs: Vec<String> = r.outlier_runs.iter().map(|u| format!("rows {}-{} ({:+.2} mm)", u.first_row, u.last_row, u.median_residual_mm)).collect();
+        eprintln!(
+            "  outliers (> {} robust sd of {:.4} mm): {} training rows kept out{}; {} test rows beyond the same rule",
+            r.outlier_k,
+            r.robust_scale_mm,
+            r.outliers.len(),
+            if runs.is_empty() { String::new() } else { format!(", runs: {}", runs.join(", ")) },
+            r.test_outliers.len()
+        );
+        if let (Some(t), false) = (&m.test_after_inliers, r.test_outliers.is_empty()) {
+            eprintln!("{}", row("test inliers", t));
+        }
+    }
+    if let Some(f) = &r.noise_floor {
+        let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
+        eprintln!("  noise floor of the data: {:.4} mm ({})", f.total_mm, parts.join(", "));
+        if let (Some(t), true) = (&m.test_after, f.total_mm > 0.0) {
+            eprintln!("  held-out RMSE / floor = {:.3}", t.rmse / f.total_mm);
         }
     }
     if let Some(t) = &r.truth_comparison {
@@ -1335,6 +1390,10 @@ pub struct DiagnoseArgs {
     /// Accuracy limit for the verdict in --out: the final cross-validated held-out RMSE, mm.
     #[arg(long, allow_negative_numbers = true)]
     pub max_test_rmse_mm: Option<f64>,
+    /// Logging step of the joint angles in degrees, for the noise floor (default: read from the
+    /// data's decimals).
+    #[arg(long, allow_negative_numbers = true)]
+    pub angle_resolution_deg: Option<f64>,
 }
 
 /// `twincal diagnose`: report.json, the extended model (a calibration result) and optionally a
@@ -1369,6 +1428,12 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     opts.alpha = a.alpha;
     opts.seed = a.seed;
     opts.candidates = parse_effects(&a.candidates)?.into_iter().map(|(k, _)| k).collect();
+    if let Some(r) = a.angle_resolution_deg {
+        if !(r.is_finite() && r > 0.0 && r <= 10.0) {
+            return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
+        }
+        opts.angle_step_deg = Some(r);
+    }
     let say = |line: &str| {
         if !quiet {
             eprintln!("  {line}");
@@ -1399,8 +1464,14 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
     for o in &d.outliers {
         eprintln!("  outlier: row {} residual {:+.3} mm ({:+.1} robust sd)", o.row, o.residual_mm, o.robust_z);
     }
+    for u in &d.outlier_runs {
+        eprintln!("  outlier run: rows {}-{}, median residual {:+.3} mm", u.first_row, u.last_row, u.median_residual_mm);
+    }
     eprintln!("  noise floor {:.4} mm ({})", d.noise_floor_mm, d.noise_floor_source);
-    eprintln!("  geometric model ({}): held-out RMSE {:.4} mm", d.baseline.model, d.baseline.heldout_rmse_mm);
+    eprintln!(
+        "  geometric model ({}): held-out RMSE {:.4} mm on blocked folds, {:.4} mm on interleaved folds; judged on {} folds ({} selection rows, {} confirmation rows kept back)",
+        d.baseline.model, d.baseline.heldout_rmse_blocked_mm, d.baseline.heldout_rmse_interleaved_mm, d.judged_on, d.selection_rows, d.confirmation_rows
+    );
     let top: Vec<String> = d.evidence.iter().take(4).map(|e| format!("{} r={:+.2}", e.feature, e.correlation)).collect();
     eprintln!("  residual follows most: {}", top.join(", "));
     if d.causes.is_empty() {
@@ -1408,8 +1479,21 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
     }
     for (i, c) in d.causes.iter().enumerate() {
         eprintln!("  cause {}: {}", i + 1, c.summary());
+        eprintln!(
+            "           confirmation rows: {:.4} -> {:.4} mm; other folds: {:.4} -> {:.4} mm",
+            c.confirmation_rmse_before_mm, c.confirmation_rmse_after_mm, c.heldout_rmse_other_folds_before_mm, c.heldout_rmse_other_folds_after_mm
+        );
     }
-    eprintln!("  final held-out RMSE {:.4} mm = {:.2} x the noise floor", d.final_heldout_rmse_mm, d.final_heldout_rmse_mm / d.noise_floor_mm);
+    if !d.unconfirmed.is_empty() {
+        eprintln!("  not confirmed on the confirmation rows (left out of the model): {}", d.unconfirmed.join(", "));
+    }
+    eprintln!(
+        "  final held-out RMSE {:.4} mm = {:.2} x the noise floor; the final model's RMSE on the {} kept rows: {:.4} mm",
+        d.final_heldout_rmse_mm,
+        d.final_heldout_rmse_mm / d.noise_floor_mm,
+        d.selection_rows + d.confirmation_rows,
+        d.final_train_rmse_mm
+    );
     if let Some(c) = &d.comparison {
         eprintln!(
             "  held-out RMSE geometric / physical extension / RBF compensator: {:.4} / {:.4} / {:.4} mm",

@@ -1,71 +1,308 @@
-//! The generic 6R model's structure, for arms without a published nominal: L-SHADE over broad
-//! bounds from several seeded restarts (in parallel), each polished by LM; the best training fit wins.
+//! The generic 6R model, for arms without a published nominal.
+//!
+//! **Parametrisation.** A calibration sees the arm only where the data put it; on a narrow range
+//! of joint angles what the lengths determine is where each joint axis lies *there*. So the
+//! model is built around the mean training pose q̄: joint j's frame at q̄ has its z axis on the
+//! joint's axis line, and the chain is expressed as per-joint frame errors around those frames
+//! (translations of the joint origin, small rotations, joint zero: the same local errors as the
+//! twin's `frame` model), with the joint rotation measured from q̄. Each parameter is then a
+//! small motion of one axis near the arm, and the identifiability analysis keeps a
+//! well-conditioned subset. Absolute D-H values were the previous choice: with near-parallel
+//! axes d slides along an ill-defined common normal, and on the HSR data the fit crept towards a
+//! 36 m link and a tool point 23 m out.
+//!
+//! **Search.** Starts are plausible industrial topologies at q̄ (seeded draws: joint 1 vertical;
+//! joint 2 horizontal, offset from it by a shoulder link; joint 3 parallel to 2 at the end of an
+//! upper arm of 0.3–1.1 m; a forearm of 0.3–1.3 m to a spherical wrist whose axes 4, 5, 6 meet;
+//! a tool point 50–350 mm from the wrist centre), each with the cable's exit point and offset
+//! multilaterated from its tool points. Every start is screened by a short Levenberg–Marquardt
+//! run on an evenly spread subset of the rows; the best screened starts are polished on that
+//! subset until they converge, and the lowest *converged* cost wins (ranking after a short polish
+//! picks the candidate that is quickest to polish, not the best basin). Starts are drawn from the
+//! seed alone and screened in parallel: the result does not depend on the number of threads.
 
-use super::model::CalibModel;
-use super::optim::{Bounds, De, DeVariant, LeastSquares, LevenbergMarquardt, NoObserver};
-use super::problem::{FreeCost, LengthFit, Samples};
+use super::model::{CalibModel, Kind, SensorGuess, SENSOR_PARAMS};
+use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
+use super::problem::{LengthFit, Samples};
 use super::run::CalibOptions;
 use crate::error::{Error, Result};
+use crate::robot::kinematics::{ChainBuilder, Frame};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-/// Broad bounds for the generic 6R search: D-H angles over the full circle, lengths within ±1.5 m,
-/// exit point within ±3 m, offset within ±2 m, tool point within ±0.3 m.
-fn bounds(model: &CalibModel) -> Bounds {
-    let pi = std::f64::consts::PI;
-    let (lo, hi): (Vec<f64>, Vec<f64>) = model
-        .names
-        .iter()
-        .map(|n| {
-            if n.ends_with(".theta") || n.ends_with(".alpha") {
-                (-pi, pi)
-            } else if n.starts_with("exit.") {
-                (-3.0, 3.0)
-            } else if n == "length_offset" {
-                (-2.0, 2.0)
-            } else if n.starts_with("tool.") {
-                (-0.3, 0.3)
-            } else {
-                (-1.5, 1.5)
-            }
-        })
-        .unzip();
-    Bounds::new(lo, hi)
+/// Most rows the screening and the ranking see (every k-th training row).
+const SEARCH_ROWS: usize = 300;
+/// Starts at effort 1.
+const STARTS: usize = 48;
+/// Screened starts polished to convergence.
+const FINALISTS: usize = 6;
+/// LM iterations of the screening.
+const SCREEN_ITER: usize = 60;
+
+/// An axis line in the base frame at the reference pose.
+#[derive(Clone, Copy, Debug)]
+pub struct Line {
+    pub point: Vector3<f64>,
+    pub dir: Vector3<f64>,
 }
 
-/// Global search for the generic model: L-SHADE over broad bounds, several restarts, each
-/// polished by LM; the best training fit wins.
-pub fn search(model: &CalibModel, train: &Samples, opts: &CalibOptions) -> Result<Vec<f64>> {
-    let bounds = bounds(model);
-    let all: Vec<usize> = (0..model.n_params()).collect();
-    // The global search sees an evenly spread subset (every k-th row, at most 400); LM then
-    // polishes each candidate on every training row.
-    let step = train.len().div_ceil(400).max(1);
-    let rows: Vec<usize> = (0..train.len()).step_by(step).collect();
-    let subset = train.subset(&rows);
-    let fit = LengthFit { model, data: train };
-    let lm = LevenbergMarquardt { max_iter: 300, ..Default::default() };
-    let restarts = (4.0 * opts.effort).ceil() as u64;
-    // Restarts are independent (own seeds) and run in parallel; the result does not depend on
-    // the number of threads.
-    let candidates: Vec<(f64, Vec<f64>)> = (0..restarts)
-        .into_par_iter()
-        .map(|r| {
-            let cost = FreeCost { fit: LengthFit { model, data: &subset }, base: model.nominal.clone(), free: all.clone() };
-            let de = De {
-                variant: DeVariant::LShade { memory: 6, p: 0.11, min_pop: 6 },
-                pop: 120,
-                generations: 100_000,
-                max_evals: Some((60_000.0 * opts.effort.min(1.0)) as usize),
-                seed: opts.seed.wrapping_mul(31).wrapping_add(r),
-                tol: 1e-12,
-                patience: 300,
-            };
-            let g = de.minimize(&cost, &bounds, None, &mut NoObserver);
-            let id = super::run::identify(&fit, &g.x, opts.rank_tol);
-            let polished = lm.minimize(&fit, &g.x, &id.fixed_mask, &mut NoObserver);
-            (LeastSquares::cost(&fit, &polished.x), polished.x)
+/// Unit vector perpendicular to `z`, as close as possible to `hint`.
+fn perpendicular(z: &Vector3<f64>, hint: &Vector3<f64>) -> Vector3<f64> {
+    let v = hint - z * z.dot(hint);
+    if v.norm() > 1e-6 {
+        return v.normalize();
+    }
+    let other = if z.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    (other - z * z.dot(&other)).normalize()
+}
+
+/// Joint frames at the reference pose: z on each axis line; the origin where the line comes
+/// closest to the previous one (for near-parallel lines, the previous origin's foot on it), so
+/// every origin lies near the arm; x along the common normal where there is one.
+pub fn frames_of(lines: &[Line]) -> Vec<Frame> {
+    let mut frames: Vec<Frame> = Vec::with_capacity(lines.len());
+    for l in lines {
+        let z = l.dir.normalize();
+        let (origin, x_hint) = match frames.last() {
+            None => (l.point - z * z.dot(&l.point), Vector3::x()),
+            Some(prev) => {
+                let (zp, op) = (prev.rot.column(2).into_owned(), prev.pos);
+                let cross = zp.cross(&z);
+                if cross.norm() < 0.05 {
+                    let foot = l.point + z * z.dot(&(op - l.point));
+                    (foot, foot - op)
+                } else {
+                    // Closest points of the previous axis (through op) and this one.
+                    let w0 = op - l.point;
+                    let (b, d, e) = (zp.dot(&z), zp.dot(&w0), z.dot(&w0));
+                    let den = 1.0 - b * b;
+                    let s = (b * e - d) / den;
+                    let t = (e - b * d) / den;
+                    let foot = l.point + z * t;
+                    let gap = foot - (op + zp * s);
+                    (foot, if gap.norm() > 1e-6 { gap } else { cross })
+                }
+            }
+        };
+        let x = perpendicular(&z, &x_hint);
+        frames.push(Frame { rot: Matrix3::from_columns(&[x, z.cross(&x), z]), pos: origin });
+    }
+    frames
+}
+
+/// The generic model around joint frames at the reference pose `q_ref` (rad): per joint the
+/// origin offset (x, y, z in the previous joint's frame), error rotations about x, y, z and the
+/// joint zero, the joint rotating by q − q_ref; the tool point in the last joint's frame.
+pub fn model_around(frames: &[Frame], q_ref: &[f64], sensor: &SensorGuess) -> CalibModel {
+    let mut b = ChainBuilder::new();
+    let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
+    let mut kinds = Vec::new();
+    let mut parent = Frame::identity();
+    for (j, f) in frames.iter().enumerate() {
+        let o = f.relative_to(&parent);
+        let idx: Vec<usize> = crate::robot::PARAM_SUFFIXES.iter().map(|s| b.param(format!("joint_{}.{s}", j + 1))).collect();
+        kinds.extend([Kind::Length, Kind::Length, Kind::Length, Kind::Angle, Kind::Angle, Kind::Angle, Kind::Angle]);
+        b.trans(x, o.pos.x, Some(idx[0]), true);
+        b.trans(y, o.pos.y, Some(idx[1]), true);
+        b.trans(z, o.pos.z, Some(idx[2]), true);
+        let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(o.rot).euler_angles();
+        b.rot(z, yaw, None);
+        b.rot(y, pitch, None);
+        b.rot(x, roll, None);
+        b.rot(x, 0.0, Some(idx[3]));
+        b.rot(y, 0.0, Some(idx[4]));
+        b.rot(z, 0.0, Some(idx[5]));
+        b.joint(z, -q_ref[j], Some(idx[6]));
+        parent = *f;
+    }
+    let chain = b.finish();
+    let mut names = chain.param_names.clone();
+    names.extend(SENSOR_PARAMS.iter().map(|s| s.to_string()));
+    kinds.extend([Kind::Length; 7]);
+    let mut nominal = vec![0.0; chain.n_params()];
+    nominal.extend(sensor.exit_m.iter());
+    nominal.push(sensor.offset_m);
+    nominal.extend(sensor.tool_m.iter());
+    CalibModel { name: "generic6r".into(), chain, names, kinds, nominal, effects: Vec::new() }
+}
+
+/// A plausible industrial 6R topology at the reference pose (m), and a tool point.
+fn topology(rng: &mut ChaCha8Rng) -> (Vec<Line>, Vector3<f64>) {
+    let mut sign = || if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    let (s2, s3, s4, s5, s6) = (sign(), sign(), sign(), sign(), sign());
+    let up = Line { point: Vector3::zeros(), dir: Vector3::z() };
+    let shoulder = Vector3::new(rng.random_range(0.0..0.3), 0.0, 0.0);
+    let j2 = Line { point: shoulder, dir: Vector3::y() * s2 };
+    let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let elbow = shoulder + Vector3::new(phi.cos(), 0.0, phi.sin()) * rng.random_range(0.3..1.1);
+    let j3 = Line { point: elbow, dir: Vector3::y() * s3 };
+    let psi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let forearm = Vector3::new(psi.cos(), 0.0, psi.sin());
+    let normal = Vector3::y().cross(&forearm);
+    let wrist = elbow + normal * rng.random_range(-0.25..0.25) + forearm * rng.random_range(0.3..1.3);
+    let j4 = Line { point: wrist, dir: forearm * s4 };
+    let chi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let w5 = Vector3::y() * chi.cos() + normal * chi.sin();
+    let j5 = Line { point: wrist, dir: w5 * s5 };
+    let omega: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let across = w5.cross(&forearm);
+    let w6 = forearm * omega.cos() + across * omega.sin();
+    let j6 = Line { point: wrist, dir: w6 * s6 };
+    let tool = wrist + w6 * rng.random_range(0.05..0.35);
+    (vec![up, j2, j3, j4, j5, j6], tool)
+}
+
+/// The start of one topology: the model around its frames with the sensor's exit point and
+/// offset multilaterated from its tool points (the tool point where the topology puts it).
+fn start(lines: &[Line], tool: &Vector3<f64>, q_ref: &[f64], data: &Samples) -> Option<CalibModel> {
+    let frames = frames_of(lines);
+    let tool_local = frames.last()?.rot.transpose() * (tool - frames.last()?.pos);
+    let zero = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [tool_local.x, tool_local.y, tool_local.z] };
+    let mut model = model_around(&frames, q_ref, &zero);
+    let mut w = model.work();
+    let pts: Vec<_> = data.q.iter().map(|q| model.tool_point(&model.nominal, q, &mut w)).collect();
+    let (e, c) = super::placement::multilaterate(&pts, &data.l)?;
+    let nc = model.n_chain();
+    model.nominal[nc..nc + 3].copy_from_slice(&e);
+    model.nominal[nc + 3] = c;
+    model.nominal.iter().all(|v| v.is_finite()).then_some(model)
+}
+
+/// Fits the identifiable parameters of `model` from its nominal on `data`: (cost, x, converged
+/// within few iterations).
+fn fit(model: &CalibModel, data: &Samples, lm: &LevenbergMarquardt, rank_tol: f64) -> (f64, Vec<f64>, bool) {
+    let fit = LengthFit { model, data };
+    let id = super::run::identify(&fit, &model.nominal, rank_tol);
+    let rep = lm.minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver);
+    let cost = LeastSquares::cost(&fit, &rep.x);
+    (if cost.is_finite() { cost } else { f64::INFINITY }, rep.x, rep.converged && rep.iterations <= SETTLED_ITER)
+}
+
+/// The reference pose of a generic model (rad): its joints rotate by q − q_ref.
+fn reference_pose(model: &CalibModel) -> Vec<f64> {
+    (0..model.chain.n_joints).map(|j| -model.chain.ops[model.chain.joint_op(j).expect("every joint has an op")].base).collect()
+}
+
+/// The same arm at `x` re-expressed around its own axis lines at the reference pose, every
+/// chain parameter back at zero (predictions are unchanged). Serial frame errors are linear
+/// only near zero: large ones (a frame turned by tens of degrees, compensated downstream) make
+/// a curved valley that Levenberg–Marquardt crosses in thousands of small steps; a fresh chart
+/// straightens it.
+pub fn rechart(model: &CalibModel, x: &[f64]) -> CalibModel {
+    let q_ref = reference_pose(model);
+    let nc = model.n_chain();
+    let mut ws = crate::robot::kinematics::FkWork::new(&model.chain);
+    model.chain.forward(&q_ref, &x[..nc], 1.0, &mut ws);
+    let lines: Vec<Line> = (0..model.chain.n_joints)
+        .map(|j| {
+            let f = model.chain.frame(&ws, j + 1);
+            Line { point: f.pos, dir: f.rot.column(2).into_owned() }
         })
         .collect();
-    let best = candidates.into_iter().filter(|c| c.0.is_finite()).min_by(|a, b| a.0.total_cmp(&b.0));
-    best.map(|b| b.1).ok_or_else(|| Error::Calibration("global search found nothing".into()))
+    let frames = frames_of(&lines);
+    let flange = model.chain.frame(&ws, model.chain.flange());
+    let s = &x[nc..];
+    let tool = flange.point(&Vector3::new(s[4], s[5], s[6]));
+    let last = frames.last().expect("six frames");
+    let tl = last.rot.transpose() * (tool - last.pos);
+    let sensor = SensorGuess { exit_m: [s[0], s[1], s[2]], offset_m: s[3], tool_m: [tl.x, tl.y, tl.z] };
+    model_around(&frames, &q_ref, &sensor)
+}
+
+/// Polishes a generic model on `data` until a fit in a fresh chart settles within
+/// [`SETTLED_ITER`] iterations (at most [`MAX_CHARTS`] charts): (cost, the model with its
+/// polished vector as nominal, settled).
+pub fn converge(model: &CalibModel, data: &Samples, rank_tol: f64) -> (f64, CalibModel, bool) {
+    let lm = LevenbergMarquardt { max_iter: CHART_ITER, ..Default::default() };
+    let mut m = model.clone();
+    for _ in 0..MAX_CHARTS {
+        let (cost, x, settled) = fit(&m, data, &lm, rank_tol);
+        m = rechart(&m, &x);
+        if settled || !cost.is_finite() {
+            return (cost, m, settled);
+        }
+    }
+    let cost = LeastSquares::cost(&LengthFit { model: &m, data }, &m.nominal);
+    (cost, m, false)
+}
+
+/// A fit in a fresh chart that converges within this many iterations has settled.
+const SETTLED_ITER: usize = 30;
+/// Iterations per chart, and most charts.
+const CHART_ITER: usize = 200;
+const MAX_CHARTS: usize = 10;
+
+/// Global search for the generic model (see the module docs): the best candidate, its
+/// `nominal` the parameter vector polished on the search rows.
+pub fn search(train: &Samples, opts: &CalibOptions) -> Result<CalibModel> {
+    let n = train.q.first().map_or(0, |q| q.len());
+    if n != 6 {
+        return Err(Error::Calibration(format!("the generic model is a 6R arm; the data hold {n} joint angles")));
+    }
+    let q_ref: Vec<f64> = (0..n).map(|j| train.q.iter().map(|q| q[j]).sum::<f64>() / train.len() as f64).collect();
+    let step = train.len().div_ceil(SEARCH_ROWS).max(1);
+    let rows: Vec<usize> = (0..train.len()).step_by(step).collect();
+    let subset = train.subset(&rows);
+    let starts = ((STARTS as f64 * opts.effort).ceil() as usize).max(FINALISTS);
+    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x6765_6e65_7269_6336);
+    let topologies: Vec<(Vec<Line>, Vector3<f64>)> = (0..starts).map(|_| topology(&mut rng)).collect();
+    let screen = LevenbergMarquardt { max_iter: SCREEN_ITER, ftol: 1e-8, xtol: 1e-10, ..Default::default() };
+    let mut screened: Vec<(f64, usize, CalibModel)> = topologies
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, (lines, tool))| {
+            let model = start(lines, tool, &q_ref, &subset)?;
+            let (cost, x, _) = fit(&model, &subset, &screen, opts.rank_tol);
+            Some((cost, i, rechart(&model, &x)))
+        })
+        .collect();
+    screened.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    screened.truncate(FINALISTS);
+    let finalists: Vec<(f64, usize, CalibModel)> = screened
+        .into_par_iter()
+        .map(|(_, i, model)| {
+            let (cost, model, _) = converge(&model, &subset, opts.rank_tol);
+            (cost, i, model)
+        })
+        .collect();
+    let best = finalists
+        .into_iter()
+        .filter(|c| c.0.is_finite())
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+        .map(|c| c.2)
+        .ok_or_else(|| Error::Calibration("the generic model's search found no start that fits the data".into()))?;
+    // The winner converged on every training row, in a fresh chart: the calibration that follows
+    // starts at the optimum with every parameter a small local error.
+    Ok(converge(&best, train, opts.rank_tol).1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_model_puts_its_axes_on_the_lines_at_the_reference_pose() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let (lines, tool) = topology(&mut rng);
+        let q_ref = [0.3, -1.2, 3.7, -2.9, 0.7, 1.1];
+        let frames = frames_of(&lines);
+        for (f, l) in frames.iter().zip(&lines) {
+            let z = f.rot.column(2).into_owned();
+            assert!((z - l.dir).norm() < 1e-12, "axis direction");
+            assert!((f.pos - l.point).cross(&l.dir).norm() < 1e-12, "origin on the line");
+        }
+        let tl = frames[5].rot.transpose() * (tool - frames[5].pos);
+        let m = model_around(&frames, &q_ref, &SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [tl.x, tl.y, tl.z] });
+        let mut w = m.work();
+        assert!((m.tool_point(&m.nominal, &q_ref, &mut w) - tool).norm() < 1e-12);
+        // Rotating joint 2 by 0.1 rad turns the tool point about line 2.
+        let mut q = q_ref;
+        q[1] += 0.1;
+        let p = m.tool_point(&m.nominal, &q, &mut w);
+        let l = &lines[1];
+        let rot = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(l.dir), 0.1);
+        assert!((p - (l.point + rot * (tool - l.point))).norm() < 1e-12);
+    }
 }

@@ -28,6 +28,9 @@ pub struct Identifiability {
     pub tolerance: f64,
     /// Condition number of the full scaled Jacobian (inf when rank-deficient).
     pub condition_full: f64,
+    /// Largest over smallest singular value of the full scaled Jacobian, finite even when it is
+    /// numerically rank-deficient: how ill-posed the fit of every parameter would be.
+    pub condition_all: f64,
     /// Condition number of the scaled Jacobian of the identifiable parameters.
     pub condition_identifiable: f64,
     pub singular_values: Vec<f64>,
@@ -35,6 +38,10 @@ pub struct Identifiability {
     pub fixed: Vec<String>,
     /// Parameter combinations the data cannot see (null space), strongest terms first.
     pub invisible: Vec<Combination>,
+    /// Joints (1-based) that do not move in the data and were held at their median angle for
+    /// the analysis (see [`crate::calib::run::identify`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub still_joints: Vec<usize>,
     /// Index mask: true = fixed.
     #[serde(skip)]
     pub fixed_mask: Vec<bool>,
@@ -105,7 +112,7 @@ pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f
     let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
     let mut fixed_mask = vec![false; n];
     let order: Vec<usize> = if priority.len() == n { priority.to_vec() } else { (0..n).collect() };
-    for k in order {
+    for &k in &order {
         if always_fixed.get(k).copied().unwrap_or(false) || norms[k] == 0.0 {
             fixed_mask[k] = true;
             continue;
@@ -124,6 +131,35 @@ pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f
             fixed_mask[k] = true;
         }
     }
+    // The greedy pass bounds each column's distance from the span of those before it, not the
+    // conditioning of the set: a combination of several kept columns can still be nearly
+    // invisible. While the set's smallest singular value is below the tolerance, fix the
+    // parameter latest in priority among those that make up that combination.
+    let rank_of: Vec<usize> = {
+        let mut r = vec![0; n];
+        for (i, &k) in order.iter().enumerate() {
+            r[k] = i;
+        }
+        r
+    };
+    loop {
+        let keep: Vec<usize> = (0..n).filter(|k| !fixed_mask[*k]).collect();
+        if keep.len() < 2 {
+            break;
+        }
+        let sub = DMatrix::from_fn(m, keep.len(), |r, c| s[(r, keep[c])]);
+        let svd = sub.svd(false, true);
+        let Some(vt) = svd.v_t.as_ref() else { break };
+        let (imin, smin) = svd.singular_values.iter().enumerate().fold((0, f64::INFINITY), |a, (i, v)| if *v < a.1 { (i, *v) } else { a });
+        let smax = svd.singular_values.max();
+        if smin >= tol * smax {
+            break;
+        }
+        let v = vt.row(imin);
+        let vmax = v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let drop = (0..keep.len()).filter(|&c| v[c].abs() >= 0.1 * vmax).max_by_key(|&c| rank_of[keep[c]]).expect("a unit vector has a largest entry");
+        fixed_mask[keep[drop]] = true;
+    }
     let keep: Vec<usize> = (0..n).filter(|k| !fixed_mask[*k]).collect();
     let sub = DMatrix::from_fn(m, keep.len(), |r, c| s[(r, keep[c])]);
     Identifiability {
@@ -132,11 +168,13 @@ pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f
         rank,
         tolerance: tol,
         condition_full,
+        condition_all: if sv.last().is_some_and(|v| *v > 0.0) { smax / sv[sv.len() - 1] } else { f64::INFINITY },
         condition_identifiable: condition(&sub),
         singular_values: sv.iter().map(|v| v / smax).collect(),
         identifiable: keep.iter().map(|k| names[*k].clone()).collect(),
         fixed: (0..n).filter(|k| fixed_mask[*k]).map(|k| names[k].clone()).collect(),
         invisible,
+        still_joints: Vec::new(),
         fixed_mask,
     }
 }

@@ -154,11 +154,13 @@ pub trait Solver: Send + Sync {
 #[derive(Clone, Debug, PartialEq)]
 pub struct LmSolver {
     pub lm: LevenbergMarquardt,
+    /// Squared residuals, or a robust loss by IRLS ([`super::robust::irls`]).
+    pub loss: super::robust::Loss,
 }
 
 impl Default for LmSolver {
     fn default() -> Self {
-        LmSolver { lm: LevenbergMarquardt { max_iter: 500, ..Default::default() } }
+        LmSolver { lm: LevenbergMarquardt { max_iter: 2000, ..Default::default() }, loss: super::robust::Loss::L2 }
     }
 }
 
@@ -167,7 +169,7 @@ impl Solver for LmSolver {
         Method::Lm
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
-        Ok(Solution { report: self.lm.minimize(p.fit, p.x0, p.fixed, obs), corrector: None })
+        Ok(Solution { report: super::robust::irls(&self.lm, p.fit, p.x0, p.fixed, self.loss, obs), corrector: None })
     }
 }
 

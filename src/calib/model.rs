@@ -276,9 +276,14 @@ impl CalibModel {
 
     /// Standard D-H (`hayati = false`) or D-H with Hayati's β on parallel axes.
     pub fn dh(robot: &Robot, sensor: &SensorGuess, hayati: bool) -> CalibModel {
-        let table = DhTable::from_robot(robot);
-        let (chain, kinds) = table.chain(hayati, true);
-        CalibModel::with_sensor(if hayati { "hayati" } else { "dh" }, chain, kinds, sensor)
+        CalibModel::from_table(if hayati { "hayati" } else { "dh" }, &DhTable::from_robot(robot), sensor, hayati, true)
+    }
+
+    /// A model of D-H deviations from `table` (Hayati's β on its parallel rows when `hayati`),
+    /// with the table's base and flange frames when `with_fixed`.
+    pub fn from_table(name: &str, table: &DhTable, sensor: &SensorGuess, hayati: bool, with_fixed: bool) -> CalibModel {
+        let (chain, kinds) = table.chain(hayati, with_fixed);
+        CalibModel::with_sensor(name, chain, kinds, sensor)
     }
 
     /// A 6R model with absolute D-H values as parameters (no nominal robot), base = D-H frame 0.

@@ -72,10 +72,6 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
             }
             Ok(model)
         }
-        ModelSpec::Generic6r => {
-            let mut model = build_model(spec, &zero_guess);
-            model.nominal = super::generic::search(&model, train, opts)?;
-            Ok(model)
-        }
+        ModelSpec::Generic6r => super::generic::search(train, opts),
     }
 }

@@ -229,7 +229,16 @@ impl Default for PsoEkfAwnn {
             pso_iterations: 10,
             hyper: None,
             rounds: 0,
-            lm: LevenbergMarquardt { max_iter: 100, ftol: 1e-10, xtol: 1e-10, gtol: 1e-10, initial_lambda: 1e-3, damping: Damping::Factor(10.0) },
+            lm: LevenbergMarquardt {
+                max_iter: 100,
+                ftol: 1e-10,
+                xtol: 1e-10,
+                gtol: 1e-10,
+                initial_lambda: 1e-3,
+                damping: Damping::Factor(10.0),
+                stall_window: 0,
+                stall_rtol: 0.0,
+            },
         }
     }
 }

@@ -21,6 +21,7 @@ use super::model::{CalibModel, SensorGuess};
 use super::optim::{covariance, History, LeastSquares, LevenbergMarquardt, NoObserver};
 use super::problem::{LengthFit, Samples};
 use super::rbf::RbfNetwork;
+use super::robust::{Loss, Outlier, OutlierRun};
 use super::tolerance::Tolerances;
 pub use super::truth::TruthFile;
 use crate::dataset::{Dataset, Split};
@@ -69,6 +70,18 @@ impl ModelSpec {
     }
 }
 
+/// Default identifiability threshold: a parameter combination the data see at less than this
+/// fraction of the strongest one (column-scaled Jacobian) is fixed, so that the identifiable
+/// set's condition number stays below its inverse. Weakly seen combinations above it carry
+/// real information on measured data (raising it to 1e-4 fixed six of the HSR generic model's
+/// 21 parameters and tripled its held-out error); the Levenberg–Marquardt stall test ends the
+/// slow creep along them instead.
+pub const DEFAULT_RANK_TOL: f64 = 1e-7;
+
+/// Default outlier threshold, robust standard deviations: 6σ of Gaussian noise happens once in
+/// 500 million rows, so what lies beyond is not noise.
+pub const DEFAULT_OUTLIER_K: f64 = 6.0;
+
 #[derive(Clone, Debug)]
 pub struct CalibOptions {
     pub model: ModelSpec,
@@ -91,6 +104,14 @@ pub struct CalibOptions {
     pub loads: LoadOptions,
     /// Inertial model for the joint torques when the calibrated model has none (generic 6R).
     pub inertial: Option<Robot>,
+    /// Training rows more than this many robust standard deviations off the fit are outliers,
+    /// kept out and listed ([`super::robust::screen`]); 0 keeps every row.
+    pub outlier_k: f64,
+    /// The loss of the least-squares methods (`lm`): squared, or Huber / Cauchy by IRLS.
+    pub loss: Loss,
+    /// Logging step of the joint angles, degrees, for the noise floor (default: from the data's
+    /// decimals).
+    pub angle_step_deg: Option<f64>,
 }
 
 impl CalibOptions {
@@ -100,13 +121,16 @@ impl CalibOptions {
             method,
             test_fraction: None,
             seed: 0,
-            rank_tol: 1e-7,
+            rank_tol: DEFAULT_RANK_TOL,
             sensor_guess: None,
             effort: 1.0,
             tolerances: Tolerances::default(),
             effects: Vec::new(),
             loads: LoadOptions::default(),
             inertial: None,
+            outlier_k: DEFAULT_OUTLIER_K,
+            loss: Loss::L2,
+            angle_step_deg: None,
         }
     }
     /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
@@ -140,7 +164,12 @@ pub struct Metrics {
     pub train_before: ErrorStats,
     pub test_before: Option<ErrorStats>,
     pub train_after: ErrorStats,
+    /// Every test row.
     pub test_after: Option<ErrorStats>,
+    /// The test rows that are not outliers by the training rows' rule (median ± k robust
+    /// standard deviations of the training residuals after calibration).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_after_inliers: Option<ErrorStats>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -185,6 +214,25 @@ pub struct CalibResult {
     /// Repeated configurations in the data and the spread of L over them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub repeatability: Option<super::metrics::Repeatability>,
+    /// The data's own floor: repeatability and logging resolutions, each named.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_floor: Option<super::floor::NoiseFloor>,
+    /// The robust screen of the training rows: threshold (robust standard deviations, 0 = off),
+    /// the robust scale of the kept rows' residuals (mm), the rows kept out and their runs.
+    #[serde(default)]
+    pub outlier_k: f64,
+    #[serde(default)]
+    pub robust_scale_mm: f64,
+    #[serde(default)]
+    pub outliers: Vec<Outlier>,
+    #[serde(default)]
+    pub outlier_runs: Vec<OutlierRun>,
+    /// Test rows beyond the same threshold around the calibrated model's training residuals.
+    #[serde(default)]
+    pub test_outliers: Vec<Outlier>,
+    /// The least-squares loss.
+    #[serde(default)]
+    pub loss: Loss,
     /// The model itself (chain and parameter vector, internal units m / rad).
     pub model: CalibModel,
     pub x: Vec<f64>,
@@ -392,10 +440,45 @@ pub fn effects_stage_for(model: &mut CalibModel, split: &mut SplitData, data: &D
 /// Stage "identifiability": which parameters these poses determine (the rest are fixed where
 /// the start put them). Sensor parameters come first: they are the unknowns of every set-up,
 /// while the robot's own parameters have nominal values.
+///
+/// A joint that does not move in the data ([`still_joints`]) is held at its median angle for
+/// the analysis: its jitter (a few encoder counts) would otherwise make its own and its
+/// neighbours' parameters look identifiable, and a fit would then buy accuracy through a lever
+/// the data cannot see. The tool point absorbs what is fixed.
 pub fn identify(fit: &LengthFit, x: &[f64], tol: f64) -> Identifiability {
     let nc = fit.model.n_chain();
     let priority: Vec<usize> = (nc..fit.model.n_params()).chain(0..nc).collect();
-    analyse(&jacobian(fit, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority)
+    let still = still_joints(&fit.data.q);
+    let held;
+    let data = if still.is_empty() {
+        fit.data
+    } else {
+        let mut d = fit.data.clone();
+        for &j in &still {
+            let med = super::stats::median(&d.q.iter().map(|q| q[j]).collect::<Vec<f64>>());
+            d.q.iter_mut().for_each(|q| q[j] = med);
+        }
+        held = d;
+        &held
+    };
+    let mut id = analyse(&jacobian(&LengthFit { model: fit.model, data }, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority);
+    id.still_joints = still.iter().map(|j| j + 1).collect();
+    id
+}
+
+/// A joint whose angle spans less than this (degrees) over the rows does not move: a few
+/// encoder counts of jitter, which moves a tool point 1 m out by under 1 mm.
+pub const STILL_SPAN_DEG: f64 = 0.05;
+
+/// The joints (0-based) that do not move in `q` (rad): span below [`STILL_SPAN_DEG`].
+pub fn still_joints(q: &[Vec<f64>]) -> Vec<usize> {
+    let n = q.first().map_or(0, |r| r.len());
+    (0..n)
+        .filter(|&j| {
+            let (lo, hi) = q.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r[j]), hi.max(r[j])));
+            (hi - lo).to_degrees() < STILL_SPAN_DEG
+        })
+        .collect()
 }
 
 fn jacobian(fit: &LengthFit, x: &[f64]) -> DMatrix<f64> {
@@ -421,14 +504,67 @@ pub fn residual_sigma(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 {
     (2.0 * LeastSquares::cost(fit, x) / dof as f64).sqrt()
 }
 
-fn stats(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorStats {
+/// Residuals (mm) of the model at `x` with the corrector's correction taken off.
+fn residuals_with(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> Vec<f64> {
     let mut r = fit.residuals_mm(x);
     if let Some(c) = corrector {
         for (i, ri) in r.iter_mut().enumerate() {
             *ri -= c.correction_mm(&fit.data.q[i], &fit.data.inputs[i]);
         }
     }
-    ErrorStats::of(&r)
+    r
+}
+
+fn stats(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorStats {
+    ErrorStats::of(&residuals_with(fit, x, corrector))
+}
+
+/// Stage "outliers": the training rows far off a robust fit ([`super::robust::screen`], the
+/// identifiable parameters refitted by LM at each pass) are taken out of the split; a nominal
+/// model's sensor is then placed again on the rows kept. `None` when the screen is off.
+pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<Option<super::robust::Screen>> {
+    if opts.outlier_k <= 0.0 {
+        return Ok(None);
+    }
+    let screen = {
+        let m: &CalibModel = model;
+        let refit = |d: &Samples, x: &[f64]| {
+            let fit = LengthFit { model: m, data: d };
+            let fixed = identify(&fit, x, opts.rank_tol).fixed_mask;
+            screen_lm().minimize(&fit, x, &fixed, &mut NoObserver).x
+        };
+        super::robust::screen(m, &m.nominal, &split.train, &split.train_idx, opts.outlier_k, &refit)
+    };
+    if !screen.outliers.is_empty() {
+        split.train_idx = screen.keep.iter().map(|&i| split.train_idx[i]).collect();
+        split.train = split.train.subset(&screen.keep);
+        if matches!(opts.model, ModelSpec::Nominal { .. }) {
+            *model = super::placement::place_sensor(opts, &split.train)?;
+        }
+    }
+    Ok(Some(screen))
+}
+
+/// The LM of the outlier screen's refits: residuals to a few significant digits.
+fn screen_lm() -> LevenbergMarquardt {
+    LevenbergMarquardt { max_iter: 200, ftol: 1e-9, xtol: 1e-9, ..Default::default() }
+}
+
+/// Test rows beyond `k` robust standard deviations of the calibrated model's training
+/// residuals (around their median); none when `k` is 0.
+fn test_outlier_stage(fit: &LengthFit, test_fit: &LengthFit, test_idx: &[usize], x: &[f64], corrector: Option<&dyn Correct>, k: f64) -> Vec<Outlier> {
+    if k <= 0.0 || test_fit.data.is_empty() {
+        return Vec::new();
+    }
+    let r = residuals_with(fit, x, corrector);
+    let med = super::stats::median(&r);
+    let scale = 1.4826 * super::stats::median(&r.iter().map(|v| (v - med).abs()).collect::<Vec<f64>>());
+    residuals_with(test_fit, x, corrector)
+        .iter()
+        .zip(test_idx)
+        .filter(|(v, _)| !((*v - med).abs() <= k * scale))
+        .map(|(v, &i)| Outlier { row: i + 1, residual_mm: *v, robust_z: (v - med) / scale })
+        .collect()
 }
 
 /// Stage "metrics": RMSE / STD / MAX before (start) and after, on training and test rows.
@@ -439,6 +575,7 @@ pub fn metrics_stage(fit: &LengthFit, test_fit: &LengthFit, x0: &[f64], x: &[f64
         test_before: has_test.then(|| stats(test_fit, x0, None)),
         train_after: stats(fit, x, corrector),
         test_after: has_test.then(|| stats(test_fit, x, corrector)),
+        test_after_inliers: None,
     }
 }
 
@@ -464,7 +601,12 @@ pub fn truth_stage(
 
 /// Runs a calibration with the method named in `opts` at its default settings.
 pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions) -> Result<CalibResult> {
-    calibrate_with(data, truth, opts, opts.method.solver(opts.effort).as_ref())
+    let solver = match (opts.method, opts.loss) {
+        (_, Loss::L2) => opts.method.solver(opts.effort),
+        (Method::Lm, loss) => Box::new(super::method::LmSolver { loss, ..Default::default() }),
+        (m, loss) => return Err(Error::Invalid(format!("--loss {} applies to --method lm, not {}", loss.name(), m.name()))),
+    };
+    calibrate_with(data, truth, opts, solver.as_ref())
 }
 
 /// Runs a calibration with a given solver. `truth` enables the parameter-error report.
@@ -474,6 +616,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut warnings = Vec::new();
     let mut split = split_stage(data, opts)?;
     let mut model = super::placement::place_sensor(opts, &split.train)?;
+    let screen = outlier_stage(&mut model, &mut split, opts)?;
     effects_stage_for(&mut model, &mut split, data, opts, solver.needs_row_inputs())?;
     let x0 = model.nominal.clone();
     let fit = LengthFit { model: &model, data: &split.train };
@@ -519,7 +662,22 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let cov = covariance(&fit, &x, &fixed);
     let noise_estimate_mm = if noise.is_finite() { noise } else { residual_sigma(&fit, &x, &fixed) };
     let test_fit = LengthFit { model: &model, data: &split.test };
-    let metrics = metrics_stage(&fit, &test_fit, &x0, &x, corrector.as_ref().map(|c| c.as_correct()));
+    let correct = corrector.as_ref().map(|c| c.as_correct());
+    let mut metrics = metrics_stage(&fit, &test_fit, &x0, &x, correct);
+    let test_outliers = test_outlier_stage(&fit, &test_fit, &split.test_idx, &x, correct, opts.outlier_k);
+    if !split.test.is_empty() {
+        let out: Vec<usize> = test_outliers.iter().map(|o| o.row - 1).collect();
+        let keep: Vec<usize> = (0..split.test.len()).filter(|i| !out.contains(&split.test_idx[*i])).collect();
+        let r = residuals_with(&LengthFit { model: &model, data: &split.test.subset(&keep) }, &x, correct);
+        metrics.test_after_inliers = Some(ErrorStats::of(&r));
+    }
+    let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
+    let angle_step = match opts.angle_step_deg {
+        Some(v) => Some(super::floor::Step::Given(v)),
+        None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg)).map(super::floor::Step::Detected),
+    };
+    let length_step = super::floor::logging_step(l.iter().copied());
+    let noise_floor = super::floor::noise_floor(&model, &x, &all_rows, angle_step, length_step, repeatability.as_ref());
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
@@ -543,11 +701,84 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         warnings,
         truth_comparison,
         repeatability,
+        noise_floor: Some(noise_floor),
+        outlier_k: opts.outlier_k,
+        robust_scale_mm: screen.as_ref().map_or(0.0, |s| s.scale_mm),
+        outliers: screen.as_ref().map(|s| s.outliers.clone()).unwrap_or_default(),
+        outlier_runs: screen.map(|s| s.runs).unwrap_or_default(),
+        test_outliers,
+        loss: opts.loss,
         x,
         corrector,
         legacy_rbf: None,
         torque_model: split.torque_model.clone(),
         history: history_disp,
+        model,
+    })
+}
+
+/// A calibration result for a model already fitted on every row of `data` (`x` from `x0`, the
+/// parameters `fixed` held): what `diagnose --result` writes, so that the file is exactly the
+/// model its report evaluated. No test rows; `torque_model` gives the effect blocks their joint
+/// torques on new rows.
+pub fn result_of_fit(
+    data: &Dataset,
+    rows: &Samples,
+    model: CalibModel,
+    x0: &[f64],
+    x: Vec<f64>,
+    id: &Identifiability,
+    torque_model: Option<super::inputs::TorqueModel>,
+    seed: u64,
+    angle_step_deg: Option<f64>,
+) -> Result<CalibResult> {
+    let t0 = Instant::now();
+    let fixed = &id.fixed_mask;
+    let fit = LengthFit { model: &model, data: rows };
+    let cov = covariance(&fit, &x, fixed);
+    let (parameters, _) = parameter_reports(&model, x0, &x, fixed, cov.as_ref(), None, None);
+    let empty = Samples::new(Vec::new(), Vec::new());
+    let metrics = metrics_stage(&fit, &LengthFit { model: &model, data: &empty }, x0, &x, None);
+    let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
+    let l = data.lengths_mm()?;
+    let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
+    let angle_step = match angle_step_deg {
+        Some(v) => Some(super::floor::Step::Given(v)),
+        None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg)).map(super::floor::Step::Detected),
+    };
+    let noise_floor = super::floor::noise_floor(&model, &x, rows, angle_step, super::floor::logging_step(l.iter().copied()), repeatability.as_ref());
+    Ok(CalibResult {
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+        data: data.source.clone(),
+        method: Method::Lm,
+        model_name: model.name.clone(),
+        seed,
+        n_train: rows.len(),
+        n_test: 0,
+        parameters,
+        identifiability: serde_json::to_value(id).unwrap_or_default(),
+        metrics,
+        iterations: 0,
+        evaluations: 0,
+        converged: true,
+        stop_reason: "the diagnosis's final model, fitted on every kept row".into(),
+        wall_time_s: t0.elapsed().as_secs_f64(),
+        noise_estimate_mm: residual_sigma(&fit, &x, fixed),
+        warnings: Vec::new(),
+        truth_comparison: None,
+        repeatability,
+        noise_floor: Some(noise_floor),
+        outlier_k: 0.0,
+        robust_scale_mm: 0.0,
+        outliers: Vec::new(),
+        outlier_runs: Vec::new(),
+        test_outliers: Vec::new(),
+        loss: Loss::L2,
+        x,
+        corrector: None,
+        legacy_rbf: None,
+        torque_model,
+        history: Vec::new(),
         model,
     })
 }

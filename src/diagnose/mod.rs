@@ -25,7 +25,7 @@ use crate::calib::inputs::{block_for, row_inputs, time_span, LoadOptions, Torque
 use crate::calib::model::CalibModel;
 use crate::calib::optim::{covariance, LevenbergMarquardt, NoObserver};
 use crate::calib::problem::{LengthFit, Samples};
-use crate::calib::run::{identify, residual_sigma, samples, split_stage, CalibOptions, Method, ModelSpec};
+use crate::calib::run::{identify, samples, split_stage, CalibOptions, Method, ModelSpec};
 use crate::calib::stats::nested_f_test;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
@@ -55,6 +55,13 @@ pub struct DiagnoseOptions {
     pub seed: u64,
     /// Candidate effects; empty = every kind the data support.
     pub candidates: Vec<EffectKind>,
+    /// Share of the kept rows (every k-th in acquisition order) held back as a confirmation set
+    /// that selection never sees; 0 = none.
+    pub confirm_fraction: f64,
+    /// A cause is named only when its size is at least this many standard uncertainties.
+    pub min_size_sigmas: f64,
+    /// Logging step of the joint angles, degrees (default: from the data's decimals).
+    pub angle_step_deg: Option<f64>,
 }
 
 impl DiagnoseOptions {
@@ -68,9 +75,12 @@ impl DiagnoseOptions {
             min_gain: 0.02,
             max_effects: 4,
             outlier_k: 6.0,
-            rank_tol: 1e-7,
+            rank_tol: crate::calib::run::DEFAULT_RANK_TOL,
             seed: 0,
             candidates: Vec::new(),
+            confirm_fraction: 0.2,
+            min_size_sigmas: 2.0,
+            angle_step_deg: None,
         }
     }
     fn inertial_robot(&self) -> Option<&Robot> {
@@ -78,15 +88,7 @@ impl DiagnoseOptions {
     }
 }
 
-/// A row kept out of the fit.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Outlier {
-    /// Data row, 1-based (the first row after the header is 1).
-    pub row: usize,
-    pub residual_mm: f64,
-    /// Distance from the median residual in robust standard deviations.
-    pub robust_z: f64,
-}
+pub use crate::calib::robust::{Outlier, OutlierRun};
 
 /// How strongly the baseline residual follows a per-row feature.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -108,6 +110,10 @@ pub struct Candidate {
     /// False when a fitted parameter is beyond [`IMPLAUSIBLE`] times its plausible size: the
     /// block then absorbs something else, and is not kept whatever its gain.
     pub plausible: bool,
+    /// Size over its standard uncertainty (a cause needs `min_size_sigmas`).
+    pub size_sigmas: f64,
+    /// False for a size of unphysical sign (negative compliance or band width).
+    pub physical_sign: bool,
     pub seconds: f64,
 }
 
@@ -150,6 +156,13 @@ pub struct Cause {
     pub quantity: String,
     pub heldout_rmse_before_mm: f64,
     pub heldout_rmse_after_mm: f64,
+    /// The same on the other kind of folds than the one the cause was judged on.
+    pub heldout_rmse_other_folds_before_mm: f64,
+    pub heldout_rmse_other_folds_after_mm: f64,
+    /// RMSE on the confirmation rows (never used in selection) of the models fitted on the
+    /// selection rows without and with this cause; NaN without a confirmation set.
+    pub confirmation_rmse_before_mm: f64,
+    pub confirmation_rmse_after_mm: f64,
     pub p_value: f64,
     /// Every parameter of the block (display units) with its standard uncertainty.
     pub parameters: Vec<(String, f64, f64)>,
@@ -170,7 +183,12 @@ impl Cause {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Baseline {
     pub model: String,
+    /// On the folds the diagnosis judges on ([`Diagnosis::judged_on`]).
     pub heldout_rmse_mm: f64,
+    /// On contiguous blocks of acquisition order (extrapolation across blocks) and on
+    /// interleaved folds (every k-th row: interpolation).
+    pub heldout_rmse_blocked_mm: f64,
+    pub heldout_rmse_interleaved_mm: f64,
     pub train_rmse_mm: f64,
 }
 
@@ -192,8 +210,21 @@ pub struct Diagnosis {
     pub data: String,
     pub rows: usize,
     pub outliers: Vec<Outlier>,
+    pub outlier_runs: Vec<OutlierRun>,
+    /// The data's own floor ([`crate::calib::floor`]): its total and a line naming its sources.
     pub noise_floor_mm: f64,
     pub noise_floor_source: String,
+    pub noise_floor: crate::calib::floor::NoiseFloor,
+    /// Which folds selection judged on: `blocked` (contiguous blocks of acquisition order) or
+    /// `interleaved` (when blocks cover different parts of the joint space, so that blocked folds
+    /// measure extrapolation: baseline blocked RMSE above 1.5x the interleaved one), and why.
+    pub judged_on: String,
+    pub judged_on_reason: String,
+    /// Rows selection saw and rows kept back to confirm its causes.
+    pub selection_rows: usize,
+    pub confirmation_rows: usize,
+    /// Causes selection found that the confirmation rows did not confirm (not in the model).
+    pub unconfirmed: Vec<String>,
     pub baseline: Baseline,
     pub evidence: Vec<Evidence>,
     pub steps: Vec<Step>,
@@ -201,6 +232,8 @@ pub struct Diagnosis {
     pub causes: Vec<Cause>,
     pub verdict: String,
     pub final_heldout_rmse_mm: f64,
+    /// RMSE of the final model (the one `--result` holds) on every kept row it was fitted to.
+    pub final_train_rmse_mm: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub comparison: Option<Comparison>,
     pub seconds: f64,
@@ -226,10 +259,11 @@ fn rms(v: &[f64]) -> f64 {
 }
 
 struct Ctx {
-    /// Kept rows (outliers removed), with their inputs.
+    /// The selection rows (kept rows less the confirmation set), with their inputs.
     data: Samples,
-    /// Contiguous folds over `data` (in acquisition order).
+    /// Folds over `data`: the kind selection judges on, then the other kind.
     folds: Vec<Vec<usize>>,
+    other_folds: Vec<Vec<usize>>,
     rank_tol: f64,
 }
 
@@ -239,25 +273,32 @@ impl Ctx {
         LevenbergMarquardt { max_iter: 100, ftol: 1e-9, xtol: 1e-9, ..Default::default() }
     }
 
-    /// Fits `model` from `x0` on every kept row (identifiable parameters only), then the
+    /// Fits `model` from `x0` on every selection row (identifiable parameters only), then the
     /// held-out residual of each fold from a fit on the other folds.
     fn evaluate(&self, model: CalibModel, x0: &[f64]) -> Fitted {
         let fit = LengthFit { model: &model, data: &self.data };
         let (x, fixed) = refit(&model, &self.data, x0, self.rank_tol);
+        let oof = self.heldout(&model, &x, &fixed, &self.folds);
+        let rss = fit.residuals_mm(&x).iter().map(|r| r * r).sum();
+        let n_free = fixed.iter().filter(|f| !**f).count();
+        Fitted { model, x, fixed, oof, rss, n_free }
+    }
+
+    /// Held-out residual of every selection row: each fold predicted by a fit on the others.
+    fn heldout(&self, model: &CalibModel, x: &[f64], fixed: &[bool], folds: &[Vec<usize>]) -> Vec<f64> {
+        let model = model.clone();
         let mut oof = vec![0.0; self.data.len()];
-        for fold in &self.folds {
+        for fold in folds {
             let train: Vec<usize> = (0..self.data.len()).filter(|i| !fold.contains(i)).collect();
             let tr = self.data.subset(&train);
-            let xf = Self::lm().minimize(&LengthFit { model: &model, data: &tr }, &x, &fixed, &mut NoObserver).x;
+            let xf = Self::lm().minimize(&LengthFit { model: &model, data: &tr }, x, fixed, &mut NoObserver).x;
             let te = self.data.subset(fold);
             let r = LengthFit { model: &model, data: &te }.residuals_mm(&xf);
             for (k, &i) in fold.iter().enumerate() {
                 oof[i] = r[k];
             }
         }
-        let rss = fit.residuals_mm(&x).iter().map(|r| r * r).sum();
-        let n_free = fixed.iter().filter(|f| !**f).count();
-        Fitted { model, x, fixed, oof, rss, n_free }
+        oof
     }
 }
 
@@ -275,38 +316,36 @@ fn blocked_folds(n: usize, k: usize) -> Vec<Vec<usize>> {
     (0..k).map(|f| (f * n / k..(f + 1) * n / k).collect()).collect()
 }
 
+/// Every k-th of `n` rows: fold f holds rows f, f + k, f + 2k, ...
+fn interleaved_folds(n: usize, k: usize) -> Vec<Vec<usize>> {
+    let k = k.clamp(2, n.max(2));
+    (0..k).map(|f| (f..n).step_by(k).collect()).collect()
+}
+
+/// Blocked folds judge a diagnosis unless the baseline's blocked held-out RMSE exceeds the
+/// interleaved one by this factor: the acquisition blocks then cover different parts of the
+/// joint space (sweeps), and blocked folds measure extrapolation, not the model.
+pub const EXTRAPOLATION_FACTOR: f64 = 1.5;
+
+/// (size / uncertainty, physical sign) of the last effect block of a fitted model.
+fn size_check(f: &Fitted, data: &Samples) -> (f64, bool) {
+    let b = f.model.effects.len() - 1;
+    let block = &f.model.effects[b];
+    let range = f.model.effect_params(b);
+    let cov = covariance(&LengthFit { model: &f.model, data }, &f.x, &f.fixed);
+    let (_, mag, _, unc) = magnitude(block, &f.x, cov.as_ref(), range.clone());
+    let sign_ok = match block.kind {
+        EffectKind::JointCompliance | EffectKind::Backlash => f.x[range.start] > 0.0,
+        _ => true,
+    };
+    let ratio = if unc > 0.0 { mag.abs() / unc } else { 0.0 };
+    (ratio, sign_ok)
+}
+
 /// p-value of the F test that `b` (the model with the candidate) fits the kept rows better than
 /// `a` (nested least-squares models, Gaussian reading noise).
 fn gain_p_value(a: &Fitted, b: &Fitted, n: usize) -> f64 {
     nested_f_test(a.rss, b.rss, b.n_free.saturating_sub(a.n_free), n.saturating_sub(b.n_free))
-}
-
-/// Robust outlier screen: rows whose residual is more than `k` MAD-based standard deviations
-/// from the median, iterated with refits until the set is stable (at most four passes).
-fn screen_outliers(model: &CalibModel, x0: &[f64], all: &Samples, k: f64, rank_tol: f64) -> (Vec<usize>, Vec<Outlier>, Vec<f64>) {
-    let n = all.len();
-    let mut keep: Vec<usize> = (0..n).collect();
-    let mut x = x0.to_vec();
-    let mut flagged: Vec<Outlier> = Vec::new();
-    for _ in 0..4 {
-        x = refit(model, &all.subset(&keep), &x, rank_tol).0;
-        let r = LengthFit { model, data: all }.residuals_mm(&x);
-        let kept_r: Vec<f64> = keep.iter().map(|&i| r[i]).collect();
-        let med = crate::calib::stats::median(&kept_r);
-        let dev: Vec<f64> = kept_r.iter().map(|v| (v - med).abs()).collect();
-        let sigma = 1.4826 * crate::calib::stats::median(&dev);
-        if !(sigma > 0.0) {
-            break;
-        }
-        flagged =
-            (0..n).filter(|&i| (r[i] - med).abs() > k * sigma).map(|i| Outlier { row: i + 1, residual_mm: r[i], robust_z: (r[i] - med) / sigma }).collect();
-        let new_keep: Vec<usize> = (0..n).filter(|i| !flagged.iter().any(|o| o.row == i + 1)).collect();
-        if new_keep == keep {
-            break;
-        }
-        keep = new_keep;
-    }
-    (keep, flagged, x)
 }
 
 fn pearson(a: &[f64], b: &[f64]) -> f64 {
@@ -430,21 +469,46 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     all.inputs = row_inputs(data, torque.as_ref());
 
-    let (keep, outliers, x_base) = screen_outliers(&base, &base.nominal, &all, opts.outlier_k, opts.rank_tol);
+    let refit_rows = |d: &Samples, x: &[f64]| refit(&base, d, x, opts.rank_tol).0;
+    let screen = crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, &refit_rows);
+    let (keep, outliers, outlier_runs, x_base) = (screen.keep, screen.outliers, screen.runs, screen.x);
     if !outliers.is_empty() {
         progress(&format!("{} outlier rows kept out of the fit: {:?}", outliers.len(), outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
     }
     let kept = all.subset(&keep);
     let kept_rows = Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
-    let ctx = Ctx { folds: blocked_folds(kept.len(), opts.folds), data: kept, rank_tol: opts.rank_tol };
-    let baseline = ctx.evaluate(base.clone(), &x_base);
+    // The confirmation set: every k-th kept row in acquisition order, never seen by selection.
+    let every = if opts.confirm_fraction > 0.0 { (1.0 / opts.confirm_fraction).round().max(2.0) as usize } else { usize::MAX };
+    let (sel_idx, conf_idx): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|i| i % every != every - 1);
+    let (selection, confirmation) = (kept.subset(&sel_idx), kept.subset(&conf_idx));
+    let (blocked, interleaved) = (blocked_folds(selection.len(), opts.folds), interleaved_folds(selection.len(), opts.folds));
+    let mut ctx = Ctx { folds: blocked, other_folds: interleaved, data: selection, rank_tol: opts.rank_tol };
+    let mut baseline = ctx.evaluate(base.clone(), &x_base);
+    let other_oof = ctx.heldout(&baseline.model, &baseline.x, &baseline.fixed, &ctx.other_folds);
+    let (rmse_blocked, rmse_interleaved) = (rms(&baseline.oof), rms(&other_oof));
+    let (judged_on, judged_on_reason) = if rmse_blocked > EXTRAPOLATION_FACTOR * rmse_interleaved {
+        std::mem::swap(&mut ctx.folds, &mut ctx.other_folds);
+        baseline.oof = other_oof;
+        (
+            "interleaved",
+            format!(
+                "the geometric model's blocked-fold held-out RMSE ({rmse_blocked:.4} mm) is above {EXTRAPOLATION_FACTOR}x its interleaved one \
+                 ({rmse_interleaved:.4} mm): blocks of acquisition order cover different parts of the joint space, so blocked folds measure extrapolation"
+            ),
+        )
+    } else {
+        ("blocked", format!("blocked and interleaved held-out RMSE of the geometric model agree ({rmse_blocked:.4} / {rmse_interleaved:.4} mm): time-dependent effects must extrapolate across blocks"))
+    };
     let base_in = LengthFit { model: &baseline.model, data: &ctx.data }.residuals_mm(&baseline.x);
     let evidence = evidence(&ctx.data, &base_in, has_torques);
-    progress(&format!("geometric baseline: held-out RMSE {:.4} mm", rms(&baseline.oof)));
+    progress(&format!(
+        "geometric baseline: held-out RMSE {rmse_blocked:.4} mm (blocked folds), {rmse_interleaved:.4} mm (interleaved); judged on {judged_on} folds"
+    ));
 
     let span = time_span(&kept_rows);
     let pool = candidates(&kept_rows, &opts.candidates, has_torques);
     let mut current = baseline.clone();
+    let mut chain = vec![baseline.clone()];
     let mut steps = Vec::new();
     let mut found: Vec<(EffectBlock, f64, f64, f64)> = Vec::new();
     for _ in 0..opts.max_effects {
@@ -463,12 +527,15 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
                 x0.extend_from_slice(&m.nominal[current.x.len()..]);
                 let f = ctx.evaluate(m, &x0);
                 let p = (gain_p_value(&current, &f, ctx.data.len()) * remaining.len() as f64).min(1.0);
+                let (size_sigmas, physical_sign) = size_check(&f, &ctx.data);
                 let c = Candidate {
                     cause: b.kind.name().into(),
                     joint: b.joint.map(|j| j + 1),
                     heldout_rmse_mm: rms(&f.oof),
                     p_value: p,
                     plausible: plausible(&f),
+                    size_sigmas,
+                    physical_sign,
                     seconds: tc.elapsed().as_secs_f64(),
                 };
                 (c, f)
@@ -477,7 +544,13 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         let best = results
             .iter()
             .enumerate()
-            .filter(|(_, (c, _))| c.plausible && c.p_value < opts.alpha && c.heldout_rmse_mm < (1.0 - opts.min_gain) * before)
+            .filter(|(_, (c, _))| {
+                c.plausible
+                    && c.physical_sign
+                    && c.size_sigmas >= opts.min_size_sigmas
+                    && c.p_value < opts.alpha
+                    && c.heldout_rmse_mm < (1.0 - opts.min_gain) * before
+            })
             .min_by(|a, b| a.1 .0.heldout_rmse_mm.total_cmp(&b.1 .0.heldout_rmse_mm))
             .map(|(i, _)| i);
         let kept_label = best.map(|i| remaining[i].label());
@@ -486,23 +559,44 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         let (c, f) = results.into_iter().nth(i).expect("index from the same list");
         progress(&format!("kept {}: held-out RMSE {before:.4} -> {:.4} mm (p = {:.2e})", remaining[i].label(), c.heldout_rmse_mm, c.p_value));
         found.push((remaining[i].clone(), before, c.heldout_rmse_mm, c.p_value));
+        chain.push(f.clone());
         current = f;
     }
 
-    // Sizes from the final model on every kept row.
-    let fit = LengthFit { model: &current.model, data: &ctx.data };
-    let cov = covariance(&fit, &current.x, &current.fixed);
+    // Confirmation: each cause's model, fitted on the selection rows, must predict the
+    // confirmation rows better than the model before it. The first cause that does not ends
+    // the list (it and what came after are reported as unconfirmed).
+    let conf_rmse: Vec<f64> = chain
+        .iter()
+        .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&LengthFit { model: &f.model, data: &confirmation }.residuals_mm(&f.x)) })
+        .collect();
+    let confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
+    let unconfirmed: Vec<String> = found[confirmed..].iter().map(|f| f.0.label()).collect();
+    if !unconfirmed.is_empty() {
+        progress(&format!("not confirmed on the {} confirmation rows: {}", confirmation.len(), unconfirmed.join(", ")));
+    }
+    found.truncate(confirmed);
+    let current = chain[confirmed].clone();
+    let other_rmse: Vec<f64> = chain[..=confirmed].iter().map(|f| rms(&ctx.heldout(&f.model, &f.x, &f.fixed, &ctx.other_folds))).collect();
+
+    // The final model: refitted on every kept row (selection and confirmation); its sizes, its
+    // residual and the --result file all come from this one fit.
+    let fit = LengthFit { model: &current.model, data: &kept };
+    let final_id = identify(&fit, &current.x, opts.rank_tol);
+    let final_x = Ctx::lm().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
+    let cov = covariance(&fit, &final_x, &final_id.fixed_mask);
+    let final_train_rmse_mm = rms(&fit.residuals_mm(&final_x));
     let mut causes = Vec::new();
-    for (block, before, after, p) in &found {
+    for (n, (block, before, after, p)) in found.iter().enumerate() {
         let b = current.model.effects.iter().position(|e| e == block).expect("kept block is in the model");
         let range = current.model.effect_params(b);
-        let (quantity, mag, unit, unc) = magnitude(block, &current.x, cov.as_ref(), range.clone());
+        let (quantity, mag, unit, unc) = magnitude(block, &final_x, cov.as_ref(), range.clone());
         let parameters = range
             .clone()
             .map(|k| {
                 let d = current.model.kinds[k].display();
                 let sd = cov.as_ref().map(|c| c[(k, k)].max(0.0).sqrt() * d).unwrap_or(f64::NAN);
-                (current.model.names[k].clone(), current.x[k] * d, sd)
+                (current.model.names[k].clone(), final_x[k] * d, sd)
             })
             .collect();
         causes.push(Cause {
@@ -514,19 +608,36 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
             quantity,
             heldout_rmse_before_mm: *before,
             heldout_rmse_after_mm: *after,
+            heldout_rmse_other_folds_before_mm: other_rmse[n],
+            heldout_rmse_other_folds_after_mm: other_rmse[n + 1],
+            confirmation_rmse_before_mm: conf_rmse[n],
+            confirmation_rmse_after_mm: conf_rmse[n + 1],
             p_value: *p,
             parameters,
         });
     }
 
-    // Noise floor: repeatability where configurations repeat, else the final fit's residual.
-    let q_deg: Vec<[f64; 6]> = kept_rows.rows.iter().map(|r| r.q_deg).collect();
-    let l = kept_rows.lengths_mm()?;
-    let (noise_floor_mm, noise_floor_source) = match crate::calib::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups >= 5) {
-        Some(r) => (r.pooled_std, format!("repeatability of {} repeated configurations ({} rows)", r.groups, r.rows)),
-        None => (residual_sigma(&fit, &current.x, &current.fixed), "residual of the final model (no repeated configurations)".into()),
-    };
+    // The data's own floor: repeatability and logging resolutions, never the fit's residual.
+    let result = crate::calib::run::result_of_fit(
+        &kept_rows,
+        &kept,
+        current.model.clone(),
+        &base_start(&current.model, &x_base),
+        final_x.clone(),
+        &final_id,
+        torque.clone(),
+        opts.seed,
+        opts.angle_step_deg,
+    )?;
+    let noise_floor = result.noise_floor.clone().expect("result_of_fit sets the floor");
+    let noise_floor_mm = noise_floor.total_mm;
+    let mut noise_floor_source: Vec<String> = noise_floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
+    if !noise_floor.sources.iter().any(|s| s.source == "repeatability") {
+        noise_floor_source.push("no repeated configurations: the reading's repeatability is unknown, so this is a lower bound".into());
+    }
+    let noise_floor_source = noise_floor_source.join("; ");
     let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
+    let current_oof = rms(&current.oof);
     let effects_option = current
         .model
         .effects
@@ -538,23 +649,27 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         .collect::<Vec<_>>()
         .join(",");
 
-    // The extended model, saved like any calibration result.
-    let mut copts = CalibOptions::new(opts.model.clone(), Method::Lm);
-    copts.test_fraction = Some(0.0);
-    copts.rank_tol = opts.rank_tol;
-    copts.inertial = opts.inertial.clone();
-    copts.loads = opts.loads.clone();
-    copts.effects = current.model.effects.iter().map(|e| (e.kind, e.joint)).collect();
-    let result = crate::calib::run::calibrate(&kept_rows, None, &copts)?;
-
     let diagnosis = Diagnosis {
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
         rows: data.rows.len(),
         outliers,
+        outlier_runs,
         noise_floor_mm,
         noise_floor_source,
-        baseline: Baseline { model: base.name.clone(), heldout_rmse_mm: rms(&baseline.oof), train_rmse_mm: rms(&base_in) },
+        noise_floor,
+        judged_on: judged_on.into(),
+        judged_on_reason,
+        selection_rows: ctx.data.len(),
+        confirmation_rows: confirmation.len(),
+        unconfirmed,
+        baseline: Baseline {
+            model: base.name.clone(),
+            heldout_rmse_mm: rms(&baseline.oof),
+            heldout_rmse_blocked_mm: rmse_blocked,
+            heldout_rmse_interleaved_mm: rmse_interleaved,
+            train_rmse_mm: rms(&base_in),
+        },
         evidence,
         steps,
         verdict: if causes.is_empty() {
@@ -570,12 +685,21 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
                 .join(" + ")
         },
         causes,
-        final_heldout_rmse_mm: rms(&current.oof),
+        final_heldout_rmse_mm: current_oof,
+        final_train_rmse_mm,
         comparison,
         seconds: t0.elapsed().as_secs_f64(),
         effects_option,
     };
     Ok((diagnosis, result))
+}
+
+/// The start of the final model's parameters for its report: the baseline's geometry with every
+/// effect at "no effect".
+fn base_start(model: &CalibModel, x_base: &[f64]) -> Vec<f64> {
+    let mut x = model.nominal.clone();
+    x[..x_base.len()].copy_from_slice(x_base);
+    x
 }
 
 /// Held-out RMSE of the geometric model, the physical extension and an RBF compensator on the

@@ -34,6 +34,11 @@
 //! * `ftol`: both actual and predicted relative reductions of an accepted step are at most `ftol`
 //!   (with [`Damping::Factor`]: the actual relative loss reduction alone);
 //! * `xtol`: `‖δ‖ ≤ xtol·(‖x_free‖ + xtol)`;
+//! * `stall`: over the last `stall_window` outer iterations the cost fell by at most
+//!   `stall_rtol` of the mean cost per degree of freedom, `f / (m − n_free)` (half a residual
+//!   variance): the fit is creeping along a flat valley of an ill-conditioned problem, where
+//!   per-step tests never fire, and what it still gains is statistically nothing (with the
+//!   default 1e-3, χ² changes by 0.002 over the window);
 //! * the cost is exactly zero;
 //! * `max_iter` outer iterations (Jacobian evaluations) — reported as not converged.
 //!
@@ -74,11 +79,25 @@ pub struct LevenbergMarquardt {
     pub initial_lambda: f64,
     /// The damping schedule.
     pub damping: Damping,
+    /// Window (outer iterations) of the stall test; 0 switches it off.
+    pub stall_window: usize,
+    /// Cost change over the window, relative to the mean cost per degree of freedom, below
+    /// which the fit has stalled.
+    pub stall_rtol: f64,
 }
 
 impl Default for LevenbergMarquardt {
     fn default() -> Self {
-        LevenbergMarquardt { max_iter: 200, ftol: 1e-12, xtol: 1e-12, gtol: 1e-10, initial_lambda: 1e-3, damping: Damping::Nielsen }
+        LevenbergMarquardt {
+            max_iter: 200,
+            ftol: 1e-12,
+            xtol: 1e-12,
+            gtol: 1e-10,
+            initial_lambda: 1e-3,
+            damping: Damping::Nielsen,
+            stall_window: 10,
+            stall_rtol: 1e-3,
+        }
     }
 }
 
@@ -220,8 +239,19 @@ impl LevenbergMarquardt {
         let mut iterations = 0;
         let mut converged = false;
         let mut reason = "maximum number of iterations reached";
+        // Cost at the start of each of the last `stall_window` outer iterations (ring buffer).
+        let mut window = vec![f64::INFINITY; self.stall_window];
 
         'outer: while iterations < self.max_iter {
+            if self.stall_window > 0 {
+                let slot = iterations % self.stall_window;
+                if iterations >= self.stall_window && window[slot] - f <= self.stall_rtol * f / m.saturating_sub(nf).max(1) as f64 {
+                    converged = true;
+                    reason = "cost change over the stall window below stall_rtol of the cost per degree of freedom";
+                    break;
+                }
+                window[slot] = f;
+            }
             iterations += 1;
             p.jacobian(&x, &mut jac);
             // Normal equations over the free columns (J is column-major: columns are contiguous).

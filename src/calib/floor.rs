@@ -1,0 +1,146 @@
+//! The floor no model can beat on a dataset, from the data themselves: the spread of repeated
+//! configurations, and what the logging resolution of the joint angles and of the reading costs
+//! on L (the angle steps propagated through the model's joint Jacobian). Each source is named;
+//! the final residual of a fit is never one of them.
+
+use super::metrics::Repeatability;
+use super::model::CalibModel;
+use super::problem::Samples;
+use serde::{Deserialize, Serialize};
+
+/// One contribution to the floor.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct FloorSource {
+    /// `repeatability`, `angle_resolution` or `reading_resolution`.
+    pub source: String,
+    /// RMS contribution to L, mm.
+    pub rms_mm: f64,
+    pub detail: String,
+}
+
+/// The data's own floor: its sources and their combination.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct NoiseFloor {
+    /// Root sum of squares of the independent sources, mm (the reading resolution is inside
+    /// the repeatability where there is one, so it is then not added again).
+    pub total_mm: f64,
+    pub sources: Vec<FloorSource>,
+}
+
+/// Where a logging step came from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Step {
+    /// Read from the decimals of the data.
+    Detected(f64),
+    /// Given by the user.
+    Given(f64),
+}
+
+impl Step {
+    pub fn value(self) -> f64 {
+        match self {
+            Step::Detected(v) | Step::Given(v) => v,
+        }
+    }
+    fn origin(self) -> &'static str {
+        match self {
+            Step::Detected(_) => "from the data's decimals",
+            Step::Given(_) => "as given",
+        }
+    }
+}
+
+/// The logging step of `values`: the largest power of ten 10⁻ᵏ (k = 0..=6) of which every
+/// value is a whole multiple; `None` when they carry more than six decimals (or none is finite).
+pub fn logging_step(values: impl Iterator<Item = f64> + Clone) -> Option<f64> {
+    if !values.clone().any(|v| v.is_finite()) {
+        return None;
+    }
+    (0..=6).map(|k| 10f64.powi(-k)).find(|step| values.clone().filter(|v| v.is_finite()).all(|v| ((v / step) - (v / step).round()).abs() < 1e-6))
+}
+
+/// The floor of `data` (every row) for the model at `x`: repeatability where configurations
+/// repeat, the joint angles' logging step (uniform quantisation, step²/12 per joint, through
+/// ∂L/∂q of each row) and the reading's step.
+pub fn noise_floor(
+    model: &CalibModel,
+    x: &[f64],
+    data: &Samples,
+    angle_step_deg: Option<Step>,
+    length_step_mm: Option<f64>,
+    repeat: Option<&Repeatability>,
+) -> NoiseFloor {
+    let mut sources = Vec::new();
+    if let Some(r) = repeat.filter(|r| r.groups > 0) {
+        sources.push(FloorSource {
+            source: "repeatability".into(),
+            rms_mm: r.pooled_std,
+            detail: format!("pooled spread of L over {} repeated configurations ({} rows)", r.groups, r.rows),
+        });
+    }
+    if let Some(step) = angle_step_deg.filter(|s| s.value() > 0.0) {
+        let var_q = step.value().to_radians().powi(2) / 12.0;
+        let mut w = model.work();
+        let mut g = vec![0.0; model.chain.n_joints];
+        let mean_var = data
+            .q
+            .iter()
+            .zip(&data.inputs)
+            .map(|(q, inp)| {
+                model.length_grad_q(x, q, inp, &mut w, &mut g);
+                g.iter().map(|d| (d * 1e3).powi(2) * var_q).sum::<f64>()
+            })
+            .sum::<f64>()
+            / data.len().max(1) as f64;
+        sources.push(FloorSource {
+            source: "angle_resolution".into(),
+            rms_mm: mean_var.sqrt(),
+            detail: format!("joint angles logged at {} deg ({}), through the model's dL/dq", step.value(), step.origin()),
+        });
+    }
+    if let Some(step) = length_step_mm.filter(|s| *s > 0.0) {
+        sources.push(FloorSource {
+            source: "reading_resolution".into(),
+            rms_mm: step / 12f64.sqrt(),
+            detail: format!("L logged at {step} mm (from the data's decimals)"),
+        });
+    }
+    let has_repeat = sources.iter().any(|s| s.source == "repeatability");
+    let total_mm = sources.iter().filter(|s| !(has_repeat && s.source == "reading_resolution")).map(|s| s.rms_mm.powi(2)).sum::<f64>().sqrt();
+    NoiseFloor { total_mm, sources }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn logging_steps_from_decimals() {
+        assert_eq!(logging_step([-74.5, 33.9, 80.0, -0.1].into_iter()), Some(0.1));
+        assert_eq!(logging_step([65.122, 65.125, -181.904].into_iter()), Some(0.001));
+        assert_eq!(logging_step([3.0, -7.0].into_iter()), Some(1.0));
+        assert_eq!(logging_step([0.123_456_7].into_iter()), None);
+        assert_eq!(logging_step([f64::NAN].into_iter()), None);
+    }
+
+    #[test]
+    fn angle_quantisation_propagates_through_the_joint_jacobian() {
+        use crate::calib::model::SensorGuess;
+        use crate::robot::Robot;
+        let robot = Robot::irb120();
+        let m = CalibModel::dh(&robot, &SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.1, tool_m: [0.0, 0.0, 0.05] }, true);
+        let q: Vec<Vec<f64>> = (0..50).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin()).collect()).collect();
+        let data = Samples::new(q, vec![0.5; 50]);
+        let f1 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), None);
+        let f2 = noise_floor(&m, &m.nominal, &data, Some(Step::Given(0.2)), Some(0.01), None);
+        let angle = |f: &NoiseFloor| f.sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
+        // Linear in the step; a 0.1 deg step over a ~0.5 m arm is a few tenths of a millimetre.
+        assert!((angle(&f2) / angle(&f1) - 2.0).abs() < 1e-12);
+        assert!(angle(&f1) > 0.1 && angle(&f1) < 1.0, "{f1:?}");
+        assert!((f1.total_mm - (angle(&f1).powi(2) + 0.01f64.powi(2) / 12.0).sqrt()).abs() < 1e-12);
+        // With repeatability, the reading's step is inside it and is not added again.
+        let rep = Repeatability { pooled_std: 0.05, groups: 3, rows: 7, max_spread: 0.1 };
+        let f3 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), Some(&rep));
+        assert!((f3.total_mm - (angle(&f1).powi(2) + 0.05f64.powi(2)).sqrt()).abs() < 1e-12);
+    }
+}
