@@ -949,11 +949,14 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
             eprintln!("{}", row("test inliers", t));
         }
     }
+    if let Some(t) = &m.test_after_trimmed {
+        eprintln!("{}", row("test, best 99%", t));
+    }
     if let Some(f) = &r.noise_floor {
         let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
         eprintln!("  noise floor of the data: {:.4} mm ({})", f.total_mm, parts.join(", "));
-        if let (Some(t), true) = (&m.test_after, f.total_mm > 0.0) {
-            eprintln!("  held-out RMSE / floor = {:.3}", t.rmse / f.total_mm);
+        if let (Some(t), Some(tt), true) = (&m.test_after, &m.test_after_trimmed, f.total_mm > 0.0) {
+            eprintln!("  held-out RMSE / floor = {:.3} (without the worst 1 % of test rows: {:.3})", t.rmse / f.total_mm, tt.rmse / f.total_mm);
         }
     }
     if let Some(t) = &r.truth_comparison {

@@ -32,8 +32,13 @@ fn a_hidden_effect_is_named_with_its_size() {
         assert!(h.named_by(first), "seed {seed}: hidden {h:?}, named {} joint {:?} first", first.cause, first.joint);
         assert!(h.sized_by(first), "seed {seed}: size {} ± {} vs true {}", first.magnitude, first.uncertainty, h.magnitude);
         assert!(first.heldout_rmse_after_mm < first.heldout_rmse_before_mm && first.p_value < 0.01);
-        // The extended model predicts unseen rows near the noise floor.
-        assert!(d.final_heldout_rmse_mm < 1.25 * d.noise_floor_mm, "seed {seed}: {} vs floor {}", d.final_heldout_rmse_mm, d.noise_floor_mm);
+        // The extended model predicts unseen rows about as well as the rows it was fitted to
+        // (no repeated configurations here, so the data's floor is only their resolution), and
+        // near the reading noise the scenario draws.
+        let sigma = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+        assert!(d.final_heldout_rmse_mm < 1.25 * d.final_train_rmse_mm, "seed {seed}: {} vs in-sample {}", d.final_heldout_rmse_mm, d.final_train_rmse_mm);
+        assert!(d.final_heldout_rmse_mm < 1.5 * sigma, "seed {seed}: {} vs reading noise {sigma}", d.final_heldout_rmse_mm);
+        assert!(d.noise_floor_source.contains("lower bound"), "{}", d.noise_floor_source);
     }
 }
 
@@ -138,7 +143,13 @@ fn diagnose_through_the_cli() {
     let text = std::fs::read_to_string(&pred).unwrap();
     let res: Vec<f64> = text.lines().skip(1).map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect();
     let rmse = (res.iter().map(|v| v * v).sum::<f64>() / res.len() as f64).sqrt();
-    assert!(rmse < 1.2 * r["noise_floor_mm"].as_f64().unwrap(), "predict RMSE {rmse}");
+    // `--result` is the model the report evaluated: through `predict` it reproduces the report's
+    // in-sample RMSE over the rows the diagnosis kept.
+    let outliers: Vec<usize> = r["outliers"].as_array().unwrap().iter().map(|o| o["row"].as_u64().unwrap() as usize - 1).collect();
+    let kept: Vec<f64> = res.iter().enumerate().filter(|(i, _)| !outliers.contains(i)).map(|(_, v)| *v).collect();
+    let kept_rmse = (kept.iter().map(|v| v * v).sum::<f64>() / kept.len() as f64).sqrt();
+    let reported = r["final_train_rmse_mm"].as_f64().unwrap();
+    assert!((kept_rmse - reported).abs() < 1e-6 * reported, "predict RMSE {kept_rmse} vs the report's {reported}");
     // Bad options are named; nothing is written.
     let out2 = dir.path().join("r2.json");
     for (args, needle) in [(vec!["--candidates", "gravity"], "unknown effect"), (vec!["--folds", "1"], "--folds"), (vec!["--alpha", "2"], "--alpha")] {
@@ -170,5 +181,5 @@ fn the_simulated_tour_shows_its_backlash() {
     let c = d.causes.iter().find(|c| c.cause == "backlash" && c.joint == Some(2)).unwrap_or_else(|| panic!("no joint-2 backlash: {found:?}"));
     let e = (c.magnitude - truth_width).abs();
     assert!(e <= 3.0 * c.uncertainty || e <= 0.3 * truth_width, "width {} ± {} vs {truth_width}: {found:?}", c.magnitude, c.uncertainty);
-    assert!(d.final_heldout_rmse_mm < 1.25 * d.noise_floor_mm && d.final_heldout_rmse_mm < 0.7 * d.baseline.heldout_rmse_mm, "{found:?}");
+    assert!(d.final_heldout_rmse_mm < 1.25 * d.final_train_rmse_mm && d.final_heldout_rmse_mm < 0.7 * d.baseline.heldout_rmse_mm, "{found:?}");
 }

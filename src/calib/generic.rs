@@ -2,24 +2,26 @@
 //!
 //! **Parametrisation.** A calibration sees the arm only where the data put it; on a narrow range
 //! of joint angles what the lengths determine is where each joint axis lies *there*. So the
-//! model is built around the mean training pose q̄: joint j's frame at q̄ has its z axis on the
-//! joint's axis line, and the chain is expressed as per-joint frame errors around those frames
-//! (translations of the joint origin, small rotations, joint zero: the same local errors as the
-//! twin's `frame` model), with the joint rotation measured from q̄. Each parameter is then a
-//! small motion of one axis near the arm, and the identifiability analysis keeps a
-//! well-conditioned subset. Absolute D-H values were the previous choice: with near-parallel
+//! model is a product of exponentials around the mean training pose q̄: each joint turns what
+//! follows it about its own axis line, given in the base frame at q̄, by q − q̄
+//! ([`model_around`]). A line's parameters (its origin moved, its direction tilted) move that
+//! line alone, so the fit's columns are nearly independent and the identifiability analysis
+//! keeps a well-conditioned subset (the joint zeros and the last joint's frame are what the tool
+//! point and the lines absorb). Absolute D-H values were the previous choice: with near-parallel
 //! axes d slides along an ill-defined common normal, and on the HSR data the fit crept towards a
-//! 36 m link and a tool point 23 m out.
+//! 36 m link and a tool point 23 m out; serial per-joint frame errors, tried next, couple every
+//! line to the errors upstream of it (condition number 1e7 against 1e5 here).
 //!
 //! **Search.** Starts are plausible industrial topologies at q̄ (seeded draws: joint 1 vertical;
 //! joint 2 horizontal, offset from it by a shoulder link; joint 3 parallel to 2 at the end of an
 //! upper arm of 0.3–1.1 m; a forearm of 0.3–1.3 m to a spherical wrist whose axes 4, 5, 6 meet;
-//! a tool point 50–350 mm from the wrist centre), each with the cable's exit point and offset
-//! multilaterated from its tool points. Every start is screened by a short Levenberg–Marquardt
-//! run on an evenly spread subset of the rows; the best screened starts are polished on that
-//! subset until they converge, and the lowest *converged* cost wins (ranking after a short polish
-//! picks the candidate that is quickest to polish, not the best basin). Starts are drawn from the
-//! seed alone and screened in parallel: the result does not depend on the number of threads.
+//! a tool point 50–350 mm from the wrist centre; the cable's exit point a median reading away
+//! from it in a drawn direction). They go through successive stages ([`STAGES`]): every start is
+//! fitted briefly on a few rows, the best survive to a longer fit on more rows, and the last few
+//! converge on every training row (in fresh charts, see [`converge`]), where the lowest
+//! *converged* cost wins (ranking after a short polish picks the candidate that is quickest to
+//! polish, not the best basin). Starts are drawn from the seed alone and fitted in parallel: the
+//! result does not depend on the number of threads.
 
 use super::model::{CalibModel, Kind, SensorGuess, SENSOR_PARAMS};
 use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
@@ -32,14 +34,12 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-/// Most rows the screening and the ranking see (every k-th training row).
-const SEARCH_ROWS: usize = 300;
+/// The search's successive stages: (starts kept, rows seen at most, LM iterations). Every start
+/// is screened briefly on a few rows, the best survive to a longer fit on more rows, and the
+/// last few are polished to convergence on every training row, where the ranking is made.
+const STAGES: [(usize, usize, usize); 2] = [(16, 150, 25), (4, 650, 150)];
 /// Starts at effort 1.
-const STARTS: usize = 48;
-/// Screened starts polished to convergence.
-const FINALISTS: usize = 6;
-/// LM iterations of the screening.
-const SCREEN_ITER: usize = 60;
+const STARTS: usize = 160;
 
 /// An axis line in the base frame at the reference pose.
 #[derive(Clone, Copy, Debug)]
@@ -92,30 +92,38 @@ pub fn frames_of(lines: &[Line]) -> Vec<Frame> {
     frames
 }
 
-/// The generic model around joint frames at the reference pose `q_ref` (rad): per joint the
-/// origin offset (x, y, z in the previous joint's frame), error rotations about x, y, z and the
-/// joint zero, the joint rotating by q − q_ref; the tool point in the last joint's frame.
+/// The generic model around joint axis frames at the reference pose `q_ref` (rad), as a
+/// product of exponentials: joint j turns everything after it by q_j − q_ref_j about its own
+/// line, given in the base frame (the frame's origin and z axis), so each line's parameters —
+/// its origin moved along the base axes (`joint_j.x/y/z`, m) and tilted about the frame's own
+/// x and y (`joint_j.tilt_x/tilt_y`, rad) — move that line alone. At q_ref the arm is the
+/// identity and the tool point is in the base frame. In chain form each exponential is
+/// G·Rz·G⁻¹ with G's parameters entering both sides (the second with factor −1).
 pub fn model_around(frames: &[Frame], q_ref: &[f64], sensor: &SensorGuess) -> CalibModel {
     let mut b = ChainBuilder::new();
     let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
     let mut kinds = Vec::new();
-    let mut parent = Frame::identity();
     for (j, f) in frames.iter().enumerate() {
-        let o = f.relative_to(&parent);
-        let idx: Vec<usize> = crate::robot::PARAM_SUFFIXES.iter().map(|s| b.param(format!("joint_{}.{s}", j + 1))).collect();
-        kinds.extend([Kind::Length, Kind::Length, Kind::Length, Kind::Angle, Kind::Angle, Kind::Angle, Kind::Angle]);
-        b.trans(x, o.pos.x, Some(idx[0]), true);
-        b.trans(y, o.pos.y, Some(idx[1]), true);
-        b.trans(z, o.pos.z, Some(idx[2]), true);
-        let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(o.rot).euler_angles();
+        let idx: Vec<usize> = ["x", "y", "z", "tilt_x", "tilt_y"].iter().map(|s| b.param(format!("joint_{}.{s}", j + 1))).collect();
+        kinds.extend([Kind::Length, Kind::Length, Kind::Length, Kind::Angle, Kind::Angle]);
+        let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(f.rot).euler_angles();
+        b.trans_coef(x, f.pos.x, idx[0], 1.0, true);
+        b.trans_coef(y, f.pos.y, idx[1], 1.0, true);
+        b.trans_coef(z, f.pos.z, idx[2], 1.0, true);
         b.rot(z, yaw, None);
         b.rot(y, pitch, None);
         b.rot(x, roll, None);
-        b.rot(x, 0.0, Some(idx[3]));
-        b.rot(y, 0.0, Some(idx[4]));
-        b.rot(z, 0.0, Some(idx[5]));
-        b.joint(z, -q_ref[j], Some(idx[6]));
-        parent = *f;
+        b.rot_coef(x, 0.0, idx[3], 1.0);
+        b.rot_coef(y, 0.0, idx[4], 1.0);
+        b.joint(z, -q_ref[j], None);
+        b.rot_coef(y, 0.0, idx[4], -1.0);
+        b.rot_coef(x, 0.0, idx[3], -1.0);
+        b.rot(x, -roll, None);
+        b.rot(y, -pitch, None);
+        b.rot(z, -yaw, None);
+        b.trans_coef(z, -f.pos.z, idx[2], -1.0, true);
+        b.trans_coef(y, -f.pos.y, idx[1], -1.0, true);
+        b.trans_coef(x, -f.pos.x, idx[0], -1.0, true);
     }
     let chain = b.finish();
     let mut names = chain.param_names.clone();
@@ -154,19 +162,18 @@ fn topology(rng: &mut ChaCha8Rng) -> (Vec<Line>, Vector3<f64>) {
     (vec![up, j2, j3, j4, j5, j6], tool)
 }
 
-/// The start of one topology: the model around its frames with the sensor's exit point and
-/// offset multilaterated from its tool points (the tool point where the topology puts it).
-fn start(lines: &[Line], tool: &Vector3<f64>, q_ref: &[f64], data: &Samples) -> Option<CalibModel> {
-    let frames = frames_of(lines);
-    let tool_local = frames.last()?.rot.transpose() * (tool - frames.last()?.pos);
-    let zero = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [tool_local.x, tool_local.y, tool_local.z] };
-    let mut model = model_around(&frames, q_ref, &zero);
+/// The start of one topology: the model around its lines, the cable's exit point a median
+/// reading away from the tool point in a drawn direction (the cable's length says how far the
+/// exit is, not where), the offset then the median misfit.
+fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[f64], data: &Samples) -> Option<CalibModel> {
+    let reach = super::stats::median(&data.l);
+    let exit = tool + exit_dir * reach;
+    let guess = SensorGuess { exit_m: [exit.x, exit.y, exit.z], offset_m: 0.0, tool_m: [tool.x, tool.y, tool.z] };
+    let mut model = model_around(&frames_of(lines), q_ref, &guess);
     let mut w = model.work();
-    let pts: Vec<_> = data.q.iter().map(|q| model.tool_point(&model.nominal, q, &mut w)).collect();
-    let (e, c) = super::placement::multilaterate(&pts, &data.l)?;
+    let misfit: Vec<f64> = data.q.iter().zip(&data.l).map(|(q, l)| l - model.predict(&model.nominal, q, &mut w)).collect();
     let nc = model.n_chain();
-    model.nominal[nc..nc + 3].copy_from_slice(&e);
-    model.nominal[nc + 3] = c;
+    model.nominal[nc + 3] = super::stats::median(&misfit);
     model.nominal.iter().all(|v| v.is_finite()).then_some(model)
 }
 
@@ -186,10 +193,9 @@ fn reference_pose(model: &CalibModel) -> Vec<f64> {
 }
 
 /// The same arm at `x` re-expressed around its own axis lines at the reference pose, every
-/// chain parameter back at zero (predictions are unchanged). Serial frame errors are linear
-/// only near zero: large ones (a frame turned by tens of degrees, compensated downstream) make
-/// a curved valley that Levenberg–Marquardt crosses in thousands of small steps; a fresh chart
-/// straightens it.
+/// chain parameter back at zero (predictions are unchanged): a tilt is linear only near zero,
+/// and a fresh chart straightens the valley Levenberg–Marquardt would otherwise cross in many
+/// small steps.
 pub fn rechart(model: &CalibModel, x: &[f64]) -> CalibModel {
     let q_ref = reference_pose(model);
     let nc = model.n_chain();
@@ -201,14 +207,11 @@ pub fn rechart(model: &CalibModel, x: &[f64]) -> CalibModel {
             Line { point: f.pos, dir: f.rot.column(2).into_owned() }
         })
         .collect();
-    let frames = frames_of(&lines);
     let flange = model.chain.frame(&ws, model.chain.flange());
     let s = &x[nc..];
     let tool = flange.point(&Vector3::new(s[4], s[5], s[6]));
-    let last = frames.last().expect("six frames");
-    let tl = last.rot.transpose() * (tool - last.pos);
-    let sensor = SensorGuess { exit_m: [s[0], s[1], s[2]], offset_m: s[3], tool_m: [tl.x, tl.y, tl.z] };
-    model_around(&frames, &q_ref, &sensor)
+    let sensor = SensorGuess { exit_m: [s[0], s[1], s[2]], offset_m: s[3], tool_m: [tool.x, tool.y, tool.z] };
+    model_around(&frames_of(&lines), &q_ref, &sensor)
 }
 
 /// Polishes a generic model on `data` until a fit in a fresh chart settles within
@@ -231,8 +234,8 @@ pub fn converge(model: &CalibModel, data: &Samples, rank_tol: f64) -> (f64, Cali
 /// A fit in a fresh chart that converges within this many iterations has settled.
 const SETTLED_ITER: usize = 30;
 /// Iterations per chart, and most charts.
-const CHART_ITER: usize = 200;
-const MAX_CHARTS: usize = 10;
+const CHART_ITER: usize = 100;
+const MAX_CHARTS: usize = 6;
 
 /// Global search for the generic model (see the module docs): the best candidate, its
 /// `nominal` the parameter vector polished on the search rows.
@@ -242,40 +245,50 @@ pub fn search(train: &Samples, opts: &CalibOptions) -> Result<CalibModel> {
         return Err(Error::Calibration(format!("the generic model is a 6R arm; the data hold {n} joint angles")));
     }
     let q_ref: Vec<f64> = (0..n).map(|j| train.q.iter().map(|q| q[j]).sum::<f64>() / train.len() as f64).collect();
-    let step = train.len().div_ceil(SEARCH_ROWS).max(1);
-    let rows: Vec<usize> = (0..train.len()).step_by(step).collect();
-    let subset = train.subset(&rows);
-    let starts = ((STARTS as f64 * opts.effort).ceil() as usize).max(FINALISTS);
+    let every = |rows: usize| train.subset(&(0..train.len()).step_by(train.len().div_ceil(rows).max(1)).collect::<Vec<_>>());
+    let starts = ((STARTS as f64 * opts.effort).ceil() as usize).max(STAGES[0].0);
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x6765_6e65_7269_6336);
-    let topologies: Vec<(Vec<Line>, Vector3<f64>)> = (0..starts).map(|_| topology(&mut rng)).collect();
-    let screen = LevenbergMarquardt { max_iter: SCREEN_ITER, ftol: 1e-8, xtol: 1e-10, ..Default::default() };
-    let mut screened: Vec<(f64, usize, CalibModel)> = topologies
-        .par_iter()
-        .enumerate()
-        .filter_map(|(i, (lines, tool))| {
-            let model = start(lines, tool, &q_ref, &subset)?;
-            let (cost, x, _) = fit(&model, &subset, &screen, opts.rank_tol);
-            Some((cost, i, rechart(&model, &x)))
+    let topologies: Vec<(Vec<Line>, Vector3<f64>, Vector3<f64>)> = (0..starts)
+        .map(|_| {
+            let (lines, tool) = topology(&mut rng);
+            let d = Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+            (lines, tool, if d.norm() > 1e-3 { d.normalize() } else { Vector3::z() })
         })
         .collect();
-    screened.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    screened.truncate(FINALISTS);
-    let finalists: Vec<(f64, usize, CalibModel)> = screened
+    let first = every(STAGES[0].1);
+    let mut pool: Vec<(f64, usize, CalibModel)> = topologies
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, (lines, tool, dir))| start(lines, tool, dir, &q_ref, &first).map(|m| (f64::INFINITY, i, m)))
+        .collect();
+    for &(keep, rows, iters) in &STAGES {
+        let data = every(rows);
+        let lm = LevenbergMarquardt { max_iter: iters, ftol: 1e-8, xtol: 1e-10, ..Default::default() };
+        pool = pool
+            .into_par_iter()
+            .map(|(_, i, model)| {
+                let (cost, x, _) = fit(&model, &data, &lm, opts.rank_tol);
+                (cost, i, rechart(&model, &x))
+            })
+            .collect();
+        pool.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        pool.truncate(keep);
+    }
+    // The finalists converge on every training row, in fresh charts; the lowest converged cost
+    // wins, and the calibration that follows starts at its optimum.
+    let finalists: Vec<(f64, usize, CalibModel)> = pool
         .into_par_iter()
         .map(|(_, i, model)| {
-            let (cost, model, _) = converge(&model, &subset, opts.rank_tol);
+            let (cost, model, _) = converge(&model, train, opts.rank_tol);
             (cost, i, model)
         })
         .collect();
-    let best = finalists
+    finalists
         .into_iter()
         .filter(|c| c.0.is_finite())
         .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
         .map(|c| c.2)
-        .ok_or_else(|| Error::Calibration("the generic model's search found no start that fits the data".into()))?;
-    // The winner converged on every training row, in a fresh chart: the calibration that follows
-    // starts at the optimum with every parameter a small local error.
-    Ok(converge(&best, train, opts.rank_tol).1)
+        .ok_or_else(|| Error::Calibration("the generic model's search found no start that fits the data".into()))
 }
 
 #[cfg(test)]
@@ -293,8 +306,7 @@ mod tests {
             assert!((z - l.dir).norm() < 1e-12, "axis direction");
             assert!((f.pos - l.point).cross(&l.dir).norm() < 1e-12, "origin on the line");
         }
-        let tl = frames[5].rot.transpose() * (tool - frames[5].pos);
-        let m = model_around(&frames, &q_ref, &SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [tl.x, tl.y, tl.z] });
+        let m = model_around(&frames, &q_ref, &SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [tool.x, tool.y, tool.z] });
         let mut w = m.work();
         assert!((m.tool_point(&m.nominal, &q_ref, &mut w) - tool).norm() < 1e-12);
         // Rotating joint 2 by 0.1 rad turns the tool point about line 2.

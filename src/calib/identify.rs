@@ -142,12 +142,15 @@ pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f
         }
         r
     };
+    // S = QR with orthonormal Q: any set of S's columns has the singular values of the same
+    // columns of R, a small square matrix.
+    let r_factor = s.clone().qr().r();
     loop {
         let keep: Vec<usize> = (0..n).filter(|k| !fixed_mask[*k]).collect();
         if keep.len() < 2 {
             break;
         }
-        let sub = DMatrix::from_fn(m, keep.len(), |r, c| s[(r, keep[c])]);
+        let sub = DMatrix::from_fn(r_factor.nrows(), keep.len(), |r, c| r_factor[(r, keep[c])]);
         let svd = sub.svd(false, true);
         let Some(vt) = svd.v_t.as_ref() else { break };
         let (imin, smin) = svd.singular_values.iter().enumerate().fold((0, f64::INFINITY), |a, (i, v)| if *v < a.1 { (i, *v) } else { a });

@@ -170,6 +170,10 @@ pub struct Metrics {
     /// standard deviations of the training residuals after calibration).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_after_inliers: Option<ErrorStats>,
+    /// The test rows without the worst 1 % (largest |residual|, rounded up): how measured data
+    /// are compared with their repeatability floor, which a few bad readings would swamp.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_after_trimmed: Option<ErrorStats>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -515,6 +519,15 @@ fn residuals_with(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -
     r
 }
 
+/// Statistics of the residuals without the `share` with the largest |r| (their count rounded up).
+pub fn trimmed_stats(r: &[f64], share: f64) -> ErrorStats {
+    let mut v: Vec<f64> = r.to_vec();
+    v.sort_by(|a, b| a.abs().total_cmp(&b.abs()));
+    let drop = (share * v.len() as f64).ceil() as usize;
+    v.truncate(v.len().saturating_sub(drop));
+    ErrorStats::of(&v)
+}
+
 fn stats(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorStats {
     ErrorStats::of(&residuals_with(fit, x, corrector))
 }
@@ -576,6 +589,7 @@ pub fn metrics_stage(fit: &LengthFit, test_fit: &LengthFit, x0: &[f64], x: &[f64
         train_after: stats(fit, x, corrector),
         test_after: has_test.then(|| stats(test_fit, x, corrector)),
         test_after_inliers: None,
+        test_after_trimmed: None,
     }
 }
 
@@ -670,6 +684,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         let keep: Vec<usize> = (0..split.test.len()).filter(|i| !out.contains(&split.test_idx[*i])).collect();
         let r = residuals_with(&LengthFit { model: &model, data: &split.test.subset(&keep) }, &x, correct);
         metrics.test_after_inliers = Some(ErrorStats::of(&r));
+        metrics.test_after_trimmed = Some(trimmed_stats(&residuals_with(&test_fit, &x, correct), 0.01));
     }
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     let angle_step = match opts.angle_step_deg {

@@ -40,8 +40,20 @@ pub struct Op {
     pub joint: Option<usize>,
     /// Parameter whose value adds to the value.
     pub param: Option<usize>,
+    /// Factor of the parameter (1, or −1 where an operation undoes another one with the same
+    /// parameter, as in a product of exponentials).
+    #[serde(default = "unit", skip_serializing_if = "is_unit")]
+    pub coef: f64,
     /// Whether `base` scales with the thermal factor (link lengths).
     pub thermal: bool,
+}
+
+fn unit() -> f64 {
+    1.0
+}
+
+fn is_unit(v: &f64) -> bool {
+    *v == 1.0
 }
 
 /// A rigid frame: rotation and origin in the base frame.
@@ -162,7 +174,7 @@ impl Chain {
                 v += q[j];
             }
             if let Some(i) = op.param {
-                v += p[i];
+                v += op.coef * p[i];
             }
             ws.values[k] = v;
             match op.kind {
@@ -198,7 +210,7 @@ impl Chain {
                 out.dq[j] += d;
             }
             if let Some(i) = op.param {
-                out.dparam[i] += d;
+                out.dparam[i] += d * op.coef;
             }
             if op.thermal && op.kind == OpKind::Trans {
                 out.dscale += d * op.base;
@@ -244,7 +256,18 @@ impl ChainBuilder {
     }
     pub fn op(&mut self, kind: OpKind, axis: Vector3<f64>, base: f64, joint: Option<usize>, param: Option<usize>, thermal: bool) {
         let axis = if axis.norm() > 0.0 { axis.normalize() } else { axis };
-        self.ops.push(Op { kind, axis, base, joint, param, thermal });
+        self.ops.push(Op { kind, axis, base, joint, param, coef: 1.0, thermal });
+    }
+    /// Translation by `base + coef·p[param]` (`coef` −1: the inverse of a translation by the
+    /// same parameter).
+    pub fn trans_coef(&mut self, axis: Vector3<f64>, base: f64, param: usize, coef: f64, thermal: bool) {
+        self.op(OpKind::Trans, axis, base, None, Some(param), thermal);
+        self.ops.last_mut().expect("just pushed").coef = coef;
+    }
+    /// Rotation by `base + coef·p[param]`.
+    pub fn rot_coef(&mut self, axis: Vector3<f64>, base: f64, param: usize, coef: f64) {
+        self.op(OpKind::Rot, axis, base, None, Some(param), false);
+        self.ops.last_mut().expect("just pushed").coef = coef;
     }
     /// Translation along an axis; `thermal` scales the base value.
     pub fn trans(&mut self, axis: Vector3<f64>, base: f64, param: Option<usize>, thermal: bool) {
