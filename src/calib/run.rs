@@ -533,7 +533,7 @@ fn stats(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorSt
 }
 
 /// Stage "outliers": the training rows far off a robust fit ([`super::robust::screen`], the
-/// identifiable parameters refitted by LM at each pass) are taken out of the split; a nominal
+/// identifiable parameters refitted with the Cauchy loss at each pass) are taken out of the split; a nominal
 /// model's sensor is then placed again on the rows kept. `None` when the screen is off.
 pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<Option<super::robust::Screen>> {
     if opts.outlier_k <= 0.0 {
@@ -541,11 +541,7 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
     }
     let screen = {
         let m: &CalibModel = model;
-        let refit = |d: &Samples, x: &[f64]| {
-            let fit = LengthFit { model: m, data: d };
-            let fixed = identify(&fit, x, opts.rank_tol).fixed_mask;
-            screen_lm().minimize(&fit, x, &fixed, &mut NoObserver).x
-        };
+        let refit = |d: &Samples, x: &[f64]| super::robust::screen_fit(m, d, x, opts.rank_tol);
         super::robust::screen(m, &m.nominal, &split.train, &split.train_idx, opts.outlier_k, &refit)
     };
     if !screen.outliers.is_empty() {
@@ -556,11 +552,6 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
         }
     }
     Ok(Some(screen))
-}
-
-/// The LM of the outlier screen's refits: residuals to a few significant digits.
-fn screen_lm() -> LevenbergMarquardt {
-    LevenbergMarquardt { max_iter: 200, ftol: 1e-9, xtol: 1e-9, ..Default::default() }
 }
 
 /// Test rows beyond `k` robust standard deviations of the calibrated model's training

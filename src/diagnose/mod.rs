@@ -469,7 +469,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     all.inputs = row_inputs(data, torque.as_ref());
 
-    let refit_rows = |d: &Samples, x: &[f64]| refit(&base, d, x, opts.rank_tol).0;
+    let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&base, d, x, opts.rank_tol);
     let screen = crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, &refit_rows);
     let (keep, outliers, outlier_runs, x_base) = (screen.keep, screen.outliers, screen.runs, screen.x);
     if !outliers.is_empty() {
