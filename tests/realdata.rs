@@ -1,0 +1,107 @@
+//! Real measured data (HSR-RobotCali, RobotCali IRB 120), read at run time from ../shared/data
+//! and never committed. A test whose files are absent says SKIP and passes.
+
+use std::path::{Path, PathBuf};
+use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
+use twincal::dataset::{Dataset, Split};
+use twincal::diagnose::{diagnose, DiagnoseOptions};
+
+fn shared(rel: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!("SKIP: {} is absent (real data are read from ../shared at run time)", p.display());
+        None
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn condition_identifiable(r: &CalibResult) -> f64 {
+    r.identifiability["condition_identifiable"].as_f64().unwrap()
+}
+
+/// The unknown arm: every 5th row of the pool held out (the rows interleave with the training
+/// rows, as unseen rows of the same robot do). Over three search seeds the fit converges, holds
+/// the joint that does not move, stays well conditioned, and predicts the held-out rows near the
+/// data's floor (repeatability and angle resolution) without the worst 1 %.
+#[test]
+fn hsr_generic_model_converges_and_predicts_interleaved_rows_near_the_floor() {
+    let Some(path) = shared("hsr-robotcali/hsr_robotcali_pool.csv") else { return };
+    let mut ds = Dataset::load(&path).unwrap();
+    for (i, r) in ds.rows.iter_mut().enumerate() {
+        r.split = Some(if i % 5 == 4 { Split::Test } else { Split::Train });
+    }
+    let mut ratios = Vec::new();
+    for seed in 0..3 {
+        let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::Lm);
+        o.seed = seed;
+        let r = calibrate(&ds, None, &o).unwrap();
+        assert!(r.converged, "seed {seed}: {}", r.stop_reason);
+        assert_eq!(r.identifiability["still_joints"], serde_json::json!([6]), "seed {seed}");
+        assert!(condition_identifiable(&r) < 1e7, "seed {seed}: condition {}", condition_identifiable(&r));
+        let floor = r.noise_floor.as_ref().unwrap();
+        assert!(floor.sources.iter().any(|s| s.source == "repeatability") && floor.sources.iter().any(|s| s.source == "angle_resolution"), "{floor:?}");
+        let trimmed = r.metrics.test_after_trimmed.unwrap().rmse;
+        eprintln!("seed {seed}: held-out RMSE without the worst 1 % {trimmed:.4} mm, floor {:.4} mm, {} iterations", floor.total_mm, r.iterations);
+        ratios.push(trimmed / floor.total_mm);
+    }
+    let (med, worst) = (median(ratios.clone()), ratios.iter().cloned().fold(0.0, f64::max));
+    assert!(med <= 1.2 && worst <= 1.4, "held-out / floor over seeds 0..3: {ratios:?}");
+}
+
+/// The papers' IRB 120: Levenberg–Marquardt converges, the disturbed stretch of the acquisition
+/// (original rows ~114–176, 3–9 mm off) is named as a run of outliers and kept out, the floor
+/// names the 0.1° angle logging, and the test rows that are not outliers by the training rows'
+/// rule are predicted to well under a millimetre, on three random 80/20 splits.
+#[test]
+fn robotcali_lm_converges_and_names_the_disturbed_stretch() {
+    let Some(path) = shared("robotcali-irb120/robotcali_pool.csv") else { return };
+    let ds = Dataset::load(&path).unwrap();
+    for seed in 0..3 {
+        let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm);
+        o.test_fraction = Some(0.2);
+        o.seed = seed;
+        let r = calibrate(&ds, None, &o).unwrap();
+        assert!(r.converged, "seed {seed}: {}", r.stop_reason);
+        assert!(
+            r.outlier_runs.iter().any(|u| u.first_row <= 140 && u.last_row >= 165 && u.median_residual_mm.abs() > 3.0),
+            "seed {seed}: {:?}",
+            r.outlier_runs
+        );
+        let angle = r.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
+        assert!((0.2..0.35).contains(&angle), "seed {seed}: angle-resolution floor {angle}");
+        let inliers = r.metrics.test_after_inliers.unwrap();
+        let all = r.metrics.test_after.unwrap();
+        eprintln!("seed {seed}: test RMSE {:.3} mm on every row, {:.3} mm on the {} inliers", all.rmse, inliers.rmse, inliers.n);
+        assert!(inliers.rmse < 0.85 && inliers.n >= 140, "seed {seed}: {inliers:?}");
+    }
+}
+
+/// `diagnose` on the papers' IRB 120: sweep-ordered rows make blocked folds extrapolate, so it
+/// judges on interleaved folds and says so; every cause it names is confirmed on rows selection
+/// never saw and is at least twice its uncertainty; and the model it exports reproduces the
+/// in-sample RMSE the report prints.
+#[test]
+fn robotcali_diagnosis_exports_the_model_it_reports() {
+    let Some(path) = shared("robotcali-irb120/robotcali_pool.csv") else { return };
+    let ds = Dataset::load(&path).unwrap();
+    let (d, result) = diagnose(&ds, &DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap()), &|_| {}).unwrap();
+    assert_eq!(d.judged_on, "interleaved", "{}", d.judged_on_reason);
+    assert!(d.baseline.heldout_rmse_blocked_mm > 1.5 * d.baseline.heldout_rmse_interleaved_mm);
+    assert!(d.outlier_runs.iter().any(|u| u.first_row <= 140 && u.last_row >= 165), "{:?}", d.outlier_runs);
+    for c in &d.causes {
+        assert!(c.magnitude.abs() >= 2.0 * c.uncertainty, "{}", c.summary());
+        assert!(c.confirmation_rmse_after_mm < c.confirmation_rmse_before_mm, "{}", c.summary());
+    }
+    assert!(d.noise_floor.sources.iter().any(|s| s.source == "angle_resolution"), "{:?}", d.noise_floor);
+    let predicted = result.predict_rows(&ds);
+    let out: Vec<usize> = d.outliers.iter().map(|o| o.row - 1).collect();
+    let kept: Vec<f64> = (0..ds.rows.len()).filter(|i| !out.contains(i)).map(|i| ds.rows[i].l_mm.unwrap() - predicted[i]).collect();
+    let rmse = (kept.iter().map(|v| v * v).sum::<f64>() / kept.len() as f64).sqrt();
+    assert!((rmse - d.final_train_rmse_mm).abs() < 1e-6 * rmse, "exported model {rmse} vs report {}", d.final_train_rmse_mm);
+}
