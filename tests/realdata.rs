@@ -16,11 +16,6 @@ fn shared(rel: &str) -> Option<PathBuf> {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 fn condition_identifiable(r: &CalibResult) -> f64 {
     r.identifiability["condition_identifiable"].as_f64().unwrap()
 }
@@ -50,8 +45,9 @@ fn hsr_generic_model_converges_and_predicts_interleaved_rows_near_the_floor() {
         eprintln!("seed {seed}: held-out RMSE without the worst 1 % {trimmed:.4} mm, floor {:.4} mm, {} iterations", floor.total_mm, r.iterations);
         ratios.push(trimmed / floor.total_mm);
     }
-    let (med, worst) = (median(ratios.clone()), ratios.iter().cloned().fold(0.0, f64::max));
-    assert!(med <= 1.2 && worst <= 1.4, "held-out / floor over seeds 0..3: {ratios:?}");
+    // The target, on every seed (a scipy least-squares fit of the same data from the
+    // same kind of starts reaches 1.13 on this split).
+    assert!(ratios.iter().all(|r| *r <= 1.15), "held-out / floor over seeds 0..3: {ratios:?}");
 }
 
 /// The papers' IRB 120: Levenberg–Marquardt converges, the disturbed stretch of the acquisition

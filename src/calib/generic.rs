@@ -39,7 +39,7 @@ use rayon::prelude::*;
 /// last few are polished to convergence on every training row, where the ranking is made.
 const STAGES: [(usize, usize, usize); 2] = [(16, 150, 25), (4, 650, 150)];
 /// Starts at effort 1.
-const STARTS: usize = 160;
+const STARTS: usize = 320;
 
 /// An axis line in the base frame at the reference pose.
 #[derive(Clone, Copy, Debug)]

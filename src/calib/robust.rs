@@ -216,10 +216,11 @@ pub fn irls<P: LeastSquares>(lm: &LevenbergMarquardt, p: &P, x0: &[f64], fixed: 
         let rep = if pass + 1 == IRLS_PASSES { lm.minimize(&wp, &x, fixed, obs) } else { lm.minimize(&wp, &x, fixed, &mut NoObserver) };
         iterations += rep.iterations;
         evaluations += rep.evaluations;
-        let moved = rep.x.iter().zip(&x).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        // Weights that no longer move the fit (LM done within its first steps) have settled.
+        let settled = rep.iterations <= 3;
         x = rep.x.clone();
         last = Some(rep);
-        if moved == 0.0 {
+        if settled {
             break;
         }
     }

@@ -532,11 +532,20 @@ fn stats(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorSt
     ErrorStats::of(&residuals_with(fit, x, corrector))
 }
 
+/// The outlier screen needs this many training rows per identifiable parameter.
+pub const SCREEN_ROWS_PER_PARAM: usize = 3;
+
 /// Stage "outliers": the training rows far off a robust fit ([`super::robust::screen`], the
 /// identifiable parameters refitted with the Cauchy loss at each pass) are taken out of the split; a nominal
 /// model's sensor is then placed again on the rows kept. `None` when the screen is off.
 pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<Option<super::robust::Screen>> {
     if opts.outlier_k <= 0.0 {
+        return Ok(None);
+    }
+    // With few rows per parameter a fit nearly interpolates them: the residuals' robust scale
+    // then says nothing about the noise, and the screen would flag good rows.
+    let n_free = identify(&LengthFit { model, data: &split.train }, &model.nominal, opts.rank_tol).fixed_mask.iter().filter(|f| !**f).count();
+    if split.train.len() < SCREEN_ROWS_PER_PARAM * n_free {
         return Ok(None);
     }
     let screen = {
@@ -622,6 +631,11 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut split = split_stage(data, opts)?;
     let mut model = super::placement::place_sensor(opts, &split.train)?;
     let screen = outlier_stage(&mut model, &mut split, opts)?;
+    if screen.is_none() && opts.outlier_k > 0.0 {
+        warnings.push(format!(
+            "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
+        ));
+    }
     effects_stage_for(&mut model, &mut split, data, opts, solver.needs_row_inputs())?;
     let x0 = model.nominal.clone();
     let fit = LengthFit { model: &model, data: &split.train };

@@ -178,7 +178,9 @@ pub fn residuals_after(r: &CalibResult, data: &Dataset) -> Vec<f64> {
 impl CalibFigures {
     /// The figures of calibration `r` of `data` run with `opts` (for the train / test split).
     pub fn new(r: &CalibResult, data: &Dataset, opts: &CalibOptions) -> Result<CalibFigures> {
-        let (train_idx, test_idx) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed)?;
+        let (mut train_idx, test_idx) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed)?;
+        // The calibration kept its training outliers out: so do its figures.
+        train_idx.retain(|i| !r.outliers.iter().any(|o| o.row == i + 1));
         let mut train = vec![false; data.rows.len()];
         for &i in &train_idx {
             train[i] = true;
