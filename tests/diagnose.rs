@@ -142,7 +142,6 @@ fn diagnose_through_the_cli() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(&pred).unwrap();
     let res: Vec<f64> = text.lines().skip(1).map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect();
-    let rmse = (res.iter().map(|v| v * v).sum::<f64>() / res.len() as f64).sqrt();
     // `--result` is the model the report evaluated: through `predict` it reproduces the report's
     // in-sample RMSE over the rows the diagnosis kept.
     let outliers: Vec<usize> = r["outliers"].as_array().unwrap().iter().map(|o| o["row"].as_u64().unwrap() as usize - 1).collect();

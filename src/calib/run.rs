@@ -737,21 +737,23 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     })
 }
 
+/// A model fitted outside the pipeline: the start `x0`, the fit `x`, the identifiability
+/// analysis that fixed what it held, and the torque model of its effect blocks.
+pub struct FittedModel {
+    pub model: CalibModel,
+    pub x0: Vec<f64>,
+    pub x: Vec<f64>,
+    pub id: Identifiability,
+    pub torque_model: Option<super::inputs::TorqueModel>,
+}
+
 /// A calibration result for a model already fitted on every row of `data` (`x` from `x0`, the
 /// parameters `fixed` held): what `diagnose --result` writes, so that the file is exactly the
 /// model its report evaluated. No test rows; `torque_model` gives the effect blocks their joint
 /// torques on new rows.
-pub fn result_of_fit(
-    data: &Dataset,
-    rows: &Samples,
-    model: CalibModel,
-    x0: &[f64],
-    x: Vec<f64>,
-    id: &Identifiability,
-    torque_model: Option<super::inputs::TorqueModel>,
-    seed: u64,
-    angle_step_deg: Option<f64>,
-) -> Result<CalibResult> {
+pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: u64, angle_step_deg: Option<f64>) -> Result<CalibResult> {
+    let FittedModel { model, x0, x, id, torque_model } = fitted;
+    let (x0, id) = (&x0[..], &id);
     let t0 = Instant::now();
     let fixed = &id.fixed_mask;
     let fit = LengthFit { model: &model, data: rows };

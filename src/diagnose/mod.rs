@@ -618,17 +618,14 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     }
 
     // The data's own floor: repeatability and logging resolutions, never the fit's residual.
-    let result = crate::calib::run::result_of_fit(
-        &kept_rows,
-        &kept,
-        current.model.clone(),
-        &base_start(&current.model, &x_base),
-        final_x.clone(),
-        &final_id,
-        torque.clone(),
-        opts.seed,
-        opts.angle_step_deg,
-    )?;
+    let fitted = crate::calib::run::FittedModel {
+        model: current.model.clone(),
+        x0: base_start(&current.model, &x_base),
+        x: final_x.clone(),
+        id: final_id,
+        torque_model: torque.clone(),
+    };
+    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg)?;
     let noise_floor = result.noise_floor.clone().expect("result_of_fit sets the floor");
     let noise_floor_mm = noise_floor.total_mm;
     let mut noise_floor_source: Vec<String> = noise_floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
