@@ -137,6 +137,9 @@ pub struct Truth {
     pub noise_std_mm: f64,
     pub poses: Vec<PoseTruth>,
     pub rejected: Vec<Rejected>,
+    /// Dataset rows (0-based, in file order) whose reading carries a glitch run's offset.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub glitch_rows: Vec<usize>,
 }
 
 /// A generated dataset with its truth and the link frames (for recordings).
@@ -184,8 +187,24 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
             });
         }
         // Commanded angles at the dataset's precision: the written angles are the simulated ones.
+        let unit = |j: usize| match s.sampling.order {
+            Order::Sweeps => {
+                // Sweep k from base pose `start + k`: joint k mod n (and on odd sweeps the next
+                // one too) steps across its range, the others hold.
+                let (len, k) = (s.sampling.sweep_length as u64, (i - start) / s.sampling.sweep_length as u64);
+                let step = (i - start) % len;
+                let moving = (k as usize % n, if k % 2 == 1 { (k as usize + 1) % n } else { k as usize % n });
+                if j == moving.0 || j == moving.1 {
+                    // Equal steps, started where the base pose puts the joint within the first.
+                    (step as f64 + halton(start + k, HALTON_BASES[j])) / len as f64
+                } else {
+                    halton(start + k, HALTON_BASES[j])
+                }
+            }
+            _ => halton(i, HALTON_BASES[j]),
+        };
         let q: Vec<f64> = (0..n)
-            .map(|j| ranges[j].0 + halton(i, HALTON_BASES[j]) * (ranges[j].1 - ranges[j].0))
+            .map(|j| ranges[j].0 + unit(j) * (ranges[j].1 - ranges[j].0))
             .map(|q| round_decimals(q.to_degrees(), s.sampling.angle_decimals).to_radians())
             .collect();
         i += 1;
@@ -199,6 +218,32 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
         out.shuffle(&mut ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Sampling, 1)));
     }
     Ok(out)
+}
+
+/// Adds the scenario's glitch runs to the readings (and to the truth's measured lengths):
+/// returns the dataset rows (0-based) that carry one.
+fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<usize> {
+    let Some(g) = &s.glitches else { return Vec::new() };
+    let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Glitches, 0));
+    let n = rows.len();
+    let mut hit = Vec::new();
+    // Runs in separate slots of the acquisition, so they never overlap.
+    let slot = n / g.runs;
+    for r in 0..g.runs {
+        if slot < g.rows {
+            break;
+        }
+        let first = r * slot + rng.random_range(0..=slot - g.rows);
+        let size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+        for i in first..first + g.rows {
+            let l = rows[i].l_mm.expect("generated rows carry a reading") + size;
+            let l = round_decimals(l, s.sensor.reading_decimals());
+            rows[i].l_mm = Some(l);
+            truth[i].length_measured_mm = l;
+            hit.push(i);
+        }
+    }
+    hit
 }
 
 /// Test poses stratified over the nominal cable length: poses sorted by length are cut into
@@ -385,7 +430,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         // Each value at its meaning's precision (see DrawWire::reading_decimals).
         let reading = round_decimals(reading, s.sensor.reading_decimals());
         rows.push(Row {
-            q_deg: std::array::from_fn(|j| round_decimals(poses[i][j].to_degrees(), s.sampling.angle_decimals)),
+            q_deg: std::array::from_fn(|j| round_decimals(poses[i][j].to_degrees(), s.sampling.written_decimals())),
             l_mm: Some(reading),
             t_s: Some(round_decimals(times[i], T_DECIMALS)),
             temp_c: temp,
@@ -420,6 +465,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
     if rows.is_empty() {
         return Err(Error::Sensor(format!("every pose was rejected; first reason: {}", rejected.first().map(|r| r.reason.as_str()).unwrap_or("?"))));
     }
+    let glitch_rows = add_glitches(s, &mut rows, &mut truth_poses);
 
     let names = robot.param_names();
     let parameters = names
@@ -465,6 +511,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         noise_std_mm: averaged,
         poses: truth_poses,
         rejected,
+        glitch_rows,
     };
     Ok(Generated { dataset: Dataset { rows, source: s.name.clone() }, truth, frames, twin })
 }

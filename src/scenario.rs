@@ -46,6 +46,19 @@ pub struct Scenario {
     /// simulated tour with moves, holds and a stability gate.
     #[serde(default)]
     pub acquisition: Acquisition,
+    /// Runs of disturbed readings (a bumped cable, a glitching reader), as real acquisitions have.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glitches: Option<Glitches>,
+}
+
+/// Runs of consecutive readings (in acquisition order) off by a common offset: `runs` runs of
+/// `rows` rows each, placed and signed from the seed, each off by `size_mm` × (1 + U(0, 0.5)).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Glitches {
+    pub runs: usize,
+    pub rows: usize,
+    pub size_mm: f64,
 }
 
 /// True geometric deviations: random with the given standard deviations, then explicit values.
@@ -70,6 +83,10 @@ pub enum Order {
     Halton,
     /// A seeded random permutation.
     Shuffled,
+    /// Sweeps, as a calibration engineer jogs an arm: from a Halton base pose one joint (every
+    /// other sweep two neighbouring joints) steps across its range in `sweep_length` poses while
+    /// the others hold.
+    Sweeps,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -97,6 +114,13 @@ pub struct Sampling {
     /// [`MAX_ANGLE_DECIMALS`].
     #[serde(default = "Sampling::default_angle_decimals")]
     pub angle_decimals: usize,
+    /// Decimals of a degree the controller logs the joint angles at (default: `angle_decimals`):
+    /// the arm is at the commanded angle, the dataset holds it rounded, as a real log does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub logged_decimals: Option<usize>,
+    /// Poses per sweep with `order = "sweeps"`.
+    #[serde(default = "Sampling::default_sweep_length")]
+    pub sweep_length: usize,
 }
 
 impl Sampling {
@@ -114,6 +138,13 @@ impl Sampling {
     }
     fn default_angle_decimals() -> usize {
         6
+    }
+    fn default_sweep_length() -> usize {
+        20
+    }
+    /// Decimals the dataset writes the joint angles at.
+    pub fn written_decimals(&self) -> usize {
+        self.logged_decimals.unwrap_or(self.angle_decimals)
     }
 }
 
@@ -228,6 +259,23 @@ impl Scenario {
         if sm.angle_decimals > MAX_ANGLE_DECIMALS {
             return Err(err(format!("sampling.angle_decimals = {} must be at most {MAX_ANGLE_DECIMALS}", sm.angle_decimals)));
         }
+        if let Some(d) = sm.logged_decimals.filter(|d| *d > sm.angle_decimals) {
+            return Err(err(format!("sampling.logged_decimals = {d} must be at most sampling.angle_decimals = {}", sm.angle_decimals)));
+        }
+        if !(2..=1000).contains(&sm.sweep_length) {
+            return Err(err(format!("sampling.sweep_length = {} must be in 2..=1000", sm.sweep_length)));
+        }
+        if let Some(g) = &self.glitches {
+            if g.runs == 0 || g.rows == 0 || g.runs * g.rows > sm.poses / 4 {
+                return Err(err(format!(
+                    "glitches: {} runs of {} rows must be at least one row and at most a quarter of the {} poses",
+                    g.runs, g.rows, sm.poses
+                )));
+            }
+            if !(g.size_mm.is_finite() && g.size_mm > 0.0 && g.size_mm <= 0.1 * (self.sensor.range_mm[1] - self.sensor.range_mm[0])) {
+                return Err(err(format!("glitches.size_mm = {} must be positive and at most 10 % of the sensor range", g.size_mm)));
+            }
+        }
         self.simulation.validate().map_err(err)?;
         self.acquisition.validate(self.simulation.dt_s, self.sensor.rate_hz).map_err(err)?;
         Ok(())
@@ -288,6 +336,8 @@ pub enum Stream {
     TempNoise = 5,
     /// Raw readings the stability gate of a simulated acquisition watches during the hold, one item per pose.
     Gate = 6,
+    /// Placement and sign of the glitch runs.
+    Glitches = 7,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).

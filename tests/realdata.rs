@@ -101,3 +101,46 @@ fn robotcali_diagnosis_exports_the_model_it_reports() {
     let rmse = (kept.iter().map(|v| v * v).sum::<f64>() / kept.len() as f64).sqrt();
     assert!((rmse - d.final_train_rmse_mm).abs() < 1e-6 * rmse, "exported model {rmse} vs report {}", d.final_train_rmse_mm);
 }
+
+/// The twin with what real data bring (`scenarios/irb120_realistic.toml`: 0.1° angle logging,
+/// sweeps over a narrow range, three runs of glitching readings): LM converges, the glitch runs
+/// are named where the truth put them and nothing else is kept out, the floor names the angle
+/// logging, the rows that are not outliers are predicted below that floor, and the identifiable
+/// parameters agree with their truth-equivalent values; the papers' methods and the generic
+/// model run on the same data and converge.
+#[test]
+fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
+    use twincal::generate::{generate, Silent};
+    use twincal::scenario::Scenario;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_realistic.toml");
+    let s = Scenario::from_toml(&std::fs::read_to_string(&path).unwrap(), "irb120_realistic").unwrap();
+    let robot = s.load_robot(Some(path.parent().unwrap())).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let g = generate(&s, &robot, &Silent).unwrap();
+    twincal::generate::write_outputs(&g, dir.path()).unwrap();
+    let glitches = &g.truth.glitch_rows;
+    assert_eq!(glitches.len(), 24);
+    let ds = Dataset::load(dir.path()).unwrap();
+    let truth = twincal::calib::run::TruthFile::find(dir.path()).unwrap();
+    let lm = calibrate(&ds, truth.as_ref(), &CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm)).unwrap();
+    assert!(lm.converged, "{}", lm.stop_reason);
+    assert_eq!(lm.outlier_runs.len(), 3, "{:?}", lm.outlier_runs);
+    for o in lm.outliers.iter().chain(&lm.test_outliers) {
+        assert!(glitches.contains(&(o.row - 1)), "row {} is no glitch: {o:?}", o.row);
+    }
+    let floor = lm.noise_floor.as_ref().unwrap();
+    let angle = floor.sources.iter().find(|s| s.source == "angle_resolution").unwrap();
+    assert!((0.15..0.35).contains(&angle.rms_mm) && angle.detail.contains("0.1 deg"), "{angle:?}");
+    let inliers = lm.metrics.test_after_inliers.unwrap();
+    assert!(inliers.rmse < floor.total_mm, "{inliers:?} vs floor {}", floor.total_mm);
+    let t = lm.truth_comparison.as_ref().unwrap();
+    assert_eq!(t.within_3_sigma, t.identifiable, "{t:?}");
+    for (method, model) in [(Method::DsadeGkan, "irb120"), (Method::PsoEkfAwnn(twincal::calib::psoekf::Ablation::Full), "irb120"), (Method::Lm, "generic6r")] {
+        let spec = if model == "generic6r" { ModelSpec::Generic6r } else { ModelSpec::parse(model, "hayati").unwrap() };
+        let r = calibrate(&ds, None, &CalibOptions::new(spec, method)).unwrap();
+        let e = r.metrics.test_after_inliers.unwrap().rmse;
+        eprintln!("{} / {model}: test inliers {e:.4} mm (LM {:.4})", method.name(), inliers.rmse);
+        assert_eq!(r.outlier_runs.len(), 3, "{}: {:?}", method.name(), r.outlier_runs);
+        assert!(e < floor.total_mm, "{} / {model}: {e} vs floor {}", method.name(), floor.total_mm);
+    }
+}

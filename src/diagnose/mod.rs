@@ -211,6 +211,10 @@ pub struct Diagnosis {
     pub rows: usize,
     pub outliers: Vec<Outlier>,
     pub outlier_runs: Vec<OutlierRun>,
+    /// Rows (1-based) the screen first flagged against the geometric model that the model with
+    /// its causes explains: they are in the final fit.
+    #[serde(default)]
+    pub explained_by_causes: Vec<usize>,
     /// The data's own floor ([`crate::calib::floor`]): its total and a line naming its sources.
     pub noise_floor_mm: f64,
     pub noise_floor_source: String,
@@ -471,7 +475,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
 
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&base, d, x, opts.rank_tol);
     let screen = crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, &refit_rows);
-    let (keep, outliers, outlier_runs, x_base) = (screen.keep, screen.outliers, screen.runs, screen.x);
+    let (keep, mut outliers, mut outlier_runs, x_base) = (screen.keep, screen.outliers, screen.runs, screen.x);
     if !outliers.is_empty() {
         progress(&format!("{} outlier rows kept out of the fit: {:?}", outliers.len(), outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
     }
@@ -581,6 +585,33 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
 
     // The final model: refitted on every kept row (selection and confirmation); its sizes, its
     // residual and the --result file all come from this one fit.
+    // The screen judged every row against the geometric model, before any cause was known: a
+    // row that a cause pushes far from it looks like a glitch. Rows the model with its causes
+    // predicts within the same threshold (around the kept rows' residuals) are explained, not
+    // outliers: they rejoin the rows of the final fit, and are listed.
+    let res_all = LengthFit { model: &current.model, data: &all }.residuals_mm(&current.x);
+    let kept_res: Vec<f64> = keep.iter().map(|&i| res_all[i]).collect();
+    let med = crate::calib::stats::median(&kept_res);
+    let scale = 1.4826 * crate::calib::stats::median(&kept_res.iter().map(|r| (r - med).abs()).collect::<Vec<f64>>());
+    let explained: Vec<usize> = if current.model.effects.is_empty() {
+        Vec::new()
+    } else {
+        outliers.iter().map(|o| o.row - 1).filter(|&i| (res_all[i] - med).abs() <= opts.outlier_k * scale).collect()
+    };
+    let (kept, kept_rows) = if explained.is_empty() {
+        (kept, kept_rows)
+    } else {
+        progress(&format!(
+            "{} rows first taken for outliers are explained by the causes: {:?}",
+            explained.len(),
+            explained.iter().map(|i| i + 1).collect::<Vec<_>>()
+        ));
+        outliers.retain(|o| !explained.contains(&(o.row - 1)));
+        outlier_runs = crate::calib::robust::runs(&outliers);
+        let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
+        (all.subset(&keep), Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() })
+    };
+    let explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).collect();
     let fit = LengthFit { model: &current.model, data: &kept };
     let final_id = identify(&fit, &current.x, opts.rank_tol);
     let final_x = Ctx::lm().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
@@ -652,6 +683,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         rows: data.rows.len(),
         outliers,
         outlier_runs,
+        explained_by_causes: explained_rows,
         noise_floor_mm,
         noise_floor_source,
         noise_floor,
