@@ -44,6 +44,9 @@ pub enum BenchTarget {
     /// PSO-EKF-AWNN: stage times against LM, accuracy and truth over seeds, data efficiency,
     /// sensitivity to Q, R and the learning rate, HSR-RobotCali.
     Awnn,
+    /// Real measured data: HSR generic model per search seed and its diagnosis, RobotCali
+    /// methods over random splits with and without the outlier screen.
+    Real,
 }
 
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
@@ -272,6 +275,14 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             let seeds = seeds.unwrap_or(5);
             check_seeds(seeds)?;
             crate::awnn_bench::bench_awnn(repeat, seeds, quiet)
+        }
+        BenchTarget::Real => {
+            if scenario.is_some() || compare {
+                return Err(Error::Invalid("--scenario and --compare do not apply to bench real (it reads ../shared/data)".into()));
+            }
+            let seeds = seeds.unwrap_or(5);
+            check_seeds(seeds)?;
+            crate::realbench::bench_real(seeds)
         }
     }
 }
@@ -1496,6 +1507,12 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
         d.final_heldout_rmse_mm / d.noise_floor_mm,
         d.selection_rows + d.confirmation_rows,
         d.final_train_rmse_mm
+    );
+    let sources: Vec<String> = d.noise_floor.sources.iter().map(|s| format!("{} {:.4} mm", s.source, s.rms_mm)).collect();
+    eprintln!(
+        "  what remains: the data's floor ({}) accounts for {:.0} % of the final held-out mean square",
+        sources.join(", "),
+        100.0 * d.floor_share_of_remaining
     );
     if let Some(c) = &d.comparison {
         eprintln!(

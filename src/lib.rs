@@ -20,6 +20,7 @@ pub mod evobench;
 pub mod generate;
 pub mod ikcmd;
 pub mod io;
+pub mod realbench;
 pub mod report;
 pub mod robot;
 pub mod scenario;

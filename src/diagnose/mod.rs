@@ -238,6 +238,10 @@ pub struct Diagnosis {
     pub final_heldout_rmse_mm: f64,
     /// RMSE of the final model (the one `--result` holds) on every kept row it was fitted to.
     pub final_train_rmse_mm: f64,
+    /// Share of the final held-out mean square that the data's floor accounts for (floor² /
+    /// held-out²): what remains is named, not fitted.
+    #[serde(default)]
+    pub floor_share_of_remaining: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub comparison: Option<Comparison>,
     pub seconds: f64,
@@ -716,6 +720,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         causes,
         final_heldout_rmse_mm: current_oof,
         final_train_rmse_mm,
+        floor_share_of_remaining: (noise_floor_mm / current_oof).powi(2).min(1.0),
         comparison,
         seconds: t0.elapsed().as_secs_f64(),
         effects_option,
