@@ -514,7 +514,13 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     ));
 
     let span = time_span(&kept_rows);
-    let pool = candidates(&kept_rows, &opts.candidates, has_torques);
+    // A joint that does not move has one backlash side and one eccentricity phase throughout:
+    // both are constant offsets the geometry already holds, so they are not candidates.
+    let still = crate::calib::run::still_joints(&kept.q);
+    let pool: Vec<EffectBlock> = candidates(&kept_rows, &opts.candidates, has_torques)
+        .into_iter()
+        .filter(|b| !(matches!(b.kind, EffectKind::Backlash | EffectKind::EncoderEccentricity) && b.joint.is_some_and(|j| still.contains(&j))))
+        .collect();
     let mut current = baseline.clone();
     let mut chain = vec![baseline.clone()];
     let mut steps = Vec::new();
