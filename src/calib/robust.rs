@@ -211,7 +211,9 @@ pub fn irls<P: LeastSquares>(lm: &LevenbergMarquardt, p: &P, x0: &[f64], fixed: 
         p.residuals(&x, &mut r);
         let med = median(&r);
         let scale = 1.4826 * median(&r.iter().map(|v| (v - med).abs()).collect::<Vec<f64>>());
-        let sqrt_w: Vec<f64> = r.iter().map(|v| if scale > 0.0 { loss.weight((v - med) / scale).sqrt() } else { 1.0 }).collect();
+        // The first pass is plain least squares: weights from the start's residuals (far from
+        // any fit) would only cost passes.
+        let sqrt_w: Vec<f64> = r.iter().map(|v| if scale > 0.0 && pass > 0 { loss.weight((v - med) / scale).sqrt() } else { 1.0 }).collect();
         let wp = Weighted { inner: p, sqrt_w };
         let rep = if pass + 1 == IRLS_PASSES { lm.minimize(&wp, &x, fixed, obs) } else { lm.minimize(&wp, &x, fixed, &mut NoObserver) };
         iterations += rep.iterations;
