@@ -230,14 +230,13 @@ impl Default for PsoEkfAwnn {
             hyper: None,
             rounds: 0,
             lm: LevenbergMarquardt {
-                max_iter: 100,
+                max_iter: 1000,
                 ftol: 1e-10,
                 xtol: 1e-10,
                 gtol: 1e-10,
                 initial_lambda: 1e-3,
                 damping: Damping::Factor(10.0),
-                stall_window: 0,
-                stall_rtol: 0.0,
+                ..Default::default()
             },
         }
     }
