@@ -294,14 +294,18 @@ impl Ctx {
 
     /// Held-out residual of every selection row: each fold predicted by a fit on the others.
     fn heldout(&self, model: &CalibModel, x: &[f64], fixed: &[bool], folds: &[Vec<usize>]) -> Vec<f64> {
-        let model = model.clone();
+        // Folds are independent fits: in parallel, scattered back in fold order.
+        let per_fold: Vec<Vec<f64>> = folds
+            .par_iter()
+            .map(|fold| {
+                let train: Vec<usize> = (0..self.data.len()).filter(|i| !fold.contains(i)).collect();
+                let tr = self.data.subset(&train);
+                let xf = Self::lm().minimize(&LengthFit { model, data: &tr }, x, fixed, &mut NoObserver).x;
+                LengthFit { model, data: &self.data.subset(fold) }.residuals_mm(&xf)
+            })
+            .collect();
         let mut oof = vec![0.0; self.data.len()];
-        for fold in folds {
-            let train: Vec<usize> = (0..self.data.len()).filter(|i| !fold.contains(i)).collect();
-            let tr = self.data.subset(&train);
-            let xf = Self::lm().minimize(&LengthFit { model: &model, data: &tr }, x, fixed, &mut NoObserver).x;
-            let te = self.data.subset(fold);
-            let r = LengthFit { model: &model, data: &te }.residuals_mm(&xf);
+        for (fold, r) in folds.iter().zip(per_fold) {
             for (k, &i) in fold.iter().enumerate() {
                 oof[i] = r[k];
             }
@@ -755,14 +759,21 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
         let (net, _) = RbfNetwork::fit_cv(&tr.q, &res, &[5, 10, 20, 40], &[1e-6, 1e-4, 1e-2], seed).ok()?;
         Some((xf, net))
     };
+    let per_fold: Vec<Option<Vec<f64>>> = ctx
+        .folds
+        .par_iter()
+        .map(|fold| {
+            let train: Vec<usize> = (0..n).filter(|i| !fold.contains(i)).collect();
+            let (xf, net) = rbf_fit(&train, &geo.model, &geo.x)?;
+            let te = ctx.data.subset(fold);
+            let r = LengthFit { model: &geo.model, data: &te }.residuals_mm(&xf);
+            Some(r.iter().zip(&te.q).map(|(ri, q)| ri - net.predict(q)).collect())
+        })
+        .collect();
     let mut rbf_oof = vec![0.0; n];
-    for fold in &ctx.folds {
-        let train: Vec<usize> = (0..n).filter(|i| !fold.contains(i)).collect();
-        let (xf, net) = rbf_fit(&train, &geo.model, &geo.x)?;
-        let te = ctx.data.subset(fold);
-        let r = LengthFit { model: &geo.model, data: &te }.residuals_mm(&xf);
+    for (fold, r) in ctx.folds.iter().zip(per_fold) {
         for (k, &i) in fold.iter().enumerate() {
-            rbf_oof[i] = r[k] - net.predict(&te.q[k]);
+            rbf_oof[i] = r.as_ref()?[k];
         }
     }
     // Extrapolation in q2.
