@@ -1501,14 +1501,10 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
     if !d.unconfirmed.is_empty() {
         eprintln!("  not confirmed on the confirmation rows (left out of the model): {}", d.unconfirmed.join(", "));
     }
-    let against_floor = if d.noise_floor.sources.iter().any(|s| s.source == "repeatability") {
-        format!("{:.2} x the noise floor", d.final_heldout_rmse_mm / d.noise_floor_mm)
-    } else {
-        format!("no repeated configurations, so the floor is known only down to the logging resolution ({:.4} mm)", d.noise_floor_mm)
-    };
     eprintln!(
-        "  final held-out RMSE {:.4} mm ({against_floor}); the final model's RMSE on the {} kept rows: {:.4} mm",
+        "  final held-out RMSE {:.4} mm ({}); the final model's RMSE on the {} kept rows: {:.4} mm",
         d.final_heldout_rmse_mm,
+        d.against_floor(),
         d.rows - d.outliers.len(),
         d.final_train_rmse_mm
     );

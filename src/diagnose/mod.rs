@@ -249,6 +249,18 @@ pub struct Diagnosis {
     pub effects_option: String,
 }
 
+impl Diagnosis {
+    /// The final held-out RMSE against the data's floor, in words: a ratio where repeated
+    /// configurations give the floor, else what is known of it.
+    pub fn against_floor(&self) -> String {
+        if self.noise_floor.sources.iter().any(|s| s.source == "repeatability") {
+            format!("{:.2} x the noise floor", self.final_heldout_rmse_mm / self.noise_floor_mm)
+        } else {
+            format!("no repeated configurations, so the floor is known only down to the logging resolution ({:.4} mm)", self.noise_floor_mm)
+        }
+    }
+}
+
 /// A model with its fitted parameters and fixed mask on the kept rows.
 #[derive(Clone)]
 struct Fitted {

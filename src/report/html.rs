@@ -172,7 +172,7 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
     let mut s = head(&format!("twincal {}", f.title));
     let _ = writeln!(
         s,
-        "<p>Verdict of the diagnosis: <b>{}</b>. {} rows, {} outliers kept out. Noise floor {:.4} mm ({}). Geometric model held-out RMSE {:.4} mm, final {:.4} mm ({:.2} × the noise floor). {:.1} s.</p>",
+        "<p>Verdict of the diagnosis: <b>{}</b>. {} rows, {} outliers kept out. Noise floor {:.4} mm ({}). Geometric model held-out RMSE {:.4} mm, final {:.4} mm ({}). Judged on {} folds: {}. {:.1} s.</p>",
         esc(&d.verdict),
         d.rows,
         d.outliers.len(),
@@ -180,7 +180,9 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
         esc(&d.noise_floor_source),
         d.baseline.heldout_rmse_mm,
         d.final_heldout_rmse_mm,
-        d.final_heldout_rmse_mm / d.noise_floor_mm,
+        esc(&d.against_floor()),
+        esc(&d.judged_on),
+        esc(&d.judged_on_reason),
         d.seconds
     );
     s.push_str(&verdict_html(verdict));
