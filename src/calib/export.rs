@@ -67,7 +67,9 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
         }
         let _ = writeln!(out, "  </link>");
         let rel = frames[j].relative_to(&parent_frame);
-        let (lo, hi) = nominal.and_then(|r| r.joints.get(j)).map(|jt| (jt.lower, jt.upper)).unwrap_or((-std::f64::consts::PI, std::f64::consts::PI));
+        // An arm without a nominal has no known limits, and its controller may log angles past
+        // ±180° (HSR's q3 reads about 215°): ±360°.
+        let (lo, hi) = nominal.and_then(|r| r.joints.get(j)).map(|jt| (jt.lower, jt.upper)).unwrap_or((-std::f64::consts::TAU, std::f64::consts::TAU));
         let vel = nominal.and_then(|r| r.joints.get(j)).map(|jt| jt.max_velocity).unwrap_or(1.0);
         let a = axes[j];
         let _ = writeln!(out, "  <joint name=\"joint_{}\" type=\"revolute\">", j + 1);
