@@ -701,6 +701,10 @@ pub struct RobustArgs {
     /// are outliers: kept out and listed in the result (0: keep every row).
     #[arg(long, default_value_t = crate::calib::run::DEFAULT_OUTLIER_K, allow_negative_numbers = true)]
     pub outliers: f64,
+    /// Keep out the rows of a run of outliers even when they all sit one constant offset off
+    /// (by default such a reading step is corrected and its rows kept).
+    #[arg(long)]
+    pub no_reading_steps: bool,
     /// Least-squares loss of `--method lm`: l2, huber or cauchy (by IRLS, robust scale from the data).
     #[arg(long, default_value = "l2")]
     pub loss: String,
@@ -860,6 +864,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     opts.loads = loads;
     opts.inertial = inertial;
     (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
+    opts.reading_steps = !a.robust.no_reading_steps;
     let result = run(&data, truth.as_ref(), &opts)?;
     let test = result.metrics.test_after.as_ref();
     let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
@@ -956,6 +961,15 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
             if runs.is_empty() { String::new() } else { format!(", runs: {}", runs.join(", ")) },
             r.test_outliers.len()
         );
+        for s in &r.reading_steps {
+            eprintln!(
+                "  reading step: rows {}-{} read {:+.2} ± {:.2} mm off ({} training rows), corrected and kept",
+                s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
+            );
+        }
+        if r.test_rows_in_steps > 0 {
+            eprintln!("  {} test rows inside reading steps corrected by their step's offset (from training rows)", r.test_rows_in_steps);
+        }
         if let (Some(t), false) = (&m.test_after_inliers, r.test_outliers.is_empty()) {
             eprintln!("{}", row("test inliers", t));
         }
@@ -1481,6 +1495,12 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
     }
     for u in &d.outlier_runs {
         eprintln!("  outlier run: rows {}-{}, median residual {:+.3} mm", u.first_row, u.last_row, u.median_residual_mm);
+    }
+    for s in &d.reading_steps {
+        eprintln!(
+            "  reading step: rows {}-{} read {:+.3} ± {:.3} mm off ({} rows; the reading jumped and stayed), corrected and kept",
+            s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
+        );
     }
     eprintln!("  noise floor {:.4} mm ({})", d.noise_floor_mm, d.noise_floor_source);
     eprintln!(

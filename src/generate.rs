@@ -234,8 +234,11 @@ fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<
             break;
         }
         let first = r * slot + rng.random_range(0..=slot - g.rows);
-        let size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+        let mut size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
         for i in first..first + g.rows {
+            if g.kind == crate::scenario::GlitchKind::Scatter && i > first {
+                size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            }
             let l = rows[i].l_mm.expect("generated rows carry a reading") + size;
             let l = round_decimals(l, s.sensor.reading_decimals());
             rows[i].l_mm = Some(l);

@@ -51,14 +51,34 @@ pub struct Scenario {
     pub glitches: Option<Glitches>,
 }
 
-/// Runs of consecutive readings (in acquisition order) off by a common offset: `runs` runs of
-/// `rows` rows each, placed and signed from the seed, each off by `size_mm` × (1 + U(0, 0.5)).
+/// Runs of consecutive disturbed readings (in acquisition order): `runs` runs of `rows` rows
+/// each, placed and signed from the seed, off by `size_mm` × (1 + U(0, 0.5)): by one common
+/// offset per run (`kind = "offset"`, the default: the reading jumped and stayed, like a
+/// draw-wire that slipped on its drum) or by a fresh size and sign on every row
+/// (`kind = "scatter"`: a disturbed stretch, like a cable rubbing on the arm).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Glitches {
     pub runs: usize,
     pub rows: usize,
     pub size_mm: f64,
+    #[serde(default, skip_serializing_if = "GlitchKind::is_default")]
+    pub kind: GlitchKind,
+}
+
+/// How the readings of a glitch run are disturbed, see [`Glitches`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GlitchKind {
+    #[default]
+    Offset,
+    Scatter,
+}
+
+impl GlitchKind {
+    fn is_default(&self) -> bool {
+        *self == GlitchKind::Offset
+    }
 }
 
 /// True geometric deviations: random with the given standard deviations, then explicit values.

@@ -2,6 +2,7 @@
 //! and never committed. A test whose files are absent says SKIP and passes.
 
 use std::path::{Path, PathBuf};
+use twincal::calib::robust::step_offset_mm;
 use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
 use twincal::dataset::{Dataset, Split};
 use twincal::diagnose::{diagnose, DiagnoseOptions};
@@ -50,10 +51,11 @@ fn hsr_generic_model_converges_and_predicts_interleaved_rows_near_the_floor() {
     assert!(ratios.iter().all(|r| *r <= 1.15), "held-out / floor over seeds 0..3: {ratios:?}");
 }
 
-/// The papers' IRB 120: Levenberg–Marquardt converges, the disturbed stretch of the acquisition
-/// (original rows ~114–176, 3–9 mm off) is named as a run of outliers and kept out, the floor
-/// names the 0.1° angle logging, and the test rows that are not outliers by the training rows'
-/// rule are predicted to well under a millimetre, on three random 80/20 splits.
+/// The papers' IRB 120: Levenberg–Marquardt converges, the stretch of the acquisition whose
+/// readings slipped (data rows ~114–176, 3.7 then 6.2 then 8.2 mm short) is found as reading
+/// steps and corrected, the floor names the 0.1° angle logging, every test row is predicted
+/// better than the papers' LM (about 1.2 mm) and the rows that are not outliers by the training
+/// rows' rule to well under a millimetre, on three random 80/20 splits.
 #[test]
 fn robotcali_lm_converges_and_names_the_disturbed_stretch() {
     let Some(path) = shared("robotcali-irb120/robotcali_pool.csv") else { return };
@@ -64,17 +66,19 @@ fn robotcali_lm_converges_and_names_the_disturbed_stretch() {
         o.seed = seed;
         let r = calibrate(&ds, None, &o).unwrap();
         assert!(r.converged, "seed {seed}: {}", r.stop_reason);
-        assert!(
-            r.outlier_runs.iter().any(|u| u.first_row <= 140 && u.last_row >= 165 && u.median_residual_mm.abs() > 3.0),
-            "seed {seed}: {:?}",
-            r.outlier_runs
-        );
+        // Rows ~114-176 read 3.7, then 6.2, then 8.2 mm short: three reading steps, corrected.
+        let steps: Vec<_> = r.reading_steps.iter().filter(|s| s.first_row >= 100 && s.last_row <= 190).collect();
+        assert!(steps.len() >= 2 && steps.iter().all(|s| s.offset_mm < -3.0), "seed {seed}: {:?}", r.reading_steps);
+        let (lo, hi) = steps.iter().fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s.offset_mm), b.max(s.offset_mm)));
+        assert!(hi - lo > 3.0, "seed {seed}: the offsets of a slipping reading grow: {steps:?}");
         let angle = r.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
         assert!((0.2..0.35).contains(&angle), "seed {seed}: angle-resolution floor {angle}");
         let inliers = r.metrics.test_after_inliers.unwrap();
         let all = r.metrics.test_after.unwrap();
         eprintln!("seed {seed}: test RMSE {:.3} mm on every row, {:.3} mm on the {} inliers", all.rmse, inliers.rmse, inliers.n);
-        assert!(inliers.rmse < 0.85 && inliers.n >= 140, "seed {seed}: {inliers:?}");
+        assert!(inliers.rmse < 0.75 && inliers.n >= 140, "seed {seed}: {inliers:?}");
+        // The papers report LM at about 1.2 mm on this robot.
+        assert!(all.rmse < 1.2, "seed {seed}: every test row {all:?}");
     }
 }
 
@@ -89,7 +93,7 @@ fn robotcali_diagnosis_exports_the_model_it_reports() {
     let (d, result) = diagnose(&ds, &DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap()), &|_| {}).unwrap();
     assert_eq!(d.judged_on, "interleaved", "{}", d.judged_on_reason);
     assert!(d.baseline.heldout_rmse_blocked_mm > 1.5 * d.baseline.heldout_rmse_interleaved_mm);
-    assert!(d.outlier_runs.iter().any(|u| u.first_row <= 140 && u.last_row >= 165), "{:?}", d.outlier_runs);
+    assert!(d.reading_steps.iter().filter(|s| s.first_row >= 100 && s.last_row <= 190 && s.offset_mm < -3.0).count() >= 2, "{:?}", d.reading_steps);
     for c in &d.causes {
         assert!(c.magnitude.abs() >= 2.0 * c.uncertainty, "{}", c.summary());
         assert!(c.confirmation_rmse_after_mm < c.confirmation_rmse_before_mm, "{}", c.summary());
@@ -97,14 +101,16 @@ fn robotcali_diagnosis_exports_the_model_it_reports() {
     assert!(d.noise_floor.sources.iter().any(|s| s.source == "angle_resolution"), "{:?}", d.noise_floor);
     let predicted = result.predict_rows(&ds);
     let out: Vec<usize> = d.outliers.iter().map(|o| o.row - 1).collect();
-    let kept: Vec<f64> = (0..ds.rows.len()).filter(|i| !out.contains(i)).map(|i| ds.rows[i].l_mm.unwrap() - predicted[i]).collect();
+    let kept: Vec<f64> =
+        (0..ds.rows.len()).filter(|i| !out.contains(i)).map(|i| ds.rows[i].l_mm.unwrap() - step_offset_mm(&d.reading_steps, i) - predicted[i]).collect();
     let rmse = (kept.iter().map(|v| v * v).sum::<f64>() / kept.len() as f64).sqrt();
     assert!((rmse - d.final_train_rmse_mm).abs() < 1e-6 * rmse, "exported model {rmse} vs report {}", d.final_train_rmse_mm);
 }
 
 /// The twin with what real data bring (`scenarios/irb120_realistic.toml`: 0.1° angle logging,
-/// sweeps over a narrow range, three runs of glitching readings): LM converges, the glitch runs
-/// are named where the truth put them and nothing else is kept out, the floor names the angle
+/// sweeps over a narrow range, three runs of readings that jumped by an offset): LM converges,
+/// the runs are found as reading steps where the truth put them, with their offsets, and nothing
+/// else is kept out, the floor names the angle
 /// logging, the rows that are not outliers are predicted below that floor, and the identifiable
 /// parameters agree with their truth-equivalent values; the papers' methods and the generic
 /// model run on the same data and converge.
@@ -124,9 +130,27 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     let truth = twincal::calib::run::TruthFile::find(dir.path()).unwrap();
     let lm = calibrate(&ds, truth.as_ref(), &CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm)).unwrap();
     assert!(lm.converged, "{}", lm.stop_reason);
-    assert_eq!(lm.outlier_runs.len(), 3, "{:?}", lm.outlier_runs);
+    // The glitch runs are one offset each: found as reading steps where the truth put them, with
+    // the offset the truth gives (the median of measured minus true length over the run).
+    assert_eq!(lm.reading_steps.len(), 3, "{:?} (outlier runs {:?})", lm.reading_steps, lm.outlier_runs);
+    let tr = truth.as_ref().unwrap();
+    for st in &lm.reading_steps {
+        let rows: Vec<usize> = (st.first_row - 1..st.last_row).collect();
+        assert!(rows.len() >= 4 && rows.iter().all(|r| glitches.contains(r)), "step {st:?} is no glitch run");
+        let mut off: Vec<f64> = rows.iter().map(|&r| ds.rows[r].l_mm.unwrap() - tr.poses[r].length_true_mm).collect();
+        off.sort_by(f64::total_cmp);
+        let want = off[off.len() / 2];
+        // Rows of one sweep share the rounding of the joints that hold still: the step's offset
+        // holds that common error too, at most a few times the angle-resolution floor.
+        let angle = lm.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
+        assert!((st.offset_mm - want).abs() < 4.0 * st.std_mm + 2.0 * angle, "step {st:?}: the truth's offset is {want:.3} mm");
+    }
+    // A test row between a step's first (last) training row and the clean training row before
+    // (after) it may be on either side of the jump: it takes the mean of both offsets and may
+    // stand out; nothing else may.
+    let at_edge = |row: usize| lm.reading_steps.iter().any(|s| row + 3 >= s.first_row && row <= s.last_row + 3);
     for o in lm.outliers.iter().chain(&lm.test_outliers) {
-        assert!(glitches.contains(&(o.row - 1)), "row {} is no glitch: {o:?}", o.row);
+        assert!(glitches.contains(&(o.row - 1)) || at_edge(o.row), "row {} is no glitch: {o:?}", o.row);
     }
     let floor = lm.noise_floor.as_ref().unwrap();
     let angle = floor.sources.iter().find(|s| s.source == "angle_resolution").unwrap();
@@ -140,7 +164,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         let r = calibrate(&ds, None, &CalibOptions::new(spec, method)).unwrap();
         let e = r.metrics.test_after_inliers.unwrap().rmse;
         eprintln!("{} / {model}: test inliers {e:.4} mm (LM {:.4})", method.name(), inliers.rmse);
-        assert_eq!(r.outlier_runs.len(), 3, "{}: {:?}", method.name(), r.outlier_runs);
+        assert_eq!(r.reading_steps.len(), 3, "{}: {:?}", method.name(), r.reading_steps);
         assert!(e < floor.total_mm, "{} / {model}: {e} vs floor {}", method.name(), floor.total_mm);
     }
 }

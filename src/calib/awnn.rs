@@ -193,7 +193,17 @@ pub struct Awnn {
     pub dilation: Vec<f64>,
     /// Output weights `w`, mm.
     pub weights: Vec<f64>,
+    /// The range of outputs (mm) the network may give as a corrector: what it gave on its
+    /// training rows, widened by [`OUTPUT_MARGIN`] of the span. A network that fits sharp
+    /// features of its training rows (a stretch of slipped readings) with large opposing weights
+    /// can return tens of millimetres at a pose between them; a corrector never corrects more
+    /// than it learned. Absent: no limit (files written before the guard).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_range: Option<[f64; 2]>,
 }
+
+/// Widening of [`Awnn::output_range`] beyond the training outputs, as a share of their span.
+pub const OUTPUT_MARGIN: f64 = 0.1;
 
 impl Awnn {
     /// A fresh network of `neurons` neurons on the joint angles `qs` alone (the paper's network,
@@ -298,6 +308,7 @@ impl Awnn {
             translation: Vec::new(),
             dilation: Vec::new(),
             weights: Vec::new(),
+            output_range: None,
         };
         Ok((net, std))
     }
@@ -473,6 +484,17 @@ impl Awnn {
         }
     }
 
+    /// Sets [`Self::output_range`] from the outputs on the training rows `qs` / `inputs`.
+    pub fn limit_to(&mut self, qs: &[Vec<f64>], inputs: &[RowInputs]) {
+        self.output_range = None;
+        let out: Vec<f64> = qs.iter().zip(inputs).map(|(q, inp)| self.eval_row(q, inp)).filter(|v| v.is_finite()).collect();
+        let (lo, hi) = out.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        if lo <= hi {
+            let m = OUTPUT_MARGIN * (hi - lo);
+            self.output_range = Some([lo - m, hi + m]);
+        }
+    }
+
     /// Checks a deserialised network (a hand-edited or truncated file must not give NaN).
     pub fn validate(&self, n_joints: usize) -> Result<(), String> {
         let (m, d) = (self.neurons(), self.inputs());
@@ -485,7 +507,8 @@ impl Awnn {
             && self.projection.len() == m
             && self.projection.iter().all(|r| r.len() == d && r.iter().all(|v| v.is_finite()))
             && self.input_scale.iter().chain(&self.dilation).all(|v| v.is_finite() && *v > 0.0)
-            && self.input_mean.iter().chain(&self.translation).chain(&self.weights).all(|v| v.is_finite());
+            && self.input_mean.iter().chain(&self.translation).chain(&self.weights).all(|v| v.is_finite())
+            && self.output_range.is_none_or(|[lo, hi]| lo.is_finite() && hi.is_finite() && lo <= hi);
         if ok {
             Ok(())
         } else {
@@ -502,11 +525,29 @@ impl Correct for Awnn {
         self.n_params()
     }
     fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
-        self.eval_row(q, inp)
+        let f = self.eval_row(q, inp);
+        match self.output_range {
+            Some([lo, hi]) => f.clamp(lo, hi),
+            None => f,
+        }
     }
     /// The gradient with respect to q only: the row's other inputs (temperature, flanks,
-    /// torques) are held fixed.
+    /// torques) are held fixed. Zero where the output is held at a limit of its range.
     fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
+        let f = self.correction_grad_unlimited(q, inp, g);
+        match self.output_range {
+            Some([lo, hi]) if !(lo..=hi).contains(&f) => {
+                g.iter_mut().for_each(|v| *v = 0.0);
+                f.clamp(lo, hi)
+            }
+            _ => f,
+        }
+    }
+}
+
+impl Awnn {
+    /// The output and its q-gradient without the output range.
+    fn correction_grad_unlimited(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
         let (d, nq) = (self.inputs(), self.joints());
         g.iter_mut().for_each(|v| *v = 0.0);
         let mut u = vec![0.0; d];

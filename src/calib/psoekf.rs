@@ -681,6 +681,11 @@ impl PsoEkfAwnn {
         );
         rep.iterations += one.report.iterations;
         rep.evaluations += one.report.evaluations;
+        // As a corrector the network never gives more than it learned (see `Awnn::output_range`).
+        let net = net.map(|mut n| {
+            n.limit_to(&p.fit.data.q, &p.fit.data.inputs);
+            n
+        });
         Ok(Solution { report: rep, corrector: net.map(Corrector::Awnn) })
     }
 }

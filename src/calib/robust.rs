@@ -3,9 +3,13 @@
 //!
 //! * [`screen`]: rows whose residual is more than `k` robust standard deviations (1.4826·MAD)
 //!   from the median residual of a fit on the rows kept so far, iterated with refits until the
-//!   set is stable (at most four passes). Flagged rows close together form [`OutlierRun`]s: on a
-//!   real arm a run is one disturbed stretch of the acquisition (a bumped cable, a glitch of the
-//!   reader), not independent bad luck.
+//!   set is stable. Flagged rows close together form [`OutlierRun`]s: on a real arm a run is
+//!   one disturbed stretch of the acquisition (a bumped cable, a glitch of the reader), not
+//!   independent bad luck.
+//! * [`reading_steps`]: a run whose rows all sit one constant offset off (the reading jumped and
+//!   stayed: a draw-wire slipped on its drum, an encoder lost counts) is a [`ReadingStep`]; its
+//!   rows are corrected by the offset and kept, and rows of the same stretch that the fit never
+//!   saw are corrected by the same offset.
 //! * [`Loss`] and [`irls`]: Huber or Cauchy by iteratively reweighted least squares, the
 //!   weights from the residuals over a robust scale re-estimated at every pass.
 
@@ -37,6 +41,178 @@ pub struct OutlierRun {
     pub median_residual_mm: f64,
 }
 
+/// A stretch of the acquisition whose readings all sit one constant offset away from the
+/// model: the reading jumped and stayed (a draw-wire that slipped on its drum, an encoder that
+/// lost counts, a reader re-zeroed), so the rows are good once the offset is taken off. Found by
+/// [`reading_steps`]; the offset is estimated from the training rows of the stretch.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ReadingStep {
+    /// First and last (training) data row of the stretch, 1-based; the rows between them,
+    /// test rows included, carry the offset.
+    pub first_row: usize,
+    pub last_row: usize,
+    /// Training rows in the stretch.
+    pub rows: usize,
+    /// The reading's offset, mm (measured minus model): the readings are corrected by it.
+    pub offset_mm: f64,
+    /// Standard uncertainty of the offset (of the median of the stretch's residuals), mm.
+    pub std_mm: f64,
+}
+
+impl ReadingStep {
+    /// Whether data row `row` (0-based) lies in the stretch.
+    pub fn covers(&self, row: usize) -> bool {
+        (self.first_row..=self.last_row).contains(&(row + 1))
+    }
+}
+
+/// The offset (mm) the steps give data row `row` (0-based); 0 outside every step.
+pub fn step_offset_mm(steps: &[ReadingStep], row: usize) -> f64 {
+    steps.iter().find(|s| s.covers(row)).map_or(0.0, |s| s.offset_mm)
+}
+
+/// `data` (row `i` is data row `rows[i]`, 0-based) with each reading in a step corrected by the
+/// step's offset.
+pub fn apply_steps(data: &Samples, rows: &[usize], steps: &[ReadingStep]) -> Samples {
+    let mut out = data.clone();
+    for (l, &row) in out.l.iter_mut().zip(rows) {
+        *l -= step_offset_mm(steps, row) * 1e-3;
+    }
+    out
+}
+
+/// `data` (rows not seen by the fit; row `i` is data row `rows[i]`, 0-based) with each reading
+/// corrected by the offset of the nearest row in acquisition order among the fit's rows `seen`
+/// (ascending): inside a step that is the step's offset, and a row between two steps, or between
+/// a step and clean rows, takes the side it is nearer to (the mean of both on a tie). A step is
+/// one stretch of time, so its nearest neighbours in time are the best guess of a row's offset.
+pub fn apply_steps_nearest(data: &Samples, rows: &[usize], seen: &[usize], steps: &[ReadingStep]) -> Samples {
+    let mut out = data.clone();
+    if steps.is_empty() || seen.is_empty() {
+        return out;
+    }
+    for (l, &row) in out.l.iter_mut().zip(rows) {
+        let at = seen.partition_point(|&d| d < row);
+        let before = at.checked_sub(1).map(|i| seen[i]);
+        let after = seen.get(at).copied();
+        let off = match (before, after) {
+            (Some(b), Some(a)) if row - b == a - row => 0.5 * (step_offset_mm(steps, b) + step_offset_mm(steps, a)),
+            (Some(b), Some(a)) => step_offset_mm(steps, if row - b < a - row { b } else { a }),
+            (Some(n), None) | (None, Some(n)) => step_offset_mm(steps, n),
+            (None, None) => 0.0,
+        };
+        *l -= off * 1e-3;
+    }
+    out
+}
+
+/// Fewest training rows of a reading step: fewer cannot tell a constant offset from a jumble.
+pub const MIN_STEP_ROWS: usize = 4;
+/// A step's offset is at least this many robust standard deviations (smaller shifts are left
+/// to the noise).
+pub const STEP_MIN_SIGMAS: f64 = 4.0;
+/// Within a step the residuals scatter no more than this many times the robust scale of the
+/// other rows: the offset is constant, not a disturbed stretch.
+pub const STEP_MAX_SPREAD: f64 = 2.0;
+/// Penalty of a change point in the segmentation, in robust variances times ln(window length):
+/// the largest chance gain of one split over white noise is about 2·ln(n) variances.
+pub const STEP_PENALTY: f64 = 8.0;
+
+/// Reading steps among the residuals `r` (mm; sample `i` is data row `rows[i]`, 0-based,
+/// ascending) of a fit whose good rows have median `med` and robust scale `scale`: each run of
+/// rows beyond `k`·scale ([`runs`], at least [`MIN_STEP_ROWS`] rows) and a few rows either
+/// side are cut into constant pieces by binary segmentation (penalty [`STEP_PENALTY`]); a piece
+/// is a step when it has at least [`MIN_STEP_ROWS`] rows, an offset beyond [`STEP_MIN_SIGMAS`],
+/// and the window holds no disturbed piece (a row beyond `k`·scale of its piece's offset, or an
+/// offset piece whose spread exceeds [`STEP_MAX_SPREAD`]).
+pub fn reading_steps(r: &[f64], rows: &[usize], med: f64, scale: f64, k: f64) -> Vec<ReadingStep> {
+    if !(scale > 0.0) || k <= 0.0 {
+        return Vec::new();
+    }
+    let flagged: Vec<Outlier> =
+        (0..r.len()).filter(|&i| !((r[i] - med).abs() <= k * scale)).map(|i| Outlier { row: rows[i] + 1, residual_mm: r[i], robust_z: 0.0 }).collect();
+    // Windows in sample indices around each long enough run, merged where they overlap.
+    let mut windows: Vec<(usize, usize)> = Vec::new();
+    for run in runs(&flagged) {
+        let members = flagged.iter().filter(|o| (run.first_row..=run.last_row).contains(&o.row)).count();
+        if members < MIN_STEP_ROWS {
+            continue;
+        }
+        let first = rows.partition_point(|&d| d + 1 < run.first_row);
+        let last = rows.partition_point(|&d| d < run.last_row);
+        let (lo, hi) = (first.saturating_sub(MIN_STEP_ROWS + 1), (last + MIN_STEP_ROWS + 1).min(r.len()));
+        match windows.last_mut() {
+            Some(w) if lo <= w.1 => w.1 = w.1.max(hi),
+            _ => windows.push((lo, hi)),
+        }
+    }
+    let d: Vec<f64> = r.iter().map(|v| v - med).collect();
+    let mut steps = Vec::new();
+    for (lo, hi) in windows {
+        let penalty = STEP_PENALTY * scale * scale * ((hi - lo) as f64).ln();
+        let mut pieces = Vec::new();
+        segment(&d, lo, hi, penalty, &mut pieces);
+        // Per piece: offset, spread, and whether it is disturbed (not one offset).
+        let stats: Vec<(f64, f64, bool)> = pieces
+            .iter()
+            .map(|&(a, b)| {
+                let piece = &d[a..b];
+                let off = median(piece);
+                let spread = 1.4826 * median(&piece.iter().map(|v| (v - off).abs()).collect::<Vec<f64>>());
+                let off_piece = off.abs() > STEP_MIN_SIGMAS * scale;
+                let disturbed = (off_piece && spread > STEP_MAX_SPREAD * scale) || piece.iter().any(|v| (v - off).abs() > k * scale);
+                (off, spread, disturbed)
+            })
+            .collect();
+        // A constant piece in a stretch that also holds a disturbed piece is a lull in a
+        // disturbed stretch, not a step: such a stretch stays outliers as a whole.
+        if stats.iter().any(|s| s.2) {
+            continue;
+        }
+        for (p, &(a, b)) in pieces.iter().enumerate() {
+            let (off, spread, _) = stats[p];
+            if b - a >= MIN_STEP_ROWS && off.abs() > STEP_MIN_SIGMAS * scale {
+                let std_mm = 1.2533 * spread.max(scale) / ((b - a) as f64).sqrt();
+                steps.push(ReadingStep { first_row: rows[a] + 1, last_row: rows[b - 1] + 1, rows: b - a, offset_mm: off, std_mm });
+            }
+        }
+    }
+    steps
+}
+
+/// Binary segmentation of `d[lo..hi]` into pieces of constant mean: the split that removes the
+/// most squared deviation is kept while it removes more than `penalty`, and both sides hold at
+/// least [`MIN_STEP_ROWS`] rows.
+fn segment(d: &[f64], lo: usize, hi: usize, penalty: f64, out: &mut Vec<(usize, usize)>) {
+    let n = hi - lo;
+    let mut best: Option<(f64, usize)> = None;
+    if n >= 2 * MIN_STEP_ROWS {
+        let (total, total2) = d[lo..hi].iter().fold((0.0, 0.0), |(s, s2), v| (s + v, s2 + v * v));
+        let sse = |s: f64, s2: f64, m: usize| s2 - s * s / m as f64;
+        let whole = sse(total, total2, n);
+        let (mut s, mut s2) = (0.0, 0.0);
+        for c in 1..n {
+            let v = d[lo + c - 1];
+            s += v;
+            s2 += v * v;
+            if c < MIN_STEP_ROWS || n - c < MIN_STEP_ROWS {
+                continue;
+            }
+            let gain = whole - sse(s, s2, c) - sse(total - s, total2 - s2, n - c);
+            if best.is_none_or(|(g, _)| gain > g) {
+                best = Some((gain, c));
+            }
+        }
+    }
+    match best {
+        Some((gain, c)) if gain > penalty => {
+            segment(d, lo, lo + c, penalty, out);
+            segment(d, lo + c, hi, penalty, out);
+        }
+        _ => out.push((lo, hi)),
+    }
+}
+
 /// What [`screen`] found.
 #[derive(Clone, Debug)]
 pub struct Screen {
@@ -45,6 +221,11 @@ pub struct Screen {
     pub outliers: Vec<Outlier>,
     /// Runs of at least two outlier rows close together ([`runs`]).
     pub runs: Vec<OutlierRun>,
+    /// Stretches whose readings are offset by a constant ([`reading_steps`]); their rows are
+    /// kept, corrected.
+    pub steps: Vec<ReadingStep>,
+    /// The screened samples with the steps' readings corrected.
+    pub corrected: Samples,
     /// The fit on the kept rows.
     pub x: Vec<f64>,
     /// Robust standard deviation of the kept rows' residuals (1.4826·MAD), mm, and their median.
@@ -63,19 +244,25 @@ pub fn screen_fit(model: &CalibModel, data: &Samples, x: &[f64], rank_tol: f64) 
     irls(&lm, &fit, x, &fixed, Loss::Cauchy, &mut NoObserver).x
 }
 
-/// Screens `data` (whose row `i` is data row `rows[i]`, 0-based) for outliers of the model
-/// fitted from `x0`; `refit` fits the model to a subset from a start (see [`screen_fit`]). See
-/// the module docs.
-pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k: f64, refit: &dyn Fn(&Samples, &[f64]) -> Vec<f64>) -> Screen {
+/// Passes of the screen at most: the set of kept rows settles in two or three.
+const SCREEN_PASSES: usize = 6;
+
+/// Screens `data` (whose row `i` is data row `rows[i]`, 0-based, ascending) for outliers of the
+/// model fitted from `x0`; `refit` fits the model to a subset from a start (see [`screen_fit`]).
+/// With `steps`, runs of outliers that are one constant offset ([`reading_steps`]) are
+/// corrected and kept instead. See the module docs.
+pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k: f64, steps: bool, refit: &dyn Fn(&Samples, &[f64]) -> Vec<f64>) -> Screen {
     let n = data.len();
     let mut keep: Vec<usize> = (0..n).collect();
     let mut x = x0.to_vec();
     let mut flagged: Vec<usize> = Vec::new();
+    let mut found: Vec<ReadingStep> = Vec::new();
+    let mut corrected = data.clone();
     let (mut scale, mut med) = (f64::NAN, 0.0);
     let mut r = Vec::new();
-    for _ in 0..4 {
-        x = refit(&data.subset(&keep), &x);
-        r = LengthFit { model, data }.residuals_mm(&x);
+    for _ in 0..SCREEN_PASSES {
+        x = refit(&corrected.subset(&keep), &x);
+        r = LengthFit { model, data: &corrected }.residuals_mm(&x);
         let kept_r: Vec<f64> = keep.iter().map(|&i| r[i]).collect();
         med = median(&kept_r);
         scale = 1.4826 * median(&kept_r.iter().map(|v| (v - med).abs()).collect::<Vec<f64>>());
@@ -83,15 +270,26 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
             flagged.clear();
             break;
         }
+        let new_steps = if steps {
+            let raw = LengthFit { model, data }.residuals_mm(&x);
+            let s = reading_steps(&raw, rows, med, scale, k);
+            corrected = apply_steps(data, rows, &s);
+            r = LengthFit { model, data: &corrected }.residuals_mm(&x);
+            s
+        } else {
+            Vec::new()
+        };
         flagged = (0..n).filter(|&i| !((r[i] - med).abs() <= k * scale)).collect();
         let new_keep: Vec<usize> = (0..n).filter(|i| flagged.binary_search(i).is_err()).collect();
-        if new_keep == keep {
+        let settled = new_keep == keep && new_steps == found;
+        keep = new_keep;
+        found = new_steps;
+        if settled {
             break;
         }
-        keep = new_keep;
     }
     let outliers: Vec<Outlier> = flagged.iter().map(|&i| Outlier { row: rows[i] + 1, residual_mm: r[i], robust_z: (r[i] - med) / scale }).collect();
-    Screen { runs: runs(&outliers), keep, outliers, x, scale_mm: scale, median_mm: med }
+    Screen { runs: runs(&outliers), keep, outliers, steps: found, corrected, x, scale_mm: scale, median_mm: med }
 }
 
 /// Most data rows between two outliers of one run: rows held out for testing, or a row of the
@@ -275,6 +473,50 @@ mod tests {
             assert!(rep.reason.contains(loss.name()));
         }
         assert!(Loss::parse("tukey").is_err());
+    }
+
+    /// Residuals of 200 rows (every other data row: the rest are test rows), unit-scale noise,
+    /// with rows 40..70 reading 8 too high then 60..70 12 too high (a slipping reading), and
+    /// rows 120..135 scattered ±8 (a disturbed stretch).
+    fn slipping(seed: u64) -> (Vec<f64>, Vec<usize>) {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let r = (0..200)
+            .map(|i| {
+                let noise: f64 = (0..12).map(|_| rng.random::<f64>()).sum::<f64>() - 6.0;
+                noise
+                    + match i {
+                        40..60 => 8.0,
+                        60..70 => 12.0,
+                        120..135 => 8.0 * if rng.random_bool(0.5) { 1.0 } else { -1.0 } * (1.0 + rng.random::<f64>()),
+                        _ => 0.0,
+                    }
+            })
+            .collect();
+        (r, (0..200).map(|i| 2 * i).collect())
+    }
+
+    #[test]
+    fn reading_steps_are_constant_offsets_and_a_disturbed_stretch_is_not_one() {
+        for seed in 0..20 {
+            let (r, rows) = slipping(seed);
+            let steps = reading_steps(&r, &rows, 0.0, 1.0, 6.0);
+            assert_eq!(steps.len(), 2, "seed {seed}: {steps:?}");
+            let (a, b) = (&steps[0], &steps[1]);
+            // Data rows are 1-based: sample 40 is data row 80 (0-based), 81 (1-based).
+            assert!(a.first_row.abs_diff(81) <= 4 && b.last_row.abs_diff(139) <= 4, "seed {seed}: {steps:?}");
+            assert!((a.offset_mm - 8.0).abs() < 4.0 * a.std_mm && (b.offset_mm - 12.0).abs() < 4.0 * b.std_mm, "seed {seed}: {steps:?}");
+            assert!(steps.iter().all(|s| s.last_row < 200), "the scattered stretch is no step: {steps:?}");
+            // Test rows take the offset of their nearest training row.
+            let test = Samples::new(vec![vec![0.0; 6]; 3], vec![0.0; 3]);
+            let corrected = apply_steps_nearest(&test, &[101, 135, 300], &rows, &steps);
+            assert!((corrected.l[0] + a.offset_mm * 1e-3).abs() < 1e-12 && (corrected.l[1] + b.offset_mm * 1e-3).abs() < 1e-12);
+            assert_eq!(corrected.l[2], 0.0);
+        }
+        let (r, rows) = slipping(0);
+        assert!(reading_steps(&r, &rows, 0.0, 1.0, 0.0).is_empty(), "no screen, no steps");
+        let clean: Vec<f64> = r.iter().enumerate().map(|(i, v)| if (40..70).contains(&i) || (120..135).contains(&i) { 0.0 } else { *v }).collect();
+        assert!(reading_steps(&clean, &rows, 0.0, 1.0, 6.0).is_empty());
     }
 
     #[test]

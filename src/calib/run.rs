@@ -21,7 +21,7 @@ use super::model::{CalibModel, SensorGuess};
 use super::optim::{covariance, History, LeastSquares, LevenbergMarquardt, NoObserver};
 use super::problem::{LengthFit, Samples};
 use super::rbf::RbfNetwork;
-use super::robust::{Loss, Outlier, OutlierRun};
+use super::robust::{Loss, Outlier, OutlierRun, ReadingStep};
 use super::tolerance::Tolerances;
 pub use super::truth::TruthFile;
 use crate::dataset::{Dataset, Split};
@@ -107,6 +107,9 @@ pub struct CalibOptions {
     /// Training rows more than this many robust standard deviations off the fit are outliers,
     /// kept out and listed ([`super::robust::screen`]); 0 keeps every row.
     pub outlier_k: f64,
+    /// Runs of outliers that are one constant offset of the reading are corrected and kept
+    /// ([`super::robust::reading_steps`]) instead of kept out.
+    pub reading_steps: bool,
     /// The loss of the least-squares methods (`lm`): squared, or Huber / Cauchy by IRLS.
     pub loss: Loss,
     /// Logging step of the joint angles, degrees, for the noise floor (default: from the data's
@@ -129,6 +132,7 @@ impl CalibOptions {
             loads: LoadOptions::default(),
             inertial: None,
             outlier_k: DEFAULT_OUTLIER_K,
+            reading_steps: true,
             loss: Loss::L2,
             angle_step_deg: None,
         }
@@ -231,6 +235,14 @@ pub struct CalibResult {
     pub outliers: Vec<Outlier>,
     #[serde(default)]
     pub outlier_runs: Vec<OutlierRun>,
+    /// Stretches whose readings were one constant offset off: corrected by it and kept. The
+    /// offsets belong to this acquisition (`predict` on new data does not apply them).
+    #[serde(default)]
+    pub reading_steps: Vec<ReadingStep>,
+    /// Test rows corrected by a reading step's offset (estimated from training rows): those
+    /// whose nearest training row in acquisition order is in the step.
+    #[serde(default)]
+    pub test_rows_in_steps: usize,
     /// Test rows beyond the same threshold around the calibrated model's training residuals.
     #[serde(default)]
     pub test_outliers: Vec<Outlier>,
@@ -536,8 +548,9 @@ fn stats(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorSt
 pub const SCREEN_ROWS_PER_PARAM: usize = 3;
 
 /// Stage "outliers": the training rows far off a robust fit ([`super::robust::screen`], the
-/// identifiable parameters refitted with the Cauchy loss at each pass) are taken out of the split; a nominal
-/// model's sensor is then placed again on the rows kept. `None` when the screen is off.
+/// identifiable parameters refitted with the Cauchy loss at each pass) are taken out of the split;
+/// readings in a reading step are corrected by its offset, in training and test rows alike; a
+/// nominal model's sensor is then placed again on the rows kept. `None` when the screen is off.
 pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<Option<super::robust::Screen>> {
     if opts.outlier_k <= 0.0 {
         return Ok(None);
@@ -551,11 +564,14 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
     let screen = {
         let m: &CalibModel = model;
         let refit = |d: &Samples, x: &[f64]| super::robust::screen_fit(m, d, x, opts.rank_tol);
-        super::robust::screen(m, &m.nominal, &split.train, &split.train_idx, opts.outlier_k, &refit)
+        super::robust::screen(m, &m.nominal, &split.train, &split.train_idx, opts.outlier_k, opts.reading_steps, &refit)
     };
-    if !screen.outliers.is_empty() {
+    if !screen.steps.is_empty() {
+        split.test = super::robust::apply_steps_nearest(&split.test, &split.test_idx, &split.train_idx, &screen.steps);
+    }
+    if !screen.outliers.is_empty() || !screen.steps.is_empty() {
         split.train_idx = screen.keep.iter().map(|&i| split.train_idx[i]).collect();
-        split.train = split.train.subset(&screen.keep);
+        split.train = screen.corrected.subset(&screen.keep);
         if matches!(opts.model, ModelSpec::Nominal { .. }) {
             *model = super::placement::place_sensor(opts, &split.train)?;
         }
@@ -631,6 +647,8 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut split = split_stage(data, opts)?;
     let mut model = super::placement::place_sensor(opts, &split.train)?;
     let screen = outlier_stage(&mut model, &mut split, opts)?;
+    // Test rows whose reading a step corrected.
+    let test_in_steps = samples(data, &split.test_idx).l.iter().zip(&split.test.l).filter(|(a, b)| a != b).count();
     if screen.is_none() && opts.outlier_k > 0.0 {
         warnings.push(format!(
             "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
@@ -725,7 +743,9 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         outlier_k: opts.outlier_k,
         robust_scale_mm: screen.as_ref().map_or(0.0, |s| s.scale_mm),
         outliers: screen.as_ref().map(|s| s.outliers.clone()).unwrap_or_default(),
-        outlier_runs: screen.map(|s| s.runs).unwrap_or_default(),
+        outlier_runs: screen.as_ref().map(|s| s.runs.clone()).unwrap_or_default(),
+        test_rows_in_steps: test_in_steps,
+        reading_steps: screen.map(|s| s.steps).unwrap_or_default(),
         test_outliers,
         loss: opts.loss,
         x,
@@ -794,6 +814,8 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
         robust_scale_mm: 0.0,
         outliers: Vec::new(),
         outlier_runs: Vec::new(),
+        reading_steps: Vec::new(),
+        test_rows_in_steps: 0,
         test_outliers: Vec::new(),
         loss: Loss::L2,
         x,

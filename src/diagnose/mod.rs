@@ -51,6 +51,9 @@ pub struct DiagnoseOptions {
     pub max_effects: usize,
     /// Robust outlier threshold, in MAD-based standard deviations.
     pub outlier_k: f64,
+    /// Runs of outliers that are one constant offset of the reading are corrected and kept
+    /// ([`crate::calib::robust::reading_steps`]).
+    pub reading_steps: bool,
     pub rank_tol: f64,
     pub seed: u64,
     /// Candidate effects; empty = every kind the data support.
@@ -75,6 +78,7 @@ impl DiagnoseOptions {
             min_gain: 0.02,
             max_effects: 4,
             outlier_k: 6.0,
+            reading_steps: true,
             rank_tol: crate::calib::run::DEFAULT_RANK_TOL,
             seed: 0,
             candidates: Vec::new(),
@@ -215,6 +219,10 @@ pub struct Diagnosis {
     /// its causes explains: they are in the final fit.
     #[serde(default)]
     pub explained_by_causes: Vec<usize>,
+    /// Stretches of the acquisition whose readings sit one constant offset off (the reading
+    /// jumped and stayed): a cause of the sensor, corrected and kept, not fitted by the model.
+    #[serde(default)]
+    pub reading_steps: Vec<crate::calib::robust::ReadingStep>,
     /// The data's own floor ([`crate::calib::floor`]): its total and a line naming its sources.
     pub noise_floor_mm: f64,
     pub noise_floor_source: String,
@@ -494,8 +502,13 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     all.inputs = row_inputs(data, torque.as_ref());
 
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&base, d, x, opts.rank_tol);
-    let screen = crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, &refit_rows);
-    let (keep, mut outliers, mut outlier_runs, x_base) = (screen.keep, screen.outliers, screen.runs, screen.x);
+    let screen = crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
+    let (keep, mut outliers, mut outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
+    // Readings in a reading step are taken corrected by its offset from here on.
+    all.l = screen.corrected.l;
+    for s in &reading_steps {
+        progress(&format!("reading step: rows {}-{} read {:+.2} ± {:.2} mm off; corrected and kept", s.first_row, s.last_row, s.offset_mm, s.std_mm));
+    }
     if !outliers.is_empty() {
         progress(&format!("{} outlier rows kept out of the fit: {:?}", outliers.len(), outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
     }
@@ -710,6 +723,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         outliers,
         outlier_runs,
         explained_by_causes: explained_rows,
+        reading_steps,
         noise_floor_mm,
         noise_floor_source,
         noise_floor,

@@ -186,6 +186,13 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
         d.seconds
     );
     s.push_str(&verdict_html(verdict));
+    if !d.reading_steps.is_empty() {
+        s.push_str("<h2>Reading steps</h2><p>Stretches of the acquisition whose readings sit one constant offset off (the reading jumped and stayed): corrected by the offset and kept.</p><table><tr><th>rows</th><th>offset (mm)</th><th>rows in the fit</th></tr>");
+        for st in &d.reading_steps {
+            let _ = write!(s, "<tr><td>{}–{}</td><td>{:+.3} ± {:.3}</td><td>{}</td></tr>", st.first_row, st.last_row, st.offset_mm, st.std_mm, st.rows);
+        }
+        s.push_str("</table>");
+    }
     s.push_str("<h2>Causes</h2>");
     if d.causes.is_empty() {
         s.push_str("<p>No effect improves the held-out fit significantly: the geometric model explains the data.</p>\n");

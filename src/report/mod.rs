@@ -179,16 +179,20 @@ impl CalibFigures {
     /// The figures of calibration `r` of `data` run with `opts` (for the train / test split).
     pub fn new(r: &CalibResult, data: &Dataset, opts: &CalibOptions) -> Result<CalibFigures> {
         let (mut train_idx, test_idx) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed)?;
+        // Readings in a reading step are shown corrected, as the calibration took them (test
+        // rows by their nearest training row).
+        let all: Vec<usize> = (0..data.rows.len()).collect();
+        let raw = all_samples(r, data);
+        let s = crate::calib::robust::apply_steps_nearest(&raw, &all, &train_idx, &r.reading_steps);
         // The calibration kept its training outliers out: so do its figures.
         train_idx.retain(|i| !r.outliers.iter().any(|o| o.row == i + 1));
         let mut train = vec![false; data.rows.len()];
         for &i in &train_idx {
             train[i] = true;
         }
-        let s = all_samples(r, data);
         let x0 = &r.model.nominal;
         let before_mm = LengthFit { model: &r.model, data: &s }.residuals_mm(x0);
-        let after_mm = residuals_after(r, data);
+        let after_mm: Vec<f64> = residuals_after(r, data).iter().zip(raw.l.iter().zip(&s.l)).map(|(v, (a, b))| v - (a - b) * 1e3).collect();
         let (tool_mm, exit_mm) = tool_points_and_exit(r, &s);
         let nc = r.model.n_chain();
 
@@ -283,7 +287,8 @@ pub struct DiagnosisFigures {
 
 impl DiagnosisFigures {
     pub fn new(d: &crate::diagnose::Diagnosis, r: &CalibResult, data: &Dataset) -> DiagnosisFigures {
-        let s = all_samples(r, data);
+        let all: Vec<usize> = (0..data.rows.len()).collect();
+        let s = crate::calib::robust::apply_steps(&all_samples(r, data), &all, &d.reading_steps);
         let fit = LengthFit { model: &r.model, data: &s };
         let after_mm = fit.residuals_mm(&r.x);
         let first = r.model.first_effect();
