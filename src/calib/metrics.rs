@@ -128,57 +128,27 @@ fn link_exact(q: &[[f64; 6]], rows: &[usize], uf: &mut UnionFind) {
     }
 }
 
-/// Single linkage within `tol` (Chebyshev) using a grid of cell size `tol`.
-///
-/// Rows in the same cell differ by less than `tol` on every joint, so they are linked directly.
-/// Rows within `tol` of each other always lie in the same or adjacent cells (key difference ≤ 1
-/// per joint), so each occupied cell only has to be compared with its lexicographically larger
-/// neighbours; the pairwise scan between two cells stops at the first linked pair.
+/// Union rows whose joint vectors are within `tol` on every joint: rows sorted along the joint
+/// with the most distinct values, each compared with the rows after it until that joint differs
+/// by more than `tol` (near-equal configurations are neighbours in that order).
 fn link_grid(q: &[[f64; 6]], rows: &[usize], tol: f64, uf: &mut UnionFind) {
-    let mut cells: BTreeMap<[i64; 6], Vec<usize>> = BTreeMap::new();
-    for &i in rows {
-        let key = q[i].map(|v| (v / tol).floor() as i64);
-        cells.entry(key).or_default().push(i);
-    }
-    for members in cells.values() {
-        for &j in &members[1..] {
-            uf.union(members[0], j);
-        }
-    }
+    let distinct = |k: usize| {
+        let mut v: Vec<f64> = rows.iter().map(|&i| q[i][k]).collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v.len()
+    };
+    let axis = (0..6).max_by_key(|&k| (distinct(k), std::cmp::Reverse(k))).unwrap_or(0);
+    let mut sorted = rows.to_vec();
+    sorted.sort_by(|&a, &b| q[a][axis].total_cmp(&q[b][axis]).then(a.cmp(&b)));
     let near = |a: usize, b: usize| q[a].iter().zip(&q[b]).all(|(x, y)| (x - y).abs() <= tol);
-    // Offsets in {−1,0,1}⁶ whose first non-zero entry is +1 (half of the 3⁶ − 1 neighbours).
-    let offsets: Vec<[i64; 6]> = (0..729)
-        .map(|mut c: i64| {
-            let mut o = [0i64; 6];
-            for v in o.iter_mut().rev() {
-                *v = c % 3 - 1;
-                c /= 3;
+    for (n, &i) in sorted.iter().enumerate() {
+        for &j in &sorted[n + 1..] {
+            if q[j][axis] - q[i][axis] > tol {
+                break;
             }
-            o
-        })
-        .filter(|o| o.iter().find(|&&v| v != 0) == Some(&1))
-        .collect();
-    for (key, a) in &cells {
-        for off in &offsets {
-            let mut nk = *key;
-            let mut ok = true;
-            for (k, o) in nk.iter_mut().zip(off) {
-                match k.checked_add(*o) {
-                    Some(v) => *k = v,
-                    None => ok = false,
-                }
-            }
-            let Some(b) = cells.get(&nk).filter(|_| ok) else { continue };
-            if uf.find(a[0]) == uf.find(b[0]) {
-                continue;
-            }
-            'scan: for &i in a {
-                for &j in b {
-                    if near(i, j) {
-                        uf.union(i, j);
-                        break 'scan;
-                    }
-                }
+            if near(i, j) {
+                uf.union(i, j);
             }
         }
     }
