@@ -1085,7 +1085,7 @@ pub struct CompareArgs {
 /// accuracy / time table and Wilcoxon signed-rank tests of each method against the first one,
 /// across seeds (test RMSE) and per sample (|test residual| of seed 0).
 pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
-    use crate::calib::run::{calibrate as run, split_rows, CalibOptions, Method};
+    use crate::calib::run::{calibrate as run, CalibOptions, Method};
     use crate::calib::stats::{mean_std, wilcoxon_signed_rank};
     use rayon::prelude::*;
     let (seeds, test_fraction, effort) = (a.seeds, a.test_fraction, a.effort);
@@ -1145,8 +1145,9 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
             o.seed = *seed;
             o.effort = effort;
             let r = run(&ds, None, &o)?;
-            let (_, test_idx) = split_rows(&ds, Some(frac), *seed)?;
-            let test_abs_residuals = test_idx.iter().map(|&i| (ds.rows[i].l_mm.unwrap_or(f64::NAN) - r.predict_mm(&ds.rows[i].q_deg)).abs()).collect();
+            // The residuals the calibration scored (with each row's inputs: temperature, flanks,
+            // torques; and reading steps), not a re-prediction from the angles alone.
+            let test_abs_residuals = r.test_residuals_mm.iter().map(|v| v.abs()).collect();
             bar.inc(1);
             Ok(CompareRun {
                 method: m.name().into(),

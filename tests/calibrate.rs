@@ -471,3 +471,28 @@ fn pso_ekf_awnn_cli_result_round_trips_and_is_reproducible() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("inconsistent"), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// `compare`'s per-sample test uses the residuals the calibration scored. A model with a
+/// thermal-drift block needs each row's temperature: predicting from the angles alone (what
+/// `compare` did) scores a different model. The residuals a result carries are exactly those of
+/// its test metrics, and they differ from the angles-only prediction.
+#[test]
+fn compare_scores_the_residuals_the_calibration_scored() {
+    use twincal::calib::effects::EffectKind;
+    let (mut s, robot) = Scenario::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_full.toml")).unwrap();
+    s.sampling.poses = 200;
+    s.sampling.test = 40;
+    let g = generate(&s, &robot, &Silent).unwrap();
+    let ds = g.dataset;
+    assert!(ds.rows.iter().all(|r| r.temp_c.is_some()), "the scenario logs temperature");
+    let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm);
+    o.effects = vec![(EffectKind::ThermalDrift, None)];
+    let r = calibrate(&ds, None, &o).unwrap();
+    let t = r.metrics.test_after.unwrap();
+    assert_eq!(r.test_residuals_mm.len(), t.n);
+    let rms = (r.test_residuals_mm.iter().map(|v| v * v).sum::<f64>() / t.n as f64).sqrt();
+    assert!((rms - t.rmse).abs() < 1e-12 * t.rmse.max(1.0), "{rms} vs {}", t.rmse);
+    let angles_only: Vec<f64> = r.test_rows.iter().map(|&i| ds.rows[i].l_mm.unwrap() - r.predict_mm(&ds.rows[i].q_deg)).collect();
+    let worst = angles_only.iter().zip(&r.test_residuals_mm).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(worst > 1e-3, "without the temperature the prediction should differ (by {worst} mm)");
+}

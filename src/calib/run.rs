@@ -264,6 +264,14 @@ pub struct CalibResult {
     /// Parameter values per iteration (display units), for convergence plots.
     #[serde(skip)]
     pub history: Vec<Vec<f64>>,
+    /// Measured minus predicted reading of each test row (mm, in `test_rows` order), exactly as
+    /// the metrics saw them: with the rows' inputs (time, temperature, flanks, torques) and
+    /// reading steps. Not stored in the file.
+    #[serde(skip)]
+    pub test_residuals_mm: Vec<f64>,
+    /// Data rows (0-based) of the test rows.
+    #[serde(skip)]
+    pub test_rows: Vec<usize>,
 }
 
 impl CalibResult {
@@ -701,6 +709,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let test_fit = LengthFit { model: &model, data: &split.test };
     let correct = corrector.as_ref().map(|c| c.as_correct());
     let mut metrics = metrics_stage(&fit, &test_fit, &x0, &x, correct);
+    let test_residuals_mm = residuals_with(&test_fit, &x, correct);
     let test_outliers = test_outlier_stage(&fit, &test_fit, &split.test_idx, &x, correct, opts.outlier_k);
     if !split.test.is_empty() {
         let out: Vec<usize> = test_outliers.iter().map(|o| o.row - 1).collect();
@@ -753,6 +762,8 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         legacy_rbf: None,
         torque_model: split.torque_model.clone(),
         history: history_disp,
+        test_residuals_mm,
+        test_rows: split.test_idx.clone(),
         model,
     })
 }
@@ -823,6 +834,8 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
         legacy_rbf: None,
         torque_model,
         history: Vec::new(),
+        test_residuals_mm: Vec::new(),
+        test_rows: Vec::new(),
         model,
     })
 }
