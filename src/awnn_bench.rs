@@ -107,7 +107,7 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
     };
     let left = LengthFit { model: &r.model, data: &clean }.residuals_mm(&r.x);
     let after: Vec<f64> = left.iter().zip(&clean.q).zip(&clean.inputs).map(|((d, q), inp)| d - r.correction_mm(q, inp)).collect();
-    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    use crate::calib::stats::rms;
     Some(TruthView { to_rigid: dist(&rigid), to_equivalent: dist(&eq), recovered: 1.0 - rms(&after) / rms(&left) })
 }
 

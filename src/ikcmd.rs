@@ -213,7 +213,7 @@ pub fn run_ik(label: &str, m: &IkModel, kind: JacobianKind, targets: &[Vector3<f
         })
         .collect();
     let seconds_per_query = t0.elapsed().as_secs_f64() / targets.len().max(1) as f64;
-    let median_seconds = median(&times);
+    let median_seconds = if times.is_empty() { 0.0 } else { crate::calib::stats::median(&times) };
     let true_error_mm =
         check.map(|c| solutions.iter().zip(targets).map(|(s, t)| if s.status == IkStatus::Invalid { 0.0 } else { (c.true_point(&s.q) - t).norm() }).collect());
     IkRun { label: label.into(), solutions, seconds_per_query, median_seconds, true_error_mm }
@@ -251,19 +251,6 @@ pub struct IkArgs {
     pub out: PathBuf,
 }
 
-/// Median of a slice (0 for an empty one).
-pub fn median(v: &[f64]) -> f64 {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    s.sort_by(f64::total_cmp);
-    if s.is_empty() {
-        0.0
-    } else if s.len() % 2 == 1 {
-        s[s.len() / 2]
-    } else {
-        0.5 * (s[s.len() / 2 - 1] + s[s.len() / 2])
-    }
-}
-
 /// Everything `ik` and `bench ik` compute: the calibrated model's runs per Jacobian, then (with a
 /// twin) the nominal and floor references with the hybrid Jacobian.
 pub fn ik_runs(r: &CalibResult, targets: &[Vector3<f64>], kinds: &[JacobianKind], o: &IkOptions, check: Option<&TwinCheck>) -> Vec<IkRun> {
@@ -293,7 +280,7 @@ pub fn table(runs: &[IkRun]) -> String {
             r.mean_iterations(),
             r.mean_residual(),
             r.median_seconds * 1e6,
-            te(&median),
+            te(&|v: &[f64]| if v.is_empty() { 0.0 } else { crate::calib::stats::median(v) }),
             te(&|v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64),
             te(&|v: &[f64]| v.iter().cloned().fold(0.0, f64::max)),
         ));

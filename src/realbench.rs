@@ -32,9 +32,7 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
     (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt())
 }
 
-fn median(v: &[f64]) -> f64 {
-    crate::calib::stats::median(v)
-}
+use crate::calib::stats::median;
 
 /// `twincal bench real`.
 pub fn bench_real(seeds: u64) -> Result<()> {

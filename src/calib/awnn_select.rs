@@ -174,9 +174,7 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     Ok(Selection { net, chosen, candidates, no_network_rmse_mm, fitted })
 }
 
-fn rms(v: &[f64]) -> f64 {
-    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
-}
+use super::stats::rms;
 
 /// The normal matrix of the first `ng` (geometric) columns and the network's: the network
 /// block gets `λ_n·G + λI` added (its output magnitude and a ridge), the geometric block a tiny
@@ -216,7 +214,7 @@ mod tests {
         let truth: Vec<f64> = qs.iter().map(|q| field(q)).collect();
         let rms = |v: &mut dyn Iterator<Item = f64>| {
             let v: Vec<f64> = v.collect();
-            (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+            rms(&v)
         };
         let after = rms(&mut qs.iter().zip(&truth).map(|(q, t)| t - sel.net.eval(q)));
         (after, rms(&mut truth.iter().copied()))

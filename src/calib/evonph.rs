@@ -178,7 +178,7 @@ impl<'a> Objective<'a> {
         let x0_free: Vec<f64> = free.iter().map(|&k| p.x0[k]).collect();
         let s_free: Vec<f64> = free.iter().map(|&k| p.prior_std[k]).collect();
         let y0 = fit.residuals_mm(p.x0);
-        let rms0 = (y0.iter().map(|v| v * v).sum::<f64>() / n.max(1) as f64).sqrt();
+        let rms0 = super::stats::rms(&y0);
         if !rms0.is_finite() || rms0 <= 0.0 {
             return Err(Error::Calibration("the starting residuals are not finite or all zero; nothing for the network to learn".into()));
         }

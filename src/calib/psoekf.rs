@@ -536,7 +536,7 @@ impl PsoEkfAwnn {
         // SGD runs on the residuals in units of their RMS (output weights scaled alike, exact
         // since the output is linear in them), so that the rates mean the same at any error size.
         let raw = p.fit.residuals_mm(x);
-        let scale = (raw.iter().map(|v| v * v).sum::<f64>() / raw.len().max(1) as f64).sqrt().max(1e-9);
+        let scale = super::stats::rms(&raw).max(1e-9);
         let target: Vec<f64> = raw.iter().map(|v| v / scale).collect();
         let mut net = net.clone();
         net.weights.iter_mut().for_each(|w| *w /= scale);

@@ -118,7 +118,7 @@ impl Folds {
     /// Held-out RMSE over all folds of the fit whose normal matrix is `system(Gram of the
     /// other folds)`; infinite when a system is not positive definite.
     pub fn cv_rmse(&self, system: impl Fn(&DMatrix<f64>) -> DMatrix<f64>) -> f64 {
-        self.cv_residuals(system).map_or(f64::INFINITY, |r| (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt())
+        self.cv_residuals(system).map_or(f64::INFINITY, |r| super::stats::rms(&r))
     }
 
     /// Every row's held-out residual (target minus the prediction of the fit on the other

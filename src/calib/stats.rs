@@ -167,6 +167,11 @@ pub fn erfc(x: f64) -> f64 {
     (-x * x).exp() / (std::f64::consts::PI.sqrt() * t)
 }
 
+/// Root mean square of `v` (0 for an empty slice): the one RMS of the project.
+pub fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
 /// Median of the non-NaN values of `v` (mean of the two middle values for even counts);
 /// `NaN` when there are none.
 pub fn median(v: &[f64]) -> f64 {

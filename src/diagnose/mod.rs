@@ -282,9 +282,7 @@ struct Fitted {
     n_free: usize,
 }
 
-fn rms(v: &[f64]) -> f64 {
-    (v.iter().map(|r| r * r).sum::<f64>() / v.len().max(1) as f64).sqrt()
-}
+use crate::calib::stats::rms;
 
 struct Ctx {
     /// The selection rows (kept rows less the confirmation set), with their inputs.

@@ -150,9 +150,7 @@ fn subset(s: &Samples, idx: &[usize]) -> Samples {
     Samples { q: idx.iter().map(|&i| s.q[i].clone()).collect(), l: idx.iter().map(|&i| s.l[i]).collect(), inputs: idx.iter().map(|&i| s.inputs[i]).collect() }
 }
 
-fn rms(r: &[f64]) -> f64 {
-    (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt()
-}
+use crate::calib::stats::rms;
 
 /// The arm of model `x` at row `row` (frames in mm).
 fn arm_pose(r: &CalibResult, x: &[f64], s: &Samples, row: usize) -> Option<ArmPose> {
