@@ -8,6 +8,7 @@ pub mod equivalent;
 pub mod evonph;
 pub mod export;
 pub mod floor;
+pub mod folds;
 pub mod generic;
 pub mod gkan;
 pub mod gkan_select;

@@ -31,7 +31,6 @@
 //! parallel but each candidate is independent, so results do not depend on the thread count.
 
 use nalgebra::{DMatrix, DVector};
-use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -158,17 +157,10 @@ impl RbfNetwork {
         if centers.is_empty() || ridges.is_empty() {
             return Err("rbf: empty candidate list".into());
         }
-        let k = CV_FOLDS.min(n);
-        let mut perm: Vec<usize> = (0..n).collect();
-        perm.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
-        let mut fold = vec![0usize; n];
-        for (pos, &i) in perm.iter().enumerate() {
-            fold[i] = pos % k;
-        }
-        let splits: Vec<Split> = (0..k)
-            .map(|f| {
-                let train: Vec<usize> = (0..n).filter(|&i| fold[i] != f).collect();
-                let test: Vec<usize> = (0..n).filter(|&i| fold[i] == f).collect();
+        let splits: Vec<Split> = super::folds::shuffled(n, CV_FOLDS.min(n), seed)
+            .into_iter()
+            .map(|test| {
+                let train = super::folds::others(n, &test);
                 (train.iter().map(|&i| x[i].clone()).collect(), train.iter().map(|&i| y[i]).collect(), test)
             })
             .collect();

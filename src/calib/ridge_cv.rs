@@ -2,7 +2,7 @@
 //! `A(BᵀB)` (the penalty is the caller's: a ridge, roughness rows, ...). Shared by the network
 //! choices of Evo-NPH ([`super::gkan_select`]) and PSO-EKF-AWNN ([`super::awnn_select`]).
 //!
-//! Folds interleave the rows (row i in fold i mod k, [`fold_rows`]), so each fold spans the whole
+//! Folds interleave the rows (row i in fold i mod k, [`super::folds::interleaved`]), so each fold spans the whole
 //! acquisition (time and temperature). Each fold's training Gram matrix is the total minus the
 //! fold's own, so a candidate penalty costs one Cholesky solve per fold.
 //!
@@ -43,7 +43,7 @@ impl GeometricFit {
         let per_fold = (0..FOLDS)
             .into_par_iter()
             .map(|f| {
-                let keep: Vec<usize> = (0..n).filter(|i| i % FOLDS != f).collect();
+                let keep = super::folds::others(n, &super::folds::interleaved(n, FOLDS)[f]);
                 let sub = Samples {
                     q: keep.iter().map(|&i| d.q[i].clone()).collect(),
                     l: keep.iter().map(|&i| d.l[i]).collect(),
@@ -55,11 +55,6 @@ impl GeometricFit {
             .collect();
         GeometricFit { residuals, jacobian: jac.select_columns(&free), per_fold }
     }
-}
-
-/// The rows of fold `f` of `k` among `n`.
-pub fn fold_rows(n: usize, k: usize, f: usize) -> Vec<usize> {
-    (0..n).filter(|i| i % k == f).collect()
 }
 
 /// One fold: Gram matrix and right-hand side of the other folds' rows, the fold's rows, and
@@ -99,8 +94,8 @@ impl Folds {
             .iter()
             .enumerate()
             .map(|(f, yf)| {
-                let rows = fold_rows(n, k, f);
-                let train: Vec<usize> = (0..n).filter(|i| i % k != f).collect();
+                let rows = super::folds::interleaved(n, k).swap_remove(f);
+                let train = super::folds::others(n, &rows);
                 let bt = basis.select_rows(&train);
                 let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| yf[i]));
                 let bf = basis.select_rows(&rows);
@@ -161,7 +156,7 @@ mod tests {
             let bt = basis.select_rows(&train);
             let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| yf[i]));
             let w = Cholesky::new(ridge(&(bt.transpose() * &bt))).unwrap().solve(&(bt.transpose() * yt));
-            for i in fold_rows(n, 3, f) {
+            for i in crate::calib::folds::interleaved(n, 3).swap_remove(f) {
                 let e = yf[i] - basis.row(i).dot(&w.transpose());
                 assert!((e - r[i]).abs() < 1e-12, "row {i}: {e} vs {}", r[i]);
             }

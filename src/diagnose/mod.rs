@@ -340,18 +340,6 @@ fn refit(model: &CalibModel, data: &Samples, x0: &[f64], rank_tol: f64) -> (Vec<
     (Ctx::lm().minimize(&fit, x0, &fixed, &mut NoObserver).x, fixed)
 }
 
-/// Contiguous blocks of `n` rows.
-fn blocked_folds(n: usize, k: usize) -> Vec<Vec<usize>> {
-    let k = k.clamp(2, n.max(2));
-    (0..k).map(|f| (f * n / k..(f + 1) * n / k).collect()).collect()
-}
-
-/// Every k-th of `n` rows: fold f holds rows f, f + k, f + 2k, ...
-fn interleaved_folds(n: usize, k: usize) -> Vec<Vec<usize>> {
-    let k = k.clamp(2, n.max(2));
-    (0..k).map(|f| (f..n).step_by(k).collect()).collect()
-}
-
 /// Blocked folds judge a diagnosis unless the baseline's blocked held-out RMSE exceeds the
 /// interleaved one by this factor: the acquisition blocks then cover different parts of the
 /// joint space (sweeps), and blocked folds measure extrapolation, not the model.
@@ -516,7 +504,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let every = if opts.confirm_fraction > 0.0 { (1.0 / opts.confirm_fraction).round().max(2.0) as usize } else { usize::MAX };
     let (sel_idx, conf_idx): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|i| i % every != every - 1);
     let (selection, confirmation) = (kept.subset(&sel_idx), kept.subset(&conf_idx));
-    let (blocked, interleaved) = (blocked_folds(selection.len(), opts.folds), interleaved_folds(selection.len(), opts.folds));
+    let (blocked, interleaved) = (crate::calib::folds::blocked(selection.len(), opts.folds), crate::calib::folds::interleaved(selection.len(), opts.folds));
     let mut ctx = Ctx { folds: blocked, other_folds: interleaved, data: selection, rank_tol: opts.rank_tol };
     let mut baseline = ctx.evaluate(base.clone(), &x_base);
     let other_oof = ctx.heldout(&baseline.model, &baseline.x, &baseline.fixed, &ctx.other_folds);
