@@ -112,7 +112,7 @@ pub fn map_truth(model: &CalibModel, robot: &Robot, truth: &TruthFile, q: &[Vec<
     x[nc + 4..nc + 7].copy_from_slice(&truth.tool.point_mm.map(|v| v * 1e-3));
     let fixed: Vec<bool> = (0..model.n_params()).map(|k| k >= nc).collect();
     let problem = PoseMatch { model, target, q, local };
-    let lm = LevenbergMarquardt { max_iter: 200, ..Default::default() };
+    let lm = LevenbergMarquardt::budget(200);
     let mapped = lm.minimize(&problem, &x, &fixed, &mut NoObserver).x;
     mapped.iter().all(|v| v.is_finite()).then_some(mapped)
 }
@@ -128,7 +128,7 @@ pub fn truth_equivalent(model: &CalibModel, robot: &Robot, truth: &TruthFile, cl
         }
     }
     let fit = LengthFit { model, data: clean };
-    let lm = LevenbergMarquardt { max_iter: 500, ..Default::default() };
+    let lm = LevenbergMarquardt::budget(500);
     let eq = lm.minimize(&fit, &x, fixed, &mut NoObserver).x;
     eq.iter().all(|v| v.is_finite()).then_some(eq)
 }

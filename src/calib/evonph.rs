@@ -521,7 +521,7 @@ impl EvoNphSolver {
         let mut evaluations = de_report.evaluations;
         if self.polish && self.variant != EvoVariant::Sequential {
             let ls = JointLs { obj: &obj };
-            let lm = LevenbergMarquardt { max_iter: 100, ..Default::default() };
+            let lm = LevenbergMarquardt::budget(100);
             let rep = lm.minimize(&ls, &z, &vec![false; dim], &mut NoObserver);
             if rep.x.iter().all(|v| v.is_finite()) && obj.cost(&rep.x) <= de_objective {
                 z = rep.x;

@@ -220,7 +220,7 @@ pub fn rechart(model: &CalibModel, x: &[f64]) -> CalibModel {
 /// [`SETTLED_ITER`] iterations (at most [`MAX_CHARTS`] charts): (cost, the model with its
 /// polished vector as nominal, settled).
 pub fn converge(model: &CalibModel, data: &Samples, rank_tol: f64) -> (f64, CalibModel, bool) {
-    let lm = LevenbergMarquardt { max_iter: CHART_ITER, ..Default::default() };
+    let lm = LevenbergMarquardt::budget(CHART_ITER);
     let mut m = model.clone();
     for _ in 0..MAX_CHARTS {
         let (cost, x, settled) = fit(&m, data, &lm, rank_tol);
@@ -265,7 +265,7 @@ pub fn search(train: &Samples, opts: &CalibOptions) -> Result<CalibModel> {
         .collect();
     for &(keep, rows, iters) in &STAGES {
         let data = every(rows);
-        let lm = LevenbergMarquardt { max_iter: iters, ftol: 1e-8, xtol: 1e-10, ..Default::default() };
+        let lm = LevenbergMarquardt::budget(iters).tolerances(1e-8, 1e-10);
         pool = pool
             .into_par_iter()
             .map(|(_, i, model)| {

@@ -160,7 +160,7 @@ pub struct LmSolver {
 
 impl Default for LmSolver {
     fn default() -> Self {
-        LmSolver { lm: LevenbergMarquardt { max_iter: 2000, ..Default::default() }, loss: super::robust::Loss::L2 }
+        LmSolver { lm: LevenbergMarquardt::budget(2000), loss: super::robust::Loss::L2 }
     }
 }
 

@@ -65,7 +65,7 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
             let nc = model.n_chain();
             let fixed: Vec<bool> = (0..model.n_params()).map(|k| k < nc).collect();
             let fit = LengthFit { model: &model, data: train };
-            let lm = LevenbergMarquardt { max_iter: 200, ..Default::default() };
+            let lm = LevenbergMarquardt::budget(200);
             let x = lm.minimize(&fit, &model.nominal, &fixed, &mut NoObserver).x;
             if x.iter().all(|v| v.is_finite()) {
                 model.nominal = x;

@@ -243,7 +243,7 @@ pub struct Screen {
 pub fn screen_fit(model: &CalibModel, data: &Samples, x: &[f64], rank_tol: f64) -> Vec<f64> {
     let fit = LengthFit { model, data };
     let fixed = super::run::identify(&fit, x, rank_tol).fixed_mask;
-    let lm = LevenbergMarquardt { max_iter: 200, ftol: 1e-9, xtol: 1e-9, ..Default::default() };
+    let lm = LevenbergMarquardt::budget(200).tolerances(1e-9, 1e-9);
     irls(&lm, &fit, x, &fixed, Loss::Cauchy, &mut NoObserver).x
 }
 

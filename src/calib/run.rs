@@ -518,7 +518,7 @@ pub fn estimate_noise(fit: &LengthFit, x0: &[f64], fixed: &[bool], repeat: Optio
     if let Some(r) = repeat.filter(|r| r.groups >= 5 && r.pooled_std > 0.0) {
         return r.pooled_std;
     }
-    let x = LevenbergMarquardt { max_iter: 100, ..Default::default() }.minimize(fit, x0, fixed, &mut NoObserver).x;
+    let x = LevenbergMarquardt::budget(100).minimize(fit, x0, fixed, &mut NoObserver).x;
     residual_sigma(fit, &x, fixed)
 }
 

@@ -296,7 +296,7 @@ struct Ctx {
 impl Ctx {
     fn lm() -> LevenbergMarquardt {
         // Held-out residuals need a few significant digits, not the last one.
-        LevenbergMarquardt { max_iter: 100, ftol: 1e-9, xtol: 1e-9, ..Default::default() }
+        LevenbergMarquardt::budget(100).tolerances(1e-9, 1e-9)
     }
 
     /// Fits `model` from `x0` on every selection row (identifiable parameters only), then the

@@ -179,6 +179,16 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl LevenbergMarquardt {
+    /// The default settings with a budget of `max_iter` outer iterations: how every fit in
+    /// twincal names its settings (with [`Self::tolerances`] where it stops earlier).
+    pub fn budget(max_iter: usize) -> Self {
+        LevenbergMarquardt { max_iter, ..Default::default() }
+    }
+    /// These settings with relative cost and step tolerances `ftol`, `xtol`.
+    pub fn tolerances(self, ftol: f64, xtol: f64) -> Self {
+        LevenbergMarquardt { ftol, xtol, ..self }
+    }
+
     /// Minimise `½‖r(x)‖²` from `x0`. Parameters with `fixed[k] == true` stay exactly at `x0[k]`
     /// (a `fixed` slice shorter than `x0` leaves the remaining parameters free).
     ///
