@@ -108,7 +108,7 @@ pub fn map_truth(model: &CalibModel, robot: &Robot, truth: &TruthFile, q: &[Vec<
     x[..nc].iter_mut().for_each(|v| *v = 0.0);
     let s = &truth.sensor;
     x[nc..nc + 3].copy_from_slice(&s.exit_point_mm.map(|v| v * 1e-3));
-    x[nc + 3] = s.length_offset_mm * 1e-3;
+    x[model.length_offset_index()] = s.length_offset_mm * 1e-3;
     x[nc + 4..nc + 7].copy_from_slice(&truth.tool.point_mm.map(|v| v * 1e-3));
     let fixed: Vec<bool> = (0..model.n_params()).map(|k| k >= nc).collect();
     let problem = PoseMatch { model, target, q, local };

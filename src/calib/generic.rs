@@ -174,8 +174,8 @@ fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[
     let mut model = model_around(&frames_of(lines), q_ref, &guess);
     let mut w = model.work();
     let misfit: Vec<f64> = data.q.iter().zip(&data.l).map(|(q, l)| l - model.predict(&model.nominal, q, &mut w)).collect();
-    let nc = model.n_chain();
-    model.nominal[nc + 3] = super::stats::median(&misfit);
+    let k = model.length_offset_index();
+    model.nominal[k] = super::stats::median(&misfit);
     model.nominal.iter().all(|v| v.is_finite()).then_some(model)
 }
 

@@ -126,8 +126,7 @@ pub struct IkModel<'a> {
 
 impl<'a> IkModel<'a> {
     pub fn new(model: &'a CalibModel, x: &'a [f64], corrector: Option<&'a dyn Correct>, limits: Vec<(f64, f64)>) -> IkModel<'a> {
-        let nc = model.n_chain();
-        let exit = Vector3::new(x[nc], x[nc + 1], x[nc + 2]);
+        let exit = model.placement(x).exit;
         let mut m = IkModel { model, x, corrector, limits, inp: RowInputs::default(), exit, reach_mm: f64::INFINITY };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let mut w = model.work();

@@ -62,6 +62,18 @@ pub struct CalibModel {
     pub effects: Vec<EffectBlock>,
 }
 
+/// Where the instrument sits in a parameter vector: the draw-wire's exit point (base frame), its
+/// length offset and the tool point (flange frame), metres. See [`CalibModel::placement`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    pub exit: Vector3<f64>,
+    pub length_offset: f64,
+    pub tool: Vector3<f64>,
+}
+
+/// Index of the length offset among [`SENSOR_PARAMS`].
+pub const LENGTH_OFFSET: usize = 3;
+
 /// Reusable buffers for model evaluations.
 pub struct ModelWork {
     pub fk: FkWork,
@@ -79,6 +91,15 @@ impl CalibModel {
     }
     pub fn work(&self) -> ModelWork {
         ModelWork { fk: FkWork::new(&self.chain), jac: PointJacobian::new(&self.chain), eff: EffectState::default(), q: vec![0.0; self.chain.n_joints] }
+    }
+    /// The instrument placement held in `x` (the public way to read it: no index arithmetic).
+    pub fn placement(&self, x: &[f64]) -> Placement {
+        let nc = self.n_chain();
+        Placement { exit: Vector3::new(x[nc], x[nc + 1], x[nc + 2]), length_offset: x[nc + LENGTH_OFFSET], tool: Vector3::new(x[nc + 4], x[nc + 5], x[nc + 6]) }
+    }
+    /// Index of the length offset in the parameter vector.
+    pub fn length_offset_index(&self) -> usize {
+        self.n_chain() + LENGTH_OFFSET
     }
     /// Index of the first effect parameter.
     pub fn first_effect(&self) -> usize {

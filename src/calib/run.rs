@@ -427,21 +427,15 @@ fn check_joint_limits(data: &Dataset, robot: &Robot) -> Result<()> {
 }
 
 /// Stage "effects": adds the requested effect blocks to the model and gives every sample the
-/// per-row inputs they need (computed over the whole file in acquisition order, then split).
-pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Dataset, opts: &CalibOptions) -> Result<()> {
-    effects_stage_for(model, split, data, opts, false)
-}
-
-/// [`effects_stage`]; with `inputs` the rows get their inputs (and the result its torque model)
-/// even without effect blocks, for a solver that reads them ([`Solver::needs_row_inputs`]).
-pub fn effects_stage_for(model: &mut CalibModel, split: &mut SplitData, data: &Dataset, opts: &CalibOptions, inputs: bool) -> Result<()> {
+/// per-row inputs they need (computed over the whole file in acquisition order, then split);
+/// with `inputs` the rows get their inputs (and the result its torque model) even without
+/// effect blocks, for a solver that reads them ([`Solver::needs_row_inputs`]).
+pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Dataset, opts: &CalibOptions, inputs: bool) -> Result<()> {
     if opts.effects.is_empty() && !inputs {
         return Ok(());
     }
-    let nc = model.n_chain();
     let x = &model.nominal;
-    let exit = nalgebra::Vector3::new(x[nc], x[nc + 1], x[nc + 2]);
-    let tool = nalgebra::Vector3::new(x[nc + 4], x[nc + 5], x[nc + 6]);
+    let super::model::Placement { exit, tool, .. } = model.placement(x);
     let robot = opts.inertial_robot();
     let torque = robot.map(|r| super::inputs::TorqueModel::new(r, &opts.loads, exit, tool));
     let all = super::inputs::row_inputs(data, torque.as_ref());
@@ -662,7 +656,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
             "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
         ));
     }
-    effects_stage_for(&mut model, &mut split, data, opts, solver.needs_row_inputs())?;
+    effects_stage(&mut model, &mut split, data, opts, solver.needs_row_inputs())?;
     let x0 = model.nominal.clone();
     let fit = LengthFit { model: &model, data: &split.train };
     let id = identify(&fit, &x0, opts.rank_tol);

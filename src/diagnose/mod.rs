@@ -478,9 +478,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     copts.seed = opts.seed;
     let split = split_stage(data, &copts)?;
     let base = crate::calib::placement::place_sensor(&copts, &split.train)?;
-    let nc = base.n_chain();
-    let exit = nalgebra::Vector3::new(base.nominal[nc], base.nominal[nc + 1], base.nominal[nc + 2]);
-    let tool = nalgebra::Vector3::new(base.nominal[nc + 4], base.nominal[nc + 5], base.nominal[nc + 6]);
+    let crate::calib::model::Placement { exit, tool, .. } = base.placement(&base.nominal);
     let robot = opts.inertial_robot();
     let has_torques = robot.is_some();
     let torque = robot.map(|r| TorqueModel::new(r, &opts.loads, exit, tool));

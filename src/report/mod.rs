@@ -134,8 +134,7 @@ fn mm3(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
 fn tool_points_and_exit(r: &CalibResult, s: &Samples) -> (Vec<[f64; 3]>, [f64; 3]) {
     let mut w = r.model.work();
     let tool_mm = (0..s.len()).map(|i| mm3(&r.model.tool_point_with(&r.x, &s.q[i], &s.inputs[i], &mut w))).collect();
-    let nc = r.model.n_chain();
-    (tool_mm, [r.x[nc] * 1e3, r.x[nc + 1] * 1e3, r.x[nc + 2] * 1e3])
+    (tool_mm, mm3(&r.model.placement(&r.x).exit))
 }
 
 /// Every row of `data` as samples with the model's per-row inputs (torques, flanks, time).

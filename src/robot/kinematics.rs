@@ -229,11 +229,6 @@ impl Chain {
     pub fn joint_op(&self, j: usize) -> Option<usize> {
         self.ops.iter().position(|o| o.joint == Some(j))
     }
-
-    /// Index of a parameter by name.
-    pub fn param_index(&self, name: &str) -> Option<usize> {
-        self.param_names.iter().position(|n| n == name)
-    }
 }
 
 /// Helper to build chains operation by operation.
