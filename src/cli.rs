@@ -262,11 +262,11 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
                 if seeds.is_some() {
                     return Err(Error::Invalid("--seeds applies to bench dsade, not bench ik".into()));
                 }
-                return crate::evobench::bench_ik(repeat);
+                return crate::bench::evo::bench_ik(repeat);
             }
             let seeds = seeds.unwrap_or(30);
             check_seeds(seeds)?;
-            crate::evobench::bench_dsade(repeat, seeds)
+            crate::bench::evo::bench_dsade(repeat, seeds)
         }
         BenchTarget::Awnn => {
             if scenario.is_some() || compare {
@@ -274,7 +274,7 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             }
             let seeds = seeds.unwrap_or(5);
             check_seeds(seeds)?;
-            crate::awnn_bench::bench_awnn(repeat, seeds, quiet)
+            crate::bench::awnn::bench_awnn(repeat, seeds, quiet)
         }
         BenchTarget::Real => {
             if scenario.is_some() || compare {
@@ -282,7 +282,7 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             }
             let seeds = seeds.unwrap_or(5);
             check_seeds(seeds)?;
-            crate::realbench::bench_real(seeds)
+            crate::bench::real::bench_real(seeds)
         }
     }
 }

@@ -9,18 +9,16 @@
 // both idioms.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod awnn_bench;
+pub mod bench;
 pub mod calib;
 pub mod cli;
 pub mod dataset;
 pub mod diagnose;
 pub mod effects;
 pub mod error;
-pub mod evobench;
 pub mod generate;
 pub mod ikcmd;
 pub mod io;
-pub mod realbench;
 pub mod report;
 pub mod robot;
 pub mod scenario;

@@ -114,7 +114,7 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
 /// `twincal bench awnn`.
 pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
     let (base, robot) =
-        Scenario::from_toml(include_str!("../scenarios/irb120_pso_ekf.toml"), "irb120_pso_ekf").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
+        Scenario::from_toml(include_str!("../../scenarios/irb120_pso_ekf.toml"), "irb120_pso_ekf").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
     let spec = ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: "hayati".into() };
     let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-awnn-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let gen = |seed: u64| -> Result<(Dataset, TruthFile)> {
