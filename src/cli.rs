@@ -1227,9 +1227,9 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
 pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> {
     check_repeat(repeat)?;
     check_seeds(seeds)?;
-    use crate::calib::optim::LeastSquares;
     use crate::calib::problem::LengthFit;
     use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
+    use crate::optim::LeastSquares;
     use rayon::prelude::*;
     let (base, robot) =
         Scenario::from_toml(include_str!("../scenarios/irb120_geometric.toml"), "irb120_geometric").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;

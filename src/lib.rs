@@ -19,6 +19,7 @@ pub mod error;
 pub mod generate;
 pub mod ikcmd;
 pub mod io;
+pub mod optim;
 pub mod report;
 pub mod robot;
 pub mod scenario;

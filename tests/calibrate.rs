@@ -151,14 +151,14 @@ impl twincal::calib::method::Solver for FarOff {
     fn method(&self) -> Method {
         Method::Lm
     }
-    fn solve(&self, p: &twincal::calib::method::Problem, obs: &mut dyn twincal::calib::optim::Observer) -> twincal::Result<twincal::calib::method::Solution> {
+    fn solve(&self, p: &twincal::calib::method::Problem, obs: &mut dyn twincal::optim::Observer) -> twincal::Result<twincal::calib::method::Solution> {
         let mut x0 = p.x0.to_vec();
         for name in ["joint_2.theta", "joint_3.theta", "joint_5.theta"] {
             if let Some(k) = p.fit.model.index(name) {
                 x0[k] += self.0.to_radians();
             }
         }
-        let lm = twincal::calib::optim::LevenbergMarquardt { max_iter: 500, ..Default::default() };
+        let lm = twincal::optim::LevenbergMarquardt { max_iter: 500, ..Default::default() };
         Ok(twincal::calib::method::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), corrector: None })
     }
 }
@@ -168,9 +168,9 @@ impl twincal::calib::method::Solver for FarOff {
 /// own estimate would have agreed with it.
 #[test]
 fn truth_comparison_catches_a_calibration_started_far_off() {
-    use twincal::calib::optim::{LevenbergMarquardt, NoObserver};
     use twincal::calib::problem::{LengthFit, Samples};
     use twincal::calib::run::calibrate_with;
+    use twincal::optim::{LevenbergMarquardt, NoObserver};
     let (_, ds, truth) = geometric();
     // Joint zeros started 120° off: LM lands on another description of the arm that fits the
     // lengths as well as the truth does, with parameters far from the truth's.

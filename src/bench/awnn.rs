@@ -4,7 +4,6 @@
 //! rate, and HSR-RobotCali against its repeatability floor when the data are present.
 
 use crate::calib::method::{Method, Problem, Solution, Solver};
-use crate::calib::optim::Observer;
 use crate::calib::problem::{LengthFit, Samples};
 use crate::calib::psoekf::{Ablation, Hyper, NetStart, PsoEkfAwnn};
 use crate::calib::run::{calibrate_with, split_stage, CalibOptions, CalibResult, ModelSpec, TruthFile};
@@ -12,6 +11,7 @@ use crate::calib::stats::{mean_std, median};
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::generate::{generate, write_outputs, Silent};
+use crate::optim::Observer;
 use crate::scenario::Scenario;
 use std::path::Path;
 use std::sync::Mutex;

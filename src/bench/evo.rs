@@ -4,13 +4,13 @@
 use crate::calib::evonph::{EvoNphSolver, EvoRun, EvoVariant};
 use crate::calib::ik::{IkModel, JacobianKind};
 use crate::calib::method::Problem;
-use crate::calib::optim::{DeVariant, NoObserver};
 use crate::calib::problem::LengthFit;
 use crate::calib::run::{calibrate_with, CalibOptions, CalibResult, Method, ModelSpec, TruthFile};
 use crate::calib::stats::{mean_std, median};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::ikcmd::{ik_runs, table, TwinCheck};
+use crate::optim::{DeVariant, NoObserver};
 use crate::scenario::Scenario;
 use std::path::Path;
 use std::time::Instant;

@@ -16,9 +16,9 @@
 //!    calibration.
 
 use super::model::CalibModel;
-use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use super::problem::{LengthFit, Samples};
 use super::truth::TruthFile;
+use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
 use crate::robot::Robot;
 use nalgebra::{DMatrix, Vector3};

@@ -62,9 +62,9 @@ use super::corrector::Corrector;
 use super::gkan::{Gkan, GkanShape, Mlp};
 use super::gkan_select::{penalty_gram, penalty_rows, select, Selection};
 use super::method::{Method, Problem, Solution, Solver};
-use super::optim::{Bounds, Cost, De, DeVariant, Event, LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use super::problem::LengthFit;
 use crate::error::{Error, Result};
+use crate::optim::{Bounds, Cost, De, DeVariant, Event, LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use nalgebra::{DMatrix, DVector};
 
 /// Which Evo-NPH variant (see the module docs).

@@ -24,10 +24,10 @@
 //! result does not depend on the number of threads.
 
 use super::model::{CalibModel, Kind, SensorGuess, SENSOR_PARAMS};
-use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use super::problem::{LengthFit, Samples};
 use super::run::CalibOptions;
 use crate::error::{Error, Result};
+use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use crate::robot::kinematics::{ChainBuilder, Frame};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::{Rng, SeedableRng};

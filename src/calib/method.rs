@@ -8,11 +8,11 @@
 
 use super::corrector::Corrector;
 use super::evonph::{EvoNphSolver, EvoVariant};
-use super::optim::{Bounds, Ekf, LeastSquares, LevenbergMarquardt, Observer, ParticleFilter, Pso, Report};
 use super::problem::{FreeCost, LengthFit};
 use super::psoekf::{Ablation, PsoEkfAwnn};
 use super::rbf::RbfNetwork;
 use crate::error::{Error, Result};
+use crate::optim::{Bounds, Ekf, LeastSquares, LevenbergMarquardt, Observer, ParticleFilter, Pso, Report};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -255,9 +255,9 @@ struct Expand<'a, 'b> {
 }
 
 impl Observer for Expand<'_, '_> {
-    fn observe(&mut self, e: &super::optim::Event) {
+    fn observe(&mut self, e: &crate::optim::Event) {
         let x = self.cost.expand(e.x);
-        self.inner.observe(&super::optim::Event { x: &x, ..e.clone() });
+        self.inner.observe(&crate::optim::Event { x: &x, ..e.clone() });
     }
 }
 

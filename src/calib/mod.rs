@@ -18,7 +18,6 @@ pub mod inputs;
 pub mod method;
 pub mod metrics;
 pub mod model;
-pub mod optim;
 pub mod placement;
 pub mod problem;
 pub mod psoekf;

@@ -4,10 +4,10 @@
 //! for the generic 6R model, a global search for the whole structure ([`super::generic`]).
 
 use super::model::{CalibModel, SensorGuess};
-use super::optim::{LevenbergMarquardt, NoObserver};
 use super::problem::{LengthFit, Samples};
 use super::run::{CalibOptions, ModelSpec};
 use crate::error::{Error, Result};
+use crate::optim::{LevenbergMarquardt, NoObserver};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Exit point and length offset by linear multilateration from known tool points (m):

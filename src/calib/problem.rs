@@ -4,7 +4,7 @@
 
 use super::effects::RowInputs;
 use super::model::{CalibModel, ModelWork};
-use super::optim::{Cost, LeastSquares, Observations};
+use crate::optim::{Cost, LeastSquares, Observations};
 use nalgebra::DMatrix;
 use std::cell::RefCell;
 

@@ -12,8 +12,8 @@
 //! rows' residuals to the others' — a flexible basis then "predicts" them, most of all when a
 //! fold has about as many rows as the model has parameters.
 
-use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use super::problem::{LengthFit, Samples};
+use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use nalgebra::{Cholesky, DMatrix, DVector};
 use rayon::prelude::*;
 

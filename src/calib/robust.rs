@@ -14,10 +14,10 @@
 //!   weights from the residuals over a robust scale re-estimated at every pass.
 
 use super::model::CalibModel;
-use super::optim::{LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use super::problem::{LengthFit, Samples};
 use super::stats::median;
 use crate::error::{Error, Result};
+use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 

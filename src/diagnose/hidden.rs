@@ -11,12 +11,12 @@
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
 use crate::calib::inputs::{row_inputs, LoadOptions, TorqueModel};
 use crate::calib::model::{CalibModel, SensorGuess};
-use crate::calib::optim::LeastSquares;
 use crate::calib::problem::{LengthFit, Samples};
 use crate::dataset::{Dataset, Row};
 use crate::effects::{Backlash, Compliance, Eccentricity, Thermal};
 use crate::error::{Error, Result};
 use crate::generate::{acquisition_times, sample_poses};
+use crate::optim::LeastSquares;
 use crate::robot::Robot;
 use crate::scenario::Scenario;
 use nalgebra::{DMatrix, DVector};
