@@ -2,12 +2,12 @@
 //! inline SVG plots, no scripts and no external resources, so it opens offline in any browser
 //! and prints as it shows.
 
+use super::histogram;
 use super::svg::{error_bars, esc, histograms, plot, Series};
 use super::verdict::Verdict;
 use super::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group};
 use crate::calib::metrics::ErrorStats;
 use crate::calib::run::CalibResult;
-use crate::viz::histogram;
 use std::fmt::Write as _;
 
 const BEFORE: &str = "#9a9a9a";

@@ -1,7 +1,7 @@
 //! Static SVG plots for the HTML report: scatter, line, histogram and error-bar plots with
 //! real axes. Plain text, no scripts, no external resources; they print as they show.
 
-use crate::viz::plot::{nice_ticks, padded_range, tick_label};
+use super::ticks::{nice_ticks, padded_range, tick_label};
 use std::fmt::Write as _;
 
 const W: f64 = 520.0;

@@ -291,37 +291,8 @@ pub fn colormap_legend(title: &str, vmax: f64, unit: &str, steps: usize) -> Stri
     s
 }
 
-/// Histogram of `values` in `bins` equal bins over `[lo, hi]`; returns `(edges, counts)` with
-/// `edges.len() == bins + 1` and `counts.len() == bins`.
-///
-/// Like numpy: bins are half-open `[e_i, e_{i+1})` except the last, which includes `hi`; values
-/// outside `[lo, hi]` and `NaN`s are not counted. If `bins == 0`, or `lo < hi` does not hold with
-/// both finite, every count is zero (and with `bins == 0` both vectors are empty).
-pub fn histogram(values: &[f64], bins: usize, lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
-    if bins == 0 {
-        return (Vec::new(), Vec::new());
-    }
-    let edges: Vec<f64> = (0..=bins).map(|i| if i == bins { hi } else { lo + (hi - lo) * i as f64 / bins as f64 }).collect();
-    let mut counts = vec![0.0; bins];
-    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        return (edges, counts);
-    }
-    let width = (hi - lo) / bins as f64;
-    for &v in values {
-        if !(lo..=hi).contains(&v) {
-            continue; // also skips NaN
-        }
-        let mut i = (((v - lo) / width).floor() as usize).min(bins - 1);
-        // Guard against rounding placing v one bin off its edges.
-        if v < edges[i] && i > 0 {
-            i -= 1;
-        } else if i + 1 < bins && v >= edges[i + 1] {
-            i += 1;
-        }
-        counts[i] += 1.0;
-    }
-    (edges, counts)
-}
+/// Histograms are figure data, shared with the HTML reports: they live in [`crate::report`].
+pub use crate::report::histogram;
 
 #[cfg(test)]
 mod tests {
