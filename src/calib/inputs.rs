@@ -94,21 +94,14 @@ pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs
         }
     }
     let threshold = torque.map(|t| t.torque_threshold_nm).unwrap_or(f64::INFINITY);
-    // Approach flanks in file order from the home pose, then the load rule.
-    let mut prev = [0.0f64; 6];
-    let mut approach = [-1.0f64; 6];
+    // Approach flanks in file order from the home pose (the twin's rule), then the load rule.
+    let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.to_vec()).collect();
+    let approach = crate::effects::approach_sides(&[0.0; 6], &poses);
     for i in 0..n {
-        let q = data.rows[i].q_deg;
         for j in 0..6 {
-            if q[j] > prev[j] {
-                approach[j] = -1.0;
-            } else if q[j] < prev[j] {
-                approach[j] = 1.0;
-            }
             let tau = out[i].torque[j];
-            out[i].side[j] = if tau.abs() > threshold { tau.signum() } else { approach[j] };
+            out[i].side[j] = if tau.abs() > threshold { tau.signum() } else { approach[i][j] };
         }
-        prev = q;
     }
     out
 }
@@ -156,4 +149,27 @@ pub fn time_span(data: &Dataset) -> f64 {
         return 0.0;
     }
     ts.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - ts.iter().cloned().fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::Row;
+
+    /// With no load model the flanks are the approach flanks, by the twin's own rule: a joint
+    /// that last moved up rests on its negative flank, one that did not move keeps its flank.
+    #[test]
+    fn row_flanks_follow_the_twins_approach_rule() {
+        let q1 = [10.0, 10.0, 5.0, 20.0, -3.0];
+        let rows: Vec<Row> = q1.iter().map(|&a| Row { q_deg: [a, 0.0, -a, 0.0, 0.0, 0.0], l_mm: Some(500.0), t_s: None, temp_c: None, split: None }).collect();
+        let data = Dataset { rows, source: "test".into() };
+        let inp = row_inputs(&data, None);
+        let side = |j: usize| inp.iter().map(|r| r.side[j]).collect::<Vec<f64>>();
+        assert_eq!(side(0), vec![-1.0, -1.0, 1.0, -1.0, 1.0]);
+        assert_eq!(side(2), vec![1.0, 1.0, -1.0, 1.0, -1.0]);
+        assert_eq!(side(1), vec![-1.0; 5], "a joint that never moves stays on its starting flank");
+        let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
+        let twin = crate::twin::approach_sides(&[0.0; 6], &poses);
+        assert!(inp.iter().zip(&twin).all(|(r, t)| r.side.iter().zip(t).all(|(a, b)| a == b)));
+    }
 }

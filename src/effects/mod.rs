@@ -272,6 +272,30 @@ impl Effects {
     }
 }
 
+/// Backlash approach flanks for a sequence of commanded poses (any angle unit: only the signs of
+/// the moves count), starting from `home`:
+/// the link trails the motor, so a joint that last moved towards larger angles rests on its
+/// negative flank. A joint that does not move keeps its previous flank.
+pub fn approach_sides(home: &[f64], poses: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let mut prev = home.to_vec();
+    let mut sides = vec![-1.0; home.len()];
+    poses
+        .iter()
+        .map(|q| {
+            for j in 0..q.len() {
+                let d = q[j] - prev[j];
+                if d > 0.0 {
+                    sides[j] = -1.0;
+                } else if d < 0.0 {
+                    sides[j] = 1.0;
+                }
+            }
+            prev = q.clone();
+            sides.clone()
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

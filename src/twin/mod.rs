@@ -203,25 +203,6 @@ impl Twin {
     }
 }
 
-/// Backlash approach flanks for a sequence of commanded poses (rad), starting from `home`:
-/// the link trails the motor, so a joint that last moved towards larger angles rests on its
-/// negative flank. A joint that does not move keeps its previous flank.
-pub fn approach_sides(home: &[f64], poses: &[Vec<f64>]) -> Vec<Vec<f64>> {
-    let mut prev = home.to_vec();
-    let mut sides = vec![-1.0; home.len()];
-    poses
-        .iter()
-        .map(|q| {
-            for j in 0..q.len() {
-                let d = q[j] - prev[j];
-                if d > 0.0 {
-                    sides[j] = -1.0;
-                } else if d < 0.0 {
-                    sides[j] = 1.0;
-                }
-            }
-            prev = q.clone();
-            sides.clone()
-        })
-        .collect()
-}
+/// The backlash approach-flank rule lives with the effects ([`crate::effects::approach_sides`]):
+/// the twin and the calibration's row inputs apply the same one.
+pub use crate::effects::approach_sides;
