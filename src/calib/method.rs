@@ -289,7 +289,7 @@ pub struct RbfSolver {
 
 impl Default for RbfSolver {
     fn default() -> Self {
-        RbfSolver { lm: LmSolver::default(), centres: vec![5, 10, 20, 40], ridges: vec![1e-6, 1e-4, 1e-2] }
+        RbfSolver { lm: LmSolver::default(), centres: RbfNetwork::CV_CENTRES.to_vec(), ridges: RbfNetwork::CV_RIDGES.to_vec() }
     }
 }
 

@@ -766,7 +766,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
         let tr = ctx.data.subset(rows);
         let xf = refit(model, &tr, x, ctx.rank_tol).0;
         let res = LengthFit { model, data: &tr }.residuals_mm(&xf);
-        let (net, _) = RbfNetwork::fit_cv(&tr.q, &res, &[5, 10, 20, 40], &[1e-6, 1e-4, 1e-2], seed).ok()?;
+        let (net, _) = RbfNetwork::fit_cv(&tr.q, &res, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed).ok()?;
         Some((xf, net))
     };
     let per_fold: Vec<Option<Vec<f64>>> = ctx
