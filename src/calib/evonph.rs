@@ -567,8 +567,16 @@ impl Solver for EvoNphSolver {
         if let Some(sel) = &r.selection {
             reason = format!("{}; {reason}", sel.summary());
         }
-        let report =
-            Report { x: r.solution_x, cost: r.objective, iterations: r.generations, evaluations: r.evaluations, converged: true, reason, covariance: None };
+        let report = Report {
+            x: r.solution_x,
+            cost: r.objective,
+            iterations: r.generations,
+            evaluations: r.evaluations,
+            converged: true,
+            termination: crate::optim::Termination::Completed,
+            reason,
+            covariance: None,
+        };
         Ok(Solution { report, corrector: Some(r.corrector) })
     }
 }

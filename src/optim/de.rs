@@ -73,7 +73,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 use super::util::{argmin, eval_rows_refine, Stall};
-use super::{Bounds, Cost, Event, Observer, Report};
+use super::{Bounds, Cost, Event, Observer, Report, Termination};
 
 /// Which DE algorithm to run. See the module documentation.
 #[derive(Clone, Debug, PartialEq)]
@@ -656,13 +656,14 @@ impl De {
         let mut best_cost = e.fx[bi];
         let mut stall = Stall::new(self.tol, self.patience, best_cost);
         let mut generations = 0;
-        let mut converged = false;
+        let mut termination = Termination::Budget;
         let mut reason = "maximum number of generations reached";
 
         while generations < self.generations {
             let n = e.n();
             if let Some(me) = self.max_evals {
                 if evaluations + n > me {
+                    termination = Termination::EvaluationBudget;
                     reason = "evaluation budget (max_evals) exhausted";
                     break;
                 }
@@ -710,13 +711,22 @@ impl De {
             }
             obs.observe(&Event { method, iteration: generations, cost: best_cost, x: &best });
             if stall.update(best_cost) {
-                converged = true;
+                termination = Termination::Stalled;
                 reason = "no relative improvement above tol within patience";
                 break;
             }
         }
 
-        Report { x: best, cost: best_cost, iterations: generations, evaluations, converged, reason: reason.to_owned(), covariance: None }
+        Report {
+            x: best,
+            cost: best_cost,
+            iterations: generations,
+            evaluations,
+            converged: termination.converged(),
+            termination,
+            reason: reason.to_owned(),
+            covariance: None,
+        }
     }
 }
 

@@ -39,7 +39,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::util::{free_indices, sanitize};
-use super::{Event, Observations, Observer, Report};
+use super::{Event, Observations, Observer, Report, Termination};
 
 const METHOD: &str = "ekf";
 
@@ -147,7 +147,7 @@ impl Ekf {
         };
         let mut cost = cost_of(&x, hook);
         let mut iterations = 0;
-        let mut converged = false;
+        let mut termination = Termination::Budget;
         let mut reason = String::from("maximum number of epochs reached");
         let mut skipped = 0usize;
 
@@ -158,6 +158,7 @@ impl Ekf {
                 iterations,
                 evaluations,
                 converged: true,
+                termination: Termination::NothingToDo,
                 reason: "nothing to estimate (no free parameters or no observations)".into(),
                 covariance: Some(p),
             };
@@ -218,12 +219,12 @@ impl Ekf {
             let rel = if cost.is_finite() && new_cost.is_finite() { change / cost.abs().max(f64::MIN_POSITIVE) } else { f64::INFINITY };
             cost = new_cost;
             if cost == 0.0 {
-                converged = true;
+                termination = Termination::ZeroCost;
                 reason = "zero cost".into();
                 break;
             }
             if rel < self.tol {
-                converged = true;
+                termination = Termination::CostTolerance;
                 reason = "relative cost change below tol".into();
                 break;
             }
@@ -232,7 +233,7 @@ impl Ekf {
             reason.push_str(&format!(" ({skipped} non-finite observation updates skipped)"));
         }
 
-        Report { x, cost, iterations, evaluations, converged, reason, covariance: Some(p) }
+        Report { x, cost, iterations, evaluations, converged: termination.converged(), termination, reason, covariance: Some(p) }
     }
 }
 

@@ -47,7 +47,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::util::free_indices;
-use super::{Event, LeastSquares, Observer, Report};
+use super::{Event, LeastSquares, Observer, Report, Termination};
 
 const METHOD: &str = "levenberg-marquardt";
 /// Consecutive rejected steps tolerated inside one outer iteration before giving up.
@@ -210,23 +210,24 @@ impl LevenbergMarquardt {
         p.residuals(&x, &mut r);
         let mut evaluations = 1;
         let mut f = half_sq(&r);
-        let report = |x: Vec<f64>, cost, iterations, evaluations, converged, reason: &str| Report {
+        let report = |x: Vec<f64>, cost, iterations, evaluations, termination: Termination, reason: &str| Report {
             x,
             cost,
             iterations,
             evaluations,
-            converged,
+            converged: termination.converged(),
+            termination,
             reason: reason.to_owned(),
             covariance: None,
         };
         if !f.is_finite() {
-            return report(x, f, 0, evaluations, false, "non-finite cost at the initial point");
+            return report(x, f, 0, evaluations, Termination::NonFinite, "non-finite cost at the initial point");
         }
         if nf == 0 {
-            return report(x, f, 0, evaluations, true, "no free parameters");
+            return report(x, f, 0, evaluations, Termination::NothingToDo, "no free parameters");
         }
         if f == 0.0 {
-            return report(x, f, 0, evaluations, true, "zero cost at the initial point");
+            return report(x, f, 0, evaluations, Termination::ZeroCost, "zero cost at the initial point");
         }
 
         // Work buffers, allocated once.
@@ -247,7 +248,7 @@ impl LevenbergMarquardt {
             Damping::Nielsen => None,
         };
         let mut iterations = 0;
-        let mut converged = false;
+        let mut termination = Termination::Budget;
         let mut reason = "maximum number of iterations reached";
         // Cost at the start of each of the last `stall_window` outer iterations (ring buffer).
         let mut window = vec![f64::INFINITY; self.stall_window];
@@ -256,7 +257,7 @@ impl LevenbergMarquardt {
             if self.stall_window > 0 {
                 let slot = iterations % self.stall_window;
                 if iterations >= self.stall_window && window[slot] - f <= self.stall_rtol * f / m.saturating_sub(nf).max(1) as f64 {
-                    converged = true;
+                    termination = Termination::Stalled;
                     reason = "cost change over the stall window below stall_rtol of the cost per degree of freedom";
                     break;
                 }
@@ -276,6 +277,7 @@ impl LevenbergMarquardt {
                 }
             }
             if g.iter().chain(a.iter()).any(|v| !v.is_finite()) {
+                termination = Termination::NonFinite;
                 reason = "non-finite Jacobian";
                 break;
             }
@@ -290,7 +292,7 @@ impl LevenbergMarquardt {
                 }
             }
             if gcos <= self.gtol {
-                converged = true;
+                termination = Termination::GradientTolerance;
                 reason = "gradient tolerance (gtol) reached";
                 obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
                 break;
@@ -368,18 +370,18 @@ impl LevenbergMarquardt {
                         nu = 2.0;
                         obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
                         if f == 0.0 {
-                            converged = true;
+                            termination = Termination::ZeroCost;
                             reason = "zero cost";
                             break 'outer;
                         }
                         let pred_small = factor.is_some() || pred <= self.ftol * f_old;
                         if actual <= self.ftol * f_old && pred_small {
-                            converged = true;
+                            termination = Termination::CostTolerance;
                             reason = "relative cost reduction below ftol";
                             break 'outer;
                         }
                         if step_small {
-                            converged = true;
+                            termination = Termination::StepTolerance;
                             reason = "relative step below xtol";
                             break 'outer;
                         }
@@ -393,7 +395,7 @@ impl LevenbergMarquardt {
 
                 // Rejected (or unsolvable): more damping.
                 if step_small {
-                    converged = true;
+                    termination = Termination::StepTolerance;
                     reason = "relative step below xtol";
                     obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
                     break 'outer;
@@ -407,6 +409,7 @@ impl LevenbergMarquardt {
                 }
                 rejections += 1;
                 if !(lambda < LAMBDA_MAX) || rejections >= MAX_REJECTIONS || !nu.is_finite() {
+                    termination = Termination::NoDescent;
                     reason = "no step reduces the cost (damping overflow)";
                     obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
                     break 'outer;
@@ -414,7 +417,7 @@ impl LevenbergMarquardt {
             }
         }
 
-        report(x, f, iterations, evaluations, converged, reason)
+        report(x, f, iterations, evaluations, termination, reason)
     }
 }
 
@@ -580,6 +583,18 @@ mod tests {
         assert!((rep.x[0] - 1.0).abs() < 1e-8 && (rep.x[1] - 1.0).abs() < 1e-8, "{rep:?}");
         assert!(!hist.cost.is_empty());
         assert!(hist.cost.windows(2).all(|w| w[1] <= w[0]), "costs must not increase");
+    }
+
+    /// The termination says why, and `converged` follows from it.
+    #[test]
+    fn termination_says_why_it_stopped() {
+        let rep = LevenbergMarquardt::budget(3).minimize(&Rosen, &[-1.2, 1.0], &[false, false], &mut NoObserver);
+        assert_eq!(rep.termination, Termination::Budget, "{rep:?}");
+        assert!(!rep.converged && rep.reason == "maximum number of iterations reached");
+        let rep = LevenbergMarquardt::default().minimize(&Rosen, &[-1.2, 1.0], &[false, false], &mut NoObserver);
+        assert!(rep.termination.converged() && rep.converged, "{rep:?}");
+        let rep = LevenbergMarquardt::default().minimize(&Rosen, &[-1.2, 1.0], &[true, true], &mut NoObserver);
+        assert_eq!(rep.termination, Termination::NothingToDo);
     }
 
     #[test]

@@ -128,11 +128,49 @@ pub struct Report {
     pub iterations: usize,
     /// Objective evaluations (residual vectors, costs or observations, as the method counts them).
     pub evaluations: usize,
+    /// `termination.converged()`.
     pub converged: bool,
-    /// Why it stopped.
+    /// Why it stopped, as one value every optimiser shares.
+    pub termination: Termination,
+    /// Why it stopped, in words (the optimiser's own, with its details).
     pub reason: String,
     /// Method-specific covariance of x where the method has one (EKF, PF), else None.
     pub covariance: Option<DMatrix<f64>>,
+}
+
+/// Why an optimiser stopped: the one termination type of every optimiser (the words of
+/// [`Report::reason`] add each one's details).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Termination {
+    /// The iteration budget (iterations, generations, epochs) ran out.
+    Budget,
+    /// The evaluation budget ran out.
+    EvaluationBudget,
+    /// The cost stopped improving over a window (LM's stall test, DE's and PSO's patience).
+    Stalled,
+    /// The relative cost change fell below its tolerance.
+    CostTolerance,
+    /// The relative step fell below its tolerance.
+    StepTolerance,
+    /// The gradient fell below its tolerance.
+    GradientTolerance,
+    /// The cost is zero.
+    ZeroCost,
+    /// A non-finite cost or Jacobian.
+    NonFinite,
+    /// No step reduces the cost (LM's damping overflow).
+    NoDescent,
+    /// Nothing to estimate (no free parameters or no observations).
+    NothingToDo,
+    /// A fixed schedule ran to its end (the particle filter's epochs, a method's own stages).
+    Completed,
+}
+
+impl Termination {
+    /// Whether this way of stopping counts as converged.
+    pub fn converged(self) -> bool {
+        !matches!(self, Termination::Budget | Termination::EvaluationBudget | Termination::NonFinite | Termination::NoDescent)
+    }
 }
 
 pub mod de;

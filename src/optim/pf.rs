@@ -39,7 +39,7 @@ use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 use super::util::{free_indices, obs_cost};
-use super::{Event, Observations, Observer, Report};
+use super::{Event, Observations, Observer, Report, Termination};
 
 const METHOD: &str = "particle-filter";
 /// Use rayon for the likelihood when particles × batch reaches this many predictions.
@@ -249,7 +249,8 @@ impl ParticleFilter {
         if ignored > 0 {
             reason.push_str(&format!(", {ignored} batches ignored (zero likelihood for every particle)"));
         }
-        Report { x: mean, cost, iterations, evaluations, converged: cost.is_finite(), reason, covariance: Some(cov) }
+        let termination = if cost.is_finite() { Termination::Completed } else { Termination::NonFinite };
+        Report { x: mean, cost, iterations, evaluations, converged: termination.converged(), termination, reason, covariance: Some(cov) }
     }
 }
 

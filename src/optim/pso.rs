@@ -25,7 +25,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::util::{argmin, eval_rows, Stall};
-use super::{Bounds, Cost, Event, Observer, Report};
+use super::{Bounds, Cost, Event, Observer, Report, Termination};
 
 const METHOD: &str = "pso";
 
@@ -103,7 +103,7 @@ impl Pso {
 
         let mut stall = Stall::new(self.tol, self.patience, gcost);
         let mut iterations = 0;
-        let mut converged = false;
+        let mut termination = Termination::Budget;
         let mut reason = "maximum number of iterations reached";
         let (w0, w1) = self.inertia;
         let span = self.iterations.saturating_sub(1).max(1) as f64;
@@ -146,13 +146,13 @@ impl Pso {
             }
             obs.observe(&Event { method: METHOD, iteration: iterations, cost: gcost, x: &gbest });
             if stall.update(gcost) {
-                converged = true;
+                termination = Termination::Stalled;
                 reason = "no relative improvement above tol within patience";
                 break;
             }
         }
 
-        Report { x: gbest, cost: gcost, iterations, evaluations, converged, reason: reason.to_owned(), covariance: None }
+        Report { x: gbest, cost: gcost, iterations, evaluations, converged: termination.converged(), termination, reason: reason.to_owned(), covariance: None }
     }
 }
 
