@@ -1398,10 +1398,10 @@ pub struct DiagnoseArgs {
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// Cross-validation folds (contiguous blocks of acquisition order).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = crate::diagnose::DEFAULT_FOLDS)]
     pub folds: usize,
     /// Family-wise significance level of each selection step.
-    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = crate::diagnose::DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f64,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,

@@ -15,7 +15,7 @@
 
 use super::model::CalibModel;
 use super::problem::{LengthFit, Samples};
-use super::stats::median;
+use super::stats::{median, robust_scale};
 use crate::error::{Error, Result};
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use nalgebra::DMatrix;
@@ -157,8 +157,7 @@ pub fn reading_steps(r: &[f64], rows: &[usize], med: f64, scale: f64, k: f64) ->
             .iter()
             .map(|&(a, b)| {
                 let piece = &d[a..b];
-                let off = median(piece);
-                let spread = 1.4826 * median(&piece.iter().map(|v| (v - off).abs()).collect::<Vec<f64>>());
+                let (off, spread) = robust_scale(piece);
                 let off_piece = off.abs() > STEP_MIN_SIGMAS * scale;
                 let disturbed = (off_piece && spread > STEP_MAX_SPREAD * scale) || piece.iter().any(|v| (v - off).abs() > k * scale);
                 (off, spread, disturbed)
@@ -267,8 +266,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
         x = refit(&corrected.subset(&keep), &x);
         r = LengthFit { model, data: &corrected }.residuals_mm(&x);
         let kept_r: Vec<f64> = keep.iter().map(|&i| r[i]).collect();
-        med = median(&kept_r);
-        scale = 1.4826 * median(&kept_r.iter().map(|v| (v - med).abs()).collect::<Vec<f64>>());
+        (med, scale) = robust_scale(&kept_r);
         if !(scale > 0.0) || k <= 0.0 {
             flagged.clear();
             break;
@@ -410,8 +408,7 @@ pub fn irls<P: LeastSquares>(lm: &LevenbergMarquardt, p: &P, x0: &[f64], fixed: 
     let mut last = None;
     for pass in 0..IRLS_PASSES {
         p.residuals(&x, &mut r);
-        let med = median(&r);
-        let scale = 1.4826 * median(&r.iter().map(|v| (v - med).abs()).collect::<Vec<f64>>());
+        let (med, scale) = robust_scale(&r);
 
         // The first pass is plain least squares: weights from the start's residuals (far from
         // any fit) would only cost passes.

@@ -588,8 +588,7 @@ fn test_outlier_stage(fit: &LengthFit, test_fit: &LengthFit, test_idx: &[usize],
         return Vec::new();
     }
     let r = residuals_with(fit, x, corrector);
-    let med = super::stats::median(&r);
-    let scale = 1.4826 * super::stats::median(&r.iter().map(|v| (v - med).abs()).collect::<Vec<f64>>());
+    let (med, scale) = super::stats::robust_scale(&r);
     residuals_with(test_fit, x, corrector)
         .iter()
         .zip(test_idx)

@@ -172,6 +172,16 @@ pub fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
 }
 
+/// Standard deviations per median absolute deviation for Gaussian data.
+pub const MAD_TO_SD: f64 = 1.4826;
+
+/// The median of `v` and its robust standard deviation ([`MAD_TO_SD`] × the median absolute
+/// deviation from it): the one robust scale of the project.
+pub fn robust_scale(v: &[f64]) -> (f64, f64) {
+    let med = median(v);
+    (med, MAD_TO_SD * median(&v.iter().map(|x| (x - med).abs()).collect::<Vec<f64>>()))
+}
+
 /// Median of the non-NaN values of `v` (mean of the two middle values for even counts);
 /// `NaN` when there are none.
 pub fn median(v: &[f64]) -> f64 {

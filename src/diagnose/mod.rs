@@ -67,23 +67,38 @@ pub struct DiagnoseOptions {
     pub angle_step_deg: Option<f64>,
 }
 
+/// Default cross-validation folds of a diagnosis.
+pub const DEFAULT_FOLDS: usize = 5;
+/// Default family-wise significance level of one selection step.
+pub const DEFAULT_ALPHA: f64 = 0.01;
+/// Default smallest relative held-out gain worth a new effect.
+pub const DEFAULT_MIN_GAIN: f64 = 0.02;
+/// Default most effects a diagnosis adds.
+pub const DEFAULT_MAX_EFFECTS: usize = 4;
+/// Default share of the kept rows held back as the confirmation set.
+pub const DEFAULT_CONFIRM_FRACTION: f64 = 0.2;
+/// Default smallest size of a named cause, in standard uncertainties.
+pub const DEFAULT_MIN_SIZE_SIGMAS: f64 = 2.0;
+/// The q2 extrapolation check trains on the rows up to this quantile of q2.
+pub const EXTRAPOLATION_QUANTILE: f64 = 0.7;
+
 impl DiagnoseOptions {
     pub fn new(model: ModelSpec) -> Self {
         DiagnoseOptions {
             model,
             inertial: None,
             loads: LoadOptions::default(),
-            folds: 5,
-            alpha: 0.01,
-            min_gain: 0.02,
-            max_effects: 4,
-            outlier_k: 6.0,
+            folds: DEFAULT_FOLDS,
+            alpha: DEFAULT_ALPHA,
+            min_gain: DEFAULT_MIN_GAIN,
+            max_effects: DEFAULT_MAX_EFFECTS,
+            outlier_k: crate::calib::run::DEFAULT_OUTLIER_K,
             reading_steps: true,
             rank_tol: crate::calib::run::DEFAULT_RANK_TOL,
             seed: 0,
             candidates: Vec::new(),
-            confirm_fraction: 0.2,
-            min_size_sigmas: 2.0,
+            confirm_fraction: DEFAULT_CONFIRM_FRACTION,
+            min_size_sigmas: DEFAULT_MIN_SIZE_SIGMAS,
             angle_step_deg: None,
         }
     }
@@ -614,8 +629,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     // outliers: they rejoin the rows of the final fit, and are listed.
     let res_all = LengthFit { model: &current.model, data: &all }.residuals_mm(&current.x);
     let kept_res: Vec<f64> = keep.iter().map(|&i| res_all[i]).collect();
-    let med = crate::calib::stats::median(&kept_res);
-    let scale = 1.4826 * crate::calib::stats::median(&kept_res.iter().map(|r| (r - med).abs()).collect::<Vec<f64>>());
+    let (med, scale) = crate::calib::stats::robust_scale(&kept_res);
     let explained: Vec<usize> = if current.model.effects.is_empty() {
         Vec::new()
     } else {
@@ -789,7 +803,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
     // Extrapolation in q2.
     let mut q2: Vec<f64> = ctx.data.q.iter().map(|q| q[1]).collect();
     q2.sort_by(f64::total_cmp);
-    let split = q2[(0.7 * (n - 1) as f64) as usize];
+    let split = q2[(EXTRAPOLATION_QUANTILE * (n - 1) as f64) as usize];
     let train: Vec<usize> = (0..n).filter(|&i| ctx.data.q[i][1] <= split).collect();
     let test: Vec<usize> = (0..n).filter(|&i| ctx.data.q[i][1] > split).collect();
     if train.len() < 20 || test.len() < 5 {
