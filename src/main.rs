@@ -105,7 +105,18 @@ fn main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::from(2);
     }
-    let result = match args.command {
+    // A reader that closes our stdout early (`| head -1`) ends the command quietly: printing
+    // then panics inside the standard library; the hook keeps that panic silent, the unwinding
+    // removes any half-written output, and the command exits with 141 (128 + SIGPIPE), what a
+    // shell reports for a writer whose pipe closed.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !broken_pipe(info.payload()) {
+            default_hook(info);
+        }
+    }));
+    let quiet = args.quiet;
+    let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || match args.command {
         Command::Generate { scenario, out, rrd, seed } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
         Command::Calibrate(a) => cli::calibrate(&a, args.quiet),
         Command::Diagnose(a) => cli::diagnose(&a, args.quiet),
@@ -119,7 +130,12 @@ fn main() -> ExitCode {
             rrd.as_deref(),
             args.quiet,
         ),
-        Command::Bench { what, scenario, repeat, seeds, compare } => cli::bench_command(what, scenario.as_deref(), repeat, seeds, compare, args.quiet),
+        Command::Bench { what, scenario, repeat, seeds, compare } => cli::bench_command(what, scenario.as_deref(), repeat, seeds, compare, quiet),
+    }));
+    let result = match run {
+        Ok(r) => r,
+        Err(payload) if broken_pipe(payload.as_ref()) => return ExitCode::from(141),
+        Err(payload) => std::panic::resume_unwind(payload),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -128,4 +144,10 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// Whether a panic is the standard library's "failed printing to stdout" on a closed pipe.
+fn broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
+    let text = payload.downcast_ref::<String>().map(String::as_str).or_else(|| payload.downcast_ref::<&str>().copied()).unwrap_or("");
+    text.contains("Broken pipe") || text.contains("os error 32")
 }

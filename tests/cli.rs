@@ -431,3 +431,29 @@ fn predict_writes_lengths_and_residuals() {
         assert!((r[6] - r[7] - r[8]).abs() < 1e-9 && r[8].abs() < 1.0, "{r:?}");
     }
 }
+
+/// A reader that closes stdout early (`twincal compare ... | head -1`) ends the command quietly:
+/// no panic message, exit code 141 (128 + SIGPIPE, as a shell reports it), and no output file
+/// half-written.
+#[test]
+fn a_closed_stdout_ends_the_command_quietly() {
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().unwrap();
+    let sc = small_full_scenario(dir.path(), 40);
+    let data = dir.path().join("d");
+    assert!(twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", data.to_str().unwrap()]).status.success());
+    let json = dir.path().join("cmp.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_twincal"))
+        .args(["compare", "--data", data.to_str().unwrap(), "--methods", "lm", "--seeds", "2", "--quiet", "--out", json.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = stderr(&o);
+    assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{err}");
+    assert_eq!(o.status.code(), Some(141), "{err}");
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(!json.exists() && left.len() == 2, "no output, no temporary file: {left:?}");
+}
