@@ -45,7 +45,12 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
     let spec = &opts.model;
     let zero_guess = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
     match spec {
-        ModelSpec::Generic6r if opts.sensor_guess.is_some() => Ok(build_model(spec, opts.sensor_guess.as_ref().expect("checked"))),
+        // The generic model's start is its search over arm topologies, which places the sensor
+        // for each candidate arm; a fixed guess with no arm around it (the old all-zero D-H
+        // chain) started fits far from any real robot.
+        ModelSpec::Generic6r if opts.sensor_guess.is_some() => Err(Error::Invalid(
+            "--sensor-guess applies to a nominal model (irb120 or a URDF); the generic model (generic6r) places its sensor in its own search".into(),
+        )),
         ModelSpec::Nominal { .. } => {
             let guess = match &opts.sensor_guess {
                 Some(g) => g.clone(),
