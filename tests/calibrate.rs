@@ -496,3 +496,40 @@ fn compare_scores_the_residuals_the_calibration_scored() {
     let worst = angles_only.iter().zip(&r.test_residuals_mm).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(worst > 1e-3, "without the temperature the prediction should differ (by {worst} mm)");
 }
+
+/// A result file is validated as a whole on load: an effect on a joint the arm does not have, a
+/// torque model with a negative mass or more links than frames, a chain whose operation names a
+/// joint it does not have — each is refused by `predict` with a clear error (exit 2), never a
+/// panic.
+#[test]
+fn hand_edited_result_files_are_refused_whole() {
+    let (dir, _, _) = geometric();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = |n: &str| tmp.path().join(n);
+    let o = twincal(&["calibrate", "--data", dir.to_str().unwrap(), "--effects", "backlash:2", "--out", out("r.json").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let good: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out("r.json")).unwrap()).unwrap();
+    assert!(good["torque_model"].is_object(), "the backlash model carries its torque model");
+    let edits: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>)> = vec![
+        ("effect joint", Box::new(|v| v["model"]["effects"][0]["joint"] = serde_json::json!(9))),
+        ("negative mass", Box::new(|v| v["torque_model"]["links"][0][0] = serde_json::json!(-3.0))),
+        (
+            "links",
+            Box::new(|v| {
+                let links = v["torque_model"]["links"].as_array().unwrap().clone();
+                v["torque_model"]["links"] = serde_json::json!(links.iter().chain(&links).chain(&links).collect::<Vec<_>>());
+            }),
+        ),
+        ("chain joint", Box::new(|v| v["model"]["chain"]["ops"][0]["joint"] = serde_json::json!(7))),
+    ];
+    for (what, edit) in edits {
+        let mut v = good.clone();
+        edit(&mut v);
+        std::fs::write(out("bad.json"), v.to_string()).unwrap();
+        let o = twincal(&["predict", "--model", out("bad.json").to_str().unwrap(), "--data", dir.to_str().unwrap(), "--out", out("p.csv").to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{what}: {err}");
+        assert!(err.contains("inconsistent") && !err.contains("panicked"), "{what}: {err}");
+        assert!(!out("p.csv").exists());
+    }
+}

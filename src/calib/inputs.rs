@@ -63,6 +63,26 @@ impl TorqueModel {
     }
 
     /// Static joint torques (N·m) at commanded angles `q` (rad).
+    /// Checks a torque model read from a file: a valid chain, one mass per moving link at most,
+    /// masses ≥ 0 and every value finite.
+    pub fn validate(&self, n_joints: usize) -> std::result::Result<(), String> {
+        self.chain.validate()?;
+        let finite3 = |c: &[f64; 3]| c.iter().all(|v| v.is_finite());
+        let mass_ok = |m: f64| m.is_finite() && m >= 0.0;
+        let ok = self.chain.n_joints == n_joints
+            && self.links.len() < self.chain.n_frames()
+            && self.links.iter().all(|(m, c)| mass_ok(*m) && finite3(c))
+            && self.payload.is_none_or(|(m, c)| mass_ok(m) && finite3(&c))
+            && self.cable.is_none_or(|(e, t, f)| finite3(&e) && finite3(&t) && f.is_finite() && f >= 0.0)
+            && !self.torque_threshold_nm.is_nan()
+            && self.torque_threshold_nm >= 0.0;
+        if ok {
+            Ok(())
+        } else {
+            Err("the torque model is inconsistent (links, masses, payload, cable or threshold)".into())
+        }
+    }
+
     pub fn torques(&self, q: &[f64]) -> Vec<f64> {
         let load = LoadModel {
             gravity: Vector3::new(0.0, 0.0, -GRAVITY),

@@ -326,8 +326,14 @@ impl CalibResult {
             c.validate(r.model.chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
         }
         let chain = &r.model.chain;
+        chain.validate().map_err(|e| Error::model(path.display(), e))?;
+        if let Some(t) = &r.torque_model {
+            t.validate(chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
+        }
         let consistent = chain.n_joints == 6
             && r.x.len() == r.model.n_params()
+            && r.model.nominal.len() == r.model.n_params()
+            && r.model.effects.iter().all(|e| e.joint.is_none_or(|j| j < chain.n_joints))
             && r.model.kinds.len() == r.model.n_params()
             && r.model.n_params() == chain.n_params() + super::model::SENSOR_PARAMS.len() + r.model.effects.iter().map(|e| e.params().len()).sum::<usize>()
             && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())

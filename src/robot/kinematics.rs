@@ -225,6 +225,26 @@ impl Chain {
         self.frame(&ws, f).point(local)
     }
 
+    /// Checks a chain read from a file (a hand-edited or truncated one must give an error, not a
+    /// panic): frames in order and ending at the last operation, joint and parameter indices in
+    /// range, finite axes and offsets.
+    pub fn validate(&self) -> Result<(), String> {
+        let frames_ok = self.frame_end.len() >= 2 && self.frame_end.windows(2).all(|w| w[0] <= w[1]) && self.frame_end.last() == Some(&self.ops.len());
+        let ops_ok = self.ops.iter().all(|o| {
+            o.joint.is_none_or(|j| j < self.n_joints)
+                && o.param.is_none_or(|k| k < self.n_params())
+                && o.axis.iter().all(|v| v.is_finite())
+                && o.base.is_finite()
+                && o.coef.is_finite()
+        });
+        let joints_ok = (0..self.n_joints).all(|j| self.ops.iter().any(|o| o.joint == Some(j)));
+        if frames_ok && ops_ok && joints_ok {
+            Ok(())
+        } else {
+            Err("the kinematic chain is inconsistent (frames, joint or parameter indices, or non-finite values)".into())
+        }
+    }
+
     /// Index of the operation that rotates joint `j`.
     pub fn joint_op(&self, j: usize) -> Option<usize> {
         self.ops.iter().position(|o| o.joint == Some(j))
