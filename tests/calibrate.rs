@@ -510,7 +510,8 @@ fn hand_edited_result_files_are_refused_whole() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let good: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out("r.json")).unwrap()).unwrap();
     assert!(good["torque_model"].is_object(), "the backlash model carries its torque model");
-    let edits: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>)> = vec![
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let edits: Vec<(&str, Edit)> = vec![
         ("effect joint", Box::new(|v| v["model"]["effects"][0]["joint"] = serde_json::json!(9))),
         ("negative mass", Box::new(|v| v["torque_model"]["links"][0][0] = serde_json::json!(-3.0))),
         (
