@@ -572,7 +572,6 @@ impl Solver for EvoNphSolver {
             cost: r.objective,
             iterations: r.generations,
             evaluations: r.evaluations,
-            converged: true,
             termination: crate::optim::Termination::Completed,
             reason,
             covariance: None,

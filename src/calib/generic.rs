@@ -186,7 +186,8 @@ fn fit(model: &CalibModel, data: &Samples, lm: &LevenbergMarquardt, rank_tol: f6
     let id = super::run::identify(&fit, &model.nominal, rank_tol);
     let rep = lm.minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver);
     let cost = LeastSquares::cost(&fit, &rep.x);
-    (if cost.is_finite() { cost } else { f64::INFINITY }, rep.x, rep.converged && rep.iterations <= SETTLED_ITER)
+    let settled = rep.converged() && rep.iterations <= SETTLED_ITER;
+    (if cost.is_finite() { cost } else { f64::INFINITY }, rep.x, settled)
 }
 
 /// The reference pose of a generic model (rad): its joints rotate by q − q_ref.

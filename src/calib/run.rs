@@ -692,7 +692,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     if x.iter().any(|v| !v.is_finite()) {
         return Err(Error::Calibration(format!("{} diverged (non-finite parameters)", solver.method().name())));
     }
-    if !report.converged {
+    if !report.converged() {
         warnings.push(format!(
             "{} stopped without converging ({}, after {} iterations); the parameters may be far from the optimum \
              (see `converged` / `stop_reason` in the result file; a larger --effort gives the stochastic methods more budget)",
@@ -740,7 +740,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         metrics,
         iterations: report.iterations,
         evaluations: report.evaluations,
-        converged: report.converged,
+        converged: report.converged(),
         stop_reason: report.reason.clone(),
         wall_time_s: t0.elapsed().as_secs_f64(),
         noise_estimate_mm,

@@ -717,16 +717,7 @@ impl De {
             }
         }
 
-        Report {
-            x: best,
-            cost: best_cost,
-            iterations: generations,
-            evaluations,
-            converged: termination.converged(),
-            termination,
-            reason: reason.to_owned(),
-            covariance: None,
-        }
+        Report { x: best, cost: best_cost, iterations: generations, evaluations, termination, reason: reason.to_owned(), covariance: None }
     }
 }
 

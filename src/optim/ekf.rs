@@ -157,7 +157,6 @@ impl Ekf {
                 cost,
                 iterations,
                 evaluations,
-                converged: true,
                 termination: Termination::NothingToDo,
                 reason: "nothing to estimate (no free parameters or no observations)".into(),
                 covariance: Some(p),
@@ -233,7 +232,7 @@ impl Ekf {
             reason.push_str(&format!(" ({skipped} non-finite observation updates skipped)"));
         }
 
-        Report { x, cost, iterations, evaluations, converged: termination.converged(), termination, reason, covariance: Some(p) }
+        Report { x, cost, iterations, evaluations, termination, reason, covariance: Some(p) }
     }
 }
 
@@ -313,7 +312,7 @@ mod tests {
         let ekf = Ekf { epochs: 50, tol: 1e-10, ..ekf };
         let mut hist = super::super::History::default();
         let rep = ekf.run(&p, &[0.0; 3], &[], &order, &mut hist);
-        assert!(rep.converged && rep.iterations < 50, "{rep:?}");
+        assert!(rep.converged() && rep.iterations < 50, "{rep:?}");
         assert_eq!(hist.cost.len(), rep.iterations);
         for k in 0..3 {
             assert!((rep.x[k] - ls[k]).abs() / ls[k].abs() < 1e-6);

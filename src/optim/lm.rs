@@ -215,7 +215,6 @@ impl LevenbergMarquardt {
             cost,
             iterations,
             evaluations,
-            converged: termination.converged(),
             termination,
             reason: reason.to_owned(),
             covariance: None,
@@ -569,7 +568,7 @@ mod tests {
         let truth = [2.5, 1.3, 0.4];
         let p = ExpDecay::new(truth);
         let rep = LevenbergMarquardt::default().minimize(&p, &[1.0, 0.5, 0.0], &[], &mut NoObserver);
-        assert!(rep.converged, "{rep:?}");
+        assert!(rep.converged(), "{rep:?}");
         for k in 0..3 {
             assert!((rep.x[k] - truth[k]).abs() < 1e-9, "{:?} vs {truth:?}", rep.x);
         }
@@ -579,7 +578,7 @@ mod tests {
     fn rosenbrock() {
         let mut hist = super::super::History::default();
         let rep = LevenbergMarquardt::default().minimize(&Rosen, &[-1.2, 1.0], &[false, false], &mut hist);
-        assert!(rep.converged, "{rep:?}");
+        assert!(rep.converged(), "{rep:?}");
         assert!((rep.x[0] - 1.0).abs() < 1e-8 && (rep.x[1] - 1.0).abs() < 1e-8, "{rep:?}");
         assert!(!hist.cost.is_empty());
         assert!(hist.cost.windows(2).all(|w| w[1] <= w[0]), "costs must not increase");
@@ -590,9 +589,9 @@ mod tests {
     fn termination_says_why_it_stopped() {
         let rep = LevenbergMarquardt::budget(3).minimize(&Rosen, &[-1.2, 1.0], &[false, false], &mut NoObserver);
         assert_eq!(rep.termination, Termination::Budget, "{rep:?}");
-        assert!(!rep.converged && rep.reason == "maximum number of iterations reached");
+        assert!(!rep.converged() && rep.reason == "maximum number of iterations reached");
         let rep = LevenbergMarquardt::default().minimize(&Rosen, &[-1.2, 1.0], &[false, false], &mut NoObserver);
-        assert!(rep.termination.converged() && rep.converged, "{rep:?}");
+        assert!(rep.termination.converged() && rep.converged(), "{rep:?}");
         let rep = LevenbergMarquardt::default().minimize(&Rosen, &[-1.2, 1.0], &[true, true], &mut NoObserver);
         assert_eq!(rep.termination, Termination::NothingToDo);
     }
@@ -602,7 +601,7 @@ mod tests {
         let lm = LevenbergMarquardt { damping: Damping::Factor(10.0), initial_lambda: 1e-2, ftol: 1e-10, xtol: 1e-10, ..Default::default() };
         let truth = [2.5, 1.3, 0.4];
         let rep = lm.minimize(&ExpDecay::new(truth), &[1.0, 0.5, 0.0], &[], &mut NoObserver);
-        assert!(rep.converged, "{rep:?}");
+        assert!(rep.converged(), "{rep:?}");
         for k in 0..3 {
             assert!((rep.x[k] - truth[k]).abs() < 1e-7, "{:?} vs {truth:?}", rep.x);
         }
@@ -630,7 +629,7 @@ mod tests {
     fn linear_covariance_matches_closed_form() {
         let p = Linear::new();
         let rep = LevenbergMarquardt::default().minimize(&p, &[0.0, 0.0], &[], &mut NoObserver);
-        assert!(rep.converged, "{rep:?}");
+        assert!(rep.converged(), "{rep:?}");
         let cov = covariance(&p, &rep.x, &[]).unwrap();
         let m = p.t.len();
         let xm = DMatrix::from_fn(m, 2, |i, k| if k == 0 { 1.0 } else { p.t[i] });

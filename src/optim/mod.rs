@@ -128,8 +128,6 @@ pub struct Report {
     pub iterations: usize,
     /// Objective evaluations (residual vectors, costs or observations, as the method counts them).
     pub evaluations: usize,
-    /// `termination.converged()`.
-    pub converged: bool,
     /// Why it stopped, as one value every optimiser shares.
     pub termination: Termination,
     /// Why it stopped, in words (the optimiser's own, with its details).
@@ -170,6 +168,13 @@ impl Termination {
     /// Whether this way of stopping counts as converged.
     pub fn converged(self) -> bool {
         !matches!(self, Termination::Budget | Termination::EvaluationBudget | Termination::NonFinite | Termination::NoDescent)
+    }
+}
+
+impl Report {
+    /// Whether the optimiser converged ([`Termination::converged`]).
+    pub fn converged(&self) -> bool {
+        self.termination.converged()
     }
 }
 

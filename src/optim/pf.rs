@@ -250,7 +250,7 @@ impl ParticleFilter {
             reason.push_str(&format!(", {ignored} batches ignored (zero likelihood for every particle)"));
         }
         let termination = if cost.is_finite() { Termination::Completed } else { Termination::NonFinite };
-        Report { x: mean, cost, iterations, evaluations, converged: termination.converged(), termination, reason, covariance: Some(cov) }
+        Report { x: mean, cost, iterations, evaluations, termination, reason, covariance: Some(cov) }
     }
 }
 

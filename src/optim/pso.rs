@@ -152,7 +152,7 @@ impl Pso {
             }
         }
 
-        Report { x: gbest, cost: gcost, iterations, evaluations, converged: termination.converged(), termination, reason: reason.to_owned(), covariance: None }
+        Report { x: gbest, cost: gcost, iterations, evaluations, termination, reason: reason.to_owned(), covariance: None }
     }
 }
 
