@@ -589,13 +589,13 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
 
 /// Test rows beyond `k` robust standard deviations of the calibrated model's training
 /// residuals (around their median); none when `k` is 0.
-fn test_outlier_stage(fit: &LengthFit, test_fit: &LengthFit, test_idx: &[usize], x: &[f64], corrector: Option<&dyn Correct>, k: f64) -> Vec<Outlier> {
-    if k <= 0.0 || test_fit.data.is_empty() {
+fn test_outlier_stage(fit: &LengthFit, test_r: &[f64], test_idx: &[usize], x: &[f64], corrector: Option<&dyn Correct>, k: f64) -> Vec<Outlier> {
+    if k <= 0.0 || test_r.is_empty() {
         return Vec::new();
     }
     let r = residuals_with(fit, x, corrector);
     let (med, scale) = super::stats::robust_scale(&r);
-    residuals_with(test_fit, x, corrector)
+    test_r
         .iter()
         .zip(test_idx)
         .filter(|(v, _)| !((*v - med).abs() <= k * scale))
@@ -709,13 +709,12 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let correct = corrector.as_ref().map(|c| c.as_correct());
     let mut metrics = metrics_stage(&fit, &test_fit, &x0, &x, correct);
     let test_residuals_mm = residuals_with(&test_fit, &x, correct);
-    let test_outliers = test_outlier_stage(&fit, &test_fit, &split.test_idx, &x, correct, opts.outlier_k);
+    let test_outliers = test_outlier_stage(&fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.outlier_k);
     if !split.test.is_empty() {
         let out: Vec<usize> = test_outliers.iter().map(|o| o.row - 1).collect();
-        let keep: Vec<usize> = (0..split.test.len()).filter(|i| !out.contains(&split.test_idx[*i])).collect();
-        let r = residuals_with(&LengthFit { model: &model, data: &split.test.subset(&keep) }, &x, correct);
-        metrics.test_after_inliers = Some(ErrorStats::of(&r));
-        metrics.test_after_trimmed = Some(trimmed_stats(&residuals_with(&test_fit, &x, correct), 0.01));
+        let inliers: Vec<f64> = (0..split.test.len()).filter(|i| !out.contains(&split.test_idx[*i])).map(|i| test_residuals_mm[i]).collect();
+        metrics.test_after_inliers = Some(ErrorStats::of(&inliers));
+        metrics.test_after_trimmed = Some(trimmed_stats(&test_residuals_mm, 0.01));
     }
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     let angle_step = match opts.angle_step_deg {
