@@ -774,14 +774,11 @@ impl LoadArgs {
             Some(p) => Some(crate::robot::Robot::from_urdf_file(p)?),
             None => None,
         };
-        if robot.as_ref().is_some_and(|r| r.dof() != 6) {
-            return Err(Error::Invalid("--robot: the URDF must have six revolute joints".into()));
-        }
         Ok((o, robot))
     }
 }
 
-/// Parses `--effects compliance,backlash:2,thermal`: a kind, optionally `:JOINT` (1..6).
+/// Parses `--effects compliance,backlash:2,thermal`: a kind, optionally `:JOINT` (1..N, checked against the data).
 pub fn parse_effects(list: &[String]) -> Result<Vec<(crate::calib::effects::EffectKind, Option<usize>)>> {
     use crate::calib::effects::EffectKind;
     list.iter()
@@ -789,15 +786,17 @@ pub fn parse_effects(list: &[String]) -> Result<Vec<(crate::calib::effects::Effe
         .map(|item| {
             let (kind, joint) = match item.split_once(':') {
                 Some((k, j)) => {
-                    let j: usize = j.trim().parse().map_err(|_| Error::Invalid(format!("--effects {item}: the joint after ':' must be 1..6")))?;
-                    if !(1..=6).contains(&j) {
-                        return Err(Error::Invalid(format!("--effects {item}: the joint after ':' must be 1..6")));
+                    let max = crate::dataset::MAX_JOINTS;
+                    let bad = || Error::Invalid(format!("--effects {item}: the joint after ':' must be a joint number, 1..N"));
+                    let j: usize = j.trim().parse().map_err(|_| bad())?;
+                    if !(1..=max).contains(&j) {
+                        return Err(bad());
                     }
                     (EffectKind::parse(k)?, Some(j - 1))
                 }
                 None => (EffectKind::parse(item)?, None),
             };
-            let allowed = kind.joint_options().contains(&joint) || (joint.is_none() && kind.per_joint());
+            let allowed = kind.joint_options(crate::dataset::MAX_JOINTS).contains(&joint) || (joint.is_none() && kind.per_joint());
             if !allowed {
                 return Err(Error::Invalid(format!("--effects {item}: {} is not a per-joint effect", kind.name())));
             }
@@ -997,11 +996,12 @@ fn load_model(path: &Path) -> Result<crate::calib::run::CalibResult> {
     crate::calib::run::CalibResult::load(path)
 }
 
-/// The CSV `predict` writes: `q1..q6,L,L_pred,residual` when every row has a measured length,
-/// `q1..q6,L_pred` otherwise.
-pub fn prediction_csv(rows: &[([f64; 6], Option<f64>)], predicted: &[f64]) -> String {
+/// The CSV `predict` writes: `q1..qN,L,L_pred,residual` when every row has a measured length,
+/// `q1..qN,L_pred` otherwise.
+pub fn prediction_csv(rows: &[(&[f64], Option<f64>)], predicted: &[f64]) -> String {
     let with_l = rows.iter().all(|(_, l)| l.is_some());
-    let mut text = String::from(if with_l { "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n" } else { "q1,q2,q3,q4,q5,q6,L_pred\n" });
+    let joints: Vec<String> = (1..=rows.first().map_or(0, |(q, _)| q.len())).map(|j| format!("q{j},")).collect();
+    let mut text = joints.concat() + if with_l { "L,L_pred,residual\n" } else { "L_pred\n" };
     for ((q, l), p) in rows.iter().zip(predicted) {
         let q: Vec<String> = q.iter().map(|v| v.to_string()).collect();
         match (with_l, l) {
@@ -1019,7 +1019,8 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: b
     check_outputs(&[("--model", model), ("--data", &data_files[0])], &[("--out", out)])?;
     let result = load_model(model)?;
     let ds = load_dataset(data, angles, false)?;
-    let rows: Vec<([f64; 6], Option<f64>)> = ds.rows.iter().map(|r| (r.q_deg, r.l_mm)).collect();
+    ds.require_joints(result.model.chain.n_joints, &format!("the model {}", model.display()))?;
+    let rows: Vec<(&[f64], Option<f64>)> = ds.rows.iter().map(|r| (r.q_deg.as_slice(), r.l_mm)).collect();
     let predicted = result.predict_rows(&ds);
     for (i, p) in predicted.iter().enumerate() {
         if !p.is_finite() {
@@ -1560,7 +1561,7 @@ mod tests {
 
     #[test]
     fn prediction_csv_has_residuals_only_when_every_row_has_a_length() {
-        let q = [1.0, 2.0, 3.0, 4.0, 5.0, 6.5];
+        let q: &[f64] = &[1.0, 2.0, 3.0, 4.0, 5.0, 6.5];
         let with = prediction_csv(&[(q, Some(300.5)), (q, Some(301.0))], &[300.25, 301.0]);
         assert_eq!(with, "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n1,2,3,4,5,6.5,300.5,300.25,0.25\n1,2,3,4,5,6.5,301,301,0\n");
         let without = prediction_csv(&[(q, None), (q, Some(301.0))], &[300.25, 301.0]);

@@ -128,6 +128,10 @@ pub struct Truth {
     pub scenario: String,
     pub seed: u64,
     pub robot: String,
+    /// The robot's URDF text, for a robot other than the embedded IRB 120: the truth file then
+    /// holds everything needed to rebuild the twin (`ik` validates against it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot_urdf: Option<String>,
     pub units: BTreeMap<&'static str, &'static str>,
     /// True geometric deviations: mm for dx/dy/dz, degrees for rx/ry/rz/dtheta.
     pub parameters: BTreeMap<String, f64>,
@@ -433,7 +437,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         // Each value at its meaning's precision (see DrawWire::reading_decimals).
         let reading = round_decimals(reading, s.sensor.reading_decimals());
         rows.push(Row {
-            q_deg: std::array::from_fn(|j| round_decimals(poses[i][j].to_degrees(), s.sampling.written_decimals())),
+            q_deg: poses[i].iter().map(|v| round_decimals(v.to_degrees(), s.sampling.written_decimals())).collect(),
             l_mm: Some(reading),
             t_s: Some(round_decimals(times[i], T_DECIMALS)),
             temp_c: temp,
@@ -494,6 +498,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         scenario: s.name.clone(),
         seed: s.seed,
         robot: robot.name.clone(),
+        robot_urdf: (!robot.is_embedded()).then(|| robot.urdf.clone()),
         units,
         parameters,
         effects: s.effects.clone(),

@@ -53,9 +53,27 @@ impl TwinCheck {
         let tpath = folder.join(crate::calib::truth::TRUTH_FILE);
         let text = std::fs::read_to_string(&tpath).map_err(|e| Error::io(&tpath, e))?;
         let raw: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::data(tpath.display(), e.to_string()))?;
-        let robot = Robot::irb120();
+        // The twin's robot: the URDF the truth file carries, else the embedded IRB 120.
+        let robot = match raw.get("robot_urdf").and_then(|v| v.as_str()) {
+            Some(text) => Robot::from_urdf_str(text, &format!("{} (robot_urdf)", tpath.display()))?,
+            None => Robot::irb120(),
+        };
         if raw.get("robot").and_then(|v| v.as_str()) != Some(robot.name.as_str()) {
-            return Err(Error::Invalid(format!("{}: the twin is not the embedded IRB 120; ik validates only on it", tpath.display())));
+            return Err(Error::Invalid(format!(
+                "{}: the truth file names the robot {} but carries no robot_urdf, and is not the embedded IRB 120's ({}); \
+                 regenerate the twin's dataset to validate against it",
+                tpath.display(),
+                raw.get("robot").map(|v| v.to_string()).unwrap_or_else(|| "(none)".into()),
+                robot.name
+            )));
+        }
+        if robot.dof() != r.model.chain.n_joints {
+            return Err(Error::Invalid(format!(
+                "{}: the twin's robot has {} joints, the calibrated model {}",
+                tpath.display(),
+                robot.dof(),
+                r.model.chain.n_joints
+            )));
         }
         let params = robot
             .param_names()
@@ -99,7 +117,7 @@ impl TwinCheck {
         Ok(c)
     }
     fn twin_point_raw(&self, q: &[f64]) -> Vector3<f64> {
-        let sides = crate::twin::approach_sides(&[0.0; 6], &[q.to_vec()]).remove(0);
+        let sides = crate::twin::approach_sides(&vec![0.0; q.len()], &[q.to_vec()]).remove(0);
         self.twin.quasi_static(&PoseCommand { q_cmd: q.to_vec(), sides, t: self.t_ref }).tool * 1e3
     }
     /// The twin's true tool point for commanded angles `q` (rad), mm, in the calibration's frame.
@@ -113,10 +131,10 @@ fn data_ranges(r: &CalibResult) -> Vec<(f64, f64)> {
     match &r.corrector {
         Some(crate::calib::corrector::Corrector::Gkan(g)) => g.lo.iter().zip(&g.hi).map(|(a, b)| (*a, *b)).collect(),
         Some(crate::calib::corrector::Corrector::Mlp(m)) => m.lo.iter().zip(&m.hi).map(|(a, b)| (*a, *b)).collect(),
-        _ => Robot::irb120().limits(),
+        _ => r.model.joint_limits(),
     }
     .into_iter()
-    .zip(Robot::irb120().limits())
+    .zip(r.model.joint_limits())
     .map(|((a, b), (lo, hi))| (a.max(lo), b.min(hi)))
     .collect()
 }
@@ -160,8 +178,8 @@ pub fn random_targets(r: &CalibResult, check: Option<&TwinCheck>, n: usize, seed
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let ranges = data_ranges(r);
     let corr: Option<&dyn Correct> = r.corrector.as_ref().map(|c| c.as_correct());
-    let m = IkModel::new(&r.model, &r.x, corr, Robot::irb120().limits());
-    let mut w = r.model.work();
+    let m = IkModel::new(&r.model, &r.x, corr, r.model.joint_limits());
+    let mut w = m.work();
     (0..n)
         .map(|_| {
             let q = random_in(&ranges, &mut rng);
@@ -198,7 +216,7 @@ impl IkRun {
 
 /// Solves every target with one model and Jacobian, timed per query (single thread).
 pub fn run_ik(label: &str, m: &IkModel, kind: JacobianKind, targets: &[Vector3<f64>], o: &IkOptions, check: Option<&TwinCheck>) -> IkRun {
-    let mut w = m.model.work();
+    let mut w = m.work();
     let t0 = Instant::now();
     let mut times = Vec::with_capacity(targets.len());
     let solutions: Vec<IkSolution> = targets
@@ -254,7 +272,7 @@ pub struct IkArgs {
 /// Everything `ik` and `bench ik` compute: the calibrated model's runs per Jacobian, then (with a
 /// twin) the nominal and floor references with the hybrid Jacobian.
 pub fn ik_runs(r: &CalibResult, targets: &[Vector3<f64>], kinds: &[JacobianKind], o: &IkOptions, check: Option<&TwinCheck>) -> Vec<IkRun> {
-    let limits = Robot::irb120().limits();
+    let limits = r.model.joint_limits();
     let corr: Option<&dyn Correct> = r.corrector.as_ref().map(|c| c.as_correct());
     let m = IkModel::new(&r.model, &r.x, corr, limits.clone());
     let mut runs: Vec<IkRun> = kinds.iter().map(|k| run_ik(&format!("calibrated/{}", k.name()), &m, *k, targets, o, check)).collect();
@@ -330,7 +348,8 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     };
     let o = IkOptions { tol_mm: a.tol_mm, seed: a.seed, ..Default::default() };
     let runs = ik_runs(&r, &targets, &kinds, &o, check.as_ref());
-    let mut csv = String::from("target,x_mm,y_mm,z_mm,solver,status,iterations,residual_mm,q1,q2,q3,q4,q5,q6,true_error_mm\n");
+    let joints: Vec<String> = (1..=r.model.chain.n_joints).map(|j| format!("q{j},")).collect();
+    let mut csv = format!("target,x_mm,y_mm,z_mm,solver,status,iterations,residual_mm,{}true_error_mm\n", joints.concat());
     for run in &runs {
         for (i, (s, t)) in run.solutions.iter().zip(&targets).enumerate() {
             let q: Vec<String> = s.q.iter().map(|v| format!("{:.6}", v.to_degrees())).collect();

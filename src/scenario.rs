@@ -206,8 +206,13 @@ impl Scenario {
 
     pub fn validate(&self, robot: &Robot, origin: &str) -> Result<()> {
         let err = |msg: String| Error::Scenario { path: origin.to_string(), msg };
-        if robot.dof() != 6 {
-            return Err(err(format!("robot '{}' has {} revolute joints; datasets hold six joint angles (q1..q6)", robot.name, robot.dof())));
+        if robot.dof() == 0 || robot.dof() > crate::dataset::MAX_JOINTS {
+            return Err(err(format!(
+                "robot '{}' has {} revolute joints; a dataset holds 1..{} joint angles",
+                robot.name,
+                robot.dof(),
+                crate::dataset::MAX_JOINTS
+            )));
         }
         self.effects.validate(robot.dof()).map_err(err)?;
         self.sensor.validate().map_err(err)?;

@@ -303,7 +303,7 @@ fn bad_calibration_input_is_named_and_leaves_nothing() {
         (vec!["--loss".into(), "tukey".into()], None, "unknown loss"),
         (vec!["--method".into(), "ekf".into(), "--loss".into(), "huber".into()], None, "applies to --method lm"),
         (vec!["--angle-resolution-deg".into(), "0".into()], None, "--angle-resolution-deg"),
-        (vec![], Some("q1,q2,q3,q4,q5,L\n1,2,3,4,5,300\n"), "q6"),
+        (vec![], Some("q1,q2,q3,q4,q5,L\n1,2,3,4,5,300\n"), "5 joint angles (q1..q5) but the robot"),
         (vec![], Some("q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,NaN\n"), "NaN"),
         (vec![], Some("q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,300\n1,2,3\n"), "line 3"),
     ];
@@ -381,7 +381,7 @@ fn hayati_plus_field(seed: u64, field: impl Fn(&[f64]) -> f64) -> Dataset {
             let q: Vec<f64> = q_deg.iter().map(|d: &f64| d.to_radians()).collect();
             let noise = 0.01 * (rng.random_range(-1.0f64..1.0) + rng.random_range(-1.0..1.0) + rng.random_range(-1.0..1.0));
             let l = model.predict(&x, &q, &mut w) * 1e3 + field(&q) + noise;
-            Row { q_deg, l_mm: Some(l), t_s: None, temp_c: None, split: Some(if i % 4 == 0 { Split::Test } else { Split::Train }) }
+            Row { q_deg: q_deg.to_vec(), l_mm: Some(l), t_s: None, temp_c: None, split: Some(if i % 4 == 0 { Split::Test } else { Split::Train }) }
         })
         .collect();
     Dataset { rows, source: format!("hayati+field seed {seed}") }

@@ -404,7 +404,7 @@ fn temp_sensor_noise_and_offset_are_seeded_and_deterministic() {
     let (s3, _) = ideal_with(Effects { thermal: Some(warm_up(120.0, 0.3, 0.0, true)), ..Default::default() });
     let d = generate(&s3, &robot, &Silent).unwrap();
     for (x, y) in a.dataset.rows.iter().zip(&d.dataset.rows) {
-        assert_eq!((x.q_deg, x.l_mm, x.t_s), (y.q_deg, y.l_mm, y.t_s));
+        assert_eq!((&x.q_deg, x.l_mm, x.t_s), (&y.q_deg, y.l_mm, y.t_s));
         assert!((x.temp_c.unwrap() - y.temp_c.unwrap()).abs() < 0.25);
     }
 }

@@ -102,7 +102,7 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
     let all = crate::calib::inputs::row_inputs(ds, r.torque_model.as_ref());
     let clean = Samples {
         l: split.test_idx.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(),
-        inputs: split.test_idx.iter().map(|&i| all[i]).collect(),
+        inputs: split.test_idx.iter().map(|&i| all[i].clone()).collect(),
         q: split.test.q.clone(),
     };
     let left = LengthFit { model: &r.model, data: &clean }.residuals_mm(&r.x);

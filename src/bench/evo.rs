@@ -230,14 +230,13 @@ pub fn bench_ik(repeat: usize) -> Result<()> {
     let o = crate::calib::ik::IkOptions::default();
     // Baseline in the same process: one forward evaluation with the hybrid Jacobian.
     let corr = r.corrector.as_ref().map(|c| c.as_correct());
-    let m = IkModel::new(&r.model, &r.x, corr, crate::robot::Robot::irb120().limits());
-    let mut w = r.model.work();
-    let mut cols = [nalgebra::Vector3::zeros(); 6];
+    let m = IkModel::new(&r.model, &r.x, corr, r.model.joint_limits());
+    let mut w = m.work();
     let q = vec![0.1, 0.2, -0.3, 0.4, 0.5, 0.6];
     let mut ft = Vec::new();
     for _ in 0..2000 {
         let t0 = Instant::now();
-        std::hint::black_box(m.position(&q, &mut w, Some((JacobianKind::Hybrid, &mut cols))));
+        std::hint::black_box(m.position(&q, &mut w, Some(JacobianKind::Hybrid)));
         ft.push(t0.elapsed().as_secs_f64());
     }
     let t_f = median(&ft);

@@ -655,9 +655,9 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
         let inp = (0..n)
             .map(|_| {
-                let mut r = RowInputs { temp_c: Some(rng.random_range(20.0..26.0)), ..Default::default() };
-                r.side.iter_mut().for_each(|s| *s = if rng.random::<bool>() { 1.0 } else { -1.0 });
-                r
+                let temp_c = Some(rng.random_range(20.0..26.0));
+                let side = (0..6).map(|_| if rng.random::<bool>() { 1.0 } else { -1.0 }).collect();
+                RowInputs { temp_c, side, ..Default::default() }
             })
             .collect();
         (qs, inp)
@@ -702,7 +702,7 @@ mod tests {
         let back: Corrector = serde_json::from_str(&json).unwrap();
         assert!((back.as_correct().correction_mm(&test[0], &si[0]) - c.as_correct().correction_mm(&test[0], &si[0])).abs() < 1e-9);
         // A row without the temperature sits at the training mean; one input too many is refused.
-        let no_temp = RowInputs { temp_c: None, ..si[0] };
+        let no_temp = RowInputs { temp_c: None, ..si[0].clone() };
         assert!(c.as_correct().correction_mm(&test[0], &no_temp).is_finite());
         let Corrector::Awnn(mut bad) = c else { unreachable!() };
         bad.extra.push(Feature::Time);

@@ -201,7 +201,7 @@ impl Correct for EffectCorrection<'_> {
         // Jacobian, ∂L/∂q_j = u · ∂p/∂q_j at the effect-applied angles.
         let mut w = self.model.work();
         let with = self.model.length_grad_q(self.x, q, inp, &mut w, g);
-        let mut g0 = [0.0; 6];
+        let mut g0 = vec![0.0; g.len()];
         let without = self.model.length_grad_q(&self.x_off, q, inp, &mut w, &mut g0);
         for (a, b) in g.iter_mut().zip(g0) {
             *a = (*a - b) * 1e3;
@@ -214,7 +214,7 @@ impl Correct for EffectCorrection<'_> {
 /// (step `h` rad), relative to max(1, |gradient|), over the given configurations.
 pub fn gradient_error(c: &dyn Correct, qs: &[Vec<f64>], inp: &RowInputs, h: f64) -> f64 {
     let mut worst = 0.0f64;
-    let mut g = vec![0.0; 6];
+    let mut g = vec![0.0; qs.first().map_or(0, |q| q.len())];
     for q in qs {
         c.correction_grad_mm(q, inp, &mut g);
         let scale = g.iter().fold(1.0f64, |m, v| m.max(v.abs()));
@@ -302,7 +302,8 @@ mod tests {
         for k in m.first_effect()..x.len() {
             x[k] += 2e-4 * ((k as f64) * 1.3).sin();
         }
-        let inp = RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: [1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: [1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
+        let inp =
+            RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
         let c = EffectCorrection::new(&m, &x);
         let err = gradient_error(&c, &configurations(), &inp, 1e-6);
         assert!(err < 1e-6, "relative gradient error {err}");

@@ -47,10 +47,10 @@ impl EffectKind {
     }
     /// The joints a block of this kind may sit on: every joint for per-joint effects, none for
     /// whole-arm effects; thermal drift is both (the length scale, and each joint's zero drift).
-    pub fn joint_options(self) -> Vec<Option<usize>> {
+    pub fn joint_options(self, n_joints: usize) -> Vec<Option<usize>> {
         match self {
-            EffectKind::ThermalDrift => std::iter::once(None).chain((0..6).map(Some)).collect(),
-            k if k.per_joint() => (0..6).map(Some).collect(),
+            EffectKind::ThermalDrift => std::iter::once(None).chain((0..n_joints).map(Some)).collect(),
+            k if k.per_joint() => (0..n_joints).map(Some).collect(),
             _ => vec![None],
         }
     }
@@ -182,16 +182,27 @@ impl EffectBlock {
 }
 
 /// What one sample carries besides q and L.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct RowInputs {
     /// Time from the start of acquisition, s.
     pub t_s: Option<f64>,
     /// Measured temperature, °C.
     pub temp_c: Option<f64>,
-    /// Static joint torques, N·m (zero without an inertial model).
-    pub torque: [f64; 6],
-    /// Backlash flank per joint (±1; 0 when unknown).
-    pub side: [f64; 6],
+    /// Static joint torques, N·m, one per joint; empty without an inertial model (read as zero).
+    pub torque: Vec<f64>,
+    /// Backlash flank per joint (±1; 0 when unknown); empty when no flank is known.
+    pub side: Vec<f64>,
+}
+
+impl RowInputs {
+    /// Static torque of joint `j`, N·m (0 when unknown).
+    pub fn torque(&self, j: usize) -> f64 {
+        self.torque.get(j).copied().unwrap_or(0.0)
+    }
+    /// Backlash flank of joint `j` (±1; 0 when unknown).
+    pub fn side(&self, j: usize) -> f64 {
+        self.side.get(j).copied().unwrap_or(0.0)
+    }
 }
 
 /// Legendre polynomials P2..P4 and their derivatives at v. (P0, a constant, is the sensor's
@@ -209,9 +220,10 @@ pub fn legendre(v: f64) -> ([f64; 3], [f64; 3]) {
 /// each with respect to the effect parameters.
 #[derive(Clone, Debug, Default)]
 pub struct EffectState {
-    pub dq: [f64; 6],
+    /// Offset of each joint, rad.
+    pub dq: Vec<f64>,
     /// ∂Δq_j/∂q_j: how each joint's offset changes with its own commanded angle.
-    pub ddq_dq: [f64; 6],
+    pub ddq_dq: Vec<f64>,
     pub scale: f64,
     /// (parameter index, joint, ∂Δq_joint/∂param).
     pub joint_terms: Vec<(usize, usize, f64)>,
@@ -222,8 +234,11 @@ pub struct EffectState {
 /// Evaluates the joint-offset and scale effects of `blocks` whose parameters start at `first`
 /// in `x`, for a row with commanded angles `q` (rad) and inputs `inp`.
 pub fn joint_and_scale_effects(blocks: &[EffectBlock], first: usize, x: &[f64], q: &[f64], inp: &RowInputs, st: &mut EffectState) {
-    st.dq = [0.0; 6];
-    st.ddq_dq = [0.0; 6];
+    // Resized to the row's joints; after the first row this allocates nothing.
+    st.dq.clear();
+    st.dq.resize(q.len(), 0.0);
+    st.ddq_dq.clear();
+    st.ddq_dq.resize(q.len(), 0.0);
     st.scale = 1.0;
     st.joint_terms.clear();
     st.scale_terms.clear();
@@ -233,13 +248,13 @@ pub fn joint_and_scale_effects(blocks: &[EffectBlock], first: usize, x: &[f64], 
         match b.kind {
             EffectKind::JointCompliance => {
                 let j = b.joint.unwrap_or(0);
-                st.dq[j] += x[k] * inp.torque[j];
-                st.joint_terms.push((k, j, inp.torque[j]));
+                st.dq[j] += x[k] * inp.torque(j);
+                st.joint_terms.push((k, j, inp.torque(j)));
             }
             EffectKind::Backlash => {
                 let j = b.joint.unwrap_or(0);
-                st.dq[j] += x[k] * inp.side[j];
-                st.joint_terms.push((k, j, inp.side[j]));
+                st.dq[j] += x[k] * inp.side(j);
+                st.joint_terms.push((k, j, inp.side(j)));
             }
             EffectKind::EncoderEccentricity => {
                 let j = b.joint.unwrap_or(0);

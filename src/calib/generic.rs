@@ -135,7 +135,7 @@ pub fn model_around(frames: &[Frame], q_ref: &[f64], sensor: &SensorGuess) -> Ca
     nominal.extend(sensor.exit_m.iter());
     nominal.push(sensor.offset_m);
     nominal.extend(sensor.tool_m.iter());
-    CalibModel { name: "generic6r".into(), chain, names, kinds, nominal, effects: Vec::new() }
+    CalibModel { name: "generic6r".into(), chain, names, kinds, nominal, effects: Vec::new(), limits: Vec::new() }
 }
 
 /// A plausible industrial 6R topology at the reference pose (m), and a tool point.

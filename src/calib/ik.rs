@@ -112,6 +112,16 @@ impl Default for IkOptions {
     }
 }
 
+/// Reusable buffers of [`IkModel`]: the model's own workspace and the per-joint columns, so a
+/// solve allocates nothing per iteration. One per thread ([`IkModel::work`]).
+pub struct IkWork {
+    pub model: ModelWork,
+    /// The chosen Jacobian of the last [`IkModel::position`] call with one, mm/rad, a column per joint.
+    pub cols: Vec<Vector3<f64>>,
+    dp: Vec<Vector3<f64>>,
+    g: Vec<f64>,
+}
+
 /// A calibrated model as an IK forward model: geometry, optional learned corrector, limits.
 pub struct IkModel<'a> {
     pub model: &'a CalibModel,
@@ -138,25 +148,33 @@ impl<'a> IkModel<'a> {
         m.reach_mm = reach * 1.01 + 1.0;
         m
     }
+    /// A workspace sized for this model's joints.
+    pub fn work(&self) -> IkWork {
+        let n = self.model.chain.n_joints;
+        IkWork { model: self.model.work(), cols: vec![Vector3::zeros(); n], dp: vec![Vector3::zeros(); n], g: vec![0.0; n] }
+    }
     pub fn random_q(&self, rng: &mut ChaCha8Rng) -> Vec<f64> {
         self.limits.iter().map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>()).collect()
     }
-    /// p̂(q) in mm and, when `jac` is given, the chosen Jacobian (mm/rad, 3 × 6 as six columns).
-    pub fn position(&self, q: &[f64], w: &mut ModelWork, jac: Option<(JacobianKind, &mut [Vector3<f64>; 6])>) -> Vector3<f64> {
-        let mut dp = [Vector3::zeros(); 6];
-        let p = self.model.tool_point_jac_q(self.x, q, &self.inp, w, &mut dp) * 1e3;
+    /// p̂(q) in mm and, when `jac` is given, the chosen Jacobian (mm/rad, 3 × N, a column per
+    /// joint) into `w.cols`.
+    pub fn position(&self, q: &[f64], w: &mut IkWork, jac: Option<JacobianKind>) -> Vector3<f64> {
+        let IkWork { model: mw, cols, dp, g } = w;
+        let p = self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp) * 1e3;
         let d = p - self.exit * 1e3;
         let dist = d.norm().max(1e-9);
         let u = d / dist;
-        let mut g = [0.0; 6];
         let delta = match self.corrector {
-            Some(c) => c.correction_grad_mm(q, &self.inp, &mut g),
-            None => 0.0,
+            Some(c) => c.correction_grad_mm(q, &self.inp, g),
+            None => {
+                g.fill(0.0);
+                0.0
+            }
         };
-        if let Some((kind, out)) = jac {
-            for j in 0..6 {
+        if let Some(kind) = jac {
+            for (j, out) in cols.iter_mut().enumerate() {
                 let jp = dp[j] * 1e3;
-                out[j] = match kind {
+                *out = match kind {
                     JacobianKind::Analytic => jp,
                     JacobianKind::Neural => u * g[j],
                     JacobianKind::Hybrid => jp + u * g[j] + (jp - u * u.dot(&jp)) * (delta / dist),
@@ -171,7 +189,7 @@ impl<'a> IkModel<'a> {
     }
 
     /// Solves one target (mm, in the model's frame).
-    pub fn solve(&self, target: &Vector3<f64>, kind: JacobianKind, o: &IkOptions, w: &mut ModelWork) -> IkSolution {
+    pub fn solve(&self, target: &Vector3<f64>, kind: JacobianKind, o: &IkOptions, w: &mut IkWork) -> IkSolution {
         if !target.iter().all(|v| v.is_finite()) {
             return IkSolution { status: IkStatus::Invalid, q: self.mid(), iterations: 0, residual_mm: 0.0 };
         }
@@ -201,12 +219,11 @@ impl<'a> IkModel<'a> {
     }
 
     /// One damped least-squares descent: (residual, q, iterations, why it stopped if it failed).
-    fn descend(&self, target: &Vector3<f64>, mut q: Vec<f64>, kind: JacobianKind, o: &IkOptions, w: &mut ModelWork) -> (f64, Vec<f64>, usize, IkStatus) {
-        let mut cols = [Vector3::zeros(); 6];
+    fn descend(&self, target: &Vector3<f64>, mut q: Vec<f64>, kind: JacobianKind, o: &IkOptions, w: &mut IkWork) -> (f64, Vec<f64>, usize, IkStatus) {
         let lam2 = o.damping * o.damping;
         let mut res = f64::INFINITY;
         for it in 0..o.max_iter {
-            let p = self.position(&q, w, Some((kind, &mut cols)));
+            let p = self.position(&q, w, Some(kind));
             let e = target - p;
             res = e.norm();
             if !res.is_finite() {
@@ -216,29 +233,27 @@ impl<'a> IkModel<'a> {
                 return (res, q, it, IkStatus::Converged);
             }
             let mut jjt = Matrix3::zeros();
-            for c in &cols {
+            for c in &w.cols {
                 jjt += c * c.transpose();
             }
             let Some(inv) = (jjt + Matrix3::identity() * lam2).try_inverse() else {
                 return (res, q, it, IkStatus::Singular);
             };
             let y = inv * e;
-            let mut dq: Vec<f64> = cols.iter().map(|c| c.dot(&y)).collect();
-            let big = dq.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            if big > o.max_step {
-                dq.iter_mut().for_each(|v| *v *= o.max_step / big);
-            }
-            for j in 0..6 {
-                q[j] = (q[j] + dq[j]).clamp(self.limits[j].0, self.limits[j].1);
+            // Step: J^T y, scaled so that no joint moves more than `max_step`.
+            let big = w.cols.iter().fold(0.0f64, |m, c| m.max(c.dot(&y).abs()));
+            let shrink = if big > o.max_step { o.max_step / big } else { 1.0 };
+            for (j, c) in w.cols.iter().enumerate() {
+                q[j] = (q[j] + c.dot(&y) * shrink).clamp(self.limits[j].0, self.limits[j].1);
             }
         }
-        let p = self.position(&q, w, Some((kind, &mut cols)));
+        let p = self.position(&q, w, Some(kind));
         let final_res = (target - p).norm();
         if final_res.is_finite() {
             res = final_res;
         }
         let mut jjt = Matrix3::zeros();
-        for c in &cols {
+        for c in &w.cols {
             jjt += c * c.transpose();
         }
         let eig = jjt.symmetric_eigenvalues();
@@ -297,10 +312,10 @@ mod tests {
         let mut g = Gkan::new(GkanShape::default(), lo, hi);
         g.coef.iter_mut().enumerate().for_each(|(k, c)| *c = 0.3 * ((k as f64) * 0.61).sin());
         let ik = IkModel::new(&m, &x, Some(&g), limits.clone());
-        let mut w = m.work();
-        let mut cols = [Vector3::zeros(); 6];
+        let mut w = ik.work();
         let q = qs[5].iter().map(|v| v * 0.9).collect::<Vec<_>>();
-        ik.position(&q, &mut w, Some((JacobianKind::Hybrid, &mut cols)));
+        ik.position(&q, &mut w, Some(JacobianKind::Hybrid));
+        let cols = w.cols.clone();
         for j in 0..6 {
             let (mut a, mut b) = (q.clone(), q.clone());
             a[j] += 1e-6;

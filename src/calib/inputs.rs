@@ -105,23 +105,33 @@ impl TorqueModel {
 pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs> {
     let n = data.rows.len();
     let mut out: Vec<RowInputs> = data.rows.iter().map(|r| RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect();
-    if let Some(tm) = torque {
-        for (i, r) in data.rows.iter().enumerate() {
-            let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            for (j, t) in tm.torques(&q).into_iter().enumerate().take(6) {
-                out[i].torque[j] = t;
+    let nq = data.n_joints();
+    for (i, r) in data.rows.iter().enumerate() {
+        out[i].torque = match torque {
+            Some(tm) => {
+                let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
+                let mut t = tm.torques(&q);
+                t.resize(nq, 0.0);
+                t
             }
-        }
+            None => vec![0.0; nq],
+        };
     }
     let threshold = torque.map(|t| t.torque_threshold_nm).unwrap_or(f64::INFINITY);
     // Approach flanks in file order from the home pose (the twin's rule), then the load rule.
     let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.to_vec()).collect();
-    let approach = crate::effects::approach_sides(&[0.0; 6], &poses);
+    let approach = crate::effects::approach_sides(&vec![0.0; nq], &poses);
     for i in 0..n {
-        for j in 0..6 {
-            let tau = out[i].torque[j];
-            out[i].side[j] = if tau.abs() > threshold { tau.signum() } else { approach[i][j] };
-        }
+        out[i].side = (0..nq)
+            .map(|j| {
+                let tau = out[i].torque[j];
+                if tau.abs() > threshold {
+                    tau.signum()
+                } else {
+                    approach[i][j]
+                }
+            })
+            .collect();
     }
     out
 }
@@ -131,9 +141,13 @@ pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs
 /// is normalised over the data's reading range. Errors name what the data lack.
 pub fn block_for(data: &Dataset, kind: EffectKind, joint: Option<usize>, has_torques: bool) -> Result<EffectBlock> {
     let mut b = EffectBlock { kind, joint, thermal: None, range_m: None };
-    if !kind.joint_options().contains(&joint) {
+    let nq = data.n_joints();
+    if !kind.joint_options(nq).contains(&joint) {
         return Err(Error::Invalid(match joint {
-            None => format!("{} needs a joint 1..6", kind.name()),
+            None => format!("{} needs a joint 1..{nq}", kind.name()),
+            Some(j) if kind.per_joint() || kind == EffectKind::ThermalDrift => {
+                format!("{}: joint {} is beyond the data's {nq} joints (q1..q{nq})", kind.name(), j + 1)
+            }
             Some(_) => format!("{} takes no joint", kind.name()),
         }));
     }
@@ -181,7 +195,8 @@ mod tests {
     #[test]
     fn row_flanks_follow_the_twins_approach_rule() {
         let q1 = [10.0, 10.0, 5.0, 20.0, -3.0];
-        let rows: Vec<Row> = q1.iter().map(|&a| Row { q_deg: [a, 0.0, -a, 0.0, 0.0, 0.0], l_mm: Some(500.0), t_s: None, temp_c: None, split: None }).collect();
+        let rows: Vec<Row> =
+            q1.iter().map(|&a| Row { q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0], l_mm: Some(500.0), t_s: None, temp_c: None, split: None }).collect();
         let data = Dataset { rows, source: "test".into() };
         let inp = row_inputs(&data, None);
         let side = |j: usize| inp.iter().map(|r| r.side[j]).collect::<Vec<f64>>();

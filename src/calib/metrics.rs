@@ -74,12 +74,14 @@ pub struct Repeatability {
 /// joint vectors; a tolerance so small relative to the angles that a `tol_deg` grid is not
 /// representable (below `1e-12 · max |q|`) is treated as 0 as well.
 ///
-/// Complexity: O(n log n) plus, per occupied `tol_deg` grid cell, a look-up of its 3⁶ − 1
-/// neighbouring cells; distances are only computed between rows of adjacent cells.
+/// Complexity: O(n log n) for the sort plus the comparisons between rows whose angles on the
+/// sorting joint lie within `tol_deg` of each other (see `link_grid`). Any number of joints.
 ///
 /// Returns `None` when the lengths differ, `tol_deg` is negative or not finite, or no group has
 /// two or more members.
-pub fn repeatability(q_deg: &[[f64; 6]], l: &[f64], tol_deg: f64) -> Option<Repeatability> {
+pub fn repeatability<Q: AsRef<[f64]>>(q_deg: &[Q], l: &[f64], tol_deg: f64) -> Option<Repeatability> {
+    let q_deg: Vec<&[f64]> = q_deg.iter().map(|q| q.as_ref()).collect();
+    let q_deg = q_deg.as_slice();
     if q_deg.len() != l.len() || !tol_deg.is_finite() || tol_deg < 0.0 {
         return None;
     }
@@ -117,10 +119,10 @@ pub fn repeatability(q_deg: &[[f64; 6]], l: &[f64], tol_deg: f64) -> Option<Repe
 }
 
 /// Union rows whose joint vectors are exactly equal (sort lexicographically, link neighbours).
-fn link_exact(q: &[[f64; 6]], rows: &[usize], uf: &mut UnionFind) {
+fn link_exact(q: &[&[f64]], rows: &[usize], uf: &mut UnionFind) {
     let mut sorted = rows.to_vec();
     // `+ 0.0` maps −0 to +0 so that both sort together.
-    sorted.sort_by(|&a, &b| q[a].iter().zip(&q[b]).map(|(x, y)| (x + 0.0).total_cmp(&(y + 0.0))).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal));
+    sorted.sort_by(|&a, &b| q[a].iter().zip(q[b]).map(|(x, y)| (x + 0.0).total_cmp(&(y + 0.0))).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal));
     for w in sorted.windows(2) {
         if q[w[0]] == q[w[1]] {
             uf.union(w[0], w[1]);
@@ -131,17 +133,18 @@ fn link_exact(q: &[[f64; 6]], rows: &[usize], uf: &mut UnionFind) {
 /// Union rows whose joint vectors are within `tol` on every joint: rows sorted along the joint
 /// with the most distinct values, each compared with the rows after it until that joint differs
 /// by more than `tol` (near-equal configurations are neighbours in that order).
-fn link_grid(q: &[[f64; 6]], rows: &[usize], tol: f64, uf: &mut UnionFind) {
+fn link_grid(q: &[&[f64]], rows: &[usize], tol: f64, uf: &mut UnionFind) {
     let distinct = |k: usize| {
         let mut v: Vec<f64> = rows.iter().map(|&i| q[i][k]).collect();
         v.sort_by(f64::total_cmp);
         v.dedup();
         v.len()
     };
-    let axis = (0..6).max_by_key(|&k| (distinct(k), std::cmp::Reverse(k))).unwrap_or(0);
+    let joints = rows.first().map_or(0, |&i| q[i].len());
+    let axis = (0..joints).max_by_key(|&k| (distinct(k), std::cmp::Reverse(k))).unwrap_or(0);
     let mut sorted = rows.to_vec();
     sorted.sort_by(|&a, &b| q[a][axis].total_cmp(&q[b][axis]).then(a.cmp(&b)));
-    let near = |a: usize, b: usize| q[a].iter().zip(&q[b]).all(|(x, y)| (x - y).abs() <= tol);
+    let near = |a: usize, b: usize| q[a].iter().zip(q[b]).all(|(x, y)| (x - y).abs() <= tol);
     for (n, &i) in sorted.iter().enumerate() {
         for &j in &sorted[n + 1..] {
             if q[j][axis] - q[i][axis] > tol {
@@ -279,7 +282,7 @@ mod tests {
         assert_eq!(repeatability(&q, &l[..4], 0.1), None);
         assert_eq!(repeatability(&q, &l, -1.0), None);
         assert_eq!(repeatability(&q, &l, f64::NAN), None);
-        assert_eq!(repeatability(&[], &[], 0.1), None);
+        assert_eq!(repeatability::<[f64; 6]>(&[], &[], 0.1), None);
         assert_eq!(repeatability(&[[f64::NAN; 6], [f64::NAN; 6]], &[1.0, 2.0], 0.1), None);
     }
 }

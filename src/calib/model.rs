@@ -60,6 +60,10 @@ pub struct CalibModel {
     /// Non-geometric effect blocks; their parameters follow the sensor's.
     #[serde(default)]
     pub effects: Vec<EffectBlock>,
+    /// Joint limits (rad) of the nominal robot, one pair per joint; empty for a model without a
+    /// robot (a generic arm). See [`Self::joint_limits`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub limits: Vec<(f64, f64)>,
 }
 
 /// Where the instrument sits in a parameter vector: the draw-wire's exit point (base frame), its
@@ -136,7 +140,7 @@ impl CalibModel {
             return 1.0;
         }
         joint_and_scale_effects(&self.effects, self.first_effect(), x, q, inp, &mut w.eff);
-        for (qj, d) in w.q.iter_mut().zip(w.eff.dq) {
+        for (qj, d) in w.q.iter_mut().zip(&w.eff.dq) {
             *qj += d;
         }
         w.eff.scale
@@ -248,9 +252,9 @@ impl CalibModel {
         let u = d / dist;
         let l = dist + c;
         let (corr, dcorr, _) = self.reading_correction(x, l);
-        let own = if self.effects.is_empty() { [0.0; 6] } else { w.eff.ddq_dq };
+        let own = |j: usize| if self.effects.is_empty() { 0.0 } else { w.eff.ddq_dq[j] };
         for (j, gj) in g.iter_mut().enumerate().take(self.chain.n_joints) {
-            *gj = (1.0 + dcorr) * u.dot(&w.jac.dq[j]) * (1.0 + own[j]);
+            *gj = (1.0 + dcorr) * u.dot(&w.jac.dq[j]) * (1.0 + own(j));
         }
         l + corr
     }
@@ -263,9 +267,9 @@ impl CalibModel {
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
-        let own = if self.effects.is_empty() { [0.0; 6] } else { w.eff.ddq_dq };
+        let own = |j: usize| if self.effects.is_empty() { 0.0 } else { w.eff.ddq_dq[j] };
         for (j, d) in dp.iter_mut().enumerate().take(self.chain.n_joints) {
-            *d = w.jac.dq[j] * (1.0 + own[j]);
+            *d = w.jac.dq[j] * (1.0 + own(j));
         }
         w.jac.point
     }
@@ -284,7 +288,16 @@ impl CalibModel {
         nominal.extend(sensor.exit_m.iter());
         nominal.push(sensor.offset_m);
         nominal.extend(sensor.tool_m.iter());
-        CalibModel { name: name.into(), chain, names, kinds, nominal, effects: Vec::new() }
+        CalibModel { name: name.into(), chain, names, kinds, nominal, effects: Vec::new(), limits: Vec::new() }
+    }
+
+    /// Joint limits (rad) for inverse kinematics and sampling: the nominal robot's, else a full
+    /// turn either way (−π, π) on every joint.
+    pub fn joint_limits(&self) -> Vec<(f64, f64)> {
+        if self.limits.len() == self.chain.n_joints {
+            return self.limits.clone();
+        }
+        vec![(-std::f64::consts::PI, std::f64::consts::PI); self.chain.n_joints]
     }
 
     /// The twin's per-joint frame-error model.
@@ -292,12 +305,13 @@ impl CalibModel {
         let chain = robot.error_chain();
         let kinds =
             chain.param_names.iter().map(|n| if n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz") { Kind::Length } else { Kind::Angle }).collect();
-        CalibModel::with_sensor("frame", chain, kinds, sensor)
+        CalibModel { limits: robot.limits(), ..CalibModel::with_sensor("frame", chain, kinds, sensor) }
     }
 
     /// Standard D-H (`hayati = false`) or D-H with Hayati's β on parallel axes.
     pub fn dh(robot: &Robot, sensor: &SensorGuess, hayati: bool) -> CalibModel {
-        CalibModel::from_table(if hayati { "hayati" } else { "dh" }, &DhTable::from_robot(robot), sensor, hayati, true)
+        let m = CalibModel::from_table(if hayati { "hayati" } else { "dh" }, &DhTable::from_robot(robot), sensor, hayati, true);
+        CalibModel { limits: robot.limits(), ..m }
     }
 
     /// A model of D-H deviations from `table` (Hayati's β on its parallel rows when `hayati`),
@@ -521,7 +535,8 @@ mod tests {
                 *v += scale * ((k as f64) * 1.3).sin();
             }
             assert!(x.len() >= first + 29);
-            let inp = RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: [1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: [1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
+            let inp =
+                RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
             let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
             let mut w = m.work();
             let mut g = vec![0.0; m.n_params()];

@@ -46,7 +46,7 @@ impl Samples {
         Samples {
             q: idx.iter().map(|&i| self.q[i].clone()).collect(),
             l: idx.iter().map(|&i| self.l[i]).collect(),
-            inputs: idx.iter().map(|&i| self.inputs[i]).collect(),
+            inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
         }
     }
     pub fn len(&self) -> usize {

@@ -47,7 +47,7 @@ impl GeometricFit {
                 let sub = Samples {
                     q: keep.iter().map(|&i| d.q[i].clone()).collect(),
                     l: keep.iter().map(|&i| d.l[i]).collect(),
-                    inputs: keep.iter().map(|&i| d.inputs[i]).collect(),
+                    inputs: keep.iter().map(|&i| d.inputs[i].clone()).collect(),
                 };
                 let x = lm.minimize(&LengthFit { model: fit.model, data: &sub }, &all.x, fixed, &mut NoObserver).x;
                 fit.residuals_mm(&x)

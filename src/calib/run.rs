@@ -53,9 +53,6 @@ impl ModelSpec {
             "generic6r" => Ok(ModelSpec::Generic6r),
             path if path.ends_with(".urdf") => {
                 let robot = Robot::from_urdf_file(Path::new(path))?;
-                if robot.dof() != 6 {
-                    return Err(Error::Invalid(format!("{path}: {} revolute joints; calibration data hold six joint angles (q1..q6)", robot.dof())));
-                }
                 Ok(ModelSpec::Nominal { robot: Box::new(robot), parametrisation: p })
             }
             other => Err(Error::Invalid(format!("unknown model '{other}' (expected irb120, generic6r or a .urdf path)"))),
@@ -276,7 +273,7 @@ pub struct CalibResult {
 
 impl CalibResult {
     /// Predicted length (mm) at joint angles in degrees.
-    pub fn predict_mm(&self, q_deg: &[f64; 6]) -> f64 {
+    pub fn predict_mm(&self, q_deg: &[f64]) -> f64 {
         let q: Vec<f64> = q_deg.iter().map(|d| d.to_radians()).collect();
         let mut w = self.model.work();
         let inp = RowInputs::default();
@@ -330,14 +327,15 @@ impl CalibResult {
         if let Some(t) = &r.torque_model {
             t.validate(chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
         }
-        let consistent = chain.n_joints == 6
-            && r.x.len() == r.model.n_params()
+        let consistent = r.x.len() == r.model.n_params()
             && r.model.nominal.len() == r.model.n_params()
             && r.model.effects.iter().all(|e| e.joint.is_none_or(|j| j < chain.n_joints))
+            && (r.model.limits.is_empty() || r.model.limits.len() == chain.n_joints)
+            && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
             && r.model.kinds.len() == r.model.n_params()
             && r.model.n_params() == chain.n_params() + super::model::SENSOR_PARAMS.len() + r.model.effects.iter().map(|e| e.params().len()).sum::<usize>()
             && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
-            && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < 6) && o.param.is_none_or(|k| k < chain.n_params()));
+            && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
         if !consistent || r.x.iter().any(|v| !v.is_finite()) {
             return Err(Error::model(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
         }
@@ -390,7 +388,7 @@ pub struct SplitData {
 
 /// Number of distinct joint configurations among `rows` (angles compared to 1e-6 degrees).
 fn distinct_configurations(data: &Dataset, rows: &[usize]) -> usize {
-    let mut keys: Vec<[i64; 6]> = rows.iter().map(|&i| data.rows[i].q_deg.map(|v| (v * 1e6).round() as i64)).collect();
+    let mut keys: Vec<Vec<i64>> = rows.iter().map(|&i| data.rows[i].q_deg.iter().map(|v| (v * 1e6).round() as i64).collect()).collect();
     keys.sort_unstable();
     keys.dedup();
     keys.len()
@@ -398,7 +396,11 @@ fn distinct_configurations(data: &Dataset, rows: &[usize]) -> usize {
 
 pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
     if let Some(robot) = opts.model.robot() {
+        data.require_joints(robot.dof(), &format!("the robot '{}'", robot.name))?;
         check_joint_limits(data, robot)?;
+    }
+    if let Some(robot) = opts.inertial.as_ref() {
+        data.require_joints(robot.dof(), &format!("the inertial robot '{}' (--robot)", robot.name))?;
     }
     let (train_idx, test_idx) = split_rows(data, opts.test_fraction, opts.seed)?;
     if train_idx.len() < 8 {
@@ -446,12 +448,12 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
     let torque = robot.map(|r| super::inputs::TorqueModel::new(r, &opts.loads, exit, tool));
     let all = super::inputs::row_inputs(data, torque.as_ref());
     split.torque_model = torque;
-    split.train.inputs = split.train_idx.iter().map(|&i| all[i]).collect();
-    split.test.inputs = split.test_idx.iter().map(|&i| all[i]).collect();
+    split.train.inputs = split.train_idx.iter().map(|&i| all[i].clone()).collect();
+    split.test.inputs = split.test_idx.iter().map(|&i| all[i].clone()).collect();
     let span = super::inputs::time_span(data);
     for &(kind, joint) in &opts.effects {
         let joints: Vec<Option<usize>> = match (kind.per_joint(), joint) {
-            (true, None) => (0..6).map(Some).collect(),
+            (true, None) => (0..data.n_joints()).map(Some).collect(),
             (_, j) => vec![j],
         };
         for j in joints {
@@ -679,7 +681,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         warnings
             .push(format!("only {} training rows for {n_free} identifiable parameters (3x as many recommended): uncertainties are large", split.train.len()));
     }
-    let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
+    let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
     let l = data.lengths_mm()?;
     let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
 
@@ -719,7 +721,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     let angle_step = match opts.angle_step_deg {
         Some(v) => Some(super::floor::Step::Given(v)),
-        None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg)).map(super::floor::Step::Detected),
+        None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(super::floor::Step::Detected),
     };
     let length_step = super::floor::logging_step(l.iter().copied());
     let noise_floor = super::floor::noise_floor(&model, &x, &all_rows, angle_step, length_step, repeatability.as_ref());
@@ -790,12 +792,12 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
     let (parameters, _) = parameter_reports(&model, x0, &x, fixed, cov.as_ref(), None, None);
     let empty = Samples::new(Vec::new(), Vec::new());
     let metrics = metrics_stage(&fit, &LengthFit { model: &model, data: &empty }, x0, &x, None);
-    let q_deg: Vec<[f64; 6]> = data.rows.iter().map(|r| r.q_deg).collect();
+    let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
     let l = data.lengths_mm()?;
     let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
     let angle_step = match angle_step_deg {
         Some(v) => Some(super::floor::Step::Given(v)),
-        None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg)).map(super::floor::Step::Detected),
+        None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(super::floor::Step::Detected),
     };
     let noise_floor = super::floor::noise_floor(&model, &x, rows, angle_step, super::floor::logging_step(l.iter().copied()), repeatability.as_ref());
     Ok(CalibResult {

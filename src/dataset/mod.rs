@@ -1,6 +1,6 @@
-//! Calibration datasets: one row per static robot configuration, six joint angles (degrees,
-//! controller convention) and the draw-wire cable length `L` (millimetres), with optional time,
-//! temperature and train/test split.
+//! Calibration datasets: one row per static robot configuration, its joint angles `q1..qN`
+//! (degrees, controller convention; N is whatever the arm has) and the draw-wire cable length `L`
+//! (millimetres), with optional time, temperature and train/test split.
 //!
 //! # File formats
 //!
@@ -10,8 +10,8 @@
 //! * a spreadsheet (`.xlsx`, also `.xlsm`/`.xlsb`/`.xls`/`.ods`): the first sheet, or the sheet
 //!   named after a `#`, as in `pool.xlsx#Sheet1`.
 //!
-//! The header row must hold `q1`..`q6` and `L`; `t` (s), `temp` (°C) and `split` (`train`/`test`)
-//! are optional. Names are matched case-insensitively with surrounding whitespace ignored; column
+//! The header row must hold `q1`..`qN` (N ≥ 1 joints, numbered without gaps, at most
+//! [`MAX_JOINTS`]) and `L`; `t` (s), `temp` (°C) and `split` (`train`/`test`) are optional. Names are matched case-insensitively with surrounding whitespace ignored; column
 //! order is free and other columns are ignored. Blank rows are skipped.
 //!
 //! CSV files may come from spreadsheet exports: the delimiter (`,`, `;` or tab) is detected from
@@ -26,7 +26,7 @@
 //! [`Dataset::load_with`] takes [`LoadOptions`]: the joint angle unit ([`AngleUnit::Auto`] applies
 //! the radians heuristic below, [`AngleUnit::Deg`] skips it, [`AngleUnit::Rad`] converts the
 //! angles to degrees on load) and whether `L` is required (`require_length: false` accepts a
-//! file of poses `q1..q6` only, e.g. for prediction; rows then have `l_mm == None`). A dataset
+//! file of poses `q1..qN` only, e.g. for prediction; rows then have `l_mm == None`). A dataset
 //! used for calibration must have `L` ([`Dataset::require_length`]). [`Dataset::load`] is
 //! `load_with` with the defaults (`Auto`, `L` required).
 //!
@@ -43,7 +43,7 @@
 //! * **radians**: with at least [`RADIANS_MIN_ROWS`] rows, if every joint angle satisfies
 //!   `|q| <= 2π·1.05` *and* at least one joint spans more than [`RADIANS_MIN_SPAN`] (max − min),
 //!   the joints are taken to be in radians. Degree data essentially never stays inside ±6.6° on all
-//!   six joints while moving; the span condition keeps a repeated home pose (all zeros, or a fixed
+//!   joints while moving; the span condition keeps a repeated home pose (all zeros, or a fixed
 //!   pose near zero) from being flagged. The span threshold is deliberately low (0.1): the real
 //!   HSR-RobotCali pool, converted to radians, has joint spans of 0.0001–0.62 rad. A genuine
 //!   degree dataset over a narrow range (all joints within ±6.6°) trips it: load it with
@@ -60,6 +60,8 @@ use std::path::{Path, PathBuf};
 
 /// File name of the CSV inside a dataset folder.
 pub const DATASET_FILE: &str = "dataset.csv";
+/// Most joint columns a dataset may have (`q1..q32`); beyond is taken for a mislabelled file.
+pub const MAX_JOINTS: usize = 32;
 /// Largest plausible |joint angle| in degrees; anything beyond is rejected.
 pub const MAX_ABS_JOINT_DEG: f64 = 720.0;
 /// Radians heuristic: minimum number of rows before it is applied.
@@ -109,7 +111,7 @@ impl std::str::FromStr for AngleUnit {
 /// How [`Dataset::load_with`] reads a file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LoadOptions {
-    /// Unit of `q1..q6`.
+    /// Unit of `q1..qN`.
     pub angles: AngleUnit,
     /// Whether the `L` column must be present (it always must be for calibration).
     pub require_length: bool,
@@ -123,7 +125,7 @@ impl Default for LoadOptions {
 }
 
 impl LoadOptions {
-    /// Poses (`q1..q6`) with an optional `L` column, e.g. for prediction.
+    /// Poses (`q1..qN`) with an optional `L` column, e.g. for prediction.
     pub fn poses() -> Self {
         LoadOptions { require_length: false, ..Default::default() }
     }
@@ -150,8 +152,9 @@ impl Split {
 /// One static configuration and its measurement.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Row {
-    /// Joint angles, degrees, controller convention.
-    pub q_deg: [f64; 6],
+    /// Joint angles `q1..qN`, degrees, controller convention; every row of a dataset has the
+    /// same N.
+    pub q_deg: Vec<f64>,
     /// Measured cable length, mm; `None` when the file has no `L` column (poses only, loaded with
     /// `require_length: false`).
     pub l_mm: Option<f64>,
@@ -214,6 +217,24 @@ impl Dataset {
         from_table(csv_io::read_table(r, source)?, source.to_owned(), opts)
     }
 
+    /// Number of joint angles per row (`q1..qN`); 0 for an empty dataset.
+    pub fn n_joints(&self) -> usize {
+        self.rows.first().map_or(0, |r| r.q_deg.len())
+    }
+
+    /// An error naming the source unless the rows hold `n` joint angles each, the joint count of
+    /// the arm they are used with.
+    pub fn require_joints(&self, n: usize, arm: &str) -> Result<()> {
+        match self.rows.iter().position(|r| r.q_deg.len() != n) {
+            None => Ok(()),
+            Some(i) => {
+                let k = self.rows[i].q_deg.len();
+                let which = if i == 0 { "the rows hold".to_owned() } else { format!("row {} holds", i + 1) };
+                Err(Error::data(&self.source, format!("{which} {k} joint angles (q1..q{k}) but {arm} has {n} joints")))
+            }
+        }
+    }
+
     /// True when every row has a cable length (and there is at least one row).
     pub fn has_length(&self) -> bool {
         !self.rows.is_empty() && self.rows.iter().all(|r| r.l_mm.is_some())
@@ -228,7 +249,7 @@ impl Dataset {
                 &self.source,
                 format!(
                     "row {} has no cable length L; this needs measured lengths (a file with \
-                     q1..q6 and L)",
+                     q1..qN and L)",
                     i + 1
                 ),
             )),
@@ -241,7 +262,7 @@ impl Dataset {
         Ok(self.rows.iter().map(|r| r.l_mm.unwrap_or(f64::NAN)).collect())
     }
 
-    /// CSV text with header `q1,q2,q3,q4,q5,q6,L,t,temp,split`, one line per row in row order.
+    /// CSV text with header `q1,..,qN,L,t,temp,split`, one line per row in row order.
     /// Numbers use `f64`'s `Display` (shortest representation that round-trips exactly), so the
     /// output is deterministic and reloads to identical values; values rounded to `d` decimals
     /// beforehand (as the generator does) are written with at most `d` decimals. Columns `t`,
@@ -252,13 +273,13 @@ impl Dataset {
         let (has_t, has_temp, has_split) = (all(|r| r.t_s.is_some()), all(|r| r.temp_c.is_some()), all(|r| r.split.is_some()));
         let has_l = self.rows.is_empty() || self.rows.iter().any(|r| r.l_mm.is_some());
 
-        let mut out = String::from("q1,q2,q3,q4,q5,q6");
+        let mut names: Vec<String> = (1..=self.n_joints()).map(|j| format!("q{j}")).collect();
         for (present, name) in [(has_l, "L"), (has_t, "t"), (has_temp, "temp"), (has_split, "split")] {
             if present {
-                out.push(',');
-                out.push_str(name);
+                names.push(name.to_owned());
             }
         }
+        let mut out = names.join(",");
         out.push('\n');
         // `write!` into a String cannot fail.
         for row in &self.rows {
@@ -266,7 +287,9 @@ impl Dataset {
                 let _ = write!(out, "{}{q}", if j == 0 { "" } else { "," });
             }
             if has_l {
-                out.push(',');
+                if !row.q_deg.is_empty() {
+                    out.push(',');
+                }
                 if let Some(l) = row.l_mm {
                     let _ = write!(out, "{l}");
                 }
@@ -372,6 +395,7 @@ pub(crate) struct RawTable {
 /// The columns this module understands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Column {
+    /// Joint `j` (0-based): header `q{j+1}`.
     Q(usize),
     L,
     T,
@@ -380,41 +404,55 @@ enum Column {
 }
 
 impl Column {
-    const ALL: [Column; 10] =
-        [Column::Q(0), Column::Q(1), Column::Q(2), Column::Q(3), Column::Q(4), Column::Q(5), Column::L, Column::T, Column::Temp, Column::Split];
-    const NAMES: [&'static str; 10] = ["q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split"];
-    /// Number of required columns at the start of `ALL` (q1..q6, L).
-    const REQUIRED: usize = 7;
+    const OTHERS: [Column; 4] = [Column::L, Column::T, Column::Temp, Column::Split];
 
+    /// Slot in [`Layout::pos`]: the four named columns first, then the joints.
     fn index(self) -> usize {
         match self {
-            Column::Q(j) => j,
-            Column::L => 6,
-            Column::T => 7,
-            Column::Temp => 8,
-            Column::Split => 9,
+            Column::L => 0,
+            Column::T => 1,
+            Column::Temp => 2,
+            Column::Split => 3,
+            Column::Q(j) => 4 + j,
         }
     }
 
-    fn name(self) -> &'static str {
-        Self::NAMES[self.index()]
+    fn name(self) -> String {
+        match self {
+            Column::Q(j) => format!("q{}", j + 1),
+            Column::L => "L".into(),
+            Column::T => "t".into(),
+            Column::Temp => "temp".into(),
+            Column::Split => "split".into(),
+        }
     }
 
+    /// The column a header names: `q<k>` with 1 <= k <= [`MAX_JOINTS`] (case-insensitive,
+    /// digits only, no leading zero) or one of the named columns.
     fn from_header(h: &str) -> Option<Column> {
         let h = h.trim();
-        Self::ALL.into_iter().find(|c| c.name().eq_ignore_ascii_case(h))
+        if let Some(k) = h.strip_prefix(['q', 'Q']) {
+            let digits = !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()) && !k.starts_with('0');
+            return match k.parse::<usize>() {
+                Ok(k) if digits && (1..=MAX_JOINTS).contains(&k) => Some(Column::Q(k - 1)),
+                _ => None,
+            };
+        }
+        Self::OTHERS.into_iter().find(|c| c.name().eq_ignore_ascii_case(h))
     }
 }
 
 /// Positions of the known columns in the file's header.
 struct Layout {
-    pos: [Option<usize>; 10],
+    pos: Vec<Option<usize>>,
+    /// Number of joint columns, `q1..qN`.
+    joints: usize,
 }
 
 impl Layout {
     fn new(header: &[String], source: &str, require_length: bool) -> Result<Layout> {
         let found = || header.join(",");
-        let mut pos = [None; 10];
+        let mut pos = vec![None; 4 + MAX_JOINTS];
         for (i, h) in header.iter().enumerate() {
             if let Some(c) = Column::from_header(h) {
                 if let Some(first) = pos[c.index()] {
@@ -426,13 +464,18 @@ impl Layout {
                 pos[c.index()] = Some(i);
             }
         }
-        let required = if require_length { Column::REQUIRED } else { Column::REQUIRED - 1 };
-        let missing: Vec<&str> = Column::ALL[..required].iter().filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
+        // The joints are q1..qN with N the highest joint named; at least one is needed.
+        let joints = (0..MAX_JOINTS).rev().find(|&j| pos[Column::Q(j).index()].is_some()).map_or(1, |j| j + 1);
+        let mut required: Vec<Column> = (0..joints).map(Column::Q).collect();
+        if require_length {
+            required.push(Column::L);
+        }
+        let missing: Vec<String> = required.iter().filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
         if !missing.is_empty() {
-            let need = if require_length { "need q1..q6 and L, optional t, temp, split" } else { "need q1..q6, optional L, t, temp, split" };
+            let need = if require_length { "need q1..qN and L, optional t, temp, split" } else { "need q1..qN, optional L, t, temp, split" };
             return Err(Error::data(source, format!("missing required column(s) {}; header found: {} ({need})", missing.join(", "), found())));
         }
-        Ok(Layout { pos })
+        Ok(Layout { pos, joints })
     }
 
     fn has(&self, c: Column) -> bool {
@@ -531,7 +574,7 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
     let mut first_split_missing: Option<usize> = None;
     for raw in &table.rows {
         let line = raw.line;
-        let mut q_deg = [0.0; 6];
+        let mut q_deg = vec![0.0; layout.joints];
         for (j, q) in q_deg.iter_mut().enumerate() {
             let c = Column::Q(j);
             let v = cells.required(layout.cell(raw, c), c, line)?;
@@ -604,8 +647,8 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
 /// [`AngleUnit::Auto`]).
 fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
     if angles == AngleUnit::Auto && rows.len() >= RADIANS_MIN_ROWS {
-        let max_abs = rows.iter().flat_map(|r| r.q_deg).fold(0.0_f64, |m, q| m.max(q.abs()));
-        let spans: Vec<f64> = (0..6)
+        let max_abs = rows.iter().flat_map(|r| r.q_deg.iter()).fold(0.0_f64, |m, q| m.max(q.abs()));
+        let spans: Vec<f64> = (0..rows[0].q_deg.len())
             .map(|j| {
                 let (lo, hi) = rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r.q_deg[j]), hi.max(r.q_deg[j])));
                 hi - lo
@@ -616,9 +659,10 @@ fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
             return Err(Error::data(
                 source,
                 format!(
-                    "columns q1..q6 look like radians (all {} rows have |q| <= {max_abs:.3}, q{} \
+                    "columns q1..q{} look like radians (all {} rows have |q| <= {max_abs:.3}, q{} \
                      spans {span:.3}); the file must hold joint angles in degrees; if they really \
                      are degrees pass --angles deg (or --angles rad to convert)",
+                    spans.len(),
                     rows.len(),
                     widest + 1
                 ),

@@ -25,7 +25,7 @@ fn assert_contains(msg: &str, parts: &[&str]) {
 }
 
 fn row(q: [f64; 6], l: f64) -> Row {
-    Row { q_deg: q, l_mm: Some(l), t_s: None, temp_c: None, split: None }
+    Row { q_deg: q.to_vec(), l_mm: Some(l), t_s: None, temp_c: None, split: None }
 }
 
 fn real_data_dir() -> PathBuf {
@@ -39,9 +39,9 @@ fn round_trip_is_exact() {
     let awkward = [0.1 + 0.2, -1.0 / 3.0, 719.999_999_999_999_9, 1e-300, -0.0, 123.456_789_012_345_68];
     let ds = Dataset {
         rows: vec![
-            Row { q_deg: awkward, l_mm: Some(350.07), t_s: Some(0.0), temp_c: Some(21.5), split: Some(Split::Train) },
+            Row { q_deg: awkward.to_vec(), l_mm: Some(350.07), t_s: Some(0.0), temp_c: Some(21.5), split: Some(Split::Train) },
             Row {
-                q_deg: [1.405, -74.025, 220.99, -166.357, 41.989, 65.122],
+                q_deg: vec![1.405, -74.025, 220.99, -166.357, 41.989, 65.122],
                 l_mm: Some(std::f64::consts::PI * 100.0),
                 t_s: Some(0.1 + 0.2),
                 temp_c: Some(-3.25e-7),
@@ -89,7 +89,8 @@ fn optional_columns_written_only_when_every_row_has_them() {
     let ds = Dataset { rows: vec![a, b], source: String::new() };
     let text = ds.to_csv_string();
     assert_eq!(text, "q1,q2,q3,q4,q5,q6,L,split\n1,2,3,4,5,6,300,train\n1,2,3,4,5,6,300,test\n");
-    assert_eq!(Dataset::default().to_csv_string(), "q1,q2,q3,q4,q5,q6,L\n");
+    // No rows: no joints to name, the length column only.
+    assert_eq!(Dataset::default().to_csv_string(), "L\n");
 }
 
 // ---- accepted inputs ---------------------------------------------------------------------
@@ -427,6 +428,30 @@ fn poses_without_length() {
     assert_contains(&msg, &["missing", "q4", "optional L"]);
 }
 
+#[test]
+fn any_number_of_joints_numbered_without_gaps() {
+    // Seven joints (a WAM), columns in any order, round trip with the same header.
+    let ds = parse("L,q7,q1,q2,q3,q4,q5,q6\n700,7,1,2,3,4,5,6\n").expect("seven joints");
+    assert_eq!(ds.n_joints(), 7);
+    assert_eq!(ds.rows[0].q_deg, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
+    assert_eq!(ds.to_csv_string(), "q1,q2,q3,q4,q5,q6,q7,L\n1,2,3,4,5,6,7,700\n");
+    // Two joints (a planar arm) are as good as six.
+    let two = parse("q1,q2,L\n10,20,300\n").expect("two joints");
+    assert_eq!(two.n_joints(), 2);
+    // A gap in the numbering names the missing joint; q0, q01 and qx are other columns.
+    let msg = err("q1,q2,q4,L\n1,2,4,300\n");
+    assert_contains(&msg, &["missing", "q3"]);
+    let other = parse("q0,q01,qx,q1,L\n9,9,9,1,300\n").expect("q1 only");
+    assert_eq!(other.n_joints(), 1);
+    // Joint columns beyond MAX_JOINTS are not joints (ignored like any other column).
+    let many = format!("q1,q{},L\n1,2,300\n", MAX_JOINTS + 1);
+    assert_eq!(parse(&many).expect("ignored").n_joints(), 1);
+    // A dataset's joint count is checked against the arm it is used with.
+    let msg = two.require_joints(6, "the robot 'irb120'").unwrap_err().to_string();
+    assert_contains(&msg, &["2 joint angles", "6 joints", "irb120"]);
+    assert!(ds.require_joints(7, "the WAM").is_ok());
+}
+
 // ---- spreadsheets built in the test ------------------------------------------------------
 
 /// Writes a minimal xlsx: one sheet `Sheet1` with `sheet_data` (the `<row>` elements), the
@@ -604,7 +629,7 @@ fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
     let mut last_t = f64::NEG_INFINITY;
     for r in &ds.rows {
         assert_eq!(r.q_deg.len(), 6);
-        for q in r.q_deg {
+        for &q in &r.q_deg {
             assert!(q.is_finite() && q.abs() <= MAX_ABS_JOINT_DEG, "q = {q}");
         }
         match r.l_mm {

@@ -63,18 +63,19 @@ fn block(kind: EffectKind, joint: Option<usize>, ref_c: f64) -> EffectBlock {
     EffectBlock { kind, joint, thermal, range_m: None }
 }
 
-/// The hideable causes: kind and joint.
-pub fn causes() -> Vec<(EffectKind, Option<usize>)> {
+/// The hideable causes of an arm with `n` joints: kind and joint (joint-zero drift on the first
+/// three, the axes that carry the arm).
+pub fn causes(n: usize) -> Vec<(EffectKind, Option<usize>)> {
     let mut v = Vec::new();
-    for j in 0..6 {
+    for j in 0..n {
         v.push((EffectKind::JointCompliance, Some(j)));
         v.push((EffectKind::Backlash, Some(j)));
     }
     v.push((EffectKind::ThermalDrift, None));
-    for j in 0..3 {
+    for j in 0..n.min(3) {
         v.push((EffectKind::ThermalDrift, Some(j)));
     }
-    for j in 0..6 {
+    for j in 0..n {
         v.push((EffectKind::EncoderEccentricity, Some(j)));
     }
     v
@@ -101,7 +102,7 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
         .iter()
         .zip(&t)
         .map(|(qi, ti)| Row {
-            q_deg: std::array::from_fn(|j| qi[j].to_degrees()),
+            q_deg: qi.iter().map(|v| v.to_degrees()).collect(),
             l_mm: None,
             t_s: Some(*ti),
             temp_c: Some(th.ambient_c + th.delta_t(*ti)),
@@ -140,21 +141,22 @@ pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Opti
     Ok(rest.norm() / (samples.len() as f64).sqrt())
 }
 
-/// Puts a cause of internal size `v` (and eccentricity phase `phase`, rad) into the scenario.
-fn apply(s: &mut Scenario, kind: EffectKind, joint: Option<usize>, v: f64, phase: f64) {
+/// Puts a cause of internal size `v` (and eccentricity phase `phase`, rad) into the scenario of
+/// an arm with `n` joints.
+fn apply(s: &mut Scenario, n: usize, kind: EffectKind, joint: Option<usize>, v: f64, phase: f64) {
     let j = joint.unwrap_or(0);
     match kind {
         EffectKind::EncoderEccentricity => {
-            let e = s.effects.eccentricity.get_or_insert(Eccentricity { amplitude_deg: vec![0.0; 6], phase_deg: vec![0.0; 6] });
+            let e = s.effects.eccentricity.get_or_insert(Eccentricity { amplitude_deg: vec![0.0; n], phase_deg: vec![0.0; n] });
             e.amplitude_deg[j] = v.to_degrees();
             e.phase_deg[j] = phase.to_degrees();
         }
         EffectKind::JointCompliance => {
-            let c = s.effects.compliance.get_or_insert(Compliance { stiffness_nm_per_rad: vec![1e12; 6], damping_nms_per_rad: None });
+            let c = s.effects.compliance.get_or_insert(Compliance { stiffness_nm_per_rad: vec![1e12; n], damping_nms_per_rad: None });
             c.stiffness_nm_per_rad[j] = 1.0 / v;
         }
         EffectKind::Backlash => {
-            let b = s.effects.backlash.get_or_insert(Backlash { width_deg: vec![0.0; 6], breakaway_nm: 0.3 });
+            let b = s.effects.backlash.get_or_insert(Backlash { width_deg: vec![0.0; n], breakaway_nm: 0.3 });
             b.width_deg[j] = 2.0 * v.to_degrees();
         }
         EffectKind::ThermalDrift => {
@@ -162,7 +164,7 @@ fn apply(s: &mut Scenario, kind: EffectKind, joint: Option<usize>, v: f64, phase
             match joint {
                 None => t.alpha_per_k = v,
                 Some(j) => {
-                    t.zero_drift_deg_per_k.resize(6, 0.0);
+                    t.zero_drift_deg_per_k.resize(n, 0.0);
                     t.zero_drift_deg_per_k[j] = v.to_degrees();
                 }
             }
@@ -197,7 +199,7 @@ pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
     let sigma = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x4849_4444_454e);
     let mut pool: Vec<(EffectKind, Option<usize>, f64, f64)> = Vec::new();
-    for (kind, joint) in causes() {
+    for (kind, joint) in causes(robot.dof()) {
         let phase = if kind == EffectKind::EncoderEccentricity { rng.random_range(-std::f64::consts::PI..std::f64::consts::PI) } else { 0.0 };
         let a = unabsorbed_rms(&s, &robot, kind, joint, phase)?;
         if a > 0.0 && 4.0 * sigma / a <= plausible(kind, joint) {
@@ -209,7 +211,7 @@ pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
         let (kind, joint, a, phase) = pool.remove(rng.random_range(0..pool.len()));
         let factor = rng.random_range(1.5..4.0);
         let v = factor * sigma / a;
-        apply(&mut s, kind, joint, v, phase);
+        apply(&mut s, robot.dof(), kind, joint, v, phase);
         out.push(Hidden { cause: kind, joint, magnitude: reported(kind, joint, v), internal: v, factor });
     }
     s.name = format!("hidden-{seed}");

@@ -166,7 +166,7 @@ pub struct Step {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Cause {
     pub cause: String,
-    /// Joint 1..6 for per-joint effects.
+    /// Joint 1..N for per-joint effects.
     pub joint: Option<usize>,
     pub magnitude: f64,
     pub unit: String,
@@ -401,12 +401,12 @@ fn pearson(a: &[f64], b: &[f64]) -> f64 {
 fn evidence(data: &Samples, residual: &[f64], has_torques: bool) -> Vec<Evidence> {
     let mut feats: Vec<(String, Vec<f64>)> = Vec::new();
     let col = |f: &dyn Fn(usize) -> f64| (0..data.len()).map(f).collect::<Vec<f64>>();
-    for j in 0..6 {
+    for j in 0..data.q.first().map_or(0, |q| q.len()) {
         if has_torques {
-            feats.push((format!("torque_j{}", j + 1), col(&|i| data.inputs[i].torque[j])));
-            feats.push((format!("sign(torque_j{})", j + 1), col(&|i| data.inputs[i].torque[j].signum())));
+            feats.push((format!("torque_j{}", j + 1), col(&|i| data.inputs[i].torque(j))));
+            feats.push((format!("sign(torque_j{})", j + 1), col(&|i| data.inputs[i].torque(j).signum())));
         }
-        feats.push((format!("backlash_side_j{}", j + 1), col(&|i| data.inputs[i].side[j])));
+        feats.push((format!("backlash_side_j{}", j + 1), col(&|i| data.inputs[i].side(j))));
         feats.push((format!("sin(q{})", j + 1), col(&|i| data.q[i][j].sin())));
         feats.push((format!("cos(q{})", j + 1), col(&|i| data.q[i][j].cos())));
     }
@@ -471,7 +471,7 @@ fn candidates(data: &Dataset, kinds: &[EffectKind], has_torques: bool) -> Vec<Ef
     let kinds: Vec<EffectKind> = if kinds.is_empty() { EffectKind::ALL.to_vec() } else { kinds.to_vec() };
     let mut out = Vec::new();
     for kind in kinds {
-        for j in kind.joint_options() {
+        for j in kind.joint_options(data.n_joints()) {
             if let Ok(b) = block_for(data, kind, j, has_torques) {
                 out.push(b);
             }

@@ -28,7 +28,7 @@ pub struct Feature {
 
 /// The joint angles, the measured length and, where every row has them, time and temperature.
 pub fn features(data: &Dataset) -> Vec<Feature> {
-    let mut f: Vec<Feature> = (0..6)
+    let mut f: Vec<Feature> = (0..data.n_joints())
         .map(|j| Feature { name: format!("q{}", j + 1), label: format!("q{} (deg)", j + 1), values: data.rows.iter().map(|r| r.q_deg[j]).collect() })
         .collect();
     f.push(Feature { name: "L".into(), label: "measured length L (mm)".into(), values: data.rows.iter().map(|r| r.l_mm.unwrap_or(f64::NAN)).collect() });
@@ -147,7 +147,11 @@ fn all_samples(r: &CalibResult, data: &Dataset) -> Samples {
 }
 
 fn subset(s: &Samples, idx: &[usize]) -> Samples {
-    Samples { q: idx.iter().map(|&i| s.q[i].clone()).collect(), l: idx.iter().map(|&i| s.l[i]).collect(), inputs: idx.iter().map(|&i| s.inputs[i]).collect() }
+    Samples {
+        q: idx.iter().map(|&i| s.q[i].clone()).collect(),
+        l: idx.iter().map(|&i| s.l[i]).collect(),
+        inputs: idx.iter().map(|&i| s.inputs[i].clone()).collect(),
+    }
 }
 
 use crate::calib::stats::rms;

@@ -73,6 +73,8 @@ pub struct Robot {
     /// Name of the flange frame and its pose in the last link's frame.
     pub flange_name: String,
     pub flange: Frame,
+    /// The URDF text the robot was read from (so a twin's truth file can carry its robot).
+    pub urdf: String,
 }
 
 /// Number of geometric error parameters per joint: origin offset (x, y, z), origin rotation
@@ -122,6 +124,11 @@ impl Robot {
     /// The IRB 120 shipped with twincal.
     pub fn irb120() -> Robot {
         Robot::from_urdf_str(IRB120_URDF, "urdf/irb120.urdf (embedded)").expect("embedded URDF is valid")
+    }
+
+    /// Whether this is the embedded IRB 120 (read from [`IRB120_URDF`]).
+    pub fn is_embedded(&self) -> bool {
+        self.urdf == IRB120_URDF
     }
 
     pub fn from_urdf_file(path: &Path) -> Result<Robot> {
@@ -245,7 +252,7 @@ impl Robot {
         if joints.is_empty() {
             return Err(err("no revolute joints found".into()));
         }
-        Ok(Robot { name: urdf.name, base_link: base, joints, links, flange_name, flange })
+        Ok(Robot { name: urdf.name, base_link: base, joints, links, flange_name, flange, urdf: text.to_owned() })
     }
 
     pub fn dof(&self) -> usize {

@@ -176,12 +176,13 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
     let has_deflection = g.truth.poses.iter().any(|p| p.deflection_mdeg.iter().any(|d| *d != 0.0));
     let backlash = g.truth.effects.backlash.is_some();
     let thermal = g.truth.effects.thermal.as_ref().map(|t| t.alpha_per_k);
-    for j in 0..6 {
+    let nq = g.dataset.n_joints();
+    for j in 0..nq {
         if has_deflection {
-            rec.series_style(&format!("effects/deflection/j{}", j + 1), &format!("joint {}", j + 1), PALETTE[j], true, 2.5);
+            rec.series_style(&format!("effects/deflection/j{}", j + 1), &format!("joint {}", j + 1), PALETTE[j % PALETTE.len()], true, 2.5);
         }
         if backlash {
-            rec.series_style(&format!("effects/backlash/j{}", j + 1), &format!("joint {} ± side", j + 1), PALETTE[j], true, 2.5);
+            rec.series_style(&format!("effects/backlash/j{}", j + 1), &format!("joint {} ± side", j + 1), PALETTE[j % PALETTE.len()], true, 2.5);
         }
     }
     if thermal.is_some() {
@@ -211,7 +212,7 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
             );
         }
         let p = &g.truth.poses[i];
-        for j in 0..6 {
+        for j in 0..nq {
             if has_deflection {
                 rec.scalar(&format!("effects/deflection/j{}", j + 1), p.deflection_mdeg[j]);
             }

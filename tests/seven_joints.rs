@@ -1,0 +1,109 @@
+//! Six joints are not special: a seven-joint arm (the Barrett WAM, `urdf/wam.urdf`, scenario
+//! `scenarios/wam_geometric.toml`) goes through the twin, calibration, diagnosis and IK like the
+//! IRB 120 does, with nothing but its URDF and its scenario.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, TruthFile};
+use twincal::dataset::{Dataset, Row};
+use twincal::diagnose::{diagnose, DiagnoseOptions};
+use twincal::generate::{generate, write_outputs, Silent};
+use twincal::scenario::Scenario;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn twincal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).arg("--quiet").output().expect("runs")
+}
+
+fn scenario(seed: u64) -> (Scenario, twincal::robot::Robot) {
+    let (mut s, robot) = Scenario::load(&root().join("scenarios/wam_geometric.toml")).unwrap();
+    s.seed = seed;
+    (s, robot)
+}
+
+fn wam() -> ModelSpec {
+    ModelSpec::parse(root().join("urdf/wam.urdf").to_str().unwrap(), "hayati").unwrap()
+}
+
+#[test]
+fn a_seven_joint_arm_calibrates_to_the_noise_floor_with_its_parameters_within_3_sigma() {
+    for seed in [1, 2, 3] {
+        let (s, robot) = scenario(seed);
+        assert_eq!(robot.dof(), 7);
+        let g = generate(&s, &robot, &Silent).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        write_outputs(&g, dir.path()).unwrap();
+        let ds = Dataset::load(dir.path()).unwrap();
+        assert_eq!(ds.n_joints(), 7);
+        assert!(ds.to_csv_string().starts_with("q1,q2,q3,q4,q5,q6,q7,L,"));
+        let truth = TruthFile::find(dir.path()).unwrap().unwrap();
+        let r = calibrate(&ds, Some(&truth), &CalibOptions::new(wam(), Method::Lm)).unwrap();
+        let test = r.metrics.test_after.as_ref().unwrap().rmse;
+        let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+        assert!(r.converged, "seed {seed}: {}", r.stop_reason);
+        assert!(test < 1.3 * floor, "seed {seed}: held-out RMSE {test} mm vs reading noise {floor} mm");
+        let cmp = r.truth_comparison.clone().unwrap();
+        assert!(cmp.identifiable >= 29, "seed {seed}: {cmp:?}");
+        assert_eq!(cmp.within_3_sigma, cmp.identifiable, "seed {seed}: {cmp:?}");
+        // The model keeps the URDF's seven joint limits (IK and sampling use them).
+        assert_eq!(r.model.joint_limits(), robot.limits());
+    }
+}
+
+#[test]
+fn a_hidden_compliance_on_a_seven_joint_arm_is_named_with_its_size() {
+    let (mut s, robot) = scenario(5);
+    // Joint 2 (the shoulder pitch, which carries the arm) gives way 50 µrad per N·m.
+    let mut stiff = vec![1e12; 7];
+    stiff[1] = 2.0e4;
+    s.effects.compliance = Some(twincal::effects::Compliance { stiffness_nm_per_rad: stiff, damping_nms_per_rad: None });
+    let g = generate(&s, &robot, &Silent).unwrap();
+    let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
+    let (d, _) = diagnose(&data, &DiagnoseOptions::new(wam()), &|_| {}).unwrap();
+    let first = d.causes.first().unwrap_or_else(|| panic!("nothing named: {}", d.verdict));
+    assert_eq!((first.cause.as_str(), first.joint), ("joint_compliance", Some(2)), "{:?}", d.causes);
+    assert!((first.magnitude - 50.0).abs() < 3.0 * first.uncertainty, "{} ± {} vs 50 urad/Nm", first.magnitude, first.uncertainty);
+    assert!(d.final_heldout_rmse_mm < 0.2 * first.heldout_rmse_before_mm);
+}
+
+#[test]
+fn generate_calibrate_diagnose_and_ik_run_on_a_seven_joint_arm_from_the_command_line() {
+    let dir = std::env::temp_dir().join(format!("twincal-wam-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let p = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    let scen = root().join("scenarios/wam_geometric.toml");
+    let urdf = root().join("urdf/wam.urdf");
+    let ok = |o: Output| assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(twincal(&["generate", "--scenario", scen.to_str().unwrap(), "--out", &p("data")]));
+    ok(twincal(&["calibrate", "--data", &p("data"), "--model", urdf.to_str().unwrap(), "--out", &p("result.json")]));
+    ok(twincal(&["diagnose", "--data", &p("data"), "--model", urdf.to_str().unwrap(), "--out", &p("diag")]));
+    ok(twincal(&["predict", "--model", &p("result.json"), "--data", &p("data"), "--out", &p("pred.csv")]));
+    let pred = std::fs::read_to_string(dir.join("pred.csv")).unwrap();
+    assert!(pred.starts_with("q1,q2,q3,q4,q5,q6,q7,L,L_pred,residual\n"), "{}", &pred[..80]);
+    // IK, validated against the twin the truth file describes (its URDF travels in truth.json).
+    ok(twincal(&["ik", "--model", &p("result.json"), "--random", "30", "--out", &p("ik.csv")]));
+    let ik = std::fs::read_to_string(dir.join("ik.csv")).unwrap();
+    let header: Vec<&str> = ik.lines().next().unwrap().split(',').collect();
+    assert!(header.contains(&"q7"), "{header:?}");
+    let (status, err) = (header.iter().position(|h| *h == "status").unwrap(), header.iter().position(|h| *h == "true_error_mm").unwrap());
+    let solver = header.iter().position(|h| *h == "solver").unwrap();
+    let rows: Vec<Vec<&str>> = ik.lines().skip(1).map(|l| l.split(',').collect()).filter(|f: &Vec<&str>| f[solver] == "calibrated/hybrid").collect();
+    assert_eq!(rows.len(), 30);
+    for f in &rows {
+        assert_eq!(f[status], "converged", "{f:?}");
+        let e: f64 = f[err].parse().unwrap();
+        assert!(e < 0.05, "true error {e} mm after calibration: {f:?}");
+    }
+    // A dataset of six joint angles is refused by a seven-joint model, naming both counts.
+    let six = dir.join("six.csv");
+    std::fs::write(&six, "q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,700\n").unwrap();
+    let o = twincal(&["predict", "--model", &p("result.json"), "--data", six.to_str().unwrap(), "--out", &p("six_pred.csv")]);
+    assert_eq!(o.status.code(), Some(2));
+    let msg = String::from_utf8_lossy(&o.stderr);
+    assert!(msg.contains("6 joint angles") && msg.contains("7 joints") && !msg.contains("panicked"), "{msg}");
+    assert!(!Path::new(&p("six_pred.csv")).exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
