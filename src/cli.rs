@@ -978,9 +978,18 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
     }
     if let Some(f) = &r.noise_floor {
         let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
-        eprintln!("  noise floor of the data: {:.4} mm ({})", f.total_mm, parts.join(", "));
+        // Without repeated configurations the reading's own noise is not in the data: the
+        // floor is only what the logging resolutions show, a lower bound.
+        let measured = f.sources.iter().any(|s| s.source == "repeatability");
+        let (bound, why) = if measured { ("", "") } else { ("at least ", "; no repeated configurations, so the reading's own noise is not measured") };
+        eprintln!("  noise floor of the data: {bound}{:.4} mm ({}{why})", f.total_mm, parts.join(", "));
         if let (Some(t), Some(tt), true) = (&m.test_after, &m.test_after_trimmed, f.total_mm > 0.0) {
-            eprintln!("  held-out RMSE / floor = {:.3} (without the worst 1 % of test rows: {:.3})", t.rmse / f.total_mm, tt.rmse / f.total_mm);
+            let ratio = t.rmse / f.total_mm;
+            if measured || ratio <= MAX_BOUND_RATIO {
+                eprintln!("  held-out RMSE / floor = {ratio:.3} (without the worst 1 % of test rows: {:.3})", tt.rmse / f.total_mm);
+            } else {
+                eprintln!("  held-out RMSE is more than {MAX_BOUND_RATIO}× that lower bound: the data do not show their floor");
+            }
         }
     }
     if let Some(t) = &r.truth_comparison {
@@ -990,6 +999,10 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
         );
     }
 }
+
+/// Above this many times a floor that is only a lower bound (no repeated configurations), the
+/// ratio says nothing about the fit and is not printed.
+const MAX_BOUND_RATIO: f64 = 10.0;
 
 /// Loads a calibrated model (result.json); its errors are labelled `model PATH`.
 fn load_model(path: &Path) -> Result<crate::calib::run::CalibResult> {

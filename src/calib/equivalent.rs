@@ -15,7 +15,7 @@
 //!    thermal, ...) add to the lengths, a rigid model absorbs here just as it does in the
 //!    calibration.
 
-use super::model::CalibModel;
+use super::model::{CalibModel, Placement};
 use super::problem::{LengthFit, Samples};
 use super::truth::TruthFile;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
@@ -107,9 +107,9 @@ pub fn map_truth(model: &CalibModel, robot: &Robot, truth: &TruthFile, q: &[Vec<
     let mut x = model.nominal.clone();
     x[..nc].iter_mut().for_each(|v| *v = 0.0);
     let s = &truth.sensor;
-    x[nc..nc + 3].copy_from_slice(&s.exit_point_mm.map(|v| v * 1e-3));
-    x[model.length_offset_index()] = s.length_offset_mm * 1e-3;
-    x[nc + 4..nc + 7].copy_from_slice(&truth.tool.point_mm.map(|v| v * 1e-3));
+    let mm = |v: [f64; 3]| Vector3::from(v) * 1e-3;
+    let placement = Placement { exit: mm(s.exit_point_mm), length_offset: s.length_offset_mm * 1e-3, tool: mm(truth.tool.point_mm) };
+    model.set_placement(&mut x, &placement);
     let fixed: Vec<bool> = (0..model.n_params()).map(|k| k >= nc).collect();
     let problem = PoseMatch { model, target, q, local };
     let lm = LevenbergMarquardt::budget(200);

@@ -23,7 +23,7 @@
 //! polish, not the best basin). Starts are drawn from the seed alone and fitted in parallel: the
 //! result does not depend on the number of threads.
 
-use super::model::{CalibModel, Kind, SensorGuess, SENSOR_PARAMS};
+use super::model::{CalibModel, Kind, SensorGuess};
 use super::problem::{LengthFit, Samples};
 use super::run::CalibOptions;
 use crate::error::{Error, Result};
@@ -128,14 +128,7 @@ pub fn model_around(frames: &[Frame], q_ref: &[f64], sensor: &SensorGuess) -> Ca
         b.trans_coef(x, -f.pos.x, idx[0], -1.0, true);
     }
     let chain = b.finish();
-    let mut names = chain.param_names.clone();
-    names.extend(SENSOR_PARAMS.iter().map(|s| s.to_string()));
-    kinds.extend([Kind::Length; 7]);
-    let mut nominal = vec![0.0; chain.n_params()];
-    nominal.extend(sensor.exit_m.iter());
-    nominal.push(sensor.offset_m);
-    nominal.extend(sensor.tool_m.iter());
-    CalibModel { name: "generic6r".into(), chain, names, kinds, nominal, effects: Vec::new(), limits: Vec::new() }
+    CalibModel::with_sensor("generic6r", chain, kinds, sensor)
 }
 
 /// A plausible industrial 6R topology at the reference pose (m), and a tool point.
@@ -174,8 +167,9 @@ fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[
     let mut model = model_around(&frames_of(lines), q_ref, &guess);
     let mut w = model.work();
     let misfit: Vec<f64> = data.q.iter().zip(&data.l).map(|(q, l)| l - model.predict(&model.nominal, q, &mut w)).collect();
-    let k = model.length_offset_index();
-    model.nominal[k] = super::stats::median(&misfit);
+    if let Some(k) = model.length_offset_index() {
+        model.nominal[k] = super::stats::median(&misfit);
+    }
     model.nominal.iter().all(|v| v.is_finite()).then_some(model)
 }
 
@@ -211,9 +205,9 @@ pub fn rechart(model: &CalibModel, x: &[f64]) -> CalibModel {
         })
         .collect();
     let flange = model.chain.frame(&ws, model.chain.flange());
-    let s = &x[nc..];
-    let tool = flange.point(&Vector3::new(s[4], s[5], s[6]));
-    let sensor = SensorGuess { exit_m: [s[0], s[1], s[2]], offset_m: s[3], tool_m: [tool.x, tool.y, tool.z] };
+    let p = model.placement(x);
+    let tool = flange.point(&p.tool);
+    let sensor = SensorGuess { exit_m: p.exit.into(), offset_m: p.length_offset, tool_m: tool.into() };
     model_around(&frames_of(&lines), &q_ref, &sensor)
 }
 

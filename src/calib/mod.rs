@@ -15,6 +15,7 @@ pub mod gkan_select;
 pub mod identify;
 pub mod ik;
 pub mod inputs;
+pub mod measurement;
 pub mod method;
 pub mod metrics;
 pub mod model;

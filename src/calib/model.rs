@@ -9,10 +9,12 @@
 //!   identifiability analysis reduces it to its base parameters.
 //! * `generic6r`: absolute D-H values for an arm without a published nominal, found by a global search.
 //!
-//! Every model ends with 7 sensor parameters: cable exit point (base frame), length offset and tool
-//! point (flange frame). Internal units are metres and radians; lengths are predicted in metres.
+//! Every model ends with its instrument's placement parameters ([`Measurement`]; for the
+//! draw-wire: cable exit point (base frame), length offset and tool point (flange frame)), then
+//! its effect blocks. Internal units are metres and radians; lengths are predicted in metres.
 
 use super::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
+use super::measurement::Measurement;
 use crate::robot::kinematics::{Chain, ChainBuilder, FkWork, Frame, PointJacobian};
 use crate::robot::Robot;
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -46,9 +48,6 @@ impl Kind {
     }
 }
 
-/// Names of the sensor parameters appended to every model.
-pub const SENSOR_PARAMS: [&str; 7] = ["exit.x", "exit.y", "exit.z", "length_offset", "tool.x", "tool.y", "tool.z"];
-
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CalibModel {
     pub name: String,
@@ -64,6 +63,10 @@ pub struct CalibModel {
     /// robot (a generic arm). See [`Self::joint_limits`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub limits: Vec<(f64, f64)>,
+    /// What the instrument reads; its placement parameters follow the chain's. Result files
+    /// written before there was a choice are draw-wire lengths.
+    #[serde(default)]
+    pub measurement: Measurement,
 }
 
 /// Where the instrument sits in a parameter vector: the draw-wire's exit point (base frame), its
@@ -75,8 +78,10 @@ pub struct Placement {
     pub tool: Vector3<f64>,
 }
 
-/// Index of the length offset among [`SENSOR_PARAMS`].
-pub const LENGTH_OFFSET: usize = 3;
+/// Largest reading dimension and number of instrument parameters of any [`Measurement`] (stack
+/// buffers of the hot loops).
+const MAX_DIM: usize = 6;
+const MAX_OWN: usize = 12;
 
 /// Reusable buffers for model evaluations.
 pub struct ModelWork {
@@ -98,16 +103,33 @@ impl CalibModel {
     }
     /// The instrument placement held in `x` (the public way to read it: no index arithmetic).
     pub fn placement(&self, x: &[f64]) -> Placement {
-        let nc = self.n_chain();
-        Placement { exit: Vector3::new(x[nc], x[nc + 1], x[nc + 2]), length_offset: x[nc + LENGTH_OFFSET], tool: Vector3::new(x[nc + 4], x[nc + 5], x[nc + 6]) }
+        let (own, tool) = self.sensor(x);
+        match self.measurement {
+            Measurement::Length => Placement { exit: Vector3::new(own[0], own[1], own[2]), length_offset: own[3], tool },
+        }
     }
-    /// Index of the length offset in the parameter vector.
-    pub fn length_offset_index(&self) -> usize {
-        self.n_chain() + LENGTH_OFFSET
+    /// Writes a placement into `x` (the inverse of [`Self::placement`]).
+    pub fn set_placement(&self, x: &mut [f64], p: &Placement) {
+        let r = self.placement_range();
+        match self.measurement {
+            Measurement::Length => {
+                x[r.start..r.start + 3].copy_from_slice(p.exit.as_slice());
+                x[r.start + 3] = p.length_offset;
+                x[r.start + 4..r.end].copy_from_slice(p.tool.as_slice());
+            }
+        }
+    }
+    /// Indices of the instrument's placement parameters in the parameter vector.
+    pub fn placement_range(&self) -> std::ops::Range<usize> {
+        self.n_chain()..self.n_chain() + self.measurement.n_placement()
+    }
+    /// Index of the reading offset (the draw-wire's length offset) in the parameter vector.
+    pub fn length_offset_index(&self) -> Option<usize> {
+        self.measurement.offset_index().map(|k| self.n_chain() + k)
     }
     /// Index of the first effect parameter.
     pub fn first_effect(&self) -> usize {
-        self.n_chain() + SENSOR_PARAMS.len()
+        self.placement_range().end
     }
     /// Adds an effect block (no-op if an equal block is present); its parameters start at
     /// "no effect" in `nominal`. `t_span_s` is the data's time span (warm-up starting value).
@@ -160,9 +182,11 @@ impl CalibModel {
         self.names.iter().position(|n| n == name)
     }
 
-    fn sensor(&self, x: &[f64]) -> (Vector3<f64>, f64, Vector3<f64>) {
-        let s = &x[self.n_chain()..];
-        (Vector3::new(s[0], s[1], s[2]), s[3], Vector3::new(s[4], s[5], s[6]))
+    /// The instrument's own placement parameters and the target point on the flange (m).
+    fn sensor<'x>(&self, x: &'x [f64]) -> (&'x [f64], Vector3<f64>) {
+        let s = &x[self.placement_range()];
+        let t = self.measurement.target_index();
+        (&s[..t], Vector3::new(s[t], s[t + 1], s[t + 2]))
     }
 
     /// Tool point in the base frame for joint angles `q` (rad), m (geometry only).
@@ -172,7 +196,7 @@ impl CalibModel {
 
     /// Tool point with the joint-offset and thermal effects of the row applied, m.
     pub fn tool_point_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Vector3<f64> {
-        let (_, _, tool) = self.sensor(x);
+        let (_, tool) = self.sensor(x);
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..self.n_chain()], scale, &mut w.fk);
         self.chain.frame(&w.fk, self.chain.flange()).point(&tool)
@@ -185,8 +209,10 @@ impl CalibModel {
 
     /// Predicted cable length (m), every effect included.
     pub fn predict_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
-        let (e, c, _) = self.sensor(x);
-        let l = (self.tool_point_with(x, q, inp, w) - e).norm() + c;
+        let (own, _) = self.sensor(x);
+        let mut y = [0.0; MAX_DIM];
+        self.measurement.reading(own, &self.tool_point_with(x, q, inp, w), &mut y);
+        let l = y[0];
         l + self.reading_correction(x, l).0
     }
 
@@ -198,30 +224,26 @@ impl CalibModel {
     /// Predicted length (m) and its gradient with respect to every parameter into `g`.
     pub fn predict_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, g: &mut [f64]) -> f64 {
         let nc = self.n_chain();
-        let (e, c, tool) = self.sensor(x);
+        let (own, tool) = self.sensor(x);
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let flange = self.chain.flange();
         self.chain.point_jacobian(&w.fk, flange, &tool, &mut w.jac);
-        let d = w.jac.point - e;
-        let dist = d.norm().max(1e-12);
-        let u = d / dist;
+        let (mut y, mut dy_dp) = ([0.0; MAX_DIM], [Vector3::zeros(); MAX_DIM]);
+        let t = self.measurement.target_index();
+        self.measurement.reading_grad(own, &w.jac.point, &mut y, &mut dy_dp, &mut g[nc..nc + t]);
+        let u = dy_dp[0];
         for k in 0..nc {
             g[k] = u.dot(&w.jac.dparam[k]);
         }
-        g[nc] = -u.x;
-        g[nc + 1] = -u.y;
-        g[nc + 2] = -u.z;
-        g[nc + 3] = 1.0;
         let rot = self.chain.frame(&w.fk, flange).rot;
         let ut = rot.transpose() * u;
-        g[nc + 4] = ut.x;
-        g[nc + 5] = ut.y;
-        g[nc + 6] = ut.z;
+        g[nc + t..nc + t + 3].copy_from_slice(ut.as_slice());
+        let l = y[0];
         if self.effects.is_empty() {
-            return dist + c;
+            return l;
         }
-        g[nc + 7..].iter_mut().for_each(|v| *v = 0.0);
+        g[self.first_effect()..].iter_mut().for_each(|v| *v = 0.0);
         for &(k, j, d) in &w.eff.joint_terms {
             g[k] += u.dot(&w.jac.dq[j]) * d;
         }
@@ -229,7 +251,6 @@ impl CalibModel {
         for &(k, d) in &w.eff.scale_terms {
             g[k] += ds * d;
         }
-        let l = dist + c;
         let (corr, dcorr, nl) = self.reading_correction(x, l);
         if let Some((k, p)) = nl {
             // The correction depends on the geometric length: chain rule on everything else.
@@ -243,14 +264,13 @@ impl CalibModel {
     /// into `g`, every effect included; the row's inputs (torques, flanks, time) are held fixed.
     pub fn length_grad_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, g: &mut [f64]) -> f64 {
         let nc = self.n_chain();
-        let (e, c, tool) = self.sensor(x);
+        let (own, tool) = self.sensor(x);
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
-        let d = w.jac.point - e;
-        let dist = d.norm().max(1e-12);
-        let u = d / dist;
-        let l = dist + c;
+        let (mut y, mut dy_dp, mut dy_down) = ([0.0; MAX_DIM], [Vector3::zeros(); MAX_DIM], [0.0; MAX_DIM * MAX_OWN]);
+        self.measurement.reading_grad(own, &w.jac.point, &mut y, &mut dy_dp, &mut dy_down);
+        let (l, u) = (y[0], dy_dp[0]);
         let (corr, dcorr, _) = self.reading_correction(x, l);
         let own = |j: usize| if self.effects.is_empty() { 0.0 } else { w.eff.ddq_dq[j] };
         for (j, gj) in g.iter_mut().enumerate().take(self.chain.n_joints) {
@@ -263,7 +283,7 @@ impl CalibModel {
     /// commanded joint angle (m/rad) into `dp`; the row's inputs are held fixed.
     pub fn tool_point_jac_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dp: &mut [Vector3<f64>]) -> Vector3<f64> {
         let nc = self.n_chain();
-        let (_, _, tool) = self.sensor(x);
+        let (_, tool) = self.sensor(x);
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
@@ -279,16 +299,18 @@ impl CalibModel {
         v * self.kinds[k].display()
     }
 
-    fn with_sensor(name: &str, chain: Chain, kinds: Vec<Kind>, sensor: &SensorGuess) -> CalibModel {
+    /// A model of `chain` (its parameters' `kinds`) measured by a draw-wire placed as `sensor`.
+    pub fn with_sensor(name: &str, chain: Chain, kinds: Vec<Kind>, sensor: &SensorGuess) -> CalibModel {
+        let measurement = Measurement::Length;
         let mut names = chain.param_names.clone();
-        names.extend(SENSOR_PARAMS.iter().map(|s| s.to_string()));
+        names.extend(measurement.placement_names().iter().map(|s| s.to_string()));
         let mut kinds = kinds;
-        kinds.extend([Kind::Length; 7]);
+        kinds.extend(std::iter::repeat_n(Kind::Length, measurement.n_placement()));
         let mut nominal = vec![0.0; chain.n_params()];
         nominal.extend(sensor.exit_m.iter());
         nominal.push(sensor.offset_m);
         nominal.extend(sensor.tool_m.iter());
-        CalibModel { name: name.into(), chain, names, kinds, nominal, effects: Vec::new(), limits: Vec::new() }
+        CalibModel { name: name.into(), chain, names, kinds, nominal, effects: Vec::new(), limits: Vec::new(), measurement }
     }
 
     /// Joint limits (rad) for inverse kinematics and sampling: the nominal robot's, else a full

@@ -333,7 +333,7 @@ impl CalibResult {
             && (r.model.limits.is_empty() || r.model.limits.len() == chain.n_joints)
             && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
             && r.model.kinds.len() == r.model.n_params()
-            && r.model.n_params() == chain.n_params() + super::model::SENSOR_PARAMS.len() + r.model.effects.iter().map(|e| e.params().len()).sum::<usize>()
+            && r.model.n_params() == chain.n_params() + r.model.measurement.n_placement() + r.model.effects.iter().map(|e| e.params().len()).sum::<usize>()
             && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
             && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
         if !consistent || r.x.iter().any(|v| !v.is_finite()) {

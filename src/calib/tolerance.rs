@@ -3,7 +3,7 @@
 //! the noise estimated from the data, never from the settings of whatever generated the data.
 
 use super::effects::EffectUnit;
-use super::model::{CalibModel, Kind, SENSOR_PARAMS};
+use super::model::{CalibModel, Kind};
 
 /// One-sigma tolerances of an arm as built and of a draw-wire set-up as installed.
 ///
@@ -31,7 +31,7 @@ impl Default for Tolerances {
 impl Tolerances {
     /// One standard deviation per parameter of `model`, in its internal units (m, rad).
     pub fn prior_std(&self, model: &CalibModel) -> Vec<f64> {
-        let sensor = model.n_chain()..model.n_chain() + SENSOR_PARAMS.len();
+        let sensor = model.placement_range();
         (0..model.n_params())
             .map(|k| match model.kinds[k] {
                 _ if sensor.contains(&k) => self.sensor_mm * 1e-3,

@@ -9,7 +9,7 @@ pub mod svg;
 pub mod ticks;
 pub mod verdict;
 
-use crate::calib::model::{Kind, SENSOR_PARAMS};
+use crate::calib::model::Kind;
 use crate::calib::problem::{LengthFit, Samples};
 use crate::calib::run::{CalibOptions, CalibResult};
 use crate::dataset::Dataset;
@@ -196,7 +196,6 @@ impl CalibFigures {
         let before_mm = LengthFit { model: &r.model, data: &s }.residuals_mm(x0);
         let after_mm: Vec<f64> = residuals_after(r, data).iter().zip(raw.l.iter().zip(&s.l)).map(|(v, (a, b))| v - (a - b) * 1e3).collect();
         let (tool_mm, exit_mm) = tool_points_and_exit(r, &s);
-        let nc = r.model.n_chain();
 
         // Convergence: the start, then every iteration the optimiser reported.
         let to_internal = |xs: &[f64]| -> Vec<f64> { xs.iter().enumerate().map(|(k, v)| v / r.model.kinds[k].display()).collect() };
@@ -224,7 +223,7 @@ impl CalibFigures {
             .map(|(k, p)| {
                 let group = match r.model.kinds[k] {
                     Kind::Effect(_) => Group::Effects,
-                    _ if k >= nc && SENSOR_PARAMS.contains(&p.name.as_str()) => Group::Sensor,
+                    _ if r.model.placement_range().contains(&k) => Group::Sensor,
                     Kind::Length => Group::Lengths,
                     Kind::Angle => Group::Angles,
                 };
