@@ -11,13 +11,12 @@
 
 pub mod bench;
 pub mod calib;
-pub mod cli;
+pub mod commands;
 pub mod dataset;
 pub mod diagnose;
 pub mod effects;
 pub mod error;
 pub mod generate;
-pub mod ikcmd;
 pub mod io;
 pub mod optim;
 pub mod report;

@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use twincal::cli::{self, AngleArg, BenchTarget, StudyTarget};
+use twincal::commands::{self, AngleArg, BenchTarget, StudyTarget};
 
 #[derive(Parser)]
 #[command(name = "twincal", version, about = "Digital twin and calibration of serial arms measured with a draw-wire sensor")]
@@ -33,10 +33,10 @@ enum Command {
         seed: Option<u64>,
     },
     /// Calibrate a model on measured data (dataset folder, CSV or xlsx).
-    Calibrate(cli::CalibrateArgs),
+    Calibrate(commands::CalibrateArgs),
     /// From measured data: what the geometric model gets wrong, which effect causes it, how big
     /// it is and how much better the extended model predicts unseen rows.
-    Diagnose(cli::DiagnoseArgs),
+    Diagnose(commands::DiagnoseArgs),
     /// Predict cable lengths with a calibrated model.
     Predict {
         /// A result.json written by `calibrate`.
@@ -53,9 +53,9 @@ enum Command {
     },
     /// Inverse kinematics on a calibrated model (geometry + corrector), per-target status; on a
     /// twin dataset also the true tool-point error of each solution against nominal and floor.
-    Ik(twincal::ikcmd::IkArgs),
+    Ik(twincal::commands::ik::IkArgs),
     /// Compare methods over seeds: accuracy and time tables with Wilcoxon signed-rank tests.
-    Compare(cli::CompareArgs),
+    Compare(commands::CompareArgs),
     /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model),
     /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
     /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30), `ik`,
@@ -117,20 +117,20 @@ fn main() -> ExitCode {
     }));
     let quiet = args.quiet;
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || match args.command {
-        Command::Generate { scenario, out, rrd, seed } => cli::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
-        Command::Calibrate(a) => cli::calibrate(&a, args.quiet),
-        Command::Diagnose(a) => cli::diagnose(&a, args.quiet),
-        Command::Predict { model, data, angles, out } => cli::predict(&model, &data, angles, &out, args.quiet),
-        Command::Compare(a) => cli::compare(&a, args.quiet),
-        Command::Ik(a) => twincal::ikcmd::ik(&a, args.quiet),
-        Command::Study { what, scenario, holds, speeds, poses, rrd } => cli::study(
+        Command::Generate { scenario, out, rrd, seed } => commands::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
+        Command::Calibrate(a) => commands::calibrate(&a, args.quiet),
+        Command::Diagnose(a) => commands::diagnose(&a, args.quiet),
+        Command::Predict { model, data, angles, out } => commands::predict(&model, &data, angles, &out, args.quiet),
+        Command::Compare(a) => commands::compare(&a, args.quiet),
+        Command::Ik(a) => twincal::commands::ik::ik(&a, args.quiet),
+        Command::Study { what, scenario, holds, speeds, poses, rrd } => commands::study(
             what,
             scenario.as_deref(),
             &twincal::twin::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses },
             rrd.as_deref(),
             args.quiet,
         ),
-        Command::Bench { what, scenario, repeat, seeds, compare } => cli::bench_command(what, scenario.as_deref(), repeat, seeds, compare, quiet),
+        Command::Bench { what, scenario, repeat, seeds, compare } => commands::bench_command(what, scenario.as_deref(), repeat, seeds, compare, quiet),
     }));
     let result = match run {
         Ok(r) => r,

@@ -7,9 +7,9 @@ use crate::calib::method::Problem;
 use crate::calib::problem::LengthFit;
 use crate::calib::run::{calibrate_with, CalibOptions, CalibResult, Method, ModelSpec, TruthFile};
 use crate::calib::stats::{mean_std, median};
+use crate::commands::ik::{ik_runs, table, TwinCheck};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::ikcmd::{ik_runs, table, TwinCheck};
 use crate::optim::{DeVariant, NoObserver};
 use crate::scenario::Scenario;
 use std::path::Path;
@@ -43,12 +43,15 @@ struct Prepared {
     noise: f64,
 }
 
+/// The calibration's own stages ([`crate::calib::run::prepare`]) without the outlier screen (the
+/// benchmark compares the solvers on every training row), then the noise and priors the solvers
+/// are given.
 fn prepare(ds: &Dataset, opts: &CalibOptions) -> Result<Prepared> {
-    let split = crate::calib::run::split_stage(ds, opts)?;
-    let model = crate::calib::placement::place_sensor(opts, &split.train)?;
+    let unscreened = CalibOptions { outlier_k: 0.0, ..opts.clone() };
+    let p = crate::calib::run::prepare(ds, &unscreened, false)?;
+    let (split, model, fixed) = (p.split, p.model, p.id.fixed_mask);
     let x0 = model.nominal.clone();
     let fit = LengthFit { model: &model, data: &split.train };
-    let fixed = crate::calib::run::identify(&fit, &x0, opts.rank_tol).fixed_mask;
     let noise = crate::calib::run::estimate_noise(&fit, &x0, &fixed, None);
     let prior = opts.tolerances.prior_std(&model);
     Ok(Prepared { train: split.train, test: split.test, x0, fixed, prior, noise, model })
@@ -226,7 +229,7 @@ pub fn bench_ik(repeat: usize) -> Result<()> {
     r.data = dir.display().to_string();
     let check = TwinCheck::load(&dir, &r)?;
     let n = 1000;
-    let targets = crate::ikcmd::random_targets(&r, Some(&check), n, 0);
+    let targets = crate::commands::ik::random_targets(&r, Some(&check), n, 0);
     let o = crate::calib::ik::IkOptions::default();
     // Baseline in the same process: one forward evaluation with the hybrid Jacobian.
     let corr = r.corrector.as_ref().map(|c| c.as_correct());
@@ -240,7 +243,7 @@ pub fn bench_ik(repeat: usize) -> Result<()> {
         ft.push(t0.elapsed().as_secs_f64());
     }
     let t_f = median(&ft);
-    let mut best: Option<Vec<crate::ikcmd::IkRun>> = None;
+    let mut best: Option<Vec<crate::commands::ik::IkRun>> = None;
     for _ in 0..repeat.max(1) {
         let runs = ik_runs(&r, &targets, &JacobianKind::ALL, &o, Some(&check));
         if best.as_ref().is_none_or(|b| runs[2].median_seconds < b[2].median_seconds) {

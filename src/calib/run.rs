@@ -648,25 +648,47 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
     calibrate_with(data, truth, opts, solver.as_ref())
 }
 
-/// Runs a calibration with a given solver. `truth` enables the parameter-error report.
-pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions, solver: &dyn Solver) -> Result<CalibResult> {
-    let t0 = Instant::now();
+/// The stages before a fit, as one value that a calibration, a diagnosis and the benchmarks
+/// share instead of re-deriving them: the split, the model with its instrument placed (and the
+/// requested effect blocks), the robust screen, the rows' inputs with their torque model (in
+/// `split`) and the identifiability at the start. Built by [`prepare`].
+pub struct Prepared {
+    pub split: SplitData,
+    pub model: CalibModel,
+    /// The robust screen of the training rows (`None` when off or with too few rows).
+    pub screen: Option<super::robust::Screen>,
+    /// Test rows whose reading a reading step corrected.
+    pub test_rows_in_steps: usize,
+    /// Which parameters the training poses determine, at the model's nominal.
+    pub id: Identifiability,
+}
+
+/// Stages "split", "placement", "outliers", "effects" and "identifiability" of a calibration
+/// with `opts`; `row_inputs` gives every row its inputs (and the split its torque model) even
+/// without effect blocks ([`Solver::needs_row_inputs`]).
+pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<Prepared> {
     data.require_length()?;
-    let mut warnings = Vec::new();
     let mut split = split_stage(data, opts)?;
     let mut model = super::placement::place_sensor(opts, &split.train)?;
     let screen = outlier_stage(&mut model, &mut split, opts)?;
-    // Test rows whose reading a step corrected.
-    let test_in_steps = samples(data, &split.test_idx).l.iter().zip(&split.test.l).filter(|(a, b)| a != b).count();
+    let test_rows_in_steps = samples(data, &split.test_idx).l.iter().zip(&split.test.l).filter(|(a, b)| a != b).count();
+    effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
+    let id = identify(&LengthFit { model: &model, data: &split.train }, &model.nominal, opts.rank_tol);
+    Ok(Prepared { split, model, screen, test_rows_in_steps, id })
+}
+
+/// Runs a calibration with a given solver. `truth` enables the parameter-error report.
+pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions, solver: &dyn Solver) -> Result<CalibResult> {
+    let t0 = Instant::now();
+    let mut warnings = Vec::new();
+    let Prepared { split, model, screen, test_rows_in_steps: test_in_steps, id } = prepare(data, opts, solver.needs_row_inputs())?;
     if screen.is_none() && opts.outlier_k > 0.0 {
         warnings.push(format!(
             "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
         ));
     }
-    effects_stage(&mut model, &mut split, data, opts, solver.needs_row_inputs())?;
     let x0 = model.nominal.clone();
     let fit = LengthFit { model: &model, data: &split.train };
-    let id = identify(&fit, &x0, opts.rank_tol);
     let fixed = id.fixed_mask.clone();
     let n_free = fixed.iter().filter(|f| !**f).count();
     let distinct = distinct_configurations(data, &split.train_idx);

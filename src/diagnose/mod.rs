@@ -21,10 +21,10 @@
 pub mod hidden;
 
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
-use crate::calib::inputs::{block_for, row_inputs, time_span, LoadOptions, TorqueModel};
+use crate::calib::inputs::{block_for, time_span, LoadOptions};
 use crate::calib::model::CalibModel;
 use crate::calib::problem::{LengthFit, Samples};
-use crate::calib::run::{identify, samples, split_stage, CalibOptions, Method, ModelSpec};
+use crate::calib::run::{identify, CalibOptions, Method, ModelSpec};
 use crate::calib::stats::nested_f_test;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
@@ -480,25 +480,35 @@ fn candidates(data: &Dataset, kinds: &[EffectKind], has_torques: bool) -> Vec<Ef
     out
 }
 
+impl DiagnoseOptions {
+    /// The calibration whose stages the diagnosis starts from: the geometric model with its
+    /// instrument placed on every row, LM, no split and no screen (the diagnosis screens the
+    /// rows itself, with their inputs).
+    pub fn baseline_options(&self) -> CalibOptions {
+        let mut o = CalibOptions::new(self.model.clone(), Method::Lm);
+        o.test_fraction = Some(0.0);
+        o.rank_tol = self.rank_tol;
+        o.seed = self.seed;
+        o.outlier_k = 0.0;
+        o.inertial = self.inertial.clone();
+        o.loads = self.loads.clone();
+        o
+    }
+}
+
 /// Runs a diagnosis. `progress` receives a line per finished step.
 pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
     let t0 = Instant::now();
     if opts.folds < 2 || opts.folds > 20 {
         return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));
     }
-    // Baseline placement and model on every row (no split: the diagnosis cross-validates).
-    let mut copts = CalibOptions::new(opts.model.clone(), Method::Lm);
-    copts.test_fraction = Some(0.0);
-    copts.rank_tol = opts.rank_tol;
-    copts.seed = opts.seed;
-    let split = split_stage(data, &copts)?;
-    let base = crate::calib::placement::place_sensor(&copts, &split.train)?;
-    let crate::calib::model::Placement { exit, tool, .. } = base.placement(&base.nominal);
-    let robot = opts.inertial_robot();
-    let has_torques = robot.is_some();
-    let torque = robot.map(|r| TorqueModel::new(r, &opts.loads, exit, tool));
-    let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    all.inputs = row_inputs(data, torque.as_ref());
+    // The calibration's stages on every row (no split: the diagnosis cross-validates), with
+    // every row's inputs; the diagnosis screens the rows itself, inputs included.
+    let prepared = crate::calib::run::prepare(data, &opts.baseline_options(), true)?;
+    let base = prepared.model;
+    let has_torques = opts.inertial_robot().is_some();
+    let torque = prepared.split.torque_model;
+    let mut all = prepared.split.train;
 
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&base, d, x, opts.rank_tol);
     let screen = crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);

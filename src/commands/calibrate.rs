@@ -1,0 +1,256 @@
+//! `twincal calibrate`: its arguments, the run and the summary it prints.
+
+use super::*;
+
+/// Arguments of `twincal calibrate` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct CalibrateArgs {
+    /// Dataset folder (DIR/dataset.csv, with truth.json when the twin made it), CSV, or xlsx (file.xlsx#Sheet).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
+    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+    pub angles: AngleArg,
+    /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH; ablations dsade-gkan-v1, -v2, -v3), pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5; pso-ekf-awnn-x: network also on temperature and backlash flanks, network/LM alternations).
+    #[arg(long, default_value = "lm")]
+    pub method: String,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Hold out this fraction instead of the dataset's split column (0 trains on every row).
+    #[arg(long, allow_negative_numbers = true)]
+    pub test_fraction: Option<f64>,
+    /// Seed of the hold-out split and of the stochastic methods.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
+    pub sensor_guess: Option<Vec<f64>>,
+    /// Relative singular-value threshold for identifiability (combinations the data see below
+    /// this fraction of the strongest are fixed).
+    #[arg(long, default_value_t = crate::calib::run::DEFAULT_RANK_TOL, allow_negative_numbers = true)]
+    pub rank_tol: f64,
+    /// Budget of the stochastic methods and of the generic model's global search (1 = default).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub effort: f64,
+    /// The calibrated model and its report.
+    #[arg(long, default_value = "result.json")]
+    pub out: PathBuf,
+    /// Also write the calibrated model as a URDF.
+    #[arg(long)]
+    pub urdf: Option<PathBuf>,
+    /// Rerun recording of the residual field before and after, convergence and parameters.
+    #[arg(long)]
+    pub rrd: Option<PathBuf>,
+    /// Self-contained HTML report (tables and plots, opens offline in any browser).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Accuracy limit for the verdict in --out: RMSE of the test rows after calibration, mm.
+    #[arg(long, allow_negative_numbers = true)]
+    pub max_test_rmse_mm: Option<f64>,
+    /// Accuracy limit for the verdict in --out: largest |residual| of the test rows, mm.
+    #[arg(long, allow_negative_numbers = true)]
+    pub max_test_max_mm: Option<f64>,
+    /// Non-geometric effects to fit with the geometry: compliance, backlash, thermal,
+    /// eccentricity, nonlinearity, each optionally on one joint (backlash:2).
+    #[arg(long, value_delimiter = ',')]
+    pub effects: Vec<String>,
+    #[command(flatten)]
+    pub loads: LoadArgs,
+    #[command(flatten)]
+    pub robust: RobustArgs,
+}
+
+/// `twincal calibrate`. Its outputs (`--out`, `--urdf`, `--rrd`) appear together or not at all.
+/// Warnings (an optimiser that stopped without converging) go to stderr also with `--quiet`.
+pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
+    use crate::calib::model::SensorGuess;
+    use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
+    let method = Method::parse(&a.method)?;
+    if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
+        return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
+    }
+    if !(a.effort > 0.0 && a.effort <= 10.0) {
+        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {}", a.effort)));
+    }
+    if let Some(f) = a.test_fraction {
+        if !(0.0..1.0).contains(&f) {
+            return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
+        }
+    }
+    let sensor_guess = match &a.sensor_guess {
+        None => None,
+        Some(g) => {
+            if g.len() != 7 {
+                return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
+            }
+            if g.iter().any(|v| !v.is_finite()) {
+                return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
+            }
+            Some(SensorGuess { exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3], offset_m: g[3] * 1e-3, tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3] })
+        }
+    };
+    let data_files = data_inputs(&a.data);
+    let model_file = a.model.input();
+    let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
+    if let Some(m) = &model_file {
+        inputs.push(("--model", m));
+    }
+    let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out)];
+    outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
+    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+    check_outputs(&inputs, &outs)?;
+    let limits = [Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm }, Limit { flag: "--max-test-max-mm", value: a.max_test_max_mm }];
+    for l in &limits {
+        l.validate()?;
+    }
+    let spec = a.model.spec()?;
+    let data = load_dataset(&a.data, a.angles, true)?;
+    let truth = TruthFile::find(&a.data)?;
+    let mut opts = CalibOptions::new(spec.clone(), method);
+    opts.test_fraction = a.test_fraction;
+    opts.seed = a.seed;
+    opts.rank_tol = a.rank_tol;
+    opts.effort = a.effort;
+    opts.sensor_guess = sensor_guess;
+    opts.effects = parse_effects(&a.effects)?;
+    let (loads, inertial) = a.loads.resolve()?;
+    opts.loads = loads;
+    opts.inertial = inertial;
+    (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
+    opts.reading_steps = !a.robust.no_reading_steps;
+    let result = run(&data, truth.as_ref(), &opts)?;
+    let test = result.metrics.test_after.as_ref();
+    let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
+    let verdict = judge(&[(limits[0], "test_rmse_mm", test.map(|t| t.rmse), source), (limits[1], "test_max_mm", test.map(|t| t.max), source)]);
+    let mut outputs = OutputSet::new();
+    let figures = if a.rrd.is_some() || a.report.is_some() { Some(crate::report::CalibFigures::new(&result, &data, &opts)?) } else { None };
+    if let (Some(p), Some(f)) = (&a.rrd, &figures) {
+        crate::viz::scenes::record_calibration(&result, f, &mut outputs, p)?;
+    }
+    if let (Some(p), Some(f)) = (&a.report, &figures) {
+        outputs.write(p, crate::report::html::calibration_page(&result, f, verdict.as_ref()).as_bytes())?;
+    }
+    if let Some(p) = &a.urdf {
+        let nominal = match &spec {
+            ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
+            ModelSpec::Generic6r => None,
+        };
+        outputs.write(p, crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
+    }
+    outputs.write_json(&a.out, &with_verdict(&result, verdict.as_ref())?)?;
+    outputs.commit()?;
+    if !quiet {
+        print_summary(&result);
+    }
+    print_verdict(verdict.as_ref(), &a.out);
+    for w in calibration_warnings(&result) {
+        eprintln!("warning: {w}");
+    }
+    Ok(())
+}
+
+/// The verdict on stderr (also with `--quiet`: it is the answer a user asked for).
+pub(super) fn print_verdict(v: Option<&crate::report::verdict::Verdict>, file: &Path) {
+    let Some(v) = v else { return };
+    let checks: Vec<String> = v
+        .checks
+        .iter()
+        .map(|c| match c.value {
+            Some(x) => format!("{} {x:.4} {} {:.4} mm", c.name, if c.pass { "<=" } else { ">" }, c.limit),
+            None => format!("{} not measured ({})", c.name, c.source),
+        })
+        .collect();
+    eprintln!("verdict: {} ({}); in {}", if v.pass { "PASS" } else { "FAIL" }, checks.join(", "), file.display());
+}
+
+/// What a user must know about a calibration that succeeded: an optimiser that stopped on its
+/// iteration / evaluation budget instead of a convergence test.
+pub fn calibration_warnings(r: &crate::calib::run::CalibResult) -> Vec<String> {
+    r.warnings.clone()
+}
+
+fn print_summary(r: &crate::calib::run::CalibResult) {
+    let m = &r.metrics;
+    let row = |label: &str, s: &crate::calib::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
+    eprintln!(
+        "{} / {} on {} ({} train, {} test rows), {} iterations, {:.3} s",
+        r.method.name(),
+        r.model_name,
+        r.data,
+        r.n_train,
+        r.n_test,
+        r.iterations,
+        r.wall_time_s
+    );
+    eprintln!("  {:<14} {:>10} {:>10} {:>10}   (mm)", "residuals", "RMSE", "STD", "MAX");
+    eprintln!("{}", row("train before", &m.train_before));
+    eprintln!("{}", row("train after", &m.train_after));
+    if let (Some(b), Some(a)) = (&m.test_before, &m.test_after) {
+        eprintln!("{}", row("test before", b));
+        eprintln!("{}", row("test after", a));
+    }
+    let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
+    eprintln!(
+        "  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}",
+        r.parameters.len() - fixed.len(),
+        r.parameters.len(),
+        fixed.join(", ")
+    );
+    let id = |k: &str| r.identifiability.get(k).and_then(|v| v.as_f64());
+    if let (Some(all), Some(c)) = (id("condition_all"), id("condition_identifiable")) {
+        eprintln!("  condition number: {all:.3e} with every parameter free, {c:.3e} for the identifiable set");
+    }
+    if let Some(still) = r.identifiability.get("still_joints").and_then(|v| v.as_array()).filter(|v| !v.is_empty()) {
+        let joints: Vec<String> = still.iter().map(|j| j.to_string()).collect();
+        eprintln!("  joints that do not move in the data (held for the identifiability analysis): {}", joints.join(", "));
+    }
+    if r.outlier_k > 0.0 {
+        let runs: Vec<String> = r.outlier_runs.iter().map(|u| format!("rows {}-{} ({:+.2} mm)", u.first_row, u.last_row, u.median_residual_mm)).collect();
+        eprintln!(
+            "  outliers (> {} robust sd of {:.4} mm): {} training rows kept out{}; {} test rows beyond the same rule",
+            r.outlier_k,
+            r.robust_scale_mm,
+            r.outliers.len(),
+            if runs.is_empty() { String::new() } else { format!(", runs: {}", runs.join(", ")) },
+            r.test_outliers.len()
+        );
+        for s in &r.reading_steps {
+            eprintln!(
+                "  reading step: rows {}-{} read {:+.2} ± {:.2} mm off ({} training rows), corrected and kept",
+                s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
+            );
+        }
+        if r.test_rows_in_steps > 0 {
+            eprintln!("  {} test rows inside reading steps corrected by their step's offset (from training rows)", r.test_rows_in_steps);
+        }
+        if let (Some(t), false) = (&m.test_after_inliers, r.test_outliers.is_empty()) {
+            eprintln!("{}", row("test inliers", t));
+        }
+    }
+    if let Some(t) = &m.test_after_trimmed {
+        eprintln!("{}", row("test, best 99%", t));
+    }
+    if let Some(f) = &r.noise_floor {
+        let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
+        // Without repeated configurations the reading's own noise is not in the data: the
+        // floor is only what the logging resolutions show, a lower bound.
+        let measured = f.sources.iter().any(|s| s.source == "repeatability");
+        let (bound, why) = if measured { ("", "") } else { ("at least ", "; no repeated configurations, so the reading's own noise is not measured") };
+        eprintln!("  noise floor of the data: {bound}{:.4} mm ({}{why})", f.total_mm, parts.join(", "));
+        if let (Some(t), Some(tt), true) = (&m.test_after, &m.test_after_trimmed, f.total_mm > 0.0) {
+            let ratio = t.rmse / f.total_mm;
+            if measured || ratio <= MAX_BOUND_RATIO {
+                eprintln!("  held-out RMSE / floor = {ratio:.3} (without the worst 1 % of test rows: {:.3})", tt.rmse / f.total_mm);
+            } else {
+                eprintln!("  held-out RMSE is more than {MAX_BOUND_RATIO}× that lower bound: the data do not show their floor");
+            }
+        }
+    }
+    if let Some(t) = &r.truth_comparison {
+        eprintln!(
+            "  truth: {}/{} identifiable parameters within 3σ (max |z| = {:.2}); sensor noise floor {:.4} mm",
+            t.within_3_sigma, t.identifiable, t.max_abs_z, t.noise_floor_mm
+        );
+    }
+}

@@ -1,0 +1,187 @@
+//! `twincal compare`: methods over seeds, accuracy and time tables with Wilcoxon tests.
+
+use super::*;
+
+/// One calibration run inside `compare`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CompareRun {
+    pub method: String,
+    pub seed: u64,
+    pub train: crate::calib::metrics::ErrorStats,
+    pub test: crate::calib::metrics::ErrorStats,
+    pub iterations: usize,
+    pub seconds: f64,
+    #[serde(skip)]
+    pub test_abs_residuals: Vec<f64>,
+}
+
+/// Arguments of `twincal compare` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct CompareArgs {
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Unit of the joint angles in the data.
+    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+    pub angles: AngleArg,
+    #[arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf")]
+    pub methods: Vec<String>,
+    /// Number of seeds (1 to 1000).
+    #[arg(long, default_value_t = 30, allow_negative_numbers = true)]
+    pub seeds: u64,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Test fraction of each seed's re-split, in (0, 1) (default: the dataset's split size, else 0.2).
+    #[arg(long, allow_negative_numbers = true)]
+    pub test_fraction: Option<f64>,
+    /// Effort of the stochastic methods (1 = full budget).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub effort: f64,
+    /// Also write the tables as JSON.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Rerun recording of the accuracy table and the per-seed spread of each method.
+    #[arg(long)]
+    pub rrd: Option<PathBuf>,
+}
+
+/// `twincal compare`: every method on every seed (a fresh stratified split per seed), then the
+/// accuracy / time table and Wilcoxon signed-rank tests of each method against the first one,
+/// across seeds (test RMSE) and per sample (|test residual| of seed 0).
+pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
+    use crate::calib::run::{calibrate as run, CalibOptions, Method};
+    use crate::calib::stats::{mean_std, wilcoxon_signed_rank};
+    use rayon::prelude::*;
+    let (seeds, test_fraction, effort) = (a.seeds, a.test_fraction, a.effort);
+    let methods: Vec<Method> = a.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
+    if methods.is_empty() {
+        return Err(Error::Invalid("--methods is empty: compare needs at least one method".into()));
+    }
+    if let Some(m) = methods.iter().enumerate().find_map(|(i, m)| methods[..i].contains(m).then_some(m)) {
+        return Err(Error::Invalid(format!("--methods lists {} twice", m.name())));
+    }
+    check_seeds(seeds)?;
+    let jobs_count = seeds * methods.len() as u64;
+    if jobs_count > MAX_COMPARE_JOBS {
+        return Err(Error::Invalid(format!(
+            "{} methods x {seeds} seeds = {jobs_count} calibrations, more than compare runs at once ({MAX_COMPARE_JOBS})",
+            methods.len()
+        )));
+    }
+    if let Some(f) = test_fraction {
+        if !(f > 0.0 && f < 1.0) {
+            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1) for compare (every seed is scored on held-out rows), got {f}")));
+        }
+    }
+    if !(effort > 0.0 && effort <= 10.0) {
+        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {effort}")));
+    }
+    let data_files = data_inputs(&a.data);
+    let outs: Vec<(&str, &Path)> = a.out.as_deref().map(|p| ("--out", p)).into_iter().chain(a.rrd.as_deref().map(|p| ("--rrd", p))).collect();
+    if !outs.is_empty() {
+        let mut inputs: Vec<(&str, &Path)> = vec![("--data", &data_files[0])];
+        let model_file = a.model.input();
+        inputs.extend(model_file.as_deref().map(|m| ("--model", m)));
+        check_outputs(&inputs, &outs)?;
+    }
+    let spec = a.model.spec()?;
+    let ds = load_dataset(&a.data, a.angles, true)?;
+    let n = ds.rows.len();
+    let frac = test_fraction.unwrap_or_else(|| {
+        let t = ds.test_indices().len();
+        if t > 0 && t < n {
+            t as f64 / n as f64
+        } else {
+            0.2
+        }
+    });
+    if (frac * n as f64).round() < 1.0 || (frac * n as f64).round() as usize >= n {
+        return Err(Error::Invalid(format!("test fraction {frac} of {n} rows leaves no test rows or no training rows")));
+    }
+    let jobs: Vec<(u64, Method)> = (0..seeds).flat_map(|s| methods.iter().map(move |m| (s, *m))).collect();
+    let bar = progress(quiet);
+    bar.start(jobs.len() as u64, "calibrations");
+    let runs: Vec<Result<CompareRun>> = jobs
+        .par_iter()
+        .map(|(seed, m)| {
+            let mut o = CalibOptions::new(spec.clone(), *m);
+            o.test_fraction = Some(frac);
+            o.seed = *seed;
+            o.effort = effort;
+            let r = run(&ds, None, &o)?;
+            // The residuals the calibration scored (with each row's inputs: temperature, flanks,
+            // torques; and reading steps), not a re-prediction from the angles alone.
+            let test_abs_residuals = r.test_residuals_mm.iter().map(|v| v.abs()).collect();
+            bar.inc(1);
+            Ok(CompareRun {
+                method: m.name().into(),
+                seed: *seed,
+                train: r.metrics.train_after,
+                test: r.metrics.test_after.unwrap_or_default(),
+                iterations: r.iterations,
+                seconds: r.wall_time_s,
+                test_abs_residuals,
+            })
+        })
+        .collect();
+    bar.finish();
+    let runs: Vec<CompareRun> = runs.into_iter().collect::<Result<_>>()?;
+    let by = |m: &str| runs.iter().filter(|r| r.method == m).cloned().collect::<Vec<_>>();
+    let mut table = String::new();
+    table.push_str(&format!("# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n", ds.source, n));
+    table.push_str(
+        "| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let ms = |v: Vec<f64>| {
+        let (m, s) = mean_std(&v);
+        format!("{m:.4} ± {s:.4}")
+    };
+    for m in &methods {
+        let r = by(m.name());
+        table.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            m.name(),
+            ms(r.iter().map(|x| x.train.rmse).collect()),
+            ms(r.iter().map(|x| x.train.std).collect()),
+            ms(r.iter().map(|x| x.train.max).collect()),
+            ms(r.iter().map(|x| x.test.rmse).collect()),
+            ms(r.iter().map(|x| x.test.std).collect()),
+            ms(r.iter().map(|x| x.test.max).collect()),
+            ms(r.iter().map(|x| x.iterations as f64).collect()),
+            ms(r.iter().map(|x| x.seconds).collect()),
+        ));
+    }
+    let mut tests = Vec::new();
+    let reference = methods[0].name();
+    let ref_runs = by(reference);
+    table.push_str(&format!("\n## Wilcoxon signed-rank tests against `{reference}` (two-sided)\n\n| method | across seeds: W | p | per sample (seed 0): W | p |\n|---|---|---|---|---|\n"));
+    for m in methods.iter().skip(1) {
+        let r = by(m.name());
+        let a: Vec<f64> = ref_runs.iter().map(|x| x.test.rmse).collect();
+        let b: Vec<f64> = r.iter().map(|x| x.test.rmse).collect();
+        let across = wilcoxon_signed_rank(&a, &b).ok();
+        let per = wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
+        let cell = |w: &Option<crate::calib::stats::Wilcoxon>| match w {
+            Some(w) => (format!("{:.1}", w.statistic.abs()), format!("{:.3e}", w.p_value)),
+            None => ("–".into(), "–".into()),
+        };
+        let (wa, pa) = cell(&across);
+        let (wp, pp) = cell(&per);
+        table.push_str(&format!("| {} | {wa} | {pa} | {wp} | {pp} |\n", m.name()));
+        tests.push(serde_json::json!({"method": m.name(), "against": reference, "across_seeds": across.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n})), "per_sample": per.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n}))}));
+    }
+    println!("{table}");
+    let mut outputs = OutputSet::new();
+    if let Some(p) = a.rrd.as_deref() {
+        let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
+        let rows: Vec<crate::viz::scenes::CompareRow> = runs
+            .iter()
+            .map(|r| crate::viz::scenes::CompareRow { method: &r.method, seed: r.seed, test_rmse_mm: r.test.rmse, test_max_mm: r.test.max })
+            .collect();
+        crate::viz::scenes::record_comparison(&table, &names, &rows, &mut outputs, p)?;
+    }
+    if let Some(p) = a.out.as_deref() {
+        outputs.write_json(p, &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
+    }
+    outputs.commit()?;
+    Ok(())
+}

@@ -1,0 +1,176 @@
+//! `twincal diagnose`: its arguments, the run and the summary it prints.
+
+use super::*;
+
+/// Arguments of `twincal diagnose` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct DiagnoseArgs {
+    /// Dataset folder, CSV or xlsx (q1..q6, L; optional t, temp). No truth file is read.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Unit of the joint angles in the data.
+    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+    pub angles: AngleArg,
+    #[command(flatten)]
+    pub model: ModelArgs,
+    #[command(flatten)]
+    pub loads: LoadArgs,
+    /// Candidate effects (default: every kind the data support).
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Vec<String>,
+    /// Cross-validation folds (contiguous blocks of acquisition order).
+    #[arg(long, default_value_t = crate::diagnose::DEFAULT_FOLDS)]
+    pub folds: usize,
+    /// Family-wise significance level of each selection step.
+    #[arg(long, default_value_t = crate::diagnose::DEFAULT_ALPHA, allow_negative_numbers = true)]
+    pub alpha: f64,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// The diagnosis report.
+    #[arg(long, default_value = "report.json")]
+    pub out: PathBuf,
+    /// The extended model, saved like any calibration result.
+    #[arg(long, default_value = "diagnosed.json")]
+    pub result: PathBuf,
+    /// Rerun recording of the evidence.
+    #[arg(long)]
+    pub rrd: Option<PathBuf>,
+    /// Self-contained HTML report (tables and plots, opens offline in any browser).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Accuracy limit for the verdict in --out: the final cross-validated held-out RMSE, mm.
+    #[arg(long, allow_negative_numbers = true)]
+    pub max_test_rmse_mm: Option<f64>,
+    /// Logging step of the joint angles in degrees, for the noise floor (default: read from the
+    /// data's decimals).
+    #[arg(long, allow_negative_numbers = true)]
+    pub angle_resolution_deg: Option<f64>,
+}
+
+/// `twincal diagnose`: report.json, the extended model (a calibration result) and optionally a
+/// recording, all together or none.
+pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
+    use crate::diagnose::{diagnose as run, DiagnoseOptions};
+    let data_files = data_inputs(&a.data);
+    let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
+    let model_file = a.model.input();
+    if let Some(m) = &model_file {
+        inputs.push(("--model", m));
+    }
+    if let Some(r) = &a.loads.robot {
+        inputs.push(("--robot", r));
+    }
+    let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
+    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+    check_outputs(&inputs, &outs)?;
+    let limit = Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm };
+    limit.validate()?;
+    if !(a.alpha > 0.0 && a.alpha < 0.5) {
+        return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
+    }
+    let spec = a.model.spec()?;
+    let data = load_dataset(&a.data, a.angles, true)?;
+    let mut opts = DiagnoseOptions::new(spec);
+    let (loads, inertial) = a.loads.resolve()?;
+    opts.loads = loads;
+    opts.inertial = inertial;
+    opts.folds = a.folds;
+    opts.alpha = a.alpha;
+    opts.seed = a.seed;
+    opts.candidates = parse_effects(&a.candidates)?.into_iter().map(|(k, _)| k).collect();
+    if let Some(r) = a.angle_resolution_deg {
+        if !(r.is_finite() && r > 0.0 && r <= 10.0) {
+            return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
+        }
+        opts.angle_step_deg = Some(r);
+    }
+    let say = |line: &str| {
+        if !quiet {
+            eprintln!("  {line}");
+        }
+    };
+    let (report, result) = run(&data, &opts, &say)?;
+    let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
+    let mut outputs = OutputSet::new();
+    let figures = (a.rrd.is_some() || a.report.is_some()).then(|| crate::report::DiagnosisFigures::new(&report, &result, &data));
+    if let (Some(p), Some(f)) = (&a.rrd, &figures) {
+        crate::viz::scenes::record_diagnosis(&report, f, &mut outputs, p)?;
+    }
+    if let (Some(p), Some(f)) = (&a.report, &figures) {
+        outputs.write(p, crate::report::html::diagnosis_page(&report, f, verdict.as_ref()).as_bytes())?;
+    }
+    outputs.write_json(&a.out, &with_verdict(&report, verdict.as_ref())?)?;
+    outputs.write_json(&a.result, &result)?;
+    outputs.commit()?;
+    if !quiet {
+        print_diagnosis(&report, &a.out, &a.result);
+    }
+    print_verdict(verdict.as_ref(), &a.out);
+    Ok(())
+}
+
+fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
+    eprintln!("diagnosis of {} ({} rows, {} outliers kept out) in {:.1} s", d.data, d.rows, d.outliers.len(), d.seconds);
+    for o in &d.outliers {
+        eprintln!("  outlier: row {} residual {:+.3} mm ({:+.1} robust sd)", o.row, o.residual_mm, o.robust_z);
+    }
+    for u in &d.outlier_runs {
+        eprintln!("  outlier run: rows {}-{}, median residual {:+.3} mm", u.first_row, u.last_row, u.median_residual_mm);
+    }
+    for s in &d.reading_steps {
+        eprintln!(
+            "  reading step: rows {}-{} read {:+.3} ± {:.3} mm off ({} rows; the reading jumped and stayed), corrected and kept",
+            s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
+        );
+    }
+    eprintln!("  noise floor {:.4} mm ({})", d.noise_floor_mm, d.noise_floor_source);
+    eprintln!(
+        "  geometric model ({}): held-out RMSE {:.4} mm on blocked folds, {:.4} mm on interleaved folds; judged on {} folds ({} selection rows, {} confirmation rows kept back)",
+        d.baseline.model, d.baseline.heldout_rmse_blocked_mm, d.baseline.heldout_rmse_interleaved_mm, d.judged_on, d.selection_rows, d.confirmation_rows
+    );
+    let top: Vec<String> = d.evidence.iter().take(4).map(|e| format!("{} r={:+.2}", e.feature, e.correlation)).collect();
+    eprintln!("  residual follows most: {}", top.join(", "));
+    if d.causes.is_empty() {
+        eprintln!("  verdict: geometric_only (no effect improves the held-out fit significantly)");
+    }
+    for (i, c) in d.causes.iter().enumerate() {
+        eprintln!("  cause {}: {}", i + 1, c.summary());
+        eprintln!(
+            "           confirmation rows: {:.4} -> {:.4} mm; other folds: {:.4} -> {:.4} mm",
+            c.confirmation_rmse_before_mm, c.confirmation_rmse_after_mm, c.heldout_rmse_other_folds_before_mm, c.heldout_rmse_other_folds_after_mm
+        );
+    }
+    if !d.unconfirmed.is_empty() {
+        eprintln!("  not confirmed on the confirmation rows (left out of the model): {}", d.unconfirmed.join(", "));
+    }
+    eprintln!(
+        "  final held-out RMSE {:.4} mm ({}); the final model's RMSE on the {} kept rows: {:.4} mm",
+        d.final_heldout_rmse_mm,
+        d.against_floor(),
+        d.rows - d.outliers.len(),
+        d.final_train_rmse_mm
+    );
+    let sources: Vec<String> = d.noise_floor.sources.iter().map(|s| format!("{} {:.4} mm", s.source, s.rms_mm)).collect();
+    eprintln!(
+        "  what remains: the data's floor ({}) accounts for {:.0} % of the final held-out mean square",
+        sources.join(", "),
+        100.0 * d.floor_share_of_remaining
+    );
+    if let Some(c) = &d.comparison {
+        eprintln!(
+            "  held-out RMSE geometric / physical extension / RBF compensator: {:.4} / {:.4} / {:.4} mm",
+            c.heldout_rmse_mm[0], c.heldout_rmse_mm[1], c.heldout_rmse_mm[2]
+        );
+        eprintln!(
+            "  extrapolation to q2 > {:.1} deg ({} rows, trained on {}): {:.4} / {:.4} / {:.4} mm",
+            c.q2_split_deg,
+            c.extrapolation_rows[1],
+            c.extrapolation_rows[0],
+            c.extrapolation_rmse_mm[0],
+            c.extrapolation_rmse_mm[1],
+            c.extrapolation_rmse_mm[2]
+        );
+    }
+    eprintln!("  wrote {} and {} (calibrate --effects {})", out.display(), result.display(), if d.effects_option.is_empty() { "-" } else { &d.effects_option });
+}

@@ -1,0 +1,317 @@
+//! The command line's commands, one file each (kept in the library so tests can call them),
+//! and what they share: argument groups, dataset and model loading, progress bars, limits.
+
+mod bench;
+mod calibrate;
+mod compare;
+mod diagnose;
+mod generate;
+pub mod ik;
+mod predict;
+mod study;
+#[cfg(test)]
+mod tests;
+
+pub use bench::{bench, bench_calib, bench_command, bench_diagnose, flank_check, twin_agreement, FlankCheck, TwinAgreement};
+use calibrate::print_verdict;
+pub use calibrate::{calibrate, calibration_warnings, CalibrateArgs};
+pub use compare::{compare, CompareArgs, CompareRun};
+pub use diagnose::{diagnose, DiagnoseArgs};
+pub use generate::generate;
+pub use predict::{predict, prediction_csv};
+pub use study::{study, StudyTarget};
+
+use crate::calib::stats::median;
+use crate::dataset::Dataset;
+use crate::error::{Error, Result};
+use crate::generate::{generate as run_generate, stage_outputs, write_outputs, Generated, Progress, Silent};
+use crate::io::{check_outputs, OutputSet};
+use crate::report::verdict::{judge, with_verdict, Limit};
+use crate::scenario::Scenario;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Most seeds `compare` and `bench calib` accept.
+pub const MAX_SEEDS: u64 = 1000;
+/// Most calibrations (methods × seeds) one `compare` runs.
+pub const MAX_COMPARE_JOBS: u64 = 5000;
+/// Most repetitions `bench` accepts.
+pub const MAX_REPEAT: usize = 1000;
+
+/// `--angles`: unit of the joint angles in a dataset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum AngleArg {
+    /// Degrees, unless the values look like radians (then an error says so).
+    Auto,
+    /// Degrees.
+    Deg,
+    /// Radians.
+    Rad,
+}
+
+/// `twincal bench` targets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchTarget {
+    /// The twin: settled poses per second, rapier against the quasi-static model.
+    Twin,
+    /// The calibration core's targets.
+    Calib,
+    /// The diagnosis: detection and false-alarm rates over hidden-effect scenarios, time.
+    Diagnose,
+    /// Evo-NPH: DS-ADE speed, ablations with the truth, DE engines on one objective (Table 10).
+    Dsade,
+    /// Inverse kinematics: Jacobian variants, time per query, true error on the twin.
+    Ik,
+    /// PSO-EKF-AWNN: stage times against LM, accuracy and truth over seeds, data efficiency,
+    /// sensitivity to Q, R and the learning rate, HSR-RobotCali.
+    Awnn,
+    /// Real measured data: HSR generic model per search seed and its diagnosis, RobotCali
+    /// methods over random splits with and without the outlier screen.
+    Real,
+}
+
+/// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
+/// compare) or may be absent (predict).
+fn load_dataset(path: &Path, angles: AngleArg, require_length: bool) -> Result<Dataset> {
+    use crate::dataset::{AngleUnit, LoadOptions};
+    let angles = match angles {
+        AngleArg::Auto => AngleUnit::Auto,
+        AngleArg::Deg => AngleUnit::Deg,
+        AngleArg::Rad => AngleUnit::Rad,
+    };
+    Dataset::load_with(path, &LoadOptions { angles, require_length })
+}
+
+/// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without
+/// an xlsx `#Sheet`), plus the truth file `calibrate` reads beside either.
+fn data_inputs(data: &Path) -> Vec<PathBuf> {
+    let file = if data.is_dir() {
+        data.join(crate::dataset::DATASET_FILE)
+    } else {
+        match data.to_string_lossy().rsplit_once('#') {
+            Some((f, _)) if !data.exists() => PathBuf::from(f),
+            _ => data.to_path_buf(),
+        }
+    };
+    let dir = if data.is_dir() { data.to_path_buf() } else { file.parent().map(Path::to_path_buf).unwrap_or_default() };
+    vec![file, dir.join(crate::calib::truth::TRUTH_FILE)]
+}
+
+/// The calibration model a `--model` / `--params` pair names; `--params` is refused for
+/// `generic6r`, which has no nominal model to parametrise.
+fn model_spec(model: &str, params: Option<&str>) -> Result<crate::calib::run::ModelSpec> {
+    if model == "generic6r" {
+        if let Some(p) = params {
+            return Err(Error::Invalid(format!("--params {p} applies to nominal models (irb120 or a .urdf); generic6r has no nominal model to parametrise")));
+        }
+    }
+    crate::calib::run::ModelSpec::parse(model, params.unwrap_or("hayati"))
+}
+
+/// Which model a calibration fits (`--model`, `--params`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct ModelArgs {
+    /// irb120 (embedded URDF), a .urdf path, or generic6r (no nominal).
+    #[arg(long, default_value = "irb120")]
+    pub model: String,
+    /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes; the default), dh (papers' 24)
+    /// or frame. Not for generic6r.
+    #[arg(long)]
+    pub params: Option<String>,
+}
+
+impl ModelArgs {
+    /// The model these options name; `--params` is refused for `generic6r`.
+    pub fn spec(&self) -> Result<crate::calib::run::ModelSpec> {
+        model_spec(&self.model, self.params.as_deref())
+    }
+
+    /// `--model` as an input file, when it names one (a .urdf).
+    fn input(&self) -> Option<PathBuf> {
+        self.model.ends_with(".urdf").then(|| PathBuf::from(&self.model))
+    }
+}
+
+/// A terminal progress bar (hidden when stderr is not a terminal).
+pub struct Bar(indicatif::ProgressBar);
+
+impl Bar {
+    pub fn new() -> Self {
+        let pb = indicatif::ProgressBar::new(0);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        Bar(pb)
+    }
+}
+
+impl Default for Bar {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Progress for Bar {
+    fn start(&self, total: u64, what: &str) {
+        self.0.set_length(total);
+        self.0.set_position(0);
+        self.0.set_message(what.to_string());
+    }
+    fn inc(&self, n: u64) {
+        self.0.inc(n);
+    }
+    fn finish(&self) {
+        self.0.finish_and_clear();
+    }
+}
+
+pub fn progress(quiet: bool) -> Box<dyn Progress> {
+    if quiet {
+        Box::new(Silent)
+    } else {
+        Box::new(Bar::new())
+    }
+}
+
+pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, crate::robot::Robot)> {
+    match path {
+        Some(p) => Scenario::load(p),
+        None => Scenario::default_embedded(),
+    }
+}
+
+fn check_repeat(repeat: usize) -> Result<()> {
+    if !(1..=MAX_REPEAT).contains(&repeat) {
+        return Err(Error::Invalid(format!("--repeat must be between 1 and {MAX_REPEAT}, got {repeat}")));
+    }
+    Ok(())
+}
+
+fn check_seeds(seeds: u64) -> Result<()> {
+    if !(1..=MAX_SEEDS).contains(&seeds) {
+        return Err(Error::Invalid(format!("--seeds must be between 1 and {MAX_SEEDS}, got {seeds}")));
+    }
+    Ok(())
+}
+
+/// Robust estimation and the data's floor (`--outliers`, `--loss`, `--angle-resolution-deg`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct RobustArgs {
+    /// Training rows more than this many robust standard deviations (1.4826 MAD) off the fit
+    /// are outliers: kept out and listed in the result (0: keep every row).
+    #[arg(long, default_value_t = crate::calib::run::DEFAULT_OUTLIER_K, allow_negative_numbers = true)]
+    pub outliers: f64,
+    /// Keep out the rows of a run of outliers even when they all sit one constant offset off
+    /// (by default such a reading step is corrected and its rows kept).
+    #[arg(long)]
+    pub no_reading_steps: bool,
+    /// Least-squares loss of `--method lm`: l2, huber or cauchy (by IRLS, robust scale from the data).
+    #[arg(long, default_value = "l2")]
+    pub loss: String,
+    /// Logging step of the joint angles in degrees, for the noise floor (default: read from the
+    /// data's decimals).
+    #[arg(long, allow_negative_numbers = true)]
+    pub angle_resolution_deg: Option<f64>,
+}
+
+impl RobustArgs {
+    /// (outlier threshold, loss, angle step), validated.
+    pub fn resolve(&self) -> Result<(f64, crate::calib::robust::Loss, Option<f64>)> {
+        if !(self.outliers.is_finite() && (self.outliers == 0.0 || (2.0..=100.0).contains(&self.outliers))) {
+            return Err(Error::Invalid(format!("--outliers must be 0 (off) or in [2, 100] robust standard deviations, got {}", self.outliers)));
+        }
+        if let Some(r) = self.angle_resolution_deg {
+            if !(r.is_finite() && r > 0.0 && r <= 10.0) {
+                return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
+            }
+        }
+        Ok((self.outliers, crate::calib::robust::Loss::parse(&self.loss)?, self.angle_resolution_deg))
+    }
+}
+
+/// What loads the joints, for the torque-driven effects (`--robot`, `--payload-kg`,
+/// `--payload-com-mm`, `--cable-tension-n`).
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct LoadArgs {
+    /// URDF whose inertial data give the static joint torques (default: the model's own robot;
+    /// needed for joint_compliance with generic6r).
+    #[arg(long)]
+    pub robot: Option<PathBuf>,
+    /// Payload on the flange, kg.
+    #[arg(long, allow_negative_numbers = true)]
+    pub payload_kg: Option<f64>,
+    /// Payload centre of mass in the flange frame, mm (x,y,z).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "X,Y,Z")]
+    pub payload_com_mm: Option<Vec<f64>>,
+    /// Draw-wire cable tension from the sensor's data sheet, N (0: ignored).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub cable_tension_n: f64,
+}
+
+impl LoadArgs {
+    /// The load options and the inertial robot (`--robot`), validated.
+    pub fn resolve(&self) -> Result<(crate::calib::inputs::LoadOptions, Option<crate::robot::Robot>)> {
+        let mut o = crate::calib::inputs::LoadOptions::default();
+        if !(self.cable_tension_n.is_finite() && (0.0..=1000.0).contains(&self.cable_tension_n)) {
+            return Err(Error::Invalid(format!("--cable-tension-n must be in [0, 1000] N, got {}", self.cable_tension_n)));
+        }
+        o.cable_tension_n = self.cable_tension_n;
+        match (self.payload_kg, &self.payload_com_mm) {
+            (None, None) => {}
+            (Some(m), com) => {
+                if !(m.is_finite() && (0.0..=1000.0).contains(&m)) {
+                    return Err(Error::Invalid(format!("--payload-kg must be in [0, 1000] kg, got {m}")));
+                }
+                let com = com.clone().unwrap_or_else(|| vec![0.0; 3]);
+                if com.len() != 3 || com.iter().any(|v| !v.is_finite() || v.abs() > 5000.0) {
+                    return Err(Error::Invalid("--payload-com-mm needs 3 finite values in mm (x,y,z in the flange frame, each within ±5000)".into()));
+                }
+                o.payload = Some(crate::effects::Payload { mass_kg: m, com_mm: [com[0], com[1], com[2]] });
+            }
+            (None, Some(_)) => return Err(Error::Invalid("--payload-com-mm needs --payload-kg".into())),
+        }
+        let robot = match &self.robot {
+            Some(p) => Some(crate::robot::Robot::from_urdf_file(p)?),
+            None => None,
+        };
+        Ok((o, robot))
+    }
+}
+
+/// Parses `--effects compliance,backlash:2,thermal`: a kind, optionally `:JOINT` (1..N, checked against the data).
+pub fn parse_effects(list: &[String]) -> Result<Vec<(crate::calib::effects::EffectKind, Option<usize>)>> {
+    use crate::calib::effects::EffectKind;
+    list.iter()
+        .filter(|s| !s.trim().is_empty())
+        .map(|item| {
+            let (kind, joint) = match item.split_once(':') {
+                Some((k, j)) => {
+                    let max = crate::dataset::MAX_JOINTS;
+                    let bad = || Error::Invalid(format!("--effects {item}: the joint after ':' must be a joint number, 1..N"));
+                    let j: usize = j.trim().parse().map_err(|_| bad())?;
+                    if !(1..=max).contains(&j) {
+                        return Err(bad());
+                    }
+                    (EffectKind::parse(k)?, Some(j - 1))
+                }
+                None => (EffectKind::parse(item)?, None),
+            };
+            let allowed = kind.joint_options(crate::dataset::MAX_JOINTS).contains(&joint) || (joint.is_none() && kind.per_joint());
+            if !allowed {
+                return Err(Error::Invalid(format!("--effects {item}: {} is not a per-joint effect", kind.name())));
+            }
+            Ok((kind, joint))
+        })
+        .collect()
+}
+
+/// Above this many times a floor that is only a lower bound (no repeated configurations), the
+/// ratio says nothing about the fit and is not printed.
+const MAX_BOUND_RATIO: f64 = 10.0;
+
+/// Loads a calibrated model (result.json); its errors are labelled `model PATH`.
+fn load_model(path: &Path) -> Result<crate::calib::run::CalibResult> {
+    crate::calib::run::CalibResult::load(path)
+}

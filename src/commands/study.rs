@@ -1,0 +1,57 @@
+//! `twincal study`: hold-time and posture studies on the twin.
+
+use super::*;
+
+/// `twincal study` subjects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum StudyTarget {
+    /// Bias and spread of the readings against the hold time and the approach speed.
+    Hold,
+}
+
+/// `twincal study hold`: the table on stdout, optionally a Rerun recording.
+pub fn study(what: StudyTarget, scenario: Option<&Path>, study: &crate::twin::study::HoldStudy, rrd: Option<&Path>, quiet: bool) -> Result<()> {
+    let StudyTarget::Hold = what;
+    if let Some(p) = rrd {
+        let inputs: Vec<(&str, &Path)> = scenario.map(|p| ("--scenario", p)).into_iter().collect();
+        check_outputs(&inputs, &[("--rrd", p)])?;
+    }
+    study.validate().map_err(Error::Invalid)?;
+    let (s, robot) = load_scenario(scenario)?;
+    let rows = crate::twin::study::hold_study(&s, &robot, study, progress(quiet).as_ref())?;
+    let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    println!("hold study ({}, first {} poses, readings taken even with the gate closed)", s.name, rows.first().map(|r| r.poses).unwrap_or(0));
+    println!(
+        "  damping ratio {}, gate: {} s windows within {} mm; averaged reading noise {:.2} µm (not included below)",
+        s.acquisition.damping_ratio,
+        s.acquisition.gate_window_s,
+        s.acquisition.gate_mm,
+        floor * 1e3
+    );
+    println!(
+        "  {:>6} {:>8} {:>10} {:>11} {:>10} {:>12} {:>11} {:>9}",
+        "speed", "hold s", "bias µm", "spread µm", "max µm", "gate closed", "gate s (med)", "s/pose"
+    );
+    for r in &rows {
+        println!(
+            "  {:6.2} {:8.3} {:10.3} {:11.3} {:10.3} {:>12} {:>11} {:9.2}",
+            r.speed_fraction,
+            r.hold_s,
+            r.bias_mm * 1e3,
+            r.spread_mm * 1e3,
+            r.max_mm * 1e3,
+            format!("{}/{}", r.gate_closed, r.poses),
+            r.median_gate_s.map(|g| format!("{g:.3}")).unwrap_or_else(|| "-".into()),
+            r.time_per_pose_s
+        );
+    }
+    if let Some(p) = rrd {
+        let mut outputs = OutputSet::new();
+        crate::viz::study::record_hold_study(&rows, &s.name, floor, &mut outputs, p)?;
+        outputs.commit()?;
+        if !quiet {
+            eprintln!("  wrote {}", p.display());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,26 @@
+use super::*;
+
+#[test]
+fn prediction_csv_has_residuals_only_when_every_row_has_a_length() {
+    let q: &[f64] = &[1.0, 2.0, 3.0, 4.0, 5.0, 6.5];
+    let with = prediction_csv(&[(q, Some(300.5)), (q, Some(301.0))], &[300.25, 301.0]);
+    assert_eq!(with, "q1,q2,q3,q4,q5,q6,L,L_pred,residual\n1,2,3,4,5,6.5,300.5,300.25,0.25\n1,2,3,4,5,6.5,301,301,0\n");
+    let without = prediction_csv(&[(q, None), (q, Some(301.0))], &[300.25, 301.0]);
+    assert_eq!(without, "q1,q2,q3,q4,q5,q6,L_pred\n1,2,3,4,5,6.5,300.25\n1,2,3,4,5,6.5,301\n");
+}
+
+#[test]
+fn generic6r_takes_no_parametrisation() {
+    let e = model_spec("generic6r", Some("dh")).unwrap_err().to_string();
+    assert!(e.contains("--params dh"), "{e}");
+    assert!(model_spec("generic6r", None).is_ok());
+    assert!(model_spec("irb120", Some("frame")).is_ok());
+}
+
+#[test]
+fn data_inputs_name_the_files_read() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_eq!(data_inputs(dir.path()), vec![dir.path().join("dataset.csv"), dir.path().join("truth.json")]);
+    let x = dir.path().join("m.xlsx#Sheet1");
+    assert_eq!(data_inputs(&x), vec![dir.path().join("m.xlsx"), dir.path().join("truth.json")]);
+}
