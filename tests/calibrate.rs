@@ -287,6 +287,16 @@ fn compare_prints_tables_and_wilcoxon_tests() {
     assert_eq!(v["runs"].as_array().unwrap().len(), 18);
     let p = v["wilcoxon"][0]["per_sample"]["p_value"].as_f64().unwrap();
     assert!((0.0..=1.0).contains(&p));
+    assert!(v["wilcoxon"][0]["across_seeds"]["p_value"].as_f64().is_some(), "6 seeds: tested across seeds");
+    // With fewer than 6 seeds no difference can reach p < 0.05: no across-seeds p is printed.
+    let o = Command::new(env!("CARGO_BIN_EXE_twincal"))
+        .args(["compare", "--data", dir.to_str().unwrap(), "--methods", "lm,rbf", "--seeds", "2", "--quiet", "--out", json.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("Across seeds: not tested"));
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(v["wilcoxon"][0]["across_seeds"].is_null() && v["wilcoxon"][0]["per_sample"]["p_value"].is_f64());
 }
 
 #[test]

@@ -97,6 +97,10 @@ fn generate_calibrate_diagnose_and_ik_run_on_a_seven_joint_arm_from_the_command_
         let e: f64 = f[err].parse().unwrap();
         assert!(e < 0.05, "true error {e} mm after calibration: {f:?}");
     }
+    // A tolerance that accepts any configuration is refused.
+    let o = twincal(&["ik", "--model", &p("result.json"), "--random", "5", "--tol-mm", "1e9", "--out", &p("ik_loose.csv")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--tol-mm must be in (0, 10] mm"));
     // A dataset of six joint angles is refused by a seven-joint model, naming both counts.
     let six = dir.join("six.csv");
     std::fs::write(&six, "q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,700\n").unwrap();

@@ -7,7 +7,7 @@
 //! last motion left it on (the link trails the motor: a move towards larger angles leaves it on
 //! the negative flank). The arm is assumed to start at its home pose (all angles zero).
 
-use super::effects::{EffectBlock, EffectKind, RowInputs, ThermalDrive};
+use super::effects::{EffectBlock, EffectKind, RowInputs};
 use crate::dataset::Dataset;
 use crate::effects::statics::{CableLoad, LoadModel, GRAVITY};
 use crate::effects::{Effects, Payload};
@@ -145,34 +145,13 @@ pub fn block_for(data: &Dataset, kind: EffectKind, joint: Option<usize>, has_tor
     if !kind.joint_options(nq).contains(&joint) {
         return Err(Error::Invalid(match joint {
             None => format!("{} needs a joint 1..{nq}", kind.name()),
-            Some(j) if kind.per_joint() || kind == EffectKind::ThermalDrift => {
+            Some(j) if kind.takes_joint() => {
                 format!("{}: joint {} is beyond the data's {nq} joints (q1..q{nq})", kind.name(), j + 1)
             }
             Some(_) => format!("{} takes no joint", kind.name()),
         }));
     }
-    match kind {
-        EffectKind::JointCompliance if !has_torques => {
-            return Err(Error::Invalid("joint_compliance needs joint torques: give the robot's URDF (--robot FILE) for its inertial data".into()))
-        }
-        EffectKind::ThermalDrift => {
-            if let Some(t0) = data.rows.first().and_then(|r| r.temp_c).filter(|_| data.rows.iter().all(|r| r.temp_c.is_some())) {
-                b.thermal = Some(ThermalDrive::Temperature { ref_c: t0 });
-            } else if data.rows.iter().all(|r| r.t_s.is_some()) {
-                b.thermal = Some(ThermalDrive::WarmUp);
-            } else {
-                return Err(Error::Invalid("thermal_drift needs a temp or t column on every row".into()));
-            }
-        }
-        EffectKind::SensorNonlinearity => {
-            let (lo, hi) = data.rows.iter().filter_map(|r| r.l_mm).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), l| (a.min(l), b.max(l)));
-            if !(lo < hi) {
-                return Err(Error::Invalid("sensor_nonlinearity needs measured lengths over a range".into()));
-            }
-            b.range_m = Some([lo * 1e-3, hi * 1e-3]);
-        }
-        _ => {}
-    }
+    kind.def().configure(&mut b, data, has_torques)?;
     Ok(b)
 }
 

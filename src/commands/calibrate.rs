@@ -69,8 +69,8 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
         return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
     }
-    if !(a.effort > 0.0 && a.effort <= 10.0) {
-        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {}", a.effort)));
+    if !(MIN_EFFORT..=MAX_EFFORT).contains(&a.effort) {
+        return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {}", a.effort)));
     }
     if let Some(f) = a.test_fraction {
         if !(0.0..1.0).contains(&f) {

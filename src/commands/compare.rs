@@ -44,6 +44,10 @@ pub struct CompareArgs {
     pub rrd: Option<PathBuf>,
 }
 
+/// Fewest seeds for the across-seeds Wilcoxon test: with 5 or fewer, the smallest two-sided
+/// exact p-value is 2/2⁵ = 0.0625.
+pub const MIN_SEEDS_FOR_TEST: usize = 6;
+
 /// `twincal compare`: every method on every seed (a fresh stratified split per seed), then the
 /// accuracy / time table and Wilcoxon signed-rank tests of each method against the first one,
 /// across seeds (test RMSE) and per sample (|test residual| of seed 0).
@@ -72,8 +76,8 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
             return Err(Error::Invalid(format!("--test-fraction must be in (0, 1) for compare (every seed is scored on held-out rows), got {f}")));
         }
     }
-    if !(effort > 0.0 && effort <= 10.0) {
-        return Err(Error::Invalid(format!("--effort must be in (0, 10], got {effort}")));
+    if !(MIN_EFFORT..=MAX_EFFORT).contains(&effort) {
+        return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {effort}")));
     }
     let data_files = data_inputs(&a.data);
     let outs: Vec<(&str, &Path)> = a.out.as_deref().map(|p| ("--out", p)).into_iter().chain(a.rrd.as_deref().map(|p| ("--rrd", p))).collect();
@@ -158,7 +162,8 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         let r = by(m.name());
         let a: Vec<f64> = ref_runs.iter().map(|x| x.test.rmse).collect();
         let b: Vec<f64> = r.iter().map(|x| x.test.rmse).collect();
-        let across = wilcoxon_signed_rank(&a, &b).ok();
+        // With fewer seeds no difference can reach p < 0.05 (two-sided): no test is printed.
+        let across = if a.len() >= MIN_SEEDS_FOR_TEST { wilcoxon_signed_rank(&a, &b).ok() } else { None };
         let per = wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
         let cell = |w: &Option<crate::calib::stats::Wilcoxon>| match w {
             Some(w) => (format!("{:.1}", w.statistic.abs()), format!("{:.3e}", w.p_value)),
@@ -168,6 +173,11 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         let (wp, pp) = cell(&per);
         table.push_str(&format!("| {} | {wa} | {pa} | {wp} | {pp} |\n", m.name()));
         tests.push(serde_json::json!({"method": m.name(), "against": reference, "across_seeds": across.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n})), "per_sample": per.map(|w| serde_json::json!({"statistic": w.statistic, "p_value": w.p_value, "n": w.n}))}));
+    }
+    if (seeds as usize) < MIN_SEEDS_FOR_TEST && methods.len() > 1 {
+        table.push_str(&format!(
+            "\nAcross seeds: not tested; with {seeds} seed(s) no difference can reach p < 0.05 (two-sided Wilcoxon needs at least {MIN_SEEDS_FOR_TEST}).\n"
+        ));
     }
     println!("{table}");
     let mut outputs = OutputSet::new();

@@ -78,7 +78,7 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     opts.folds = a.folds;
     opts.alpha = a.alpha;
     opts.seed = a.seed;
-    opts.candidates = parse_effects(&a.candidates)?.into_iter().map(|(k, _)| k).collect();
+    opts.candidates = parse_effects(&a.candidates)?;
     if let Some(r) = a.angle_resolution_deg {
         if !(r.is_finite() && r > 0.0 && r <= 10.0) {
             return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));

@@ -32,6 +32,9 @@ use rand_chacha::ChaCha8Rng;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Largest `--tol-mm`: beyond a centimetre a "solution" says nothing about where the tool is.
+pub const MAX_TOL_MM: f64 = 10.0;
+
 /// The twin behind a dataset and the frame map into a calibration's frame.
 pub struct TwinCheck {
     pub twin: Twin,
@@ -316,8 +319,8 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
             return Err(Error::Invalid(format!("--random must be in 1..=100000, got {n}")));
         }
     }
-    if !(a.tol_mm > 0.0 && a.tol_mm.is_finite()) {
-        return Err(Error::Invalid(format!("--tol-mm must be a positive number, got {}", a.tol_mm)));
+    if !(a.tol_mm > 0.0 && a.tol_mm <= MAX_TOL_MM) {
+        return Err(Error::Invalid(format!("--tol-mm must be in (0, {MAX_TOL_MM}] mm, got {}", a.tol_mm)));
     }
     let kinds: Vec<JacobianKind> = match a.jacobian.to_ascii_lowercase().as_str() {
         "all" => JacobianKind::ALL.to_vec(),

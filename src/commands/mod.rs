@@ -35,6 +35,10 @@ use std::time::Instant;
 pub const MAX_SEEDS: u64 = 1000;
 /// Most calibrations (methods × seeds) one `compare` runs.
 pub const MAX_COMPARE_JOBS: u64 = 5000;
+/// Range of `--effort` (a multiple of the methods' default budgets): below a hundredth of it a
+/// stochastic method has next to no iterations, and its "result" is its start.
+pub const MIN_EFFORT: f64 = 0.01;
+pub const MAX_EFFORT: f64 = 10.0;
 /// Most repetitions `bench` accepts.
 pub const MAX_REPEAT: usize = 1000;
 

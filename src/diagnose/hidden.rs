@@ -13,7 +13,7 @@ use crate::calib::inputs::{row_inputs, LoadOptions, TorqueModel};
 use crate::calib::model::{CalibModel, SensorGuess};
 use crate::calib::problem::{LengthFit, Samples};
 use crate::dataset::{Dataset, Row};
-use crate::effects::{Backlash, Compliance, Eccentricity, Thermal};
+use crate::effects::Thermal;
 use crate::error::{Error, Result};
 use crate::generate::{acquisition_times, sample_poses};
 use crate::optim::LeastSquares;
@@ -27,9 +27,10 @@ use serde::Serialize;
 /// The geometric scenario every hidden-effect scenario starts from.
 pub const BASE_SCENARIO: &str = include_str!("../../scenarios/irb120_geometric.toml");
 
-/// Warm-up of the thermal scenarios: 5 K over a 600 s time constant.
-const THERMAL_RISE_K: f64 = 5.0;
-const THERMAL_TAU_S: f64 = 600.0;
+/// Warm-up of the thermal scenarios (the thermal effect's own, so that its `hide` and these
+/// poses agree).
+const THERMAL_RISE_K: f64 = crate::calib::effects::HIDDEN_RISE_K;
+const THERMAL_TAU_S: f64 = crate::calib::effects::HIDDEN_TAU_S;
 
 /// What was hidden, in the units the diagnosis reports.
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -81,17 +82,6 @@ pub fn causes(n: usize) -> Vec<(EffectKind, Option<usize>)> {
     v
 }
 
-/// Largest plausible size of a cause (internal units): beyond it the scenario would be absurd.
-fn plausible(kind: EffectKind, joint: Option<usize>) -> f64 {
-    match (kind, joint) {
-        (EffectKind::JointCompliance, _) => 200e-6,
-        (EffectKind::Backlash, _) => 0.25f64.to_radians(),
-        (EffectKind::ThermalDrift, None) => 100e-6,
-        (EffectKind::ThermalDrift, Some(_)) => 0.02f64.to_radians(),
-        _ => 0.1f64.to_radians(),
-    }
-}
-
 /// The scenario's commanded poses as a dataset of q, t and temperature (no lengths), with the
 /// temperature the thermal scenarios would give.
 fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
@@ -141,47 +131,6 @@ pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Opti
     Ok(rest.norm() / (samples.len() as f64).sqrt())
 }
 
-/// Puts a cause of internal size `v` (and eccentricity phase `phase`, rad) into the scenario of
-/// an arm with `n` joints.
-fn apply(s: &mut Scenario, n: usize, kind: EffectKind, joint: Option<usize>, v: f64, phase: f64) {
-    let j = joint.unwrap_or(0);
-    match kind {
-        EffectKind::EncoderEccentricity => {
-            let e = s.effects.eccentricity.get_or_insert(Eccentricity { amplitude_deg: vec![0.0; n], phase_deg: vec![0.0; n] });
-            e.amplitude_deg[j] = v.to_degrees();
-            e.phase_deg[j] = phase.to_degrees();
-        }
-        EffectKind::JointCompliance => {
-            let c = s.effects.compliance.get_or_insert(Compliance { stiffness_nm_per_rad: vec![1e12; n], damping_nms_per_rad: None });
-            c.stiffness_nm_per_rad[j] = 1.0 / v;
-        }
-        EffectKind::Backlash => {
-            let b = s.effects.backlash.get_or_insert(Backlash { width_deg: vec![0.0; n], breakaway_nm: 0.3 });
-            b.width_deg[j] = 2.0 * v.to_degrees();
-        }
-        EffectKind::ThermalDrift => {
-            let t = s.effects.thermal.get_or_insert(Thermal::new(0.0, THERMAL_RISE_K, THERMAL_TAU_S, 21.0));
-            match joint {
-                None => t.alpha_per_k = v,
-                Some(j) => {
-                    t.zero_drift_deg_per_k.resize(n, 0.0);
-                    t.zero_drift_deg_per_k[j] = v.to_degrees();
-                }
-            }
-        }
-        _ => {}
-    }
-}
-
-/// The size in the diagnosis report's unit.
-fn reported(kind: EffectKind, joint: Option<usize>, v: f64) -> f64 {
-    match (kind, joint) {
-        (EffectKind::JointCompliance, _) | (EffectKind::ThermalDrift, None) => v * 1e6,
-        (EffectKind::Backlash, _) => 2.0 * v.to_degrees(),
-        _ => v.to_degrees(),
-    }
-}
-
 /// The base scenario with `seed` (no hidden effect).
 pub fn clean(seed: u64) -> Result<(Scenario, Robot)> {
     let mut s = Scenario::from_toml(BASE_SCENARIO, "scenarios/irb120_geometric.toml (embedded)")?;
@@ -202,7 +151,7 @@ pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
     for (kind, joint) in causes(robot.dof()) {
         let phase = if kind == EffectKind::EncoderEccentricity { rng.random_range(-std::f64::consts::PI..std::f64::consts::PI) } else { 0.0 };
         let a = unabsorbed_rms(&s, &robot, kind, joint, phase)?;
-        if a > 0.0 && 4.0 * sigma / a <= plausible(kind, joint) {
+        if a > 0.0 && 4.0 * sigma / a <= kind.def().plausible(joint) {
             pool.push((kind, joint, a, phase));
         }
     }
@@ -211,8 +160,8 @@ pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
         let (kind, joint, a, phase) = pool.remove(rng.random_range(0..pool.len()));
         let factor = rng.random_range(1.5..4.0);
         let v = factor * sigma / a;
-        apply(&mut s, robot.dof(), kind, joint, v, phase);
-        out.push(Hidden { cause: kind, joint, magnitude: reported(kind, joint, v), internal: v, factor });
+        kind.def().hide(&mut s, robot.dof(), joint, v, phase);
+        out.push(Hidden { cause: kind, joint, magnitude: kind.def().reported(joint, v), internal: v, factor });
     }
     s.name = format!("hidden-{seed}");
     Ok((s, robot, out))

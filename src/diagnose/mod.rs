@@ -20,7 +20,7 @@
 
 pub mod hidden;
 
-use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
+use crate::calib::effects::{EffectBlock, EffectKind};
 use crate::calib::inputs::{block_for, time_span, LoadOptions};
 use crate::calib::model::CalibModel;
 use crate::calib::problem::{LengthFit, Samples};
@@ -56,8 +56,9 @@ pub struct DiagnoseOptions {
     pub reading_steps: bool,
     pub rank_tol: f64,
     pub seed: u64,
-    /// Candidate effects; empty = every kind the data support.
-    pub candidates: Vec<EffectKind>,
+    /// Candidate effects, each a kind and optionally its joint (0-based); empty = every kind on
+    /// every joint the data support.
+    pub candidates: Vec<(EffectKind, Option<usize>)>,
     /// Share of the kept rows (every k-th in acquisition order) held back as a confirmation set
     /// that selection never sees; 0 = none.
     pub confirm_fraction: f64,
@@ -367,10 +368,7 @@ fn size_check(f: &Fitted, data: &Samples) -> (f64, bool) {
     let range = f.model.effect_params(b);
     let cov = covariance(&LengthFit { model: &f.model, data }, &f.x, &f.fixed);
     let (_, mag, _, unc) = magnitude(block, &f.x, cov.as_ref(), range.clone());
-    let sign_ok = match block.kind {
-        EffectKind::JointCompliance | EffectKind::Backlash => f.x[range.start] > 0.0,
-        _ => true,
-    };
+    let sign_ok = block.kind.def().physical_sign(&f.x, range.start);
     let ratio = if unc > 0.0 { mag.abs() / unc } else { 0.0 };
     (ratio, sign_ok)
 }
@@ -423,61 +421,43 @@ fn evidence(data: &Samples, residual: &[f64], has_torques: bool) -> Vec<Evidence
 }
 
 /// The size of an effect block in physical units with its uncertainty: (quantity, magnitude,
-/// unit, uncertainty).
+/// unit, uncertainty), as its effect defines it.
 fn magnitude(block: &EffectBlock, x: &[f64], cov: Option<&nalgebra::DMatrix<f64>>, range: std::ops::Range<usize>) -> (String, f64, String, f64) {
-    let k = range.start;
     let var = |a: usize, b: usize| cov.map(|c| c[(a, b)]).unwrap_or(f64::NAN);
-    let deg = 180.0 / std::f64::consts::PI;
-    match block.kind {
-        EffectKind::JointCompliance => ("compliance".into(), x[k] * 1e6, "urad/Nm".into(), var(k, k).max(0.0).sqrt() * 1e6),
-        EffectKind::Backlash => ("band width (2 x half band)".into(), 2.0 * x[k] * deg, "deg".into(), 2.0 * var(k, k).max(0.0).sqrt() * deg),
-        EffectKind::EncoderEccentricity => {
-            let (a, b) = (x[k], x[k + 1]);
-            let amp = a.hypot(b).max(1e-300);
-            let v = (a * a * var(k, k) + b * b * var(k + 1, k + 1) + 2.0 * a * b * var(k, k + 1)) / (amp * amp);
-            ("first-harmonic amplitude".into(), amp * deg, "deg".into(), v.max(0.0).sqrt() * deg)
-        }
-        EffectKind::ThermalDrift => match (block.thermal, block.joint) {
-            (Some(ThermalDrive::Temperature { .. }), None) => ("expansion coefficient".into(), x[k] * 1e6, "ppm/K".into(), var(k, k).max(0.0).sqrt() * 1e6),
-            (_, None) => ("warm-up length growth".into(), x[k] * 1e6, "ppm".into(), var(k, k).max(0.0).sqrt() * 1e6),
-            (Some(ThermalDrive::Temperature { .. }), Some(_)) => ("joint-zero drift".into(), x[k] * deg, "deg/K".into(), var(k, k).max(0.0).sqrt() * deg),
-            (_, Some(_)) => ("joint-zero drift at full warm-up".into(), x[k] * deg, "deg".into(), var(k, k).max(0.0).sqrt() * deg),
-        },
-        EffectKind::SensorNonlinearity => {
-            // Largest |correction| over the reading range, and its uncertainty there.
-            let (mut best, mut at) = (0.0f64, [0.0; 3]);
-            for s in 0..=200 {
-                let v = -1.0 + s as f64 / 100.0;
-                let (p, _) = crate::calib::effects::legendre(v);
-                let val = (0..3).map(|m| x[k + m] * p[m]).sum::<f64>();
-                if val.abs() > best.abs() {
-                    best = val;
-                    at = p;
-                }
-            }
-            let mut v = 0.0;
-            for a in 0..3 {
-                for b in 0..3 {
-                    v += at[a] * at[b] * var(k + a, k + b);
-                }
-            }
-            ("largest reading correction".into(), best.abs() * 1e3, "mm".into(), v.max(0.0).sqrt() * 1e3)
-        }
-    }
+    let s = block.kind.def().size(block, x, range.start, &var);
+    (s.quantity, s.value, s.unit, s.uncertainty)
 }
 
-/// The candidate blocks the data support.
-fn candidates(data: &Dataset, kinds: &[EffectKind], has_torques: bool) -> Vec<EffectBlock> {
-    let kinds: Vec<EffectKind> = if kinds.is_empty() { EffectKind::ALL.to_vec() } else { kinds.to_vec() };
-    let mut out = Vec::new();
-    for kind in kinds {
-        for j in kind.joint_options(data.n_joints()) {
-            if let Ok(b) = block_for(data, kind, j, has_torques) {
-                out.push(b);
+/// The candidate blocks: every kind on every joint the data support, or those listed (a kind
+/// with a joint is that block only), each block once however often it is listed. A listed
+/// candidate the data cannot support (no torques for compliance, no temp or t for thermal, a
+/// joint beyond the data's) is an error naming what is missing.
+fn candidates(data: &Dataset, listed: &[(EffectKind, Option<usize>)], has_torques: bool) -> Result<Vec<EffectBlock>> {
+    let all: Vec<(EffectKind, Option<usize>)> = EffectKind::ALL.iter().map(|&k| (k, None)).collect();
+    let mut out: Vec<EffectBlock> = Vec::new();
+    for &(kind, joint) in if listed.is_empty() { &all } else { listed } {
+        let joints = match joint {
+            Some(j) => vec![Some(j)],
+            None => kind.joint_options(data.n_joints()),
+        };
+        let mut first_error = None;
+        let mut supported = false;
+        for j in joints {
+            match block_for(data, kind, j, has_torques) {
+                Ok(b) => {
+                    supported = true;
+                    if !out.contains(&b) {
+                        out.push(b);
+                    }
+                }
+                Err(e) => first_error = first_error.or(Some(e)),
             }
         }
+        if let (false, false, Some(e)) = (listed.is_empty(), supported, first_error) {
+            return Err(Error::Invalid(format!("--candidates {}: {e}", kind.name())));
+        }
     }
-    out
+    Ok(out)
 }
 
 impl DiagnoseOptions {
@@ -555,9 +535,9 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     // A joint that does not move has one backlash side and one eccentricity phase throughout:
     // both are constant offsets the geometry already holds, so they are not candidates.
     let still = crate::calib::run::still_joints(&kept.q);
-    let pool: Vec<EffectBlock> = candidates(&kept_rows, &opts.candidates, has_torques)
+    let pool: Vec<EffectBlock> = candidates(&kept_rows, &opts.candidates, has_torques)?
         .into_iter()
-        .filter(|b| !(matches!(b.kind, EffectKind::Backlash | EffectKind::EncoderEccentricity) && b.joint.is_some_and(|j| still.contains(&j))))
+        .filter(|b| !(b.kind.def().constant_on_still_joint() && b.joint.is_some_and(|j| still.contains(&j))))
         .collect();
     let mut current = baseline.clone();
     let mut chain = vec![baseline.clone()];
@@ -832,4 +812,38 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
         extrapolation_rmse_mm: [rms(&r), ext_ex, rbf_ex],
         extrapolation_rows: [train.len(), test.len()],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::Row;
+
+    fn data() -> Dataset {
+        let rows = (0..20)
+            .map(|i| {
+                let a = i as f64;
+                Row { q_deg: vec![a, -a, 2.0 * a, 0.5 * a, 10.0 - a, a], l_mm: Some(500.0 + a), t_s: Some(10.0 * a), temp_c: None, split: None }
+            })
+            .collect();
+        Dataset { rows, source: "test".into() }
+    }
+
+    #[test]
+    fn listed_candidates_keep_their_joint_count_once_and_name_what_the_data_lack() {
+        let d = data();
+        // Every kind on every joint the data support (no torques: no compliance).
+        let all = candidates(&d, &[], false).unwrap();
+        assert!(all.iter().all(|b| b.kind != EffectKind::JointCompliance));
+        assert_eq!(all.iter().filter(|b| b.kind == EffectKind::Backlash).count(), 6);
+        // A joint given is that block only; listed twice, it is still one candidate.
+        let two = candidates(&d, &[(EffectKind::Backlash, Some(1)), (EffectKind::Backlash, Some(1))], false).unwrap();
+        assert_eq!(two.len(), 1);
+        assert_eq!((two[0].kind, two[0].joint), (EffectKind::Backlash, Some(1)));
+        // A listed candidate the data cannot support is an error, not a silent "geometric only".
+        let e = candidates(&d, &[(EffectKind::JointCompliance, None)], false).unwrap_err().to_string();
+        assert!(e.contains("joint torques"), "{e}");
+        let e = candidates(&d, &[(EffectKind::Backlash, Some(8))], false).unwrap_err().to_string();
+        assert!(e.contains("joint 9 is beyond the data's 6 joints"), "{e}");
+    }
 }

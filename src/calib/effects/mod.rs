@@ -13,9 +13,97 @@
 //!
 //! The per-row inputs they need (torques, sides, time, temperature) travel in one
 //! [`RowInputs`] per sample. Derivatives are analytic and checked against finite differences.
+//!
+//! Each effect is one file here implementing [`Effect`]: its names and parameters, what it needs
+//! of the data, its contribution to the joint angles and link scale, the size diagnose reports,
+//! and how the hidden-effect generator puts it into a twin scenario. [`EffectKind::def`] is the
+//! registry: one line per effect.
 
+mod backlash;
+mod compliance;
+mod eccentricity;
+mod nonlinearity;
+mod thermal;
+
+pub use thermal::{HIDDEN_RISE_K, HIDDEN_TAU_S};
+
+use crate::dataset::Dataset;
 use crate::error::{Error, Result};
+use crate::scenario::Scenario;
 use serde::{Deserialize, Serialize};
+
+/// One physical effect as a calibration block (see the module docs). Methods take the block
+/// (its joint and set-up) and, where they read parameters, the index `k` of its first one in `x`.
+pub trait Effect: Sync {
+    /// The name in result files, `--effects` and reports.
+    fn name(&self) -> &'static str;
+    /// A short name `--effects` also accepts.
+    fn short(&self) -> Option<&'static str> {
+        None
+    }
+    /// Whether the effect has one block per joint.
+    fn per_joint(&self) -> bool;
+    /// The joints a block may sit on for an arm of `n` joints (`None`: the whole arm).
+    fn joint_options(&self, n: usize) -> Vec<Option<usize>> {
+        if self.per_joint() {
+            (0..n).map(Some).collect()
+        } else {
+            vec![None]
+        }
+    }
+    /// Names and units of the block's parameters.
+    fn params(&self, b: &EffectBlock) -> Vec<(String, EffectUnit)>;
+    /// Starting values (no effect); `t_span_s` is the data's time span.
+    fn start(&self, b: &EffectBlock, _t_span_s: f64) -> Vec<f64> {
+        vec![0.0; self.params(b).len()]
+    }
+    /// Sets the block up for these data, or says what they lack.
+    fn configure(&self, _b: &mut EffectBlock, _data: &Dataset, _has_torques: bool) -> Result<()> {
+        Ok(())
+    }
+    /// Adds the block's joint offsets and length scale for one row to `st`.
+    fn apply(&self, _b: &EffectBlock, _x: &[f64], _k: usize, _q: &[f64], _inp: &RowInputs, _st: &mut EffectState) {}
+    /// The size diagnose reports, from the parameters and their covariance `var(a, b)`.
+    fn size(&self, b: &EffectBlock, x: &[f64], k: usize, var: &dyn Fn(usize, usize) -> f64) -> Size;
+    /// Whether a block on a joint that does not move is a constant offset the geometry already
+    /// holds (one backlash flank, one eccentricity phase throughout), so not a candidate there.
+    fn constant_on_still_joint(&self) -> bool {
+        false
+    }
+    /// Whether the fitted parameters have the sign physics allows.
+    fn physical_sign(&self, _x: &[f64], _k: usize) -> bool {
+        true
+    }
+    /// Hidden-effect generator: the largest plausible size (internal units) on `joint`.
+    fn plausible(&self, _joint: Option<usize>) -> f64 {
+        0.0
+    }
+    /// Hidden-effect generator: puts the effect of internal size `v` (and phase `phase`, rad)
+    /// into the twin scenario of an arm with `n` joints.
+    fn hide(&self, _s: &mut Scenario, _n: usize, _joint: Option<usize>, _v: f64, _phase: f64) {}
+    /// Hidden-effect generator: internal size `v` in the unit diagnose reports.
+    fn reported(&self, _joint: Option<usize>, v: f64) -> f64 {
+        v
+    }
+}
+
+/// The size of an effect block in physical units, as diagnose reports it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Size {
+    pub quantity: String,
+    pub value: f64,
+    pub unit: String,
+    pub uncertainty: f64,
+}
+
+impl Size {
+    fn new(quantity: &str, value: f64, unit: &str, uncertainty: f64) -> Size {
+        Size { quantity: quantity.into(), value, unit: unit.into(), uncertainty }
+    }
+}
+
+/// Degrees per radian.
+const DEG: f64 = 180.0 / std::f64::consts::PI;
 
 /// The effects a calibration model can represent.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
@@ -32,42 +120,42 @@ impl EffectKind {
     pub const ALL: [EffectKind; 5] =
         [EffectKind::JointCompliance, EffectKind::Backlash, EffectKind::ThermalDrift, EffectKind::EncoderEccentricity, EffectKind::SensorNonlinearity];
 
-    pub fn name(self) -> &'static str {
+    /// The registry: the component behind each kind.
+    pub fn def(self) -> &'static dyn Effect {
         match self {
-            EffectKind::JointCompliance => "joint_compliance",
-            EffectKind::Backlash => "backlash",
-            EffectKind::ThermalDrift => "thermal_drift",
-            EffectKind::EncoderEccentricity => "encoder_eccentricity",
-            EffectKind::SensorNonlinearity => "sensor_nonlinearity",
+            EffectKind::JointCompliance => &compliance::JointCompliance,
+            EffectKind::Backlash => &backlash::Backlash,
+            EffectKind::ThermalDrift => &thermal::ThermalDrift,
+            EffectKind::EncoderEccentricity => &eccentricity::EncoderEccentricity,
+            EffectKind::SensorNonlinearity => &nonlinearity::SensorNonlinearity,
         }
+    }
+    pub fn name(self) -> &'static str {
+        self.def().name()
     }
     /// Whether the effect has one block per joint.
     pub fn per_joint(self) -> bool {
-        matches!(self, EffectKind::JointCompliance | EffectKind::Backlash | EffectKind::EncoderEccentricity)
+        self.def().per_joint()
     }
     /// The joints a block of this kind may sit on: every joint for per-joint effects, none for
     /// whole-arm effects; thermal drift is both (the length scale, and each joint's zero drift).
     pub fn joint_options(self, n_joints: usize) -> Vec<Option<usize>> {
-        match self {
-            EffectKind::ThermalDrift => std::iter::once(None).chain((0..n_joints).map(Some)).collect(),
-            k if k.per_joint() => (0..n_joints).map(Some).collect(),
-            _ => vec![None],
-        }
+        self.def().joint_options(n_joints)
+    }
+    /// Whether a block of this kind can sit on a joint.
+    pub fn takes_joint(self) -> bool {
+        self.def().joint_options(1).iter().any(Option::is_some)
     }
     /// Accepts the names above and the short forms `compliance`, `thermal`, `eccentricity`,
     /// `nonlinearity`.
     pub fn parse(s: &str) -> Result<EffectKind> {
         let s = s.trim().to_ascii_lowercase();
-        let short = match s.as_str() {
-            "compliance" => Some(EffectKind::JointCompliance),
-            "thermal" => Some(EffectKind::ThermalDrift),
-            "eccentricity" => Some(EffectKind::EncoderEccentricity),
-            "nonlinearity" => Some(EffectKind::SensorNonlinearity),
-            _ => None,
-        };
-        short.or_else(|| EffectKind::ALL.into_iter().find(|k| k.name() == s)).ok_or_else(|| {
+        EffectKind::ALL.into_iter().find(|k| k.def().short() == Some(s.as_str()) || k.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = EffectKind::ALL.iter().map(|k| k.def().short().unwrap_or(k.name())).collect();
             Error::Invalid(format!(
-                "unknown effect '{s}' (expected compliance, backlash, thermal, eccentricity or nonlinearity, optionally with :JOINT, e.g. compliance:2)"
+                "unknown effect '{s}' (expected {} or {}, optionally with :JOINT, e.g. compliance:2)",
+                names[..names.len() - 1].join(", "),
+                names[names.len() - 1]
             ))
         })
     }
@@ -152,32 +240,16 @@ impl EffectBlock {
     }
     /// Names and units of the block's parameters.
     pub fn params(&self) -> Vec<(String, EffectUnit)> {
-        let j = self.joint.map(|j| j + 1).unwrap_or(0);
-        match self.kind {
-            EffectKind::JointCompliance => vec![(format!("compliance.j{j}"), EffectUnit::Compliance)],
-            EffectKind::Backlash => vec![(format!("backlash.j{j}"), EffectUnit::SmallAngle)],
-            EffectKind::EncoderEccentricity => {
-                vec![(format!("eccentricity.j{j}.sin"), EffectUnit::SmallAngle), (format!("eccentricity.j{j}.cos"), EffectUnit::SmallAngle)]
-            }
-            EffectKind::ThermalDrift => match (self.thermal, self.joint) {
-                (Some(ThermalDrive::Temperature { .. }), None) => vec![("thermal.alpha".into(), EffectUnit::PerKelvin)],
-                (_, None) => vec![("thermal.scale".into(), EffectUnit::Ratio), ("thermal.tau".into(), EffectUnit::Seconds)],
-                (Some(ThermalDrive::Temperature { .. }), Some(_)) => vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::AnglePerKelvin)],
-                (_, Some(_)) => {
-                    vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::SmallAngle), (format!("thermal.zero_drift.j{j}.tau"), EffectUnit::Seconds)]
-                }
-            },
-            EffectKind::SensorNonlinearity => (2..=4).map(|k| (format!("sensor_nl.p{k}"), EffectUnit::Length)).collect(),
-        }
+        self.kind.def().params(self)
     }
     /// Starting values of the parameters (no effect): zero, except a warm-up time constant,
     /// which starts at a third of the data's time span `t_span_s`.
     pub fn start(&self, t_span_s: f64) -> Vec<f64> {
-        let mut v = vec![0.0; self.params().len()];
-        if self.kind == EffectKind::ThermalDrift && !matches!(self.thermal, Some(ThermalDrive::Temperature { .. })) {
-            v[1] = (t_span_s / 3.0).max(1.0);
-        }
-        v
+        self.kind.def().start(self, t_span_s)
+    }
+    /// The number `j + 1` of the block's joint in parameter names (0 for a whole-arm block).
+    fn joint_number(&self) -> usize {
+        self.joint.map(|j| j + 1).unwrap_or(0)
     }
 }
 
@@ -244,56 +316,7 @@ pub fn joint_and_scale_effects(blocks: &[EffectBlock], first: usize, x: &[f64], 
     st.scale_terms.clear();
     let mut k = first;
     for b in blocks {
-        let n = b.params().len();
-        match b.kind {
-            EffectKind::JointCompliance => {
-                let j = b.joint.unwrap_or(0);
-                st.dq[j] += x[k] * inp.torque(j);
-                st.joint_terms.push((k, j, inp.torque(j)));
-            }
-            EffectKind::Backlash => {
-                let j = b.joint.unwrap_or(0);
-                st.dq[j] += x[k] * inp.side(j);
-                st.joint_terms.push((k, j, inp.side(j)));
-            }
-            EffectKind::EncoderEccentricity => {
-                let j = b.joint.unwrap_or(0);
-                let (s, c) = q[j].sin_cos();
-                st.dq[j] += x[k] * s + x[k + 1] * c;
-                st.ddq_dq[j] += x[k] * c - x[k + 1] * s;
-                st.joint_terms.push((k, j, s));
-                st.joint_terms.push((k + 1, j, c));
-            }
-            EffectKind::ThermalDrift => {
-                // The thermal state: temperature rise (with `temp`) or warm-up fraction.
-                let (f, dfdtau) = match b.thermal {
-                    Some(ThermalDrive::Temperature { ref_c }) => (inp.temp_c.map(|t| t - ref_c).unwrap_or(0.0), None),
-                    _ => {
-                        let t = inp.t_s.unwrap_or(0.0);
-                        let tau = x[k + 1].max(1e-3);
-                        let e = (-t / tau).exp();
-                        (1.0 - e, Some(-e * t / (tau * tau)))
-                    }
-                };
-                match b.joint {
-                    None => {
-                        st.scale += x[k] * f;
-                        st.scale_terms.push((k, f));
-                        if let Some(d) = dfdtau {
-                            st.scale_terms.push((k + 1, x[k] * d));
-                        }
-                    }
-                    Some(j) => {
-                        st.dq[j] += x[k] * f;
-                        st.joint_terms.push((k, j, f));
-                        if let Some(d) = dfdtau {
-                            st.joint_terms.push((k + 1, j, x[k] * d));
-                        }
-                    }
-                }
-            }
-            EffectKind::SensorNonlinearity => {}
-        }
-        k += n;
+        b.kind.def().apply(b, x, k, q, inp, st);
+        k += b.params().len();
     }
 }

@@ -1,0 +1,48 @@
+//! Joint compliance: each joint gives way c_j rad per N·m of the static torque it carries
+//! (links, payload, cable), so the arm sags under its own weight as a pose changes.
+
+use super::*;
+
+pub struct JointCompliance;
+
+impl Effect for JointCompliance {
+    fn name(&self) -> &'static str {
+        "joint_compliance"
+    }
+    fn short(&self) -> Option<&'static str> {
+        Some("compliance")
+    }
+    fn per_joint(&self) -> bool {
+        true
+    }
+    fn params(&self, b: &EffectBlock) -> Vec<(String, EffectUnit)> {
+        vec![(format!("compliance.j{}", b.joint_number()), EffectUnit::Compliance)]
+    }
+    fn configure(&self, _b: &mut EffectBlock, _data: &Dataset, has_torques: bool) -> Result<()> {
+        if !has_torques {
+            return Err(Error::Invalid("joint_compliance needs joint torques: give the robot's URDF (--robot FILE) for its inertial data".into()));
+        }
+        Ok(())
+    }
+    fn apply(&self, b: &EffectBlock, x: &[f64], k: usize, _q: &[f64], inp: &RowInputs, st: &mut EffectState) {
+        let j = b.joint.unwrap_or(0);
+        st.dq[j] += x[k] * inp.torque(j);
+        st.joint_terms.push((k, j, inp.torque(j)));
+    }
+    fn size(&self, _b: &EffectBlock, x: &[f64], k: usize, var: &dyn Fn(usize, usize) -> f64) -> Size {
+        Size::new("compliance", x[k] * 1e6, "urad/Nm", var(k, k).max(0.0).sqrt() * 1e6)
+    }
+    fn physical_sign(&self, x: &[f64], k: usize) -> bool {
+        x[k] > 0.0
+    }
+    fn plausible(&self, _joint: Option<usize>) -> f64 {
+        200e-6
+    }
+    fn hide(&self, s: &mut Scenario, n: usize, joint: Option<usize>, v: f64, _phase: f64) {
+        let c = s.effects.compliance.get_or_insert(crate::effects::Compliance { stiffness_nm_per_rad: vec![1e12; n], damping_nms_per_rad: None });
+        c.stiffness_nm_per_rad[joint.unwrap_or(0)] = 1.0 / v;
+    }
+    fn reported(&self, _joint: Option<usize>, v: f64) -> f64 {
+        v * 1e6
+    }
+}
