@@ -79,7 +79,8 @@ fn generate_calibrate_diagnose_and_ik_run_on_a_seven_joint_arm_from_the_command_
     let ok = |o: Output| assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     ok(twincal(&["generate", "--scenario", scen.to_str().unwrap(), "--out", &p("data")]));
     ok(twincal(&["calibrate", "--data", &p("data"), "--model", urdf.to_str().unwrap(), "--out", &p("result.json")]));
-    ok(twincal(&["diagnose", "--data", &p("data"), "--model", urdf.to_str().unwrap(), "--out", &p("diag")]));
+    ok(twincal(&["diagnose", "--data", &p("data"), "--model", urdf.to_str().unwrap(), "--out", &p("diag"), "--result", &p("diagnosed.json")]));
+    assert!(dir.join("diagnosed.json").exists());
     ok(twincal(&["predict", "--model", &p("result.json"), "--data", &p("data"), "--out", &p("pred.csv")]));
     let pred = std::fs::read_to_string(dir.join("pred.csv")).unwrap();
     assert!(pred.starts_with("q1,q2,q3,q4,q5,q6,q7,L,L_pred,residual\n"), "{}", &pred[..80]);
