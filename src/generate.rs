@@ -271,6 +271,29 @@ pub fn stratified_split(lengths: &[f64], test: usize, seed: u64) -> Vec<Split> {
     split
 }
 
+/// Most robot time (s) one run simulates: a day. A slower acquisition (a tiny `speed_fraction`, a
+/// joint with a tiny speed limit) would keep the simulation busy for as long, so it is refused.
+pub const MAX_ROBOT_TIME_S: f64 = 86_400.0;
+
+/// Refuses an acquisition whose last reading (`times`, s) comes after [`MAX_ROBOT_TIME_S`].
+pub fn check_robot_time(s: &Scenario, times: &[f64]) -> Result<()> {
+    let end = times.iter().copied().fold(0.0, f64::max);
+    if end > MAX_ROBOT_TIME_S || !end.is_finite() {
+        return Err(Error::Scenario {
+            path: s.name.clone(),
+            msg: format!(
+                "the acquisition would take {:.1} h of robot time ({} poses at sampling.speed_fraction = {}), more than the {} h a run \
+                 simulates; raise speed_fraction (or check the URDF's joint velocity limits)",
+                end / 3600.0,
+                times.len(),
+                s.sampling.speed_fraction,
+                MAX_ROBOT_TIME_S / 3600.0
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// Acquisition time of each pose: move at `speed_fraction` of the joint speed limits, hold still,
 /// then sample. The time recorded is the middle of the sampling window.
 pub fn acquisition_times(s: &Scenario, robot: &Robot, poses: &[Vec<f64>]) -> Vec<f64> {
@@ -279,12 +302,8 @@ pub fn acquisition_times(s: &Scenario, robot: &Robot, poses: &[Vec<f64>]) -> Vec
     poses
         .iter()
         .map(|q| {
-            let move_s = q
-                .iter()
-                .zip(&prev)
-                .zip(&robot.joints)
-                .map(|((a, b), j)| (a - b).abs() / (s.sampling.speed_fraction * j.max_velocity.max(1e-3)))
-                .fold(0.0, f64::max);
+            let move_s =
+                q.iter().zip(&prev).zip(&robot.joints).map(|((a, b), j)| (a - b).abs() / (s.sampling.speed_fraction * j.speed_limit())).fold(0.0, f64::max);
             prev = q.clone();
             let at = t + move_s + s.sensor.hold_s + 0.5 * s.sensor.window_s();
             t += move_s + s.sensor.hold_s + s.sensor.window_s();
@@ -372,6 +391,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         Some(sc) => sc.read_t.clone(),
         None => acquisition_times(s, robot, &poses),
     };
+    check_robot_time(s, &times)?;
     let sides = approach_sides(&vec![0.0; robot.dof()], &poses);
     let chain = &twin.chain;
     let nominal_lengths: Vec<f64> = poses.iter().map(|q| nominal_length(chain, &s.sensor, q)).collect();

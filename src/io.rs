@@ -181,6 +181,29 @@ pub fn install_signal_cleanup() -> Result<()> {
     result
 }
 
+thread_local! {
+    /// Set while [`catch_quietly`] runs its closure on this thread.
+    static QUIET_PANICS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f`, turning a panic inside it into `Err(message)`; the panic prints nothing when the
+/// process's panic hook consults [`panics_are_quiet`] (the command line's does). For third-party
+/// code that panics on malformed input (the spreadsheet reader), where the caller has its own
+/// clean error to give.
+pub fn catch_quietly<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    let before = QUIET_PANICS.with(|q| q.replace(true));
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    QUIET_PANICS.with(|q| q.set(before));
+    r.map_err(|panic| {
+        panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown failure".into())
+    })
+}
+
+/// Whether a panic on this thread happens inside [`catch_quietly`] (a panic hook then stays silent).
+pub fn panics_are_quiet() -> bool {
+    QUIET_PANICS.with(|q| q.get())
+}
+
 /// `path` made absolute with symbolic links resolved, also when it does not exist yet: its
 /// deepest existing ancestor is canonicalised and the remaining components appended.
 pub fn canonical(path: &Path) -> PathBuf {

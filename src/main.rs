@@ -110,8 +110,10 @@ fn main() -> ExitCode {
     // removes any half-written output, and the command exits with 141 (128 + SIGPIPE), what a
     // shell reports for a writer whose pipe closed.
     let default_hook = std::panic::take_hook();
+    // Panics the library catches and turns into a clean error (a malformed spreadsheet inside
+    // its reader) print nothing either.
     std::panic::set_hook(Box::new(move |info| {
-        if !broken_pipe(info.payload()) {
+        if !broken_pipe(info.payload()) && !twincal::io::panics_are_quiet() {
             default_hook(info);
         }
     }));

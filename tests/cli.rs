@@ -145,6 +145,83 @@ fn a_scenario_written_for_another_arm_and_foreign_result_files_are_refused() {
     assert_rejected(&o, "not a twincal calibration result", &pred);
 }
 
+/// What would keep the simulation busy for days is refused up front: a tiny speed fraction, a
+/// joint without a velocity limit; and a revolute joint without a range is named as such.
+#[test]
+fn tours_that_would_run_for_days_and_joints_without_limits_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let base = std::fs::read_to_string(scenario("irb120_geometric")).unwrap();
+    let slow = dir.path().join("slow.toml");
+    std::fs::write(&slow, base.replace("[sampling]\n", "[sampling]\nspeed_fraction = 1e-9\n")).unwrap();
+    let t0 = std::time::Instant::now();
+    let o = twincal(&["generate", "--scenario", s(&slow), "--out", s(&out)]);
+    assert_rejected(&o, "h of robot time", &out);
+    assert_eq!(o.status.code(), Some(2));
+    let o = twincal(&["study", "hold", "--poses", "3", "--holds", "1", "--speeds", "1e-9", "--rrd", s(&dir.path().join("h.rrd"))]);
+    assert!(!o.status.success() && stderr(&o).contains("h of robot time"), "{}", stderr(&o));
+    assert!(t0.elapsed().as_secs() < 60, "refused up front, not after simulating");
+
+    let urdf = |joint2: &str| {
+        format!(
+            r#"<robot name="two"><link name="a"/><link name="b"/><link name="c"/>
+      <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="0" velocity="1"/></joint>
+      <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0.3 0 0"/><axis xyz="0 1 0"/>{joint2}</joint></robot>"#
+        )
+    };
+    let two = base
+        .replace("robot = \"irb120\"", "robot = \"two.urdf\"")
+        .replace("ranges_deg = [[-90, 90], [-45, 80], [-90, 50], [-150, 150], [-100, 100], [-180, 180]]", "ranges_deg = [[-50, 50], [-50, 50]]");
+    let sc = dir.path().join("two.toml");
+    std::fs::write(&sc, two).unwrap();
+    std::fs::write(dir.path().join("two.urdf"), urdf("")).unwrap();
+    let o = twincal(&["generate", "--scenario", s(&sc), "--out", s(&out)]);
+    assert_rejected(&o, "revolute joint 'j2' has no range", &out);
+    // A joint without a velocity limit moves at a default speed, and the user is told.
+    std::fs::write(dir.path().join("two.urdf"), urdf(r#"<limit lower="-1" upper="1" effort="0" velocity="0"/>"#)).unwrap();
+    let o = twincal(&["generate", "--scenario", s(&sc), "--out", s(&out)]);
+    assert!(stderr(&o).contains("warning: joint 'j2' of robot 'two' has no velocity limit in its URDF"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
+}
+
+/// A spreadsheet the reader library panics on (a cell pointing at a shared string that does not
+/// exist) gets the clean error and no panic text on stderr.
+#[test]
+fn a_spreadsheet_the_reader_panics_on_prints_no_panic_text() {
+    use std::io::Write as _;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.xlsx");
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(&path).unwrap());
+    let ns = "http://schemas.openxmlformats.org/spreadsheetml/2006/main";
+    let rel = "http://schemas.openxmlformats.org/officeDocument/2006/relationships";
+    let parts = [
+        (
+            "[Content_Types].xml",
+            r#"<Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types"><Default Extension="xml" ContentType="application/xml"/></Types>"#
+                .to_string(),
+        ),
+        ("xl/workbook.xml", format!(r#"<workbook xmlns="{ns}" xmlns:r="{rel}"><sheets><sheet name="S" sheetId="1" r:id="rId1"/></sheets></workbook>"#)),
+        (
+            "xl/_rels/workbook.xml.rels",
+            format!(
+                r#"<Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships"><Relationship Id="rId1" Type="{rel}/worksheet" Target="worksheets/sheet1.xml"/></Relationships>"#
+            ),
+        ),
+        ("xl/sharedStrings.xml", format!(r#"<sst xmlns="{ns}" count="1" uniqueCount="1"><si><t>q1</t></si></sst>"#)),
+        ("xl/worksheets/sheet1.xml", format!(r#"<worksheet xmlns="{ns}"><sheetData><row r="1"><c r="A1" t="s"><v>99</v></c></row></sheetData></worksheet>"#)),
+    ];
+    for (name, text) in parts {
+        zip.start_file(name, zip::write::SimpleFileOptions::default()).unwrap();
+        zip.write_all(text.as_bytes()).unwrap();
+    }
+    zip.finish().unwrap();
+    let o = twincal(&["calibrate", "--data", s(&path), "--out", s(&dir.path().join("r.json"))]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("bad.xlsx") && e.contains("malformed"), "{e}");
+    assert!(!e.contains("panicked") && !e.contains("backtrace"), "{e}");
+}
+
 /// Names in `dir` (sorted), recursively one level for folders.
 fn names_in(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();

@@ -572,6 +572,8 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
     let mut rows = Vec::with_capacity(table.rows.len());
     let mut last_t: Option<(f64, usize)> = None;
     let mut first_split_missing: Option<usize> = None;
+    // First line with an empty `t` / `temp` cell.
+    let (mut first_t_missing, mut first_temp_missing): (Option<usize>, Option<usize>) = (None, None);
     for raw in &table.rows {
         let line = raw.line;
         let mut q_deg = vec![0.0; layout.joints];
@@ -626,6 +628,12 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
         if let Some(temp) = temp_c {
             check_bounds(temp, (MIN_TEMP_C, MAX_TEMP_C), "temperature (°C)", line, Column::Temp, src)?;
         }
+        if t_s.is_none() {
+            first_t_missing = first_t_missing.or(Some(line));
+        }
+        if temp_c.is_none() {
+            first_temp_missing = first_temp_missing.or(Some(line));
+        }
         let split = split_value(layout.cell(raw, Column::Split), line, src)?;
         if split.is_none() && first_split_missing.is_none() {
             first_split_missing = Some(line);
@@ -637,6 +645,21 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
     if let Some(line) = first_split_missing {
         if rows.iter().any(|r| r.split.is_some()) {
             return Err(cell_error(src, line, Column::Split, "empty split value; when some rows have a split, every row must be train or test"));
+        }
+    }
+    // So are `t` and `temp`: a model driven by them needs them on every row, and a gap would
+    // silently drop the column from it (an empty column is no column).
+    let gaps =
+        [(Column::T, first_t_missing, rows.iter().any(|r| r.t_s.is_some())), (Column::Temp, first_temp_missing, rows.iter().any(|r| r.temp_c.is_some()))];
+    for (c, missing, some) in gaps {
+        if let (Some(line), true) = (missing, some) {
+            let name = c.name();
+            return Err(cell_error(
+                src,
+                line,
+                c,
+                format!("empty {name} value; when some rows have a {name}, every row must (leave the column empty on every row if it was not logged)"),
+            ));
         }
     }
     check_units(&rows, src, opts.angles)?;

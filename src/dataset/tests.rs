@@ -100,7 +100,7 @@ fn header_is_case_insensitive_order_free_and_extra_columns_ignored() {
     let text = "\u{feff} Split ,note, L ,Q6,q5,q4,q3,q2,Q1,TEMP,T\n\
                 TEST,hello,350.5,6,5,4,3,2,1,20.5,0\n\
                 \n\
-                train,x,351,6,5,4,3,2,1.5,,1\n\
+                train,x,351,6,5,4,3,2,1.5,20.7,1\n\
                 ,,,,,,,,,,\n";
     let ds = parse(text).expect("load");
     assert_eq!(ds.rows.len(), 2);
@@ -108,7 +108,7 @@ fn header_is_case_insensitive_order_free_and_extra_columns_ignored() {
     assert_eq!(ds.rows[0].l_mm, Some(350.5));
     assert_eq!(ds.rows[0].split, Some(Split::Test));
     assert_eq!(ds.rows[0].temp_c, Some(20.5));
-    assert_eq!(ds.rows[1].temp_c, None);
+    assert_eq!(ds.rows[1].temp_c, Some(20.7));
     assert_eq!(ds.rows[1].t_s, Some(1.0));
     assert_eq!(ds.source, "test.csv");
 }
@@ -773,4 +773,14 @@ mod props {
             }
         }
     }
+}
+
+#[test]
+fn a_time_or_temperature_column_with_gaps_is_refused_and_an_empty_one_is_no_column() {
+    let msg = err("q1,q2,q3,q4,q5,q6,L,t,temp\n1,2,3,4,5,6,300,0,21\n1,2,3,4,5,7,301,1,\n");
+    assert_contains(&msg, &["line 3", "column temp", "empty temp value", "every row must"]);
+    let msg = err("q1,q2,q3,q4,q5,q6,L,t\n1,2,3,4,5,6,300,\n1,2,3,4,5,7,301,1\n");
+    assert_contains(&msg, &["line 2", "column t", "empty t value"]);
+    let ds = parse("q1,q2,q3,q4,q5,q6,L,t,temp\n1,2,3,4,5,6,300,,21\n1,2,3,4,5,7,301,,22\n").expect("t empty everywhere");
+    assert!(ds.rows.iter().all(|r| r.t_s.is_none() && r.temp_c.is_some()));
 }

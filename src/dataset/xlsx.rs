@@ -30,17 +30,9 @@ type Sparse = BTreeMap<u32, Vec<(u32, Data)>>;
 pub(super) fn read_table(path: &Path, sheet: Option<&str>) -> Result<(RawTable, String)> {
     let file = path.display().to_string();
     check_magic(path, &file)?;
-    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read_sparse(path, sheet, &file)));
-    let (cells, source) = match read {
+    let (cells, source) = match crate::io::catch_quietly(|| read_sparse(path, sheet, &file)) {
         Ok(r) => r?,
-        Err(panic) => {
-            let what = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown failure".into());
-            return Err(Error::data(&file, format!("cannot read spreadsheet: the file is malformed (the reader failed: {what})")));
-        }
+        Err(what) => return Err(Error::data(&file, format!("cannot read spreadsheet: the file is malformed (the reader failed: {what})"))),
     };
     Ok((to_table(cells, &source)?, source))
 }

@@ -62,6 +62,21 @@ pub struct JointSpec {
     pub max_velocity: f64,
 }
 
+/// Speed limit (rad/s) taken for a joint whose URDF gives none (`velocity` 0 or no `<limit>`,
+/// as continuous joints often have): a typical industrial joint, about 57°/s.
+pub const DEFAULT_JOINT_SPEED_RAD_S: f64 = 1.0;
+
+impl JointSpec {
+    /// The joint's speed limit, rad/s: the URDF's, else [`DEFAULT_JOINT_SPEED_RAD_S`].
+    pub fn speed_limit(&self) -> f64 {
+        if self.max_velocity > 0.0 {
+            self.max_velocity
+        } else {
+            DEFAULT_JOINT_SPEED_RAD_S
+        }
+    }
+}
+
 /// A serial revolute arm.
 #[derive(Clone, Debug)]
 pub struct Robot {
@@ -206,6 +221,12 @@ impl Robot {
                     } else {
                         (j.limit.lower, j.limit.upper)
                     };
+                    if lower == 0.0 && upper == 0.0 {
+                        return Err(err(format!(
+                            "revolute joint '{}' has no range (<limit lower=... upper=...> absent or both 0); give its limits, or make it type=\"continuous\"",
+                            j.name
+                        )));
+                    }
                     if !(lower.is_finite() && upper.is_finite() && lower < upper) {
                         return Err(err(format!("joint '{}' has invalid limits [{lower}, {upper}]", j.name)));
                     }

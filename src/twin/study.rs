@@ -70,6 +70,7 @@ pub fn hold_study(s: &Scenario, robot: &Robot, study: &HoldStudy, progress: &dyn
             let mut sc = s.clone();
             sc.sensor.hold_s = h;
             sc.sampling.speed_fraction = v;
+            crate::generate::check_robot_time(&sc, &crate::generate::acquisition_times(&sc, robot, &poses))?;
             let twin = build_twin(&sc, robot);
             let settings = TourSettings { seed: sc.seed, speed_fraction: v };
             let acquired: Vec<_> = acquire(&twin, &acq, settings, &home, &poses, progress).into_iter().collect::<Result<_>>()?;

@@ -183,7 +183,7 @@ impl Schedule {
     /// The tour from `home` through `poses` (commanded angles, rad): each move at `speed_fraction`
     /// of the URDF speed limits with ramps of `ramp_s`, then `hold_s` still and `window_s` of readings.
     pub fn new(robot: &Robot, speed_fraction: f64, ramp_s: f64, hold_s: f64, window_s: f64, home: &[f64], poses: &[Vec<f64>]) -> Schedule {
-        let speed: Vec<f64> = robot.joints.iter().map(|j| speed_fraction * j.max_velocity.max(1e-3)).collect();
+        let speed: Vec<f64> = robot.joints.iter().map(|j| speed_fraction * j.speed_limit()).collect();
         let mut s = Schedule { moves: Vec::new(), move_start: Vec::new(), arrival: Vec::new(), read_t: Vec::new() };
         let mut t = 0.0;
         let mut prev = home.to_vec();
