@@ -29,7 +29,7 @@ enum Command {
         #[arg(long)]
         rrd: Option<PathBuf>,
         /// Override the scenario's seed.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         seed: Option<u64>,
     },
     /// Calibrate a model on measured data (dataset folder, CSV or xlsx).
@@ -91,7 +91,7 @@ enum Command {
         #[arg(long, value_delimiter = ',', default_value = "0.05,0.2,0.5", allow_negative_numbers = true)]
         speeds: Vec<f64>,
         /// The first this many poses of the scenario's tour.
-        #[arg(long, default_value_t = 60)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 60)]
         poses: usize,
         /// Rerun recording of bias and spread against the hold time.
         #[arg(long)]

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, TruthFile};
-use twincal::dataset::Dataset;
+use twincal::dataset::{Dataset, Row};
 use twincal::generate::{generate, write_outputs, Silent};
 use twincal::scenario::Scenario;
 
@@ -543,4 +543,29 @@ fn hand_edited_result_files_are_refused_whole() {
         assert!(err.contains("inconsistent") && !err.contains("panicked"), "{what}: {err}");
         assert!(!out("p.csv").exists());
     }
+}
+
+/// A model that reads a temperature is not used on data without one: `predict` says so instead
+/// of predicting the reference temperature's lengths, and `ik` warns that it solves at it.
+#[test]
+fn a_model_reading_temperature_is_not_silently_used_without_it() {
+    let (dir, ds, _) = geometric();
+    let out = tempfile::tempdir().unwrap();
+    let model = out.path().join("thermal.json");
+    let with_temp = out.path().join("with_temp.csv");
+    // The geometric scenario writes a constant 20 °C: vary it so that a thermal block is fitted.
+    let rows: Vec<Row> = ds.rows.iter().enumerate().map(|(i, r)| Row { temp_c: Some(20.0 + (i % 7) as f64 * 0.5), ..r.clone() }).collect();
+    Dataset { rows: rows.clone(), source: "t".into() }.write_csv(&with_temp).unwrap();
+    let o = twincal(&["calibrate", "--data", with_temp.to_str().unwrap(), "--effects", "thermal", "--out", model.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let no_temp = out.path().join("no_temp.csv");
+    Dataset { rows: rows.iter().map(|r| Row { temp_c: None, ..r.clone() }).collect(), source: "t".into() }.write_csv(&no_temp).unwrap();
+    let pred = out.path().join("p.csv");
+    let o = twincal(&["predict", "--model", model.to_str().unwrap(), "--data", no_temp.to_str().unwrap(), "--out", pred.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("the model reads a temp column"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!pred.exists());
+    let o = twincal(&["predict", "--model", model.to_str().unwrap(), "--data", with_temp.to_str().unwrap(), "--out", pred.to_str().unwrap()]);
+    assert!(o.status.success() && pred.exists());
+    let _ = dir;
 }

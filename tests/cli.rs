@@ -373,6 +373,8 @@ fn options_that_do_not_apply_or_make_no_sense_are_refused() {
         (vec!["compare", "--data", d, "--seeds", "0"], "--seeds must be between 1 and 1000, got 0"),
         (vec!["compare", "--data", d, "--methods", "lm,ekf,lm"], "--methods lists lm twice"),
         (vec!["compare", "--data", d, "--effort", "1e-9"], "--effort must be in [0.01, 10], got 0.000000001"),
+        (vec!["generate", "--seed", "-3"], "invalid value '-3' for '--seed <SEED>'"),
+        (vec!["diagnose", "--data", d, "--folds", "-3"], "invalid value '-3' for '--folds <FOLDS>'"),
         (vec!["calibrate", "--data", d, "--effort", "11"], "--effort must be in [0.01, 10], got 11"),
         (vec!["calibrate", "--data", d, "--angles", "grad"], "invalid value 'grad'"),
         (vec!["calibrate", "--data", d, "--model", "generic6r", "--sensor-guess", "0,0,0,0,0,0,0"], "--sensor-guess applies to a nominal model"),

@@ -98,6 +98,15 @@ fn generate_calibrate_diagnose_and_ik_run_on_a_seven_joint_arm_from_the_command_
         let e: f64 = f[err].parse().unwrap();
         assert!(e < 0.05, "true error {e} mm after calibration: {f:?}");
     }
+    // A twin generated with other data (another seed) is not the model's: ik refuses to validate on it.
+    ok(twincal(&["generate", "--scenario", scen.to_str().unwrap(), "--seed", "99", "--out", &p("other")]));
+    let o = twincal(&["ik", "--model", &p("result.json"), "--twin", &p("other"), "--random", "3", "--out", &p("ik_other.csv")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("generated with other data than the model was calibrated on"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     // A tolerance that accepts any configuration is refused.
     let o = twincal(&["ik", "--model", &p("result.json"), "--random", "5", "--tol-mm", "1e9", "--out", &p("ik_loose.csv")]);
     assert_eq!(o.status.code(), Some(2));

@@ -211,6 +211,10 @@ pub struct CalibResult {
     /// the fit, or the repeatability of repeated configurations where there are enough).
     #[serde(default)]
     pub noise_estimate_mm: f64,
+    /// SHA-256 of the data file calibrated on (written by `calibrate`): `ik` checks that a twin
+    /// it validates against was generated with these very data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_sha256: Option<String>,
     /// Things a user should know before trusting the result (did not converge, few rows, ...).
     #[serde(default)]
     pub warnings: Vec<String>,
@@ -278,6 +282,43 @@ impl CalibResult {
         let mut w = self.model.work();
         let inp = RowInputs::default();
         self.model.predict_with(&self.x, &q, &inp, &mut w) * 1e3 + self.correction_mm(&q, &inp)
+    }
+
+    /// The dataset columns the model reads besides the joint angles, each with what reads it:
+    /// `temp` or `t` for a thermal block (by how it was driven) or a corrector with that input.
+    /// Torques and backlash flanks come from the angles and the acquisition order.
+    pub fn columns_read(&self) -> Vec<(&'static str, String)> {
+        use super::effects::{EffectKind, ThermalDrive};
+        let mut out = Vec::new();
+        for b in self.model.effects.iter().filter(|b| b.kind == EffectKind::ThermalDrift) {
+            let col = if matches!(b.thermal, Some(ThermalDrive::Temperature { .. })) { "temp" } else { "t" };
+            out.push((col, format!("its {} block", b.label())));
+        }
+        if let Some(super::corrector::Corrector::Awnn(n)) = &self.corrector {
+            for f in &n.extra {
+                match f {
+                    super::awnn::Feature::Temperature => out.push(("temp", "its network's temperature input".into())),
+                    super::awnn::Feature::Time => out.push(("t", "its network's time input".into())),
+                    _ => {}
+                }
+            }
+        }
+        out
+    }
+
+    /// An error naming the first column the model reads ([`Self::columns_read`]) that `data`
+    /// lacks on some row: without it the prediction would silently be the reference state's.
+    pub fn require_columns(&self, data: &Dataset) -> Result<()> {
+        for (col, why) in self.columns_read() {
+            let has = |r: &crate::dataset::Row| if col == "temp" { r.temp_c.is_some() } else { r.t_s.is_some() };
+            if !data.rows.iter().all(has) {
+                return Err(Error::data(
+                    &data.source,
+                    format!("the model reads a {col} column ({why}), which these data lack; give it, or predict with a model calibrated without it"),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Predicted lengths (mm) of every row of a dataset (rows in acquisition order: backlash
@@ -767,6 +808,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         stop_reason: report.reason.clone(),
         wall_time_s: t0.elapsed().as_secs_f64(),
         noise_estimate_mm,
+        data_sha256: None,
         warnings,
         truth_comparison,
         repeatability,
@@ -839,6 +881,7 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
         stop_reason: "the diagnosis's final model, fitted on every kept row".into(),
         wall_time_s: t0.elapsed().as_secs_f64(),
         noise_estimate_mm: residual_sigma(&fit, &x, fixed),
+        data_sha256: None,
         warnings: Vec::new(),
         truth_comparison: None,
         repeatability,

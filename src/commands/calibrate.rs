@@ -20,10 +20,10 @@ pub struct CalibrateArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub test_fraction: Option<f64>,
     /// Seed of the hold-out split and of the stochastic methods.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
     /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', allow_hyphen_values = true, value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
     pub sensor_guess: Option<Vec<f64>>,
     /// Relative singular-value threshold for identifiability (combinations the data see below
     /// this fraction of the strongest are fixed).
@@ -119,7 +119,10 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     opts.inertial = inertial;
     (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
     opts.reading_steps = !a.robust.no_reading_steps;
-    let result = run(&data, truth.as_ref(), &opts)?;
+    let mut result = run(&data, truth.as_ref(), &opts)?;
+    // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
+    let file = &data_inputs(&a.data)[0];
+    result.data_sha256 = Some(crate::calib::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?));
     let test = result.metrics.test_after.as_ref();
     let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
     let verdict = judge(&[(limits[0], "test_rmse_mm", test.map(|t| t.rmse), source), (limits[1], "test_max_mm", test.map(|t| t.max), source)]);

@@ -19,12 +19,12 @@ pub struct DiagnoseArgs {
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// Cross-validation folds (contiguous blocks of acquisition order).
-    #[arg(long, default_value_t = crate::diagnose::DEFAULT_FOLDS)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = crate::diagnose::DEFAULT_FOLDS)]
     pub folds: usize,
     /// Family-wise significance level of each selection step.
     #[arg(long, default_value_t = crate::diagnose::DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f64,
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
     /// The diagnosis report.
     #[arg(long, default_value = "report.json")]

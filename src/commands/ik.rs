@@ -52,6 +52,17 @@ impl TwinCheck {
     pub fn load(data: &Path, r: &CalibResult) -> Result<TwinCheck> {
         let truth = TruthFile::find(data)?
             .ok_or_else(|| Error::Invalid(format!("{}: no truth.json beside the data; twin validation needs the twin's dataset folder", data.display())))?;
+        if let (Some(ours), Some(link)) = (&r.data_sha256, &truth.dataset) {
+            if *ours != link.sha256 {
+                return Err(Error::Invalid(format!(
+                    "{}: this twin was generated with other data than the model was calibrated on (dataset SHA-256 {} vs the model's {}); \
+                     pass --twin DIR with the model's twin, or --no-twin",
+                    data.display(),
+                    &link.sha256[..12.min(link.sha256.len())],
+                    &ours[..12.min(ours.len())]
+                )));
+            }
+        }
         let folder = if data.is_dir() { data.to_path_buf() } else { data.parent().map(Path::to_path_buf).unwrap_or_default() };
         let tpath = folder.join(crate::calib::truth::TRUTH_FILE);
         let text = std::fs::read_to_string(&tpath).map_err(|e| Error::io(&tpath, e))?;
@@ -103,7 +114,9 @@ impl TwinCheck {
         let t_ref = ts.get(ts.len() / 2).copied().unwrap_or(0.0);
         let x_eq =
             r.parameters.iter().enumerate().map(|(k, p)| p.truth.map(|t| t / r.model.kinds[k].display())).collect::<Option<Vec<f64>>>().ok_or_else(|| {
-                Error::Invalid("the result has no truth-equivalent values: calibrate on the twin's dataset folder (with its truth.json) first".into())
+                Error::Invalid(
+                    "the result has no truth-equivalent values: calibrate on the twin's dataset folder (with its truth.json) first, or pass --no-twin".into(),
+                )
             })?;
         let mut c = TwinCheck { twin, t_ref, x_eq, rot: Matrix3::identity(), trans: Vector3::zeros(), fit_rms_mm: 0.0 };
         let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -251,7 +264,7 @@ pub struct IkArgs {
     pub targets: Option<PathBuf>,
     /// N reachable targets: the true tool points of random configurations inside the
     /// calibrated joint ranges (the twin's, else the model's own).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub random: Option<usize>,
     /// Twin dataset folder with truth.json (default: the result's data, when it has one).
     #[arg(long)]
@@ -265,7 +278,7 @@ pub struct IkArgs {
     /// Model residual (mm) at which a target counts as solved.
     #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub tol_mm: f64,
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
     /// Per-target solutions.
     #[arg(long, default_value = "ik.csv")]
@@ -335,6 +348,15 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     }
     crate::io::check_outputs(&inputs, &[("--out", &a.out)])?;
     let r = CalibResult::load(&a.model)?;
+    // A target has no temperature, time or approach history: the model is solved in its
+    // reference state. Say so when the model reads more than the angles.
+    let read: Vec<String> = r.columns_read().into_iter().map(|(c, why)| format!("{c} ({why})")).collect();
+    if !read.is_empty() {
+        eprintln!("warning: the model also reads {}; ik solves every target at the reference value (no rise)", read.join(", "));
+    }
+    if r.model.effects.iter().any(|b| b.kind == crate::calib::effects::EffectKind::Backlash) {
+        eprintln!("warning: the model has backlash blocks; ik solves every target with no flank (a target has no approach history)");
+    }
     let twin_dir = match (&a.twin, a.no_twin) {
         (_, true) => None,
         (Some(d), false) => Some(d.clone()),

@@ -247,7 +247,7 @@ pub struct LoadArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub payload_kg: Option<f64>,
     /// Payload centre of mass in the flange frame, mm (x,y,z).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_name = "X,Y,Z")]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', allow_hyphen_values = true, value_name = "X,Y,Z")]
     pub payload_com_mm: Option<Vec<f64>>,
     /// Draw-wire cable tension from the sensor's data sheet, N (0: ignored).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
