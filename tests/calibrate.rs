@@ -532,6 +532,8 @@ fn hand_edited_result_files_are_refused_whole() {
             }),
         ),
         ("chain joint", Box::new(|v| v["model"]["chain"]["ops"][0]["joint"] = serde_json::json!(7))),
+        ("huge parameter", Box::new(|v| v["x"][3] = serde_json::json!(1e308))),
+        ("huge link mass", Box::new(|v| v["torque_model"]["links"][1][0] = serde_json::json!(3e9))),
     ];
     for (what, edit) in edits {
         let mut v = good.clone();
@@ -540,7 +542,7 @@ fn hand_edited_result_files_are_refused_whole() {
         let o = twincal(&["predict", "--model", out("bad.json").to_str().unwrap(), "--data", dir.to_str().unwrap(), "--out", out("p.csv").to_str().unwrap()]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{what}: {err}");
-        assert!(err.contains("inconsistent") && !err.contains("panicked"), "{what}: {err}");
+        assert!((err.contains("inconsistent") || err.contains("beyond what a calibration writes")) && !err.contains("panicked"), "{what}: {err}");
         assert!(!out("p.csv").exists());
     }
 }
@@ -568,4 +570,33 @@ fn a_model_reading_temperature_is_not_silently_used_without_it() {
     let o = twincal(&["predict", "--model", model.to_str().unwrap(), "--data", with_temp.to_str().unwrap(), "--out", pred.to_str().unwrap()]);
     assert!(o.status.success() && pred.exists());
     let _ = dir;
+}
+
+/// A method that ends worse than the nominal model it started from says so, and a dataset whose
+/// lengths never change is refused.
+#[test]
+fn a_method_ending_worse_than_nominal_warns_and_constant_lengths_are_refused() {
+    use twincal::calib::run::calibrate_with;
+    let (_, ds, _) = geometric();
+    // Zero iterations from joint zeros 5° off: the "result" is the bad start.
+    struct Stuck;
+    impl twincal::calib::method::Solver for Stuck {
+        fn method(&self) -> Method {
+            Method::Pf
+        }
+        fn solve(&self, p: &twincal::calib::method::Problem, obs: &mut dyn twincal::optim::Observer) -> twincal::Result<twincal::calib::method::Solution> {
+            let mut x0 = p.x0.to_vec();
+            let k = p.fit.model.index("joint_2.theta").unwrap();
+            x0[k] += 5f64.to_radians();
+            let lm = twincal::optim::LevenbergMarquardt { max_iter: 0, ..Default::default() };
+            Ok(twincal::calib::method::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), corrector: None })
+        }
+    }
+    let r = calibrate_with(ds, None, &irb120(Method::Lm, "hayati"), &Stuck).unwrap();
+    assert!(r.metrics.train_after.rmse > r.metrics.train_before.rmse);
+    assert!(r.warnings.iter().any(|w| w.contains("pf ended worse than the nominal model")), "{:?}", r.warnings);
+    // Constant L.
+    let flat = Dataset { rows: ds.rows.iter().map(|row| Row { l_mm: Some(512.5), ..row.clone() }).collect(), source: "flat".into() };
+    let e = calibrate(&flat, None, &irb120(Method::Lm, "hayati")).unwrap_err().to_string();
+    assert!(e.contains("every row reads the same length (L = 512.5 mm)"), "{e}");
 }

@@ -107,6 +107,22 @@ fn generate_calibrate_diagnose_and_ik_run_on_a_seven_joint_arm_from_the_command_
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
+    // Targets in a spreadsheet export (byte-order mark, quoted header, `;`, decimal commas) read
+    // as the dataset reader reads them; a short row is named.
+    let targets = dir.join("targets.csv");
+    std::fs::write(&targets, "\u{feff}\"X\";\"Y\";\"Z\";\"note\"\n300,5;-200;500;a\nNaN;0;0;b\n").unwrap();
+    ok(twincal(&["ik", "--model", &p("result.json"), "--targets", targets.to_str().unwrap(), "--no-twin", "--out", &p("ik_t.csv")]));
+    let t = std::fs::read_to_string(dir.join("ik_t.csv")).unwrap();
+    assert!(t.lines().nth(1).unwrap().starts_with("1,300.5,-200,500,"), "{t}");
+    assert!(t.lines().any(|l| l.starts_with("2,NaN,0,0,") && l.contains(",invalid,")), "{t}");
+    std::fs::write(&targets, "x,y,z\n1,2\n").unwrap();
+    let o = twincal(&["ik", "--model", &p("result.json"), "--targets", targets.to_str().unwrap(), "--no-twin", "--out", &p("ik_short.csv")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("line 2: malformed CSV: expected 3 fields (as in the header), found 2"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     // A tolerance that accepts any configuration is refused.
     let o = twincal(&["ik", "--model", &p("result.json"), "--random", "5", "--tol-mm", "1e9", "--out", &p("ik_loose.csv")]);
     assert_eq!(o.status.code(), Some(2));

@@ -356,7 +356,15 @@ impl CalibResult {
 
     pub fn load(path: &Path) -> Result<CalibResult> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let mut r: CalibResult = serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        let value: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        // What the model computes with holds no number a calibration could not have produced.
+        for key in ["model", "x", "corrector", "torque_model", "rbf"] {
+            if let Some(v) = value.get(key) {
+                check_magnitudes(v, &mut key.to_string()).map_err(|e| Error::model(path.display(), e))?;
+            }
+        }
+        let mut r: CalibResult = serde_json::from_value(value).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
         if let Some(net) = r.legacy_rbf.take() {
             r.corrector.get_or_insert(Corrector::Rbf(net));
         }
@@ -416,6 +424,39 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
 /// How far outside a joint's limits (degrees) a row may be before it is refused: encoders read
 /// a little past a soft limit, nothing reads far past a hard stop.
 pub const JOINT_LIMIT_SLACK_DEG: f64 = 2.0;
+
+/// Smallest spread of the measured lengths a calibration accepts, mm (a micrometre: less is one
+/// reading repeated, not a measurement of the arm).
+pub const MIN_LENGTH_SPREAD_MM: f64 = 1e-3;
+
+/// Largest magnitude of any number in a result file's model (parameters in m and rad, network
+/// weights in mm, masses, forces): beyond it the file was edited, not written by a calibration.
+pub const MAX_MODEL_MAGNITUDE: f64 = 1e9;
+
+/// An error naming the first number in `v` (JSON path `at`) beyond [`MAX_MODEL_MAGNITUDE`].
+fn check_magnitudes(v: &serde_json::Value, at: &mut String) -> std::result::Result<(), String> {
+    match v {
+        serde_json::Value::Number(n) => match n.as_f64() {
+            Some(x) if x.abs() <= MAX_MODEL_MAGNITUDE => Ok(()),
+            _ => Err(format!("{at} = {n} is beyond what a calibration writes (|value| <= {MAX_MODEL_MAGNITUDE:e}); edited result file?")),
+        },
+        serde_json::Value::Array(items) => items.iter().enumerate().try_for_each(|(i, x)| {
+            let len = at.len();
+            at.push_str(&format!("[{i}]"));
+            let r = check_magnitudes(x, at);
+            at.truncate(len);
+            r
+        }),
+        serde_json::Value::Object(map) => map.iter().try_for_each(|(k, x)| {
+            let len = at.len();
+            at.push_str(&format!(".{k}"));
+            let r = check_magnitudes(x, at);
+            at.truncate(len);
+            r
+        }),
+        _ => Ok(()),
+    }
+}
 
 /// Stage "split": training and test samples, with the checks that make a calibration meaningful.
 pub struct SplitData {
@@ -708,8 +749,12 @@ pub struct Prepared {
 /// with `opts`; `row_inputs` gives every row its inputs (and the split its torque model) even
 /// without effect blocks ([`Solver::needs_row_inputs`]).
 pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<Prepared> {
-    data.require_length()?;
+    let l = data.lengths_mm()?;
     let mut split = split_stage(data, opts)?;
+    let (lo, hi) = l.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+    if hi - lo < MIN_LENGTH_SPREAD_MM {
+        return Err(Error::data(&data.source, format!("every row reads the same length (L = {lo} mm): a calibration needs lengths that change with the pose")));
+    }
     let mut model = super::placement::place_sensor(opts, &split.train)?;
     let screen = outlier_stage(&mut model, &mut split, opts)?;
     let test_rows_in_steps = samples(data, &split.test_idx).l.iter().zip(&split.test.l).filter(|(a, b)| a != b).count();
@@ -773,6 +818,15 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let test_fit = LengthFit { model: &model, data: &split.test };
     let correct = corrector.as_ref().map(|c| c.as_correct());
     let mut metrics = metrics_stage(&fit, &test_fit, &x0, &x, correct);
+    if metrics.train_after.rmse > metrics.train_before.rmse {
+        warnings.push(format!(
+            "{} ended worse than the nominal model it started from (training RMSE {:.4} -> {:.4} mm): the result is not a calibration; \
+             try --method lm, or a larger --effort",
+            solver.method().name(),
+            metrics.train_before.rmse,
+            metrics.train_after.rmse
+        ));
+    }
     let test_residuals_mm = residuals_with(&test_fit, &x, correct);
     let test_outliers = test_outlier_stage(&fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.outlier_k);
     if !split.test.is_empty() {

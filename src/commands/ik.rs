@@ -160,28 +160,11 @@ fn random_in(ranges: &[(f64, f64)], rng: &mut ChaCha8Rng) -> Vec<f64> {
 }
 
 /// Reads target points (mm) from a CSV with columns x, y, z (header required; other columns
-/// ignored). Non-numeric fields are refused with the line number; NaN is accepted and answered
-/// with the status `invalid`.
+/// ignored), by the dataset reader's rules ([`crate::dataset::read_csv_columns`]: `;` or tab,
+/// decimal commas, quotes, comments, a byte-order mark). Non-numeric fields are refused with the
+/// line number; NaN is accepted and answered with the status `invalid`.
 pub fn read_targets(path: &Path) -> Result<Vec<Vector3<f64>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or_else(|| Error::data(path.display(), "empty targets file (expected a header x,y,z and one target per line)"))?;
-    let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
-    let idx = ["x", "y", "z"]
-        .iter()
-        .map(|n| cols.iter().position(|c| c == n || c == &format!("{n}_mm")))
-        .collect::<Option<Vec<usize>>>()
-        .ok_or_else(|| Error::data(path.display(), format!("the header '{header}' lacks the columns x, y, z (mm)")))?;
-    let mut out = Vec::new();
-    for (i, line) in lines {
-        let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        let mut v = [0.0; 3];
-        for (k, &c) in idx.iter().enumerate() {
-            let s = f.get(c).ok_or_else(|| Error::data(path.display(), format!("line {}: {} fields, expected at least {}", i + 1, f.len(), c + 1)))?;
-            v[k] = s.parse::<f64>().map_err(|_| Error::data(path.display(), format!("line {}: '{s}' is not a number", i + 1)))?;
-        }
-        out.push(Vector3::from(v));
-    }
+    let out: Vec<Vector3<f64>> = crate::dataset::read_csv_columns(path, &["x", "y", "z"])?.into_iter().map(|v| Vector3::new(v[0], v[1], v[2])).collect();
     if out.is_empty() {
         return Err(Error::data(path.display(), "no targets after the header"));
     }

@@ -342,6 +342,35 @@ impl Dataset {
     }
 }
 
+/// The numeric columns `names` of a CSV file (other columns ignored), read by the dataset reader's
+/// rules: delimiter detected (`,`, `;`, tab), decimal commas with `;` / tab, `#` comments, quoted
+/// fields, a byte-order mark. A header matches a name case-insensitively, also as `NAME_mm`. A
+/// `NaN` cell reads as NaN (the caller decides what that means); an empty cell, a short row or
+/// other text is an error naming the line and column. One `Vec` per row, in `names` order.
+pub fn read_csv_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>> {
+    let source = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let table = csv_io::read_table(std::io::BufReader::new(file), &source)?;
+    let found = table.header.join(",");
+    let pos = names
+        .iter()
+        .map(|n| table.header.iter().position(|h| h.trim().eq_ignore_ascii_case(n) || h.trim().eq_ignore_ascii_case(&format!("{n}_mm"))))
+        .collect::<Option<Vec<usize>>>()
+        .ok_or_else(|| Error::data(&source, format!("the header '{found}' lacks the columns {}", names.join(", "))))?;
+    let value = |row: &RawRow, i: usize, name: &str| -> Result<f64> {
+        let at = |what: String| Error::data(&source, format!("line {}, column {name}: {what}", row.line));
+        match row.cells.get(i) {
+            None => Err(Error::data(&source, format!("line {}: {} fields, expected at least {}", row.line, row.cells.len(), i + 1))),
+            Some(Cell::Empty) => Err(at("empty cell".into())),
+            Some(Cell::Number(v)) => Ok(*v),
+            Some(Cell::Text(t)) if t.eq_ignore_ascii_case("nan") => Ok(f64::NAN),
+            Some(Cell::Text(t)) => parse_number(t, table.decimal_comma).ok_or_else(|| at(format!("'{t}' is not a number"))),
+            Some(Cell::Other(what)) => Err(at(format!("{what} is not a number"))),
+        }
+    };
+    table.rows.iter().map(|row| pos.iter().zip(names).map(|(&i, name)| value(row, i, name)).collect()).collect()
+}
+
 /// Splits `book.xlsx#Sheet` into the file and the sheet name. A path that exists as given is never
 /// split; otherwise the first `#` whose prefix ends in a spreadsheet extension is the separator.
 fn split_sheet(path: &Path) -> (PathBuf, Option<String>) {
