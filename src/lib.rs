@@ -17,6 +17,7 @@ pub mod diagnose;
 pub mod effects;
 pub mod error;
 pub mod generate;
+pub mod ik;
 pub mod io;
 pub mod optim;
 pub mod report;

@@ -2,14 +2,14 @@
 //! `irb120_evo_nph` scenario (600 poses, 500 train / 100 test, every effect on).
 
 use crate::calib::evonph::{EvoNphSolver, EvoRun, EvoVariant};
-use crate::calib::ik::{IkModel, JacobianKind};
 use crate::calib::method::Problem;
 use crate::calib::problem::LengthFit;
 use crate::calib::run::{calibrate_with, CalibOptions, CalibResult, Method, ModelSpec, TruthFile};
 use crate::calib::stats::{mean_std, median};
-use crate::commands::ik::{ik_runs, table, TwinCheck};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
+use crate::ik::{ik_runs, table, TwinCheck};
+use crate::ik::{IkModel, JacobianKind};
 use crate::optim::{DeVariant, NoObserver};
 use crate::scenario::Scenario;
 use std::path::Path;
@@ -229,8 +229,8 @@ pub fn bench_ik(repeat: usize) -> Result<()> {
     r.data = dir.display().to_string();
     let check = TwinCheck::load(&dir, &r)?;
     let n = 1000;
-    let targets = crate::commands::ik::random_targets(&r, Some(&check), n, 0);
-    let o = crate::calib::ik::IkOptions::default();
+    let targets = crate::ik::random_targets(&r, Some(&check), n, 0);
+    let o = crate::ik::IkOptions::default();
     // Baseline in the same process: one forward evaluation with the hybrid Jacobian.
     let corr = r.corrector.as_ref().map(|c| c.as_correct());
     let m = IkModel::new(&r.model, &r.x, corr, r.model.joint_limits());
@@ -243,7 +243,7 @@ pub fn bench_ik(repeat: usize) -> Result<()> {
         ft.push(t0.elapsed().as_secs_f64());
     }
     let t_f = median(&ft);
-    let mut best: Option<Vec<crate::commands::ik::IkRun>> = None;
+    let mut best: Option<Vec<crate::ik::IkRun>> = None;
     for _ in 0..repeat.max(1) {
         let runs = ik_runs(&r, &targets, &JacobianKind::ALL, &o, Some(&check));
         if best.as_ref().is_none_or(|b| runs[2].median_seconds < b[2].median_seconds) {

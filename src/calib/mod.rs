@@ -13,7 +13,6 @@ pub mod generic;
 pub mod gkan;
 pub mod gkan_select;
 pub mod identify;
-pub mod ik;
 pub mod inputs;
 pub mod measurement;
 pub mod method;

@@ -29,9 +29,9 @@
 //! reaches), `joint_limit` (stuck with a joint at a limit), `singular` (stuck where the
 //! Jacobian loses rank), `not_converged` or `invalid` (non-finite target). Never NaN, never a panic.
 
-use super::corrector::Correct;
-use super::effects::RowInputs;
-use super::model::{CalibModel, ModelWork};
+use crate::calib::corrector::Correct;
+use crate::calib::effects::RowInputs;
+use crate::calib::model::{CalibModel, ModelWork};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -1,0 +1,9 @@
+//! Position inverse kinematics on a calibrated model ([`solver`]: the paper's hybrid-Jacobian
+//! solver and its variants) and its validation against the twin the data came from
+//! ([`validation`]).
+
+pub mod solver;
+pub mod validation;
+
+pub use solver::{rigid_fit, IkModel, IkOptions, IkSolution, IkStatus, IkWork, JacobianKind};
+pub use validation::{ik_runs, random_targets, run_ik, table, IkRun, TwinCheck};
