@@ -184,7 +184,7 @@ impl Scenario {
         let s = Scenario::from_toml(&text, &origin)?;
         let robot = s.load_robot(path.parent())?;
         s.validate(&robot, &origin)?;
-        for j in robot.joints.iter().filter(|j| !(j.max_velocity > 0.0)) {
+        for j in robot.joints.iter().filter(|j| !j.has_speed_limit()) {
             eprintln!(
                 "warning: joint '{}' of robot '{}' has no velocity limit in its URDF (<limit velocity=...> is 0 or absent); \
                  the acquisition moves it at sampling.speed_fraction x {} rad/s",

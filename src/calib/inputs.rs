@@ -62,7 +62,6 @@ impl TorqueModel {
         }
     }
 
-    /// Static joint torques (N·m) at commanded angles `q` (rad).
     /// Checks a torque model read from a file: a valid chain, one mass per moving link at most,
     /// masses ≥ 0 and every value finite.
     pub fn validate(&self, n_joints: usize) -> std::result::Result<(), String> {
@@ -83,6 +82,7 @@ impl TorqueModel {
         }
     }
 
+    /// Static joint torques (N·m) at commanded angles `q` (rad).
     pub fn torques(&self, q: &[f64]) -> Vec<f64> {
         let load = LoadModel {
             gravity: Vector3::new(0.0, 0.0, -GRAVITY),

@@ -146,8 +146,8 @@ impl CalibModel {
     }
     /// Parameter range of effect block `b`.
     pub fn effect_params(&self, b: usize) -> std::ops::Range<usize> {
-        let start = self.first_effect() + self.effects[..b].iter().map(|e| e.params().len()).sum::<usize>();
-        start..start + self.effects[b].params().len()
+        let start = self.first_effect() + self.effects[..b].iter().map(EffectBlock::n_params).sum::<usize>();
+        start..start + self.effects[b].n_params()
     }
     /// The sensor nonlinearity block: its first parameter and normalisation range.
     fn nonlinearity(&self) -> Option<(usize, [f64; 2])> {

@@ -10,8 +10,8 @@
 //! [`Solver`] value that carries its own settings.
 
 use super::corrector::{Correct, Corrector, EffectCorrection};
-use super::effects::EffectKind;
 use super::effects::RowInputs;
+use super::effects::{EffectBlock, EffectKind};
 use super::identify::{analyse, Identifiability};
 use super::inputs::LoadOptions;
 pub use super::method::{Method, Solver};
@@ -360,8 +360,11 @@ impl CalibResult {
             serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
         // What the model computes with holds no number a calibration could not have produced.
         for key in ["model", "x", "corrector", "torque_model", "rbf"] {
-            if let Some(v) = value.get(key) {
-                check_magnitudes(v, &mut key.to_string()).map_err(|e| Error::model(path.display(), e))?;
+            if let Some((at, n)) = value.get(key).and_then(beyond_magnitude) {
+                return Err(Error::model(
+                    path.display(),
+                    format!("{key}{at} = {n} is beyond what a calibration writes (|value| <= {MAX_MODEL_MAGNITUDE:e}); edited result file?"),
+                ));
             }
         }
         let mut r: CalibResult = serde_json::from_value(value).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
@@ -382,7 +385,7 @@ impl CalibResult {
             && (r.model.limits.is_empty() || r.model.limits.len() == chain.n_joints)
             && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
             && r.model.kinds.len() == r.model.n_params()
-            && r.model.n_params() == chain.n_params() + r.model.measurement.n_placement() + r.model.effects.iter().map(|e| e.params().len()).sum::<usize>()
+            && r.model.n_params() == chain.n_params() + r.model.measurement.n_placement() + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
             && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
             && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
         if !consistent || r.x.iter().any(|v| !v.is_finite()) {
@@ -433,28 +436,14 @@ pub const MIN_LENGTH_SPREAD_MM: f64 = 1e-3;
 /// weights in mm, masses, forces): beyond it the file was edited, not written by a calibration.
 pub const MAX_MODEL_MAGNITUDE: f64 = 1e9;
 
-/// An error naming the first number in `v` (JSON path `at`) beyond [`MAX_MODEL_MAGNITUDE`].
-fn check_magnitudes(v: &serde_json::Value, at: &mut String) -> std::result::Result<(), String> {
+/// The first number in `v` beyond [`MAX_MODEL_MAGNITUDE`]: its JSON path below `v` and the number.
+fn beyond_magnitude(v: &serde_json::Value) -> Option<(String, serde_json::Number)> {
+    use serde_json::Value;
     match v {
-        serde_json::Value::Number(n) => match n.as_f64() {
-            Some(x) if x.abs() <= MAX_MODEL_MAGNITUDE => Ok(()),
-            _ => Err(format!("{at} = {n} is beyond what a calibration writes (|value| <= {MAX_MODEL_MAGNITUDE:e}); edited result file?")),
-        },
-        serde_json::Value::Array(items) => items.iter().enumerate().try_for_each(|(i, x)| {
-            let len = at.len();
-            at.push_str(&format!("[{i}]"));
-            let r = check_magnitudes(x, at);
-            at.truncate(len);
-            r
-        }),
-        serde_json::Value::Object(map) => map.iter().try_for_each(|(k, x)| {
-            let len = at.len();
-            at.push_str(&format!(".{k}"));
-            let r = check_magnitudes(x, at);
-            at.truncate(len);
-            r
-        }),
-        _ => Ok(()),
+        Value::Number(n) => n.as_f64().is_none_or(|x| x.abs() > MAX_MODEL_MAGNITUDE).then(|| (String::new(), n.clone())),
+        Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| beyond_magnitude(x).map(|(p, n)| (format!("[{i}]{p}"), n))),
+        Value::Object(map) => map.iter().find_map(|(k, x)| beyond_magnitude(x).map(|(p, n)| (format!(".{k}{p}"), n))),
+        _ => None,
     }
 }
 

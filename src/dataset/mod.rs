@@ -345,8 +345,9 @@ impl Dataset {
 /// The numeric columns `names` of a CSV file (other columns ignored), read by the dataset reader's
 /// rules: delimiter detected (`,`, `;`, tab), decimal commas with `;` / tab, `#` comments, quoted
 /// fields, a byte-order mark. A header matches a name case-insensitively, also as `NAME_mm`. A
-/// `NaN` cell reads as NaN (the caller decides what that means); an empty cell, a short row or
-/// other text is an error naming the line and column. One `Vec` per row, in `names` order.
+/// non-finite cell (`NaN`, `inf`) reads as it is (the caller decides what that means); an empty
+/// cell, a short row or other text is an error naming the line and column, as for a dataset's
+/// cells. One `Vec` per row, in `names` order.
 pub fn read_csv_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>> {
     let source = path.display().to_string();
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
@@ -357,16 +358,17 @@ pub fn read_csv_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>> {
         .map(|n| table.header.iter().position(|h| h.trim().eq_ignore_ascii_case(n) || h.trim().eq_ignore_ascii_case(&format!("{n}_mm"))))
         .collect::<Option<Vec<usize>>>()
         .ok_or_else(|| Error::data(&source, format!("the header '{found}' lacks the columns {}", names.join(", "))))?;
+    let cells = Cells { source: &source, decimal_comma: table.decimal_comma };
     let value = |row: &RawRow, i: usize, name: &str| -> Result<f64> {
-        let at = |what: String| Error::data(&source, format!("line {}, column {name}: {what}", row.line));
-        match row.cells.get(i) {
-            None => Err(Error::data(&source, format!("line {}: {} fields, expected at least {}", row.line, row.cells.len(), i + 1))),
-            Some(Cell::Empty) => Err(at("empty cell".into())),
-            Some(Cell::Number(v)) => Ok(*v),
-            Some(Cell::Text(t)) if t.eq_ignore_ascii_case("nan") => Ok(f64::NAN),
-            Some(Cell::Text(t)) => parse_number(t, table.decimal_comma).ok_or_else(|| at(format!("'{t}' is not a number"))),
-            Some(Cell::Other(what)) => Err(at(format!("{what} is not a number"))),
+        let cell =
+            row.cells.get(i).ok_or_else(|| Error::data(&source, format!("line {}: {} fields, expected at least {}", row.line, row.cells.len(), i + 1)))?;
+        // A non-finite value (NaN, inf) is the caller's to answer; anything else reads as a dataset cell.
+        if let Cell::Text(t) = cell {
+            if let Some(v) = parse_number(t, table.decimal_comma).filter(|v| !v.is_finite()) {
+                return Ok(v);
+            }
         }
+        cells.required(Some(cell), name, row.line)
     };
     table.rows.iter().map(|row| pos.iter().zip(names).map(|(&i, name)| value(row, i, name)).collect()).collect()
 }
@@ -516,8 +518,15 @@ impl Layout {
     }
 }
 
-fn cell_error(source: &str, line: usize, c: Column, msg: impl std::fmt::Display) -> Error {
-    Error::data(source, format!("line {line}, column {}: {msg}", c.name()))
+impl std::fmt::Display for Column {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+/// An error naming the file, the line and the column (a [`Column`] or any column name).
+fn cell_error(source: &str, line: usize, c: impl std::fmt::Display, msg: impl std::fmt::Display) -> Error {
+    Error::data(source, format!("line {line}, column {c}: {msg}"))
 }
 
 /// Reads one table cell: numbers, text and the decimal-comma setting.
@@ -528,7 +537,7 @@ struct Cells<'a> {
 
 impl Cells<'_> {
     /// Interprets a cell as a finite number; `Ok(None)` for an empty cell or an absent column.
-    fn number(&self, cell: Option<&Cell>, c: Column, line: usize) -> Result<Option<f64>> {
+    fn number<C: std::fmt::Display + Copy>(&self, cell: Option<&Cell>, c: C, line: usize) -> Result<Option<f64>> {
         let source = self.source;
         let v = match cell {
             None | Some(Cell::Empty) => return Ok(None),
@@ -552,7 +561,7 @@ impl Cells<'_> {
         Ok(Some(v))
     }
 
-    fn required(&self, cell: Option<&Cell>, c: Column, line: usize) -> Result<f64> {
+    fn required<C: std::fmt::Display + Copy>(&self, cell: Option<&Cell>, c: C, line: usize) -> Result<f64> {
         self.number(cell, c, line)?.ok_or_else(|| cell_error(self.source, line, c, "empty cell (value required)"))
     }
 }

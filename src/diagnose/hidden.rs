@@ -13,7 +13,6 @@ use crate::calib::inputs::{row_inputs, LoadOptions, TorqueModel};
 use crate::calib::model::{CalibModel, SensorGuess};
 use crate::calib::problem::{LengthFit, Samples};
 use crate::dataset::{Dataset, Row};
-use crate::effects::Thermal;
 use crate::error::{Error, Result};
 use crate::generate::{acquisition_times, sample_poses};
 use crate::optim::LeastSquares;
@@ -26,11 +25,6 @@ use serde::Serialize;
 
 /// The geometric scenario every hidden-effect scenario starts from.
 pub const BASE_SCENARIO: &str = include_str!("../../scenarios/irb120_geometric.toml");
-
-/// Warm-up of the thermal scenarios (the thermal effect's own, so that its `hide` and these
-/// poses agree).
-const THERMAL_RISE_K: f64 = crate::calib::effects::HIDDEN_RISE_K;
-const THERMAL_TAU_S: f64 = crate::calib::effects::HIDDEN_TAU_S;
 
 /// What was hidden, in the units the diagnosis reports.
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -87,7 +81,8 @@ pub fn causes(n: usize) -> Vec<(EffectKind, Option<usize>)> {
 fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
     let q = sample_poses(s, robot)?;
     let t = acquisition_times(s, robot, &q);
-    let th = Thermal::new(0.0, THERMAL_RISE_K, THERMAL_TAU_S, 21.0);
+    // The temperature the thermal scenarios would give (the thermal effect's own warm-up).
+    let th = crate::calib::effects::hidden_warm_up();
     let rows = q
         .iter()
         .zip(&t)

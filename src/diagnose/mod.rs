@@ -20,7 +20,7 @@
 
 pub mod hidden;
 
-use crate::calib::effects::{EffectBlock, EffectKind};
+use crate::calib::effects::{EffectBlock, EffectKind, Size};
 use crate::calib::inputs::{block_for, time_span, LoadOptions};
 use crate::calib::model::CalibModel;
 use crate::calib::problem::{LengthFit, Samples};
@@ -103,8 +103,18 @@ impl DiagnoseOptions {
             angle_step_deg: None,
         }
     }
-    fn inertial_robot(&self) -> Option<&Robot> {
-        self.model.robot().or(self.inertial.as_ref())
+    /// The calibration whose stages the diagnosis starts from: the geometric model with its
+    /// instrument placed on every row, LM, no split and no screen (the diagnosis screens the
+    /// rows itself, with their inputs).
+    pub fn baseline_options(&self) -> CalibOptions {
+        let mut o = CalibOptions::new(self.model.clone(), Method::Lm);
+        o.test_fraction = Some(0.0);
+        o.rank_tol = self.rank_tol;
+        o.seed = self.seed;
+        o.outlier_k = 0.0;
+        o.inertial = self.inertial.clone();
+        o.loads = self.loads.clone();
+        o
     }
 }
 
@@ -367,7 +377,7 @@ fn size_check(f: &Fitted, data: &Samples) -> (f64, bool) {
     let block = &f.model.effects[b];
     let range = f.model.effect_params(b);
     let cov = covariance(&LengthFit { model: &f.model, data }, &f.x, &f.fixed);
-    let (_, mag, _, unc) = magnitude(block, &f.x, cov.as_ref(), range.clone());
+    let Size { value: mag, uncertainty: unc, .. } = magnitude(block, &f.x, cov.as_ref(), range.clone());
     let sign_ok = block.kind.def().physical_sign(&f.x, range.start);
     let ratio = if unc > 0.0 { mag.abs() / unc } else { 0.0 };
     (ratio, sign_ok)
@@ -420,12 +430,11 @@ fn evidence(data: &Samples, residual: &[f64], has_torques: bool) -> Vec<Evidence
     ev
 }
 
-/// The size of an effect block in physical units with its uncertainty: (quantity, magnitude,
-/// unit, uncertainty), as its effect defines it.
-fn magnitude(block: &EffectBlock, x: &[f64], cov: Option<&nalgebra::DMatrix<f64>>, range: std::ops::Range<usize>) -> (String, f64, String, f64) {
+/// The size of an effect block in physical units with its uncertainty, as its effect defines it
+/// (the uncertainty is NaN without a covariance).
+fn magnitude(block: &EffectBlock, x: &[f64], cov: Option<&nalgebra::DMatrix<f64>>, range: std::ops::Range<usize>) -> Size {
     let var = |a: usize, b: usize| cov.map(|c| c[(a, b)]).unwrap_or(f64::NAN);
-    let s = block.kind.def().size(block, x, range.start, &var);
-    (s.quantity, s.value, s.unit, s.uncertainty)
+    block.kind.def().size(block, x, range.start, &var)
 }
 
 /// The candidate blocks: every kind on every joint the data support, or those listed (a kind
@@ -460,22 +469,6 @@ fn candidates(data: &Dataset, listed: &[(EffectKind, Option<usize>)], has_torque
     Ok(out)
 }
 
-impl DiagnoseOptions {
-    /// The calibration whose stages the diagnosis starts from: the geometric model with its
-    /// instrument placed on every row, LM, no split and no screen (the diagnosis screens the
-    /// rows itself, with their inputs).
-    pub fn baseline_options(&self) -> CalibOptions {
-        let mut o = CalibOptions::new(self.model.clone(), Method::Lm);
-        o.test_fraction = Some(0.0);
-        o.rank_tol = self.rank_tol;
-        o.seed = self.seed;
-        o.outlier_k = 0.0;
-        o.inertial = self.inertial.clone();
-        o.loads = self.loads.clone();
-        o
-    }
-}
-
 /// Runs a diagnosis. `progress` receives a line per finished step.
 pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
     let t0 = Instant::now();
@@ -486,8 +479,9 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     // every row's inputs; the diagnosis screens the rows itself, inputs included.
     let prepared = crate::calib::run::prepare(data, &opts.baseline_options(), true)?;
     let base = prepared.model;
-    let has_torques = opts.inertial_robot().is_some();
     let torque = prepared.split.torque_model;
+    // Torques exist where there are inertial data (the nominal robot's or `--robot`'s).
+    let has_torques = torque.is_some();
     let mut all = prepared.split.train;
 
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&base, d, x, opts.rank_tol);
@@ -648,7 +642,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     for (n, (block, before, after, p)) in found.iter().enumerate() {
         let b = current.model.effects.iter().position(|e| e == block).expect("kept block is in the model");
         let range = current.model.effect_params(b);
-        let (quantity, mag, unit, unc) = magnitude(block, &final_x, cov.as_ref(), range.clone());
+        let Size { quantity, value: mag, unit, uncertainty: unc } = magnitude(block, &final_x, cov.as_ref(), range.clone());
         let parameters = range
             .clone()
             .map(|k| {

@@ -67,9 +67,13 @@ pub struct JointSpec {
 pub const DEFAULT_JOINT_SPEED_RAD_S: f64 = 1.0;
 
 impl JointSpec {
+    /// Whether the URDF gives the joint a speed limit.
+    pub fn has_speed_limit(&self) -> bool {
+        self.max_velocity > 0.0
+    }
     /// The joint's speed limit, rad/s: the URDF's, else [`DEFAULT_JOINT_SPEED_RAD_S`].
     pub fn speed_limit(&self) -> f64 {
-        if self.max_velocity > 0.0 {
+        if self.has_speed_limit() {
             self.max_velocity
         } else {
             DEFAULT_JOINT_SPEED_RAD_S

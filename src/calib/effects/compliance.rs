@@ -15,6 +15,9 @@ impl Effect for JointCompliance {
     fn per_joint(&self) -> bool {
         true
     }
+    fn n_params(&self, _b: &EffectBlock) -> usize {
+        1
+    }
     fn params(&self, b: &EffectBlock) -> Vec<(String, EffectUnit)> {
         vec![(format!("compliance.j{}", b.joint_number()), EffectUnit::Compliance)]
     }

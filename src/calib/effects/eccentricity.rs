@@ -18,6 +18,9 @@ impl Effect for EncoderEccentricity {
     fn constant_on_still_joint(&self) -> bool {
         true
     }
+    fn n_params(&self, _b: &EffectBlock) -> usize {
+        2
+    }
     fn params(&self, b: &EffectBlock) -> Vec<(String, EffectUnit)> {
         let j = b.joint_number();
         vec![(format!("eccentricity.j{j}.sin"), EffectUnit::SmallAngle), (format!("eccentricity.j{j}.cos"), EffectUnit::SmallAngle)]

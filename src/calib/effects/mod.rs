@@ -25,7 +25,7 @@ mod eccentricity;
 mod nonlinearity;
 mod thermal;
 
-pub use thermal::{HIDDEN_RISE_K, HIDDEN_TAU_S};
+pub use thermal::hidden_warm_up;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
@@ -53,9 +53,12 @@ pub trait Effect: Sync {
     }
     /// Names and units of the block's parameters.
     fn params(&self, b: &EffectBlock) -> Vec<(String, EffectUnit)>;
+    /// How many parameters the block has (`params(b).len()`, without building their names: the
+    /// model's hot loops ask it on every row).
+    fn n_params(&self, b: &EffectBlock) -> usize;
     /// Starting values (no effect); `t_span_s` is the data's time span.
     fn start(&self, b: &EffectBlock, _t_span_s: f64) -> Vec<f64> {
-        vec![0.0; self.params(b).len()]
+        vec![0.0; self.n_params(b)]
     }
     /// Sets the block up for these data, or says what they lack.
     fn configure(&self, _b: &mut EffectBlock, _data: &Dataset, _has_torques: bool) -> Result<()> {
@@ -242,6 +245,10 @@ impl EffectBlock {
     pub fn params(&self) -> Vec<(String, EffectUnit)> {
         self.kind.def().params(self)
     }
+    /// Number of the block's parameters (allocates nothing).
+    pub fn n_params(&self) -> usize {
+        self.kind.def().n_params(self)
+    }
     /// Starting values of the parameters (no effect): zero, except a warm-up time constant,
     /// which starts at a third of the data's time span `t_span_s`.
     pub fn start(&self, t_span_s: f64) -> Vec<f64> {
@@ -317,6 +324,24 @@ pub fn joint_and_scale_effects(blocks: &[EffectBlock], first: usize, x: &[f64], 
     let mut k = first;
     for b in blocks {
         b.kind.def().apply(b, x, k, q, inp, st);
-        k += b.params().len();
+        k += b.n_params();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_block_counts_the_parameters_it_names() {
+        for kind in EffectKind::ALL {
+            for joint in kind.joint_options(3) {
+                for thermal in [None, Some(ThermalDrive::WarmUp), Some(ThermalDrive::Temperature { ref_c: 20.0 })] {
+                    let b = EffectBlock { kind, joint, thermal, range_m: None };
+                    assert_eq!(b.n_params(), b.params().len(), "{}", b.label());
+                    assert_eq!(b.start(600.0).len(), b.n_params(), "{}", b.label());
+                }
+            }
+        }
     }
 }

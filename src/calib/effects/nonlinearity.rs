@@ -15,6 +15,9 @@ impl Effect for SensorNonlinearity {
     fn per_joint(&self) -> bool {
         false
     }
+    fn n_params(&self, _b: &EffectBlock) -> usize {
+        3
+    }
     fn params(&self, _b: &EffectBlock) -> Vec<(String, EffectUnit)> {
         (2..=4).map(|k| (format!("sensor_nl.p{k}"), EffectUnit::Length)).collect()
     }

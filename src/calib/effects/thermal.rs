@@ -4,9 +4,11 @@
 
 use super::*;
 
-/// The hidden-effect generator's warm-up: 5 K over a 600 s time constant.
-pub const HIDDEN_RISE_K: f64 = 5.0;
-pub const HIDDEN_TAU_S: f64 = 600.0;
+/// The hidden-effect generator's warm-up, no drift yet: 5 K over a 600 s time constant from a
+/// 21 °C ambient. Its `hide` adds the drift; the generator's poses read their temperature from it.
+pub fn hidden_warm_up() -> crate::effects::Thermal {
+    crate::effects::Thermal::new(0.0, 5.0, 600.0, 21.0)
+}
 
 pub struct ThermalDrift;
 
@@ -38,8 +40,16 @@ impl Effect for ThermalDrift {
             }
         }
     }
+    fn n_params(&self, b: &EffectBlock) -> usize {
+        // A warm-up (time only) has its time constant besides the size.
+        if by_temperature(b) {
+            1
+        } else {
+            2
+        }
+    }
     fn start(&self, b: &EffectBlock, t_span_s: f64) -> Vec<f64> {
-        let mut v = vec![0.0; self.params(b).len()];
+        let mut v = vec![0.0; self.n_params(b)];
         if !by_temperature(b) {
             // The warm-up time constant starts at a third of the data's time span.
             v[1] = (t_span_s / 3.0).max(1.0);
@@ -100,7 +110,7 @@ impl Effect for ThermalDrift {
         }
     }
     fn hide(&self, s: &mut Scenario, n: usize, joint: Option<usize>, v: f64, _phase: f64) {
-        let t = s.effects.thermal.get_or_insert(crate::effects::Thermal::new(0.0, HIDDEN_RISE_K, HIDDEN_TAU_S, 21.0));
+        let t = s.effects.thermal.get_or_insert_with(hidden_warm_up);
         match joint {
             None => t.alpha_per_k = v,
             Some(j) => {
