@@ -243,9 +243,9 @@ fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<
             if g.kind == crate::scenario::GlitchKind::Scatter && i > first {
                 size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
             }
-            let l = rows[i].l_mm.expect("generated rows carry a reading") + size;
+            let l = rows[i].l_mm().expect("generated rows carry a reading") + size;
             let l = round_decimals(l, s.sensor.reading_decimals());
-            rows[i].l_mm = Some(l);
+            rows[i].reading_mm = vec![l];
             truth[i].length_measured_mm = l;
             hit.push(i);
         }
@@ -458,7 +458,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         let reading = round_decimals(reading, s.sensor.reading_decimals());
         rows.push(Row {
             q_deg: poses[i].iter().map(|v| round_decimals(v.to_degrees(), s.sampling.written_decimals())).collect(),
-            l_mm: Some(reading),
+            reading_mm: vec![reading],
             t_s: Some(round_decimals(times[i], T_DECIMALS)),
             temp_c: temp,
             split: Some(split[i]),

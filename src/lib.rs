@@ -19,6 +19,7 @@ pub mod error;
 pub mod generate;
 pub mod ik;
 pub mod io;
+pub mod measurement;
 pub mod optim;
 pub mod report;
 pub mod robot;

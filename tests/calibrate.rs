@@ -168,7 +168,7 @@ impl twincal::calib::method::Solver for FarOff {
 /// own estimate would have agreed with it.
 #[test]
 fn truth_comparison_catches_a_calibration_started_far_off() {
-    use twincal::calib::problem::{LengthFit, Samples};
+    use twincal::calib::problem::{ReadingFit, Samples};
     use twincal::calib::run::calibrate_with;
     use twincal::optim::{LevenbergMarquardt, NoObserver};
     let (_, ds, truth) = geometric();
@@ -186,7 +186,7 @@ fn truth_comparison_catches_a_calibration_started_far_off() {
         train.iter().map(|&i| ds.rows[i].q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
         train.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(),
     );
-    let fit = LengthFit { model: &r.model, data: &clean };
+    let fit = ReadingFit { model: &r.model, data: &clean };
     let from_estimate = LevenbergMarquardt { max_iter: 500, ..Default::default() }.minimize(&fit, &r.x, &fixed, &mut NoObserver).x;
     let moved = (0..r.x.len())
         .filter(|&k| r.parameters[k].std_uncertainty.is_some_and(|s| ((from_estimate[k] - r.x[k]) * r.model.kinds[k].display()).abs() > 3.0 * s))
@@ -391,7 +391,7 @@ fn hayati_plus_field(seed: u64, field: impl Fn(&[f64]) -> f64) -> Dataset {
             let q: Vec<f64> = q_deg.iter().map(|d: &f64| d.to_radians()).collect();
             let noise = 0.01 * (rng.random_range(-1.0f64..1.0) + rng.random_range(-1.0..1.0) + rng.random_range(-1.0..1.0));
             let l = model.predict(&x, &q, &mut w) * 1e3 + field(&q) + noise;
-            Row { q_deg: q_deg.to_vec(), l_mm: Some(l), t_s: None, temp_c: None, split: Some(if i % 4 == 0 { Split::Test } else { Split::Train }) }
+            Row { q_deg: q_deg.to_vec(), reading_mm: vec![l], t_s: None, temp_c: None, split: Some(if i % 4 == 0 { Split::Test } else { Split::Train }) }
         })
         .collect();
     Dataset { rows, source: format!("hayati+field seed {seed}") }
@@ -502,7 +502,7 @@ fn compare_scores_the_residuals_the_calibration_scored() {
     assert_eq!(r.test_residuals_mm.len(), t.n);
     let rms = (r.test_residuals_mm.iter().map(|v| v * v).sum::<f64>() / t.n as f64).sqrt();
     assert!((rms - t.rmse).abs() < 1e-12 * t.rmse.max(1.0), "{rms} vs {}", t.rmse);
-    let angles_only: Vec<f64> = r.test_rows.iter().map(|&i| ds.rows[i].l_mm.unwrap() - r.predict_mm(&ds.rows[i].q_deg)).collect();
+    let angles_only: Vec<f64> = r.test_rows.iter().map(|&i| ds.rows[i].l_mm().unwrap() - r.predict_mm(&ds.rows[i].q_deg)).collect();
     let worst = angles_only.iter().zip(&r.test_residuals_mm).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(worst > 1e-3, "without the temperature the prediction should differ (by {worst} mm)");
 }
@@ -596,7 +596,7 @@ fn a_method_ending_worse_than_nominal_warns_and_constant_lengths_are_refused() {
     assert!(r.metrics.train_after.rmse > r.metrics.train_before.rmse);
     assert!(r.warnings.iter().any(|w| w.contains("pf ended worse than the nominal model")), "{:?}", r.warnings);
     // Constant L.
-    let flat = Dataset { rows: ds.rows.iter().map(|row| Row { l_mm: Some(512.5), ..row.clone() }).collect(), source: "flat".into() };
+    let flat = Dataset { rows: ds.rows.iter().map(|row| Row { reading_mm: vec![512.5], ..row.clone() }).collect(), source: "flat".into() };
     let e = calibrate(&flat, None, &irb120(Method::Lm, "hayati")).unwrap_err().to_string();
     assert!(e.contains("every row reads the same length (L = 512.5 mm)"), "{e}");
 }

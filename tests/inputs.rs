@@ -52,7 +52,7 @@ fn generated_numbers_are_written_at_their_precision() {
     assert_eq!(again.dataset.to_csv_string(), text);
     // Truth and dataset agree on the measured length.
     for (row, pose) in g.dataset.rows.iter().zip(&g.truth.poses) {
-        assert_eq!(row.l_mm, Some(pose.length_measured_mm));
+        assert_eq!(row.l_mm(), Some(pose.length_measured_mm));
     }
 
     // Without quantisation the reading keeps 6 decimals (1e-6 mm), the default angles 6.

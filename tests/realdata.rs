@@ -102,7 +102,7 @@ fn robotcali_diagnosis_exports_the_model_it_reports() {
     let predicted = result.predict_rows(&ds);
     let out: Vec<usize> = d.outliers.iter().map(|o| o.row - 1).collect();
     let kept: Vec<f64> =
-        (0..ds.rows.len()).filter(|i| !out.contains(i)).map(|i| ds.rows[i].l_mm.unwrap() - step_offset_mm(&d.reading_steps, i) - predicted[i]).collect();
+        (0..ds.rows.len()).filter(|i| !out.contains(i)).map(|i| ds.rows[i].l_mm().unwrap() - step_offset_mm(&d.reading_steps, i) - predicted[i]).collect();
     let rmse = (kept.iter().map(|v| v * v).sum::<f64>() / kept.len() as f64).sqrt();
     assert!((rmse - d.final_train_rmse_mm).abs() < 1e-6 * rmse, "exported model {rmse} vs report {}", d.final_train_rmse_mm);
 }
@@ -137,7 +137,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     for st in &lm.reading_steps {
         let rows: Vec<usize> = (st.first_row - 1..st.last_row).collect();
         assert!(rows.len() >= 4 && rows.iter().all(|r| glitches.contains(r)), "step {st:?} is no glitch run");
-        let mut off: Vec<f64> = rows.iter().map(|&r| ds.rows[r].l_mm.unwrap() - tr.poses[r].length_true_mm).collect();
+        let mut off: Vec<f64> = rows.iter().map(|&r| ds.rows[r].l_mm().unwrap() - tr.poses[r].length_true_mm).collect();
         off.sort_by(f64::total_cmp);
         let want = off[off.len() / 2];
         // Rows of one sweep share the rounding of the joints that hold still: the step's offset

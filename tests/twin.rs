@@ -37,7 +37,7 @@ fn ideal_length_equals_analytic_distance() {
         let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
         let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool) * 1e3;
         let l = (p - e).norm() + s.sensor.length_offset_mm;
-        worst = worst.max((r.l_mm.unwrap() - l).abs());
+        worst = worst.max((r.l_mm().unwrap() - l).abs());
     }
     assert!(worst < 1e-6, "worst |L - analytic| = {worst:e} mm");
 }
@@ -337,8 +337,8 @@ fn dataset_records_the_encoder_angles_and_truth_the_eccentricity() {
         }
         let q_true: Vec<f64> = q.iter().zip(&ecc).map(|(a, b)| a + b).collect();
         let l = |q: &[f64]| s.sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &tool));
-        worst = worst.max((r.l_mm.unwrap() - l(&q_true)).abs());
-        off = off.max((r.l_mm.unwrap() - l(&q)).abs());
+        worst = worst.max((r.l_mm().unwrap() - l(&q_true)).abs());
+        off = off.max((r.l_mm().unwrap() - l(&q)).abs());
     }
     assert!(worst < 1e-6, "L vs the analytic distance at the true angles: {worst:e} mm");
     assert!(off > 0.05, "L should not match the commanded angles, at most {off} mm off");
@@ -404,7 +404,7 @@ fn temp_sensor_noise_and_offset_are_seeded_and_deterministic() {
     let (s3, _) = ideal_with(Effects { thermal: Some(warm_up(120.0, 0.3, 0.0, true)), ..Default::default() });
     let d = generate(&s3, &robot, &Silent).unwrap();
     for (x, y) in a.dataset.rows.iter().zip(&d.dataset.rows) {
-        assert_eq!((&x.q_deg, x.l_mm, x.t_s), (&y.q_deg, y.l_mm, y.t_s));
+        assert_eq!((&x.q_deg, x.l_mm(), x.t_s), (&y.q_deg, y.l_mm(), y.t_s));
         assert!((x.temp_c.unwrap() - y.temp_c.unwrap()).abs() < 0.25);
     }
 }

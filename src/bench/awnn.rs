@@ -4,7 +4,7 @@
 //! rate, and HSR-RobotCali against its repeatability floor when the data are present.
 
 use crate::calib::method::{Method, Problem, Solution, Solver};
-use crate::calib::problem::{LengthFit, Samples};
+use crate::calib::problem::{ReadingFit, Samples};
 use crate::calib::psoekf::{Ablation, Hyper, NetStart, PsoEkfAwnn};
 use crate::calib::run::{calibrate_with, split_stage, CalibOptions, CalibResult, ModelSpec, TruthFile};
 use crate::calib::stats::{mean_std, median};
@@ -101,11 +101,12 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
     let eq: Vec<f64> = r.parameters.iter().enumerate().map(|(k, p)| p.truth.unwrap_or(f64::NAN) / r.model.kinds[k].display()).collect();
     let all = crate::calib::inputs::row_inputs(ds, r.torque_model.as_ref());
     let clean = Samples {
-        l: split.test_idx.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(),
+        y: split.test_idx.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(),
+        dim: 1,
         inputs: split.test_idx.iter().map(|&i| all[i].clone()).collect(),
         q: split.test.q.clone(),
     };
-    let left = LengthFit { model: &r.model, data: &clean }.residuals_mm(&r.x);
+    let left = ReadingFit { model: &r.model, data: &clean }.residuals_mm(&r.x);
     let after: Vec<f64> = left.iter().zip(&clean.q).zip(&clean.inputs).map(|((d, q), inp)| d - r.correction_mm(q, inp)).collect();
     use crate::calib::stats::rms;
     Some(TruthView { to_rigid: dist(&rigid), to_equivalent: dist(&eq), recovered: 1.0 - rms(&after) / rms(&left) })

@@ -3,7 +3,7 @@
 
 use crate::calib::evonph::{EvoNphSolver, EvoRun, EvoVariant};
 use crate::calib::method::Problem;
-use crate::calib::problem::LengthFit;
+use crate::calib::problem::ReadingFit;
 use crate::calib::run::{calibrate_with, CalibOptions, CalibResult, Method, ModelSpec, TruthFile};
 use crate::calib::stats::{mean_std, median};
 use crate::dataset::Dataset;
@@ -51,7 +51,7 @@ fn prepare(ds: &Dataset, opts: &CalibOptions) -> Result<Prepared> {
     let p = crate::calib::run::prepare(ds, &unscreened, false)?;
     let (split, model, fixed) = (p.split, p.model, p.id.fixed_mask);
     let x0 = model.nominal.clone();
-    let fit = LengthFit { model: &model, data: &split.train };
+    let fit = ReadingFit { model: &model, data: &split.train };
     let noise = crate::calib::run::estimate_noise(&fit, &x0, &fixed, None);
     let prior = opts.tolerances.prior_std(&model);
     Ok(Prepared { train: split.train, test: split.test, x0, fixed, prior, noise, model })
@@ -59,13 +59,13 @@ fn prepare(ds: &Dataset, opts: &CalibOptions) -> Result<Prepared> {
 
 impl Prepared {
     fn run(&self, s: &EvoNphSolver, seed: u64) -> Result<EvoRun> {
-        let fit = LengthFit { model: &self.model, data: &self.train };
+        let fit = ReadingFit { model: &self.model, data: &self.train };
         let p = Problem { fit: &fit, x0: &self.x0, fixed: &self.fixed, prior_std: &self.prior, noise_mm: self.noise, seed };
         s.run(&p, &mut NoObserver)
     }
     /// Test RMSE (mm) of a run's geometry and corrector.
     fn test_rmse(&self, r: &EvoRun) -> f64 {
-        let fit = LengthFit { model: &self.model, data: &self.test };
+        let fit = ReadingFit { model: &self.model, data: &self.test };
         let res = fit.residuals_mm(&r.solution_x);
         let c = r.corrector.as_correct();
         let ss: f64 = res.iter().enumerate().map(|(i, v)| (v - c.correction_mm(&self.test.q[i], &self.test.inputs[i])).powi(2)).sum();
@@ -85,7 +85,7 @@ pub fn bench_dsade(repeat: usize, seeds: u64) -> Result<()> {
     let dir = tmp.path().join("evo");
     let (ds, truth) = dataset(&dir, None)?;
     let prep = prepare(&ds, &options(Method::DsadeGkan))?;
-    let fit = LengthFit { model: &prep.model, data: &prep.train };
+    let fit = ReadingFit { model: &prep.model, data: &prep.train };
     println!("Evo-NPH benchmark on irb120_evo_nph ({} train, {} test poses)", prep.train.len(), prep.test.len());
 
     // 1. Speed: the DS-ADE stage alone, against one residual evaluation over the training poses.
@@ -150,7 +150,7 @@ pub fn bench_dsade(repeat: usize, seeds: u64) -> Result<()> {
     rigid.corrector = None;
     let truth_rms = |r: &CalibResult| {
         let pred = r.predict_rows(&ds);
-        (test_idx.iter().map(|&i| (ds.rows[i].l_mm.unwrap_or(f64::NAN) - pred[i]).powi(2)).sum::<f64>() / test_idx.len() as f64).sqrt()
+        (test_idx.iter().map(|&i| (ds.rows[i].l_mm().unwrap_or(f64::NAN) - pred[i]).powi(2)).sum::<f64>() / test_idx.len() as f64).sqrt()
     };
     let ng = truth_rms(&rigid);
     let geo_dev = |r: &CalibResult| {

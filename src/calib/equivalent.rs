@@ -16,7 +16,7 @@
 //!    calibration.
 
 use super::model::{CalibModel, Placement};
-use super::problem::{LengthFit, Samples};
+use super::problem::{ReadingFit, Samples};
 use super::truth::TruthFile;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
@@ -108,7 +108,7 @@ pub fn map_truth(model: &CalibModel, robot: &Robot, truth: &TruthFile, q: &[Vec<
     x[..nc].iter_mut().for_each(|v| *v = 0.0);
     let s = &truth.sensor;
     let mm = |v: [f64; 3]| Vector3::from(v) * 1e-3;
-    let placement = Placement { exit: mm(s.exit_point_mm), length_offset: s.length_offset_mm * 1e-3, tool: mm(truth.tool.point_mm) };
+    let placement = Placement::cable(mm(s.exit_point_mm), s.length_offset_mm * 1e-3, mm(truth.tool.point_mm));
     model.set_placement(&mut x, &placement);
     let fixed: Vec<bool> = (0..model.n_params()).map(|k| k >= nc).collect();
     let problem = PoseMatch { model, target, q, local };
@@ -127,7 +127,7 @@ pub fn truth_equivalent(model: &CalibModel, robot: &Robot, truth: &TruthFile, cl
             x[k] = x0[k];
         }
     }
-    let fit = LengthFit { model, data: clean };
+    let fit = ReadingFit { model, data: clean };
     let lm = LevenbergMarquardt::budget(500);
     let eq = lm.minimize(&fit, &x, fixed, &mut NoObserver).x;
     eq.iter().all(|v| v.is_finite()).then_some(eq)

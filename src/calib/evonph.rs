@@ -62,7 +62,7 @@ use super::corrector::Corrector;
 use super::gkan::{Gkan, GkanShape, Mlp};
 use super::gkan_select::{penalty_gram, penalty_rows, select, Selection};
 use super::method::{Method, Problem, Solution, Solver};
-use super::problem::LengthFit;
+use super::problem::ReadingFit;
 use crate::error::{Error, Result};
 use crate::optim::{Bounds, Cost, De, DeVariant, Event, LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use nalgebra::{DMatrix, DVector};
@@ -156,7 +156,7 @@ enum Net {
 
 /// The Evo-NPH objective over `z = [θ_free; w]` (see the module docs).
 pub struct Objective<'a> {
-    fit: &'a LengthFit<'a>,
+    fit: &'a ReadingFit<'a>,
     base: Vec<f64>,
     free: Vec<usize>,
     x0_free: Vec<f64>,

@@ -1,7 +1,7 @@
 //! The floor no model can beat on a dataset, from the data themselves: the spread of repeated
 //! configurations, and what the logging resolution of the joint angles and of the reading costs
-//! on L (the angle steps propagated through the model's joint Jacobian). Each source is named;
-//! the final residual of a fit is never one of them.
+//! on each reading value (the angle steps propagated through the model's joint Jacobian). Each
+//! source is named; the final residual of a fit is never one of them.
 
 use super::metrics::Repeatability;
 use super::model::CalibModel;
@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 pub struct FloorSource {
     /// `repeatability`, `angle_resolution` or `reading_resolution`.
     pub source: String,
-    /// RMS contribution to L, mm.
+    /// RMS contribution to one reading value (L, or one coordinate of a point), mm.
     pub rms_mm: f64,
     pub detail: String,
 }
@@ -71,38 +71,43 @@ pub fn noise_floor(
     repeat: Option<&Repeatability>,
 ) -> NoiseFloor {
     let mut sources = Vec::new();
+    let cols = model.measurement.def().columns().join(", ");
+    let dim = model.measurement.dim();
     if let Some(r) = repeat.filter(|r| r.groups > 0) {
         sources.push(FloorSource {
             source: "repeatability".into(),
             rms_mm: r.pooled_std,
-            detail: format!("pooled spread of L over {} repeated configurations ({} rows)", r.groups, r.rows),
+            detail: format!("pooled spread of {cols} over {} repeated configurations ({} rows)", r.groups, r.rows),
         });
     }
     if let Some(step) = angle_step_deg.filter(|s| s.value() > 0.0) {
         let var_q = step.value().to_radians().powi(2) / 12.0;
         let mut w = model.work();
-        let mut g = vec![0.0; model.chain.n_joints];
+        let mut g = vec![0.0; model.chain.n_joints * dim];
+        let mut y = vec![0.0; dim];
+        // Per reading value: the mean over rows and values.
         let mean_var = data
             .q
             .iter()
             .zip(&data.inputs)
             .map(|(q, inp)| {
-                model.length_grad_q(x, q, inp, &mut w, &mut g);
-                g.iter().map(|d| (d * 1e3).powi(2) * var_q).sum::<f64>()
+                model.readings_grad_q(x, q, inp, &mut w, &mut y, &mut g);
+                g.iter().map(|d| (d * 1e3).powi(2) * var_q).sum::<f64>() / dim as f64
             })
             .sum::<f64>()
             / data.len().max(1) as f64;
+        let through = if dim == 1 { format!("d{cols}/dq") } else { format!("d({cols})/dq") };
         sources.push(FloorSource {
             source: "angle_resolution".into(),
             rms_mm: mean_var.sqrt(),
-            detail: format!("joint angles logged at {} deg ({}), through the model's dL/dq", step.value(), step.origin()),
+            detail: format!("joint angles logged at {} deg ({}), through the model's {through}", step.value(), step.origin()),
         });
     }
     if let Some(step) = length_step_mm.filter(|s| *s > 0.0) {
         sources.push(FloorSource {
             source: "reading_resolution".into(),
             rms_mm: step / 12f64.sqrt(),
-            detail: format!("L logged at {step} mm (from the data's decimals)"),
+            detail: format!("{cols} logged at {step} mm (from the data's decimals)"),
         });
     }
     let has_repeat = sources.iter().any(|s| s.source == "repeatability");

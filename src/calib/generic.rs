@@ -24,7 +24,7 @@
 //! result does not depend on the number of threads.
 
 use super::model::{CalibModel, Kind, SensorGuess};
-use super::problem::{LengthFit, Samples};
+use super::problem::{ReadingFit, Samples};
 use super::run::CalibOptions;
 use crate::error::{Error, Result};
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
@@ -161,12 +161,12 @@ fn topology(rng: &mut ChaCha8Rng) -> (Vec<Line>, Vector3<f64>) {
 /// reading away from the tool point in a drawn direction (the cable's length says how far the
 /// exit is, not where), the offset then the median misfit.
 fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[f64], data: &Samples) -> Option<CalibModel> {
-    let reach = super::stats::median(&data.l);
+    let reach = super::stats::median(&data.y);
     let exit = tool + exit_dir * reach;
     let guess = SensorGuess { exit_m: [exit.x, exit.y, exit.z], offset_m: 0.0, tool_m: [tool.x, tool.y, tool.z] };
     let mut model = model_around(&frames_of(lines), q_ref, &guess);
     let mut w = model.work();
-    let misfit: Vec<f64> = data.q.iter().zip(&data.l).map(|(q, l)| l - model.predict(&model.nominal, q, &mut w)).collect();
+    let misfit: Vec<f64> = data.q.iter().zip(&data.y).map(|(q, l)| l - model.predict(&model.nominal, q, &mut w)).collect();
     if let Some(k) = model.length_offset_index() {
         model.nominal[k] = super::stats::median(&misfit);
     }
@@ -176,7 +176,7 @@ fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[
 /// Fits the identifiable parameters of `model` from its nominal on `data`: (cost, x, converged
 /// within few iterations).
 fn fit(model: &CalibModel, data: &Samples, lm: &LevenbergMarquardt, rank_tol: f64) -> (f64, Vec<f64>, bool) {
-    let fit = LengthFit { model, data };
+    let fit = ReadingFit { model, data };
     let id = super::run::identify(&fit, &model.nominal, rank_tol);
     let rep = lm.minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver);
     let cost = LeastSquares::cost(&fit, &rep.x);
@@ -207,7 +207,7 @@ pub fn rechart(model: &CalibModel, x: &[f64]) -> CalibModel {
     let flange = model.chain.frame(&ws, model.chain.flange());
     let p = model.placement(x);
     let tool = flange.point(&p.tool);
-    let sensor = SensorGuess { exit_m: p.exit.into(), offset_m: p.length_offset, tool_m: tool.into() };
+    let sensor = SensorGuess { exit_m: [p.own[0], p.own[1], p.own[2]], offset_m: p.own[3], tool_m: tool.into() };
     model_around(&frames_of(&lines), &q_ref, &sensor)
 }
 
@@ -224,7 +224,7 @@ pub fn converge(model: &CalibModel, data: &Samples, rank_tol: f64) -> (f64, Cali
             return (cost, m, settled);
         }
     }
-    let cost = LeastSquares::cost(&LengthFit { model: &m, data }, &m.nominal);
+    let cost = LeastSquares::cost(&ReadingFit { model: &m, data }, &m.nominal);
     (cost, m, false)
 }
 

@@ -44,20 +44,21 @@ pub struct TorqueModel {
     pub links: Vec<(f64, [f64; 3])>,
     /// Payload mass (kg) and centre of mass in the flange frame (m).
     pub payload: Option<(f64, [f64; 3])>,
-    /// Cable exit point (base frame, m), tool point (flange frame, m) and tension (N).
+    /// Cable exit point (base frame, m), tool point (flange frame, m) and tension (N); none
+    /// without a tension or without a cable (another instrument).
     pub cable: Option<([f64; 3], [f64; 3], f64)>,
     pub torque_threshold_nm: f64,
 }
 
 impl TorqueModel {
-    pub fn new(robot: &Robot, loads: &LoadOptions, exit_m: Vector3<f64>, tool_m: Vector3<f64>) -> TorqueModel {
+    pub fn new(robot: &Robot, loads: &LoadOptions, exit_m: Option<Vector3<f64>>, tool_m: Vector3<f64>) -> TorqueModel {
         let effects = Effects { payload: loads.payload.clone(), ..Default::default() };
         let load = LoadModel::new(robot, &effects, None);
         TorqueModel {
             chain: robot.error_chain(),
             links: load.links.iter().map(|(m, c)| (*m, [c.x, c.y, c.z])).collect(),
             payload: load.payload.map(|(m, c)| (m, [c.x, c.y, c.z])),
-            cable: (loads.cable_tension_n > 0.0).then(|| ([exit_m.x, exit_m.y, exit_m.z], [tool_m.x, tool_m.y, tool_m.z], loads.cable_tension_n)),
+            cable: exit_m.filter(|_| loads.cable_tension_n > 0.0).map(|e| ([e.x, e.y, e.z], [tool_m.x, tool_m.y, tool_m.z], loads.cable_tension_n)),
             torque_threshold_nm: loads.torque_threshold_nm,
         }
     }
@@ -175,7 +176,7 @@ mod tests {
     fn row_flanks_follow_the_twins_approach_rule() {
         let q1 = [10.0, 10.0, 5.0, 20.0, -3.0];
         let rows: Vec<Row> =
-            q1.iter().map(|&a| Row { q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0], l_mm: Some(500.0), t_s: None, temp_c: None, split: None }).collect();
+            q1.iter().map(|&a| Row { q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0], reading_mm: vec![500.0], t_s: None, temp_c: None, split: None }).collect();
         let data = Dataset { rows, source: "test".into() };
         let inp = row_inputs(&data, None);
         let side = |j: usize| inp.iter().map(|r| r.side[j]).collect::<Vec<f64>>();

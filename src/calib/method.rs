@@ -8,7 +8,7 @@
 
 use super::corrector::Corrector;
 use super::evonph::{EvoNphSolver, EvoVariant};
-use super::problem::{FreeCost, LengthFit};
+use super::problem::{FreeCost, ReadingFit};
 use super::psoekf::{Ablation, PsoEkfAwnn};
 use super::rbf::RbfNetwork;
 use crate::error::{Error, Result};
@@ -59,6 +59,12 @@ impl TryFrom<String> for Method {
 impl Method {
     pub const ALL: [Method; 5] = [Method::Lm, Method::Ekf, Method::Pf, Method::Pso, Method::Rbf];
 
+    /// Whether the method learns a corrector (a network or the RBF compensator) of one reading
+    /// value per row: so far only for a cable length.
+    pub fn learns_corrector(self) -> bool {
+        !matches!(self, Method::Lm | Method::Ekf | Method::Pf | Method::Pso)
+    }
+
     /// The Evo-NPH method and its ablations (not in [`Method::ALL`], the core's baselines).
     pub const EVO_NPH: [Method; 4] = [Method::DsadeGkan, Method::DsadeGkanV1, Method::DsadeGkanV2, Method::DsadeGkanV3];
 
@@ -105,7 +111,7 @@ impl Method {
 /// What a solver is given: the fit on the training rows, the start, the fixed (non-identifiable)
 /// parameters, a one-sigma prior spread per parameter and the noise level estimated from the data.
 pub struct Problem<'a> {
-    pub fit: &'a LengthFit<'a>,
+    pub fit: &'a ReadingFit<'a>,
     pub x0: &'a [f64],
     pub fixed: &'a [bool],
     /// One standard deviation per parameter, internal units (from the tolerances).
@@ -119,9 +125,9 @@ impl Problem<'_> {
     fn free(&self) -> Vec<usize> {
         (0..self.x0.len()).filter(|k| !self.fixed[*k]).collect()
     }
-    /// The training rows in a seeded random order (for the sequential filters).
+    /// The training observations (reading values) in a seeded random order (for the sequential filters).
     fn shuffled_rows(&self) -> Vec<usize> {
-        let mut order: Vec<usize> = (0..self.fit.data.len()).collect();
+        let mut order: Vec<usize> = (0..self.fit.data.y.len()).collect();
         order.shuffle(&mut ChaCha8Rng::seed_from_u64(self.seed));
         order
     }
@@ -220,7 +226,7 @@ impl Solver for PfSolver {
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         // The likelihood is tempered to the starting misfit (never sharper than the noise), so
         // the weights do not collapse onto a handful of particles in the first batches.
-        let r0 = 2.0 * LeastSquares::cost(p.fit, p.x0) / p.fit.data.len() as f64;
+        let r0 = 2.0 * LeastSquares::cost(p.fit, p.x0) / p.fit.data.y.len() as f64;
         let pf = ParticleFilter {
             particles: self.particles,
             epochs: self.epochs,
@@ -270,7 +276,7 @@ impl Solver for PsoSolver {
         let half: Vec<f64> = free.iter().map(|&k| self.width_sigmas * p.prior_std[k]).collect();
         let centre: Vec<f64> = free.iter().map(|&k| p.x0[k]).collect();
         let bounds = Bounds::around(&centre, &half);
-        let cost = FreeCost { fit: LengthFit { model: p.fit.model, data: p.fit.data }, base: p.x0.to_vec(), free };
+        let cost = FreeCost { fit: ReadingFit { model: p.fit.model, data: p.fit.data }, base: p.x0.to_vec(), free };
         let pso = Pso { particles: self.particles, iterations: self.iterations, seed: p.seed, patience: self.patience, ..Default::default() };
         let mut report = pso.minimize(&cost, &bounds, Some(&centre), &mut Expand { cost: &cost, inner: obs });
         report.x = cost.expand(&report.x);

@@ -14,7 +14,6 @@ pub mod gkan;
 pub mod gkan_select;
 pub mod identify;
 pub mod inputs;
-pub mod measurement;
 pub mod method;
 pub mod metrics;
 pub mod model;

@@ -14,7 +14,7 @@
 //! its effect blocks. Internal units are metres and radians; lengths are predicted in metres.
 
 use super::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
-use super::measurement::Measurement;
+use crate::measurement::{Measurement, MAX_DIM, MAX_OWN};
 use crate::robot::kinematics::{Chain, ChainBuilder, FkWork, Frame, PointJacobian};
 use crate::robot::Robot;
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -69,19 +69,28 @@ pub struct CalibModel {
     pub measurement: Measurement,
 }
 
-/// Where the instrument sits in a parameter vector: the draw-wire's exit point (base frame), its
-/// length offset and the tool point (flange frame), metres. See [`CalibModel::placement`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Where the instrument sits in a parameter vector: its own parameters (for the draw-wire the
+/// exit point in the base frame and the length offset; for a tracker the base-to-tracker
+/// transform), then the target point on the flange (m). See [`CalibModel::placement`].
+#[derive(Clone, Debug, PartialEq)]
 pub struct Placement {
-    pub exit: Vector3<f64>,
-    pub length_offset: f64,
+    pub measurement: Measurement,
+    /// The instrument's own parameters, in [`Measurement::placement_names`] order (m, rad).
+    pub own: Vec<f64>,
+    /// The target point (tool point, reflector) in the flange frame, m.
     pub tool: Vector3<f64>,
 }
 
-/// Largest reading dimension and number of instrument parameters of any [`Measurement`] (stack
-/// buffers of the hot loops).
-const MAX_DIM: usize = 6;
-const MAX_OWN: usize = 12;
+impl Placement {
+    /// A draw-wire's placement: exit point (base frame), length offset and tool point, m.
+    pub fn cable(exit: Vector3<f64>, length_offset: f64, tool: Vector3<f64>) -> Placement {
+        Placement { measurement: Measurement::Length, own: vec![exit.x, exit.y, exit.z, length_offset], tool }
+    }
+    /// The draw-wire's exit point (base frame, m); `None` for another instrument.
+    pub fn exit(&self) -> Option<Vector3<f64>> {
+        (self.measurement == Measurement::Length).then(|| Vector3::new(self.own[0], self.own[1], self.own[2]))
+    }
+}
 
 /// Reusable buffers for model evaluations.
 pub struct ModelWork {
@@ -104,20 +113,32 @@ impl CalibModel {
     /// The instrument placement held in `x` (the public way to read it: no index arithmetic).
     pub fn placement(&self, x: &[f64]) -> Placement {
         let (own, tool) = self.sensor(x);
-        match self.measurement {
-            Measurement::Length => Placement { exit: Vector3::new(own[0], own[1], own[2]), length_offset: own[3], tool },
-        }
+        Placement { measurement: self.measurement, own: own.to_vec(), tool }
     }
-    /// Writes a placement into `x` (the inverse of [`Self::placement`]).
+    /// Writes a placement into `x` (the inverse of [`Self::placement`]); the placement must be
+    /// of this model's measurement.
     pub fn set_placement(&self, x: &mut [f64], p: &Placement) {
+        debug_assert_eq!(p.measurement, self.measurement);
         let r = self.placement_range();
-        match self.measurement {
-            Measurement::Length => {
-                x[r.start..r.start + 3].copy_from_slice(p.exit.as_slice());
-                x[r.start + 3] = p.length_offset;
-                x[r.start + 4..r.end].copy_from_slice(p.tool.as_slice());
-            }
-        }
+        let t = r.start + self.measurement.target_index();
+        x[r.start..t].copy_from_slice(&p.own);
+        x[t..r.end].copy_from_slice(p.tool.as_slice());
+    }
+    /// This model measured by another instrument placed at `p`: the placement parameters are
+    /// replaced (a model without effect blocks, as the constructors give it).
+    pub fn with_placement(mut self, p: &Placement) -> CalibModel {
+        assert!(self.effects.is_empty(), "the instrument is chosen before effect blocks are added");
+        let nc = self.n_chain();
+        let m = p.measurement;
+        self.names.truncate(nc);
+        self.kinds.truncate(nc);
+        self.nominal.truncate(nc);
+        self.names.extend(m.placement_names().iter().map(|s| s.to_string()));
+        self.kinds.extend((0..m.n_placement()).map(|k| if m.def().placement_is_angle(k) { Kind::Angle } else { Kind::Length }));
+        self.nominal.extend(&p.own);
+        self.nominal.extend(p.tool.iter());
+        self.measurement = m;
+        self
     }
     /// Indices of the instrument's placement parameters in the parameter vector.
     pub fn placement_range(&self) -> std::ops::Range<usize> {
@@ -202,18 +223,28 @@ impl CalibModel {
         self.chain.frame(&w.fk, self.chain.flange()).point(&tool)
     }
 
-    /// Predicted cable length (m) of a row with no per-row inputs.
+    /// Predicted cable length (m) of a row with no per-row inputs (a one-value measurement).
     pub fn predict(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> f64 {
         self.predict_with(x, q, &RowInputs::default(), w)
     }
 
-    /// Predicted cable length (m), every effect included.
+    /// The predicted reading of a one-value measurement (the draw-wire's length, m), every
+    /// effect included: [`Self::readings_with`]'s only value.
     pub fn predict_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
-        let (own, _) = self.sensor(x);
+        debug_assert_eq!(self.measurement.dim(), 1);
         let mut y = [0.0; MAX_DIM];
-        self.measurement.reading(own, &self.tool_point_with(x, q, inp, w), &mut y);
-        let l = y[0];
-        l + self.reading_correction(x, l).0
+        self.readings_with(x, q, inp, w, &mut y);
+        y[0]
+    }
+
+    /// Predicted readings (m, [`Measurement::dim`] values into `y`), every effect included.
+    pub fn readings_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64]) {
+        let (own, _) = self.sensor(x);
+        self.measurement.reading(own, &self.tool_point_with(x, q, inp, w), y);
+        if self.measurement.dim() == 1 {
+            let l = y[0];
+            y[0] = l + self.reading_correction(x, l).0;
+        }
     }
 
     /// Predicted length (m) of a row with no per-row inputs and its gradient into `g`.
@@ -221,62 +252,95 @@ impl CalibModel {
         self.predict_grad_with(x, q, &RowInputs::default(), w, g)
     }
 
-    /// Predicted length (m) and its gradient with respect to every parameter into `g`.
+    /// The predicted reading of a one-value measurement (m) and its gradient with respect to
+    /// every parameter into `g`.
     pub fn predict_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, g: &mut [f64]) -> f64 {
-        let nc = self.n_chain();
+        debug_assert_eq!(self.measurement.dim(), 1);
+        let mut y = [0.0; MAX_DIM];
+        self.readings_grad_with(x, q, inp, w, &mut y, g);
+        y[0]
+    }
+
+    /// Predicted readings (m) into `y` and their Jacobian with respect to every parameter into
+    /// `jac` (row-major, one row of [`Self::n_params`] per reading value).
+    pub fn readings_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], jac: &mut [f64]) {
+        let (nc, n, dim) = (self.n_chain(), self.n_params(), self.measurement.dim());
         let (own, tool) = self.sensor(x);
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let flange = self.chain.flange();
         self.chain.point_jacobian(&w.fk, flange, &tool, &mut w.jac);
-        let (mut y, mut dy_dp) = ([0.0; MAX_DIM], [Vector3::zeros(); MAX_DIM]);
+        let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM], [0.0; MAX_DIM * MAX_OWN]);
         let t = self.measurement.target_index();
-        self.measurement.reading_grad(own, &w.jac.point, &mut y, &mut dy_dp, &mut g[nc..nc + t]);
-        let u = dy_dp[0];
-        for k in 0..nc {
-            g[k] = u.dot(&w.jac.dparam[k]);
-        }
+        self.measurement.reading_grad(own, &w.jac.point, y, &mut dy_dp, &mut dy_down[..dim * t]);
         let rot = self.chain.frame(&w.fk, flange).rot;
-        let ut = rot.transpose() * u;
-        g[nc + t..nc + t + 3].copy_from_slice(ut.as_slice());
-        let l = y[0];
-        if self.effects.is_empty() {
-            return l;
+        for i in 0..dim {
+            let g = &mut jac[i * n..(i + 1) * n];
+            let u = dy_dp[i];
+            g[nc..nc + t].copy_from_slice(&dy_down[i * t..(i + 1) * t]);
+            for k in 0..nc {
+                g[k] = u.dot(&w.jac.dparam[k]);
+            }
+            let ut = rot.transpose() * u;
+            g[nc + t..nc + t + 3].copy_from_slice(ut.as_slice());
+            if self.effects.is_empty() {
+                continue;
+            }
+            g[self.first_effect()..].iter_mut().for_each(|v| *v = 0.0);
+            for &(k, j, d) in &w.eff.joint_terms {
+                g[k] += u.dot(&w.jac.dq[j]) * d;
+            }
+            let ds = u.dot(&w.jac.dscale);
+            for &(k, d) in &w.eff.scale_terms {
+                g[k] += ds * d;
+            }
         }
-        g[self.first_effect()..].iter_mut().for_each(|v| *v = 0.0);
-        for &(k, j, d) in &w.eff.joint_terms {
-            g[k] += u.dot(&w.jac.dq[j]) * d;
+        if dim == 1 && !self.effects.is_empty() {
+            let l = y[0];
+            let (corr, dcorr, nl) = self.reading_correction(x, l);
+            if let Some((k, p)) = nl {
+                // The correction depends on the geometric length: chain rule on everything else.
+                jac[..n].iter_mut().for_each(|v| *v *= 1.0 + dcorr);
+                jac[k..k + 3].copy_from_slice(&p);
+            }
+            y[0] = l + corr;
         }
-        let ds = u.dot(&w.jac.dscale);
-        for &(k, d) in &w.eff.scale_terms {
-            g[k] += ds * d;
-        }
-        let (corr, dcorr, nl) = self.reading_correction(x, l);
-        if let Some((k, p)) = nl {
-            // The correction depends on the geometric length: chain rule on everything else.
-            g.iter_mut().for_each(|v| *v *= 1.0 + dcorr);
-            g[k..k + 3].copy_from_slice(&p);
-        }
-        l + corr
     }
 
     /// Predicted length (m) and its gradient with respect to the commanded joint angles (m/rad)
     /// into `g`, every effect included; the row's inputs (torques, flanks, time) are held fixed.
+    /// A one-value measurement's [`Self::readings_grad_q`].
     pub fn length_grad_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, g: &mut [f64]) -> f64 {
-        let nc = self.n_chain();
+        debug_assert_eq!(self.measurement.dim(), 1);
+        let mut y = [0.0; MAX_DIM];
+        self.readings_grad_q(x, q, inp, w, &mut y, g);
+        y[0]
+    }
+
+    /// Predicted readings (m) into `y` and their derivatives with respect to the commanded joint
+    /// angles (m/rad) into `g` (row-major, one row of N joints per reading value), every effect
+    /// included; the row's inputs (torques, flanks, time) are held fixed.
+    pub fn readings_grad_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], g: &mut [f64]) {
+        let (nc, nj, dim) = (self.n_chain(), self.chain.n_joints, self.measurement.dim());
         let (own, tool) = self.sensor(x);
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
-        let (mut y, mut dy_dp, mut dy_down) = ([0.0; MAX_DIM], [Vector3::zeros(); MAX_DIM], [0.0; MAX_DIM * MAX_OWN]);
-        self.measurement.reading_grad(own, &w.jac.point, &mut y, &mut dy_dp, &mut dy_down);
-        let (l, u) = (y[0], dy_dp[0]);
-        let (corr, dcorr, _) = self.reading_correction(x, l);
+        let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM], [0.0; MAX_DIM * MAX_OWN]);
+        self.measurement.reading_grad(own, &w.jac.point, y, &mut dy_dp, &mut dy_down);
+        let (corr, dcorr) = if dim == 1 {
+            let (c, d, _) = self.reading_correction(x, y[0]);
+            (c, d)
+        } else {
+            (0.0, 0.0)
+        };
         let own = |j: usize| if self.effects.is_empty() { 0.0 } else { w.eff.ddq_dq[j] };
-        for (j, gj) in g.iter_mut().enumerate().take(self.chain.n_joints) {
-            *gj = (1.0 + dcorr) * u.dot(&w.jac.dq[j]) * (1.0 + own(j));
+        for c in 0..dim {
+            for (j, gj) in g[c * nj..(c + 1) * nj].iter_mut().enumerate() {
+                *gj = (1.0 + dcorr) * dy_dp[c].dot(&w.jac.dq[j]) * (1.0 + own(j));
+            }
         }
-        l + corr
+        y[0] += corr;
     }
 
     /// Tool point (m, effects of the row applied) and its derivative with respect to each
@@ -604,6 +668,43 @@ mod tests {
                 xm[k] -= h;
                 let fd = (m.predict(&xp, &q, &mut w) - m.predict(&xm, &q, &mut w)) / (2.0 * h);
                 assert!((fd - g[k]).abs() < 1e-7, "{} {}: {fd} vs {}", m.name, m.names[k], g[k]);
+            }
+        }
+    }
+
+    #[test]
+    fn point_readings_jacobian_matches_finite_differences() {
+        use crate::calib::effects::{EffectBlock, EffectKind, RowInputs};
+        let robot = Robot::irb120();
+        let tracker = Placement { measurement: Measurement::Point, own: vec![0.2, -0.1, 0.05, 0.03, -0.02, 0.6], tool: Vector3::new(0.01, 0.02, 0.08) };
+        let mut m = CalibModel::dh(&robot, &guess(), true).with_placement(&tracker);
+        assert_eq!(m.placement(&m.nominal), tracker);
+        assert_eq!(m.names[m.placement_range()].join(","), "tracker.x,tracker.y,tracker.z,tracker.rx,tracker.ry,tracker.rz,tool.x,tool.y,tool.z");
+        m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
+        m.add_effect(EffectBlock::joint(EffectKind::Backlash, 2), 3600.0);
+        let mut x = m.nominal.clone();
+        for (k, v) in x.iter_mut().enumerate() {
+            *v += if matches!(m.kinds[k], Kind::Effect(_)) { 1e-5 } else { 0.01 } * ((k as f64) * 1.3).sin();
+        }
+        let inp = RowInputs { torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0], ..Default::default() };
+        let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
+        let (n, mut w) = (m.n_params(), m.work());
+        let (mut y, mut jac) = (vec![0.0; 3], vec![0.0; 3 * n]);
+        m.readings_grad_with(&x, &q, &inp, &mut w, &mut y, &mut jac);
+        let mut plain = vec![0.0; 3];
+        m.readings_with(&x, &q, &inp, &mut w, &mut plain);
+        assert_eq!(y, plain);
+        let (mut yp, mut ym) = (vec![0.0; 3], vec![0.0; 3]);
+        for k in 0..n {
+            let h = 1e-7;
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[k] += h;
+            xm[k] -= h;
+            m.readings_with(&xp, &q, &inp, &mut w, &mut yp);
+            m.readings_with(&xm, &q, &inp, &mut w, &mut ym);
+            for i in 0..3 {
+                let fd = (yp[i] - ym[i]) / (2.0 * h);
+                assert!((fd - jac[i * n + k]).abs() < 1e-7 * (1.0 + fd.abs()), "y{i} / {}: {fd} vs {}", m.names[k], jac[i * n + k]);
             }
         }
     }

@@ -4,28 +4,11 @@
 //! for the generic 6R model, a global search for the whole structure ([`super::generic`]).
 
 use super::model::{CalibModel, SensorGuess};
-use super::problem::{LengthFit, Samples};
+use super::problem::{ReadingFit, Samples};
 use super::run::{CalibOptions, ModelSpec};
 use crate::error::{Error, Result};
+use crate::measurement::length::multilaterate;
 use crate::optim::{LevenbergMarquardt, NoObserver};
-use nalgebra::{DMatrix, DVector, Vector3};
-
-/// Exit point and length offset by linear multilateration from known tool points (m):
-/// (L − c)² = |p − e|² is linear in (e, c, |e|² − c²).
-pub fn multilaterate(points: &[Vector3<f64>], lengths: &[f64]) -> Option<([f64; 3], f64)> {
-    let m = points.len();
-    if m < 6 {
-        return None;
-    }
-    let a = DMatrix::from_fn(m, 5, |i, k| match k {
-        0..=2 => -2.0 * points[i][k],
-        3 => 2.0 * lengths[i],
-        _ => 1.0,
-    });
-    let b = DVector::from_fn(m, |i, _| lengths[i] * lengths[i] - points[i].norm_squared());
-    let sol = a.svd(true, true).solve(&b, 1e-12).ok()?;
-    Some(([sol[0], sol[1], sol[2]], sol[3]))
-}
 
 /// The calibration model of `spec` with the sensor at `guess`.
 pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
@@ -58,7 +41,7 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
                     let m = build_model(spec, &zero_guess);
                     let mut w = m.work();
                     let pts: Vec<_> = train.q.iter().map(|q| m.tool_point(&m.nominal, q, &mut w)).collect();
-                    let (e, c) = multilaterate(&pts, &train.l)
+                    let (e, c) = multilaterate(&pts, &train.y)
                         .ok_or_else(|| Error::Calibration("cannot locate the cable exit point: need at least 6 well-spread poses".into()))?;
                     SensorGuess { exit_m: e, offset_m: c, tool_m: [0.0; 3] }
                 }
@@ -69,7 +52,7 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
             let mut model = build_model(spec, &guess);
             let nc = model.n_chain();
             let fixed: Vec<bool> = (0..model.n_params()).map(|k| k < nc).collect();
-            let fit = LengthFit { model: &model, data: train };
+            let fit = ReadingFit { model: &model, data: train };
             let lm = LevenbergMarquardt::budget(200);
             let x = lm.minimize(&fit, &model.nominal, &fixed, &mut NoObserver).x;
             if x.iter().all(|v| v.is_finite()) {

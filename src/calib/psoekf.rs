@@ -47,7 +47,7 @@ use super::awnn_select::{select, Selection};
 use super::corrector::Corrector;
 use super::effects::RowInputs;
 use super::method::{Method, Problem, Solution, Solver};
-use super::problem::LengthFit;
+use super::problem::ReadingFit;
 use super::problem::Samples;
 use super::ridge_cv::GeometricFit;
 use crate::error::{Error, Result};
@@ -293,7 +293,7 @@ pub struct StageOne {
 
 /// The least-squares problem of Stage II: the fit's residuals minus a frozen correction.
 pub struct Corrected<'a, 'b> {
-    pub fit: &'a LengthFit<'b>,
+    pub fit: &'a ReadingFit<'b>,
     /// The frozen correction per training row, mm.
     pub offset: Vec<f64>,
 }
@@ -318,14 +318,14 @@ impl LeastSquares for Corrected<'_, '_> {
 /// problem (the output weights are what the network's fit is made of; its hidden layer stays
 /// where Stage I left it, which keeps the problem at geometry + M unknowns).
 struct Joint<'a, 'b> {
-    fit: &'a LengthFit<'b>,
+    fit: &'a ReadingFit<'b>,
     net: &'a Awnn,
     /// Every neuron's activation at every training row.
     hidden: DMatrix<f64>,
 }
 
 impl<'a, 'b> Joint<'a, 'b> {
-    fn new(fit: &'a LengthFit<'b>, net: &'a Awnn) -> Self {
+    fn new(fit: &'a ReadingFit<'b>, net: &'a Awnn) -> Self {
         Joint { fit, net, hidden: net.hidden_matrix(&fit.data.q, &fit.data.inputs) }
     }
     fn net_at(&self, x: &[f64]) -> Awnn {
@@ -397,7 +397,7 @@ fn prior_var_scale(p: &Problem) -> f64 {
 }
 
 /// Condition number of the column-scaled Jacobian of the free parameters.
-pub fn observation_condition(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 {
+pub fn observation_condition(fit: &ReadingFit, x: &[f64], fixed: &[bool]) -> f64 {
     let mut j = DMatrix::zeros(fit.data.len(), fit.model.n_params());
     LeastSquares::jacobian(fit, x, &mut j);
     let cols: Vec<usize> = (0..x.len()).filter(|k| !fixed[*k]).collect();

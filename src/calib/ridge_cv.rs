@@ -12,7 +12,7 @@
 //! rows' residuals to the others' — a flexible basis then "predicts" them, most of all when a
 //! fold has about as many rows as the model has parameters.
 
-use super::problem::{LengthFit, Samples};
+use super::problem::ReadingFit;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use nalgebra::{Cholesky, DMatrix, DVector};
 use rayon::prelude::*;
@@ -32,10 +32,10 @@ pub struct GeometricFit {
 impl GeometricFit {
     /// Fits the geometry of `fit` by `lm` from `x0` on every row, then once per fold without
     /// that fold's rows (starting from the all-rows solution).
-    pub fn new(fit: &LengthFit, lm: &LevenbergMarquardt, x0: &[f64], fixed: &[bool]) -> GeometricFit {
+    pub fn new(fit: &ReadingFit, lm: &LevenbergMarquardt, x0: &[f64], fixed: &[bool]) -> GeometricFit {
         let all = lm.minimize(fit, x0, fixed, &mut NoObserver);
         let residuals = fit.residuals_mm(&all.x);
-        let mut jac = DMatrix::zeros(fit.data.len(), all.x.len());
+        let mut jac = DMatrix::zeros(fit.data.y.len(), all.x.len());
         LeastSquares::jacobian(fit, &all.x, &mut jac);
         let free: Vec<usize> = (0..all.x.len()).filter(|k| !fixed[*k]).collect();
         let d = fit.data;
@@ -44,12 +44,8 @@ impl GeometricFit {
             .into_par_iter()
             .map(|f| {
                 let keep = super::folds::others(n, &super::folds::interleaved(n, FOLDS)[f]);
-                let sub = Samples {
-                    q: keep.iter().map(|&i| d.q[i].clone()).collect(),
-                    l: keep.iter().map(|&i| d.l[i]).collect(),
-                    inputs: keep.iter().map(|&i| d.inputs[i].clone()).collect(),
-                };
-                let x = lm.minimize(&LengthFit { model: fit.model, data: &sub }, &all.x, fixed, &mut NoObserver).x;
+                let sub = d.subset(&keep);
+                let x = lm.minimize(&ReadingFit { model: fit.model, data: &sub }, &all.x, fixed, &mut NoObserver).x;
                 fit.residuals_mm(&x)
             })
             .collect();

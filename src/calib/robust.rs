@@ -14,7 +14,7 @@
 //!   weights from the residuals over a robust scale re-estimated at every pass.
 
 use super::model::CalibModel;
-use super::problem::{LengthFit, Samples};
+use super::problem::{ReadingFit, Samples};
 use super::stats::{median, robust_scale};
 use crate::error::{Error, Result};
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
@@ -74,8 +74,9 @@ pub fn step_offset_mm(steps: &[ReadingStep], row: usize) -> f64 {
 /// `data` (row `i` is data row `rows[i]`, 0-based) with each reading in a step corrected by the
 /// step's offset.
 pub fn apply_steps(data: &Samples, rows: &[usize], steps: &[ReadingStep]) -> Samples {
+    debug_assert_eq!(data.dim, 1, "reading steps are a cable encoder's");
     let mut out = data.clone();
-    for (l, &row) in out.l.iter_mut().zip(rows) {
+    for (l, &row) in out.y.iter_mut().zip(rows) {
         *l -= step_offset_mm(steps, row) * 1e-3;
     }
     out
@@ -91,7 +92,8 @@ pub fn apply_steps_nearest(data: &Samples, rows: &[usize], seen: &[usize], steps
     if steps.is_empty() || seen.is_empty() {
         return out;
     }
-    for (l, &row) in out.l.iter_mut().zip(rows) {
+    debug_assert_eq!(data.dim, 1, "reading steps are a cable encoder's");
+    for (l, &row) in out.y.iter_mut().zip(rows) {
         let at = seen.partition_point(|&d| d < row);
         let before = at.checked_sub(1).map(|i| seen[i]);
         let after = seen.get(at).copied();
@@ -243,7 +245,7 @@ pub struct Screen {
 /// scale — was tried: on RobotCali the later passes then took it with a disturbed stretch still
 /// in, and the screen let it through.)
 pub fn screen_fit(model: &CalibModel, data: &Samples, x: &[f64], rank_tol: f64) -> Vec<f64> {
-    let fit = LengthFit { model, data };
+    let fit = ReadingFit { model, data };
     let fixed = super::run::identify(&fit, x, rank_tol).fixed_mask;
     let lm = LevenbergMarquardt::budget(200).tolerances(1e-6, 1e-6);
     irls(&lm, &fit, x, &fixed, Loss::Cauchy, &mut NoObserver).x
@@ -267,7 +269,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
     let mut r = Vec::new();
     for _ in 0..SCREEN_PASSES {
         x = refit(&corrected.subset(&keep), &x);
-        r = LengthFit { model, data: &corrected }.residuals_mm(&x);
+        r = ReadingFit { model, data: &corrected }.residuals_mm(&x);
         let kept_r: Vec<f64> = keep.iter().map(|&i| r[i]).collect();
         (med, scale) = robust_scale(&kept_r);
         if !(scale > 0.0) || k <= 0.0 {
@@ -275,10 +277,10 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
             break;
         }
         let new_steps = if steps {
-            let raw = LengthFit { model, data }.residuals_mm(&x);
+            let raw = ReadingFit { model, data }.residuals_mm(&x);
             let s = reading_steps(&raw, rows, med, scale, k);
             corrected = apply_steps(data, rows, &s);
-            r = LengthFit { model, data: &corrected }.residuals_mm(&x);
+            r = ReadingFit { model, data: &corrected }.residuals_mm(&x);
             s
         } else {
             Vec::new()
@@ -514,8 +516,8 @@ mod tests {
             // Test rows take the offset of their nearest training row.
             let test = Samples::new(vec![vec![0.0; 6]; 3], vec![0.0; 3]);
             let corrected = apply_steps_nearest(&test, &[101, 135, 300], &rows, &steps);
-            assert!((corrected.l[0] + a.offset_mm * 1e-3).abs() < 1e-12 && (corrected.l[1] + b.offset_mm * 1e-3).abs() < 1e-12);
-            assert_eq!(corrected.l[2], 0.0);
+            assert!((corrected.y[0] + a.offset_mm * 1e-3).abs() < 1e-12 && (corrected.y[1] + b.offset_mm * 1e-3).abs() < 1e-12);
+            assert_eq!(corrected.y[2], 0.0);
         }
         let (r, rows) = slipping(0);
         assert!(reading_steps(&r, &rows, 0.0, 1.0, 0.0).is_empty(), "no screen, no steps");

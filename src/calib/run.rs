@@ -18,7 +18,7 @@ pub use super::method::{Method, Solver};
 use super::method::{Problem, Solution};
 use super::metrics::ErrorStats;
 use super::model::{CalibModel, SensorGuess};
-use super::problem::{LengthFit, Samples};
+use super::problem::{ReadingFit, Samples};
 use super::rbf::RbfNetwork;
 use super::robust::{Loss, Outlier, OutlierRun, ReadingStep};
 use super::tolerance::Tolerances;
@@ -414,12 +414,22 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
 }
 
 /// The rows `idx` of a dataset as calibration samples (radians, metres), with their time and
-/// temperature; torques and backlash sides are added by [`super::inputs`] where needed.
+/// temperature; torques and backlash sides are added by [`super::inputs`] where needed. A row
+/// without a reading reads NaN.
 pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     let rows = idx.iter().map(|&i| &data.rows[i]);
+    let dim = data.measurement().map_or(1, |m| m.dim());
+    let reading = |r: &crate::dataset::Row| -> Vec<f64> {
+        if r.reading_mm.len() == dim {
+            r.reading_mm.iter().map(|v| v * 1e-3).collect()
+        } else {
+            vec![f64::NAN; dim]
+        }
+    };
     Samples {
         q: rows.clone().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
-        l: rows.clone().map(|r| r.l_mm.unwrap_or(f64::NAN) * 1e-3).collect(),
+        y: rows.clone().flat_map(reading).collect(),
+        dim,
         inputs: rows.map(|r| super::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
     }
 }
@@ -514,9 +524,9 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
         return Ok(());
     }
     let x = &model.nominal;
-    let super::model::Placement { exit, tool, .. } = model.placement(x);
+    let placement = model.placement(x);
     let robot = opts.inertial_robot();
-    let torque = robot.map(|r| super::inputs::TorqueModel::new(r, &opts.loads, exit, tool));
+    let torque = robot.map(|r| super::inputs::TorqueModel::new(r, &opts.loads, placement.exit(), placement.tool));
     let all = super::inputs::row_inputs(data, torque.as_ref());
     split.torque_model = torque;
     split.train.inputs = split.train_idx.iter().map(|&i| all[i].clone()).collect();
@@ -542,7 +552,7 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
 /// the analysis: its jitter (a few encoder counts) would otherwise make its own and its
 /// neighbours' parameters look identifiable, and a fit would then buy accuracy through a lever
 /// the data cannot see. The tool point absorbs what is fixed.
-pub fn identify(fit: &LengthFit, x: &[f64], tol: f64) -> Identifiability {
+pub fn identify(fit: &ReadingFit, x: &[f64], tol: f64) -> Identifiability {
     let nc = fit.model.n_chain();
     let priority: Vec<usize> = (nc..fit.model.n_params()).chain(0..nc).collect();
     let still = still_joints(&fit.data.q);
@@ -558,7 +568,7 @@ pub fn identify(fit: &LengthFit, x: &[f64], tol: f64) -> Identifiability {
         held = d;
         &held
     };
-    let mut id = analyse(&jacobian(&LengthFit { model: fit.model, data }, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority);
+    let mut id = analyse(&jacobian(&ReadingFit { model: fit.model, data }, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority);
     id.still_joints = still.iter().map(|j| j + 1).collect();
     id
 }
@@ -578,8 +588,8 @@ pub fn still_joints(q: &[Vec<f64>]) -> Vec<usize> {
         .collect()
 }
 
-fn jacobian(fit: &LengthFit, x: &[f64]) -> DMatrix<f64> {
-    let mut j = DMatrix::zeros(fit.data.len(), fit.model.n_params());
+fn jacobian(fit: &ReadingFit, x: &[f64]) -> DMatrix<f64> {
+    let mut j = DMatrix::zeros(fit.data.y.len(), fit.model.n_params());
     LeastSquares::jacobian(fit, x, &mut j);
     j
 }
@@ -587,7 +597,7 @@ fn jacobian(fit: &LengthFit, x: &[f64]) -> DMatrix<f64> {
 /// Stage "noise estimate": the standard deviation of one reading, mm, from the data alone: the
 /// pooled spread of repeated configurations when at least five repeat, else the residual
 /// spread of a Levenberg–Marquardt fit corrected for the parameters it used.
-pub fn estimate_noise(fit: &LengthFit, x0: &[f64], fixed: &[bool], repeat: Option<&super::metrics::Repeatability>) -> f64 {
+pub fn estimate_noise(fit: &ReadingFit, x0: &[f64], fixed: &[bool], repeat: Option<&super::metrics::Repeatability>) -> f64 {
     if let Some(r) = repeat.filter(|r| r.groups >= 5 && r.pooled_std > 0.0) {
         return r.pooled_std;
     }
@@ -596,13 +606,13 @@ pub fn estimate_noise(fit: &LengthFit, x0: &[f64], fixed: &[bool], repeat: Optio
 }
 
 /// √(2·cost / (m − n_free)), the residual standard deviation of a least-squares fit, mm.
-pub fn residual_sigma(fit: &LengthFit, x: &[f64], fixed: &[bool]) -> f64 {
-    let dof = fit.data.len().saturating_sub(fixed.iter().filter(|f| !**f).count()).max(1);
+pub fn residual_sigma(fit: &ReadingFit, x: &[f64], fixed: &[bool]) -> f64 {
+    let dof = fit.data.y.len().saturating_sub(fixed.iter().filter(|f| !**f).count()).max(1);
     (2.0 * LeastSquares::cost(fit, x) / dof as f64).sqrt()
 }
 
 /// Residuals (mm) of the model at `x` with the corrector's correction taken off.
-fn residuals_with(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> Vec<f64> {
+fn residuals_with(fit: &ReadingFit, x: &[f64], corrector: Option<&dyn Correct>) -> Vec<f64> {
     let mut r = fit.residuals_mm(x);
     if let Some(c) = corrector {
         for (i, ri) in r.iter_mut().enumerate() {
@@ -621,7 +631,7 @@ pub fn trimmed_stats(r: &[f64], share: f64) -> ErrorStats {
     ErrorStats::of(&v)
 }
 
-fn stats(fit: &LengthFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorStats {
+fn stats(fit: &ReadingFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorStats {
     ErrorStats::of(&residuals_with(fit, x, corrector))
 }
 
@@ -638,7 +648,7 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
     }
     // With few rows per parameter a fit nearly interpolates them: the residuals' robust scale
     // then says nothing about the noise, and the screen would flag good rows.
-    let n_free = identify(&LengthFit { model, data: &split.train }, &model.nominal, opts.rank_tol).fixed_mask.iter().filter(|f| !**f).count();
+    let n_free = identify(&ReadingFit { model, data: &split.train }, &model.nominal, opts.rank_tol).fixed_mask.iter().filter(|f| !**f).count();
     if split.train.len() < SCREEN_ROWS_PER_PARAM * n_free {
         return Ok(None);
     }
@@ -662,7 +672,7 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
 
 /// Test rows beyond `k` robust standard deviations of the calibrated model's training
 /// residuals (around their median); none when `k` is 0.
-fn test_outlier_stage(fit: &LengthFit, test_r: &[f64], test_idx: &[usize], x: &[f64], corrector: Option<&dyn Correct>, k: f64) -> Vec<Outlier> {
+fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &[f64], corrector: Option<&dyn Correct>, k: f64) -> Vec<Outlier> {
     if k <= 0.0 || test_r.is_empty() {
         return Vec::new();
     }
@@ -677,7 +687,7 @@ fn test_outlier_stage(fit: &LengthFit, test_r: &[f64], test_idx: &[usize], x: &[
 }
 
 /// Stage "metrics": RMSE / STD / MAX before (start) and after, on training and test rows.
-pub fn metrics_stage(fit: &LengthFit, test_fit: &LengthFit, x0: &[f64], x: &[f64], corrector: Option<&dyn Correct>) -> Metrics {
+pub fn metrics_stage(fit: &ReadingFit, test_fit: &ReadingFit, x0: &[f64], x: &[f64], corrector: Option<&dyn Correct>) -> Metrics {
     let has_test = !test_fit.data.is_empty();
     Metrics {
         train_before: stats(fit, x0, None),
@@ -705,7 +715,7 @@ pub fn truth_stage(
     if t.poses.len() != data.rows.len() {
         return None;
     }
-    let clean = Samples { l: split.train_idx.iter().map(|&i| t.poses[i].length_true_mm * 1e-3).collect(), ..split.train.clone() };
+    let clean = Samples { y: split.train_idx.iter().map(|&i| t.poses[i].length_true_mm * 1e-3).collect(), ..split.train.clone() };
     super::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)
 }
 
@@ -746,9 +756,9 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     }
     let mut model = super::placement::place_sensor(opts, &split.train)?;
     let screen = outlier_stage(&mut model, &mut split, opts)?;
-    let test_rows_in_steps = samples(data, &split.test_idx).l.iter().zip(&split.test.l).filter(|(a, b)| a != b).count();
+    let test_rows_in_steps = samples(data, &split.test_idx).y.iter().zip(&split.test.y).filter(|(a, b)| a != b).count();
     effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
-    let id = identify(&LengthFit { model: &model, data: &split.train }, &model.nominal, opts.rank_tol);
+    let id = identify(&ReadingFit { model: &model, data: &split.train }, &model.nominal, opts.rank_tol);
     Ok(Prepared { split, model, screen, test_rows_in_steps, id })
 }
 
@@ -763,7 +773,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         ));
     }
     let x0 = model.nominal.clone();
-    let fit = LengthFit { model: &model, data: &split.train };
+    let fit = ReadingFit { model: &model, data: &split.train };
     let fixed = id.fixed_mask.clone();
     let n_free = fixed.iter().filter(|f| !**f).count();
     let distinct = distinct_configurations(data, &split.train_idx);
@@ -804,7 +814,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     // Stage "uncertainty": standard uncertainties from the Jacobian at the solution (all methods alike).
     let cov = covariance(&fit, &x, &fixed);
     let noise_estimate_mm = if noise.is_finite() { noise } else { residual_sigma(&fit, &x, &fixed) };
-    let test_fit = LengthFit { model: &model, data: &split.test };
+    let test_fit = ReadingFit { model: &model, data: &split.test };
     let correct = corrector.as_ref().map(|c| c.as_correct());
     let mut metrics = metrics_stage(&fit, &test_fit, &x0, &x, correct);
     if metrics.train_after.rmse > metrics.train_before.rmse {
@@ -894,11 +904,11 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
     let (x0, id) = (&x0[..], &id);
     let t0 = Instant::now();
     let fixed = &id.fixed_mask;
-    let fit = LengthFit { model: &model, data: rows };
+    let fit = ReadingFit { model: &model, data: rows };
     let cov = covariance(&fit, &x, fixed);
     let (parameters, _) = parameter_reports(&model, x0, &x, fixed, cov.as_ref(), None, None);
     let empty = Samples::new(Vec::new(), Vec::new());
-    let metrics = metrics_stage(&fit, &LengthFit { model: &model, data: &empty }, x0, &x, None);
+    let metrics = metrics_stage(&fit, &ReadingFit { model: &model, data: &empty }, x0, &x, None);
     let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
     let l = data.lengths_mm()?;
     let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);

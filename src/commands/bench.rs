@@ -350,7 +350,7 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
 pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> {
     check_repeat(repeat)?;
     check_seeds(seeds)?;
-    use crate::calib::problem::LengthFit;
+    use crate::calib::problem::ReadingFit;
     use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
     use crate::optim::LeastSquares;
     use rayon::prelude::*;
@@ -386,7 +386,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, with_compare: bool) -> Result<()> 
     let train: Vec<usize> = ds.train_indices();
     let samples = crate::calib::run::samples(&ds, &train);
     let model = run(&ds, None, &opts)?.model;
-    let fit = LengthFit { model: &model, data: &samples };
+    let fit = ReadingFit { model: &model, data: &samples };
     let mut jt = Vec::new();
     for _ in 0..20 {
         let t0 = Instant::now();

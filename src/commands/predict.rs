@@ -27,7 +27,7 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: b
     let ds = load_dataset(data, angles, false)?;
     ds.require_joints(result.model.chain.n_joints, &format!("the model {}", model.display()))?;
     result.require_columns(&ds)?;
-    let rows: Vec<(&[f64], Option<f64>)> = ds.rows.iter().map(|r| (r.q_deg.as_slice(), r.l_mm)).collect();
+    let rows: Vec<(&[f64], Option<f64>)> = ds.rows.iter().map(|r| (r.q_deg.as_slice(), r.l_mm())).collect();
     let predicted = result.predict_rows(&ds);
     for (i, p) in predicted.iter().enumerate() {
         if !p.is_finite() {

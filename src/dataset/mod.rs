@@ -1,6 +1,7 @@
 //! Calibration datasets: one row per static robot configuration, its joint angles `q1..qN`
-//! (degrees, controller convention; N is whatever the arm has) and the draw-wire cable length `L`
-//! (millimetres), with optional time, temperature and train/test split.
+//! (degrees, controller convention; N is whatever the arm has) and the instrument's reading in
+//! millimetres (the draw-wire cable length `L`, or a laser tracker's target position `x, y, z`:
+//! the columns of a [`Measurement`]), with optional time, temperature and train/test split.
 //!
 //! # File formats
 //!
@@ -11,7 +12,8 @@
 //!   named after a `#`, as in `pool.xlsx#Sheet1`.
 //!
 //! The header row must hold `q1`..`qN` (N ≥ 1 joints, numbered without gaps, at most
-//! [`MAX_JOINTS`]) and `L`; `t` (s), `temp` (°C) and `split` (`train`/`test`) are optional. Names are matched case-insensitively with surrounding whitespace ignored; column
+//! [`MAX_JOINTS`]) and the reading columns of one instrument (`L`, or `x`, `y`, `z`; a header
+//! with both is refused); `t` (s), `temp` (°C) and `split` (`train`/`test`) are optional. Names are matched case-insensitively with surrounding whitespace ignored; column
 //! order is free and other columns are ignored. Blank rows are skipped.
 //!
 //! CSV files may come from spreadsheet exports: the delimiter (`,`, `;` or tab) is detected from
@@ -36,7 +38,7 @@
 //! the header is line 1, so the first data row is usually line 2) and the column:
 //! missing or duplicated columns, empty/non-numeric/NaN/infinite cells, malformed CSV rows, unknown
 //! split values, a split column filled on some rows only, and values outside these plausibility
-//! bounds: `0 < L <= `[`MAX_L_MM`], `|q| <= `[`MAX_ABS_JOINT_DEG`],
+//! bounds: `0 < L <= `[`MAX_L_MM`] (a tracker's coordinates: `|x|, |y|, |z| <= 100 m`), `|q| <= `[`MAX_ABS_JOINT_DEG`],
 //! `0 <= t <= `[`MAX_T_S`] and non-decreasing, [`MIN_TEMP_C`]` <= temp <= `[`MAX_TEMP_C`]; and two
 //! unit mistakes detected by heuristics:
 //!
@@ -49,12 +51,13 @@
 //!   degree dataset over a narrow range (all joints within ±6.6°) trips it: load it with
 //!   [`AngleUnit::Deg`] (`--angles deg`).
 //! * **metres**: if every `L < 5` the lengths are taken to be metres (no draw-wire setup measures
-//!   under 5 mm everywhere).
+//!   under 5 mm everywhere); likewise a tracker's points when every coordinate is within ±5.
 
 mod csv_io;
 mod xlsx;
 
 use crate::error::{Error, Result};
+use crate::measurement::Measurement;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -72,9 +75,7 @@ pub const RADIANS_MAX_ABS: f64 = 2.0 * std::f64::consts::PI * 1.05;
 pub const RADIANS_MIN_SPAN: f64 = 0.1;
 /// Metres heuristic: every `L` below this is taken as metres.
 pub const METRES_MAX_L: f64 = 5.0;
-/// Largest plausible cable length, mm (100 m: the longest draw-wire sensors made measure about
-/// 60 m). Anything beyond is rejected.
-pub const MAX_L_MM: f64 = 100_000.0;
+pub use crate::measurement::length::MAX_L_MM;
 /// Lowest possible temperature, °C (absolute zero).
 pub const MIN_TEMP_C: f64 = -273.15;
 /// Highest plausible temperature, °C (no robot cell runs hotter).
@@ -155,14 +156,25 @@ pub struct Row {
     /// Joint angles `q1..qN`, degrees, controller convention; every row of a dataset has the
     /// same N.
     pub q_deg: Vec<f64>,
-    /// Measured cable length, mm; `None` when the file has no `L` column (poses only, loaded with
-    /// `require_length: false`).
-    pub l_mm: Option<f64>,
+    /// The instrument's reading, mm, in its columns' order (`L` for a draw-wire; `x, y, z` for
+    /// a tracker: see [`Measurement`]); empty when the file has none (poses only, loaded with
+    /// `require_length: false`). Every row of a dataset has the same kind.
+    pub reading_mm: Vec<f64>,
     /// Seconds from acquisition start.
     pub t_s: Option<f64>,
     /// Temperature, °C.
     pub temp_c: Option<f64>,
     pub split: Option<Split>,
+}
+
+impl Row {
+    /// The cable length (mm) of a draw-wire reading; `None` for no reading or another instrument's.
+    pub fn l_mm(&self) -> Option<f64> {
+        match self.reading_mm[..] {
+            [l] => Some(l),
+            _ => None,
+        }
+    }
 }
 
 /// A dataset and where it came from (a path, or a label for in-memory sources).
@@ -235,15 +247,33 @@ impl Dataset {
         }
     }
 
+    /// What the rows' readings are (from their number of values, which the loader took from the
+    /// header's columns); `None` for a dataset of poses without readings.
+    pub fn measurement(&self) -> Option<Measurement> {
+        let d = self.rows.first()?.reading_mm.len();
+        Measurement::ALL.into_iter().find(|m| m.dim() == d)
+    }
+
     /// True when every row has a cable length (and there is at least one row).
     pub fn has_length(&self) -> bool {
-        !self.rows.is_empty() && self.rows.iter().all(|r| r.l_mm.is_some())
+        !self.rows.is_empty() && self.rows.iter().all(|r| r.l_mm().is_some())
+    }
+
+    /// True when every row has a reading (and there is at least one row).
+    pub fn has_readings(&self) -> bool {
+        !self.rows.is_empty() && self.rows.iter().all(|r| !r.reading_mm.is_empty())
     }
 
     /// An error naming the source unless every row has a cable length: calibration and anything
     /// that compares against measurements needs `L`.
     pub fn require_length(&self) -> Result<()> {
-        match self.rows.iter().position(|r| r.l_mm.is_none()) {
+        if let Some(m) = self.measurement().filter(|m| *m != Measurement::Length) {
+            return Err(Error::data(
+                &self.source,
+                format!("the rows hold a {} ({}), this needs a draw-wire cable length L", m.def().describe(), m.def().columns().join(", ")),
+            ));
+        }
+        match self.rows.iter().position(|r| r.l_mm().is_none()) {
             None => Ok(()),
             Some(i) => Err(Error::data(
                 &self.source,
@@ -256,10 +286,23 @@ impl Dataset {
         }
     }
 
+    /// An error naming the source unless every row has a reading of one kind (any instrument).
+    pub fn require_readings(&self) -> Result<()> {
+        let d = self.rows.first().map_or(0, |r| r.reading_mm.len());
+        match self.rows.iter().position(|r| r.reading_mm.is_empty() || r.reading_mm.len() != d) {
+            None if !self.rows.is_empty() => Ok(()),
+            None => Err(Error::data(&self.source, "no rows")),
+            Some(i) => Err(Error::data(
+                &self.source,
+                format!("row {} has no measurement; this needs measured readings (a file with q1..qN and {})", i + 1, reading_columns_hint()),
+            )),
+        }
+    }
+
     /// The cable lengths of every row, mm; an error as [`Self::require_length`] when any is absent.
     pub fn lengths_mm(&self) -> Result<Vec<f64>> {
         self.require_length()?;
-        Ok(self.rows.iter().map(|r| r.l_mm.unwrap_or(f64::NAN)).collect())
+        Ok(self.rows.iter().map(|r| r.l_mm().unwrap_or(f64::NAN)).collect())
     }
 
     /// CSV text with header `q1,..,qN,L,t,temp,split`, one line per row in row order.
@@ -271,10 +314,17 @@ impl Dataset {
     pub fn to_csv_string(&self) -> String {
         let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
         let (has_t, has_temp, has_split) = (all(|r| r.t_s.is_some()), all(|r| r.temp_c.is_some()), all(|r| r.split.is_some()));
-        let has_l = self.rows.is_empty() || self.rows.iter().any(|r| r.l_mm.is_some());
+        // The reading columns of the rows' instrument (a row without a reading gets empty
+        // cells); a dataset with no rows is written with `L`.
+        let reading_names: &[&str] = match self.rows.iter().find(|r| !r.reading_mm.is_empty()) {
+            Some(r) => Measurement::ALL.into_iter().find(|m| m.dim() == r.reading_mm.len()).map_or(&[], |m| m.def().columns()),
+            None if self.rows.is_empty() => Measurement::Length.def().columns(),
+            None => &[],
+        };
 
         let mut names: Vec<String> = (1..=self.n_joints()).map(|j| format!("q{j}")).collect();
-        for (present, name) in [(has_l, "L"), (has_t, "t"), (has_temp, "temp"), (has_split, "split")] {
+        names.extend(reading_names.iter().map(|c| c.to_string()));
+        for (present, name) in [(has_t, "t"), (has_temp, "temp"), (has_split, "split")] {
             if present {
                 names.push(name.to_owned());
             }
@@ -286,12 +336,12 @@ impl Dataset {
             for (j, q) in row.q_deg.iter().enumerate() {
                 let _ = write!(out, "{}{q}", if j == 0 { "" } else { "," });
             }
-            if has_l {
-                if !row.q_deg.is_empty() {
+            for k in 0..reading_names.len() {
+                if k > 0 || !row.q_deg.is_empty() {
                     out.push(',');
                 }
-                if let Some(l) = row.l_mm {
-                    let _ = write!(out, "{l}");
+                if let Some(v) = row.reading_mm.get(k) {
+                    let _ = write!(out, "{v}");
                 }
             }
             if let (true, Some(t)) = (has_t, row.t_s) {
@@ -423,43 +473,73 @@ pub(crate) struct RawTable {
     pub decimal_comma: bool,
 }
 
+/// The reading columns of every measurement type, each once, in registry order (`L`, `x`,
+/// `y`, `z`, ...).
+fn reading_names() -> &'static [&'static str] {
+    static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
+    NAMES.get_or_init(|| {
+        let mut v: Vec<&'static str> = Vec::new();
+        for m in Measurement::ALL {
+            for c in m.def().columns() {
+                if !v.contains(c) {
+                    v.push(c);
+                }
+            }
+        }
+        v
+    })
+}
+
+/// "L (draw-wire cable length) or x, y, z (laser-tracker target position)": what a file may
+/// hold as its readings.
+fn reading_columns_hint() -> String {
+    Measurement::ALL.iter().map(|m| format!("{} ({})", m.def().columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" or ")
+}
+
 /// The columns this module understands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Column {
     /// Joint `j` (0-based): header `q{j+1}`.
     Q(usize),
-    L,
+    /// A reading column: [`reading_names`]`()[i]`.
+    Reading(usize),
     T,
     Temp,
     Split,
 }
 
 impl Column {
-    const OTHERS: [Column; 4] = [Column::L, Column::T, Column::Temp, Column::Split];
+    const OTHERS: [Column; 3] = [Column::T, Column::Temp, Column::Split];
 
-    /// Slot in [`Layout::pos`]: the four named columns first, then the joints.
+    /// Slot in [`Layout::pos`]: the three named columns, the reading columns, then the joints.
     fn index(self) -> usize {
         match self {
-            Column::L => 0,
-            Column::T => 1,
-            Column::Temp => 2,
-            Column::Split => 3,
-            Column::Q(j) => 4 + j,
+            Column::T => 0,
+            Column::Temp => 1,
+            Column::Split => 2,
+            Column::Reading(i) => 3 + i,
+            Column::Q(j) => 3 + reading_names().len() + j,
         }
     }
 
     fn name(self) -> String {
         match self {
             Column::Q(j) => format!("q{}", j + 1),
-            Column::L => "L".into(),
+            Column::Reading(i) => reading_names()[i].into(),
             Column::T => "t".into(),
             Column::Temp => "temp".into(),
             Column::Split => "split".into(),
         }
     }
 
+    /// The column of reading name `name`.
+    fn reading(name: &str) -> Column {
+        Column::Reading(reading_names().iter().position(|n| *n == name).expect("a registered reading column"))
+    }
+
     /// The column a header names: `q<k>` with 1 <= k <= [`MAX_JOINTS`] (case-insensitive,
-    /// digits only, no leading zero) or one of the named columns.
+    /// digits only, no leading zero), a reading column (`L`, `x`, ...) or one of the named
+    /// columns.
     fn from_header(h: &str) -> Option<Column> {
         let h = h.trim();
         if let Some(k) = h.strip_prefix(['q', 'Q']) {
@@ -468,6 +548,9 @@ impl Column {
                 Ok(k) if digits && (1..=MAX_JOINTS).contains(&k) => Some(Column::Q(k - 1)),
                 _ => None,
             };
+        }
+        if let Some(i) = reading_names().iter().position(|n| n.eq_ignore_ascii_case(h)) {
+            return Some(Column::Reading(i));
         }
         Self::OTHERS.into_iter().find(|c| c.name().eq_ignore_ascii_case(h))
     }
@@ -478,12 +561,14 @@ struct Layout {
     pos: Vec<Option<usize>>,
     /// Number of joint columns, `q1..qN`.
     joints: usize,
+    /// The instrument whose reading columns the header holds, if any.
+    measurement: Option<Measurement>,
 }
 
 impl Layout {
     fn new(header: &[String], source: &str, require_length: bool) -> Result<Layout> {
         let found = || header.join(",");
-        let mut pos = vec![None; 4 + MAX_JOINTS];
+        let mut pos = vec![None; 3 + reading_names().len() + MAX_JOINTS];
         for (i, h) in header.iter().enumerate() {
             if let Some(c) = Column::from_header(h) {
                 if let Some(first) = pos[c.index()] {
@@ -497,20 +582,33 @@ impl Layout {
         }
         // The joints are q1..qN with N the highest joint named; at least one is needed.
         let joints = (0..MAX_JOINTS).rev().find(|&j| pos[Column::Q(j).index()].is_some()).map_or(1, |j| j + 1);
-        let mut required: Vec<Column> = (0..joints).map(Column::Q).collect();
-        if require_length {
-            required.push(Column::L);
+        let complete: Vec<Measurement> =
+            Measurement::ALL.into_iter().filter(|m| m.def().columns().iter().all(|c| pos[Column::reading(c).index()].is_some())).collect();
+        if complete.len() > 1 {
+            let both = complete.iter().map(|m| format!("{} ({})", m.def().columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" and ");
+            return Err(Error::data(source, format!("line 1: the header holds the readings of two instruments, {both}; keep one; header found: {}", found())));
         }
-        let missing: Vec<String> = required.iter().filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
+        let measurement = complete.first().copied();
+        let mut missing: Vec<String> = (0..joints).map(Column::Q).filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
+        if measurement.is_none() {
+            // Name the columns of a partly given instrument (x and y without z), else L.
+            let partial = Measurement::ALL.into_iter().find(|m| m.def().columns().iter().any(|c| pos[Column::reading(c).index()].is_some()));
+            match partial {
+                Some(m) => missing.extend(m.def().columns().iter().filter(|c| pos[Column::reading(c).index()].is_none()).map(|c| c.to_string())),
+                None if require_length => missing.push("L".into()),
+                None => {}
+            }
+        }
         if !missing.is_empty() {
-            let need = if require_length { "need q1..qN and L, optional t, temp, split" } else { "need q1..qN, optional L, t, temp, split" };
+            let hint = reading_columns_hint();
+            let need = if require_length {
+                format!("need q1..qN and {hint}; optional t, temp, split")
+            } else {
+                format!("need q1..qN; optional {hint}, t, temp, split")
+            };
             return Err(Error::data(source, format!("missing required column(s) {}; header found: {} ({need})", missing.join(", "), found())));
         }
-        Ok(Layout { pos, joints })
-    }
-
-    fn has(&self, c: Column) -> bool {
-        self.pos[c.index()].is_some()
+        Ok(Layout { pos, joints, measurement })
     }
 
     fn cell<'a>(&self, row: &'a RawRow, c: Column) -> Option<&'a Cell> {
@@ -624,26 +722,17 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
                 return Err(cell_error(src, line, c, format!("joint angle {shown} is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)")));
             }
         }
-        let l_mm = if layout.has(Column::L) {
-            let l = cells.required(layout.cell(raw, Column::L), Column::L, line)?;
-            if l <= 0.0 {
-                return Err(cell_error(src, line, Column::L, format!("cable length must be positive, found {l}")));
+        let mut reading_mm = Vec::new();
+        if let Some(m) = layout.measurement {
+            for (k, name) in m.def().columns().iter().enumerate() {
+                let c = Column::reading(name);
+                let v = cells.required(layout.cell(raw, c), c, line)?;
+                if let Some(why) = m.def().implausible(k, v) {
+                    return Err(cell_error(src, line, c, why));
+                }
+                reading_mm.push(v);
             }
-            if l > MAX_L_MM {
-                return Err(cell_error(
-                    src,
-                    line,
-                    Column::L,
-                    format!(
-                        "cable length {l} mm is implausible (no draw-wire sensor measures more \
-                         than {MAX_L_MM} mm)"
-                    ),
-                ));
-            }
-            Some(l)
-        } else {
-            None
-        };
+        }
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
             check_bounds(t, (0.0, MAX_T_S), "time (s from the start of acquisition)", line, Column::T, src)?;
@@ -676,7 +765,7 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
         if split.is_none() && first_split_missing.is_none() {
             first_split_missing = Some(line);
         }
-        rows.push(Row { q_deg, l_mm, t_s, temp_c, split });
+        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.
@@ -730,16 +819,17 @@ fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
             ));
         }
     }
-    let max_l = rows.iter().filter_map(|r| r.l_mm).fold(None, |m: Option<f64>, l| Some(m.map_or(l, |m| m.max(l))));
-    if let Some(max_l) = max_l {
-        if max_l < METRES_MAX_L {
-            return Err(Error::data(
-                source,
-                format!(
-                    "column L looks like metres (every L < {METRES_MAX_L}, max {max_l}); L must \
-                     be in millimetres"
-                ),
-            ));
+    let max_abs = rows.iter().flat_map(|r| r.reading_mm.iter()).fold(None, |m: Option<f64>, v| Some(m.map_or(v.abs(), |m| m.max(v.abs()))));
+    let measurement = Measurement::ALL.into_iter().find(|m| rows.first().is_some_and(|r| r.reading_mm.len() == m.dim()));
+    if let (Some(max), Some(m)) = (max_abs, measurement) {
+        if max < METRES_MAX_L {
+            let cols = m.def().columns().join(", ");
+            let msg = if m.dim() == 1 {
+                format!("column {cols} looks like metres (every {cols} < {METRES_MAX_L}, max {max}); {cols} must be in millimetres")
+            } else {
+                format!("columns {cols} look like metres (every |value| < {METRES_MAX_L}, max {max}); they must be in millimetres")
+            };
+            return Err(Error::data(source, msg));
         }
     }
     Ok(())

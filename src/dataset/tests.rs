@@ -25,7 +25,7 @@ fn assert_contains(msg: &str, parts: &[&str]) {
 }
 
 fn row(q: [f64; 6], l: f64) -> Row {
-    Row { q_deg: q.to_vec(), l_mm: Some(l), t_s: None, temp_c: None, split: None }
+    Row { q_deg: q.to_vec(), reading_mm: vec![l], t_s: None, temp_c: None, split: None }
 }
 
 fn real_data_dir() -> PathBuf {
@@ -39,10 +39,10 @@ fn round_trip_is_exact() {
     let awkward = [0.1 + 0.2, -1.0 / 3.0, 719.999_999_999_999_9, 1e-300, -0.0, 123.456_789_012_345_68];
     let ds = Dataset {
         rows: vec![
-            Row { q_deg: awkward.to_vec(), l_mm: Some(350.07), t_s: Some(0.0), temp_c: Some(21.5), split: Some(Split::Train) },
+            Row { q_deg: awkward.to_vec(), reading_mm: vec![350.07], t_s: Some(0.0), temp_c: Some(21.5), split: Some(Split::Train) },
             Row {
                 q_deg: vec![1.405, -74.025, 220.99, -166.357, 41.989, 65.122],
-                l_mm: Some(std::f64::consts::PI * 100.0),
+                reading_mm: vec![std::f64::consts::PI * 100.0],
                 t_s: Some(0.1 + 0.2),
                 temp_c: Some(-3.25e-7),
                 split: Some(Split::Test),
@@ -105,7 +105,7 @@ fn header_is_case_insensitive_order_free_and_extra_columns_ignored() {
     let ds = parse(text).expect("load");
     assert_eq!(ds.rows.len(), 2);
     assert_eq!(ds.rows[0].q_deg, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
-    assert_eq!(ds.rows[0].l_mm, Some(350.5));
+    assert_eq!(ds.rows[0].l_mm(), Some(350.5));
     assert_eq!(ds.rows[0].split, Some(Split::Test));
     assert_eq!(ds.rows[0].temp_c, Some(20.5));
     assert_eq!(ds.rows[1].temp_c, Some(20.7));
@@ -268,7 +268,7 @@ fn check_real_pool(ds: &Dataset) {
     assert_eq!(ds.rows.len(), 1614);
     let first = &ds.rows[0];
     assert_eq!(first.q_deg[0], 1.405);
-    assert_eq!(first.l_mm, Some(350.07));
+    assert_eq!(first.l_mm(), Some(350.07));
     assert_eq!(first.q_deg, [1.405, -74.025, 220.99, -166.357, 41.989, 65.122]);
     assert!(first.t_s.is_none() && first.temp_c.is_none() && first.split.is_none());
     assert_eq!(ds.train_indices().len(), 1614);
@@ -326,9 +326,9 @@ fn semicolon_csv_with_decimal_commas_and_comments() {
     let ds = parse(text).expect("semicolon CSV");
     assert_eq!(ds.rows.len(), 2);
     assert_eq!(ds.rows[0].q_deg, [1.405, -74.025, 220.99, -166.357, 41.989, 65.122]);
-    assert_eq!(ds.rows[0].l_mm, Some(350.07));
+    assert_eq!(ds.rows[0].l_mm(), Some(350.07));
     assert_eq!(ds.rows[0].temp_c, Some(21.5));
-    assert_eq!(ds.rows[1].l_mm, Some(351.0));
+    assert_eq!(ds.rows[1].l_mm(), Some(351.0));
     // Line numbers still count the comment and blank lines.
     let msg = err("# c\nq1;q2;q3;q4;q5;q6;L\n# c\n1;2;3;4;5;6;x\n");
     assert_contains(&msg, &["line 4", "column L", "'x'"]);
@@ -338,7 +338,7 @@ fn semicolon_csv_with_decimal_commas_and_comments() {
     assert_contains(&msg, &["line 5", "found 6"]);
     // Tab-separated works the same way; a thousands separator is not a number.
     let ds = parse("q1\tq2\tq3\tq4\tq5\tq6\tL\n1\t2\t3\t4\t5\t6\t300,25\n").expect("tab CSV");
-    assert_eq!(ds.rows[0].l_mm, Some(300.25));
+    assert_eq!(ds.rows[0].l_mm(), Some(300.25));
     let msg = err("q1;q2;q3;q4;q5;q6;L\n1;2;3;4;5;6;1.300,25\n");
     assert_contains(&msg, &["line 2", "column L", "not a number"]);
     // In a comma-separated file a decimal comma is a field separator: the count is wrong.
@@ -408,7 +408,7 @@ fn poses_without_length() {
     assert_contains(&msg, &["missing required column(s) L"]);
     let ds = parse_with(text, &LoadOptions::poses()).expect("poses");
     assert_eq!(ds.rows.len(), 2);
-    assert!(ds.rows.iter().all(|r| r.l_mm.is_none()));
+    assert!(ds.rows.iter().all(|r| r.l_mm().is_none()));
     assert!(!ds.has_length());
     let msg = ds.require_length().expect_err("no L").to_string();
     assert_contains(&msg, &["test.csv", "no cable length L"]);
@@ -419,7 +419,7 @@ fn poses_without_length() {
     assert_eq!(parse_with(&out, &LoadOptions::poses()).expect("reload").rows, ds.rows);
     // With an L column present it must still be filled and valid; q1..q6 stay required.
     let with_l = parse_with(&format!("{HEADER}\n{GOOD}\n"), &LoadOptions::poses()).expect("L given");
-    assert_eq!(with_l.rows[0].l_mm, Some(350.07));
+    assert_eq!(with_l.rows[0].l_mm(), Some(350.07));
     assert!(with_l.has_length());
     assert_eq!(with_l.lengths_mm().expect("lengths"), vec![350.07]);
     let msg = parse_with(&format!("{HEADER}\n1,2,3,4,5,6,\n"), &LoadOptions::poses()).expect_err("empty L").to_string();
@@ -535,7 +535,7 @@ fn xlsx_built_in_test_reads() {
     let ds = Dataset::load(&path).expect("load xlsx");
     assert_eq!(ds.rows.len(), 12);
     assert_eq!(ds.rows[3].q_deg, [3.0, -74.0, 223.0, -166.0, 41.0, 65.0]);
-    assert_eq!(ds.rows[3].l_mm, Some(353.5));
+    assert_eq!(ds.rows[3].l_mm(), Some(353.5));
     assert!(ds.source.ends_with("ok.xlsx#Sheet1"), "{}", ds.source);
 }
 
@@ -573,7 +573,7 @@ fn xlsx_stray_cell_far_away_is_not_a_dense_allocation() {
     write_xlsx(&path, &XLSX_HEADER, "A1:XFD1048576", &xml);
     let ds = Dataset::load(&path).expect("far-right table");
     assert_eq!(ds.rows.len(), 1);
-    assert_eq!(ds.rows[0].l_mm, Some(610.0));
+    assert_eq!(ds.rows[0].l_mm(), Some(610.0));
 }
 
 #[test]
@@ -632,7 +632,7 @@ fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
         for &q in &r.q_deg {
             assert!(q.is_finite() && q.abs() <= MAX_ABS_JOINT_DEG, "q = {q}");
         }
-        match r.l_mm {
+        match r.l_mm() {
             Some(l) => assert!(l.is_finite() && l > 0.0 && l <= MAX_L_MM, "L = {l}"),
             None => assert!(!opts.require_length, "L missing although required"),
         }
@@ -645,7 +645,7 @@ fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
         }
     }
     // L is all or nothing, and so is the split.
-    assert!(ds.rows.iter().all(|r| r.l_mm.is_some()) || ds.rows.iter().all(|r| r.l_mm.is_none()));
+    assert!(ds.rows.iter().all(|r| r.l_mm().is_some()) || ds.rows.iter().all(|r| r.l_mm().is_none()));
     assert!(ds.rows.iter().all(|r| r.split.is_some()) || ds.rows.iter().all(|r| r.split.is_none()));
     if opts.require_length {
         assert!(ds.has_length());
@@ -783,4 +783,35 @@ fn a_time_or_temperature_column_with_gaps_is_refused_and_an_empty_one_is_no_colu
     assert_contains(&msg, &["line 2", "column t", "empty t value"]);
     let ds = parse("q1,q2,q3,q4,q5,q6,L,t,temp\n1,2,3,4,5,6,300,,21\n1,2,3,4,5,7,301,,22\n").expect("t empty everywhere");
     assert!(ds.rows.iter().all(|r| r.t_s.is_none() && r.temp_c.is_some()));
+}
+
+#[test]
+fn a_tracker_file_reads_its_points_and_round_trips() {
+    let text = "row,q1,q2,q3,q4,q5,q6,x,y,z,x_target,temp\n0,1,2,3,4,5,6,412.5,-30.25,601,412.4,21.5\n1,2,3,4,5,6,7,-410,31.125,-2.5,1,21.6\n";
+    let ds = parse(text).unwrap();
+    assert_eq!(ds.measurement(), Some(Measurement::Point));
+    assert_eq!(ds.rows[0].reading_mm, vec![412.5, -30.25, 601.0]);
+    assert_eq!(ds.rows[1].l_mm(), None, "a point is not a cable length");
+    assert!(ds.has_readings() && !ds.has_length());
+    let again = Dataset::from_csv_reader(ds.to_csv_string().as_bytes(), "again.csv").unwrap();
+    assert_eq!(again.rows, ds.rows);
+    assert!(ds.to_csv_string().starts_with("q1,q2,q3,q4,q5,q6,x,y,z,temp\n"), "{}", ds.to_csv_string());
+    // A command that reads cable lengths names what the file holds instead.
+    assert_contains(&ds.require_length().unwrap_err().to_string(), &["laser-tracker target position (x, y, z)", "cable length L"]);
+}
+
+#[test]
+fn tracker_columns_are_checked_like_lengths() {
+    // x and y without z: the missing coordinate is named.
+    assert_contains(&err("q1,q2,q3,q4,q5,q6,x,y\n1,2,3,4,5,6,7,8\n"), &["missing required column(s) z"]);
+    // Two instruments in one file.
+    assert_contains(&err("q1,q2,q3,q4,q5,q6,L,x,y,z\n1,2,3,4,5,6,500,1,2,3\n"), &["two instruments", "L (draw-wire cable length)", "x, y, z"]);
+    // Points in metres.
+    let metres: String = (0..12).map(|i| format!("{i},2,3,4,5,6,0.4,-0.{i},0.6\n")).collect();
+    assert_contains(&err(&format!("q1,q2,q3,q4,q5,q6,x,y,z\n{metres}")), &["x, y, z look like metres", "millimetres"]);
+    // An empty or implausible coordinate names its line and column.
+    assert_contains(&err("q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3,4,5,6,400,,600\n"), &["line 2, column y", "empty cell"]);
+    assert_contains(&err("q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3,4,5,6,400,1e6,600\n"), &["line 2, column y", "implausible"]);
+    // Without readings the hint names both instruments.
+    assert_contains(&err("q1,q2,q3,q4,q5,q6\n1,2,3,4,5,6\n"), &["missing required column(s) L", "x, y, z (laser-tracker target position)"]);
 }

@@ -11,7 +11,7 @@
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
 use crate::calib::inputs::{row_inputs, LoadOptions, TorqueModel};
 use crate::calib::model::{CalibModel, SensorGuess};
-use crate::calib::problem::{LengthFit, Samples};
+use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::{Dataset, Row};
 use crate::error::{Error, Result};
 use crate::generate::{acquisition_times, sample_poses};
@@ -88,7 +88,7 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
         .zip(&t)
         .map(|(qi, ti)| Row {
             q_deg: qi.iter().map(|v| v.to_degrees()).collect(),
-            l_mm: None,
+            reading_mm: Vec::new(),
             t_s: Some(*ti),
             temp_c: Some(th.ambient_c + th.delta_t(*ti)),
             split: None,
@@ -108,11 +108,11 @@ pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Opti
     let ref_c = data.rows[0].temp_c.unwrap_or(21.0);
     model.add_effect(block(kind, joint, ref_c), 0.0);
     let loads = LoadOptions { cable_tension_n: sn.tension_n, ..Default::default() };
-    let torque = TorqueModel::new(robot, &loads, sn.exit_point_m(), sn.tool_point_m());
+    let torque = TorqueModel::new(robot, &loads, Some(sn.exit_point_m()), sn.tool_point_m());
     let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
     let mut samples = Samples::new(q, vec![0.0; data.rows.len()]);
     samples.inputs = row_inputs(&data, Some(&torque));
-    let fit = LengthFit { model: &model, data: &samples };
+    let fit = ReadingFit { model: &model, data: &samples };
     let mut j = DMatrix::zeros(samples.len(), model.n_params());
     LeastSquares::jacobian(&fit, &model.nominal, &mut j);
     let k = model.effect_params(0).start;

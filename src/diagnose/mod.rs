@@ -23,7 +23,7 @@ pub mod hidden;
 use crate::calib::effects::{EffectBlock, EffectKind, Size};
 use crate::calib::inputs::{block_for, time_span, LoadOptions};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::{LengthFit, Samples};
+use crate::calib::problem::{ReadingFit, Samples};
 use crate::calib::run::{identify, CalibOptions, Method, ModelSpec};
 use crate::calib::stats::nested_f_test;
 use crate::dataset::Dataset;
@@ -328,7 +328,7 @@ impl Ctx {
     /// Fits `model` from `x0` on every selection row (identifiable parameters only), then the
     /// held-out residual of each fold from a fit on the other folds.
     fn evaluate(&self, model: CalibModel, x0: &[f64]) -> Fitted {
-        let fit = LengthFit { model: &model, data: &self.data };
+        let fit = ReadingFit { model: &model, data: &self.data };
         let (x, fixed) = refit(&model, &self.data, x0, self.rank_tol);
         let oof = self.heldout(&model, &x, &fixed, &self.folds);
         let rss = fit.residuals_mm(&x).iter().map(|r| r * r).sum();
@@ -344,8 +344,8 @@ impl Ctx {
             .map(|fold| {
                 let train: Vec<usize> = (0..self.data.len()).filter(|i| !fold.contains(i)).collect();
                 let tr = self.data.subset(&train);
-                let xf = Self::lm().minimize(&LengthFit { model, data: &tr }, x, fixed, &mut NoObserver).x;
-                LengthFit { model, data: &self.data.subset(fold) }.residuals_mm(&xf)
+                let xf = Self::lm().minimize(&ReadingFit { model, data: &tr }, x, fixed, &mut NoObserver).x;
+                ReadingFit { model, data: &self.data.subset(fold) }.residuals_mm(&xf)
             })
             .collect();
         let mut oof = vec![0.0; self.data.len()];
@@ -361,7 +361,7 @@ impl Ctx {
 /// The parameters of `model` that `data` identify at `x0` (the rest stay fixed there), and the
 /// LM fit of those from `x0`: (fitted vector, fixed mask).
 fn refit(model: &CalibModel, data: &Samples, x0: &[f64], rank_tol: f64) -> (Vec<f64>, Vec<bool>) {
-    let fit = LengthFit { model, data };
+    let fit = ReadingFit { model, data };
     let fixed = identify(&fit, x0, rank_tol).fixed_mask;
     (Ctx::lm().minimize(&fit, x0, &fixed, &mut NoObserver).x, fixed)
 }
@@ -376,7 +376,7 @@ fn size_check(f: &Fitted, data: &Samples) -> (f64, bool) {
     let b = f.model.effects.len() - 1;
     let block = &f.model.effects[b];
     let range = f.model.effect_params(b);
-    let cov = covariance(&LengthFit { model: &f.model, data }, &f.x, &f.fixed);
+    let cov = covariance(&ReadingFit { model: &f.model, data }, &f.x, &f.fixed);
     let Size { value: mag, uncertainty: unc, .. } = magnitude(block, &f.x, cov.as_ref(), range.clone());
     let sign_ok = block.kind.def().physical_sign(&f.x, range.start);
     let ratio = if unc > 0.0 { mag.abs() / unc } else { 0.0 };
@@ -424,7 +424,7 @@ fn evidence(data: &Samples, residual: &[f64], has_torques: bool) -> Vec<Evidence
     if data.inputs.iter().all(|r| r.temp_c.is_some()) {
         feats.push(("temp".into(), col(&|i| data.inputs[i].temp_c.unwrap_or(0.0))));
     }
-    feats.push(("L".into(), data.l.clone()));
+    feats.push(("L".into(), data.y.clone()));
     let mut ev: Vec<Evidence> = feats.into_iter().map(|(f, v)| Evidence { feature: f, correlation: pearson(residual, &v) }).collect();
     ev.sort_by(|a, b| b.correlation.abs().total_cmp(&a.correlation.abs()));
     ev
@@ -488,7 +488,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let screen = crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
     let (keep, mut outliers, mut outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
     // Readings in a reading step are taken corrected by its offset from here on.
-    all.l = screen.corrected.l;
+    all.y = screen.corrected.y;
     for s in &reading_steps {
         progress(&format!("reading step: rows {}-{} read {:+.2} ± {:.2} mm off; corrected and kept", s.first_row, s.last_row, s.offset_mm, s.std_mm));
     }
@@ -519,7 +519,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     } else {
         ("blocked", format!("blocked and interleaved held-out RMSE of the geometric model agree ({rmse_blocked:.4} / {rmse_interleaved:.4} mm): time-dependent effects must extrapolate across blocks"))
     };
-    let base_in = LengthFit { model: &baseline.model, data: &ctx.data }.residuals_mm(&baseline.x);
+    let base_in = ReadingFit { model: &baseline.model, data: &ctx.data }.residuals_mm(&baseline.x);
     let evidence = evidence(&ctx.data, &base_in, has_torques);
     progress(&format!(
         "geometric baseline: held-out RMSE {rmse_blocked:.4} mm (blocked folds), {rmse_interleaved:.4} mm (interleaved); judged on {judged_on} folds"
@@ -594,7 +594,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     // the list (it and what came after are reported as unconfirmed).
     let conf_rmse: Vec<f64> = chain
         .iter()
-        .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&LengthFit { model: &f.model, data: &confirmation }.residuals_mm(&f.x)) })
+        .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&ReadingFit { model: &f.model, data: &confirmation }.residuals_mm(&f.x)) })
         .collect();
     let confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
     let unconfirmed: Vec<String> = found[confirmed..].iter().map(|f| f.0.label()).collect();
@@ -611,7 +611,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     // row that a cause pushes far from it looks like a glitch. Rows the model with its causes
     // predicts within the same threshold (around the kept rows' residuals) are explained, not
     // outliers: they rejoin the rows of the final fit, and are listed.
-    let res_all = LengthFit { model: &current.model, data: &all }.residuals_mm(&current.x);
+    let res_all = ReadingFit { model: &current.model, data: &all }.residuals_mm(&current.x);
     let kept_res: Vec<f64> = keep.iter().map(|&i| res_all[i]).collect();
     let (med, scale) = crate::calib::stats::robust_scale(&kept_res);
     let explained: Vec<usize> = if current.model.effects.is_empty() {
@@ -633,7 +633,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         (all.subset(&keep), Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() })
     };
     let explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).collect();
-    let fit = LengthFit { model: &current.model, data: &kept };
+    let fit = ReadingFit { model: &current.model, data: &kept };
     let final_id = identify(&fit, &current.x, opts.rank_tol);
     let final_x = Ctx::lm().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
     let cov = covariance(&fit, &final_x, &final_id.fixed_mask);
@@ -763,7 +763,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
     let rbf_fit = |rows: &[usize], model: &CalibModel, x: &[f64]| -> Option<(Vec<f64>, RbfNetwork)> {
         let tr = ctx.data.subset(rows);
         let xf = refit(model, &tr, x, ctx.rank_tol).0;
-        let res = LengthFit { model, data: &tr }.residuals_mm(&xf);
+        let res = ReadingFit { model, data: &tr }.residuals_mm(&xf);
         let (net, _) = RbfNetwork::fit_cv(&tr.q, &res, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed).ok()?;
         Some((xf, net))
     };
@@ -774,7 +774,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
             let train: Vec<usize> = (0..n).filter(|i| !fold.contains(i)).collect();
             let (xf, net) = rbf_fit(&train, &geo.model, &geo.x)?;
             let te = ctx.data.subset(fold);
-            let r = LengthFit { model: &geo.model, data: &te }.residuals_mm(&xf);
+            let r = ReadingFit { model: &geo.model, data: &te }.residuals_mm(&xf);
             Some(r.iter().zip(&te.q).map(|(ri, q)| ri - net.predict(q)).collect())
         })
         .collect();
@@ -796,10 +796,10 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
     let te = ctx.data.subset(&test);
     // The geometric fit on the training part serves both the geometric model and the RBF.
     let (xg, net) = rbf_fit(&train, &geo.model, &geo.x)?;
-    let r = LengthFit { model: &geo.model, data: &te }.residuals_mm(&xg);
+    let r = ReadingFit { model: &geo.model, data: &te }.residuals_mm(&xg);
     let rbf_ex = rms(&r.iter().zip(&te.q).map(|(ri, q)| ri - net.predict(q)).collect::<Vec<_>>());
     let xe = refit(&ext.model, &ctx.data.subset(&train), &ext.x, ctx.rank_tol).0;
-    let ext_ex = rms(&LengthFit { model: &ext.model, data: &te }.residuals_mm(&xe));
+    let ext_ex = rms(&ReadingFit { model: &ext.model, data: &te }.residuals_mm(&xe));
     Some(Comparison {
         heldout_rmse_mm: [rms(&geo.oof), rms(&ext.oof), rms(&rbf_oof)],
         q2_split_deg: split.to_degrees(),
@@ -817,7 +817,7 @@ mod tests {
         let rows = (0..20)
             .map(|i| {
                 let a = i as f64;
-                Row { q_deg: vec![a, -a, 2.0 * a, 0.5 * a, 10.0 - a, a], l_mm: Some(500.0 + a), t_s: Some(10.0 * a), temp_c: None, split: None }
+                Row { q_deg: vec![a, -a, 2.0 * a, 0.5 * a, 10.0 - a, a], reading_mm: vec![500.0 + a], t_s: Some(10.0 * a), temp_c: None, split: None }
             })
             .collect();
         Dataset { rows, source: "test".into() }

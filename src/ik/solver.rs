@@ -136,7 +136,9 @@ pub struct IkModel<'a> {
 
 impl<'a> IkModel<'a> {
     pub fn new(model: &'a CalibModel, x: &'a [f64], corrector: Option<&'a dyn Correct>, limits: Vec<(f64, f64)>) -> IkModel<'a> {
-        let exit = model.placement(x).exit;
+        // A corrector corrects a cable length (result files are checked for it), so only a
+        // draw-wire model has a direction to apply it along.
+        let exit = model.placement(x).exit().unwrap_or_else(Vector3::zeros);
         let mut m = IkModel { model, x, corrector, limits, inp: RowInputs::default(), exit, reach_mm: f64::INFINITY };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let mut w = model.work();

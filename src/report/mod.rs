@@ -10,7 +10,7 @@ pub mod ticks;
 pub mod verdict;
 
 use crate::calib::model::Kind;
-use crate::calib::problem::{LengthFit, Samples};
+use crate::calib::problem::{ReadingFit, Samples};
 use crate::calib::run::{CalibOptions, CalibResult};
 use crate::dataset::Dataset;
 use crate::error::Result;
@@ -31,7 +31,7 @@ pub fn features(data: &Dataset) -> Vec<Feature> {
     let mut f: Vec<Feature> = (0..data.n_joints())
         .map(|j| Feature { name: format!("q{}", j + 1), label: format!("q{} (deg)", j + 1), values: data.rows.iter().map(|r| r.q_deg[j]).collect() })
         .collect();
-    f.push(Feature { name: "L".into(), label: "measured length L (mm)".into(), values: data.rows.iter().map(|r| r.l_mm.unwrap_or(f64::NAN)).collect() });
+    f.push(Feature { name: "L".into(), label: "measured length L (mm)".into(), values: data.rows.iter().map(|r| r.l_mm().unwrap_or(f64::NAN)).collect() });
     if data.rows.iter().all(|r| r.t_s.is_some()) {
         f.push(Feature { name: "t".into(), label: "acquisition time t (s)".into(), values: data.rows.iter().map(|r| r.t_s.unwrap_or(f64::NAN)).collect() });
     }
@@ -135,7 +135,7 @@ fn mm3(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
 fn tool_points_and_exit(r: &CalibResult, s: &Samples) -> (Vec<[f64; 3]>, [f64; 3]) {
     let mut w = r.model.work();
     let tool_mm = (0..s.len()).map(|i| mm3(&r.model.tool_point_with(&r.x, &s.q[i], &s.inputs[i], &mut w))).collect();
-    (tool_mm, mm3(&r.model.placement(&r.x).exit))
+    (tool_mm, mm3(&r.model.placement(&r.x).exit().unwrap_or_else(nalgebra::Vector3::zeros)))
 }
 
 /// Every row of `data` as samples with the model's per-row inputs (torques, flanks, time).
@@ -144,14 +144,6 @@ fn all_samples(r: &CalibResult, data: &Dataset) -> Samples {
     let mut s = crate::calib::run::samples(data, &all);
     s.inputs = crate::calib::inputs::row_inputs(data, r.torque_model.as_ref());
     s
-}
-
-fn subset(s: &Samples, idx: &[usize]) -> Samples {
-    Samples {
-        q: idx.iter().map(|&i| s.q[i].clone()).collect(),
-        l: idx.iter().map(|&i| s.l[i]).collect(),
-        inputs: idx.iter().map(|&i| s.inputs[i].clone()).collect(),
-    }
 }
 
 use crate::calib::stats::rms;
@@ -174,7 +166,7 @@ fn arm_pose(r: &CalibResult, x: &[f64], s: &Samples, row: usize) -> Option<ArmPo
 
 /// Measured minus predicted length (mm) of every row, every effect and corrector included.
 pub fn residuals_after(r: &CalibResult, data: &Dataset) -> Vec<f64> {
-    data.rows.iter().zip(r.predict_rows(data)).map(|(row, p)| row.l_mm.unwrap_or(f64::NAN) - p).collect()
+    data.rows.iter().zip(r.predict_rows(data)).map(|(row, p)| row.l_mm().unwrap_or(f64::NAN) - p).collect()
 }
 
 impl CalibFigures {
@@ -193,16 +185,16 @@ impl CalibFigures {
             train[i] = true;
         }
         let x0 = &r.model.nominal;
-        let before_mm = LengthFit { model: &r.model, data: &s }.residuals_mm(x0);
-        let after_mm: Vec<f64> = residuals_after(r, data).iter().zip(raw.l.iter().zip(&s.l)).map(|(v, (a, b))| v - (a - b) * 1e3).collect();
+        let before_mm = ReadingFit { model: &r.model, data: &s }.residuals_mm(x0);
+        let after_mm: Vec<f64> = residuals_after(r, data).iter().zip(raw.y.iter().zip(&s.y)).map(|(v, (a, b))| v - (a - b) * 1e3).collect();
         let (tool_mm, exit_mm) = tool_points_and_exit(r, &s);
 
         // Convergence: the start, then every iteration the optimiser reported.
         let to_internal = |xs: &[f64]| -> Vec<f64> { xs.iter().enumerate().map(|(k, v)| v / r.model.kinds[k].display()).collect() };
         let mut xs: Vec<Vec<f64>> = vec![x0.clone()];
         xs.extend(r.history.iter().filter(|h| h.len() == x0.len()).map(|h| to_internal(h)));
-        let (tr, te) = (subset(&s, &train_idx), subset(&s, &test_idx));
-        let (ftr, fte) = (LengthFit { model: &r.model, data: &tr }, LengthFit { model: &r.model, data: &te });
+        let (tr, te) = (s.subset(&train_idx), s.subset(&test_idx));
+        let (ftr, fte) = (ReadingFit { model: &r.model, data: &tr }, ReadingFit { model: &r.model, data: &te });
         let mut conv = Convergence::default();
         let mut test = Vec::new();
         for x in &xs {
@@ -290,7 +282,7 @@ impl DiagnosisFigures {
     pub fn new(d: &crate::diagnose::Diagnosis, r: &CalibResult, data: &Dataset) -> DiagnosisFigures {
         let all: Vec<usize> = (0..data.rows.len()).collect();
         let s = crate::calib::robust::apply_steps(&all_samples(r, data), &all, &d.reading_steps);
-        let fit = LengthFit { model: &r.model, data: &s };
+        let fit = ReadingFit { model: &r.model, data: &s };
         let after_mm = fit.residuals_mm(&r.x);
         let first = r.model.first_effect();
         let mut x_geo = r.x.clone();

@@ -48,7 +48,7 @@ pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
         .iter()
         .map(|r| {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            r.l_mm.unwrap_or(f64::NAN) - crate::generate::nominal_length(chain, &g.twin.sensor, &q)
+            r.l_mm().unwrap_or(f64::NAN) - crate::generate::nominal_length(chain, &g.twin.sensor, &q)
         })
         .collect()
 }

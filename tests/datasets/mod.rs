@@ -10,7 +10,7 @@ pub fn test_lengths_scrambled(ds: &Dataset) -> Dataset {
         .iter()
         .enumerate()
         .map(|(i, r)| match r.split {
-            Some(Split::Test) => Row { l_mm: r.l_mm.map(|l| l + if i % 2 == 0 { 0.5 } else { -0.7 }), ..r.clone() },
+            Some(Split::Test) => Row { reading_mm: r.reading_mm.iter().map(|l| l + if i % 2 == 0 { 0.5 } else { -0.7 }).collect(), ..r.clone() },
             _ => r.clone(),
         })
         .collect();

@@ -22,7 +22,10 @@ impl Effect for SensorNonlinearity {
         (2..=4).map(|k| (format!("sensor_nl.p{k}"), EffectUnit::Length)).collect()
     }
     fn configure(&self, b: &mut EffectBlock, data: &Dataset, _has_torques: bool) -> Result<()> {
-        let (lo, hi) = data.rows.iter().filter_map(|r| r.l_mm).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), l| (a.min(l), b.max(l)));
+        if let Some(m) = data.measurement().filter(|m| *m != crate::measurement::Measurement::Length) {
+            return Err(Error::Invalid(format!("sensor_nonlinearity is a draw-wire's reading error; these rows hold a {}", m.def().describe())));
+        }
+        let (lo, hi) = data.rows.iter().filter_map(|r| r.l_mm()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), l| (a.min(l), b.max(l)));
         if !(lo < hi) {
             return Err(Error::Invalid("sensor_nonlinearity needs measured lengths over a range".into()));
         }
