@@ -86,3 +86,71 @@ fn a_tracker_point_dataset_calibrates_to_its_noise_on_unseen_rows() {
         eprintln!("seed {seed}: held-out RMS {before:.3} -> {after:.4} mm (noise {noise_mm} mm), true error {true_error:.4} mm");
     }
 }
+
+fn twincal(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).output().expect("runs")
+}
+
+/// A tracker dataset as a user has it (`q1..q6`, `x, y, z` in mm, tracker frame) goes through
+/// the commands: `calibrate` reaches the noise on its held-out rows, `predict` writes each
+/// coordinate with its residual, and what reads cable lengths only says so (exit 2).
+#[test]
+fn the_commands_take_a_tracker_dataset() {
+    let robot = Robot::irb120();
+    let cable = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+    let tracker = Placement { measurement: Measurement::Point, own: vec![1.8, 0.6, -0.2, -0.01, 0.02, -2.1], tool: Vector3::new(-0.025, 0.03, 0.07) };
+    let truth = CalibModel::dh(&robot, &cable, true).with_placement(&tracker);
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut x = truth.nominal.clone();
+    let nc = truth.n_chain();
+    for (v, kind) in x[..nc].iter_mut().zip(&truth.kinds) {
+        *v = if *kind == twincal::calib::model::Kind::Length { 0.5e-3 } else { 0.1f64.to_radians() } * gauss(&mut rng);
+    }
+    let limits = robot.limits();
+    let mut w = truth.work();
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+    for _ in 0..240 {
+        let q: Vec<f64> = limits.iter().map(|(lo, hi)| lo + (hi - lo) * (0.15 + 0.7 * rng.random::<f64>())).collect();
+        let mut y = [0.0; 3];
+        truth.readings_with(&x, &q, &Default::default(), &mut w, &mut y);
+        let cells: Vec<String> =
+            q.iter().map(|v| format!("{:.6}", v.to_degrees())).chain(y.iter().map(|v| format!("{:.4}", (v + NOISE_M * gauss(&mut rng)) * 1e3))).collect();
+        text.push_str(&(cells.join(",") + "\n"));
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("tracker.csv");
+    std::fs::write(&data, text).unwrap();
+    let (data, result, pred) = (data.to_str().unwrap(), dir.path().join("r.json"), dir.path().join("p.csv"));
+    let out = twincal(&["calibrate", "--data", data, "--test-fraction", "0.25", "--out", result.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("per coordinate (x, y, z)") && err.contains("position error"), "{err}");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
+    let test = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+    assert!(test < 1.2 * NOISE_M * 1e3, "held-out RMSE {test} mm vs noise {} mm\n{err}", NOISE_M * 1e3);
+    assert_eq!(r["model"]["measurement"], "point");
+
+    let out = twincal(&["predict", "--model", result.to_str().unwrap(), "--data", data, "--out", pred.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(&pred).unwrap();
+    assert!(csv.starts_with("q1,q2,q3,q4,q5,q6,x,y,z,x_pred,y_pred,z_pred,x_residual,y_residual,z_residual\n"), "{}", &csv[..200]);
+    assert_eq!(csv.lines().count(), 241);
+
+    // What reads cable lengths only, or draws a draw-wire, names what the file holds.
+    for (args, says) in [
+        (vec!["calibrate", "--data", data, "--method", "rbf", "--out", "/dev/null/x.json"], "rbf learns a correction of one reading value per row"),
+        (vec!["calibrate", "--data", data, "--report", "/dev/null/x.html", "--out", "/dev/null/x.json"], "--report draws a draw-wire"),
+        (vec!["calibrate", "--data", data, "--sensor-guess", "1,2,3,4,5,6,7", "--out", "/dev/null/x.json"], "--sensor-guess places a draw-wire"),
+        (vec!["calibrate", "--data", data, "--model", "generic6r", "--out", "/dev/null/x.json"], "needs a nominal arm"),
+        (
+            vec!["calibrate", "--data", data, "--effects", "sensor_nonlinearity", "--out", "/dev/null/x.json"],
+            "sensor_nonlinearity is a draw-wire's reading error",
+        ),
+        (vec!["diagnose", "--data", data, "--result", "/dev/null/x.json"], "laser-tracker target position (x, y, z)"),
+    ] {
+        let out = twincal(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says) && !err.contains("panicked"), "{args:?}: {err}");
+    }
+}

@@ -41,7 +41,6 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
         c.forward(&vec![0.0; c.n_joints], &vec![0.0; c.n_params()], 1.0, &mut ws);
         (0..c.n_joints).map(|j| c.frame(&ws, j + 1)).collect()
     });
-    let s = &x[model.n_chain()..];
     let mut out = String::new();
     let _ = writeln!(out, "<?xml version=\"1.0\"?>");
     let _ = writeln!(out, "<!-- Calibrated by twincal ({} model). Units: m, rad, kg. -->", model.name);
@@ -90,9 +89,20 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
         );
     };
     fixed(&mut out, "flange", &parent, &flange.relative_to(&parent_frame));
-    fixed(&mut out, "cable_tool_point", "flange", &Frame { rot: nalgebra::Matrix3::identity(), pos: Vector3::new(s[4], s[5], s[6]) });
-    fixed(&mut out, "cable_exit_point", "base_link", &Frame { rot: nalgebra::Matrix3::identity(), pos: Vector3::new(s[0], s[1], s[2]) });
-    let _ = writeln!(out, "  <!-- draw-wire length offset: {} m -->", s[3]);
+    let placement = model.placement(x);
+    match placement.exit() {
+        Some(exit) => {
+            fixed(&mut out, "cable_tool_point", "flange", &Frame { rot: nalgebra::Matrix3::identity(), pos: placement.tool });
+            fixed(&mut out, "cable_exit_point", "base_link", &Frame { rot: nalgebra::Matrix3::identity(), pos: exit });
+            let _ = writeln!(out, "  <!-- draw-wire length offset: {} m -->", placement.own[3]);
+        }
+        None => {
+            fixed(&mut out, "tracker_target", "flange", &Frame { rot: nalgebra::Matrix3::identity(), pos: placement.tool });
+            let names = model.measurement.placement_names();
+            let own: Vec<String> = names.iter().zip(&placement.own).map(|(n, v)| format!("{n} = {v}")).collect();
+            let _ = writeln!(out, "  <!-- {} placement (m, rad): {} -->", model.measurement.def().describe(), own.join(", "));
+        }
+    }
     let _ = writeln!(out, "</robot>");
     out
 }

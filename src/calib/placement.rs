@@ -3,12 +3,14 @@
 //! nominal tool points, then exit point, offset and tool point by a sensor-only least-squares fit;
 //! for the generic 6R model, a global search for the whole structure ([`super::generic`]).
 
-use super::model::{CalibModel, SensorGuess};
+use super::model::{CalibModel, Placement, SensorGuess};
 use super::problem::{ReadingFit, Samples};
 use super::run::{CalibOptions, ModelSpec};
 use crate::error::{Error, Result};
 use crate::measurement::length::multilaterate;
+use crate::measurement::Measurement;
 use crate::optim::{LevenbergMarquardt, NoObserver};
+use nalgebra::Vector3;
 
 /// The calibration model of `spec` with the sensor at `guess`.
 pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
@@ -23,10 +25,30 @@ pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
 }
 
 /// The starting model: nominal geometry and a sensor guess (given, or multilaterated and
-/// aligned), or for the generic model a global search from broad bounds.
+/// aligned), or for the generic model a global search from broad bounds. Another instrument
+/// than the draw-wire (a tracker's points) is located from the nominal flange points
+/// ([`Instrument::locate`](crate::measurement::Instrument::locate)) and aligned the same way.
 pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> {
     let spec = &opts.model;
     let zero_guess = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+    let measurement = Measurement::of_dim(train.dim).unwrap_or_default();
+    if measurement != Measurement::Length {
+        let what = measurement.def().describe();
+        if opts.sensor_guess.is_some() {
+            return Err(Error::Invalid(format!("--sensor-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
+        }
+        let ModelSpec::Nominal { .. } = spec else {
+            return Err(Error::Invalid(format!("the generic model (generic6r) searches a draw-wire set-up; a {what} needs a nominal arm (irb120 or a URDF)")));
+        };
+        let m = build_model(spec, &zero_guess);
+        let mut w = m.work();
+        let pts: Vec<_> = train.q.iter().map(|q| m.tool_point(&m.nominal, q, &mut w)).collect();
+        let own = measurement.def().locate(&pts, &train.y).ok_or_else(|| {
+            Error::Calibration(format!("cannot place the instrument ({what}) from the nominal arm: need at least 3 poses whose points are not on one line"))
+        })?;
+        let model = m.with_placement(&Placement { measurement, own, tool: Vector3::zeros() });
+        return Ok(align_placement(model, train));
+    }
     match spec {
         // The generic model's start is its search over arm topologies, which places the sensor
         // for each candidate arm; a fixed guess with no arm around it (the old all-zero D-H
@@ -46,20 +68,24 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
                     SensorGuess { exit_m: e, offset_m: c, tool_m: [0.0; 3] }
                 }
             };
-            // Then align the sensor alone (exit point, offset, tool point) to the nominal robot,
-            // so that every method starts from "nominal kinematics, best-fitting sensor" and the
-            // identifiability analysis sees a realistic tool point.
-            let mut model = build_model(spec, &guess);
-            let nc = model.n_chain();
-            let fixed: Vec<bool> = (0..model.n_params()).map(|k| k < nc).collect();
-            let fit = ReadingFit { model: &model, data: train };
-            let lm = LevenbergMarquardt::budget(200);
-            let x = lm.minimize(&fit, &model.nominal, &fixed, &mut NoObserver).x;
-            if x.iter().all(|v| v.is_finite()) {
-                model.nominal = x;
-            }
-            Ok(model)
+            Ok(align_placement(build_model(spec, &guess), train))
         }
         ModelSpec::Generic6r => super::generic::search(train, opts),
     }
+}
+
+/// Aligns the instrument alone (its own placement and the tool point) to the nominal robot, so
+/// that every method starts from "nominal kinematics, best-fitting instrument" and the
+/// identifiability analysis sees a realistic tool point (a tool point on the last axis would
+/// hide that axis' direction).
+fn align_placement(mut model: CalibModel, train: &Samples) -> CalibModel {
+    let nc = model.n_chain();
+    let fixed: Vec<bool> = (0..model.n_params()).map(|k| k < nc).collect();
+    let fit = ReadingFit { model: &model, data: train };
+    let lm = LevenbergMarquardt::budget(200);
+    let x = lm.minimize(&fit, &model.nominal, &fixed, &mut NoObserver).x;
+    if x.iter().all(|v| v.is_finite()) {
+        model.nominal = x;
+    }
+    model
 }

@@ -321,19 +321,42 @@ impl CalibResult {
         Ok(())
     }
 
-    /// Predicted lengths (mm) of every row of a dataset (rows in acquisition order: backlash
+    /// Predicted readings (mm, [`Measurement::dim`](crate::measurement::Measurement::dim) values
+    /// per row, row after row) of every row of a dataset (rows in acquisition order: backlash
     /// flanks follow the order), every effect and corrector included.
     pub fn predict_rows(&self, data: &Dataset) -> Vec<f64> {
         let inputs = super::inputs::row_inputs(data, self.torque_model.as_ref());
         let mut w = self.model.work();
-        data.rows
-            .iter()
-            .zip(&inputs)
-            .map(|(r, inp)| {
-                let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-                self.model.predict_with(&self.x, &q, inp, &mut w) * 1e3 + self.correction_mm(&q, inp)
-            })
-            .collect()
+        let mut y = vec![0.0; self.model.measurement.dim()];
+        let mut out = Vec::with_capacity(data.rows.len() * y.len());
+        for (r, inp) in data.rows.iter().zip(&inputs) {
+            let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
+            self.model.readings_with(&self.x, &q, inp, &mut w, &mut y);
+            if y.len() == 1 {
+                out.push(y[0] * 1e3 + self.correction_mm(&q, inp));
+            } else {
+                out.extend(y.iter().map(|v| v * 1e3));
+            }
+        }
+        out
+    }
+
+    /// An error naming the data unless their readings (if any) are the model's measurement.
+    pub fn require_measurement(&self, data: &Dataset) -> Result<()> {
+        let m = self.model.measurement;
+        match data.measurement() {
+            Some(d) if d != m => Err(Error::data(
+                &data.source,
+                format!(
+                    "the rows hold a {} ({}), the model predicts a {} ({})",
+                    d.def().describe(),
+                    d.def().columns().join(", "),
+                    m.def().describe(),
+                    m.def().columns().join(", ")
+                ),
+            )),
+            _ => Ok(()),
+        }
     }
 
     /// The learned corrector's length correction (mm; 0 without one).
@@ -396,7 +419,8 @@ impl CalibResult {
 }
 
 /// Train / test row indices: the dataset's split column, or a stratified hold-out of
-/// `test_fraction` (rows sorted by L, one random pick per stratum).
+/// `test_fraction` (rows sorted by L, or by a point's distance from the instrument, one random
+/// pick per stratum).
 pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Result<(Vec<usize>, Vec<usize>)> {
     let n = data.rows.len();
     match test_fraction {
@@ -405,8 +429,15 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
                 return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
             }
             let n_test = (f * n as f64).round() as usize;
-            let lengths = data.lengths_mm()?;
-            let split = crate::generate::stratified_split(&lengths, n_test, seed);
+            // Strata by the reading: the cable length, or a point's distance from the
+            // instrument's origin.
+            reading_measurement(data)?;
+            let key: Vec<f64> = data
+                .rows
+                .iter()
+                .map(|r| if r.reading_mm.len() == 1 { r.reading_mm[0] } else { r.reading_mm.iter().map(|v| v * v).sum::<f64>().sqrt() })
+                .collect();
+            let split = crate::generate::stratified_split(&key, n_test, seed);
             Ok(((0..n).filter(|i| split[*i] == Split::Train).collect(), (0..n).filter(|i| split[*i] == Split::Test).collect()))
         }
         None => Ok((data.train_indices(), data.test_indices())),
@@ -643,7 +674,8 @@ pub const SCREEN_ROWS_PER_PARAM: usize = 3;
 /// readings in a reading step are corrected by its offset, in training and test rows alike; a
 /// nominal model's sensor is then placed again on the rows kept. `None` when the screen is off.
 pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<Option<super::robust::Screen>> {
-    if opts.outlier_k <= 0.0 {
+    // The screen (and its reading steps) reads one value per row: a cable length.
+    if opts.outlier_k <= 0.0 || split.train.dim != 1 {
         return Ok(None);
     }
     // With few rows per parameter a fit nearly interpolates them: the residuals' robust scale
@@ -671,18 +703,22 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
 }
 
 /// Test rows beyond `k` robust standard deviations of the calibrated model's training
-/// residuals (around their median); none when `k` is 0.
+/// residuals (around their median); none when `k` is 0. A row of several values (a point) is
+/// out when any of them is, and is reported by its farthest value.
 fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &[f64], corrector: Option<&dyn Correct>, k: f64) -> Vec<Outlier> {
     if k <= 0.0 || test_r.is_empty() {
         return Vec::new();
     }
     let r = residuals_with(fit, x, corrector);
     let (med, scale) = super::stats::robust_scale(&r);
+    let d = fit.data.dim.max(1);
     test_r
-        .iter()
+        .chunks(d)
         .zip(test_idx)
-        .filter(|(v, _)| !((*v - med).abs() <= k * scale))
-        .map(|(v, &i)| Outlier { row: i + 1, residual_mm: *v, robust_z: (v - med) / scale })
+        .filter_map(|(vs, &i)| {
+            let v = vs.iter().copied().fold(f64::NAN, |far, v| if far.is_nan() || (v - med).abs() > (far - med).abs() { v } else { far });
+            (!((v - med).abs() <= k * scale)).then(|| Outlier { row: i + 1, residual_mm: v, robust_z: (v - med) / scale })
+        })
         .collect()
 }
 
@@ -744,15 +780,65 @@ pub struct Prepared {
     pub id: Identifiability,
 }
 
+/// What the rows of `data` read: every row must have a reading (a cable length `L`, or a
+/// tracker's `x, y, z`), as [`Dataset::require_length`] words it for the draw-wire.
+pub fn reading_measurement(data: &Dataset) -> Result<crate::measurement::Measurement> {
+    match data.measurement() {
+        Some(m) if m != crate::measurement::Measurement::Length => {
+            data.require_readings()?;
+            Ok(m)
+        }
+        _ => {
+            data.require_length()?;
+            Ok(crate::measurement::Measurement::Length)
+        }
+    }
+}
+
+/// The repeatability of the readings over repeated configurations: for several values per row
+/// (a point), pooled over the values (each coordinate's within-group variance, averaged).
+pub fn reading_repeatability(data: &Dataset) -> Option<super::metrics::Repeatability> {
+    let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
+    let dim = data.rows.first().map_or(1, |r| r.reading_mm.len()).max(1);
+    let per: Vec<super::metrics::Repeatability> = (0..dim)
+        .filter_map(|c| {
+            let v: Vec<f64> = data.rows.iter().map(|r| r.reading_mm.get(c).copied().unwrap_or(f64::NAN)).collect();
+            super::metrics::repeatability(&q_deg, &v, 1e-6)
+        })
+        .collect();
+    let first = per.first()?.clone();
+    if dim == 1 {
+        return Some(first).filter(|r| r.groups > 0);
+    }
+    let pooled_std = (per.iter().map(|r| r.pooled_std.powi(2)).sum::<f64>() / per.len() as f64).sqrt();
+    let max_spread = per.iter().map(|r| r.max_spread).fold(0.0, f64::max);
+    Some(super::metrics::Repeatability { pooled_std, max_spread, ..first }).filter(|r| r.groups > 0)
+}
+
 /// Stages "split", "placement", "outliers", "effects" and "identifiability" of a calibration
 /// with `opts`; `row_inputs` gives every row its inputs (and the split its torque model) even
 /// without effect blocks ([`Solver::needs_row_inputs`]).
 pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<Prepared> {
-    let l = data.lengths_mm()?;
+    let measurement = reading_measurement(data)?;
     let mut split = split_stage(data, opts)?;
-    let (lo, hi) = l.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-    if hi - lo < MIN_LENGTH_SPREAD_MM {
-        return Err(Error::data(&data.source, format!("every row reads the same length (L = {lo} mm): a calibration needs lengths that change with the pose")));
+    let dim = measurement.dim();
+    let spread = (0..dim)
+        .map(|c| {
+            let (lo, hi) = data.rows.iter().map(|r| r.reading_mm[c]).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+            hi - lo
+        })
+        .fold(0.0f64, f64::max);
+    if spread < MIN_LENGTH_SPREAD_MM {
+        let first = &data.rows[0].reading_mm;
+        let msg = if dim == 1 {
+            format!("every row reads the same length (L = {} mm): a calibration needs lengths that change with the pose", first[0])
+        } else {
+            format!(
+                "every row reads the same point ({} = {first:?} mm): a calibration needs readings that change with the pose",
+                measurement.def().columns().join(", ")
+            )
+        };
+        return Err(Error::data(&data.source, msg));
     }
     let mut model = super::placement::place_sensor(opts, &split.train)?;
     let screen = outlier_stage(&mut model, &mut split, opts)?;
@@ -767,10 +853,22 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let t0 = Instant::now();
     let mut warnings = Vec::new();
     let Prepared { split, model, screen, test_rows_in_steps: test_in_steps, id } = prepare(data, opts, solver.needs_row_inputs())?;
+    let measurement = model.measurement;
+    if measurement.dim() > 1 && solver.method().learns_corrector() {
+        return Err(Error::Invalid(format!(
+            "{} learns a correction of one reading value per row (a cable length); these rows hold a {}: use lm, ekf, pf or pso",
+            solver.method().name(),
+            measurement.def().describe()
+        )));
+    }
     if screen.is_none() && opts.outlier_k > 0.0 {
-        warnings.push(format!(
-            "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
-        ));
+        warnings.push(if measurement.dim() > 1 {
+            format!("no outlier screen: the robust screen reads one value per row (a cable length), these rows hold a {}", measurement.def().describe())
+        } else {
+            format!(
+                "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
+            )
+        });
     }
     let x0 = model.nominal.clone();
     let fit = ReadingFit { model: &model, data: &split.train };
@@ -788,9 +886,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         warnings
             .push(format!("only {} training rows for {n_free} identifiable parameters (3x as many recommended): uncertainties are large", split.train.len()));
     }
-    let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
-    let l = data.lengths_mm()?;
-    let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
+    let repeatability = reading_repeatability(data);
 
     let noise = if solver.needs_noise() { estimate_noise(&fit, &x0, &fixed, repeatability.as_ref()) } else { f64::NAN };
     let prior_std = opts.tolerances.prior_std(&model);
@@ -830,7 +926,9 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let test_outliers = test_outlier_stage(&fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.outlier_k);
     if !split.test.is_empty() {
         let out: Vec<usize> = test_outliers.iter().map(|o| o.row - 1).collect();
-        let inliers: Vec<f64> = (0..split.test.len()).filter(|i| !out.contains(&split.test_idx[*i])).map(|i| test_residuals_mm[i]).collect();
+        let d = split.test.dim;
+        let inliers: Vec<f64> =
+            (0..split.test.len()).filter(|i| !out.contains(&split.test_idx[*i])).flat_map(|i| test_residuals_mm[i * d..(i + 1) * d].iter().copied()).collect();
         metrics.test_after_inliers = Some(ErrorStats::of(&inliers));
         metrics.test_after_trimmed = Some(trimmed_stats(&test_residuals_mm, 0.01));
     }
@@ -839,7 +937,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         Some(v) => Some(super::floor::Step::Given(v)),
         None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(super::floor::Step::Detected),
     };
-    let length_step = super::floor::logging_step(l.iter().copied());
+    let length_step = super::floor::logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().copied()));
     let noise_floor = super::floor::noise_floor(&model, &x, &all_rows, angle_step, length_step, repeatability.as_ref());
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);

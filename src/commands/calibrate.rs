@@ -106,6 +106,12 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     }
     let spec = a.model.spec()?;
     let data = load_dataset(&a.data, a.angles, true)?;
+    if let Some(m) = data.measurement().filter(|m| *m != crate::measurement::Measurement::Length) {
+        if a.rrd.is_some() || a.report.is_some() {
+            let flag = if a.report.is_some() { "--report" } else { "--rrd" };
+            return Err(Error::Invalid(format!("{flag} draws a draw-wire set-up's residuals so far; these rows hold a {}", m.def().describe())));
+        }
+    }
     let truth = TruthFile::find(&a.data)?;
     let mut opts = CalibOptions::new(spec.clone(), method);
     opts.test_fraction = a.test_fraction;
@@ -193,6 +199,18 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
         eprintln!("{}", row("test before", b));
         eprintln!("{}", row("test after", a));
     }
+    let meas = r.model.measurement;
+    if meas.dim() > 1 {
+        let cols = meas.def().columns().join(", ");
+        let dist: Vec<f64> = r.test_residuals_mm.chunks(meas.dim()).map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt()).collect();
+        if dist.is_empty() {
+            eprintln!("  residuals are per coordinate ({cols})");
+        } else {
+            let rms = crate::calib::stats::rms(&dist);
+            let max = dist.iter().copied().fold(0.0, f64::max);
+            eprintln!("  residuals are per coordinate ({cols}); the test rows' position error |Δp|: RMS {rms:.4} mm, MAX {max:.4} mm");
+        }
+    }
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     eprintln!(
         "  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}",
@@ -208,7 +226,9 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
         let joints: Vec<String> = still.iter().map(|j| j.to_string()).collect();
         eprintln!("  joints that do not move in the data (held for the identifiability analysis): {}", joints.join(", "));
     }
-    if r.outlier_k > 0.0 {
+    // The screen ran when it has a robust scale (it does not for too few rows per parameter,
+    // nor for readings of several values).
+    if r.outlier_k > 0.0 && r.robust_scale_mm > 0.0 {
         let runs: Vec<String> = r.outlier_runs.iter().map(|u| format!("rows {}-{} ({:+.2} mm)", u.first_row, u.last_row, u.median_residual_mm)).collect();
         eprintln!(
             "  outliers (> {} robust sd of {:.4} mm): {} training rows kept out{}; {} test rows beyond the same rule",
@@ -234,7 +254,10 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
     if let Some(t) = &m.test_after_trimmed {
         eprintln!("{}", row("test, best 99%", t));
     }
-    if let Some(f) = &r.noise_floor {
+    if r.noise_floor.as_ref().is_some_and(|f| f.sources.is_empty()) {
+        eprintln!("  noise floor of the data: not measurable (no repeated configurations, and neither the angles nor the readings show a logging step)");
+    }
+    if let Some(f) = r.noise_floor.as_ref().filter(|f| !f.sources.is_empty()) {
         let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
         // Without repeated configurations the reading's own noise is not in the data: the
         // floor is only what the logging resolutions show, a lower bound.

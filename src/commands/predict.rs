@@ -2,18 +2,34 @@
 
 use super::*;
 
-/// The CSV `predict` writes: `q1..qN,L,L_pred,residual` when every row has a measured length,
-/// `q1..qN,L_pred` otherwise.
-pub fn prediction_csv(rows: &[(&[f64], Option<f64>)], predicted: &[f64]) -> String {
-    let with_l = rows.iter().all(|(_, l)| l.is_some());
+/// The CSV `predict` writes for readings with `columns` (`["L"]`, `["x", "y", "z"]`):
+/// `q1..qN,L,L_pred,residual` when every row has a measured reading, `q1..qN,L_pred` otherwise
+/// (for a point, `x_pred,y_pred,z_pred` and residuals `x_residual,...`). `rows` pairs each row's
+/// angles with its measured reading (empty when none), `predicted` holds the readings row after row.
+pub fn prediction_csv(columns: &[&str], rows: &[(&[f64], &[f64])], predicted: &[f64]) -> String {
+    let d = columns.len();
+    let measured = rows.iter().all(|(_, y)| y.len() == d);
     let joints: Vec<String> = (1..=rows.first().map_or(0, |(q, _)| q.len())).map(|j| format!("q{j},")).collect();
-    let mut text = joints.concat() + if with_l { "L,L_pred,residual\n" } else { "L_pred\n" };
-    for ((q, l), p) in rows.iter().zip(predicted) {
-        let q: Vec<String> = q.iter().map(|v| v.to_string()).collect();
-        match (with_l, l) {
-            (true, Some(l)) => text.push_str(&format!("{},{l},{p},{}\n", q.join(","), l - p)),
-            _ => text.push_str(&format!("{},{p}\n", q.join(","))),
+    let mut head: Vec<String> = Vec::new();
+    if measured {
+        head.extend(columns.iter().map(|c| c.to_string()));
+    }
+    head.extend(columns.iter().map(|c| format!("{c}_pred")));
+    if measured {
+        head.extend(columns.iter().map(|c| if d == 1 { "residual".to_string() } else { format!("{c}_residual") }));
+    }
+    let mut text = joints.concat() + &head.join(",") + "\n";
+    for ((q, y), p) in rows.iter().zip(predicted.chunks(d)) {
+        let mut cells: Vec<String> = q.iter().map(|v| v.to_string()).collect();
+        if measured {
+            cells.extend(y.iter().map(|v| v.to_string()));
         }
+        cells.extend(p.iter().map(|v| v.to_string()));
+        if measured {
+            cells.extend(y.iter().zip(p).map(|(a, b)| (a - b).to_string()));
+        }
+        text.push_str(&cells.join(","));
+        text.push('\n');
     }
     text
 }
@@ -27,16 +43,16 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: b
     let ds = load_dataset(data, angles, false)?;
     ds.require_joints(result.model.chain.n_joints, &format!("the model {}", model.display()))?;
     result.require_columns(&ds)?;
-    let rows: Vec<(&[f64], Option<f64>)> = ds.rows.iter().map(|r| (r.q_deg.as_slice(), r.l_mm())).collect();
+    result.require_measurement(&ds)?;
+    let m = result.model.measurement;
+    let rows: Vec<(&[f64], &[f64])> = ds.rows.iter().map(|r| (r.q_deg.as_slice(), r.reading_mm.as_slice())).collect();
     let predicted = result.predict_rows(&ds);
-    for (i, p) in predicted.iter().enumerate() {
-        if !p.is_finite() {
-            return Err(Error::Calibration(format!("the model predicted a non-finite length for row {}", i + 1)));
-        }
+    if let Some(i) = predicted.iter().position(|p| !p.is_finite()) {
+        return Err(Error::Calibration(format!("the model predicted a non-finite reading for row {}", i / m.dim() + 1)));
     }
-    crate::io::write_atomic(out, prediction_csv(&rows, &predicted).as_bytes())?;
+    crate::io::write_atomic(out, prediction_csv(m.def().columns(), &rows, &predicted).as_bytes())?;
     if !quiet {
-        let res: Vec<f64> = rows.iter().zip(&predicted).filter_map(|((_, l), p)| l.map(|l| l - p)).collect();
+        let res: Vec<f64> = rows.iter().zip(predicted.chunks(m.dim())).flat_map(|((_, y), p)| y.iter().zip(p).map(|(a, b)| a - b)).collect();
         if res.is_empty() {
             eprintln!("{} rows predicted; wrote {}", rows.len(), out.display());
         } else {

@@ -250,8 +250,7 @@ impl Dataset {
     /// What the rows' readings are (from their number of values, which the loader took from the
     /// header's columns); `None` for a dataset of poses without readings.
     pub fn measurement(&self) -> Option<Measurement> {
-        let d = self.rows.first()?.reading_mm.len();
-        Measurement::ALL.into_iter().find(|m| m.dim() == d)
+        Measurement::of_dim(self.rows.first()?.reading_mm.len())
     }
 
     /// True when every row has a cable length (and there is at least one row).
@@ -317,7 +316,7 @@ impl Dataset {
         // The reading columns of the rows' instrument (a row without a reading gets empty
         // cells); a dataset with no rows is written with `L`.
         let reading_names: &[&str] = match self.rows.iter().find(|r| !r.reading_mm.is_empty()) {
-            Some(r) => Measurement::ALL.into_iter().find(|m| m.dim() == r.reading_mm.len()).map_or(&[], |m| m.def().columns()),
+            Some(r) => Measurement::of_dim(r.reading_mm.len()).map_or(&[], |m| m.def().columns()),
             None if self.rows.is_empty() => Measurement::Length.def().columns(),
             None => &[],
         };
@@ -820,7 +819,7 @@ fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
         }
     }
     let max_abs = rows.iter().flat_map(|r| r.reading_mm.iter()).fold(None, |m: Option<f64>, v| Some(m.map_or(v.abs(), |m| m.max(v.abs()))));
-    let measurement = Measurement::ALL.into_iter().find(|m| rows.first().is_some_and(|r| r.reading_mm.len() == m.dim()));
+    let measurement = rows.first().and_then(|r| Measurement::of_dim(r.reading_mm.len()));
     if let (Some(max), Some(m)) = (max_abs, measurement) {
         if max < METRES_MAX_L {
             let cols = m.def().columns().join(", ");

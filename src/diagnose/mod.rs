@@ -475,6 +475,8 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     if opts.folds < 2 || opts.folds > 20 {
         return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));
     }
+    // The candidates' evidence, the screen and the compensator read one cable length per row.
+    data.require_length()?;
     // The calibration's stages on every row (no split: the diagnosis cross-validates), with
     // every row's inputs; the diagnosis screens the rows itself, inputs included.
     let prepared = crate::calib::run::prepare(data, &opts.baseline_options(), true)?;

@@ -129,6 +129,12 @@ impl Measurement {
         self.def().reading_grad(own, p, y, dy_dp, dy_down)
     }
 
+    /// The measurement type with `dim` values per row. Every type has its own dimension (a
+    /// test holds it), so rows carry their type in their length.
+    pub fn of_dim(dim: usize) -> Option<Measurement> {
+        Self::ALL.into_iter().find(|m| m.dim() == dim)
+    }
+
     /// The measurement whose dataset columns are `columns` (the header's names), if one's are
     /// all there.
     pub fn from_columns(columns: &[&str]) -> Option<Measurement> {
@@ -184,6 +190,13 @@ mod tests {
             let names = m.placement_names();
             assert_eq!(&names[m.target_index()..], &["tool.x", "tool.y", "tool.z"], "{}", m.name());
             assert!(m.dim() <= MAX_DIM && m.target_index() <= MAX_OWN, "{}", m.name());
+        }
+    }
+
+    #[test]
+    fn every_type_has_its_own_dimension() {
+        for m in Measurement::ALL {
+            assert_eq!(Measurement::of_dim(m.dim()), Some(m), "{}", m.name());
         }
     }
 
