@@ -128,7 +128,7 @@ fn main() -> ExitCode {
         Command::Study { what, scenario, holds, speeds, poses, rrd } => commands::study(
             what,
             scenario.as_deref(),
-            &twincal::twin::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses },
+            &twincal::sim::twin::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses },
             rrd.as_deref(),
             args.quiet,
         ),

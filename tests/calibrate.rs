@@ -5,8 +5,8 @@ use std::process::{Command, Output};
 use std::sync::OnceLock;
 use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, TruthFile};
 use twincal::dataset::{Dataset, Row};
-use twincal::generate::{generate, write_outputs, Silent};
-use twincal::scenario::Scenario;
+use twincal::sim::generate::{generate, write_outputs, Silent};
+use twincal::sim::scenario::Scenario;
 
 mod datasets;
 

@@ -9,9 +9,9 @@ use twincal::calib::run::ModelSpec;
 use twincal::dataset::{Dataset, Row};
 use twincal::diagnose::hidden::{clean, hidden};
 use twincal::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use twincal::generate::{generate, Silent};
 use twincal::robot::Robot;
-use twincal::scenario::Scenario;
+use twincal::sim::generate::{generate, Silent};
+use twincal::sim::scenario::Scenario;
 
 fn run(s: &Scenario, robot: &Robot) -> Diagnosis {
     let g = generate(s, robot, &Silent).unwrap();
@@ -72,7 +72,7 @@ fn diagnose_through_the_cli() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     let g = generate(&s, &robot, &Silent).unwrap();
-    twincal::generate::write_outputs(&g, &data).unwrap();
+    twincal::sim::generate::write_outputs(&g, &data).unwrap();
     let (report, model, rrd) = (dir.path().join("report.json"), dir.path().join("model.json"), dir.path().join("d.rrd"));
     let html = dir.path().join("d.html");
     let bin = env!("CARGO_BIN_EXE_twincal");
@@ -166,9 +166,9 @@ fn diagnose_through_the_cli() {
 /// the joint-2 backlash among its causes at the twin's band width, and reaches the noise floor.
 #[test]
 fn the_simulated_tour_shows_its_backlash() {
-    use twincal::effects::Payload;
+    use twincal::sim::effects::Payload;
     let (s, robot) = Scenario::default_embedded().unwrap();
-    assert_eq!(s.acquisition.model, twincal::twin::tour::AcquisitionModel::Simulated);
+    assert_eq!(s.acquisition.model, twincal::sim::twin::tour::AcquisitionModel::Simulated);
     let truth_width = s.effects.backlash.as_ref().unwrap().width_deg[1];
     let g = generate(&s, &robot, &Silent).unwrap();
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
@@ -189,7 +189,7 @@ fn the_simulated_tour_shows_its_backlash() {
 /// judges on the folds that suit the acquisition, and still names the hidden cause with its size.
 #[test]
 fn a_hidden_effect_is_named_in_sweep_ordered_data_with_glitch_runs() {
-    use twincal::scenario::{GlitchKind, Glitches, Order};
+    use twincal::sim::scenario::{GlitchKind, Glitches, Order};
     for seed in [1, 4, 21] {
         let kind = if seed == 4 { GlitchKind::Offset } else { GlitchKind::Scatter };
         let (mut s, robot, truth) = hidden(seed, 1).unwrap();

@@ -3,8 +3,8 @@
 
 use std::path::Path;
 use twincal::dataset::{AngleUnit, Dataset, LoadOptions};
-use twincal::generate::{generate, Silent};
-use twincal::scenario::Scenario;
+use twincal::sim::generate::{generate, Silent};
+use twincal::sim::scenario::Scenario;
 
 fn ideal() -> (Scenario, twincal::robot::Robot) {
     Scenario::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_ideal.toml")).unwrap()

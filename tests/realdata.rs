@@ -116,14 +116,14 @@ fn robotcali_diagnosis_exports_the_model_it_reports() {
 /// model run on the same data and converge.
 #[test]
 fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
-    use twincal::generate::{generate, Silent};
-    use twincal::scenario::Scenario;
+    use twincal::sim::generate::{generate, Silent};
+    use twincal::sim::scenario::Scenario;
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_realistic.toml");
     let s = Scenario::from_toml(&std::fs::read_to_string(&path).unwrap(), "irb120_realistic").unwrap();
     let robot = s.load_robot(Some(path.parent().unwrap())).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let g = generate(&s, &robot, &Silent).unwrap();
-    twincal::generate::write_outputs(&g, dir.path()).unwrap();
+    twincal::sim::generate::write_outputs(&g, dir.path()).unwrap();
     let glitches = &g.truth.glitch_rows;
     assert_eq!(glitches.len(), 24);
     let ds = Dataset::load(dir.path()).unwrap();

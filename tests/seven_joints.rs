@@ -7,8 +7,8 @@ use std::process::{Command, Output};
 use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, TruthFile};
 use twincal::dataset::{Dataset, Row};
 use twincal::diagnose::{diagnose, DiagnoseOptions};
-use twincal::generate::{generate, write_outputs, Silent};
-use twincal::scenario::Scenario;
+use twincal::sim::generate::{generate, write_outputs, Silent};
+use twincal::sim::scenario::Scenario;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -59,7 +59,7 @@ fn a_hidden_compliance_on_a_seven_joint_arm_is_named_with_its_size() {
     // Joint 2 (the shoulder pitch, which carries the arm) gives way 50 µrad per N·m.
     let mut stiff = vec![1e12; 7];
     stiff[1] = 2.0e4;
-    s.effects.compliance = Some(twincal::effects::Compliance { stiffness_nm_per_rad: stiff, damping_nms_per_rad: None });
+    s.effects.compliance = Some(twincal::sim::effects::Compliance { stiffness_nm_per_rad: stiff, damping_nms_per_rad: None });
     let g = generate(&s, &robot, &Silent).unwrap();
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
     let (d, _) = diagnose(&data, &DiagnoseOptions::new(wam()), &|_| {}).unwrap();

@@ -1,14 +1,14 @@
 //! The acquisition simulated as a tour: moves, holds, gate and readings in one rapier multibody.
 
-use twincal::effects::statics::Contact;
-use twincal::effects::Eccentricity;
-use twincal::generate::{build_twin, generate, sample_poses, Silent};
 use twincal::robot::Robot;
-use twincal::scenario::Scenario;
-use twincal::twin::motion::Move;
-use twincal::twin::study::{hold_study, HoldStudy};
-use twincal::twin::tour::{acquire, Acquired, Acquisition, AcquisitionModel, OnTimeout, TourSettings};
-use twincal::twin::PoseCommand;
+use twincal::sim::effects::statics::Contact;
+use twincal::sim::effects::Eccentricity;
+use twincal::sim::generate::{build_twin, generate, sample_poses, Silent};
+use twincal::sim::scenario::Scenario;
+use twincal::sim::twin::motion::Move;
+use twincal::sim::twin::study::{hold_study, HoldStudy};
+use twincal::sim::twin::tour::{acquire, Acquired, Acquisition, AcquisitionModel, OnTimeout, TourSettings};
+use twincal::sim::twin::PoseCommand;
 
 /// The embedded scenario: its acquisition is the simulated tour.
 fn embedded() -> (Scenario, Robot) {
@@ -59,7 +59,7 @@ fn slow_tour_with_ample_hold_equals_the_quasi_static_model() {
         // The quasi-static model at the reading's time on the simulated flanks.
         let mid = a.lengths.len() / 2;
         let l = a.lengths.iter().sum::<f64>() / a.lengths.len() as f64;
-        let schedule = twincal::twin::tour::Schedule::new(&robot, 0.01, 1.0, s.sensor.hold_s, s.sensor.window_s(), &[0.0; 6], &poses);
+        let schedule = twincal::sim::twin::tour::Schedule::new(&robot, 0.01, 1.0, s.sensor.hold_s, s.sensor.window_s(), &[0.0; 6], &poses);
         let qs = twin.quasi_static(&PoseCommand { q_cmd: poses[i].clone(), sides: sides.clone(), t: schedule.read_t[i] });
         let d = (l - twin.sensor.ideal_length(&qs.tool)).abs();
         worst = worst.max(d);
@@ -182,7 +182,7 @@ fn tour_is_deterministic_whatever_the_thread_count() {
 #[test]
 fn acquisition_keys_are_checked_naming_the_key() {
     let (s, robot) = embedded();
-    let text = twincal::scenario::DEFAULT_SCENARIO;
+    let text = twincal::sim::scenario::DEFAULT_SCENARIO;
     let cases = [
         ("damping_ratio = 0.05", "damping_ratio = 0.0", "acquisition.damping_ratio"),
         ("ramp_s = 0.1", "ramp_s = -1.0", "acquisition.ramp_s"),

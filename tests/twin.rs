@@ -2,13 +2,13 @@
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use twincal::effects::statics::Contact;
-use twincal::effects::{Backlash, Compliance, Eccentricity, Effects, Payload, Thermal};
-use twincal::generate::{build_twin, generate, sample_poses, Silent};
 use twincal::robot::Robot;
-use twincal::scenario::Scenario;
-use twincal::sensor::DrawWire;
-use twincal::twin::{PoseCommand, SettleOptions, Twin};
+use twincal::sim::effects::statics::Contact;
+use twincal::sim::effects::{Backlash, Compliance, Eccentricity, Effects, Payload, Thermal};
+use twincal::sim::generate::{build_twin, generate, sample_poses, Silent};
+use twincal::sim::instrument::DrawWire;
+use twincal::sim::scenario::Scenario;
+use twincal::sim::twin::{PoseCommand, SettleOptions, Twin};
 
 fn scenario(name: &str) -> (Scenario, Robot) {
     Scenario::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(format!("{name}.toml"))).unwrap()
@@ -85,9 +85,9 @@ fn full_effects() -> Effects {
 #[test]
 fn rapier_agrees_with_quasi_static_with_every_effect() {
     let (s, robot) = scenario("irb120_evo_nph");
-    let twin = twincal::generate::build_twin(&s, &robot);
-    let poses = twincal::generate::sample_poses(&s, &robot).unwrap();
-    let sides = twincal::twin::approach_sides(&[0.0; 6], &poses);
+    let twin = twincal::sim::generate::build_twin(&s, &robot);
+    let poses = twincal::sim::generate::sample_poses(&s, &robot).unwrap();
+    let sides = twincal::sim::twin::approach_sides(&[0.0; 6], &poses);
     let mut worst: f64 = 0.0;
     let mut moved: f64 = 0.0;
     for i in (0..poses.len()).step_by(20) {
@@ -140,7 +140,7 @@ fn backlash_side_flips_with_load_sign_and_approach() {
     assert!(moved > 0.01, "approach direction should move the tool, moved {moved} mm");
 
     // And the dataset order sets the approach: increasing then decreasing joint 1.
-    let sides = twincal::twin::approach_sides(&[0.0; 6], &[deg([10.0, 0.0, 0.0, 0.0, 0.0, 0.0]), deg([5.0, 0.0, 0.0, 0.0, 0.0, 0.0])]);
+    let sides = twincal::sim::twin::approach_sides(&[0.0; 6], &[deg([10.0, 0.0, 0.0, 0.0, 0.0, 0.0]), deg([5.0, 0.0, 0.0, 0.0, 0.0, 0.0])]);
     assert_eq!(sides[0][0], -1.0);
     assert_eq!(sides[1][0], 1.0);
 }
@@ -203,8 +203,8 @@ fn another_six_r_urdf_loads_and_simulates_the_same_way() {
     assert_eq!(g.dataset.rows.len() + g.truth.rejected.len(), 40);
     assert!(g.dataset.rows.len() >= 30);
     let twin = &g.twin;
-    let poses = twincal::generate::sample_poses(&s, &robot).unwrap();
-    let sides = twincal::twin::approach_sides(&[0.0; 6], &poses);
+    let poses = twincal::sim::generate::sample_poses(&s, &robot).unwrap();
+    let sides = twincal::sim::twin::approach_sides(&[0.0; 6], &poses);
     for i in 0..10 {
         let cmd = PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: 0.0 };
         let sim = twin.simulate(&cmd).unwrap();
@@ -248,7 +248,7 @@ fn eccentricity_moves_the_settled_tool_as_the_quasi_static_model_says() {
     se.validate(&robot, "eccentric").unwrap();
     let ecc = build_twin(&se, &robot);
     let poses = sample_poses(&s, &robot).unwrap();
-    let sides = twincal::twin::approach_sides(&[0.0; 6], &poses);
+    let sides = twincal::sim::twin::approach_sides(&[0.0; 6], &poses);
     let (mut worst, mut moved, mut moved_l): (f64, f64, f64) = (0.0, 0.0, 0.0);
     for i in (0..poses.len()).step_by(40) {
         let cmd = PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: 600.0 + i as f64 };

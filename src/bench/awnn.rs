@@ -10,9 +10,9 @@ use crate::calib::run::{calibrate_with, split_stage, CalibOptions, CalibResult, 
 use crate::calib::stats::{mean_std, median};
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
-use crate::generate::{generate, write_outputs, Silent};
 use crate::optim::Observer;
-use crate::scenario::Scenario;
+use crate::sim::generate::{generate, write_outputs, Silent};
+use crate::sim::scenario::Scenario;
 use std::path::Path;
 use std::sync::Mutex;
 use std::time::Instant;

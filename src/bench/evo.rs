@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::ik::{ik_runs, table, TwinCheck};
 use crate::ik::{IkModel, JacobianKind};
 use crate::optim::{DeVariant, NoObserver};
-use crate::scenario::Scenario;
+use crate::sim::scenario::Scenario;
 use std::path::Path;
 use std::time::Instant;
 
@@ -21,8 +21,8 @@ fn dataset(dir: &Path, seed: Option<u64>) -> Result<(Dataset, TruthFile)> {
     if let Some(seed) = seed {
         s.seed = seed;
     }
-    let g = crate::generate::generate(&s, &robot, &crate::generate::Silent)?;
-    crate::generate::write_outputs(&g, dir)?;
+    let g = crate::sim::generate::generate(&s, &robot, &crate::sim::generate::Silent)?;
+    crate::sim::generate::write_outputs(&g, dir)?;
     let truth = TruthFile::find(dir)?.ok_or_else(|| Error::Invalid("truth.json missing after generation".into()))?;
     Ok((g.dataset, truth))
 }

@@ -9,11 +9,11 @@
 
 use super::effects::{EffectBlock, EffectKind, RowInputs};
 use crate::dataset::Dataset;
-use crate::effects::statics::{CableLoad, LoadModel, GRAVITY};
-use crate::effects::{Effects, Payload};
 use crate::error::{Error, Result};
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
 use crate::robot::Robot;
+use crate::sim::effects::statics::{CableLoad, LoadModel, GRAVITY};
+use crate::sim::effects::{Effects, Payload};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -121,7 +121,7 @@ pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs
     let threshold = torque.map(|t| t.torque_threshold_nm).unwrap_or(f64::INFINITY);
     // Approach flanks in file order from the home pose (the twin's rule), then the load rule.
     let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.to_vec()).collect();
-    let approach = crate::effects::approach_sides(&vec![0.0; nq], &poses);
+    let approach = crate::sim::effects::approach_sides(&vec![0.0; nq], &poses);
     for i in 0..n {
         out[i].side = (0..nq)
             .map(|j| {
@@ -184,7 +184,7 @@ mod tests {
         assert_eq!(side(2), vec![1.0, 1.0, -1.0, 1.0, -1.0]);
         assert_eq!(side(1), vec![-1.0; 5], "a joint that never moves stays on its starting flank");
         let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
-        let twin = crate::twin::approach_sides(&[0.0; 6], &poses);
+        let twin = crate::sim::twin::approach_sides(&[0.0; 6], &poses);
         assert!(inp.iter().zip(&twin).all(|(r, t)| r.side.iter().zip(t).all(|(a, b)| a == b)));
     }
 }

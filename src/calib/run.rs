@@ -437,7 +437,7 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
                 .iter()
                 .map(|r| if r.reading_mm.len() == 1 { r.reading_mm[0] } else { r.reading_mm.iter().map(|v| v * v).sum::<f64>().sqrt() })
                 .collect();
-            let split = crate::generate::stratified_split(&key, n_test, seed);
+            let split = crate::sim::generate::stratified_split(&key, n_test, seed);
             Ok(((0..n).filter(|i| split[*i] == Split::Train).collect(), (0..n).filter(|i| split[*i] == Split::Test).collect()))
         }
         None => Ok((data.train_indices(), data.test_indices())),

@@ -158,7 +158,7 @@ pub struct TwinAgreement {
 }
 
 /// Settles every command with rapier and with the quasi-static model and compares the results.
-pub fn twin_agreement(twin: &crate::twin::Twin, cmds: &[crate::twin::PoseCommand]) -> Result<TwinAgreement> {
+pub fn twin_agreement(twin: &crate::sim::twin::Twin, cmds: &[crate::sim::twin::PoseCommand]) -> Result<TwinAgreement> {
     use rayon::prelude::*;
     let per: Vec<Result<(f64, bool)>> = cmds
         .par_iter()
@@ -192,8 +192,8 @@ pub struct FlankCheck {
 }
 
 /// Compares the flank each joint of `acquired` rests on with the rule (`breakaway` in N·m).
-pub fn flank_check(acquired: &[crate::twin::tour::Acquired], breakaway: f64) -> FlankCheck {
-    use crate::effects::statics::Contact;
+pub fn flank_check(acquired: &[crate::sim::twin::tour::Acquired], breakaway: f64) -> FlankCheck {
+    use crate::sim::effects::statics::Contact;
     let mut c = FlankCheck::default();
     for a in acquired {
         for (j, contact) in a.rest.contact.iter().enumerate() {
@@ -235,9 +235,9 @@ pub fn flank_check(acquired: &[crate::twin::tour::Acquired], breakaway: f64) -> 
 /// flanks against the rule; then the per-pose settled model and the quasi-static model as
 /// baselines, with the settled poses' agreement with the quasi-static model.
 pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> {
-    use crate::generate::{acquisition_times, build_twin, sample_poses};
-    use crate::twin::tour::{acquire, Acquired, PHASES};
-    use crate::twin::{approach_sides, PoseCommand};
+    use crate::sim::generate::{acquisition_times, build_twin, sample_poses};
+    use crate::sim::twin::tour::{acquire, Acquired, PHASES};
+    use crate::sim::twin::{approach_sides, PoseCommand};
     use rayon::prelude::*;
     check_repeat(repeat)?;
     let (s, robot) = load_scenario(scenario)?;
@@ -249,7 +249,7 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
         eprintln!("bench: scenario {}, {n} poses, {threads} threads, {repeat} repetitions (medians reported)", s.name);
     }
     let home = vec![0.0; robot.dof()];
-    let settings = crate::twin::tour::TourSettings { seed: s.seed, speed_fraction: s.sampling.speed_fraction };
+    let settings = crate::sim::twin::tour::TourSettings { seed: s.seed, speed_fraction: s.sampling.speed_fraction };
     let tour = || -> Result<Vec<Acquired>> { acquire(&twin, &s.acquisition, settings, &home, &poses, &Silent).into_iter().collect() };
     let time = |f: &dyn Fn() -> Result<()>| -> Result<f64> {
         let mut ts = Vec::new();
@@ -285,7 +285,8 @@ pub fn bench(scenario: Option<&Path>, repeat: usize, quiet: bool) -> Result<()> 
     let closed = seq.iter().filter(|a| a.gate_s.is_none()).count();
     let flanks = flank_check(&seq, twin.transmission.as_ref().map(|t| t.breakaway).unwrap_or(0.0));
     let sim_time: f64 = {
-        let sc = crate::twin::tour::Schedule::new(&robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s, s.sensor.window_s(), &home, &poses);
+        let sc =
+            crate::sim::twin::tour::Schedule::new(&robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s, s.sensor.window_s(), &home, &poses);
         sc.read_t.last().copied().unwrap_or(0.0) + 0.5 * s.sensor.window_s()
     };
 

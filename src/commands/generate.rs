@@ -41,7 +41,7 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     let steps: Vec<usize> = t.poses.iter().map(|p| p.settle_steps).collect();
     let mean_steps = steps.iter().sum::<usize>() as f64 / steps.len().max(1) as f64;
     eprintln!("scenario {} (seed {}): {n} poses ({} train / {test} test) in {elapsed:.2} s", t.scenario, t.seed, n - test);
-    let acq: Vec<&crate::generate::PoseAcquisition> = t.poses.iter().filter_map(|p| p.acquisition.as_ref()).collect();
+    let acq: Vec<&crate::sim::generate::PoseAcquisition> = t.poses.iter().filter_map(|p| p.acquisition.as_ref()).collect();
     if acq.is_empty() {
         let slow = t.poses.iter().filter(|p| p.settle_time_s > g.twin.sensor.hold_s).count();
         eprintln!("  mean settle steps per pose: {mean_steps:.0}; poses still moving after the {} s hold: {slow}", g.twin.sensor.hold_s);

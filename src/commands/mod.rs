@@ -24,10 +24,10 @@ pub use study::{study, StudyTarget};
 use crate::calib::stats::median;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::generate::{generate as run_generate, stage_outputs, write_outputs, Generated, Progress, Silent};
 use crate::io::{check_outputs, OutputSet};
 use crate::report::verdict::{judge, with_verdict, Limit};
-use crate::scenario::Scenario;
+use crate::sim::generate::{generate as run_generate, stage_outputs, write_outputs, Generated, Progress, Silent};
+use crate::sim::scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -272,7 +272,7 @@ impl LoadArgs {
                 if com.len() != 3 || com.iter().any(|v| !v.is_finite() || v.abs() > 5000.0) {
                     return Err(Error::Invalid("--payload-com-mm needs 3 finite values in mm (x,y,z in the flange frame, each within ±5000)".into()));
                 }
-                o.payload = Some(crate::effects::Payload { mass_kg: m, com_mm: [com[0], com[1], com[2]] });
+                o.payload = Some(crate::sim::effects::Payload { mass_kg: m, com_mm: [com[0], com[1], com[2]] });
             }
             (None, Some(_)) => return Err(Error::Invalid("--payload-com-mm needs --payload-kg".into())),
         }

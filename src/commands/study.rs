@@ -10,7 +10,7 @@ pub enum StudyTarget {
 }
 
 /// `twincal study hold`: the table on stdout, optionally a Rerun recording.
-pub fn study(what: StudyTarget, scenario: Option<&Path>, study: &crate::twin::study::HoldStudy, rrd: Option<&Path>, quiet: bool) -> Result<()> {
+pub fn study(what: StudyTarget, scenario: Option<&Path>, study: &crate::sim::twin::study::HoldStudy, rrd: Option<&Path>, quiet: bool) -> Result<()> {
     let StudyTarget::Hold = what;
     if let Some(p) = rrd {
         let inputs: Vec<(&str, &Path)> = scenario.map(|p| ("--scenario", p)).into_iter().collect();
@@ -18,7 +18,7 @@ pub fn study(what: StudyTarget, scenario: Option<&Path>, study: &crate::twin::st
     }
     study.validate().map_err(Error::Invalid)?;
     let (s, robot) = load_scenario(scenario)?;
-    let rows = crate::twin::study::hold_study(&s, &robot, study, progress(quiet).as_ref())?;
+    let rows = crate::sim::twin::study::hold_study(&s, &robot, study, progress(quiet).as_ref())?;
     let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
     println!("hold study ({}, first {} poses, readings taken even with the gate closed)", s.name, rows.first().map(|r| r.poses).unwrap_or(0));
     println!(

@@ -22,7 +22,7 @@ use crate::calib::run::CalibResult;
 use crate::calib::truth::TruthFile;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
-use crate::twin::{PoseCommand, Twin};
+use crate::sim::twin::{PoseCommand, Twin};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -127,7 +127,7 @@ impl TwinCheck {
         Ok(c)
     }
     fn twin_point_raw(&self, q: &[f64]) -> Vector3<f64> {
-        let sides = crate::twin::approach_sides(&vec![0.0; q.len()], &[q.to_vec()]).remove(0);
+        let sides = crate::sim::twin::approach_sides(&vec![0.0; q.len()], &[q.to_vec()]).remove(0);
         self.twin.quasi_static(&PoseCommand { q_cmd: q.to_vec(), sides, t: self.t_ref }).tool * 1e3
     }
     /// The twin's true tool point for commanded angles `q` (rad), mm, in the calibration's frame.

@@ -4,9 +4,9 @@
 use super::plot::{padded_range, Plot};
 use super::{histogram, residual_color, Blueprint, Layout, Recorder, ViewKind as K};
 use crate::error::Result;
-use crate::generate::Generated;
 use crate::io::OutputSet;
 use crate::report::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group};
+use crate::sim::generate::Generated;
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -48,7 +48,7 @@ pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
         .iter()
         .map(|r| {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            r.l_mm().unwrap_or(f64::NAN) - crate::generate::nominal_length(chain, &g.twin.sensor, &q)
+            r.l_mm().unwrap_or(f64::NAN) - crate::sim::generate::nominal_length(chain, &g.twin.sensor, &q)
         })
         .collect()
 }

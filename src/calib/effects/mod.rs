@@ -29,7 +29,7 @@ pub use thermal::hidden_warm_up;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::scenario::Scenario;
+use crate::sim::scenario::Scenario;
 use serde::{Deserialize, Serialize};
 
 /// One physical effect as a calibration block (see the module docs). Methods take the block

@@ -6,8 +6,8 @@ use super::*;
 
 /// The hidden-effect generator's warm-up, no drift yet: 5 K over a 600 s time constant from a
 /// 21 °C ambient. Its `hide` adds the drift; the generator's poses read their temperature from it.
-pub fn hidden_warm_up() -> crate::effects::Thermal {
-    crate::effects::Thermal::new(0.0, 5.0, 600.0, 21.0)
+pub fn hidden_warm_up() -> crate::sim::effects::Thermal {
+    crate::sim::effects::Thermal::new(0.0, 5.0, 600.0, 21.0)
 }
 
 pub struct ThermalDrift;

@@ -11,11 +11,11 @@ pub mod rapier_sim;
 pub mod study;
 pub mod tour;
 
-use crate::effects::statics::{equilibrium, Contact, LoadModel, Transmission};
-use crate::effects::Effects;
 use crate::robot::kinematics::{Chain, FkWork, Frame};
 use crate::robot::Robot;
-use crate::sensor::DrawWire;
+use crate::sim::effects::statics::{equilibrium, Contact, LoadModel, Transmission};
+use crate::sim::effects::Effects;
+use crate::sim::instrument::DrawWire;
 use nalgebra::Vector3;
 
 /// Options of the rapier settling loop.
@@ -203,6 +203,6 @@ impl Twin {
     }
 }
 
-/// The backlash approach-flank rule lives with the effects ([`crate::effects::approach_sides`]):
+/// The backlash approach-flank rule lives with the effects ([`crate::sim::effects::approach_sides`]):
 /// the twin and the calibration's row inputs apply the same one.
-pub use crate::effects::approach_sides;
+pub use crate::sim::effects::approach_sides;

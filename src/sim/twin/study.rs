@@ -5,9 +5,9 @@
 
 use super::tour::{acquire, Acquisition, AcquisitionModel, OnTimeout, Schedule, TourSettings};
 use crate::error::Result;
-use crate::generate::{build_twin, sample_poses, Progress};
 use crate::robot::Robot;
-use crate::scenario::Scenario;
+use crate::sim::generate::{build_twin, sample_poses, Progress};
+use crate::sim::scenario::Scenario;
 use serde::Serialize;
 
 /// One setting of the study.
@@ -42,14 +42,14 @@ pub struct HoldStudy {
 impl HoldStudy {
     /// Checks every value, naming the option.
     pub fn validate(&self) -> std::result::Result<(), String> {
-        if self.holds_s.is_empty() || self.holds_s.iter().any(|h| !(h.is_finite() && (0.0..=crate::sensor::drawwire::MAX_HOLD_S).contains(h))) {
-            return Err(format!("--holds needs values in [0, {}] s, got {:?}", crate::sensor::drawwire::MAX_HOLD_S, self.holds_s));
+        if self.holds_s.is_empty() || self.holds_s.iter().any(|h| !(h.is_finite() && (0.0..=crate::sim::instrument::drawwire::MAX_HOLD_S).contains(h))) {
+            return Err(format!("--holds needs values in [0, {}] s, got {:?}", crate::sim::instrument::drawwire::MAX_HOLD_S, self.holds_s));
         }
         if self.speed_fractions.is_empty() || self.speed_fractions.iter().any(|v| !(v.is_finite() && *v > 0.0 && *v <= 1.0)) {
             return Err(format!("--speeds needs fractions in (0, 1], got {:?}", self.speed_fractions));
         }
-        if !(1..=crate::scenario::MAX_POSES).contains(&self.poses) {
-            return Err(format!("--poses must be in 1..={}, got {}", crate::scenario::MAX_POSES, self.poses));
+        if !(1..=crate::sim::scenario::MAX_POSES).contains(&self.poses) {
+            return Err(format!("--poses must be in 1..={}, got {}", crate::sim::scenario::MAX_POSES, self.poses));
         }
         Ok(())
     }
@@ -70,7 +70,7 @@ pub fn hold_study(s: &Scenario, robot: &Robot, study: &HoldStudy, progress: &dyn
             let mut sc = s.clone();
             sc.sensor.hold_s = h;
             sc.sampling.speed_fraction = v;
-            crate::generate::check_robot_time(&sc, &crate::generate::acquisition_times(&sc, robot, &poses))?;
+            crate::sim::generate::check_robot_time(&sc, &crate::sim::generate::acquisition_times(&sc, robot, &poses))?;
             let twin = build_twin(&sc, robot);
             let settings = TourSettings { seed: sc.seed, speed_fraction: v };
             let acquired: Vec<_> = acquire(&twin, &acq, settings, &home, &poses, progress).into_iter().collect::<Result<_>>()?;

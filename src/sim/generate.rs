@@ -1,13 +1,13 @@
 //! Dataset generation: scenario → sampled poses → twin (rapier) → sensor → dataset + truth.
 
 use crate::dataset::{Dataset, Row, Split};
-use crate::effects::statics::Contact;
 use crate::error::{Error, Result};
 use crate::robot::kinematics::Frame;
 use crate::robot::Robot;
-use crate::scenario::{halton, stream_seed, Order, Scenario, Stream, HALTON_BASES};
-use crate::twin::tour::{Acquired, AcquisitionModel, OnTimeout, Schedule, TourSettings};
-use crate::twin::{approach_sides, PoseCommand, RestingPose, Twin};
+use crate::sim::effects::statics::Contact;
+use crate::sim::scenario::{halton, stream_seed, Order, Scenario, Stream, HALTON_BASES};
+use crate::sim::twin::tour::{Acquired, AcquisitionModel, OnTimeout, Schedule, TourSettings};
+use crate::sim::twin::{approach_sides, PoseCommand, RestingPose, Twin};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -135,7 +135,7 @@ pub struct Truth {
     pub units: BTreeMap<&'static str, &'static str>,
     /// True geometric deviations: mm for dx/dy/dz, degrees for rx/ry/rz/dtheta.
     pub parameters: BTreeMap<String, f64>,
-    pub effects: crate::effects::Effects,
+    pub effects: crate::sim::effects::Effects,
     pub sensor: SensorTruth,
     pub tool: ToolTruth,
     pub noise_std_mm: f64,
@@ -160,7 +160,7 @@ pub fn build_twin(s: &Scenario, robot: &Robot) -> Twin {
 }
 
 /// Length (mm) the nominal arm (no geometric error, no effect) gives at joint angles `q` (rad).
-pub fn nominal_length(chain: &crate::robot::kinematics::Chain, sensor: &crate::sensor::DrawWire, q: &[f64]) -> f64 {
+pub fn nominal_length(chain: &crate::robot::kinematics::Chain, sensor: &crate::sim::instrument::DrawWire, q: &[f64]) -> f64 {
     let zero = vec![0.0; chain.n_params()];
     sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &sensor.tool_point_m()))
 }
@@ -240,7 +240,7 @@ fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<
         let first = r * slot + rng.random_range(0..=slot - g.rows);
         let mut size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
         for i in first..first + g.rows {
-            if g.kind == crate::scenario::GlitchKind::Scatter && i > first {
+            if g.kind == crate::sim::scenario::GlitchKind::Scatter && i > first {
                 size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
             }
             let l = rows[i].l_mm().expect("generated rows carry a reading") + size;
@@ -317,7 +317,7 @@ pub const DEFAULT_AMBIENT_C: f64 = 20.0;
 
 /// The `temp` column of pose `i` acquired at `t` s, at the dataset's precision: the temperature
 /// sensor's reading (ambient + offset + the structure's rise through the sensor's lag + seeded
-/// Gaussian noise, see [`crate::effects::Thermal`]); `None` when `temp_column = false`. Without
+/// Gaussian noise, see [`crate::sim::effects::Thermal`]); `None` when `temp_column = false`. Without
 /// the thermal effect the column holds the constant [`DEFAULT_AMBIENT_C`].
 pub fn measured_temp(s: &Scenario, i: usize, t: f64) -> Option<f64> {
     let Some(th) = &s.effects.thermal else {
@@ -369,7 +369,7 @@ pub fn acquire_all(s: &Scenario, twin: &Twin, poses: &[Vec<f64>], sides: &[Vec<f
             .collect(),
         AcquisitionModel::Simulated => {
             let settings = TourSettings { seed: s.seed, speed_fraction: s.sampling.speed_fraction };
-            crate::twin::tour::acquire(twin, &s.acquisition, settings, &vec![0.0; twin.chain.n_joints], poses, progress)
+            crate::sim::twin::tour::acquire(twin, &s.acquisition, settings, &vec![0.0; twin.chain.n_joints], poses, progress)
                 .into_iter()
                 .map(|r| r.map(Outcome::Acquired))
                 .collect()

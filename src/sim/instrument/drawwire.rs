@@ -2,7 +2,7 @@
 //! on the flange. A reading is the cable length plus a length offset, with a smooth linearity error,
 //! Gaussian noise and quantisation, averaged over a stationary window.
 
-use crate::effects::statics::CableLoad;
+use crate::sim::effects::statics::CableLoad;
 use nalgebra::Vector3;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};

@@ -30,10 +30,10 @@
 use super::motion::Move;
 use super::rapier_sim::{build, contacts, dvec, joint_inertias, nvec, State};
 use super::{PoseCommand, RestingPose, Twin};
-use crate::effects::statics::{Contact, Transmission};
 use crate::error::{Error, Result};
 use crate::robot::kinematics::{FkWork, Frame, PointJacobian};
 use crate::robot::Robot;
+use crate::sim::effects::statics::{Contact, Transmission};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -155,8 +155,8 @@ impl Acquisition {
         if !(self.coarse_dt_s.is_finite() && self.coarse_dt_s >= fine_dt_s && self.coarse_dt_s <= MAX_COARSE_DT_S) {
             return Err(format!("acquisition.coarse_dt_s = {} must be in [simulation.dt_s = {fine_dt_s}, {MAX_COARSE_DT_S}] s", self.coarse_dt_s));
         }
-        if !(1..=crate::scenario::MAX_POSES).contains(&self.chunk_poses) {
-            return Err(format!("acquisition.chunk_poses = {} must be in 1..={}", self.chunk_poses, crate::scenario::MAX_POSES));
+        if !(1..=crate::sim::scenario::MAX_POSES).contains(&self.chunk_poses) {
+            return Err(format!("acquisition.chunk_poses = {} must be in 1..={}", self.chunk_poses, crate::sim::scenario::MAX_POSES));
         }
         Ok(())
     }
@@ -458,7 +458,7 @@ impl<'a> Sim<'a> {
     /// a joint inside its band keeps its deflection `delta` when friction holds it (load at most the
     /// breakaway), else the load carries it to its flank. Also returns the
     /// link angles and the flank states.
-    /// The quasi-static fixed point of [`crate::effects::statics::equilibrium`] with that rule.
+    /// The quasi-static fixed point of [`crate::sim::effects::statics::equilibrium`] with that rule.
     fn rest_reference(&mut self, q_cmd: &[f64], delta: &[f64], t: f64) -> (Vector3<f64>, Vec<f64>, Vec<State>) {
         let twin = self.twin;
         let chain = &twin.chain;
@@ -557,7 +557,7 @@ pub fn acquire(
     settings: TourSettings,
     home: &[f64],
     poses: &[Vec<f64>],
-    progress: &dyn crate::generate::Progress,
+    progress: &dyn crate::sim::generate::Progress,
 ) -> Vec<Result<Acquired>> {
     use rayon::prelude::*;
     let sn = &twin.sensor;
@@ -586,7 +586,7 @@ fn run_chunk(
     rule: &[Vec<f64>],
     a: usize,
     b: usize,
-    progress: &dyn crate::generate::Progress,
+    progress: &dyn crate::sim::generate::Progress,
 ) -> Result<Vec<Result<Acquired>>> {
     let chain = &twin.chain;
     let n = chain.n_joints;
@@ -686,7 +686,7 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     let hold_samples = (sn.hold_s * sn.rate_hz + 1e-9).floor() as usize;
     let window_start = arrive + sn.hold_s;
     let ng = acq.gate_samples(sn.rate_hz);
-    let mut rng = ChaCha8Rng::seed_from_u64(crate::scenario::stream_seed(settings.seed, crate::scenario::Stream::Gate, i as u64));
+    let mut rng = ChaCha8Rng::seed_from_u64(crate::sim::scenario::stream_seed(settings.seed, crate::sim::scenario::Stream::Gate, i as u64));
     let mut raw: Vec<f64> = Vec::with_capacity(hold_samples.min(1 << 16));
     let mut gate_s = None;
     let mut negligible_s = None;

@@ -1,12 +1,12 @@
 //! Scenario files: which robot, its true deviations, effects, sensor, pose sampling and seed.
 //! Unknown keys are rejected with the key named.
 
-use crate::effects::Effects;
 use crate::error::{Error, Result};
 use crate::robot::{Robot, PARAM_SUFFIXES};
-use crate::sensor::DrawWire;
-use crate::twin::tour::Acquisition;
-use crate::twin::SettleOptions;
+use crate::sim::effects::Effects;
+use crate::sim::instrument::DrawWire;
+use crate::sim::twin::tour::Acquisition;
+use crate::sim::twin::SettleOptions;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -21,7 +21,7 @@ pub const MAX_POSES: usize = 100_000;
 pub const MAX_ANGLE_DECIMALS: usize = 12;
 
 /// The scenario shipped with twincal and run by `twincal generate` without `--scenario`.
-pub const DEFAULT_SCENARIO: &str = include_str!("../scenarios/irb120_evo_nph.toml");
+pub const DEFAULT_SCENARIO: &str = include_str!("../../scenarios/irb120_evo_nph.toml");
 pub const DEFAULT_SCENARIO_NAME: &str = "scenarios/irb120_evo_nph.toml (embedded)";
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -400,7 +400,7 @@ pub const HALTON_BASES: [u64; 12] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37]
 mod tests {
     use super::*;
 
-    const IDEAL: &str = include_str!("../scenarios/irb120_ideal.toml");
+    const IDEAL: &str = include_str!("../../scenarios/irb120_ideal.toml");
 
     /// The ideal scenario with `table.key = value` set (TOML syntax for the value).
     fn with(table: &str, key: &str, value: &str) -> String {

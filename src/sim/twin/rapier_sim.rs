@@ -9,10 +9,10 @@
 //! force on the last link at the tool point, recomputed every step.
 
 use super::{PoseCommand, RestingPose, Twin};
-use crate::effects::statics::{Contact, Transmission};
 use crate::error::{Error, Result};
 use crate::robot::kinematics::{FkWork, Frame};
 use crate::robot::Inertial;
+use crate::sim::effects::statics::{Contact, Transmission};
 use nalgebra::{Matrix3, Vector3};
 use rapier3d_f64::glamx::{DMat3, DQuat, DVec3};
 use rapier3d_f64::prelude::*;
