@@ -1,10 +1,16 @@
-//! Benchmarks beyond `bench calib` / `bench diagnose` (which still live with their commands in
-//! `cli`): each prints its targets beside what it measured.
+//! Every benchmark (`twincal bench TARGET`): each prints its targets beside what it measured.
+//! `commands/bench.rs` only checks the options and calls these.
 //!
+//! * [`twin`]: `bench twin` (the simulated tour, rapier against the quasi-static model);
+//! * [`calib`]: `bench calib` (LM's speed and accuracy, the untuned methods, HSR-RobotCali);
+//! * [`diagnose`]: `bench diagnose` (speed, detection and false alarms on hidden effects);
 //! * [`evo`]: `bench dsade` and `bench ik` (Evo-NPH: DS-ADE + GKAN, the hybrid-Jacobian IK);
 //! * [`awnn`]: `bench awnn` (PSO-EKF-AWNN and its ablations);
 //! * [`real`]: `bench real` (the real measured datasets in ../shared/data).
 
 pub mod awnn;
+pub mod calib;
+pub mod diagnose;
 pub mod evo;
 pub mod real;
+pub mod twin;

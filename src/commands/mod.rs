@@ -12,7 +12,7 @@ mod study;
 #[cfg(test)]
 mod tests;
 
-pub use bench::{bench, bench_calib, bench_command, bench_diagnose, flank_check, twin_agreement, FlankCheck, TwinAgreement};
+pub use bench::bench_command;
 use calibrate::print_verdict;
 pub use calibrate::{calibrate, calibration_warnings, CalibrateArgs};
 pub use compare::{compare, CompareArgs, CompareRun};
@@ -21,12 +21,11 @@ pub use generate::generate;
 pub use predict::{predict, prediction_csv};
 pub use study::{study, StudyTarget};
 
-use crate::calib::stats::median;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::io::{check_outputs, OutputSet};
 use crate::report::verdict::{judge, with_verdict, Limit};
-use crate::sim::generate::{generate as run_generate, stage_outputs, write_outputs, Generated, Progress, Silent};
+use crate::sim::generate::{generate as run_generate, stage_outputs, Generated, Progress, Silent};
 use crate::sim::scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
