@@ -632,9 +632,10 @@ fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
         for &q in &r.q_deg {
             assert!(q.is_finite() && q.abs() <= MAX_ABS_JOINT_DEG, "q = {q}");
         }
-        match r.l_mm() {
-            Some(l) => assert!(l.is_finite() && l > 0.0 && l <= MAX_L_MM, "L = {l}"),
-            None => assert!(!opts.require_length, "L missing although required"),
+        match r.reading_mm[..] {
+            [l] => assert!(l.is_finite() && l > 0.0 && l <= MAX_L_MM, "L = {l}"),
+            [] => assert!(!opts.require_length, "reading missing although required"),
+            ref p => assert!(p.len() == 3 && p.iter().all(|v| v.is_finite() && v.abs() <= MAX_L_MM), "point = {p:?}"),
         }
         if let Some(t) = r.t_s {
             assert!(t.is_finite() && (0.0..=MAX_T_S).contains(&t) && t >= last_t, "t = {t}");
@@ -644,11 +645,12 @@ fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
             assert!(temp.is_finite() && (MIN_TEMP_C..=MAX_TEMP_C).contains(&temp), "temp = {temp}");
         }
     }
-    // L is all or nothing, and so is the split.
-    assert!(ds.rows.iter().all(|r| r.l_mm().is_some()) || ds.rows.iter().all(|r| r.l_mm().is_none()));
+    // The reading is all or nothing and of one kind, and so is the split.
+    let d = ds.rows[0].reading_mm.len();
+    assert!(ds.rows.iter().all(|r| r.reading_mm.len() == d));
     assert!(ds.rows.iter().all(|r| r.split.is_some()) || ds.rows.iter().all(|r| r.split.is_none()));
     if opts.require_length {
-        assert!(ds.has_length());
+        assert!(ds.has_readings());
     }
     // What the writer writes reads back to the same rows (angles are degrees by now; optional
     // columns only some rows fill are not written).
@@ -696,7 +698,7 @@ mod props {
 
     /// A header: a random order of some known columns (sometimes duplicated) and strangers.
     fn header() -> impl Strategy<Value = Vec<String>> {
-        let names = ["q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split", "note", "Q3", " l "];
+        let names = ["q1", "q2", "q3", "q4", "q5", "q6", "L", "t", "temp", "split", "note", "Q3", " l ", "x", "y", "z"];
         (proptest::sample::subsequence(names.to_vec(), 5..=names.len()), any::<u64>()).prop_map(|(mut h, seed)| {
             // A deterministic shuffle from the seed.
             let n = h.len();
