@@ -144,6 +144,9 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
     if !d.unconfirmed.is_empty() {
         eprintln!("  not confirmed on the confirmation rows (left out of the model): {}", d.unconfirmed.join(", "));
     }
+    for w in &d.warnings {
+        eprintln!("warning: {w}");
+    }
     eprintln!(
         "  final held-out RMSE {:.4} mm ({}); the final model's RMSE on the {} kept rows: {:.4} mm",
         d.final_heldout_rmse_mm,

@@ -281,6 +281,31 @@ pub struct Diagnosis {
     pub seconds: f64,
     /// The effects kept, as calibration effect options (for `calibrate --effects`).
     pub effects_option: String,
+    /// What the user should know about this diagnosis (a kept cause whose size the final fit
+    /// turned unphysical, ...).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+}
+
+/// The kept effect blocks whose fitted size in `x` has an unphysical sign (a negative
+/// compliance or band width): accepted with a physical size when selected, turned by the causes
+/// added after them. One warning each.
+pub fn unphysical_causes(model: &CalibModel, x: &[f64], kept: &[EffectBlock]) -> Vec<String> {
+    kept.iter()
+        .filter_map(|block| {
+            let b = model.effects.iter().position(|e| e == block)?;
+            let k = model.effect_params(b).start;
+            (!block.kind.def().physical_sign(x, k)).then(|| {
+                format!(
+                    "{} ends with an unphysical size in the final fit ({} = {:.4} {}): the causes added after it took its share; treat it as unconfirmed",
+                    block.label(),
+                    model.names[k],
+                    x[k] * model.kinds[k].display(),
+                    model.kinds[k].unit()
+                )
+            })
+        })
+        .collect()
 }
 
 impl Diagnosis {
@@ -640,6 +665,8 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let final_x = Ctx::lm().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
     let cov = covariance(&fit, &final_x, &final_id.fixed_mask);
     let final_train_rmse_mm = rms(&fit.residuals_mm(&final_x));
+    let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
+    let warnings = unphysical_causes(&current.model, &final_x, &kept_blocks);
     let mut causes = Vec::new();
     for (n, (block, before, after, p)) in found.iter().enumerate() {
         let b = current.model.effects.iter().position(|e| e == block).expect("kept block is in the model");
@@ -701,6 +728,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         .join(",");
 
     let diagnosis = Diagnosis {
+        warnings,
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
         rows: data.rows.len(),
@@ -841,5 +869,27 @@ mod tests {
         assert!(e.contains("joint torques"), "{e}");
         let e = candidates(&d, &[(EffectKind::Backlash, Some(8))], false).unwrap_err().to_string();
         assert!(e.contains("joint 9 is beyond the data's 6 joints"), "{e}");
+    }
+
+    #[test]
+    fn a_kept_cause_that_ends_unphysical_is_named_in_a_warning() {
+        use crate::calib::model::SensorGuess;
+        let robot = Robot::irb120();
+        let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
+        let mut m = CalibModel::dh(&robot, &guess, true);
+        let (band, spring) = (EffectBlock::joint(EffectKind::Backlash, 2), EffectBlock::joint(EffectKind::JointCompliance, 1));
+        m.add_effect(spring.clone(), 3600.0);
+        m.add_effect(band.clone(), 3600.0);
+        let mut x = m.nominal.clone();
+        let (kc, kb) = (m.effect_params(0).start, m.effect_params(1).start);
+        x[kc] = 40e-6;
+        x[kb] = 0.005f64.to_radians();
+        assert!(unphysical_causes(&m, &x, &[spring.clone(), band.clone()]).is_empty());
+        x[kb] = -0.005f64.to_radians();
+        let w = unphysical_causes(&m, &x, &[spring.clone(), band.clone()]);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].starts_with("backlash[j3] ends with an unphysical size") && w[0].contains("backlash.j3 = -5.0000 mdeg"), "{w:?}");
+        x[kc] = -1e-6;
+        assert_eq!(unphysical_causes(&m, &x, &[spring, band]).len(), 2);
     }
 }
