@@ -154,3 +154,80 @@ fn the_commands_take_a_tracker_dataset() {
         assert!(err.contains(says) && !err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+/// The twin's own tracker: `generate` writes a tracker dataset (byte-identical for a seed) and
+/// its truth; `calibrate` on it reaches the tracker's noise on the held-out rows, and every
+/// identifiable parameter (the tracker's transform and the reflector among them) lies within 3σ
+/// of its truth-equivalent value, over three seeds.
+#[test]
+fn the_twin_writes_a_tracker_dataset_that_calibrates_to_its_truth() {
+    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/irb120_tracker.toml");
+    let dir = tempfile::tempdir().unwrap();
+    for seed in ["1", "2", "3"] {
+        let data = dir.path().join(format!("s{seed}"));
+        let out = twincal(&["generate", "--scenario", scenario, "--seed", seed, "--out", data.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        if seed == "1" {
+            let again = dir.path().join("again");
+            assert!(twincal(&["generate", "--scenario", scenario, "--seed", seed, "--out", again.to_str().unwrap(), "--quiet"]).status.success());
+            assert_eq!(
+                std::fs::read(data.join("dataset.csv")).unwrap(),
+                std::fs::read(again.join("dataset.csv")).unwrap(),
+                "same scenario and seed, same bytes"
+            );
+            let csv = std::fs::read_to_string(data.join("dataset.csv")).unwrap();
+            assert!(csv.starts_with("q1,q2,q3,q4,q5,q6,x,y,z,t,temp,split\n"), "{}", &csv[..80]);
+        }
+        let result = dir.path().join(format!("r{seed}.json"));
+        let out = twincal(&["calibrate", "--data", data.to_str().unwrap(), "--out", result.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{err}");
+        let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
+        let truth: serde_json::Value = serde_json::from_slice(&std::fs::read(data.join("truth.json")).unwrap()).unwrap();
+        let noise = truth["noise_std_mm"].as_f64().unwrap();
+        let test = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+        assert!(test / noise > 0.8 && test / noise < 1.25, "seed {seed}: held-out RMSE {test:.5} mm against the noise {noise:.5} mm\n{err}");
+        let c = &r["truth_comparison"];
+        let (within, identifiable) = (c["within_3_sigma"].as_u64().unwrap(), c["identifiable"].as_u64().unwrap());
+        assert_eq!(within, identifiable, "seed {seed}: {within}/{identifiable} within 3σ\n{err}");
+        for name in ["tracker.x", "tracker.rz", "tool.x"] {
+            let p = r["parameters"].as_array().unwrap().iter().find(|p| p["name"] == name).unwrap_or_else(|| panic!("{name} reported"));
+            assert!(p["fixed"] == false && p["truth"].is_number(), "seed {seed}: {name} {p}");
+        }
+    }
+}
+
+/// A tracker scenario that asks for what a tracker does not have is refused, naming the key.
+#[test]
+fn a_tracker_scenario_refuses_cable_settings() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/irb120_tracker.toml")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (text.replace("rate_hz = 1000.0", "rate_hz = 1000.0\ntension_n = 2.0"), "no cable pulls on the tool"),
+        (text.replace("[sampling]", "[acquisition]\nmodel = \"simulated\"\n\n[sampling]"), "use \"settled\" or \"quasi_static\""),
+        (text.replace("[sampling]", "[glitches]\nruns = 1\nrows = 3\nsize_mm = 1.0\n\n[sampling]"), "[glitches] disturb a cable's reading"),
+        (text.replace("noise_um = 15.0", "noise_um = -1.0"), "tracker.noise_um = -1"),
+        (text.replace("decimals = 4", "decimals = 9"), "tracker.decimals = 9"),
+        (text.replace("noise_um = 15.0", "noise_um = 15.0\nrange_m = 40"), "unknown field `range_m`"),
+    ];
+    for (k, (scenario, says)) in cases.iter().enumerate() {
+        let path = dir.path().join(format!("bad{k}.toml"));
+        std::fs::write(&path, scenario).unwrap();
+        let out = twincal(&["generate", "--scenario", path.to_str().unwrap(), "--out", dir.path().join(format!("o{k}")).to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "case {k}: {err}");
+        assert!(err.contains(says), "case {k}: {err}");
+        assert!(!dir.path().join(format!("o{k}")).exists(), "case {k}: an output was left");
+    }
+    let out = twincal(&[
+        "generate",
+        "--scenario",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/irb120_tracker.toml"),
+        "--out",
+        dir.path().join("r").to_str().unwrap(),
+        "--rrd",
+        dir.path().join("r.rrd").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--rrd draws the draw-wire's cable"));
+}

@@ -15,7 +15,7 @@
 //!    thermal, ...) add to the lengths, a rigid model absorbs here just as it does in the
 //!    calibration.
 
-use super::model::{CalibModel, Placement};
+use super::model::CalibModel;
 use super::problem::{ReadingFit, Samples};
 use super::truth::TruthFile;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
@@ -106,9 +106,10 @@ pub fn map_truth(model: &CalibModel, robot: &Robot, truth: &TruthFile, q: &[Vec<
     let nc = model.n_chain();
     let mut x = model.nominal.clone();
     x[..nc].iter_mut().for_each(|v| *v = 0.0);
-    let s = &truth.sensor;
-    let mm = |v: [f64; 3]| Vector3::from(v) * 1e-3;
-    let placement = Placement::cable(mm(s.exit_point_mm), s.length_offset_mm * 1e-3, mm(truth.tool.point_mm));
+    let placement = truth.placement();
+    if placement.measurement != model.measurement {
+        return None;
+    }
     model.set_placement(&mut x, &placement);
     let fixed: Vec<bool> = (0..model.n_params()).map(|k| k >= nc).collect();
     let problem = PoseMatch { model, target, q, local };

@@ -23,6 +23,7 @@ pub struct Combination {
 #[derive(Clone, Debug, Serialize)]
 pub struct Identifiability {
     pub n_params: usize,
+    /// Rows of the data (poses); the Jacobian has one row per reading value.
     pub n_poses: usize,
     pub rank: usize,
     pub tolerance: f64,

@@ -12,6 +12,7 @@ use std::cell::RefCell;
 
 thread_local! {
     static WORK: RefCell<Option<(usize, ModelWork)>> = const { RefCell::new(None) };
+    static JAC: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
 }
 
 /// Runs `f` with a thread-local model workspace (hot loops allocate nothing after the first call).
@@ -147,10 +148,14 @@ impl Observations for ReadingFit<'_> {
         if d == 1 {
             with_work(self.model, |w| self.model.predict_grad_with(x, &self.data.q[row], &self.data.inputs[row], w, g));
         } else {
-            let mut jac = vec![0.0; n * d];
-            let mut y = [0.0; MAX_DIM];
-            with_work(self.model, |w| self.model.readings_grad_with(x, &self.data.q[row], &self.data.inputs[row], w, &mut y[..d], &mut jac));
-            g.copy_from_slice(&jac[c * n..(c + 1) * n]);
+            // The row's whole Jacobian, in a reused buffer (the filters call this per value).
+            JAC.with(|cell| {
+                let mut jac = cell.borrow_mut();
+                jac.resize(n * d, 0.0);
+                let mut y = [0.0; MAX_DIM];
+                with_work(self.model, |w| self.model.readings_grad_with(x, &self.data.q[row], &self.data.inputs[row], w, &mut y[..d], &mut jac));
+                g.copy_from_slice(&jac[c * n..(c + 1) * n]);
+            });
         }
         g.iter_mut().for_each(|v| *v *= 1e3);
     }

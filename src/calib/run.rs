@@ -601,6 +601,8 @@ pub fn identify(fit: &ReadingFit, x: &[f64], tol: f64) -> Identifiability {
     };
     let mut id = analyse(&jacobian(&ReadingFit { model: fit.model, data }, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority);
     id.still_joints = still.iter().map(|j| j + 1).collect();
+    // Rows, not residuals: a tracker's row gives three.
+    id.n_poses = fit.data.len();
     id
 }
 
@@ -751,7 +753,9 @@ pub fn truth_stage(
     if t.poses.len() != data.rows.len() {
         return None;
     }
-    let clean = Samples { y: split.train_idx.iter().map(|&i| t.poses[i].length_true_mm * 1e-3).collect(), ..split.train.clone() };
+    // The noise-free readings of the training rows, of the model's kind (else no comparison).
+    let y: Option<Vec<Vec<f64>>> = split.train_idx.iter().map(|&i| t.true_reading(i, model.measurement)).collect();
+    let clean = Samples { y: y?.concat(), ..split.train.clone() };
     super::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)
 }
 

@@ -18,6 +18,9 @@ pub struct TruthFile {
     #[serde(default)]
     pub dataset: Option<DatasetLink>,
     pub sensor: TruthSensor,
+    /// The tracker that wrote `x, y, z` (a tracker dataset).
+    #[serde(default)]
+    pub tracker: Option<TruthTracker>,
     pub tool: TruthTool,
     pub noise_std_mm: f64,
     pub poses: Vec<TruthPose>,
@@ -28,12 +31,49 @@ pub struct TruthSensor {
     pub length_offset_mm: f64,
 }
 #[derive(Clone, Debug, Deserialize)]
+pub struct TruthTracker {
+    pub translation_mm: [f64; 3],
+    pub rotation_deg: [f64; 3],
+}
+#[derive(Clone, Debug, Deserialize)]
 pub struct TruthTool {
     pub point_mm: [f64; 3],
 }
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthPose {
     pub length_true_mm: f64,
+    /// A tracker's noise-free reading, mm.
+    #[serde(default)]
+    pub point_true_mm: Option<[f64; 3]>,
+}
+
+impl TruthFile {
+    /// The true placement of the instrument that wrote the dataset (m, rad): the tracker's
+    /// when there is one, else the draw-wire's.
+    pub fn placement(&self) -> crate::calib::model::Placement {
+        use crate::calib::model::Placement;
+        use nalgebra::Vector3;
+        let mm = |v: [f64; 3]| Vector3::from(v) * 1e-3;
+        let tool = mm(self.tool.point_mm);
+        match &self.tracker {
+            Some(t) => {
+                let (p, r) = (t.translation_mm.map(|v| v * 1e-3), t.rotation_deg.map(f64::to_radians));
+                Placement { measurement: crate::measurement::Measurement::Point, own: vec![p[0], p[1], p[2], r[0], r[1], r[2]], tool }
+            }
+            None => Placement::cable(mm(self.sensor.exit_point_mm), self.sensor.length_offset_mm * 1e-3, tool),
+        }
+    }
+
+    /// Pose `i`'s noise-free reading, m, in `measurement`'s order; `None` when the file does not
+    /// hold that kind of reading.
+    pub fn true_reading(&self, i: usize, measurement: crate::measurement::Measurement) -> Option<Vec<f64>> {
+        let p = self.poses.get(i)?;
+        match (measurement, p.point_true_mm) {
+            (crate::measurement::Measurement::Length, _) if self.tracker.is_none() => Some(vec![p.length_true_mm * 1e-3]),
+            (crate::measurement::Measurement::Point, Some(v)) => Some(v.iter().map(|c| c * 1e-3).collect()),
+            _ => None,
+        }
+    }
 }
 
 /// The dataset file a truth file was written with: its name, the SHA-256 of its exact bytes

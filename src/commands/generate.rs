@@ -19,6 +19,9 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
     if let Some(seed) = seed {
         s.seed = seed;
     }
+    if s.tracker.is_some() && rrd.is_some() {
+        return Err(Error::Invalid("--rrd draws the draw-wire's cable; this scenario measures with a [tracker]".into()));
+    }
     let t0 = Instant::now();
     let g = run_generate(&s, &robot, progress(quiet).as_ref())?;
     let elapsed = t0.elapsed().as_secs_f64();
@@ -41,6 +44,9 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     let steps: Vec<usize> = t.poses.iter().map(|p| p.settle_steps).collect();
     let mean_steps = steps.iter().sum::<usize>() as f64 / steps.len().max(1) as f64;
     eprintln!("scenario {} (seed {}): {n} poses ({} train / {test} test) in {elapsed:.2} s", t.scenario, t.seed, n - test);
+    if t.tracker.is_some() {
+        eprintln!("  read by a laser tracker (x, y, z in its frame): {:.4} mm per coordinate, averaged noise (RMS over the poses)", t.noise_std_mm);
+    }
     let acq: Vec<&crate::sim::generate::PoseAcquisition> = t.poses.iter().filter_map(|p| p.acquisition.as_ref()).collect();
     if acq.is_empty() {
         let slow = t.poses.iter().filter(|p| p.settle_time_s > g.twin.sensor.hold_s).count();

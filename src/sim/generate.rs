@@ -67,6 +67,12 @@ pub struct PoseTruth {
     /// What a perfect reading would give: true length + linearity error, mm.
     pub length_noise_free_mm: f64,
     pub length_measured_mm: f64,
+    /// With a tracker: the reflector's true position in the tracker's frame, mm (no noise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub point_true_mm: Option<[f64; 3]>,
+    /// With a tracker: what it wrote (`x, y, z`), mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub point_measured_mm: Option<[f64; 3]>,
     pub settle_steps: usize,
     /// Simulated time the arm took to come to rest, s. Longer than the sensor's hold time means
     /// a real reading would have been taken while the arm still moved.
@@ -137,7 +143,12 @@ pub struct Truth {
     pub parameters: BTreeMap<String, f64>,
     pub effects: crate::sim::effects::Effects,
     pub sensor: SensorTruth,
+    /// The tracker that wrote `x, y, z` (absent for a draw-wire dataset).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracker: Option<crate::sim::instrument::Tracker>,
     pub tool: ToolTruth,
+    /// Standard deviation of one written reading value, mm: the averaged cable noise, or for a
+    /// tracker the RMS over the poses of one coordinate's averaged noise.
     pub noise_std_mm: f64,
     pub poses: Vec<PoseTruth>,
     pub rejected: Vec<Rejected>,
@@ -166,7 +177,8 @@ pub fn nominal_length(chain: &crate::robot::kinematics::Chain, sensor: &crate::s
 }
 
 /// Samples commanded poses (rad) by a Halton sequence over the joint ranges, keeping those whose
-/// nominal tool point is above `min_tool_z_mm` and whose nominal reading is inside the sensor range.
+/// nominal tool point is above `min_tool_z_mm` and whose nominal reading is inside the sensor
+/// range (with a tracker: every pose above the floor).
 pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
     let n = robot.dof();
     if n > HALTON_BASES.len() {
@@ -214,7 +226,9 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
         i += 1;
         let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool);
         let l = s.sensor.ideal_length(&p);
-        if p.z * 1e3 >= s.sampling.min_tool_z_mm && l > lo + margin && l < hi - margin {
+        // A tracker has no cable range to keep inside.
+        let in_range = s.tracker.is_some() || (l > lo + margin && l < hi - margin);
+        if p.z * 1e3 >= s.sampling.min_tool_z_mm && in_range {
             out.push(q);
         }
     }
@@ -403,6 +417,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
     let mut truth_poses = Vec::new();
     let mut frames = Vec::new();
     let mut rejected = Vec::new();
+    let mut point_var = Vec::new();
     for (i, r) in results.into_iter().enumerate() {
         let (rest, series, acq) = match r {
             Ok(Outcome::Rest(r)) => (r, None, None),
@@ -456,9 +471,18 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         let temp = measured_temp(s, i, times[i]);
         // Each value at its meaning's precision (see DrawWire::reading_decimals).
         let reading = round_decimals(reading, s.sensor.reading_decimals());
+        // A tracker reads the same tool point, from its own noise stream.
+        let point = s.tracker.as_ref().map(|tr| {
+            let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
+            let read = tr.read_mm(&rest.tool, s.sensor.samples, &mut rng).map(|v| round_decimals(v, tr.decimals));
+            (tr.ideal_mm(&rest.tool), read, tr.sample_std_mm(&rest.tool) / (s.sensor.samples.max(1) as f64).sqrt())
+        });
+        if let Some((_, _, sd)) = point {
+            point_var.push(sd * sd);
+        }
         rows.push(Row {
             q_deg: poses[i].iter().map(|v| round_decimals(v.to_degrees(), s.sampling.written_decimals())).collect(),
-            reading_mm: vec![reading],
+            reading_mm: point.map_or_else(|| vec![reading], |(_, read, _)| read.to_vec()),
             t_s: Some(round_decimals(times[i], T_DECIMALS)),
             temp_c: temp,
             split: Some(split[i]),
@@ -480,6 +504,8 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             length_true_mm: l_true,
             length_noise_free_mm: noise_free,
             length_measured_mm: reading,
+            point_true_mm: point.map(|(ideal, _, _)| ideal),
+            point_measured_mm: point.map(|(_, read, _)| read),
             settle_steps: rest.steps,
             settle_time_s: match &acq {
                 Some(a) => a.negligible_s.unwrap_or(s.sensor.hold_s + s.sensor.window_s()),
@@ -535,8 +561,9 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             hold_s: sn.hold_s,
             rate_hz: sn.rate_hz,
         },
+        tracker: s.tracker.clone(),
         tool: ToolTruth { point_mm: sn.tool_point_mm },
-        noise_std_mm: averaged,
+        noise_std_mm: if s.tracker.is_some() { (point_var.iter().sum::<f64>() / point_var.len().max(1) as f64).sqrt() } else { averaged },
         poses: truth_poses,
         rejected,
         glitch_rows,

@@ -39,6 +39,11 @@ pub struct Scenario {
     #[serde(default)]
     pub effects: Effects,
     pub sensor: DrawWire,
+    /// A laser tracker instead of the cable's reading: the dataset then holds the tool point's
+    /// `x, y, z` in the tracker's frame. The `[sensor]` still gives the tool point (the
+    /// reflector), the hold and the samples averaged; it pulls no cable.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tracker: Option<crate::sim::instrument::Tracker>,
     pub sampling: Sampling,
     #[serde(default)]
     pub simulation: SettleOptions,
@@ -225,6 +230,21 @@ impl Scenario {
         }
         self.effects.validate(robot.dof()).map_err(err)?;
         self.sensor.validate().map_err(err)?;
+        if let Some(t) = &self.tracker {
+            t.validate().map_err(err)?;
+            if self.sensor.tension_n != 0.0 {
+                return Err(err(format!("sensor.tension_n = {}: with a [tracker] no cable pulls on the tool; set it to 0", self.sensor.tension_n)));
+            }
+            if self.glitches.is_some() {
+                return Err(err("[glitches] disturb a cable's reading; a [tracker] scenario has none".into()));
+            }
+            if self.acquisition.model == crate::sim::twin::tour::AcquisitionModel::Simulated {
+                return Err(err(
+                    "acquisition.model = \"simulated\" reads a cable through the tour's transients; with a [tracker] use \"settled\" or \"quasi_static\""
+                        .into(),
+                ));
+            }
+        }
         let names = robot.param_names();
         for k in self.geometry.set.keys() {
             if !names.contains(k) {
@@ -372,6 +392,8 @@ pub enum Stream {
     Gate = 6,
     /// Placement and sign of the glitch runs.
     Glitches = 7,
+    /// Noise of a tracker's readings, one item per pose.
+    TrackerNoise = 8,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).

@@ -1,0 +1,88 @@
+//! A laser tracker following a reflector on the flange (the scenario's `[tracker]`): it reads
+//! the reflector's position in its own frame. The reflector is the sensor's tool point (the
+//! point the twin carries on the flange). The reading is the calibration's own
+//! [`Measurement::Point`] of the true reflector position, plus the tracker's volumetric noise
+//! (a + b·distance, one standard deviation per coordinate), averaged over the sensor's samples,
+//! rounded to the written decimals. Line of sight is not modelled: every pose is seen.
+
+use crate::measurement::Measurement;
+use nalgebra::Vector3;
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// Largest tracker distance from the base origin, mm (a tracker reaches about 80 m).
+pub const MAX_DISTANCE_MM: f64 = 80_000.0;
+/// Most decimals of a written coordinate (mm): 1 nm.
+pub const MAX_DECIMALS: usize = 6;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tracker {
+    /// The base-to-tracker translation `t` of `y = R·p + t` (a base-frame point `p` read in the
+    /// tracker's frame), mm.
+    pub translation_mm: [f64; 3],
+    /// The base-to-tracker rotation `R = Rx(a)·Ry(b)·Rz(c)`, degrees.
+    #[serde(default)]
+    pub rotation_deg: [f64; 3],
+    /// Noise of one coordinate of one sample: a constant part, µm.
+    #[serde(default)]
+    pub noise_um: f64,
+    /// ... and a part growing with the distance from the tracker, µm per m.
+    #[serde(default)]
+    pub noise_um_per_m: f64,
+    /// Decimals of a written coordinate, mm.
+    #[serde(default = "Tracker::default_decimals")]
+    pub decimals: usize,
+}
+
+impl Tracker {
+    fn default_decimals() -> usize {
+        4
+    }
+
+    /// The placement parameters [`Measurement::Point`] reads (m, rad).
+    pub fn own(&self) -> Vec<f64> {
+        let t = self.translation_mm.map(|v| v * 1e-3);
+        let r = self.rotation_deg.map(f64::to_radians);
+        vec![t[0], t[1], t[2], r[0], r[1], r[2]]
+    }
+
+    /// The noise-free reading of reflector position `p` (base frame, m), mm.
+    pub fn ideal_mm(&self, p: &Vector3<f64>) -> [f64; 3] {
+        let mut y = [0.0; 3];
+        Measurement::Point.reading(&self.own(), p, &mut y);
+        y.map(|v| v * 1e3)
+    }
+
+    /// Standard deviation of one coordinate of one sample at reflector position `p` (m), mm.
+    pub fn sample_std_mm(&self, p: &Vector3<f64>) -> f64 {
+        let y = self.ideal_mm(p);
+        let distance_m = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt() * 1e-3;
+        (self.noise_um + self.noise_um_per_m * distance_m) * 1e-3
+    }
+
+    /// A reading of `p` (m): the mean of `samples` noisy samples, mm, unrounded.
+    pub fn read_mm(&self, p: &Vector3<f64>, samples: usize, rng: &mut impl Rng) -> [f64; 3] {
+        let sd = self.sample_std_mm(p) / (samples.max(1) as f64).sqrt();
+        self.ideal_mm(p).map(|v| v + sd * rng.sample::<f64, _>(rand_distr::StandardNormal))
+    }
+
+    /// An error naming the key whose value is out of range.
+    pub fn validate(&self) -> Result<(), String> {
+        if let Some(v) = self.translation_mm.iter().find(|v| !(v.is_finite() && v.abs() <= MAX_DISTANCE_MM)) {
+            return Err(format!("tracker.translation_mm holds {v}: each coordinate must be finite and within ±{MAX_DISTANCE_MM} mm"));
+        }
+        if let Some(v) = self.rotation_deg.iter().find(|v| !(v.is_finite() && v.abs() <= 360.0)) {
+            return Err(format!("tracker.rotation_deg holds {v}: each angle must be finite and within ±360 degrees"));
+        }
+        for (key, v) in [("noise_um", self.noise_um), ("noise_um_per_m", self.noise_um_per_m)] {
+            if !(v.is_finite() && (0.0..=1000.0).contains(&v)) {
+                return Err(format!("tracker.{key} = {v} must be in [0, 1000]"));
+            }
+        }
+        if self.decimals > MAX_DECIMALS {
+            return Err(format!("tracker.decimals = {} must be at most {MAX_DECIMALS}", self.decimals));
+        }
+        Ok(())
+    }
+}
