@@ -109,10 +109,15 @@ fn the_commands_take_a_tracker_dataset() {
     let limits = robot.limits();
     let mut w = truth.work();
     let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
-    for _ in 0..240 {
+    // Three rows (data rows 41-43) where the reflector was bumped: 1.5 mm off in y.
+    let bumped = [41u64, 42, 43];
+    for row in 1..=240u64 {
         let q: Vec<f64> = limits.iter().map(|(lo, hi)| lo + (hi - lo) * (0.15 + 0.7 * rng.random::<f64>())).collect();
         let mut y = [0.0; 3];
         truth.readings_with(&x, &q, &Default::default(), &mut w, &mut y);
+        if bumped.contains(&row) {
+            y[1] += 1.5e-3;
+        }
         let cells: Vec<String> =
             q.iter().map(|v| format!("{:.6}", v.to_degrees())).chain(y.iter().map(|v| format!("{:.4}", (v + NOISE_M * gauss(&mut rng)) * 1e3))).collect();
         text.push_str(&(cells.join(",") + "\n"));
@@ -127,8 +132,15 @@ fn the_commands_take_a_tracker_dataset() {
     assert!(err.contains("per coordinate (x, y, z)") && err.contains("position error"), "{err}");
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
     let test = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
-    assert!(test < 1.2 * NOISE_M * 1e3, "held-out RMSE {test} mm vs noise {} mm\n{err}", NOISE_M * 1e3);
     assert_eq!(r["model"]["measurement"], "point");
+    // The screen takes a row of three values as one: the bumped rows, and only they, are out
+    // (kept out of the fit when they are training rows, flagged when they are test rows).
+    let rows = |key: &str| r[key].as_array().unwrap().iter().map(|o| o["row"].as_u64().unwrap()).collect::<Vec<u64>>();
+    let mut out = [rows("outliers"), rows("test_outliers")].concat();
+    out.sort();
+    assert_eq!(out, bumped, "{err}");
+    let inliers = r["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap_or(test);
+    assert!(inliers < 1.2 * NOISE_M * 1e3, "held-out RMSE {inliers} mm (inliers) vs noise {} mm\n{err}", NOISE_M * 1e3);
 
     let out = twincal(&["predict", "--model", result.to_str().unwrap(), "--data", data, "--out", pred.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

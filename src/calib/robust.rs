@@ -260,6 +260,13 @@ const SCREEN_PASSES: usize = 6;
 /// corrected and kept instead. See the module docs.
 pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k: f64, steps: bool, refit: &dyn Fn(&Samples, &[f64]) -> Vec<f64>) -> Screen {
     let n = data.len();
+    // A row of several values (a tracker's point) is one observation: its values share the
+    // robust scale, and the row is out when any of them is. Reading steps are a cable encoder's.
+    let d = data.dim.max(1);
+    let steps = steps && d == 1;
+    let farthest = |r: &[f64], i: usize, med: f64| -> f64 {
+        r[i * d..(i + 1) * d].iter().copied().fold(f64::NAN, |far, v| if far.is_nan() || (v - med).abs() > (far - med).abs() { v } else { far })
+    };
     let mut keep: Vec<usize> = (0..n).collect();
     let mut x = x0.to_vec();
     let mut flagged: Vec<usize> = Vec::new();
@@ -270,7 +277,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
     for _ in 0..SCREEN_PASSES {
         x = refit(&corrected.subset(&keep), &x);
         r = ReadingFit { model, data: &corrected }.residuals_mm(&x);
-        let kept_r: Vec<f64> = keep.iter().map(|&i| r[i]).collect();
+        let kept_r: Vec<f64> = keep.iter().flat_map(|&i| r[i * d..(i + 1) * d].iter().copied()).collect();
         (med, scale) = robust_scale(&kept_r);
         if !(scale > 0.0) || k <= 0.0 {
             flagged.clear();
@@ -285,7 +292,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
         } else {
             Vec::new()
         };
-        flagged = (0..n).filter(|&i| !((r[i] - med).abs() <= k * scale)).collect();
+        flagged = (0..n).filter(|&i| !((farthest(&r, i, med) - med).abs() <= k * scale)).collect();
         let new_keep: Vec<usize> = (0..n).filter(|i| flagged.binary_search(i).is_err()).collect();
         let settled = new_keep == keep && new_steps == found;
         keep = new_keep;
@@ -294,7 +301,13 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
             break;
         }
     }
-    let outliers: Vec<Outlier> = flagged.iter().map(|&i| Outlier { row: rows[i] + 1, residual_mm: r[i], robust_z: (r[i] - med) / scale }).collect();
+    let outliers: Vec<Outlier> = flagged
+        .iter()
+        .map(|&i| {
+            let v = farthest(&r, i, med);
+            Outlier { row: rows[i] + 1, residual_mm: v, robust_z: (v - med) / scale }
+        })
+        .collect();
     Screen { runs: runs(&outliers), keep, outliers, steps: found, corrected, x, scale_mm: scale, median_mm: med }
 }
 

@@ -676,8 +676,7 @@ pub const SCREEN_ROWS_PER_PARAM: usize = 3;
 /// readings in a reading step are corrected by its offset, in training and test rows alike; a
 /// nominal model's sensor is then placed again on the rows kept. `None` when the screen is off.
 pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<Option<super::robust::Screen>> {
-    // The screen (and its reading steps) reads one value per row: a cable length.
-    if opts.outlier_k <= 0.0 || split.train.dim != 1 {
+    if opts.outlier_k <= 0.0 {
         return Ok(None);
     }
     // With few rows per parameter a fit nearly interpolates them: the residuals' robust scale
@@ -866,13 +865,9 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         )));
     }
     if screen.is_none() && opts.outlier_k > 0.0 {
-        warnings.push(if measurement.dim() > 1 {
-            format!("no outlier screen: the robust screen reads one value per row (a cable length), these rows hold a {}", measurement.def().describe())
-        } else {
-            format!(
-                "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
-            )
-        });
+        warnings.push(format!(
+            "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
+        ));
     }
     let x0 = model.nominal.clone();
     let fit = ReadingFit { model: &model, data: &split.train };
