@@ -108,7 +108,7 @@ fn the_commands_take_a_tracker_dataset() {
     }
     let limits = robot.limits();
     let mut w = truth.work();
-    let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z,split\n");
     // Three rows (data rows 41-43) where the reflector was bumped: 1.5 mm off in y.
     let bumped = [41u64, 42, 43];
     for row in 1..=240u64 {
@@ -120,13 +120,13 @@ fn the_commands_take_a_tracker_dataset() {
         }
         let cells: Vec<String> =
             q.iter().map(|v| format!("{:.6}", v.to_degrees())).chain(y.iter().map(|v| format!("{:.4}", (v + NOISE_M * gauss(&mut rng)) * 1e3))).collect();
-        text.push_str(&(cells.join(",") + "\n"));
+        text.push_str(&(cells.join(",") + if row % 4 == 0 { ",test\n" } else { ",train\n" }));
     }
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("tracker.csv");
     std::fs::write(&data, text).unwrap();
     let (data, result, pred) = (data.to_str().unwrap(), dir.path().join("r.json"), dir.path().join("p.csv"));
-    let out = twincal(&["calibrate", "--data", data, "--test-fraction", "0.25", "--out", result.to_str().unwrap()]);
+    let out = twincal(&["calibrate", "--data", data, "--out", result.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(err.contains("per coordinate (x, y, z)") && err.contains("position error"), "{err}");
@@ -147,10 +147,45 @@ fn the_commands_take_a_tracker_dataset() {
     let csv = std::fs::read_to_string(&pred).unwrap();
     assert!(csv.starts_with("q1,q2,q3,q4,q5,q6,x,y,z,x_pred,y_pred,z_pred,x_residual,y_residual,z_residual\n"), "{}", &csv[..200]);
     assert_eq!(csv.lines().count(), 241);
+    // The result's held-out numbers come back from the model it wrote: predict's residuals on
+    // the test rows, without the flagged ones, give the result's test RMSE.
+    let reproduce = |model: &serde_json::Value, csv: &str| -> f64 {
+        let flagged: Vec<u64> = model["test_outliers"].as_array().unwrap().iter().map(|o| o["row"].as_u64().unwrap()).collect();
+        let r: Vec<f64> = csv
+            .lines()
+            .skip(1)
+            .enumerate()
+            .filter(|(i, _)| (*i as u64 + 1) % 4 == 0 && !flagged.contains(&(*i as u64 + 1)))
+            .flat_map(|(_, l)| l.split(',').skip(12).map(|c| c.parse::<f64>().unwrap()).collect::<Vec<_>>())
+            .collect();
+        (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt()
+    };
+    let stored = r["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
+    assert!((reproduce(&r, &csv) - stored).abs() < 1e-9, "predict gives {} mm, the result says {stored} mm", reproduce(&r, &csv));
+
+    // `rbf` fits one network per coordinate on the LM residuals: no worse on unseen rows, and
+    // `predict` reproduces what the result file says of its test rows.
+    let rbf = dir.path().join("rbf.json");
+    let out = twincal(&["calibrate", "--data", data, "--method", "rbf", "--out", rbf.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rb: serde_json::Value = serde_json::from_slice(&std::fs::read(&rbf).unwrap()).unwrap();
+    assert_eq!(rb["corrector"]["kind"], "values");
+    assert_eq!(rb["corrector"]["values"].as_array().unwrap().len(), 3);
+    let rbf_inliers = rb["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
+    assert!(rbf_inliers < 1.2 * NOISE_M * 1e3, "rbf held-out RMSE {rbf_inliers} mm");
+    let out = twincal(&["predict", "--model", rbf.to_str().unwrap(), "--data", data, "--out", pred.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(&pred).unwrap();
+    let stored = rb["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
+    assert!((reproduce(&rb, &csv) - stored).abs() < 1e-9, "rbf: predict gives {} mm, the result says {stored} mm", reproduce(&rb, &csv));
 
     // What reads cable lengths only, or draws a draw-wire, names what the file holds.
     for (args, says) in [
-        (vec!["calibrate", "--data", data, "--method", "rbf", "--out", "/dev/null/x.json"], "rbf learns a correction of one reading value per row"),
+        (
+            vec!["calibrate", "--data", data, "--method", "dsade-gkan", "--out", "/dev/null/x.json"],
+            "dsade-gkan learns a correction of one reading value per row",
+        ),
+        (vec!["ik", "--model", rbf.to_str().unwrap(), "--random", "5", "--out", "/dev/null/x.csv"], "ik applies a corrector of the cable length"),
         (vec!["calibrate", "--data", data, "--report", "/dev/null/x.html", "--out", "/dev/null/x.json"], "--report draws a draw-wire"),
         (vec!["calibrate", "--data", data, "--sensor-guess", "1,2,3,4,5,6,7", "--out", "/dev/null/x.json"], "--sensor-guess places a draw-wire"),
         (vec!["calibrate", "--data", data, "--model", "generic6r", "--out", "/dev/null/x.json"], "needs a nominal arm"),

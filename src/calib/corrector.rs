@@ -32,6 +32,14 @@ pub trait Correct: Send + Sync {
     fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64;
     /// The correction (mm) and its gradient with respect to `q` (mm/rad) into `g` (len 6).
     fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64;
+    /// Reading values it corrects per row: 1 (a cable length) unless it says otherwise.
+    fn dim(&self) -> usize {
+        1
+    }
+    /// The correction (mm) of each of the row's [`Self::dim`] reading values into `out`.
+    fn corrections_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
+        out[0] = self.correction_mm(q, inp);
+    }
 }
 
 impl<T: Correct + ?Sized> Correct for &T {
@@ -46,6 +54,12 @@ impl<T: Correct + ?Sized> Correct for &T {
     }
     fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
         (**self).correction_grad_mm(q, inp, g)
+    }
+    fn dim(&self) -> usize {
+        (**self).dim()
+    }
+    fn corrections_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
+        (**self).corrections_mm(q, inp, out)
     }
 }
 
@@ -62,6 +76,39 @@ pub enum Corrector {
     /// Adaptive wavelet network (or its MLP / Morlet ablations) learned from the EKF's
     /// innovations (method pso-ekf-awnn, see [`super::awnn`]).
     Awnn(super::awnn::Awnn),
+    /// One corrector per reading value of a measurement with several (a tracker's x, y, z).
+    Values(PerValue),
+}
+
+/// One corrector per reading value (`values[c]` corrects value `c`), for a measurement of
+/// several values per row.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PerValue {
+    pub values: Vec<Corrector>,
+}
+
+impl Correct for PerValue {
+    fn label(&self) -> String {
+        format!("{} per reading value", self.values.first().map(|c| c.as_correct().label()).unwrap_or_default())
+    }
+    fn n_weights(&self) -> usize {
+        self.values.iter().map(|c| c.as_correct().n_weights()).sum()
+    }
+    /// The first value's correction (the one-value API; see [`Self::corrections_mm`]).
+    fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
+        self.values.first().map_or(0.0, |c| c.as_correct().correction_mm(q, inp))
+    }
+    fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
+        self.values.first().map_or(0.0, |c| c.as_correct().correction_grad_mm(q, inp, g))
+    }
+    fn dim(&self) -> usize {
+        self.values.len()
+    }
+    fn corrections_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
+        for (o, c) in out.iter_mut().zip(&self.values) {
+            *o = c.as_correct().correction_mm(q, inp);
+        }
+    }
 }
 
 impl Corrector {
@@ -71,6 +118,7 @@ impl Corrector {
             Corrector::Gkan(n) => n,
             Corrector::Mlp(n) => n,
             Corrector::Awnn(n) => n,
+            Corrector::Values(v) => v,
         }
     }
     /// Checks a deserialised corrector against the model it belongs to (a hand-edited or
@@ -94,6 +142,12 @@ impl Corrector {
             Corrector::Gkan(n) => n.validate(n_joints),
             Corrector::Mlp(n) => n.validate(n_joints),
             Corrector::Awnn(n) => n.validate(n_joints),
+            Corrector::Values(v) => {
+                if v.values.is_empty() || v.values.iter().any(|c| matches!(c, Corrector::Values(_))) {
+                    return Err("the per-value corrector must hold one plain corrector per reading value".into());
+                }
+                v.values.iter().try_for_each(|c| c.validate(n_joints))
+            }
         }
     }
 }

@@ -59,10 +59,10 @@ impl TryFrom<String> for Method {
 impl Method {
     pub const ALL: [Method; 5] = [Method::Lm, Method::Ekf, Method::Pf, Method::Pso, Method::Rbf];
 
-    /// Whether the method learns a corrector (a network or the RBF compensator) of one reading
-    /// value per row: so far only for a cable length.
+    /// Whether the method learns a corrector of one reading value per row only (the papers'
+    /// networks, trained on a cable length's residual); `rbf` fits one network per value.
     pub fn learns_corrector(self) -> bool {
-        !matches!(self, Method::Lm | Method::Ekf | Method::Pf | Method::Pso)
+        !matches!(self, Method::Lm | Method::Ekf | Method::Pf | Method::Pso | Method::Rbf)
     }
 
     /// The Evo-NPH method and its ablations (not in [`Method::ALL`], the core's baselines).
@@ -306,8 +306,19 @@ impl Solver for RbfSolver {
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let report = self.lm.solve(p, obs)?.report;
         let res = p.fit.residuals_mm(&report.x);
-        let (net, _) =
-            RbfNetwork::fit_cv(&p.fit.data.q, &res, &self.centres, &self.ridges, p.seed).map_err(|e| Error::Calibration(format!("RBF network: {e}")))?;
-        Ok(Solution { report, corrector: Some(Corrector::Rbf(net)) })
+        let fit = |r: &[f64]| -> Result<Corrector> {
+            let (net, _) =
+                RbfNetwork::fit_cv(&p.fit.data.q, r, &self.centres, &self.ridges, p.seed).map_err(|e| Error::Calibration(format!("RBF network: {e}")))?;
+            Ok(Corrector::Rbf(net))
+        };
+        let d = p.fit.data.dim;
+        let corrector = if d == 1 {
+            fit(&res)?
+        } else {
+            // One network per reading value, each on that value's residuals.
+            let values = (0..d).map(|c| fit(&res.iter().skip(c).step_by(d).copied().collect::<Vec<f64>>())).collect::<Result<Vec<_>>>()?;
+            Corrector::Values(super::corrector::PerValue { values })
+        };
+        Ok(Solution { report, corrector: Some(corrector) })
     }
 }

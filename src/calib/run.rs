@@ -335,7 +335,11 @@ impl CalibResult {
             if y.len() == 1 {
                 out.push(y[0] * 1e3 + self.correction_mm(&q, inp));
             } else {
-                out.extend(y.iter().map(|v| v * 1e3));
+                let mut corr = vec![0.0; y.len()];
+                if let Some(c) = &self.corrector {
+                    c.as_correct().corrections_mm(&q, inp, &mut corr);
+                }
+                out.extend(y.iter().zip(&corr).map(|(v, c)| v * 1e3 + c));
             }
         }
         out
@@ -396,6 +400,16 @@ impl CalibResult {
         }
         if let Some(c) = &r.corrector {
             c.validate(r.model.chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
+            let (want, has) = (r.model.measurement.dim(), c.as_correct().dim());
+            if want != has {
+                return Err(Error::model(
+                    path.display(),
+                    format!(
+                        "the corrector corrects {has} value(s) per row, the model's {} reads {want} (edited result file?)",
+                        r.model.measurement.def().describe()
+                    ),
+                ));
+            }
         }
         let chain = &r.model.chain;
         chain.validate().map_err(|e| Error::model(path.display(), e))?;
@@ -648,8 +662,17 @@ pub fn residual_sigma(fit: &ReadingFit, x: &[f64], fixed: &[bool]) -> f64 {
 fn residuals_with(fit: &ReadingFit, x: &[f64], corrector: Option<&dyn Correct>) -> Vec<f64> {
     let mut r = fit.residuals_mm(x);
     if let Some(c) = corrector {
-        for (i, ri) in r.iter_mut().enumerate() {
-            *ri -= c.correction_mm(&fit.data.q[i], &fit.data.inputs[i]);
+        let d = fit.data.dim;
+        if d == 1 {
+            for (i, ri) in r.iter_mut().enumerate() {
+                *ri -= c.correction_mm(&fit.data.q[i], &fit.data.inputs[i]);
+            }
+        } else {
+            let mut corr = vec![0.0; d];
+            for (i, ri) in r.chunks_mut(d).enumerate() {
+                c.corrections_mm(&fit.data.q[i], &fit.data.inputs[i], &mut corr);
+                ri.iter_mut().zip(&corr).for_each(|(v, c)| *v -= c);
+            }
         }
     }
     r
