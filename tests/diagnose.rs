@@ -224,3 +224,21 @@ fn a_hidden_effect_is_named_in_sweep_ordered_data_with_glitch_runs() {
         assert!(h.named_by(first) && h.sized_by(first), "seed {seed}: hidden {h:?}, named {}", first.summary());
     }
 }
+
+/// A temperature column that never changes (a sensor that did not move) drives nothing: the
+/// drift the rows show over time is fitted against t instead, and named.
+#[test]
+fn a_drift_behind_a_constant_temperature_column_is_named_over_time() {
+    let mut s = Scenario::from_toml(include_str!("../scenarios/irb120_geometric.toml"), "geometric").unwrap();
+    s.effects.thermal = Some(twincal::sim::effects::Thermal::new(25e-6, 5.0, 600.0, 21.0));
+    let robot = s.load_robot(None).unwrap();
+    let g = generate(&s, &robot, &Silent).unwrap();
+    let rows: Vec<Row> = g.dataset.rows.iter().map(|r| Row { split: None, temp_c: Some(21.0), ..r.clone() }).collect();
+    let data = Dataset { rows, source: "broken temperature sensor".into() };
+    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap());
+    let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
+    assert!(d.causes.iter().any(|c| c.cause == "thermal_drift" && c.joint.is_none()), "{}", d.verdict);
+    // The model it writes runs on t: predict needs t, not temp.
+    let (_, result) = diagnose(&data, &opts, &|_| {}).unwrap();
+    assert!(result.columns_read().iter().all(|(c, _)| *c == "t"), "{:?}", result.columns_read());
+}

@@ -10,6 +10,10 @@ pub fn hidden_warm_up() -> crate::sim::effects::Thermal {
     crate::sim::effects::Thermal::new(0.0, 5.0, 600.0, 21.0)
 }
 
+/// Least spread of a `temp` column (K) that drives a thermal block: below it the column is a
+/// constant, and the block runs on `t` (a warm-up) when the rows have it.
+pub const MIN_TEMP_SPREAD_K: f64 = 0.01;
+
 pub struct ThermalDrift;
 
 fn by_temperature(b: &EffectBlock) -> bool {
@@ -57,12 +61,22 @@ impl Effect for ThermalDrift {
         v
     }
     fn configure(&self, b: &mut EffectBlock, data: &Dataset, _has_torques: bool) -> Result<()> {
-        if let Some(t0) = data.rows.first().and_then(|r| r.temp_c).filter(|_| data.rows.iter().all(|r| r.temp_c.is_some())) {
-            b.thermal = Some(ThermalDrive::Temperature { ref_c: t0 });
-        } else if data.rows.iter().all(|r| r.t_s.is_some()) {
-            b.thermal = Some(ThermalDrive::WarmUp);
-        } else {
-            return Err(Error::Invalid("thermal_drift needs a temp or t column on every row".into()));
+        // A temperature that never changes drives nothing: a drift the rows show over time
+        // must then be fitted against t (a sensor that did not move, or an ambient written as
+        // a constant, would otherwise hide it).
+        let temps: Option<Vec<f64>> = data.rows.iter().map(|r| r.temp_c).collect();
+        let spread = temps.as_ref().map(|t| t.iter().fold(f64::NEG_INFINITY, |a, v| a.max(*v)) - t.iter().fold(f64::INFINITY, |a, v| a.min(*v)));
+        let has_t = !data.rows.is_empty() && data.rows.iter().all(|r| r.t_s.is_some());
+        match (temps, spread) {
+            (Some(t), Some(s)) if !t.is_empty() && s >= MIN_TEMP_SPREAD_K => b.thermal = Some(ThermalDrive::Temperature { ref_c: t[0] }),
+            _ if has_t => b.thermal = Some(ThermalDrive::WarmUp),
+            (Some(t), Some(_)) if !t.is_empty() => {
+                return Err(Error::Invalid(format!(
+                    "thermal_drift: the temp column reads {} °C on every row (it spans less than {MIN_TEMP_SPREAD_K} K) and there is no t column: nothing drives a drift",
+                    t[0]
+                )))
+            }
+            _ => return Err(Error::Invalid("thermal_drift needs a temp or t column on every row".into())),
         }
         Ok(())
     }
