@@ -1,5 +1,6 @@
-//! Calibration models: a kinematic chain plus the draw-wire sensor's geometry, as one parameter
-//! vector. All models predict the cable length through the same [`Chain`] evaluator.
+//! Calibration models: a kinematic chain plus the instrument's placement (a draw-wire's or a
+//! tracker's, see [`crate::measurement`]), as one parameter vector. All models predict the
+//! instrument's readings through the same [`Chain`] evaluator.
 //!
 //! * `dh`: the papers' 24-parameter standard D-H model (Δa, Δd, Δα, Δθ per joint), derived from the
 //!   robot's URDF so that at zero deviation it reproduces the URDF exactly.
@@ -10,8 +11,9 @@
 //! * `generic6r`: absolute D-H values for an arm without a published nominal, found by a global search.
 //!
 //! Every model ends with its instrument's placement parameters ([`Measurement`]; for the
-//! draw-wire: cable exit point (base frame), length offset and tool point (flange frame)), then
-//! its effect blocks. Internal units are metres and radians; lengths are predicted in metres.
+//! draw-wire: cable exit point (base frame), length offset and tool point (flange frame); for a
+//! tracker: base-to-tracker translation and rotation and the reflector (flange frame)), then its
+//! effect blocks. Internal units are metres and radians; readings are predicted in metres.
 
 use super::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::measurement::{Measurement, MAX_DIM, MAX_OWN};

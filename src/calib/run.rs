@@ -882,7 +882,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let measurement = model.measurement;
     if measurement.dim() > 1 && solver.method().learns_corrector() {
         return Err(Error::Invalid(format!(
-            "{} learns a correction of one reading value per row (a cable length); these rows hold a {}: use lm, ekf, pf or pso",
+            "{} learns a correction of one reading value per row (a cable length); these rows hold a {}: use lm, ekf, pf, pso or rbf (one network per value)",
             solver.method().name(),
             measurement.def().describe()
         )));
