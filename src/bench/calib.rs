@@ -66,6 +66,45 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
     println!("  LM, {} training poses      : {:8.2} ms median (target < 20 ms), {iters} iterations; one residual+Jacobian evaluation {:.3} ms -> LM = {:.1} evaluations", train.len(), t_lm * 1e3, t_j * 1e3, t_lm / t_j);
     println!("    (calibrate wall time includes the sensor pre-alignment, identifiability analysis and covariance)");
 
+    // 1b. The same on a laser tracker's points (three residuals a row): 1000 training poses of
+    // the twin's tracker scenario. The LM alone (from the pipeline's prepared start, with its
+    // identifiable set) against one residual + Jacobian evaluation, and the whole calibrate.
+    let (ts, trobot) =
+        Scenario::from_toml(include_str!("../../scenarios/irb120_tracker.toml"), "irb120_tracker").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
+    let mut ts = ts;
+    (ts.sampling.poses, ts.sampling.test) = (1100, 100);
+    let tds = run_generate(&ts, &trobot, &Silent)?.dataset;
+    let topts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(trobot), parametrisation: "hayati".into() }, Method::Lm);
+    let prepared = crate::calib::run::prepare(&tds, &topts, false)?;
+    let tfit = ReadingFit { model: &prepared.model, data: &prepared.split.train };
+    let lm = crate::calib::method::LmSolver::default().lm;
+    let (mut lm_t, mut ev_t, mut whole_t, mut t_iters, mut t_test) = (Vec::new(), Vec::new(), Vec::new(), 0, f64::NAN);
+    for _ in 0..repeat.max(5) {
+        let t0 = Instant::now();
+        let rep = lm.minimize(&tfit, &prepared.model.nominal, &prepared.id.fixed_mask, &mut crate::optim::NoObserver);
+        lm_t.push(t0.elapsed().as_secs_f64());
+        t_iters = rep.iterations;
+        let t0 = Instant::now();
+        let mut j = nalgebra::DMatrix::zeros(tfit.n_residuals(), prepared.model.n_params());
+        tfit.jacobian(&prepared.model.nominal, &mut j);
+        let mut r = vec![0.0; tfit.n_residuals()];
+        tfit.residuals(&prepared.model.nominal, &mut r);
+        std::hint::black_box((&j, &r));
+        ev_t.push(t0.elapsed().as_secs_f64());
+        let whole = run(&tds, None, &topts)?;
+        whole_t.push(whole.wall_time_s);
+        t_test = whole.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN);
+    }
+    println!(
+        "  LM, {} tracker points ({} residuals): {:8.2} ms median (target < 50 ms), {t_iters} iterations; one residual+Jacobian evaluation {:.3} ms -> LM = {:.1} evaluations; whole calibrate {:.1} ms; test RMSE {t_test:.4} mm per coordinate",
+        tfit.data.len(),
+        tfit.n_residuals(),
+        median(&lm_t) * 1e3,
+        median(&ev_t) * 1e3,
+        median(&lm_t) / median(&ev_t),
+        median(&whole_t) * 1e3
+    );
+
     // 2. Accuracy over seeds: test RMSE against the noise floor, parameters against the truth.
     let rows: Vec<Result<(f64, usize, usize, f64)>> = (0..seeds)
         .into_par_iter()
