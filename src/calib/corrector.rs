@@ -40,6 +40,11 @@ pub trait Correct: Send + Sync {
     fn corrections_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
         out[0] = self.correction_mm(q, inp);
     }
+    /// [`Self::corrections_mm`] and their gradients with respect to `q` (mm/rad) into `g`
+    /// (row-major, one row of `q.len()` per value).
+    fn corrections_grad_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64], g: &mut [f64]) {
+        out[0] = self.correction_grad_mm(q, inp, &mut g[..q.len()]);
+    }
 }
 
 impl<T: Correct + ?Sized> Correct for &T {
@@ -60,6 +65,9 @@ impl<T: Correct + ?Sized> Correct for &T {
     }
     fn corrections_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
         (**self).corrections_mm(q, inp, out)
+    }
+    fn corrections_grad_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64], g: &mut [f64]) {
+        (**self).corrections_grad_mm(q, inp, out, g)
     }
 }
 
@@ -107,6 +115,12 @@ impl Correct for PerValue {
     fn corrections_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
         for (o, c) in out.iter_mut().zip(&self.values) {
             *o = c.as_correct().correction_mm(q, inp);
+        }
+    }
+    fn corrections_grad_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64], g: &mut [f64]) {
+        let n = q.len();
+        for (c, (o, v)) in out.iter_mut().zip(&self.values).enumerate() {
+            *o = v.as_correct().correction_grad_mm(q, inp, &mut g[c * n..(c + 1) * n]);
         }
     }
 }

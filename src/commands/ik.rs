@@ -82,13 +82,6 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     }
     crate::io::check_outputs(&inputs, &[("--out", &a.out)])?;
     let r = CalibResult::load(&a.model)?;
-    if let Some(c) = r.corrector.as_ref().filter(|c| c.as_correct().dim() > 1) {
-        return Err(Error::Invalid(format!(
-            "ik applies a corrector of the cable length along the cable; this model's {} corrects a {}'s values in the instrument's frame: calibrate it with --method lm for ik",
-            c.as_correct().label(),
-            r.model.measurement.def().describe()
-        )));
-    }
     // A target has no temperature, time or approach history: the model is solved in its
     // reference state. Say so when the model reads more than the angles.
     let read: Vec<String> = r.columns_read().into_iter().map(|(c, why)| format!("{c} ({why})")).collect();

@@ -130,16 +130,23 @@ pub struct IkModel<'a> {
     pub limits: Vec<(f64, f64)>,
     inp: RowInputs,
     exit: Vector3<f64>,
+    /// For a corrector of a tracker's x, y, z: the tracker-to-base rotation Rᵀ that carries its
+    /// corrections (tracker frame) to the base frame the targets are in.
+    to_base: Option<nalgebra::Matrix3<f64>>,
     /// Largest distance of the tool point from the base origin over a sample of configurations, mm.
     reach_mm: f64,
 }
 
 impl<'a> IkModel<'a> {
     pub fn new(model: &'a CalibModel, x: &'a [f64], corrector: Option<&'a dyn Correct>, limits: Vec<(f64, f64)>) -> IkModel<'a> {
-        // A corrector corrects a cable length (result files are checked for it), so only a
-        // draw-wire model has a direction to apply it along.
-        let exit = model.placement(x).exit().unwrap_or_else(Vector3::zeros);
-        let mut m = IkModel { model, x, corrector, limits, inp: RowInputs::default(), exit, reach_mm: f64::INFINITY };
+        // A draw-wire's corrector corrects the cable length, applied along the cable from its
+        // exit point; a tracker's corrects x, y, z in the tracker's frame (result files are
+        // checked for the corrector's dimension).
+        let placement = model.placement(x);
+        let exit = placement.exit().unwrap_or_else(Vector3::zeros);
+        let to_base = (corrector.is_some_and(|c| c.dim() == 3) && model.measurement == crate::measurement::Measurement::Point)
+            .then(|| crate::measurement::point::tracker_rotation(&placement.own).transpose());
+        let mut m = IkModel { model, x, corrector, limits, inp: RowInputs::default(), exit, to_base, reach_mm: f64::INFINITY };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let mut w = model.work();
         let mut reach = 0.0f64;
@@ -161,6 +168,9 @@ impl<'a> IkModel<'a> {
     /// p̂(q) in mm and, when `jac` is given, the chosen Jacobian (mm/rad, 3 × N, a column per
     /// joint) into `w.cols`.
     pub fn position(&self, q: &[f64], w: &mut IkWork, jac: Option<JacobianKind>) -> Vector3<f64> {
+        if let (Some(rt), Some(c)) = (self.to_base, self.corrector) {
+            return self.position_point(q, w, jac, &rt, c);
+        }
         let IkWork { model: mw, cols, dp, g } = w;
         let p = self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp) * 1e3;
         let d = p - self.exit * 1e3;
@@ -184,6 +194,30 @@ impl<'a> IkModel<'a> {
             }
         }
         p + u * delta
+    }
+
+    /// [`Self::position`] with a corrector of a tracker's x, y, z: `p̂ = p + Rᵀ·δ(q)`, the
+    /// correction carried from the tracker's frame to the base; its Jacobian `J_p + Rᵀ·∂δ/∂q`
+    /// is exact (Rᵀ is constant), `Neural` is `Rᵀ·∂δ/∂q` alone.
+    fn position_point(&self, q: &[f64], w: &mut IkWork, jac: Option<JacobianKind>, rt: &nalgebra::Matrix3<f64>, c: &dyn Correct) -> Vector3<f64> {
+        let IkWork { model: mw, cols, dp, g } = w;
+        let n = q.len();
+        let p = self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp) * 1e3;
+        let mut delta = [0.0; 3];
+        g.resize(3 * n, 0.0);
+        c.corrections_grad_mm(q, &self.inp, &mut delta, g);
+        if let Some(kind) = jac {
+            for (j, out) in cols.iter_mut().enumerate() {
+                let jp = dp[j] * 1e3;
+                let jd = rt * Vector3::new(g[j], g[n + j], g[2 * n + j]);
+                *out = match kind {
+                    JacobianKind::Analytic => jp,
+                    JacobianKind::Neural => jd,
+                    JacobianKind::Hybrid => jp + jd,
+                };
+            }
+        }
+        p + rt * Vector3::from(delta)
     }
 
     fn mid(&self) -> Vec<f64> {
@@ -344,6 +378,47 @@ mod tests {
         assert!(far.residual_mm.is_finite());
         let nan = ik.solve(&Vector3::new(f64::NAN, 0.0, 0.0), JacobianKind::Hybrid, &o, &mut w);
         assert_eq!(nan.status, IkStatus::Invalid);
+    }
+
+    #[test]
+    fn a_tracker_corrector_is_applied_in_the_base_frame_with_its_exact_jacobian() {
+        use crate::calib::corrector::{Corrector, PerValue};
+        use crate::calib::model::Placement;
+        use crate::calib::rbf::{RbfNetwork, RbfOptions};
+        use crate::measurement::Measurement;
+        let (m, limits) = model();
+        let tracker = Placement { measurement: Measurement::Point, own: vec![2.0, -0.3, 0.2, 0.02, -0.01, 0.7], tool: Vector3::new(0.06, 0.0, 0.05) };
+        let m = m.with_placement(&tracker);
+        let x = m.nominal.clone();
+        // A smooth correction per coordinate (mm), different on each.
+        let qs: Vec<Vec<f64>> = (0..60).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin() * 1.2).collect()).collect();
+        let net = |c: usize| {
+            let y: Vec<f64> = qs.iter().map(|q| 0.05 * (q[c] + 0.5 * q[c + 1]).sin()).collect();
+            Corrector::Rbf(RbfNetwork::fit(&qs, &y, &RbfOptions { centers: 10, ..RbfOptions::default() }).unwrap())
+        };
+        let corr = Corrector::Values(PerValue { values: (0..3).map(net).collect() });
+        let ik = IkModel::new(&m, &x, Some(corr.as_correct()), limits);
+        let mut w = ik.work();
+        let q = qs[5].iter().map(|v| v * 0.9).collect::<Vec<_>>();
+        // p̂ = p + Rᵀ·δ: read back through the tracker, the corrected point is the model's
+        // reading plus the corrections.
+        let p_hat = ik.position(&q, &mut w, Some(JacobianKind::Hybrid));
+        let cols = w.cols.clone();
+        let (mut y, mut delta) = ([0.0; 3], [0.0; 3]);
+        m.readings_with(&x, &q, &RowInputs::default(), &mut m.work(), &mut y);
+        corr.as_correct().corrections_mm(&q, &RowInputs::default(), &mut delta);
+        let mut seen = [0.0; 3];
+        Measurement::Point.reading(&tracker.own, &(p_hat * 1e-3), &mut seen);
+        for c in 0..3 {
+            assert!((seen[c] * 1e3 - (y[c] * 1e3 + delta[c])).abs() < 1e-9, "value {c}: {} vs {}", seen[c] * 1e3, y[c] * 1e3 + delta[c]);
+        }
+        for j in 0..6 {
+            let (mut a, mut b) = (q.clone(), q.clone());
+            a[j] += 1e-6;
+            b[j] -= 1e-6;
+            let fd = (ik.position(&a, &mut w, None) - ik.position(&b, &mut w, None)) / 2e-6;
+            assert!((fd - cols[j]).norm() < 1e-4 * (1.0 + cols[j].norm()), "joint {j}: {fd:?} vs {:?}", cols[j]);
+        }
     }
 
     #[test]

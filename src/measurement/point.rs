@@ -15,6 +15,11 @@ pub const MAX_COORD_MM: f64 = 100_000.0;
 /// A laser tracker's 3-D target position.
 pub struct Point;
 
+/// The base-to-tracker rotation of placement `own` (m, rad): `y = R·p + t`.
+pub fn tracker_rotation(own: &[f64]) -> Matrix3<f64> {
+    rotation(own).0
+}
+
 /// Rx(a)·Ry(b)·Rz(c) and its derivatives with respect to a, b and c.
 fn rotation(own: &[f64]) -> (Matrix3<f64>, [Matrix3<f64>; 3]) {
     let (a, b, c) = (own[3], own[4], own[5]);
