@@ -16,7 +16,7 @@
 //! joint 2 horizontal, offset from it by a shoulder link; joint 3 parallel to 2 at the end of an
 //! upper arm of 0.3–1.1 m; a forearm of 0.3–1.3 m to a spherical wrist whose axes 4, 5, 6 meet;
 //! a tool point 50–350 mm from the wrist centre; the cable's exit point a median reading away
-//! from it in a drawn direction). They go through successive stages ([`STAGES`]): every start is
+//! from it in a drawn direction). They go through successive stages (`STAGES`): every start is
 //! fitted briefly on a few rows, the best survive to a longer fit on more rows, and the last few
 //! converge on every training row (in fresh charts, see [`converge`]), where the lowest
 //! *converged* cost wins (ranking after a short polish picks the candidate that is quickest to
@@ -212,7 +212,7 @@ pub fn rechart(model: &CalibModel, x: &[f64]) -> CalibModel {
 }
 
 /// Polishes a generic model on `data` until a fit in a fresh chart settles within
-/// [`SETTLED_ITER`] iterations (at most [`MAX_CHARTS`] charts): (cost, the model with its
+/// `SETTLED_ITER` iterations (at most `MAX_CHARTS` charts): (cost, the model with its
 /// polished vector as nominal, settled).
 pub fn converge(model: &CalibModel, data: &Samples, rank_tol: f64) -> (f64, CalibModel, bool) {
     let lm = LevenbergMarquardt::budget(CHART_ITER);

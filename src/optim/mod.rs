@@ -62,7 +62,7 @@ pub trait Cost: Sync {
     }
 }
 
-/// Box bounds, lower[k] < upper[k].
+/// Box bounds, `lower[k] < upper[k]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bounds {
     pub lower: Vec<f64>,
