@@ -1,12 +1,25 @@
 //! `twincal bench calib`: LM's speed, accuracy over seeds against the truth, the untuned
 //! methods on other spreads and noise, and the HSR-RobotCali pool.
 
+use crate::calib::problem::ReadingFit;
 use crate::calib::stats::median;
 use crate::error::{Error, Result};
+use crate::optim::LeastSquares;
 use crate::sim::generate::{generate as run_generate, write_outputs, Silent};
 use crate::sim::scenario::Scenario;
 use std::path::Path;
 use std::time::Instant;
+
+/// Seconds of one residual + Jacobian evaluation of `fit` at `x` (the unit an LM run is counted in).
+fn evaluation_s(fit: &ReadingFit, x: &[f64]) -> f64 {
+    let t0 = Instant::now();
+    let mut j = nalgebra::DMatrix::zeros(fit.n_residuals(), fit.model.n_params());
+    fit.jacobian(x, &mut j);
+    let mut r = vec![0.0; fit.n_residuals()];
+    fit.residuals(x, &mut r);
+    std::hint::black_box((&j, &r));
+    t0.elapsed().as_secs_f64()
+}
 
 /// A step run on one of the benchmark's dataset folders (the `compare` command, given by the caller).
 pub type OnDataset<'a> = &'a dyn Fn(&Path) -> Result<()>;
@@ -14,9 +27,7 @@ pub type OnDataset<'a> = &'a dyn Fn(&Path) -> Result<()>;
 /// `twincal bench calib`: the calibration core's targets, measured. `compare`, when given, runs
 /// on a 400-pose dataset folder of the benchmark (the caller's full method comparison).
 pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Result<()> {
-    use crate::calib::problem::ReadingFit;
     use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
-    use crate::optim::LeastSquares;
     use rayon::prelude::*;
     let (base, robot) =
         Scenario::from_toml(include_str!("../../scenarios/irb120_geometric.toml"), "irb120_geometric").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
@@ -51,17 +62,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
     let samples = crate::calib::run::samples(&ds, &train);
     let model = run(&ds, None, &opts)?.model;
     let fit = ReadingFit { model: &model, data: &samples };
-    let mut jt = Vec::new();
-    for _ in 0..20 {
-        let t0 = Instant::now();
-        let mut j = nalgebra::DMatrix::zeros(samples.len(), model.n_params());
-        fit.jacobian(&model.nominal, &mut j);
-        let mut r = vec![0.0; samples.len()];
-        fit.residuals(&model.nominal, &mut r);
-        std::hint::black_box((&j, &r));
-        jt.push(t0.elapsed().as_secs_f64());
-    }
-    let t_j = median(&jt);
+    let t_j = median(&(0..20).map(|_| evaluation_s(&fit, &model.nominal)).collect::<Vec<f64>>());
     println!("calibration benchmark");
     println!("  LM, {} training poses      : {:8.2} ms median (target < 20 ms), {iters} iterations; one residual+Jacobian evaluation {:.3} ms -> LM = {:.1} evaluations", train.len(), t_lm * 1e3, t_j * 1e3, t_lm / t_j);
     println!("    (calibrate wall time includes the sensor pre-alignment, identifiability analysis and covariance)");
@@ -84,13 +85,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
         let rep = lm.minimize(&tfit, &prepared.model.nominal, &prepared.id.fixed_mask, &mut crate::optim::NoObserver);
         lm_t.push(t0.elapsed().as_secs_f64());
         t_iters = rep.iterations;
-        let t0 = Instant::now();
-        let mut j = nalgebra::DMatrix::zeros(tfit.n_residuals(), prepared.model.n_params());
-        tfit.jacobian(&prepared.model.nominal, &mut j);
-        let mut r = vec![0.0; tfit.n_residuals()];
-        tfit.residuals(&prepared.model.nominal, &mut r);
-        std::hint::black_box((&j, &r));
-        ev_t.push(t0.elapsed().as_secs_f64());
+        ev_t.push(evaluation_s(&tfit, &prepared.model.nominal));
         let whole = run(&tds, None, &topts)?;
         whole_t.push(whole.wall_time_s);
         t_test = whole.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN);

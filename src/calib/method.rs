@@ -61,7 +61,7 @@ impl Method {
 
     /// Whether the method learns a corrector of one reading value per row only (the papers'
     /// networks, trained on a cable length's residual); `rbf` fits one network per value.
-    pub fn learns_corrector(self) -> bool {
+    pub fn corrects_one_value_only(self) -> bool {
         !matches!(self, Method::Lm | Method::Ekf | Method::Pf | Method::Pso | Method::Rbf)
     }
 

@@ -251,6 +251,12 @@ pub fn screen_fit(model: &CalibModel, data: &Samples, x: &[f64], rank_tol: f64) 
     irls(&lm, &fit, x, &fixed, Loss::Cauchy, &mut NoObserver).x
 }
 
+/// The value of a row's residuals (one per reading value) farthest from `med`: what judges the
+/// row against a robust scale (a row is out when any of its values is). NaN for an empty row.
+pub fn farthest_from(values: &[f64], med: f64) -> f64 {
+    values.iter().copied().fold(f64::NAN, |far, v| if far.is_nan() || (v - med).abs() > (far - med).abs() { v } else { far })
+}
+
 /// Passes of the screen at most: the set of kept rows settles in two or three.
 const SCREEN_PASSES: usize = 6;
 
@@ -264,9 +270,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
     // robust scale, and the row is out when any of them is. Reading steps are a cable encoder's.
     let d = data.dim.max(1);
     let steps = steps && d == 1;
-    let farthest = |r: &[f64], i: usize, med: f64| -> f64 {
-        r[i * d..(i + 1) * d].iter().copied().fold(f64::NAN, |far, v| if far.is_nan() || (v - med).abs() > (far - med).abs() { v } else { far })
-    };
+    let farthest = |r: &[f64], i: usize, med: f64| farthest_from(&r[i * d..(i + 1) * d], med);
     let mut keep: Vec<usize> = (0..n).collect();
     let mut x = x0.to_vec();
     let mut flagged: Vec<usize> = Vec::new();

@@ -328,6 +328,7 @@ impl CalibResult {
         let inputs = super::inputs::row_inputs(data, self.torque_model.as_ref());
         let mut w = self.model.work();
         let mut y = vec![0.0; self.model.measurement.dim()];
+        let mut corr = vec![0.0; y.len()];
         let mut out = Vec::with_capacity(data.rows.len() * y.len());
         for (r, inp) in data.rows.iter().zip(&inputs) {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
@@ -335,7 +336,6 @@ impl CalibResult {
             if y.len() == 1 {
                 out.push(y[0] * 1e3 + self.correction_mm(&q, inp));
             } else {
-                let mut corr = vec![0.0; y.len()];
                 if let Some(c) = &self.corrector {
                     c.as_correct().corrections_mm(&q, inp, &mut corr);
                 }
@@ -740,7 +740,7 @@ fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &
         .chunks(d)
         .zip(test_idx)
         .filter_map(|(vs, &i)| {
-            let v = vs.iter().copied().fold(f64::NAN, |far, v| if far.is_nan() || (v - med).abs() > (far - med).abs() { v } else { far });
+            let v = super::robust::farthest_from(vs, med);
             (!((v - med).abs() <= k * scale)).then(|| Outlier { row: i + 1, residual_mm: v, robust_z: (v - med) / scale })
         })
         .collect()
@@ -841,6 +841,26 @@ pub fn reading_repeatability(data: &Dataset) -> Option<super::metrics::Repeatabi
     Some(super::metrics::Repeatability { pooled_std, max_spread, ..first }).filter(|r| r.groups > 0)
 }
 
+/// Stage "floor": the data's own floor for the model at `x` over `rows` (the rows of `data`):
+/// the repeatability given, the joint angles' logging step (`angle_step_deg`, else read from the
+/// data's decimals) and the readings' logging step. See [`super::floor`].
+fn floor_stage(
+    model: &CalibModel,
+    x: &[f64],
+    data: &Dataset,
+    rows: &Samples,
+    angle_step_deg: Option<f64>,
+    repeat: Option<&super::metrics::Repeatability>,
+) -> super::floor::NoiseFloor {
+    use super::floor::{logging_step, Step};
+    let angle_step = match angle_step_deg {
+        Some(v) => Some(Step::Given(v)),
+        None => logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(Step::Detected),
+    };
+    let reading_step = logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().copied()));
+    super::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat)
+}
+
 /// Stages "split", "placement", "outliers", "effects" and "identifiability" of a calibration
 /// with `opts`; `row_inputs` gives every row its inputs (and the split its torque model) even
 /// without effect blocks ([`Solver::needs_row_inputs`]).
@@ -880,7 +900,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut warnings = Vec::new();
     let Prepared { split, model, screen, test_rows_in_steps: test_in_steps, id } = prepare(data, opts, solver.needs_row_inputs())?;
     let measurement = model.measurement;
-    if measurement.dim() > 1 && solver.method().learns_corrector() {
+    if measurement.dim() > 1 && solver.method().corrects_one_value_only() {
         return Err(Error::Invalid(format!(
             "{} learns a correction of one reading value per row (a cable length); these rows hold a {}: use lm, ekf, pf, pso or rbf (one network per value)",
             solver.method().name(),
@@ -955,12 +975,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         metrics.test_after_trimmed = Some(trimmed_stats(&test_residuals_mm, 0.01));
     }
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    let angle_step = match opts.angle_step_deg {
-        Some(v) => Some(super::floor::Step::Given(v)),
-        None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(super::floor::Step::Detected),
-    };
-    let length_step = super::floor::logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().copied()));
-    let noise_floor = super::floor::noise_floor(&model, &x, &all_rows, angle_step, length_step, repeatability.as_ref());
+    let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.angle_step_deg, repeatability.as_ref());
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
@@ -1029,14 +1044,9 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
     let (parameters, _) = parameter_reports(&model, x0, &x, fixed, cov.as_ref(), None, None);
     let empty = Samples::new(Vec::new(), Vec::new());
     let metrics = metrics_stage(&fit, &ReadingFit { model: &model, data: &empty }, x0, &x, None);
-    let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
-    let l = data.lengths_mm()?;
-    let repeatability = super::metrics::repeatability(&q_deg, &l, 1e-6).filter(|r| r.groups > 0);
-    let angle_step = match angle_step_deg {
-        Some(v) => Some(super::floor::Step::Given(v)),
-        None => super::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(super::floor::Step::Detected),
-    };
-    let noise_floor = super::floor::noise_floor(&model, &x, rows, angle_step, super::floor::logging_step(l.iter().copied()), repeatability.as_ref());
+    data.require_readings()?;
+    let repeatability = reading_repeatability(data);
+    let noise_floor = floor_stage(&model, &x, data, rows, angle_step_deg, repeatability.as_ref());
     Ok(CalibResult {
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),

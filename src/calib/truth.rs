@@ -18,9 +18,9 @@ pub struct TruthFile {
     #[serde(default)]
     pub dataset: Option<DatasetLink>,
     pub sensor: TruthSensor,
-    /// The tracker that wrote `x, y, z` (a tracker dataset).
+    /// The tracker that wrote `x, y, z` (a tracker dataset), as its scenario gave it.
     #[serde(default)]
-    pub tracker: Option<TruthTracker>,
+    pub tracker: Option<crate::sim::instrument::Tracker>,
     pub tool: TruthTool,
     pub noise_std_mm: f64,
     pub poses: Vec<TruthPose>,
@@ -29,11 +29,6 @@ pub struct TruthFile {
 pub struct TruthSensor {
     pub exit_point_mm: [f64; 3],
     pub length_offset_mm: f64,
-}
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthTracker {
-    pub translation_mm: [f64; 3],
-    pub rotation_deg: [f64; 3],
 }
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthTool {
@@ -56,10 +51,7 @@ impl TruthFile {
         let mm = |v: [f64; 3]| Vector3::from(v) * 1e-3;
         let tool = mm(self.tool.point_mm);
         match &self.tracker {
-            Some(t) => {
-                let (p, r) = (t.translation_mm.map(|v| v * 1e-3), t.rotation_deg.map(f64::to_radians));
-                Placement { measurement: crate::measurement::Measurement::Point, own: vec![p[0], p[1], p[2], r[0], r[1], r[2]], tool }
-            }
+            Some(t) => Placement { measurement: crate::measurement::Measurement::Point, own: t.own(), tool },
             None => Placement::cable(mm(self.sensor.exit_point_mm), self.sensor.length_offset_mm * 1e-3, tool),
         }
     }

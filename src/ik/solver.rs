@@ -339,6 +339,17 @@ mod tests {
         (CalibModel::dh(&robot, &guess, true), robot.limits())
     }
 
+    /// Every column of the hybrid Jacobian `cols` at `q` against central differences of p̂.
+    fn assert_hybrid_jacobian_matches_finite_differences(ik: &IkModel, q: &[f64], cols: &[Vector3<f64>], w: &mut IkWork) {
+        for (j, col) in cols.iter().enumerate() {
+            let (mut a, mut b) = (q.to_vec(), q.to_vec());
+            a[j] += 1e-6;
+            b[j] -= 1e-6;
+            let fd = (ik.position(&a, w, None) - ik.position(&b, w, None)) / 2e-6;
+            assert!((fd - col).norm() < 1e-4 * (1.0 + col.norm()), "joint {j}: {fd:?} vs {col:?}");
+        }
+    }
+
     #[test]
     fn hybrid_jacobian_matches_finite_differences_and_ik_reaches_targets() {
         let (m, limits) = model();
@@ -352,13 +363,7 @@ mod tests {
         let q = qs[5].iter().map(|v| v * 0.9).collect::<Vec<_>>();
         ik.position(&q, &mut w, Some(JacobianKind::Hybrid));
         let cols = w.cols.clone();
-        for j in 0..6 {
-            let (mut a, mut b) = (q.clone(), q.clone());
-            a[j] += 1e-6;
-            b[j] -= 1e-6;
-            let fd = (ik.position(&a, &mut w, None) - ik.position(&b, &mut w, None)) / 2e-6;
-            assert!((fd - cols[j]).norm() < 1e-4 * (1.0 + cols[j].norm()), "joint {j}: {fd:?} vs {:?}", cols[j]);
-        }
+        assert_hybrid_jacobian_matches_finite_differences(&ik, &q, &cols, &mut w);
         // Reachable targets (the model's own points inside the evo_nph scenario's sampled joint
         // ranges, as `ik --random` draws them) are all solved to 0.01 mm.
         let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -412,13 +417,7 @@ mod tests {
         for c in 0..3 {
             assert!((seen[c] * 1e3 - (y[c] * 1e3 + delta[c])).abs() < 1e-9, "value {c}: {} vs {}", seen[c] * 1e3, y[c] * 1e3 + delta[c]);
         }
-        for j in 0..6 {
-            let (mut a, mut b) = (q.clone(), q.clone());
-            a[j] += 1e-6;
-            b[j] -= 1e-6;
-            let fd = (ik.position(&a, &mut w, None) - ik.position(&b, &mut w, None)) / 2e-6;
-            assert!((fd - cols[j]).norm() < 1e-4 * (1.0 + cols[j].norm()), "joint {j}: {fd:?} vs {:?}", cols[j]);
-        }
+        assert_hybrid_jacobian_matches_finite_differences(&ik, &q, &cols, &mut w);
     }
 
     #[test]

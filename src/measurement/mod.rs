@@ -134,12 +134,6 @@ impl Measurement {
     pub fn of_dim(dim: usize) -> Option<Measurement> {
         Self::ALL.into_iter().find(|m| m.dim() == dim)
     }
-
-    /// The measurement whose dataset columns are `columns` (the header's names), if one's are
-    /// all there.
-    pub fn from_columns(columns: &[&str]) -> Option<Measurement> {
-        Self::ALL.into_iter().find(|m| m.def().columns().iter().all(|c| columns.contains(c)))
-    }
 }
 
 #[cfg(test)]

@@ -474,8 +474,8 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         // A tracker reads the same tool point, from its own noise stream.
         let point = s.tracker.as_ref().map(|tr| {
             let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
-            let read = tr.read_mm(&rest.tool, s.sensor.samples, &mut rng).map(|v| round_decimals(v, tr.decimals));
-            (tr.ideal_mm(&rest.tool), read, tr.sample_std_mm(&rest.tool) / (s.sensor.samples.max(1) as f64).sqrt())
+            let r = tr.read(&rest.tool, s.sensor.samples, &mut rng);
+            (r.ideal_mm, r.read_mm.map(|v| round_decimals(v, tr.decimals)), r.std_mm)
         });
         if let Some((_, _, sd)) = point {
             point_var.push(sd * sd);

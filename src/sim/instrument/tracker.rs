@@ -15,6 +15,17 @@ pub const MAX_DISTANCE_MM: f64 = 80_000.0;
 /// Most decimals of a written coordinate (mm): 1 nm.
 pub const MAX_DECIMALS: usize = 6;
 
+/// One reading of [`Tracker::read`], mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackerReading {
+    /// What a perfect tracker reads (the reflector in the tracker's frame).
+    pub ideal_mm: [f64; 3],
+    /// The mean of the noisy samples, unrounded.
+    pub read_mm: [f64; 3],
+    /// Standard deviation of one coordinate of that mean.
+    pub std_mm: f64,
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tracker {
@@ -54,17 +65,14 @@ impl Tracker {
         y.map(|v| v * 1e3)
     }
 
-    /// Standard deviation of one coordinate of one sample at reflector position `p` (m), mm.
-    pub fn sample_std_mm(&self, p: &Vector3<f64>) -> f64 {
-        let y = self.ideal_mm(p);
-        let distance_m = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt() * 1e-3;
-        (self.noise_um + self.noise_um_per_m * distance_m) * 1e-3
-    }
-
-    /// A reading of `p` (m): the mean of `samples` noisy samples, mm, unrounded.
-    pub fn read_mm(&self, p: &Vector3<f64>, samples: usize, rng: &mut impl Rng) -> [f64; 3] {
-        let sd = self.sample_std_mm(p) / (samples.max(1) as f64).sqrt();
-        self.ideal_mm(p).map(|v| v + sd * rng.sample::<f64, _>(rand_distr::StandardNormal))
+    /// A reading of reflector position `p` (m): the mean of `samples` noisy samples.
+    pub fn read(&self, p: &Vector3<f64>, samples: usize, rng: &mut impl Rng) -> TrackerReading {
+        let ideal_mm = self.ideal_mm(p);
+        // One sample's noise grows with the distance from the tracker.
+        let distance_m = ideal_mm.iter().map(|v| v * v).sum::<f64>().sqrt() * 1e-3;
+        let std_mm = (self.noise_um + self.noise_um_per_m * distance_m) * 1e-3 / (samples.max(1) as f64).sqrt();
+        let read_mm = ideal_mm.map(|v| v + std_mm * rng.sample::<f64, _>(rand_distr::StandardNormal));
+        TrackerReading { ideal_mm, read_mm, std_mm }
     }
 
     /// An error naming the key whose value is out of range.
