@@ -111,7 +111,9 @@ pub fn noise_floor(
         });
     }
     let has_repeat = sources.iter().any(|s| s.source == "repeatability");
-    let total_mm = sources.iter().filter(|s| !(has_repeat && s.source == "reading_resolution")).map(|s| s.rms_mm.powi(2)).sum::<f64>().sqrt();
+    let total_mm = sources.iter().filter(|s| !(has_repeat && s.source == "reading_resolution")).map(|s| s.rms_mm.powi(2)).sum::<f64>();
+    // An empty sum is -0.0: the floor of no known source is 0.
+    let total_mm = (total_mm + 0.0).sqrt();
     NoiseFloor { total_mm, sources }
 }
 

@@ -106,12 +106,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     }
     let spec = a.model.spec()?;
     let data = load_dataset(&a.data, a.angles, true)?;
-    if let Some(m) = data.measurement().filter(|m| *m != crate::measurement::Measurement::Length) {
-        if a.rrd.is_some() || a.report.is_some() {
-            let flag = if a.report.is_some() { "--report" } else { "--rrd" };
-            return Err(Error::Invalid(format!("{flag} draws a draw-wire set-up's residuals so far; these rows hold a {}", m.def().describe())));
-        }
-    }
+    figures_drawable(&data, a.rrd.as_deref(), a.report.as_deref())?;
     let truth = TruthFile::find(&a.data)?;
     let mut opts = CalibOptions::new(spec.clone(), method);
     opts.test_fraction = a.test_fraction;

@@ -5,7 +5,8 @@ use super::*;
 /// Arguments of `twincal diagnose` (the field docs are its `--help`).
 #[derive(Clone, Debug, clap::Args)]
 pub struct DiagnoseArgs {
-    /// Dataset folder, CSV or xlsx (q1..q6, L; optional t, temp). No truth file is read.
+    /// Dataset folder, CSV or xlsx (q1..qN and L, or a tracker's x, y, z; optional t, temp). No
+    /// truth file is read.
     #[arg(long)]
     pub data: PathBuf,
     /// Unit of the joint angles in the data.
@@ -71,6 +72,7 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     }
     let spec = a.model.spec()?;
     let data = load_dataset(&a.data, a.angles, true)?;
+    figures_drawable(&data, a.rrd.as_deref(), a.report.as_deref())?;
     let mut opts = DiagnoseOptions::new(spec);
     let (loads, inertial) = a.loads.resolve()?;
     opts.loads = loads;
@@ -112,6 +114,9 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
 
 fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
     eprintln!("diagnosis of {} ({} rows, {} outliers kept out) in {:.1} s", d.data, d.rows, d.outliers.len(), d.seconds);
+    if !d.reading.is_empty() {
+        eprintln!("  {}", d.reading);
+    }
     for o in &d.outliers {
         eprintln!("  outlier: row {} residual {:+.3} mm ({:+.1} robust sd)", o.row, o.residual_mm, o.robust_z);
     }
@@ -155,11 +160,15 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
         d.final_train_rmse_mm
     );
     let sources: Vec<String> = d.noise_floor.sources.iter().map(|s| format!("{} {:.4} mm", s.source, s.rms_mm)).collect();
-    eprintln!(
-        "  what remains: the data's floor ({}) accounts for {:.0} % of the final held-out mean square",
-        sources.join(", "),
-        100.0 * d.floor_share_of_remaining
-    );
+    if sources.is_empty() {
+        eprintln!("  what remains: no floor of the data is known (no repeated configurations, no logging step in the angles or the readings)");
+    } else {
+        eprintln!(
+            "  what remains: the data's floor ({}) accounts for {:.0} % of the final held-out mean square",
+            sources.join(", "),
+            100.0 * d.floor_share_of_remaining
+        );
+    }
     if let Some(c) = &d.comparison {
         eprintln!(
             "  held-out RMSE geometric / physical extension / RBF compensator: {:.4} / {:.4} / {:.4} mm",

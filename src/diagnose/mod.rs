@@ -118,6 +118,7 @@ impl DiagnoseOptions {
     }
 }
 
+use crate::calib::robust::Screen;
 pub use crate::calib::robust::{Outlier, OutlierRun};
 
 /// How strongly the baseline residual follows a per-row feature.
@@ -239,6 +240,10 @@ pub struct Diagnosis {
     pub twincal_version: String,
     pub data: String,
     pub rows: usize,
+    /// What a row reads, for a reading of several values (a tracker's point): every RMSE here is
+    /// then per coordinate. Empty for a cable length.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub reading: String,
     pub outliers: Vec<Outlier>,
     pub outlier_runs: Vec<OutlierRun>,
     /// Rows (1-based) the screen first flagged against the geometric model that the model with
@@ -373,14 +378,20 @@ impl Ctx {
                 ReadingFit { model, data: &self.data.subset(fold) }.residuals_mm(&xf)
             })
             .collect();
-        let mut oof = vec![0.0; self.data.len()];
-        for (fold, r) in folds.iter().zip(per_fold) {
-            for (k, &i) in fold.iter().enumerate() {
-                oof[i] = r[k];
-            }
-        }
-        oof
+        scatter(folds, per_fold, self.data.len(), self.data.dim)
     }
+}
+
+/// Every fold's residuals (`dim` values per row, in the fold's row order) put back at their
+/// rows: one vector of `n` rows of `dim` values.
+fn scatter(folds: &[Vec<usize>], per_fold: Vec<Vec<f64>>, n: usize, dim: usize) -> Vec<f64> {
+    let mut out = vec![0.0; n * dim];
+    for (fold, r) in folds.iter().zip(per_fold) {
+        for (k, &i) in fold.iter().enumerate() {
+            out[i * dim..(i + 1) * dim].copy_from_slice(&r[k * dim..(k + 1) * dim]);
+        }
+    }
+    out
 }
 
 /// The parameters of `model` that `data` identify at `x0` (the rest stay fixed there), and the
@@ -409,7 +420,8 @@ fn size_check(f: &Fitted, data: &Samples) -> (f64, bool) {
 }
 
 /// p-value of the F test that `b` (the model with the candidate) fits the kept rows better than
-/// `a` (nested least-squares models, Gaussian reading noise).
+/// `a` (nested least-squares models, Gaussian reading noise); `n` reading values (rows × values
+/// per row).
 fn gain_p_value(a: &Fitted, b: &Fitted, n: usize) -> f64 {
     nested_f_test(a.rss, b.rss, b.n_free.saturating_sub(a.n_free), n.saturating_sub(b.n_free))
 }
@@ -430,8 +442,10 @@ fn pearson(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
-/// Correlations of the residual with the per-row features, strongest first.
-fn evidence(data: &Samples, residual: &[f64], has_torques: bool) -> Vec<Evidence> {
+/// Correlations of the residual with the per-row features, strongest first. With several values
+/// per row (a tracker's point), each value's residual against each feature, named
+/// `feature [value]` (e.g. `torque_j2 [z]`); the readings themselves are features too.
+fn evidence(data: &Samples, residual: &[f64], has_torques: bool, columns: &[&str]) -> Vec<Evidence> {
     let mut feats: Vec<(String, Vec<f64>)> = Vec::new();
     let col = |f: &dyn Fn(usize) -> f64| (0..data.len()).map(f).collect::<Vec<f64>>();
     for j in 0..data.q.first().map_or(0, |q| q.len()) {
@@ -449,8 +463,19 @@ fn evidence(data: &Samples, residual: &[f64], has_torques: bool) -> Vec<Evidence
     if data.inputs.iter().all(|r| r.temp_c.is_some()) {
         feats.push(("temp".into(), col(&|i| data.inputs[i].temp_c.unwrap_or(0.0))));
     }
-    feats.push(("L".into(), data.y.clone()));
-    let mut ev: Vec<Evidence> = feats.into_iter().map(|(f, v)| Evidence { feature: f, correlation: pearson(residual, &v) }).collect();
+    let d = data.dim;
+    for (c, name) in columns.iter().enumerate() {
+        feats.push((name.to_string(), col(&|i| data.y[i * d + c])));
+    }
+    let mut ev: Vec<Evidence> = if d == 1 {
+        feats.into_iter().map(|(f, v)| Evidence { feature: f, correlation: pearson(residual, &v) }).collect()
+    } else {
+        let per: Vec<Vec<f64>> = (0..d).map(|c| col(&|i| residual[i * d + c])).collect();
+        feats
+            .iter()
+            .flat_map(|(f, v)| columns.iter().zip(&per).map(move |(name, r)| Evidence { feature: format!("{f} [{name}]"), correlation: pearson(r, v) }))
+            .collect()
+    };
     ev.sort_by(|a, b| b.correlation.abs().total_cmp(&a.correlation.abs()));
     ev
 }
@@ -495,13 +520,89 @@ fn candidates(data: &Dataset, listed: &[(EffectKind, Option<usize>)], has_torque
 }
 
 /// Runs a diagnosis. `progress` receives a line per finished step.
+///
+/// When the screen against the geometric model flags rows that one candidate effect explains
+/// (the screen of the model with it flags at most half as many: a backlash band seen by a
+/// precise instrument puts every row of its minority flank far off the geometry), those rows
+/// stay in and the selection runs on them. Should the selection then not keep that effect, the
+/// diagnosis runs again on the rows the geometric screen kept.
 pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
-    let t0 = Instant::now();
     if opts.folds < 2 || opts.folds > 20 {
         return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));
     }
-    // The candidates' evidence, the screen and the compensator read one cable length per row.
-    data.require_length()?;
+    let (d, r, screened_with) = diagnose_screened(data, opts, progress, true)?;
+    match screened_with {
+        Some(b) if !d.causes.iter().any(|c| c.cause == b.kind.name() && c.joint == b.joint.map(|j| j + 1)) => {
+            progress(&format!("{} explained the flagged rows but was not kept: the diagnosis again, on the rows the geometric screen kept", b.label()));
+            let (d, r, _) = diagnose_screened(data, opts, progress, false)?;
+            Ok((d, r))
+        }
+        _ => Ok((d, r)),
+    }
+}
+
+/// Fewest rows, and smallest share of the rows, the geometric screen must flag before candidate
+/// effects are tried as their explanation: a few glitches are glitches (HSR's 7 of 1614 rows),
+/// while an effect puts many rows off (a backlash band's minority flank: a sixth of the rows).
+pub const EFFECT_SCREEN_MIN_ROWS: usize = 3;
+pub const EFFECT_SCREEN_MIN_SHARE: f64 = 0.01;
+/// A candidate explains the flagged rows only if the rows its screen keeps sit no wider around
+/// its fit than the geometric screen's (robust scale at most this factor of it): a flexible
+/// block that widens the scale until the rows are in explains nothing.
+pub const EFFECT_SCREEN_MAX_SCALE: f64 = 1.1;
+
+/// The candidate effect whose model, screened on every row, flags the fewest rows (of those whose
+/// scale stays within [`EFFECT_SCREEN_MAX_SCALE`] of the geometric one; ties to the narrower
+/// scale), with its screen, when that is at most half of what the geometric screen (`geo`)
+/// flagged.
+fn screen_with_effects(
+    base: &CalibModel,
+    all: &Samples,
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    has_torques: bool,
+    geo: &Screen,
+) -> Result<Option<(EffectBlock, Screen)>> {
+    let span = time_span(data);
+    let still = crate::calib::run::still_joints(&all.q);
+    let pool: Vec<EffectBlock> = candidates(data, &opts.candidates, has_torques)?
+        .into_iter()
+        .filter(|b| !(b.kind.def().constant_on_still_joint() && b.joint.is_some_and(|j| still.contains(&j))))
+        .collect();
+    let rows: Vec<usize> = (0..all.len()).collect();
+    let tried: Vec<(EffectBlock, Screen)> = pool
+        .par_iter()
+        .map(|b| {
+            let mut m = base.clone();
+            m.add_effect(b.clone(), span);
+            let mut x0 = geo.x.clone();
+            x0.extend_from_slice(&m.nominal[geo.x.len()..]);
+            let refit = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&m, d, x, opts.rank_tol);
+            let s = crate::calib::robust::screen(&m, &x0, all, &rows, opts.outlier_k, opts.reading_steps, &refit);
+            (b.clone(), s)
+        })
+        .collect();
+    // Fewest rows flagged among the candidates that keep the scale; of those, the narrowest.
+    let best = tried
+        .into_iter()
+        .filter(|(_, s)| s.scale_mm <= EFFECT_SCREEN_MAX_SCALE * geo.scale_mm)
+        .min_by(|a, b| a.1.outliers.len().cmp(&b.1.outliers.len()).then(a.1.scale_mm.total_cmp(&b.1.scale_mm)));
+    Ok(best.filter(|(_, s)| 2 * s.outliers.len() <= geo.outliers.len()))
+}
+
+/// A diagnosis whose rows are screened against the geometric model, or (`effect_screen`) against
+/// the candidate effect that explains what that screen flags ([`screen_with_effects`]), which it
+/// returns.
+fn diagnose_screened(
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    progress: &dyn Fn(&str),
+    effect_screen: bool,
+) -> Result<(Diagnosis, crate::calib::run::CalibResult, Option<EffectBlock>)> {
+    let t0 = Instant::now();
+    // Every row needs its reading: a cable length, or a tracker's point (x, y, z).
+    let measurement = crate::calib::run::reading_measurement(data)?;
+    let dim = measurement.dim();
     // The calibration's stages on every row (no split: the diagnosis cross-validates), with
     // every row's inputs; the diagnosis screens the rows itself, inputs included.
     let prepared = crate::calib::run::prepare(data, &opts.baseline_options(), true)?;
@@ -512,7 +613,29 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let mut all = prepared.split.train;
 
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&base, d, x, opts.rank_tol);
-    let screen = crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
+    let geo_screen =
+        crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
+    // Rows the geometric screen flagged that a candidate effect explains stay in.
+    let flagged = geo_screen.outliers.len();
+    let (screen, screened_with, first_flagged) =
+        match effect_screen && flagged >= EFFECT_SCREEN_MIN_ROWS && flagged as f64 >= EFFECT_SCREEN_MIN_SHARE * all.len() as f64 {
+            true => match screen_with_effects(&base, &all, data, opts, has_torques, &geo_screen)? {
+                Some((b, mut s)) => {
+                    progress(&format!(
+                        "{} of the {} rows the geometric model's screen flags are explained by {}: they stay in",
+                        geo_screen.outliers.len() - s.outliers.len(),
+                        geo_screen.outliers.len(),
+                        b.label()
+                    ));
+                    // The geometric fit of the rows kept.
+                    s.x = refit_rows(&s.corrected.subset(&s.keep), &geo_screen.x);
+                    let flagged: Vec<usize> = geo_screen.outliers.iter().map(|o| o.row).filter(|r| !s.outliers.iter().any(|o| o.row == *r)).collect();
+                    (s, Some(b), flagged)
+                }
+                None => (geo_screen, None, Vec::new()),
+            },
+            false => (geo_screen, None, Vec::new()),
+        };
     let (keep, mut outliers, mut outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
     // Readings in a reading step are taken corrected by its offset from here on.
     all.y = screen.corrected.y;
@@ -547,7 +670,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         ("blocked", format!("blocked and interleaved held-out RMSE of the geometric model agree ({rmse_blocked:.4} / {rmse_interleaved:.4} mm): time-dependent effects must extrapolate across blocks"))
     };
     let base_in = ReadingFit { model: &baseline.model, data: &ctx.data }.residuals_mm(&baseline.x);
-    let evidence = evidence(&ctx.data, &base_in, has_torques);
+    let evidence = evidence(&ctx.data, &base_in, has_torques, base.measurement.def().columns());
     progress(&format!(
         "geometric baseline: held-out RMSE {rmse_blocked:.4} mm (blocked folds), {rmse_interleaved:.4} mm (interleaved); judged on {judged_on} folds"
     ));
@@ -579,7 +702,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
                 let mut x0 = current.x.clone();
                 x0.extend_from_slice(&m.nominal[current.x.len()..]);
                 let f = ctx.evaluate(m, &x0);
-                let p = (gain_p_value(&current, &f, ctx.data.len()) * remaining.len() as f64).min(1.0);
+                let p = (gain_p_value(&current, &f, ctx.data.y.len()) * remaining.len() as f64).min(1.0);
                 let (size_sigmas, physical_sign) = size_check(&f, &ctx.data);
                 let c = Candidate {
                     cause: b.kind.name().into(),
@@ -639,12 +762,13 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     // predicts within the same threshold (around the kept rows' residuals) are explained, not
     // outliers: they rejoin the rows of the final fit, and are listed.
     let res_all = ReadingFit { model: &current.model, data: &all }.residuals_mm(&current.x);
-    let kept_res: Vec<f64> = keep.iter().map(|&i| res_all[i]).collect();
+    let kept_res: Vec<f64> = keep.iter().flat_map(|&i| res_all[i * dim..(i + 1) * dim].iter().copied()).collect();
     let (med, scale) = crate::calib::stats::robust_scale(&kept_res);
     let explained: Vec<usize> = if current.model.effects.is_empty() {
         Vec::new()
     } else {
-        outliers.iter().map(|o| o.row - 1).filter(|&i| (res_all[i] - med).abs() <= opts.outlier_k * scale).collect()
+        let far = |i: usize| crate::calib::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
+        outliers.iter().map(|o| o.row - 1).filter(|&i| (far(i) - med).abs() <= opts.outlier_k * scale).collect()
     };
     let (kept, kept_rows) = if explained.is_empty() {
         (kept, kept_rows)
@@ -659,7 +783,8 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
         (all.subset(&keep), Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() })
     };
-    let explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).collect();
+    let mut explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).chain(first_flagged).collect();
+    explained_rows.sort_unstable();
     let fit = ReadingFit { model: &current.model, data: &kept };
     let final_id = identify(&fit, &current.x, opts.rank_tol);
     let final_x = Ctx::lm().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
@@ -732,6 +857,11 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
         rows: data.rows.len(),
+        reading: if dim > 1 {
+            format!("each row reads a {} ({}): every RMSE is per coordinate", measurement.def().describe(), measurement.def().columns().join(", "))
+        } else {
+            String::new()
+        },
         outliers,
         outlier_runs,
         explained_by_causes: explained_rows,
@@ -773,7 +903,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         seconds: t0.elapsed().as_secs_f64(),
         effects_option,
     };
-    Ok((diagnosis, result))
+    Ok((diagnosis, result, screened_with))
 }
 
 /// The start of the final model's parameters for its report: the baseline's geometry with every
@@ -789,31 +919,36 @@ fn base_start(model: &CalibModel, x_base: &[f64]) -> Vec<f64> {
 /// 70th percentile when trained on the rest.
 fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<Comparison> {
     use crate::calib::rbf::RbfNetwork;
-    let n = ctx.data.len();
-    let rbf_fit = |rows: &[usize], model: &CalibModel, x: &[f64]| -> Option<(Vec<f64>, RbfNetwork)> {
+    let (n, d) = (ctx.data.len(), ctx.data.dim);
+    // One network per reading value (a tracker's x, y and z each get their own), fitted on the
+    // geometric residuals of the training rows.
+    let rbf_fit = |rows: &[usize], model: &CalibModel, x: &[f64]| -> Option<(Vec<f64>, Vec<RbfNetwork>)> {
         let tr = ctx.data.subset(rows);
         let xf = refit(model, &tr, x, ctx.rank_tol).0;
         let res = ReadingFit { model, data: &tr }.residuals_mm(&xf);
-        let (net, _) = RbfNetwork::fit_cv(&tr.q, &res, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed).ok()?;
-        Some((xf, net))
+        let nets = (0..d)
+            .map(|c| {
+                let rc: Vec<f64> = res.iter().skip(c).step_by(d).copied().collect();
+                RbfNetwork::fit_cv(&tr.q, &rc, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed).ok().map(|(net, _)| net)
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some((xf, nets))
+    };
+    // The residuals of `te` at `xf` less the networks' corrections.
+    let corrected = |te: &Samples, model: &CalibModel, xf: &[f64], nets: &[RbfNetwork]| -> Vec<f64> {
+        let r = ReadingFit { model, data: te }.residuals_mm(xf);
+        r.iter().enumerate().map(|(k, ri)| ri - nets[k % d].predict(&te.q[k / d])).collect()
     };
     let per_fold: Vec<Option<Vec<f64>>> = ctx
         .folds
         .par_iter()
         .map(|fold| {
             let train: Vec<usize> = (0..n).filter(|i| !fold.contains(i)).collect();
-            let (xf, net) = rbf_fit(&train, &geo.model, &geo.x)?;
-            let te = ctx.data.subset(fold);
-            let r = ReadingFit { model: &geo.model, data: &te }.residuals_mm(&xf);
-            Some(r.iter().zip(&te.q).map(|(ri, q)| ri - net.predict(q)).collect())
+            let (xf, nets) = rbf_fit(&train, &geo.model, &geo.x)?;
+            Some(corrected(&ctx.data.subset(fold), &geo.model, &xf, &nets))
         })
         .collect();
-    let mut rbf_oof = vec![0.0; n];
-    for (fold, r) in ctx.folds.iter().zip(per_fold) {
-        for (k, &i) in fold.iter().enumerate() {
-            rbf_oof[i] = r.as_ref()?[k];
-        }
-    }
+    let rbf_oof = scatter(&ctx.folds, per_fold.into_iter().collect::<Option<Vec<_>>>()?, n, d);
     // Extrapolation in q2.
     let mut q2: Vec<f64> = ctx.data.q.iter().map(|q| q[1]).collect();
     q2.sort_by(f64::total_cmp);
@@ -825,9 +960,9 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
     }
     let te = ctx.data.subset(&test);
     // The geometric fit on the training part serves both the geometric model and the RBF.
-    let (xg, net) = rbf_fit(&train, &geo.model, &geo.x)?;
+    let (xg, nets) = rbf_fit(&train, &geo.model, &geo.x)?;
     let r = ReadingFit { model: &geo.model, data: &te }.residuals_mm(&xg);
-    let rbf_ex = rms(&r.iter().zip(&te.q).map(|(ri, q)| ri - net.predict(q)).collect::<Vec<_>>());
+    let rbf_ex = rms(&corrected(&te, &geo.model, &xg, &nets));
     let xe = refit(&ext.model, &ctx.data.subset(&train), &ext.x, ctx.rank_tol).0;
     let ext_ex = rms(&ReadingFit { model: &ext.model, data: &te }.residuals_mm(&xe));
     Some(Comparison {
