@@ -2,6 +2,7 @@
 //! on the flange. A reading is the cable length plus a length offset, with a smooth linearity error,
 //! Gaussian noise and quantisation, averaged over a stationary window.
 
+use crate::measurement::Measurement;
 use crate::sim::effects::statics::CableLoad;
 use nalgebra::Vector3;
 use rand::Rng;
@@ -170,9 +171,19 @@ impl DrawWire {
         (self.tension_n > 0.0).then(|| CableLoad { exit_point: self.exit_point_m(), tool_point: self.tool_point_m(), tension: self.tension_n })
     }
 
-    /// Noise-free length (mm) for a tool point at `p_m` (base frame, m): distance + offset.
+    /// The placement [`Measurement::Length`] reads, in mm (the reading |p − exit| + offset is the
+    /// same in any length unit): the exit point and the length offset.
+    pub fn own_mm(&self) -> [f64; 4] {
+        let [x, y, z] = self.exit_point_mm;
+        [x, y, z, self.length_offset_mm]
+    }
+
+    /// Noise-free length (mm) for a tool point at `p_m` (base frame, m): the calibration's own
+    /// [`Measurement::Length`] reading, distance + offset, taken in mm.
     pub fn ideal_length(&self, p_m: &Vector3<f64>) -> f64 {
-        (p_m * 1e3 - Vector3::from(self.exit_point_mm)).norm() + self.length_offset_mm
+        let mut y = [0.0];
+        Measurement::Length.reading(&self.own_mm(), &(p_m * 1e3), &mut y);
+        y[0]
     }
 
     /// Smooth linearity error at a true reading `l` (mm): zero at both range ends.
