@@ -198,75 +198,176 @@ impl Effects {
     pub fn joints_yield(&self) -> bool {
         self.compliance.is_some() || self.backlash.as_ref().is_some_and(|b| b.width_deg.iter().any(|w| *w > 0.0))
     }
+    /// The effects that are on: the twin's registry, one line per effect.
+    pub fn all(&self) -> Vec<&dyn TwinEffect> {
+        let mut v: Vec<&dyn TwinEffect> = Vec::new();
+        v.extend(self.compliance.as_ref().map(|e| e as &dyn TwinEffect));
+        v.extend(self.backlash.as_ref().map(|e| e as &dyn TwinEffect));
+        v.extend(self.thermal.as_ref().map(|e| e as &dyn TwinEffect));
+        v.extend(self.payload.as_ref().map(|e| e as &dyn TwinEffect));
+        v.extend(self.eccentricity.as_ref().map(|e| e as &dyn TwinEffect));
+        v
+    }
+    /// Checks every effect that is on for an arm of `n_joints`, naming the key of the first bad
+    /// value.
     pub fn validate(&self, n_joints: usize) -> Result<(), String> {
-        if let Some(c) = &self.compliance {
-            if c.stiffness_nm_per_rad.len() != n_joints {
-                return Err(format!("effects.compliance.stiffness_nm_per_rad has {} values, the robot has {n_joints} joints", c.stiffness_nm_per_rad.len()));
-            }
-            if c.stiffness_nm_per_rad.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
-                return Err("effects.compliance.stiffness_nm_per_rad must be finite and > 0".into());
-            }
-            if let Some(d) = &c.damping_nms_per_rad {
-                if d.len() != n_joints || d.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err(format!("effects.compliance.damping_nms_per_rad needs {n_joints} finite values >= 0"));
-                }
+        self.all().iter().try_for_each(|e| e.validate(n_joints))
+    }
+    /// True motor-side minus commanded angle of joint `j` at the commanded angle `q` (rad), rad:
+    /// the sum of [`TwinEffect::motor_offset_rad`] over the effects that have one (0 for none).
+    pub fn motor_offset_rad(&self, j: usize, q: f64) -> f64 {
+        self.all().iter().filter_map(|e| e.motor_offset_rad(j, q)).reduce(|a, b| a + b).unwrap_or(0.0)
+    }
+    /// Shift of joint `j`'s zero at time `t` (rad): the sum of [`TwinEffect::zero_shift_rad`]
+    /// over the effects that have one; `None` when none has.
+    pub fn zero_shift_rad(&self, j: usize, t: f64) -> Option<f64> {
+        self.all().iter().filter_map(|e| e.zero_shift_rad(j, t)).reduce(|a, b| a + b)
+    }
+    /// Link length scale at time `t`: the product of [`TwinEffect::length_scale`] over the
+    /// effects that have one (1 for none).
+    pub fn length_scale(&self, t: f64) -> f64 {
+        self.all().iter().filter_map(|e| e.length_scale(t)).reduce(|a, b| a * b).unwrap_or(1.0)
+    }
+}
+
+/// An effect as the twin knows it: its scenario table (`[effects.<key>]`, the struct itself),
+/// the check of its values, and how it moves the arm's kinematics. Effects that act through the
+/// physics (a spring in the joint, a dead band, a mass) are simulated by the rapier multibody
+/// and the statics, which read their structs; the kinematic forms below are applied by the twin
+/// wherever it computes an arm (quasi-static, simulated, and along the tour), so an effect that
+/// acts as an encoder error, a joint-zero shift or a length scale is this implementation alone.
+pub trait TwinEffect {
+    /// The scenario key, `effects.<key>`.
+    fn key(&self) -> &'static str;
+    /// Checks the values for an arm of `n_joints`, naming `effects.<key>.<field>`.
+    fn validate(&self, n_joints: usize) -> Result<(), String>;
+    /// True motor-side minus commanded angle of joint `j` at the commanded angle `q` (rad), rad:
+    /// an error of the angle the controller reports. `None`: the effect has none.
+    fn motor_offset_rad(&self, _j: usize, _q: f64) -> Option<f64> {
+        None
+    }
+    /// Shift of joint `j`'s zero at time `t` (s), rad; `None`: the effect has none.
+    fn zero_shift_rad(&self, _j: usize, _t: f64) -> Option<f64> {
+        None
+    }
+    /// Factor on every link length at time `t` (s); `None`: the effect has none.
+    fn length_scale(&self, _t: f64) -> Option<f64> {
+        None
+    }
+}
+
+impl TwinEffect for Compliance {
+    fn key(&self) -> &'static str {
+        "compliance"
+    }
+    fn validate(&self, n_joints: usize) -> Result<(), String> {
+        let c = self;
+        if c.stiffness_nm_per_rad.len() != n_joints {
+            return Err(format!("effects.compliance.stiffness_nm_per_rad has {} values, the robot has {n_joints} joints", c.stiffness_nm_per_rad.len()));
+        }
+        if c.stiffness_nm_per_rad.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
+            return Err("effects.compliance.stiffness_nm_per_rad must be finite and > 0".into());
+        }
+        if let Some(d) = &c.damping_nms_per_rad {
+            if d.len() != n_joints || d.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                return Err(format!("effects.compliance.damping_nms_per_rad needs {n_joints} finite values >= 0"));
             }
         }
-        if let Some(b) = &self.backlash {
-            if b.width_deg.len() != n_joints {
-                return Err(format!("effects.backlash.width_deg has {} values, the robot has {n_joints} joints", b.width_deg.len()));
-            }
-            if b.width_deg.iter().any(|w| !(w.is_finite() && *w >= 0.0 && *w < 5.0)) {
-                return Err("effects.backlash.width_deg must be in [0, 5) degrees".into());
-            }
-            if !(b.breakaway_nm.is_finite() && b.breakaway_nm >= 0.0) {
-                return Err("effects.backlash.breakaway_nm must be >= 0".into());
+        Ok(())
+    }
+}
+
+impl TwinEffect for Backlash {
+    fn key(&self) -> &'static str {
+        "backlash"
+    }
+    fn validate(&self, n_joints: usize) -> Result<(), String> {
+        let b = self;
+        if b.width_deg.len() != n_joints {
+            return Err(format!("effects.backlash.width_deg has {} values, the robot has {n_joints} joints", b.width_deg.len()));
+        }
+        if b.width_deg.iter().any(|w| !(w.is_finite() && *w >= 0.0 && *w < 5.0)) {
+            return Err("effects.backlash.width_deg must be in [0, 5) degrees".into());
+        }
+        if !(b.breakaway_nm.is_finite() && b.breakaway_nm >= 0.0) {
+            return Err("effects.backlash.breakaway_nm must be >= 0".into());
+        }
+        Ok(())
+    }
+}
+
+impl TwinEffect for Thermal {
+    fn key(&self) -> &'static str {
+        "thermal"
+    }
+    fn validate(&self, n_joints: usize) -> Result<(), String> {
+        let t = self;
+        let scalars = [
+            ("alpha_per_k", t.alpha_per_k),
+            ("delta_t_max_k", t.delta_t_max_k),
+            ("time_constant_s", t.time_constant_s),
+            ("ambient_c", t.ambient_c),
+            ("temp_lag_s", t.temp_lag_s),
+            ("temp_offset_k", t.temp_offset_k),
+            ("temp_noise_k", t.temp_noise_k),
+        ];
+        for (key, v) in scalars {
+            if !v.is_finite() {
+                return Err(format!("effects.thermal.{key} = {v} must be finite"));
             }
         }
-        if let Some(t) = &self.thermal {
-            let scalars = [
-                ("alpha_per_k", t.alpha_per_k),
-                ("delta_t_max_k", t.delta_t_max_k),
-                ("time_constant_s", t.time_constant_s),
-                ("ambient_c", t.ambient_c),
-                ("temp_lag_s", t.temp_lag_s),
-                ("temp_offset_k", t.temp_offset_k),
-                ("temp_noise_k", t.temp_noise_k),
-            ];
-            for (key, v) in scalars {
-                if !v.is_finite() {
-                    return Err(format!("effects.thermal.{key} = {v} must be finite"));
-                }
-            }
-            if t.alpha_per_k.abs() > 1e-3 {
-                return Err(format!("effects.thermal.alpha_per_k = {} must be within ±1e-3 per K", t.alpha_per_k));
-            }
-            for (key, v) in [("time_constant_s", t.time_constant_s), ("temp_lag_s", t.temp_lag_s), ("temp_noise_k", t.temp_noise_k)] {
-                if v < 0.0 {
-                    return Err(format!("effects.thermal.{key} = {v} must be >= 0"));
-                }
-            }
-            if t.zero_drift_deg_per_k.iter().any(|v| !v.is_finite()) || (!t.zero_drift_deg_per_k.is_empty() && t.zero_drift_deg_per_k.len() != n_joints) {
-                return Err(format!("effects.thermal.zero_drift_deg_per_k needs {n_joints} finite values"));
+        if t.alpha_per_k.abs() > 1e-3 {
+            return Err(format!("effects.thermal.alpha_per_k = {} must be within ±1e-3 per K", t.alpha_per_k));
+        }
+        for (key, v) in [("time_constant_s", t.time_constant_s), ("temp_lag_s", t.temp_lag_s), ("temp_noise_k", t.temp_noise_k)] {
+            if v < 0.0 {
+                return Err(format!("effects.thermal.{key} = {v} must be >= 0"));
             }
         }
-        if let Some(e) = &self.eccentricity {
-            for (key, v) in [("amplitude_deg", &e.amplitude_deg), ("phase_deg", &e.phase_deg)] {
-                if v.len() != n_joints {
-                    return Err(format!("effects.eccentricity.{key} has {} values, the robot has {n_joints} joints", v.len()));
-                }
-                if let Some(x) = v.iter().find(|x| !x.is_finite()) {
-                    return Err(format!("effects.eccentricity.{key} = {x} must be finite"));
-                }
+        if t.zero_drift_deg_per_k.iter().any(|v| !v.is_finite()) || (!t.zero_drift_deg_per_k.is_empty() && t.zero_drift_deg_per_k.len() != n_joints) {
+            return Err(format!("effects.thermal.zero_drift_deg_per_k needs {n_joints} finite values"));
+        }
+        Ok(())
+    }
+    fn zero_shift_rad(&self, j: usize, t: f64) -> Option<f64> {
+        Some(Thermal::zero_shift_rad(self, j, t))
+    }
+    fn length_scale(&self, t: f64) -> Option<f64> {
+        Some(self.scale(t))
+    }
+}
+
+impl TwinEffect for Eccentricity {
+    fn key(&self) -> &'static str {
+        "eccentricity"
+    }
+    fn validate(&self, n_joints: usize) -> Result<(), String> {
+        let e = self;
+        for (key, v) in [("amplitude_deg", &e.amplitude_deg), ("phase_deg", &e.phase_deg)] {
+            if v.len() != n_joints {
+                return Err(format!("effects.eccentricity.{key} has {} values, the robot has {n_joints} joints", v.len()));
             }
-            if let Some(a) = e.amplitude_deg.iter().find(|a| a.abs() >= MAX_ECCENTRICITY_DEG) {
-                return Err(format!("effects.eccentricity.amplitude_deg = {a} must be within ±{MAX_ECCENTRICITY_DEG}° (exclusive)"));
+            if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+                return Err(format!("effects.eccentricity.{key} = {x} must be finite"));
             }
         }
-        if let Some(p) = &self.payload {
-            if !(p.mass_kg.is_finite() && p.mass_kg >= 0.0) || p.com_mm.iter().any(|v| !v.is_finite()) {
-                return Err("effects.payload: mass_kg must be >= 0 and com_mm finite".into());
-            }
+        if let Some(a) = e.amplitude_deg.iter().find(|a| a.abs() >= MAX_ECCENTRICITY_DEG) {
+            return Err(format!("effects.eccentricity.amplitude_deg = {a} must be within ±{MAX_ECCENTRICITY_DEG}° (exclusive)"));
+        }
+        Ok(())
+    }
+    fn motor_offset_rad(&self, j: usize, q: f64) -> Option<f64> {
+        Some(self.offset_rad(j, q))
+    }
+}
+
+impl TwinEffect for Payload {
+    fn key(&self) -> &'static str {
+        "payload"
+    }
+    fn validate(&self, _n_joints: usize) -> Result<(), String> {
+        if !(self.mass_kg.is_finite() && self.mass_kg >= 0.0) || self.com_mm.iter().any(|v| !v.is_finite()) {
+            return Err("effects.payload: mass_kg must be >= 0 and com_mm finite".into());
         }
         Ok(())
     }

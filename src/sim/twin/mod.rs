@@ -143,16 +143,16 @@ impl Twin {
         Twin { robot, chain, params, effects, sensor, load, transmission, settle }
     }
 
-    /// Parameters and length scale in force at time `t` (thermal drift applied).
+    /// Parameters and length scale in force at time `t` (every effect's joint-zero shift and
+    /// length scale applied: thermal drift).
     pub fn params_at(&self, t: f64) -> (Vec<f64>, f64) {
         let mut p = self.params.clone();
-        let mut scale = 1.0;
-        if let Some(th) = &self.effects.thermal {
-            scale = th.scale(t);
-            for j in 0..self.chain.n_joints {
-                if let Some(op) = self.chain.joint_op(j) {
-                    if let Some(i) = self.chain.ops[op].param {
-                        p[i] += th.zero_shift_rad(j, t);
+        let scale = self.effects.length_scale(t);
+        for j in 0..self.chain.n_joints {
+            if let Some(op) = self.chain.joint_op(j) {
+                if let Some(i) = self.chain.ops[op].param {
+                    if let Some(d) = self.effects.zero_shift_rad(j, t) {
+                        p[i] += d;
                     }
                 }
             }
@@ -168,13 +168,11 @@ impl Twin {
         (tool, frames)
     }
 
-    /// Encoder eccentricity at the commanded (reported) angles `q_cmd` (rad): true motor-side
-    /// minus commanded angle per joint, rad (zeros when the effect is off).
+    /// Encoder errors at the commanded (reported) angles `q_cmd` (rad): true motor-side minus
+    /// commanded angle per joint, rad, every effect's [`crate::sim::effects::TwinEffect::motor_offset_rad`]
+    /// (the encoder eccentricity; zeros when no effect is on).
     pub fn eccentricity(&self, q_cmd: &[f64]) -> Vec<f64> {
-        match &self.effects.eccentricity {
-            Some(e) => q_cmd.iter().enumerate().map(|(j, q)| e.offset_rad(j, *q)).collect(),
-            None => vec![0.0; q_cmd.len()],
-        }
+        q_cmd.iter().enumerate().map(|(j, q)| self.effects.motor_offset_rad(j, *q)).collect()
     }
 
     /// The command as the drive executes it: the true motor-side angles (commanded + encoder

@@ -531,15 +531,16 @@ impl<'a> Sim<'a> {
     }
 }
 
+/// The motor-side angle and velocity of joint `j` commanded to `q` at velocity `v`: every
+/// effect's encoder error added, the velocity through its slope.
 fn motor_of(twin: &Twin, j: usize, q: f64, v: f64) -> (f64, f64) {
-    match &twin.effects.eccentricity {
-        Some(e) => {
-            let h = 1e-6;
-            let slope = (e.offset_rad(j, q + h) - e.offset_rad(j, q - h)) / (2.0 * h);
-            (q + e.offset_rad(j, q), v * (1.0 + slope))
-        }
-        None => (q, v),
+    let e = &twin.effects;
+    if !e.all().iter().any(|e| e.motor_offset_rad(j, q).is_some()) {
+        return (q, v);
     }
+    let h = 1e-6;
+    let slope = (e.motor_offset_rad(j, q + h) - e.motor_offset_rad(j, q - h)) / (2.0 * h);
+    (q + e.motor_offset_rad(j, q), v * (1.0 + slope))
 }
 
 /// The sensor and gate settings a tour needs.
