@@ -265,7 +265,6 @@ fn a_tracker_scenario_refuses_cable_settings() {
     let dir = tempfile::tempdir().unwrap();
     let cases = [
         (text.replace("rate_hz = 1000.0", "rate_hz = 1000.0\ntension_n = 2.0"), "no cable pulls on the tool"),
-        (text.replace("[sampling]", "[acquisition]\nmodel = \"simulated\"\n\n[sampling]"), "use \"settled\" or \"quasi_static\""),
         (text.replace("[sampling]", "[glitches]\nruns = 1\nrows = 3\nsize_mm = 1.0\n\n[sampling]"), "[glitches] disturb a cable's reading"),
         (text.replace("noise_um = 15.0", "noise_um = -1.0"), "tracker.noise_um = -1"),
         (text.replace("decimals = 4", "decimals = 9"), "tracker.decimals = 9"),
@@ -297,7 +296,8 @@ fn a_tracker_scenario_refuses_cable_settings() {
 /// the scenario's truth, over three seeds each: a joint-2 compliance under a 1 kg payload (the
 /// payload told, as a user knows it), a 0.015° backlash band on joint 3 (with 4.5 µm of noise,
 /// every row on the minority flank is far off the geometric model: the screen must not take
-/// them for outliers), and nothing (geometric only).
+/// them for outliers), nothing (geometric only), and the compliance again through the simulated
+/// acquisition tour (its stability gate reading the tracker's samples).
 #[test]
 fn diagnose_names_an_effect_hidden_in_tracker_points() {
     let base = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/irb120_tracker.toml")).unwrap();
@@ -311,6 +311,15 @@ fn diagnose_names_an_effect_hidden_in_tracker_points() {
         ),
         ("backlash", with("[effects.backlash]\nwidth_deg = [0.0, 0.0, 0.015, 0.0, 0.0, 0.0]\nbreakaway_nm = 0.3\n"), "backlash[j3]", 0.015),
         ("geometric", base.clone(), "geometric_only", f64::NAN),
+        // The same compliance through the simulated tour (moves, hold, stability gate on the
+        // tracker's samples, readings while the arm is in the window), no payload.
+        (
+            "tour",
+            with("[effects.compliance]\nstiffness_nm_per_rad = [1.0e9, 5.0e4, 1.0e9, 1.0e9, 1.0e9, 1.0e9]\n")
+                + "\n[acquisition]\nmodel = \"simulated\"\ndamping_ratio = 0.05\n",
+            "joint_compliance[j2]",
+            1.0 / 5.0e4 * 1e6,
+        ),
     ];
     let dir = tempfile::tempdir().unwrap();
     for (name, scenario, verdict, truth) in &cases {
@@ -318,8 +327,13 @@ fn diagnose_names_an_effect_hidden_in_tracker_points() {
         std::fs::write(&path, scenario).unwrap();
         for seed in ["1", "2", "3"] {
             let data = dir.path().join(format!("{name}{seed}"));
-            let out = twincal(&["generate", "--scenario", path.to_str().unwrap(), "--seed", seed, "--out", data.to_str().unwrap(), "--quiet"]);
+            let out = twincal(&["generate", "--scenario", path.to_str().unwrap(), "--seed", seed, "--out", data.to_str().unwrap()]);
             assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            if *name == "tour" {
+                // Every pose's gate opened on the tracker's samples, and the arm was at rest.
+                let said = String::from_utf8_lossy(&out.stderr);
+                assert!(said.contains("gate still closed after the 2 s hold: 0 read anyway; largest transient at the tool"), "{said}");
+            }
             let (report, result) = (dir.path().join(format!("d_{name}{seed}.json")), dir.path().join(format!("r_{name}{seed}.json")));
             let mut args = vec!["diagnose", "--data", data.to_str().unwrap(), "--out", report.to_str().unwrap(), "--result", result.to_str().unwrap()];
             if *name == "compliance" {

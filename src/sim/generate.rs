@@ -92,7 +92,8 @@ pub struct PoseAcquisition {
     /// The readings were taken with the gate closed (`on_timeout = "read"`).
     pub read_with_gate_closed: bool,
     /// What the transient adds to L: the window's mean noise-free length minus that of the arm at
-    /// rest on the flanks it ends on, mm.
+    /// rest on the flanks it ends on, mm. With a tracker: the distance of the window's mean tool
+    /// point from the arm at rest, mm.
     pub transient_mm: f64,
     /// From when on the transient could no longer reach 1 nm at the tool by the readings (its
     /// amplitude decaying at the slowest modelled rate), s after arrival; `null`: it still could.
@@ -167,7 +168,7 @@ pub struct Generated {
 
 /// Builds the twin a scenario describes.
 pub fn build_twin(s: &Scenario, robot: &Robot) -> Twin {
-    Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.sensor.clone(), s.simulation.clone())
+    Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.sensor.clone(), s.simulation.clone()).with_tracker(s.tracker.clone())
 }
 
 /// Length (mm) the nominal arm (no geometric error, no effect) gives at joint angles `q` (rad).

@@ -238,12 +238,6 @@ impl Scenario {
             if self.glitches.is_some() {
                 return Err(err("[glitches] disturb a cable's reading; a [tracker] scenario has none".into()));
             }
-            if self.acquisition.model == crate::sim::twin::tour::AcquisitionModel::Simulated {
-                return Err(err(
-                    "acquisition.model = \"simulated\" reads a cable through the tour's transients; with a [tracker] use \"settled\" or \"quasi_static\""
-                        .into(),
-                ));
-            }
         }
         let names = robot.param_names();
         for k in self.geometry.set.keys() {

@@ -130,6 +130,8 @@ pub struct Twin {
     pub params: Vec<f64>,
     pub effects: Effects,
     pub sensor: DrawWire,
+    /// A laser tracker that reads the tool point instead of the cable (`None`: the cable reads).
+    pub tracker: Option<crate::sim::instrument::Tracker>,
     pub load: LoadModel,
     pub transmission: Option<Transmission>,
     pub settle: SettleOptions,
@@ -140,7 +142,13 @@ impl Twin {
         let chain = robot.error_chain();
         let load = LoadModel::new(&robot, &effects, sensor.cable_load());
         let transmission = Transmission::from_effects(&effects, robot.dof());
-        Twin { robot, chain, params, effects, sensor, load, transmission, settle }
+        Twin { robot, chain, params, effects, sensor, tracker: None, load, transmission, settle }
+    }
+
+    /// The twin read by `tracker` instead of its cable.
+    pub fn with_tracker(mut self, tracker: Option<crate::sim::instrument::Tracker>) -> Self {
+        self.tracker = tracker;
+        self
     }
 
     /// Parameters and length scale in force at time `t` (every effect's joint-zero shift and

@@ -543,6 +543,27 @@ fn motor_of(twin: &Twin, j: usize, q: f64, v: f64) -> (f64, f64) {
     (q + e.motor_offset_rad(j, q), v * (1.0 + slope))
 }
 
+/// One raw sample of the twin's instrument for the stability gate, appended to `raw`: the cable's
+/// reading of noise-free length `l` (mm), or with a tracker its reading of tool point `tool` (one
+/// sample's noise).
+fn gate_sample(twin: &Twin, tool: &Vector3<f64>, l: f64, rng: &mut ChaCha8Rng, raw: &mut Vec<f64>) {
+    match &twin.tracker {
+        Some(tr) => raw.extend(tr.read(tool, 1, rng).read_mm),
+        None => raw.push(twin.sensor.raw_sample(l, rng)),
+    }
+}
+
+/// How far the mean of the last `ng` raw samples (of `dim` values each, row after row) is from
+/// the mean of the `ng` before them, mm: the change of a length, or the distance between points.
+fn gate_change_mm(raw: &[f64], ng: usize, dim: usize) -> f64 {
+    let m = raw.len();
+    let mean = |from: usize, to: usize, c: usize| raw[from..to].iter().skip(c).step_by(dim).sum::<f64>() / ng as f64;
+    if dim == 1 {
+        return (mean(m - ng, m, 0) - mean(m - 2 * ng, m - ng, 0)).abs();
+    }
+    (0..dim).map(|c| (mean(m - ng * dim, m, c) - mean(m - 2 * ng * dim, m - ng * dim, c)).powi(2)).sum::<f64>().sqrt()
+}
+
 /// The sensor and gate settings a tour needs.
 #[derive(Clone, Copy, Debug)]
 pub struct TourSettings {
@@ -688,7 +709,9 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     let window_start = arrive + sn.hold_s;
     let ng = acq.gate_samples(sn.rate_hz);
     let mut rng = ChaCha8Rng::seed_from_u64(crate::sim::scenario::stream_seed(settings.seed, crate::sim::scenario::Stream::Gate, i as u64));
-    let mut raw: Vec<f64> = Vec::with_capacity(hold_samples.min(1 << 16));
+    // The instrument's raw samples, `dim` values each: the cable's length or the tracker's point.
+    let dim = if twin.tracker.is_some() { 3 } else { 1 };
+    let mut raw: Vec<f64> = Vec::with_capacity((dim * hold_samples).min(1 << 16));
     let mut gate_s = None;
     let mut negligible_s = None;
     let slow = sim.omega.iter().copied().fold(f64::INFINITY, f64::min);
@@ -709,15 +732,10 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
         }
         t = arrive + k as f64 * period;
         if gate_s.is_none() {
-            let (_, l) = sim.reading(mv, t, t_start + t);
-            raw.push(sn.raw_sample(l, &mut rng));
-            if raw.len() >= 2 * ng {
-                let m = raw.len();
-                let last: f64 = raw[m - ng..].iter().sum::<f64>() / ng as f64;
-                let before: f64 = raw[m - 2 * ng..m - ng].iter().sum::<f64>() / ng as f64;
-                if (last - before).abs() < acq.gate_mm {
-                    gate_s = Some(k as f64 * period);
-                }
+            let (tool, l) = sim.reading(mv, t, t_start + t);
+            gate_sample(twin, &tool, l, &mut rng, &mut raw);
+            if raw.len() >= 2 * ng * dim && gate_change_mm(&raw, ng, dim) < acq.gate_mm {
+                gate_s = Some(k as f64 * period);
             }
         }
         speeds.push_back(fastest);
@@ -769,8 +787,15 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     let t_read = schedule.read_t[i];
     let (q_link, deflection) = sim.link(mv, t);
     let contact = sim.contacts(&deflection);
-    let mean_l = lengths.iter().sum::<f64>() / lengths.len() as f64;
-    let transient_mm = mean_l - sn.ideal_length(&sim.rest_reference(&mv.to, &deflection, t_read).0);
+    let reference = sim.rest_reference(&mv.to, &deflection, t_read).0;
+    let transient_mm = if twin.tracker.is_some() {
+        // How far the window's mean point is from the arm at rest (a rigid transform away from
+        // what the tracker reads).
+        (tool_sum / sn.samples as f64 - reference).norm() * 1e3
+    } else {
+        let mean_l = lengths.iter().sum::<f64>() / lengths.len() as f64;
+        mean_l - sn.ideal_length(&reference)
+    };
     let (p, scale) = twin.params_at(t_read);
     let chain = &twin.chain;
     chain.forward(&q_link, &p, scale, &mut sim.ws);
