@@ -5,6 +5,9 @@
 //! located by `Instrument::locate` and placed against the nominal arm, and is judged on rows it
 //! never saw, over three seeds.
 
+#[cfg(feature = "rerun")]
+mod common;
+
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -179,20 +182,18 @@ fn the_commands_take_a_tracker_dataset() {
     let stored = rb["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
     assert!((reproduce(&rb, &csv) - stored).abs() < 1e-9, "rbf: predict gives {} mm, the result says {stored} mm", reproduce(&rb, &csv));
 
-    // What reads cable lengths only, or draws a draw-wire, names what the file holds.
+    // What reads cable lengths only names what the file holds.
     for (args, says) in [
         (
             vec!["calibrate", "--data", data, "--method", "dsade-gkan", "--out", "/dev/null/x.json"],
             "dsade-gkan learns a correction of one reading value per row",
         ),
-        (vec!["calibrate", "--data", data, "--report", "/dev/null/x.html", "--out", "/dev/null/x.json"], "--report draws a draw-wire"),
         (vec!["calibrate", "--data", data, "--sensor-guess", "1,2,3,4,5,6,7", "--out", "/dev/null/x.json"], "--sensor-guess places a draw-wire"),
         (vec!["calibrate", "--data", data, "--model", "generic6r", "--out", "/dev/null/x.json"], "needs a nominal arm"),
         (
             vec!["calibrate", "--data", data, "--effects", "sensor_nonlinearity", "--out", "/dev/null/x.json"],
             "sensor_nonlinearity is a draw-wire's reading error",
         ),
-        (vec!["diagnose", "--data", data, "--report", "/dev/null/x.html", "--result", "/dev/null/x.json"], "--report draws a draw-wire"),
     ] {
         let out = twincal(&args);
         let err = String::from_utf8_lossy(&out.stderr);
@@ -355,6 +356,143 @@ fn diagnose_names_an_effect_hidden_in_tracker_points() {
             }
             // No row of the twin is an outlier.
             assert!(d["outliers"].as_array().unwrap().len() <= 2, "{name} seed {seed}: {err}");
+        }
+    }
+}
+
+/// The `<svg>` of `page` whose title is `title`.
+fn figure<'a>(page: &'a str, title: &str) -> &'a str {
+    let at = page.find(&format!(">{title}</text>")).unwrap_or_else(|| panic!("no figure titled {title:?}"));
+    let start = page[..at].rfind("<svg").unwrap();
+    &page[start..start + page[start..].find("</svg>").unwrap()]
+}
+
+/// The numbers of the row `name` of the first table after `heading` in `page`.
+fn table_row(page: &str, heading: &str, name: &str) -> Vec<f64> {
+    let section = &page[page.find(heading).unwrap_or_else(|| panic!("no {heading:?}"))..];
+    let table = &section[..section.find("</table>").unwrap()];
+    let row = table.split("<tr>").find(|r| r.starts_with(&format!("<td>{name}</td>"))).unwrap_or_else(|| panic!("no row {name:?} in {table}"));
+    row.split("<td>").skip(2).map(|c| c.split('<').next().unwrap().parse::<f64>().unwrap_or_else(|e| panic!("{c}: {e}"))).collect()
+}
+
+/// `calibrate --report --rrd` and `diagnose --report --rrd` draw the twin's tracker points (a
+/// 0.015° backlash band on joint 3 hidden in them, for the diagnosis to find): residuals per
+/// coordinate and each row's position error |Δp| against every feature (the reading's x, y, z
+/// among them), whose table agrees with the result file; the tracker's placement in its own
+/// panels (translation and reflector in mm, rotation in degrees); per cause, one evidence point
+/// per coordinate value; the tracker and its line of sight in the recording instead of a cable.
+#[test]
+fn the_report_and_the_recording_draw_a_tracker_dataset() {
+    let base = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/irb120_tracker.toml")).unwrap();
+    let scenario = base.replacen("[sensor]", "[effects.backlash]\nwidth_deg = [0.0, 0.0, 0.015, 0.0, 0.0, 0.0]\nbreakaway_nm = 0.3\n\n[sensor]", 1);
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    std::fs::write(p("backlash.toml"), scenario).unwrap();
+    let out = twincal(&["generate", "--scenario", &p("backlash.toml"), "--seed", "1", "--out", &p("data"), "--quiet"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+
+    let mut args = ["calibrate", "--data", &p("data"), "--out", &p("cal.json"), "--report", &p("cal.html")].iter().map(|a| a.to_string()).collect::<Vec<_>>();
+    if cfg!(feature = "rerun") {
+        args.extend(["--rrd".to_string(), p("cal.rrd")]);
+    }
+    let out = twincal(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(p("cal.json")).unwrap()).unwrap();
+    let page = std::fs::read_to_string(p("cal.html")).unwrap();
+    assert!(page.contains("<h2>Residuals per coordinate (measured − predicted x, y, z, mm"), "per-coordinate statistics");
+    for quantity in ["Position error |Δp|", "Residual x", "Residual y", "Residual z"] {
+        for feature in ["q1", "q6", "x", "y", "z", "t", "temp"] {
+            assert!(page.contains(&format!(">{quantity} vs {feature}</text>")), "no figure of {quantity} against {feature}");
+        }
+    }
+    assert!(page.contains(">Position error |Δp| after (own range)</text>") && page.contains(">Residuals y before (own range)</text>"));
+    assert!(!page.contains(">Residual vs ") && !page.contains("measured length L") && !page.contains("cable length"), "the cable's wording");
+    // |Δp| against x: one point per row, before and after (train and test).
+    let rows = 300;
+    assert_eq!(figure(&page, "Position error |Δp| vs x").matches("<circle").count(), 2 * rows + 3, "points and three legend markers");
+    // The position error per row: |Δp|² is the sum of the coordinates' squares, and the
+    // coordinates' RMS over the test rows gives the result's per-value test RMSE.
+    let n_test = r["n_test"].as_u64().unwrap() as f64;
+    let [before, after] = ["test, before", "test, after"].map(|name| table_row(&page, "Position error per row", name));
+    let (n, rms_dp, max_dp, xyz) = (after[0], after[1], after[3], &after[4..7]);
+    assert_eq!(n, n_test);
+    let sum_sq: f64 = xyz.iter().map(|v| v * v).sum();
+    assert!((sum_sq.sqrt() - rms_dp).abs() < 3e-4, "RMS |Δp| {rms_dp} against the coordinates' {xyz:?}");
+    let per_value = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+    assert!(((sum_sq / 3.0).sqrt() - per_value).abs() < 2e-4, "{xyz:?} against the result's {per_value}");
+    assert!(max_dp >= rms_dp && before[1] > 10.0 * rms_dp, "before {before:?}, after {after:?}");
+    // The instrument's panels: the tracker's translation and the reflector in mm, its
+    // rotation in degrees, each parameter in its own.
+    let lengths = figure(&page, "Tracker and reflector (mm)");
+    let angles = figure(&page, "Tracker rotation (deg)");
+    for name in ["tracker.x", "tracker.y", "tracker.z", "tool.x", "tool.y", "tool.z"] {
+        assert!(lengths.contains(&format!(">{name}<")) && !angles.contains(&format!(">{name}<")), "{name}");
+    }
+    for name in ["tracker.rx", "tracker.ry", "tracker.rz"] {
+        assert!(angles.contains(&format!(">{name}<")) && !lengths.contains(&format!(">{name}<")), "{name}");
+        assert!(page.contains(&format!("<tr><td>{name}</td><td>deg</td>")), "{name} in degrees");
+    }
+    assert!(!page.contains(">Sensor (mm)<"), "no draw-wire panel");
+
+    let mut args = ["diagnose", "--data", &p("data"), "--out", &p("d.json"), "--result", &p("dr.json"), "--report", &p("d.html")]
+        .iter()
+        .map(|a| a.to_string())
+        .collect::<Vec<_>>();
+    if cfg!(feature = "rerun") {
+        args.extend(["--rrd".to_string(), p("d.rrd")]);
+    }
+    let out = twincal(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let d: serde_json::Value = serde_json::from_slice(&std::fs::read(p("d.json")).unwrap()).unwrap();
+    assert_eq!(d["verdict"], "backlash[j3]", "{err}");
+    let page = std::fs::read_to_string(p("d.html")).unwrap();
+    assert!(
+        page.contains("every RMSE is per coordinate value")
+            && page.contains("<h2>Evidence: residual against the change each cause predicts, per coordinate</h2>")
+    );
+    let section = &page[page.find("per coordinate</h2>").unwrap()..];
+    let evidence = &section[section.find("<svg").unwrap()..section.find("</svg>").unwrap()];
+    assert!(evidence.contains(">backlash joint 3: "), "the first cause's figure");
+    assert!(evidence.contains(">change of x, y, z the cause predicts (mm)</text>"));
+    assert_eq!(evidence.matches("<circle").count(), 2 * 3 * rows + 2, "without and with the cause, one point per coordinate value");
+    for t in ["Position error |Δp| with the causes (own range)", "Residuals z before (own range)", "Residual x vs q3", "Position error |Δp| vs z"] {
+        assert!(page.contains(&format!(">{t}</text>")), "{t}");
+    }
+
+    #[cfg(feature = "rerun")]
+    for (file, sides) in [
+        ("cal.rrd", ["Before calibration: |Δp| (mm)", "After calibration: |Δp| (mm), own scale", "Position error |Δp| before (mm)", "Residuals y after (mm)"]),
+        (
+            "d.rrd",
+            [
+                "Without the causes: |Δp| (mm)",
+                "With the causes: |Δp| (mm), own scale",
+                "Position error |Δp| without the causes (mm)",
+                "Residuals y with the causes (mm)",
+            ],
+        ),
+    ] {
+        let rec = common::read(std::path::Path::new(&p(file)));
+        rec.assert_no_empty_view();
+        for (e, c) in [
+            ("/world/sensor/tracker", "Transform3D:translation"),
+            ("/world/sensor/tracker/head", "Points3D:positions"),
+            ("/world/line_of_sight", "LineStrips3D:strips"),
+            ("/world/after/train", "Points3D:colors"),
+            ("/residuals/before", "BarChart:values"),
+            ("/residuals/x/after", "BarChart:values"),
+            ("/residuals/z/before", "BarChart:values"),
+        ] {
+            assert!(rec.holds(e, c, "static"), "{file}: {e} lacks {c}");
+        }
+        assert!(!rec.entities.contains_key("/world/cable") && !rec.entities.contains_key("/world/sensor/cable_exit"), "{file}: a cable");
+        for view in sides {
+            rec.view(view);
+        }
+        if file == "cal.rrd" {
+            assert_eq!(rec.view("Tracker rotation (deg) change ±1σ").origin, "/final/sensor_angles");
         }
     }
 }

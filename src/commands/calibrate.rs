@@ -106,7 +106,6 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     }
     let spec = a.model.spec()?;
     let data = load_dataset(&a.data, a.angles, true)?;
-    figures_drawable(&data, a.rrd.as_deref(), a.report.as_deref())?;
     let truth = TruthFile::find(&a.data)?;
     let mut opts = CalibOptions::new(spec.clone(), method);
     opts.test_fraction = a.test_fraction;

@@ -72,7 +72,6 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     }
     let spec = a.model.spec()?;
     let data = load_dataset(&a.data, a.angles, true)?;
-    figures_drawable(&data, a.rrd.as_deref(), a.report.as_deref())?;
     let mut opts = DiagnoseOptions::new(spec);
     let (loads, inertial) = a.loads.resolve()?;
     opts.loads = loads;

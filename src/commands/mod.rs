@@ -73,18 +73,6 @@ pub enum BenchTarget {
     Real,
 }
 
-/// The figures (`--rrd`, `--report`) draw a draw-wire set-up's residuals so far: an error for
-/// rows of another instrument when either is asked for.
-fn figures_drawable(data: &Dataset, rrd: Option<&Path>, report: Option<&Path>) -> Result<()> {
-    if let Some(m) = data.measurement().filter(|m| *m != crate::measurement::Measurement::Length) {
-        if rrd.is_some() || report.is_some() {
-            let flag = if report.is_some() { "--report" } else { "--rrd" };
-            return Err(Error::Invalid(format!("{flag} draws a draw-wire set-up's residuals so far; these rows hold a {}", m.def().describe())));
-        }
-    }
-    Ok(())
-}
-
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
 /// compare) or may be absent (predict).
 fn load_dataset(path: &Path, angles: AngleArg, require_length: bool) -> Result<Dataset> {

@@ -5,9 +5,10 @@
 use super::histogram;
 use super::svg::{error_bars, esc, histograms, plot, Series};
 use super::verdict::Verdict;
-use super::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group};
+use super::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group, Residual};
 use crate::calib::metrics::ErrorStats;
 use crate::calib::run::CalibResult;
+use crate::measurement::Measurement;
 use std::fmt::Write as _;
 
 const BEFORE: &str = "#9a9a9a";
@@ -59,9 +60,11 @@ fn stats_row(label: &str, s: Option<&ErrorStats>) -> String {
     }
 }
 
-/// Residual against each feature: before (grey) and after, train and test told apart.
-fn feature_plots(out: &mut String, features: &[Feature], before: &[f64], after: &[f64], train: &[bool], after_name: &str) {
+/// Residual `res` against each feature: before (grey) and after, train and test told apart.
+fn feature_plots(out: &mut String, features: &[Feature], res: &Residual, train: &[bool], after_name: &str) {
+    let (before, after) = (&res.before_mm[..], &res.after_mm[..]);
     let ymax = max_abs(before).max(max_abs(after)) * 1.08;
+    let title = res.title();
     out.push_str("<div class=\"figs\">");
     for f in features {
         let pick = |res: &[f64], want: Option<bool>| -> Vec<[f64; 2]> {
@@ -74,20 +77,78 @@ fn feature_plots(out: &mut String, features: &[Feature], before: &[f64], after: 
             series.push(Series { name: format!("{after_name}, train"), points: pick(after, Some(true)), color: TRAIN.into(), line: false, radius: 1.8 });
             series.push(Series { name: format!("{after_name}, test"), points: pick(after, Some(false)), color: TEST.into(), line: false, radius: 2.2 });
         }
-        out.push_str(&plot(&format!("Residual vs {}", f.name), &f.label, "residual (mm)", &series, Some((-ymax, ymax))));
+        out.push_str(&plot(&format!("{title} vs {}", f.name), &f.label, &res.axis(), &series, Some(res.range(ymax))));
     }
     out.push_str("</div>\n");
 }
 
-fn histogram_pair(before: &[f64], after: &[f64], after_name: &str) -> String {
+/// Histograms of `res` before and after, each over its own range.
+fn histogram_pair(res: &Residual, after_name: &str) -> String {
     let (mut out, bins) = (String::from("<div class=\"figs\">"), 30);
-    for (name, res, color) in [("before", before, BEFORE), (after_name, after, TRAIN)] {
-        let m = max_abs(res);
-        let (edges, counts) = histogram(res, bins, -m, m);
-        out.push_str(&histograms(&format!("Residuals {name} (own range)"), "residual (mm)", &[(name.to_string(), color.to_string(), edges, counts)]));
+    for (name, values, color) in [("before", &res.before_mm, BEFORE), (after_name, &res.after_mm, TRAIN)] {
+        let (lo, hi) = res.range(max_abs(values));
+        let (edges, counts) = histogram(values, bins, lo, hi);
+        out.push_str(&histograms(&format!("{} (own range)", res.histogram_title(name)), &res.axis(), &[(name.to_string(), color.to_string(), edges, counts)]));
     }
     out.push_str("</div>\n");
     out
+}
+
+/// What the feature plots plot against, for their section titles.
+fn against(m: Measurement) -> String {
+    if m.dim() == 1 {
+        "joint angles, length, time and temperature".into()
+    } else {
+        format!("joint angles, the measured {}, time and temperature", m.def().columns().join(", "))
+    }
+}
+
+/// The residual figures of every quantity: the histograms, then each against the features.
+fn residual_sections(s: &mut String, m: Measurement, residuals: &[Residual], features: &[Feature], train: &[bool], after_name: &str) {
+    s.push_str("<h2>Residual distributions</h2>\n");
+    for res in residuals {
+        s.push_str(&histogram_pair(res, after_name));
+    }
+    for res in residuals {
+        let _ = writeln!(s, "<h2>{} against {}</h2>", esc(&res.title()), esc(&against(m)));
+        feature_plots(s, features, res, train, after_name);
+    }
+}
+
+/// For a reading of several values: the position error |Δp| and each value's RMS, per set of
+/// rows, before and after.
+fn per_row_table(residuals: &[Residual], sets: &[(&str, Vec<bool>)]) -> String {
+    let mut s = String::from("<table><tr><th>rows</th><th>n</th>");
+    for res in residuals {
+        if res.distance {
+            let _ = write!(s, "<th>RMS {0}</th><th>mean {0}</th><th>MAX {0}</th>", esc(&res.label));
+        } else {
+            let _ = write!(s, "<th>RMS {}</th>", esc(&res.label));
+        }
+    }
+    s.push_str("</tr>");
+    for (name, rows) in sets {
+        for (side, pick) in [("before", 0), ("after", 1)] {
+            let n = rows.iter().filter(|r| **r).count();
+            let _ = write!(s, "<tr><td>{name}, {side}</td><td>{n}</td>");
+            for res in residuals {
+                let values: Vec<f64> = if pick == 0 { &res.before_mm } else { &res.after_mm }.iter().zip(rows).filter(|(_, r)| **r).map(|(v, _)| *v).collect();
+                if n == 0 {
+                    s.push_str(if res.distance { "<td>–</td><td>–</td><td>–</td>" } else { "<td>–</td>" });
+                    continue;
+                }
+                let st = ErrorStats::of(&values);
+                if res.distance {
+                    let _ = write!(s, "<td>{:.4}</td><td>{:.4}</td><td>{:.4}</td>", st.rmse, st.mean, st.max);
+                } else {
+                    let _ = write!(s, "<td>{:.4}</td>", st.rmse);
+                }
+            }
+            s.push_str("</tr>");
+        }
+    }
+    s.push_str("</table>\n");
+    s
 }
 
 /// The calibration page.
@@ -106,12 +167,23 @@ pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verd
         esc(&r.twincal_version)
     );
     s.push_str(&verdict_html(verdict));
-    s.push_str("<h2>Residuals (measured − predicted cable length, mm)</h2><table><tr><th>rows</th><th>n</th><th>RMSE</th><th>STD</th><th>MAX |r|</th><th>mean</th></tr>");
+    let meas = f.measurement;
+    let residuals = f.residuals();
+    if meas.dim() == 1 {
+        s.push_str("<h2>Residuals (measured − predicted cable length, mm)</h2>");
+    } else {
+        let _ = write!(s, "<h2>Residuals per coordinate (measured − predicted {}, mm; every value of every row)</h2>", esc(&meas.def().columns().join(", ")));
+    }
+    s.push_str("<table><tr><th>rows</th><th>n</th><th>RMSE</th><th>STD</th><th>MAX |r|</th><th>mean</th></tr>");
     s.push_str(&stats_row("train, before", Some(&m.train_before)));
     s.push_str(&stats_row("train, after", Some(&m.train_after)));
     s.push_str(&stats_row("test, before", m.test_before.as_ref()));
     s.push_str(&stats_row("test, after", m.test_after.as_ref()));
     s.push_str("</table>\n");
+    if meas.dim() > 1 {
+        let _ = write!(s, "<h2>Position error per row (mm)</h2><p class=\"note\">The rows read a {}: |Δp| is the distance between the measured and the predicted point; the RMS of each coordinate is over the rows.</p>", esc(meas.def().describe()));
+        s.push_str(&per_row_table(&residuals, &[("train", f.train.clone()), ("test", f.test.clone())]));
+    }
     let _ = write!(s, "<p class=\"note\">Noise estimate from the data: {:.4} mm.", r.noise_estimate_mm);
     if let Some(t) = &r.truth_comparison {
         let _ = write!(
@@ -124,17 +196,15 @@ pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verd
     for w in &r.warnings {
         let _ = writeln!(s, "<p class=\"fail\">Warning: {}</p>", esc(w));
     }
-    s.push_str("<h2>Residual distributions</h2>\n");
-    s.push_str(&histogram_pair(&f.before_mm, &f.after_mm, "after"));
-    s.push_str("<h2>Residual against joint angles, length, time and temperature</h2>\n");
-    feature_plots(&mut s, &f.features, &f.before_mm, &f.after_mm, &f.train, "after");
+    residual_sections(&mut s, meas, &residuals, &f.features, &f.train, "after");
     s.push_str("<h2>Convergence</h2><div class=\"figs\">");
     let it = |v: &[f64]| -> Vec<[f64; 2]> { v.iter().enumerate().map(|(i, y)| [i as f64, *y]).collect() };
     let mut conv = vec![Series { name: "train RMS".into(), points: it(&f.convergence.train_rms_mm), color: TRAIN.into(), line: true, radius: 2.0 }];
     if let Some(t) = &f.convergence.test_rms_mm {
         conv.push(Series { name: "test RMS".into(), points: it(t), color: TEST.into(), line: true, radius: 2.0 });
     }
-    s.push_str(&plot("RMS residual per iteration (0 = start)", "iteration", "RMS (mm)", &conv, None));
+    let per_value = if meas.dim() == 1 { "" } else { " per coordinate" };
+    s.push_str(&plot(&format!("RMS residual{per_value} per iteration (0 = start)"), "iteration", "RMS (mm)", &conv, None));
     let cost = [Series { name: "½Σr²".into(), points: it(&f.convergence.cost_mm2), color: TRAIN.into(), line: true, radius: 2.0 }];
     s.push_str(&plot("Cost per iteration (training rows)", "iteration", "cost (mm²)", &cost, None));
     s.push_str("</div>\n<h2>Parameters: change from the start, ±1σ</h2><div class=\"figs\">");
@@ -142,7 +212,7 @@ pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verd
         let items: Vec<(String, f64, Option<f64>, Option<f64>)> =
             f.params.iter().filter(|p| p.group == g).map(|p| (p.name.clone(), p.change, p.sigma, p.truth_change)).collect();
         if !items.is_empty() {
-            s.push_str(&error_bars(g.title(), "change from start", &items));
+            s.push_str(&error_bars(g.title(meas), "change from start", &items));
         }
     }
     s.push_str(
@@ -185,6 +255,15 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
         esc(&d.judged_on_reason),
         d.seconds
     );
+    let meas = f.measurement;
+    if meas.dim() > 1 {
+        let _ = writeln!(
+            s,
+            "<p class=\"note\">The rows read a {} ({}): every RMSE is per coordinate value; the figures also show each row's position error |Δp|.</p>",
+            esc(meas.def().describe()),
+            esc(&meas.def().columns().join(", "))
+        );
+    }
     s.push_str(&verdict_html(verdict));
     if !d.reading_steps.is_empty() {
         s.push_str("<h2>Reading steps</h2><p>Stretches of the acquisition whose readings sit one constant offset off (the reading jumped and stayed): corrected by the offset and kept.</p><table><tr><th>rows</th><th>offset (mm)</th><th>rows in the fit</th></tr>");
@@ -217,15 +296,28 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
     }
     let top: Vec<String> = d.evidence.iter().take(6).map(|e| format!("{} (r = {:+.2})", esc(&e.feature), e.correlation)).collect();
     let _ = writeln!(s, "<p class=\"note\">Strongest correlations of the geometric model's residual: {}.</p>", top.join(", "));
-    if !f.causes.is_empty() {
+    let x_label = if meas.dim() == 1 {
+        "length change the cause predicts (mm)".to_string()
+    } else {
+        format!("change of {} the cause predicts (mm)", meas.def().columns().join(", "))
+    };
+    if !f.causes.is_empty() && meas.dim() == 1 {
         s.push_str("<h2>Evidence: residual against the length change each cause predicts</h2><p class=\"note\">Grey: residual without the cause (final model, cause removed); blue: with it. A cause that explains the data turns a slope-1 cloud into a flat one.</p><div class=\"figs\">");
+    } else if !f.causes.is_empty() {
+        let cols = meas.def().columns().join(", ");
+        let _ = write!(
+            s,
+            "<h2>Evidence: residual against the change each cause predicts, per coordinate</h2><p class=\"note\">One point per coordinate value ({cols}) of every row. Grey: residual without the cause (final model, cause removed); blue: with it. A cause that explains the data turns a slope-1 cloud into a flat one.</p><div class=\"figs\">"
+        );
+    }
+    if !f.causes.is_empty() {
         for c in &f.causes {
             let pts = |r: &[f64]| -> Vec<[f64; 2]> { c.contribution_mm.iter().zip(r).map(|(x, y)| [*x, *y]).collect() };
             let series = [
                 Series { name: "without".into(), points: pts(&c.without_mm), color: BEFORE.into(), line: false, radius: 1.6 },
                 Series { name: "with".into(), points: pts(&c.with_mm), color: TRAIN.into(), line: false, radius: 1.8 },
             ];
-            s.push_str(&plot(&c.title.chars().take(70).collect::<String>(), "length change the cause predicts (mm)", "residual (mm)", &series, None));
+            s.push_str(&plot(&c.title.chars().take(70).collect::<String>(), &x_label, "residual (mm)", &series, None));
         }
         s.push_str("</div>\n");
     }
@@ -238,10 +330,10 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
         &[Series { name: "held-out".into(), points: steps, color: TRAIN.into(), line: true, radius: 3.0 }],
         None,
     ));
-    s.push_str("</div>\n<h2>Residual distributions</h2>\n");
-    s.push_str(&histogram_pair(&f.before_mm, &f.after_mm, "with the causes"));
-    s.push_str("<h2>Residual against joint angles, length, time and temperature</h2>\n");
-    feature_plots(&mut s, &f.features, &f.before_mm, &f.after_mm, &vec![true; f.after_mm.len()], "with the causes");
+    s.push_str("</div>\n");
+    let residuals = f.residuals();
+    let all = vec![true; residuals.first().map_or(0, |r| r.after_mm.len())];
+    residual_sections(&mut s, meas, &residuals, &f.features, &all, "with the causes");
     s.push_str("</body></html>\n");
     s
 }

@@ -1,37 +1,49 @@
 //! What a calibration or a diagnosis looks like, as plain numbers: the residual of every row
 //! before and after, the features to plot it against, the convergence from the starting point,
-//! each parameter's change with its uncertainty. The Rerun recordings ([`crate::viz::scenes`])
-//! and the self-contained HTML page ([`html`]) draw the same figures from these structs; the
-//! pass/fail [`verdict`] judges a result against a user's accuracy limits.
+//! each parameter's change with its uncertainty, the arm and the instrument. Residuals are held
+//! as the calibration holds them, one per reading value ([`Measurement::dim`] per row: a
+//! draw-wire's length, a tracker's x, y, z); [`Residual::of`] turns them into the per-row
+//! quantities the figures draw (for a tracker's point also the position error |Δp|). The Rerun
+//! recordings ([`crate::viz::scenes`]) and the self-contained HTML page ([`html`]) draw the same
+//! figures from these structs; the pass/fail [`verdict`] judges a result against a user's
+//! accuracy limits.
 
 pub mod html;
 pub mod svg;
 pub mod ticks;
 pub mod verdict;
 
-use crate::calib::model::Kind;
+use crate::calib::model::{Kind, Placement};
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::calib::run::{CalibOptions, CalibResult};
 use crate::dataset::Dataset;
 use crate::error::Result;
+use crate::measurement::Measurement;
 use crate::robot::kinematics::Frame;
+use nalgebra::Matrix3;
 
 /// A per-row quantity to plot a residual against.
 #[derive(Clone, Debug)]
 pub struct Feature {
-    /// Short name (`q1`, `L`, `t`, `temp`), used in entity paths.
+    /// Short name (`q1`, `L`, `x`, `t`, `temp`), used in entity paths.
     pub name: String,
     /// Axis title with unit.
     pub label: String,
     pub values: Vec<f64>,
 }
 
-/// The joint angles, the measured length and, where every row has them, time and temperature.
+/// The joint angles, the reading's values (a draw-wire's `L`, a tracker's `x, y, z`) and, where
+/// every row has them, time and temperature.
 pub fn features(data: &Dataset) -> Vec<Feature> {
     let mut f: Vec<Feature> = (0..data.n_joints())
         .map(|j| Feature { name: format!("q{}", j + 1), label: format!("q{} (deg)", j + 1), values: data.rows.iter().map(|r| r.q_deg[j]).collect() })
         .collect();
-    f.push(Feature { name: "L".into(), label: "measured length L (mm)".into(), values: data.rows.iter().map(|r| r.l_mm().unwrap_or(f64::NAN)).collect() });
+    if let Some(m) = data.measurement() {
+        for (k, col) in m.def().columns().iter().enumerate() {
+            let label = if m.dim() == 1 { format!("measured length {col} (mm)") } else { format!("measured {col} (mm)") };
+            f.push(Feature { name: col.to_string(), label, values: data.rows.iter().map(|r| r.reading_mm.get(k).copied().unwrap_or(f64::NAN)).collect() });
+        }
+    }
     if data.rows.iter().all(|r| r.t_s.is_some()) {
         f.push(Feature { name: "t".into(), label: "acquisition time t (s)".into(), values: data.rows.iter().map(|r| r.t_s.unwrap_or(f64::NAN)).collect() });
     }
@@ -41,6 +53,100 @@ pub fn features(data: &Dataset) -> Vec<Feature> {
     f
 }
 
+/// One per-row quantity the residual figures draw: a value of the reading (the draw-wire's
+/// length; a tracker's x, y or z) or, for a reading of several values, the row's position error
+/// |Δp| (the Euclidean norm of its residuals).
+#[derive(Clone, Debug)]
+pub struct Residual {
+    /// Short name for entity paths: the reading's column (`L`, `x`, …) or `dp` for |Δp|.
+    pub name: String,
+    /// What it is in titles: empty for a one-value reading (its residual is *the* residual),
+    /// else the column (`x`) or `|Δp|`.
+    pub label: String,
+    /// A distance (|Δp| ≥ 0) rather than a signed residual.
+    pub distance: bool,
+    /// Per row, mm.
+    pub before_mm: Vec<f64>,
+    pub after_mm: Vec<f64>,
+}
+
+/// The Euclidean norm of each row's `dim` values (mm).
+pub fn row_norms(values: &[f64], dim: usize) -> Vec<f64> {
+    values.chunks(dim.max(1)).map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt()).collect()
+}
+
+impl Residual {
+    /// The quantities of residuals held per reading value (`m.dim()` per row, row after row):
+    /// the one value of a one-value reading; else the position error |Δp| first, then each
+    /// value (column) in reading order.
+    pub fn of(m: Measurement, before_mm: &[f64], after_mm: &[f64]) -> Vec<Residual> {
+        let (dim, cols) = (m.dim(), m.def().columns());
+        let value = |k: usize, v: &[f64]| -> Vec<f64> { v.chunks(dim).map(|c| c.get(k).copied().unwrap_or(f64::NAN)).collect() };
+        if dim == 1 {
+            return vec![Residual {
+                name: cols[0].to_string(),
+                label: String::new(),
+                distance: false,
+                before_mm: before_mm.to_vec(),
+                after_mm: after_mm.to_vec(),
+            }];
+        }
+        let mut out = vec![Residual {
+            name: "dp".into(),
+            label: "|Δp|".into(),
+            distance: true,
+            before_mm: row_norms(before_mm, dim),
+            after_mm: row_norms(after_mm, dim),
+        }];
+        out.extend(cols.iter().enumerate().map(|(k, c)| Residual {
+            name: c.to_string(),
+            label: c.to_string(),
+            distance: false,
+            before_mm: value(k, before_mm),
+            after_mm: value(k, after_mm),
+        }));
+        out
+    }
+
+    /// Title of its figures: `Residual`, `Residual x`, `Position error |Δp|`.
+    pub fn title(&self) -> String {
+        match (self.label.is_empty(), self.distance) {
+            (true, _) => "Residual".into(),
+            (false, true) => format!("Position error {}", self.label),
+            (false, false) => format!("Residual {}", self.label),
+        }
+    }
+
+    /// Its axis title: `residual (mm)`, `residual x (mm)`, `|Δp| (mm)`.
+    pub fn axis(&self) -> String {
+        match (self.label.is_empty(), self.distance) {
+            (true, _) => "residual (mm)".into(),
+            (false, true) => format!("{} (mm)", self.label),
+            (false, false) => format!("residual {} (mm)", self.label),
+        }
+    }
+
+    /// Title of its histogram of one side (`before`, `after`): `Residuals before`,
+    /// `Residuals x before`, `Position error |Δp| before`.
+    pub fn histogram_title(&self, side: &str) -> String {
+        match (self.label.is_empty(), self.distance) {
+            (true, _) => format!("Residuals {side}"),
+            (false, true) => format!("{} {side}", self.title()),
+            (false, false) => format!("Residuals {} {side}", self.label),
+        }
+    }
+
+    /// The range its axes and histograms cover for values up to `vmax` in magnitude: from 0
+    /// for a distance, symmetric about 0 for a residual.
+    pub fn range(&self, vmax: f64) -> (f64, f64) {
+        if self.distance {
+            (0.0, vmax)
+        } else {
+            (-vmax, vmax)
+        }
+    }
+}
+
 /// Which panel a parameter belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Group {
@@ -48,28 +154,51 @@ pub enum Group {
     Lengths,
     /// Kinematic angles, degrees.
     Angles,
-    /// Draw-wire sensor: exit point, length offset, tool point, mm.
+    /// The instrument's placement lengths, mm: the draw-wire sensor's exit point, length offset
+    /// and tool point; a laser tracker's translation and the reflector on the flange.
     Sensor,
+    /// The instrument's placement angles, degrees: a laser tracker's rotation (the draw-wire
+    /// has none).
+    SensorAngles,
     /// Non-geometric effects (their own units).
     Effects,
 }
 
 impl Group {
-    pub const ALL: [Group; 4] = [Group::Lengths, Group::Angles, Group::Sensor, Group::Effects];
+    pub const ALL: [Group; 5] = [Group::Lengths, Group::Angles, Group::Sensor, Group::SensorAngles, Group::Effects];
     pub fn name(self) -> &'static str {
         match self {
             Group::Lengths => "lengths",
             Group::Angles => "angles",
             Group::Sensor => "sensor",
+            Group::SensorAngles => "sensor_angles",
             Group::Effects => "effects",
         }
     }
-    pub fn title(self) -> &'static str {
+    /// The panel's title for an instrument of measurement `m` (the instrument's panels are
+    /// named for it).
+    pub fn title(self, m: Measurement) -> &'static str {
+        let (lengths, angles) = match m {
+            Measurement::Length => ("Sensor (mm)", "Sensor angles (deg)"),
+            Measurement::Point => ("Tracker and reflector (mm)", "Tracker rotation (deg)"),
+        };
         match self {
             Group::Lengths => "Lengths (mm)",
             Group::Angles => "Angles (deg)",
-            Group::Sensor => "Sensor (mm)",
+            Group::Sensor => lengths,
+            Group::SensorAngles => angles,
             Group::Effects => "Effects (own units)",
+        }
+    }
+    /// The panel of parameter `k` of `model`.
+    pub fn of(model: &crate::calib::model::CalibModel, k: usize) -> Group {
+        let placement = model.placement_range().contains(&k);
+        match model.kinds[k] {
+            Kind::Effect(_) => Group::Effects,
+            Kind::Angle if placement => Group::SensorAngles,
+            _ if placement => Group::Sensor,
+            Kind::Length => Group::Lengths,
+            Kind::Angle => Group::Angles,
         }
     }
 }
@@ -108,19 +237,54 @@ pub struct ArmPose {
     pub tool_mm: [f64; 3],
 }
 
+/// Where the calibrated instrument sits in the base frame, to draw it with its line to the
+/// target: the draw-wire's cable exit point (the wire runs to the tool point), or a laser
+/// tracker's origin and axes (its line of sight runs to the reflector).
+#[derive(Clone, Debug, PartialEq)]
+pub struct InstrumentPose {
+    pub measurement: Measurement,
+    /// The cable exit point, or the tracker's origin, base frame, mm.
+    pub origin_mm: [f64; 3],
+    /// The instrument's own axes in the base frame (columns: its x, y, z), for an instrument
+    /// with a frame (a tracker reads in its own); `None` for the cable exit, a point.
+    pub axes: Option<Matrix3<f64>>,
+}
+
+impl InstrumentPose {
+    /// The pose of the instrument placed at `p`. A tracker reads `y = R·p + t`, so its origin
+    /// (`y = 0`) is `−Rᵀt` in the base frame and its axes are the columns of `Rᵀ`.
+    pub fn of(p: &Placement) -> InstrumentPose {
+        match p.measurement {
+            Measurement::Length => {
+                InstrumentPose { measurement: p.measurement, origin_mm: mm3(&p.exit().unwrap_or_else(nalgebra::Vector3::zeros)), axes: None }
+            }
+            Measurement::Point => {
+                let rt = crate::measurement::point::tracker_rotation(&p.own).transpose();
+                let t = nalgebra::Vector3::new(p.own[0], p.own[1], p.own[2]);
+                InstrumentPose { measurement: p.measurement, origin_mm: mm3(&(-(rt * t))), axes: Some(rt) }
+            }
+        }
+    }
+}
+
 /// Everything the calibration figures show.
 #[derive(Clone, Debug)]
 pub struct CalibFigures {
     pub title: String,
-    /// Per row: used for training (else held out).
+    /// Per row: used for training (else held out, or a training outlier kept out).
     pub train: Vec<bool>,
-    /// Measured minus predicted length, mm: the starting model and the calibrated one.
+    /// Per row: a held-out (test) row.
+    pub test: Vec<bool>,
+    /// What the rows read.
+    pub measurement: Measurement,
+    /// Measured minus predicted reading, mm, one per reading value (row after row): the
+    /// starting model and the calibrated one.
     pub before_mm: Vec<f64>,
     pub after_mm: Vec<f64>,
     /// Tool point of every row, calibrated model, mm.
     pub tool_mm: Vec<[f64; 3]>,
-    /// Calibrated cable exit point, mm.
-    pub exit_mm: [f64; 3],
+    /// The calibrated instrument.
+    pub instrument: InstrumentPose,
     pub arm: Option<ArmPose>,
     pub features: Vec<Feature>,
     pub params: Vec<ParamChange>,
@@ -131,11 +295,11 @@ fn mm3(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
     [v.x * 1e3, v.y * 1e3, v.z * 1e3]
 }
 
-/// The calibrated tool point of every row of `s` and the calibrated cable exit point, mm.
-fn tool_points_and_exit(r: &CalibResult, s: &Samples) -> (Vec<[f64; 3]>, [f64; 3]) {
+/// The calibrated tool point of every row of `s` (mm) and the calibrated instrument.
+fn tool_points_and_instrument(r: &CalibResult, s: &Samples) -> (Vec<[f64; 3]>, InstrumentPose) {
     let mut w = r.model.work();
     let tool_mm = (0..s.len()).map(|i| mm3(&r.model.tool_point_with(&r.x, &s.q[i], &s.inputs[i], &mut w))).collect();
-    (tool_mm, mm3(&r.model.placement(&r.x).exit().unwrap_or_else(nalgebra::Vector3::zeros)))
+    (tool_mm, InstrumentPose::of(&r.model.placement(&r.x)))
 }
 
 /// Every row of `data` as samples with the model's per-row inputs (torques, flanks, time).
@@ -164,9 +328,16 @@ fn arm_pose(r: &CalibResult, x: &[f64], s: &Samples, row: usize) -> Option<ArmPo
     Some(ArmPose { row, frames, tool_mm: mm3(&r.model.tool_point_with(x, q, &s.inputs[row], &mut w)) })
 }
 
-/// Measured minus predicted length (mm) of every row, every effect and corrector included.
+/// Measured minus predicted reading (mm) of every row, every effect and corrector included:
+/// one per reading value, row after row (NaN where a row lacks a value).
 pub fn residuals_after(r: &CalibResult, data: &Dataset) -> Vec<f64> {
-    data.rows.iter().zip(r.predict_rows(data)).map(|(row, p)| row.l_mm().unwrap_or(f64::NAN) - p).collect()
+    let dim = r.model.measurement.dim();
+    let predicted = r.predict_rows(data);
+    data.rows
+        .iter()
+        .zip(predicted.chunks(dim))
+        .flat_map(|(row, p)| p.iter().enumerate().map(move |(k, p)| if row.reading_mm.len() == dim { row.reading_mm[k] - p } else { f64::NAN }))
+        .collect()
 }
 
 impl CalibFigures {
@@ -184,10 +355,14 @@ impl CalibFigures {
         for &i in &train_idx {
             train[i] = true;
         }
+        let mut held_out = vec![false; data.rows.len()];
+        for &i in &test_idx {
+            held_out[i] = true;
+        }
         let x0 = &r.model.nominal;
         let before_mm = ReadingFit { model: &r.model, data: &s }.residuals_mm(x0);
         let after_mm: Vec<f64> = residuals_after(r, data).iter().zip(raw.y.iter().zip(&s.y)).map(|(v, (a, b))| v - (a - b) * 1e3).collect();
-        let (tool_mm, exit_mm) = tool_points_and_exit(r, &s);
+        let (tool_mm, instrument) = tool_points_and_instrument(r, &s);
 
         // Convergence: the start, then every iteration the optimiser reported.
         let to_internal = |xs: &[f64]| -> Vec<f64> { xs.iter().enumerate().map(|(k, v)| v / r.model.kinds[k].display()).collect() };
@@ -213,12 +388,7 @@ impl CalibFigures {
             .enumerate()
             .filter(|(_, p)| !p.fixed)
             .map(|(k, p)| {
-                let group = match r.model.kinds[k] {
-                    Kind::Effect(_) => Group::Effects,
-                    _ if r.model.placement_range().contains(&k) => Group::Sensor,
-                    Kind::Length => Group::Lengths,
-                    Kind::Angle => Group::Angles,
-                };
+                let group = Group::of(&r.model, k);
                 let d = r.model.kinds[k].display();
                 ParamChange {
                     name: p.name.clone(),
@@ -234,24 +404,33 @@ impl CalibFigures {
         Ok(CalibFigures {
             title: format!("{} / {} on {}", r.method.name(), r.model_name, r.data),
             train,
+            test: held_out,
+            measurement: r.model.measurement,
             before_mm,
             after_mm,
             tool_mm,
-            exit_mm,
+            instrument,
             arm: arm_pose(r, &r.x, &s, 0),
             features: features(data),
             params,
             convergence: conv,
         })
     }
+
+    /// The per-row residual quantities to draw ([`Residual::of`]).
+    pub fn residuals(&self) -> Vec<Residual> {
+        Residual::of(self.measurement, &self.before_mm, &self.after_mm)
+    }
 }
 
-/// One diagnosed cause: the residual against the length change the cause predicts.
+/// One diagnosed cause: the residual against the reading change the cause predicts (one point
+/// per reading value: a tracker's row gives three).
 #[derive(Clone, Debug)]
 pub struct CauseEvidence {
     /// The cause's one-line summary.
     pub title: String,
-    /// Length change the cause predicts on each row (the final model with and without it), mm.
+    /// Reading change the cause predicts on each reading value (the final model with and
+    /// without it), mm, row after row.
     pub contribution_mm: Vec<f64>,
     /// Residual without this cause (final residual + its contribution), mm.
     pub without_mm: Vec<f64>,
@@ -263,12 +442,16 @@ pub struct CauseEvidence {
 #[derive(Clone, Debug)]
 pub struct DiagnosisFigures {
     pub title: String,
-    /// Residual of the final model's geometry with every named cause removed, mm.
+    /// What the rows read.
+    pub measurement: Measurement,
+    /// Residual of the final model's geometry with every named cause removed, mm, one per
+    /// reading value (row after row).
     pub before_mm: Vec<f64>,
-    /// Residual of the final (extended) model, mm.
+    /// Residual of the final (extended) model, mm, one per reading value.
     pub after_mm: Vec<f64>,
     pub tool_mm: Vec<[f64; 3]>,
-    pub exit_mm: [f64; 3],
+    /// The final model's instrument.
+    pub instrument: InstrumentPose,
     pub arm: Option<ArmPose>,
     pub features: Vec<Feature>,
     pub causes: Vec<CauseEvidence>,
@@ -281,7 +464,9 @@ pub struct DiagnosisFigures {
 impl DiagnosisFigures {
     pub fn new(d: &crate::diagnose::Diagnosis, r: &CalibResult, data: &Dataset) -> DiagnosisFigures {
         let all: Vec<usize> = (0..data.rows.len()).collect();
-        let s = crate::calib::robust::apply_steps(&all_samples(r, data), &all, &d.reading_steps);
+        // Reading steps are a cable encoder's: only one-value readings have any.
+        let raw = all_samples(r, data);
+        let s = if d.reading_steps.is_empty() { raw } else { crate::calib::robust::apply_steps(&raw, &all, &d.reading_steps) };
         let fit = ReadingFit { model: &r.model, data: &s };
         let after_mm = fit.residuals_mm(&r.x);
         let first = r.model.first_effect();
@@ -304,22 +489,28 @@ impl DiagnosisFigures {
                 .unwrap_or_else(|| block.label());
             causes.push(CauseEvidence { title, contribution_mm, without_mm, with_mm: after_mm.clone() });
         }
-        let (tool_mm, exit_mm) = tool_points_and_exit(r, &s);
+        let (tool_mm, instrument) = tool_points_and_instrument(r, &s);
         let mut heldout: Vec<f64> = d.steps.iter().map(|s| s.heldout_rmse_before_mm).collect();
         heldout.push(d.final_heldout_rmse_mm);
         heldout.truncate(d.causes.len() + 1);
         DiagnosisFigures {
             title: format!("diagnosis of {}", d.data),
+            measurement: r.model.measurement,
             before_mm,
             after_mm,
             tool_mm,
-            exit_mm,
+            instrument,
             arm: arm_pose(r, &r.x, &s, 0),
             features: features(data),
             causes,
             heldout_rmse_mm: heldout,
             outliers: d.outliers.iter().map(|o| o.row.saturating_sub(1)).collect(),
         }
+    }
+
+    /// The per-row residual quantities to draw ([`Residual::of`]).
+    pub fn residuals(&self) -> Vec<Residual> {
+        Residual::of(self.measurement, &self.before_mm, &self.after_mm)
     }
 }
 
@@ -359,4 +550,49 @@ pub fn histogram(values: &[f64], bins: usize, lo: f64, hi: f64) -> (Vec<f64>, Ve
         counts[i] += 1.0;
     }
     (edges, counts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    #[test]
+    fn a_tracker_reads_its_origin_as_zero_and_its_axes_as_unit_points() {
+        let p = Placement { measurement: Measurement::Point, own: vec![2.5, -0.4, 0.3, 0.02, -0.015, 0.7], tool: Vector3::zeros() };
+        let pose = InstrumentPose::of(&p);
+        let axes = pose.axes.expect("a tracker has axes");
+        let origin = Vector3::from(pose.origin_mm) * 1e-3;
+        let mut y = [0.0; 3];
+        Measurement::Point.reading(&p.own, &origin, &mut y);
+        assert!(y.iter().all(|v| v.abs() < 1e-12), "the origin reads {y:?}");
+        for k in 0..3 {
+            Measurement::Point.reading(&p.own, &(origin + axes.column(k)), &mut y);
+            for (i, v) in y.iter().enumerate() {
+                assert!((v - if i == k { 1.0 } else { 0.0 }).abs() < 1e-12, "axis {k} reads {y:?}");
+            }
+        }
+        // The cable exit is a point: the placement's exit, in mm.
+        let cable = InstrumentPose::of(&Placement::cable(Vector3::new(0.8, 0.3, 0.05), 0.12, Vector3::zeros()));
+        assert_eq!((cable.origin_mm, cable.axes), ([800.0, 300.0, 50.0], None));
+    }
+
+    #[test]
+    fn residuals_per_row_are_the_value_or_the_position_error_and_each_coordinate() {
+        let one = Residual::of(Measurement::Length, &[0.1, -0.2], &[0.01, 0.02]);
+        assert_eq!(one.len(), 1);
+        assert_eq!((one[0].name.as_str(), one[0].title(), one[0].axis(), one[0].distance), ("L", "Residual".into(), "residual (mm)".into(), false));
+        assert_eq!((one[0].before_mm.clone(), one[0].after_mm.clone()), (vec![0.1, -0.2], vec![0.01, 0.02]));
+        let before = [3.0, 4.0, 0.0, -1.0, 2.0, -2.0];
+        let after = [0.0, 0.0, 0.5, f64::NAN, 0.0, 0.0];
+        let r = Residual::of(Measurement::Point, &before, &after);
+        let names: Vec<&str> = r.iter().map(|q| q.name.as_str()).collect();
+        assert_eq!(names, ["dp", "x", "y", "z"]);
+        assert_eq!(r[0].before_mm, vec![5.0, 3.0]);
+        assert_eq!(r[0].after_mm[0], 0.5);
+        assert!(r[0].after_mm[1].is_nan(), "a missing value leaves the row's |Δp| unknown");
+        assert_eq!((r[2].before_mm.clone(), r[3].before_mm.clone()), (vec![4.0, 2.0], vec![0.0, -2.0]));
+        assert_eq!((r[0].title(), r[0].axis(), r[0].range(2.0)), ("Position error |Δp|".into(), "|Δp| (mm)".into(), (0.0, 2.0)));
+        assert_eq!((r[1].title(), r[1].histogram_title("after"), r[1].range(2.0)), ("Residual x".into(), "Residuals x after".into(), (-2.0, 2.0)));
+    }
 }

@@ -5,7 +5,7 @@ use super::plot::{padded_range, Plot};
 use super::{histogram, residual_color, Blueprint, Layout, Recorder, ViewKind as K};
 use crate::error::Result;
 use crate::io::OutputSet;
-use crate::report::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group};
+use crate::report::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group, InstrumentPose, Residual};
 use crate::sim::generate::Generated;
 use nalgebra::Vector3;
 use std::path::Path;
@@ -13,6 +13,7 @@ use std::path::Path;
 const ARM: [u8; 4] = [200, 206, 218, 255];
 const JOINT: [u8; 4] = [255, 166, 50, 255];
 const CABLE: [u8; 4] = [255, 96, 40, 255];
+const TRACKER: [u8; 4] = [235, 60, 60, 255];
 const HIGHLIGHT: [u8; 4] = [255, 255, 255, 255];
 const BEFORE: [u8; 4] = [150, 150, 150, 255];
 const AFTER: [u8; 4] = [60, 190, 230, 255];
@@ -262,25 +263,76 @@ impl Generated {
 /// The residual field of every row before and after (calibration or diagnosis).
 struct Field<'a> {
     arm: Option<&'a crate::report::ArmPose>,
-    exit: [f64; 3],
+    instrument: &'a InstrumentPose,
     tools: &'a [[f64; 3]],
-    before: &'a [f64],
-    after: &'a [f64],
+    /// The per-row quantities ([`Residual::of`]): the first colours the rows (the residual of a
+    /// one-value reading, a point's |Δp|), every one has its histograms.
+    residuals: &'a [Residual],
     train: &'a [bool],
 }
 
-/// The static scene shared by calibration and diagnosis: the arm at one row, the cable, and the
-/// tool points coloured by the residual before (`world/before/…`) and after (`world/after/…`),
-/// each with its own colour bar; the two histograms over their own ranges.
+/// What colours the rows, for titles: `|residual|` or `|Δp|`.
+fn colour_quantity(res: &Residual) -> String {
+    if res.label.is_empty() {
+        "|residual|".into()
+    } else {
+        res.label.clone()
+    }
+}
+
+/// The instrument as placed in the base frame, with its line to the target at `tool` (mm):
+/// the draw-wire's exit point and cable, or a laser tracker (its frame's axes and a head at its
+/// origin) and its line of sight to the reflector.
+fn draw_instrument(rec: &mut Recorder, inst: &InstrumentPose, tool: Option<[f64; 3]>) {
+    let o = inst.origin_mm;
+    match (inst.measurement, inst.axes) {
+        (crate::measurement::Measurement::Point, Some(axes)) => {
+            rec.transform("world/sensor/tracker", o, rows_of(&axes));
+            rec.axes("world/sensor/tracker", 150.0);
+            rec.points("world/sensor/tracker/head", &[[0.0; 3]], Some(&[TRACKER]), Some(40.0), Some(&["laser tracker".to_string()]));
+            if let Some(t) = tool {
+                rec.line_strips("world/line_of_sight", &[vec![o, t]], TRACKER, 2.0);
+            }
+        }
+        _ => {
+            if let Some(t) = tool {
+                rec.line_strips("world/cable", &[vec![o, t]], CABLE, 2.0);
+            }
+            rec.points("world/sensor/cable_exit", &[o], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
+        }
+    }
+}
+
+/// Hover text of row `i` on side `k` (0: before, 1: after) named `names[k]`: its value and the
+/// other side's; for a reading of several values each value too.
+fn row_label(residuals: &[Residual], i: usize, set: &str, k: usize, names: [&str; 2]) -> String {
+    let first = &residuals[0];
+    let side = |k: usize| if k == 0 { &first.before_mm } else { &first.after_mm };
+    if residuals.len() == 1 {
+        return format!("row {} ({set}): {} {:+.4} mm, {} {:+.4} mm", i + 1, names[k], side(k)[i], names[1 - k], side(1 - k)[i]);
+    }
+    let values = |k: usize| -> String {
+        let v: Vec<String> = residuals[1..].iter().map(|r| format!("{} {:+.4}", r.label, if k == 0 { r.before_mm[i] } else { r.after_mm[i] })).collect();
+        format!("{} {} {:.4} mm ({})", names[k], first.label, side(k)[i], v.join(", "))
+    };
+    format!("row {} ({set}): {}; {}", i + 1, values(k), values(1 - k))
+}
+
+/// The static scene shared by calibration and diagnosis: the arm at one row, the instrument, and
+/// the tool points coloured by the residual before (`world/before/…`) and after
+/// (`world/after/…`), each with its own colour bar; the histograms over their own ranges (the
+/// colouring quantity's at `residuals/{before,after}`, the others' at
+/// `residuals/<name>/{before,after}`).
 fn before_after(rec: &mut Recorder, f: &Field, names: [&str; 2]) {
-    let Field { arm, exit, tools, before, after, train } = *f;
+    let Field { arm, instrument, tools, residuals, train } = *f;
     if let Some(a) = arm {
         let fr: Vec<([f64; 3], [[f64; 3]; 3])> = a.frames.iter().map(|f| ([f.pos.x, f.pos.y, f.pos.z], rows_of(&f.rot))).collect();
         draw_arm(rec, &fr, a.tool_mm, true);
-        rec.line_strips("world/cable", &[vec![exit, a.tool_mm]], CABLE, 2.0);
     }
-    rec.points("world/sensor/cable_exit", &[exit], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
-    for (side, res, name) in [("before", before, names[0]), ("after", after, names[1])] {
+    draw_instrument(rec, instrument, arm.map(|a| a.tool_mm));
+    let Some(first) = residuals.first() else { return };
+    let quantity = colour_quantity(first);
+    for (k, (side, res, name)) in [("before", &first.before_mm, names[0]), ("after", &first.after_mm, names[1])].into_iter().enumerate() {
         let vmax = max_abs(res);
         for (set, want, radius) in [("train", true, 4.5), ("test", false, 8.0)] {
             let idx: Vec<usize> = (0..res.len()).filter(|i| train[*i] == want).collect();
@@ -289,23 +341,36 @@ fn before_after(rec: &mut Recorder, f: &Field, names: [&str; 2]) {
             }
             let pts: Vec<[f64; 3]> = idx.iter().map(|&i| tools[i]).collect();
             let colors: Vec<[u8; 4]> = idx.iter().map(|&i| residual_color(res[i], vmax)).collect();
-            let labels: Vec<String> = idx
-                .iter()
-                .map(|&i| {
-                    format!(
-                        "row {} ({set}): {name} {:+.4} mm, {} {:+.4} mm",
-                        i + 1,
-                        res[i],
-                        if side == "before" { names[1] } else { names[0] },
-                        if side == "before" { after[i] } else { before[i] }
-                    )
-                })
-                .collect();
+            let labels: Vec<String> = idx.iter().map(|&i| row_label(residuals, i, set, k, names)).collect();
             rec.points_hover(&format!("world/{side}/{set}"), &pts, Some(&colors), Some(radius), &labels);
         }
-        colorbar_beside(rec, &format!("world/{side}/colorbar"), tools, vmax, &format!("|residual| {name}"));
-        let (edges, counts) = histogram(res, 30, -vmax, vmax);
-        rec.histogram_colored(&format!("residuals/{side}"), &edges, &counts, if side == "before" { [170, 170, 170, 255] } else { [60, 190, 230, 255] });
+        colorbar_beside(rec, &format!("world/{side}/colorbar"), tools, vmax, &format!("{quantity} {name}"));
+        let color = if side == "before" { [170, 170, 170, 255] } else { [60, 190, 230, 255] };
+        for (j, r) in residuals.iter().enumerate() {
+            let values = if k == 0 { &r.before_mm } else { &r.after_mm };
+            let (lo, hi) = r.range(max_abs(values));
+            let (edges, counts) = histogram(values, 30, lo, hi);
+            let entity = if j == 0 { format!("residuals/{side}") } else { format!("residuals/{}/{side}", r.name) };
+            rec.histogram_colored(&entity, &edges, &counts, color);
+        }
+    }
+}
+
+/// The histogram views of `residuals` on one side (`before` / `after`, named `name` in titles):
+/// one view for a one-value reading, tabs of every quantity for several.
+fn histogram_views(residuals: &[Residual], side: &str, name: &str) -> Layout {
+    let views: Vec<Layout> = residuals
+        .iter()
+        .enumerate()
+        .map(|(j, r)| {
+            let origin = if j == 0 { format!("/residuals/{side}") } else { format!("/residuals/{}/{side}", r.name) };
+            Layout::view(K::BarChart, &format!("{} (mm)", r.histogram_title(name)), &origin)
+        })
+        .collect();
+    if views.len() == 1 {
+        views.into_iter().next().unwrap_or_else(|| Layout::Tabs(Vec::new()))
+    } else {
+        Layout::Tabs(views)
     }
 }
 
@@ -314,6 +379,25 @@ fn world_pair(titles: [&str; 2]) -> [Layout; 2] {
         Layout::view_of(K::Spatial3d, titles[0], "/world", &["+ /world/**", "- /world/after/**"]),
         Layout::view_of(K::Spatial3d, titles[1], "/world", &["+ /world/**", "- /world/before/**"]),
     ]
+}
+
+/// For a reading of several values, the position error |Δp| per set of rows before and after,
+/// as markdown table lines.
+fn distance_lines(dist: &Residual, sets: &[(&str, &[bool])]) -> String {
+    // A pipe inside a cell would end it: |Δp| is written \|Δp\|.
+    let mut s = format!("\n| position error {} (mm) | RMS | mean | MAX |\n|---|---:|---:|---:|\n", dist.label.replace('|', "\\|"));
+    for (set, rows) in sets {
+        for (side, values) in [("before", &dist.before_mm), ("after", &dist.after_mm)] {
+            let v: Vec<f64> = values.iter().zip(rows.iter()).filter(|(_, r)| **r).map(|(v, _)| *v).collect();
+            if v.is_empty() {
+                s.push_str(&format!("| {set} {side} | – | – | – |\n"));
+            } else {
+                let st = crate::calib::metrics::ErrorStats::of(&v);
+                s.push_str(&format!("| {set} {side} | {:.4} | {:.4} | {:.4} |\n", st.rmse, st.mean, st.max));
+            }
+        }
+    }
+    s
 }
 
 fn stats_line(label: &str, s: Option<&crate::calib::metrics::ErrorStats>) -> String {
@@ -347,16 +431,30 @@ pub fn record_calibration(r: &crate::calib::run::CalibResult, f: &CalibFigures, 
     if let Some(t) = &r.truth_comparison {
         doc.push_str(&format!(" Truth: {}/{} parameters within 3σ (max |z| {:.2}).", t.within_3_sigma, t.identifiable, t.max_abs_z));
     }
-    doc.push_str(&format!(
-        "\n\nColour = |measured − predicted length|, own scale per side: before 0–{:.3} mm, after 0–{:.3} mm. Small points: training rows; large: test rows. Hover a point for its residuals.",
-        max_abs(&f.before_mm),
-        max_abs(&f.after_mm)
-    ));
+    let residuals = f.residuals();
+    let meas = f.measurement;
+    let first = &residuals[0];
+    if meas.dim() == 1 {
+        doc.push_str(&format!(
+            "\n\nColour = |measured − predicted length|, own scale per side: before 0–{:.3} mm, after 0–{:.3} mm. Small points: training rows; large: test rows. Hover a point for its residuals.",
+            max_abs(&first.before_mm),
+            max_abs(&first.after_mm)
+        ));
+    } else {
+        doc.push_str(&format!(" The rows read a {}: the table's residuals are per coordinate value.\n", meas.def().describe()));
+        doc.push_str(&distance_lines(first, &[("train", &f.train), ("test", &f.test)]));
+        doc.push_str(&format!(
+            "\nColour = position error {} (distance between the measured and the predicted point), own scale per side: before 0–{:.3} mm, after 0–{:.3} mm. Small points: training rows; large: test rows. Hover a point for its residuals per coordinate.",
+            first.label,
+            max_abs(&first.before_mm),
+            max_abs(&first.after_mm)
+        ));
+    }
     for w in &r.warnings {
         doc.push_str(&format!("\n\n**Warning:** {w}"));
     }
     rec.static_text("docs/summary", &doc);
-    let field = Field { arm: f.arm.as_ref(), exit: f.exit_mm, tools: &f.tool_mm, before: &f.before_mm, after: &f.after_mm, train: &f.train };
+    let field = Field { arm: f.arm.as_ref(), instrument: &f.instrument, tools: &f.tool_mm, residuals: &residuals, train: &f.train };
     before_after(&mut rec, &field, ["before", "after"]);
 
     // Final change of each parameter group with ±1σ and the truth-equivalent change.
@@ -371,7 +469,7 @@ pub fn record_calibration(r: &crate::calib::run::CalibResult, f: &CalibFigures, 
             .flat_map(|p| [Some(p.change + p.sigma.unwrap_or(0.0)), Some(p.change - p.sigma.unwrap_or(0.0)), p.truth_change, Some(0.0)].into_iter().flatten());
         let y = padded_range(ys, 0.1).unwrap_or((-1.0, 1.0));
         let plot = Plot::categories(
-            &format!("{}: change from start ±1σ{}", g.title(), if ps.iter().any(|p| p.truth_change.is_some()) { ", red = truth" } else { "" }),
+            &format!("{}: change from start ±1σ{}", g.title(meas), if ps.iter().any(|p| p.truth_change.is_some()) { ", red = truth" } else { "" }),
             &names,
             "change",
             y,
@@ -414,26 +512,21 @@ pub fn record_calibration(r: &crate::calib::run::CalibResult, f: &CalibFigures, 
         }
     }
 
-    let [wb, wa] = world_pair(["Before calibration: |residual| (mm)", "After calibration: |residual| (mm), own scale"]);
-    let finals: Vec<Layout> = Group::ALL.iter().map(|g| Layout::plot(&format!("{} change ±1σ", g.title()), &format!("/final/{}", g.name()))).collect();
+    let q = colour_quantity(first);
+    let [wb, wa] = world_pair([&format!("Before calibration: {q} (mm)"), &format!("After calibration: {q} (mm), own scale")]);
+    let finals: Vec<Layout> = Group::ALL.iter().map(|g| Layout::plot(&format!("{} change ±1σ", g.title(meas)), &format!("/final/{}", g.name()))).collect();
     let mut series = vec![
         Layout::view(K::TimeSeries, "RMS residual (mm) per iteration", "/convergence/rms"),
         Layout::view(K::TimeSeries, "Cost ½Σr² (mm²) per iteration", "/convergence/cost"),
     ];
-    series.extend(Group::ALL.iter().map(|g| Layout::view(K::TimeSeries, &format!("{} change per iteration", g.title()), &format!("/params/{}", g.name()))));
+    series.extend(Group::ALL.iter().map(|g| Layout::view(K::TimeSeries, &format!("{} change per iteration", g.title(meas)), &format!("/params/{}", g.name()))));
     rec.layout(Blueprint {
         root: Layout::Vertical(
             vec![
                 Layout::Horizontal(vec![wb, wa, Layout::view(K::Text, "Numbers", "/docs")], vec![2.0, 2.0, 1.2]),
                 Layout::Horizontal(
                     vec![
-                        Layout::Vertical(
-                            vec![
-                                Layout::view(K::BarChart, "Residuals before (mm)", "/residuals/before"),
-                                Layout::view(K::BarChart, "Residuals after (mm)", "/residuals/after"),
-                            ],
-                            vec![],
-                        ),
+                        Layout::Vertical(vec![histogram_views(&residuals, "before", "before"), histogram_views(&residuals, "after", "after")], vec![]),
                         Layout::Tabs(series),
                         Layout::Grid(finals, 4),
                     ],
@@ -483,20 +576,36 @@ pub fn record_diagnosis(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, ou
             ));
         }
     }
-    doc.push_str(&format!(
-        "\nEvidence plots: residual (mm) against the length change each cause predicts; grey without the cause, blue with it. \
-         3D: |residual| without the causes (0–{:.3} mm) and with them (0–{:.3} mm), own colour scales; hover a point for its values.",
-        max_abs(&f.before_mm),
-        max_abs(&f.after_mm)
-    ));
+    let residuals = f.residuals();
+    let (meas, first) = (f.measurement, &residuals[0]);
+    let q = colour_quantity(first);
+    let (dim, cols) = (meas.dim(), meas.def().columns());
+    let x_label = if dim == 1 { "length change the cause predicts (mm)".to_string() } else { format!("change of {} the cause predicts (mm)", cols.join(", ")) };
+    if dim == 1 {
+        doc.push_str(&format!(
+            "\nEvidence plots: residual (mm) against the length change each cause predicts; grey without the cause, blue with it. \
+             3D: |residual| without the causes (0–{:.3} mm) and with them (0–{:.3} mm), own colour scales; hover a point for its values.",
+            max_abs(&first.before_mm),
+            max_abs(&first.after_mm)
+        ));
+    } else {
+        doc.push_str(&format!(
+            "\nThe rows read a {} ({}): every RMSE is per coordinate value. Evidence plots: residual (mm) against the change each cause predicts, one point per coordinate value; grey without the cause, blue with it. \
+             3D: position error {q} without the causes (0–{:.3} mm) and with them (0–{:.3} mm), own colour scales; hover a point for its values.",
+            meas.def().describe(),
+            cols.join(", "),
+            max_abs(&first.before_mm),
+            max_abs(&first.after_mm)
+        ));
+    }
     rec.static_text("docs/summary", &doc);
-    let train = vec![true; f.after_mm.len()];
-    let field = Field { arm: f.arm.as_ref(), exit: f.exit_mm, tools: &f.tool_mm, before: &f.before_mm, after: &f.after_mm, train: &train };
+    let train = vec![true; first.after_mm.len()];
+    let field = Field { arm: f.arm.as_ref(), instrument: &f.instrument, tools: &f.tool_mm, residuals: &residuals, train: &train };
     before_after(&mut rec, &field, ["without causes", "with causes"]);
     for (k, c) in f.causes.iter().enumerate() {
         let x = padded_range(c.contribution_mm.iter().copied(), 0.05).unwrap_or((-1.0, 1.0));
         let y = padded_range(c.without_mm.iter().chain(&c.with_mm).copied(), 0.05).unwrap_or((-1.0, 1.0));
-        let plot = Plot::new(&c.title.chars().take(60).collect::<String>(), "length change the cause predicts (mm)", x, "residual (mm)", y);
+        let plot = Plot::new(&c.title.chars().take(60).collect::<String>(), &x_label, x, "residual (mm)", y);
         let base = format!("evidence/cause_{}", k + 1);
         plot.frame(&mut rec, &base);
         for (name, res, color) in [("without", &c.without_mm, BEFORE), ("with", &c.with_mm, AFTER)] {
@@ -504,7 +613,10 @@ pub fn record_diagnosis(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, ou
             let labels: Vec<String> = xy
                 .iter()
                 .enumerate()
-                .map(|(i, p)| format!("row {}: predicted change {:+.4} mm, residual {name} the cause {:+.4} mm", i + 1, p[0], p[1]))
+                .map(|(i, p)| {
+                    let value = if dim == 1 { String::new() } else { format!(" {}", cols.get(i % dim).copied().unwrap_or("?")) };
+                    format!("row {}{value}: predicted change {:+.4} mm, residual {name} the cause {:+.4} mm", i / dim + 1, p[0], p[1])
+                })
                 .collect();
             plot.scatter(&mut rec, &format!("{base}/{name}"), &xy, &[color], 2.0, &labels);
         }
@@ -515,7 +627,7 @@ pub fn record_diagnosis(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, ou
         rec.set_time_index("step", k as i64);
         rec.scalar("steps/heldout_rmse_mm", *v);
     }
-    let [wb, wa] = world_pair(["Without the causes: |residual| (mm)", "With the causes: |residual| (mm), own scale"]);
+    let [wb, wa] = world_pair([&format!("Without the causes: {q} (mm)"), &format!("With the causes: {q} (mm), own scale")]);
     let evidence: Vec<Layout> = f
         .causes
         .iter()
@@ -530,10 +642,7 @@ pub fn record_diagnosis(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, ou
                     vec![
                         Layout::Grid(evidence, 2),
                         Layout::Vertical(
-                            vec![
-                                Layout::view(K::BarChart, "Residuals without the causes (mm)", "/residuals/before"),
-                                Layout::view(K::BarChart, "Residuals with the causes (mm)", "/residuals/after"),
-                            ],
+                            vec![histogram_views(&residuals, "before", "without the causes"), histogram_views(&residuals, "after", "with the causes")],
                             vec![],
                         ),
                         Layout::view(K::TimeSeries, "Held-out RMSE (mm) per step", "/steps"),
