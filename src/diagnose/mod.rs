@@ -541,6 +541,27 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     }
 }
 
+/// The candidate blocks for the rows of `data` (joint angles `q`, rad): [`candidates`] less the
+/// blocks on a joint that does not move whose effect is then constant (one backlash side and one
+/// eccentricity phase throughout: offsets the geometry already holds).
+fn candidate_pool(data: &Dataset, q: &[Vec<f64>], opts: &DiagnoseOptions, has_torques: bool) -> Result<Vec<EffectBlock>> {
+    let still = crate::calib::run::still_joints(q);
+    Ok(candidates(data, &opts.candidates, has_torques)?
+        .into_iter()
+        .filter(|b| !(b.kind.def().constant_on_still_joint() && b.joint.is_some_and(|j| still.contains(&j))))
+        .collect())
+}
+
+/// `model` with `block` added (data time span `span`, s), and the start `x` extended by the
+/// block's "no effect" values.
+fn with_block(model: &CalibModel, x: &[f64], block: &EffectBlock, span: f64) -> (CalibModel, Vec<f64>) {
+    let mut m = model.clone();
+    m.add_effect(block.clone(), span);
+    let mut x0 = x.to_vec();
+    x0.extend_from_slice(&m.nominal[x.len()..]);
+    (m, x0)
+}
+
 /// Fewest rows, and smallest share of the rows, the geometric screen must flag before candidate
 /// effects are tried as their explanation: a few glitches are glitches (HSR's 7 of 1614 rows),
 /// while an effect puts many rows off (a backlash band's minority flank: a sixth of the rows).
@@ -564,19 +585,12 @@ fn screen_with_effects(
     geo: &Screen,
 ) -> Result<Option<(EffectBlock, Screen)>> {
     let span = time_span(data);
-    let still = crate::calib::run::still_joints(&all.q);
-    let pool: Vec<EffectBlock> = candidates(data, &opts.candidates, has_torques)?
-        .into_iter()
-        .filter(|b| !(b.kind.def().constant_on_still_joint() && b.joint.is_some_and(|j| still.contains(&j))))
-        .collect();
+    let pool = candidate_pool(data, &all.q, opts, has_torques)?;
     let rows: Vec<usize> = (0..all.len()).collect();
     let tried: Vec<(EffectBlock, Screen)> = pool
         .par_iter()
         .map(|b| {
-            let mut m = base.clone();
-            m.add_effect(b.clone(), span);
-            let mut x0 = geo.x.clone();
-            x0.extend_from_slice(&m.nominal[geo.x.len()..]);
+            let (m, x0) = with_block(base, &geo.x, b, span);
             let refit = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&m, d, x, opts.rank_tol);
             let s = crate::calib::robust::screen(&m, &x0, all, &rows, opts.outlier_k, opts.reading_steps, &refit);
             (b.clone(), s)
@@ -676,13 +690,7 @@ fn diagnose_screened(
     ));
 
     let span = time_span(&kept_rows);
-    // A joint that does not move has one backlash side and one eccentricity phase throughout:
-    // both are constant offsets the geometry already holds, so they are not candidates.
-    let still = crate::calib::run::still_joints(&kept.q);
-    let pool: Vec<EffectBlock> = candidates(&kept_rows, &opts.candidates, has_torques)?
-        .into_iter()
-        .filter(|b| !(b.kind.def().constant_on_still_joint() && b.joint.is_some_and(|j| still.contains(&j))))
-        .collect();
+    let pool = candidate_pool(&kept_rows, &kept.q, opts, has_torques)?;
     let mut current = baseline.clone();
     let mut chain = vec![baseline.clone()];
     let mut steps = Vec::new();
@@ -697,10 +705,7 @@ fn diagnose_screened(
             .par_iter()
             .map(|b| {
                 let tc = Instant::now();
-                let mut m = current.model.clone();
-                m.add_effect((*b).clone(), span);
-                let mut x0 = current.x.clone();
-                x0.extend_from_slice(&m.nominal[current.x.len()..]);
+                let (m, x0) = with_block(&current.model, &current.x, b, span);
                 let f = ctx.evaluate(m, &x0);
                 let p = (gain_p_value(&current, &f, ctx.data.y.len()) * remaining.len() as f64).min(1.0);
                 let (size_sigmas, physical_sign) = size_check(&f, &ctx.data);

@@ -198,35 +198,38 @@ impl Effects {
     pub fn joints_yield(&self) -> bool {
         self.compliance.is_some() || self.backlash.as_ref().is_some_and(|b| b.width_deg.iter().any(|w| *w > 0.0))
     }
-    /// The effects that are on: the twin's registry, one line per effect.
-    pub fn all(&self) -> Vec<&dyn TwinEffect> {
-        let mut v: Vec<&dyn TwinEffect> = Vec::new();
-        v.extend(self.compliance.as_ref().map(|e| e as &dyn TwinEffect));
-        v.extend(self.backlash.as_ref().map(|e| e as &dyn TwinEffect));
-        v.extend(self.thermal.as_ref().map(|e| e as &dyn TwinEffect));
-        v.extend(self.payload.as_ref().map(|e| e as &dyn TwinEffect));
-        v.extend(self.eccentricity.as_ref().map(|e| e as &dyn TwinEffect));
-        v
+    /// The effects that are on: the twin's registry, one line per effect. Nothing is allocated:
+    /// the tour asks it at every simulation step.
+    pub fn all(&self) -> impl Iterator<Item = &dyn TwinEffect> {
+        let on: [Option<&dyn TwinEffect>; 5] = [
+            self.compliance.as_ref().map(|e| e as &dyn TwinEffect),
+            self.backlash.as_ref().map(|e| e as &dyn TwinEffect),
+            self.thermal.as_ref().map(|e| e as &dyn TwinEffect),
+            self.payload.as_ref().map(|e| e as &dyn TwinEffect),
+            self.eccentricity.as_ref().map(|e| e as &dyn TwinEffect),
+        ];
+        on.into_iter().flatten()
     }
     /// Checks every effect that is on for an arm of `n_joints`, naming the key of the first bad
     /// value.
     pub fn validate(&self, n_joints: usize) -> Result<(), String> {
-        self.all().iter().try_for_each(|e| e.validate(n_joints))
+        self.all().try_for_each(|e| e.validate(n_joints))
     }
     /// True motor-side minus commanded angle of joint `j` at the commanded angle `q` (rad), rad:
-    /// the sum of [`TwinEffect::motor_offset_rad`] over the effects that have one (0 for none).
-    pub fn motor_offset_rad(&self, j: usize, q: f64) -> f64 {
-        self.all().iter().filter_map(|e| e.motor_offset_rad(j, q)).reduce(|a, b| a + b).unwrap_or(0.0)
+    /// the sum of [`TwinEffect::motor_offset_rad`] over the effects that have one; `None` when
+    /// none has.
+    pub fn motor_offset_rad(&self, j: usize, q: f64) -> Option<f64> {
+        self.all().filter_map(|e| e.motor_offset_rad(j, q)).reduce(|a, b| a + b)
     }
     /// Shift of joint `j`'s zero at time `t` (rad): the sum of [`TwinEffect::zero_shift_rad`]
     /// over the effects that have one; `None` when none has.
     pub fn zero_shift_rad(&self, j: usize, t: f64) -> Option<f64> {
-        self.all().iter().filter_map(|e| e.zero_shift_rad(j, t)).reduce(|a, b| a + b)
+        self.all().filter_map(|e| e.zero_shift_rad(j, t)).reduce(|a, b| a + b)
     }
     /// Link length scale at time `t`: the product of [`TwinEffect::length_scale`] over the
     /// effects that have one (1 for none).
     pub fn length_scale(&self, t: f64) -> f64 {
-        self.all().iter().filter_map(|e| e.length_scale(t)).reduce(|a, b| a * b).unwrap_or(1.0)
+        self.all().filter_map(|e| e.length_scale(t)).reduce(|a, b| a * b).unwrap_or(1.0)
     }
 }
 
@@ -237,8 +240,6 @@ impl Effects {
 /// wherever it computes an arm (quasi-static, simulated, and along the tour), so an effect that
 /// acts as an encoder error, a joint-zero shift or a length scale is this implementation alone.
 pub trait TwinEffect {
-    /// The scenario key, `effects.<key>`.
-    fn key(&self) -> &'static str;
     /// Checks the values for an arm of `n_joints`, naming `effects.<key>.<field>`.
     fn validate(&self, n_joints: usize) -> Result<(), String>;
     /// True motor-side minus commanded angle of joint `j` at the commanded angle `q` (rad), rad:
@@ -257,9 +258,6 @@ pub trait TwinEffect {
 }
 
 impl TwinEffect for Compliance {
-    fn key(&self) -> &'static str {
-        "compliance"
-    }
     fn validate(&self, n_joints: usize) -> Result<(), String> {
         let c = self;
         if c.stiffness_nm_per_rad.len() != n_joints {
@@ -278,9 +276,6 @@ impl TwinEffect for Compliance {
 }
 
 impl TwinEffect for Backlash {
-    fn key(&self) -> &'static str {
-        "backlash"
-    }
     fn validate(&self, n_joints: usize) -> Result<(), String> {
         let b = self;
         if b.width_deg.len() != n_joints {
@@ -297,9 +292,6 @@ impl TwinEffect for Backlash {
 }
 
 impl TwinEffect for Thermal {
-    fn key(&self) -> &'static str {
-        "thermal"
-    }
     fn validate(&self, n_joints: usize) -> Result<(), String> {
         let t = self;
         let scalars = [
@@ -338,9 +330,6 @@ impl TwinEffect for Thermal {
 }
 
 impl TwinEffect for Eccentricity {
-    fn key(&self) -> &'static str {
-        "eccentricity"
-    }
     fn validate(&self, n_joints: usize) -> Result<(), String> {
         let e = self;
         for (key, v) in [("amplitude_deg", &e.amplitude_deg), ("phase_deg", &e.phase_deg)] {
@@ -362,9 +351,6 @@ impl TwinEffect for Eccentricity {
 }
 
 impl TwinEffect for Payload {
-    fn key(&self) -> &'static str {
-        "payload"
-    }
     fn validate(&self, _n_joints: usize) -> Result<(), String> {
         if !(self.mass_kg.is_finite() && self.mass_kg >= 0.0) || self.com_mm.iter().any(|v| !v.is_finite()) {
             return Err("effects.payload: mass_kg must be >= 0 and com_mm finite".into());

@@ -180,7 +180,7 @@ impl Twin {
     /// commanded angle per joint, rad, every effect's [`crate::sim::effects::TwinEffect::motor_offset_rad`]
     /// (the encoder eccentricity; zeros when no effect is on).
     pub fn eccentricity(&self, q_cmd: &[f64]) -> Vec<f64> {
-        q_cmd.iter().enumerate().map(|(j, q)| self.effects.motor_offset_rad(j, *q)).collect()
+        q_cmd.iter().enumerate().map(|(j, q)| self.effects.motor_offset_rad(j, *q).unwrap_or(0.0)).collect()
     }
 
     /// The command as the drive executes it: the true motor-side angles (commanded + encoder

@@ -535,12 +535,11 @@ impl<'a> Sim<'a> {
 /// effect's encoder error added, the velocity through its slope.
 fn motor_of(twin: &Twin, j: usize, q: f64, v: f64) -> (f64, f64) {
     let e = &twin.effects;
-    if !e.all().iter().any(|e| e.motor_offset_rad(j, q).is_some()) {
-        return (q, v);
-    }
+    let Some(offset) = e.motor_offset_rad(j, q) else { return (q, v) };
     let h = 1e-6;
-    let slope = (e.motor_offset_rad(j, q + h) - e.motor_offset_rad(j, q - h)) / (2.0 * h);
-    (q + e.motor_offset_rad(j, q), v * (1.0 + slope))
+    let at = |q: f64| e.motor_offset_rad(j, q).unwrap_or(0.0);
+    let slope = (at(q + h) - at(q - h)) / (2.0 * h);
+    (q + offset, v * (1.0 + slope))
 }
 
 /// One raw sample of the twin's instrument for the stability gate, appended to `raw`: the cable's
