@@ -58,7 +58,7 @@
 //!   adaptation, no strategy scheduler), otherwise V4.
 //! * V4 `dsade-gkan` — the full method.
 
-use super::corrector::Corrector;
+use super::corrector::{Corrector, PerValue};
 use super::gkan::{Gkan, GkanShape, Mlp};
 use super::gkan_select::{penalty_gram, penalty_rows, select, Selection};
 use super::method::{Method, Problem, Solution, Solver};
@@ -116,6 +116,9 @@ pub struct EvoNphSolver {
     /// Choose `shape` and the network weights by cross-validation on the training rows first
     /// ([`super::gkan_select`]); `false` keeps them as set.
     pub select: bool,
+    /// Whether there is a network at all: the choice turns it off when no candidate beat the
+    /// geometry alone by one standard error (the corrector then has zero coefficients).
+    pub network: bool,
 }
 
 impl EvoNphSolver {
@@ -137,6 +140,7 @@ impl EvoNphSolver {
             refine_coefficients: variant != EvoVariant::Mlp,
             polish: true,
             select: true,
+            network: true,
         }
     }
 }
@@ -165,8 +169,13 @@ pub struct Objective<'a> {
     lambda_g: f64,
     lambda_n: f64,
     lambda_s: f64,
-    /// Number of network parameters (the DE's box for them is in the [`Bounds`]).
+    /// Number of network parameters in the decision vector (the DE's box for them is in the
+    /// [`Bounds`]): one network per reading value, [`Self::per_net`] each; 0 without a network.
     n_w: usize,
+    /// Coefficients (or weights) of one network.
+    per_net: usize,
+    /// Reading values per row (1 for a cable length, 3 for a tracker's point).
+    dim: usize,
     refine: bool,
 }
 
@@ -174,6 +183,7 @@ impl<'a> Objective<'a> {
     fn new(p: &'a Problem<'a>, s: &EvoNphSolver, mlp: bool) -> Result<(Objective<'a>, Bounds)> {
         let fit = p.fit;
         let n = fit.data.len();
+        let dim = fit.data.dim;
         let free: Vec<usize> = (0..p.x0.len()).filter(|k| !p.fixed[*k]).collect();
         let x0_free: Vec<f64> = free.iter().map(|&k| p.x0[k]).collect();
         let s_free: Vec<f64> = free.iter().map(|&k| p.prior_std[k]).collect();
@@ -190,7 +200,8 @@ impl<'a> Objective<'a> {
             let h = Mlp::matched_hidden(probe.n_coef(), lo.len());
             let m = Mlp::new(h, lo, hi);
             let nj = m.lo.len();
-            let half = (0..m.n_weights())
+            let half = (0..m.n_weights() * dim)
+                .map(|k| k % m.n_weights())
                 .map(|k| {
                     if k == h * (nj + 2) {
                         rms0
@@ -213,9 +224,11 @@ impl<'a> Objective<'a> {
             let bm = DMatrix::from_row_slice(n, nw, &basis);
             let a = bm.transpose() * &bm * (1.0 + w.neural) + penalty_gram(&rough, nw) * w.roughness;
             let chol = nalgebra::Cholesky::new(a);
-            let half = vec![rms0; nw];
+            let half = vec![rms0; nw * dim];
             (Net::Gkan { net, basis, chol, rough }, half)
         };
+        let per_net = w_half.len() / dim;
+        let w_half = if s.network { w_half } else { Vec::new() };
         let zero_w = vec![0.0; w_half.len()];
         let mut centre = x0_free.clone();
         centre.extend_from_slice(&zero_w);
@@ -229,10 +242,12 @@ impl<'a> Objective<'a> {
             x0_free,
             s_free,
             net,
-            lambda_g: w.geometry * sigma * sigma / n as f64,
+            lambda_g: w.geometry * sigma * sigma / fit.data.y.len() as f64,
             lambda_n: w.neural,
             lambda_s: w.roughness,
             n_w: w_half.len(),
+            per_net,
+            dim,
             refine: s.refine_coefficients && !mlp,
         };
         Ok((obj, bounds))
@@ -249,20 +264,38 @@ impl<'a> Objective<'a> {
         }
         x
     }
-    /// The network's corrections at the training poses for coefficients `w`.
+    /// The networks' corrections at the training poses for coefficients `w` (`dim` values per
+    /// row, row after row; network `c`'s coefficients are block `c` of `w`).
     fn corrections(&self, w: &[f64], out: &mut [f64]) {
+        let (d, nw) = (self.dim, self.per_net);
+        if w.is_empty() {
+            out.fill(0.0);
+            return;
+        }
         match &self.net {
             Net::Gkan { basis, .. } => {
-                let nw = w.len();
-                for (o, row) in out.iter_mut().zip(basis.chunks_exact(nw)) {
-                    *o = row.iter().zip(w).map(|(a, b)| a * b).sum();
+                for (o, row) in out.chunks_exact_mut(d).zip(basis.chunks_exact(nw)) {
+                    for (oc, wc) in o.iter_mut().zip(w.chunks_exact(nw)) {
+                        *oc = row.iter().zip(wc).map(|(a, b)| a * b).sum();
+                    }
                 }
             }
             Net::Mlp(m) => {
-                for (o, q) in out.iter_mut().zip(&self.fit.data.q) {
-                    *o = m.eval(w, q, None, None);
+                for (o, q) in out.chunks_exact_mut(d).zip(&self.fit.data.q) {
+                    for (oc, wc) in o.iter_mut().zip(w.chunks_exact(nw)) {
+                        *oc = m.eval(wc, q, None, None);
+                    }
                 }
             }
+        }
+    }
+    /// The roughness penalty Σ (D w)² of every network (0 for the perceptron).
+    fn roughness(&self, w: &[f64]) -> f64 {
+        match &self.net {
+            Net::Gkan { rough, .. } => {
+                w.chunks_exact(self.per_net).map(|wc| rough.iter().map(|r| r.iter().map(|(k, v)| wc[*k] * v).sum::<f64>().powi(2)).sum::<f64>()).sum()
+            }
+            Net::Mlp(_) => 0.0,
         }
     }
     /// J at z given the geometric residuals y (mm).
@@ -275,10 +308,7 @@ impl<'a> Objective<'a> {
         let data: f64 = y.iter().zip(&delta).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / n;
         let mag: f64 = delta.iter().map(|d| d * d).sum::<f64>() / n;
         let geo: f64 = (0..m).map(|k| ((theta[k] - self.x0_free[k]) / self.s_free[k]).powi(2)).sum();
-        let rough = match &self.net {
-            Net::Gkan { rough, .. } => rough.iter().map(|r| r.iter().map(|(k, v)| w[*k] * v).sum::<f64>().powi(2)).sum::<f64>() / n,
-            Net::Mlp(_) => 0.0,
-        };
+        let rough = self.roughness(w) / n;
         data + self.lambda_g * geo + self.lambda_n * mag + self.lambda_s * rough
     }
     fn geometric_residuals(&self, z: &[f64]) -> Vec<f64> {
@@ -289,10 +319,31 @@ impl<'a> Objective<'a> {
     /// `(‖y‖² − b·w)/N` at the minimiser, with no further pass over the bases. The minimiser is
     /// not clamped to the DE's box for the coefficients (that box only seeds the literal search;
     /// the penalties keep the minimiser bounded).
+    /// With several values per row, each value's network is its own sub-problem with the same
+    /// normal matrix: one factor, `dim` solves.
     fn solve_coefficients(&self, y: &[f64], w: &mut [f64]) -> Option<f64> {
         let Net::Gkan { basis, chol: Some(chol), .. } = &self.net else {
             return None;
         };
+        if w.is_empty() {
+            return None;
+        }
+        if self.dim == 1 {
+            return Some(Self::solve_one(basis, chol, y, w));
+        }
+        let (d, nw) = (self.dim, self.per_net);
+        let mut bw = 0.0;
+        let mut yc = vec![0.0; y.len() / d];
+        for (c, wc) in w.chunks_exact_mut(nw).enumerate() {
+            for (v, row) in yc.iter_mut().zip(y.chunks_exact(d)) {
+                *v = row[c];
+            }
+            bw += Self::solve_one(basis, chol, &yc, wc);
+        }
+        Some(bw)
+    }
+    /// One network's coefficients for one value's residuals `y` (one per row), and `b·w`.
+    fn solve_one(basis: &[f64], chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>, y: &[f64], w: &mut [f64]) -> f64 {
         let nw = w.len();
         // b = Bᵀy on plain slices, four rows per pass (this is the DE's inner loop).
         let mut rhs = vec![0.0; nw];
@@ -314,13 +365,25 @@ impl<'a> Objective<'a> {
         let rhs = DVector::from_vec(rhs);
         let sol = chol.solve(&rhs);
         w.copy_from_slice(sol.as_slice());
-        Some(rhs.dot(&sol))
+        rhs.dot(&sol)
     }
-    /// The learned corrector for coefficients `w`.
+    /// The learned corrector for coefficients `w`: one network, or one per reading value.
     fn corrector(&self, w: &[f64]) -> Corrector {
-        match &self.net {
-            Net::Gkan { net, .. } => Corrector::Gkan(Gkan { coef: w.to_vec(), ..net.clone() }),
-            Net::Mlp(m) => Corrector::Mlp(Mlp { w: w.to_vec(), ..m.clone() }),
+        let zero;
+        let w = if w.is_empty() {
+            zero = vec![0.0; self.per_net * self.dim];
+            &zero[..]
+        } else {
+            w
+        };
+        let one = |wc: &[f64]| match &self.net {
+            Net::Gkan { net, .. } => Corrector::Gkan(Gkan { coef: wc.to_vec(), ..net.clone() }),
+            Net::Mlp(m) => Corrector::Mlp(Mlp { w: wc.to_vec(), ..m.clone() }),
+        };
+        if self.dim == 1 {
+            one(w)
+        } else {
+            Corrector::Values(PerValue { values: w.chunks_exact(self.per_net).map(one).collect() })
         }
     }
 }
@@ -354,10 +417,15 @@ struct JointLs<'a, 'b> {
 }
 
 impl JointLs<'_, '_> {
+    /// Row counts of the four blocks: data (one per reading value), geometry, magnitude,
+    /// roughness (every network's).
     fn rows(&self) -> (usize, usize, usize, usize) {
-        let n = self.obj.fit.data.len();
+        let n = self.obj.fit.data.y.len();
+        if self.obj.n_w == 0 {
+            return (n, self.obj.m(), 0, 0);
+        }
         let r = match &self.obj.net {
-            Net::Gkan { rough, .. } => rough.len(),
+            Net::Gkan { rough, .. } => rough.len() * self.obj.dim,
             Net::Mlp(_) => 0,
         };
         (n, self.obj.m(), n, r)
@@ -374,21 +442,25 @@ impl LeastSquares for JointLs<'_, '_> {
     }
     fn residuals(&self, z: &[f64], r: &mut [f64]) {
         let o = self.obj;
-        let (n, m, _, _) = self.rows();
+        let (n, m, nm, _) = self.rows();
         let y = o.geometric_residuals(z);
         let mut delta = vec![0.0; n];
         o.corrections(&z[m..], &mut delta);
         let (sg, sn, ss) = ((n as f64 * o.lambda_g).sqrt(), o.lambda_n.sqrt(), o.lambda_s.sqrt());
         for i in 0..n {
             r[i] = y[i] - delta[i];
+        }
+        for i in 0..nm {
             r[n + m + i] = sn * delta[i];
         }
         for k in 0..m {
             r[n + k] = sg * (z[k] - o.x0_free[k]) / o.s_free[k];
         }
         if let Net::Gkan { rough, .. } = &o.net {
-            for (t, row) in rough.iter().enumerate() {
-                r[2 * n + m + t] = ss * row.iter().map(|(k, v)| z[m + k] * v).sum::<f64>();
+            for (c, wc) in z[m..].chunks_exact(o.per_net).enumerate() {
+                for (t, row) in rough.iter().enumerate() {
+                    r[2 * n + m + c * rough.len() + t] = ss * row.iter().map(|(k, v)| wc[*k] * v).sum::<f64>();
+                }
             }
         }
     }
@@ -406,25 +478,32 @@ impl LeastSquares for JointLs<'_, '_> {
             }
             j[(n + k, k)] = sg / o.s_free[k];
         }
-        let w = &z[m..];
-        let nw = w.len();
+        let (d, nw) = (o.dim, o.per_net);
+        if o.n_w == 0 {
+            return;
+        }
         let mut gw = vec![0.0; nw];
+        // Value i of the data belongs to row i / d and to network i % d (columns of block i % d).
         for i in 0..n {
+            let (row, c) = (i / d, i % d);
+            let wc = &z[m + c * nw..m + (c + 1) * nw];
             match &o.net {
-                Net::Gkan { basis, .. } => gw.copy_from_slice(&basis[i * nw..(i + 1) * nw]),
+                Net::Gkan { basis, .. } => gw.copy_from_slice(&basis[row * nw..(row + 1) * nw]),
                 Net::Mlp(mlp) => {
-                    mlp.eval(w, &o.fit.data.q[i], Some(&mut gw), None);
+                    mlp.eval(wc, &o.fit.data.q[row], Some(&mut gw), None);
                 }
             }
             for k in 0..nw {
-                j[(i, m + k)] = -gw[k];
-                j[(n + m + i, m + k)] = sn * gw[k];
+                j[(i, m + c * nw + k)] = -gw[k];
+                j[(n + m + i, m + c * nw + k)] = sn * gw[k];
             }
         }
         if let Net::Gkan { rough, .. } = &o.net {
-            for (t, row) in rough.iter().enumerate() {
-                for &(k, v) in row {
-                    j[(2 * n + m + t, m + k)] = ss * v;
+            for c in 0..d {
+                for (t, row) in rough.iter().enumerate() {
+                    for &(k, v) in row {
+                        j[(2 * n + m + c * rough.len() + t, m + c * nw + k)] += ss * v;
+                    }
                 }
             }
         }
@@ -483,7 +562,8 @@ impl EvoNphSolver {
         let chosen;
         let me = match &selection {
             Some(sel) => {
-                chosen = EvoNphSolver { shape: sel.chosen.shape, weights: sel.weights(self.weights.geometry), select: false, ..self.clone() };
+                chosen =
+                    EvoNphSolver { shape: sel.chosen.shape, weights: sel.weights(self.weights.geometry), select: false, network: sel.fitted, ..self.clone() };
                 &chosen
             }
             None => self,
@@ -577,5 +657,96 @@ impl Solver for EvoNphSolver {
             covariance: None,
         };
         Ok(Solution { report, corrector: Some(r.corrector) })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::model::{CalibModel, Placement, SensorGuess};
+    use crate::calib::problem::Samples;
+    use crate::measurement::Measurement;
+    use crate::robot::Robot;
+    use nalgebra::Vector3;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A model reading `m` and readings of it at 40 random poses, off by a smooth field.
+    fn problem_data(m: Measurement) -> (CalibModel, Samples) {
+        let robot = Robot::irb120();
+        let cable = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.004, -0.003] };
+        let mut model = CalibModel::dh(&robot, &cable, true);
+        if m == Measurement::Point {
+            model = model.with_placement(&Placement { measurement: m, own: vec![1.8, 0.6, -0.2, -0.01, 0.02, -2.1], tool: Vector3::new(-0.025, 0.03, 0.07) });
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let limits = robot.limits();
+        let (mut qs, mut ys) = (Vec::new(), Vec::new());
+        let mut w = model.work();
+        let d = m.dim();
+        for _ in 0..40 {
+            let q: Vec<f64> = limits.iter().map(|(lo, hi)| lo + (hi - lo) * (0.2 + 0.6 * rng.random::<f64>())).collect();
+            let mut y = vec![0.0; d];
+            model.readings_with(&model.nominal, &q, &Default::default(), &mut w, &mut y);
+            for (c, v) in y.iter_mut().enumerate() {
+                *v += 1e-4 * (q[1] * (c + 1) as f64).sin() + 2e-5 * rng.random::<f64>();
+            }
+            qs.push(q);
+            ys.extend(y);
+        }
+        (model, Samples::readings(qs, ys, d))
+    }
+
+    /// The joint polish's Jacobian matches central differences of its residuals, for a cable
+    /// and a tracker's point (one network per coordinate), with the GKAN and the perceptron;
+    /// and the Lamarckian step's closed-form objective equals the objective at the coefficients
+    /// it writes.
+    #[test]
+    fn joint_jacobian_matches_finite_differences_and_the_coefficient_step_is_exact() {
+        for m in [Measurement::Length, Measurement::Point] {
+            let (model, data) = problem_data(m);
+            let fit = ReadingFit { model: &model, data: &data };
+            let fixed: Vec<bool> = (0..model.n_params()).map(|k| k % 3 == 0).collect();
+            let prior = vec![1e-3; model.n_params()];
+            let p = Problem { fit: &fit, x0: &model.nominal, fixed: &fixed, prior_std: &prior, noise_mm: 0.01, seed: 1 };
+            for mlp in [false, true] {
+                let s = EvoNphSolver { shape: GkanShape { grid: 3, edge_grid: 1, chain_joints: 5 }, ..EvoNphSolver::new(EvoVariant::Full, 1.0) };
+                let (obj, _) = Objective::new(&p, &s, mlp).unwrap();
+                assert_eq!(obj.n_w, obj.per_net * m.dim());
+                let mut rng = ChaCha8Rng::seed_from_u64(9);
+                let mut z: Vec<f64> = obj.x0_free.iter().map(|v| v + 1e-4 * (rng.random::<f64>() - 0.5)).collect();
+                z.extend((0..obj.n_w).map(|_| 0.01 * (rng.random::<f64>() - 0.5)));
+                let ls = JointLs { obj: &obj };
+                let (nr, np) = (ls.n_residuals(), ls.n_params());
+                let mut j = DMatrix::zeros(nr, np);
+                ls.jacobian(&z, &mut j);
+                let (mut rp, mut rm) = (vec![0.0; nr], vec![0.0; nr]);
+                let mut worst = 0.0f64;
+                for k in 0..np {
+                    let h = 1e-6 * z[k].abs().max(1.0);
+                    let (mut zp, mut zm) = (z.clone(), z.clone());
+                    zp[k] += h;
+                    zm[k] -= h;
+                    ls.residuals(&zp, &mut rp);
+                    ls.residuals(&zm, &mut rm);
+                    for i in 0..nr {
+                        let fd = (rp[i] - rm[i]) / (2.0 * h);
+                        worst = worst.max((fd - j[(i, k)]).abs() / (1.0 + fd.abs()));
+                    }
+                }
+                assert!(worst < 1e-5, "{m:?} mlp {mlp}: worst relative Jacobian error {worst}");
+                // ½‖R‖² = N·J/2.
+                ls.residuals(&z, &mut rp);
+                let half: f64 = rp.iter().map(|v| v * v).sum::<f64>() / 2.0;
+                let n = data.y.len() as f64;
+                assert!((half - n * obj.cost(&z) / 2.0).abs() < 1e-9 * half.max(1.0), "{m:?} mlp {mlp}");
+                if !mlp {
+                    let mut zr = z.clone();
+                    let refined = obj.cost_refine(&mut zr);
+                    assert!((refined - obj.cost(&zr)).abs() < 1e-9 * refined, "{m:?}: {refined} vs {}", obj.cost(&zr));
+                    assert!(refined < obj.cost(&z));
+                }
+            }
+        }
     }
 }

@@ -1,13 +1,20 @@
 //! The GKAN's size and penalty weights of the Evo-NPH objective, chosen by k-fold
 //! cross-validation on the training rows only (the test rows are never seen).
 //!
+//! With several reading values per row (a tracker's point) there is one network per value, all
+//! of the candidate's shape and weights, each fitted to its value's residuals; a row's values
+//! share its fold, and the score is the held-out RMSE over every value.
+//!
 //! The geometry is first fitted alone by Levenberg–Marquardt; its training residuals `y` are what
 //! a network has to explain (each fold is scored on the residuals of the geometry fitted without
 //! it, [`GeometricFit`]). For every candidate (shape, λ_n, λ_s) the network's coefficients
 //! minimise the objective's network part on k − 1 folds — `Σ(y − Bw)² + λ_n Σ(Bw)² + λ_s ‖Pw‖²`
 //! with `P` the roughness and ridge rows ([`penalty_rows`]), one Cholesky solve since it is
 //! quadratic in w — and predict the held-out fold. The candidate with the smallest held-out RMSE
-//! over all folds wins; on a tie the smaller network. Folds interleave the rows
+//! over all folds wins; on a tie the smaller network. It is kept only if it beats no network
+//! (the geometry's own held-out residuals) by more than one standard error of the per-row
+//! difference of squared held-out residuals; otherwise the method runs on the geometry alone.
+//! Folds interleave the rows
 //! ([`super::ridge_cv`]).
 //!
 //! Candidates (documented in the README): shapes grid/edge grid 3/1 (196 coefficients), 4/2 (292,
@@ -78,6 +85,10 @@ pub struct Selection {
     pub candidates: Vec<Candidate>,
     /// Held-out RMSE of no network at all (the LM residuals), mm.
     pub no_network_rmse_mm: f64,
+    /// Whether the chosen candidate beat no network by more than one standard error of the
+    /// per-row difference of squared held-out residuals; if not, the method runs without a
+    /// network (its coefficients stay zero).
+    pub fitted: bool,
 }
 
 impl Selection {
@@ -87,6 +98,12 @@ impl Selection {
     /// One line for reports.
     pub fn summary(&self) -> String {
         let c = &self.chosen;
+        if !self.fitted {
+            return format!(
+                "no GKAN beat the geometry alone by one standard error in {FOLDS}-fold CV on the training rows (best: grid {}/{}, held-out {:.4} mm; no network {:.4} mm): geometry only, the network's {} coefficients zero",
+                c.shape.grid, c.shape.edge_grid, c.cv_rmse_mm, self.no_network_rmse_mm, c.coefficients
+            );
+        }
         format!(
             "GKAN grid {}/{} ({} coefficients), λ_n {}, λ_s {} chosen by {FOLDS}-fold CV on the training rows (held-out {:.4} mm, no network {:.4} mm)",
             c.shape.grid, c.shape.edge_grid, c.coefficients, c.neural, c.roughness, c.cv_rmse_mm, self.no_network_rmse_mm
@@ -106,9 +123,17 @@ pub fn select(p: &Problem) -> Result<Selection> {
     if !y.iter().chain(g.per_fold.iter().flatten()).all(|v| v.is_finite()) {
         return Err(Error::Calibration("the geometric fit before the network choice gave non-finite residuals".into()));
     }
-    let no_network_rmse_mm = ((0..n).map(|i| g.per_fold[i % FOLDS][i].powi(2)).sum::<f64>() / n as f64).sqrt();
+    // Value v is value v % d of row v / d; a row's values share its fold.
+    let d = fit.data.dim;
+    let nv = y.len();
+    let no_network_rmse_mm = ((0..nv).map(|v| g.per_fold[(v / d) % FOLDS][v].powi(2)).sum::<f64>() / nv as f64).sqrt();
+    // One network per value: value c's targets, on every row and as each fold sees them.
+    let column = |v: &[f64], c: usize| -> Vec<f64> { v.iter().skip(c).step_by(d).copied().collect() };
+    let targets: Vec<(Vec<f64>, Vec<Vec<f64>>)> = (0..d).map(|c| (column(y, c), g.per_fold.iter().map(|f| column(f, c)).collect())).collect();
     let (lo, hi) = Gkan::range_of(&fit.data.q);
     let mut candidates = Vec::new();
+    // Every value's held-out residuals of the best candidate so far (value order).
+    let mut best_residuals: Option<(f64, Vec<f64>)> = None;
     for shape in SHAPES {
         let net = Gkan::new(shape, lo.clone(), hi.clone());
         let nw = net.n_coef();
@@ -121,11 +146,45 @@ pub fn select(p: &Problem) -> Result<Selection> {
             }
         }
         let pen = penalty_gram(&penalty_rows(&net), nw);
-        let folds = Folds::with_fold_targets(basis, y, &g.per_fold);
+        let folds: Vec<Folds> = targets.iter().map(|(yc, per_fold)| Folds::with_fold_targets(basis.clone(), yc, per_fold)).collect();
         let grid: Vec<(f64, f64)> = NEURAL.iter().flat_map(|&a| ROUGHNESS.iter().map(move |&b| (a, b))).collect();
-        let scores: Vec<f64> = grid.par_iter().map(|&(ln, ls)| folds.cv_rmse(|g| g * (1.0 + ln) + &pen * ls)).collect();
+        let scores: Vec<f64> = grid
+            .par_iter()
+            .map(|&(ln, ls)| {
+                let system = |g: &DMatrix<f64>| g * (1.0 + ln) + &pen * ls;
+                if let [one] = folds.as_slice() {
+                    return one.cv_rmse(system);
+                }
+                let mut all = Vec::with_capacity(nv);
+                for f in &folds {
+                    match f.cv_residuals(system) {
+                        Some(r) => all.extend(r),
+                        None => return f64::INFINITY,
+                    }
+                }
+                super::stats::rms(&all)
+            })
+            .collect();
         for (&(neural, roughness), &cv_rmse_mm) in grid.iter().zip(&scores) {
             candidates.push(Candidate { shape, coefficients: nw, neural, roughness, cv_rmse_mm });
+        }
+        // The shape's best, if it is the best so far (strictly: a tie goes to the smaller shape).
+        let here = grid.iter().zip(&scores).filter(|(_, s)| s.is_finite()).fold(None::<((f64, f64), f64)>, |b, (&g, &s)| match b {
+            Some((_, bs)) if bs <= s => b,
+            _ => Some((g, s)),
+        });
+        if let Some(((ln, ls), score)) = here {
+            if best_residuals.as_ref().is_none_or(|(b, _)| score < *b) {
+                let mut r = vec![0.0; nv];
+                for (c, f) in folds.iter().enumerate() {
+                    if let Some(rc) = f.cv_residuals(|g| g * (1.0 + ln) + &pen * ls) {
+                        for (i, v) in rc.into_iter().enumerate() {
+                            r[i * d + c] = v;
+                        }
+                    }
+                }
+                best_residuals = Some((score, r));
+            }
         }
     }
     let chosen = candidates
@@ -136,5 +195,14 @@ pub fn select(p: &Problem) -> Result<Selection> {
             _ => Some(*c),
         })
         .ok_or_else(|| Error::Calibration("no network candidate could be fitted in the cross-validation".into()))?;
-    Ok(Selection { chosen, candidates, no_network_rmse_mm })
+    // One-standard-error rule against no network: the per-row change of the squared held-out
+    // residual (summed over the row's values) must be negative by more than its standard error,
+    // else the win is the best of 48 candidates on noise.
+    let fitted = best_residuals.is_some_and(|(_, r)| {
+        let diff: Vec<f64> = (0..n).map(|i| (0..d).map(|c| r[i * d + c].powi(2) - g.per_fold[i % FOLDS][i * d + c].powi(2)).sum::<f64>()).collect();
+        let mean = diff.iter().sum::<f64>() / n as f64;
+        let se = (diff.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n as f64 * (n as f64 - 1.0))).sqrt();
+        mean + se < 0.0
+    });
+    Ok(Selection { chosen, candidates, no_network_rmse_mm, fitted })
 }
