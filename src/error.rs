@@ -55,3 +55,24 @@ impl Error {
         Error::Model { path: path.to_string(), msg: msg.into() }
     }
 }
+
+/// A number as a message shows it: plain where that is short, else in scientific notation (a
+/// hand-typed 1e308 is not printed as 309 digits).
+pub fn shown(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+#[cfg(test)]
+mod shown_tests {
+    #[test]
+    fn large_and_tiny_numbers_are_scientific() {
+        assert_eq!(super::shown(1e308), "1e308");
+        assert_eq!(super::shown(-2.5e-7), "-2.5e-7");
+        assert_eq!(super::shown(123.25), "123.25");
+        assert_eq!(super::shown(f64::NAN), "NaN");
+    }
+}

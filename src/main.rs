@@ -90,9 +90,9 @@ enum Command {
         /// Approach speeds, fractions of the URDF speed limits.
         #[arg(long, value_delimiter = ',', default_value = "0.05,0.2,0.5", allow_negative_numbers = true)]
         speeds: Vec<f64>,
-        /// The first this many poses of the scenario's tour.
-        #[arg(long, allow_negative_numbers = true, default_value_t = 60)]
-        poses: usize,
+        /// The first this many poses of the scenario's tour [default: 60].
+        #[arg(long, allow_negative_numbers = true)]
+        poses: Option<usize>,
         /// Rerun recording of bias and spread against the hold time.
         #[arg(long)]
         rrd: Option<PathBuf>,
@@ -112,8 +112,10 @@ fn main() -> ExitCode {
     let default_hook = std::panic::take_hook();
     // Panics the library catches and turns into a clean error (a malformed spreadsheet inside
     // its reader) print nothing either.
+    // A stdout or stderr that cannot be written (a full disk, `>/dev/full`) ends the command
+    // with a one-line error (when stderr still takes it) and exit code 2, never a panic message.
     std::panic::set_hook(Box::new(move |info| {
-        if !broken_pipe(info.payload()) && !twincal::io::panics_are_quiet() {
+        if stream_failure(info.payload()).is_none() && !twincal::io::panics_are_quiet() {
             default_hook(info);
         }
     }));
@@ -128,7 +130,8 @@ fn main() -> ExitCode {
         Command::Study { what, scenario, holds, speeds, poses, rrd } => commands::study(
             what,
             scenario.as_deref(),
-            &twincal::sim::twin::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses },
+            &twincal::sim::twin::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses: poses.unwrap_or(twincal::sim::twin::study::DEFAULT_POSES) },
+            poses.is_some(),
             rrd.as_deref(),
             args.quiet,
         ),
@@ -136,8 +139,15 @@ fn main() -> ExitCode {
     }));
     let result = match run {
         Ok(r) => r,
-        Err(payload) if broken_pipe(payload.as_ref()) => return ExitCode::from(141),
-        Err(payload) => std::panic::resume_unwind(payload),
+        Err(payload) => match stream_failure(payload.as_ref()) {
+            Some(StreamFailure::ClosedPipe) => return ExitCode::from(141),
+            Some(StreamFailure::Other(what)) => {
+                use std::io::Write;
+                let _ = writeln!(std::io::stderr(), "error: {what}");
+                return ExitCode::from(2);
+            }
+            None => std::panic::resume_unwind(payload),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -148,8 +158,22 @@ fn main() -> ExitCode {
     }
 }
 
-/// Whether a panic is the standard library's "failed printing to stdout" on a closed pipe.
-fn broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
+/// A standard stream the command could not write.
+enum StreamFailure {
+    /// The reader closed the pipe (`| head -1`).
+    ClosedPipe,
+    /// Any other failure, described (e.g. "failed printing to stdout: No space left on device").
+    Other(String),
+}
+
+/// Whether a panic is the standard library's "failed printing to stdout/stderr", and why.
+fn stream_failure(payload: &(dyn std::any::Any + Send)) -> Option<StreamFailure> {
     let text = payload.downcast_ref::<String>().map(String::as_str).or_else(|| payload.downcast_ref::<&str>().copied()).unwrap_or("");
-    text.contains("Broken pipe") || text.contains("os error 32")
+    if text.contains("Broken pipe") || text.contains("os error 32") {
+        Some(StreamFailure::ClosedPipe)
+    } else if text.starts_with("failed printing to std") {
+        Some(StreamFailure::Other(text.to_string()))
+    } else {
+        None
+    }
 }

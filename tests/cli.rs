@@ -278,6 +278,15 @@ fn outputs_onto_inputs_or_onto_each_other_are_refused() {
         (vec!["predict", "--model", s(&res), "--data", s(&data), "--out", s(&csv)], "is also an input"),
         (vec!["predict", "--model", s(&res), "--data", s(&csv), "--out", s(&res)], "is also an input"),
         (vec!["compare", "--data", s(&data), "--seeds", "1", "--methods", "lm", "--out", s(&csv)], "is also an input"),
+        // A folder input means every file read there: the twin's truth too.
+        (vec!["predict", "--model", s(&res), "--data", s(&data), "--out", s(&truth)], "is also an input"),
+        (vec!["compare", "--data", s(&data), "--seeds", "1", "--methods", "lm", "--out", s(&truth)], "is also an input"),
+        (vec!["compare", "--data", s(&data), "--seeds", "1", "--methods", "lm", "--rrd", s(&truth)], "is also an input"),
+        // ik reads the result's data and its twin (found beside the data or named by --twin).
+        (vec!["ik", "--model", s(&res), "--random", "2", "--out", s(&truth)], "is also an input"),
+        (vec!["ik", "--model", s(&res), "--random", "2", "--out", s(&csv)], "is also an input"),
+        (vec!["ik", "--model", s(&res), "--twin", s(&data), "--random", "2", "--out", s(&truth)], "is also an input"),
+        (vec!["ik", "--model", s(&res), "--random", "2", "--out", s(&res)], "is also an input"),
         (vec!["generate", "--scenario", s(&sc), "--out", s(dir.path()), "--rrd", s(&sc)], "is also an input"),
         (vec!["generate", "--scenario", s(&sc), "--out", s(&data), "--rrd", s(&csv)], "are the same file"),
     ];
@@ -539,4 +548,176 @@ fn a_closed_stdout_ends_the_command_quietly() {
     assert_eq!(o.status.code(), Some(141), "{err}");
     let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert!(!json.exists() && left.len() == 2, "no output, no temporary file: {left:?}");
+}
+
+/// A scenario's robot URDF is an input of `generate` and `study`: a recording onto it is refused.
+#[test]
+fn the_scenario_s_robot_file_is_an_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = dir.path().join("arm.urdf");
+    std::fs::copy(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/fixture_6r.urdf"), &urdf).unwrap();
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/fixture_6r.toml")).unwrap();
+    assert!(text.contains("fixture_6r.urdf"), "the fixture scenario names its URDF");
+    let sc = dir.path().join("s.toml");
+    std::fs::write(&sc, text.replace("fixture_6r.urdf", "arm.urdf")).unwrap();
+    let before = std::fs::read(&urdf).unwrap();
+    for args in [
+        vec!["generate", "--scenario", s(&sc), "--out", s(&dir.path().join("g")), "--rrd", s(&urdf)],
+        vec!["study", "hold", "--scenario", s(&sc), "--poses", "2", "--rrd", s(&urdf)],
+    ] {
+        let o = twincal(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(e.contains("is also an input (the scenario's robot"), "{args:?}: {e}");
+    }
+    assert_eq!(std::fs::read(&urdf).unwrap(), before);
+}
+
+/// A stdout that cannot be written (a full disk) is a one-line error with exit code 2, never a
+/// panic message; the outputs are not written.
+#[test]
+fn an_unwritable_stdout_is_an_error_not_a_panic() {
+    if !Path::new("/dev/full").exists() {
+        eprintln!("skipped: no /dev/full on this system");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let data = small_geometric(dir.path(), "d");
+    let json = dir.path().join("cmp.json");
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_twincal"))
+        .args(["compare", "--data", s(&data), "--methods", "lm", "--seeds", "2", "--quiet", "--out", s(&json)])
+        .stdout(full)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("error: failed printing to stdout") && !e.contains("panicked") && !e.contains("backtrace"), "{e}");
+    assert!(!json.exists());
+}
+
+/// `diagnose` refuses folds that could fit the geometric model exactly and warns (stderr and
+/// report.json) when they are short of three rows per parameter; the calibrate command it
+/// suggests runs as printed, with the loads it was given.
+#[test]
+fn diagnose_checks_its_folds_and_suggests_a_command_that_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = small_geometric(dir.path(), "d");
+    let rows: Vec<String> = std::fs::read_to_string(data.join("dataset.csv")).unwrap().lines().map(String::from).collect();
+    let few = dir.path().join("few.csv");
+    std::fs::write(&few, rows[..37].join("\n") + "\n").unwrap();
+    let (rep, res) = (dir.path().join("rep.json"), dir.path().join("res.json"));
+    let o = twincal(&["diagnose", "--data", s(&few), "--out", s(&rep), "--result", s(&res)]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("training rows per fold") && e.contains("an exact fit says nothing"), "{e}");
+    assert!(!rep.exists() && !res.exists());
+    // Not quiet: the suggestion is part of the summary.
+    let o = Command::new(env!("CARGO_BIN_EXE_twincal"))
+        .args(["diagnose", "--data", s(&data), "--out", s(&rep), "--result", s(&res), "--payload-kg", "0.5", "--payload-com-mm", "40,0,0"])
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    let warned = e.contains("warning: only") && e.contains("training rows per fold");
+    let d: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    let in_json = d["warnings"].as_array().is_some_and(|w| w.iter().any(|w| w.as_str().unwrap().contains("training rows per fold")));
+    // 110 rows, 5 folds, a fifth kept back: about 70 training rows per fold for 25 parameters.
+    assert!(warned && in_json, "{e}");
+    let line = e.lines().find_map(|l| l.split_once("the same model by calibrate: ").map(|(_, c)| c.to_string())).expect("a suggestion");
+    assert!(line.contains("--payload-kg 0.5") && line.contains("--payload-com-mm 40,0,0"), "{line}");
+    let mut args: Vec<String> = line.split_whitespace().skip(1).map(String::from).collect();
+    args.extend(["--out".into(), s(&dir.path().join("cal.json")).into(), "--quiet".into()]);
+    let o = Command::new(env!("CARGO_BIN_EXE_twincal")).args(&args).output().unwrap();
+    assert!(o.status.success(), "{line}: {}", stderr(&o));
+}
+
+/// A hand-edited result file is checked as a whole on load: link masses and their count, the
+/// cable's tension, the chain's axes and offsets; each refusal names what is wrong (exit 2).
+#[test]
+fn hand_edited_result_values_out_of_range_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = small_geometric(dir.path(), "d");
+    let res = dir.path().join("r.json");
+    let o = twincal(&[
+        "calibrate",
+        "--data",
+        s(&data),
+        "--out",
+        s(&res),
+        "--payload-kg",
+        "0.5",
+        "--payload-com-mm",
+        "40,0,0",
+        "--cable-tension-n",
+        "5",
+        "--effects",
+        "compliance:2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&res).unwrap()).unwrap();
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(Edit, &str); 6] = [
+        (|r| r["torque_model"]["links"].as_array_mut().unwrap().truncate(3), "3 link masses for a model of 6 joints"),
+        (|r| r["torque_model"]["links"][1][0] = 1e6.into(), "link 2 has mass 1000000 kg"),
+        (|r| r["torque_model"]["cable"][2] = 1e9.into(), "cable tension 1e9 N"),
+        (|r| r["torque_model"]["payload"][0] = (-0.5).into(), "payload -0.5 kg"),
+        (|r| r["model"]["chain"]["ops"][0]["axis"] = serde_json::json!([0.0, 0.0, 5.0]), "is not a unit vector"),
+        (|r| r["model"]["chain"]["ops"][1]["base"] = 1e6.into(), "offset 1000000"),
+    ];
+    for (k, (edit, needle)) in cases.iter().enumerate() {
+        let mut bad = r.clone();
+        edit(&mut bad);
+        let p = dir.path().join(format!("bad{k}.json"));
+        std::fs::write(&p, serde_json::to_string(&bad).unwrap()).unwrap();
+        for cmd in [
+            vec!["predict", "--model", s(&p), "--data", s(&data), "--out", s(&dir.path().join("p.csv"))],
+            vec!["ik", "--model", s(&p), "--random", "2", "--out", s(&dir.path().join("ik.csv"))],
+        ] {
+            let o = twincal(&cmd);
+            let e = stderr(&o);
+            assert_eq!(o.status.code(), Some(2), "{needle}: {e}");
+            assert!(e.contains(needle) && e.contains(s(&p)) && !e.contains("panicked"), "{needle}: {e}");
+        }
+    }
+}
+
+/// Messages name the option the user gave and show huge numbers briefly: `--candidates` (not
+/// `--effects`, no doubled prefix), a 1e308 angle, an ik target file naming a column twice.
+#[test]
+fn messages_name_the_option_given_and_numbers_briefly() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = small_geometric(dir.path(), "d");
+    let out = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    for (cand, needle) in [
+        ("backlash:0", "--candidates backlash:0: the joint"),
+        ("backlash:9", "--candidates backlash: joint 9"),
+        ("nonsense", "--candidates nonsense: unknown effect"),
+    ] {
+        let o = twincal(&["diagnose", "--data", s(&data), "--candidates", cand, "--out", &out("d.json"), "--result", &out("r.json")]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(e.contains(needle) && !e.contains("backlash: backlash"), "{cand}: {e}");
+    }
+    let text = std::fs::read_to_string(data.join("dataset.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let first: Vec<&str> = lines[1].split(',').collect();
+    lines[1] = std::iter::once("1e308").chain(first[1..].iter().copied()).collect::<Vec<_>>().join(",");
+    let huge = dir.path().join("huge.csv");
+    std::fs::write(&huge, lines.join("\n")).unwrap();
+    let o = twincal(&["calibrate", "--data", s(&huge), "--out", &out("c.json")]);
+    let e = stderr(&o);
+    assert!(e.contains("1e308 deg is implausible") && e.len() < 400, "{e}");
+    let targets = dir.path().join("t.csv");
+    std::fs::write(&targets, "x,x,y,z\n1,300,0,400\n").unwrap();
+    let res = out("res.json");
+    assert!(twincal(&["calibrate", "--data", s(&data), "--out", &res]).status.success());
+    let o = twincal(&["ik", "--model", &res, "--targets", s(&targets), "--no-twin", "--out", &out("ik.csv")]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("names the column x twice"), "{e}");
+    std::fs::write(&targets, "x,y,z\n1e308,0,400\n").unwrap();
+    let o = twincal(&["ik", "--model", &res, "--targets", s(&targets), "--no-twin", "--out", &out("ik.csv")]);
+    let e = stderr(&o);
+    assert!(o.status.code() == Some(2) && e.contains("target 1 (1e308, 0, 400) mm is implausible"), "{e}");
 }

@@ -50,6 +50,13 @@ pub struct TorqueModel {
     pub torque_threshold_nm: f64,
 }
 
+/// Largest mass (kg) of a link or payload a result file may hold: heavier than any arm's link.
+pub const MAX_MASS_KG: f64 = 10_000.0;
+/// Farthest (m) a centre of mass, a cable's exit or tool point sits from its frame.
+pub const MAX_LOAD_POINT_M: f64 = 100.0;
+/// Largest cable tension (N) a result file may hold: a draw-wire pulls a few newtons.
+pub const MAX_CABLE_TENSION_N: f64 = 1_000.0;
+
 impl TorqueModel {
     pub fn new(robot: &Robot, loads: &LoadOptions, exit_m: Option<Vector3<f64>>, tool_m: Vector3<f64>) -> TorqueModel {
         let effects = Effects { payload: loads.payload.clone(), ..Default::default() };
@@ -67,20 +74,30 @@ impl TorqueModel {
     /// masses ≥ 0 and every value finite.
     pub fn validate(&self, n_joints: usize) -> std::result::Result<(), String> {
         self.chain.validate()?;
-        let finite3 = |c: &[f64; 3]| c.iter().all(|v| v.is_finite());
-        let mass_ok = |m: f64| m.is_finite() && m >= 0.0;
-        let ok = self.chain.n_joints == n_joints
-            && self.links.len() < self.chain.n_frames()
-            && self.links.iter().all(|(m, c)| mass_ok(*m) && finite3(c))
-            && self.payload.is_none_or(|(m, c)| mass_ok(m) && finite3(&c))
-            && self.cable.is_none_or(|(e, t, f)| finite3(&e) && finite3(&t) && f.is_finite() && f >= 0.0)
-            && !self.torque_threshold_nm.is_nan()
-            && self.torque_threshold_nm >= 0.0;
-        if ok {
-            Ok(())
-        } else {
-            Err("the torque model is inconsistent (links, masses, payload, cable or threshold)".into())
+        let point_ok = |c: &[f64; 3]| c.iter().all(|v| v.is_finite() && v.abs() <= MAX_LOAD_POINT_M);
+        let mass_ok = |m: f64| m.is_finite() && (0.0..=MAX_MASS_KG).contains(&m);
+        let bad = |what: String| Err(format!("torque_model: {what} (edited result file?)"));
+        if self.chain.n_joints != n_joints || self.links.len() != n_joints {
+            return bad(format!("{} joints and {} link masses for a model of {n_joints} joints", self.chain.n_joints, self.links.len()));
         }
+        if let Some(j) = self.links.iter().position(|(m, c)| !mass_ok(*m) || !point_ok(c)) {
+            return bad(format!(
+                "link {} has mass {} kg at ({}) m; a link's mass is in [0, {MAX_MASS_KG}] kg, its centre of mass within {MAX_LOAD_POINT_M} m",
+                j + 1,
+                crate::error::shown(self.links[j].0),
+                self.links[j].1.map(crate::error::shown).join(", ")
+            ));
+        }
+        if let Some((m, c)) = self.payload.filter(|(m, c)| !mass_ok(*m) || !point_ok(c)) {
+            return bad(format!("payload {} kg at ({}) m is out of range", crate::error::shown(m), c.map(crate::error::shown).join(", ")));
+        }
+        if let Some((_, _, f)) = self.cable.filter(|(e, t, f)| !(point_ok(e) && point_ok(t) && f.is_finite() && (0.0..=MAX_CABLE_TENSION_N).contains(f))) {
+            return bad(format!("cable tension {} N or its points are out of range (tension in [0, {MAX_CABLE_TENSION_N}] N)", crate::error::shown(f)));
+        }
+        if !(self.torque_threshold_nm >= 0.0 && self.torque_threshold_nm <= MAX_LOAD_POINT_M * MAX_MASS_KG * 10.0) {
+            return bad(format!("torque threshold {} N·m is out of range", crate::error::shown(self.torque_threshold_nm)));
+        }
+        Ok(())
     }
 
     /// Static joint torques (N·m) at commanded angles `q` (rad).

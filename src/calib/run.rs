@@ -413,6 +413,21 @@ impl CalibResult {
         }
         let chain = &r.model.chain;
         chain.validate().map_err(|e| Error::model(path.display(), e))?;
+        let temps = crate::dataset::MIN_TEMP_C..=crate::dataset::MAX_TEMP_C;
+        if let Some(t) = r.model.effects.iter().find_map(|b| match b.thermal {
+            Some(super::effects::ThermalDrive::Temperature { ref_c }) if !temps.contains(&ref_c) => Some(ref_c),
+            _ => None,
+        }) {
+            return Err(Error::model(
+                path.display(),
+                format!(
+                    "the thermal block's reference temperature {} °C is outside [{}, {}] °C (edited result file?)",
+                    crate::error::shown(t),
+                    temps.start(),
+                    temps.end()
+                ),
+            ));
+        }
         if let Some(t) = &r.torque_model {
             t.validate(chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
         }
@@ -907,6 +922,12 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
             measurement.def().describe()
         )));
     }
+    if model.effects.iter().any(|b| matches!(b.thermal, Some(super::effects::ThermalDrive::WarmUp))) && data.rows.iter().all(|r| r.temp_c.is_some()) {
+        warnings.push(format!(
+            "the temp column spans less than {} K, so it drives no thermal drift: the thermal block runs on t as a warm-up",
+            super::effects::MIN_TEMP_SPREAD_K
+        ));
+    }
     if screen.is_none() && opts.outlier_k > 0.0 {
         warnings.push(format!(
             "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
@@ -963,6 +984,14 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
             metrics.train_before.rmse,
             metrics.train_after.rmse
         ));
+    } else if let (Some(before), Some(after)) = (&metrics.test_before, &metrics.test_after) {
+        if after.rmse > before.rmse {
+            warnings.push(format!(
+                "the calibrated model predicts the test rows worse than the nominal model (test RMSE {:.4} -> {:.4} mm) while it fits the training \
+                 rows better: the training poses do not cover the test rows (a joint held still or a narrow range) or the model follows their noise",
+                before.rmse, after.rmse
+            ));
+        }
     }
     let test_residuals_mm = residuals_with(&test_fit, &x, correct);
     let test_outliers = test_outlier_stage(&fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.outlier_k);

@@ -113,7 +113,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     opts.rank_tol = a.rank_tol;
     opts.effort = a.effort;
     opts.sensor_guess = sensor_guess;
-    opts.effects = parse_effects(&a.effects)?;
+    opts.effects = parse_effects("--effects", &a.effects)?;
     let (loads, inertial) = a.loads.resolve()?;
     opts.loads = loads;
     opts.inertial = inertial;

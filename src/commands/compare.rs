@@ -11,6 +11,9 @@ pub struct CompareRun {
     pub test: crate::calib::metrics::ErrorStats,
     pub iterations: usize,
     pub seconds: f64,
+    /// What the calibration warned of (a method ending worse than its start, few rows, ...).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     #[serde(skip)]
     pub test_abs_residuals: Vec<f64>,
 }
@@ -82,7 +85,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     let data_files = data_inputs(&a.data);
     let outs: Vec<(&str, &Path)> = a.out.as_deref().map(|p| ("--out", p)).into_iter().chain(a.rrd.as_deref().map(|p| ("--rrd", p))).collect();
     if !outs.is_empty() {
-        let mut inputs: Vec<(&str, &Path)> = vec![("--data", &data_files[0])];
+        let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
         let model_file = a.model.input();
         inputs.extend(model_file.as_deref().map(|m| ("--model", m)));
         check_outputs(&inputs, &outs)?;
@@ -123,6 +126,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
                 test: r.metrics.test_after.unwrap_or_default(),
                 iterations: r.iterations,
                 seconds: r.wall_time_s,
+                warnings: r.warnings,
                 test_abs_residuals,
             })
         })
@@ -180,6 +184,20 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         ));
     }
     println!("{table}");
+    // Each calibration's warnings, once per method and wording (seeds listed).
+    let mut warned: Vec<(String, String, Vec<u64>)> = Vec::new();
+    for r in &runs {
+        for w in &r.warnings {
+            match warned.iter_mut().find(|(m, t, _)| *m == r.method && t == w) {
+                Some((_, _, seeds)) => seeds.push(r.seed),
+                None => warned.push((r.method.clone(), w.clone(), vec![r.seed])),
+            }
+        }
+    }
+    for (m, w, seeds) in &warned {
+        let seeds: Vec<String> = seeds.iter().map(u64::to_string).collect();
+        eprintln!("warning: {m} (seed {}): {w}", seeds.join(", "));
+    }
     let mut outputs = OutputSet::new();
     if let Some(p) = a.rrd.as_deref() {
         let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();

@@ -79,7 +79,7 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     opts.folds = a.folds;
     opts.alpha = a.alpha;
     opts.seed = a.seed;
-    opts.candidates = parse_effects(&a.candidates)?;
+    opts.candidates = parse_effects("--candidates", &a.candidates)?;
     if let Some(r) = a.angle_resolution_deg {
         if !(r.is_finite() && r > 0.0 && r <= 10.0) {
             return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
@@ -105,13 +105,59 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     outputs.write_json(&a.result, &result)?;
     outputs.commit()?;
     if !quiet {
-        print_diagnosis(&report, &a.out, &a.result);
+        print_diagnosis(&report);
+        eprintln!("  wrote {} and {}; the same model by calibrate: {}", a.out.display(), a.result.display(), calibrate_line(a, &report.effects_option));
+    }
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
     }
     print_verdict(verdict.as_ref(), &a.out);
     Ok(())
 }
 
-fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
+/// The `calibrate` command that fits the diagnosed model: the same data, model and loads, and
+/// the effects kept (none: the geometric model).
+fn calibrate_line(a: &DiagnoseArgs, effects: &str) -> String {
+    let quote = |p: &Path| {
+        let t = p.display().to_string();
+        if t.chars().all(|c| c.is_ascii_alphanumeric() || "/._-#".contains(c)) {
+            t
+        } else {
+            format!("'{}'", t.replace('\'', "'\\''"))
+        }
+    };
+    let mut line = format!("twincal calibrate --data {}", quote(&a.data));
+    if a.model.model != "irb120" {
+        line += &format!(" --model {}", quote(Path::new(&a.model.model)));
+    }
+    if let Some(p) = &a.model.params {
+        line += &format!(" --params {p}");
+    }
+    if a.angles != AngleArg::Auto {
+        line += &format!(" --angles {}", clap::ValueEnum::to_possible_value(&a.angles).map(|v| v.get_name().to_string()).unwrap_or_default());
+    }
+    if let Some(r) = &a.loads.robot {
+        line += &format!(" --robot {}", quote(r));
+    }
+    if let Some(m) = a.loads.payload_kg {
+        line += &format!(" --payload-kg {m}");
+    }
+    if let Some(c) = &a.loads.payload_com_mm {
+        line += &format!(" --payload-com-mm {}", c.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","));
+    }
+    if a.loads.cable_tension_n != 0.0 {
+        line += &format!(" --cable-tension-n {}", a.loads.cable_tension_n);
+    }
+    if !effects.is_empty() {
+        line += &format!(" --effects {effects}");
+    }
+    if let Some(r) = a.angle_resolution_deg {
+        line += &format!(" --angle-resolution-deg {r}");
+    }
+    line
+}
+
+fn print_diagnosis(d: &crate::diagnose::Diagnosis) {
     eprintln!("diagnosis of {} ({} rows, {} outliers kept out) in {:.1} s", d.data, d.rows, d.outliers.len(), d.seconds);
     if !d.reading.is_empty() {
         eprintln!("  {}", d.reading);
@@ -148,9 +194,6 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
     if !d.unconfirmed.is_empty() {
         eprintln!("  not confirmed on the confirmation rows (left out of the model): {}", d.unconfirmed.join(", "));
     }
-    for w in &d.warnings {
-        eprintln!("warning: {w}");
-    }
     eprintln!(
         "  final held-out RMSE {:.4} mm ({}); the final model's RMSE on the {} kept rows: {:.4} mm",
         d.final_heldout_rmse_mm,
@@ -183,5 +226,4 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis, out: &Path, result: &Path) {
             c.extrapolation_rmse_mm[2]
         );
     }
-    eprintln!("  wrote {} and {} (calibrate --effects {})", out.display(), result.display(), if d.effects_option.is_empty() { "-" } else { &d.effects_option });
 }

@@ -13,9 +13,10 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
     if let Some(p) = rrd {
         outputs_named.push(("--rrd", p));
     }
-    let inputs: Vec<(&str, &Path)> = scenario.map(|p| ("--scenario", p)).into_iter().collect();
-    check_outputs(&inputs, &outputs_named)?;
     let (mut s, robot) = load_scenario(scenario)?;
+    let read = scenario_inputs(scenario, &s);
+    let inputs: Vec<(&str, &Path)> = read.iter().map(|(o, p)| (*o, p.as_path())).collect();
+    check_outputs(&inputs, &outputs_named)?;
     if let Some(seed) = seed {
         s.seed = seed;
     }

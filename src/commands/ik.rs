@@ -21,6 +21,19 @@ pub fn read_targets(path: &Path) -> Result<Vec<Vector3<f64>>> {
     if out.is_empty() {
         return Err(Error::data(path.display(), "no targets after the header"));
     }
+    let far = crate::measurement::point::MAX_COORD_MM;
+    if let Some((i, t)) = out.iter().enumerate().find(|(_, t)| t.iter().any(|v| v.abs() > far)) {
+        return Err(Error::data(
+            path.display(),
+            format!(
+                "target {} ({}, {}, {}) mm is implausible (a coordinate beyond {far} mm)",
+                i + 1,
+                crate::error::shown(t.x),
+                crate::error::shown(t.y),
+                crate::error::shown(t.z)
+            ),
+        ));
+    }
     Ok(out)
 }
 
@@ -76,11 +89,6 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
             .find(|k| k.name() == s)
             .ok_or_else(|| Error::Invalid(format!("unknown --jacobian '{s}' (expected analytic, neural, hybrid or all)")))?],
     };
-    let mut inputs: Vec<(&str, &Path)> = vec![("--model", a.model.as_path())];
-    if let Some(t) = &a.targets {
-        inputs.push(("--targets", t));
-    }
-    crate::io::check_outputs(&inputs, &[("--out", &a.out)])?;
     let r = CalibResult::load(&a.model)?;
     // A target has no temperature, time or approach history: the model is solved in its
     // reference state. Say so when the model reads more than the angles.
@@ -91,14 +99,28 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     if r.model.effects.iter().any(|b| b.kind == crate::calib::effects::EffectKind::Backlash) {
         eprintln!("warning: the model has backlash blocks; ik solves every target with no flank (a target has no approach history)");
     }
+    let data = result_data(&a.model, &r);
     let twin_dir = match (&a.twin, a.no_twin) {
         (_, true) => None,
         (Some(d), false) => Some(d.clone()),
-        (None, false) => {
-            let d = PathBuf::from(&r.data);
-            TruthFile::find(&d).ok().flatten().map(|_| d)
-        }
+        (None, false) => match TruthFile::find(&data) {
+            Ok(found) => found.map(|_| data.clone()),
+            Err(e) => {
+                return Err(Error::Invalid(format!(
+                    "the twin beside the model's data is unreadable ({e}); pass --twin DIR with the model's twin, or --no-twin"
+                )))
+            }
+        },
     };
+    // Every file read: the model, the targets, the model's data and the twin's files.
+    let mut read: Vec<(&str, PathBuf)> = vec![("--model", a.model.clone())];
+    read.extend(a.targets.iter().map(|t| ("--targets", t.clone())));
+    read.extend(super::data_inputs(&data).into_iter().map(|p| ("the model's data", p)));
+    if let Some(d) = &twin_dir {
+        read.extend(super::data_inputs(d).into_iter().map(|p| ("the twin", p)));
+    }
+    let inputs: Vec<(&str, &Path)> = read.iter().map(|(o, p)| (*o, p.as_path())).collect();
+    crate::io::check_outputs(&inputs, &[("--out", &a.out)])?;
     let check = twin_dir.as_deref().map(|d| TwinCheck::load(d, &r)).transpose()?;
     let targets: Vec<Vector3<f64>> = match (&a.targets, a.random) {
         (Some(f), _) => read_targets(f)?,
@@ -153,4 +175,27 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The model's data path: as recorded when it is absolute or exists from here; else relative to
+/// the model file's folder, where `calibrate` may have been run (a path recorded relative to
+/// another folder). Where both exist and the model records its data's SHA-256, the one whose
+/// dataset matches wins.
+fn result_data(model: &Path, r: &CalibResult) -> PathBuf {
+    let recorded = PathBuf::from(&r.data);
+    if recorded.is_absolute() {
+        return recorded;
+    }
+    let beside = model.parent().map(|d| d.join(&recorded));
+    let matches = |p: &Path| {
+        let file = super::data_inputs(p).swap_remove(0);
+        match (&r.data_sha256, std::fs::read(&file)) {
+            (Some(sha), Ok(bytes)) => crate::calib::truth::sha256_hex(&bytes) == *sha,
+            _ => false,
+        }
+    };
+    match beside {
+        Some(b) if b.exists() && (!recorded.exists() || (!matches(&recorded) && matches(&b))) => b,
+        _ => recorded,
+    }
 }

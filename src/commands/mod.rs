@@ -185,6 +185,13 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, crate::robot::Rob
     }
 }
 
+/// The files a scenario run reads: the scenario and the URDF it names.
+fn scenario_inputs(path: Option<&Path>, s: &crate::sim::scenario::Scenario) -> Vec<(&'static str, PathBuf)> {
+    let mut v: Vec<(&str, PathBuf)> = path.map(|p| ("--scenario", p.to_path_buf())).into_iter().collect();
+    v.extend(s.robot_file(path.and_then(Path::parent)).map(|p| ("the scenario's robot", p)));
+    v
+}
+
 fn check_repeat(repeat: usize) -> Result<()> {
     if !(1..=MAX_REPEAT).contains(&repeat) {
         return Err(Error::Invalid(format!("--repeat must be between 1 and {MAX_REPEAT}, got {repeat}")));
@@ -284,7 +291,9 @@ impl LoadArgs {
 }
 
 /// Parses `--effects compliance,backlash:2,thermal`: a kind, optionally `:JOINT` (1..N, checked against the data).
-pub fn parse_effects(list: &[String]) -> Result<Vec<(crate::calib::effects::EffectKind, Option<usize>)>> {
+/// The `KIND[:JOINT]` items of an option (`--effects`, `--candidates`; `option` names it in
+/// errors).
+pub fn parse_effects(option: &str, list: &[String]) -> Result<Vec<(crate::calib::effects::EffectKind, Option<usize>)>> {
     use crate::calib::effects::EffectKind;
     list.iter()
         .filter(|s| !s.trim().is_empty())
@@ -292,18 +301,18 @@ pub fn parse_effects(list: &[String]) -> Result<Vec<(crate::calib::effects::Effe
             let (kind, joint) = match item.split_once(':') {
                 Some((k, j)) => {
                     let max = crate::dataset::MAX_JOINTS;
-                    let bad = || Error::Invalid(format!("--effects {item}: the joint after ':' must be a joint number, 1..N"));
+                    let bad = || Error::Invalid(format!("{option} {item}: the joint after ':' must be a joint number, 1..N"));
                     let j: usize = j.trim().parse().map_err(|_| bad())?;
                     if !(1..=max).contains(&j) {
                         return Err(bad());
                     }
-                    (EffectKind::parse(k)?, Some(j - 1))
+                    (EffectKind::parse(k).map_err(|e| Error::Invalid(format!("{option} {item}: {e}")))?, Some(j - 1))
                 }
-                None => (EffectKind::parse(item)?, None),
+                None => (EffectKind::parse(item).map_err(|e| Error::Invalid(format!("{option} {item}: {e}")))?, None),
             };
             let allowed = kind.joint_options(crate::dataset::MAX_JOINTS).contains(&joint) || (joint.is_none() && kind.per_joint());
             if !allowed {
-                return Err(Error::Invalid(format!("--effects {item}: {} is not a per-joint effect", kind.name())));
+                return Err(Error::Invalid(format!("{option} {item}: {} is not a per-joint effect", kind.name())));
             }
             Ok((kind, joint))
         })

@@ -38,7 +38,9 @@ pub fn prediction_csv(columns: &[&str], rows: &[(&[f64], &[f64])], predicted: &[
 /// measured lengths), with the residual where a length was measured.
 pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: bool) -> Result<()> {
     let data_files = data_inputs(data);
-    check_outputs(&[("--model", model), ("--data", &data_files[0])], &[("--out", out)])?;
+    let mut inputs: Vec<(&str, &Path)> = vec![("--model", model)];
+    inputs.extend(data_files.iter().map(|p| ("--data", p.as_path())));
+    check_outputs(&inputs, &[("--out", out)])?;
     let result = load_model(model)?;
     let ds = load_dataset(data, angles, false)?;
     ds.require_joints(result.model.chain.n_joints, &format!("the model {}", model.display()))?;

@@ -10,14 +10,26 @@ pub enum StudyTarget {
 }
 
 /// `twincal study hold`: the table on stdout, optionally a Rerun recording.
-pub fn study(what: StudyTarget, scenario: Option<&Path>, study: &crate::sim::twin::study::HoldStudy, rrd: Option<&Path>, quiet: bool) -> Result<()> {
+/// `poses_given`: whether the user chose `study.poses` (a scenario with fewer is then said).
+pub fn study(
+    what: StudyTarget,
+    scenario: Option<&Path>,
+    study: &crate::sim::twin::study::HoldStudy,
+    poses_given: bool,
+    rrd: Option<&Path>,
+    quiet: bool,
+) -> Result<()> {
     let StudyTarget::Hold = what;
-    if let Some(p) = rrd {
-        let inputs: Vec<(&str, &Path)> = scenario.map(|p| ("--scenario", p)).into_iter().collect();
-        check_outputs(&inputs, &[("--rrd", p)])?;
-    }
     study.validate().map_err(Error::Invalid)?;
     let (s, robot) = load_scenario(scenario)?;
+    if let Some(p) = rrd {
+        let read = scenario_inputs(scenario, &s);
+        let inputs: Vec<(&str, &Path)> = read.iter().map(|(o, p)| (*o, p.as_path())).collect();
+        check_outputs(&inputs, &[("--rrd", p)])?;
+    }
+    if poses_given && study.poses > s.sampling.poses {
+        eprintln!("warning: --poses {}: scenario {} has {} poses; the study takes all {}", study.poses, s.name, s.sampling.poses, s.sampling.poses);
+    }
     let rows = crate::sim::twin::study::hold_study(&s, &robot, study, progress(quiet).as_ref())?;
     let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
     println!("hold study ({}, first {} poses, readings taken even with the gate closed)", s.name, rows.first().map(|r| r.poses).unwrap_or(0));

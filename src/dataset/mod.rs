@@ -407,6 +407,13 @@ pub fn read_csv_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>> {
         .map(|n| table.header.iter().position(|h| h.trim().eq_ignore_ascii_case(n) || h.trim().eq_ignore_ascii_case(&format!("{n}_mm"))))
         .collect::<Option<Vec<usize>>>()
         .ok_or_else(|| Error::data(&source, format!("the header '{found}' lacks the columns {}", names.join(", "))))?;
+    // A column named twice is ambiguous (which x?): refused, as the dataset reader refuses it.
+    for (n, &i) in names.iter().zip(&pos) {
+        let same = |h: &String| h.trim().eq_ignore_ascii_case(n) || h.trim().eq_ignore_ascii_case(&format!("{n}_mm"));
+        if table.header.iter().enumerate().any(|(k, h)| k != i && same(h)) {
+            return Err(Error::data(&source, format!("the header '{found}' names the column {n} twice")));
+        }
+    }
     let cells = Cells { source: &source, decimal_comma: table.decimal_comma };
     let value = |row: &RawRow, i: usize, name: &str| -> Result<f64> {
         let cell =
@@ -691,7 +698,7 @@ fn split_value(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<
 /// Checks `lo <= v <= hi`, naming the cell and what the value is.
 fn check_bounds(v: f64, (lo, hi): (f64, f64), what: &str, line: usize, c: Column, src: &str) -> Result<()> {
     if v < lo || v > hi {
-        return Err(cell_error(src, line, c, format!("{what} {v} is implausible (allowed range [{lo}, {hi}])")));
+        return Err(cell_error(src, line, c, format!("{what} {} is implausible (allowed range [{lo}, {hi}])", crate::error::shown(v))));
     }
     Ok(())
 }
@@ -717,6 +724,7 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
             let v = cells.required(layout.cell(raw, c), c, line)?;
             *q = if opts.angles == AngleUnit::Rad { v.to_degrees() } else { v };
             if q.abs() > MAX_ABS_JOINT_DEG {
+                let (v, q) = (crate::error::shown(v), crate::error::shown(*q));
                 let shown = if opts.angles == AngleUnit::Rad { format!("{v} rad ({q} deg)") } else { format!("{q} deg") };
                 return Err(cell_error(src, line, c, format!("joint angle {shown} is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)")));
             }

@@ -513,6 +513,8 @@ fn candidates(data: &Dataset, listed: &[(EffectKind, Option<usize>)], has_torque
             }
         }
         if let (false, false, Some(e)) = (listed.is_empty(), supported, first_error) {
+            let e = e.to_string();
+            let e = e.strip_prefix(&format!("{}: ", kind.name())).unwrap_or(&e);
             return Err(Error::Invalid(format!("--candidates {}: {e}", kind.name())));
         }
     }
@@ -560,6 +562,31 @@ fn with_block(model: &CalibModel, x: &[f64], block: &EffectBlock, span: f64) -> 
     let mut x0 = x.to_vec();
     x0.extend_from_slice(&m.nominal[x.len()..]);
     (m, x0)
+}
+
+/// Whether each cross-validation fold trains on enough values for the geometric model's
+/// `n_free` identifiable parameters (before any cause is added): an error when a fold's training
+/// rows could be fitted exactly (the held-out RMSE and the outlier screen then say nothing), a
+/// warning below three values per parameter.
+fn fold_rows_check(rows: usize, dim: usize, n_free: usize, opts: &DiagnoseOptions) -> Result<Option<String>> {
+    let every = if opts.confirm_fraction > 0.0 { (1.0 / opts.confirm_fraction).round().max(2.0) as usize } else { usize::MAX };
+    let selection = rows - rows / every;
+    let train = selection - selection.div_ceil(opts.folds.max(1));
+    let values = train * dim;
+    if values <= n_free {
+        return Err(Error::Calibration(format!(
+            "{rows} rows leave {train} training rows per fold ({} folds, every {every}th row kept back to confirm) for {n_free} identifiable \
+             parameters of the geometric model: an exact fit says nothing; measure more poses (at least {} rows recommended)",
+            opts.folds,
+            ((3 * n_free) as f64 / dim as f64 / ((1.0 - 1.0 / every as f64) * (1.0 - 1.0 / opts.folds as f64))).ceil()
+        )));
+    }
+    Ok((values < 3 * n_free).then(|| {
+        format!(
+            "only {train} training rows per fold for {n_free} identifiable parameters of the geometric model (3x as many values recommended): \
+             held-out RMSE and sizes are uncertain"
+        )
+    }))
 }
 
 /// Fewest rows, and smallest share of the rows, the geometric screen must flag before candidate
@@ -625,6 +652,7 @@ fn diagnose_screened(
     // Torques exist where there are inertial data (the nominal robot's or `--robot`'s).
     let has_torques = torque.is_some();
     let mut all = prepared.split.train;
+    let fold_warning = fold_rows_check(all.len(), dim, prepared.id.fixed_mask.iter().filter(|f| !**f).count(), opts)?;
 
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&base, d, x, opts.rank_tol);
     let geo_screen =
@@ -796,7 +824,7 @@ fn diagnose_screened(
     let cov = covariance(&fit, &final_x, &final_id.fixed_mask);
     let final_train_rmse_mm = rms(&fit.residuals_mm(&final_x));
     let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
-    let warnings = unphysical_causes(&current.model, &final_x, &kept_blocks);
+    let warnings: Vec<String> = fold_warning.into_iter().chain(unphysical_causes(&current.model, &final_x, &kept_blocks)).collect();
     let mut causes = Vec::new();
     for (n, (block, before, after, p)) in found.iter().enumerate() {
         let b = current.model.effects.iter().position(|e| e == block).expect("kept block is in the model");

@@ -45,7 +45,7 @@ impl Instrument for Length {
         if l <= 0.0 {
             return Some(format!("cable length must be positive, found {l}"));
         }
-        (l > MAX_L_MM).then(|| format!("cable length {l} mm is implausible (no draw-wire sensor measures more than {MAX_L_MM} mm)"))
+        (l > MAX_L_MM).then(|| format!("cable length {} mm is implausible (no draw-wire sensor measures more than {MAX_L_MM} mm)", crate::error::shown(l)))
     }
     fn locate(&self, p: &[Vector3<f64>], y: &[f64]) -> Option<Vec<f64>> {
         let (e, c) = multilaterate(p, y)?;

@@ -69,7 +69,8 @@ impl Instrument for Point {
         }
     }
     fn implausible(&self, k: usize, v: f64) -> Option<String> {
-        (v.abs() > MAX_COORD_MM).then(|| format!("tracker coordinate {} = {v} mm is implausible (|value| > {MAX_COORD_MM} mm)", self.columns()[k]))
+        (v.abs() > MAX_COORD_MM)
+            .then(|| format!("tracker coordinate {} = {} mm is implausible (|value| > {MAX_COORD_MM} mm)", self.columns()[k], crate::error::shown(v)))
     }
     /// The rigid transform that best maps the nominal target points onto the readings
     /// (least squares, by the SVD of their cross-covariance).

@@ -238,11 +238,21 @@ impl Chain {
                 && o.coef.is_finite()
         });
         let joints_ok = (0..self.n_joints).all(|j| self.ops.iter().any(|o| o.joint == Some(j)));
-        if frames_ok && ops_ok && joints_ok {
-            Ok(())
-        } else {
-            Err("the kinematic chain is inconsistent (frames, joint or parameter indices, or non-finite values)".into())
+        if !(frames_ok && ops_ok && joints_ok) {
+            return Err("the kinematic chain is inconsistent (frames, joint or parameter indices, or non-finite values)".into());
         }
+        // An axis is a unit vector; an offset is a link length (m) or an angle (rad).
+        if let Some(i) = self.ops.iter().position(|o| (o.axis.norm() - 1.0).abs() > 1e-6) {
+            return Err(format!("chain operation {i}: its axis {:?} is not a unit vector (edited result file?)", self.ops[i].axis.as_slice()));
+        }
+        if let Some(i) = self.ops.iter().position(|o| o.base.abs() > MAX_OP_OFFSET || o.coef.abs() > MAX_OP_OFFSET) {
+            return Err(format!(
+                "chain operation {i}: offset {} / coefficient {} beyond {MAX_OP_OFFSET} (m or rad; edited result file?)",
+                crate::error::shown(self.ops[i].base),
+                crate::error::shown(self.ops[i].coef)
+            ));
+        }
+        Ok(())
     }
 
     /// Index of the operation that rotates joint `j`.
@@ -250,6 +260,9 @@ impl Chain {
         self.ops.iter().position(|o| o.joint == Some(j))
     }
 }
+
+/// Largest |offset| of a chain operation a result file may hold (a 100 m link, 100 rad).
+pub const MAX_OP_OFFSET: f64 = 100.0;
 
 /// Helper to build chains operation by operation.
 #[derive(Default)]

@@ -210,12 +210,20 @@ impl Scenario {
     }
 
     pub fn load_robot(&self, dir: Option<&Path>) -> Result<Robot> {
+        match self.robot_file(dir) {
+            None => Ok(Robot::irb120()),
+            Some(p) => Robot::from_urdf_file(&p),
+        }
+    }
+
+    /// The URDF file the scenario's `robot` names (relative to the scenario's folder `dir`);
+    /// `None` for the embedded IRB 120.
+    pub fn robot_file(&self, dir: Option<&Path>) -> Option<PathBuf> {
         if self.robot == "irb120" {
-            return Ok(Robot::irb120());
+            return None;
         }
         let p = PathBuf::from(&self.robot);
-        let p = if p.is_relative() { dir.map(|d| d.join(&p)).unwrap_or(p) } else { p };
-        Robot::from_urdf_file(&p)
+        Some(if p.is_relative() { dir.map(|d| d.join(&p)).unwrap_or(p) } else { p })
     }
 
     pub fn validate(&self, robot: &Robot, origin: &str) -> Result<()> {

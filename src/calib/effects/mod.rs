@@ -25,7 +25,7 @@ mod eccentricity;
 mod nonlinearity;
 mod thermal;
 
-pub use thermal::hidden_warm_up;
+pub use thermal::{hidden_warm_up, MIN_TEMP_SPREAD_K};
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};

@@ -39,6 +39,9 @@ pub struct HoldStudy {
     pub poses: usize,
 }
 
+/// Poses a hold study takes from the scenario's tour unless told otherwise.
+pub const DEFAULT_POSES: usize = 60;
+
 impl HoldStudy {
     /// Checks every value, naming the option.
     pub fn validate(&self) -> std::result::Result<(), String> {
@@ -70,7 +73,18 @@ pub fn hold_study(s: &Scenario, robot: &Robot, study: &HoldStudy, progress: &dyn
             let mut sc = s.clone();
             sc.sensor.hold_s = h;
             sc.sampling.speed_fraction = v;
-            crate::sim::generate::check_robot_time(&sc, &crate::sim::generate::acquisition_times(&sc, robot, &poses))?;
+            let times = crate::sim::generate::acquisition_times(&sc, robot, &poses);
+            if crate::sim::generate::check_robot_time(&sc, &times).is_err() {
+                let end = times.iter().copied().fold(0.0, f64::max);
+                return Err(crate::error::Error::Invalid(format!(
+                    "--speeds {}: {} poses would take {:.1} h of robot time, more than the {} h a run simulates; use larger fractions \
+                     (or check the URDF's joint velocity limits)",
+                    crate::error::shown(v),
+                    poses.len(),
+                    end / 3600.0,
+                    crate::sim::generate::MAX_ROBOT_TIME_S / 3600.0
+                )));
+            }
             let twin = build_twin(&sc, robot);
             let settings = TourSettings { seed: sc.seed, speed_fraction: v };
             let acquired: Vec<_> = acquire(&twin, &acq, settings, &home, &poses, progress).into_iter().collect::<Result<_>>()?;
