@@ -67,19 +67,29 @@ pub struct Candidate {
 /// the held-out RMSE of no network at all.
 #[derive(Clone, Debug)]
 pub struct Selection {
-    pub net: Awnn,
+    /// One network per reading value (one for a cable length), the same layout for all.
+    pub nets: Vec<Awnn>,
     pub chosen: Candidate,
     pub candidates: Vec<Candidate>,
     /// Held-out RMSE of the geometric columns alone, mm.
     pub no_network_rmse_mm: f64,
     /// Whether the chosen candidate beat the geometry alone by more than one standard error; if
-    /// not, `net` keeps the chosen layout with zero output weights.
+    /// not, `nets` keep the chosen layout with zero output weights.
     pub fitted: bool,
 }
 
 impl Selection {
     /// One line for reports.
     pub fn summary(&self) -> String {
+        let text = self.summary_one();
+        if self.nets.len() > 1 {
+            format!("one network per reading value ({}), each {text}", self.nets.len())
+        } else {
+            text
+        }
+    }
+
+    fn summary_one(&self) -> String {
         let c = &self.chosen;
         if !self.fitted {
             return format!(
@@ -109,8 +119,14 @@ impl Selection {
 pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activation: Activation, g: &GeometricFit) -> Result<Selection> {
     let (y, geometry) = (&g.residuals[..], &g.jacobian);
     let n = y.len();
-    if n < 2 * FOLDS || qs.len() != n {
-        return Err(Error::Calibration(format!("{n} training rows are too few to choose the network by {FOLDS}-fold cross-validation")));
+    let rows = qs.len();
+    if rows == 0 || n % rows != 0 {
+        return Err(Error::Calibration(format!("{n} residuals for {rows} training rows: not a whole number of reading values per row")));
+    }
+    // Reading values per row: one network each, value c of row i at y[i·dim + c].
+    let dim = n / rows;
+    if rows < 2 * FOLDS {
+        return Err(Error::Calibration(format!("{rows} training rows are too few to choose the network by {FOLDS}-fold cross-validation")));
     }
     if g.per_fold.len() != FOLDS || g.per_fold.iter().any(|f| f.len() != n) {
         return Err(Error::Calibration("the out-of-fold geometric fits do not match the training rows".into()));
@@ -128,7 +144,7 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     // A tiny ridge on the geometric block keeps a rank-deficient Jacobian solvable.
     let geo_ridge = 1e-9 * n as f64;
     let baseline =
-        if ng == 0 { Some(y.to_vec()) } else { Folds::with_fold_targets(geo.clone(), y, &g.per_fold).cv_residuals(|g| system(g, ng, 0.0, 0.0, geo_ridge)) }
+        if ng == 0 { Some(y.to_vec()) } else { Folds::by_row(geo.clone(), y, &g.per_fold, dim).cv_residuals(|g| system(g, ng, 0.0, 0.0, geo_ridge)) }
             .ok_or_else(|| Error::Calibration("the geometric columns alone could not be fitted in the cross-validation".into()))?;
     let no_network_rmse_mm = rms(&baseline);
     let mut best: Option<(Candidate, Folds, Awnn, f64)> = None;
@@ -136,11 +152,22 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     for library in LIBRARIES {
         let net = Awnn::library(qs, inputs, extra, &library, activation).map_err(Error::Calibration)?;
         let m = net.neurons();
-        let mut basis = DMatrix::zeros(n, ng + m);
+        // Geometric columns shared by every value, then one block of network columns per value
+        // (value c's rows see network c alone).
+        let mut basis = DMatrix::zeros(n, ng + dim * m);
         basis.columns_mut(0, ng).copy_from(&geo);
-        basis.columns_mut(ng, m).copy_from(&net.hidden_matrix(qs, inputs));
-        let folds = Folds::with_fold_targets(basis, y, &g.per_fold);
-        let scale = (folds.gram().view((ng, ng), (m, m)).trace() / m as f64).max(1e-12);
+        let hidden = net.hidden_matrix(qs, inputs);
+        if dim == 1 {
+            basis.columns_mut(ng, m).copy_from(&hidden);
+        } else {
+            for i in 0..rows {
+                for c in 0..dim {
+                    basis.view_mut((i * dim + c, ng + c * m), (1, m)).copy_from(&hidden.row(i));
+                }
+            }
+        }
+        let folds = Folds::by_row(basis, y, &g.per_fold, dim);
+        let scale = (folds.gram().view((ng, ng), (dim * m, dim * m)).trace() / (dim * m) as f64).max(1e-12);
         let grid: Vec<(f64, f64)> = NEURAL.iter().flat_map(|&a| RIDGES.iter().map(move |&b| (a, b))).collect();
         let scores: Vec<f64> = grid.par_iter().map(|&(ln, rho)| folds.cv_rmse(|g| system(g, ng, ln, rho * scale, geo_ridge))).collect();
         let mut here = None::<Candidate>;
@@ -157,21 +184,29 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
             }
         }
     }
-    let (chosen, folds, mut net, scale) = best.ok_or_else(|| Error::Calibration("no network layout could be fitted in the cross-validation".into()))?;
+    let (chosen, folds, net, scale) = best.ok_or_else(|| Error::Calibration("no network layout could be fitted in the cross-validation".into()))?;
     let chosen_system = |g: &DMatrix<f64>| system(g, ng, chosen.neural, chosen.ridge * scale, geo_ridge);
     let w = folds.fit_all(chosen_system).ok_or_else(|| Error::Calibration("the chosen network's output layer could not be fitted".into()))?;
     // One-standard-error rule against the geometry alone: the per-row change of the squared
-    // held-out residual must be negative by more than its standard error, else a win is the
-    // best of many candidates on noise.
+    // held-out residual (summed over the row's values) must be negative by more than its
+    // standard error, else a win is the best of many candidates on noise.
     let r = folds.cv_residuals(chosen_system).unwrap_or_else(|| baseline.clone());
-    let d: Vec<f64> = r.iter().zip(&baseline).map(|(a, b)| a * a - b * b).collect();
-    let mean = d.iter().sum::<f64>() / n as f64;
-    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n as f64 * (n as f64 - 1.0))).sqrt();
+    let d: Vec<f64> = r.chunks(dim).zip(baseline.chunks(dim)).map(|(a, b)| a.iter().zip(b).map(|(a, b)| a * a - b * b).sum()).collect();
+    let nr = rows as f64;
+    let mean = d.iter().sum::<f64>() / nr;
+    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (nr * (nr - 1.0))).sqrt();
     let fitted = mean + se < 0.0;
-    if fitted {
-        net.weights = w.iter().skip(ng).copied().collect();
-    }
-    Ok(Selection { net, chosen, candidates, no_network_rmse_mm, fitted })
+    let m = net.neurons();
+    let nets = (0..dim)
+        .map(|c| {
+            let mut v = net.clone();
+            if fitted {
+                v.weights = w.iter().skip(ng + c * m).take(m).copied().collect();
+            }
+            v
+        })
+        .collect();
+    Ok(Selection { nets, chosen, candidates, no_network_rmse_mm, fitted })
 }
 
 use super::stats::rms;
@@ -216,7 +251,7 @@ mod tests {
             let v: Vec<f64> = v.collect();
             rms(&v)
         };
-        let after = rms(&mut qs.iter().zip(&truth).map(|(q, t)| t - sel.net.eval(q)));
+        let after = rms(&mut qs.iter().zip(&truth).map(|(q, t)| t - sel.nets[0].eval(q)));
         (after, rms(&mut truth.iter().copied()))
     }
 

@@ -60,9 +60,10 @@ impl Method {
     pub const ALL: [Method; 5] = [Method::Lm, Method::Ekf, Method::Pf, Method::Pso, Method::Rbf];
 
     /// Whether the method learns a corrector of one reading value per row only (the papers'
-    /// networks, trained on a cable length's residual); `rbf` fits one network per value.
+    /// networks, trained on a cable length's residual); `rbf` and `pso-ekf-awnn*` fit one
+    /// network per value.
     pub fn corrects_one_value_only(self) -> bool {
-        !matches!(self, Method::Lm | Method::Ekf | Method::Pf | Method::Pso | Method::Rbf)
+        !matches!(self, Method::Lm | Method::Ekf | Method::Pf | Method::Pso | Method::Rbf | Method::PsoEkfAwnn(_))
     }
 
     /// The Evo-NPH method and its ablations (not in [`Method::ALL`], the core's baselines).

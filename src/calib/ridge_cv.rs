@@ -82,7 +82,15 @@ impl Folds {
     /// `per_fold[f]` (e.g. the residuals of a model fitted without fold `f`); `y` is what the
     /// fit on every row ([`fit_all`](Self::fit_all)) uses.
     pub fn with_fold_targets(basis: DMatrix<f64>, y: &[f64], per_fold: &[Vec<f64>]) -> Folds {
+        Folds::by_row(basis, y, per_fold, 1)
+    }
+
+    /// As [`with_fold_targets`](Self::with_fold_targets) for targets of `dim` values per data
+    /// row, row after row (a tracker's x, y, z): the folds hold whole rows, every value of a row
+    /// in the same fold (row `i` in fold `i mod k`), as [`GeometricFit::new`] folds them.
+    pub fn by_row(basis: DMatrix<f64>, y: &[f64], per_fold: &[Vec<f64>], dim: usize) -> Folds {
         let n = y.len();
+        let dim = dim.max(1);
         let k = per_fold.len().max(2);
         let gram = basis.transpose() * &basis;
         let rhs = basis.transpose() * DVector::from_column_slice(y);
@@ -90,7 +98,8 @@ impl Folds {
             .iter()
             .enumerate()
             .map(|(f, yf)| {
-                let rows = super::folds::interleaved(n, k).swap_remove(f);
+                let held = super::folds::interleaved(n / dim, k).swap_remove(f);
+                let rows: Vec<usize> = held.iter().flat_map(|&r| r * dim..(r + 1) * dim).collect();
                 let train = super::folds::others(n, &rows);
                 let bt = basis.select_rows(&train);
                 let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| yf[i]));
