@@ -76,6 +76,9 @@ pub struct Selection {
     /// Whether the chosen candidate beat the geometry alone by more than one standard error; if
     /// not, `nets` keep the chosen layout with zero output weights.
     pub fitted: bool,
+    /// Per reading value, whether its network kept its fitted output weights (with several
+    /// values each must also beat the geometry alone on its own value by one standard error).
+    pub value_fitted: Vec<bool>,
 }
 
 impl Selection {
@@ -83,7 +86,13 @@ impl Selection {
     pub fn summary(&self) -> String {
         let text = self.summary_one();
         if self.nets.len() > 1 {
-            format!("one network per reading value ({}), each {text}", self.nets.len())
+            let zero: Vec<String> = self.value_fitted.iter().enumerate().filter(|(_, f)| !**f).map(|(c, _)| (c + 1).to_string()).collect();
+            let zero = if self.fitted && !zero.is_empty() {
+                format!(" (value {} left at zero output weights by the same rule)", zero.join(", "))
+            } else {
+                String::new()
+            };
+            format!("one network per reading value ({}), each {text}{zero}", self.nets.len())
         } else {
             text
         }
@@ -192,21 +201,33 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     // standard error, else a win is the best of many candidates on noise.
     let r = folds.cv_residuals(chosen_system).unwrap_or_else(|| baseline.clone());
     let d: Vec<f64> = r.chunks(dim).zip(baseline.chunks(dim)).map(|(a, b)| a.iter().zip(b).map(|(a, b)| a * a - b * b).sum()).collect();
-    let nr = rows as f64;
-    let mean = d.iter().sum::<f64>() / nr;
-    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (nr * (nr - 1.0))).sqrt();
-    let fitted = mean + se < 0.0;
+    let fitted = one_se_win(&d);
+    // With several values, the same rule per value too: a value whose own held-out residuals
+    // the network does not improve by one standard error keeps zero output weights (the layout
+    // and penalty are shared, chosen for the values with something to learn).
+    let value_fitted: Vec<bool> = (0..dim)
+        .map(|c| fitted && (dim == 1 || one_se_win(&r.iter().zip(&baseline).skip(c).step_by(dim).map(|(a, b)| a * a - b * b).collect::<Vec<f64>>())))
+        .collect();
     let m = net.neurons();
     let nets = (0..dim)
         .map(|c| {
             let mut v = net.clone();
-            if fitted {
+            if value_fitted[c] {
                 v.weights = w.iter().skip(ng + c * m).take(m).copied().collect();
             }
             v
         })
         .collect();
-    Ok(Selection { nets, chosen, candidates, no_network_rmse_mm, fitted })
+    Ok(Selection { nets, chosen, candidates, no_network_rmse_mm, fitted, value_fitted })
+}
+
+/// Whether the changes `d` of squared held-out residuals are negative by more than their
+/// standard error.
+fn one_se_win(d: &[f64]) -> bool {
+    let nr = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / nr;
+    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (nr * (nr - 1.0))).sqrt();
+    mean + se < 0.0
 }
 
 use super::stats::rms;
@@ -271,6 +292,36 @@ mod tests {
         let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &no_geometry(&y)).unwrap();
         let (after, _) = held_out(&sel, |_| 0.0);
         assert!(after < 0.3 * 0.01, "network output on unseen poses {after:.5} mm for pure noise of ±0.01 mm; {}", sel.summary());
+    }
+
+    /// Three values per row (a tracker's x, y, z), each with its own field: one network per
+    /// value, each learning its value's field, folded by row; a value with nothing to learn
+    /// gets (almost) nothing.
+    #[test]
+    fn one_network_per_reading_value() {
+        let fields: [fn(&[f64]) -> f64; 3] = [|q: &[f64]| 0.05 * (q[1] + q[2]).cos() * q[1].sin(), |q: &[f64]| 0.04 * (q[0] - q[3]).sin(), |_: &[f64]| 0.0];
+        let (qs, _) = rows(300, 0.0, 1, |_| 0.0);
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let y: Vec<f64> = qs.iter().flat_map(|q| fields.iter().map(|f| f(q)).collect::<Vec<_>>()).map(|v| v + 0.01 * rng.random_range(-1.0..1.0)).collect();
+        let inputs = vec![RowInputs::default(); qs.len()];
+        let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &no_geometry(&y)).unwrap();
+        assert!(sel.fitted && sel.nets.len() == 3, "{}", sel.summary());
+        assert_eq!(sel.value_fitted, [true, true, false], "{}", sel.summary());
+        assert!(sel.nets[2].weights.iter().all(|w| *w == 0.0));
+        assert!(sel.summary().starts_with("one network per reading value (3)"), "{}", sel.summary());
+        assert!(sel.nets.iter().all(|n| n.neurons() == sel.chosen.neurons && n.projection == sel.nets[0].projection));
+        for (c, f) in fields.iter().enumerate() {
+            let one = Selection { nets: vec![sel.nets[c].clone()], ..sel.clone() };
+            let (after, before) = held_out(&one, f);
+            if c < 2 {
+                assert!(after < 0.35 * before, "value {c}: unseen poses {after:.4} mm left of {before:.4} mm");
+            } else {
+                assert!(after < 0.3 * 0.01, "value {c}: output {after:.5} mm on unseen poses for pure noise");
+            }
+        }
+        // Not a whole number of values per row.
+        let e = select(&qs[..299], &inputs[..299], &[], Activation::MexicanHat, &no_geometry(&y)).unwrap_err().to_string();
+        assert!(e.contains("not a whole number"), "{e}");
     }
 
     #[test]

@@ -752,3 +752,129 @@ impl PsoEkfAwnn {
         Ok(Solution { report: rep, corrector })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::awnn::Activation;
+    use crate::calib::model::{CalibModel, Placement, SensorGuess};
+    use crate::measurement::Measurement;
+    use crate::robot::Robot;
+    use nalgebra::Vector3;
+
+    /// A tracker model (three values per row) and `n` rows of its readings at seeded poses.
+    fn tracker_rows(n: usize) -> (CalibModel, Samples) {
+        let robot = Robot::irb120();
+        let cable = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+        let tracker = Placement { measurement: Measurement::Point, own: vec![2.5, -0.4, 0.3, 0.02, -0.015, 0.7], tool: Vector3::new(0.03, -0.02, 0.08) };
+        let model = CalibModel::dh(&robot, &cable, true).with_placement(&tracker);
+        let q: Vec<Vec<f64>> = (0..n).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin() * 1.2).collect()).collect();
+        let mut w = model.work();
+        let mut y = vec![0.0; 3 * n];
+        for (qi, yi) in q.iter().zip(y.chunks_mut(3)) {
+            model.readings_with(&model.nominal, qi, &Default::default(), &mut w, yi);
+        }
+        (model, Samples::readings(q, y, 3))
+    }
+
+    /// One network per value, each with its own (seeded) non-zero parameters.
+    fn nets(data: &Samples, dim: usize) -> Vec<Awnn> {
+        (0..dim)
+            .map(|c| {
+                let mut n = Awnn::init(&data.q, 5 + c, Activation::MexicanHat, 3 + c as u64).unwrap();
+                let mut p = n.params();
+                p.iter_mut().enumerate().for_each(|(k, v)| *v += 0.2 * ((k * (c + 2)) as f64 * 0.71).sin());
+                n.set_params(&p);
+                n
+            })
+            .collect()
+    }
+
+    /// V5's joint problem on a tracker's points: residual `k` is value `k % 3` of row `k / 3`
+    /// less that value's network, and the Jacobian (geometry and every network's output layer)
+    /// agrees with central finite differences.
+    #[test]
+    fn joint_problem_on_points_matches_finite_differences() {
+        let (model, data) = tracker_rows(12);
+        let fit = ReadingFit { model: &model, data: &data };
+        let nets = nets(&data, 3);
+        let joint = Joint::new(&fit, &nets);
+        let nm = model.n_params();
+        assert_eq!(joint.n_residuals(), 36);
+        assert_eq!(joint.n_params(), nm + 5 + 6 + 7);
+        let mut x = model.nominal.clone();
+        x.iter_mut().enumerate().for_each(|(k, v)| *v += 1e-4 * (k as f64 * 0.3).cos());
+        for n in &nets {
+            x.extend(&n.weights);
+        }
+        let mut r = vec![0.0; 36];
+        joint.residuals(&x, &mut r);
+        let geo = fit.residuals_mm(&x[..nm]);
+        for (k, rk) in r.iter().enumerate() {
+            let want = geo[k] - nets[k % 3].eval(&data.q[k / 3]);
+            assert!((rk - want).abs() < 1e-12, "residual {k}: {rk} vs {want}");
+        }
+        let back = joint.nets_at(&x);
+        assert_eq!(back, nets);
+        let mut j = DMatrix::from_element(36, joint.n_params(), f64::NAN);
+        joint.jacobian(&x, &mut j);
+        let (mut rp, mut rm) = (vec![0.0; 36], vec![0.0; 36]);
+        for p in 0..x.len() {
+            let h = if p < nm { 1e-7 } else { 1e-5 };
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[p] += h;
+            xm[p] -= h;
+            joint.residuals(&xp, &mut rp);
+            joint.residuals(&xm, &mut rm);
+            for k in 0..36 {
+                let fd = (rp[k] - rm[k]) / (2.0 * h);
+                assert!((fd - j[(k, p)]).abs() < 1e-5 * (1.0 + fd.abs()), "residual {k}, parameter {p}: {fd} vs {}", j[(k, p)]);
+            }
+        }
+    }
+
+    /// The EKF's hook corrects observation `i` with network `i % dim` at row `i / dim`, and its
+    /// SGD step moves that network alone; Stage II's frozen offsets are laid out as the residuals.
+    #[test]
+    fn each_value_has_its_own_network() {
+        let (model, data) = tracker_rows(10);
+        let nets = nets(&data, 3);
+        let mut l = Learner {
+            nets: Some(nets.clone()),
+            dim: 3,
+            q: &data.q,
+            inputs: &data.inputs,
+            lr: 0.1,
+            scratch: vec![0.0; 1000],
+            sse: 0.0,
+            count: 0,
+            last_rmse: f64::INFINITY,
+        };
+        for i in 0..30 {
+            assert_eq!(l.offset(i), nets[i % 3].eval(&data.q[i / 3]), "observation {i}");
+        }
+        l.innovation(7, 0.5);
+        let after = l.nets.as_ref().unwrap();
+        assert_eq!(after[0], nets[0]);
+        assert_eq!(after[2], nets[2]);
+        assert_ne!(after[1], nets[1]);
+        // Value 1 of row 2 moved towards its innovation.
+        assert!(after[1].eval(&data.q[2]) > nets[1].eval(&data.q[2]));
+        // Stage II with the networks frozen: its residuals are the fit's less each value's network.
+        let fit = ReadingFit { model: &model, data: &data };
+        let p =
+            Problem { fit: &fit, x0: &model.nominal, fixed: &vec![true; model.n_params()], prior_std: &vec![1e-3; model.n_params()], noise_mm: 0.01, seed: 1 };
+        let (_, back) = PsoEkfAwnn::default().stage_two(&p, &model.nominal, Some(nets.clone()), &mut NoObserver);
+        assert_eq!(back.unwrap(), nets);
+        let offset: Vec<f64> = data.q.iter().flat_map(|q| nets.iter().map(move |n| n.eval(q))).collect();
+        let c = Corrected { fit: &fit, offset };
+        let mut r = vec![0.0; 30];
+        c.residuals(&model.nominal, &mut r);
+        for (k, rk) in r.iter().enumerate() {
+            assert!((rk + nets[k % 3].eval(&data.q[k / 3])).abs() < 1e-12);
+        }
+        // The learning rate's scale is the mean over every value's network.
+        let per: Vec<f64> = nets.iter().map(|n| mean_gradient_square(std::slice::from_ref(n), &data)).collect();
+        assert!((mean_gradient_square(&nets, &data) - per.iter().sum::<f64>() / 3.0).abs() < 1e-9 * per[0]);
+    }
+}

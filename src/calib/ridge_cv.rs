@@ -169,4 +169,27 @@ mod tests {
         let rmse = (r.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
         assert!((folds.cv_rmse(ridge) - rmse).abs() < 1e-15);
     }
+
+    /// With several values per row, a fold holds whole rows: every value of a held-out row is
+    /// predicted by the fit on the other rows' values alone.
+    #[test]
+    fn folds_by_row_hold_every_value_of_a_row() {
+        let (rows, dim, k) = (11, 3, 3);
+        let n = rows * dim;
+        let basis = DMatrix::from_fn(n, 4, |i, c| ((i * 5 + c * 3) as f64 * 0.41).sin() + if c == 0 { 1.0 } else { 0.0 });
+        let y: Vec<f64> = (0..n).map(|i| (i as f64 * 0.13).cos()).collect();
+        let folds = Folds::by_row(basis.clone(), &y, &vec![y.clone(); k], dim);
+        let ridge = |g: &DMatrix<f64>| g + DMatrix::identity(4, 4) * 0.3;
+        let r = folds.cv_residuals(ridge).unwrap();
+        for f in 0..k {
+            let train: Vec<usize> = (0..n).filter(|i| (i / dim) % k != f).collect();
+            let bt = basis.select_rows(&train);
+            let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| y[i]));
+            let w = Cholesky::new(ridge(&(bt.transpose() * &bt))).unwrap().solve(&(bt.transpose() * yt));
+            for i in (0..n).filter(|i| (i / dim) % k == f) {
+                let e = y[i] - basis.row(i).dot(&w.transpose());
+                assert!((e - r[i]).abs() < 1e-12, "value {i}: {e} vs {}", r[i]);
+            }
+        }
+    }
 }
