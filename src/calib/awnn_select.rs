@@ -26,6 +26,17 @@
 //! held-out residuals (a best-of-100 win on a few dozen rows is mostly luck): then the output
 //! weights stay zero.
 //!
+//! **Several values per row** (a tracker's x, y, z; the residuals row after row): one network
+//! per value with the same layout and the same (λ_n, ρ). The system couples the shared geometric
+//! columns with one network block per value (value `c` of a row sees block `c` alone, so the
+//! network blocks of the normal matrix are block-diagonal); the folds hold whole rows (every
+//! value of a row held out together, as [`GeometricFit`] refits the geometry without them); the
+//! candidates are scored on the held-out RMSE over every value, and the one-standard-error rule
+//! compares each row's squared held-out residuals summed over its values. Then, per value, the
+//! same rule on that value's residuals alone: a value whose network does not improve it keeps
+//! zero output weights (the shared penalty, chosen for the values with something to learn, would
+//! otherwise let its network fit noise). With one value this is exactly the rule above.
+//!
 //! Candidates (documented in the README): [`LIBRARIES`] × [`NEURAL`] × [`RIDGES`], 100
 //! candidates, 500 Cholesky solves.
 

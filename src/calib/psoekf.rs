@@ -23,6 +23,17 @@
 //!
 //! The network is the EKF's [`ObservationHook`]: the filter itself is [`Ekf`], unchanged.
 //!
+//! **Readings of several values per row** (a laser tracker's x, y, z): one network per reading
+//! value, all with the layout and penalties chosen once for all values (their CV fits the shared
+//! geometry with one network block per value, folds by row, see [`super::awnn_select`]). As EKF
+//! observations, observation `i` is value `i % dim` of row `i / dim`: the hook adds network
+//! `i % dim`'s output at row `i / dim` and trains that network alone on the innovation; the
+//! learning rate's scale `ḡ²` is the mean over every value's network. Stage II subtracts each
+//! value's network from that value's residual; V5 fits the geometry and every network's output
+//! layer (`Σ M` weights); `-x` refines each network on its value's residuals. The corrector is
+//! [`Corrector::Values`] of one [`Corrector::Awnn`] per value. With one value (a cable length)
+//! it is a plain [`Corrector::Awnn`], and every stage computes what it did before.
+//!
 //! **Search box of Stage 0** (log-uniform, [`SearchSpace::default`]): the process noise is
 //! `Q = q_rel·σ̄²` per state with `σ̄²` the median prior variance of the free parameters (from
 //! the documented tolerances) and `q_rel ∈ [1e-8, 1e-2]`; the measurement noise is
