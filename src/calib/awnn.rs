@@ -200,6 +200,11 @@ pub struct Awnn {
     /// than it learned. Absent: no limit (files written before the guard).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output_range: Option<[f64; 2]>,
+    /// Held at zero output weights while the method trains (the network's choice found it no
+    /// better than the geometry alone by one standard error): SGD, the refinement and V5's
+    /// joint problem leave it as it is. Not stored.
+    #[serde(skip)]
+    pub frozen: bool,
 }
 
 /// Widening of [`Awnn::output_range`] beyond the training outputs, as a share of their span.
@@ -309,6 +314,7 @@ impl Awnn {
             dilation: Vec::new(),
             weights: Vec::new(),
             output_range: None,
+            frozen: false,
         };
         Ok((net, std))
     }
@@ -465,7 +471,7 @@ impl Awnn {
     /// by `η·e·∂f/∂θ`. A step that would make anything non-finite is skipped. `g` is scratch of
     /// length [`n_params`](Self::n_params).
     pub fn sgd_step(&mut self, q: &[f64], inp: &RowInputs, e: f64, lr: f64, g: &mut [f64]) {
-        if !(e.is_finite() && lr.is_finite()) {
+        if self.frozen || !(e.is_finite() && lr.is_finite()) {
             return;
         }
         self.eval_param_grad(q, inp, g);

@@ -26,6 +26,17 @@
 //! held-out residuals (a best-of-100 win on a few dozen rows is mostly luck): then the output
 //! weights stay zero.
 //!
+//! **Several values per row** (a tracker's x, y, z; the residuals row after row): one network
+//! per value with the same layout and the same (λ_n, ρ). The system couples the shared geometric
+//! columns with one network block per value (value `c` of a row sees block `c` alone, so the
+//! network blocks of the normal matrix are block-diagonal); the folds hold whole rows (every
+//! value of a row held out together, as [`GeometricFit`] refits the geometry without them); the
+//! candidates are scored on the held-out RMSE over every value, and the one-standard-error rule
+//! compares each row's squared held-out residuals summed over its values. Then, per value, the
+//! same rule on that value's residuals alone: a value whose network does not improve it keeps
+//! zero output weights (the shared penalty, chosen for the values with something to learn, would
+//! otherwise let its network fit noise). With one value this is exactly the rule above.
+//!
 //! Candidates (documented in the README): [`LIBRARIES`] × [`NEURAL`] × [`RIDGES`], 100
 //! candidates, 500 Cholesky solves.
 
@@ -67,19 +78,38 @@ pub struct Candidate {
 /// the held-out RMSE of no network at all.
 #[derive(Clone, Debug)]
 pub struct Selection {
-    pub net: Awnn,
+    /// One network per reading value (one for a cable length), the same layout for all.
+    pub nets: Vec<Awnn>,
     pub chosen: Candidate,
     pub candidates: Vec<Candidate>,
     /// Held-out RMSE of the geometric columns alone, mm.
     pub no_network_rmse_mm: f64,
     /// Whether the chosen candidate beat the geometry alone by more than one standard error; if
-    /// not, `net` keeps the chosen layout with zero output weights.
+    /// not, `nets` keep the chosen layout with zero output weights.
     pub fitted: bool,
+    /// Per reading value, whether its network kept its fitted output weights (with several
+    /// values each must also beat the geometry alone on its own value by one standard error).
+    pub value_fitted: Vec<bool>,
 }
 
 impl Selection {
     /// One line for reports.
     pub fn summary(&self) -> String {
+        let text = self.summary_one();
+        if self.nets.len() > 1 {
+            let zero: Vec<String> = self.value_fitted.iter().enumerate().filter(|(_, f)| !**f).map(|(c, _)| (c + 1).to_string()).collect();
+            let zero = if self.fitted && !zero.is_empty() {
+                format!(" (value {} left at zero output weights by the same rule)", zero.join(", "))
+            } else {
+                String::new()
+            };
+            format!("one network per reading value ({}), each {text}{zero}", self.nets.len())
+        } else {
+            text
+        }
+    }
+
+    fn summary_one(&self) -> String {
         let c = &self.chosen;
         if !self.fitted {
             return format!(
@@ -109,8 +139,14 @@ impl Selection {
 pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activation: Activation, g: &GeometricFit) -> Result<Selection> {
     let (y, geometry) = (&g.residuals[..], &g.jacobian);
     let n = y.len();
-    if n < 2 * FOLDS || qs.len() != n {
-        return Err(Error::Calibration(format!("{n} training rows are too few to choose the network by {FOLDS}-fold cross-validation")));
+    let rows = qs.len();
+    if rows == 0 || n % rows != 0 {
+        return Err(Error::Calibration(format!("{n} residuals for {rows} training rows: not a whole number of reading values per row")));
+    }
+    // Reading values per row: one network each, value c of row i at y[i·dim + c].
+    let dim = n / rows;
+    if rows < 2 * FOLDS {
+        return Err(Error::Calibration(format!("{rows} training rows are too few to choose the network by {FOLDS}-fold cross-validation")));
     }
     if g.per_fold.len() != FOLDS || g.per_fold.iter().any(|f| f.len() != n) {
         return Err(Error::Calibration("the out-of-fold geometric fits do not match the training rows".into()));
@@ -128,7 +164,7 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     // A tiny ridge on the geometric block keeps a rank-deficient Jacobian solvable.
     let geo_ridge = 1e-9 * n as f64;
     let baseline =
-        if ng == 0 { Some(y.to_vec()) } else { Folds::with_fold_targets(geo.clone(), y, &g.per_fold).cv_residuals(|g| system(g, ng, 0.0, 0.0, geo_ridge)) }
+        if ng == 0 { Some(y.to_vec()) } else { Folds::by_row(geo.clone(), y, &g.per_fold, dim).cv_residuals(|g| system(g, ng, 0.0, 0.0, geo_ridge)) }
             .ok_or_else(|| Error::Calibration("the geometric columns alone could not be fitted in the cross-validation".into()))?;
     let no_network_rmse_mm = rms(&baseline);
     let mut best: Option<(Candidate, Folds, Awnn, f64)> = None;
@@ -136,11 +172,22 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     for library in LIBRARIES {
         let net = Awnn::library(qs, inputs, extra, &library, activation).map_err(Error::Calibration)?;
         let m = net.neurons();
-        let mut basis = DMatrix::zeros(n, ng + m);
+        // Geometric columns shared by every value, then one block of network columns per value
+        // (value c's rows see network c alone).
+        let mut basis = DMatrix::zeros(n, ng + dim * m);
         basis.columns_mut(0, ng).copy_from(&geo);
-        basis.columns_mut(ng, m).copy_from(&net.hidden_matrix(qs, inputs));
-        let folds = Folds::with_fold_targets(basis, y, &g.per_fold);
-        let scale = (folds.gram().view((ng, ng), (m, m)).trace() / m as f64).max(1e-12);
+        let hidden = net.hidden_matrix(qs, inputs);
+        if dim == 1 {
+            basis.columns_mut(ng, m).copy_from(&hidden);
+        } else {
+            for i in 0..rows {
+                for c in 0..dim {
+                    basis.view_mut((i * dim + c, ng + c * m), (1, m)).copy_from(&hidden.row(i));
+                }
+            }
+        }
+        let folds = Folds::by_row(basis, y, &g.per_fold, dim);
+        let scale = (folds.gram().view((ng, ng), (dim * m, dim * m)).trace() / (dim * m) as f64).max(1e-12);
         let grid: Vec<(f64, f64)> = NEURAL.iter().flat_map(|&a| RIDGES.iter().map(move |&b| (a, b))).collect();
         let scores: Vec<f64> = grid.par_iter().map(|&(ln, rho)| folds.cv_rmse(|g| system(g, ng, ln, rho * scale, geo_ridge))).collect();
         let mut here = None::<Candidate>;
@@ -157,21 +204,44 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
             }
         }
     }
-    let (chosen, folds, mut net, scale) = best.ok_or_else(|| Error::Calibration("no network layout could be fitted in the cross-validation".into()))?;
+    let (chosen, folds, net, scale) = best.ok_or_else(|| Error::Calibration("no network layout could be fitted in the cross-validation".into()))?;
     let chosen_system = |g: &DMatrix<f64>| system(g, ng, chosen.neural, chosen.ridge * scale, geo_ridge);
     let w = folds.fit_all(chosen_system).ok_or_else(|| Error::Calibration("the chosen network's output layer could not be fitted".into()))?;
     // One-standard-error rule against the geometry alone: the per-row change of the squared
-    // held-out residual must be negative by more than its standard error, else a win is the
-    // best of many candidates on noise.
+    // held-out residual (summed over the row's values) must be negative by more than its
+    // standard error, else a win is the best of many candidates on noise.
     let r = folds.cv_residuals(chosen_system).unwrap_or_else(|| baseline.clone());
-    let d: Vec<f64> = r.iter().zip(&baseline).map(|(a, b)| a * a - b * b).collect();
-    let mean = d.iter().sum::<f64>() / n as f64;
-    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n as f64 * (n as f64 - 1.0))).sqrt();
-    let fitted = mean + se < 0.0;
-    if fitted {
-        net.weights = w.iter().skip(ng).copied().collect();
-    }
-    Ok(Selection { net, chosen, candidates, no_network_rmse_mm, fitted })
+    let d: Vec<f64> = r.chunks(dim).zip(baseline.chunks(dim)).map(|(a, b)| a.iter().zip(b).map(|(a, b)| a * a - b * b).sum()).collect();
+    let fitted = one_se_win(&d);
+    // With several values, the same rule per value too: a value whose own held-out residuals
+    // the network does not improve by one standard error keeps zero output weights (the layout
+    // and penalty are shared, chosen for the values with something to learn).
+    let value_fitted: Vec<bool> = (0..dim)
+        .map(|c| fitted && (dim == 1 || one_se_win(&r.iter().zip(&baseline).skip(c).step_by(dim).map(|(a, b)| a * a - b * b).collect::<Vec<f64>>())))
+        .collect();
+    let m = net.neurons();
+    let nets = (0..dim)
+        .map(|c| {
+            let mut v = net.clone();
+            if value_fitted[c] {
+                v.weights = w.iter().skip(ng + c * m).take(m).copied().collect();
+            } else {
+                // The one-standard-error rule: no output, and none learned later.
+                v.frozen = true;
+            }
+            v
+        })
+        .collect();
+    Ok(Selection { nets, chosen, candidates, no_network_rmse_mm, fitted, value_fitted })
+}
+
+/// Whether the changes `d` of squared held-out residuals are negative by more than their
+/// standard error.
+fn one_se_win(d: &[f64]) -> bool {
+    let nr = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / nr;
+    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (nr * (nr - 1.0))).sqrt();
+    mean + se < 0.0
 }
 
 use super::stats::rms;
@@ -216,7 +286,7 @@ mod tests {
             let v: Vec<f64> = v.collect();
             rms(&v)
         };
-        let after = rms(&mut qs.iter().zip(&truth).map(|(q, t)| t - sel.net.eval(q)));
+        let after = rms(&mut qs.iter().zip(&truth).map(|(q, t)| t - sel.nets[0].eval(q)));
         (after, rms(&mut truth.iter().copied()))
     }
 
@@ -236,6 +306,36 @@ mod tests {
         let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &no_geometry(&y)).unwrap();
         let (after, _) = held_out(&sel, |_| 0.0);
         assert!(after < 0.3 * 0.01, "network output on unseen poses {after:.5} mm for pure noise of ±0.01 mm; {}", sel.summary());
+    }
+
+    /// Three values per row (a tracker's x, y, z), each with its own field: one network per
+    /// value, each learning its value's field, folded by row; a value with nothing to learn
+    /// gets (almost) nothing.
+    #[test]
+    fn one_network_per_reading_value() {
+        let fields: [fn(&[f64]) -> f64; 3] = [|q: &[f64]| 0.05 * (q[1] + q[2]).cos() * q[1].sin(), |q: &[f64]| 0.04 * (q[0] - q[3]).sin(), |_: &[f64]| 0.0];
+        let (qs, _) = rows(300, 0.0, 1, |_| 0.0);
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let y: Vec<f64> = qs.iter().flat_map(|q| fields.iter().map(|f| f(q)).collect::<Vec<_>>()).map(|v| v + 0.01 * rng.random_range(-1.0..1.0)).collect();
+        let inputs = vec![RowInputs::default(); qs.len()];
+        let sel = select(&qs, &inputs, &[], Activation::MexicanHat, &no_geometry(&y)).unwrap();
+        assert!(sel.fitted && sel.nets.len() == 3, "{}", sel.summary());
+        assert_eq!(sel.value_fitted, [true, true, false], "{}", sel.summary());
+        assert!(sel.nets[2].weights.iter().all(|w| *w == 0.0));
+        assert!(sel.summary().starts_with("one network per reading value (3)"), "{}", sel.summary());
+        assert!(sel.nets.iter().all(|n| n.neurons() == sel.chosen.neurons && n.projection == sel.nets[0].projection));
+        for (c, f) in fields.iter().enumerate() {
+            let one = Selection { nets: vec![sel.nets[c].clone()], ..sel.clone() };
+            let (after, before) = held_out(&one, f);
+            if c < 2 {
+                assert!(after < 0.35 * before, "value {c}: unseen poses {after:.4} mm left of {before:.4} mm");
+            } else {
+                assert!(after < 0.3 * 0.01, "value {c}: output {after:.5} mm on unseen poses for pure noise");
+            }
+        }
+        // Not a whole number of values per row.
+        let e = select(&qs[..299], &inputs[..299], &[], Activation::MexicanHat, &no_geometry(&y)).unwrap_err().to_string();
+        assert!(e.contains("not a whole number"), "{e}");
     }
 
     #[test]

@@ -59,24 +59,6 @@ impl TryFrom<String> for Method {
 impl Method {
     pub const ALL: [Method; 5] = [Method::Lm, Method::Ekf, Method::Pf, Method::Pso, Method::Rbf];
 
-    /// Whether the method learns a corrector of one reading value per row only (the papers'
-    /// networks, trained on a cable length's residual); `rbf` and `dsade-gkan` fit one network
-    /// per value.
-    pub fn corrects_one_value_only(self) -> bool {
-        !matches!(
-            self,
-            Method::Lm
-                | Method::Ekf
-                | Method::Pf
-                | Method::Pso
-                | Method::Rbf
-                | Method::DsadeGkan
-                | Method::DsadeGkanV1
-                | Method::DsadeGkanV2
-                | Method::DsadeGkanV3
-        )
-    }
-
     /// The Evo-NPH method and its ablations (not in [`Method::ALL`], the core's baselines).
     pub const EVO_NPH: [Method; 4] = [Method::DsadeGkan, Method::DsadeGkanV1, Method::DsadeGkanV2, Method::DsadeGkanV3];
 

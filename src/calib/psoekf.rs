@@ -23,6 +23,17 @@
 //!
 //! The network is the EKF's [`ObservationHook`]: the filter itself is [`Ekf`], unchanged.
 //!
+//! **Readings of several values per row** (a laser tracker's x, y, z): one network per reading
+//! value, all with the layout and penalties chosen once for all values (their CV fits the shared
+//! geometry with one network block per value, folds by row, see [`super::awnn_select`]). As EKF
+//! observations, observation `i` is value `i % dim` of row `i / dim`: the hook adds network
+//! `i % dim`'s output at row `i / dim` and trains that network alone on the innovation; the
+//! learning rate's scale `ḡ²` is the mean over every value's network. Stage II subtracts each
+//! value's network from that value's residual; V5 fits the geometry and every network's output
+//! layer (`Σ M` weights); `-x` refines each network on its value's residuals. The corrector is
+//! [`Corrector::Values`] of one [`Corrector::Awnn`] per value. With one value (a cable length)
+//! it is a plain [`Corrector::Awnn`], and every stage computes what it did before.
+//!
 //! **Search box of Stage 0** (log-uniform, [`SearchSpace::default`]): the process noise is
 //! `Q = q_rel·σ̄²` per state with `σ̄²` the median prior variance of the free parameters (from
 //! the documented tolerances) and `q_rel ∈ [1e-8, 1e-2]`; the measurement noise is
@@ -44,7 +55,7 @@
 
 use super::awnn::{Activation, Awnn, Feature};
 use super::awnn_select::{select, Selection};
-use super::corrector::Corrector;
+use super::corrector::{Corrector, PerValue};
 use super::effects::RowInputs;
 use super::method::{Method, Problem, Solution, Solver};
 use super::problem::ReadingFit;
@@ -251,10 +262,12 @@ impl PsoEkfAwnn {
     }
 }
 
-/// The network as the EKF's observation hook: adds its output to each prediction and takes one
-/// SGD step per innovation; keeps the innovation RMSE of the last finished epoch.
+/// The networks as the EKF's observation hook: observation `i` is value `i % dim` of row
+/// `i / dim`, corrected by network `i % dim`, which takes one SGD step on its innovation; keeps
+/// the innovation RMSE of the last finished epoch.
 struct Learner<'a> {
-    net: Option<Awnn>,
+    nets: Option<Vec<Awnn>>,
+    dim: usize,
     q: &'a [Vec<f64>],
     inputs: &'a [RowInputs],
     lr: f64,
@@ -266,13 +279,16 @@ struct Learner<'a> {
 
 impl ObservationHook for Learner<'_> {
     fn offset(&self, i: usize) -> f64 {
-        self.net.as_ref().map_or(0.0, |n| n.eval_row(&self.q[i], &self.inputs[i]))
+        let (row, c) = (i / self.dim, i % self.dim);
+        self.nets.as_ref().map_or(0.0, |n| n[c].eval_row(&self.q[row], &self.inputs[row]))
     }
     fn innovation(&mut self, i: usize, y: f64) {
         self.sse += y * y;
         self.count += 1;
-        if let Some(n) = self.net.as_mut() {
-            n.sgd_step(&self.q[i], &self.inputs[i], y, self.lr, &mut self.scratch);
+        let (row, c) = (i / self.dim, i % self.dim);
+        if let Some(n) = self.nets.as_mut() {
+            let g = &mut self.scratch[..n[c].n_params()];
+            n[c].sgd_step(&self.q[row], &self.inputs[row], y, self.lr, g);
         }
     }
     fn end_epoch(&mut self) {
@@ -285,7 +301,8 @@ impl ObservationHook for Learner<'_> {
 /// What Stage I leaves.
 pub struct StageOne {
     pub x: Vec<f64>,
-    pub net: Option<Awnn>,
+    /// One network per reading value (none for V1).
+    pub nets: Option<Vec<Awnn>>,
     /// RMS innovation (mm) over the last epoch: Stage 0's fitness.
     pub innovation_rmse: f64,
     pub report: Report,
@@ -294,7 +311,7 @@ pub struct StageOne {
 /// The least-squares problem of Stage II: the fit's residuals minus a frozen correction.
 pub struct Corrected<'a, 'b> {
     pub fit: &'a ReadingFit<'b>,
-    /// The frozen correction per training row, mm.
+    /// The frozen correction per training reading value (row after row, as the residuals), mm.
     pub offset: Vec<f64>,
 }
 
@@ -314,47 +331,67 @@ impl LeastSquares for Corrected<'_, '_> {
     }
 }
 
-/// Stage II of ablation V5: the geometry and the network's output layer in one least-squares
-/// problem (the output weights are what the network's fit is made of; its hidden layer stays
-/// where Stage I left it, which keeps the problem at geometry + M unknowns).
+/// Stage II of ablation V5: the geometry and every network's output layer in one least-squares
+/// problem (the output weights are what a network's fit is made of; its hidden layer stays
+/// where Stage I left it, which keeps the problem at geometry + Σ M unknowns). Value `c` of a
+/// row is corrected by network `c` alone: its residual sees that network's weights only.
 struct Joint<'a, 'b> {
     fit: &'a ReadingFit<'b>,
-    net: &'a Awnn,
-    /// Every neuron's activation at every training row.
-    hidden: DMatrix<f64>,
+    nets: &'a [Awnn],
+    /// Per network, every neuron's activation at every training row.
+    hidden: Vec<DMatrix<f64>>,
 }
 
 impl<'a, 'b> Joint<'a, 'b> {
-    fn new(fit: &'a ReadingFit<'b>, net: &'a Awnn) -> Self {
-        Joint { fit, net, hidden: net.hidden_matrix(&fit.data.q, &fit.data.inputs) }
+    fn new(fit: &'a ReadingFit<'b>, nets: &'a [Awnn]) -> Self {
+        Joint { fit, nets, hidden: nets.iter().map(|n| n.hidden_matrix(&fit.data.q, &fit.data.inputs)).collect() }
     }
-    fn net_at(&self, x: &[f64]) -> Awnn {
-        let mut n = self.net.clone();
-        n.weights.copy_from_slice(&x[self.fit.model.n_params()..]);
-        n
+    /// Where network `c`'s output weights start in the parameter vector.
+    fn start(&self, c: usize) -> usize {
+        self.fit.model.n_params() + self.nets[..c].iter().map(|n| n.neurons()).sum::<usize>()
+    }
+    fn nets_at(&self, x: &[f64]) -> Vec<Awnn> {
+        (0..self.nets.len())
+            .map(|c| {
+                let mut n = self.nets[c].clone();
+                let k = self.start(c);
+                let m = n.neurons();
+                n.weights.copy_from_slice(&x[k..k + m]);
+                n
+            })
+            .collect()
     }
 }
 
 impl LeastSquares for Joint<'_, '_> {
     fn n_params(&self) -> usize {
-        self.fit.model.n_params() + self.net.neurons()
+        self.fit.model.n_params() + self.nets.iter().map(|n| n.neurons()).sum::<usize>()
     }
     fn n_residuals(&self) -> usize {
-        self.fit.data.len()
+        self.fit.data.y.len()
     }
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
-        let nm = self.fit.model.n_params();
+        let (nm, d) = (self.fit.model.n_params(), self.fit.data.dim);
         LeastSquares::residuals(self.fit, &x[..nm], r);
-        for (i, ri) in r.iter_mut().enumerate() {
-            *ri -= self.hidden.row(i).iter().zip(&x[nm..]).map(|(h, w)| h * w).sum::<f64>();
+        for (k, rk) in r.iter_mut().enumerate() {
+            let (i, c) = (k / d, k % d);
+            *rk -= self.hidden[c].row(i).iter().zip(&x[self.start(c)..]).map(|(h, w)| h * w).sum::<f64>();
         }
     }
     fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
-        let nm = self.fit.model.n_params();
-        let mut jm = DMatrix::zeros(self.fit.data.len(), nm);
+        let (nm, d) = (self.fit.model.n_params(), self.fit.data.dim);
+        let mut jm = DMatrix::zeros(self.fit.data.y.len(), nm);
         LeastSquares::jacobian(self.fit, &x[..nm], &mut jm);
+        j.fill(0.0);
         j.view_mut((0, 0), jm.shape()).copy_from(&jm);
-        j.view_mut((0, nm), self.hidden.shape()).copy_from(&(-&self.hidden));
+        for (c, h) in self.hidden.iter().enumerate() {
+            let k = self.start(c);
+            for i in 0..h.nrows() {
+                for (m, v) in h.row(i).iter().enumerate() {
+                    j[(i * d + c, k + m)] = -v;
+                }
+            }
+        }
     }
 }
 
@@ -365,20 +402,25 @@ fn shuffled(n: usize, seed: u64) -> Vec<usize> {
     order
 }
 
-/// Mean over the rows of `data` of `‖∂f/∂θ‖²`, the squared norm of the network's gradient with
-/// respect to all its parameters (the scale of the learning rate).
-fn mean_gradient_square(net: &Awnn, data: &Samples) -> f64 {
-    let mut g = vec![0.0; net.n_params()];
+/// Mean over the reading values of `data` of `‖∂f/∂θ‖²`, the squared norm of the gradient of
+/// the value's network with respect to all its parameters (the scale of the learning rate).
+fn mean_gradient_square(nets: &[Awnn], data: &Samples) -> f64 {
+    let mut g = vec![0.0; nets.iter().map(|n| n.n_params()).max().unwrap_or(0)];
     let s: f64 = data
         .q
         .iter()
         .zip(&data.inputs)
         .map(|(q, inp)| {
-            net.eval_param_grad(q, inp, &mut g);
-            g.iter().map(|v| v * v).sum::<f64>()
+            nets.iter()
+                .map(|net| {
+                    let g = &mut g[..net.n_params()];
+                    net.eval_param_grad(q, inp, g);
+                    g.iter().map(|v| v * v).sum::<f64>()
+                })
+                .sum::<f64>()
         })
         .sum();
-    let m = s / data.len().max(1) as f64;
+    let m = s / (data.len() * nets.len()).max(1) as f64;
     if m.is_finite() && m > 1e-12 {
         m
     } else {
@@ -398,7 +440,7 @@ fn prior_var_scale(p: &Problem) -> f64 {
 
 /// Condition number of the column-scaled Jacobian of the free parameters.
 pub fn observation_condition(fit: &ReadingFit, x: &[f64], fixed: &[bool]) -> f64 {
-    let mut j = DMatrix::zeros(fit.data.len(), fit.model.n_params());
+    let mut j = DMatrix::zeros(fit.data.y.len(), fit.model.n_params());
     LeastSquares::jacobian(fit, x, &mut j);
     let cols: Vec<usize> = (0..x.len()).filter(|k| !fixed[*k]).collect();
     let mut m = DMatrix::zeros(j.nrows(), cols.len());
@@ -421,22 +463,23 @@ pub fn observation_condition(fit: &ReadingFit, x: &[f64], fixed: &[bool]) -> f64
 }
 
 impl PsoEkfAwnn {
-    /// The network Stage I starts from (none for V1): with [`NetStart::Selected`] the layout
-    /// and output layer chosen by cross-validation on what a geometric LM fit leaves on the
-    /// training rows ([`super::awnn_select`]), with [`NetStart::Zero`] the small zero-output
-    /// network of [`Awnn::init_with`].
-    pub fn new_net(&self, p: &Problem) -> Result<(Option<Awnn>, Option<Selection>)> {
+    /// The networks Stage I starts from, one per reading value (none for V1): with
+    /// [`NetStart::Selected`] the layout and output layers chosen by cross-validation on what a
+    /// geometric LM fit leaves on the training rows ([`super::awnn_select`]), with
+    /// [`NetStart::Zero`] the small zero-output network of [`Awnn::init_with`] for every value.
+    pub fn new_net(&self, p: &Problem) -> Result<(Option<Vec<Awnn>>, Option<Selection>)> {
         let d = p.fit.data;
         let extra = self.inputs.features(d);
         let Some(act) = self.variant.activation() else { return Ok((None, None)) };
         match self.start {
             NetStart::Zero => {
-                Ok((Some(Awnn::init_with(&d.q, &d.inputs, &extra, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration)?), None))
+                let net = Awnn::init_with(&d.q, &d.inputs, &extra, self.neurons.max(1), act, p.seed ^ 0xA5A5_0001).map_err(Error::Calibration)?;
+                Ok((Some(vec![net; d.dim.max(1)]), None))
             }
             NetStart::Selected => {
                 let geometric = GeometricFit::new(p.fit, &self.lm, p.x0, p.fixed);
                 let sel = select(&d.q, &d.inputs, &extra, act, &geometric)?;
-                Ok((Some(sel.net.clone()), Some(sel)))
+                Ok((Some(sel.nets.clone()), Some(sel)))
             }
         }
     }
@@ -453,29 +496,32 @@ impl PsoEkfAwnn {
         }
     }
 
-    /// Stage I with hyperparameters `h`, from `p.x0` and the fresh network `net`.
-    pub fn stage_one(&self, p: &Problem, h: &Hyper, net: Option<Awnn>, obs: &mut dyn Observer) -> StageOne {
-        let scale = net.as_ref().map_or(1.0, |n| mean_gradient_square(n, p.fit.data));
-        self.stage_one_scaled(p, h, net, scale, obs)
+    /// Stage I with hyperparameters `h`, from `p.x0` and the fresh networks `nets` (one per
+    /// reading value).
+    pub fn stage_one(&self, p: &Problem, h: &Hyper, nets: Option<Vec<Awnn>>, obs: &mut dyn Observer) -> StageOne {
+        let scale = nets.as_ref().map_or(1.0, |n| mean_gradient_square(n, p.fit.data));
+        self.stage_one_scaled(p, h, nets, scale, obs)
     }
 
-    /// [`stage_one`](Self::stage_one) with the learning rate's scale `ḡ²` of `net` given.
-    fn stage_one_scaled(&self, p: &Problem, h: &Hyper, net: Option<Awnn>, scale: f64, obs: &mut dyn Observer) -> StageOne {
+    /// [`stage_one`](Self::stage_one) with the learning rate's scale `ḡ²` of `nets` given.
+    fn stage_one_scaled(&self, p: &Problem, h: &Hyper, nets: Option<Vec<Awnn>>, scale: f64, obs: &mut dyn Observer) -> StageOne {
         let p0 = p.prior_std.iter().map(|s| (3.0 * s).powi(2)).collect();
         let noise = if p.noise_mm.is_finite() && p.noise_mm > 0.0 { p.noise_mm } else { 0.01 };
         let ekf = Ekf { epochs: self.epochs.max(1), q: h.q_rel * prior_var_scale(p), r: h.r_rel * noise * noise, p0, tol: 0.0 };
-        let scratch = vec![0.0; net.as_ref().map_or(0, |n| n.n_params())];
+        let scratch = vec![0.0; nets.as_ref().map_or(0, |n| n.iter().map(|n| n.n_params()).max().unwrap_or(0))];
         let lr = h.lr / scale;
-        let mut learner = Learner { net, q: &p.fit.data.q, inputs: &p.fit.data.inputs, lr, scratch, sse: 0.0, count: 0, last_rmse: f64::INFINITY };
-        let order = shuffled(p.fit.data.len(), p.seed);
+        let d = p.fit.data;
+        let mut learner = Learner { nets, dim: d.dim.max(1), q: &d.q, inputs: &d.inputs, lr, scratch, sse: 0.0, count: 0, last_rmse: f64::INFINITY };
+        // Every reading value is one observation (value i % dim of row i / dim).
+        let order = shuffled(d.y.len(), p.seed);
         let report = ekf.run_with(p.fit, p.x0, p.fixed, &order, &mut learner, obs);
         let rmse = if learner.last_rmse.is_finite() && report.x.iter().all(|v| v.is_finite()) { learner.last_rmse } else { f64::INFINITY };
-        StageOne { x: report.x.clone(), net: learner.net, innovation_rmse: rmse, report }
+        StageOne { x: report.x.clone(), nets: learner.nets, innovation_rmse: rmse, report }
     }
 
     /// Stage 0: the hyperparameters (PSO, or drawn at random for V2, or the fixed ones), the
     /// fitness of the chosen ones and the number of Stage I runs spent.
-    pub fn stage_zero(&self, p: &Problem, net: &Option<Awnn>) -> Result<(Hyper, f64, usize)> {
+    pub fn stage_zero(&self, p: &Problem, nets: &Option<Vec<Awnn>>) -> Result<(Hyper, f64, usize)> {
         if let Some(h) = self.hyper {
             return Ok((h, f64::NAN, 0));
         }
@@ -485,8 +531,8 @@ impl PsoEkfAwnn {
             let v: Vec<f64> = (0..3).map(|k| rng.random_range(b.lower[k]..=b.upper[k])).collect();
             return Ok((SearchSpace::hyper(&v), f64::NAN, 0));
         }
-        let scale = net.as_ref().map_or(1.0, |n| mean_gradient_square(n, p.fit.data));
-        let fitness = Fitness { solver: self, p, net, scale };
+        let scale = nets.as_ref().map_or(1.0, |n| mean_gradient_square(n, p.fit.data));
+        let fitness = Fitness { solver: self, p, nets, scale };
         let centre: Vec<f64> = (0..3).map(|k| 0.5 * (b.lower[k] + b.upper[k])).collect();
         let pso =
             Pso { particles: self.pso_particles.max(2), iterations: self.pso_iterations.max(1), seed: p.seed, patience: 4, tol: 1e-4, ..Default::default() };
@@ -494,26 +540,35 @@ impl PsoEkfAwnn {
         Ok((SearchSpace::hyper(&rep.x), rep.cost, rep.evaluations))
     }
 
-    /// Stage II: LM on the geometry with the network frozen (V5: jointly with it).
-    pub fn stage_two(&self, p: &Problem, x1: &[f64], net: Option<Awnn>, obs: &mut dyn Observer) -> (Report, Option<Awnn>) {
-        match (self.variant, net) {
-            (Ablation::V5Joint, Some(net)) => {
-                let joint = Joint::new(p.fit, &net);
+    /// Stage II: LM on the geometry with the networks frozen (V5: jointly with their output
+    /// layers).
+    pub fn stage_two(&self, p: &Problem, x1: &[f64], nets: Option<Vec<Awnn>>, obs: &mut dyn Observer) -> (Report, Option<Vec<Awnn>>) {
+        match (self.variant, nets) {
+            (Ablation::V5Joint, Some(nets)) => {
+                let joint = Joint::new(p.fit, &nets);
                 let mut x = x1.to_vec();
-                x.extend(&net.weights);
+                for n in &nets {
+                    x.extend(&n.weights);
+                }
                 let mut fixed = p.fixed.to_vec();
-                fixed.resize(x.len(), false);
+                // A frozen network's output weights stay where they are (zero).
+                for n in &nets {
+                    fixed.extend(std::iter::repeat_n(n.frozen, n.weights.len()));
+                }
                 let nm = p.x0.len();
                 let mut rep = self.lm.minimize(&joint, &x, &fixed, &mut Truncate { n: nm, inner: obs });
-                let net = joint.net_at(&rep.x);
+                let nets = joint.nets_at(&rep.x);
                 rep.x.truncate(nm);
-                (rep, Some(net))
+                (rep, Some(nets))
             }
-            (_, net) => {
+            (_, nets) => {
                 let d = p.fit.data;
-                let offset = d.q.iter().zip(&d.inputs).map(|(q, inp)| net.as_ref().map_or(0.0, |n| n.eval_row(q, inp))).collect();
+                let offset = match &nets {
+                    None => vec![0.0; d.y.len()],
+                    Some(n) => d.q.iter().zip(&d.inputs).flat_map(|(q, inp)| n.iter().map(move |n| n.eval_row(q, inp))).collect(),
+                };
                 let rep = self.lm.minimize(&Corrected { fit: p.fit, offset }, x1, p.fixed, obs);
-                (rep, net)
+                (rep, nets)
             }
         }
     }
@@ -525,18 +580,32 @@ pub const REFINE_RATES: [f64; 4] = [0.003, 0.01, 0.03, 0.1];
 pub const REFINE_EPOCHS: usize = 200;
 
 impl PsoEkfAwnn {
-    /// The network trained on what the frozen geometry `x` leaves on the training rows, with
-    /// its own validation: a seeded fifth of the training rows is held out, each rate of
-    /// [`REFINE_RATES`] trains a copy of `net` by SGD on the rest (up to [`REFINE_EPOCHS`]
-    /// passes, stopping 10 passes after the held-out RMSE last improved), and the copy with the
-    /// lowest held-out RMSE is kept, unless `net` itself is better there. The test rows are
-    /// never seen. Returns the network and its held-out RMSE.
-    pub fn refine_net(&self, p: &Problem, x: &[f64], net: &Awnn) -> (Awnn, f64) {
+    /// Every value's network trained on what the frozen geometry `x` leaves of that value on
+    /// the training rows ([`refine_net`](Self::refine_net) per value, the same held-out rows for
+    /// all). Returns the networks and their held-out RMSE over every value.
+    pub fn refine_nets(&self, p: &Problem, x: &[f64], nets: &[Awnn]) -> (Vec<Awnn>, f64) {
+        let raw = p.fit.residuals_mm(x);
+        let dim = nets.len().max(1);
+        let (nets, held): (Vec<Awnn>, Vec<f64>) =
+            nets.iter().enumerate().map(|(c, n)| self.refine_net(p, &raw.iter().skip(c).step_by(dim).copied().collect::<Vec<f64>>(), n)).unzip();
+        let rmse = if held.len() == 1 { held[0] } else { (held.iter().map(|v| v * v).sum::<f64>() / held.len().max(1) as f64).sqrt() };
+        (nets, rmse)
+    }
+
+    /// The network trained on `raw`, what the frozen geometry leaves of its reading value on
+    /// the training rows (one per row, mm), with its own validation: a seeded fifth of the
+    /// training rows is held out, each rate of [`REFINE_RATES`] trains a copy of `net` by SGD on
+    /// the rest (up to [`REFINE_EPOCHS`] passes, stopping 10 passes after the held-out RMSE last
+    /// improved), and the copy with the lowest held-out RMSE is kept, unless `net` itself is
+    /// better there. The test rows are never seen. Returns the network and its held-out RMSE.
+    pub fn refine_net(&self, p: &Problem, raw: &[f64], net: &Awnn) -> (Awnn, f64) {
+        if net.frozen {
+            return (net.clone(), super::stats::rms(raw));
+        }
         let d = p.fit.data;
         // SGD runs on the residuals in units of their RMS (output weights scaled alike, exact
         // since the output is linear in them), so that the rates mean the same at any error size.
-        let raw = p.fit.residuals_mm(x);
-        let scale = super::stats::rms(&raw).max(1e-9);
+        let scale = super::stats::rms(raw).max(1e-9);
         let target: Vec<f64> = raw.iter().map(|v| v / scale).collect();
         let mut net = net.clone();
         net.weights.iter_mut().for_each(|w| *w /= scale);
@@ -597,8 +666,8 @@ impl Observer for Truncate<'_> {
 struct Fitness<'a, 'b> {
     solver: &'a PsoEkfAwnn,
     p: &'a Problem<'b>,
-    net: &'a Option<Awnn>,
-    /// The learning rate's scale for `net`, computed once.
+    nets: &'a Option<Vec<Awnn>>,
+    /// The learning rate's scale for `nets`, computed once.
     scale: f64,
 }
 
@@ -607,7 +676,7 @@ impl Cost for Fitness<'_, '_> {
         3
     }
     fn cost(&self, v: &[f64]) -> f64 {
-        self.solver.stage_one_scaled(self.p, &SearchSpace::hyper(v), self.net.clone(), self.scale, &mut NoObserver).innovation_rmse
+        self.solver.stage_one_scaled(self.p, &SearchSpace::hyper(v), self.nets.clone(), self.scale, &mut NoObserver).innovation_rmse
     }
 }
 
@@ -631,18 +700,18 @@ impl Solver for PsoEkfAwnn {
 impl PsoEkfAwnn {
     /// Stage I, Stage II and the report from the network's start ([`new_net`](Self::new_net))
     /// and Stage 0's outcome ([`stage_zero`](Self::stage_zero)).
-    pub fn finish(&self, p: &Problem, start: (Option<Awnn>, Option<Selection>), zero: (Hyper, f64, usize), obs: &mut dyn Observer) -> Result<Solution> {
+    pub fn finish(&self, p: &Problem, start: (Option<Vec<Awnn>>, Option<Selection>), zero: (Hyper, f64, usize), obs: &mut dyn Observer) -> Result<Solution> {
         let ((net, selection), (h, fitness, runs)) = (start, zero);
         let one = self.stage_one(p, &h, net, obs);
         if one.x.iter().any(|v| !v.is_finite()) {
             return Err(Error::Calibration("pso-ekf-awnn: Stage I diverged (non-finite geometric states)".into()));
         }
-        let (mut rep, mut net) = self.stage_two(p, &one.x, one.net, obs);
+        let (mut rep, mut net) = self.stage_two(p, &one.x, one.nets, obs);
         let mut refined = Vec::new();
         if self.variant != Ablation::V5Joint {
             for _ in 0..self.rounds {
                 let Some(n) = net.as_ref() else { break };
-                let (n, v) = self.refine_net(p, &rep.x, n);
+                let (n, v) = self.refine_nets(p, &rep.x, n);
                 refined.push(v);
                 let (r, n) = self.stage_two(p, &rep.x, Some(n), obs);
                 rep.iterations += r.iterations;
@@ -681,11 +750,148 @@ impl PsoEkfAwnn {
         );
         rep.iterations += one.report.iterations;
         rep.evaluations += one.report.evaluations;
-        // As a corrector the network never gives more than it learned (see `Awnn::output_range`).
-        let net = net.map(|mut n| {
-            n.limit_to(&p.fit.data.q, &p.fit.data.inputs);
-            n
+        // As a corrector a network never gives more than it learned (see `Awnn::output_range`).
+        // One value (a cable length): the network itself; several: one network per value.
+        let corrector = net.map(|nets| {
+            let mut nets: Vec<Corrector> = nets
+                .into_iter()
+                .map(|mut n| {
+                    n.limit_to(&p.fit.data.q, &p.fit.data.inputs);
+                    Corrector::Awnn(n)
+                })
+                .collect();
+            if nets.len() == 1 {
+                nets.swap_remove(0)
+            } else {
+                Corrector::Values(PerValue { values: nets })
+            }
         });
-        Ok(Solution { report: rep, corrector: net.map(Corrector::Awnn) })
+        Ok(Solution { report: rep, corrector })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::awnn::Activation;
+    use crate::calib::model::{CalibModel, Placement, SensorGuess};
+    use crate::measurement::Measurement;
+    use crate::robot::Robot;
+    use nalgebra::Vector3;
+
+    /// A tracker model (three values per row) and `n` rows of its readings at seeded poses.
+    fn tracker_rows(n: usize) -> (CalibModel, Samples) {
+        let robot = Robot::irb120();
+        let cable = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+        let tracker = Placement { measurement: Measurement::Point, own: vec![2.5, -0.4, 0.3, 0.02, -0.015, 0.7], tool: Vector3::new(0.03, -0.02, 0.08) };
+        let model = CalibModel::dh(&robot, &cable, true).with_placement(&tracker);
+        let q: Vec<Vec<f64>> = (0..n).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin() * 1.2).collect()).collect();
+        let mut w = model.work();
+        let mut y = vec![0.0; 3 * n];
+        for (qi, yi) in q.iter().zip(y.chunks_mut(3)) {
+            model.readings_with(&model.nominal, qi, &Default::default(), &mut w, yi);
+        }
+        (model, Samples::readings(q, y, 3))
+    }
+
+    /// One network per value, each with its own (seeded) non-zero parameters.
+    fn nets(data: &Samples, dim: usize) -> Vec<Awnn> {
+        (0..dim)
+            .map(|c| {
+                let mut n = Awnn::init(&data.q, 5 + c, Activation::MexicanHat, 3 + c as u64).unwrap();
+                let mut p = n.params();
+                p.iter_mut().enumerate().for_each(|(k, v)| *v += 0.2 * ((k * (c + 2)) as f64 * 0.71).sin());
+                n.set_params(&p);
+                n
+            })
+            .collect()
+    }
+
+    /// V5's joint problem on a tracker's points: residual `k` is value `k % 3` of row `k / 3`
+    /// less that value's network, and the Jacobian (geometry and every network's output layer)
+    /// agrees with central finite differences.
+    #[test]
+    fn joint_problem_on_points_matches_finite_differences() {
+        let (model, data) = tracker_rows(12);
+        let fit = ReadingFit { model: &model, data: &data };
+        let nets = nets(&data, 3);
+        let joint = Joint::new(&fit, &nets);
+        let nm = model.n_params();
+        assert_eq!(joint.n_residuals(), 36);
+        assert_eq!(joint.n_params(), nm + 5 + 6 + 7);
+        let mut x = model.nominal.clone();
+        x.iter_mut().enumerate().for_each(|(k, v)| *v += 1e-4 * (k as f64 * 0.3).cos());
+        for n in &nets {
+            x.extend(&n.weights);
+        }
+        let mut r = vec![0.0; 36];
+        joint.residuals(&x, &mut r);
+        let geo = fit.residuals_mm(&x[..nm]);
+        for (k, rk) in r.iter().enumerate() {
+            let want = geo[k] - nets[k % 3].eval(&data.q[k / 3]);
+            assert!((rk - want).abs() < 1e-12, "residual {k}: {rk} vs {want}");
+        }
+        let back = joint.nets_at(&x);
+        assert_eq!(back, nets);
+        let mut j = DMatrix::from_element(36, joint.n_params(), f64::NAN);
+        joint.jacobian(&x, &mut j);
+        let (mut rp, mut rm) = (vec![0.0; 36], vec![0.0; 36]);
+        for p in 0..x.len() {
+            let h = if p < nm { 1e-7 } else { 1e-5 };
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[p] += h;
+            xm[p] -= h;
+            joint.residuals(&xp, &mut rp);
+            joint.residuals(&xm, &mut rm);
+            for k in 0..36 {
+                let fd = (rp[k] - rm[k]) / (2.0 * h);
+                assert!((fd - j[(k, p)]).abs() < 1e-5 * (1.0 + fd.abs()), "residual {k}, parameter {p}: {fd} vs {}", j[(k, p)]);
+            }
+        }
+    }
+
+    /// The EKF's hook corrects observation `i` with network `i % dim` at row `i / dim`, and its
+    /// SGD step moves that network alone; Stage II's frozen offsets are laid out as the residuals.
+    #[test]
+    fn each_value_has_its_own_network() {
+        let (model, data) = tracker_rows(10);
+        let nets = nets(&data, 3);
+        let mut l = Learner {
+            nets: Some(nets.clone()),
+            dim: 3,
+            q: &data.q,
+            inputs: &data.inputs,
+            lr: 0.1,
+            scratch: vec![0.0; 1000],
+            sse: 0.0,
+            count: 0,
+            last_rmse: f64::INFINITY,
+        };
+        for i in 0..30 {
+            assert_eq!(l.offset(i), nets[i % 3].eval(&data.q[i / 3]), "observation {i}");
+        }
+        l.innovation(7, 0.5);
+        let after = l.nets.as_ref().unwrap();
+        assert_eq!(after[0], nets[0]);
+        assert_eq!(after[2], nets[2]);
+        assert_ne!(after[1], nets[1]);
+        // Value 1 of row 2 moved towards its innovation.
+        assert!(after[1].eval(&data.q[2]) > nets[1].eval(&data.q[2]));
+        // Stage II with the networks frozen: its residuals are the fit's less each value's network.
+        let fit = ReadingFit { model: &model, data: &data };
+        let p =
+            Problem { fit: &fit, x0: &model.nominal, fixed: &vec![true; model.n_params()], prior_std: &vec![1e-3; model.n_params()], noise_mm: 0.01, seed: 1 };
+        let (_, back) = PsoEkfAwnn::default().stage_two(&p, &model.nominal, Some(nets.clone()), &mut NoObserver);
+        assert_eq!(back.unwrap(), nets);
+        let offset: Vec<f64> = data.q.iter().flat_map(|q| nets.iter().map(move |n| n.eval(q))).collect();
+        let c = Corrected { fit: &fit, offset };
+        let mut r = vec![0.0; 30];
+        c.residuals(&model.nominal, &mut r);
+        for (k, rk) in r.iter().enumerate() {
+            assert!((rk + nets[k % 3].eval(&data.q[k / 3])).abs() < 1e-12);
+        }
+        // The learning rate's scale is the mean over every value's network.
+        let per: Vec<f64> = nets.iter().map(|n| mean_gradient_square(std::slice::from_ref(n), &data)).collect();
+        assert!((mean_gradient_square(&nets, &data) - per.iter().sum::<f64>() / 3.0).abs() < 1e-9 * per[0]);
     }
 }

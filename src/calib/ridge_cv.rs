@@ -82,7 +82,15 @@ impl Folds {
     /// `per_fold[f]` (e.g. the residuals of a model fitted without fold `f`); `y` is what the
     /// fit on every row ([`fit_all`](Self::fit_all)) uses.
     pub fn with_fold_targets(basis: DMatrix<f64>, y: &[f64], per_fold: &[Vec<f64>]) -> Folds {
+        Folds::by_row(basis, y, per_fold, 1)
+    }
+
+    /// As [`with_fold_targets`](Self::with_fold_targets) for targets of `dim` values per data
+    /// row, row after row (a tracker's x, y, z): the folds hold whole rows, every value of a row
+    /// in the same fold (row `i` in fold `i mod k`), as [`GeometricFit::new`] folds them.
+    pub fn by_row(basis: DMatrix<f64>, y: &[f64], per_fold: &[Vec<f64>], dim: usize) -> Folds {
         let n = y.len();
+        let dim = dim.max(1);
         let k = per_fold.len().max(2);
         let gram = basis.transpose() * &basis;
         let rhs = basis.transpose() * DVector::from_column_slice(y);
@@ -90,7 +98,8 @@ impl Folds {
             .iter()
             .enumerate()
             .map(|(f, yf)| {
-                let rows = super::folds::interleaved(n, k).swap_remove(f);
+                let held = super::folds::interleaved(n / dim, k).swap_remove(f);
+                let rows: Vec<usize> = held.iter().flat_map(|&r| r * dim..(r + 1) * dim).collect();
                 let train = super::folds::others(n, &rows);
                 let bt = basis.select_rows(&train);
                 let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| yf[i]));
@@ -159,5 +168,28 @@ mod tests {
         }
         let rmse = (r.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
         assert!((folds.cv_rmse(ridge) - rmse).abs() < 1e-15);
+    }
+
+    /// With several values per row, a fold holds whole rows: every value of a held-out row is
+    /// predicted by the fit on the other rows' values alone.
+    #[test]
+    fn folds_by_row_hold_every_value_of_a_row() {
+        let (rows, dim, k) = (11, 3, 3);
+        let n = rows * dim;
+        let basis = DMatrix::from_fn(n, 4, |i, c| ((i * 5 + c * 3) as f64 * 0.41).sin() + if c == 0 { 1.0 } else { 0.0 });
+        let y: Vec<f64> = (0..n).map(|i| (i as f64 * 0.13).cos()).collect();
+        let folds = Folds::by_row(basis.clone(), &y, &vec![y.clone(); k], dim);
+        let ridge = |g: &DMatrix<f64>| g + DMatrix::identity(4, 4) * 0.3;
+        let r = folds.cv_residuals(ridge).unwrap();
+        for f in 0..k {
+            let train: Vec<usize> = (0..n).filter(|i| (i / dim) % k != f).collect();
+            let bt = basis.select_rows(&train);
+            let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| y[i]));
+            let w = Cholesky::new(ridge(&(bt.transpose() * &bt))).unwrap().solve(&(bt.transpose() * yt));
+            for i in (0..n).filter(|i| (i / dim) % k == f) {
+                let e = y[i] - basis.row(i).dot(&w.transpose());
+                assert!((e - r[i]).abs() < 1e-12, "value {i}: {e} vs {}", r[i]);
+            }
+        }
     }
 }

@@ -294,7 +294,16 @@ impl CalibResult {
             let col = if matches!(b.thermal, Some(ThermalDrive::Temperature { .. })) { "temp" } else { "t" };
             out.push((col, format!("its {} block", b.label())));
         }
-        if let Some(super::corrector::Corrector::Awnn(n)) = &self.corrector {
+        // A network per reading value reads what the first one reads (they share their inputs).
+        let awnn = match &self.corrector {
+            Some(super::corrector::Corrector::Awnn(n)) => Some(n),
+            Some(super::corrector::Corrector::Values(v)) => v.values.iter().find_map(|c| match c {
+                super::corrector::Corrector::Awnn(n) => Some(n),
+                _ => None,
+            }),
+            _ => None,
+        };
+        if let Some(n) = awnn {
             for f in &n.extra {
                 match f {
                     super::awnn::Feature::Temperature => out.push(("temp", "its network's temperature input".into())),
@@ -914,14 +923,6 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let t0 = Instant::now();
     let mut warnings = Vec::new();
     let Prepared { split, model, screen, test_rows_in_steps: test_in_steps, id } = prepare(data, opts, solver.needs_row_inputs())?;
-    let measurement = model.measurement;
-    if measurement.dim() > 1 && solver.method().corrects_one_value_only() {
-        return Err(Error::Invalid(format!(
-            "{} learns a correction of one reading value per row (a cable length); these rows hold a {}: use lm, ekf, pf, pso or rbf (one network per value)",
-            solver.method().name(),
-            measurement.def().describe()
-        )));
-    }
     if model.effects.iter().any(|b| matches!(b.thermal, Some(super::effects::ThermalDrive::WarmUp))) && data.rows.iter().all(|r| r.temp_c.is_some()) {
         warnings.push(format!(
             "the temp column spans less than {} K, so it drives no thermal drift: the thermal block runs on t as a warm-up",
