@@ -276,17 +276,6 @@ fn a_tracker_scenario_refuses_cable_settings() {
         assert!(err.contains(says), "case {k}: {err}");
         assert!(!dir.path().join(format!("o{k}")).exists(), "case {k}: an output was left");
     }
-    let out = twincal(&[
-        "generate",
-        "--scenario",
-        concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/irb120_tracker.toml"),
-        "--out",
-        dir.path().join("r").to_str().unwrap(),
-        "--rrd",
-        dir.path().join("r.rrd").to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--rrd draws the draw-wire's cable"));
 }
 
 /// `diagnose` on the twin's tracker points names the effect hidden in them and sizes it against

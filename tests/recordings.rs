@@ -207,3 +207,40 @@ fn limits_are_checked_and_missing_test_rows_fail_the_verdict() {
     let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
     assert!(j.get("verdict").is_none());
 }
+
+/// `generate --rrd` with a laser tracker: the tracker where the scenario puts it (its axes and
+/// head at −Rᵀt), its line of sight to the reflector at every pose, every tool point coloured by
+/// its distance from the nominal arm's reflector, and one plot per coordinate.
+#[test]
+fn generate_draws_a_tracker_and_its_line_of_sight() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_tracker.toml"))
+        .unwrap()
+        .replace("poses = 300", "poses = 40")
+        .replace("test = 100", "test = 8");
+    let sc = dir.path().join("tracker.toml");
+    std::fs::write(&sc, text).unwrap();
+    let (data, gen) = (dir.path().join("data"), dir.path().join("gen.rrd"));
+    let o = twincal(&["generate", "--scenario", s(&sc), "--out", s(&data), "--rrd", s(&gen)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = common::read(&gen);
+    assert_eq!(r.timeline.as_deref(), Some("pose"));
+    r.assert_no_empty_view();
+    for (e, c, t) in [
+        ("/world/sensor/tracker", "Transform3D:translation", "static"),
+        ("/world/sensor/tracker/head", "Points3D:positions", "static"),
+        ("/world/line_of_sight", "LineStrips3D:strips", "pose"),
+        ("/world/tool_points", "Points3D:labels", "static"),
+        ("/world/colorbar/values", "Points3D:labels", "static"),
+        ("/residuals/histogram", "BarChart:values", "static"),
+        ("/docs/legend", "TextDocument:text", "static"),
+    ] {
+        assert!(r.holds(e, c, t), "generate: {e} lacks {c} on {t}: {:?}", r.entities.get(e));
+    }
+    assert!(!r.entities.contains_key("/world/cable") && !r.entities.contains_key("/world/sensor/cable_exit"), "no cable is drawn");
+    assert_eq!(r.entities["/world/line_of_sight"].rows.get("pose"), Some(&40), "one line of sight per pose");
+    for f in ["q1", "q6", "x", "y", "z"] {
+        assert!(r.holds(&format!("/plots/{f}/points"), "Points2D:positions", "static"), "plot {f}");
+    }
+    assert!(r.views.iter().any(|v| v.name.starts_with("Arm, tracker, tool points")), "{:#?}", r.views);
+}

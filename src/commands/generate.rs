@@ -20,9 +20,6 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
     if let Some(seed) = seed {
         s.seed = seed;
     }
-    if s.tracker.is_some() && rrd.is_some() {
-        return Err(Error::Invalid("--rrd draws the draw-wire's cable; this scenario measures with a [tracker]".into()));
-    }
     let t0 = Instant::now();
     let g = run_generate(&s, &robot, progress(quiet).as_ref())?;
     let elapsed = t0.elapsed().as_secs_f64();

@@ -44,12 +44,20 @@ fn rows_of(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
 /// (no geometric errors, no effects) predicts with the scenario's sensor geometry, mm.
 pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
     let chain = &g.twin.chain;
+    let zero = vec![0.0; chain.n_params()];
     g.dataset
         .rows
         .iter()
         .map(|r| {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            r.l_mm().unwrap_or(f64::NAN) - crate::sim::generate::nominal_length(chain, &g.twin.sensor, &q)
+            match &g.twin.tracker {
+                // A tracker's point: how far the reading is from the nominal arm's reflector.
+                Some(t) => {
+                    let nominal = t.ideal_mm(&chain.point(&q, &zero, 1.0, chain.flange(), &g.twin.sensor.tool_point_m()));
+                    (0..3).map(|k| (r.reading_mm[k] - nominal[k]).powi(2)).sum::<f64>().sqrt()
+                }
+                None => r.l_mm().unwrap_or(f64::NAN) - crate::sim::generate::nominal_length(chain, &g.twin.sensor, &q),
+            }
         })
         .collect()
 }
@@ -116,11 +124,11 @@ fn colorbar_beside(rec: &mut Recorder, entity: &str, pts: &[[f64; 3]], vmax: f64
 }
 
 /// Residual `res` (mm) against each feature, one 2-D plot per feature at `plots/<name>`.
-fn feature_plots(rec: &mut Recorder, features: &[Feature], res: &[f64], vmax: f64, what: &str) {
-    let y = (-1.08 * vmax, 1.08 * vmax);
+/// The residual `res` against each feature, on `y` (mm) labelled `y_label`.
+fn feature_plots(rec: &mut Recorder, features: &[Feature], res: &[f64], vmax: f64, what: &str, y: (f64, f64), y_label: &str) {
     for f in features {
         let Some(x) = padded_range(f.values.iter().copied(), 0.03) else { continue };
-        let plot = Plot::new(&format!("{what} vs {}", f.name), &f.label, x, "residual (mm)", y);
+        let plot = Plot::new(&format!("{what} vs {}", f.name), &f.label, x, y_label, y);
         let base = format!("plots/{}", f.name);
         plot.frame(rec, &base);
         let xy: Vec<[f64; 2]> = f.values.iter().zip(res).map(|(x, r)| [*x, *r]).collect();
@@ -136,9 +144,10 @@ fn feature_grid(features: &[Feature], what: &str) -> Layout {
 }
 
 /// Recording of a generated dataset. Timeline `pose` (and `acquisition_time`): the arm with its
-/// frames, the cable and the current tool point highlighted, the per-pose effects from the truth.
-/// Static: every tool point coloured by the nominal model's residual with a colour bar, the
-/// residual against each joint angle, L, time and temperature, its histogram. Staged in
+/// frames, the instrument's line to the tool (the cable, or a tracker's line of sight) and the
+/// current tool point highlighted, the per-pose effects from the truth. Static: the instrument,
+/// every tool point coloured by the nominal model's residual (a point's |Δp|) with a colour bar,
+/// that residual against each joint angle, the reading, time and temperature, its histogram. Staged in
 /// `outputs` as `path` (renamed into place by `outputs.commit()`).
 pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Result<()> {
     let mut rec = Recorder::staged("twincal", outputs, path)?;
@@ -147,7 +156,24 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
     let n = res.len();
     let split: Vec<&str> = g.truth.poses.iter().map(|p| if p.split == crate::dataset::Split::Test { "test" } else { "train" }).collect();
     let tools: Vec<[f64; 3]> = (0..n).map(|i| mm(&g.truth_tool(i))).collect();
-    let exit = g.twin.sensor.exit_point_mm;
+    let instrument = match &g.twin.tracker {
+        Some(t) => crate::report::InstrumentPose::of(&crate::calib::model::Placement {
+            measurement: crate::measurement::Measurement::Point,
+            own: t.own(),
+            tool: g.twin.sensor.tool_point_m(),
+        }),
+        None => crate::report::InstrumentPose { measurement: crate::measurement::Measurement::Length, origin_mm: g.twin.sensor.exit_point_mm, axes: None },
+    };
+    let tracker = g.twin.tracker.is_some();
+    let (quantity, what, instrument_text) = if tracker {
+        (
+            "|Δp|",
+            "|p measured − p nominal| (the tracker's reading against the nominal arm's reflector)",
+            "the laser tracker (its axes and red head) and its line of sight (red) to the reflector",
+        )
+    } else {
+        ("|L − L nominal|", "|L measured − L nominal|", "the draw wire (orange) from its exit point")
+    };
     let features = crate::report::features(&g.dataset);
 
     rec.set_static(true);
@@ -156,22 +182,24 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
         &format!(
             "# twincal dataset `{}` (seed {})\n\n{n} poses, units mm, base frame, Z up.\n\n\
              * **3D**: the true (simulated) arm at the current pose with its joint frames (red x, green y, blue z), \
-             the draw wire (orange) from its exit point, the current tool point (white ring); every tool point coloured by \
-             |L measured − L nominal| (colour bar beside the cloud, 0 to {vmax:.3} mm). Hover a point for its residual.\n\
-             * **Residual vs …**: the nominal model's residual (mm) against each joint angle, L, time and temperature; \
+             {instrument_text}, the current tool point (white ring); every tool point coloured by \
+             {what} (colour bar beside the cloud, 0 to {vmax:.3} mm). Hover a point for its residual.\n\
+             * **Residual vs …**: the nominal model's residual (mm) against each joint angle, the reading, time and temperature; \
              the white point is the current pose.\n\
              * **Effects (truth.json)**: joint deflection, backlash approach side and thermal scale of every pose; \
              the time cursor marks the current pose.\n\nColours: blue-violet = 0 mm, teal, green, yellow = {vmax:.3} mm and above.",
             g.truth.scenario, g.truth.seed,
         ),
     );
-    rec.points("world/sensor/cable_exit", &[exit], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
+    draw_instrument(&mut rec, &instrument, None);
     let colors: Vec<[u8; 4]> = res.iter().map(|r| residual_color(*r, vmax)).collect();
     let labels: Vec<String> = (0..n).map(|i| format!("pose {i} ({}): residual {:+.4} mm", split[i], res[i])).collect();
     rec.points_hover("world/tool_points", &tools, Some(&colors), Some(5.0), &labels);
-    colorbar_beside(&mut rec, "world/colorbar", &tools, vmax, "|L − L nominal|");
-    feature_plots(&mut rec, &features, &res, vmax, "Nominal residual");
-    let (edges, counts) = histogram(&res, 30, -vmax, vmax);
+    colorbar_beside(&mut rec, "world/colorbar", &tools, vmax, quantity);
+    // A point's |Δp| is never negative: its plots start at zero.
+    let y = if tracker { (-0.04 * vmax, 1.08 * vmax) } else { (-1.08 * vmax, 1.08 * vmax) };
+    feature_plots(&mut rec, &features, &res, vmax, "Nominal residual", y, if tracker { "|Δp| (mm)" } else { "residual (mm)" });
+    let (edges, counts) = histogram(&res, 30, if tracker { 0.0 } else { -vmax }, vmax);
     rec.histogram_colored("residuals/histogram", &edges, &counts, [90, 160, 220, 255]);
 
     let has_deflection = g.truth.poses.iter().any(|p| p.deflection_mdeg.iter().any(|d| *d != 0.0));
@@ -198,19 +226,12 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
         }
         let fr: Vec<([f64; 3], [[f64; 3]; 3])> = frames.iter().map(|f| (mm(&f.pos), rows_of(&f.rot))).collect();
         draw_arm(&mut rec, &fr, tools[i], i == 0);
-        rec.line_strips("world/cable", &[vec![exit, tools[i]]], CABLE, 2.0);
+        instrument_line(&mut rec, &instrument, tools[i]);
         rec.points("world/current", &[tools[i]], Some(&[HIGHLIGHT]), Some(12.0), Some(&[format!("pose {i}: {:+.4} mm", res[i])]));
         for f in &features {
             let Some(x) = padded_range(f.values.iter().copied(), 0.03) else { continue };
-            let plot = Plot::new("", "", x, "", (-1.08 * vmax, 1.08 * vmax));
-            rec.points2d(
-                &format!("plots/{}/current", f.name),
-                &[plot.map(f.values[i], res[i].clamp(-1.08 * vmax, 1.08 * vmax))],
-                Some(&[HIGHLIGHT]),
-                Some(5.0),
-                None,
-                false,
-            );
+            let plot = Plot::new("", "", x, "", y);
+            rec.points2d(&format!("plots/{}/current", f.name), &[plot.map(f.values[i], res[i].clamp(y.0, y.1))], Some(&[HIGHLIGHT]), Some(5.0), None, false);
         }
         let p = &g.truth.poses[i];
         for j in 0..nq {
@@ -226,13 +247,21 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
         }
     }
 
-    let plots = feature_grid(&features, "Residual (mm)");
+    let plots = feature_grid(&features, if tracker { "|Δp| (mm)" } else { "Residual (mm)" });
     rec.layout(Blueprint {
         root: Layout::Horizontal(
             vec![
                 Layout::Vertical(
                     vec![
-                        Layout::view(K::Spatial3d, "Arm, cable, tool points: colour = |nominal residual| (mm)", "/world"),
+                        Layout::view(
+                            K::Spatial3d,
+                            if tracker {
+                                "Arm, tracker, tool points: colour = |Δp| from the nominal arm (mm)"
+                            } else {
+                                "Arm, cable, tool points: colour = |nominal residual| (mm)"
+                            },
+                            "/world",
+                        ),
                         Layout::Tabs(vec![
                             Layout::view(K::TimeSeries, "Deflection per joint (mdeg, truth)", "/effects/deflection"),
                             Layout::view(K::TimeSeries, "Backlash approach side (joint ± 0.3, truth)", "/effects/backlash"),
@@ -242,7 +271,17 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
                     ],
                     vec![3.0, 1.6],
                 ),
-                Layout::Vertical(vec![plots, Layout::view(K::BarChart, "Nominal residual histogram (mm)", "/residuals/histogram")], vec![3.0, 1.0]),
+                Layout::Vertical(
+                    vec![
+                        plots,
+                        Layout::view(
+                            K::BarChart,
+                            if tracker { "Nominal |Δp| histogram (mm)" } else { "Nominal residual histogram (mm)" },
+                            "/residuals/histogram",
+                        ),
+                    ],
+                    vec![3.0, 1.0],
+                ),
             ],
             vec![1.0, 1.1],
         ),
@@ -290,16 +329,21 @@ fn draw_instrument(rec: &mut Recorder, inst: &InstrumentPose, tool: Option<[f64;
             rec.transform("world/sensor/tracker", o, rows_of(&axes));
             rec.axes("world/sensor/tracker", 150.0);
             rec.points("world/sensor/tracker/head", &[[0.0; 3]], Some(&[TRACKER]), Some(40.0), Some(&["laser tracker".to_string()]));
-            if let Some(t) = tool {
-                rec.line_strips("world/line_of_sight", &[vec![o, t]], TRACKER, 2.0);
-            }
         }
         _ => {
-            if let Some(t) = tool {
-                rec.line_strips("world/cable", &[vec![o, t]], CABLE, 2.0);
-            }
             rec.points("world/sensor/cable_exit", &[o], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
         }
+    }
+    if let Some(t) = tool {
+        instrument_line(rec, inst, t);
+    }
+}
+
+/// The instrument's line to the target at `tool` (mm): the tracker's line of sight, or the cable.
+fn instrument_line(rec: &mut Recorder, inst: &InstrumentPose, tool: [f64; 3]) {
+    match (inst.measurement, inst.axes) {
+        (crate::measurement::Measurement::Point, Some(_)) => rec.line_strips("world/line_of_sight", &[vec![inst.origin_mm, tool]], TRACKER, 2.0),
+        _ => rec.line_strips("world/cable", &[vec![inst.origin_mm, tool]], CABLE, 2.0),
     }
 }
 
