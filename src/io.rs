@@ -248,6 +248,17 @@ pub fn check_outputs(inputs: &[Named], outputs: &[Named]) -> Result<()> {
         if c.is_dir() {
             return Err(Error::Invalid(format!("output {} ({opt}) is an existing folder, not a file", p.display())));
         }
+        // An output is renamed into place: over a device, a pipe or a link that would replace
+        // the special file itself (/dev/null, /dev/stdout, a FIFO, a symlink), not write to it.
+        if let Ok(m) = std::fs::symlink_metadata(p) {
+            if !m.file_type().is_file() {
+                let what = if m.file_type().is_symlink() { "a symbolic link" } else { "not a regular file (a device, pipe or socket)" };
+                return Err(Error::Invalid(format!(
+                    "output {} ({opt}) is {what}: twincal writes a new file and renames it into place, which would replace it; name a regular file",
+                    p.display()
+                )));
+            }
+        }
         seen.push((opt, p, c));
     }
     Ok(())

@@ -102,7 +102,8 @@ enum Command {
 fn main() -> ExitCode {
     let args = Cli::parse();
     if let Err(e) = twincal::io::install_signal_cleanup() {
-        eprintln!("error: {e}");
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr(), "error: {e}");
         return ExitCode::from(2);
     }
     // A reader that closes our stdout early (`| head -1`) ends the command quietly: printing
@@ -152,7 +153,9 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            // A stderr that cannot be written (2>/dev/full) must not turn the error into a panic.
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "error: {e}");
             ExitCode::from(2)
         }
     }

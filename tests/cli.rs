@@ -1,5 +1,6 @@
 //! The command line, end to end: outputs, determinism and bad input.
 
+use std::os::unix::fs::FileTypeExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -720,4 +721,95 @@ fn messages_name_the_option_given_and_numbers_briefly() {
     let o = twincal(&["ik", "--model", &res, "--targets", s(&targets), "--no-twin", "--out", &out("ik.csv")]);
     let e = stderr(&o);
     assert!(o.status.code() == Some(2) && e.contains("target 1 (1e308, 0, 400) mm is implausible"), "{e}");
+}
+
+/// Outputs are never renamed over a special file: a FIFO, a symbolic link or a device is
+/// refused by name before any work. A stderr that cannot be written ends an error with exit 2.
+#[test]
+fn special_files_are_not_outputs_and_a_full_stderr_is_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = small_geometric(dir.path(), "d");
+    let fifo = dir.path().join("ff");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let target = dir.path().join("target.json");
+    std::fs::write(&target, "keep").unwrap();
+    let link = dir.path().join("link.json");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    for (out, says) in [(s(&fifo), "is not a regular file"), (s(&link), "is a symbolic link"), ("/dev/null", "is not a regular file")] {
+        let o = twincal(&["calibrate", "--data", s(&data), "--out", out]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{out}: {e}");
+        assert!(e.contains(says), "{out}: {e}");
+    }
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo() && std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
+    if Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_twincal")).args(["calibrate", "--data", "no/such/folder"]).stderr(full).output().unwrap();
+        assert_eq!(o.status.code(), Some(2));
+    }
+}
+
+/// The second sweep's accepted nonsense and misleading output: each is refused or said.
+#[test]
+fn nonsense_from_the_second_sweep_is_refused_or_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = small_geometric(dir.path(), "d");
+    let out = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let res = out("r.json");
+    assert!(twincal(&["calibrate", "--data", s(&data), "--out", &res]).status.success());
+    // ik: --twin with --no-twin; a NaN target gets no true error.
+    let o = twincal(&["ik", "--model", &res, "--twin", s(&data), "--no-twin", "--random", "2", "--out", &out("ik.csv")]);
+    assert!(o.status.code() == Some(2) && stderr(&o).contains("give one of them"), "{}", stderr(&o));
+    std::fs::write(out("t.csv"), "x,y,z\nnan,0,400\n").unwrap();
+    let o = twincal(&["ik", "--model", &res, "--targets", &out("t.csv"), "--jacobian", "analytic", "--out", &out("ik.csv")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out("ik.csv")).unwrap();
+    assert!(csv.lines().nth(1).unwrap().contains(",invalid,") && csv.lines().nth(1).unwrap().ends_with(','), "{csv}");
+    // compare with one seed shows no spread.
+    let o = twincal(&["compare", "--data", s(&data), "--methods", "lm", "--seeds", "1"]);
+    assert!(o.status.success() && !String::from_utf8_lossy(&o.stdout).contains('±'), "{}", String::from_utf8_lossy(&o.stdout));
+    // study: a hold or speed named twice.
+    let o = twincal(&["study", "hold", "--holds", "0.5,0.5", "--poses", "2"]);
+    assert!(o.status.code() == Some(2) && stderr(&o).contains("--holds lists 0.5 twice"), "{}", stderr(&o));
+    // predict beyond the model's joint limits says so.
+    let text = std::fs::read_to_string(data.join("dataset.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut cells: Vec<String> = lines[1].split(',').map(String::from).collect();
+    cells[2] = "170".into();
+    lines[1] = cells.join(",");
+    std::fs::write(out("far.csv"), lines.join("\n")).unwrap();
+    let o = twincal(&["predict", "--model", &res, "--data", &out("far.csv"), "--out", &out("p.csv")]);
+    assert!(o.status.success() && stderr(&o).contains("outside the model's joint limits (first: row 1, q3 = 170 deg)"), "{}", stderr(&o));
+    // A placement and a learned corrector edited beyond anything a calibration writes.
+    let mut r: serde_json::Value = serde_json::from_slice(&std::fs::read(&res).unwrap()).unwrap();
+    let k = r["parameters"].as_array().unwrap().iter().position(|p| p["name"] == "exit.x").unwrap();
+    r["x"][k] = 1e6.into();
+    std::fs::write(out("bad.json"), r.to_string()).unwrap();
+    let o = twincal(&["predict", "--model", &out("bad.json"), "--data", s(&data), "--out", &out("p.csv")]);
+    assert!(o.status.code() == Some(2) && stderr(&o).contains("placement exit.x = 1000000 is beyond 100"), "{}", stderr(&o));
+    let rbf = out("rbf.json");
+    assert!(twincal(&["calibrate", "--data", s(&data), "--method", "rbf", "--out", &rbf]).status.success());
+    let mut r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rbf).unwrap()).unwrap();
+    r["corrector"]["weights"][0] = 1e6.into();
+    std::fs::write(out("bad.json"), r.to_string()).unwrap();
+    let o = twincal(&["predict", "--model", &out("bad.json"), "--data", s(&data), "--out", &out("p.csv")]);
+    assert!(o.status.code() == Some(2) && stderr(&o).contains("corrector.weights[0] = 1000000.0 is beyond"), "{}", stderr(&o));
+    // pso-ekf-awnn-v5 (geometry and unpenalised output layers together) on 60 training rows of
+    // the all-effects twin interpolates them: said, on stderr and in the result.
+    let text = std::fs::read_to_string(scenario("irb120_evo_nph")).unwrap();
+    let text = text.replace("poses = 600", "poses = 80").replace("test = 100", "test = 20").replace("model = \"simulated\"", "model = \"settled\"");
+    let sc = dir.path().join("settled.toml");
+    std::fs::write(&sc, text).unwrap();
+    let full = dir.path().join("full");
+    assert!(twincal(&["generate", "--scenario", s(&sc), "--seed", "2024", "--out", s(&full)]).status.success());
+    let v5 = out("v5.json");
+    let o = twincal(&["calibrate", "--data", s(&full), "--method", "pso-ekf-awnn-v5", "--out", &v5]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&v5).unwrap()).unwrap();
+    let (train, test) = (r["metrics"]["train_after"]["rmse"].as_f64().unwrap(), r["metrics"]["test_after"]["rmse"].as_f64().unwrap());
+    let said = e.contains("fits the training rows far inside the reading noise");
+    let kept = r["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("far inside the reading noise"));
+    assert!(said && kept, "train {train}, test {test}: {e}");
 }

@@ -563,3 +563,58 @@ fn pso_ekf_awnn_corrects_a_tracker_point_per_coordinate() {
     eprintln!("compliance: held-out RMSE lm {lm:.5} mm, pso-ekf-awnn {awnn:.5} mm");
     assert!(awnn < 0.6 * lm, "compliance: pso-ekf-awnn {awnn:.5} mm against lm {lm:.5} mm");
 }
+
+/// Tracker data as users have it, and what it is not: columns with their unit (`x_mm`) read like
+/// `x`; a coordinate written as a constant and a cable's tension are refused; rows are counted in
+/// reading values (24 rows are 72 values, enough for 27 parameters); a model fitting its training
+/// rows far inside the noise and missing the test rows is said.
+#[test]
+fn tracker_files_as_users_have_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("t");
+    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/irb120_tracker.toml");
+    assert!(twincal(&["generate", "--scenario", scenario, "--seed", "1", "--out", data.to_str().unwrap(), "--quiet"]).status.success());
+    let text = std::fs::read_to_string(data.join("dataset.csv")).unwrap();
+    let at = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let run = |args: &[&str]| {
+        let o = twincal(args);
+        (o.status.code(), String::from_utf8_lossy(&o.stderr).to_string())
+    };
+    // Header with units.
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].starts_with("q1,q2,q3,q4,q5,q6,x,y,z,"), "{}", lines[0]);
+    std::fs::write(at("mm.csv"), text.replacen("q6,x,y,z,", "q6,x_mm,y_mm,z_mm,", 1)).unwrap();
+    let (code, err) = run(&["calibrate", "--data", &at("mm.csv"), "--out", &at("mm.json"), "--quiet"]);
+    assert_eq!(code, Some(0), "{err}");
+    // A constant z column.
+    let constz: Vec<String> = lines
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return l.to_string();
+            }
+            let mut c: Vec<&str> = l.split(',').collect();
+            c[8] = "500";
+            c.join(",")
+        })
+        .collect();
+    std::fs::write(at("constz.csv"), constz.join("\n")).unwrap();
+    let (code, err) = run(&["calibrate", "--data", &at("constz.csv"), "--out", &at("c.json")]);
+    assert!(code == Some(2) && err.contains("every row reads the same z (500 mm)"), "{err}");
+    // A cable's tension on tracker data.
+    for cmd in [
+        vec!["calibrate", "--data", data.to_str().unwrap(), "--out", &at("c.json")],
+        vec!["diagnose", "--data", data.to_str().unwrap(), "--out", &at("d.json"), "--result", &at("dr.json")],
+    ] {
+        let mut args = cmd.clone();
+        args.extend(["--cable-tension-n", "6"]);
+        let (code, err) = run(&args);
+        assert!(code == Some(2) && err.contains("--cable-tension-n is a draw-wire's pull"), "{args:?}: {err}");
+    }
+    // 24 training rows: 72 values for 27 parameters.
+    std::fs::write(at("few.csv"), lines[..25].join("\n")).unwrap();
+    let (code, err) = run(&["calibrate", "--data", &at("few.csv"), "--test-fraction", "0", "--out", &at("few.json")]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("only 24 training rows (72 reading values) for 27 identifiable parameters"), "{err}");
+}

@@ -506,13 +506,14 @@ impl Awnn {
         let (m, d) = (self.neurons(), self.inputs());
         let ok = self.joints() == n_joints
             && d >= n_joints
-            && self.extra.iter().all(|f| !matches!(f, Feature::Side(j) | Feature::Torque(j) if *j >= 6))
+            && self.extra.iter().all(|f| !matches!(f, Feature::Side(j) | Feature::Torque(j) if *j >= n_joints))
             && self.input_mean.len() == d
             && self.translation.len() == m
             && self.dilation.len() == m
             && self.projection.len() == m
             && self.projection.iter().all(|r| r.len() == d && r.iter().all(|v| v.is_finite()))
-            && self.input_scale.iter().chain(&self.dilation).all(|v| v.is_finite() && *v > 0.0)
+            && self.input_scale.iter().all(|v| v.is_finite() && *v > 0.0)
+            && self.dilation.iter().all(|v| v.is_finite() && *v >= MIN_DILATION)
             && self.input_mean.iter().chain(&self.translation).chain(&self.weights).all(|v| v.is_finite())
             && self.output_range.is_none_or(|[lo, hi]| lo.is_finite() && hi.is_finite() && lo <= hi);
         if ok {

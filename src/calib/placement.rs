@@ -37,6 +37,9 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
         if opts.sensor_guess.is_some() {
             return Err(Error::Invalid(format!("--sensor-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
         }
+        if opts.loads.cable_tension_n != 0.0 {
+            return Err(Error::Invalid(format!("--cable-tension-n is a draw-wire's pull on the tool; these rows hold a {what}: no cable pulls")));
+        }
         let ModelSpec::Nominal { .. } = spec else {
             return Err(Error::Invalid(format!("the generic model (generic6r) searches a draw-wire set-up; a {what} needs a nominal arm (irb120 or a URDF)")));
         };

@@ -394,12 +394,20 @@ impl CalibResult {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let value: serde_json::Value =
             serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
-        // What the model computes with holds no number a calibration could not have produced.
-        for key in ["model", "x", "corrector", "torque_model", "rbf"] {
-            if let Some((at, n)) = value.get(key).and_then(beyond_magnitude) {
+        // What the model computes with holds no number a calibration could not have produced; a
+        // learned corrector's numbers (weights and coefficients in mm, inputs in rad) stay far
+        // below a correction of 100 m.
+        for (key, limit) in [
+            ("model", MAX_MODEL_MAGNITUDE),
+            ("x", MAX_MODEL_MAGNITUDE),
+            ("corrector", MAX_CORRECTOR_MAGNITUDE),
+            ("torque_model", MAX_MODEL_MAGNITUDE),
+            ("rbf", MAX_CORRECTOR_MAGNITUDE),
+        ] {
+            if let Some((at, n)) = value.get(key).and_then(|v| beyond_magnitude(v, limit)) {
                 return Err(Error::model(
                     path.display(),
-                    format!("{key}{at} = {n} is beyond what a calibration writes (|value| <= {MAX_MODEL_MAGNITUDE:e}); edited result file?"),
+                    format!("{key}{at} = {n} is beyond what a calibration writes (|value| <= {limit:e}); edited result file?"),
                 ));
             }
         }
@@ -451,6 +459,14 @@ impl CalibResult {
             && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
         if !consistent || r.x.iter().any(|v| !v.is_finite()) {
             return Err(Error::model(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
+        }
+        let place = r.model.placement(&r.x);
+        let names = r.model.measurement.placement_names();
+        if let Some((name, v)) = names.iter().zip(place.own.iter().chain(place.tool.iter())).find(|(_, v)| v.abs() > MAX_PLACEMENT) {
+            return Err(Error::model(
+                path.display(),
+                format!("the instrument's placement {name} = {} is beyond {MAX_PLACEMENT} (m or rad; edited result file?)", crate::error::shown(*v)),
+            ));
         }
         Ok(r)
     }
@@ -514,14 +530,19 @@ pub const MIN_LENGTH_SPREAD_MM: f64 = 1e-3;
 /// Largest magnitude of any number in a result file's model (parameters in m and rad, network
 /// weights in mm, masses, forces): beyond it the file was edited, not written by a calibration.
 pub const MAX_MODEL_MAGNITUDE: f64 = 1e9;
+/// Largest |number| a stored learned corrector may hold (see [`CalibResult::load`]).
+pub const MAX_CORRECTOR_MAGNITUDE: f64 = 1e5;
+/// Largest |value| of an instrument placement parameter in a result file (m or rad): an exit
+/// point, a tracker or a reflector 100 m away is an edit, not a calibration.
+pub const MAX_PLACEMENT: f64 = 100.0;
 
 /// The first number in `v` beyond [`MAX_MODEL_MAGNITUDE`]: its JSON path below `v` and the number.
-fn beyond_magnitude(v: &serde_json::Value) -> Option<(String, serde_json::Number)> {
+fn beyond_magnitude(v: &serde_json::Value, limit: f64) -> Option<(String, serde_json::Number)> {
     use serde_json::Value;
     match v {
-        Value::Number(n) => n.as_f64().is_none_or(|x| x.abs() > MAX_MODEL_MAGNITUDE).then(|| (String::new(), n.clone())),
-        Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| beyond_magnitude(x).map(|(p, n)| (format!("[{i}]{p}"), n))),
-        Value::Object(map) => map.iter().find_map(|(k, x)| beyond_magnitude(x).map(|(p, n)| (format!(".{k}{p}"), n))),
+        Value::Number(n) => n.as_f64().is_none_or(|x| x.abs() > limit).then(|| (String::new(), n.clone())),
+        Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| beyond_magnitude(x, limit).map(|(p, n)| (format!("[{i}]{p}"), n))),
+        Value::Object(map) => map.iter().find_map(|(k, x)| beyond_magnitude(x, limit).map(|(p, n)| (format!(".{k}{p}"), n))),
         _ => None,
     }
 }
@@ -729,7 +750,8 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
     // With few rows per parameter a fit nearly interpolates them: the residuals' robust scale
     // then says nothing about the noise, and the screen would flag good rows.
     let n_free = identify(&ReadingFit { model, data: &split.train }, &model.nominal, opts.rank_tol).fixed_mask.iter().filter(|f| !**f).count();
-    if split.train.len() < SCREEN_ROWS_PER_PARAM * n_free {
+    // Counted in reading values: a tracker's row gives three.
+    if split.train.y.len() < SCREEN_ROWS_PER_PARAM * n_free {
         return Ok(None);
     }
     let screen = {
@@ -892,21 +914,20 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     let measurement = reading_measurement(data)?;
     let mut split = split_stage(data, opts)?;
     let dim = measurement.dim();
-    let spread = (0..dim)
+    let spread: Vec<f64> = (0..dim)
         .map(|c| {
             let (lo, hi) = data.rows.iter().map(|r| r.reading_mm[c]).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
             hi - lo
         })
-        .fold(0.0f64, f64::max);
-    if spread < MIN_LENGTH_SPREAD_MM {
+        .collect();
+    // Every reading value must change with the pose: a tracker column written as a constant (a
+    // coordinate lost in the export) is no measurement either.
+    if let Some(c) = spread.iter().position(|s| *s < MIN_LENGTH_SPREAD_MM) {
         let first = &data.rows[0].reading_mm;
         let msg = if dim == 1 {
             format!("every row reads the same length (L = {} mm): a calibration needs lengths that change with the pose", first[0])
         } else {
-            format!(
-                "every row reads the same point ({} = {first:?} mm): a calibration needs readings that change with the pose",
-                measurement.def().columns().join(", ")
-            )
+            format!("every row reads the same {} ({} mm): a calibration needs readings that change with the pose", measurement.def().columns()[c], first[c])
         };
         return Err(Error::data(&data.source, msg));
     }
@@ -931,24 +952,30 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     }
     if screen.is_none() && opts.outlier_k > 0.0 {
         warnings.push(format!(
-            "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows per identifiable parameter, too few for a robust scale of the residuals"
+            "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows (reading values) per identifiable parameter, too few for a robust scale of the residuals"
         ));
     }
     let x0 = model.nominal.clone();
     let fit = ReadingFit { model: &model, data: &split.train };
     let fixed = id.fixed_mask.clone();
     let n_free = fixed.iter().filter(|f| !**f).count();
+    // Counted in reading values: a configuration a tracker reads gives three.
+    let dim = split.train.dim.max(1);
     let distinct = distinct_configurations(data, &split.train_idx);
-    if distinct <= n_free {
+    if distinct * dim <= n_free {
+        let values = if dim > 1 { format!(" ({} reading values)", distinct * dim) } else { String::new() };
         return Err(Error::Calibration(format!(
-            "{distinct} distinct training configurations for {n_free} identifiable parameters: an exact fit says nothing; \
+            "{distinct} distinct training configurations{values} for {n_free} identifiable parameters: an exact fit says nothing; \
              measure more poses (at least {} recommended)",
-            3 * n_free
+            (3 * n_free).div_ceil(dim)
         )));
     }
-    if split.train.len() < 3 * n_free {
-        warnings
-            .push(format!("only {} training rows for {n_free} identifiable parameters (3x as many recommended): uncertainties are large", split.train.len()));
+    if split.train.y.len() < 3 * n_free {
+        let values = if dim > 1 { format!(" ({} reading values)", split.train.y.len()) } else { String::new() };
+        warnings.push(format!(
+            "only {} training rows{values} for {n_free} identifiable parameters (3x as many recommended): uncertainties are large",
+            split.train.len()
+        ));
     }
     let repeatability = reading_repeatability(data);
 
@@ -986,11 +1013,25 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
             metrics.train_after.rmse
         ));
     } else if let (Some(before), Some(after)) = (&metrics.test_before, &metrics.test_after) {
-        if after.rmse > before.rmse {
+        // Beyond 5 %: a model already calibrated (its own URDF export) moves within noise.
+        if after.rmse > 1.05 * before.rmse {
             warnings.push(format!(
                 "the calibrated model predicts the test rows worse than the nominal model (test RMSE {:.4} -> {:.4} mm) while it fits the training \
                  rows better: the training poses do not cover the test rows (a joint held still or a narrow range) or the model follows their noise",
                 before.rmse, after.rmse
+            ));
+        }
+    }
+    // A model that fits its training rows far inside the reading noise and then misses the test
+    // rows has learned the rows, not the arm (an unpenalised network, as pso-ekf-awnn-v5's).
+    if let (true, Some(test)) = (noise.is_finite() && noise > 0.0, &metrics.test_after) {
+        if metrics.train_after.rmse < 0.5 * noise && test.rmse > 2.0 * metrics.train_after.rmse.max(noise) {
+            warnings.push(format!(
+                "{} fits the training rows far inside the reading noise (training RMSE {:.4} mm, noise {noise:.4} mm) and misses the test rows \
+                 ({:.4} mm): it has more freedom than the data support and follows their noise",
+                solver.method().name(),
+                metrics.train_after.rmse,
+                test.rmse
             ));
         }
     }
@@ -1001,7 +1042,8 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         let d = split.test.dim;
         let inliers: Vec<f64> =
             (0..split.test.len()).filter(|i| !out.contains(&split.test_idx[*i])).flat_map(|i| test_residuals_mm[i * d..(i + 1) * d].iter().copied()).collect();
-        metrics.test_after_inliers = Some(ErrorStats::of(&inliers));
+        // Every test row beyond the rule: there are no inliers to describe.
+        metrics.test_after_inliers = (!inliers.is_empty()).then(|| ErrorStats::of(&inliers));
         metrics.test_after_trimmed = Some(trimmed_stats(&test_residuals_mm, 0.01));
     }
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());

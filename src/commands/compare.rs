@@ -139,9 +139,14 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     table.push_str(
         "| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n",
     );
+    // One seed has no spread to show.
     let ms = |v: Vec<f64>| {
         let (m, s) = mean_std(&v);
-        format!("{m:.4} ± {s:.4}")
+        if v.len() > 1 {
+            format!("{m:.4} ± {s:.4}")
+        } else {
+            format!("{m:.4}")
+        }
     };
     for m in &methods {
         let r = by(m.name());

@@ -43,7 +43,8 @@ pub struct IkArgs {
     /// A result.json written by `calibrate`.
     #[arg(long)]
     pub model: PathBuf,
-    /// CSV of target points with columns x,y,z in mm (the calibration's frame).
+    /// CSV of target points with columns x,y,z in mm, in the robot's base frame (for a model
+    /// calibrated on a laser tracker's points too: ik solves for the tool point in the base).
     #[arg(long)]
     pub targets: Option<PathBuf>,
     /// N reachable targets: the true tool points of random configurations inside the
@@ -99,6 +100,9 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     if r.model.effects.iter().any(|b| b.kind == crate::calib::effects::EffectKind::Backlash) {
         eprintln!("warning: the model has backlash blocks; ik solves every target with no flank (a target has no approach history)");
     }
+    if a.twin.is_some() && a.no_twin {
+        return Err(Error::Invalid("--twin DIR validates on a twin and --no-twin skips it: give one of them".into()));
+    }
     let data = result_data(&a.model, &r);
     let twin_dir = match (&a.twin, a.no_twin) {
         (_, true) => None,
@@ -134,7 +138,8 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     for run in &runs {
         for (i, (s, t)) in run.solutions.iter().zip(&targets).enumerate() {
             let q: Vec<String> = s.q.iter().map(|v| format!("{:.6}", v.to_degrees())).collect();
-            let te = run.true_error_mm.as_ref().map(|v| format!("{:.6}", v[i])).unwrap_or_default();
+            // An invalid target (NaN) has no solution to measure.
+            let te = run.true_error_mm.as_ref().filter(|_| s.status != IkStatus::Invalid).map(|v| format!("{:.6}", v[i])).unwrap_or_default();
             csv.push_str(&format!(
                 "{},{},{},{},{},{},{},{:.6},{},{te}\n",
                 i + 1,

@@ -32,13 +32,15 @@ pub fn study(
     }
     let rows = crate::sim::twin::study::hold_study(&s, &robot, study, progress(quiet).as_ref())?;
     let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    let noise = match &s.tracker {
+        // A tracker's noise grows with the distance: stated per sample, then averaged.
+        Some(t) => format!("tracker noise {} µm + {} µm/m per sample, {} samples averaged", t.noise_um, t.noise_um_per_m, s.sensor.samples),
+        None => format!("averaged reading noise {:.2} µm", floor * 1e3),
+    };
     println!("hold study ({}, first {} poses, readings taken even with the gate closed)", s.name, rows.first().map(|r| r.poses).unwrap_or(0));
     println!(
-        "  damping ratio {}, gate: {} s windows within {} mm; averaged reading noise {:.2} µm (not included below)",
-        s.acquisition.damping_ratio,
-        s.acquisition.gate_window_s,
-        s.acquisition.gate_mm,
-        floor * 1e3
+        "  damping ratio {}, gate: {} s windows within {} mm; {noise} (not included below)",
+        s.acquisition.damping_ratio, s.acquisition.gate_window_s, s.acquisition.gate_mm,
     );
     println!(
         "  {:>6} {:>8} {:>10} {:>11} {:>10} {:>12} {:>11} {:>9}",

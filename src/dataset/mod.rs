@@ -544,8 +544,8 @@ impl Column {
     }
 
     /// The column a header names: `q<k>` with 1 <= k <= [`MAX_JOINTS`] (case-insensitive,
-    /// digits only, no leading zero), a reading column (`L`, `x`, ...) or one of the named
-    /// columns.
+    /// digits only, no leading zero), a reading column (`L`, `x`, ..., or with its unit `L_mm`,
+    /// `x_mm`) or one of the named columns.
     fn from_header(h: &str) -> Option<Column> {
         let h = h.trim();
         if let Some(k) = h.strip_prefix(['q', 'Q']) {
@@ -555,7 +555,12 @@ impl Column {
                 _ => None,
             };
         }
-        if let Some(i) = reading_names().iter().position(|n| n.eq_ignore_ascii_case(h)) {
+        // A reading column may carry its unit: `L_mm`, `x_mm` (as `ik --targets` reads them).
+        let bare = match h.len().checked_sub(3).and_then(|k| Some((h.get(..k)?, h.get(k..)?))) {
+            Some((stem, unit)) if !stem.is_empty() && unit.eq_ignore_ascii_case("_mm") => stem,
+            _ => h,
+        };
+        if let Some(i) = reading_names().iter().position(|n| n.eq_ignore_ascii_case(bare)) {
             return Some(Column::Reading(i));
         }
         Self::OTHERS.into_iter().find(|c| c.name().eq_ignore_ascii_case(h))

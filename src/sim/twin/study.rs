@@ -51,6 +51,11 @@ impl HoldStudy {
         if self.speed_fractions.is_empty() || self.speed_fractions.iter().any(|v| !(v.is_finite() && *v > 0.0 && *v <= 1.0)) {
             return Err(format!("--speeds needs fractions in (0, 1], got {:?}", self.speed_fractions));
         }
+        for (name, v) in [("--holds", &self.holds_s), ("--speeds", &self.speed_fractions)] {
+            if let Some(d) = v.iter().enumerate().find_map(|(i, a)| v[..i].contains(a).then_some(a)) {
+                return Err(format!("{name} lists {d} twice"));
+            }
+        }
         if !(1..=crate::sim::scenario::MAX_POSES).contains(&self.poses) {
             return Err(format!("--poses must be in 1..={}, got {}", crate::sim::scenario::MAX_POSES, self.poses));
         }
