@@ -206,3 +206,42 @@ fn hsr_generic_model_lands_in_the_same_basin_on_80_percent_of_the_rows() {
     let ratio = b.metrics.test_after_trimmed.unwrap().rmse / floor;
     assert!(ratio <= 1.2, "80 % fit: {ratio}");
 }
+
+/// The laser-tracker grids of a UR5 (850 poses, `ur_description`'s URDF) and a Barrett WAM (216
+/// poses, 7 joints, `urdf/wam.urdf`): LM on the geometry and the instrument placement, a fifth of
+/// the rows held out (stratified, over three seeds). The held-out mean absolute position error
+/// |Δp| falls well below the placed nominal arm's and below the published figure of a
+/// calibration with a graph network (UR5 0.155 mm, WAM 2.92 mm, on the authors' 20 random poses:
+/// another test set, so a comparison, not a replication).
+#[test]
+fn tracker_grids_of_a_ur5_and_a_wam_calibrate_below_the_published_error() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let ur5_urdf = root.join("../shared/reference/ur_description/ur5_robot.urdf");
+    // Against the nominal arm with its instrument placed (a rigid fit that already takes most of
+    // the error away): the UR5 to under a quarter, the cable-driven WAM (repeatability 2 mm) to
+    // under two thirds.
+    for (rel, urdf, published, factor) in
+        [("ur5-lasertracker/ur5_grid_pool.csv", ur5_urdf.clone(), 0.155, 0.25), ("wam-lasertracker/wam_grid.csv", root.join("urdf/wam.urdf"), 2.92, 0.67)]
+    {
+        let Some(path) = shared(rel) else { continue };
+        if !urdf.exists() {
+            eprintln!("SKIP: {} is absent", urdf.display());
+            continue;
+        }
+        let ds = Dataset::load(&path).unwrap();
+        let spec = ModelSpec::parse(urdf.to_str().unwrap(), "hayati").unwrap();
+        let mut after = Vec::new();
+        for seed in 0..3 {
+            let mut o = CalibOptions::new(spec.clone(), Method::Lm);
+            o.test_fraction = Some(0.2);
+            o.seed = seed;
+            let r = calibrate(&ds, None, &o).unwrap();
+            let (b, a) = (r.metrics.test_position_before.unwrap(), r.metrics.test_position_after.unwrap());
+            eprintln!("{rel} seed {seed}: held-out |dp| mean {:.4} mm (RMS {:.4}), before {:.4} mm", a.mae, a.rmse, b.mae);
+            assert!(a.mae < factor * b.mae, "{rel} seed {seed}: {} vs {}", a.mae, b.mae);
+            after.push(a.mae);
+        }
+        let worst = after.iter().copied().fold(0.0, f64::max);
+        assert!(worst < published, "{rel}: held-out mean |dp| up to {worst:.4} mm against the published {published} mm");
+    }
+}

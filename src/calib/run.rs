@@ -175,6 +175,13 @@ pub struct Metrics {
     /// are compared with their repeatability floor, which a few bad readings would swamp.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_after_trimmed: Option<ErrorStats>,
+    /// For a reading of several values (a tracker's point): the test rows' position error
+    /// |Δp| (one distance per row, mm; `mae` is the mean absolute position error papers quote)
+    /// before and after calibration.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_position_before: Option<ErrorStats>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_position_after: Option<ErrorStats>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -795,6 +802,11 @@ fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &
 /// Stage "metrics": RMSE / STD / MAX before (start) and after, on training and test rows.
 pub fn metrics_stage(fit: &ReadingFit, test_fit: &ReadingFit, x0: &[f64], x: &[f64], corrector: Option<&dyn Correct>) -> Metrics {
     let has_test = !test_fit.data.is_empty();
+    let d = test_fit.data.dim;
+    let position = |x: &[f64], c: Option<&dyn Correct>| {
+        let dist: Vec<f64> = residuals_with(test_fit, x, c).chunks(d).map(|r| r.iter().map(|v| v * v).sum::<f64>().sqrt()).collect();
+        ErrorStats::of(&dist)
+    };
     Metrics {
         train_before: stats(fit, x0, None),
         test_before: has_test.then(|| stats(test_fit, x0, None)),
@@ -802,6 +814,8 @@ pub fn metrics_stage(fit: &ReadingFit, test_fit: &ReadingFit, x0: &[f64], x: &[f
         test_after: has_test.then(|| stats(test_fit, x, corrector)),
         test_after_inliers: None,
         test_after_trimmed: None,
+        test_position_before: (has_test && d > 1).then(|| position(x0, None)),
+        test_position_after: (has_test && d > 1).then(|| position(x, corrector)),
     }
 }
 

@@ -196,13 +196,12 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
     let meas = r.model.measurement;
     if meas.dim() > 1 {
         let cols = meas.def().columns().join(", ");
-        let dist: Vec<f64> = r.test_residuals_mm.chunks(meas.dim()).map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt()).collect();
-        if dist.is_empty() {
-            eprintln!("  residuals are per coordinate ({cols})");
-        } else {
-            let rms = crate::calib::stats::rms(&dist);
-            let max = dist.iter().copied().fold(0.0, f64::max);
-            eprintln!("  residuals are per coordinate ({cols}); the test rows' position error |Δp|: RMS {rms:.4} mm, MAX {max:.4} mm");
+        match (&m.test_position_before, &m.test_position_after) {
+            (Some(b), Some(a)) => eprintln!(
+                "  residuals are per coordinate ({cols}); the test rows' position error |Δp| (mean / RMS / MAX): {:.4} / {:.4} / {:.4} mm, before {:.4} / {:.4} / {:.4} mm",
+                a.mae, a.rmse, a.max, b.mae, b.rmse, b.max
+            ),
+            _ => eprintln!("  residuals are per coordinate ({cols})"),
         }
     }
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
