@@ -756,7 +756,8 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
                         Column::T,
                         format!(
                             "t = {t} s is earlier than t = {prev} s on line {prev_line}; t must \
-                             be non-decreasing"
+                             be non-decreasing (rows are read in acquisition order: sort the file by t if its times are right, \
+                             or leave the t column out)"
                         ),
                     ));
                 }
