@@ -617,4 +617,17 @@ fn tracker_files_as_users_have_them() {
     let (code, err) = run(&["calibrate", "--data", &at("few.csv"), "--test-fraction", "0", "--out", &at("few.json")]);
     assert_eq!(code, Some(0), "{err}");
     assert!(err.contains("only 24 training rows (72 reading values) for 27 identifiable parameters"), "{err}");
+    // compare prints the test rows' position error and writes it per run; calibrate's result
+    // holds the same measure (metrics.test_position_after) for the same seed and split.
+    let o = twincal(&["compare", "--data", data.to_str().unwrap(), "--methods", "lm", "--seeds", "2", "--out", &at("cmp.json"), "--quiet"]);
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && table.contains("position error |Δp| (mm)"), "{table}");
+    let cmp: serde_json::Value = serde_json::from_slice(&std::fs::read(at("cmp.json")).unwrap()).unwrap();
+    let seed0 = cmp["runs"].as_array().unwrap().iter().find(|r| r["seed"] == 0).unwrap().clone();
+    let frac = cmp["test_fraction"].as_f64().unwrap().to_string();
+    let (code, err) = run(&["calibrate", "--data", data.to_str().unwrap(), "--test-fraction", &frac, "--seed", "0", "--out", &at("c0.json"), "--quiet"]);
+    assert_eq!(code, Some(0), "{err}");
+    let c0: serde_json::Value = serde_json::from_slice(&std::fs::read(at("c0.json")).unwrap()).unwrap();
+    let (a, b) = (seed0["test_position"]["mae"].as_f64().unwrap(), c0["metrics"]["test_position_after"]["mae"].as_f64().unwrap());
+    assert!((a - b).abs() < 1e-12 && a > 0.0, "compare {a} vs calibrate {b}");
 }

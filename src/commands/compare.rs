@@ -11,6 +11,10 @@ pub struct CompareRun {
     pub test: crate::calib::metrics::ErrorStats,
     pub iterations: usize,
     pub seconds: f64,
+    /// For a reading of several values (a tracker's point): the test rows' position error |Δp|
+    /// (its `mae` is the mean absolute position error).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub test_position: Option<crate::calib::metrics::ErrorStats>,
     /// What the calibration warned of (a method ending worse than its start, few rows, ...).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
@@ -126,6 +130,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
                 test: r.metrics.test_after.unwrap_or_default(),
                 iterations: r.iterations,
                 seconds: r.wall_time_s,
+                test_position: r.metrics.test_position_after,
                 warnings: r.warnings,
                 test_abs_residuals,
             })
@@ -162,6 +167,16 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
             ms(r.iter().map(|x| x.iterations as f64).collect()),
             ms(r.iter().map(|x| x.seconds).collect()),
         ));
+    }
+    // A tracker's points: the test rows' position error |Δp| too (mean, as papers quote it).
+    let points = runs.iter().any(|r| r.test_position.is_some());
+    if points {
+        table.push_str("\nResiduals are per coordinate; the test rows' position error |Δp| (mm):\n\n| method | mean | RMS | MAX |\n|---|---|---|---|\n");
+        for m in &methods {
+            let r = by(m.name());
+            let p = |f: fn(&crate::calib::metrics::ErrorStats) -> f64| ms(r.iter().filter_map(|x| x.test_position.as_ref().map(f)).collect());
+            table.push_str(&format!("| {} | {} | {} | {} |\n", m.name(), p(|e| e.mae), p(|e| e.rmse), p(|e| e.max)));
+        }
     }
     let mut tests = Vec::new();
     let reference = methods[0].name();
