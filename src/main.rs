@@ -37,7 +37,7 @@ enum Command {
     /// From measured data: what the geometric model gets wrong, which effect causes it, how big
     /// it is and how much better the extended model predicts unseen rows.
     Diagnose(commands::DiagnoseArgs),
-    /// Predict cable lengths with a calibrated model.
+    /// Predict readings (cable lengths or tracker points) with a calibrated model.
     Predict {
         /// A result.json written by `calibrate`.
         #[arg(long)]
