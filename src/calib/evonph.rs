@@ -709,10 +709,11 @@ mod tests {
             let fixed: Vec<bool> = (0..model.n_params()).map(|k| k % 3 == 0).collect();
             let prior = vec![1e-3; model.n_params()];
             let p = Problem { fit: &fit, x0: &model.nominal, fixed: &fixed, prior_std: &prior, noise_mm: 0.01, seed: 1 };
-            for mlp in [false, true] {
-                let s = EvoNphSolver { shape: GkanShape { grid: 3, edge_grid: 1, chain_joints: 5 }, ..EvoNphSolver::new(EvoVariant::Full, 1.0) };
+            // The GKAN, the perceptron, and no network (the choice's one-standard-error rule).
+            for (mlp, network) in [(false, true), (true, true), (false, false)] {
+                let s = EvoNphSolver { shape: GkanShape { grid: 3, edge_grid: 1, chain_joints: 5 }, network, ..EvoNphSolver::new(EvoVariant::Full, 1.0) };
                 let (obj, _) = Objective::new(&p, &s, mlp).unwrap();
-                assert_eq!(obj.n_w, obj.per_net * m.dim());
+                assert_eq!(obj.n_w, if network { obj.per_net * m.dim() } else { 0 });
                 let mut rng = ChaCha8Rng::seed_from_u64(9);
                 let mut z: Vec<f64> = obj.x0_free.iter().map(|v| v + 1e-4 * (rng.random::<f64>() - 0.5)).collect();
                 z.extend((0..obj.n_w).map(|_| 0.01 * (rng.random::<f64>() - 0.5)));
@@ -740,11 +741,19 @@ mod tests {
                 let half: f64 = rp.iter().map(|v| v * v).sum::<f64>() / 2.0;
                 let n = data.y.len() as f64;
                 assert!((half - n * obj.cost(&z) / 2.0).abs() < 1e-9 * half.max(1.0), "{m:?} mlp {mlp}");
-                if !mlp {
+                if !mlp && network {
                     let mut zr = z.clone();
                     let refined = obj.cost_refine(&mut zr);
                     assert!((refined - obj.cost(&zr)).abs() < 1e-9 * refined, "{m:?}: {refined} vs {}", obj.cost(&zr));
                     assert!(refined < obj.cost(&z));
+                }
+                if !network {
+                    // No network: the corrector holds zero coefficients of the chosen shape.
+                    let c = obj.corrector(&[]);
+                    assert_eq!(c.as_correct().dim(), m.dim());
+                    let mut out = vec![1.0; m.dim()];
+                    c.as_correct().corrections_mm(&data.q[0], &Default::default(), &mut out);
+                    assert!(out.iter().all(|v| *v == 0.0));
                 }
             }
         }
