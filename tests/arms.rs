@@ -126,8 +126,9 @@ fn scenario_text(arm: &str, extra: &str) -> String {
 
 /// For each arm and seeds 1-3: calibrate on the tracker points reaches the tracker's noise on
 /// the test rows with every identifiable parameter within 3σ of its truth; with a hidden
-/// joint-2 compliance (UR5 20 µrad/N·m, UR10 10 µrad/N·m: the arm's own weight sags the tool by
-/// up to about 1 and 2 mm; UR10 joint 2 on real tracker data is diagnosed at 7.8-11.1), diagnose
+/// joint-2 compliance (UR5 20 µrad/N·m, UR10 10 µrad/N·m: with the arm stretched out level, its
+/// own weight, about 51 and 134 N·m at joint 2 from the URDF's masses, sags the tool by about 0.9
+/// and 1.7 mm; UR10 joint 2 on real tracker data is diagnosed at 7.8-11.1 µrad/N·m), diagnose
 /// names it with its size within 5 %.
 #[test]
 fn ur_tracker_scenarios_calibrate_to_the_noise_and_diagnose_a_hidden_compliance() {
