@@ -791,6 +791,12 @@ fn nonsense_from_the_second_sweep_is_refused_or_said() {
     let rbf = out("rbf.json");
     assert!(twincal(&["calibrate", "--data", s(&data), "--method", "rbf", "--out", &rbf]).status.success());
     let mut r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rbf).unwrap()).unwrap();
+    // An input statistic may be large (a time input's mean over days is 1e5 s and more): loaded.
+    let mut big_input = r.clone();
+    big_input["corrector"]["input_scale"][0] = 2e5.into();
+    std::fs::write(out("big_input.json"), big_input.to_string()).unwrap();
+    let o = twincal(&["predict", "--model", &out("big_input.json"), "--data", s(&data), "--out", &out("p.csv")]);
+    assert!(o.status.success(), "{}", stderr(&o));
     r["corrector"]["weights"][0] = 1e6.into();
     std::fs::write(out("bad.json"), r.to_string()).unwrap();
     let o = twincal(&["predict", "--model", &out("bad.json"), "--data", s(&data), "--out", &out("p.csv")]);

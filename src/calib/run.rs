@@ -401,20 +401,23 @@ impl CalibResult {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let value: serde_json::Value =
             serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
-        // What the model computes with holds no number a calibration could not have produced; a
-        // learned corrector's numbers (weights and coefficients in mm, inputs in rad) stay far
-        // below a correction of 100 m.
-        for (key, limit) in [
-            ("model", MAX_MODEL_MAGNITUDE),
-            ("x", MAX_MODEL_MAGNITUDE),
-            ("corrector", MAX_CORRECTOR_MAGNITUDE),
-            ("torque_model", MAX_MODEL_MAGNITUDE),
-            ("rbf", MAX_CORRECTOR_MAGNITUDE),
-        ] {
-            if let Some((at, n)) = value.get(key).and_then(|v| beyond_magnitude(v, limit)) {
+        // What the model computes with holds no number a calibration could not have produced.
+        for key in ["model", "x", "corrector", "torque_model", "rbf"] {
+            if let Some((at, n)) = value.get(key).and_then(|v| beyond_magnitude(v, MAX_MODEL_MAGNITUDE)) {
                 return Err(Error::model(
                     path.display(),
-                    format!("{key}{at} = {n} is beyond what a calibration writes (|value| <= {limit:e}); edited result file?"),
+                    format!("{key}{at} = {n} is beyond what a calibration writes (|value| <= {MAX_MODEL_MAGNITUDE:e}); edited result file?"),
+                ));
+            }
+        }
+        // A learned corrector's outputs (weights, biases, spline coefficients, its output range,
+        // in mm) stay far below a correction of 100 m; its input statistics may not (a time
+        // input's mean over days of acquisition is 1e5 s and more).
+        for key in ["corrector", "rbf"] {
+            if let Some((at, n)) = value.get(key).and_then(corrector_output_beyond) {
+                return Err(Error::model(
+                    path.display(),
+                    format!("{key}{at} = {n} is beyond what a calibration writes (a correction within {MAX_CORRECTOR_MAGNITUDE:e} mm); edited result file?"),
                 ));
             }
         }
@@ -537,8 +540,25 @@ pub const MIN_LENGTH_SPREAD_MM: f64 = 1e-3;
 /// Largest magnitude of any number in a result file's model (parameters in m and rad, network
 /// weights in mm, masses, forces): beyond it the file was edited, not written by a calibration.
 pub const MAX_MODEL_MAGNITUDE: f64 = 1e9;
-/// Largest |number| a stored learned corrector may hold (see [`CalibResult::load`]).
+/// Largest |number| among a stored learned corrector's outputs (weights, biases, coefficients,
+/// its output range; mm), see [`CalibResult::load`].
 pub const MAX_CORRECTOR_MAGNITUDE: f64 = 1e5;
+/// The keys of a stored corrector whose numbers are outputs in mm.
+const CORRECTOR_OUTPUT_KEYS: [&str; 5] = ["weights", "bias", "coef", "w", "output_range"];
+
+/// The first output number of a stored corrector (under [`CORRECTOR_OUTPUT_KEYS`], at any depth:
+/// a per-value corrector nests them) beyond [`MAX_CORRECTOR_MAGNITUDE`], with its JSON path.
+fn corrector_output_beyond(v: &serde_json::Value) -> Option<(String, serde_json::Number)> {
+    use serde_json::Value;
+    match v {
+        Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| corrector_output_beyond(x).map(|(p, n)| (format!("[{i}]{p}"), n))),
+        Value::Object(map) => map.iter().find_map(|(k, x)| {
+            let found = if CORRECTOR_OUTPUT_KEYS.contains(&k.as_str()) { beyond_magnitude(x, MAX_CORRECTOR_MAGNITUDE) } else { corrector_output_beyond(x) };
+            found.map(|(p, n)| (format!(".{k}{p}"), n))
+        }),
+        _ => None,
+    }
+}
 /// Largest |value| of an instrument placement parameter in a result file (m or rad): an exit
 /// point, a tracker or a reflector 100 m away is an edit, not a calibration.
 pub const MAX_PLACEMENT: f64 = 100.0;
