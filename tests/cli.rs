@@ -818,4 +818,9 @@ fn nonsense_from_the_second_sweep_is_refused_or_said() {
     let said = e.contains("fits the training rows far inside the reading noise");
     let kept = r["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("far inside the reading noise"));
     assert!(said && kept, "train {train}, test {test}: {e}");
+    // ik on a network that reads the backlash flanks (pso-ekf-awnn-x) says it solves without them.
+    let x = out("x.json");
+    assert!(twincal(&["calibrate", "--data", s(&full), "--method", "pso-ekf-awnn-x", "--out", &x]).status.success());
+    let o = twincal(&["ik", "--model", &x, "--random", "2", "--no-twin", "--jacobian", "analytic", "--out", &out("ikx.csv")]);
+    assert!(o.status.success() && stderr(&o).contains("warning: the model reads backlash flanks"), "{}", stderr(&o));
 }

@@ -294,6 +294,26 @@ impl CalibResult {
     /// The dataset columns the model reads besides the joint angles, each with what reads it:
     /// `temp` or `t` for a thermal block (by how it was driven) or a corrector with that input.
     /// Torques and backlash flanks come from the angles and the acquisition order.
+    /// The learned wavelet network (the first, when there is one per reading value: they share
+    /// their inputs).
+    fn wavelet_network(&self) -> Option<&super::awnn::Awnn> {
+        match &self.corrector {
+            Some(super::corrector::Corrector::Awnn(n)) => Some(n),
+            Some(super::corrector::Corrector::Values(v)) => v.values.iter().find_map(|c| match c {
+                super::corrector::Corrector::Awnn(n) => Some(n),
+                _ => None,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Whether the model reads a row's backlash approach flanks (a backlash block, or a network
+    /// with flank inputs) or its joint torques as network inputs: `ik` solves without them.
+    pub fn reads_flanks(&self) -> bool {
+        self.model.effects.iter().any(|b| b.kind == super::effects::EffectKind::Backlash)
+            || self.wavelet_network().is_some_and(|n| n.extra.iter().any(|f| matches!(f, super::awnn::Feature::Side(_) | super::awnn::Feature::Torque(_))))
+    }
+
     pub fn columns_read(&self) -> Vec<(&'static str, String)> {
         use super::effects::{EffectKind, ThermalDrive};
         let mut out = Vec::new();
@@ -301,16 +321,7 @@ impl CalibResult {
             let col = if matches!(b.thermal, Some(ThermalDrive::Temperature { .. })) { "temp" } else { "t" };
             out.push((col, format!("its {} block", b.label())));
         }
-        // A network per reading value reads what the first one reads (they share their inputs).
-        let awnn = match &self.corrector {
-            Some(super::corrector::Corrector::Awnn(n)) => Some(n),
-            Some(super::corrector::Corrector::Values(v)) => v.values.iter().find_map(|c| match c {
-                super::corrector::Corrector::Awnn(n) => Some(n),
-                _ => None,
-            }),
-            _ => None,
-        };
-        if let Some(n) = awnn {
+        if let Some(n) = self.wavelet_network() {
             for f in &n.extra {
                 match f {
                     super::awnn::Feature::Temperature => out.push(("temp", "its network's temperature input".into())),

@@ -97,8 +97,11 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     if !read.is_empty() {
         eprintln!("warning: the model also reads {}; ik solves every target at the reference value (no rise)", read.join(", "));
     }
-    if r.model.effects.iter().any(|b| b.kind == crate::calib::effects::EffectKind::Backlash) {
-        eprintln!("warning: the model has backlash blocks; ik solves every target with no flank (a target has no approach history)");
+    if r.reads_flanks() {
+        eprintln!(
+            "warning: the model reads backlash flanks or joint torques (a backlash block, or its network's flank or torque inputs); ik solves every target \
+             with no flank and no torque input (a target has no approach history)"
+        );
     }
     if a.twin.is_some() && a.no_twin {
         return Err(Error::Invalid("--twin DIR validates on a twin and --no-twin skips it: give one of them".into()));
