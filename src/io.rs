@@ -234,8 +234,9 @@ pub type Named<'a> = (&'a str, &'a Path);
 /// Refuses outputs that would destroy an input or each other: an output that is also an input,
 /// two outputs on the same file, or an output that is an existing folder. Paths are compared
 /// canonicalised ([`canonical`]), so `./d/../d/x.csv` and a symbolic link are caught too.
-pub fn check_outputs(inputs: &[Named], outputs: &[Named]) -> Result<()> {
-    let ins: Vec<(&str, &Path, PathBuf)> = inputs.iter().map(|(o, p)| (*o, *p, canonical(p))).collect();
+/// The inputs are named paths, borrowed or owned.
+pub fn check_outputs<P: AsRef<Path>>(inputs: &[(&str, P)], outputs: &[Named]) -> Result<()> {
+    let ins: Vec<(&str, &Path, PathBuf)> = inputs.iter().map(|(o, p)| (*o, p.as_ref(), canonical(p.as_ref()))).collect();
     let mut seen: Vec<(&str, &Path, PathBuf)> = Vec::new();
     for (opt, p) in outputs {
         let c = canonical(p);
@@ -353,7 +354,7 @@ mod tests {
         let x2 = dir.path().join("new/./x.json");
         let e = check_outputs(&[("--data", &data)], &[("--out", &x), ("--urdf", &x2)]).unwrap_err().to_string();
         assert!(e.contains("are the same file"), "{e}");
-        let e = check_outputs(&[], &[("--out", &sub)]).unwrap_err().to_string();
+        let e = check_outputs::<&Path>(&[], &[("--out", &sub)]).unwrap_err().to_string();
         assert!(e.contains("existing folder"), "{e}");
         check_outputs(&[("--data", &data)], &[("--out", &x), ("--rrd", &dir.path().join("r.rrd"))]).unwrap();
         #[cfg(unix)]

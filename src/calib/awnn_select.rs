@@ -42,7 +42,7 @@
 
 use super::awnn::{Activation, Awnn, Feature, Library};
 use super::effects::RowInputs;
-use super::ridge_cv::{Folds, GeometricFit, FOLDS};
+use super::ridge_cv::{one_se_win, Folds, GeometricFit, FOLDS};
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -211,14 +211,12 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     // held-out residual (summed over the row's values) must be negative by more than its
     // standard error, else a win is the best of many candidates on noise.
     let r = folds.cv_residuals(chosen_system).unwrap_or_else(|| baseline.clone());
-    let d: Vec<f64> = r.chunks(dim).zip(baseline.chunks(dim)).map(|(a, b)| a.iter().zip(b).map(|(a, b)| a * a - b * b).sum()).collect();
-    let fitted = one_se_win(&d);
+    let change: Vec<f64> = r.iter().zip(&baseline).map(|(a, b)| a * a - b * b).collect();
+    let fitted = one_se_win(&change.chunks(dim).map(|row| row.iter().sum()).collect::<Vec<f64>>());
     // With several values, the same rule per value too: a value whose own held-out residuals
     // the network does not improve by one standard error keeps zero output weights (the layout
     // and penalty are shared, chosen for the values with something to learn).
-    let value_fitted: Vec<bool> = (0..dim)
-        .map(|c| fitted && (dim == 1 || one_se_win(&r.iter().zip(&baseline).skip(c).step_by(dim).map(|(a, b)| a * a - b * b).collect::<Vec<f64>>())))
-        .collect();
+    let value_fitted: Vec<bool> = (0..dim).map(|c| fitted && (dim == 1 || one_se_win(&super::stats::value_column(&change, dim, c)))).collect();
     let m = net.neurons();
     let nets = (0..dim)
         .map(|c| {
@@ -233,15 +231,6 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
         })
         .collect();
     Ok(Selection { nets, chosen, candidates, no_network_rmse_mm, fitted, value_fitted })
-}
-
-/// Whether the changes `d` of squared held-out residuals are negative by more than their
-/// standard error.
-fn one_se_win(d: &[f64]) -> bool {
-    let nr = d.len() as f64;
-    let mean = d.iter().sum::<f64>() / nr;
-    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (nr * (nr - 1.0))).sqrt();
-    mean + se < 0.0
 }
 
 use super::stats::rms;

@@ -126,6 +126,16 @@ impl Correct for PerValue {
 }
 
 impl Corrector {
+    /// The corrector of a reading whose values have these correctors, one each: the corrector
+    /// itself for one value (a cable length), [`Corrector::Values`] for several.
+    pub fn of_values(mut values: Vec<Corrector>) -> Corrector {
+        if values.len() == 1 {
+            values.swap_remove(0)
+        } else {
+            Corrector::Values(PerValue { values })
+        }
+    }
+
     pub fn as_correct(&self) -> &dyn Correct {
         match self {
             Corrector::Rbf(n) => n,

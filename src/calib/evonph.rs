@@ -58,7 +58,7 @@
 //!   adaptation, no strategy scheduler), otherwise V4.
 //! * V4 `dsade-gkan` — the full method.
 
-use super::corrector::{Corrector, PerValue};
+use super::corrector::Corrector;
 use super::gkan::{Gkan, GkanShape, Mlp};
 use super::gkan_select::{penalty_gram, penalty_rows, select, Selection};
 use super::method::{Method, Problem, Solution, Solver};
@@ -380,11 +380,7 @@ impl<'a> Objective<'a> {
             Net::Gkan { net, .. } => Corrector::Gkan(Gkan { coef: wc.to_vec(), ..net.clone() }),
             Net::Mlp(m) => Corrector::Mlp(Mlp { w: wc.to_vec(), ..m.clone() }),
         };
-        if self.dim == 1 {
-            one(w)
-        } else {
-            Corrector::Values(PerValue { values: w.chunks_exact(self.per_net).map(one).collect() })
-        }
+        Corrector::of_values(w.chunks_exact(self.per_net).map(one).collect())
     }
 }
 

@@ -26,7 +26,7 @@
 use super::evonph::EvoWeights;
 use super::gkan::{Gkan, GkanShape};
 use super::method::{LmSolver, Problem};
-use super::ridge_cv::{Folds, GeometricFit};
+use super::ridge_cv::{one_se_win, Folds, GeometricFit};
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -128,7 +128,7 @@ pub fn select(p: &Problem) -> Result<Selection> {
     let nv = y.len();
     let no_network_rmse_mm = ((0..nv).map(|v| g.per_fold[(v / d) % FOLDS][v].powi(2)).sum::<f64>() / nv as f64).sqrt();
     // One network per value: value c's targets, on every row and as each fold sees them.
-    let column = |v: &[f64], c: usize| -> Vec<f64> { v.iter().skip(c).step_by(d).copied().collect() };
+    let column = |v: &[f64], c: usize| super::stats::value_column(v, d, c);
     let targets: Vec<(Vec<f64>, Vec<Vec<f64>>)> = (0..d).map(|c| (column(y, c), g.per_fold.iter().map(|f| column(f, c)).collect())).collect();
     let (lo, hi) = Gkan::range_of(&fit.data.q);
     let mut candidates = Vec::new();
@@ -199,10 +199,7 @@ pub fn select(p: &Problem) -> Result<Selection> {
     // residual (summed over the row's values) must be negative by more than its standard error,
     // else the win is the best of 48 candidates on noise.
     let fitted = best_residuals.is_some_and(|(_, r)| {
-        let diff: Vec<f64> = (0..n).map(|i| (0..d).map(|c| r[i * d + c].powi(2) - g.per_fold[i % FOLDS][i * d + c].powi(2)).sum::<f64>()).collect();
-        let mean = diff.iter().sum::<f64>() / n as f64;
-        let se = (diff.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n as f64 * (n as f64 - 1.0))).sqrt();
-        mean + se < 0.0
+        one_se_win(&(0..n).map(|i| (0..d).map(|c| r[i * d + c].powi(2) - g.per_fold[i % FOLDS][i * d + c].powi(2)).sum::<f64>()).collect::<Vec<f64>>())
     });
     Ok(Selection { chosen, candidates, no_network_rmse_mm, fitted })
 }

@@ -305,14 +305,9 @@ impl Solver for RbfSolver {
                 RbfNetwork::fit_cv(&p.fit.data.q, r, &self.centres, &self.ridges, p.seed).map_err(|e| Error::Calibration(format!("RBF network: {e}")))?;
             Ok(Corrector::Rbf(net))
         };
+        // One network per reading value, each on that value's residuals.
         let d = p.fit.data.dim;
-        let corrector = if d == 1 {
-            fit(&res)?
-        } else {
-            // One network per reading value, each on that value's residuals.
-            let values = (0..d).map(|c| fit(&res.iter().skip(c).step_by(d).copied().collect::<Vec<f64>>())).collect::<Result<Vec<_>>>()?;
-            Corrector::Values(super::corrector::PerValue { values })
-        };
+        let corrector = Corrector::of_values((0..d).map(|c| fit(&super::stats::value_column(&res, d, c))).collect::<Result<Vec<_>>>()?);
         Ok(Solution { report, corrector: Some(corrector) })
     }
 }

@@ -55,7 +55,7 @@
 
 use super::awnn::{Activation, Awnn, Feature};
 use super::awnn_select::{select, Selection};
-use super::corrector::{Corrector, PerValue};
+use super::corrector::Corrector;
 use super::effects::RowInputs;
 use super::method::{Method, Problem, Solution, Solver};
 use super::problem::ReadingFit;
@@ -587,7 +587,7 @@ impl PsoEkfAwnn {
         let raw = p.fit.residuals_mm(x);
         let dim = nets.len().max(1);
         let (nets, held): (Vec<Awnn>, Vec<f64>) =
-            nets.iter().enumerate().map(|(c, n)| self.refine_net(p, &raw.iter().skip(c).step_by(dim).copied().collect::<Vec<f64>>(), n)).unzip();
+            nets.iter().enumerate().map(|(c, n)| self.refine_net(p, &super::stats::value_column(&raw, dim, c), n)).unzip();
         let rmse = if held.len() == 1 { held[0] } else { (held.iter().map(|v| v * v).sum::<f64>() / held.len().max(1) as f64).sqrt() };
         (nets, rmse)
     }
@@ -753,18 +753,14 @@ impl PsoEkfAwnn {
         // As a corrector a network never gives more than it learned (see `Awnn::output_range`).
         // One value (a cable length): the network itself; several: one network per value.
         let corrector = net.map(|nets| {
-            let mut nets: Vec<Corrector> = nets
-                .into_iter()
-                .map(|mut n| {
-                    n.limit_to(&p.fit.data.q, &p.fit.data.inputs);
-                    Corrector::Awnn(n)
-                })
-                .collect();
-            if nets.len() == 1 {
-                nets.swap_remove(0)
-            } else {
-                Corrector::Values(PerValue { values: nets })
-            }
+            Corrector::of_values(
+                nets.into_iter()
+                    .map(|mut n| {
+                        n.limit_to(&p.fit.data.q, &p.fit.data.inputs);
+                        Corrector::Awnn(n)
+                    })
+                    .collect(),
+            )
         });
         Ok(Solution { report: rep, corrector })
     }

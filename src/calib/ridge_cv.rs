@@ -53,6 +53,16 @@ impl GeometricFit {
     }
 }
 
+/// The one-standard-error rule of the networks' choices: whether the per-row changes `d` of
+/// the squared held-out residual (a candidate's against no network's) are negative on average
+/// by more than their standard error (a best-of-many win on noise is not).
+pub fn one_se_win(d: &[f64]) -> bool {
+    let nr = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / nr;
+    let se = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (nr * (nr - 1.0))).sqrt();
+    mean + se < 0.0
+}
+
 /// One fold: Gram matrix and right-hand side of the other folds' rows, the fold's rows, and
 /// the targets of every row as this fold sees them.
 struct Part {

@@ -629,18 +629,24 @@ pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
 
 /// Refuses rows whose joint angles lie beyond the robot's limits (more than the slack).
 fn check_joint_limits(data: &Dataset, robot: &Robot) -> Result<()> {
-    for (i, r) in data.rows.iter().enumerate() {
-        for (j, (q, spec)) in r.q_deg.iter().zip(&robot.joints).enumerate() {
+    match outside_limits(data, &robot.limits()).next() {
+        Some((i, j, q)) => {
+            let spec = &robot.joints[j];
             let (lo, hi) = (spec.lower.to_degrees(), spec.upper.to_degrees());
-            if *q < lo - JOINT_LIMIT_SLACK_DEG || *q > hi + JOINT_LIMIT_SLACK_DEG {
-                return Err(Error::data(
-                    &data.source,
-                    format!("row {}: q{} = {q} deg is outside {}'s limits [{lo:.2}, {hi:.2}] deg", i + 1, j + 1, robot.joints[j].name),
-                ));
-            }
+            Err(Error::data(&data.source, format!("row {}: q{} = {q} deg is outside {}'s limits [{lo:.2}, {hi:.2}] deg", i + 1, j + 1, spec.name)))
         }
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// Every joint angle of `data` beyond `limits` (rad, per joint) by more than
+/// [`JOINT_LIMIT_SLACK_DEG`], as (row, joint, angle in degrees), rows in order.
+pub fn outside_limits<'a>(data: &'a Dataset, limits: &'a [(f64, f64)]) -> impl Iterator<Item = (usize, usize, f64)> + 'a {
+    data.rows.iter().enumerate().flat_map(move |(i, r)| {
+        r.q_deg.iter().zip(limits).enumerate().filter_map(move |(j, (q, (lo, hi)))| {
+            (*q < lo.to_degrees() - JOINT_LIMIT_SLACK_DEG || *q > hi.to_degrees() + JOINT_LIMIT_SLACK_DEG).then_some((i, j, *q))
+        })
+    })
 }
 
 /// Stage "effects": adds the requested effect blocks to the model and gives every sample the

@@ -167,6 +167,12 @@ pub fn erfc(x: f64) -> f64 {
     (-x * x).exp() / (std::f64::consts::PI.sqrt() * t)
 }
 
+/// Value `c` of every row of `values`, which hold `dim` values per row, row after row (a
+/// tracker's x, y, z): one per row.
+pub fn value_column(values: &[f64], dim: usize, c: usize) -> Vec<f64> {
+    values.iter().skip(c).step_by(dim.max(1)).copied().collect()
+}
+
 /// Root mean square of `v` (0 for an empty slice): the one RMS of the project.
 pub fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()

@@ -15,8 +15,7 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
     }
     let (mut s, robot) = load_scenario(scenario)?;
     let read = scenario_inputs(scenario, &s);
-    let inputs: Vec<(&str, &Path)> = read.iter().map(|(o, p)| (*o, p.as_path())).collect();
-    check_outputs(&inputs, &outputs_named)?;
+    check_outputs(&read, &outputs_named)?;
     if let Some(seed) = seed {
         s.seed = seed;
     }

@@ -126,8 +126,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     if let Some(d) = &twin_dir {
         read.extend(super::data_inputs(d).into_iter().map(|p| ("the twin", p)));
     }
-    let inputs: Vec<(&str, &Path)> = read.iter().map(|(o, p)| (*o, p.as_path())).collect();
-    crate::io::check_outputs(&inputs, &[("--out", &a.out)])?;
+    crate::io::check_outputs(&read, &[("--out", &a.out)])?;
     let check = twin_dir.as_deref().map(|d| TwinCheck::load(d, &r)).transpose()?;
     let targets: Vec<Vector3<f64>> = match (&a.targets, a.random) {
         (Some(f), _) => read_targets(f)?,

@@ -47,19 +47,7 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: b
     result.require_columns(&ds)?;
     // Poses beyond the joint ranges the model knows: it extrapolates there (calibrate refuses
     // them; predict answers, and says so).
-    let slack = crate::calib::run::JOINT_LIMIT_SLACK_DEG;
-    let outside: Vec<(usize, usize, f64)> = ds
-        .rows
-        .iter()
-        .enumerate()
-        .flat_map(|(i, r)| {
-            r.q_deg
-                .iter()
-                .zip(&result.model.limits)
-                .enumerate()
-                .filter_map(move |(j, (q, (lo, hi)))| (*q < lo.to_degrees() - slack || *q > hi.to_degrees() + slack).then_some((i, j, *q)))
-        })
-        .collect();
+    let outside: Vec<(usize, usize, f64)> = crate::calib::run::outside_limits(&ds, &result.model.limits).collect();
     if let Some((i, j, q)) = outside.first() {
         eprintln!(
             "warning: {} value(s) lie outside the model's joint limits (first: row {}, q{} = {} deg); the model extrapolates there",

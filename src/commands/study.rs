@@ -24,8 +24,7 @@ pub fn study(
     let (s, robot) = load_scenario(scenario)?;
     if let Some(p) = rrd {
         let read = scenario_inputs(scenario, &s);
-        let inputs: Vec<(&str, &Path)> = read.iter().map(|(o, p)| (*o, p.as_path())).collect();
-        check_outputs(&inputs, &[("--rrd", p)])?;
+        check_outputs(&read, &[("--rrd", p)])?;
     }
     if poses_given && study.poses > s.sampling.poses {
         eprintln!("warning: --poses {}: scenario {} has {} poses; the study takes all {}", study.poses, s.name, s.sampling.poses, s.sampling.poses);

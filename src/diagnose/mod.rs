@@ -961,7 +961,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
         let res = ReadingFit { model, data: &tr }.residuals_mm(&xf);
         let nets = (0..d)
             .map(|c| {
-                let rc: Vec<f64> = res.iter().skip(c).step_by(d).copied().collect();
+                let rc = crate::calib::stats::value_column(&res, d, c);
                 RbfNetwork::fit_cv(&tr.q, &rc, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed).ok().map(|(net, _)| net)
             })
             .collect::<Option<Vec<_>>>()?;
