@@ -376,13 +376,18 @@ fn the_report_and_the_recording_draw_a_tracker_dataset() {
     let out = twincal(&["generate", "--scenario", &p("backlash.toml"), "--seed", "1", "--out", &p("data"), "--quiet"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 
-    let mut args = ["calibrate", "--data", &p("data"), "--out", &p("cal.json"), "--report", &p("cal.html")].iter().map(|a| a.to_string()).collect::<Vec<_>>();
-    if cfg!(feature = "rerun") {
-        args.extend(["--rrd".to_string(), p("cal.rrd")]);
-    }
-    let out = twincal(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+    // A command with its HTML report, and its recording where Rerun is built in: its stderr.
+    let with_figures = |args: &[&str], rrd: &str| -> String {
+        let mut args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+        if cfg!(feature = "rerun") {
+            args.extend(["--rrd".to_string(), p(rrd)]);
+        }
+        let out = twincal(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{err}");
+        err
+    };
+    with_figures(&["calibrate", "--data", &p("data"), "--out", &p("cal.json"), "--report", &p("cal.html")], "cal.rrd");
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(p("cal.json")).unwrap()).unwrap();
     let page = std::fs::read_to_string(p("cal.html")).unwrap();
     assert!(page.contains("<h2>Residuals per coordinate (measured − predicted x, y, z, mm"), "per-coordinate statistics");
@@ -420,16 +425,7 @@ fn the_report_and_the_recording_draw_a_tracker_dataset() {
     }
     assert!(!page.contains(">Sensor (mm)<"), "no draw-wire panel");
 
-    let mut args = ["diagnose", "--data", &p("data"), "--out", &p("d.json"), "--result", &p("dr.json"), "--report", &p("d.html")]
-        .iter()
-        .map(|a| a.to_string())
-        .collect::<Vec<_>>();
-    if cfg!(feature = "rerun") {
-        args.extend(["--rrd".to_string(), p("d.rrd")]);
-    }
-    let out = twincal(&args.iter().map(String::as_str).collect::<Vec<_>>());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+    let err = with_figures(&["diagnose", "--data", &p("data"), "--out", &p("d.json"), "--result", &p("dr.json"), "--report", &p("d.html")], "d.rrd");
     let d: serde_json::Value = serde_json::from_slice(&std::fs::read(p("d.json")).unwrap()).unwrap();
     assert_eq!(d["verdict"], "backlash[j3]", "{err}");
     let page = std::fs::read_to_string(p("d.html")).unwrap();

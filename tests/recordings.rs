@@ -25,19 +25,24 @@ fn small_scenario(dir: &Path, poses: usize) -> PathBuf {
     p
 }
 
+/// `generate --scenario sc --out dir/data --rrd dir/gen.rrd`, its recording read back: it opens
+/// on `pose` and every view has data.
+fn generated(dir: &Path, sc: &Path) -> (PathBuf, common::Recording) {
+    let (data, gen) = (dir.join("data"), dir.join("gen.rrd"));
+    let o = twincal(&["generate", "--scenario", s(sc), "--out", s(&data), "--rrd", s(&gen)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = common::read(&gen);
+    assert_eq!(r.timeline.as_deref(), Some("pose"));
+    r.assert_no_empty_view();
+    (data, r)
+}
+
 #[test]
 fn generate_calibrate_and_compare_recordings_hold_what_their_views_show() {
     let dir = tempfile::tempdir().unwrap();
     let sc = small_scenario(dir.path(), 60);
-    let data = dir.path().join("data");
-    let gen = dir.path().join("gen.rrd");
-    let o = twincal(&["generate", "--scenario", s(&sc), "--out", s(&data), "--rrd", s(&gen)]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-
     // generate: opens on `pose`; static residual field, plots and histogram; the arm per pose.
-    let r = common::read(&gen);
-    assert_eq!(r.timeline.as_deref(), Some("pose"));
-    r.assert_no_empty_view();
+    let (data, r) = generated(dir.path(), &sc);
     for (e, c, t) in [
         ("/world/tool_points", "Points3D:positions", "static"),
         ("/world/tool_points", "Points3D:labels", "static"),
@@ -220,12 +225,7 @@ fn generate_draws_a_tracker_and_its_line_of_sight() {
         .replace("test = 100", "test = 8");
     let sc = dir.path().join("tracker.toml");
     std::fs::write(&sc, text).unwrap();
-    let (data, gen) = (dir.path().join("data"), dir.path().join("gen.rrd"));
-    let o = twincal(&["generate", "--scenario", s(&sc), "--out", s(&data), "--rrd", s(&gen)]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r = common::read(&gen);
-    assert_eq!(r.timeline.as_deref(), Some("pose"));
-    r.assert_no_empty_view();
+    let (_, r) = generated(dir.path(), &sc);
     for (e, c, t) in [
         ("/world/sensor/tracker", "Transform3D:translation", "static"),
         ("/world/sensor/tracker/head", "Points3D:positions", "static"),
