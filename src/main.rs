@@ -48,6 +48,8 @@ enum Command {
         /// Unit of the joint angles in the data.
         #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
         angles: AngleArg,
+        #[command(flatten)]
+        reading: commands::ReadingArgs,
         #[arg(long, default_value = "predictions.csv")]
         out: PathBuf,
     },
@@ -125,7 +127,7 @@ fn main() -> ExitCode {
         Command::Generate { scenario, out, rrd, seed } => commands::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
         Command::Calibrate(a) => commands::calibrate(&a, args.quiet),
         Command::Diagnose(a) => commands::diagnose(&a, args.quiet),
-        Command::Predict { model, data, angles, out } => commands::predict(&model, &data, angles, &out, args.quiet),
+        Command::Predict { model, data, angles, reading, out } => commands::predict(&model, &data, angles, &reading, &out, args.quiet),
         Command::Compare(a) => commands::compare(&a, args.quiet),
         Command::Ik(a) => twincal::commands::ik::ik(&a, args.quiet),
         Command::Study { what, scenario, holds, speeds, poses, rrd } => commands::study(

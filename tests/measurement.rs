@@ -62,7 +62,7 @@ fn a_tracker_point_dataset_calibrates_to_its_noise_on_unseen_rows() {
         // Start: nominal arm, tracker located from the nominal flange points.
         let mut w = nominal.work();
         let flange: Vec<Vector3<f64>> = train.q.iter().map(|q| nominal.tool_point(&nominal.nominal, q, &mut w)).collect();
-        let own = Measurement::Point.def().locate(&flange, &train.y).expect("the tracker is located");
+        let (own, _) = Measurement::Point.def().locate(&flange, &[], &train.y).expect("the tracker is located");
         let mut start = nominal.clone().with_placement(&Placement { own, tool: Vector3::zeros(), ..tracker.clone() });
         // Then the placement alone against the nominal arm (the pipeline's placement stage):
         // the reflector's offset must be known before the identifiability analysis, or the

@@ -97,7 +97,9 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
             let _ = writeln!(out, "  <!-- draw-wire length offset: {} m -->", placement.own[3]);
         }
         None => {
-            fixed(&mut out, "tracker_target", "flange", &Frame { rot: nalgebra::Matrix3::identity(), pos: placement.tool });
+            // A pose's probe has its orientation on the flange (after the tracker's six).
+            let rot = if placement.own.len() >= 9 { crate::measurement::point::rotation(&placement.own[6..9]).0 } else { nalgebra::Matrix3::identity() };
+            fixed(&mut out, "tracker_target", "flange", &Frame { rot, pos: placement.tool });
             let names = model.measurement.placement_names();
             let own: Vec<String> = names.iter().zip(&placement.own).map(|(n, v)| format!("{n} = {v}")).collect();
             let _ = writeln!(out, "  <!-- {} placement (m, rad): {} -->", model.measurement.def().describe(), own.join(", "));

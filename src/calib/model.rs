@@ -16,7 +16,7 @@
 //! effect blocks. Internal units are metres and radians; readings are predicted in metres.
 
 use super::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
-use crate::measurement::{Measurement, MAX_DIM, MAX_OWN};
+use crate::measurement::{Measurement, MAX_DIM, MAX_OWN, MAX_TARGETS};
 use crate::robot::kinematics::{Chain, ChainBuilder, FkWork, Frame, PointJacobian};
 use crate::robot::Robot;
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -98,6 +98,8 @@ impl Placement {
 pub struct ModelWork {
     pub fk: FkWork,
     pub jac: PointJacobian,
+    /// The Jacobians of an instrument's other target points (a pose's axis tips).
+    extra: Vec<PointJacobian>,
     pub eff: EffectState,
     q: Vec<f64>,
 }
@@ -110,7 +112,8 @@ impl CalibModel {
         self.chain.n_params()
     }
     pub fn work(&self) -> ModelWork {
-        ModelWork { fk: FkWork::new(&self.chain), jac: PointJacobian::new(&self.chain), eff: EffectState::default(), q: vec![0.0; self.chain.n_joints] }
+        let extra = (1..self.measurement.def().n_targets()).map(|_| PointJacobian::new(&self.chain)).collect();
+        ModelWork { fk: FkWork::new(&self.chain), jac: PointJacobian::new(&self.chain), extra, eff: EffectState::default(), q: vec![0.0; self.chain.n_joints] }
     }
     /// The instrument placement held in `x` (the public way to read it: no index arithmetic).
     pub fn placement(&self, x: &[f64]) -> Placement {
@@ -225,6 +228,13 @@ impl CalibModel {
         self.chain.frame(&w.fk, self.chain.flange()).point(&tool)
     }
 
+    /// The flange frame in the base frame for joint angles `q` (rad), geometry only.
+    pub fn flange_frame(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> Frame {
+        let scale = self.apply_effects(x, q, &RowInputs::default(), w);
+        self.chain.forward(&w.q, &x[..self.n_chain()], scale, &mut w.fk);
+        self.chain.frame(&w.fk, self.chain.flange())
+    }
+
     /// Predicted cable length (m) of a row with no per-row inputs (a one-value measurement).
     pub fn predict(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> f64 {
         self.predict_with(x, q, &RowInputs::default(), w)
@@ -241,12 +251,49 @@ impl CalibModel {
 
     /// Predicted readings (m, [`Measurement::dim`] values into `y`), every effect included.
     pub fn readings_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64]) {
-        let (own, _) = self.sensor(x);
-        self.measurement.reading(own, &self.tool_point_with(x, q, inp, w), y);
+        let (own, tool) = self.sensor(x);
+        let def = self.measurement.def();
+        if def.n_targets() == 1 {
+            def.reading(own, std::slice::from_ref(&self.tool_point_with(x, q, inp, w)), y);
+        } else {
+            let scale = self.apply_effects(x, q, inp, w);
+            self.chain.forward(&w.q, &x[..self.n_chain()], scale, &mut w.fk);
+            let flange = self.chain.frame(&w.fk, self.chain.flange());
+            let (local, nt) = self.targets(own, &tool, &mut [Vector3::zeros(); MAX_TARGETS * MAX_OWN]);
+            let pts = local.map(|l| flange.point(&l));
+            def.reading(own, &pts[..nt], y);
+        }
         if self.measurement.dim() == 1 {
             let l = y[0];
             y[0] = l + self.reading_correction(x, l).0;
         }
+    }
+
+    /// The instrument's points of the flange frame (flange coordinates; the first is the
+    /// target) with their number, and their derivatives with respect to the instrument's own
+    /// parameters into `dlocal`.
+    fn targets(&self, own: &[f64], tool: &Vector3<f64>, dlocal: &mut [Vector3<f64>]) -> ([Vector3<f64>; MAX_TARGETS], usize) {
+        let def = self.measurement.def();
+        let nt = def.n_targets();
+        let mut local = [Vector3::zeros(); MAX_TARGETS];
+        def.targets(own, tool, &mut local[..nt], &mut dlocal[..nt * own.len()]);
+        (local, nt)
+    }
+
+    /// Point Jacobians of the instrument's points of the flange frame at the last forward
+    /// evaluation (into `w.jac` and `w.extra`), and the points' derivatives with respect to
+    /// the instrument's own parameters into `dlocal`; returns the number of points.
+    fn target_jacobians(&self, own: &[f64], tool: &Vector3<f64>, w: &mut ModelWork, dlocal: &mut [Vector3<f64>]) -> usize {
+        let flange = self.chain.flange();
+        let (local, nt) = self.targets(own, tool, dlocal);
+        self.chain.point_jacobian(&w.fk, flange, &local[0], &mut w.jac);
+        if w.extra.len() + 1 < nt {
+            w.extra.resize_with(nt - 1, || PointJacobian::new(&self.chain));
+        }
+        for t in 1..nt {
+            self.chain.point_jacobian(&w.fk, flange, &local[t], &mut w.extra[t - 1]);
+        }
+        nt
     }
 
     /// Predicted length (m) of a row with no per-row inputs and its gradient into `g`.
@@ -268,31 +315,56 @@ impl CalibModel {
     pub fn readings_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], jac: &mut [f64]) {
         let (nc, n, dim) = (self.n_chain(), self.n_params(), self.measurement.dim());
         let (own, tool) = self.sensor(x);
+        let n_own = own.len();
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
-        let flange = self.chain.flange();
-        self.chain.point_jacobian(&w.fk, flange, &tool, &mut w.jac);
-        let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM], [0.0; MAX_DIM * MAX_OWN]);
-        let t = self.measurement.target_index();
-        self.measurement.reading_grad(own, &w.jac.point, y, &mut dy_dp, &mut dy_down[..dim * t]);
-        let rot = self.chain.frame(&w.fk, flange).rot;
+        let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
+        let nt = self.target_jacobians(own, &tool, w, &mut dlocal);
+        let mut pts = [Vector3::zeros(); MAX_TARGETS];
+        pts[0] = w.jac.point;
+        for t in 1..nt {
+            pts[t] = w.extra[t - 1].point;
+        }
+        let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM * MAX_TARGETS], [0.0; MAX_DIM * MAX_OWN]);
+        self.measurement.def().reading_grad(own, &pts[..nt], y, &mut dy_dp[..dim * nt], &mut dy_down[..dim * n_own]);
+        let rot = self.chain.frame(&w.fk, self.chain.flange()).rot;
+        let (jac0, extra) = (&w.jac, &w.extra);
         for i in 0..dim {
             let g = &mut jac[i * n..(i + 1) * n];
-            let u = dy_dp[i];
-            g[nc..nc + t].copy_from_slice(&dy_down[i * t..(i + 1) * t]);
+            let u = &dy_dp[i * nt..(i + 1) * nt];
+            g[nc..nc + n_own].copy_from_slice(&dy_down[i * n_own..(i + 1) * n_own]);
             for k in 0..nc {
-                g[k] = u.dot(&w.jac.dparam[k]);
+                g[k] = u[0].dot(&jac0.dparam[k]);
+                for t in 1..nt {
+                    g[k] += u[t].dot(&extra[t - 1].dparam[k]);
+                }
             }
-            let ut = rot.transpose() * u;
-            g[nc + t..nc + t + 3].copy_from_slice(ut.as_slice());
+            // The other points move with the instrument's own parameters (a probe's orientation).
+            for t in 1..nt {
+                let ur = rot.transpose() * u[t];
+                for m in 0..n_own {
+                    g[nc + m] += ur.dot(&dlocal[t * n_own + m]);
+                }
+            }
+            // Every point moves with the target as the flange turns it.
+            let u_sum = u[1..].iter().fold(u[0], |a, b| a + b);
+            let ut = rot.transpose() * u_sum;
+            g[nc + n_own..nc + n_own + 3].copy_from_slice(ut.as_slice());
             if self.effects.is_empty() {
                 continue;
             }
             g[self.first_effect()..].iter_mut().for_each(|v| *v = 0.0);
             for &(k, j, d) in &w.eff.joint_terms {
-                g[k] += u.dot(&w.jac.dq[j]) * d;
+                let mut dj = u[0].dot(&jac0.dq[j]);
+                for t in 1..nt {
+                    dj += u[t].dot(&extra[t - 1].dq[j]);
+                }
+                g[k] += dj * d;
             }
-            let ds = u.dot(&w.jac.dscale);
+            let mut ds = u[0].dot(&jac0.dscale);
+            for t in 1..nt {
+                ds += u[t].dot(&extra[t - 1].dscale);
+            }
             for &(k, d) in &w.eff.scale_terms {
                 g[k] += ds * d;
             }
@@ -327,9 +399,15 @@ impl CalibModel {
         let (own, tool) = self.sensor(x);
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
-        self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
-        let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM], [0.0; MAX_DIM * MAX_OWN]);
-        self.measurement.reading_grad(own, &w.jac.point, y, &mut dy_dp, &mut dy_down);
+        let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
+        let nt = self.target_jacobians(own, &tool, w, &mut dlocal);
+        let mut pts = [Vector3::zeros(); MAX_TARGETS];
+        pts[0] = w.jac.point;
+        for t in 1..nt {
+            pts[t] = w.extra[t - 1].point;
+        }
+        let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM * MAX_TARGETS], [0.0; MAX_DIM * MAX_OWN]);
+        self.measurement.def().reading_grad(own, &pts[..nt], y, &mut dy_dp[..dim * nt], &mut dy_down[..dim * own.len()]);
         let (corr, dcorr) = if dim == 1 {
             let (c, d, _) = self.reading_correction(x, y[0]);
             (c, d)
@@ -338,8 +416,13 @@ impl CalibModel {
         };
         let own = |j: usize| if self.effects.is_empty() { 0.0 } else { w.eff.ddq_dq[j] };
         for c in 0..dim {
+            let u = &dy_dp[c * nt..(c + 1) * nt];
             for (j, gj) in g[c * nj..(c + 1) * nj].iter_mut().enumerate() {
-                *gj = (1.0 + dcorr) * dy_dp[c].dot(&w.jac.dq[j]) * (1.0 + own(j));
+                let mut d = u[0].dot(&w.jac.dq[j]);
+                for t in 1..nt {
+                    d += u[t].dot(&w.extra[t - 1].dq[j]);
+                }
+                *gj = (1.0 + dcorr) * d * (1.0 + own(j));
             }
         }
         y[0] += corr;
@@ -675,38 +758,63 @@ mod tests {
     }
 
     #[test]
-    fn point_readings_jacobian_matches_finite_differences() {
+    fn tracker_readings_jacobians_match_finite_differences() {
         use crate::calib::effects::{EffectBlock, EffectKind, RowInputs};
         let robot = Robot::irb120();
-        let tracker = Placement { measurement: Measurement::Point, own: vec![0.2, -0.1, 0.05, 0.03, -0.02, 0.6], tool: Vector3::new(0.01, 0.02, 0.08) };
-        let mut m = CalibModel::dh(&robot, &guess(), true).with_placement(&tracker);
-        assert_eq!(m.placement(&m.nominal), tracker);
-        assert_eq!(m.names[m.placement_range()].join(","), "tracker.x,tracker.y,tracker.z,tracker.rx,tracker.ry,tracker.rz,tool.x,tool.y,tool.z");
-        m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
-        m.add_effect(EffectBlock::joint(EffectKind::Backlash, 2), 3600.0);
-        let mut x = m.nominal.clone();
-        for (k, v) in x.iter_mut().enumerate() {
-            *v += if matches!(m.kinds[k], Kind::Effect(_)) { 1e-5 } else { 0.01 } * ((k as f64) * 1.3).sin();
-        }
-        let inp = RowInputs { torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0], ..Default::default() };
-        let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
-        let (n, mut w) = (m.n_params(), m.work());
-        let (mut y, mut jac) = (vec![0.0; 3], vec![0.0; 3 * n]);
-        m.readings_grad_with(&x, &q, &inp, &mut w, &mut y, &mut jac);
-        let mut plain = vec![0.0; 3];
-        m.readings_with(&x, &q, &inp, &mut w, &mut plain);
-        assert_eq!(y, plain);
-        let (mut yp, mut ym) = (vec![0.0; 3], vec![0.0; 3]);
-        for k in 0..n {
+        let point = Placement { measurement: Measurement::Point, own: vec![0.2, -0.1, 0.05, 0.03, -0.02, 0.6], tool: Vector3::new(0.01, 0.02, 0.08) };
+        let pose =
+            Placement { measurement: Measurement::Pose, own: vec![0.2, -0.1, 0.05, 0.03, -0.02, 0.6, 0.4, -0.3, 1.2], tool: Vector3::new(0.01, 0.02, 0.08) };
+        for tracker in [point, pose] {
+            let mut m = CalibModel::dh(&robot, &guess(), true).with_placement(&tracker);
+            assert_eq!(m.placement(&m.nominal), tracker);
+            assert_eq!(m.names[m.placement_range()].join(","), tracker.measurement.placement_names().join(","));
+            m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
+            m.add_effect(EffectBlock::joint(EffectKind::Backlash, 2), 3600.0);
+            let mut x = m.nominal.clone();
+            for (k, v) in x.iter_mut().enumerate() {
+                *v += if matches!(m.kinds[k], Kind::Effect(_)) { 1e-5 } else { 0.01 } * ((k as f64) * 1.3).sin();
+            }
+            let inp = RowInputs { torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0], ..Default::default() };
+            let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
+            let (n, d, mut w) = (m.n_params(), m.measurement.dim(), m.work());
+            let (mut y, mut jac) = (vec![0.0; d], vec![0.0; d * n]);
+            m.readings_grad_with(&x, &q, &inp, &mut w, &mut y, &mut jac);
+            let mut plain = vec![0.0; d];
+            m.readings_with(&x, &q, &inp, &mut w, &mut plain);
+            assert_eq!(y, plain);
+            let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
             let h = 1e-7;
-            let (mut xp, mut xm) = (x.clone(), x.clone());
-            xp[k] += h;
-            xm[k] -= h;
-            m.readings_with(&xp, &q, &inp, &mut w, &mut yp);
-            m.readings_with(&xm, &q, &inp, &mut w, &mut ym);
-            for i in 0..3 {
-                let fd = (yp[i] - ym[i]) / (2.0 * h);
-                assert!((fd - jac[i * n + k]).abs() < 1e-7 * (1.0 + fd.abs()), "y{i} / {}: {fd} vs {}", m.names[k], jac[i * n + k]);
+            for k in 0..n {
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[k] += h;
+                xm[k] -= h;
+                m.readings_with(&xp, &q, &inp, &mut w, &mut yp);
+                m.readings_with(&xm, &q, &inp, &mut w, &mut ym);
+                for i in 0..d {
+                    let fd = (yp[i] - ym[i]) / (2.0 * h);
+                    assert!(
+                        (fd - jac[i * n + k]).abs() < 1e-7 * (1.0 + fd.abs()),
+                        "{} y{i} / {}: {fd} vs {}",
+                        m.measurement.name(),
+                        m.names[k],
+                        jac[i * n + k]
+                    );
+                }
+            }
+            // And with respect to the joint angles (the row's inputs held).
+            let mut gq = vec![0.0; d * 6];
+            m.readings_grad_q(&x, &q, &inp, &mut w, &mut y, &mut gq);
+            assert_eq!(y, plain);
+            for j in 0..6 {
+                let (mut qp, mut qm) = (q, q);
+                qp[j] += h;
+                qm[j] -= h;
+                m.readings_with(&x, &qp, &inp, &mut w, &mut yp);
+                m.readings_with(&x, &qm, &inp, &mut w, &mut ym);
+                for i in 0..d {
+                    let fd = (yp[i] - ym[i]) / (2.0 * h);
+                    assert!((fd - gq[i * 6 + j]).abs() < 1e-7 * (1.0 + fd.abs()), "{} y{i} / q{}: {fd} vs {}", m.measurement.name(), j + 1, gq[i * 6 + j]);
+                }
             }
         }
     }

@@ -10,7 +10,6 @@ use crate::error::{Error, Result};
 use crate::measurement::length::multilaterate;
 use crate::measurement::Measurement;
 use crate::optim::{LevenbergMarquardt, NoObserver};
-use nalgebra::Vector3;
 
 /// The calibration model of `spec` with the sensor at `guess`.
 pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
@@ -45,11 +44,12 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
         };
         let m = build_model(spec, &zero_guess);
         let mut w = m.work();
-        let pts: Vec<_> = train.q.iter().map(|q| m.tool_point(&m.nominal, q, &mut w)).collect();
-        let own = measurement.def().locate(&pts, &train.y).ok_or_else(|| {
+        let flanges: Vec<_> = train.q.iter().map(|q| m.flange_frame(&m.nominal, q, &mut w)).collect();
+        let (pts, rots): (Vec<_>, Vec<_>) = flanges.iter().map(|f| (f.pos, f.rot)).unzip();
+        let (own, tool) = measurement.def().locate(&pts, &rots, &train.y).ok_or_else(|| {
             Error::Calibration(format!("cannot place the instrument ({what}) from the nominal arm: need at least 3 poses whose points are not on one line"))
         })?;
-        let model = m.with_placement(&Placement { measurement, own, tool: Vector3::zeros() });
+        let model = m.with_placement(&Placement { measurement, own, tool });
         return Ok(align_placement(model, train));
     }
     match spec {

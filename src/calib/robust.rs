@@ -278,9 +278,11 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
     let mut corrected = data.clone();
     let (mut scale, mut med) = (f64::NAN, 0.0);
     let mut r = Vec::new();
+    let groups = model.measurement.def().value_groups();
     for _ in 0..SCREEN_PASSES {
         x = refit(&corrected.subset(&keep), &x);
         r = ReadingFit { model, data: &corrected }.residuals_mm(&x);
+        equalise_groups(&mut r, d, groups, &keep);
         let kept_r: Vec<f64> = keep.iter().flat_map(|&i| r[i * d..(i + 1) * d].iter().copied()).collect();
         (med, scale) = robust_scale(&kept_r);
         if !(scale > 0.0) || k <= 0.0 {
@@ -313,6 +315,35 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
         })
         .collect();
     Screen { runs: runs(&outliers), keep, outliers, steps: found, corrected, x, scale_mm: scale, median_mm: med }
+}
+
+/// Residuals of values in other groups than the first ([`Instrument::value_groups`]: a pose's
+/// axes beside its position) put on the first group's robust scale, over the rows `keep`: each
+/// value's distance from its group's median, in its group's robust standard deviations, is the
+/// same after. A measurement of one group is left as it is.
+///
+/// [`Instrument::value_groups`]: crate::measurement::Instrument::value_groups
+pub fn equalise_groups(r: &mut [f64], d: usize, groups: &[usize], keep: &[usize]) {
+    let n_groups = groups.iter().max().map_or(1, |g| g + 1);
+    if n_groups < 2 {
+        return;
+    }
+    let of = |g: usize, r: &[f64]| -> (f64, f64) {
+        let v: Vec<f64> = keep.iter().flat_map(|&i| (0..d).filter(move |&k| groups[k] == g).map(move |k| r[i * d + k])).collect();
+        robust_scale(&v)
+    };
+    let (med0, scale0) = of(0, r);
+    for g in 1..n_groups {
+        let (med, scale) = of(g, r);
+        if !(scale > 0.0 && scale0 > 0.0) {
+            continue;
+        }
+        for (k, _) in groups.iter().enumerate().filter(|(_, gk)| **gk == g) {
+            for row in r.chunks_mut(d) {
+                row[k] = med0 + (row[k] - med) * scale0 / scale;
+            }
+        }
+    }
 }
 
 /// Most data rows between two outliers of one run: rows held out for testing, or a row of the

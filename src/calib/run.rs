@@ -510,7 +510,7 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
             let key: Vec<f64> = data
                 .rows
                 .iter()
-                .map(|r| if r.reading_mm.len() == 1 { r.reading_mm[0] } else { r.reading_mm.iter().map(|v| v * v).sum::<f64>().sqrt() })
+                .map(|r| if r.reading_mm.len() == 1 { r.reading_mm[0] } else { r.reading_mm.iter().take(3).map(|v| v * v).sum::<f64>().sqrt() })
                 .collect();
             let split = crate::sim::generate::stratified_split(&key, n_test, seed);
             Ok(((0..n).filter(|i| split[*i] == Split::Train).collect(), (0..n).filter(|i| split[*i] == Split::Test).collect()))
@@ -524,12 +524,12 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
 /// without a reading reads NaN.
 pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     let rows = idx.iter().map(|&i| &data.rows[i]);
-    let dim = data.measurement().map_or(1, |m| m.dim());
+    let m = data.measurement();
+    let dim = m.map_or(1, |m| m.dim());
     let reading = |r: &crate::dataset::Row| -> Vec<f64> {
-        if r.reading_mm.len() == dim {
-            r.reading_mm.iter().map(|v| v * 1e-3).collect()
-        } else {
-            vec![f64::NAN; dim]
+        match r.values_mm() {
+            Some(v) if v.len() == dim => v.iter().map(|v| v * 1e-3).collect(),
+            _ => vec![f64::NAN; dim],
         }
     };
     Samples {
@@ -741,6 +741,40 @@ pub fn estimate_noise(fit: &ReadingFit, x0: &[f64], fixed: &[bool], repeat: Opti
     residual_sigma(fit, &x, fixed)
 }
 
+/// The parameters' covariance at `x`: `σ²·(JᵀJ)⁻¹` with σ the residual spread
+/// ([`covariance`]), or, for a reading whose values fall in groups with their own noise (a
+/// pose's position and axes), the same least-squares estimate's covariance with each group's
+/// own residual variance: `(JᵀJ)⁻¹·(Σ_g σ_g²·J_gᵀJ_g)·(JᵀJ)⁻¹`.
+pub fn grouped_covariance(fit: &ReadingFit, x: &[f64], fixed: &[bool]) -> Option<DMatrix<f64>> {
+    let cov = covariance(fit, x, fixed)?;
+    let groups = fit.model.measurement.def().value_groups();
+    let d = fit.data.dim;
+    let n_groups = groups.iter().max().map_or(1, |g| g + 1);
+    if n_groups < 2 || groups.len() != d {
+        return Some(cov);
+    }
+    let r = fit.residuals_mm(x);
+    let (m, n) = (r.len(), fit.model.n_params());
+    let n_free = fixed.iter().filter(|f| !**f).count();
+    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / m.saturating_sub(n_free).max(1) as f64;
+    if !(sigma2 > 0.0) {
+        return Some(cov);
+    }
+    let unit = &cov / sigma2;
+    let mut jac = DMatrix::zeros(m, n);
+    LeastSquares::jacobian(fit, x, &mut jac);
+    let mut b = DMatrix::<f64>::zeros(n, n);
+    for g in 0..n_groups {
+        let rows: Vec<usize> = (0..m).filter(|i| groups[i % d] == g).collect();
+        // The group's share of the degrees of freedom the fit used.
+        let dof = rows.len() as f64 * (1.0 - n_free as f64 / m as f64);
+        let s2 = rows.iter().map(|&i| r[i] * r[i]).sum::<f64>() / dof.max(1.0);
+        let jg = jac.select_rows(&rows);
+        b += jg.transpose() * jg * s2;
+    }
+    Some(&unit * b * &unit)
+}
+
 /// √(2·cost / (m − n_free)), the residual standard deviation of a least-squares fit, mm.
 pub fn residual_sigma(fit: &ReadingFit, x: &[f64], fixed: &[bool]) -> f64 {
     let dof = fit.data.y.len().saturating_sub(fixed.iter().filter(|f| !**f).count()).max(1);
@@ -824,14 +858,32 @@ fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &
         return Vec::new();
     }
     let r = residuals_with(fit, x, corrector);
-    let (med, scale) = super::stats::robust_scale(&r);
     let d = fit.data.dim.max(1);
+    // Each value against its group's scale (a pose's axes have their own), reported by the
+    // value farthest out.
+    let groups = fit.model.measurement.def().value_groups();
+    let group = |k: usize| groups.get(k).copied().unwrap_or(0);
+    let n_groups = (0..d).map(group).max().unwrap_or(0) + 1;
+    let stats: Vec<(f64, f64)> = (0..n_groups)
+        .map(|g| super::stats::robust_scale(&r.chunks(d).flat_map(|row| (0..d).filter(|&k| group(k) == g).map(|k| row[k])).collect::<Vec<_>>()))
+        .collect();
     test_r
         .chunks(d)
         .zip(test_idx)
         .filter_map(|(vs, &i)| {
-            let v = super::robust::farthest_from(vs, med);
-            (!((v - med).abs() <= k * scale)).then(|| Outlier { row: i + 1, residual_mm: v, robust_z: (v - med) / scale })
+            let (med, scale) = stats[0];
+            if n_groups == 1 {
+                let v = super::robust::farthest_from(vs, med);
+                return (!((v - med).abs() <= k * scale)).then(|| Outlier { row: i + 1, residual_mm: v, robust_z: (v - med) / scale });
+            }
+            let (z, v) = vs.iter().enumerate().map(|(c, v)| ((v - stats[group(c)].0) / stats[group(c)].1, *v)).fold((0.0_f64, f64::NAN), |a, b| {
+                if b.0.abs() > a.0.abs() || a.1.is_nan() {
+                    b
+                } else {
+                    a
+                }
+            });
+            (!(z.abs() <= k)).then(|| Outlier { row: i + 1, residual_mm: v, robust_z: z })
         })
         .collect()
 }
@@ -841,7 +893,8 @@ pub fn metrics_stage(fit: &ReadingFit, test_fit: &ReadingFit, x0: &[f64], x: &[f
     let has_test = !test_fit.data.is_empty();
     let d = test_fit.data.dim;
     let position = |x: &[f64], c: Option<&dyn Correct>| {
-        let dist: Vec<f64> = residuals_with(test_fit, x, c).chunks(d).map(|r| r.iter().map(|v| v * v).sum::<f64>().sqrt()).collect();
+        // The position values (a pose's first three).
+        let dist: Vec<f64> = residuals_with(test_fit, x, c).chunks(d).map(|r| r.iter().take(3).map(|v| v * v).sum::<f64>().sqrt()).collect();
         ErrorStats::of(&dist)
     };
     Metrics {
@@ -922,10 +975,12 @@ pub fn reading_measurement(data: &Dataset) -> Result<crate::measurement::Measure
 /// (a point), pooled over the values (each coordinate's within-group variance, averaged).
 pub fn reading_repeatability(data: &Dataset) -> Option<super::metrics::Repeatability> {
     let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
-    let dim = data.rows.first().map_or(1, |r| r.reading_mm.len()).max(1);
+    // The values as the model reads them (a pose's origin and axes).
+    let values: Vec<Vec<f64>> = data.rows.iter().map(|r| r.values_mm().unwrap_or_default()).collect();
+    let dim = values.first().map_or(1, |v| v.len()).max(1);
     let per: Vec<super::metrics::Repeatability> = (0..dim)
         .filter_map(|c| {
-            let v: Vec<f64> = data.rows.iter().map(|r| r.reading_mm.get(c).copied().unwrap_or(f64::NAN)).collect();
+            let v: Vec<f64> = values.iter().map(|r| r.get(c).copied().unwrap_or(f64::NAN)).collect();
             super::metrics::repeatability(&q_deg, &v, 1e-6)
         })
         .collect();
@@ -954,7 +1009,8 @@ fn floor_stage(
         Some(v) => Some(Step::Given(v)),
         None => logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(Step::Detected),
     };
-    let reading_step = logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().copied()));
+    // The lengths' step (a pose's angles are logged in degrees: its position columns only).
+    let reading_step = logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().take(3).copied()));
     super::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat)
 }
 
@@ -964,7 +1020,9 @@ fn floor_stage(
 pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<Prepared> {
     let measurement = reading_measurement(data)?;
     let mut split = split_stage(data, opts)?;
-    let dim = measurement.dim();
+    // The position columns (a pose's orientation may stay the same throughout, as on an ISO
+    // cube).
+    let dim = measurement.file_dim().min(3);
     let spread: Vec<f64> = (0..dim)
         .map(|c| {
             let (lo, hi) = data.rows.iter().map(|r| r.reading_mm[c]).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
@@ -978,7 +1036,11 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
         let msg = if dim == 1 {
             format!("every row reads the same length (L = {} mm): a calibration needs lengths that change with the pose", first[0])
         } else {
-            format!("every row reads the same {} ({} mm): a calibration needs readings that change with the pose", measurement.def().columns()[c], first[c])
+            format!(
+                "every row reads the same {} ({} mm): a calibration needs readings that change with the pose",
+                measurement.def().file_columns()[c],
+                first[c]
+            )
         };
         return Err(Error::data(&data.source, msg));
     }
@@ -1050,7 +1112,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     }
 
     // Stage "uncertainty": standard uncertainties from the Jacobian at the solution (all methods alike).
-    let cov = covariance(&fit, &x, &fixed);
+    let cov = grouped_covariance(&fit, &x, &fixed);
     let noise_estimate_mm = if noise.is_finite() { noise } else { residual_sigma(&fit, &x, &fixed) };
     let test_fit = ReadingFit { model: &model, data: &split.test };
     let correct = corrector.as_ref().map(|c| c.as_correct());

@@ -40,6 +40,9 @@ pub struct TruthPose {
     /// A tracker's noise-free reading, mm.
     #[serde(default)]
     pub point_true_mm: Option<[f64; 3]>,
+    /// A 6-D probe's noise-free pose (`x, y, z` mm, `rx, ry, rz` degrees, intrinsic X-Y-Z).
+    #[serde(default)]
+    pub pose_true: Option<[f64; 6]>,
 }
 
 impl TruthFile {
@@ -51,7 +54,7 @@ impl TruthFile {
         let mm = |v: [f64; 3]| Vector3::from(v) * 1e-3;
         let tool = mm(self.tool.point_mm);
         match &self.tracker {
-            Some(t) => Placement { measurement: crate::measurement::Measurement::Point, own: t.own(), tool },
+            Some(t) => Placement { measurement: t.measurement(), own: t.placement_own(), tool },
             None => Placement::cable(mm(self.sensor.exit_point_mm), self.sensor.length_offset_mm * 1e-3, tool),
         }
     }
@@ -63,6 +66,12 @@ impl TruthFile {
         match (measurement, p.point_true_mm) {
             (crate::measurement::Measurement::Length, _) if self.tracker.is_none() => Some(vec![p.length_true_mm * 1e-3]),
             (crate::measurement::Measurement::Point, Some(v)) => Some(v.iter().map(|c| c * 1e-3).collect()),
+            (crate::measurement::Measurement::Pose, _) => {
+                let file = p.pose_true?;
+                let mut v = vec![0.0; measurement.dim()];
+                measurement.def().values_of_file(&file, &mut v);
+                Some(v.iter().map(|c| c * 1e-3).collect())
+            }
             _ => None,
         }
     }

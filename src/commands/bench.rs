@@ -28,6 +28,7 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
                 let args = CompareArgs {
                     data: dir.to_path_buf(),
                     angles: AngleArg::Deg,
+                    reading: ReadingArgs::default(),
                     methods: ["lm", "ekf", "pf", "pso", "rbf"].map(String::from).to_vec(),
                     seeds: 30,
                     model: ModelArgs { model: "irb120".into(), params: None },

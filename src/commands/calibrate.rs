@@ -11,6 +11,8 @@ pub struct CalibrateArgs {
     /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
     #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
     pub angles: AngleArg,
+    #[command(flatten)]
+    pub reading: ReadingArgs,
     /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH; ablations dsade-gkan-v1, -v2, -v3), pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5; pso-ekf-awnn-x: network also on temperature and backlash flanks, network/LM alternations).
     #[arg(long, default_value = "lm")]
     pub method: String,
@@ -105,7 +107,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
         l.validate()?;
     }
     let spec = a.model.spec()?;
-    let data = load_dataset(&a.data, a.angles, true)?;
+    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let truth = TruthFile::find(&a.data)?;
     let mut opts = CalibOptions::new(spec.clone(), method);
     opts.test_fraction = a.test_fraction;

@@ -30,6 +30,8 @@ pub struct CompareArgs {
     /// Unit of the joint angles in the data.
     #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
     pub angles: AngleArg,
+    #[command(flatten)]
+    pub reading: ReadingArgs,
     #[arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf")]
     pub methods: Vec<String>,
     /// Number of seeds (1 to 1000).
@@ -95,7 +97,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         check_outputs(&inputs, &outs)?;
     }
     let spec = a.model.spec()?;
-    let ds = load_dataset(&a.data, a.angles, true)?;
+    let ds = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let n = ds.rows.len();
     let frac = test_fraction.unwrap_or_else(|| {
         let t = ds.test_indices().len();

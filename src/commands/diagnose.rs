@@ -13,6 +13,8 @@ pub struct DiagnoseArgs {
     #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
     pub angles: AngleArg,
     #[command(flatten)]
+    pub reading: ReadingArgs,
+    #[command(flatten)]
     pub model: ModelArgs,
     #[command(flatten)]
     pub loads: LoadArgs,
@@ -71,7 +73,7 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
         return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
     }
     let spec = a.model.spec()?;
-    let data = load_dataset(&a.data, a.angles, true)?;
+    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let mut opts = DiagnoseOptions::new(spec);
     let (loads, inertial) = a.loads.resolve()?;
     opts.loads = loads;

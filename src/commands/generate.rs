@@ -41,8 +41,16 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     let steps: Vec<usize> = t.poses.iter().map(|p| p.settle_steps).collect();
     let mean_steps = steps.iter().sum::<usize>() as f64 / steps.len().max(1) as f64;
     eprintln!("scenario {} (seed {}): {n} poses ({} train / {test} test) in {elapsed:.2} s", t.scenario, t.seed, n - test);
-    if t.tracker.is_some() {
+    if let Some(tr) = &t.tracker {
         eprintln!("  read by a laser tracker (x, y, z in its frame): {:.4} mm per coordinate, averaged noise (RMS over the poses)", t.noise_std_mm);
+        if tr.probe_rotation_deg.is_some() {
+            let sd = tr.orientation_noise_urad / (g.twin.sensor.samples.max(1) as f64).sqrt();
+            eprintln!(
+                "  with a 6-D probe (rx, ry, rz: degrees, intrinsic X-Y-Z in the tracker's frame): {sd:.1} µrad per axis, averaged noise ({:.4} mm at the {} mm lever the model reads the axes at)",
+                sd * 1e-6 * crate::measurement::pose::LEVER_MM,
+                crate::measurement::pose::LEVER_MM
+            );
+        }
     }
     let acq: Vec<&crate::sim::generate::PoseAcquisition> = t.poses.iter().filter_map(|p| p.acquisition.as_ref()).collect();
     if acq.is_empty() {

@@ -75,14 +75,51 @@ pub enum BenchTarget {
 
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
 /// compare) or may be absent (predict).
-fn load_dataset(path: &Path, angles: AngleArg, require_length: bool) -> Result<Dataset> {
+fn load_dataset(path: &Path, angles: AngleArg, reading: &ReadingArgs, require_length: bool) -> Result<Dataset> {
     use crate::dataset::{AngleUnit, LoadOptions};
     let angles = match angles {
         AngleArg::Auto => AngleUnit::Auto,
         AngleArg::Deg => AngleUnit::Deg,
         AngleArg::Rad => AngleUnit::Rad,
     };
-    Dataset::load_with(path, &LoadOptions { angles, require_length })
+    let (measurement, euler) = reading.resolve()?;
+    Dataset::load_with(path, &LoadOptions { angles, require_length, measurement, euler })
+}
+
+/// How a dataset's reading columns are read (`--measurement`, `--euler`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct ReadingArgs {
+    /// The instrument whose columns to read when the header holds more than one's (point: only
+    /// x, y, z of a file that also has a pose's rx, ry, rz); default: what the header holds
+    /// (L: length; x, y, z: point; x, y, z, rx, ry, rz: pose).
+    #[arg(long, value_name = "length|point|pose")]
+    pub measurement: Option<String>,
+    /// The Euler convention of a pose's rx, ry, rz (degrees): capitals for rotations about the
+    /// moving axes (intrinsic; XYZ is R = Rx(rx)·Ry(ry)·Rz(rz)), lower case for the fixed axes
+    /// (extrinsic; xyz is R = Rz(rz)·Ry(ry)·Rx(rx)); ZYX, ZYZ, ... likewise.
+    #[arg(long, default_value = "XYZ")]
+    pub euler: String,
+}
+
+impl Default for ReadingArgs {
+    fn default() -> Self {
+        ReadingArgs { measurement: None, euler: "XYZ".into() }
+    }
+}
+
+impl ReadingArgs {
+    /// The instrument asked for and the Euler convention, or an error naming the flag.
+    pub fn resolve(&self) -> Result<(Option<crate::measurement::Measurement>, crate::measurement::Euler)> {
+        use crate::measurement::{Euler, Measurement};
+        let measurement = match &self.measurement {
+            None => None,
+            Some(name) => Some(Measurement::ALL.into_iter().find(|m| m.name().eq_ignore_ascii_case(name.trim())).ok_or_else(|| {
+                Error::Invalid(format!("--measurement '{name}' is not one of {}", Measurement::ALL.iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")))
+            })?),
+        };
+        let euler = Euler::parse(&self.euler).map_err(|e| Error::Invalid(format!("--euler: {e}")))?;
+        Ok((measurement, euler))
+    }
 }
 
 /// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without

@@ -36,13 +36,13 @@ pub fn prediction_csv(columns: &[&str], rows: &[(&[f64], &[f64])], predicted: &[
 
 /// `twincal predict`: the calibrated model's length for every row of a dataset (which needs no
 /// measured lengths), with the residual where a length was measured.
-pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: bool) -> Result<()> {
+pub fn predict(model: &Path, data: &Path, angles: AngleArg, reading: &ReadingArgs, out: &Path, quiet: bool) -> Result<()> {
     let data_files = data_inputs(data);
     let mut inputs: Vec<(&str, &Path)> = vec![("--model", model)];
     inputs.extend(data_files.iter().map(|p| ("--data", p.as_path())));
     check_outputs(&inputs, &[("--out", out)])?;
     let result = load_model(model)?;
-    let ds = load_dataset(data, angles, false)?;
+    let ds = load_dataset(data, angles, reading, false)?;
     ds.require_joints(result.model.chain.n_joints, &format!("the model {}", model.display()))?;
     result.require_columns(&ds)?;
     // Poses beyond the joint ranges the model knows: it extrapolates there (calibrate refuses
@@ -59,7 +59,9 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, out: &Path, quiet: b
     }
     result.require_measurement(&ds)?;
     let m = result.model.measurement;
-    let rows: Vec<(&[f64], &[f64])> = ds.rows.iter().map(|r| (r.q_deg.as_slice(), r.reading_mm.as_slice())).collect();
+    // The measured values as the model reads them (a pose's origin and axes).
+    let values: Vec<Vec<f64>> = ds.rows.iter().map(|r| r.values_mm().unwrap_or_default()).collect();
+    let rows: Vec<(&[f64], &[f64])> = ds.rows.iter().zip(&values).map(|(r, v)| (r.q_deg.as_slice(), v.as_slice())).collect();
     let predicted = result.predict_rows(&ds);
     if let Some(i) = predicted.iter().position(|p| !p.is_finite()) {
         return Err(Error::Calibration(format!("the model predicted a non-finite reading for row {}", i / m.dim() + 1)));

@@ -57,7 +57,7 @@ mod csv_io;
 mod xlsx;
 
 use crate::error::{Error, Result};
-use crate::measurement::Measurement;
+use crate::measurement::{Euler, Measurement};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -116,12 +116,18 @@ pub struct LoadOptions {
     pub angles: AngleUnit,
     /// Whether the `L` column must be present (it always must be for calibration).
     pub require_length: bool,
+    /// The instrument to read, when the header holds more than its columns (`point` reads only
+    /// `x, y, z` of a file that also has a pose's angles); `None` takes what the header holds.
+    pub measurement: Option<Measurement>,
+    /// The convention of a pose's Euler angles in the file; a loaded row holds them as
+    /// intrinsic X-Y-Z.
+    pub euler: Euler,
 }
 
 impl Default for LoadOptions {
     /// Today's behaviour of [`Dataset::load`]: [`AngleUnit::Auto`], `L` required.
     fn default() -> Self {
-        LoadOptions { angles: AngleUnit::Auto, require_length: true }
+        LoadOptions { angles: AngleUnit::Auto, require_length: true, measurement: None, euler: Euler::XYZ }
     }
 }
 
@@ -156,9 +162,10 @@ pub struct Row {
     /// Joint angles `q1..qN`, degrees, controller convention; every row of a dataset has the
     /// same N.
     pub q_deg: Vec<f64>,
-    /// The instrument's reading, mm, in its columns' order (`L` for a draw-wire; `x, y, z` for
-    /// a tracker: see [`Measurement`]); empty when the file has none (poses only, loaded with
-    /// `require_length: false`). Every row of a dataset has the same kind.
+    /// The instrument's reading, mm, in its dataset columns' order (`L` for a draw-wire;
+    /// `x, y, z` for a tracker; `x, y, z, rx, ry, rz` for a pose, its angles in degrees,
+    /// intrinsic X-Y-Z: see [`Measurement`]); empty when the file has none (poses only, loaded
+    /// with `require_length: false`). Every row of a dataset has the same kind.
     pub reading_mm: Vec<f64>,
     /// Seconds from acquisition start.
     pub t_s: Option<f64>,
@@ -174,6 +181,15 @@ impl Row {
             [l] => Some(l),
             _ => None,
         }
+    }
+
+    /// The reading as the model reads its values (mm; see [`Measurement::dim`]): the columns
+    /// themselves, or a pose's origin and axes. `None` without a reading.
+    pub fn values_mm(&self) -> Option<Vec<f64>> {
+        let m = Measurement::of_file_dim(self.reading_mm.len())?;
+        let mut v = vec![0.0; m.dim()];
+        m.def().values_of_file(&self.reading_mm, &mut v);
+        Some(v)
     }
 }
 
@@ -250,7 +266,7 @@ impl Dataset {
     /// What the rows' readings are (from their number of values, which the loader took from the
     /// header's columns); `None` for a dataset of poses without readings.
     pub fn measurement(&self) -> Option<Measurement> {
-        Measurement::of_dim(self.rows.first()?.reading_mm.len())
+        Measurement::of_file_dim(self.rows.first()?.reading_mm.len())
     }
 
     /// True when every row has a cable length (and there is at least one row).
@@ -269,7 +285,7 @@ impl Dataset {
         if let Some(m) = self.measurement().filter(|m| *m != Measurement::Length) {
             return Err(Error::data(
                 &self.source,
-                format!("the rows hold a {} ({}), this needs a draw-wire cable length L", m.def().describe(), m.def().columns().join(", ")),
+                format!("the rows hold a {} ({}), this needs a draw-wire cable length L", m.def().describe(), m.def().file_columns().join(", ")),
             ));
         }
         match self.rows.iter().position(|r| r.l_mm().is_none()) {
@@ -316,8 +332,8 @@ impl Dataset {
         // The reading columns of the rows' instrument (a row without a reading gets empty
         // cells); a dataset with no rows is written with `L`.
         let reading_names: &[&str] = match self.rows.iter().find(|r| !r.reading_mm.is_empty()) {
-            Some(r) => Measurement::of_dim(r.reading_mm.len()).map_or(&[], |m| m.def().columns()),
-            None if self.rows.is_empty() => Measurement::Length.def().columns(),
+            Some(r) => Measurement::of_file_dim(r.reading_mm.len()).map_or(&[], |m| m.def().file_columns()),
+            None if self.rows.is_empty() => Measurement::Length.def().file_columns(),
             None => &[],
         };
 
@@ -486,7 +502,7 @@ fn reading_names() -> &'static [&'static str] {
     NAMES.get_or_init(|| {
         let mut v: Vec<&'static str> = Vec::new();
         for m in Measurement::ALL {
-            for c in m.def().columns() {
+            for c in m.def().file_columns() {
                 if !v.contains(c) {
                     v.push(c);
                 }
@@ -499,7 +515,7 @@ fn reading_names() -> &'static [&'static str] {
 /// "L (draw-wire cable length) or x, y, z (laser-tracker target position)": what a file may
 /// hold as its readings.
 fn reading_columns_hint() -> String {
-    Measurement::ALL.iter().map(|m| format!("{} ({})", m.def().columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" or ")
+    Measurement::ALL.iter().map(|m| format!("{} ({})", m.def().file_columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" or ")
 }
 
 /// The columns this module understands.
@@ -577,7 +593,7 @@ struct Layout {
 }
 
 impl Layout {
-    fn new(header: &[String], source: &str, require_length: bool) -> Result<Layout> {
+    fn new(header: &[String], source: &str, require_length: bool, want: Option<Measurement>) -> Result<Layout> {
         let found = || header.join(",");
         let mut pos = vec![None; 3 + reading_names().len() + MAX_JOINTS];
         for (i, h) in header.iter().enumerate() {
@@ -593,8 +609,29 @@ impl Layout {
         }
         // The joints are q1..qN with N the highest joint named; at least one is needed.
         let joints = (0..MAX_JOINTS).rev().find(|&j| pos[Column::Q(j).index()].is_some()).map_or(1, |j| j + 1);
-        let complete: Vec<Measurement> =
-            Measurement::ALL.into_iter().filter(|m| m.def().columns().iter().all(|c| pos[Column::reading(c).index()].is_some())).collect();
+        let has = |m: &Measurement| m.def().file_columns().iter().all(|c| pos[Column::reading(c).index()].is_some());
+        let mut complete: Vec<Measurement> = Measurement::ALL.into_iter().filter(has).collect();
+        // An instrument whose columns another one's include (a point's x, y, z in a pose's) is
+        // that one; the one asked for is read alone.
+        let within = |a: &Measurement, b: &Measurement| a != b && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c));
+        let all = complete.clone();
+        complete.retain(|a| !all.iter().any(|b| within(a, b)));
+        if let Some(w) = want {
+            if !has(&w) {
+                let missing: Vec<&str> = w.def().file_columns().iter().copied().filter(|c| pos[Column::reading(c).index()].is_none()).collect();
+                return Err(Error::data(
+                    source,
+                    format!(
+                        "line 1: a {} needs the columns {}; missing {}; header found: {}",
+                        w.def().describe(),
+                        w.def().file_columns().join(", "),
+                        missing.join(", "),
+                        found()
+                    ),
+                ));
+            }
+            complete = vec![w];
+        }
         if complete.len() > 1 {
             let both = complete.iter().map(|m| format!("{} ({})", m.def().columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" and ");
             return Err(Error::data(source, format!("line 1: the header holds the readings of two instruments, {both}; keep one; header found: {}", found())));
@@ -603,9 +640,9 @@ impl Layout {
         let mut missing: Vec<String> = (0..joints).map(Column::Q).filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
         if measurement.is_none() {
             // Name the columns of a partly given instrument (x and y without z), else L.
-            let partial = Measurement::ALL.into_iter().find(|m| m.def().columns().iter().any(|c| pos[Column::reading(c).index()].is_some()));
+            let partial = Measurement::ALL.into_iter().find(|m| m.def().file_columns().iter().any(|c| pos[Column::reading(c).index()].is_some()));
             match partial {
-                Some(m) => missing.extend(m.def().columns().iter().filter(|c| pos[Column::reading(c).index()].is_none()).map(|c| c.to_string())),
+                Some(m) => missing.extend(m.def().file_columns().iter().filter(|c| pos[Column::reading(c).index()].is_none()).map(|c| c.to_string())),
                 None if require_length => missing.push("L".into()),
                 None => {}
             }
@@ -710,7 +747,7 @@ fn check_bounds(v: f64, (lo, hi): (f64, f64), what: &str, line: usize, c: Column
 
 fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dataset> {
     let src = source.as_str();
-    let layout = Layout::new(&table.header, src, opts.require_length)?;
+    let layout = Layout::new(&table.header, src, opts.require_length, opts.measurement)?;
     if table.rows.is_empty() {
         return Err(Error::data(src, "no data rows (only a header)"));
     }
@@ -736,13 +773,18 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
         }
         let mut reading_mm = Vec::new();
         if let Some(m) = layout.measurement {
-            for (k, name) in m.def().columns().iter().enumerate() {
+            for (k, name) in m.def().file_columns().iter().enumerate() {
                 let c = Column::reading(name);
                 let v = cells.required(layout.cell(raw, c), c, line)?;
                 if let Some(why) = m.def().implausible(k, v) {
                     return Err(cell_error(src, line, c, why));
                 }
                 reading_mm.push(v);
+            }
+            if m == Measurement::Pose && opts.euler != Euler::XYZ {
+                let r = opts.euler.matrix([reading_mm[3].to_radians(), reading_mm[4].to_radians(), reading_mm[5].to_radians()]);
+                let a = crate::measurement::pose::xyz_angles(&r);
+                reading_mm[3..6].iter_mut().zip(a).for_each(|(v, a)| *v = a.to_degrees());
             }
         }
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
@@ -832,11 +874,12 @@ fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
             ));
         }
     }
-    let max_abs = rows.iter().flat_map(|r| r.reading_mm.iter()).fold(None, |m: Option<f64>, v| Some(m.map_or(v.abs(), |m| m.max(v.abs()))));
-    let measurement = rows.first().and_then(|r| Measurement::of_dim(r.reading_mm.len()));
+    // The lengths: every reading column but a pose's angles (the first three at most).
+    let max_abs = rows.iter().flat_map(|r| r.reading_mm.iter().take(3)).fold(None, |m: Option<f64>, v| Some(m.map_or(v.abs(), |m| m.max(v.abs()))));
+    let measurement = rows.first().and_then(|r| Measurement::of_file_dim(r.reading_mm.len()));
     if let (Some(max), Some(m)) = (max_abs, measurement) {
         if max < METRES_MAX_L {
-            let cols = m.def().columns().join(", ");
+            let cols = m.def().file_columns()[..m.file_dim().min(3)].join(", ");
             let msg = if m.dim() == 1 {
                 format!("column {cols} looks like metres (every {cols} < {METRES_MAX_L}, max {max}); {cols} must be in millimetres")
             } else {

@@ -668,8 +668,11 @@ mod props {
     use proptest::prelude::*;
 
     fn opts() -> impl Strategy<Value = LoadOptions> {
-        (prop_oneof![Just(AngleUnit::Auto), Just(AngleUnit::Deg), Just(AngleUnit::Rad)], any::<bool>())
-            .prop_map(|(angles, require_length)| LoadOptions { angles, require_length })
+        (prop_oneof![Just(AngleUnit::Auto), Just(AngleUnit::Deg), Just(AngleUnit::Rad)], any::<bool>()).prop_map(|(angles, require_length)| LoadOptions {
+            angles,
+            require_length,
+            ..Default::default()
+        })
     }
 
     /// Numbers a spreadsheet or a CSV could hold, weighted towards the awkward ones.

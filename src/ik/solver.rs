@@ -144,7 +144,9 @@ impl<'a> IkModel<'a> {
         // checked for the corrector's dimension).
         let placement = model.placement(x);
         let exit = placement.exit().unwrap_or_else(Vector3::zeros);
-        let to_base = (corrector.is_some_and(|c| c.dim() == 3) && model.measurement == crate::measurement::Measurement::Point)
+        // A pose's corrector also corrects its axes: its first three values are the origin's.
+        let to_base = (corrector.is_some_and(|c| c.dim() == model.measurement.dim() && c.dim() >= 3)
+            && model.measurement != crate::measurement::Measurement::Length)
             .then(|| crate::measurement::point::tracker_rotation(&placement.own).transpose());
         let mut m = IkModel { model, x, corrector, limits, inp: RowInputs::default(), exit, to_base, reach_mm: f64::INFINITY };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -203,9 +205,11 @@ impl<'a> IkModel<'a> {
         let IkWork { model: mw, cols, dp, g } = w;
         let n = q.len();
         let p = self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp) * 1e3;
-        let mut delta = [0.0; 3];
-        g.resize(3 * n, 0.0);
-        c.corrections_grad_mm(q, &self.inp, &mut delta, g);
+        let mut all = [0.0; crate::measurement::MAX_DIM];
+        let delta = &mut all[..c.dim()];
+        g.resize(c.dim() * n, 0.0);
+        c.corrections_grad_mm(q, &self.inp, delta, g);
+        let delta = [delta[0], delta[1], delta[2]];
         if let Some(kind) = jac {
             for (j, out) in cols.iter_mut().enumerate() {
                 let jp = dp[j] * 1e3;

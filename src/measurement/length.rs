@@ -2,7 +2,7 @@
 //! plus a constant length offset.
 
 use super::Instrument;
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// Names of the draw-wire's placement parameters, in parameter order.
 pub const CABLE_PARAMS: [&str; 7] = ["exit.x", "exit.y", "exit.z", "length_offset", "tool.x", "tool.y", "tool.z"];
@@ -30,11 +30,11 @@ impl Instrument for Length {
     fn offset_index(&self) -> Option<usize> {
         Some(3)
     }
-    fn reading(&self, own: &[f64], p: &Vector3<f64>, y: &mut [f64]) {
-        y[0] = (p - Vector3::new(own[0], own[1], own[2])).norm() + own[3];
+    fn reading(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64]) {
+        y[0] = (p[0] - Vector3::new(own[0], own[1], own[2])).norm() + own[3];
     }
-    fn reading_grad(&self, own: &[f64], p: &Vector3<f64>, y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]) {
-        let d = p - Vector3::new(own[0], own[1], own[2]);
+    fn reading_grad(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]) {
+        let d = p[0] - Vector3::new(own[0], own[1], own[2]);
         let dist = d.norm().max(1e-12);
         let u = d / dist;
         y[0] = dist + own[3];
@@ -47,9 +47,9 @@ impl Instrument for Length {
         }
         (l > MAX_L_MM).then(|| format!("cable length {} mm is implausible (no draw-wire sensor measures more than {MAX_L_MM} mm)", crate::error::shown(l)))
     }
-    fn locate(&self, p: &[Vector3<f64>], y: &[f64]) -> Option<Vec<f64>> {
+    fn locate(&self, p: &[Vector3<f64>], _rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)> {
         let (e, c) = multilaterate(p, y)?;
-        Some(vec![e[0], e[1], e[2], c])
+        Some((vec![e[0], e[1], e[2], c], Vector3::zeros()))
     }
 }
 

@@ -9,27 +9,35 @@
 //! |---|---|---|
 //! | `length` ([`length`]) | a draw-wire's cable length `L` | exit point (base frame, 3), length offset (1), tool point (flange frame, 3) |
 //! | `point` ([`point`]) | a laser tracker's target position `x, y, z` | base-to-tracker translation (3) and rotation (3), target point (flange frame, 3) |
+//! | `pose` ([`pose`]) | a 6-D probe's position and orientation `x, y, z, rx, ry, rz` (degrees, Euler angles), read by the model as nine lengths | base-to-tracker translation and rotation (6), probe orientation on the flange (3), probe origin (flange frame, 3) |
 //!
 //! The placement is split in two: the instrument's own parameters (where it sits and its reading
 //! offset) and the **target** on the flange (the tool point the cable is hooked to, or the
-//! reflector a tracker follows), which the chain carries to the base frame. Derivatives are
-//! analytic; the tests below check every type against finite differences.
+//! reflector a tracker follows), which the chain carries to the base frame. An instrument reads
+//! one point of the flange (the target), or several rigidly attached to it (a pose reads its
+//! probe's origin and the tips of two of its axes: [`Instrument::targets`]), so every
+//! derivative is a point Jacobian of the chain. Derivatives are analytic; the tests below check
+//! every type against finite differences.
 //!
 //! Adding a measurement type means one module implementing [`Instrument`] and its variant with
 //! its line in [`Measurement::def`]; the rows' residual vectors follow from [`Measurement::dim`].
 
 pub mod length;
 pub mod point;
+pub mod pose;
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
+pub use pose::Euler;
 use serde::{Deserialize, Serialize};
 
 pub use length::CABLE_PARAMS;
 
 /// Largest reading dimension and number of instrument parameters of any measurement type (stack
 /// buffers of the hot loops).
-pub const MAX_DIM: usize = 6;
+pub const MAX_DIM: usize = 9;
 pub const MAX_OWN: usize = 12;
+/// Most points of the flange an instrument reads.
+pub const MAX_TARGETS: usize = 3;
 
 /// One measurement type: what an instrument reads of a target point.
 pub trait Instrument: Sync {
@@ -37,8 +45,38 @@ pub trait Instrument: Sync {
     fn name(&self) -> &'static str;
     /// What the instrument is, for messages ("draw-wire cable length").
     fn describe(&self) -> &'static str;
-    /// The dataset columns of one reading, in reading order (millimetres).
+    /// The values of one reading as the model predicts them (millimetres in a dataset, metres
+    /// inside), in reading order: their labels.
     fn columns(&self) -> &'static [&'static str];
+    /// The dataset columns of one reading, when they are not the values themselves (a pose's
+    /// Euler angles): [`Self::values_of_file`] turns them into the values.
+    fn file_columns(&self) -> &'static [&'static str] {
+        self.columns()
+    }
+    /// The reading values (mm) of a dataset row's reading columns `file` (in
+    /// [`Self::file_columns`] order; angles in degrees, intrinsic X-Y-Z as a loaded row holds
+    /// them).
+    fn values_of_file(&self, file: &[f64], out: &mut [f64]) {
+        out.copy_from_slice(file);
+    }
+    /// The group of each reading value, when the values are not all alike (a pose's position
+    /// and its axes, whose residuals have their own scales): robust screens judge each group
+    /// on its own scale. Empty: one group.
+    fn value_groups(&self) -> &'static [usize] {
+        &[]
+    }
+    /// The number of points of the flange frame the reading depends on (one target; a pose's
+    /// three).
+    fn n_targets(&self) -> usize {
+        1
+    }
+    /// Those points in the flange frame, for the instrument's own parameters `own` and the
+    /// target `tool`, and their derivatives with respect to `own` into `dlocal` (row-major,
+    /// `n_targets × own.len()`); the derivative with respect to the target is the identity.
+    fn targets(&self, _own: &[f64], tool: &Vector3<f64>, local: &mut [Vector3<f64>], dlocal: &mut [Vector3<f64>]) {
+        local[0] = *tool;
+        dlocal.iter_mut().for_each(|v| *v = Vector3::zeros());
+    }
     /// The placement parameters' names, the instrument's own first, then the target's three.
     fn placement_names(&self) -> &'static [&'static str];
     /// Whether placement parameter `k` is an angle (rad); the others are lengths (m).
@@ -50,19 +88,22 @@ pub trait Instrument: Sync {
     fn offset_index(&self) -> Option<usize> {
         None
     }
-    /// The reading(s) `y` (m) of target point `p` (base frame, m) for the instrument's own
-    /// placement parameters `own` (the placement without the target).
-    fn reading(&self, own: &[f64], p: &Vector3<f64>, y: &mut [f64]);
-    /// [`Self::reading`] with its derivatives: `dy_dp[i]` is ∂y_i/∂p (one row per reading
-    /// value) and `dy_down` (row-major, `dim × own.len()`) is ∂y/∂own.
-    fn reading_grad(&self, own: &[f64], p: &Vector3<f64>, y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]);
-    /// `None` when value `k` of a reading (mm, as a dataset holds it) is plausible, else what
-    /// is wrong with it ("cable length must be positive, found -3").
-    fn implausible(&self, k: usize, v_mm: f64) -> Option<String>;
-    /// The instrument's own placement from target points `p` (base frame, m, as the nominal
-    /// arm puts them) and the readings `y` (m, `dim` per point): the starting guess a
-    /// calibration refines. `None` when the points cannot place it.
-    fn locate(&self, p: &[Vector3<f64>], y: &[f64]) -> Option<Vec<f64>>;
+    /// The reading(s) `y` (m) of the target points `p` (base frame, m; [`Self::n_targets`] of
+    /// them) for the instrument's own placement parameters `own` (the placement without the
+    /// target).
+    fn reading(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64]);
+    /// [`Self::reading`] with its derivatives: `dy_dp[i * n_targets + t]` is ∂y_i/∂p_t and
+    /// `dy_down` (row-major, `dim × own.len()`) is ∂y/∂own.
+    fn reading_grad(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]);
+    /// `None` when dataset column `k` of a reading ([`Self::file_columns`], mm or degrees) is
+    /// plausible, else what is wrong with it ("cable length must be positive, found -3").
+    fn implausible(&self, k: usize, v: f64) -> Option<String>;
+    /// The instrument's own placement and the target on the flange, from the flange's origins
+    /// `p` (base frame, m, as the nominal arm puts them), its rotations `rot` and the readings
+    /// `y` (m, `dim` per row): the starting guess a calibration refines. An instrument that
+    /// cannot tell its target from the data gives a zero one. `None` when the rows cannot place
+    /// it.
+    fn locate(&self, p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)>;
 }
 
 /// A measurement type.
@@ -74,17 +115,20 @@ pub enum Measurement {
     Length,
     /// A laser tracker's 3-D position of its target, in the tracker's frame.
     Point,
+    /// A laser tracker's 6-D pose of a probe (position and orientation), in the tracker's frame.
+    Pose,
 }
 
 impl Measurement {
     /// Every measurement type.
-    pub const ALL: [Measurement; 2] = [Measurement::Length, Measurement::Point];
+    pub const ALL: [Measurement; 3] = [Measurement::Length, Measurement::Point, Measurement::Pose];
 
     /// The registry: the type's implementation.
     pub fn def(self) -> &'static dyn Instrument {
         match self {
             Measurement::Length => &length::Length,
             Measurement::Point => &point::Point,
+            Measurement::Pose => &pose::Pose,
         }
     }
 
@@ -93,9 +137,19 @@ impl Measurement {
         self.def().name()
     }
 
-    /// Values per row (1 for a length, 3 for a point).
+    /// Values per row as the model reads them (1 for a length, 3 for a point, 9 for a pose).
     pub fn dim(self) -> usize {
         self.def().columns().len()
+    }
+
+    /// Reading columns per dataset row (1 for a length, 3 for a point, 6 for a pose).
+    pub fn file_dim(self) -> usize {
+        self.def().file_columns().len()
+    }
+
+    /// Whether the model's values are the dataset's columns (not for a pose's angles).
+    pub fn reads_file_values(self) -> bool {
+        self.def().columns() == self.def().file_columns()
     }
 
     /// The placement parameters' names, the instrument's own first, then the target's.
@@ -119,60 +173,97 @@ impl Measurement {
         self.def().offset_index()
     }
 
-    /// See [`Instrument::reading`].
+    /// The reading of one target point `p` (an instrument of one target: a draw-wire, a point
+    /// tracker). See [`Instrument::reading`].
     pub fn reading(self, own: &[f64], p: &Vector3<f64>, y: &mut [f64]) {
-        self.def().reading(own, p, y)
+        debug_assert_eq!(self.def().n_targets(), 1);
+        self.def().reading(own, std::slice::from_ref(p), y)
     }
 
-    /// See [`Instrument::reading_grad`].
-    pub fn reading_grad(self, own: &[f64], p: &Vector3<f64>, y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]) {
-        self.def().reading_grad(own, p, y, dy_dp, dy_down)
-    }
-
-    /// The measurement type with `dim` values per row. Every type has its own dimension (a
-    /// test holds it), so rows carry their type in their length.
+    /// The measurement type with `dim` values per row as the model reads them. Every type has
+    /// its own dimension (a test holds it), so samples carry their type in their length.
     pub fn of_dim(dim: usize) -> Option<Measurement> {
         Self::ALL.into_iter().find(|m| m.dim() == dim)
+    }
+
+    /// The measurement type with `n` reading columns per dataset row (its own number too).
+    pub fn of_file_dim(n: usize) -> Option<Measurement> {
+        Self::ALL.into_iter().find(|m| m.file_dim() == n)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Rotation3;
+
+    fn own_of(m: Measurement, phase: f64) -> Vec<f64> {
+        (0..m.target_index()).map(|k| 0.3 * (k as f64 * phase).sin() + 0.1).collect()
+    }
 
     #[test]
     fn reading_derivatives_match_finite_differences() {
         for m in Measurement::ALL {
             let n_own = m.target_index();
-            let own: Vec<f64> = (0..n_own).map(|k| 0.3 * (k as f64 * 0.7).sin() + 0.1).collect();
-            let p = Vector3::new(0.41, -0.22, 0.35);
+            let own = own_of(m, 0.7);
+            let nt = m.def().n_targets();
+            let p: Vec<Vector3<f64>> = (0..nt).map(|t| Vector3::new(0.41 + 0.05 * t as f64, -0.22 + 0.03 * t as f64, 0.35 - 0.04 * t as f64)).collect();
             let d = m.dim();
-            let (mut y, mut dy_dp, mut dy_down) = (vec![0.0; d], vec![Vector3::zeros(); d], vec![0.0; d * n_own]);
-            m.reading_grad(&own, &p, &mut y, &mut dy_dp, &mut dy_down);
+            let (mut y, mut dy_dp, mut dy_down) = (vec![0.0; d], vec![Vector3::zeros(); d * nt], vec![0.0; d * n_own]);
+            m.def().reading_grad(&own, &p, &mut y, &mut dy_dp, &mut dy_down);
             let mut plain = vec![0.0; d];
-            m.reading(&own, &p, &mut plain);
+            m.def().reading(&own, &p, &mut plain);
             assert!(y.iter().zip(&plain).all(|(a, b)| (a - b).abs() < 1e-15), "{}: {y:?} vs {plain:?}", m.name());
             let h = 1e-7;
             let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
-            for axis in 0..3 {
-                let mut e = Vector3::zeros();
-                e[axis] = h;
-                m.reading(&own, &(p + e), &mut yp);
-                m.reading(&own, &(p - e), &mut ym);
-                for i in 0..d {
-                    let fd = (yp[i] - ym[i]) / (2.0 * h);
-                    assert!((fd - dy_dp[i][axis]).abs() < 1e-7, "{} dy{i}/dp{axis}: {fd} vs {}", m.name(), dy_dp[i][axis]);
+            for t in 0..nt {
+                for axis in 0..3 {
+                    let (mut a, mut b) = (p.clone(), p.clone());
+                    a[t][axis] += h;
+                    b[t][axis] -= h;
+                    m.def().reading(&own, &a, &mut yp);
+                    m.def().reading(&own, &b, &mut ym);
+                    for i in 0..d {
+                        let fd = (yp[i] - ym[i]) / (2.0 * h);
+                        assert!((fd - dy_dp[i * nt + t][axis]).abs() < 1e-7, "{} dy{i}/dp{t}.{axis}: {fd} vs {}", m.name(), dy_dp[i * nt + t][axis]);
+                    }
                 }
             }
             for k in 0..n_own {
                 let (mut a, mut b) = (own.clone(), own.clone());
                 a[k] += h;
                 b[k] -= h;
-                m.reading(&a, &p, &mut yp);
-                m.reading(&b, &p, &mut ym);
+                m.def().reading(&a, &p, &mut yp);
+                m.def().reading(&b, &p, &mut ym);
                 for i in 0..d {
                     let fd = (yp[i] - ym[i]) / (2.0 * h);
                     assert!((fd - dy_down[i * n_own + k]).abs() < 1e-7, "{} dy{i}/down{k}: {fd} vs {}", m.name(), dy_down[i * n_own + k]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn target_derivatives_match_finite_differences() {
+        for m in Measurement::ALL {
+            let (n_own, nt) = (m.target_index(), m.def().n_targets());
+            assert!(nt <= MAX_TARGETS, "{}", m.name());
+            let own = own_of(m, 1.1);
+            let tool = Vector3::new(0.01, -0.02, 0.15);
+            let (mut local, mut dlocal) = (vec![Vector3::zeros(); nt], vec![Vector3::repeat(9.0); nt * n_own]);
+            m.def().targets(&own, &tool, &mut local, &mut dlocal);
+            assert_eq!(local[0], tool, "{}: the first target is the tool point", m.name());
+            let h = 1e-7;
+            let (mut lp, mut lm, mut scratch) = (vec![Vector3::zeros(); nt], vec![Vector3::zeros(); nt], vec![Vector3::zeros(); nt * n_own]);
+            for k in 0..n_own {
+                let (mut a, mut b) = (own.clone(), own.clone());
+                a[k] += h;
+                b[k] -= h;
+                m.def().targets(&a, &tool, &mut lp, &mut scratch);
+                m.def().targets(&b, &tool, &mut lm, &mut scratch);
+                for t in 0..nt {
+                    let fd = (lp[t] - lm[t]) / (2.0 * h);
+                    assert!((fd - dlocal[t * n_own + k]).norm() < 1e-7, "{} dlocal{t}/down{k}: {fd:?} vs {:?}", m.name(), dlocal[t * n_own + k]);
                 }
             }
         }
@@ -188,9 +279,10 @@ mod tests {
     }
 
     #[test]
-    fn every_type_has_its_own_dimension() {
+    fn every_type_has_its_own_dimension_in_the_model_and_in_a_file() {
         for m in Measurement::ALL {
             assert_eq!(Measurement::of_dim(m.dim()), Some(m), "{}", m.name());
+            assert_eq!(Measurement::of_file_dim(m.file_dim()), Some(m), "{}", m.name());
         }
     }
 
@@ -199,17 +291,28 @@ mod tests {
         for m in Measurement::ALL {
             let n_own = m.target_index();
             let own: Vec<f64> = (0..n_own).map(|k| 0.2 * (k as f64 * 1.3).cos() + 0.05).collect();
-            let pts: Vec<Vector3<f64>> = (0..40)
-                .map(|i| Vector3::new(0.3 + 0.2 * (i as f64 * 0.37).sin(), 0.25 * (i as f64 * 0.71).cos(), 0.4 + 0.15 * (i as f64 * 0.23).sin()))
-                .collect();
+            let (pts, rots): (Vec<Vector3<f64>>, Vec<Matrix3<f64>>) = (0..40)
+                .map(|i| {
+                    let i = i as f64;
+                    let p = Vector3::new(0.3 + 0.2 * (i * 0.37).sin(), 0.25 * (i * 0.71).cos(), 0.4 + 0.15 * (i * 0.23).sin());
+                    (p, Rotation3::from_euler_angles(1.2 * (i * 0.53).sin(), 0.6 * (i * 0.29).cos(), 2.0 * (i * 0.17).sin()).into_inner())
+                })
+                .unzip();
+            // A pose also finds its probe's origin on the flange; the others cannot tell it.
+            let tool = if m.def().n_targets() > 1 { Vector3::new(0.02, -0.03, 0.12) } else { Vector3::zeros() };
+            let nt = m.def().n_targets();
+            let (mut local, mut dlocal) = (vec![Vector3::zeros(); nt], vec![Vector3::zeros(); nt * n_own]);
+            m.def().targets(&own, &tool, &mut local, &mut dlocal);
             let mut y = vec![0.0; pts.len() * m.dim()];
-            for (p, yi) in pts.iter().zip(y.chunks_mut(m.dim())) {
-                m.reading(&own, p, yi);
+            for ((p, r), yi) in pts.iter().zip(&rots).zip(y.chunks_mut(m.dim())) {
+                let at: Vec<Vector3<f64>> = local.iter().map(|l| p + r * l).collect();
+                m.def().reading(&own, &at, yi);
             }
-            let found = m.def().locate(&pts, &y).unwrap_or_else(|| panic!("{}: not located", m.name()));
+            let (found, found_tool) = m.def().locate(&pts, &rots, &y).unwrap_or_else(|| panic!("{}: not located", m.name()));
             for (k, (a, b)) in found.iter().zip(&own).enumerate() {
                 assert!((a - b).abs() < 1e-8, "{} own[{k}]: {a} vs {b}", m.name());
             }
+            assert!((found_tool - tool).norm() < 1e-8, "{} tool: {found_tool:?}", m.name());
         }
     }
 }

@@ -17,12 +17,12 @@ pub struct Point;
 
 /// The base-to-tracker rotation of placement `own` (m, rad): `y = R·p + t`.
 pub fn tracker_rotation(own: &[f64]) -> Matrix3<f64> {
-    rotation(own).0
+    rotation(&own[3..6]).0
 }
 
-/// Rx(a)·Ry(b)·Rz(c) and its derivatives with respect to a, b and c.
-fn rotation(own: &[f64]) -> (Matrix3<f64>, [Matrix3<f64>; 3]) {
-    let (a, b, c) = (own[3], own[4], own[5]);
+/// Rx(a)·Ry(b)·Rz(c) of `angles = [a, b, c]` and its derivatives with respect to a, b and c.
+pub fn rotation(angles: &[f64]) -> (Matrix3<f64>, [Matrix3<f64>; 3]) {
+    let (a, b, c) = (angles[0], angles[1], angles[2]);
     let (sa, ca, sb, cb, sc, cc) = (a.sin(), a.cos(), b.sin(), b.cos(), c.sin(), c.cos());
     let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, ca, -sa, 0.0, sa, ca);
     let ry = Matrix3::new(cb, 0.0, sb, 0.0, 1.0, 0.0, -sb, 0.0, cb);
@@ -49,13 +49,14 @@ impl Instrument for Point {
     fn placement_is_angle(&self, k: usize) -> bool {
         (3..6).contains(&k)
     }
-    fn reading(&self, own: &[f64], p: &Vector3<f64>, y: &mut [f64]) {
-        let (r, _) = rotation(own);
-        let v = r * p + Vector3::new(own[0], own[1], own[2]);
+    fn reading(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64]) {
+        let (r, _) = rotation(&own[3..6]);
+        let v = r * p[0] + Vector3::new(own[0], own[1], own[2]);
         y[..3].copy_from_slice(v.as_slice());
     }
-    fn reading_grad(&self, own: &[f64], p: &Vector3<f64>, y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]) {
-        let (r, dr) = rotation(own);
+    fn reading_grad(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]) {
+        let (r, dr) = rotation(&own[3..6]);
+        let p = &p[0];
         let v = r * p + Vector3::new(own[0], own[1], own[2]);
         y[..3].copy_from_slice(v.as_slice());
         let dv: [Vector3<f64>; 3] = [dr[0] * p, dr[1] * p, dr[2] * p];
@@ -74,7 +75,7 @@ impl Instrument for Point {
     }
     /// The rigid transform that best maps the nominal target points onto the readings
     /// (least squares, by the SVD of their cross-covariance).
-    fn locate(&self, p: &[Vector3<f64>], y: &[f64]) -> Option<Vec<f64>> {
+    fn locate(&self, p: &[Vector3<f64>], _rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)> {
         if p.len() < 3 || y.len() != 3 * p.len() {
             return None;
         }
@@ -97,6 +98,6 @@ impl Instrument for Point {
         let b = m[(0, 2)].clamp(-1.0, 1.0).asin();
         let a = (-m[(1, 2)]).atan2(m[(2, 2)]);
         let c = (-m[(0, 1)]).atan2(m[(0, 0)]);
-        [t.x, t.y, t.z, a, b, c].iter().all(|v| v.is_finite()).then(|| vec![t.x, t.y, t.z, a, b, c])
+        [t.x, t.y, t.z, a, b, c].iter().all(|v| v.is_finite()).then(|| (vec![t.x, t.y, t.z, a, b, c], Vector3::zeros()))
     }
 }

@@ -39,8 +39,9 @@ pub fn features(data: &Dataset) -> Vec<Feature> {
         .map(|j| Feature { name: format!("q{}", j + 1), label: format!("q{} (deg)", j + 1), values: data.rows.iter().map(|r| r.q_deg[j]).collect() })
         .collect();
     if let Some(m) = data.measurement() {
-        for (k, col) in m.def().columns().iter().enumerate() {
-            let label = if m.dim() == 1 { format!("measured length {col} (mm)") } else { format!("measured {col} (mm)") };
+        for (k, col) in m.def().file_columns().iter().enumerate() {
+            let unit = if k >= 3 { "deg" } else { "mm" };
+            let label = if m.dim() == 1 { format!("measured length {col} (mm)") } else { format!("measured {col} ({unit})") };
             f.push(Feature { name: col.to_string(), label, values: data.rows.iter().map(|r| r.reading_mm.get(k).copied().unwrap_or(f64::NAN)).collect() });
         }
     }
@@ -70,9 +71,10 @@ pub struct Residual {
     pub after_mm: Vec<f64>,
 }
 
-/// The Euclidean norm of each row's `dim` values (mm).
+/// The position error of each row of `dim` values (mm): the Euclidean norm of its first three
+/// (a point's, or a pose's origin).
 pub fn row_norms(values: &[f64], dim: usize) -> Vec<f64> {
-    values.chunks(dim.max(1)).map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt()).collect()
+    values.chunks(dim.max(1)).map(|c| c.iter().take(3).map(|v| v * v).sum::<f64>().sqrt()).collect()
 }
 
 impl Residual {
@@ -181,6 +183,7 @@ impl Group {
         let (lengths, angles) = match m {
             Measurement::Length => ("Sensor (mm)", "Sensor angles (deg)"),
             Measurement::Point => ("Tracker and reflector (mm)", "Tracker rotation (deg)"),
+            Measurement::Pose => ("Tracker and probe (mm)", "Tracker and probe rotations (deg)"),
         };
         match self {
             Group::Lengths => "Lengths (mm)",
@@ -258,7 +261,7 @@ impl InstrumentPose {
             Measurement::Length => {
                 InstrumentPose { measurement: p.measurement, origin_mm: mm3(&p.exit().unwrap_or_else(nalgebra::Vector3::zeros)), axes: None }
             }
-            Measurement::Point => {
+            Measurement::Point | Measurement::Pose => {
                 let rt = crate::measurement::point::tracker_rotation(&p.own).transpose();
                 let t = nalgebra::Vector3::new(p.own[0], p.own[1], p.own[2]);
                 InstrumentPose { measurement: p.measurement, origin_mm: mm3(&(-(rt * t))), axes: Some(rt) }
@@ -336,7 +339,10 @@ pub fn residuals_after(r: &CalibResult, data: &Dataset) -> Vec<f64> {
     data.rows
         .iter()
         .zip(predicted.chunks(dim))
-        .flat_map(|(row, p)| p.iter().enumerate().map(move |(k, p)| if row.reading_mm.len() == dim { row.reading_mm[k] - p } else { f64::NAN }))
+        .flat_map(|(row, p)| {
+            let y = row.values_mm().filter(|v| v.len() == dim);
+            p.iter().enumerate().map(move |(k, p)| y.as_ref().map_or(f64::NAN, |y| y[k] - p))
+        })
         .collect()
 }
 

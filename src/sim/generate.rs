@@ -73,6 +73,10 @@ pub struct PoseTruth {
     /// With a tracker: what it wrote (`x, y, z`), mm.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub point_measured_mm: Option<[f64; 3]>,
+    /// With a 6-D probe: its true pose in the tracker's frame (`x, y, z` mm, `rx, ry, rz`
+    /// degrees, intrinsic X-Y-Z; no noise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pose_true: Option<[f64; 6]>,
     pub settle_steps: usize,
     /// Simulated time the arm took to come to rest, s. Longer than the sensor's hold time means
     /// a real reading would have been taken while the arm still moved.
@@ -473,17 +477,31 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
         // Each value at its meaning's precision (see DrawWire::reading_decimals).
         let reading = round_decimals(reading, s.sensor.reading_decimals());
         // A tracker reads the same tool point, from its own noise stream.
+        let mut pose = None;
         let point = s.tracker.as_ref().map(|tr| {
             let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
-            let r = tr.read(&rest.tool, s.sensor.samples, &mut rng);
+            let r = if tr.probe_rotation_deg.is_some() {
+                // A 6-D probe also reads the flange's orientation (the twin's resting frames).
+                let (r, p) = tr.read_pose(&rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.sensor.samples, &mut rng);
+                let read: Vec<f64> = p.read.iter().enumerate().map(|(k, v)| round_decimals(*v, if k < 3 { tr.decimals } else { tr.angle_decimals })).collect();
+                pose = Some((p.ideal, read));
+                r
+            } else {
+                tr.read(&rest.tool, s.sensor.samples, &mut rng)
+            };
             (r.ideal_mm, r.read_mm.map(|v| round_decimals(v, tr.decimals)), r.std_mm)
         });
         if let Some((_, _, sd)) = point {
             point_var.push(sd * sd);
         }
+        let reading_mm = match (&pose, point) {
+            (Some((_, read)), _) => read.clone(),
+            (None, Some((_, read, _))) => read.to_vec(),
+            (None, None) => vec![reading],
+        };
         rows.push(Row {
             q_deg: poses[i].iter().map(|v| round_decimals(v.to_degrees(), s.sampling.written_decimals())).collect(),
-            reading_mm: point.map_or_else(|| vec![reading], |(_, read, _)| read.to_vec()),
+            reading_mm,
             t_s: Some(round_decimals(times[i], T_DECIMALS)),
             temp_c: temp,
             split: Some(split[i]),
@@ -507,6 +525,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             length_measured_mm: reading,
             point_true_mm: point.map(|(ideal, _, _)| ideal),
             point_measured_mm: point.map(|(_, read, _)| read),
+            pose_true: pose.as_ref().map(|(ideal, _)| *ideal),
             settle_steps: rest.steps,
             settle_time_s: match &acq {
                 Some(a) => a.negligible_s.unwrap_or(s.sensor.hold_s + s.sensor.window_s()),

@@ -325,7 +325,7 @@ fn colour_quantity(res: &Residual) -> String {
 fn draw_instrument(rec: &mut Recorder, inst: &InstrumentPose, tool: Option<[f64; 3]>) {
     let o = inst.origin_mm;
     match (inst.measurement, inst.axes) {
-        (crate::measurement::Measurement::Point, Some(axes)) => {
+        (crate::measurement::Measurement::Point | crate::measurement::Measurement::Pose, Some(axes)) => {
             rec.transform("world/sensor/tracker", o, rows_of(&axes));
             rec.axes("world/sensor/tracker", 150.0);
             rec.points("world/sensor/tracker/head", &[[0.0; 3]], Some(&[TRACKER]), Some(40.0), Some(&["laser tracker".to_string()]));
@@ -342,7 +342,9 @@ fn draw_instrument(rec: &mut Recorder, inst: &InstrumentPose, tool: Option<[f64;
 /// The instrument's line to the target at `tool` (mm): the tracker's line of sight, or the cable.
 fn instrument_line(rec: &mut Recorder, inst: &InstrumentPose, tool: [f64; 3]) {
     match (inst.measurement, inst.axes) {
-        (crate::measurement::Measurement::Point, Some(_)) => rec.line_strips("world/line_of_sight", &[vec![inst.origin_mm, tool]], TRACKER, 2.0),
+        (crate::measurement::Measurement::Point | crate::measurement::Measurement::Pose, Some(_)) => {
+            rec.line_strips("world/line_of_sight", &[vec![inst.origin_mm, tool]], TRACKER, 2.0)
+        }
         _ => rec.line_strips("world/cable", &[vec![inst.origin_mm, tool]], CABLE, 2.0),
     }
 }

@@ -44,11 +44,79 @@ pub struct Tracker {
     /// Decimals of a written coordinate, mm.
     #[serde(default = "Tracker::default_decimals")]
     pub decimals: usize,
+    /// A 6-D probe instead of a reflector: its orientation on the flange (intrinsic X-Y-Z Euler
+    /// angles, degrees). The tracker then also reads the probe's orientation, written as
+    /// `rx, ry, rz` (degrees, intrinsic X-Y-Z, in the tracker's frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe_rotation_deg: Option<[f64; 3]>,
+    /// Noise of one sample's orientation about each axis, µrad (a 6-D probe).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub orientation_noise_urad: f64,
+    /// Decimals of a written angle, degrees (a 6-D probe).
+    #[serde(default = "Tracker::default_angle_decimals", skip_serializing_if = "is_default_angle_decimals")]
+    pub angle_decimals: usize,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+fn is_default_angle_decimals(v: &usize) -> bool {
+    *v == Tracker::default_angle_decimals()
+}
+
+/// One 6-D reading of [`Tracker::read_pose`]: position (mm) and intrinsic X-Y-Z angles (degrees).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseReading {
+    pub ideal: [f64; 6],
+    pub read: [f64; 6],
 }
 
 impl Tracker {
     fn default_decimals() -> usize {
         4
+    }
+    fn default_angle_decimals() -> usize {
+        6
+    }
+
+    /// What it reads: a point, or a pose with a 6-D probe.
+    pub fn measurement(&self) -> Measurement {
+        if self.probe_rotation_deg.is_some() {
+            Measurement::Pose
+        } else {
+            Measurement::Point
+        }
+    }
+
+    /// The placement parameters its measurement reads (m, rad): the tracker's, then a probe's
+    /// orientation.
+    pub fn placement_own(&self) -> Vec<f64> {
+        let mut own = self.own();
+        if let Some(r) = self.probe_rotation_deg {
+            own.extend(r.map(f64::to_radians));
+        }
+        own
+    }
+
+    /// A 6-D reading of the probe whose origin is at `p` (base frame, m) on the flange rotated
+    /// by `flange_rot`: the position as [`Self::read`] gives it (same noise draws), then the
+    /// orientation turned by a small rotation of `orientation_noise_urad / √samples` per axis.
+    pub fn read_pose(&self, p: &Vector3<f64>, flange_rot: &nalgebra::Matrix3<f64>, samples: usize, rng: &mut impl Rng) -> (TrackerReading, PoseReading) {
+        use crate::measurement::pose::xyz_angles;
+        let point = self.read(p, samples, rng);
+        let probe = crate::measurement::Euler::XYZ.matrix(self.probe_rotation_deg.unwrap_or_default().map(f64::to_radians));
+        let r = crate::measurement::point::tracker_rotation(&self.own()) * flange_rot * probe;
+        let sd = self.orientation_noise_urad * 1e-6 / (samples.max(1) as f64).sqrt();
+        let d = Vector3::from_fn(|_, _| sd * rng.sample::<f64, _>(rand_distr::StandardNormal));
+        let noisy = r * nalgebra::Rotation3::new(d).into_inner();
+        let deg = |m: &nalgebra::Matrix3<f64>| xyz_angles(m).map(f64::to_degrees);
+        let (a, b) = (deg(&r), deg(&noisy));
+        let pose = PoseReading {
+            ideal: [point.ideal_mm[0], point.ideal_mm[1], point.ideal_mm[2], a[0], a[1], a[2]],
+            read: [point.read_mm[0], point.read_mm[1], point.read_mm[2], b[0], b[1], b[2]],
+        };
+        (point, pose)
     }
 
     /// The placement parameters [`Measurement::Point`] reads (m, rad).
@@ -87,6 +155,18 @@ impl Tracker {
             if !(v.is_finite() && (0.0..=1000.0).contains(&v)) {
                 return Err(format!("tracker.{key} = {v} must be in [0, 1000]"));
             }
+        }
+        if let Some(v) = self.probe_rotation_deg.iter().flatten().find(|v| !(v.is_finite() && v.abs() <= 360.0)) {
+            return Err(format!("tracker.probe_rotation_deg holds {v}: each angle must be finite and within ±360 degrees"));
+        }
+        if !(self.orientation_noise_urad.is_finite() && (0.0..=10_000.0).contains(&self.orientation_noise_urad)) {
+            return Err(format!("tracker.orientation_noise_urad = {} must be in [0, 10000]", self.orientation_noise_urad));
+        }
+        if self.orientation_noise_urad > 0.0 && self.probe_rotation_deg.is_none() {
+            return Err("tracker.orientation_noise_urad is a 6-D probe's: give tracker.probe_rotation_deg too".into());
+        }
+        if self.angle_decimals > 9 {
+            return Err(format!("tracker.angle_decimals = {} must be at most 9", self.angle_decimals));
         }
         if self.decimals > MAX_DECIMALS {
             return Err(format!("tracker.decimals = {} must be at most {MAX_DECIMALS}", self.decimals));
