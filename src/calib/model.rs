@@ -282,18 +282,22 @@ impl CalibModel {
 
     /// Point Jacobians of the instrument's points of the flange frame at the last forward
     /// evaluation (into `w.jac` and `w.extra`), and the points' derivatives with respect to
-    /// the instrument's own parameters into `dlocal`; returns the number of points.
-    fn target_jacobians(&self, own: &[f64], tool: &Vector3<f64>, w: &mut ModelWork, dlocal: &mut [Vector3<f64>]) -> usize {
+    /// the instrument's own parameters into `dlocal`; returns the points (base frame) and their
+    /// number.
+    fn target_jacobians(&self, own: &[f64], tool: &Vector3<f64>, w: &mut ModelWork, dlocal: &mut [Vector3<f64>]) -> ([Vector3<f64>; MAX_TARGETS], usize) {
         let flange = self.chain.flange();
         let (local, nt) = self.targets(own, tool, dlocal);
         self.chain.point_jacobian(&w.fk, flange, &local[0], &mut w.jac);
         if w.extra.len() + 1 < nt {
             w.extra.resize_with(nt - 1, || PointJacobian::new(&self.chain));
         }
+        let mut pts = [Vector3::zeros(); MAX_TARGETS];
+        pts[0] = w.jac.point;
         for t in 1..nt {
             self.chain.point_jacobian(&w.fk, flange, &local[t], &mut w.extra[t - 1]);
+            pts[t] = w.extra[t - 1].point;
         }
-        nt
+        (pts, nt)
     }
 
     /// Predicted length (m) of a row with no per-row inputs and its gradient into `g`.
@@ -319,12 +323,7 @@ impl CalibModel {
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
-        let nt = self.target_jacobians(own, &tool, w, &mut dlocal);
-        let mut pts = [Vector3::zeros(); MAX_TARGETS];
-        pts[0] = w.jac.point;
-        for t in 1..nt {
-            pts[t] = w.extra[t - 1].point;
-        }
+        let (pts, nt) = self.target_jacobians(own, &tool, w, &mut dlocal);
         let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM * MAX_TARGETS], [0.0; MAX_DIM * MAX_OWN]);
         self.measurement.def().reading_grad(own, &pts[..nt], y, &mut dy_dp[..dim * nt], &mut dy_down[..dim * n_own]);
         let rot = self.chain.frame(&w.fk, self.chain.flange()).rot;
@@ -400,12 +399,7 @@ impl CalibModel {
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
-        let nt = self.target_jacobians(own, &tool, w, &mut dlocal);
-        let mut pts = [Vector3::zeros(); MAX_TARGETS];
-        pts[0] = w.jac.point;
-        for t in 1..nt {
-            pts[t] = w.extra[t - 1].point;
-        }
+        let (pts, nt) = self.target_jacobians(own, &tool, w, &mut dlocal);
         let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM * MAX_TARGETS], [0.0; MAX_DIM * MAX_OWN]);
         self.measurement.def().reading_grad(own, &pts[..nt], y, &mut dy_dp[..dim * nt], &mut dy_down[..dim * own.len()]);
         let (corr, dcorr) = if dim == 1 {
