@@ -61,7 +61,9 @@ enum Command {
     /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model),
     /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
     /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30), `ik`,
-    /// or `awnn` (PSO-EKF-AWNN: speed, accuracy, data efficiency, sensitivity).
+    /// `awnn` (PSO-EKF-AWNN: speed, accuracy, data efficiency, sensitivity), `real` (the real
+    /// datasets in ../shared/data) or `diagnose-ur10` (diagnose on the UR10's 11 911-row series,
+    /// --repeat runs, against 60 s).
     Bench {
         #[arg(value_enum, default_value_t = BenchTarget::Twin)]
         what: BenchTarget,

@@ -378,6 +378,8 @@ fn options_that_do_not_apply_or_make_no_sense_are_refused() {
         (vec!["bench", "calib", "--scenario", "x.toml"], "--scenario applies to bench twin"),
         (vec!["bench", "twin", "--repeat", "0"], "--repeat must be between 1 and 1000, got 0"),
         (vec!["bench", "fast"], "invalid value 'fast'"),
+        (vec!["bench", "diagnose-ur10", "--seeds", "3"], "do not apply to bench diagnose-ur10"),
+        (vec!["bench", "diagnose-ur10", "--repeat", "0"], "--repeat must be between 1 and 1000, got 0"),
         (vec!["compare", "--data", d, "--test-fraction", "0"], "--test-fraction must be in (0, 1)"),
         (vec!["compare", "--data", d, "--seeds", "18000000000000000000"], "--seeds must be between 1 and 1000"),
         (vec!["compare", "--data", d, "--seeds", "0"], "--seeds must be between 1 and 1000, got 0"),

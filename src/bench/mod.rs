@@ -6,7 +6,8 @@
 //! * [`diagnose`]: `bench diagnose` (speed, detection and false alarms on hidden effects);
 //! * [`evo`]: `bench dsade` and `bench ik` (Evo-NPH: DS-ADE + GKAN, the hybrid-Jacobian IK);
 //! * [`awnn`]: `bench awnn` (PSO-EKF-AWNN and its ablations);
-//! * [`real`]: `bench real` (the real measured datasets in ../shared/data).
+//! * [`real`]: `bench real` (the real measured datasets in ../shared/data) and `bench
+//!   diagnose-ur10` (diagnose on the UR10's 11 911-row series against 60 s).
 
 pub mod awnn;
 pub mod calib;

@@ -8,6 +8,9 @@
 //!   `pso-ekf-awnn`, with the outlier screen (default) and without it (`--outliers 0`, every
 //!   row trains, as the papers' figures presumably do): test RMSE on every test row and on the
 //!   rows that are not outliers, mean ± sd, beside the angle-resolution floor.
+//!
+//! `twincal bench diagnose-ur10` ([`bench_diagnose_ur10`]) times `diagnose` on the UR10's
+//! 11 911-row series a against its 60 s target.
 
 use crate::calib::psoekf::Ablation;
 use crate::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
@@ -17,13 +20,92 @@ use std::path::Path;
 use std::time::Instant;
 
 fn shared(rel: &str) -> Option<std::path::PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(rel);
+    shared_in("data", rel)
+}
+
+/// `../shared/FOLDER/rel` when it exists; else None, saying it is skipped.
+fn shared_in(folder: &str, rel: &str) -> Option<std::path::PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared").join(folder).join(rel);
     if p.exists() {
         Some(p)
     } else {
         println!("  {rel}: skipped, {} is absent", p.display());
         None
     }
+}
+
+/// The diagnosis of series a must take less than this (s, median wall time).
+pub const DIAGNOSE_UR10_TARGET_S: f64 = 60.0;
+
+/// CSV text with its data lines in ascending order of column `column` (stable: equal values keep
+/// their order; a value that is not a number sorts last). The header stays first; line ends
+/// become `\n`.
+pub fn sorted_by_column(text: &str, column: &str) -> Option<String> {
+    let mut lines = text.lines();
+    let header = lines.next()?;
+    let k = header.split(',').position(|c| c.trim() == column)?;
+    let key = |l: &str| l.split(',').nth(k).and_then(|v| v.trim().parse::<f64>().ok()).unwrap_or(f64::NAN);
+    let mut rows: Vec<(f64, &str)> = lines.filter(|l| !l.trim().is_empty()).map(|l| (key(l), l)).collect();
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut out = String::with_capacity(text.len());
+    for l in std::iter::once(header).chain(rows.into_iter().map(|r| r.1)) {
+        out.push_str(l);
+        out.push('\n');
+    }
+    Some(out)
+}
+
+/// `twincal bench diagnose-ur10`: `diagnose --model ur_description/ur10_robot.urdf` on the
+/// UR10's series a (11 911 tracker rows, 35 733 residuals; ../shared/data/ipa-ur10, sorted by
+/// `t` in memory since its last rows are not in time order), `runs` times: the median wall time
+/// against [`DIAGNOSE_UR10_TARGET_S`], and what it named.
+pub fn bench_diagnose_ur10(runs: usize) -> Result<()> {
+    use crate::diagnose::{diagnose, DiagnoseOptions};
+    println!("diagnose on the UR10's series a (../shared/data/ipa-ur10, sorted by t; the probe's position x, y, z, as --measurement point reads it)");
+    let (Some(data), Some(urdf)) = (shared("ipa-ur10/ur10_series_a.csv"), shared_in("reference", "ur_description/ur10_robot.urdf")) else {
+        return Ok(());
+    };
+    let text = std::fs::read_to_string(&data).map_err(|e| crate::error::Error::io(&data, e))?;
+    let sorted = sorted_by_column(&text, "t").ok_or_else(|| crate::error::Error::data(data.display(), "no header with a t column"))?;
+    // The position table of the README (the file's orientation columns are a pose's).
+    let point = crate::dataset::LoadOptions { measurement: Some(crate::measurement::Measurement::Point), ..Default::default() };
+    let ds = Dataset::from_csv_reader_with(sorted.as_bytes(), &format!("{} (sorted by t)", data.display()), &point)?;
+    let opts = DiagnoseOptions::new(ModelSpec::parse(&urdf.to_string_lossy(), "hayati")?);
+    let mut times = Vec::new();
+    let mut found: Vec<String> = Vec::new();
+    for run in 1..=runs {
+        let t0 = Instant::now();
+        let (d, _) = diagnose(&ds, &opts, &|_| {})?;
+        times.push(t0.elapsed().as_secs_f64());
+        let causes: Vec<String> = d
+            .causes
+            .iter()
+            .map(|c| {
+                let joint = c.joint.map(|j| format!("[j{j}]")).unwrap_or_default();
+                format!("{}{joint}: {} {:.2} ± {:.2} {}", c.cause, c.quantity, c.magnitude, c.uncertainty, c.unit)
+            })
+            .collect();
+        let line = format!(
+            "{}; held-out RMSE {:.4} -> {:.4} mm",
+            if causes.is_empty() { d.verdict.clone() } else { causes.join(" + ") },
+            d.baseline.heldout_rmse_mm,
+            d.final_heldout_rmse_mm
+        );
+        println!("    run {run}: {:.1} s, {line}", times.last().expect("just pushed"));
+        found.push(line);
+    }
+    let med = median(&times);
+    let same = found.windows(2).all(|w| w[0] == w[1]);
+    println!(
+        "  {} rows ({} residuals), {} threads: {med:.1} s median of {runs} (target < {DIAGNOSE_UR10_TARGET_S:.0} s: {}); found {}{}",
+        ds.rows.len(),
+        ds.rows.iter().map(|r| r.reading_mm.len()).sum::<usize>(),
+        rayon::current_num_threads(),
+        if med < DIAGNOSE_UR10_TARGET_S { "met" } else { "missed" },
+        found.first().map_or("nothing", String::as_str),
+        if same { "" } else { " (the runs did not all find the same: see above)" }
+    );
+    Ok(())
 }
 
 fn mean_sd(v: &[f64]) -> (f64, f64) {
@@ -112,4 +194,17 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("    the data's floor (0.1 deg angle logging through the screened LM model, first split): {floor:.3} mm");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sorting_by_a_column_keeps_the_header_and_the_order_of_ties() {
+        let text = "q1,t,x\r\n1,20.0,a\r\n2,5,b\r\n3,,c\r\n4,5.0,d\r\n\r\n5,-1,e\r\n";
+        assert_eq!(sorted_by_column(text, "t").unwrap(), "q1,t,x\n5,-1,e\n2,5,b\n4,5.0,d\n1,20.0,a\n3,,c\n");
+        assert_eq!(sorted_by_column(text, "temp"), None);
+        assert_eq!(sorted_by_column("", "t"), None);
+    }
 }

@@ -5,7 +5,7 @@
 
 use super::effects::RowInputs;
 use super::model::{CalibModel, ModelWork};
-use crate::measurement::MAX_DIM;
+use crate::measurement::{Measurement, MAX_DIM};
 use crate::optim::{Cost, LeastSquares, Observations};
 use nalgebra::DMatrix;
 use std::cell::RefCell;
@@ -108,16 +108,58 @@ impl LeastSquares for ReadingFit<'_> {
         })
     }
     fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
+        self.jacobian_pass(x, j, None);
+    }
+    /// A tracker's point is read by the same expression with and without its derivatives, so
+    /// the readings of the Jacobian's pass are the residuals' bit for bit. (A cable length's
+    /// derivative pass clamps the distance at 1 pm: it keeps two passes.)
+    fn joint_pass(&self) -> bool {
+        self.model.measurement == Measurement::Point
+    }
+    fn residuals_and_jacobian(&self, x: &[f64], r: &mut [f64], j: &mut DMatrix<f64>) {
+        if self.joint_pass() {
+            self.jacobian_pass(x, j, Some(r));
+        } else {
+            LeastSquares::residuals(self, x, r);
+            self.jacobian(x, j);
+        }
+    }
+}
+
+impl ReadingFit<'_> {
+    /// The Jacobian into `j` and, given `r`, the residuals from the same pass's readings.
+    fn jacobian_pass(&self, x: &[f64], j: &mut DMatrix<f64>, mut r: Option<&mut [f64]>) {
         let (n, d) = (self.model.n_params(), self.data.dim);
+        // Column k of J starts at k·ld (column-major).
+        let ld = j.nrows();
+        assert!(ld >= self.data.y.len() && j.ncols() >= n, "the Jacobian needs a row per reading value and a column per parameter");
+        // Rows are gathered in blocks of `BLOCK`, parameter-major, and written into J's columns
+        // (column-major) one contiguous stretch per column: not one cache line per entry.
+        const BLOCK: usize = 16;
         let mut g = vec![0.0; n * d];
+        let mut block = vec![0.0; n * BLOCK * d];
         let mut y = [0.0; MAX_DIM];
+        let js = j.as_mut_slice();
         with_work(self.model, |w| {
-            for i in 0..self.data.len() {
-                self.model.readings_grad_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d], &mut g);
-                for c in 0..d {
-                    for k in 0..n {
-                        j[(i * d + c, k)] = -g[c * n + k] * 1e3;
+            for i0 in (0..self.data.len()).step_by(BLOCK) {
+                let rows = BLOCK.min(self.data.len() - i0);
+                let h = rows * d;
+                for row in 0..rows {
+                    let i = i0 + row;
+                    self.model.readings_grad_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d], &mut g);
+                    if let Some(r) = r.as_deref_mut() {
+                        for (k, rk) in r[i * d..(i + 1) * d].iter_mut().enumerate() {
+                            *rk = (self.data.y[i * d + k] - y[k]) * 1e3;
+                        }
                     }
+                    for c in 0..d {
+                        for k in 0..n {
+                            block[k * h + row * d + c] = -g[c * n + k] * 1e3;
+                        }
+                    }
+                }
+                for k in 0..n {
+                    js[k * ld + i0 * d..k * ld + i0 * d + h].copy_from_slice(&block[k * h..(k + 1) * h]);
                 }
             }
         })
@@ -190,5 +232,75 @@ impl Cost for FreeCost<'_> {
         } else {
             f64::INFINITY
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::effects::{EffectBlock, EffectKind};
+    use crate::calib::model::{Placement, SensorGuess};
+    use crate::optim::{LevenbergMarquardt, NoObserver};
+    use crate::robot::Robot;
+    use nalgebra::Vector3;
+
+    /// The fit without its joint pass: residuals and Jacobian each in their own pass.
+    struct TwoPasses<'a>(&'a ReadingFit<'a>);
+    impl LeastSquares for TwoPasses<'_> {
+        fn n_params(&self) -> usize {
+            LeastSquares::n_params(self.0)
+        }
+        fn n_residuals(&self) -> usize {
+            self.0.n_residuals()
+        }
+        fn residuals(&self, x: &[f64], r: &mut [f64]) {
+            LeastSquares::residuals(self.0, x, r)
+        }
+        fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
+            self.0.jacobian(x, j)
+        }
+    }
+
+    /// A tracker's joint pass gives the residuals and the Jacobian of the two passes bit for bit,
+    /// and LM (which then takes it) the same fit.
+    #[test]
+    fn a_trackers_joint_pass_is_the_two_passes_bit_for_bit() {
+        let robot = Robot::irb120();
+        let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
+        let tracker = Placement { measurement: Measurement::Point, own: vec![0.2, -0.1, 0.05, 0.03, -0.02, 0.6], tool: Vector3::new(0.01, 0.02, 0.08) };
+        let mut model = CalibModel::dh(&robot, &guess, true).with_placement(&tracker);
+        model.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
+        let q: Vec<Vec<f64>> = (0..37).map(|i| (0..6).map(|j| ((i * 6 + j) as f64 * 0.37).sin() * 1.5).collect()).collect();
+        let mut truth = model.nominal.clone();
+        truth.iter_mut().enumerate().for_each(|(k, v)| *v += 1e-4 * ((k as f64) * 1.3).sin());
+        let mut data = Samples::readings(q, vec![0.0; 37 * 3], 3);
+        for (i, inp) in data.inputs.iter_mut().enumerate() {
+            inp.torque = (0..6).map(|j| ((i + j) as f64).cos() * 20.0).collect();
+        }
+        let mut w = model.work();
+        for i in 0..data.len() {
+            let mut y = [0.0; MAX_DIM];
+            model.readings_with(&truth, &data.q[i], &data.inputs[i], &mut w, &mut y[..3]);
+            for c in 0..3 {
+                data.y[i * 3 + c] = y[c] + 1e-6 * ((i * 3 + c) as f64).sin();
+            }
+        }
+        let fit = ReadingFit { model: &model, data: &data };
+        assert!(fit.joint_pass());
+        let (m, n) = (fit.n_residuals(), LeastSquares::n_params(&fit));
+        let (mut r1, mut r2) = (vec![0.0; m], vec![0.0; m]);
+        let (mut j1, mut j2) = (DMatrix::zeros(m, n), DMatrix::zeros(m, n));
+        fit.residuals_and_jacobian(&model.nominal, &mut r1, &mut j1);
+        LeastSquares::residuals(&fit, &model.nominal, &mut r2);
+        fit.jacobian(&model.nominal, &mut j2);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
+        assert_eq!(bits(&r1), bits(&r2));
+        assert_eq!(bits(j1.as_slice()), bits(j2.as_slice()));
+        let lm = LevenbergMarquardt::budget(50).tolerances(1e-12, 1e-12);
+        let a = lm.minimize(&fit, &model.nominal, &[], &mut NoObserver);
+        let b = lm.minimize(&TwoPasses(&fit), &model.nominal, &[], &mut NoObserver);
+        assert!(a.iterations > 1);
+        assert_eq!((bits(&a.x), a.cost.to_bits(), a.iterations, a.evaluations), (bits(&b.x), b.cost.to_bits(), b.iterations, b.evaluations));
+        assert_eq!(a.termination, b.termination);
     }
 }

@@ -38,9 +38,6 @@ use rayon::prelude::*;
 /// One cross-validation row: `(centers, ridge, cv_rmse)`.
 pub type CvRow = (usize, f64, f64);
 
-/// One fold: training inputs, training targets, held-out row indices.
-type Split = (Vec<Vec<f64>>, Vec<f64>, Vec<usize>);
-
 /// A fitted Gaussian RBF network, see the module docs.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct RbfNetwork {
@@ -99,6 +96,18 @@ impl RbfNetwork {
         if !(opt.width_factor > 0.0 && opt.width_factor.is_finite()) {
             return Err(format!("rbf: invalid width_factor {}", opt.width_factor));
         }
+        let (mut net, xs) = RbfNetwork::basis(x, dim, opt);
+        let (phi, a) = design(&net, &xs);
+        let (weights, bias) = solve_weights(&phi, &a, y, opt.ridge)?;
+        net.weights = weights;
+        net.bias = bias;
+        Ok(net)
+    }
+
+    /// Everything of a fit on inputs `x` (of dimension `dim`) but its weights: the input scale,
+    /// the centres and the widths (they do not depend on the targets or the ridge), and the
+    /// scaled inputs. `opt` is checked by the caller.
+    fn basis(x: &[Vec<f64>], dim: usize, opt: &RbfOptions) -> (RbfNetwork, Vec<Vec<f64>>) {
         let n = x.len();
 
         // Per-dimension population std as the input scale.
@@ -119,12 +128,7 @@ impl RbfNetwork {
         let mut centers = kmeans_pp(&xs, opt.centers, &mut rng);
         lloyd(&xs, &mut centers, opt.kmeans_iters);
         let widths = center_widths(&xs, &centers, opt.width_factor);
-
-        let mut net = RbfNetwork { centers, widths, weights: Vec::new(), bias: 0.0, input_scale };
-        let (weights, bias) = net.solve_weights(&xs, y, opt.ridge)?;
-        net.weights = weights;
-        net.bias = bias;
-        Ok(net)
+        (RbfNetwork { centers, widths, weights: Vec::new(), bias: 0.0, input_scale }, xs)
     }
 
     /// Predict at `x`. Returns `NaN` when `x` has the wrong dimension (or contains NaN).
@@ -133,7 +137,7 @@ impl RbfNetwork {
             return f64::NAN;
         }
         let xs: Vec<f64> = x.iter().zip(&self.input_scale).map(|(v, s)| v / s).collect();
-        self.bias + self.features(&xs).iter().zip(&self.weights).map(|(p, w)| p * w).sum::<f64>()
+        output(&self.features(&xs), &self.weights, self.bias)
     }
 
     /// The candidate grid of `--method rbf` and of diagnose's RBF compensator: centres per
@@ -154,87 +158,159 @@ impl RbfNetwork {
     /// Errors on invalid data (as [`fit`](Self::fit)), fewer than 2 rows, empty candidate lists,
     /// or when no candidate could be fitted.
     pub fn fit_cv(x: &[Vec<f64>], y: &[f64], centers: &[usize], ridges: &[f64], seed: u64) -> Result<(RbfNetwork, Vec<CvRow>), String> {
-        validate(x, y)?;
-        let n = x.len();
-        if n < 2 {
-            return Err("rbf: cross-validation needs at least 2 rows".into());
-        }
-        if centers.is_empty() || ridges.is_empty() {
-            return Err("rbf: empty candidate list".into());
-        }
-        let splits: Vec<Split> = super::folds::shuffled(n, CV_FOLDS.min(n), seed)
-            .into_iter()
-            .map(|test| {
-                let train = super::folds::others(n, &test);
-                (train.iter().map(|&i| x[i].clone()).collect(), train.iter().map(|&i| y[i]).collect(), test)
-            })
-            .collect();
+        RbfNetwork::fit_cv_many(x, &[y], centers, ridges, seed).pop().expect("one result per target column")
+    }
 
-        let grid: Vec<(usize, f64)> = centers.iter().flat_map(|&c| ridges.iter().map(move |&r| (c, r))).collect();
-        let table: Vec<CvRow> = grid
-            .par_iter()
-            .map(|&(c, r)| {
-                let opt = RbfOptions { centers: c, ridge: r, seed, ..RbfOptions::default() };
-                let mut sse = 0.0;
-                for (xt, yt, test) in &splits {
-                    match RbfNetwork::fit(xt, yt, &opt) {
-                        Ok(net) => sse += test.iter().map(|&i| (net.predict(&x[i]) - y[i]).powi(2)).sum::<f64>(),
-                        Err(_) => return (c, r, f64::INFINITY),
-                    }
-                }
-                let rmse = (sse / n as f64).sqrt();
-                (c, r, if rmse.is_finite() { rmse } else { f64::INFINITY })
-            })
-            .collect();
-
-        let best = table
+    /// [`Self::fit_cv`] of every target column `ys[c]` on the same inputs `x`: the same networks
+    /// and tables, bit for bit, as one [`Self::fit_cv`] per column, for less work. The folds,
+    /// and so on each training split the centres and widths of a number of centres, depend on
+    /// the inputs and the seed alone: they are made once per split and number of centres and
+    /// serve every ridge and every column, as does the design's `ΦᵀΦ`.
+    pub fn fit_cv_many(x: &[Vec<f64>], ys: &[&[f64]], centers: &[usize], ridges: &[f64], seed: u64) -> Vec<Result<(RbfNetwork, Vec<CvRow>), String>> {
+        // Each column's own checks, in fit_cv's order.
+        let checked: Vec<Result<(), String>> = ys
             .iter()
-            .filter(|t| t.2.is_finite())
-            .fold(None::<&CvRow>, |b, t| match b {
-                Some(b) if b.2 <= t.2 => Some(b),
-                _ => Some(t),
+            .map(|y| {
+                validate(x, y)?;
+                if x.len() < 2 {
+                    return Err("rbf: cross-validation needs at least 2 rows".into());
+                }
+                if centers.is_empty() || ridges.is_empty() {
+                    return Err("rbf: empty candidate list".into());
+                }
+                Ok(())
             })
-            .ok_or("rbf: no cross-validation candidate could be fitted")?;
-        let opt = RbfOptions { centers: best.0, ridge: best.1, seed, ..RbfOptions::default() };
-        let net = RbfNetwork::fit(x, y, &opt)?;
-        Ok((net, table))
+            .collect();
+        let live: Vec<usize> = (0..ys.len()).filter(|&c| checked[c].is_ok()).collect();
+        let n = x.len();
+        // Per live column, the table in candidate order (centres-major).
+        let mut tables: Vec<Vec<CvRow>> = vec![Vec::new(); live.len()];
+        if !live.is_empty() {
+            let dim = x[0].len();
+            let splits: Vec<(Vec<usize>, Vec<usize>)> =
+                super::folds::shuffled(n, CV_FOLDS.min(n), seed).into_iter().map(|test| (super::folds::others(n, &test), test)).collect();
+            // Per number of centres: per live column and ridge, the CV row.
+            let per_centres: Vec<Vec<Vec<CvRow>>> = centers
+                .par_iter()
+                .map(|&c| {
+                    let opt = RbfOptions { centers: c, seed, ..RbfOptions::default() };
+                    // Sum of squared held-out errors per (column, ridge); None once a fit failed.
+                    let mut sse: Vec<Vec<Option<f64>>> = vec![vec![Some(0.0); ridges.len()]; live.len()];
+                    if opt.centers == 0 {
+                        sse.iter_mut().flatten().for_each(|s| *s = None);
+                    }
+                    for (train, test) in &splits {
+                        if sse.iter().flatten().all(Option::is_none) {
+                            break;
+                        }
+                        let xt: Vec<Vec<f64>> = train.iter().map(|&i| x[i].clone()).collect();
+                        let (net, xs) = RbfNetwork::basis(&xt, dim, &opt);
+                        let (phi, a) = design(&net, &xs);
+                        // The held-out rows' activations, as `predict` computes them.
+                        let feats: Vec<Vec<f64>> =
+                            test.iter().map(|&i| net.features(&x[i].iter().zip(&net.input_scale).map(|(v, s)| v / s).collect::<Vec<f64>>())).collect();
+                        for (sc, &col) in sse.iter_mut().zip(&live) {
+                            let y = ys[col];
+                            let yt: Vec<f64> = train.iter().map(|&i| y[i]).collect();
+                            for (s, &r) in sc.iter_mut().zip(ridges) {
+                                let Some(acc) = s else { continue };
+                                let solved = if r >= 0.0 && r.is_finite() { solve_weights(&phi, &a, &yt, r).ok() } else { None };
+                                match solved {
+                                    Some((w, b)) => *acc += test.iter().zip(&feats).map(|(&i, f)| (output(f, &w, b) - y[i]).powi(2)).sum::<f64>(),
+                                    None => *s = None,
+                                }
+                            }
+                        }
+                    }
+                    sse.into_iter()
+                        .map(|sc| {
+                            sc.into_iter()
+                                .zip(ridges)
+                                .map(|(s, &r)| {
+                                    let rmse = s.map_or(f64::INFINITY, |s| (s / n as f64).sqrt());
+                                    (c, r, if rmse.is_finite() { rmse } else { f64::INFINITY })
+                                })
+                                .collect()
+                        })
+                        .collect()
+                })
+                .collect();
+            for per_col in per_centres {
+                for (t, rows) in tables.iter_mut().zip(per_col) {
+                    t.extend(rows);
+                }
+            }
+        }
+        let mut tables = tables.into_iter();
+        checked
+            .into_iter()
+            .zip(ys)
+            .map(|(ok, y)| {
+                ok?;
+                let table = tables.next().expect("one table per live column");
+                let best = table
+                    .iter()
+                    .filter(|t| t.2.is_finite())
+                    .fold(None::<&CvRow>, |b, t| match b {
+                        Some(b) if b.2 <= t.2 => Some(b),
+                        _ => Some(t),
+                    })
+                    .ok_or("rbf: no cross-validation candidate could be fitted")?;
+                let opt = RbfOptions { centers: best.0, ridge: best.1, seed, ..RbfOptions::default() };
+                let net = RbfNetwork::fit(x, y, &opt)?;
+                Ok((net, table))
+            })
+            .collect()
     }
 
     /// Gaussian activations at a point already in scaled coordinates.
     fn features(&self, xs: &[f64]) -> Vec<f64> {
         self.centers.iter().zip(&self.widths).map(|(c, s)| (-sq_dist(xs, c) / (2.0 * s * s)).exp()).collect()
     }
+}
 
-    /// Ridge solve for `[w; b]` given centres and widths (bias unpenalised).
-    fn solve_weights(&self, xs: &[Vec<f64>], y: &[f64], ridge: f64) -> Result<(Vec<f64>, f64), String> {
-        let (n, m) = (xs.len(), self.centers.len());
-        let p = m + 1;
-        let mut phi = DMatrix::<f64>::zeros(n, p);
-        for (i, r) in xs.iter().enumerate() {
-            for (j, v) in self.features(r).into_iter().enumerate() {
-                phi[(i, j)] = v;
-            }
-            phi[(i, m)] = 1.0;
+/// The design `Φ = [φ_j(x_i) | 1]` of `net`'s centres and widths on the scaled inputs `xs`,
+/// and `ΦᵀΦ`.
+fn design(net: &RbfNetwork, xs: &[Vec<f64>]) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, m) = (xs.len(), net.centers.len());
+    let p = m + 1;
+    let mut phi = DMatrix::<f64>::zeros(n, p);
+    for (i, r) in xs.iter().enumerate() {
+        for (j, v) in net.features(r).into_iter().enumerate() {
+            phi[(i, j)] = v;
         }
-        let a = phi.tr_mul(&phi);
-        let rhs = phi.tr_mul(&DVector::from_column_slice(y));
-        let mean_diag = ((0..m).map(|j| a[(j, j)]).sum::<f64>() / m.max(1) as f64).max(f64::MIN_POSITIVE);
-        let mut lambda = ridge * mean_diag;
-        for _ in 0..40 {
-            let mut reg = a.clone();
-            for j in 0..m {
-                reg[(j, j)] += lambda;
-            }
-            if let Some(ch) = reg.cholesky() {
-                let sol = ch.solve(&rhs);
-                if sol.iter().all(|v| v.is_finite()) {
-                    return Ok((sol.as_slice()[..m].to_vec(), sol[m]));
-                }
-            }
-            lambda = (lambda * 10.0).max(1e-12 * mean_diag);
-        }
-        Err("rbf: ridge system could not be solved".into())
+        phi[(i, m)] = 1.0;
     }
+    let a = phi.tr_mul(&phi);
+    (phi, a)
+}
+
+/// Ridge solve for `[w; b]` on the design `phi` (with `a = ΦᵀΦ`) and targets `y` (bias
+/// unpenalised).
+fn solve_weights(phi: &DMatrix<f64>, a: &DMatrix<f64>, y: &[f64], ridge: f64) -> Result<(Vec<f64>, f64), String> {
+    let m = phi.ncols() - 1;
+    let rhs = phi.tr_mul(&DVector::from_column_slice(y));
+    let mean_diag = ((0..m).map(|j| a[(j, j)]).sum::<f64>() / m.max(1) as f64).max(f64::MIN_POSITIVE);
+    let mut lambda = ridge * mean_diag;
+    for _ in 0..40 {
+        let mut reg = a.clone();
+        for j in 0..m {
+            reg[(j, j)] += lambda;
+        }
+        if let Some(ch) = reg.cholesky() {
+            let sol = ch.solve(&rhs);
+            if sol.iter().all(|v| v.is_finite()) {
+                return Ok((sol.as_slice()[..m].to_vec(), sol[m]));
+            }
+        }
+        lambda = (lambda * 10.0).max(1e-12 * mean_diag);
+    }
+    Err("rbf: ridge system could not be solved".into())
+}
+
+/// A network's output from its activations `features`, weights and bias.
+fn output(features: &[f64], weights: &[f64], bias: f64) -> f64 {
+    bias + features.iter().zip(weights).map(|(p, w)| p * w).sum::<f64>()
 }
 
 /// Check shapes and finiteness; returns the input dimension.
@@ -432,6 +508,49 @@ mod tests {
         // Reproducible.
         let (_, table2) = RbfNetwork::fit_cv(&x, &y, &[2, 25], &[1e-8, 1e-4, 1e3], 9).unwrap();
         assert_eq!(table, table2);
+    }
+
+    /// The shared bases give every column the table and network of a fit per candidate and
+    /// split (the way fit_cv computed them one by one), bit for bit; a column that fails its
+    /// checks fails alone.
+    #[test]
+    fn fit_cv_many_is_one_fit_per_candidate_split_and_column() {
+        let (x, y0) = sample(120, 7);
+        let y1: Vec<f64> = x.iter().map(|p| (p[0] * p[1]).tanh()).collect();
+        let bad = vec![f64::NAN; x.len()];
+        let (centres, ridges, seed) = ([3, 12], [1e-6, 1e-2, -1.0], 4);
+        let out = RbfNetwork::fit_cv_many(&x, &[&y0, &bad, &y1], &centres, &ridges, seed);
+        assert_eq!(out.len(), 3);
+        assert!(out[1].is_err());
+        let n = x.len();
+        let splits = super::super::folds::shuffled(n, CV_FOLDS.min(n), seed);
+        for (y, got) in [(&y0, &out[0]), (&y1, &out[2])] {
+            let (net, table) = got.as_ref().unwrap();
+            let mut want = Vec::new();
+            for &c in &centres {
+                for &r in &ridges {
+                    let opt = RbfOptions { centers: c, ridge: r, seed, ..RbfOptions::default() };
+                    let mut sse = 0.0;
+                    for test in &splits {
+                        let train = super::super::folds::others(n, test);
+                        let xt: Vec<Vec<f64>> = train.iter().map(|&i| x[i].clone()).collect();
+                        let yt: Vec<f64> = train.iter().map(|&i| y[i]).collect();
+                        match RbfNetwork::fit(&xt, &yt, &opt) {
+                            Ok(net) => sse += test.iter().map(|&i| (net.predict(&x[i]) - y[i]).powi(2)).sum::<f64>(),
+                            Err(_) => sse = f64::INFINITY,
+                        }
+                    }
+                    let rmse = (sse / n as f64).sqrt();
+                    want.push((c, r, if rmse.is_finite() { rmse } else { f64::INFINITY }));
+                }
+            }
+            let bits = |t: &[CvRow]| t.iter().map(|&(c, r, e)| (c, r.to_bits(), e.to_bits())).collect::<Vec<_>>();
+            assert_eq!(bits(table), bits(&want));
+            assert!(table.iter().any(|t| t.2.is_finite()) && table.iter().filter(|t| t.1 < 0.0).all(|t| t.2.is_infinite()));
+            let best = want.iter().filter(|t| t.2.is_finite()).fold(None::<&CvRow>, |b, t| if b.is_some_and(|b| b.2 <= t.2) { b } else { Some(t) }).unwrap();
+            let refit = RbfNetwork::fit(&x, y, &RbfOptions { centers: best.0, ridge: best.1, seed, ..RbfOptions::default() }).unwrap();
+            assert_eq!((&net.centers, &net.widths, &net.weights, net.bias.to_bits()), (&refit.centers, &refit.widths, &refit.weights, refit.bias.to_bits()));
+        }
     }
 
     #[test]

@@ -3,7 +3,7 @@
 
 use super::*;
 
-/// `twincal bench [twin|calib]`: checks that every option given applies to the target, then runs it.
+/// `twincal bench TARGET`: checks that every option given applies to the target, then runs it.
 pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, seeds: Option<u64>, compare: bool, quiet: bool) -> Result<()> {
     check_repeat(repeat)?;
     match what {
@@ -80,6 +80,14 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             let seeds = seeds.unwrap_or(5);
             check_seeds(seeds)?;
             crate::bench::real::bench_real(seeds)
+        }
+        BenchTarget::DiagnoseUr10 => {
+            if scenario.is_some() || compare || seeds.is_some() {
+                return Err(Error::Invalid(
+                    "--scenario, --compare and --seeds do not apply to bench diagnose-ur10 (it reads ../shared/data; --repeat runs)".into(),
+                ));
+            }
+            crate::bench::real::bench_diagnose_ur10(repeat)
         }
     }
 }

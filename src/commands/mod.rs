@@ -71,6 +71,9 @@ pub enum BenchTarget {
     /// Real measured data: HSR generic model per search seed and its diagnosis, RobotCali
     /// methods over random splits with and without the outlier screen.
     Real,
+    /// Diagnose on the UR10's 11 911-row series a (../shared/data, sorted by t): median wall
+    /// time of --repeat runs against the 60 s target, and what it named.
+    DiagnoseUr10,
 }
 
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,

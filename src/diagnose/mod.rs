@@ -959,11 +959,11 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
         let tr = ctx.data.subset(rows);
         let xf = refit(model, &tr, x, ctx.rank_tol).0;
         let res = ReadingFit { model, data: &tr }.residuals_mm(&xf);
-        let nets = (0..d)
-            .map(|c| {
-                let rc = crate::calib::stats::value_column(&res, d, c);
-                RbfNetwork::fit_cv(&tr.q, &rc, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed).ok().map(|(net, _)| net)
-            })
+        let columns: Vec<Vec<f64>> = (0..d).map(|c| crate::calib::stats::value_column(&res, d, c)).collect();
+        let columns: Vec<&[f64]> = columns.iter().map(Vec::as_slice).collect();
+        let nets = RbfNetwork::fit_cv_many(&tr.q, &columns, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed)
+            .into_iter()
+            .map(|r| r.ok().map(|(net, _)| net))
             .collect::<Option<Vec<_>>>()?;
         Some((xf, nets))
     };

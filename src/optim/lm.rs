@@ -174,8 +174,65 @@ fn svd_solve(m: &DMatrix<f64>, b: &[f64], x: &mut [f64]) -> bool {
     }
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+/// Side of the square tiles of [`normal_equations`]: a tile's 16 sums are independent, so they
+/// run side by side instead of waiting on one another.
+const TILE: usize = 4;
+
+/// `A = JᵀJ` and `g = Jᵀr` over the free columns of the column-major `jac`.
+///
+/// Every entry is the dot product of two columns summed in row order from −0.0, exactly as
+/// `iter().map(x·y).sum()` sums it, so the results are bit for bit those of one dot product per
+/// entry; they are only computed [`TILE`] × [`TILE`] at a time (four columns against four,
+/// `r` counted as one more column for `g`), which reads each column a quarter as often and
+/// keeps sixteen independent sums in flight instead of one.
+fn normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], a: &mut DMatrix<f64>, g: &mut [f64]) {
+    let m = r.len();
+    let js = jac.as_slice();
+    let nf = free.len();
+    // Column `k` of the list: free column `k` of J, or `r` for `k == nf`.
+    let col = |k: usize| -> &[f64] {
+        if k < nf {
+            &js[free[k] * m..(free[k] + 1) * m]
+        } else {
+            r
+        }
+    };
+    let mut ia0 = 0;
+    while ia0 < nf {
+        // Columns past the end repeat the last one; their sums are computed and dropped.
+        let ca: [&[f64]; TILE] = std::array::from_fn(|t| &col((ia0 + t).min(nf - 1))[..m]);
+        let mut jb0 = ia0;
+        while jb0 <= nf {
+            let cb: [&[f64]; TILE] = std::array::from_fn(|u| &col((jb0 + u).min(nf))[..m]);
+            let mut acc = [[-0.0f64; TILE]; TILE];
+            for i in 0..m {
+                let av: [f64; TILE] = std::array::from_fn(|t| ca[t][i]);
+                let bv: [f64; TILE] = std::array::from_fn(|u| cb[u][i]);
+                for t in 0..TILE {
+                    for u in 0..TILE {
+                        acc[t][u] += av[t] * bv[u];
+                    }
+                }
+            }
+            for (t, row) in acc.iter().enumerate() {
+                let ia = ia0 + t;
+                for (u, &v) in row.iter().enumerate() {
+                    let jb = jb0 + u;
+                    if ia >= nf || jb > nf {
+                        continue;
+                    }
+                    if jb == nf {
+                        g[ia] = v;
+                    } else {
+                        a[(ia, jb)] = v;
+                        a[(jb, ia)] = v;
+                    }
+                }
+            }
+            jb0 += TILE;
+        }
+        ia0 += TILE;
+    }
 }
 
 impl LevenbergMarquardt {
@@ -207,7 +264,20 @@ impl LevenbergMarquardt {
 
         let mut x = x0.to_vec();
         let mut r = vec![0.0; m];
-        p.residuals(&x, &mut r);
+        // A problem with a joint pass (residuals and Jacobian for little more than the
+        // Jacobian) gets both at every trial point that follows an accepted step or starts the
+        // fit: nearly every such point is accepted, and its Jacobian is then the next
+        // iteration's, computed without a second pass. After a rejection, trials take residuals
+        // alone until a step is accepted again (and the Jacobian then takes its own pass).
+        let joint = p.joint_pass() && nf > 0;
+        let mut jac = DMatrix::<f64>::zeros(if joint { m } else { 0 }, if joint { n } else { 0 });
+        if joint {
+            p.residuals_and_jacobian(&x, &mut r, &mut jac);
+        } else {
+            p.residuals(&x, &mut r);
+        }
+        // Whether `jac` holds the Jacobian at `x`, and whether the next trial takes both.
+        let (mut jac_at_x, mut speculate) = (joint, joint);
         let mut evaluations = 1;
         let mut f = half_sq(&r);
         let report = |x: Vec<f64>, cost, iterations, evaluations, termination: Termination, reason: &str| Report {
@@ -230,7 +300,9 @@ impl LevenbergMarquardt {
         }
 
         // Work buffers, allocated once.
-        let mut jac = DMatrix::<f64>::zeros(m, n);
+        if !joint {
+            jac = DMatrix::<f64>::zeros(m, n);
+        }
         let mut a = DMatrix::<f64>::zeros(nf, nf); // JᵀJ over the free parameters
         let mut chol = DMatrix::<f64>::zeros(nf, nf); // A + λD, then its Cholesky factor
         let mut g = vec![0.0; nf]; // Jᵀr
@@ -263,18 +335,12 @@ impl LevenbergMarquardt {
                 window[slot] = f;
             }
             iterations += 1;
-            p.jacobian(&x, &mut jac);
-            // Normal equations over the free columns (J is column-major: columns are contiguous).
-            let js = jac.as_slice();
-            for (ia, &ca) in free.iter().enumerate() {
-                let col_a = &js[ca * m..(ca + 1) * m];
-                g[ia] = dot(col_a, &r);
-                for (ib, &cb) in free.iter().enumerate().skip(ia) {
-                    let v = dot(col_a, &js[cb * m..(cb + 1) * m]);
-                    a[(ia, ib)] = v;
-                    a[(ib, ia)] = v;
-                }
+            // (Every way back here goes through an accepted step, which sets `jac_at_x`.)
+            if !jac_at_x {
+                p.jacobian(&x, &mut jac);
             }
+            // Normal equations over the free columns (J is column-major: columns are contiguous).
+            normal_equations(&jac, &free, &r, &mut a, &mut g);
             if g.iter().chain(a.iter()).any(|v| !v.is_finite()) {
                 termination = Termination::NonFinite;
                 reason = "non-finite Jacobian";
@@ -347,13 +413,19 @@ impl LevenbergMarquardt {
                     for (k, &c) in free.iter().enumerate() {
                         x_new[c] = x[c] + delta[k];
                     }
-                    p.residuals(&x_new, &mut r_new);
+                    if speculate {
+                        p.residuals_and_jacobian(&x_new, &mut r_new, &mut jac);
+                    } else {
+                        p.residuals(&x_new, &mut r_new);
+                    }
                     evaluations += 1;
                     let f_new = half_sq(&r_new);
                     let actual = f - f_new;
                     let rho = if pred > 0.0 { actual / pred } else { -1.0 };
 
                     if rho > 0.0 && f_new < f {
+                        jac_at_x = speculate;
+                        speculate = joint;
                         std::mem::swap(&mut x, &mut x_new);
                         std::mem::swap(&mut r, &mut r_new);
                         let f_old = f;
@@ -390,6 +462,7 @@ impl LevenbergMarquardt {
                     for &c in &free {
                         x_new[c] = x[c];
                     }
+                    speculate = false;
                 }
 
                 // Rejected (or unsolvable): more damping.
@@ -559,6 +632,28 @@ mod tests {
         fn residuals(&self, x: &[f64], r: &mut [f64]) {
             for i in 0..self.t.len() {
                 r[i] = x[0] + x[1] * self.t[i] - self.y[i];
+            }
+        }
+    }
+
+    /// The tiled normal equations are bit for bit one dot product per entry, summed in row order.
+    #[test]
+    fn normal_equations_match_plain_dot_products_bit_for_bit() {
+        let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| x * y).sum() };
+        for (m, n) in [(1, 1), (7, 3), (37, 9), (101, 13)] {
+            let jac = DMatrix::from_fn(m, n, |i, k| ((i * 31 + k * 17) as f64 * 0.7311).sin() * 10f64.powi((k % 5) as i32 - 2));
+            let r: Vec<f64> = (0..m).map(|i| (i as f64 * 1.37).cos()).collect();
+            for fixed in [vec![false; n], (0..n).map(|k| k % 3 == 1).collect::<Vec<bool>>()] {
+                let free = free_indices(&fixed, n);
+                let nf = free.len();
+                let (mut a, mut g) = (DMatrix::<f64>::zeros(nf, nf), vec![0.0; nf]);
+                normal_equations(&jac, &free, &r, &mut a, &mut g);
+                for (ia, &ca) in free.iter().enumerate() {
+                    assert_eq!(g[ia].to_bits(), dot(jac.column(ca).as_slice(), &r).to_bits());
+                    for (ib, &cb) in free.iter().enumerate() {
+                        assert_eq!(a[(ia, ib)].to_bits(), dot(jac.column(ca).as_slice(), jac.column(cb).as_slice()).to_bits(), "m {m} n {n} ({ia}, {ib})");
+                    }
+                }
             }
         }
     }

@@ -32,6 +32,17 @@ pub trait LeastSquares: Sync {
             }
         }
     }
+    /// Whether [`Self::residuals_and_jacobian`] has a pass of its own that costs less than the
+    /// two apart (then LM asks for both at the trial points it expects to accept). Default: no.
+    fn joint_pass(&self) -> bool {
+        false
+    }
+    /// Residuals into `r` and the Jacobian into `j` at `x`: bit for bit what [`Self::residuals`]
+    /// and [`Self::jacobian`] give. Default: the two.
+    fn residuals_and_jacobian(&self, x: &[f64], r: &mut [f64], j: &mut DMatrix<f64>) {
+        self.residuals(x, r);
+        self.jacobian(x, j);
+    }
     /// ½‖r(x)‖².
     fn cost(&self, x: &[f64]) -> f64 {
         let mut r = vec![0.0; self.n_residuals()];

@@ -82,6 +82,11 @@ impl Frame {
 }
 
 /// Rotation matrix about a unit axis.
+///
+/// Inlined (the coordinate axes of every chain are a few instructions besides the sine and
+/// cosine: built in registers, the matrix is not stored and read back); other axes go through
+/// [`general_rotation`].
+#[inline]
 pub fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
     if axis.x == 1.0 && axis.y == 0.0 && axis.z == 0.0 {
         let (s, c) = angle.sin_cos();
@@ -95,6 +100,12 @@ pub fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
         let (s, c) = angle.sin_cos();
         return Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
     }
+    general_rotation(axis, angle)
+}
+
+/// Rotation matrix about any unit axis (the rare case of [`axis_rotation`]).
+#[inline(never)]
+fn general_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
     *Rotation3::from_axis_angle(&Unit::new_normalize(*axis), angle).matrix()
 }
 
@@ -116,11 +127,17 @@ pub struct FkWork {
     pub pre: Vec<Frame>,
     /// Value of each operation in the last evaluation.
     pub values: Vec<f64>,
+    /// The last rotation matrix of each operation and the bits of the (value, axis) it was made
+    /// of (`None` before the first): an operation without a joint has the same value on every
+    /// row, so its sine and cosine are computed once per parameter vector, not once per row.
+    rot_key: Vec<Option<[u64; 4]>>,
+    rot: Vec<Matrix3<f64>>,
 }
 
 impl FkWork {
     pub fn new(chain: &Chain) -> Self {
-        FkWork { pre: vec![Frame::identity(); chain.ops.len() + 1], values: vec![0.0; chain.ops.len()] }
+        let n = chain.ops.len();
+        FkWork { pre: vec![Frame::identity(); n + 1], values: vec![0.0; n], rot_key: vec![None; n], rot: vec![Matrix3::identity(); n] }
     }
 }
 
@@ -163,7 +180,7 @@ impl Chain {
     pub fn forward(&self, q: &[f64], p: &[f64], scale: f64, ws: &mut FkWork) {
         debug_assert_eq!(q.len(), self.n_joints);
         debug_assert_eq!(p.len(), self.n_params());
-        if ws.pre.len() != self.ops.len() + 1 {
+        if ws.pre.len() != self.ops.len() + 1 || ws.rot.len() != self.ops.len() || ws.rot_key.len() != self.ops.len() {
             *ws = FkWork::new(self);
         }
         let mut f = Frame::identity();
@@ -179,7 +196,21 @@ impl Chain {
             ws.values[k] = v;
             match op.kind {
                 OpKind::Trans => f.pos += f.rot * (op.axis * v),
-                OpKind::Rot => f.rot *= axis_rotation(&op.axis, v),
+                OpKind::Rot if op.joint.is_some() => f.rot *= axis_rotation(&op.axis, v),
+                // The other rotations do not change from row to row: the same (value, axis) bits
+                // are the same matrix.
+                OpKind::Rot => {
+                    let a = &op.axis;
+                    let same = match &ws.rot_key[k] {
+                        Some(key) => key[0] == v.to_bits() && key[1] == a.x.to_bits() && key[2] == a.y.to_bits() && key[3] == a.z.to_bits(),
+                        None => false,
+                    };
+                    if !same {
+                        ws.rot_key[k] = Some([v.to_bits(), a.x.to_bits(), a.y.to_bits(), a.z.to_bits()]);
+                        ws.rot[k] = axis_rotation(a, v);
+                    }
+                    f.rot *= &ws.rot[k];
+                }
             }
         }
         ws.pre[self.ops.len()] = f;
@@ -348,6 +379,31 @@ mod tests {
         }
         b.trans(x, 0.07, None, true);
         b.finish()
+    }
+
+    /// A workspace that kept the rotations of the last call (and of another chain) gives the
+    /// frames of a fresh one, bit for bit.
+    #[test]
+    fn reused_workspace_gives_the_frames_of_a_fresh_one() {
+        let c = test_chain();
+        // The same number of operations, other axes (one of them not a coordinate axis).
+        let mut other = test_chain();
+        other.ops[2].axis = Vector3::new(0.6, 0.0, 0.8);
+        other.ops[3].axis = Vector3::z();
+        let mut ws = FkWork::new(&c);
+        for k in 0..40 {
+            let chain = if k % 7 == 3 { &other } else { &c };
+            let q: Vec<f64> = (0..3).map(|j| ((k * 3 + j) as f64 * 0.71).sin()).collect();
+            // The parameters change every fourth call, as between the trial points of a fit.
+            let p: Vec<f64> = (0..c.n_params()).map(|i| 0.01 * ((i + k / 4) as f64 * 1.7).sin()).collect();
+            let s = if k % 5 == 0 { 1.0002 } else { 1.0 };
+            chain.forward(&q, &p, s, &mut ws);
+            let mut fresh = FkWork::new(chain);
+            chain.forward(&q, &p, s, &mut fresh);
+            for (a, b) in ws.pre.iter().zip(&fresh.pre) {
+                assert!(a.rot.iter().chain(a.pos.iter()).zip(b.rot.iter().chain(b.pos.iter())).all(|(u, v)| u.to_bits() == v.to_bits()), "call {k}");
+            }
+        }
     }
 
     #[test]
