@@ -46,8 +46,7 @@ fn test_noise(dir: &Path) -> f64 {
             continue;
         }
         let file: Vec<f64> = pose["pose_true"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-        let mut ideal = vec![0.0; 9];
-        Measurement::Pose.def().values_of_file(&file, &mut ideal);
+        let ideal = Measurement::Pose.values_of_file(&file);
         for (a, b) in row.values_mm().unwrap().iter().zip(&ideal) {
             sum.0 += (a - b) * (a - b);
             sum.1 += 1;

@@ -97,8 +97,12 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
             let _ = writeln!(out, "  <!-- draw-wire length offset: {} m -->", placement.own[3]);
         }
         None => {
-            // A pose's probe has its orientation on the flange (after the tracker's six).
-            let rot = if placement.own.len() >= 9 { crate::measurement::point::rotation(&placement.own[6..9]).0 } else { nalgebra::Matrix3::identity() };
+            // A pose's probe has its orientation on the flange.
+            let rot = if model.measurement == crate::measurement::Measurement::Pose {
+                crate::measurement::pose::probe_rotation(&placement.own)
+            } else {
+                nalgebra::Matrix3::identity()
+            };
             fixed(&mut out, "tracker_target", "flange", &Frame { rot, pos: placement.tool });
             let names = model.measurement.placement_names();
             let own: Vec<String> = names.iter().zip(&placement.own).map(|(n, v)| format!("{n} = {v}")).collect();

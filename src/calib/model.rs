@@ -223,14 +223,17 @@ impl CalibModel {
     /// Tool point with the joint-offset and thermal effects of the row applied, m.
     pub fn tool_point_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Vector3<f64> {
         let (_, tool) = self.sensor(x);
-        let scale = self.apply_effects(x, q, inp, w);
-        self.chain.forward(&w.q, &x[..self.n_chain()], scale, &mut w.fk);
-        self.chain.frame(&w.fk, self.chain.flange()).point(&tool)
+        self.flange_frame_with(x, q, inp, w).point(&tool)
     }
 
     /// The flange frame in the base frame for joint angles `q` (rad), geometry only.
     pub fn flange_frame(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> Frame {
-        let scale = self.apply_effects(x, q, &RowInputs::default(), w);
+        self.flange_frame_with(x, q, &RowInputs::default(), w)
+    }
+
+    /// The flange frame with the joint-offset and thermal effects of the row applied.
+    fn flange_frame_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Frame {
+        let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..self.n_chain()], scale, &mut w.fk);
         self.chain.frame(&w.fk, self.chain.flange())
     }
@@ -256,9 +259,7 @@ impl CalibModel {
         if def.n_targets() == 1 {
             def.reading(own, std::slice::from_ref(&self.tool_point_with(x, q, inp, w)), y);
         } else {
-            let scale = self.apply_effects(x, q, inp, w);
-            self.chain.forward(&w.q, &x[..self.n_chain()], scale, &mut w.fk);
-            let flange = self.chain.frame(&w.fk, self.chain.flange());
+            let flange = self.flange_frame_with(x, q, inp, w);
             let (local, nt) = self.targets(own, &tool, &mut [Vector3::zeros(); MAX_TARGETS * MAX_OWN]);
             let pts = local.map(|l| flange.point(&l));
             def.reading(own, &pts[..nt], y);

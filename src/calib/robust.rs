@@ -324,17 +324,12 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
 ///
 /// [`Instrument::value_groups`]: crate::measurement::Instrument::value_groups
 pub fn equalise_groups(r: &mut [f64], d: usize, groups: &[usize], keep: &[usize]) {
-    let n_groups = groups.iter().max().map_or(1, |g| g + 1);
-    if n_groups < 2 {
+    if groups.iter().all(|g| *g == 0) {
         return;
     }
-    let of = |g: usize, r: &[f64]| -> (f64, f64) {
-        let v: Vec<f64> = keep.iter().flat_map(|&i| (0..d).filter(move |&k| groups[k] == g).map(move |k| r[i * d + k])).collect();
-        robust_scale(&v)
-    };
-    let (med0, scale0) = of(0, r);
-    for g in 1..n_groups {
-        let (med, scale) = of(g, r);
+    let stats = group_scales(r, d, groups, keep);
+    let (med0, scale0) = stats[0];
+    for (g, &(med, scale)) in stats.iter().enumerate().skip(1) {
         if !(scale > 0.0 && scale0 > 0.0) {
             continue;
         }
@@ -344,6 +339,19 @@ pub fn equalise_groups(r: &mut [f64], d: usize, groups: &[usize], keep: &[usize]
             }
         }
     }
+}
+
+/// The robust scale ([`robust_scale`]: median and robust standard deviation) of each value
+/// group's residuals over the rows `rows` of `r` (`d` values a row; `groups` as
+/// [`Instrument::value_groups`] gives them, empty for one group), in group order.
+///
+/// [`Instrument::value_groups`]: crate::measurement::Instrument::value_groups
+pub fn group_scales(r: &[f64], d: usize, groups: &[usize], rows: &[usize]) -> Vec<(f64, f64)> {
+    let group = |k: usize| groups.get(k).copied().unwrap_or(0);
+    let n_groups = groups.iter().max().map_or(1, |g| g + 1);
+    (0..n_groups)
+        .map(|g| robust_scale(&rows.iter().flat_map(|&i| (0..d).filter(move |&k| group(k) == g).map(move |k| r[i * d + k])).collect::<Vec<f64>>()))
+        .collect()
 }
 
 /// Most data rows between two outliers of one run: rows held out for testing, or a row of the

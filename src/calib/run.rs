@@ -506,11 +506,11 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
             let n_test = (f * n as f64).round() as usize;
             // Strata by the reading: the cable length, or a point's distance from the
             // instrument's origin.
-            reading_measurement(data)?;
+            let lengths = reading_measurement(data)?.file_lengths();
             let key: Vec<f64> = data
                 .rows
                 .iter()
-                .map(|r| if r.reading_mm.len() == 1 { r.reading_mm[0] } else { r.reading_mm.iter().take(3).map(|v| v * v).sum::<f64>().sqrt() })
+                .map(|r| if r.reading_mm.len() == 1 { r.reading_mm[0] } else { r.reading_mm.iter().take(lengths).map(|v| v * v).sum::<f64>().sqrt() })
                 .collect();
             let split = crate::sim::generate::stratified_split(&key, n_test, seed);
             Ok(((0..n).filter(|i| split[*i] == Split::Train).collect(), (0..n).filter(|i| split[*i] == Split::Test).collect()))
@@ -749,7 +749,7 @@ pub fn grouped_covariance(fit: &ReadingFit, x: &[f64], fixed: &[bool]) -> Option
     let cov = covariance(fit, x, fixed)?;
     let groups = fit.model.measurement.def().value_groups();
     let d = fit.data.dim;
-    let n_groups = groups.iter().max().map_or(1, |g| g + 1);
+    let n_groups = fit.model.measurement.n_value_groups();
     if n_groups < 2 || groups.len() != d {
         return Some(cov);
     }
@@ -863,10 +863,8 @@ fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &
     // value farthest out.
     let groups = fit.model.measurement.def().value_groups();
     let group = |k: usize| groups.get(k).copied().unwrap_or(0);
-    let n_groups = (0..d).map(group).max().unwrap_or(0) + 1;
-    let stats: Vec<(f64, f64)> = (0..n_groups)
-        .map(|g| super::stats::robust_scale(&r.chunks(d).flat_map(|row| (0..d).filter(|&k| group(k) == g).map(|k| row[k])).collect::<Vec<_>>()))
-        .collect();
+    let stats = super::robust::group_scales(&r, d, groups, &(0..r.len() / d).collect::<Vec<_>>());
+    let n_groups = stats.len();
     test_r
         .chunks(d)
         .zip(test_idx)
@@ -892,11 +890,7 @@ fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &
 pub fn metrics_stage(fit: &ReadingFit, test_fit: &ReadingFit, x0: &[f64], x: &[f64], corrector: Option<&dyn Correct>) -> Metrics {
     let has_test = !test_fit.data.is_empty();
     let d = test_fit.data.dim;
-    let position = |x: &[f64], c: Option<&dyn Correct>| {
-        // The position values (a pose's first three).
-        let dist: Vec<f64> = residuals_with(test_fit, x, c).chunks(d).map(|r| r.iter().take(3).map(|v| v * v).sum::<f64>().sqrt()).collect();
-        ErrorStats::of(&dist)
-    };
+    let position = |x: &[f64], c: Option<&dyn Correct>| ErrorStats::of(&super::stats::position_errors(&residuals_with(test_fit, x, c), d));
     Metrics {
         train_before: stats(fit, x0, None),
         test_before: has_test.then(|| stats(test_fit, x0, None)),
@@ -1010,7 +1004,8 @@ fn floor_stage(
         None => logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(Step::Detected),
     };
     // The lengths' step (a pose's angles are logged in degrees: its position columns only).
-    let reading_step = logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().take(3).copied()));
+    let lengths = data.measurement().map_or(0, |m| m.file_lengths());
+    let reading_step = logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().take(lengths).copied()));
     super::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat)
 }
 
@@ -1022,7 +1017,7 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     let mut split = split_stage(data, opts)?;
     // The position columns (a pose's orientation may stay the same throughout, as on an ISO
     // cube).
-    let dim = measurement.file_dim().min(3);
+    let dim = measurement.file_lengths();
     let spread: Vec<f64> = (0..dim)
         .map(|c| {
             let (lo, hi) = data.rows.iter().map(|r| r.reading_mm[c]).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));

@@ -181,6 +181,12 @@ pub fn rms(v: &[f64]) -> f64 {
 /// Standard deviations per median absolute deviation for Gaussian data.
 pub const MAD_TO_SD: f64 = 1.4826;
 
+/// The position error of each row of `dim` residuals (mm): the Euclidean norm of its first
+/// three (a point's, or a pose's origin).
+pub fn position_errors(values: &[f64], dim: usize) -> Vec<f64> {
+    values.chunks(dim.max(1)).map(|c| c.iter().take(3).map(|v| v * v).sum::<f64>().sqrt()).collect()
+}
+
 /// The median of `v` and its robust standard deviation ([`MAD_TO_SD`] × the median absolute
 /// deviation from it): the one robust scale of the project.
 pub fn robust_scale(v: &[f64]) -> (f64, f64) {

@@ -66,12 +66,7 @@ impl TruthFile {
         match (measurement, p.point_true_mm) {
             (crate::measurement::Measurement::Length, _) if self.tracker.is_none() => Some(vec![p.length_true_mm * 1e-3]),
             (crate::measurement::Measurement::Point, Some(v)) => Some(v.iter().map(|c| c * 1e-3).collect()),
-            (crate::measurement::Measurement::Pose, _) => {
-                let file = p.pose_true?;
-                let mut v = vec![0.0; measurement.dim()];
-                measurement.def().values_of_file(&file, &mut v);
-                Some(v.iter().map(|c| c * 1e-3).collect())
-            }
+            (crate::measurement::Measurement::Pose, _) => Some(measurement.values_of_file(&p.pose_true?).iter().map(|c| c * 1e-3).collect()),
             _ => None,
         }
     }

@@ -186,10 +186,7 @@ impl Row {
     /// The reading as the model reads its values (mm; see [`Measurement::dim`]): the columns
     /// themselves, or a pose's origin and axes. `None` without a reading.
     pub fn values_mm(&self) -> Option<Vec<f64>> {
-        let m = Measurement::of_file_dim(self.reading_mm.len())?;
-        let mut v = vec![0.0; m.dim()];
-        m.def().values_of_file(&self.reading_mm, &mut v);
-        Some(v)
+        Some(Measurement::of_file_dim(self.reading_mm.len())?.values_of_file(&self.reading_mm))
     }
 }
 
@@ -874,12 +871,13 @@ fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
             ));
         }
     }
-    // The lengths: every reading column but a pose's angles (the first three at most).
-    let max_abs = rows.iter().flat_map(|r| r.reading_mm.iter().take(3)).fold(None, |m: Option<f64>, v| Some(m.map_or(v.abs(), |m| m.max(v.abs()))));
+    // The lengths: every reading column but a pose's angles.
     let measurement = rows.first().and_then(|r| Measurement::of_file_dim(r.reading_mm.len()));
+    let lengths = measurement.map_or(0, |m| m.file_lengths());
+    let max_abs = rows.iter().flat_map(|r| r.reading_mm.iter().take(lengths)).fold(None, |m: Option<f64>, v| Some(m.map_or(v.abs(), |m| m.max(v.abs()))));
     if let (Some(max), Some(m)) = (max_abs, measurement) {
         if max < METRES_MAX_L {
-            let cols = m.def().file_columns()[..m.file_dim().min(3)].join(", ");
+            let cols = m.def().file_columns()[..lengths].join(", ");
             let msg = if m.dim() == 1 {
                 format!("column {cols} looks like metres (every {cols} < {METRES_MAX_L}, max {max}); {cols} must be in millimetres")
             } else {

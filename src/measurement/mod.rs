@@ -65,6 +65,10 @@ pub trait Instrument: Sync {
     fn value_groups(&self) -> &'static [usize] {
         &[]
     }
+    /// The trailing dataset columns that are angles (degrees; a pose's `rx, ry, rz`).
+    fn file_angles(&self) -> usize {
+        0
+    }
     /// The number of points of the flange frame the reading depends on (one target; a pose's
     /// three).
     fn n_targets(&self) -> usize {
@@ -147,9 +151,22 @@ impl Measurement {
         self.def().file_columns().len()
     }
 
-    /// Whether the model's values are the dataset's columns (not for a pose's angles).
-    pub fn reads_file_values(self) -> bool {
-        self.def().columns() == self.def().file_columns()
+    /// The leading dataset columns that are lengths (mm): all of them, but a pose's angles.
+    pub fn file_lengths(self) -> usize {
+        self.def().file_columns().len() - self.def().file_angles()
+    }
+
+    /// The reading values (mm) the model reads of a row's dataset columns `file` (mm and
+    /// degrees): [`Instrument::values_of_file`] into a new vector.
+    pub fn values_of_file(self, file: &[f64]) -> Vec<f64> {
+        let mut v = vec![0.0; self.dim()];
+        self.def().values_of_file(file, &mut v);
+        v
+    }
+
+    /// The number of value groups ([`Instrument::value_groups`]): 1 when the values are alike.
+    pub fn n_value_groups(self) -> usize {
+        self.def().value_groups().iter().max().map_or(1, |g| g + 1)
     }
 
     /// The placement parameters' names, the instrument's own first, then the target's.

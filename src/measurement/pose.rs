@@ -34,6 +34,15 @@ const LEVER_M: f64 = LEVER_MM * 1e-3;
 pub const POSE_PARAMS: [&str; 12] =
     ["tracker.x", "tracker.y", "tracker.z", "tracker.rx", "tracker.ry", "tracker.rz", "tool.rx", "tool.ry", "tool.rz", "tool.x", "tool.y", "tool.z"];
 
+/// Number of the pose tracker's own placement parameters (all but the probe's origin).
+const N_OWN: usize = POSE_PARAMS.len() - 3;
+
+/// The probe's orientation on the flange of placement `own` (the pose tracker's own
+/// parameters): `Rx(a)·Ry(b)·Rz(c)` of `tool.rx, tool.ry, tool.rz`.
+pub fn probe_rotation(own: &[f64]) -> Matrix3<f64> {
+    rotation(&own[6..9]).0
+}
+
 /// Largest plausible |Euler angle| of a pose reading, degrees.
 pub const MAX_ANGLE_DEG: f64 = 720.0;
 
@@ -170,18 +179,20 @@ impl Instrument for Pose {
     fn value_groups(&self) -> &'static [usize] {
         &[0, 0, 0, 1, 1, 1, 1, 1, 1]
     }
+    fn file_angles(&self) -> usize {
+        3
+    }
     fn n_targets(&self) -> usize {
         3
     }
     fn targets(&self, own: &[f64], tool: &Vector3<f64>, local: &mut [Vector3<f64>], dlocal: &mut [Vector3<f64>]) {
         let (r, dr) = rotation(&own[6..9]);
-        let n_own = POSE_PARAMS.len() - 3;
         local[0] = *tool;
-        dlocal[..n_own].iter_mut().for_each(|v| *v = Vector3::zeros());
+        dlocal[..N_OWN].iter_mut().for_each(|v| *v = Vector3::zeros());
         for t in 1..3 {
             let e = Vector3::ith(t - 1, LEVER_M);
             local[t] = tool + r * e;
-            let d = &mut dlocal[t * n_own..(t + 1) * n_own];
+            let d = &mut dlocal[t * N_OWN..(t + 1) * N_OWN];
             d.iter_mut().for_each(|v| *v = Vector3::zeros());
             for m in 0..3 {
                 d[6 + m] = dr[m] * e;
@@ -199,7 +210,6 @@ impl Instrument for Pose {
     fn reading_grad(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]) {
         self.reading(own, p, y);
         let (r, dr) = rotation(&own[3..6]);
-        let n_own = POSE_PARAMS.len() - 3;
         let vecs = [p[0], p[1] - p[0], p[2] - p[0]];
         for block in 0..3 {
             for c in 0..3 {
@@ -213,7 +223,7 @@ impl Instrument for Pose {
                     g[0] = -row;
                     g[block] = row;
                 }
-                let d = &mut dy_down[i * n_own..(i + 1) * n_own];
+                let d = &mut dy_down[i * N_OWN..(i + 1) * N_OWN];
                 d.iter_mut().for_each(|v| *v = 0.0);
                 if block == 0 {
                     d[c] = 1.0;

@@ -40,7 +40,7 @@ pub fn features(data: &Dataset) -> Vec<Feature> {
         .collect();
     if let Some(m) = data.measurement() {
         for (k, col) in m.def().file_columns().iter().enumerate() {
-            let unit = if k >= 3 { "deg" } else { "mm" };
+            let unit = if k < m.file_lengths() { "mm" } else { "deg" };
             let label = if m.dim() == 1 { format!("measured length {col} (mm)") } else { format!("measured {col} ({unit})") };
             f.push(Feature { name: col.to_string(), label, values: data.rows.iter().map(|r| r.reading_mm.get(k).copied().unwrap_or(f64::NAN)).collect() });
         }
@@ -71,12 +71,6 @@ pub struct Residual {
     pub after_mm: Vec<f64>,
 }
 
-/// The position error of each row of `dim` values (mm): the Euclidean norm of its first three
-/// (a point's, or a pose's origin).
-pub fn row_norms(values: &[f64], dim: usize) -> Vec<f64> {
-    values.chunks(dim.max(1)).map(|c| c.iter().take(3).map(|v| v * v).sum::<f64>().sqrt()).collect()
-}
-
 impl Residual {
     /// The quantities of residuals held per reading value (`m.dim()` per row, row after row):
     /// the one value of a one-value reading; else the position error |Δp| first, then each
@@ -97,8 +91,8 @@ impl Residual {
             name: "dp".into(),
             label: "|Δp|".into(),
             distance: true,
-            before_mm: row_norms(before_mm, dim),
-            after_mm: row_norms(after_mm, dim),
+            before_mm: crate::calib::stats::position_errors(before_mm, dim),
+            after_mm: crate::calib::stats::position_errors(after_mm, dim),
         }];
         out.extend(cols.iter().enumerate().map(|(k, c)| Residual {
             name: c.to_string(),
