@@ -391,7 +391,14 @@ fn hayati_plus_field(seed: u64, field: impl Fn(&[f64]) -> f64) -> Dataset {
             let q: Vec<f64> = q_deg.iter().map(|d: &f64| d.to_radians()).collect();
             let noise = 0.01 * (rng.random_range(-1.0f64..1.0) + rng.random_range(-1.0..1.0) + rng.random_range(-1.0..1.0));
             let l = model.predict(&x, &q, &mut w) * 1e3 + field(&q) + noise;
-            Row { q_deg: q_deg.to_vec(), reading_mm: vec![l], t_s: None, temp_c: None, split: Some(if i % 4 == 0 { Split::Test } else { Split::Train }) }
+            Row {
+                q_deg: q_deg.to_vec(),
+                reading_mm: vec![l],
+                t_s: None,
+                temp_c: None,
+                split: Some(if i % 4 == 0 { Split::Test } else { Split::Train }),
+                std_mm: None,
+            }
         })
         .collect();
     Dataset { rows, source: format!("hayati+field seed {seed}") }

@@ -627,3 +627,90 @@ fn tracker_files_as_users_have_them() {
     let (a, b) = (seed0["test_position"]["mae"].as_f64().unwrap(), c0["metrics"]["test_position_after"]["mae"].as_f64().unwrap());
     assert!((a - b).abs() < 1e-12 && a > 0.0, "compare {a} vs calibrate {b}");
 }
+
+/// Per-row standard deviations (`sx, sy, sz`) weight the fit. The twin writes each row's own
+/// (`[tracker] write_std`, a tracker 0.7 m from the arm with a steep distance term); a third of
+/// the training rows then get 0.3 mm more noise per coordinate and say so in their std, as rows
+/// measured in a worse condition would. Weighted, the fit keeps those rows and lets them count
+/// little; with `--ignore-row-std` the outlier screen drops the worst of them and the rest pull
+/// on the fit. Judged by the calibrated model's test-row points against the twin's true ones,
+/// over three seeds.
+#[test]
+fn per_row_standard_deviations_weight_the_fit() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/irb120_tracker.toml")).unwrap();
+    let text = text
+        .replacen("translation_mm = [2500.0, -400.0, 300.0]", "translation_mm = [700.0, -100.0, 300.0]", 1)
+        .replacen("noise_um = 15.0", "noise_um = 0.5", 1)
+        .replacen("noise_um_per_m = 6.0", "noise_um_per_m = 200.0\nwrite_std = true", 1);
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("het.toml");
+    std::fs::write(&scenario, text).unwrap();
+    let p = |x: &std::path::Path| x.to_str().unwrap().to_owned();
+    let (mut err_weighted, mut err_equal) = (0.0, 0.0);
+    for seed in [1u64, 2, 3] {
+        let gen = dir.path().join(format!("g{seed}"));
+        let out = twincal(&["generate", "--scenario", &p(&scenario), "--seed", &seed.to_string(), "--out", &p(&gen), "--quiet"]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let mut ds = twincal::dataset::Dataset::load(&gen).unwrap();
+        assert!(ds.rows.iter().all(|r| r.std_mm.is_some_and(|s| s[0] > 0.0 && s[0] == s[2])), "the twin writes each row's std");
+        let truth: serde_json::Value = serde_json::from_slice(&std::fs::read(gen.join("truth.json")).unwrap()).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut poses = String::from("q1,q2,q3,q4,q5,q6\n");
+        let mut true_points = Vec::new();
+        for (i, row) in ds.rows.iter_mut().enumerate() {
+            if row.split == Some(twincal::dataset::Split::Test) {
+                poses += &(row.q_deg.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",") + "\n");
+                true_points.push(truth["poses"][i]["point_true_mm"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect::<Vec<f64>>());
+            } else if i % 3 == 0 {
+                row.reading_mm.iter_mut().for_each(|v| *v += 0.3 * gauss(&mut rng));
+                row.std_mm = row.std_mm.map(|s| s.map(|v| v.hypot(0.3)));
+            }
+        }
+        let (data, q) = (dir.path().join(format!("m{seed}.csv")), dir.path().join(format!("q{seed}.csv")));
+        ds.write_csv(&data).unwrap();
+        std::fs::write(&q, poses).unwrap();
+        for ignore in [false, true] {
+            let (result, pred) = (dir.path().join(format!("r{seed}{ignore}.json")), dir.path().join(format!("p{seed}{ignore}.csv")));
+            let mut args =
+                vec!["calibrate".to_owned(), "--data".into(), p(&data), "--model".into(), "irb120".into(), "--out".into(), p(&result), "--quiet".into()];
+            if ignore {
+                args.push("--ignore-row-std".into());
+            }
+            let out = twincal(&args.iter().map(String::as_str).collect::<Vec<_>>());
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
+            if ignore {
+                assert!(r.get("weighting").is_none());
+            } else {
+                let w = &r["weighting"];
+                // The twin's model is exact: the instrument's noise is all there is.
+                assert!(w["floor_mm"].as_f64().unwrap() < 0.01 && w["weight_span"].as_f64().unwrap() > 50.0, "{w}");
+                assert_eq!(w["rows_with_std"], w["rows"]);
+                assert_eq!(r["outliers"].as_array().unwrap().len(), 0, "rows as noisy as their std says are no outliers");
+            }
+            let out = twincal(&["predict", "--model", &p(&result), "--data", &p(&q), "--out", &p(&pred), "--quiet"]);
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            let text = std::fs::read_to_string(&pred).unwrap();
+            let mut lines = text.lines();
+            let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+            let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+            let (cx, cy, cz) = (col("x_pred"), col("y_pred"), col("z_pred"));
+            let errors: Vec<f64> = lines
+                .zip(&true_points)
+                .map(|(l, t)| {
+                    let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
+                    ((v[cx] - t[0]).powi(2) + (v[cy] - t[1]).powi(2) + (v[cz] - t[2]).powi(2)).sqrt()
+                })
+                .collect();
+            assert_eq!(errors.len(), true_points.len());
+            let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+            eprintln!("seed {seed}, {}: mean |Δp| against the truth {mean:.4} mm", if ignore { "equal weights" } else { "weighted" });
+            if ignore {
+                err_equal += mean;
+            } else {
+                err_weighted += mean;
+            }
+        }
+    }
+    assert!(err_weighted < 0.92 * err_equal, "weighted {err_weighted:.4} against equal weights {err_equal:.4} (sum of three seeds' mean errors)");
+}

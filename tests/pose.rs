@@ -72,6 +72,35 @@ fn pose_data_calibrate_to_the_noise_and_recover_the_tracker_and_the_probe() {
         ok(twincal(&["calibrate", "--data", &p(&data), "--model", urdf, "--out", &p(&result)]), "calibrate");
         let r = json(&result);
         assert_eq!(r["model"]["measurement"], "pose");
+        if seed == "1" {
+            // predict writes the pose as the file has it: position and angles, each with its
+            // prediction and residual (the angles' in degrees).
+            let pred = dir.path().join("pred1.csv");
+            ok(twincal(&["predict", "--model", &p(&result), "--data", &p(&data), "--out", &p(&pred)]), "predict");
+            let text = std::fs::read_to_string(&pred).unwrap();
+            let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+            assert_eq!(header[6..12], ["x", "y", "z", "rx", "ry", "rz"]);
+            assert_eq!(header[12..18], ["x_pred", "y_pred", "z_pred", "rx_pred", "ry_pred", "rz_pred"]);
+            let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+            let (mut pos, mut ang, mut n) = (0.0, 0.0f64, 0);
+            for line in text.lines().skip(1) {
+                let v: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+                for c in ["x", "y", "z"] {
+                    pos += v[col(&format!("{c}_residual"))].powi(2);
+                    assert!((v[col(c)] - v[col(&format!("{c}_pred"))] - v[col(&format!("{c}_residual"))]).abs() < 1e-9);
+                }
+                // Away from gimbal lock (ry near ±90°), where Euler angles' residuals mean little.
+                if v[col("ry")].abs() < 75.0 {
+                    for c in ["rx", "ry", "rz"] {
+                        ang = ang.max(v[col(&format!("{c}_residual"))].abs());
+                    }
+                }
+                n += 1;
+            }
+            let pos = (pos / (3 * n) as f64).sqrt();
+            // The twin's 100 µrad per sample over 50 samples: 0.0008° per axis.
+            assert!(pos < 0.01 && ang < 0.01, "position RMSE {pos} mm, largest angle residual {ang} deg");
+        }
         let test = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
         let noise = test_noise(&data);
         let cmp = &r["truth_comparison"];

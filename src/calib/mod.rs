@@ -27,3 +27,4 @@ pub mod run;
 pub mod stats;
 pub mod tolerance;
 pub mod truth;
+pub mod weighting;

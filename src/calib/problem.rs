@@ -39,6 +39,10 @@ pub struct Samples {
     pub dim: usize,
     /// What each row carries besides q and its reading (time, temperature, torques, backlash sides).
     pub inputs: Vec<RowInputs>,
+    /// The square root of each value's weight in the fit, relative (about 1 for a typical
+    /// value), or `None` for equal weights: a tracker's per-row standard deviations give them
+    /// (see [`super::weighting`]). Every residual the fit sees is scaled by it.
+    pub w: Option<Vec<f64>>,
 }
 
 impl Samples {
@@ -50,7 +54,7 @@ impl Samples {
     pub fn readings(q: Vec<Vec<f64>>, y: Vec<f64>, dim: usize) -> Self {
         debug_assert_eq!(q.len() * dim, y.len());
         let inputs = vec![RowInputs::default(); q.len()];
-        Samples { q, y, dim, inputs }
+        Samples { q, y, dim, inputs, w: None }
     }
     /// The rows `idx`.
     pub fn subset(&self, idx: &[usize]) -> Samples {
@@ -59,7 +63,17 @@ impl Samples {
             y: idx.iter().flat_map(|&i| self.row(i).iter().copied()).collect(),
             dim: self.dim,
             inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
+            w: self.w.as_ref().map(|w| idx.iter().flat_map(|&i| w[i * self.dim..(i + 1) * self.dim].iter().copied()).collect()),
         }
+    }
+    /// The same readings with equal weights: what the metrics judge (in mm, unweighted).
+    pub fn unweighted(&self) -> Samples {
+        Samples { w: None, ..self.clone() }
+    }
+    /// The weight factor (square root of the relative weight) of value `k` (row-major).
+    #[inline]
+    pub fn weight(&self, k: usize) -> f64 {
+        self.w.as_ref().map_or(1.0, |w| w[k])
     }
     /// The reading of row `i`.
     pub fn row(&self, i: usize) -> &[f64] {
@@ -73,14 +87,15 @@ impl Samples {
     }
 }
 
-/// A model fitted to samples: one residual per reading value, row after row.
+/// A model fitted to samples: one residual per reading value, row after row, each scaled by its
+/// weight factor ([`Samples::w`]; mm as they are without weights).
 pub struct ReadingFit<'a> {
     pub model: &'a CalibModel,
     pub data: &'a Samples,
 }
 
 impl ReadingFit<'_> {
-    /// Residuals (mm) at `x`.
+    /// Residuals (mm, weighted as the fit sees them: [`Samples::w`]) at `x`.
     pub fn residuals_mm(&self, x: &[f64]) -> Vec<f64> {
         let mut r = vec![0.0; self.data.y.len()];
         LeastSquares::residuals(self, x, &mut r);
@@ -102,7 +117,7 @@ impl LeastSquares for ReadingFit<'_> {
             for (i, ri) in r.chunks_mut(d).enumerate() {
                 self.model.readings_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d]);
                 for (k, rk) in ri.iter_mut().enumerate() {
-                    *rk = (self.data.y[i * d + k] - y[k]) * 1e3;
+                    *rk = (self.data.y[i * d + k] - y[k]) * 1e3 * self.data.weight(i * d + k);
                 }
             }
         })
@@ -149,12 +164,13 @@ impl ReadingFit<'_> {
                     self.model.readings_grad_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d], &mut g);
                     if let Some(r) = r.as_deref_mut() {
                         for (k, rk) in r[i * d..(i + 1) * d].iter_mut().enumerate() {
-                            *rk = (self.data.y[i * d + k] - y[k]) * 1e3;
+                            *rk = (self.data.y[i * d + k] - y[k]) * 1e3 * self.data.weight(i * d + k);
                         }
                     }
                     for c in 0..d {
+                        let s = -1e3 * self.data.weight(i * d + c);
                         for k in 0..n {
-                            block[k * h + row * d + c] = -g[c * n + k] * 1e3;
+                            block[k * h + row * d + c] = g[c * n + k] * s;
                         }
                     }
                 }
@@ -179,10 +195,10 @@ impl Observations for ReadingFit<'_> {
         let (row, c) = (i / d, i % d);
         let mut y = [0.0; MAX_DIM];
         with_work(self.model, |w| self.model.readings_with(x, &self.data.q[row], &self.data.inputs[row], w, &mut y[..d]));
-        y[c] * 1e3
+        y[c] * 1e3 * self.data.weight(i)
     }
     fn measured(&self, i: usize) -> f64 {
-        self.data.y[i] * 1e3
+        self.data.y[i] * 1e3 * self.data.weight(i)
     }
     fn gradient(&self, x: &[f64], i: usize, g: &mut [f64]) {
         let (n, d) = (self.model.n_params(), self.data.dim);
@@ -199,7 +215,8 @@ impl Observations for ReadingFit<'_> {
                 g.copy_from_slice(&jac[c * n..(c + 1) * n]);
             });
         }
-        g.iter_mut().for_each(|v| *v *= 1e3);
+        let s = 1e3 * self.data.weight(i);
+        g.iter_mut().for_each(|v| *v *= s);
     }
 }
 

@@ -112,6 +112,9 @@ pub struct CalibOptions {
     /// Logging step of the joint angles, degrees, for the noise floor (default: from the data's
     /// decimals).
     pub angle_step_deg: Option<f64>,
+    /// Weight the fit by the rows' own standard deviations where the data give them (a
+    /// tracker's `sx, sy, sz`; [`super::weighting`]).
+    pub row_std: bool,
 }
 
 impl CalibOptions {
@@ -130,6 +133,7 @@ impl CalibOptions {
             inertial: None,
             outlier_k: DEFAULT_OUTLIER_K,
             reading_steps: true,
+            row_std: true,
             loss: Loss::L2,
             angle_step_deg: None,
         }
@@ -280,6 +284,10 @@ pub struct CalibResult {
     /// Data rows (0-based) of the test rows.
     #[serde(skip)]
     pub test_rows: Vec<usize>,
+    /// How the fit weighted the training rows by their own standard deviations (absent: equal
+    /// weights).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weighting: Option<super::weighting::Weighting>,
 }
 
 impl CalibResult {
@@ -537,6 +545,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
         y: rows.clone().flat_map(reading).collect(),
         dim,
         inputs: rows.map(|r| super::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
+        w: None,
     }
 }
 
@@ -948,6 +957,8 @@ pub struct Prepared {
     pub test_rows_in_steps: usize,
     /// Which parameters the training poses determine, at the model's nominal.
     pub id: Identifiability,
+    /// How the training rows are weighted (per-row standard deviations), `None` for equal weights.
+    pub weighting: Option<super::weighting::Weighting>,
 }
 
 /// What the rows of `data` read: every row must have a reading (a cable length `L`, or a
@@ -1040,18 +1051,27 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
         return Err(Error::data(&data.source, msg));
     }
     let mut model = super::placement::place_sensor(opts, &split.train)?;
+    // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
+    let weighting = if opts.row_std {
+        super::weighting::training_weights(&model, data, &split.train_idx, &split.train, opts.rank_tol).map(|(w, info)| {
+            split.train.w = Some(w);
+            info
+        })
+    } else {
+        None
+    };
     let screen = outlier_stage(&mut model, &mut split, opts)?;
     let test_rows_in_steps = samples(data, &split.test_idx).y.iter().zip(&split.test.y).filter(|(a, b)| a != b).count();
     effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
     let id = identify(&ReadingFit { model: &model, data: &split.train }, &model.nominal, opts.rank_tol);
-    Ok(Prepared { split, model, screen, test_rows_in_steps, id })
+    Ok(Prepared { split, model, screen, test_rows_in_steps, id, weighting })
 }
 
 /// Runs a calibration with a given solver. `truth` enables the parameter-error report.
 pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions, solver: &dyn Solver) -> Result<CalibResult> {
     let t0 = Instant::now();
     let mut warnings = Vec::new();
-    let Prepared { split, model, screen, test_rows_in_steps: test_in_steps, id } = prepare(data, opts, solver.needs_row_inputs())?;
+    let Prepared { split, model, screen, test_rows_in_steps: test_in_steps, id, weighting } = prepare(data, opts, solver.needs_row_inputs())?;
     if model.effects.iter().any(|b| matches!(b.thermal, Some(super::effects::ThermalDrive::WarmUp))) && data.rows.iter().all(|r| r.temp_c.is_some()) {
         warnings.push(format!(
             "the temp column spans less than {} K, so it drives no thermal drift: the thermal block runs on t as a warm-up",
@@ -1111,7 +1131,10 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let noise_estimate_mm = if noise.is_finite() { noise } else { residual_sigma(&fit, &x, &fixed) };
     let test_fit = ReadingFit { model: &model, data: &split.test };
     let correct = corrector.as_ref().map(|c| c.as_correct());
-    let mut metrics = metrics_stage(&fit, &test_fit, &x0, &x, correct);
+    // The metrics judge the training rows in mm, unweighted, as the test rows.
+    let plain = split.train.w.is_some().then(|| split.train.unweighted());
+    let plain_fit = ReadingFit { model: &model, data: plain.as_ref().unwrap_or(&split.train) };
+    let mut metrics = metrics_stage(&plain_fit, &test_fit, &x0, &x, correct);
     if metrics.train_after.rmse > metrics.train_before.rmse {
         warnings.push(format!(
             "{} ended worse than the nominal model it started from (training RMSE {:.4} -> {:.4} mm): the result is not a calibration; \
@@ -1144,7 +1167,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         }
     }
     let test_residuals_mm = residuals_with(&test_fit, &x, correct);
-    let test_outliers = test_outlier_stage(&fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.outlier_k);
+    let test_outliers = test_outlier_stage(&plain_fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.outlier_k);
     if !split.test.is_empty() {
         let out: Vec<usize> = test_outliers.iter().map(|o| o.row - 1).collect();
         let d = split.test.dim;
@@ -1196,6 +1219,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         history: history_disp,
         test_residuals_mm,
         test_rows: split.test_idx.clone(),
+        weighting,
         model,
     })
 }
@@ -1264,6 +1288,7 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
         history: Vec::new(),
         test_residuals_mm: Vec::new(),
         test_rows: Vec::new(),
+        weighting: None,
         model,
     })
 }

@@ -120,6 +120,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     opts.loads = loads;
     opts.inertial = inertial;
     (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
+    opts.row_std = !a.robust.ignore_row_std;
     opts.reading_steps = !a.robust.no_reading_steps;
     let mut result = run(&data, truth.as_ref(), &opts)?;
     // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
@@ -205,6 +206,13 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
             ),
             _ => eprintln!("  residuals are per coordinate ({cols})"),
         }
+    }
+    if let Some(w) = &r.weighting {
+        eprintln!(
+            "  weights from the rows' own standard deviations ({} of {} training rows, RMS {:.4} mm): 1/(floor² + s²) with the floor {:.4} mm the data add \
+             (robust residual sd {:.4} mm); largest / smallest weight {:.2}",
+            w.rows_with_std, w.rows, w.instrument_rms_mm, w.floor_mm, w.residual_sd_mm, w.weight_span
+        );
     }
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     eprintln!(

@@ -264,6 +264,10 @@ pub struct RobustArgs {
     /// data's decimals).
     #[arg(long, allow_negative_numbers = true)]
     pub angle_resolution_deg: Option<f64>,
+    /// Fit with equal weights even where the data give per-row standard deviations (a
+    /// tracker's sx, sy, sz; by default they weight the fit as 1/(floor² + s²)).
+    #[arg(long)]
+    pub ignore_row_std: bool,
 }
 
 impl RobustArgs {

@@ -13,7 +13,9 @@
 //!
 //! The header row must hold `q1`..`qN` (N ≥ 1 joints, numbered without gaps, at most
 //! [`MAX_JOINTS`]) and the reading columns of one instrument (`L`, or `x`, `y`, `z`; a header
-//! with both is refused); `t` (s), `temp` (°C) and `split` (`train`/`test`) are optional. Names are matched case-insensitively with surrounding whitespace ignored; column
+//! with both is refused); `t` (s), `temp` (°C) and `split` (`train`/`test`) are optional, and so
+//! are a tracker's per-row standard deviations `sx, sy, sz` (mm, all three or none; empty on
+//! rows that lack them). Names are matched case-insensitively with surrounding whitespace ignored; column
 //! order is free and other columns are ignored. Blank rows are skipped.
 //!
 //! CSV files may come from spreadsheet exports: the delimiter (`,`, `;` or tab) is detected from
@@ -172,6 +174,10 @@ pub struct Row {
     /// Temperature, °C.
     pub temp_c: Option<f64>,
     pub split: Option<Split>,
+    /// The instrument's own standard deviation of each position coordinate (`sx, sy, sz`, mm)
+    /// where the file gives it: a tracker's per-row uncertainty, which the fit weights by
+    /// (see `calib::weighting`). `None` on rows without it and for a draw-wire.
+    pub std_mm: Option<[f64; 3]>,
 }
 
 impl Row {
@@ -317,7 +323,8 @@ impl Dataset {
         Ok(self.rows.iter().map(|r| r.l_mm().unwrap_or(f64::NAN)).collect())
     }
 
-    /// CSV text with header `q1,..,qN,L,t,temp,split`, one line per row in row order.
+    /// CSV text with header `q1,..,qN,L,t,temp,split` (a tracker's `x,y,z[,rx,ry,rz]`, and
+    /// `sx,sy,sz` when some row has them, in place of `L`), one line per row in row order.
     /// Numbers use `f64`'s `Display` (shortest representation that round-trips exactly), so the
     /// output is deterministic and reloads to identical values; values rounded to `d` decimals
     /// beforehand (as the generator does) are written with at most `d` decimals. Columns `t`,
@@ -326,6 +333,7 @@ impl Dataset {
     pub fn to_csv_string(&self) -> String {
         let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
         let (has_t, has_temp, has_split) = (all(|r| r.t_s.is_some()), all(|r| r.temp_c.is_some()), all(|r| r.split.is_some()));
+        let has_std = self.rows.iter().any(|r| r.std_mm.is_some());
         // The reading columns of the rows' instrument (a row without a reading gets empty
         // cells); a dataset with no rows is written with `L`.
         let reading_names: &[&str] = match self.rows.iter().find(|r| !r.reading_mm.is_empty()) {
@@ -336,6 +344,9 @@ impl Dataset {
 
         let mut names: Vec<String> = (1..=self.n_joints()).map(|j| format!("q{j}")).collect();
         names.extend(reading_names.iter().map(|c| c.to_string()));
+        if has_std {
+            names.extend(STD_COLUMNS.iter().map(|c| c.to_string()));
+        }
         for (present, name) in [(has_t, "t"), (has_temp, "temp"), (has_split, "split")] {
             if present {
                 names.push(name.to_owned());
@@ -354,6 +365,14 @@ impl Dataset {
                 }
                 if let Some(v) = row.reading_mm.get(k) {
                     let _ = write!(out, "{v}");
+                }
+            }
+            if has_std {
+                match row.std_mm {
+                    Some([a, b, c]) => {
+                        let _ = write!(out, ",{a},{b},{c}");
+                    }
+                    None => out.push_str(",,,"),
                 }
             }
             if let (true, Some(t)) = (has_t, row.t_s) {
@@ -525,19 +544,30 @@ enum Column {
     T,
     Temp,
     Split,
+    /// A tracker's per-row standard deviation of position coordinate `k`: [`STD_COLUMNS`]`[k]`.
+    Std(usize),
 }
 
-impl Column {
-    const OTHERS: [Column; 3] = [Column::T, Column::Temp, Column::Split];
+/// The per-row standard deviation columns of a tracker's position (mm), in x, y, z order.
+pub const STD_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
+/// Largest per-row standard deviation (mm) taken for a measurement's: beyond it the column
+/// holds something else.
+pub const MAX_STD_MM: f64 = 100.0;
 
-    /// Slot in [`Layout::pos`]: the three named columns, the reading columns, then the joints.
+impl Column {
+    const OTHERS: [Column; 6] = [Column::T, Column::Temp, Column::Split, Column::Std(0), Column::Std(1), Column::Std(2)];
+    /// Slots of the named columns ([`Self::OTHERS`]) before the reading columns.
+    const NAMED: usize = 6;
+
+    /// Slot in [`Layout::pos`]: the named columns, the reading columns, then the joints.
     fn index(self) -> usize {
         match self {
             Column::T => 0,
             Column::Temp => 1,
             Column::Split => 2,
-            Column::Reading(i) => 3 + i,
-            Column::Q(j) => 3 + reading_names().len() + j,
+            Column::Std(k) => 3 + k,
+            Column::Reading(i) => Self::NAMED + i,
+            Column::Q(j) => Self::NAMED + reading_names().len() + j,
         }
     }
 
@@ -548,6 +578,7 @@ impl Column {
             Column::T => "t".into(),
             Column::Temp => "temp".into(),
             Column::Split => "split".into(),
+            Column::Std(k) => STD_COLUMNS[k].into(),
         }
     }
 
@@ -592,7 +623,7 @@ struct Layout {
 impl Layout {
     fn new(header: &[String], source: &str, require_length: bool, want: Option<Measurement>) -> Result<Layout> {
         let found = || header.join(",");
-        let mut pos = vec![None; 3 + reading_names().len() + MAX_JOINTS];
+        let mut pos = vec![None; Column::NAMED + reading_names().len() + MAX_JOINTS];
         for (i, h) in header.iter().enumerate() {
             if let Some(c) = Column::from_header(h) {
                 if let Some(first) = pos[c.index()] {
@@ -652,6 +683,28 @@ impl Layout {
                 format!("need q1..qN; optional {hint}, t, temp, split")
             };
             return Err(Error::data(source, format!("missing required column(s) {}; header found: {} ({need})", missing.join(", "), found())));
+        }
+        // Per-row standard deviations: all three of a tracker's position, or none.
+        let std_given: Vec<usize> = (0..3).filter(|&k| pos[Column::Std(k).index()].is_some()).collect();
+        if !std_given.is_empty() {
+            if std_given.len() < 3 {
+                let lacking: Vec<&str> = (0..3).filter(|k| !std_given.contains(k)).map(|k| STD_COLUMNS[k]).collect();
+                return Err(Error::data(
+                    source,
+                    format!("line 1: per-row standard deviations need all of sx, sy, sz; missing {}; header found: {}", lacking.join(", "), found()),
+                ));
+            }
+            if let Some(m) = measurement.filter(|m| m.file_lengths() != 3) {
+                return Err(Error::data(
+                    source,
+                    format!(
+                        "line 1: sx, sy, sz are a tracker's per-axis standard deviations; this file holds a {} ({}); header found: {}",
+                        m.def().describe(),
+                        m.def().file_columns().join(", "),
+                        found()
+                    ),
+                ));
+            }
         }
         Ok(Layout { pos, joints, measurement })
     }
@@ -731,6 +784,32 @@ fn split_value(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<
         "train" => Ok(Some(Split::Train)),
         "test" => Ok(Some(Split::Test)),
         _ => Err(cell_error(source, line, Column::Split, format!("unknown split value '{text}' (must be train or test)"))),
+    }
+}
+
+/// A row's `sx, sy, sz` (mm): all three or none (empty cells), each in (0, [`MAX_STD_MM`]].
+fn row_std(layout: &Layout, cells: &Cells, raw: &RawRow, line: usize) -> Result<Option<[f64; 3]>> {
+    if layout.pos[Column::Std(0).index()].is_none() {
+        return Ok(None);
+    }
+    let mut v = [None; 3];
+    for (k, vk) in v.iter_mut().enumerate() {
+        let c = Column::Std(k);
+        *vk = cells.number(layout.cell(raw, c), c, line)?;
+        if let Some(s) = *vk {
+            if !(s > 0.0 && s <= MAX_STD_MM) {
+                let why = format!("standard deviation {} mm is implausible (allowed (0, {MAX_STD_MM}] mm)", crate::error::shown(s));
+                return Err(cell_error(cells.source, line, c, why));
+            }
+        }
+    }
+    match v {
+        [Some(a), Some(b), Some(c)] => Ok(Some([a, b, c])),
+        [None, None, None] => Ok(None),
+        _ => {
+            let k = v.iter().position(Option::is_none).expect("one is empty");
+            Err(cell_error(cells.source, line, Column::Std(k), "empty cell while the row gives other standard deviations (give sx, sy, sz together or none)"))
+        }
     }
 }
 
@@ -817,7 +896,8 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
         if split.is_none() && first_split_missing.is_none() {
             first_split_missing = Some(line);
         }
-        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split });
+        let std_mm = row_std(&layout, &cells, raw, line)?;
+        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.

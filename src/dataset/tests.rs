@@ -25,7 +25,7 @@ fn assert_contains(msg: &str, parts: &[&str]) {
 }
 
 fn row(q: [f64; 6], l: f64) -> Row {
-    Row { q_deg: q.to_vec(), reading_mm: vec![l], t_s: None, temp_c: None, split: None }
+    Row { q_deg: q.to_vec(), reading_mm: vec![l], t_s: None, temp_c: None, split: None, std_mm: None }
 }
 
 fn real_data_dir() -> PathBuf {
@@ -39,13 +39,14 @@ fn round_trip_is_exact() {
     let awkward = [0.1 + 0.2, -1.0 / 3.0, 719.999_999_999_999_9, 1e-300, -0.0, 123.456_789_012_345_68];
     let ds = Dataset {
         rows: vec![
-            Row { q_deg: awkward.to_vec(), reading_mm: vec![350.07], t_s: Some(0.0), temp_c: Some(21.5), split: Some(Split::Train) },
+            Row { q_deg: awkward.to_vec(), reading_mm: vec![350.07], t_s: Some(0.0), temp_c: Some(21.5), split: Some(Split::Train), std_mm: None },
             Row {
                 q_deg: vec![1.405, -74.025, 220.99, -166.357, 41.989, 65.122],
                 reading_mm: vec![std::f64::consts::PI * 100.0],
                 t_s: Some(0.1 + 0.2),
                 temp_c: Some(-3.25e-7),
                 split: Some(Split::Test),
+                std_mm: None,
             },
         ],
         source: "mem".into(),
@@ -819,4 +820,34 @@ fn tracker_columns_are_checked_like_lengths() {
     assert_contains(&err("q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3,4,5,6,400,1e6,600\n"), &["line 2, column y", "implausible"]);
     // Without readings the hint names both instruments.
     assert_contains(&err("q1,q2,q3,q4,q5,q6\n1,2,3,4,5,6\n"), &["missing required column(s) L", "x, y, z (laser-tracker target position)"]);
+}
+
+#[test]
+fn per_row_standard_deviations_are_read_checked_and_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("s.csv");
+    let head = "q1,q2,q3,q4,q5,q6,x,y,z,sx,sy,sz\n";
+    std::fs::write(&f, format!("{head}1,2,3,4,5,6,1000,200,300,0.01,0.02,0.03\n1,2,3,4,5,7,1000,200,301,,,\n")).unwrap();
+    let ds = Dataset::load(&f).unwrap();
+    assert_eq!(ds.rows[0].std_mm, Some([0.01, 0.02, 0.03]));
+    assert_eq!(ds.rows[1].std_mm, None);
+    // Written back as read.
+    let g = dir.path().join("g.csv");
+    ds.write_csv(&g).unwrap();
+    assert_eq!(Dataset::load(&g).unwrap().rows, ds.rows);
+    assert!(std::fs::read_to_string(&g).unwrap().starts_with("q1,q2,q3,q4,q5,q6,x,y,z,sx,sy,sz\n"));
+    let bad = |text: &str| {
+        std::fs::write(&f, text).unwrap();
+        Dataset::load(&f).unwrap_err().to_string()
+    };
+    let e = bad("q1,q2,q3,q4,q5,q6,x,y,z,sx,sy\n1,2,3,4,5,6,1000,200,300,0.01,0.02\n");
+    assert!(e.contains("need all of sx, sy, sz; missing sz"), "{e}");
+    let e = bad(&format!("{head}1,2,3,4,5,6,1000,200,300,0.01,-0.02,0.03\n"));
+    assert!(e.contains("line 2, column sy") && e.contains("implausible"), "{e}");
+    let e = bad(&format!("{head}1,2,3,4,5,6,1000,200,300,0.01,,0.03\n"));
+    assert!(e.contains("line 2, column sy") && e.contains("together"), "{e}");
+    let e = bad(&format!("{head}1,2,3,4,5,6,1000,200,300,0.01,NaN,0.03\n"));
+    assert!(e.contains("column sy") && e.contains("NaN"), "{e}");
+    let e = bad("q1,q2,q3,q4,q5,q6,L,sx,sy,sz\n1,2,3,4,5,6,1000,0.01,0.02,0.03\n");
+    assert!(e.contains("tracker's per-axis standard deviations"), "{e}");
 }

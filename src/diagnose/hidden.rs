@@ -92,6 +92,7 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
             t_s: Some(*ti),
             temp_c: Some(th.ambient_c + th.delta_t(*ti)),
             split: None,
+            std_mm: None,
         })
         .collect();
     Ok(Dataset { rows, source: s.name.clone() })

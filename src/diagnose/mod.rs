@@ -1015,7 +1015,14 @@ mod tests {
         let rows = (0..20)
             .map(|i| {
                 let a = i as f64;
-                Row { q_deg: vec![a, -a, 2.0 * a, 0.5 * a, 10.0 - a, a], reading_mm: vec![500.0 + a], t_s: Some(10.0 * a), temp_c: None, split: None }
+                Row {
+                    q_deg: vec![a, -a, 2.0 * a, 0.5 * a, 10.0 - a, a],
+                    reading_mm: vec![500.0 + a],
+                    t_s: Some(10.0 * a),
+                    temp_c: None,
+                    split: None,
+                    std_mm: None,
+                }
             })
             .collect();
         Dataset { rows, source: "test".into() }

@@ -164,6 +164,19 @@ impl Measurement {
         v
     }
 
+    /// A row's dataset columns (mm, and a pose's angles in degrees in the convention `euler`)
+    /// of the model's values `v` (mm): the inverse of [`Self::values_of_file`] (a pose's axes
+    /// made orthonormal first; NaN angles when they are degenerate).
+    pub fn file_of_values(self, v: &[f64], euler: Euler) -> Vec<f64> {
+        match self {
+            Measurement::Pose => {
+                let angles = pose::reading_rotation(v).map_or([f64::NAN; 3], |r| euler.angles(&r).map(f64::to_degrees));
+                v[..3].iter().copied().chain(angles).collect()
+            }
+            _ => v.to_vec(),
+        }
+    }
+
     /// The number of value groups ([`Instrument::value_groups`]): 1 when the values are alike.
     pub fn n_value_groups(self) -> usize {
         self.def().value_groups().iter().max().map_or(1, |g| g + 1)

@@ -115,6 +115,42 @@ impl Euler {
     }
 }
 
+impl Euler {
+    /// The angles (rad) of rotation `m` in this convention: the inverse of [`Self::matrix`],
+    /// the middle angle in [−90°, 90°] (three different axes) or [0°, 180°] (the first axis
+    /// repeated, as `ZYZ`); in gimbal lock the third angle is taken as 0.
+    pub fn angles(&self, m: &Matrix3<f64>) -> [f64; 3] {
+        // An extrinsic convention is the intrinsic one of the reversed axes, angles reversed.
+        if !self.intrinsic {
+            let rev = Euler { axes: [self.axes[2], self.axes[1], self.axes[0]], intrinsic: true };
+            let [a, b, c] = rev.angles(m);
+            return [c, b, a];
+        }
+        let [i, j, third] = self.axes;
+        // k: the axis neither i nor j; s: +1 when (i, j, k) is a cyclic order of (x, y, z).
+        let k = 3 - i - j;
+        let s = if (j + 3 - i) % 3 == 1 { 1.0 } else { -1.0 };
+        let locked = |v: f64| v.abs() > 1.0 - 1e-12;
+        if third != i {
+            let sb = (s * m[(i, k)]).clamp(-1.0, 1.0);
+            let b = sb.asin();
+            if locked(sb) {
+                return [(s * m[(k, j)]).atan2(m[(j, j)]), b, 0.0];
+            }
+            [(-s * m[(j, k)]).atan2(m[(k, k)]), b, (-s * m[(i, j)]).atan2(m[(i, i)])]
+        } else {
+            let cb = m[(i, i)].clamp(-1.0, 1.0);
+            let b = cb.acos();
+            if locked(cb) {
+                // b = 0 turns by a + c about i, b = 180° by a − c.
+                let t = if cb > 0.0 { -s } else { s };
+                return [(t * m[(j, k)]).atan2(m[(j, j)]), b, 0.0];
+            }
+            [m[(j, i)].atan2(-s * m[(k, i)]), b, m[(i, j)].atan2(s * m[(i, k)])]
+        }
+    }
+}
+
 impl TryFrom<String> for Euler {
     type Error = String;
     fn try_from(s: String) -> Result<Self, String> {
@@ -315,6 +351,34 @@ impl Instrument for Pose {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn euler_angles_invert_every_convention() {
+        use super::*;
+        let mut n = 0;
+        for name in ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX", "XYX", "XZX", "YXY", "YZY", "ZXZ", "ZYZ"] {
+            for e in [Euler::parse(name).unwrap(), Euler::parse(&name.to_lowercase()).unwrap()] {
+                let proper = e.axes[0] == e.axes[2];
+                for a in [[0.3f64, 0.7, -1.2], [-2.9, -1.1, 2.5], [1.0, 0.0, 0.5], [0.4, 0.6, 0.0]] {
+                    // The middle angle in the convention's range; also at gimbal lock.
+                    let mids = if proper { [a[1].abs(), 0.0, std::f64::consts::PI] } else { [a[1], std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2] };
+                    for b in mids {
+                        let m = e.matrix([a[0], b, a[2]]);
+                        let back = e.angles(&m);
+                        assert!((e.matrix(back) - m).norm() < 1e-9, "{name} {:?}: {a:?} b {b} -> {back:?}", e.intrinsic);
+                        if b.abs() < 1.5 && b > 0.1 {
+                            assert!((back[1] - b).abs() < 1e-12 && (back[0] - a[0]).abs() < 1e-9, "{} {a:?} -> {back:?}", e.name());
+                        }
+                        n += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(n, 12 * 2 * 4 * 3);
+        // Intrinsic XYZ as the readers take it.
+        let m = Euler::XYZ.matrix([0.1, -0.2, 0.3]);
+        assert_eq!(Euler::XYZ.angles(&m), xyz_angles(&m));
+    }
+
     use super::*;
 
     #[test]

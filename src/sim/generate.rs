@@ -17,6 +17,8 @@ use std::collections::BTreeMap;
 
 /// Decimals of the time column (ms).
 pub const T_DECIMALS: usize = 3;
+/// Decimals of a written per-row standard deviation (`sx, sy, sz`), mm: 1 nm.
+pub const STD_DECIMALS: usize = 6;
 /// Decimals of the temperature column (mK).
 pub const TEMP_DECIMALS: usize = 3;
 
@@ -505,6 +507,10 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
             t_s: Some(round_decimals(times[i], T_DECIMALS)),
             temp_c: temp,
             split: Some(split[i]),
+            std_mm: match (&s.tracker, point) {
+                (Some(tr), Some((_, _, sd))) if tr.write_std => Some([round_decimals(sd, STD_DECIMALS); 3]),
+                _ => None,
+            },
         });
         truth_poses.push(PoseTruth {
             index: i,

@@ -55,6 +55,10 @@ pub struct Tracker {
     /// Decimals of a written angle, degrees (a 6-D probe).
     #[serde(default = "Tracker::default_angle_decimals", skip_serializing_if = "is_default_angle_decimals")]
     pub angle_decimals: usize,
+    /// Write each row's standard deviation of a coordinate (the noise above, averaged over the
+    /// samples: what a tracker logs beside its point) as the dataset's `sx, sy, sz`, mm.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub write_std: bool,
 }
 
 fn is_zero(v: &f64) -> bool {
