@@ -1247,7 +1247,9 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
     let cov = covariance(&fit, &x, fixed);
     let (parameters, _) = parameter_reports(&model, x0, &x, fixed, cov.as_ref(), None, None);
     let empty = Samples::new(Vec::new(), Vec::new());
-    let metrics = metrics_stage(&fit, &ReadingFit { model: &model, data: &empty }, x0, &x, None);
+    // The metrics in mm, unweighted (the covariance is the weighted fit's).
+    let plain = rows.unweighted();
+    let metrics = metrics_stage(&ReadingFit { model: &model, data: &plain }, &ReadingFit { model: &model, data: &empty }, x0, &x, None);
     data.require_readings()?;
     let repeatability = reading_repeatability(data);
     let noise_floor = floor_stage(&model, &x, data, rows, angle_step_deg, repeatability.as_ref());

@@ -48,6 +48,10 @@ pub struct DiagnoseArgs {
     /// data's decimals).
     #[arg(long, allow_negative_numbers = true)]
     pub angle_resolution_deg: Option<f64>,
+    /// Fit with equal weights even where the data give per-row standard deviations (a
+    /// tracker's sx, sy, sz; by default they weight the fits as 1/(floor² + s²)).
+    #[arg(long)]
+    pub ignore_row_std: bool,
 }
 
 /// `twincal diagnose`: report.json, the extended model (a calibration result) and optionally a
@@ -81,6 +85,7 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     opts.folds = a.folds;
     opts.alpha = a.alpha;
     opts.seed = a.seed;
+    opts.row_std = !a.ignore_row_std;
     opts.candidates = parse_effects("--candidates", &a.candidates)?;
     if let Some(r) = a.angle_resolution_deg {
         if !(r.is_finite() && r > 0.0 && r <= 10.0) {

@@ -66,6 +66,9 @@ pub struct DiagnoseOptions {
     pub min_size_sigmas: f64,
     /// Logging step of the joint angles, degrees (default: from the data's decimals).
     pub angle_step_deg: Option<f64>,
+    /// Weight the fits by the rows' own standard deviations where the data give them
+    /// ([`crate::calib::weighting`]).
+    pub row_std: bool,
 }
 
 /// Default cross-validation folds of a diagnosis.
@@ -101,6 +104,7 @@ impl DiagnoseOptions {
             confirm_fraction: DEFAULT_CONFIRM_FRACTION,
             min_size_sigmas: DEFAULT_MIN_SIZE_SIGMAS,
             angle_step_deg: None,
+            row_std: true,
         }
     }
     /// The calibration whose stages the diagnosis starts from: the geometric model with its
@@ -114,6 +118,7 @@ impl DiagnoseOptions {
         o.outlier_k = 0.0;
         o.inertial = self.inertial.clone();
         o.loads = self.loads.clone();
+        o.row_std = self.row_std;
         o
     }
 }
@@ -375,7 +380,8 @@ impl Ctx {
                 let train: Vec<usize> = (0..self.data.len()).filter(|i| !fold.contains(i)).collect();
                 let tr = self.data.subset(&train);
                 let xf = Self::lm().minimize(&ReadingFit { model, data: &tr }, x, fixed, &mut NoObserver).x;
-                ReadingFit { model, data: &self.data.subset(fold) }.residuals_mm(&xf)
+                // Judged in mm, unweighted (the rows' weights serve the fit).
+                ReadingFit { model, data: &self.data.subset(fold).unweighted() }.residuals_mm(&xf)
             })
             .collect();
         scatter(folds, per_fold, self.data.len(), self.data.dim)
@@ -711,7 +717,7 @@ fn diagnose_screened(
     } else {
         ("blocked", format!("blocked and interleaved held-out RMSE of the geometric model agree ({rmse_blocked:.4} / {rmse_interleaved:.4} mm): time-dependent effects must extrapolate across blocks"))
     };
-    let base_in = ReadingFit { model: &baseline.model, data: &ctx.data }.residuals_mm(&baseline.x);
+    let base_in = ReadingFit { model: &baseline.model, data: &ctx.data.unweighted() }.residuals_mm(&baseline.x);
     let evidence = evidence(&ctx.data, &base_in, has_torques, base.measurement.def().columns());
     progress(&format!(
         "geometric baseline: held-out RMSE {rmse_blocked:.4} mm (blocked folds), {rmse_interleaved:.4} mm (interleaved); judged on {judged_on} folds"
@@ -775,9 +781,10 @@ fn diagnose_screened(
     // Confirmation: each cause's model, fitted on the selection rows, must predict the
     // confirmation rows better than the model before it. The first cause that does not ends
     // the list (it and what came after are reported as unconfirmed).
+    let confirmation_mm = confirmation.unweighted();
     let conf_rmse: Vec<f64> = chain
         .iter()
-        .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&ReadingFit { model: &f.model, data: &confirmation }.residuals_mm(&f.x)) })
+        .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&ReadingFit { model: &f.model, data: &confirmation_mm }.residuals_mm(&f.x)) })
         .collect();
     let confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
     let unconfirmed: Vec<String> = found[confirmed..].iter().map(|f| f.0.label()).collect();
@@ -822,7 +829,7 @@ fn diagnose_screened(
     let final_id = identify(&fit, &current.x, opts.rank_tol);
     let final_x = Ctx::lm().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
     let cov = covariance(&fit, &final_x, &final_id.fixed_mask);
-    let final_train_rmse_mm = rms(&fit.residuals_mm(&final_x));
+    let final_train_rmse_mm = rms(&ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&final_x));
     let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
     let warnings: Vec<String> = fold_warning.into_iter().chain(unphysical_causes(&current.model, &final_x, &kept_blocks)).collect();
     let mut causes = Vec::new();
@@ -958,7 +965,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
     let rbf_fit = |rows: &[usize], model: &CalibModel, x: &[f64]| -> Option<(Vec<f64>, Vec<RbfNetwork>)> {
         let tr = ctx.data.subset(rows);
         let xf = refit(model, &tr, x, ctx.rank_tol).0;
-        let res = ReadingFit { model, data: &tr }.residuals_mm(&xf);
+        let res = ReadingFit { model, data: &tr.unweighted() }.residuals_mm(&xf);
         let columns: Vec<Vec<f64>> = (0..d).map(|c| crate::calib::stats::value_column(&res, d, c)).collect();
         let columns: Vec<&[f64]> = columns.iter().map(Vec::as_slice).collect();
         let nets = RbfNetwork::fit_cv_many(&tr.q, &columns, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed)
@@ -978,7 +985,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
         .map(|fold| {
             let train: Vec<usize> = (0..n).filter(|i| !fold.contains(i)).collect();
             let (xf, nets) = rbf_fit(&train, &geo.model, &geo.x)?;
-            Some(corrected(&ctx.data.subset(fold), &geo.model, &xf, &nets))
+            Some(corrected(&ctx.data.subset(fold).unweighted(), &geo.model, &xf, &nets))
         })
         .collect();
     let rbf_oof = scatter(&ctx.folds, per_fold.into_iter().collect::<Option<Vec<_>>>()?, n, d);
@@ -991,7 +998,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
     if train.len() < 20 || test.len() < 5 {
         return None;
     }
-    let te = ctx.data.subset(&test);
+    let te = ctx.data.subset(&test).unweighted();
     // The geometric fit on the training part serves both the geometric model and the RBF.
     let (xg, nets) = rbf_fit(&train, &geo.model, &geo.x)?;
     let r = ReadingFit { model: &geo.model, data: &te }.residuals_mm(&xg);
