@@ -37,6 +37,9 @@ enum Command {
     /// From measured data: what the geometric model gets wrong, which effect causes it, how big
     /// it is and how much better the extended model predicts unseen rows.
     Diagnose(commands::DiagnoseArgs),
+    /// The twin driven through a measured acquisition: per row its reading beside the measured
+    /// one, and how far apart they are (what the simulation gets wrong).
+    Replay(commands::ReplayArgs),
     /// Predict readings (cable lengths or tracker points) with a calibrated model.
     Predict {
         /// A result.json written by `calibrate`.
@@ -131,6 +134,7 @@ fn main() -> ExitCode {
         Command::Diagnose(a) => commands::diagnose(&a, args.quiet),
         Command::Predict { model, data, angles, reading, out } => commands::predict(&model, &data, angles, &reading, &out, args.quiet),
         Command::Compare(a) => commands::compare(&a, args.quiet),
+        Command::Replay(a) => commands::replay(&a, args.quiet),
         Command::Ik(a) => twincal::commands::ik::ik(&a, args.quiet),
         Command::Study { what, scenario, holds, speeds, poses, rrd } => commands::study(
             what,

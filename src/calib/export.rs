@@ -10,8 +10,20 @@ use nalgebra::{Rotation3, Vector3};
 use std::fmt::Write;
 
 fn origin(f: &Frame) -> String {
-    let (r, p, y) = Rotation3::from_matrix_unchecked(f.rot).euler_angles();
+    let [r, p, y] = rpy(&f.rot);
     format!("<origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>", f.pos.x, f.pos.y, f.pos.z, r, p, y)
+}
+
+/// URDF roll, pitch, yaw of rotation `m` (m = Rz(yaw)·Ry(pitch)·Rx(roll)), exact to rounding
+/// also at and near gimbal lock (pitch ±90°, where the yaw is taken as 0). nalgebra's
+/// `euler_angles` loses the orientation there (0.05 rad for a pitch 1.5e-8 rad off the lock).
+fn rpy(m: &nalgebra::Matrix3<f64>) -> [f64; 3] {
+    // The yaw first (0 at lock), then pitch and roll from Rz(−yaw)·m = Ry(pitch)·Rx(roll), whose
+    // first column is (cos p, 0, −sin p) and second row (0, cos r, −sin r) whatever the yaw's
+    // rounding: the three angles then compose back to m.
+    let y = if m[(0, 0)].hypot(m[(1, 0)]) > 1e-12 { m[(1, 0)].atan2(m[(0, 0)]) } else { 0.0 };
+    let n = Rotation3::from_axis_angle(&Vector3::z_axis(), -y).into_inner() * m;
+    [(-n[(1, 2)]).atan2(n[(1, 1)]), (-n[(2, 0)]).atan2(n[(0, 0)]), y]
 }
 
 /// Link frames of a chain at zero joint angles: the frame right after each joint rotation.
@@ -116,6 +128,17 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rpy_is_exact_at_and_near_gimbal_lock() {
+        let half = std::f64::consts::FRAC_PI_2;
+        for (r, p, y) in [(0.3, 0.2, -1.1), (2.498, -half + 1.5e-8, 0.588), (0.7, half, 0.0), (-0.4, -half, 1.3), (1.0, half - 1e-13, -2.0)] {
+            let m = Rotation3::from_euler_angles(r, p, y).into_inner();
+            let [a, b, c] = rpy(&m);
+            let back = Rotation3::from_euler_angles(a, b, c).into_inner();
+            assert!((back - m).norm() < 1e-12, "({r}, {p}, {y}) -> ({a}, {b}, {c}): {:.3e}", (back - m).norm());
+        }
+    }
     use crate::calib::model::SensorGuess;
 
     #[test]

@@ -27,4 +27,5 @@ pub mod run;
 pub mod stats;
 pub mod tolerance;
 pub mod truth;
+pub mod twin_out;
 pub mod weighting;

@@ -115,6 +115,8 @@ pub struct CalibOptions {
     /// Weight the fit by the rows' own standard deviations where the data give them (a
     /// tracker's `sx, sy, sz`; [`super::weighting`]).
     pub row_std: bool,
+    /// Fit the instrument's placement only, everything else held at its nominal value.
+    pub placement_only: bool,
 }
 
 impl CalibOptions {
@@ -134,6 +136,7 @@ impl CalibOptions {
             outlier_k: DEFAULT_OUTLIER_K,
             reading_steps: true,
             row_std: true,
+            placement_only: false,
             loss: Loss::L2,
             angle_step_deg: None,
         }
@@ -1085,7 +1088,11 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     }
     let x0 = model.nominal.clone();
     let fit = ReadingFit { model: &model, data: &split.train };
-    let fixed = id.fixed_mask.clone();
+    let mut fixed = id.fixed_mask.clone();
+    if opts.placement_only {
+        let free = model.placement_range();
+        fixed.iter_mut().enumerate().filter(|(k, _)| !free.contains(k)).for_each(|(_, f)| *f = true);
+    }
     let n_free = fixed.iter().filter(|f| !**f).count();
     // Counted in reading values: a configuration a tracker reads gives three.
     let dim = split.train.dim.max(1);

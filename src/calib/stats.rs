@@ -440,3 +440,65 @@ mod f_tests {
         assert_eq!(nested_f_test(1.0, 1.0, 1, 10), 1.0);
     }
 }
+
+/// Two-sample Kolmogorov–Smirnov test: the largest distance D between the empirical
+/// distribution functions of `a` and `b` (non-finite values left out), and the asymptotic
+/// p-value of D under "both come from one distribution" (Stephens' small-sample correction of
+/// the Kolmogorov distribution). `(NaN, NaN)` when either sample is empty.
+pub fn ks_two_sample(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let sorted = |v: &[f64]| {
+        let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+        s.sort_by(f64::total_cmp);
+        s
+    };
+    let (a, b) = (sorted(a), sorted(b));
+    if a.is_empty() || b.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let (n, m) = (a.len() as f64, b.len() as f64);
+    let (mut i, mut j, mut d) = (0, 0, 0.0_f64);
+    while i < a.len() && j < b.len() {
+        let x = a[i].min(b[j]);
+        while i < a.len() && a[i] <= x {
+            i += 1;
+        }
+        while j < b.len() && b[j] <= x {
+            j += 1;
+        }
+        d = d.max((i as f64 / n - j as f64 / m).abs());
+    }
+    let ne = n * m / (n + m);
+    let lambda = (ne.sqrt() + 0.12 + 0.11 / ne.sqrt()) * d;
+    // Q_KS(λ) = 2 Σ (−1)^(k−1) exp(−2 k² λ²); 1 for small λ.
+    let p = if lambda < 0.2 {
+        1.0
+    } else {
+        let s: f64 = (1..=100).map(|k| (if k % 2 == 1 { 1.0 } else { -1.0 }) * (-2.0 * (k * k) as f64 * lambda * lambda).exp()).sum();
+        (2.0 * s).clamp(0.0, 1.0)
+    };
+    (d, p)
+}
+
+#[cfg(test)]
+mod ks_tests {
+    #[test]
+    fn ks_tells_a_shifted_sample_from_a_like_one() {
+        // Deterministic quasi-normal samples (inverse CDF by Box–Muller on a lattice).
+        let normal = |n: usize, off: f64, phase: f64| -> Vec<f64> {
+            (0..n)
+                .map(|k| {
+                    let u = ((k as f64 + 0.5) / n as f64 + phase).fract().max(1e-9);
+                    let v = ((k as f64 * 0.618_034 + phase) % 1.0).max(1e-9);
+                    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos() + off
+                })
+                .collect()
+        };
+        let (a, b) = (normal(400, 0.0, 0.0), normal(500, 0.0, 0.37));
+        let (d, p) = super::ks_two_sample(&a, &b);
+        assert!(d < 0.1 && p > 0.05, "like samples: D {d}, p {p}");
+        let (d, p) = super::ks_two_sample(&a, &normal(500, 0.5, 0.37));
+        assert!(d > 0.15 && p < 1e-4, "shifted by half a sd: D {d}, p {p}");
+        assert_eq!(super::ks_two_sample(&a, &a).0, 0.0);
+        assert!(super::ks_two_sample(&[], &a).0.is_nan());
+    }
+}

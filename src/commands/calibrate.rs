@@ -60,6 +60,15 @@ pub struct CalibrateArgs {
     pub loads: LoadArgs,
     #[command(flatten)]
     pub robust: RobustArgs,
+    /// Also write the identified twin: a scenario (and, beside it, the calibrated URDF it names)
+    /// whose geometry, instrument placement, effect sizes, noise and logging resolutions are the
+    /// identified ones, so that `generate` and `replay` simulate this robot.
+    #[arg(long)]
+    pub scenario_out: Option<PathBuf>,
+    /// Fit the instrument's placement only, the arm held at its nominal model: with
+    /// --scenario-out, the nominal twin of a set-up whose instrument was not surveyed.
+    #[arg(long)]
+    pub placement_only: bool,
 }
 
 /// `twincal calibrate`. Its outputs (`--out`, `--urdf`, `--rrd`) appear together or not at all.
@@ -101,6 +110,9 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
     outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
     outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+    let twin_urdf = a.scenario_out.as_deref().map(scenario_urdf_path);
+    outs.extend(a.scenario_out.as_deref().map(|p| ("--scenario-out", p)));
+    outs.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
     check_outputs(&inputs, &outs)?;
     let limits = [Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm }, Limit { flag: "--max-test-max-mm", value: a.max_test_max_mm }];
     for l in &limits {
@@ -122,6 +134,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
     opts.row_std = !a.robust.ignore_row_std;
     opts.reading_steps = !a.robust.no_reading_steps;
+    opts.placement_only = a.placement_only;
     let mut result = run(&data, truth.as_ref(), &opts)?;
     // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
     let file = &data_inputs(&a.data)[0];
@@ -144,10 +157,17 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
         };
         outputs.write(p, crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
     }
+    if let Some(p) = &a.scenario_out {
+        let how = if a.placement_only { "calibrate --placement-only" } else { "calibrate" };
+        stage_identified_twin(&mut outputs, p, &result, &data, spec.robot(), how)?;
+    }
     outputs.write_json(&a.out, &with_verdict(&result, verdict.as_ref())?)?;
     outputs.commit()?;
     if !quiet {
         print_summary(&result);
+        if let Some(p) = &a.scenario_out {
+            eprintln!("  identified twin: {} (robot {})", p.display(), scenario_urdf_path(p).display());
+        }
     }
     print_verdict(verdict.as_ref(), &a.out);
     for w in calibration_warnings(&result) {

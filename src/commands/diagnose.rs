@@ -52,6 +52,15 @@ pub struct DiagnoseArgs {
     /// tracker's sx, sy, sz; by default they weight the fits as 1/(floor² + s²)).
     #[arg(long)]
     pub ignore_row_std: bool,
+    /// Diagnose on the other rows only: hold out this fraction of the rows (the split
+    /// `calibrate --test-fraction` draws with the same --seed), never seen, so that `replay`
+    /// can measure the identified twin on them.
+    #[arg(long, allow_negative_numbers = true)]
+    pub test_fraction: Option<f64>,
+    /// Also write the identified twin (scenario and URDF, see `calibrate --scenario-out`),
+    /// with the named causes at their sizes.
+    #[arg(long)]
+    pub scenario_out: Option<PathBuf>,
 }
 
 /// `twincal diagnose`: report.json, the extended model (a calibration result) and optionally a
@@ -70,14 +79,28 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
     outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
     outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+    let twin_urdf = a.scenario_out.as_deref().map(scenario_urdf_path);
+    outs.extend(a.scenario_out.as_deref().map(|p| ("--scenario-out", p)));
+    outs.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
     check_outputs(&inputs, &outs)?;
+    if let Some(f) = a.test_fraction {
+        if !(f > 0.0 && f < 1.0) {
+            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
+        }
+    }
     let limit = Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm };
     limit.validate()?;
     if !(a.alpha > 0.0 && a.alpha < 0.5) {
         return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
     }
     let spec = a.model.spec()?;
-    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    let mut data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    if let Some(f) = a.test_fraction {
+        // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
+        let (train, _) = crate::calib::run::split_rows(&data, Some(f), a.seed)?;
+        let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
+        data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
+    }
     let mut opts = DiagnoseOptions::new(spec);
     let (loads, inertial) = a.loads.resolve()?;
     opts.loads = loads;
@@ -107,6 +130,9 @@ pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     }
     if let (Some(p), Some(f)) = (&a.report, &figures) {
         outputs.write(p, crate::report::html::diagnosis_page(&report, f, verdict.as_ref()).as_bytes())?;
+    }
+    if let Some(p) = &a.scenario_out {
+        stage_identified_twin(&mut outputs, p, &result, &data, opts.model.robot(), "diagnose")?;
     }
     outputs.write_json(&a.out, &with_verdict(&report, verdict.as_ref())?)?;
     outputs.write_json(&a.result, &result)?;

@@ -8,6 +8,7 @@ mod diagnose;
 mod generate;
 pub mod ik;
 mod predict;
+mod replay;
 mod study;
 #[cfg(test)]
 mod tests;
@@ -19,6 +20,7 @@ pub use compare::{compare, CompareArgs, CompareRun};
 pub use diagnose::{diagnose, DiagnoseArgs};
 pub use generate::generate;
 pub use predict::{predict, prediction_csv};
+pub use replay::{replay, ReplayArgs};
 pub use study::{study, StudyTarget};
 
 use crate::dataset::Dataset;
@@ -370,4 +372,24 @@ const MAX_BOUND_RATIO: f64 = 10.0;
 /// Loads a calibrated model (result.json); its errors are labelled `model PATH`.
 fn load_model(path: &Path) -> Result<crate::calib::run::CalibResult> {
     crate::calib::run::CalibResult::load(path)
+}
+
+/// The URDF `--scenario-out FILE` writes beside the scenario (FILE with extension `.urdf`).
+pub fn scenario_urdf_path(p: &Path) -> PathBuf {
+    p.with_extension("urdf")
+}
+
+/// Stages the identified twin of `result` (see [`crate::calib::twin_out`]): the scenario at
+/// `path` and its URDF beside it.
+pub fn stage_identified_twin(
+    outputs: &mut OutputSet,
+    path: &Path,
+    result: &crate::calib::run::CalibResult,
+    data: &Dataset,
+    nominal: Option<&crate::robot::Robot>,
+    how: &str,
+) -> Result<()> {
+    let twin = crate::calib::twin_out::identified_scenario(result, data, nominal, path, how)?;
+    outputs.write(&scenario_urdf_path(path), twin.urdf.as_bytes())?;
+    outputs.write(path, twin.toml.as_bytes())
 }

@@ -403,14 +403,22 @@ pub fn acquire_all(s: &Scenario, twin: &Twin, poses: &[Vec<f64>], sides: &[Vec<f
 /// Runs a scenario end to end. Poses are simulated in parallel; results do not depend on the
 /// number of threads.
 pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<Generated> {
-    let twin = build_twin(s, robot);
     let poses = sample_poses(s, robot)?;
+    generate_at(s, robot, poses, None, progress)
+}
+
+/// [`generate`] at given commanded poses (rad, in acquisition order) instead of the scenario's
+/// sampled ones, read at the given times (s) where there are some (a replay of a measured
+/// acquisition, see `twincal replay`), else at the scenario's acquisition times.
+pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_times: Option<Vec<f64>>, progress: &dyn Progress) -> Result<Generated> {
+    let twin = build_twin(s, robot);
     let home = vec![0.0; robot.dof()];
     let schedule = (s.acquisition.model == AcquisitionModel::Simulated)
         .then(|| Schedule::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s, s.sensor.window_s(), &home, &poses));
-    let times = match &schedule {
-        Some(sc) => sc.read_t.clone(),
-        None => acquisition_times(s, robot, &poses),
+    let times = match (given_times, &schedule) {
+        (Some(t), _) => t,
+        (None, Some(sc)) => sc.read_t.clone(),
+        (None, None) => acquisition_times(s, robot, &poses),
     };
     check_robot_time(s, &times)?;
     let sides = approach_sides(&vec![0.0; robot.dof()], &poses);

@@ -54,6 +54,31 @@ pub struct DrawWire {
     /// Sampling rate, Hz.
     #[serde(default = "DrawWire::default_rate")]
     pub rate_hz: f64,
+    /// A smooth reading error beside the linearity's: Σ c_k·P_k(v), Legendre polynomials
+    /// P2..P4 of v = (l − mid)/half over `range_mm` (what `calibrate --effects nonlinearity`
+    /// identifies; an identified twin carries it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polynomial: Option<ReadingPolynomial>,
+}
+
+/// See [`DrawWire::polynomial`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReadingPolynomial {
+    /// The readings [lo, hi] (mm) that v = −1 and 1 stand for.
+    pub range_mm: [f64; 2],
+    /// c2, c3, c4, mm.
+    pub legendre_mm: [f64; 3],
+}
+
+impl ReadingPolynomial {
+    /// The error at reading `l`, mm.
+    pub fn at(&self, l: f64) -> f64 {
+        let [lo, hi] = self.range_mm;
+        let half = 0.5 * (hi - lo);
+        let (p, _) = crate::calib::effects::legendre((l - 0.5 * (lo + hi)) / half);
+        (0..3).map(|k| self.legendre_mm[k] * p[k]).sum()
+    }
 }
 
 /// A reading the sensor could not give.
@@ -107,6 +132,14 @@ impl DrawWire {
         }
         if self.range_mm[0] >= self.range_mm[1] {
             return Err(format!("sensor.range_mm must be [min, max] with min < max, got {:?}", self.range_mm));
+        }
+        if let Some(p) = &self.polynomial {
+            if !(p.range_mm.iter().all(|v| v.is_finite()) && p.range_mm[0] < p.range_mm[1]) {
+                return Err(format!("sensor.polynomial.range_mm must be [lo, hi] with lo < hi, got {:?}", p.range_mm));
+            }
+            if !p.legendre_mm.iter().all(|c| c.is_finite() && c.abs() <= 100.0) {
+                return Err(format!("sensor.polynomial.legendre_mm must be finite and at most 100 mm each, got {:?}", p.legendre_mm));
+            }
         }
         let width = self.range_mm[1] - self.range_mm[0];
         let limit = MAX_FRACTION_OF_RANGE * width;
@@ -190,7 +223,11 @@ impl DrawWire {
     pub fn linearity_error(&self, l: f64) -> f64 {
         let fs = self.range_mm[1] - self.range_mm[0];
         let u = ((l - self.range_mm[0]) / fs).clamp(0.0, 1.0);
-        self.linearity_pct_fs / 100.0 * fs * (2.0 * std::f64::consts::PI * u).sin()
+        let linearity = self.linearity_pct_fs / 100.0 * fs * (2.0 * std::f64::consts::PI * u).sin();
+        match &self.polynomial {
+            Some(p) => linearity + p.at(l),
+            None => linearity,
+        }
     }
 
     /// One raw sample for a true length `l` (mm): linearity error, noise, quantisation (no range check).

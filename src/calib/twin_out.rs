@@ -1,0 +1,206 @@
+//! The identified twin: a calibrated model (and the effects a diagnosis named) written back as
+//! a twin scenario, so that `generate` and `replay` simulate *that* robot.
+//!
+//! The scenario's robot is the calibrated model exported as a URDF ([`super::export::urdf`],
+//! inertials carried over from the nominal robot), written beside it; its geometric errors are
+//! then zero (they are in the URDF). The instrument's placement, the effect sizes, the reading
+//! noise and the logging resolutions are the identified ones; what the data did not determine
+//! keeps its nominal value, and the scenario's comments say which.
+
+use super::effects::EffectKind;
+use super::run::CalibResult;
+use crate::dataset::Dataset;
+use crate::error::{Error, Result};
+use crate::measurement::Measurement;
+use crate::robot::Robot;
+use crate::sim::instrument::{DrawWire, Tracker};
+use crate::sim::scenario::{Geometry, Order, Sampling, Scenario};
+use crate::sim::twin::tour::{Acquisition, AcquisitionModel};
+use std::path::Path;
+
+/// What [`identified_scenario`] writes: the scenario's TOML text and the URDF it names.
+pub struct IdentifiedTwin {
+    pub scenario: Scenario,
+    pub toml: String,
+    pub urdf: String,
+    /// The URDF's file name, beside the scenario.
+    pub urdf_file: String,
+}
+
+/// Decimals of a logging step (0.1 → 1), when it is a power of ten.
+fn decimals(step: f64) -> Option<usize> {
+    let d = -step.log10();
+    (d >= 0.0 && (d - d.round()).abs() < 1e-6).then_some(d.round() as usize)
+}
+
+/// The twin scenario of calibration result `r` on `data` (the rows it was identified on, in
+/// acquisition order), written as `scenario_path` with its URDF beside it. `nominal` supplies
+/// the inertials (and the joint limits) of a nominal model. `how` names the command that
+/// identified it, for the header comment.
+pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Robot>, scenario_path: &Path, how: &str) -> Result<IdentifiedTwin> {
+    let m = &r.model;
+    if m.measurement == Measurement::Pose {
+        return Err(Error::Invalid(
+            "--scenario-out writes a cable's or a tracker point's twin; a 6-D probe's orientation noise is not identified yet (read the file with --measurement point)".into(),
+        ));
+    }
+    let stem = scenario_path.file_stem().and_then(|s| s.to_str()).unwrap_or("twin").to_string();
+    let urdf_file = format!("{stem}.urdf");
+    let urdf = super::export::urdf(m, &r.x, nominal, &stem);
+    let robot = Robot::from_urdf_str(&urdf, &stem).map_err(|e| Error::Calibration(format!("the exported URDF does not load back: {e}")))?;
+    let n = robot.dof();
+    let mut notes: Vec<String> = vec![
+        format!("Identified twin of {} ({}; {} model, {} rows).", data.source, how, m.name, data.rows.len()),
+        format!("The robot is {urdf_file}: the calibrated geometry (joint zero offsets folded in), the nominal inertials moved into its frames."),
+    ];
+    let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
+    if !fixed.is_empty() {
+        notes.push(format!("Held at their nominal values (not identifiable from these rows, or not fitted): {}.", fixed.join(", ")));
+    }
+
+    // The reading noise: the data's, less what the logging steps already give.
+    let floor = r.noise_floor.as_ref();
+    let part = |name: &str| floor.and_then(|f| f.sources.iter().find(|s| s.source == name)).map_or(0.0, |s| s.rms_mm);
+    let (angle_part, reading_part) = (part("angle_resolution"), part("reading_resolution"));
+    let sigma = (r.noise_estimate_mm.powi(2) - angle_part.powi(2) - reading_part.powi(2)).max(0.0).sqrt();
+    notes.push(format!(
+        "Reading noise {sigma:.4} mm per value: the data's {:.4} mm less the logging steps' share ({angle_part:.4} mm from the angles, {reading_part:.4} mm from the readings), one sample per reading.",
+        r.noise_estimate_mm
+    ));
+    let lengths = m.measurement.file_lengths();
+    let reading_step = crate::calib::floor::logging_step(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
+    let angle_step = crate::calib::floor::logging_step(data.rows.iter().flat_map(|row| row.q_deg.iter().copied()));
+    let logged_decimals = angle_step.and_then(decimals).filter(|d| *d < 6);
+    if let Some(d) = logged_decimals {
+        notes.push(format!("Joint angles logged at {d} decimals of a degree, as the data are."));
+    }
+
+    let p = m.placement(&r.x);
+    let mm = |v: nalgebra::Vector3<f64>| [v.x * 1e3, v.y * 1e3, v.z * 1e3];
+    let tension = r.torque_model.as_ref().and_then(|t| t.cable).map_or(0.0, |c| c.2);
+    let max_reading = data.rows.iter().filter_map(|row| row.reading_mm.first()).fold(0.0_f64, |a, v| a.max(v.abs()));
+    let mut sensor = DrawWire {
+        exit_point_mm: [0.0; 3],
+        tool_point_mm: mm(p.tool),
+        length_offset_mm: 0.0,
+        noise_std_mm: 0.0,
+        resolution_mm: 0.0,
+        linearity_pct_fs: 0.0,
+        range_mm: [0.0, (2.0 * max_reading).max(3000.0)],
+        tension_n: 0.0,
+        hold_s: 2.0,
+        samples: 1,
+        rate_hz: 1000.0,
+        polynomial: None,
+    };
+    let tracker = match p.exit() {
+        Some(exit) => {
+            sensor.exit_point_mm = mm(exit);
+            sensor.length_offset_mm = p.own[3] * 1e3;
+            sensor.noise_std_mm = sigma;
+            sensor.resolution_mm = reading_step.unwrap_or(0.0);
+            sensor.tension_n = tension;
+            None
+        }
+        None => {
+            let o = &p.own;
+            Some(Tracker {
+                translation_mm: [o[0] * 1e3, o[1] * 1e3, o[2] * 1e3],
+                rotation_deg: [o[3].to_degrees(), o[4].to_degrees(), o[5].to_degrees()],
+                noise_um: sigma * 1e3,
+                noise_um_per_m: 0.0,
+                decimals: reading_step.and_then(decimals).unwrap_or(4).min(crate::sim::instrument::tracker::MAX_DECIMALS),
+                probe_rotation_deg: None,
+                orientation_noise_urad: 0.0,
+                angle_decimals: 6,
+                write_std: data.rows.iter().any(|row| row.std_mm.is_some()),
+            })
+        }
+    };
+
+    let mut scenario = Scenario {
+        name: stem.clone(),
+        description: format!("identified twin of {}", data.source),
+        seed: r.seed,
+        robot: urdf_file.clone(),
+        geometry: Geometry::default(),
+        effects: Default::default(),
+        sensor,
+        tracker,
+        sampling: Sampling {
+            poses: data.rows.len().min(crate::sim::scenario::MAX_POSES),
+            test: 0,
+            ranges_deg: Some(ranges(data, &robot)),
+            limit_margin_deg: 0.0,
+            min_tool_z_mm: -1.0e5,
+            speed_fraction: 0.2,
+            order: Order::Halton,
+            angle_decimals: 6,
+            logged_decimals,
+            sweep_length: 20,
+        },
+        simulation: Default::default(),
+        acquisition: Acquisition { model: AcquisitionModel::QuasiStatic, ..Default::default() },
+        glitches: None,
+    };
+    // The effects, each at its identified size.
+    let mut written = Vec::new();
+    for (b, block) in m.effects.iter().enumerate() {
+        let k = m.effect_params(b).start;
+        let label = block.label();
+        match block.kind {
+            EffectKind::JointCompliance | EffectKind::Backlash if r.x[k] > 0.0 => {
+                block.kind.def().hide(&mut scenario, n, block.joint, r.x[k], 0.0);
+                written.push(label);
+            }
+            EffectKind::EncoderEccentricity => {
+                let (a, c) = (r.x[k], r.x[k + 1]);
+                block.kind.def().hide(&mut scenario, n, block.joint, a.hypot(c), c.atan2(a));
+                written.push(label);
+            }
+            EffectKind::JointCompliance | EffectKind::Backlash => {
+                notes.push(format!("{label}: identified as {} (not physical), left out.", r.x[k]));
+            }
+            EffectKind::SensorNonlinearity => match block.range_m {
+                Some([lo, hi]) if m.measurement == Measurement::Length => {
+                    scenario.sensor.polynomial = Some(crate::sim::instrument::drawwire::ReadingPolynomial {
+                        range_mm: [lo * 1e3, hi * 1e3],
+                        legendre_mm: [r.x[k] * 1e3, r.x[k + 1] * 1e3, r.x[k + 2] * 1e3],
+                    });
+                    written.push(label);
+                }
+                _ => notes.push(format!("{label}: identified without its reading range; left out.")),
+            },
+            EffectKind::ThermalDrift => {
+                notes.push(format!("{label}: identified, but the twin does not take it from a calibration yet; left out."));
+            }
+        }
+    }
+    if let Some((mass, com)) = r.torque_model.as_ref().and_then(|t| t.payload) {
+        scenario.effects.payload = Some(crate::sim::effects::Payload { mass_kg: mass, com_mm: com.map(|v| v * 1e3) });
+    }
+    if !written.is_empty() {
+        notes.push(format!("Effects at their identified sizes: {}.", written.join(", ")));
+    }
+    if !r.outliers.is_empty() {
+        notes.push(format!("{} rows the calibration kept out as outliers are not modelled (no [glitches]).", r.outliers.len()));
+    }
+    scenario.validate(&robot, &scenario_path.display().to_string())?;
+    let body = toml::to_string(&scenario).map_err(|e| Error::Invalid(format!("cannot write the scenario: {e}")))?;
+    let header: String = notes.iter().map(|l| format!("# {l}\n")).collect();
+    Ok(IdentifiedTwin { scenario, toml: format!("{header}\n{body}"), urdf, urdf_file })
+}
+
+/// Each joint's range over the data (degrees), widened to at least 1° and kept inside the
+/// robot's limits.
+fn ranges(data: &Dataset, robot: &Robot) -> Vec<[f64; 2]> {
+    (0..robot.dof())
+        .map(|j| {
+            let (lo, hi) = data.rows.iter().map(|r| r.q_deg[j]).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+            let mid = 0.5 * (lo + hi);
+            let half = (0.5 * (hi - lo)).max(0.5);
+            let (l, u) = (robot.joints[j].lower.to_degrees(), robot.joints[j].upper.to_degrees());
+            [(mid - half).max(l), (mid + half).min(u)]
+        })
+        .collect()
+}

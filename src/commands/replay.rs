@@ -1,0 +1,254 @@
+//! `twincal replay`: the twin driven through a measured acquisition, row by row, and what it
+//! reads beside what was measured: the residual field real − twin is what the simulation gets
+//! wrong, before any calibration.
+
+use super::*;
+use crate::calib::metrics::ErrorStats;
+use crate::dataset::Split;
+use crate::measurement::Measurement;
+use serde::Serialize;
+
+/// Arguments of `twincal replay` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// Measured data (dataset folder, CSV or xlsx): q1..qN and the instrument's reading, in
+    /// acquisition order; a `t` column gives the twin the real timing.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Unit of the joint angles in the data.
+    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+    pub angles: AngleArg,
+    #[command(flatten)]
+    pub reading: ReadingArgs,
+    /// The twin: a scenario (the nominal robot's, or one `calibrate`/`diagnose --scenario-out`
+    /// identified). Its instrument must be the data's.
+    #[arg(long)]
+    pub scenario: PathBuf,
+    /// Judge the twin on the rows `calibrate --test-fraction F --seed S` holds out (the rows an
+    /// identification with the same flags never saw); default: the data's split column, else
+    /// every row.
+    #[arg(long, allow_negative_numbers = true)]
+    pub test_fraction: Option<f64>,
+    /// Seed of that split.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
+    pub seed: u64,
+    /// Output folder: replay.csv (per row: measured, twin, twin without noise, residual) and
+    /// replay.json (the summary).
+    #[arg(long, default_value = "replay")]
+    pub out: PathBuf,
+}
+
+/// One set of rows' fidelity.
+#[derive(Clone, Debug, Serialize)]
+pub struct Fidelity {
+    /// Measured − the twin's noise-free reading, per value (mm).
+    pub residual: ErrorStats,
+    /// Position error |Δp| per row of a tracker's point (mm).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position: Option<ErrorStats>,
+    /// Rows with a value beyond the outlier rule (6 robust standard deviations of these
+    /// residuals around their median, as calibrate's screen): glitches no twin reproduces
+    /// row for row.
+    pub outlier_rows: usize,
+    /// The residuals of the other rows.
+    pub inliers: ErrorStats,
+}
+
+/// `replay.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReplaySummary {
+    pub twincal_version: String,
+    pub data: String,
+    pub scenario: String,
+    pub measurement: String,
+    pub rows: usize,
+    pub replayed: usize,
+    /// Rows (1-based) the twin could not read, with the reason.
+    pub rejected: Vec<(usize, String)>,
+    /// Which rows `judged` covers.
+    pub judged_on: String,
+    /// Every replayed row.
+    pub all: Fidelity,
+    /// The rows judged (held out from an identification), when there is a split.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub judged: Option<Fidelity>,
+    /// The twin's own reading noise: its reading − its noise-free reading, RMS per value (mm).
+    pub twin_noise_rms_mm: f64,
+    /// Two-sample Kolmogorov–Smirnov test of the judged rows' residuals (measured − twin
+    /// without noise) against the twin's own noise (its reading − its noise-free reading):
+    /// alike when the twin is right and its noise is the data's.
+    pub ks_distance: f64,
+    pub ks_p_value: f64,
+    pub seconds: f64,
+}
+
+/// The instrument a scenario reads.
+fn scenario_measurement(s: &Scenario) -> Measurement {
+    match &s.tracker {
+        None => Measurement::Length,
+        Some(t) if t.probe_rotation_deg.is_some() => Measurement::Pose,
+        Some(_) => Measurement::Point,
+    }
+}
+
+pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
+    let t0 = Instant::now();
+    if let Some(f) = a.test_fraction {
+        if !(f > 0.0 && f < 1.0) {
+            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
+        }
+    }
+    if a.out.exists() && !a.out.is_dir() {
+        return Err(Error::Invalid(format!("--out {} is a file; replay writes a folder (replay.csv, replay.json)", a.out.display())));
+    }
+    let (csv_path, json_path) = (a.out.join("replay.csv"), a.out.join("replay.json"));
+    let data_files = data_inputs(&a.data);
+    let (mut s, robot) = Scenario::load(&a.scenario)?;
+    let mut inputs: Vec<(&str, PathBuf)> = data_files.iter().map(|p| ("--data", p.clone())).collect();
+    inputs.extend(scenario_inputs(Some(&a.scenario), &s));
+    check_outputs(&inputs, &[("--out", csv_path.as_path()), ("--out", json_path.as_path())])?;
+    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings to replay against"))?;
+    let twin_m = scenario_measurement(&s);
+    if m != twin_m {
+        return Err(Error::Invalid(format!(
+            "the data hold a {} ({}), the scenario's twin reads a {} ({}): replay needs the same instrument{}",
+            m.def().describe(),
+            m.def().file_columns().join(", "),
+            twin_m.def().describe(),
+            twin_m.def().file_columns().join(", "),
+            if m == Measurement::Pose && twin_m == Measurement::Point { " (read the file with --measurement point)" } else { "" }
+        )));
+    }
+    data.require_joints(robot.dof(), &format!("the scenario's robot '{}'", robot.name))?;
+    let n = data.rows.len();
+    // The twin reads every row (no split of its own), at the measured poses and, where the data
+    // have them, the measured times.
+    s.sampling.test = 0;
+    s.sampling.poses = n;
+    let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|v| v.to_radians()).collect()).collect();
+    let times: Option<Vec<f64>> = data.rows.iter().map(|r| r.t_s).collect();
+    let g = crate::sim::generate::generate_at(&s, &robot, poses, times, progress(quiet).as_ref())?;
+
+    // Per data row: the twin's reading and its noise-free reading (model values, mm).
+    let d = m.dim();
+    let mut twin: Vec<Option<(Vec<f64>, Vec<f64>)>> = vec![None; n];
+    for (row, p) in g.dataset.rows.iter().zip(&g.truth.poses) {
+        let ideal = match m {
+            Measurement::Length => vec![p.length_noise_free_mm],
+            Measurement::Point => p.point_true_mm.map(|v| v.to_vec()).unwrap_or_default(),
+            Measurement::Pose => p.pose_true.map(|v| m.values_of_file(&v)).unwrap_or_default(),
+        };
+        if let (Some(read), true) = (row.values_mm(), ideal.len() == d) {
+            twin[p.index] = Some((read, ideal));
+        }
+    }
+    let rejected: Vec<(usize, String)> = g.truth.rejected.iter().map(|r| (r.index + 1, r.reason.clone())).collect();
+    let (judged_idx, judged_on): (Option<Vec<usize>>, String) = match a.test_fraction {
+        Some(f) => {
+            let (_, test) = crate::calib::run::split_rows(&data, Some(f), a.seed)?;
+            (Some(test), format!("the rows --test-fraction {f} --seed {} holds out (as calibrate and diagnose draw them)", a.seed))
+        }
+        None if data.rows.iter().any(|r| r.split == Some(Split::Test)) => (Some(data.test_indices()), "the data's test rows (split column)".into()),
+        None => (None, "every row (no split: pass --test-fraction to judge on rows an identification never saw)".into()),
+    };
+    let measured: Vec<Vec<f64>> = data.rows.iter().map(|r| r.values_mm().unwrap_or_default()).collect();
+    let residual = |i: usize| -> Option<Vec<f64>> { twin[i].as_ref().map(|(_, ideal)| measured[i].iter().zip(ideal).map(|(a, b)| a - b).collect()) };
+    let fidelity = |rows: &[usize]| -> Fidelity {
+        let r: Vec<Vec<f64>> = rows.iter().filter_map(|&i| residual(i)).collect();
+        let flat: Vec<f64> = r.iter().flatten().copied().collect();
+        let (med, scale) = crate::calib::stats::robust_scale(&flat);
+        let k = crate::calib::run::DEFAULT_OUTLIER_K;
+        let inlier = |v: &Vec<f64>| v.iter().all(|x| (x - med).abs() <= k * scale);
+        Fidelity {
+            residual: ErrorStats::of(&flat),
+            position: (d > 1).then(|| ErrorStats::of(&r.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect::<Vec<_>>())),
+            outlier_rows: r.iter().filter(|v| !inlier(v)).count(),
+            inliers: ErrorStats::of(&r.iter().filter(|v| inlier(v)).flatten().copied().collect::<Vec<_>>()),
+        }
+    };
+    let all_idx: Vec<usize> = (0..n).collect();
+    let judged_rows = judged_idx.as_deref().unwrap_or(&all_idx);
+    let twin_noise: Vec<f64> = twin.iter().flatten().flat_map(|(read, ideal)| read.iter().zip(ideal).map(|(a, b)| a - b)).collect();
+    let judged_res: Vec<f64> = judged_rows.iter().filter_map(|&i| residual(i)).flatten().collect();
+    let (ks_distance, ks_p_value) = crate::calib::stats::ks_two_sample(&judged_res, &twin_noise);
+    let summary = ReplaySummary {
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+        data: data.source.clone(),
+        scenario: a.scenario.display().to_string(),
+        measurement: m.name().into(),
+        rows: n,
+        replayed: twin.iter().filter(|t| t.is_some()).count(),
+        rejected,
+        judged_on,
+        all: fidelity(&all_idx),
+        judged: judged_idx.as_ref().map(|idx| fidelity(idx)),
+        twin_noise_rms_mm: ErrorStats::of(&twin_noise).rmse,
+        ks_distance,
+        ks_p_value,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+
+    // replay.csv: the row, its angles and time, then per value the measured, the twin's, the
+    // twin's noise-free reading and measured − noise-free.
+    let cols = m.def().columns();
+    let judged_set: std::collections::BTreeSet<usize> = judged_idx.iter().flatten().copied().collect();
+    let mut text = String::from("row");
+    (1..=robot.dof()).for_each(|j| text += &format!(",q{j}"));
+    text += ",t,judged";
+    for suffix in ["", "_twin", "_twin_ideal", "_residual"] {
+        cols.iter().for_each(|c| text += &format!(",{c}{suffix}"));
+    }
+    text.push('\n');
+    for (i, row) in data.rows.iter().enumerate() {
+        text += &(i + 1).to_string();
+        row.q_deg.iter().for_each(|q| text += &format!(",{q}"));
+        text += &format!(",{},{}", row.t_s.map_or(String::new(), |t| t.to_string()), u8::from(judged_idx.is_none() || judged_set.contains(&i)));
+        let blank = |text: &mut String| (0..d).for_each(|_| text.push(','));
+        measured[i].iter().for_each(|v| text += &format!(",{v}"));
+        match (&twin[i], residual(i)) {
+            (Some((read, ideal)), Some(r)) => {
+                for v in read.iter().chain(ideal).chain(&r) {
+                    text += &format!(",{v}");
+                }
+            }
+            _ => (0..3).for_each(|_| blank(&mut text)),
+        }
+        text.push('\n');
+    }
+    let mut outputs = OutputSet::new();
+    outputs.write(&csv_path, text.as_bytes())?;
+    outputs.write_json(&json_path, &summary)?;
+    outputs.commit()?;
+    if !quiet {
+        print_summary(&summary, &a.out);
+    }
+    for (row, why) in summary.rejected.iter().take(3) {
+        eprintln!("warning: row {row} was not replayed: {why}");
+    }
+    Ok(())
+}
+
+fn print_summary(s: &ReplaySummary, out: &Path) {
+    eprintln!("replay of {} ({} rows, {} replayed) through {} in {:.2} s", s.data, s.rows, s.replayed, s.scenario, s.seconds);
+    let line = |label: &str, f: &Fidelity| {
+        let pos = f.position.as_ref().map_or(String::new(), |p| format!("; |Δp| mean {:.4} / RMS {:.4} / MAX {:.4} mm", p.mae, p.rmse, p.max));
+        eprintln!(
+            "  {label:<10} measured − twin: RMSE {:.4} mm, mean {:+.4} mm, MAX {:.4} mm over {} values{pos}",
+            f.residual.rmse, f.residual.mean, f.residual.max, f.residual.n
+        );
+        if f.outlier_rows > 0 {
+            eprintln!("  {:<10} without {} outlier rows (beyond 6 robust sd): RMSE {:.4} mm, MAX {:.4} mm", "", f.outlier_rows, f.inliers.rmse, f.inliers.max);
+        }
+    };
+    line("all rows", &s.all);
+    if let Some(j) = &s.judged {
+        line("judged", j);
+    }
+    eprintln!("  judged on {}", s.judged_on);
+    eprintln!(
+        "  the twin's own noise {:.4} mm RMS; residuals against it: Kolmogorov–Smirnov D {:.3} (p {:.2e})",
+        s.twin_noise_rms_mm, s.ks_distance, s.ks_p_value
+    );
+    eprintln!("  wrote {}", out.display());
+}
