@@ -32,8 +32,10 @@ pub struct ReplayArgs {
     /// Seed of that split.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
-    /// Output folder: replay.csv (per row: measured, twin, twin without noise, residual) and
-    /// replay.json (the summary).
+    /// Output folder: replay.csv (per row: measured, twin, twin without noise, residual),
+    /// replay.json (the summary) and twin/ (the twin's own dataset.csv and truth.json at the
+    /// measured poses, the judged rows marked test: data to run the methods on beside the real
+    /// ones).
     #[arg(long, default_value = "replay")]
     pub out: PathBuf,
 }
@@ -102,11 +104,13 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         return Err(Error::Invalid(format!("--out {} is a file; replay writes a folder (replay.csv, replay.json)", a.out.display())));
     }
     let (csv_path, json_path) = (a.out.join("replay.csv"), a.out.join("replay.json"));
+    let twin_dir = a.out.join("twin");
+    let (twin_csv, twin_truth) = (twin_dir.join(crate::dataset::DATASET_FILE), twin_dir.join(crate::calib::truth::TRUTH_FILE));
     let data_files = data_inputs(&a.data);
     let (mut s, robot) = Scenario::load(&a.scenario)?;
     let mut inputs: Vec<(&str, PathBuf)> = data_files.iter().map(|p| ("--data", p.clone())).collect();
     inputs.extend(scenario_inputs(Some(&a.scenario), &s));
-    check_outputs(&inputs, &[("--out", csv_path.as_path()), ("--out", json_path.as_path())])?;
+    check_outputs(&inputs, &[("--out", csv_path.as_path()), ("--out", json_path.as_path()), ("--out", twin_csv.as_path()), ("--out", twin_truth.as_path())])?;
     let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings to replay against"))?;
     let twin_m = scenario_measurement(&s);
@@ -128,7 +132,27 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     s.sampling.poses = n;
     let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|v| v.to_radians()).collect()).collect();
     let times: Option<Vec<f64>> = data.rows.iter().map(|r| r.t_s).collect();
-    let g = crate::sim::generate::generate_at(&s, &robot, poses, times, progress(quiet).as_ref())?;
+    let mut g = crate::sim::generate::generate_at(&s, &robot, poses.clone(), times.clone(), progress(quiet).as_ref())?;
+    // The twin's own dataset: where the scenario logs the angles at a resolution, the twin's arm
+    // stands somewhere within the logging step of each measured angle (as the real one did),
+    // and its log reads the measured angle; the fidelity above is judged at the logged angles.
+    let mut jittered_g = match s.sampling.logged_decimals {
+        Some(dec) => {
+            use rand::{Rng, SeedableRng};
+            let step = 10f64.powi(-(dec as i32));
+            let jittered = poses
+                .iter()
+                .enumerate()
+                .map(|(i, q)| {
+                    let mut rng =
+                        rand_chacha::ChaCha8Rng::seed_from_u64(crate::sim::scenario::stream_seed(s.seed, crate::sim::scenario::Stream::LoggedAngle, i as u64));
+                    q.iter().map(|v| v + (rng.random::<f64>() - 0.5) * step.to_radians()).collect()
+                })
+                .collect();
+            Some(crate::sim::generate::generate_at(&s, &robot, jittered, times, &crate::sim::generate::Silent)?)
+        }
+        None => None,
+    };
 
     // Per data row: the twin's reading and its noise-free reading (model values, mm).
     let d = m.dim();
@@ -216,7 +240,20 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         }
         text.push('\n');
     }
+    // The twin's dataset: the judged rows are its test rows.
+    let twin_data = match jittered_g.as_mut() {
+        Some(j) => j,
+        None => &mut g,
+    };
+    if let Some(idx) = &judged_idx {
+        for (row, p) in twin_data.dataset.rows.iter_mut().zip(twin_data.truth.poses.iter_mut()) {
+            let split = if judged_set.contains(&p.index) { Split::Test } else { Split::Train };
+            (row.split, p.split) = (Some(split), split);
+        }
+        debug_assert!(idx.iter().all(|i| judged_set.contains(i)));
+    }
     let mut outputs = OutputSet::new();
+    crate::sim::generate::stage_outputs(twin_data, &twin_dir, &mut outputs)?;
     outputs.write(&csv_path, text.as_bytes())?;
     outputs.write_json(&json_path, &summary)?;
     outputs.commit()?;

@@ -396,6 +396,8 @@ pub enum Stream {
     Glitches = 7,
     /// Noise of a tracker's readings, one item per pose.
     TrackerNoise = 8,
+    /// Where within its logging step a replayed row's true joint angle sits, one item per row.
+    LoggedAngle = 9,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).
