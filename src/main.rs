@@ -65,12 +65,13 @@ enum Command {
     /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
     /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30), `ik`,
     /// `awnn` (PSO-EKF-AWNN: speed, accuracy, data efficiency, sensitivity), `real` (the real
-    /// datasets in ../shared/data) or `diagnose-ur10` (diagnose on the UR10's 11 911-row series,
-    /// --repeat runs, against 60 s).
+    /// datasets in ../shared/data), `diagnose-ur10` (diagnose on the UR10's 11 911-row series,
+    /// --repeat runs, against 60 s) or `replay` (1 000 rows replayed through the scenario's
+    /// acquisition against 5 s, the identified twin's cost against 1 s).
     Bench {
         #[arg(value_enum, default_value_t = BenchTarget::Twin)]
         what: BenchTarget,
-        /// twin: scenario TOML (default: the embedded one).
+        /// twin, replay: scenario TOML (default: the embedded one).
         #[arg(long)]
         scenario: Option<PathBuf>,
         /// Repetitions, 1 to 1000 (the median is reported).

@@ -79,6 +79,18 @@ fn an_identified_twin_replays_held_out_rows_to_the_noise() {
                 ok(twincal(&["generate", "--scenario", &p(&full), "--seed", "4", "--out", &p(g), "--quiet"]), "generate from the twin");
             }
             assert_eq!(std::fs::read(a.join("dataset.csv")).unwrap(), std::fs::read(b.join("dataset.csv")).unwrap());
+            // The twin replayed through its own acquisition (same scenario and seed, its poses
+            // and times) reads what it read.
+            let own = dir.path().join("own");
+            ok(twincal(&["generate", "--scenario", &p(&scenario), "--out", &p(&own), "--quiet"]), "generate");
+            ok(twincal(&["replay", "--data", &p(&own), "--scenario", &p(&scenario), "--out", &p(&dir.path().join("own_replay")), "--quiet"]), "replay");
+            let text = std::fs::read_to_string(dir.path().join("own_replay/replay.csv")).unwrap();
+            let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+            let (l, lt) = (header.iter().position(|h| *h == "L").unwrap(), header.iter().position(|h| *h == "L_twin").unwrap());
+            assert!(text.lines().skip(1).all(|row| {
+                let f: Vec<&str> = row.split(',').collect();
+                f[l].parse::<f64>().unwrap() == f[lt].parse::<f64>().unwrap()
+            }));
             // A twin of another instrument is refused, naming both.
             let tracker = root().join("scenarios/irb120_tracker.toml");
             let o = twincal(&["replay", "--data", &p(&data), "--scenario", &p(&tracker), "--out", &p(&dir.path().join("bad"))]);

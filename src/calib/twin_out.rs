@@ -51,7 +51,11 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
     let n = robot.dof();
     let mut notes: Vec<String> = vec![
         format!("Identified twin of {} ({}; {} model, {} rows).", data.source, how, m.name, data.rows.len()),
-        format!("The robot is {urdf_file}: the calibrated geometry (joint zero offsets folded in), the nominal inertials moved into its frames."),
+        if nominal.is_some() {
+            format!("The robot is {urdf_file}: the calibrated geometry (joint zero offsets folded in), the nominal inertials moved into its frames.")
+        } else {
+            format!("The robot is {urdf_file}: the calibrated geometry; no nominal model, so no inertials: the twin carries no load-driven effect.")
+        },
     ];
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     if !fixed.is_empty() {

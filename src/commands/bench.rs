@@ -89,5 +89,12 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             }
             crate::bench::real::bench_diagnose_ur10(repeat)
         }
+        BenchTarget::Replay => {
+            if compare || seeds.is_some() {
+                return Err(Error::Invalid("--compare and --seeds do not apply to bench replay (--scenario and --repeat do)".into()));
+            }
+            let (s, robot) = load_scenario(scenario)?;
+            crate::bench::replay::bench_replay(&s, &robot, repeat)
+        }
     }
 }
