@@ -186,7 +186,10 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
     if !written.is_empty() {
         notes.push(format!("Effects at their identified sizes: {}.", written.join(", ")));
     }
-    if !r.outliers.is_empty() {
+    if let Some((g, note)) = glitches(r, data.rows.len()).filter(|_| scenario.tracker.is_none()) {
+        scenario.glitches = Some(g);
+        notes.push(note);
+    } else if !r.outliers.is_empty() {
         notes.push(format!("{} rows the calibration kept out as outliers are not modelled (no [glitches]).", r.outliers.len()));
     }
     scenario.validate(&robot, &scenario_path.display().to_string())?;
@@ -207,4 +210,38 @@ fn ranges(data: &Dataset, robot: &Robot) -> Vec<[f64; 2]> {
             [(mid - half).max(l), (mid + half).min(u)]
         })
         .collect()
+}
+
+/// The glitches a calibration found (reading steps, runs of outliers, lone outliers) as the
+/// twin's `[glitches]`: as many runs per row as the training rows had, of the median run's
+/// length and the median size (the twin draws each run's size as size × (1 + U(0, 0.5))),
+/// offsets when reading steps are the most, scattered rows otherwise. With a note saying so.
+fn glitches(r: &CalibResult, rows: usize) -> Option<(crate::sim::scenario::Glitches, String)> {
+    use crate::sim::scenario::{GlitchKind, Glitches};
+    let in_runs = |row: usize| r.outlier_runs.iter().any(|u| (u.first_row..=u.last_row).contains(&row));
+    let lone = r.outliers.iter().filter(|o| !in_runs(o.row)).count();
+    let mut lengths: Vec<f64> = r.reading_steps.iter().map(|s| (s.last_row + 1 - s.first_row) as f64).collect();
+    lengths.extend(r.outlier_runs.iter().map(|u| (u.last_row + 1 - u.first_row) as f64));
+    lengths.extend(std::iter::repeat_n(1.0, lone));
+    let mut sizes: Vec<f64> = r.reading_steps.iter().map(|s| s.offset_mm.abs()).collect();
+    sizes.extend(r.outlier_runs.iter().map(|u| u.median_residual_mm.abs()));
+    sizes.extend(r.outliers.iter().filter(|o| !in_runs(o.row)).map(|o| o.residual_mm.abs()));
+    if lengths.is_empty() || r.n_train == 0 {
+        return None;
+    }
+    let found = lengths.len();
+    let len = crate::calib::stats::median(&lengths).round().max(1.0) as usize;
+    let size = crate::calib::stats::median(&sizes) / 1.25;
+    let runs = ((found as f64 * rows as f64 / r.n_train as f64).round() as usize).max(1).min(rows / 4 / len);
+    let kind = if r.reading_steps.len() * 2 >= found { GlitchKind::Offset } else { GlitchKind::Scatter };
+    (runs > 0 && size > 0.0).then(|| {
+        let note = format!(
+            "Glitches as the calibration found them in its {} training rows ({} reading steps, {} outlier runs, {lone} lone outliers): {runs} runs of {len} rows, {size:.3} mm x (1 + U(0, 0.5)), {} (placed from the seed, not at the data's rows).",
+            r.n_train,
+            r.reading_steps.len(),
+            r.outlier_runs.len(),
+            if kind == GlitchKind::Offset { "constant offsets" } else { "scattered" }
+        );
+        (Glitches { runs, rows: len, size_mm: size, kind }, note)
+    })
 }
