@@ -72,6 +72,8 @@ fn an_identified_twin_replays_held_out_rows_to_the_noise() {
         assert!((size - 10.0).abs() < 3.0 * sd, "seed {seed}: {size} ± {sd} against the hidden 10 urad/Nm");
         let twin = std::fs::read_to_string(&full).unwrap();
         assert!(twin.contains("[effects.compliance]") && twin.contains("# Effects at their identified sizes: joint_compliance[j2]."), "{twin}");
+        // Gaussian noise stays Gaussian in the identified twin.
+        assert!(!twin.contains("noise_t_dof"), "{twin}");
         if seed == "1" {
             // The identified twin generates datasets, the same bytes for the same seed.
             let (a, b) = (dir.path().join("ga"), dir.path().join("gb"));
@@ -128,4 +130,30 @@ fn robotcali_replayed_before_and_after_identification() {
     eprintln!("RobotCali held-out RMSE of measured − twin (all / inliers): nominal {n:.4?}, geometry {g:.4?}, identified {f:.4?} mm");
     // The identified twins are closer to the robot than the nominal one on rows they never saw.
     assert!(g.0 < n.0 && f.0 < n.0 && g.1 < n.1, "nominal {n:?}, geometry {g:?}, identified {f:?}");
+}
+
+/// A reading noise with heavy tails (Student-t, 5 degrees of freedom, one sample per reading)
+/// is seen in the residuals and carried into the identified twin; its replay's residuals are
+/// then like the twin's noise.
+#[test]
+fn heavy_tailed_noise_is_identified() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |x: &Path| x.to_str().unwrap().to_owned();
+    let text = std::fs::read_to_string(root().join("scenarios/irb120_geometric.toml")).unwrap();
+    let heavy = text.replacen("samples = 50", "samples = 1", 1).replacen("noise_std_mm = 0.05", "noise_std_mm = 0.02\nnoise_t_dof = 5.0", 1).replacen(
+        "poses = 400",
+        "poses = 1000",
+        1,
+    );
+    std::fs::write(dir.path().join("heavy.toml"), heavy).unwrap();
+    let (data, twin) = (dir.path().join("d"), dir.path().join("twin.toml"));
+    ok(twincal(&["generate", "--scenario", &p(&dir.path().join("heavy.toml")), "--seed", "1", "--out", &p(&data), "--quiet"]), "generate");
+    ok(twincal(&["calibrate", "--data", &p(&data), "--scenario-out", &p(&twin), "--out", &p(&dir.path().join("r.json")), "--quiet"]), "calibrate");
+    let text = std::fs::read_to_string(&twin).unwrap();
+    let dof: f64 = text.lines().find_map(|l| l.strip_prefix("noise_t_dof = ")).unwrap_or_else(|| panic!("no heavy tails found:\n{text}")).parse().unwrap();
+    // The sample kurtosis of a t5 sample is low and scattered: the degrees of freedom come out
+    // above 5, but far below a Gaussian's.
+    assert!((4.5..=20.0).contains(&dof), "{dof} degrees of freedom against the true 5");
+    let (rmse, ks_p) = replay(&data, &twin, &dir.path().join("replay"));
+    assert!(ks_p > 1e-3, "KS p {ks_p}, held-out RMSE {rmse}");
 }

@@ -96,12 +96,20 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         samples: 1,
         rate_hz: 1000.0,
         polynomial: None,
+        noise_t_dof: None,
     };
     let tracker = match p.exit() {
         Some(exit) => {
             sensor.exit_point_mm = mm(exit);
             sensor.length_offset_mm = p.own[3] * 1e3;
             sensor.noise_std_mm = sigma;
+            if let Some((nu, k, n)) = heavy_tails(r, data) {
+                sensor.noise_t_dof = Some(nu);
+                notes.push(format!(
+                    "The residuals of the {n} rows that are not glitches have an excess kurtosis of {k:.2} (a Gaussian's is 0 ± {:.2}): Student-t noise of {nu:.1} degrees of freedom, which has it.",
+                    (24.0 / n as f64).sqrt()
+                ));
+            }
             sensor.resolution_mm = reading_step.unwrap_or(0.0);
             sensor.tension_n = tension;
             None
@@ -244,4 +252,24 @@ fn glitches(r: &CalibResult, rows: usize) -> Option<(crate::sim::scenario::Glitc
         );
         (Glitches { runs, rows: len, size_mm: size, kind }, note)
     })
+}
+
+/// Heavy tails in the model's residuals over `data` (rows beyond 6 robust standard deviations,
+/// glitches, left out): (Student-t degrees of freedom with the same excess kurtosis, the
+/// excess kurtosis, the rows) when it exceeds three of its standard errors (√(24/n)), else
+/// `None` (Gaussian).
+fn heavy_tails(r: &CalibResult, data: &Dataset) -> Option<(f64, f64, usize)> {
+    let predicted = r.predict_rows(data);
+    let res: Vec<f64> = data.rows.iter().zip(&predicted).filter_map(|(row, p)| Some(row.values_mm()?.first()? - p)).filter(|v| v.is_finite()).collect();
+    let (med, scale) = crate::calib::stats::robust_scale(&res);
+    let kept: Vec<f64> = res.iter().copied().filter(|v| (v - med).abs() <= crate::calib::run::DEFAULT_OUTLIER_K * scale).collect();
+    let n = kept.len();
+    if n < 50 {
+        return None;
+    }
+    let mean = kept.iter().sum::<f64>() / n as f64;
+    let m2 = kept.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n as f64;
+    let m4 = kept.iter().map(|v| (v - mean).powi(4)).sum::<f64>() / n as f64;
+    let k = m4 / (m2 * m2) - 3.0;
+    (k > 3.0 * (24.0 / n as f64).sqrt()).then(|| ((4.0 + 6.0 / k).clamp(4.5, 100.0), k, n))
 }

@@ -59,6 +59,11 @@ pub struct DrawWire {
     /// identifies; an identified twin carries it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub polynomial: Option<ReadingPolynomial>,
+    /// Heavy-tailed noise: each raw sample's noise is Student-t with these degrees of freedom
+    /// (> 2), scaled to the standard deviation `noise_std_mm`, instead of Gaussian (what an
+    /// identified twin writes when the data's residuals have heavier tails than a Gaussian's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_t_dof: Option<f64>,
 }
 
 /// See [`DrawWire::polynomial`].
@@ -132,6 +137,9 @@ impl DrawWire {
         }
         if self.range_mm[0] >= self.range_mm[1] {
             return Err(format!("sensor.range_mm must be [min, max] with min < max, got {:?}", self.range_mm));
+        }
+        if let Some(nu) = self.noise_t_dof.filter(|nu| !(nu.is_finite() && *nu > 2.0 && *nu <= 1000.0)) {
+            return Err(format!("sensor.noise_t_dof = {nu} must be in (2, 1000] (Student-t degrees of freedom; leave it out for Gaussian noise)"));
         }
         if let Some(p) = &self.polynomial {
             if !(p.range_mm.iter().all(|v| v.is_finite()) && p.range_mm[0] < p.range_mm[1]) {
@@ -230,11 +238,26 @@ impl DrawWire {
         }
     }
 
+    /// One raw sample's noise, mm: Gaussian (`normal`), or Student-t of `noise_t_dof` degrees of
+    /// freedom with the same standard deviation.
+    fn noise<R: Rng>(&self, normal: &Normal<f64>, rng: &mut R) -> f64 {
+        match self.noise_t_dof {
+            None => normal.sample(rng),
+            Some(nu) => {
+                let t = rand_distr::StudentT::new(nu).map(|d| d.sample(rng)).unwrap_or(0.0);
+                t * ((nu - 2.0) / nu).sqrt() * self.noise_std_mm
+            }
+        }
+    }
+
     /// One raw sample for a true length `l` (mm): linearity error, noise, quantisation (no range check).
     pub fn raw_sample<R: Rng>(&self, l: f64, rng: &mut R) -> f64 {
         let mut s = l + self.linearity_error(l);
         if self.noise_std_mm > 0.0 {
-            s += self.noise_std_mm * rng.sample::<f64, _>(rand_distr::StandardNormal);
+            s += match self.noise_t_dof {
+                None => self.noise_std_mm * rng.sample::<f64, _>(rand_distr::StandardNormal),
+                Some(_) => self.noise(&Normal::new(0.0, self.noise_std_mm).expect("a finite std"), rng),
+            };
         }
         if self.resolution_mm > 0.0 {
             s = (s / self.resolution_mm).round() * self.resolution_mm;
@@ -252,7 +275,7 @@ impl DrawWire {
             if !(self.range_mm[0]..=self.range_mm[1]).contains(&signal) {
                 return Err(OutOfRange { value_mm: signal, range_mm: self.range_mm });
             }
-            let mut s = signal + if self.noise_std_mm > 0.0 { normal.sample(rng) } else { 0.0 };
+            let mut s = signal + if self.noise_std_mm > 0.0 { self.noise(&normal, rng) } else { 0.0 };
             if self.resolution_mm > 0.0 {
                 s = (s / self.resolution_mm).round() * self.resolution_mm;
             }
@@ -271,7 +294,7 @@ impl DrawWire {
         let normal = Normal::new(0.0, self.noise_std_mm.max(0.0)).map_err(|_| OutOfRange { value_mm: f64::NAN, range_mm: self.range_mm })?;
         let mut sum = 0.0;
         for _ in 0..self.samples {
-            let mut s = signal + if self.noise_std_mm > 0.0 { normal.sample(rng) } else { 0.0 };
+            let mut s = signal + if self.noise_std_mm > 0.0 { self.noise(&normal, rng) } else { 0.0 };
             if self.resolution_mm > 0.0 {
                 s = (s / self.resolution_mm).round() * self.resolution_mm;
             }
