@@ -93,6 +93,28 @@ fn an_identified_twin_replays_held_out_rows_to_the_noise() {
                 let f: Vec<&str> = row.split(',').collect();
                 f[l].parse::<f64>().unwrap() == f[lt].parse::<f64>().unwrap()
             }));
+            // The report and the recording of a replay.
+            let (html, rrd) = (dir.path().join("replay.html"), dir.path().join("replay.rrd"));
+            ok(
+                twincal(&[
+                    "replay",
+                    "--data",
+                    &p(&data),
+                    "--scenario",
+                    &p(&full),
+                    "--out",
+                    &p(&dir.path().join("rr")),
+                    "--report",
+                    &p(&html),
+                    "--rrd",
+                    &p(&rrd),
+                    "--quiet",
+                ]),
+                "replay --report --rrd",
+            );
+            let page = std::fs::read_to_string(&html).unwrap();
+            assert!(page.contains("measured − twin") && page.contains("the twin&#39;s own noise") || page.contains("the twin's own noise"), "{}", &page[..400]);
+            assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
             // A twin of another instrument is refused, naming both.
             let tracker = root().join("scenarios/irb120_tracker.toml");
             let o = twincal(&["replay", "--data", &p(&data), "--scenario", &p(&tracker), "--out", &p(&dir.path().join("bad"))]);

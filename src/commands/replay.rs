@@ -38,6 +38,14 @@ pub struct ReplayArgs {
     /// ones).
     #[arg(long, default_value = "replay")]
     pub out: PathBuf,
+    /// Rerun recording: the tool points coloured by the twin's noise and by measured − twin,
+    /// histograms, the numbers.
+    #[arg(long)]
+    pub rrd: Option<PathBuf>,
+    /// Self-contained HTML report: the numbers, measured − twin against the joint angles,
+    /// reading, time and temperature beside the twin's own noise.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
 }
 
 /// One set of rows' fidelity.
@@ -110,7 +118,11 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let (mut s, robot) = Scenario::load(&a.scenario)?;
     let mut inputs: Vec<(&str, PathBuf)> = data_files.iter().map(|p| ("--data", p.clone())).collect();
     inputs.extend(scenario_inputs(Some(&a.scenario), &s));
-    check_outputs(&inputs, &[("--out", csv_path.as_path()), ("--out", json_path.as_path()), ("--out", twin_csv.as_path()), ("--out", twin_truth.as_path())])?;
+    let mut outs: Vec<(&str, &Path)> =
+        vec![("--out", csv_path.as_path()), ("--out", json_path.as_path()), ("--out", twin_csv.as_path()), ("--out", twin_truth.as_path())];
+    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+    check_outputs(&inputs, &outs)?;
     let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings to replay against"))?;
     let twin_m = scenario_measurement(&s);
@@ -240,6 +252,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         }
         text.push('\n');
     }
+    let figs = (a.rrd.is_some() || a.report.is_some()).then(|| figures(&summary, &data, &g, &twin, &measured, judged_idx.as_deref(), &s, m));
     // The twin's dataset: the judged rows are its test rows.
     let twin_data = match jittered_g.as_mut() {
         Some(j) => j,
@@ -253,6 +266,14 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         debug_assert!(idx.iter().all(|i| judged_set.contains(i)));
     }
     let mut outputs = OutputSet::new();
+    if let Some(f) = &figs {
+        if let Some(p) = &a.rrd {
+            crate::viz::scenes::record_replay(f, &mut outputs, p)?;
+        }
+        if let Some(p) = &a.report {
+            outputs.write(p, crate::report::html::replay_page(f).as_bytes())?;
+        }
+    }
     crate::sim::generate::stage_outputs(twin_data, &twin_dir, &mut outputs)?;
     outputs.write(&csv_path, text.as_bytes())?;
     outputs.write_json(&json_path, &summary)?;
@@ -264,6 +285,60 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         eprintln!("warning: row {row} was not replayed: {why}");
     }
     Ok(())
+}
+
+/// The report's and the recording's figures, over the replayed rows.
+#[allow(clippy::too_many_arguments)]
+fn figures(
+    summary: &ReplaySummary,
+    data: &Dataset,
+    g: &crate::sim::generate::Generated,
+    twin: &[Option<(Vec<f64>, Vec<f64>)>],
+    measured: &[Vec<f64>],
+    judged: Option<&[usize]>,
+    s: &Scenario,
+    m: Measurement,
+) -> crate::report::ReplayFigures {
+    let rows: Vec<usize> = (0..data.rows.len()).filter(|&i| twin[i].is_some()).collect();
+    let tool_of: std::collections::BTreeMap<usize, [f64; 3]> = g.truth.poses.iter().map(|p| (p.index, p.tool_mm)).collect();
+    let (mut noise, mut residual) = (Vec::new(), Vec::new());
+    for &i in &rows {
+        let (read, ideal) = twin[i].as_ref().expect("replayed rows");
+        noise.extend(read.iter().zip(ideal).map(|(a, b)| a - b));
+        residual.extend(measured[i].iter().zip(ideal).map(|(a, b)| a - b));
+    }
+    let kept = Dataset { rows: rows.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
+    let placement = match &s.tracker {
+        None => crate::calib::model::Placement {
+            measurement: m,
+            own: s.sensor.exit_point_mm.iter().map(|v| v * 1e-3).chain([s.sensor.length_offset_mm * 1e-3]).collect(),
+            tool: nalgebra::Vector3::from(s.sensor.tool_point_mm) * 1e-3,
+        },
+        Some(t) => crate::calib::model::Placement { measurement: m, own: t.placement_own(), tool: nalgebra::Vector3::from(s.sensor.tool_point_mm) * 1e-3 },
+    };
+    let line = |f: &Fidelity| Some(f.residual);
+    let mut stats =
+        vec![("every row: measured − twin".to_string(), line(&summary.all)), ("every row, no outliers".to_string(), Some(summary.all.inliers))];
+    if let Some(j) = &summary.judged {
+        stats.push(("judged rows: measured − twin".into(), line(j)));
+        stats.push(("judged rows, no outliers".into(), Some(j.inliers)));
+    }
+    crate::report::ReplayFigures {
+        title: format!("Replay of {} through {}", summary.data, summary.scenario),
+        measurement: m,
+        judged_on: format!("Judged on {}; {} of {} rows replayed.", summary.judged_on, summary.replayed, summary.rows),
+        stats,
+        ks_line: format!(
+            "The twin's own noise: {:.4} mm RMS. Judged residuals against it: Kolmogorov–Smirnov D {:.3}, p {:.2e}.",
+            summary.twin_noise_rms_mm, summary.ks_distance, summary.ks_p_value
+        ),
+        judged: rows.iter().map(|i| judged.is_none_or(|j| j.contains(i))).collect(),
+        noise_mm: noise,
+        residual_mm: residual,
+        tools_mm: rows.iter().map(|i| tool_of.get(i).copied().unwrap_or([0.0; 3])).collect(),
+        instrument: crate::report::InstrumentPose::of(&placement),
+        features: crate::report::features(&kept),
+    }
 }
 
 fn print_summary(s: &ReplaySummary, out: &Path) {

@@ -61,7 +61,7 @@ fn stats_row(label: &str, s: Option<&ErrorStats>) -> String {
 }
 
 /// Residual `res` against each feature: before (grey) and after, train and test told apart.
-fn feature_plots(out: &mut String, features: &[Feature], res: &Residual, train: &[bool], after_name: &str) {
+fn feature_plots(out: &mut String, features: &[Feature], res: &Residual, train: &[bool], [before_name, after_name]: [&str; 2]) {
     let (before, after) = (&res.before_mm[..], &res.after_mm[..]);
     let ymax = max_abs(before).max(max_abs(after)) * 1.08;
     let title = res.title();
@@ -70,7 +70,7 @@ fn feature_plots(out: &mut String, features: &[Feature], res: &Residual, train: 
         let pick = |res: &[f64], want: Option<bool>| -> Vec<[f64; 2]> {
             f.values.iter().zip(res).enumerate().filter(|(i, _)| want.is_none_or(|w| train[*i] == w)).map(|(_, (x, y))| [*x, *y]).collect()
         };
-        let mut series = vec![Series { name: "before".into(), points: pick(before, None), color: BEFORE.into(), line: false, radius: 1.6 }];
+        let mut series = vec![Series { name: before_name.into(), points: pick(before, None), color: BEFORE.into(), line: false, radius: 1.6 }];
         if train.iter().all(|t| *t) {
             series.push(Series { name: after_name.into(), points: pick(after, None), color: TRAIN.into(), line: false, radius: 1.8 });
         } else {
@@ -83,9 +83,9 @@ fn feature_plots(out: &mut String, features: &[Feature], res: &Residual, train: 
 }
 
 /// Histograms of `res` before and after, each over its own range.
-fn histogram_pair(res: &Residual, after_name: &str) -> String {
+fn histogram_pair(res: &Residual, [before_name, after_name]: [&str; 2]) -> String {
     let (mut out, bins) = (String::from("<div class=\"figs\">"), 30);
-    for (name, values, color) in [("before", &res.before_mm, BEFORE), (after_name, &res.after_mm, TRAIN)] {
+    for (name, values, color) in [(before_name, &res.before_mm, BEFORE), (after_name, &res.after_mm, TRAIN)] {
         let (lo, hi) = res.range(max_abs(values));
         let (edges, counts) = histogram(values, bins, lo, hi);
         out.push_str(&histograms(&format!("{} (own range)", res.histogram_title(name)), &res.axis(), &[(name.to_string(), color.to_string(), edges, counts)]));
@@ -104,14 +104,14 @@ fn against(m: Measurement) -> String {
 }
 
 /// The residual figures of every quantity: the histograms, then each against the features.
-fn residual_sections(s: &mut String, m: Measurement, residuals: &[Residual], features: &[Feature], train: &[bool], after_name: &str) {
+fn residual_sections(s: &mut String, m: Measurement, residuals: &[Residual], features: &[Feature], train: &[bool], names: [&str; 2]) {
     s.push_str("<h2>Residual distributions</h2>\n");
     for res in residuals {
-        s.push_str(&histogram_pair(res, after_name));
+        s.push_str(&histogram_pair(res, names));
     }
     for res in residuals {
         let _ = writeln!(s, "<h2>{} against {}</h2>", esc(&res.title()), esc(&against(m)));
-        feature_plots(s, features, res, train, after_name);
+        feature_plots(s, features, res, train, names);
     }
 }
 
@@ -196,7 +196,7 @@ pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verd
     for w in &r.warnings {
         let _ = writeln!(s, "<p class=\"fail\">Warning: {}</p>", esc(w));
     }
-    residual_sections(&mut s, meas, &residuals, &f.features, &f.train, "after");
+    residual_sections(&mut s, meas, &residuals, &f.features, &f.train, ["before", "after"]);
     s.push_str("<h2>Convergence</h2><div class=\"figs\">");
     let it = |v: &[f64]| -> Vec<[f64; 2]> { v.iter().enumerate().map(|(i, y)| [i as f64, *y]).collect() };
     let mut conv = vec![Series { name: "train RMS".into(), points: it(&f.convergence.train_rms_mm), color: TRAIN.into(), line: true, radius: 2.0 }];
@@ -333,7 +333,26 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
     s.push_str("</div>\n");
     let residuals = f.residuals();
     let all = vec![true; residuals.first().map_or(0, |r| r.after_mm.len())];
-    residual_sections(&mut s, meas, &residuals, &f.features, &all, "with the causes");
+    residual_sections(&mut s, meas, &residuals, &f.features, &all, ["before", "with the causes"]);
+    s.push_str("</body></html>\n");
+    s
+}
+
+/// The page of a replay (`replay --report`): the summary's numbers, then the residual field
+/// measured − twin beside the twin's own noise (grey), as histograms and against the joint
+/// angles, the reading, time and temperature; judged rows (held out) in orange.
+pub fn replay_page(f: &super::ReplayFigures) -> String {
+    let mut s = head(&f.title);
+    let _ = writeln!(s, "<p class=\"note\">{}</p>", esc(&f.judged_on));
+    s.push_str("<table><tr><th>rows</th><th>n</th><th>RMSE</th><th>STD</th><th>MAX</th><th>mean</th></tr>");
+    for (label, st) in &f.stats {
+        s.push_str(&stats_row(label, st.as_ref()));
+    }
+    s.push_str("</table>\n");
+    let _ = writeln!(s, "<p>{}</p>", esc(&f.ks_line));
+    let residuals = Residual::of(f.measurement, &f.noise_mm, &f.residual_mm);
+    let train: Vec<bool> = f.judged.iter().map(|j| !j).collect();
+    residual_sections(&mut s, f.measurement, &residuals, &f.features, &train, ["the twin's own noise", "measured − twin"]);
     s.push_str("</body></html>\n");
     s
 }

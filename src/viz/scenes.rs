@@ -765,3 +765,39 @@ pub fn record_comparison(table_markdown: &str, methods: &[String], rows: &[Compa
     });
     rec.finish()
 }
+
+/// Recording of a replay (`twincal replay --rrd`). Static: the twin's instrument, the tool
+/// points of every replayed row coloured by the twin's own noise and by measured − twin (side
+/// by side, own colour scales; judged rows larger), their histograms, and the numbers.
+pub fn record_replay(f: &crate::report::ReplayFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+    let mut rec = Recorder::staged("twincal", outputs, path)?;
+    rec.set_static(true);
+    let mut doc = format!("## {}\n\n{}\n\n| rows | RMSE | STD | MAX |\n|---|---:|---:|---:|\n", f.title, f.judged_on);
+    for (label, st) in &f.stats {
+        doc.push_str(&stats_line(label, st.as_ref()));
+    }
+    doc.push_str(&format!(
+        "\n{}\n\nColour = the twin's own noise (left) and measured − twin (right), own scale per side. Large points: judged rows.",
+        f.ks_line
+    ));
+    rec.static_text("docs/summary", &doc);
+    let residuals = Residual::of(f.measurement, &f.noise_mm, &f.residual_mm);
+    let train: Vec<bool> = f.judged.iter().map(|j| !j).collect();
+    let names = ["the twin's noise", "measured − twin"];
+    let field = Field { arm: None, instrument: &f.instrument, tools: &f.tools_mm, residuals: &residuals, train: &train };
+    before_after(&mut rec, &field, names);
+    let q = colour_quantity(&residuals[0]);
+    let [wb, wa] = world_pair([&format!("The twin's own noise: {q} (mm)"), &format!("Measured − twin: {q} (mm), own scale")]);
+    rec.layout(Blueprint {
+        root: Layout::Vertical(
+            vec![
+                Layout::Horizontal(vec![wb, wa, Layout::view(K::Text, "Numbers", "/docs")], vec![2.0, 2.0, 1.2]),
+                Layout::Horizontal(vec![histogram_views(&residuals, "before", names[0]), histogram_views(&residuals, "after", names[1])], vec![]),
+            ],
+            vec![1.4, 1.0],
+        ),
+        timeline: None,
+        at_end: true,
+    });
+    rec.finish()
+}
