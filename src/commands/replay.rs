@@ -317,8 +317,7 @@ fn figures(
         Some(t) => crate::calib::model::Placement { measurement: m, own: t.placement_own(), tool: nalgebra::Vector3::from(s.sensor.tool_point_mm) * 1e-3 },
     };
     let line = |f: &Fidelity| Some(f.residual);
-    let mut stats =
-        vec![("every row: measured − twin".to_string(), line(&summary.all)), ("every row, no outliers".to_string(), Some(summary.all.inliers))];
+    let mut stats = vec![("every row: measured − twin".to_string(), line(&summary.all)), ("every row, no outliers".to_string(), Some(summary.all.inliers))];
     if let Some(j) = &summary.judged {
         stats.push(("judged rows: measured − twin".into(), line(j)));
         stats.push(("judged rows, no outliers".into(), Some(j.inliers)));

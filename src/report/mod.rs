@@ -552,6 +552,30 @@ pub fn histogram(values: &[f64], bins: usize, lo: f64, hi: f64) -> (Vec<f64>, Ve
     (edges, counts)
 }
 
+/// What a replay's report and recording show (`twincal replay --report / --rrd`), over the
+/// replayed rows.
+pub struct ReplayFigures {
+    pub title: String,
+    pub measurement: Measurement,
+    /// Which rows are judged, in words.
+    pub judged_on: String,
+    /// (label, stats) lines of the summary table.
+    pub stats: Vec<(String, Option<crate::calib::metrics::ErrorStats>)>,
+    pub ks_line: String,
+    /// Per replayed row: a judged (held-out) row.
+    pub judged: Vec<bool>,
+    /// The twin's reading − its noise-free reading, and measured − the twin's noise-free
+    /// reading, mm, one per value, row after row.
+    pub noise_mm: Vec<f64>,
+    pub residual_mm: Vec<f64>,
+    /// The twin's tool point per replayed row, base frame, mm.
+    pub tools_mm: Vec<[f64; 3]>,
+    /// The twin's instrument.
+    pub instrument: InstrumentPose,
+    /// The replayed rows' joint angles, readings, time and temperature.
+    pub features: Vec<Feature>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -595,28 +619,4 @@ mod tests {
         assert_eq!((r[0].title(), r[0].axis(), r[0].range(2.0)), ("Position error |Δp|".into(), "|Δp| (mm)".into(), (0.0, 2.0)));
         assert_eq!((r[1].title(), r[1].histogram_title("after"), r[1].range(2.0)), ("Residual x".into(), "Residuals x after".into(), (-2.0, 2.0)));
     }
-}
-
-/// What a replay's report and recording show (`twincal replay --report / --rrd`), over the
-/// replayed rows.
-pub struct ReplayFigures {
-    pub title: String,
-    pub measurement: Measurement,
-    /// Which rows are judged, in words.
-    pub judged_on: String,
-    /// (label, stats) lines of the summary table.
-    pub stats: Vec<(String, Option<crate::calib::metrics::ErrorStats>)>,
-    pub ks_line: String,
-    /// Per replayed row: a judged (held-out) row.
-    pub judged: Vec<bool>,
-    /// The twin's reading − its noise-free reading, and measured − the twin's noise-free
-    /// reading, mm, one per value, row after row.
-    pub noise_mm: Vec<f64>,
-    pub residual_mm: Vec<f64>,
-    /// The twin's tool point per replayed row, base frame, mm.
-    pub tools_mm: Vec<[f64; 3]>,
-    /// The twin's instrument.
-    pub instrument: InstrumentPose,
-    /// The replayed rows' joint angles, readings, time and temperature.
-    pub features: Vec<Feature>,
 }
