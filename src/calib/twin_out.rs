@@ -39,11 +39,6 @@ fn decimals(step: f64) -> Option<usize> {
 /// identified it, for the header comment.
 pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Robot>, scenario_path: &Path, how: &str) -> Result<IdentifiedTwin> {
     let m = &r.model;
-    if m.measurement == Measurement::Pose {
-        return Err(Error::Invalid(
-            "--scenario-out writes a cable's or a tracker point's twin; a 6-D probe's orientation noise is not identified yet (read the file with --measurement point)".into(),
-        ));
-    }
     let stem = scenario_path.file_stem().and_then(|s| s.to_str()).unwrap_or("twin").to_string();
     let urdf_file = format!("{stem}.urdf");
     let urdf = super::export::urdf(m, &r.x, nominal, &stem);
@@ -116,14 +111,38 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         }
         None => {
             let o = &p.own;
+            // A 6-D probe: its orientation on the flange, and the orientation noise the axes'
+            // residuals show (a rotation of σ per axis moves an axis tip at the lever by
+            // lever·σ·√(2/3) per coordinate, RMS).
+            let probe = (m.measurement == Measurement::Pose).then(|| {
+                let predicted = r.predict_rows(data);
+                let d = m.measurement.dim();
+                let res: Vec<Vec<f64>> = data
+                    .rows
+                    .iter()
+                    .zip(predicted.chunks(d))
+                    .filter_map(|(row, p)| Some(row.values_mm()?.iter().zip(p).map(|(a, b)| a - b).collect()))
+                    .collect();
+                let part = |k: std::ops::Range<usize>| crate::calib::stats::robust_scale(&res.iter().flat_map(|v| v[k.clone()].to_vec()).collect::<Vec<_>>()).1;
+                let (pos_sd, sd) = (part(0..3), part(3..d));
+                let urad = sd / (crate::measurement::pose::LEVER_MM * (2.0f64 / 3.0).sqrt()) * 1e6;
+                notes.push(format!(
+                    "Orientation noise {urad:.0} µrad per axis: the probe axes' residuals ({sd:.4} mm robust sd at the {} mm lever).",
+                    crate::measurement::pose::LEVER_MM
+                ));
+                notes.push(format!(
+                    "Position noise {pos_sd:.4} mm per coordinate: the position residuals' robust sd (a pose's noise above is over all nine values)."
+                ));
+                ([o[6].to_degrees(), o[7].to_degrees(), o[8].to_degrees()], urad.min(10_000.0), pos_sd)
+            });
             Some(Tracker {
                 translation_mm: [o[0] * 1e3, o[1] * 1e3, o[2] * 1e3],
                 rotation_deg: [o[3].to_degrees(), o[4].to_degrees(), o[5].to_degrees()],
-                noise_um: sigma * 1e3,
+                noise_um: probe.map_or(sigma, |(_, _, pos)| pos) * 1e3,
                 noise_um_per_m: 0.0,
                 decimals: reading_step.and_then(decimals).unwrap_or(4).min(crate::sim::instrument::tracker::MAX_DECIMALS),
-                probe_rotation_deg: None,
-                orientation_noise_urad: 0.0,
+                probe_rotation_deg: probe.map(|(r, _, _)| r),
+                orientation_noise_urad: probe.map_or(0.0, |(_, u, _)| u),
                 angle_decimals: 6,
                 write_std: data.rows.iter().any(|row| row.std_mm.is_some()),
             })
@@ -155,6 +174,12 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         acquisition: Acquisition { model: AcquisitionModel::QuasiStatic, ..Default::default() },
         glitches: None,
     };
+    // An acquisition that moves one or two joints at a time is written as sweeps.
+    if let Some((len, share)) = sweeps(data) {
+        scenario.sampling.order = Order::Sweeps;
+        scenario.sampling.sweep_length = len;
+        notes.push(format!("{:.0} % of the data's moves turn one or two joints: the twin's tour sweeps, {len} poses a sweep (the median).", share * 100.0));
+    }
     // The effects, each at its identified size.
     let mut written = Vec::new();
     for (b, block) in m.effects.iter().enumerate() {
@@ -272,4 +297,33 @@ fn heavy_tails(r: &CalibResult, data: &Dataset) -> Option<(f64, f64, usize)> {
     let m4 = kept.iter().map(|v| (v - mean).powi(4)).sum::<f64>() / n as f64;
     let k = m4 / (m2 * m2) - 3.0;
     (k > 3.0 * (24.0 / n as f64).sqrt()).then(|| ((4.0 + 6.0 / k).clamp(4.5, 100.0), k, n))
+}
+
+/// Sweeps in the acquisition order: when most moves between consecutive rows turn one or two
+/// joints, (the median length of the runs of such moves + 1, clamped to 2..=1000; the share of
+/// such moves).
+fn sweeps(data: &Dataset) -> Option<(usize, f64)> {
+    let moves: Vec<bool> = data
+        .rows
+        .windows(2)
+        .map(|w| {
+            let turned = w[0].q_deg.iter().zip(&w[1].q_deg).filter(|(a, b)| (*a - *b).abs() > 1e-9).count();
+            (1..=2).contains(&turned)
+        })
+        .collect();
+    let share = moves.iter().filter(|m| **m).count() as f64 / moves.len().max(1) as f64;
+    if share <= 0.5 {
+        return None;
+    }
+    let mut runs = Vec::new();
+    let mut run = 0usize;
+    for m in moves.iter().chain([&false]) {
+        if *m {
+            run += 1;
+        } else if run > 0 {
+            runs.push((run + 1) as f64);
+            run = 0;
+        }
+    }
+    Some(((crate::calib::stats::median(&runs).round() as usize).clamp(2, 1000), share))
 }
