@@ -179,3 +179,26 @@ fn heavy_tailed_noise_is_identified() {
     let (rmse, ks_p) = replay(&data, &twin, &dir.path().join("replay"));
     assert!(ks_p > 1e-3, "KS p {ks_p}, held-out RMSE {rmse}");
 }
+
+/// The simulated tour replays a measured acquisition at its own timing: an acquisition three
+/// times slower than the twin's, starting 100 s late, is read at the measured times (the arm
+/// waits at rest before each move).
+#[test]
+fn the_simulated_tour_reads_at_the_measured_times() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |x: &Path| x.to_str().unwrap().to_owned();
+    let scenario = root().join("scenarios/irb120_evo_nph.toml");
+    let data = dir.path().join("d");
+    ok(twincal(&["generate", "--scenario", &p(&scenario), "--out", &p(&data), "--quiet"]), "generate");
+    let mut ds = twincal::dataset::Dataset::load(&data).unwrap();
+    ds.rows.truncate(120);
+    ds.rows.iter_mut().for_each(|r| r.t_s = r.t_s.map(|t| ((3.0 * t + 100.0) * 1e3).round() / 1e3));
+    let slow = dir.path().join("slow.csv");
+    ds.write_csv(&slow).unwrap();
+    ok(twincal(&["replay", "--data", &p(&slow), "--scenario", &p(&scenario), "--out", &p(&dir.path().join("r")), "--quiet"]), "replay");
+    let twin = twincal::dataset::Dataset::load(&dir.path().join("r/twin")).unwrap();
+    assert_eq!(twin.rows.len(), 120);
+    for (a, b) in ds.rows.iter().zip(&twin.rows) {
+        assert!((a.t_s.unwrap() - b.t_s.unwrap()).abs() < 1e-3, "measured t {:?}, twin t {:?}", a.t_s, b.t_s);
+    }
+}

@@ -22,7 +22,7 @@ fn tour(s: &Scenario, robot: &Robot, n: usize) -> (Vec<Vec<f64>>, Vec<Acquired>)
     let mut poses = sample_poses(s, robot).unwrap();
     poses.truncate(n);
     let settings = TourSettings { seed: s.seed, speed_fraction: s.sampling.speed_fraction };
-    let a = acquire(&twin, &s.acquisition, settings, &[0.0; 6], &poses, &Silent).into_iter().collect::<Result<Vec<_>, _>>().unwrap();
+    let a = acquire(&twin, &s.acquisition, settings, &[0.0; 6], &poses, None, &Silent).into_iter().collect::<Result<Vec<_>, _>>().unwrap();
     (poses, a)
 }
 

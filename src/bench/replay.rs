@@ -28,23 +28,25 @@ pub fn bench_replay(s: &Scenario, robot: &Robot, repeat: usize) -> Result<()> {
     let poses: Vec<Vec<f64>> = measured.dataset.rows.iter().map(|r| r.q_deg.iter().map(|v| v.to_radians()).collect()).collect();
     let times: Option<Vec<f64>> = measured.dataset.rows.iter().map(|r| r.t_s).collect();
     let (mut replay_s, mut generate_s) = (Vec::new(), Vec::new());
-    let mut same = true;
+    let mut worst = 0.0_f64;
     for _ in 0..repeat {
         let t0 = Instant::now();
         let g = generate_at(&s, robot, poses.clone(), times.clone(), &Silent)?;
         replay_s.push(t0.elapsed().as_secs_f64());
-        // The same scenario, seed, poses and times read the same readings.
-        same &= g.dataset.rows.iter().zip(&measured.dataset.rows).all(|(a, b)| a.reading_mm == b.reading_mm);
+        // The same scenario, seed, poses and (logged, ms) times: the same readings but for what
+        // the rounding of the times moves.
+        for (a, b) in g.dataset.rows.iter().zip(&measured.dataset.rows) {
+            worst = a.reading_mm.iter().zip(&b.reading_mm).fold(worst, |w, (x, y)| w.max((x - y).abs()));
+        }
         let t0 = Instant::now();
         generate(&s, robot, &Silent)?;
         generate_s.push(t0.elapsed().as_secs_f64());
     }
     let (r, b) = (median(&replay_s), median(&generate_s));
     println!(
-        "  replay {r:.3} s (target < {REPLAY_TARGET_S:.0} s: {}), generate of as many poses {b:.3} s, ratio {:.2}; replayed readings {} the measured ones",
+        "  replay {r:.3} s (target < {REPLAY_TARGET_S:.0} s: {}), generate of as many poses {b:.3} s, ratio {:.2}; replayed readings within {worst:.2e} mm of the measured ones",
         if r < REPLAY_TARGET_S { "met" } else { "MISSED" },
-        r / b,
-        if same { "equal" } else { "DIFFER FROM" }
+        r / b
     );
     // Identification: a calibration, then the identified twin written from it.
     let opts = CalibOptions::new(ModelSpec::parse("irb120", "hayati")?, Method::Lm);

@@ -109,7 +109,7 @@ pub fn bench_twin(s: &Scenario, robot: &Robot, repeat: usize, quiet: bool) -> Re
     }
     let home = vec![0.0; robot.dof()];
     let settings = crate::sim::twin::tour::TourSettings { seed: s.seed, speed_fraction: s.sampling.speed_fraction };
-    let tour = || -> Result<Vec<Acquired>> { acquire(&twin, &s.acquisition, settings, &home, &poses, &Silent).into_iter().collect() };
+    let tour = || -> Result<Vec<Acquired>> { acquire(&twin, &s.acquisition, settings, &home, &poses, None, &Silent).into_iter().collect() };
     let time = |f: &dyn Fn() -> Result<()>| -> Result<f64> {
         let mut ts = Vec::new();
         for _ in 0..repeat {

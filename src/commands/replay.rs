@@ -12,7 +12,7 @@ use serde::Serialize;
 #[derive(Clone, Debug, clap::Args)]
 pub struct ReplayArgs {
     /// Measured data (dataset folder, CSV or xlsx): q1..qN and the instrument's reading, in
-    /// acquisition order; a `t` column gives the twin the real timing.
+    /// acquisition order; a `t` column stamps the twin's rows with the measured times.
     #[arg(long)]
     pub data: PathBuf,
     /// Unit of the joint angles in the data.

@@ -365,7 +365,17 @@ pub enum Outcome {
 
 /// Every pose through the scenario's acquisition model, in order; results do not depend on the
 /// number of threads.
-pub fn acquire_all(s: &Scenario, twin: &Twin, poses: &[Vec<f64>], sides: &[Vec<f64>], times: &[f64], progress: &dyn Progress) -> Vec<Result<Outcome>> {
+/// `read_at`: the simulated tour reads at these times (a replayed acquisition's) instead of its
+/// own schedule's.
+pub fn acquire_all(
+    s: &Scenario,
+    twin: &Twin,
+    poses: &[Vec<f64>],
+    sides: &[Vec<f64>],
+    times: &[f64],
+    read_at: Option<&[f64]>,
+    progress: &dyn Progress,
+) -> Vec<Result<Outcome>> {
     let cmd = |i: usize| PoseCommand { q_cmd: poses[i].clone(), sides: sides[i].clone(), t: times[i] };
     let what = match s.acquisition.model {
         AcquisitionModel::Settled => "settling poses",
@@ -390,7 +400,7 @@ pub fn acquire_all(s: &Scenario, twin: &Twin, poses: &[Vec<f64>], sides: &[Vec<f
             .collect(),
         AcquisitionModel::Simulated => {
             let settings = TourSettings { seed: s.seed, speed_fraction: s.sampling.speed_fraction };
-            crate::sim::twin::tour::acquire(twin, &s.acquisition, settings, &vec![0.0; twin.chain.n_joints], poses, progress)
+            crate::sim::twin::tour::acquire(twin, &s.acquisition, settings, &vec![0.0; twin.chain.n_joints], poses, read_at, progress)
                 .into_iter()
                 .map(|r| r.map(Outcome::Acquired))
                 .collect()
@@ -413,11 +423,19 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
 pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_times: Option<Vec<f64>>, progress: &dyn Progress) -> Result<Generated> {
     let twin = build_twin(s, robot);
     let home = vec![0.0; robot.dof()];
-    let schedule = (s.acquisition.model == AcquisitionModel::Simulated)
-        .then(|| Schedule::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s, s.sensor.window_s(), &home, &poses));
+    // With given times the simulated tour waits at rest before each move to read at them (or
+    // reads as soon as it can); the rows carry the times it read at.
+    let schedule = (s.acquisition.model == AcquisitionModel::Simulated).then(|| {
+        let (sf, ramp, hold, window) = (s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s, s.sensor.window_s());
+        match &given_times {
+            Some(at) => Schedule::new_at(robot, sf, ramp, hold, window, &home, &poses, at),
+            None => Schedule::new(robot, sf, ramp, hold, window, &home, &poses),
+        }
+    });
+    let read_at: Option<Vec<f64>> = given_times.clone().filter(|_| schedule.is_some());
     let times = match (given_times, &schedule) {
-        (Some(t), _) => t,
-        (None, Some(sc)) => sc.read_t.clone(),
+        (_, Some(sc)) => sc.read_t.clone(),
+        (Some(t), None) => t,
         (None, None) => acquisition_times(s, robot, &poses),
     };
     check_robot_time(s, &times)?;
@@ -426,7 +444,7 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
     let nominal_lengths: Vec<f64> = poses.iter().map(|q| nominal_length(chain, &s.sensor, q)).collect();
     let split = stratified_split(&nominal_lengths, s.sampling.test, s.seed);
 
-    let results = acquire_all(s, &twin, &poses, &sides, &times, progress);
+    let results = acquire_all(s, &twin, &poses, &sides, &times, read_at.as_deref(), progress);
     let deg = |v: &[f64]| v.iter().map(|x| x.to_degrees()).collect::<Vec<f64>>();
     let mut rows = Vec::new();
     let mut truth_poses = Vec::new();

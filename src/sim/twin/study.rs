@@ -92,7 +92,7 @@ pub fn hold_study(s: &Scenario, robot: &Robot, study: &HoldStudy, progress: &dyn
             }
             let twin = build_twin(&sc, robot);
             let settings = TourSettings { seed: sc.seed, speed_fraction: v };
-            let acquired: Vec<_> = acquire(&twin, &acq, settings, &home, &poses, progress).into_iter().collect::<Result<_>>()?;
+            let acquired: Vec<_> = acquire(&twin, &acq, settings, &home, &poses, None, progress).into_iter().collect::<Result<_>>()?;
             let e: Vec<f64> = acquired.iter().map(|a| a.transient_mm).collect();
             let m = e.len() as f64;
             let bias = e.iter().sum::<f64>() / m;

@@ -200,6 +200,29 @@ impl Schedule {
         s
     }
 
+    /// [`Self::new`] read at the times `read_at` (s, one per pose, a measured acquisition's): the
+    /// arm waits at rest before each move so that its reading window is centred on that time,
+    /// or, when the move cannot end in time, reads as soon as it can.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new_at(robot: &Robot, speed_fraction: f64, ramp_s: f64, hold_s: f64, window_s: f64, home: &[f64], poses: &[Vec<f64>], read_at: &[f64]) -> Schedule {
+        let speed: Vec<f64> = robot.joints.iter().map(|j| speed_fraction * j.speed_limit()).collect();
+        let mut s = Schedule { moves: Vec::new(), move_start: Vec::new(), arrival: Vec::new(), read_t: Vec::new() };
+        let mut t = 0.0;
+        let mut prev = home.to_vec();
+        for (q, at) in poses.iter().zip(read_at) {
+            let m = Move::plan(&prev, q, &speed, ramp_s);
+            let start = t.max(at - 0.5 * window_s - hold_s - m.duration);
+            s.move_start.push(start);
+            s.arrival.push(start + m.duration);
+            let read = start + m.duration + hold_s + 0.5 * window_s;
+            s.read_t.push(read);
+            t = read + 0.5 * window_s;
+            s.moves.push(m);
+            prev = q.clone();
+        }
+        s
+    }
+
     /// When the pose before `i` was left (its move's start time): the chunk starting at `i` begins then.
     fn chunk_start(&self, i: usize) -> f64 {
         self.move_start[i]
@@ -578,11 +601,15 @@ pub fn acquire(
     settings: TourSettings,
     home: &[f64],
     poses: &[Vec<f64>],
+    read_at: Option<&[f64]>,
     progress: &dyn crate::sim::generate::Progress,
 ) -> Vec<Result<Acquired>> {
     use rayon::prelude::*;
     let sn = &twin.sensor;
-    let schedule = Schedule::new(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses);
+    let schedule = match read_at {
+        Some(at) => Schedule::new_at(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses, at),
+        None => Schedule::new(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses),
+    };
     let rule = super::approach_sides(home, poses);
     let starts: Vec<usize> = (0..poses.len()).step_by(acq.chunk_poses.max(1)).collect();
     let chunks: Vec<Vec<Result<Acquired>>> = starts
