@@ -65,6 +65,10 @@ fn an_identified_twin_replays_held_out_rows_to_the_noise() {
         assert!(r_full < 1.2 * noise, "seed {seed}: the identified twin misses held-out rows by {r_full} mm against the noise {noise} mm");
         assert!(r_geo > 1.3 * r_full && r_nominal > 5.0 * r_geo, "seed {seed}: nominal {r_nominal}, geometry {r_geo}, identified {r_full}");
         assert!(ks_p > 1e-4, "seed {seed}: held-out residuals unlike the twin's noise (KS p {ks_p})");
+        // Calibrated alike, the twin's data leave the held-out residuals the real data leave.
+        let after = &json(&d("replay_full").join("replay.json"))["after_calibration"];
+        let (real, twin) = (after["real"]["rmse"].as_f64().unwrap(), after["twin"]["rmse"].as_f64().unwrap());
+        assert!(twin > 0.7 * real && twin < 1.4 * real && after["ks_p_value"].as_f64().unwrap() > 1e-4, "seed {seed}: {after}");
         // The compliance identified is the hidden one (10 µrad/N·m) within its uncertainty.
         let dg = json(&d("dg.json"));
         assert_eq!(dg["verdict"], "joint_compliance[j2]", "seed {seed}: {}", dg["causes"]);

@@ -89,7 +89,51 @@ pub struct ReplaySummary {
     /// alike when the twin is right and its noise is the data's.
     pub ks_distance: f64,
     pub ks_p_value: f64,
+    /// The real rows and the twin's dataset (`twin/`) calibrated alike (LM, the twin's robot as
+    /// the nominal model), judged on the same held-out rows: does the twin's data look like the
+    /// real data to a calibration?
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub after_calibration: Option<AfterCalibration>,
     pub seconds: f64,
+}
+
+/// See [`ReplaySummary::after_calibration`].
+#[derive(Clone, Debug, Serialize)]
+pub struct AfterCalibration {
+    pub model: String,
+    /// Held-out residuals after calibration, per value, of the real rows and of the twin's.
+    pub real: ErrorStats,
+    pub twin: ErrorStats,
+    /// Two-sample Kolmogorov–Smirnov test of the two sets of held-out residuals.
+    pub ks_distance: f64,
+    pub ks_p_value: f64,
+}
+
+/// Calibrates the real rows and the twin's rows alike and compares their held-out residuals;
+/// `None` without held-out rows, or when either calibration fails.
+fn after_calibration(data: &Dataset, twin: &Dataset, robot: &crate::robot::Robot, test_fraction: Option<f64>, seed: u64) -> Option<AfterCalibration> {
+    use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
+    let run = |d: &Dataset, f: Option<f64>, p: &str| {
+        let mut o = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: p.into() }, Method::Lm);
+        (o.test_fraction, o.seed) = (f, seed);
+        calibrate(d, None, &o).ok()
+    };
+    let pair = |p: &str| Some((run(data, test_fraction, p)?, run(twin, None, p)?));
+    let (model, (real, tw)) = match pair("hayati") {
+        Some(r) => ("hayati", r),
+        None => ("frame", pair("frame")?),
+    };
+    if real.test_residuals_mm.is_empty() || tw.test_residuals_mm.is_empty() {
+        return None;
+    }
+    let (ks_distance, ks_p_value) = crate::calib::stats::ks_two_sample(&real.test_residuals_mm, &tw.test_residuals_mm);
+    Some(AfterCalibration {
+        model: format!("lm, {} ({model})", robot.name),
+        real: ErrorStats::of(&real.test_residuals_mm),
+        twin: ErrorStats::of(&tw.test_residuals_mm),
+        ks_distance,
+        ks_p_value,
+    })
 }
 
 /// The instrument a scenario reads.
@@ -208,7 +252,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let twin_noise: Vec<f64> = twin.iter().flatten().flat_map(|(read, ideal)| read.iter().zip(ideal).map(|(a, b)| a - b)).collect();
     let judged_res: Vec<f64> = judged_rows.iter().filter_map(|&i| residual(i)).flatten().collect();
     let (ks_distance, ks_p_value) = crate::calib::stats::ks_two_sample(&judged_res, &twin_noise);
-    let summary = ReplaySummary {
+    let mut summary = ReplaySummary {
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
         scenario: a.scenario.display().to_string(),
@@ -222,7 +266,8 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         twin_noise_rms_mm: ErrorStats::of(&twin_noise).rmse,
         ks_distance,
         ks_p_value,
-        seconds: t0.elapsed().as_secs_f64(),
+        after_calibration: None,
+        seconds: 0.0,
     };
 
     // replay.csv: the row, its angles and time, then per value the measured, the twin's, the
@@ -265,6 +310,8 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         }
         debug_assert!(idx.iter().all(|i| judged_set.contains(i)));
     }
+    summary.after_calibration = judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.test_fraction, a.seed));
+    summary.seconds = t0.elapsed().as_secs_f64();
     let mut outputs = OutputSet::new();
     if let Some(f) = &figs {
         if let Some(p) = &a.rrd {
@@ -361,5 +408,11 @@ fn print_summary(s: &ReplaySummary, out: &Path) {
         "  the twin's own noise {:.4} mm RMS; residuals against it: Kolmogorov–Smirnov D {:.3} (p {:.2e})",
         s.twin_noise_rms_mm, s.ks_distance, s.ks_p_value
     );
+    if let Some(c) = &s.after_calibration {
+        eprintln!(
+            "  calibrated alike ({}), held-out residuals: real {:.4} mm RMS, the twin's data {:.4} mm; Kolmogorov–Smirnov D {:.3} (p {:.2e})",
+            c.model, c.real.rmse, c.twin.rmse, c.ks_distance, c.ks_p_value
+        );
+    }
     eprintln!("  wrote {}", out.display());
 }
