@@ -61,6 +61,19 @@ enum Command {
     Ik(twincal::commands::ik::IkArgs),
     /// Compare methods over seeds: accuracy and time tables with Wilcoxon signed-rank tests.
     Compare(commands::CompareArgs),
+    /// Join the partial files of `compare --shard i/N` runs: every item exactly once, then the
+    /// same table, --out and --rrd as one `compare`.
+    Reduce {
+        /// The shards' partial files (JSONL).
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Also write the tables as JSON.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Rerun recording of the accuracy table and the per-seed spread of each method.
+        #[arg(long)]
+        rrd: Option<PathBuf>,
+    },
     /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model),
     /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
     /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30), `ik`,
@@ -135,6 +148,7 @@ fn main() -> ExitCode {
         Command::Diagnose(a) => commands::diagnose(&a, args.quiet),
         Command::Predict { model, data, angles, reading, out } => commands::predict(&model, &data, angles, &reading, &out, args.quiet),
         Command::Compare(a) => commands::compare(&a, args.quiet),
+        Command::Reduce { parts, out, rrd } => commands::reduce(&parts, out.as_deref(), rrd.as_deref(), args.quiet),
         Command::Replay(a) => commands::replay(&a, args.quiet),
         Command::Ik(a) => twincal::commands::ik::ik(&a, args.quiet),
         Command::Study { what, scenario, holds, speeds, poses, rrd } => commands::study(

@@ -36,6 +36,8 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
                     effort: 1.0,
                     out: None,
                     rrd: None,
+                    shard: None,
+                    shard_out: None,
                 };
                 super::compare(&args, true)
             };

@@ -3,7 +3,7 @@
 use super::*;
 
 /// One calibration run inside `compare`.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct CompareRun {
     pub method: String,
     pub seed: u64,
@@ -13,12 +13,51 @@ pub struct CompareRun {
     pub seconds: f64,
     /// For a reading of several values (a tracker's point): the test rows' position error |Δp|
     /// (its `mae` is the mean absolute position error).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_position: Option<crate::calib::metrics::ErrorStats>,
     /// What the calibration warned of (a method ending worse than its start, few rows, ...).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
     #[serde(skip)]
+    pub test_abs_residuals: Vec<f64>,
+}
+
+/// What a compare is over: every shard of one study holds the same (its hash ties them).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CompareConfig {
+    pub data: String,
+    /// SHA-256 of the data file's bytes.
+    pub data_sha256: String,
+    pub rows: usize,
+    pub methods: Vec<String>,
+    pub seeds: u64,
+    pub test_fraction: f64,
+    pub effort: f64,
+    pub model: String,
+    pub twincal_version: String,
+}
+
+impl CompareConfig {
+    /// SHA-256 of the configuration's JSON, hex.
+    pub fn hash(&self) -> String {
+        crate::calib::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
+    }
+    /// Work items in their fixed order: item `id` is seed `id / methods` with method `id % methods`.
+    pub fn items(&self) -> u64 {
+        self.seeds * self.methods.len() as u64
+    }
+}
+
+/// One line of a shard's partial file (JSONL): a finished work item.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct ShardLine {
+    pub item: u64,
+    pub config_hash: String,
+    pub twincal_version: String,
+    pub config: CompareConfig,
+    pub run: CompareRun,
+    /// |test residual| of the run, kept for seed 0 (the per-sample Wilcoxon test).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub test_abs_residuals: Vec<f64>,
 }
 
@@ -51,6 +90,54 @@ pub struct CompareArgs {
     /// Rerun recording of the accuracy table and the per-seed spread of each method.
     #[arg(long)]
     pub rrd: Option<PathBuf>,
+    /// Run only work items with id % N == i (items: seed × method, id = seed · methods +
+    /// method, in a fixed order), appending each to --shard-out as it finishes; `twincal reduce`
+    /// joins the parts. Re-running a shard skips the items its file holds.
+    #[arg(long, value_name = "i/N")]
+    pub shard: Option<String>,
+    /// The shard's partial file (JSONL; needed with --shard).
+    #[arg(long)]
+    pub shard_out: Option<PathBuf>,
+}
+
+/// Parses `--shard i/N` (0 ≤ i < N ≤ 10 000).
+fn parse_shard(s: &str) -> Result<(u64, u64)> {
+    let bad = || Error::Invalid(format!("--shard must be i/N with 0 <= i < N <= 10000 (e.g. 0/3), got '{s}'"));
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n): (u64, u64) = (i.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    if n == 0 || n > 10_000 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// The finished items of a shard file (a torn last line, from a killed run, is dropped), each
+/// checked against `config`.
+fn read_shard(path: &Path, hash: Option<&str>) -> Result<Vec<ShardLine>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && hash.is_some() => return Ok(Vec::new()),
+        Err(e) => return Err(Error::io(path, e)),
+    };
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    let mut out = Vec::new();
+    for (k, line) in lines.iter().enumerate() {
+        match serde_json::from_str::<ShardLine>(line) {
+            Ok(l) => {
+                if let Some(h) = hash.filter(|h| *h != l.config_hash) {
+                    return Err(Error::data(
+                        path.display(),
+                        format!("line {}: written for another comparison (config {}, this one {h}): use another --shard-out", k + 1, &l.config_hash[..12]),
+                    ));
+                }
+                out.push(l);
+            }
+            // Only the last line can be torn (a run killed while writing it).
+            Err(_) if k + 1 == lines.len() && !text.ends_with('\n') => {}
+            Err(e) => return Err(Error::data(path.display(), format!("line {}: not a shard line ({e})", k + 1))),
+        }
+    }
+    Ok(out)
 }
 
 /// Fewest seeds for the across-seeds Wilcoxon test: with 5 or fewer, the smallest two-sided
@@ -62,7 +149,6 @@ pub const MIN_SEEDS_FOR_TEST: usize = 6;
 /// across seeds (test RMSE) and per sample (|test residual| of seed 0).
 pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     use crate::calib::run::{calibrate as run, CalibOptions, Method};
-    use crate::calib::stats::{mean_std, wilcoxon_signed_rank};
     use rayon::prelude::*;
     let (seeds, test_fraction, effort) = (a.seeds, a.test_fraction, a.effort);
     let methods: Vec<Method> = a.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
@@ -110,12 +196,54 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     if (frac * n as f64).round() < 1.0 || (frac * n as f64).round() as usize >= n {
         return Err(Error::Invalid(format!("test fraction {frac} of {n} rows leaves no test rows or no training rows")));
     }
-    let jobs: Vec<(u64, Method)> = (0..seeds).flat_map(|s| methods.iter().map(move |m| (s, *m))).collect();
+    let file = &data_files[0];
+    let config = CompareConfig {
+        data: ds.source.clone(),
+        data_sha256: crate::calib::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?),
+        rows: n,
+        methods: methods.iter().map(|m| m.name().to_string()).collect(),
+        seeds,
+        test_fraction: frac,
+        effort,
+        model: format!("{} {}", a.model.model, a.model.params.as_deref().unwrap_or("")).trim().to_string(),
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+    };
+    let hash = config.hash();
+    // Work items in their fixed order; a shard runs its own and skips those its file holds.
+    let shard = match &a.shard {
+        Some(s) => {
+            if a.out.is_some() || a.rrd.is_some() {
+                return Err(Error::Invalid("--shard writes --shard-out only; --out and --rrd belong to `twincal reduce`".into()));
+            }
+            let out = a.shard_out.as_deref().ok_or_else(|| Error::Invalid("--shard needs --shard-out FILE (the shard's partial file)".into()))?;
+            check_outputs(&data_files.iter().map(|p| ("--data", p.as_path())).collect::<Vec<_>>(), &[("--shard-out", out)])?;
+            Some((parse_shard(s)?, out))
+        }
+        None if a.shard_out.is_some() => return Err(Error::Invalid("--shard-out needs --shard i/N".into())),
+        None => None,
+    };
+    let done: std::collections::BTreeSet<u64> = match &shard {
+        Some((_, out)) => read_shard(out, Some(&hash))?.iter().map(|l| l.item).collect(),
+        None => Default::default(),
+    };
+    let jobs: Vec<(u64, u64, Method)> = (0..seeds)
+        .flat_map(|s| {
+            let k_methods = methods.len() as u64;
+            methods.iter().enumerate().map(move |(k, m)| (s * k_methods + k as u64, s, *m)).collect::<Vec<_>>()
+        })
+        .filter(|(id, _, _)| shard.as_ref().is_none_or(|((i, nn), _)| id % nn == *i) && !done.contains(id))
+        .collect();
+    // A shard appends each finished item at once, a whole line (a killed run loses only the
+    // items it was running; a torn last line is cut off first).
+    let sink = match &shard {
+        Some((_, out)) => Some(std::sync::Mutex::new(open_shard(out)?)),
+        None => None,
+    };
     let bar = progress(quiet);
     bar.start(jobs.len() as u64, "calibrations");
     let runs: Vec<Result<CompareRun>> = jobs
         .par_iter()
-        .map(|(seed, m)| {
+        .map(|(id, seed, m)| {
             let mut o = CalibOptions::new(spec.clone(), *m);
             o.test_fraction = Some(frac);
             o.seed = *seed;
@@ -123,9 +251,9 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
             let r = run(&ds, None, &o)?;
             // The residuals the calibration scored (with each row's inputs: temperature, flanks,
             // torques; and reading steps), not a re-prediction from the angles alone.
-            let test_abs_residuals = r.test_residuals_mm.iter().map(|v| v.abs()).collect();
+            let test_abs_residuals: Vec<f64> = r.test_residuals_mm.iter().map(|v| v.abs()).collect();
             bar.inc(1);
-            Ok(CompareRun {
+            let run = CompareRun {
                 method: m.name().into(),
                 seed: *seed,
                 train: r.metrics.train_after,
@@ -135,14 +263,58 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
                 test_position: r.metrics.test_position_after,
                 warnings: r.warnings,
                 test_abs_residuals,
-            })
+            };
+            if let Some(sink) = &sink {
+                let line = ShardLine {
+                    item: *id,
+                    config_hash: hash.clone(),
+                    twincal_version: env!("CARGO_PKG_VERSION").into(),
+                    config: config.clone(),
+                    test_abs_residuals: if *seed == 0 { run.test_abs_residuals.clone() } else { Vec::new() },
+                    run: run.clone(),
+                };
+                let text = serde_json::to_string(&line).map_err(|e| Error::Invalid(format!("cannot write a shard line: {e}")))? + "\n";
+                use std::io::Write;
+                let mut f = sink.lock().unwrap_or_else(|e| e.into_inner());
+                f.write_all(text.as_bytes()).and_then(|_| f.flush()).map_err(|e| Error::io(shard.as_ref().map_or(Path::new(""), |s| s.1), e))?;
+            }
+            Ok(run)
         })
         .collect();
     bar.finish();
     let runs: Vec<CompareRun> = runs.into_iter().collect::<Result<_>>()?;
+    if let Some(((i, nn), out)) = &shard {
+        if !quiet {
+            eprintln!("shard {i}/{nn}: {} items run, {} already in {} (config {})", runs.len(), done.len(), out.display(), &hash[..12]);
+        }
+        return Ok(());
+    }
+    finish(&config, &runs, a.out.as_deref(), a.rrd.as_deref())
+}
+
+/// Opens a shard's partial file for appending, cutting off a torn last line first.
+fn open_shard(path: &Path) -> Result<std::fs::File> {
+    if let Ok(bytes) = std::fs::read(path) {
+        if !bytes.is_empty() && !bytes.ends_with(b"\n") {
+            let keep = bytes.iter().rposition(|b| *b == b'\n').map_or(0, |k| k + 1);
+            let f = std::fs::OpenOptions::new().write(true).open(path).map_err(|e| Error::io(path, e))?;
+            f.set_len(keep as u64).map_err(|e| Error::io(path, e))?;
+        }
+    }
+    std::fs::OpenOptions::new().create(true).append(true).open(path).map_err(|e| Error::io(path, e))
+}
+
+/// The table, the warnings and the outputs of a finished comparison (every item's run, in item
+/// order): what `compare` prints and writes, and `reduce` the same from the shards' parts.
+pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, rrd: Option<&Path>) -> Result<()> {
+    use crate::calib::run::Method;
+    use crate::calib::stats::{mean_std, wilcoxon_signed_rank};
+    let methods: Vec<Method> = config.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
+    let (seeds, frac, n) = (config.seeds, config.test_fraction, config.rows);
     let by = |m: &str| runs.iter().filter(|r| r.method == m).cloned().collect::<Vec<_>>();
     let mut table = String::new();
-    table.push_str(&format!("# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n", ds.source, n));
+    table.push_str(&format!("# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n", config.data, n));
+
     table.push_str(
         "| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n",
     );
@@ -208,7 +380,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     println!("{table}");
     // Each calibration's warnings, once per method and wording (seeds listed).
     let mut warned: Vec<(String, String, Vec<u64>)> = Vec::new();
-    for r in &runs {
+    for r in runs {
         for w in &r.warnings {
             match warned.iter_mut().find(|(m, t, _)| *m == r.method && t == w) {
                 Some((_, _, seeds)) => seeds.push(r.seed),
@@ -221,7 +393,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         eprintln!("warning: {m} (seed {}): {w}", seeds.join(", "));
     }
     let mut outputs = OutputSet::new();
-    if let Some(p) = a.rrd.as_deref() {
+    if let Some(p) = rrd {
         let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
         let rows: Vec<crate::viz::scenes::CompareRow> = runs
             .iter()
@@ -229,9 +401,72 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
             .collect();
         crate::viz::scenes::record_comparison(&table, &names, &rows, &mut outputs, p)?;
     }
-    if let Some(p) = a.out.as_deref() {
-        outputs.write_json(p, &serde_json::json!({"data": ds.source, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
+    if let Some(p) = out {
+        outputs.write_json(p, &serde_json::json!({"data": config.data, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
     }
     outputs.commit()?;
     Ok(())
+}
+
+/// `twincal reduce PARTS...`: the shards' partial files of one comparison joined, checked (one
+/// configuration; every item exactly once once retries' duplicates are dropped) and rendered as
+/// the single-process `compare` renders them: the same table, `--out` and `--rrd`.
+pub fn reduce(parts: &[PathBuf], out: Option<&Path>, rrd: Option<&Path>, quiet: bool) -> Result<()> {
+    if parts.is_empty() {
+        return Err(Error::Invalid("reduce needs the shards' partial files (twincal reduce PART...)".into()));
+    }
+    let outs: Vec<(&str, &Path)> = out.map(|p| ("--out", p)).into_iter().chain(rrd.map(|p| ("--rrd", p))).collect();
+    check_outputs(&parts.iter().map(|p| ("PART", p.as_path())).collect::<Vec<_>>(), &outs)?;
+    let mut lines: Vec<(ShardLine, &Path)> = Vec::new();
+    for p in parts {
+        lines.extend(read_shard(p, None)?.into_iter().map(|l| (l, p.as_path())));
+    }
+    let Some((first, first_file)) = lines.first().map(|(l, p)| (l.clone(), *p)) else {
+        return Err(Error::Invalid("the parts hold no finished item".into()));
+    };
+    if let Some((l, p)) = lines.iter().find(|(l, _)| l.config_hash != first.config_hash) {
+        return Err(Error::data(
+            p.display(),
+            format!(
+                "item {} belongs to another comparison (config {}; {} holds config {})",
+                l.item,
+                &l.config_hash[..12],
+                first_file.display(),
+                &first.config_hash[..12]
+            ),
+        ));
+    }
+    let config = first.config.clone();
+    if config.hash() != first.config_hash {
+        return Err(Error::data(first_file.display(), "its configuration does not match its hash (a hand-edited part?)"));
+    }
+    let total = config.items();
+    let mut by_item: std::collections::BTreeMap<u64, ShardLine> = std::collections::BTreeMap::new();
+    let mut duplicates = 0;
+    for (l, p) in lines {
+        if l.item >= total {
+            return Err(Error::data(p.display(), format!("item {} is beyond the comparison's {total} items", l.item)));
+        }
+        match by_item.entry(l.item) {
+            std::collections::btree_map::Entry::Occupied(_) => duplicates += 1,
+            std::collections::btree_map::Entry::Vacant(v) => {
+                v.insert(l);
+            }
+        }
+    }
+    let missing: Vec<u64> = (0..total).filter(|i| !by_item.contains_key(i)).collect();
+    if !missing.is_empty() {
+        let shown: Vec<String> = missing.iter().take(20).map(u64::to_string).collect();
+        return Err(Error::Invalid(format!(
+            "{} of the {total} items are missing (first: {}{}): run the shards that hold them (re-running a shard resumes it)",
+            missing.len(),
+            shown.join(", "),
+            if missing.len() > 20 { ", ..." } else { "" }
+        )));
+    }
+    let runs: Vec<CompareRun> = by_item.into_values().map(|l| CompareRun { test_abs_residuals: l.test_abs_residuals, ..l.run }).collect();
+    if !quiet {
+        eprintln!("reduced {} parts: {total} items of config {}, {duplicates} duplicates dropped", parts.len(), &first.config_hash[..12]);
+    }
+    finish(&config, &runs, out, rrd)
 }

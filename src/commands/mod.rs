@@ -16,7 +16,7 @@ mod tests;
 pub use bench::bench_command;
 use calibrate::print_verdict;
 pub use calibrate::{calibrate, calibration_warnings, CalibrateArgs};
-pub use compare::{compare, CompareArgs, CompareRun};
+pub use compare::{compare, reduce, CompareArgs, CompareRun};
 pub use diagnose::{diagnose, DiagnoseArgs};
 pub use generate::generate;
 pub use predict::{predict, prediction_csv};

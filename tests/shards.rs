@@ -1,0 +1,92 @@
+//! A comparison split into shards (`compare --shard i/N --shard-out PART`, each a separate
+//! process) and joined (`twincal reduce`) gives the single process's tables and JSON, N = 1, 3
+//! and 7, but for the measured seconds; a killed shard re-run completes without duplicates;
+//! missing items and mixed comparisons are refused.
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+fn twincal(args: &[&str]) -> Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).arg("--quiet").output().expect("runs")
+}
+
+fn ok(o: Output, what: &str) -> Output {
+    assert!(o.status.success(), "{what}: {}", String::from_utf8_lossy(&o.stderr));
+    o
+}
+
+/// The table without its wall-time column (the last), and the JSON without the runs' seconds.
+fn table(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| if l.starts_with("| ") && l.matches('|').count() == 10 { l.rsplitn(3, '|').nth(2).unwrap().to_string() } else { l.to_string() })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    v["runs"].as_array_mut().unwrap().iter_mut().for_each(|r| {
+        r.as_object_mut().unwrap().remove("seconds");
+    });
+    v
+}
+
+#[test]
+fn shards_reduce_to_the_single_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |x: &Path| x.to_str().unwrap().to_owned();
+    let data = dir.path().join("d");
+    let scenario = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenarios/irb120_geometric.toml");
+    ok(twincal(&["generate", "--scenario", &p(&scenario), "--out", &p(&data)]), "generate");
+    let base = ["compare", "--data", &p(&data), "--methods", "lm,rbf", "--seeds", "7"];
+    let single = ok(twincal(&[&base[..], &["--out", &p(&dir.path().join("single.json"))]].concat()), "compare");
+    let (single_table, single_json) = (table(&single), json(&dir.path().join("single.json")));
+    assert!(single_table.contains("| rbf |"), "{single_table}");
+    for n in [1, 3, 7] {
+        let parts: Vec<PathBuf> = (0..n).map(|i| dir.path().join(format!("n{n}_{i}.jsonl"))).collect();
+        for (i, part) in parts.iter().enumerate() {
+            ok(twincal(&[&base[..], &["--shard", &format!("{i}/{n}"), "--shard-out", &p(part)]].concat()), "shard");
+        }
+        let out = dir.path().join(format!("reduced{n}.json"));
+        let mut args = vec!["reduce".to_string()];
+        args.extend(parts.iter().map(|x| p(x)));
+        args.extend(["--out".to_string(), p(&out)]);
+        let reduced = ok(twincal(&args.iter().map(String::as_str).collect::<Vec<_>>()), "reduce");
+        assert_eq!(table(&reduced), single_table, "{n} shards");
+        assert_eq!(json(&out), single_json, "{n} shards");
+    }
+    // A shard killed while writing: three items kept and a torn fourth line. Re-run, it runs
+    // only the missing items and cuts the torn line; every item is there once.
+    let part = dir.path().join("killed.jsonl");
+    ok(twincal(&[&base[..], &["--shard", "0/1", "--shard-out", &p(&part)]].concat()), "shard");
+    let text = std::fs::read_to_string(&part).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 14);
+    std::fs::write(&part, format!("{}\n{}", lines[..3].join("\n"), &lines[3][..lines[3].len() / 2])).unwrap();
+    let o = ok(
+        std::process::Command::new(env!("CARGO_BIN_EXE_twincal")).args([&base[..], &["--shard", "0/1", "--shard-out", &p(&part)]].concat()).output().unwrap(),
+        "resume",
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("11 items run, 3 already in"), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&part).unwrap();
+    let mut items: Vec<u64> = text.lines().map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["item"].as_u64().unwrap()).collect();
+    items.sort_unstable();
+    assert_eq!(items, (0..14).collect::<Vec<_>>());
+    // The same part twice (a retried shard): duplicates dropped, the same table.
+    let again = ok(twincal(&["reduce", &p(&part), &p(&part)]), "reduce duplicates");
+    assert_eq!(table(&again), single_table);
+    // Missing items are named; another comparison's part is refused.
+    let o = twincal(&["reduce", &p(&dir.path().join("n3_0.jsonl"))]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("of the 14 items are missing (first: 1, 2, 4"), "{}", String::from_utf8_lossy(&o.stderr));
+    let other = dir.path().join("other.jsonl");
+    ok(twincal(&["compare", "--data", &p(&data), "--methods", "lm", "--seeds", "2", "--shard", "0/1", "--shard-out", &p(&other)]), "other");
+    let o = twincal(&["reduce", &p(&part), &p(&other)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("belongs to another comparison"), "{}", String::from_utf8_lossy(&o.stderr));
+    // A shard file of another comparison is not appended to.
+    let o = twincal(&[&base[..], &["--shard", "0/2", "--shard-out", &p(&other)]].concat());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("written for another comparison"), "{}", String::from_utf8_lossy(&o.stderr));
+}
