@@ -43,6 +43,14 @@ pub enum Method {
     PsoEkfAwnn(Ablation),
 }
 
+impl Method {
+    /// Whether the method adds a learned corrector of the residuals (rbf and the papers'
+    /// methods): they fit with equal weights, as their correctors learn plain residuals.
+    pub fn learns_corrector(self) -> bool {
+        matches!(self, Method::Rbf | Method::DsadeGkan | Method::DsadeGkanV1 | Method::DsadeGkanV2 | Method::DsadeGkanV3 | Method::PsoEkfAwnn(_))
+    }
+}
+
 impl From<Method> for String {
     fn from(m: Method) -> String {
         m.name().into()

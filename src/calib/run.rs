@@ -1055,7 +1055,8 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     }
     let mut model = super::placement::place_sensor(opts, &split.train)?;
     // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
-    let weighting = if opts.row_std {
+    // (A learned corrector learns plain residuals: its methods fit with equal weights.)
+    let weighting = if opts.row_std && !opts.method.learns_corrector() {
         super::weighting::training_weights(&model, data, &split.train_idx, &split.train, opts.rank_tol).map(|(w, info)| {
             split.train.w = Some(w);
             info

@@ -18,6 +18,9 @@ use crate::sim::scenario::{Geometry, Order, Sampling, Scenario};
 use crate::sim::twin::tour::{Acquisition, AcquisitionModel};
 use std::path::Path;
 
+/// Largest noise (µm per coordinate and sample) a twin's tracker takes (`Tracker::validate`).
+const MAX_TRACKER_NOISE_UM: f64 = 1000.0;
+
 /// What [`identified_scenario`] writes: the scenario's TOML text and the URDF it names.
 pub struct IdentifiedTwin {
     pub scenario: Scenario,
@@ -138,7 +141,13 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
             Some(Tracker {
                 translation_mm: [o[0] * 1e3, o[1] * 1e3, o[2] * 1e3],
                 rotation_deg: [o[3].to_degrees(), o[4].to_degrees(), o[5].to_degrees()],
-                noise_um: probe.map_or(sigma, |(_, _, pos)| pos) * 1e3,
+                noise_um: {
+                    let um = probe.map_or(sigma, |(_, _, pos)| pos) * 1e3;
+                    if um > MAX_TRACKER_NOISE_UM {
+                        notes.push(format!("The data's noise ({um:.0} µm) is beyond a tracker's {MAX_TRACKER_NOISE_UM} µm: the twin's is cut there (the residuals are the model's error, not the tracker's)."));
+                    }
+                    um.min(MAX_TRACKER_NOISE_UM)
+                },
                 noise_um_per_m: 0.0,
                 decimals: reading_step.and_then(decimals).unwrap_or(4).min(crate::sim::instrument::tracker::MAX_DECIMALS),
                 probe_rotation_deg: probe.map(|(r, _, _)| r),
@@ -190,10 +199,17 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
                 block.kind.def().hide(&mut scenario, n, block.joint, r.x[k], 0.0);
                 written.push(label);
             }
-            EffectKind::EncoderEccentricity => {
+            EffectKind::EncoderEccentricity if r.x[k].hypot(r.x[k + 1]).to_degrees() < crate::sim::effects::MAX_ECCENTRICITY_DEG => {
                 let (a, c) = (r.x[k], r.x[k + 1]);
                 block.kind.def().hide(&mut scenario, n, block.joint, a.hypot(c), c.atan2(a));
                 written.push(label);
+            }
+            EffectKind::EncoderEccentricity => {
+                notes.push(format!(
+                    "{label}: identified at {:.3}°, beyond the twin's {}°, left out.",
+                    r.x[k].hypot(r.x[k + 1]).to_degrees(),
+                    crate::sim::effects::MAX_ECCENTRICITY_DEG
+                ));
             }
             EffectKind::JointCompliance | EffectKind::Backlash => {
                 notes.push(format!("{label}: identified as {} (not physical), left out.", r.x[k]));

@@ -34,13 +34,20 @@ pub struct CompareConfig {
     pub test_fraction: f64,
     pub effort: f64,
     pub model: String,
+    /// SHA-256 of the model's URDF, when it is a file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_sha256: Option<String>,
+    /// How the data were read: the angle unit, the instrument and a pose's Euler convention.
+    pub reading: String,
     pub twincal_version: String,
 }
 
 impl CompareConfig {
-    /// SHA-256 of the configuration's JSON, hex.
+    /// SHA-256 of the configuration's JSON, hex; the data's path is left out (its SHA-256 is
+    /// in), so shards that reach the same file by other paths agree.
     pub fn hash(&self) -> String {
-        crate::calib::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
+        let keyed = CompareConfig { data: String::new(), ..self.clone() };
+        crate::calib::truth::sha256_hex(serde_json::to_string(&keyed).unwrap_or_default().as_bytes())
     }
     /// Work items in their fixed order: item `id` is seed `id / methods` with method `id % methods`.
     pub fn items(&self) -> u64 {
@@ -122,6 +129,11 @@ fn read_shard(path: &Path, hash: Option<&str>) -> Result<Vec<ShardLine>> {
     let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
     let mut out = Vec::new();
     for (k, line) in lines.iter().enumerate() {
+        // Only the last line can be torn (a run killed while writing it): without its newline it
+        // is not finished, even when it parses (the resume cuts it off and runs its item again).
+        if k + 1 == lines.len() && !text.ends_with('\n') {
+            break;
+        }
         match serde_json::from_str::<ShardLine>(line) {
             Ok(l) => {
                 if let Some(h) = hash.filter(|h| *h != l.config_hash) {
@@ -132,7 +144,6 @@ fn read_shard(path: &Path, hash: Option<&str>) -> Result<Vec<ShardLine>> {
                 }
                 out.push(l);
             }
-            // Only the last line can be torn (a run killed while writing it).
             Err(_) if k + 1 == lines.len() && !text.ends_with('\n') => {}
             Err(e) => return Err(Error::data(path.display(), format!("line {}: not a shard line ({e})", k + 1))),
         }
@@ -206,6 +217,16 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         test_fraction: frac,
         effort,
         model: format!("{} {}", a.model.model, a.model.params.as_deref().unwrap_or("")).trim().to_string(),
+        model_sha256: match a.model.input() {
+            Some(m) => Some(crate::calib::truth::sha256_hex(&std::fs::read(&m).map_err(|e| Error::io(&m, e))?)),
+            None => None,
+        },
+        reading: format!(
+            "angles {}, measurement {}, euler {}",
+            clap::ValueEnum::to_possible_value(&a.angles).map(|v| v.get_name().to_string()).unwrap_or_default(),
+            ds.measurement().map_or("none", |m| m.name()),
+            a.reading.euler
+        ),
         twincal_version: env!("CARGO_PKG_VERSION").into(),
     };
     let hash = config.hash();

@@ -130,20 +130,21 @@ impl Euler {
         // k: the axis neither i nor j; s: +1 when (i, j, k) is a cyclic order of (x, y, z).
         let k = 3 - i - j;
         let s = if (j + 3 - i) % 3 == 1 { 1.0 } else { -1.0 };
-        let locked = |v: f64| v.abs() > 1.0 - 1e-12;
+        // Locked only where the entries that set the outer angles vanish (not within a band of
+        // sin b ≈ ±1, where they are small but still exact).
         if third != i {
-            let sb = (s * m[(i, k)]).clamp(-1.0, 1.0);
-            let b = sb.asin();
-            if locked(sb) {
+            let cb = m[(i, i)].hypot(m[(i, j)]);
+            let b = (s * m[(i, k)]).atan2(cb);
+            if cb < 1e-12 {
                 return [(s * m[(k, j)]).atan2(m[(j, j)]), b, 0.0];
             }
             [(-s * m[(j, k)]).atan2(m[(k, k)]), b, (-s * m[(i, j)]).atan2(m[(i, i)])]
         } else {
-            let cb = m[(i, i)].clamp(-1.0, 1.0);
-            let b = cb.acos();
-            if locked(cb) {
+            let sb = m[(i, j)].hypot(m[(i, k)]);
+            let b = sb.atan2(m[(i, i)]);
+            if sb < 1e-12 {
                 // b = 0 turns by a + c about i, b = 180° by a − c.
-                let t = if cb > 0.0 { -s } else { s };
+                let t = if m[(i, i)] > 0.0 { -s } else { s };
                 return [(t * m[(j, k)]).atan2(m[(j, j)]), b, 0.0];
             }
             [m[(j, i)].atan2(-s * m[(k, i)]), b, m[(i, j)].atan2(s * m[(i, k)])]
@@ -360,11 +361,16 @@ mod tests {
                 let proper = e.axes[0] == e.axes[2];
                 for a in [[0.3f64, 0.7, -1.2], [-2.9, -1.1, 2.5], [1.0, 0.0, 0.5], [0.4, 0.6, 0.0]] {
                     // The middle angle in the convention's range; also at gimbal lock.
-                    let mids = if proper { [a[1].abs(), 0.0, std::f64::consts::PI] } else { [a[1], std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2] };
+                    let near = std::f64::consts::FRAC_PI_2 - 1e-7;
+                    let mids: Vec<f64> = if proper {
+                        vec![a[1].abs(), 0.0, std::f64::consts::PI, 1e-7, std::f64::consts::PI - 1e-7]
+                    } else {
+                        vec![a[1], std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2, near, -near]
+                    };
                     for b in mids {
                         let m = e.matrix([a[0], b, a[2]]);
                         let back = e.angles(&m);
-                        assert!((e.matrix(back) - m).norm() < 1e-9, "{name} {:?}: {a:?} b {b} -> {back:?}", e.intrinsic);
+                        assert!((e.matrix(back) - m).norm() < 1e-8, "{name} {:?}: {a:?} b {b} -> {back:?}", e.intrinsic);
                         if b.abs() < 1.5 && b > 0.1 {
                             assert!((back[1] - b).abs() < 1e-12 && (back[0] - a[0]).abs() < 1e-9, "{} {a:?} -> {back:?}", e.name());
                         }
@@ -373,7 +379,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(n, 12 * 2 * 4 * 3);
+        assert_eq!(n, 12 * 2 * 4 * 5);
         // Intrinsic XYZ as the readers take it.
         let m = Euler::XYZ.matrix([0.1, -0.2, 0.3]);
         assert_eq!(Euler::XYZ.angles(&m), xyz_angles(&m));
