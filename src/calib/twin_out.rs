@@ -30,12 +30,6 @@ pub struct IdentifiedTwin {
     pub urdf_file: String,
 }
 
-/// Decimals of a logging step (0.1 → 1), when it is a power of ten.
-fn decimals(step: f64) -> Option<usize> {
-    let d = -step.log10();
-    (d >= 0.0 && (d - d.round()).abs() < 1e-6).then_some(d.round() as usize)
-}
-
 /// The twin scenario of calibration result `r` on `data` (the rows it was identified on, in
 /// acquisition order), written as `scenario_path` with its URDF beside it. `nominal` supplies
 /// the inertials (and the joint limits) of a nominal model. `how` names the command that
@@ -70,9 +64,8 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         r.noise_estimate_mm
     ));
     let lengths = m.measurement.file_lengths();
-    let reading_step = crate::calib::floor::logging_step(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
-    let angle_step = crate::calib::floor::logging_step(data.rows.iter().flat_map(|row| row.q_deg.iter().copied()));
-    let logged_decimals = angle_step.and_then(decimals).filter(|d| *d < 6);
+    let reading_decimals = crate::calib::floor::logging_decimals(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
+    let logged_decimals = crate::calib::floor::logging_decimals(data.rows.iter().flat_map(|row| row.q_deg.iter().copied())).filter(|d| *d < 6);
     if let Some(d) = logged_decimals {
         notes.push(format!("Joint angles logged at {d} decimals of a degree, as the data are."));
     }
@@ -108,7 +101,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
                     (24.0 / n as f64).sqrt()
                 ));
             }
-            sensor.resolution_mm = reading_step.unwrap_or(0.0);
+            sensor.resolution_mm = reading_decimals.map_or(0.0, |k| 10f64.powi(-(k as i32)));
             sensor.tension_n = tension;
             None
         }
@@ -149,7 +142,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
                     um.min(MAX_TRACKER_NOISE_UM)
                 },
                 noise_um_per_m: 0.0,
-                decimals: reading_step.and_then(decimals).unwrap_or(4).min(crate::sim::instrument::tracker::MAX_DECIMALS),
+                decimals: reading_decimals.unwrap_or(4).min(crate::sim::instrument::tracker::MAX_DECIMALS),
                 probe_rotation_deg: probe.map(|(r, _, _)| r),
                 orientation_noise_urad: probe.map_or(0.0, |(_, u, _)| u),
                 angle_decimals: 6,

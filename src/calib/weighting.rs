@@ -42,8 +42,7 @@ pub struct Weighting {
 /// row gives a standard deviation.
 pub fn weights(measurement: Measurement, dataset: &Dataset, rows: &[usize], data: &Samples, r_mm: &[f64]) -> Option<(Vec<f64>, Weighting)> {
     let d = data.dim;
-    let lengths = measurement.file_lengths();
-    if lengths != 3 || rows.iter().all(|&i| dataset.rows[i].std_mm.is_none()) {
+    if !has_row_std(measurement, dataset, rows) {
         return None;
     }
     let given: Vec<f64> = rows.iter().filter_map(|&i| dataset.rows[i].std_mm).flat_map(|s| s.map(|v| v * v)).collect();
@@ -79,10 +78,15 @@ pub fn weights(measurement: Measurement, dataset: &Dataset, rows: &[usize], data
     Some((w, weighting))
 }
 
+/// Whether some row of `rows` gives the standard deviations of a tracker's position.
+fn has_row_std(measurement: Measurement, dataset: &Dataset, rows: &[usize]) -> bool {
+    measurement.file_lengths() == 3 && rows.iter().any(|&i| dataset.rows[i].std_mm.is_some())
+}
+
 /// [`weights`] for the training samples of a calibration: the first fit is the outlier screen's
 /// robust one ([`super::robust::screen_fit`]) from the model's nominal values.
 pub fn training_weights(model: &CalibModel, dataset: &Dataset, rows: &[usize], data: &Samples, rank_tol: f64) -> Option<(Vec<f64>, Weighting)> {
-    if model.measurement.file_lengths() != 3 || rows.iter().all(|&i| dataset.rows[i].std_mm.is_none()) {
+    if !has_row_std(model.measurement, dataset, rows) {
         return None;
     }
     let plain = data.unweighted();

@@ -136,15 +136,6 @@ fn after_calibration(data: &Dataset, twin: &Dataset, robot: &crate::robot::Robot
     })
 }
 
-/// The instrument a scenario reads.
-fn scenario_measurement(s: &Scenario) -> Measurement {
-    match &s.tracker {
-        None => Measurement::Length,
-        Some(t) if t.probe_rotation_deg.is_some() => Measurement::Pose,
-        Some(_) => Measurement::Point,
-    }
-}
-
 pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let t0 = Instant::now();
     if let Some(f) = a.test_fraction {
@@ -169,7 +160,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     check_outputs(&inputs, &outs)?;
     let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings to replay against"))?;
-    let twin_m = scenario_measurement(&s);
+    let twin_m = s.tracker.as_ref().map_or(Measurement::Length, crate::sim::instrument::Tracker::measurement);
     if m != twin_m {
         return Err(Error::Invalid(format!(
             "the data hold a {} ({}), the scenario's twin reads a {} ({}): replay needs the same instrument{}",
@@ -303,12 +294,11 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         Some(j) => j,
         None => &mut g,
     };
-    if let Some(idx) = &judged_idx {
+    if judged_idx.is_some() {
         for (row, p) in twin_data.dataset.rows.iter_mut().zip(twin_data.truth.poses.iter_mut()) {
             let split = if judged_set.contains(&p.index) { Split::Test } else { Split::Train };
             (row.split, p.split) = (Some(split), split);
         }
-        debug_assert!(idx.iter().all(|i| judged_set.contains(i)));
     }
     summary.after_calibration = judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.test_fraction, a.seed));
     summary.seconds = t0.elapsed().as_secs_f64();
@@ -355,14 +345,7 @@ fn figures(
         residual.extend(measured[i].iter().zip(ideal).map(|(a, b)| a - b));
     }
     let kept = Dataset { rows: rows.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
-    let placement = match &s.tracker {
-        None => crate::calib::model::Placement {
-            measurement: m,
-            own: s.sensor.exit_point_mm.iter().map(|v| v * 1e-3).chain([s.sensor.length_offset_mm * 1e-3]).collect(),
-            tool: nalgebra::Vector3::from(s.sensor.tool_point_mm) * 1e-3,
-        },
-        Some(t) => crate::calib::model::Placement { measurement: m, own: t.placement_own(), tool: nalgebra::Vector3::from(s.sensor.tool_point_mm) * 1e-3 },
-    };
+    let placement = crate::sim::instrument::placement(&s.sensor, s.tracker.as_ref());
     let line = |f: &Fidelity| Some(f.residual);
     let mut stats = vec![("every row: measured − twin".to_string(), line(&summary.all)), ("every row, no outliers".to_string(), Some(summary.all.inliers))];
     if let Some(j) = &summary.judged {

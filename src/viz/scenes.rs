@@ -156,14 +156,7 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
     let n = res.len();
     let split: Vec<&str> = g.truth.poses.iter().map(|p| if p.split == crate::dataset::Split::Test { "test" } else { "train" }).collect();
     let tools: Vec<[f64; 3]> = (0..n).map(|i| mm(&g.truth_tool(i))).collect();
-    let instrument = match &g.twin.tracker {
-        Some(t) => crate::report::InstrumentPose::of(&crate::calib::model::Placement {
-            measurement: crate::measurement::Measurement::Point,
-            own: t.own(),
-            tool: g.twin.sensor.tool_point_m(),
-        }),
-        None => crate::report::InstrumentPose { measurement: crate::measurement::Measurement::Length, origin_mm: g.twin.sensor.exit_point_mm, axes: None },
-    };
+    let instrument = crate::report::InstrumentPose::of(&crate::sim::instrument::placement(&g.twin.sensor, g.twin.tracker.as_ref()));
     let tracker = g.twin.tracker.is_some();
     let (quantity, what, instrument_text) = if tracker {
         (
