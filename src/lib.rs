@@ -13,6 +13,7 @@
 
 pub mod bench;
 pub mod calib;
+pub mod cli;
 pub mod commands;
 pub mod dataset;
 pub mod diagnose;

@@ -123,8 +123,8 @@ impl TruthFile {
             return Ok(None);
         }
         let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
-        let truth: TruthFile = serde_json::from_str(&text).map_err(|e| Error::data(p.display(), format!("malformed truth file: {e}")))?;
-        let Some(link) = &truth.dataset else {
+        let truth = TruthFile::parse(&text, &p.display().to_string())?;
+        if truth.dataset.is_none() {
             eprintln!(
                 "warning: {} has no dataset fingerprint (written by an older twincal), so it cannot be matched to {}; \
                  it is ignored (regenerate the dataset to compare against the truth)",
@@ -132,29 +132,42 @@ impl TruthFile {
                 file.display()
             );
             return Ok(None);
-        };
+        }
         let bytes = std::fs::read(&file).map_err(|e| Error::io(&file, e))?;
-        let sha = sha256_hex(&bytes);
+        let fix = format!("delete {} or regenerate the folder with `twincal generate`", p.display());
+        truth.check_belongs(&bytes, &file.display().to_string(), &p.display().to_string(), &fix)?;
+        Ok(Some(truth))
+    }
+
+    /// A truth file's text (`label` names it in errors).
+    pub fn parse(text: &str, label: &str) -> Result<TruthFile> {
+        serde_json::from_str(text).map_err(|e| Error::data(label, format!("malformed truth file: {e}")))
+    }
+
+    /// Refuses this truth unless it was written for exactly these dataset bytes (`data` and
+    /// `label` name the dataset and the truth in the error, `fix` says what to do about it).
+    pub fn check_belongs(&self, bytes: &[u8], data: &str, label: &str, fix: &str) -> Result<()> {
+        let Some(link) = &self.dataset else {
+            return Err(Error::data(label, "has no dataset fingerprint (written by an older twincal): regenerate the dataset"));
+        };
+        let sha = sha256_hex(bytes);
         if sha != link.sha256 {
             return Err(Error::data(
-                p.display(),
+                label,
                 format!(
-                    "this truth file does not belong to {}: it was written with a {} of {} rows and SHA-256 {}, \
-                     the file has SHA-256 {} (edited, replaced or half-written?); delete {} or regenerate the folder \
-                     with `twincal generate`",
-                    file.display(),
+                    "this truth file does not belong to {data}: it was written with a {} of {} rows and SHA-256 {}, \
+                     the data have SHA-256 {} (edited, replaced or half-written?); {fix}",
                     link.file,
                     link.rows,
                     &link.sha256[..link.sha256.len().min(12)],
                     &sha[..12],
-                    p.display()
                 ),
             ));
         }
-        if truth.poses.len() != link.rows {
-            return Err(Error::data(p.display(), format!("lists {} poses for a dataset of {} rows (edited truth file?)", truth.poses.len(), link.rows)));
+        if self.poses.len() != link.rows {
+            return Err(Error::data(label, format!("lists {} poses for a dataset of {} rows (edited truth file?)", self.poses.len(), link.rows)));
         }
-        Ok(Some(truth))
+        Ok(())
     }
 }
 

@@ -71,87 +71,131 @@ pub struct CalibrateArgs {
     pub placement_only: bool,
 }
 
+/// What `calibrate` computed, before anything is written: the result, its verdict, and what
+/// the outputs are drawn from (the options and the data calibrated on).
+pub struct Calibration {
+    pub result: crate::calib::run::CalibResult,
+    pub verdict: Option<crate::report::verdict::Verdict>,
+    pub opts: crate::calib::run::CalibOptions,
+    pub data: Dataset,
+}
+
+impl CalibrateArgs {
+    /// Every option checked and resolved into the calibration's options and the verdict's
+    /// limits (reads no data; reads --robot's URDF).
+    pub fn options(&self) -> Result<(crate::calib::run::CalibOptions, [Limit; 2])> {
+        use crate::calib::model::SensorGuess;
+        use crate::calib::run::{CalibOptions, Method};
+        let a = self;
+        let method = Method::parse(&a.method)?;
+        if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
+            return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
+        }
+        if !(MIN_EFFORT..=MAX_EFFORT).contains(&a.effort) {
+            return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {}", a.effort)));
+        }
+        if let Some(f) = a.test_fraction {
+            if !(0.0..1.0).contains(&f) {
+                return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
+            }
+        }
+        let sensor_guess = match &a.sensor_guess {
+            None => None,
+            Some(g) => {
+                if g.len() != 7 {
+                    return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
+                }
+                if g.iter().any(|v| !v.is_finite()) {
+                    return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
+                }
+                Some(SensorGuess { exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3], offset_m: g[3] * 1e-3, tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3] })
+            }
+        };
+        let limits = [Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm }, Limit { flag: "--max-test-max-mm", value: a.max_test_max_mm }];
+        for l in &limits {
+            l.validate()?;
+        }
+        let mut opts = CalibOptions::new(a.model.spec()?, method);
+        opts.test_fraction = a.test_fraction;
+        opts.seed = a.seed;
+        opts.rank_tol = a.rank_tol;
+        opts.effort = a.effort;
+        opts.sensor_guess = sensor_guess;
+        opts.effects = parse_effects("--effects", &a.effects)?;
+        let (loads, inertial) = a.loads.resolve()?;
+        opts.loads = loads;
+        opts.inertial = inertial;
+        (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
+        opts.row_std = !a.robust.ignore_row_std;
+        opts.reading_steps = !a.robust.no_reading_steps;
+        opts.placement_only = a.placement_only;
+        Ok((opts, limits))
+    }
+
+    /// The files this calibration reads and writes, by option, checked against each other
+    /// (no output over an input, no two outputs on one file). `data`: whether `--data` is read.
+    fn check_files(&self, data: bool) -> Result<()> {
+        let a = self;
+        let data_files = if data { data_inputs(&a.data) } else { Vec::new() };
+        let model_file = a.model.input();
+        let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
+        if let Some(m) = &model_file {
+            inputs.push(("--model", m));
+        }
+        let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out)];
+        outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
+        outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+        outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+        let twin_urdf = a.scenario_out.as_deref().map(scenario_urdf_path);
+        outs.extend(a.scenario_out.as_deref().map(|p| ("--scenario-out", p)));
+        outs.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
+        check_outputs(&inputs, &outs)
+    }
+}
+
 /// `twincal calibrate`. Its outputs (`--out`, `--urdf`, `--rrd`) appear together or not at all.
 /// Warnings (an optimiser that stopped without converging) go to stderr also with `--quiet`.
 pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
-    use crate::calib::model::SensorGuess;
-    use crate::calib::run::{calibrate as run, CalibOptions, Method, ModelSpec, TruthFile};
-    let method = Method::parse(&a.method)?;
-    if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
-        return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
-    }
-    if !(MIN_EFFORT..=MAX_EFFORT).contains(&a.effort) {
-        return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {}", a.effort)));
-    }
-    if let Some(f) = a.test_fraction {
-        if !(0.0..1.0).contains(&f) {
-            return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
-        }
-    }
-    let sensor_guess = match &a.sensor_guess {
-        None => None,
-        Some(g) => {
-            if g.len() != 7 {
-                return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
-            }
-            if g.iter().any(|v| !v.is_finite()) {
-                return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
-            }
-            Some(SensorGuess { exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3], offset_m: g[3] * 1e-3, tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3] })
-        }
-    };
-    let data_files = data_inputs(&a.data);
-    let model_file = a.model.input();
-    let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
-    if let Some(m) = &model_file {
-        inputs.push(("--model", m));
-    }
-    let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out)];
-    outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
-    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
-    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
-    let twin_urdf = a.scenario_out.as_deref().map(scenario_urdf_path);
-    outs.extend(a.scenario_out.as_deref().map(|p| ("--scenario-out", p)));
-    outs.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
-    check_outputs(&inputs, &outs)?;
-    let limits = [Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm }, Limit { flag: "--max-test-max-mm", value: a.max_test_max_mm }];
-    for l in &limits {
-        l.validate()?;
-    }
-    let spec = a.model.spec()?;
+    a.options()?;
+    a.check_files(true)?;
     let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
-    let truth = TruthFile::find(&a.data)?;
-    let mut opts = CalibOptions::new(spec.clone(), method);
-    opts.test_fraction = a.test_fraction;
-    opts.seed = a.seed;
-    opts.rank_tol = a.rank_tol;
-    opts.effort = a.effort;
-    opts.sensor_guess = sensor_guess;
-    opts.effects = parse_effects("--effects", &a.effects)?;
-    let (loads, inertial) = a.loads.resolve()?;
-    opts.loads = loads;
-    opts.inertial = inertial;
-    (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
-    opts.row_std = !a.robust.ignore_row_std;
-    opts.reading_steps = !a.robust.no_reading_steps;
-    opts.placement_only = a.placement_only;
-    let mut result = run(&data, truth.as_ref(), &opts)?;
+    let truth = crate::calib::run::TruthFile::find(&a.data)?;
     // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
     let file = &data_inputs(&a.data)[0];
-    result.data_sha256 = Some(crate::calib::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?));
+    let sha = crate::calib::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?);
+    let c = calibrate_loaded(a, data, truth.as_ref(), Some(sha))?;
+    write_calibration(a, &c, quiet, true)
+}
+
+/// The calibration `calibrate` runs, on data already loaded: `truth` the twin's truth file
+/// when it belongs to these data, `data_sha256` the fingerprint of the bytes they came from.
+pub fn calibrate_loaded(a: &CalibrateArgs, data: Dataset, truth: Option<&crate::calib::run::TruthFile>, data_sha256: Option<String>) -> Result<Calibration> {
+    let (opts, limits) = a.options()?;
+    let mut result = crate::calib::run::calibrate(&data, truth, &opts)?;
+    result.data_sha256 = data_sha256;
     let test = result.metrics.test_after.as_ref();
     let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
     let verdict = judge(&[(limits[0], "test_rmse_mm", test.map(|t| t.rmse), source), (limits[1], "test_max_mm", test.map(|t| t.max), source)]);
+    Ok(Calibration { result, verdict, opts, data })
+}
+
+/// What `calibrate` writes of a calibration (`--out`, and `--urdf`, `--rrd`, `--report`,
+/// `--scenario-out` when given), all together or none, and what it prints. `data_read`: `--data`
+/// names the file the data came from (checked as an input the outputs must not overwrite).
+pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool, data_read: bool) -> Result<()> {
+    use crate::calib::run::ModelSpec;
+    a.check_files(data_read)?;
+    let (result, data, opts) = (&c.result, &c.data, &c.opts);
     let mut outputs = OutputSet::new();
-    let figures = if a.rrd.is_some() || a.report.is_some() { Some(crate::report::CalibFigures::new(&result, &data, &opts)?) } else { None };
+    let figures = if a.rrd.is_some() || a.report.is_some() { Some(crate::report::CalibFigures::new(result, data, opts)?) } else { None };
     if let (Some(p), Some(f)) = (&a.rrd, &figures) {
-        crate::viz::scenes::record_calibration(&result, f, &mut outputs, p)?;
+        crate::viz::scenes::record_calibration(result, f, &mut outputs, p)?;
     }
     if let (Some(p), Some(f)) = (&a.report, &figures) {
-        outputs.write(p, crate::report::html::calibration_page(&result, f, verdict.as_ref()).as_bytes())?;
+        outputs.write(p, crate::report::html::calibration_page(result, f, c.verdict.as_ref()).as_bytes())?;
     }
     if let Some(p) = &a.urdf {
-        let nominal = match &spec {
+        let nominal = match &opts.model {
             ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
             ModelSpec::Generic6r => None,
         };
@@ -159,18 +203,18 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     }
     if let Some(p) = &a.scenario_out {
         let how = if a.placement_only { "calibrate --placement-only" } else { "calibrate" };
-        stage_identified_twin(&mut outputs, p, &result, &data, spec.robot(), how)?;
+        stage_identified_twin(&mut outputs, p, result, data, opts.model.robot(), how)?;
     }
-    outputs.write_json(&a.out, &with_verdict(&result, verdict.as_ref())?)?;
+    outputs.write_json(&a.out, &with_verdict(result, c.verdict.as_ref())?)?;
     outputs.commit()?;
     if !quiet {
-        print_summary(&result);
+        print_summary(result);
         if let Some(p) = &a.scenario_out {
             eprintln!("  identified twin: {} (robot {})", p.display(), scenario_urdf_path(p).display());
         }
     }
-    print_verdict(verdict.as_ref(), &a.out);
-    for w in calibration_warnings(&result) {
+    print_verdict(c.verdict.as_ref(), &a.out);
+    for w in calibration_warnings(result) {
         eprintln!("warning: {w}");
     }
     Ok(())

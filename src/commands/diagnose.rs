@@ -63,88 +63,127 @@ pub struct DiagnoseArgs {
     pub scenario_out: Option<PathBuf>,
 }
 
+/// What `diagnose` found, before anything is written: the report, the extended model (a
+/// calibration result), the verdict, and the data and options they came from.
+pub struct Diagnosed {
+    pub report: crate::diagnose::Diagnosis,
+    pub result: crate::calib::run::CalibResult,
+    pub verdict: Option<crate::report::verdict::Verdict>,
+    pub opts: crate::diagnose::DiagnoseOptions,
+    pub data: Dataset,
+}
+
+impl DiagnoseArgs {
+    /// Every option checked and resolved (reads no data; reads --robot's URDF).
+    pub fn options(&self) -> Result<(crate::diagnose::DiagnoseOptions, Limit)> {
+        let a = self;
+        if let Some(f) = a.test_fraction {
+            if !(f > 0.0 && f < 1.0) {
+                return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
+            }
+        }
+        let limit = Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm };
+        limit.validate()?;
+        if !(a.alpha > 0.0 && a.alpha < 0.5) {
+            return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
+        }
+        let mut opts = crate::diagnose::DiagnoseOptions::new(a.model.spec()?);
+        let (loads, inertial) = a.loads.resolve()?;
+        opts.loads = loads;
+        opts.inertial = inertial;
+        opts.folds = a.folds;
+        opts.alpha = a.alpha;
+        opts.seed = a.seed;
+        opts.row_std = !a.ignore_row_std;
+        opts.candidates = parse_effects("--candidates", &a.candidates)?;
+        if let Some(r) = a.angle_resolution_deg {
+            if !(r.is_finite() && r > 0.0 && r <= 10.0) {
+                return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
+            }
+            opts.angle_step_deg = Some(r);
+        }
+        Ok((opts, limit))
+    }
+
+    /// The files this diagnosis reads and writes, checked against each other. `data`: whether
+    /// `--data` is read.
+    fn check_files(&self, data: bool) -> Result<()> {
+        let a = self;
+        let data_files = if data { data_inputs(&a.data) } else { Vec::new() };
+        let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
+        let model_file = a.model.input();
+        if let Some(m) = &model_file {
+            inputs.push(("--model", m));
+        }
+        if let Some(r) = &a.loads.robot {
+            inputs.push(("--robot", r));
+        }
+        let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
+        outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+        outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+        let twin_urdf = a.scenario_out.as_deref().map(scenario_urdf_path);
+        outs.extend(a.scenario_out.as_deref().map(|p| ("--scenario-out", p)));
+        outs.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
+        check_outputs(&inputs, &outs)
+    }
+}
+
 /// `twincal diagnose`: report.json, the extended model (a calibration result) and optionally a
 /// recording, all together or none.
 pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
-    use crate::diagnose::{diagnose as run, DiagnoseOptions};
-    let data_files = data_inputs(&a.data);
-    let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
-    let model_file = a.model.input();
-    if let Some(m) = &model_file {
-        inputs.push(("--model", m));
-    }
-    if let Some(r) = &a.loads.robot {
-        inputs.push(("--robot", r));
-    }
-    let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
-    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
-    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
-    let twin_urdf = a.scenario_out.as_deref().map(scenario_urdf_path);
-    outs.extend(a.scenario_out.as_deref().map(|p| ("--scenario-out", p)));
-    outs.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
-    check_outputs(&inputs, &outs)?;
-    if let Some(f) = a.test_fraction {
-        if !(f > 0.0 && f < 1.0) {
-            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
+    a.check_files(true)?;
+    a.options()?;
+    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    let say = |line: &str| {
+        if !quiet {
+            eprintln!("  {line}");
         }
-    }
-    let limit = Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm };
-    limit.validate()?;
-    if !(a.alpha > 0.0 && a.alpha < 0.5) {
-        return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
-    }
-    let spec = a.model.spec()?;
-    let mut data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    };
+    let d = diagnose_loaded(a, data, &say)?;
+    write_diagnosis(a, &d, quiet, true)
+}
+
+/// The diagnosis `diagnose` runs, on data already loaded; `say` hears each step's line.
+pub fn diagnose_loaded(a: &DiagnoseArgs, mut data: Dataset, say: &(dyn Fn(&str) + Sync)) -> Result<Diagnosed> {
+    let (opts, limit) = a.options()?;
     if let Some(f) = a.test_fraction {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
         let (train, _) = crate::calib::run::split_rows(&data, Some(f), a.seed)?;
         let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
         data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
     }
-    let mut opts = DiagnoseOptions::new(spec);
-    let (loads, inertial) = a.loads.resolve()?;
-    opts.loads = loads;
-    opts.inertial = inertial;
-    opts.folds = a.folds;
-    opts.alpha = a.alpha;
-    opts.seed = a.seed;
-    opts.row_std = !a.ignore_row_std;
-    opts.candidates = parse_effects("--candidates", &a.candidates)?;
-    if let Some(r) = a.angle_resolution_deg {
-        if !(r.is_finite() && r > 0.0 && r <= 10.0) {
-            return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
-        }
-        opts.angle_step_deg = Some(r);
-    }
-    let say = |line: &str| {
-        if !quiet {
-            eprintln!("  {line}");
-        }
-    };
-    let (report, result) = run(&data, &opts, &say)?;
+    let (report, result) = crate::diagnose::diagnose(&data, &opts, say)?;
     let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
+    Ok(Diagnosed { report, result, verdict, opts, data })
+}
+
+/// What `diagnose` writes of a diagnosis (`--out`, `--result`, and `--rrd`, `--report`,
+/// `--scenario-out` when given), all together or none, and what it prints.
+pub fn write_diagnosis(a: &DiagnoseArgs, d: &Diagnosed, quiet: bool, data_read: bool) -> Result<()> {
+    a.check_files(data_read)?;
+    let (report, result, data) = (&d.report, &d.result, &d.data);
     let mut outputs = OutputSet::new();
-    let figures = (a.rrd.is_some() || a.report.is_some()).then(|| crate::report::DiagnosisFigures::new(&report, &result, &data));
+    let figures = (a.rrd.is_some() || a.report.is_some()).then(|| crate::report::DiagnosisFigures::new(report, result, data));
     if let (Some(p), Some(f)) = (&a.rrd, &figures) {
-        crate::viz::scenes::record_diagnosis(&report, f, &mut outputs, p)?;
+        crate::viz::scenes::record_diagnosis(report, f, &mut outputs, p)?;
     }
     if let (Some(p), Some(f)) = (&a.report, &figures) {
-        outputs.write(p, crate::report::html::diagnosis_page(&report, f, verdict.as_ref()).as_bytes())?;
+        outputs.write(p, crate::report::html::diagnosis_page(report, f, d.verdict.as_ref()).as_bytes())?;
     }
     if let Some(p) = &a.scenario_out {
-        stage_identified_twin(&mut outputs, p, &result, &data, opts.model.robot(), "diagnose")?;
+        stage_identified_twin(&mut outputs, p, result, data, d.opts.model.robot(), "diagnose")?;
     }
-    outputs.write_json(&a.out, &with_verdict(&report, verdict.as_ref())?)?;
-    outputs.write_json(&a.result, &result)?;
+    outputs.write_json(&a.out, &with_verdict(report, d.verdict.as_ref())?)?;
+    outputs.write_json(&a.result, result)?;
     outputs.commit()?;
     if !quiet {
-        print_diagnosis(&report);
+        print_diagnosis(report);
         eprintln!("  wrote {} and {}; the same model by calibrate: {}", a.out.display(), a.result.display(), calibrate_line(a, &report.effects_option));
     }
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
-    print_verdict(verdict.as_ref(), &a.out);
+    print_verdict(d.verdict.as_ref(), &a.out);
     Ok(())
 }
 

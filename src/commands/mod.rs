@@ -15,11 +15,11 @@ mod tests;
 
 pub use bench::bench_command;
 use calibrate::print_verdict;
-pub use calibrate::{calibrate, calibration_warnings, CalibrateArgs};
+pub use calibrate::{calibrate, calibrate_loaded, calibration_warnings, write_calibration, CalibrateArgs, Calibration};
 pub use compare::{compare, reduce, CompareArgs, CompareRun};
-pub use diagnose::{diagnose, DiagnoseArgs};
+pub use diagnose::{diagnose, diagnose_loaded, write_diagnosis, DiagnoseArgs, Diagnosed};
 pub use generate::generate;
-pub use predict::{predict, prediction_csv};
+pub use predict::{predict, predicted_readings, prediction_csv};
 pub use replay::{replay, ReplayArgs};
 pub use study::{study, StudyTarget};
 
@@ -84,14 +84,20 @@ pub enum BenchTarget {
 /// Loads a dataset for a command. `require_length`: the `L` column must be present (calibrate,
 /// compare) or may be absent (predict).
 fn load_dataset(path: &Path, angles: AngleArg, reading: &ReadingArgs, require_length: bool) -> Result<Dataset> {
-    use crate::dataset::{AngleUnit, LoadOptions};
+    Dataset::load_with(path, &load_options(angles, reading, require_length)?)
+}
+
+/// How `--angles`, `--measurement` and `--euler` read a dataset (for any source: a file, or
+/// columns in memory).
+pub fn load_options(angles: AngleArg, reading: &ReadingArgs, require_length: bool) -> Result<crate::dataset::LoadOptions> {
+    use crate::dataset::AngleUnit;
     let angles = match angles {
         AngleArg::Auto => AngleUnit::Auto,
         AngleArg::Deg => AngleUnit::Deg,
         AngleArg::Rad => AngleUnit::Rad,
     };
     let (measurement, euler) = reading.resolve()?;
-    Dataset::load_with(path, &LoadOptions { angles, require_length, measurement, euler })
+    Ok(crate::dataset::LoadOptions { angles, require_length, measurement, euler })
 }
 
 /// How a dataset's reading columns are read (`--measurement`, `--euler`).
@@ -132,7 +138,7 @@ impl ReadingArgs {
 
 /// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without
 /// an xlsx `#Sheet`), plus the truth file `calibrate` reads beside either.
-fn data_inputs(data: &Path) -> Vec<PathBuf> {
+pub fn data_inputs(data: &Path) -> Vec<PathBuf> {
     let file = if data.is_dir() {
         data.join(crate::dataset::DATASET_FILE)
     } else {

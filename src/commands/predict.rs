@@ -52,6 +52,32 @@ fn residuals(y: &[f64], p: &[f64], lengths: usize) -> Vec<f64> {
     y.iter().zip(p).enumerate().map(|(k, (a, b))| if k < lengths { a - b } else { wrap(a - b) }).collect()
 }
 
+/// A calibrated model's readings of every row of `ds` (which need no measured readings), in
+/// the file's columns: `file_dim` values a row, a pose's angles in the `euler` convention. Also
+/// a warning when rows lie beyond the joint limits the model knows (it extrapolates there).
+/// `model` names the model in errors.
+pub fn predicted_readings(result: &crate::calib::run::CalibResult, ds: &Dataset, euler: Euler, model: &str) -> Result<(Vec<f64>, Option<String>)> {
+    ds.require_joints(result.model.chain.n_joints, model)?;
+    result.require_columns(ds)?;
+    let outside: Vec<(usize, usize, f64)> = crate::calib::run::outside_limits(ds, &result.model.limits).collect();
+    let warning = outside.first().map(|(i, j, q)| {
+        format!(
+            "{} value(s) lie outside the model's joint limits (first: row {}, q{} = {} deg); the model extrapolates there",
+            outside.len(),
+            i + 1,
+            j + 1,
+            crate::error::shown(*q)
+        )
+    });
+    result.require_measurement(ds)?;
+    let m = result.model.measurement;
+    let predicted = result.predict_rows(ds);
+    if let Some(i) = predicted.iter().position(|p| !p.is_finite()) {
+        return Err(Error::Calibration(format!("the model predicted a non-finite reading for row {}", i / m.dim() + 1)));
+    }
+    Ok((predicted.chunks(m.dim()).flat_map(|v| m.file_of_values(v, euler)).collect(), warning))
+}
+
 /// `twincal predict`: the calibrated model's length for every row of a dataset (which needs no
 /// measured lengths), with the residual where a length was measured.
 pub fn predict(model: &Path, data: &Path, angles: AngleArg, reading: &ReadingArgs, out: &Path, quiet: bool) -> Result<()> {
@@ -61,29 +87,15 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, reading: &ReadingArg
     check_outputs(&inputs, &[("--out", out)])?;
     let result = load_model(model)?;
     let ds = load_dataset(data, angles, reading, false)?;
-    ds.require_joints(result.model.chain.n_joints, &format!("the model {}", model.display()))?;
-    result.require_columns(&ds)?;
-    // Poses beyond the joint ranges the model knows: it extrapolates there (calibrate refuses
-    // them; predict answers, and says so).
-    let outside: Vec<(usize, usize, f64)> = crate::calib::run::outside_limits(&ds, &result.model.limits).collect();
-    if let Some((i, j, q)) = outside.first() {
-        eprintln!(
-            "warning: {} value(s) lie outside the model's joint limits (first: row {}, q{} = {} deg); the model extrapolates there",
-            outside.len(),
-            i + 1,
-            j + 1,
-            crate::error::shown(*q)
-        );
+    let euler = reading.resolve()?.1;
+    let (file_predicted, warning) = predicted_readings(&result, &ds, euler, &format!("the model {}", model.display()))?;
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
     }
-    result.require_measurement(&ds)?;
     let m = result.model.measurement;
     let predicted = result.predict_rows(&ds);
-    if let Some(i) = predicted.iter().position(|p| !p.is_finite()) {
-        return Err(Error::Calibration(format!("the model predicted a non-finite reading for row {}", i / m.dim() + 1)));
-    }
     // Written in the file's own columns: a pose's origin and angles, in the convention it was
     // read in (the model's values are its origin and axes; the rows keep intrinsic X-Y-Z).
-    let euler = reading.resolve()?.1;
     let (d, lengths) = (m.file_dim(), m.file_lengths());
     let in_convention = |file: &[f64]| -> Vec<f64> {
         if lengths == d || euler == Euler::XYZ {
@@ -93,7 +105,6 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, reading: &ReadingArg
         file[..3].iter().copied().chain(euler.angles(&r).map(f64::to_degrees)).collect()
     };
     let measured: Vec<Vec<f64>> = ds.rows.iter().map(|r| if r.reading_mm.len() == d { in_convention(&r.reading_mm) } else { Vec::new() }).collect();
-    let file_predicted: Vec<f64> = predicted.chunks(m.dim()).flat_map(|v| m.file_of_values(v, euler)).collect();
     let rows: Vec<(&[f64], &[f64])> = ds.rows.iter().zip(&measured).map(|(r, v)| (r.q_deg.as_slice(), v.as_slice())).collect();
     crate::io::write_atomic(out, prediction_csv(m.def().file_columns(), d - lengths, &rows, &file_predicted).as_bytes())?;
     if !quiet {

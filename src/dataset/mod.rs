@@ -196,6 +196,25 @@ impl Row {
     }
 }
 
+/// One column of a dataset held in memory (see [`Dataset::from_columns`]).
+#[derive(Clone, Debug)]
+pub enum ColumnValues {
+    Numbers(Vec<f64>),
+    Texts(Vec<String>),
+}
+
+impl ColumnValues {
+    pub fn len(&self) -> usize {
+        match self {
+            ColumnValues::Numbers(v) => v.len(),
+            ColumnValues::Texts(v) => v.len(),
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
 /// A dataset and where it came from (a path, or a label for in-memory sources).
 #[derive(Clone, Debug, Default)]
 pub struct Dataset {
@@ -246,6 +265,38 @@ impl Dataset {
     /// [`Self::from_csv_reader`] with explicit [`LoadOptions`].
     pub fn from_csv_reader_with<R: std::io::Read>(r: R, source: &str, opts: &LoadOptions) -> Result<Dataset> {
         from_table(csv_io::read_table(r, source)?, source.to_owned(), opts)
+    }
+
+    /// A dataset from columns held in memory (numpy arrays from Python, say), read and validated
+    /// exactly as a file with these columns would be: the same header rules, bounds, unit checks
+    /// and messages. A missing number (NaN) in `sx, sy, sz` leaves the cell empty; elsewhere it
+    /// is refused like a NaN cell. Messages name line k + 2 for row k (the header is line 1).
+    pub fn from_columns(columns: Vec<(String, ColumnValues)>, source: &str, opts: &LoadOptions) -> Result<Dataset> {
+        let n = columns.first().map_or(0, |(_, c)| c.len());
+        if let Some((name, c)) = columns.iter().find(|(_, c)| c.len() != n) {
+            return Err(Error::data(
+                source,
+                format!("column {name} has {} values, column {} has {n}: every column needs one value per row", c.len(), columns[0].0),
+            ));
+        }
+        let header: Vec<String> = columns.iter().map(|(name, _)| name.clone()).collect();
+        let optional_std: Vec<bool> = header.iter().map(|h| STD_COLUMNS.iter().any(|c| c.eq_ignore_ascii_case(h.trim()))).collect();
+        let rows = (0..n)
+            .map(|i| RawRow {
+                line: i + 2,
+                cells: columns
+                    .iter()
+                    .zip(&optional_std)
+                    .map(|((_, c), &opt)| match c {
+                        ColumnValues::Numbers(v) if opt && v[i].is_nan() => Cell::Empty,
+                        ColumnValues::Numbers(v) => Cell::Number(v[i]),
+                        ColumnValues::Texts(v) if v[i].trim().is_empty() => Cell::Empty,
+                        ColumnValues::Texts(v) => Cell::Text(v[i].trim().to_owned()),
+                    })
+                    .collect(),
+            })
+            .collect();
+        from_table(RawTable { header, rows, decimal_comma: false }, source.to_owned(), opts)
     }
 
     /// Number of joint angles per row (`q1..qN`); 0 for an empty dataset.
@@ -385,6 +436,33 @@ impl Dataset {
                 let _ = write!(out, ",{}", split.as_str());
             }
             out.push('\n');
+        }
+        out
+    }
+
+    /// The dataset as columns, the ones [`Self::to_csv_string`] writes in its order: numbers
+    /// (NaN where a row has no value) and `split` as text. [`Self::from_columns`] reads them back
+    /// to the same rows.
+    pub fn columns(&self) -> Vec<(String, ColumnValues)> {
+        let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
+        let number = |f: &dyn Fn(&Row) -> Option<f64>| ColumnValues::Numbers(self.rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect());
+        let reading_names: &[&str] = match self.rows.iter().find(|r| !r.reading_mm.is_empty()) {
+            Some(r) => Measurement::of_file_dim(r.reading_mm.len()).map_or(&[], |m| m.def().file_columns()),
+            None => &[],
+        };
+        let mut out: Vec<(String, ColumnValues)> = (0..self.n_joints()).map(|j| (format!("q{}", j + 1), number(&|r: &Row| r.q_deg.get(j).copied()))).collect();
+        out.extend(reading_names.iter().enumerate().map(|(k, c)| (c.to_string(), number(&|r: &Row| r.reading_mm.get(k).copied()))));
+        if self.rows.iter().any(|r| r.std_mm.is_some()) {
+            out.extend(STD_COLUMNS.iter().enumerate().map(|(k, c)| (c.to_string(), number(&|r: &Row| r.std_mm.map(|s| s[k])))));
+        }
+        if all(|r| r.t_s.is_some()) {
+            out.push(("t".into(), number(&|r: &Row| r.t_s)));
+        }
+        if all(|r| r.temp_c.is_some()) {
+            out.push(("temp".into(), number(&|r: &Row| r.temp_c)));
+        }
+        if all(|r| r.split.is_some()) {
+            out.push(("split".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.split.map_or("", |s| s.as_str()).to_string()).collect())));
         }
         out
     }

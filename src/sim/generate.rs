@@ -628,6 +628,13 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
 /// exact dataset.csv bytes, row count) that [`crate::calib::truth::TruthFile::find`] checks, so a
 /// truth file is never trusted beside a dataset it does not describe.
 pub fn stage_outputs(g: &Generated, dir: &std::path::Path, outputs: &mut crate::io::OutputSet) -> Result<()> {
+    let (csv, truth) = output_texts(g)?;
+    outputs.write(&dir.join(crate::dataset::DATASET_FILE), csv.as_bytes())?;
+    outputs.write(&dir.join(crate::calib::truth::TRUTH_FILE), truth.as_bytes())
+}
+
+/// The texts of `dataset.csv` and `truth.json` as [`stage_outputs`] writes them.
+pub fn output_texts(g: &Generated) -> Result<(String, String)> {
     use crate::calib::truth::DatasetLink;
     /// truth.json as written: the dataset link first, then the truth.
     #[derive(Serialize)]
@@ -638,8 +645,9 @@ pub fn stage_outputs(g: &Generated, dir: &std::path::Path, outputs: &mut crate::
     }
     let csv = g.dataset.to_csv_string();
     let link = DatasetLink::of(crate::dataset::DATASET_FILE, csv.as_bytes(), g.dataset.rows.len());
-    outputs.write(&dir.join(crate::dataset::DATASET_FILE), csv.as_bytes())?;
-    outputs.write_json(&dir.join(crate::calib::truth::TRUTH_FILE), &TruthOut { dataset: link, truth: &g.truth })
+    let truth = serde_json::to_string_pretty(&TruthOut { dataset: link, truth: &g.truth })
+        .map_err(|e| Error::Invalid(format!("cannot serialise {}: {e}", crate::calib::truth::TRUTH_FILE)))?;
+    Ok((csv, truth))
 }
 
 /// Writes `dataset.csv` and `truth.json` into `dir`, both or neither (see [`stage_outputs`]).

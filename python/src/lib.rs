@@ -1,0 +1,531 @@
+//! `twincal._native`: the twincal library's commands for Python, in memory.
+//!
+//! The Python package (`twincal/__init__.py`) wraps this module: its keyword arguments become
+//! the command line's options (parsed by the same clap definitions, so defaults, checks and
+//! messages are the CLI's), mappings of numpy arrays become datasets (read by the same reader
+//! as a CSV file), and results come back as objects and arrays. Long work runs with the GIL
+//! released; an optional progress callback is called from the calling thread.
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+use twincal::calib::run::{CalibResult, TruthFile};
+use twincal::commands::{self, AngleArg, CalibrateArgs, Calibration, DiagnoseArgs, Diagnosed, ReadingArgs};
+use twincal::dataset::{ColumnValues, Dataset};
+use twincal::sim::generate::Progress;
+
+create_exception!(
+    _native,
+    TwincalError,
+    PyValueError,
+    "An error twincal reports: bad input or options, a calibration that cannot run. Its message is what the command line prints after 'error:'."
+);
+
+fn err(e: twincal::Error) -> PyErr {
+    TwincalError::new_err(e.to_string())
+}
+
+/// A clap error as one message: its text without the "error: " prefix and the usage lines.
+fn clap_message(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let text = text.split("\n\nUsage:").next().unwrap_or(&text).trim();
+    text.strip_prefix("error: ").unwrap_or(text).to_string()
+}
+
+/// One command's options from an argument list, parsed as the command line parses them.
+fn parse<T: clap::Args>(command: &'static str, argv: Vec<String>) -> PyResult<T> {
+    let cmd = T::augment_args(clap::Command::new(command).no_binary_name(true));
+    let m = cmd.try_get_matches_from(argv).map_err(|e| TwincalError::new_err(clap_message(&e)))?;
+    T::from_arg_matches(&m).map_err(|e| TwincalError::new_err(clap_message(&e)))
+}
+
+/// Progress as the library reports it, read by the calling thread for the Python callback.
+#[derive(Default)]
+struct Ticker {
+    total: AtomicU64,
+    done: AtomicU64,
+    what: Mutex<String>,
+    /// Changes with every report, so that the caller calls back only on news.
+    stamp: AtomicU64,
+}
+
+impl Ticker {
+    fn say(&self, line: &str) {
+        *self.what.lock().unwrap_or_else(|e| e.into_inner()) = line.to_string();
+        self.stamp.fetch_add(1, Ordering::SeqCst);
+    }
+    fn state(&self) -> (String, u64, u64) {
+        (self.what.lock().unwrap_or_else(|e| e.into_inner()).clone(), self.done.load(Ordering::SeqCst), self.total.load(Ordering::SeqCst))
+    }
+}
+
+impl Progress for Ticker {
+    fn start(&self, total: u64, what: &str) {
+        self.total.store(total, Ordering::SeqCst);
+        self.done.store(0, Ordering::SeqCst);
+        self.say(what);
+    }
+    fn inc(&self, n: u64) {
+        self.done.fetch_add(n, Ordering::SeqCst);
+        self.stamp.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
+fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
+    p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_else(|| "unknown panic".into())
+}
+
+/// Runs `work` with the GIL released. With a `progress` callable, the work runs on a scoped
+/// thread and this thread calls `progress(what, done, total)` whenever the work reports news
+/// (at most every 0.1 s); an exception in the callback is raised once the work is done.
+fn released<T: Send>(py: Python<'_>, progress: Option<&Bound<'_, PyAny>>, work: impl FnOnce(&Ticker) -> twincal::Result<T> + Send) -> PyResult<T> {
+    let ticker = Ticker::default();
+    let Some(cb) = progress else {
+        return py.detach(|| work(&ticker)).map_err(err);
+    };
+    let mut cb_err: Option<PyErr> = None;
+    let joined = std::thread::scope(|s| {
+        let h = s.spawn(|| work(&ticker));
+        let mut seen = u64::MAX;
+        loop {
+            let finished = py.detach(|| {
+                let t0 = Instant::now();
+                while !h.is_finished() && t0.elapsed() < Duration::from_millis(100) {
+                    std::thread::sleep(Duration::from_millis(2));
+                }
+                h.is_finished()
+            });
+            let stamp = ticker.stamp.load(Ordering::SeqCst);
+            if stamp != seen && cb_err.is_none() {
+                seen = stamp;
+                if let Err(e) = cb.call1(ticker.state()) {
+                    cb_err = Some(e);
+                }
+            }
+            if finished {
+                break;
+            }
+        }
+        h.join()
+    });
+    let out = joined.map_err(|p| PyRuntimeError::new_err(format!("twincal failed unexpectedly: {}", panic_text(p.as_ref()))))?;
+    if let Some(e) = cb_err {
+        return Err(e);
+    }
+    out.map_err(err)
+}
+
+/// Where a dataset comes from: a path (folder, CSV, xlsx) or columns in memory.
+enum Source {
+    Path(PathBuf),
+    Columns(Vec<(String, ColumnValues)>),
+}
+
+/// The label of in-memory data in messages and results.
+/// In-memory data as errors name them (the header is line 1, so row k is line k + 2), and as
+/// results record them.
+const MEMORY: &str = "(arrays; line k + 2 is row k)";
+const MEMORY_SOURCE: &str = "arrays (in memory)";
+
+fn source(data: &Bound<'_, PyAny>) -> PyResult<Source> {
+    if let Ok(p) = data.extract::<PathBuf>() {
+        return Ok(Source::Path(p));
+    }
+    let Ok(items) = data.extract::<Vec<(String, Bound<'_, PyAny>)>>() else {
+        return Err(PyTypeError::new_err("data must be a path (dataset folder, .csv, .xlsx) or a mapping of column names to 1-D arrays"));
+    };
+    items
+        .into_iter()
+        .map(|(name, v)| {
+            let values = if let Ok(a) = v.extract::<PyReadonlyArray1<'_, f64>>() {
+                ColumnValues::Numbers(a.as_array().to_vec())
+            } else if let Ok(t) = v.extract::<Vec<String>>() {
+                ColumnValues::Texts(t)
+            } else {
+                return Err(PyTypeError::new_err(format!("column {name}: expected a 1-D float64 array or a list of strings")));
+            };
+            Ok((name, values))
+        })
+        .collect::<PyResult<Vec<_>>>()
+        .map(Source::Columns)
+}
+
+/// Loaded data, the fingerprint of their bytes, the truth that belongs to them (a twin's), and
+/// whether they came from a file (which the outputs must not overwrite).
+struct Loaded {
+    data: Dataset,
+    sha256: String,
+    truth: Option<TruthFile>,
+    path: Option<PathBuf>,
+}
+
+/// What to do about a truth that belongs to other data.
+const TRUTH_FIX: &str = "pass the truth twincal.generate returned with exactly the data it returned";
+
+fn load(src: Source, opts: &twincal::dataset::LoadOptions, truth: Option<&str>) -> twincal::Result<Loaded> {
+    use twincal::calib::truth::sha256_hex;
+    match src {
+        Source::Path(p) => {
+            let data = Dataset::load_with(&p, opts)?;
+            let file = commands::data_inputs(&p).swap_remove(0);
+            let bytes = std::fs::read(&file).map_err(|e| twincal::Error::io(&file, e))?;
+            let sha256 = sha256_hex(&bytes);
+            let truth = match truth {
+                Some(text) => {
+                    let t = TruthFile::parse(text, "truth")?;
+                    t.check_belongs(&bytes, &file.display().to_string(), "truth", TRUTH_FIX)?;
+                    Some(t)
+                }
+                None => TruthFile::find(&p)?,
+            };
+            Ok(Loaded { data, sha256, truth, path: Some(p) })
+        }
+        Source::Columns(cols) => {
+            let mut data = Dataset::from_columns(cols, MEMORY, opts)?;
+            data.source = MEMORY_SOURCE.into();
+            let csv = data.to_csv_string();
+            let truth = match truth {
+                Some(text) => {
+                    let t = TruthFile::parse(text, "truth")?;
+                    t.check_belongs(csv.as_bytes(), "the data given", "truth", TRUTH_FIX)?;
+                    Some(t)
+                }
+                None => None,
+            };
+            Ok(Loaded { data, sha256: sha256_hex(csv.as_bytes()), truth, path: None })
+        }
+    }
+}
+
+/// A dataset's columns as Python gets them: (name, float64 array or list of strings).
+type Columns = Vec<(String, Py<PyAny>)>;
+/// One IK run for Python: label, q (n, N) degrees, status, iterations, residual (mm).
+type IkRunPy = (String, Py<PyAny>, Vec<String>, Vec<usize>, Py<PyAny>);
+
+/// A dataset's columns for Python: (name, float64 array or list of strings), in file order.
+fn columns_py(py: Python<'_>, ds: &Dataset) -> PyResult<Columns> {
+    ds.columns()
+        .into_iter()
+        .map(|(name, c)| {
+            let v: Py<PyAny> = match c {
+                ColumnValues::Numbers(v) => PyArray1::from_vec(py, v).into_any().unbind(),
+                ColumnValues::Texts(v) => v.into_pyobject(py)?.into_any().unbind(),
+            };
+            Ok((name, v))
+        })
+        .collect()
+}
+
+/// Simulates a scenario (a TOML path; the embedded default when None), as `twincal generate`.
+/// Returns the dataset's columns and truth.json's text, the bytes `generate` writes.
+#[pyfunction]
+#[pyo3(signature = (scenario=None, seed=None, progress=None))]
+fn generate(py: Python<'_>, scenario: Option<PathBuf>, seed: Option<u64>, progress: Option<Bound<'_, PyAny>>) -> PyResult<(Columns, String)> {
+    let (ds, truth) = released(py, progress.as_ref(), |t| {
+        let (mut s, robot) = commands::load_scenario(scenario.as_deref())?;
+        if let Some(seed) = seed {
+            s.seed = seed;
+        }
+        let g = twincal::sim::generate::generate(&s, &robot, t)?;
+        let (_, truth) = twincal::sim::generate::output_texts(&g)?;
+        Ok((g.dataset, truth))
+    })?;
+    Ok((columns_py(py, &ds)?, truth))
+}
+
+/// The dataset.csv text of columns, as `generate` and `calibrate` would write and read them.
+#[pyfunction]
+#[pyo3(signature = (data, angles="auto"))]
+fn to_csv(data: &Bound<'_, PyAny>, angles: &str) -> PyResult<String> {
+    let opts = commands::load_options(angle_arg(angles)?, &ReadingArgs::default(), false).map_err(err)?;
+    let ds = match source(data)? {
+        Source::Path(p) => Dataset::load_with(&p, &opts),
+        Source::Columns(c) => Dataset::from_columns(c, MEMORY, &opts),
+    }
+    .map_err(err)?;
+    Ok(ds.to_csv_string())
+}
+
+/// Reads a dataset (path or columns) the way `calibrate --data` reads it; returns its columns.
+#[pyfunction]
+#[pyo3(signature = (data, argv))]
+fn read(py: Python<'_>, data: &Bound<'_, PyAny>, argv: Vec<String>) -> PyResult<Columns> {
+    #[derive(clap::Args)]
+    struct ReadArgs {
+        #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+        angles: AngleArg,
+        #[command(flatten)]
+        reading: ReadingArgs,
+    }
+    let a: ReadArgs = parse("read", argv)?;
+    let opts = commands::load_options(a.angles, &a.reading, false).map_err(err)?;
+    let src = source(data)?;
+    let ds = py.detach(|| load(src, &opts, None)).map_err(err)?.data;
+    columns_py(py, &ds)
+}
+
+fn angle_arg(s: &str) -> PyResult<AngleArg> {
+    clap::ValueEnum::from_str(s, true).map_err(|_| TwincalError::new_err(format!("angles must be auto, deg or rad, got '{s}'")))
+}
+
+/// What a Result holds: a calibration run here (which can still write every output `calibrate`
+/// writes), or a result read from a file (which predicts and solves IK).
+enum Held {
+    Run { c: Box<Calibration>, args: Box<CalibrateArgs>, data_path: Option<PathBuf> },
+    Read { result: Box<CalibResult> },
+}
+
+/// A calibrated model: what `twincal calibrate` writes to result.json, and its use.
+#[pyclass(name = "Result", module = "twincal._native", frozen)]
+struct PyCalibration {
+    held: Held,
+}
+
+impl PyCalibration {
+    fn result(&self) -> &CalibResult {
+        match &self.held {
+            Held::Run { c, .. } => &c.result,
+            Held::Read { result } => result,
+        }
+    }
+}
+
+#[pymethods]
+impl PyCalibration {
+    /// result.json's text, byte for byte what `calibrate --out` writes for this run.
+    fn to_json(&self) -> PyResult<String> {
+        let verdict = match &self.held {
+            Held::Run { c, .. } => c.verdict.as_ref(),
+            Held::Read { .. } => None,
+        };
+        let v = twincal::report::verdict::with_verdict(self.result(), verdict).map_err(err)?;
+        serde_json::to_string_pretty(&v).map_err(|e| TwincalError::new_err(format!("cannot serialise the result: {e}")))
+    }
+
+    /// Readings the model predicts for the rows of `data` (columns q1..qN, and whatever else
+    /// the model reads), in the file's reading columns: an (n, d) array.
+    #[pyo3(signature = (data, angles="auto", euler="XYZ"))]
+    fn predict<'py>(&self, py: Python<'py>, data: &Bound<'py, PyAny>, angles: &str, euler: &str) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<String>)> {
+        let reading = ReadingArgs { measurement: None, euler: euler.to_string() };
+        let opts = commands::load_options(angle_arg(angles)?, &reading, false).map_err(err)?;
+        let euler = reading.resolve().map_err(err)?.1;
+        let src = source(data)?;
+        let r = self.result();
+        let (values, warning) = py
+            .detach(|| {
+                let ds = match src {
+                    Source::Path(p) => Dataset::load_with(&p, &opts)?,
+                    Source::Columns(c) => Dataset::from_columns(c, MEMORY, &opts)?,
+                };
+                commands::predicted_readings(r, &ds, euler, "the model")
+            })
+            .map_err(err)?;
+        let d = r.model.measurement.file_dim();
+        let n = values.len() / d;
+        Ok((PyArray1::from_vec(py, values).reshape([n, d])?, warning))
+    }
+
+    /// Inverse kinematics on this model (geometry and corrector) for target points (n, 3), mm in
+    /// the robot's base frame, as `twincal ik --targets`: per Jacobian, the joint angles
+    /// (degrees), status, iterations and model residual of each target.
+    #[pyo3(signature = (targets, jacobian="hybrid", tol_mm=0.01, seed=0))]
+    fn ik<'py>(&self, py: Python<'py>, targets: PyReadonlyArray2<'py, f64>, jacobian: &str, tol_mm: f64, seed: u64) -> PyResult<Vec<IkRunPy>> {
+        use twincal::ik::solver::{IkOptions, JacobianKind};
+        if targets.shape().len() != 2 || targets.shape()[1] != 3 {
+            return Err(TwincalError::new_err(format!("targets must be an (n, 3) array of x, y, z in mm, got shape {:?}", targets.shape())));
+        }
+        if !(tol_mm > 0.0 && tol_mm <= 1000.0) {
+            return Err(TwincalError::new_err(format!("tol_mm must be in (0, 1000] mm, got {tol_mm}")));
+        }
+        let kinds: Vec<JacobianKind> = match jacobian.to_ascii_lowercase().as_str() {
+            "all" => JacobianKind::ALL.to_vec(),
+            s => vec![JacobianKind::ALL
+                .into_iter()
+                .find(|k| k.name() == s)
+                .ok_or_else(|| TwincalError::new_err(format!("unknown jacobian '{s}' (expected analytic, neural, hybrid or all)")))?],
+        };
+        let a = targets.as_array();
+        let pts: Vec<nalgebra::Vector3<f64>> = a.rows().into_iter().map(|r| nalgebra::Vector3::new(r[0], r[1], r[2])).collect();
+        let r = self.result();
+        let o = IkOptions { tol_mm, seed, ..Default::default() };
+        let runs = py.detach(|| twincal::ik::validation::ik_runs(r, &pts, &kinds, &o, None));
+        let joints = r.model.chain.n_joints;
+        runs.into_iter()
+            .map(|run| {
+                let q: Vec<f64> = run.solutions.iter().flat_map(|s| s.q.iter().map(|v| v.to_degrees())).collect();
+                let q = PyArray1::from_vec(py, q).reshape([run.solutions.len(), joints])?.into_any().unbind();
+                let status = run.solutions.iter().map(|s| s.status.name().to_string()).collect();
+                let iterations = run.solutions.iter().map(|s| s.iterations).collect();
+                let residual = PyArray1::from_vec(py, run.solutions.iter().map(|s| s.residual_mm).collect()).into_any().unbind();
+                Ok((run.label, q, status, iterations, residual))
+            })
+            .collect()
+    }
+
+    /// Writes what `calibrate` writes for this run: result.json at `out`, and the URDF, Rerun
+    /// recording, HTML report and identified twin where given; all together or none.
+    #[pyo3(signature = (out, urdf=None, rrd=None, report=None, scenario_out=None))]
+    fn save(
+        &self,
+        py: Python<'_>,
+        out: PathBuf,
+        urdf: Option<PathBuf>,
+        rrd: Option<PathBuf>,
+        report: Option<PathBuf>,
+        scenario_out: Option<PathBuf>,
+    ) -> PyResult<()> {
+        match &self.held {
+            Held::Run { c, args, data_path } => {
+                let mut a = (**args).clone();
+                (a.out, a.urdf, a.rrd, a.report, a.scenario_out) = (out, urdf, rrd, report, scenario_out);
+                if let Some(p) = data_path {
+                    a.data = p.clone();
+                }
+                py.detach(|| commands::write_calibration(&a, c, true, data_path.is_some())).map_err(err)
+            }
+            Held::Read { result } => {
+                if urdf.is_some() || rrd.is_some() || report.is_some() || scenario_out.is_some() {
+                    return Err(TwincalError::new_err(
+                        "a result read from a file saves only its JSON (out); the URDF, recording, report and twin need the calibration run",
+                    ));
+                }
+                twincal::io::write_json(&out, &**result).map_err(err)
+            }
+        }
+    }
+
+    /// The warnings `calibrate` prints (an optimiser that stopped on its budget, ...).
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.result().warnings.clone()
+    }
+}
+
+/// Calibrates as `twincal calibrate` (argv: its options but --data) on `data`.
+#[pyfunction]
+#[pyo3(signature = (data, argv, truth=None, progress=None))]
+fn calibrate(
+    py: Python<'_>,
+    data: &Bound<'_, PyAny>,
+    mut argv: Vec<String>,
+    truth: Option<String>,
+    progress: Option<Bound<'_, PyAny>>,
+) -> PyResult<PyCalibration> {
+    let src = source(data)?;
+    argv.extend(["--data".to_string(), MEMORY.to_string()]);
+    let args: CalibrateArgs = parse("calibrate", argv)?;
+    let opts = commands::load_options(args.angles, &args.reading, true).map_err(err)?;
+    let c = released(py, progress.as_ref(), |t| {
+        t.start(1, "calibrate");
+        let l = load(src, &opts, truth.as_deref())?;
+        let path = l.path.clone();
+        let c = commands::calibrate_loaded(&args, l.data, l.truth.as_ref(), Some(l.sha256))?;
+        t.inc(1);
+        Ok((c, path))
+    })?;
+    Ok(PyCalibration { held: Held::Run { c: Box::new(c.0), args: Box::new(args), data_path: c.1 } })
+}
+
+/// Reads a result.json (`twincal calibrate --out`).
+#[pyfunction]
+fn load_result(path: PathBuf) -> PyResult<PyCalibration> {
+    Ok(PyCalibration { held: Held::Read { result: Box::new(CalibResult::load(&path).map_err(err)?) } })
+}
+
+/// A diagnosis: what `twincal diagnose` writes to report.json, and the extended model.
+#[pyclass(name = "Diagnosis", module = "twincal._native", frozen)]
+struct PyDiagnosis {
+    d: Box<Diagnosed>,
+    args: Box<DiagnoseArgs>,
+    data_path: Option<PathBuf>,
+}
+
+#[pymethods]
+impl PyDiagnosis {
+    /// report.json's text, byte for byte what `diagnose --out` writes for this run.
+    fn to_json(&self) -> PyResult<String> {
+        let v = twincal::report::verdict::with_verdict(&self.d.report, self.d.verdict.as_ref()).map_err(err)?;
+        serde_json::to_string_pretty(&v).map_err(|e| TwincalError::new_err(format!("cannot serialise the report: {e}")))
+    }
+
+    /// The extended model (what `diagnose --result` writes), as a Result.
+    fn result(&self) -> PyCalibration {
+        PyCalibration { held: Held::Read { result: Box::new(self.d.result.clone()) } }
+    }
+
+    /// Writes what `diagnose` writes: report.json at `out`, the model at `result`, and the
+    /// recording, HTML report and identified twin where given; all together or none.
+    #[pyo3(signature = (out, result, rrd=None, report=None, scenario_out=None))]
+    fn save(
+        &self,
+        py: Python<'_>,
+        out: PathBuf,
+        result: PathBuf,
+        rrd: Option<PathBuf>,
+        report: Option<PathBuf>,
+        scenario_out: Option<PathBuf>,
+    ) -> PyResult<()> {
+        let mut a = (*self.args).clone();
+        (a.out, a.result, a.rrd, a.report, a.scenario_out) = (out, result, rrd, report, scenario_out);
+        if let Some(p) = &self.data_path {
+            a.data = p.clone();
+        }
+        py.detach(|| commands::write_diagnosis(&a, &self.d, true, self.data_path.is_some())).map_err(err)
+    }
+}
+
+/// Diagnoses as `twincal diagnose` (argv: its options but --data) on `data`; `progress` hears
+/// each step's line.
+#[pyfunction]
+#[pyo3(signature = (data, argv, progress=None))]
+fn diagnose(py: Python<'_>, data: &Bound<'_, PyAny>, mut argv: Vec<String>, progress: Option<Bound<'_, PyAny>>) -> PyResult<PyDiagnosis> {
+    let src = source(data)?;
+    argv.extend(["--data".to_string(), MEMORY.to_string()]);
+    let args: DiagnoseArgs = parse("diagnose", argv)?;
+    let opts = commands::load_options(args.angles, &args.reading, true).map_err(err)?;
+    let (d, path) = released(py, progress.as_ref(), |t| {
+        let l = load(src, &opts, None)?;
+        let path = l.path.clone();
+        let d = commands::diagnose_loaded(&args, l.data, &|line: &str| t.say(line))?;
+        Ok((d, path))
+    })?;
+    Ok(PyDiagnosis { d: Box::new(d), args: Box::new(args), data_path: path })
+}
+
+/// Runs a twincal command line in this process (argv without the program name), as the
+/// `twincal` executable does; raises TwincalError where it would exit with code 2.
+#[pyfunction]
+fn cli(py: Python<'_>, argv: Vec<String>) -> PyResult<()> {
+    use clap::Parser;
+    let args = match twincal::cli::Cli::try_parse_from(std::iter::once("twincal".to_string()).chain(argv)) {
+        Ok(a) => a,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version: printed, as the command line does.
+            println!("{}", e.render());
+            return Ok(());
+        }
+        Err(e) => return Err(TwincalError::new_err(clap_message(&e))),
+    };
+    py.detach(|| twincal::cli::run(args)).map_err(err)
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("TwincalError", m.py().get_type::<TwincalError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(generate, m)?)?;
+    m.add_function(wrap_pyfunction!(to_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(read, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(load_result, m)?)?;
+    m.add_function(wrap_pyfunction!(diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(cli, m)?)?;
+    m.add_class::<PyCalibration>()?;
+    m.add_class::<PyDiagnosis>()?;
+    Ok(())
+}

@@ -1,0 +1,257 @@
+"""Tests of the Python package on the wheel (built and installed by .ci/run).
+
+The command line they compare against is the `twincal` executable named by TWINCAL_BIN (.ci/run
+points it at target/release/twincal); without it they run the same command line in process
+(twincal.cli) and say so.
+"""
+
+import json
+import os
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import twincal
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = os.environ.get("TWINCAL_BIN")
+
+
+def run_cli(*args):
+    """The command line: the executable when TWINCAL_BIN names one, else in process."""
+    args = [str(a) for a in args]
+    if BIN:
+        p = subprocess.run([BIN, "--quiet", *args], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+    else:
+        print("TWINCAL_BIN not set: running the command line in process (twincal.cli)")
+        twincal.cli(["--quiet", *args])
+
+
+def untimed(v):
+    """A result without its measured times and its data's path: what must agree bit for bit."""
+    if isinstance(v, dict):
+        return {k: untimed(x) for k, x in v.items() if "second" not in k and k != "data"}
+    if isinstance(v, list):
+        return [untimed(x) for x in v]
+    return v
+
+
+@pytest.fixture(scope="module")
+def embedded(tmp_path_factory):
+    """The embedded scenario, by the command line and by the package."""
+    d = tmp_path_factory.mktemp("cli") / "data"
+    run_cli("generate", "--out", d)
+    data, truth = twincal.generate()
+    return d, data, truth
+
+
+def q_matrix(data):
+    n = sum(1 for k in data if k.startswith("q"))
+    return np.stack([data[f"q{j + 1}"] for j in range(n)], axis=1)
+
+
+def test_generate_agrees_with_the_command_line_bit_for_bit(embedded):
+    d, data, truth = embedded
+    assert twincal.to_csv(data) == (d / "dataset.csv").read_text()
+    assert truth == json.loads((d / "truth.json").read_text())
+    assert data["L"].dtype == np.float64 and data["L"].shape == (600,)
+    assert set(np.unique(data["split"])) == {"train", "test"}
+    again, _ = twincal.generate(seed=truth["seed"])
+    assert all(np.array_equal(again[k], data[k]) for k in data), "same scenario and seed, same data"
+    other, _ = twincal.generate(seed=truth["seed"] + 1)
+    assert not np.array_equal(other["L"], data["L"])
+
+
+def test_calibrate_agrees_with_the_command_line_bit_for_bit(embedded, tmp_path):
+    d, data, truth = embedded
+    run_cli("calibrate", "--data", d, "--out", tmp_path / "cli.json")
+    cli = json.loads((tmp_path / "cli.json").read_text())
+    for source in (data, d):
+        r = twincal.calibrate(source, truth=truth if source is data else None)
+        mine = json.loads(r.to_json())
+        differ = sorted(k for k in set(cli) | set(mine) if cli.get(k) != mine.get(k))
+        expected = ["data", "wall_time_s"] if source is data else ["wall_time_s"]
+        assert differ == expected, differ
+        assert mine["x"] == cli["x"] and mine["parameters"] == cli["parameters"] and mine["truth_comparison"] == cli["truth_comparison"]
+    # save() writes what calibrate --out writes for this run.
+    r.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_text() == r.to_json()
+
+
+def test_results_expose_parameters_metrics_and_predict(embedded):
+    _, data, truth = embedded
+    r = twincal.calibrate(data, truth=truth)
+    assert len(r.parameters) == len(r.values) == len(r.uncertainties)
+    free = [p for p in r.parameters if not p["fixed"]]
+    assert free and all(p["std_uncertainty"] > 0 for p in free)
+    # Predictions reproduce the residuals calibrate scored on the test rows.
+    test = data["split"] == "test"
+    pred = r.predict(q_matrix(data)[test])
+    assert pred.shape == (test.sum(),)
+    rmse = float(np.sqrt(np.mean((data["L"][test] - pred) ** 2)))
+    assert abs(rmse - r.metrics["test_after"]["rmse"]) < 1e-9, (rmse, r.metrics["test_after"])
+    # The same from a mapping with the rows' columns.
+    pred2 = r.predict({k: v[test] for k, v in data.items()})
+    assert np.array_equal(pred, pred2)
+
+
+
+def test_a_saved_result_reads_back_and_predicts_the_same(embedded, tmp_path):
+    _, data, truth = embedded
+    r = twincal.calibrate(data, truth=truth)
+    r.save(tmp_path / "r.json")
+    back = twincal.load_result(tmp_path / "r.json")
+    q = q_matrix(data)[:20]
+    assert np.array_equal(back.predict(q), r.predict(q))
+    assert back.values == r.values
+
+
+def test_a_dataset_given_as_one_q_matrix_or_a_dataframe_is_the_same_dataset(embedded):
+    _, data, _ = embedded
+    cols = {"q": q_matrix(data), **{k: v for k, v in data.items() if not k.startswith("q")}}
+    assert twincal.to_csv(cols) == twincal.to_csv(data)
+    pd = pytest.importorskip("pandas", reason="pandas is optional; the DataFrame path is tested where it is installed")
+    frame = pd.DataFrame(data)
+    assert twincal.to_csv(frame) == twincal.to_csv(data)
+    df, _ = twincal.generate(as_frame=True)
+    assert list(df.columns) == list(data)
+
+
+def test_ik_reaches_the_twins_true_tool_points(embedded):
+    _, data, truth = embedded
+    r = twincal.calibrate(data, truth=truth)
+    targets = np.array([p["tool_mm"] for p in truth["poses"][:10]])
+    sol = r.ik(targets)
+    assert sol["q_deg"].shape == (10, 6)
+    assert list(sol["status"]) == ["converged"] * 10
+    assert np.all(sol["residual_mm"] <= 0.01)
+    all_runs = r.ik(targets[:2], jacobian="all")
+    assert set(all_runs) == {"calibrated/analytic", "calibrated/neural", "calibrated/hybrid"}
+
+
+def test_bad_input_raises_the_command_lines_message(embedded):
+    _, data, truth = embedded
+    bad = dict(data)
+    bad["L"] = data["L"].copy()
+    bad["L"][3] = np.nan
+    with pytest.raises(twincal.TwincalError, match=r"line 5, column L: NaN is not allowed"):
+        twincal.calibrate(bad)
+    with pytest.raises(twincal.TwincalError, match=r"missing required column\(s\) L"):
+        twincal.calibrate({k: v for k, v in data.items() if k != "L"})
+    with pytest.raises(twincal.TwincalError, match="unknown method 'nope'"):
+        twincal.calibrate(data, method="nope")
+    with pytest.raises(twincal.TwincalError, match="unexpected argument '--bogus'"):
+        twincal.calibrate(data, bogus=3)
+    with pytest.raises(twincal.TwincalError, match=r"--test-fraction must be in \[0, 1\)"):
+        twincal.calibrate(data, test_fraction=1.5)
+    with pytest.raises(twincal.TwincalError, match="does not belong to"):
+        twincal.calibrate({**data, "L": data["L"] + 0.001}, truth=truth)
+    with pytest.raises(twincal.TwincalError, match="expected a 1-D array"):
+        twincal.calibrate({**data, "L": np.ones((600, 2))})
+    with pytest.raises(twincal.TwincalError, match="column L has 5 values"):
+        twincal.calibrate({**data, "L": data["L"][:5]})
+    with pytest.raises(TypeError, match="Result.save"):
+        twincal.calibrate(data, out="result.json")
+    with pytest.raises(twincal.TwincalError, match="targets must be an"):
+        twincal.calibrate(data).ik(np.zeros((2, 2)))
+
+
+def test_long_work_releases_the_gil_and_reports_progress(embedded):
+    _, data, _ = embedded
+    ticks = []
+    stop = threading.Event()
+
+    def count():
+        while not stop.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    t0 = time.perf_counter()
+    twincal.calibrate(data, method="pso")
+    t1 = time.perf_counter()
+    stop.set()
+    t.join()
+    inside = [x for x in ticks if t0 <= x <= t1]
+    assert t1 - t0 > 0.2, "the calibration must take long enough to tell"
+    gaps = np.diff(inside)
+    assert len(inside) > 50 and gaps.max() < 0.1, f"{len(inside)} ticks in {t1 - t0:.2f} s, longest gap {gaps.max():.3f} s"
+
+    seen = []
+    twincal.generate(progress=lambda what, done, total: seen.append((what, done, total)))
+    assert seen and seen[-1][1] == seen[-1][2] == 600
+    assert all(a[1] <= b[1] for a, b in zip(seen, seen[1:]))
+
+    def boom(*_):
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        twincal.calibrate(data, progress=boom)
+
+
+HIDDEN = "[effects.compliance]\nstiffness_nm_per_rad = [1.0e9, 1.0e5, 1.0e9, 1.0e9, 1.0e9, 1.0e9]\n\n[sensor]"
+
+
+def test_diagnose_names_a_hidden_compliance_and_agrees_with_the_command_line(tmp_path):
+    text = (ROOT / "scenarios/irb120_geometric.toml").read_text().replace("[sensor]", HIDDEN, 1)
+    scenario = tmp_path / "hidden.toml"
+    scenario.write_text(text)
+    data, _ = twincal.generate(scenario, seed=1)
+    lines = []
+    dg = twincal.diagnose(data, progress=lambda line, *_: lines.append(line))
+    assert dg.report["verdict"] == "joint_compliance[j2]", dg.report["causes"]
+    assert dg.effects == "joint_compliance:2"
+    assert lines, "progress heard the diagnosis's steps"
+    # The extended model predicts; the same run by the command line writes the same report.
+    assert dg.result.predict(q_matrix(data)[:2]).shape == (2,)
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / "dataset.csv").write_text(twincal.to_csv(data))
+    run_cli("diagnose", "--data", tmp_path / "d", "--out", tmp_path / "r.json", "--result", tmp_path / "m.json")
+    cli = json.loads((tmp_path / "r.json").read_text())
+    mine = json.loads(dg.to_json())
+    assert untimed(mine) == untimed(cli)
+    assert mine["data"] != cli["data"] and mine["seconds"] != cli["seconds"], "the comparison above has left something out"
+    dg.save(tmp_path / "r2.json", tmp_path / "m2.json")
+    assert (tmp_path / "r2.json").read_text() == dg.to_json()
+
+
+def test_replay_of_a_twins_own_data(embedded):
+    d, _, _ = embedded
+    s = twincal.replay(d, ROOT / "scenarios/irb120_evo_nph.toml", test_fraction=0.2)
+    rows = s["rows"]
+    assert len(rows["L"]) == 600
+    assert s["judged"]["residual"]["rmse"] < 1.0
+
+
+def test_sharded_compare_reduces_to_the_single_run(embedded, tmp_path):
+    d, data, _ = embedded
+    whole = twincal.compare(data, methods=["lm", "ekf"], seeds=3)
+    parts = [tmp_path / f"part{i}.jsonl" for i in range(2)]
+    for i, p in enumerate(parts):
+        assert twincal.compare(data, methods=["lm", "ekf"], seeds=3, shard=f"{i}/2", shard_out=p) is None
+    joined = twincal.reduce(parts)
+    assert untimed(joined) == untimed(whole)
+
+
+def test_the_dask_example_runs_shards_on_a_local_cluster(tmp_path):
+    pytest.importorskip("dask.distributed", reason="the Dask example needs dask[distributed] (.ci/run installs it)")
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("dask_compare", ROOT / "python/examples/dask_compare.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    parts = tmp_path / "parts"
+    tables = example.main(["--methods", "lm", "--seeds", "4", "--shards", "3", "--workers", "2", "--parts", str(parts)])
+    assert sorted((r["method"], r["seed"]) for r in tables["runs"]) == [("lm", s) for s in range(4)]
+    # The same comparison in one process gives the same tables.
+    whole = twincal.compare(parts / "dataset", methods=["lm"], seeds=4)
+    assert untimed(tables) == untimed(whole)
+    # A shard run again finds its items done and adds none: the parts still reduce.
+    example.run_shard(str(parts / "dataset"), ["lm"], 4, 0, 3, str(parts / "part-0-of-3.jsonl"))
+    assert untimed(twincal.reduce(sorted(parts.glob("part-*.jsonl")))) == untimed(whole)

@@ -1,0 +1,358 @@
+"""twincal from Python: the digital twin and the calibration of serial arms, in process.
+
+The functions here run the same library as the ``twincal`` command line (no second
+implementation). Keyword options are the command line's options, with ``_`` for ``-``
+(``test_fraction=0.2`` is ``--test-fraction 0.2``), checked and defaulted as there. Datasets are
+mappings of column names to 1-D numpy arrays (``q1..qN`` in degrees, ``L`` or ``x, y, z``
+[``rx, ry, rz``] in mm, optional ``t``, ``temp``, ``sx, sy, sz``, ``split``), read and checked
+exactly as a CSV file with these columns is; a pandas DataFrame works as such a mapping, and
+``q`` may be given as one (n, N) array. A path (dataset folder, .csv, .xlsx) works wherever data
+do. Errors are raised as :class:`TwincalError` with the command line's message. Long work runs
+with the GIL released; ``progress(what, done, total)`` is called with news while it runs.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _native
+from ._native import TwincalError, __version__
+
+__all__ = [
+    "TwincalError",
+    "Result",
+    "Diagnosis",
+    "generate",
+    "read",
+    "to_csv",
+    "calibrate",
+    "load_result",
+    "diagnose",
+    "replay",
+    "compare",
+    "reduce",
+    "cli",
+    "__version__",
+]
+
+Data = Union[str, os.PathLike, Mapping[str, Any]]
+Progress = Optional[Callable[[str, int, int], Any]]
+
+# Options that name files a command writes: from Python they go to save(), or are handled here.
+_OUTPUTS = {"out", "urdf", "rrd", "report", "scenario_out", "result"}
+
+
+def _argv(options: Mapping[str, Any]) -> list[str]:
+    """Keyword options as command-line options (``--name=value``; True: a bare flag)."""
+    argv: list[str] = []
+    for key, value in options.items():
+        if value is None or value is False:
+            continue
+        flag = "--" + key.replace("_", "-")
+        if value is True:
+            argv.append(flag)
+            continue
+        if isinstance(value, (list, tuple)):
+            value = ",".join(os.fspath(v) if isinstance(v, os.PathLike) else str(v) for v in value)
+        elif isinstance(value, os.PathLike):
+            value = os.fspath(value)
+        argv.append(f"{flag}={value}")
+    return argv
+
+
+def _no_outputs(command: str, options: Mapping[str, Any], how: str) -> None:
+    named = sorted(k for k in options if k in _OUTPUTS)
+    if named:
+        raise TypeError(f"{command}() writes no files itself: {', '.join(named)} go to {how}")
+
+
+def _columns(data: Data) -> Any:
+    """A path as it is; a mapping as (name, float64 array | list of str) pairs."""
+    if isinstance(data, (str, os.PathLike)):
+        return os.fspath(data)
+    if not hasattr(data, "keys"):
+        raise TypeError("data must be a path (dataset folder, .csv, .xlsx) or a mapping of column names to 1-D arrays")
+    out: list[tuple[str, Any]] = []
+    for key in data.keys():
+        name = str(key)
+        v = np.asarray(data[key])
+        if name.strip().lower() == "q" and v.ndim == 2:
+            out.extend((f"q{j + 1}", np.ascontiguousarray(v[:, j], dtype=np.float64)) for j in range(v.shape[1]))
+            continue
+        if v.ndim != 1:
+            raise TwincalError(f"column {name}: expected a 1-D array, got shape {v.shape}")
+        if v.dtype.kind in "biuf":
+            out.append((name, np.ascontiguousarray(v, dtype=np.float64)))
+        else:
+            out.append((name, ["" if x is None or (isinstance(x, float) and x != x) else str(x) for x in v.tolist()]))
+    return out
+
+
+def _mapping(columns: Sequence[tuple[str, Any]]) -> dict[str, np.ndarray]:
+    return {name: (v if isinstance(v, np.ndarray) else np.array(v, dtype=str)) for name, v in columns}
+
+
+def _frame(data: dict[str, np.ndarray], as_frame: bool) -> Any:
+    if not as_frame:
+        return data
+    import pandas as pd  # optional: only for as_frame=True
+
+    return pd.DataFrame(data)
+
+
+def generate(scenario: Optional[Union[str, os.PathLike]] = None, seed: Optional[int] = None, *, as_frame: bool = False, progress: Progress = None) -> tuple[Any, dict]:
+    """Simulate a scenario (TOML path; None: the embedded IRB 120 default), as ``twincal generate``.
+
+    Returns ``(data, truth)``: the dataset's columns (a dict of numpy arrays, or a pandas
+    DataFrame with ``as_frame=True``), equal value for value to the ``dataset.csv`` that
+    ``twincal generate`` writes, and its ``truth.json`` as a dict.
+    """
+    columns, truth = _native.generate(None if scenario is None else os.fspath(scenario), seed, progress)
+    return _frame(_mapping(columns), as_frame), json.loads(truth)
+
+
+def read(data: Data, *, as_frame: bool = False, **options: Any) -> Any:
+    """A dataset read and checked as ``twincal calibrate --data`` reads it (options: ``angles``,
+    ``measurement``, ``euler``); its columns, angles in degrees."""
+    return _frame(_mapping(_native.read(_columns(data), _argv(options))), as_frame)
+
+
+def to_csv(data: Data, angles: str = "auto") -> str:
+    """The ``dataset.csv`` text of a dataset (what ``generate`` writes, what ``calibrate`` reads)."""
+    return _native.to_csv(_columns(data), angles)
+
+
+class Result:
+    """A calibrated model: what ``twincal calibrate`` writes to result.json, and its use."""
+
+    def __init__(self, native: Any) -> None:
+        self._native = native
+        self._dict: dict = json.loads(native.to_json())
+
+    def to_json(self) -> str:
+        """result.json's text: byte for byte what ``twincal calibrate --out`` writes."""
+        return self._native.to_json()
+
+    def as_dict(self) -> dict:
+        """result.json as a dict."""
+        return json.loads(self.to_json())
+
+    @property
+    def parameters(self) -> list[dict]:
+        """Every parameter: name, unit, nominal, value, std_uncertainty, fixed (and the truth
+        comparison on a twin)."""
+        return [dict(p) for p in self._dict["parameters"]]
+
+    @property
+    def values(self) -> dict[str, float]:
+        """Parameter values by name (mm for lengths, degrees for angles)."""
+        return {p["name"]: p["value"] for p in self._dict["parameters"]}
+
+    @property
+    def uncertainties(self) -> dict[str, Optional[float]]:
+        """Standard uncertainties by name (None for a fixed parameter)."""
+        return {p["name"]: p["std_uncertainty"] for p in self._dict["parameters"]}
+
+    @property
+    def metrics(self) -> dict:
+        """Residual statistics before and after, on training and test rows (mm)."""
+        return dict(self._dict["metrics"])
+
+    @property
+    def verdict(self) -> Optional[dict]:
+        """The verdict against max_test_rmse_mm / max_test_max_mm, when given."""
+        return self._dict.get("verdict")
+
+    @property
+    def warnings(self) -> list[str]:
+        return list(self._native.warnings)
+
+    def predict(self, data: Union[np.ndarray, Data], *, angles: str = "auto", euler: str = "XYZ") -> np.ndarray:
+        """Readings the model predicts, in mm (as ``twincal predict``).
+
+        ``data``: an (n, N) array of joint angles in degrees, or a dataset (mapping or path) with
+        ``q1..qN`` and whatever else the model reads (``temp``, ``t``). Returns shape (n,) for a
+        cable length, (n, 3) for a tracker's point, (n, 6) for a pose (x, y, z mm; rx, ry, rz in
+        degrees, ``euler`` convention).
+        """
+        if isinstance(data, np.ndarray) or (isinstance(data, (list, tuple)) and not isinstance(data, str)):
+            q = np.atleast_2d(np.asarray(data, dtype=np.float64))
+            data = {f"q{j + 1}": q[:, j] for j in range(q.shape[1])}
+        values, warning = self._native.predict(_columns(data), angles, euler)
+        if warning:
+            import warnings
+
+            warnings.warn(warning, stacklevel=2)
+        return values[:, 0] if values.shape[1] == 1 else values
+
+    def ik(self, targets: np.ndarray, *, jacobian: str = "hybrid", tol_mm: float = 0.01, seed: int = 0) -> dict:
+        """Inverse kinematics for target points (n, 3), mm in the robot's base frame, as
+        ``twincal ik --targets``: ``{"q_deg", "status", "iterations", "residual_mm"}`` for one
+        Jacobian (analytic, neural, hybrid), or a dict of them by label for ``"all"``."""
+        t = np.ascontiguousarray(np.atleast_2d(np.asarray(targets, dtype=np.float64)))
+        runs = {
+            label: {"q_deg": q, "status": np.array(status, dtype=str), "iterations": np.array(iters), "residual_mm": res}
+            for label, q, status, iters, res in self._native.ik(t, jacobian, tol_mm, seed)
+        }
+        return runs if jacobian.lower() == "all" else next(iter(runs.values()))
+
+    def save(self, out: Union[str, os.PathLike], *, urdf=None, rrd=None, report=None, scenario_out=None) -> None:
+        """Write what ``twincal calibrate`` writes: result.json at ``out``, and the calibrated URDF,
+        Rerun recording, HTML report and identified twin (scenario + URDF) where given; all
+        together or none."""
+        f = lambda p: None if p is None else os.fspath(p)  # noqa: E731
+        self._native.save(os.fspath(out), f(urdf), f(rrd), f(report), f(scenario_out))
+
+    def __repr__(self) -> str:
+        m = self._dict["metrics"]
+        test = m.get("test_after")
+        return (
+            f"<twincal.Result {self._dict['method']} / {self._dict['model_name']}: train RMSE {m['train_after']['rmse']:.4f} mm"
+            + (f", test RMSE {test['rmse']:.4f} mm" if test else "")
+            + ">"
+        )
+
+
+def calibrate(
+    data: Data,
+    method: str = "lm",
+    *,
+    model: Optional[str] = None,
+    effects: Optional[Iterable[str]] = None,
+    truth: Optional[Union[dict, str]] = None,
+    progress: Progress = None,
+    **options: Any,
+) -> Result:
+    """Calibrate a model on measured data, as ``twincal calibrate``.
+
+    ``method``: lm, ekf, pf, pso, rbf, dsade-gkan, pso-ekf-awnn (and their ablations); ``model``:
+    irb120 (default), a .urdf path or generic6r; ``effects``: e.g. ``["compliance:2", "backlash"]``.
+    Any other ``calibrate`` option by name: ``test_fraction``, ``seed``, ``params``, ``effort``,
+    ``outliers``, ``loss``, ``angles``, ``measurement``, ``euler``, ``payload_kg``, ... ``truth``:
+    the twin's truth (the dict ``generate`` returns) for in-memory data; a dataset folder finds its
+    own truth.json. Outputs are written by :meth:`Result.save`.
+    """
+    _no_outputs("calibrate", options, "Result.save()")
+    opts = {"method": method, "model": model, "effects": list(effects) if effects is not None else None, **options}
+    truth_text = json.dumps(truth) if isinstance(truth, dict) else truth
+    return Result(_native.calibrate(_columns(data), _argv(opts), truth_text, progress))
+
+
+def load_result(path: Union[str, os.PathLike]) -> Result:
+    """A result.json written by ``twincal calibrate`` (or ``diagnose --result``)."""
+    return Result(_native.load_result(os.fspath(path)))
+
+
+class Diagnosis:
+    """What ``twincal diagnose`` found: the report (report.json) and the extended model."""
+
+    def __init__(self, native: Any) -> None:
+        self._native = native
+        self.report: dict = json.loads(native.to_json())
+        self.result: Result = Result(native.result())
+
+    def to_json(self) -> str:
+        """report.json's text: byte for byte what ``twincal diagnose --out`` writes."""
+        return self._native.to_json()
+
+    @property
+    def effects(self) -> str:
+        """The effects kept, as ``calibrate --effects`` takes them ("" for none)."""
+        return self.report["effects_option"]
+
+    def save(self, out, result, *, rrd=None, report=None, scenario_out=None) -> None:
+        """Write what ``twincal diagnose`` writes: the report at ``out``, the model at ``result``,
+        and the recording, HTML report and identified twin where given; all together or none."""
+        f = lambda p: None if p is None else os.fspath(p)  # noqa: E731
+        self._native.save(os.fspath(out), os.fspath(result), f(rrd), f(report), f(scenario_out))
+
+    def __repr__(self) -> str:
+        return f"<twincal.Diagnosis effects={self.effects!r} held-out RMSE {self.report['final_heldout_rmse_mm']:.4f} mm>"
+
+
+def diagnose(data: Data, *, progress: Progress = None, **options: Any) -> Diagnosis:
+    """What the geometric model gets wrong, which effect causes it, how big it is and how much
+    better the extended model predicts unseen rows, as ``twincal diagnose`` (options: ``model``,
+    ``candidates``, ``folds``, ``alpha``, ``seed``, ``test_fraction``, ...). ``progress`` hears
+    each step as ``(line, 0, 0)``."""
+    _no_outputs("diagnose", options, "Diagnosis.save()")
+    return Diagnosis(_native.diagnose(_columns(data), _argv(options), progress))
+
+
+def _read_csv(path: Path) -> dict[str, np.ndarray]:
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, body = rows[0], rows[1:]
+    out: dict[str, np.ndarray] = {}
+    for k, name in enumerate(header):
+        cells = [r[k] if k < len(r) else "" for r in body]
+        try:
+            out[name] = np.array([float(c) if c != "" else np.nan for c in cells])
+        except ValueError:
+            out[name] = np.array(cells, dtype=str)
+    return out
+
+
+def _staged(data: Data, tmp: str, angles: Optional[str]) -> str:
+    """A path for the command line: the path itself, or in-memory data written as a CSV."""
+    if isinstance(data, (str, os.PathLike)):
+        return os.fspath(data)
+    p = os.path.join(tmp, "data.csv")
+    with open(p, "w") as f:
+        f.write(_native.to_csv(_columns(data), angles or "auto"))
+    return p
+
+
+def replay(data: Data, scenario: Union[str, os.PathLike], **options: Any) -> dict:
+    """Drive the twin of ``scenario`` through a measured acquisition, as ``twincal replay``: the
+    summary (replay.json) as a dict, with its per-row table (replay.csv) under ``"rows"`` as
+    arrays. Options: ``test_fraction``, ``seed``, ``angles``, ``measurement``, ``euler``."""
+    _no_outputs("replay", options, "the command line (twincal.cli)")
+    with tempfile.TemporaryDirectory(prefix="twincal-") as tmp:
+        out = os.path.join(tmp, "replay")
+        argv = ["--quiet", "replay", "--data", _staged(data, tmp, options.get("angles")), "--scenario", os.fspath(scenario), "--out", out]
+        _native.cli(argv + _argv(options))
+        with open(os.path.join(out, "replay.json")) as f:
+            summary = json.load(f)
+        summary["rows"] = _read_csv(Path(out) / "replay.csv")
+    return summary
+
+
+def compare(data: Data, methods: Sequence[str] = ("lm", "ekf", "pf", "pso", "rbf"), seeds: int = 30, *, shard: Optional[str] = None, shard_out=None, **options: Any) -> Optional[dict]:
+    """Compare methods over seeds, as ``twincal compare``: the tables (what ``--out`` writes) as a
+    dict. With ``shard="i/N"`` and ``shard_out=PATH`` it runs that shard's items only, appending
+    them to the partial file, and returns None: join the parts with :func:`reduce`."""
+    _no_outputs("compare", options, "the command line (twincal.cli)")
+    with tempfile.TemporaryDirectory(prefix="twincal-") as tmp:
+        argv = ["--quiet", "compare", "--data", _staged(data, tmp, options.get("angles")), f"--methods={','.join(methods)}", f"--seeds={seeds}"]
+        argv += _argv({**options, "shard": shard, "shard_out": shard_out})
+        if shard is not None:
+            _native.cli(argv)
+            return None
+        out = os.path.join(tmp, "compare.json")
+        _native.cli(argv + ["--out", out])
+        with open(out) as f:
+            return json.load(f)
+
+
+def reduce(parts: Sequence[Union[str, os.PathLike]], out: Optional[Union[str, os.PathLike]] = None) -> dict:
+    """Join the partial files of sharded compares, as ``twincal reduce``: every item exactly once
+    (duplicates dropped, missing ones named in the error), then the tables as one compare's."""
+    with tempfile.TemporaryDirectory(prefix="twincal-") as tmp:
+        target = os.fspath(out) if out is not None else os.path.join(tmp, "compare.json")
+        _native.cli(["--quiet", "reduce", *map(os.fspath, parts), "--out", target])
+        with open(target) as f:
+            return json.load(f)
+
+
+def cli(argv: Sequence[str]) -> None:
+    """Run a ``twincal`` command line in this process (``argv`` without the program name);
+    raises :class:`TwincalError` where the executable exits with code 2."""
+    _native.cli([os.fspath(a) for a in argv])
