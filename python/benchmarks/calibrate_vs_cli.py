@@ -47,7 +47,7 @@ def main() -> None:
             cli, folder_t, arrays_t, save_t = [], [], [], []
             for _ in range(a.repeat):
                 t0 = time.perf_counter()
-                subprocess.run([a.bin, "--quiet", "calibrate", "--data", folder, "--method", method, "--out", out], check=True)
+                subprocess.run([a.bin, "--quiet", "calibrate", "--data", folder, "--method", method, "--out", out], check=True, stderr=subprocess.DEVNULL)
                 cli.append(time.perf_counter() - t0)
                 t0 = time.perf_counter()
                 twincal.calibrate(folder, method=method)
