@@ -255,3 +255,13 @@ def test_the_dask_example_runs_shards_on_a_local_cluster(tmp_path):
     # A shard run again finds its items done and adds none: the parts still reduce.
     example.run_shard(str(parts / "dataset"), ["lm"], 4, 0, 3, str(parts / "part-0-of-3.jsonl"))
     assert untimed(twincal.reduce(sorted(parts.glob("part-*.jsonl")))) == untimed(whole)
+
+
+def test_the_readme_example_prints_what_the_readme_shows(tmp_path, monkeypatch, capsys):
+    text = (ROOT / "README.md").read_text().split("## Python\n", 1)[1]
+    code = text.split("```python\n", 1)[1].split("```", 1)[0]
+    shown = text.split("```python\n", 1)[1].split("```", 1)[1].split("```\n", 1)[1].split("```", 1)[0]
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {})
+    assert capsys.readouterr().out == shown
+    assert {p.name for p in tmp_path.iterdir()} == {"result.json", "calibrated.urdf", "report.html"}
