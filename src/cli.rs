@@ -62,8 +62,9 @@ pub enum Command {
     Ik(crate::commands::ik::IkArgs),
     /// Compare methods over seeds: accuracy and time tables with Wilcoxon signed-rank tests.
     Compare(commands::CompareArgs),
-    /// Join the partial files of `compare --shard i/N` runs: every item exactly once, then the
-    /// same table, --out and --rrd as one `compare`.
+    /// Join the partial files of `--shard i/N` runs (compare, study hold, bench diagnose): every
+    /// item exactly once, then the same table (and compare's --out and --rrd, a hold study's
+    /// --rrd) as one run.
     Reduce {
         /// The shards' partial files (JSONL).
         #[arg(required = true)]
@@ -97,6 +98,8 @@ pub enum Command {
         /// calib: also time `compare` over 30 seeds with every method.
         #[arg(long)]
         compare: bool,
+        #[command(flatten)]
+        shard: commands::ShardArgs,
     },
     /// Studies of the acquisition protocol on the simulated tour: `hold` (bias and spread of the
     /// readings against the hold time and the approach speed).
@@ -118,6 +121,8 @@ pub enum Command {
         /// Rerun recording of bias and spread against the hold time.
         #[arg(long)]
         rrd: Option<PathBuf>,
+        #[command(flatten)]
+        shard: commands::ShardArgs,
     },
 }
 
@@ -134,14 +139,18 @@ pub fn run(args: Cli) -> crate::Result<()> {
         Command::Reduce { parts, out, rrd } => commands::reduce(&parts, out.as_deref(), rrd.as_deref(), args.quiet),
         Command::Replay(a) => commands::replay(&a, args.quiet),
         Command::Ik(a) => crate::commands::ik::ik(&a, args.quiet),
-        Command::Study { what, scenario, holds, speeds, poses, rrd } => commands::study(
+        Command::Study { what, scenario, holds, speeds, poses, rrd, shard } => commands::study(
             what,
             scenario.as_deref(),
             &crate::sim::twin::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses: poses.unwrap_or(crate::sim::twin::study::DEFAULT_POSES) },
             poses.is_some(),
             rrd.as_deref(),
+            shard.shard.as_deref(),
+            shard.shard_out.as_deref(),
             args.quiet,
         ),
-        Command::Bench { what, scenario, repeat, seeds, compare } => commands::bench_command(what, scenario.as_deref(), repeat, seeds, compare, quiet),
+        Command::Bench { what, scenario, repeat, seeds, compare, shard } => {
+            commands::bench_command(what, scenario.as_deref(), repeat, seeds, compare, &shard, quiet)
+        }
     }
 }

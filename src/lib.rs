@@ -24,6 +24,7 @@ pub mod measurement;
 pub mod optim;
 pub mod report;
 pub mod robot;
+pub mod shard;
 pub mod sim;
 pub mod viz;
 

@@ -1,7 +1,8 @@
 //! A comparison split into shards (`compare --shard i/N --shard-out PART`, each a separate
 //! process) and joined (`twincal reduce`) gives the single process's tables and JSON, N = 1, 3
 //! and 7, but for the measured seconds; a killed shard re-run completes without duplicates;
-//! missing items and mixed comparisons are refused.
+//! missing items and mixed comparisons are refused. `study hold` and `bench diagnose` shard the
+//! same way (`crate::shard`).
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -84,9 +85,55 @@ fn shards_reduce_to_the_single_run() {
     ok(twincal(&["compare", "--data", &p(&data), "--methods", "lm", "--seeds", "2", "--shard", "0/1", "--shard-out", &p(&other)]), "other");
     let o = twincal(&["reduce", &p(&part), &p(&other)]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("belongs to another comparison"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("belongs to another study"), "{}", String::from_utf8_lossy(&o.stderr));
     // A shard file of another comparison is not appended to.
     let o = twincal(&[&base[..], &["--shard", "0/2", "--shard-out", &p(&other)]].concat());
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("written for another comparison"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("written for another study"), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// The lines of a run's stdout.
+fn stdout(o: &Output) -> Vec<String> {
+    String::from_utf8_lossy(&o.stdout).lines().map(str::to_string).collect()
+}
+
+#[test]
+fn a_hold_study_and_the_diagnosis_benchmark_shard_and_reduce_to_the_single_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |x: &Path| x.to_str().unwrap().to_owned();
+    // study hold: settings (speed × hold) are the items.
+    let study = ["study", "hold", "--poses", "4", "--holds", "0.05,0.2,0.5", "--speeds", "0.2,0.5"];
+    let single = stdout(&ok(twincal(&study), "study hold"));
+    assert_eq!(single.len(), 3 + 6, "{single:?}");
+    for n in [1usize, 4] {
+        let parts: Vec<String> = (0..n).map(|i| p(&dir.path().join(format!("hold-{i}-of-{n}.jsonl")))).collect();
+        for (i, part) in parts.iter().enumerate() {
+            ok(twincal(&[&study[..], &["--shard", &format!("{i}/{n}"), "--shard-out", part]].concat()), "a hold shard");
+        }
+        let reduced = ok(twincal(&[&["reduce"][..], &parts.iter().map(String::as_str).collect::<Vec<_>>()].concat()), "reduce");
+        assert_eq!(stdout(&reduced), single, "{n} shards");
+    }
+    // A killed hold shard (its file cut inside its second line) resumes with the rest only.
+    let part = dir.path().join("hold-0-of-1.jsonl");
+    let text = std::fs::read_to_string(&part).unwrap();
+    let second = text.find('\n').unwrap() + 1;
+    std::fs::write(&part, &text[..second + 40]).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_twincal")).args(study).args(["--shard", "0/1", "--shard-out", &p(&part)]).output().unwrap();
+    assert!(String::from_utf8_lossy(&o.stderr).contains("5 items run, 1 already in"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(stdout(&ok(twincal(&["reduce", &p(&part)]), "reduce")), single);
+    // bench diagnose: seed × (hidden, clean) are the items; the sharded run leaves out the
+    // timing (one machine's) and prints the same detection lines and rates.
+    let single = stdout(&ok(twincal(&["bench", "diagnose", "--seeds", "2"]), "bench diagnose"));
+    let detection: Vec<String> = single.iter().skip_while(|l| !l.starts_with("    seed")).cloned().collect();
+    assert!(detection.len() >= 4, "{single:?}");
+    let parts: Vec<String> = (0..2).map(|i| p(&dir.path().join(format!("diag-{i}.jsonl")))).collect();
+    for (i, part) in parts.iter().enumerate() {
+        ok(twincal(&["bench", "diagnose", "--seeds", "2", "--shard", &format!("{i}/2"), "--shard-out", part]), "a diagnose shard");
+    }
+    let reduced = stdout(&ok(twincal(&["reduce", &parts[0], &parts[1]]), "reduce"));
+    assert_eq!(reduced[1..].to_vec(), detection, "{reduced:?}");
+    // Parts of different studies are not joined.
+    let o = twincal(&["reduce", &parts[0], &p(&part)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("belongs to another study"), "{}", String::from_utf8_lossy(&o.stderr));
 }

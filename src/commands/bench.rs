@@ -4,8 +4,19 @@
 use super::*;
 
 /// `twincal bench TARGET`: checks that every option given applies to the target, then runs it.
-pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, seeds: Option<u64>, compare: bool, quiet: bool) -> Result<()> {
+pub fn bench_command(
+    what: BenchTarget,
+    scenario: Option<&Path>,
+    repeat: usize,
+    seeds: Option<u64>,
+    compare: bool,
+    shard: &ShardArgs,
+    quiet: bool,
+) -> Result<()> {
     check_repeat(repeat)?;
+    if (shard.shard.is_some() || shard.shard_out.is_some()) && what != BenchTarget::Diagnose {
+        return Err(Error::Invalid("--shard and --shard-out apply to bench diagnose (and to compare and study hold)".into()));
+    }
     match what {
         BenchTarget::Twin => {
             if seeds.is_some() {
@@ -49,7 +60,9 @@ pub fn bench_command(what: BenchTarget, scenario: Option<&Path>, repeat: usize, 
             }
             let seeds = seeds.unwrap_or(20);
             check_seeds(seeds)?;
-            crate::bench::diagnose::bench_diagnose(seeds, progress(quiet).as_ref())
+            let config = crate::bench::diagnose::DetectionConfig { seeds, twincal_version: env!("CARGO_PKG_VERSION").into() };
+            let sh = crate::shard::from_options(shard.shard.as_deref(), shard.shard_out.as_deref(), false, "", &config, &[])?;
+            crate::bench::diagnose::bench_diagnose(seeds, progress(quiet).as_ref(), sh.as_ref(), &config)
         }
         BenchTarget::Dsade | BenchTarget::Ik => {
             if scenario.is_some() || compare {

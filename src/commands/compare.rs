@@ -55,17 +55,24 @@ impl CompareConfig {
     }
 }
 
-/// One line of a shard's partial file (JSONL): a finished work item.
+/// What one finished work item of a sharded compare records (beside the study's
+/// configuration, see [`crate::shard::Line`]).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct ShardLine {
-    pub item: u64,
-    pub config_hash: String,
-    pub twincal_version: String,
-    pub config: CompareConfig,
+pub struct CompareItem {
     pub run: CompareRun,
     /// |test residual| of the run, kept for seed 0 (the per-sample Wilcoxon test).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub test_abs_residuals: Vec<f64>,
+}
+
+impl crate::shard::Config for CompareConfig {
+    const KIND: &'static str = "compare";
+    fn hash(&self) -> String {
+        CompareConfig::hash(self)
+    }
+    fn items(&self) -> u64 {
+        CompareConfig::items(self)
+    }
 }
 
 /// Arguments of `twincal compare` (the field docs are its `--help`).
@@ -105,50 +112,6 @@ pub struct CompareArgs {
     /// The shard's partial file (JSONL; needed with --shard).
     #[arg(long)]
     pub shard_out: Option<PathBuf>,
-}
-
-/// Parses `--shard i/N` (0 ≤ i < N ≤ 10 000).
-fn parse_shard(s: &str) -> Result<(u64, u64)> {
-    let bad = || Error::Invalid(format!("--shard must be i/N with 0 <= i < N <= 10000 (e.g. 0/3), got '{s}'"));
-    let (i, n) = s.split_once('/').ok_or_else(bad)?;
-    let (i, n): (u64, u64) = (i.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
-    if n == 0 || n > 10_000 || i >= n {
-        return Err(bad());
-    }
-    Ok((i, n))
-}
-
-/// The finished items of a shard file (a torn last line, from a killed run, is dropped), each
-/// checked against `config`.
-fn read_shard(path: &Path, hash: Option<&str>) -> Result<Vec<ShardLine>> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound && hash.is_some() => return Ok(Vec::new()),
-        Err(e) => return Err(Error::io(path, e)),
-    };
-    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
-    let mut out = Vec::new();
-    for (k, line) in lines.iter().enumerate() {
-        // Only the last line can be torn (a run killed while writing it): without its newline it
-        // is not finished, even when it parses (the resume cuts it off and runs its item again).
-        if k + 1 == lines.len() && !text.ends_with('\n') {
-            break;
-        }
-        match serde_json::from_str::<ShardLine>(line) {
-            Ok(l) => {
-                if let Some(h) = hash.filter(|h| *h != l.config_hash) {
-                    return Err(Error::data(
-                        path.display(),
-                        format!("line {}: written for another comparison (config {}, this one {h}): use another --shard-out", k + 1, &l.config_hash[..12]),
-                    ));
-                }
-                out.push(l);
-            }
-            Err(_) if k + 1 == lines.len() && !text.ends_with('\n') => {}
-            Err(e) => return Err(Error::data(path.display(), format!("line {}: not a shard line ({e})", k + 1))),
-        }
-    }
-    Ok(out)
 }
 
 /// Fewest seeds for the across-seeds Wilcoxon test: with 5 or fewer, the smallest two-sided
@@ -229,37 +192,17 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         ),
         twincal_version: env!("CARGO_PKG_VERSION").into(),
     };
-    let hash = config.hash();
     // Work items in their fixed order; a shard runs its own and skips those its file holds.
-    let shard = match &a.shard {
-        Some(s) => {
-            if a.out.is_some() || a.rrd.is_some() {
-                return Err(Error::Invalid("--shard writes --shard-out only; --out and --rrd belong to `twincal reduce`".into()));
-            }
-            let out = a.shard_out.as_deref().ok_or_else(|| Error::Invalid("--shard needs --shard-out FILE (the shard's partial file)".into()))?;
-            check_outputs(&data_files.iter().map(|p| ("--data", p.as_path())).collect::<Vec<_>>(), &[("--shard-out", out)])?;
-            Some((parse_shard(s)?, out))
-        }
-        None if a.shard_out.is_some() => return Err(Error::Invalid("--shard-out needs --shard i/N".into())),
-        None => None,
-    };
-    let done: std::collections::BTreeSet<u64> = match &shard {
-        Some((_, out)) => read_shard(out, Some(&hash))?.iter().map(|l| l.item).collect(),
-        None => Default::default(),
-    };
+    let inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
+    let shard =
+        crate::shard::from_options(a.shard.as_deref(), a.shard_out.as_deref(), a.out.is_some() || a.rrd.is_some(), "--out and --rrd", &config, &inputs)?;
     let jobs: Vec<(u64, u64, Method)> = (0..seeds)
         .flat_map(|s| {
             let k_methods = methods.len() as u64;
             methods.iter().enumerate().map(move |(k, m)| (s * k_methods + k as u64, s, *m)).collect::<Vec<_>>()
         })
-        .filter(|(id, _, _)| shard.as_ref().is_none_or(|((i, nn), _)| id % nn == *i) && !done.contains(id))
+        .filter(|(id, _, _)| shard.as_ref().is_none_or(|sh| sh.wants(*id)))
         .collect();
-    // A shard appends each finished item at once, a whole line (a killed run loses only the
-    // items it was running; a torn last line is cut off first).
-    let sink = match &shard {
-        Some((_, out)) => Some(std::sync::Mutex::new(open_shard(out)?)),
-        None => None,
-    };
     let bar = progress(quiet);
     bar.start(jobs.len() as u64, "calibrations");
     let runs: Vec<Result<CompareRun>> = jobs
@@ -285,44 +228,24 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
                 warnings: r.warnings,
                 test_abs_residuals,
             };
-            if let Some(sink) = &sink {
-                let line = ShardLine {
-                    item: *id,
-                    config_hash: hash.clone(),
-                    twincal_version: env!("CARGO_PKG_VERSION").into(),
-                    config: config.clone(),
-                    test_abs_residuals: if *seed == 0 { run.test_abs_residuals.clone() } else { Vec::new() },
-                    run: run.clone(),
-                };
-                let text = serde_json::to_string(&line).map_err(|e| Error::Invalid(format!("cannot write a shard line: {e}")))? + "\n";
-                use std::io::Write;
-                let mut f = sink.lock().unwrap_or_else(|e| e.into_inner());
-                f.write_all(text.as_bytes()).and_then(|_| f.flush()).map_err(|e| Error::io(shard.as_ref().map_or(Path::new(""), |s| s.1), e))?;
+            // A shard appends each finished item at once, a whole line (a killed run loses only
+            // the items it was running).
+            if let Some(sh) = &shard {
+                let item = CompareItem { test_abs_residuals: if *seed == 0 { run.test_abs_residuals.clone() } else { Vec::new() }, run: run.clone() };
+                sh.append(*id, &config, &item)?;
             }
             Ok(run)
         })
         .collect();
     bar.finish();
     let runs: Vec<CompareRun> = runs.into_iter().collect::<Result<_>>()?;
-    if let Some(((i, nn), out)) = &shard {
+    if let Some(sh) = &shard {
         if !quiet {
-            eprintln!("shard {i}/{nn}: {} items run, {} already in {} (config {})", runs.len(), done.len(), out.display(), &hash[..12]);
+            eprintln!("{}", sh.summary(runs.len()));
         }
         return Ok(());
     }
     finish(&config, &runs, a.out.as_deref(), a.rrd.as_deref())
-}
-
-/// Opens a shard's partial file for appending, cutting off a torn last line first.
-fn open_shard(path: &Path) -> Result<std::fs::File> {
-    if let Ok(bytes) = std::fs::read(path) {
-        if !bytes.is_empty() && !bytes.ends_with(b"\n") {
-            let keep = bytes.iter().rposition(|b| *b == b'\n').map_or(0, |k| k + 1);
-            let f = std::fs::OpenOptions::new().write(true).open(path).map_err(|e| Error::io(path, e))?;
-            f.set_len(keep as u64).map_err(|e| Error::io(path, e))?;
-        }
-    }
-    std::fs::OpenOptions::new().create(true).append(true).open(path).map_err(|e| Error::io(path, e))
 }
 
 /// The table, the warnings and the outputs of a finished comparison (every item's run, in item
@@ -438,56 +361,22 @@ pub fn reduce(parts: &[PathBuf], out: Option<&Path>, rrd: Option<&Path>, quiet: 
     }
     let outs: Vec<(&str, &Path)> = out.map(|p| ("--out", p)).into_iter().chain(rrd.map(|p| ("--rrd", p))).collect();
     check_outputs(&parts.iter().map(|p| ("PART", p.as_path())).collect::<Vec<_>>(), &outs)?;
-    let mut lines: Vec<(ShardLine, &Path)> = Vec::new();
-    for p in parts {
-        lines.extend(read_shard(p, None)?.into_iter().map(|l| (l, p.as_path())));
-    }
-    let Some((first, first_file)) = lines.first().map(|(l, p)| (l.clone(), *p)) else {
-        return Err(Error::Invalid("the parts hold no finished item".into()));
-    };
-    if let Some((l, p)) = lines.iter().find(|(l, _)| l.config_hash != first.config_hash) {
-        return Err(Error::data(
-            p.display(),
-            format!(
-                "item {} belongs to another comparison (config {}; {} holds config {})",
-                l.item,
-                &l.config_hash[..12],
-                first_file.display(),
-                &first.config_hash[..12]
-            ),
-        ));
-    }
-    let config = first.config.clone();
-    if config.hash() != first.config_hash {
-        return Err(Error::data(first_file.display(), "its configuration does not match its hash (a hand-edited part?)"));
-    }
-    let total = config.items();
-    let mut by_item: std::collections::BTreeMap<u64, ShardLine> = std::collections::BTreeMap::new();
-    let mut duplicates = 0;
-    for (l, p) in lines {
-        if l.item >= total {
-            return Err(Error::data(p.display(), format!("item {} is beyond the comparison's {total} items", l.item)));
+    match crate::shard::kind(parts)?.as_str() {
+        "compare" => {}
+        "study-hold" if out.is_some() => {
+            return Err(Error::Invalid("--out applies to compare's parts; a hold study's reduce prints its table (and writes --rrd)".into()))
         }
-        match by_item.entry(l.item) {
-            std::collections::btree_map::Entry::Occupied(_) => duplicates += 1,
-            std::collections::btree_map::Entry::Vacant(v) => {
-                v.insert(l);
-            }
+        "study-hold" => return super::study::reduce_hold(parts, rrd, quiet),
+        "bench-diagnose" if out.is_some() || rrd.is_some() => {
+            return Err(Error::Invalid("bench diagnose's reduce prints its lines and rates; --out and --rrd apply to compare's parts".into()))
         }
+        "bench-diagnose" => return crate::bench::diagnose::reduce_detection(parts, quiet),
+        k => return Err(Error::Invalid(format!("the parts are of a study twincal does not know ('{k}'): written by another twincal version?"))),
     }
-    let missing: Vec<u64> = (0..total).filter(|i| !by_item.contains_key(i)).collect();
-    if !missing.is_empty() {
-        let shown: Vec<String> = missing.iter().take(20).map(u64::to_string).collect();
-        return Err(Error::Invalid(format!(
-            "{} of the {total} items are missing (first: {}{}): run the shards that hold them (re-running a shard resumes it)",
-            missing.len(),
-            shown.join(", "),
-            if missing.len() > 20 { ", ..." } else { "" }
-        )));
-    }
-    let runs: Vec<CompareRun> = by_item.into_values().map(|l| CompareRun { test_abs_residuals: l.test_abs_residuals, ..l.run }).collect();
+    let (config, items, duplicates) = crate::shard::gather::<CompareConfig, CompareItem>(parts)?;
+    let runs: Vec<CompareRun> = items.into_iter().map(|l| CompareRun { test_abs_residuals: l.test_abs_residuals, ..l.run }).collect();
     if !quiet {
-        eprintln!("reduced {} parts: {total} items of config {}, {duplicates} duplicates dropped", parts.len(), &first.config_hash[..12]);
+        eprintln!("reduced {} parts: {} items of config {}, {duplicates} duplicates dropped", parts.len(), runs.len(), &config.hash()[..12]);
     }
     finish(&config, &runs, out, rrd)
 }

@@ -100,6 +100,20 @@ pub fn load_options(angles: AngleArg, reading: &ReadingArgs, require_length: boo
     Ok(crate::dataset::LoadOptions { angles, require_length, measurement, euler })
 }
 
+/// `--shard i/N --shard-out PART.jsonl` of `study hold` and `bench diagnose` (see
+/// [`crate::shard`]).
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct ShardArgs {
+    /// Run only the work items with id % N == i (in a fixed order, each with its own seed),
+    /// appending each to --shard-out as it finishes; `twincal reduce` joins the parts.
+    /// Re-running a shard skips the items its file holds.
+    #[arg(long, value_name = "i/N")]
+    pub shard: Option<String>,
+    /// The shard's partial file (JSONL; needed with --shard).
+    #[arg(long)]
+    pub shard_out: Option<PathBuf>,
+}
+
 /// How a dataset's reading columns are read (`--measurement`, `--euler`).
 #[derive(Clone, Debug, clap::Args)]
 pub struct ReadingArgs {

@@ -9,43 +9,116 @@ pub enum StudyTarget {
     Hold,
 }
 
-/// `twincal study hold`: the table on stdout, optionally a Rerun recording.
-/// `poses_given`: whether the user chose `study.poses` (a scenario with fewer is then said).
+/// What a hold study is over: every shard of one study holds the same (its hash ties them).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct HoldConfig {
+    pub scenario: String,
+    /// SHA-256 of the scenario and robot as loaded (what the results depend on).
+    pub scenario_sha256: String,
+    pub holds_s: Vec<f64>,
+    pub speed_fractions: Vec<f64>,
+    pub poses: usize,
+    /// The lines above the table (the scenario's gate and noise).
+    pub header: Vec<String>,
+    /// Averaged reading noise, mm (the recording's reference line).
+    pub floor_mm: f64,
+    pub twincal_version: String,
+}
+
+impl crate::shard::Config for HoldConfig {
+    const KIND: &'static str = "study-hold";
+    fn hash(&self) -> String {
+        crate::calib::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
+    }
+    fn items(&self) -> u64 {
+        (self.holds_s.len() * self.speed_fractions.len()) as u64
+    }
+}
+
+/// One finished setting of a sharded hold study.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct HoldItem {
+    pub row: crate::sim::twin::study::HoldStudyRow,
+}
+
+/// `twincal study hold`: the table on stdout, optionally a Rerun recording; with `shard`
+/// (`i/N`) only that shard's settings (work item `id`: speed `id / holds`, hold `id % holds`),
+/// appended to `shard_out` for `twincal reduce`. `poses_given`: whether the user chose
+/// `study.poses` (a scenario with fewer is then said).
+#[allow(clippy::too_many_arguments)]
 pub fn study(
     what: StudyTarget,
     scenario: Option<&Path>,
     study: &crate::sim::twin::study::HoldStudy,
     poses_given: bool,
     rrd: Option<&Path>,
+    shard: Option<&str>,
+    shard_out: Option<&Path>,
     quiet: bool,
 ) -> Result<()> {
+    use crate::sim::twin::study::{hold_setting, hold_study, study_poses};
     let StudyTarget::Hold = what;
     study.validate().map_err(Error::Invalid)?;
     let (s, robot) = load_scenario(scenario)?;
+    let read = scenario_inputs(scenario, &s);
     if let Some(p) = rrd {
-        let read = scenario_inputs(scenario, &s);
         check_outputs(&read, &[("--rrd", p)])?;
     }
     if poses_given && study.poses > s.sampling.poses {
         eprintln!("warning: --poses {}: scenario {} has {} poses; the study takes all {}", study.poses, s.name, s.sampling.poses, s.sampling.poses);
     }
-    let rows = crate::sim::twin::study::hold_study(&s, &robot, study, progress(quiet).as_ref())?;
+    let poses = study_poses(&s, &robot, study)?;
     let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
     let noise = match &s.tracker {
         // A tracker's noise grows with the distance: stated per sample, then averaged.
         Some(t) => format!("tracker noise {} µm + {} µm/m per sample, {} samples averaged", t.noise_um, t.noise_um_per_m, s.sensor.samples),
         None => format!("averaged reading noise {:.2} µm", floor * 1e3),
     };
-    println!("hold study ({}, first {} poses, readings taken even with the gate closed)", s.name, rows.first().map(|r| r.poses).unwrap_or(0));
-    println!(
-        "  damping ratio {}, gate: {} s windows within {} mm; {noise} (not included below)",
-        s.acquisition.damping_ratio, s.acquisition.gate_window_s, s.acquisition.gate_mm,
-    );
+    let config = HoldConfig {
+        scenario: s.name.clone(),
+        scenario_sha256: crate::calib::truth::sha256_hex(format!("{s:?}{robot:?}").as_bytes()),
+        holds_s: study.holds_s.clone(),
+        speed_fractions: study.speed_fractions.clone(),
+        poses: poses.len(),
+        header: vec![
+            format!("hold study ({}, first {} poses, readings taken even with the gate closed)", s.name, poses.len()),
+            format!(
+                "  damping ratio {}, gate: {} s windows within {} mm; {noise} (not included below)",
+                s.acquisition.damping_ratio, s.acquisition.gate_window_s, s.acquisition.gate_mm,
+            ),
+        ],
+        floor_mm: floor,
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+    };
+    let inputs: Vec<(&str, &Path)> = read.iter().map(|(o, p)| (*o, p.as_path())).collect();
+    if let Some(sh) = crate::shard::from_options(shard, shard_out, rrd.is_some(), "--rrd", &config, &inputs)? {
+        let bar = progress(quiet);
+        let mine: Vec<(u64, (f64, f64))> = study.settings().into_iter().enumerate().map(|(id, vh)| (id as u64, vh)).filter(|(id, _)| sh.wants(*id)).collect();
+        bar.start((mine.len() * poses.len()) as u64, "hold study");
+        for (id, (v, h)) in &mine {
+            sh.append(*id, &config, &HoldItem { row: hold_setting(&s, &robot, &poses, *v, *h, bar.as_ref())? })?;
+        }
+        bar.finish();
+        if !quiet {
+            eprintln!("{}", sh.summary(mine.len()));
+        }
+        return Ok(());
+    }
+    let rows = hold_study(&s, &robot, study, progress(quiet).as_ref())?;
+    finish_hold(&config, &rows, rrd, quiet)
+}
+
+/// The table and recording of a finished hold study: what `study hold` prints and writes, and
+/// `reduce` the same from the shards' parts.
+fn finish_hold(config: &HoldConfig, rows: &[crate::sim::twin::study::HoldStudyRow], rrd: Option<&Path>, quiet: bool) -> Result<()> {
+    for line in &config.header {
+        println!("{line}");
+    }
     println!(
         "  {:>6} {:>8} {:>10} {:>11} {:>10} {:>12} {:>11} {:>9}",
         "speed", "hold s", "bias µm", "spread µm", "max µm", "gate closed", "gate s (med)", "s/pose"
     );
-    for r in &rows {
+    for r in rows {
         println!(
             "  {:6.2} {:8.3} {:10.3} {:11.3} {:10.3} {:>12} {:>11} {:9.2}",
             r.speed_fraction,
@@ -60,11 +133,26 @@ pub fn study(
     }
     if let Some(p) = rrd {
         let mut outputs = OutputSet::new();
-        crate::viz::study::record_hold_study(&rows, &s.name, floor, &mut outputs, p)?;
+        crate::viz::study::record_hold_study(rows, &config.scenario, config.floor_mm, &mut outputs, p)?;
         outputs.commit()?;
         if !quiet {
             eprintln!("  wrote {}", p.display());
         }
     }
     Ok(())
+}
+
+/// `twincal reduce` of a hold study's parts: the same table and recording as one run.
+pub fn reduce_hold(parts: &[PathBuf], rrd: Option<&Path>, quiet: bool) -> Result<()> {
+    let (config, items, duplicates) = crate::shard::gather::<HoldConfig, HoldItem>(parts)?;
+    if !quiet {
+        eprintln!(
+            "reduced {} parts: {} settings of hold study config {}, {duplicates} duplicates dropped",
+            parts.len(),
+            items.len(),
+            &crate::shard::Config::hash(&config)[..12]
+        );
+    }
+    let rows: Vec<_> = items.into_iter().map(|i| i.row).collect();
+    finish_hold(&config, &rows, rrd, quiet)
 }

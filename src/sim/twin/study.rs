@@ -11,7 +11,7 @@ use crate::sim::scenario::Scenario;
 use serde::Serialize;
 
 /// One setting of the study.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct HoldStudyRow {
     pub speed_fraction: f64,
     pub hold_s: f64,
@@ -66,53 +66,70 @@ impl HoldStudy {
 /// Runs the study on scenario `s`: its twin, effects, sensor and gate, the acquisition simulated
 /// with readings taken even when the gate is still closed.
 pub fn hold_study(s: &Scenario, robot: &Robot, study: &HoldStudy, progress: &dyn Progress) -> Result<Vec<HoldStudyRow>> {
-    study.validate().map_err(crate::error::Error::Invalid)?;
-    let mut poses = sample_poses(s, robot)?;
-    poses.truncate(study.poses);
-    let home = vec![0.0; robot.dof()];
-    let acq = Acquisition { model: AcquisitionModel::Simulated, on_timeout: OnTimeout::Read, ..s.acquisition.clone() };
-    let mut rows = Vec::new();
+    let poses = study_poses(s, robot, study)?;
     progress.start((study.holds_s.len() * study.speed_fractions.len() * poses.len()) as u64, "hold study");
-    for &v in &study.speed_fractions {
-        for &h in &study.holds_s {
-            let mut sc = s.clone();
-            sc.sensor.hold_s = h;
-            sc.sampling.speed_fraction = v;
-            let times = crate::sim::generate::acquisition_times(&sc, robot, &poses);
-            if crate::sim::generate::check_robot_time(&sc, &times).is_err() {
-                let end = times.iter().copied().fold(0.0, f64::max);
-                return Err(crate::error::Error::Invalid(format!(
-                    "--speeds {}: {} poses would take {:.1} h of robot time, more than the {} h a run simulates; use larger fractions \
-                     (or check the URDF's joint velocity limits)",
-                    crate::error::shown(v),
-                    poses.len(),
-                    end / 3600.0,
-                    crate::sim::generate::MAX_ROBOT_TIME_S / 3600.0
-                )));
-            }
-            let twin = build_twin(&sc, robot);
-            let settings = TourSettings { seed: sc.seed, speed_fraction: v };
-            let acquired: Vec<_> = acquire(&twin, &acq, settings, &home, &poses, None, progress).into_iter().collect::<Result<_>>()?;
-            let e: Vec<f64> = acquired.iter().map(|a| a.transient_mm).collect();
-            let m = e.len() as f64;
-            let bias = e.iter().sum::<f64>() / m;
-            let spread = if e.len() > 1 { (e.iter().map(|x| (x - bias).powi(2)).sum::<f64>() / (m - 1.0)).sqrt() } else { 0.0 };
-            let gates: Vec<f64> = acquired.iter().filter_map(|a| a.gate_s).collect();
-            let schedule = Schedule::new(robot, v, acq.ramp_s, h, sc.sensor.window_s(), &home, &poses);
-            let end = schedule.read_t.last().copied().unwrap_or(0.0) + 0.5 * sc.sensor.window_s();
-            rows.push(HoldStudyRow {
-                speed_fraction: v,
-                hold_s: h,
-                poses: e.len(),
-                bias_mm: bias,
-                spread_mm: spread,
-                max_mm: e.iter().fold(0.0f64, |a, x| a.max(x.abs())),
-                gate_closed: acquired.len() - gates.len(),
-                median_gate_s: (!gates.is_empty()).then(|| crate::calib::stats::median(&gates)),
-                time_per_pose_s: end / m,
-            });
-        }
+    let mut rows = Vec::new();
+    for (v, h) in study.settings() {
+        rows.push(hold_setting(s, robot, &poses, v, h, progress)?);
     }
     progress.finish();
     Ok(rows)
+}
+
+impl HoldStudy {
+    /// The settings in the study's fixed order (speeds outer, holds inner): work item `id` is
+    /// setting `id`.
+    pub fn settings(&self) -> Vec<(f64, f64)> {
+        self.speed_fractions.iter().flat_map(|&v| self.holds_s.iter().map(move |&h| (v, h))).collect()
+    }
+}
+
+/// The poses a study takes: the first `study.poses` of the scenario's tour (checked settings).
+pub fn study_poses(s: &Scenario, robot: &Robot, study: &HoldStudy) -> Result<Vec<Vec<f64>>> {
+    study.validate().map_err(crate::error::Error::Invalid)?;
+    let mut poses = sample_poses(s, robot)?;
+    poses.truncate(study.poses);
+    Ok(poses)
+}
+
+/// One setting of the study: the tour through `poses` at speed fraction `v` with hold `h` s.
+pub fn hold_setting(s: &Scenario, robot: &Robot, poses: &[Vec<f64>], v: f64, h: f64, progress: &dyn Progress) -> Result<HoldStudyRow> {
+    let home = vec![0.0; robot.dof()];
+    let acq = Acquisition { model: AcquisitionModel::Simulated, on_timeout: OnTimeout::Read, ..s.acquisition.clone() };
+    let mut sc = s.clone();
+    sc.sensor.hold_s = h;
+    sc.sampling.speed_fraction = v;
+    let times = crate::sim::generate::acquisition_times(&sc, robot, poses);
+    if crate::sim::generate::check_robot_time(&sc, &times).is_err() {
+        let end = times.iter().copied().fold(0.0, f64::max);
+        return Err(crate::error::Error::Invalid(format!(
+            "--speeds {}: {} poses would take {:.1} h of robot time, more than the {} h a run simulates; use larger fractions \
+             (or check the URDF's joint velocity limits)",
+            crate::error::shown(v),
+            poses.len(),
+            end / 3600.0,
+            crate::sim::generate::MAX_ROBOT_TIME_S / 3600.0
+        )));
+    }
+    let twin = build_twin(&sc, robot);
+    let settings = TourSettings { seed: sc.seed, speed_fraction: v };
+    let acquired: Vec<_> = acquire(&twin, &acq, settings, &home, poses, None, progress).into_iter().collect::<Result<_>>()?;
+    let e: Vec<f64> = acquired.iter().map(|a| a.transient_mm).collect();
+    let m = e.len() as f64;
+    let bias = e.iter().sum::<f64>() / m;
+    let spread = if e.len() > 1 { (e.iter().map(|x| (x - bias).powi(2)).sum::<f64>() / (m - 1.0)).sqrt() } else { 0.0 };
+    let gates: Vec<f64> = acquired.iter().filter_map(|a| a.gate_s).collect();
+    let schedule = Schedule::new(robot, v, acq.ramp_s, h, sc.sensor.window_s(), &home, poses);
+    let end = schedule.read_t.last().copied().unwrap_or(0.0) + 0.5 * sc.sensor.window_s();
+    Ok(HoldStudyRow {
+        speed_fraction: v,
+        hold_s: h,
+        poses: e.len(),
+        bias_mm: bias,
+        spread_mm: spread,
+        max_mm: e.iter().fold(0.0f64, |a, x| a.max(x.abs())),
+        gate_closed: acquired.len() - gates.len(),
+        median_gate_s: (!gates.is_empty()).then(|| crate::calib::stats::median(&gates)),
+        time_per_pose_s: end / m,
+    })
 }
