@@ -163,73 +163,85 @@ fn open_append(path: &Path) -> Result<std::fs::File> {
     std::fs::OpenOptions::new().create(true).append(true).open(path).map_err(|e| Error::io(path, e))
 }
 
-/// The kind of study the parts hold (that of their first finished line).
-pub fn kind(parts: &[PathBuf]) -> Result<String> {
-    for p in parts {
-        if let Some(l) = read::<serde_json::Value, serde_json::Value>(p, None)?.into_iter().next() {
-            return Ok(l.kind);
-        }
-    }
-    Err(Error::Invalid("the parts hold no finished item".into()))
+/// The finished lines of a study's partial files, read once (untyped, so that a part of another
+/// kind of study is named, not misparsed), for `reduce`.
+pub struct Parts {
+    lines: Vec<(Line<serde_json::Value, serde_json::Value>, PathBuf)>,
+    /// Number of files read.
+    pub files: usize,
 }
 
-/// Every item of one study from its parts, in item order: the configuration, the items'
-/// results, and how many duplicate lines (from retried shards) were dropped. Parts of another
-/// study, a configuration that does not match its hash, items beyond the study's and missing
-/// items are errors naming them.
-pub fn gather<C: Config, R: DeserializeOwned>(parts: &[PathBuf]) -> Result<(C, Vec<R>, usize)> {
-    // Read untyped first: a part of another kind of study is named, not misparsed.
-    let mut lines: Vec<(Line<serde_json::Value, serde_json::Value>, &Path)> = Vec::new();
-    for p in parts {
-        lines.extend(read::<serde_json::Value, serde_json::Value>(p, None)?.into_iter().map(|l| (l, p.as_path())));
-    }
-    let Some((first_hash, first_file)) = lines.first().map(|(l, p)| (l.config_hash.clone(), *p)) else {
-        return Err(Error::Invalid("the parts hold no finished item".into()));
-    };
-    if let Some((l, p)) = lines.iter().find(|(l, _)| l.config_hash != first_hash || l.kind != C::KIND) {
-        return Err(Error::data(
-            p.display(),
-            format!(
-                "item {} belongs to another study ({} config {}; {} holds {} config {})",
-                l.item,
-                l.kind,
-                &l.config_hash[..l.config_hash.len().min(12)],
-                first_file.display(),
-                C::KIND,
-                &first_hash[..first_hash.len().min(12)]
-            ),
-        ));
-    }
-    fn typed<T: DeserializeOwned>(v: serde_json::Value, p: &Path, item: u64) -> Result<T> {
-        serde_json::from_value(v).map_err(|e| Error::data(p.display(), format!("item {item}: not a line of this study ({e})")))
-    }
-    let config: C = typed(lines[0].0.config.clone(), first_file, lines[0].0.item)?;
-    if config.hash() != first_hash {
-        return Err(Error::data(first_file.display(), "its configuration does not match its hash (a hand-edited part?)"));
-    }
-    let total = config.items();
-    let mut by_item: BTreeMap<u64, R> = BTreeMap::new();
-    let mut duplicates = 0;
-    for (l, p) in lines {
-        if l.item >= total {
-            return Err(Error::data(p.display(), format!("item {} is beyond the study's {total} items", l.item)));
+impl Parts {
+    /// Reads every part; at least one finished item is needed.
+    pub fn read(parts: &[PathBuf]) -> Result<Parts> {
+        let mut lines = Vec::new();
+        for p in parts {
+            lines.extend(read::<serde_json::Value, serde_json::Value>(p, None)?.into_iter().map(|l| (l, p.clone())));
         }
-        match by_item.entry(l.item) {
-            std::collections::btree_map::Entry::Occupied(_) => duplicates += 1,
-            std::collections::btree_map::Entry::Vacant(v) => {
-                v.insert(typed(l.result, p, l.item)?);
+        if lines.is_empty() {
+            return Err(Error::Invalid("the parts hold no finished item".into()));
+        }
+        Ok(Parts { lines, files: parts.len() })
+    }
+
+    /// The kind of study the parts hold (that of their first finished line).
+    pub fn kind(&self) -> &str {
+        &self.lines[0].0.kind
+    }
+
+    /// Every item of the study, in item order: the configuration, the items' results, and how
+    /// many duplicate lines (from retried shards) were dropped. Parts of another study, a
+    /// configuration that does not match its hash, items beyond the study's and missing items
+    /// are errors naming them.
+    pub fn gather<C: Config, R: DeserializeOwned>(self) -> Result<(C, Vec<R>, usize)> {
+        let lines = self.lines;
+        let (first_hash, first_file) = (lines[0].0.config_hash.clone(), lines[0].1.clone());
+        if let Some((l, p)) = lines.iter().find(|(l, _)| l.config_hash != first_hash || l.kind != C::KIND) {
+            return Err(Error::data(
+                p.display(),
+                format!(
+                    "item {} belongs to another study ({} config {}; {} holds {} config {})",
+                    l.item,
+                    l.kind,
+                    &l.config_hash[..l.config_hash.len().min(12)],
+                    first_file.display(),
+                    C::KIND,
+                    &first_hash[..first_hash.len().min(12)]
+                ),
+            ));
+        }
+        fn typed<T: DeserializeOwned>(v: serde_json::Value, p: &Path, item: u64) -> Result<T> {
+            serde_json::from_value(v).map_err(|e| Error::data(p.display(), format!("item {item}: not a line of this study ({e})")))
+        }
+        let first_file = first_file.as_path();
+        let config: C = typed(lines[0].0.config.clone(), first_file, lines[0].0.item)?;
+        if config.hash() != first_hash {
+            return Err(Error::data(first_file.display(), "its configuration does not match its hash (a hand-edited part?)"));
+        }
+        let total = config.items();
+        let mut by_item: BTreeMap<u64, R> = BTreeMap::new();
+        let mut duplicates = 0;
+        for (l, p) in lines {
+            if l.item >= total {
+                return Err(Error::data(p.display(), format!("item {} is beyond the study's {total} items", l.item)));
+            }
+            match by_item.entry(l.item) {
+                std::collections::btree_map::Entry::Occupied(_) => duplicates += 1,
+                std::collections::btree_map::Entry::Vacant(v) => {
+                    v.insert(typed(l.result, &p, l.item)?);
+                }
             }
         }
+        let missing: Vec<u64> = (0..total).filter(|i| !by_item.contains_key(i)).collect();
+        if !missing.is_empty() {
+            let shown: Vec<String> = missing.iter().take(20).map(u64::to_string).collect();
+            return Err(Error::Invalid(format!(
+                "{} of the {total} items are missing (first: {}{}): run the shards that hold them (re-running a shard resumes it)",
+                missing.len(),
+                shown.join(", "),
+                if missing.len() > 20 { ", ..." } else { "" }
+            )));
+        }
+        Ok((config, by_item.into_values().collect(), duplicates))
     }
-    let missing: Vec<u64> = (0..total).filter(|i| !by_item.contains_key(i)).collect();
-    if !missing.is_empty() {
-        let shown: Vec<String> = missing.iter().take(20).map(u64::to_string).collect();
-        return Err(Error::Invalid(format!(
-            "{} of the {total} items are missing (first: {}{}): run the shards that hold them (re-running a shard resumes it)",
-            missing.len(),
-            shown.join(", "),
-            if missing.len() > 20 { ", ..." } else { "" }
-        )));
-    }
-    Ok((config, by_item.into_values().collect(), duplicates))
 }

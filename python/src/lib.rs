@@ -167,6 +167,15 @@ struct Loaded {
 /// What to do about a truth that belongs to other data.
 const TRUTH_FIX: &str = "pass the truth twincal.generate returned with exactly the data it returned";
 
+/// The dataset a source holds, read and checked as `--data` reads a file. In-memory data keep
+/// their label for messages only.
+fn dataset(src: Source, opts: &twincal::dataset::LoadOptions) -> twincal::Result<Dataset> {
+    match src {
+        Source::Path(p) => Dataset::load_with(&p, opts),
+        Source::Columns(c) => Dataset::from_columns(c, MEMORY, opts),
+    }
+}
+
 fn load(src: Source, opts: &twincal::dataset::LoadOptions, truth: Option<&str>) -> twincal::Result<Loaded> {
     use twincal::calib::truth::sha256_hex;
     match src {
@@ -186,7 +195,7 @@ fn load(src: Source, opts: &twincal::dataset::LoadOptions, truth: Option<&str>) 
             Ok(Loaded { data, sha256, truth, path: Some(p) })
         }
         Source::Columns(cols) => {
-            let mut data = Dataset::from_columns(cols, MEMORY, opts)?;
+            let mut data = dataset(Source::Columns(cols), opts)?;
             data.source = MEMORY_SOURCE.into();
             let csv = data.to_csv_string();
             let truth = match truth {
@@ -243,11 +252,7 @@ fn generate(py: Python<'_>, scenario: Option<PathBuf>, seed: Option<u64>, progre
 #[pyo3(signature = (data, angles="auto"))]
 fn to_csv(data: &Bound<'_, PyAny>, angles: &str) -> PyResult<String> {
     let opts = commands::load_options(angle_arg(angles)?, &ReadingArgs::default(), false).map_err(err)?;
-    let ds = match source(data)? {
-        Source::Path(p) => Dataset::load_with(&p, &opts),
-        Source::Columns(c) => Dataset::from_columns(c, MEMORY, &opts),
-    }
-    .map_err(err)?;
+    let ds = dataset(source(data)?, &opts).map_err(err)?;
     Ok(ds.to_csv_string())
 }
 
@@ -265,7 +270,7 @@ fn read(py: Python<'_>, data: &Bound<'_, PyAny>, argv: Vec<String>) -> PyResult<
     let a: ReadArgs = parse("read", argv)?;
     let opts = commands::load_options(a.angles, &a.reading, false).map_err(err)?;
     let src = source(data)?;
-    let ds = py.detach(|| load(src, &opts, None)).map_err(err)?.data;
+    let ds = py.detach(|| dataset(src, &opts)).map_err(err)?;
     columns_py(py, &ds)
 }
 
@@ -313,16 +318,12 @@ impl PyCalibration {
     fn predict<'py>(&self, py: Python<'py>, data: &Bound<'py, PyAny>, angles: &str, euler: &str) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<String>)> {
         let reading = ReadingArgs { measurement: None, euler: euler.to_string() };
         let opts = commands::load_options(angle_arg(angles)?, &reading, false).map_err(err)?;
-        let euler = reading.resolve().map_err(err)?.1;
         let src = source(data)?;
         let r = self.result();
         let (values, warning) = py
             .detach(|| {
-                let ds = match src {
-                    Source::Path(p) => Dataset::load_with(&p, &opts)?,
-                    Source::Columns(c) => Dataset::from_columns(c, MEMORY, &opts)?,
-                };
-                commands::predicted_readings(r, &ds, euler, "the model")
+                let ds = dataset(src, &opts)?;
+                commands::predicted_readings(r, &ds, opts.euler, "the model")
             })
             .map_err(err)?;
         let d = r.model.measurement.file_dim();
@@ -386,7 +387,7 @@ impl PyCalibration {
                 if let Some(p) = data_path {
                     a.data = p.clone();
                 }
-                py.detach(|| commands::write_calibration(&a, c, true, data_path.is_some())).map_err(err)
+                py.detach(|| a.check_files(data_path.is_some()).and_then(|_| commands::write_calibration(&a, c, true))).map_err(err)
             }
             Held::Read { result } => {
                 if urdf.is_some() || rrd.is_some() || report.is_some() || scenario_out.is_some() {
@@ -424,7 +425,7 @@ fn calibrate(
         t.start(1, "calibrate");
         let l = load(src, &opts, truth.as_deref())?;
         let path = l.path.clone();
-        let c = commands::calibrate_loaded(&args, l.data, l.truth.as_ref(), Some(l.sha256))?;
+        let c = commands::calibrate_loaded(args.options()?, l.data, l.truth.as_ref(), Some(l.sha256))?;
         t.inc(1);
         Ok((c, path))
     })?;
@@ -475,7 +476,7 @@ impl PyDiagnosis {
         if let Some(p) = &self.data_path {
             a.data = p.clone();
         }
-        py.detach(|| commands::write_diagnosis(&a, &self.d, true, self.data_path.is_some())).map_err(err)
+        py.detach(|| a.check_files(self.data_path.is_some()).and_then(|_| commands::write_diagnosis(&a, &self.d, true))).map_err(err)
     }
 }
 
@@ -491,7 +492,7 @@ fn diagnose(py: Python<'_>, data: &Bound<'_, PyAny>, mut argv: Vec<String>, prog
     let (d, path) = released(py, progress.as_ref(), |t| {
         let l = load(src, &opts, None)?;
         let path = l.path.clone();
-        let d = commands::diagnose_loaded(&args, l.data, &|line: &str| t.say(line))?;
+        let d = commands::diagnose_loaded(&args, args.options()?, l.data, &|line: &str| t.say(line))?;
         Ok((d, path))
     })?;
     Ok(PyDiagnosis { d: Box::new(d), args: Box::new(args), data_path: path })

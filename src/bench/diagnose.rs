@@ -149,15 +149,11 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
 }
 
 /// `twincal reduce` of `bench diagnose` shards: the detection part's lines and rates.
-pub fn reduce_detection(parts: &[std::path::PathBuf], quiet: bool) -> Result<()> {
-    let (config, items, duplicates) = crate::shard::gather::<DetectionConfig, DetectionItem>(parts)?;
+pub fn reduce_detection(parts: crate::shard::Parts, quiet: bool) -> Result<()> {
+    let files = parts.files;
+    let (config, items, duplicates) = parts.gather::<DetectionConfig, DetectionItem>()?;
     if !quiet {
-        eprintln!(
-            "reduced {} parts: {} diagnoses of bench diagnose (detection, {} seeds), {duplicates} duplicates dropped",
-            parts.len(),
-            items.len(),
-            config.seeds
-        );
+        eprintln!("reduced {files} parts: {} diagnoses of bench diagnose (detection, {} seeds), {duplicates} duplicates dropped", items.len(), config.seeds);
     }
     println!("diagnosis benchmark: detection and false alarms (sharded; the timing is one machine's: run bench diagnose unsharded)");
     print_detection(&config, &items);

@@ -134,7 +134,7 @@ impl CalibrateArgs {
 
     /// The files this calibration reads and writes, by option, checked against each other
     /// (no output over an input, no two outputs on one file). `data`: whether `--data` is read.
-    fn check_files(&self, data: bool) -> Result<()> {
+    pub fn check_files(&self, data: bool) -> Result<()> {
         let a = self;
         let data_files = if data { data_inputs(&a.data) } else { Vec::new() };
         let model_file = a.model.input();
@@ -144,33 +144,33 @@ impl CalibrateArgs {
         }
         let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out)];
         outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
-        outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
-        outs.extend(a.report.as_deref().map(|p| ("--report", p)));
-        let twin_urdf = a.scenario_out.as_deref().map(scenario_urdf_path);
-        outs.extend(a.scenario_out.as_deref().map(|p| ("--scenario-out", p)));
-        outs.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
-        check_outputs(&inputs, &outs)
+        check_model_outputs(&inputs, outs, a.rrd.as_deref(), a.report.as_deref(), a.scenario_out.as_deref())
     }
 }
 
 /// `twincal calibrate`. Its outputs (`--out`, `--urdf`, `--rrd`) appear together or not at all.
 /// Warnings (an optimiser that stopped without converging) go to stderr also with `--quiet`.
 pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
-    a.options()?;
+    let planned = a.options()?;
     a.check_files(true)?;
     let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let truth = crate::calib::run::TruthFile::find(&a.data)?;
     // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
     let file = &data_inputs(&a.data)[0];
     let sha = crate::calib::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?);
-    let c = calibrate_loaded(a, data, truth.as_ref(), Some(sha))?;
-    write_calibration(a, &c, quiet, true)
+    let c = calibrate_loaded(planned, data, truth.as_ref(), Some(sha))?;
+    write_calibration(a, &c, quiet)
 }
 
-/// The calibration `calibrate` runs, on data already loaded: `truth` the twin's truth file
-/// when it belongs to these data, `data_sha256` the fingerprint of the bytes they came from.
-pub fn calibrate_loaded(a: &CalibrateArgs, data: Dataset, truth: Option<&crate::calib::run::TruthFile>, data_sha256: Option<String>) -> Result<Calibration> {
-    let (opts, limits) = a.options()?;
+/// The calibration `calibrate` runs, with its options (`CalibrateArgs::options`) on data
+/// already loaded: `truth` the twin's truth file when it belongs to these data, `data_sha256`
+/// the fingerprint of the bytes they came from.
+pub fn calibrate_loaded(
+    (opts, limits): (crate::calib::run::CalibOptions, [Limit; 2]),
+    data: Dataset,
+    truth: Option<&crate::calib::run::TruthFile>,
+    data_sha256: Option<String>,
+) -> Result<Calibration> {
     let mut result = crate::calib::run::calibrate(&data, truth, &opts)?;
     result.data_sha256 = data_sha256;
     let test = result.metrics.test_after.as_ref();
@@ -180,11 +180,10 @@ pub fn calibrate_loaded(a: &CalibrateArgs, data: Dataset, truth: Option<&crate::
 }
 
 /// What `calibrate` writes of a calibration (`--out`, and `--urdf`, `--rrd`, `--report`,
-/// `--scenario-out` when given), all together or none, and what it prints. `data_read`: `--data`
-/// names the file the data came from (checked as an input the outputs must not overwrite).
-pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool, data_read: bool) -> Result<()> {
+/// `--scenario-out` when given), all together or none, and what it prints. The caller has
+/// checked the files (`CalibrateArgs::check_files`).
+pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool) -> Result<()> {
     use crate::calib::run::ModelSpec;
-    a.check_files(data_read)?;
     let (result, data, opts) = (&c.result, &c.data, &c.opts);
     let mut outputs = OutputSet::new();
     let figures = if a.rrd.is_some() || a.report.is_some() { Some(crate::report::CalibFigures::new(result, data, opts)?) } else { None };

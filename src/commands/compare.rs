@@ -361,19 +361,20 @@ pub fn reduce(parts: &[PathBuf], out: Option<&Path>, rrd: Option<&Path>, quiet: 
     }
     let outs: Vec<(&str, &Path)> = out.map(|p| ("--out", p)).into_iter().chain(rrd.map(|p| ("--rrd", p))).collect();
     check_outputs(&parts.iter().map(|p| ("PART", p.as_path())).collect::<Vec<_>>(), &outs)?;
-    match crate::shard::kind(parts)?.as_str() {
+    let read = crate::shard::Parts::read(parts)?;
+    match read.kind() {
         "compare" => {}
         "study-hold" if out.is_some() => {
             return Err(Error::Invalid("--out applies to compare's parts; a hold study's reduce prints its table (and writes --rrd)".into()))
         }
-        "study-hold" => return super::study::reduce_hold(parts, rrd, quiet),
+        "study-hold" => return super::study::reduce_hold(read, rrd, quiet),
         "bench-diagnose" if out.is_some() || rrd.is_some() => {
             return Err(Error::Invalid("bench diagnose's reduce prints its lines and rates; --out and --rrd apply to compare's parts".into()))
         }
-        "bench-diagnose" => return crate::bench::diagnose::reduce_detection(parts, quiet),
+        "bench-diagnose" => return crate::bench::diagnose::reduce_detection(read, quiet),
         k => return Err(Error::Invalid(format!("the parts are of a study twincal does not know ('{k}'): written by another twincal version?"))),
     }
-    let (config, items, duplicates) = crate::shard::gather::<CompareConfig, CompareItem>(parts)?;
+    let (config, items, duplicates) = read.gather::<CompareConfig, CompareItem>()?;
     let runs: Vec<CompareRun> = items.into_iter().map(|l| CompareRun { test_abs_residuals: l.test_abs_residuals, ..l.run }).collect();
     if !quiet {
         eprintln!("reduced {} parts: {} items of config {}, {duplicates} duplicates dropped", parts.len(), runs.len(), &config.hash()[..12]);

@@ -107,7 +107,7 @@ impl DiagnoseArgs {
 
     /// The files this diagnosis reads and writes, checked against each other. `data`: whether
     /// `--data` is read.
-    fn check_files(&self, data: bool) -> Result<()> {
+    pub fn check_files(&self, data: bool) -> Result<()> {
         let a = self;
         let data_files = if data { data_inputs(&a.data) } else { Vec::new() };
         let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
@@ -118,13 +118,8 @@ impl DiagnoseArgs {
         if let Some(r) = &a.loads.robot {
             inputs.push(("--robot", r));
         }
-        let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
-        outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
-        outs.extend(a.report.as_deref().map(|p| ("--report", p)));
-        let twin_urdf = a.scenario_out.as_deref().map(scenario_urdf_path);
-        outs.extend(a.scenario_out.as_deref().map(|p| ("--scenario-out", p)));
-        outs.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
-        check_outputs(&inputs, &outs)
+        let outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
+        check_model_outputs(&inputs, outs, a.rrd.as_deref(), a.report.as_deref(), a.scenario_out.as_deref())
     }
 }
 
@@ -132,20 +127,25 @@ impl DiagnoseArgs {
 /// recording, all together or none.
 pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     a.check_files(true)?;
-    a.options()?;
+    let planned = a.options()?;
     let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let say = |line: &str| {
         if !quiet {
             eprintln!("  {line}");
         }
     };
-    let d = diagnose_loaded(a, data, &say)?;
-    write_diagnosis(a, &d, quiet, true)
+    let d = diagnose_loaded(a, planned, data, &say)?;
+    write_diagnosis(a, &d, quiet)
 }
 
-/// The diagnosis `diagnose` runs, on data already loaded; `say` hears each step's line.
-pub fn diagnose_loaded(a: &DiagnoseArgs, mut data: Dataset, say: &(dyn Fn(&str) + Sync)) -> Result<Diagnosed> {
-    let (opts, limit) = a.options()?;
+/// The diagnosis `diagnose` runs, with its options (`DiagnoseArgs::options`) on data already
+/// loaded; `say` hears each step's line.
+pub fn diagnose_loaded(
+    a: &DiagnoseArgs,
+    (opts, limit): (crate::diagnose::DiagnoseOptions, Limit),
+    mut data: Dataset,
+    say: &(dyn Fn(&str) + Sync),
+) -> Result<Diagnosed> {
     if let Some(f) = a.test_fraction {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
         let (train, _) = crate::calib::run::split_rows(&data, Some(f), a.seed)?;
@@ -158,9 +158,9 @@ pub fn diagnose_loaded(a: &DiagnoseArgs, mut data: Dataset, say: &(dyn Fn(&str) 
 }
 
 /// What `diagnose` writes of a diagnosis (`--out`, `--result`, and `--rrd`, `--report`,
-/// `--scenario-out` when given), all together or none, and what it prints.
-pub fn write_diagnosis(a: &DiagnoseArgs, d: &Diagnosed, quiet: bool, data_read: bool) -> Result<()> {
-    a.check_files(data_read)?;
+/// `--scenario-out` when given), all together or none, and what it prints. The caller has
+/// checked the files (`DiagnoseArgs::check_files`).
+pub fn write_diagnosis(a: &DiagnoseArgs, d: &Diagnosed, quiet: bool) -> Result<()> {
     let (report, result, data) = (&d.report, &d.result, &d.data);
     let mut outputs = OutputSet::new();
     let figures = (a.rrd.is_some() || a.report.is_some()).then(|| crate::report::DiagnosisFigures::new(report, result, data));

@@ -402,6 +402,25 @@ pub fn scenario_urdf_path(p: &Path) -> PathBuf {
     p.with_extension("urdf")
 }
 
+/// Checks the outputs of a command that writes a model (`calibrate`, `diagnose`): `outs`, its
+/// own, plus `--rrd`, `--report` and `--scenario-out` with the URDF written beside it, against
+/// each other and the `inputs` (see [`check_outputs`]).
+fn check_model_outputs<'a>(
+    inputs: &[(&str, &Path)],
+    mut outs: Vec<(&'a str, &'a Path)>,
+    rrd: Option<&'a Path>,
+    report: Option<&'a Path>,
+    scenario_out: Option<&'a Path>,
+) -> Result<()> {
+    outs.extend(rrd.map(|p| ("--rrd", p)));
+    outs.extend(report.map(|p| ("--report", p)));
+    let twin_urdf = scenario_out.map(scenario_urdf_path);
+    outs.extend(scenario_out.map(|p| ("--scenario-out", p)));
+    let mut all: Vec<(&str, &Path)> = outs;
+    all.extend(twin_urdf.as_deref().map(|p| ("--scenario-out's URDF", p)));
+    check_outputs(inputs, &all)
+}
+
 /// Stages the identified twin of `result` (see [`crate::calib::twin_out`]): the scenario at
 /// `path` and its URDF beside it.
 pub fn stage_identified_twin(

@@ -56,7 +56,7 @@ pub fn study(
     shard_out: Option<&Path>,
     quiet: bool,
 ) -> Result<()> {
-    use crate::sim::twin::study::{hold_setting, hold_study, study_poses};
+    use crate::sim::twin::study::{hold_setting, hold_study_at, study_poses};
     let StudyTarget::Hold = what;
     study.validate().map_err(Error::Invalid)?;
     let (s, robot) = load_scenario(scenario)?;
@@ -104,7 +104,7 @@ pub fn study(
         }
         return Ok(());
     }
-    let rows = hold_study(&s, &robot, study, progress(quiet).as_ref())?;
+    let rows = hold_study_at(&s, &robot, study, &poses, progress(quiet).as_ref())?;
     finish_hold(&config, &rows, rrd, quiet)
 }
 
@@ -143,12 +143,12 @@ fn finish_hold(config: &HoldConfig, rows: &[crate::sim::twin::study::HoldStudyRo
 }
 
 /// `twincal reduce` of a hold study's parts: the same table and recording as one run.
-pub fn reduce_hold(parts: &[PathBuf], rrd: Option<&Path>, quiet: bool) -> Result<()> {
-    let (config, items, duplicates) = crate::shard::gather::<HoldConfig, HoldItem>(parts)?;
+pub fn reduce_hold(parts: crate::shard::Parts, rrd: Option<&Path>, quiet: bool) -> Result<()> {
+    let files = parts.files;
+    let (config, items, duplicates) = parts.gather::<HoldConfig, HoldItem>()?;
     if !quiet {
         eprintln!(
-            "reduced {} parts: {} settings of hold study config {}, {duplicates} duplicates dropped",
-            parts.len(),
+            "reduced {files} parts: {} settings of hold study config {}, {duplicates} duplicates dropped",
             items.len(),
             &crate::shard::Config::hash(&config)[..12]
         );

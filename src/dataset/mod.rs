@@ -382,67 +382,37 @@ impl Dataset {
     /// `temp` and `split` are written only if every row has them (and there is at least one row);
     /// `L` is written unless no row has it (a row without it gets an empty cell).
     pub fn to_csv_string(&self) -> String {
-        let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
-        let (has_t, has_temp, has_split) = (all(|r| r.t_s.is_some()), all(|r| r.temp_c.is_some()), all(|r| r.split.is_some()));
-        let has_std = self.rows.iter().any(|r| r.std_mm.is_some());
-        // The reading columns of the rows' instrument (a row without a reading gets empty
-        // cells); a dataset with no rows is written with `L`.
-        let reading_names: &[&str] = match self.rows.iter().find(|r| !r.reading_mm.is_empty()) {
-            Some(r) => Measurement::of_file_dim(r.reading_mm.len()).map_or(&[], |m| m.def().file_columns()),
-            None if self.rows.is_empty() => Measurement::Length.def().file_columns(),
-            None => &[],
-        };
-
-        let mut names: Vec<String> = (1..=self.n_joints()).map(|j| format!("q{j}")).collect();
-        names.extend(reading_names.iter().map(|c| c.to_string()));
-        if has_std {
-            names.extend(STD_COLUMNS.iter().map(|c| c.to_string()));
+        let mut columns = self.columns();
+        if self.rows.is_empty() {
+            // A dataset with no rows is written with the draw-wire's header.
+            columns.extend(Measurement::Length.def().file_columns().iter().map(|c| (c.to_string(), ColumnValues::Numbers(Vec::new()))));
         }
-        for (present, name) in [(has_t, "t"), (has_temp, "temp"), (has_split, "split")] {
-            if present {
-                names.push(name.to_owned());
-            }
-        }
-        let mut out = names.join(",");
+        let mut out = columns.iter().map(|(name, _)| name.as_str()).collect::<Vec<_>>().join(",");
         out.push('\n');
-        // `write!` into a String cannot fail.
-        for row in &self.rows {
-            for (j, q) in row.q_deg.iter().enumerate() {
-                let _ = write!(out, "{}{q}", if j == 0 { "" } else { "," });
-            }
-            for k in 0..reading_names.len() {
-                if k > 0 || !row.q_deg.is_empty() {
+        // `write!` into a String cannot fail. A missing number (NaN: a row without a reading or
+        // without sx, sy, sz) is an empty cell.
+        for i in 0..self.rows.len() {
+            for (k, (_, c)) in columns.iter().enumerate() {
+                if k > 0 {
                     out.push(',');
                 }
-                if let Some(v) = row.reading_mm.get(k) {
-                    let _ = write!(out, "{v}");
-                }
-            }
-            if has_std {
-                match row.std_mm {
-                    Some([a, b, c]) => {
-                        let _ = write!(out, ",{a},{b},{c}");
+                match c {
+                    ColumnValues::Numbers(v) if v[i].is_nan() => {}
+                    ColumnValues::Numbers(v) => {
+                        let _ = write!(out, "{}", v[i]);
                     }
-                    None => out.push_str(",,,"),
+                    ColumnValues::Texts(v) => out.push_str(&v[i]),
                 }
-            }
-            if let (true, Some(t)) = (has_t, row.t_s) {
-                let _ = write!(out, ",{t}");
-            }
-            if let (true, Some(temp)) = (has_temp, row.temp_c) {
-                let _ = write!(out, ",{temp}");
-            }
-            if let (true, Some(split)) = (has_split, row.split) {
-                let _ = write!(out, ",{}", split.as_str());
             }
             out.push('\n');
         }
         out
     }
 
-    /// The dataset as columns, the ones [`Self::to_csv_string`] writes in its order: numbers
-    /// (NaN where a row has no value) and `split` as text. [`Self::from_columns`] reads them back
-    /// to the same rows.
+    /// The dataset as columns, the ones [`Self::to_csv_string`] writes in its order: `q1..qN`,
+    /// the reading's columns (those of the first row with a reading), `sx, sy, sz` when some row
+    /// has them, and `t`, `temp`, `split` when every row has them; numbers (NaN where a row has no
+    /// value) and `split` as text. [`Self::from_columns`] reads them back to the same rows.
     pub fn columns(&self) -> Vec<(String, ColumnValues)> {
         let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
         let number = |f: &dyn Fn(&Row) -> Option<f64>| ColumnValues::Numbers(self.rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect());

@@ -66,11 +66,15 @@ impl HoldStudy {
 /// Runs the study on scenario `s`: its twin, effects, sensor and gate, the acquisition simulated
 /// with readings taken even when the gate is still closed.
 pub fn hold_study(s: &Scenario, robot: &Robot, study: &HoldStudy, progress: &dyn Progress) -> Result<Vec<HoldStudyRow>> {
-    let poses = study_poses(s, robot, study)?;
+    hold_study_at(s, robot, study, &study_poses(s, robot, study)?, progress)
+}
+
+/// [`hold_study`] through the study's poses, already taken ([`study_poses`]).
+pub fn hold_study_at(s: &Scenario, robot: &Robot, study: &HoldStudy, poses: &[Vec<f64>], progress: &dyn Progress) -> Result<Vec<HoldStudyRow>> {
     progress.start((study.holds_s.len() * study.speed_fractions.len() * poses.len()) as u64, "hold study");
     let mut rows = Vec::new();
     for (v, h) in study.settings() {
-        rows.push(hold_setting(s, robot, &poses, v, h, progress)?);
+        rows.push(hold_setting(s, robot, poses, v, h, progress)?);
     }
     progress.finish();
     Ok(rows)
