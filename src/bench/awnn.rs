@@ -106,6 +106,7 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
         inputs: split.test_idx.iter().map(|&i| all[i].clone()).collect(),
         q: split.test.q.clone(),
         w: None,
+        gls: None,
     };
     let left = ReadingFit { model: &r.model, data: &clean }.residuals_mm(&r.x);
     let after: Vec<f64> = left.iter().zip(&clean.q).zip(&clean.inputs).map(|((d, q), inp)| d - r.correction_mm(q, inp)).collect();

@@ -19,9 +19,58 @@ impl crate::shard::Config for DetectionConfig {
     fn hash(&self) -> String {
         crate::calib::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
     }
-    /// Item `id`: seed `id / 2 + 1`, its hidden-effect scenario (even) or its clean one (odd).
+    /// Item `id` (see [`Variant::of`]): per seed, the hidden-effect and the clean scenario, then
+    /// the realistic acquisitions (0.1° and 0.01° logging; clean, an effect above the floor, an
+    /// effect far below it).
     fn items(&self) -> u64 {
-        2 * self.seeds
+        VARIANTS * self.seeds
+    }
+}
+
+/// Work items per seed: hidden, clean, and 2 loggings × (clean, above, below).
+const VARIANTS: u64 = 8;
+
+/// What one work item diagnoses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Variant {
+    /// One effect at 1.5–4× the reading noise, angles unrounded, Halton order.
+    Hidden,
+    /// No effect.
+    Clean,
+    /// Sweeps, angles logged at `decimals`, glitch runs; `Some(true)`: one effect above the
+    /// floor, `Some(false)`: one far below it, `None`: no effect.
+    Realistic { decimals: usize, effect: Option<bool> },
+}
+
+impl Variant {
+    /// The seed and variant of item `id`: the first `2·seeds` items are the hidden and clean
+    /// scenarios of seeds 1, 2, ... (as before realistic acquisitions were added), the rest six
+    /// realistic ones per seed.
+    fn of(id: u64, seeds: u64) -> (u64, Variant) {
+        if id < 2 * seeds {
+            return (id / 2 + 1, if id % 2 == 0 { Variant::Hidden } else { Variant::Clean });
+        }
+        let k = id - 2 * seeds;
+        let decimals = if (k % 6) < 3 { 1 } else { 2 };
+        let effect = [None, Some(true), Some(false)][(k % 3) as usize];
+        (k / 6 + 1, Variant::Realistic { decimals, effect })
+    }
+    /// The category items are counted in.
+    fn category(self) -> String {
+        match self {
+            Variant::Hidden => "hidden".into(),
+            Variant::Clean => "clean".into(),
+            Variant::Realistic { decimals, effect } => {
+                format!(
+                    "realistic-{decimals}-{}",
+                    match effect {
+                        None => "clean",
+                        Some(true) => "above",
+                        Some(false) => "below",
+                    }
+                )
+            }
+        }
     }
 }
 
@@ -33,6 +82,15 @@ pub struct DetectionItem {
     pub detected: bool,
     pub sized: bool,
     pub alarm: bool,
+    /// `hidden`, `clean` or `realistic-<decimals>-<clean|above|below>`.
+    #[serde(default)]
+    pub category: String,
+    /// The size within 3 standard uncertainties (not the 30 % band).
+    #[serde(default)]
+    pub within_3_sigma: bool,
+    /// The data's floor of a realistic item (reading noise and angle logging), mm.
+    #[serde(default)]
+    pub floor_mm: f64,
 }
 
 fn strip(g: &Generated) -> Dataset {
@@ -44,34 +102,73 @@ fn options() -> Result<crate::diagnose::DiagnoseOptions> {
     Ok(crate::diagnose::DiagnoseOptions::new(crate::calib::run::ModelSpec::parse("irb120", "hayati")?))
 }
 
+/// A hidden effect diagnosed: its line, whether it was named first, sized (3σ or 30 %), and
+/// within 3σ.
+fn judge_hidden(seed: u64, h: &crate::diagnose::hidden::Hidden, d: &crate::diagnose::Diagnosis) -> (String, bool, bool, bool) {
+    let first = d.causes.first();
+    let named = first.is_some_and(|c| h.named_by(c));
+    let sized = first.is_some_and(|c| named && h.sized_by(c));
+    let within = first.is_some_and(|c| named && (c.magnitude - h.magnitude).abs() <= 3.0 * c.uncertainty);
+    let line = format!(
+        "    seed {seed:3}: hidden {}{} {:.4} ({:.2}x) -> {}{}",
+        h.cause.name(),
+        h.joint.map(|j| format!("[j{}]", j + 1)).unwrap_or_default(),
+        h.magnitude,
+        h.factor,
+        d.verdict,
+        first.map(|c| format!(" {:.4} ± {:.4} {}", c.magnitude, c.uncertainty, c.unit)).unwrap_or_default()
+    );
+    (line, named, sized, within)
+}
+
 /// Work item `id` of the detection part: a scenario generated from its seed and diagnosed.
-pub fn detection_item(id: u64) -> Result<DetectionItem> {
+pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
     use crate::diagnose::diagnose;
-    use crate::diagnose::hidden::{clean, hidden};
-    let (seed, opts) = (id / 2 + 1, options()?);
-    if id % 2 == 0 {
-        let (s, robot, truth) = hidden(seed, 1)?;
-        let h = &truth[0];
-        let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
-        let first = d.causes.first();
-        let named = first.is_some_and(|c| h.named_by(c));
-        let sized = first.is_some_and(|c| named && h.sized_by(c));
-        let line = format!(
-            "    seed {seed:3}: hidden {}{} {:.4} ({:.1}x) -> {}{}",
-            h.cause.name(),
-            h.joint.map(|j| format!("[j{}]", j + 1)).unwrap_or_default(),
-            h.magnitude,
-            h.factor,
-            d.verdict,
-            first.map(|c| format!(" {:.4} ± {:.4} {}", c.magnitude, c.uncertainty, c.unit)).unwrap_or_default()
-        );
-        Ok(DetectionItem { line: Some(line), detected: named, sized, alarm: false })
-    } else {
-        let (s, robot) = clean(10_000 + seed)?;
-        let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
-        let alarm = !d.causes.is_empty();
-        let line = alarm.then(|| format!("    clean seed {}: false alarm {}", 10_000 + seed, d.verdict));
-        Ok(DetectionItem { line, detected: false, sized: false, alarm })
+    use crate::diagnose::hidden::{clean, hidden, hidden_realistic, realistic};
+    let (seed, variant) = Variant::of(id, seeds);
+    let opts = options()?;
+    let category = variant.category();
+    let item = |line, detected, sized, alarm, within_3_sigma, floor_mm| DetectionItem {
+        line,
+        detected,
+        sized,
+        alarm,
+        category: category.clone(),
+        within_3_sigma,
+        floor_mm,
+    };
+    match variant {
+        Variant::Hidden => {
+            let (s, robot, truth) = hidden(seed, 1)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let (line, named, sized, within) = judge_hidden(seed, &truth[0], &d);
+            Ok(item(Some(line), named, sized, false, within, 0.0))
+        }
+        Variant::Clean => {
+            let (s, robot) = clean(10_000 + seed)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let alarm = !d.causes.is_empty();
+            let line = alarm.then(|| format!("    clean seed {}: false alarm {}", 10_000 + seed, d.verdict));
+            Ok(item(line, false, false, alarm, false, 0.0))
+        }
+        Variant::Realistic { decimals, effect: None } => {
+            let (s, robot) = realistic(20_000 + seed, decimals)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let alarm = !d.causes.is_empty();
+            let line = alarm.then(|| format!("    realistic clean seed {} ({} deg): false alarm {}", 20_000 + seed, 10f64.powi(-(decimals as i32)), d.verdict));
+            Ok(item(line, false, false, alarm, false, d.noise_floor_mm))
+        }
+        Variant::Realistic { decimals, effect: Some(above) } => {
+            let factors = if above { 1.5..4.0 } else { 0.05..0.2 };
+            let (s, robot, truth, floor) = hidden_realistic(30_000 + seed, decimals, factors)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let (line, named, sized, within) = judge_hidden(30_000 + seed, &truth[0], &d);
+            let line = format!("{line} [{} deg logging, {}]", 10f64.powi(-(decimals as i32)), if above { "above the floor" } else { "below the floor" });
+            let named_any = !d.causes.is_empty();
+            // Below the floor: a miss is right; naming anything is the alarm.
+            let line = if above { (!named || !within).then_some(line) } else { named_any.then_some(line) };
+            Ok(item(line, named, sized, !above && named_any, within, floor))
+        }
     }
 }
 
@@ -82,14 +179,42 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
         println!("{line}");
     }
     let seeds = config.seeds;
-    let count = |f: fn(&DetectionItem) -> bool| items.iter().filter(|i| f(i)).count();
-    let (detected, sized, alarms) = (count(|i| i.detected), count(|i| i.sized), count(|i| i.alarm));
+    let of = |cat: &str| items.iter().filter(|i| i.category == cat).collect::<Vec<_>>();
+    let count = |v: &[&DetectionItem], f: fn(&DetectionItem) -> bool| v.iter().filter(|i| f(i)).count();
     let n = seeds as f64;
+    let hidden = of("hidden");
+    let (detected, sized) = (count(&hidden, |i| i.detected), count(&hidden, |i| i.sized));
     println!(
         "  hidden effects: {detected}/{seeds} named first with the right joint ({:.0} %, target >= 95 %), {sized}/{seeds} also sized right",
         100.0 * detected as f64 / n
     );
+    let alarms = count(&of("clean"), |i| i.alarm);
     println!("  clean datasets: {alarms}/{seeds} false alarms ({:.0} %, target <= 5 %)", 100.0 * alarms as f64 / n);
+    for decimals in [1usize, 2] {
+        let clean = of(&format!("realistic-{decimals}-clean"));
+        let above = of(&format!("realistic-{decimals}-above"));
+        let below = of(&format!("realistic-{decimals}-below"));
+        if clean.is_empty() {
+            continue;
+        }
+        let floors: Vec<f64> = above.iter().map(|i| i.floor_mm).collect();
+        println!(
+            "  realistic acquisitions, angles logged at {} deg (sweeps of {}, {} glitch runs; floor {:.4} mm median):",
+            10f64.powi(-(decimals as i32)),
+            crate::diagnose::hidden::REALISTIC_SWEEP,
+            crate::diagnose::hidden::REALISTIC_GLITCHES.0,
+            median(&floors)
+        );
+        println!("    no effect: {}/{} false alarms (target 0)", count(&clean, |i| i.alarm), clean.len());
+        println!(
+            "    one effect at 1.5-4x the floor: {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma",
+            count(&above, |i| i.detected),
+            above.len(),
+            count(&above, |i| i.within_3_sigma),
+            above.len()
+        );
+        println!("    one effect at 0.05-0.2x the floor: {}/{} named anything (target 0)", count(&below, |i| i.alarm), below.len());
+    }
 }
 
 /// `twincal bench diagnose`: the 600-pose all-effects diagnosis timed (median of three, time per
@@ -100,10 +225,10 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
 pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shard::Shard>, config: &DetectionConfig) -> Result<()> {
     use crate::diagnose::diagnose;
     if let Some(sh) = shard {
-        let mine: Vec<u64> = (0..2 * seeds).filter(|id| sh.wants(*id)).collect();
+        let mine: Vec<u64> = (0..VARIANTS * seeds).filter(|id| sh.wants(*id)).collect();
         bar.start(mine.len() as u64, "diagnoses");
         for id in &mine {
-            sh.append(*id, config, &detection_item(*id)?)?;
+            sh.append(*id, config, &detection_item(*id, seeds)?)?;
             bar.inc(1);
         }
         bar.finish();
@@ -137,10 +262,10 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
         median(&per_candidate) * 1e3
     );
     // 2. Detection and false alarms.
-    bar.start(2 * seeds, "diagnoses");
+    bar.start(VARIANTS * seeds, "diagnoses");
     let mut items = Vec::new();
-    for id in 0..2 * seeds {
-        items.push(detection_item(id)?);
+    for id in 0..VARIANTS * seeds {
+        items.push(detection_item(id, seeds)?);
         bar.inc(1);
     }
     bar.finish();

@@ -69,9 +69,23 @@ pub fn logging_decimals(values: impl Iterator<Item = f64> + Clone) -> Option<usi
         .map(|k| k as usize)
 }
 
+/// What the instrument says of itself: the RMS of the rows' own standard deviations (a
+/// tracker's `sx, sy, sz`) and the accuracy the user states (`--instrument-accuracy-mm`), each a
+/// standard uncertainty of one position coordinate, mm.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Instrument {
+    pub row_std_mm: Option<f64>,
+    pub accuracy_mm: Option<f64>,
+}
+
 /// The floor of `data` (every row) for the model at `x`: repeatability where configurations
 /// repeat, the joint angles' logging step (uniform quantisation, step²/12 per joint, through
-/// ∂L/∂q of each row) and the reading's step.
+/// ∂L/∂q of each row), the reading's step and what the instrument states of itself.
+///
+/// The reading's own error is counted once: the repeatability where configurations repeat, else
+/// the reading's logging step; where the instrument states its uncertainty (rows' standard
+/// deviations, a stated accuracy), the largest of these, since each is an estimate of the same
+/// error and a stated accuracy includes what repeats do not show.
 pub fn noise_floor(
     model: &CalibModel,
     x: &[f64],
@@ -79,6 +93,7 @@ pub fn noise_floor(
     angle_step_deg: Option<Step>,
     length_step_mm: Option<f64>,
     repeat: Option<&Repeatability>,
+    instrument: Instrument,
 ) -> NoiseFloor {
     let mut sources = Vec::new();
     let cols = model.measurement.def().columns().join(", ");
@@ -120,8 +135,29 @@ pub fn noise_floor(
             detail: format!("{cols} logged at {step} mm (from the data's decimals)"),
         });
     }
+    if let Some(v) = instrument.row_std_mm.filter(|v| *v > 0.0) {
+        sources.push(FloorSource {
+            source: "row_std".into(),
+            rms_mm: v,
+            detail: "RMS of the rows' own standard deviations (sx, sy, sz) per coordinate".into(),
+        });
+    }
+    if let Some(v) = instrument.accuracy_mm.filter(|v| *v > 0.0) {
+        sources.push(FloorSource {
+            source: "instrument_accuracy".into(),
+            rms_mm: v,
+            detail: "the instrument's stated accuracy per coordinate, as given".into(),
+        });
+    }
     let has_repeat = sources.iter().any(|s| s.source == "repeatability");
-    let total_mm = sources.iter().filter(|s| !(has_repeat && s.source == "reading_resolution")).map(|s| s.rms_mm.powi(2)).sum::<f64>();
+    let stated = sources.iter().any(|s| s.source == "row_std" || s.source == "instrument_accuracy");
+    let reading_side = |s: &FloorSource| matches!(s.source.as_str(), "repeatability" | "reading_resolution" | "row_std" | "instrument_accuracy");
+    let total_mm = if stated {
+        let reading = sources.iter().filter(|s| reading_side(s)).map(|s| s.rms_mm).fold(0.0, f64::max);
+        sources.iter().filter(|s| !reading_side(s)).map(|s| s.rms_mm.powi(2)).sum::<f64>() + reading.powi(2)
+    } else {
+        sources.iter().filter(|s| !(has_repeat && s.source == "reading_resolution")).map(|s| s.rms_mm.powi(2)).sum::<f64>()
+    };
     // An empty sum is -0.0: the floor of no known source is 0.
     let total_mm = (total_mm + 0.0).sqrt();
     NoiseFloor { total_mm, sources }
@@ -148,8 +184,9 @@ mod tests {
         let m = CalibModel::dh(&robot, &SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.1, tool_m: [0.0, 0.0, 0.05] }, true);
         let q: Vec<Vec<f64>> = (0..50).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin()).collect()).collect();
         let data = Samples::new(q, vec![0.5; 50]);
-        let f1 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), None);
-        let f2 = noise_floor(&m, &m.nominal, &data, Some(Step::Given(0.2)), Some(0.01), None);
+        let none = Instrument::default();
+        let f1 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), None, none);
+        let f2 = noise_floor(&m, &m.nominal, &data, Some(Step::Given(0.2)), Some(0.01), None, none);
         let angle = |f: &NoiseFloor| f.sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
         // Linear in the step; a 0.1 deg step over a ~0.5 m arm is a few tenths of a millimetre.
         assert!((angle(&f2) / angle(&f1) - 2.0).abs() < 1e-12);
@@ -157,7 +194,13 @@ mod tests {
         assert!((f1.total_mm - (angle(&f1).powi(2) + 0.01f64.powi(2) / 12.0).sqrt()).abs() < 1e-12);
         // With repeatability, the reading's step is inside it and is not added again.
         let rep = Repeatability { pooled_std: 0.05, groups: 3, rows: 7, max_spread: 0.1 };
-        let f3 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), Some(&rep));
+        let f3 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), Some(&rep), none);
         assert!((f3.total_mm - (angle(&f1).powi(2) + 0.05f64.powi(2)).sqrt()).abs() < 1e-12);
+        // A stated accuracy larger than the repeats' spread takes its place; rows' standard
+        // deviations without repeats take the reading step's.
+        let f4 = noise_floor(&m, &m.nominal, &data, None, Some(0.01), Some(&rep), Instrument { row_std_mm: Some(0.02), accuracy_mm: Some(0.08) });
+        assert!((f4.total_mm - 0.08).abs() < 1e-12, "{f4:?}");
+        let f5 = noise_floor(&m, &m.nominal, &data, None, Some(0.001), None, Instrument { row_std_mm: Some(0.02), accuracy_mm: None });
+        assert!((f5.total_mm - 0.02).abs() < 1e-12 && f5.sources.iter().any(|s| s.source == "row_std"), "{f5:?}");
     }
 }

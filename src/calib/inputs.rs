@@ -194,7 +194,7 @@ mod tests {
         let q1 = [10.0, 10.0, 5.0, 20.0, -3.0];
         let rows: Vec<Row> = q1
             .iter()
-            .map(|&a| Row { q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0], reading_mm: vec![500.0], t_s: None, temp_c: None, split: None, std_mm: None })
+            .map(|&a| Row { q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0], reading_mm: vec![500.0], t_s: None, temp_c: None, split: None, std_mm: None, block: None })
             .collect();
         let data = Dataset { rows, source: "test".into() };
         let inp = row_inputs(&data, None);

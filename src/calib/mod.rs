@@ -12,6 +12,7 @@ pub mod folds;
 pub mod generic;
 pub mod gkan;
 pub mod gkan_select;
+pub mod gls;
 pub mod identify;
 pub mod inputs;
 pub mod method;

@@ -43,6 +43,10 @@ pub struct Samples {
     /// value), or `None` for equal weights: a tracker's per-row standard deviations give them
     /// (see [`super::weighting`]). Every residual the fit sees is scaled by it.
     pub w: Option<Vec<f64>>,
+    /// The whitening of rows that share the joint angles' logging error in blocks
+    /// ([`super::gls`]): least-squares fits ([`ReadingFit`]) whiten their residuals by it. The
+    /// sequential filters (EKF, PF) and [`Self::unweighted`] do not.
+    pub gls: Option<super::gls::Whitening>,
 }
 
 impl Samples {
@@ -54,7 +58,7 @@ impl Samples {
     pub fn readings(q: Vec<Vec<f64>>, y: Vec<f64>, dim: usize) -> Self {
         debug_assert_eq!(q.len() * dim, y.len());
         let inputs = vec![RowInputs::default(); q.len()];
-        Samples { q, y, dim, inputs, w: None }
+        Samples { q, y, dim, inputs, w: None, gls: None }
     }
     /// The rows `idx`.
     pub fn subset(&self, idx: &[usize]) -> Samples {
@@ -64,11 +68,13 @@ impl Samples {
             dim: self.dim,
             inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
             w: self.w.as_ref().map(|w| idx.iter().flat_map(|&i| w[i * self.dim..(i + 1) * self.dim].iter().copied()).collect()),
+            gls: self.gls.as_ref().map(|g| g.subset(idx)),
         }
     }
-    /// The same readings with equal weights: what the metrics judge (in mm, unweighted).
+    /// The same readings with equal weights and no whitening: what the metrics judge (in mm,
+    /// unweighted).
     pub fn unweighted(&self) -> Samples {
-        Samples { w: None, ..self.clone() }
+        Samples { w: None, gls: None, ..self.clone() }
     }
     /// The weight factor (square root of the relative weight) of value `k` (row-major).
     #[inline]
@@ -120,7 +126,10 @@ impl LeastSquares for ReadingFit<'_> {
                     *rk = (self.data.y[i * d + k] - y[k]) * 1e3 * self.data.weight(i * d + k);
                 }
             }
-        })
+        });
+        if let Some(g) = &self.data.gls {
+            g.apply(r);
+        }
     }
     fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
         self.jacobian_pass(x, j, None);
@@ -178,7 +187,13 @@ impl ReadingFit<'_> {
                     js[k * ld + i0 * d..k * ld + i0 * d + h].copy_from_slice(&block[k * h..(k + 1) * h]);
                 }
             }
-        })
+        });
+        if let Some(g) = &self.data.gls {
+            g.apply_rows(j);
+            if let Some(r) = r {
+                g.apply(r);
+            }
+        }
     }
 }
 

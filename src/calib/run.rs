@@ -112,6 +112,8 @@ pub struct CalibOptions {
     /// Logging step of the joint angles, degrees, for the noise floor (default: from the data's
     /// decimals).
     pub angle_step_deg: Option<f64>,
+    /// The instrument's stated accuracy, mm per coordinate, for the noise floor.
+    pub instrument_accuracy_mm: Option<f64>,
     /// Weight the fit by the rows' own standard deviations where the data give them (a
     /// tracker's `sx, sy, sz`; [`super::weighting`]).
     pub row_std: bool,
@@ -139,6 +141,7 @@ impl CalibOptions {
             placement_only: false,
             loss: Loss::L2,
             angle_step_deg: None,
+            instrument_accuracy_mm: None,
         }
     }
     /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
@@ -515,6 +518,13 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
                 return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
             }
             let n_test = (f * n as f64).round() as usize;
+            // Rows that share a sweep (or a pause, a declared block) share its errors: the test
+            // rows are then whole blocks, never rows of a block whose other rows train.
+            let (blocks, _) = crate::dataset::blocks::detect(data, None);
+            if blocks.any_shared() && n_test > 0 {
+                let test = block_split(&blocks, n_test, seed);
+                return Ok(((0..n).filter(|i| !test[*i]).collect(), (0..n).filter(|i| test[*i]).collect()));
+            }
             // Strata by the reading: the cable length, or a point's distance from the
             // instrument's origin.
             let lengths = reading_measurement(data)?.file_lengths();
@@ -528,6 +538,33 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
         }
         None => Ok((data.train_indices(), data.test_indices())),
     }
+}
+
+/// Test rows of whole blocks: the blocks in a seeded random order, taken while the test rows
+/// stay nearer to `n_test` than without the block (at least one block, never all of them).
+pub fn block_split(blocks: &crate::dataset::blocks::Blocks, n_test: usize, seed: u64) -> Vec<bool> {
+    use rand::seq::SliceRandom;
+    use rand::SeedableRng;
+    let mut sizes = vec![0usize; blocks.len()];
+    for &b in &blocks.of_row {
+        sizes[b] += 1;
+    }
+    let mut order: Vec<usize> = (0..blocks.len()).collect();
+    let seed = crate::sim::scenario::stream_seed(seed, crate::sim::scenario::Stream::Split, 1);
+    order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+    let mut chosen = vec![false; blocks.len()];
+    let mut rows = 0;
+    for (taken, &b) in order.iter().enumerate() {
+        if taken + 1 == order.len() || (rows > 0 && (rows + sizes[b]).abs_diff(n_test) > rows.abs_diff(n_test)) {
+            break;
+        }
+        chosen[b] = true;
+        rows += sizes[b];
+        if rows >= n_test {
+            break;
+        }
+    }
+    blocks.of_row.iter().map(|&b| chosen[b]).collect()
 }
 
 /// The rows `idx` of a dataset as calibration samples (radians, metres), with their time and
@@ -549,6 +586,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
         dim,
         inputs: rows.map(|r| super::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
         w: None,
+        gls: None,
     }
 }
 
@@ -1010,6 +1048,7 @@ fn floor_stage(
     data: &Dataset,
     rows: &Samples,
     angle_step_deg: Option<f64>,
+    instrument_accuracy_mm: Option<f64>,
     repeat: Option<&super::metrics::Repeatability>,
 ) -> super::floor::NoiseFloor {
     use super::floor::{logging_step, Step};
@@ -1020,7 +1059,11 @@ fn floor_stage(
     // The lengths' step (a pose's angles are logged in degrees: its position columns only).
     let lengths = data.measurement().map_or(0, |m| m.file_lengths());
     let reading_step = logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().take(lengths).copied()));
-    super::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat)
+    // The rows' own standard deviations, RMS per coordinate over the rows that give them.
+    let stds: Vec<f64> = data.rows.iter().filter_map(|r| r.std_mm).flatten().collect();
+    let row_std_mm = (!stds.is_empty()).then(|| super::stats::rms(&stds));
+    let instrument = super::floor::Instrument { row_std_mm, accuracy_mm: instrument_accuracy_mm };
+    super::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat, instrument)
 }
 
 /// Stages "split", "placement", "outliers", "effects" and "identifiability" of a calibration
@@ -1186,7 +1229,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         metrics.test_after_trimmed = Some(trimmed_stats(&test_residuals_mm, 0.01));
     }
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.angle_step_deg, repeatability.as_ref());
+    let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.angle_step_deg, opts.instrument_accuracy_mm, repeatability.as_ref());
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
@@ -1246,7 +1289,14 @@ pub struct FittedModel {
 /// parameters `fixed` held): what `diagnose --result` writes, so that the file is exactly the
 /// model its report evaluated. No test rows; `torque_model` gives the effect blocks their joint
 /// torques on new rows.
-pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: u64, angle_step_deg: Option<f64>) -> Result<CalibResult> {
+pub fn result_of_fit(
+    data: &Dataset,
+    rows: &Samples,
+    fitted: FittedModel,
+    seed: u64,
+    angle_step_deg: Option<f64>,
+    instrument_accuracy_mm: Option<f64>,
+) -> Result<CalibResult> {
     let FittedModel { model, x0, x, id, torque_model } = fitted;
     let (x0, id) = (&x0[..], &id);
     let t0 = Instant::now();
@@ -1260,7 +1310,7 @@ pub fn result_of_fit(data: &Dataset, rows: &Samples, fitted: FittedModel, seed: 
     let metrics = metrics_stage(&ReadingFit { model: &model, data: &plain }, &ReadingFit { model: &model, data: &empty }, x0, &x, None);
     data.require_readings()?;
     let repeatability = reading_repeatability(data);
-    let noise_floor = floor_stage(&model, &x, data, rows, angle_step_deg, repeatability.as_ref());
+    let noise_floor = floor_stage(&model, &x, data, rows, angle_step_deg, instrument_accuracy_mm, repeatability.as_ref());
     Ok(CalibResult {
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),

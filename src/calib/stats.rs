@@ -423,6 +423,52 @@ pub fn nested_f_test(rss0: f64, rss1: f64, extra: usize, dof1: usize) -> f64 {
     f_survival(f, extra as f64, dof1 as f64)
 }
 
+/// [`nested_f_test`] for values that come in blocks sharing an error, by the first-order
+/// Rao–Scott correction: the statistic divided by the design effect `deff` (≥ 1, see
+/// [`design_effect`]) and the residual degrees of freedom counted as `dof1 / deff` independent
+/// values. `deff = 1` is [`nested_f_test`].
+pub fn nested_f_test_deff(rss0: f64, rss1: f64, extra: usize, dof1: usize, deff: f64) -> f64 {
+    let deff = if deff.is_finite() { deff.max(1.0) } else { 1.0 };
+    if extra == 0 || dof1 == 0 || !(rss1 > 0.0) || rss0 <= rss1 {
+        return 1.0;
+    }
+    let f = ((rss0 - rss1) / extra as f64) / (rss1 / dof1 as f64) / deff;
+    f_survival(f, extra as f64, (dof1 as f64 / deff).max(1.0))
+}
+
+/// The design effect of values that come in blocks (`groups[i]`: row i's block, `dim` values
+/// per row, `r` row-major): 1 + (m̄ − 1)·ρ, with ρ the intra-block correlation of each value
+/// column (one-way ANOVA estimator, clamped to [0, 1], averaged over the columns) and m̄ = Σm²/N
+/// the size-weighted mean block size. How many times larger the variance of a mean over blocks
+/// is than over as many independent rows; 1 when every row is its own block.
+pub fn design_effect(r: &[f64], dim: usize, groups: &[usize]) -> f64 {
+    let n = groups.len();
+    let g = groups.iter().copied().max().map_or(0, |m| m + 1);
+    if g < 2 || g >= n || r.len() != n * dim {
+        return 1.0;
+    }
+    let mut sizes = vec![0.0; g];
+    for &b in groups {
+        sizes[b] += 1.0;
+    }
+    let nf = n as f64;
+    let m0 = (nf - sizes.iter().map(|m| m * m).sum::<f64>() / nf) / (g - 1) as f64;
+    let mbar = sizes.iter().map(|m| m * m).sum::<f64>() / nf;
+    let mut rho = 0.0;
+    for c in 0..dim {
+        let mut sums = vec![0.0; g];
+        for (i, &b) in groups.iter().enumerate() {
+            sums[b] += r[i * dim + c];
+        }
+        let mean = sums.iter().sum::<f64>() / nf;
+        let msb = (0..g).map(|b| sizes[b] * (sums[b] / sizes[b] - mean).powi(2)).sum::<f64>() / (g - 1) as f64;
+        let msw = groups.iter().enumerate().map(|(i, &b)| (r[i * dim + c] - sums[b] / sizes[b]).powi(2)).sum::<f64>() / (n - g) as f64;
+        let denom = msb + (m0 - 1.0) * msw;
+        rho += if denom > 0.0 { ((msb - msw) / denom).clamp(0.0, 1.0) } else { 0.0 };
+    }
+    1.0 + (mbar - 1.0) * rho / dim as f64
+}
+
 #[cfg(test)]
 mod f_tests {
     use super::*;
@@ -438,6 +484,27 @@ mod f_tests {
         assert!((ln_gamma(5.0) - 24f64.ln()).abs() < 1e-12 && (ln_gamma(0.5) - std::f64::consts::PI.sqrt().ln()).abs() < 1e-12);
         assert!((incomplete_beta(0.3, 2.0, 3.0) - 0.3483).abs() < 1e-4);
         assert_eq!(nested_f_test(1.0, 1.0, 1, 10), 1.0);
+        assert_eq!(nested_f_test_deff(2.0, 1.0, 2, 50, 1.0), nested_f_test(2.0, 1.0, 2, 50));
+        assert!(nested_f_test_deff(2.0, 1.0, 2, 50, 5.0) > 10.0 * nested_f_test(2.0, 1.0, 2, 50));
+    }
+
+    #[test]
+    fn design_effect_of_shared_block_errors() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let (blocks, m) = (200, 10);
+        let groups: Vec<usize> = (0..blocks * m).map(|i| i / m).collect();
+        // Independent rows: about 1. A shared block offset of the rows' own size: rho = 1/2,
+        // deff = 1 + 9/2.
+        let indep: Vec<f64> = (0..blocks * m).map(|_| rng.random_range(-1.0..1.0)).collect();
+        assert!((design_effect(&indep, 1, &groups) - 1.0).abs() < 0.3, "{}", design_effect(&indep, 1, &groups));
+        let offsets: Vec<f64> = (0..blocks).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let shared: Vec<f64> = (0..blocks * m).map(|i| offsets[i / m] + rng.random_range(-1.0..1.0)).collect();
+        let d = design_effect(&shared, 1, &groups);
+        assert!((d - 5.5).abs() < 1.0, "{d}");
+        // Every row its own block: exactly 1.
+        let single: Vec<usize> = (0..50).collect();
+        assert_eq!(design_effect(&shared[..50], 1, &single), 1.0);
     }
 }
 

@@ -103,7 +103,15 @@ mod tests {
     fn dataset(stds: &[Option<f64>]) -> Dataset {
         let rows = stds
             .iter()
-            .map(|s| Row { q_deg: vec![0.0; 6], reading_mm: vec![1000.0, 0.0, 0.0], t_s: None, temp_c: None, split: None, std_mm: s.map(|v| [v; 3]) })
+            .map(|s| Row {
+                q_deg: vec![0.0; 6],
+                reading_mm: vec![1000.0, 0.0, 0.0],
+                t_s: None,
+                temp_c: None,
+                split: None,
+                std_mm: s.map(|v| [v; 3]),
+                block: None,
+            })
             .collect();
         Dataset { rows, source: "mem".into() }
     }

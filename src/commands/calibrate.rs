@@ -126,6 +126,7 @@ impl CalibrateArgs {
         opts.loads = loads;
         opts.inertial = inertial;
         (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
+        opts.instrument_accuracy_mm = super::instrument_accuracy(a.robust.instrument_accuracy_mm)?;
         opts.row_std = !a.robust.ignore_row_std;
         opts.reading_steps = !a.robust.no_reading_steps;
         opts.placement_only = a.placement_only;

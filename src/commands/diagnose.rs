@@ -48,6 +48,10 @@ pub struct DiagnoseArgs {
     /// data's decimals).
     #[arg(long, allow_negative_numbers = true)]
     pub angle_resolution_deg: Option<f64>,
+    /// The instrument's stated accuracy, mm (standard uncertainty of one coordinate or of the
+    /// cable length), for the noise floor.
+    #[arg(long, allow_negative_numbers = true)]
+    pub instrument_accuracy_mm: Option<f64>,
     /// Fit with equal weights even where the data give per-row standard deviations (a
     /// tracker's sx, sy, sz; by default they weight the fits as 1/(floor² + s²)).
     #[arg(long)]
@@ -95,6 +99,7 @@ impl DiagnoseArgs {
         opts.alpha = a.alpha;
         opts.seed = a.seed;
         opts.row_std = !a.ignore_row_std;
+        opts.instrument_accuracy_mm = super::instrument_accuracy(a.instrument_accuracy_mm)?;
         opts.candidates = parse_effects("--candidates", &a.candidates)?;
         if let Some(r) = a.angle_resolution_deg {
             if !(r.is_finite() && r > 0.0 && r <= 10.0) {

@@ -289,10 +289,24 @@ pub struct RobustArgs {
     /// data's decimals).
     #[arg(long, allow_negative_numbers = true)]
     pub angle_resolution_deg: Option<f64>,
+    /// The instrument's stated accuracy, mm (standard uncertainty of one coordinate or of the
+    /// cable length), for the noise floor.
+    #[arg(long, allow_negative_numbers = true)]
+    pub instrument_accuracy_mm: Option<f64>,
     /// Fit with equal weights even where the data give per-row standard deviations (a
     /// tracker's sx, sy, sz; by default they weight the fit as 1/(floor² + s²)).
     #[arg(long)]
     pub ignore_row_std: bool,
+}
+
+/// `--instrument-accuracy-mm`, checked: a standard uncertainty in (0, 100] mm.
+pub fn instrument_accuracy(v: Option<f64>) -> Result<Option<f64>> {
+    match v {
+        Some(a) if !(a.is_finite() && a > 0.0 && a <= 100.0) => {
+            Err(Error::Invalid(format!("--instrument-accuracy-mm must be in (0, 100] mm (a standard uncertainty of one coordinate), got {a}")))
+        }
+        _ => Ok(v),
+    }
 }
 
 impl RobustArgs {

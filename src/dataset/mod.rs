@@ -55,6 +55,7 @@
 //! * **metres**: if every `L < 5` the lengths are taken to be metres (no draw-wire setup measures
 //!   under 5 mm everywhere); likewise a tracker's points when every coordinate is within ±5.
 
+pub mod blocks;
 mod csv_io;
 mod xlsx;
 
@@ -178,6 +179,9 @@ pub struct Row {
     /// where the file gives it: a tracker's per-row uncertainty, which the fit weights by
     /// (see `calib::weighting`). `None` on rows without it and for a draw-wire.
     pub std_mm: Option<[f64; 3]>,
+    /// The block the user declared the row in (`block` column: any label; rows of one block share
+    /// an error, see [`blocks`]). `None` without the column.
+    pub block: Option<String>,
 }
 
 impl Row {
@@ -431,6 +435,9 @@ impl Dataset {
         if all(|r| r.temp_c.is_some()) {
             out.push(("temp".into(), number(&|r: &Row| r.temp_c)));
         }
+        if all(|r| r.block.is_some()) {
+            out.push(("block".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.block.clone().unwrap_or_default()).collect())));
+        }
         if all(|r| r.split.is_some()) {
             out.push(("split".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.split.map_or("", |s| s.as_str()).to_string()).collect())));
         }
@@ -592,6 +599,8 @@ enum Column {
     T,
     Temp,
     Split,
+    /// A declared block label.
+    Block,
     /// A tracker's per-row standard deviation of position coordinate `k`: [`STD_COLUMNS`]`[k]`.
     Std(usize),
 }
@@ -603,9 +612,9 @@ pub const STD_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
 pub const MAX_STD_MM: f64 = 100.0;
 
 impl Column {
-    const OTHERS: [Column; 6] = [Column::T, Column::Temp, Column::Split, Column::Std(0), Column::Std(1), Column::Std(2)];
+    const OTHERS: [Column; 7] = [Column::T, Column::Temp, Column::Split, Column::Std(0), Column::Std(1), Column::Std(2), Column::Block];
     /// Slots of the named columns ([`Self::OTHERS`]) before the reading columns.
-    const NAMED: usize = 6;
+    const NAMED: usize = 7;
 
     /// Slot in [`Layout::pos`]: the named columns, the reading columns, then the joints.
     fn index(self) -> usize {
@@ -614,6 +623,7 @@ impl Column {
             Column::Temp => 1,
             Column::Split => 2,
             Column::Std(k) => 3 + k,
+            Column::Block => 6,
             Column::Reading(i) => Self::NAMED + i,
             Column::Q(j) => Self::NAMED + reading_names().len() + j,
         }
@@ -626,6 +636,7 @@ impl Column {
             Column::T => "t".into(),
             Column::Temp => "temp".into(),
             Column::Split => "split".into(),
+            Column::Block => "block".into(),
             Column::Std(k) => STD_COLUMNS[k].into(),
         }
     }
@@ -835,6 +846,23 @@ fn split_value(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<
     }
 }
 
+/// A declared block's label (text or a number, trimmed); `None` for an empty cell or no column.
+fn block_label(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<String>> {
+    let text = match cell {
+        None | Some(Cell::Empty) => return Ok(None),
+        Some(Cell::Text(s)) => s.trim().to_string(),
+        Some(Cell::Number(v)) => crate::error::shown(*v),
+        Some(Cell::Other(what)) => return Err(cell_error(source, line, Column::Block, format!("{what} is not a block label"))),
+    };
+    if text.is_empty() {
+        return Ok(None);
+    }
+    if text.len() > 100 || text.chars().any(|c| c.is_control() || c == ',' || c == '"') {
+        return Err(cell_error(source, line, Column::Block, "a block label is at most 100 characters, without commas, quotes or control characters"));
+    }
+    Ok(Some(text))
+}
+
 /// A row's `sx, sy, sz` (mm): all three or none (empty cells), each in (0, [`MAX_STD_MM`]].
 fn row_std(layout: &Layout, cells: &Cells, raw: &RawRow, line: usize) -> Result<Option<[f64; 3]>> {
     if layout.pos[Column::Std(0).index()].is_none() {
@@ -945,7 +973,11 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
             first_split_missing = Some(line);
         }
         let std_mm = row_std(&layout, &cells, raw, line)?;
-        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm });
+        let block = block_label(layout.cell(raw, Column::Block), line, src)?;
+        if layout.pos[Column::Block.index()].is_some() && block.is_none() {
+            return Err(cell_error(src, line, Column::Block, "empty block label; when the file has a block column, every row must name its block"));
+        }
+        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.

@@ -93,6 +93,7 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
             temp_c: Some(th.ambient_c + th.delta_t(*ti)),
             split: None,
             std_mm: None,
+            block: None,
         })
         .collect();
     Ok(Dataset { rows, source: s.name.clone() })
@@ -140,21 +141,91 @@ pub fn clean(seed: u64) -> Result<(Scenario, Robot)> {
 /// A scenario with `n` different causes drawn from `seed`, each at 1.5–4× what a rigid fit
 /// absorbs, among the causes that stay plausible at that size.
 pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
-    let (mut s, robot) = clean(seed)?;
+    let (s, robot) = clean(seed)?;
     let sigma = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    hide_in(s, robot, seed, n, sigma, 1.5..4.0, false)
+}
+
+/// Poses per sweep, glitch runs, rows per run and their size (mm) of [`realistic`] acquisitions.
+pub const REALISTIC_SWEEP: usize = 20;
+pub const REALISTIC_GLITCHES: (usize, usize, f64) = (3, 8, 2.0);
+
+/// The clean scenario of `seed` acquired as measured data are: in sweeps of
+/// [`REALISTIC_SWEEP`] poses (one or two joints move, the others hold), the joint angles logged
+/// at `decimals` decimals of a degree (1: 0.1°, 2: 0.01°; the arm stands at the commanded angle),
+/// and [`REALISTIC_GLITCHES`] runs of disturbed readings.
+pub fn realistic(seed: u64, decimals: usize) -> Result<(Scenario, Robot)> {
+    let (mut s, robot) = clean(seed)?;
+    s.sampling.order = crate::sim::scenario::Order::Sweeps;
+    s.sampling.sweep_length = REALISTIC_SWEEP;
+    s.sampling.logged_decimals = Some(decimals);
+    let (runs, rows, size_mm) = REALISTIC_GLITCHES;
+    s.glitches = Some(crate::sim::scenario::Glitches { runs, rows, size_mm, kind: Default::default() });
+    s.name = format!("realistic-{seed}-{decimals}");
+    Ok((s, robot))
+}
+
+/// RMS (mm) of what logging the joint angles at `step_deg` costs one reading at the scenario's
+/// poses (uniform quantisation through the nominal model's joint Jacobian): the floor an effect
+/// of realistic data must rise above.
+pub fn logging_floor_mm(s: &Scenario, robot: &Robot, step_deg: f64) -> Result<f64> {
+    let data = poses(s, robot)?;
+    let sn = &s.sensor;
+    let guess = SensorGuess { exit_m: sn.exit_point_mm.map(|v| v * 1e-3), offset_m: sn.length_offset_mm * 1e-3, tool_m: sn.tool_point_mm.map(|v| v * 1e-3) };
+    let model = CalibModel::dh(robot, &guess, true);
+    let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
+    let samples = Samples::new(q, vec![0.0; data.rows.len()]);
+    let step = crate::calib::floor::Step::Given(step_deg);
+    let f = crate::calib::floor::noise_floor(&model, &model.nominal, &samples, Some(step), None, None, Default::default());
+    Ok(f.total_mm)
+}
+
+/// A [`realistic`] scenario with one cause drawn from `seed` at `factors` times the data's
+/// floor (the averaged reading noise and the angle logging together) left over after a rigid
+/// fit: above the floor (1.5–4×) a diagnosis must name it, far below it (0.05–0.2×) it must
+/// not. Also returns the floor, mm.
+pub fn hidden_realistic(seed: u64, decimals: usize, factors: std::ops::Range<f64>) -> Result<(Scenario, Robot, Vec<Hidden>, f64)> {
+    let (s, robot) = realistic(seed, decimals)?;
+    let noise = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    let floor = logging_floor_mm(&s, &robot, 10f64.powi(-(decimals as i32)))?;
+    let sigma = (noise * noise + floor * floor).sqrt();
+    let (s, robot, h) = hide_in(s, robot, seed, 1, sigma, factors, true)?;
+    let name = s.name.clone();
+    let mut s = s;
+    s.name = format!("{name}-realistic-{decimals}");
+    Ok((s, robot, h, sigma))
+}
+
+/// `s` with `n` different causes drawn from `seed`, each at `factors` × `sigma` (mm) left over
+/// after a rigid fit, among the causes that stay plausible at the largest such size (`clamp`:
+/// at the smallest, the factor then drawn up to the plausible size).
+fn hide_in(
+    mut s: Scenario,
+    robot: Robot,
+    seed: u64,
+    n: usize,
+    sigma: f64,
+    factors: std::ops::Range<f64>,
+    clamp: bool,
+) -> Result<(Scenario, Robot, Vec<Hidden>)> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x4849_4444_454e);
     let mut pool: Vec<(EffectKind, Option<usize>, f64, f64)> = Vec::new();
     for (kind, joint) in causes(robot.dof()) {
         let phase = if kind == EffectKind::EncoderEccentricity { rng.random_range(-std::f64::consts::PI..std::f64::consts::PI) } else { 0.0 };
         let a = unabsorbed_rms(&s, &robot, kind, joint, phase)?;
-        if a > 0.0 && 4.0 * sigma / a <= kind.def().plausible(joint) {
+        let needed = if clamp { factors.start } else { factors.end };
+        if a > 0.0 && needed * sigma / a <= kind.def().plausible(joint) {
             pool.push((kind, joint, a, phase));
         }
+    }
+    if pool.is_empty() {
+        return Err(Error::Invalid(format!("no cause can hide at {:.2}x {sigma:.4} mm within its plausible size", factors.start)));
     }
     let mut out = Vec::new();
     while out.len() < n && !pool.is_empty() {
         let (kind, joint, a, phase) = pool.remove(rng.random_range(0..pool.len()));
-        let factor = rng.random_range(1.5..4.0);
+        let top = if clamp { factors.end.min(kind.def().plausible(joint) * a / sigma) } else { factors.end };
+        let factor = if top > factors.start { rng.random_range(factors.start..top) } else { factors.start };
         let v = factor * sigma / a;
         kind.def().hide(&mut s, robot.dof(), joint, v, phase);
         out.push(Hidden { cause: kind, joint, magnitude: kind.def().reported(joint, v), internal: v, factor });

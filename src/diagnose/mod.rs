@@ -25,7 +25,8 @@ use crate::calib::inputs::{block_for, time_span, LoadOptions};
 use crate::calib::model::CalibModel;
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::calib::run::{identify, CalibOptions, Method, ModelSpec};
-use crate::calib::stats::nested_f_test;
+use crate::calib::stats::nested_f_test_deff;
+use crate::dataset::blocks::{Boundary, Structure};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::optim::{covariance, LevenbergMarquardt, NoObserver};
@@ -66,6 +67,8 @@ pub struct DiagnoseOptions {
     pub min_size_sigmas: f64,
     /// Logging step of the joint angles, degrees (default: from the data's decimals).
     pub angle_step_deg: Option<f64>,
+    /// The instrument's stated accuracy, mm per coordinate, for the floor.
+    pub instrument_accuracy_mm: Option<f64>,
     /// Weight the fits by the rows' own standard deviations where the data give them
     /// ([`crate::calib::weighting`]).
     pub row_std: bool,
@@ -104,6 +107,7 @@ impl DiagnoseOptions {
             confirm_fraction: DEFAULT_CONFIRM_FRACTION,
             min_size_sigmas: DEFAULT_MIN_SIZE_SIGMAS,
             angle_step_deg: None,
+            instrument_accuracy_mm: None,
             row_std: true,
         }
     }
@@ -119,6 +123,7 @@ impl DiagnoseOptions {
         o.inertial = self.inertial.clone();
         o.loads = self.loads.clone();
         o.row_std = self.row_std;
+        o.instrument_accuracy_mm = self.instrument_accuracy_mm;
         o
     }
 }
@@ -158,16 +163,36 @@ pub struct Candidate {
 /// of compliance) is not physical.
 pub const IMPLAUSIBLE: f64 = 30.0;
 
-/// Whether every parameter of the model's last effect block is of a physical size.
-fn plausible(f: &Fitted) -> bool {
+/// The physical range of a warm-up time constant, s: a joint or an arm reaches most of its
+/// working temperature in minutes to a few hours (a time constant of 1 min – 6 h). Outside it the
+/// data show a drift that never settles (a line in `t`) or one step, not a warm-up, and the size
+/// "at full warm-up" is an extrapolation far beyond the data.
+pub const WARM_UP_TAU_S: (f64, f64) = (60.0, 6.0 * 3600.0);
+
+/// Why a parameter of effect block `b` of `model` at `x` is not physical (the first one that is
+/// not), or `None`: an effect's size beyond [`IMPLAUSIBLE`] times its plausible one-sigma size,
+/// a warm-up time constant outside [`WARM_UP_TAU_S`].
+pub fn implausible_param(model: &CalibModel, x: &[f64], b: usize) -> Option<String> {
     use crate::calib::effects::EffectUnit;
     use crate::calib::model::Kind;
-    let b = f.model.effects.len() - 1;
-    f.model.effect_params(b).all(|k| match f.model.kinds[k] {
-        Kind::Effect(EffectUnit::Seconds) => true,
-        Kind::Effect(u) => f.x[k].abs() <= IMPLAUSIBLE * crate::calib::tolerance::effect_scale(u),
-        _ => true,
+    model.effect_params(b).find_map(|k| match model.kinds[k] {
+        Kind::Effect(EffectUnit::Seconds) => (!(WARM_UP_TAU_S.0..=WARM_UP_TAU_S.1).contains(&x[k])).then(|| {
+            format!("{} = {:.3e} s is outside the physical range of a warm-up time constant ({}-{} s)", model.names[k], x[k], WARM_UP_TAU_S.0, WARM_UP_TAU_S.1)
+        }),
+        Kind::Effect(u) => {
+            let limit = IMPLAUSIBLE * crate::calib::tolerance::effect_scale(u);
+            (x[k].abs() > limit).then(|| {
+                let d = model.kinds[k].display();
+                format!("{} = {:.4} {} is beyond {IMPLAUSIBLE}x its plausible size ({:.4})", model.names[k], x[k] * d, model.kinds[k].unit(), limit * d)
+            })
+        }
+        _ => None,
     })
+}
+
+/// Whether every parameter of the model's last effect block is of a physical size.
+fn plausible(f: &Fitted) -> bool {
+    implausible_param(&f.model, &f.x, f.model.effects.len() - 1).is_none()
 }
 
 /// A selection step: every candidate tried and the one kept (if any).
@@ -268,6 +293,18 @@ pub struct Diagnosis {
     /// measure extrapolation: baseline blocked RMSE above 1.5x the interleaved one), and why.
     pub judged_on: String,
     pub judged_on_reason: String,
+    /// The acquisition's blocks of rows that share an error ([`crate::dataset::blocks`]): folds
+    /// and the confirmation set take whole blocks, tests and uncertainties count them.
+    #[serde(default = "no_structure")]
+    pub acquisition: Structure,
+    /// Design effect of the geometric model's residuals over those blocks (1: independent rows):
+    /// how many rows count as one.
+    #[serde(default = "one")]
+    pub design_effect: f64,
+    /// Causes selection kept that the model fitted on every kept row turned unphysical, with
+    /// why: left out of the model.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_physical: Vec<String>,
     /// Rows selection saw and rows kept back to confirm its causes.
     pub selection_rows: usize,
     pub confirmation_rows: usize,
@@ -318,6 +355,14 @@ pub fn unphysical_causes(model: &CalibModel, x: &[f64], kept: &[EffectBlock]) ->
         .collect()
 }
 
+fn no_structure() -> Structure {
+    crate::dataset::blocks::Blocks::singletons(0).structure(None)
+}
+
+fn one() -> f64 {
+    1.0
+}
+
 impl Diagnosis {
     /// The final held-out RMSE against the data's floor, in words: a ratio where repeated
     /// configurations give the floor, else what is known of it.
@@ -341,6 +386,9 @@ struct Fitted {
     /// In-sample residual sum of squares (mm²) and free parameters.
     rss: f64,
     n_free: usize,
+    /// Design effect of the in-sample residuals over the acquisition's blocks (1 when every row
+    /// is its own block): how much less than their number the rows count as evidence.
+    deff: f64,
 }
 
 use crate::calib::stats::rms;
@@ -348,9 +396,12 @@ use crate::calib::stats::rms;
 struct Ctx {
     /// The selection rows (kept rows less the confirmation set), with their inputs.
     data: Samples,
-    /// Folds over `data`: the kind selection judges on, then the other kind.
+    /// Folds over `data`: the kind selection judges on, then the other kind. Whole blocks of
+    /// the acquisition go to one fold.
     folds: Vec<Vec<usize>>,
     other_folds: Vec<Vec<usize>>,
+    /// Block of every selection row, where some block has more than one row.
+    groups: Option<Vec<usize>>,
     rank_tol: f64,
 }
 
@@ -366,9 +417,11 @@ impl Ctx {
         let fit = ReadingFit { model: &model, data: &self.data };
         let (x, fixed) = refit(&model, &self.data, x0, self.rank_tol);
         let oof = self.heldout(&model, &x, &fixed, &self.folds);
-        let rss = fit.residuals_mm(&x).iter().map(|r| r * r).sum();
+        let res = fit.residuals_mm(&x);
+        let rss = res.iter().map(|r| r * r).sum();
         let n_free = fixed.iter().filter(|f| !**f).count();
-        Fitted { model, x, fixed, oof, rss, n_free }
+        let deff = self.groups.as_ref().map_or(1.0, |g| crate::calib::stats::design_effect(&res, self.data.dim, g));
+        Fitted { model, x, fixed, oof, rss, n_free, deff }
     }
 
     /// Held-out residual of every selection row: each fold predicted by a fit on the others.
@@ -408,17 +461,74 @@ fn refit(model: &CalibModel, data: &Samples, x0: &[f64], rank_tol: f64) -> (Vec<
     (Ctx::lm().minimize(&fit, x0, &fixed, &mut NoObserver).x, fixed)
 }
 
+/// The joint angles' logging error of the rows of `all` (the dataset `data`'s rows, in blocks
+/// `blocks`, logged at `step` degrees) through the geometric model `base` at `x`: each row's
+/// ∂reading/∂q, the joints that hold in its block, and the reading's own noise: the kept rows'
+/// mean squared residual less what the logging explains, at least a twentieth of the latter (so
+/// that the covariance stays well conditioned).
+fn rounding_model(
+    base: &CalibModel,
+    x: &[f64],
+    all: &Samples,
+    keep: &[usize],
+    data: &Dataset,
+    blocks: &crate::dataset::blocks::Blocks,
+    step: f64,
+) -> crate::calib::gls::RoundingModel {
+    let (dim, nj) = (all.dim, base.chain.n_joints);
+    let mut w = base.work();
+    let (mut y, mut g) = (vec![0.0; dim], vec![0.0; nj * dim]);
+    let jq: Vec<Vec<f64>> = (0..all.len())
+        .map(|i| {
+            base.readings_grad_q(x, &all.q[i], &all.inputs[i], &mut w, &mut y, &mut g);
+            g.iter().map(|v| v * 1e3).collect()
+        })
+        .collect();
+    // The joints that hold throughout each block (within half the logging step of its first row).
+    let mut holds = vec![vec![true; nj]; all.len()];
+    for &(first, _) in &blocks.starts {
+        let rows: Vec<usize> = (first..all.len()).take_while(|&i| blocks.of_row[i] == blocks.of_row[first]).collect();
+        let h: Vec<bool> =
+            (0..nj).map(|j| rows.len() > 1 && rows.iter().all(|&i| (data.rows[i].q_deg[j] - data.rows[first].q_deg[j]).abs() <= 0.5 * step)).collect();
+        rows.iter().for_each(|&i| holds[i] = h.clone());
+    }
+    let res = ReadingFit { model: base, data: &all.subset(keep).unweighted() }.residuals_mm(x);
+    let total = res.iter().map(|r| r * r).sum::<f64>() / res.len().max(1) as f64;
+    let probe = crate::calib::gls::RoundingModel::new(dim, blocks.of_row.clone(), jq, holds, step, 0.0);
+    let rounding = probe.rounding_var();
+    let noise_var = (total - rounding).max(0.05 * rounding).max(1e-12);
+    crate::calib::gls::RoundingModel { noise_var, scale_var: noise_var + rounding, ..probe }
+}
+
+/// Blocked and interleaved folds over the selection rows' blocks (`groups`), and a warning when
+/// there are fewer blocks than folds: the folds are then drawn over rows, and rows of one block
+/// sit on both sides of a split.
+fn block_folds(groups: &[usize], k: usize, shared: bool) -> (Vec<Vec<usize>>, Vec<Vec<usize>>, Option<String>) {
+    use crate::calib::folds;
+    let n_blocks = groups.last().map_or(0, |g| g + 1);
+    if !shared || n_blocks < k {
+        let warning = shared.then(|| {
+            format!(
+                "the selection rows form only {n_blocks} blocks of the acquisition for {k} folds: folds are drawn over rows, rows of one sweep sit on \
+                 both sides of a split, and the held-out RMSE is optimistic"
+            )
+        });
+        return (folds::blocked(groups.len(), k), folds::interleaved(groups.len(), k), warning);
+    }
+    (folds::blocked_groups(groups, k), folds::interleaved_groups(groups, k), None)
+}
+
 /// Blocked folds judge a diagnosis unless the baseline's blocked held-out RMSE exceeds the
 /// interleaved one by this factor: the acquisition blocks then cover different parts of the
 /// joint space (sweeps), and blocked folds measure extrapolation, not the model.
 pub const EXTRAPOLATION_FACTOR: f64 = 1.5;
 
 /// (size / uncertainty, physical sign) of the last effect block of a fitted model.
-fn size_check(f: &Fitted, data: &Samples) -> (f64, bool) {
+fn size_check(f: &Fitted, data: &Samples, groups: Option<&[usize]>) -> (f64, bool) {
     let b = f.model.effects.len() - 1;
     let block = &f.model.effects[b];
     let range = f.model.effect_params(b);
-    let cov = covariance(&ReadingFit { model: &f.model, data }, &f.x, &f.fixed);
+    let cov = block_covariance(&ReadingFit { model: &f.model, data }, &f.x, &f.fixed, groups, range.clone());
     let Size { value: mag, uncertainty: unc, .. } = magnitude(block, &f.x, cov.as_ref(), range.clone());
     let sign_ok = block.kind.def().physical_sign(&f.x, range.start);
     let ratio = if unc > 0.0 { mag.abs() / unc } else { 0.0 };
@@ -427,9 +537,26 @@ fn size_check(f: &Fitted, data: &Samples) -> (f64, bool) {
 
 /// p-value of the F test that `b` (the model with the candidate) fits the kept rows better than
 /// `a` (nested least-squares models, Gaussian reading noise); `n` reading values (rows × values
-/// per row).
+/// per row), counted as `n / deff` independent ones where rows share errors in blocks (the
+/// Rao–Scott correction with `b`'s design effect: what is left once the candidate is in).
 fn gain_p_value(a: &Fitted, b: &Fitted, n: usize) -> f64 {
-    nested_f_test(a.rss, b.rss, b.n_free.saturating_sub(a.n_free), n.saturating_sub(b.n_free))
+    nested_f_test_deff(a.rss, b.rss, b.n_free.saturating_sub(a.n_free), n.saturating_sub(b.n_free), b.deff)
+}
+
+/// The covariance of a fit whose rows may share errors in blocks (`groups`: each row's block):
+/// the classical covariance, scaled up by the largest ratio of the cluster-robust variance
+/// ([`crate::optim::cluster_covariance`]) to the classical one over the parameters `range` (an
+/// effect block's). Scaling the classical matrix keeps it positive semi-definite with its
+/// correlations; the ratio is never below 1, so shared errors can only widen an uncertainty.
+/// Without groups, the classical covariance.
+fn block_covariance(fit: &ReadingFit, x: &[f64], fixed: &[bool], groups: Option<&[usize]>, range: std::ops::Range<usize>) -> Option<nalgebra::DMatrix<f64>> {
+    let cov = covariance(fit, x, fixed)?;
+    let Some(groups) = groups else { return Some(cov) };
+    let dim = fit.data.dim;
+    let per_value: Vec<usize> = groups.iter().flat_map(|&g| std::iter::repeat_n(g, dim)).collect();
+    let Some(robust) = crate::optim::cluster_covariance(fit, x, fixed, &per_value) else { return Some(cov) };
+    let ratio = range.filter(|&k| cov[(k, k)] > 0.0).map(|k| robust[(k, k)] / cov[(k, k)]).filter(|r| r.is_finite()).fold(1.0, f64::max);
+    Some(cov * ratio)
 }
 
 fn pearson(a: &[f64], b: &[f64]) -> f64 {
@@ -693,14 +820,44 @@ fn diagnose_screened(
     if !outliers.is_empty() {
         progress(&format!("{} outlier rows kept out of the fit: {:?}", outliers.len(), outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
     }
+    // The acquisition's blocks (sweeps, pauses, declared blocks) and the ends of the reading
+    // steps: rows that share an error are held out together and count as less than their number.
+    let (mut blocks, angle_step) = crate::dataset::blocks::detect(data, opts.angle_step_deg);
+    for s in &reading_steps {
+        blocks.split_before(s.first_row - 1, Boundary::ReadingStep);
+        blocks.split_before(s.last_row, Boundary::ReadingStep);
+    }
+    let acquisition = blocks.structure(angle_step);
+    let shared = blocks.any_shared();
+    if shared {
+        progress(&format!("acquisition: {}", acquisition.summary));
+    }
+    // The joint angles' logging error, shared by the rows of a block, as a noise model: every
+    // fit from here on is generalised least squares over the blocks (see `calib::gls`).
+    let _rounding = match (shared, angle_step) {
+        (true, Some(step)) => {
+            let m = rounding_model(&base, &x_base, &all, &keep, data, &blocks, step);
+            progress(&format!(
+                "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
+                m.rounding_var().sqrt(),
+                m.noise_var.sqrt()
+            ));
+            all.gls = Some(crate::calib::gls::Whitening::new(std::sync::Arc::new(m), (0..all.len()).collect()));
+            all.gls.as_ref().map(|g| (g.model.rounding_var().sqrt(), g.model.noise_var.sqrt()))
+        }
+        _ => None,
+    };
     let kept = all.subset(&keep);
     let kept_rows = Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
-    // The confirmation set: every k-th kept row in acquisition order, never seen by selection.
+    // The confirmation set: every k-th block of kept rows in acquisition order (every k-th row
+    // when no rows share a block), never seen by selection.
     let every = if opts.confirm_fraction > 0.0 { (1.0 / opts.confirm_fraction).round().max(2.0) as usize } else { usize::MAX };
-    let (sel_idx, conf_idx): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|i| i % every != every - 1);
+    let kept_groups = blocks.ids_of(&keep);
+    let (sel_idx, conf_idx): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&i| kept_groups[i] % every != every - 1);
     let (selection, confirmation) = (kept.subset(&sel_idx), kept.subset(&conf_idx));
-    let (blocked, interleaved) = (crate::calib::folds::blocked(selection.len(), opts.folds), crate::calib::folds::interleaved(selection.len(), opts.folds));
-    let mut ctx = Ctx { folds: blocked, other_folds: interleaved, data: selection, rank_tol: opts.rank_tol };
+    let sel_groups = blocks.ids_of(&sel_idx.iter().map(|&i| keep[i]).collect::<Vec<_>>());
+    let (blocked, interleaved, few_blocks) = block_folds(&sel_groups, opts.folds, shared);
+    let mut ctx = Ctx { folds: blocked, other_folds: interleaved, groups: shared.then_some(sel_groups), data: selection, rank_tol: opts.rank_tol };
     let mut baseline = ctx.evaluate(base.clone(), &x_base);
     let other_oof = ctx.heldout(&baseline.model, &baseline.x, &baseline.fixed, &ctx.other_folds);
     let (rmse_blocked, rmse_interleaved) = (rms(&baseline.oof), rms(&other_oof));
@@ -742,7 +899,7 @@ fn diagnose_screened(
                 let (m, x0) = with_block(&current.model, &current.x, b, span);
                 let f = ctx.evaluate(m, &x0);
                 let p = (gain_p_value(&current, &f, ctx.data.y.len()) * remaining.len() as f64).min(1.0);
-                let (size_sigmas, physical_sign) = size_check(&f, &ctx.data);
+                let (size_sigmas, physical_sign) = size_check(&f, &ctx.data, ctx.groups.as_deref());
                 let c = Candidate {
                     cause: b.kind.name().into(),
                     joint: b.joint.map(|j| j + 1),
@@ -786,10 +943,27 @@ fn diagnose_screened(
         .iter()
         .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&ReadingFit { model: &f.model, data: &confirmation_mm }.residuals_mm(&f.x)) })
         .collect();
-    let confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
+    let mut confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
     let unconfirmed: Vec<String> = found[confirmed..].iter().map(|f| f.0.label()).collect();
     if !unconfirmed.is_empty() {
         progress(&format!("not confirmed on the {} confirmation rows: {}", confirmation.len(), unconfirmed.join(", ")));
+    }
+    // Every kept cause of a physical size in the model fitted on every kept row (selection and
+    // confirmation): the first that is not ends the list, like an unconfirmed one.
+    let mut not_physical: Vec<String> = Vec::new();
+    while confirmed > 0 {
+        let m = &chain[confirmed];
+        let (x, _) = refit(&m.model, &kept, &m.x, opts.rank_tol);
+        let Some((k, why)) = found[..confirmed].iter().enumerate().find_map(|(k, f)| {
+            let b = m.model.effects.iter().position(|e| e == &f.0)?;
+            implausible_param(&m.model, &x, b).map(|w| (k, w))
+        }) else {
+            break;
+        };
+        let dropped: Vec<String> = found[k..confirmed].iter().map(|f| f.0.label()).collect();
+        progress(&format!("not physical on every kept row: {why}; left out: {}", dropped.join(", ")));
+        not_physical.push(format!("{} left out of the model: fitted on every kept row, {why}", dropped.join(", ")));
+        confirmed = k;
     }
     found.truncate(confirmed);
     let current = chain[confirmed].clone();
@@ -801,7 +975,7 @@ fn diagnose_screened(
     // row that a cause pushes far from it looks like a glitch. Rows the model with its causes
     // predicts within the same threshold (around the kept rows' residuals) are explained, not
     // outliers: they rejoin the rows of the final fit, and are listed.
-    let res_all = ReadingFit { model: &current.model, data: &all }.residuals_mm(&current.x);
+    let res_all = ReadingFit { model: &current.model, data: &crate::calib::problem::Samples { gls: None, ..all.clone() } }.residuals_mm(&current.x);
     let kept_res: Vec<f64> = keep.iter().flat_map(|&i| res_all[i * dim..(i + 1) * dim].iter().copied()).collect();
     let (med, scale) = crate::calib::stats::robust_scale(&kept_res);
     let explained: Vec<usize> = if current.model.effects.is_empty() {
@@ -810,8 +984,8 @@ fn diagnose_screened(
         let far = |i: usize| crate::calib::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
         outliers.iter().map(|o| o.row - 1).filter(|&i| (far(i) - med).abs() <= opts.outlier_k * scale).collect()
     };
-    let (kept, kept_rows) = if explained.is_empty() {
-        (kept, kept_rows)
+    let (kept, kept_rows, final_keep) = if explained.is_empty() {
+        (kept, kept_rows, keep)
     } else {
         progress(&format!(
             "{} rows first taken for outliers are explained by the causes: {:?}",
@@ -821,21 +995,28 @@ fn diagnose_screened(
         outliers.retain(|o| !explained.contains(&(o.row - 1)));
         outlier_runs = crate::calib::robust::runs(&outliers);
         let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
-        (all.subset(&keep), Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() })
+        (all.subset(&keep), Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() }, keep)
     };
+    let final_groups = shared.then(|| blocks.ids_of(&final_keep));
     let mut explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).chain(first_flagged).collect();
     explained_rows.sort_unstable();
     let fit = ReadingFit { model: &current.model, data: &kept };
     let final_id = identify(&fit, &current.x, opts.rank_tol);
     let final_x = Ctx::lm().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
-    let cov = covariance(&fit, &final_x, &final_id.fixed_mask);
     let final_train_rmse_mm = rms(&ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&final_x));
     let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
-    let warnings: Vec<String> = fold_warning.into_iter().chain(unphysical_causes(&current.model, &final_x, &kept_blocks)).collect();
+    let mut warnings: Vec<String> = fold_warning
+        .into_iter()
+        .chain(few_blocks)
+        .chain(not_physical.iter().cloned())
+        .chain(unphysical_causes(&current.model, &final_x, &kept_blocks))
+        .collect();
     let mut causes = Vec::new();
     for (n, (block, before, after, p)) in found.iter().enumerate() {
         let b = current.model.effects.iter().position(|e| e == block).expect("kept block is in the model");
         let range = current.model.effect_params(b);
+        // Each cause's uncertainty counts the rows its blocks share.
+        let cov = block_covariance(&fit, &final_x, &final_id.fixed_mask, final_groups.as_deref(), range.clone());
         let Size { quantity, value: mag, unit, uncertainty: unc } = magnitude(block, &final_x, cov.as_ref(), range.clone());
         let parameters = range
             .clone()
@@ -871,7 +1052,7 @@ fn diagnose_screened(
         id: final_id,
         torque_model: torque.clone(),
     };
-    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg)?;
+    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg, opts.instrument_accuracy_mm)?;
     let noise_floor = result.noise_floor.clone().expect("result_of_fit sets the floor");
     let noise_floor_mm = noise_floor.total_mm;
     let mut noise_floor_source: Vec<String> = noise_floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
@@ -881,6 +1062,19 @@ fn diagnose_screened(
     let noise_floor_source = noise_floor_source.join("; ");
     let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
     let current_oof = rms(&current.oof);
+    // No model predicts unseen rows better than the data's floor: a held-out RMSE below it
+    // means the held-out rows shared errors with the training rows.
+    if current_oof < noise_floor_mm {
+        warnings.push(format!(
+            "the final held-out RMSE ({current_oof:.4} mm) is below the data's floor ({noise_floor_mm:.4} mm): the held-out rows share errors with the \
+             training rows (the split leaks), so it is optimistic; {}",
+            if shared {
+                "blocks the detection missed (declare them in a block column)"
+            } else {
+                "rows of one sweep or one logging error, not detected as blocks"
+            }
+        ));
+    }
     let effects_option = current
         .model
         .effects
@@ -894,6 +1088,9 @@ fn diagnose_screened(
 
     let diagnosis = Diagnosis {
         warnings,
+        acquisition,
+        design_effect: baseline.deff,
+        not_physical,
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
         rows: data.rows.len(),
@@ -1029,6 +1226,7 @@ mod tests {
                     temp_c: None,
                     split: None,
                     std_mm: None,
+                    block: None,
                 }
             })
             .collect();

@@ -559,6 +559,72 @@ pub fn covariance<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool]) -> Option<D
     Some(out)
 }
 
+/// The cluster-robust ("sandwich", CR1) covariance of the least-squares estimate at `x` for
+/// residuals that come in clusters sharing an error: `cluster[i]` is residual i's cluster.
+/// (JᵀJ)⁺ · Σ_g (J_gᵀ r_g)(J_gᵀ r_g)ᵀ · (JᵀJ)⁺, scaled by G/(G − 1) · (m − 1)/(m − p) for G
+/// clusters, m residuals and p free parameters; the pseudo-inverse as in [`covariance`]. Unlike
+/// [`covariance`] it does not assume independent residuals of one variance. `None` where
+/// [`covariance`] is, or with fewer than two clusters.
+pub fn cluster_covariance<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool], cluster: &[usize]) -> Option<DMatrix<f64>> {
+    let n = p.n_params();
+    let m = p.n_residuals();
+    let g = cluster.iter().copied().max().map_or(0, |v| v + 1);
+    if x.len() != n || cluster.len() != m || g < 2 {
+        return None;
+    }
+    let free = free_indices(fixed, n);
+    let nf = free.len();
+    let mut out = DMatrix::<f64>::zeros(n, n);
+    if nf == 0 {
+        return Some(out);
+    }
+    if m <= nf {
+        return None;
+    }
+    let mut r = vec![0.0; m];
+    p.residuals(x, &mut r);
+    let mut jac = DMatrix::<f64>::zeros(m, n);
+    p.jacobian(x, &mut jac);
+    let norms: Vec<f64> = free.iter().map(|&k| jac.column(k).norm().max(1e-300)).collect();
+    let jf = DMatrix::from_fn(m, nf, |i, k| jac[(i, free[k])] / norms[k]);
+    if jf.iter().chain(r.iter()).any(|v| !v.is_finite()) {
+        return None;
+    }
+    // The bread: the pseudo-inverse of JᵀJ from the SVD of J (small singular values dropped).
+    let svd = jf.clone().svd(false, true);
+    let vt = svd.v_t.as_ref()?;
+    let s = &svd.singular_values;
+    let smax2 = s.iter().map(|v| v * v).fold(0.0, f64::max);
+    if !(smax2 > 0.0) {
+        return Some(out);
+    }
+    let mut bread = DMatrix::<f64>::zeros(nf, nf);
+    for (i, &si) in s.iter().enumerate() {
+        let s2 = si * si;
+        if s2 < 1e-10 * smax2 {
+            continue;
+        }
+        let row = vt.row(i);
+        bread += row.transpose() * row / s2;
+    }
+    // The meat: the outer products of each cluster's score.
+    let mut scores = DMatrix::<f64>::zeros(g, nf);
+    for i in 0..m {
+        for k in 0..nf {
+            scores[(cluster[i], k)] += jf[(i, k)] * r[i];
+        }
+    }
+    let meat = scores.transpose() * &scores;
+    let scale = g as f64 / (g - 1) as f64 * (m - 1) as f64 / (m - nf) as f64;
+    let v = &bread * meat * &bread * scale;
+    for a in 0..nf {
+        for b in 0..nf {
+            out[(free[a], free[b])] = v[(a, b)] / (norms[a] * norms[b]);
+        }
+    }
+    Some(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::NoObserver;
@@ -741,6 +807,47 @@ mod tests {
         assert_eq!(cov[(0, 0)], 0.0);
         assert_eq!(cov[(0, 1)], 0.0);
         assert!(cov[(1, 1)] > 0.0);
+    }
+
+    /// y = a + b·u with u constant within clusters of 10 and an error shared by each cluster.
+    struct Clustered {
+        u: Vec<f64>,
+        y: Vec<f64>,
+    }
+    impl LeastSquares for Clustered {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            self.u.len()
+        }
+        fn residuals(&self, x: &[f64], r: &mut [f64]) {
+            for i in 0..self.u.len() {
+                r[i] = x[0] + x[1] * self.u[i] - self.y[i];
+            }
+        }
+    }
+
+    #[test]
+    fn cluster_covariance_counts_shared_errors() {
+        // Deterministic scrambled values in [-1, 1].
+        let h = |k: usize| ((k as f64 * 12.9898).sin() * 43_758.545_3).fract();
+        let (g, m) = (60, 10);
+        let u: Vec<f64> = (0..g * m).map(|i| h(i / m + 1000)).collect();
+        let y: Vec<f64> = (0..g * m).map(|i| 1.0 + 2.0 * u[i] + h(i / m + 5000) + 0.2 * h(i + 9000)).collect();
+        let p = Clustered { u, y };
+        let x = LevenbergMarquardt::default().minimize(&p, &[0.0, 0.0], &[], &mut NoObserver).x;
+        let classic = covariance(&p, &x, &[]).unwrap();
+        let clusters: Vec<usize> = (0..g * m).map(|i| i / m).collect();
+        let robust = cluster_covariance(&p, &x, &[], &clusters).unwrap();
+        // The slope's regressor is shared by each cluster, and so is most of the error: its
+        // variance is several times the one that assumes independent rows.
+        assert!(robust[(1, 1)] > 4.0 * classic[(1, 1)], "{robust} {classic}");
+        // One cluster per residual: close to the classical covariance (homoscedastic errors).
+        let single: Vec<usize> = (0..g * m).collect();
+        let hc = cluster_covariance(&p, &x, &[], &single).unwrap();
+        assert!((hc[(1, 1)] / classic[(1, 1)] - 1.0).abs() < 0.5, "{hc} {classic}");
+        assert!(cluster_covariance(&p, &x, &[], &vec![0; g * m]).is_none());
     }
 
     /// Residuals that are NaN for x > 2: Gauss–Newton steps on atan overshoot into the NaN region,

@@ -537,6 +537,7 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
                 (Some(tr), Some((_, _, sd))) if tr.write_std => Some([round_decimals(sd, STD_DECIMALS); 3]),
                 _ => None,
             },
+            block: None,
         });
         truth_poses.push(PoseTruth {
             index: i,

@@ -1,0 +1,194 @@
+//! The joint angles' logging error as a noise model: generalised least squares over the
+//! acquisition's blocks.
+//!
+//! A controller that logs angles at 0.1° hands the fit angles off by up to 0.05°, and in a sweep
+//! the joints that hold are off by the *same* amount on every row of the sweep. That error is in
+//! the inputs, not the reading: through the reading's derivative with respect to the joint
+//! angles, g = ∂y/∂q, it puts a shared, configuration-shaped offset on the sweep's readings. A
+//! least-squares fit that takes rows as independent lets any flexible term (an eccentricity, a
+//! thermal drift, a network) "explain" those offsets, and then they do not repeat on new sweeps.
+//!
+//! Here the readings of one block (see [`crate::dataset::blocks`]) have the covariance
+//!
+//! C = σ²·I + v·Σ_{j holds} g_j g_jᵀ + v·Σ_{j moves} diag(g_j²),
+//!
+//! with v = step²/12 (a uniform rounding error) per joint and σ² the reading's own noise, and the
+//! fit minimises the whitened residual W·r with W = s·L⁻¹ (C = L·Lᵀ; s² the mean variance of one
+//! value over every row, so whitened residuals stay on a millimetre scale). Within a block, what
+//! is shaped like a holding joint's rounding costs the fit little; what repeats across blocks
+//! costs it in full. Blocks of one row get the diagonal weight their rounding gives them.
+//!
+//! [`Samples::gls`](super::problem::Samples::gls) carries a [`Whitening`]; every fit of
+//! [`ReadingFit`](super::problem::ReadingFit) on those samples whitens its residuals and
+//! Jacobian, and a subset of them keeps the factors of its blocks.
+
+use nalgebra::{DMatrix, DVector};
+use std::sync::Arc;
+
+/// The shared input error of a set of rows: everything [`Whitening`] needs for any subset.
+#[derive(Debug)]
+pub struct RoundingModel {
+    /// Values per row.
+    pub dim: usize,
+    /// Joints per row.
+    pub joints: usize,
+    /// Block of each row (rows of one block are consecutive).
+    pub block: Vec<usize>,
+    /// ∂y/∂q of each row, mm/rad, row-major (`dim` rows of `joints`).
+    pub jq: Vec<Vec<f64>>,
+    /// Whether each joint holds throughout the row's block.
+    pub holds: Vec<Vec<bool>>,
+    /// Variance of one joint's logging error, rad².
+    pub var_q: f64,
+    /// Variance of the reading's own noise per value, mm².
+    pub noise_var: f64,
+    /// Mean variance of one value over every row, mm²: the scale of the whitened residuals.
+    pub scale_var: f64,
+}
+
+impl RoundingModel {
+    /// The model for rows with blocks `block`, derivatives `jq` and holding joints `holds`, a
+    /// logging step of `step_deg` and a reading noise of `noise_var` mm².
+    pub fn new(dim: usize, block: Vec<usize>, jq: Vec<Vec<f64>>, holds: Vec<Vec<bool>>, step_deg: f64, noise_var: f64) -> RoundingModel {
+        let joints = holds.first().map_or(0, |h| h.len());
+        let var_q = step_deg.to_radians().powi(2) / 12.0;
+        let rounding: f64 = jq.iter().map(|g| g.iter().map(|d| d * d).sum::<f64>() * var_q).sum::<f64>() / (jq.len() * dim).max(1) as f64;
+        RoundingModel { dim, joints, block, jq, holds, var_q, noise_var, scale_var: noise_var + rounding }
+    }
+
+    /// The mean variance per value that the logging adds, mm² (the angle floor squared).
+    pub fn rounding_var(&self) -> f64 {
+        self.scale_var - self.noise_var
+    }
+}
+
+/// The whitening of one set of rows of a [`RoundingModel`]: a factor per run of consecutive
+/// rows of one block.
+#[derive(Clone, Debug)]
+pub struct Whitening {
+    pub model: Arc<RoundingModel>,
+    /// The model's row of each of these rows.
+    pub rows: Vec<usize>,
+    /// First value and W = s·L⁻¹ of each run.
+    runs: Vec<(usize, DMatrix<f64>)>,
+}
+
+impl Whitening {
+    /// The whitening of `rows` (the model's rows, in order).
+    pub fn new(model: Arc<RoundingModel>, rows: Vec<usize>) -> Whitening {
+        let mut runs = Vec::new();
+        let mut k = 0;
+        while k < rows.len() {
+            let b = model.block[rows[k]];
+            let end = (k..rows.len()).find(|&e| model.block[rows[e]] != b).unwrap_or(rows.len());
+            runs.push((k * model.dim, factor(&model, &rows[k..end])));
+            k = end;
+        }
+        Whitening { model, rows, runs }
+    }
+
+    /// The whitening of rows `idx` of these rows.
+    pub fn subset(&self, idx: &[usize]) -> Whitening {
+        Whitening::new(self.model.clone(), idx.iter().map(|&i| self.rows[i]).collect())
+    }
+
+    /// Whitens residuals (one per value, these rows in order) in place.
+    pub fn apply(&self, r: &mut [f64]) {
+        for (start, w) in &self.runs {
+            let n = w.nrows();
+            let v = DVector::from_column_slice(&r[*start..start + n]);
+            let out = w * v;
+            r[*start..start + n].copy_from_slice(out.as_slice());
+        }
+    }
+
+    /// Whitens the rows of a Jacobian (one row per value) in place.
+    pub fn apply_rows(&self, j: &mut DMatrix<f64>) {
+        for (start, w) in &self.runs {
+            let n = w.nrows();
+            if n == 1 {
+                j.row_mut(*start).scale_mut(w[(0, 0)]);
+                continue;
+            }
+            let block = j.rows(*start, n).into_owned();
+            j.rows_mut(*start, n).copy_from(&(w * block));
+        }
+    }
+}
+
+/// W = s·L⁻¹ for the rows `rows` of one block.
+fn factor(m: &RoundingModel, rows: &[usize]) -> DMatrix<f64> {
+    let (d, nj) = (m.dim, m.joints);
+    let n = rows.len() * d;
+    let mut c = DMatrix::<f64>::identity(n, n) * m.noise_var;
+    for j in 0..nj {
+        // The joint's derivative over the run's values.
+        let g: Vec<f64> = rows.iter().flat_map(|&i| (0..d).map(move |v| m.jq[i][v * nj + j])).collect();
+        if m.holds[rows[0]][j] {
+            for a in 0..n {
+                for b in 0..n {
+                    c[(a, b)] += m.var_q * g[a] * g[b];
+                }
+            }
+        } else {
+            // One row's values share the row's error of a moving joint.
+            for (r, _) in rows.iter().enumerate() {
+                for a in r * d..(r + 1) * d {
+                    for b in r * d..(r + 1) * d {
+                        c[(a, b)] += m.var_q * g[a] * g[b];
+                    }
+                }
+            }
+        }
+    }
+    let s = m.scale_var.sqrt();
+    match c.clone().cholesky() {
+        Some(ch) => {
+            let l = ch.l();
+            let inv = l.solve_lower_triangular(&DMatrix::identity(n, n)).unwrap_or_else(|| DMatrix::identity(n, n));
+            inv * s
+        }
+        // Not positive definite (cannot happen with σ² > 0): the rows weighted as they are.
+        None => DMatrix::identity(n, n),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn whitening_inverts_the_block_covariance() {
+        // Two blocks of three rows (one value each) and one of one row; joint 0 holds in the
+        // first block, moves in the second.
+        let block = vec![0, 0, 0, 1, 1, 1, 2];
+        let jq: Vec<Vec<f64>> = (0..7).map(|i| vec![100.0 + 10.0 * i as f64, -50.0 + 3.0 * i as f64]).collect();
+        let holds = vec![vec![true, true], vec![true, true], vec![true, true], vec![false, true], vec![false, true], vec![false, true], vec![false, false]];
+        let m = Arc::new(RoundingModel::new(1, block, jq.clone(), holds, 0.1, 1e-4));
+        let w = Whitening::new(m.clone(), (0..7).collect());
+        // W·C·Wᵀ = s²·I on each block.
+        let v = m.var_q;
+        let cov = |rows: &[usize], hold0: bool| {
+            let n = rows.len();
+            DMatrix::from_fn(n, n, |a, b| {
+                let (i, k) = (rows[a], rows[b]);
+                let shared1 = jq[i][1] * jq[k][1] * v;
+                let shared0 = if hold0 || a == b { jq[i][0] * jq[k][0] * v } else { 0.0 };
+                shared0 + shared1 + if a == b { 1e-4 } else { 0.0 }
+            })
+        };
+        for ((start, f), (rows, hold0)) in w.runs.iter().zip([(vec![0, 1, 2], true), (vec![3, 4, 5], false)]) {
+            assert_eq!(*start, rows[0]);
+            let id = f * cov(&rows, hold0) * f.transpose() / m.scale_var;
+            assert!((id - DMatrix::identity(3, 3)).abs().max() < 1e-9);
+        }
+        // A subset keeps its blocks' factors; applying to residuals and to a Jacobian agree.
+        let sub = w.subset(&[3, 4, 5]);
+        let mut r = vec![1.0, -2.0, 0.5];
+        let mut j = DMatrix::from_column_slice(3, 1, &r);
+        sub.apply(&mut r);
+        sub.apply_rows(&mut j);
+        assert!((DVector::from_column_slice(&r) - j.column(0)).abs().max() < 1e-12);
+        assert!((w.runs[1].1.clone() - sub.runs[0].1.clone()).abs().max() < 1e-12);
+    }
+}
