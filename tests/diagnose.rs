@@ -242,3 +242,30 @@ fn a_drift_behind_a_constant_temperature_column_is_named_over_time() {
     let (_, result) = diagnose(&data, &opts, &|_| {}).unwrap();
     assert!(result.columns_read().iter().all(|(c, _)| *c == "t"), "{:?}", result.columns_read());
 }
+
+/// Real-like acquisitions (sweeps of 20 poses, joint angles logged at 0.1° or 0.01°, runs of
+/// disturbed readings): the diagnosis finds the sweeps, holds them out whole, fits the logging
+/// error as shared within each sweep, names nothing where nothing is hidden, and names an
+/// effect that rises above the data's floor with its joint and size.
+#[test]
+fn real_like_acquisitions_in_sweeps_with_logged_angles() {
+    use twincal::diagnose::hidden::{hidden_realistic, realistic};
+    for (seed, decimals) in [(20_001, 1), (20_003, 2)] {
+        let (s, robot) = realistic(seed, decimals).unwrap();
+        let d = run(&s, &robot);
+        eprintln!("clean seed {seed} at {decimals} decimals: {} ({}); deff {:.2}; {:?}", d.verdict, d.acquisition.summary, d.design_effect, d.warnings);
+        assert!(d.acquisition.multi_row_blocks >= 15 && d.acquisition.sweep_boundaries >= 15, "{}", d.acquisition.summary);
+        assert!(d.causes.is_empty(), "seed {seed}: false alarm {}", d.verdict);
+        // Held-out rows are whole sweeps: no held-out RMSE below the logging floor.
+        assert!(d.final_heldout_rmse_mm >= d.noise_floor_mm, "seed {seed}: {} below the floor {}", d.final_heldout_rmse_mm, d.noise_floor_mm);
+        assert!(!d.warnings.iter().any(|w| w.contains("split leaks")), "{:?}", d.warnings);
+    }
+    for seed in [30_001, 30_002] {
+        let (s, robot, truth, floor) = hidden_realistic(seed, 2, 1.5..4.0).unwrap();
+        let h = &truth[0];
+        let d = run(&s, &robot);
+        eprintln!("seed {seed}: hidden {h:?} (floor {floor:.4} mm); found {}", d.causes.iter().map(|c| c.summary()).collect::<Vec<_>>().join("; "));
+        let first = d.causes.first().unwrap_or_else(|| panic!("seed {seed}: {h:?} not found ({})", d.verdict));
+        assert!(h.named_by(first) && h.sized_by(first), "seed {seed}: hidden {h:?}, named {}", first.summary());
+    }
+}

@@ -166,6 +166,8 @@ pub fn bench_real(seeds: u64) -> Result<()> {
                 for seed in 0..seeds {
                     let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati")?, method);
                     o.test_fraction = Some(0.2);
+                    // The papers' protocol: random rows (their splits are not published).
+                    o.split_by = crate::calib::run::SplitBy::Rows;
                     o.seed = seed;
                     o.outlier_k = k;
                     runs.push(calibrate(&ds, None, &o)?);

@@ -114,6 +114,8 @@ pub struct CalibOptions {
     pub angle_step_deg: Option<f64>,
     /// The instrument's stated accuracy, mm per coordinate, for the noise floor.
     pub instrument_accuracy_mm: Option<f64>,
+    /// How a test fraction draws its rows.
+    pub split_by: SplitBy,
     /// Weight the fit by the rows' own standard deviations where the data give them (a
     /// tracker's `sx, sy, sz`; [`super::weighting`]).
     pub row_std: bool,
@@ -142,6 +144,7 @@ impl CalibOptions {
             loss: Loss::L2,
             angle_step_deg: None,
             instrument_accuracy_mm: None,
+            split_by: SplitBy::Blocks,
         }
     }
     /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
@@ -510,7 +513,33 @@ impl CalibResult {
 /// Train / test row indices: the dataset's split column, or a stratified hold-out of
 /// `test_fraction` (rows sorted by L, or by a point's distance from the instrument, one random
 /// pick per stratum).
-pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Result<(Vec<usize>, Vec<usize>)> {
+/// How `--test-fraction` draws its test rows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SplitBy {
+    /// Whole blocks of the acquisition ([`crate::dataset::blocks`]) where rows share a sweep, a
+    /// pause or a declared block (rows otherwise): test rows share no error with training rows.
+    #[default]
+    Blocks,
+    /// Rows, stratified by the reading, whatever blocks they are in (as the papers split; rows
+    /// of one sweep then sit on both sides).
+    Rows,
+}
+
+impl std::str::FromStr for SplitBy {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<SplitBy> {
+        match s {
+            "blocks" => Ok(SplitBy::Blocks),
+            "rows" => Ok(SplitBy::Rows),
+            _ => Err(Error::Invalid(format!("--split-by must be blocks or rows, got '{s}'"))),
+        }
+    }
+}
+
+/// The rows a calibration trains and tests on: the dataset's split column, or with a test
+/// fraction `f` a held-out share drawn by `by` from `seed`.
+pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64, by: SplitBy) -> Result<(Vec<usize>, Vec<usize>)> {
     let n = data.rows.len();
     match test_fraction {
         Some(f) => {
@@ -521,7 +550,7 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64) -> Resu
             // Rows that share a sweep (or a pause, a declared block) share its errors: the test
             // rows are then whole blocks, never rows of a block whose other rows train.
             let (blocks, _) = crate::dataset::blocks::detect(data, None);
-            if blocks.any_shared() && n_test > 0 {
+            if by == SplitBy::Blocks && blocks.any_shared() && n_test > 0 {
                 let test = block_split(&blocks, n_test, seed);
                 return Ok(((0..n).filter(|i| !test[*i]).collect(), (0..n).filter(|i| test[*i]).collect()));
             }
@@ -661,7 +690,7 @@ pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
     if let Some(robot) = opts.inertial.as_ref() {
         data.require_joints(robot.dof(), &format!("the inertial robot '{}' (--robot)", robot.name))?;
     }
-    let (train_idx, test_idx) = split_rows(data, opts.test_fraction, opts.seed)?;
+    let (train_idx, test_idx) = split_rows(data, opts.test_fraction, opts.seed, opts.split_by)?;
     if train_idx.len() < 8 {
         return Err(Error::Calibration(format!("only {} training rows; at least 8 are needed", train_idx.len())));
     }

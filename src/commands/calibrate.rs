@@ -21,6 +21,10 @@ pub struct CalibrateArgs {
     /// Hold out this fraction instead of the dataset's split column (0 trains on every row).
     #[arg(long, allow_negative_numbers = true)]
     pub test_fraction: Option<f64>,
+    /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks:
+    /// test rows share no error with training rows) or rows (stratified by the reading).
+    #[arg(long, default_value = "blocks")]
+    pub split_by: String,
     /// Seed of the hold-out split and of the stochastic methods.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
@@ -117,6 +121,7 @@ impl CalibrateArgs {
         }
         let mut opts = CalibOptions::new(a.model.spec()?, method);
         opts.test_fraction = a.test_fraction;
+        opts.split_by = a.split_by.parse()?;
         opts.seed = a.seed;
         opts.rank_tol = a.rank_tol;
         opts.effort = a.effort;

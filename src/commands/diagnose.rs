@@ -61,6 +61,10 @@ pub struct DiagnoseArgs {
     /// can measure the identified twin on them.
     #[arg(long, allow_negative_numbers = true)]
     pub test_fraction: Option<f64>,
+    /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks) or
+    /// rows (stratified by the reading).
+    #[arg(long, default_value = "blocks")]
+    pub split_by: String,
     /// Also write the identified twin (scenario and URDF, see `calibrate --scenario-out`),
     /// with the named causes at their sizes.
     #[arg(long)]
@@ -153,7 +157,7 @@ pub fn diagnose_loaded(
 ) -> Result<Diagnosed> {
     if let Some(f) = a.test_fraction {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
-        let (train, _) = crate::calib::run::split_rows(&data, Some(f), a.seed)?;
+        let (train, _) = crate::calib::run::split_rows(&data, Some(f), a.seed, a.split_by.parse()?)?;
         let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
         data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
     }
@@ -249,6 +253,13 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis) {
         eprintln!(
             "  reading step: rows {}-{} read {:+.3} ± {:.3} mm off ({} rows; the reading jumped and stayed), corrected and kept",
             s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
+        );
+    }
+    eprintln!("  acquisition: {} (design effect {:.2})", d.acquisition.summary, d.design_effect);
+    if let Some(n) = &d.noise_model {
+        eprintln!(
+            "  noise model: joint angles logged at {} deg, shared by the rows of a block that hold them ({:.4} mm per value on average), reading noise {:.4} mm: the fits are generalised least squares",
+            n.angle_step_deg, n.rounding_mm, n.reading_noise_mm
         );
     }
     eprintln!("  noise floor {:.4} mm ({})", d.noise_floor_mm, d.noise_floor_source);

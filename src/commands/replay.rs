@@ -29,6 +29,9 @@ pub struct ReplayArgs {
     /// every row.
     #[arg(long, allow_negative_numbers = true)]
     pub test_fraction: Option<f64>,
+    /// How --test-fraction draws its rows: blocks or rows (as `calibrate --split-by`).
+    #[arg(long, default_value = "blocks")]
+    pub split_by: String,
     /// Seed of that split.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
@@ -111,11 +114,18 @@ pub struct AfterCalibration {
 
 /// Calibrates the real rows and the twin's rows alike and compares their held-out residuals;
 /// `None` without held-out rows, or when either calibration fails.
-fn after_calibration(data: &Dataset, twin: &Dataset, robot: &crate::robot::Robot, test_fraction: Option<f64>, seed: u64) -> Option<AfterCalibration> {
+fn after_calibration(
+    data: &Dataset,
+    twin: &Dataset,
+    robot: &crate::robot::Robot,
+    test_fraction: Option<f64>,
+    seed: u64,
+    by: crate::calib::run::SplitBy,
+) -> Option<AfterCalibration> {
     use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
     let run = |d: &Dataset, f: Option<f64>, p: &str| {
         let mut o = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: p.into() }, Method::Lm);
-        (o.test_fraction, o.seed) = (f, seed);
+        (o.test_fraction, o.seed, o.split_by) = (f, seed, by);
         calibrate(d, None, &o).ok()
     };
     let pair = |p: &str| Some((run(data, test_fraction, p)?, run(twin, None, p)?));
@@ -217,7 +227,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let rejected: Vec<(usize, String)> = g.truth.rejected.iter().map(|r| (r.index + 1, r.reason.clone())).collect();
     let (judged_idx, judged_on): (Option<Vec<usize>>, String) = match a.test_fraction {
         Some(f) => {
-            let (_, test) = crate::calib::run::split_rows(&data, Some(f), a.seed)?;
+            let (_, test) = crate::calib::run::split_rows(&data, Some(f), a.seed, a.split_by.parse()?)?;
             (Some(test), format!("the rows --test-fraction {f} --seed {} holds out (as calibrate and diagnose draw them)", a.seed))
         }
         None if data.rows.iter().any(|r| r.split == Some(Split::Test)) => (Some(data.test_indices()), "the data's test rows (split column)".into()),
@@ -300,7 +310,8 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
             (row.split, p.split) = (Some(split), split);
         }
     }
-    summary.after_calibration = judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.test_fraction, a.seed));
+    summary.after_calibration =
+        judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.test_fraction, a.seed, a.split_by.parse().unwrap_or_default()));
     summary.seconds = t0.elapsed().as_secs_f64();
     let mut outputs = OutputSet::new();
     if let Some(f) = &figs {

@@ -852,3 +852,20 @@ fn per_row_standard_deviations_are_read_checked_and_written() {
     let e = bad("q1,q2,q3,q4,q5,q6,L,sx,sy,sz\n1,2,3,4,5,6,1000,0.01,0.02,0.03\n");
     assert!(e.contains("tracker's per-axis standard deviations"), "{e}");
 }
+
+#[test]
+fn a_declared_block_column_is_read_checked_and_written() {
+    let text = format!("{HEADER},block\n{GOOD},sweep A\n{GOOD},sweep A\n{GOOD},7\n");
+    let ds = parse(&text).unwrap();
+    assert_eq!(ds.rows.iter().map(|r| r.block.clone().unwrap()).collect::<Vec<_>>(), vec!["sweep A", "sweep A", "7"]);
+    // Written back as read; a file without the column has no blocks.
+    let again = parse(&ds.to_csv_string()).unwrap();
+    assert_eq!(again.rows, ds.rows);
+    assert!(ds.to_csv_string().starts_with("q1,q2,q3,q4,q5,q6,L,block\n"));
+    assert!(parse(&format!("{HEADER}\n{GOOD}\n")).unwrap().rows[0].block.is_none());
+    // Every row names its block when the column is there.
+    assert_contains(&err(&format!("{HEADER},block\n{GOOD},a\n{GOOD},\n")), &["line 3, column block", "every row must name its block"]);
+    // The detected blocks split where the label changes.
+    let (b, _) = blocks::detect(&ds, None);
+    assert_eq!(b.of_row, vec![0, 0, 1]);
+}

@@ -297,6 +297,11 @@ pub struct Diagnosis {
     /// and the confirmation set take whole blocks, tests and uncertainties count them.
     #[serde(default = "no_structure")]
     pub acquisition: Structure,
+    /// The joint angles' logging error as the fits' noise model (generalised least squares over
+    /// the blocks, see [`crate::calib::gls`]), where rows share blocks and the angles are logged
+    /// at a step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_model: Option<NoiseModel>,
     /// Design effect of the geometric model's residuals over those blocks (1: independent rows):
     /// how many rows count as one.
     #[serde(default = "one")]
@@ -353,6 +358,15 @@ pub fn unphysical_causes(model: &CalibModel, x: &[f64], kept: &[EffectBlock]) ->
             })
         })
         .collect()
+}
+
+/// The noise model of a diagnosis's fits: the logging step, what it costs one reading value on
+/// average (the angle floor) and the reading's own noise it was given, mm.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct NoiseModel {
+    pub angle_step_deg: f64,
+    pub rounding_mm: f64,
+    pub reading_noise_mm: f64,
 }
 
 fn no_structure() -> Structure {
@@ -528,8 +542,8 @@ fn size_check(f: &Fitted, data: &Samples, groups: Option<&[usize]>) -> (f64, boo
     let b = f.model.effects.len() - 1;
     let block = &f.model.effects[b];
     let range = f.model.effect_params(b);
-    let cov = block_covariance(&ReadingFit { model: &f.model, data }, &f.x, &f.fixed, groups, range.clone());
-    let Size { value: mag, uncertainty: unc, .. } = magnitude(block, &f.x, cov.as_ref(), range.clone());
+    let covs = Covariances::of(&ReadingFit { model: &f.model, data }, &f.x, &f.fixed, groups);
+    let Size { value: mag, uncertainty: unc, .. } = covs.size(block, &f.x, range.clone());
     let sign_ok = block.kind.def().physical_sign(&f.x, range.start);
     let ratio = if unc > 0.0 { mag.abs() / unc } else { 0.0 };
     (ratio, sign_ok)
@@ -543,20 +557,46 @@ fn gain_p_value(a: &Fitted, b: &Fitted, n: usize) -> f64 {
     nested_f_test_deff(a.rss, b.rss, b.n_free.saturating_sub(a.n_free), n.saturating_sub(b.n_free), b.deff)
 }
 
-/// The covariance of a fit whose rows may share errors in blocks (`groups`: each row's block):
-/// the classical covariance, scaled up by the largest ratio of the cluster-robust variance
-/// ([`crate::optim::cluster_covariance`]) to the classical one over the parameters `range` (an
-/// effect block's). Scaling the classical matrix keeps it positive semi-definite with its
-/// correlations; the ratio is never below 1, so shared errors can only widen an uncertainty.
-/// Without groups, the classical covariance.
-fn block_covariance(fit: &ReadingFit, x: &[f64], fixed: &[bool], groups: Option<&[usize]>, range: std::ops::Range<usize>) -> Option<nalgebra::DMatrix<f64>> {
-    let cov = covariance(fit, x, fixed)?;
-    let Some(groups) = groups else { return Some(cov) };
-    let dim = fit.data.dim;
-    let per_value: Vec<usize> = groups.iter().flat_map(|&g| std::iter::repeat_n(g, dim)).collect();
-    let Some(robust) = crate::optim::cluster_covariance(fit, x, fixed, &per_value) else { return Some(cov) };
-    let ratio = range.filter(|&k| cov[(k, k)] > 0.0).map(|k| robust[(k, k)] / cov[(k, k)]).filter(|r| r.is_finite()).fold(1.0, f64::max);
-    Some(cov * ratio)
+/// The covariances of a fit whose rows may share errors in blocks (`groups`: each row's block):
+/// the classical one, and the cluster-robust one ([`crate::optim::cluster_covariance`]) where
+/// some block holds several rows. A size's uncertainty is the larger of the two, so shared errors
+/// can only widen it.
+struct Covariances {
+    classical: Option<nalgebra::DMatrix<f64>>,
+    robust: Option<nalgebra::DMatrix<f64>>,
+}
+
+impl Covariances {
+    fn of(fit: &ReadingFit, x: &[f64], fixed: &[bool], groups: Option<&[usize]>) -> Covariances {
+        let classical = covariance(fit, x, fixed);
+        let robust = groups.and_then(|g| {
+            let per_value: Vec<usize> = g.iter().flat_map(|&b| std::iter::repeat_n(b, fit.data.dim)).collect();
+            crate::optim::cluster_covariance(fit, x, fixed, &per_value)
+        });
+        Covariances { classical, robust }
+    }
+
+    /// The size of `block` (parameters `range` of `x`) with the larger of its two uncertainties.
+    fn size(&self, block: &EffectBlock, x: &[f64], range: std::ops::Range<usize>) -> Size {
+        let mut s = magnitude(block, x, self.classical.as_ref(), range.clone());
+        if let Some(r) = &self.robust {
+            let u = magnitude(block, x, Some(r), range).uncertainty;
+            if u > s.uncertainty || !s.uncertainty.is_finite() {
+                s.uncertainty = u;
+            }
+        }
+        s
+    }
+
+    /// Standard uncertainty of parameter `k`, the larger of the two; NaN without a covariance.
+    fn sd(&self, k: usize) -> f64 {
+        let var = |c: &Option<nalgebra::DMatrix<f64>>| c.as_ref().map(|c| c[(k, k)].max(0.0));
+        match (var(&self.classical), var(&self.robust)) {
+            (Some(a), Some(b)) => a.max(b).sqrt(),
+            (Some(a), None) | (None, Some(a)) => a.sqrt(),
+            (None, None) => f64::NAN,
+        }
+    }
 }
 
 fn pearson(a: &[f64], b: &[f64]) -> f64 {
@@ -834,16 +874,16 @@ fn diagnose_screened(
     }
     // The joint angles' logging error, shared by the rows of a block, as a noise model: every
     // fit from here on is generalised least squares over the blocks (see `calib::gls`).
-    let _rounding = match (shared, angle_step) {
+    let noise_model = match (shared, angle_step) {
         (true, Some(step)) => {
-            let m = rounding_model(&base, &x_base, &all, &keep, data, &blocks, step);
+            let m = std::sync::Arc::new(rounding_model(&base, &x_base, &all, &keep, data, &blocks, step));
             progress(&format!(
                 "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
                 m.rounding_var().sqrt(),
                 m.noise_var.sqrt()
             ));
-            all.gls = Some(crate::calib::gls::Whitening::new(std::sync::Arc::new(m), (0..all.len()).collect()));
-            all.gls.as_ref().map(|g| (g.model.rounding_var().sqrt(), g.model.noise_var.sqrt()))
+            all.gls = Some(crate::calib::gls::Whitening::new(m.clone(), (0..all.len()).collect()));
+            Some(NoiseModel { angle_step_deg: step, rounding_mm: m.rounding_var().sqrt(), reading_noise_mm: m.noise_var.sqrt() })
         }
         _ => None,
     };
@@ -1011,18 +1051,18 @@ fn diagnose_screened(
         .chain(not_physical.iter().cloned())
         .chain(unphysical_causes(&current.model, &final_x, &kept_blocks))
         .collect();
+    // Each cause's uncertainty counts the rows its blocks share.
+    let covs = Covariances::of(&fit, &final_x, &final_id.fixed_mask, final_groups.as_deref());
     let mut causes = Vec::new();
     for (n, (block, before, after, p)) in found.iter().enumerate() {
         let b = current.model.effects.iter().position(|e| e == block).expect("kept block is in the model");
         let range = current.model.effect_params(b);
-        // Each cause's uncertainty counts the rows its blocks share.
-        let cov = block_covariance(&fit, &final_x, &final_id.fixed_mask, final_groups.as_deref(), range.clone());
-        let Size { quantity, value: mag, unit, uncertainty: unc } = magnitude(block, &final_x, cov.as_ref(), range.clone());
+        let Size { quantity, value: mag, unit, uncertainty: unc } = covs.size(block, &final_x, range.clone());
         let parameters = range
             .clone()
             .map(|k| {
                 let d = current.model.kinds[k].display();
-                let sd = cov.as_ref().map(|c| c[(k, k)].max(0.0).sqrt() * d).unwrap_or(f64::NAN);
+                let sd = covs.sd(k) * d;
                 (current.model.names[k].clone(), final_x[k] * d, sd)
             })
             .collect();
@@ -1089,6 +1129,7 @@ fn diagnose_screened(
     let diagnosis = Diagnosis {
         warnings,
         acquisition,
+        noise_model,
         design_effect: baseline.deff,
         not_physical,
         twincal_version: env!("CARGO_PKG_VERSION").into(),
@@ -1249,6 +1290,28 @@ mod tests {
         assert!(e.contains("joint torques"), "{e}");
         let e = candidates(&d, &[(EffectKind::Backlash, Some(8))], false).unwrap_err().to_string();
         assert!(e.contains("joint 9 is beyond the data's 6 joints"), "{e}");
+    }
+
+    #[test]
+    fn a_warm_up_outside_its_physical_range_or_an_oversized_effect_is_not_physical() {
+        use crate::calib::effects::ThermalDrive;
+        use crate::calib::model::SensorGuess;
+        let robot = Robot::irb120();
+        let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
+        let mut m = CalibModel::dh(&robot, &guess, true);
+        m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: Some(0), thermal: Some(ThermalDrive::WarmUp), range_m: None }, 3600.0);
+        let k = m.effect_params(0).start;
+        let mut x = m.nominal.clone();
+        (x[k], x[k + 1]) = (0.01f64.to_radians(), 1200.0);
+        assert_eq!(implausible_param(&m, &x, 0), None);
+        // The case: 2.1e8 s and thousands of degrees; a time constant of seconds.
+        for tau in [2.1e8, 20.0, -70.0] {
+            x[k + 1] = tau;
+            let why = implausible_param(&m, &x, 0).expect("not physical");
+            assert!(why.contains("warm-up time constant"), "{why}");
+        }
+        (x[k], x[k + 1]) = (87.5, 1200.0);
+        assert!(implausible_param(&m, &x, 0).expect("not physical").contains("beyond 30x its plausible size"));
     }
 
     #[test]

@@ -343,7 +343,7 @@ pub fn residuals_after(r: &CalibResult, data: &Dataset) -> Vec<f64> {
 impl CalibFigures {
     /// The figures of calibration `r` of `data` run with `opts` (for the train / test split).
     pub fn new(r: &CalibResult, data: &Dataset, opts: &CalibOptions) -> Result<CalibFigures> {
-        let (mut train_idx, test_idx) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed)?;
+        let (mut train_idx, test_idx) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed, opts.split_by)?;
         // Readings in a reading step are shown corrected, as the calibration took them (test
         // rows by their nearest training row).
         let all: Vec<usize> = (0..data.rows.len()).collect();
