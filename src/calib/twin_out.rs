@@ -284,7 +284,7 @@ fn glitches(r: &CalibResult, rows: usize) -> Option<(crate::sim::scenario::Glitc
             r.outlier_runs.len(),
             if kind == GlitchKind::Offset { "constant offsets" } else { "scattered" }
         );
-        (Glitches { runs, rows: len, size_mm: size, kind }, note)
+        (Glitches { runs, rows: len, size_mm: size, kind, joint: None, size_deg: None }, note)
     })
 }
 

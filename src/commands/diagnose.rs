@@ -255,6 +255,9 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis) {
             s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
         );
     }
+    for f in &d.run_faults {
+        eprintln!("  rows {}-{}: {}", f.first_row, f.last_row, f.evidence);
+    }
     eprintln!("  acquisition: {} (design effect {:.2})", d.acquisition.summary, d.design_effect);
     if let Some(n) = &d.noise_model {
         eprintln!(

@@ -160,7 +160,7 @@ pub fn realistic(seed: u64, decimals: usize) -> Result<(Scenario, Robot)> {
     s.sampling.sweep_length = REALISTIC_SWEEP;
     s.sampling.logged_decimals = Some(decimals);
     let (runs, rows, size_mm) = REALISTIC_GLITCHES;
-    s.glitches = Some(crate::sim::scenario::Glitches { runs, rows, size_mm, kind: Default::default() });
+    s.glitches = Some(crate::sim::scenario::Glitches { runs, rows, size_mm, kind: Default::default(), joint: None, size_deg: None });
     s.name = format!("realistic-{seed}-{decimals}");
     Ok((s, robot))
 }

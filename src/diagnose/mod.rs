@@ -18,6 +18,7 @@
 //!
 //! Nothing here reads how the data were made.
 
+pub mod faults;
 pub mod hidden;
 
 use crate::calib::effects::{EffectBlock, EffectKind, Size};
@@ -284,6 +285,11 @@ pub struct Diagnosis {
     /// jumped and stayed): a cause of the sensor, corrected and kept, not fitted by the model.
     #[serde(default)]
     pub reading_steps: Vec<crate::calib::robust::ReadingStep>,
+    /// What went wrong in each run of outlier rows and each reading step: the hypothesis that
+    /// explains the rows as logged (the reading, one joint's logged angle, the instrument), or
+    /// `unexplained` ([`faults`]).
+    #[serde(default)]
+    pub run_faults: Vec<faults::RunFault>,
     /// The data's own floor ([`crate::calib::floor`]): its total and a line naming its sources.
     pub noise_floor_mm: f64,
     pub noise_floor_source: String,
@@ -852,6 +858,11 @@ fn diagnose_screened(
             false => (geo_screen, None, Vec::new()),
         };
     let (keep, mut outliers, mut outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
+    // What went wrong in each run of outlier rows and each reading step, tested on the rows as
+    // logged (see `faults`).
+    let spans: Vec<(usize, usize)> =
+        outlier_runs.iter().map(|r| (r.first_row - 1, r.last_row - 1)).chain(reading_steps.iter().map(|s| (s.first_row - 1, s.last_row - 1))).collect();
+    let run_faults = faults::explain_runs(&base, &x_base, &all, &spans, screen.scale_mm);
     // Readings in a reading step are taken corrected by its offset from here on.
     all.y = screen.corrected.y;
     for s in &reading_steps {
@@ -1144,6 +1155,7 @@ fn diagnose_screened(
         outlier_runs,
         explained_by_causes: explained_rows,
         reading_steps,
+        run_faults,
         noise_floor_mm,
         noise_floor_source,
         noise_floor,

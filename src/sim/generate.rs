@@ -259,6 +259,11 @@ fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<
             break;
         }
         let first = r * slot + rng.random_range(0..=slot - g.rows);
+        if g.kind.in_joints() {
+            corrupt_joints(g, &mut rng, rows, first.max(1), s.sampling.written_decimals());
+            hit.extend(first.max(1)..first.max(1) + g.rows);
+            continue;
+        }
         let mut size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
         for i in first..first + g.rows {
             if g.kind == crate::sim::scenario::GlitchKind::Scatter && i > first {
@@ -272,6 +277,42 @@ fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<
         }
     }
     hit
+}
+
+/// A joint fault of `g` (see [`crate::sim::scenario::Glitches`]) in the logged angles of rows
+/// `first..first + g.rows` (`first` ≥ 1: a stale joint repeats the row before).
+fn corrupt_joints(g: &crate::sim::scenario::Glitches, rng: &mut ChaCha8Rng, rows: &mut [Row], first: usize, decimals: usize) {
+    use crate::sim::scenario::GlitchKind;
+    let n = rows[0].q_deg.len();
+    let run = first..(first + g.rows).min(rows.len());
+    let drawn = g.joint.map_or_else(|| rng.random_range(0..n), |j| j - 1);
+    // Over the run: the joint furthest from zero, and the one that moves most.
+    let span = |j: usize| rows[run.clone()].iter().fold((f64::MAX, f64::MIN), |(lo, hi), r| (lo.min(r.q_deg[j]), hi.max(r.q_deg[j])));
+    let furthest = (0..n).max_by(|&a, &b| {
+        let m = |j: usize| rows[run.clone()].iter().map(|r| r.q_deg[j].abs()).fold(f64::MAX, f64::min);
+        m(a).total_cmp(&m(b))
+    });
+    let moving = (0..n).max_by(|&a, &b| (span(a).1 - span(a).0).total_cmp(&(span(b).1 - span(b).0)));
+    match g.kind {
+        GlitchKind::JointOffset => {
+            let size = g.size_deg.unwrap_or(1.0) * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            rows[run].iter_mut().for_each(|r| r.q_deg[drawn] = round_decimals(r.q_deg[drawn] + size, decimals));
+        }
+        GlitchKind::JointSign => {
+            let j = g.joint.map(|j| j - 1).or(furthest).unwrap_or(drawn);
+            rows[run].iter_mut().for_each(|r| r.q_deg[j] = -r.q_deg[j]);
+        }
+        GlitchKind::JointStale => {
+            let j = g.joint.map(|j| j - 1).or(moving).unwrap_or(drawn);
+            let stale = rows[first - 1].q_deg[j];
+            rows[run].iter_mut().for_each(|r| r.q_deg[j] = stale);
+        }
+        GlitchKind::JointSwap => {
+            let j = drawn.min(n.saturating_sub(2));
+            rows[run].iter_mut().for_each(|r| r.q_deg.swap(j, j + 1));
+        }
+        GlitchKind::Offset | GlitchKind::Scatter => {}
+    }
 }
 
 /// Test poses stratified over the nominal cable length: poses sorted by length are cut into

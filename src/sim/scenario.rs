@@ -61,6 +61,14 @@ pub struct Scenario {
 /// offset per run (`kind = "offset"`, the default: the reading jumped and stayed, like a
 /// draw-wire that slipped on its drum) or by a fresh size and sign on every row
 /// (`kind = "scatter"`: a disturbed stretch, like a cable rubbing on the arm).
+///
+/// The other kinds leave the reading alone and corrupt the *logged* joint angles of the run
+/// (the arm stands where it was commanded): `joint_offset` adds `size_deg` × (1 + U(0, 0.5)),
+/// signed from the seed, to one joint; `joint_sign` logs one joint with the wrong sign (the
+/// joint furthest from zero over the run); `joint_stale` repeats the joint's value of the row
+/// before the run (the joint that moves most over the run: the controller stopped updating
+/// it); `joint_swap` logs two neighbouring joints in each other's columns. `joint` (1-based)
+/// names the joint (a swap's first) instead.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Glitches {
@@ -69,20 +77,34 @@ pub struct Glitches {
     pub size_mm: f64,
     #[serde(default, skip_serializing_if = "GlitchKind::is_default")]
     pub kind: GlitchKind,
+    /// A joint fault's joint, 1-based.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint: Option<usize>,
+    /// A `joint_offset`'s size, degrees (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size_deg: Option<f64>,
 }
 
 /// How the readings of a glitch run are disturbed, see [`Glitches`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "snake_case")]
 pub enum GlitchKind {
     #[default]
     Offset,
     Scatter,
+    JointOffset,
+    JointSign,
+    JointStale,
+    JointSwap,
 }
 
 impl GlitchKind {
     fn is_default(&self) -> bool {
         *self == GlitchKind::Offset
+    }
+    /// Whether the fault is in the logged joint angles (not in the reading).
+    pub fn in_joints(self) -> bool {
+        matches!(self, GlitchKind::JointOffset | GlitchKind::JointSign | GlitchKind::JointStale | GlitchKind::JointSwap)
     }
 }
 
@@ -330,6 +352,13 @@ impl Scenario {
             }
             if !(g.size_mm.is_finite() && g.size_mm > 0.0 && g.size_mm <= 0.1 * (self.sensor.range_mm[1] - self.sensor.range_mm[0])) {
                 return Err(err(format!("glitches.size_mm = {} must be positive and at most 10 % of the sensor range", g.size_mm)));
+            }
+            let joints = self.sampling.ranges_deg.as_ref().map_or(usize::MAX, |r| r.len());
+            if let Some(j) = g.joint.filter(|&j| j == 0 || j > joints.min(crate::dataset::MAX_JOINTS)) {
+                return Err(err(format!("glitches.joint = {j} must be a joint of the arm, 1-based")));
+            }
+            if let Some(d) = g.size_deg.filter(|d| !(d.is_finite() && *d > 0.0 && *d <= 30.0)) {
+                return Err(err(format!("glitches.size_deg = {d} must be in (0, 30] degrees")));
             }
         }
         self.simulation.validate().map_err(err)?;

@@ -1,0 +1,237 @@
+//! What went wrong in a run of outlier rows: hypotheses tested against the rows themselves.
+//!
+//! A run of rows far off the model is a fault of the acquisition, not of the model, and there
+//! is more than one kind: the reading jumped (a reading step, see
+//! [`crate::calib::robust::reading_steps`]), one joint's logged angle is wrong over the run (an
+//! offset, the wrong sign, a value the controller stopped updating, two joints in each other's
+//! columns), or the instrument was moved. Each hypothesis is a correction of the run's rows
+//! with few or no free numbers; the model (fitted on the kept rows) predicts the corrected
+//! rows, and the hypothesis that leaves them like the kept rows with the lowest BIC is named,
+//! with its evidence, when it stands clear of the runner-up. Otherwise the run is unexplained
+//! (a jumble). The rows stay out of the fits either way; the report says why they are off.
+
+use crate::calib::model::CalibModel;
+use crate::calib::problem::{ReadingFit, Samples};
+use crate::optim::{LevenbergMarquardt, NoObserver};
+use serde::{Deserialize, Serialize};
+
+/// A named run fault: the hypothesis, its joints, its size, and how well it and its runner-up
+/// explain the run.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct RunFault {
+    /// First and last data row of the run, 1-based.
+    pub first_row: usize,
+    pub last_row: usize,
+    /// `joint_offset`, `joint_sign`, `joint_stale`, `joint_swap`, `instrument_moved`,
+    /// `reading_offset`, or `unexplained`.
+    pub cause: String,
+    /// The joints concerned, 1-based.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub joints: Vec<usize>,
+    /// An offset's size (degrees for a joint, mm for the reading), where the cause has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<f64>,
+    /// RMS residual of the run's rows as logged, and corrected by the cause, mm.
+    pub rms_as_logged_mm: f64,
+    pub rms_corrected_mm: f64,
+    /// The runner-up hypothesis and its corrected RMS.
+    pub runner_up: String,
+    pub runner_up_rms_mm: f64,
+    /// One line of evidence.
+    pub evidence: String,
+}
+
+/// A corrected run explains it when its RMS is at most this many robust standard deviations of
+/// the kept rows ...
+pub const EXPLAINED_SIGMAS: f64 = 4.0;
+/// ... and the runner-up's residual sum of squares is at least this many times the named one's.
+pub const CLEAR_RATIO: f64 = 4.0;
+/// Largest joint offset tried, degrees.
+pub const MAX_OFFSET_DEG: f64 = 20.0;
+
+struct Hypothesis {
+    cause: &'static str,
+    joints: Vec<usize>,
+    value: Option<f64>,
+    params: usize,
+    rss: f64,
+}
+
+/// The run's residuals (mm, unweighted) with joint angles `q` (rad) for its rows.
+fn residuals(model: &CalibModel, x: &[f64], run: &Samples, q: &[Vec<f64>]) -> Vec<f64> {
+    let data = Samples { q: q.to_vec(), ..run.unweighted() };
+    ReadingFit { model, data: &data }.residuals_mm(x)
+}
+
+fn rss(r: &[f64]) -> f64 {
+    r.iter().map(|v| v * v).sum()
+}
+
+/// The offset (rad) of joint `j` that best explains the run: a grid of 0.1° steps over
+/// ±[`MAX_OFFSET_DEG`], then golden-section search around the best point.
+fn best_offset(model: &CalibModel, x: &[f64], run: &Samples, j: usize) -> (f64, f64) {
+    let cost = |d: f64| {
+        let q: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { v + d } else { *v }).collect()).collect();
+        rss(&residuals(model, x, run, &q))
+    };
+    let step = 0.1f64.to_radians();
+    let n = (MAX_OFFSET_DEG / 0.1) as i64;
+    let (mut best, mut best_cost) = (0.0, cost(0.0));
+    for k in -n..=n {
+        let d = k as f64 * step;
+        let c = cost(d);
+        if c < best_cost {
+            (best, best_cost) = (d, c);
+        }
+    }
+    let (mut a, mut b) = (best - step, best + step);
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..40 {
+        let (c, d) = (b - g * (b - a), a + g * (b - a));
+        if cost(c) < cost(d) {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let d = 0.5 * (a + b);
+    (d, cost(d).min(best_cost))
+}
+
+/// Every hypothesis for the run's rows `rows` (indices into `all`, consecutive; `all` in
+/// acquisition order, readings as logged, unweighted).
+fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> Vec<Hypothesis> {
+    let run = all.subset(rows);
+    let nj = model.chain.n_joints;
+    let mut out = Vec::new();
+    let logged = rss(&residuals(model, x, &run, &run.q));
+    out.push(Hypothesis { cause: "unexplained", joints: vec![], value: None, params: 0, rss: logged });
+    // The reading jumped: one offset.
+    let r = residuals(model, x, &run, &run.q);
+    let mean = r.iter().sum::<f64>() / r.len() as f64;
+    out.push(Hypothesis { cause: "reading_offset", joints: vec![], value: Some(mean), params: 1, rss: r.iter().map(|v| (v - mean).powi(2)).sum() });
+    for j in 0..nj {
+        let (d, c) = best_offset(model, x, &run, j);
+        out.push(Hypothesis { cause: "joint_offset", joints: vec![j + 1], value: Some(d.to_degrees()), params: 1, rss: c });
+        let flipped: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { -v } else { *v }).collect()).collect();
+        out.push(Hypothesis { cause: "joint_sign", joints: vec![j + 1], value: None, params: 0, rss: rss(&residuals(model, x, &run, &flipped)) });
+        // A stale joint: logged constant over the run while it moved on. Its true angles are
+        // taken on the line between the rows either side of the run, or continuing the steps
+        // of the two rows before it (a sweep that ends within the run); the better counts.
+        let (first, last) = (rows[0], rows[rows.len() - 1]);
+        let constant = run.q.iter().all(|q| q[j] == run.q[0][j]);
+        if constant && first > 1 {
+            let a = all.q[first - 1][j];
+            let steps = [(last + 1 < all.len()).then(|| (all.q[last + 1][j] - a) / (rows.len() as f64 + 1.0)), Some(all.q[first - 1][j] - all.q[first - 2][j])];
+            let best = steps
+                .into_iter()
+                .flatten()
+                .filter(|d| d.abs() > 1e-9)
+                .map(|d| {
+                    let q: Vec<Vec<f64>> = run
+                        .q
+                        .iter()
+                        .enumerate()
+                        .map(|(k, q)| q.iter().enumerate().map(|(i, v)| if i == j { a + d * (k as f64 + 1.0) } else { *v }).collect())
+                        .collect();
+                    rss(&residuals(model, x, &run, &q))
+                })
+                .fold(f64::INFINITY, f64::min);
+            if best.is_finite() {
+                out.push(Hypothesis { cause: "joint_stale", joints: vec![j + 1], value: None, params: 0, rss: best });
+            }
+        }
+        for k in j + 1..nj {
+            let swapped: Vec<Vec<f64>> = run
+                .q
+                .iter()
+                .map(|q| {
+                    let mut q = q.clone();
+                    q.swap(j, k);
+                    q
+                })
+                .collect();
+            out.push(Hypothesis { cause: "joint_swap", joints: vec![j + 1, k + 1], value: None, params: 0, rss: rss(&residuals(model, x, &run, &swapped)) });
+        }
+    }
+    // The instrument moved: its placement refitted on the run's rows.
+    let placement = model.placement_range();
+    if run.y.len() > 2 * placement.len() {
+        let fixed: Vec<bool> = (0..x.len()).map(|k| !placement.contains(&k)).collect();
+        let plain = run.unweighted();
+        let fit = ReadingFit { model, data: &plain };
+        let xm = LevenbergMarquardt::budget(50).minimize(&fit, x, &fixed, &mut NoObserver).x;
+        out.push(Hypothesis { cause: "instrument_moved", joints: vec![], value: None, params: placement.len(), rss: rss(&fit.residuals_mm(&xm)) });
+    }
+    out
+}
+
+/// Names what went wrong in each run of outlier rows (`runs`: first and last row, 0-based,
+/// inclusive) of `all` (in acquisition order, readings as logged) against `model` at `x`, with
+/// the kept rows' robust scale `scale_mm`.
+pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize, usize)], scale_mm: f64) -> Vec<RunFault> {
+    runs.iter()
+        .map(|&(first, last)| {
+            let rows: Vec<usize> = (first..=last).collect();
+            let mut h = hypotheses(model, x, all, &rows);
+            let n = (rows.len() * all.dim) as f64;
+            let bic = |h: &Hypothesis| n * (h.rss / n).max(1e-30).ln() + h.params as f64 * n.ln();
+            h.sort_by(|a, b| bic(a).total_cmp(&bic(b)));
+            let rms = |h: &Hypothesis| (h.rss / n).sqrt();
+            let logged = h.iter().find(|h| h.cause == "unexplained").map_or(f64::NAN, rms);
+            let best = &h[0];
+            // The runner-up: the best hypothesis of another kind or other joints.
+            let runner = h.iter().skip(1).find(|o| o.cause != best.cause || o.joints != best.joints);
+            let clear = runner.is_none_or(|o| o.rss >= CLEAR_RATIO * best.rss);
+            let explained = best.cause != "unexplained" && rms(best) <= EXPLAINED_SIGMAS * scale_mm && clear;
+            let (runner_up, runner_up_rms_mm) = runner.map_or((String::new(), f64::NAN), |o| (label(o), rms(o)));
+            let evidence = if explained {
+                format!(
+                    "{}: the run's rows {:.3} mm RMS as logged, {:.3} mm so corrected (kept rows' robust sd {:.3} mm); next best {} at {:.3} mm",
+                    label(best),
+                    logged,
+                    rms(best),
+                    scale_mm,
+                    runner_up,
+                    runner_up_rms_mm
+                )
+            } else {
+                format!(
+                    "no hypothesis leaves the rows within {EXPLAINED_SIGMAS} robust sd ({:.3} mm) and clear of the next: best {} at {:.3} mm, then {} at {:.3} mm (as logged {:.3} mm)",
+                    EXPLAINED_SIGMAS * scale_mm,
+                    label(best),
+                    rms(best),
+                    runner_up,
+                    runner_up_rms_mm,
+                    logged
+                )
+            };
+            RunFault {
+                first_row: first + 1,
+                last_row: last + 1,
+                cause: if explained { best.cause.to_string() } else { "unexplained".into() },
+                joints: if explained { best.joints.clone() } else { vec![] },
+                value: if explained { best.value } else { None },
+                rms_as_logged_mm: logged,
+                rms_corrected_mm: if explained { rms(best) } else { logged },
+                runner_up,
+                runner_up_rms_mm,
+                evidence,
+            }
+        })
+        .collect()
+}
+
+fn label(h: &Hypothesis) -> String {
+    let joints = h.joints.iter().map(|j| format!("j{j}")).collect::<Vec<_>>().join("<->");
+    let value = match (h.cause, h.value) {
+        ("joint_offset", Some(v)) => format!(" {v:+.3} deg"),
+        ("reading_offset", Some(v)) => format!(" {v:+.3} mm"),
+        _ => String::new(),
+    };
+    if joints.is_empty() {
+        format!("{}{value}", h.cause)
+    } else {
+        format!("{} {joints}{value}", h.cause)
+    }
+}
