@@ -23,7 +23,8 @@ pub struct RunFault {
     pub first_row: usize,
     pub last_row: usize,
     /// `joint_offset`, `joint_sign`, `joint_stale`, `joint_swap`, `instrument_moved`,
-    /// `reading_offset`, or `unexplained`.
+    /// `reading_offset`; `ambiguous` when the best and the runner-up both leave the rows like
+    /// the kept rows; `unexplained` when no hypothesis does.
     pub cause: String,
     /// The joints concerned, 1-based.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -44,8 +45,11 @@ pub struct RunFault {
 /// A corrected run explains it when its RMS is at most this many robust standard deviations of
 /// the kept rows ...
 pub const EXPLAINED_SIGMAS: f64 = 4.0;
-/// ... and the runner-up's residual sum of squares is at least this many times the named one's.
+/// ... and the runner-up's residual sum of squares is at least this many times the named one's
+/// and its RMS above [`RUNNER_UP_SIGMAS`] robust standard deviations (else both explain the
+/// rows: `ambiguous`).
 pub const CLEAR_RATIO: f64 = 4.0;
+pub const RUNNER_UP_SIGMAS: f64 = 2.0;
 /// Largest joint offset tried, degrees.
 pub const MAX_OFFSET_DEG: f64 = 20.0;
 
@@ -182,8 +186,9 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
             let best = &h[0];
             // The runner-up: the best hypothesis of another kind or other joints.
             let runner = h.iter().skip(1).find(|o| o.cause != best.cause || o.joints != best.joints);
-            let clear = runner.is_none_or(|o| o.rss >= CLEAR_RATIO * best.rss);
-            let explained = best.cause != "unexplained" && rms(best) <= EXPLAINED_SIGMAS * scale_mm && clear;
+            let clear = runner.is_none_or(|o| o.rss >= CLEAR_RATIO * best.rss && rms(o) > RUNNER_UP_SIGMAS * scale_mm);
+            let fits = best.cause != "unexplained" && rms(best) <= EXPLAINED_SIGMAS * scale_mm;
+            let explained = fits && clear;
             let (runner_up, runner_up_rms_mm) = runner.map_or((String::new(), f64::NAN), |o| (label(o), rms(o)));
             let evidence = if explained {
                 format!(
@@ -195,9 +200,19 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
                     runner_up,
                     runner_up_rms_mm
                 )
+            } else if fits {
+                format!(
+                    "{} ({:.3} mm) or {} ({:.3} mm): both leave the rows like the kept rows (robust sd {:.3} mm; as logged {:.3} mm), these rows cannot tell them apart",
+                    label(best),
+                    rms(best),
+                    runner_up,
+                    runner_up_rms_mm,
+                    scale_mm,
+                    logged
+                )
             } else {
                 format!(
-                    "no hypothesis leaves the rows within {EXPLAINED_SIGMAS} robust sd ({:.3} mm) and clear of the next: best {} at {:.3} mm, then {} at {:.3} mm (as logged {:.3} mm)",
+                    "no hypothesis leaves the rows within {EXPLAINED_SIGMAS} robust sd ({:.3} mm): best {} at {:.3} mm, then {} at {:.3} mm (as logged {:.3} mm)",
                     EXPLAINED_SIGMAS * scale_mm,
                     label(best),
                     rms(best),
@@ -209,7 +224,13 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
             RunFault {
                 first_row: first + 1,
                 last_row: last + 1,
-                cause: if explained { best.cause.to_string() } else { "unexplained".into() },
+                cause: if explained {
+                    best.cause.to_string()
+                } else if fits {
+                    "ambiguous".into()
+                } else {
+                    "unexplained".into()
+                },
                 joints: if explained { best.joints.clone() } else { vec![] },
                 value: if explained { best.value } else { None },
                 rms_as_logged_mm: logged,
