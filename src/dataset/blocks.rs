@@ -144,9 +144,7 @@ impl Blocks {
             sizes[b] += 1;
         }
         let multi: Vec<usize> = sizes.iter().copied().filter(|&s| s > 1).collect();
-        let mut sorted: Vec<f64> = sizes.iter().map(|&s| s as f64).collect();
-        sorted.sort_by(f64::total_cmp);
-        let median = crate::calib::stats::median(&sorted);
+        let median = median(sizes.iter().map(|&s| s as f64).collect());
         let count = |k: Boundary| self.starts.iter().filter(|s| s.1 == k).count();
         let (sweeps, gaps, declared, steps) = (count(Boundary::Sweep), count(Boundary::TimeGap), count(Boundary::Declared), count(Boundary::ReadingStep));
         let rows_multi: usize = multi.iter().sum();
@@ -184,7 +182,7 @@ impl Blocks {
 /// step (`None`: read from their decimals).
 pub fn detect(data: &Dataset, angle_step_deg: Option<f64>) -> (Blocks, Option<f64>) {
     let n = data.rows.len();
-    let step = angle_step_deg.or_else(|| crate::calib::floor::logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())));
+    let step = angle_step_deg.or_else(|| super::logging::logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())));
     let tol = step.map_or(UNROUNDED_TOL_DEG, |s| 0.5 * s).max(UNROUNDED_TOL_DEG);
     let joints = data.n_joints();
     let min_still = joints.saturating_sub(MAX_SWEEP_MOVING).max(1);
@@ -224,12 +222,21 @@ pub fn detect(data: &Dataset, angle_step_deg: Option<f64>) -> (Blocks, Option<f6
 /// The pause in `t` (s) beyond which a new block starts, when every row has `t`.
 fn time_gap(data: &Dataset) -> Option<f64> {
     let t: Vec<f64> = data.rows.iter().map(|r| r.t_s).collect::<Option<Vec<f64>>>()?;
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|v| *v > 0.0).collect();
+    let d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|v| *v > 0.0).collect();
     if d.is_empty() {
         return None;
     }
-    d.sort_by(f64::total_cmp);
-    Some((GAP_FACTOR * crate::calib::stats::median(&d)).max(GAP_MIN_S))
+    Some((GAP_FACTOR * median(d)).max(GAP_MIN_S))
+}
+
+/// The median of `v` (NaN for none).
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
 }
 
 #[cfg(test)]

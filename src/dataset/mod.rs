@@ -57,6 +57,7 @@
 
 pub mod blocks;
 mod csv_io;
+pub mod logging;
 mod xlsx;
 
 use crate::error::{Error, Result};
