@@ -426,6 +426,21 @@ struct Ctx {
 }
 
 impl Ctx {
+    /// The selection rows of the kept rows `kept` (rows `keep` of the data, in blocks `blocks`)
+    /// with their folds, and the confirmation set: every k-th block of kept rows in acquisition
+    /// order (every k-th row when no rows share a block), never seen by selection. Also the
+    /// warning of [`block_folds`].
+    fn over_blocks(kept: &Samples, keep: &[usize], blocks: &crate::dataset::blocks::Blocks, opts: &DiagnoseOptions) -> (Ctx, Samples, Option<String>) {
+        let every = if opts.confirm_fraction > 0.0 { (1.0 / opts.confirm_fraction).round().max(2.0) as usize } else { usize::MAX };
+        let kept_groups = blocks.ids_of(keep);
+        let (sel_idx, conf_idx): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&i| kept_groups[i] % every != every - 1);
+        let sel_groups = blocks.ids_of(&sel_idx.iter().map(|&i| keep[i]).collect::<Vec<_>>());
+        let shared = blocks.any_shared();
+        let (folds, other_folds, few_blocks) = block_folds(&sel_groups, opts.folds, shared);
+        let ctx = Ctx { folds, other_folds, groups: shared.then_some(sel_groups), data: kept.subset(&sel_idx), rank_tol: opts.rank_tol };
+        (ctx, kept.subset(&conf_idx), few_blocks)
+    }
+
     fn lm() -> LevenbergMarquardt {
         // Held-out residuals need a few significant digits, not the last one.
         LevenbergMarquardt::budget(100).tolerances(1e-9, 1e-9)
@@ -481,6 +496,44 @@ fn refit(model: &CalibModel, data: &Samples, x0: &[f64], rank_tol: f64) -> (Vec<
     (Ctx::lm().minimize(&fit, x0, &fixed, &mut NoObserver).x, fixed)
 }
 
+/// The acquisition's blocks (sweeps, pauses, declared blocks) and the ends of the reading steps
+/// `steps` (rows that share an error are held out together and count as less than their
+/// number), what they look like, and where rows share blocks and the angles are logged at a
+/// step, the logging error as the noise model of every fit from here on: `all` gets its
+/// whitening (generalised least squares over the blocks, see `calib::gls`), from the geometric
+/// model `base` at `x` and the kept rows `keep`.
+#[allow(clippy::too_many_arguments)]
+fn acquisition_structure(
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    steps: &[crate::calib::robust::ReadingStep],
+    base: &CalibModel,
+    x: &[f64],
+    all: &mut Samples,
+    keep: &[usize],
+    progress: &dyn Fn(&str),
+) -> (crate::dataset::blocks::Blocks, Structure, Option<NoiseModel>) {
+    let (mut blocks, angle_step) = crate::dataset::blocks::detect(data, opts.angle_step_deg);
+    for s in steps {
+        blocks.split_before(s.first_row - 1, Boundary::ReadingStep);
+        blocks.split_before(s.last_row, Boundary::ReadingStep);
+    }
+    let acquisition = blocks.structure(angle_step);
+    if !blocks.any_shared() {
+        return (blocks, acquisition, None);
+    }
+    progress(&format!("acquisition: {}", acquisition.summary));
+    let Some(step) = angle_step else { return (blocks, acquisition, None) };
+    let m = std::sync::Arc::new(rounding_model(base, x, all, keep, data, &blocks, step));
+    let noise = NoiseModel { angle_step_deg: step, rounding_mm: m.rounding_var().sqrt(), reading_noise_mm: m.noise_var.sqrt() };
+    progress(&format!(
+        "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
+        noise.rounding_mm, noise.reading_noise_mm
+    ));
+    all.gls = Some(crate::calib::gls::Whitening::new(m, (0..all.len()).collect()));
+    (blocks, acquisition, Some(noise))
+}
+
 /// The joint angles' logging error of the rows of `all` (the dataset `data`'s rows, in blocks
 /// `blocks`, logged at `step` degrees) through the geometric model `base` at `x`: each row's
 /// ∂reading/∂q, the joints that hold in its block, and the reading's own noise: the kept rows'
@@ -518,6 +571,53 @@ fn rounding_model(
     let rounding = probe.rounding_var();
     let noise_var = (total - rounding).max(0.05 * rounding).max(1e-12);
     crate::calib::gls::RoundingModel { noise_var, scale_var: noise_var + rounding, ..probe }
+}
+
+/// Every kept cause (`found`, the first `confirmed` of them; `chain[k]` the model with the first
+/// k) of a physical size in the model fitted on every kept row `kept` (selection and
+/// confirmation): the first that is not ends the list, like an unconfirmed one (`confirmed` is
+/// lowered). One line per cause left out, saying why.
+fn drop_not_physical(
+    chain: &[Fitted],
+    found: &[(EffectBlock, f64, f64, f64)],
+    kept: &Samples,
+    rank_tol: f64,
+    confirmed: &mut usize,
+    progress: &dyn Fn(&str),
+) -> Vec<String> {
+    let mut notes = Vec::new();
+    while *confirmed > 0 {
+        let m = &chain[*confirmed];
+        let (x, _) = refit(&m.model, kept, &m.x, rank_tol);
+        let Some((k, why)) = found[..*confirmed].iter().enumerate().find_map(|(k, f)| {
+            let b = m.model.effects.iter().position(|e| e == &f.0)?;
+            implausible_param(&m.model, &x, b).map(|w| (k, w))
+        }) else {
+            break;
+        };
+        let dropped: Vec<String> = found[k..*confirmed].iter().map(|f| f.0.label()).collect();
+        progress(&format!("not physical on every kept row: {why}; left out: {}", dropped.join(", ")));
+        notes.push(format!("{} left out of the model: fitted on every kept row, {why}", dropped.join(", ")));
+        *confirmed = k;
+    }
+    notes
+}
+
+/// No model predicts unseen rows better than the data's floor: a held-out RMSE below it means
+/// the held-out rows shared errors with the training rows. The warning, if so (`shared`: the
+/// data have blocks of several rows).
+fn leak_warning(heldout_mm: f64, floor_mm: f64, shared: bool) -> Option<String> {
+    (heldout_mm < floor_mm).then(|| {
+        let missed = if shared {
+            "blocks the detection missed (declare them in a block column)"
+        } else {
+            "rows of one sweep or one logging error, not detected as blocks"
+        };
+        format!(
+            "the final held-out RMSE ({heldout_mm:.4} mm) is below the data's floor ({floor_mm:.4} mm): the held-out rows share errors with the training \
+             rows (the split leaks), so it is optimistic; {missed}"
+        )
+    })
 }
 
 /// Blocked and interleaved folds over the selection rows' blocks (`groups`), and a warning when
@@ -871,44 +971,11 @@ fn diagnose_screened(
     if !outliers.is_empty() {
         progress(&format!("{} outlier rows kept out of the fit: {:?}", outliers.len(), outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
     }
-    // The acquisition's blocks (sweeps, pauses, declared blocks) and the ends of the reading
-    // steps: rows that share an error are held out together and count as less than their number.
-    let (mut blocks, angle_step) = crate::dataset::blocks::detect(data, opts.angle_step_deg);
-    for s in &reading_steps {
-        blocks.split_before(s.first_row - 1, Boundary::ReadingStep);
-        blocks.split_before(s.last_row, Boundary::ReadingStep);
-    }
-    let acquisition = blocks.structure(angle_step);
+    let (blocks, acquisition, noise_model) = acquisition_structure(data, opts, &reading_steps, &base, &x_base, &mut all, &keep, progress);
     let shared = blocks.any_shared();
-    if shared {
-        progress(&format!("acquisition: {}", acquisition.summary));
-    }
-    // The joint angles' logging error, shared by the rows of a block, as a noise model: every
-    // fit from here on is generalised least squares over the blocks (see `calib::gls`).
-    let noise_model = match (shared, angle_step) {
-        (true, Some(step)) => {
-            let m = std::sync::Arc::new(rounding_model(&base, &x_base, &all, &keep, data, &blocks, step));
-            progress(&format!(
-                "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
-                m.rounding_var().sqrt(),
-                m.noise_var.sqrt()
-            ));
-            all.gls = Some(crate::calib::gls::Whitening::new(m.clone(), (0..all.len()).collect()));
-            Some(NoiseModel { angle_step_deg: step, rounding_mm: m.rounding_var().sqrt(), reading_noise_mm: m.noise_var.sqrt() })
-        }
-        _ => None,
-    };
     let kept = all.subset(&keep);
     let kept_rows = Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
-    // The confirmation set: every k-th block of kept rows in acquisition order (every k-th row
-    // when no rows share a block), never seen by selection.
-    let every = if opts.confirm_fraction > 0.0 { (1.0 / opts.confirm_fraction).round().max(2.0) as usize } else { usize::MAX };
-    let kept_groups = blocks.ids_of(&keep);
-    let (sel_idx, conf_idx): (Vec<usize>, Vec<usize>) = (0..kept.len()).partition(|&i| kept_groups[i] % every != every - 1);
-    let (selection, confirmation) = (kept.subset(&sel_idx), kept.subset(&conf_idx));
-    let sel_groups = blocks.ids_of(&sel_idx.iter().map(|&i| keep[i]).collect::<Vec<_>>());
-    let (blocked, interleaved, few_blocks) = block_folds(&sel_groups, opts.folds, shared);
-    let mut ctx = Ctx { folds: blocked, other_folds: interleaved, groups: shared.then_some(sel_groups), data: selection, rank_tol: opts.rank_tol };
+    let (mut ctx, confirmation, few_blocks) = Ctx::over_blocks(&kept, &keep, &blocks, opts);
     let mut baseline = ctx.evaluate(base.clone(), &x_base);
     let other_oof = ctx.heldout(&baseline.model, &baseline.x, &baseline.fixed, &ctx.other_folds);
     let (rmse_blocked, rmse_interleaved) = (rms(&baseline.oof), rms(&other_oof));
@@ -999,23 +1066,7 @@ fn diagnose_screened(
     if !unconfirmed.is_empty() {
         progress(&format!("not confirmed on the {} confirmation rows: {}", confirmation.len(), unconfirmed.join(", ")));
     }
-    // Every kept cause of a physical size in the model fitted on every kept row (selection and
-    // confirmation): the first that is not ends the list, like an unconfirmed one.
-    let mut not_physical: Vec<String> = Vec::new();
-    while confirmed > 0 {
-        let m = &chain[confirmed];
-        let (x, _) = refit(&m.model, &kept, &m.x, opts.rank_tol);
-        let Some((k, why)) = found[..confirmed].iter().enumerate().find_map(|(k, f)| {
-            let b = m.model.effects.iter().position(|e| e == &f.0)?;
-            implausible_param(&m.model, &x, b).map(|w| (k, w))
-        }) else {
-            break;
-        };
-        let dropped: Vec<String> = found[k..confirmed].iter().map(|f| f.0.label()).collect();
-        progress(&format!("not physical on every kept row: {why}; left out: {}", dropped.join(", ")));
-        not_physical.push(format!("{} left out of the model: fitted on every kept row, {why}", dropped.join(", ")));
-        confirmed = k;
-    }
+    let not_physical = drop_not_physical(&chain, &found, &kept, opts.rank_tol, &mut confirmed, progress);
     found.truncate(confirmed);
     let current = chain[confirmed].clone();
     let other_rmse: Vec<f64> = chain[..=confirmed].iter().map(|f| rms(&ctx.heldout(&f.model, &f.x, &f.fixed, &ctx.other_folds))).collect();
@@ -1113,19 +1164,7 @@ fn diagnose_screened(
     let noise_floor_source = noise_floor_source.join("; ");
     let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
     let current_oof = rms(&current.oof);
-    // No model predicts unseen rows better than the data's floor: a held-out RMSE below it
-    // means the held-out rows shared errors with the training rows.
-    if current_oof < noise_floor_mm {
-        warnings.push(format!(
-            "the final held-out RMSE ({current_oof:.4} mm) is below the data's floor ({noise_floor_mm:.4} mm): the held-out rows share errors with the \
-             training rows (the split leaks), so it is optimistic; {}",
-            if shared {
-                "blocks the detection missed (declare them in a block column)"
-            } else {
-                "rows of one sweep or one logging error, not detected as blocks"
-            }
-        ));
-    }
+    warnings.extend(leak_warning(current_oof, noise_floor_mm, shared));
     let effects_option = current
         .model
         .effects
