@@ -104,6 +104,8 @@ impl DiagnoseArgs {
         opts.seed = a.seed;
         opts.row_std = !a.ignore_row_std;
         opts.instrument_accuracy_mm = super::instrument_accuracy(a.instrument_accuracy_mm)?;
+        // Checked here, with the other options, before any data are read.
+        a.split_by.parse::<crate::calib::run::SplitBy>()?;
         opts.candidates = parse_effects("--candidates", &a.candidates)?;
         if let Some(r) = a.angle_resolution_deg {
             if !(r.is_finite() && r > 0.0 && r <= 10.0) {

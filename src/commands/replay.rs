@@ -153,6 +153,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
             return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
         }
     }
+    let split_by: crate::calib::run::SplitBy = a.split_by.parse()?;
     if a.out.exists() && !a.out.is_dir() {
         return Err(Error::Invalid(format!("--out {} is a file; replay writes a folder (replay.csv, replay.json)", a.out.display())));
     }
@@ -227,7 +228,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let rejected: Vec<(usize, String)> = g.truth.rejected.iter().map(|r| (r.index + 1, r.reason.clone())).collect();
     let (judged_idx, judged_on): (Option<Vec<usize>>, String) = match a.test_fraction {
         Some(f) => {
-            let (_, test) = crate::calib::run::split_rows(&data, Some(f), a.seed, a.split_by.parse()?)?;
+            let (_, test) = crate::calib::run::split_rows(&data, Some(f), a.seed, split_by)?;
             (Some(test), format!("the rows --test-fraction {f} --seed {} holds out (as calibrate and diagnose draw them)", a.seed))
         }
         None if data.rows.iter().any(|r| r.split == Some(Split::Test)) => (Some(data.test_indices()), "the data's test rows (split column)".into()),
@@ -310,8 +311,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
             (row.split, p.split) = (Some(split), split);
         }
     }
-    summary.after_calibration =
-        judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.test_fraction, a.seed, a.split_by.parse().unwrap_or_default()));
+    summary.after_calibration = judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.test_fraction, a.seed, split_by));
     summary.seconds = t0.elapsed().as_secs_f64();
     let mut outputs = OutputSet::new();
     if let Some(f) = &figs {
