@@ -60,6 +60,12 @@ impl RoundingModel {
     pub fn rounding_var(&self) -> f64 {
         self.scale_var - self.noise_var
     }
+
+    /// The same model with a reading noise of `noise_var` mm².
+    pub fn with_noise_var(self, noise_var: f64) -> RoundingModel {
+        let rounding = self.rounding_var();
+        RoundingModel { noise_var, scale_var: noise_var + rounding, ..self }
+    }
 }
 
 /// The whitening of one set of rows of a [`RoundingModel`]: a factor per run of consecutive

@@ -108,10 +108,9 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
     let run = all.subset(rows);
     let nj = model.chain.n_joints;
     let mut out = Vec::new();
-    let logged = rss(&residuals(model, x, &run, &run.q));
-    out.push(Hypothesis { cause: "unexplained", joints: vec![], value: None, params: 0, rss: logged });
-    // The reading jumped: one offset.
     let r = residuals(model, x, &run, &run.q);
+    out.push(Hypothesis { cause: "unexplained", joints: vec![], value: None, params: 0, rss: rss(&r) });
+    // The reading jumped: one offset.
     let mean = r.iter().sum::<f64>() / r.len() as f64;
     out.push(Hypothesis { cause: "reading_offset", joints: vec![], value: Some(mean), params: 1, rss: r.iter().map(|v| (v - mean).powi(2)).sum() });
     for j in 0..nj {

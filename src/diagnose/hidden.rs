@@ -99,20 +99,28 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
     Ok(Dataset { rows, source: s.name.clone() })
 }
 
+/// The scenario's commanded poses ([`poses`]), the nominal model with the scenario's sensor
+/// placed as it is, and the poses as samples (radians, zero readings, no inputs).
+fn nominal_at_poses(s: &Scenario, robot: &Robot) -> Result<(Dataset, CalibModel, Samples)> {
+    let data = poses(s, robot)?;
+    let sn = &s.sensor;
+    let guess = SensorGuess { exit_m: sn.exit_point_mm.map(|v| v * 1e-3), offset_m: sn.length_offset_mm * 1e-3, tool_m: sn.tool_point_mm.map(|v| v * 1e-3) };
+    let model = CalibModel::dh(robot, &guess, true);
+    let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
+    let samples = Samples::new(q, vec![0.0; data.rows.len()]);
+    Ok((data, model, samples))
+}
+
 /// RMS (mm) per unit size of the length change a rigid fit cannot absorb, at the scenario's
 /// poses. The size is the block's first parameter, or for eccentricity the amplitude at phase
 /// `phase` (A·sin(q + φ) = A cos φ·sin q + A sin φ·cos q).
 pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Option<usize>, phase: f64) -> Result<f64> {
-    let data = poses(s, robot)?;
+    let (data, mut model, mut samples) = nominal_at_poses(s, robot)?;
     let sn = &s.sensor;
-    let guess = SensorGuess { exit_m: sn.exit_point_mm.map(|v| v * 1e-3), offset_m: sn.length_offset_mm * 1e-3, tool_m: sn.tool_point_mm.map(|v| v * 1e-3) };
-    let mut model = CalibModel::dh(robot, &guess, true);
     let ref_c = data.rows[0].temp_c.unwrap_or(21.0);
     model.add_effect(block(kind, joint, ref_c), 0.0);
     let loads = LoadOptions { cable_tension_n: sn.tension_n, ..Default::default() };
     let torque = TorqueModel::new(robot, &loads, Some(sn.exit_point_m()), sn.tool_point_m());
-    let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
-    let mut samples = Samples::new(q, vec![0.0; data.rows.len()]);
     samples.inputs = row_inputs(&data, Some(&torque));
     let fit = ReadingFit { model: &model, data: &samples };
     let mut j = DMatrix::zeros(samples.len(), model.n_params());
@@ -169,12 +177,7 @@ pub fn realistic(seed: u64, decimals: usize) -> Result<(Scenario, Robot)> {
 /// poses (uniform quantisation through the nominal model's joint Jacobian): the floor an effect
 /// of realistic data must rise above.
 pub fn logging_floor_mm(s: &Scenario, robot: &Robot, step_deg: f64) -> Result<f64> {
-    let data = poses(s, robot)?;
-    let sn = &s.sensor;
-    let guess = SensorGuess { exit_m: sn.exit_point_mm.map(|v| v * 1e-3), offset_m: sn.length_offset_mm * 1e-3, tool_m: sn.tool_point_mm.map(|v| v * 1e-3) };
-    let model = CalibModel::dh(robot, &guess, true);
-    let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
-    let samples = Samples::new(q, vec![0.0; data.rows.len()]);
+    let (_, model, samples) = nominal_at_poses(s, robot)?;
     let step = crate::calib::floor::Step::Given(step_deg);
     let f = crate::calib::floor::noise_floor(&model, &model.nominal, &samples, Some(step), None, None, Default::default());
     Ok(f.total_mm)
@@ -189,10 +192,8 @@ pub fn hidden_realistic(seed: u64, decimals: usize, factors: std::ops::Range<f64
     let noise = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
     let floor = logging_floor_mm(&s, &robot, 10f64.powi(-(decimals as i32)))?;
     let sigma = (noise * noise + floor * floor).sqrt();
-    let (s, robot, h) = hide_in(s, robot, seed, 1, sigma, factors, true)?;
-    let name = s.name.clone();
-    let mut s = s;
-    s.name = format!("{name}-realistic-{decimals}");
+    let (mut s, robot, h) = hide_in(s, robot, seed, 1, sigma, factors, true)?;
+    s.name = format!("hidden-{seed}-realistic-{decimals}");
     Ok((s, robot, h, sigma))
 }
 

@@ -30,7 +30,7 @@ use crate::calib::stats::nested_f_test_deff;
 use crate::dataset::blocks::{Boundary, Structure};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::optim::{covariance, LevenbergMarquardt, NoObserver};
+use crate::optim::{LevenbergMarquardt, NoObserver};
 use crate::robot::Robot;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -567,10 +567,9 @@ fn rounding_model(
     }
     let res = ReadingFit { model: base, data: &all.subset(keep).unweighted() }.residuals_mm(x);
     let total = res.iter().map(|r| r * r).sum::<f64>() / res.len().max(1) as f64;
-    let probe = crate::calib::gls::RoundingModel::new(dim, blocks.of_row.clone(), jq, holds, step, 0.0);
-    let rounding = probe.rounding_var();
-    let noise_var = (total - rounding).max(0.05 * rounding).max(1e-12);
-    crate::calib::gls::RoundingModel { noise_var, scale_var: noise_var + rounding, ..probe }
+    let model = crate::calib::gls::RoundingModel::new(dim, blocks.of_row.clone(), jq, holds, step, 0.0);
+    let rounding = model.rounding_var();
+    model.with_noise_var((total - rounding).max(0.05 * rounding).max(1e-12))
 }
 
 /// Every kept cause (`found`, the first `confirmed` of them; `chain[k]` the model with the first
@@ -674,11 +673,8 @@ struct Covariances {
 
 impl Covariances {
     fn of(fit: &ReadingFit, x: &[f64], fixed: &[bool], groups: Option<&[usize]>) -> Covariances {
-        let classical = covariance(fit, x, fixed);
-        let robust = groups.and_then(|g| {
-            let per_value: Vec<usize> = g.iter().flat_map(|&b| std::iter::repeat_n(b, fit.data.dim)).collect();
-            crate::optim::cluster_covariance(fit, x, fixed, &per_value)
-        });
+        let per_value: Option<Vec<usize>> = groups.map(|g| g.iter().flat_map(|&b| std::iter::repeat_n(b, fit.data.dim)).collect());
+        let (classical, robust) = crate::optim::covariances(fit, x, fixed, per_value.as_deref());
         Covariances { classical, robust }
     }
 

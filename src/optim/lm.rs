@@ -506,57 +506,10 @@ impl LevenbergMarquardt {
 /// Returns `None` if there are no more residuals than free parameters, or if the cost or the
 /// Jacobian at `x` is not finite.
 pub fn covariance<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool]) -> Option<DMatrix<f64>> {
-    let n = p.n_params();
-    let m = p.n_residuals();
-    if x.len() != n {
-        return None;
+    match Scaled::at(p, x, fixed) {
+        Ok(s) => s.classical(),
+        Err(early) => early,
     }
-    let free = free_indices(fixed, n);
-    let nf = free.len();
-    let mut out = DMatrix::<f64>::zeros(n, n);
-    if nf == 0 {
-        return Some(out);
-    }
-    if m <= nf {
-        return None;
-    }
-    let mut r = vec![0.0; m];
-    p.residuals(x, &mut r);
-    let cost = half_sq(&r);
-    if !cost.is_finite() {
-        return None;
-    }
-    let mut jac = DMatrix::<f64>::zeros(m, n);
-    p.jacobian(x, &mut jac);
-    // Unit-norm columns, so that parameters in mm and in rad do not spoil the conditioning;
-    // the scaling is undone below.
-    let norms: Vec<f64> = free.iter().map(|&k| jac.column(k).norm().max(1e-300)).collect();
-    let jf = DMatrix::from_fn(m, nf, |i, k| jac[(i, free[k])] / norms[k]);
-    if jf.iter().any(|v| !v.is_finite()) {
-        return None;
-    }
-    let sigma2 = 2.0 * cost / (m - nf) as f64;
-    let svd = jf.svd(false, true);
-    let vt = svd.v_t.as_ref()?;
-    let s = &svd.singular_values;
-    let smax2 = s.iter().map(|v| v * v).fold(0.0, f64::max);
-    if !(smax2 > 0.0) {
-        return Some(out);
-    }
-    for (i, &si) in s.iter().enumerate() {
-        let s2 = si * si;
-        if s2 < 1e-10 * smax2 {
-            continue;
-        }
-        let w = sigma2 / s2;
-        for a in 0..nf {
-            let va = vt[(i, a)] * w / norms[a];
-            for b in 0..nf {
-                out[(free[a], free[b])] += va * vt[(i, b)] / norms[b];
-            }
-        }
-    }
-    Some(out)
 }
 
 /// The cluster-robust ("sandwich", CR1) covariance of the least-squares estimate at `x` for
@@ -566,63 +519,132 @@ pub fn covariance<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool]) -> Option<D
 /// [`covariance`] it does not assume independent residuals of one variance. `None` where
 /// [`covariance`] is, or with fewer than two clusters.
 pub fn cluster_covariance<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool], cluster: &[usize]) -> Option<DMatrix<f64>> {
-    let n = p.n_params();
-    let m = p.n_residuals();
-    let g = cluster.iter().copied().max().map_or(0, |v| v + 1);
-    if x.len() != n || cluster.len() != m || g < 2 {
-        return None;
+    covariances(p, x, fixed, Some(cluster)).1
+}
+
+/// [`covariance`] and, given the clusters, [`cluster_covariance`] from one evaluation of the
+/// residuals and the Jacobian.
+pub fn covariances<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool], cluster: Option<&[usize]>) -> (Option<DMatrix<f64>>, Option<DMatrix<f64>>) {
+    let groups = cluster.filter(|c| c.len() == p.n_residuals()).map(|c| (c, c.iter().copied().max().map_or(0, |v| v + 1))).filter(|(_, g)| *g >= 2);
+    match Scaled::at(p, x, fixed) {
+        Ok(s) => (s.classical(), groups.and_then(|(c, g)| s.cluster_robust(c, g))),
+        Err(early) => (early.clone(), groups.and(early)),
     }
-    let free = free_indices(fixed, n);
-    let nf = free.len();
-    let mut out = DMatrix::<f64>::zeros(n, n);
-    if nf == 0 {
-        return Some(out);
-    }
-    if m <= nf {
-        return None;
-    }
-    let mut r = vec![0.0; m];
-    p.residuals(x, &mut r);
-    let mut jac = DMatrix::<f64>::zeros(m, n);
-    p.jacobian(x, &mut jac);
-    let norms: Vec<f64> = free.iter().map(|&k| jac.column(k).norm().max(1e-300)).collect();
-    let jf = DMatrix::from_fn(m, nf, |i, k| jac[(i, free[k])] / norms[k]);
-    if jf.iter().chain(r.iter()).any(|v| !v.is_finite()) {
-        return None;
-    }
-    // The bread: the pseudo-inverse of JᵀJ from the SVD of J (small singular values dropped).
-    let svd = jf.clone().svd(false, true);
-    let vt = svd.v_t.as_ref()?;
-    let s = &svd.singular_values;
-    let smax2 = s.iter().map(|v| v * v).fold(0.0, f64::max);
-    if !(smax2 > 0.0) {
-        return Some(out);
-    }
-    let mut bread = DMatrix::<f64>::zeros(nf, nf);
-    for (i, &si) in s.iter().enumerate() {
-        let s2 = si * si;
-        if s2 < 1e-10 * smax2 {
-            continue;
+}
+
+/// What both covariances start from: the free parameters of `fixed`, and at `x` the residuals
+/// and the free Jacobian columns scaled to unit norm (so that parameters in mm and in rad do not
+/// spoil the conditioning), with the norms to undo it.
+struct Scaled {
+    n: usize,
+    free: Vec<usize>,
+    norms: Vec<f64>,
+    jf: DMatrix<f64>,
+    r: Vec<f64>,
+    cost: f64,
+}
+
+impl Scaled {
+    /// `Err` holds what a covariance is without evaluating anything further: zero with no free
+    /// parameter, `None` with too few residuals or a non-finite cost or Jacobian.
+    fn at<P: LeastSquares>(p: &P, x: &[f64], fixed: &[bool]) -> Result<Scaled, Option<DMatrix<f64>>> {
+        let n = p.n_params();
+        let m = p.n_residuals();
+        if x.len() != n {
+            return Err(None);
         }
-        let row = vt.row(i);
-        bread += row.transpose() * row / s2;
-    }
-    // The meat: the outer products of each cluster's score.
-    let mut scores = DMatrix::<f64>::zeros(g, nf);
-    for i in 0..m {
-        for k in 0..nf {
-            scores[(cluster[i], k)] += jf[(i, k)] * r[i];
+        let free = free_indices(fixed, n);
+        let nf = free.len();
+        if nf == 0 {
+            return Err(Some(DMatrix::<f64>::zeros(n, n)));
         }
-    }
-    let meat = scores.transpose() * &scores;
-    let scale = g as f64 / (g - 1) as f64 * (m - 1) as f64 / (m - nf) as f64;
-    let v = &bread * meat * &bread * scale;
-    for a in 0..nf {
-        for b in 0..nf {
-            out[(free[a], free[b])] = v[(a, b)] / (norms[a] * norms[b]);
+        if m <= nf {
+            return Err(None);
         }
+        let mut r = vec![0.0; m];
+        p.residuals(x, &mut r);
+        let cost = half_sq(&r);
+        if !cost.is_finite() {
+            return Err(None);
+        }
+        let mut jac = DMatrix::<f64>::zeros(m, n);
+        p.jacobian(x, &mut jac);
+        let norms: Vec<f64> = free.iter().map(|&k| jac.column(k).norm().max(1e-300)).collect();
+        let jf = DMatrix::from_fn(m, nf, |i, k| jac[(i, free[k])] / norms[k]);
+        if jf.iter().any(|v| !v.is_finite()) {
+            return Err(None);
+        }
+        Ok(Scaled { n, free, norms, jf, r, cost })
     }
-    Some(out)
+
+    /// The SVD of the scaled Jacobian: Vᵀ and the singular values, with σ_max² (None when the
+    /// decomposition gives no Vᵀ).
+    fn svd(&self) -> Option<(DMatrix<f64>, nalgebra::DVector<f64>, f64)> {
+        let svd = self.jf.clone().svd(false, true);
+        let vt = svd.v_t?;
+        let smax2 = svd.singular_values.iter().map(|v| v * v).fold(0.0, f64::max);
+        Some((vt, svd.singular_values, smax2))
+    }
+
+    /// σ²·(JᵀJ)⁺, see [`covariance`].
+    fn classical(&self) -> Option<DMatrix<f64>> {
+        let (free, norms, nf) = (&self.free, &self.norms, self.free.len());
+        let mut out = DMatrix::<f64>::zeros(self.n, self.n);
+        let sigma2 = 2.0 * self.cost / (self.r.len() - nf) as f64;
+        let (vt, s, smax2) = self.svd()?;
+        if !(smax2 > 0.0) {
+            return Some(out);
+        }
+        for (i, &si) in s.iter().enumerate() {
+            let s2 = si * si;
+            if s2 < 1e-10 * smax2 {
+                continue;
+            }
+            let w = sigma2 / s2;
+            for a in 0..nf {
+                let va = vt[(i, a)] * w / norms[a];
+                for b in 0..nf {
+                    out[(free[a], free[b])] += va * vt[(i, b)] / norms[b];
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// The sandwich over `g` clusters, see [`cluster_covariance`].
+    fn cluster_robust(&self, cluster: &[usize], g: usize) -> Option<DMatrix<f64>> {
+        let (free, norms, nf, m) = (&self.free, &self.norms, self.free.len(), self.r.len());
+        let mut out = DMatrix::<f64>::zeros(self.n, self.n);
+        // The bread: the pseudo-inverse of JᵀJ from the SVD of J (small singular values dropped).
+        let (vt, s, smax2) = self.svd()?;
+        if !(smax2 > 0.0) {
+            return Some(out);
+        }
+        let mut bread = DMatrix::<f64>::zeros(nf, nf);
+        for (i, &si) in s.iter().enumerate() {
+            let s2 = si * si;
+            if s2 >= 1e-10 * smax2 {
+                let row = vt.row(i);
+                bread += row.transpose() * row / s2;
+            }
+        }
+        // The meat: the outer products of each cluster's score.
+        let mut scores = DMatrix::<f64>::zeros(g, nf);
+        for i in 0..m {
+            for k in 0..nf {
+                scores[(cluster[i], k)] += self.jf[(i, k)] * self.r[i];
+            }
+        }
+        let meat = scores.transpose() * &scores;
+        let scale = g as f64 / (g - 1) as f64 * (m - 1) as f64 / (m - nf) as f64;
+        let v = &bread * meat * &bread * scale;
+        for a in 0..nf {
+            for b in 0..nf {
+                out[(free[a], free[b])] = v[(a, b)] / (norms[a] * norms[b]);
+            }
+        }
+        Some(out)
+    }
 }
 
 #[cfg(test)]
@@ -809,33 +831,15 @@ mod tests {
         assert!(cov[(1, 1)] > 0.0);
     }
 
-    /// y = a + b·u with u constant within clusters of 10 and an error shared by each cluster.
-    struct Clustered {
-        u: Vec<f64>,
-        y: Vec<f64>,
-    }
-    impl LeastSquares for Clustered {
-        fn n_params(&self) -> usize {
-            2
-        }
-        fn n_residuals(&self) -> usize {
-            self.u.len()
-        }
-        fn residuals(&self, x: &[f64], r: &mut [f64]) {
-            for i in 0..self.u.len() {
-                r[i] = x[0] + x[1] * self.u[i] - self.y[i];
-            }
-        }
-    }
-
     #[test]
     fn cluster_covariance_counts_shared_errors() {
         // Deterministic scrambled values in [-1, 1].
         let h = |k: usize| ((k as f64 * 12.9898).sin() * 43_758.545_3).fract();
         let (g, m) = (60, 10);
-        let u: Vec<f64> = (0..g * m).map(|i| h(i / m + 1000)).collect();
-        let y: Vec<f64> = (0..g * m).map(|i| 1.0 + 2.0 * u[i] + h(i / m + 5000) + 0.2 * h(i + 9000)).collect();
-        let p = Clustered { u, y };
+        // y = a + b·t with t constant within clusters of 10 and an error shared by each cluster.
+        let t: Vec<f64> = (0..g * m).map(|i| h(i / m + 1000)).collect();
+        let y: Vec<f64> = (0..g * m).map(|i| 1.0 + 2.0 * t[i] + h(i / m + 5000) + 0.2 * h(i + 9000)).collect();
+        let p = Linear { t, y };
         let x = LevenbergMarquardt::default().minimize(&p, &[0.0, 0.0], &[], &mut NoObserver).x;
         let classic = covariance(&p, &x, &[]).unwrap();
         let clusters: Vec<usize> = (0..g * m).map(|i| i / m).collect();

@@ -198,6 +198,6 @@ mod util;
 
 pub use de::{De, DeVariant};
 pub use ekf::{Ekf, NoHook, ObservationHook};
-pub use lm::{cluster_covariance, covariance, Damping, LevenbergMarquardt};
+pub use lm::{cluster_covariance, covariance, covariances, Damping, LevenbergMarquardt};
 pub use pf::ParticleFilter;
 pub use pso::Pso;
