@@ -98,6 +98,10 @@ pub enum Command {
         /// calib: also time `compare` over 30 seeds with every method.
         #[arg(long)]
         compare: bool,
+        /// diagnose: only these kinds of scenario (hidden, clean, realistic-1-clean,
+        /// realistic-1-above, realistic-1-below, and the same with 2 for 0.01 deg logging).
+        #[arg(long, value_delimiter = ',')]
+        categories: Vec<String>,
         #[command(flatten)]
         shard: commands::ShardArgs,
     },
@@ -149,8 +153,8 @@ pub fn run(args: Cli) -> crate::Result<()> {
             shard.shard_out.as_deref(),
             args.quiet,
         ),
-        Command::Bench { what, scenario, repeat, seeds, compare, shard } => {
-            commands::bench_command(what, scenario.as_deref(), repeat, seeds, compare, &shard, quiet)
+        Command::Bench { what, scenario, repeat, seeds, compare, categories, shard } => {
+            commands::bench_command(what, scenario.as_deref(), repeat, seeds, compare, &categories, &shard, quiet)
         }
     }
 }

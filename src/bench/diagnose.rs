@@ -12,6 +12,27 @@ use std::time::Instant;
 pub struct DetectionConfig {
     pub seeds: u64,
     pub twincal_version: String,
+    /// Only the scenarios of these categories (all when empty; see [`Variant::category`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub categories: Vec<String>,
+}
+
+impl DetectionConfig {
+    /// The detection part over `seeds` seeds, the scenarios of `categories` only (all when
+    /// empty; an unknown category is an error naming the known ones).
+    pub fn new(seeds: u64, categories: &[String]) -> Result<DetectionConfig> {
+        // Item ids 0, 1 are seed 1's hidden and clean scenarios, 2·seeds.. its six realistic ones.
+        let known: Vec<String> = [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).map(|id| Variant::of(id, seeds).1.category()).collect();
+        if let Some(c) = categories.iter().find(|c| !known.contains(c)) {
+            return Err(crate::error::Error::Invalid(format!("unknown --categories entry '{c}': known are {}", known.join(", "))));
+        }
+        Ok(DetectionConfig { seeds, twincal_version: env!("CARGO_PKG_VERSION").into(), categories: categories.to_vec() })
+    }
+
+    /// The variant ids (see [`Variant::of`]) of the work items, in order.
+    fn ids(&self) -> Vec<u64> {
+        (0..VARIANTS * self.seeds).filter(|&id| self.categories.is_empty() || self.categories.contains(&Variant::of(id, self.seeds).1.category())).collect()
+    }
 }
 
 impl crate::shard::Config for DetectionConfig {
@@ -23,7 +44,7 @@ impl crate::shard::Config for DetectionConfig {
     /// the realistic acquisitions (0.1° and 0.01° logging; clean, an effect above the floor, an
     /// effect far below it).
     fn items(&self) -> u64 {
-        VARIANTS * self.seeds
+        self.ids().len() as u64
     }
 }
 
@@ -184,17 +205,22 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
     let n = seeds as f64;
     let hidden = of("hidden");
     let (detected, sized) = (count(&hidden, |i| i.detected), count(&hidden, |i| i.sized));
-    println!(
-        "  hidden effects: {detected}/{seeds} named first with the right joint ({:.0} %, target >= 95 %), {sized}/{seeds} also sized right",
-        100.0 * detected as f64 / n
-    );
-    let alarms = count(&of("clean"), |i| i.alarm);
-    println!("  clean datasets: {alarms}/{seeds} false alarms ({:.0} %, target <= 5 %)", 100.0 * alarms as f64 / n);
+    if !hidden.is_empty() {
+        println!(
+            "  hidden effects: {detected}/{seeds} named first with the right joint ({:.0} %, target >= 95 %), {sized}/{seeds} also sized right",
+            100.0 * detected as f64 / n
+        );
+    }
+    let clean = of("clean");
+    let alarms = count(&clean, |i| i.alarm);
+    if !clean.is_empty() {
+        println!("  clean datasets: {alarms}/{seeds} false alarms ({:.0} %, target <= 5 %)", 100.0 * alarms as f64 / n);
+    }
     for decimals in [1usize, 2] {
         let clean = of(&format!("realistic-{decimals}-clean"));
         let above = of(&format!("realistic-{decimals}-above"));
         let below = of(&format!("realistic-{decimals}-below"));
-        if clean.is_empty() {
+        if clean.is_empty() && above.is_empty() && below.is_empty() {
             continue;
         }
         let floors: Vec<f64> = above.iter().map(|i| i.floor_mm).collect();
@@ -224,11 +250,12 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
 /// (the timing is a single machine's and is left out).
 pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shard::Shard>, config: &DetectionConfig) -> Result<()> {
     use crate::diagnose::diagnose;
+    let ids = config.ids();
     if let Some(sh) = shard {
-        let mine: Vec<u64> = (0..VARIANTS * seeds).filter(|id| sh.wants(*id)).collect();
+        let mine: Vec<u64> = (0..ids.len() as u64).filter(|k| sh.wants(*k)).collect();
         bar.start(mine.len() as u64, "diagnoses");
-        for id in &mine {
-            sh.append(*id, config, &detection_item(*id, seeds)?)?;
+        for k in &mine {
+            sh.append(*k, config, &detection_item(ids[*k as usize], seeds)?)?;
             bar.inc(1);
         }
         bar.finish();
@@ -262,9 +289,9 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
         median(&per_candidate) * 1e3
     );
     // 2. Detection and false alarms.
-    bar.start(VARIANTS * seeds, "diagnoses");
+    bar.start(ids.len() as u64, "diagnoses");
     let mut items = Vec::new();
-    for id in 0..VARIANTS * seeds {
+    for &id in &ids {
         items.push(detection_item(id, seeds)?);
         bar.inc(1);
     }

@@ -8,12 +8,15 @@
 //! * [`awnn`]: `bench awnn` (PSO-EKF-AWNN and its ablations);
 //! * [`real`]: `bench real` (the real measured datasets in ../shared/data) and `bench
 //!   diagnose-ur10` (diagnose on the UR10's 11 911-row series against 60 s);
+//! * [`noise`]: `bench noise-model` (the logging error modelled or not, in lm, dsade-gkan and
+//!   pso-ekf-awnn, on realistic acquisitions of the twin);
 //! * [`replay`]: `bench replay` (1 000 rows replayed against 5 s, the identified twin's cost).
 
 pub mod awnn;
 pub mod calib;
 pub mod diagnose;
 pub mod evo;
+pub mod noise;
 pub mod real;
 pub mod replay;
 pub mod twin;

@@ -22,8 +22,26 @@
 //! [`ReadingFit`](super::problem::ReadingFit) on those samples whitens its residuals and
 //! Jacobian, and a subset of them keeps the factors of its blocks.
 
+use super::model::CalibModel;
+use super::problem::{ReadingFit, Samples};
+use crate::dataset::blocks::Blocks;
+use crate::dataset::Dataset;
 use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
 use std::sync::Arc;
+
+/// The noise model a fit used: the logging step, what it costs one reading value on average
+/// (the angle floor) and the reading's own noise it was given, mm.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct NoiseModel {
+    pub angle_step_deg: f64,
+    pub rounding_mm: f64,
+    pub reading_noise_mm: f64,
+    /// RMS of the logging error estimated in the training readings and taken out of them before
+    /// the fit (`calibrate`; absent from a diagnosis, whose fits are whitened instead), mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub removed_rms_mm: Option<f64>,
+}
 
 /// The shared input error of a set of rows: everything [`Whitening`] needs for any subset.
 #[derive(Debug)]
@@ -66,6 +84,46 @@ impl RoundingModel {
         let rounding = self.rounding_var();
         RoundingModel { noise_var, scale_var: noise_var + rounding, ..self }
     }
+
+    /// The logging error of the samples `s` (row `i` is the dataset `data`'s row `rows[i]`, the
+    /// acquisition's blocks `blocks`, angles logged at `step` degrees) through `base` at `x`:
+    /// each row's ∂reading/∂q, the joints that hold in its block (within half a step of the
+    /// block's first row throughout), and the reading's own noise: the mean squared residual of
+    /// the samples `keep` less what the logging explains, at least a twentieth of the latter (so
+    /// that the covariance stays well conditioned).
+    #[allow(clippy::too_many_arguments)]
+    pub fn at(base: &CalibModel, x: &[f64], s: &Samples, rows: &[usize], keep: &[usize], data: &Dataset, blocks: &Blocks, step: f64) -> RoundingModel {
+        let (dim, nj) = (s.dim, base.chain.n_joints);
+        let mut w = base.work();
+        let (mut y, mut g) = (vec![0.0; dim], vec![0.0; nj * dim]);
+        let jq: Vec<Vec<f64>> = (0..s.len())
+            .map(|i| {
+                base.readings_grad_q(x, &s.q[i], &s.inputs[i], &mut w, &mut y, &mut g);
+                g.iter().map(|v| v * 1e3).collect()
+            })
+            .collect();
+        // The joints that hold throughout each block, over all of its rows in the dataset.
+        let mut holds_of_block = vec![Vec::new(); blocks.len()];
+        for &(first, _) in &blocks.starts {
+            let b = blocks.of_row[first];
+            let block_rows: Vec<usize> = (first..data.rows.len()).take_while(|&i| blocks.of_row[i] == b).collect();
+            holds_of_block[b] = (0..nj)
+                .map(|j| block_rows.len() > 1 && block_rows.iter().all(|&i| (data.rows[i].q_deg[j] - data.rows[first].q_deg[j]).abs() <= 0.5 * step))
+                .collect();
+        }
+        let block: Vec<usize> = rows.iter().map(|&r| blocks.of_row[r]).collect();
+        let holds: Vec<Vec<bool>> = block.iter().map(|&b| holds_of_block[b].clone()).collect();
+        let res = ReadingFit { model: base, data: &s.subset(keep).unweighted() }.residuals_mm(x);
+        let total = res.iter().map(|r| r * r).sum::<f64>() / res.len().max(1) as f64;
+        let model = RoundingModel::new(dim, block, jq, holds, step, 0.0);
+        let rounding = model.rounding_var();
+        model.with_noise_var((total - rounding).max(0.05 * rounding).max(1e-12))
+    }
+
+    /// The noise model's figures.
+    pub fn summary(&self, step: f64) -> NoiseModel {
+        NoiseModel { angle_step_deg: step, rounding_mm: self.rounding_var().sqrt(), reading_noise_mm: self.noise_var.sqrt(), removed_rms_mm: None }
+    }
 }
 
 /// The whitening of one set of rows of a [`RoundingModel`]: a factor per run of consecutive
@@ -106,6 +164,38 @@ impl Whitening {
             let out = w * v;
             r[*start..start + n].copy_from_slice(out.as_slice());
         }
+    }
+
+    /// The logging error in residuals `r` (mm, unwhitened, one per value of these rows): per
+    /// run, the offset of each joint that holds (one for the run) and of each joint that moves
+    /// (one per row) that the model expects given `r` (its conditional mean, v·gᵀ·C⁻¹·r), each
+    /// clamped to half the logging step, as what they put on each value, mm. `r` less this is
+    /// what remains for a model of the arm to explain.
+    pub fn rounding_estimate(&self, r: &[f64]) -> Vec<f64> {
+        let m = &self.model;
+        let (d, nj) = (m.dim, m.joints);
+        let half = (12.0 * m.var_q).sqrt() / 2.0;
+        let mut out = vec![0.0; r.len()];
+        for (start, w) in &self.runs {
+            let n = w.nrows();
+            let rows = &self.rows[start / d..(start + n) / d];
+            // C⁻¹·r = Wᵀ·W·r / s².
+            let wr = w * DVector::from_column_slice(&r[*start..start + n]);
+            let cr = w.transpose() * wr / m.scale_var;
+            for j in 0..nj {
+                let g = |a: usize| m.jq[rows[a / d]][(a % d) * nj + j];
+                // One offset for the run where the joint holds, one per row where it moves.
+                let size = if m.holds[rows[0]][j] { n } else { d };
+                let groups = (0..n / size).map(|k| k * size..(k + 1) * size);
+                for range in groups {
+                    let delta = (m.var_q * range.clone().map(|a| g(a) * cr[a]).sum::<f64>()).clamp(-half, half);
+                    for a in range {
+                        out[start + a] += g(a) * delta;
+                    }
+                }
+            }
+        }
+        out
     }
 
     /// Whitens the rows of a Jacobian (one row per value) in place.
@@ -159,6 +249,73 @@ fn factor(m: &RoundingModel, rows: &[usize]) -> DMatrix<f64> {
     }
 }
 
+/// Whether `calibrate` models the joint angles' logging error.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NoiseChoice {
+    /// Where training rows share blocks and the angles are logged at a step
+    /// ([`remove_logging_error`]); rows otherwise as they are.
+    #[default]
+    Auto,
+    /// Rows as they are, whatever the acquisition.
+    Off,
+}
+
+impl std::str::FromStr for NoiseChoice {
+    type Err = crate::error::Error;
+    fn from_str(s: &str) -> crate::error::Result<NoiseChoice> {
+        match s {
+            "auto" => Ok(NoiseChoice::Auto),
+            "off" => Ok(NoiseChoice::Off),
+            _ => Err(crate::error::Error::Invalid(format!("--noise-model must be auto or off, not '{s}'"))),
+        }
+    }
+}
+
+/// Takes the joint angles' logging error out of the training readings `train` (row `i` is the
+/// dataset `data`'s row `rows[i]`) where they share blocks and the angles are logged at a step
+/// (`step_deg`, or the data's decimals), before any method fits them: `model` is fitted from
+/// `x0` (parameters `fixed` held) by least squares, then by generalised least squares with the
+/// covariance the logging implies ([`RoundingModel`]); the logging error that fit's residuals
+/// show, per block and joint ([`Whitening::rounding_estimate`], at most half a step), is taken
+/// out of the readings. A parametric fit on the corrected readings is then the generalised
+/// least-squares fit (exactly so where no offset reaches half a step), and a learned corrector
+/// finds no rounding in them to learn. Returns the noise model and the whitening of the rows,
+/// or `None` where the rows are independent, weighted by their own standard deviations, or the
+/// angles unrounded (the readings untouched).
+#[allow(clippy::too_many_arguments)]
+pub fn remove_logging_error(
+    model: &CalibModel,
+    x0: &[f64],
+    fixed: &[bool],
+    train: &mut Samples,
+    rows: &[usize],
+    data: &Dataset,
+    step_deg: Option<f64>,
+) -> Option<(NoiseModel, Whitening)> {
+    let (blocks, step) = crate::dataset::blocks::detect(data, step_deg);
+    let step = step?;
+    let ids: Vec<usize> = rows.iter().map(|&r| blocks.of_row[r]).collect();
+    if !ids.windows(2).any(|w| w[0] == w[1]) || train.w.is_some() {
+        return None;
+    }
+    let lm = || crate::optim::LevenbergMarquardt::budget(100).tolerances(1e-9, 1e-9);
+    let plain = train.unweighted();
+    let x1 = lm().minimize(&ReadingFit { model, data: &plain }, x0, fixed, &mut crate::optim::NoObserver).x;
+    let all: Vec<usize> = (0..train.len()).collect();
+    let m = Arc::new(RoundingModel::at(model, &x1, &plain, rows, &all, data, &blocks, step));
+    let whitening = Whitening::new(m.clone(), all);
+    let gls = Samples { gls: Some(whitening.clone()), ..plain.clone() };
+    let x2 = lm().minimize(&ReadingFit { model, data: &gls }, &x1, fixed, &mut crate::optim::NoObserver).x;
+    let r = ReadingFit { model, data: &plain }.residuals_mm(&x2);
+    let u = whitening.rounding_estimate(&r);
+    for (y, u) in train.y.iter_mut().zip(&u) {
+        *y -= u * 1e-3;
+    }
+    let removed = (u.iter().map(|v| v * v).sum::<f64>() / u.len().max(1) as f64).sqrt();
+    Some((NoiseModel { removed_rms_mm: Some(removed), ..m.summary(step) }, whitening))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,5 +353,28 @@ mod tests {
         sub.apply_rows(&mut j);
         assert!((DVector::from_column_slice(&r) - j.column(0)).abs().max() < 1e-12);
         assert!((w.runs[1].1.clone() - sub.runs[0].1.clone()).abs().max() < 1e-12);
+    }
+
+    #[test]
+    fn the_rounding_estimate_finds_a_sweeps_shared_offset_up_to_half_a_step() {
+        // One block of 12 rows (one value each) in which joint 0 holds and joint 1 moves: the
+        // residuals are joint 0's shared offset δ through its derivative, plus a little noise.
+        let n = 12;
+        let jq: Vec<Vec<f64>> = (0..n).map(|i| vec![400.0 + 30.0 * (i as f64 * 0.7).sin(), 200.0 - 10.0 * i as f64]).collect();
+        let holds = vec![vec![true, false]; n];
+        let step = 0.1;
+        let m = Arc::new(RoundingModel::new(1, vec![0; n], jq.clone(), holds, step, 1e-4));
+        let w = Whitening::new(m, (0..n).collect());
+        let half = step.to_radians() / 2.0;
+        for delta in [0.3 * half, -0.8 * half, 3.0 * half] {
+            let r: Vec<f64> = (0..n).map(|i| jq[i][0] * delta + 1e-3 * ((i * 7 % 5) as f64 - 2.0)).collect();
+            let u = w.rounding_estimate(&r);
+            // What remains is the noise, where |δ| is within half a step; beyond, the offset is
+            // taken out up to half a step only.
+            let expected = delta.clamp(-half, half);
+            for i in 0..n {
+                assert!((u[i] - jq[i][0] * expected).abs() < 0.05 * (jq[i][0] * half).abs(), "δ {delta}: row {i}: {} against {}", u[i], jq[i][0] * expected);
+            }
+        }
     }
 }

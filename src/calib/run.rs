@@ -121,6 +121,8 @@ pub struct CalibOptions {
     pub row_std: bool,
     /// Fit the instrument's placement only, everything else held at its nominal value.
     pub placement_only: bool,
+    /// Whether the joint angles' logging error is modelled where training rows share blocks.
+    pub noise_model: super::gls::NoiseChoice,
 }
 
 impl CalibOptions {
@@ -145,6 +147,7 @@ impl CalibOptions {
             angle_step_deg: None,
             instrument_accuracy_mm: None,
             split_by: SplitBy::Blocks,
+            noise_model: super::gls::NoiseChoice::Auto,
         }
     }
     /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
@@ -297,6 +300,10 @@ pub struct CalibResult {
     /// weights).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weighting: Option<super::weighting::Weighting>,
+    /// The joint angles' logging error as the fit's noise model (absent: the training rows were
+    /// taken as independent): see [`super::gls::remove_logging_error`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_model: Option<super::gls::NoiseModel>,
 }
 
 impl CalibResult {
@@ -1160,12 +1167,24 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         ));
     }
     let x0 = model.nominal.clone();
-    let fit = ReadingFit { model: &model, data: &split.train };
     let mut fixed = id.fixed_mask.clone();
     if opts.placement_only {
         let free = model.placement_range();
         fixed.iter_mut().enumerate().filter(|(k, _)| !free.contains(k)).for_each(|(_, f)| *f = true);
     }
+    // Stage "noise model": the joint angles' logging error shared by a block's rows taken out of
+    // the training readings (the rows as read kept for the metrics and the uncertainties).
+    let mut split = split;
+    let raw_train = split.train.clone();
+    let logging = match opts.noise_model {
+        super::gls::NoiseChoice::Auto => super::gls::remove_logging_error(&model, &x0, &fixed, &mut split.train, &split.train_idx, data, opts.angle_step_deg),
+        super::gls::NoiseChoice::Off => None,
+    };
+    let (noise_model, whitened) = match logging {
+        Some((n, w)) => (Some(n), Some(Samples { gls: Some(w), ..raw_train.clone() })),
+        None => (None, None),
+    };
+    let fit = ReadingFit { model: &model, data: &split.train };
     let n_free = fixed.iter().filter(|f| !**f).count();
     // Counted in reading values: a configuration a tracker reads gives three.
     let dim = split.train.dim.max(1);
@@ -1207,12 +1226,13 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     }
 
     // Stage "uncertainty": standard uncertainties from the Jacobian at the solution (all methods alike).
-    let cov = grouped_covariance(&fit, &x, &fixed);
+    // (Of the rows as read, whitened: the corrected readings would understate them.)
+    let cov = grouped_covariance(&ReadingFit { model: &model, data: whitened.as_ref().unwrap_or(&split.train) }, &x, &fixed);
     let noise_estimate_mm = if noise.is_finite() { noise } else { residual_sigma(&fit, &x, &fixed) };
     let test_fit = ReadingFit { model: &model, data: &split.test };
     let correct = corrector.as_ref().map(|c| c.as_correct());
     // The metrics judge the training rows in mm, unweighted, as the test rows.
-    let plain = split.train.w.is_some().then(|| split.train.unweighted());
+    let plain = (split.train.w.is_some() || noise_model.is_some()).then(|| raw_train.unweighted());
     let plain_fit = ReadingFit { model: &model, data: plain.as_ref().unwrap_or(&split.train) };
     let mut metrics = metrics_stage(&plain_fit, &test_fit, &x0, &x, correct);
     if metrics.train_after.rmse > metrics.train_before.rmse {
@@ -1300,6 +1320,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         test_residuals_mm,
         test_rows: split.test_idx.clone(),
         weighting,
+        noise_model,
         model,
     })
 }
@@ -1378,6 +1399,7 @@ pub fn result_of_fit(
         test_residuals_mm: Vec::new(),
         test_rows: Vec::new(),
         weighting: None,
+        noise_model: None,
         model,
     })
 }

@@ -10,10 +10,14 @@ pub fn bench_command(
     repeat: usize,
     seeds: Option<u64>,
     compare: bool,
+    categories: &[String],
     shard: &ShardArgs,
     quiet: bool,
 ) -> Result<()> {
     check_repeat(repeat)?;
+    if !categories.is_empty() && what != BenchTarget::Diagnose {
+        return Err(Error::Invalid("--categories applies to bench diagnose".into()));
+    }
     if (shard.shard.is_some() || shard.shard_out.is_some()) && what != BenchTarget::Diagnose {
         return Err(Error::Invalid("--shard and --shard-out apply to bench diagnose (and to compare and study hold)".into()));
     }
@@ -60,7 +64,7 @@ pub fn bench_command(
             }
             let seeds = seeds.unwrap_or(20);
             check_seeds(seeds)?;
-            let config = crate::bench::diagnose::DetectionConfig { seeds, twincal_version: env!("CARGO_PKG_VERSION").into() };
+            let config = crate::bench::diagnose::DetectionConfig::new(seeds, categories)?;
             let sh = crate::shard::from_options(shard.shard.as_deref(), shard.shard_out.as_deref(), false, "", &config, &[])?;
             crate::bench::diagnose::bench_diagnose(seeds, progress(quiet).as_ref(), sh.as_ref(), &config)
         }
@@ -103,6 +107,14 @@ pub fn bench_command(
                 ));
             }
             crate::bench::real::bench_diagnose_ur10(repeat)
+        }
+        BenchTarget::NoiseModel => {
+            if scenario.is_some() || compare {
+                return Err(Error::Invalid("--scenario and --compare do not apply to bench noise-model (it generates realistic IRB 120 acquisitions)".into()));
+            }
+            let seeds = seeds.unwrap_or(5);
+            check_seeds(seeds)?;
+            crate::bench::noise::bench_noise_model(seeds)
         }
         BenchTarget::Replay => {
             if compare || seeds.is_some() {

@@ -25,6 +25,11 @@ pub struct CalibrateArgs {
     /// test rows share no error with training rows) or rows (stratified by the reading).
     #[arg(long, default_value = "blocks")]
     pub split_by: String,
+    /// The joint angles' logging error: auto (where training rows share sweeps and the angles
+    /// are logged at a step, estimated per sweep and joint, at most half a step, and taken out
+    /// of the readings before the fit) or off (rows taken as independent).
+    #[arg(long, default_value = "auto")]
+    pub noise_model: String,
     /// Seed of the hold-out split and of the stochastic methods.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
@@ -122,6 +127,7 @@ impl CalibrateArgs {
         let mut opts = CalibOptions::new(a.model.spec()?, method);
         opts.test_fraction = a.test_fraction;
         opts.split_by = a.split_by.parse()?;
+        opts.noise_model = a.noise_model.parse()?;
         opts.seed = a.seed;
         opts.rank_tol = a.rank_tol;
         opts.effort = a.effort;
@@ -281,6 +287,16 @@ fn print_summary(r: &crate::calib::run::CalibResult) {
             "  weights from the rows' own standard deviations ({} of {} training rows, RMS {:.4} mm): 1/(floor² + s²) with the floor {:.4} mm the data add \
              (robust residual sd {:.4} mm); largest / smallest weight {:.2}",
             w.rows_with_std, w.rows, w.instrument_rms_mm, w.floor_mm, w.residual_sd_mm, w.weight_span
+        );
+    }
+    if let Some(n) = &r.noise_model {
+        eprintln!(
+            "  noise model: joint angles logged at {} deg, shared by the rows of a sweep (rounding {:.4} mm, reading noise {:.4} mm per value); \
+             the logging error estimated per sweep and joint was taken out of the training readings before the fit (RMS {:.4} mm; --noise-model off keeps them)",
+            n.angle_step_deg,
+            n.rounding_mm,
+            n.reading_noise_mm,
+            n.removed_rms_mm.unwrap_or(0.0)
         );
     }
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();

@@ -76,6 +76,9 @@ pub enum BenchTarget {
     /// Diagnose on the UR10's 11 911-row series a (../shared/data, sorted by t): median wall
     /// time of --repeat runs against the 60 s target, and what it named.
     DiagnoseUr10,
+    /// The joint angles' logging error as a noise model: lm, dsade-gkan and pso-ekf-awnn with
+    /// and without it on realistic acquisitions (sweeps, 0.1° logging), true error and time.
+    NoiseModel,
     /// Replay of 1 000 rows through the scenario's acquisition (default: the embedded
     /// scenario's simulated tour) against 5 s, and the identified twin's cost against 1 s.
     Replay,

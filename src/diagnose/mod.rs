@@ -366,14 +366,7 @@ pub fn unphysical_causes(model: &CalibModel, x: &[f64], kept: &[EffectBlock]) ->
         .collect()
 }
 
-/// The noise model of a diagnosis's fits: the logging step, what it costs one reading value on
-/// average (the angle floor) and the reading's own noise it was given, mm.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct NoiseModel {
-    pub angle_step_deg: f64,
-    pub rounding_mm: f64,
-    pub reading_noise_mm: f64,
-}
+pub use crate::calib::gls::NoiseModel;
 
 fn no_structure() -> Structure {
     crate::dataset::blocks::Blocks::singletons(0).structure(None)
@@ -524,52 +517,15 @@ fn acquisition_structure(
     }
     progress(&format!("acquisition: {}", acquisition.summary));
     let Some(step) = angle_step else { return (blocks, acquisition, None) };
-    let m = std::sync::Arc::new(rounding_model(base, x, all, keep, data, &blocks, step));
-    let noise = NoiseModel { angle_step_deg: step, rounding_mm: m.rounding_var().sqrt(), reading_noise_mm: m.noise_var.sqrt() };
+    let rows: Vec<usize> = (0..all.len()).collect();
+    let m = std::sync::Arc::new(crate::calib::gls::RoundingModel::at(base, x, all, &rows, keep, data, &blocks, step));
+    let noise = m.summary(step);
     progress(&format!(
         "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
         noise.rounding_mm, noise.reading_noise_mm
     ));
     all.gls = Some(crate::calib::gls::Whitening::new(m, (0..all.len()).collect()));
     (blocks, acquisition, Some(noise))
-}
-
-/// The joint angles' logging error of the rows of `all` (the dataset `data`'s rows, in blocks
-/// `blocks`, logged at `step` degrees) through the geometric model `base` at `x`: each row's
-/// ∂reading/∂q, the joints that hold in its block, and the reading's own noise: the kept rows'
-/// mean squared residual less what the logging explains, at least a twentieth of the latter (so
-/// that the covariance stays well conditioned).
-fn rounding_model(
-    base: &CalibModel,
-    x: &[f64],
-    all: &Samples,
-    keep: &[usize],
-    data: &Dataset,
-    blocks: &crate::dataset::blocks::Blocks,
-    step: f64,
-) -> crate::calib::gls::RoundingModel {
-    let (dim, nj) = (all.dim, base.chain.n_joints);
-    let mut w = base.work();
-    let (mut y, mut g) = (vec![0.0; dim], vec![0.0; nj * dim]);
-    let jq: Vec<Vec<f64>> = (0..all.len())
-        .map(|i| {
-            base.readings_grad_q(x, &all.q[i], &all.inputs[i], &mut w, &mut y, &mut g);
-            g.iter().map(|v| v * 1e3).collect()
-        })
-        .collect();
-    // The joints that hold throughout each block (within half the logging step of its first row).
-    let mut holds = vec![vec![true; nj]; all.len()];
-    for &(first, _) in &blocks.starts {
-        let rows: Vec<usize> = (first..all.len()).take_while(|&i| blocks.of_row[i] == blocks.of_row[first]).collect();
-        let h: Vec<bool> =
-            (0..nj).map(|j| rows.len() > 1 && rows.iter().all(|&i| (data.rows[i].q_deg[j] - data.rows[first].q_deg[j]).abs() <= 0.5 * step)).collect();
-        rows.iter().for_each(|&i| holds[i] = h.clone());
-    }
-    let res = ReadingFit { model: base, data: &all.subset(keep).unweighted() }.residuals_mm(x);
-    let total = res.iter().map(|r| r * r).sum::<f64>() / res.len().max(1) as f64;
-    let model = crate::calib::gls::RoundingModel::new(dim, blocks.of_row.clone(), jq, holds, step, 0.0);
-    let rounding = model.rounding_var();
-    model.with_noise_var((total - rounding).max(0.05 * rounding).max(1e-12))
 }
 
 /// Every kept cause (`found`, the first `confirmed` of them; `chain[k]` the model with the first
