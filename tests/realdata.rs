@@ -162,8 +162,23 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     assert!((0.15..0.35).contains(&angle.rms_mm) && angle.detail.contains("0.1 deg"), "{angle:?}");
     let inliers = lm.metrics.test_after_inliers.unwrap();
     assert!(inliers.rmse < floor.total_mm, "{inliers:?} vs floor {}", floor.total_mm);
+    // Against the truth at the commanded angles (the logged ones are rounded), the fit with the
+    // logging error as its noise model is near the truth within its uncertainties, and nearer
+    // than the fit that takes rows as independent.
     let t = lm.truth_comparison.as_ref().unwrap();
-    assert_eq!(t.within_3_sigma, t.identifiable, "{t:?}");
+    assert!(t.within_3_sigma * 10 >= t.identifiable * 9 && t.max_abs_z < 6.0, "{t:?}");
+    let independent = calibrate(
+        &ds,
+        truth.as_ref(),
+        &CalibOptions { noise_model: NoiseChoice::Off, ..CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm) },
+    )
+    .unwrap();
+    let u = independent.truth_comparison.as_ref().unwrap();
+    eprintln!(
+        "truth comparison: noise model {}/{} within 3 sigma (max |z| {:.2}), rows independent {}/{} ({:.2})",
+        t.within_3_sigma, t.identifiable, t.max_abs_z, u.within_3_sigma, u.identifiable, u.max_abs_z
+    );
+    assert!(t.within_3_sigma > u.within_3_sigma && t.max_abs_z < u.max_abs_z, "{t:?} against {u:?}");
     for (method, model) in [(Method::DsadeGkan, "irb120"), (Method::PsoEkfAwnn(twincal::calib::psoekf::Ablation::Full), "irb120"), (Method::Lm, "generic6r")] {
         let spec = if model == "generic6r" { ModelSpec::Generic6r } else { ModelSpec::parse(model, "hayati").unwrap() };
         let r = calibrate(&ds, None, &CalibOptions::new(spec, method)).unwrap();
@@ -264,9 +279,11 @@ fn the_diagnosed_model_predicts_held_out_blocks_no_worse_than_calibrate() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let reference = root.join("../shared/reference/ur_description");
     let (ur5, ur10, wam) = (reference.join("ur5_robot.urdf"), reference.join("ur10_robot.urdf"), root.join("urdf/wam.urdf"));
-    let cases: [(&str, Option<&Path>, Option<Measurement>); 6] = [
+    let cases: [(&str, Option<&Path>, Option<Measurement>); 7] = [
         ("robotcali-irb120/robotcali_pool.csv", None, None),
         ("hsr-robotcali/hsr_robotcali_pool.csv", None, None),
+        // Series a spans 100 h in a file not in time order: read sorted by t.
+        ("ipa-ur10/ur10_series_a.csv", Some(&ur10), Some(Measurement::Point)),
         ("ipa-ur10/ur10_series_b.csv", Some(&ur10), Some(Measurement::Point)),
         ("ipa-ur10/ur10_series_d.csv", Some(&ur10), Some(Measurement::Point)),
         ("ur5-lasertracker/ur5_grid_pool.csv", Some(&ur5), None),
@@ -283,7 +300,13 @@ fn the_diagnosed_model_predicts_held_out_blocks_no_worse_than_calibrate() {
             None if rel.starts_with("hsr") => ModelSpec::Generic6r,
             None => ModelSpec::parse("irb120", "hayati").unwrap(),
         };
-        let ds = Dataset::load_with(&path, &LoadOptions { measurement, ..Default::default() }).unwrap();
+        let load = LoadOptions { measurement, ..Default::default() };
+        let ds = if rel.ends_with("series_a.csv") {
+            let sorted = twincal::bench::real::sorted_by_column(&std::fs::read_to_string(&path).unwrap(), "t").unwrap();
+            Dataset::from_csv_reader_with(sorted.as_bytes(), rel, &load).unwrap()
+        } else {
+            Dataset::load_with(&path, &load).unwrap()
+        };
         let (train, test) = split_rows(&ds, Some(0.25), 0, SplitBy::Blocks).unwrap();
         let train_ds = Dataset { rows: train.iter().map(|&i| ds.rows[i].clone()).collect(), source: rel.into() };
         let calibrated = calibrate(&train_ds, None, &CalibOptions::new(spec.clone(), Method::Lm)).unwrap();

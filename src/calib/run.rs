@@ -1007,7 +1007,14 @@ pub fn truth_stage(
     }
     // The noise-free readings of the training rows, of the model's kind (else no comparison).
     let y: Option<Vec<Vec<f64>>> = split.train_idx.iter().map(|&i| t.true_reading(i, model.measurement)).collect();
-    let clean = Samples { y: y?.concat(), ..split.train.clone() };
+    // At the angles the arm stood at (the commanded ones; logged angles are rounded): the truth
+    // carries no logging error.
+    let commanded: Option<Vec<Vec<f64>>> = split
+        .train_idx
+        .iter()
+        .map(|&i| t.poses[i].q_cmd_deg.as_ref().filter(|q| q.len() == robot.dof()).map(|q| q.iter().map(|d| d.to_radians()).collect()))
+        .collect();
+    let clean = Samples { y: y?.concat(), q: commanded.unwrap_or_else(|| split.train.q.clone()), ..split.train.clone() };
     super::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)
 }
 

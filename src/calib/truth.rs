@@ -37,6 +37,10 @@ pub struct TruthTool {
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthPose {
     pub length_true_mm: f64,
+    /// The commanded joint angles, degrees, before the controller logged them (rounded): the
+    /// angles the true arm stood at.
+    #[serde(default)]
+    pub q_cmd_deg: Option<Vec<f64>>,
     /// A tracker's noise-free reading, mm.
     #[serde(default)]
     pub point_true_mm: Option<[f64; 3]>,

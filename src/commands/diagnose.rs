@@ -56,6 +56,11 @@ pub struct DiagnoseArgs {
     /// tracker's sx, sy, sz; by default they weight the fits as 1/(floor² + s²)).
     #[arg(long)]
     pub ignore_row_std: bool,
+    /// The joint angles' logging error: auto (where rows share sweeps and the angles are
+    /// logged at a step, every fit is generalised least squares with the covariance it implies)
+    /// or off (rows taken as independent).
+    #[arg(long, default_value = "auto")]
+    pub noise_model: String,
     /// Diagnose on the other rows only: hold out this fraction of the rows (the split
     /// `calibrate --test-fraction` draws with the same --seed), never seen, so that `replay`
     /// can measure the identified twin on them.
@@ -103,6 +108,7 @@ impl DiagnoseArgs {
         opts.alpha = a.alpha;
         opts.seed = a.seed;
         opts.row_std = !a.ignore_row_std;
+        opts.noise_model = a.noise_model.parse()?;
         opts.instrument_accuracy_mm = super::instrument_accuracy(a.instrument_accuracy_mm)?;
         // Checked here, with the other options, before any data are read.
         a.split_by.parse::<crate::calib::run::SplitBy>()?;

@@ -73,6 +73,9 @@ pub struct DiagnoseOptions {
     /// Weight the fits by the rows' own standard deviations where the data give them
     /// ([`crate::calib::weighting`]).
     pub row_std: bool,
+    /// Whether the joint angles' logging error is the fits' noise model where rows share
+    /// blocks (`Off`: rows taken as independent).
+    pub noise_model: crate::calib::gls::NoiseChoice,
 }
 
 /// Default cross-validation folds of a diagnosis.
@@ -110,6 +113,7 @@ impl DiagnoseOptions {
             angle_step_deg: None,
             instrument_accuracy_mm: None,
             row_std: true,
+            noise_model: crate::calib::gls::NoiseChoice::Auto,
         }
     }
     /// The calibration whose stages the diagnosis starts from: the geometric model with its
@@ -516,7 +520,7 @@ fn acquisition_structure(
         return (blocks, acquisition, None);
     }
     progress(&format!("acquisition: {}", acquisition.summary));
-    let Some(step) = angle_step else { return (blocks, acquisition, None) };
+    let Some(step) = angle_step.filter(|_| opts.noise_model == crate::calib::gls::NoiseChoice::Auto) else { return (blocks, acquisition, None) };
     let rows: Vec<usize> = (0..all.len()).collect();
     let m = std::sync::Arc::new(crate::calib::gls::RoundingModel::at(base, x, all, &rows, keep, data, &blocks, step));
     let noise = m.summary(step);
