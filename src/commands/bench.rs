@@ -4,6 +4,7 @@
 use super::*;
 
 /// `twincal bench TARGET`: checks that every option given applies to the target, then runs it.
+#[allow(clippy::too_many_arguments)]
 pub fn bench_command(
     what: BenchTarget,
     scenario: Option<&Path>,
