@@ -280,14 +280,17 @@ fn real_like_acquisitions_in_sweeps_with_logged_angles() {
 fn joint_reading_faults_are_named_with_their_rows() {
     use twincal::diagnose::hidden::realistic;
     use twincal::sim::scenario::{GlitchKind, Glitches};
-    for (kind, name) in [
-        (GlitchKind::Offset, "reading_offset"),
-        (GlitchKind::JointOffset, "joint_offset"),
-        (GlitchKind::JointSign, "joint_sign"),
-        (GlitchKind::JointStale, "joint_stale"),
+    // Joints 1 and 2 swapped: the pair whose logged values stay within each other's limits on
+    // the IRB 120 (a swap of joints with narrower limits is refused as data past its limits).
+    for (kind, name, joint) in [
+        (GlitchKind::Offset, "reading_offset", None),
+        (GlitchKind::JointOffset, "joint_offset", None),
+        (GlitchKind::JointSign, "joint_sign", None),
+        (GlitchKind::JointStale, "joint_stale", None),
+        (GlitchKind::JointSwap, "joint_swap", Some(1)),
     ] {
         let (mut s, robot) = realistic(20_001, 2).unwrap();
-        s.glitches = Some(Glitches { runs: 3, rows: 8, size_mm: 2.0, kind, joint: None, size_deg: None });
+        s.glitches = Some(Glitches { runs: 3, rows: 8, size_mm: 2.0, kind, joint, size_deg: None });
         let g = generate(&s, &robot, &Silent).unwrap();
         let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
         let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap()), &|_| {}).unwrap().0;

@@ -160,7 +160,10 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("    (the papers: LM about 1.2, Evo-NPH 0.62, PSO-EKF-AWNN 0.73 mm, splits unpublished)");
         let mut floor = f64::NAN;
         for method in [Method::Lm, Method::DsadeGkan, Method::PsoEkfAwnn(Ablation::Full)] {
-            for k in [crate::calib::run::DEFAULT_OUTLIER_K, 0.0] {
+            use crate::calib::gls::NoiseChoice;
+            for (k, noise) in
+                [(crate::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Auto), (crate::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Off), (0.0, NoiseChoice::Auto)]
+            {
                 let mut runs: Vec<CalibResult> = Vec::new();
                 let t0 = Instant::now();
                 for seed in 0..seeds {
@@ -170,6 +173,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
                     o.split_by = crate::calib::run::SplitBy::Rows;
                     o.seed = seed;
                     o.outlier_k = k;
+                    o.noise_model = noise;
                     runs.push(calibrate(&ds, None, &o)?);
                 }
                 if floor.is_nan() {
@@ -179,7 +183,11 @@ pub fn bench_real(seeds: u64) -> Result<()> {
                 let inl: Vec<f64> = runs.iter().map(|r| r.metrics.test_after_inliers.map_or(f64::NAN, |t| t.rmse)).collect();
                 let (ma, sa) = mean_sd(&all);
                 let conv = runs.iter().filter(|r| r.converged).count();
-                let label = if k > 0.0 { "screened" } else { "every row" };
+                let label = match (k > 0.0, noise) {
+                    (true, NoiseChoice::Auto) => "screened",
+                    (true, NoiseChoice::Off) => "screened, --noise-model off",
+                    (false, _) => "every row",
+                };
                 let inliers = if k > 0.0 {
                     let (mi, si) = mean_sd(&inl);
                     format!("{mi:.3} ± {si:.3}")
@@ -187,7 +195,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
                     "-".into()
                 };
                 println!(
-                    "    {:<13} {label:<10} {ma:.3} ± {sa:.3} | {inliers}; converged {conv}/{seeds}; {:.1} s per run",
+                    "    {:<13} {label:<27} {ma:.3} ± {sa:.3} | {inliers}; converged {conv}/{seeds}; {:.1} s per run",
                     method.name(),
                     t0.elapsed().as_secs_f64() / seeds as f64
                 );
