@@ -2,7 +2,7 @@
 //! and never committed. A test whose files are absent says SKIP and passes.
 
 use std::path::{Path, PathBuf};
-use twincal::calib::gls::NoiseChoice;
+use twincal::calib::noise_model::NoiseChoice;
 use twincal::calib::robust::step_offset_mm;
 use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
 use twincal::dataset::{Dataset, Split};

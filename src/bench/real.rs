@@ -160,7 +160,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("    (the papers: LM about 1.2, Evo-NPH 0.62, PSO-EKF-AWNN 0.73 mm, splits unpublished)");
         let mut floor = f64::NAN;
         for method in [Method::Lm, Method::DsadeGkan, Method::PsoEkfAwnn(Ablation::Full)] {
-            use crate::calib::gls::NoiseChoice;
+            use crate::calib::noise_model::NoiseChoice;
             for (k, noise) in
                 [(crate::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Auto), (crate::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Off), (0.0, NoiseChoice::Auto)]
             {

@@ -18,6 +18,7 @@ pub mod inputs;
 pub mod method;
 pub mod metrics;
 pub mod model;
+pub mod noise_model;
 pub mod placement;
 pub mod problem;
 pub mod psoekf;

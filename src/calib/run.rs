@@ -122,7 +122,7 @@ pub struct CalibOptions {
     /// Fit the instrument's placement only, everything else held at its nominal value.
     pub placement_only: bool,
     /// Whether the joint angles' logging error is modelled where training rows share blocks.
-    pub noise_model: super::gls::NoiseChoice,
+    pub noise_model: super::noise_model::NoiseChoice,
 }
 
 impl CalibOptions {
@@ -147,7 +147,7 @@ impl CalibOptions {
             angle_step_deg: None,
             instrument_accuracy_mm: None,
             split_by: SplitBy::Blocks,
-            noise_model: super::gls::NoiseChoice::Auto,
+            noise_model: super::noise_model::NoiseChoice::Auto,
         }
     }
     /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
@@ -301,7 +301,7 @@ pub struct CalibResult {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weighting: Option<super::weighting::Weighting>,
     /// The joint angles' logging error as the fit's noise model (absent: the training rows were
-    /// taken as independent): see [`super::gls::remove_logging_error`].
+    /// taken as independent): see [`super::noise_model::remove_logging_error`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_model: Option<super::gls::NoiseModel>,
 }
@@ -1184,8 +1184,10 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut split = split;
     let raw_train = split.train.clone();
     let logging = match opts.noise_model {
-        super::gls::NoiseChoice::Auto => super::gls::remove_logging_error(&model, &x0, &fixed, &mut split.train, &split.train_idx, data, opts.angle_step_deg),
-        super::gls::NoiseChoice::Off => None,
+        super::noise_model::NoiseChoice::Auto => {
+            super::noise_model::remove_logging_error(&model, &x0, &fixed, &mut split.train, &split.train_idx, data, opts.angle_step_deg)
+        }
+        super::noise_model::NoiseChoice::Off => None,
     };
     let (noise_model, whitened) = match logging {
         Some((n, w)) => (Some(n), Some(Samples { gls: Some(w), ..raw_train.clone() })),

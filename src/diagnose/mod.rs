@@ -75,7 +75,7 @@ pub struct DiagnoseOptions {
     pub row_std: bool,
     /// Whether the joint angles' logging error is the fits' noise model where rows share
     /// blocks (`Off`: rows taken as independent).
-    pub noise_model: crate::calib::gls::NoiseChoice,
+    pub noise_model: crate::calib::noise_model::NoiseChoice,
 }
 
 /// Default cross-validation folds of a diagnosis.
@@ -113,7 +113,7 @@ impl DiagnoseOptions {
             angle_step_deg: None,
             instrument_accuracy_mm: None,
             row_std: true,
-            noise_model: crate::calib::gls::NoiseChoice::Auto,
+            noise_model: crate::calib::noise_model::NoiseChoice::Auto,
         }
     }
     /// The calibration whose stages the diagnosis starts from: the geometric model with its
@@ -520,9 +520,9 @@ fn acquisition_structure(
         return (blocks, acquisition, None);
     }
     progress(&format!("acquisition: {}", acquisition.summary));
-    let Some(step) = angle_step.filter(|_| opts.noise_model == crate::calib::gls::NoiseChoice::Auto) else { return (blocks, acquisition, None) };
+    let Some(step) = angle_step.filter(|_| opts.noise_model == crate::calib::noise_model::NoiseChoice::Auto) else { return (blocks, acquisition, None) };
     let rows: Vec<usize> = (0..all.len()).collect();
-    let m = std::sync::Arc::new(crate::calib::gls::RoundingModel::at(base, x, all, &rows, keep, data, &blocks, step));
+    let m = std::sync::Arc::new(crate::calib::noise_model::rounding_model_at(base, x, all, &rows, keep, data, &blocks, step));
     let noise = m.summary(step);
     progress(&format!(
         "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
