@@ -13,6 +13,24 @@
 //! `generate` records a fingerprint of dataset.csv in truth.json so that a truth file beside a
 //! dataset it does not describe is detected ([`crate::calib::truth::TruthFile::find`]).
 
+/// Version of the JSON files twincal writes and reads back (result.json, truth.json,
+/// report.json): raised when a field changes meaning or goes away. A file without one was
+/// written before versions (0) and is read as version 1.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// [`SCHEMA_VERSION`], for serde's `default`.
+pub fn schema_version() -> u32 {
+    SCHEMA_VERSION
+}
+
+/// Refuses a file of a newer schema than this build reads (`what` names the file's kind).
+pub fn check_schema(found: u32, what: &str) -> std::result::Result<(), String> {
+    if found > SCHEMA_VERSION {
+        return Err(format!("{what} of schema_version {found}, written by a newer twincal; this one reads up to {SCHEMA_VERSION}: update twincal"));
+    }
+    Ok(())
+}
+
 use crate::error::{Error, Result};
 use std::fs::{File, OpenOptions};
 use std::io::Write;

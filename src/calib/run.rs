@@ -215,6 +215,9 @@ pub struct TruthComparison {
 /// The calibrated model: everything `predict` needs, and the report.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CalibResult {
+    /// See [`crate::io::SCHEMA_VERSION`].
+    #[serde(default = "crate::io::schema_version")]
+    pub schema_version: u32,
     pub twincal_version: String,
     pub data: String,
     pub method: Method,
@@ -457,6 +460,7 @@ impl CalibResult {
             }
         }
         let mut r: CalibResult = serde_json::from_value(value).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        crate::io::check_schema(r.schema_version, "a calibration result").map_err(|e| Error::model(path.display(), e))?;
         if let Some(net) = r.legacy_rbf.take() {
             r.corrector.get_or_insert(Corrector::Rbf(net));
         }
@@ -1292,6 +1296,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
     Ok(CalibResult {
+        schema_version: crate::io::SCHEMA_VERSION,
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
         method: solver.method(),
@@ -1371,6 +1376,7 @@ pub fn result_of_fit(
     let repeatability = reading_repeatability(data);
     let noise_floor = floor_stage(&model, &x, data, rows, angle_step_deg, instrument_accuracy_mm, repeatability.as_ref());
     Ok(CalibResult {
+        schema_version: crate::io::SCHEMA_VERSION,
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
         method: Method::Lm,

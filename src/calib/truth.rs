@@ -11,6 +11,9 @@ pub const TRUTH_FILE: &str = "truth.json";
 /// What a truth file says, as far as calibration needs it.
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthFile {
+    /// See [`crate::io::SCHEMA_VERSION`].
+    #[serde(default = "crate::io::schema_version")]
+    pub schema_version: u32,
     /// True geometric deviations by name: mm for `.dx/.dy/.dz`, degrees otherwise.
     #[serde(default)]
     pub parameters: std::collections::BTreeMap<String, f64>,
@@ -145,7 +148,9 @@ impl TruthFile {
 
     /// A truth file's text (`label` names it in errors).
     pub fn parse(text: &str, label: &str) -> Result<TruthFile> {
-        serde_json::from_str(text).map_err(|e| Error::data(label, format!("malformed truth file: {e}")))
+        let t: TruthFile = serde_json::from_str(text).map_err(|e| Error::data(label, format!("malformed truth file: {e}")))?;
+        crate::io::check_schema(t.schema_version, "a truth file").map_err(|e| Error::data(label, e))?;
+        Ok(t)
     }
 
     /// Refuses this truth unless it was written for exactly these dataset bytes (`data` and

@@ -272,6 +272,9 @@ pub struct Comparison {
 /// Everything `diagnose` found.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Diagnosis {
+    /// See [`crate::io::SCHEMA_VERSION`].
+    #[serde(default = "crate::io::schema_version")]
+    pub schema_version: u32,
     pub twincal_version: String,
     pub data: String,
     pub rows: usize,
@@ -1133,6 +1136,7 @@ fn diagnose_screened(
         .join(",");
 
     let diagnosis = Diagnosis {
+        schema_version: crate::io::SCHEMA_VERSION,
         warnings,
         acquisition,
         noise_model,

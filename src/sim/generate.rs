@@ -138,6 +138,8 @@ pub struct ToolTruth {
 /// Everything true about a generated dataset.
 #[derive(Clone, Debug, Serialize)]
 pub struct Truth {
+    /// See [`crate::io::SCHEMA_VERSION`].
+    pub schema_version: u32,
     pub scenario: String,
     pub seed: u64,
     pub robot: String,
@@ -635,6 +637,7 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
         ("temperature", "°C for temp_measured_c, K for delta_t_k (the structure's true rise)"),
     ]);
     let truth = Truth {
+        schema_version: crate::io::SCHEMA_VERSION,
         scenario: s.name.clone(),
         seed: s.seed,
         robot: robot.name.clone(),
