@@ -231,15 +231,21 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
             crate::diagnose::hidden::REALISTIC_GLITCHES.0,
             median(&floors)
         );
-        println!("    no effect: {}/{} false alarms (target 0)", count(&clean, |i| i.alarm), clean.len());
-        println!(
-            "    one effect at 1.5-4x the floor: {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma",
-            count(&above, |i| i.detected),
-            above.len(),
-            count(&above, |i| i.within_3_sigma),
-            above.len()
-        );
-        println!("    one effect at 0.05-0.2x the floor: {}/{} named anything (target 0)", count(&below, |i| i.alarm), below.len());
+        if !clean.is_empty() {
+            println!("    no effect: {}/{} false alarms (target 0)", count(&clean, |i| i.alarm), clean.len());
+        }
+        if !above.is_empty() {
+            println!(
+                "    one effect at 1.5-4x the floor: {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma",
+                count(&above, |i| i.detected),
+                above.len(),
+                count(&above, |i| i.within_3_sigma),
+                above.len()
+            );
+        }
+        if !below.is_empty() {
+            println!("    one effect at 0.05-0.2x the floor: {}/{} named anything (target 0)", count(&below, |i| i.alarm), below.len());
+        }
     }
 }
 

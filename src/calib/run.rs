@@ -1089,7 +1089,7 @@ pub fn reading_repeatability(data: &Dataset) -> Option<super::metrics::Repeatabi
 /// Stage "floor": the data's own floor for the model at `x` over `rows` (the rows of `data`):
 /// the repeatability given, the joint angles' logging step (`angle_step_deg`, else read from the
 /// data's decimals) and the readings' logging step. See [`super::floor`].
-fn floor_stage(
+pub fn floor_stage(
     model: &CalibModel,
     x: &[f64],
     data: &Dataset,

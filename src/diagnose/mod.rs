@@ -323,6 +323,10 @@ pub struct Diagnosis {
     /// why: left out of the model.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub not_physical: Vec<String>,
+    /// Causes that gain on held-out rows, but explain less of them than
+    /// [`BELOW_FLOOR_SHARE`] of the data's floor: left out of the model, with their figures.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub below_floor: Vec<String>,
     /// Rows selection saw and rows kept back to confirm its causes.
     pub selection_rows: usize,
     pub confirmation_rows: usize,
@@ -533,6 +537,35 @@ fn acquisition_structure(
     ));
     all.gls = Some(crate::calib::gls::Whitening::new(m, (0..all.len()).collect()));
     (blocks, acquisition, Some(noise))
+}
+
+/// Share of the data's floor (mm RMS) that what a cause explains of the held-out rows must reach
+/// for it to be named: √(before² − after²) of the held-out RMSE. Below, the cause may be real and
+/// significant, but its correction is smaller than what the data can resolve row by row.
+pub const BELOW_FLOOR_SHARE: f64 = 0.5;
+
+/// Every kept cause (`found`: block, held-out RMSE before and after, p; the first `confirmed`
+/// of them) that explains at least [`BELOW_FLOOR_SHARE`] of the data's floor `floor_mm` on the
+/// held-out rows: the first that does not ends the list, like an unconfirmed one (`confirmed` is
+/// lowered). One line per cause left out, with its figures.
+fn drop_below_floor(found: &[(EffectBlock, f64, f64, f64)], floor_mm: f64, confirmed: &mut usize, progress: &dyn Fn(&str)) -> Vec<String> {
+    let Some(k) = found[..*confirmed].iter().position(|(_, before, after, _)| (before * before - after * after).max(0.0).sqrt() < BELOW_FLOOR_SHARE * floor_mm)
+    else {
+        return Vec::new();
+    };
+    let notes: Vec<String> = found[k..*confirmed]
+        .iter()
+        .map(|(b, before, after, _)| {
+            format!(
+                "{} left out of the model: it explains {:.4} mm RMS of the held-out rows ({before:.4} -> {after:.4} mm), below {BELOW_FLOOR_SHARE} x the data's floor {floor_mm:.4} mm",
+                b.label(),
+                (before * before - after * after).max(0.0).sqrt()
+            )
+        })
+        .collect();
+    notes.iter().for_each(|n| progress(&format!("below the floor: {n}")));
+    *confirmed = k;
+    notes
 }
 
 /// Every kept cause (`found`, the first `confirmed` of them; `chain[k]` the model with the first
@@ -1026,6 +1059,11 @@ fn diagnose_screened(
         progress(&format!("not confirmed on the {} confirmation rows: {}", confirmation.len(), unconfirmed.join(", ")));
     }
     let not_physical = drop_not_physical(&chain, &found, &kept, opts.rank_tol, &mut confirmed, progress);
+    let floor_mm = {
+        let repeat = crate::calib::run::reading_repeatability(&kept_rows);
+        crate::calib::run::floor_stage(&base, &baseline.x, &kept_rows, &kept, opts.angle_step_deg, opts.instrument_accuracy_mm, repeat.as_ref()).total_mm
+    };
+    let below_floor = drop_below_floor(&found, floor_mm, &mut confirmed, progress);
     found.truncate(confirmed);
     let current = chain[confirmed].clone();
     let other_rmse: Vec<f64> = chain[..=confirmed].iter().map(|f| rms(&ctx.heldout(&f.model, &f.x, &f.fixed, &ctx.other_folds))).collect();
@@ -1070,6 +1108,7 @@ fn diagnose_screened(
         .into_iter()
         .chain(few_blocks)
         .chain(not_physical.iter().cloned())
+        .chain(below_floor.iter().cloned())
         .chain(unphysical_causes(&current.model, &final_x, &kept_blocks))
         .collect();
     // Each cause's uncertainty counts the rows its blocks share.
@@ -1142,6 +1181,7 @@ fn diagnose_screened(
         noise_model,
         design_effect: baseline.deff,
         not_physical,
+        below_floor,
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
         rows: data.rows.len(),

@@ -8,7 +8,7 @@ use twincal::dataset::Dataset;
 use twincal::sim::generate::{generate, write_outputs, Silent};
 use twincal::sim::scenario::Scenario;
 
-mod datasets;
+use crate::datasets;
 
 fn twincal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).arg("--quiet").output().expect("runs")

@@ -6,7 +6,7 @@
 //! never saw, over three seeds.
 
 #[cfg(feature = "rerun")]
-mod common;
+use crate::common;
 
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};

@@ -3,7 +3,7 @@
 //! sees only q, L, t and temp, like measured data.
 
 #[cfg(feature = "rerun")]
-mod common;
+use crate::common;
 
 use twincal::calib::run::ModelSpec;
 use twincal::dataset::{Dataset, Row};

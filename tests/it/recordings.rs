@@ -3,7 +3,7 @@
 //! HTML report and the verdict of `calibrate`.
 #![cfg(feature = "rerun")]
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

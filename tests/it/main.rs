@@ -1,0 +1,23 @@
+//! The integration tests, one test binary (one link of the library and the command line
+//! instead of one per file): each module is a file of tests, `common` and `datasets` their
+//! shared helpers. Run one file's tests with `cargo test --release --test it NAME::`.
+
+mod common;
+mod datasets;
+
+mod arms;
+mod calibrate;
+mod cli;
+mod diagnose;
+mod evonph;
+mod fuzz;
+mod inputs;
+mod measurement;
+mod pose;
+mod realdata;
+mod recordings;
+mod replay;
+mod seven_joints;
+mod shards;
+mod tour;
+mod twin;
