@@ -229,7 +229,7 @@ fn a_hidden_effect_is_named_in_sweep_ordered_data_with_glitch_runs() {
 /// drift the rows show over time is fitted against t instead, and named.
 #[test]
 fn a_drift_behind_a_constant_temperature_column_is_named_over_time() {
-    let mut s = Scenario::from_toml(include_str!("../scenarios/irb120_geometric.toml"), "geometric").unwrap();
+    let mut s = Scenario::from_toml(include_str!("../../scenarios/irb120_geometric.toml"), "geometric").unwrap();
     s.effects.thermal = Some(twincal::sim::effects::Thermal::new(25e-6, 5.0, 600.0, 21.0));
     let robot = s.load_robot(None).unwrap();
     let g = generate(&s, &robot, &Silent).unwrap();
