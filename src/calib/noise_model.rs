@@ -78,7 +78,7 @@ impl std::str::FromStr for NoiseChoice {
     }
 }
 
-/// Takes the joint angles' logging error out of the training readings `train` (row `i` is the
+/// The training readings `train` with the joint angles' logging error taken out (row `i` is the
 /// dataset `data`'s row `rows[i]`) where they share blocks and the angles are logged at a step
 /// (`step_deg`, or the data's decimals), before any method fits them: `model` is fitted from
 /// `x0` (parameters `fixed` held) by least squares, then by generalised least squares with the
@@ -86,26 +86,26 @@ impl std::str::FromStr for NoiseChoice {
 /// show, per block and joint ([`Whitening::rounding_estimate`], at most half a step), is taken
 /// out of the readings. A parametric fit on the corrected readings is then the generalised
 /// least-squares fit (exactly so where no offset reaches half a step), and a learned corrector
-/// finds no rounding in them to learn. Returns the noise model and the whitening of the rows,
-/// or `None` where the rows are independent, weighted by their own standard deviations, or the
+/// finds no rounding in them to learn. Returns the noise model, the whitening of the rows and
+/// the corrected samples, or `None` where the rows are independent, weighted by their own standard deviations, or the
 /// angles unrounded (the readings untouched).
 #[allow(clippy::too_many_arguments)]
 pub fn remove_logging_error(
     model: &CalibModel,
     x0: &[f64],
     fixed: &[bool],
-    train: &mut Samples,
+    train: &Samples,
     rows: &[usize],
     data: &Dataset,
     step_deg: Option<f64>,
-) -> Option<(NoiseModel, Whitening)> {
+) -> Option<(NoiseModel, Whitening, Samples)> {
     let (blocks, step) = crate::dataset::blocks::detect(data, step_deg);
     let step = step?;
     let ids: Vec<usize> = rows.iter().map(|&r| blocks.of_row[r]).collect();
     if !ids.windows(2).any(|w| w[0] == w[1]) || train.w.is_some() {
         return None;
     }
-    let lm = || crate::optim::LevenbergMarquardt::budget(100).tolerances(1e-9, 1e-9);
+    let lm = crate::optim::LevenbergMarquardt::refit;
     let plain = train.unweighted();
     let x1 = lm().minimize(&ReadingFit { model, data: &plain }, x0, fixed, &mut crate::optim::NoObserver).x;
     let all: Vec<usize> = (0..train.len()).collect();
@@ -115,9 +115,7 @@ pub fn remove_logging_error(
     let x2 = lm().minimize(&ReadingFit { model, data: &gls }, &x1, fixed, &mut crate::optim::NoObserver).x;
     let r = ReadingFit { model, data: &plain }.residuals_mm(&x2);
     let u = whitening.rounding_estimate(&r);
-    for (y, u) in train.y.iter_mut().zip(&u) {
-        *y -= u * 1e-3;
-    }
+    let corrected = Samples { y: train.y.iter().zip(&u).map(|(y, u)| y - u * 1e-3).collect(), ..plain };
     let removed = (u.iter().map(|v| v * v).sum::<f64>() / u.len().max(1) as f64).sqrt();
-    Some((NoiseModel { removed_rms_mm: Some(removed), ..m.summary(step) }, whitening))
+    Some((NoiseModel { removed_rms_mm: Some(removed), ..m.summary(step) }, whitening, corrected))
 }

@@ -1186,15 +1186,18 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     // Stage "noise model": the joint angles' logging error shared by a block's rows taken out of
     // the training readings (the rows as read kept for the metrics and the uncertainties).
     let mut split = split;
-    let raw_train = split.train.clone();
     let logging = match opts.noise_model {
         super::noise_model::NoiseChoice::Auto => {
-            super::noise_model::remove_logging_error(&model, &x0, &fixed, &mut split.train, &split.train_idx, data, opts.angle_step_deg)
+            super::noise_model::remove_logging_error(&model, &x0, &fixed, &split.train, &split.train_idx, data, opts.angle_step_deg)
         }
         super::noise_model::NoiseChoice::Off => None,
     };
-    let (noise_model, whitened) = match logging {
-        Some((n, w)) => (Some(n), Some(Samples { gls: Some(w), ..raw_train.clone() })),
+    // With the noise model: the rows as read, whitened by it.
+    let (noise_model, as_read) = match logging {
+        Some((n, w, corrected)) => {
+            let read = std::mem::replace(&mut split.train, corrected);
+            (Some(n), Some(Samples { gls: Some(w), ..read }))
+        }
         None => (None, None),
     };
     let fit = ReadingFit { model: &model, data: &split.train };
@@ -1240,12 +1243,15 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
 
     // Stage "uncertainty": standard uncertainties from the Jacobian at the solution (all methods alike).
     // (Of the rows as read, whitened: the corrected readings would understate them.)
-    let cov = grouped_covariance(&ReadingFit { model: &model, data: whitened.as_ref().unwrap_or(&split.train) }, &x, &fixed);
+    let cov = grouped_covariance(&ReadingFit { model: &model, data: as_read.as_ref().unwrap_or(&split.train) }, &x, &fixed);
     let noise_estimate_mm = if noise.is_finite() { noise } else { residual_sigma(&fit, &x, &fixed) };
     let test_fit = ReadingFit { model: &model, data: &split.test };
     let correct = corrector.as_ref().map(|c| c.as_correct());
     // The metrics judge the training rows in mm, unweighted, as the test rows.
-    let plain = (split.train.w.is_some() || noise_model.is_some()).then(|| raw_train.unweighted());
+    let plain = match &as_read {
+        Some(read) => Some(read.unweighted()),
+        None => split.train.w.is_some().then(|| split.train.unweighted()),
+    };
     let plain_fit = ReadingFit { model: &model, data: plain.as_ref().unwrap_or(&split.train) };
     let mut metrics = metrics_stage(&plain_fit, &test_fit, &x0, &x, correct);
     if metrics.train_after.rmse > metrics.train_before.rmse {

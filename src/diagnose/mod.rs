@@ -445,11 +445,6 @@ impl Ctx {
         (ctx, kept.subset(&conf_idx), few_blocks)
     }
 
-    fn lm() -> LevenbergMarquardt {
-        // Held-out residuals need a few significant digits, not the last one.
-        LevenbergMarquardt::budget(100).tolerances(1e-9, 1e-9)
-    }
-
     /// Fits `model` from `x0` on every selection row (identifiable parameters only), then the
     /// held-out residual of each fold from a fit on the other folds.
     fn evaluate(&self, model: CalibModel, x0: &[f64]) -> Fitted {
@@ -471,7 +466,7 @@ impl Ctx {
             .map(|fold| {
                 let train: Vec<usize> = (0..self.data.len()).filter(|i| !fold.contains(i)).collect();
                 let tr = self.data.subset(&train);
-                let xf = Self::lm().minimize(&ReadingFit { model, data: &tr }, x, fixed, &mut NoObserver).x;
+                let xf = LevenbergMarquardt::refit().minimize(&ReadingFit { model, data: &tr }, x, fixed, &mut NoObserver).x;
                 // Judged in mm, unweighted (the rows' weights serve the fit).
                 ReadingFit { model, data: &self.data.subset(fold).unweighted() }.residuals_mm(&xf)
             })
@@ -497,7 +492,7 @@ fn scatter(folds: &[Vec<usize>], per_fold: Vec<Vec<f64>>, n: usize, dim: usize) 
 fn refit(model: &CalibModel, data: &Samples, x0: &[f64], rank_tol: f64) -> (Vec<f64>, Vec<bool>) {
     let fit = ReadingFit { model, data };
     let fixed = identify(&fit, x0, rank_tol).fixed_mask;
-    (Ctx::lm().minimize(&fit, x0, &fixed, &mut NoObserver).x, fixed)
+    (LevenbergMarquardt::refit().minimize(&fit, x0, &fixed, &mut NoObserver).x, fixed)
 }
 
 /// The acquisition's blocks (sweeps, pauses, declared blocks) and the ends of the reading steps
@@ -1101,7 +1096,7 @@ fn diagnose_screened(
     explained_rows.sort_unstable();
     let fit = ReadingFit { model: &current.model, data: &kept };
     let final_id = identify(&fit, &current.x, opts.rank_tol);
-    let final_x = Ctx::lm().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
+    let final_x = LevenbergMarquardt::refit().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
     let final_train_rmse_mm = rms(&ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&final_x));
     let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
     let mut warnings: Vec<String> = fold_warning

@@ -241,6 +241,12 @@ impl LevenbergMarquardt {
     pub fn budget(max_iter: usize) -> Self {
         LevenbergMarquardt { max_iter, ..Default::default() }
     }
+    /// A refit from a near start (a diagnosis's candidates and folds, the noise model's fits):
+    /// 100 iterations, tolerances 1e-9 (held-out residuals need a few significant digits, not
+    /// the last one).
+    pub fn refit() -> Self {
+        Self::budget(100).tolerances(1e-9, 1e-9)
+    }
     /// These settings with relative cost and step tolerances `ftol`, `xtol`.
     pub fn tolerances(self, ftol: f64, xtol: f64) -> Self {
         LevenbergMarquardt { ftol, xtol, ..self }
