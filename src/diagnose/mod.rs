@@ -864,11 +864,23 @@ pub const EFFECT_SCREEN_MIN_SHARE: f64 = 0.01;
 /// its fit than the geometric screen's (robust scale at most this factor of it): a flexible
 /// block that widens the scale until the rows are in explains nothing.
 pub const EFFECT_SCREEN_MAX_SCALE: f64 = 1.1;
+/// ... and a candidate whose screen flags no more outlier rows than the geometric one explains
+/// them when the rows it keeps sit markedly tighter around its fit (robust scale at most this
+/// factor of the geometric one): where an effect shifts whole stretches of rows (a backlash
+/// flank held over a sweep), the geometric screen takes them for reading steps and corrects
+/// them away instead of flagging them.
+pub const EFFECT_SCREEN_TIGHTER: f64 = 0.8;
+
+/// Rows the screen `s` takes out of the plain model's account: outliers and the rows of
+/// reading steps.
+fn flagged_rows(s: &crate::calib::robust::Screen) -> usize {
+    s.outliers.len() + s.steps.iter().map(|st| st.rows).sum::<usize>()
+}
 
 /// The candidate effect whose model, screened on every row, flags the fewest rows (of those whose
 /// scale stays within [`EFFECT_SCREEN_MAX_SCALE`] of the geometric one; ties to the narrower
 /// scale), with its screen, when that is at most half of what the geometric screen (`geo`)
-/// flagged.
+/// flagged, or no more with a scale within [`EFFECT_SCREEN_TIGHTER`] of the geometric one.
 fn screen_with_effects(
     base: &CalibModel,
     all: &Samples,
@@ -890,11 +902,12 @@ fn screen_with_effects(
         })
         .collect();
     // Fewest rows flagged among the candidates that keep the scale; of those, the narrowest.
-    let best = tried
+    let fewer = |s: &crate::calib::robust::Screen| 2 * s.outliers.len() <= geo.outliers.len() && !geo.outliers.is_empty();
+    let tighter = |s: &crate::calib::robust::Screen| s.outliers.len() <= geo.outliers.len() && s.scale_mm <= EFFECT_SCREEN_TIGHTER * geo.scale_mm;
+    Ok(tried
         .into_iter()
-        .filter(|(_, s)| s.scale_mm <= EFFECT_SCREEN_MAX_SCALE * geo.scale_mm)
-        .min_by(|a, b| a.1.outliers.len().cmp(&b.1.outliers.len()).then(a.1.scale_mm.total_cmp(&b.1.scale_mm)));
-    Ok(best.filter(|(_, s)| 2 * s.outliers.len() <= geo.outliers.len()))
+        .filter(|(_, s)| s.scale_mm <= EFFECT_SCREEN_MAX_SCALE * geo.scale_mm && (fewer(s) || tighter(s)))
+        .min_by(|a, b| a.1.outliers.len().cmp(&b.1.outliers.len()).then(a.1.scale_mm.total_cmp(&b.1.scale_mm))))
 }
 
 /// A diagnosis whose rows are screened against the geometric model, or (`effect_screen`) against
@@ -924,16 +937,19 @@ fn diagnose_screened(
     let geo_screen =
         crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
     // Rows the geometric screen flagged that a candidate effect explains stay in.
-    let flagged = geo_screen.outliers.len();
+    let flagged = flagged_rows(&geo_screen);
     let (screen, screened_with, first_flagged) =
         match effect_screen && flagged >= EFFECT_SCREEN_MIN_ROWS && flagged as f64 >= EFFECT_SCREEN_MIN_SHARE * all.len() as f64 {
             true => match screen_with_effects(&base, &all, data, opts, has_torques, &geo_screen)? {
                 Some((b, mut s)) => {
                     progress(&format!(
-                        "{} of the {} rows the geometric model's screen flags are explained by {}: they stay in",
-                        geo_screen.outliers.len() - s.outliers.len(),
-                        geo_screen.outliers.len(),
-                        b.label()
+                        "the geometric model's screen flags {} rows (outliers or reading steps), {}'s {}, with the kept rows' \
+                         robust scale {:.4} -> {:.4} mm: its screen is kept",
+                        flagged,
+                        b.label(),
+                        flagged_rows(&s),
+                        geo_screen.scale_mm,
+                        s.scale_mm
                     ));
                     // The geometric fit of the rows kept.
                     s.x = refit_rows(&s.corrected.subset(&s.keep), &geo_screen.x);
