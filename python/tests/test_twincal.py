@@ -161,6 +161,34 @@ def test_bad_input_raises_the_command_lines_message(embedded):
         twincal.calibrate(data).ik(np.zeros((2, 2)))
 
 
+def test_every_front_door_applies_the_command_lines_checks(embedded, tmp_path):
+    _, data, _ = embedded
+    # Seeds: the command line's 0..=2**64-1, not Python's OverflowError.
+    for seed in (-1, 2**70):
+        with pytest.raises(twincal.TwincalError, match=f"seed must be in 0..=18446744073709551615, got {seed}"):
+            twincal.generate(seed=seed)
+    with pytest.raises(twincal.TwincalError, match="seed must be an integer"):
+        twincal.generate(seed=1.5)
+    r = twincal.calibrate(data)
+    with pytest.raises(twincal.TwincalError, match="seed must be in"):
+        r.ik(np.array([[400.0, 0.0, 500.0]]), seed=-1)
+    # ik's tolerance: the same bound as `twincal ik --tol-mm` (10 mm), not a looser one.
+    with pytest.raises(twincal.TwincalError, match=r"tol_mm must be in \(0, 10\] mm, got 500"):
+        r.ik(np.array([[400.0, 0.0, 500.0]]), tol_mm=500)
+    # A string where a list is expected is the command line's comma list, not its letters.
+    small = {k: v[:120] for k, v in data.items() if k != "split"}
+    one = twincal.compare(small, methods="lm", seeds=1, test_fraction=0.2)
+    assert untimed(one) == untimed(twincal.compare(small, methods=["lm"], seeds=1, test_fraction=0.2))
+    with pytest.raises(twincal.TwincalError, match="unknown method 'nope'"):
+        twincal.compare(small, methods="lm,nope", seeds=1, test_fraction=0.2)
+    with pytest.raises(twincal.TwincalError, match="effects must be strings"):
+        twincal.calibrate(small, effects=[3])
+    # One path where a list of parts is expected.
+    part = tmp_path / "p.jsonl"
+    twincal.compare(small, methods="lm", seeds=1, test_fraction=0.2, shard="0/1", shard_out=part)
+    assert untimed(twincal.reduce(str(part))) == untimed(one)
+
+
 def test_long_work_releases_the_gil_and_reports_progress(embedded):
     _, data, _ = embedded
     ticks = []

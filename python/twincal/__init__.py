@@ -67,6 +67,47 @@ def _argv(options: Mapping[str, Any]) -> list[str]:
     return argv
 
 
+_SEED_MAX = 2**64 - 1
+
+
+def _seed(seed: Any, name: str = "seed") -> Any:
+    """A seed as the command line takes it (an integer in 0..=2**64-1), else TwincalError."""
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise TwincalError(f"{name} must be an integer in 0..={_SEED_MAX}, got {type(seed).__name__} {seed!r}")
+    if not 0 <= int(seed) <= _SEED_MAX:
+        raise TwincalError(f"{name} must be in 0..={_SEED_MAX}, got {int(seed)}")
+    return int(seed)
+
+
+def _names(value: Any, name: str) -> Optional[list[str]]:
+    """A list of names (methods, effects): a string is the command line's comma-separated list
+    (``"lm"`` is one method, not two letters), else an iterable of strings."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return [v.strip() for v in value.split(",")]
+    try:
+        items = list(value)
+    except TypeError:
+        raise TwincalError(f"{name} must be a string or a list of strings, got {type(value).__name__}") from None
+    bad = [v for v in items if not isinstance(v, str)]
+    if bad:
+        raise TwincalError(f"{name} must be strings, got {type(bad[0]).__name__} {bad[0]!r}")
+    return items
+
+
+def _paths(value: Any, name: str) -> list[str]:
+    """One path or a list of them."""
+    if isinstance(value, (str, os.PathLike)):
+        return [os.fspath(value)]
+    try:
+        return [os.fspath(v) for v in value]
+    except TypeError:
+        raise TwincalError(f"{name} must be a path or a list of paths, got {type(value).__name__}") from None
+
+
 def _no_outputs(command: str, options: Mapping[str, Any], how: str) -> None:
     named = sorted(k for k in options if k in _OUTPUTS)
     if named:
@@ -114,7 +155,7 @@ def generate(scenario: Optional[Union[str, os.PathLike]] = None, seed: Optional[
     DataFrame with ``as_frame=True``), equal value for value to the ``dataset.csv`` that
     ``twincal generate`` writes, and its ``truth.json`` as a dict.
     """
-    columns, truth = _native.generate(None if scenario is None else os.fspath(scenario), seed, progress)
+    columns, truth = _native.generate(None if scenario is None else os.fspath(scenario), _seed(seed), progress)
     return _frame(_mapping(columns), as_frame), json.loads(truth)
 
 
@@ -199,7 +240,7 @@ class Result:
         t = np.ascontiguousarray(np.atleast_2d(np.asarray(targets, dtype=np.float64)))
         runs = {
             label: {"q_deg": q, "status": np.array(status, dtype=str), "iterations": np.array(iters), "residual_mm": res}
-            for label, q, status, iters, res in self._native.ik(t, jacobian, tol_mm, seed)
+            for label, q, status, iters, res in self._native.ik(t, jacobian, tol_mm, _seed(seed))
         }
         return runs if jacobian.lower() == "all" else next(iter(runs.values()))
 
@@ -240,7 +281,7 @@ def calibrate(
     own truth.json. Outputs are written by :meth:`Result.save`.
     """
     _no_outputs("calibrate", options, "Result.save()")
-    opts = {"method": method, "model": model, "effects": list(effects) if effects is not None else None, **options}
+    opts = {"method": method, "model": model, "effects": _names(effects, "effects"), **options}
     truth_text = json.dumps(truth) if isinstance(truth, dict) else truth
     return Result(_native.calibrate(_columns(data), _argv(opts), truth_text, progress))
 
@@ -331,7 +372,7 @@ def compare(data: Data, methods: Sequence[str] = ("lm", "ekf", "pf", "pso", "rbf
     them to the partial file, and returns None: join the parts with :func:`reduce`."""
     _no_outputs("compare", options, "the command line (twincal.cli)")
     with tempfile.TemporaryDirectory(prefix="twincal-") as tmp:
-        argv = ["--quiet", "compare", "--data", _staged(data, tmp, options.get("angles")), f"--methods={','.join(methods)}", f"--seeds={seeds}"]
+        argv = ["--quiet", "compare", "--data", _staged(data, tmp, options.get("angles")), f"--methods={','.join(_names(methods, 'methods') or [])}", f"--seeds={seeds}"]
         argv += _argv({**options, "shard": shard, "shard_out": shard_out})
         if shard is not None:
             _native.cli(argv)
@@ -347,7 +388,7 @@ def reduce(parts: Sequence[Union[str, os.PathLike]], out: Optional[Union[str, os
     (duplicates dropped, missing ones named in the error), then the tables as one compare's."""
     with tempfile.TemporaryDirectory(prefix="twincal-") as tmp:
         target = os.fspath(out) if out is not None else os.path.join(tmp, "compare.json")
-        _native.cli(["--quiet", "reduce", *map(os.fspath, parts), "--out", target])
+        _native.cli(["--quiet", "reduce", *_paths(parts, "parts"), "--out", target])
         with open(target) as f:
             return json.load(f)
 

@@ -12,6 +12,14 @@ use std::path::{Path, PathBuf};
 /// Largest `--tol-mm`: beyond a centimetre a "solution" says nothing about where the tool is.
 pub const MAX_TOL_MM: f64 = 10.0;
 
+/// The check of `--tol-mm` (and of Python's `Result.ik(tol_mm=...)`): within (0, [`MAX_TOL_MM`]].
+pub fn check_tol_mm(tol_mm: f64) -> Result<()> {
+    if !(tol_mm > 0.0 && tol_mm <= MAX_TOL_MM) {
+        return Err(Error::Invalid(format!("--tol-mm must be in (0, {MAX_TOL_MM}] mm, got {tol_mm}")));
+    }
+    Ok(())
+}
+
 /// Reads target points (mm) from a CSV with columns x, y, z (header required; other columns
 /// ignored), by the dataset reader's rules ([`crate::dataset::read_csv_columns`]: `;` or tab,
 /// decimal commas, quotes, comments, a byte-order mark). Non-numeric fields are refused with the
@@ -80,9 +88,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
             return Err(Error::Invalid(format!("--random must be in 1..=100000, got {n}")));
         }
     }
-    if !(a.tol_mm > 0.0 && a.tol_mm <= MAX_TOL_MM) {
-        return Err(Error::Invalid(format!("--tol-mm must be in (0, {MAX_TOL_MM}] mm, got {}", a.tol_mm)));
-    }
+    check_tol_mm(a.tol_mm)?;
     let kinds: Vec<JacobianKind> = match a.jacobian.to_ascii_lowercase().as_str() {
         "all" => JacobianKind::ALL.to_vec(),
         s => vec![JacobianKind::ALL
