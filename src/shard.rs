@@ -90,6 +90,9 @@ impl Shard {
     pub fn open<C: Config>(spec: &str, out: &Path, config: &C, inputs: &[(&str, &Path)]) -> Result<Shard> {
         crate::io::check_outputs(inputs, &[("--shard-out", out)])?;
         let (index, count) = parse(spec)?;
+        if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty() && !d.is_dir()) {
+            return Err(Error::Invalid(format!("--shard-out {}: its folder {} does not exist", out.display(), dir.display())));
+        }
         let hash = config.hash();
         let done = read::<C, serde_json::Value>(out, Some(&hash))?.iter().map(|l| l.item).collect();
         let sink = Mutex::new(open_append(out)?);

@@ -107,7 +107,7 @@ pub struct CompareArgs {
     /// Run only work items with id % N == i (items: seed × method, id = seed · methods +
     /// method, in a fixed order), appending each to --shard-out as it finishes; `twincal reduce`
     /// joins the parts. Re-running a shard skips the items its file holds.
-    #[arg(long, value_name = "i/N")]
+    #[arg(long, value_name = "i/N", allow_hyphen_values = true)]
     pub shard: Option<String>,
     /// The shard's partial file (JSONL; needed with --shard).
     #[arg(long)]

@@ -110,7 +110,7 @@ pub struct ShardArgs {
     /// Run only the work items with id % N == i (in a fixed order, each with its own seed),
     /// appending each to --shard-out as it finishes; `twincal reduce` joins the parts.
     /// Re-running a shard skips the items its file holds.
-    #[arg(long, value_name = "i/N")]
+    #[arg(long, value_name = "i/N", allow_hyphen_values = true)]
     pub shard: Option<String>,
     /// The shard's partial file (JSONL; needed with --shard).
     #[arg(long)]

@@ -90,6 +90,19 @@ fn shards_reduce_to_the_single_run() {
     let o = twincal(&[&base[..], &["--shard", "0/2", "--shard-out", &p(&other)]].concat());
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("written for another study"), "{}", String::from_utf8_lossy(&o.stderr));
+    // A negative shard index reaches the shard's own check; a part in a missing folder is named
+    // as such (not "cannot read"); neither leaves a file behind.
+    let refused = |args: &[&str], says: &str| {
+        let o = twincal(&[&base[..], args].concat());
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(String::from_utf8_lossy(&o.stderr).contains(says), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    let neg = dir.path().join("neg.jsonl");
+    refused(&["--shard", "-1/2", "--shard-out", &p(&neg)], "--shard must be i/N with 0 <= i < N <= 10000 (e.g. 0/3), got '-1/2'");
+    assert!(!neg.exists());
+    let missing = dir.path().join("no/such/part.jsonl");
+    refused(&["--shard", "0/2", "--shard-out", &p(&missing)], "its folder");
+    assert!(!dir.path().join("no").exists());
 }
 
 /// The lines of a run's stdout.
