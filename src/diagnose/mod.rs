@@ -910,6 +910,47 @@ fn screen_with_effects(
         .min_by(|a, b| a.1.outliers.len().cmp(&b.1.outliers.len()).then(a.1.scale_mm.total_cmp(&b.1.scale_mm))))
 }
 
+/// The rows' screen: against the geometric model, or (`effect_screen`, when that flags at least
+/// [`EFFECT_SCREEN_MIN_ROWS`] rows and [`EFFECT_SCREEN_MIN_SHARE`] of them, outliers or reading
+/// steps) against the candidate effect that explains them ([`screen_with_effects`]), with that
+/// effect and the rows the geometric screen flagged that it keeps.
+fn screen_rows(
+    base: &CalibModel,
+    all: &Samples,
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    has_torques: bool,
+    effect_screen: bool,
+    progress: &dyn Fn(&str),
+) -> Result<(crate::calib::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
+    let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(base, d, x, opts.rank_tol);
+    let geo_screen =
+        crate::calib::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
+    let flagged = flagged_rows(&geo_screen);
+    // Rows the geometric screen flagged that a candidate effect explains stay in.
+    Ok(match effect_screen && flagged >= EFFECT_SCREEN_MIN_ROWS && flagged as f64 >= EFFECT_SCREEN_MIN_SHARE * all.len() as f64 {
+        true => match screen_with_effects(base, all, data, opts, has_torques, &geo_screen)? {
+            Some((b, mut s)) => {
+                progress(&format!(
+                    "the geometric model's screen flags {} rows (outliers or reading steps), {}'s {}, with the kept rows' \
+                         robust scale {:.4} -> {:.4} mm: its screen is kept",
+                    flagged,
+                    b.label(),
+                    flagged_rows(&s),
+                    geo_screen.scale_mm,
+                    s.scale_mm
+                ));
+                // The geometric fit of the rows kept.
+                s.x = refit_rows(&s.corrected.subset(&s.keep), &geo_screen.x);
+                let flagged: Vec<usize> = geo_screen.outliers.iter().map(|o| o.row).filter(|r| !s.outliers.iter().any(|o| o.row == *r)).collect();
+                (s, Some(b), flagged)
+            }
+            None => (geo_screen, None, Vec::new()),
+        },
+        false => (geo_screen, None, Vec::new()),
+    })
+}
+
 /// A diagnosis whose rows are screened against the geometric model, or (`effect_screen`) against
 /// the candidate effect that explains what that screen flags ([`screen_with_effects`]), which it
 /// returns.
@@ -933,33 +974,7 @@ fn diagnose_screened(
     let mut all = prepared.split.train;
     let fold_warning = fold_rows_check(all.len(), dim, prepared.id.fixed_mask.iter().filter(|f| !**f).count(), opts)?;
 
-    let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&base, d, x, opts.rank_tol);
-    let geo_screen =
-        crate::calib::robust::screen(&base, &base.nominal, &all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
-    // Rows the geometric screen flagged that a candidate effect explains stay in.
-    let flagged = flagged_rows(&geo_screen);
-    let (screen, screened_with, first_flagged) =
-        match effect_screen && flagged >= EFFECT_SCREEN_MIN_ROWS && flagged as f64 >= EFFECT_SCREEN_MIN_SHARE * all.len() as f64 {
-            true => match screen_with_effects(&base, &all, data, opts, has_torques, &geo_screen)? {
-                Some((b, mut s)) => {
-                    progress(&format!(
-                        "the geometric model's screen flags {} rows (outliers or reading steps), {}'s {}, with the kept rows' \
-                         robust scale {:.4} -> {:.4} mm: its screen is kept",
-                        flagged,
-                        b.label(),
-                        flagged_rows(&s),
-                        geo_screen.scale_mm,
-                        s.scale_mm
-                    ));
-                    // The geometric fit of the rows kept.
-                    s.x = refit_rows(&s.corrected.subset(&s.keep), &geo_screen.x);
-                    let flagged: Vec<usize> = geo_screen.outliers.iter().map(|o| o.row).filter(|r| !s.outliers.iter().any(|o| o.row == *r)).collect();
-                    (s, Some(b), flagged)
-                }
-                None => (geo_screen, None, Vec::new()),
-            },
-            false => (geo_screen, None, Vec::new()),
-        };
+    let (screen, screened_with, first_flagged) = screen_rows(&base, &all, data, opts, has_torques, effect_screen, progress)?;
     let (keep, mut outliers, mut outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
     // What went wrong in each run of outlier rows and each reading step, tested on the rows as
     // logged (see `faults`).
