@@ -340,7 +340,7 @@ impl PyCalibration {
         if targets.shape().len() != 2 || targets.shape()[1] != 3 {
             return Err(TwincalError::new_err(format!("targets must be an (n, 3) array of x, y, z in mm, got shape {:?}", targets.shape())));
         }
-        twincal::commands::ik::check_tol_mm(tol_mm).map_err(|e| TwincalError::new_err(e.to_string().replace("--tol-mm", "tol_mm")))?;
+        twincal::commands::ik::check_tol_mm(tol_mm, "tol_mm").map_err(err)?;
         let kinds: Vec<JacobianKind> = match jacobian.to_ascii_lowercase().as_str() {
             "all" => JacobianKind::ALL.to_vec(),
             s => vec![JacobianKind::ALL

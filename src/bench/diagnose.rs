@@ -225,8 +225,8 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
         }
         // The generator's floor of the items with an effect; with none run, the floor the clean
         // items' diagnoses stated.
-        let stated = if above.is_empty() && below.is_empty() { &clean } else { &above };
-        let floors: Vec<f64> = stated.iter().chain(&below).map(|i| i.floor_mm).filter(|f| *f > 0.0).collect();
+        let floor_of = |items: &[&DetectionItem]| items.iter().map(|i| i.floor_mm).filter(|f| *f > 0.0).collect::<Vec<f64>>();
+        let floors = if above.is_empty() && below.is_empty() { floor_of(&clean) } else { floor_of(&[&above[..], &below[..]].concat()) };
         println!(
             "  realistic acquisitions, angles logged at {} deg (sweeps of {}, {} glitch runs; floor {:.4} mm median):",
             10f64.powi(-(decimals as i32)),

@@ -12,10 +12,11 @@ use std::path::{Path, PathBuf};
 /// Largest `--tol-mm`: beyond a centimetre a "solution" says nothing about where the tool is.
 pub const MAX_TOL_MM: f64 = 10.0;
 
-/// The check of `--tol-mm` (and of Python's `Result.ik(tol_mm=...)`): within (0, [`MAX_TOL_MM`]].
-pub fn check_tol_mm(tol_mm: f64) -> Result<()> {
+/// The check of `--tol-mm` (and of Python's `Result.ik(tol_mm=...)`, `option` naming it as its
+/// caller spells it): within (0, [`MAX_TOL_MM`]].
+pub fn check_tol_mm(tol_mm: f64, option: &str) -> Result<()> {
     if !(tol_mm > 0.0 && tol_mm <= MAX_TOL_MM) {
-        return Err(Error::Invalid(format!("--tol-mm must be in (0, {MAX_TOL_MM}] mm, got {tol_mm}")));
+        return Err(Error::Invalid(format!("{option} must be in (0, {MAX_TOL_MM}] mm, got {tol_mm}")));
     }
     Ok(())
 }
@@ -88,7 +89,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
             return Err(Error::Invalid(format!("--random must be in 1..=100000, got {n}")));
         }
     }
-    check_tol_mm(a.tol_mm)?;
+    check_tol_mm(a.tol_mm, "--tol-mm")?;
     let kinds: Vec<JacobianKind> = match a.jacobian.to_ascii_lowercase().as_str() {
         "all" => JacobianKind::ALL.to_vec(),
         s => vec![JacobianKind::ALL
