@@ -15,13 +15,7 @@ fn root() -> PathBuf {
 }
 
 fn shared(rel: &str) -> Option<PathBuf> {
-    let p = root().join("../shared").join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("SKIP: {} is absent (reference files are read from ../shared at run time)", p.display());
-        None
-    }
+    crate::datasets::shared(rel)
 }
 
 /// Nominal pose of `robot`'s flange frame at `q` (rad): rotation and position (mm).

@@ -350,11 +350,7 @@ fn bad_calibration_input_is_named_and_leaves_nothing() {
 /// Real measured data: generic 6R model, held-out RMSE against the repeatability floor.
 #[test]
 fn hsr_robotcali_generic_model_reaches_the_repeatability_floor() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/hsr-robotcali/hsr_robotcali_pool.csv");
-    if !path.exists() {
-        eprintln!("SKIP: {} is absent (real HSR-RobotCali data are read from ../shared at run time)", path.display());
-        return;
-    }
+    let Some(path) = datasets::shared("data/hsr-robotcali/hsr_robotcali_pool.csv") else { return };
     let ds = Dataset::load(&path).unwrap();
     let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::Lm);
     o.test_fraction = Some(0.2);

@@ -8,14 +8,9 @@ use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpe
 use twincal::dataset::{Dataset, Split};
 use twincal::diagnose::{diagnose, DiagnoseOptions};
 
+/// A real data file under ../shared/data.
 fn shared(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("SKIP: {} is absent (real data are read from ../shared at run time)", p.display());
-        None
-    }
+    crate::datasets::shared(&format!("data/{rel}"))
 }
 
 fn condition_identifiable(r: &CalibResult) -> f64 {
@@ -245,7 +240,7 @@ fn tracker_grids_of_a_ur5_and_a_wam_calibrate_below_the_published_error() {
     {
         let Some(path) = shared(rel) else { continue };
         if !urdf.exists() {
-            eprintln!("SKIP: {} is absent", urdf.display());
+            crate::datasets::skip(&urdf);
             continue;
         }
         let ds = Dataset::load(&path).unwrap();
@@ -293,7 +288,7 @@ fn the_diagnosed_model_predicts_held_out_blocks_no_worse_than_calibrate() {
         let Some(path) = shared(rel) else { continue };
         let spec = match urdf {
             Some(u) if !u.exists() => {
-                eprintln!("SKIP: {} is absent", u.display());
+                crate::datasets::skip(u);
                 continue;
             }
             Some(u) => ModelSpec::parse(u.to_str().unwrap(), "hayati").unwrap(),

@@ -134,11 +134,7 @@ fn an_identified_twin_replays_held_out_rows_to_the_noise() {
 /// geometry-identified twin and the diagnosed twin replayed on the rows held out from all three.
 #[test]
 fn robotcali_replayed_before_and_after_identification() {
-    let file = root().join("../shared/data/robotcali-irb120/robotcali_pool.csv");
-    if !file.exists() {
-        eprintln!("skipped: {} is absent (the real RobotCali data live in ../shared/data)", file.display());
-        return;
-    }
+    let Some(file) = crate::datasets::shared("data/robotcali-irb120/robotcali_pool.csv") else { return };
     let dir = tempfile::tempdir().unwrap();
     let p = |x: &Path| x.to_str().unwrap().to_owned();
     let d = |name: &str| dir.path().join(name);

@@ -1,6 +1,27 @@
-//! Dataset edits shared by the integration tests.
+//! Dataset edits shared by the integration tests, and the files they read from ../shared.
 
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use twincal::dataset::{Dataset, Row, Split};
+
+/// `rel` under ../shared (real data and reference files beside the project, read at run time and
+/// never committed), or None once [`skip`] has said it is absent.
+pub fn shared(rel: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared").join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        skip(&p);
+        None
+    }
+}
+
+/// Says on the test process's stderr that a test skips what needs `absent`: written to the
+/// stream itself, not through `eprintln!`, which the test harness captures and shows only for a
+/// failing test, so a passing run would not say it skipped.
+pub fn skip(absent: &Path) {
+    let _ = writeln!(std::io::stderr(), "SKIP: {} is absent (read from ../shared at run time)", absent.display());
+}
 
 /// `ds` with every test row's length moved by +0.5 or −0.7 mm (alternately): a method that
 /// chooses anything on the test rows would see it.
