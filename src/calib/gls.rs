@@ -2,7 +2,9 @@
 //! acquisition's blocks.
 //!
 //! A controller that logs angles at 0.1° hands the fit angles off by up to 0.05°, and in a sweep
-//! the joints that hold are off by the *same* amount on every row of the sweep. That error is in
+//! the joints that hold are off by the *same* amount on every row of the sweep (and so is a joint
+//! swept in increments that are whole multiples of the step: its logged increments are all the
+//! same, see [`super::noise_model::shares_rounding`]; "holds" below covers both). That error is in
 //! the inputs, not the reading: through the reading's derivative with respect to the joint
 //! angles, g = ∂y/∂q, it puts a shared, configuration-shaped offset on the sweep's readings. A
 //! least-squares fit that takes rows as independent lets any flexible term (an eccentricity, a
@@ -50,7 +52,7 @@ pub struct RoundingModel {
     pub block: Vec<usize>,
     /// ∂y/∂q of each row, mm/rad, row-major (`dim` rows of `joints`).
     pub jq: Vec<Vec<f64>>,
-    /// Whether each joint holds throughout the row's block.
+    /// Whether each joint's logging error is shared by the row's block (it holds, or steps evenly).
     pub holds: Vec<Vec<bool>>,
     /// Variance of one joint's logging error, rad².
     pub var_q: f64,

@@ -37,14 +37,13 @@ pub fn rounding_model_at(
             g.iter().map(|v| v * 1e3).collect()
         })
         .collect();
-    // The joints that hold throughout each block, over all of its rows in the dataset.
+    // The joints whose logging error each block shares, over all of its rows in the dataset.
     let mut holds_of_block = vec![Vec::new(); blocks.len()];
     for &(first, _) in &blocks.starts {
         let b = blocks.of_row[first];
         let block_rows: Vec<usize> = (first..data.rows.len()).take_while(|&i| blocks.of_row[i] == b).collect();
-        holds_of_block[b] = (0..nj)
-            .map(|j| block_rows.len() > 1 && block_rows.iter().all(|&i| (data.rows[i].q_deg[j] - data.rows[first].q_deg[j]).abs() <= 0.5 * step))
-            .collect();
+        let q: Vec<&[f64]> = block_rows.iter().map(|&i| &data.rows[i].q_deg[..]).collect();
+        holds_of_block[b] = (0..nj).map(|j| shares_rounding(&q, j, step)).collect();
     }
     let block: Vec<usize> = rows.iter().map(|&r| blocks.of_row[r]).collect();
     let holds: Vec<Vec<bool>> = block.iter().map(|&b| holds_of_block[b].clone()).collect();
@@ -53,6 +52,23 @@ pub fn rounding_model_at(
     let model = RoundingModel::new(dim, block, jq, holds, step, 0.0);
     let rounding = model.rounding_var();
     model.with_noise_var((total - rounding).max(0.05 * rounding).max(1e-12))
+}
+
+/// Whether the rows `q` of one block (logged angles, degrees, in acquisition order) share joint
+/// `j`'s logging error: the joint holds (within half a step of the first row throughout), or it
+/// steps evenly (every logged increment the same to within half a step, at least three rows). A
+/// controller sweep commanded in round increments (5°, 0.25°: whole multiples of the logging
+/// step) reads every row of the sweep off by the same rounding, as a holding joint does; where the
+/// increment is not a multiple of the step the logged increments differ by a step somewhere along
+/// any sweep long enough for the rounding to change, and the joint's error is taken per row.
+pub fn shares_rounding(q: &[&[f64]], j: usize, step: f64) -> bool {
+    if q.len() < 2 {
+        return false;
+    }
+    let holds = q.iter().all(|r| (r[j] - q[0][j]).abs() <= 0.5 * step);
+    let d0 = q[1][j] - q[0][j];
+    let even = q.len() >= 3 && q.windows(2).all(|w| (w[1][j] - w[0][j] - d0).abs() <= 0.5 * step);
+    holds || even
 }
 
 /// Whether `calibrate` models the joint angles' logging error.
@@ -118,4 +134,26 @@ pub fn remove_logging_error(
     let corrected = Samples { y: train.y.iter().zip(&u).map(|(y, u)| y - u * 1e-3).collect(), ..plain };
     let removed = (u.iter().map(|v| v * v).sum::<f64>() / u.len().max(1) as f64).sqrt();
     Some((NoiseModel { removed_rms_mm: Some(removed), ..m.summary(step) }, whitening, corrected))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shares_rounding;
+
+    fn rows(v: &[[f64; 2]]) -> Vec<&[f64]> {
+        v.iter().map(|r| &r[..]).collect()
+    }
+
+    #[test]
+    fn a_joint_shares_its_rounding_where_it_holds_or_steps_evenly() {
+        // Joint 0 steps by 5.00° (a multiple of the 0.01° step); joint 1 holds.
+        let even = [[10.03, -4.21], [15.03, -4.21], [20.03, -4.21], [25.03, -4.21]];
+        assert!(shares_rounding(&rows(&even), 0, 0.01) && shares_rounding(&rows(&even), 1, 0.01));
+        // A true increment of 5.004°: the logged increments read 5.00 and 5.01 by turns.
+        let uneven: Vec<[f64; 2]> = (0..6).map(|i| [((10.031 + 5.004 * i as f64) * 100.0).round() / 100.0, -4.21]).collect();
+        assert!(!shares_rounding(&rows(&uneven), 0, 0.01), "{uneven:?}");
+        // Two rows stepping once tell nothing about the increment; one row shares nothing.
+        assert!(!shares_rounding(&rows(&even[..2]), 0, 0.01) && shares_rounding(&rows(&even[..2]), 1, 0.01));
+        assert!(!shares_rounding(&rows(&even[..1]), 1, 0.01));
+    }
 }

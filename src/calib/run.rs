@@ -910,17 +910,18 @@ pub const SCREEN_ROWS_PER_PARAM: usize = 3;
 /// Stage "outliers": the training rows far off a robust fit ([`super::robust::screen`], the
 /// identifiable parameters refitted with the Cauchy loss at each pass) are taken out of the split;
 /// readings in a reading step are corrected by its offset, in training and test rows alike; a
-/// nominal model's sensor is then placed again on the rows kept. `None` when the screen is off.
-pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<Option<super::robust::Screen>> {
+/// nominal model's sensor is then placed again on the rows kept (a new model: the second value
+/// says so). `None` when the screen is off.
+pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<(Option<super::robust::Screen>, bool)> {
     if opts.outlier_k <= 0.0 {
-        return Ok(None);
+        return Ok((None, false));
     }
     // With few rows per parameter a fit nearly interpolates them: the residuals' robust scale
     // then says nothing about the noise, and the screen would flag good rows.
     let n_free = identify(&ReadingFit { model, data: &split.train }, &model.nominal, opts.rank_tol).fixed_mask.iter().filter(|f| !**f).count();
     // Counted in reading values: a tracker's row gives three.
     if split.train.y.len() < SCREEN_ROWS_PER_PARAM * n_free {
-        return Ok(None);
+        return Ok((None, false));
     }
     let screen = {
         let m: &CalibModel = model;
@@ -930,14 +931,16 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
     if !screen.steps.is_empty() {
         split.test = super::robust::apply_steps_nearest(&split.test, &split.test_idx, &split.train_idx, &screen.steps);
     }
+    let mut placed_again = false;
     if !screen.outliers.is_empty() || !screen.steps.is_empty() {
         split.train_idx = screen.keep.iter().map(|&i| split.train_idx[i]).collect();
         split.train = screen.corrected.subset(&screen.keep);
         if matches!(opts.model, ModelSpec::Nominal { .. }) {
             *model = super::placement::place_sensor(opts, &split.train)?;
+            placed_again = true;
         }
     }
-    Ok(Some(screen))
+    Ok((Some(screen), placed_again))
 }
 
 /// Test rows beyond `k` robust standard deviations of the calibrated model's training
@@ -1154,9 +1157,15 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     } else {
         None
     };
-    let screen = outlier_stage(&mut model, &mut split, opts)?;
-    let test_rows_in_steps = samples(data, &split.test_idx).y.iter().zip(&split.test.y).filter(|(a, b)| a != b).count();
+    // The effects asked for are in the model before the screen: a warm-up's drift or a backlash
+    // band, screened against the geometry alone, would look like reading steps and outliers.
     effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
+    let (screen, placed_again) = outlier_stage(&mut model, &mut split, opts)?;
+    if placed_again {
+        // The sensor placed again on the kept rows is a new model: the effects go back in.
+        effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
+    }
+    let test_rows_in_steps = samples(data, &split.test_idx).y.iter().zip(&split.test.y).filter(|(a, b)| a != b).count();
     let id = identify(&ReadingFit { model: &model, data: &split.train }, &model.nominal, opts.rank_tol);
     Ok(Prepared { split, model, screen, test_rows_in_steps, id, weighting })
 }

@@ -269,7 +269,7 @@ fn print_diagnosis(d: &crate::diagnose::Diagnosis) {
     eprintln!("  acquisition: {} (design effect {:.2})", d.acquisition.summary, d.design_effect);
     if let Some(n) = &d.noise_model {
         eprintln!(
-            "  noise model: joint angles logged at {} deg, shared by the rows of a block that hold them ({:.4} mm per value on average), reading noise {:.4} mm: the fits are generalised least squares",
+            "  noise model: joint angles logged at {} deg, shared by the rows of a block that hold them or step them evenly ({:.4} mm per value on average), reading noise {:.4} mm at the final model: the fits are generalised least squares",
             n.angle_step_deg, n.rounding_mm, n.reading_noise_mm
         );
     }

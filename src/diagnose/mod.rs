@@ -534,6 +534,30 @@ fn acquisition_structure(
     (blocks, acquisition, Some(noise))
 }
 
+/// The kept rows `kept` of the final fit with their noise model re-estimated at the model with its
+/// causes (`current`): the reading noise of the first one (see [`acquisition_structure`]) is
+/// what the geometric model leaves, the causes' signal included, and so takes most of what
+/// remains for independent noise; the sweeps' shared logging error, then too small a share of
+/// the covariance, would let a slow cause (a thermal drift over the sweeps) absorb it and state
+/// too small an uncertainty. Unchanged without a noise model or a cause.
+fn final_whitening(
+    kept: Samples,
+    noise_model: Option<NoiseModel>,
+    all: &Samples,
+    current: &Fitted,
+    data: &Dataset,
+    blocks: &crate::dataset::blocks::Blocks,
+    keep: &[usize],
+) -> (Samples, Option<NoiseModel>) {
+    let Some(n) = noise_model.as_ref().filter(|_| !current.model.effects.is_empty() && all.gls.is_some()) else { return (kept, noise_model) };
+    let rows: Vec<usize> = (0..all.len()).collect();
+    let plain = Samples { gls: None, ..all.clone() };
+    let m = std::sync::Arc::new(crate::calib::noise_model::rounding_model_at(&current.model, &current.x, &plain, &rows, keep, data, blocks, n.angle_step_deg));
+    let summary = m.summary(n.angle_step_deg);
+    let whitened = Samples { gls: Some(crate::calib::gls::Whitening::new(m, rows)), ..plain };
+    (whitened.subset(keep), Some(summary))
+}
+
 /// Share of the data's floor (mm RMS) that what a cause explains of the held-out rows must reach
 /// for it to be named: √(before² − after²) of the held-out RMSE. Below, the cause may be real and
 /// significant, but its correction is smaller than what the data can resolve row by row.
@@ -790,23 +814,36 @@ fn candidates(data: &Dataset, listed: &[(EffectKind, Option<usize>)], has_torque
 /// Runs a diagnosis. `progress` receives a line per finished step.
 ///
 /// When the screen against the geometric model flags rows that one candidate effect explains
-/// (the screen of the model with it flags at most half as many: a backlash band seen by a
-/// precise instrument puts every row of its minority flank far off the geometry), those rows
-/// stay in and the selection runs on them. Should the selection then not keep that effect, the
-/// diagnosis runs again on the rows the geometric screen kept.
+/// (the screen of the model with it flags at most half as many, or as many with a tighter scale:
+/// a backlash band seen by a precise instrument puts every row of its minority flank far off the
+/// geometry), those rows stay in and the selection runs on them. Should the selection then keep
+/// another effect first (a thermal drift of the whole arm where one joint's drift screened the
+/// rows), the diagnosis runs again on that effect's screen if it too explains the flagged rows;
+/// should it keep neither, on the rows the geometric screen kept.
 pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
     if opts.folds < 2 || opts.folds > 20 {
         return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));
     }
-    let (d, r, screened_with) = diagnose_screened(data, opts, progress, true)?;
-    match screened_with {
-        Some(b) if !d.causes.iter().any(|c| c.cause == b.kind.name() && c.joint == b.joint.map(|j| j + 1)) => {
-            progress(&format!("{} explained the flagged rows but was not kept: the diagnosis again, on the rows the geometric screen kept", b.label()));
-            let (d, r, _) = diagnose_screened(data, opts, progress, false)?;
-            Ok((d, r))
-        }
-        _ => Ok((d, r)),
+    let (d, r, screened_with) = diagnose_screened(data, opts, progress, ScreenBy::BestEffect)?;
+    let Some(b) = screened_with else { return Ok((d, r)) };
+    let named = |d: &Diagnosis, b: &EffectBlock| d.causes.iter().any(|c| c.cause == b.kind.name() && c.joint == b.joint.map(|j| j + 1));
+    if named(&d, &b) {
+        return Ok((d, r));
     }
+    let first = d.causes.first().and_then(|c| {
+        let kind = EffectKind::ALL.iter().copied().find(|k| k.name() == c.cause)?;
+        block_for(data, kind, c.joint.map(|j| j - 1), r.torque_model.is_some()).ok()
+    });
+    if let Some(f) = first {
+        progress(&format!("{} explained the flagged rows but {} was kept first: the diagnosis again, on {}'s screen", b.label(), f.label(), f.label()));
+        let (d2, r2, with) = diagnose_screened(data, opts, progress, ScreenBy::Effect(f.clone()))?;
+        if with.as_ref() == Some(&f) && named(&d2, &f) {
+            return Ok((d2, r2));
+        }
+    }
+    progress(&format!("{} explained the flagged rows but was not kept: the diagnosis again, on the rows the geometric screen kept", b.label()));
+    let (d, r, _) = diagnose_screened(data, opts, progress, ScreenBy::Geometry)?;
+    Ok((d, r))
 }
 
 /// The candidate blocks for the rows of `data` (joint angles `q`, rad): [`candidates`] less the
@@ -888,9 +925,10 @@ fn screen_with_effects(
     opts: &DiagnoseOptions,
     has_torques: bool,
     geo: &Screen,
+    only: Option<&EffectBlock>,
 ) -> Result<Option<(EffectBlock, Screen)>> {
     let span = time_span(data);
-    let pool = candidate_pool(data, &all.q, opts, has_torques)?;
+    let pool: Vec<EffectBlock> = candidate_pool(data, &all.q, opts, has_torques)?.into_iter().filter(|b| only.is_none_or(|o| o == b)).collect();
     let rows: Vec<usize> = (0..all.len()).collect();
     let tried: Vec<(EffectBlock, Screen)> = pool
         .par_iter()
@@ -910,17 +948,29 @@ fn screen_with_effects(
         .min_by(|a, b| a.1.outliers.len().cmp(&b.1.outliers.len()).then(a.1.scale_mm.total_cmp(&b.1.scale_mm))))
 }
 
-/// The rows' screen: against the geometric model, or (`effect_screen`, when that flags at least
-/// [`EFFECT_SCREEN_MIN_ROWS`] rows and [`EFFECT_SCREEN_MIN_SHARE`] of them, outliers or reading
-/// steps) against the candidate effect that explains them ([`screen_with_effects`]), with that
-/// effect and the rows the geometric screen flagged that it keeps.
+/// Which screen a diagnosis keeps its rows by (see [`screen_rows`]).
+#[derive(Clone, Debug)]
+enum ScreenBy {
+    /// The geometric model's.
+    Geometry,
+    /// The candidate effect's that explains best what the geometric one flags.
+    BestEffect,
+    /// This effect's, where it explains what the geometric one flags.
+    Effect(EffectBlock),
+}
+
+/// The rows' screen: against the geometric model, or (unless `by` is [`ScreenBy::Geometry`],
+/// when that flags at least [`EFFECT_SCREEN_MIN_ROWS`] rows and [`EFFECT_SCREEN_MIN_SHARE`] of
+/// them, outliers or reading steps) against the candidate effect that explains them
+/// ([`screen_with_effects`]; `by` may name it), with that effect and the rows the geometric
+/// screen flagged that it keeps.
 fn screen_rows(
     base: &CalibModel,
     all: &Samples,
     data: &Dataset,
     opts: &DiagnoseOptions,
     has_torques: bool,
-    effect_screen: bool,
+    by: &ScreenBy,
     progress: &dyn Fn(&str),
 ) -> Result<(crate::calib::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(base, d, x, opts.rank_tol);
@@ -928,8 +978,13 @@ fn screen_rows(
         crate::calib::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
     let flagged = flagged_rows(&geo_screen);
     // Rows the geometric screen flagged that a candidate effect explains stay in.
+    let only = match by {
+        ScreenBy::Effect(b) => Some(b),
+        _ => None,
+    };
+    let effect_screen = !matches!(by, ScreenBy::Geometry);
     Ok(match effect_screen && flagged >= EFFECT_SCREEN_MIN_ROWS && flagged as f64 >= EFFECT_SCREEN_MIN_SHARE * all.len() as f64 {
-        true => match screen_with_effects(base, all, data, opts, has_torques, &geo_screen)? {
+        true => match screen_with_effects(base, all, data, opts, has_torques, &geo_screen, only)? {
             Some((b, mut s)) => {
                 progress(&format!(
                     "the geometric model's screen flags {} rows (outliers or reading steps), {}'s {}, with the kept rows' \
@@ -951,14 +1006,13 @@ fn screen_rows(
     })
 }
 
-/// A diagnosis whose rows are screened against the geometric model, or (`effect_screen`) against
-/// the candidate effect that explains what that screen flags ([`screen_with_effects`]), which it
-/// returns.
+/// A diagnosis whose rows are screened as `by` says ([`screen_rows`]), with the effect whose
+/// screen it kept.
 fn diagnose_screened(
     data: &Dataset,
     opts: &DiagnoseOptions,
     progress: &dyn Fn(&str),
-    effect_screen: bool,
+    by: ScreenBy,
 ) -> Result<(Diagnosis, crate::calib::run::CalibResult, Option<EffectBlock>)> {
     let t0 = Instant::now();
     // Every row needs its reading: a cable length, or a tracker's point (x, y, z).
@@ -974,7 +1028,7 @@ fn diagnose_screened(
     let mut all = prepared.split.train;
     let fold_warning = fold_rows_check(all.len(), dim, prepared.id.fixed_mask.iter().filter(|f| !**f).count(), opts)?;
 
-    let (screen, screened_with, first_flagged) = screen_rows(&base, &all, data, opts, has_torques, effect_screen, progress)?;
+    let (screen, screened_with, first_flagged) = screen_rows(&base, &all, data, opts, has_torques, &by, progress)?;
     let (keep, mut outliers, mut outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
     // What went wrong in each run of outlier rows and each reading step, tested on the rows as
     // logged (see `faults`).
@@ -1125,6 +1179,7 @@ fn diagnose_screened(
     let final_groups = shared.then(|| blocks.ids_of(&final_keep));
     let mut explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).chain(first_flagged).collect();
     explained_rows.sort_unstable();
+    let (kept, noise_model) = final_whitening(kept, noise_model, &all, &current, data, &blocks, &final_keep);
     let fit = ReadingFit { model: &current.model, data: &kept };
     let final_id = identify(&fit, &current.x, opts.rank_tol);
     let final_x = LevenbergMarquardt::refit().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
