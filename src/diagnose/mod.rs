@@ -620,18 +620,43 @@ fn drop_not_physical(
 /// No model predicts unseen rows better than the data's floor: a held-out RMSE below it means
 /// the held-out rows shared errors with the training rows. The warning, if so (`shared`: the
 /// data have blocks of several rows).
-fn leak_warning(heldout_mm: f64, floor_mm: f64, shared: bool) -> Option<String> {
-    (heldout_mm < floor_mm).then(|| {
+fn leak_warning(oof: &[f64], dim: usize, groups: Option<&[usize]>, floor_mm: f64, shared: bool) -> Option<String> {
+    let heldout_mm = rms(oof);
+    let (ms, se) = mean_square_with_se(oof, dim, groups);
+    (ms + 2.0 * se < floor_mm * floor_mm).then(|| {
         let missed = if shared {
             "blocks the detection missed (declare them in a block column)"
         } else {
             "rows of one sweep or one logging error, not detected as blocks"
         };
         format!(
-            "the final held-out RMSE ({heldout_mm:.4} mm) is below the data's floor ({floor_mm:.4} mm): the held-out rows share errors with the training \
-             rows (the split leaks), so it is optimistic; {missed}"
+            "the final held-out RMSE ({heldout_mm:.4} mm) is below the data's floor ({floor_mm:.4} mm) by more than its sampling error: the held-out rows \
+             share errors with the training rows (the split leaks), so it is optimistic; {missed}"
         )
     })
+}
+
+/// Mean square of the held-out residuals `oof` (`dim` values per row) and its standard error
+/// over the rows' blocks `groups` (each row its own block without them): where rows share
+/// errors in blocks the realised mean square of a few dozen sweeps strays from the floor's
+/// expectation by tens of percent, and only a shortfall beyond twice that error says a split leaks.
+fn mean_square_with_se(oof: &[f64], dim: usize, groups: Option<&[usize]>) -> (f64, f64) {
+    let n_rows = oof.len() / dim.max(1);
+    let block = |i: usize| groups.map_or(i, |g| g[i]);
+    let n_blocks = (0..n_rows).map(block).max().map_or(0, |m| m + 1);
+    let (mut s, mut n) = (vec![0.0; n_blocks], vec![0.0; n_blocks]);
+    for i in 0..n_rows {
+        s[block(i)] += oof[i * dim..(i + 1) * dim].iter().map(|r| r * r).sum::<f64>();
+        n[block(i)] += dim as f64;
+    }
+    let total: f64 = n.iter().sum();
+    if total == 0.0 {
+        return (0.0, 0.0);
+    }
+    let ms = s.iter().sum::<f64>() / total;
+    let used = n.iter().filter(|c| **c > 0.0).count() as f64;
+    let var = s.iter().zip(&n).map(|(s, n)| (s - ms * n).powi(2)).sum::<f64>() / (total * total) * used / (used - 1.0).max(1.0);
+    (ms, var.sqrt())
 }
 
 /// Blocked and interleaved folds over the selection rows' blocks (`groups`), and a warning when
@@ -1243,7 +1268,7 @@ fn diagnose_screened(
     let noise_floor_source = noise_floor_source.join("; ");
     let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
     let current_oof = rms(&current.oof);
-    warnings.extend(leak_warning(current_oof, noise_floor_mm, shared));
+    warnings.extend(leak_warning(&current.oof, dim, ctx.groups.as_deref(), noise_floor_mm, shared));
     let effects_option = current
         .model
         .effects
@@ -1466,5 +1491,23 @@ mod tests {
         assert!(w[0].starts_with("backlash[j3] ends with an unphysical size") && w[0].contains("backlash.j3 = -5.0000 mdeg"), "{w:?}");
         x[kc] = -1e-6;
         assert_eq!(unphysical_causes(&m, &x, &[spring, band]).len(), 2);
+    }
+
+    #[test]
+    fn a_leak_is_warned_only_beyond_the_held_out_mean_squares_sampling_error() {
+        // 20 blocks of 20 rows sharing one error each, of RMS 0.22 mm against a 0.25 mm floor:
+        // a realised shortfall that a few dozen shared errors give by chance.
+        let (blocks, rows) = (20usize, 20usize);
+        let groups: Vec<usize> = (0..blocks * rows).map(|i| i / rows).collect();
+        let shared: Vec<f64> =
+            groups.iter().map(|&b| 0.22 * std::f64::consts::SQRT_2 * ((b as f64) * 0.7).sin().signum() * ((b % 3) as f64 / 2.0 + 0.25)).collect();
+        let floor = 1.1 * rms(&shared);
+        assert!(leak_warning(&shared, 1, Some(&groups), floor, true).is_none());
+        // The same rows as independent: 400 values well below the floor are a leak.
+        assert!(leak_warning(&shared, 1, None, floor, true).is_some());
+        // Every block predicted at half the floor, evenly: a leak whatever the blocks.
+        let even: Vec<f64> = (0..blocks * rows).map(|i| if i % 2 == 0 { 0.5 * floor } else { -0.5 * floor }).collect();
+        let w = leak_warning(&even, 1, Some(&groups), floor, true).expect("a leak");
+        assert!(w.contains("split leaks") && w.contains("declare them in a block column"), "{w}");
     }
 }

@@ -111,7 +111,7 @@ fn robotcali_diagnosis_exports_the_model_it_reports() {
 /// sweeps over a narrow range, three runs of readings that jumped by an offset): LM converges,
 /// the runs are found as reading steps where the truth put them, with their offsets, and nothing
 /// else is kept out, the floor names the angle
-/// logging, the rows that are not outliers are predicted below that floor, and the identifiable
+/// logging, the rows that are not outliers are predicted at that floor, and the identifiable
 /// parameters agree with their truth-equivalent values; the papers' methods and the generic
 /// model run on the same data and converge.
 #[test]
@@ -155,8 +155,11 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     let floor = lm.noise_floor.as_ref().unwrap();
     let angle = floor.sources.iter().find(|s| s.source == "angle_resolution").unwrap();
     assert!((0.15..0.35).contains(&angle.rms_mm) && angle.detail.contains("0.1 deg"), "{angle:?}");
+    // The test rows reach the floor: they share sweeps with the training rows (the scenario's own
+    // split), but the noise model keeps the fit from learning the sweeps' rounding, so they are
+    // predicted at the floor, not below it.
     let inliers = lm.metrics.test_after_inliers.unwrap();
-    assert!(inliers.rmse < floor.total_mm, "{inliers:?} vs floor {}", floor.total_mm);
+    assert!(inliers.rmse < 1.1 * floor.total_mm, "{inliers:?} vs floor {}", floor.total_mm);
     // Against the truth at the commanded angles (the logged ones are rounded), the fit with the
     // logging error as its noise model is near the truth within its uncertainties, and nearer
     // than the fit that takes rows as independent.
@@ -180,7 +183,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         let e = r.metrics.test_after_inliers.unwrap().rmse;
         eprintln!("{} / {model}: test inliers {e:.4} mm (LM {:.4})", method.name(), inliers.rmse);
         assert_eq!(r.reading_steps.len(), 3, "{}: {:?}", method.name(), r.reading_steps);
-        assert!(e < floor.total_mm, "{} / {model}: {e} vs floor {}", method.name(), floor.total_mm);
+        assert!(e < 1.1 * floor.total_mm, "{} / {model}: {e} vs floor {}", method.name(), floor.total_mm);
     }
 }
 
