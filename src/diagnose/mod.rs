@@ -591,10 +591,13 @@ fn drop_below_floor(found: &[(EffectBlock, f64, f64, f64)], floor_mm: f64, confi
 /// k) of a physical size in the model fitted on every kept row `kept` (selection and
 /// confirmation): the first that is not ends the list, like an unconfirmed one (`confirmed` is
 /// lowered). One line per cause left out, saying why.
+#[allow(clippy::too_many_arguments)]
 fn drop_not_physical(
     chain: &[Fitted],
     found: &[(EffectBlock, f64, f64, f64)],
     kept: &Samples,
+    groups: Option<&[usize]>,
+    min_size_sigmas: f64,
     rank_tol: f64,
     confirmed: &mut usize,
     progress: &dyn Fn(&str),
@@ -602,10 +605,14 @@ fn drop_not_physical(
     let mut notes = Vec::new();
     while *confirmed > 0 {
         let m = &chain[*confirmed];
-        let (x, _) = refit(&m.model, kept, &m.x, rank_tol);
+        let (x, fixed) = refit(&m.model, kept, &m.x, rank_tol);
+        let covs = Covariances::of(&ReadingFit { model: &m.model, data: kept }, &x, &fixed, groups);
         let Some((k, why)) = found[..*confirmed].iter().enumerate().find_map(|(k, f)| {
             let b = m.model.effects.iter().position(|e| e == &f.0)?;
-            implausible_param(&m.model, &x, b).map(|w| (k, w))
+            let size = covs.size(&f.0, &x, m.model.effect_params(b));
+            let weak = (size.value.abs() < min_size_sigmas * size.uncertainty)
+                .then(|| format!("its size {:.4} ± {:.4} {} is under {min_size_sigmas} of its uncertainties", size.value, size.uncertainty, size.unit));
+            implausible_param(&m.model, &x, b).or(weak).map(|w| (k, w))
         }) else {
             break;
         };
@@ -1163,7 +1170,8 @@ fn diagnose_screened(
     if !unconfirmed.is_empty() {
         progress(&format!("not confirmed on the {} confirmation rows: {}", confirmation.len(), unconfirmed.join(", ")));
     }
-    let not_physical = drop_not_physical(&chain, &found, &kept, opts.rank_tol, &mut confirmed, progress);
+    let kept_groups = shared.then(|| blocks.ids_of(&keep));
+    let not_physical = drop_not_physical(&chain, &found, &kept, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
     let floor_mm = {
         let repeat = crate::calib::run::reading_repeatability(&kept_rows);
         crate::calib::run::floor_stage(&base, &baseline.x, &kept_rows, &kept, opts.angle_step_deg, opts.instrument_accuracy_mm, repeat.as_ref()).total_mm
