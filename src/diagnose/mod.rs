@@ -857,19 +857,15 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
         return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));
     }
     let (d, r, screened_with) = diagnose_screened(data, opts, progress, ScreenBy::BestEffect)?;
+    // The exported model holds the named causes' blocks, in the order they were kept.
     let Some(b) = screened_with else { return Ok((d, r)) };
-    let named = |d: &Diagnosis, b: &EffectBlock| d.causes.iter().any(|c| c.cause == b.kind.name() && c.joint == b.joint.map(|j| j + 1));
-    if named(&d, &b) {
+    if r.model.effects.contains(&b) {
         return Ok((d, r));
     }
-    let first = d.causes.first().and_then(|c| {
-        let kind = EffectKind::ALL.iter().copied().find(|k| k.name() == c.cause)?;
-        block_for(data, kind, c.joint.map(|j| j - 1), r.torque_model.is_some()).ok()
-    });
-    if let Some(f) = first {
+    if let Some(f) = r.model.effects.first().cloned() {
         progress(&format!("{} explained the flagged rows but {} was kept first: the diagnosis again, on {}'s screen", b.label(), f.label(), f.label()));
         let (d2, r2, with) = diagnose_screened(data, opts, progress, ScreenBy::Effect(f.clone()))?;
-        if with.as_ref() == Some(&f) && named(&d2, &f) {
+        if with.as_ref() == Some(&f) && r2.model.effects.contains(&f) {
             return Ok((d2, r2));
         }
     }
