@@ -11,7 +11,7 @@
 //!
 //! Only SIGKILL or a power cut can leave a temporary file, or, during the renames, a partial set;
 //! `generate` records a fingerprint of dataset.csv in truth.json so that a truth file beside a
-//! dataset it does not describe is detected ([`crate::calib::truth::TruthFile::find`]).
+//! dataset it does not describe is detected ([`crate::dataset::truth::TruthFile::find`]).
 
 /// Version of the JSON files twincal writes and reads back (result.json, truth.json,
 /// report.json): raised when a field changes meaning or goes away. A file without one was

@@ -19,6 +19,7 @@ pub mod dataset;
 pub mod diagnose;
 pub mod error;
 pub mod ik;
+pub mod math;
 pub mod io;
 pub mod measurement;
 pub mod optim;

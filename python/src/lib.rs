@@ -177,7 +177,7 @@ fn dataset(src: Source, opts: &twincal::dataset::LoadOptions) -> twincal::Result
 }
 
 fn load(src: Source, opts: &twincal::dataset::LoadOptions, truth: Option<&str>) -> twincal::Result<Loaded> {
-    use twincal::calib::truth::sha256_hex;
+    use twincal::dataset::truth::sha256_hex;
     match src {
         Source::Path(p) => {
             let data = Dataset::load_with(&p, opts)?;

@@ -38,7 +38,7 @@ impl DetectionConfig {
 impl crate::shard::Config for DetectionConfig {
     const KIND: &'static str = "bench-diagnose";
     fn hash(&self) -> String {
-        crate::calib::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
+        crate::dataset::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
     }
     /// Item `id` (see [`Variant::of`]): per seed, the hidden-effect and the clean scenario, then
     /// the realistic acquisitions (0.1° and 0.01° logging; clean, an effect above the floor, an

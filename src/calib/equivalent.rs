@@ -17,7 +17,7 @@
 
 use super::model::CalibModel;
 use super::problem::{ReadingFit, Samples};
-use super::truth::TruthFile;
+use crate::dataset::truth::TruthFile;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
 use crate::robot::Robot;

@@ -28,6 +28,5 @@ pub mod robust;
 pub mod run;
 pub mod stats;
 pub mod tolerance;
-pub mod truth;
 pub mod twin_out;
 pub mod weighting;

@@ -71,28 +71,7 @@ pub struct CalibModel {
     pub measurement: Measurement,
 }
 
-/// Where the instrument sits in a parameter vector: its own parameters (for the draw-wire the
-/// exit point in the base frame and the length offset; for a tracker the base-to-tracker
-/// transform), then the target point on the flange (m). See [`CalibModel::placement`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct Placement {
-    pub measurement: Measurement,
-    /// The instrument's own parameters, in [`Measurement::placement_names`] order (m, rad).
-    pub own: Vec<f64>,
-    /// The target point (tool point, reflector) in the flange frame, m.
-    pub tool: Vector3<f64>,
-}
-
-impl Placement {
-    /// A draw-wire's placement: exit point (base frame), length offset and tool point, m.
-    pub fn cable(exit: Vector3<f64>, length_offset: f64, tool: Vector3<f64>) -> Placement {
-        Placement { measurement: Measurement::Length, own: vec![exit.x, exit.y, exit.z, length_offset], tool }
-    }
-    /// The draw-wire's exit point (base frame, m); `None` for another instrument.
-    pub fn exit(&self) -> Option<Vector3<f64>> {
-        (self.measurement == Measurement::Length).then(|| Vector3::new(self.own[0], self.own[1], self.own[2]))
-    }
-}
+pub use crate::measurement::Placement;
 
 /// Reusable buffers for model evaluations.
 pub struct ModelWork {

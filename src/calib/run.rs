@@ -22,7 +22,7 @@ use super::problem::{ReadingFit, Samples};
 use super::rbf::RbfNetwork;
 use super::robust::{Loss, Outlier, OutlierRun, ReadingStep};
 use super::tolerance::Tolerances;
-pub use super::truth::TruthFile;
+pub use crate::dataset::truth::TruthFile;
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::optim::{covariance, History, LeastSquares, LevenbergMarquardt, NoObserver};

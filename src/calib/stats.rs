@@ -194,21 +194,7 @@ pub fn robust_scale(v: &[f64]) -> (f64, f64) {
     (med, MAD_TO_SD * median(&v.iter().map(|x| (x - med).abs()).collect::<Vec<f64>>()))
 }
 
-/// Median of the non-NaN values of `v` (mean of the two middle values for even counts);
-/// `NaN` when there are none.
-pub fn median(v: &[f64]) -> f64 {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| !x.is_nan()).collect();
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    s.sort_by(f64::total_cmp);
-    let m = s.len() / 2;
-    if s.len() % 2 == 1 {
-        s[m]
-    } else {
-        0.5 * (s[m - 1] + s[m])
-    }
-}
+pub use crate::math::median;
 
 /// Mean and sample standard deviation (`n − 1` denominator) of the non-NaN values of `v`.
 /// `(NaN, NaN)` when there are none; the std is 0 for a single value.

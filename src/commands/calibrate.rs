@@ -169,7 +169,7 @@ pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     let truth = crate::calib::run::TruthFile::find(&a.data)?;
     // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
     let file = &data_inputs(&a.data)[0];
-    let sha = crate::calib::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?);
+    let sha = crate::dataset::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?);
     let c = calibrate_loaded(planned, data, truth.as_ref(), Some(sha))?;
     write_calibration(a, &c, quiet)
 }

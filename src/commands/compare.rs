@@ -47,7 +47,7 @@ impl CompareConfig {
     /// in), so shards that reach the same file by other paths agree.
     pub fn hash(&self) -> String {
         let keyed = CompareConfig { data: String::new(), ..self.clone() };
-        crate::calib::truth::sha256_hex(serde_json::to_string(&keyed).unwrap_or_default().as_bytes())
+        crate::dataset::truth::sha256_hex(serde_json::to_string(&keyed).unwrap_or_default().as_bytes())
     }
     /// Work items in their fixed order: item `id` is seed `id / methods` with method `id % methods`.
     pub fn items(&self) -> u64 {
@@ -173,7 +173,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     let file = &data_files[0];
     let config = CompareConfig {
         data: ds.source.clone(),
-        data_sha256: crate::calib::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?),
+        data_sha256: crate::dataset::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?),
         rows: n,
         methods: methods.iter().map(|m| m.name().to_string()).collect(),
         seeds,
@@ -181,7 +181,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         effort,
         model: format!("{} {}", a.model.model, a.model.params.as_deref().unwrap_or("")).trim().to_string(),
         model_sha256: match a.model.input() {
-            Some(m) => Some(crate::calib::truth::sha256_hex(&std::fs::read(&m).map_err(|e| Error::io(&m, e))?)),
+            Some(m) => Some(crate::dataset::truth::sha256_hex(&std::fs::read(&m).map_err(|e| Error::io(&m, e))?)),
             None => None,
         },
         reading: format!(

@@ -8,7 +8,7 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
         return Err(Error::Invalid(format!("--out {} is a file; generate writes a folder (dataset.csv, truth.json)", out.display())));
     }
     let dataset = out.join(crate::dataset::DATASET_FILE);
-    let truth = out.join(crate::calib::truth::TRUTH_FILE);
+    let truth = out.join(crate::dataset::truth::TRUTH_FILE);
     let mut outputs_named = vec![("--out", dataset.as_path()), ("--out", truth.as_path())];
     if let Some(p) = rrd {
         outputs_named.push(("--rrd", p));

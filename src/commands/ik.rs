@@ -3,7 +3,7 @@
 //! [`crate::ik`]).
 
 use crate::calib::run::CalibResult;
-use crate::calib::truth::TruthFile;
+use crate::dataset::truth::TruthFile;
 use crate::error::{Error, Result};
 use crate::ik::{ik_runs, random_targets, table, IkOptions, IkStatus, JacobianKind, TwinCheck};
 use nalgebra::Vector3;
@@ -204,7 +204,7 @@ fn result_data(model: &Path, r: &CalibResult) -> PathBuf {
     let matches = |p: &Path| {
         let file = super::data_inputs(p).swap_remove(0);
         match (&r.data_sha256, std::fs::read(&file)) {
-            (Some(sha), Ok(bytes)) => crate::calib::truth::sha256_hex(&bytes) == *sha,
+            (Some(sha), Ok(bytes)) => crate::dataset::truth::sha256_hex(&bytes) == *sha,
             _ => false,
         }
     };

@@ -165,7 +165,7 @@ pub fn data_inputs(data: &Path) -> Vec<PathBuf> {
         }
     };
     let dir = if data.is_dir() { data.to_path_buf() } else { file.parent().map(Path::to_path_buf).unwrap_or_default() };
-    vec![file, dir.join(crate::calib::truth::TRUTH_FILE)]
+    vec![file, dir.join(crate::dataset::truth::TRUTH_FILE)]
 }
 
 /// The calibration model a `--model` / `--params` pair names; `--params` is refused for

@@ -159,7 +159,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     }
     let (csv_path, json_path) = (a.out.join("replay.csv"), a.out.join("replay.json"));
     let twin_dir = a.out.join("twin");
-    let (twin_csv, twin_truth) = (twin_dir.join(crate::dataset::DATASET_FILE), twin_dir.join(crate::calib::truth::TRUTH_FILE));
+    let (twin_csv, twin_truth) = (twin_dir.join(crate::dataset::DATASET_FILE), twin_dir.join(crate::dataset::truth::TRUTH_FILE));
     let data_files = data_inputs(&a.data);
     let (mut s, robot) = Scenario::load(&a.scenario)?;
     let mut inputs: Vec<(&str, PathBuf)> = data_files.iter().map(|p| ("--data", p.clone())).collect();

@@ -28,7 +28,7 @@ pub struct HoldConfig {
 impl crate::shard::Config for HoldConfig {
     const KIND: &'static str = "study-hold";
     fn hash(&self) -> String {
-        crate::calib::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
+        crate::dataset::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
     }
     fn items(&self) -> u64 {
         (self.holds_s.len() * self.speed_fractions.len()) as u64
@@ -76,7 +76,7 @@ pub fn study(
     };
     let config = HoldConfig {
         scenario: s.name.clone(),
-        scenario_sha256: crate::calib::truth::sha256_hex(format!("{s:?}{robot:?}").as_bytes()),
+        scenario_sha256: crate::dataset::truth::sha256_hex(format!("{s:?}{robot:?}").as_bytes()),
         holds_s: study.holds_s.clone(),
         speed_fractions: study.speed_fractions.clone(),
         poses: poses.len(),

@@ -58,6 +58,7 @@
 pub mod blocks;
 mod csv_io;
 pub mod logging;
+pub mod truth;
 mod xlsx;
 
 use crate::error::{Error, Result};

@@ -19,7 +19,7 @@
 use super::solver::{rigid_fit, IkModel, IkOptions, IkSolution, IkStatus, JacobianKind};
 use crate::calib::corrector::Correct;
 use crate::calib::run::CalibResult;
-use crate::calib::truth::TruthFile;
+use crate::dataset::truth::TruthFile;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
 use crate::sim::twin::{PoseCommand, Twin};
@@ -58,7 +58,7 @@ impl TwinCheck {
             }
         }
         let folder = if data.is_dir() { data.to_path_buf() } else { data.parent().map(Path::to_path_buf).unwrap_or_default() };
-        let tpath = folder.join(crate::calib::truth::TRUTH_FILE);
+        let tpath = folder.join(crate::dataset::truth::TRUTH_FILE);
         let text = std::fs::read_to_string(&tpath).map_err(|e| Error::io(&tpath, e))?;
         let raw: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::data(tpath.display(), e.to_string()))?;
         // The twin's robot: the URDF the truth file carries, else the embedded IRB 120.

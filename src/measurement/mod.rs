@@ -23,10 +23,12 @@
 //! its line in [`Measurement::def`]; the rows' residual vectors follow from [`Measurement::dim`].
 
 pub mod length;
+mod placement;
 pub mod point;
 pub mod pose;
 
 use nalgebra::{Matrix3, Vector3};
+pub use placement::Placement;
 pub use pose::Euler;
 use serde::{Deserialize, Serialize};
 

@@ -670,17 +670,17 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
 
 /// Stages `dataset.csv` and `truth.json` of `dir` in `outputs` (renamed into place, in that order,
 /// by `outputs.commit()`). truth.json starts with a `dataset` link (file name, SHA-256 of the
-/// exact dataset.csv bytes, row count) that [`crate::calib::truth::TruthFile::find`] checks, so a
+/// exact dataset.csv bytes, row count) that [`crate::dataset::truth::TruthFile::find`] checks, so a
 /// truth file is never trusted beside a dataset it does not describe.
 pub fn stage_outputs(g: &Generated, dir: &std::path::Path, outputs: &mut crate::io::OutputSet) -> Result<()> {
     let (csv, truth) = output_texts(g)?;
     outputs.write(&dir.join(crate::dataset::DATASET_FILE), csv.as_bytes())?;
-    outputs.write(&dir.join(crate::calib::truth::TRUTH_FILE), truth.as_bytes())
+    outputs.write(&dir.join(crate::dataset::truth::TRUTH_FILE), truth.as_bytes())
 }
 
 /// The texts of `dataset.csv` and `truth.json` as [`stage_outputs`] writes them.
 pub fn output_texts(g: &Generated) -> Result<(String, String)> {
-    use crate::calib::truth::DatasetLink;
+    use crate::dataset::truth::DatasetLink;
     /// truth.json as written: the dataset link first, then the truth.
     #[derive(Serialize)]
     struct TruthOut<'a> {
@@ -691,7 +691,7 @@ pub fn output_texts(g: &Generated) -> Result<(String, String)> {
     let csv = g.dataset.to_csv_string();
     let link = DatasetLink::of(crate::dataset::DATASET_FILE, csv.as_bytes(), g.dataset.rows.len());
     let truth = serde_json::to_string_pretty(&TruthOut { dataset: link, truth: &g.truth })
-        .map_err(|e| Error::Invalid(format!("cannot serialise {}: {e}", crate::calib::truth::TRUTH_FILE)))?;
+        .map_err(|e| Error::Invalid(format!("cannot serialise {}: {e}", crate::dataset::truth::TRUTH_FILE)))?;
     Ok((csv, truth))
 }
 

@@ -284,16 +284,7 @@ impl RowInputs {
     }
 }
 
-/// Legendre polynomials P2..P4 and their derivatives at v. (P0, a constant, is the sensor's
-/// length offset; P1, a gain error, is a uniform scale of every measured length, which the
-/// geometry and the offset absorb almost entirely: the data cannot tell it apart.)
-pub fn legendre(v: f64) -> ([f64; 3], [f64; 3]) {
-    let v2 = v * v;
-    (
-        [0.5 * (3.0 * v2 - 1.0), 0.5 * (5.0 * v2 * v - 3.0 * v), 0.125 * (35.0 * v2 * v2 - 30.0 * v2 + 3.0)],
-        [3.0 * v, 0.5 * (15.0 * v2 - 3.0), 0.125 * (140.0 * v2 * v - 60.0 * v)],
-    )
-}
+pub use crate::math::legendre;
 
 /// The effect state of one row: joint offsets and length scale, with the partial derivatives of
 /// each with respect to the effect parameters.

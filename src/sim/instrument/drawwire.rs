@@ -81,7 +81,7 @@ impl ReadingPolynomial {
     pub fn at(&self, l: f64) -> f64 {
         let [lo, hi] = self.range_mm;
         let half = 0.5 * (hi - lo);
-        let (p, _) = crate::calib::effects::legendre((l - 0.5 * (lo + hi)) / half);
+        let (p, _) = crate::math::legendre((l - 0.5 * (lo + hi)) / half);
         (0..3).map(|k| self.legendre_mm[k] * p[k]).sum()
     }
 }

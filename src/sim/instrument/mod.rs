@@ -10,11 +10,11 @@ pub use tracker::Tracker;
 /// The true placement (m, rad) of the instrument a twin reads with: the tracker's (with a 6-D
 /// probe's orientation) when there is one, else the draw-wire's; the target is the sensor's
 /// tool point.
-pub fn placement(sensor: &DrawWire, tracker: Option<&Tracker>) -> crate::calib::model::Placement {
-    use crate::calib::model::Placement;
+pub fn placement(sensor: &DrawWire, tracker: Option<&Tracker>) -> crate::measurement::Placement {
+    use crate::measurement::Placement;
     let tool = sensor.tool_point_m();
     match tracker {
-        Some(t) => Placement { measurement: t.measurement(), own: t.placement_own(), tool },
+        Some(t) => Placement::tracker(t.translation_mm, t.rotation_deg, t.probe_rotation_deg, tool),
         None => Placement::cable(sensor.exit_point_m(), sensor.length_offset_mm * 1e-3, tool),
     }
 }

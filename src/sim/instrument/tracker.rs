@@ -93,16 +93,6 @@ impl Tracker {
         }
     }
 
-    /// The placement parameters its measurement reads (m, rad): the tracker's, then a probe's
-    /// orientation.
-    pub fn placement_own(&self) -> Vec<f64> {
-        let mut own = self.own();
-        if let Some(r) = self.probe_rotation_deg {
-            own.extend(r.map(f64::to_radians));
-        }
-        own
-    }
-
     /// A 6-D reading of the probe whose origin is at `p` (base frame, m) on the flange rotated
     /// by `flange_rot`: the position as [`Self::read`] gives it (same noise draws), then the
     /// orientation turned by a small rotation of `orientation_noise_urad / √samples` per axis.

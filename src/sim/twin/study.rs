@@ -133,7 +133,7 @@ pub fn hold_setting(s: &Scenario, robot: &Robot, poses: &[Vec<f64>], v: f64, h: 
         spread_mm: spread,
         max_mm: e.iter().fold(0.0f64, |a, x| a.max(x.abs())),
         gate_closed: acquired.len() - gates.len(),
-        median_gate_s: (!gates.is_empty()).then(|| crate::calib::stats::median(&gates)),
+        median_gate_s: (!gates.is_empty()).then(|| crate::math::median(&gates)),
         time_per_pose_s: end / m,
     })
 }

@@ -23,10 +23,20 @@ pub struct TruthFile {
     pub sensor: TruthSensor,
     /// The tracker that wrote `x, y, z` (a tracker dataset), as its scenario gave it.
     #[serde(default)]
-    pub tracker: Option<crate::sim::instrument::Tracker>,
+    pub tracker: Option<TruthTracker>,
     pub tool: TruthTool,
     pub noise_std_mm: f64,
     pub poses: Vec<TruthPose>,
+}
+/// A tracker's placement as the truth file states it (the rest of its scenario entry, its noise
+/// and decimals, is the twin's business).
+#[derive(Clone, Debug, Deserialize)]
+pub struct TruthTracker {
+    pub translation_mm: [f64; 3],
+    #[serde(default)]
+    pub rotation_deg: [f64; 3],
+    #[serde(default)]
+    pub probe_rotation_deg: Option<[f64; 3]>,
 }
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthSensor {
@@ -55,13 +65,13 @@ pub struct TruthPose {
 impl TruthFile {
     /// The true placement of the instrument that wrote the dataset (m, rad): the tracker's
     /// when there is one, else the draw-wire's.
-    pub fn placement(&self) -> crate::calib::model::Placement {
-        use crate::calib::model::Placement;
+    pub fn placement(&self) -> crate::measurement::Placement {
+        use crate::measurement::Placement;
         use nalgebra::Vector3;
         let mm = |v: [f64; 3]| Vector3::from(v) * 1e-3;
         let tool = mm(self.tool.point_mm);
         match &self.tracker {
-            Some(t) => Placement { measurement: t.measurement(), own: t.placement_own(), tool },
+            Some(t) => Placement::tracker(t.translation_mm, t.rotation_deg, t.probe_rotation_deg, tool),
             None => Placement::cable(mm(self.sensor.exit_point_mm), self.sensor.length_offset_mm * 1e-3, tool),
         }
     }
