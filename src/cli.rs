@@ -146,7 +146,7 @@ pub fn run(args: Cli) -> crate::Result<()> {
         Command::Study { what, scenario, holds, speeds, poses, rrd, shard } => commands::study(
             what,
             scenario.as_deref(),
-            &crate::sim::twin::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses: poses.unwrap_or(crate::sim::twin::study::DEFAULT_POSES) },
+            &crate::sim::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses: poses.unwrap_or(crate::sim::study::DEFAULT_POSES) },
             poses.is_some(),
             rrd.as_deref(),
             shard.shard.as_deref(),

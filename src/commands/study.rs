@@ -38,7 +38,7 @@ impl crate::shard::Config for HoldConfig {
 /// One finished setting of a sharded hold study.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct HoldItem {
-    pub row: crate::sim::twin::study::HoldStudyRow,
+    pub row: crate::sim::study::HoldStudyRow,
 }
 
 /// `twincal study hold`: the table on stdout, optionally a Rerun recording; with `shard`
@@ -49,14 +49,14 @@ pub struct HoldItem {
 pub fn study(
     what: StudyTarget,
     scenario: Option<&Path>,
-    study: &crate::sim::twin::study::HoldStudy,
+    study: &crate::sim::study::HoldStudy,
     poses_given: bool,
     rrd: Option<&Path>,
     shard: Option<&str>,
     shard_out: Option<&Path>,
     quiet: bool,
 ) -> Result<()> {
-    use crate::sim::twin::study::{hold_setting, hold_study_at, study_poses};
+    use crate::sim::study::{hold_setting, hold_study_at, study_poses};
     let StudyTarget::Hold = what;
     study.validate().map_err(Error::Invalid)?;
     let (s, robot) = load_scenario(scenario)?;
@@ -110,7 +110,7 @@ pub fn study(
 
 /// The table and recording of a finished hold study: what `study hold` prints and writes, and
 /// `reduce` the same from the shards' parts.
-fn finish_hold(config: &HoldConfig, rows: &[crate::sim::twin::study::HoldStudyRow], rrd: Option<&Path>, quiet: bool) -> Result<()> {
+fn finish_hold(config: &HoldConfig, rows: &[crate::sim::study::HoldStudyRow], rrd: Option<&Path>, quiet: bool) -> Result<()> {
     for line in &config.header {
         println!("{line}");
     }

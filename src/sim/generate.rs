@@ -29,16 +29,7 @@ pub fn round_decimals(v: f64, decimals: usize) -> f64 {
     format!("{v:.decimals$}").parse().unwrap_or(v)
 }
 
-/// Reports progress of long runs (a progress bar in the CLI, nothing in tests).
-pub trait Progress: Sync {
-    fn start(&self, _total: u64, _what: &str) {}
-    fn inc(&self, _n: u64) {}
-    fn finish(&self) {}
-}
-
-/// No progress reporting.
-pub struct Silent;
-impl Progress for Silent {}
+pub use crate::progress::{Progress, Silent};
 
 /// Per-pose ground truth.
 #[derive(Clone, Debug, Serialize)]

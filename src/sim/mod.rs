@@ -11,4 +11,5 @@ pub mod effects;
 pub mod generate;
 pub mod instrument;
 pub mod scenario;
+pub mod study;
 pub mod twin;

@@ -7,7 +7,7 @@ use super::scenes::PALETTE;
 use super::{Blueprint, Layout, Recorder, ViewKind as K};
 use crate::error::Result;
 use crate::io::OutputSet;
-use crate::sim::twin::study::HoldStudyRow;
+use crate::sim::study::HoldStudyRow;
 use std::path::Path;
 
 /// The three quantities plotted: entity name, view title, value of a row in µm.

@@ -8,8 +8,10 @@
 
 pub mod motion;
 pub mod rapier_sim;
-pub mod study;
 pub mod tour;
+
+/// Most poses one scenario or twin run takes.
+pub const MAX_POSES: usize = 100_000;
 
 use crate::robot::kinematics::{Chain, FkWork, Frame};
 use crate::robot::Robot;

@@ -155,8 +155,8 @@ impl Acquisition {
         if !(self.coarse_dt_s.is_finite() && self.coarse_dt_s >= fine_dt_s && self.coarse_dt_s <= MAX_COARSE_DT_S) {
             return Err(format!("acquisition.coarse_dt_s = {} must be in [simulation.dt_s = {fine_dt_s}, {MAX_COARSE_DT_S}] s", self.coarse_dt_s));
         }
-        if !(1..=crate::sim::scenario::MAX_POSES).contains(&self.chunk_poses) {
-            return Err(format!("acquisition.chunk_poses = {} must be in 1..={}", self.chunk_poses, crate::sim::scenario::MAX_POSES));
+        if !(1..=super::MAX_POSES).contains(&self.chunk_poses) {
+            return Err(format!("acquisition.chunk_poses = {} must be in 1..={}", self.chunk_poses, super::MAX_POSES));
         }
         Ok(())
     }
@@ -602,7 +602,7 @@ pub fn acquire(
     home: &[f64],
     poses: &[Vec<f64>],
     read_at: Option<&[f64]>,
-    progress: &dyn crate::sim::generate::Progress,
+    progress: &dyn crate::progress::Progress,
 ) -> Vec<Result<Acquired>> {
     use rayon::prelude::*;
     let sn = &twin.sensor;
@@ -634,7 +634,7 @@ fn run_chunk(
     rule: &[Vec<f64>],
     a: usize,
     b: usize,
-    progress: &dyn crate::sim::generate::Progress,
+    progress: &dyn crate::progress::Progress,
 ) -> Result<Vec<Result<Acquired>>> {
     let chain = &twin.chain;
     let n = chain.n_joints;
@@ -734,7 +734,7 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     let hold_samples = (sn.hold_s * sn.rate_hz + 1e-9).floor() as usize;
     let window_start = arrive + sn.hold_s;
     let ng = acq.gate_samples(sn.rate_hz);
-    let mut rng = ChaCha8Rng::seed_from_u64(crate::sim::scenario::stream_seed(settings.seed, crate::sim::scenario::Stream::Gate, i as u64));
+    let mut rng = ChaCha8Rng::seed_from_u64(crate::seed::stream_seed(settings.seed, crate::seed::Stream::Gate, i as u64));
     // The instrument's raw samples, `dim` values each: the cable's length or the tracker's point.
     let dim = if twin.tracker.is_some() { 3 } else { 1 };
     let mut raw: Vec<f64> = Vec::with_capacity((dim * hold_samples).min(1 << 16));

@@ -3,7 +3,7 @@
 //! (its noise-free length minus that of the arm at rest on the flanks it ends on) gives a bias and
 //! a spread per setting, next to the robot time the protocol takes.
 
-use super::tour::{acquire, Acquisition, AcquisitionModel, OnTimeout, Schedule, TourSettings};
+use crate::sim::twin::tour::{acquire, Acquisition, AcquisitionModel, OnTimeout, Schedule, TourSettings};
 use crate::error::Result;
 use crate::robot::Robot;
 use crate::sim::generate::{build_twin, sample_poses, Progress};
