@@ -3,9 +3,9 @@
 //! and against the truth, the data-efficiency curve, the sensitivity to Q, R and the learning
 //! rate, and HSR-RobotCali against its repeatability floor when the data are present.
 
-use crate::calib::method::{Method, Problem, Solution, Solver};
+use crate::calib::methods::psoekf::{Ablation, Hyper, NetStart, PsoEkfAwnn};
+use crate::calib::methods::{Method, Problem, Solution, Solver};
 use crate::calib::problem::{ReadingFit, Samples};
-use crate::calib::psoekf::{Ablation, Hyper, NetStart, PsoEkfAwnn};
 use crate::calib::run::{calibrate_with, split_stage, CalibOptions, CalibResult, ModelSpec, TruthFile};
 use crate::calib::stats::{mean_std, median};
 use crate::dataset::{Dataset, Split};
@@ -34,8 +34,8 @@ struct Times {
 }
 
 impl Solver for Timed {
-    fn method(&self) -> Method {
-        self.inner.method()
+    fn name(&self) -> &'static str {
+        self.inner.name()
     }
     fn needs_noise(&self) -> bool {
         true

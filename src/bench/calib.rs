@@ -55,7 +55,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
     let opts = CalibOptions::new(spec.clone(), Method::Lm);
     let prepared = crate::calib::run::prepare(&ds, &opts, false)?;
     let fit = ReadingFit { model: &prepared.model, data: &prepared.split.train };
-    let lm = crate::calib::method::LmSolver::default().lm;
+    let lm = crate::calib::methods::LmSolver::default().lm;
     let (mut lm_t, mut ev_t, mut whole_t, mut iters) = (Vec::new(), Vec::new(), Vec::new(), 0);
     for _ in 0..repeat.max(5) {
         let t0 = Instant::now();
@@ -88,7 +88,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
     let topts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(trobot), parametrisation: "hayati".into() }, Method::Lm);
     let prepared = crate::calib::run::prepare(&tds, &topts, false)?;
     let tfit = ReadingFit { model: &prepared.model, data: &prepared.split.train };
-    let lm = crate::calib::method::LmSolver::default().lm;
+    let lm = crate::calib::methods::LmSolver::default().lm;
     let (mut lm_t, mut ev_t, mut whole_t, mut t_iters, mut t_test) = (Vec::new(), Vec::new(), Vec::new(), 0, f64::NAN);
     for _ in 0..repeat.max(5) {
         let t0 = Instant::now();

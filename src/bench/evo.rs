@@ -1,8 +1,8 @@
 //! `twincal bench dsade` and `twincal bench ik`: the Evo-NPH targets, measured on the embedded
 //! `irb120_evo_nph` scenario (600 poses, 500 train / 100 test, every effect on).
 
-use crate::calib::evonph::{EvoNphSolver, EvoRun, EvoVariant};
-use crate::calib::method::Problem;
+use crate::calib::methods::evonph::{EvoNphSolver, EvoRun, EvoVariant};
+use crate::calib::methods::Problem;
 use crate::calib::problem::ReadingFit;
 use crate::calib::run::{calibrate_with, CalibOptions, CalibResult, Method, ModelSpec, TruthFile};
 use crate::calib::stats::{mean_std, median};
@@ -101,7 +101,7 @@ pub fn bench_dsade(repeat: usize, seeds: u64) -> Result<()> {
     let sel = {
         let p = Problem { fit: &fit, x0: &prep.x0, fixed: &prep.fixed, prior_std: &prep.prior, noise_mm: prep.noise, seed: 0 };
         let t0 = Instant::now();
-        let sel = crate::calib::gkan_select::select(&p)?;
+        let sel = crate::calib::methods::gkan_select::select(&p)?;
         println!("  network choice ({:.2} s): {}", t0.elapsed().as_secs_f64(), sel.summary());
         sel
     };

@@ -12,7 +12,7 @@
 //! `twincal bench diagnose-ur10` ([`bench_diagnose_ur10`]) times `diagnose` on the UR10's
 //! 11 911-row series a against its 60 s target.
 
-use crate::calib::psoekf::Ablation;
+use crate::calib::methods::psoekf::Ablation;
 use crate::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
 use crate::dataset::{Dataset, Split};
 use crate::error::Result;

@@ -1,28 +1,21 @@
 //! Calibration: identification of model parameters from datasets.
 
-pub mod awnn;
-pub mod awnn_select;
-pub mod corrector;
+pub mod correctors;
 pub mod effects;
 pub mod equivalent;
-pub mod evonph;
 pub mod export;
 pub mod floor;
 pub mod folds;
 pub mod generic;
-pub mod gkan;
-pub mod gkan_select;
 pub mod gls;
 pub mod identify;
 pub mod inputs;
-pub mod method;
+pub mod methods;
 pub mod metrics;
 pub mod model;
 pub mod noise_model;
 pub mod placement;
 pub mod problem;
-pub mod psoekf;
-pub mod rbf;
 pub mod ridge_cv;
 pub mod robust;
 pub mod run;

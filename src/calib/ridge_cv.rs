@@ -1,6 +1,6 @@
 //! k-fold cross-validation of penalised linear least squares, `y ≈ B·w` with normal matrix
 //! `A(BᵀB)` (the penalty is the caller's: a ridge, roughness rows, ...). Shared by the network
-//! choices of Evo-NPH ([`super::gkan_select`]) and PSO-EKF-AWNN ([`super::awnn_select`]).
+//! choices of Evo-NPH ([`super::methods::gkan_select`]) and PSO-EKF-AWNN ([`super::methods::awnn_select`]).
 //!
 //! Folds interleave the rows (row i in fold i mod k, [`super::folds::interleaved`]), so each fold spans the whole
 //! acquisition (time and temperature). Each fold's training Gram matrix is the total minus the

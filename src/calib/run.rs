@@ -9,17 +9,17 @@
 //! Each stage is a function of its own below or in the module named; the method is a
 //! [`Solver`] value that carries its own settings.
 
-use super::corrector::{Correct, Corrector, EffectCorrection};
+use super::correctors::rbf::RbfNetwork;
+use super::correctors::{Correct, Corrector, EffectCorrection};
 use super::effects::RowInputs;
 use super::effects::{EffectBlock, EffectKind};
 use super::identify::{analyse, Identifiability};
 use super::inputs::LoadOptions;
-pub use super::method::{Method, Solver};
-use super::method::{Problem, Solution};
+pub use super::methods::{Method, Solver};
+use super::methods::{Problem, Solution};
 use super::metrics::ErrorStats;
 use super::model::{CalibModel, SensorGuess};
 use super::problem::{ReadingFit, Samples};
-use super::rbf::RbfNetwork;
 use super::robust::{Loss, Outlier, OutlierRun, ReadingStep};
 use super::tolerance::Tolerances;
 pub use crate::dataset::truth::TruthFile;
@@ -323,11 +323,11 @@ impl CalibResult {
     /// Torques and backlash flanks come from the angles and the acquisition order.
     /// The learned wavelet network (the first, when there is one per reading value: they share
     /// their inputs).
-    fn wavelet_network(&self) -> Option<&super::awnn::Awnn> {
+    fn wavelet_network(&self) -> Option<&super::correctors::awnn::Awnn> {
         match &self.corrector {
-            Some(super::corrector::Corrector::Awnn(n)) => Some(n),
-            Some(super::corrector::Corrector::Values(v)) => v.values.iter().find_map(|c| match c {
-                super::corrector::Corrector::Awnn(n) => Some(n),
+            Some(super::correctors::Corrector::Awnn(n)) => Some(n),
+            Some(super::correctors::Corrector::Values(v)) => v.values.iter().find_map(|c| match c {
+                super::correctors::Corrector::Awnn(n) => Some(n),
                 _ => None,
             }),
             _ => None,
@@ -338,7 +338,9 @@ impl CalibResult {
     /// with flank inputs) or its joint torques as network inputs: `ik` solves without them.
     pub fn reads_flanks(&self) -> bool {
         self.model.effects.iter().any(|b| b.kind == super::effects::EffectKind::Backlash)
-            || self.wavelet_network().is_some_and(|n| n.extra.iter().any(|f| matches!(f, super::awnn::Feature::Side(_) | super::awnn::Feature::Torque(_))))
+            || self
+                .wavelet_network()
+                .is_some_and(|n| n.extra.iter().any(|f| matches!(f, super::correctors::awnn::Feature::Side(_) | super::correctors::awnn::Feature::Torque(_))))
     }
 
     pub fn columns_read(&self) -> Vec<(&'static str, String)> {
@@ -351,8 +353,8 @@ impl CalibResult {
         if let Some(n) = self.wavelet_network() {
             for f in &n.extra {
                 match f {
-                    super::awnn::Feature::Temperature => out.push(("temp", "its network's temperature input".into())),
-                    super::awnn::Feature::Time => out.push(("t", "its network's time input".into())),
+                    super::correctors::awnn::Feature::Temperature => out.push(("temp", "its network's temperature input".into())),
+                    super::correctors::awnn::Feature::Time => out.push(("t", "its network's time input".into())),
                     _ => {}
                 }
             }
@@ -1029,7 +1031,7 @@ pub fn truth_stage(
 pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions) -> Result<CalibResult> {
     let solver = match (opts.method, opts.loss) {
         (_, Loss::L2) => opts.method.solver(opts.effort),
-        (Method::Lm, loss) => Box::new(super::method::LmSolver { loss, ..Default::default() }),
+        (Method::Lm, loss) => Box::new(super::methods::LmSolver { loss, ..Default::default() }),
         (m, loss) => return Err(Error::Invalid(format!("--loss {} applies to --method lm, not {}", loss.name(), m.name()))),
     };
     calibrate_with(data, truth, opts, solver.as_ref())
@@ -1238,13 +1240,13 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let Solution { report, corrector } = solver.solve(&problem, &mut history)?;
     let x = report.x.clone();
     if x.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Calibration(format!("{} diverged (non-finite parameters)", solver.method().name())));
+        return Err(Error::Calibration(format!("{} diverged (non-finite parameters)", solver.name())));
     }
     if !report.converged() {
         warnings.push(format!(
             "{} stopped without converging ({}, after {} iterations); the parameters may be far from the optimum \
              (see `converged` / `stop_reason` in the result file; a larger --effort gives the stochastic methods more budget)",
-            solver.method().name(),
+            solver.name(),
             report.reason,
             report.iterations
         ));
@@ -1267,7 +1269,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         warnings.push(format!(
             "{} ended worse than the nominal model it started from (training RMSE {:.4} -> {:.4} mm): the result is not a calibration; \
              try --method lm, or a larger --effort",
-            solver.method().name(),
+            solver.name(),
             metrics.train_before.rmse,
             metrics.train_after.rmse
         ));
@@ -1288,7 +1290,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
             warnings.push(format!(
                 "{} fits the training rows far inside the reading noise (training RMSE {:.4} mm, noise {noise:.4} mm) and misses the test rows \
                  ({:.4} mm): it has more freedom than the data support and follows their noise",
-                solver.method().name(),
+                solver.name(),
                 metrics.train_after.rmse,
                 test.rmse
             ));
@@ -1314,7 +1316,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         schema_version: crate::io::SCHEMA_VERSION,
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
-        method: solver.method(),
+        method: Method::parse(solver.name())?,
         model_name: model.name.clone(),
         seed: opts.seed,
         n_train: split.train.len(),

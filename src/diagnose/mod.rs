@@ -1357,7 +1357,7 @@ fn base_start(model: &CalibModel, x_base: &[f64]) -> Vec<f64> {
 /// geometric residuals, on the same folds; and their extrapolation to rows with q2 above its
 /// 70th percentile when trained on the rest.
 fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<Comparison> {
-    use crate::calib::rbf::RbfNetwork;
+    use crate::calib::correctors::rbf::RbfNetwork;
     let (n, d) = (ctx.data.len(), ctx.data.dim);
     // One network per reading value (a tracker's x, y and z each get their own), fitted on the
     // geometric residuals of the training rows.

@@ -29,7 +29,7 @@
 //! reaches), `joint_limit` (stuck with a joint at a limit), `singular` (stuck where the
 //! Jacobian loses rank), `not_converged` or `invalid` (non-finite target). Never NaN, never a panic.
 
-use crate::calib::corrector::Correct;
+use crate::calib::correctors::Correct;
 use crate::calib::effects::RowInputs;
 use crate::calib::model::{CalibModel, ModelWork};
 use nalgebra::{Matrix3, Vector3};
@@ -333,7 +333,7 @@ pub fn rigid_fit(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> (Matrix3<f64>, Vecto
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::gkan::{Gkan, GkanShape};
+    use crate::calib::correctors::gkan::{Gkan, GkanShape};
     use crate::calib::model::SensorGuess;
     use crate::robot::Robot;
 
@@ -391,9 +391,9 @@ mod tests {
 
     #[test]
     fn a_tracker_corrector_is_applied_in_the_base_frame_with_its_exact_jacobian() {
-        use crate::calib::corrector::{Corrector, PerValue};
+        use crate::calib::correctors::rbf::{RbfNetwork, RbfOptions};
+        use crate::calib::correctors::{Corrector, PerValue};
         use crate::calib::model::Placement;
-        use crate::calib::rbf::{RbfNetwork, RbfOptions};
         use crate::measurement::Measurement;
         let (m, limits) = model();
         let tracker = Placement { measurement: Measurement::Point, own: vec![2.0, -0.3, 0.2, 0.02, -0.01, 0.7], tool: Vector3::new(0.06, 0.0, 0.05) };

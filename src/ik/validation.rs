@@ -17,7 +17,7 @@
 //! the best a rigid model of this parametrisation can do).
 
 use super::solver::{rigid_fit, IkModel, IkOptions, IkSolution, IkStatus, JacobianKind};
-use crate::calib::corrector::Correct;
+use crate::calib::correctors::Correct;
 use crate::calib::run::CalibResult;
 use crate::dataset::truth::TruthFile;
 use crate::error::{Error, Result};
@@ -139,8 +139,8 @@ impl TwinCheck {
 /// Joint ranges of the calibration data (the GKAN's grid when there is one, else the limits).
 fn data_ranges(r: &CalibResult) -> Vec<(f64, f64)> {
     match &r.corrector {
-        Some(crate::calib::corrector::Corrector::Gkan(g)) => g.lo.iter().zip(&g.hi).map(|(a, b)| (*a, *b)).collect(),
-        Some(crate::calib::corrector::Corrector::Mlp(m)) => m.lo.iter().zip(&m.hi).map(|(a, b)| (*a, *b)).collect(),
+        Some(crate::calib::correctors::Corrector::Gkan(g)) => g.lo.iter().zip(&g.hi).map(|(a, b)| (*a, *b)).collect(),
+        Some(crate::calib::correctors::Corrector::Mlp(m)) => m.lo.iter().zip(&m.hi).map(|(a, b)| (*a, *b)).collect(),
         _ => r.model.joint_limits(),
     }
     .into_iter()

@@ -3,11 +3,11 @@
 //! (its noise-free length minus that of the arm at rest on the flanks it ends on) gives a bias and
 //! a spread per setting, next to the robot time the protocol takes.
 
-use crate::sim::twin::tour::{acquire, Acquisition, AcquisitionModel, OnTimeout, Schedule, TourSettings};
 use crate::error::Result;
 use crate::robot::Robot;
 use crate::sim::generate::{build_twin, sample_poses, Progress};
 use crate::sim::scenario::Scenario;
+use crate::sim::twin::tour::{acquire, Acquisition, AcquisitionModel, OnTimeout, Schedule, TourSettings};
 use serde::Serialize;
 
 /// One setting of the study.

@@ -188,7 +188,7 @@ impl RbfNetwork {
         if !live.is_empty() {
             let dim = x[0].len();
             let splits: Vec<(Vec<usize>, Vec<usize>)> =
-                super::folds::shuffled(n, CV_FOLDS.min(n), seed).into_iter().map(|test| (super::folds::others(n, &test), test)).collect();
+                crate::calib::folds::shuffled(n, CV_FOLDS.min(n), seed).into_iter().map(|test| (crate::calib::folds::others(n, &test), test)).collect();
             // Per number of centres: per live column and ridge, the CV row.
             let per_centres: Vec<Vec<Vec<CvRow>>> = centers
                 .par_iter()
@@ -437,6 +437,36 @@ fn center_widths(xs: &[Vec<f64>], centers: &[Vec<f64>], factor: f64) -> Vec<f64>
         }
     };
     raw.into_iter().map(|w| w.unwrap_or(global)).collect()
+}
+
+impl crate::calib::correctors::correct::Correct for RbfNetwork {
+    fn label(&self) -> String {
+        format!("rbf ({} centres)", self.centers.len())
+    }
+    fn n_weights(&self) -> usize {
+        self.centers.len() * (self.input_scale.len() + 2) + 1
+    }
+    fn correction_mm(&self, q: &[f64], _inp: &crate::calib::effects::RowInputs) -> f64 {
+        self.predict(q)
+    }
+    fn correction_grad_mm(&self, q: &[f64], _inp: &crate::calib::effects::RowInputs, g: &mut [f64]) -> f64 {
+        let d = self.input_scale.len();
+        g.iter_mut().for_each(|v| *v = 0.0);
+        let mut f = self.bias;
+        for ((c, s), w) in self.centers.iter().zip(&self.widths).zip(&self.weights) {
+            let mut d2 = 0.0;
+            for k in 0..d {
+                let e = q[k] / self.input_scale[k] - c[k];
+                d2 += e * e;
+            }
+            let phi = w * (-d2 / (2.0 * s * s)).exp();
+            f += phi;
+            for k in 0..d {
+                g[k] -= phi * (q[k] / self.input_scale[k] - c[k]) / (s * s * self.input_scale[k]);
+            }
+        }
+        f
+    }
 }
 
 #[cfg(test)]

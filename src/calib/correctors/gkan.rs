@@ -300,6 +300,36 @@ impl Mlp {
     }
 }
 
+impl crate::calib::correctors::correct::Correct for Gkan {
+    fn label(&self) -> String {
+        format!("gkan ({} coefficients, {} chain edges)", self.n_coef(), self.edges.len())
+    }
+    fn n_weights(&self) -> usize {
+        self.n_coef()
+    }
+    fn correction_mm(&self, q: &[f64], _inp: &crate::calib::effects::RowInputs) -> f64 {
+        self.value_with(&self.coef, q)
+    }
+    fn correction_grad_mm(&self, q: &[f64], _inp: &crate::calib::effects::RowInputs, g: &mut [f64]) -> f64 {
+        self.value_grad(q, g)
+    }
+}
+
+impl crate::calib::correctors::correct::Correct for Mlp {
+    fn label(&self) -> String {
+        format!("mlp ({} hidden ReLU units)", self.hidden)
+    }
+    fn n_weights(&self) -> usize {
+        Mlp::n_weights(self)
+    }
+    fn correction_mm(&self, q: &[f64], _inp: &crate::calib::effects::RowInputs) -> f64 {
+        self.eval(&self.w, q, None, None)
+    }
+    fn correction_grad_mm(&self, q: &[f64], _inp: &crate::calib::effects::RowInputs, g: &mut [f64]) -> f64 {
+        self.eval(&self.w, q, None, Some(g))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -53,14 +53,14 @@
 //! condition number of the (column-scaled) observation Jacobian of the free parameters over the
 //! training poses, the paper's identifiability check.
 
-use super::awnn::{Activation, Awnn, Feature};
 use super::awnn_select::{select, Selection};
-use super::corrector::Corrector;
-use super::effects::RowInputs;
-use super::method::{Method, Problem, Solution, Solver};
-use super::problem::ReadingFit;
-use super::problem::Samples;
-use super::ridge_cv::GeometricFit;
+use super::solver::{Problem, Solution, Solver};
+use crate::calib::correctors::awnn::{Activation, Awnn, Feature};
+use crate::calib::correctors::Corrector;
+use crate::calib::effects::RowInputs;
+use crate::calib::problem::ReadingFit;
+use crate::calib::problem::Samples;
+use crate::calib::ridge_cv::GeometricFit;
 use crate::error::{Error, Result};
 use crate::optim::{Bounds, Cost, Damping, Ekf, Event, LeastSquares, LevenbergMarquardt, NoObserver, ObservationHook, Observer, Pso, Report};
 use nalgebra::DMatrix;
@@ -114,7 +114,7 @@ impl Ablation {
     }
 }
 
-/// What the network sees besides the joint angles (see [`super::awnn::Feature`]).
+/// What the network sees besides the joint angles (see [`crate::calib::correctors::awnn::Feature`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum NetInputs {
     /// The joint angles alone (the paper's network).
@@ -434,7 +434,7 @@ fn prior_var_scale(p: &Problem) -> f64 {
     if v.is_empty() {
         1e-6
     } else {
-        super::stats::median(&v)
+        crate::calib::stats::median(&v)
     }
 }
 
@@ -587,7 +587,7 @@ impl PsoEkfAwnn {
         let raw = p.fit.residuals_mm(x);
         let dim = nets.len().max(1);
         let (nets, held): (Vec<Awnn>, Vec<f64>) =
-            nets.iter().enumerate().map(|(c, n)| self.refine_net(p, &super::stats::value_column(&raw, dim, c), n)).unzip();
+            nets.iter().enumerate().map(|(c, n)| self.refine_net(p, &crate::calib::stats::value_column(&raw, dim, c), n)).unzip();
         let rmse = if held.len() == 1 { held[0] } else { (held.iter().map(|v| v * v).sum::<f64>() / held.len().max(1) as f64).sqrt() };
         (nets, rmse)
     }
@@ -600,12 +600,12 @@ impl PsoEkfAwnn {
     /// better there. The test rows are never seen. Returns the network and its held-out RMSE.
     pub fn refine_net(&self, p: &Problem, raw: &[f64], net: &Awnn) -> (Awnn, f64) {
         if net.frozen {
-            return (net.clone(), super::stats::rms(raw));
+            return (net.clone(), crate::calib::stats::rms(raw));
         }
         let d = p.fit.data;
         // SGD runs on the residuals in units of their RMS (output weights scaled alike, exact
         // since the output is linear in them), so that the rates mean the same at any error size.
-        let scale = super::stats::rms(raw).max(1e-9);
+        let scale = crate::calib::stats::rms(raw).max(1e-9);
         let target: Vec<f64> = raw.iter().map(|v| v / scale).collect();
         let mut net = net.clone();
         net.weights.iter_mut().for_each(|w| *w /= scale);
@@ -681,8 +681,8 @@ impl Cost for Fitness<'_, '_> {
 }
 
 impl Solver for PsoEkfAwnn {
-    fn method(&self) -> Method {
-        Method::PsoEkfAwnn(self.variant)
+    fn name(&self) -> &'static str {
+        self.variant.method_name()
     }
     fn needs_noise(&self) -> bool {
         true
@@ -769,7 +769,7 @@ impl PsoEkfAwnn {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::awnn::Activation;
+    use crate::calib::correctors::awnn::Activation;
     use crate::calib::model::{CalibModel, Placement, SensorGuess};
     use crate::measurement::Measurement;
     use crate::robot::Robot;

@@ -34,8 +34,8 @@
 //! As a [`Correct`] the network gives its value and its analytic gradient with respect to `q`:
 //! `∂f/∂q_i = Σ_j w_j ψ'(z_j) v_ji / (a_j · scale_i)`.
 
-use super::corrector::Correct;
-use super::effects::RowInputs;
+use super::correct::Correct;
+use crate::calib::effects::RowInputs;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -104,7 +104,7 @@ pub enum Feature {
     /// Time since the start of acquisition, s (when the data have no temperature).
     Time,
     /// Backlash flank of a joint (0-based), ±1, from the calibration's own rule
-    /// ([`super::inputs::row_inputs`]).
+    /// ([`crate::calib::inputs::row_inputs`]).
     Side(usize),
     /// Static gravity (and payload/cable) torque on a joint (0-based), N·m, from the result's
     /// torque model.
@@ -574,8 +574,8 @@ impl Awnn {
 
 #[cfg(test)]
 mod tests {
+    use super::super::correct::gradient_error;
     use super::*;
-    use crate::calib::corrector::{gradient_error, Corrector};
 
     fn poses(n: usize, seed: u64) -> Vec<Vec<f64>> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -603,11 +603,11 @@ mod tests {
         let qs = poses(8, 9);
         let inp = RowInputs::default();
         for act in [Activation::MexicanHat, Activation::Morlet, Activation::Relu] {
-            let c = Corrector::Awnn(perturbed(act));
+            let c = perturbed(act);
             c.validate(6).unwrap();
             // ReLU kinks: finite differences across one are wrong by design; a 1e-7 step at
             // these random poses does not straddle one (a failure would say so loudly).
-            let err = gradient_error(c.as_correct(), &qs, &inp, 1e-7);
+            let err = gradient_error(&c, &qs, &inp, 1e-7);
             assert!(err < 1e-5, "{act:?}: relative gradient error {err}");
         }
     }
@@ -698,20 +698,20 @@ mod tests {
         assert_eq!(net.input_label(), "q1..q6, temp, side2");
         // The q-gradient at fixed row inputs against finite differences, and through the
         // stored form (serde) with the inputs named.
-        let c = Corrector::Awnn(perturbed_with(&extra));
+        let c = perturbed_with(&extra);
         c.validate(6).unwrap();
         for r in &si[..4] {
-            let err = gradient_error(c.as_correct(), &test[..4], r, 1e-7);
+            let err = gradient_error(&c, &test[..4], r, 1e-7);
             assert!(err < 1e-5, "relative gradient error {err}");
         }
         let json = serde_json::to_string(&c).unwrap();
         assert!(json.contains("\"extra\":[\"temperature\",{\"side\":1}]"), "{json}");
-        let back: Corrector = serde_json::from_str(&json).unwrap();
-        assert!((back.as_correct().correction_mm(&test[0], &si[0]) - c.as_correct().correction_mm(&test[0], &si[0])).abs() < 1e-9);
+        let back: Awnn = serde_json::from_str(&json).unwrap();
+        assert!((back.correction_mm(&test[0], &si[0]) - c.correction_mm(&test[0], &si[0])).abs() < 1e-9);
         // A row without the temperature sits at the training mean; one input too many is refused.
         let no_temp = RowInputs { temp_c: None, ..si[0].clone() };
-        assert!(c.as_correct().correction_mm(&test[0], &no_temp).is_finite());
-        let Corrector::Awnn(mut bad) = c else { unreachable!() };
+        assert!(c.correction_mm(&test[0], &no_temp).is_finite());
+        let mut bad = c;
         bad.extra.push(Feature::Time);
         assert!(bad.validate(6).is_err());
         // A training row missing an extra input is an error, not a silent zero.
@@ -734,7 +734,7 @@ mod tests {
         assert!(net.validate(6).is_err());
         let mut net = perturbed(Activation::MexicanHat);
         net.projection[0].pop();
-        assert!(Corrector::Awnn(net).validate(6).is_err());
+        assert!(net.validate(6).is_err());
         assert!(Awnn::init(&[], 4, Activation::Morlet, 0).is_err());
         assert!(Awnn::init(&[vec![f64::NAN; 6]], 4, Activation::Morlet, 0).is_err());
     }

@@ -18,7 +18,7 @@
 //! ```
 //!
 //! * `s_k` is the documented manufacturing tolerance of parameter k
-//!   ([`super::tolerance::Tolerances`]) and `λ_g = σ²/N` with σ the reading noise estimated from
+//!   ([`crate::calib::tolerance::Tolerances`]) and `λ_g = σ²/N` with σ the reading noise estimated from
 //!   the data: the geometric term is then exactly the tolerance prior of a MAP estimate
 //!   (`J·N/σ²` = −2 log posterior up to a constant). Geometry may move where the data demand it
 //!   and is held near its nominal where they do not.
@@ -58,11 +58,12 @@
 //!   adaptation, no strategy scheduler), otherwise V4.
 //! * V4 `dsade-gkan` — the full method.
 
-use super::corrector::Corrector;
-use super::gkan::{Gkan, GkanShape, Mlp};
+pub use super::gkan_select::EvoWeights;
 use super::gkan_select::{penalty_gram, penalty_rows, select, Selection};
-use super::method::{Method, Problem, Solution, Solver};
-use super::problem::ReadingFit;
+use super::solver::{Problem, Solution, Solver};
+use crate::calib::correctors::gkan::{Gkan, GkanShape, Mlp};
+use crate::calib::correctors::Corrector;
+use crate::calib::problem::ReadingFit;
 use crate::error::{Error, Result};
 use crate::optim::{Bounds, Cost, De, DeVariant, Event, LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use nalgebra::{DMatrix, DVector};
@@ -80,18 +81,15 @@ pub enum EvoVariant {
     SingleStrategy,
 }
 
-/// Weights of the objective (see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EvoWeights {
-    /// Multiplier of the MAP weight σ²/N of the geometric term.
-    pub geometry: f64,
-    pub neural: f64,
-    pub roughness: f64,
-}
-
-impl Default for EvoWeights {
-    fn default() -> Self {
-        EvoWeights { geometry: 1.0, neural: 0.05, roughness: 0.02 }
+impl EvoVariant {
+    /// The name the variant is registered under ([`super::Method`]).
+    pub fn method_name(self) -> &'static str {
+        match self {
+            EvoVariant::Full => "dsade-gkan",
+            EvoVariant::Sequential => "dsade-gkan-v1",
+            EvoVariant::Mlp => "dsade-gkan-v2",
+            EvoVariant::SingleStrategy => "dsade-gkan-v3",
+        }
     }
 }
 
@@ -188,7 +186,7 @@ impl<'a> Objective<'a> {
         let x0_free: Vec<f64> = free.iter().map(|&k| p.x0[k]).collect();
         let s_free: Vec<f64> = free.iter().map(|&k| p.prior_std[k]).collect();
         let y0 = fit.residuals_mm(p.x0);
-        let rms0 = super::stats::rms(&y0);
+        let rms0 = crate::calib::stats::rms(&y0);
         if !rms0.is_finite() || rms0 <= 0.0 {
             return Err(Error::Calibration("the starting residuals are not finite or all zero; nothing for the network to learn".into()));
         }
@@ -575,7 +573,7 @@ impl EvoNphSolver {
         let t0 = std::time::Instant::now();
         let (mut z, de_report, curve) = if self.variant == EvoVariant::Sequential {
             // V1: LM on the geometry alone, then the coefficients for the frozen residuals.
-            let lm = super::method::LmSolver::default();
+            let lm = super::lm::LmSolver::default();
             let rep = lm.lm.minimize(p.fit, p.x0, p.fixed, obs);
             let mut z: Vec<f64> = obj.free.iter().map(|&k| rep.x[k]).collect();
             z.extend(std::iter::repeat_n(0.0, dim - m));
@@ -622,13 +620,8 @@ impl EvoNphSolver {
 }
 
 impl Solver for EvoNphSolver {
-    fn method(&self) -> Method {
-        match self.variant {
-            EvoVariant::Full => Method::DsadeGkan,
-            EvoVariant::Sequential => Method::DsadeGkanV1,
-            EvoVariant::Mlp => Method::DsadeGkanV2,
-            EvoVariant::SingleStrategy => Method::DsadeGkanV3,
-        }
+    fn name(&self) -> &'static str {
+        self.variant.method_name()
     }
     fn needs_noise(&self) -> bool {
         true

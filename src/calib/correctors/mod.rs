@@ -16,60 +16,17 @@
 //!
 //! [`gradient_error`] checks any corrector's gradient against central finite differences.
 
-use super::effects::RowInputs;
-use super::gkan::{Gkan, Mlp};
-use super::model::{CalibModel, ModelWork};
-use super::rbf::RbfNetwork;
+use crate::calib::correctors::gkan::{Gkan, Mlp};
+use crate::calib::correctors::rbf::RbfNetwork;
+use crate::calib::effects::RowInputs;
 use serde::{Deserialize, Serialize};
 
-/// A non-geometric length correction, see the module docs.
-pub trait Correct: Send + Sync {
-    /// Short name for reports ("rbf", "effects", ...).
-    fn label(&self) -> String;
-    /// Number of fitted values (weights, centres, ...) it carries.
-    fn n_weights(&self) -> usize;
-    /// Length correction (mm) at commanded joint angles `q` (rad).
-    fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64;
-    /// The correction (mm) and its gradient with respect to `q` (mm/rad) into `g` (len 6).
-    fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64;
-    /// Reading values it corrects per row: 1 (a cable length) unless it says otherwise.
-    fn dim(&self) -> usize {
-        1
-    }
-    /// The correction (mm) of each of the row's [`Self::dim`] reading values into `out`.
-    fn corrections_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
-        out[0] = self.correction_mm(q, inp);
-    }
-    /// [`Self::corrections_mm`] and their gradients with respect to `q` (mm/rad) into `g`
-    /// (row-major, one row of `q.len()` per value).
-    fn corrections_grad_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64], g: &mut [f64]) {
-        out[0] = self.correction_grad_mm(q, inp, &mut g[..q.len()]);
-    }
-}
+pub mod awnn;
+mod correct;
+pub mod gkan;
+pub mod rbf;
 
-impl<T: Correct + ?Sized> Correct for &T {
-    fn label(&self) -> String {
-        (**self).label()
-    }
-    fn n_weights(&self) -> usize {
-        (**self).n_weights()
-    }
-    fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
-        (**self).correction_mm(q, inp)
-    }
-    fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
-        (**self).correction_grad_mm(q, inp, g)
-    }
-    fn dim(&self) -> usize {
-        (**self).dim()
-    }
-    fn corrections_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64]) {
-        (**self).corrections_mm(q, inp, out)
-    }
-    fn corrections_grad_mm(&self, q: &[f64], inp: &RowInputs, out: &mut [f64], g: &mut [f64]) {
-        (**self).corrections_grad_mm(q, inp, out, g)
-    }
-}
+pub use correct::{gradient_error, Correct, EffectCorrection};
 
 /// A learned corrector as stored in result.json (`"corrector": {"kind": "rbf", ...}`).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -83,7 +40,7 @@ pub enum Corrector {
     Mlp(Mlp),
     /// Adaptive wavelet network (or its MLP / Morlet ablations) learned from the EKF's
     /// innovations (method pso-ekf-awnn, see [`super::awnn`]).
-    Awnn(super::awnn::Awnn),
+    Awnn(crate::calib::correctors::awnn::Awnn),
     /// One corrector per reading value of a measurement with several (a tracker's x, y, z).
     Values(PerValue),
 }
@@ -176,144 +133,12 @@ impl Corrector {
     }
 }
 
-impl Correct for RbfNetwork {
-    fn label(&self) -> String {
-        format!("rbf ({} centres)", self.centers.len())
-    }
-    fn n_weights(&self) -> usize {
-        self.centers.len() * (self.input_scale.len() + 2) + 1
-    }
-    fn correction_mm(&self, q: &[f64], _inp: &RowInputs) -> f64 {
-        self.predict(q)
-    }
-    fn correction_grad_mm(&self, q: &[f64], _inp: &RowInputs, g: &mut [f64]) -> f64 {
-        let d = self.input_scale.len();
-        g.iter_mut().for_each(|v| *v = 0.0);
-        let mut f = self.bias;
-        for ((c, s), w) in self.centers.iter().zip(&self.widths).zip(&self.weights) {
-            let mut d2 = 0.0;
-            for k in 0..d {
-                let e = q[k] / self.input_scale[k] - c[k];
-                d2 += e * e;
-            }
-            let phi = w * (-d2 / (2.0 * s * s)).exp();
-            f += phi;
-            for k in 0..d {
-                g[k] -= phi * (q[k] / self.input_scale[k] - c[k]) / (s * s * self.input_scale[k]);
-            }
-        }
-        f
-    }
-}
-
-impl Correct for Gkan {
-    fn label(&self) -> String {
-        format!("gkan ({} coefficients, {} chain edges)", self.n_coef(), self.edges.len())
-    }
-    fn n_weights(&self) -> usize {
-        self.n_coef()
-    }
-    fn correction_mm(&self, q: &[f64], _inp: &RowInputs) -> f64 {
-        self.value_with(&self.coef, q)
-    }
-    fn correction_grad_mm(&self, q: &[f64], _inp: &RowInputs, g: &mut [f64]) -> f64 {
-        self.value_grad(q, g)
-    }
-}
-
-impl Correct for Mlp {
-    fn label(&self) -> String {
-        format!("mlp ({} hidden ReLU units)", self.hidden)
-    }
-    fn n_weights(&self) -> usize {
-        Mlp::n_weights(self)
-    }
-    fn correction_mm(&self, q: &[f64], _inp: &RowInputs) -> f64 {
-        self.eval(&self.w, q, None, None)
-    }
-    fn correction_grad_mm(&self, q: &[f64], _inp: &RowInputs, g: &mut [f64]) -> f64 {
-        self.eval(&self.w, q, None, Some(g))
-    }
-}
-
-/// The model's physical effect blocks as a corrector: the length (mm) with every effect minus
-/// the length of the same geometry without them.
-pub struct EffectCorrection<'a> {
-    pub model: &'a CalibModel,
-    pub x: &'a [f64],
-    /// The same parameters with every effect parameter at "no effect".
-    x_off: Vec<f64>,
-}
-
-impl<'a> EffectCorrection<'a> {
-    pub fn new(model: &'a CalibModel, x: &'a [f64]) -> Self {
-        let mut x_off = x.to_vec();
-        let k = model.first_effect();
-        x_off[k..].copy_from_slice(&model.nominal[k..]);
-        EffectCorrection { model, x, x_off }
-    }
-    fn value(&self, q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
-        (self.model.predict_with(self.x, q, inp, w) - self.model.predict_with(&self.x_off, q, inp, w)) * 1e3
-    }
-}
-
-impl Correct for EffectCorrection<'_> {
-    fn label(&self) -> String {
-        let names: Vec<String> = self.model.effects.iter().map(|e| e.label()).collect();
-        if names.is_empty() {
-            "no effects".into()
-        } else {
-            format!("effects ({})", names.join(", "))
-        }
-    }
-    fn n_weights(&self) -> usize {
-        self.model.n_params() - self.model.first_effect()
-    }
-    fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
-        self.value(q, inp, &mut self.model.work())
-    }
-    fn correction_grad_mm(&self, q: &[f64], inp: &RowInputs, g: &mut [f64]) -> f64 {
-        // The joint torques behind the compliance block are row inputs (fixed here), so the
-        // correction's dependence on q is through the joint angles and the effects that read
-        // them (eccentricity): both differences are differentiated through the one chain
-        // Jacobian, ∂L/∂q_j = u · ∂p/∂q_j at the effect-applied angles.
-        let mut w = self.model.work();
-        let with = self.model.length_grad_q(self.x, q, inp, &mut w, g);
-        let mut g0 = vec![0.0; g.len()];
-        let without = self.model.length_grad_q(&self.x_off, q, inp, &mut w, &mut g0);
-        for (a, b) in g.iter_mut().zip(g0) {
-            *a = (*a - b) * 1e3;
-        }
-        (with - without) * 1e3
-    }
-}
-
-/// Largest difference between a corrector's analytic q-gradient and central finite differences
-/// (step `h` rad), relative to max(1, |gradient|), over the given configurations.
-pub fn gradient_error(c: &dyn Correct, qs: &[Vec<f64>], inp: &RowInputs, h: f64) -> f64 {
-    let mut worst = 0.0f64;
-    let mut g = vec![0.0; qs.first().map_or(0, |q| q.len())];
-    for q in qs {
-        c.correction_grad_mm(q, inp, &mut g);
-        let scale = g.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-        for j in 0..q.len() {
-            let mut qp = q.clone();
-            let mut qm = q.clone();
-            qp[j] += h;
-            qm[j] -= h;
-            let fd = (c.correction_mm(&qp, inp) - c.correction_mm(&qm, inp)) / (2.0 * h);
-            worst = worst.max((fd - g[j]).abs() / scale);
-        }
-    }
-    worst
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::correctors::rbf::RbfOptions;
     use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
     use crate::calib::model::SensorGuess;
-    use crate::calib::rbf::RbfOptions;
     use crate::robot::Robot;
 
     fn configurations() -> Vec<Vec<f64>> {
@@ -339,7 +164,7 @@ mod tests {
 
     #[test]
     fn gkan_and_mlp_gradients_match_finite_differences() {
-        use crate::calib::gkan::GkanShape;
+        use crate::calib::correctors::gkan::GkanShape;
         let qs = configurations();
         let (lo, hi) = Gkan::range_of(&qs);
         let mut g = Gkan::new(GkanShape { grid: 5, edge_grid: 2, chain_joints: 6 }, lo.clone(), hi.clone());

@@ -1,0 +1,28 @@
+//! Method `lm`: Levenberg–Marquardt.
+
+use super::solver::{Problem, Solution, Solver};
+use crate::error::Result;
+use crate::optim::{LevenbergMarquardt, Observer};
+
+/// Levenberg–Marquardt on all identifiable parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LmSolver {
+    pub lm: LevenbergMarquardt,
+    /// Squared residuals, or a robust loss by IRLS ([`crate::calib::robust::irls`]).
+    pub loss: crate::calib::robust::Loss,
+}
+
+impl Default for LmSolver {
+    fn default() -> Self {
+        LmSolver { lm: LevenbergMarquardt::budget(2000), loss: crate::calib::robust::Loss::L2 }
+    }
+}
+
+impl Solver for LmSolver {
+    fn name(&self) -> &'static str {
+        "lm"
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
+        Ok(Solution { report: crate::calib::robust::irls(&self.lm, p.fit, p.x0, p.fixed, self.loss, obs), corrector: None })
+    }
+}

@@ -1,0 +1,58 @@
+//! What every calibration method is: a [`Solver`] that solves a [`Problem`] into a [`Solution`].
+
+use crate::calib::correctors::Corrector;
+use crate::calib::problem::ReadingFit;
+use crate::error::Result;
+use crate::optim::{Observer, Report};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+/// What a solver is given: the fit on the training rows, the start, the fixed (non-identifiable)
+/// parameters, a one-sigma prior spread per parameter and the noise level estimated from the data.
+pub struct Problem<'a> {
+    pub fit: &'a ReadingFit<'a>,
+    pub x0: &'a [f64],
+    pub fixed: &'a [bool],
+    /// One standard deviation per parameter, internal units (from the tolerances).
+    pub prior_std: &'a [f64],
+    /// Standard deviation of one reading, mm, estimated from the data.
+    pub noise_mm: f64,
+    pub seed: u64,
+}
+
+impl Problem<'_> {
+    pub(crate) fn free(&self) -> Vec<usize> {
+        (0..self.x0.len()).filter(|k| !self.fixed[*k]).collect()
+    }
+    /// The training observations (reading values) in a seeded random order (for the sequential filters).
+    pub(crate) fn shuffled_rows(&self) -> Vec<usize> {
+        let mut order: Vec<usize> = (0..self.fit.data.y.len()).collect();
+        order.shuffle(&mut ChaCha8Rng::seed_from_u64(self.seed));
+        order
+    }
+}
+
+/// A solver's answer: the optimiser's report and, for methods that add one, a learned corrector
+/// of what the geometry leaves (see [`crate::calib::correctors`]).
+pub struct Solution {
+    pub report: Report,
+    pub corrector: Option<Corrector>,
+}
+
+/// A calibration method with its settings.
+pub trait Solver: Send + Sync {
+    /// The name the method is registered under ([`super::Method::parse`]).
+    fn name(&self) -> &'static str;
+    /// Whether the method uses [`Problem::noise_mm`] (the pipeline then estimates it first).
+    fn needs_noise(&self) -> bool {
+        false
+    }
+    /// Whether the method reads the rows' inputs ([`crate::calib::effects::RowInputs`]: time,
+    /// temperature, flanks, torques) even when the model has no effect blocks (the pipeline
+    /// then computes them, with the torque model when the robot has inertial data).
+    fn needs_row_inputs(&self) -> bool {
+        false
+    }
+    fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution>;
+}
