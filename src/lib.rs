@@ -29,6 +29,7 @@ pub mod robot;
 pub mod seed;
 pub mod shard;
 pub mod sim;
+pub mod stats;
 pub mod viz;
 
 pub use error::{Error, Result};

@@ -7,12 +7,12 @@ use crate::calib::methods::psoekf::{Ablation, Hyper, NetStart, PsoEkfAwnn};
 use crate::calib::methods::{Method, Problem, Solution, Solver};
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::calib::run::{calibrate_with, split_stage, CalibOptions, CalibResult, ModelSpec, TruthFile};
-use crate::calib::stats::{mean_std, median};
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::optim::Observer;
 use crate::sim::generate::{generate, write_outputs, Silent};
 use crate::sim::scenario::Scenario;
+use crate::stats::{mean_std, median};
 use std::path::Path;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -82,7 +82,7 @@ pub struct TruthView {
 pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &CalibOptions) -> Option<TruthView> {
     let robot = opts.model.robot()?;
     let split = split_stage(ds, opts).ok()?;
-    let rigid = crate::calib::equivalent::map_truth(&r.model, robot, truth, &split.train.q)?;
+    let rigid = crate::calib::run::equivalent::map_truth(&r.model, robot, truth, &split.train.q)?;
     let nc = r.model.n_chain();
     let dist = |t: &[f64]| {
         let v: Vec<f64> = r
@@ -99,7 +99,7 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
         (v.iter().map(|d| d * d).sum::<f64>() / v.len().max(1) as f64).sqrt()
     };
     let eq: Vec<f64> = r.parameters.iter().enumerate().map(|(k, p)| p.truth.unwrap_or(f64::NAN) / r.model.kinds[k].display()).collect();
-    let all = crate::calib::inputs::row_inputs(ds, r.torque_model.as_ref());
+    let all = crate::calib::effects::inputs::row_inputs(ds, r.torque_model.as_ref());
     let clean = Samples {
         y: split.test_idx.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(),
         dim: 1,
@@ -110,7 +110,7 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
     };
     let left = ReadingFit { model: &r.model, data: &clean }.residuals_mm(&r.x);
     let after: Vec<f64> = left.iter().zip(&clean.q).zip(&clean.inputs).map(|((d, q), inp)| d - r.correction_mm(q, inp)).collect();
-    use crate::calib::stats::rms;
+    use crate::stats::rms;
     Some(TruthView { to_rigid: dist(&rigid), to_equivalent: dist(&eq), recovered: 1.0 - rms(&after) / rms(&left) })
 }
 

@@ -2,11 +2,11 @@
 //! methods on other spreads and noise, and the HSR-RobotCali pool.
 
 use crate::calib::problem::ReadingFit;
-use crate::calib::stats::median;
 use crate::error::{Error, Result};
 use crate::optim::LeastSquares;
 use crate::sim::generate::{generate as run_generate, write_outputs, Silent};
 use crate::sim::scenario::Scenario;
+use crate::stats::median;
 use std::path::Path;
 use std::time::Instant;
 

@@ -1,10 +1,10 @@
 //! `twincal bench diagnose`: the diagnosis' speed, detection and false-alarm rates.
 
-use crate::calib::stats::median;
 use crate::dataset::Dataset;
 use crate::error::Result;
 use crate::sim::generate::{generate as run_generate, Generated, Progress, Silent};
 use crate::sim::scenario::Scenario;
+use crate::stats::median;
 use std::time::Instant;
 
 /// What the detection part of `bench diagnose` is over (its work items: seed × hidden/clean).
@@ -301,7 +301,7 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
     // logged at 0.1°) diagnosed with and without it, median of three each.
     let (s, robot) = crate::diagnose::hidden::realistic(20_001, 1)?;
     let data = strip(&run_generate(&s, &robot, &Silent)?);
-    let timed = |choice: crate::calib::noise_model::NoiseChoice| -> Result<(f64, String)> {
+    let timed = |choice: crate::calib::problem::noise_model::NoiseChoice| -> Result<(f64, String)> {
         let opts = crate::diagnose::DiagnoseOptions { noise_model: choice, ..options()? };
         let mut t = Vec::new();
         let mut verdict = String::new();
@@ -312,7 +312,8 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
         }
         Ok((median(&t), verdict))
     };
-    let ((on, v_on), (off, v_off)) = (timed(crate::calib::noise_model::NoiseChoice::Auto)?, timed(crate::calib::noise_model::NoiseChoice::Off)?);
+    let ((on, v_on), (off, v_off)) =
+        (timed(crate::calib::problem::noise_model::NoiseChoice::Auto)?, timed(crate::calib::problem::noise_model::NoiseChoice::Off)?);
     println!(
         "  the logging noise model's cost: {} poses in sweeps, angles logged at 0.1 deg: {on:.2} s with it, {off:.2} s without (ratio {:.2}, medians of 3); found {v_on} / {v_off}",
         data.rows.len(),

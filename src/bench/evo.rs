@@ -5,13 +5,13 @@ use crate::calib::methods::evonph::{EvoNphSolver, EvoRun, EvoVariant};
 use crate::calib::methods::Problem;
 use crate::calib::problem::ReadingFit;
 use crate::calib::run::{calibrate_with, CalibOptions, CalibResult, Method, ModelSpec, TruthFile};
-use crate::calib::stats::{mean_std, median};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::ik::{ik_runs, table, TwinCheck};
 use crate::ik::{IkModel, JacobianKind};
 use crate::optim::{DeVariant, NoObserver};
 use crate::sim::scenario::Scenario;
+use crate::stats::{mean_std, median};
 use std::path::Path;
 use std::time::Instant;
 
@@ -154,7 +154,7 @@ pub fn bench_dsade(repeat: usize, seeds: u64) -> Result<()> {
     };
     let ng = truth_rms(&rigid);
     let geo_dev = |r: &CalibResult| {
-        let tol = crate::calib::tolerance::Tolerances::default().prior_std(&r.model);
+        let tol = crate::calib::model::tolerance::Tolerances::default().prior_std(&r.model);
         let v: Vec<f64> =
             (0..r.x.len()).filter(|k| !r.parameters[*k].fixed && *k < r.model.first_effect()).map(|k| ((r.x[k] - x_eq[k]) / tol[k]).powi(2)).collect();
         (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt()

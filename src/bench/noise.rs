@@ -1,5 +1,5 @@
 //! `twincal bench noise-model`: what modelling the joint angles' logging error
-//! ([`crate::calib::noise_model::remove_logging_error`], `calibrate --noise-model auto`) changes in
+//! ([`crate::calib::problem::noise_model::remove_logging_error`], `calibrate --noise-model auto`) changes in
 //! lm, dsade-gkan and pso-ekf-awnn, against the same methods taking the rows as independent
 //! (`--noise-model off`), on real-like acquisitions of the twin: the IRB 120 with its geometric
 //! errors read by a draw-wire, in sweeps of 20 poses, the angles logged at 0.1°, with glitch runs
@@ -11,10 +11,10 @@
 //! each seed's ratio auto/off; each run's time.
 
 use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
-use crate::calib::stats::median;
 use crate::dataset::{Dataset, Row};
 use crate::error::Result;
 use crate::sim::generate::{generate as run_generate, Silent};
+use crate::stats::median;
 use std::time::Instant;
 
 /// The methods compared (their `--method` names).
@@ -30,7 +30,7 @@ struct Run {
 
 /// Calibrates `data` with `method` and the noise model `choice`, judged on its held-out blocks
 /// against the twin's noise-free readings `truth` at the commanded angles `q_cmd` (degrees).
-fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: crate::calib::noise_model::NoiseChoice, seed: u64) -> Result<Run> {
+fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: crate::calib::problem::noise_model::NoiseChoice, seed: u64) -> Result<Run> {
     let mut opts = CalibOptions::new(ModelSpec::parse("irb120", "hayati")?, Method::parse(method)?);
     opts.test_fraction = Some(0.25);
     opts.seed = seed;
@@ -51,7 +51,7 @@ fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: 
 /// `twincal bench noise-model --seeds N`: per seed a realistic acquisition, each method with
 /// and without the noise model; prints each seed's line and the medians.
 pub fn bench_noise_model(seeds: u64) -> Result<()> {
-    use crate::calib::noise_model::NoiseChoice::{Auto, Off};
+    use crate::calib::problem::noise_model::NoiseChoice::{Auto, Off};
     println!("bench noise-model: IRB 120 geometric errors, draw-wire, sweeps of 20 poses, angles logged at 0.1 deg, glitch runs, 400 poses;");
     println!("  held-out whole sweeps (25 %); 'true' is the model's reading at the commanded angles against the twin's noise-free reading");
     // Per method: (auto, off) runs over seeds.

@@ -114,7 +114,7 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
     (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt())
 }
 
-use crate::calib::stats::median;
+use crate::stats::median;
 
 /// `twincal bench real`.
 pub fn bench_real(seeds: u64) -> Result<()> {
@@ -160,7 +160,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("    (the papers: LM about 1.2, Evo-NPH 0.62, PSO-EKF-AWNN 0.73 mm, splits unpublished)");
         let mut floor = f64::NAN;
         for method in [Method::Lm, Method::DsadeGkan, Method::PsoEkfAwnn(Ablation::Full)] {
-            use crate::calib::noise_model::NoiseChoice;
+            use crate::calib::problem::noise_model::NoiseChoice;
             for (k, noise) in
                 [(crate::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Auto), (crate::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Off), (0.0, NoiseChoice::Auto)]
             {

@@ -1,11 +1,11 @@
 //! `twincal bench twin`: the simulated tour's speed and determinism, where its time goes, and
 //! how its settled poses and flanks agree with the quasi-static model and the flank rule.
 
-use crate::calib::stats::median;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
 use crate::sim::generate::Silent;
 use crate::sim::scenario::Scenario;
+use crate::stats::median;
 use std::time::Instant;
 
 /// Rapier's settled poses against the quasi-static model's over the same commands.

@@ -1,25 +1,18 @@
-//! Calibration: identification of model parameters from datasets.
+//! Calibration: identification of model parameters from datasets. One folder per job, each
+//! using only the ones listed before it:
+//!
+//! * [`effects`]: the non-geometric effect blocks and the row inputs they read;
+//! * [`model`]: the calibration model (chain, instrument placement, effect blocks) and the
+//!   documented tolerances;
+//! * [`problem`]: a model on samples as a least-squares problem, with its noise model (logging
+//!   rounding, per-row weights), robust screening, identifiability and the data's floor;
+//! * [`correctors`]: learned corrections of what the geometry leaves;
+//! * [`methods`]: the calibration methods, each a [`methods::Solver`], registered by name;
+//! * [`run`]: the `calibrate` pipeline, its options, stages and result.
 
 pub mod correctors;
 pub mod effects;
-pub mod equivalent;
-pub mod export;
-pub mod floor;
-pub mod folds;
-pub mod generic;
-pub mod gls;
-pub mod identify;
-pub mod inputs;
 pub mod methods;
-pub mod metrics;
 pub mod model;
-pub mod noise_model;
-pub mod placement;
 pub mod problem;
-pub mod ridge_cv;
-pub mod robust;
 pub mod run;
-pub mod stats;
-pub mod tolerance;
-pub mod twin_out;
-pub mod weighting;

@@ -210,7 +210,7 @@ pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool) -> Res
             ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
             ModelSpec::Generic6r => None,
         };
-        outputs.write(p, crate::calib::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
+        outputs.write(p, crate::calib::run::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
     }
     if let Some(p) = &a.scenario_out {
         let how = if a.placement_only { "calibrate --placement-only" } else { "calibrate" };
@@ -253,7 +253,7 @@ pub fn calibration_warnings(r: &crate::calib::run::CalibResult) -> Vec<String> {
 
 fn print_summary(r: &crate::calib::run::CalibResult) {
     let m = &r.metrics;
-    let row = |label: &str, s: &crate::calib::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
+    let row = |label: &str, s: &crate::stats::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
     eprintln!(
         "{} / {} on {} ({} train, {} test rows), {} iterations, {:.3} s",
         r.method.name(),

@@ -7,14 +7,14 @@ use super::*;
 pub struct CompareRun {
     pub method: String,
     pub seed: u64,
-    pub train: crate::calib::metrics::ErrorStats,
-    pub test: crate::calib::metrics::ErrorStats,
+    pub train: crate::stats::metrics::ErrorStats,
+    pub test: crate::stats::metrics::ErrorStats,
     pub iterations: usize,
     pub seconds: f64,
     /// For a reading of several values (a tracker's point): the test rows' position error |Δp|
     /// (its `mae` is the mean absolute position error).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub test_position: Option<crate::calib::metrics::ErrorStats>,
+    pub test_position: Option<crate::stats::metrics::ErrorStats>,
     /// What the calibration warned of (a method ending worse than its start, few rows, ...).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
@@ -252,7 +252,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
 /// order): what `compare` prints and writes, and `reduce` the same from the shards' parts.
 pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, rrd: Option<&Path>) -> Result<()> {
     use crate::calib::run::Method;
-    use crate::calib::stats::{mean_std, wilcoxon_signed_rank};
+    use crate::stats::{mean_std, wilcoxon_signed_rank};
     let methods: Vec<Method> = config.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
     let (seeds, frac, n) = (config.seeds, config.test_fraction, config.rows);
     let by = |m: &str| runs.iter().filter(|r| r.method == m).cloned().collect::<Vec<_>>();
@@ -292,7 +292,7 @@ pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, r
         table.push_str("\nResiduals are per coordinate; the test rows' position error |Δp| (mm):\n\n| method | mean | RMS | MAX |\n|---|---|---|---|\n");
         for m in &methods {
             let r = by(m.name());
-            let p = |f: fn(&crate::calib::metrics::ErrorStats) -> f64| ms(r.iter().filter_map(|x| x.test_position.as_ref().map(f)).collect());
+            let p = |f: fn(&crate::stats::metrics::ErrorStats) -> f64| ms(r.iter().filter_map(|x| x.test_position.as_ref().map(f)).collect());
             table.push_str(&format!("| {} | {} | {} | {} |\n", m.name(), p(|e| e.mae), p(|e| e.rmse), p(|e| e.max)));
         }
     }
@@ -307,7 +307,7 @@ pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, r
         // With fewer seeds no difference can reach p < 0.05 (two-sided): no test is printed.
         let across = if a.len() >= MIN_SEEDS_FOR_TEST { wilcoxon_signed_rank(&a, &b).ok() } else { None };
         let per = wilcoxon_signed_rank(&ref_runs[0].test_abs_residuals, &r[0].test_abs_residuals).ok();
-        let cell = |w: &Option<crate::calib::stats::Wilcoxon>| match w {
+        let cell = |w: &Option<crate::stats::Wilcoxon>| match w {
             Some(w) => (format!("{:.1}", w.statistic.abs()), format!("{:.3e}", w.p_value)),
             None => ("–".into(), "–".into()),
         };

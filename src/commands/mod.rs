@@ -314,7 +314,7 @@ pub fn instrument_accuracy(v: Option<f64>) -> Result<Option<f64>> {
 
 impl RobustArgs {
     /// (outlier threshold, loss, angle step), validated.
-    pub fn resolve(&self) -> Result<(f64, crate::calib::robust::Loss, Option<f64>)> {
+    pub fn resolve(&self) -> Result<(f64, crate::calib::problem::robust::Loss, Option<f64>)> {
         if !(self.outliers.is_finite() && (self.outliers == 0.0 || (2.0..=100.0).contains(&self.outliers))) {
             return Err(Error::Invalid(format!("--outliers must be 0 (off) or in [2, 100] robust standard deviations, got {}", self.outliers)));
         }
@@ -323,7 +323,7 @@ impl RobustArgs {
                 return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
             }
         }
-        Ok((self.outliers, crate::calib::robust::Loss::parse(&self.loss)?, self.angle_resolution_deg))
+        Ok((self.outliers, crate::calib::problem::robust::Loss::parse(&self.loss)?, self.angle_resolution_deg))
     }
 }
 
@@ -348,8 +348,8 @@ pub struct LoadArgs {
 
 impl LoadArgs {
     /// The load options and the inertial robot (`--robot`), validated.
-    pub fn resolve(&self) -> Result<(crate::calib::inputs::LoadOptions, Option<crate::robot::Robot>)> {
-        let mut o = crate::calib::inputs::LoadOptions::default();
+    pub fn resolve(&self) -> Result<(crate::calib::effects::inputs::LoadOptions, Option<crate::robot::Robot>)> {
+        let mut o = crate::calib::effects::inputs::LoadOptions::default();
         if !(self.cable_tension_n.is_finite() && (0.0..=1000.0).contains(&self.cable_tension_n)) {
             return Err(Error::Invalid(format!("--cable-tension-n must be in [0, 1000] N, got {}", self.cable_tension_n)));
         }
@@ -438,7 +438,7 @@ fn check_model_outputs<'a>(
     check_outputs(inputs, &all)
 }
 
-/// Stages the identified twin of `result` (see [`crate::calib::twin_out`]): the scenario at
+/// Stages the identified twin of `result` (see [`crate::calib::run::twin_out`]): the scenario at
 /// `path` and its URDF beside it.
 pub fn stage_identified_twin(
     outputs: &mut OutputSet,
@@ -448,7 +448,7 @@ pub fn stage_identified_twin(
     nominal: Option<&crate::robot::Robot>,
     how: &str,
 ) -> Result<()> {
-    let twin = crate::calib::twin_out::identified_scenario(result, data, nominal, path, how)?;
+    let twin = crate::calib::run::twin_out::identified_scenario(result, data, nominal, path, how)?;
     outputs.write(&scenario_urdf_path(path), twin.urdf.as_bytes())?;
     outputs.write(path, twin.toml.as_bytes())
 }

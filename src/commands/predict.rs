@@ -117,7 +117,7 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, reading: &ReadingArg
         if res.is_empty() {
             eprintln!("{} rows predicted; wrote {}", rows.len(), out.display());
         } else {
-            let s = crate::calib::metrics::ErrorStats::of(&res);
+            let s = crate::stats::metrics::ErrorStats::of(&res);
             // A pose's orientation error: the angle between the measured and the predicted
             // rotation (Euler angles' residuals grow without meaning near gimbal lock).
             let angles = if d > lengths {
@@ -130,7 +130,7 @@ pub fn predict(model: &Path, data: &Path, angles: AngleArg, reading: &ReadingArg
                         Some(nalgebra::Rotation3::from_matrix_unchecked(a.transpose() * b).angle().to_degrees())
                     })
                     .collect();
-                let a = crate::calib::metrics::ErrorStats::of(&turn);
+                let a = crate::stats::metrics::ErrorStats::of(&turn);
                 format!("; orientation error (angle between measured and predicted) RMS {:.5} deg, MAX {:.5} deg", a.rmse, a.max)
             } else {
                 String::new()

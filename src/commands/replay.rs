@@ -3,9 +3,9 @@
 //! wrong, before any calibration.
 
 use super::*;
-use crate::calib::metrics::ErrorStats;
 use crate::dataset::Split;
 use crate::measurement::Measurement;
+use crate::stats::metrics::ErrorStats;
 use serde::Serialize;
 
 /// Arguments of `twincal replay` (the field docs are its `--help`).
@@ -136,7 +136,7 @@ fn after_calibration(
     if real.test_residuals_mm.is_empty() || tw.test_residuals_mm.is_empty() {
         return None;
     }
-    let (ks_distance, ks_p_value) = crate::calib::stats::ks_two_sample(&real.test_residuals_mm, &tw.test_residuals_mm);
+    let (ks_distance, ks_p_value) = crate::stats::ks_two_sample(&real.test_residuals_mm, &tw.test_residuals_mm);
     Some(AfterCalibration {
         model: format!("lm, {} ({model})", robot.name),
         real: ErrorStats::of(&real.test_residuals_mm),
@@ -239,7 +239,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let fidelity = |rows: &[usize]| -> Fidelity {
         let r: Vec<Vec<f64>> = rows.iter().filter_map(|&i| residual(i)).collect();
         let flat: Vec<f64> = r.iter().flatten().copied().collect();
-        let (med, scale) = crate::calib::stats::robust_scale(&flat);
+        let (med, scale) = crate::stats::robust_scale(&flat);
         let k = crate::calib::run::DEFAULT_OUTLIER_K;
         let inlier = |v: &Vec<f64>| v.iter().all(|x| (x - med).abs() <= k * scale);
         Fidelity {
@@ -253,7 +253,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let judged_rows = judged_idx.as_deref().unwrap_or(&all_idx);
     let twin_noise: Vec<f64> = twin.iter().flatten().flat_map(|(read, ideal)| read.iter().zip(ideal).map(|(a, b)| a - b)).collect();
     let judged_res: Vec<f64> = judged_rows.iter().filter_map(|&i| residual(i)).flatten().collect();
-    let (ks_distance, ks_p_value) = crate::calib::stats::ks_two_sample(&judged_res, &twin_noise);
+    let (ks_distance, ks_p_value) = crate::stats::ks_two_sample(&judged_res, &twin_noise);
     let mut summary = ReplaySummary {
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),

@@ -2,7 +2,7 @@
 //!
 //! A run of rows far off the model is a fault of the acquisition, not of the model, and there
 //! is more than one kind: the reading jumped (a reading step, see
-//! [`crate::calib::robust::reading_steps`]), one joint's logged angle is wrong over the run (an
+//! [`crate::calib::problem::robust::reading_steps`]), one joint's logged angle is wrong over the run (an
 //! offset, the wrong sign, a value the controller stopped updating, two joints in each other's
 //! columns), or the instrument was moved. Each hypothesis is a correction of the run's rows
 //! with few or no free numbers; the model (fitted on the kept rows) predicts the corrected

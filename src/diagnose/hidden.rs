@@ -8,8 +8,8 @@
 //! geometric calibration can explain), and the size is set so that what is left over has an RMS
 //! of `factor` × the reading noise.
 
+use crate::calib::effects::inputs::{row_inputs, LoadOptions, TorqueModel};
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
-use crate::calib::inputs::{row_inputs, LoadOptions, TorqueModel};
 use crate::calib::model::{CalibModel, SensorGuess};
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::{Dataset, Row};
@@ -178,8 +178,8 @@ pub fn realistic(seed: u64, decimals: usize) -> Result<(Scenario, Robot)> {
 /// of realistic data must rise above.
 pub fn logging_floor_mm(s: &Scenario, robot: &Robot, step_deg: f64) -> Result<f64> {
     let (_, model, samples) = nominal_at_poses(s, robot)?;
-    let step = crate::calib::floor::Step::Given(step_deg);
-    let f = crate::calib::floor::noise_floor(&model, &model.nominal, &samples, Some(step), None, None, Default::default());
+    let step = crate::calib::problem::floor::Step::Given(step_deg);
+    let f = crate::calib::problem::floor::noise_floor(&model, &model.nominal, &samples, Some(step), None, None, Default::default());
     Ok(f.total_mm)
 }
 

@@ -21,17 +21,17 @@
 pub mod faults;
 pub mod hidden;
 
+use crate::calib::effects::inputs::{block_for, time_span, LoadOptions};
 use crate::calib::effects::{EffectBlock, EffectKind, Size};
-use crate::calib::inputs::{block_for, time_span, LoadOptions};
 use crate::calib::model::CalibModel;
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::calib::run::{identify, CalibOptions, Method, ModelSpec};
-use crate::calib::stats::nested_f_test_deff;
 use crate::dataset::blocks::{Boundary, Structure};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::optim::{LevenbergMarquardt, NoObserver};
 use crate::robot::Robot;
+use crate::stats::nested_f_test_deff;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -54,7 +54,7 @@ pub struct DiagnoseOptions {
     /// Robust outlier threshold, in MAD-based standard deviations.
     pub outlier_k: f64,
     /// Runs of outliers that are one constant offset of the reading are corrected and kept
-    /// ([`crate::calib::robust::reading_steps`]).
+    /// ([`crate::calib::problem::robust::reading_steps`]).
     pub reading_steps: bool,
     pub rank_tol: f64,
     pub seed: u64,
@@ -71,11 +71,11 @@ pub struct DiagnoseOptions {
     /// The instrument's stated accuracy, mm per coordinate, for the floor.
     pub instrument_accuracy_mm: Option<f64>,
     /// Weight the fits by the rows' own standard deviations where the data give them
-    /// ([`crate::calib::weighting`]).
+    /// ([`crate::calib::problem::weighting`]).
     pub row_std: bool,
     /// Whether the joint angles' logging error is the fits' noise model where rows share
     /// blocks (`Off`: rows taken as independent).
-    pub noise_model: crate::calib::noise_model::NoiseChoice,
+    pub noise_model: crate::calib::problem::noise_model::NoiseChoice,
 }
 
 /// Default cross-validation folds of a diagnosis.
@@ -113,7 +113,7 @@ impl DiagnoseOptions {
             angle_step_deg: None,
             instrument_accuracy_mm: None,
             row_std: true,
-            noise_model: crate::calib::noise_model::NoiseChoice::Auto,
+            noise_model: crate::calib::problem::noise_model::NoiseChoice::Auto,
         }
     }
     /// The calibration whose stages the diagnosis starts from: the geometric model with its
@@ -133,8 +133,8 @@ impl DiagnoseOptions {
     }
 }
 
-use crate::calib::robust::Screen;
-pub use crate::calib::robust::{Outlier, OutlierRun};
+use crate::calib::problem::robust::Screen;
+pub use crate::calib::problem::robust::{Outlier, OutlierRun};
 
 /// How strongly the baseline residual follows a per-row feature.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -164,7 +164,7 @@ pub struct Candidate {
 }
 
 /// A fitted effect parameter larger than this many times its plausible one-sigma size
-/// ([`crate::calib::tolerance::effect_scale`]: e.g. 0.3° of eccentricity or backlash, 1.5 mrad/(N·m)
+/// ([`crate::calib::model::tolerance::effect_scale`]: e.g. 0.3° of eccentricity or backlash, 1.5 mrad/(N·m)
 /// of compliance) is not physical.
 pub const IMPLAUSIBLE: f64 = 30.0;
 
@@ -185,7 +185,7 @@ pub fn implausible_param(model: &CalibModel, x: &[f64], b: usize) -> Option<Stri
             format!("{} = {:.3e} s is outside the physical range of a warm-up time constant ({}-{} s)", model.names[k], x[k], WARM_UP_TAU_S.0, WARM_UP_TAU_S.1)
         }),
         Kind::Effect(u) => {
-            let limit = IMPLAUSIBLE * crate::calib::tolerance::effect_scale(u);
+            let limit = IMPLAUSIBLE * crate::calib::model::tolerance::effect_scale(u);
             (x[k].abs() > limit).then(|| {
                 let d = model.kinds[k].display();
                 format!("{} = {:.4} {} is beyond {IMPLAUSIBLE}x its plausible size ({:.4})", model.names[k], x[k] * d, model.kinds[k].unit(), limit * d)
@@ -291,16 +291,16 @@ pub struct Diagnosis {
     /// Stretches of the acquisition whose readings sit one constant offset off (the reading
     /// jumped and stayed): a cause of the sensor, corrected and kept, not fitted by the model.
     #[serde(default)]
-    pub reading_steps: Vec<crate::calib::robust::ReadingStep>,
+    pub reading_steps: Vec<crate::calib::problem::robust::ReadingStep>,
     /// What went wrong in each run of outlier rows and each reading step: the hypothesis that
     /// explains the rows as logged (the reading, one joint's logged angle, the instrument), or
     /// `unexplained` ([`faults`]).
     #[serde(default)]
     pub run_faults: Vec<faults::RunFault>,
-    /// The data's own floor ([`crate::calib::floor`]): its total and a line naming its sources.
+    /// The data's own floor ([`crate::calib::problem::floor`]): its total and a line naming its sources.
     pub noise_floor_mm: f64,
     pub noise_floor_source: String,
-    pub noise_floor: crate::calib::floor::NoiseFloor,
+    pub noise_floor: crate::calib::problem::floor::NoiseFloor,
     /// Which folds selection judged on: `blocked` (contiguous blocks of acquisition order) or
     /// `interleaved` (when blocks cover different parts of the joint space, so that blocked folds
     /// measure extrapolation: baseline blocked RMSE above 1.5x the interleaved one), and why.
@@ -311,7 +311,7 @@ pub struct Diagnosis {
     #[serde(default = "no_structure")]
     pub acquisition: Structure,
     /// The joint angles' logging error as the fits' noise model (generalised least squares over
-    /// the blocks, see [`crate::calib::gls`]), where rows share blocks and the angles are logged
+    /// the blocks, see [`crate::calib::problem::gls`]), where rows share blocks and the angles are logged
     /// at a step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_model: Option<NoiseModel>,
@@ -377,7 +377,7 @@ pub fn unphysical_causes(model: &CalibModel, x: &[f64], kept: &[EffectBlock]) ->
         .collect()
 }
 
-pub use crate::calib::gls::NoiseModel;
+pub use crate::calib::problem::gls::NoiseModel;
 
 fn no_structure() -> Structure {
     crate::dataset::blocks::Blocks::singletons(0).structure(None)
@@ -415,7 +415,7 @@ struct Fitted {
     deff: f64,
 }
 
-use crate::calib::stats::rms;
+use crate::stats::rms;
 
 struct Ctx {
     /// The selection rows (kept rows less the confirmation set), with their inputs.
@@ -454,7 +454,7 @@ impl Ctx {
         let res = fit.residuals_mm(&x);
         let rss = res.iter().map(|r| r * r).sum();
         let n_free = fixed.iter().filter(|f| !**f).count();
-        let deff = self.groups.as_ref().map_or(1.0, |g| crate::calib::stats::design_effect(&res, self.data.dim, g));
+        let deff = self.groups.as_ref().map_or(1.0, |g| crate::stats::design_effect(&res, self.data.dim, g));
         Fitted { model, x, fixed, oof, rss, n_free, deff }
     }
 
@@ -505,7 +505,7 @@ fn refit(model: &CalibModel, data: &Samples, x0: &[f64], rank_tol: f64) -> (Vec<
 fn acquisition_structure(
     data: &Dataset,
     opts: &DiagnoseOptions,
-    steps: &[crate::calib::robust::ReadingStep],
+    steps: &[crate::calib::problem::robust::ReadingStep],
     base: &CalibModel,
     x: &[f64],
     all: &mut Samples,
@@ -522,15 +522,17 @@ fn acquisition_structure(
         return (blocks, acquisition, None);
     }
     progress(&format!("acquisition: {}", acquisition.summary));
-    let Some(step) = angle_step.filter(|_| opts.noise_model == crate::calib::noise_model::NoiseChoice::Auto) else { return (blocks, acquisition, None) };
+    let Some(step) = angle_step.filter(|_| opts.noise_model == crate::calib::problem::noise_model::NoiseChoice::Auto) else {
+        return (blocks, acquisition, None);
+    };
     let rows: Vec<usize> = (0..all.len()).collect();
-    let m = std::sync::Arc::new(crate::calib::noise_model::rounding_model_at(base, x, all, &rows, keep, data, &blocks, step));
+    let m = std::sync::Arc::new(crate::calib::problem::noise_model::rounding_model_at(base, x, all, &rows, keep, data, &blocks, step));
     let noise = m.summary(step);
     progress(&format!(
         "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
         noise.rounding_mm, noise.reading_noise_mm
     ));
-    all.gls = Some(crate::calib::gls::Whitening::new(m, (0..all.len()).collect()));
+    all.gls = Some(crate::calib::problem::gls::Whitening::new(m, (0..all.len()).collect()));
     (blocks, acquisition, Some(noise))
 }
 
@@ -552,9 +554,18 @@ fn final_whitening(
     let Some(n) = noise_model.as_ref().filter(|_| !current.model.effects.is_empty() && all.gls.is_some()) else { return (kept, noise_model) };
     let rows: Vec<usize> = (0..all.len()).collect();
     let plain = Samples { gls: None, ..all.clone() };
-    let m = std::sync::Arc::new(crate::calib::noise_model::rounding_model_at(&current.model, &current.x, &plain, &rows, keep, data, blocks, n.angle_step_deg));
+    let m = std::sync::Arc::new(crate::calib::problem::noise_model::rounding_model_at(
+        &current.model,
+        &current.x,
+        &plain,
+        &rows,
+        keep,
+        data,
+        blocks,
+        n.angle_step_deg,
+    ));
     let summary = m.summary(n.angle_step_deg);
-    let whitened = Samples { gls: Some(crate::calib::gls::Whitening::new(m, rows)), ..plain };
+    let whitened = Samples { gls: Some(crate::calib::problem::gls::Whitening::new(m, rows)), ..plain };
     (whitened.subset(keep), Some(summary))
 }
 
@@ -670,7 +681,7 @@ fn mean_square_with_se(oof: &[f64], dim: usize, groups: Option<&[usize]>) -> (f6
 /// there are fewer blocks than folds: the folds are then drawn over rows, and rows of one block
 /// sit on both sides of a split.
 fn block_folds(groups: &[usize], k: usize, shared: bool) -> (Vec<Vec<usize>>, Vec<Vec<usize>>, Option<String>) {
-    use crate::calib::folds;
+    use crate::stats::folds;
     let n_blocks = groups.last().map_or(0, |g| g + 1);
     if !shared || n_blocks < k {
         let warning = shared.then(|| {
@@ -938,7 +949,7 @@ pub const EFFECT_SCREEN_TIGHTER: f64 = 0.8;
 
 /// Rows the screen `s` takes out of the plain model's account: outliers and the rows of
 /// reading steps.
-fn flagged_rows(s: &crate::calib::robust::Screen) -> usize {
+fn flagged_rows(s: &crate::calib::problem::robust::Screen) -> usize {
     s.outliers.len() + s.steps.iter().map(|st| st.rows).sum::<usize>()
 }
 
@@ -962,14 +973,14 @@ fn screen_with_effects(
         .par_iter()
         .map(|b| {
             let (m, x0) = with_block(base, &geo.x, b, span);
-            let refit = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(&m, d, x, opts.rank_tol);
-            let s = crate::calib::robust::screen(&m, &x0, all, &rows, opts.outlier_k, opts.reading_steps, &refit);
+            let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(&m, d, x, opts.rank_tol);
+            let s = crate::calib::problem::robust::screen(&m, &x0, all, &rows, opts.outlier_k, opts.reading_steps, &refit);
             (b.clone(), s)
         })
         .collect();
     // Fewest rows flagged among the candidates that keep the scale; of those, the narrowest.
-    let fewer = |s: &crate::calib::robust::Screen| 2 * s.outliers.len() <= geo.outliers.len() && !geo.outliers.is_empty();
-    let tighter = |s: &crate::calib::robust::Screen| s.outliers.len() <= geo.outliers.len() && s.scale_mm <= EFFECT_SCREEN_TIGHTER * geo.scale_mm;
+    let fewer = |s: &crate::calib::problem::robust::Screen| 2 * s.outliers.len() <= geo.outliers.len() && !geo.outliers.is_empty();
+    let tighter = |s: &crate::calib::problem::robust::Screen| s.outliers.len() <= geo.outliers.len() && s.scale_mm <= EFFECT_SCREEN_TIGHTER * geo.scale_mm;
     Ok(tried
         .into_iter()
         .filter(|(_, s)| s.scale_mm <= EFFECT_SCREEN_MAX_SCALE * geo.scale_mm && (fewer(s) || tighter(s)))
@@ -1000,10 +1011,10 @@ fn screen_rows(
     has_torques: bool,
     by: &ScreenBy,
     progress: &dyn Fn(&str),
-) -> Result<(crate::calib::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
-    let refit_rows = |d: &Samples, x: &[f64]| crate::calib::robust::screen_fit(base, d, x, opts.rank_tol);
+) -> Result<(crate::calib::problem::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
+    let refit_rows = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(base, d, x, opts.rank_tol);
     let geo_screen =
-        crate::calib::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
+        crate::calib::problem::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
     let flagged = flagged_rows(&geo_screen);
     // Rows the geometric screen flagged that a candidate effect explains stay in.
     let only = match by {
@@ -1185,11 +1196,11 @@ fn diagnose_screened(
     // outliers: they rejoin the rows of the final fit, and are listed.
     let res_all = ReadingFit { model: &current.model, data: &crate::calib::problem::Samples { gls: None, ..all.clone() } }.residuals_mm(&current.x);
     let kept_res: Vec<f64> = keep.iter().flat_map(|&i| res_all[i * dim..(i + 1) * dim].iter().copied()).collect();
-    let (med, scale) = crate::calib::stats::robust_scale(&kept_res);
+    let (med, scale) = crate::stats::robust_scale(&kept_res);
     let explained: Vec<usize> = if current.model.effects.is_empty() {
         Vec::new()
     } else {
-        let far = |i: usize| crate::calib::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
+        let far = |i: usize| crate::calib::problem::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
         outliers.iter().map(|o| o.row - 1).filter(|&i| (far(i) - med).abs() <= opts.outlier_k * scale).collect()
     };
     let (kept, kept_rows, final_keep) = if explained.is_empty() {
@@ -1201,7 +1212,7 @@ fn diagnose_screened(
             explained.iter().map(|i| i + 1).collect::<Vec<_>>()
         ));
         outliers.retain(|o| !explained.contains(&(o.row - 1)));
-        outlier_runs = crate::calib::robust::runs(&outliers);
+        outlier_runs = crate::calib::problem::robust::runs(&outliers);
         let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
         (all.subset(&keep), Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() }, keep)
     };
@@ -1365,7 +1376,7 @@ fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<
         let tr = ctx.data.subset(rows);
         let xf = refit(model, &tr, x, ctx.rank_tol).0;
         let res = ReadingFit { model, data: &tr.unweighted() }.residuals_mm(&xf);
-        let columns: Vec<Vec<f64>> = (0..d).map(|c| crate::calib::stats::value_column(&res, d, c)).collect();
+        let columns: Vec<Vec<f64>> = (0..d).map(|c| crate::stats::value_column(&res, d, c)).collect();
         let columns: Vec<&[f64]> = columns.iter().map(Vec::as_slice).collect();
         let nets = RbfNetwork::fit_cv_many(&tr.q, &columns, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed)
             .into_iter()

@@ -212,7 +212,7 @@ pub fn run_ik(label: &str, m: &IkModel, kind: JacobianKind, targets: &[Vector3<f
         })
         .collect();
     let seconds_per_query = t0.elapsed().as_secs_f64() / targets.len().max(1) as f64;
-    let median_seconds = if times.is_empty() { 0.0 } else { crate::calib::stats::median(&times) };
+    let median_seconds = if times.is_empty() { 0.0 } else { crate::stats::median(&times) };
     let true_error_mm =
         check.map(|c| solutions.iter().zip(targets).map(|(s, t)| if s.status == IkStatus::Invalid { 0.0 } else { (c.true_point(&s.q) - t).norm() }).collect());
     IkRun { label: label.into(), solutions, seconds_per_query, median_seconds, true_error_mm }
@@ -247,7 +247,7 @@ pub fn table(runs: &[IkRun]) -> String {
             r.mean_iterations(),
             r.mean_residual(),
             r.median_seconds * 1e6,
-            te(&|v: &[f64]| if v.is_empty() { 0.0 } else { crate::calib::stats::median(v) }),
+            te(&|v: &[f64]| if v.is_empty() { 0.0 } else { crate::stats::median(v) }),
             te(&|v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64),
             te(&|v: &[f64]| v.iter().cloned().fold(0.0, f64::max)),
         ));

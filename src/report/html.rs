@@ -6,9 +6,9 @@ use super::histogram;
 use super::svg::{error_bars, esc, histograms, plot, Series};
 use super::verdict::Verdict;
 use super::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group, Residual};
-use crate::calib::metrics::ErrorStats;
 use crate::calib::run::CalibResult;
 use crate::measurement::Measurement;
+use crate::stats::metrics::ErrorStats;
 use std::fmt::Write as _;
 
 const BEFORE: &str = "#9a9a9a";

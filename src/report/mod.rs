@@ -91,8 +91,8 @@ impl Residual {
             name: "dp".into(),
             label: "|Δp|".into(),
             distance: true,
-            before_mm: crate::calib::stats::position_errors(before_mm, dim),
-            after_mm: crate::calib::stats::position_errors(after_mm, dim),
+            before_mm: crate::stats::position_errors(before_mm, dim),
+            after_mm: crate::stats::position_errors(after_mm, dim),
         }];
         out.extend(cols.iter().enumerate().map(|(k, c)| Residual {
             name: c.to_string(),
@@ -303,11 +303,11 @@ fn tool_points_and_instrument(r: &CalibResult, s: &Samples) -> (Vec<[f64; 3]>, I
 fn all_samples(r: &CalibResult, data: &Dataset) -> Samples {
     let all: Vec<usize> = (0..data.rows.len()).collect();
     let mut s = crate::calib::run::samples(data, &all);
-    s.inputs = crate::calib::inputs::row_inputs(data, r.torque_model.as_ref());
+    s.inputs = crate::calib::effects::inputs::row_inputs(data, r.torque_model.as_ref());
     s
 }
 
-use crate::calib::stats::rms;
+use crate::stats::rms;
 
 /// The arm of model `x` at row `row` (frames in mm).
 fn arm_pose(r: &CalibResult, x: &[f64], s: &Samples, row: usize) -> Option<ArmPose> {
@@ -348,7 +348,7 @@ impl CalibFigures {
         // rows by their nearest training row).
         let all: Vec<usize> = (0..data.rows.len()).collect();
         let raw = all_samples(r, data);
-        let s = crate::calib::robust::apply_steps_nearest(&raw, &all, &train_idx, &r.reading_steps);
+        let s = crate::calib::problem::robust::apply_steps_nearest(&raw, &all, &train_idx, &r.reading_steps);
         // The calibration kept its training outliers out: so do its figures.
         train_idx.retain(|i| !r.outliers.iter().any(|o| o.row == i + 1));
         let mut train = vec![false; data.rows.len()];
@@ -466,7 +466,7 @@ impl DiagnosisFigures {
         let all: Vec<usize> = (0..data.rows.len()).collect();
         // Reading steps are a cable encoder's: only one-value readings have any.
         let raw = all_samples(r, data);
-        let s = if d.reading_steps.is_empty() { raw } else { crate::calib::robust::apply_steps(&raw, &all, &d.reading_steps) };
+        let s = if d.reading_steps.is_empty() { raw } else { crate::calib::problem::robust::apply_steps(&raw, &all, &d.reading_steps) };
         let fit = ReadingFit { model: &r.model, data: &s };
         let after_mm = fit.residuals_mm(&r.x);
         let first = r.model.first_effect();
@@ -560,7 +560,7 @@ pub struct ReplayFigures {
     /// Which rows are judged, in words.
     pub judged_on: String,
     /// (label, stats) lines of the summary table.
-    pub stats: Vec<(String, Option<crate::calib::metrics::ErrorStats>)>,
+    pub stats: Vec<(String, Option<crate::stats::metrics::ErrorStats>)>,
     pub ks_line: String,
     /// Per replayed row: a judged (held-out) row.
     pub judged: Vec<bool>,

@@ -431,7 +431,7 @@ fn distance_lines(dist: &Residual, sets: &[(&str, &[bool])]) -> String {
             if v.is_empty() {
                 s.push_str(&format!("| {set} {side} | – | – | – |\n"));
             } else {
-                let st = crate::calib::metrics::ErrorStats::of(&v);
+                let st = crate::stats::metrics::ErrorStats::of(&v);
                 s.push_str(&format!("| {set} {side} | {:.4} | {:.4} | {:.4} |\n", st.rmse, st.mean, st.max));
             }
         }
@@ -439,7 +439,7 @@ fn distance_lines(dist: &Residual, sets: &[(&str, &[bool])]) -> String {
     s
 }
 
-fn stats_line(label: &str, s: Option<&crate::calib::metrics::ErrorStats>) -> String {
+fn stats_line(label: &str, s: Option<&crate::stats::metrics::ErrorStats>) -> String {
     match s {
         Some(s) => format!("| {label} | {:.4} | {:.4} | {:.4} |\n", s.rmse, s.std, s.max),
         None => format!("| {label} | – | – | – |\n"),
@@ -730,7 +730,7 @@ pub fn record_comparison(table_markdown: &str, methods: &[String], rows: &[Compa
                 colors.push(PALETTE[i % PALETTE.len()]);
                 labels.push(format!("{m}, seed {}: {:.4} mm", r.seed, val(r)));
             }
-            let (mean, sd) = crate::calib::stats::mean_std(&v.iter().map(|r| val(r)).collect::<Vec<_>>());
+            let (mean, sd) = crate::stats::mean_std(&v.iter().map(|r| val(r)).collect::<Vec<_>>());
             if mean.is_finite() {
                 bars.push((i as f64 + 0.36, mean - sd.max(0.0), mean + sd.max(0.0)));
             }

@@ -147,11 +147,11 @@ fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
 
 /// A solver that starts Levenberg–Marquardt with joint zeros far off (a wrong basin).
 struct FarOff(f64);
-impl twincal::calib::method::Solver for FarOff {
-    fn method(&self) -> Method {
-        Method::Lm
+impl twincal::calib::methods::Solver for FarOff {
+    fn name(&self) -> &'static str {
+        "lm"
     }
-    fn solve(&self, p: &twincal::calib::method::Problem, obs: &mut dyn twincal::optim::Observer) -> twincal::Result<twincal::calib::method::Solution> {
+    fn solve(&self, p: &twincal::calib::methods::Problem, obs: &mut dyn twincal::optim::Observer) -> twincal::Result<twincal::calib::methods::Solution> {
         let mut x0 = p.x0.to_vec();
         for name in ["joint_2.theta", "joint_3.theta", "joint_5.theta"] {
             if let Some(k) = p.fit.model.index(name) {
@@ -159,7 +159,7 @@ impl twincal::calib::method::Solver for FarOff {
             }
         }
         let lm = twincal::optim::LevenbergMarquardt { max_iter: 500, ..Default::default() };
-        Ok(twincal::calib::method::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), corrector: None })
+        Ok(twincal::calib::methods::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), corrector: None })
     }
 }
 
@@ -406,7 +406,7 @@ fn hayati_plus_field(seed: u64, field: impl Fn(&[f64]) -> f64) -> Dataset {
 
 #[test]
 fn pso_ekf_awnn_learns_a_joint_space_field_that_lm_cannot_fit() {
-    use twincal::calib::psoekf::Ablation;
+    use twincal::calib::methods::psoekf::Ablation;
     // Localised bumps along q2 and q5: configuration-dependent, not a geometric error.
     let field = |q: &[f64]| 0.12 * (-(q[1] - 0.4).powi(2) / 0.3).exp() + 0.1 * (-0.5 * ((q[4] - 0.3) / 0.35).powi(2)).exp();
     let (mut lm, mut aw, mut v1) = (Vec::new(), Vec::new(), Vec::new());
@@ -420,7 +420,7 @@ fn pso_ekf_awnn_learns_a_joint_space_field_that_lm_cannot_fit() {
         };
         let a = run(Method::PsoEkfAwnn(Ablation::Full));
         assert!(a.stop_reason.contains("condition number"), "{}", a.stop_reason);
-        assert!(matches!(a.corrector, Some(twincal::calib::corrector::Corrector::Awnn(_))));
+        assert!(matches!(a.corrector, Some(twincal::calib::correctors::Corrector::Awnn(_))));
         lm.push(run(Method::Lm).metrics.test_after.unwrap().rmse);
         aw.push(a.metrics.test_after.unwrap().rmse);
         v1.push(run(Method::PsoEkfAwnn(Ablation::V1Symbolic)).metrics.test_after.unwrap().rmse);
@@ -436,7 +436,7 @@ fn pso_ekf_awnn_learns_a_joint_space_field_that_lm_cannot_fit() {
 /// network is chosen on the training rows alone (scrambled test lengths change nothing).
 #[test]
 fn pso_ekf_awnn_beats_lm_on_the_all_effects_scenario() {
-    use twincal::calib::psoekf::Ablation;
+    use twincal::calib::methods::psoekf::Ablation;
     let sets = scenario_seeds("irb120_pso_ekf", 1077..1082, |_| {});
     let mut ratios = Vec::new();
     for (ds, _) in &sets {
@@ -469,7 +469,7 @@ fn pso_ekf_awnn_cli_result_round_trips_and_is_reproducible() {
     let b = twincal::calib::run::CalibResult::load(&out("b.json")).unwrap();
     assert_eq!(a.x, b.x, "same seed, same result");
     assert_eq!(a.method.name(), "pso-ekf-awnn");
-    assert!(matches!(&a.corrector, Some(twincal::calib::corrector::Corrector::Awnn(_))), "{:?}", a.corrector);
+    assert!(matches!(&a.corrector, Some(twincal::calib::correctors::Corrector::Awnn(_))), "{:?}", a.corrector);
     // predict uses the stored network: its predictions are the result's own.
     let o = twincal(&["predict", "--model", out("a.json").to_str().unwrap(), "--data", dir.to_str().unwrap(), "--out", out("p.csv").to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -588,16 +588,16 @@ fn a_method_ending_worse_than_nominal_warns_and_constant_lengths_are_refused() {
     let (_, ds, _) = geometric();
     // Zero iterations from joint zeros 5° off: the "result" is the bad start.
     struct Stuck;
-    impl twincal::calib::method::Solver for Stuck {
-        fn method(&self) -> Method {
-            Method::Pf
+    impl twincal::calib::methods::Solver for Stuck {
+        fn name(&self) -> &'static str {
+            "pf"
         }
-        fn solve(&self, p: &twincal::calib::method::Problem, obs: &mut dyn twincal::optim::Observer) -> twincal::Result<twincal::calib::method::Solution> {
+        fn solve(&self, p: &twincal::calib::methods::Problem, obs: &mut dyn twincal::optim::Observer) -> twincal::Result<twincal::calib::methods::Solution> {
             let mut x0 = p.x0.to_vec();
             let k = p.fit.model.index("joint_2.theta").unwrap();
             x0[k] += 5f64.to_radians();
             let lm = twincal::optim::LevenbergMarquardt { max_iter: 0, ..Default::default() };
-            Ok(twincal::calib::method::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), corrector: None })
+            Ok(twincal::calib::methods::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), corrector: None })
         }
     }
     let r = calibrate_with(ds, None, &irb120(Method::Lm, "hayati"), &Stuck).unwrap();

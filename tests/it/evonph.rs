@@ -52,7 +52,7 @@ fn dsade_gkan_beats_lm_on_held_out_rows_over_seeds_and_is_reproducible() {
     for seed in 0..3 {
         lm.push(test(Method::Lm, seed).metrics.test_after.unwrap().rmse);
         let r = test(Method::DsadeGkan, seed);
-        assert!(matches!(r.corrector, Some(twincal::calib::corrector::Corrector::Gkan(_))));
+        assert!(matches!(r.corrector, Some(twincal::calib::correctors::Corrector::Gkan(_))));
         evo.push(r.metrics.test_after.unwrap().rmse);
     }
     assert!(median(evo.clone()) < median(lm.clone()), "dsade-gkan {evo:?} vs lm {lm:?}");

@@ -2,8 +2,8 @@
 //! and never committed. A test whose files are absent says SKIP and passes.
 
 use std::path::{Path, PathBuf};
-use twincal::calib::noise_model::NoiseChoice;
-use twincal::calib::robust::step_offset_mm;
+use twincal::calib::problem::noise_model::NoiseChoice;
+use twincal::calib::problem::robust::step_offset_mm;
 use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
 use twincal::dataset::{Dataset, Split};
 use twincal::diagnose::{diagnose, DiagnoseOptions};
@@ -177,7 +177,9 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         t.within_3_sigma, t.identifiable, t.max_abs_z, u.within_3_sigma, u.identifiable, u.max_abs_z
     );
     assert!(t.within_3_sigma > u.within_3_sigma && t.max_abs_z < u.max_abs_z, "{t:?} against {u:?}");
-    for (method, model) in [(Method::DsadeGkan, "irb120"), (Method::PsoEkfAwnn(twincal::calib::psoekf::Ablation::Full), "irb120"), (Method::Lm, "generic6r")] {
+    for (method, model) in
+        [(Method::DsadeGkan, "irb120"), (Method::PsoEkfAwnn(twincal::calib::methods::psoekf::Ablation::Full), "irb120"), (Method::Lm, "generic6r")]
+    {
         let spec = if model == "generic6r" { ModelSpec::Generic6r } else { ModelSpec::parse(model, "hayati").unwrap() };
         let r = calibrate(&ds, None, &CalibOptions::new(spec, method)).unwrap();
         let e = r.metrics.test_after_inliers.unwrap().rmse;

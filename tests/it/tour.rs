@@ -5,8 +5,8 @@ use twincal::sim::effects::statics::Contact;
 use twincal::sim::effects::Eccentricity;
 use twincal::sim::generate::{build_twin, generate, sample_poses, Silent};
 use twincal::sim::scenario::Scenario;
-use twincal::sim::twin::motion::Move;
 use twincal::sim::study::{hold_study, HoldStudy};
+use twincal::sim::twin::motion::Move;
 use twincal::sim::twin::tour::{acquire, Acquired, Acquisition, AcquisitionModel, OnTimeout, TourSettings};
 use twincal::sim::twin::PoseCommand;
 

@@ -104,7 +104,7 @@ pub enum Feature {
     /// Time since the start of acquisition, s (when the data have no temperature).
     Time,
     /// Backlash flank of a joint (0-based), ±1, from the calibration's own rule
-    /// ([`crate::calib::inputs::row_inputs`]).
+    /// ([`crate::calib::effects::inputs::row_inputs`]).
     Side(usize),
     /// Static gravity (and payload/cable) torque on a joint (0-based), N·m, from the result's
     /// torque model.

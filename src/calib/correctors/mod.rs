@@ -138,7 +138,7 @@ mod tests {
     use super::*;
     use crate::calib::correctors::rbf::RbfOptions;
     use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
-    use crate::calib::model::SensorGuess;
+    use crate::calib::model::{CalibModel, SensorGuess};
     use crate::robot::Robot;
 
     fn configurations() -> Vec<Vec<f64>> {

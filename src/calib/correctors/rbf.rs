@@ -188,7 +188,7 @@ impl RbfNetwork {
         if !live.is_empty() {
             let dim = x[0].len();
             let splits: Vec<(Vec<usize>, Vec<usize>)> =
-                crate::calib::folds::shuffled(n, CV_FOLDS.min(n), seed).into_iter().map(|test| (crate::calib::folds::others(n, &test), test)).collect();
+                crate::stats::folds::shuffled(n, CV_FOLDS.min(n), seed).into_iter().map(|test| (crate::stats::folds::others(n, &test), test)).collect();
             // Per number of centres: per live column and ridge, the CV row.
             let per_centres: Vec<Vec<Vec<CvRow>>> = centers
                 .par_iter()
@@ -553,7 +553,7 @@ mod tests {
         assert_eq!(out.len(), 3);
         assert!(out[1].is_err());
         let n = x.len();
-        let splits = super::super::folds::shuffled(n, CV_FOLDS.min(n), seed);
+        let splits = crate::stats::folds::shuffled(n, CV_FOLDS.min(n), seed);
         for (y, got) in [(&y0, &out[0]), (&y1, &out[2])] {
             let (net, table) = got.as_ref().unwrap();
             let mut want = Vec::new();
@@ -562,7 +562,7 @@ mod tests {
                     let opt = RbfOptions { centers: c, ridge: r, seed, ..RbfOptions::default() };
                     let mut sse = 0.0;
                     for test in &splits {
-                        let train = super::super::folds::others(n, test);
+                        let train = crate::stats::folds::others(n, test);
                         let xt: Vec<Vec<f64>> = train.iter().map(|&i| x[i].clone()).collect();
                         let yt: Vec<f64> = train.iter().map(|&i| y[i]).collect();
                         match RbfNetwork::fit(&xt, &yt, &opt) {

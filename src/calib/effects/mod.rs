@@ -22,6 +22,7 @@
 mod backlash;
 mod compliance;
 mod eccentricity;
+pub mod inputs;
 mod nonlinearity;
 mod thermal;
 

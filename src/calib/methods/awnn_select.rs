@@ -42,7 +42,7 @@
 
 use crate::calib::correctors::awnn::{Activation, Awnn, Feature, Library};
 use crate::calib::effects::RowInputs;
-use crate::calib::ridge_cv::{one_se_win, Folds, GeometricFit, FOLDS};
+use crate::calib::methods::ridge_cv::{one_se_win, Folds, GeometricFit, FOLDS};
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -216,7 +216,7 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     // With several values, the same rule per value too: a value whose own held-out residuals
     // the network does not improve by one standard error keeps zero output weights (the layout
     // and penalty are shared, chosen for the values with something to learn).
-    let value_fitted: Vec<bool> = (0..dim).map(|c| fitted && (dim == 1 || one_se_win(&crate::calib::stats::value_column(&change, dim, c)))).collect();
+    let value_fitted: Vec<bool> = (0..dim).map(|c| fitted && (dim == 1 || one_se_win(&crate::stats::value_column(&change, dim, c)))).collect();
     let m = net.neurons();
     let nets = (0..dim)
         .map(|c| {
@@ -233,7 +233,7 @@ pub fn select(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], activati
     Ok(Selection { nets, chosen, candidates, no_network_rmse_mm, fitted, value_fitted })
 }
 
-use crate::calib::stats::rms;
+use crate::stats::rms;
 
 /// The normal matrix of the first `ng` (geometric) columns and the network's: the network
 /// block gets `λ_n·G + λI` added (its output magnitude and a ridge), the geometric block a tiny

@@ -18,7 +18,7 @@
 //! ```
 //!
 //! * `s_k` is the documented manufacturing tolerance of parameter k
-//!   ([`crate::calib::tolerance::Tolerances`]) and `λ_g = σ²/N` with σ the reading noise estimated from
+//!   ([`crate::calib::model::tolerance::Tolerances`]) and `λ_g = σ²/N` with σ the reading noise estimated from
 //!   the data: the geometric term is then exactly the tolerance prior of a MAP estimate
 //!   (`J·N/σ²` = −2 log posterior up to a constant). Geometry may move where the data demand it
 //!   and is held near its nominal where they do not.
@@ -186,7 +186,7 @@ impl<'a> Objective<'a> {
         let x0_free: Vec<f64> = free.iter().map(|&k| p.x0[k]).collect();
         let s_free: Vec<f64> = free.iter().map(|&k| p.prior_std[k]).collect();
         let y0 = fit.residuals_mm(p.x0);
-        let rms0 = crate::calib::stats::rms(&y0);
+        let rms0 = crate::stats::rms(&y0);
         if !rms0.is_finite() || rms0 <= 0.0 {
             return Err(Error::Calibration("the starting residuals are not finite or all zero; nothing for the network to learn".into()));
         }

@@ -26,7 +26,7 @@
 use super::lm::LmSolver;
 use super::solver::Problem;
 use crate::calib::correctors::gkan::{Gkan, GkanShape};
-use crate::calib::ridge_cv::{one_se_win, Folds, GeometricFit};
+use crate::calib::methods::ridge_cv::{one_se_win, Folds, GeometricFit};
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -41,7 +41,7 @@ pub const SHAPES: [GkanShape; 3] = [
 pub const NEURAL: [f64; 4] = [0.05, 0.2, 1.0, 5.0];
 /// Candidate roughness weights λ_s.
 pub const ROUGHNESS: [f64; 4] = [0.0002, 0.002, 0.02, 0.2];
-pub use crate::calib::ridge_cv::FOLDS;
+pub use crate::calib::methods::ridge_cv::FOLDS;
 
 /// Weights of the objective of Evo-NPH (see [`super::evonph`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -143,7 +143,7 @@ pub fn select(p: &Problem) -> Result<Selection> {
     let nv = y.len();
     let no_network_rmse_mm = ((0..nv).map(|v| g.per_fold[(v / d) % FOLDS][v].powi(2)).sum::<f64>() / nv as f64).sqrt();
     // One network per value: value c's targets, on every row and as each fold sees them.
-    let column = |v: &[f64], c: usize| crate::calib::stats::value_column(v, d, c);
+    let column = |v: &[f64], c: usize| crate::stats::value_column(v, d, c);
     let targets: Vec<(Vec<f64>, Vec<Vec<f64>>)> = (0..d).map(|c| (column(y, c), g.per_fold.iter().map(|f| column(f, c)).collect())).collect();
     let (lo, hi) = Gkan::range_of(&fit.data.q);
     let mut candidates = Vec::new();
@@ -177,7 +177,7 @@ pub fn select(p: &Problem) -> Result<Selection> {
                         None => return f64::INFINITY,
                     }
                 }
-                crate::calib::stats::rms(&all)
+                crate::stats::rms(&all)
             })
             .collect();
         for (&(neural, roughness), &cv_rmse_mm) in grid.iter().zip(&scores) {

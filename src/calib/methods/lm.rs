@@ -8,13 +8,13 @@ use crate::optim::{LevenbergMarquardt, Observer};
 #[derive(Clone, Debug, PartialEq)]
 pub struct LmSolver {
     pub lm: LevenbergMarquardt,
-    /// Squared residuals, or a robust loss by IRLS ([`crate::calib::robust::irls`]).
-    pub loss: crate::calib::robust::Loss,
+    /// Squared residuals, or a robust loss by IRLS ([`crate::calib::problem::robust::irls`]).
+    pub loss: crate::calib::problem::robust::Loss,
 }
 
 impl Default for LmSolver {
     fn default() -> Self {
-        LmSolver { lm: LevenbergMarquardt::budget(2000), loss: crate::calib::robust::Loss::L2 }
+        LmSolver { lm: LevenbergMarquardt::budget(2000), loss: crate::calib::problem::robust::Loss::L2 }
     }
 }
 
@@ -23,6 +23,6 @@ impl Solver for LmSolver {
         "lm"
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
-        Ok(Solution { report: crate::calib::robust::irls(&self.lm, p.fit, p.x0, p.fixed, self.loss, obs), corrector: None })
+        Ok(Solution { report: crate::calib::problem::robust::irls(&self.lm, p.fit, p.x0, p.fixed, self.loss, obs), corrector: None })
     }
 }

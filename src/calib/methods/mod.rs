@@ -3,7 +3,7 @@
 //! method (or one with other settings) is added beside these, not inside the pipeline.
 //!
 //! Nothing here knows how the data were made: spreads come from the documented
-//! [`Tolerances`](crate::calib::tolerance::Tolerances) (via [`Problem::prior_std`]) and noise levels
+//! [`Tolerances`](crate::calib::model::tolerance::Tolerances) (via [`Problem::prior_std`]) and noise levels
 //! from the data ([`Problem::noise_mm`]).
 
 pub mod awnn_select;
@@ -15,6 +15,7 @@ mod pf;
 mod pso;
 pub mod psoekf;
 mod rbf;
+pub mod ridge_cv;
 mod solver;
 
 use crate::error::{Error, Result};

@@ -58,9 +58,9 @@ use super::solver::{Problem, Solution, Solver};
 use crate::calib::correctors::awnn::{Activation, Awnn, Feature};
 use crate::calib::correctors::Corrector;
 use crate::calib::effects::RowInputs;
+use crate::calib::methods::ridge_cv::GeometricFit;
 use crate::calib::problem::ReadingFit;
 use crate::calib::problem::Samples;
-use crate::calib::ridge_cv::GeometricFit;
 use crate::error::{Error, Result};
 use crate::optim::{Bounds, Cost, Damping, Ekf, Event, LeastSquares, LevenbergMarquardt, NoObserver, ObservationHook, Observer, Pso, Report};
 use nalgebra::DMatrix;
@@ -434,7 +434,7 @@ fn prior_var_scale(p: &Problem) -> f64 {
     if v.is_empty() {
         1e-6
     } else {
-        crate::calib::stats::median(&v)
+        crate::stats::median(&v)
     }
 }
 
@@ -587,7 +587,7 @@ impl PsoEkfAwnn {
         let raw = p.fit.residuals_mm(x);
         let dim = nets.len().max(1);
         let (nets, held): (Vec<Awnn>, Vec<f64>) =
-            nets.iter().enumerate().map(|(c, n)| self.refine_net(p, &crate::calib::stats::value_column(&raw, dim, c), n)).unzip();
+            nets.iter().enumerate().map(|(c, n)| self.refine_net(p, &crate::stats::value_column(&raw, dim, c), n)).unzip();
         let rmse = if held.len() == 1 { held[0] } else { (held.iter().map(|v| v * v).sum::<f64>() / held.len().max(1) as f64).sqrt() };
         (nets, rmse)
     }
@@ -600,12 +600,12 @@ impl PsoEkfAwnn {
     /// better there. The test rows are never seen. Returns the network and its held-out RMSE.
     pub fn refine_net(&self, p: &Problem, raw: &[f64], net: &Awnn) -> (Awnn, f64) {
         if net.frozen {
-            return (net.clone(), crate::calib::stats::rms(raw));
+            return (net.clone(), crate::stats::rms(raw));
         }
         let d = p.fit.data;
         // SGD runs on the residuals in units of their RMS (output weights scaled alike, exact
         // since the output is linear in them), so that the rates mean the same at any error size.
-        let scale = crate::calib::stats::rms(raw).max(1e-9);
+        let scale = crate::stats::rms(raw).max(1e-9);
         let target: Vec<f64> = raw.iter().map(|v| v / scale).collect();
         let mut net = net.clone();
         net.weights.iter_mut().for_each(|w| *w /= scale);

@@ -36,7 +36,7 @@ impl Solver for RbfSolver {
         };
         // One network per reading value, each on that value's residuals.
         let d = p.fit.data.dim;
-        let corrector = Corrector::of_values((0..d).map(|c| fit(&crate::calib::stats::value_column(&res, d, c))).collect::<Result<Vec<_>>>()?);
+        let corrector = Corrector::of_values((0..d).map(|c| fit(&crate::stats::value_column(&res, d, c))).collect::<Result<Vec<_>>>()?);
         Ok(Solution { report, corrector: Some(corrector) })
     }
 }

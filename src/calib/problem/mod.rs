@@ -3,8 +3,15 @@
 //! Residuals are in millimetres: measured minus predicted reading, one per reading value
 //! (one per row for a cable length, three for a tracker's point).
 
-use super::effects::RowInputs;
-use super::model::{CalibModel, ModelWork};
+pub mod floor;
+pub mod gls;
+pub mod identify;
+pub mod noise_model;
+pub mod robust;
+pub mod weighting;
+
+use crate::calib::effects::RowInputs;
+use crate::calib::model::{CalibModel, ModelWork};
 use crate::measurement::{Measurement, MAX_DIM};
 use crate::optim::{Cost, LeastSquares, Observations};
 use nalgebra::DMatrix;
@@ -41,12 +48,12 @@ pub struct Samples {
     pub inputs: Vec<RowInputs>,
     /// The square root of each value's weight in the fit, relative (about 1 for a typical
     /// value), or `None` for equal weights: a tracker's per-row standard deviations give them
-    /// (see [`super::weighting`]). Every residual the fit sees is scaled by it.
+    /// (see [`crate::calib::problem::weighting`]). Every residual the fit sees is scaled by it.
     pub w: Option<Vec<f64>>,
     /// The whitening of rows that share the joint angles' logging error in blocks
-    /// ([`super::gls`]): least-squares fits ([`ReadingFit`]) whiten their residuals by it. The
+    /// ([`crate::calib::problem::gls`]): least-squares fits ([`ReadingFit`]) whiten their residuals by it. The
     /// sequential filters (EKF, PF) and [`Self::unweighted`] do not.
-    pub gls: Option<super::gls::Whitening>,
+    pub gls: Option<crate::calib::problem::gls::Whitening>,
 }
 
 impl Samples {

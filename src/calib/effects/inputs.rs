@@ -7,7 +7,7 @@
 //! last motion left it on (the link trails the motor: a move towards larger angles leaves it on
 //! the negative flank). The arm is assumed to start at its home pose (all angles zero).
 
-use super::effects::{EffectBlock, EffectKind, RowInputs};
+use crate::calib::effects::{EffectBlock, EffectKind, RowInputs};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};

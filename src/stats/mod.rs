@@ -21,6 +21,9 @@
 //! `W+ = 27`, `W− = 18`, `σ² = 71.125`; with continuity correction `z ≈ −0.4743`,
 //! `p ≈ 0.6352`; without it `z ≈ −0.5336`, `p ≈ 0.5936`.
 
+pub mod folds;
+pub mod metrics;
+
 /// Result of [`wilcoxon_signed_rank`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Wilcoxon {

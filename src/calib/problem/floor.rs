@@ -3,9 +3,9 @@
 //! on each reading value (the angle steps propagated through the model's joint Jacobian). Each
 //! source is named; the final residual of a fit is never one of them.
 
-use super::metrics::Repeatability;
-use super::model::CalibModel;
-use super::problem::Samples;
+use crate::calib::model::CalibModel;
+use crate::calib::problem::Samples;
+use crate::stats::metrics::Repeatability;
 use serde::{Deserialize, Serialize};
 
 /// One contribution to the floor.

@@ -13,8 +13,8 @@
 //! deviation and keep equal weights. Each weight is relative to the median one, so weighted
 //! residuals stay in millimetres of a typical row.
 
-use super::model::CalibModel;
-use super::problem::{ReadingFit, Samples};
+use crate::calib::model::CalibModel;
+use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::Dataset;
 use crate::measurement::Measurement;
 use serde::{Deserialize, Serialize};
@@ -49,7 +49,7 @@ pub fn weights(measurement: Measurement, dataset: &Dataset, rows: &[usize], data
     let mean_var = given.iter().sum::<f64>() / given.len() as f64;
     // The position values' residuals (a pose's origin is its first three values).
     let pos: Vec<f64> = (0..rows.len()).flat_map(|i| r_mm[i * d..i * d + 3].iter().copied()).collect();
-    let (_, sd) = super::stats::robust_scale(&pos);
+    let (_, sd) = crate::stats::robust_scale(&pos);
     let tau2 = (sd * sd - mean_var).max(0.0);
     let var: Vec<f64> = rows
         .iter()
@@ -84,13 +84,13 @@ fn has_row_std(measurement: Measurement, dataset: &Dataset, rows: &[usize]) -> b
 }
 
 /// [`weights`] for the training samples of a calibration: the first fit is the outlier screen's
-/// robust one ([`super::robust::screen_fit`]) from the model's nominal values.
+/// robust one ([`crate::calib::problem::robust::screen_fit`]) from the model's nominal values.
 pub fn training_weights(model: &CalibModel, dataset: &Dataset, rows: &[usize], data: &Samples, rank_tol: f64) -> Option<(Vec<f64>, Weighting)> {
     if !has_row_std(model.measurement, dataset, rows) {
         return None;
     }
     let plain = data.unweighted();
-    let x = super::robust::screen_fit(model, &plain, &model.nominal, rank_tol);
+    let x = crate::calib::problem::robust::screen_fit(model, &plain, &model.nominal, rank_tol);
     let r = ReadingFit { model, data: &plain }.residuals_mm(&x);
     weights(model.measurement, dataset, rows, &plain, &r)
 }

@@ -9,6 +9,8 @@
 //!   parameter is kept when its column is not (within tolerance) a combination of those kept before.
 //!   The rest are fixed at their nominal values and named.
 
+use super::ReadingFit;
+use crate::optim::LeastSquares;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -181,6 +183,58 @@ pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f
         still_joints: Vec::new(),
         fixed_mask,
     }
+}
+
+/// Stage "identifiability": which parameters these poses determine (the rest are fixed where
+/// the start put them). Sensor parameters come first: they are the unknowns of every set-up,
+/// while the robot's own parameters have nominal values.
+///
+/// A joint that does not move in the data ([`still_joints`]) is held at its median angle for
+/// the analysis: its jitter (a few encoder counts) would otherwise make its own and its
+/// neighbours' parameters look identifiable, and a fit would then buy accuracy through a lever
+/// the data cannot see. The tool point absorbs what is fixed.
+pub fn identify(fit: &ReadingFit, x: &[f64], tol: f64) -> Identifiability {
+    let nc = fit.model.n_chain();
+    let priority: Vec<usize> = (nc..fit.model.n_params()).chain(0..nc).collect();
+    let still = still_joints(&fit.data.q);
+    let held;
+    let data = if still.is_empty() {
+        fit.data
+    } else {
+        let mut d = fit.data.clone();
+        for &j in &still {
+            let med = crate::stats::median(&d.q.iter().map(|q| q[j]).collect::<Vec<f64>>());
+            d.q.iter_mut().for_each(|q| q[j] = med);
+        }
+        held = d;
+        &held
+    };
+    let mut id = analyse(&jacobian(&ReadingFit { model: fit.model, data }, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority);
+    id.still_joints = still.iter().map(|j| j + 1).collect();
+    // Rows, not residuals: a tracker's row gives three.
+    id.n_poses = fit.data.len();
+    id
+}
+
+/// A joint whose angle spans less than this (degrees) over the rows does not move: a few
+/// encoder counts of jitter, which moves a tool point 1 m out by under 1 mm.
+pub const STILL_SPAN_DEG: f64 = 0.05;
+
+/// The joints (0-based) that do not move in `q` (rad): span below [`STILL_SPAN_DEG`].
+pub fn still_joints(q: &[Vec<f64>]) -> Vec<usize> {
+    let n = q.first().map_or(0, |r| r.len());
+    (0..n)
+        .filter(|&j| {
+            let (lo, hi) = q.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r[j]), hi.max(r[j])));
+            (hi - lo).to_degrees() < STILL_SPAN_DEG
+        })
+        .collect()
+}
+
+fn jacobian(fit: &ReadingFit, x: &[f64]) -> DMatrix<f64> {
+    let mut j = DMatrix::zeros(fit.data.y.len(), fit.model.n_params());
+    LeastSquares::jacobian(fit, x, &mut j);
+    j
 }
 
 #[cfg(test)]

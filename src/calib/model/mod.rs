@@ -15,7 +15,9 @@
 //! tracker: base-to-tracker translation and rotation and the reflector (flange frame)), then its
 //! effect blocks. Internal units are metres and radians; readings are predicted in metres.
 
-use super::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
+pub mod tolerance;
+
+use crate::calib::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::measurement::{Measurement, MAX_DIM, MAX_OWN, MAX_TARGETS};
 use crate::robot::kinematics::{Chain, ChainBuilder, FkWork, Frame, PointJacobian};
 use crate::robot::Robot;

@@ -9,153 +9,35 @@
 //! Each stage is a function of its own below or in the module named; the method is a
 //! [`Solver`] value that carries its own settings.
 
-use super::correctors::rbf::RbfNetwork;
-use super::correctors::{Correct, Corrector, EffectCorrection};
-use super::effects::RowInputs;
-use super::effects::{EffectBlock, EffectKind};
-use super::identify::{analyse, Identifiability};
-use super::inputs::LoadOptions;
-pub use super::methods::{Method, Solver};
-use super::methods::{Problem, Solution};
-use super::metrics::ErrorStats;
-use super::model::{CalibModel, SensorGuess};
-use super::problem::{ReadingFit, Samples};
-use super::robust::{Loss, Outlier, OutlierRun, ReadingStep};
-use super::tolerance::Tolerances;
+pub mod equivalent;
+pub mod export;
+pub mod generic;
+mod options;
+pub mod placement;
+pub mod twin_out;
+
+use crate::calib::correctors::rbf::RbfNetwork;
+use crate::calib::correctors::{Correct, Corrector, EffectCorrection};
+use crate::calib::effects::EffectBlock;
+use crate::calib::effects::RowInputs;
+pub use crate::calib::methods::{Method, Solver};
+use crate::calib::methods::{Problem, Solution};
+use crate::calib::model::CalibModel;
+use crate::calib::problem::identify::Identifiability;
+pub use crate::calib::problem::identify::{identify, still_joints, STILL_SPAN_DEG};
+use crate::calib::problem::robust::{Loss, Outlier, OutlierRun, ReadingStep};
+use crate::calib::problem::{ReadingFit, Samples};
 pub use crate::dataset::truth::TruthFile;
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::optim::{covariance, History, LeastSquares, LevenbergMarquardt, NoObserver};
 use crate::robot::Robot;
+use crate::stats::metrics::ErrorStats;
 use nalgebra::DMatrix;
+pub use options::{CalibOptions, ModelSpec, SplitBy, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
-
-/// Which kinematic model to calibrate.
-#[derive(Clone, Debug)]
-pub enum ModelSpec {
-    /// A robot with a nominal URDF (the embedded IRB 120 or a file) in a parametrisation:
-    /// `dh`, `hayati` or `frame`.
-    Nominal { robot: Box<Robot>, parametrisation: String },
-    /// A 6R arm with no published nominal.
-    Generic6r,
-}
-
-impl ModelSpec {
-    pub fn parse(model: &str, parametrisation: &str) -> Result<ModelSpec> {
-        let p = parametrisation.to_ascii_lowercase();
-        if !matches!(p.as_str(), "dh" | "hayati" | "frame") {
-            return Err(Error::Invalid(format!("unknown parametrisation '{parametrisation}' (expected dh, hayati or frame)")));
-        }
-        match model {
-            "irb120" => Ok(ModelSpec::Nominal { robot: Box::new(Robot::irb120()), parametrisation: p }),
-            "generic6r" => Ok(ModelSpec::Generic6r),
-            path if path.ends_with(".urdf") => {
-                let robot = Robot::from_urdf_file(Path::new(path))?;
-                Ok(ModelSpec::Nominal { robot: Box::new(robot), parametrisation: p })
-            }
-            other => Err(Error::Invalid(format!("unknown model '{other}' (expected irb120, generic6r or a .urdf path)"))),
-        }
-    }
-    /// The nominal robot, where there is one.
-    pub fn robot(&self) -> Option<&Robot> {
-        match self {
-            ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
-            ModelSpec::Generic6r => None,
-        }
-    }
-}
-
-/// Default identifiability threshold: a parameter combination the data see at less than this
-/// fraction of the strongest one (column-scaled Jacobian) is fixed, so that the identifiable
-/// set's condition number stays below its inverse. Weakly seen combinations above it carry
-/// real information on measured data (raising it to 1e-4 fixed six of 21 parameters of an
-/// earlier HSR generic model and tripled its held-out error, and cost RobotCali's LM 0.08 mm);
-/// the Levenberg–Marquardt stall test ends the slow creep along them instead.
-pub const DEFAULT_RANK_TOL: f64 = 1e-7;
-
-/// Default outlier threshold, robust standard deviations: 6σ of Gaussian noise happens once in
-/// 500 million rows, so what lies beyond is not noise.
-pub const DEFAULT_OUTLIER_K: f64 = 6.0;
-
-#[derive(Clone, Debug)]
-pub struct CalibOptions {
-    pub model: ModelSpec,
-    pub method: Method,
-    /// Hold out this fraction (stratified over L) instead of the dataset's split column.
-    pub test_fraction: Option<f64>,
-    pub seed: u64,
-    /// Relative singular-value tolerance of the identifiability analysis.
-    pub rank_tol: f64,
-    /// Sensor geometry guess; estimated from the data when absent.
-    pub sensor_guess: Option<SensorGuess>,
-    /// Effort scale for the stochastic methods (1 = default budget).
-    pub effort: f64,
-    /// Manufacturing and set-up tolerances (priors and search boxes of the methods).
-    pub tolerances: Tolerances,
-    /// Non-geometric effects to fit beside the geometry: a kind, on one joint (0-based) or,
-    /// for per-joint kinds given without a joint, on every joint.
-    pub effects: Vec<(EffectKind, Option<usize>)>,
-    /// What loads the joints (payload, cable tension), for the torque-driven effects.
-    pub loads: LoadOptions,
-    /// Inertial model for the joint torques when the calibrated model has none (generic 6R).
-    pub inertial: Option<Robot>,
-    /// Training rows more than this many robust standard deviations off the fit are outliers,
-    /// kept out and listed ([`super::robust::screen`]); 0 keeps every row.
-    pub outlier_k: f64,
-    /// Runs of outliers that are one constant offset of the reading are corrected and kept
-    /// ([`super::robust::reading_steps`]) instead of kept out.
-    pub reading_steps: bool,
-    /// The loss of the least-squares methods (`lm`): squared, or Huber / Cauchy by IRLS.
-    pub loss: Loss,
-    /// Logging step of the joint angles, degrees, for the noise floor (default: from the data's
-    /// decimals).
-    pub angle_step_deg: Option<f64>,
-    /// The instrument's stated accuracy, mm per coordinate, for the noise floor.
-    pub instrument_accuracy_mm: Option<f64>,
-    /// How a test fraction draws its rows.
-    pub split_by: SplitBy,
-    /// Weight the fit by the rows' own standard deviations where the data give them (a
-    /// tracker's `sx, sy, sz`; [`super::weighting`]).
-    pub row_std: bool,
-    /// Fit the instrument's placement only, everything else held at its nominal value.
-    pub placement_only: bool,
-    /// Whether the joint angles' logging error is modelled where training rows share blocks.
-    pub noise_model: super::noise_model::NoiseChoice,
-}
-
-impl CalibOptions {
-    pub fn new(model: ModelSpec, method: Method) -> Self {
-        CalibOptions {
-            model,
-            method,
-            test_fraction: None,
-            seed: 0,
-            rank_tol: DEFAULT_RANK_TOL,
-            sensor_guess: None,
-            effort: 1.0,
-            tolerances: Tolerances::default(),
-            effects: Vec::new(),
-            loads: LoadOptions::default(),
-            inertial: None,
-            outlier_k: DEFAULT_OUTLIER_K,
-            reading_steps: true,
-            row_std: true,
-            placement_only: false,
-            loss: Loss::L2,
-            angle_step_deg: None,
-            instrument_accuracy_mm: None,
-            split_by: SplitBy::Blocks,
-            noise_model: super::noise_model::NoiseChoice::Auto,
-        }
-    }
-    /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
-    /// the one given for the purpose.
-    pub fn inertial_robot(&self) -> Option<&Robot> {
-        self.model.robot().or(self.inertial.as_ref())
-    }
-}
 
 /// A parameter in the report (display units: mm, degrees).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -248,10 +130,10 @@ pub struct CalibResult {
     pub truth_comparison: Option<TruthComparison>,
     /// Repeated configurations in the data and the spread of L over them.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub repeatability: Option<super::metrics::Repeatability>,
+    pub repeatability: Option<crate::stats::metrics::Repeatability>,
     /// The data's own floor: repeatability and logging resolutions, each named.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub noise_floor: Option<super::floor::NoiseFloor>,
+    pub noise_floor: Option<crate::calib::problem::floor::NoiseFloor>,
     /// The robust screen of the training rows: threshold (robust standard deviations, 0 = off),
     /// the robust scale of the kept rows' residuals (mm), the rows kept out and their runs.
     #[serde(default)]
@@ -287,7 +169,7 @@ pub struct CalibResult {
     legacy_rbf: Option<RbfNetwork>,
     /// How the effect blocks get their joint torques on new rows (with effects only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub torque_model: Option<super::inputs::TorqueModel>,
+    pub torque_model: Option<crate::calib::effects::inputs::TorqueModel>,
     /// Parameter values per iteration (display units), for convergence plots.
     #[serde(skip)]
     pub history: Vec<Vec<f64>>,
@@ -302,11 +184,11 @@ pub struct CalibResult {
     /// How the fit weighted the training rows by their own standard deviations (absent: equal
     /// weights).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub weighting: Option<super::weighting::Weighting>,
+    pub weighting: Option<crate::calib::problem::weighting::Weighting>,
     /// The joint angles' logging error as the fit's noise model (absent: the training rows were
-    /// taken as independent): see [`super::noise_model::remove_logging_error`].
+    /// taken as independent): see [`crate::calib::problem::noise_model::remove_logging_error`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub noise_model: Option<super::gls::NoiseModel>,
+    pub noise_model: Option<crate::calib::problem::gls::NoiseModel>,
 }
 
 impl CalibResult {
@@ -323,11 +205,11 @@ impl CalibResult {
     /// Torques and backlash flanks come from the angles and the acquisition order.
     /// The learned wavelet network (the first, when there is one per reading value: they share
     /// their inputs).
-    fn wavelet_network(&self) -> Option<&super::correctors::awnn::Awnn> {
+    fn wavelet_network(&self) -> Option<&crate::calib::correctors::awnn::Awnn> {
         match &self.corrector {
-            Some(super::correctors::Corrector::Awnn(n)) => Some(n),
-            Some(super::correctors::Corrector::Values(v)) => v.values.iter().find_map(|c| match c {
-                super::correctors::Corrector::Awnn(n) => Some(n),
+            Some(crate::calib::correctors::Corrector::Awnn(n)) => Some(n),
+            Some(crate::calib::correctors::Corrector::Values(v)) => v.values.iter().find_map(|c| match c {
+                crate::calib::correctors::Corrector::Awnn(n) => Some(n),
                 _ => None,
             }),
             _ => None,
@@ -337,14 +219,14 @@ impl CalibResult {
     /// Whether the model reads a row's backlash approach flanks (a backlash block, or a network
     /// with flank inputs) or its joint torques as network inputs: `ik` solves without them.
     pub fn reads_flanks(&self) -> bool {
-        self.model.effects.iter().any(|b| b.kind == super::effects::EffectKind::Backlash)
-            || self
-                .wavelet_network()
-                .is_some_and(|n| n.extra.iter().any(|f| matches!(f, super::correctors::awnn::Feature::Side(_) | super::correctors::awnn::Feature::Torque(_))))
+        self.model.effects.iter().any(|b| b.kind == crate::calib::effects::EffectKind::Backlash)
+            || self.wavelet_network().is_some_and(|n| {
+                n.extra.iter().any(|f| matches!(f, crate::calib::correctors::awnn::Feature::Side(_) | crate::calib::correctors::awnn::Feature::Torque(_)))
+            })
     }
 
     pub fn columns_read(&self) -> Vec<(&'static str, String)> {
-        use super::effects::{EffectKind, ThermalDrive};
+        use crate::calib::effects::{EffectKind, ThermalDrive};
         let mut out = Vec::new();
         for b in self.model.effects.iter().filter(|b| b.kind == EffectKind::ThermalDrift) {
             let col = if matches!(b.thermal, Some(ThermalDrive::Temperature { .. })) { "temp" } else { "t" };
@@ -353,8 +235,8 @@ impl CalibResult {
         if let Some(n) = self.wavelet_network() {
             for f in &n.extra {
                 match f {
-                    super::correctors::awnn::Feature::Temperature => out.push(("temp", "its network's temperature input".into())),
-                    super::correctors::awnn::Feature::Time => out.push(("t", "its network's time input".into())),
+                    crate::calib::correctors::awnn::Feature::Temperature => out.push(("temp", "its network's temperature input".into())),
+                    crate::calib::correctors::awnn::Feature::Time => out.push(("t", "its network's time input".into())),
                     _ => {}
                 }
             }
@@ -381,7 +263,7 @@ impl CalibResult {
     /// per row, row after row) of every row of a dataset (rows in acquisition order: backlash
     /// flanks follow the order), every effect and corrector included.
     pub fn predict_rows(&self, data: &Dataset) -> Vec<f64> {
-        let inputs = super::inputs::row_inputs(data, self.torque_model.as_ref());
+        let inputs = crate::calib::effects::inputs::row_inputs(data, self.torque_model.as_ref());
         let mut w = self.model.work();
         let mut y = vec![0.0; self.model.measurement.dim()];
         let mut corr = vec![0.0; y.len()];
@@ -483,7 +365,7 @@ impl CalibResult {
         chain.validate().map_err(|e| Error::model(path.display(), e))?;
         let temps = crate::dataset::MIN_TEMP_C..=crate::dataset::MAX_TEMP_C;
         if let Some(t) = r.model.effects.iter().find_map(|b| match b.thermal {
-            Some(super::effects::ThermalDrive::Temperature { ref_c }) if !temps.contains(&ref_c) => Some(ref_c),
+            Some(crate::calib::effects::ThermalDrive::Temperature { ref_c }) if !temps.contains(&ref_c) => Some(ref_c),
             _ => None,
         }) {
             return Err(Error::model(
@@ -520,33 +402,6 @@ impl CalibResult {
             ));
         }
         Ok(r)
-    }
-}
-
-/// Train / test row indices: the dataset's split column, or a stratified hold-out of
-/// `test_fraction` (rows sorted by L, or by a point's distance from the instrument, one random
-/// pick per stratum).
-/// How `--test-fraction` draws its test rows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SplitBy {
-    /// Whole blocks of the acquisition ([`crate::dataset::blocks`]) where rows share a sweep, a
-    /// pause or a declared block (rows otherwise): test rows share no error with training rows.
-    #[default]
-    Blocks,
-    /// Rows, stratified by the reading, whatever blocks they are in (as the papers split; rows
-    /// of one sweep then sit on both sides).
-    Rows,
-}
-
-impl std::str::FromStr for SplitBy {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<SplitBy> {
-        match s {
-            "blocks" => Ok(SplitBy::Blocks),
-            "rows" => Ok(SplitBy::Rows),
-            _ => Err(Error::Invalid(format!("--split-by must be blocks or rows, got '{s}'"))),
-        }
     }
 }
 
@@ -610,7 +465,7 @@ pub fn block_split(blocks: &crate::dataset::blocks::Blocks, n_test: usize, seed:
 }
 
 /// The rows `idx` of a dataset as calibration samples (radians, metres), with their time and
-/// temperature; torques and backlash sides are added by [`super::inputs`] where needed. A row
+/// temperature; torques and backlash sides are added by [`crate::calib::effects::inputs`] where needed. A row
 /// without a reading reads NaN.
 pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     let rows = idx.iter().map(|&i| &data.rows[i]);
@@ -626,7 +481,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
         q: rows.clone().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
         y: rows.clone().flat_map(reading).collect(),
         dim,
-        inputs: rows.map(|r| super::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
+        inputs: rows.map(|r| crate::calib::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
         w: None,
         gls: None,
     }
@@ -680,7 +535,7 @@ fn beyond_magnitude(v: &serde_json::Value, limit: f64) -> Option<(String, serde_
 /// Stage "split": training and test samples, with the checks that make a calibration meaningful.
 pub struct SplitData {
     /// The static-torque model of the effects (set by the effects stage where there is one).
-    pub torque_model: Option<super::inputs::TorqueModel>,
+    pub torque_model: Option<crate::calib::effects::inputs::TorqueModel>,
     pub train_idx: Vec<usize>,
     pub test_idx: Vec<usize>,
     pub train: Samples,
@@ -752,80 +607,28 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
     let x = &model.nominal;
     let placement = model.placement(x);
     let robot = opts.inertial_robot();
-    let torque = robot.map(|r| super::inputs::TorqueModel::new(r, &opts.loads, placement.exit(), placement.tool));
-    let all = super::inputs::row_inputs(data, torque.as_ref());
+    let torque = robot.map(|r| crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads, placement.exit(), placement.tool));
+    let all = crate::calib::effects::inputs::row_inputs(data, torque.as_ref());
     split.torque_model = torque;
     split.train.inputs = split.train_idx.iter().map(|&i| all[i].clone()).collect();
     split.test.inputs = split.test_idx.iter().map(|&i| all[i].clone()).collect();
-    let span = super::inputs::time_span(data);
+    let span = crate::calib::effects::inputs::time_span(data);
     for &(kind, joint) in &opts.effects {
         let joints: Vec<Option<usize>> = match (kind.per_joint(), joint) {
             (true, None) => (0..data.n_joints()).map(Some).collect(),
             (_, j) => vec![j],
         };
         for j in joints {
-            model.add_effect(super::inputs::block_for(data, kind, j, robot.is_some())?, span);
+            model.add_effect(crate::calib::effects::inputs::block_for(data, kind, j, robot.is_some())?, span);
         }
     }
     Ok(())
 }
 
-/// Stage "identifiability": which parameters these poses determine (the rest are fixed where
-/// the start put them). Sensor parameters come first: they are the unknowns of every set-up,
-/// while the robot's own parameters have nominal values.
-///
-/// A joint that does not move in the data ([`still_joints`]) is held at its median angle for
-/// the analysis: its jitter (a few encoder counts) would otherwise make its own and its
-/// neighbours' parameters look identifiable, and a fit would then buy accuracy through a lever
-/// the data cannot see. The tool point absorbs what is fixed.
-pub fn identify(fit: &ReadingFit, x: &[f64], tol: f64) -> Identifiability {
-    let nc = fit.model.n_chain();
-    let priority: Vec<usize> = (nc..fit.model.n_params()).chain(0..nc).collect();
-    let still = still_joints(&fit.data.q);
-    let held;
-    let data = if still.is_empty() {
-        fit.data
-    } else {
-        let mut d = fit.data.clone();
-        for &j in &still {
-            let med = super::stats::median(&d.q.iter().map(|q| q[j]).collect::<Vec<f64>>());
-            d.q.iter_mut().for_each(|q| q[j] = med);
-        }
-        held = d;
-        &held
-    };
-    let mut id = analyse(&jacobian(&ReadingFit { model: fit.model, data }, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority);
-    id.still_joints = still.iter().map(|j| j + 1).collect();
-    // Rows, not residuals: a tracker's row gives three.
-    id.n_poses = fit.data.len();
-    id
-}
-
-/// A joint whose angle spans less than this (degrees) over the rows does not move: a few
-/// encoder counts of jitter, which moves a tool point 1 m out by under 1 mm.
-pub const STILL_SPAN_DEG: f64 = 0.05;
-
-/// The joints (0-based) that do not move in `q` (rad): span below [`STILL_SPAN_DEG`].
-pub fn still_joints(q: &[Vec<f64>]) -> Vec<usize> {
-    let n = q.first().map_or(0, |r| r.len());
-    (0..n)
-        .filter(|&j| {
-            let (lo, hi) = q.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r[j]), hi.max(r[j])));
-            (hi - lo).to_degrees() < STILL_SPAN_DEG
-        })
-        .collect()
-}
-
-fn jacobian(fit: &ReadingFit, x: &[f64]) -> DMatrix<f64> {
-    let mut j = DMatrix::zeros(fit.data.y.len(), fit.model.n_params());
-    LeastSquares::jacobian(fit, x, &mut j);
-    j
-}
-
 /// Stage "noise estimate": the standard deviation of one reading, mm, from the data alone: the
 /// pooled spread of repeated configurations when at least five repeat, else the residual
 /// spread of a Levenberg–Marquardt fit corrected for the parameters it used.
-pub fn estimate_noise(fit: &ReadingFit, x0: &[f64], fixed: &[bool], repeat: Option<&super::metrics::Repeatability>) -> f64 {
+pub fn estimate_noise(fit: &ReadingFit, x0: &[f64], fixed: &[bool], repeat: Option<&crate::stats::metrics::Repeatability>) -> f64 {
     if let Some(r) = repeat.filter(|r| r.groups >= 5 && r.pooled_std > 0.0) {
         return r.pooled_std;
     }
@@ -909,12 +712,12 @@ fn stats(fit: &ReadingFit, x: &[f64], corrector: Option<&dyn Correct>) -> ErrorS
 /// The outlier screen needs this many training rows per identifiable parameter.
 pub const SCREEN_ROWS_PER_PARAM: usize = 3;
 
-/// Stage "outliers": the training rows far off a robust fit ([`super::robust::screen`], the
+/// Stage "outliers": the training rows far off a robust fit ([`crate::calib::problem::robust::screen`], the
 /// identifiable parameters refitted with the Cauchy loss at each pass) are taken out of the split;
 /// readings in a reading step are corrected by its offset, in training and test rows alike; a
 /// nominal model's sensor is then placed again on the rows kept (a new model: the second value
 /// says so). `None` when the screen is off.
-pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<(Option<super::robust::Screen>, bool)> {
+pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<(Option<crate::calib::problem::robust::Screen>, bool)> {
     if opts.outlier_k <= 0.0 {
         return Ok((None, false));
     }
@@ -927,18 +730,18 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
     }
     let screen = {
         let m: &CalibModel = model;
-        let refit = |d: &Samples, x: &[f64]| super::robust::screen_fit(m, d, x, opts.rank_tol);
-        super::robust::screen(m, &m.nominal, &split.train, &split.train_idx, opts.outlier_k, opts.reading_steps, &refit)
+        let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(m, d, x, opts.rank_tol);
+        crate::calib::problem::robust::screen(m, &m.nominal, &split.train, &split.train_idx, opts.outlier_k, opts.reading_steps, &refit)
     };
     if !screen.steps.is_empty() {
-        split.test = super::robust::apply_steps_nearest(&split.test, &split.test_idx, &split.train_idx, &screen.steps);
+        split.test = crate::calib::problem::robust::apply_steps_nearest(&split.test, &split.test_idx, &split.train_idx, &screen.steps);
     }
     let mut placed_again = false;
     if !screen.outliers.is_empty() || !screen.steps.is_empty() {
         split.train_idx = screen.keep.iter().map(|&i| split.train_idx[i]).collect();
         split.train = screen.corrected.subset(&screen.keep);
         if matches!(opts.model, ModelSpec::Nominal { .. }) {
-            *model = super::placement::place_sensor(opts, &split.train)?;
+            *model = crate::calib::run::placement::place_sensor(opts, &split.train)?;
             placed_again = true;
         }
     }
@@ -958,7 +761,7 @@ fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &
     // value farthest out.
     let groups = fit.model.measurement.def().value_groups();
     let group = |k: usize| groups.get(k).copied().unwrap_or(0);
-    let stats = super::robust::group_scales(&r, d, groups, &(0..r.len() / d).collect::<Vec<_>>());
+    let stats = crate::calib::problem::robust::group_scales(&r, d, groups, &(0..r.len() / d).collect::<Vec<_>>());
     let n_groups = stats.len();
     test_r
         .chunks(d)
@@ -966,7 +769,7 @@ fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &
         .filter_map(|(vs, &i)| {
             let (med, scale) = stats[0];
             if n_groups == 1 {
-                let v = super::robust::farthest_from(vs, med);
+                let v = crate::calib::problem::robust::farthest_from(vs, med);
                 return (!((v - med).abs() <= k * scale)).then(|| Outlier { row: i + 1, residual_mm: v, robust_z: (v - med) / scale });
             }
             let (z, v) = vs.iter().enumerate().map(|(c, v)| ((v - stats[group(c)].0) / stats[group(c)].1, *v)).fold((0.0_f64, f64::NAN), |a, b| {
@@ -985,7 +788,7 @@ fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &
 pub fn metrics_stage(fit: &ReadingFit, test_fit: &ReadingFit, x0: &[f64], x: &[f64], corrector: Option<&dyn Correct>) -> Metrics {
     let has_test = !test_fit.data.is_empty();
     let d = test_fit.data.dim;
-    let position = |x: &[f64], c: Option<&dyn Correct>| ErrorStats::of(&super::stats::position_errors(&residuals_with(test_fit, x, c), d));
+    let position = |x: &[f64], c: Option<&dyn Correct>| ErrorStats::of(&crate::stats::position_errors(&residuals_with(test_fit, x, c), d));
     Metrics {
         train_before: stats(fit, x0, None),
         test_before: has_test.then(|| stats(test_fit, x0, None)),
@@ -999,7 +802,7 @@ pub fn metrics_stage(fit: &ReadingFit, test_fit: &ReadingFit, x0: &[f64], x: &[f
 }
 
 /// Stage "truth comparison": each identifiable parameter against its truth-equivalent value
-/// (computed from the truth, see [`super::equivalent`]), with z = error / standard uncertainty.
+/// (computed from the truth, see [`crate::calib::run::equivalent`]), with z = error / standard uncertainty.
 /// Returns the truth-equivalent vector (internal units) where it could be computed.
 pub fn truth_stage(
     model: &CalibModel,
@@ -1024,14 +827,14 @@ pub fn truth_stage(
         .map(|&i| t.poses[i].q_cmd_deg.as_ref().filter(|q| q.len() == robot.dof()).map(|q| q.iter().map(|d| d.to_radians()).collect()))
         .collect();
     let clean = Samples { y: y?.concat(), q: commanded.unwrap_or_else(|| split.train.q.clone()), ..split.train.clone() };
-    super::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)
+    crate::calib::run::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)
 }
 
 /// Runs a calibration with the method named in `opts` at its default settings.
 pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions) -> Result<CalibResult> {
     let solver = match (opts.method, opts.loss) {
         (_, Loss::L2) => opts.method.solver(opts.effort),
-        (Method::Lm, loss) => Box::new(super::methods::LmSolver { loss, ..Default::default() }),
+        (Method::Lm, loss) => Box::new(crate::calib::methods::LmSolver { loss, ..Default::default() }),
         (m, loss) => return Err(Error::Invalid(format!("--loss {} applies to --method lm, not {}", loss.name(), m.name()))),
     };
     calibrate_with(data, truth, opts, solver.as_ref())
@@ -1045,13 +848,13 @@ pub struct Prepared {
     pub split: SplitData,
     pub model: CalibModel,
     /// The robust screen of the training rows (`None` when off or with too few rows).
-    pub screen: Option<super::robust::Screen>,
+    pub screen: Option<crate::calib::problem::robust::Screen>,
     /// Test rows whose reading a reading step corrected.
     pub test_rows_in_steps: usize,
     /// Which parameters the training poses determine, at the model's nominal.
     pub id: Identifiability,
     /// How the training rows are weighted (per-row standard deviations), `None` for equal weights.
-    pub weighting: Option<super::weighting::Weighting>,
+    pub weighting: Option<crate::calib::problem::weighting::Weighting>,
 }
 
 /// What the rows of `data` read: every row must have a reading (a cable length `L`, or a
@@ -1071,15 +874,15 @@ pub fn reading_measurement(data: &Dataset) -> Result<crate::measurement::Measure
 
 /// The repeatability of the readings over repeated configurations: for several values per row
 /// (a point), pooled over the values (each coordinate's within-group variance, averaged).
-pub fn reading_repeatability(data: &Dataset) -> Option<super::metrics::Repeatability> {
+pub fn reading_repeatability(data: &Dataset) -> Option<crate::stats::metrics::Repeatability> {
     let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
     // The values as the model reads them (a pose's origin and axes).
     let values: Vec<Vec<f64>> = data.rows.iter().map(|r| r.values_mm().unwrap_or_default()).collect();
     let dim = values.first().map_or(1, |v| v.len()).max(1);
-    let per: Vec<super::metrics::Repeatability> = (0..dim)
+    let per: Vec<crate::stats::metrics::Repeatability> = (0..dim)
         .filter_map(|c| {
             let v: Vec<f64> = values.iter().map(|r| r.get(c).copied().unwrap_or(f64::NAN)).collect();
-            super::metrics::repeatability(&q_deg, &v, 1e-6)
+            crate::stats::metrics::repeatability(&q_deg, &v, 1e-6)
         })
         .collect();
     let first = per.first()?.clone();
@@ -1088,12 +891,12 @@ pub fn reading_repeatability(data: &Dataset) -> Option<super::metrics::Repeatabi
     }
     let pooled_std = (per.iter().map(|r| r.pooled_std.powi(2)).sum::<f64>() / per.len() as f64).sqrt();
     let max_spread = per.iter().map(|r| r.max_spread).fold(0.0, f64::max);
-    Some(super::metrics::Repeatability { pooled_std, max_spread, ..first }).filter(|r| r.groups > 0)
+    Some(crate::stats::metrics::Repeatability { pooled_std, max_spread, ..first }).filter(|r| r.groups > 0)
 }
 
 /// Stage "floor": the data's own floor for the model at `x` over `rows` (the rows of `data`):
 /// the repeatability given, the joint angles' logging step (`angle_step_deg`, else read from the
-/// data's decimals) and the readings' logging step. See [`super::floor`].
+/// data's decimals) and the readings' logging step. See [`crate::calib::problem::floor`].
 pub fn floor_stage(
     model: &CalibModel,
     x: &[f64],
@@ -1101,9 +904,9 @@ pub fn floor_stage(
     rows: &Samples,
     angle_step_deg: Option<f64>,
     instrument_accuracy_mm: Option<f64>,
-    repeat: Option<&super::metrics::Repeatability>,
-) -> super::floor::NoiseFloor {
-    use super::floor::{logging_step, Step};
+    repeat: Option<&crate::stats::metrics::Repeatability>,
+) -> crate::calib::problem::floor::NoiseFloor {
+    use crate::calib::problem::floor::{logging_step, Step};
     let angle_step = match angle_step_deg {
         Some(v) => Some(Step::Given(v)),
         None => logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(Step::Detected),
@@ -1113,9 +916,9 @@ pub fn floor_stage(
     let reading_step = logging_step(data.rows.iter().flat_map(|r| r.reading_mm.iter().take(lengths).copied()));
     // The rows' own standard deviations, RMS per coordinate over the rows that give them.
     let stds: Vec<f64> = data.rows.iter().filter_map(|r| r.std_mm).flatten().collect();
-    let row_std_mm = (!stds.is_empty()).then(|| super::stats::rms(&stds));
-    let instrument = super::floor::Instrument { row_std_mm, accuracy_mm: instrument_accuracy_mm };
-    super::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat, instrument)
+    let row_std_mm = (!stds.is_empty()).then(|| crate::stats::rms(&stds));
+    let instrument = crate::calib::problem::floor::Instrument { row_std_mm, accuracy_mm: instrument_accuracy_mm };
+    crate::calib::problem::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat, instrument)
 }
 
 /// Stages "split", "placement", "outliers", "effects" and "identifiability" of a calibration
@@ -1148,11 +951,11 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
         };
         return Err(Error::data(&data.source, msg));
     }
-    let mut model = super::placement::place_sensor(opts, &split.train)?;
+    let mut model = crate::calib::run::placement::place_sensor(opts, &split.train)?;
     // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
     // (A learned corrector learns plain residuals: its methods fit with equal weights.)
     let weighting = if opts.row_std && !opts.method.learns_corrector() {
-        super::weighting::training_weights(&model, data, &split.train_idx, &split.train, opts.rank_tol).map(|(w, info)| {
+        crate::calib::problem::weighting::training_weights(&model, data, &split.train_idx, &split.train, opts.rank_tol).map(|(w, info)| {
             split.train.w = Some(w);
             info
         })
@@ -1177,10 +980,10 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let t0 = Instant::now();
     let mut warnings = Vec::new();
     let Prepared { split, model, screen, test_rows_in_steps: test_in_steps, id, weighting } = prepare(data, opts, solver.needs_row_inputs())?;
-    if model.effects.iter().any(|b| matches!(b.thermal, Some(super::effects::ThermalDrive::WarmUp))) && data.rows.iter().all(|r| r.temp_c.is_some()) {
+    if model.effects.iter().any(|b| matches!(b.thermal, Some(crate::calib::effects::ThermalDrive::WarmUp))) && data.rows.iter().all(|r| r.temp_c.is_some()) {
         warnings.push(format!(
             "the temp column spans less than {} K, so it drives no thermal drift: the thermal block runs on t as a warm-up",
-            super::effects::MIN_TEMP_SPREAD_K
+            crate::calib::effects::MIN_TEMP_SPREAD_K
         ));
     }
     if screen.is_none() && opts.outlier_k > 0.0 {
@@ -1198,10 +1001,10 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     // the training readings (the rows as read kept for the metrics and the uncertainties).
     let mut split = split;
     let logging = match opts.noise_model {
-        super::noise_model::NoiseChoice::Auto => {
-            super::noise_model::remove_logging_error(&model, &x0, &fixed, &split.train, &split.train_idx, data, opts.angle_step_deg)
+        crate::calib::problem::noise_model::NoiseChoice::Auto => {
+            crate::calib::problem::noise_model::remove_logging_error(&model, &x0, &fixed, &split.train, &split.train_idx, data, opts.angle_step_deg)
         }
-        super::noise_model::NoiseChoice::Off => None,
+        crate::calib::problem::noise_model::NoiseChoice::Off => None,
     };
     // With the noise model: the rows as read, whitened by it.
     let (noise_model, as_read) = match logging {
@@ -1363,7 +1166,7 @@ pub struct FittedModel {
     pub x0: Vec<f64>,
     pub x: Vec<f64>,
     pub id: Identifiability,
-    pub torque_model: Option<super::inputs::TorqueModel>,
+    pub torque_model: Option<crate::calib::effects::inputs::TorqueModel>,
 }
 
 /// A calibration result for a model already fitted on every row of `data` (`x` from `x0`, the

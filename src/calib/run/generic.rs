@@ -23,9 +23,9 @@
 //! polish, not the best basin). Starts are drawn from the seed alone and fitted in parallel: the
 //! result does not depend on the number of threads.
 
-use super::model::{CalibModel, Kind, SensorGuess};
-use super::problem::{ReadingFit, Samples};
-use super::run::CalibOptions;
+use super::options::CalibOptions;
+use crate::calib::model::{CalibModel, Kind, SensorGuess};
+use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use crate::robot::kinematics::{ChainBuilder, Frame};
@@ -161,14 +161,14 @@ fn topology(rng: &mut ChaCha8Rng) -> (Vec<Line>, Vector3<f64>) {
 /// reading away from the tool point in a drawn direction (the cable's length says how far the
 /// exit is, not where), the offset then the median misfit.
 fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[f64], data: &Samples) -> Option<CalibModel> {
-    let reach = super::stats::median(&data.y);
+    let reach = crate::stats::median(&data.y);
     let exit = tool + exit_dir * reach;
     let guess = SensorGuess { exit_m: [exit.x, exit.y, exit.z], offset_m: 0.0, tool_m: [tool.x, tool.y, tool.z] };
     let mut model = model_around(&frames_of(lines), q_ref, &guess);
     let mut w = model.work();
     let misfit: Vec<f64> = data.q.iter().zip(&data.y).map(|(q, l)| l - model.predict(&model.nominal, q, &mut w)).collect();
     if let Some(k) = model.length_offset_index() {
-        model.nominal[k] = super::stats::median(&misfit);
+        model.nominal[k] = crate::stats::median(&misfit);
     }
     model.nominal.iter().all(|v| v.is_finite()).then_some(model)
 }
@@ -177,7 +177,7 @@ fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[
 /// within few iterations).
 fn fit(model: &CalibModel, data: &Samples, lm: &LevenbergMarquardt, rank_tol: f64) -> (f64, Vec<f64>, bool) {
     let fit = ReadingFit { model, data };
-    let id = super::run::identify(&fit, &model.nominal, rank_tol);
+    let id = crate::calib::problem::identify::identify(&fit, &model.nominal, rank_tol);
     let rep = lm.minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver);
     let cost = LeastSquares::cost(&fit, &rep.x);
     let settled = rep.converged() && rep.iterations <= SETTLED_ITER;

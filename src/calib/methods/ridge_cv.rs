@@ -1,8 +1,8 @@
 //! k-fold cross-validation of penalised linear least squares, `y ≈ B·w` with normal matrix
 //! `A(BᵀB)` (the penalty is the caller's: a ridge, roughness rows, ...). Shared by the network
-//! choices of Evo-NPH ([`super::methods::gkan_select`]) and PSO-EKF-AWNN ([`super::methods::awnn_select`]).
+//! choices of Evo-NPH ([`crate::calib::methods::gkan_select`]) and PSO-EKF-AWNN ([`crate::calib::methods::awnn_select`]).
 //!
-//! Folds interleave the rows (row i in fold i mod k, [`super::folds::interleaved`]), so each fold spans the whole
+//! Folds interleave the rows (row i in fold i mod k, [`crate::stats::folds::interleaved`]), so each fold spans the whole
 //! acquisition (time and temperature). Each fold's training Gram matrix is the total minus the
 //! fold's own, so a candidate penalty costs one Cholesky solve per fold.
 //!
@@ -12,7 +12,7 @@
 //! rows' residuals to the others' — a flexible basis then "predicts" them, most of all when a
 //! fold has about as many rows as the model has parameters.
 
-use super::problem::ReadingFit;
+use crate::calib::problem::ReadingFit;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use nalgebra::{Cholesky, DMatrix, DVector};
 use rayon::prelude::*;
@@ -43,7 +43,7 @@ impl GeometricFit {
         let per_fold = (0..FOLDS)
             .into_par_iter()
             .map(|f| {
-                let keep = super::folds::others(n, &super::folds::interleaved(n, FOLDS)[f]);
+                let keep = crate::stats::folds::others(n, &crate::stats::folds::interleaved(n, FOLDS)[f]);
                 let sub = d.subset(&keep);
                 let x = lm.minimize(&ReadingFit { model: fit.model, data: &sub }, &all.x, fixed, &mut NoObserver).x;
                 fit.residuals_mm(&x)
@@ -108,9 +108,9 @@ impl Folds {
             .iter()
             .enumerate()
             .map(|(f, yf)| {
-                let held = super::folds::interleaved(n / dim, k).swap_remove(f);
+                let held = crate::stats::folds::interleaved(n / dim, k).swap_remove(f);
                 let rows: Vec<usize> = held.iter().flat_map(|&r| r * dim..(r + 1) * dim).collect();
-                let train = super::folds::others(n, &rows);
+                let train = crate::stats::folds::others(n, &rows);
                 let bt = basis.select_rows(&train);
                 let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| yf[i]));
                 let bf = basis.select_rows(&rows);
@@ -128,7 +128,7 @@ impl Folds {
     /// Held-out RMSE over all folds of the fit whose normal matrix is `system(Gram of the
     /// other folds)`; infinite when a system is not positive definite.
     pub fn cv_rmse(&self, system: impl Fn(&DMatrix<f64>) -> DMatrix<f64>) -> f64 {
-        self.cv_residuals(system).map_or(f64::INFINITY, |r| super::stats::rms(&r))
+        self.cv_residuals(system).map_or(f64::INFINITY, |r| crate::stats::rms(&r))
     }
 
     /// Every row's held-out residual (target minus the prediction of the fit on the other
@@ -171,7 +171,7 @@ mod tests {
             let bt = basis.select_rows(&train);
             let yt = DVector::from_iterator(train.len(), train.iter().map(|&i| yf[i]));
             let w = Cholesky::new(ridge(&(bt.transpose() * &bt))).unwrap().solve(&(bt.transpose() * yt));
-            for i in crate::calib::folds::interleaved(n, 3).swap_remove(f) {
+            for i in crate::stats::folds::interleaved(n, 3).swap_remove(f) {
                 let e = yf[i] - basis.row(i).dot(&w.transpose());
                 assert!((e - r[i]).abs() < 1e-12, "row {i}: {e} vs {}", r[i]);
             }

@@ -2,8 +2,8 @@
 //! tolerances. Priors, search boxes and initial spreads of every method come from here and from
 //! the noise estimated from the data, never from the settings of whatever generated the data.
 
-use super::effects::EffectUnit;
-use super::model::{CalibModel, Kind};
+use crate::calib::effects::EffectUnit;
+use crate::calib::model::{CalibModel, Kind};
 
 /// One-sigma tolerances of an arm as built and of a draw-wire set-up as installed.
 ///

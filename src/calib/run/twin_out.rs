@@ -1,14 +1,14 @@
 //! The identified twin: a calibrated model (and the effects a diagnosis named) written back as
 //! a twin scenario, so that `generate` and `replay` simulate *that* robot.
 //!
-//! The scenario's robot is the calibrated model exported as a URDF ([`super::export::urdf`],
+//! The scenario's robot is the calibrated model exported as a URDF ([`crate::calib::run::export::urdf`],
 //! inertials carried over from the nominal robot), written beside it; its geometric errors are
 //! then zero (they are in the URDF). The instrument's placement, the effect sizes, the reading
 //! noise and the logging resolutions are the identified ones; what the data did not determine
 //! keeps its nominal value, and the scenario's comments say which.
 
-use super::effects::EffectKind;
-use super::run::CalibResult;
+use crate::calib::effects::EffectKind;
+use crate::calib::run::CalibResult;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::measurement::Measurement;
@@ -38,7 +38,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
     let m = &r.model;
     let stem = scenario_path.file_stem().and_then(|s| s.to_str()).unwrap_or("twin").to_string();
     let urdf_file = format!("{stem}.urdf");
-    let urdf = super::export::urdf(m, &r.x, nominal, &stem);
+    let urdf = crate::calib::run::export::urdf(m, &r.x, nominal, &stem);
     let robot = Robot::from_urdf_str(&urdf, &stem).map_err(|e| Error::Calibration(format!("the exported URDF does not load back: {e}")))?;
     let n = robot.dof();
     let mut notes: Vec<String> = vec![
@@ -64,8 +64,8 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         r.noise_estimate_mm
     ));
     let lengths = m.measurement.file_lengths();
-    let reading_decimals = crate::calib::floor::logging_decimals(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
-    let logged_decimals = crate::calib::floor::logging_decimals(data.rows.iter().flat_map(|row| row.q_deg.iter().copied())).filter(|d| *d < 6);
+    let reading_decimals = crate::calib::problem::floor::logging_decimals(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
+    let logged_decimals = crate::calib::problem::floor::logging_decimals(data.rows.iter().flat_map(|row| row.q_deg.iter().copied())).filter(|d| *d < 6);
     if let Some(d) = logged_decimals {
         notes.push(format!("Joint angles logged at {d} decimals of a degree, as the data are."));
     }
@@ -119,7 +119,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
                     .zip(predicted.chunks(d))
                     .filter_map(|(row, p)| Some(row.values_mm()?.iter().zip(p).map(|(a, b)| a - b).collect()))
                     .collect();
-                let part = |k: std::ops::Range<usize>| crate::calib::stats::robust_scale(&res.iter().flat_map(|v| v[k.clone()].to_vec()).collect::<Vec<_>>()).1;
+                let part = |k: std::ops::Range<usize>| crate::stats::robust_scale(&res.iter().flat_map(|v| v[k.clone()].to_vec()).collect::<Vec<_>>()).1;
                 let (pos_sd, sd) = (part(0..3), part(3..d));
                 let urad = sd / (crate::measurement::pose::LEVER_MM * (2.0f64 / 3.0).sqrt()) * 1e6;
                 notes.push(format!(
@@ -272,8 +272,8 @@ fn glitches(r: &CalibResult, rows: usize) -> Option<(crate::sim::scenario::Glitc
         return None;
     }
     let found = lengths.len();
-    let len = crate::calib::stats::median(&lengths).round().max(1.0) as usize;
-    let size = crate::calib::stats::median(&sizes) / 1.25;
+    let len = crate::stats::median(&lengths).round().max(1.0) as usize;
+    let size = crate::stats::median(&sizes) / 1.25;
     let runs = ((found as f64 * rows as f64 / r.n_train as f64).round() as usize).max(1).min(rows / 4 / len);
     let kind = if r.reading_steps.len() * 2 >= found { GlitchKind::Offset } else { GlitchKind::Scatter };
     (runs > 0 && size > 0.0).then(|| {
@@ -295,7 +295,7 @@ fn glitches(r: &CalibResult, rows: usize) -> Option<(crate::sim::scenario::Glitc
 fn heavy_tails(r: &CalibResult, data: &Dataset) -> Option<(f64, f64, usize)> {
     let predicted = r.predict_rows(data);
     let res: Vec<f64> = data.rows.iter().zip(&predicted).filter_map(|(row, p)| Some(row.values_mm()?.first()? - p)).filter(|v| v.is_finite()).collect();
-    let (med, scale) = crate::calib::stats::robust_scale(&res);
+    let (med, scale) = crate::stats::robust_scale(&res);
     let kept: Vec<f64> = res.iter().copied().filter(|v| (v - med).abs() <= crate::calib::run::DEFAULT_OUTLIER_K * scale).collect();
     let n = kept.len();
     if n < 50 {
@@ -334,5 +334,5 @@ fn sweeps(data: &Dataset) -> Option<(usize, f64)> {
             run = 0;
         }
     }
-    Some(((crate::calib::stats::median(&runs).round() as usize).clamp(2, 1000), share))
+    Some(((crate::stats::median(&runs).round() as usize).clamp(2, 1000), share))
 }

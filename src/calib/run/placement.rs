@@ -1,11 +1,11 @@
 //! Pipeline stage "sensor placement": the starting model of a calibration. For an arm with a
 //! nominal description, the draw-wire's exit point and length offset by multilateration from the
 //! nominal tool points, then exit point, offset and tool point by a sensor-only least-squares fit;
-//! for the generic 6R model, a global search for the whole structure ([`super::generic`]).
+//! for the generic 6R model, a global search for the whole structure ([`crate::calib::run::generic`]).
 
-use super::model::{CalibModel, Placement, SensorGuess};
-use super::problem::{ReadingFit, Samples};
-use super::run::{CalibOptions, ModelSpec};
+use super::options::{CalibOptions, ModelSpec};
+use crate::calib::model::{CalibModel, Placement, SensorGuess};
+use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
 use crate::measurement::length::multilaterate;
 use crate::measurement::Measurement;

@@ -1,0 +1,162 @@
+//! The options of a calibration: the model to fit, the method, the split, the noise model and
+//! what the stages may do.
+
+use crate::calib::effects::inputs::LoadOptions;
+use crate::calib::effects::EffectKind;
+use crate::calib::methods::Method;
+use crate::calib::model::tolerance::Tolerances;
+use crate::calib::model::SensorGuess;
+use crate::calib::problem::robust::Loss;
+use crate::error::{Error, Result};
+use crate::robot::Robot;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Which kinematic model to calibrate.
+#[derive(Clone, Debug)]
+pub enum ModelSpec {
+    /// A robot with a nominal URDF (the embedded IRB 120 or a file) in a parametrisation:
+    /// `dh`, `hayati` or `frame`.
+    Nominal { robot: Box<Robot>, parametrisation: String },
+    /// A 6R arm with no published nominal.
+    Generic6r,
+}
+
+impl ModelSpec {
+    pub fn parse(model: &str, parametrisation: &str) -> Result<ModelSpec> {
+        let p = parametrisation.to_ascii_lowercase();
+        if !matches!(p.as_str(), "dh" | "hayati" | "frame") {
+            return Err(Error::Invalid(format!("unknown parametrisation '{parametrisation}' (expected dh, hayati or frame)")));
+        }
+        match model {
+            "irb120" => Ok(ModelSpec::Nominal { robot: Box::new(Robot::irb120()), parametrisation: p }),
+            "generic6r" => Ok(ModelSpec::Generic6r),
+            path if path.ends_with(".urdf") => {
+                let robot = Robot::from_urdf_file(Path::new(path))?;
+                Ok(ModelSpec::Nominal { robot: Box::new(robot), parametrisation: p })
+            }
+            other => Err(Error::Invalid(format!("unknown model '{other}' (expected irb120, generic6r or a .urdf path)"))),
+        }
+    }
+    /// The nominal robot, where there is one.
+    pub fn robot(&self) -> Option<&Robot> {
+        match self {
+            ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
+            ModelSpec::Generic6r => None,
+        }
+    }
+}
+
+/// Default identifiability threshold: a parameter combination the data see at less than this
+/// fraction of the strongest one (column-scaled Jacobian) is fixed, so that the identifiable
+/// set's condition number stays below its inverse. Weakly seen combinations above it carry
+/// real information on measured data (raising it to 1e-4 fixed six of 21 parameters of an
+/// earlier HSR generic model and tripled its held-out error, and cost RobotCali's LM 0.08 mm);
+/// the Levenberg–Marquardt stall test ends the slow creep along them instead.
+pub const DEFAULT_RANK_TOL: f64 = 1e-7;
+
+/// Default outlier threshold, robust standard deviations: 6σ of Gaussian noise happens once in
+/// 500 million rows, so what lies beyond is not noise.
+pub const DEFAULT_OUTLIER_K: f64 = 6.0;
+
+#[derive(Clone, Debug)]
+pub struct CalibOptions {
+    pub model: ModelSpec,
+    pub method: Method,
+    /// Hold out this fraction (stratified over L) instead of the dataset's split column.
+    pub test_fraction: Option<f64>,
+    pub seed: u64,
+    /// Relative singular-value tolerance of the identifiability analysis.
+    pub rank_tol: f64,
+    /// Sensor geometry guess; estimated from the data when absent.
+    pub sensor_guess: Option<SensorGuess>,
+    /// Effort scale for the stochastic methods (1 = default budget).
+    pub effort: f64,
+    /// Manufacturing and set-up tolerances (priors and search boxes of the methods).
+    pub tolerances: Tolerances,
+    /// Non-geometric effects to fit beside the geometry: a kind, on one joint (0-based) or,
+    /// for per-joint kinds given without a joint, on every joint.
+    pub effects: Vec<(EffectKind, Option<usize>)>,
+    /// What loads the joints (payload, cable tension), for the torque-driven effects.
+    pub loads: LoadOptions,
+    /// Inertial model for the joint torques when the calibrated model has none (generic 6R).
+    pub inertial: Option<Robot>,
+    /// Training rows more than this many robust standard deviations off the fit are outliers,
+    /// kept out and listed ([`crate::calib::problem::robust::screen`]); 0 keeps every row.
+    pub outlier_k: f64,
+    /// Runs of outliers that are one constant offset of the reading are corrected and kept
+    /// ([`crate::calib::problem::robust::reading_steps`]) instead of kept out.
+    pub reading_steps: bool,
+    /// The loss of the least-squares methods (`lm`): squared, or Huber / Cauchy by IRLS.
+    pub loss: Loss,
+    /// Logging step of the joint angles, degrees, for the noise floor (default: from the data's
+    /// decimals).
+    pub angle_step_deg: Option<f64>,
+    /// The instrument's stated accuracy, mm per coordinate, for the noise floor.
+    pub instrument_accuracy_mm: Option<f64>,
+    /// How a test fraction draws its rows.
+    pub split_by: SplitBy,
+    /// Weight the fit by the rows' own standard deviations where the data give them (a
+    /// tracker's `sx, sy, sz`; [`crate::calib::problem::weighting`]).
+    pub row_std: bool,
+    /// Fit the instrument's placement only, everything else held at its nominal value.
+    pub placement_only: bool,
+    /// Whether the joint angles' logging error is modelled where training rows share blocks.
+    pub noise_model: crate::calib::problem::noise_model::NoiseChoice,
+}
+
+impl CalibOptions {
+    pub fn new(model: ModelSpec, method: Method) -> Self {
+        CalibOptions {
+            model,
+            method,
+            test_fraction: None,
+            seed: 0,
+            rank_tol: DEFAULT_RANK_TOL,
+            sensor_guess: None,
+            effort: 1.0,
+            tolerances: Tolerances::default(),
+            effects: Vec::new(),
+            loads: LoadOptions::default(),
+            inertial: None,
+            outlier_k: DEFAULT_OUTLIER_K,
+            reading_steps: true,
+            row_std: true,
+            placement_only: false,
+            loss: Loss::L2,
+            angle_step_deg: None,
+            instrument_accuracy_mm: None,
+            split_by: SplitBy::Blocks,
+            noise_model: crate::calib::problem::noise_model::NoiseChoice::Auto,
+        }
+    }
+    /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
+    /// the one given for the purpose.
+    pub fn inertial_robot(&self) -> Option<&Robot> {
+        self.model.robot().or(self.inertial.as_ref())
+    }
+}
+
+/// How `--test-fraction` draws its test rows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SplitBy {
+    /// Whole blocks of the acquisition ([`crate::dataset::blocks`]) where rows share a sweep, a
+    /// pause or a declared block (rows otherwise): test rows share no error with training rows.
+    #[default]
+    Blocks,
+    /// Rows, stratified by the reading, whatever blocks they are in (as the papers split; rows
+    /// of one sweep then sit on both sides).
+    Rows,
+}
+
+impl std::str::FromStr for SplitBy {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<SplitBy> {
+        match s {
+            "blocks" => Ok(SplitBy::Blocks),
+            "rows" => Ok(SplitBy::Rows),
+            _ => Err(Error::Invalid(format!("--split-by must be blocks or rows, got '{s}'"))),
+        }
+    }
+}
