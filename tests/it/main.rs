@@ -5,6 +5,7 @@
 mod common;
 mod datasets;
 
+mod architecture;
 mod arms;
 mod calibrate;
 mod cli;
