@@ -18,6 +18,7 @@ pub mod commands;
 pub mod dataset;
 pub mod diagnose;
 pub mod error;
+pub mod identified;
 pub mod ik;
 pub mod io;
 pub mod math;

@@ -56,7 +56,7 @@ pub fn bench_replay(s: &Scenario, robot: &Robot, repeat: usize) -> Result<()> {
     let mut twin_s = Vec::new();
     for _ in 0..repeat {
         let t0 = Instant::now();
-        crate::calib::run::twin_out::identified_scenario(&result, &measured.dataset, opts.model.robot(), std::path::Path::new("bench_twin.toml"), "bench")?;
+        crate::identified::identified_scenario(&result, &measured.dataset, opts.model.robot(), std::path::Path::new("bench_twin.toml"), "bench")?;
         twin_s.push(t0.elapsed().as_secs_f64());
     }
     let t = median(&twin_s);

@@ -438,7 +438,7 @@ fn check_model_outputs<'a>(
     check_outputs(inputs, &all)
 }
 
-/// Stages the identified twin of `result` (see [`crate::calib::run::twin_out`]): the scenario at
+/// Stages the identified twin of `result` (see [`crate::identified`]): the scenario at
 /// `path` and its URDF beside it.
 pub fn stage_identified_twin(
     outputs: &mut OutputSet,
@@ -448,7 +448,7 @@ pub fn stage_identified_twin(
     nominal: Option<&crate::robot::Robot>,
     how: &str,
 ) -> Result<()> {
-    let twin = crate::calib::run::twin_out::identified_scenario(result, data, nominal, path, how)?;
+    let twin = crate::identified::identified_scenario(result, data, nominal, path, how)?;
     outputs.write(&scenario_urdf_path(path), twin.urdf.as_bytes())?;
     outputs.write(path, twin.toml.as_bytes())
 }

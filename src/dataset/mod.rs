@@ -58,6 +58,7 @@
 pub mod blocks;
 mod csv_io;
 pub mod logging;
+pub mod split;
 pub mod truth;
 mod xlsx;
 

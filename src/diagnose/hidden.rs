@@ -82,7 +82,7 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
     let q = sample_poses(s, robot)?;
     let t = acquisition_times(s, robot, &q);
     // The temperature the thermal scenarios would give (the thermal effect's own warm-up).
-    let th = crate::calib::effects::hidden_warm_up();
+    let th = crate::sim::effects::Thermal::warm_up();
     let rows = q
         .iter()
         .zip(&t)
@@ -228,7 +228,7 @@ fn hide_in(
         let top = if clamp { factors.end.min(kind.def().plausible(joint) * a / sigma) } else { factors.end };
         let factor = if top > factors.start { rng.random_range(factors.start..top) } else { factors.start };
         let v = factor * sigma / a;
-        kind.def().hide(&mut s, robot.dof(), joint, v, phase);
+        s.effects.set_size(kind.name(), robot.dof(), joint, v, phase).map_err(Error::Invalid)?;
         out.push(Hidden { cause: kind, joint, magnitude: kind.def().reported(joint, v), internal: v, factor });
     }
     s.name = format!("hidden-{seed}");

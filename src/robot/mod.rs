@@ -5,6 +5,7 @@
 //! form a single serial chain of revolute joints (fixed joints may sit between them) loads the same way.
 
 pub mod kinematics;
+pub mod statics;
 
 use crate::error::{Error, Result};
 use kinematics::{Chain, ChainBuilder, Frame};

@@ -308,23 +308,7 @@ fn corrupt_joints(g: &crate::sim::scenario::Glitches, rng: &mut ChaCha8Rng, rows
     }
 }
 
-/// Test poses stratified over the nominal cable length: poses sorted by length are cut into
-/// `test` strata of equal size and one pose per stratum, chosen at random, is held out.
-pub fn stratified_split(lengths: &[f64], test: usize, seed: u64) -> Vec<Split> {
-    let mut split = vec![Split::Train; lengths.len()];
-    if test == 0 {
-        return split;
-    }
-    let mut order: Vec<usize> = (0..lengths.len()).collect();
-    order.sort_by(|a, b| lengths[*a].total_cmp(&lengths[*b]).then(a.cmp(b)));
-    let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, Stream::Split, 0));
-    for k in 0..test {
-        let a = k * lengths.len() / test;
-        let b = ((k + 1) * lengths.len() / test).max(a + 1);
-        split[order[rng.random_range(a..b)]] = Split::Test;
-    }
-    split
-}
+pub use crate::dataset::split::stratified_split;
 
 /// Most robot time (s) one run simulates: a day. A slower acquisition (a tiny `speed_fraction`, a
 /// joint with a tiny speed limit) would keep the simulation busy for as long, so it is refused.

@@ -374,6 +374,14 @@ fn the_library_has_no_import_cycle_among_files_folders_or_top_level_modules() {
         None => f.to_string_lossy().into_owned(),
     });
     let top = coarsen(&files, |f| f.iter().next().unwrap().to_string_lossy().trim_end_matches(".rs").to_string());
+    // The twin and the calibration sit side by side: neither uses the other.
+    for (a, b) in [("sim", "calib"), ("calib", "sim")] {
+        assert!(
+            !top[a].contains(b),
+            "{a}/ uses {b}/: {:?}",
+            files.iter().filter(|(f, to)| f.starts_with(a) && to.iter().any(|t| t.starts_with(b))).map(|(f, _)| f).collect::<Vec<_>>()
+        );
+    }
     let mut found = Vec::new();
     found.extend(cycles(&files).into_iter().map(|c| format!("files: {}", c.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))));
     found.extend(cycles(&folders).into_iter().map(|c| format!("folders: {}", c.join(", "))));

@@ -35,10 +35,6 @@ impl Effect for Backlash {
     fn plausible(&self, _joint: Option<usize>) -> f64 {
         0.25f64.to_radians()
     }
-    fn hide(&self, s: &mut Scenario, n: usize, joint: Option<usize>, v: f64, _phase: f64) {
-        let b = s.effects.backlash.get_or_insert(crate::sim::effects::Backlash { width_deg: vec![0.0; n], breakaway_nm: 0.3 });
-        b.width_deg[joint.unwrap_or(0)] = 2.0 * v.to_degrees();
-    }
     fn reported(&self, _joint: Option<usize>, v: f64) -> f64 {
         2.0 * v.to_degrees()
     }

@@ -41,10 +41,6 @@ impl Effect for JointCompliance {
     fn plausible(&self, _joint: Option<usize>) -> f64 {
         200e-6
     }
-    fn hide(&self, s: &mut Scenario, n: usize, joint: Option<usize>, v: f64, _phase: f64) {
-        let c = s.effects.compliance.get_or_insert(crate::sim::effects::Compliance { stiffness_nm_per_rad: vec![1e12; n], damping_nms_per_rad: None });
-        c.stiffness_nm_per_rad[joint.unwrap_or(0)] = 1.0 / v;
-    }
     fn reported(&self, _joint: Option<usize>, v: f64) -> f64 {
         v * 1e6
     }

@@ -42,12 +42,6 @@ impl Effect for EncoderEccentricity {
     fn plausible(&self, _joint: Option<usize>) -> f64 {
         0.1f64.to_radians()
     }
-    fn hide(&self, s: &mut Scenario, n: usize, joint: Option<usize>, v: f64, phase: f64) {
-        let j = joint.unwrap_or(0);
-        let e = s.effects.eccentricity.get_or_insert(crate::sim::effects::Eccentricity { amplitude_deg: vec![0.0; n], phase_deg: vec![0.0; n] });
-        e.amplitude_deg[j] = v.to_degrees();
-        e.phase_deg[j] = phase.to_degrees();
-    }
     fn reported(&self, _joint: Option<usize>, v: f64) -> f64 {
         v.to_degrees()
     }

@@ -11,9 +11,8 @@ use crate::calib::effects::{EffectBlock, EffectKind, RowInputs};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
+use crate::robot::statics::{approach_sides, CableLoad, LoadModel, Payload, GRAVITY};
 use crate::robot::Robot;
-use crate::sim::effects::statics::{CableLoad, LoadModel, GRAVITY};
-use crate::sim::effects::{Effects, Payload};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -59,8 +58,7 @@ pub const MAX_CABLE_TENSION_N: f64 = 1_000.0;
 
 impl TorqueModel {
     pub fn new(robot: &Robot, loads: &LoadOptions, exit_m: Option<Vector3<f64>>, tool_m: Vector3<f64>) -> TorqueModel {
-        let effects = Effects { payload: loads.payload.clone(), ..Default::default() };
-        let load = LoadModel::new(robot, &effects, None);
+        let load = LoadModel::new(robot, loads.payload.as_ref(), None);
         TorqueModel {
             chain: robot.error_chain(),
             links: load.links.iter().map(|(m, c)| (*m, [c.x, c.y, c.z])).collect(),
@@ -138,7 +136,7 @@ pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs
     let threshold = torque.map(|t| t.torque_threshold_nm).unwrap_or(f64::INFINITY);
     // Approach flanks in file order from the home pose (the twin's rule), then the load rule.
     let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.to_vec()).collect();
-    let approach = crate::sim::effects::approach_sides(&vec![0.0; nq], &poses);
+    let approach = approach_sides(&vec![0.0; nq], &poses);
     for i in 0..n {
         out[i].side = (0..nq)
             .map(|j| {
@@ -203,7 +201,7 @@ mod tests {
         assert_eq!(side(2), vec![1.0, 1.0, -1.0, 1.0, -1.0]);
         assert_eq!(side(1), vec![-1.0; 5], "a joint that never moves stays on its starting flank");
         let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
-        let twin = crate::sim::twin::approach_sides(&[0.0; 6], &poses);
+        let twin = crate::robot::statics::approach_sides(&[0.0; 6], &poses);
         assert!(inp.iter().zip(&twin).all(|(r, t)| r.side.iter().zip(t).all(|(a, b)| a == b)));
     }
 }

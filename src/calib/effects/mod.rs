@@ -26,11 +26,10 @@ pub mod inputs;
 mod nonlinearity;
 mod thermal;
 
-pub use thermal::{hidden_warm_up, MIN_TEMP_SPREAD_K};
+pub use thermal::MIN_TEMP_SPREAD_K;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::sim::scenario::Scenario;
 use serde::{Deserialize, Serialize};
 
 /// One physical effect as a calibration block (see the module docs). Methods take the block
@@ -82,9 +81,6 @@ pub trait Effect: Sync {
     fn plausible(&self, _joint: Option<usize>) -> f64 {
         0.0
     }
-    /// Hidden-effect generator: puts the effect of internal size `v` (and phase `phase`, rad)
-    /// into the twin scenario of an arm with `n` joints.
-    fn hide(&self, _s: &mut Scenario, _n: usize, _joint: Option<usize>, _v: f64, _phase: f64) {}
     /// Hidden-effect generator: internal size `v` in the unit diagnose reports.
     fn reported(&self, _joint: Option<usize>, v: f64) -> f64 {
         v

@@ -4,12 +4,6 @@
 
 use super::*;
 
-/// The hidden-effect generator's warm-up, no drift yet: 5 K over a 600 s time constant from a
-/// 21 °C ambient. Its `hide` adds the drift; the generator's poses read their temperature from it.
-pub fn hidden_warm_up() -> crate::sim::effects::Thermal {
-    crate::sim::effects::Thermal::new(0.0, 5.0, 600.0, 21.0)
-}
-
 /// Least spread of a `temp` column (K) that drives a thermal block: below it the column is a
 /// constant, and the block runs on `t` (a warm-up) when the rows have it.
 pub const MIN_TEMP_SPREAD_K: f64 = 0.01;
@@ -121,16 +115,6 @@ impl Effect for ThermalDrift {
         match joint {
             None => 100e-6,
             Some(_) => 0.02f64.to_radians(),
-        }
-    }
-    fn hide(&self, s: &mut Scenario, n: usize, joint: Option<usize>, v: f64, _phase: f64) {
-        let t = s.effects.thermal.get_or_insert_with(hidden_warm_up);
-        match joint {
-            None => t.alpha_per_k = v,
-            Some(j) => {
-                t.zero_drift_deg_per_k.resize(n, 0.0);
-                t.zero_drift_deg_per_k[j] = v.to_degrees();
-            }
         }
     }
     fn reported(&self, joint: Option<usize>, v: f64) -> f64 {

@@ -14,7 +14,6 @@ pub mod export;
 pub mod generic;
 mod options;
 pub mod placement;
-pub mod twin_out;
 
 use crate::calib::correctors::rbf::RbfNetwork;
 use crate::calib::correctors::{Correct, Corrector, EffectCorrection};
@@ -430,7 +429,7 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64, by: Spl
                 .iter()
                 .map(|r| if r.reading_mm.len() == 1 { r.reading_mm[0] } else { r.reading_mm.iter().take(lengths).map(|v| v * v).sum::<f64>().sqrt() })
                 .collect();
-            let split = crate::sim::generate::stratified_split(&key, n_test, seed);
+            let split = crate::dataset::split::stratified_split(&key, n_test, seed);
             Ok(((0..n).filter(|i| split[*i] == Split::Train).collect(), (0..n).filter(|i| split[*i] == Split::Test).collect()))
         }
         None => Ok((data.train_indices(), data.test_indices())),
@@ -447,7 +446,7 @@ pub fn block_split(blocks: &crate::dataset::blocks::Blocks, n_test: usize, seed:
         sizes[b] += 1;
     }
     let mut order: Vec<usize> = (0..blocks.len()).collect();
-    let seed = crate::sim::scenario::stream_seed(seed, crate::sim::scenario::Stream::Split, 1);
+    let seed = crate::seed::stream_seed(seed, crate::seed::Stream::Split, 1);
     order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
     let mut chosen = vec![false; blocks.len()];
     let mut rows = 0;

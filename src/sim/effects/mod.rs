@@ -77,6 +77,12 @@ impl Thermal {
     fn default_temp_column() -> bool {
         true
     }
+    /// A warm-up and no drift yet: 5 K over a 600 s time constant from a 21 °C ambient (what
+    /// [`Effects::set_size`] adds a drift to, and the temperature the hidden-effect generator's
+    /// poses read).
+    pub fn warm_up() -> Self {
+        Thermal::new(0.0, 5.0, 600.0, 21.0)
+    }
     /// A thermal effect without joint-zero drift and with an ideal temperature sensor (no lag,
     /// offset or noise, a `temp` column written).
     pub fn new(alpha_per_k: f64, delta_t_max_k: f64, time_constant_s: f64, ambient_c: f64) -> Self {
@@ -168,14 +174,7 @@ impl Eccentricity {
     }
 }
 
-/// A payload rigidly attached to the flange.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Payload {
-    pub mass_kg: f64,
-    /// Centre of mass in the flange frame, mm.
-    pub com_mm: [f64; 3],
-}
+pub use crate::robot::statics::{approach_sides, Payload};
 
 /// All effects of a twin; `None` means off.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -209,6 +208,45 @@ impl Effects {
             self.eccentricity.as_ref().map(|e| e as &dyn TwinEffect),
         ];
         on.into_iter().flatten()
+    }
+    /// Puts an effect of a known physical size into the twin of an arm with `n` joints, by the
+    /// name a calibration block of it has (the hidden-effect generator and the identified twin
+    /// use this): `joint_compliance` (compliance `size` rad/N·m), `backlash` (half the band,
+    /// rad), `encoder_eccentricity` (amplitude rad at `phase` rad), `thermal_drift` (the length
+    /// scale per kelvin for the whole arm, a joint's zero drift rad/K; on the warm-up
+    /// [`Thermal::warm_up`] when the twin has no thermal effect yet). Other effects are refused.
+    pub fn set_size(&mut self, name: &str, n: usize, joint: Option<usize>, size: f64, phase: f64) -> Result<(), String> {
+        let j = joint.unwrap_or(0);
+        if j >= n {
+            return Err(format!("{name}: joint {} of an arm with {n} joints", j + 1));
+        }
+        match name {
+            "joint_compliance" => {
+                let c = self.compliance.get_or_insert(Compliance { stiffness_nm_per_rad: vec![1e12; n], damping_nms_per_rad: None });
+                c.stiffness_nm_per_rad[j] = 1.0 / size;
+            }
+            "backlash" => {
+                let b = self.backlash.get_or_insert(Backlash { width_deg: vec![0.0; n], breakaway_nm: 0.3 });
+                b.width_deg[j] = 2.0 * size.to_degrees();
+            }
+            "encoder_eccentricity" => {
+                let e = self.eccentricity.get_or_insert(Eccentricity { amplitude_deg: vec![0.0; n], phase_deg: vec![0.0; n] });
+                e.amplitude_deg[j] = size.to_degrees();
+                e.phase_deg[j] = phase.to_degrees();
+            }
+            "thermal_drift" => {
+                let t = self.thermal.get_or_insert_with(Thermal::warm_up);
+                match joint {
+                    None => t.alpha_per_k = size,
+                    Some(j) => {
+                        t.zero_drift_deg_per_k.resize(n, 0.0);
+                        t.zero_drift_deg_per_k[j] = size.to_degrees();
+                    }
+                }
+            }
+            other => return Err(format!("the twin cannot take a '{other}' at a given size")),
+        }
+        Ok(())
     }
     /// Checks every effect that is on for an arm of `n_joints`, naming the key of the first bad
     /// value.
@@ -359,30 +397,6 @@ impl TwinEffect for Payload {
     }
 }
 
-/// Backlash approach flanks for a sequence of commanded poses (any angle unit: only the signs of
-/// the moves count), starting from `home`:
-/// the link trails the motor, so a joint that last moved towards larger angles rests on its
-/// negative flank. A joint that does not move keeps its previous flank.
-pub fn approach_sides(home: &[f64], poses: &[Vec<f64>]) -> Vec<Vec<f64>> {
-    let mut prev = home.to_vec();
-    let mut sides = vec![-1.0; home.len()];
-    poses
-        .iter()
-        .map(|q| {
-            for j in 0..q.len() {
-                let d = q[j] - prev[j];
-                if d > 0.0 {
-                    sides[j] = -1.0;
-                } else if d < 0.0 {
-                    sides[j] = 1.0;
-                }
-            }
-            prev = q.clone();
-            sides.clone()
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -497,5 +511,25 @@ mod tests {
             let msg = th(t.clone()).expect_err(key);
             assert!(msg.contains(key), "{t:?}: {msg}");
         }
+    }
+
+    #[test]
+    fn an_effect_is_set_at_its_physical_size_by_its_calibration_name() {
+        let mut e = Effects::default();
+        e.set_size("joint_compliance", 6, Some(1), 2e-6, 0.0).unwrap();
+        e.set_size("backlash", 6, Some(2), 0.05f64.to_radians(), 0.0).unwrap();
+        e.set_size("encoder_eccentricity", 6, Some(0), 0.02f64.to_radians(), 0.5).unwrap();
+        e.set_size("thermal_drift", 6, None, 20e-6, 0.0).unwrap();
+        e.set_size("thermal_drift", 6, Some(4), 1e-3f64.to_radians(), 0.0).unwrap();
+        assert!((e.compliance.as_ref().unwrap().stiffness_nm_per_rad[1] - 5e5).abs() < 1e-6);
+        assert!((e.backlash.as_ref().unwrap().width_deg[2] - 0.1).abs() < 1e-12);
+        let ecc = e.eccentricity.as_ref().unwrap();
+        assert!((ecc.amplitude_deg[0] - 0.02).abs() < 1e-12 && (ecc.phase_deg[0] - 0.5f64.to_degrees()).abs() < 1e-12);
+        let t = e.thermal.as_ref().unwrap();
+        assert_eq!((t.alpha_per_k, t.delta_t_max_k, t.time_constant_s), (20e-6, 5.0, 600.0));
+        assert!((t.zero_drift_deg_per_k[4] - 1e-3).abs() < 1e-15 && t.zero_drift_deg_per_k.len() == 6);
+        e.validate(6).unwrap();
+        assert!(e.set_size("sensor_nonlinearity", 6, None, 1.0, 0.0).unwrap_err().contains("sensor_nonlinearity"));
+        assert!(e.set_size("backlash", 6, Some(6), 1e-3, 0.0).unwrap_err().contains("joint 7"));
     }
 }

@@ -4,88 +4,11 @@
 
 use super::Effects;
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
-use crate::robot::Robot;
-use nalgebra::Vector3;
+pub use crate::robot::statics::{CableLoad, LoadModel, GRAVITY};
 
 /// Stiffness used for a joint with backlash when compliance is off: the gear is then practically rigid
 /// on its flanks (30 N·m deflect it by 0.3 µrad).
 pub const RIGID_STIFFNESS: f64 = 1e8;
-
-/// Standard gravity, m/s², along −z of the base frame.
-pub const GRAVITY: f64 = 9.81;
-
-/// Cable tension acting on the tool point, pulling it towards the cable exit point.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CableLoad {
-    /// Exit point in the base frame, m.
-    pub exit_point: Vector3<f64>,
-    /// Attachment point in the flange frame, m.
-    pub tool_point: Vector3<f64>,
-    /// Tension, N.
-    pub tension: f64,
-}
-
-impl CableLoad {
-    /// Force on the tool point at world position `p`.
-    pub fn force_at(&self, p: &Vector3<f64>) -> Vector3<f64> {
-        let d = self.exit_point - p;
-        let n = d.norm();
-        if n < 1e-12 {
-            Vector3::zeros()
-        } else {
-            d * (self.tension / n)
-        }
-    }
-}
-
-/// Everything that loads the joints of a resting arm.
-#[derive(Clone, Debug)]
-pub struct LoadModel {
-    pub gravity: Vector3<f64>,
-    /// Per moving link: mass (kg) and COM in the link frame (m).
-    pub links: Vec<(f64, Vector3<f64>)>,
-    /// Payload mass (kg) and COM in the flange frame (m).
-    pub payload: Option<(f64, Vector3<f64>)>,
-    pub cable: Option<CableLoad>,
-}
-
-impl LoadModel {
-    pub fn new(robot: &Robot, effects: &Effects, cable: Option<CableLoad>) -> Self {
-        LoadModel {
-            gravity: Vector3::new(0.0, 0.0, -GRAVITY),
-            links: robot.links.iter().map(|l| (l.mass, l.com)).collect(),
-            payload: effects.payload.as_ref().filter(|p| p.mass_kg > 0.0).map(|p| (p.mass_kg, Vector3::from(p.com_mm) * 1e-3)),
-            cable,
-        }
-    }
-
-    /// Generalised joint torques (N·m) of all loads, from frames already evaluated in `ws`.
-    /// A positive torque pushes the joint towards larger angles.
-    pub fn torques(&self, chain: &Chain, ws: &FkWork, jac: &mut PointJacobian, out: &mut [f64]) {
-        out.iter_mut().for_each(|t| *t = 0.0);
-        let mut add = |f: usize, local: &Vector3<f64>, force: Option<Vector3<f64>>, mass: f64, jac: &mut PointJacobian| {
-            chain.point_jacobian(ws, f, local, jac);
-            let force = force.unwrap_or(self.gravity * mass);
-            for (t, d) in out.iter_mut().zip(&jac.dq) {
-                *t += d.dot(&force);
-            }
-        };
-        for (j, (m, com)) in self.links.iter().enumerate() {
-            if *m > 0.0 {
-                add(j + 1, com, None, *m, jac);
-            }
-        }
-        let flange = chain.flange();
-        if let Some((m, com)) = &self.payload {
-            add(flange, com, None, *m, jac);
-        }
-        if let Some(c) = &self.cable {
-            let p = chain.frame(ws, flange).point(&c.tool_point);
-            let force = c.force_at(&p);
-            add(flange, &c.tool_point, Some(force), 0.0, jac);
-        }
-    }
-}
 
 /// The joint transmission: a torsional spring in series with a dead band.
 #[derive(Clone, Debug, PartialEq)]

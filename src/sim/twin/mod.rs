@@ -142,7 +142,7 @@ pub struct Twin {
 impl Twin {
     pub fn new(robot: Robot, params: Vec<f64>, effects: Effects, sensor: DrawWire, settle: SettleOptions) -> Self {
         let chain = robot.error_chain();
-        let load = LoadModel::new(&robot, &effects, sensor.cable_load());
+        let load = LoadModel::new(&robot, effects.payload.as_ref(), sensor.cable_load());
         let transmission = Transmission::from_effects(&effects, robot.dof());
         Twin { robot, chain, params, effects, sensor, tracker: None, load, transmission, settle }
     }

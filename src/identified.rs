@@ -189,12 +189,12 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         let label = block.label();
         match block.kind {
             EffectKind::JointCompliance | EffectKind::Backlash if r.x[k] > 0.0 => {
-                block.kind.def().hide(&mut scenario, n, block.joint, r.x[k], 0.0);
+                scenario.effects.set_size(block.kind.name(), n, block.joint, r.x[k], 0.0).map_err(Error::Invalid)?;
                 written.push(label);
             }
             EffectKind::EncoderEccentricity if r.x[k].hypot(r.x[k + 1]).to_degrees() < crate::sim::effects::MAX_ECCENTRICITY_DEG => {
                 let (a, c) = (r.x[k], r.x[k + 1]);
-                block.kind.def().hide(&mut scenario, n, block.joint, a.hypot(c), c.atan2(a));
+                scenario.effects.set_size(block.kind.name(), n, block.joint, a.hypot(c), c.atan2(a)).map_err(Error::Invalid)?;
                 written.push(label);
             }
             EffectKind::EncoderEccentricity => {
