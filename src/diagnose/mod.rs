@@ -1111,10 +1111,148 @@ fn diagnose_screened(
 
     let span = time_span(&kept_rows);
     let pool = candidate_pool(&kept_rows, &kept.q, opts, has_torques)?;
+    let Selection { chain, steps, mut found } = select_causes(&ctx, &pool, &baseline, opts, span, progress);
+
+    let (conf_rmse, mut confirmed, unconfirmed) = confirm_causes(&chain, &found, &confirmation, progress);
+    let kept_groups = shared.then(|| blocks.ids_of(&keep));
+    let not_physical = drop_not_physical(&chain, &found, &kept, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
+    let floor_mm = {
+        let repeat = crate::calib::run::reading_repeatability(&kept_rows);
+        crate::calib::run::floor_stage(&base, &baseline.x, &kept_rows, &kept, opts.angle_step_deg, opts.instrument_accuracy_mm, repeat.as_ref()).total_mm
+    };
+    let below_floor = drop_below_floor(&found, floor_mm, &mut confirmed, progress);
+    found.truncate(confirmed);
+    let current = chain[confirmed].clone();
+    let other_rmse: Vec<f64> = chain[..=confirmed].iter().map(|f| rms(&ctx.heldout(&f.model, &f.x, &f.fixed, &ctx.other_folds))).collect();
+
+    // The final model: refitted on every kept row (selection and confirmation); its sizes, its
+    // residual and the --result file all come from this one fit.
+    // The screen judged every row against the geometric model, before any cause was known: a
+    // row that a cause pushes far from it looks like a glitch. Rows the model with its causes
+    // predicts within the same threshold (around the kept rows' residuals) are explained, not
+    // outliers: they rejoin the rows of the final fit, and are listed.
+    let explained = explained_by_causes(&current, &all, dim, &keep, &outliers, opts.outlier_k);
+    let (kept, kept_rows, final_keep) = if explained.is_empty() {
+        (kept, kept_rows, keep)
+    } else {
+        progress(&format!(
+            "{} rows first taken for outliers are explained by the causes: {:?}",
+            explained.len(),
+            explained.iter().map(|i| i + 1).collect::<Vec<_>>()
+        ));
+        outliers.retain(|o| !explained.contains(&(o.row - 1)));
+        outlier_runs = crate::calib::problem::robust::runs(&outliers);
+        let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
+        (all.subset(&keep), Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() }, keep)
+    };
+    let final_groups = shared.then(|| blocks.ids_of(&final_keep));
+    let mut explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).chain(first_flagged).collect();
+    explained_rows.sort_unstable();
+    let (kept, noise_model) = final_whitening(kept, noise_model, &all, &current, data, &blocks, &final_keep);
+    let fit = ReadingFit { model: &current.model, data: &kept };
+    let final_id = identify(&fit, &current.x, opts.rank_tol);
+    let final_x = LevenbergMarquardt::refit().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
+    let final_train_rmse_mm = rms(&ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&final_x));
+    let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
+    let mut warnings: Vec<String> = fold_warning
+        .into_iter()
+        .chain(few_blocks)
+        .chain(not_physical.iter().cloned())
+        .chain(below_floor.iter().cloned())
+        .chain(unphysical_causes(&current.model, &final_x, &kept_blocks))
+        .collect();
+    // Each cause's uncertainty counts the rows its blocks share.
+    let covs = Covariances::of(&fit, &final_x, &final_id.fixed_mask, final_groups.as_deref());
+    let causes = cause_reports(&found, &current.model, &covs, &final_x, &other_rmse, &conf_rmse);
+
+    // The data's own floor: repeatability and logging resolutions, never the fit's residual.
+    let fitted = crate::calib::run::FittedModel {
+        model: current.model.clone(),
+        x0: base_start(&current.model, &x_base),
+        x: final_x.clone(),
+        id: final_id,
+        torque_model: torque.clone(),
+    };
+    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg, opts.instrument_accuracy_mm)?;
+    let noise_floor = result.noise_floor.clone().expect("result_of_fit sets the floor");
+    let noise_floor_mm = noise_floor.total_mm;
+    let noise_floor_source = floor_source_text(&noise_floor);
+    let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
+    let current_oof = rms(&current.oof);
+    warnings.extend(leak_warning(&current.oof, dim, ctx.groups.as_deref(), noise_floor_mm, shared));
+    let effects_option = effects_option(&current.model);
+
+    let diagnosis = Diagnosis {
+        schema_version: crate::io::SCHEMA_VERSION,
+        warnings,
+        acquisition,
+        noise_model,
+        design_effect: baseline.deff,
+        not_physical,
+        below_floor,
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+        data: data.source.clone(),
+        rows: data.rows.len(),
+        reading: if dim > 1 {
+            format!("each row reads a {} ({}): every RMSE is per coordinate", measurement.def().describe(), measurement.def().columns().join(", "))
+        } else {
+            String::new()
+        },
+        outliers,
+        outlier_runs,
+        explained_by_causes: explained_rows,
+        reading_steps,
+        run_faults,
+        noise_floor_mm,
+        noise_floor_source,
+        noise_floor,
+        judged_on: judged_on.into(),
+        judged_on_reason,
+        selection_rows: ctx.data.len(),
+        confirmation_rows: confirmation.len(),
+        unconfirmed,
+        baseline: Baseline {
+            model: base.name.clone(),
+            heldout_rmse_mm: rms(&baseline.oof),
+            heldout_rmse_blocked_mm: rmse_blocked,
+            heldout_rmse_interleaved_mm: rmse_interleaved,
+            train_rmse_mm: rms(&base_in),
+        },
+        evidence,
+        steps,
+        verdict: verdict_of(&causes),
+        causes,
+        final_heldout_rmse_mm: current_oof,
+        final_train_rmse_mm,
+        floor_share_of_remaining: (noise_floor_mm / current_oof).powi(2).min(1.0),
+        comparison,
+        seconds: t0.elapsed().as_secs_f64(),
+        effects_option,
+    };
+    Ok((diagnosis, result, screened_with))
+}
+
+/// A cause kept by the forward selection: its block, the held-out RMSE before and after it (mm)
+/// and its p-value.
+type Found = (EffectBlock, f64, f64, f64);
+
+/// The forward selection's outcome: the fitted model after each kept cause (the baseline
+/// first), every step's candidates, and the causes kept in order.
+struct Selection {
+    chain: Vec<Fitted>,
+    steps: Vec<Step>,
+    found: Vec<Found>,
+}
+
+/// Forward selection over the candidate `pool`: at each step the candidate whose model predicts
+/// the held-out folds best is kept if it is plausible, has the sign physics allows, is sized
+/// beyond `opts.min_size_sigmas`, passes the Bonferroni-corrected gain test and gains at least
+/// `opts.min_gain`; the first step with none ends the selection.
+fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, opts: &DiagnoseOptions, span: f64, progress: &dyn Fn(&str)) -> Selection {
     let mut current = baseline.clone();
     let mut chain = vec![baseline.clone()];
     let mut steps = Vec::new();
-    let mut found: Vec<(EffectBlock, f64, f64, f64)> = Vec::new();
+    let mut found: Vec<Found> = Vec::new();
     for _ in 0..opts.max_effects {
         let remaining: Vec<&EffectBlock> = pool.iter().filter(|b| !current.model.effects.contains(b)).collect();
         if remaining.is_empty() {
@@ -1163,88 +1301,41 @@ fn diagnose_screened(
         chain.push(f.clone());
         current = f;
     }
+    Selection { chain, steps, found }
+}
 
-    // Confirmation: each cause's model, fitted on the selection rows, must predict the
-    // confirmation rows better than the model before it. The first cause that does not ends
-    // the list (it and what came after are reported as unconfirmed).
+/// Confirmation: each cause's model, fitted on the selection rows, must predict the
+/// `confirmation` rows better than the model before it; the first cause that does not ends the
+/// list. The confirmation RMSE of each model of `chain`, how many causes are confirmed, and the
+/// labels of the rest.
+fn confirm_causes(chain: &[Fitted], found: &[Found], confirmation: &Samples, progress: &dyn Fn(&str)) -> (Vec<f64>, usize, Vec<String>) {
     let confirmation_mm = confirmation.unweighted();
     let conf_rmse: Vec<f64> = chain
         .iter()
         .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&ReadingFit { model: &f.model, data: &confirmation_mm }.residuals_mm(&f.x)) })
         .collect();
-    let mut confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
+    let confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
     let unconfirmed: Vec<String> = found[confirmed..].iter().map(|f| f.0.label()).collect();
     if !unconfirmed.is_empty() {
         progress(&format!("not confirmed on the {} confirmation rows: {}", confirmation.len(), unconfirmed.join(", ")));
     }
-    let kept_groups = shared.then(|| blocks.ids_of(&keep));
-    let not_physical = drop_not_physical(&chain, &found, &kept, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
-    let floor_mm = {
-        let repeat = crate::calib::run::reading_repeatability(&kept_rows);
-        crate::calib::run::floor_stage(&base, &baseline.x, &kept_rows, &kept, opts.angle_step_deg, opts.instrument_accuracy_mm, repeat.as_ref()).total_mm
-    };
-    let below_floor = drop_below_floor(&found, floor_mm, &mut confirmed, progress);
-    found.truncate(confirmed);
-    let current = chain[confirmed].clone();
-    let other_rmse: Vec<f64> = chain[..=confirmed].iter().map(|f| rms(&ctx.heldout(&f.model, &f.x, &f.fixed, &ctx.other_folds))).collect();
+    (conf_rmse, confirmed, unconfirmed)
+}
 
-    // The final model: refitted on every kept row (selection and confirmation); its sizes, its
-    // residual and the --result file all come from this one fit.
-    // The screen judged every row against the geometric model, before any cause was known: a
-    // row that a cause pushes far from it looks like a glitch. Rows the model with its causes
-    // predicts within the same threshold (around the kept rows' residuals) are explained, not
-    // outliers: they rejoin the rows of the final fit, and are listed.
-    let res_all = ReadingFit { model: &current.model, data: &crate::calib::problem::Samples { gls: None, ..all.clone() } }.residuals_mm(&current.x);
-    let kept_res: Vec<f64> = keep.iter().flat_map(|&i| res_all[i * dim..(i + 1) * dim].iter().copied()).collect();
-    let (med, scale) = crate::stats::robust_scale(&kept_res);
-    let explained: Vec<usize> = if current.model.effects.is_empty() {
-        Vec::new()
-    } else {
-        let far = |i: usize| crate::calib::problem::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
-        outliers.iter().map(|o| o.row - 1).filter(|&i| (far(i) - med).abs() <= opts.outlier_k * scale).collect()
-    };
-    let (kept, kept_rows, final_keep) = if explained.is_empty() {
-        (kept, kept_rows, keep)
-    } else {
-        progress(&format!(
-            "{} rows first taken for outliers are explained by the causes: {:?}",
-            explained.len(),
-            explained.iter().map(|i| i + 1).collect::<Vec<_>>()
-        ));
-        outliers.retain(|o| !explained.contains(&(o.row - 1)));
-        outlier_runs = crate::calib::problem::robust::runs(&outliers);
-        let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
-        (all.subset(&keep), Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() }, keep)
-    };
-    let final_groups = shared.then(|| blocks.ids_of(&final_keep));
-    let mut explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).chain(first_flagged).collect();
-    explained_rows.sort_unstable();
-    let (kept, noise_model) = final_whitening(kept, noise_model, &all, &current, data, &blocks, &final_keep);
-    let fit = ReadingFit { model: &current.model, data: &kept };
-    let final_id = identify(&fit, &current.x, opts.rank_tol);
-    let final_x = LevenbergMarquardt::refit().minimize(&fit, &current.x, &final_id.fixed_mask, &mut NoObserver).x;
-    let final_train_rmse_mm = rms(&ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&final_x));
-    let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
-    let mut warnings: Vec<String> = fold_warning
-        .into_iter()
-        .chain(few_blocks)
-        .chain(not_physical.iter().cloned())
-        .chain(below_floor.iter().cloned())
-        .chain(unphysical_causes(&current.model, &final_x, &kept_blocks))
-        .collect();
-    // Each cause's uncertainty counts the rows its blocks share.
-    let covs = Covariances::of(&fit, &final_x, &final_id.fixed_mask, final_groups.as_deref());
+/// The report of each kept cause: its size and uncertainty from the final fit (`x`, `covs`), its
+/// parameters, and the held-out and confirmation RMSE before and after it.
+fn cause_reports(found: &[Found], model: &CalibModel, covs: &Covariances, final_x: &[f64], other_rmse: &[f64], conf_rmse: &[f64]) -> Vec<Cause> {
     let mut causes = Vec::new();
     for (n, (block, before, after, p)) in found.iter().enumerate() {
-        let b = current.model.effects.iter().position(|e| e == block).expect("kept block is in the model");
-        let range = current.model.effect_params(b);
-        let Size { quantity, value: mag, unit, uncertainty: unc } = covs.size(block, &final_x, range.clone());
+        let b = model.effects.iter().position(|e| e == block).expect("kept block is in the model");
+        let range = model.effect_params(b);
+        let Size { quantity, value: mag, unit, uncertainty: unc } = covs.size(block, final_x, range.clone());
         let parameters = range
             .clone()
             .map(|k| {
-                let d = current.model.kinds[k].display();
+                let d = model.kinds[k].display();
                 let sd = covs.sd(k) * d;
-                (current.model.names[k].clone(), final_x[k] * d, sd)
+                (model.names[k].clone(), final_x[k] * d, sd)
             })
             .collect();
         causes.push(Cause {
@@ -1264,28 +1355,35 @@ fn diagnose_screened(
             parameters,
         });
     }
+    causes
+}
 
-    // The data's own floor: repeatability and logging resolutions, never the fit's residual.
-    let fitted = crate::calib::run::FittedModel {
-        model: current.model.clone(),
-        x0: base_start(&current.model, &x_base),
-        x: final_x.clone(),
-        id: final_id,
-        torque_model: torque.clone(),
-    };
-    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg, opts.instrument_accuracy_mm)?;
-    let noise_floor = result.noise_floor.clone().expect("result_of_fit sets the floor");
-    let noise_floor_mm = noise_floor.total_mm;
-    let mut noise_floor_source: Vec<String> = noise_floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
-    if !noise_floor.sources.iter().any(|s| s.source == "repeatability") {
-        noise_floor_source.push("no repeated configurations: the reading's repeatability is unknown, so this is a lower bound".into());
+/// The outlier rows (0-based) the model with its causes (`current`; `dim` values a row) predicts
+/// within `outlier_k` robust standard deviations of the kept rows' residuals: explained, not glitches.
+fn explained_by_causes(current: &Fitted, all: &Samples, dim: usize, keep: &[usize], outliers: &[Outlier], outlier_k: f64) -> Vec<usize> {
+    if current.model.effects.is_empty() {
+        return Vec::new();
     }
-    let noise_floor_source = noise_floor_source.join("; ");
-    let comparison = compare_with_rbf(&ctx, &baseline, &current, opts.seed);
-    let current_oof = rms(&current.oof);
-    warnings.extend(leak_warning(&current.oof, dim, ctx.groups.as_deref(), noise_floor_mm, shared));
-    let effects_option = current
-        .model
+    let res_all = ReadingFit { model: &current.model, data: &Samples { gls: None, ..all.clone() } }.residuals_mm(&current.x);
+    let kept_res: Vec<f64> = keep.iter().flat_map(|&i| res_all[i * dim..(i + 1) * dim].iter().copied()).collect();
+    let (med, scale) = crate::stats::robust_scale(&kept_res);
+    let far = |i: usize| crate::calib::problem::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
+    outliers.iter().map(|o| o.row - 1).filter(|&i| (far(i) - med).abs() <= outlier_k * scale).collect()
+}
+
+/// Where the floor comes from, as one line: each source with its RMS, and a note when it is a
+/// lower bound (no repeated configurations).
+fn floor_source_text(floor: &crate::calib::problem::floor::NoiseFloor) -> String {
+    let mut text: Vec<String> = floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
+    if !floor.sources.iter().any(|s| s.source == "repeatability") {
+        text.push("no repeated configurations: the reading's repeatability is unknown, so this is a lower bound".into());
+    }
+    text.join("; ")
+}
+
+/// The `--effects` value that calibrates `model`'s effect blocks (`backlash:2,thermal_drift`).
+fn effects_option(model: &CalibModel) -> String {
+    model
         .effects
         .iter()
         .map(|e| match e.joint {
@@ -1293,67 +1391,22 @@ fn diagnose_screened(
             None => e.kind.name().to_string(),
         })
         .collect::<Vec<_>>()
-        .join(",");
+        .join(",")
+}
 
-    let diagnosis = Diagnosis {
-        schema_version: crate::io::SCHEMA_VERSION,
-        warnings,
-        acquisition,
-        noise_model,
-        design_effect: baseline.deff,
-        not_physical,
-        below_floor,
-        twincal_version: env!("CARGO_PKG_VERSION").into(),
-        data: data.source.clone(),
-        rows: data.rows.len(),
-        reading: if dim > 1 {
-            format!("each row reads a {} ({}): every RMSE is per coordinate", measurement.def().describe(), measurement.def().columns().join(", "))
-        } else {
-            String::new()
-        },
-        outliers,
-        outlier_runs,
-        explained_by_causes: explained_rows,
-        reading_steps,
-        run_faults,
-        noise_floor_mm,
-        noise_floor_source,
-        noise_floor,
-        judged_on: judged_on.into(),
-        judged_on_reason,
-        selection_rows: ctx.data.len(),
-        confirmation_rows: confirmation.len(),
-        unconfirmed,
-        baseline: Baseline {
-            model: base.name.clone(),
-            heldout_rmse_mm: rms(&baseline.oof),
-            heldout_rmse_blocked_mm: rmse_blocked,
-            heldout_rmse_interleaved_mm: rmse_interleaved,
-            train_rmse_mm: rms(&base_in),
-        },
-        evidence,
-        steps,
-        verdict: if causes.is_empty() {
-            "geometric_only".into()
-        } else {
-            causes
-                .iter()
-                .map(|c| match c.joint {
-                    Some(j) => format!("{}[j{j}]", c.cause),
-                    None => c.cause.clone(),
-                })
-                .collect::<Vec<_>>()
-                .join(" + ")
-        },
-        causes,
-        final_heldout_rmse_mm: current_oof,
-        final_train_rmse_mm,
-        floor_share_of_remaining: (noise_floor_mm / current_oof).powi(2).min(1.0),
-        comparison,
-        seconds: t0.elapsed().as_secs_f64(),
-        effects_option,
-    };
-    Ok((diagnosis, result, screened_with))
+/// The verdict: `geometric_only`, or the causes kept (`backlash[j2] + thermal_drift`).
+fn verdict_of(causes: &[Cause]) -> String {
+    if causes.is_empty() {
+        return "geometric_only".into();
+    }
+    causes
+        .iter()
+        .map(|c| match c.joint {
+            Some(j) => format!("{}[j{j}]", c.cause),
+            None => c.cause.clone(),
+        })
+        .collect::<Vec<_>>()
+        .join(" + ")
 }
 
 /// The start of the final model's parameters for its report: the baseline's geometry with every
