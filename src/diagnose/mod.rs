@@ -974,7 +974,7 @@ fn screen_with_effects(
         .map(|b| {
             let (m, x0) = with_block(base, &geo.x, b, span);
             let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(&m, d, x, opts.rank_tol);
-            let s = crate::calib::problem::robust::screen(&m, &x0, all, &rows, opts.outlier_k, opts.reading_steps, &refit);
+            let s = crate::calib::problem::robust::screen(&m, &x0, all, &rows, geo.rule, &refit);
             (b.clone(), s)
         })
         .collect();
@@ -1013,8 +1013,11 @@ fn screen_rows(
     progress: &dyn Fn(&str),
 ) -> Result<(crate::calib::problem::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(base, d, x, opts.rank_tol);
-    let geo_screen =
-        crate::calib::problem::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), opts.outlier_k, opts.reading_steps, &refit_rows);
+    // No row is an outlier for lying as far off as the angles' logging alone puts a reading.
+    let floor = crate::calib::run::floor_stage(base, &base.nominal, data, all, opts.angle_step_deg, None, None);
+    let min_scale_mm = floor.sources.iter().find(|s| s.source == "angle_resolution").map_or(0.0, |s| s.rms_mm);
+    let rule = crate::calib::problem::robust::ScreenRule { k: opts.outlier_k, steps: opts.reading_steps, min_scale_mm };
+    let geo_screen = crate::calib::problem::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), rule, &refit_rows);
     let flagged = flagged_rows(&geo_screen);
     // Rows the geometric screen flagged that a candidate effect explains stay in.
     let only = match by {

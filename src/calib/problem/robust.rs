@@ -229,9 +229,27 @@ pub struct Screen {
     pub corrected: Samples,
     /// The fit on the kept rows.
     pub x: Vec<f64>,
-    /// Robust standard deviation of the kept rows' residuals (1.4826·MAD), mm, and their median.
+    /// Robust standard deviation of the kept rows' residuals (1.4826·MAD), mm, never below the
+    /// rule's `min_scale_mm`; and their median.
     pub scale_mm: f64,
     pub median_mm: f64,
+    /// The rule the rows were screened by.
+    pub rule: ScreenRule,
+}
+
+/// How [`screen`] flags rows: a row whose residual is more than `k` robust standard deviations
+/// from the kept rows' median is an outlier, the scale never taken below `min_scale_mm`, the
+/// spread the data's known noise alone puts on a reading (the joint angles' logging resolution
+/// through the model). Where the angles' rounding is shared by the rows of a sweep, most rows of
+/// a sweep sit together and the residuals' median absolute deviation can fall far below that
+/// noise (0.03 mm against 0.24 mm on a twin acquisition logged at 0.1°): whole sweeps, and the
+/// rows a backlash flank shifts, were then taken for outliers. `steps`: look for reading steps
+/// (a cable's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScreenRule {
+    pub k: f64,
+    pub steps: bool,
+    pub min_scale_mm: f64,
 }
 
 /// The fit of the outlier screen: the identifiable parameters of `model` on `data` from `x`,
@@ -264,7 +282,8 @@ const SCREEN_PASSES: usize = 6;
 /// model fitted from `x0`; `refit` fits the model to a subset from a start (see [`screen_fit`]).
 /// With `steps`, runs of outliers that are one constant offset ([`reading_steps`]) are
 /// corrected and kept instead. See the module docs.
-pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k: f64, steps: bool, refit: &dyn Fn(&Samples, &[f64]) -> Vec<f64>) -> Screen {
+pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], rule: ScreenRule, refit: &dyn Fn(&Samples, &[f64]) -> Vec<f64>) -> Screen {
+    let ScreenRule { k, steps, min_scale_mm } = rule;
     let n = data.len();
     // A row of several values (a tracker's point) is one observation: its values share the
     // robust scale, and the row is out when any of them is. Reading steps are a cable encoder's.
@@ -285,6 +304,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
         equalise_groups(&mut r, d, groups, &keep);
         let kept_r: Vec<f64> = keep.iter().flat_map(|&i| r[i * d..(i + 1) * d].iter().copied()).collect();
         (med, scale) = robust_scale(&kept_r);
+        scale = scale.max(min_scale_mm);
         if !(scale > 0.0) || k <= 0.0 {
             flagged.clear();
             break;
@@ -314,7 +334,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], k:
             Outlier { row: rows[i] + 1, residual_mm: v, robust_z: (v - med) / scale }
         })
         .collect();
-    Screen { runs: runs(&outliers), keep, outliers, steps: found, corrected, x, scale_mm: scale, median_mm: med }
+    Screen { runs: runs(&outliers), keep, outliers, steps: found, corrected, x, scale_mm: scale, median_mm: med, rule }
 }
 
 /// Residuals of values in other groups than the first ([`Instrument::value_groups`]: a pose's

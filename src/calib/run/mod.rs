@@ -24,7 +24,7 @@ use crate::calib::methods::{Problem, Solution};
 use crate::calib::model::CalibModel;
 use crate::calib::problem::identify::Identifiability;
 pub use crate::calib::problem::identify::{identify, still_joints, STILL_SPAN_DEG};
-use crate::calib::problem::robust::{Loss, Outlier, OutlierRun, ReadingStep};
+use crate::calib::problem::robust::{Loss, Outlier, OutlierRun, ReadingStep, ScreenRule};
 use crate::calib::problem::{ReadingFit, Samples};
 pub use crate::dataset::truth::TruthFile;
 use crate::dataset::{Dataset, Split};
@@ -730,7 +730,14 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
     let screen = {
         let m: &CalibModel = model;
         let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(m, d, x, opts.rank_tol);
-        crate::calib::problem::robust::screen(m, &m.nominal, &split.train, &split.train_idx, opts.outlier_k, opts.reading_steps, &refit)
+        crate::calib::problem::robust::screen(
+            m,
+            &m.nominal,
+            &split.train,
+            &split.train_idx,
+            ScreenRule { k: opts.outlier_k, steps: opts.reading_steps, min_scale_mm: 0.0 },
+            &refit,
+        )
     };
     if !screen.steps.is_empty() {
         split.test = crate::calib::problem::robust::apply_steps_nearest(&split.test, &split.test_idx, &split.train_idx, &screen.steps);
