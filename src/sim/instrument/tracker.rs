@@ -115,9 +115,7 @@ impl Tracker {
 
     /// The placement parameters [`Measurement::Point`] reads (m, rad).
     pub fn own(&self) -> Vec<f64> {
-        let t = self.translation_mm.map(|v| v * 1e-3);
-        let r = self.rotation_deg.map(f64::to_radians);
-        vec![t[0], t[1], t[2], r[0], r[1], r[2]]
+        crate::measurement::Placement::tracker(self.translation_mm, self.rotation_deg, None, Vector3::zeros()).own
     }
 
     /// The noise-free reading of reflector position `p` (base frame, m), mm.
