@@ -112,6 +112,10 @@ pub struct DetectionItem {
     /// The data's floor of a realistic item (reading noise and angle logging), mm.
     #[serde(default)]
     pub floor_mm: f64,
+    /// A scenario with one hidden effect whose diagnosis names more than one cause: a cause
+    /// that is not there.
+    #[serde(default)]
+    pub extra: bool,
 }
 
 fn strip(g: &Generated) -> Dataset {
@@ -156,6 +160,7 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
         alarm,
         category: category.clone(),
         within_3_sigma,
+        extra: false,
         floor_mm,
     };
     match variant {
@@ -163,7 +168,7 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let (s, robot, truth) = hidden(seed, 1)?;
             let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
             let (line, named, sized, within) = judge_hidden(seed, &truth[0], &d);
-            Ok(item(Some(line), named, sized, false, within, 0.0))
+            Ok(DetectionItem { extra: d.causes.len() > 1, ..item(Some(line), named, sized, false, within, 0.0) })
         }
         Variant::Clean => {
             let (s, robot) = clean(10_000 + seed)?;
@@ -187,8 +192,9 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let line = format!("{line} [{} deg logging, {}]", 10f64.powi(-(decimals as i32)), if above { "above the floor" } else { "below the floor" });
             let named_any = !d.causes.is_empty();
             // Below the floor: a miss is right; naming anything is the alarm.
-            let line = if above { (!named || !within).then_some(line) } else { named_any.then_some(line) };
-            Ok(item(line, named, sized, !above && named_any, within, floor))
+            let extra = above && d.causes.len() > 1;
+            let line = if above { (!named || !within || extra).then_some(line) } else { named_any.then_some(line) };
+            Ok(DetectionItem { extra, ..item(line, named, sized, !above && named_any, within, floor) })
         }
     }
 }
@@ -207,8 +213,9 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
     let (detected, sized) = (count(&hidden, |i| i.detected), count(&hidden, |i| i.sized));
     if !hidden.is_empty() {
         println!(
-            "  hidden effects: {detected}/{seeds} named first with the right joint ({:.0} %, target >= 95 %), {sized}/{seeds} also sized right",
-            100.0 * detected as f64 / n
+            "  hidden effects: {detected}/{seeds} named first with the right joint ({:.0} %, target >= 95 %), {sized}/{seeds} also sized right, {}/{seeds} name a cause not hidden",
+            100.0 * detected as f64 / n,
+            count(&hidden, |i| i.extra)
         );
     }
     let clean = of("clean");
@@ -239,10 +246,12 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
         }
         if !above.is_empty() {
             println!(
-                "    one effect at 1.5-4x the floor: {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma",
+                "    one effect at 1.5-4x the floor: {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma, {}/{} name a cause not hidden",
                 count(&above, |i| i.detected),
                 above.len(),
                 count(&above, |i| i.within_3_sigma),
+                above.len(),
+                count(&above, |i| i.extra),
                 above.len()
             );
         }

@@ -715,8 +715,16 @@ pub const SCREEN_ROWS_PER_PARAM: usize = 3;
 /// identifiable parameters refitted with the Cauchy loss at each pass) are taken out of the split;
 /// readings in a reading step are corrected by its offset, in training and test rows alike; a
 /// nominal model's sensor is then placed again on the rows kept (a new model: the second value
-/// says so). `None` when the screen is off.
-pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &CalibOptions) -> Result<(Option<crate::calib::problem::robust::Screen>, bool)> {
+/// says so). `None` when the screen is off. The screen's scale is never taken below the
+/// angle-resolution part of the training rows' floor: where a sweep's rows share the angles'
+/// rounding their residuals' robust scale can fall far below the rounding itself, and the
+/// screen would flag good rows (as `diagnose` does, see docs/diagnose.md).
+pub fn outlier_stage(
+    model: &mut CalibModel,
+    split: &mut SplitData,
+    data: &Dataset,
+    opts: &CalibOptions,
+) -> Result<(Option<crate::calib::problem::robust::Screen>, bool)> {
     if opts.outlier_k <= 0.0 {
         return Ok((None, false));
     }
@@ -730,12 +738,14 @@ pub fn outlier_stage(model: &mut CalibModel, split: &mut SplitData, opts: &Calib
     let screen = {
         let m: &CalibModel = model;
         let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(m, d, x, opts.rank_tol);
+        let floor = floor_stage(m, &m.nominal, data, &split.train, opts.angle_step_deg, None, None);
+        let min_scale_mm = floor.sources.iter().find(|s| s.source == "angle_resolution").map_or(0.0, |s| s.rms_mm);
         crate::calib::problem::robust::screen(
             m,
             &m.nominal,
             &split.train,
             &split.train_idx,
-            ScreenRule { k: opts.outlier_k, steps: opts.reading_steps, min_scale_mm: 0.0 },
+            ScreenRule { k: opts.outlier_k, steps: opts.reading_steps, min_scale_mm },
             &refit,
         )
     };
@@ -971,7 +981,7 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     // The effects asked for are in the model before the screen: a warm-up's drift or a backlash
     // band, screened against the geometry alone, would look like reading steps and outliers.
     effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
-    let (screen, placed_again) = outlier_stage(&mut model, &mut split, opts)?;
+    let (screen, placed_again) = outlier_stage(&mut model, &mut split, data, opts)?;
     if placed_again {
         // The sensor placed again on the kept rows is a new model: the effects go back in.
         effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
