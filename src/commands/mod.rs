@@ -381,6 +381,10 @@ impl LoadArgs {
 /// errors).
 pub fn parse_effects(option: &str, list: &[String]) -> Result<Vec<(crate::calib::effects::EffectKind, Option<usize>)>> {
     use crate::calib::effects::EffectKind;
+    // `--effects ,` (or an empty string) names nothing: an option given must name an effect.
+    if !list.is_empty() && list.iter().all(|s| s.trim().is_empty()) {
+        return Err(Error::Invalid(format!("{option} '{}' names no effect: give KIND[:JOINT] items separated by commas", list.join(","))));
+    }
     list.iter()
         .filter(|s| !s.trim().is_empty())
         .map(|item| {

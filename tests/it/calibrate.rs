@@ -313,6 +313,7 @@ fn bad_calibration_input_is_named_and_leaves_nothing() {
         (vec!["--loss".into(), "tukey".into()], None, "unknown loss"),
         (vec!["--method".into(), "ekf".into(), "--loss".into(), "huber".into()], None, "applies to --method lm"),
         (vec!["--angle-resolution-deg".into(), "0".into()], None, "--angle-resolution-deg"),
+        (vec!["--effects".into(), ",".into()], None, "names no effect"),
         (vec![], Some("q1,q2,q3,q4,q5,L\n1,2,3,4,5,300\n"), "5 joint angles (q1..q5) but the robot"),
         (vec![], Some("q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,NaN\n"), "NaN"),
         (vec![], Some("q1,q2,q3,q4,q5,q6,L\n1,2,3,4,5,6,300\n1,2,3\n"), "line 3"),
