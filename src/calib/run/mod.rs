@@ -910,6 +910,32 @@ pub fn reading_repeatability(data: &Dataset) -> Option<crate::stats::metrics::Re
     Some(crate::stats::metrics::Repeatability { pooled_std, max_spread, ..first }).filter(|r| r.groups > 0)
 }
 
+/// No model predicts unseen rows better than the data's floor: a held-out RMSE (of the test rows
+/// that are not outliers) below it by more than its sampling error over the test rows' blocks
+/// means the test rows shared errors with training rows (rows of one sweep on both sides of a
+/// random split share its rounding). The warning, if so; none for a pose's angles, which the
+/// floor does not hold.
+fn leak_warning(data: &Dataset, split: &SplitData, test_r: &[f64], test_outliers: &[Outlier], floor_mm: f64, angle_step_deg: Option<f64>) -> Option<String> {
+    let d = split.test.dim.max(1);
+    if split.test.is_empty() || !(floor_mm > 0.0) || data.measurement().is_some_and(|m| m.file_lengths() != d) {
+        return None;
+    }
+    let mut kept: Vec<usize> = (0..split.test.len()).filter(|&i| !test_outliers.iter().any(|o| o.row == split.test_idx[i] + 1)).collect();
+    kept.sort_by_key(|&i| split.test_idx[i]);
+    let r: Vec<f64> = kept.iter().flat_map(|&i| test_r[i * d..(i + 1) * d].iter().copied()).collect();
+    let rows: Vec<usize> = kept.iter().map(|&i| split.test_idx[i]).collect();
+    let groups = crate::dataset::blocks::detect(data, angle_step_deg).0.ids_of(&rows);
+    let (ms, se) = crate::stats::mean_square_with_se(&r, d, Some(&groups));
+    (!r.is_empty() && ms + 2.0 * se < floor_mm * floor_mm).then(|| {
+        format!(
+            "the held-out RMSE of the test rows that are not outliers ({:.4} mm) is below the data's floor ({floor_mm:.4} mm) by more than its \
+             sampling error: the test rows share errors with the training rows (the split leaks: rows of one sweep or one logging error on both sides), \
+             so it is optimistic; hold out whole blocks (--split-by blocks) or declare them in a block column",
+            ms.sqrt()
+        )
+    })
+}
+
 /// Stage "floor": the data's own floor for the model at `x` over `rows` (the rows of `data`):
 /// the repeatability given, the joint angles' logging step (`angle_step_deg`, else read from the
 /// data's decimals) and the readings' logging step. See [`crate::calib::problem::floor`].
@@ -1128,6 +1154,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     }
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.angle_step_deg, opts.instrument_accuracy_mm, repeatability.as_ref());
+    warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm, opts.angle_step_deg));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
