@@ -603,8 +603,9 @@ fn drop_below_floor(found: &[(EffectBlock, f64, f64, f64)], floor_mm: f64, confi
 
 /// Every kept cause (`found`, the first `confirmed` of them; `chain[k]` the model with the first
 /// k) of a physical size in the model fitted on every kept row (selection and confirmation;
-/// `kept` gives them with the noise model at that model, as the final fit has them): the first that is not ends the list, like an unconfirmed one (`confirmed` is
-/// lowered). One line per cause left out, saying why.
+/// `kept` gives them with the noise model at that model, as the final fit has them): the first
+/// that is not ends the list, like an unconfirmed one (`confirmed` is lowered). One line per
+/// cause left out, saying why.
 #[allow(clippy::too_many_arguments)]
 fn drop_not_physical(
     chain: &[Fitted],
@@ -644,8 +645,7 @@ fn drop_not_physical(
 /// data have blocks of several rows).
 fn leak_warning(oof: &[f64], dim: usize, groups: Option<&[usize]>, floor_mm: f64, shared: bool) -> Option<String> {
     let heldout_mm = rms(oof);
-    let (ms, se) = crate::stats::mean_square_with_se(oof, dim, groups);
-    (ms + 2.0 * se < floor_mm * floor_mm).then(|| {
+    crate::stats::short_of_floor(oof, dim, groups, floor_mm).then(|| {
         let missed = if shared {
             "blocks the detection missed (declare them in a block column)"
         } else {
@@ -995,9 +995,7 @@ fn screen_rows(
 ) -> Result<(crate::calib::problem::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(base, d, x, opts.rank_tol);
     // No row is an outlier for lying as far off as the angles' logging alone puts a reading.
-    let floor = crate::calib::run::floor_stage(base, &base.nominal, data, all, opts.angle_step_deg, None, None);
-    let min_scale_mm = floor.sources.iter().find(|s| s.source == "angle_resolution").map_or(0.0, |s| s.rms_mm);
-    let rule = crate::calib::problem::robust::ScreenRule { k: opts.outlier_k, steps: opts.reading_steps, min_scale_mm };
+    let rule = crate::calib::run::screen_rule(base, data, all, opts.outlier_k, opts.reading_steps, opts.angle_step_deg);
     let geo_screen = crate::calib::problem::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), rule, &refit_rows);
     let flagged = flagged_rows(&geo_screen);
     // Rows the geometric screen flagged that a candidate effect explains stay in.

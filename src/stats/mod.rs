@@ -425,6 +425,15 @@ pub fn nested_f_test_deff(rss0: f64, rss1: f64, extra: usize, dof1: usize, deff:
     f_survival(f, extra as f64, (dof1 as f64 / deff).max(1.0))
 }
 
+/// Whether held-out residuals `oof` (`dim` values per row, in blocks `groups`) fall short of
+/// the data's floor `floor_mm` by more than twice their mean square's standard error: no model
+/// predicts unseen rows better than the floor, so the held-out rows shared errors with the
+/// training rows (the split leaks).
+pub fn short_of_floor(oof: &[f64], dim: usize, groups: Option<&[usize]>, floor_mm: f64) -> bool {
+    let (ms, se) = mean_square_with_se(oof, dim, groups);
+    ms + 2.0 * se < floor_mm * floor_mm
+}
+
 /// Mean square of the held-out residuals `oof` (`dim` values per row) and its standard error
 /// over the rows' blocks `groups` (each row its own block without them): where rows share
 /// errors in blocks the realised mean square of a few dozen sweeps strays from the floor's

@@ -307,6 +307,7 @@ fn diagnosed_model_on_held_out_blocks(rel: &str) {
         None => ModelSpec::parse("irb120", "hayati").unwrap(),
     };
     let load = LoadOptions { measurement, ..Default::default() };
+    // Series a spans 100 h in a file not in time order: read sorted by t.
     let ds = if rel.ends_with("series_a.csv") {
         let sorted = twincal::bench::real::sorted_by_column(&std::fs::read_to_string(&path).unwrap(), "t").unwrap();
         Dataset::from_csv_reader_with(sorted.as_bytes(), rel, &load).unwrap()

@@ -738,16 +738,8 @@ pub fn outlier_stage(
     let screen = {
         let m: &CalibModel = model;
         let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(m, d, x, opts.rank_tol);
-        let floor = floor_stage(m, &m.nominal, data, &split.train, opts.angle_step_deg, None, None);
-        let min_scale_mm = floor.sources.iter().find(|s| s.source == "angle_resolution").map_or(0.0, |s| s.rms_mm);
-        crate::calib::problem::robust::screen(
-            m,
-            &m.nominal,
-            &split.train,
-            &split.train_idx,
-            ScreenRule { k: opts.outlier_k, steps: opts.reading_steps, min_scale_mm },
-            &refit,
-        )
+        let rule = screen_rule(m, data, &split.train, opts.outlier_k, opts.reading_steps, opts.angle_step_deg);
+        crate::calib::problem::robust::screen(m, &m.nominal, &split.train, &split.train_idx, rule, &refit)
     };
     if !screen.steps.is_empty() {
         split.test = crate::calib::problem::robust::apply_steps_nearest(&split.test, &split.test_idx, &split.train_idx, &screen.steps);
@@ -910,6 +902,15 @@ pub fn reading_repeatability(data: &Dataset) -> Option<crate::stats::metrics::Re
     Some(crate::stats::metrics::Repeatability { pooled_std, max_spread, ..first }).filter(|r| r.groups > 0)
 }
 
+/// The outlier screens' rule (`k` robust standard deviations, reading steps if `steps`) for
+/// `model` at its nominal parameters on `rows` of `data`: its scale never below the
+/// angle-resolution part of their floor, what the angles' logging alone puts on a reading.
+pub fn screen_rule(model: &CalibModel, data: &Dataset, rows: &Samples, k: f64, steps: bool, angle_step_deg: Option<f64>) -> ScreenRule {
+    let floor = floor_stage(model, &model.nominal, data, rows, angle_step_deg, None, None);
+    let min_scale_mm = floor.sources.iter().find(|s| s.source == "angle_resolution").map_or(0.0, |s| s.rms_mm);
+    ScreenRule { k, steps, min_scale_mm }
+}
+
 /// No model predicts unseen rows better than the data's floor: a held-out RMSE (of the test rows
 /// that are not outliers) below it by more than its sampling error over the test rows' blocks
 /// means the test rows shared errors with training rows (rows of one sweep on both sides of a
@@ -925,13 +926,12 @@ fn leak_warning(data: &Dataset, split: &SplitData, test_r: &[f64], test_outliers
     let r: Vec<f64> = kept.iter().flat_map(|&i| test_r[i * d..(i + 1) * d].iter().copied()).collect();
     let rows: Vec<usize> = kept.iter().map(|&i| split.test_idx[i]).collect();
     let groups = crate::dataset::blocks::detect(data, angle_step_deg).0.ids_of(&rows);
-    let (ms, se) = crate::stats::mean_square_with_se(&r, d, Some(&groups));
-    (!r.is_empty() && ms + 2.0 * se < floor_mm * floor_mm).then(|| {
+    (!r.is_empty() && crate::stats::short_of_floor(&r, d, Some(&groups), floor_mm)).then(|| {
         format!(
             "the held-out RMSE of the test rows that are not outliers ({:.4} mm) is below the data's floor ({floor_mm:.4} mm) by more than its \
              sampling error: the test rows share errors with the training rows (the split leaks: rows of one sweep or one logging error on both sides), \
              so it is optimistic; hold out whole blocks (--split-by blocks) or declare them in a block column",
-            ms.sqrt()
+            crate::stats::rms(&r)
         )
     })
 }
