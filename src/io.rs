@@ -4,8 +4,8 @@
 //! next to its target (`.NAME.tmp-PID-N`, same folder so the final rename is atomic) and synced.
 //! [`OutputSet::commit`] then renames every staged file into place, one after the other, with no
 //! work in between. Dropping an `OutputSet` without committing it (an error, a panic unwinding)
-//! removes its temporary files, and so does SIGINT/SIGTERM once [`install_signal_cleanup`] has
-//! run: the process removes every staged temporary file and exits with 130 / 143. A signal that
+//! removes its temporary files, and so does SIGINT/SIGTERM once the command line's handler has
+//! run ([`abandon_staged_and_exit`]): the process removes every staged temporary file and exits with 130 / 143. A signal that
 //! arrives while a commit renames files waits until the commit is done, so the outputs are then
 //! complete (and the exit code still says the process was interrupted).
 //!
@@ -169,34 +169,17 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
     set.commit()
 }
 
-/// Installs a SIGINT / SIGTERM handler (once per process) that removes every staged temporary
-/// file and exits with 128 + the signal number (130 / 143). A commit in progress finishes first.
-pub fn install_signal_cleanup() -> Result<()> {
-    use signal_hook::consts::{SIGINT, SIGTERM};
-    static INSTALLED: std::sync::Once = std::sync::Once::new();
-    let mut result = Ok(());
-    INSTALLED.call_once(|| {
-        let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
-            Ok(s) => s,
-            Err(e) => {
-                result = Err(Error::Invalid(format!("cannot install the SIGINT/SIGTERM handler: {e}")));
-                return;
-            }
-        };
-        std::thread::spawn(move || {
-            if let Some(sig) = signals.forever().next() {
-                // Held until exit: no file can be staged or renamed after this point.
-                let reg = staged_registry();
-                for p in reg.iter() {
-                    let _ = std::fs::remove_file(p);
-                }
-                let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
-                eprintln!("error: interrupted by {name}; unfinished outputs removed");
-                std::process::exit(128 + sig);
-            }
-        });
-    });
-    result
+/// Removes every staged temporary file and ends the process with `code`, after printing
+/// `message` on stderr. The registry stays locked until the exit, so no file can be staged or
+/// renamed after the removal; a commit in progress finishes first. For a signal handler (the
+/// command line's SIGINT / SIGTERM handler calls it with 128 + the signal number).
+pub fn abandon_staged_and_exit(message: &str, code: i32) -> ! {
+    let reg = staged_registry();
+    for p in reg.iter() {
+        let _ = std::fs::remove_file(p);
+    }
+    eprintln!("{message}");
+    std::process::exit(code)
 }
 
 thread_local! {

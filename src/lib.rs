@@ -1,20 +1,18 @@
-//! twincal: a digital twin of a serial industrial arm for generating and calibrating draw-wire
-//! calibration datasets.
+//! twincal: a digital twin and calibration toolkit for serial industrial arms, the library. The
+//! command line (`twincal-cli`: clap, progress bars, signals, Rerun recordings) and the Python
+//! package are built over it; this crate has none of their dependencies.
 //!
 //! Data flow, one folder per stage: [`robot`] (URDF → kinematic chain) → [`sim`] (the twin:
 //! rapier simulation with its effects and instrument, dataset generation) → [`dataset`] →
 //! [`calib`] (models × [`optim`] × correctors, the [`measurement`] an instrument gives) → [`ik`],
-//! [`diagnose`] → [`report`] and recordings ([`viz`]).
+//! [`diagnose`] → [`report`].
 
 // Numeric code indexes several arrays in step (`for k in 0..n { a[k] … b[k] … }`), and its
 // comparisons are written `!(x > 0.0)` on purpose so that NaN fails them: these two lints fight
 // both idioms.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod bench;
 pub mod calib;
-pub mod cli;
-pub mod commands;
 pub mod dataset;
 pub mod diagnose;
 pub mod error;
@@ -28,9 +26,7 @@ pub mod progress;
 pub mod report;
 pub mod robot;
 pub mod seed;
-pub mod shard;
 pub mod sim;
 pub mod stats;
-pub mod viz;
 
 pub use error::{Error, Result};

@@ -15,9 +15,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use twincal::calib::run::{CalibResult, TruthFile};
-use twincal::commands::{self, AngleArg, CalibrateArgs, Calibration, DiagnoseArgs, Diagnosed, ReadingArgs};
 use twincal::dataset::{ColumnValues, Dataset};
 use twincal::sim::generate::Progress;
+use twincal_cli::commands::{self, AngleArg, CalibrateArgs, Calibration, DiagnoseArgs, Diagnosed, ReadingArgs};
 
 create_exception!(
     _native,
@@ -340,7 +340,7 @@ impl PyCalibration {
         if targets.shape().len() != 2 || targets.shape()[1] != 3 {
             return Err(TwincalError::new_err(format!("targets must be an (n, 3) array of x, y, z in mm, got shape {:?}", targets.shape())));
         }
-        twincal::commands::ik::check_tol_mm(tol_mm, "tol_mm").map_err(err)?;
+        twincal_cli::commands::ik::check_tol_mm(tol_mm, "tol_mm").map_err(err)?;
         let kinds: Vec<JacobianKind> = match jacobian.to_ascii_lowercase().as_str() {
             "all" => JacobianKind::ALL.to_vec(),
             s => vec![JacobianKind::ALL
@@ -501,7 +501,7 @@ fn diagnose(py: Python<'_>, data: &Bound<'_, PyAny>, mut argv: Vec<String>, prog
 #[pyfunction]
 fn cli(py: Python<'_>, argv: Vec<String>) -> PyResult<()> {
     use clap::Parser;
-    let args = match twincal::cli::Cli::try_parse_from(std::iter::once("twincal".to_string()).chain(argv)) {
+    let args = match twincal_cli::cli::Cli::try_parse_from(std::iter::once("twincal".to_string()).chain(argv)) {
         Ok(a) => a,
         Err(e) if !e.use_stderr() => {
             // --help and --version: printed, as the command line does.
@@ -510,7 +510,7 @@ fn cli(py: Python<'_>, argv: Vec<String>) -> PyResult<()> {
         }
         Err(e) => return Err(TwincalError::new_err(clap_message(&e))),
     };
-    py.detach(|| twincal::cli::run(args)).map_err(err)
+    py.detach(|| twincal_cli::cli::run(args)).map_err(err)
 }
 
 #[pymodule]

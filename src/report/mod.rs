@@ -4,7 +4,7 @@
 //! as the calibration holds them, one per reading value ([`Measurement::dim`] per row: a
 //! draw-wire's length, a tracker's x, y, z); [`Residual::of`] turns them into the per-row
 //! quantities the figures draw (for a tracker's point also the position error |Δp|). The Rerun
-//! recordings ([`crate::viz::scenes`]) and the self-contained HTML page ([`html`]) draw the same
+//! recordings (the command line's `viz::scenes`) and the self-contained HTML page ([`html`]) draw the same
 //! figures from these structs; the pass/fail [`verdict`] judges a result against a user's
 //! accuracy limits.
 

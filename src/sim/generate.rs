@@ -165,6 +165,14 @@ pub struct Generated {
     pub twin: Twin,
 }
 
+impl Generated {
+    /// True tool point of dataset row `i`, m.
+    pub fn truth_tool(&self, i: usize) -> nalgebra::Vector3<f64> {
+        let p = self.truth.poses[i].tool_mm;
+        nalgebra::Vector3::new(p[0], p[1], p[2]) * 1e-3
+    }
+}
+
 /// Builds the twin a scenario describes.
 pub fn build_twin(s: &Scenario, robot: &Robot) -> Twin {
     Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.sensor.clone(), s.simulation.clone()).with_tracker(s.tracker.clone())

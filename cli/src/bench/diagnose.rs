@@ -1,0 +1,353 @@
+//! `twincal bench diagnose`: the diagnosis' speed, detection and false-alarm rates.
+
+use std::time::Instant;
+use twincal::dataset::Dataset;
+use twincal::error::Result;
+use twincal::sim::generate::{generate as run_generate, Generated, Progress, Silent};
+use twincal::sim::scenario::Scenario;
+use twincal::stats::median;
+
+/// What the detection part of `bench diagnose` is over (its work items: seed × hidden/clean).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct DetectionConfig {
+    pub seeds: u64,
+    pub twincal_version: String,
+    /// Only the scenarios of these categories (all when empty; see [`Variant::category`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub categories: Vec<String>,
+}
+
+impl DetectionConfig {
+    /// The detection part over `seeds` seeds, the scenarios of `categories` only (all when
+    /// empty; an unknown category is an error naming the known ones).
+    pub fn new(seeds: u64, categories: &[String]) -> Result<DetectionConfig> {
+        // Item ids 0, 1 are seed 1's hidden and clean scenarios, 2·seeds.. its six realistic ones.
+        let known: Vec<String> = [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).map(|id| Variant::of(id, seeds).1.category()).collect();
+        if let Some(c) = categories.iter().find(|c| !known.contains(c)) {
+            return Err(twincal::error::Error::Invalid(format!("unknown --categories entry '{c}': known are {}", known.join(", "))));
+        }
+        Ok(DetectionConfig { seeds, twincal_version: env!("CARGO_PKG_VERSION").into(), categories: categories.to_vec() })
+    }
+
+    /// The variant ids (see [`Variant::of`]) of the work items, in order.
+    fn ids(&self) -> Vec<u64> {
+        (0..VARIANTS * self.seeds).filter(|&id| self.categories.is_empty() || self.categories.contains(&Variant::of(id, self.seeds).1.category())).collect()
+    }
+}
+
+impl crate::shard::Config for DetectionConfig {
+    const KIND: &'static str = "bench-diagnose";
+    fn hash(&self) -> String {
+        twincal::dataset::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
+    }
+    /// Item `id` (see [`Variant::of`]): per seed, the hidden-effect and the clean scenario, then
+    /// the realistic acquisitions (0.1° and 0.01° logging; clean, an effect above the floor, an
+    /// effect far below it).
+    fn items(&self) -> u64 {
+        self.ids().len() as u64
+    }
+}
+
+/// Work items per seed: hidden, clean, and 2 loggings × (clean, above, below).
+const VARIANTS: u64 = 8;
+
+/// What one work item diagnoses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Variant {
+    /// One effect at 1.5–4× the reading noise, angles unrounded, Halton order.
+    Hidden,
+    /// No effect.
+    Clean,
+    /// Sweeps, angles logged at `decimals`, glitch runs; `Some(true)`: one effect above the
+    /// floor, `Some(false)`: one far below it, `None`: no effect.
+    Realistic { decimals: usize, effect: Option<bool> },
+}
+
+impl Variant {
+    /// The seed and variant of item `id`: the first `2·seeds` items are the hidden and clean
+    /// scenarios of seeds 1, 2, ... (as before realistic acquisitions were added), the rest six
+    /// realistic ones per seed.
+    fn of(id: u64, seeds: u64) -> (u64, Variant) {
+        if id < 2 * seeds {
+            return (id / 2 + 1, if id % 2 == 0 { Variant::Hidden } else { Variant::Clean });
+        }
+        let k = id - 2 * seeds;
+        let decimals = if (k % 6) < 3 { 1 } else { 2 };
+        let effect = [None, Some(true), Some(false)][(k % 3) as usize];
+        (k / 6 + 1, Variant::Realistic { decimals, effect })
+    }
+    /// The category items are counted in.
+    fn category(self) -> String {
+        match self {
+            Variant::Hidden => "hidden".into(),
+            Variant::Clean => "clean".into(),
+            Variant::Realistic { decimals, effect } => {
+                format!(
+                    "realistic-{decimals}-{}",
+                    match effect {
+                        None => "clean",
+                        Some(true) => "above",
+                        Some(false) => "below",
+                    }
+                )
+            }
+        }
+    }
+}
+
+/// One diagnosed scenario of the detection part.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct DetectionItem {
+    /// The line printed for it (every hidden effect; a clean scenario's false alarm).
+    pub line: Option<String>,
+    pub detected: bool,
+    pub sized: bool,
+    pub alarm: bool,
+    /// `hidden`, `clean` or `realistic-<decimals>-<clean|above|below>`.
+    #[serde(default)]
+    pub category: String,
+    /// The size within 3 standard uncertainties (not the 30 % band).
+    #[serde(default)]
+    pub within_3_sigma: bool,
+    /// The data's floor of a realistic item (reading noise and angle logging), mm.
+    #[serde(default)]
+    pub floor_mm: f64,
+    /// A scenario with one hidden effect whose diagnosis names more than one cause: a cause
+    /// that is not there.
+    #[serde(default)]
+    pub extra: bool,
+}
+
+fn strip(g: &Generated) -> Dataset {
+    use twincal::dataset::Row;
+    Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: g.dataset.source.clone() }
+}
+
+fn options() -> Result<twincal::diagnose::DiagnoseOptions> {
+    Ok(twincal::diagnose::DiagnoseOptions::new(twincal::calib::run::ModelSpec::parse("irb120", "hayati")?))
+}
+
+/// A hidden effect diagnosed: its line, whether it was named first, sized (3σ or 30 %), and
+/// within 3σ.
+fn judge_hidden(seed: u64, h: &twincal::diagnose::hidden::Hidden, d: &twincal::diagnose::Diagnosis) -> (String, bool, bool, bool) {
+    let first = d.causes.first();
+    let named = first.is_some_and(|c| h.named_by(c));
+    let sized = first.is_some_and(|c| named && h.sized_by(c));
+    let within = first.is_some_and(|c| named && (c.magnitude - h.magnitude).abs() <= 3.0 * c.uncertainty);
+    let line = format!(
+        "    seed {seed:3}: hidden {}{} {:.4} ({:.2}x) -> {}{}",
+        h.cause.name(),
+        h.joint.map(|j| format!("[j{}]", j + 1)).unwrap_or_default(),
+        h.magnitude,
+        h.factor,
+        d.verdict,
+        first.map(|c| format!(" {:.4} ± {:.4} {}", c.magnitude, c.uncertainty, c.unit)).unwrap_or_default()
+    );
+    (line, named, sized, within)
+}
+
+/// Work item `id` of the detection part: a scenario generated from its seed and diagnosed.
+pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
+    use twincal::diagnose::diagnose;
+    use twincal::diagnose::hidden::{clean, hidden, hidden_realistic, realistic};
+    let (seed, variant) = Variant::of(id, seeds);
+    let opts = options()?;
+    let category = variant.category();
+    let item = |line, detected, sized, alarm, within_3_sigma, floor_mm| DetectionItem {
+        line,
+        detected,
+        sized,
+        alarm,
+        category: category.clone(),
+        within_3_sigma,
+        extra: false,
+        floor_mm,
+    };
+    match variant {
+        Variant::Hidden => {
+            let (s, robot, truth) = hidden(seed, 1)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let (line, named, sized, within) = judge_hidden(seed, &truth[0], &d);
+            Ok(DetectionItem { extra: d.causes.len() > 1, ..item(Some(line), named, sized, false, within, 0.0) })
+        }
+        Variant::Clean => {
+            let (s, robot) = clean(10_000 + seed)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let alarm = !d.causes.is_empty();
+            let line = alarm.then(|| format!("    clean seed {}: false alarm {}", 10_000 + seed, d.verdict));
+            Ok(item(line, false, false, alarm, false, 0.0))
+        }
+        Variant::Realistic { decimals, effect: None } => {
+            let (s, robot) = realistic(20_000 + seed, decimals)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let alarm = !d.causes.is_empty();
+            let line = alarm.then(|| format!("    realistic clean seed {} ({} deg): false alarm {}", 20_000 + seed, 10f64.powi(-(decimals as i32)), d.verdict));
+            Ok(item(line, false, false, alarm, false, d.noise_floor_mm))
+        }
+        Variant::Realistic { decimals, effect: Some(above) } => {
+            let factors = if above { 1.5..4.0 } else { 0.05..0.2 };
+            let (s, robot, truth, floor) = hidden_realistic(30_000 + seed, decimals, factors)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let (line, named, sized, within) = judge_hidden(30_000 + seed, &truth[0], &d);
+            let line = format!("{line} [{} deg logging, {}]", 10f64.powi(-(decimals as i32)), if above { "above the floor" } else { "below the floor" });
+            let named_any = !d.causes.is_empty();
+            // Below the floor: a miss is right; naming anything is the alarm.
+            let extra = above && d.causes.len() > 1;
+            let line = if above { (!named || !within || extra).then_some(line) } else { named_any.then_some(line) };
+            Ok(DetectionItem { extra, ..item(line, named, sized, !above && named_any, within, floor) })
+        }
+    }
+}
+
+/// The detection part's lines and rates, from every item in order (what `bench diagnose`
+/// prints, and `reduce` the same from the shards' parts).
+pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
+    for line in items.iter().filter_map(|i| i.line.as_ref()) {
+        println!("{line}");
+    }
+    let seeds = config.seeds;
+    let of = |cat: &str| items.iter().filter(|i| i.category == cat).collect::<Vec<_>>();
+    let count = |v: &[&DetectionItem], f: fn(&DetectionItem) -> bool| v.iter().filter(|i| f(i)).count();
+    let n = seeds as f64;
+    let hidden = of("hidden");
+    let (detected, sized) = (count(&hidden, |i| i.detected), count(&hidden, |i| i.sized));
+    if !hidden.is_empty() {
+        println!(
+            "  hidden effects: {detected}/{seeds} named first with the right joint ({:.0} %, target >= 95 %), {sized}/{seeds} also sized right, {}/{seeds} name a cause not hidden",
+            100.0 * detected as f64 / n,
+            count(&hidden, |i| i.extra)
+        );
+    }
+    let clean = of("clean");
+    let alarms = count(&clean, |i| i.alarm);
+    if !clean.is_empty() {
+        println!("  clean datasets: {alarms}/{seeds} false alarms ({:.0} %, target <= 5 %)", 100.0 * alarms as f64 / n);
+    }
+    for decimals in [1usize, 2] {
+        let clean = of(&format!("realistic-{decimals}-clean"));
+        let above = of(&format!("realistic-{decimals}-above"));
+        let below = of(&format!("realistic-{decimals}-below"));
+        if clean.is_empty() && above.is_empty() && below.is_empty() {
+            continue;
+        }
+        // The generator's floor of the items with an effect; with none run, the floor the clean
+        // items' diagnoses stated.
+        let floor_of = |items: &[&DetectionItem]| items.iter().map(|i| i.floor_mm).filter(|f| *f > 0.0).collect::<Vec<f64>>();
+        let floors = if above.is_empty() && below.is_empty() { floor_of(&clean) } else { floor_of(&[&above[..], &below[..]].concat()) };
+        println!(
+            "  realistic acquisitions, angles logged at {} deg (sweeps of {}, {} glitch runs; floor {:.4} mm median):",
+            10f64.powi(-(decimals as i32)),
+            twincal::diagnose::hidden::REALISTIC_SWEEP,
+            twincal::diagnose::hidden::REALISTIC_GLITCHES.0,
+            median(&floors)
+        );
+        if !clean.is_empty() {
+            println!("    no effect: {}/{} false alarms (target 0)", count(&clean, |i| i.alarm), clean.len());
+        }
+        if !above.is_empty() {
+            println!(
+                "    one effect at 1.5-4x the floor: {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma, {}/{} name a cause not hidden",
+                count(&above, |i| i.detected),
+                above.len(),
+                count(&above, |i| i.within_3_sigma),
+                above.len(),
+                count(&above, |i| i.extra),
+                above.len()
+            );
+        }
+        if !below.is_empty() {
+            println!("    one effect at 0.05-0.2x the floor: {}/{} named anything (target 0)", count(&below, |i| i.alarm), below.len());
+        }
+    }
+}
+
+/// `twincal bench diagnose`: the 600-pose all-effects diagnosis timed (median of three, time per
+/// candidate), then `seeds` scenarios with one hidden effect (cause, joint and size from the
+/// seed) and `seeds` clean ones: detection rate (cause and joint named first, size within its
+/// uncertainty band or 30 %) and false-alarm rate. With a shard, only its detection items
+/// (the timing is a single machine's and is left out).
+pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shard::Shard>, config: &DetectionConfig) -> Result<()> {
+    use twincal::diagnose::diagnose;
+    let ids = config.ids();
+    if let Some(sh) = shard {
+        let mine: Vec<u64> = (0..ids.len() as u64).filter(|k| sh.wants(*k)).collect();
+        bar.start(mine.len() as u64, "diagnoses");
+        for k in &mine {
+            sh.append(*k, config, &detection_item(ids[*k as usize], seeds)?)?;
+            bar.inc(1);
+        }
+        bar.finish();
+        eprintln!("{}", sh.summary(mine.len()));
+        return Ok(());
+    }
+    let opts = options()?;
+    println!("diagnosis benchmark");
+    // 1. Speed on the embedded 600-pose scenario with every effect.
+    let (s, robot) = Scenario::default_embedded()?;
+    let g = run_generate(&s, &robot, &Silent)?;
+    let data = strip(&g);
+    let mut times = Vec::new();
+    let mut per_candidate = Vec::new();
+    let mut evaluated = 0;
+    let mut verdict = String::new();
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        let (d, _) = diagnose(&data, &opts, &|_| {})?;
+        times.push(t0.elapsed().as_secs_f64());
+        let c: Vec<f64> = d.steps.iter().flat_map(|st| st.candidates.iter().map(|c| c.seconds)).collect();
+        evaluated = c.len();
+        per_candidate.push(median(&c));
+        verdict = d.verdict.clone();
+    }
+    println!(
+        "  {} poses, every effect, {} threads: {:.2} s median (target < 10 s); {evaluated} candidate fits, {:.0} ms each (median, one thread each); found {verdict}",
+        data.rows.len(),
+        rayon::current_num_threads(),
+        median(&times),
+        median(&per_candidate) * 1e3
+    );
+    // 2. What the logging error's noise model costs: a realistic acquisition (sweeps, angles
+    // logged at 0.1°) diagnosed with and without it, median of three each.
+    let (s, robot) = twincal::diagnose::hidden::realistic(20_001, 1)?;
+    let data = strip(&run_generate(&s, &robot, &Silent)?);
+    let timed = |choice: twincal::calib::problem::noise_model::NoiseChoice| -> Result<(f64, String)> {
+        let opts = twincal::diagnose::DiagnoseOptions { noise_model: choice, ..options()? };
+        let mut t = Vec::new();
+        let mut verdict = String::new();
+        for _ in 0..3 {
+            let t0 = Instant::now();
+            verdict = diagnose(&data, &opts, &|_| {})?.0.verdict;
+            t.push(t0.elapsed().as_secs_f64());
+        }
+        Ok((median(&t), verdict))
+    };
+    let ((on, v_on), (off, v_off)) =
+        (timed(twincal::calib::problem::noise_model::NoiseChoice::Auto)?, timed(twincal::calib::problem::noise_model::NoiseChoice::Off)?);
+    println!(
+        "  the logging noise model's cost: {} poses in sweeps, angles logged at 0.1 deg: {on:.2} s with it, {off:.2} s without (ratio {:.2}, medians of 3); found {v_on} / {v_off}",
+        data.rows.len(),
+        on / off
+    );
+    // 3. Detection and false alarms.
+    bar.start(ids.len() as u64, "diagnoses");
+    let mut items = Vec::new();
+    for &id in &ids {
+        items.push(detection_item(id, seeds)?);
+        bar.inc(1);
+    }
+    bar.finish();
+    print_detection(config, &items);
+    Ok(())
+}
+
+/// `twincal reduce` of `bench diagnose` shards: the detection part's lines and rates.
+pub fn reduce_detection(parts: crate::shard::Parts, quiet: bool) -> Result<()> {
+    let files = parts.files;
+    let (config, items, duplicates) = parts.gather::<DetectionConfig, DetectionItem>()?;
+    if !quiet {
+        eprintln!("reduced {files} parts: {} diagnoses of bench diagnose (detection, {} seeds), {duplicates} duplicates dropped", items.len(), config.seeds);
+    }
+    println!("diagnosis benchmark: detection and false alarms (sharded; the timing is one machine's: run bench diagnose unsharded)");
+    print_detection(&config, &items);
+    Ok(())
+}

@@ -1,0 +1,160 @@
+//! The command line: its commands and options (what `twincal --help` shows), and the run of
+//! one parsed command. `main` adds the process's concerns (signals, exit codes); the Python
+//! package runs the same commands in its process.
+
+use crate::commands::{self, AngleArg, BenchTarget, StudyTarget};
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(name = "twincal", version, about = "Digital twin and calibration of serial arms measured with a draw-wire sensor")]
+pub struct Cli {
+    /// No progress bars or summaries on stderr (warnings and errors are still printed).
+    #[arg(long, global = true)]
+    pub quiet: bool,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Simulate a scenario and write DIR/dataset.csv and DIR/truth.json.
+    Generate {
+        /// Scenario TOML; default: the embedded irb120_evo_nph scenario.
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Output folder.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Also write a Rerun recording of the arm, cable and tool points.
+        #[arg(long)]
+        rrd: Option<PathBuf>,
+        /// Override the scenario's seed.
+        #[arg(long, allow_negative_numbers = true)]
+        seed: Option<u64>,
+    },
+    /// Calibrate a model on measured data (dataset folder, CSV or xlsx).
+    Calibrate(commands::CalibrateArgs),
+    /// From measured data: what the geometric model gets wrong, which effect causes it, how big
+    /// it is and how much better the extended model predicts unseen rows.
+    Diagnose(commands::DiagnoseArgs),
+    /// The twin driven through a measured acquisition: per row its reading beside the measured
+    /// one, and how far apart they are (what the simulation gets wrong).
+    Replay(commands::ReplayArgs),
+    /// Predict readings (cable lengths or tracker points) with a calibrated model.
+    Predict {
+        /// A result.json written by `calibrate`.
+        #[arg(long)]
+        model: PathBuf,
+        /// Joint angles, with or without measured lengths (dataset folder, CSV or xlsx).
+        #[arg(long)]
+        data: PathBuf,
+        /// Unit of the joint angles in the data.
+        #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+        angles: AngleArg,
+        #[command(flatten)]
+        reading: commands::ReadingArgs,
+        #[arg(long, default_value = "predictions.csv")]
+        out: PathBuf,
+    },
+    /// Inverse kinematics on a calibrated model (geometry + corrector), per-target status; on a
+    /// twin dataset also the true tool-point error of each solution against nominal and floor.
+    Ik(crate::commands::ik::IkArgs),
+    /// Compare methods over seeds: accuracy and time tables with Wilcoxon signed-rank tests.
+    Compare(commands::CompareArgs),
+    /// Join the partial files of `--shard i/N` runs (compare, study hold, bench diagnose): every
+    /// item exactly once, then the same table (and compare's --out and --rrd, a hold study's
+    /// --rrd) as one run.
+    Reduce {
+        /// The shards' partial files (JSONL).
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Also write the tables as JSON.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Rerun recording of the accuracy table and the per-seed spread of each method.
+        #[arg(long)]
+        rrd: Option<PathBuf>,
+    },
+    /// Benchmarks: `twin` (settled poses per second, rapier against the quasi-static model),
+    /// `calib` (LM speed, accuracy over seeds, the full comparison, HSR-RobotCali when present),
+    /// `diagnose`, `dsade` (Evo-NPH speed, ablations, DE engines; --seeds, default 30), `ik`,
+    /// `awnn` (PSO-EKF-AWNN: speed, accuracy, data efficiency, sensitivity), `real` (the real
+    /// datasets in ../shared/data), `diagnose-ur10` (diagnose on the UR10's 11 911-row series,
+    /// --repeat runs, against 60 s) or `replay` (1 000 rows replayed through the scenario's
+    /// acquisition against 5 s, the identified twin's cost against 1 s).
+    Bench {
+        #[arg(value_enum, default_value_t = BenchTarget::Twin)]
+        what: BenchTarget,
+        /// twin, replay: scenario TOML (default: the embedded one).
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Repetitions, 1 to 1000 (the median is reported).
+        #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
+        repeat: usize,
+        /// calib: number of seeds for the accuracy targets, 1 to 1000 (default 20).
+        #[arg(long, allow_negative_numbers = true)]
+        seeds: Option<u64>,
+        /// calib: also time `compare` over 30 seeds with every method.
+        #[arg(long)]
+        compare: bool,
+        /// diagnose: only these kinds of scenario (hidden, clean, realistic-1-clean,
+        /// realistic-1-above, realistic-1-below, and the same with 2 for 0.01 deg logging).
+        #[arg(long, value_delimiter = ',')]
+        categories: Vec<String>,
+        #[command(flatten)]
+        shard: commands::ShardArgs,
+    },
+    /// Studies of the acquisition protocol on the simulated tour: `hold` (bias and spread of the
+    /// readings against the hold time and the approach speed).
+    Study {
+        #[arg(value_enum)]
+        what: StudyTarget,
+        /// Scenario TOML; default: the embedded irb120_evo_nph scenario.
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Hold times, s.
+        #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1,0.2,0.5,1,2", allow_negative_numbers = true)]
+        holds: Vec<f64>,
+        /// Approach speeds, fractions of the URDF speed limits.
+        #[arg(long, value_delimiter = ',', default_value = "0.05,0.2,0.5", allow_negative_numbers = true)]
+        speeds: Vec<f64>,
+        /// The first this many poses of the scenario's tour [default: 60].
+        #[arg(long, allow_negative_numbers = true)]
+        poses: Option<usize>,
+        /// Rerun recording of bias and spread against the hold time.
+        #[arg(long)]
+        rrd: Option<PathBuf>,
+        #[command(flatten)]
+        shard: commands::ShardArgs,
+    },
+}
+
+/// Runs one parsed command line (what `twincal ARGS` does, but for the process's exit code and
+/// signal handling, which are `main`'s).
+pub fn run(args: Cli) -> twincal::Result<()> {
+    let quiet = args.quiet;
+    match args.command {
+        Command::Generate { scenario, out, rrd, seed } => commands::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
+        Command::Calibrate(a) => commands::calibrate(&a, args.quiet),
+        Command::Diagnose(a) => commands::diagnose(&a, args.quiet),
+        Command::Predict { model, data, angles, reading, out } => commands::predict(&model, &data, angles, &reading, &out, args.quiet),
+        Command::Compare(a) => commands::compare(&a, args.quiet),
+        Command::Reduce { parts, out, rrd } => commands::reduce(&parts, out.as_deref(), rrd.as_deref(), args.quiet),
+        Command::Replay(a) => commands::replay(&a, args.quiet),
+        Command::Ik(a) => crate::commands::ik::ik(&a, args.quiet),
+        Command::Study { what, scenario, holds, speeds, poses, rrd, shard } => commands::study(
+            what,
+            scenario.as_deref(),
+            &twincal::sim::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses: poses.unwrap_or(twincal::sim::study::DEFAULT_POSES) },
+            poses.is_some(),
+            rrd.as_deref(),
+            shard.shard.as_deref(),
+            shard.shard_out.as_deref(),
+            args.quiet,
+        ),
+        Command::Bench { what, scenario, repeat, seeds, compare, categories, shard } => {
+            commands::bench_command(what, scenario.as_deref(), repeat, seeds, compare, &categories, &shard, quiet)
+        }
+    }
+}

@@ -1,0 +1,415 @@
+//! `twincal replay`: the twin driven through a measured acquisition, row by row, and what it
+//! reads beside what was measured: the residual field real − twin is what the simulation gets
+//! wrong, before any calibration.
+
+use super::*;
+use serde::Serialize;
+use twincal::dataset::Split;
+use twincal::measurement::Measurement;
+use twincal::stats::metrics::ErrorStats;
+
+/// Arguments of `twincal replay` (the field docs are its `--help`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// Measured data (dataset folder, CSV or xlsx): q1..qN and the instrument's reading, in
+    /// acquisition order; a `t` column stamps the twin's rows with the measured times.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Unit of the joint angles in the data.
+    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
+    pub angles: AngleArg,
+    #[command(flatten)]
+    pub reading: ReadingArgs,
+    /// The twin: a scenario (the nominal robot's, or one `calibrate`/`diagnose --scenario-out`
+    /// identified). Its instrument must be the data's.
+    #[arg(long)]
+    pub scenario: PathBuf,
+    /// Judge the twin on the rows `calibrate --test-fraction F --seed S` holds out (the rows an
+    /// identification with the same flags never saw); default: the data's split column, else
+    /// every row.
+    #[arg(long, allow_negative_numbers = true)]
+    pub test_fraction: Option<f64>,
+    /// How --test-fraction draws its rows: blocks or rows (as `calibrate --split-by`).
+    #[arg(long, default_value = "blocks")]
+    pub split_by: String,
+    /// Seed of that split.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
+    pub seed: u64,
+    /// Output folder: replay.csv (per row: measured, twin, twin without noise, residual),
+    /// replay.json (the summary) and twin/ (the twin's own dataset.csv and truth.json at the
+    /// measured poses, the judged rows marked test: data to run the methods on beside the real
+    /// ones).
+    #[arg(long, default_value = "replay")]
+    pub out: PathBuf,
+    /// Rerun recording: the tool points coloured by the twin's noise and by measured − twin,
+    /// histograms, the numbers.
+    #[arg(long)]
+    pub rrd: Option<PathBuf>,
+    /// Self-contained HTML report: the numbers, measured − twin against the joint angles,
+    /// reading, time and temperature beside the twin's own noise.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+}
+
+/// One set of rows' fidelity.
+#[derive(Clone, Debug, Serialize)]
+pub struct Fidelity {
+    /// Measured − the twin's noise-free reading, per value (mm).
+    pub residual: ErrorStats,
+    /// Position error |Δp| per row of a tracker's point (mm).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position: Option<ErrorStats>,
+    /// Rows with a value beyond the outlier rule (6 robust standard deviations of these
+    /// residuals around their median, as calibrate's screen): glitches no twin reproduces
+    /// row for row.
+    pub outlier_rows: usize,
+    /// The residuals of the other rows.
+    pub inliers: ErrorStats,
+}
+
+/// `replay.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReplaySummary {
+    pub twincal_version: String,
+    pub data: String,
+    pub scenario: String,
+    pub measurement: String,
+    pub rows: usize,
+    pub replayed: usize,
+    /// Rows (1-based) the twin could not read, with the reason.
+    pub rejected: Vec<(usize, String)>,
+    /// Which rows `judged` covers.
+    pub judged_on: String,
+    /// Every replayed row.
+    pub all: Fidelity,
+    /// The rows judged (held out from an identification), when there is a split.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub judged: Option<Fidelity>,
+    /// The twin's own reading noise: its reading − its noise-free reading, RMS per value (mm).
+    pub twin_noise_rms_mm: f64,
+    /// Two-sample Kolmogorov–Smirnov test of the judged rows' residuals (measured − twin
+    /// without noise) against the twin's own noise (its reading − its noise-free reading):
+    /// alike when the twin is right and its noise is the data's.
+    pub ks_distance: f64,
+    pub ks_p_value: f64,
+    /// The real rows and the twin's dataset (`twin/`) calibrated alike (LM, the twin's robot as
+    /// the nominal model), judged on the same held-out rows: does the twin's data look like the
+    /// real data to a calibration?
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub after_calibration: Option<AfterCalibration>,
+    pub seconds: f64,
+}
+
+/// See [`ReplaySummary::after_calibration`].
+#[derive(Clone, Debug, Serialize)]
+pub struct AfterCalibration {
+    pub model: String,
+    /// Held-out residuals after calibration, per value, of the real rows and of the twin's.
+    pub real: ErrorStats,
+    pub twin: ErrorStats,
+    /// Two-sample Kolmogorov–Smirnov test of the two sets of held-out residuals.
+    pub ks_distance: f64,
+    pub ks_p_value: f64,
+}
+
+/// Calibrates the real rows and the twin's rows alike and compares their held-out residuals;
+/// `None` without held-out rows, or when either calibration fails.
+fn after_calibration(
+    data: &Dataset,
+    twin: &Dataset,
+    robot: &twincal::robot::Robot,
+    test_fraction: Option<f64>,
+    seed: u64,
+    by: twincal::calib::run::SplitBy,
+) -> Option<AfterCalibration> {
+    use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
+    let run = |d: &Dataset, f: Option<f64>, p: &str| {
+        let mut o = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: p.into() }, Method::Lm);
+        (o.test_fraction, o.seed, o.split_by) = (f, seed, by);
+        calibrate(d, None, &o).ok()
+    };
+    let pair = |p: &str| Some((run(data, test_fraction, p)?, run(twin, None, p)?));
+    let (model, (real, tw)) = match pair("hayati") {
+        Some(r) => ("hayati", r),
+        None => ("frame", pair("frame")?),
+    };
+    if real.test_residuals_mm.is_empty() || tw.test_residuals_mm.is_empty() {
+        return None;
+    }
+    let (ks_distance, ks_p_value) = twincal::stats::ks_two_sample(&real.test_residuals_mm, &tw.test_residuals_mm);
+    Some(AfterCalibration {
+        model: format!("lm, {} ({model})", robot.name),
+        real: ErrorStats::of(&real.test_residuals_mm),
+        twin: ErrorStats::of(&tw.test_residuals_mm),
+        ks_distance,
+        ks_p_value,
+    })
+}
+
+pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
+    let t0 = Instant::now();
+    if let Some(f) = a.test_fraction {
+        if !(f > 0.0 && f < 1.0) {
+            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
+        }
+    }
+    let split_by: twincal::calib::run::SplitBy = a.split_by.parse()?;
+    if a.out.exists() && !a.out.is_dir() {
+        return Err(Error::Invalid(format!("--out {} is a file; replay writes a folder (replay.csv, replay.json)", a.out.display())));
+    }
+    let (csv_path, json_path) = (a.out.join("replay.csv"), a.out.join("replay.json"));
+    let twin_dir = a.out.join("twin");
+    let (twin_csv, twin_truth) = (twin_dir.join(twincal::dataset::DATASET_FILE), twin_dir.join(twincal::dataset::truth::TRUTH_FILE));
+    let data_files = data_inputs(&a.data);
+    let (mut s, robot) = Scenario::load(&a.scenario)?;
+    let mut inputs: Vec<(&str, PathBuf)> = data_files.iter().map(|p| ("--data", p.clone())).collect();
+    inputs.extend(scenario_inputs(Some(&a.scenario), &s));
+    let mut outs: Vec<(&str, &Path)> =
+        vec![("--out", csv_path.as_path()), ("--out", json_path.as_path()), ("--out", twin_csv.as_path()), ("--out", twin_truth.as_path())];
+    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+    check_outputs(&inputs, &outs)?;
+    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings to replay against"))?;
+    let twin_m = s.tracker.as_ref().map_or(Measurement::Length, twincal::sim::instrument::Tracker::measurement);
+    if m != twin_m {
+        return Err(Error::Invalid(format!(
+            "the data hold a {} ({}), the scenario's twin reads a {} ({}): replay needs the same instrument{}",
+            m.def().describe(),
+            m.def().file_columns().join(", "),
+            twin_m.def().describe(),
+            twin_m.def().file_columns().join(", "),
+            if m == Measurement::Pose && twin_m == Measurement::Point { " (read the file with --measurement point)" } else { "" }
+        )));
+    }
+    data.require_joints(robot.dof(), &format!("the scenario's robot '{}'", robot.name))?;
+    let n = data.rows.len();
+    // The twin reads every row (no split of its own), at the measured poses and, where the data
+    // have them, the measured times.
+    s.sampling.test = 0;
+    s.sampling.poses = n;
+    let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|v| v.to_radians()).collect()).collect();
+    let times: Option<Vec<f64>> = data.rows.iter().map(|r| r.t_s).collect();
+    let mut g = twincal::sim::generate::generate_at(&s, &robot, poses.clone(), times.clone(), progress(quiet).as_ref())?;
+    // The twin's own dataset: where the scenario logs the angles at a resolution, the twin's arm
+    // stands somewhere within the logging step of each measured angle (as the real one did),
+    // and its log reads the measured angle; the fidelity above is judged at the logged angles.
+    let mut jittered_g = match s.sampling.logged_decimals {
+        Some(dec) => {
+            use rand::{Rng, SeedableRng};
+            let step = 10f64.powi(-(dec as i32));
+            let jittered = poses
+                .iter()
+                .enumerate()
+                .map(|(i, q)| {
+                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(twincal::sim::scenario::stream_seed(
+                        s.seed,
+                        twincal::sim::scenario::Stream::LoggedAngle,
+                        i as u64,
+                    ));
+                    q.iter().map(|v| v + (rng.random::<f64>() - 0.5) * step.to_radians()).collect()
+                })
+                .collect();
+            Some(twincal::sim::generate::generate_at(&s, &robot, jittered, times, &twincal::sim::generate::Silent)?)
+        }
+        None => None,
+    };
+
+    // Per data row: the twin's reading and its noise-free reading (model values, mm).
+    let d = m.dim();
+    let mut twin: Vec<Option<(Vec<f64>, Vec<f64>)>> = vec![None; n];
+    for (row, p) in g.dataset.rows.iter().zip(&g.truth.poses) {
+        let ideal = match m {
+            Measurement::Length => vec![p.length_noise_free_mm],
+            Measurement::Point => p.point_true_mm.map(|v| v.to_vec()).unwrap_or_default(),
+            Measurement::Pose => p.pose_true.map(|v| m.values_of_file(&v)).unwrap_or_default(),
+        };
+        if let (Some(read), true) = (row.values_mm(), ideal.len() == d) {
+            twin[p.index] = Some((read, ideal));
+        }
+    }
+    let rejected: Vec<(usize, String)> = g.truth.rejected.iter().map(|r| (r.index + 1, r.reason.clone())).collect();
+    let (judged_idx, judged_on): (Option<Vec<usize>>, String) = match a.test_fraction {
+        Some(f) => {
+            let (_, test) = twincal::calib::run::split_rows(&data, Some(f), a.seed, split_by)?;
+            (Some(test), format!("the rows --test-fraction {f} --seed {} holds out (as calibrate and diagnose draw them)", a.seed))
+        }
+        None if data.rows.iter().any(|r| r.split == Some(Split::Test)) => (Some(data.test_indices()), "the data's test rows (split column)".into()),
+        None => (None, "every row (no split: pass --test-fraction to judge on rows an identification never saw)".into()),
+    };
+    let measured: Vec<Vec<f64>> = data.rows.iter().map(|r| r.values_mm().unwrap_or_default()).collect();
+    let residual = |i: usize| -> Option<Vec<f64>> { twin[i].as_ref().map(|(_, ideal)| measured[i].iter().zip(ideal).map(|(a, b)| a - b).collect()) };
+    let fidelity = |rows: &[usize]| -> Fidelity {
+        let r: Vec<Vec<f64>> = rows.iter().filter_map(|&i| residual(i)).collect();
+        let flat: Vec<f64> = r.iter().flatten().copied().collect();
+        let (med, scale) = twincal::stats::robust_scale(&flat);
+        let k = twincal::calib::run::DEFAULT_OUTLIER_K;
+        let inlier = |v: &Vec<f64>| v.iter().all(|x| (x - med).abs() <= k * scale);
+        Fidelity {
+            residual: ErrorStats::of(&flat),
+            position: (d > 1).then(|| ErrorStats::of(&r.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect::<Vec<_>>())),
+            outlier_rows: r.iter().filter(|v| !inlier(v)).count(),
+            inliers: ErrorStats::of(&r.iter().filter(|v| inlier(v)).flatten().copied().collect::<Vec<_>>()),
+        }
+    };
+    let all_idx: Vec<usize> = (0..n).collect();
+    let judged_rows = judged_idx.as_deref().unwrap_or(&all_idx);
+    let twin_noise: Vec<f64> = twin.iter().flatten().flat_map(|(read, ideal)| read.iter().zip(ideal).map(|(a, b)| a - b)).collect();
+    let judged_res: Vec<f64> = judged_rows.iter().filter_map(|&i| residual(i)).flatten().collect();
+    let (ks_distance, ks_p_value) = twincal::stats::ks_two_sample(&judged_res, &twin_noise);
+    let mut summary = ReplaySummary {
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+        data: data.source.clone(),
+        scenario: a.scenario.display().to_string(),
+        measurement: m.name().into(),
+        rows: n,
+        replayed: twin.iter().filter(|t| t.is_some()).count(),
+        rejected,
+        judged_on,
+        all: fidelity(&all_idx),
+        judged: judged_idx.as_ref().map(|idx| fidelity(idx)),
+        twin_noise_rms_mm: ErrorStats::of(&twin_noise).rmse,
+        ks_distance,
+        ks_p_value,
+        after_calibration: None,
+        seconds: 0.0,
+    };
+
+    // replay.csv: the row, its angles and time, then per value the measured, the twin's, the
+    // twin's noise-free reading and measured − noise-free.
+    let cols = m.def().columns();
+    let judged_set: std::collections::BTreeSet<usize> = judged_idx.iter().flatten().copied().collect();
+    let mut text = String::from("row");
+    (1..=robot.dof()).for_each(|j| text += &format!(",q{j}"));
+    text += ",t,judged";
+    for suffix in ["", "_twin", "_twin_ideal", "_residual"] {
+        cols.iter().for_each(|c| text += &format!(",{c}{suffix}"));
+    }
+    text.push('\n');
+    for (i, row) in data.rows.iter().enumerate() {
+        text += &(i + 1).to_string();
+        row.q_deg.iter().for_each(|q| text += &format!(",{q}"));
+        text += &format!(",{},{}", row.t_s.map_or(String::new(), |t| t.to_string()), u8::from(judged_idx.is_none() || judged_set.contains(&i)));
+        let blank = |text: &mut String| (0..d).for_each(|_| text.push(','));
+        measured[i].iter().for_each(|v| text += &format!(",{v}"));
+        match (&twin[i], residual(i)) {
+            (Some((read, ideal)), Some(r)) => {
+                for v in read.iter().chain(ideal).chain(&r) {
+                    text += &format!(",{v}");
+                }
+            }
+            _ => (0..3).for_each(|_| blank(&mut text)),
+        }
+        text.push('\n');
+    }
+    let figs = (a.rrd.is_some() || a.report.is_some()).then(|| figures(&summary, &data, &g, &twin, &measured, judged_idx.as_deref(), &s, m));
+    // The twin's dataset: the judged rows are its test rows.
+    let twin_data = match jittered_g.as_mut() {
+        Some(j) => j,
+        None => &mut g,
+    };
+    if judged_idx.is_some() {
+        for (row, p) in twin_data.dataset.rows.iter_mut().zip(twin_data.truth.poses.iter_mut()) {
+            let split = if judged_set.contains(&p.index) { Split::Test } else { Split::Train };
+            (row.split, p.split) = (Some(split), split);
+        }
+    }
+    summary.after_calibration = judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.test_fraction, a.seed, split_by));
+    summary.seconds = t0.elapsed().as_secs_f64();
+    let mut outputs = OutputSet::new();
+    if let Some(f) = &figs {
+        if let Some(p) = &a.rrd {
+            crate::viz::scenes::record_replay(f, &mut outputs, p)?;
+        }
+        if let Some(p) = &a.report {
+            outputs.write(p, twincal::report::html::replay_page(f).as_bytes())?;
+        }
+    }
+    twincal::sim::generate::stage_outputs(twin_data, &twin_dir, &mut outputs)?;
+    outputs.write(&csv_path, text.as_bytes())?;
+    outputs.write_json(&json_path, &summary)?;
+    outputs.commit()?;
+    if !quiet {
+        print_summary(&summary, &a.out);
+    }
+    for (row, why) in summary.rejected.iter().take(3) {
+        eprintln!("warning: row {row} was not replayed: {why}");
+    }
+    Ok(())
+}
+
+/// The report's and the recording's figures, over the replayed rows.
+#[allow(clippy::too_many_arguments)]
+fn figures(
+    summary: &ReplaySummary,
+    data: &Dataset,
+    g: &twincal::sim::generate::Generated,
+    twin: &[Option<(Vec<f64>, Vec<f64>)>],
+    measured: &[Vec<f64>],
+    judged: Option<&[usize]>,
+    s: &Scenario,
+    m: Measurement,
+) -> twincal::report::ReplayFigures {
+    let rows: Vec<usize> = (0..data.rows.len()).filter(|&i| twin[i].is_some()).collect();
+    let tool_of: std::collections::BTreeMap<usize, [f64; 3]> = g.truth.poses.iter().map(|p| (p.index, p.tool_mm)).collect();
+    let (mut noise, mut residual) = (Vec::new(), Vec::new());
+    for &i in &rows {
+        let (read, ideal) = twin[i].as_ref().expect("replayed rows");
+        noise.extend(read.iter().zip(ideal).map(|(a, b)| a - b));
+        residual.extend(measured[i].iter().zip(ideal).map(|(a, b)| a - b));
+    }
+    let kept = Dataset { rows: rows.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
+    let placement = twincal::sim::instrument::placement(&s.sensor, s.tracker.as_ref());
+    let line = |f: &Fidelity| Some(f.residual);
+    let mut stats = vec![("every row: measured − twin".to_string(), line(&summary.all)), ("every row, no outliers".to_string(), Some(summary.all.inliers))];
+    if let Some(j) = &summary.judged {
+        stats.push(("judged rows: measured − twin".into(), line(j)));
+        stats.push(("judged rows, no outliers".into(), Some(j.inliers)));
+    }
+    twincal::report::ReplayFigures {
+        title: format!("Replay of {} through {}", summary.data, summary.scenario),
+        measurement: m,
+        judged_on: format!("Judged on {}; {} of {} rows replayed.", summary.judged_on, summary.replayed, summary.rows),
+        stats,
+        ks_line: format!(
+            "The twin's own noise: {:.4} mm RMS. Judged residuals against it: Kolmogorov–Smirnov D {:.3}, p {:.2e}.",
+            summary.twin_noise_rms_mm, summary.ks_distance, summary.ks_p_value
+        ),
+        judged: rows.iter().map(|i| judged.is_none_or(|j| j.contains(i))).collect(),
+        noise_mm: noise,
+        residual_mm: residual,
+        tools_mm: rows.iter().map(|i| tool_of.get(i).copied().unwrap_or([0.0; 3])).collect(),
+        instrument: twincal::report::InstrumentPose::of(&placement),
+        features: twincal::report::features(&kept),
+    }
+}
+
+fn print_summary(s: &ReplaySummary, out: &Path) {
+    eprintln!("replay of {} ({} rows, {} replayed) through {} in {:.2} s", s.data, s.rows, s.replayed, s.scenario, s.seconds);
+    let line = |label: &str, f: &Fidelity| {
+        let pos = f.position.as_ref().map_or(String::new(), |p| format!("; |Δp| mean {:.4} / RMS {:.4} / MAX {:.4} mm", p.mae, p.rmse, p.max));
+        eprintln!(
+            "  {label:<10} measured − twin: RMSE {:.4} mm, mean {:+.4} mm, MAX {:.4} mm over {} values{pos}",
+            f.residual.rmse, f.residual.mean, f.residual.max, f.residual.n
+        );
+        if f.outlier_rows > 0 {
+            eprintln!("  {:<10} without {} outlier rows (beyond 6 robust sd): RMSE {:.4} mm, MAX {:.4} mm", "", f.outlier_rows, f.inliers.rmse, f.inliers.max);
+        }
+    };
+    line("all rows", &s.all);
+    if let Some(j) = &s.judged {
+        line("judged", j);
+    }
+    eprintln!("  judged on {}", s.judged_on);
+    eprintln!(
+        "  the twin's own noise {:.4} mm RMS; residuals against it: Kolmogorov–Smirnov D {:.3} (p {:.2e})",
+        s.twin_noise_rms_mm, s.ks_distance, s.ks_p_value
+    );
+    if let Some(c) = &s.after_calibration {
+        eprintln!(
+            "  calibrated alike ({}), held-out residuals: real {:.4} mm RMS, the twin's data {:.4} mm; Kolmogorov–Smirnov D {:.3} (p {:.2e})",
+            c.model, c.real.rmse, c.twin.rmse, c.ks_distance, c.ks_p_value
+        );
+    }
+    eprintln!("  wrote {}", out.display());
+}

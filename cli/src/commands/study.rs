@@ -1,0 +1,158 @@
+//! `twincal study`: hold-time and posture studies on the twin.
+
+use super::*;
+
+/// `twincal study` subjects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum StudyTarget {
+    /// Bias and spread of the readings against the hold time and the approach speed.
+    Hold,
+}
+
+/// What a hold study is over: every shard of one study holds the same (its hash ties them).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct HoldConfig {
+    pub scenario: String,
+    /// SHA-256 of the scenario and robot as loaded (what the results depend on).
+    pub scenario_sha256: String,
+    pub holds_s: Vec<f64>,
+    pub speed_fractions: Vec<f64>,
+    pub poses: usize,
+    /// The lines above the table (the scenario's gate and noise).
+    pub header: Vec<String>,
+    /// Averaged reading noise, mm (the recording's reference line).
+    pub floor_mm: f64,
+    pub twincal_version: String,
+}
+
+impl crate::shard::Config for HoldConfig {
+    const KIND: &'static str = "study-hold";
+    fn hash(&self) -> String {
+        twincal::dataset::truth::sha256_hex(serde_json::to_string(self).unwrap_or_default().as_bytes())
+    }
+    fn items(&self) -> u64 {
+        (self.holds_s.len() * self.speed_fractions.len()) as u64
+    }
+}
+
+/// One finished setting of a sharded hold study.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct HoldItem {
+    pub row: twincal::sim::study::HoldStudyRow,
+}
+
+/// `twincal study hold`: the table on stdout, optionally a Rerun recording; with `shard`
+/// (`i/N`) only that shard's settings (work item `id`: speed `id / holds`, hold `id % holds`),
+/// appended to `shard_out` for `twincal reduce`. `poses_given`: whether the user chose
+/// `study.poses` (a scenario with fewer is then said).
+#[allow(clippy::too_many_arguments)]
+pub fn study(
+    what: StudyTarget,
+    scenario: Option<&Path>,
+    study: &twincal::sim::study::HoldStudy,
+    poses_given: bool,
+    rrd: Option<&Path>,
+    shard: Option<&str>,
+    shard_out: Option<&Path>,
+    quiet: bool,
+) -> Result<()> {
+    use twincal::sim::study::{hold_setting, hold_study_at, study_poses};
+    let StudyTarget::Hold = what;
+    study.validate().map_err(Error::Invalid)?;
+    let (s, robot) = load_scenario(scenario)?;
+    let read = scenario_inputs(scenario, &s);
+    if let Some(p) = rrd {
+        check_outputs(&read, &[("--rrd", p)])?;
+    }
+    if poses_given && study.poses > s.sampling.poses {
+        eprintln!("warning: --poses {}: scenario {} has {} poses; the study takes all {}", study.poses, s.name, s.sampling.poses, s.sampling.poses);
+    }
+    let poses = study_poses(&s, &robot, study)?;
+    let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    let noise = match &s.tracker {
+        // A tracker's noise grows with the distance: stated per sample, then averaged.
+        Some(t) => format!("tracker noise {} µm + {} µm/m per sample, {} samples averaged", t.noise_um, t.noise_um_per_m, s.sensor.samples),
+        None => format!("averaged reading noise {:.2} µm", floor * 1e3),
+    };
+    let config = HoldConfig {
+        scenario: s.name.clone(),
+        scenario_sha256: twincal::dataset::truth::sha256_hex(format!("{s:?}{robot:?}").as_bytes()),
+        holds_s: study.holds_s.clone(),
+        speed_fractions: study.speed_fractions.clone(),
+        poses: poses.len(),
+        header: vec![
+            format!("hold study ({}, first {} poses, readings taken even with the gate closed)", s.name, poses.len()),
+            format!(
+                "  damping ratio {}, gate: {} s windows within {} mm; {noise} (not included below)",
+                s.acquisition.damping_ratio, s.acquisition.gate_window_s, s.acquisition.gate_mm,
+            ),
+        ],
+        floor_mm: floor,
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+    };
+    let inputs: Vec<(&str, &Path)> = read.iter().map(|(o, p)| (*o, p.as_path())).collect();
+    if let Some(sh) = crate::shard::from_options(shard, shard_out, rrd.is_some(), "--rrd", &config, &inputs)? {
+        let bar = progress(quiet);
+        let mine: Vec<(u64, (f64, f64))> = study.settings().into_iter().enumerate().map(|(id, vh)| (id as u64, vh)).filter(|(id, _)| sh.wants(*id)).collect();
+        bar.start((mine.len() * poses.len()) as u64, "hold study");
+        for (id, (v, h)) in &mine {
+            sh.append(*id, &config, &HoldItem { row: hold_setting(&s, &robot, &poses, *v, *h, bar.as_ref())? })?;
+        }
+        bar.finish();
+        if !quiet {
+            eprintln!("{}", sh.summary(mine.len()));
+        }
+        return Ok(());
+    }
+    let rows = hold_study_at(&s, &robot, study, &poses, progress(quiet).as_ref())?;
+    finish_hold(&config, &rows, rrd, quiet)
+}
+
+/// The table and recording of a finished hold study: what `study hold` prints and writes, and
+/// `reduce` the same from the shards' parts.
+fn finish_hold(config: &HoldConfig, rows: &[twincal::sim::study::HoldStudyRow], rrd: Option<&Path>, quiet: bool) -> Result<()> {
+    for line in &config.header {
+        println!("{line}");
+    }
+    println!(
+        "  {:>6} {:>8} {:>10} {:>11} {:>10} {:>12} {:>11} {:>9}",
+        "speed", "hold s", "bias µm", "spread µm", "max µm", "gate closed", "gate s (med)", "s/pose"
+    );
+    for r in rows {
+        println!(
+            "  {:6.2} {:8.3} {:10.3} {:11.3} {:10.3} {:>12} {:>11} {:9.2}",
+            r.speed_fraction,
+            r.hold_s,
+            r.bias_mm * 1e3,
+            r.spread_mm * 1e3,
+            r.max_mm * 1e3,
+            format!("{}/{}", r.gate_closed, r.poses),
+            r.median_gate_s.map(|g| format!("{g:.3}")).unwrap_or_else(|| "-".into()),
+            r.time_per_pose_s
+        );
+    }
+    if let Some(p) = rrd {
+        let mut outputs = OutputSet::new();
+        crate::viz::study::record_hold_study(rows, &config.scenario, config.floor_mm, &mut outputs, p)?;
+        outputs.commit()?;
+        if !quiet {
+            eprintln!("  wrote {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+/// `twincal reduce` of a hold study's parts: the same table and recording as one run.
+pub fn reduce_hold(parts: crate::shard::Parts, rrd: Option<&Path>, quiet: bool) -> Result<()> {
+    let files = parts.files;
+    let (config, items, duplicates) = parts.gather::<HoldConfig, HoldItem>()?;
+    if !quiet {
+        eprintln!(
+            "reduced {files} parts: {} settings of hold study config {}, {duplicates} duplicates dropped",
+            items.len(),
+            &crate::shard::Config::hash(&config)[..12]
+        );
+    }
+    let rows: Vec<_> = items.into_iter().map(|i| i.row).collect();
+    finish_hold(&config, &rows, rrd, quiet)
+}
