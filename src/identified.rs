@@ -41,9 +41,69 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
     let urdf = crate::calib::run::export::urdf(m, &r.x, nominal, &stem);
     let robot = Robot::from_urdf_str(&urdf, &stem).map_err(|e| Error::Calibration(format!("the exported URDF does not load back: {e}")))?;
     let n = robot.dof();
+    let mut notes = header_notes(r, data, nominal.is_some(), how, &urdf_file);
+
+    let sigma = reading_sigma(r, &mut notes);
+    let lengths = m.measurement.file_lengths();
+    let reading_decimals = crate::calib::problem::floor::logging_decimals(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
+    let logged_decimals = crate::calib::problem::floor::logging_decimals(data.rows.iter().flat_map(|row| row.q_deg.iter().copied())).filter(|d| *d < 6);
+    if let Some(d) = logged_decimals {
+        notes.push(format!("Joint angles logged at {d} decimals of a degree, as the data are."));
+    }
+
+    let (sensor, tracker) = instrument(r, data, sigma, reading_decimals, &mut notes);
+
+    let mut scenario = Scenario {
+        name: stem.clone(),
+        description: format!("identified twin of {}", data.source),
+        seed: r.seed,
+        robot: urdf_file.clone(),
+        geometry: Geometry::default(),
+        effects: Default::default(),
+        sensor,
+        tracker,
+        sampling: Sampling {
+            poses: data.rows.len().min(crate::sim::scenario::MAX_POSES),
+            test: 0,
+            ranges_deg: Some(ranges(data, &robot)),
+            limit_margin_deg: 0.0,
+            min_tool_z_mm: -1.0e5,
+            speed_fraction: 0.2,
+            order: Order::Halton,
+            angle_decimals: 6,
+            logged_decimals,
+            sweep_length: 20,
+        },
+        simulation: Default::default(),
+        acquisition: Acquisition { model: AcquisitionModel::QuasiStatic, ..Default::default() },
+        glitches: None,
+    };
+    // An acquisition that moves one or two joints at a time is written as sweeps.
+    if let Some((len, share)) = sweeps(data) {
+        scenario.sampling.order = Order::Sweeps;
+        scenario.sampling.sweep_length = len;
+        notes.push(format!("{:.0} % of the data's moves turn one or two joints: the twin's tour sweeps, {len} poses a sweep (the median).", share * 100.0));
+    }
+    write_effects(r, &mut scenario, n, &mut notes)?;
+    if let Some((g, note)) = glitches(r, data.rows.len()).filter(|_| scenario.tracker.is_none()) {
+        scenario.glitches = Some(g);
+        notes.push(note);
+    } else if !r.outliers.is_empty() {
+        notes.push(format!("{} rows the calibration kept out as outliers are not modelled (no [glitches]).", r.outliers.len()));
+    }
+    scenario.validate(&robot, &scenario_path.display().to_string())?;
+    let body = toml::to_string(&scenario).map_err(|e| Error::Invalid(format!("cannot write the scenario: {e}")))?;
+    let header: String = notes.iter().map(|l| format!("# {l}\n")).collect();
+    Ok(IdentifiedTwin { scenario, toml: format!("{header}\n{body}"), urdf, urdf_file })
+}
+
+/// The scenario's first comments: what it is the twin of, its robot file, and the parameters
+/// held at their nominal values.
+fn header_notes(r: &CalibResult, data: &Dataset, has_nominal: bool, how: &str, urdf_file: &str) -> Vec<String> {
+    let m = &r.model;
     let mut notes: Vec<String> = vec![
         format!("Identified twin of {} ({}; {} model, {} rows).", data.source, how, m.name, data.rows.len()),
-        if nominal.is_some() {
+        if has_nominal {
             format!("The robot is {urdf_file}: the calibrated geometry (joint zero offsets folded in), the nominal inertials moved into its frames.")
         } else {
             format!("The robot is {urdf_file}: the calibrated geometry; no nominal model, so no inertials: the twin carries no load-driven effect.")
@@ -54,7 +114,11 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         notes.push(format!("Held at their nominal values (not identifiable from these rows, or not fitted): {}.", fixed.join(", ")));
     }
 
-    // The reading noise: the data's, less what the logging steps already give.
+    notes
+}
+
+/// The reading noise: the data's, less what the logging steps already give (mm per value).
+fn reading_sigma(r: &CalibResult, notes: &mut Vec<String>) -> f64 {
     let floor = r.noise_floor.as_ref();
     let part = |name: &str| floor.and_then(|f| f.sources.iter().find(|s| s.source == name)).map_or(0.0, |s| s.rms_mm);
     let (angle_part, reading_part) = (part("angle_resolution"), part("reading_resolution"));
@@ -63,13 +127,13 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         "Reading noise {sigma:.4} mm per value: the data's {:.4} mm less the logging steps' share ({angle_part:.4} mm from the angles, {reading_part:.4} mm from the readings), one sample per reading.",
         r.noise_estimate_mm
     ));
-    let lengths = m.measurement.file_lengths();
-    let reading_decimals = crate::calib::problem::floor::logging_decimals(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
-    let logged_decimals = crate::calib::problem::floor::logging_decimals(data.rows.iter().flat_map(|row| row.q_deg.iter().copied())).filter(|d| *d < 6);
-    if let Some(d) = logged_decimals {
-        notes.push(format!("Joint angles logged at {d} decimals of a degree, as the data are."));
-    }
+    sigma
+}
 
+/// The instrument of the twin: a draw-wire sensor at the identified placement (a length
+/// reading), or a tracker (a point or a pose) with a placeholder draw-wire section.
+fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Option<usize>, notes: &mut Vec<String>) -> (DrawWire, Option<Tracker>) {
+    let m = &r.model;
     let p = m.placement(&r.x);
     let mm = |v: nalgebra::Vector3<f64>| [v.x * 1e3, v.y * 1e3, v.z * 1e3];
     let tension = r.torque_model.as_ref().and_then(|t| t.cable).map_or(0.0, |c| c.2);
@@ -107,30 +171,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         }
         None => {
             let o = &p.own;
-            // A 6-D probe: its orientation on the flange, and the orientation noise the axes'
-            // residuals show (a rotation of σ per axis moves an axis tip at the lever by
-            // lever·σ·√(2/3) per coordinate, RMS).
-            let probe = (m.measurement == Measurement::Pose).then(|| {
-                let predicted = r.predict_rows(data);
-                let d = m.measurement.dim();
-                let res: Vec<Vec<f64>> = data
-                    .rows
-                    .iter()
-                    .zip(predicted.chunks(d))
-                    .filter_map(|(row, p)| Some(row.values_mm()?.iter().zip(p).map(|(a, b)| a - b).collect()))
-                    .collect();
-                let part = |k: std::ops::Range<usize>| crate::stats::robust_scale(&res.iter().flat_map(|v| v[k.clone()].to_vec()).collect::<Vec<_>>()).1;
-                let (pos_sd, sd) = (part(0..3), part(3..d));
-                let urad = sd / (crate::measurement::pose::LEVER_MM * (2.0f64 / 3.0).sqrt()) * 1e6;
-                notes.push(format!(
-                    "Orientation noise {urad:.0} µrad per axis: the probe axes' residuals ({sd:.4} mm robust sd at the {} mm lever).",
-                    crate::measurement::pose::LEVER_MM
-                ));
-                notes.push(format!(
-                    "Position noise {pos_sd:.4} mm per coordinate: the position residuals' robust sd (a pose's noise above is over all nine values)."
-                ));
-                ([o[6].to_degrees(), o[7].to_degrees(), o[8].to_degrees()], urad.min(10_000.0), pos_sd)
-            });
+            let probe = (m.measurement == Measurement::Pose).then(|| probe_noise(r, data, notes));
             Some(Tracker {
                 translation_mm: [o[0] * 1e3, o[1] * 1e3, o[2] * 1e3],
                 rotation_deg: [o[3].to_degrees(), o[4].to_degrees(), o[5].to_degrees()],
@@ -150,39 +191,34 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
             })
         }
     };
+    (sensor, tracker)
+}
 
-    let mut scenario = Scenario {
-        name: stem.clone(),
-        description: format!("identified twin of {}", data.source),
-        seed: r.seed,
-        robot: urdf_file.clone(),
-        geometry: Geometry::default(),
-        effects: Default::default(),
-        sensor,
-        tracker,
-        sampling: Sampling {
-            poses: data.rows.len().min(crate::sim::scenario::MAX_POSES),
-            test: 0,
-            ranges_deg: Some(ranges(data, &robot)),
-            limit_margin_deg: 0.0,
-            min_tool_z_mm: -1.0e5,
-            speed_fraction: 0.2,
-            order: Order::Halton,
-            angle_decimals: 6,
-            logged_decimals,
-            sweep_length: 20,
-        },
-        simulation: Default::default(),
-        acquisition: Acquisition { model: AcquisitionModel::QuasiStatic, ..Default::default() },
-        glitches: None,
-    };
-    // An acquisition that moves one or two joints at a time is written as sweeps.
-    if let Some((len, share)) = sweeps(data) {
-        scenario.sampling.order = Order::Sweeps;
-        scenario.sampling.sweep_length = len;
-        notes.push(format!("{:.0} % of the data's moves turn one or two joints: the twin's tour sweeps, {len} poses a sweep (the median).", share * 100.0));
-    }
-    // The effects, each at its identified size.
+/// A 6-D probe's orientation on the flange (degrees), its orientation noise (µrad per axis) and
+/// its position noise (mm per coordinate), from the residuals: a rotation of σ per axis moves
+/// an axis tip at the lever by lever·σ·√(2/3) per coordinate, RMS.
+fn probe_noise(r: &CalibResult, data: &Dataset, notes: &mut Vec<String>) -> ([f64; 3], f64, f64) {
+    let m = &r.model;
+    let o = &m.placement(&r.x).own;
+    let predicted = r.predict_rows(data);
+    let d = m.measurement.dim();
+    let res: Vec<Vec<f64>> =
+        data.rows.iter().zip(predicted.chunks(d)).filter_map(|(row, p)| Some(row.values_mm()?.iter().zip(p).map(|(a, b)| a - b).collect())).collect();
+    let part = |k: std::ops::Range<usize>| crate::stats::robust_scale(&res.iter().flat_map(|v| v[k.clone()].to_vec()).collect::<Vec<_>>()).1;
+    let (pos_sd, sd) = (part(0..3), part(3..d));
+    let urad = sd / (crate::measurement::pose::LEVER_MM * (2.0f64 / 3.0).sqrt()) * 1e6;
+    notes.push(format!(
+        "Orientation noise {urad:.0} µrad per axis: the probe axes' residuals ({sd:.4} mm robust sd at the {} mm lever).",
+        crate::measurement::pose::LEVER_MM
+    ));
+    notes.push(format!("Position noise {pos_sd:.4} mm per coordinate: the position residuals' robust sd (a pose's noise above is over all nine values)."));
+    ([o[6].to_degrees(), o[7].to_degrees(), o[8].to_degrees()], urad.min(10_000.0), pos_sd)
+}
+
+/// The effects, each at its identified size where the twin takes it, and the payload; notes
+/// say what is left out and why.
+fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut Vec<String>) -> Result<()> {
+    let m = &r.model;
     let mut written = Vec::new();
     for (b, block) in m.effects.iter().enumerate() {
         let k = m.effect_params(b).start;
@@ -228,16 +264,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
     if !written.is_empty() {
         notes.push(format!("Effects at their identified sizes: {}.", written.join(", ")));
     }
-    if let Some((g, note)) = glitches(r, data.rows.len()).filter(|_| scenario.tracker.is_none()) {
-        scenario.glitches = Some(g);
-        notes.push(note);
-    } else if !r.outliers.is_empty() {
-        notes.push(format!("{} rows the calibration kept out as outliers are not modelled (no [glitches]).", r.outliers.len()));
-    }
-    scenario.validate(&robot, &scenario_path.display().to_string())?;
-    let body = toml::to_string(&scenario).map_err(|e| Error::Invalid(format!("cannot write the scenario: {e}")))?;
-    let header: String = notes.iter().map(|l| format!("# {l}\n")).collect();
-    Ok(IdentifiedTwin { scenario, toml: format!("{header}\n{body}"), urdf, urdf_file })
+    Ok(())
 }
 
 /// Each joint's range over the data (degrees), widened to at least 1° and kept inside the

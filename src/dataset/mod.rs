@@ -915,50 +915,11 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
     let (mut first_t_missing, mut first_temp_missing): (Option<usize>, Option<usize>) = (None, None);
     for raw in &table.rows {
         let line = raw.line;
-        let mut q_deg = vec![0.0; layout.joints];
-        for (j, q) in q_deg.iter_mut().enumerate() {
-            let c = Column::Q(j);
-            let v = cells.required(layout.cell(raw, c), c, line)?;
-            *q = if opts.angles == AngleUnit::Rad { v.to_degrees() } else { v };
-            if q.abs() > MAX_ABS_JOINT_DEG {
-                let (v, q) = (crate::error::shown(v), crate::error::shown(*q));
-                let shown = if opts.angles == AngleUnit::Rad { format!("{v} rad ({q} deg)") } else { format!("{q} deg") };
-                return Err(cell_error(src, line, c, format!("joint angle {shown} is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)")));
-            }
-        }
-        let mut reading_mm = Vec::new();
-        if let Some(m) = layout.measurement {
-            for (k, name) in m.def().file_columns().iter().enumerate() {
-                let c = Column::reading(name);
-                let v = cells.required(layout.cell(raw, c), c, line)?;
-                if let Some(why) = m.def().implausible(k, v) {
-                    return Err(cell_error(src, line, c, why));
-                }
-                reading_mm.push(v);
-            }
-            if m == Measurement::Pose && opts.euler != Euler::XYZ {
-                let r = opts.euler.matrix([reading_mm[3].to_radians(), reading_mm[4].to_radians(), reading_mm[5].to_radians()]);
-                let a = crate::measurement::pose::xyz_angles(&r);
-                reading_mm[3..6].iter_mut().zip(a).for_each(|(v, a)| *v = a.to_degrees());
-            }
-        }
+        let q_deg = row_angles(&layout, &cells, raw, opts.angles)?;
+        let reading_mm = row_reading(&layout, &cells, raw, opts.euler)?;
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
-            check_bounds(t, (0.0, MAX_T_S), "time (s from the start of acquisition)", line, Column::T, src)?;
-            if let Some((prev, prev_line)) = last_t {
-                if t < prev {
-                    return Err(cell_error(
-                        src,
-                        line,
-                        Column::T,
-                        format!(
-                            "t = {t} s is earlier than t = {prev} s on line {prev_line}; t must \
-                             be non-decreasing (rows are read in acquisition order: sort the file by t if its times are right, \
-                             or leave the t column out)"
-                        ),
-                    ));
-                }
-            }
+            check_time(t, last_t, line, src)?;
             last_t = Some((t, line));
         }
         let temp_c = cells.number(layout.cell(raw, Column::Temp), Column::Temp, line)?;
@@ -1006,6 +967,62 @@ fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dat
     }
     check_units(&rows, src, opts.angles)?;
     Ok(Dataset { rows, source })
+}
+
+/// A row's joint angles in degrees (converted from radians when the file's are), each plausible.
+fn row_angles(layout: &Layout, cells: &Cells, raw: &RawRow, angles: AngleUnit) -> Result<Vec<f64>> {
+    let line = raw.line;
+    let mut q_deg = vec![0.0; layout.joints];
+    for (j, q) in q_deg.iter_mut().enumerate() {
+        let c = Column::Q(j);
+        let v = cells.required(layout.cell(raw, c), c, line)?;
+        *q = if angles == AngleUnit::Rad { v.to_degrees() } else { v };
+        if q.abs() > MAX_ABS_JOINT_DEG {
+            let (v, q) = (crate::error::shown(v), crate::error::shown(*q));
+            let shown = if angles == AngleUnit::Rad { format!("{v} rad ({q} deg)") } else { format!("{q} deg") };
+            return Err(cell_error(cells.source, line, c, format!("joint angle {shown} is implausible (|q| > {MAX_ABS_JOINT_DEG} deg)")));
+        }
+    }
+    Ok(q_deg)
+}
+
+/// A row's reading (empty without an instrument's columns), each value plausible; a pose's
+/// angles turned from the file's Euler convention into XYZ.
+fn row_reading(layout: &Layout, cells: &Cells, raw: &RawRow, euler: Euler) -> Result<Vec<f64>> {
+    let mut reading_mm = Vec::new();
+    let Some(m) = layout.measurement else { return Ok(reading_mm) };
+    for (k, name) in m.def().file_columns().iter().enumerate() {
+        let c = Column::reading(name);
+        let v = cells.required(layout.cell(raw, c), c, raw.line)?;
+        if let Some(why) = m.def().implausible(k, v) {
+            return Err(cell_error(cells.source, raw.line, c, why));
+        }
+        reading_mm.push(v);
+    }
+    if m == Measurement::Pose && euler != Euler::XYZ {
+        let r = euler.matrix([reading_mm[3].to_radians(), reading_mm[4].to_radians(), reading_mm[5].to_radians()]);
+        let a = crate::measurement::pose::xyz_angles(&r);
+        reading_mm[3..6].iter_mut().zip(a).for_each(|(v, a)| *v = a.to_degrees());
+    }
+    Ok(reading_mm)
+}
+
+/// A row's time `t` (s): plausible, and not before the previous row's (`last`: its time, line).
+fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &str) -> Result<()> {
+    check_bounds(t, (0.0, MAX_T_S), "time (s from the start of acquisition)", line, Column::T, src)?;
+    match last {
+        Some((prev, prev_line)) if t < prev => Err(cell_error(
+            src,
+            line,
+            Column::T,
+            format!(
+                "t = {t} s is earlier than t = {prev} s on line {prev_line}; t must \
+                 be non-decreasing (rows are read in acquisition order: sort the file by t if its times are right, \
+                 or leave the t column out)"
+            ),
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// The radians and metres heuristics described in the module docs (radians only with

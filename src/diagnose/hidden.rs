@@ -32,7 +32,7 @@ pub struct Hidden {
     pub cause: EffectKind,
     /// 0-based joint of a per-joint effect.
     pub joint: Option<usize>,
-    /// Size in the diagnosis report's unit (see [`super::Cause::unit`]).
+    /// Size in the diagnosis report's unit (see [`super::report::Cause::unit`]).
     pub magnitude: f64,
     /// Size in the calibration block's internal unit.
     pub internal: f64,
@@ -42,11 +42,11 @@ pub struct Hidden {
 
 impl Hidden {
     /// Whether a diagnosed cause names this effect: same kind, same joint.
-    pub fn named_by(&self, c: &super::Cause) -> bool {
+    pub fn named_by(&self, c: &super::report::Cause) -> bool {
         c.cause == self.cause.name() && c.joint == self.joint.map(|j| j + 1)
     }
     /// Whether a diagnosed size is right: within 3 standard uncertainties or within 30 %.
-    pub fn sized_by(&self, c: &super::Cause) -> bool {
+    pub fn sized_by(&self, c: &super::report::Cause) -> bool {
         let e = (c.magnitude - self.magnitude).abs();
         e <= 3.0 * c.uncertainty || e <= 0.3 * self.magnitude.abs()
     }

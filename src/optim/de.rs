@@ -451,7 +451,7 @@ struct Engine<'b> {
     archive_len: usize,
 }
 
-impl Engine<'_> {
+impl<'b> Engine<'b> {
     fn n(&self) -> usize {
         self.fx.len()
     }
@@ -602,6 +602,57 @@ impl Engine<'_> {
         self.trials.truncate(keep * d);
         self.tcost.truncate(keep);
     }
+
+    /// A population of `n0` uniform in the box `b`, individual 0 at `init` (clamped into the box)
+    /// when given.
+    fn start(b: &'b Bounds, n0: usize, init: Option<&[f64]>, rng: &mut ChaCha8Rng) -> Self {
+        let d = b.dim();
+        let mut x = vec![0.0; n0 * d];
+        for row in x.chunks_exact_mut(d) {
+            for k in 0..d {
+                row[k] = b.lower[k] + (b.upper[k] - b.lower[k]) * rng.random::<f64>();
+            }
+        }
+        if let Some(x0) = init {
+            assert_eq!(x0.len(), d, "init has {} entries, cost has {d} dimensions", x0.len());
+            x[..d].copy_from_slice(x0);
+            b.clamp(&mut x[..d]);
+        }
+        let dummy = TrialPlan { f: 0.0, cr: 0.0, op: Mutation::Rand1, tag: 0 };
+        Engine {
+            d,
+            b,
+            trials: x.clone(),
+            x,
+            fx: vec![0.0; n0],
+            tcost: vec![0.0; n0],
+            plans: vec![dummy; n0],
+            rank: Vec::with_capacity(n0),
+            archive: Vec::new(),
+            archive_len: 0,
+        }
+    }
+
+    /// One-to-one selection, in index order: a trial at least as good as its parent replaces it
+    /// (a strictly better one's parent goes to the archive, capped at `cap`); `outcomes` records
+    /// each pair.
+    fn select(&mut self, cap: usize, outcomes: &mut Vec<Outcome>, rng: &mut ChaCha8Rng) {
+        let d = self.d;
+        outcomes.clear();
+        for i in 0..self.n() {
+            let (pc, tc) = (self.fx[i], self.tcost[i]);
+            let success = tc < pc;
+            outcomes.push(Outcome { plan: self.plans[i], parent_cost: pc, trial_cost: tc, success });
+            if tc <= pc {
+                if success {
+                    self.archive_push(i, cap, rng);
+                }
+                let (src, t) = (i * d..(i + 1) * d, &self.trials);
+                self.x[src.clone()].copy_from_slice(&t[src]);
+                self.fx[i] = tc;
+            }
+        }
+    }
 }
 
 impl De {
@@ -622,30 +673,7 @@ impl De {
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let mut ctl = controller_for(&self.variant, n0);
 
-        let mut x = vec![0.0; n0 * d];
-        for row in x.chunks_exact_mut(d) {
-            for k in 0..d {
-                row[k] = b.lower[k] + (b.upper[k] - b.lower[k]) * rng.random::<f64>();
-            }
-        }
-        if let Some(x0) = init {
-            assert_eq!(x0.len(), d, "init has {} entries, cost has {d} dimensions", x0.len());
-            x[..d].copy_from_slice(x0);
-            b.clamp(&mut x[..d]);
-        }
-        let dummy = TrialPlan { f: 0.0, cr: 0.0, op: Mutation::Rand1, tag: 0 };
-        let mut e = Engine {
-            d,
-            b,
-            trials: x.clone(),
-            x,
-            fx: vec![0.0; n0],
-            tcost: vec![0.0; n0],
-            plans: vec![dummy; n0],
-            rank: Vec::with_capacity(n0),
-            archive: Vec::new(),
-            archive_len: 0,
-        };
+        let mut e = Engine::start(b, n0, init, &mut rng);
         eval_rows_refine(c, &mut e.x, d, &mut e.fx);
         let mut evaluations = n0;
         let budget = self.max_evals.unwrap_or(n0.saturating_mul(self.generations.saturating_add(1)));
@@ -678,22 +706,8 @@ impl De {
             eval_rows_refine(c, &mut e.trials, d, &mut e.tcost);
             evaluations += n;
 
-            // One-to-one selection, in index order.
             let cap = (ctl.archive_rate() * n as f64).round() as usize;
-            outcomes.clear();
-            for i in 0..n {
-                let (pc, tc) = (e.fx[i], e.tcost[i]);
-                let success = tc < pc;
-                outcomes.push(Outcome { plan: e.plans[i], parent_cost: pc, trial_cost: tc, success });
-                if tc <= pc {
-                    if success {
-                        e.archive_push(i, cap, &mut rng);
-                    }
-                    let (src, t) = (i * d..(i + 1) * d, &e.trials);
-                    e.x[src.clone()].copy_from_slice(&t[src]);
-                    e.fx[i] = tc;
-                }
-            }
+            e.select(cap, &mut outcomes, &mut rng);
             ctl.end_generation(&outcomes);
 
             // Population size reduction (L-SHADE); archive follows the population size.

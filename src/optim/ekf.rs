@@ -126,12 +126,7 @@ impl Ekf {
         let q = if self.q.is_finite() { self.q.max(0.0) } else { 0.0 };
         let r = self.r;
 
-        // Buffers for the update (allocation-free inner loop).
-        let mut hrow = vec![0.0; n];
-        let mut h = DVector::<f64>::zeros(n);
-        let mut u = DVector::<f64>::zeros(n); // P·Hᵀ
-        let mut gain = DVector::<f64>::zeros(n);
-        let mut w = DVector::<f64>::zeros(n);
+        let mut buffers = UpdateBuffers::new(n);
 
         let mut evaluations = order.len();
         let cost_of = |x: &[f64], hook: &dyn ObservationHook| {
@@ -173,41 +168,12 @@ impl Ekf {
                 }
                 let y = o.measured(i) - o.predict(&x, i) - hook.offset(i);
                 evaluations += 1;
-                o.gradient(&x, i, &mut hrow);
-                for k in 0..n {
-                    h[k] = if is_free[k] { hrow[k] } else { 0.0 };
-                }
-                if !y.is_finite() || h.iter().any(|v| !v.is_finite()) {
+                if !buffers.update(o, i, y, &mut x, &mut p, (&free, &is_free), r) {
                     skipped += 1;
                     continue;
                 }
-                u.gemv(1.0, &p, &h, 0.0);
-                let s0 = h.dot(&u);
-                let s = s0 + r;
-                if !(s > 0.0 && s.is_finite()) {
-                    skipped += 1;
-                    continue;
-                }
-                gain.copy_from(&u);
-                gain /= s;
-                for &k in &free {
-                    x[k] += gain[k] * y;
-                }
-                // Joseph form via rank-one updates:
-                // P ← P − K·uᵀ;  w = u − s₀·K;  P ← P − w·Kᵀ + r·K·Kᵀ = P + (r·K − w)·Kᵀ.
-                p.ger(-1.0, &gain, &u, 1.0);
-                w.copy_from(&gain);
-                w *= r + s0;
-                w -= &u; // w = r·K − (u − s₀·K)
-                p.ger(1.0, &w, &gain, 1.0);
                 hook.innovation(i, y);
-                for a in 0..n {
-                    for b in a + 1..n {
-                        let m = 0.5 * (p[(a, b)] + p[(b, a)]);
-                        p[(a, b)] = m;
-                        p[(b, a)] = m;
-                    }
-                }
+                symmetrize(&mut p);
             }
 
             hook.end_epoch();
@@ -233,6 +199,69 @@ impl Ekf {
         }
 
         Report { x, cost, iterations, evaluations, termination, reason, covariance: Some(p) }
+    }
+}
+
+/// The work buffers of one observation's update (an allocation-free inner loop).
+struct UpdateBuffers {
+    hrow: Vec<f64>,
+    /// The observation's gradient over the free parameters.
+    h: DVector<f64>,
+    /// P·Hᵀ.
+    u: DVector<f64>,
+    gain: DVector<f64>,
+    w: DVector<f64>,
+}
+
+impl UpdateBuffers {
+    fn new(n: usize) -> Self {
+        UpdateBuffers { hrow: vec![0.0; n], h: DVector::zeros(n), u: DVector::zeros(n), gain: DVector::zeros(n), w: DVector::zeros(n) }
+    }
+
+    /// Updates `x` and `p` by observation `i`'s innovation `y` (reading variance `r`), in Joseph
+    /// form; false, with nothing changed, when the innovation, the gradient or the innovation
+    /// variance is not finite.
+    #[allow(clippy::too_many_arguments)]
+    fn update<O: Observations>(&mut self, o: &O, i: usize, y: f64, x: &mut [f64], p: &mut DMatrix<f64>, (free, is_free): (&[usize], &[bool]), r: f64) -> bool {
+        let (h, u, gain, w) = (&mut self.h, &mut self.u, &mut self.gain, &mut self.w);
+        o.gradient(x, i, &mut self.hrow);
+        for k in 0..h.len() {
+            h[k] = if is_free[k] { self.hrow[k] } else { 0.0 };
+        }
+        if !y.is_finite() || h.iter().any(|v| !v.is_finite()) {
+            return false;
+        }
+        u.gemv(1.0, p, h, 0.0);
+        let s0 = h.dot(u);
+        let s = s0 + r;
+        if !(s > 0.0 && s.is_finite()) {
+            return false;
+        }
+        gain.copy_from(u);
+        *gain /= s;
+        for &k in free {
+            x[k] += gain[k] * y;
+        }
+        // Joseph form via rank-one updates:
+        // P ← P − K·uᵀ;  w = u − s₀·K;  P ← P − w·Kᵀ + r·K·Kᵀ = P + (r·K − w)·Kᵀ.
+        p.ger(-1.0, gain, u, 1.0);
+        w.copy_from(gain);
+        *w *= r + s0;
+        *w -= &*u; // w = r·K − (u − s₀·K)
+        p.ger(1.0, w, gain, 1.0);
+        true
+    }
+}
+
+/// Makes `p` exactly symmetric (the mean of its two triangles).
+fn symmetrize(p: &mut DMatrix<f64>) {
+    let n = p.nrows();
+    for a in 0..n {
+        for b in a + 1..n {
+            let m = 0.5 * (p[(a, b)] + p[(b, a)]);
+            p[(a, b)] = m;
+            p[(b, a)] = m;
+        }
     }
 }
 

@@ -267,236 +267,342 @@ impl LevenbergMarquardt {
         assert_eq!(x0.len(), n, "x0 has {} entries, problem has {n} parameters", x0.len());
         let free = free_indices(fixed, n);
         let nf = free.len();
+        let mut pt = Point::start(p, x0, nf > 0);
+        let early = if !pt.f.is_finite() {
+            Some((Termination::NonFinite, "non-finite cost at the initial point"))
+        } else if nf == 0 {
+            Some((Termination::NothingToDo, "no free parameters"))
+        } else if pt.f == 0.0 {
+            Some((Termination::ZeroCost, "zero cost at the initial point"))
+        } else {
+            None
+        };
+        if let Some((termination, reason)) = early {
+            return pt.report(0, termination, reason);
+        }
+        if !pt.joint {
+            pt.jac = DMatrix::<f64>::zeros(m, n);
+        }
+        let mut w = Work::new(free, &pt.x, m);
+        let mut damper = Damper::new(self);
+        // Cost at the start of each of the last `stall_window` outer iterations (ring buffer).
+        let mut window = vec![f64::INFINITY; self.stall_window];
+        let mut iterations = 0;
+        let (termination, reason) = loop {
+            if iterations >= self.max_iter {
+                break (Termination::Budget, "maximum number of iterations reached");
+            }
+            if self.stalled(&mut window, iterations, pt.f, m.saturating_sub(nf).max(1)) {
+                break (Termination::Stalled, "cost change over the stall window below stall_rtol of the cost per degree of freedom");
+            }
+            iterations += 1;
+            // (Every way back here goes through an accepted step, which sets `jac_at_x`.)
+            if !pt.jac_at_x {
+                p.jacobian(&pt.x, &mut pt.jac);
+            }
+            // Normal equations over the free columns (J is column-major: columns are contiguous).
+            normal_equations(&pt.jac, &w.free, &pt.r, &mut w.a, &mut w.g);
+            if w.g.iter().chain(w.a.iter()).any(|v| !v.is_finite()) {
+                break (Termination::NonFinite, "non-finite Jacobian");
+            }
+            if gradient_cosine(&w.a, &w.g, pt.f) <= self.gtol {
+                obs.observe(&Event { method: METHOD, iteration: iterations, cost: pt.f, x: &pt.x });
+                break (Termination::GradientTolerance, "gradient tolerance (gtol) reached");
+            }
+            let dfloor = update_scale(&mut w.scale, &w.a);
+            if let Some(stop) = self.step(p, &mut pt, &mut w, &mut damper, dfloor, iterations, obs) {
+                break stop;
+            }
+        };
+        pt.report(iterations, termination, reason)
+    }
 
-        let mut x = x0.to_vec();
+    /// Whether the cost fell by no more than `stall_rtol` of the cost per degree of freedom
+    /// (`dof`) over the last `stall_window` iterations; records the cost `f` in `window`.
+    fn stalled(&self, window: &mut [f64], iterations: usize, f: f64, dof: usize) -> bool {
+        if self.stall_window == 0 {
+            return false;
+        }
+        let slot = iterations % self.stall_window;
+        if iterations >= self.stall_window && window[slot] - f <= self.stall_rtol * f / dof as f64 {
+            return true;
+        }
+        window[slot] = f;
+        false
+    }
+
+    /// One outer iteration's steps from the normal equations in `w`: damped steps, more damping
+    /// after each rejection, until one is accepted (None, or the stop it reached) or the damping
+    /// gives out (the stop).
+    #[allow(clippy::too_many_arguments)]
+    fn step<P: LeastSquares>(
+        &self,
+        p: &P,
+        pt: &mut Point,
+        w: &mut Work,
+        damper: &mut Damper,
+        dfloor: f64,
+        iteration: usize,
+        obs: &mut dyn Observer,
+    ) -> Option<Stop> {
+        let mut rejections = 0;
+        loop {
+            for (d, s) in w.damping.iter_mut().zip(&w.scale) {
+                *d = damper.lambda * s.max(dfloor);
+            }
+            let solved = damped_step(&w.a, &w.g, &w.damping, &mut w.chol, &mut w.delta);
+            let mut step_small = false;
+            if solved {
+                let pred;
+                (pred, step_small) = predicted_reduction(&w.delta, &w.damping, &w.g, &pt.x, &w.free, self.xtol);
+                let f_new = pt.trial(p, w);
+                let actual = pt.f - f_new;
+                let rho = if pred > 0.0 { actual / pred } else { -1.0 };
+                if rho > 0.0 && f_new < pt.f {
+                    let f_old = pt.f;
+                    pt.accept(w, f_new);
+                    damper.lambda = lambda_after_accept(damper.factor, damper.lambda, rho);
+                    damper.nu = 2.0;
+                    obs.observe(&Event { method: METHOD, iteration, cost: pt.f, x: &pt.x });
+                    let pred_small = damper.factor.is_some() || pred <= self.ftol * f_old;
+                    return if pt.f == 0.0 {
+                        Some((Termination::ZeroCost, "zero cost"))
+                    } else if actual <= self.ftol * f_old && pred_small {
+                        Some((Termination::CostTolerance, "relative cost reduction below ftol"))
+                    } else if step_small {
+                        Some((Termination::StepTolerance, "relative step below xtol"))
+                    } else {
+                        None
+                    };
+                }
+                // Restore the trial buffer to the current point for the free entries.
+                for &c in &w.free {
+                    w.x_new[c] = pt.x[c];
+                }
+                pt.speculate = false;
+            }
+            // Rejected (or unsolvable): more damping.
+            let stop = if step_small {
+                Some((Termination::StepTolerance, "relative step below xtol"))
+            } else {
+                (damper.lambda, damper.nu) = match damper.factor {
+                    Some(beta) => (damper.lambda * beta, damper.nu),
+                    None => (damper.lambda * damper.nu, damper.nu * 2.0),
+                };
+                rejections += 1;
+                let overflow = !(damper.lambda < LAMBDA_MAX) || rejections >= MAX_REJECTIONS || !damper.nu.is_finite();
+                overflow.then_some((Termination::NoDescent, "no step reduces the cost (damping overflow)"))
+            };
+            if stop.is_some() {
+                obs.observe(&Event { method: METHOD, iteration, cost: pt.f, x: &pt.x });
+                return stop;
+            }
+        }
+    }
+}
+
+/// Why a fit stopped, and the reason's words.
+type Stop = (Termination, &'static str);
+
+/// Where a fit stands: the current point, its residuals, its cost and (when `jac_at_x`) its
+/// Jacobian.
+struct Point {
+    x: Vec<f64>,
+    r: Vec<f64>,
+    jac: DMatrix<f64>,
+    f: f64,
+    evaluations: usize,
+    /// A problem with a joint pass (residuals and Jacobian for little more than the Jacobian)
+    /// gets both at every trial point that follows an accepted step or starts the fit: nearly
+    /// every such point is accepted, and its Jacobian is then the next iteration's, computed
+    /// without a second pass. After a rejection, trials take residuals alone until a step is
+    /// accepted again (and the Jacobian then takes its own pass).
+    joint: bool,
+    /// Whether `jac` holds the Jacobian at `x`.
+    jac_at_x: bool,
+    /// Whether the next trial takes the Jacobian with the residuals.
+    speculate: bool,
+}
+
+impl Point {
+    /// The fit's start at `x0` (`any_free`: whether any parameter is free).
+    fn start<P: LeastSquares>(p: &P, x0: &[f64], any_free: bool) -> Self {
+        let (m, n) = (p.n_residuals(), p.n_params());
+        let x = x0.to_vec();
         let mut r = vec![0.0; m];
-        // A problem with a joint pass (residuals and Jacobian for little more than the
-        // Jacobian) gets both at every trial point that follows an accepted step or starts the
-        // fit: nearly every such point is accepted, and its Jacobian is then the next
-        // iteration's, computed without a second pass. After a rejection, trials take residuals
-        // alone until a step is accepted again (and the Jacobian then takes its own pass).
-        let joint = p.joint_pass() && nf > 0;
+        let joint = p.joint_pass() && any_free;
         let mut jac = DMatrix::<f64>::zeros(if joint { m } else { 0 }, if joint { n } else { 0 });
         if joint {
             p.residuals_and_jacobian(&x, &mut r, &mut jac);
         } else {
             p.residuals(&x, &mut r);
         }
-        // Whether `jac` holds the Jacobian at `x`, and whether the next trial takes both.
-        let (mut jac_at_x, mut speculate) = (joint, joint);
-        let mut evaluations = 1;
-        let mut f = half_sq(&r);
-        let report = |x: Vec<f64>, cost, iterations, evaluations, termination: Termination, reason: &str| Report {
-            x,
-            cost,
-            iterations,
-            evaluations,
-            termination,
-            reason: reason.to_owned(),
-            covariance: None,
-        };
-        if !f.is_finite() {
-            return report(x, f, 0, evaluations, Termination::NonFinite, "non-finite cost at the initial point");
-        }
-        if nf == 0 {
-            return report(x, f, 0, evaluations, Termination::NothingToDo, "no free parameters");
-        }
-        if f == 0.0 {
-            return report(x, f, 0, evaluations, Termination::ZeroCost, "zero cost at the initial point");
-        }
+        let f = half_sq(&r);
+        Point { x, r, jac, f, evaluations: 1, joint, jac_at_x: joint, speculate: joint }
+    }
 
-        // Work buffers, allocated once.
-        if !joint {
-            jac = DMatrix::<f64>::zeros(m, n);
+    /// The cost at the trial point `x + delta` (residuals into `w.r_new`, and the Jacobian into
+    /// `jac` when speculating).
+    fn trial<P: LeastSquares>(&mut self, p: &P, w: &mut Work) -> f64 {
+        for (k, &c) in w.free.iter().enumerate() {
+            w.x_new[c] = self.x[c] + w.delta[k];
         }
-        let mut a = DMatrix::<f64>::zeros(nf, nf); // JᵀJ over the free parameters
-        let mut chol = DMatrix::<f64>::zeros(nf, nf); // A + λD, then its Cholesky factor
-        let mut g = vec![0.0; nf]; // Jᵀr
-        let mut scale = vec![0.0f64; nf]; // D: running max of diag(A)
-        let mut delta = vec![0.0; nf];
-        let mut x_new = x.clone();
-        let mut r_new = vec![0.0; m];
+        if self.speculate {
+            p.residuals_and_jacobian(&w.x_new, &mut w.r_new, &mut self.jac);
+        } else {
+            p.residuals(&w.x_new, &mut w.r_new);
+        }
+        self.evaluations += 1;
+        half_sq(&w.r_new)
+    }
 
-        let mut lambda = if self.initial_lambda.is_finite() && self.initial_lambda > 0.0 { self.initial_lambda } else { 1e-3 };
-        let mut nu = 2.0;
-        let factor = match self.damping {
+    /// Moves to the trial point, whose cost is `f_new`.
+    fn accept(&mut self, w: &mut Work, f_new: f64) {
+        self.jac_at_x = self.speculate;
+        self.speculate = self.joint;
+        std::mem::swap(&mut self.x, &mut w.x_new);
+        std::mem::swap(&mut self.r, &mut w.r_new);
+        self.f = f_new;
+    }
+
+    fn report(self, iterations: usize, termination: Termination, reason: &str) -> Report {
+        Report { x: self.x, cost: self.f, iterations, evaluations: self.evaluations, termination, reason: reason.to_owned(), covariance: None }
+    }
+}
+
+/// The damping: λ, Nielsen's ν, and the fixed factor (None: Nielsen's rule).
+struct Damper {
+    lambda: f64,
+    nu: f64,
+    factor: Option<f64>,
+}
+
+impl Damper {
+    fn new(lm: &LevenbergMarquardt) -> Self {
+        let lambda = if lm.initial_lambda.is_finite() && lm.initial_lambda > 0.0 { lm.initial_lambda } else { 1e-3 };
+        let factor = match lm.damping {
             Damping::Factor(b) if b.is_finite() && b > 1.0 => Some(b),
             Damping::Factor(_) => Some(10.0),
             Damping::Nielsen => None,
         };
-        let mut iterations = 0;
-        let mut termination = Termination::Budget;
-        let mut reason = "maximum number of iterations reached";
-        // Cost at the start of each of the last `stall_window` outer iterations (ring buffer).
-        let mut window = vec![f64::INFINITY; self.stall_window];
-
-        'outer: while iterations < self.max_iter {
-            if self.stall_window > 0 {
-                let slot = iterations % self.stall_window;
-                if iterations >= self.stall_window && window[slot] - f <= self.stall_rtol * f / m.saturating_sub(nf).max(1) as f64 {
-                    termination = Termination::Stalled;
-                    reason = "cost change over the stall window below stall_rtol of the cost per degree of freedom";
-                    break;
-                }
-                window[slot] = f;
-            }
-            iterations += 1;
-            // (Every way back here goes through an accepted step, which sets `jac_at_x`.)
-            if !jac_at_x {
-                p.jacobian(&x, &mut jac);
-            }
-            // Normal equations over the free columns (J is column-major: columns are contiguous).
-            normal_equations(&jac, &free, &r, &mut a, &mut g);
-            if g.iter().chain(a.iter()).any(|v| !v.is_finite()) {
-                termination = Termination::NonFinite;
-                reason = "non-finite Jacobian";
-                break;
-            }
-
-            // Scale-free gradient test: max_k |cos∠(r, J_k)|.
-            let rnorm = (2.0 * f).sqrt();
-            let mut gcos: f64 = 0.0;
-            for k in 0..nf {
-                let cn = a[(k, k)].sqrt();
-                if cn > 0.0 {
-                    gcos = gcos.max(g[k].abs() / (cn * rnorm));
-                }
-            }
-            if gcos <= self.gtol {
-                termination = Termination::GradientTolerance;
-                reason = "gradient tolerance (gtol) reached";
-                obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
-                break;
-            }
-
-            let mut dmax: f64 = 0.0;
-            for k in 0..nf {
-                scale[k] = scale[k].max(a[(k, k)]);
-                dmax = dmax.max(scale[k]);
-            }
-            let dfloor = (dmax * 1e-15).max(f64::MIN_POSITIVE);
-
-            let mut rejections = 0;
-            loop {
-                // Solve (A + λD) δ = −g.
-                for k in 0..nf {
-                    for i in k..nf {
-                        chol[(i, k)] = a[(i, k)];
-                    }
-                    chol[(k, k)] += lambda * scale[k].max(dfloor);
-                }
-                let mut solved = cholesky_in_place(&mut chol);
-                if solved {
-                    for k in 0..nf {
-                        delta[k] = -g[k];
-                    }
-                    cholesky_solve(&chol, &mut delta);
-                    solved = delta.iter().all(|v| v.is_finite());
-                }
-                if !solved {
-                    let mut damped = a.clone();
-                    for k in 0..nf {
-                        damped[(k, k)] += lambda * scale[k].max(dfloor);
-                    }
-                    let neg_g: Vec<f64> = g.iter().map(|v| -v).collect();
-                    solved = svd_solve(&damped, &neg_g, &mut delta);
-                }
-
-                let mut step_small = false;
-                if solved {
-                    // Predicted reduction of the quadratic model: ½ δᵀ(λDδ − g).
-                    let mut pred = 0.0;
-                    let mut dnorm2 = 0.0;
-                    let mut xnorm2 = 0.0;
-                    for k in 0..nf {
-                        pred += delta[k] * (lambda * scale[k].max(dfloor) * delta[k] - g[k]);
-                        dnorm2 += delta[k] * delta[k];
-                        xnorm2 += x[free[k]] * x[free[k]];
-                    }
-                    pred *= 0.5;
-                    step_small = dnorm2.sqrt() <= self.xtol * (xnorm2.sqrt() + self.xtol);
-
-                    for (k, &c) in free.iter().enumerate() {
-                        x_new[c] = x[c] + delta[k];
-                    }
-                    if speculate {
-                        p.residuals_and_jacobian(&x_new, &mut r_new, &mut jac);
-                    } else {
-                        p.residuals(&x_new, &mut r_new);
-                    }
-                    evaluations += 1;
-                    let f_new = half_sq(&r_new);
-                    let actual = f - f_new;
-                    let rho = if pred > 0.0 { actual / pred } else { -1.0 };
-
-                    if rho > 0.0 && f_new < f {
-                        jac_at_x = speculate;
-                        speculate = joint;
-                        std::mem::swap(&mut x, &mut x_new);
-                        std::mem::swap(&mut r, &mut r_new);
-                        let f_old = f;
-                        f = f_new;
-                        match factor {
-                            Some(beta) => lambda /= beta,
-                            None => {
-                                let t = 2.0 * rho - 1.0;
-                                lambda *= (1.0 - t * t * t).max(1.0 / 3.0);
-                            }
-                        }
-                        lambda = lambda.max(f64::MIN_POSITIVE);
-                        nu = 2.0;
-                        obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
-                        if f == 0.0 {
-                            termination = Termination::ZeroCost;
-                            reason = "zero cost";
-                            break 'outer;
-                        }
-                        let pred_small = factor.is_some() || pred <= self.ftol * f_old;
-                        if actual <= self.ftol * f_old && pred_small {
-                            termination = Termination::CostTolerance;
-                            reason = "relative cost reduction below ftol";
-                            break 'outer;
-                        }
-                        if step_small {
-                            termination = Termination::StepTolerance;
-                            reason = "relative step below xtol";
-                            break 'outer;
-                        }
-                        continue 'outer;
-                    }
-                    // Restore the trial buffer to the current point for the free entries.
-                    for &c in &free {
-                        x_new[c] = x[c];
-                    }
-                    speculate = false;
-                }
-
-                // Rejected (or unsolvable): more damping.
-                if step_small {
-                    termination = Termination::StepTolerance;
-                    reason = "relative step below xtol";
-                    obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
-                    break 'outer;
-                }
-                match factor {
-                    Some(beta) => lambda *= beta,
-                    None => {
-                        lambda *= nu;
-                        nu *= 2.0;
-                    }
-                }
-                rejections += 1;
-                if !(lambda < LAMBDA_MAX) || rejections >= MAX_REJECTIONS || !nu.is_finite() {
-                    termination = Termination::NoDescent;
-                    reason = "no step reduces the cost (damping overflow)";
-                    obs.observe(&Event { method: METHOD, iteration: iterations, cost: f, x: &x });
-                    break 'outer;
-                }
-            }
-        }
-
-        report(x, f, iterations, evaluations, termination, reason)
+        Damper { lambda, nu: 2.0, factor }
     }
+}
+
+/// A fit's work buffers over its free parameters, allocated once.
+struct Work {
+    free: Vec<usize>,
+    /// JᵀJ over the free parameters.
+    a: DMatrix<f64>,
+    /// A + λD, then its Cholesky factor.
+    chol: DMatrix<f64>,
+    /// Jᵀr.
+    g: Vec<f64>,
+    /// D: running max of diag(A).
+    scale: Vec<f64>,
+    delta: Vec<f64>,
+    /// λD, floored.
+    damping: Vec<f64>,
+    x_new: Vec<f64>,
+    r_new: Vec<f64>,
+}
+
+impl Work {
+    fn new(free: Vec<usize>, x: &[f64], m: usize) -> Self {
+        let nf = free.len();
+        Work {
+            free,
+            a: DMatrix::zeros(nf, nf),
+            chol: DMatrix::zeros(nf, nf),
+            g: vec![0.0; nf],
+            scale: vec![0.0; nf],
+            delta: vec![0.0; nf],
+            damping: vec![0.0; nf],
+            x_new: x.to_vec(),
+            r_new: vec![0.0; m],
+        }
+    }
+}
+
+/// Scale-free gradient test statistic at cost `f`: max_k |cos∠(r, J_k)| from `a` = JᵀJ and
+/// `g` = Jᵀr over the free parameters.
+fn gradient_cosine(a: &DMatrix<f64>, g: &[f64], f: f64) -> f64 {
+    let rnorm = (2.0 * f).sqrt();
+    let mut gcos: f64 = 0.0;
+    for k in 0..g.len() {
+        let cn = a[(k, k)].sqrt();
+        if cn > 0.0 {
+            gcos = gcos.max(g[k].abs() / (cn * rnorm));
+        }
+    }
+    gcos
+}
+
+/// Raises the damping scale D to the running maximum of diag(A); returns the floor under which
+/// a scale counts as that floor (1e-15 of the largest).
+fn update_scale(scale: &mut [f64], a: &DMatrix<f64>) -> f64 {
+    let mut dmax: f64 = 0.0;
+    for k in 0..scale.len() {
+        scale[k] = scale[k].max(a[(k, k)]);
+        dmax = dmax.max(scale[k]);
+    }
+    (dmax * 1e-15).max(f64::MIN_POSITIVE)
+}
+
+/// Solves (A + diag(damping)) δ = −g into `delta` by Cholesky (`chol` its work matrix), or by SVD
+/// when the factorisation fails; false when neither gives a finite step.
+fn damped_step(a: &DMatrix<f64>, g: &[f64], damping: &[f64], chol: &mut DMatrix<f64>, delta: &mut [f64]) -> bool {
+    let nf = g.len();
+    for k in 0..nf {
+        for i in k..nf {
+            chol[(i, k)] = a[(i, k)];
+        }
+        chol[(k, k)] += damping[k];
+    }
+    let mut solved = cholesky_in_place(chol);
+    if solved {
+        for k in 0..nf {
+            delta[k] = -g[k];
+        }
+        cholesky_solve(chol, delta);
+        solved = delta.iter().all(|v| v.is_finite());
+    }
+    if !solved {
+        let mut damped = a.clone();
+        for k in 0..nf {
+            damped[(k, k)] += damping[k];
+        }
+        let neg_g: Vec<f64> = g.iter().map(|v| -v).collect();
+        solved = svd_solve(&damped, &neg_g, delta);
+    }
+    solved
+}
+
+/// The quadratic model's predicted cost reduction ½ δᵀ(λDδ − g) for the step `delta`, and
+/// whether the step is below `xtol` relative to the free parameters of `x`.
+fn predicted_reduction(delta: &[f64], damping: &[f64], g: &[f64], x: &[f64], free: &[usize], xtol: f64) -> (f64, bool) {
+    let mut pred = 0.0;
+    let mut dnorm2 = 0.0;
+    let mut xnorm2 = 0.0;
+    for k in 0..delta.len() {
+        pred += delta[k] * (damping[k] * delta[k] - g[k]);
+        dnorm2 += delta[k] * delta[k];
+        xnorm2 += x[free[k]] * x[free[k]];
+    }
+    (0.5 * pred, dnorm2.sqrt() <= xtol * (xnorm2.sqrt() + xtol))
+}
+
+/// λ after an accepted step with gain ratio `rho`: divided by the fixed factor, or Nielsen's
+/// update; never below the smallest positive number.
+fn lambda_after_accept(factor: Option<f64>, lambda: f64, rho: f64) -> f64 {
+    let next = match factor {
+        Some(beta) => lambda / beta,
+        None => {
+            let t = 2.0 * rho - 1.0;
+            lambda * (1.0 - t * t * t).max(1.0 / 3.0)
+        }
+    };
+    next.max(f64::MIN_POSITIVE)
 }
 
 /// Covariance of the least-squares estimate at `x`: `σ²·(JᵀJ)⁺` over the free parameters with

@@ -158,66 +158,16 @@ impl ParticleFilter {
                 }
                 evaluations += np * chunk.len();
 
-                // Candidate log-weights, normalised with log-sum-exp.
-                let mut mx = f64::NEG_INFINITY;
-                for i in 0..np {
-                    cand[i] = logw[i] + loglik[i];
-                    if cand[i] > mx {
-                        mx = cand[i];
-                    }
-                }
-                if !mx.is_finite() {
+                let Some(ess) = reweight(&mut logw, &loglik, &mut cand) else {
                     ignored += 1;
                     continue;
-                }
-                let sum: f64 = cand.iter().map(|&c| (c - mx).exp()).sum();
-                let lse = mx + sum.ln();
-                let mut sum_w2 = 0.0;
-                for i in 0..np {
-                    logw[i] = cand[i] - lse;
-                    let w = logw[i].exp();
-                    sum_w2 += w * w;
-                }
-                let ess = 1.0 / sum_w2;
-
+                };
                 if ess < 0.5 * np as f64 {
                     resamplings += 1;
-                    // Systematic resampling: pointers (u0 + j)/N against the cumulative weights.
-                    let u0: f64 = rng.random::<f64>();
-                    let mut cum = logw[0].exp();
-                    let mut src = 0;
-                    for j in 0..np {
-                        let u = (u0 + j as f64) / np as f64;
-                        while cum < u && src + 1 < np {
-                            src += 1;
-                            cum += logw[src].exp();
-                        }
-                        spare[j * n..(j + 1) * n].copy_from_slice(&parts[src * n..(src + 1) * n]);
-                    }
-                    std::mem::swap(&mut parts, &mut spare);
+                    systematic_resample(&mut parts, &mut spare, &logw, n, &mut rng);
                     logw.iter_mut().for_each(|w| *w = uniform);
-
-                    // Roughening: jitter ∝ per-dimension spread of the resampled cloud.
                     if self.roughening > 0.0 {
-                        for &k in &free {
-                            lo[k] = f64::INFINITY;
-                            hi[k] = f64::NEG_INFINITY;
-                        }
-                        for row in parts.chunks_exact(n) {
-                            for &k in &free {
-                                lo[k] = lo[k].min(row[k]);
-                                hi[k] = hi[k].max(row[k]);
-                            }
-                        }
-                        for row in parts.chunks_exact_mut(n) {
-                            for &k in &free {
-                                let sigma = self.roughening * (hi[k] - lo[k]) * shrink;
-                                let e: f64 = rng.sample(StandardNormal);
-                                if sigma.is_finite() {
-                                    row[k] += sigma * e;
-                                }
-                            }
-                        }
+                        roughen(&mut parts, n, &free, (self.roughening, shrink), (&mut lo, &mut hi), &mut rng);
                     }
                 }
             }
@@ -233,17 +183,7 @@ impl ParticleFilter {
             evaluations += order.len();
         }
 
-        // Weighted covariance.
-        let mut cov = DMatrix::<f64>::zeros(n, n);
-        for (row, &lw) in parts.chunks_exact(n).zip(&logw) {
-            let w = lw.exp();
-            for &a in &free {
-                let da = row[a] - mean[a];
-                for &b in &free {
-                    cov[(a, b)] += w * da * (row[b] - mean[b]);
-                }
-            }
-        }
+        let cov = weighted_covariance(&parts, &logw, &mean, &free);
 
         let mut reason = format!("{iterations} epochs, {resamplings} resamplings");
         if ignored > 0 {
@@ -252,6 +192,89 @@ impl ParticleFilter {
         let termination = if cost.is_finite() { Termination::Completed } else { Termination::NonFinite };
         Report { x: mean, cost, iterations, evaluations, termination, reason, covariance: Some(cov) }
     }
+}
+
+/// Multiplies the weights by the batch's likelihoods (log-weights `logw` + `loglik`, through
+/// `cand`) and normalises them with log-sum-exp; returns the effective sample size, or None when
+/// every particle's likelihood is zero (the weights are then left as they were).
+fn reweight(logw: &mut [f64], loglik: &[f64], cand: &mut [f64]) -> Option<f64> {
+    let mut mx = f64::NEG_INFINITY;
+    for i in 0..logw.len() {
+        cand[i] = logw[i] + loglik[i];
+        if cand[i] > mx {
+            mx = cand[i];
+        }
+    }
+    if !mx.is_finite() {
+        return None;
+    }
+    let sum: f64 = cand.iter().map(|&c| (c - mx).exp()).sum();
+    let lse = mx + sum.ln();
+    let mut sum_w2 = 0.0;
+    for i in 0..logw.len() {
+        logw[i] = cand[i] - lse;
+        let w = logw[i].exp();
+        sum_w2 += w * w;
+    }
+    Some(1.0 / sum_w2)
+}
+
+/// Systematic resampling of the row-major particles (`n` parameters a row) by their log-weights:
+/// pointers (u0 + j)/N against the cumulative weights; `spare` is the work buffer, swapped in.
+fn systematic_resample(parts: &mut Vec<f64>, spare: &mut Vec<f64>, logw: &[f64], n: usize, rng: &mut ChaCha8Rng) {
+    let np = logw.len();
+    let u0: f64 = rng.random::<f64>();
+    let mut cum = logw[0].exp();
+    let mut src = 0;
+    for j in 0..np {
+        let u = (u0 + j as f64) / np as f64;
+        while cum < u && src + 1 < np {
+            src += 1;
+            cum += logw[src].exp();
+        }
+        spare[j * n..(j + 1) * n].copy_from_slice(&parts[src * n..(src + 1) * n]);
+    }
+    std::mem::swap(parts, spare);
+}
+
+/// Roughening: a jitter of `roughening` times the resampled cloud's spread times `shrink`, per
+/// free dimension (`lo`, `hi` the work buffers of the spread).
+fn roughen(parts: &mut [f64], n: usize, free: &[usize], (roughening, shrink): (f64, f64), (lo, hi): (&mut [f64], &mut [f64]), rng: &mut ChaCha8Rng) {
+    for &k in free {
+        lo[k] = f64::INFINITY;
+        hi[k] = f64::NEG_INFINITY;
+    }
+    for row in parts.chunks_exact(n) {
+        for &k in free {
+            lo[k] = lo[k].min(row[k]);
+            hi[k] = hi[k].max(row[k]);
+        }
+    }
+    for row in parts.chunks_exact_mut(n) {
+        for &k in free {
+            let sigma = roughening * (hi[k] - lo[k]) * shrink;
+            let e: f64 = rng.sample(StandardNormal);
+            if sigma.is_finite() {
+                row[k] += sigma * e;
+            }
+        }
+    }
+}
+
+/// The particles' weighted covariance about `mean` (zero for the parameters not in `free`).
+fn weighted_covariance(parts: &[f64], logw: &[f64], mean: &[f64], free: &[usize]) -> DMatrix<f64> {
+    let n = mean.len();
+    let mut cov = DMatrix::<f64>::zeros(n, n);
+    for (row, &lw) in parts.chunks_exact(n).zip(logw) {
+        let w = lw.exp();
+        for &a in free {
+            let da = row[a] - mean[a];
+            for &b in free {
+                cov[(a, b)] += w * da * (row[b] - mean[b]);
+            }
+        }
+    }
+    cov
 }
 
 #[cfg(test)]

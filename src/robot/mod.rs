@@ -140,6 +140,84 @@ fn inertial_of(link: &urdf_rs::Link) -> Inertial {
     Inertial { mass: i.mass.value, com: f.pos, inertia: f.rot * local * f.rot.transpose() }
 }
 
+/// The URDF's one root link, after checking the links' inertials and that the joints form a
+/// tree with finite origins and axes.
+fn tree_root(urdf: &urdf_rs::Robot) -> std::result::Result<String, String> {
+    for link in &urdf.links {
+        check_inertial(link)?;
+    }
+    let mut parents: std::collections::HashMap<&str, &str> = std::collections::HashMap::new();
+    for j in &urdf.joints {
+        if let Some(other) = parents.insert(j.child.link.as_str(), j.name.as_str()) {
+            return Err(format!("link '{}' is the child of two joints ('{other}' and '{}'): not a tree", j.child.link, j.name));
+        }
+        let o = &j.origin;
+        if o.xyz.0.iter().chain(&o.rpy.0).chain(&j.axis.xyz.0).any(|v| !v.is_finite()) {
+            return Err(format!("joint '{}' has a non-finite origin or axis", j.name));
+        }
+    }
+    let children: std::collections::HashSet<&str> = urdf.joints.iter().map(|j| j.child.link.as_str()).collect();
+    let roots: Vec<&urdf_rs::Link> = urdf.links.iter().filter(|l| !children.contains(l.name.as_str())).collect();
+    if roots.len() != 1 {
+        return Err(format!("expected exactly one root link, found {}", roots.len()));
+    }
+    Ok(roots[0].name.clone())
+}
+
+/// The joint the serial walk follows out of link `current`: its one moving child joint, else its
+/// one fixed child, else (several fixed children, frames like tool0) one named like a flange or
+/// the first; None at the end of the chain.
+fn next_joint<'a>(urdf: &'a urdf_rs::Robot, current: &str) -> std::result::Result<Option<&'a urdf_rs::Joint>, String> {
+    let outgoing: Vec<&urdf_rs::Joint> = urdf.joints.iter().filter(|j| j.parent.link == current).collect();
+    let moving: Vec<&&urdf_rs::Joint> = outgoing.iter().filter(|j| j.joint_type != urdf_rs::JointType::Fixed).collect();
+    Ok(if moving.len() > 1 {
+        return Err(format!("link '{current}' has {} moving child joints: not a serial arm", moving.len()));
+    } else if let Some(j) = moving.first() {
+        Some(**j)
+    } else if outgoing.len() == 1 {
+        Some(outgoing[0])
+    } else if outgoing.is_empty() {
+        None
+    } else {
+        outgoing.iter().find(|j| j.child.link.contains("flange")).copied().or(outgoing.first().copied())
+    })
+}
+
+/// A revolute (or continuous) joint of the chain, at origin `full` from the previous moving
+/// joint's child frame (the fixed joints between folded in), after checking its axis and limits.
+fn joint_spec(j: &urdf_rs::Joint, full: &Frame) -> std::result::Result<JointSpec, String> {
+    let axis = Vector3::from(j.axis.xyz.0);
+    if axis.norm() < 1e-9 {
+        return Err(format!("joint '{}' has a zero axis", j.name));
+    }
+    let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(full.rot).euler_angles();
+    let (lower, upper) =
+        if j.joint_type == urdf_rs::JointType::Continuous { (-std::f64::consts::PI, std::f64::consts::PI) } else { (j.limit.lower, j.limit.upper) };
+    if lower == 0.0 && upper == 0.0 {
+        return Err(format!(
+            "revolute joint '{}' has no range (<limit lower=... upper=...> absent or both 0); give its limits, or make it type=\"continuous\"",
+            j.name
+        ));
+    }
+    if !(lower.is_finite() && upper.is_finite() && lower < upper) {
+        return Err(format!("joint '{}' has invalid limits [{lower}, {upper}]", j.name));
+    }
+    let v = j.limit.velocity;
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(format!("joint '{}' has velocity limit {v}; it must be finite and >= 0", j.name));
+    }
+    Ok(JointSpec {
+        name: j.name.clone(),
+        link: j.child.link.clone(),
+        origin_xyz: full.pos,
+        origin_rpy: Vector3::new(roll, pitch, yaw),
+        axis: axis.normalize(),
+        lower,
+        upper,
+        max_velocity: j.limit.velocity,
+    })
+}
+
 impl Robot {
     /// The IRB 120 shipped with twincal.
     pub fn irb120() -> Robot {
@@ -160,25 +238,7 @@ impl Robot {
     pub fn from_urdf_str(text: &str, origin: &str) -> Result<Robot> {
         let err = |msg: String| Error::Urdf { path: origin.to_string(), msg };
         let urdf = urdf_rs::read_from_string(text).map_err(|e| err(format!("cannot parse: {e}")))?;
-        for link in &urdf.links {
-            check_inertial(link).map_err(err)?;
-        }
-        let mut parents: std::collections::HashMap<&str, &str> = std::collections::HashMap::new();
-        for j in &urdf.joints {
-            if let Some(other) = parents.insert(j.child.link.as_str(), j.name.as_str()) {
-                return Err(err(format!("link '{}' is the child of two joints ('{other}' and '{}'): not a tree", j.child.link, j.name)));
-            }
-            let o = &j.origin;
-            if o.xyz.0.iter().chain(&o.rpy.0).chain(&j.axis.xyz.0).any(|v| !v.is_finite()) {
-                return Err(err(format!("joint '{}' has a non-finite origin or axis", j.name)));
-            }
-        }
-        let children: std::collections::HashSet<&str> = urdf.joints.iter().map(|j| j.child.link.as_str()).collect();
-        let roots: Vec<&urdf_rs::Link> = urdf.links.iter().filter(|l| !children.contains(l.name.as_str())).collect();
-        if roots.len() != 1 {
-            return Err(err(format!("expected exactly one root link, found {}", roots.len())));
-        }
-        let base = roots[0].name.clone();
+        let base = tree_root(&urdf).map_err(err)?;
         let link_by_name = |n: &str| urdf.links.iter().find(|l| l.name == n);
 
         let mut joints = Vec::new();
@@ -195,60 +255,12 @@ impl Robot {
             if !visited.insert(current.clone()) {
                 return Err(err(format!("the joints form a cycle through link '{current}'")));
             }
-            let outgoing: Vec<&urdf_rs::Joint> = urdf.joints.iter().filter(|j| j.parent.link == current).collect();
-            // Branches made only of fixed joints to inertia-free links (frames like tool0) are allowed.
-            let moving: Vec<&&urdf_rs::Joint> = outgoing.iter().filter(|j| j.joint_type != urdf_rs::JointType::Fixed).collect();
-            let next = if moving.len() > 1 {
-                return Err(err(format!("link '{current}' has {} moving child joints: not a serial arm", moving.len())));
-            } else if let Some(j) = moving.first() {
-                Some(**j)
-            } else if outgoing.len() == 1 {
-                Some(outgoing[0])
-            } else if outgoing.is_empty() {
-                None
-            } else {
-                // Several fixed children and no moving one: follow a link named like a flange, else the first.
-                outgoing.iter().find(|j| j.child.link.contains("flange")).copied().or(outgoing.first().copied())
-            };
-            let Some(j) = next else { break };
+            let Some(j) = next_joint(&urdf, &current).map_err(err)? else { break };
             let origin = frame_from_xyz_rpy(&j.origin.xyz.0, &j.origin.rpy.0);
             let child_inertial = link_by_name(&j.child.link).map(inertial_of).unwrap_or(Inertial::zero());
             match &j.joint_type {
                 urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
-                    let axis = Vector3::from(j.axis.xyz.0);
-                    if axis.norm() < 1e-9 {
-                        return Err(err(format!("joint '{}' has a zero axis", j.name)));
-                    }
-                    let full = pending.compose(&origin);
-                    let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(full.rot).euler_angles();
-                    let (lower, upper) = if j.joint_type == urdf_rs::JointType::Continuous {
-                        (-std::f64::consts::PI, std::f64::consts::PI)
-                    } else {
-                        (j.limit.lower, j.limit.upper)
-                    };
-                    if lower == 0.0 && upper == 0.0 {
-                        return Err(err(format!(
-                            "revolute joint '{}' has no range (<limit lower=... upper=...> absent or both 0); give its limits, or make it type=\"continuous\"",
-                            j.name
-                        )));
-                    }
-                    if !(lower.is_finite() && upper.is_finite() && lower < upper) {
-                        return Err(err(format!("joint '{}' has invalid limits [{lower}, {upper}]", j.name)));
-                    }
-                    let v = j.limit.velocity;
-                    if !(v.is_finite() && v >= 0.0) {
-                        return Err(err(format!("joint '{}' has velocity limit {v}; it must be finite and >= 0", j.name)));
-                    }
-                    joints.push(JointSpec {
-                        name: j.name.clone(),
-                        link: j.child.link.clone(),
-                        origin_xyz: full.pos,
-                        origin_rpy: Vector3::new(roll, pitch, yaw),
-                        axis: axis.normalize(),
-                        lower,
-                        upper,
-                        max_velocity: j.limit.velocity,
-                    });
+                    joints.push(joint_spec(j, &pending.compose(&origin)).map_err(err)?);
                     links.push(child_inertial);
                     pending = Frame::identity();
                     pending_names.clear();

@@ -471,27 +471,68 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
     let split = stratified_split(&nominal_lengths, s.sampling.test, s.seed);
 
     let results = acquire_all(s, &twin, &poses, &sides, &times, read_at.as_deref(), progress);
-    let deg = |v: &[f64]| v.iter().map(|x| x.to_degrees()).collect::<Vec<f64>>();
+    let tour = Tour { s, twin: &twin, poses: &poses, sides: &sides, times: &times, split: &split, schedule: schedule.as_ref() };
     let mut rows = Vec::new();
     let mut truth_poses = Vec::new();
     let mut frames = Vec::new();
     let mut rejected = Vec::new();
     let mut point_var = Vec::new();
     for (i, r) in results.into_iter().enumerate() {
+        match tour.pose_output(i, r) {
+            Ok(o) => {
+                rows.push(o.row);
+                truth_poses.push(o.truth);
+                frames.push(o.frames);
+                point_var.extend(o.point_var);
+            }
+            Err(reason) => rejected.push(Rejected { index: i, q_cmd_deg: degrees(&poses[i]), reason }),
+        }
+    }
+    if rows.is_empty() {
+        return Err(Error::Sensor(format!("every pose was rejected; first reason: {}", rejected.first().map(|r| r.reason.as_str()).unwrap_or("?"))));
+    }
+    let glitch_rows = add_glitches(s, &mut rows, &mut truth_poses);
+    let truth = truth_file(s, robot, &twin, &point_var, truth_poses, rejected, glitch_rows);
+    Ok(Generated { dataset: Dataset { rows, source: s.name.clone() }, truth, frames, twin })
+}
+
+/// What the tour of one run shares across its poses.
+struct Tour<'a> {
+    s: &'a Scenario,
+    twin: &'a Twin,
+    /// Commanded poses, rad.
+    poses: &'a [Vec<f64>],
+    sides: &'a [Vec<f64>],
+    times: &'a [f64],
+    split: &'a [Split],
+    schedule: Option<&'a Schedule>,
+}
+
+/// What one pose gave: its dataset row, its truth, the arm's frames, and the tracker's variance
+/// per coordinate (when a tracker read it).
+struct PoseOutput {
+    row: Row,
+    truth: PoseTruth,
+    frames: Vec<Frame>,
+    point_var: Option<f64>,
+}
+
+impl Tour<'_> {
+    /// Pose `i`'s row and truth from what the twin gave for it (`r`), or why it is rejected.
+    fn pose_output(&self, i: usize, r: Result<Outcome>) -> std::result::Result<PoseOutput, String> {
+        let s = self.s;
         let (rest, series, acq) = match r {
             Ok(Outcome::Rest(r)) => (r, None, None),
             Ok(Outcome::Acquired(a)) => {
                 let closed = a.gate_s.is_none();
                 if closed && s.acquisition.on_timeout == OnTimeout::Reject {
-                    let reason = format!(
+                    return Err(format!(
                         "stability gate still closed when the {} s hold ended (readings differed by {} mm or more between {} s windows)",
                         s.sensor.hold_s, s.acquisition.gate_mm, s.acquisition.gate_window_s
-                    );
-                    rejected.push(Rejected { index: i, q_cmd_deg: deg(&poses[i]), reason });
-                    continue;
+                    ));
                 }
                 let pa = PoseAcquisition {
-                    move_s: schedule.as_ref().map(|sc| sc.moves[i].duration).unwrap_or(0.0),
+                    move_s: self.schedule.map(|sc| sc.moves[i].duration).unwrap_or(0.0),
                     gate_s: a.gate_s,
                     read_with_gate_closed: closed,
                     transient_mm: a.transient_mm,
@@ -500,83 +541,42 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
                 };
                 (a.rest, Some(a.lengths), Some(pa))
             }
-            Err(e) => {
-                rejected.push(Rejected { index: i, q_cmd_deg: deg(&poses[i]), reason: e.to_string() });
-                continue;
-            }
+            Err(e) => return Err(e.to_string()),
         };
-        // The window's mean noise-free length (constant for an arm at rest).
-        let l_true = match &series {
-            Some(l) => l.iter().sum::<f64>() / l.len().max(1) as f64,
-            None => s.sensor.ideal_length(&rest.tool),
-        };
-        let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Noise, i as u64));
-        let read = match &series {
-            Some(l) => s.sensor.read_series(l, &mut rng),
-            None => s.sensor.read(l_true, &mut rng),
-        };
-        let noise_free = match &series {
-            Some(l) => l.iter().map(|v| v + s.sensor.linearity_error(*v)).sum::<f64>() / l.len().max(1) as f64,
-            None => l_true + s.sensor.linearity_error(l_true),
-        };
-        let reading = match read {
-            Ok(v) => v,
-            Err(e) => {
-                rejected.push(Rejected { index: i, q_cmd_deg: deg(&poses[i]), reason: e.to_string() });
-                continue;
-            }
-        };
-        let dt = twin.effects.thermal.as_ref().map(|th| th.delta_t(times[i])).unwrap_or(0.0);
-        let temp = measured_temp(s, i, times[i]);
-        // Each value at its meaning's precision (see DrawWire::reading_decimals).
-        let reading = round_decimals(reading, s.sensor.reading_decimals());
-        // A tracker reads the same tool point, from its own noise stream.
-        let mut pose = None;
-        let point = s.tracker.as_ref().map(|tr| {
-            let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
-            let r = if tr.probe_rotation_deg.is_some() {
-                // A 6-D probe also reads the flange's orientation (the twin's resting frames).
-                let (r, p) = tr.read_pose(&rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.sensor.samples, &mut rng);
-                let read: Vec<f64> = p.read.iter().enumerate().map(|(k, v)| round_decimals(*v, if k < 3 { tr.decimals } else { tr.angle_decimals })).collect();
-                pose = Some((p.ideal, read));
-                r
-            } else {
-                tr.read(&rest.tool, s.sensor.samples, &mut rng)
-            };
-            (r.ideal_mm, r.read_mm.map(|v| round_decimals(v, tr.decimals)), r.std_mm)
-        });
-        if let Some((_, _, sd)) = point {
-            point_var.push(sd * sd);
-        }
+        let (l_true, noise_free, reading) = cable_reading(s, i, &rest, series.as_deref())?;
+        let time = self.times[i];
+        let dt = self.twin.effects.thermal.as_ref().map(|th| th.delta_t(time)).unwrap_or(0.0);
+        let temp = measured_temp(s, i, time);
+        let (point, pose) = tracker_reading(s, i, &rest);
         let reading_mm = match (&pose, point) {
             (Some((_, read)), _) => read.clone(),
             (None, Some((_, read, _))) => read.to_vec(),
             (None, None) => vec![reading],
         };
-        rows.push(Row {
-            q_deg: poses[i].iter().map(|v| round_decimals(v.to_degrees(), s.sampling.written_decimals())).collect(),
+        let row = Row {
+            q_deg: self.poses[i].iter().map(|v| round_decimals(v.to_degrees(), s.sampling.written_decimals())).collect(),
             reading_mm,
-            t_s: Some(round_decimals(times[i], T_DECIMALS)),
+            t_s: Some(round_decimals(time, T_DECIMALS)),
             temp_c: temp,
-            split: Some(split[i]),
+            split: Some(self.split[i]),
             std_mm: match (&s.tracker, point) {
                 (Some(tr), Some((_, _, sd))) if tr.write_std => Some([round_decimals(sd, STD_DECIMALS); 3]),
                 _ => None,
             },
             block: None,
-        });
-        truth_poses.push(PoseTruth {
+        };
+        let truth = PoseTruth {
             index: i,
-            split: split[i],
-            t_s: times[i],
+            split: self.split[i],
+            t_s: time,
             delta_t_k: dt,
             temp_measured_c: temp,
-            q_cmd_deg: deg(&poses[i]),
+            q_cmd_deg: degrees(&self.poses[i]),
             eccentricity_mdeg: s.effects.eccentricity.as_ref().map(|_| rest.eccentricity.iter().map(|e| e.to_degrees() * 1e3).collect()),
-            q_link_deg: deg(&rest.q_link),
+            q_link_deg: degrees(&rest.q_link),
             deflection_mdeg: rest.deflection.iter().map(|d| d.to_degrees() * 1e3).collect(),
             joint_torque_nm: rest.torque.clone(),
-            approach_side: sides[i].clone(),
+            approach_side: self.sides[i].clone(),
             contact: rest.contact.clone(),
             tool_mm: [rest.tool.x * 1e3, rest.tool.y * 1e3, rest.tool.z * 1e3],
             length_true_mm: l_true,
@@ -591,14 +591,69 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
                 None => rest.steps as f64 * s.simulation.dt_s,
             },
             acquisition: acq,
-        });
-        frames.push(rest.frames);
+        };
+        Ok(PoseOutput { row, truth, frames: rest.frames, point_var: point.map(|(_, _, sd)| sd * sd) })
     }
-    if rows.is_empty() {
-        return Err(Error::Sensor(format!("every pose was rejected; first reason: {}", rejected.first().map(|r| r.reason.as_str()).unwrap_or("?"))));
-    }
-    let glitch_rows = add_glitches(s, &mut rows, &mut truth_poses);
+}
 
+/// The draw-wire's reading of pose `i`, mm: the true length (the window's mean noise-free
+/// length, constant for an arm at rest), with the sensor's linearity error, and as read (noise,
+/// resolution, at its meaning's precision: see `DrawWire::reading_decimals`); or why it failed.
+fn cable_reading(s: &Scenario, i: usize, rest: &RestingPose, series: Option<&[f64]>) -> std::result::Result<(f64, f64, f64), String> {
+    let l_true = match series {
+        Some(l) => l.iter().sum::<f64>() / l.len().max(1) as f64,
+        None => s.sensor.ideal_length(&rest.tool),
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Noise, i as u64));
+    let read = match series {
+        Some(l) => s.sensor.read_series(l, &mut rng),
+        None => s.sensor.read(l_true, &mut rng),
+    };
+    let noise_free = match series {
+        Some(l) => l.iter().map(|v| v + s.sensor.linearity_error(*v)).sum::<f64>() / l.len().max(1) as f64,
+        None => l_true + s.sensor.linearity_error(l_true),
+    };
+    let reading = read.map_err(|e| e.to_string())?;
+    Ok((l_true, noise_free, round_decimals(reading, s.sensor.reading_decimals())))
+}
+
+/// A tracker's reading of pose `i`'s tool point, from its own noise stream: (ideal, read, sd)
+/// in mm, and a 6-D probe's pose (ideal, read at the tracker's decimals).
+#[allow(clippy::type_complexity)]
+fn tracker_reading(s: &Scenario, i: usize, rest: &RestingPose) -> (Option<([f64; 3], [f64; 3], f64)>, Option<([f64; 6], Vec<f64>)>) {
+    let mut pose = None;
+    let point = s.tracker.as_ref().map(|tr| {
+        let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
+        let r = if tr.probe_rotation_deg.is_some() {
+            // A 6-D probe also reads the flange's orientation (the twin's resting frames).
+            let (r, p) = tr.read_pose(&rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.sensor.samples, &mut rng);
+            let read: Vec<f64> = p.read.iter().enumerate().map(|(k, v)| round_decimals(*v, if k < 3 { tr.decimals } else { tr.angle_decimals })).collect();
+            pose = Some((p.ideal, read));
+            r
+        } else {
+            tr.read(&rest.tool, s.sensor.samples, &mut rng)
+        };
+        (r.ideal_mm, r.read_mm.map(|v| round_decimals(v, tr.decimals)), r.std_mm)
+    });
+    (point, pose)
+}
+
+/// Angles in degrees.
+fn degrees(v: &[f64]) -> Vec<f64> {
+    v.iter().map(|x| x.to_degrees()).collect()
+}
+
+/// The truth file of a run: the scenario's true parameters (in the file's units), effects,
+/// instrument, and each pose's truth.
+fn truth_file(
+    s: &Scenario,
+    robot: &Robot,
+    twin: &Twin,
+    point_var: &[f64],
+    truth_poses: Vec<PoseTruth>,
+    rejected: Vec<Rejected>,
+    glitch_rows: Vec<usize>,
+) -> Truth {
     let names = robot.param_names();
     let parameters = names
         .iter()
@@ -619,7 +674,7 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
         ("eccentricity_mdeg", "millidegrees, true motor side minus commanded (encoder) angle"),
         ("temperature", "°C for temp_measured_c, K for delta_t_k (the structure's true rise)"),
     ]);
-    let truth = Truth {
+    Truth {
         schema_version: crate::io::SCHEMA_VERSION,
         scenario: s.name.clone(),
         seed: s.seed,
@@ -647,8 +702,7 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
         poses: truth_poses,
         rejected,
         glitch_rows,
-    };
-    Ok(Generated { dataset: Dataset { rows, source: s.name.clone() }, truth, frames, twin })
+    }
 }
 
 /// Stages `dataset.csv` and `truth.json` of `dir` in `outputs` (renamed into place, in that order,

@@ -269,10 +269,20 @@ impl Scenario {
                 return Err(err("[glitches] disturb a cable's reading; a [tracker] scenario has none".into()));
             }
         }
+        self.validate_geometry(robot).map_err(err)?;
+        self.validate_sampling(robot).map_err(err)?;
+        self.validate_glitches().map_err(err)?;
+        self.simulation.validate().map_err(err)?;
+        self.acquisition.validate(self.simulation.dt_s, self.sensor.rate_hz).map_err(err)?;
+        Ok(())
+    }
+
+    /// The geometry section: parameters the robot has, finite spreads.
+    fn validate_geometry(&self, robot: &Robot) -> std::result::Result<(), String> {
         let names = robot.param_names();
         for k in self.geometry.set.keys() {
             if !names.contains(k) {
-                return Err(err(format!("geometry.set: unknown parameter '{k}' (expected <joint>.<{}>)", PARAM_SUFFIXES.join("|"))));
+                return Err(format!("geometry.set: unknown parameter '{k}' (expected <joint>.<{}>)", PARAM_SUFFIXES.join("|")));
             }
         }
         let g = &self.geometry;
@@ -283,86 +293,92 @@ impl Scenario {
         ];
         for (key, v) in stds {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(err(format!("geometry.{key} = {v} must be finite and >= 0")));
+                return Err(format!("geometry.{key} = {v} must be finite and >= 0"));
             }
         }
         if let Some((k, v)) = g.set.iter().find(|(_, v)| !v.is_finite()) {
-            return Err(err(format!("geometry.set.\"{k}\" = {v} must be finite")));
+            return Err(format!("geometry.set.\"{k}\" = {v} must be finite"));
         }
+        Ok(())
+    }
+
+    /// The sampling section: pose counts, ranges inside the joint limits, margins, decimals.
+    fn validate_sampling(&self, robot: &Robot) -> std::result::Result<(), String> {
         let sm = &self.sampling;
         if sm.poses == 0 || sm.poses > MAX_POSES || sm.test >= sm.poses {
-            return Err(err(format!(
+            return Err(format!(
                 "sampling.poses = {} and sampling.test = {}: need 1 <= poses <= {MAX_POSES} and \
                  test < poses",
                 sm.poses, sm.test
-            )));
+            ));
         }
         if let Some(r) = &sm.ranges_deg {
             if r.len() != robot.dof() {
-                return Err(err(format!("sampling.ranges_deg has {} ranges, the robot has {} joints", r.len(), robot.dof())));
+                return Err(format!("sampling.ranges_deg has {} ranges, the robot has {} joints", r.len(), robot.dof()));
             }
             for (j, [lo, hi]) in r.iter().enumerate() {
                 let (l, u) = (robot.joints[j].lower.to_degrees(), robot.joints[j].upper.to_degrees());
                 let increasing = lo.partial_cmp(hi) == Some(std::cmp::Ordering::Less);
                 if !increasing || *lo < l - 1e-9 || *hi > u + 1e-9 {
-                    return Err(err(format!(
+                    return Err(format!(
                         "sampling.ranges_deg[{j}] = [{lo}, {hi}] must be increasing and inside \
                          the joint limits [{l:.2}, {u:.2}] degrees"
-                    )));
+                    ));
                 }
             }
         }
         let m = sm.limit_margin_deg;
         if !(m.is_finite() && m >= 0.0) {
-            return Err(err(format!("sampling.limit_margin_deg = {m} must be finite and >= 0")));
+            return Err(format!("sampling.limit_margin_deg = {m} must be finite and >= 0"));
         }
         if sm.ranges_deg.is_none() {
             for j in &robot.joints {
                 let (l, u) = (j.lower.to_degrees(), j.upper.to_degrees());
                 if l + m >= u - m {
-                    return Err(err(format!(
+                    return Err(format!(
                         "sampling.limit_margin_deg = {m} leaves no range for joint '{}' (limits \
                          [{l:.2}, {u:.2}] degrees)",
                         j.name
-                    )));
+                    ));
                 }
             }
         }
         if !sm.min_tool_z_mm.is_finite() {
-            return Err(err(format!("sampling.min_tool_z_mm = {} must be finite", sm.min_tool_z_mm)));
+            return Err(format!("sampling.min_tool_z_mm = {} must be finite", sm.min_tool_z_mm));
         }
         if !(sm.speed_fraction > 0.0 && sm.speed_fraction <= 1.0) {
-            return Err(err(format!("sampling.speed_fraction = {} must be in (0, 1]", sm.speed_fraction)));
+            return Err(format!("sampling.speed_fraction = {} must be in (0, 1]", sm.speed_fraction));
         }
         if sm.angle_decimals > MAX_ANGLE_DECIMALS {
-            return Err(err(format!("sampling.angle_decimals = {} must be at most {MAX_ANGLE_DECIMALS}", sm.angle_decimals)));
+            return Err(format!("sampling.angle_decimals = {} must be at most {MAX_ANGLE_DECIMALS}", sm.angle_decimals));
         }
         if let Some(d) = sm.logged_decimals.filter(|d| *d > sm.angle_decimals) {
-            return Err(err(format!("sampling.logged_decimals = {d} must be at most sampling.angle_decimals = {}", sm.angle_decimals)));
+            return Err(format!("sampling.logged_decimals = {d} must be at most sampling.angle_decimals = {}", sm.angle_decimals));
         }
         if !(2..=1000).contains(&sm.sweep_length) {
-            return Err(err(format!("sampling.sweep_length = {} must be in 2..=1000", sm.sweep_length)));
+            return Err(format!("sampling.sweep_length = {} must be in 2..=1000", sm.sweep_length));
         }
+        Ok(())
+    }
+
+    /// The glitches section: runs, sizes, the joint.
+    fn validate_glitches(&self) -> std::result::Result<(), String> {
+        let sm = &self.sampling;
         if let Some(g) = &self.glitches {
             if g.runs == 0 || g.rows == 0 || g.runs * g.rows > sm.poses / 4 {
-                return Err(err(format!(
-                    "glitches: {} runs of {} rows must be at least one row and at most a quarter of the {} poses",
-                    g.runs, g.rows, sm.poses
-                )));
+                return Err(format!("glitches: {} runs of {} rows must be at least one row and at most a quarter of the {} poses", g.runs, g.rows, sm.poses));
             }
             if !(g.size_mm.is_finite() && g.size_mm > 0.0 && g.size_mm <= 0.1 * (self.sensor.range_mm[1] - self.sensor.range_mm[0])) {
-                return Err(err(format!("glitches.size_mm = {} must be positive and at most 10 % of the sensor range", g.size_mm)));
+                return Err(format!("glitches.size_mm = {} must be positive and at most 10 % of the sensor range", g.size_mm));
             }
             let joints = self.sampling.ranges_deg.as_ref().map_or(usize::MAX, |r| r.len());
             if let Some(j) = g.joint.filter(|&j| j == 0 || j > joints.min(crate::dataset::MAX_JOINTS)) {
-                return Err(err(format!("glitches.joint = {j} must be a joint of the arm, 1-based")));
+                return Err(format!("glitches.joint = {j} must be a joint of the arm, 1-based"));
             }
             if let Some(d) = g.size_deg.filter(|d| !(d.is_finite() && *d > 0.0 && *d <= 30.0)) {
-                return Err(err(format!("glitches.size_deg = {d} must be in (0, 30] degrees")));
+                return Err(format!("glitches.size_deg = {d} must be in (0, 30] degrees"));
             }
         }
-        self.simulation.validate().map_err(err)?;
-        self.acquisition.validate(self.simulation.dt_s, self.sensor.rate_hz).map_err(err)?;
         Ok(())
     }
 

@@ -114,188 +114,207 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
     Some(TruthView { to_rigid: dist(&rigid), to_equivalent: dist(&eq), recovered: 1.0 - rms(&after) / rms(&left) })
 }
 
-/// `twincal bench awnn`.
-pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
-    let (base, robot) =
-        Scenario::from_toml(include_str!("../../../scenarios/irb120_pso_ekf.toml"), "irb120_pso_ekf").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
-    let spec = ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: "hayati".into() };
-    let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-awnn-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
-    let gen = |seed: u64| -> Result<(Dataset, TruthFile)> {
-        let mut s = base.clone();
+/// What the sections of `twincal bench awnn` share: the scenario, the model, the options and a
+/// scratch folder for the datasets (removed when dropped).
+struct AwnnBench {
+    base: Scenario,
+    robot: twincal::robot::Robot,
+    spec: ModelSpec,
+    lm_opts: CalibOptions,
+    awnn_opts: CalibOptions,
+    lm: Box<dyn twincal::calib::methods::Solver>,
+    tmp_dir: tempfile::TempDir,
+}
+
+impl AwnnBench {
+    /// The scenario's dataset at `seed`, with its truth (written and read back as a user's).
+    fn gen(&self, seed: u64) -> Result<(Dataset, TruthFile)> {
+        let mut s = self.base.clone();
         s.seed = seed;
-        let g = generate(&s, &robot, &Silent)?;
-        let dir = tmp_dir.path().join(format!("s{seed}"));
+        let g = generate(&s, &self.robot, &Silent)?;
+        let dir = self.tmp_dir.path().join(format!("s{seed}"));
         write_outputs(&g, &dir)?;
         let truth = TruthFile::find(&dir)?.ok_or_else(|| Error::Invalid("truth missing".into()))?;
         Ok((g.dataset, truth))
-    };
-    let lm_opts = CalibOptions::new(spec.clone(), Method::Lm);
-    let awnn_opts = CalibOptions::new(spec.clone(), Method::PsoEkfAwnn(Ablation::Full));
-    let lm = Method::Lm.solver(1.0);
-    println!("PSO-EKF-AWNN benchmark (irb120_pso_ekf: 400 poses, 300 train / 100 test, every effect on)");
-
-    // 1. Speed on the scenario's own dataset, LM in the same process as the baseline.
-    if !quiet {
-        eprintln!("bench awnn: speed ({} repetitions)", repeat.max(3));
-    }
-    let (ds, truth) = gen(base.seed)?;
-    let timed = Timed { inner: PsoEkfAwnn::default(), times: Mutex::new(Vec::new()) };
-    let (mut t_lm, mut t_full) = (Vec::new(), Vec::new());
-    let mut last = None;
-    for _ in 0..repeat.max(3) {
-        t_lm.push(calibrate_with(&ds, None, &lm_opts, lm.as_ref())?.wall_time_s);
-        let t0 = Instant::now();
-        let r = calibrate_with(&ds, Some(&truth), &awnn_opts, &timed)?;
-        t_full.push(t0.elapsed().as_secs_f64());
-        last = Some(r);
-    }
-    let times = timed.times.lock().map_err(|_| Error::Invalid("timer poisoned".into()))?.clone();
-    let t_start = median(&times.iter().map(|t| t.start).collect::<Vec<_>>());
-    let t_zero = median(&times.iter().map(|t| t.zero).collect::<Vec<_>>());
-    let t_core = median(&times.iter().map(|t| t.core).collect::<Vec<_>>());
-    let (lm_med, full_med) = (median(&t_lm), median(&t_full));
-    let h = times[0].hyper;
-    println!("  speed (medians of {}, {} training poses):", t_full.len(), ds.train_indices().len());
-    println!("    core, Stage I + II         : {:8.1} ms (target < 500 ms; the paper: 20.15 s)", t_core * 1e3);
-    println!("    Stage 0, PSO               : {:8.1} ms (target < 5 s; the paper: about 125 s)", t_zero * 1e3);
-    println!("    network start (LM + CV)    : {:8.1} ms", t_start * 1e3);
-    println!("    whole calibration          : {:8.1} ms = {:.1} x LM's {:.1} ms", full_med * 1e3, full_med / lm_med, lm_med * 1e3);
-    if let Some(r) = &last {
-        println!("    Stage 0 chose Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.2e}; {}", h.q_rel, h.r_rel, h.lr, r.stop_reason.split("; ").last().unwrap_or(""));
     }
 
-    // 2. Accuracy over seeds: against LM, against the truth.
-    if !quiet {
-        eprintln!("bench awnn: accuracy over {seeds} seeds");
-    }
-    let mut rows = Vec::new();
-    let q_opts = CalibOptions::new(spec.clone(), Method::PsoEkfAwnn(Ablation::Extended));
-    let mut q_rows = Vec::new();
-    let mut z_rows = Vec::new();
-    let zero = PsoEkfAwnn { start: NetStart::Zero, ..Default::default() };
-    for seed in 0..seeds {
-        let (ds, truth) = gen(base.seed + 1000 + seed)?;
-        let l = calibrate_with(&ds, Some(&truth), &lm_opts, lm.as_ref())?;
-        let a = calibrate_with(&ds, Some(&truth), &awnn_opts, &PsoEkfAwnn::default())?;
-        let q = calibrate_with(&ds, Some(&truth), &q_opts, &PsoEkfAwnn::variant(Ablation::Extended))?;
-        let (tl, ta) = (truth_view(&l, &ds, &truth, &lm_opts), truth_view(&a, &ds, &truth, &awnn_opts));
-        q_rows.push((test_rmse(&q), truth_view(&q, &ds, &truth, &q_opts).map_or(f64::NAN, |t| t.recovered)));
-        let z = calibrate_with(&ds, Some(&truth), &awnn_opts, &zero)?;
-        z_rows.push((test_rmse(&z), truth_view(&z, &ds, &truth, &awnn_opts).map_or(f64::NAN, |t| t.recovered)));
-        rows.push((test_rmse(&l), test_rmse(&a), tl, ta, truth.noise_std_mm));
-    }
-    let lm_r: Vec<f64> = rows.iter().map(|r| r.0).collect();
-    let aw_r: Vec<f64> = rows.iter().map(|r| r.1).collect();
-    let summary = |v: &[f64]| {
-        let ratio: Vec<f64> = v.iter().zip(&lm_r).map(|(a, l)| a / l).collect();
-        let wins = ratio.iter().filter(|r| **r < 1.0).count();
-        format!(
-            "ratio to LM median {:.3} (range {:.3}–{:.3}), lower than LM in {wins}/{seeds}",
-            median(&ratio),
-            ratio.iter().cloned().fold(f64::INFINITY, f64::min),
-            ratio.iter().cloned().fold(0.0, f64::max)
-        )
-    };
-    let net = match PsoEkfAwnn::default().new_net_label() {
-        s if s.is_empty() => "no network".to_string(),
-        s => s,
-    };
-    println!("  accuracy over {seeds} seeds (scenario seeds {}..{}):", base.seed + 1000, base.seed + 1000 + seeds - 1);
-    println!(
-        "    test RMSE, median          : LM {:.4} mm, pso-ekf-awnn {:.4} mm; noise floor {:.4} mm per raw sample",
-        median(&lm_r),
-        median(&aw_r),
-        rows[0].4
-    );
-    println!("    pso-ekf-awnn ({net}, network chosen by CV on the training rows): {}", summary(&aw_r));
-    let z_r: Vec<f64> = z_rows.iter().map(|r| r.0).collect();
-    println!(
-        "    same, Stage I from {} zero-output neurons instead: median {:.4} mm, {}; removes {:.1} % (median)",
-        zero.neurons,
-        median(&z_r),
-        summary(&z_r),
-        100.0 * median(&z_rows.iter().map(|r| r.1).collect::<Vec<_>>())
-    );
-    let q_r: Vec<f64> = q_rows.iter().map(|r| r.0).collect();
-    println!(
-        "    pso-ekf-awnn-x (q + temperature (or time) + flanks, 2 network/LM alternations): median {:.4} mm, {}; removes {:.1} % (median)",
-        median(&q_r),
-        summary(&q_r),
-        100.0 * median(&q_rows.iter().map(|r| r.1).collect::<Vec<_>>())
-    );
-    let col = |f: &dyn Fn(&TruthView) -> f64, pick: usize| -> f64 {
-        let v: Vec<f64> = rows.iter().filter_map(|r| if pick == 0 { r.2.as_ref() } else { r.3.as_ref() }).map(f).collect();
-        median(&v)
-    };
-    println!(
-        "    geometry vs true rigid arm : RMS over free chain parameters (mm, mdeg) LM {:.4}, pso-ekf-awnn {:.4}",
-        col(&|t| t.to_rigid, 0),
-        col(&|t| t.to_rigid, 1)
-    );
-    println!(
-        "    geometry vs truth-equiv.   : LM {:.4}, pso-ekf-awnn {:.4} (the rigid fit to the noise-free lengths, from the truth)",
-        col(&|t| t.to_equivalent, 0),
-        col(&|t| t.to_equivalent, 1)
-    );
-    println!(
-        "    non-geometric error removed by the AWNN: median {:.1} % of what its own geometry leaves on the noise-free test lengths",
-        100.0 * col(&|t| t.recovered, 1)
-    );
-
-    // 3. Data efficiency: fixed test set, training subsamples.
-    if !quiet {
-        eprintln!("bench awnn: data efficiency");
-    }
-    println!("  data efficiency (dataset seed {}, fixed 100 test poses, 10 subsamples each; mean ± std test RMSE, mm):", base.seed);
-    let train = ds.train_indices();
-    for n in [50usize, 100, 150, 200, 250, 300] {
-        let mut la = Vec::new();
-        let mut aa = Vec::new();
-        let mut kept = 0;
-        for k in 0..10u64 {
-            let mut idx = train.clone();
-            use rand::seq::SliceRandom;
-            use rand::SeedableRng;
-            idx.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(k * 7919 + n as u64));
-            idx.truncate(n);
-            let sub = with_train_rows(&ds, &idx);
-            let mut o = lm_opts.clone();
-            o.seed = k;
-            la.push(test_rmse(&calibrate_with(&sub, None, &o, lm.as_ref())?));
-            let mut o = awnn_opts.clone();
-            o.seed = k;
-            let r = calibrate_with(&sub, None, &o, &PsoEkfAwnn::default())?;
-            kept += usize::from(!r.stop_reason.contains("zero output weights"));
-            aa.push(test_rmse(&r));
-            if n == 300 {
-                break;
-            }
+    /// Speed on the scenario's own dataset, LM in the same process as the baseline; returns the
+    /// dataset and Stage 0's hyperparameters.
+    fn speed(&self, repeat: usize, quiet: bool) -> Result<(Dataset, Hyper)> {
+        if !quiet {
+            eprintln!("bench awnn: speed ({} repetitions)", repeat.max(3));
         }
-        let ((lm_m, lm_s), (aw_m, aw_s)) = (mean_std(&la), mean_std(&aa));
+        let (ds, truth) = self.gen(self.base.seed)?;
+        let timed = Timed { inner: PsoEkfAwnn::default(), times: Mutex::new(Vec::new()) };
+        let (mut t_lm, mut t_full) = (Vec::new(), Vec::new());
+        let mut last = None;
+        for _ in 0..repeat.max(3) {
+            t_lm.push(calibrate_with(&ds, None, &self.lm_opts, self.lm.as_ref())?.wall_time_s);
+            let t0 = Instant::now();
+            let r = calibrate_with(&ds, Some(&truth), &self.awnn_opts, &timed)?;
+            t_full.push(t0.elapsed().as_secs_f64());
+            last = Some(r);
+        }
+        let times = timed.times.lock().map_err(|_| Error::Invalid("timer poisoned".into()))?.clone();
+        let t_start = median(&times.iter().map(|t| t.start).collect::<Vec<_>>());
+        let t_zero = median(&times.iter().map(|t| t.zero).collect::<Vec<_>>());
+        let t_core = median(&times.iter().map(|t| t.core).collect::<Vec<_>>());
+        let (lm_med, full_med) = (median(&t_lm), median(&t_full));
+        let h = times[0].hyper;
+        println!("  speed (medians of {}, {} training poses):", t_full.len(), ds.train_indices().len());
+        println!("    core, Stage I + II         : {:8.1} ms (target < 500 ms; the paper: 20.15 s)", t_core * 1e3);
+        println!("    Stage 0, PSO               : {:8.1} ms (target < 5 s; the paper: about 125 s)", t_zero * 1e3);
+        println!("    network start (LM + CV)    : {:8.1} ms", t_start * 1e3);
+        println!("    whole calibration          : {:8.1} ms = {:.1} x LM's {:.1} ms", full_med * 1e3, full_med / lm_med, lm_med * 1e3);
+        if let Some(r) = &last {
+            println!("    Stage 0 chose Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.2e}; {}", h.q_rel, h.r_rel, h.lr, r.stop_reason.split("; ").last().unwrap_or(""));
+        }
+        Ok((ds, h))
+    }
+
+    /// Accuracy over seeds: against LM, against the truth.
+    fn accuracy(&self, seeds: u64, quiet: bool) -> Result<()> {
+        if !quiet {
+            eprintln!("bench awnn: accuracy over {seeds} seeds");
+        }
+        let mut rows = Vec::new();
+        let q_opts = CalibOptions::new(self.spec.clone(), Method::PsoEkfAwnn(Ablation::Extended));
+        let mut q_rows = Vec::new();
+        let mut z_rows = Vec::new();
+        let zero = PsoEkfAwnn { start: NetStart::Zero, ..Default::default() };
+        for seed in 0..seeds {
+            let (ds, truth) = self.gen(self.base.seed + 1000 + seed)?;
+            let l = calibrate_with(&ds, Some(&truth), &self.lm_opts, self.lm.as_ref())?;
+            let a = calibrate_with(&ds, Some(&truth), &self.awnn_opts, &PsoEkfAwnn::default())?;
+            let q = calibrate_with(&ds, Some(&truth), &q_opts, &PsoEkfAwnn::variant(Ablation::Extended))?;
+            let (tl, ta) = (truth_view(&l, &ds, &truth, &self.lm_opts), truth_view(&a, &ds, &truth, &self.awnn_opts));
+            q_rows.push((test_rmse(&q), truth_view(&q, &ds, &truth, &q_opts).map_or(f64::NAN, |t| t.recovered)));
+            let z = calibrate_with(&ds, Some(&truth), &self.awnn_opts, &zero)?;
+            z_rows.push((test_rmse(&z), truth_view(&z, &ds, &truth, &self.awnn_opts).map_or(f64::NAN, |t| t.recovered)));
+            rows.push((test_rmse(&l), test_rmse(&a), tl, ta, truth.noise_std_mm));
+        }
+        let lm_r: Vec<f64> = rows.iter().map(|r| r.0).collect();
+        let aw_r: Vec<f64> = rows.iter().map(|r| r.1).collect();
+        let summary = |v: &[f64]| {
+            let ratio: Vec<f64> = v.iter().zip(&lm_r).map(|(a, l)| a / l).collect();
+            let wins = ratio.iter().filter(|r| **r < 1.0).count();
+            format!(
+                "ratio to LM median {:.3} (range {:.3}–{:.3}), lower than LM in {wins}/{seeds}",
+                median(&ratio),
+                ratio.iter().cloned().fold(f64::INFINITY, f64::min),
+                ratio.iter().cloned().fold(0.0, f64::max)
+            )
+        };
+        let net = match PsoEkfAwnn::default().new_net_label() {
+            s if s.is_empty() => "no network".to_string(),
+            s => s,
+        };
+        println!("  accuracy over {seeds} seeds (scenario seeds {}..{}):", self.base.seed + 1000, self.base.seed + 1000 + seeds - 1);
         println!(
-            "    n = {n:3}: LM {lm_m:.4} ± {lm_s:.4}, pso-ekf-awnn {aw_m:.4} ± {aw_s:.4} (network kept in {kept} of {}){}",
-            aa.len(),
-            if n == 300 { "; all rows: one run" } else { "" }
+            "    test RMSE, median          : LM {:.4} mm, pso-ekf-awnn {:.4} mm; noise floor {:.4} mm per raw sample",
+            median(&lm_r),
+            median(&aw_r),
+            rows[0].4
         );
+        println!("    pso-ekf-awnn ({net}, network chosen by CV on the training rows): {}", summary(&aw_r));
+        let z_r: Vec<f64> = z_rows.iter().map(|r| r.0).collect();
+        println!(
+            "    same, Stage I from {} zero-output neurons instead: median {:.4} mm, {}; removes {:.1} % (median)",
+            zero.neurons,
+            median(&z_r),
+            summary(&z_r),
+            100.0 * median(&z_rows.iter().map(|r| r.1).collect::<Vec<_>>())
+        );
+        let q_r: Vec<f64> = q_rows.iter().map(|r| r.0).collect();
+        println!(
+            "    pso-ekf-awnn-x (q + temperature (or time) + flanks, 2 network/LM alternations): median {:.4} mm, {}; removes {:.1} % (median)",
+            median(&q_r),
+            summary(&q_r),
+            100.0 * median(&q_rows.iter().map(|r| r.1).collect::<Vec<_>>())
+        );
+        let col = |f: &dyn Fn(&TruthView) -> f64, pick: usize| -> f64 {
+            let v: Vec<f64> = rows.iter().filter_map(|r| if pick == 0 { r.2.as_ref() } else { r.3.as_ref() }).map(f).collect();
+            median(&v)
+        };
+        println!(
+            "    geometry vs true rigid arm : RMS over free chain parameters (mm, mdeg) LM {:.4}, pso-ekf-awnn {:.4}",
+            col(&|t| t.to_rigid, 0),
+            col(&|t| t.to_rigid, 1)
+        );
+        println!(
+            "    geometry vs truth-equiv.   : LM {:.4}, pso-ekf-awnn {:.4} (the rigid fit to the noise-free lengths, from the truth)",
+            col(&|t| t.to_equivalent, 0),
+            col(&|t| t.to_equivalent, 1)
+        );
+        println!(
+            "    non-geometric error removed by the AWNN: median {:.1} % of what its own geometry leaves on the noise-free test lengths",
+            100.0 * col(&|t| t.recovered, 1)
+        );
+        Ok(())
     }
 
-    // 4. Sensitivity: one hyperparameter at a time around Stage 0's choice.
-    println!("  sensitivity of the test RMSE (mm) around Stage 0's choice (one factor at a time):");
-    let factors = [1e-2, 1e-1, 1.0, 1e1, 1e2];
-    for (name, set) in [
-        ("Q", (|h: Hyper, f: f64| Hyper { q_rel: h.q_rel * f, ..h }) as fn(Hyper, f64) -> Hyper),
-        ("R", |h: Hyper, f: f64| Hyper { r_rel: h.r_rel * f, ..h }),
-        ("η", |h: Hyper, f: f64| Hyper { lr: (h.lr * f).min(1.0), ..h }),
-    ] {
-        let mut cells = Vec::new();
-        for f in factors {
-            let s = PsoEkfAwnn { hyper: Some(set(h, f)), ..Default::default() };
-            cells.push(format!("x{f}: {:.4}", test_rmse(&calibrate_with(&ds, None, &awnn_opts, &s)?)));
+    /// Data efficiency: fixed test set, training subsamples.
+    fn data_efficiency(&self, ds: &Dataset, quiet: bool) -> Result<()> {
+        if !quiet {
+            eprintln!("bench awnn: data efficiency");
         }
-        println!("    {name}: {}", cells.join(", "));
+        println!("  data efficiency (dataset seed {}, fixed 100 test poses, 10 subsamples each; mean ± std test RMSE, mm):", self.base.seed);
+        let train = ds.train_indices();
+        for n in [50usize, 100, 150, 200, 250, 300] {
+            let mut la = Vec::new();
+            let mut aa = Vec::new();
+            let mut kept = 0;
+            for k in 0..10u64 {
+                let mut idx = train.clone();
+                use rand::seq::SliceRandom;
+                use rand::SeedableRng;
+                idx.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(k * 7919 + n as u64));
+                idx.truncate(n);
+                let sub = with_train_rows(ds, &idx);
+                let mut o = self.lm_opts.clone();
+                o.seed = k;
+                la.push(test_rmse(&calibrate_with(&sub, None, &o, self.lm.as_ref())?));
+                let mut o = self.awnn_opts.clone();
+                o.seed = k;
+                let r = calibrate_with(&sub, None, &o, &PsoEkfAwnn::default())?;
+                kept += usize::from(!r.stop_reason.contains("zero output weights"));
+                aa.push(test_rmse(&r));
+                if n == 300 {
+                    break;
+                }
+            }
+            let ((lm_m, lm_s), (aw_m, aw_s)) = (mean_std(&la), mean_std(&aa));
+            println!(
+                "    n = {n:3}: LM {lm_m:.4} ± {lm_s:.4}, pso-ekf-awnn {aw_m:.4} ± {aw_s:.4} (network kept in {kept} of {}){}",
+                aa.len(),
+                if n == 300 { "; all rows: one run" } else { "" }
+            );
+        }
+        Ok(())
     }
 
-    // 5. Real data.
+    /// Sensitivity: one hyperparameter at a time around Stage 0's choice `h`.
+    fn sensitivity(&self, ds: &Dataset, h: Hyper) -> Result<()> {
+        println!("  sensitivity of the test RMSE (mm) around Stage 0's choice (one factor at a time):");
+        let factors = [1e-2, 1e-1, 1.0, 1e1, 1e2];
+        for (name, set) in [
+            ("Q", (|h: Hyper, f: f64| Hyper { q_rel: h.q_rel * f, ..h }) as fn(Hyper, f64) -> Hyper),
+            ("R", |h: Hyper, f: f64| Hyper { r_rel: h.r_rel * f, ..h }),
+            ("η", |h: Hyper, f: f64| Hyper { lr: (h.lr * f).min(1.0), ..h }),
+        ] {
+            let mut cells = Vec::new();
+            for f in factors {
+                let s = PsoEkfAwnn { hyper: Some(set(h, f)), ..Default::default() };
+                cells.push(format!("x{f}: {:.4}", test_rmse(&calibrate_with(ds, None, &self.awnn_opts, &s)?)));
+            }
+            println!("    {name}: {}", cells.join(", "));
+        }
+        Ok(())
+    }
+}
+
+/// Real data: LM and PSO-EKF-AWNN on HSR-RobotCali, when ../shared has it.
+fn real_data() -> Result<()> {
     let hsr = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/hsr-robotcali/hsr_robotcali_pool.csv");
     if hsr.exists() {
         let ds = Dataset::load(&hsr)?;
@@ -315,6 +334,22 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
     } else {
         println!("  HSR-RobotCali: skipped, {} is absent", hsr.display());
     }
-    drop(tmp_dir);
     Ok(())
+}
+
+/// `twincal bench awnn`.
+pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
+    let (base, robot) =
+        Scenario::from_toml(include_str!("../../../scenarios/irb120_pso_ekf.toml"), "irb120_pso_ekf").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
+    let spec = ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: "hayati".into() };
+    let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-awnn-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
+    let lm_opts = CalibOptions::new(spec.clone(), Method::Lm);
+    let awnn_opts = CalibOptions::new(spec.clone(), Method::PsoEkfAwnn(Ablation::Full));
+    let bench = AwnnBench { base, robot, spec, lm_opts, awnn_opts, lm: Method::Lm.solver(1.0), tmp_dir };
+    println!("PSO-EKF-AWNN benchmark (irb120_pso_ekf: 400 poses, 300 train / 100 test, every effect on)");
+    let (ds, h) = bench.speed(repeat, quiet)?;
+    bench.accuracy(seeds, quiet)?;
+    bench.data_efficiency(&ds, quiet)?;
+    bench.sensitivity(&ds, h)?;
+    real_data()
 }

@@ -79,6 +79,93 @@ fn convergence_generation(curve: &[f64]) -> usize {
     curve.iter().position(|c| *c <= last * 1.01).map(|g| g + 1).unwrap_or(0)
 }
 
+/// The whole pipeline against LM, and the ablations (the paper's Table 9) with the truth.
+fn ablations(ds: &Dataset, truth: &TruthFile) -> Result<()> {
+    println!("\n  calibrate on the generated dataset (its 500/100 split), truth beside:");
+    println!(
+        "| method | test RMSE (mm) | vs LM | non-geometric error recovered | geometry, RMS (x − truth-eq.)/tolerance | seconds |\n|---|---|---|---|---|---|"
+    );
+    let test_idx = ds.test_indices();
+    let lm = calibrate_with(ds, Some(truth), &options(Method::Lm), Method::Lm.solver(1.0).as_ref())?;
+    let lm_rmse = lm.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
+    // The non-geometric error: measured lengths minus the truth-equivalent rigid model (the
+    // sensor's linearity error is part of what a corrector can learn; the reading noise stays).
+    let x_eq: Vec<f64> = lm.parameters.iter().enumerate().map(|(k, p)| p.truth.unwrap_or(p.value) / lm.model.kinds[k].display()).collect();
+    let mut rigid = lm.clone();
+    rigid.x = x_eq.clone();
+    rigid.corrector = None;
+    let truth_rms = |r: &CalibResult| {
+        let pred = r.predict_rows(ds);
+        (test_idx.iter().map(|&i| (ds.rows[i].l_mm().unwrap_or(f64::NAN) - pred[i]).powi(2)).sum::<f64>() / test_idx.len() as f64).sqrt()
+    };
+    let ng = truth_rms(&rigid);
+    let geo_dev = |r: &CalibResult| {
+        let tol = twincal::calib::model::tolerance::Tolerances::default().prior_std(&r.model);
+        let v: Vec<f64> =
+            (0..r.x.len()).filter(|k| !r.parameters[*k].fixed && *k < r.model.first_effect()).map(|k| ((r.x[k] - x_eq[k]) / tol[k]).powi(2)).collect();
+        (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt()
+    };
+    let row = |name: &str, r: &CalibResult| {
+        let t = r.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
+        println!(
+            "| {name} | {t:.4} | {:+.1} % | {:.0} % | {:.2} | {:.2} |",
+            100.0 * (t / lm_rmse - 1.0),
+            100.0 * (1.0 - truth_rms(r) / ng),
+            geo_dev(r),
+            r.wall_time_s
+        );
+    };
+    row("lm", &lm);
+    for m in [Method::DsadeGkanV1, Method::DsadeGkanV2, Method::DsadeGkanV3, Method::DsadeGkan] {
+        let r = calibrate_with(ds, Some(truth), &options(m), m.solver(1.0).as_ref())?;
+        row(m.name(), &r);
+    }
+    println!(
+        "    (non-geometric error: measured lengths minus the truth-equivalent rigid model, RMS {ng:.4} mm on the test poses with the {:.4} mm reading noise; recovered = 1 − test RMSE/that)",
+        truth.noise_std_mm
+    );
+
+    Ok(())
+}
+
+/// The DE engines on the same objective and budget (the paper's Table 10), no polish.
+fn de_engines(prep: &Prepared, full: &EvoNphSolver, de_only: &EvoNphSolver, seeds: u64) -> Result<()> {
+    let budget = full.pop * (full.generations + 1);
+    let variants: Vec<(&str, DeVariant, bool)> = vec![
+        ("DS-ADE", DeVariant::DsAde { memory: 6, p: 0.11, p_min: 0.1 }, true),
+        ("DS-ADE, literal (no coefficient step)", DeVariant::DsAde { memory: 6, p: 0.11, p_min: 0.1 }, false),
+        ("rand-to-pbest/1 only (V3)", DeVariant::RandToPBest { memory: 6, p: 0.11 }, true),
+        ("JADE", DeVariant::Jade { c: 0.1, p: 0.05 }, true),
+        ("SHADE", DeVariant::Shade { memory: 6, p: 0.11 }, true),
+        ("L-SHADE", DeVariant::LShade { memory: 6, p: 0.11, min_pop: 4 }, true),
+        ("DE/rand/1/bin", DeVariant::Classic { f: 0.5, cr: 0.9 }, true),
+    ];
+    println!("\n  DE engines, same objective, {budget} evaluations each, {seeds} seeds, DE result without the polish (mean ± std over seeds):");
+    println!("| engine | final objective (mm²) | test RMSE (mm) | convergence generation | seconds |\n|---|---|---|---|---|");
+    for (name, v, refine) in variants {
+        let s = EvoNphSolver {
+            de: v.clone(),
+            refine_coefficients: refine,
+            max_evals: Some(budget),
+            generations: if matches!(v, DeVariant::LShade { .. }) { 100 * full.generations } else { full.generations },
+            ..de_only.clone()
+        };
+        let runs: Vec<EvoRun> = (0..seeds).map(|k| prep.run(&s, 1000 + k)).collect::<Result<_>>()?;
+        let f = |x: Vec<f64>, d: usize| {
+            let (m, sd) = mean_std(&x);
+            format!("{m:.*} ± {sd:.*}", d, d)
+        };
+        println!(
+            "| {name} | {} | {} | {} | {} |",
+            f(runs.iter().map(|r| r.de_objective).collect(), 6),
+            f(runs.iter().map(|r| prep.test_rmse(r)).collect(), 4),
+            f(runs.iter().map(|r| convergence_generation(&r.curve) as f64).collect(), 1),
+            f(runs.iter().map(|r| r.de_seconds).collect(), 2),
+        );
+    }
+    Ok(())
+}
+
 /// `twincal bench dsade`.
 pub fn bench_dsade(repeat: usize, seeds: u64) -> Result<()> {
     let tmp = tempfile::Builder::new().prefix("twincal-dsade-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
@@ -134,85 +221,8 @@ pub fn bench_dsade(repeat: usize, seeds: u64) -> Result<()> {
         r.evaluations
     );
 
-    // 2. The whole pipeline against LM, and the ablations (the paper's Table 9) with the truth.
-    println!("\n  calibrate on the generated dataset (its 500/100 split), truth beside:");
-    println!(
-        "| method | test RMSE (mm) | vs LM | non-geometric error recovered | geometry, RMS (x − truth-eq.)/tolerance | seconds |\n|---|---|---|---|---|---|"
-    );
-    let test_idx = ds.test_indices();
-    let lm = calibrate_with(&ds, Some(&truth), &options(Method::Lm), Method::Lm.solver(1.0).as_ref())?;
-    let lm_rmse = lm.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
-    // The non-geometric error: measured lengths minus the truth-equivalent rigid model (the
-    // sensor's linearity error is part of what a corrector can learn; the reading noise stays).
-    let x_eq: Vec<f64> = lm.parameters.iter().enumerate().map(|(k, p)| p.truth.unwrap_or(p.value) / lm.model.kinds[k].display()).collect();
-    let mut rigid = lm.clone();
-    rigid.x = x_eq.clone();
-    rigid.corrector = None;
-    let truth_rms = |r: &CalibResult| {
-        let pred = r.predict_rows(&ds);
-        (test_idx.iter().map(|&i| (ds.rows[i].l_mm().unwrap_or(f64::NAN) - pred[i]).powi(2)).sum::<f64>() / test_idx.len() as f64).sqrt()
-    };
-    let ng = truth_rms(&rigid);
-    let geo_dev = |r: &CalibResult| {
-        let tol = twincal::calib::model::tolerance::Tolerances::default().prior_std(&r.model);
-        let v: Vec<f64> =
-            (0..r.x.len()).filter(|k| !r.parameters[*k].fixed && *k < r.model.first_effect()).map(|k| ((r.x[k] - x_eq[k]) / tol[k]).powi(2)).collect();
-        (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt()
-    };
-    let row = |name: &str, r: &CalibResult| {
-        let t = r.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
-        println!(
-            "| {name} | {t:.4} | {:+.1} % | {:.0} % | {:.2} | {:.2} |",
-            100.0 * (t / lm_rmse - 1.0),
-            100.0 * (1.0 - truth_rms(r) / ng),
-            geo_dev(r),
-            r.wall_time_s
-        );
-    };
-    row("lm", &lm);
-    for m in [Method::DsadeGkanV1, Method::DsadeGkanV2, Method::DsadeGkanV3, Method::DsadeGkan] {
-        let r = calibrate_with(&ds, Some(&truth), &options(m), m.solver(1.0).as_ref())?;
-        row(m.name(), &r);
-    }
-    println!(
-        "    (non-geometric error: measured lengths minus the truth-equivalent rigid model, RMS {ng:.4} mm on the test poses with the {:.4} mm reading noise; recovered = 1 − test RMSE/that)",
-        truth.noise_std_mm
-    );
-
-    // 3. The DE engines on the same objective and budget (the paper's Table 10), no polish.
-    let budget = full.pop * (full.generations + 1);
-    let variants: Vec<(&str, DeVariant, bool)> = vec![
-        ("DS-ADE", DeVariant::DsAde { memory: 6, p: 0.11, p_min: 0.1 }, true),
-        ("DS-ADE, literal (no coefficient step)", DeVariant::DsAde { memory: 6, p: 0.11, p_min: 0.1 }, false),
-        ("rand-to-pbest/1 only (V3)", DeVariant::RandToPBest { memory: 6, p: 0.11 }, true),
-        ("JADE", DeVariant::Jade { c: 0.1, p: 0.05 }, true),
-        ("SHADE", DeVariant::Shade { memory: 6, p: 0.11 }, true),
-        ("L-SHADE", DeVariant::LShade { memory: 6, p: 0.11, min_pop: 4 }, true),
-        ("DE/rand/1/bin", DeVariant::Classic { f: 0.5, cr: 0.9 }, true),
-    ];
-    println!("\n  DE engines, same objective, {budget} evaluations each, {seeds} seeds, DE result without the polish (mean ± std over seeds):");
-    println!("| engine | final objective (mm²) | test RMSE (mm) | convergence generation | seconds |\n|---|---|---|---|---|");
-    for (name, v, refine) in variants {
-        let s = EvoNphSolver {
-            de: v.clone(),
-            refine_coefficients: refine,
-            max_evals: Some(budget),
-            generations: if matches!(v, DeVariant::LShade { .. }) { 100 * full.generations } else { full.generations },
-            ..de_only.clone()
-        };
-        let runs: Vec<EvoRun> = (0..seeds).map(|k| prep.run(&s, 1000 + k)).collect::<Result<_>>()?;
-        let f = |x: Vec<f64>, d: usize| {
-            let (m, sd) = mean_std(&x);
-            format!("{m:.*} ± {sd:.*}", d, d)
-        };
-        println!(
-            "| {name} | {} | {} | {} | {} |",
-            f(runs.iter().map(|r| r.de_objective).collect(), 6),
-            f(runs.iter().map(|r| prep.test_rmse(r)).collect(), 4),
-            f(runs.iter().map(|r| convergence_generation(&r.curve) as f64).collect(), 1),
-            f(runs.iter().map(|r| r.de_seconds).collect(), 2),
-        );
-    }
+    ablations(&ds, &truth)?;
+    de_engines(&prep, &full, &de_only, seeds)?;
     let polished = prep.run(&full, 0)?;
     println!("    after the joint polish (the method): objective {:.6} mm², test RMSE {:.4} mm", polished.objective, prep.test_rmse(&polished));
     println!("\n  Wilcoxon tests against every baseline of the core: twincal compare --data DIR --methods dsade-gkan,lm,ekf,pf,pso,rbf,dsade-gkan-v1,dsade-gkan-v2,dsade-gkan-v3");

@@ -90,6 +90,36 @@ pub fn flank_check(acquired: &[twincal::sim::twin::tour::Acquired], breakaway: f
     c
 }
 
+/// Rapier steps and seconds per phase of the tour, summed over its poses.
+fn phase_totals(tour: &[twincal::sim::twin::tour::Acquired]) -> ([usize; 5], [f64; 5]) {
+    let mut steps = [0usize; 5];
+    let mut secs = [0.0f64; 5];
+    for a in tour {
+        for k in 0..5 {
+            steps[k] += a.stats.steps[k];
+            secs[k] += a.stats.seconds[k];
+        }
+    }
+    (steps, secs)
+}
+
+/// Where the time of the one-thread tour (`t_seq` s, `n` poses) goes, phase by phase.
+fn print_phases(steps: &[usize; 5], secs: &[f64; 5], n: usize, t_seq: f64) {
+    let (total_steps, in_phases): (usize, f64) = (steps.iter().sum(), secs.iter().sum());
+    println!("  where the time goes (1 thread, {:.2} µs per step):", in_phases / total_steps.max(1) as f64 * 1e6);
+    for k in 0..5 {
+        println!("    {:22} {:6.0} steps/pose  {:5.1} % of the time", twincal::sim::twin::tour::PHASES[k], steps[k] as f64 / n as f64, 100.0 * secs[k] / t_seq);
+    }
+    println!("    {:22} {:>17}  {:5.1} % (chunk set-up, readings, gate, truth)", "outside steps", "", 100.0 * (t_seq - in_phases).max(0.0) / t_seq);
+}
+
+/// The robot time the scenario's acquisition takes over `poses` (s): the last reading's time
+/// and half a window.
+fn robot_time(s: &Scenario, robot: &Robot, home: &[f64], poses: &[Vec<f64>]) -> f64 {
+    let sc = twincal::sim::twin::tour::Schedule::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s, s.sensor.window_s(), home, poses);
+    sc.read_t.last().copied().unwrap_or(0.0) + 0.5 * s.sensor.window_s()
+}
+
 /// `twincal bench twin`: the simulated tour (the scenario's `[acquisition]` settings, simulated
 /// whatever its model) timed in parallel and on one thread (the two must agree bit for bit), its
 /// steps per pose and where the time goes, its readings against the quasi-static model and its
@@ -98,7 +128,7 @@ pub fn flank_check(acquired: &[twincal::sim::twin::tour::Acquired], breakaway: f
 pub fn bench_twin(s: &Scenario, robot: &Robot, repeat: usize, quiet: bool) -> Result<()> {
     use rayon::prelude::*;
     use twincal::sim::generate::{acquisition_times, build_twin, sample_poses};
-    use twincal::sim::twin::tour::{acquire, Acquired, PHASES};
+    use twincal::sim::twin::tour::{acquire, Acquired};
     use twincal::sim::twin::{approach_sides, PoseCommand};
     let twin = build_twin(s, robot);
     let poses = sample_poses(s, robot)?;
@@ -130,31 +160,12 @@ pub fn bench_twin(s: &Scenario, robot: &Robot, repeat: usize, quiet: bool) -> Re
             .iter()
             .zip(&par)
             .all(|(a, b)| a.lengths == b.lengths && a.gate_s == b.gate_s && a.rest.q_link == b.rest.q_link && a.rest.contact == b.rest.contact);
-    let mut steps = [0usize; 5];
-    let mut secs = [0.0f64; 5];
-    for a in &seq {
-        for k in 0..5 {
-            steps[k] += a.stats.steps[k];
-            secs[k] += a.stats.seconds[k];
-        }
-    }
+    let (steps, secs) = phase_totals(&seq);
     let total_steps: usize = steps.iter().sum();
-    let in_phases: f64 = secs.iter().sum();
     let worst_transient = seq.iter().map(|a| a.transient_mm.abs()).fold(0.0, f64::max);
     let closed = seq.iter().filter(|a| a.gate_s.is_none()).count();
     let flanks = flank_check(&seq, twin.transmission.as_ref().map(|t| t.breakaway).unwrap_or(0.0));
-    let sim_time: f64 = {
-        let sc = twincal::sim::twin::tour::Schedule::new(
-            robot,
-            s.sampling.speed_fraction,
-            s.acquisition.ramp_s,
-            s.sensor.hold_s,
-            s.sensor.window_s(),
-            &home,
-            &poses,
-        );
-        sc.read_t.last().copied().unwrap_or(0.0) + 0.5 * s.sensor.window_s()
-    };
+    let sim_time = robot_time(s, robot, &home, &poses);
 
     // Baselines: the per-pose settled model and the quasi-static model, flanks from the rule.
     let times = acquisition_times(s, robot, &poses);
@@ -183,11 +194,7 @@ pub fn bench_twin(s: &Scenario, robot: &Robot, repeat: usize, quiet: bool) -> Re
         sim_time / n as f64,
         total_steps as f64 / n as f64
     );
-    println!("  where the time goes (1 thread, {:.2} µs per step):", in_phases / total_steps.max(1) as f64 * 1e6);
-    for k in 0..5 {
-        println!("    {:22} {:6.0} steps/pose  {:5.1} % of the time", PHASES[k], steps[k] as f64 / n as f64, 100.0 * secs[k] / t_seq);
-    }
-    println!("    {:22} {:>17}  {:5.1} % (chunk set-up, readings, gate, truth)", "outside steps", "", 100.0 * (t_seq - in_phases).max(0.0) / t_seq);
+    print_phases(&steps, &secs, n, t_seq);
     println!(
         "  tour vs quasi-static on the flanks the motion left: worst |transient in L| {worst_transient:.1e} mm over {n} poses (target < 1e-3 mm); gate still closed at the end of the hold: {closed} poses"
     );

@@ -22,23 +22,18 @@ pub fn bench_command(
     if (shard.shard.is_some() || shard.shard_out.is_some()) && what != BenchTarget::Diagnose {
         return Err(Error::Invalid("--shard and --shard-out apply to bench diagnose (and to compare and study hold)".into()));
     }
+    check_applies(what, scenario.is_some(), compare, seeds.is_some())?;
+    let seeds = takes(what).seeds.map(|default| seeds.unwrap_or(default));
+    if let Some(n) = seeds {
+        check_seeds(n)?;
+    }
+    let seeds = seeds.unwrap_or(0);
     match what {
         BenchTarget::Twin => {
-            if seeds.is_some() {
-                return Err(Error::Invalid("--seeds applies to bench calib, not bench twin".into()));
-            }
-            if compare {
-                return Err(Error::Invalid("--compare applies to bench calib, not bench twin".into()));
-            }
             let (s, robot) = load_scenario(scenario)?;
             crate::bench::twin::bench_twin(&s, &robot, repeat, quiet)
         }
         BenchTarget::Calib => {
-            if scenario.is_some() {
-                return Err(Error::Invalid("--scenario applies to bench twin; bench calib uses the embedded irb120_geometric scenario".into()));
-            }
-            let seeds = seeds.unwrap_or(20);
-            check_seeds(seeds)?;
             // The full method comparison is the `compare` command on one of the benchmark's datasets.
             let run_compare = |dir: &Path| -> Result<()> {
                 let args = CompareArgs {
@@ -60,69 +55,67 @@ pub fn bench_command(
             crate::bench::calib::bench_calib(repeat, seeds, compare.then_some(&run_compare as crate::bench::calib::OnDataset))
         }
         BenchTarget::Diagnose => {
-            if scenario.is_some() || compare {
-                return Err(Error::Invalid("--scenario and --compare do not apply to bench diagnose".into()));
-            }
-            let seeds = seeds.unwrap_or(20);
-            check_seeds(seeds)?;
             let config = crate::bench::diagnose::DetectionConfig::new(seeds, categories)?;
             let sh = crate::shard::from_options(shard.shard.as_deref(), shard.shard_out.as_deref(), false, "", &config, &[])?;
             crate::bench::diagnose::bench_diagnose(seeds, progress(quiet).as_ref(), sh.as_ref(), &config)
         }
-        BenchTarget::Dsade | BenchTarget::Ik => {
-            if scenario.is_some() || compare {
-                return Err(Error::Invalid(
-                    "--scenario and --compare do not apply to bench dsade / bench ik (they use the embedded irb120_evo_nph scenario)".into(),
-                ));
-            }
-            if what == BenchTarget::Ik {
-                if seeds.is_some() {
-                    return Err(Error::Invalid("--seeds applies to bench dsade, not bench ik".into()));
-                }
-                return crate::bench::evo::bench_ik(repeat);
-            }
-            let seeds = seeds.unwrap_or(30);
-            check_seeds(seeds)?;
-            crate::bench::evo::bench_dsade(repeat, seeds)
-        }
-        BenchTarget::Awnn => {
-            if scenario.is_some() || compare {
-                return Err(Error::Invalid("--scenario and --compare do not apply to bench awnn (it uses the embedded irb120_pso_ekf scenario)".into()));
-            }
-            let seeds = seeds.unwrap_or(5);
-            check_seeds(seeds)?;
-            crate::bench::awnn::bench_awnn(repeat, seeds, quiet)
-        }
-        BenchTarget::Real => {
-            if scenario.is_some() || compare {
-                return Err(Error::Invalid("--scenario and --compare do not apply to bench real (it reads ../shared/data)".into()));
-            }
-            let seeds = seeds.unwrap_or(5);
-            check_seeds(seeds)?;
-            crate::bench::real::bench_real(seeds)
-        }
-        BenchTarget::DiagnoseUr10 => {
-            if scenario.is_some() || compare || seeds.is_some() {
-                return Err(Error::Invalid(
-                    "--scenario, --compare and --seeds do not apply to bench diagnose-ur10 (it reads ../shared/data; --repeat runs)".into(),
-                ));
-            }
-            crate::bench::real::bench_diagnose_ur10(repeat)
-        }
-        BenchTarget::NoiseModel => {
-            if scenario.is_some() || compare {
-                return Err(Error::Invalid("--scenario and --compare do not apply to bench noise-model (it generates realistic IRB 120 acquisitions)".into()));
-            }
-            let seeds = seeds.unwrap_or(5);
-            check_seeds(seeds)?;
-            crate::bench::noise::bench_noise_model(seeds)
-        }
+        BenchTarget::Dsade => crate::bench::evo::bench_dsade(repeat, seeds),
+        BenchTarget::Ik => crate::bench::evo::bench_ik(repeat),
+        BenchTarget::Awnn => crate::bench::awnn::bench_awnn(repeat, seeds, quiet),
+        BenchTarget::Real => crate::bench::real::bench_real(seeds),
+        BenchTarget::DiagnoseUr10 => crate::bench::real::bench_diagnose_ur10(repeat),
+        BenchTarget::NoiseModel => crate::bench::noise::bench_noise_model(seeds),
         BenchTarget::Replay => {
-            if compare || seeds.is_some() {
-                return Err(Error::Invalid("--compare and --seeds do not apply to bench replay (--scenario and --repeat do)".into()));
-            }
             let (s, robot) = load_scenario(scenario)?;
             crate::bench::replay::bench_replay(&s, &robot, repeat)
         }
     }
+}
+
+/// What a benchmark target takes beyond `--repeat`.
+struct Takes {
+    scenario: bool,
+    compare: bool,
+    /// `--seeds` and its default; None: the target takes no `--seeds`.
+    seeds: Option<u64>,
+    /// What the target runs on, for the error naming an option it does not take.
+    runs_on: &'static str,
+}
+
+fn takes(what: BenchTarget) -> Takes {
+    let t = |scenario, compare, seeds, runs_on| Takes { scenario, compare, seeds, runs_on };
+    match what {
+        BenchTarget::Twin => t(true, false, None, "a scenario, the embedded one by default"),
+        BenchTarget::Calib => t(false, true, Some(20), "the embedded irb120_geometric scenario"),
+        BenchTarget::Diagnose => t(false, false, Some(20), "hidden-effect scenarios over seeds"),
+        BenchTarget::Dsade => t(false, false, Some(30), "the embedded irb120_evo_nph scenario"),
+        BenchTarget::Ik => t(false, false, None, "the embedded irb120_evo_nph scenario"),
+        BenchTarget::Awnn => t(false, false, Some(5), "the embedded irb120_pso_ekf scenario"),
+        BenchTarget::Real => t(false, false, Some(5), "../shared/data"),
+        BenchTarget::DiagnoseUr10 => t(false, false, None, "../shared/data; --repeat runs"),
+        BenchTarget::NoiseModel => t(false, false, Some(5), "realistic IRB 120 acquisitions it generates"),
+        BenchTarget::Replay => t(true, false, None, "a scenario; --repeat runs"),
+    }
+}
+
+/// Refuses `--scenario`, `--compare` or `--seeds` given to a target that does not take it,
+/// naming the targets that do.
+fn check_applies(what: BenchTarget, scenario: bool, compare: bool, seeds: bool) -> Result<()> {
+    use clap::ValueEnum;
+    let name = |t: &BenchTarget| t.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
+    type Taken = fn(&Takes) -> bool;
+    let options: [(&str, bool, Taken); 3] =
+        [("--scenario", scenario, |t| t.scenario), ("--compare", compare, |t| t.compare), ("--seeds", seeds, |t| t.seeds.is_some())];
+    for (option, given, taken) in options {
+        if given && !taken(&takes(what)) {
+            let targets: Vec<String> = BenchTarget::value_variants().iter().filter(|t| taken(&takes(**t))).map(name).collect();
+            return Err(Error::Invalid(format!(
+                "{option} applies to bench {}, not bench {} (it runs on {})",
+                targets.join(", "),
+                name(&what),
+                takes(what).runs_on
+            )));
+        }
+    }
+    Ok(())
 }

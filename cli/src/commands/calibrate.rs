@@ -251,6 +251,82 @@ pub fn calibration_warnings(r: &twincal::calib::run::CalibResult) -> Vec<String>
     r.warnings.clone()
 }
 
+/// How the rows were weighted and the noise model that took the angles' logging error out.
+fn print_noise_handling(r: &twincal::calib::run::CalibResult) {
+    if let Some(w) = &r.weighting {
+        eprintln!(
+            "  weights from the rows' own standard deviations ({} of {} training rows, RMS {:.4} mm): 1/(floor² + s²) with the floor {:.4} mm the data add \
+             (robust residual sd {:.4} mm); largest / smallest weight {:.2}",
+            w.rows_with_std, w.rows, w.instrument_rms_mm, w.floor_mm, w.residual_sd_mm, w.weight_span
+        );
+    }
+    if let Some(n) = &r.noise_model {
+        eprintln!(
+            "  noise model: joint angles logged at {} deg, shared by the rows of a sweep (rounding {:.4} mm, reading noise {:.4} mm per value); \
+             the logging error estimated per sweep and joint was taken out of the training readings before the fit (RMS {:.4} mm; --noise-model off keeps them)",
+            n.angle_step_deg,
+            n.rounding_mm,
+            n.reading_noise_mm,
+            n.removed_rms_mm.unwrap_or(0.0)
+        );
+    }
+}
+
+/// The outlier screen: rows kept out, their runs, reading steps, and the test inliers' errors.
+fn print_screen(r: &twincal::calib::run::CalibResult) {
+    let m = &r.metrics;
+    let row = |label: &str, s: &twincal::stats::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
+    // The screen ran when it has a robust scale (it does not for too few rows per parameter,
+    // nor for readings of several values).
+    if r.outlier_k > 0.0 && r.robust_scale_mm > 0.0 {
+        let runs: Vec<String> = r.outlier_runs.iter().map(|u| format!("rows {}-{} ({:+.2} mm)", u.first_row, u.last_row, u.median_residual_mm)).collect();
+        eprintln!(
+            "  outliers (> {} robust sd of {:.4} mm): {} training rows kept out{}; {} test rows beyond the same rule",
+            r.outlier_k,
+            r.robust_scale_mm,
+            r.outliers.len(),
+            if runs.is_empty() { String::new() } else { format!(", runs: {}", runs.join(", ")) },
+            r.test_outliers.len()
+        );
+        for s in &r.reading_steps {
+            eprintln!(
+                "  reading step: rows {}-{} read {:+.2} ± {:.2} mm off ({} training rows), corrected and kept",
+                s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
+            );
+        }
+        if r.test_rows_in_steps > 0 {
+            eprintln!("  {} test rows inside reading steps corrected by their step's offset (from training rows)", r.test_rows_in_steps);
+        }
+        if let (Some(t), false) = (&m.test_after_inliers, r.test_outliers.is_empty()) {
+            eprintln!("{}", row("test inliers", t));
+        }
+    }
+}
+
+/// The data's noise floor and the held-out RMSE against it.
+fn print_floor(r: &twincal::calib::run::CalibResult) {
+    let m = &r.metrics;
+    if r.noise_floor.as_ref().is_some_and(|f| f.sources.is_empty()) {
+        eprintln!("  noise floor of the data: not measurable (no repeated configurations, and neither the angles nor the readings show a logging step)");
+    }
+    if let Some(f) = r.noise_floor.as_ref().filter(|f| !f.sources.is_empty()) {
+        let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
+        // Without repeated configurations the reading's own noise is not in the data: the
+        // floor is only what the logging resolutions show, a lower bound.
+        let measured = f.sources.iter().any(|s| s.source == "repeatability");
+        let (bound, why) = if measured { ("", "") } else { ("at least ", "; no repeated configurations, so the reading's own noise is not measured") };
+        eprintln!("  noise floor of the data: {bound}{:.4} mm ({}{why})", f.total_mm, parts.join(", "));
+        if let (Some(t), Some(tt), true) = (&m.test_after, &m.test_after_trimmed, f.total_mm > 0.0) {
+            let ratio = t.rmse / f.total_mm;
+            if measured || ratio <= MAX_BOUND_RATIO {
+                eprintln!("  held-out RMSE / floor = {ratio:.3} (without the worst 1 % of test rows: {:.3})", tt.rmse / f.total_mm);
+            } else {
+                eprintln!("  held-out RMSE is more than {MAX_BOUND_RATIO}× that lower bound: the data do not show their floor");
+            }
+        }
+    }
+}
+
 fn print_summary(r: &twincal::calib::run::CalibResult) {
     let m = &r.metrics;
     let row = |label: &str, s: &twincal::stats::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
@@ -282,23 +358,7 @@ fn print_summary(r: &twincal::calib::run::CalibResult) {
             _ => eprintln!("  residuals are per coordinate ({cols})"),
         }
     }
-    if let Some(w) = &r.weighting {
-        eprintln!(
-            "  weights from the rows' own standard deviations ({} of {} training rows, RMS {:.4} mm): 1/(floor² + s²) with the floor {:.4} mm the data add \
-             (robust residual sd {:.4} mm); largest / smallest weight {:.2}",
-            w.rows_with_std, w.rows, w.instrument_rms_mm, w.floor_mm, w.residual_sd_mm, w.weight_span
-        );
-    }
-    if let Some(n) = &r.noise_model {
-        eprintln!(
-            "  noise model: joint angles logged at {} deg, shared by the rows of a sweep (rounding {:.4} mm, reading noise {:.4} mm per value); \
-             the logging error estimated per sweep and joint was taken out of the training readings before the fit (RMS {:.4} mm; --noise-model off keeps them)",
-            n.angle_step_deg,
-            n.rounding_mm,
-            n.reading_noise_mm,
-            n.removed_rms_mm.unwrap_or(0.0)
-        );
-    }
+    print_noise_handling(r);
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     eprintln!(
         "  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}",
@@ -314,53 +374,11 @@ fn print_summary(r: &twincal::calib::run::CalibResult) {
         let joints: Vec<String> = still.iter().map(|j| j.to_string()).collect();
         eprintln!("  joints that do not move in the data (held for the identifiability analysis): {}", joints.join(", "));
     }
-    // The screen ran when it has a robust scale (it does not for too few rows per parameter,
-    // nor for readings of several values).
-    if r.outlier_k > 0.0 && r.robust_scale_mm > 0.0 {
-        let runs: Vec<String> = r.outlier_runs.iter().map(|u| format!("rows {}-{} ({:+.2} mm)", u.first_row, u.last_row, u.median_residual_mm)).collect();
-        eprintln!(
-            "  outliers (> {} robust sd of {:.4} mm): {} training rows kept out{}; {} test rows beyond the same rule",
-            r.outlier_k,
-            r.robust_scale_mm,
-            r.outliers.len(),
-            if runs.is_empty() { String::new() } else { format!(", runs: {}", runs.join(", ")) },
-            r.test_outliers.len()
-        );
-        for s in &r.reading_steps {
-            eprintln!(
-                "  reading step: rows {}-{} read {:+.2} ± {:.2} mm off ({} training rows), corrected and kept",
-                s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
-            );
-        }
-        if r.test_rows_in_steps > 0 {
-            eprintln!("  {} test rows inside reading steps corrected by their step's offset (from training rows)", r.test_rows_in_steps);
-        }
-        if let (Some(t), false) = (&m.test_after_inliers, r.test_outliers.is_empty()) {
-            eprintln!("{}", row("test inliers", t));
-        }
-    }
+    print_screen(r);
     if let Some(t) = &m.test_after_trimmed {
         eprintln!("{}", row("test, best 99%", t));
     }
-    if r.noise_floor.as_ref().is_some_and(|f| f.sources.is_empty()) {
-        eprintln!("  noise floor of the data: not measurable (no repeated configurations, and neither the angles nor the readings show a logging step)");
-    }
-    if let Some(f) = r.noise_floor.as_ref().filter(|f| !f.sources.is_empty()) {
-        let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
-        // Without repeated configurations the reading's own noise is not in the data: the
-        // floor is only what the logging resolutions show, a lower bound.
-        let measured = f.sources.iter().any(|s| s.source == "repeatability");
-        let (bound, why) = if measured { ("", "") } else { ("at least ", "; no repeated configurations, so the reading's own noise is not measured") };
-        eprintln!("  noise floor of the data: {bound}{:.4} mm ({}{why})", f.total_mm, parts.join(", "));
-        if let (Some(t), Some(tt), true) = (&m.test_after, &m.test_after_trimmed, f.total_mm > 0.0) {
-            let ratio = t.rmse / f.total_mm;
-            if measured || ratio <= MAX_BOUND_RATIO {
-                eprintln!("  held-out RMSE / floor = {ratio:.3} (without the worst 1 % of test rows: {:.3})", tt.rmse / f.total_mm);
-            } else {
-                eprintln!("  held-out RMSE is more than {MAX_BOUND_RATIO}× that lower bound: the data do not show their floor");
-            }
-        }
-    }
+    print_floor(r);
     if let Some(t) = &r.truth_comparison {
         eprintln!(
             "  truth: {}/{} identifiable parameters within 3σ (max |z| = {:.2}); sensor noise floor {:.4} mm",

@@ -125,29 +125,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     use rayon::prelude::*;
     use twincal::calib::run::{calibrate as run, CalibOptions, Method};
     let (seeds, test_fraction, effort) = (a.seeds, a.test_fraction, a.effort);
-    let methods: Vec<Method> = a.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
-    if methods.is_empty() {
-        return Err(Error::Invalid("--methods is empty: compare needs at least one method".into()));
-    }
-    if let Some(m) = methods.iter().enumerate().find_map(|(i, m)| methods[..i].contains(m).then_some(m)) {
-        return Err(Error::Invalid(format!("--methods lists {} twice", m.name())));
-    }
-    check_seeds(seeds)?;
-    let jobs_count = seeds * methods.len() as u64;
-    if jobs_count > MAX_COMPARE_JOBS {
-        return Err(Error::Invalid(format!(
-            "{} methods x {seeds} seeds = {jobs_count} calibrations, more than compare runs at once ({MAX_COMPARE_JOBS})",
-            methods.len()
-        )));
-    }
-    if let Some(f) = test_fraction {
-        if !(f > 0.0 && f < 1.0) {
-            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1) for compare (every seed is scored on held-out rows), got {f}")));
-        }
-    }
-    if !(MIN_EFFORT..=MAX_EFFORT).contains(&effort) {
-        return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {effort}")));
-    }
+    let methods = check_compare_args(a)?;
     let data_files = data_inputs(&a.data);
     let outs: Vec<(&str, &Path)> = a.out.as_deref().map(|p| ("--out", p)).into_iter().chain(a.rrd.as_deref().map(|p| ("--rrd", p))).collect();
     if !outs.is_empty() {
@@ -170,28 +148,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
     if (frac * n as f64).round() < 1.0 || (frac * n as f64).round() as usize >= n {
         return Err(Error::Invalid(format!("test fraction {frac} of {n} rows leaves no test rows or no training rows")));
     }
-    let file = &data_files[0];
-    let config = CompareConfig {
-        data: ds.source.clone(),
-        data_sha256: twincal::dataset::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?),
-        rows: n,
-        methods: methods.iter().map(|m| m.name().to_string()).collect(),
-        seeds,
-        test_fraction: frac,
-        effort,
-        model: format!("{} {}", a.model.model, a.model.params.as_deref().unwrap_or("")).trim().to_string(),
-        model_sha256: match a.model.input() {
-            Some(m) => Some(twincal::dataset::truth::sha256_hex(&std::fs::read(&m).map_err(|e| Error::io(&m, e))?)),
-            None => None,
-        },
-        reading: format!(
-            "angles {}, measurement {}, euler {}",
-            clap::ValueEnum::to_possible_value(&a.angles).map(|v| v.get_name().to_string()).unwrap_or_default(),
-            ds.measurement().map_or("none", |m| m.name()),
-            a.reading.euler
-        ),
-        twincal_version: env!("CARGO_PKG_VERSION").into(),
-    };
+    let config = compare_config(a, &ds, &data_files[0], &methods, frac)?;
     // Work items in their fixed order; a shard runs its own and skips those its file holds.
     let inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
     let shard =
@@ -252,50 +209,14 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
 /// order): what `compare` prints and writes, and `reduce` the same from the shards' parts.
 pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, rrd: Option<&Path>) -> Result<()> {
     use twincal::calib::run::Method;
-    use twincal::stats::{mean_std, wilcoxon_signed_rank};
+    use twincal::stats::wilcoxon_signed_rank;
     let methods: Vec<Method> = config.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
     let (seeds, frac, n) = (config.seeds, config.test_fraction, config.rows);
     let by = |m: &str| runs.iter().filter(|r| r.method == m).cloned().collect::<Vec<_>>();
     let mut table = String::new();
     table.push_str(&format!("# Method comparison on {} ({} rows, {seeds} seeds, test fraction {frac:.2})\n\n", config.data, n));
 
-    table.push_str(
-        "| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n",
-    );
-    // One seed has no spread to show.
-    let ms = |v: Vec<f64>| {
-        let (m, s) = mean_std(&v);
-        if v.len() > 1 {
-            format!("{m:.4} ± {s:.4}")
-        } else {
-            format!("{m:.4}")
-        }
-    };
-    for m in &methods {
-        let r = by(m.name());
-        table.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-            m.name(),
-            ms(r.iter().map(|x| x.train.rmse).collect()),
-            ms(r.iter().map(|x| x.train.std).collect()),
-            ms(r.iter().map(|x| x.train.max).collect()),
-            ms(r.iter().map(|x| x.test.rmse).collect()),
-            ms(r.iter().map(|x| x.test.std).collect()),
-            ms(r.iter().map(|x| x.test.max).collect()),
-            ms(r.iter().map(|x| x.iterations as f64).collect()),
-            ms(r.iter().map(|x| x.seconds).collect()),
-        ));
-    }
-    // A tracker's points: the test rows' position error |Δp| too (mean, as papers quote it).
-    let points = runs.iter().any(|r| r.test_position.is_some());
-    if points {
-        table.push_str("\nResiduals are per coordinate; the test rows' position error |Δp| (mm):\n\n| method | mean | RMS | MAX |\n|---|---|---|---|\n");
-        for m in &methods {
-            let r = by(m.name());
-            let p = |f: fn(&twincal::stats::metrics::ErrorStats) -> f64| ms(r.iter().filter_map(|x| x.test_position.as_ref().map(f)).collect());
-            table.push_str(&format!("| {} | {} | {} | {} |\n", m.name(), p(|e| e.mae), p(|e| e.rmse), p(|e| e.max)));
-        }
-    }
+    table.push_str(&accuracy_table(&methods, runs));
     let mut tests = Vec::new();
     let reference = methods[0].name();
     let ref_runs = by(reference);
@@ -322,20 +243,7 @@ pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, r
         ));
     }
     println!("{table}");
-    // Each calibration's warnings, once per method and wording (seeds listed).
-    let mut warned: Vec<(String, String, Vec<u64>)> = Vec::new();
-    for r in runs {
-        for w in &r.warnings {
-            match warned.iter_mut().find(|(m, t, _)| *m == r.method && t == w) {
-                Some((_, _, seeds)) => seeds.push(r.seed),
-                None => warned.push((r.method.clone(), w.clone(), vec![r.seed])),
-            }
-        }
-    }
-    for (m, w, seeds) in &warned {
-        let seeds: Vec<String> = seeds.iter().map(u64::to_string).collect();
-        eprintln!("warning: {m} (seed {}): {w}", seeds.join(", "));
-    }
+    print_run_warnings(runs);
     let mut outputs = OutputSet::new();
     if let Some(p) = rrd {
         let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
@@ -350,6 +258,127 @@ pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, r
     }
     outputs.commit()?;
     Ok(())
+}
+
+/// The methods `compare` runs, after checking its options: methods given once each, the
+/// seeds, the number of calibrations, the test fraction and the effort.
+fn check_compare_args(a: &CompareArgs) -> Result<Vec<twincal::calib::run::Method>> {
+    use twincal::calib::run::Method;
+    let (seeds, test_fraction, effort) = (a.seeds, a.test_fraction, a.effort);
+    let methods: Vec<Method> = a.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
+    if methods.is_empty() {
+        return Err(Error::Invalid("--methods is empty: compare needs at least one method".into()));
+    }
+    if let Some(m) = methods.iter().enumerate().find_map(|(i, m)| methods[..i].contains(m).then_some(m)) {
+        return Err(Error::Invalid(format!("--methods lists {} twice", m.name())));
+    }
+    check_seeds(seeds)?;
+    let jobs_count = seeds * methods.len() as u64;
+    if jobs_count > MAX_COMPARE_JOBS {
+        return Err(Error::Invalid(format!(
+            "{} methods x {seeds} seeds = {jobs_count} calibrations, more than compare runs at once ({MAX_COMPARE_JOBS})",
+            methods.len()
+        )));
+    }
+    if let Some(f) = test_fraction {
+        if !(f > 0.0 && f < 1.0) {
+            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1) for compare (every seed is scored on held-out rows), got {f}")));
+        }
+    }
+    if !(MIN_EFFORT..=MAX_EFFORT).contains(&effort) {
+        return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {effort}")));
+    }
+    Ok(methods)
+}
+
+/// What a comparison is of: its data (and the file's hash), methods, seeds, split, effort, model
+/// and reading options; the shards of one comparison share it.
+fn compare_config(a: &CompareArgs, ds: &Dataset, file: &Path, methods: &[twincal::calib::run::Method], frac: f64) -> Result<CompareConfig> {
+    let n = ds.rows.len();
+    let (seeds, effort) = (a.seeds, a.effort);
+    Ok(CompareConfig {
+        data: ds.source.clone(),
+        data_sha256: twincal::dataset::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?),
+        rows: n,
+        methods: methods.iter().map(|m| m.name().to_string()).collect(),
+        seeds,
+        test_fraction: frac,
+        effort,
+        model: format!("{} {}", a.model.model, a.model.params.as_deref().unwrap_or("")).trim().to_string(),
+        model_sha256: match a.model.input() {
+            Some(m) => Some(twincal::dataset::truth::sha256_hex(&std::fs::read(&m).map_err(|e| Error::io(&m, e))?)),
+            None => None,
+        },
+        reading: format!(
+            "angles {}, measurement {}, euler {}",
+            clap::ValueEnum::to_possible_value(&a.angles).map(|v| v.get_name().to_string()).unwrap_or_default(),
+            ds.measurement().map_or("none", |m| m.name()),
+            a.reading.euler
+        ),
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+    })
+}
+
+/// The accuracy and time table (mean ± std over seeds), and a tracker's position errors.
+fn accuracy_table(methods: &[twincal::calib::run::Method], runs: &[CompareRun]) -> String {
+    use twincal::stats::mean_std;
+    let by = |m: &str| runs.iter().filter(|r| r.method == m).cloned().collect::<Vec<_>>();
+    let mut table = String::new();
+    table.push_str(
+        "| method | train RMSE | train STD | train MAX | test RMSE | test STD | test MAX | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    // One seed has no spread to show.
+    let ms = |v: Vec<f64>| {
+        let (m, s) = mean_std(&v);
+        if v.len() > 1 {
+            format!("{m:.4} ± {s:.4}")
+        } else {
+            format!("{m:.4}")
+        }
+    };
+    for m in methods {
+        let r = by(m.name());
+        table.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            m.name(),
+            ms(r.iter().map(|x| x.train.rmse).collect()),
+            ms(r.iter().map(|x| x.train.std).collect()),
+            ms(r.iter().map(|x| x.train.max).collect()),
+            ms(r.iter().map(|x| x.test.rmse).collect()),
+            ms(r.iter().map(|x| x.test.std).collect()),
+            ms(r.iter().map(|x| x.test.max).collect()),
+            ms(r.iter().map(|x| x.iterations as f64).collect()),
+            ms(r.iter().map(|x| x.seconds).collect()),
+        ));
+    }
+    // A tracker's points: the test rows' position error |Δp| too (mean, as papers quote it).
+    let points = runs.iter().any(|r| r.test_position.is_some());
+    if points {
+        table.push_str("\nResiduals are per coordinate; the test rows' position error |Δp| (mm):\n\n| method | mean | RMS | MAX |\n|---|---|---|---|\n");
+        for m in methods {
+            let r = by(m.name());
+            let p = |f: fn(&twincal::stats::metrics::ErrorStats) -> f64| ms(r.iter().filter_map(|x| x.test_position.as_ref().map(f)).collect());
+            table.push_str(&format!("| {} | {} | {} | {} |\n", m.name(), p(|e| e.mae), p(|e| e.rmse), p(|e| e.max)));
+        }
+    }
+    table
+}
+
+/// Each calibration's warnings, once per method and wording (seeds listed).
+fn print_run_warnings(runs: &[CompareRun]) {
+    let mut warned: Vec<(String, String, Vec<u64>)> = Vec::new();
+    for r in runs {
+        for w in &r.warnings {
+            match warned.iter_mut().find(|(m, t, _)| *m == r.method && t == w) {
+                Some((_, _, seeds)) => seeds.push(r.seed),
+                None => warned.push((r.method.clone(), w.clone(), vec![r.seed])),
+            }
+        }
+    }
+    for (m, w, seeds) in &warned {
+        let seeds: Vec<String> = seeds.iter().map(u64::to_string).collect();
+        eprintln!("warning: {m} (seed {}): {w}", seeds.join(", "));
+    }
 }
 
 /// `twincal reduce PARTS...`: the shards' partial files of one comparison joined, checked (one

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use twincal::calib::run::CalibResult;
 use twincal::dataset::truth::TruthFile;
 use twincal::error::{Error, Result};
-use twincal::ik::{ik_runs, random_targets, table, IkOptions, IkStatus, JacobianKind, TwinCheck};
+use twincal::ik::{ik_runs, random_targets, table, IkOptions, IkRun, IkStatus, JacobianKind, TwinCheck};
 
 /// Largest `--tol-mm`: beyond a centimetre a "solution" says nothing about where the tool is.
 pub const MAX_TOL_MM: f64 = 10.0;
@@ -79,6 +79,66 @@ pub struct IkArgs {
     pub out: PathBuf,
 }
 
+/// A target has no temperature, time or approach history: the model is solved in its reference
+/// state. Says so when the model reads more than the angles.
+fn warn_reference_state(r: &CalibResult) {
+    // A target has no temperature, time or approach history: the model is solved in its
+    // reference state. Say so when the model reads more than the angles.
+    let read: Vec<String> = r.columns_read().into_iter().map(|(c, why)| format!("{c} ({why})")).collect();
+    if !read.is_empty() {
+        eprintln!("warning: the model also reads {}; ik solves every target at the reference value (no rise)", read.join(", "));
+    }
+    if r.reads_flanks() {
+        eprintln!(
+            "warning: the model reads backlash flanks or joint torques (a backlash block, or its network's flank or torque inputs); ik solves every target \
+             with no flank and no torque input (a target has no approach history)"
+        );
+    }
+}
+
+/// ik.csv: per target and solver, the status, iterations, residual, the joint angles (degrees)
+/// and the true error on the twin when there is one.
+fn solutions_csv(r: &CalibResult, runs: &[IkRun], targets: &[Vector3<f64>]) -> String {
+    let joints: Vec<String> = (1..=r.model.chain.n_joints).map(|j| format!("q{j},")).collect();
+    let mut csv = format!("target,x_mm,y_mm,z_mm,solver,status,iterations,residual_mm,{}true_error_mm\n", joints.concat());
+    for run in runs {
+        for (i, (s, t)) in run.solutions.iter().zip(targets).enumerate() {
+            let q: Vec<String> = s.q.iter().map(|v| format!("{:.6}", v.to_degrees())).collect();
+            // An invalid target (NaN) has no solution to measure.
+            let te = run.true_error_mm.as_ref().filter(|_| s.status != IkStatus::Invalid).map(|v| format!("{:.6}", v[i])).unwrap_or_default();
+            csv.push_str(&format!(
+                "{},{},{},{},{},{},{},{:.6},{},{te}\n",
+                i + 1,
+                t.x,
+                t.y,
+                t.z,
+                run.label,
+                s.status.name(),
+                s.iterations,
+                s.residual_mm,
+                q.join(",")
+            ));
+        }
+    }
+    csv
+}
+
+/// Per solver, the targets it did not solve, by status.
+fn print_failures(runs: &[IkRun]) {
+    for run in runs {
+        let bad: Vec<String> = [IkStatus::Unreachable, IkStatus::JointLimit, IkStatus::Singular, IkStatus::NotConverged, IkStatus::Invalid]
+            .iter()
+            .filter_map(|st| {
+                let n = run.solutions.iter().filter(|s| s.status == *st).count();
+                (n > 0).then(|| format!("{n} {}", st.name()))
+            })
+            .collect();
+        if !bad.is_empty() {
+            eprintln!("  {}: {}", run.label, bad.join(", "));
+        }
+    }
+}
+
 /// `twincal ik`.
 pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     if a.targets.is_some() == a.random.is_some() {
@@ -98,18 +158,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
             .ok_or_else(|| Error::Invalid(format!("unknown --jacobian '{s}' (expected analytic, neural, hybrid or all)")))?],
     };
     let r = CalibResult::load(&a.model)?;
-    // A target has no temperature, time or approach history: the model is solved in its
-    // reference state. Say so when the model reads more than the angles.
-    let read: Vec<String> = r.columns_read().into_iter().map(|(c, why)| format!("{c} ({why})")).collect();
-    if !read.is_empty() {
-        eprintln!("warning: the model also reads {}; ik solves every target at the reference value (no rise)", read.join(", "));
-    }
-    if r.reads_flanks() {
-        eprintln!(
-            "warning: the model reads backlash flanks or joint torques (a backlash block, or its network's flank or torque inputs); ik solves every target \
-             with no flank and no torque input (a target has no approach history)"
-        );
-    }
+    warn_reference_state(&r);
     if a.twin.is_some() && a.no_twin {
         return Err(Error::Invalid("--twin DIR validates on a twin and --no-twin skips it: give one of them".into()));
     }
@@ -142,27 +191,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     };
     let o = IkOptions { tol_mm: a.tol_mm, seed: a.seed, ..Default::default() };
     let runs = ik_runs(&r, &targets, &kinds, &o, check.as_ref());
-    let joints: Vec<String> = (1..=r.model.chain.n_joints).map(|j| format!("q{j},")).collect();
-    let mut csv = format!("target,x_mm,y_mm,z_mm,solver,status,iterations,residual_mm,{}true_error_mm\n", joints.concat());
-    for run in &runs {
-        for (i, (s, t)) in run.solutions.iter().zip(&targets).enumerate() {
-            let q: Vec<String> = s.q.iter().map(|v| format!("{:.6}", v.to_degrees())).collect();
-            // An invalid target (NaN) has no solution to measure.
-            let te = run.true_error_mm.as_ref().filter(|_| s.status != IkStatus::Invalid).map(|v| format!("{:.6}", v[i])).unwrap_or_default();
-            csv.push_str(&format!(
-                "{},{},{},{},{},{},{},{:.6},{},{te}\n",
-                i + 1,
-                t.x,
-                t.y,
-                t.z,
-                run.label,
-                s.status.name(),
-                s.iterations,
-                s.residual_mm,
-                q.join(",")
-            ));
-        }
-    }
+    let csv = solutions_csv(&r, &runs, &targets);
     let mut outputs = twincal::io::OutputSet::new();
     outputs.write(&a.out, csv.as_bytes())?;
     outputs.commit()?;
@@ -176,18 +205,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
         );
     }
     println!("{}", table(&runs));
-    for run in &runs {
-        let bad: Vec<String> = [IkStatus::Unreachable, IkStatus::JointLimit, IkStatus::Singular, IkStatus::NotConverged, IkStatus::Invalid]
-            .iter()
-            .filter_map(|st| {
-                let n = run.solutions.iter().filter(|s| s.status == *st).count();
-                (n > 0).then(|| format!("{n} {}", st.name()))
-            })
-            .collect();
-        if !bad.is_empty() {
-            eprintln!("  {}: {}", run.label, bad.join(", "));
-        }
-    }
+    print_failures(&runs);
     Ok(())
 }
 

@@ -154,34 +154,12 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         }
     }
     let split_by: twincal::calib::run::SplitBy = a.split_by.parse()?;
-    if a.out.exists() && !a.out.is_dir() {
-        return Err(Error::Invalid(format!("--out {} is a file; replay writes a folder (replay.csv, replay.json)", a.out.display())));
-    }
-    let (csv_path, json_path) = (a.out.join("replay.csv"), a.out.join("replay.json"));
-    let twin_dir = a.out.join("twin");
-    let (twin_csv, twin_truth) = (twin_dir.join(twincal::dataset::DATASET_FILE), twin_dir.join(twincal::dataset::truth::TRUTH_FILE));
-    let data_files = data_inputs(&a.data);
     let (mut s, robot) = Scenario::load(&a.scenario)?;
-    let mut inputs: Vec<(&str, PathBuf)> = data_files.iter().map(|p| ("--data", p.clone())).collect();
-    inputs.extend(scenario_inputs(Some(&a.scenario), &s));
-    let mut outs: Vec<(&str, &Path)> =
-        vec![("--out", csv_path.as_path()), ("--out", json_path.as_path()), ("--out", twin_csv.as_path()), ("--out", twin_truth.as_path())];
-    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
-    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
-    check_outputs(&inputs, &outs)?;
+    let (csv_path, json_path, twin_dir) = replay_outputs(a, &s)?;
     let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
     let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings to replay against"))?;
     let twin_m = s.tracker.as_ref().map_or(Measurement::Length, twincal::sim::instrument::Tracker::measurement);
-    if m != twin_m {
-        return Err(Error::Invalid(format!(
-            "the data hold a {} ({}), the scenario's twin reads a {} ({}): replay needs the same instrument{}",
-            m.def().describe(),
-            m.def().file_columns().join(", "),
-            twin_m.def().describe(),
-            twin_m.def().file_columns().join(", "),
-            if m == Measurement::Pose && twin_m == Measurement::Point { " (read the file with --measurement point)" } else { "" }
-        )));
-    }
+    same_instrument(m, twin_m)?;
     data.require_joints(robot.dof(), &format!("the scenario's robot '{}'", robot.name))?;
     let n = data.rows.len();
     // The twin reads every row (no split of its own), at the measured poses and, where the data
@@ -191,67 +169,16 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|v| v.to_radians()).collect()).collect();
     let times: Option<Vec<f64>> = data.rows.iter().map(|r| r.t_s).collect();
     let mut g = twincal::sim::generate::generate_at(&s, &robot, poses.clone(), times.clone(), progress(quiet).as_ref())?;
-    // The twin's own dataset: where the scenario logs the angles at a resolution, the twin's arm
-    // stands somewhere within the logging step of each measured angle (as the real one did),
-    // and its log reads the measured angle; the fidelity above is judged at the logged angles.
-    let mut jittered_g = match s.sampling.logged_decimals {
-        Some(dec) => {
-            use rand::{Rng, SeedableRng};
-            let step = 10f64.powi(-(dec as i32));
-            let jittered = poses
-                .iter()
-                .enumerate()
-                .map(|(i, q)| {
-                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(twincal::sim::scenario::stream_seed(
-                        s.seed,
-                        twincal::sim::scenario::Stream::LoggedAngle,
-                        i as u64,
-                    ));
-                    q.iter().map(|v| v + (rng.random::<f64>() - 0.5) * step.to_radians()).collect()
-                })
-                .collect();
-            Some(twincal::sim::generate::generate_at(&s, &robot, jittered, times, &twincal::sim::generate::Silent)?)
-        }
-        None => None,
-    };
+    // The fidelity is judged at the logged angles, the twin's own dataset at jittered ones.
+    let mut jittered_g = jittered_twin(&s, &robot, &poses, times)?;
 
-    // Per data row: the twin's reading and its noise-free reading (model values, mm).
     let d = m.dim();
-    let mut twin: Vec<Option<(Vec<f64>, Vec<f64>)>> = vec![None; n];
-    for (row, p) in g.dataset.rows.iter().zip(&g.truth.poses) {
-        let ideal = match m {
-            Measurement::Length => vec![p.length_noise_free_mm],
-            Measurement::Point => p.point_true_mm.map(|v| v.to_vec()).unwrap_or_default(),
-            Measurement::Pose => p.pose_true.map(|v| m.values_of_file(&v)).unwrap_or_default(),
-        };
-        if let (Some(read), true) = (row.values_mm(), ideal.len() == d) {
-            twin[p.index] = Some((read, ideal));
-        }
-    }
+    let twin = twin_readings(&g, m, n);
     let rejected: Vec<(usize, String)> = g.truth.rejected.iter().map(|r| (r.index + 1, r.reason.clone())).collect();
-    let (judged_idx, judged_on): (Option<Vec<usize>>, String) = match a.test_fraction {
-        Some(f) => {
-            let (_, test) = twincal::calib::run::split_rows(&data, Some(f), a.seed, split_by)?;
-            (Some(test), format!("the rows --test-fraction {f} --seed {} holds out (as calibrate and diagnose draw them)", a.seed))
-        }
-        None if data.rows.iter().any(|r| r.split == Some(Split::Test)) => (Some(data.test_indices()), "the data's test rows (split column)".into()),
-        None => (None, "every row (no split: pass --test-fraction to judge on rows an identification never saw)".into()),
-    };
+    let (judged_idx, judged_on) = judged_rows(a, &data, split_by)?;
     let measured: Vec<Vec<f64>> = data.rows.iter().map(|r| r.values_mm().unwrap_or_default()).collect();
-    let residual = |i: usize| -> Option<Vec<f64>> { twin[i].as_ref().map(|(_, ideal)| measured[i].iter().zip(ideal).map(|(a, b)| a - b).collect()) };
-    let fidelity = |rows: &[usize]| -> Fidelity {
-        let r: Vec<Vec<f64>> = rows.iter().filter_map(|&i| residual(i)).collect();
-        let flat: Vec<f64> = r.iter().flatten().copied().collect();
-        let (med, scale) = twincal::stats::robust_scale(&flat);
-        let k = twincal::calib::run::DEFAULT_OUTLIER_K;
-        let inlier = |v: &Vec<f64>| v.iter().all(|x| (x - med).abs() <= k * scale);
-        Fidelity {
-            residual: ErrorStats::of(&flat),
-            position: (d > 1).then(|| ErrorStats::of(&r.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect::<Vec<_>>())),
-            outlier_rows: r.iter().filter(|v| !inlier(v)).count(),
-            inliers: ErrorStats::of(&r.iter().filter(|v| inlier(v)).flatten().copied().collect::<Vec<_>>()),
-        }
-    };
+    let residual = |i: usize| residual_of(&twin, &measured, i);
+    let fidelity = |rows: &[usize]| fidelity_on(rows, &twin, &measured, d);
     let all_idx: Vec<usize> = (0..n).collect();
     let judged_rows = judged_idx.as_deref().unwrap_or(&all_idx);
     let twin_noise: Vec<f64> = twin.iter().flatten().flat_map(|(read, ideal)| read.iter().zip(ideal).map(|(a, b)| a - b)).collect();
@@ -275,33 +202,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         seconds: 0.0,
     };
 
-    // replay.csv: the row, its angles and time, then per value the measured, the twin's, the
-    // twin's noise-free reading and measured − noise-free.
-    let cols = m.def().columns();
-    let judged_set: std::collections::BTreeSet<usize> = judged_idx.iter().flatten().copied().collect();
-    let mut text = String::from("row");
-    (1..=robot.dof()).for_each(|j| text += &format!(",q{j}"));
-    text += ",t,judged";
-    for suffix in ["", "_twin", "_twin_ideal", "_residual"] {
-        cols.iter().for_each(|c| text += &format!(",{c}{suffix}"));
-    }
-    text.push('\n');
-    for (i, row) in data.rows.iter().enumerate() {
-        text += &(i + 1).to_string();
-        row.q_deg.iter().for_each(|q| text += &format!(",{q}"));
-        text += &format!(",{},{}", row.t_s.map_or(String::new(), |t| t.to_string()), u8::from(judged_idx.is_none() || judged_set.contains(&i)));
-        let blank = |text: &mut String| (0..d).for_each(|_| text.push(','));
-        measured[i].iter().for_each(|v| text += &format!(",{v}"));
-        match (&twin[i], residual(i)) {
-            (Some((read, ideal)), Some(r)) => {
-                for v in read.iter().chain(ideal).chain(&r) {
-                    text += &format!(",{v}");
-                }
-            }
-            _ => (0..3).for_each(|_| blank(&mut text)),
-        }
-        text.push('\n');
-    }
+    let text = replay_csv(&data, robot.dof(), m, &measured, &twin, judged_idx.as_deref());
     let figs = (a.rrd.is_some() || a.report.is_some()).then(|| figures(&summary, &data, &g, &twin, &measured, judged_idx.as_deref(), &s, m));
     // The twin's dataset: the judged rows are its test rows.
     let twin_data = match jittered_g.as_mut() {
@@ -309,6 +210,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         None => &mut g,
     };
     if judged_idx.is_some() {
+        let judged_set: std::collections::BTreeSet<usize> = judged_idx.iter().flatten().copied().collect();
         for (row, p) in twin_data.dataset.rows.iter_mut().zip(twin_data.truth.poses.iter_mut()) {
             let split = if judged_set.contains(&p.index) { Split::Test } else { Split::Train };
             (row.split, p.split) = (Some(split), split);
@@ -336,6 +238,161 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         eprintln!("warning: row {row} was not replayed: {why}");
     }
     Ok(())
+}
+
+/// replay's outputs (replay.csv, replay.json, the twin's folder), checked against its inputs.
+fn replay_outputs(a: &ReplayArgs, s: &Scenario) -> Result<(PathBuf, PathBuf, PathBuf)> {
+    if a.out.exists() && !a.out.is_dir() {
+        return Err(Error::Invalid(format!("--out {} is a file; replay writes a folder (replay.csv, replay.json)", a.out.display())));
+    }
+    let (csv_path, json_path) = (a.out.join("replay.csv"), a.out.join("replay.json"));
+    let twin_dir = a.out.join("twin");
+    let (twin_csv, twin_truth) = (twin_dir.join(twincal::dataset::DATASET_FILE), twin_dir.join(twincal::dataset::truth::TRUTH_FILE));
+    let mut inputs: Vec<(&str, PathBuf)> = data_inputs(&a.data).iter().map(|p| ("--data", p.clone())).collect();
+    inputs.extend(scenario_inputs(Some(&a.scenario), s));
+    let mut outs: Vec<(&str, &Path)> =
+        vec![("--out", csv_path.as_path()), ("--out", json_path.as_path()), ("--out", twin_csv.as_path()), ("--out", twin_truth.as_path())];
+    outs.extend(a.rrd.as_deref().map(|p| ("--rrd", p)));
+    outs.extend(a.report.as_deref().map(|p| ("--report", p)));
+    check_outputs(&inputs, &outs)?;
+    Ok((csv_path, json_path, twin_dir))
+}
+
+/// Row `i`'s measured reading less the twin's noise-free one; None where the twin rejected it.
+fn residual_of(twin: &[Option<(Vec<f64>, Vec<f64>)>], measured: &[Vec<f64>], i: usize) -> Option<Vec<f64>> {
+    twin[i].as_ref().map(|(_, ideal)| measured[i].iter().zip(ideal).map(|(a, b)| a - b).collect())
+}
+
+/// How well the twin reproduces `rows`: the residuals' statistics, a point's position error,
+/// the rows beyond the outlier rule and the statistics without them.
+fn fidelity_on(rows: &[usize], twin: &[Option<(Vec<f64>, Vec<f64>)>], measured: &[Vec<f64>], d: usize) -> Fidelity {
+    let r: Vec<Vec<f64>> = rows.iter().filter_map(|&i| residual_of(twin, measured, i)).collect();
+    let flat: Vec<f64> = r.iter().flatten().copied().collect();
+    let (med, scale) = twincal::stats::robust_scale(&flat);
+    let k = twincal::calib::run::DEFAULT_OUTLIER_K;
+    let inlier = |v: &Vec<f64>| v.iter().all(|x| (x - med).abs() <= k * scale);
+    Fidelity {
+        residual: ErrorStats::of(&flat),
+        position: (d > 1).then(|| ErrorStats::of(&r.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect::<Vec<_>>())),
+        outlier_rows: r.iter().filter(|v| !inlier(v)).count(),
+        inliers: ErrorStats::of(&r.iter().filter(|v| inlier(v)).flatten().copied().collect::<Vec<_>>()),
+    }
+}
+
+/// Refuses data read by another instrument than the scenario's twin's.
+fn same_instrument(m: Measurement, twin_m: Measurement) -> Result<()> {
+    if m != twin_m {
+        return Err(Error::Invalid(format!(
+            "the data hold a {} ({}), the scenario's twin reads a {} ({}): replay needs the same instrument{}",
+            m.def().describe(),
+            m.def().file_columns().join(", "),
+            twin_m.def().describe(),
+            twin_m.def().file_columns().join(", "),
+            if m == Measurement::Pose && twin_m == Measurement::Point { " (read the file with --measurement point)" } else { "" }
+        )));
+    }
+    Ok(())
+}
+
+/// The twin's own dataset where the scenario logs the angles at a resolution: the twin's arm
+/// stands somewhere within the logging step of each measured angle (as the real one did), and
+/// its log reads the measured angle. None without a logging resolution.
+fn jittered_twin(
+    s: &Scenario,
+    robot: &twincal::robot::Robot,
+    poses: &[Vec<f64>],
+    times: Option<Vec<f64>>,
+) -> Result<Option<twincal::sim::generate::Generated>> {
+    Ok(match s.sampling.logged_decimals {
+        Some(dec) => {
+            use rand::{Rng, SeedableRng};
+            let step = 10f64.powi(-(dec as i32));
+            let jittered = poses
+                .iter()
+                .enumerate()
+                .map(|(i, q)| {
+                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(twincal::sim::scenario::stream_seed(
+                        s.seed,
+                        twincal::sim::scenario::Stream::LoggedAngle,
+                        i as u64,
+                    ));
+                    q.iter().map(|v| v + (rng.random::<f64>() - 0.5) * step.to_radians()).collect()
+                })
+                .collect();
+            Some(twincal::sim::generate::generate_at(s, robot, jittered, times, &twincal::sim::generate::Silent)?)
+        }
+        None => None,
+    })
+}
+
+/// Per data row: the twin's reading and its noise-free reading (model values, mm); None where
+/// the twin rejected the pose.
+fn twin_readings(g: &twincal::sim::generate::Generated, m: Measurement, n: usize) -> Vec<Option<(Vec<f64>, Vec<f64>)>> {
+    let d = m.dim();
+    let mut twin: Vec<Option<(Vec<f64>, Vec<f64>)>> = vec![None; n];
+    for (row, p) in g.dataset.rows.iter().zip(&g.truth.poses) {
+        let ideal = match m {
+            Measurement::Length => vec![p.length_noise_free_mm],
+            Measurement::Point => p.point_true_mm.map(|v| v.to_vec()).unwrap_or_default(),
+            Measurement::Pose => p.pose_true.map(|v| m.values_of_file(&v)).unwrap_or_default(),
+        };
+        if let (Some(read), true) = (row.values_mm(), ideal.len() == d) {
+            twin[p.index] = Some((read, ideal));
+        }
+    }
+    twin
+}
+
+/// The rows the twin is judged on (None: every row), and how they were chosen.
+fn judged_rows(a: &ReplayArgs, data: &Dataset, split_by: twincal::calib::run::SplitBy) -> Result<(Option<Vec<usize>>, String)> {
+    Ok(match a.test_fraction {
+        Some(f) => {
+            let (_, test) = twincal::calib::run::split_rows(data, Some(f), a.seed, split_by)?;
+            (Some(test), format!("the rows --test-fraction {f} --seed {} holds out (as calibrate and diagnose draw them)", a.seed))
+        }
+        None if data.rows.iter().any(|r| r.split == Some(Split::Test)) => (Some(data.test_indices()), "the data's test rows (split column)".into()),
+        None => (None, "every row (no split: pass --test-fraction to judge on rows an identification never saw)".into()),
+    })
+}
+
+/// replay.csv: the row, its angles and time, whether it is judged, then per value the measured,
+/// the twin's, the twin's noise-free reading and measured − noise-free.
+fn replay_csv(
+    data: &Dataset,
+    dof: usize,
+    m: Measurement,
+    measured: &[Vec<f64>],
+    twin: &[Option<(Vec<f64>, Vec<f64>)>],
+    judged_idx: Option<&[usize]>,
+) -> String {
+    let d = m.dim();
+    let cols = m.def().columns();
+    let judged_set: std::collections::BTreeSet<usize> = judged_idx.iter().flat_map(|v| v.iter()).copied().collect();
+    let mut text = String::from("row");
+    (1..=dof).for_each(|j| text += &format!(",q{j}"));
+    text += ",t,judged";
+    for suffix in ["", "_twin", "_twin_ideal", "_residual"] {
+        cols.iter().for_each(|c| text += &format!(",{c}{suffix}"));
+    }
+    text.push('\n');
+    for (i, row) in data.rows.iter().enumerate() {
+        text += &(i + 1).to_string();
+        row.q_deg.iter().for_each(|q| text += &format!(",{q}"));
+        text += &format!(",{},{}", row.t_s.map_or(String::new(), |t| t.to_string()), u8::from(judged_idx.is_none() || judged_set.contains(&i)));
+        let blank = |text: &mut String| (0..d).for_each(|_| text.push(','));
+        measured[i].iter().for_each(|v| text += &format!(",{v}"));
+        match &twin[i] {
+            Some((read, ideal)) => {
+                let r: Vec<f64> = measured[i].iter().zip(ideal).map(|(a, b)| a - b).collect();
+                for v in read.iter().chain(ideal).chain(&r) {
+                    text += &format!(",{v}");
+                }
+            }
+            _ => (0..3).for_each(|_| blank(&mut text)),
+        }
+        text.push('\n');
+    }
+    text
 }
 
 /// The report's and the recording's figures, over the replayed rows.

@@ -143,6 +143,103 @@ fn feature_grid(features: &[Feature], what: &str) -> Layout {
     Layout::Grid(views, 3)
 }
 
+/// The blueprint of a dataset's recording: the 3-D view and the effects' series on the left,
+/// the residual against each feature and its histogram on the right.
+fn dataset_blueprint(features: &[twincal::report::Feature], tracker: bool) -> Blueprint {
+    let plots = feature_grid(features, if tracker { "|Δp| (mm)" } else { "Residual (mm)" });
+    Blueprint {
+        root: Layout::Horizontal(
+            vec![
+                Layout::Vertical(
+                    vec![
+                        Layout::view(
+                            K::Spatial3d,
+                            if tracker {
+                                "Arm, tracker, tool points: colour = |Δp| from the nominal arm (mm)"
+                            } else {
+                                "Arm, cable, tool points: colour = |nominal residual| (mm)"
+                            },
+                            "/world",
+                        ),
+                        Layout::Tabs(vec![
+                            Layout::view(K::TimeSeries, "Deflection per joint (mdeg, truth)", "/effects/deflection"),
+                            Layout::view(K::TimeSeries, "Backlash approach side (joint ± 0.3, truth)", "/effects/backlash"),
+                            Layout::view(K::TimeSeries, "Thermal scale α·ΔT (ppm, truth)", "/effects/thermal"),
+                            Layout::view(K::Text, "Legend", "/docs"),
+                        ]),
+                    ],
+                    vec![3.0, 1.6],
+                ),
+                Layout::Vertical(
+                    vec![
+                        plots,
+                        Layout::view(
+                            K::BarChart,
+                            if tracker { "Nominal |Δp| histogram (mm)" } else { "Nominal residual histogram (mm)" },
+                            "/residuals/histogram",
+                        ),
+                    ],
+                    vec![3.0, 1.0],
+                ),
+            ],
+            vec![1.0, 1.1],
+        ),
+        timeline: Some("pose".into()),
+        at_end: true,
+    }
+}
+
+/// The truth's per-pose effects a dataset's recording plots: joint deflections, backlash
+/// approach sides, the thermal scale.
+struct EffectSeries {
+    deflection: bool,
+    backlash: bool,
+    /// The structure's expansion coefficient (1/K) when the thermal drift is on.
+    thermal: Option<f64>,
+    joints: usize,
+}
+
+impl EffectSeries {
+    fn of(g: &Generated) -> Self {
+        EffectSeries {
+            deflection: g.truth.poses.iter().any(|p| p.deflection_mdeg.iter().any(|d| *d != 0.0)),
+            backlash: g.truth.effects.backlash.is_some(),
+            thermal: g.truth.effects.thermal.as_ref().map(|t| t.alpha_per_k),
+            joints: g.dataset.n_joints(),
+        }
+    }
+
+    /// The series' names and styles (static).
+    fn declare(&self, rec: &mut Recorder) {
+        for j in 0..self.joints {
+            if self.deflection {
+                rec.series_style(&format!("effects/deflection/j{}", j + 1), &format!("joint {}", j + 1), PALETTE[j % PALETTE.len()], true, 2.5);
+            }
+            if self.backlash {
+                rec.series_style(&format!("effects/backlash/j{}", j + 1), &format!("joint {} ± side", j + 1), PALETTE[j % PALETTE.len()], true, 2.5);
+            }
+        }
+        if self.thermal.is_some() {
+            rec.series_style("effects/thermal/scale_ppm", "α·ΔT (ppm)", PALETTE[3], true, 2.5);
+        }
+    }
+
+    /// One pose's values.
+    fn log(&self, rec: &mut Recorder, p: &twincal::sim::generate::PoseTruth) {
+        for j in 0..self.joints {
+            if self.deflection {
+                rec.scalar(&format!("effects/deflection/j{}", j + 1), p.deflection_mdeg[j]);
+            }
+            if self.backlash {
+                rec.scalar(&format!("effects/backlash/j{}", j + 1), (j + 1) as f64 + 0.3 * p.approach_side[j]);
+            }
+        }
+        if let Some(alpha) = self.thermal {
+            rec.scalar("effects/thermal/scale_ppm", alpha * p.delta_t_k * 1e6);
+        }
+    }
+}
+
 /// Recording of a generated dataset. Timeline `pose` (and `acquisition_time`): the arm with its
 /// frames, the instrument's line to the tool (the cable, or a tracker's line of sight) and the
 /// current tool point highlighted, the per-pose effects from the truth. Static: the instrument,
@@ -195,21 +292,8 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
     let (edges, counts) = histogram(&res, 30, if tracker { 0.0 } else { -vmax }, vmax);
     rec.histogram_colored("residuals/histogram", &edges, &counts, [90, 160, 220, 255]);
 
-    let has_deflection = g.truth.poses.iter().any(|p| p.deflection_mdeg.iter().any(|d| *d != 0.0));
-    let backlash = g.truth.effects.backlash.is_some();
-    let thermal = g.truth.effects.thermal.as_ref().map(|t| t.alpha_per_k);
-    let nq = g.dataset.n_joints();
-    for j in 0..nq {
-        if has_deflection {
-            rec.series_style(&format!("effects/deflection/j{}", j + 1), &format!("joint {}", j + 1), PALETTE[j % PALETTE.len()], true, 2.5);
-        }
-        if backlash {
-            rec.series_style(&format!("effects/backlash/j{}", j + 1), &format!("joint {} ± side", j + 1), PALETTE[j % PALETTE.len()], true, 2.5);
-        }
-    }
-    if thermal.is_some() {
-        rec.series_style("effects/thermal/scale_ppm", "α·ΔT (ppm)", PALETTE[3], true, 2.5);
-    }
+    let effects = EffectSeries::of(g);
+    effects.declare(&mut rec);
     rec.set_static(false);
 
     for (i, frames) in g.frames.iter().enumerate() {
@@ -226,61 +310,10 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
             let plot = Plot::new("", "", x, "", y);
             rec.points2d(&format!("plots/{}/current", f.name), &[plot.map(f.values[i], res[i].clamp(y.0, y.1))], Some(&[HIGHLIGHT]), Some(5.0), None, false);
         }
-        let p = &g.truth.poses[i];
-        for j in 0..nq {
-            if has_deflection {
-                rec.scalar(&format!("effects/deflection/j{}", j + 1), p.deflection_mdeg[j]);
-            }
-            if backlash {
-                rec.scalar(&format!("effects/backlash/j{}", j + 1), (j + 1) as f64 + 0.3 * p.approach_side[j]);
-            }
-        }
-        if let Some(alpha) = thermal {
-            rec.scalar("effects/thermal/scale_ppm", alpha * p.delta_t_k * 1e6);
-        }
+        effects.log(&mut rec, &g.truth.poses[i]);
     }
 
-    let plots = feature_grid(&features, if tracker { "|Δp| (mm)" } else { "Residual (mm)" });
-    rec.layout(Blueprint {
-        root: Layout::Horizontal(
-            vec![
-                Layout::Vertical(
-                    vec![
-                        Layout::view(
-                            K::Spatial3d,
-                            if tracker {
-                                "Arm, tracker, tool points: colour = |Δp| from the nominal arm (mm)"
-                            } else {
-                                "Arm, cable, tool points: colour = |nominal residual| (mm)"
-                            },
-                            "/world",
-                        ),
-                        Layout::Tabs(vec![
-                            Layout::view(K::TimeSeries, "Deflection per joint (mdeg, truth)", "/effects/deflection"),
-                            Layout::view(K::TimeSeries, "Backlash approach side (joint ± 0.3, truth)", "/effects/backlash"),
-                            Layout::view(K::TimeSeries, "Thermal scale α·ΔT (ppm, truth)", "/effects/thermal"),
-                            Layout::view(K::Text, "Legend", "/docs"),
-                        ]),
-                    ],
-                    vec![3.0, 1.6],
-                ),
-                Layout::Vertical(
-                    vec![
-                        plots,
-                        Layout::view(
-                            K::BarChart,
-                            if tracker { "Nominal |Δp| histogram (mm)" } else { "Nominal residual histogram (mm)" },
-                            "/residuals/histogram",
-                        ),
-                    ],
-                    vec![3.0, 1.0],
-                ),
-            ],
-            vec![1.0, 1.1],
-        ),
-        timeline: Some("pose".into()),
-        at_end: true,
-    });
+    rec.layout(dataset_blueprint(&features, tracker));
     rec.finish()
 }
 
@@ -438,14 +471,11 @@ fn stats_line(label: &str, s: Option<&twincal::stats::metrics::ErrorStats>) -> S
     }
 }
 
-/// Recording of a calibration. Static: the calibrated arm at row 1, the tool points of every row
-/// coloured by the residual before and after (side by side, own colour scales; test rows larger),
-/// histograms, the numbers, and each parameter group's final change with ±1σ and the
-/// truth-equivalent value. Timeline `iteration` (0 = start): RMS and cost, parameter changes.
-pub fn record_calibration(r: &twincal::calib::run::CalibResult, f: &CalibFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
-    let mut rec = Recorder::staged("twincal", outputs, path)?;
+/// The summary text of a calibration's recording: its metrics, the truth, what the colours say,
+/// its warnings.
+fn calibration_summary(r: &twincal::calib::run::CalibResult, f: &CalibFigures, first: &Residual) -> String {
+    let meas = f.measurement;
     let m = &r.metrics;
-    rec.set_static(true);
     let mut doc = format!(
         "## {}\n\n{} train / {} test rows, {} iterations, {}.\n\n| residual (mm) | RMSE | STD | MAX |\n|---|---:|---:|---:|\n",
         f.title,
@@ -462,9 +492,6 @@ pub fn record_calibration(r: &twincal::calib::run::CalibResult, f: &CalibFigures
     if let Some(t) = &r.truth_comparison {
         doc.push_str(&format!(" Truth: {}/{} parameters within 3σ (max |z| {:.2}).", t.within_3_sigma, t.identifiable, t.max_abs_z));
     }
-    let residuals = f.residuals();
-    let meas = f.measurement;
-    let first = &residuals[0];
     if meas.dim() == 1 {
         doc.push_str(&format!(
             "\n\nColour = |measured − predicted length|, own scale per side: before 0–{:.3} mm, after 0–{:.3} mm. Small points: training rows; large: test rows. Hover a point for its residuals.",
@@ -484,41 +511,60 @@ pub fn record_calibration(r: &twincal::calib::run::CalibResult, f: &CalibFigures
     for w in &r.warnings {
         doc.push_str(&format!("\n\n**Warning:** {w}"));
     }
+    doc
+}
+
+/// A parameter group's final change from the start, ±1σ, and the truth-equivalent change.
+fn final_changes(rec: &mut Recorder, f: &CalibFigures, g: Group) {
+    let meas = f.measurement;
+    let ps: Vec<&twincal::report::ParamChange> = f.params.iter().filter(|p| p.group == g).collect();
+    if ps.is_empty() {
+        return;
+    }
+    let names: Vec<String> = ps.iter().map(|p| p.name.replace("joint_", "j").replace("theta", "θ").replace("alpha", "α").replace("beta", "β")).collect();
+    let ys = ps
+        .iter()
+        .flat_map(|p| [Some(p.change + p.sigma.unwrap_or(0.0)), Some(p.change - p.sigma.unwrap_or(0.0)), p.truth_change, Some(0.0)].into_iter().flatten());
+    let y = padded_range(ys, 0.1).unwrap_or((-1.0, 1.0));
+    let plot = Plot::categories(
+        &format!("{}: change from start ±1σ{}", g.title(meas), if ps.iter().any(|p| p.truth_change.is_some()) { ", red = truth" } else { "" }),
+        &names,
+        "change",
+        y,
+    );
+    let base = format!("final/{}", g.name());
+    plot.frame(rec, &base);
+    let bars: Vec<(f64, f64, f64)> = ps.iter().enumerate().filter_map(|(i, p)| p.sigma.map(|s| (i as f64, p.change - s, p.change + s))).collect();
+    plot.bars(rec, &format!("{base}/sigma"), &bars, AFTER, 2.0);
+    let xy: Vec<[f64; 2]> = ps.iter().enumerate().map(|(i, p)| [i as f64, p.change]).collect();
+    let labels: Vec<String> =
+        ps.iter().map(|p| format!("{}: {:+.5} ± {} {}", p.name, p.change, p.sigma.map(|s| format!("{s:.5}")).unwrap_or("–".into()), p.unit)).collect();
+    plot.scatter(rec, &format!("{base}/change"), &xy, &[AFTER], 4.0, &labels);
+    let truth: Vec<(usize, f64)> = ps.iter().enumerate().filter_map(|(i, p)| p.truth_change.map(|t| (i, t))).collect();
+    if !truth.is_empty() {
+        let xy: Vec<[f64; 2]> = truth.iter().map(|(i, t)| [*i as f64, *t]).collect();
+        let labels: Vec<String> = truth.iter().map(|(i, t)| format!("{}: truth-equivalent {:+.5} {}", ps[*i].name, t, ps[*i].unit)).collect();
+        plot.scatter(rec, &format!("{base}/truth"), &xy, &[TRUTH], 3.0, &labels);
+    }
+}
+
+/// Recording of a calibration. Static: the calibrated arm at row 1, the tool points of every row
+/// coloured by the residual before and after (side by side, own colour scales; test rows larger),
+/// histograms, the numbers, and each parameter group's final change with ±1σ and the
+/// truth-equivalent value. Timeline `iteration` (0 = start): RMS and cost, parameter changes.
+pub fn record_calibration(r: &twincal::calib::run::CalibResult, f: &CalibFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+    let mut rec = Recorder::staged("twincal", outputs, path)?;
+    rec.set_static(true);
+    let residuals = f.residuals();
+    let (meas, first) = (f.measurement, &residuals[0]);
+    let doc = calibration_summary(r, f, first);
     rec.static_text("docs/summary", &doc);
     let field = Field { arm: f.arm.as_ref(), instrument: &f.instrument, tools: &f.tool_mm, residuals: &residuals, train: &f.train };
     before_after(&mut rec, &field, ["before", "after"]);
 
     // Final change of each parameter group with ±1σ and the truth-equivalent change.
     for g in Group::ALL {
-        let ps: Vec<&twincal::report::ParamChange> = f.params.iter().filter(|p| p.group == g).collect();
-        if ps.is_empty() {
-            continue;
-        }
-        let names: Vec<String> = ps.iter().map(|p| p.name.replace("joint_", "j").replace("theta", "θ").replace("alpha", "α").replace("beta", "β")).collect();
-        let ys = ps
-            .iter()
-            .flat_map(|p| [Some(p.change + p.sigma.unwrap_or(0.0)), Some(p.change - p.sigma.unwrap_or(0.0)), p.truth_change, Some(0.0)].into_iter().flatten());
-        let y = padded_range(ys, 0.1).unwrap_or((-1.0, 1.0));
-        let plot = Plot::categories(
-            &format!("{}: change from start ±1σ{}", g.title(meas), if ps.iter().any(|p| p.truth_change.is_some()) { ", red = truth" } else { "" }),
-            &names,
-            "change",
-            y,
-        );
-        let base = format!("final/{}", g.name());
-        plot.frame(&mut rec, &base);
-        let bars: Vec<(f64, f64, f64)> = ps.iter().enumerate().filter_map(|(i, p)| p.sigma.map(|s| (i as f64, p.change - s, p.change + s))).collect();
-        plot.bars(&mut rec, &format!("{base}/sigma"), &bars, AFTER, 2.0);
-        let xy: Vec<[f64; 2]> = ps.iter().enumerate().map(|(i, p)| [i as f64, p.change]).collect();
-        let labels: Vec<String> =
-            ps.iter().map(|p| format!("{}: {:+.5} ± {} {}", p.name, p.change, p.sigma.map(|s| format!("{s:.5}")).unwrap_or("–".into()), p.unit)).collect();
-        plot.scatter(&mut rec, &format!("{base}/change"), &xy, &[AFTER], 4.0, &labels);
-        let truth: Vec<(usize, f64)> = ps.iter().enumerate().filter_map(|(i, p)| p.truth_change.map(|t| (i, t))).collect();
-        if !truth.is_empty() {
-            let xy: Vec<[f64; 2]> = truth.iter().map(|(i, t)| [*i as f64, *t]).collect();
-            let labels: Vec<String> = truth.iter().map(|(i, t)| format!("{}: truth-equivalent {:+.5} {}", ps[*i].name, t, ps[*i].unit)).collect();
-            plot.scatter(&mut rec, &format!("{base}/truth"), &xy, &[TRUTH], 3.0, &labels);
-        }
+        final_changes(&mut rec, f, g);
     }
     rec.series_style("convergence/rms/train", "train RMS (mm)", PALETTE[0], false, 2.0);
     rec.series_style("convergence/rms/test", "test RMS (mm)", PALETTE[1], false, 2.0);
@@ -572,13 +618,8 @@ pub fn record_calibration(r: &twincal::calib::run::CalibResult, f: &CalibFigures
     rec.finish()
 }
 
-/// Recording of a diagnosis. Static: per cause, the residual against the length change that
-/// cause predicts, without and with it; the residual field without the causes and with them
-/// (side by side, own colour scales), histograms, the summary. Timeline `step`: held-out RMSE
-/// after each selection step (0 = geometric model).
-pub fn record_diagnosis(d: &twincal::diagnose::Diagnosis, f: &DiagnosisFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
-    let mut rec = Recorder::staged("twincal", outputs, path)?;
-    rec.set_static(true);
+/// The summary text of a diagnosis's recording: the verdict, the causes and what the plots show.
+fn diagnosis_summary(d: &twincal::diagnose::Diagnosis, f: &DiagnosisFigures, first: &Residual) -> String {
     let mut doc = format!(
         "## {}\n\nVerdict: **{}**. {} rows, {} outliers kept out. Noise floor {:.4} mm ({}). Held-out RMSE: geometric {:.4} mm, final {:.4} mm.\n\n",
         f.title,
@@ -607,11 +648,9 @@ pub fn record_diagnosis(d: &twincal::diagnose::Diagnosis, f: &DiagnosisFigures, 
             ));
         }
     }
-    let residuals = f.residuals();
-    let (meas, first) = (f.measurement, &residuals[0]);
+    let meas = f.measurement;
     let q = colour_quantity(first);
     let (dim, cols) = (meas.dim(), meas.def().columns());
-    let x_label = if dim == 1 { "length change the cause predicts (mm)".to_string() } else { format!("change of {} the cause predicts (mm)", cols.join(", ")) };
     if dim == 1 {
         doc.push_str(&format!(
             "\nEvidence plots: residual (mm) against the length change each cause predicts; grey without the cause, blue with it. \
@@ -629,28 +668,51 @@ pub fn record_diagnosis(d: &twincal::diagnose::Diagnosis, f: &DiagnosisFigures, 
             max_abs(&first.after_mm)
         ));
     }
+    doc
+}
+
+/// Cause `k`'s evidence plot: the residual against the change the cause predicts, without and
+/// with it.
+fn cause_evidence(rec: &mut Recorder, k: usize, c: &twincal::report::CauseEvidence, x_label: &str, meas: twincal::measurement::Measurement) {
+    let (dim, cols) = (meas.dim(), meas.def().columns());
+    let x = padded_range(c.contribution_mm.iter().copied(), 0.05).unwrap_or((-1.0, 1.0));
+    let y = padded_range(c.without_mm.iter().chain(&c.with_mm).copied(), 0.05).unwrap_or((-1.0, 1.0));
+    let plot = Plot::new(&c.title.chars().take(60).collect::<String>(), x_label, x, "residual (mm)", y);
+    let base = format!("evidence/cause_{}", k + 1);
+    plot.frame(rec, &base);
+    for (name, res, color) in [("without", &c.without_mm, BEFORE), ("with", &c.with_mm, AFTER)] {
+        let xy: Vec<[f64; 2]> = c.contribution_mm.iter().zip(res.iter()).map(|(x, y)| [*x, *y]).collect();
+        let labels: Vec<String> = xy
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let value = if dim == 1 { String::new() } else { format!(" {}", cols.get(i % dim).copied().unwrap_or("?")) };
+                format!("row {}{value}: predicted change {:+.4} mm, residual {name} the cause {:+.4} mm", i / dim + 1, p[0], p[1])
+            })
+            .collect();
+        plot.scatter(rec, &format!("{base}/{name}"), &xy, &[color], 2.0, &labels);
+    }
+}
+
+/// Recording of a diagnosis. Static: per cause, the residual against the length change that
+/// cause predicts, without and with it; the residual field without the causes and with them
+/// (side by side, own colour scales), histograms, the summary. Timeline `step`: held-out RMSE
+/// after each selection step (0 = geometric model).
+pub fn record_diagnosis(d: &twincal::diagnose::Diagnosis, f: &DiagnosisFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+    let mut rec = Recorder::staged("twincal", outputs, path)?;
+    rec.set_static(true);
+    let residuals = f.residuals();
+    let (meas, first) = (f.measurement, &residuals[0]);
+    let q = colour_quantity(first);
+    let (dim, cols) = (meas.dim(), meas.def().columns());
+    let x_label = if dim == 1 { "length change the cause predicts (mm)".to_string() } else { format!("change of {} the cause predicts (mm)", cols.join(", ")) };
+    let doc = diagnosis_summary(d, f, first);
     rec.static_text("docs/summary", &doc);
     let train = vec![true; first.after_mm.len()];
     let field = Field { arm: f.arm.as_ref(), instrument: &f.instrument, tools: &f.tool_mm, residuals: &residuals, train: &train };
     before_after(&mut rec, &field, ["without causes", "with causes"]);
     for (k, c) in f.causes.iter().enumerate() {
-        let x = padded_range(c.contribution_mm.iter().copied(), 0.05).unwrap_or((-1.0, 1.0));
-        let y = padded_range(c.without_mm.iter().chain(&c.with_mm).copied(), 0.05).unwrap_or((-1.0, 1.0));
-        let plot = Plot::new(&c.title.chars().take(60).collect::<String>(), &x_label, x, "residual (mm)", y);
-        let base = format!("evidence/cause_{}", k + 1);
-        plot.frame(&mut rec, &base);
-        for (name, res, color) in [("without", &c.without_mm, BEFORE), ("with", &c.with_mm, AFTER)] {
-            let xy: Vec<[f64; 2]> = c.contribution_mm.iter().zip(res.iter()).map(|(x, y)| [*x, *y]).collect();
-            let labels: Vec<String> = xy
-                .iter()
-                .enumerate()
-                .map(|(i, p)| {
-                    let value = if dim == 1 { String::new() } else { format!(" {}", cols.get(i % dim).copied().unwrap_or("?")) };
-                    format!("row {}{value}: predicted change {:+.4} mm, residual {name} the cause {:+.4} mm", i / dim + 1, p[0], p[1])
-                })
-                .collect();
-            plot.scatter(&mut rec, &format!("{base}/{name}"), &xy, &[color], 2.0, &labels);
-        }
+        cause_evidence(&mut rec, k, c, &x_label, meas);
     }
     rec.series_style("steps/heldout_rmse_mm", "held-out RMSE (mm)", PALETTE[0], false, 2.0);
     rec.set_static(false);

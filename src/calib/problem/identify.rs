@@ -91,25 +91,7 @@ pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f
     let rank = sv.iter().filter(|v| **v > tol * smax).count();
     let condition_full = if rank < n { f64::INFINITY } else { smax / sv[n - 1] };
 
-    // Null space combinations.
-    let mut invisible = Vec::new();
-    if let Some(vt) = &svd.v_t {
-        for (i, sigma) in svd.singular_values.iter().enumerate() {
-            if *sigma <= tol * smax {
-                let row = vt.row(i);
-                let mut terms: Vec<(String, f64)> = row.iter().enumerate().filter(|(_, v)| v.abs() > 0.05).map(|(k, v)| (names[k].clone(), *v)).collect();
-                terms.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
-                terms.truncate(6);
-                invisible.push(Combination { relative_singular_value: sigma / smax, terms });
-            }
-        }
-    }
-    // Zero columns are invisible on their own.
-    for (k, nrm) in norms.iter().enumerate() {
-        if *nrm == 0.0 && !invisible.iter().any(|c| c.terms.len() == 1 && c.terms[0].0 == names[k]) {
-            invisible.push(Combination { relative_singular_value: 0.0, terms: vec![(names[k].clone(), 1.0)] });
-        }
-    }
+    let invisible = invisible_combinations(&svd, &norms, names, tol * smax, smax);
 
     // Greedy selection in parameter order.
     let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
@@ -134,17 +116,66 @@ pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f
             fixed_mask[k] = true;
         }
     }
-    // The greedy pass bounds each column's distance from the span of those before it, not the
-    // conditioning of the set: a combination of several kept columns can still be nearly
-    // invisible. While the set's smallest singular value is below the tolerance, fix the
-    // parameter latest in priority among those that make up that combination.
-    let rank_of: Vec<usize> = {
-        let mut r = vec![0; n];
-        for (i, &k) in order.iter().enumerate() {
-            r[k] = i;
+    fix_weak_combinations(&s, &order, tol, &mut fixed_mask);
+    let keep: Vec<usize> = (0..n).filter(|k| !fixed_mask[*k]).collect();
+    let sub = DMatrix::from_fn(m, keep.len(), |r, c| s[(r, keep[c])]);
+    Identifiability {
+        n_params: n,
+        n_poses: m,
+        rank,
+        tolerance: tol,
+        condition_full,
+        condition_all: if sv.last().is_some_and(|v| *v > 0.0) { smax / sv[sv.len() - 1] } else { f64::INFINITY },
+        condition_identifiable: condition(&sub),
+        singular_values: sv.iter().map(|v| v / smax).collect(),
+        identifiable: keep.iter().map(|k| names[*k].clone()).collect(),
+        fixed: (0..n).filter(|k| fixed_mask[*k]).map(|k| names[k].clone()).collect(),
+        invisible,
+        still_joints: Vec::new(),
+        fixed_mask,
+    }
+}
+
+/// The null space's combinations (the right singular vectors whose singular value is at most
+/// `threshold`, their six largest terms above 0.05), and each zero column on its own.
+fn invisible_combinations(
+    svd: &nalgebra::SVD<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    norms: &[f64],
+    names: &[String],
+    threshold: f64,
+    smax: f64,
+) -> Vec<Combination> {
+    let mut invisible = Vec::new();
+    if let Some(vt) = &svd.v_t {
+        for (i, sigma) in svd.singular_values.iter().enumerate() {
+            if *sigma <= threshold {
+                let row = vt.row(i);
+                let mut terms: Vec<(String, f64)> = row.iter().enumerate().filter(|(_, v)| v.abs() > 0.05).map(|(k, v)| (names[k].clone(), *v)).collect();
+                terms.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+                terms.truncate(6);
+                invisible.push(Combination { relative_singular_value: sigma / smax, terms });
+            }
         }
-        r
-    };
+    }
+    for (k, nrm) in norms.iter().enumerate() {
+        if *nrm == 0.0 && !invisible.iter().any(|c| c.terms.len() == 1 && c.terms[0].0 == names[k]) {
+            invisible.push(Combination { relative_singular_value: 0.0, terms: vec![(names[k].clone(), 1.0)] });
+        }
+    }
+    invisible
+}
+
+/// The greedy pass bounds each column's distance from the span of those before it, not the
+/// conditioning of the set: a combination of several kept columns of the scaled Jacobian `s`
+/// can still be nearly invisible. While the set's smallest singular value is below `tol` of its
+/// largest, fixes the parameter latest in priority (`order`) among those that make up that
+/// combination.
+fn fix_weak_combinations(s: &DMatrix<f64>, order: &[usize], tol: f64, fixed_mask: &mut [bool]) {
+    let n = fixed_mask.len();
+    let mut rank_of = vec![0; n];
+    for (i, &k) in order.iter().enumerate() {
+        rank_of[k] = i;
+    }
     // S = QR with orthonormal Q: any set of S's columns has the singular values of the same
     // columns of R, a small square matrix.
     let r_factor = s.clone().qr().r();
@@ -165,23 +196,6 @@ pub fn analyse(j: &DMatrix<f64>, names: &[String], always_fixed: &[bool], tol: f
         let vmax = v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         let drop = (0..keep.len()).filter(|&c| v[c].abs() >= 0.1 * vmax).max_by_key(|&c| rank_of[keep[c]]).expect("a unit vector has a largest entry");
         fixed_mask[keep[drop]] = true;
-    }
-    let keep: Vec<usize> = (0..n).filter(|k| !fixed_mask[*k]).collect();
-    let sub = DMatrix::from_fn(m, keep.len(), |r, c| s[(r, keep[c])]);
-    Identifiability {
-        n_params: n,
-        n_poses: m,
-        rank,
-        tolerance: tol,
-        condition_full,
-        condition_all: if sv.last().is_some_and(|v| *v > 0.0) { smax / sv[sv.len() - 1] } else { f64::INFINITY },
-        condition_identifiable: condition(&sub),
-        singular_values: sv.iter().map(|v| v / smax).collect(),
-        identifiable: keep.iter().map(|k| names[*k].clone()).collect(),
-        fixed: (0..n).filter(|k| fixed_mask[*k]).map(|k| names[k].clone()).collect(),
-        invisible,
-        still_joints: Vec::new(),
-        fixed_mask,
     }
 }
 

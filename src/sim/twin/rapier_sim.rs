@@ -187,30 +187,7 @@ fn settle(
     // Every joint arrives resting on the flank its approach motion leaves it on.
     let mut states: Vec<State> = (0..n).map(|j| if trans.half_band[j] == 0.0 { State::Spring } else { State::Flank(cmd.sides[j]) }).collect();
     let initial: Vec<f64> = (0..n).map(|j| cmd.sides[j] * trans.half_band[j]).collect();
-    {
-        let (mb, _) = world.multibody_joints.get_mut(handles[0]).ok_or_else(|| Error::Simulation("multibody missing".into()))?;
-        if mb.ndofs() != n {
-            return Err(Error::Simulation(format!("multibody has {} degrees of freedom, expected {n}", mb.ndofs())));
-        }
-        mb.apply_displacements(&initial);
-        mb.forward_kinematics(&world.bodies, false);
-        mb.update_rigid_bodies(&mut world.bodies, true);
-        // Damping: given, or near-critical from the inertia each joint moves with the rest held.
-        let inertia = joint_inertias(twin, frames);
-        let damping: Vec<f64> = (0..n)
-            .map(|j| {
-                twin.effects
-                    .compliance
-                    .as_ref()
-                    .and_then(|c| c.damping_nms_per_rad.as_ref())
-                    .map(|d| d[j])
-                    .unwrap_or_else(|| 2.0 * twin.settle.damping_ratio * (trans.stiffness[j] * inertia[j].max(1e-9)).sqrt())
-            })
-            .collect();
-        for (j, d) in damping.iter().enumerate() {
-            mb.damping_mut()[j] = *d;
-        }
-    }
+    start_at(twin, trans, world, handles[0], &initial, frames)?;
 
     let tool_local = twin.sensor.tool_point_m();
     let flange_in_last = frames[chain.flange()].relative_to(&frames[n]);
@@ -222,29 +199,7 @@ fn settle(
     let mut steps = 0;
     let mut delta = initial;
     while steps < twin.settle.max_steps {
-        // Transmission state machine and springs.
-        {
-            let (mb, _) = world.multibody_joints.get_mut(handles[0]).expect("checked above");
-            for j in 0..n {
-                let h = trans.half_band[j];
-                let d = delta[j];
-                states[j] = match states[j] {
-                    State::Spring => State::Spring,
-                    State::Free if d.abs() > h => State::Flank(d.signum()),
-                    other => other,
-                };
-                let (k, rest, friction) = match states[j] {
-                    State::Spring => (trans.stiffness[j], 0.0, 0.0),
-                    State::Flank(s) => (trans.stiffness[j], s * h, 0.0),
-                    State::Free => (0.0, 0.0, trans.breakaway),
-                };
-                // Link 0 is the fixed base; joint j moves link j + 1.
-                if let Some(link) = mb.link_mut(j + 1) {
-                    link.joint.set_spring(3, k, rest);
-                }
-                mb.frictions_mut()[j] = friction;
-            }
-        }
+        set_transmission(trans, world, handles[0], &mut states, &delta);
         // Cable tension on the tool point.
         if let Some(cable) = &twin.load.cable {
             let rb = &mut world.bodies[last_body];
@@ -270,20 +225,7 @@ fn settle(
         if change < twin.settle.step_tolerance_rad && !sliding {
             quiet += 1;
             if quiet >= twin.settle.quiet_steps {
-                // At rest: a joint pulled off its flank by more than static friction holds slips
-                // into the band and the arm settles again. Judged at rest, not during transients,
-                // so that the outcome depends on the static load only.
-                let mut slipped = false;
-                for j in 0..n {
-                    if let State::Flank(s) = states[j] {
-                        let pull = delta[j] - s * trans.half_band[j];
-                        if pull * s < 0.0 && trans.stiffness[j] * pull.abs() > trans.breakaway {
-                            states[j] = State::Free;
-                            slipped = true;
-                        }
-                    }
-                }
-                if !slipped {
+                if !slip(trans, &mut states, &delta) {
                     break;
                 }
                 quiet = 0;
@@ -297,6 +239,76 @@ fn settle(
     }
     let contact = contacts(&states, &delta, &trans.half_band);
     read_back(twin, world, handles, cmd, delta, contact, steps, params, scale)
+}
+
+/// Puts the multibody (`handle`) at the joints' starting deflections `initial` and sets each
+/// joint's damping: given, or near-critical from the inertia it moves with the rest held.
+fn start_at(twin: &Twin, trans: &Transmission, world: &mut PhysicsWorld, handle: MultibodyJointHandle, initial: &[f64], frames: &[Frame]) -> Result<()> {
+    let n = initial.len();
+    let (mb, _) = world.multibody_joints.get_mut(handle).ok_or_else(|| Error::Simulation("multibody missing".into()))?;
+    if mb.ndofs() != n {
+        return Err(Error::Simulation(format!("multibody has {} degrees of freedom, expected {n}", mb.ndofs())));
+    }
+    mb.apply_displacements(initial);
+    mb.forward_kinematics(&world.bodies, false);
+    mb.update_rigid_bodies(&mut world.bodies, true);
+    let inertia = joint_inertias(twin, frames);
+    let damping: Vec<f64> = (0..n)
+        .map(|j| {
+            twin.effects
+                .compliance
+                .as_ref()
+                .and_then(|c| c.damping_nms_per_rad.as_ref())
+                .map(|d| d[j])
+                .unwrap_or_else(|| 2.0 * twin.settle.damping_ratio * (trans.stiffness[j] * inertia[j].max(1e-9)).sqrt())
+        })
+        .collect();
+    for (j, d) in damping.iter().enumerate() {
+        mb.damping_mut()[j] = *d;
+    }
+    Ok(())
+}
+
+/// The transmission's state machine at deflections `delta` (a free joint that reaches a flank
+/// rests on it), and each joint's spring and friction for it.
+fn set_transmission(trans: &Transmission, world: &mut PhysicsWorld, handle: MultibodyJointHandle, states: &mut [State], delta: &[f64]) {
+    let (mb, _) = world.multibody_joints.get_mut(handle).expect("checked in start_at");
+    for j in 0..states.len() {
+        let h = trans.half_band[j];
+        let d = delta[j];
+        states[j] = match states[j] {
+            State::Spring => State::Spring,
+            State::Free if d.abs() > h => State::Flank(d.signum()),
+            other => other,
+        };
+        let (k, rest, friction) = match states[j] {
+            State::Spring => (trans.stiffness[j], 0.0, 0.0),
+            State::Flank(s) => (trans.stiffness[j], s * h, 0.0),
+            State::Free => (0.0, 0.0, trans.breakaway),
+        };
+        // Link 0 is the fixed base; joint j moves link j + 1.
+        if let Some(link) = mb.link_mut(j + 1) {
+            link.joint.set_spring(3, k, rest);
+        }
+        mb.frictions_mut()[j] = friction;
+    }
+}
+
+/// At rest: a joint pulled off its flank by more than static friction holds slips into the band
+/// (and the arm settles again); whether any did. Judged at rest, not during transients, so that
+/// the outcome depends on the static load only.
+fn slip(trans: &Transmission, states: &mut [State], delta: &[f64]) -> bool {
+    let mut slipped = false;
+    for j in 0..states.len() {
+        if let State::Flank(s) = states[j] {
+            let pull = delta[j] - s * trans.half_band[j];
+            if pull * s < 0.0 && trans.stiffness[j] * pull.abs() > trans.breakaway {
+                states[j] = State::Free;
+                slipped = true;
+            }
+        }
+    }
+    slipped
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -371,28 +371,7 @@ impl<'a> Sim<'a> {
                 // carry it across the whole band), and in a coarse step where the link is heading too
                 // (a link carried along on a flank would otherwise look left behind).
                 let ahead = self.q_build[j] + x[j] + if fine { 0.0 } else { v0[j] * dt } - qm1;
-                let before = self.states[j];
-                self.states[j] = match before {
-                    State::Spring => State::Spring,
-                    State::Flank(s) => {
-                        let pull = ahead - s * h;
-                        if pull * s < 0.0 && k * pull.abs() > trans.breakaway {
-                            State::Free
-                        } else {
-                            State::Flank(s)
-                        }
-                    }
-                    State::Free if ahead.abs() >= h => State::Flank(ahead.signum()),
-                    State::Free => State::Free,
-                };
-                if !fine && self.states[j] == State::Free {
-                    // A coarse step is far longer than a crossing of the band: the link lands on
-                    // the flank it is heading for (the other one when it just let go of one).
-                    self.states[j] = match before {
-                        State::Flank(s) => State::Flank(-s),
-                        _ => State::Flank(if ahead >= 0.0 { 1.0 } else { -1.0 }),
-                    };
-                }
+                self.states[j] = next_state(self.states[j], ahead, (k, h, trans.breakaway), fine);
                 let c = self.damping[j];
                 let Some(link) = mb.link_mut(j + 1) else { continue };
                 let (spring, rest, damp, extra, friction) = match self.states[j] {
@@ -703,6 +682,144 @@ fn run_chunk(
     Ok(out)
 }
 
+/// A pose's clock: the move's start (s from the start of acquisition), the fine steps per
+/// reading period, their length and the period (s).
+#[derive(Clone, Copy)]
+struct Clock {
+    t_start: f64,
+    sub: usize,
+    fine_dt: f64,
+    period: f64,
+}
+
+/// The hold's outcome: when the gate opened and when the transient became negligible (s after
+/// the arrival), where stepping stopped (time, reading sample), and the fine steps it took.
+struct Hold {
+    gate_s: Option<f64>,
+    negligible_s: Option<f64>,
+    t: f64,
+    k: usize,
+    fine_steps: usize,
+}
+
+/// The hold after move `mv` (pose `i`): raw readings at the sensor's rate feed the stability
+/// gate; once it is open, stepping stops when the transient, decaying at the slowest modelled
+/// rate, is negligible by the time the readings start.
+fn hold(sim: &mut Sim, mv: &Move, seed: u64, i: usize, clock: Clock, hold_samples: usize) -> Result<Hold> {
+    let (twin, acq) = (sim.twin, sim.acq);
+    let sn = &twin.sensor;
+    let Clock { t_start, sub, fine_dt, period } = clock;
+    let arrive = mv.duration;
+    let window_start = arrive + sn.hold_s;
+    let ng = acq.gate_samples(sn.rate_hz);
+    let mut rng = ChaCha8Rng::seed_from_u64(crate::seed::stream_seed(seed, crate::seed::Stream::Gate, i as u64));
+    // The instrument's raw samples, `dim` values each: the cable's length or the tracker's point.
+    let dim = if twin.tracker.is_some() { 3 } else { 1 };
+    let mut raw: Vec<f64> = Vec::with_capacity((dim * hold_samples).min(1 << 16));
+    let (mut gate_s, mut negligible_s) = (None, None);
+    let slow = sim.omega.iter().copied().fold(f64::INFINITY, f64::min);
+    let recent = if slow.is_finite() && slow > 0.0 { ((std::f64::consts::TAU / slow) * sn.rate_hz).ceil() as usize } else { 1 };
+    let mut speeds: std::collections::VecDeque<f64> = std::collections::VecDeque::new();
+    let mut fine_steps = 0;
+    let mut t = arrive;
+    let mut k = 0;
+    while k < hold_samples {
+        k += 1;
+        let mut fastest: f64 = 0.0;
+        for _ in 0..sub {
+            fastest = fastest.max(sim.step(mv, t, fine_dt, true)?);
+            fine_steps += usize::from(sim.trans.is_some());
+            t += fine_dt;
+        }
+        t = arrive + k as f64 * period;
+        if gate_s.is_none() {
+            let (tool, l) = sim.reading(mv, t, t_start + t);
+            gate_sample(twin, &tool, l, &mut rng, &mut raw);
+            if raw.len() >= 2 * ng * dim && gate_change_mm(&raw, ng, dim) < acq.gate_mm {
+                gate_s = Some(k as f64 * period);
+            }
+        }
+        speeds.push_back(fastest);
+        if speeds.len() > recent {
+            speeds.pop_front();
+        }
+        if gate_s.is_some() && (sim.trans.is_none() || speeds.len() >= recent) {
+            let amplitude = if sim.trans.is_none() { 0.0 } else { speeds.iter().copied().fold(0.0, f64::max) / slow * REACH_M };
+            if amplitude * (-sim.zeta_min * slow * (window_start - t)).exp() < NEGLIGIBLE_M {
+                negligible_s = Some(t - arrive);
+                break;
+            }
+        }
+    }
+    Ok(Hold { gate_s, negligible_s, t, k, fine_steps })
+}
+
+/// The reading window after the hold, from `window_start`: the samples' lengths and the sum of
+/// their tool points (m), the time reached and the steps taken (none once `resting`).
+fn reading_window(sim: &mut Sim, mv: &Move, clock: Clock, window_start: f64, resting: bool) -> Result<(Vec<f64>, Vector3<f64>, f64, usize)> {
+    let Clock { t_start, sub, fine_dt, period } = clock;
+    let samples = sim.twin.sensor.samples;
+    let mut s = 0;
+    let mut lengths = Vec::with_capacity(samples);
+    let mut tool_sum = Vector3::zeros();
+    let mut t = window_start;
+    for k in 1..=samples {
+        let tk = window_start + k as f64 * period;
+        if !resting {
+            for _ in 0..sub {
+                sim.step(mv, t, fine_dt, true)?;
+                s += 1;
+                t += fine_dt;
+            }
+        }
+        t = tk;
+        let (tool, l) = sim.reading(mv, tk, t_start + tk);
+        lengths.push(l);
+        tool_sum += tool;
+    }
+    Ok((lengths, tool_sum, t, s))
+}
+
+/// The arm's frames and its joint torques at link angles `q_link` at time `t_read`.
+fn frames_and_torques(sim: &mut Sim, q_link: &[f64], t_read: f64) -> (Vec<Frame>, Vec<f64>) {
+    let twin = sim.twin;
+    let (p, scale) = twin.params_at(t_read);
+    let chain = &twin.chain;
+    chain.forward(q_link, &p, scale, &mut sim.ws);
+    let frames: Vec<Frame> = (0..chain.n_frames()).map(|f| chain.frame(&sim.ws, f)).collect();
+    let mut torque = vec![0.0; q_link.len()];
+    let mut jac = PointJacobian::new(chain);
+    twin.load.torques(chain, &sim.ws, &mut jac, &mut torque);
+    (frames, torque)
+}
+
+/// A joint's contact state after a step, from `before` and `ahead` (the deflection against where
+/// the motor will be at the step's end), with stiffness `k`, half band `h` and breakaway torque.
+fn next_state(before: State, ahead: f64, (k, h, breakaway): (f64, f64, f64), fine: bool) -> State {
+    let next = match before {
+        State::Spring => State::Spring,
+        State::Flank(s) => {
+            let pull = ahead - s * h;
+            if pull * s < 0.0 && k * pull.abs() > breakaway {
+                State::Free
+            } else {
+                State::Flank(s)
+            }
+        }
+        State::Free if ahead.abs() >= h => State::Flank(ahead.signum()),
+        State::Free => State::Free,
+    };
+    if fine || next != State::Free {
+        return next;
+    }
+    // A coarse step is far longer than a crossing of the band: the link lands on the flank it is
+    // heading for (the other one when it just let go of one).
+    match before {
+        State::Flank(s) => State::Flank(-s),
+        _ => State::Flank(if ahead >= 0.0 { 1.0 } else { -1.0 }),
+    }
+}
+
 fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: usize, rule: &[f64]) -> Result<Acquired> {
     use std::time::Instant;
     let twin = sim.twin;
@@ -733,51 +850,10 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     let arrive = mv.duration;
     let hold_samples = (sn.hold_s * sn.rate_hz + 1e-9).floor() as usize;
     let window_start = arrive + sn.hold_s;
-    let ng = acq.gate_samples(sn.rate_hz);
-    let mut rng = ChaCha8Rng::seed_from_u64(crate::seed::stream_seed(settings.seed, crate::seed::Stream::Gate, i as u64));
-    // The instrument's raw samples, `dim` values each: the cable's length or the tracker's point.
-    let dim = if twin.tracker.is_some() { 3 } else { 1 };
-    let mut raw: Vec<f64> = Vec::with_capacity((dim * hold_samples).min(1 << 16));
-    let mut gate_s = None;
-    let mut negligible_s = None;
-    let slow = sim.omega.iter().copied().fold(f64::INFINITY, f64::min);
-    let recent = if slow.is_finite() && slow > 0.0 { ((std::f64::consts::TAU / slow) * sn.rate_hz).ceil() as usize } else { 1 };
-    let mut speeds: std::collections::VecDeque<f64> = std::collections::VecDeque::new();
     let c = Instant::now();
-    let mut fine_steps = 0;
-    let mut t = arrive;
+    let clock = Clock { t_start, sub, fine_dt, period };
     let mut resting = sim.trans.is_none();
-    let mut k = 0;
-    while k < hold_samples {
-        k += 1;
-        let mut fastest: f64 = 0.0;
-        for _ in 0..sub {
-            fastest = fastest.max(sim.step(mv, t, fine_dt, true)?);
-            fine_steps += usize::from(sim.trans.is_some());
-            t += fine_dt;
-        }
-        t = arrive + k as f64 * period;
-        if gate_s.is_none() {
-            let (tool, l) = sim.reading(mv, t, t_start + t);
-            gate_sample(twin, &tool, l, &mut rng, &mut raw);
-            if raw.len() >= 2 * ng * dim && gate_change_mm(&raw, ng, dim) < acq.gate_mm {
-                gate_s = Some(k as f64 * period);
-            }
-        }
-        speeds.push_back(fastest);
-        if speeds.len() > recent {
-            speeds.pop_front();
-        }
-        // Once the gate is open, hand over to coarse steps when the transient, decaying at the
-        // slowest modelled rate, is negligible by the time the readings start.
-        if gate_s.is_some() && (sim.trans.is_none() || speeds.len() >= recent) {
-            let amplitude = if sim.trans.is_none() { 0.0 } else { speeds.iter().copied().fold(0.0, f64::max) / slow * REACH_M };
-            if amplitude * (-sim.zeta_min * slow * (window_start - t)).exp() < NEGLIGIBLE_M {
-                negligible_s = Some(t - arrive);
-                break;
-            }
-        }
-    }
+    let Hold { gate_s, negligible_s, t, k, fine_steps } = hold(sim, mv, settings.seed, i, clock, hold_samples)?;
     phase(&mut stats, 2, c, fine_steps);
     if k < hold_samples {
         // What is left of the transient decays below 1 nm before the readings: the rest of the
@@ -791,24 +867,7 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
 
     // The reading window after the hold.
     let c = Instant::now();
-    let mut s = 0;
-    let mut lengths = Vec::with_capacity(sn.samples);
-    let mut tool_sum = Vector3::zeros();
-    t = window_start;
-    for k in 1..=sn.samples {
-        let tk = window_start + k as f64 * period;
-        if !resting {
-            for _ in 0..sub {
-                sim.step(mv, t, fine_dt, true)?;
-                s += 1;
-                t += fine_dt;
-            }
-        }
-        t = tk;
-        let (tool, l) = sim.reading(mv, tk, t_start + tk);
-        lengths.push(l);
-        tool_sum += tool;
-    }
+    let (lengths, tool_sum, t, s) = reading_window(sim, mv, clock, window_start, resting)?;
     phase(&mut stats, 4, c, if sim.trans.is_some() { s } else { 0 });
     let t_read = schedule.read_t[i];
     let (q_link, deflection) = sim.link(mv, t);
@@ -822,13 +881,7 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
         let mean_l = lengths.iter().sum::<f64>() / lengths.len() as f64;
         mean_l - sn.ideal_length(&reference)
     };
-    let (p, scale) = twin.params_at(t_read);
-    let chain = &twin.chain;
-    chain.forward(&q_link, &p, scale, &mut sim.ws);
-    let frames: Vec<Frame> = (0..chain.n_frames()).map(|f| chain.frame(&sim.ws, f)).collect();
-    let mut torque = vec![0.0; q_link.len()];
-    let mut jac = PointJacobian::new(chain);
-    twin.load.torques(chain, &sim.ws, &mut jac, &mut torque);
+    let (frames, torque) = frames_and_torques(sim, &q_link, t_read);
     let rest = RestingPose {
         q_link,
         eccentricity: twin.eccentricity(&mv.to),

@@ -1,0 +1,429 @@
+//! What a calibration gives (`result.json`): the parameters with their uncertainties, the
+//! metrics, the truth comparison, the model and what its readers need; its loader's checks.
+
+use crate::calib::correctors::rbf::RbfNetwork;
+use crate::calib::correctors::{Correct, Corrector, EffectCorrection};
+use crate::calib::effects::EffectBlock;
+use crate::calib::effects::RowInputs;
+use crate::calib::methods::Method;
+use crate::calib::model::CalibModel;
+use crate::calib::problem::robust::{Loss, Outlier, OutlierRun, ReadingStep};
+use crate::dataset::Dataset;
+use crate::error::{Error, Result};
+use crate::stats::metrics::ErrorStats;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A parameter in the report (display units: mm, degrees).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ParamReport {
+    pub name: String,
+    pub unit: String,
+    pub nominal: f64,
+    pub value: f64,
+    pub std_uncertainty: Option<f64>,
+    pub fixed: bool,
+    /// With a truth file: the value this model should reach on noise-free data.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<f64>,
+    /// error / std_uncertainty.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub z: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Metrics {
+    pub train_before: ErrorStats,
+    pub test_before: Option<ErrorStats>,
+    pub train_after: ErrorStats,
+    /// Every test row.
+    pub test_after: Option<ErrorStats>,
+    /// The test rows that are not outliers by the training rows' rule (median ± k robust
+    /// standard deviations of the training residuals after calibration).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_after_inliers: Option<ErrorStats>,
+    /// The test rows without the worst 1 % (largest |residual|, rounded up): how measured data
+    /// are compared with their repeatability floor, which a few bad readings would swamp.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_after_trimmed: Option<ErrorStats>,
+    /// For a reading of several values (a tracker's point): the test rows' position error
+    /// |Δp| (one distance per row, mm; `mae` is the mean absolute position error papers quote)
+    /// before and after calibration.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_position_before: Option<ErrorStats>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_position_after: Option<ErrorStats>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct TruthComparison {
+    /// Identifiable parameters within 3 standard uncertainties of the truth.
+    pub within_3_sigma: usize,
+    pub identifiable: usize,
+    pub max_abs_z: f64,
+    /// How the truth-equivalent values were obtained.
+    pub method: String,
+    /// Sensor noise floor (std of an averaged reading), mm.
+    pub noise_floor_mm: f64,
+}
+
+/// The calibrated model: everything `predict` needs, and the report.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CalibResult {
+    /// See [`crate::io::SCHEMA_VERSION`].
+    #[serde(default = "crate::io::schema_version")]
+    pub schema_version: u32,
+    pub twincal_version: String,
+    pub data: String,
+    pub method: Method,
+    pub model_name: String,
+    pub seed: u64,
+    pub n_train: usize,
+    pub n_test: usize,
+    pub parameters: Vec<ParamReport>,
+    pub identifiability: serde_json::Value,
+    pub metrics: Metrics,
+    pub iterations: usize,
+    pub evaluations: usize,
+    pub converged: bool,
+    pub stop_reason: String,
+    pub wall_time_s: f64,
+    /// Standard deviation of one reading estimated from the data, mm (the residual spread of
+    /// the fit, or the repeatability of repeated configurations where there are enough).
+    #[serde(default)]
+    pub noise_estimate_mm: f64,
+    /// SHA-256 of the data file calibrated on (written by `calibrate`): `ik` checks that a twin
+    /// it validates against was generated with these very data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_sha256: Option<String>,
+    /// Things a user should know before trusting the result (did not converge, few rows, ...).
+    #[serde(default)]
+    pub warnings: Vec<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth_comparison: Option<TruthComparison>,
+    /// Repeated configurations in the data and the spread of L over them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub repeatability: Option<crate::stats::metrics::Repeatability>,
+    /// The data's own floor: repeatability and logging resolutions, each named.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_floor: Option<crate::calib::problem::floor::NoiseFloor>,
+    /// The robust screen of the training rows: threshold (robust standard deviations, 0 = off),
+    /// the robust scale of the kept rows' residuals (mm), the rows kept out and their runs.
+    #[serde(default)]
+    pub outlier_k: f64,
+    #[serde(default)]
+    pub robust_scale_mm: f64,
+    #[serde(default)]
+    pub outliers: Vec<Outlier>,
+    #[serde(default)]
+    pub outlier_runs: Vec<OutlierRun>,
+    /// Stretches whose readings were one constant offset off: corrected by it and kept. The
+    /// offsets belong to this acquisition (`predict` on new data does not apply them).
+    #[serde(default)]
+    pub reading_steps: Vec<ReadingStep>,
+    /// Test rows corrected by a reading step's offset (estimated from training rows): those
+    /// whose nearest training row in acquisition order is in the step.
+    #[serde(default)]
+    pub test_rows_in_steps: usize,
+    /// Test rows beyond the same threshold around the calibrated model's training residuals.
+    #[serde(default)]
+    pub test_outliers: Vec<Outlier>,
+    /// The least-squares loss.
+    #[serde(default)]
+    pub loss: Loss,
+    /// The model itself (chain and parameter vector, internal units m / rad).
+    pub model: CalibModel,
+    pub x: Vec<f64>,
+    /// The learned corrector of what the geometry and effects leave, if the method fits one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corrector: Option<Corrector>,
+    /// Result files written before correctors were one interface stored the RBF network here.
+    #[serde(default, rename = "rbf", skip_serializing)]
+    pub(super) legacy_rbf: Option<RbfNetwork>,
+    /// How the effect blocks get their joint torques on new rows (with effects only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque_model: Option<crate::calib::effects::inputs::TorqueModel>,
+    /// Parameter values per iteration (display units), for convergence plots.
+    #[serde(skip)]
+    pub history: Vec<Vec<f64>>,
+    /// Measured minus predicted reading of each test row (mm, in `test_rows` order), exactly as
+    /// the metrics saw them: with the rows' inputs (time, temperature, flanks, torques) and
+    /// reading steps. Not stored in the file.
+    #[serde(skip)]
+    pub test_residuals_mm: Vec<f64>,
+    /// Data rows (0-based) of the test rows.
+    #[serde(skip)]
+    pub test_rows: Vec<usize>,
+    /// How the fit weighted the training rows by their own standard deviations (absent: equal
+    /// weights).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weighting: Option<crate::calib::problem::weighting::Weighting>,
+    /// The joint angles' logging error as the fit's noise model (absent: the training rows were
+    /// taken as independent): see [`crate::calib::problem::noise_model::remove_logging_error`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_model: Option<crate::calib::problem::gls::NoiseModel>,
+}
+
+impl CalibResult {
+    /// Predicted length (mm) at joint angles in degrees.
+    pub fn predict_mm(&self, q_deg: &[f64]) -> f64 {
+        let q: Vec<f64> = q_deg.iter().map(|d| d.to_radians()).collect();
+        let mut w = self.model.work();
+        let inp = RowInputs::default();
+        self.model.predict_with(&self.x, &q, &inp, &mut w) * 1e3 + self.correction_mm(&q, &inp)
+    }
+
+    /// The dataset columns the model reads besides the joint angles, each with what reads it:
+    /// `temp` or `t` for a thermal block (by how it was driven) or a corrector with that input.
+    /// Torques and backlash flanks come from the angles and the acquisition order.
+    /// The learned wavelet network (the first, when there is one per reading value: they share
+    /// their inputs).
+    pub(super) fn wavelet_network(&self) -> Option<&crate::calib::correctors::awnn::Awnn> {
+        match &self.corrector {
+            Some(crate::calib::correctors::Corrector::Awnn(n)) => Some(n),
+            Some(crate::calib::correctors::Corrector::Values(v)) => v.values.iter().find_map(|c| match c {
+                crate::calib::correctors::Corrector::Awnn(n) => Some(n),
+                _ => None,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Whether the model reads a row's backlash approach flanks (a backlash block, or a network
+    /// with flank inputs) or its joint torques as network inputs: `ik` solves without them.
+    pub fn reads_flanks(&self) -> bool {
+        self.model.effects.iter().any(|b| b.kind == crate::calib::effects::EffectKind::Backlash)
+            || self.wavelet_network().is_some_and(|n| {
+                n.extra.iter().any(|f| matches!(f, crate::calib::correctors::awnn::Feature::Side(_) | crate::calib::correctors::awnn::Feature::Torque(_)))
+            })
+    }
+
+    pub fn columns_read(&self) -> Vec<(&'static str, String)> {
+        use crate::calib::effects::{EffectKind, ThermalDrive};
+        let mut out = Vec::new();
+        for b in self.model.effects.iter().filter(|b| b.kind == EffectKind::ThermalDrift) {
+            let col = if matches!(b.thermal, Some(ThermalDrive::Temperature { .. })) { "temp" } else { "t" };
+            out.push((col, format!("its {} block", b.label())));
+        }
+        if let Some(n) = self.wavelet_network() {
+            for f in &n.extra {
+                match f {
+                    crate::calib::correctors::awnn::Feature::Temperature => out.push(("temp", "its network's temperature input".into())),
+                    crate::calib::correctors::awnn::Feature::Time => out.push(("t", "its network's time input".into())),
+                    _ => {}
+                }
+            }
+        }
+        out
+    }
+
+    /// An error naming the first column the model reads ([`Self::columns_read`]) that `data`
+    /// lacks on some row: without it the prediction would silently be the reference state's.
+    pub fn require_columns(&self, data: &Dataset) -> Result<()> {
+        for (col, why) in self.columns_read() {
+            let has = |r: &crate::dataset::Row| if col == "temp" { r.temp_c.is_some() } else { r.t_s.is_some() };
+            if !data.rows.iter().all(has) {
+                return Err(Error::data(
+                    &data.source,
+                    format!("the model reads a {col} column ({why}), which these data lack; give it, or predict with a model calibrated without it"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Predicted readings (mm, [`Measurement::dim`](crate::measurement::Measurement::dim) values
+    /// per row, row after row) of every row of a dataset (rows in acquisition order: backlash
+    /// flanks follow the order), every effect and corrector included.
+    pub fn predict_rows(&self, data: &Dataset) -> Vec<f64> {
+        let inputs = crate::calib::effects::inputs::row_inputs(data, self.torque_model.as_ref());
+        let mut w = self.model.work();
+        let mut y = vec![0.0; self.model.measurement.dim()];
+        let mut corr = vec![0.0; y.len()];
+        let mut out = Vec::with_capacity(data.rows.len() * y.len());
+        for (r, inp) in data.rows.iter().zip(&inputs) {
+            let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
+            self.model.readings_with(&self.x, &q, inp, &mut w, &mut y);
+            if y.len() == 1 {
+                out.push(y[0] * 1e3 + self.correction_mm(&q, inp));
+            } else {
+                if let Some(c) = &self.corrector {
+                    c.as_correct().corrections_mm(&q, inp, &mut corr);
+                }
+                out.extend(y.iter().zip(&corr).map(|(v, c)| v * 1e3 + c));
+            }
+        }
+        out
+    }
+
+    /// An error naming the data unless their readings (if any) are the model's measurement.
+    pub fn require_measurement(&self, data: &Dataset) -> Result<()> {
+        let m = self.model.measurement;
+        match data.measurement() {
+            Some(d) if d != m => Err(Error::data(
+                &data.source,
+                format!(
+                    "the rows hold a {} ({}), the model predicts a {} ({})",
+                    d.def().describe(),
+                    d.def().columns().join(", "),
+                    m.def().describe(),
+                    m.def().columns().join(", ")
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The learned corrector's length correction (mm; 0 without one).
+    pub fn correction_mm(&self, q: &[f64], inp: &RowInputs) -> f64 {
+        self.corrector.as_ref().map(|c| c.as_correct().correction_mm(q, inp)).unwrap_or(0.0)
+    }
+
+    /// Every non-geometric part of the calibrated model as a [`Correct`]: the physical effect
+    /// blocks (when the model has any), then the learned corrector.
+    pub fn correctors(&self) -> Vec<Box<dyn Correct + '_>> {
+        let mut out: Vec<Box<dyn Correct + '_>> = Vec::new();
+        if !self.model.effects.is_empty() {
+            out.push(Box::new(EffectCorrection::new(&self.model, &self.x)));
+        }
+        if let Some(c) = &self.corrector {
+            out.push(Box::new(c.as_correct()));
+        }
+        out
+    }
+
+    pub fn load(path: &Path) -> Result<CalibResult> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let value: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        // What the model computes with holds no number a calibration could not have produced.
+        for key in ["model", "x", "corrector", "torque_model", "rbf"] {
+            if let Some((at, n)) = value.get(key).and_then(|v| beyond_magnitude(v, MAX_MODEL_MAGNITUDE)) {
+                return Err(Error::model(
+                    path.display(),
+                    format!("{key}{at} = {n} is beyond what a calibration writes (|value| <= {MAX_MODEL_MAGNITUDE:e}); edited result file?"),
+                ));
+            }
+        }
+        // A learned corrector's outputs (weights, biases, spline coefficients, its output range,
+        // in mm) stay far below a correction of 100 m; its input statistics may not (a time
+        // input's mean over days of acquisition is 1e5 s and more).
+        for key in ["corrector", "rbf"] {
+            if let Some((at, n)) = value.get(key).and_then(corrector_output_beyond) {
+                return Err(Error::model(
+                    path.display(),
+                    format!("{key}{at} = {n} is beyond what a calibration writes (a correction within {MAX_CORRECTOR_MAGNITUDE:e} mm); edited result file?"),
+                ));
+            }
+        }
+        let mut r: CalibResult = serde_json::from_value(value).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        crate::io::check_schema(r.schema_version, "a calibration result").map_err(|e| Error::model(path.display(), e))?;
+        if let Some(net) = r.legacy_rbf.take() {
+            r.corrector.get_or_insert(Corrector::Rbf(net));
+        }
+        if let Some(c) = &r.corrector {
+            c.validate(r.model.chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
+            let (want, has) = (r.model.measurement.dim(), c.as_correct().dim());
+            if want != has {
+                return Err(Error::model(
+                    path.display(),
+                    format!(
+                        "the corrector corrects {has} value(s) per row, the model's {} reads {want} (edited result file?)",
+                        r.model.measurement.def().describe()
+                    ),
+                ));
+            }
+        }
+        let chain = &r.model.chain;
+        chain.validate().map_err(|e| Error::model(path.display(), e))?;
+        let temps = crate::dataset::MIN_TEMP_C..=crate::dataset::MAX_TEMP_C;
+        if let Some(t) = r.model.effects.iter().find_map(|b| match b.thermal {
+            Some(crate::calib::effects::ThermalDrive::Temperature { ref_c }) if !temps.contains(&ref_c) => Some(ref_c),
+            _ => None,
+        }) {
+            return Err(Error::model(
+                path.display(),
+                format!(
+                    "the thermal block's reference temperature {} °C is outside [{}, {}] °C (edited result file?)",
+                    crate::error::shown(t),
+                    temps.start(),
+                    temps.end()
+                ),
+            ));
+        }
+        if let Some(t) = &r.torque_model {
+            t.validate(chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
+        }
+        let consistent = r.x.len() == r.model.n_params()
+            && r.model.nominal.len() == r.model.n_params()
+            && r.model.effects.iter().all(|e| e.joint.is_none_or(|j| j < chain.n_joints))
+            && (r.model.limits.is_empty() || r.model.limits.len() == chain.n_joints)
+            && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
+            && r.model.kinds.len() == r.model.n_params()
+            && r.model.n_params() == chain.n_params() + r.model.measurement.n_placement() + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
+            && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
+            && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
+        if !consistent || r.x.iter().any(|v| !v.is_finite()) {
+            return Err(Error::model(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
+        }
+        let place = r.model.placement(&r.x);
+        let names = r.model.measurement.placement_names();
+        if let Some((name, v)) = names.iter().zip(place.own.iter().chain(place.tool.iter())).find(|(_, v)| v.abs() > MAX_PLACEMENT) {
+            return Err(Error::model(
+                path.display(),
+                format!("the instrument's placement {name} = {} is beyond {MAX_PLACEMENT} (m or rad; edited result file?)", crate::error::shown(*v)),
+            ));
+        }
+        Ok(r)
+    }
+}
+
+/// How far outside a joint's limits (degrees) a row may be before it is refused: encoders read
+/// a little past a soft limit, nothing reads far past a hard stop.
+pub const JOINT_LIMIT_SLACK_DEG: f64 = 2.0;
+
+/// Smallest spread of the measured lengths a calibration accepts, mm (a micrometre: less is one
+/// reading repeated, not a measurement of the arm).
+pub const MIN_LENGTH_SPREAD_MM: f64 = 1e-3;
+
+/// Largest magnitude of any number in a result file's model (parameters in m and rad, network
+/// weights in mm, masses, forces): beyond it the file was edited, not written by a calibration.
+pub const MAX_MODEL_MAGNITUDE: f64 = 1e9;
+
+/// Largest |number| among a stored learned corrector's outputs (weights, biases, coefficients,
+/// its output range; mm), see [`CalibResult::load`].
+pub const MAX_CORRECTOR_MAGNITUDE: f64 = 1e5;
+
+/// The keys of a stored corrector whose numbers are outputs in mm.
+pub(super) const CORRECTOR_OUTPUT_KEYS: [&str; 5] = ["weights", "bias", "coef", "w", "output_range"];
+
+/// The first output number of a stored corrector (under [`CORRECTOR_OUTPUT_KEYS`], at any depth:
+/// a per-value corrector nests them) beyond [`MAX_CORRECTOR_MAGNITUDE`], with its JSON path.
+pub(super) fn corrector_output_beyond(v: &serde_json::Value) -> Option<(String, serde_json::Number)> {
+    use serde_json::Value;
+    match v {
+        Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| corrector_output_beyond(x).map(|(p, n)| (format!("[{i}]{p}"), n))),
+        Value::Object(map) => map.iter().find_map(|(k, x)| {
+            let found = if CORRECTOR_OUTPUT_KEYS.contains(&k.as_str()) { beyond_magnitude(x, MAX_CORRECTOR_MAGNITUDE) } else { corrector_output_beyond(x) };
+            found.map(|(p, n)| (format!(".{k}{p}"), n))
+        }),
+        _ => None,
+    }
+}
+
+/// Largest |value| of an instrument placement parameter in a result file (m or rad): an exit
+/// point, a tracker or a reflector 100 m away is an edit, not a calibration.
+pub const MAX_PLACEMENT: f64 = 100.0;
+
+/// The first number in `v` beyond [`MAX_MODEL_MAGNITUDE`]: its JSON path below `v` and the number.
+pub(super) fn beyond_magnitude(v: &serde_json::Value, limit: f64) -> Option<(String, serde_json::Number)> {
+    use serde_json::Value;
+    match v {
+        Value::Number(n) => n.as_f64().is_none_or(|x| x.abs() > limit).then(|| (String::new(), n.clone())),
+        Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| beyond_magnitude(x, limit).map(|(p, n)| (format!("[{i}]{p}"), n))),
+        Value::Object(map) => map.iter().find_map(|(k, x)| beyond_magnitude(x, limit).map(|(p, n)| (format!(".{k}{p}"), n))),
+        _ => None,
+    }
+}

@@ -1,0 +1,441 @@
+//! The diagnosis as typed stages: the rows prepared and screened, the selection of causes, the
+//! final fit of the model with its causes on every kept row, and the report.
+
+use super::fit::*;
+use super::options::*;
+use super::report::*;
+use super::screen::*;
+use super::select::*;
+use crate::calib::effects::inputs::time_span;
+use crate::calib::effects::EffectBlock;
+use crate::calib::model::CalibModel;
+use crate::calib::problem::{ReadingFit, Samples};
+use crate::calib::run::identify;
+use crate::dataset::blocks::Structure;
+use crate::dataset::Dataset;
+use crate::error::{Error, Result};
+use crate::optim::{LevenbergMarquardt, NoObserver};
+use crate::stats::rms;
+use std::time::Instant;
+
+/// Runs a diagnosis. `progress` receives a line per finished step.
+///
+/// When the screen against the geometric model flags rows that one candidate effect explains
+/// (the screen of the model with it flags at most half as many, or as many with a tighter scale:
+/// a backlash band seen by a precise instrument puts every row of its minority flank far off the
+/// geometry), those rows stay in and the selection runs on them. Should the selection then keep
+/// another effect first (a thermal drift of the whole arm where one joint's drift screened the
+/// rows), the diagnosis runs again on that effect's screen if it too explains the flagged rows;
+/// should it keep neither, on the rows the geometric screen kept.
+pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
+    if opts.folds < 2 || opts.folds > 20 {
+        return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));
+    }
+    let (d, r, screened_with) = diagnose_screened(data, opts, progress, ScreenBy::BestEffect)?;
+    // The exported model holds the named causes' blocks, in the order they were kept.
+    let Some(b) = screened_with else { return Ok((d, r)) };
+    if r.model.effects.contains(&b) {
+        return Ok((d, r));
+    }
+    if let Some(f) = r.model.effects.first().cloned() {
+        progress(&format!("{} explained the flagged rows but {} was kept first: the diagnosis again, on {}'s screen", b.label(), f.label(), f.label()));
+        let (d2, r2, with) = diagnose_screened(data, opts, progress, ScreenBy::Effect(f.clone()))?;
+        if with.as_ref() == Some(&f) && r2.model.effects.contains(&f) {
+            return Ok((d2, r2));
+        }
+    }
+    progress(&format!("{} explained the flagged rows but was not kept: the diagnosis again, on the rows the geometric screen kept", b.label()));
+    let (d, r, _) = diagnose_screened(data, opts, progress, ScreenBy::Geometry)?;
+    Ok((d, r))
+}
+
+/// The rows of a diagnosis, prepared: the calibration's stages on every row (no split: the
+/// diagnosis cross-validates), screened ([`screen_rows`]), with the faults of their outlier runs
+/// and reading steps, their blocks and their noise model.
+pub(super) struct Prepared {
+    pub(super) base: CalibModel,
+    pub(super) torque: Option<crate::calib::effects::inputs::TorqueModel>,
+    /// Torques exist where there are inertial data (the nominal robot's or `--robot`'s).
+    pub(super) has_torques: bool,
+    /// Every row, with its inputs; readings in a reading step corrected by its offset.
+    pub(super) all: Samples,
+    pub(super) measurement: crate::measurement::Measurement,
+    pub(super) fold_warning: Option<String>,
+    /// The screen's kept rows (indices into `all`), outliers, their runs, the geometric fit on
+    /// the kept rows, and the reading steps.
+    pub(super) keep: Vec<usize>,
+    pub(super) outliers: Vec<crate::calib::problem::robust::Outlier>,
+    pub(super) outlier_runs: Vec<crate::calib::problem::robust::OutlierRun>,
+    pub(super) x_base: Vec<f64>,
+    pub(super) reading_steps: Vec<crate::calib::problem::robust::ReadingStep>,
+    pub(super) screened_with: Option<EffectBlock>,
+    pub(super) first_flagged: Vec<usize>,
+    /// What went wrong in each run of outlier rows and each reading step.
+    pub(super) run_faults: Vec<super::faults::RunFault>,
+    pub(super) blocks: crate::dataset::blocks::Blocks,
+    pub(super) acquisition: Structure,
+    pub(super) noise_model: Option<NoiseModel>,
+}
+
+/// [`Prepared`] rows for [`diagnose_screened`].
+pub(super) fn prepare_rows(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str), by: ScreenBy) -> Result<Prepared> {
+    // Every row needs its reading: a cable length, or a tracker's point (x, y, z).
+    let measurement = crate::calib::run::reading_measurement(data)?;
+    let dim = measurement.dim();
+    // The calibration's stages on every row (no split: the diagnosis cross-validates), with
+    // every row's inputs; the diagnosis screens the rows itself, inputs included.
+    let prepared = crate::calib::run::prepare(data, &opts.baseline_options(), true)?;
+    let base = prepared.model;
+    let torque = prepared.split.torque_model;
+    // Torques exist where there are inertial data (the nominal robot's or `--robot`'s).
+    let has_torques = torque.is_some();
+    let mut all = prepared.split.train;
+    let fold_warning = fold_rows_check(all.len(), dim, prepared.id.fixed_mask.iter().filter(|f| !**f).count(), opts)?;
+
+    let (screen, screened_with, first_flagged) = screen_rows(&base, &all, data, opts, has_torques, &by, progress)?;
+    let (keep, outliers, outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
+    // What went wrong in each run of outlier rows and each reading step, tested on the rows as
+    // logged (see `faults`).
+    let spans: Vec<(usize, usize)> =
+        outlier_runs.iter().map(|r| (r.first_row - 1, r.last_row - 1)).chain(reading_steps.iter().map(|s| (s.first_row - 1, s.last_row - 1))).collect();
+    let run_faults = super::faults::explain_runs(&base, &x_base, &all, &spans, screen.scale_mm);
+    // Readings in a reading step are taken corrected by its offset from here on.
+    all.y = screen.corrected.y;
+    for s in &reading_steps {
+        progress(&format!("reading step: rows {}-{} read {:+.2} ± {:.2} mm off; corrected and kept", s.first_row, s.last_row, s.offset_mm, s.std_mm));
+    }
+    if !outliers.is_empty() {
+        progress(&format!("{} outlier rows kept out of the fit: {:?}", outliers.len(), outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
+    }
+    let (blocks, acquisition, noise_model) = acquisition_structure(data, opts, &reading_steps, &base, &x_base, &mut all, &keep, progress);
+    Ok(Prepared {
+        base,
+        torque,
+        has_torques,
+        all,
+        measurement,
+        fold_warning,
+        keep,
+        outliers,
+        outlier_runs,
+        x_base,
+        reading_steps,
+        screened_with,
+        first_flagged,
+        run_faults,
+        blocks,
+        acquisition,
+        noise_model,
+    })
+}
+
+/// Which folds the diagnosis judges on: blocked ones, unless the geometric model's blocked-fold
+/// held-out RMSE is above [`EXTRAPOLATION_FACTOR`] times its interleaved one (then blocks cover
+/// different parts of the joint space and blocked folds measure extrapolation; `ctx` and the
+/// baseline's held-out residuals switch to interleaved folds). Returns the kind, why, and both
+/// RMSEs (mm).
+pub(super) fn judge_folds(ctx: &mut Ctx, baseline: &mut Fitted) -> (&'static str, String, f64, f64) {
+    let other_oof = ctx.heldout(&baseline.model, &baseline.x, &baseline.fixed, &ctx.other_folds);
+    let (rmse_blocked, rmse_interleaved) = (rms(&baseline.oof), rms(&other_oof));
+    if rmse_blocked > EXTRAPOLATION_FACTOR * rmse_interleaved {
+        std::mem::swap(&mut ctx.folds, &mut ctx.other_folds);
+        baseline.oof = other_oof;
+        let why = format!(
+            "the geometric model's blocked-fold held-out RMSE ({rmse_blocked:.4} mm) is above {EXTRAPOLATION_FACTOR}x its interleaved one \
+             ({rmse_interleaved:.4} mm): blocks of acquisition order cover different parts of the joint space, so blocked folds measure extrapolation"
+        );
+        ("interleaved", why, rmse_blocked, rmse_interleaved)
+    } else {
+        let why = format!("blocked and interleaved held-out RMSE of the geometric model agree ({rmse_blocked:.4} / {rmse_interleaved:.4} mm): time-dependent effects must extrapolate across blocks");
+        ("blocked", why, rmse_blocked, rmse_interleaved)
+    }
+}
+
+/// The screen judged every row against the geometric model, before any cause was known: a row
+/// that a cause pushes far from it looks like a glitch. Rows the model with its causes
+/// (`current`) predicts within the same threshold (around the kept rows' residuals) are
+/// explained, not outliers: they leave `outliers` (and their `runs`) and rejoin the rows of the final fit. Returns
+/// the kept samples, their rows, their indices, and the rows explained (0-based).
+#[allow(clippy::type_complexity)]
+pub(super) fn rejoin_explained(
+    current: &Fitted,
+    all: &Samples,
+    data: &Dataset,
+    (kept, kept_rows, keep): (Samples, Dataset, Vec<usize>),
+    (outliers, runs): (&mut Vec<crate::calib::problem::robust::Outlier>, &mut Vec<crate::calib::problem::robust::OutlierRun>),
+    outlier_k: f64,
+    progress: &dyn Fn(&str),
+) -> (Samples, Dataset, Vec<usize>, Vec<usize>) {
+    let explained = explained_by_causes(current, all, current.model.measurement.dim(), &keep, outliers, outlier_k);
+    if explained.is_empty() {
+        return (kept, kept_rows, keep, explained);
+    }
+    progress(&format!(
+        "{} rows first taken for outliers are explained by the causes: {:?}",
+        explained.len(),
+        explained.iter().map(|i| i + 1).collect::<Vec<_>>()
+    ));
+    outliers.retain(|o| !explained.contains(&(o.row - 1)));
+    *runs = crate::calib::problem::robust::runs(outliers);
+    let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
+    let rows = Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
+    (all.subset(&keep), rows, keep, explained)
+}
+
+/// The final model: `current` refitted on every kept row (selection and confirmation, whitened
+/// by their noise model); its sizes, its residual and the --result file all come from this one
+/// fit. Each cause's uncertainty counts the rows its blocks share (`groups`).
+pub(super) struct FinalFit {
+    pub(super) id: crate::calib::problem::identify::Identifiability,
+    pub(super) x: Vec<f64>,
+    pub(super) train_rmse_mm: f64,
+    pub(super) covs: Covariances,
+}
+
+pub(super) fn final_fit(current: &Fitted, kept: &Samples, groups: Option<&[usize]>, rank_tol: f64) -> FinalFit {
+    let fit = ReadingFit { model: &current.model, data: kept };
+    let id = identify(&fit, &current.x, rank_tol);
+    let x = LevenbergMarquardt::refit().minimize(&fit, &current.x, &id.fixed_mask, &mut NoObserver).x;
+    let train_rmse_mm = rms(&ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&x));
+    let covs = Covariances::of(&fit, &x, &id.fixed_mask, groups);
+    FinalFit { id, x, train_rmse_mm, covs }
+}
+
+/// What a row reads, for the report: empty for one value, else the instrument and its columns.
+pub(super) fn reading_note(measurement: crate::measurement::Measurement) -> String {
+    if measurement.dim() > 1 {
+        format!("each row reads a {} ({}): every RMSE is per coordinate", measurement.def().describe(), measurement.def().columns().join(", "))
+    } else {
+        String::new()
+    }
+}
+
+/// A diagnosis whose rows are screened as `by` says ([`screen_rows`]), with the effect whose
+/// screen it kept.
+pub(super) fn diagnose_screened(
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    progress: &dyn Fn(&str),
+    by: ScreenBy,
+) -> Result<(Diagnosis, crate::calib::run::CalibResult, Option<EffectBlock>)> {
+    let t0 = Instant::now();
+    let mut prepared = prepare_rows(data, opts, progress, by)?;
+    let screened_with = prepared.screened_with.take();
+    let selected = select_stage(data, opts, progress, &prepared)?;
+    let (diagnosis, result) = final_stage(data, opts, progress, prepared, selected, t0)?;
+    Ok((diagnosis, result, screened_with))
+}
+
+/// What the selection stage leaves: the selection and confirmation rows, the baseline and the
+/// folds it is judged on, the chain of causes kept (after confirmation, the physical-size and
+/// floor checks), and what each step said.
+pub(super) struct Selected {
+    pub(super) kept: Samples,
+    pub(super) kept_rows: Dataset,
+    pub(super) ctx: Ctx,
+    pub(super) confirmation: Samples,
+    pub(super) few_blocks: Option<String>,
+    pub(super) baseline: Fitted,
+    pub(super) judged_on: &'static str,
+    pub(super) judged_on_reason: String,
+    pub(super) rmse_blocked: f64,
+    pub(super) rmse_interleaved: f64,
+    pub(super) base_in: Vec<f64>,
+    pub(super) evidence: Vec<Evidence>,
+    pub(super) steps: Vec<Step>,
+    pub(super) found: Vec<Found>,
+    pub(super) current: Fitted,
+    pub(super) unconfirmed: Vec<String>,
+    pub(super) not_physical: Vec<String>,
+    pub(super) below_floor: Vec<String>,
+    pub(super) other_rmse: Vec<f64>,
+    pub(super) conf_rmse: Vec<f64>,
+}
+
+/// The selection stage on the prepared rows: folds over whole blocks, the geometric baseline,
+/// the forward selection of causes, their confirmation on rows it never saw, and the checks
+/// that drop causes of no physical size or below the data's floor.
+pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str), p: &Prepared) -> Result<Selected> {
+    let (base, keep, blocks) = (&p.base, &p.keep, &p.blocks);
+    let kept = p.all.subset(keep);
+    let kept_rows = Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
+    let (mut ctx, confirmation, few_blocks) = Ctx::over_blocks(&kept, keep, blocks, opts);
+    let mut baseline = ctx.evaluate(base.clone(), &p.x_base);
+    let (judged_on, judged_on_reason, rmse_blocked, rmse_interleaved) = judge_folds(&mut ctx, &mut baseline);
+    let base_in = ReadingFit { model: &baseline.model, data: &ctx.data.unweighted() }.residuals_mm(&baseline.x);
+    let evidence = evidence(&ctx.data, &base_in, p.has_torques, base.measurement.def().columns());
+    progress(&format!(
+        "geometric baseline: held-out RMSE {rmse_blocked:.4} mm (blocked folds), {rmse_interleaved:.4} mm (interleaved); judged on {judged_on} folds"
+    ));
+    let pool = candidate_pool(&kept_rows, &kept.q, opts, p.has_torques)?;
+    let Selection { chain, steps, mut found } = select_causes(&ctx, &pool, &baseline, opts, time_span(&kept_rows), progress);
+    let (conf_rmse, mut confirmed, unconfirmed) = confirm_causes(&chain, &found, &confirmation, progress);
+    let kept_groups = blocks.any_shared().then(|| blocks.ids_of(keep));
+    // With the noise model re-estimated at each model, as the final fit will be: at the
+    // geometric model's the causes' own signal counts as reading noise, and a slow cause fitted
+    // with that whitening absorbs the sweeps' shared logging error (see `final_whitening`).
+    let rewhitened = |m: &Fitted| final_whitening(kept.clone(), p.noise_model.clone(), &p.all, m, data, blocks, keep).0;
+    let not_physical = drop_not_physical(&chain, &found, &rewhitened, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
+    let repeat = crate::calib::run::reading_repeatability(&kept_rows);
+    let floor = crate::calib::run::floor_stage(base, &baseline.x, &kept_rows, &kept, opts.angle_step_deg, opts.instrument_accuracy_mm, repeat.as_ref());
+    let below_floor = drop_below_floor(&found, floor.total_mm, &mut confirmed, progress);
+    found.truncate(confirmed);
+    let current = chain[confirmed].clone();
+    let other_rmse: Vec<f64> = chain[..=confirmed].iter().map(|f| rms(&ctx.heldout(&f.model, &f.x, &f.fixed, &ctx.other_folds))).collect();
+    Ok(Selected {
+        kept,
+        kept_rows,
+        ctx,
+        confirmation,
+        few_blocks,
+        baseline,
+        judged_on,
+        judged_on_reason,
+        rmse_blocked,
+        rmse_interleaved,
+        base_in,
+        evidence,
+        steps,
+        found,
+        current,
+        unconfirmed,
+        not_physical,
+        below_floor,
+        other_rmse,
+        conf_rmse,
+    })
+}
+
+/// The final stage: rows the causes explain rejoin, the model with its causes is refitted on
+/// every kept row with its own noise model, and the diagnosis and its result file are written
+/// from that one fit.
+pub(super) fn final_stage(
+    data: &Dataset,
+    opts: &DiagnoseOptions,
+    progress: &dyn Fn(&str),
+    p: Prepared,
+    sel: Selected,
+    t0: Instant,
+) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
+    let Prepared {
+        base,
+        torque,
+        all,
+        measurement,
+        fold_warning,
+        keep,
+        mut outliers,
+        mut outlier_runs,
+        x_base,
+        reading_steps,
+        first_flagged,
+        run_faults,
+        blocks,
+        acquisition,
+        noise_model,
+        ..
+    } = p;
+    let Selected { kept, kept_rows, ctx, confirmation, few_blocks, baseline, current, found, .. } = sel;
+    let (dim, shared) = (measurement.dim(), blocks.any_shared());
+    // Rows first taken for outliers that the causes explain rejoin the final fit.
+    let (kept, kept_rows, final_keep, explained) =
+        rejoin_explained(&current, &all, data, (kept, kept_rows, keep), (&mut outliers, &mut outlier_runs), opts.outlier_k, progress);
+    let mut explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).chain(first_flagged).collect();
+    explained_rows.sort_unstable();
+    let groups = shared.then(|| blocks.ids_of(&final_keep));
+    let (kept, noise_model) = final_whitening(kept, noise_model, &all, &current, data, &blocks, &final_keep);
+    let FinalFit { id: final_id, x: final_x, train_rmse_mm: final_train_rmse_mm, covs } = final_fit(&current, &kept, groups.as_deref(), opts.rank_tol);
+    let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
+    let unphysical = unphysical_causes(&current.model, &final_x, &kept_blocks);
+    let mut warnings: Vec<String> =
+        fold_warning.into_iter().chain(few_blocks).chain(sel.not_physical.iter().cloned()).chain(sel.below_floor.iter().cloned()).chain(unphysical).collect();
+    let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
+    let fitted = crate::calib::run::FittedModel {
+        model: current.model.clone(),
+        x0: base_start(&current.model, &x_base),
+        x: final_x,
+        id: final_id,
+        torque_model: torque,
+    };
+    // The data's own floor: repeatability and logging resolutions, never the fit's residual.
+    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg, opts.instrument_accuracy_mm)?;
+    let noise_floor = result.noise_floor.clone().expect("result_of_fit sets the floor");
+    let (noise_floor_mm, noise_floor_source) = (noise_floor.total_mm, floor_source_text(&noise_floor));
+    let current_oof = rms(&current.oof);
+    warnings.extend(leak_warning(&current.oof, dim, ctx.groups.as_deref(), noise_floor_mm, shared));
+    let diagnosis = Diagnosis {
+        schema_version: crate::io::SCHEMA_VERSION,
+        warnings,
+        acquisition,
+        noise_model,
+        design_effect: baseline.deff,
+        not_physical: sel.not_physical,
+        below_floor: sel.below_floor,
+        twincal_version: env!("CARGO_PKG_VERSION").into(),
+        data: data.source.clone(),
+        rows: data.rows.len(),
+        reading: reading_note(measurement),
+        outliers,
+        outlier_runs,
+        explained_by_causes: explained_rows,
+        reading_steps,
+        run_faults,
+        noise_floor_mm,
+        noise_floor_source,
+        noise_floor,
+        judged_on: sel.judged_on.into(),
+        judged_on_reason: sel.judged_on_reason,
+        selection_rows: ctx.data.len(),
+        confirmation_rows: confirmation.len(),
+        unconfirmed: sel.unconfirmed,
+        baseline: Baseline {
+            model: base.name.clone(),
+            heldout_rmse_mm: rms(&baseline.oof),
+            heldout_rmse_blocked_mm: sel.rmse_blocked,
+            heldout_rmse_interleaved_mm: sel.rmse_interleaved,
+            train_rmse_mm: rms(&sel.base_in),
+        },
+        evidence: sel.evidence,
+        steps: sel.steps,
+        verdict: verdict_of(&causes),
+        causes,
+        final_heldout_rmse_mm: current_oof,
+        final_train_rmse_mm,
+        floor_share_of_remaining: (noise_floor_mm / current_oof).powi(2).min(1.0),
+        comparison: compare_with_rbf(&ctx, &baseline, &current, opts.seed),
+        seconds: t0.elapsed().as_secs_f64(),
+        effects_option: effects_option(&current.model),
+    };
+    Ok((diagnosis, result))
+}
+
+/// Where the floor comes from, as one line: each source with its RMS, and a note when it is a
+/// lower bound (no repeated configurations).
+pub(super) fn floor_source_text(floor: &crate::calib::problem::floor::NoiseFloor) -> String {
+    let mut text: Vec<String> = floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
+    if !floor.sources.iter().any(|s| s.source == "repeatability") {
+        text.push("no repeated configurations: the reading's repeatability is unknown, so this is a lower bound".into());
+    }
+    text.join("; ")
+}
+
+/// The `--effects` value that calibrates `model`'s effect blocks (`backlash:2,thermal_drift`).
+pub(super) fn effects_option(model: &CalibModel) -> String {
+    model
+        .effects
+        .iter()
+        .map(|e| match e.joint {
+            Some(j) => format!("{}:{}", e.kind.name(), j + 1),
+            None => e.kind.name().to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// The start of the final model's parameters for its report: the baseline's geometry with every
+/// effect at "no effect".
+pub(super) fn base_start(model: &CalibModel, x_base: &[f64]) -> Vec<f64> {
+    let mut x = model.nominal.clone();
+    x[..x_base.len()].copy_from_slice(x_base);
+    x
+}

@@ -1,0 +1,210 @@
+//! What a diagnosis reports (`diagnosed.json`): the evidence, the selection's steps, the causes
+//! with their sizes, the baseline and the final model's held-out error.
+
+pub use crate::calib::problem::gls::NoiseModel;
+pub use crate::calib::problem::robust::{Outlier, OutlierRun};
+use crate::dataset::blocks::Structure;
+use serde::{Deserialize, Serialize};
+
+/// How strongly the baseline residual follows a per-row feature.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Evidence {
+    pub feature: String,
+    /// Pearson correlation of the residual with the feature.
+    pub correlation: f64,
+}
+
+/// One candidate in one selection step.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Candidate {
+    pub cause: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joint: Option<usize>,
+    pub heldout_rmse_mm: f64,
+    /// Bonferroni-corrected p-value of the F test of the nested fits.
+    pub p_value: f64,
+    /// False when a fitted parameter is beyond [`IMPLAUSIBLE`] times its plausible size: the
+    /// block then absorbs something else, and is not kept whatever its gain.
+    pub plausible: bool,
+    /// Size over its standard uncertainty (a cause needs `min_size_sigmas`).
+    pub size_sigmas: f64,
+    /// False for a size of unphysical sign (negative compliance or band width).
+    pub physical_sign: bool,
+    pub seconds: f64,
+}
+
+/// A selection step: every candidate tried and the one kept (if any).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Step {
+    pub heldout_rmse_before_mm: f64,
+    pub candidates: Vec<Candidate>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kept: Option<String>,
+}
+
+/// A cause found in the data.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Cause {
+    pub cause: String,
+    /// Joint 1..N for per-joint effects.
+    pub joint: Option<usize>,
+    pub magnitude: f64,
+    pub unit: String,
+    pub uncertainty: f64,
+    /// What the magnitude is.
+    pub quantity: String,
+    pub heldout_rmse_before_mm: f64,
+    pub heldout_rmse_after_mm: f64,
+    /// The same on the other kind of folds than the one the cause was judged on.
+    pub heldout_rmse_other_folds_before_mm: f64,
+    pub heldout_rmse_other_folds_after_mm: f64,
+    /// RMSE on the confirmation rows (never used in selection) of the models fitted on the
+    /// selection rows without and with this cause; NaN without a confirmation set.
+    pub confirmation_rmse_before_mm: f64,
+    pub confirmation_rmse_after_mm: f64,
+    pub p_value: f64,
+    /// Every parameter of the block (display units) with its standard uncertainty.
+    pub parameters: Vec<(String, f64, f64)>,
+}
+
+impl Cause {
+    /// One line: `joint_compliance joint 2: compliance 9.66 ± 0.31 urad/Nm; held-out RMSE
+    /// 0.0121 -> 0.0073 mm (p = 2.8e-25)`.
+    pub fn summary(&self) -> String {
+        let joint = self.joint.map(|j| format!(" joint {j}")).unwrap_or_default();
+        format!(
+            "{}{joint}: {} {:.4} ± {:.4} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e})",
+            self.cause, self.quantity, self.magnitude, self.uncertainty, self.unit, self.heldout_rmse_before_mm, self.heldout_rmse_after_mm, self.p_value
+        )
+    }
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Baseline {
+    pub model: String,
+    /// On the folds the diagnosis judges on ([`Diagnosis::judged_on`]).
+    pub heldout_rmse_mm: f64,
+    /// On contiguous blocks of acquisition order (extrapolation across blocks) and on
+    /// interleaved folds (every k-th row: interpolation).
+    pub heldout_rmse_blocked_mm: f64,
+    pub heldout_rmse_interleaved_mm: f64,
+    pub train_rmse_mm: f64,
+}
+
+/// The physical extension against a data-driven compensator on the same rows.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Comparison {
+    /// Held-out RMSE (same folds): geometric, geometric + found effects, geometric + RBF network.
+    pub heldout_rmse_mm: [f64; 3],
+    /// Extrapolation: trained on rows with q2 at most `q2_split_deg`, tested on the others.
+    pub q2_split_deg: f64,
+    pub extrapolation_rmse_mm: [f64; 3],
+    pub extrapolation_rows: [usize; 2],
+}
+
+/// Everything `diagnose` found.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Diagnosis {
+    /// See [`crate::io::SCHEMA_VERSION`].
+    #[serde(default = "crate::io::schema_version")]
+    pub schema_version: u32,
+    pub twincal_version: String,
+    pub data: String,
+    pub rows: usize,
+    /// What a row reads, for a reading of several values (a tracker's point): every RMSE here is
+    /// then per coordinate. Empty for a cable length.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub reading: String,
+    pub outliers: Vec<Outlier>,
+    pub outlier_runs: Vec<OutlierRun>,
+    /// Rows (1-based) the screen first flagged against the geometric model that the model with
+    /// its causes explains: they are in the final fit.
+    #[serde(default)]
+    pub explained_by_causes: Vec<usize>,
+    /// Stretches of the acquisition whose readings sit one constant offset off (the reading
+    /// jumped and stayed): a cause of the sensor, corrected and kept, not fitted by the model.
+    #[serde(default)]
+    pub reading_steps: Vec<crate::calib::problem::robust::ReadingStep>,
+    /// What went wrong in each run of outlier rows and each reading step: the hypothesis that
+    /// explains the rows as logged (the reading, one joint's logged angle, the instrument), or
+    /// `unexplained` ([`faults`]).
+    #[serde(default)]
+    pub run_faults: Vec<super::faults::RunFault>,
+    /// The data's own floor ([`crate::calib::problem::floor`]): its total and a line naming its sources.
+    pub noise_floor_mm: f64,
+    pub noise_floor_source: String,
+    pub noise_floor: crate::calib::problem::floor::NoiseFloor,
+    /// Which folds selection judged on: `blocked` (contiguous blocks of acquisition order) or
+    /// `interleaved` (when blocks cover different parts of the joint space, so that blocked folds
+    /// measure extrapolation: baseline blocked RMSE above 1.5x the interleaved one), and why.
+    pub judged_on: String,
+    pub judged_on_reason: String,
+    /// The acquisition's blocks of rows that share an error ([`crate::dataset::blocks`]): folds
+    /// and the confirmation set take whole blocks, tests and uncertainties count them.
+    #[serde(default = "no_structure")]
+    pub acquisition: Structure,
+    /// The joint angles' logging error as the fits' noise model (generalised least squares over
+    /// the blocks, see [`crate::calib::problem::gls`]), where rows share blocks and the angles are logged
+    /// at a step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_model: Option<NoiseModel>,
+    /// Design effect of the geometric model's residuals over those blocks (1: independent rows):
+    /// how many rows count as one.
+    #[serde(default = "one")]
+    pub design_effect: f64,
+    /// Causes selection kept that the model fitted on every kept row turned unphysical, with
+    /// why: left out of the model.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_physical: Vec<String>,
+    /// Causes that gain on held-out rows, but explain less of them than
+    /// [`BELOW_FLOOR_SHARE`] of the data's floor: left out of the model, with their figures.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub below_floor: Vec<String>,
+    /// Rows selection saw and rows kept back to confirm its causes.
+    pub selection_rows: usize,
+    pub confirmation_rows: usize,
+    /// Causes selection found that the confirmation rows did not confirm (not in the model).
+    pub unconfirmed: Vec<String>,
+    pub baseline: Baseline,
+    pub evidence: Vec<Evidence>,
+    pub steps: Vec<Step>,
+    /// Causes in the order found; empty = `geometric_only`.
+    pub causes: Vec<Cause>,
+    pub verdict: String,
+    pub final_heldout_rmse_mm: f64,
+    /// RMSE of the final model (the one `--result` holds) on every kept row it was fitted to.
+    pub final_train_rmse_mm: f64,
+    /// Share of the final held-out mean square that the data's floor accounts for (floor² /
+    /// held-out²): what remains is named, not fitted.
+    #[serde(default)]
+    pub floor_share_of_remaining: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub comparison: Option<Comparison>,
+    pub seconds: f64,
+    /// The effects kept, as calibration effect options (for `calibrate --effects`).
+    pub effects_option: String,
+    /// What the user should know about this diagnosis (a kept cause whose size the final fit
+    /// turned unphysical, ...).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+}
+
+pub(super) fn no_structure() -> Structure {
+    crate::dataset::blocks::Blocks::singletons(0).structure(None)
+}
+
+pub(super) fn one() -> f64 {
+    1.0
+}
+
+impl Diagnosis {
+    /// The final held-out RMSE against the data's floor, in words: a ratio where repeated
+    /// configurations give the floor, else what is known of it.
+    pub fn against_floor(&self) -> String {
+        if self.noise_floor.sources.iter().any(|s| s.source == "repeatability") {
+            format!("{:.2} x the noise floor", self.final_heldout_rmse_mm / self.noise_floor_mm)
+        } else {
+            format!("no repeated configurations, so the floor is known only down to the logging resolution ({:.4} mm)", self.noise_floor_mm)
+        }
+    }
+}

@@ -1,0 +1,296 @@
+//! The forward selection of causes, their confirmation on rows it never saw, the checks that
+//! drop causes of no physical size or below the data's floor, and the causes' reports.
+
+use super::fit::*;
+use super::options::*;
+use super::report::*;
+use crate::calib::effects::{EffectBlock, Size};
+use crate::calib::model::CalibModel;
+use crate::calib::problem::{ReadingFit, Samples};
+use crate::stats::rms;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Share of the data's floor (mm RMS) that what a cause explains of the held-out rows must reach
+/// for it to be named: √(before² − after²) of the held-out RMSE. Below, the cause may be real and
+/// significant, but its correction is smaller than the error the data's floor leaves in every
+/// row. (At half the floor, effects hidden at 0.13–0.19× the floor in sweeps logged at 0.1° and
+/// 0.01° were named: on blocked folds their gains came out at 0.51–0.67× the floor, while effects
+/// at 1.5× and more gained 1.4× and more.)
+pub const BELOW_FLOOR_SHARE: f64 = 1.0;
+
+/// Every kept cause (`found`: block, held-out RMSE before and after, p; the first `confirmed`
+/// of them) that explains at least [`BELOW_FLOOR_SHARE`] of the data's floor `floor_mm` on the
+/// held-out rows: the first that does not ends the list, like an unconfirmed one (`confirmed` is
+/// lowered). One line per cause left out, with its figures.
+pub(super) fn drop_below_floor(found: &[(EffectBlock, f64, f64, f64)], floor_mm: f64, confirmed: &mut usize, progress: &dyn Fn(&str)) -> Vec<String> {
+    let Some(k) = found[..*confirmed].iter().position(|(_, before, after, _)| (before * before - after * after).max(0.0).sqrt() < BELOW_FLOOR_SHARE * floor_mm)
+    else {
+        return Vec::new();
+    };
+    let notes: Vec<String> = found[k..*confirmed]
+        .iter()
+        .map(|(b, before, after, _)| {
+            format!(
+                "{} left out of the model: it explains {:.4} mm RMS of the held-out rows ({before:.4} -> {after:.4} mm), below {BELOW_FLOOR_SHARE} x the data's floor {floor_mm:.4} mm",
+                b.label(),
+                (before * before - after * after).max(0.0).sqrt()
+            )
+        })
+        .collect();
+    notes.iter().for_each(|n| progress(&format!("below the floor: {n}")));
+    *confirmed = k;
+    notes
+}
+
+/// Every kept cause (`found`, the first `confirmed` of them; `chain[k]` the model with the first
+/// k) of a physical size in the model fitted on every kept row (selection and confirmation;
+/// `kept` gives them with the noise model at that model, as the final fit has them): the first
+/// that is not ends the list, like an unconfirmed one (`confirmed` is lowered). One line per
+/// cause left out, saying why.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn drop_not_physical(
+    chain: &[Fitted],
+    found: &[(EffectBlock, f64, f64, f64)],
+    kept: &dyn Fn(&Fitted) -> Samples,
+    groups: Option<&[usize]>,
+    min_size_sigmas: f64,
+    rank_tol: f64,
+    confirmed: &mut usize,
+    progress: &dyn Fn(&str),
+) -> Vec<String> {
+    let mut notes = Vec::new();
+    while *confirmed > 0 {
+        let m = &chain[*confirmed];
+        let kept = kept(m);
+        let (x, fixed) = refit(&m.model, &kept, &m.x, rank_tol);
+        let covs = Covariances::of(&ReadingFit { model: &m.model, data: &kept }, &x, &fixed, groups);
+        let Some((k, why)) = found[..*confirmed].iter().enumerate().find_map(|(k, f)| {
+            let b = m.model.effects.iter().position(|e| e == &f.0)?;
+            let size = covs.size(&f.0, &x, m.model.effect_params(b));
+            let weak = (size.value.abs() < min_size_sigmas * size.uncertainty)
+                .then(|| format!("its size {:.4} ± {:.4} {} is under {min_size_sigmas} of its uncertainties", size.value, size.uncertainty, size.unit));
+            implausible_param(&m.model, &x, b).or(weak).map(|w| (k, w))
+        }) else {
+            break;
+        };
+        let dropped: Vec<String> = found[k..*confirmed].iter().map(|f| f.0.label()).collect();
+        progress(&format!("not physical on every kept row: {why}; left out: {}", dropped.join(", ")));
+        notes.push(format!("{} left out of the model: fitted on every kept row, {why}", dropped.join(", ")));
+        *confirmed = k;
+    }
+    notes
+}
+
+/// A cause kept by the forward selection: its block, the held-out RMSE before and after it (mm)
+/// and its p-value.
+pub(super) type Found = (EffectBlock, f64, f64, f64);
+
+/// The forward selection's outcome: the fitted model after each kept cause (the baseline
+/// first), every step's candidates, and the causes kept in order.
+pub(super) struct Selection {
+    pub(super) chain: Vec<Fitted>,
+    pub(super) steps: Vec<Step>,
+    pub(super) found: Vec<Found>,
+}
+
+/// Forward selection over the candidate `pool`: at each step the candidate whose model predicts
+/// the held-out folds best is kept if it is plausible, has the sign physics allows, is sized
+/// beyond `opts.min_size_sigmas`, passes the Bonferroni-corrected gain test and gains at least
+/// `opts.min_gain`; the first step with none ends the selection.
+pub(super) fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, opts: &DiagnoseOptions, span: f64, progress: &dyn Fn(&str)) -> Selection {
+    let mut current = baseline.clone();
+    let mut chain = vec![baseline.clone()];
+    let mut steps = Vec::new();
+    let mut found: Vec<Found> = Vec::new();
+    for _ in 0..opts.max_effects {
+        let remaining: Vec<&EffectBlock> = pool.iter().filter(|b| !current.model.effects.contains(b)).collect();
+        if remaining.is_empty() {
+            break;
+        }
+        let before = rms(&current.oof);
+        let results: Vec<(Candidate, Fitted)> = remaining
+            .par_iter()
+            .map(|b| {
+                let tc = Instant::now();
+                let (m, x0) = with_block(&current.model, &current.x, b, span);
+                let f = ctx.evaluate(m, &x0);
+                let p = (gain_p_value(&current, &f, ctx.data.y.len()) * remaining.len() as f64).min(1.0);
+                let (size_sigmas, physical_sign) = size_check(&f, &ctx.data, ctx.groups.as_deref());
+                let c = Candidate {
+                    cause: b.kind.name().into(),
+                    joint: b.joint.map(|j| j + 1),
+                    heldout_rmse_mm: rms(&f.oof),
+                    p_value: p,
+                    plausible: plausible(&f),
+                    size_sigmas,
+                    physical_sign,
+                    seconds: tc.elapsed().as_secs_f64(),
+                };
+                (c, f)
+            })
+            .collect();
+        let best = results
+            .iter()
+            .enumerate()
+            .filter(|(_, (c, _))| {
+                c.plausible
+                    && c.physical_sign
+                    && c.size_sigmas >= opts.min_size_sigmas
+                    && c.p_value < opts.alpha
+                    && c.heldout_rmse_mm < (1.0 - opts.min_gain) * before
+            })
+            .min_by(|a, b| a.1 .0.heldout_rmse_mm.total_cmp(&b.1 .0.heldout_rmse_mm))
+            .map(|(i, _)| i);
+        let kept_label = best.map(|i| remaining[i].label());
+        steps.push(Step { heldout_rmse_before_mm: before, candidates: results.iter().map(|r| r.0.clone()).collect(), kept: kept_label.clone() });
+        let Some(i) = best else { break };
+        let (c, f) = results.into_iter().nth(i).expect("index from the same list");
+        progress(&format!("kept {}: held-out RMSE {before:.4} -> {:.4} mm (p = {:.2e})", remaining[i].label(), c.heldout_rmse_mm, c.p_value));
+        found.push((remaining[i].clone(), before, c.heldout_rmse_mm, c.p_value));
+        chain.push(f.clone());
+        current = f;
+    }
+    Selection { chain, steps, found }
+}
+
+/// Confirmation: each cause's model, fitted on the selection rows, must predict the
+/// `confirmation` rows better than the model before it; the first cause that does not ends the
+/// list. The confirmation RMSE of each model of `chain`, how many causes are confirmed, and the
+/// labels of the rest.
+pub(super) fn confirm_causes(chain: &[Fitted], found: &[Found], confirmation: &Samples, progress: &dyn Fn(&str)) -> (Vec<f64>, usize, Vec<String>) {
+    let confirmation_mm = confirmation.unweighted();
+    let conf_rmse: Vec<f64> = chain
+        .iter()
+        .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&ReadingFit { model: &f.model, data: &confirmation_mm }.residuals_mm(&f.x)) })
+        .collect();
+    let confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
+    let unconfirmed: Vec<String> = found[confirmed..].iter().map(|f| f.0.label()).collect();
+    if !unconfirmed.is_empty() {
+        progress(&format!("not confirmed on the {} confirmation rows: {}", confirmation.len(), unconfirmed.join(", ")));
+    }
+    (conf_rmse, confirmed, unconfirmed)
+}
+
+/// The report of each kept cause: its size and uncertainty from the final fit (`x`, `covs`), its
+/// parameters, and the held-out and confirmation RMSE before and after it.
+pub(super) fn cause_reports(found: &[Found], model: &CalibModel, covs: &Covariances, final_x: &[f64], other_rmse: &[f64], conf_rmse: &[f64]) -> Vec<Cause> {
+    let mut causes = Vec::new();
+    for (n, (block, before, after, p)) in found.iter().enumerate() {
+        let b = model.effects.iter().position(|e| e == block).expect("kept block is in the model");
+        let range = model.effect_params(b);
+        let Size { quantity, value: mag, unit, uncertainty: unc } = covs.size(block, final_x, range.clone());
+        let parameters = range
+            .clone()
+            .map(|k| {
+                let d = model.kinds[k].display();
+                let sd = covs.sd(k) * d;
+                (model.names[k].clone(), final_x[k] * d, sd)
+            })
+            .collect();
+        causes.push(Cause {
+            cause: block.kind.name().into(),
+            joint: block.joint.map(|j| j + 1),
+            magnitude: mag,
+            unit,
+            uncertainty: unc,
+            quantity,
+            heldout_rmse_before_mm: *before,
+            heldout_rmse_after_mm: *after,
+            heldout_rmse_other_folds_before_mm: other_rmse[n],
+            heldout_rmse_other_folds_after_mm: other_rmse[n + 1],
+            confirmation_rmse_before_mm: conf_rmse[n],
+            confirmation_rmse_after_mm: conf_rmse[n + 1],
+            p_value: *p,
+            parameters,
+        });
+    }
+    causes
+}
+
+/// The outlier rows (0-based) the model with its causes (`current`; `dim` values a row) predicts
+/// within `outlier_k` robust standard deviations of the kept rows' residuals: explained, not glitches.
+pub(super) fn explained_by_causes(current: &Fitted, all: &Samples, dim: usize, keep: &[usize], outliers: &[Outlier], outlier_k: f64) -> Vec<usize> {
+    if current.model.effects.is_empty() {
+        return Vec::new();
+    }
+    let res_all = ReadingFit { model: &current.model, data: &Samples { gls: None, ..all.clone() } }.residuals_mm(&current.x);
+    let kept_res: Vec<f64> = keep.iter().flat_map(|&i| res_all[i * dim..(i + 1) * dim].iter().copied()).collect();
+    let (med, scale) = crate::stats::robust_scale(&kept_res);
+    let far = |i: usize| crate::calib::problem::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
+    outliers.iter().map(|o| o.row - 1).filter(|&i| (far(i) - med).abs() <= outlier_k * scale).collect()
+}
+
+/// The verdict: `geometric_only`, or the causes kept (`backlash[j2] + thermal_drift`).
+pub(super) fn verdict_of(causes: &[Cause]) -> String {
+    if causes.is_empty() {
+        return "geometric_only".into();
+    }
+    causes
+        .iter()
+        .map(|c| match c.joint {
+            Some(j) => format!("{}[j{j}]", c.cause),
+            None => c.cause.clone(),
+        })
+        .collect::<Vec<_>>()
+        .join(" + ")
+}
+
+/// Held-out RMSE of the geometric model, the physical extension and an RBF compensator on the
+/// geometric residuals, on the same folds; and their extrapolation to rows with q2 above its
+/// 70th percentile when trained on the rest.
+pub(super) fn compare_with_rbf(ctx: &Ctx, geo: &Fitted, ext: &Fitted, seed: u64) -> Option<Comparison> {
+    use crate::calib::correctors::rbf::RbfNetwork;
+    let (n, d) = (ctx.data.len(), ctx.data.dim);
+    // One network per reading value (a tracker's x, y and z each get their own), fitted on the
+    // geometric residuals of the training rows.
+    let rbf_fit = |rows: &[usize], model: &CalibModel, x: &[f64]| -> Option<(Vec<f64>, Vec<RbfNetwork>)> {
+        let tr = ctx.data.subset(rows);
+        let xf = refit(model, &tr, x, ctx.rank_tol).0;
+        let res = ReadingFit { model, data: &tr.unweighted() }.residuals_mm(&xf);
+        let columns: Vec<Vec<f64>> = (0..d).map(|c| crate::stats::value_column(&res, d, c)).collect();
+        let columns: Vec<&[f64]> = columns.iter().map(Vec::as_slice).collect();
+        let nets = RbfNetwork::fit_cv_many(&tr.q, &columns, &RbfNetwork::CV_CENTRES, &RbfNetwork::CV_RIDGES, seed)
+            .into_iter()
+            .map(|r| r.ok().map(|(net, _)| net))
+            .collect::<Option<Vec<_>>>()?;
+        Some((xf, nets))
+    };
+    // The residuals of `te` at `xf` less the networks' corrections.
+    let corrected = |te: &Samples, model: &CalibModel, xf: &[f64], nets: &[RbfNetwork]| -> Vec<f64> {
+        let r = ReadingFit { model, data: te }.residuals_mm(xf);
+        r.iter().enumerate().map(|(k, ri)| ri - nets[k % d].predict(&te.q[k / d])).collect()
+    };
+    let per_fold: Vec<Option<Vec<f64>>> = ctx
+        .folds
+        .par_iter()
+        .map(|fold| {
+            let train: Vec<usize> = (0..n).filter(|i| !fold.contains(i)).collect();
+            let (xf, nets) = rbf_fit(&train, &geo.model, &geo.x)?;
+            Some(corrected(&ctx.data.subset(fold).unweighted(), &geo.model, &xf, &nets))
+        })
+        .collect();
+    let rbf_oof = scatter(&ctx.folds, per_fold.into_iter().collect::<Option<Vec<_>>>()?, n, d);
+    // Extrapolation in q2.
+    let mut q2: Vec<f64> = ctx.data.q.iter().map(|q| q[1]).collect();
+    q2.sort_by(f64::total_cmp);
+    let split = q2[(EXTRAPOLATION_QUANTILE * (n - 1) as f64) as usize];
+    let train: Vec<usize> = (0..n).filter(|&i| ctx.data.q[i][1] <= split).collect();
+    let test: Vec<usize> = (0..n).filter(|&i| ctx.data.q[i][1] > split).collect();
+    if train.len() < 20 || test.len() < 5 {
+        return None;
+    }
+    let te = ctx.data.subset(&test).unweighted();
+    // The geometric fit on the training part serves both the geometric model and the RBF.
+    let (xg, nets) = rbf_fit(&train, &geo.model, &geo.x)?;
+    let r = ReadingFit { model: &geo.model, data: &te }.residuals_mm(&xg);
+    let rbf_ex = rms(&corrected(&te, &geo.model, &xg, &nets));
+    let xe = refit(&ext.model, &ctx.data.subset(&train), &ext.x, ctx.rank_tol).0;
+    let ext_ex = rms(&ReadingFit { model: &ext.model, data: &te }.residuals_mm(&xe));
+    Some(Comparison {
+        heldout_rmse_mm: [rms(&geo.oof), rms(&ext.oof), rms(&rbf_oof)],
+        q2_split_deg: split.to_degrees(),
+        extrapolation_rmse_mm: [rms(&r), ext_ex, rbf_ex],
+        extrapolation_rows: [train.len(), test.len()],
+    })
+}
