@@ -1,7 +1,7 @@
 //! CSV reading into a [`RawTable`](super::RawTable): structure only (header, field counts, line
 //! numbers); interpretation of the cells happens in the parent module.
 
-use super::{Cell, RawRow, RawTable};
+use super::table::{Cell, RawRow, RawTable};
 use crate::error::{Error, Result};
 use std::io::Read;
 

@@ -1,4 +1,8 @@
+use super::table::*;
 use super::*;
+use crate::error::Result;
+use crate::measurement::Measurement;
+use std::path::{Path, PathBuf};
 
 const HEADER: &str = "q1,q2,q3,q4,q5,q6,L";
 /// A plausible data row (degrees, mm).

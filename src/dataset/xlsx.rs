@@ -9,7 +9,7 @@
 //! its extension first (a CSV saved as `.xlsx` is reported as such), and a panic inside calamine
 //! (e.g. a cell pointing at a shared string that does not exist) becomes an error.
 
-use super::{Cell, RawRow, RawTable};
+use super::table::{Cell, RawRow, RawTable};
 use crate::error::{Error, Result};
 use calamine::{Data, Reader};
 use std::collections::BTreeMap;

@@ -86,9 +86,10 @@ impl TwinCheck {
         let params = robot
             .param_names()
             .iter()
-            .map(|n| {
+            .zip(robot.param_kinds())
+            .map(|(n, kind)| {
                 let v = *truth.parameters.get(n).ok_or_else(|| Error::data(tpath.display(), format!("parameter {n} missing")))?;
-                Ok(if n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz") { v * 1e-3 } else { v.to_radians() })
+                Ok(kind.from_file(v))
             })
             .collect::<Result<Vec<f64>>>()?;
         let effects =

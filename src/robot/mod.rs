@@ -101,6 +101,47 @@ pub struct Robot {
 /// (about x, y, z of the origin frame) and joint zero offset.
 pub const PARAMS_PER_JOINT: usize = 7;
 pub const PARAM_SUFFIXES: [&str; PARAMS_PER_JOINT] = ["dx", "dy", "dz", "rx", "ry", "rz", "dtheta"];
+/// What each of a joint's geometric error parameters measures, in [`PARAM_SUFFIXES`]' order.
+pub const PARAM_KINDS: [GeoKind; PARAMS_PER_JOINT] =
+    [GeoKind::Length, GeoKind::Length, GeoKind::Length, GeoKind::Angle, GeoKind::Angle, GeoKind::Angle, GeoKind::Angle];
+
+/// What a geometric error parameter measures: the one place its unit is decided. Inside the
+/// code a length is in m and an angle in rad; files (truth.json, result.json) write mm and
+/// degrees.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeoKind {
+    Length,
+    Angle,
+}
+
+impl GeoKind {
+    /// The kind of the parameter named `<joint>.<suffix>`; None for another name.
+    pub fn of_name(name: &str) -> Option<GeoKind> {
+        let suffix = name.rsplit_once('.')?.1;
+        PARAM_SUFFIXES.iter().position(|s| *s == suffix).map(|k| PARAM_KINDS[k])
+    }
+    /// A value in the code's unit (m, rad) in the file's (mm, degrees).
+    pub fn to_file(self, v: f64) -> f64 {
+        match self {
+            GeoKind::Length => v * 1e3,
+            GeoKind::Angle => v.to_degrees(),
+        }
+    }
+    /// A value in the file's unit (mm, degrees) in the code's (m, rad).
+    pub fn from_file(self, v: f64) -> f64 {
+        match self {
+            GeoKind::Length => v * 1e-3,
+            GeoKind::Angle => v.to_radians(),
+        }
+    }
+    /// The file's unit.
+    pub fn file_unit(self) -> &'static str {
+        match self {
+            GeoKind::Length => "mm",
+            GeoKind::Angle => "deg",
+        }
+    }
+}
 
 fn frame_from_xyz_rpy(xyz: &[f64; 3], rpy: &[f64; 3]) -> Frame {
     Frame { rot: *Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]).matrix(), pos: Vector3::new(xyz[0], xyz[1], xyz[2]) }
@@ -300,6 +341,11 @@ impl Robot {
     /// Names of the geometric error parameters: `<joint>.<dx|dy|dz|rx|ry|rz|dtheta>`.
     pub fn param_names(&self) -> Vec<String> {
         self.joints.iter().flat_map(|j| PARAM_SUFFIXES.iter().map(move |s| format!("{}.{s}", j.name))).collect()
+    }
+
+    /// What each of [`Self::param_names`] measures.
+    pub fn param_kinds(&self) -> Vec<GeoKind> {
+        self.joints.iter().flat_map(|_| PARAM_KINDS).collect()
     }
 
     /// The kinematic chain with per-joint frame errors: for joint `j`, the origin translation

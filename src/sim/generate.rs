@@ -655,14 +655,7 @@ fn truth_file(
     glitch_rows: Vec<usize>,
 ) -> Truth {
     let names = robot.param_names();
-    let parameters = names
-        .iter()
-        .zip(&twin.params)
-        .map(|(n, v)| {
-            let is_len = n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz");
-            (n.clone(), if is_len { v * 1e3 } else { v.to_degrees() })
-        })
-        .collect();
+    let parameters = names.iter().zip(robot.param_kinds()).zip(&twin.params).map(|((n, kind), v)| (n.clone(), kind.to_file(*v))).collect();
     let sn = &s.sensor;
     let averaged = sn.noise_std_mm / (sn.samples as f64).sqrt();
     let units = BTreeMap::from([

@@ -200,7 +200,7 @@ pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool) -> Res
     let mut outputs = OutputSet::new();
     let figures = if a.rrd.is_some() || a.report.is_some() { Some(twincal::report::CalibFigures::new(result, data, opts)?) } else { None };
     if let (Some(p), Some(f)) = (&a.rrd, &figures) {
-        crate::viz::scenes::record_calibration(result, f, &mut outputs, p)?;
+        crate::viz::results::record_calibration(result, f, &mut outputs, p)?;
     }
     if let (Some(p), Some(f)) = (&a.report, &figures) {
         outputs.write(p, twincal::report::html::calibration_page(result, f, c.verdict.as_ref()).as_bytes())?;

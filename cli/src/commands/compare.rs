@@ -247,11 +247,11 @@ pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, r
     let mut outputs = OutputSet::new();
     if let Some(p) = rrd {
         let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
-        let rows: Vec<crate::viz::scenes::CompareRow> = runs
+        let rows: Vec<crate::viz::results::CompareRow> = runs
             .iter()
-            .map(|r| crate::viz::scenes::CompareRow { method: &r.method, seed: r.seed, test_rmse_mm: r.test.rmse, test_max_mm: r.test.max })
+            .map(|r| crate::viz::results::CompareRow { method: &r.method, seed: r.seed, test_rmse_mm: r.test.rmse, test_max_mm: r.test.max })
             .collect();
-        crate::viz::scenes::record_comparison(&table, &names, &rows, &mut outputs, p)?;
+        crate::viz::results::record_comparison(&table, &names, &rows, &mut outputs, p)?;
     }
     if let Some(p) = out {
         outputs.write_json(p, &serde_json::json!({"data": config.data, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;

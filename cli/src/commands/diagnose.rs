@@ -182,7 +182,7 @@ pub fn write_diagnosis(a: &DiagnoseArgs, d: &Diagnosed, quiet: bool) -> Result<(
     let mut outputs = OutputSet::new();
     let figures = (a.rrd.is_some() || a.report.is_some()).then(|| twincal::report::DiagnosisFigures::new(report, result, data));
     if let (Some(p), Some(f)) = (&a.rrd, &figures) {
-        crate::viz::scenes::record_diagnosis(report, f, &mut outputs, p)?;
+        crate::viz::results::record_diagnosis(report, f, &mut outputs, p)?;
     }
     if let (Some(p), Some(f)) = (&a.report, &figures) {
         outputs.write(p, twincal::report::html::diagnosis_page(report, f, d.verdict.as_ref()).as_bytes())?;

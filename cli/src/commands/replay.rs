@@ -221,7 +221,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let mut outputs = OutputSet::new();
     if let Some(f) = &figs {
         if let Some(p) = &a.rrd {
-            crate::viz::scenes::record_replay(f, &mut outputs, p)?;
+            crate::viz::results::record_replay(f, &mut outputs, p)?;
         }
         if let Some(p) = &a.report {
             outputs.write(p, twincal::report::html::replay_page(f).as_bytes())?;

@@ -43,6 +43,7 @@ mod backend;
 
 pub mod layout;
 pub mod plot;
+pub mod results;
 pub mod scenes;
 pub mod study;
 

@@ -20,6 +20,7 @@ pub mod tolerance;
 use crate::calib::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::measurement::{Measurement, MAX_DIM, MAX_OWN, MAX_TARGETS};
 use crate::robot::kinematics::{Chain, ChainBuilder, FkWork, Frame, PointJacobian};
+use crate::robot::GeoKind;
 use crate::robot::Robot;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -450,8 +451,7 @@ impl CalibModel {
     /// The twin's per-joint frame-error model.
     pub fn frame(robot: &Robot, sensor: &SensorGuess) -> CalibModel {
         let chain = robot.error_chain();
-        let kinds =
-            chain.param_names.iter().map(|n| if n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz") { Kind::Length } else { Kind::Angle }).collect();
+        let kinds = chain.param_names.iter().map(|n| if GeoKind::of_name(n) == Some(GeoKind::Length) { Kind::Length } else { Kind::Angle }).collect();
         CalibModel { limits: robot.limits(), ..CalibModel::with_sensor("frame", chain, kinds, sensor) }
     }
 

@@ -77,15 +77,7 @@ impl LeastSquares for PoseMatch<'_> {
 
 /// The true frame errors of `robot` (internal units) from a truth file, by parameter name.
 fn true_frame_params(robot: &Robot, truth: &TruthFile) -> Option<Vec<f64>> {
-    robot
-        .param_names()
-        .iter()
-        .map(|n| {
-            let v = *truth.parameters.get(n)?;
-            let is_len = n.ends_with(".dx") || n.ends_with(".dy") || n.ends_with(".dz");
-            Some(if is_len { v * 1e-3 } else { v.to_radians() })
-        })
-        .collect()
+    robot.param_names().iter().zip(robot.param_kinds()).map(|(n, kind)| Some(kind.from_file(*truth.parameters.get(n)?))).collect()
 }
 
 /// Step 1: the truth in the model's parametrisation (chain deviations and true sensor).

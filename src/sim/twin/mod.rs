@@ -6,6 +6,7 @@
 //! other only through the approach flanks and the acquisition time, both known in advance, so they
 //! can be simulated in parallel and still give the same result as a sequential run.
 
+pub mod acquisition;
 pub mod motion;
 pub mod rapier_sim;
 pub mod tour;

@@ -1,0 +1,318 @@
+//! Loading a dataset from a folder, a CSV or an xlsx sheet, or from columns in memory.
+
+use super::table::*;
+use super::types::*;
+use super::{csv_io, xlsx};
+use crate::error::{Error, Result};
+use crate::measurement::Measurement;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+impl Dataset {
+    /// Load from a dataset folder (reads `DIR/dataset.csv`), a `.csv` file, or an `.xlsx` file (first
+    /// sheet, or sheet named by `path.xlsx#SheetName`). See the [module docs](self) for the accepted
+    /// columns and the validation performed.
+    pub fn load(path: &Path) -> Result<Dataset> {
+        Self::load_with(path, &LoadOptions::default())
+    }
+
+    /// [`Self::load`] with explicit [`LoadOptions`] (angle unit, whether `L` is required).
+    pub fn load_with(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
+        if path.is_dir() {
+            return Self::load_csv_file(&path.join(DATASET_FILE), opts);
+        }
+        let (file, sheet) = split_sheet(path);
+        let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+        match ext.as_str() {
+            "csv" if sheet.is_none() => Self::load_csv_file(&file, opts),
+            "xlsx" | "xlsm" | "xlsb" | "xls" | "ods" => {
+                let (table, source) = xlsx::read_table(&file, sheet.as_deref())?;
+                from_table(table, source, opts)
+            }
+            _ => Err(Error::data(
+                path.display(),
+                "unsupported dataset path: expected a folder containing dataset.csv, a .csv file, \
+                 or an .xlsx file (optionally file.xlsx#Sheet)",
+            )),
+        }
+    }
+
+    pub(super) fn load_csv_file(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
+        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        Self::from_csv_reader_with(std::io::BufReader::new(file), &path.display().to_string(), opts)
+    }
+
+    /// Parse and validate CSV text; `source` names the input in error messages and becomes
+    /// [`Dataset::source`].
+    pub fn from_csv_reader<R: std::io::Read>(r: R, source: &str) -> Result<Dataset> {
+        Self::from_csv_reader_with(r, source, &LoadOptions::default())
+    }
+
+    /// [`Self::from_csv_reader`] with explicit [`LoadOptions`].
+    pub fn from_csv_reader_with<R: std::io::Read>(r: R, source: &str, opts: &LoadOptions) -> Result<Dataset> {
+        from_table(csv_io::read_table(r, source)?, source.to_owned(), opts)
+    }
+
+    /// A dataset from columns held in memory (numpy arrays from Python, say), read and validated
+    /// exactly as a file with these columns would be: the same header rules, bounds, unit checks
+    /// and messages. A missing number (NaN) in `sx, sy, sz` leaves the cell empty; elsewhere it
+    /// is refused like a NaN cell. Messages name line k + 2 for row k (the header is line 1).
+    pub fn from_columns(columns: Vec<(String, ColumnValues)>, source: &str, opts: &LoadOptions) -> Result<Dataset> {
+        let n = columns.first().map_or(0, |(_, c)| c.len());
+        if let Some((name, c)) = columns.iter().find(|(_, c)| c.len() != n) {
+            return Err(Error::data(
+                source,
+                format!("column {name} has {} values, column {} has {n}: every column needs one value per row", c.len(), columns[0].0),
+            ));
+        }
+        let header: Vec<String> = columns.iter().map(|(name, _)| name.clone()).collect();
+        let optional_std: Vec<bool> = header.iter().map(|h| STD_COLUMNS.iter().any(|c| c.eq_ignore_ascii_case(h.trim()))).collect();
+        let rows = (0..n)
+            .map(|i| RawRow {
+                line: i + 2,
+                cells: columns
+                    .iter()
+                    .zip(&optional_std)
+                    .map(|((_, c), &opt)| match c {
+                        ColumnValues::Numbers(v) if opt && v[i].is_nan() => Cell::Empty,
+                        ColumnValues::Numbers(v) => Cell::Number(v[i]),
+                        ColumnValues::Texts(v) if v[i].trim().is_empty() => Cell::Empty,
+                        ColumnValues::Texts(v) => Cell::Text(v[i].trim().to_owned()),
+                    })
+                    .collect(),
+            })
+            .collect();
+        from_table(RawTable { header, rows, decimal_comma: false }, source.to_owned(), opts)
+    }
+
+    /// Number of joint angles per row (`q1..qN`); 0 for an empty dataset.
+    pub fn n_joints(&self) -> usize {
+        self.rows.first().map_or(0, |r| r.q_deg.len())
+    }
+
+    /// An error naming the source unless the rows hold `n` joint angles each, the joint count of
+    /// the arm they are used with.
+    pub fn require_joints(&self, n: usize, arm: &str) -> Result<()> {
+        match self.rows.iter().position(|r| r.q_deg.len() != n) {
+            None => Ok(()),
+            Some(i) => {
+                let k = self.rows[i].q_deg.len();
+                let which = if i == 0 { "the rows hold".to_owned() } else { format!("row {} holds", i + 1) };
+                Err(Error::data(&self.source, format!("{which} {k} joint angles (q1..q{k}) but {arm} has {n} joints")))
+            }
+        }
+    }
+
+    /// What the rows' readings are (from their number of values, which the loader took from the
+    /// header's columns); `None` for a dataset of poses without readings.
+    pub fn measurement(&self) -> Option<Measurement> {
+        Measurement::of_file_dim(self.rows.first()?.reading_mm.len())
+    }
+
+    /// True when every row has a cable length (and there is at least one row).
+    pub fn has_length(&self) -> bool {
+        !self.rows.is_empty() && self.rows.iter().all(|r| r.l_mm().is_some())
+    }
+
+    /// True when every row has a reading (and there is at least one row).
+    pub fn has_readings(&self) -> bool {
+        !self.rows.is_empty() && self.rows.iter().all(|r| !r.reading_mm.is_empty())
+    }
+
+    /// An error naming the source unless every row has a cable length: calibration and anything
+    /// that compares against measurements needs `L`.
+    pub fn require_length(&self) -> Result<()> {
+        if let Some(m) = self.measurement().filter(|m| *m != Measurement::Length) {
+            return Err(Error::data(
+                &self.source,
+                format!("the rows hold a {} ({}), this needs a draw-wire cable length L", m.def().describe(), m.def().file_columns().join(", ")),
+            ));
+        }
+        match self.rows.iter().position(|r| r.l_mm().is_none()) {
+            None => Ok(()),
+            Some(i) => Err(Error::data(
+                &self.source,
+                format!(
+                    "row {} has no cable length L; this needs measured lengths (a file with \
+                     q1..qN and L)",
+                    i + 1
+                ),
+            )),
+        }
+    }
+
+    /// An error naming the source unless every row has a reading of one kind (any instrument).
+    pub fn require_readings(&self) -> Result<()> {
+        let d = self.rows.first().map_or(0, |r| r.reading_mm.len());
+        match self.rows.iter().position(|r| r.reading_mm.is_empty() || r.reading_mm.len() != d) {
+            None if !self.rows.is_empty() => Ok(()),
+            None => Err(Error::data(&self.source, "no rows")),
+            Some(i) => Err(Error::data(
+                &self.source,
+                format!("row {} has no measurement; this needs measured readings (a file with q1..qN and {})", i + 1, reading_columns_hint()),
+            )),
+        }
+    }
+
+    /// The cable lengths of every row, mm; an error as [`Self::require_length`] when any is absent.
+    pub fn lengths_mm(&self) -> Result<Vec<f64>> {
+        self.require_length()?;
+        Ok(self.rows.iter().map(|r| r.l_mm().unwrap_or(f64::NAN)).collect())
+    }
+
+    /// CSV text with header `q1,..,qN,L,t,temp,split` (a tracker's `x,y,z[,rx,ry,rz]`, and
+    /// `sx,sy,sz` when some row has them, in place of `L`), one line per row in row order.
+    /// Numbers use `f64`'s `Display` (shortest representation that round-trips exactly), so the
+    /// output is deterministic and reloads to identical values; values rounded to `d` decimals
+    /// beforehand (as the generator does) are written with at most `d` decimals. Columns `t`,
+    /// `temp` and `split` are written only if every row has them (and there is at least one row);
+    /// `L` is written unless no row has it (a row without it gets an empty cell).
+    pub fn to_csv_string(&self) -> String {
+        let mut columns = self.columns();
+        if self.rows.is_empty() {
+            // A dataset with no rows is written with the draw-wire's header.
+            columns.extend(Measurement::Length.def().file_columns().iter().map(|c| (c.to_string(), ColumnValues::Numbers(Vec::new()))));
+        }
+        let mut out = columns.iter().map(|(name, _)| name.as_str()).collect::<Vec<_>>().join(",");
+        out.push('\n');
+        // `write!` into a String cannot fail. A missing number (NaN: a row without a reading or
+        // without sx, sy, sz) is an empty cell.
+        for i in 0..self.rows.len() {
+            for (k, (_, c)) in columns.iter().enumerate() {
+                if k > 0 {
+                    out.push(',');
+                }
+                match c {
+                    ColumnValues::Numbers(v) if v[i].is_nan() => {}
+                    ColumnValues::Numbers(v) => {
+                        let _ = write!(out, "{}", v[i]);
+                    }
+                    ColumnValues::Texts(v) => out.push_str(&v[i]),
+                }
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    /// The dataset as columns, the ones [`Self::to_csv_string`] writes in its order: `q1..qN`,
+    /// the reading's columns (those of the first row with a reading), `sx, sy, sz` when some row
+    /// has them, and `t`, `temp`, `split` when every row has them; numbers (NaN where a row has no
+    /// value) and `split` as text. [`Self::from_columns`] reads them back to the same rows.
+    pub fn columns(&self) -> Vec<(String, ColumnValues)> {
+        let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
+        let number = |f: &dyn Fn(&Row) -> Option<f64>| ColumnValues::Numbers(self.rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect());
+        let reading_names: &[&str] = match self.rows.iter().find(|r| !r.reading_mm.is_empty()) {
+            Some(r) => Measurement::of_file_dim(r.reading_mm.len()).map_or(&[], |m| m.def().file_columns()),
+            None => &[],
+        };
+        let mut out: Vec<(String, ColumnValues)> = (0..self.n_joints()).map(|j| (format!("q{}", j + 1), number(&|r: &Row| r.q_deg.get(j).copied()))).collect();
+        out.extend(reading_names.iter().enumerate().map(|(k, c)| (c.to_string(), number(&|r: &Row| r.reading_mm.get(k).copied()))));
+        if self.rows.iter().any(|r| r.std_mm.is_some()) {
+            out.extend(STD_COLUMNS.iter().enumerate().map(|(k, c)| (c.to_string(), number(&|r: &Row| r.std_mm.map(|s| s[k])))));
+        }
+        if all(|r| r.t_s.is_some()) {
+            out.push(("t".into(), number(&|r: &Row| r.t_s)));
+        }
+        if all(|r| r.temp_c.is_some()) {
+            out.push(("temp".into(), number(&|r: &Row| r.temp_c)));
+        }
+        if all(|r| r.block.is_some()) {
+            out.push(("block".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.block.clone().unwrap_or_default()).collect())));
+        }
+        if all(|r| r.split.is_some()) {
+            out.push(("split".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.split.map_or("", |s| s.as_str()).to_string()).collect())));
+        }
+        out
+    }
+
+    /// Writes [`Self::to_csv_string`] to `path` atomically (all or nothing). For the folder layout
+    /// read by [`Self::load`], pass `dir.join(DATASET_FILE)`.
+    pub fn write_csv(&self, path: &Path) -> Result<()> {
+        crate::io::write_atomic(path, self.to_csv_string().as_bytes())
+    }
+
+    /// Indices of training rows: rows marked `train`, or every row when no row has a split.
+    pub fn train_indices(&self) -> Vec<usize> {
+        if self.rows.iter().all(|r| r.split.is_none()) {
+            return (0..self.rows.len()).collect();
+        }
+        self.indices_of(Split::Train)
+    }
+
+    /// Indices of rows marked `test` (empty when no row has a split).
+    pub fn test_indices(&self) -> Vec<usize> {
+        self.indices_of(Split::Test)
+    }
+
+    pub(super) fn indices_of(&self, split: Split) -> Vec<usize> {
+        self.rows.iter().enumerate().filter(|(_, r)| r.split == Some(split)).map(|(i, _)| i).collect()
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// True when there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+}
+
+/// The numeric columns `names` of a CSV file (other columns ignored), read by the dataset reader's
+/// rules: delimiter detected (`,`, `;`, tab), decimal commas with `;` / tab, `#` comments, quoted
+/// fields, a byte-order mark. A header matches a name case-insensitively, also as `NAME_mm`. A
+/// non-finite cell (`NaN`, `inf`) reads as it is (the caller decides what that means); an empty
+/// cell, a short row or other text is an error naming the line and column, as for a dataset's
+/// cells. One `Vec` per row, in `names` order.
+pub fn read_csv_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>> {
+    let source = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let table = csv_io::read_table(std::io::BufReader::new(file), &source)?;
+    let found = table.header.join(",");
+    let pos = names
+        .iter()
+        .map(|n| table.header.iter().position(|h| h.trim().eq_ignore_ascii_case(n) || h.trim().eq_ignore_ascii_case(&format!("{n}_mm"))))
+        .collect::<Option<Vec<usize>>>()
+        .ok_or_else(|| Error::data(&source, format!("the header '{found}' lacks the columns {}", names.join(", "))))?;
+    // A column named twice is ambiguous (which x?): refused, as the dataset reader refuses it.
+    for (n, &i) in names.iter().zip(&pos) {
+        let same = |h: &String| h.trim().eq_ignore_ascii_case(n) || h.trim().eq_ignore_ascii_case(&format!("{n}_mm"));
+        if table.header.iter().enumerate().any(|(k, h)| k != i && same(h)) {
+            return Err(Error::data(&source, format!("the header '{found}' names the column {n} twice")));
+        }
+    }
+    let cells = Cells { source: &source, decimal_comma: table.decimal_comma };
+    let value = |row: &RawRow, i: usize, name: &str| -> Result<f64> {
+        let cell =
+            row.cells.get(i).ok_or_else(|| Error::data(&source, format!("line {}: {} fields, expected at least {}", row.line, row.cells.len(), i + 1)))?;
+        // A non-finite value (NaN, inf) is the caller's to answer; anything else reads as a dataset cell.
+        if let Cell::Text(t) = cell {
+            if let Some(v) = parse_number(t, table.decimal_comma).filter(|v| !v.is_finite()) {
+                return Ok(v);
+            }
+        }
+        cells.required(Some(cell), name, row.line)
+    };
+    table.rows.iter().map(|row| pos.iter().zip(names).map(|(&i, name)| value(row, i, name)).collect()).collect()
+}
+
+/// Splits `book.xlsx#Sheet` into the file and the sheet name. A path that exists as given is never
+/// split; otherwise the first `#` whose prefix ends in a spreadsheet extension is the separator.
+pub(super) fn split_sheet(path: &Path) -> (PathBuf, Option<String>) {
+    if path.exists() {
+        return (path.to_path_buf(), None);
+    }
+    if let Some(s) = path.to_str() {
+        for (i, _) in s.match_indices('#') {
+            let (file, sheet) = (&s[..i], &s[i + 1..]);
+            let lower = file.to_ascii_lowercase();
+            let is_book = [".xlsx", ".xlsm", ".xlsb", ".xls", ".ods"].iter().any(|e| lower.ends_with(e));
+            if is_book && !sheet.is_empty() {
+                return (PathBuf::from(file), Some(sheet.to_owned()));
+            }
+        }
+    }
+    (path.to_path_buf(), None)
+}

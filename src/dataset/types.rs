@@ -1,0 +1,175 @@
+//! The dataset's data model: rows (joint angles, the reading, time, temperature, standard
+//! deviations, split, block), the load options and the readers' limits.
+
+pub use crate::measurement::length::MAX_L_MM;
+use crate::measurement::{Euler, Measurement};
+
+/// File name of the CSV inside a dataset folder.
+pub const DATASET_FILE: &str = "dataset.csv";
+
+/// Most joint columns a dataset may have (`q1..q32`); beyond is taken for a mislabelled file.
+pub const MAX_JOINTS: usize = 32;
+
+/// Largest plausible |joint angle| in degrees; anything beyond is rejected.
+pub const MAX_ABS_JOINT_DEG: f64 = 720.0;
+
+/// Radians heuristic: minimum number of rows before it is applied.
+pub const RADIANS_MIN_ROWS: usize = 10;
+
+/// Radians heuristic: every |q| at most this (2π plus 5 %).
+pub const RADIANS_MAX_ABS: f64 = 2.0 * std::f64::consts::PI * 1.05;
+
+/// Radians heuristic: at least one joint must span more than this (same unit as the file).
+pub const RADIANS_MIN_SPAN: f64 = 0.1;
+
+/// Metres heuristic: every `L` below this is taken as metres.
+pub const METRES_MAX_L: f64 = 5.0;
+
+/// Lowest possible temperature, °C (absolute zero).
+pub const MIN_TEMP_C: f64 = -273.15;
+
+/// Highest plausible temperature, °C (no robot cell runs hotter).
+pub const MAX_TEMP_C: f64 = 1000.0;
+
+/// Largest plausible time, s from the start of acquisition (about 3.2 years). Absolute clock
+/// times (e.g. Unix seconds) are beyond it: subtract the first time.
+pub const MAX_T_S: f64 = 1e8;
+
+/// Unit of the joint angle columns in a file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AngleUnit {
+    /// Degrees, with the radians heuristic of the module docs as a guard.
+    #[default]
+    Auto,
+    /// Degrees, no heuristic.
+    Deg,
+    /// Radians, converted to degrees on load.
+    Rad,
+}
+
+impl std::str::FromStr for AngleUnit {
+    type Err = String;
+    /// `auto`, `deg` (also `degrees`) or `rad` (also `radians`), case-insensitive.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "auto" => Ok(AngleUnit::Auto),
+            "deg" | "degree" | "degrees" => Ok(AngleUnit::Deg),
+            "rad" | "radian" | "radians" => Ok(AngleUnit::Rad),
+            _ => Err(format!("unknown angle unit '{s}' (expected auto, deg or rad)")),
+        }
+    }
+}
+
+/// How [`Dataset::load_with`] reads a file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Unit of `q1..qN`.
+    pub angles: AngleUnit,
+    /// Whether the `L` column must be present (it always must be for calibration).
+    pub require_length: bool,
+    /// The instrument to read, when the header holds more than its columns (`point` reads only
+    /// `x, y, z` of a file that also has a pose's angles); `None` takes what the header holds.
+    pub measurement: Option<Measurement>,
+    /// The convention of a pose's Euler angles in the file; a loaded row holds them as
+    /// intrinsic X-Y-Z.
+    pub euler: Euler,
+}
+
+impl Default for LoadOptions {
+    /// Today's behaviour of [`Dataset::load`]: [`AngleUnit::Auto`], `L` required.
+    fn default() -> Self {
+        LoadOptions { angles: AngleUnit::Auto, require_length: true, measurement: None, euler: Euler::XYZ }
+    }
+}
+
+impl LoadOptions {
+    /// Poses (`q1..qN`) with an optional `L` column, e.g. for prediction.
+    pub fn poses() -> Self {
+        LoadOptions { require_length: false, ..Default::default() }
+    }
+}
+
+/// Which subset a row belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Split {
+    Train,
+    Test,
+}
+
+impl Split {
+    /// The lowercase word used in files (`train` / `test`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Split::Train => "train",
+            Split::Test => "test",
+        }
+    }
+}
+
+/// One static configuration and its measurement.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// Joint angles `q1..qN`, degrees, controller convention; every row of a dataset has the
+    /// same N.
+    pub q_deg: Vec<f64>,
+    /// The instrument's reading, mm, in its dataset columns' order (`L` for a draw-wire;
+    /// `x, y, z` for a tracker; `x, y, z, rx, ry, rz` for a pose, its angles in degrees,
+    /// intrinsic X-Y-Z: see [`Measurement`]); empty when the file has none (poses only, loaded
+    /// with `require_length: false`). Every row of a dataset has the same kind.
+    pub reading_mm: Vec<f64>,
+    /// Seconds from acquisition start.
+    pub t_s: Option<f64>,
+    /// Temperature, °C.
+    pub temp_c: Option<f64>,
+    pub split: Option<Split>,
+    /// The instrument's own standard deviation of each position coordinate (`sx, sy, sz`, mm)
+    /// where the file gives it: a tracker's per-row uncertainty, which the fit weights by
+    /// (see `calib::weighting`). `None` on rows without it and for a draw-wire.
+    pub std_mm: Option<[f64; 3]>,
+    /// The block the user declared the row in (`block` column: any label; rows of one block share
+    /// an error, see [`blocks`]). `None` without the column.
+    pub block: Option<String>,
+}
+
+impl Row {
+    /// The cable length (mm) of a draw-wire reading; `None` for no reading or another instrument's.
+    pub fn l_mm(&self) -> Option<f64> {
+        match self.reading_mm[..] {
+            [l] => Some(l),
+            _ => None,
+        }
+    }
+
+    /// The reading as the model reads its values (mm; see [`Measurement::dim`]): the columns
+    /// themselves, or a pose's origin and axes. `None` without a reading.
+    pub fn values_mm(&self) -> Option<Vec<f64>> {
+        Some(Measurement::of_file_dim(self.reading_mm.len())?.values_of_file(&self.reading_mm))
+    }
+}
+
+/// One column of a dataset held in memory (see [`Dataset::from_columns`]).
+#[derive(Clone, Debug)]
+pub enum ColumnValues {
+    Numbers(Vec<f64>),
+    Texts(Vec<String>),
+}
+
+impl ColumnValues {
+    pub fn len(&self) -> usize {
+        match self {
+            ColumnValues::Numbers(v) => v.len(),
+            ColumnValues::Texts(v) => v.len(),
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A dataset and where it came from (a path, or a label for in-memory sources).
+#[derive(Clone, Debug, Default)]
+pub struct Dataset {
+    pub rows: Vec<Row>,
+    pub source: String,
+}
