@@ -171,7 +171,7 @@ fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Opt
         }
         None => {
             let o = &p.own;
-            let probe = (m.measurement == Measurement::Pose).then(|| probe_noise(r, data, notes));
+            let probe = (m.measurement == Measurement::Pose).then(|| probe_noise(r, o, data, notes));
             Some(Tracker {
                 translation_mm: [o[0] * 1e3, o[1] * 1e3, o[2] * 1e3],
                 rotation_deg: [o[3].to_degrees(), o[4].to_degrees(), o[5].to_degrees()],
@@ -196,10 +196,10 @@ fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Opt
 
 /// A 6-D probe's orientation on the flange (degrees), its orientation noise (µrad per axis) and
 /// its position noise (mm per coordinate), from the residuals: a rotation of σ per axis moves
-/// an axis tip at the lever by lever·σ·√(2/3) per coordinate, RMS.
-fn probe_noise(r: &CalibResult, data: &Dataset, notes: &mut Vec<String>) -> ([f64; 3], f64, f64) {
+/// an axis tip at the lever by lever·σ·√(2/3) per coordinate, RMS. `o`: the identified
+/// placement's own parameters.
+fn probe_noise(r: &CalibResult, o: &[f64], data: &Dataset, notes: &mut Vec<String>) -> ([f64; 3], f64, f64) {
     let m = &r.model;
-    let o = &m.placement(&r.x).own;
     let predicted = r.predict_rows(data);
     let d = m.measurement.dim();
     let res: Vec<Vec<f64>> =

@@ -9,6 +9,11 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 impl Dataset {
+    /// The rows at `idx` (in that order), from the same source.
+    pub fn subset(&self, idx: &[usize]) -> Dataset {
+        Dataset { rows: idx.iter().map(|&i| self.rows[i].clone()).collect(), source: self.source.clone() }
+    }
+
     /// Load from a dataset folder (reads `DIR/dataset.csv`), a `.csv` file, or an `.xlsx` file (first
     /// sheet, or sheet named by `path.xlsx#SheetName`). See the [module docs](self) for the accepted
     /// columns and the validation performed.

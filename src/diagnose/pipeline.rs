@@ -178,7 +178,7 @@ pub(super) fn rejoin_explained(
     outliers.retain(|o| !explained.contains(&(o.row - 1)));
     *runs = crate::calib::problem::robust::runs(outliers);
     let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
-    let rows = Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
+    let rows = data.subset(&keep);
     (all.subset(&keep), rows, keep, explained)
 }
 
@@ -258,7 +258,7 @@ pub(super) struct Selected {
 pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str), p: &Prepared) -> Result<Selected> {
     let (base, keep, blocks) = (&p.base, &p.keep, &p.blocks);
     let kept = p.all.subset(keep);
-    let kept_rows = Dataset { rows: keep.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
+    let kept_rows = data.subset(keep);
     let (mut ctx, confirmation, few_blocks) = Ctx::over_blocks(&kept, keep, blocks, opts);
     let mut baseline = ctx.evaluate(base.clone(), &p.x_base);
     let (judged_on, judged_on_reason, rmse_blocked, rmse_interleaved) = judge_folds(&mut ctx, &mut baseline);

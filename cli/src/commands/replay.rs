@@ -202,15 +202,16 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
         seconds: 0.0,
     };
 
-    let text = replay_csv(&data, robot.dof(), m, &measured, &twin, judged_idx.as_deref());
+    // The judged rows as a set: replay.csv marks them, and they are the twin's test rows.
+    let judged_set: Option<std::collections::BTreeSet<usize>> = judged_idx.as_ref().map(|v| v.iter().copied().collect());
+    let text = replay_csv(&data, robot.dof(), m, &measured, &twin, judged_set.as_ref());
     let figs = (a.rrd.is_some() || a.report.is_some()).then(|| figures(&summary, &data, &g, &twin, &measured, judged_idx.as_deref(), &s, m));
     // The twin's dataset: the judged rows are its test rows.
     let twin_data = match jittered_g.as_mut() {
         Some(j) => j,
         None => &mut g,
     };
-    if judged_idx.is_some() {
-        let judged_set: std::collections::BTreeSet<usize> = judged_idx.iter().flatten().copied().collect();
+    if let Some(judged_set) = &judged_set {
         for (row, p) in twin_data.dataset.rows.iter_mut().zip(twin_data.truth.poses.iter_mut()) {
             let split = if judged_set.contains(&p.index) { Split::Test } else { Split::Train };
             (row.split, p.split) = (Some(split), split);
@@ -363,11 +364,10 @@ fn replay_csv(
     m: Measurement,
     measured: &[Vec<f64>],
     twin: &[Option<(Vec<f64>, Vec<f64>)>],
-    judged_idx: Option<&[usize]>,
+    judged: Option<&std::collections::BTreeSet<usize>>,
 ) -> String {
     let d = m.dim();
     let cols = m.def().columns();
-    let judged_set: std::collections::BTreeSet<usize> = judged_idx.iter().flat_map(|v| v.iter()).copied().collect();
     let mut text = String::from("row");
     (1..=dof).for_each(|j| text += &format!(",q{j}"));
     text += ",t,judged";
@@ -378,7 +378,7 @@ fn replay_csv(
     for (i, row) in data.rows.iter().enumerate() {
         text += &(i + 1).to_string();
         row.q_deg.iter().for_each(|q| text += &format!(",{q}"));
-        text += &format!(",{},{}", row.t_s.map_or(String::new(), |t| t.to_string()), u8::from(judged_idx.is_none() || judged_set.contains(&i)));
+        text += &format!(",{},{}", row.t_s.map_or(String::new(), |t| t.to_string()), u8::from(judged.is_none_or(|s| s.contains(&i))));
         let blank = |text: &mut String| (0..d).for_each(|_| text.push(','));
         measured[i].iter().for_each(|v| text += &format!(",{v}"));
         match &twin[i] {
@@ -415,7 +415,7 @@ fn figures(
         noise.extend(read.iter().zip(ideal).map(|(a, b)| a - b));
         residual.extend(measured[i].iter().zip(ideal).map(|(a, b)| a - b));
     }
-    let kept = Dataset { rows: rows.iter().map(|&i| data.rows[i].clone()).collect(), source: data.source.clone() };
+    let kept = data.subset(&rows);
     let placement = twincal::sim::instrument::placement(&s.sensor, s.tracker.as_ref());
     let line = |f: &Fidelity| Some(f.residual);
     let mut stats = vec![("every row: measured − twin".to_string(), line(&summary.all)), ("every row, no outliers".to_string(), Some(summary.all.inliers))];
