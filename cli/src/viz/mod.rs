@@ -409,8 +409,8 @@ mod tests {
             assert_eq!(files_in(&dir.path().join("out/sub")), vec!["run.rrd".to_owned()]);
 
             // Decode it back: valid .rrd with a footer and our entities.
-            use rerun::external::re_log_encoding::DecoderApp;
-            use rerun::log::{Chunk, LogMsg};
+            use re_log_encoding::DecoderApp;
+            use re_sdk::log::{Chunk, LogMsg};
             let bytes = std::fs::read(&path).unwrap();
             let mut it = DecoderApp::decode_lazy(bytes.as_slice());
             let mut entities = std::collections::BTreeSet::new();
@@ -425,7 +425,7 @@ mod tests {
                     _ => {}
                 }
             }
-            if rerun::decide_logging_enabled(true) {
+            if re_sdk::decide_logging_enabled(true) {
                 assert_eq!(blueprint_activations, 1, "default layout missing");
             }
             assert!(!it.rrd_manifests().unwrap().is_empty(), "no footer/manifest");

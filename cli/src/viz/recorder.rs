@@ -16,9 +16,9 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use rerun::external::re_log_encoding::{self, Encoder};
-use rerun::sink::{LogSink, SinkFlushError};
-use rerun::{AsComponents, RecordingStream, TimeCell, TimePoint, TimelineName};
+use re_log_encoding::{self, Encoder};
+use re_sdk::sink::{LogSink, SinkFlushError};
+use re_sdk::{AsComponents, RecordingStream, TimeCell, TimePoint, TimelineName};
 
 use twincal::error::{Error, Result};
 
@@ -42,7 +42,7 @@ struct RrdSink {
 }
 
 impl LogSink for RrdSink {
-    fn send(&self, msg: rerun::log::LogMsg) {
+    fn send(&self, msg: re_sdk::log::LogMsg) {
         let mut st = lock(&self.state);
         if st.error.is_some() {
             return;
@@ -107,7 +107,7 @@ impl Backend {
     /// [`twincal::io::OutputSet`]); `path` is the target the messages name.
     pub(super) fn with_file(app_id: &str, file: File, path: &Path) -> Result<Backend> {
         // rerun 0.36: only `&'static str` converts infallibly (and panics when empty).
-        let app = rerun::ApplicationId::try_new(app_id).map_err(|e| Error::Invalid(format!("invalid Rerun application id {app_id:?}: {e}")))?;
+        let app = re_sdk::ApplicationId::try_new(app_id).map_err(|e| Error::Invalid(format!("invalid Rerun application id {app_id:?}: {e}")))?;
         // Same encoding as rerun's own FileSink.
         let encoder = Encoder::new_eager(re_log_encoding::CrateVersion::LOCAL, re_log_encoding::EncodingOptions::PROTOBUF_COMPRESSED, BufWriter::new(file));
         let encoder = match encoder {
@@ -120,7 +120,7 @@ impl Backend {
 
         // `enabled(true)`: an explicit recording request must not be silently turned off by the
         // `RERUN=off` environment variable.
-        let rec = rerun::RecordingStreamBuilder::new(app).enabled(true).buffered().inspect(|rec| rec.set_sink(Box::new(RrdSink { state: Arc::clone(&sink) })));
+        let rec = re_sdk::RecordingStreamBuilder::new(app).enabled(true).buffered().inspect(|rec| rec.set_sink(Box::new(RrdSink { state: Arc::clone(&sink) })));
         let rec = match rec {
             Ok(rec) => rec,
             Err(e) => {
@@ -140,7 +140,7 @@ impl Backend {
             layout: None,
         };
         // We log in millimetres in a right-handed, Z-up world.
-        backend.log("world", true, &rerun::ViewCoordinates::RIGHT_HAND_Z_UP());
+        backend.log("world", true, &re_sdk_types::archetypes::ViewCoordinates::RIGHT_HAND_Z_UP());
         backend.logged.clear(); // the coordinate system alone is not data worth a view
         if let Some(err) = backend.error.take() {
             return Err(err); // the caller's `OutputSet` removes the temporary file
@@ -201,9 +201,9 @@ impl Backend {
 
     /// The rerun blueprint of `layout`; the visible rectangles of 2-D views go to `bounds`
     /// (blueprint entity path of the view, rectangle), which rerun's Rust API cannot set.
-    fn to_rerun(layout: &super::Layout, bounds: &mut Vec<(String, [f64; 4])>) -> rerun::blueprint::ContainerLike {
+    fn to_rerun(layout: &super::Layout, bounds: &mut Vec<(String, [f64; 4])>) -> re_sdk::blueprint::ContainerLike {
         use super::{Layout, ViewKind as K};
-        use rerun::blueprint::{
+        use re_sdk::blueprint::{
             BarChartView, ContainerLike, Grid, Horizontal, Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimeSeriesView, Vertical,
         };
         let mut rec = |c: &[Layout]| -> Vec<ContainerLike> { c.iter().map(|l| Self::to_rerun(l, bounds)).collect() };
@@ -248,12 +248,12 @@ impl Backend {
     /// Sends the layout (pruned to the views that have data), with the blueprint and selection
     /// panels folded away and the time panel on the chosen timeline.
     fn send_blueprint(&mut self) {
-        use rerun::blueprint::components::{PanelState, PlayState};
-        use rerun::blueprint::{Blueprint, BlueprintActivation, BlueprintPanel, SelectionPanel, TimePanel};
+        use re_sdk::blueprint::components::{PanelState, PlayState};
+        use re_sdk::blueprint::{Blueprint, BlueprintActivation, BlueprintPanel, SelectionPanel, TimePanel};
         let Some(rec) = &self.rec else { return };
         // rerun 0.36's `Blueprint::send` builds the blueprint through an internal recording that
         // honours the `RERUN` env var, and panics when that disables it. Skip the layout then.
-        if !rerun::decide_logging_enabled(true) {
+        if !re_sdk::decide_logging_enabled(true) {
             return;
         }
         let wanted = self.layout.take().unwrap_or_else(Self::default_layout);
@@ -283,15 +283,15 @@ impl Backend {
     /// blueprint store, and everything goes to `rec` followed by the activation command.
     fn send_with_bounds(
         rec: &RecordingStream,
-        blueprint: &rerun::blueprint::Blueprint,
-        activation: rerun::blueprint::BlueprintActivation,
+        blueprint: &re_sdk::blueprint::Blueprint,
+        activation: re_sdk::blueprint::BlueprintActivation,
         bounds: &[(String, [f64; 4])],
-    ) -> rerun::RecordingStreamResult<()> {
-        use rerun::external::re_sdk_types::blueprint::archetypes::VisualBounds2D;
-        use rerun::external::re_sdk_types::datatypes::{Range1D, Range2D};
-        use rerun::log::LogMsg;
-        let app = rec.store_info().map(|i| i.application_id().clone()).unwrap_or_else(|| rerun::ApplicationId::from("twincal"));
-        let (mem, storage) = rerun::RecordingStreamBuilder::new(app.clone()).enabled(true).memory()?;
+    ) -> re_sdk::RecordingStreamResult<()> {
+        use re_sdk::log::LogMsg;
+        use re_sdk_types::blueprint::archetypes::VisualBounds2D;
+        use re_sdk_types::datatypes::{Range1D, Range2D};
+        let app = rec.store_info().map(|i| i.application_id().clone()).unwrap_or_else(|| re_sdk::ApplicationId::from("twincal"));
+        let (mem, storage) = re_sdk::RecordingStreamBuilder::new(app.clone()).enabled(true).memory()?;
         blueprint.send(&mem, activation)?;
         let mut msgs = Vec::new();
         let mut command = None;
@@ -305,7 +305,7 @@ impl Backend {
         drop(mem);
         let Some(command) = command else { return Ok(()) };
         let (props, props_storage) =
-            rerun::RecordingStreamBuilder::new(app).recording_id(command.blueprint_id.recording_id().clone()).blueprint().enabled(true).memory()?;
+            re_sdk::RecordingStreamBuilder::new(app).recording_id(command.blueprint_id.recording_id().clone()).blueprint().enabled(true).memory()?;
         props.set_time_sequence("blueprint", 0);
         for (view, b) in bounds {
             let range = Range2D { x_range: Range1D([b[0], b[1]]), y_range: Range1D([b[2], b[3]]) };
@@ -363,7 +363,7 @@ impl Backend {
         show_labels: bool,
     ) {
         let n = pts.len();
-        let mut arch = rerun::Points2D::new(pts.iter().map(|p| [p[0] as f32, p[1] as f32]));
+        let mut arch = re_sdk_types::archetypes::Points2D::new(pts.iter().map(|p| [p[0] as f32, p[1] as f32]));
         if let Some(colors) = colors {
             if colors.len() != n && colors.len() != 1 {
                 return self.invalid(entity, format!("{} colours for {n} points", colors.len()));
@@ -374,7 +374,7 @@ impl Backend {
             if !(r.is_finite() && r > 0.0) {
                 return self.invalid(entity, format!("point radius {r} must be > 0"));
             }
-            arch = arch.with_radii([rerun::Radius::new_ui_points(r)]);
+            arch = arch.with_radii([re_sdk_types::components::Radius::new_ui_points(r)]);
         }
         if let Some(labels) = labels {
             if labels.len() != n && labels.len() != 1 {
@@ -392,9 +392,11 @@ impl Backend {
         if colors.len() != strips.len() && colors.len() != 1 {
             return self.invalid(entity, format!("{} colours for {} lines", colors.len(), strips.len()));
         }
-        let arch = rerun::LineStrips2D::new(strips.iter().map(|s| rerun::LineStrip2D::from_iter(s.iter().map(|p| [p[0] as f32, p[1] as f32]))))
-            .with_colors(colors.iter().copied())
-            .with_radii([rerun::Radius::new_ui_points(width / 2.0)]);
+        let arch = re_sdk_types::archetypes::LineStrips2D::new(
+            strips.iter().map(|s| re_sdk_types::components::LineStrip2D::from_iter(s.iter().map(|p| [p[0] as f32, p[1] as f32]))),
+        )
+        .with_colors(colors.iter().copied())
+        .with_radii([re_sdk_types::components::Radius::new_ui_points(width / 2.0)]);
         self.log(entity, false, &arch);
     }
 
@@ -405,9 +407,9 @@ impl Backend {
         if colors.len() != strips.len() && colors.len() != 1 {
             return self.invalid(entity, format!("{} colours for {} lines", colors.len(), strips.len()));
         }
-        let arch = rerun::LineStrips3D::new(strips.iter().map(|s| rerun::LineStrip3D::from_iter(s.iter().map(f32x3))))
+        let arch = re_sdk_types::archetypes::LineStrips3D::new(strips.iter().map(|s| re_sdk_types::components::LineStrip3D::from_iter(s.iter().map(f32x3))))
             .with_colors(colors.iter().copied())
-            .with_radii([rerun::Radius::new_scene_units(radius_mm)]);
+            .with_radii([re_sdk_types::components::Radius::new_scene_units(radius_mm)]);
         self.log(entity, false, &arch);
     }
 
@@ -415,7 +417,7 @@ impl Backend {
         if !(length_mm.is_finite() && length_mm > 0.0) {
             return self.invalid(entity, format!("axis length {length_mm} mm must be > 0"));
         }
-        self.log(entity, true, &rerun::TransformAxes3D::new(length_mm));
+        self.log(entity, true, &re_sdk_types::archetypes::TransformAxes3D::new(length_mm));
     }
 
     pub(super) fn series_style(&mut self, entity: &str, name: &str, color: [u8; 4], points: bool, size: f32) {
@@ -423,9 +425,9 @@ impl Backend {
             return self.invalid(entity, format!("series marker size / width {size} must be > 0"));
         }
         if points {
-            self.log(entity, true, &rerun::SeriesPoints::new().with_names([name]).with_colors([color]).with_marker_sizes([size]));
+            self.log(entity, true, &re_sdk_types::archetypes::SeriesPoints::new().with_names([name]).with_colors([color]).with_marker_sizes([size]));
         } else {
-            self.log(entity, true, &rerun::SeriesLines::new().with_names([name]).with_colors([color]).with_widths([size]));
+            self.log(entity, true, &re_sdk_types::archetypes::SeriesLines::new().with_names([name]).with_colors([color]).with_widths([size]));
         }
     }
 
@@ -447,7 +449,7 @@ impl Backend {
         show: Option<bool>,
     ) {
         let n = pts_mm.len();
-        let mut arch = rerun::Points3D::new(pts_mm.iter().map(f32x3));
+        let mut arch = re_sdk_types::archetypes::Points3D::new(pts_mm.iter().map(f32x3));
         if let Some(colors) = colors {
             if colors.len() != n && colors.len() != 1 {
                 return self.invalid(entity, format!("{} colours for {n} points", colors.len()));
@@ -458,7 +460,7 @@ impl Backend {
             if !(r.is_finite() && r > 0.0) {
                 return self.invalid(entity, format!("point radius {r} mm must be > 0"));
             }
-            arch = arch.with_radii([rerun::Radius::new_scene_units(r)]);
+            arch = arch.with_radii([re_sdk_types::components::Radius::new_scene_units(r)]);
         }
         if let Some(labels) = labels {
             if labels.len() != n && labels.len() != 1 {
@@ -476,9 +478,9 @@ impl Backend {
         if !(radius_mm.is_finite() && radius_mm > 0.0) {
             return self.invalid(entity, format!("line radius {radius_mm} mm must be > 0"));
         }
-        let arch = rerun::LineStrips3D::new(strips.iter().map(|s| rerun::LineStrip3D::from_iter(s.iter().map(f32x3))))
+        let arch = re_sdk_types::archetypes::LineStrips3D::new(strips.iter().map(|s| re_sdk_types::components::LineStrip3D::from_iter(s.iter().map(f32x3))))
             .with_colors([color])
-            .with_radii([rerun::Radius::new_scene_units(radius_mm)]);
+            .with_radii([re_sdk_types::components::Radius::new_scene_units(radius_mm)]);
         self.log(entity, false, &arch);
     }
 
@@ -495,16 +497,16 @@ impl Backend {
             r[0][1] as f32, r[1][1] as f32, r[2][1] as f32, // column 1
             r[0][2] as f32, r[1][2] as f32, r[2][2] as f32, // column 2
         ];
-        let arch = rerun::Transform3D::from_translation_mat3x3(f32x3(&translation_mm), rerun::datatypes::Mat3x3(col_major));
+        let arch = re_sdk_types::archetypes::Transform3D::from_translation_mat3x3(f32x3(&translation_mm), re_sdk_types::datatypes::Mat3x3(col_major));
         self.log(entity, false, &arch);
     }
 
     pub(super) fn scalar(&mut self, entity: &str, value: f64) {
-        self.log(entity, false, &rerun::Scalars::single(value));
+        self.log(entity, false, &re_sdk_types::archetypes::Scalars::single(value));
     }
 
     pub(super) fn bar_chart(&mut self, entity: &str, values: &[f64]) {
-        self.log(entity, false, &rerun::BarChart::new(values.to_vec()));
+        self.log(entity, false, &re_sdk_types::archetypes::BarChart::new(values.to_vec()));
     }
 
     pub(super) fn histogram_chart(&mut self, entity: &str, edges: &[f64], counts: &[f64], color: Option<[u8; 4]>) {
@@ -514,7 +516,7 @@ impl Backend {
         // The bar chart view draws bar i over [abscissa[i], abscissa[i] + widths[i]].
         let left: Vec<f64> = edges[..counts.len()].to_vec();
         let widths: Vec<f32> = edges.windows(2).map(|w| (w[1] - w[0]) as f32).collect();
-        let mut arch = rerun::BarChart::new(counts.to_vec()).with_abscissa(left).with_widths(widths);
+        let mut arch = re_sdk_types::archetypes::BarChart::new(counts.to_vec()).with_abscissa(left).with_widths(widths);
         if let Some(c) = color {
             arch = arch.with_color(c);
         }
@@ -522,11 +524,11 @@ impl Backend {
     }
 
     pub(super) fn text(&mut self, entity: &str, text: &str) {
-        self.log(entity, false, &rerun::TextLog::new(text));
+        self.log(entity, false, &re_sdk_types::archetypes::TextLog::new(text));
     }
 
     pub(super) fn static_text(&mut self, entity: &str, markdown: &str) {
-        self.log(entity, true, &rerun::TextDocument::from_markdown(markdown));
+        self.log(entity, true, &re_sdk_types::archetypes::TextDocument::from_markdown(markdown));
     }
 
     /// Writes the footer and syncs the file; the caller's `OutputSet` renames it into place (or
