@@ -24,6 +24,7 @@ pub mod measurement;
 pub mod optim;
 pub mod progress;
 pub mod report;
+pub mod requests;
 pub mod robot;
 pub mod seed;
 pub mod sim;

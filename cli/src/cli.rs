@@ -2,7 +2,7 @@
 //! one parsed command. `main` adds the process's concerns (signals, exit codes); the Python
 //! package runs the same commands in its process.
 
-use crate::commands::{self, AngleArg, BenchTarget, StudyTarget};
+use crate::commands::{self, BenchTarget, StudyTarget};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -49,11 +49,8 @@ pub enum Command {
         /// Joint angles, with or without measured lengths (dataset folder, CSV or xlsx).
         #[arg(long)]
         data: PathBuf,
-        /// Unit of the joint angles in the data.
-        #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
-        angles: AngleArg,
         #[command(flatten)]
-        reading: commands::ReadingArgs,
+        reading: commands::Reading,
         #[arg(long, default_value = "predictions.csv")]
         out: PathBuf,
     },
@@ -138,7 +135,7 @@ pub fn run(args: Cli) -> twincal::Result<()> {
         Command::Generate { scenario, out, rrd, seed } => commands::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
         Command::Calibrate(a) => commands::calibrate(&a, args.quiet),
         Command::Diagnose(a) => commands::diagnose(&a, args.quiet),
-        Command::Predict { model, data, angles, reading, out } => commands::predict(&model, &data, angles, &reading, &out, args.quiet),
+        Command::Predict { model, data, reading, out } => commands::predict(&model, &data, &reading, &out, args.quiet),
         Command::Compare(a) => commands::compare(&a, args.quiet),
         Command::Reduce { parts, out, rrd } => commands::reduce(&parts, out.as_deref(), rrd.as_deref(), args.quiet),
         Command::Replay(a) => commands::replay(&a, args.quiet),

@@ -15,9 +15,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use twincal::calib::run::{CalibResult, TruthFile};
+use twincal::dataset::AngleUnit;
 use twincal::dataset::{ColumnValues, Dataset};
+use twincal::requests::{from_json, CalibrateRequest, DiagnoseRequest, Reading};
 use twincal::sim::generate::Progress;
-use twincal_cli::commands::{self, AngleArg, CalibrateArgs, Calibration, DiagnoseArgs, Diagnosed, ReadingArgs};
+use twincal_cli::commands::{self, CalibrateArgs, Calibration, DiagnoseArgs, Diagnosed};
 
 create_exception!(
     _native,
@@ -30,18 +32,16 @@ fn err(e: twincal::Error) -> PyErr {
     TwincalError::new_err(e.to_string())
 }
 
+/// A request from its options as JSON (Python's keyword arguments, `twincal/__init__.py`).
+fn request<T: serde::de::DeserializeOwned + serde::Serialize + Default>(command: &str, options: &str) -> PyResult<T> {
+    from_json(command, options).map_err(err)
+}
+
 /// A clap error as one message: its text without the "error: " prefix and the usage lines.
 fn clap_message(e: &clap::Error) -> String {
     let text = e.render().to_string();
     let text = text.split("\n\nUsage:").next().unwrap_or(&text).trim();
     text.strip_prefix("error: ").unwrap_or(text).to_string()
-}
-
-/// One command's options from an argument list, parsed as the command line parses them.
-fn parse<T: clap::Args>(command: &'static str, argv: Vec<String>) -> PyResult<T> {
-    let cmd = T::augment_args(clap::Command::new(command).no_binary_name(true));
-    let m = cmd.try_get_matches_from(argv).map_err(|e| TwincalError::new_err(clap_message(&e)))?;
-    T::from_arg_matches(&m).map_err(|e| TwincalError::new_err(clap_message(&e)))
 }
 
 /// Progress as the library reports it, read by the calling thread for the Python callback.
@@ -251,31 +251,25 @@ fn generate(py: Python<'_>, scenario: Option<PathBuf>, seed: Option<u64>, progre
 #[pyfunction]
 #[pyo3(signature = (data, angles="auto"))]
 fn to_csv(data: &Bound<'_, PyAny>, angles: &str) -> PyResult<String> {
-    let opts = commands::load_options(angle_arg(angles)?, &ReadingArgs::default(), false).map_err(err)?;
+    let opts = Reading { angles: angle_unit(angles)?, ..Reading::default() }.load_options(false).map_err(err)?;
     let ds = dataset(source(data)?, &opts).map_err(err)?;
     Ok(ds.to_csv_string())
 }
 
 /// Reads a dataset (path or columns) the way `calibrate --data` reads it; returns its columns.
+/// `options`: a JSON object of `angles`, `measurement`, `euler`.
 #[pyfunction]
-#[pyo3(signature = (data, argv))]
-fn read(py: Python<'_>, data: &Bound<'_, PyAny>, argv: Vec<String>) -> PyResult<Columns> {
-    #[derive(clap::Args)]
-    struct ReadArgs {
-        #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
-        angles: AngleArg,
-        #[command(flatten)]
-        reading: ReadingArgs,
-    }
-    let a: ReadArgs = parse("read", argv)?;
-    let opts = commands::load_options(a.angles, &a.reading, false).map_err(err)?;
+#[pyo3(signature = (data, options))]
+fn read(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str) -> PyResult<Columns> {
+    let a: Reading = request("read", options)?;
+    let opts = a.load_options(false).map_err(err)?;
     let src = source(data)?;
     let ds = py.detach(|| dataset(src, &opts)).map_err(err)?;
     columns_py(py, &ds)
 }
 
-fn angle_arg(s: &str) -> PyResult<AngleArg> {
-    clap::ValueEnum::from_str(s, true).map_err(|_| TwincalError::new_err(format!("angles must be auto, deg or rad, got '{s}'")))
+fn angle_unit(s: &str) -> PyResult<AngleUnit> {
+    s.parse::<AngleUnit>().map_err(|_| TwincalError::new_err(format!("angles must be auto, deg or rad, got '{s}'")))
 }
 
 /// What a Result holds: a calibration run here (which can still write every output `calibrate`
@@ -316,8 +310,8 @@ impl PyCalibration {
     /// the model reads), in the file's reading columns: an (n, d) array.
     #[pyo3(signature = (data, angles="auto", euler="XYZ"))]
     fn predict<'py>(&self, py: Python<'py>, data: &Bound<'py, PyAny>, angles: &str, euler: &str) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<String>)> {
-        let reading = ReadingArgs { measurement: None, euler: euler.to_string() };
-        let opts = commands::load_options(angle_arg(angles)?, &reading, false).map_err(err)?;
+        let reading = Reading { angles: angle_unit(angles)?, measurement: None, euler: euler.to_string() };
+        let opts = reading.load_options(false).map_err(err)?;
         let src = source(data)?;
         let r = self.result();
         let (values, warning) = py
@@ -381,7 +375,7 @@ impl PyCalibration {
         match &self.held {
             Held::Run { c, args, data_path } => {
                 let mut a = (**args).clone();
-                (a.out, a.urdf, a.rrd, a.report, a.scenario_out) = (out, urdf, rrd, report, scenario_out);
+                (a.out, a.urdf, a.figures.rrd, a.figures.report, a.scenario_out) = (out, urdf, rrd, report, scenario_out);
                 if let Some(p) = data_path {
                     a.data = p.clone();
                 }
@@ -405,25 +399,21 @@ impl PyCalibration {
     }
 }
 
-/// Calibrates as `twincal calibrate` (argv: its options but --data) on `data`.
+/// Calibrates as `twincal calibrate` on `data`; `options`: a JSON object of its options but
+/// `--data` and the files it writes ([`CalibrateRequest`]).
 #[pyfunction]
-#[pyo3(signature = (data, argv, truth=None, progress=None))]
-fn calibrate(
-    py: Python<'_>,
-    data: &Bound<'_, PyAny>,
-    mut argv: Vec<String>,
-    truth: Option<String>,
-    progress: Option<Bound<'_, PyAny>>,
-) -> PyResult<PyCalibration> {
+#[pyo3(signature = (data, options, truth=None, progress=None))]
+fn calibrate(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str, truth: Option<String>, progress: Option<Bound<'_, PyAny>>) -> PyResult<PyCalibration> {
     let src = source(data)?;
-    argv.extend(["--data".to_string(), MEMORY.to_string()]);
-    let args: CalibrateArgs = parse("calibrate", argv)?;
-    let opts = commands::load_options(args.angles, &args.reading, true).map_err(err)?;
+    let req: CalibrateRequest = request("calibrate", options)?;
+    let planned = req.options().map_err(err)?;
+    let opts = req.load_options().map_err(err)?;
+    let args = CalibrateArgs { data: MEMORY.into(), request: req, out: "result.json".into(), urdf: None, figures: Default::default(), scenario_out: None };
     let c = released(py, progress.as_ref(), |t| {
         t.start(1, "calibrate");
         let l = load(src, &opts, truth.as_deref())?;
         let path = l.path.clone();
-        let c = commands::calibrate_loaded(args.options()?, l.data, l.truth.as_ref(), Some(l.sha256))?;
+        let c = commands::calibrate_loaded(planned, l.data, l.truth.as_ref(), Some(l.sha256))?;
         t.inc(1);
         Ok((c, path))
     })?;
@@ -470,7 +460,7 @@ impl PyDiagnosis {
         scenario_out: Option<PathBuf>,
     ) -> PyResult<()> {
         let mut a = (*self.args).clone();
-        (a.out, a.result, a.rrd, a.report, a.scenario_out) = (out, result, rrd, report, scenario_out);
+        (a.out, a.result, a.figures.rrd, a.figures.report, a.scenario_out) = (out, result, rrd, report, scenario_out);
         if let Some(p) = &self.data_path {
             a.data = p.clone();
         }
@@ -478,19 +468,27 @@ impl PyDiagnosis {
     }
 }
 
-/// Diagnoses as `twincal diagnose` (argv: its options but --data) on `data`; `progress` hears
-/// each step's line.
+/// Diagnoses as `twincal diagnose` on `data`; `options`: a JSON object of its options but
+/// `--data` and the files it writes ([`DiagnoseRequest`]); `progress` hears each step's line.
 #[pyfunction]
-#[pyo3(signature = (data, argv, progress=None))]
-fn diagnose(py: Python<'_>, data: &Bound<'_, PyAny>, mut argv: Vec<String>, progress: Option<Bound<'_, PyAny>>) -> PyResult<PyDiagnosis> {
+#[pyo3(signature = (data, options, progress=None))]
+fn diagnose(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str, progress: Option<Bound<'_, PyAny>>) -> PyResult<PyDiagnosis> {
     let src = source(data)?;
-    argv.extend(["--data".to_string(), MEMORY.to_string()]);
-    let args: DiagnoseArgs = parse("diagnose", argv)?;
-    let opts = commands::load_options(args.angles, &args.reading, true).map_err(err)?;
+    let req: DiagnoseRequest = request("diagnose", options)?;
+    let planned = req.options().map_err(err)?;
+    let opts = req.load_options().map_err(err)?;
+    let args = DiagnoseArgs {
+        data: MEMORY.into(),
+        request: req,
+        out: "report.json".into(),
+        result: "diagnosed.json".into(),
+        figures: Default::default(),
+        scenario_out: None,
+    };
     let (d, path) = released(py, progress.as_ref(), |t| {
         let l = load(src, &opts, None)?;
         let path = l.path.clone();
-        let d = commands::diagnose_loaded(&args, args.options()?, l.data, &|line: &str| t.say(line))?;
+        let d = commands::diagnose_loaded(&args, planned, l.data, &|line: &str| t.say(line))?;
         Ok((d, path))
     })?;
     Ok(PyDiagnosis { d: Box::new(d), args: Box::new(args), data_path: path })

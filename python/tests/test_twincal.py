@@ -145,8 +145,15 @@ def test_bad_input_raises_the_command_lines_message(embedded):
         twincal.calibrate({k: v for k, v in data.items() if k != "L"})
     with pytest.raises(twincal.TwincalError, match="unknown method 'nope'"):
         twincal.calibrate(data, method="nope")
-    with pytest.raises(twincal.TwincalError, match="unexpected argument '--bogus'"):
+    with pytest.raises(twincal.TwincalError, match="unknown option 'bogus'"):
         twincal.calibrate(data, bogus=3)
+    # A value of the wrong type is named with its option, as is a NaN.
+    with pytest.raises(twincal.TwincalError, match="option 'test_fraction'.*invalid type"):
+        twincal.calibrate(data, test_fraction="a fifth")
+    with pytest.raises(twincal.TwincalError, match="option 'effort' must be a finite number"):
+        twincal.calibrate(data, effort=float("nan"))
+    with pytest.raises(twincal.TwincalError, match="option 'folds'.*invalid type"):
+        twincal.diagnose(data, folds=2.5)
     with pytest.raises(twincal.TwincalError, match=r"--test-fraction must be in \[0, 1\)"):
         twincal.calibrate(data, test_fraction=1.5)
     with pytest.raises(twincal.TwincalError, match="does not belong to"):

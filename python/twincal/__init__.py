@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -65,6 +66,27 @@ def _argv(options: Mapping[str, Any]) -> list[str]:
             value = os.fspath(value)
         argv.append(f"{flag}={value}")
     return argv
+
+
+def _plain(name: str, value: Any) -> Any:
+    """An option's value as JSON holds it: paths as strings, numpy scalars as Python numbers,
+    tuples as lists; a NaN or infinity is refused with the option's name."""
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        raise TwincalError(f"option '{name}' must be a finite number, got {value}")
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(name, v) for v in value]
+    return value
+
+
+def _options(options: Mapping[str, Any]) -> str:
+    """Keyword options as the JSON object the library's requests read (``twincal::requests``:
+    the command line's options by their snake-case names; None leaves an option at its
+    default). The library names an unknown option or a value of the wrong type."""
+    return json.dumps({k: _plain(k, v) for k, v in options.items() if v is not None})
 
 
 _SEED_MAX = 2**64 - 1
@@ -162,7 +184,7 @@ def generate(scenario: Optional[Union[str, os.PathLike]] = None, seed: Optional[
 def read(data: Data, *, as_frame: bool = False, **options: Any) -> Any:
     """A dataset read and checked as ``twincal calibrate --data`` reads it (options: ``angles``,
     ``measurement``, ``euler``); its columns, angles in degrees."""
-    return _frame(_mapping(_native.read(_columns(data), _argv(options))), as_frame)
+    return _frame(_mapping(_native.read(_columns(data), _options(options))), as_frame)
 
 
 def to_csv(data: Data, angles: str = "auto") -> str:
@@ -283,7 +305,7 @@ def calibrate(
     _no_outputs("calibrate", options, "Result.save()")
     opts = {"method": method, "model": model, "effects": _names(effects, "effects"), **options}
     truth_text = json.dumps(truth) if isinstance(truth, dict) else truth
-    return Result(_native.calibrate(_columns(data), _argv(opts), truth_text, progress))
+    return Result(_native.calibrate(_columns(data), _options(opts), truth_text, progress))
 
 
 def load_result(path: Union[str, os.PathLike]) -> Result:
@@ -324,7 +346,7 @@ def diagnose(data: Data, *, progress: Progress = None, **options: Any) -> Diagno
     ``candidates``, ``folds``, ``alpha``, ``seed``, ``test_fraction``, ...). ``progress`` hears
     each step as ``(line, 0, 0)``."""
     _no_outputs("diagnose", options, "Diagnosis.save()")
-    return Diagnosis(_native.diagnose(_columns(data), _argv(options), progress))
+    return Diagnosis(_native.diagnose(_columns(data), _options(options), progress))
 
 
 def _read_csv(path: Path) -> dict[str, np.ndarray]:

@@ -35,15 +35,17 @@ pub const MAX_TEMP_C: f64 = 1000.0;
 /// times (e.g. Unix seconds) are beyond it: subtract the first time.
 pub const MAX_T_S: f64 = 1e8;
 
-/// Unit of the joint angle columns in a file.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Unit of the joint angle columns in a file (`--angles`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum AngleUnit {
-    /// Degrees, with the radians heuristic of the module docs as a guard.
+    /// Degrees, unless the values look like radians (then an error says so).
     #[default]
     Auto,
-    /// Degrees, no heuristic.
+    /// Degrees.
     Deg,
-    /// Radians, converted to degrees on load.
+    /// Radians (converted to degrees on load).
     Rad,
 }
 

@@ -38,11 +38,10 @@ pub fn bench_command(
             let run_compare = |dir: &Path| -> Result<()> {
                 let args = CompareArgs {
                     data: dir.to_path_buf(),
-                    angles: AngleArg::Deg,
-                    reading: ReadingArgs::default(),
+                    reading: Reading { angles: AngleUnit::Deg, ..Reading::default() },
                     methods: ["lm", "ekf", "pf", "pso", "rbf"].map(String::from).to_vec(),
                     seeds: 30,
-                    model: ModelArgs { model: "irb120".into(), params: None },
+                    model: ModelChoice { model: "irb120".into(), params: None },
                     test_fraction: None,
                     effort: 1.0,
                     out: None,

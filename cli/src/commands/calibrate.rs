@@ -1,83 +1,31 @@
 //! `twincal calibrate`: its arguments, the run and the summary it prints.
 
 use super::*;
+use twincal::requests::CalibrateRequest;
 
-/// Arguments of `twincal calibrate` (the field docs are its `--help`).
+/// Arguments of `twincal calibrate` (the field docs are its `--help`): the data, the request
+/// (the library's [`CalibrateRequest`], which Python fills from keyword arguments) and the files
+/// it writes.
 #[derive(Clone, Debug, clap::Args)]
 pub struct CalibrateArgs {
     /// Dataset folder (DIR/dataset.csv, with truth.json when the twin made it), CSV, or xlsx (file.xlsx#Sheet).
     #[arg(long)]
     pub data: PathBuf,
-    /// Unit of the joint angles in the data (auto: degrees unless they look like radians).
-    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
-    pub angles: AngleArg,
     #[command(flatten)]
-    pub reading: ReadingArgs,
-    /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH; ablations dsade-gkan-v1, -v2, -v3), pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5; pso-ekf-awnn-x: network also on temperature and backlash flanks, network/LM alternations).
-    #[arg(long, default_value = "lm")]
-    pub method: String,
-    #[command(flatten)]
-    pub model: ModelArgs,
-    /// Hold out this fraction instead of the dataset's split column (0 trains on every row).
-    #[arg(long, allow_negative_numbers = true)]
-    pub test_fraction: Option<f64>,
-    /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks:
-    /// test rows share no error with training rows) or rows (stratified by the reading).
-    #[arg(long, default_value = "blocks")]
-    pub split_by: String,
-    /// The joint angles' logging error: auto (where training rows share sweeps and the angles
-    /// are logged at a step, estimated per sweep and joint, at most half a step, and taken out
-    /// of the readings before the fit) or off (rows taken as independent).
-    #[arg(long, default_value = "auto")]
-    pub noise_model: String,
-    /// Seed of the hold-out split and of the stochastic methods.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
-    pub seed: u64,
-    /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', allow_hyphen_values = true, value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")]
-    pub sensor_guess: Option<Vec<f64>>,
-    /// Relative singular-value threshold for identifiability (combinations the data see below
-    /// this fraction of the strongest are fixed).
-    #[arg(long, default_value_t = twincal::calib::run::DEFAULT_RANK_TOL, allow_negative_numbers = true)]
-    pub rank_tol: f64,
-    /// Budget of the stochastic methods and of the generic model's global search (1 = default).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-    pub effort: f64,
+    pub request: CalibrateRequest,
     /// The calibrated model and its report.
     #[arg(long, default_value = "result.json")]
     pub out: PathBuf,
     /// Also write the calibrated model as a URDF.
     #[arg(long)]
     pub urdf: Option<PathBuf>,
-    /// Rerun recording of the residual field before and after, convergence and parameters.
-    #[arg(long)]
-    pub rrd: Option<PathBuf>,
-    /// Self-contained HTML report (tables and plots, opens offline in any browser).
-    #[arg(long)]
-    pub report: Option<PathBuf>,
-    /// Accuracy limit for the verdict in --out: RMSE of the test rows after calibration, mm.
-    #[arg(long, allow_negative_numbers = true)]
-    pub max_test_rmse_mm: Option<f64>,
-    /// Accuracy limit for the verdict in --out: largest |residual| of the test rows, mm.
-    #[arg(long, allow_negative_numbers = true)]
-    pub max_test_max_mm: Option<f64>,
-    /// Non-geometric effects to fit with the geometry: compliance, backlash, thermal,
-    /// eccentricity, nonlinearity, each optionally on one joint (backlash:2).
-    #[arg(long, value_delimiter = ',')]
-    pub effects: Vec<String>,
     #[command(flatten)]
-    pub loads: LoadArgs,
-    #[command(flatten)]
-    pub robust: RobustArgs,
+    pub figures: Figures,
     /// Also write the identified twin: a scenario (and, beside it, the calibrated URDF it names)
     /// whose geometry, instrument placement, effect sizes, noise and logging resolutions are the
     /// identified ones, so that `generate` and `replay` simulate this robot.
     #[arg(long)]
     pub scenario_out: Option<PathBuf>,
-    /// Fit the instrument's placement only, the arm held at its nominal model: with
-    /// --scenario-out, the nominal twin of a set-up whose instrument was not surveyed.
-    #[arg(long)]
-    pub placement_only: bool,
 }
 
 /// What `calibrate` computed, before anything is written: the result, its verdict, and what
@@ -90,58 +38,9 @@ pub struct Calibration {
 }
 
 impl CalibrateArgs {
-    /// Every option checked and resolved into the calibration's options and the verdict's
-    /// limits (reads no data; reads --robot's URDF).
+    /// Every option checked and resolved (reads no data; reads --robot's URDF).
     pub fn options(&self) -> Result<(twincal::calib::run::CalibOptions, [Limit; 2])> {
-        use twincal::calib::model::SensorGuess;
-        use twincal::calib::run::{CalibOptions, Method};
-        let a = self;
-        let method = Method::parse(&a.method)?;
-        if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
-            return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
-        }
-        if !(MIN_EFFORT..=MAX_EFFORT).contains(&a.effort) {
-            return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {}", a.effort)));
-        }
-        if let Some(f) = a.test_fraction {
-            if !(0.0..1.0).contains(&f) {
-                return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
-            }
-        }
-        let sensor_guess = match &a.sensor_guess {
-            None => None,
-            Some(g) => {
-                if g.len() != 7 {
-                    return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
-                }
-                if g.iter().any(|v| !v.is_finite()) {
-                    return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
-                }
-                Some(SensorGuess { exit_m: [g[0] * 1e-3, g[1] * 1e-3, g[2] * 1e-3], offset_m: g[3] * 1e-3, tool_m: [g[4] * 1e-3, g[5] * 1e-3, g[6] * 1e-3] })
-            }
-        };
-        let limits = [Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm }, Limit { flag: "--max-test-max-mm", value: a.max_test_max_mm }];
-        for l in &limits {
-            l.validate()?;
-        }
-        let mut opts = CalibOptions::new(a.model.spec()?, method);
-        opts.test_fraction = a.test_fraction;
-        opts.split_by = a.split_by.parse()?;
-        opts.noise_model = a.noise_model.parse()?;
-        opts.seed = a.seed;
-        opts.rank_tol = a.rank_tol;
-        opts.effort = a.effort;
-        opts.sensor_guess = sensor_guess;
-        opts.effects = parse_effects("--effects", &a.effects)?;
-        let (loads, inertial) = a.loads.resolve()?;
-        opts.loads = loads;
-        opts.inertial = inertial;
-        (opts.outlier_k, opts.loss, opts.angle_step_deg) = a.robust.resolve()?;
-        opts.instrument_accuracy_mm = super::instrument_accuracy(a.robust.instrument_accuracy_mm)?;
-        opts.row_std = !a.robust.ignore_row_std;
-        opts.reading_steps = !a.robust.no_reading_steps;
-        opts.placement_only = a.placement_only;
-        Ok((opts, limits))
+        self.request.options()
     }
 
     /// The files this calibration reads and writes, by option, checked against each other
@@ -149,14 +48,14 @@ impl CalibrateArgs {
     pub fn check_files(&self, data: bool) -> Result<()> {
         let a = self;
         let data_files = if data { data_inputs(&a.data) } else { Vec::new() };
-        let model_file = a.model.input();
+        let model_file = a.request.model.input();
         let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
         if let Some(m) = &model_file {
             inputs.push(("--model", m));
         }
         let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out)];
         outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
-        check_model_outputs(&inputs, outs, a.rrd.as_deref(), a.report.as_deref(), a.scenario_out.as_deref())
+        check_model_outputs(&inputs, outs, a.figures.rrd.as_deref(), a.figures.report.as_deref(), a.scenario_out.as_deref())
     }
 }
 
@@ -165,7 +64,7 @@ impl CalibrateArgs {
 pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
     let planned = a.options()?;
     a.check_files(true)?;
-    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    let data = load_dataset(&a.data, &a.request.reading, true)?;
     let truth = twincal::calib::run::TruthFile::find(&a.data)?;
     // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
     let file = &data_inputs(&a.data)[0];
@@ -198,11 +97,11 @@ pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool) -> Res
     use twincal::calib::run::ModelSpec;
     let (result, data, opts) = (&c.result, &c.data, &c.opts);
     let mut outputs = OutputSet::new();
-    let figures = if a.rrd.is_some() || a.report.is_some() { Some(twincal::report::CalibFigures::new(result, data, opts)?) } else { None };
-    if let (Some(p), Some(f)) = (&a.rrd, &figures) {
+    let figures = if a.figures.rrd.is_some() || a.figures.report.is_some() { Some(twincal::report::CalibFigures::new(result, data, opts)?) } else { None };
+    if let (Some(p), Some(f)) = (&a.figures.rrd, &figures) {
         crate::viz::results::record_calibration(result, f, &mut outputs, p)?;
     }
-    if let (Some(p), Some(f)) = (&a.report, &figures) {
+    if let (Some(p), Some(f)) = (&a.figures.report, &figures) {
         outputs.write(p, twincal::report::html::calibration_page(result, f, c.verdict.as_ref()).as_bytes())?;
     }
     if let Some(p) = &a.urdf {
@@ -213,7 +112,7 @@ pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool) -> Res
         outputs.write(p, twincal::calib::run::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
     }
     if let Some(p) = &a.scenario_out {
-        let how = if a.placement_only { "calibrate --placement-only" } else { "calibrate" };
+        let how = if a.request.placement_only { "calibrate --placement-only" } else { "calibrate" };
         stage_identified_twin(&mut outputs, p, result, data, opts.model.robot(), how)?;
     }
     outputs.write_json(&a.out, &with_verdict(result, c.verdict.as_ref())?)?;

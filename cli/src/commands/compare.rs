@@ -80,18 +80,15 @@ impl crate::shard::Config for CompareConfig {
 pub struct CompareArgs {
     #[arg(long)]
     pub data: PathBuf,
-    /// Unit of the joint angles in the data.
-    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
-    pub angles: AngleArg,
     #[command(flatten)]
-    pub reading: ReadingArgs,
+    pub reading: Reading,
     #[arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf")]
     pub methods: Vec<String>,
     /// Number of seeds (1 to 1000).
     #[arg(long, default_value_t = 30, allow_negative_numbers = true)]
     pub seeds: u64,
     #[command(flatten)]
-    pub model: ModelArgs,
+    pub model: ModelChoice,
     /// Test fraction of each seed's re-split, in (0, 1) (default: the dataset's split size, else 0.2).
     #[arg(long, allow_negative_numbers = true)]
     pub test_fraction: Option<f64>,
@@ -135,7 +132,7 @@ pub fn compare(a: &CompareArgs, quiet: bool) -> Result<()> {
         check_outputs(&inputs, &outs)?;
     }
     let spec = a.model.spec()?;
-    let ds = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    let ds = load_dataset(&a.data, &a.reading, true)?;
     let n = ds.rows.len();
     let frac = test_fraction.unwrap_or_else(|| {
         let t = ds.test_indices().len();
@@ -311,7 +308,7 @@ fn compare_config(a: &CompareArgs, ds: &Dataset, file: &Path, methods: &[twincal
         },
         reading: format!(
             "angles {}, measurement {}, euler {}",
-            clap::ValueEnum::to_possible_value(&a.angles).map(|v| v.get_name().to_string()).unwrap_or_default(),
+            clap::ValueEnum::to_possible_value(&a.reading.angles).map(|v| v.get_name().to_string()).unwrap_or_default(),
             ds.measurement().map_or("none", |m| m.name()),
             a.reading.euler
         ),

@@ -1,75 +1,27 @@
 //! `twincal diagnose`: its arguments, the run and the summary it prints.
 
 use super::*;
+use twincal::requests::DiagnoseRequest;
 
-/// Arguments of `twincal diagnose` (the field docs are its `--help`).
+/// Arguments of `twincal diagnose` (the field docs are its `--help`): the data, the request
+/// (the library's [`DiagnoseRequest`], which Python fills from keyword arguments) and the files
+/// it writes.
 #[derive(Clone, Debug, clap::Args)]
 pub struct DiagnoseArgs {
     /// Dataset folder, CSV or xlsx (q1..qN and L, or a tracker's x, y, z; optional t, temp). No
     /// truth file is read.
     #[arg(long)]
     pub data: PathBuf,
-    /// Unit of the joint angles in the data.
-    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
-    pub angles: AngleArg,
     #[command(flatten)]
-    pub reading: ReadingArgs,
-    #[command(flatten)]
-    pub model: ModelArgs,
-    #[command(flatten)]
-    pub loads: LoadArgs,
-    /// Candidate effects (default: every kind the data support).
-    #[arg(long, value_delimiter = ',')]
-    pub candidates: Vec<String>,
-    /// Cross-validation folds (contiguous blocks of acquisition order).
-    #[arg(long, allow_negative_numbers = true, default_value_t = twincal::diagnose::DEFAULT_FOLDS)]
-    pub folds: usize,
-    /// Family-wise significance level of each selection step.
-    #[arg(long, default_value_t = twincal::diagnose::DEFAULT_ALPHA, allow_negative_numbers = true)]
-    pub alpha: f64,
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
-    pub seed: u64,
+    pub request: DiagnoseRequest,
     /// The diagnosis report.
     #[arg(long, default_value = "report.json")]
     pub out: PathBuf,
     /// The extended model, saved like any calibration result.
     #[arg(long, default_value = "diagnosed.json")]
     pub result: PathBuf,
-    /// Rerun recording of the evidence.
-    #[arg(long)]
-    pub rrd: Option<PathBuf>,
-    /// Self-contained HTML report (tables and plots, opens offline in any browser).
-    #[arg(long)]
-    pub report: Option<PathBuf>,
-    /// Accuracy limit for the verdict in --out: the final cross-validated held-out RMSE, mm.
-    #[arg(long, allow_negative_numbers = true)]
-    pub max_test_rmse_mm: Option<f64>,
-    /// Logging step of the joint angles in degrees, for the noise floor (default: read from the
-    /// data's decimals).
-    #[arg(long, allow_negative_numbers = true)]
-    pub angle_resolution_deg: Option<f64>,
-    /// The instrument's stated accuracy, mm (standard uncertainty of one coordinate or of the
-    /// cable length), for the noise floor.
-    #[arg(long, allow_negative_numbers = true)]
-    pub instrument_accuracy_mm: Option<f64>,
-    /// Fit with equal weights even where the data give per-row standard deviations (a
-    /// tracker's sx, sy, sz; by default they weight the fits as 1/(floor² + s²)).
-    #[arg(long)]
-    pub ignore_row_std: bool,
-    /// The joint angles' logging error: auto (where rows share sweeps and the angles are
-    /// logged at a step, every fit is generalised least squares with the covariance it implies)
-    /// or off (rows taken as independent).
-    #[arg(long, default_value = "auto")]
-    pub noise_model: String,
-    /// Diagnose on the other rows only: hold out this fraction of the rows (the split
-    /// `calibrate --test-fraction` draws with the same --seed), never seen, so that `replay`
-    /// can measure the identified twin on them.
-    #[arg(long, allow_negative_numbers = true)]
-    pub test_fraction: Option<f64>,
-    /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks) or
-    /// rows (stratified by the reading).
-    #[arg(long, default_value = "blocks")]
-    pub split_by: String,
+    #[command(flatten)]
+    pub figures: Figures,
     /// Also write the identified twin (scenario and URDF, see `calibrate --scenario-out`),
     /// with the named causes at their sizes.
     #[arg(long)]
@@ -89,37 +41,7 @@ pub struct Diagnosed {
 impl DiagnoseArgs {
     /// Every option checked and resolved (reads no data; reads --robot's URDF).
     pub fn options(&self) -> Result<(twincal::diagnose::DiagnoseOptions, Limit)> {
-        let a = self;
-        if let Some(f) = a.test_fraction {
-            if !(f > 0.0 && f < 1.0) {
-                return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
-            }
-        }
-        let limit = Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm };
-        limit.validate()?;
-        if !(a.alpha > 0.0 && a.alpha < 0.5) {
-            return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
-        }
-        let mut opts = twincal::diagnose::DiagnoseOptions::new(a.model.spec()?);
-        let (loads, inertial) = a.loads.resolve()?;
-        opts.loads = loads;
-        opts.inertial = inertial;
-        opts.folds = a.folds;
-        opts.alpha = a.alpha;
-        opts.seed = a.seed;
-        opts.row_std = !a.ignore_row_std;
-        opts.noise_model = a.noise_model.parse()?;
-        opts.instrument_accuracy_mm = super::instrument_accuracy(a.instrument_accuracy_mm)?;
-        // Checked here, with the other options, before any data are read.
-        a.split_by.parse::<twincal::calib::run::SplitBy>()?;
-        opts.candidates = parse_effects("--candidates", &a.candidates)?;
-        if let Some(r) = a.angle_resolution_deg {
-            if !(r.is_finite() && r > 0.0 && r <= 10.0) {
-                return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
-            }
-            opts.angle_step_deg = Some(r);
-        }
-        Ok((opts, limit))
+        self.request.options()
     }
 
     /// The files this diagnosis reads and writes, checked against each other. `data`: whether
@@ -128,15 +50,15 @@ impl DiagnoseArgs {
         let a = self;
         let data_files = if data { data_inputs(&a.data) } else { Vec::new() };
         let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
-        let model_file = a.model.input();
+        let model_file = a.request.model.input();
         if let Some(m) = &model_file {
             inputs.push(("--model", m));
         }
-        if let Some(r) = &a.loads.robot {
+        if let Some(r) = &a.request.loads.robot {
             inputs.push(("--robot", r));
         }
         let outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
-        check_model_outputs(&inputs, outs, a.rrd.as_deref(), a.report.as_deref(), a.scenario_out.as_deref())
+        check_model_outputs(&inputs, outs, a.figures.rrd.as_deref(), a.figures.report.as_deref(), a.scenario_out.as_deref())
     }
 }
 
@@ -145,7 +67,7 @@ impl DiagnoseArgs {
 pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
     a.check_files(true)?;
     let planned = a.options()?;
-    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    let data = load_dataset(&a.data, &a.request.reading, true)?;
     let say = |line: &str| {
         if !quiet {
             eprintln!("  {line}");
@@ -163,9 +85,9 @@ pub fn diagnose_loaded(
     mut data: Dataset,
     say: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosed> {
-    if let Some(f) = a.test_fraction {
+    if let Some(f) = a.request.test_fraction {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
-        let (train, _) = twincal::calib::run::split_rows(&data, Some(f), a.seed, a.split_by.parse()?)?;
+        let (train, _) = twincal::calib::run::split_rows(&data, Some(f), a.request.seed, a.request.split_by.parse()?)?;
         let rows = train.iter().map(|&i| twincal::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
         data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
     }
@@ -180,11 +102,11 @@ pub fn diagnose_loaded(
 pub fn write_diagnosis(a: &DiagnoseArgs, d: &Diagnosed, quiet: bool) -> Result<()> {
     let (report, result, data) = (&d.report, &d.result, &d.data);
     let mut outputs = OutputSet::new();
-    let figures = (a.rrd.is_some() || a.report.is_some()).then(|| twincal::report::DiagnosisFigures::new(report, result, data));
-    if let (Some(p), Some(f)) = (&a.rrd, &figures) {
+    let figures = (a.figures.rrd.is_some() || a.figures.report.is_some()).then(|| twincal::report::DiagnosisFigures::new(report, result, data));
+    if let (Some(p), Some(f)) = (&a.figures.rrd, &figures) {
         crate::viz::results::record_diagnosis(report, f, &mut outputs, p)?;
     }
-    if let (Some(p), Some(f)) = (&a.report, &figures) {
+    if let (Some(p), Some(f)) = (&a.figures.report, &figures) {
         outputs.write(p, twincal::report::html::diagnosis_page(report, f, d.verdict.as_ref()).as_bytes())?;
     }
     if let Some(p) = &a.scenario_out {
@@ -216,31 +138,31 @@ fn calibrate_line(a: &DiagnoseArgs, effects: &str) -> String {
         }
     };
     let mut line = format!("twincal calibrate --data {}", quote(&a.data));
-    if a.model.model != "irb120" {
-        line += &format!(" --model {}", quote(Path::new(&a.model.model)));
+    if a.request.model.model != "irb120" {
+        line += &format!(" --model {}", quote(Path::new(&a.request.model.model)));
     }
-    if let Some(p) = &a.model.params {
+    if let Some(p) = &a.request.model.params {
         line += &format!(" --params {p}");
     }
-    if a.angles != AngleArg::Auto {
-        line += &format!(" --angles {}", clap::ValueEnum::to_possible_value(&a.angles).map(|v| v.get_name().to_string()).unwrap_or_default());
+    if a.request.reading.angles != AngleUnit::Auto {
+        line += &format!(" --angles {}", clap::ValueEnum::to_possible_value(&a.request.reading.angles).map(|v| v.get_name().to_string()).unwrap_or_default());
     }
-    if let Some(r) = &a.loads.robot {
+    if let Some(r) = &a.request.loads.robot {
         line += &format!(" --robot {}", quote(r));
     }
-    if let Some(m) = a.loads.payload_kg {
+    if let Some(m) = a.request.loads.payload_kg {
         line += &format!(" --payload-kg {m}");
     }
-    if let Some(c) = &a.loads.payload_com_mm {
+    if let Some(c) = &a.request.loads.payload_com_mm {
         line += &format!(" --payload-com-mm {}", c.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","));
     }
-    if a.loads.cable_tension_n != 0.0 {
-        line += &format!(" --cable-tension-n {}", a.loads.cable_tension_n);
+    if a.request.loads.cable_tension_n != 0.0 {
+        line += &format!(" --cable-tension-n {}", a.request.loads.cable_tension_n);
     }
     if !effects.is_empty() {
         line += &format!(" --effects {effects}");
     }
-    if let Some(r) = a.angle_resolution_deg {
+    if let Some(r) = a.request.floor.angle_resolution_deg {
         line += &format!(" --angle-resolution-deg {r}");
     }
     line

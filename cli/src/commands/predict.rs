@@ -80,13 +80,13 @@ pub fn predicted_readings(result: &twincal::calib::run::CalibResult, ds: &Datase
 
 /// `twincal predict`: the calibrated model's length for every row of a dataset (which needs no
 /// measured lengths), with the residual where a length was measured.
-pub fn predict(model: &Path, data: &Path, angles: AngleArg, reading: &ReadingArgs, out: &Path, quiet: bool) -> Result<()> {
+pub fn predict(model: &Path, data: &Path, reading: &Reading, out: &Path, quiet: bool) -> Result<()> {
     let data_files = data_inputs(data);
     let mut inputs: Vec<(&str, &Path)> = vec![("--model", model)];
     inputs.extend(data_files.iter().map(|p| ("--data", p.as_path())));
     check_outputs(&inputs, &[("--out", out)])?;
     let result = load_model(model)?;
-    let ds = load_dataset(data, angles, reading, false)?;
+    let ds = load_dataset(data, reading, false)?;
     let euler = reading.resolve()?.1;
     let (file_predicted, warning) = predicted_readings(&result, &ds, euler, &format!("the model {}", model.display()))?;
     if let Some(w) = warning {

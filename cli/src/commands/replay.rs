@@ -15,11 +15,8 @@ pub struct ReplayArgs {
     /// acquisition order; a `t` column stamps the twin's rows with the measured times.
     #[arg(long)]
     pub data: PathBuf,
-    /// Unit of the joint angles in the data.
-    #[arg(long, value_enum, default_value_t = AngleArg::Auto)]
-    pub angles: AngleArg,
     #[command(flatten)]
-    pub reading: ReadingArgs,
+    pub reading: Reading,
     /// The twin: a scenario (the nominal robot's, or one `calibrate`/`diagnose --scenario-out`
     /// identified). Its instrument must be the data's.
     #[arg(long)]
@@ -156,7 +153,7 @@ pub fn replay(a: &ReplayArgs, quiet: bool) -> Result<()> {
     let split_by: twincal::calib::run::SplitBy = a.split_by.parse()?;
     let (mut s, robot) = Scenario::load(&a.scenario)?;
     let (csv_path, json_path, twin_dir) = replay_outputs(a, &s)?;
-    let data = load_dataset(&a.data, a.angles, &a.reading, true)?;
+    let data = load_dataset(&a.data, &a.reading, true)?;
     let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings to replay against"))?;
     let twin_m = s.tracker.as_ref().map_or(Measurement::Length, twincal::sim::instrument::Tracker::measurement);
     same_instrument(m, twin_m)?;

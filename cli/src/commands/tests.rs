@@ -20,14 +20,6 @@ fn prediction_csv_has_residuals_only_when_every_row_has_a_length() {
 }
 
 #[test]
-fn generic6r_takes_no_parametrisation() {
-    let e = model_spec("generic6r", Some("dh")).unwrap_err().to_string();
-    assert!(e.contains("--params dh"), "{e}");
-    assert!(model_spec("generic6r", None).is_ok());
-    assert!(model_spec("irb120", Some("frame")).is_ok());
-}
-
-#[test]
 fn data_inputs_name_the_files_read() {
     let dir = tempfile::tempdir().unwrap();
     assert_eq!(data_inputs(dir.path()), vec![dir.path().join("dataset.csv"), dir.path().join("truth.json")]);

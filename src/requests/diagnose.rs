@@ -1,0 +1,111 @@
+//! A diagnosis as a user asks for it: `twincal diagnose`'s options but `--data` and the files it
+//! writes, Python's `twincal.diagnose` keyword arguments.
+
+use super::groups::{parse_effects, Floor, Loads, ModelChoice, Reading};
+use crate::dataset::LoadOptions;
+use crate::diagnose::{DiagnoseOptions, DEFAULT_ALPHA, DEFAULT_FOLDS};
+use crate::error::{Error, Result};
+use crate::report::verdict::Limit;
+use serde::{Deserialize, Serialize};
+
+/// The options of a diagnosis (the field docs are `twincal diagnose --help`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+#[serde(default)]
+pub struct DiagnoseRequest {
+    #[cfg_attr(feature = "clap", command(flatten))]
+    #[serde(flatten)]
+    pub reading: Reading,
+    #[cfg_attr(feature = "clap", command(flatten))]
+    #[serde(flatten)]
+    pub model: ModelChoice,
+    #[cfg_attr(feature = "clap", command(flatten))]
+    #[serde(flatten)]
+    pub loads: Loads,
+    /// Candidate effects (default: every kind the data support).
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
+    pub candidates: Vec<String>,
+    /// Cross-validation folds (contiguous blocks of acquisition order).
+    #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, default_value_t = DEFAULT_FOLDS))]
+    pub folds: usize,
+    /// Family-wise significance level of each selection step.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true))]
+    pub alpha: f64,
+    /// Seed of the hold-out split (--test-fraction) and of the diagnosis' random draws.
+    #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, default_value_t = 0))]
+    pub seed: u64,
+    /// Accuracy limit for the verdict in --out: the final cross-validated held-out RMSE, mm.
+    #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
+    pub max_test_rmse_mm: Option<f64>,
+    #[cfg_attr(feature = "clap", command(flatten))]
+    #[serde(flatten)]
+    pub floor: Floor,
+    /// The joint angles' logging error: auto (where rows share sweeps and the angles are
+    /// logged at a step, every fit is generalised least squares with the covariance it implies)
+    /// or off (rows taken as independent).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "auto"))]
+    pub noise_model: String,
+    /// Diagnose on the other rows only: hold out this fraction of the rows (the split
+    /// `calibrate --test-fraction` draws with the same --seed), never seen, so that `replay`
+    /// can measure the identified twin on them.
+    #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
+    pub test_fraction: Option<f64>,
+    /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks) or
+    /// rows (stratified by the reading).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "blocks"))]
+    pub split_by: String,
+}
+
+impl Default for DiagnoseRequest {
+    fn default() -> Self {
+        DiagnoseRequest {
+            reading: Reading::default(),
+            model: ModelChoice::default(),
+            loads: Loads::default(),
+            candidates: Vec::new(),
+            folds: DEFAULT_FOLDS,
+            alpha: DEFAULT_ALPHA,
+            seed: 0,
+            max_test_rmse_mm: None,
+            floor: Floor::default(),
+            noise_model: "auto".into(),
+            test_fraction: None,
+            split_by: "blocks".into(),
+        }
+    }
+}
+
+impl DiagnoseRequest {
+    /// Every option checked and resolved into the diagnosis' options and the verdict's limit
+    /// (reads no data; reads --robot's URDF).
+    pub fn options(&self) -> Result<(DiagnoseOptions, Limit)> {
+        let a = self;
+        if let Some(f) = a.test_fraction {
+            if !(f > 0.0 && f < 1.0) {
+                return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
+            }
+        }
+        let limit = Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm };
+        limit.validate()?;
+        if !(a.alpha > 0.0 && a.alpha < 0.5) {
+            return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
+        }
+        let mut opts = DiagnoseOptions::new(a.model.spec()?);
+        (opts.loads, opts.inertial) = a.loads.resolve()?;
+        opts.folds = a.folds;
+        opts.alpha = a.alpha;
+        opts.seed = a.seed;
+        opts.row_std = !a.floor.ignore_row_std;
+        opts.noise_model = a.noise_model.parse()?;
+        (opts.angle_step_deg, opts.instrument_accuracy_mm) = a.floor.resolve()?;
+        // Checked here, with the other options, before any data are read.
+        a.split_by.parse::<crate::calib::run::SplitBy>()?;
+        opts.candidates = parse_effects("--candidates", &a.candidates)?;
+        Ok((opts, limit))
+    }
+
+    /// How the data are read (`--angles`, `--measurement`, `--euler`).
+    pub fn load_options(&self) -> Result<LoadOptions> {
+        self.reading.load_options(true)
+    }
+}
