@@ -20,12 +20,14 @@ pub const MAX_EFFORT: f64 = 10.0;
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(default)]
 pub struct CalibrateRequest {
+    /// How the data are read.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub reading: Reading,
     /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH; ablations dsade-gkan-v1, -v2, -v3), pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5; pso-ekf-awnn-x: network also on temperature and backlash flanks, network/LM alternations).
     #[cfg_attr(feature = "clap", arg(long, default_value = "lm"))]
     pub method: String,
+    /// The model fitted.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub model: ModelChoice,
@@ -67,9 +69,11 @@ pub struct CalibrateRequest {
     /// eccentricity, nonlinearity, each optionally on one joint (backlash:2).
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
     pub effects: Vec<String>,
+    /// What loads the joints.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub loads: Loads,
+    /// The robust screen and the data's floor.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub robust: Robust,

@@ -13,12 +13,15 @@ use serde::{Deserialize, Serialize};
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(default)]
 pub struct DiagnoseRequest {
+    /// How the data are read.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub reading: Reading,
+    /// The model fitted.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub model: ModelChoice,
+    /// What loads the joints.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub loads: Loads,
@@ -37,6 +40,7 @@ pub struct DiagnoseRequest {
     /// Accuracy limit for the verdict in --out: the final cross-validated held-out RMSE, mm.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
     pub max_test_rmse_mm: Option<f64>,
+    /// The data's floor and the rows' weights.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub floor: Floor,

@@ -213,6 +213,7 @@ pub struct Robust {
     /// Least-squares loss of `--method lm`: l2, huber or cauchy (by IRLS, robust scale from the data).
     #[cfg_attr(feature = "clap", arg(long, default_value = "l2"))]
     pub loss: String,
+    /// The data's floor and the rows' weights.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub floor: Floor,
