@@ -15,6 +15,14 @@ pub const MIN_EFFORT: f64 = 0.01;
 /// See [`MIN_EFFORT`].
 pub const MAX_EFFORT: f64 = 10.0;
 
+/// `--effort`, checked: between [`MIN_EFFORT`] and [`MAX_EFFORT`] (`calibrate`, `compare`).
+pub fn check_effort(effort: f64) -> Result<()> {
+    if !(MIN_EFFORT..=MAX_EFFORT).contains(&effort) {
+        return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {effort}")));
+    }
+    Ok(())
+}
+
 /// The options of a calibration (the field docs are `twincal calibrate --help`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
@@ -115,9 +123,7 @@ impl CalibrateRequest {
         if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
             return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
         }
-        if !(MIN_EFFORT..=MAX_EFFORT).contains(&a.effort) {
-            return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {}", a.effort)));
-        }
+        check_effort(a.effort)?;
         if let Some(f) = a.test_fraction {
             if !(0.0..1.0).contains(&f) {
                 return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));

@@ -187,7 +187,7 @@ impl Floor {
 }
 
 /// `--instrument-accuracy-mm`, checked: a standard uncertainty in (0, 100] mm.
-pub fn instrument_accuracy(v: Option<f64>) -> Result<Option<f64>> {
+fn instrument_accuracy(v: Option<f64>) -> Result<Option<f64>> {
     match v {
         Some(a) if !(a.is_finite() && a > 0.0 && a <= 100.0) => {
             Err(Error::Invalid(format!("--instrument-accuracy-mm must be in (0, 100] mm (a standard uncertainty of one coordinate), got {a}")))
@@ -237,7 +237,7 @@ impl Robust {
 
 /// The `KIND[:JOINT]` items of an option (`--effects`, `--candidates`; `option` names it in
 /// errors): a kind, optionally with its joint, 1..N (checked against the data later).
-pub fn parse_effects(option: &str, list: &[String]) -> Result<Vec<(EffectKind, Option<usize>)>> {
+pub(super) fn parse_effects(option: &str, list: &[String]) -> Result<Vec<(EffectKind, Option<usize>)>> {
     // `--effects ,` (or an empty string) names nothing: an option given must name an effect.
     if !list.is_empty() && list.iter().all(|s| s.trim().is_empty()) {
         return Err(Error::Invalid(format!("{option} '{}' names no effect: give KIND[:JOINT] items separated by commas", list.join(","))));

@@ -20,7 +20,7 @@ mod diagnose;
 mod groups;
 mod json;
 
-pub use calibrate::{CalibrateRequest, MAX_EFFORT, MIN_EFFORT};
+pub use calibrate::{check_effort, CalibrateRequest, MAX_EFFORT, MIN_EFFORT};
 pub use diagnose::DiagnoseRequest;
-pub use groups::{instrument_accuracy, parse_effects, Floor, Loads, ModelChoice, Reading, Robust};
+pub use groups::{Floor, Loads, ModelChoice, Reading, Robust};
 pub use json::from_json;

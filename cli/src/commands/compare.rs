@@ -282,9 +282,7 @@ fn check_compare_args(a: &CompareArgs) -> Result<Vec<twincal::calib::run::Method
             return Err(Error::Invalid(format!("--test-fraction must be in (0, 1) for compare (every seed is scored on held-out rows), got {f}")));
         }
     }
-    if !(MIN_EFFORT..=MAX_EFFORT).contains(&effort) {
-        return Err(Error::Invalid(format!("--effort must be in [{MIN_EFFORT}, {MAX_EFFORT}], got {effort}")));
-    }
+    twincal::requests::check_effort(effort)?;
     Ok(methods)
 }
 

@@ -30,7 +30,7 @@ use twincal::dataset::Dataset;
 use twincal::error::{Error, Result};
 use twincal::io::{check_outputs, OutputSet};
 use twincal::report::verdict::{judge, with_verdict, Limit};
-pub use twincal::requests::{instrument_accuracy, parse_effects, Loads, ModelChoice, Reading, Robust, MAX_EFFORT, MIN_EFFORT};
+pub use twincal::requests::{ModelChoice, Reading};
 use twincal::sim::generate::{generate as run_generate, stage_outputs, Generated, Progress, Silent};
 use twincal::sim::scenario::Scenario;
 
