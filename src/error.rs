@@ -7,32 +7,75 @@ use std::path::PathBuf;
 pub enum Error {
     /// Reading an input failed.
     #[error("cannot read {path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        /// The input read.
+        path: PathBuf,
+        /// What the operating system reported.
+        source: std::io::Error,
+    },
     /// Writing (or renaming into place) an output failed.
     #[error("cannot write {path}: {source}")]
-    Write { path: PathBuf, source: std::io::Error },
+    Write {
+        /// The output written.
+        path: PathBuf,
+        /// What the operating system reported.
+        source: std::io::Error,
+    },
     /// Creating an output's folder failed.
     #[error("cannot create folder {path}: {source}")]
-    CreateDir { path: PathBuf, source: std::io::Error },
+    CreateDir {
+        /// The folder created.
+        path: PathBuf,
+        /// What the operating system reported.
+        source: std::io::Error,
+    },
+    /// A robot description (URDF) that cannot be read or used.
     #[error("URDF {path}: {msg}")]
-    Urdf { path: String, msg: String },
+    Urdf {
+        /// The URDF file (or what it was read from).
+        path: String,
+        /// What is wrong with it.
+        msg: String,
+    },
+    /// A scenario that cannot be read, is invalid, or cannot be run.
     #[error("scenario {path}: {msg}")]
-    Scenario { path: String, msg: String },
+    Scenario {
+        /// The scenario file (or the scenario's name).
+        path: String,
+        /// What is wrong with it.
+        msg: String,
+    },
+    /// Data (a dataset, a truth file) that cannot be read or used.
     #[error("data {path}: {msg}")]
-    Data { path: String, msg: String },
+    Data {
+        /// The data file or folder.
+        path: String,
+        /// What is wrong with it.
+        msg: String,
+    },
     /// A calibrated-model (result.json) file that cannot be used.
     #[error("model {path}: {msg}")]
-    Model { path: String, msg: String },
+    Model {
+        /// The result file.
+        path: String,
+        /// What is wrong with it.
+        msg: String,
+    },
+    /// The sensor gave no usable reading (every pose rejected).
     #[error("sensor: {0}")]
     Sensor(String),
+    /// The simulation failed (a pose that did not settle, a joint that diverged).
     #[error("simulation: {0}")]
     Simulation(String),
+    /// A calibration method failed (diverged, nothing to learn, a model that does not load back).
     #[error("calibration: {0}")]
     Calibration(String),
+    /// Anything else: an invalid option or combination of inputs; the message says which.
     #[error("{0}")]
     Invalid(String),
 }
 
+/// The crate's result type, with [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
@@ -48,9 +91,11 @@ impl Error {
     pub fn create_dir(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::CreateDir { path: path.into(), source }
     }
+    /// Unusable data at `path`, with what is wrong with them.
     pub fn data(path: impl std::fmt::Display, msg: impl Into<String>) -> Self {
         Error::Data { path: path.to_string(), msg: msg.into() }
     }
+    /// An unusable result file at `path`, with what is wrong with it.
     pub fn model(path: impl std::fmt::Display, msg: impl Into<String>) -> Self {
         Error::Model { path: path.to_string(), msg: msg.into() }
     }

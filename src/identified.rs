@@ -23,8 +23,11 @@ const MAX_TRACKER_NOISE_UM: f64 = 1000.0;
 
 /// What [`identified_scenario`] writes: the scenario's TOML text and the URDF it names.
 pub struct IdentifiedTwin {
+    /// The scenario itself.
     pub scenario: Scenario,
+    /// The scenario as TOML text, with its header comment.
     pub toml: String,
+    /// The URDF text of the identified arm.
     pub urdf: String,
     /// The URDF's file name, beside the scenario.
     pub urdf_file: String,

@@ -82,6 +82,7 @@ pub struct OutputSet {
 }
 
 impl OutputSet {
+    /// An empty set.
     pub fn new() -> Self {
         Self::default()
     }

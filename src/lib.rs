@@ -11,6 +11,8 @@
 // comparisons are written `!(x > 0.0)` on purpose so that NaN fails them: these two lints fight
 // both idioms.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+// Every public item carries its rustdoc (CI builds with -Dwarnings).
+#![warn(missing_docs)]
 
 pub mod calib;
 pub mod dataset;

@@ -3,9 +3,13 @@
 /// Independent random streams derived from one recorded seed.
 #[derive(Clone, Copy)]
 pub enum Stream {
+    /// The scenario's true geometric deviations.
     Geometry = 1,
+    /// Pose sampling (the Halton start, the shuffled order).
     Sampling = 2,
+    /// The train / test split.
     Split = 3,
+    /// Noise of the draw-wire's readings, one item per pose.
     Noise = 4,
     /// Noise of the temperature sensor (`effects.thermal.temp_noise_k`), one item per pose.
     TempNoise = 5,

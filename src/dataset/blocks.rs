@@ -63,17 +63,25 @@ pub struct Blocks {
 /// What the blocks look like, for a report.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Structure {
+    /// Rows the blocks cover.
     pub rows: usize,
+    /// Number of blocks.
     pub blocks: usize,
     /// Blocks of more than one row, and the rows in them.
     pub multi_row_blocks: usize,
+    /// Rows in those blocks.
     pub rows_in_multi_row_blocks: usize,
+    /// Median rows per block.
     pub median_block_rows: f64,
+    /// Rows in the largest block.
     pub largest_block_rows: usize,
     /// Boundaries by their reason.
     pub sweep_boundaries: usize,
+    /// Boundaries at a pause in `t`.
     pub time_gaps: usize,
+    /// Boundaries where the `block` column changes.
     pub declared_boundaries: usize,
+    /// Boundaries where a reading step begins or ends.
     pub reading_step_boundaries: usize,
     /// The logging step of the joint angles the sweeps were found with (degrees), if any.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -88,10 +96,12 @@ impl Blocks {
         Blocks { of_row: (0..n).collect(), starts: (0..n).map(|i| (i, if i == 0 { Boundary::Start } else { Boundary::Sweep })).collect() }
     }
 
+    /// Number of blocks.
     pub fn len(&self) -> usize {
         self.starts.len()
     }
 
+    /// Whether there are no blocks (no rows).
     pub fn is_empty(&self) -> bool {
         self.starts.is_empty()
     }

@@ -15,7 +15,7 @@ impl Dataset {
     }
 
     /// Load from a dataset folder (reads `DIR/dataset.csv`), a `.csv` file, or an `.xlsx` file (first
-    /// sheet, or sheet named by `path.xlsx#SheetName`). See the [module docs](self) for the accepted
+    /// sheet, or sheet named by `path.xlsx#SheetName`). See the [dataset module](crate::dataset) for the accepted
     /// columns and the validation performed.
     pub fn load(path: &Path) -> Result<Dataset> {
         Self::load_with(path, &LoadOptions::default())

@@ -1,7 +1,7 @@
 //! Calibration datasets: one row per static robot configuration, its joint angles `q1..qN`
 //! (degrees, controller convention; N is whatever the arm has) and the instrument's reading in
 //! millimetres (the draw-wire cable length `L`, or a laser tracker's target position `x, y, z`:
-//! the columns of a [`Measurement`]), with optional time, temperature and train/test split.
+//! the columns of a [`Measurement`](crate::measurement::Measurement)), with optional time, temperature and train/test split.
 //!
 //! # File formats
 //!
@@ -36,7 +36,7 @@
 //!
 //! # Validation
 //!
-//! Every problem is reported as [`Error::Data`] naming the file, the line (spreadsheet line number:
+//! Every problem is reported as [`Error::Data`](crate::Error::Data) naming the file, the line (spreadsheet line number:
 //! the header is line 1, so the first data row is usually line 2) and the column:
 //! missing or duplicated columns, empty/non-numeric/NaN/infinite cells, malformed CSV rows, unknown
 //! split values, a split column filled on some rows only, and values outside these plausibility

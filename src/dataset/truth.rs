@@ -20,35 +20,49 @@ pub struct TruthFile {
     /// The dataset this truth belongs to (absent in files written before twincal recorded it).
     #[serde(default)]
     pub dataset: Option<DatasetLink>,
+    /// The draw-wire sensor's true placement.
     pub sensor: TruthSensor,
     /// The tracker that wrote `x, y, z` (a tracker dataset), as its scenario gave it.
     #[serde(default)]
     pub tracker: Option<TruthTracker>,
+    /// The true tool point (cable attachment or reflector) on the flange.
     pub tool: TruthTool,
+    /// Standard deviation of one written reading value, mm.
     pub noise_std_mm: f64,
+    /// Ground truth of each dataset row, in file order.
     pub poses: Vec<TruthPose>,
 }
 /// A tracker's placement as the truth file states it (the rest of its scenario entry, its noise
 /// and decimals, is the twin's business).
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthTracker {
+    /// The base-to-tracker translation `t` of `y = R·p + t`, mm.
     pub translation_mm: [f64; 3],
+    /// The base-to-tracker rotation `R = Rx(a)·Ry(b)·Rz(c)`, degrees.
     #[serde(default)]
     pub rotation_deg: [f64; 3],
+    /// A 6-D probe's orientation on the flange (intrinsic X-Y-Z, degrees); absent for a reflector.
     #[serde(default)]
     pub probe_rotation_deg: Option<[f64; 3]>,
 }
+/// The draw-wire sensor as the truth file states it.
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthSensor {
+    /// Cable exit point in the base frame, mm.
     pub exit_point_mm: [f64; 3],
+    /// Added to the geometric distance, mm.
     pub length_offset_mm: f64,
 }
+/// The tool point as the truth file states it.
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthTool {
+    /// Cable attachment point (or reflector) in the flange frame, mm.
     pub point_mm: [f64; 3],
 }
+/// One row's truth, as far as calibration needs it.
 #[derive(Clone, Debug, Deserialize)]
 pub struct TruthPose {
+    /// True cable length: distance plus length offset, mm (no linearity error, no noise).
     pub length_true_mm: f64,
     /// The commanded joint angles, degrees, before the controller logged them (rounded): the
     /// angles the true arm stood at.
@@ -93,12 +107,16 @@ impl TruthFile {
 /// (lower-case hex) and its number of data rows.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct DatasetLink {
+    /// The dataset's file name (`dataset.csv`).
     pub file: String,
+    /// SHA-256 of the file's exact bytes, lower-case hex.
     pub sha256: String,
+    /// Number of data rows.
     pub rows: usize,
 }
 
 impl DatasetLink {
+    /// The link of a dataset file called `file` with contents `bytes` and `rows` data rows.
     pub fn of(file: &str, bytes: &[u8], rows: usize) -> DatasetLink {
         DatasetLink { file: file.to_string(), sha256: sha256_hex(bytes), rows }
     }

@@ -95,7 +95,9 @@ impl LoadOptions {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Split {
+    /// A training row.
     Train,
+    /// A held-out test row.
     Test,
 }
 
@@ -124,13 +126,14 @@ pub struct Row {
     pub t_s: Option<f64>,
     /// Temperature, °C.
     pub temp_c: Option<f64>,
+    /// The subset the file assigns the row to (`split` column); `None` without the column.
     pub split: Option<Split>,
     /// The instrument's own standard deviation of each position coordinate (`sx, sy, sz`, mm)
     /// where the file gives it: a tracker's per-row uncertainty, which the fit weights by
     /// (see `calib::weighting`). `None` on rows without it and for a draw-wire.
     pub std_mm: Option<[f64; 3]>,
     /// The block the user declared the row in (`block` column: any label; rows of one block share
-    /// an error, see [`blocks`]). `None` without the column.
+    /// an error, see [`blocks`](super::blocks)). `None` without the column.
     pub block: Option<String>,
 }
 
@@ -153,17 +156,21 @@ impl Row {
 /// One column of a dataset held in memory (see [`Dataset::from_columns`]).
 #[derive(Clone, Debug)]
 pub enum ColumnValues {
+    /// A numeric column.
     Numbers(Vec<f64>),
+    /// A text column (a `split` or `block` label).
     Texts(Vec<String>),
 }
 
 impl ColumnValues {
+    /// Number of values.
     pub fn len(&self) -> usize {
         match self {
             ColumnValues::Numbers(v) => v.len(),
             ColumnValues::Texts(v) => v.len(),
         }
     }
+    /// Whether the column holds no value.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -172,6 +179,9 @@ impl ColumnValues {
 /// A dataset and where it came from (a path, or a label for in-memory sources).
 #[derive(Clone, Debug, Default)]
 pub struct Dataset {
+    /// The rows, in file (acquisition) order.
     pub rows: Vec<Row>,
+    /// Where the rows came from: the path read, or a label for an in-memory source (messages name
+    /// the data by it).
     pub source: String,
 }

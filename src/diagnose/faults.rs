@@ -21,6 +21,7 @@ use serde::{Deserialize, Serialize};
 pub struct RunFault {
     /// First and last data row of the run, 1-based.
     pub first_row: usize,
+    /// Last data row of the run, 1-based.
     pub last_row: usize,
     /// `joint_offset`, `joint_sign`, `joint_stale`, `joint_swap`, `instrument_moved`,
     /// `reading_offset`; `ambiguous` when the best and the runner-up both leave the rows like
@@ -34,9 +35,11 @@ pub struct RunFault {
     pub value: Option<f64>,
     /// RMS residual of the run's rows as logged, and corrected by the cause, mm.
     pub rms_as_logged_mm: f64,
+    /// RMS residual of the run's rows corrected by the cause, mm.
     pub rms_corrected_mm: f64,
     /// The runner-up hypothesis and its corrected RMS.
     pub runner_up: String,
+    /// The runner-up's corrected RMS, mm.
     pub runner_up_rms_mm: f64,
     /// One line of evidence.
     pub evidence: String,
@@ -49,6 +52,8 @@ pub const EXPLAINED_SIGMAS: f64 = 4.0;
 /// and its RMS above [`RUNNER_UP_SIGMAS`] robust standard deviations (else both explain the
 /// rows: `ambiguous`).
 pub const CLEAR_RATIO: f64 = 4.0;
+/// ... above which the runner-up no longer explains the rows too (robust standard deviations of the
+/// kept rows).
 pub const RUNNER_UP_SIGMAS: f64 = 2.0;
 /// Largest joint offset tried, degrees.
 pub const MAX_OFFSET_DEG: f64 = 20.0;

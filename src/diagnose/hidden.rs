@@ -29,6 +29,7 @@ pub const BASE_SCENARIO: &str = include_str!("../../scenarios/irb120_geometric.t
 /// What was hidden, in the units the diagnosis reports.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Hidden {
+    /// The effect hidden.
     pub cause: EffectKind,
     /// 0-based joint of a per-joint effect.
     pub joint: Option<usize>,
@@ -156,6 +157,7 @@ pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
 
 /// Poses per sweep, glitch runs, rows per run and their size (mm) of [`realistic`] acquisitions.
 pub const REALISTIC_SWEEP: usize = 20;
+/// Glitch runs, rows per run and their size (mm) of [`realistic`] acquisitions.
 pub const REALISTIC_GLITCHES: (usize, usize, f64) = (3, 8, 2.0);
 
 /// The clean scenario of `seed` acquired as measured data are: in sweeps of

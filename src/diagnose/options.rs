@@ -8,9 +8,11 @@ use crate::robot::Robot;
 /// Settings of a diagnosis.
 #[derive(Clone, Debug)]
 pub struct DiagnoseOptions {
+    /// The kinematic model the diagnosis starts from.
     pub model: ModelSpec,
     /// Inertial model for joint torques when `model` has none (generic 6R).
     pub inertial: Option<Robot>,
+    /// What loads the joints (payload, cable tension), for the torque-driven effects.
     pub loads: LoadOptions,
     /// Cross-validation folds (contiguous blocks of acquisition order).
     pub folds: usize,
@@ -25,7 +27,9 @@ pub struct DiagnoseOptions {
     /// Runs of outliers that are one constant offset of the reading are corrected and kept
     /// ([`crate::calib::problem::robust::reading_steps`]).
     pub reading_steps: bool,
+    /// Relative singular-value tolerance of the identifiability analysis.
     pub rank_tol: f64,
+    /// Seed of the diagnosis's random draws.
     pub seed: u64,
     /// Candidate effects, each a kind and optionally its joint (0-based); empty = every kind on
     /// every joint the data support.
@@ -69,6 +73,7 @@ pub const DEFAULT_MIN_SIZE_SIGMAS: f64 = 2.0;
 pub const EXTRAPOLATION_QUANTILE: f64 = 0.7;
 
 impl DiagnoseOptions {
+    /// The options of diagnosing with `model`, every other option at its default.
     pub fn new(model: ModelSpec) -> Self {
         DiagnoseOptions {
             model,

@@ -9,6 +9,9 @@ use serde::{Deserialize, Serialize};
 /// How strongly the baseline residual follows a per-row feature.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Evidence {
+    /// The feature's name: `torque_j2`, `sign(torque_j2)`, `backlash_side_j2`, `sin(q2)`,
+    /// `cos(q2)`, `t`, `temp` or a reading column; with several values per row, suffixed by the
+    /// value (`torque_j2 [z]`).
     pub feature: String,
     /// Pearson correlation of the residual with the feature.
     pub correlation: f64,
@@ -17,27 +20,35 @@ pub struct Evidence {
 /// One candidate in one selection step.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Candidate {
+    /// The cause's name (its effect kind, e.g. `joint_compliance`).
     pub cause: String,
+    /// Joint 1..N for a per-joint cause.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub joint: Option<usize>,
+    /// Held-out RMSE of the model with this candidate added, mm.
     pub heldout_rmse_mm: f64,
     /// Bonferroni-corrected p-value of the F test of the nested fits.
     pub p_value: f64,
-    /// False when a fitted parameter is beyond [`IMPLAUSIBLE`] times its plausible size: the
+    /// False when a fitted parameter is beyond [`IMPLAUSIBLE`](crate::diagnose::IMPLAUSIBLE) times its plausible size: the
     /// block then absorbs something else, and is not kept whatever its gain.
     pub plausible: bool,
     /// Size over its standard uncertainty (a cause needs `min_size_sigmas`).
     pub size_sigmas: f64,
     /// False for a size of unphysical sign (negative compliance or band width).
     pub physical_sign: bool,
+    /// Wall time of the candidate's fit, s.
     pub seconds: f64,
 }
 
 /// A selection step: every candidate tried and the one kept (if any).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Step {
+    /// Held-out RMSE of the model before this step, mm.
     pub heldout_rmse_before_mm: f64,
+    /// Every candidate tried in this step.
     pub candidates: Vec<Candidate>,
+    /// Label of the candidate kept (`backlash[j2]`); absent when none passed every test, which ends
+    /// the selection.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kept: Option<String>,
 }
@@ -45,23 +56,32 @@ pub struct Step {
 /// A cause found in the data.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Cause {
+    /// The cause's name (its effect kind, e.g. `joint_compliance`).
     pub cause: String,
     /// Joint 1..N for per-joint effects.
     pub joint: Option<usize>,
+    /// The cause's size from the final fit, in `unit`.
     pub magnitude: f64,
+    /// Unit of `magnitude` and `uncertainty`.
     pub unit: String,
+    /// Standard uncertainty of `magnitude`, in `unit`.
     pub uncertainty: f64,
     /// What the magnitude is.
     pub quantity: String,
+    /// Held-out RMSE of the model before the cause was added, on the folds selection judged on, mm.
     pub heldout_rmse_before_mm: f64,
+    /// Held-out RMSE of the model with the cause, on the folds selection judged on, mm.
     pub heldout_rmse_after_mm: f64,
     /// The same on the other kind of folds than the one the cause was judged on.
     pub heldout_rmse_other_folds_before_mm: f64,
+    /// Held-out RMSE with the cause on the other kind of folds, mm.
     pub heldout_rmse_other_folds_after_mm: f64,
     /// RMSE on the confirmation rows (never used in selection) of the models fitted on the
     /// selection rows without and with this cause; NaN without a confirmation set.
     pub confirmation_rmse_before_mm: f64,
+    /// Confirmation RMSE of the model with this cause, mm (see `confirmation_rmse_before_mm`).
     pub confirmation_rmse_after_mm: f64,
+    /// Bonferroni-corrected p-value of the F test that kept the cause in its selection step.
     pub p_value: f64,
     /// Every parameter of the block (display units) with its standard uncertainty.
     pub parameters: Vec<(String, f64, f64)>,
@@ -79,15 +99,19 @@ impl Cause {
     }
 }
 
+/// The geometric model the selection starts from, and its errors.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Baseline {
+    /// Name of the baseline model.
     pub model: String,
     /// On the folds the diagnosis judges on ([`Diagnosis::judged_on`]).
     pub heldout_rmse_mm: f64,
     /// On contiguous blocks of acquisition order (extrapolation across blocks) and on
     /// interleaved folds (every k-th row: interpolation).
     pub heldout_rmse_blocked_mm: f64,
+    /// On interleaved folds, mm (see `heldout_rmse_blocked_mm`).
     pub heldout_rmse_interleaved_mm: f64,
+    /// RMSE on the selection rows it was fitted to, mm.
     pub train_rmse_mm: f64,
 }
 
@@ -98,7 +122,9 @@ pub struct Comparison {
     pub heldout_rmse_mm: [f64; 3],
     /// Extrapolation: trained on rows with q2 at most `q2_split_deg`, tested on the others.
     pub q2_split_deg: f64,
+    /// Extrapolation RMSE on the rows with q2 above `q2_split_deg`, mm, for the same three models.
     pub extrapolation_rmse_mm: [f64; 3],
+    /// Rows trained on and rows tested on in the extrapolation.
     pub extrapolation_rows: [usize; 2],
 }
 
@@ -108,14 +134,19 @@ pub struct Diagnosis {
     /// See [`crate::io::SCHEMA_VERSION`].
     #[serde(default = "crate::io::schema_version")]
     pub schema_version: u32,
+    /// Version of twincal that wrote the diagnosis.
     pub twincal_version: String,
+    /// Where the diagnosed data came from (the dataset's source).
     pub data: String,
+    /// Rows in the dataset.
     pub rows: usize,
     /// What a row reads, for a reading of several values (a tracker's point): every RMSE here is
     /// then per coordinate. Empty for a cable length.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub reading: String,
+    /// Rows kept out of the fits as outliers.
     pub outliers: Vec<Outlier>,
+    /// Runs of consecutive outlier rows.
     pub outlier_runs: Vec<OutlierRun>,
     /// Rows (1-based) the screen first flagged against the geometric model that the model with
     /// its causes explains: they are in the final fit.
@@ -127,17 +158,20 @@ pub struct Diagnosis {
     pub reading_steps: Vec<crate::calib::problem::robust::ReadingStep>,
     /// What went wrong in each run of outlier rows and each reading step: the hypothesis that
     /// explains the rows as logged (the reading, one joint's logged angle, the instrument), or
-    /// `unexplained` ([`faults`]).
+    /// `unexplained` ([`faults`](crate::diagnose::faults)).
     #[serde(default)]
     pub run_faults: Vec<super::faults::RunFault>,
     /// The data's own floor ([`crate::calib::problem::floor`]): its total and a line naming its sources.
     pub noise_floor_mm: f64,
+    /// Where the floor comes from, in one line: each source with its RMS.
     pub noise_floor_source: String,
+    /// The floor with each of its sources.
     pub noise_floor: crate::calib::problem::floor::NoiseFloor,
     /// Which folds selection judged on: `blocked` (contiguous blocks of acquisition order) or
     /// `interleaved` (when blocks cover different parts of the joint space, so that blocked folds
     /// measure extrapolation: baseline blocked RMSE above 1.5x the interleaved one), and why.
     pub judged_on: String,
+    /// Why selection judged on those folds.
     pub judged_on_reason: String,
     /// The acquisition's blocks of rows that share an error ([`crate::dataset::blocks`]): folds
     /// and the confirmation set take whole blocks, tests and uncertainties count them.
@@ -157,20 +191,26 @@ pub struct Diagnosis {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub not_physical: Vec<String>,
     /// Causes that gain on held-out rows, but explain less of them than
-    /// [`BELOW_FLOOR_SHARE`] of the data's floor: left out of the model, with their figures.
+    /// [`BELOW_FLOOR_SHARE`](crate::diagnose::BELOW_FLOOR_SHARE) of the data's floor: left out of the model, with their figures.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub below_floor: Vec<String>,
     /// Rows selection saw and rows kept back to confirm its causes.
     pub selection_rows: usize,
+    /// Rows kept back to confirm the causes (see `selection_rows`).
     pub confirmation_rows: usize,
     /// Causes selection found that the confirmation rows did not confirm (not in the model).
     pub unconfirmed: Vec<String>,
+    /// The geometric model selection started from, and its errors.
     pub baseline: Baseline,
+    /// Correlations of the baseline residual with the per-row features, strongest first.
     pub evidence: Vec<Evidence>,
+    /// The selection's steps, in order.
     pub steps: Vec<Step>,
     /// Causes in the order found; empty = `geometric_only`.
     pub causes: Vec<Cause>,
+    /// `geometric_only`, or the causes kept joined by ` + ` (`backlash[j2] + thermal_drift`).
     pub verdict: String,
+    /// Held-out RMSE of the model with every kept cause, on the folds selection judged on, mm.
     pub final_heldout_rmse_mm: f64,
     /// RMSE of the final model (the one `--result` holds) on every kept row it was fitted to.
     pub final_train_rmse_mm: f64,
@@ -178,8 +218,11 @@ pub struct Diagnosis {
     /// held-out²): what remains is named, not fitted.
     #[serde(default)]
     pub floor_share_of_remaining: f64,
+    /// The physical extension against an RBF network on the geometric residuals; absent when the
+    /// rows are too few for it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub comparison: Option<Comparison>,
+    /// Wall time of the diagnosis, s.
     pub seconds: f64,
     /// The effects kept, as calibration effect options (for `calibrate --effects`).
     pub effects_option: String,

@@ -164,6 +164,7 @@ pub(super) fn fold_rows_check(rows: usize, dim: usize, n_free: usize, opts: &Dia
 /// while an effect puts many rows off (a backlash band's minority flank: a sixth of the rows).
 pub const EFFECT_SCREEN_MIN_ROWS: usize = 3;
 
+/// ... and the smallest share of the rows.
 pub const EFFECT_SCREEN_MIN_SHARE: f64 = 0.01;
 
 /// A candidate explains the flagged rows only if the rows its screen keeps sit no wider around

@@ -41,13 +41,18 @@ use serde::Serialize;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum JacobianKind {
+    /// The chain's point Jacobian `J_p` alone.
     Analytic,
+    /// The correction's own gradient `u ∇δᵀ` alone (rank one).
     Neural,
+    /// The exact Jacobian of p̂: `J_p + u ∇δᵀ + δ·(I − u uᵀ) J_p / |p − e|`.
     Hybrid,
 }
 
 impl JacobianKind {
+    /// Every variant, in the order the paper's table lists them.
     pub const ALL: [JacobianKind; 3] = [JacobianKind::Analytic, JacobianKind::Neural, JacobianKind::Hybrid];
+    /// The variant's name as files and tables write it (`analytic`, `neural`, `hybrid`).
     pub fn name(self) -> &'static str {
         match self {
             JacobianKind::Analytic => "analytic",
@@ -61,15 +66,22 @@ impl JacobianKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum IkStatus {
+    /// Model residual within `tol_mm`.
     Converged,
+    /// The target is farther from the base than the arm reaches.
     Unreachable,
+    /// Stuck with a joint at one of its limits.
     JointLimit,
+    /// Stuck where the Jacobian loses rank.
     Singular,
+    /// No start reached `tol_mm` within `max_iter` iterations, for none of the reasons above.
     NotConverged,
+    /// The target is not finite.
     Invalid,
 }
 
 impl IkStatus {
+    /// The status's name as files and tables write it (`converged`, `joint_limit`, ...).
     pub fn name(self) -> &'static str {
         match self {
             IkStatus::Converged => "converged",
@@ -85,6 +97,7 @@ impl IkStatus {
 /// The answer for one target.
 #[derive(Clone, Debug, Serialize)]
 pub struct IkSolution {
+    /// How the solve ended.
     pub status: IkStatus,
     /// Joint angles, rad (the best found, also when not converged; the start for `invalid`).
     pub q: Vec<f64>,
@@ -97,12 +110,17 @@ pub struct IkSolution {
 /// Solver settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IkOptions {
+    /// Model residual that counts as converged, mm.
     pub tol_mm: f64,
+    /// Damping λ of the damped least-squares step, mm/rad.
     pub damping: f64,
+    /// Iterations per start.
     pub max_iter: usize,
     /// Random restarts after the mid-range start.
     pub restarts: usize,
+    /// Largest change of any joint in one step, rad.
     pub max_step: f64,
+    /// Seed of the random restarts.
     pub seed: u64,
 }
 
@@ -115,6 +133,7 @@ impl Default for IkOptions {
 /// Reusable buffers of [`IkModel`]: the model's own workspace and the per-joint columns, so a
 /// solve allocates nothing per iteration. One per thread ([`IkModel::work`]).
 pub struct IkWork {
+    /// The calibrated model's own workspace.
     pub model: ModelWork,
     /// The chosen Jacobian of the last [`IkModel::position`] call with one, mm/rad, a column per joint.
     pub cols: Vec<Vector3<f64>>,
@@ -124,9 +143,13 @@ pub struct IkWork {
 
 /// A calibrated model as an IK forward model: geometry, optional learned corrector, limits.
 pub struct IkModel<'a> {
+    /// The calibrated model.
     pub model: &'a CalibModel,
+    /// Its parameter vector (internal units m / rad).
     pub x: &'a [f64],
+    /// The learned corrector added to the geometry, if any.
     pub corrector: Option<&'a dyn Correct>,
+    /// Joint limits (lower, upper), rad, one pair per joint.
     pub limits: Vec<(f64, f64)>,
     inp: RowInputs,
     exit: Vector3<f64>,
@@ -138,6 +161,8 @@ pub struct IkModel<'a> {
 }
 
 impl<'a> IkModel<'a> {
+    /// The forward model of `model` at `x`, with `corrector`, clamped to `limits` (rad); estimates
+    /// the arm's reach from 2000 seeded random configurations.
     pub fn new(model: &'a CalibModel, x: &'a [f64], corrector: Option<&'a dyn Correct>, limits: Vec<(f64, f64)>) -> IkModel<'a> {
         // A draw-wire's corrector corrects the cable length, applied along the cable from its
         // exit point; a tracker's corrects x, y, z in the tracker's frame (result files are
@@ -164,6 +189,7 @@ impl<'a> IkModel<'a> {
         let n = self.model.chain.n_joints;
         IkWork { model: self.model.work(), cols: vec![Vector3::zeros(); n], dp: vec![Vector3::zeros(); n], g: vec![0.0; n] }
     }
+    /// Uniformly random joint angles inside the limits, rad.
     pub fn random_q(&self, rng: &mut ChaCha8Rng) -> Vec<f64> {
         self.limits.iter().map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>()).collect()
     }

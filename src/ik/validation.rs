@@ -31,7 +31,11 @@ use std::time::Instant;
 
 /// The twin behind a dataset and the frame map into a calibration's frame.
 pub struct TwinCheck {
+    /// The twin rebuilt from the truth file; solutions are commanded through its quasi-static
+    /// model.
     pub twin: Twin,
+    /// Time the twin is commanded at, s: the dataset's median acquisition time (0 without a time
+    /// column), for its thermal state.
     pub t_ref: f64,
     /// Truth-equivalent model vector (the result's `truth` values, internal units).
     pub x_eq: Vec<f64>,
@@ -175,8 +179,11 @@ pub fn random_targets(r: &CalibResult, check: Option<&TwinCheck>, n: usize, seed
 
 /// One solver configuration on every target.
 pub struct IkRun {
+    /// What was solved (`hybrid`, `nominal/analytic (uncalibrated)`, ...).
     pub label: String,
+    /// The solution of every target, in target order.
     pub solutions: Vec<IkSolution>,
+    /// Mean wall time of one query, s.
     pub seconds_per_query: f64,
     /// Median time of one query, s.
     pub median_seconds: f64,
@@ -185,12 +192,15 @@ pub struct IkRun {
 }
 
 impl IkRun {
+    /// Share of targets that converged (0..1).
     pub fn success(&self) -> f64 {
         self.solutions.iter().filter(|s| s.status == IkStatus::Converged).count() as f64 / self.solutions.len().max(1) as f64
     }
+    /// Mean iterations per target, over every start.
     pub fn mean_iterations(&self) -> f64 {
         self.solutions.iter().map(|s| s.iterations as f64).sum::<f64>() / self.solutions.len().max(1) as f64
     }
+    /// Mean model residual per target, mm.
     pub fn mean_residual(&self) -> f64 {
         self.solutions.iter().map(|s| s.residual_mm).sum::<f64>() / self.solutions.len().max(1) as f64
     }

@@ -37,6 +37,7 @@ pub use length::CABLE_PARAMS;
 /// Largest reading dimension and number of instrument parameters of any measurement type (stack
 /// buffers of the hot loops).
 pub const MAX_DIM: usize = 9;
+/// Largest number of an instrument's own placement parameters.
 pub const MAX_OWN: usize = 12;
 /// Most points of the flange an instrument reads.
 pub const MAX_TARGETS: usize = 3;

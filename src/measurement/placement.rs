@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 /// transform), then the target point on the flange (m). See `CalibModel::placement`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Placement {
+    /// The kind of instrument placed.
     pub measurement: Measurement,
     /// The instrument's own parameters, in [`Measurement::placement_names`] order (m, rad).
     pub own: Vec<f64>,

@@ -14,7 +14,7 @@
 //! orthogonal), so the axis values' residuals are smaller than their position ones by about
 //! √(2/3) for the same angular error.
 //!
-//! Placement: the base-to-tracker transform as for a [`Point`](super::point::Point)
+//! Placement: the base-to-tracker transform as for a [`Point`]
 //! (`y = R·p + t`, `R = Rx(a)·Ry(b)·Rz(c)`), then the probe's orientation on the flange
 //! (`tool.rx, tool.ry, tool.rz`, the same convention) and its origin (`tool.x, tool.y, tool.z`).
 //! The model carries three points of the probe's frame to the base (its origin and the tips of
@@ -54,6 +54,7 @@ pub const MAX_ANGLE_DEG: f64 = 720.0;
 pub struct Euler {
     /// The axes, 0 = x, 1 = y, 2 = z, in the order the angles are given.
     pub axes: [usize; 3],
+    /// About the moving frame's axes (intrinsic) rather than the fixed frame's (extrinsic).
     pub intrinsic: bool,
 }
 

@@ -79,21 +79,55 @@ use super::{Bounds, Cost, Event, Observer, Report, Termination};
 #[derive(Clone, Debug, PartialEq)]
 pub enum DeVariant {
     /// DE/rand/1/bin with fixed scale factor `f` and crossover rate `cr`.
-    Classic { f: f64, cr: f64 },
+    Classic {
+        /// Scale factor `F` of the difference vector.
+        f: f64,
+        /// Binomial crossover rate `CR`, in `[0, 1]`.
+        cr: f64,
+    },
     /// JADE: current-to-pbest/1 with archive; `c` is the adaptation rate of μF/μCR, `p` the
     /// pbest fraction.
-    Jade { c: f64, p: f64 },
+    Jade {
+        /// Adaptation rate of μF and μCR, in `[0, 1]`.
+        c: f64,
+        /// Pbest fraction: `x_pbest` is drawn from the best `p·N` individuals (at least 2).
+        p: f64,
+    },
     /// SHADE: success-history memories of length `memory`; `p` the pbest fraction.
-    Shade { memory: usize, p: f64 },
+    Shade {
+        /// Length of the `M_F` and `M_CR` memories (at least 1 is used).
+        memory: usize,
+        /// Pbest fraction: `x_pbest` is drawn from the best `p·N` individuals (at least 2).
+        p: f64,
+    },
     /// L-SHADE: SHADE with linear population size reduction down to `min_pop`.
-    LShade { memory: usize, p: f64, min_pop: usize },
+    LShade {
+        /// Length of the `M_F` and `M_CR` memories (at least 1 is used).
+        memory: usize,
+        /// Pbest fraction: `x_pbest` is drawn from the best `p·N` individuals (at least 2).
+        p: f64,
+        /// Population size at the end of the evaluation budget (at least 4 is used).
+        min_pop: usize,
+    },
     /// DS-ADE: SHADE-style memories (weighted Lehmer means for both `F` and `CR`) with two
     /// operators, current-to-pbest/1 and rand-to-pbest/1, chosen per trial with a probability
     /// learned from each operator's cumulative fitness gains (kept within `[p_min, 1 − p_min]`).
-    DsAde { memory: usize, p: f64, p_min: f64 },
+    DsAde {
+        /// Length of the `M_F` and `M_CR` memories (at least 1 is used).
+        memory: usize,
+        /// Pbest fraction: `x_pbest` is drawn from the best `p·N` individuals (at least 2).
+        p: f64,
+        /// Least probability of either operator (clamped to `[0, 0.5]`).
+        p_min: f64,
+    },
     /// Single-strategy DE with success-history adaptation: rand-to-pbest/1 only (the DS-ADE
     /// ablation without the strategy scheduler).
-    RandToPBest { memory: usize, p: f64 },
+    RandToPBest {
+        /// Length of the `M_F` and `M_CR` memories (at least 1 is used).
+        memory: usize,
+        /// Pbest fraction: `x_pbest` is drawn from the best `p·N` individuals (at least 2).
+        p: f64,
+    },
 }
 
 impl Default for DeVariant {
@@ -118,6 +152,7 @@ impl DeVariant {
 /// Differential evolution settings. See the module documentation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct De {
+    /// Which DE algorithm to run, with its own parameters.
     pub variant: DeVariant,
     /// (Initial) population size; at least 4 is used.
     pub pop: usize,

@@ -10,7 +10,9 @@ use nalgebra::DMatrix;
 
 /// A nonlinear least-squares problem: minimise ½‖r(x)‖².
 pub trait LeastSquares: Sync {
+    /// Number of parameters (the length of `x`).
     fn n_params(&self) -> usize;
+    /// Number of residuals (the length of `r`).
     fn n_residuals(&self) -> usize;
     /// Residuals at `x` into `r` (len = n_residuals).
     fn residuals(&self, x: &[f64], r: &mut [f64]);
@@ -53,9 +55,13 @@ pub trait LeastSquares: Sync {
 
 /// Scalar observations z_i = h_i(x) + noise, one per sample, for sequential filters.
 pub trait Observations: Sync {
+    /// Number of parameters (the length of `x`).
     fn n_params(&self) -> usize;
+    /// Number of observations (samples `i` in `0..n_obs`).
     fn n_obs(&self) -> usize;
+    /// The predicted observation h_i(x) of sample `i`.
     fn predict(&self, x: &[f64], i: usize) -> f64;
+    /// The measured value z_i of sample `i`.
     fn measured(&self, i: usize) -> f64;
     /// ∂h_i/∂x into `g` (len = n_params).
     fn gradient(&self, x: &[f64], i: usize, g: &mut [f64]);
@@ -63,7 +69,9 @@ pub trait Observations: Sync {
 
 /// A scalar cost to minimise over a box.
 pub trait Cost: Sync {
+    /// Number of coordinates (the length of `x`).
     fn dim(&self) -> usize;
+    /// The cost at `x`, to be minimised.
     fn cost(&self, x: &[f64]) -> f64;
     /// The cost of `x` after the cost may have improved `x` in place (a Lamarckian local step,
     /// such as solving the coordinates the cost is quadratic in; the result must stay inside
@@ -76,11 +84,14 @@ pub trait Cost: Sync {
 /// Box bounds, `lower[k] < upper[k]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bounds {
+    /// Lower bound of each coordinate.
     pub lower: Vec<f64>,
+    /// Upper bound of each coordinate.
     pub upper: Vec<f64>,
 }
 
 impl Bounds {
+    /// The box `[lower[k], upper[k]]` (not checked).
     pub fn new(lower: Vec<f64>, upper: Vec<f64>) -> Self {
         Bounds { lower, upper }
     }
@@ -88,9 +99,11 @@ impl Bounds {
     pub fn around(centre: &[f64], half: &[f64]) -> Self {
         Bounds { lower: centre.iter().zip(half).map(|(c, h)| c - h).collect(), upper: centre.iter().zip(half).map(|(c, h)| c + h).collect() }
     }
+    /// Number of coordinates.
     pub fn dim(&self) -> usize {
         self.lower.len()
     }
+    /// Clamps each coordinate `x[k]` into `[lower[k], upper[k]]`, in place.
     pub fn clamp(&self, x: &mut [f64]) {
         for k in 0..x.len() {
             x[k] = x[k].clamp(self.lower[k], self.upper[k]);
@@ -101,7 +114,10 @@ impl Bounds {
 /// One progress event.
 #[derive(Clone, Debug)]
 pub struct Event<'a> {
+    /// Name of the reporting method (e.g. `"levenberg-marquardt"`, `"pso"`, `"lshade"`).
     pub method: &'a str,
+    /// The iteration the event belongs to (LM outer iteration, PSO iteration, DE generation or
+    /// filter epoch), counted from 1.
     pub iteration: usize,
     /// Best cost so far (½ sum of squares for least squares; the method's cost otherwise).
     pub cost: f64,
@@ -111,6 +127,7 @@ pub struct Event<'a> {
 
 /// Receives progress events (progress bars, convergence recordings, ...).
 pub trait Observer {
+    /// Receives one progress event. Default: ignores it.
     fn observe(&mut self, _event: &Event) {}
 }
 
@@ -121,7 +138,9 @@ impl Observer for NoObserver {}
 /// Records the cost and parameters at every iteration.
 #[derive(Clone, Debug, Default)]
 pub struct History {
+    /// [`Event::cost`] of every event, in order.
     pub cost: Vec<f64>,
+    /// [`Event::x`] of every event, in order.
     pub x: Vec<Vec<f64>>,
 }
 impl Observer for History {
@@ -134,8 +153,13 @@ impl Observer for History {
 /// What a solver returns.
 #[derive(Clone, Debug)]
 pub struct Report {
+    /// The estimate: the best point found (LM, PSO, DE), the final state (EKF) or the weighted
+    /// particle mean (PF).
     pub x: Vec<f64>,
+    /// The cost at `x` (½ sum of squared residuals or innovations for LM and the filters; the
+    /// [`Cost`] otherwise).
     pub cost: f64,
+    /// Iterations run (LM outer iterations, PSO iterations, DE generations, filter epochs).
     pub iterations: usize,
     /// Objective evaluations (residual vectors, costs or observations, as the method counts them).
     pub evaluations: usize,

@@ -29,6 +29,7 @@ pub struct Feature {
     pub name: String,
     /// Axis title with unit.
     pub label: String,
+    /// Its value per row.
     pub values: Vec<f64>,
 }
 
@@ -68,6 +69,7 @@ pub struct Residual {
     pub distance: bool,
     /// Per row, mm.
     pub before_mm: Vec<f64>,
+    /// After calibration, per row, mm.
     pub after_mm: Vec<f64>,
 }
 
@@ -161,7 +163,9 @@ pub enum Group {
 }
 
 impl Group {
+    /// Every group, in panel order.
     pub const ALL: [Group; 5] = [Group::Lengths, Group::Angles, Group::Sensor, Group::SensorAngles, Group::Effects];
+    /// The group's short name (`lengths`, `angles`, `sensor`, `sensor_angles`, `effects`).
     pub fn name(self) -> &'static str {
         match self {
             Group::Lengths => "lengths",
@@ -203,8 +207,11 @@ impl Group {
 /// One free parameter: its change from the starting point, per iteration and at the end.
 #[derive(Clone, Debug)]
 pub struct ParamChange {
+    /// Parameter name.
     pub name: String,
+    /// Display unit of the change.
     pub unit: String,
+    /// The panel it is drawn in.
     pub group: Group,
     /// Final value minus starting value (display units).
     pub change: f64,
@@ -220,7 +227,9 @@ pub struct ParamChange {
 /// (iteration 0) through every optimiser iteration.
 #[derive(Clone, Debug, Default)]
 pub struct Convergence {
+    /// RMS of the training residuals per iteration, mm.
     pub train_rms_mm: Vec<f64>,
+    /// RMS of the test residuals per iteration, mm (absent without test rows).
     pub test_rms_mm: Option<Vec<f64>>,
     /// ½ Σ r² over the training rows, mm².
     pub cost_mm2: Vec<f64>,
@@ -229,8 +238,11 @@ pub struct Convergence {
 /// The arm drawn at one row: frame poses (mm) and the tool point.
 #[derive(Clone, Debug)]
 pub struct ArmPose {
+    /// Dataset row (0-based).
     pub row: usize,
+    /// Frames of the arm (base, links, flange), positions in mm.
     pub frames: Vec<Frame>,
+    /// Tool point, base frame, mm.
     pub tool_mm: [f64; 3],
 }
 
@@ -239,6 +251,7 @@ pub struct ArmPose {
 /// tracker's origin and axes (its line of sight runs to the reflector).
 #[derive(Clone, Debug, PartialEq)]
 pub struct InstrumentPose {
+    /// What the instrument reads.
     pub measurement: Measurement,
     /// The cable exit point, or the tracker's origin, base frame, mm.
     pub origin_mm: [f64; 3],
@@ -267,6 +280,7 @@ impl InstrumentPose {
 /// Everything the calibration figures show.
 #[derive(Clone, Debug)]
 pub struct CalibFigures {
+    /// Figure title: method, model and data.
     pub title: String,
     /// Per row: used for training (else held out, or a training outlier kept out).
     pub train: Vec<bool>,
@@ -277,14 +291,19 @@ pub struct CalibFigures {
     /// Measured minus predicted reading, mm, one per reading value (row after row): the
     /// starting model and the calibrated one.
     pub before_mm: Vec<f64>,
+    /// Measured minus predicted reading after calibration, mm, in the same order.
     pub after_mm: Vec<f64>,
     /// Tool point of every row, calibrated model, mm.
     pub tool_mm: Vec<[f64; 3]>,
     /// The calibrated instrument.
     pub instrument: InstrumentPose,
+    /// The calibrated arm at the first row.
     pub arm: Option<ArmPose>,
+    /// The per-row quantities to plot residuals against.
     pub features: Vec<Feature>,
+    /// Every free parameter's change from the starting point.
     pub params: Vec<ParamChange>,
+    /// Cost and RMS per iteration.
     pub convergence: Convergence,
 }
 
@@ -441,6 +460,7 @@ pub struct CauseEvidence {
 /// Everything the diagnosis figures show.
 #[derive(Clone, Debug)]
 pub struct DiagnosisFigures {
+    /// Figure title (`diagnosis of <data>`).
     pub title: String,
     /// What the rows read.
     pub measurement: Measurement,
@@ -449,11 +469,15 @@ pub struct DiagnosisFigures {
     pub before_mm: Vec<f64>,
     /// Residual of the final (extended) model, mm, one per reading value.
     pub after_mm: Vec<f64>,
+    /// Tool point of every row, final model, mm.
     pub tool_mm: Vec<[f64; 3]>,
     /// The final model's instrument.
     pub instrument: InstrumentPose,
+    /// The final model's arm at the first row.
     pub arm: Option<ArmPose>,
+    /// The per-row quantities to plot residuals against.
     pub features: Vec<Feature>,
+    /// Each effect block of the final model, with the residual it explains.
     pub causes: Vec<CauseEvidence>,
     /// Held-out RMSE after step 0 (geometric), 1, … (mm).
     pub heldout_rmse_mm: Vec<f64>,
@@ -462,6 +486,7 @@ pub struct DiagnosisFigures {
 }
 
 impl DiagnosisFigures {
+    /// The figures of diagnosis `d`, whose final model is `r`, on `data`.
     pub fn new(d: &crate::diagnose::Diagnosis, r: &CalibResult, data: &Dataset) -> DiagnosisFigures {
         let all: Vec<usize> = (0..data.rows.len()).collect();
         // Reading steps are a cable encoder's: only one-value readings have any.
@@ -555,18 +580,23 @@ pub fn histogram(values: &[f64], bins: usize, lo: f64, hi: f64) -> (Vec<f64>, Ve
 /// What a replay's report and recording show (`twincal replay --report / --rrd`), over the
 /// replayed rows.
 pub struct ReplayFigures {
+    /// Figure title.
     pub title: String,
+    /// What the rows read.
     pub measurement: Measurement,
     /// Which rows are judged, in words.
     pub judged_on: String,
     /// (label, stats) lines of the summary table.
     pub stats: Vec<(String, Option<crate::stats::metrics::ErrorStats>)>,
+    /// One line on the twin's own noise and a Kolmogorov–Smirnov test of the judged residuals
+    /// against it.
     pub ks_line: String,
     /// Per replayed row: a judged (held-out) row.
     pub judged: Vec<bool>,
     /// The twin's reading − its noise-free reading, and measured − the twin's noise-free
     /// reading, mm, one per value, row after row.
     pub noise_mm: Vec<f64>,
+    /// Measured reading minus the twin's noise-free reading, mm (see `noise_mm`).
     pub residual_mm: Vec<f64>,
     /// The twin's tool point per replayed row, base frame, mm.
     pub tools_mm: Vec<[f64; 3]>,

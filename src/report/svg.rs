@@ -19,7 +19,9 @@ pub fn esc(s: &str) -> String {
 /// A series of a scatter or line plot.
 #[derive(Clone, Debug)]
 pub struct Series {
+    /// Name in the legend.
     pub name: String,
+    /// The points, `[x, y]` in data units.
     pub points: Vec<[f64; 2]>,
     /// CSS colour.
     pub color: String,

@@ -16,6 +16,7 @@ pub struct Check {
     pub limit: f64,
     /// The measured value, mm; `null` when it could not be measured (the check fails).
     pub value: Option<f64>,
+    /// Whether the value is measured and within the limit.
     pub pass: bool,
     /// How the value was obtained, or why it is missing.
     pub source: String,
@@ -24,14 +25,18 @@ pub struct Check {
 /// All checks pass (`pass`), or not.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
+    /// Whether every check passes.
     pub pass: bool,
+    /// Each limit given, with what was measured against it.
     pub checks: Vec<Check>,
 }
 
 /// A limit on a residual statistic, mm, from a command-line flag.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Limit {
+    /// The command-line flag that sets the limit (`--max-test-rmse-mm`, ...), named in errors.
     pub flag: &'static str,
+    /// The limit, mm; `None` when the flag is not given.
     pub value: Option<f64>,
 }
 

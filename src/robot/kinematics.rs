@@ -24,13 +24,16 @@ use serde::{Deserialize, Serialize};
 /// Kind of an elementary operation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum OpKind {
+    /// A translation along the axis (value in m).
     Trans,
+    /// A rotation about the axis (value in rad).
     Rot,
 }
 
 /// One elementary operation of a chain.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Op {
+    /// Translation or rotation.
     pub kind: OpKind,
     /// Unit axis in the frame before the operation.
     pub axis: Vector3<f64>,
@@ -59,11 +62,14 @@ fn is_unit(v: &f64) -> bool {
 /// A rigid frame: rotation and origin in the base frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
+    /// Orientation: the frame's axes as columns, in base coordinates.
     pub rot: Matrix3<f64>,
+    /// Origin in the base frame, m.
     pub pos: Vector3<f64>,
 }
 
 impl Frame {
+    /// The base frame itself.
     pub fn identity() -> Self {
         Frame { rot: Matrix3::identity(), pos: Vector3::zeros() }
     }
@@ -76,6 +82,7 @@ impl Frame {
         let rt = parent.rot.transpose();
         Frame { rot: rt * self.rot, pos: rt * (self.pos - parent.pos) }
     }
+    /// `child` (given in this frame) expressed in the base frame (self · child).
     pub fn compose(&self, child: &Frame) -> Frame {
         Frame { rot: self.rot * child.rot, pos: self.rot * child.pos + self.pos }
     }
@@ -85,7 +92,7 @@ impl Frame {
 ///
 /// Inlined (the coordinate axes of every chain are a few instructions besides the sine and
 /// cosine: built in registers, the matrix is not stored and read back); other axes go through
-/// [`general_rotation`].
+/// `general_rotation`.
 #[inline]
 pub fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
     if axis.x == 1.0 && axis.y == 0.0 && axis.z == 0.0 {
@@ -112,11 +119,14 @@ fn general_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
 /// A serial chain: elementary operations, the frame boundaries and the parameter names.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Chain {
+    /// The elementary operations, base to flange.
     pub ops: Vec<Op>,
     /// `frame_end[f]` = number of operations that produce frame `f`.
     /// Frame 0 is the base, frame `j + 1` the child link of joint `j`, the last one the flange.
     pub frame_end: Vec<usize>,
+    /// Number of joints (the length of `q`).
     pub n_joints: usize,
+    /// Name of each parameter (`joint_2.a`, `joint_3.theta`, ...), in the order of `p`.
     pub param_names: Vec<String>,
 }
 
@@ -135,6 +145,7 @@ pub struct FkWork {
 }
 
 impl FkWork {
+    /// A workspace sized for `chain`.
     pub fn new(chain: &Chain) -> Self {
         let n = chain.ops.len();
         FkWork { pre: vec![Frame::identity(); n + 1], values: vec![0.0; n], rot_key: vec![None; n], rot: vec![Matrix3::identity(); n] }
@@ -144,6 +155,7 @@ impl FkWork {
 /// Derivatives of one point with respect to everything the chain depends on.
 #[derive(Clone, Debug)]
 pub struct PointJacobian {
+    /// The point in the base frame, m.
     pub point: Vector3<f64>,
     /// ∂p/∂q_j, one column per joint.
     pub dq: Vec<Vector3<f64>>,
@@ -154,6 +166,7 @@ pub struct PointJacobian {
 }
 
 impl PointJacobian {
+    /// Zeroed derivatives sized for `chain`.
     pub fn new(chain: &Chain) -> Self {
         PointJacobian {
             point: Vector3::zeros(),
@@ -165,6 +178,7 @@ impl PointJacobian {
 }
 
 impl Chain {
+    /// Number of parameters (the length of `p`).
     pub fn n_params(&self) -> usize {
         self.param_names.len()
     }
@@ -172,6 +186,7 @@ impl Chain {
     pub fn flange(&self) -> usize {
         self.frame_end.len() - 1
     }
+    /// Number of frames: the base, one per joint, the flange.
     pub fn n_frames(&self) -> usize {
         self.frame_end.len()
     }
@@ -305,6 +320,7 @@ pub struct ChainBuilder {
 }
 
 impl ChainBuilder {
+    /// An empty chain: the base frame only.
     pub fn new() -> Self {
         ChainBuilder { frame_end: vec![0], ..Default::default() }
     }
@@ -313,6 +329,7 @@ impl ChainBuilder {
         self.param_names.push(name.into());
         self.param_names.len() - 1
     }
+    /// Appends an operation (its axis normalised) with factor 1 on its parameter.
     pub fn op(&mut self, kind: OpKind, axis: Vector3<f64>, base: f64, joint: Option<usize>, param: Option<usize>, thermal: bool) {
         let axis = if axis.norm() > 0.0 { axis.normalize() } else { axis };
         self.ops.push(Op { kind, axis, base, joint, param, coef: 1.0, thermal });
@@ -335,6 +352,8 @@ impl ChainBuilder {
         }
         self.op(OpKind::Trans, axis, base, None, param, thermal);
     }
+    /// Rotation about an axis by `base` (rad) plus the parameter; a zero rotation without a
+    /// parameter is left out.
     pub fn rot(&mut self, axis: Vector3<f64>, base: f64, param: Option<usize>) {
         if base == 0.0 && param.is_none() {
             return;

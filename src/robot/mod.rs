@@ -18,12 +18,16 @@ pub const IRB120_URDF: &str = include_str!("../../urdf/irb120.urdf");
 /// Mass, centre of mass and inertia tensor about the COM, in the link frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Inertial {
+    /// Mass, kg.
     pub mass: f64,
+    /// Centre of mass in the link frame, m.
     pub com: Vector3<f64>,
+    /// Inertia tensor about the centre of mass, in the link frame's axes, kg·m².
     pub inertia: Matrix3<f64>,
 }
 
 impl Inertial {
+    /// A massless body: zero mass, centre of mass and inertia.
     pub fn zero() -> Self {
         Inertial { mass: 0.0, com: Vector3::zeros(), inertia: Matrix3::zeros() }
     }
@@ -49,6 +53,7 @@ impl Inertial {
 /// One revolute joint of the serial chain.
 #[derive(Clone, Debug)]
 pub struct JointSpec {
+    /// Joint name in the URDF.
     pub name: String,
     /// Child link of this joint.
     pub link: String,
@@ -58,8 +63,11 @@ pub struct JointSpec {
     pub origin_rpy: Vector3<f64>,
     /// Unit rotation axis in the joint frame.
     pub axis: Vector3<f64>,
+    /// Lower joint limit, rad (−π for a continuous joint).
     pub lower: f64,
+    /// Upper joint limit, rad (π for a continuous joint).
     pub upper: f64,
+    /// The URDF's velocity limit, rad/s; 0 when the URDF gives none (see [`Self::speed_limit`]).
     pub max_velocity: f64,
 }
 
@@ -85,13 +93,17 @@ impl JointSpec {
 /// A serial revolute arm.
 #[derive(Clone, Debug)]
 pub struct Robot {
+    /// Robot name in the URDF.
     pub name: String,
+    /// Name of the root link, whose frame is the base frame.
     pub base_link: String,
+    /// The revolute joints from base to flange, in chain order.
     pub joints: Vec<JointSpec>,
     /// Inertials of the moving links, `links[j]` is the child of joint `j` (fixed children merged).
     pub links: Vec<Inertial>,
     /// Name of the flange frame and its pose in the last link's frame.
     pub flange_name: String,
+    /// Pose of the flange frame in the last moving link's frame (fixed joints folded in).
     pub flange: Frame,
     /// The URDF text the robot was read from (so a twin's truth file can carry its robot).
     pub urdf: String,
@@ -100,6 +112,8 @@ pub struct Robot {
 /// Number of geometric error parameters per joint: origin offset (x, y, z), origin rotation
 /// (about x, y, z of the origin frame) and joint zero offset.
 pub const PARAMS_PER_JOINT: usize = 7;
+/// Name suffixes of a joint's geometric error parameters, in their order: origin offset (dx, dy,
+/// dz), origin rotation (rx, ry, rz) and joint zero offset (dtheta).
 pub const PARAM_SUFFIXES: [&str; PARAMS_PER_JOINT] = ["dx", "dy", "dz", "rx", "ry", "rz", "dtheta"];
 /// What each of a joint's geometric error parameters measures, in [`PARAM_SUFFIXES`]' order.
 pub const PARAM_KINDS: [GeoKind; PARAMS_PER_JOINT] =
@@ -110,7 +124,9 @@ pub const PARAM_KINDS: [GeoKind; PARAMS_PER_JOINT] =
 /// degrees.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GeoKind {
+    /// A length: m in the code, mm in files.
     Length,
+    /// An angle: rad in the code, degrees in files.
     Angle,
 }
 
@@ -270,6 +286,8 @@ impl Robot {
         self.urdf == IRB120_URDF
     }
 
+    /// Reads a URDF file and parses it as [`Self::from_urdf_str`] does; errors if the file cannot
+    /// be read or does not describe a serial revolute arm.
     pub fn from_urdf_file(path: &Path) -> Result<Robot> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         Robot::from_urdf_str(&text, &path.display().to_string())
@@ -334,6 +352,7 @@ impl Robot {
         Ok(Robot { name: urdf.name, base_link: base, joints, links, flange_name, flange, urdf: text.to_owned() })
     }
 
+    /// Number of revolute joints (degrees of freedom).
     pub fn dof(&self) -> usize {
         self.joints.len()
     }

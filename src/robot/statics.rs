@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Payload {
+    /// Mass, kg ([`LoadModel::new`] ignores a payload whose mass is not positive).
     pub mass_kg: f64,
     /// Centre of mass in the flange frame, mm.
     pub com_mm: [f64; 3],
@@ -46,11 +47,13 @@ impl CableLoad {
 /// Everything that loads the joints of a resting arm.
 #[derive(Clone, Debug)]
 pub struct LoadModel {
+    /// Gravitational acceleration in the base frame, m/s² ((0, 0, −[`GRAVITY`]) from [`Self::new`]).
     pub gravity: Vector3<f64>,
     /// Per moving link: mass (kg) and COM in the link frame (m).
     pub links: Vec<(f64, Vector3<f64>)>,
     /// Payload mass (kg) and COM in the flange frame (m).
     pub payload: Option<(f64, Vector3<f64>)>,
+    /// The cable pulling at the tool point, if any.
     pub cable: Option<CableLoad>,
 }
 

@@ -34,14 +34,20 @@ pub use crate::progress::{Progress, Silent};
 /// Per-pose ground truth.
 #[derive(Clone, Debug, Serialize)]
 pub struct PoseTruth {
+    /// Index of the pose among the sampled poses (acquisition order; rejected poses keep their
+    /// number).
     pub index: usize,
+    /// The subset the pose's row belongs to.
     pub split: Split,
+    /// Acquisition time, s from the start of acquisition (unrounded; the row's `t` is rounded to
+    /// [`T_DECIMALS`]).
     pub t_s: f64,
     /// The structure's true temperature rise over ambient, K (drives the thermal scaling).
     pub delta_t_k: f64,
     /// What the temperature sensor wrote in the `temp` column, °C (absent without a column).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub temp_measured_c: Option<f64>,
+    /// Commanded (controller) joint angles, degrees.
     pub q_cmd_deg: Vec<f64>,
     /// Encoder eccentricity, true motor-side minus commanded angle per joint, millidegrees
     /// (absent when the effect is off).
@@ -49,9 +55,13 @@ pub struct PoseTruth {
     pub eccentricity_mdeg: Option<Vec<f64>>,
     /// Link-side angles the chain sees (commanded + eccentricity + deflection), degrees.
     pub q_link_deg: Vec<f64>,
+    /// Link-side deflection per joint (link side minus motor side), millidegrees.
     pub deflection_mdeg: Vec<f64>,
+    /// Load torque per joint at rest (gravity, payload, cable tension), N·m.
     pub joint_torque_nm: Vec<f64>,
+    /// Backlash flank each joint arrived on (±1), by the approach rule.
     pub approach_side: Vec<f64>,
+    /// Where each joint's transmission came to rest (spring, a flank, held, free).
     pub contact: Vec<Contact>,
     /// True tool position, base frame, mm.
     pub tool_mm: [f64; 3],
@@ -59,6 +69,8 @@ pub struct PoseTruth {
     pub length_true_mm: f64,
     /// What a perfect reading would give: true length + linearity error, mm.
     pub length_noise_free_mm: f64,
+    /// The draw-wire's reading, mm: noise, resolution and any glitch run included (the value a
+    /// draw-wire dataset holds).
     pub length_measured_mm: f64,
     /// With a tracker: the reflector's true position in the tracker's frame, mm (no noise).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -70,6 +82,7 @@ pub struct PoseTruth {
     /// degrees, intrinsic X-Y-Z; no noise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pose_true: Option<[f64; 6]>,
+    /// Simulation steps the arm took to settle (0 for the quasi-static model or a rigid arm).
     pub settle_steps: usize,
     /// Simulated time the arm took to come to rest, s. Longer than the sensor's hold time means
     /// a real reading would have been taken while the arm still moved.
@@ -99,30 +112,50 @@ pub struct PoseAcquisition {
     pub rule_side: Vec<f64>,
 }
 
+/// A sampled pose that gave no dataset row, and why.
 #[derive(Clone, Debug, Serialize)]
 pub struct Rejected {
+    /// Index of the pose among the sampled poses.
     pub index: usize,
+    /// Commanded joint angles, degrees.
     pub q_cmd_deg: Vec<f64>,
+    /// Why the pose was rejected (settling failed, reading out of range, stability gate still
+    /// closed).
     pub reason: String,
 }
 
+/// The draw-wire sensor's settings, as the truth file records them (see
+/// [`crate::sim::instrument::DrawWire`]).
 #[derive(Clone, Debug, Serialize)]
 pub struct SensorTruth {
+    /// Cable exit point in the base frame, mm.
     pub exit_point_mm: [f64; 3],
+    /// Added to the geometric distance, mm.
     pub length_offset_mm: f64,
+    /// Standard deviation of one raw sample, mm.
     pub noise_std_mm: f64,
+    /// Standard deviation of a written reading: `noise_std_mm` / √`samples`, mm.
     pub averaged_noise_std_mm: f64,
+    /// Quantisation step of one raw sample, mm (0 = none).
     pub resolution_mm: f64,
+    /// Amplitude of the linearity error, % of full scale (range width).
     pub linearity_pct_fs: f64,
+    /// Valid reading range [min, max], mm.
     pub range_mm: [f64; 2],
+    /// Cable tension acting on the tool, N.
     pub tension_n: f64,
+    /// Raw samples averaged per reading.
     pub samples: usize,
+    /// Hold time before sampling, s.
     pub hold_s: f64,
+    /// Sampling rate, Hz.
     pub rate_hz: f64,
 }
 
+/// The tool point the instrument reads, as the truth file records it.
 #[derive(Clone, Debug, Serialize)]
 pub struct ToolTruth {
+    /// Cable attachment point (or reflector) in the flange frame, mm.
     pub point_mm: [f64; 3],
 }
 
@@ -131,26 +164,35 @@ pub struct ToolTruth {
 pub struct Truth {
     /// See [`crate::io::SCHEMA_VERSION`].
     pub schema_version: u32,
+    /// The scenario's `name`.
     pub scenario: String,
+    /// The seed the dataset was generated with.
     pub seed: u64,
+    /// Name of the robot.
     pub robot: String,
     /// The robot's URDF text, for a robot other than the embedded IRB 120: the truth file then
     /// holds everything needed to rebuild the twin (`ik` validates against it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robot_urdf: Option<String>,
+    /// Unit of each kind of value in the file, by name.
     pub units: BTreeMap<&'static str, &'static str>,
     /// True geometric deviations: mm for dx/dy/dz, degrees for rx/ry/rz/dtheta.
     pub parameters: BTreeMap<String, f64>,
+    /// The twin's effects and their true settings.
     pub effects: crate::sim::effects::Effects,
+    /// The draw-wire sensor.
     pub sensor: SensorTruth,
     /// The tracker that wrote `x, y, z` (absent for a draw-wire dataset).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tracker: Option<crate::sim::instrument::Tracker>,
+    /// The tool point.
     pub tool: ToolTruth,
     /// Standard deviation of one written reading value, mm: the averaged cable noise, or for a
     /// tracker the RMS over the poses of one coordinate's averaged noise.
     pub noise_std_mm: f64,
+    /// Ground truth of each dataset row, in file order.
     pub poses: Vec<PoseTruth>,
+    /// Sampled poses that gave no row.
     pub rejected: Vec<Rejected>,
     /// Dataset rows (0-based, in file order) whose reading carries a glitch run's offset.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -159,9 +201,13 @@ pub struct Truth {
 
 /// A generated dataset with its truth and the link frames (for recordings).
 pub struct Generated {
+    /// The dataset as `dataset.csv` holds it.
     pub dataset: Dataset,
+    /// Its ground truth, as `truth.json` holds it.
     pub truth: Truth,
+    /// Frames of the true arm at rest (base, links, flange), per dataset row.
     pub frames: Vec<Vec<Frame>>,
+    /// The twin that generated the dataset.
     pub twin: Twin,
 }
 

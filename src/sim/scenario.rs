@@ -22,29 +22,42 @@ pub const MAX_ANGLE_DECIMALS: usize = 12;
 
 /// The scenario shipped with twincal and run by `twincal generate` without `--scenario`.
 pub const DEFAULT_SCENARIO: &str = include_str!("../../scenarios/irb120_evo_nph.toml");
+/// The name errors give the embedded [`DEFAULT_SCENARIO`].
 pub const DEFAULT_SCENARIO_NAME: &str = "scenarios/irb120_evo_nph.toml (embedded)";
 
+/// A scenario file: which robot, its true deviations, effects, instrument, pose sampling,
+/// acquisition and seed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
+    /// The scenario's name (recorded in the truth file).
     pub name: String,
+    /// Free text saying what the scenario is for.
     #[serde(default)]
     pub description: String,
+    /// Seed of every random stream of a run (geometry, sampling, noise, glitches): a scenario and
+    /// seed give a byte-identical dataset.
     pub seed: u64,
     /// `irb120` for the embedded URDF, or a URDF path relative to the scenario file.
     #[serde(default = "Scenario::default_robot")]
     pub robot: String,
+    /// The true geometric deviations.
     #[serde(default)]
     pub geometry: Geometry,
+    /// The twin's non-geometric effects (compliance, backlash, thermal drift, ...); none by
+    /// default.
     #[serde(default)]
     pub effects: Effects,
+    /// The draw-wire sensor (with a tracker: the tool point, the hold and the samples averaged).
     pub sensor: DrawWire,
     /// A laser tracker instead of the cable's reading: the dataset then holds the tool point's
     /// `x, y, z` in the tracker's frame. The `[sensor]` still gives the tool point (the
     /// reflector), the hold and the samples averaged; it pulls no cable.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tracker: Option<crate::sim::instrument::Tracker>,
+    /// How the commanded poses are sampled.
     pub sampling: Sampling,
+    /// Options of the rapier settling loop.
     #[serde(default)]
     pub simulation: SettleOptions,
     /// How the readings are acquired: settled poses (default), the quasi-static model, or the
@@ -72,9 +85,13 @@ pub struct Scenario {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Glitches {
+    /// Number of runs.
     pub runs: usize,
+    /// Consecutive rows per run.
     pub rows: usize,
+    /// Base size of a reading's disturbance, mm (each is `size_mm` × (1 + U(0, 0.5))).
     pub size_mm: f64,
+    /// How the run is disturbed (default `offset`).
     #[serde(default, skip_serializing_if = "GlitchKind::is_default")]
     pub kind: GlitchKind,
     /// A joint fault's joint, 1-based.
@@ -89,12 +106,18 @@ pub struct Glitches {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum GlitchKind {
+    /// One offset per run: the reading jumped and stayed.
     #[default]
     Offset,
+    /// A fresh size and sign on every row of the run.
     Scatter,
+    /// One joint's logged angle is off by `size_deg` × (1 + U(0, 0.5)).
     JointOffset,
+    /// One joint is logged with the wrong sign.
     JointSign,
+    /// One joint's logged angle repeats the row before the run.
     JointStale,
+    /// Two neighbouring joints are logged in each other's columns.
     JointSwap,
 }
 
@@ -112,10 +135,13 @@ impl GlitchKind {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Geometry {
+    /// Standard deviation of the random joint-origin offsets (`dx, dy, dz`), mm.
     #[serde(default)]
     pub origin_offset_std_mm: f64,
+    /// Standard deviation of the random joint-origin rotations (`rx, ry, rz`), degrees.
     #[serde(default)]
     pub origin_rotation_std_deg: f64,
+    /// Standard deviation of the random joint-zero offsets (`dtheta`), degrees.
     #[serde(default)]
     pub joint_zero_std_deg: f64,
     /// Explicit deviations by parameter name (`joint_2.dtheta`): mm for dx/dy/dz, degrees otherwise.
@@ -123,6 +149,7 @@ pub struct Geometry {
     pub set: BTreeMap<String, f64>,
 }
 
+/// The order the sampled poses are acquired in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Order {
@@ -136,9 +163,11 @@ pub enum Order {
     Sweeps,
 }
 
+/// How the commanded poses are sampled: count, ranges, order and precision.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Sampling {
+    /// Number of poses sampled, test poses included (at most [`MAX_POSES`]).
     pub poses: usize,
     /// Poses held out for testing (stratified over the cable length).
     #[serde(default)]
@@ -146,6 +175,7 @@ pub struct Sampling {
     /// Joint ranges in degrees; default: the URDF limits shrunk by `limit_margin_deg`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ranges_deg: Option<Vec<[f64; 2]>>,
+    /// Margin kept inside each URDF joint limit when `ranges_deg` is not given, degrees.
     #[serde(default = "Sampling::default_margin")]
     pub limit_margin_deg: f64,
     /// Lowest allowed nominal tool height, mm (keeps the tool off the table).
@@ -154,6 +184,7 @@ pub struct Sampling {
     /// Joint speed while moving between poses, fraction of the URDF limit.
     #[serde(default = "Sampling::default_speed")]
     pub speed_fraction: f64,
+    /// The order the poses are acquired in (default `halton`).
     #[serde(default = "Sampling::default_order")]
     pub order: Order,
     /// Decimals of a degree the commanded joint angles are rounded to (before simulation, so the
@@ -200,11 +231,14 @@ impl Scenario {
         "irb120".into()
     }
 
+    /// Parses a scenario from TOML text, without validating it; `origin` names the text in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Scenario> {
         let s: Scenario = toml::from_str(text).map_err(|e| Error::Scenario { path: origin.to_string(), msg: e.to_string() })?;
         Ok(s)
     }
 
+    /// Reads a scenario file, loads its robot (a URDF path relative to the file's folder) and
+    /// validates both; warns on stderr about joints without a velocity limit.
     pub fn load(path: &Path) -> Result<(Scenario, Robot)> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let origin = path.display().to_string();
@@ -231,6 +265,8 @@ impl Scenario {
         Ok((s, robot))
     }
 
+    /// The robot the scenario names: the embedded IRB 120, or its URDF file (a relative path is
+    /// taken from `dir`).
     pub fn load_robot(&self, dir: Option<&Path>) -> Result<Robot> {
         match self.robot_file(dir) {
             None => Ok(Robot::irb120()),
@@ -248,6 +284,7 @@ impl Scenario {
         Some(if p.is_relative() { dir.map(|d| d.join(&p)).unwrap_or(p) } else { p })
     }
 
+    /// Checks every section against `robot`; the error names `origin` and the first bad key.
     pub fn validate(&self, robot: &Robot, origin: &str) -> Result<()> {
         let err = |msg: String| Error::Scenario { path: origin.to_string(), msg };
         if robot.dof() == 0 || robot.dof() > crate::dataset::MAX_JOINTS {
@@ -440,6 +477,7 @@ pub fn halton(mut i: u64, b: u64) -> f64 {
     r
 }
 
+/// Halton base per joint (the first 12 primes): sampling supports up to 12 joints.
 pub const HALTON_BASES: [u64; 12] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37];
 
 #[cfg(test)]

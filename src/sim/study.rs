@@ -13,8 +13,11 @@ use serde::Serialize;
 /// One setting of the study.
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct HoldStudyRow {
+    /// Joint speed while moving, fraction of the URDF speed limits.
     pub speed_fraction: f64,
+    /// Hold time before the readings, s.
     pub hold_s: f64,
+    /// Poses of the tour simulated.
     pub poses: usize,
     /// Mean transient error of the readings, mm.
     pub bias_mm: f64,
@@ -33,7 +36,9 @@ pub struct HoldStudyRow {
 /// The study's settings.
 #[derive(Clone, Debug)]
 pub struct HoldStudy {
+    /// Hold times to try, s.
     pub holds_s: Vec<f64>,
+    /// Approach speeds to try, fractions of the URDF speed limits.
     pub speed_fractions: Vec<f64>,
     /// The first this many poses of the scenario's tour.
     pub poses: usize,

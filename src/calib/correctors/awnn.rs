@@ -22,7 +22,7 @@
 //!   input axis and the sum/difference diagonals of joint pairs, translations spread evenly over
 //!   the range each direction takes on the training poses, dilations that range over the
 //!   level's neuron count (neighbours overlap); its output layer is then fitted by
-//!   cross-validated least squares ([`super::awnn_select`]).
+//!   cross-validated least squares ([`crate::calib::methods::awnn_select`]).
 //! * [`Awnn::init`]: a few neurons dealt to the joints in turn, each on its joint's axis (tilted
 //!   by a small seeded random amount, [`TILT`], so that learning can mix joints), spread and
 //!   dilated alike, with zero output weights (the network starts as "no correction").
@@ -54,8 +54,11 @@ pub const MORLET_OMEGA: f64 = 1.75;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Activation {
+    /// The Mexican-hat wavelet (1 − z²)·e^(−z²/2).
     MexicanHat,
+    /// The real Morlet wavelet cos(ω₀z)·e^(−z²/2), ω₀ = [`MORLET_OMEGA`].
     Morlet,
+    /// The rectifier max(z, 0).
     Relu,
 }
 
@@ -82,6 +85,7 @@ impl Activation {
             }
         }
     }
+    /// The name reports give it (`mexican hat`, `morlet`, `relu`).
     pub fn label(self) -> &'static str {
         match self {
             Activation::MexicanHat => "mexican hat",
@@ -121,6 +125,7 @@ impl Feature {
             Feature::Torque(j) => inp.torque.get(j).copied(),
         }
     }
+    /// The short name reports give it (`temp`, `t`, `side2`, `tau2`; joints 1-based).
     pub fn label(self) -> String {
         match self {
             Feature::Temperature => "temp".into(),
@@ -143,7 +148,9 @@ pub const PAIR_JOINTS: usize = 5;
 /// the direction's range on the training rows and dilation that range over `per`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Library {
+    /// Neurons per direction at each resolution level.
     pub levels: &'static [usize],
+    /// Whether the pair diagonals are directions too.
     pub pairs: bool,
 }
 
@@ -177,6 +184,7 @@ impl Library {
 /// `{"kind": "awnn", ...}`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Awnn {
+    /// The neurons' activation.
     pub activation: Activation,
     /// Inputs after the joint angles (empty: the paper's network on q alone).
     #[serde(default)]
@@ -253,7 +261,7 @@ impl Awnn {
 
     /// A network laid out as a multiresolution library of `shape` (see [`Library`]) with zero
     /// output weights: its output layer is then fitted by least squares
-    /// ([`super::awnn_select`]).
+    /// ([`crate::calib::methods::awnn_select`]).
     pub fn library(qs: &[Vec<f64>], inputs: &[RowInputs], extra: &[Feature], shape: &Library, activation: Activation) -> Result<Awnn, String> {
         let (mut net, std) = Awnn::empty(qs, inputs, extra, activation)?;
         for v in shape.directions(net.joints(), net.inputs()) {
@@ -338,6 +346,7 @@ impl Awnn {
         self.weights.push(0.0);
     }
 
+    /// Number of neurons.
     pub fn neurons(&self) -> usize {
         self.weights.len()
     }

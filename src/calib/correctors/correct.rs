@@ -56,13 +56,16 @@ impl<T: Correct + ?Sized> Correct for &T {
 /// The model's physical effect blocks as a corrector: the length (mm) with every effect minus
 /// the length of the same geometry without them.
 pub struct EffectCorrection<'a> {
+    /// The calibrated model.
     pub model: &'a CalibModel,
+    /// Its parameter vector (internal units).
     pub x: &'a [f64],
     /// The same parameters with every effect parameter at "no effect".
     x_off: Vec<f64>,
 }
 
 impl<'a> EffectCorrection<'a> {
+    /// The effect correction of `model` at `x`.
     pub fn new(model: &'a CalibModel, x: &'a [f64]) -> Self {
         let mut x_off = x.to_vec();
         let k = model.first_effect();

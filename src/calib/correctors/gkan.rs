@@ -46,7 +46,9 @@ fn cubic(t: f64, g: usize) -> (usize, [f64; 4], [f64; 4]) {
 /// The shape of a GKAN (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GkanShape {
+    /// Intervals of each node edge's grid.
     pub grid: usize,
+    /// Intervals per axis of each chain edge's grid.
     pub edge_grid: usize,
     /// Chain edges connect every pair `i < j` among the first `chain_joints` joints.
     pub chain_joints: usize,
@@ -63,8 +65,11 @@ impl Default for GkanShape {
 pub struct Gkan {
     /// Joint-angle range mapped onto the grid, rad (per joint).
     pub lo: Vec<f64>,
+    /// Upper end of each joint's grid range, rad (see `lo`).
     pub hi: Vec<f64>,
+    /// Intervals of each node edge's grid.
     pub grid: usize,
+    /// Intervals per axis of each chain edge's grid.
     pub edge_grid: usize,
     /// Chain edges `[proximal, distal]`.
     pub edges: Vec<[usize; 2]>,
@@ -94,6 +99,7 @@ impl Gkan {
             })
             .unzip()
     }
+    /// Number of joints (nodes).
     pub fn n_joints(&self) -> usize {
         self.lo.len()
     }
@@ -103,6 +109,7 @@ impl Gkan {
     fn edge_len(&self) -> usize {
         (self.edge_grid + 3) * (self.edge_grid + 3)
     }
+    /// Number of coefficients: `grid + 3` per node edge, `(edge_grid + 3)²` per chain edge.
     pub fn n_coef(&self) -> usize {
         self.n_joints() * self.node_len() + self.edges.len() * self.edge_len()
     }
@@ -215,13 +222,18 @@ impl Gkan {
 /// its output weight; then the output bias (`h·(n + 2) + 1` values).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Mlp {
+    /// Lower end of each joint's input range, rad (maps to −1).
     pub lo: Vec<f64>,
+    /// Upper end of each joint's input range, rad (maps to 1).
     pub hi: Vec<f64>,
+    /// Number of hidden units `h`.
     pub hidden: usize,
+    /// The weights, mm (layout in the type's docs).
     pub w: Vec<f64>,
 }
 
 impl Mlp {
+    /// A perceptron with `hidden` units, zero weights, over the input ranges `[lo, hi]` (rad).
     pub fn new(hidden: usize, lo: Vec<f64>, hi: Vec<f64>) -> Mlp {
         let n = lo.len();
         Mlp { lo, hi, hidden, w: vec![0.0; hidden * (n + 2) + 1] }
@@ -230,6 +242,7 @@ impl Mlp {
     pub fn matched_hidden(n_weights: usize, n_joints: usize) -> usize {
         ((n_weights.saturating_sub(1)) as f64 / (n_joints + 2) as f64).round().max(1.0) as usize
     }
+    /// Number of weights, `h·(n + 2) + 1`.
     pub fn n_weights(&self) -> usize {
         self.hidden * (self.lo.len() + 2) + 1
     }
@@ -284,6 +297,8 @@ impl Mlp {
         }
         out
     }
+    /// Checks that the stored network fits an arm of `n_joints` joints (at most 8) and holds only
+    /// finite values; the error says it is inconsistent.
     pub fn validate(&self, n_joints: usize) -> Result<(), String> {
         let ok = self.lo.len() == n_joints
             && n_joints <= 8

@@ -1,6 +1,6 @@
 //! Non-geometric correctors: what a calibrated model adds to its geometric length prediction.
 //!
-//! A calibrated model is a geometric backbone (a [`CalibModel`] and its parameter vector) plus a
+//! A calibrated model is a geometric backbone (a [`CalibModel`](crate::calib::model::CalibModel) and its parameter vector) plus a
 //! *corrector* of what the backbone cannot represent. Every corrector implements [`Correct`]:
 //! its length correction in mm at commanded joint angles `q` (rad) and the row's inputs
 //! ([`RowInputs`]: time, temperature, joint torques, backlash flanks), and the gradient of that
@@ -34,12 +34,12 @@ pub use correct::{gradient_error, Correct, EffectCorrection};
 pub enum Corrector {
     /// Gaussian RBF network on the joint angles, fitted to the geometric fit's residuals.
     Rbf(RbfNetwork),
-    /// Graph KAN over the serial chain (Evo-NPH, see [`super::gkan`]).
+    /// Graph KAN over the serial chain (Evo-NPH, see [`gkan`]).
     Gkan(Gkan),
     /// ReLU perceptron of the GKAN's size (Evo-NPH ablation V2).
     Mlp(Mlp),
     /// Adaptive wavelet network (or its MLP / Morlet ablations) learned from the EKF's
-    /// innovations (method pso-ekf-awnn, see [`super::awnn`]).
+    /// innovations (method pso-ekf-awnn, see [`awnn`]).
     Awnn(crate::calib::correctors::awnn::Awnn),
     /// One corrector per reading value of a measurement with several (a tracker's x, y, z).
     Values(PerValue),
@@ -49,6 +49,7 @@ pub enum Corrector {
 /// several values per row.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PerValue {
+    /// The correctors, one per reading value in reading order.
     pub values: Vec<Corrector>,
 }
 
@@ -93,6 +94,7 @@ impl Corrector {
         }
     }
 
+    /// The corrector as a [`Correct`].
     pub fn as_correct(&self) -> &dyn Correct {
         match self {
             Corrector::Rbf(n) => n,

@@ -143,6 +143,7 @@ impl RbfNetwork {
     /// The candidate grid of `--method rbf` and of diagnose's RBF compensator: centres per
     /// network and ridge parameters, chosen by [`Self::fit_cv`].
     pub const CV_CENTRES: [usize; 4] = [5, 10, 20, 40];
+    /// Candidate ridge parameters (see [`Self::CV_CENTRES`]).
     pub const CV_RIDGES: [f64; 3] = [1e-6, 1e-4, 1e-2];
 
     /// Choose the number of centres and the ridge by [`CV_FOLDS`]-fold cross-validation.

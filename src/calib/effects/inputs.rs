@@ -38,6 +38,7 @@ impl Default for LoadOptions {
 /// payload and the cable's pull.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TorqueModel {
+    /// The robot's nominal chain (m, rad).
     pub chain: Chain,
     /// Per moving link: mass (kg) and centre of mass in the link frame (m).
     pub links: Vec<(f64, [f64; 3])>,
@@ -46,6 +47,8 @@ pub struct TorqueModel {
     /// Cable exit point (base frame, m), tool point (flange frame, m) and tension (N); none
     /// without a tension or without a cable (another instrument).
     pub cable: Option<([f64; 3], [f64; 3], f64)>,
+    /// Static torque above which the load, not the approach motion, decides the backlash flank,
+    /// N·m.
     pub torque_threshold_nm: f64,
 }
 
@@ -57,6 +60,9 @@ pub const MAX_LOAD_POINT_M: f64 = 100.0;
 pub const MAX_CABLE_TENSION_N: f64 = 1_000.0;
 
 impl TorqueModel {
+    /// The torque model of `robot` (its link inertials) under `loads`; the cable's pull from exit
+    /// point `exit_m` (base frame, m; `None`: no cable) to the tool point `tool_m` (flange frame,
+    /// m), when the tension is not zero.
     pub fn new(robot: &Robot, loads: &LoadOptions, exit_m: Option<Vector3<f64>>, tool_m: Vector3<f64>) -> TorqueModel {
         let load = LoadModel::new(robot, loads.payload.as_ref(), None);
         TorqueModel {

@@ -90,9 +90,13 @@ pub trait Effect: Sync {
 /// The size of an effect block in physical units, as diagnose reports it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Size {
+    /// What the size is (`compliance`, `band width (2 x half band)`, `expansion coefficient`, ...).
     pub quantity: String,
+    /// The size, in `unit`.
     pub value: f64,
+    /// Display unit of `value` and `uncertainty`.
     pub unit: String,
+    /// Standard uncertainty of `value`, in `unit`.
     pub uncertainty: f64,
 }
 
@@ -109,14 +113,20 @@ const DEG: f64 = 180.0 / std::f64::consts::PI;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EffectKind {
+    /// Each joint gives way in proportion to the static torque it carries.
     JointCompliance,
+    /// Gear backlash: a joint sits half its band to the side the load (or the approach) puts it on.
     Backlash,
+    /// Links grow with temperature (or a warm-up with time), and joint zeros drift with it.
     ThermalDrift,
+    /// The true joint angle is the reading plus a first harmonic of it.
     EncoderEccentricity,
+    /// The reading plus Legendre polynomials P2..P4 over the reading range.
     SensorNonlinearity,
 }
 
 impl EffectKind {
+    /// Every kind, in the order selection and reports list them.
     pub const ALL: [EffectKind; 5] =
         [EffectKind::JointCompliance, EffectKind::Backlash, EffectKind::ThermalDrift, EffectKind::EncoderEccentricity, EffectKind::SensorNonlinearity];
 
@@ -130,6 +140,7 @@ impl EffectKind {
             EffectKind::SensorNonlinearity => &nonlinearity::SensorNonlinearity,
         }
     }
+    /// The kind's name in files and options (`joint_compliance`, `backlash`, ...).
     pub fn name(self) -> &'static str {
         self.def().name()
     }
@@ -182,6 +193,7 @@ pub enum EffectUnit {
 }
 
 impl EffectUnit {
+    /// Factor from internal units to display units.
     pub fn display(self) -> f64 {
         match self {
             EffectUnit::Compliance | EffectUnit::PerKelvin | EffectUnit::Ratio => 1e6,
@@ -190,6 +202,7 @@ impl EffectUnit {
             EffectUnit::Length => 1e3,
         }
     }
+    /// The display unit (`urad/Nm`, `mdeg`, ...).
     pub fn unit(self) -> &'static str {
         match self {
             EffectUnit::Compliance => "urad/Nm",
@@ -208,7 +221,10 @@ impl EffectUnit {
 #[serde(rename_all = "snake_case")]
 pub enum ThermalDrive {
     /// Measured temperature: scale = 1 + α·(T − `ref_c`).
-    Temperature { ref_c: f64 },
+    Temperature {
+        /// Reference temperature T_ref, °C.
+        ref_c: f64,
+    },
     /// Time only: first-order warm-up, scale = 1 + s·(1 − e^(−t/τ)).
     WarmUp,
 }
@@ -216,10 +232,12 @@ pub enum ThermalDrive {
 /// One effect in a calibration model.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EffectBlock {
+    /// Which effect.
     pub kind: EffectKind,
     /// Joint (0-based) of a per-joint effect.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub joint: Option<usize>,
+    /// How a thermal drift block is driven (thermal blocks only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thermal: Option<ThermalDrive>,
     /// Sensor nonlinearity: reading range [lo, hi] (m) its polynomials are normalised over.
@@ -228,6 +246,7 @@ pub struct EffectBlock {
 }
 
 impl EffectBlock {
+    /// A block of `kind` on joint `j` (0-based).
     pub fn joint(kind: EffectKind, j: usize) -> Self {
         EffectBlock { kind, joint: Some(j), thermal: None, range_m: None }
     }
@@ -291,6 +310,7 @@ pub struct EffectState {
     pub dq: Vec<f64>,
     /// ∂Δq_j/∂q_j: how each joint's offset changes with its own commanded angle.
     pub ddq_dq: Vec<f64>,
+    /// Length scale (1: none).
     pub scale: f64,
     /// (parameter index, joint, ∂Δq_joint/∂param).
     pub joint_terms: Vec<(usize, usize, f64)>,

@@ -66,9 +66,13 @@ pub const RIDGES: [f64; 5] = [1e-5, 1e-4, 1e-3, 1e-2, 1e-1];
 /// One candidate's cross-validated score.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Candidate {
+    /// Layout of the neurons.
     pub library: Library,
+    /// Number of neurons of that layout.
     pub neurons: usize,
+    /// Output-magnitude weight λ_n.
     pub neural: f64,
+    /// Ridge weight ρ (relative to the mean squared activation).
     pub ridge: f64,
     /// Held-out RMSE over all folds, mm.
     pub cv_rmse_mm: f64,
@@ -80,7 +84,9 @@ pub struct Candidate {
 pub struct Selection {
     /// One network per reading value (one for a cable length), the same layout for all.
     pub nets: Vec<Awnn>,
+    /// The candidate with the smallest held-out RMSE.
     pub chosen: Candidate,
+    /// Every candidate's score.
     pub candidates: Vec<Candidate>,
     /// Held-out RMSE of the geometric columns alone, mm.
     pub no_network_rmse_mm: f64,

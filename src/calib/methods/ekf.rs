@@ -8,6 +8,7 @@ use crate::optim::{Ekf, Observer};
 /// variance from the estimated noise, several passes over the shuffled training rows.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EkfSolver {
+    /// Passes over the shuffled training observations (at least one).
     pub epochs: usize,
 }
 

@@ -96,14 +96,19 @@ impl EvoVariant {
 /// Evo-NPH settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvoNphSolver {
+    /// Which variant of the method runs.
     pub variant: EvoVariant,
     /// The DE engine's strategy (DS-ADE for V4, rand-to-pbest/1 for V3; others for Table 10).
     pub de: DeVariant,
+    /// DE population size.
     pub pop: usize,
+    /// DE generations.
     pub generations: usize,
     /// Cap on objective evaluations (equal budgets across DE variants; L-SHADE's horizon).
     pub max_evals: Option<usize>,
+    /// Shape of the GKAN.
     pub shape: GkanShape,
+    /// Weights of the objective's terms.
     pub weights: EvoWeights,
     /// Geometry box half-width in tolerances.
     pub width_sigmas: f64,
@@ -520,19 +525,25 @@ impl Observer for ExpandObs<'_, '_, '_> {
 /// What one Evo-NPH run produced, beyond the [`Solution`]: for benchmarks and ablation tables.
 #[derive(Clone, Debug)]
 pub struct EvoRun {
+    /// The calibrated parameter vector, every model parameter (internal units).
     pub solution_x: Vec<f64>,
+    /// The learned corrector.
     pub corrector: Corrector,
     /// J after the DE (before the polish) and at the end.
     pub de_objective: f64,
+    /// J at the end, after the polish (see `de_objective`).
     pub objective: f64,
     /// Best J after every generation.
     pub curve: Vec<f64>,
+    /// DE generations run.
     pub generations: usize,
+    /// Objective evaluations, the polish's included.
     pub evaluations: usize,
     /// Decision-vector dimension.
     pub dim: usize,
     /// Identifiable geometric parameters in it.
     pub n_geometry: usize,
+    /// Wall time of the DE (or, for V1, of its LM fit and coefficient solve), s.
     pub de_seconds: f64,
     /// The cross-validated choice of the network's shape and weights, when made.
     pub selection: Option<Selection>,

@@ -48,7 +48,9 @@ pub use crate::calib::methods::ridge_cv::FOLDS;
 pub struct EvoWeights {
     /// Multiplier of the MAP weight σ²/N of the geometric term.
     pub geometry: f64,
+    /// Weight λ_n of the neural-magnitude term.
     pub neural: f64,
+    /// Weight λ_s of the roughness term.
     pub roughness: f64,
 }
 
@@ -85,9 +87,13 @@ pub fn penalty_gram(rows: &[[(usize, f64); 3]], nw: usize) -> DMatrix<f64> {
 /// One candidate's cross-validated score.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Candidate {
+    /// The network's shape.
     pub shape: GkanShape,
+    /// Its number of coefficients.
     pub coefficients: usize,
+    /// Neural-magnitude weight λ_n.
     pub neural: f64,
+    /// Roughness weight λ_s.
     pub roughness: f64,
     /// Held-out RMSE over all folds, mm.
     pub cv_rmse_mm: f64,
@@ -96,7 +102,9 @@ pub struct Candidate {
 /// The chosen candidate, every candidate's score, and the geometry-only baseline.
 #[derive(Clone, Debug)]
 pub struct Selection {
+    /// The candidate with the smallest held-out RMSE (on a tie the smaller network).
     pub chosen: Candidate,
+    /// Every candidate's score.
     pub candidates: Vec<Candidate>,
     /// Held-out RMSE of no network at all (the LM residuals), mm.
     pub no_network_rmse_mm: f64,
@@ -107,6 +115,7 @@ pub struct Selection {
 }
 
 impl Selection {
+    /// The objective's weights of the chosen candidate, with `geometry` as the geometric weight.
     pub fn weights(&self, geometry: f64) -> EvoWeights {
         EvoWeights { geometry, neural: self.chosen.neural, roughness: self.chosen.roughness }
     }

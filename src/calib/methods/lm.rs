@@ -7,6 +7,7 @@ use crate::optim::{LevenbergMarquardt, Observer};
 /// Levenberg–Marquardt on all identifiable parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LmSolver {
+    /// The Levenberg–Marquardt settings.
     pub lm: LevenbergMarquardt,
     /// Squared residuals, or a robust loss by IRLS ([`crate::calib::problem::robust::irls`]).
     pub loss: crate::calib::problem::robust::Loss,

@@ -33,12 +33,17 @@ pub use solver::{Problem, Solution, Solver};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(into = "String", try_from = "String")]
 pub enum Method {
+    /// Levenberg–Marquardt on the identifiable parameters.
     Lm,
+    /// The extended Kalman filter.
     Ekf,
+    /// The regularised particle filter.
     Pf,
+    /// Particle swarm optimisation.
     Pso,
+    /// Levenberg–Marquardt geometry, then an RBF network on its residuals.
     Rbf,
-    /// Evo-NPH: DS-ADE over geometry and GKAN coefficients ([`super::evonph`]).
+    /// Evo-NPH: DS-ADE over geometry and GKAN coefficients ([`evonph`]).
     #[serde(rename = "dsade-gkan")]
     DsadeGkan,
     /// Evo-NPH ablation V1: sequential (LM geometry, then the GKAN).
@@ -50,7 +55,7 @@ pub enum Method {
     /// Evo-NPH ablation V3: single-strategy DE.
     #[serde(rename = "dsade-gkan-v3")]
     DsadeGkanV3,
-    /// PSO-EKF-AWNN or one of its ablations (see [`super::psoekf`]).
+    /// PSO-EKF-AWNN or one of its ablations (see [`psoekf`]).
     PsoEkfAwnn(Ablation),
 }
 
@@ -76,11 +81,13 @@ impl TryFrom<String> for Method {
 }
 
 impl Method {
+    /// The core's baseline methods.
     pub const ALL: [Method; 5] = [Method::Lm, Method::Ekf, Method::Pf, Method::Pso, Method::Rbf];
 
     /// The Evo-NPH method and its ablations (not in [`Method::ALL`], the core's baselines).
     pub const EVO_NPH: [Method; 4] = [Method::DsadeGkan, Method::DsadeGkanV1, Method::DsadeGkanV2, Method::DsadeGkanV3];
 
+    /// The method called `s` (any case), or an error listing the names.
     pub fn parse(s: &str) -> Result<Method> {
         let s = s.trim().to_ascii_lowercase();
         Method::ALL.into_iter().chain(Method::EVO_NPH).chain(Ablation::ALL.map(Method::PsoEkfAwnn)).find(|m| m.name() == s).ok_or_else(|| {
@@ -90,6 +97,8 @@ impl Method {
             ))
         })
     }
+    /// The name the method is registered and stored under (`lm`, `dsade-gkan-v2`, `pso-ekf-awnn-x`,
+    /// ...).
     pub fn name(self) -> &'static str {
         match self {
             Method::Lm => "lm",

@@ -7,9 +7,13 @@ use crate::optim::{LeastSquares, Observer, ParticleFilter};
 /// Regularised particle filter: particles drawn from the tolerance prior around the start.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PfSolver {
+    /// Number of particles.
     pub particles: usize,
+    /// Passes over the shuffled training observations.
     pub epochs: usize,
+    /// Observations per weight update.
     pub batch: usize,
+    /// Roughening constant of the jitter after each resampling.
     pub roughening: f64,
 }
 

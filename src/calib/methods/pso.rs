@@ -8,9 +8,13 @@ use crate::optim::{Bounds, Observer, Pso};
 /// Particle swarm over the identifiable parameters inside ± `width_sigmas` tolerances.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PsoSolver {
+    /// Swarm size.
     pub particles: usize,
+    /// Iteration budget.
     pub iterations: usize,
+    /// Stalled iterations before stopping (0 = never stop early).
     pub patience: usize,
+    /// Half-width of the search box around the start, in tolerances (prior standard deviations).
     pub width_sigmas: f64,
 }
 

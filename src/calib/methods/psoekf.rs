@@ -90,6 +90,7 @@ pub enum Ablation {
 }
 
 impl Ablation {
+    /// Every variant, the full method first.
     pub const ALL: [Ablation; 7] =
         [Ablation::Full, Ablation::V1Symbolic, Ablation::V2RandomInit, Ablation::V3Mlp, Ablation::V4Morlet, Ablation::V5Joint, Ablation::Extended];
     /// The method name of this variant on the command line.
@@ -176,8 +177,11 @@ pub struct Hyper {
 /// Stage 0's box: log10 bounds of `q_rel`, `r_rel` and `lr` (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SearchSpace {
+    /// log10 bounds of `q_rel`.
     pub log10_q_rel: (f64, f64),
+    /// log10 bounds of `r_rel`.
     pub log10_r_rel: (f64, f64),
+    /// log10 bounds of `lr`.
     pub log10_lr: (f64, f64),
 }
 
@@ -205,6 +209,7 @@ impl SearchSpace {
 /// The method's settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PsoEkfAwnn {
+    /// Which variant of the method runs.
     pub variant: Ablation,
     /// The network's inputs.
     pub inputs: NetInputs,
@@ -214,8 +219,11 @@ pub struct PsoEkfAwnn {
     pub neurons: usize,
     /// Stage I passes over the shuffled training rows.
     pub epochs: usize,
+    /// Stage 0's search box of the hyperparameters.
     pub search: SearchSpace,
+    /// PSO particles of Stage 0.
     pub pso_particles: usize,
+    /// PSO iterations of Stage 0.
     pub pso_iterations: usize,
     /// Fixed hyperparameters: Stage 0 is skipped (the sensitivity study sets these).
     pub hyper: Option<Hyper>,
@@ -254,6 +262,8 @@ impl Default for PsoEkfAwnn {
 }
 
 impl PsoEkfAwnn {
+    /// The default settings of `variant` (the extended one sees temperature or time and the flanks,
+    /// with two alternations).
     pub fn variant(variant: Ablation) -> Self {
         match variant {
             Ablation::Extended => PsoEkfAwnn { variant, inputs: NetInputs::ThermalFlanks, rounds: 2, ..Default::default() },
@@ -300,16 +310,19 @@ impl ObservationHook for Learner<'_> {
 
 /// What Stage I leaves.
 pub struct StageOne {
+    /// The parameter vector after Stage I (internal units).
     pub x: Vec<f64>,
     /// One network per reading value (none for V1).
     pub nets: Option<Vec<Awnn>>,
     /// RMS innovation (mm) over the last epoch: Stage 0's fitness.
     pub innovation_rmse: f64,
+    /// The EKF's report of Stage I.
     pub report: Report,
 }
 
 /// The least-squares problem of Stage II: the fit's residuals minus a frozen correction.
 pub struct Corrected<'a, 'b> {
+    /// The geometric fit whose residuals are corrected.
     pub fit: &'a ReadingFit<'b>,
     /// The frozen correction per training reading value (row after row, as the residuals), mm.
     pub offset: Vec<f64>,

@@ -11,8 +11,11 @@ use crate::optim::Observer;
 /// cross-validation).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RbfSolver {
+    /// The geometric fit.
     pub lm: LmSolver,
+    /// Candidate numbers of centres, chosen by cross-validation.
     pub centres: Vec<usize>,
+    /// Candidate ridge weights, chosen by cross-validation.
     pub ridges: Vec<f64>,
 }
 

@@ -24,8 +24,11 @@ pub const FOLDS: usize = 5;
 /// of the geometric fit on every row, the Jacobian of the free parameters there, and per fold
 /// of [`FOLDS`] the residuals on every row of the fit without that fold's rows.
 pub struct GeometricFit {
+    /// Residuals of the geometric fit on every training row, mm.
     pub residuals: Vec<f64>,
+    /// Jacobian of those residuals with respect to the free parameters, at that fit.
     pub jacobian: DMatrix<f64>,
+    /// Per fold, the residuals on every row of the fit made without that fold's rows, mm.
     pub per_fold: Vec<Vec<f64>>,
 }
 

@@ -11,13 +11,17 @@ use rand_chacha::ChaCha8Rng;
 /// What a solver is given: the fit on the training rows, the start, the fixed (non-identifiable)
 /// parameters, a one-sigma prior spread per parameter and the noise level estimated from the data.
 pub struct Problem<'a> {
+    /// The fit on the training rows.
     pub fit: &'a ReadingFit<'a>,
+    /// The start, internal units.
     pub x0: &'a [f64],
+    /// Per parameter, whether it is held at its start (not identifiable).
     pub fixed: &'a [bool],
     /// One standard deviation per parameter, internal units (from the tolerances).
     pub prior_std: &'a [f64],
     /// Standard deviation of one reading, mm, estimated from the data.
     pub noise_mm: f64,
+    /// Seed of the method's random draws.
     pub seed: u64,
 }
 
@@ -36,7 +40,9 @@ impl Problem<'_> {
 /// A solver's answer: the optimiser's report and, for methods that add one, a learned corrector
 /// of what the geometry leaves (see [`crate::calib::correctors`]).
 pub struct Solution {
+    /// The optimiser's report; `x` is the calibrated parameter vector.
     pub report: Report,
+    /// The learned corrector of what the geometry leaves, for methods that fit one.
     pub corrector: Option<Corrector>,
 }
 
@@ -54,5 +60,6 @@ pub trait Solver: Send + Sync {
     fn needs_row_inputs(&self) -> bool {
         false
     }
+    /// Solves `p`, reporting progress to `obs`.
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution>;
 }

@@ -29,7 +29,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Kind {
+    /// A length: internal m, displayed in mm.
     Length,
+    /// An angle: internal rad, displayed in degrees.
     Angle,
     /// A parameter of a non-geometric effect block.
     Effect(EffectUnit),
@@ -44,6 +46,7 @@ impl Kind {
             Kind::Effect(u) => u.display(),
         }
     }
+    /// The display unit (`mm`, `deg`, or the effect's own).
     pub fn unit(self) -> &'static str {
         match self {
             Kind::Length => "mm",
@@ -53,11 +56,18 @@ impl Kind {
     }
 }
 
+/// A calibration model: a kinematic chain, the instrument's placement and effect blocks, with one
+/// named parameter vector (internal units m and rad).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CalibModel {
+    /// The model's name (`dh`, `hayati`, `frame`, `generic6r`).
     pub name: String,
+    /// The kinematic chain the parameters' first [`Self::n_chain`] entries act on.
     pub chain: Chain,
+    /// Parameter names, one per parameter (`joint_2.dtheta`, a placement name, an effect
+    /// parameter).
     pub names: Vec<String>,
+    /// Physical kind of each parameter.
     pub kinds: Vec<Kind>,
     /// Nominal parameter vector (deviations zero, sensor at its nominal guess, effects off).
     pub nominal: Vec<f64>,
@@ -78,21 +88,27 @@ pub use crate::measurement::Placement;
 
 /// Reusable buffers for model evaluations.
 pub struct ModelWork {
+    /// Forward-kinematics workspace of the chain.
     pub fk: FkWork,
+    /// Point Jacobian of the instrument's (first) target point.
     pub jac: PointJacobian,
     /// The Jacobians of an instrument's other target points (a pose's axis tips).
     extra: Vec<PointJacobian>,
+    /// The effect blocks' state at the row evaluated (joint-angle shifts, length scale).
     pub eff: EffectState,
     q: Vec<f64>,
 }
 
 impl CalibModel {
+    /// Number of parameters: chain, instrument placement and effects.
     pub fn n_params(&self) -> usize {
         self.names.len()
     }
+    /// Number of chain parameters (the first entries of the vector).
     pub fn n_chain(&self) -> usize {
         self.chain.n_params()
     }
+    /// A workspace sized for this model.
     pub fn work(&self) -> ModelWork {
         let extra = (1..self.measurement.def().n_targets()).map(|_| PointJacobian::new(&self.chain)).collect();
         ModelWork { fk: FkWork::new(&self.chain), jac: PointJacobian::new(&self.chain), extra, eff: EffectState::default(), q: vec![0.0; self.chain.n_joints] }
@@ -186,6 +202,7 @@ impl CalibModel {
         let dval = (0..3).map(|m| x[k + m] * dp[m]).sum::<f64>() / half;
         (val, dval, Some((k, p)))
     }
+    /// Index of the parameter called `name`.
     pub fn index(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| n == name)
     }
@@ -480,17 +497,24 @@ impl CalibModel {
 /// Initial guess of the sensor geometry.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SensorGuess {
+    /// Cable exit point in the base frame, m.
     pub exit_m: [f64; 3],
+    /// Length offset added to the geometric distance, m.
     pub offset_m: f64,
+    /// Cable attachment point in the flange frame, m.
     pub tool_m: [f64; 3],
 }
 
 /// One standard D-H row (Craig's distal convention: Rz(θ)·Tz(d)·Tx(a)·Rx(α)).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DhRow {
+    /// Joint angle offset θ, rad.
     pub theta: f64,
+    /// Offset d along the previous z axis, m.
     pub d: f64,
+    /// Length a along the new x axis, m.
     pub a: f64,
+    /// Twist α about the new x axis, rad.
     pub alpha: f64,
     /// This joint's axis is parallel to the next one (Hayati's β replaces Δd).
     pub parallel: bool,
@@ -499,8 +523,11 @@ pub struct DhRow {
 /// A D-H description of a serial arm: fixed base transform, rows, fixed flange transform.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DhTable {
+    /// Fixed transform from the base frame to D-H frame 0.
     pub base: Frame,
+    /// One row per joint.
     pub rows: Vec<DhRow>,
+    /// Fixed transform from the last D-H frame to the flange.
     pub tool: Frame,
 }
 

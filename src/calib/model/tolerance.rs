@@ -17,8 +17,11 @@ use crate::calib::model::{CalibModel, Kind};
 ///   absorbs the arm's own errors into the sensor, so allow a few millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tolerances {
+    /// Link lengths and joint-origin offsets, mm.
     pub length_mm: f64,
+    /// Joint axis directions and joint zeros, degrees.
     pub angle_deg: f64,
+    /// The instrument placement (exit point, length offset, tool point), mm.
     pub sensor_mm: f64,
 }
 

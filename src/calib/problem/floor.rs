@@ -15,6 +15,7 @@ pub struct FloorSource {
     pub source: String,
     /// RMS contribution to one reading value (L, or one coordinate of a point), mm.
     pub rms_mm: f64,
+    /// How the contribution was found (step sizes, rows, configurations), in words.
     pub detail: String,
 }
 
@@ -24,6 +25,7 @@ pub struct NoiseFloor {
     /// Root sum of squares of the independent sources, mm (the reading resolution is inside
     /// the repeatability where there is one, so it is then not added again).
     pub total_mm: f64,
+    /// Each source, named.
     pub sources: Vec<FloorSource>,
 }
 
@@ -37,6 +39,7 @@ pub enum Step {
 }
 
 impl Step {
+    /// The step, however it was found.
     pub fn value(self) -> f64 {
         match self {
             Step::Detected(v) | Step::Given(v) => v,
@@ -57,7 +60,10 @@ pub use crate::dataset::logging::{logging_decimals, logging_step};
 /// standard uncertainty of one position coordinate, mm.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Instrument {
+    /// RMS of the rows' own standard deviations of one coordinate, mm; `None` where the rows give
+    /// none.
     pub row_std_mm: Option<f64>,
+    /// The accuracy the user states, mm; `None` when not given.
     pub accuracy_mm: Option<f64>,
 }
 

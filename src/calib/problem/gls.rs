@@ -32,8 +32,11 @@ use std::sync::Arc;
 /// (the angle floor) and the reading's own noise it was given, mm.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct NoiseModel {
+    /// Logging step of the joint angles, degrees.
     pub angle_step_deg: f64,
+    /// RMS of what the logging step costs one reading value (the angle floor), mm.
     pub rounding_mm: f64,
+    /// The reading's own noise the model was given, mm.
     pub reading_noise_mm: f64,
     /// RMS of the logging error estimated in the training readings and taken out of them before
     /// the fit (`calibrate`; absent from a diagnosis, whose fits are whitened instead), mm.
@@ -93,6 +96,7 @@ impl RoundingModel {
 /// rows of one block.
 #[derive(Clone, Debug)]
 pub struct Whitening {
+    /// The rounding model whitened.
     pub model: Arc<RoundingModel>,
     /// The model's row of each of these rows.
     pub rows: Vec<usize>,

@@ -14,6 +14,8 @@ use crate::optim::LeastSquares;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+/// A parameter combination the data cannot see: the right singular vector of a (numerically) zero
+/// singular value of the scaled Jacobian.
 #[derive(Clone, Debug, Serialize)]
 pub struct Combination {
     /// Singular value relative to the largest.
@@ -22,12 +24,17 @@ pub struct Combination {
     pub terms: Vec<(String, f64)>,
 }
 
+/// What a set of poses can identify of a model's parameters (see the module docs).
 #[derive(Clone, Debug, Serialize)]
 pub struct Identifiability {
+    /// Number of parameters of the model.
     pub n_params: usize,
     /// Rows of the data (poses); the Jacobian has one row per reading value.
     pub n_poses: usize,
+    /// Numerical rank of the scaled Jacobian.
     pub rank: usize,
+    /// Relative threshold below which a singular value, or a column's residual norm, counts as
+    /// zero.
     pub tolerance: f64,
     /// Condition number of the full scaled Jacobian (inf when rank-deficient).
     pub condition_full: f64,
@@ -36,8 +43,11 @@ pub struct Identifiability {
     pub condition_all: f64,
     /// Condition number of the scaled Jacobian of the identifiable parameters.
     pub condition_identifiable: f64,
+    /// Singular values of the scaled Jacobian, largest first.
     pub singular_values: Vec<f64>,
+    /// Names of the parameters fitted.
     pub identifiable: Vec<String>,
+    /// Names of the parameters held at their nominal values.
     pub fixed: Vec<String>,
     /// Parameter combinations the data cannot see (null space), strongest terms first.
     pub invisible: Vec<Combination>,

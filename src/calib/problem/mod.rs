@@ -92,9 +92,11 @@ impl Samples {
     pub fn row(&self, i: usize) -> &[f64] {
         &self.y[i * self.dim..(i + 1) * self.dim]
     }
+    /// Number of rows.
     pub fn len(&self) -> usize {
         self.q.len()
     }
+    /// Whether there is no row.
     pub fn is_empty(&self) -> bool {
         self.q.is_empty()
     }
@@ -103,7 +105,9 @@ impl Samples {
 /// A model fitted to samples: one residual per reading value, row after row, each scaled by its
 /// weight factor ([`Samples::w`]; mm as they are without weights).
 pub struct ReadingFit<'a> {
+    /// The model.
     pub model: &'a CalibModel,
+    /// The samples it is fitted to.
     pub data: &'a Samples,
 }
 
@@ -244,12 +248,16 @@ impl Observations for ReadingFit<'_> {
 
 /// ½ Σ r² (mm²) over the free parameters only; the fixed ones keep the values of `base`.
 pub struct FreeCost<'a> {
+    /// The fit whose parameters are split into free and fixed.
     pub fit: ReadingFit<'a>,
+    /// The full parameter vector the fixed parameters take their values from.
     pub base: Vec<f64>,
+    /// Indices of the free parameters, in the order of the reduced vector.
     pub free: Vec<usize>,
 }
 
 impl FreeCost<'_> {
+    /// The full parameter vector with the free parameters set to `xf`.
     pub fn expand(&self, xf: &[f64]) -> Vec<f64> {
         let mut x = self.base.clone();
         for (k, i) in self.free.iter().enumerate() {

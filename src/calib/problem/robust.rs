@@ -26,6 +26,8 @@ use serde::{Deserialize, Serialize};
 pub struct Outlier {
     /// Data row, 1-based (the first row after the header is 1).
     pub row: usize,
+    /// The row's residual (measured minus model) that flagged it, mm: for several values per row,
+    /// the one farthest from the median.
     pub residual_mm: f64,
     /// Distance from the median residual in robust standard deviations.
     pub robust_z: f64,
@@ -36,6 +38,7 @@ pub struct Outlier {
 pub struct OutlierRun {
     /// First and last data row, 1-based.
     pub first_row: usize,
+    /// Last data row, 1-based.
     pub last_row: usize,
     /// Median residual of the run, mm.
     pub median_residual_mm: f64,
@@ -50,6 +53,7 @@ pub struct ReadingStep {
     /// First and last (training) data row of the stretch, 1-based; the rows between them,
     /// test rows included, carry the offset.
     pub first_row: usize,
+    /// Last (training) data row of the stretch, 1-based.
     pub last_row: usize,
     /// Training rows in the stretch.
     pub rows: usize,
@@ -219,6 +223,7 @@ fn segment(d: &[f64], lo: usize, hi: usize, penalty: f64, out: &mut Vec<(usize, 
 pub struct Screen {
     /// Indices (into the screened samples) of the rows kept.
     pub keep: Vec<usize>,
+    /// The rows flagged, with their residuals.
     pub outliers: Vec<Outlier>,
     /// Runs of at least two outlier rows close together ([`runs`]).
     pub runs: Vec<OutlierRun>,
@@ -232,6 +237,7 @@ pub struct Screen {
     /// Robust standard deviation of the kept rows' residuals (1.4826·MAD), mm, never below the
     /// rule's `min_scale_mm`; and their median.
     pub scale_mm: f64,
+    /// Median of the kept rows' residuals, mm.
     pub median_mm: f64,
     /// The rule the rows were screened by.
     pub rule: ScreenRule,
@@ -247,8 +253,11 @@ pub struct Screen {
 /// (a cable's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScreenRule {
+    /// Threshold, robust standard deviations from the median.
     pub k: f64,
+    /// Whether to look for reading steps.
     pub steps: bool,
+    /// Floor of the robust scale, mm.
     pub min_scale_mm: f64,
 }
 
@@ -412,6 +421,7 @@ pub enum Loss {
 }
 
 impl Loss {
+    /// Reads a loss name: `l2` (or `squared`), `huber`, `cauchy`, in any case.
     pub fn parse(s: &str) -> Result<Loss> {
         match s.trim().to_ascii_lowercase().as_str() {
             "l2" | "squared" => Ok(Loss::L2),
@@ -420,6 +430,7 @@ impl Loss {
             other => Err(Error::Invalid(format!("unknown loss '{other}' (expected l2, huber or cauchy)"))),
         }
     }
+    /// The loss's name in files and options (`l2`, `huber`, `cauchy`).
     pub fn name(self) -> &'static str {
         match self {
             Loss::L2 => "l2",

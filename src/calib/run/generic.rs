@@ -46,7 +46,9 @@ const STARTS: usize = 320;
 /// An axis line in the base frame at the reference pose.
 #[derive(Clone, Copy, Debug)]
 pub struct Line {
+    /// A point on the axis, m.
     pub point: Vector3<f64>,
+    /// The axis direction.
     pub dir: Vector3<f64>,
 }
 

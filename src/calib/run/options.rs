@@ -17,12 +17,19 @@ use std::path::Path;
 pub enum ModelSpec {
     /// A robot with a nominal URDF (the embedded IRB 120 or a file) in a parametrisation:
     /// `dh`, `hayati` or `frame`.
-    Nominal { robot: Box<Robot>, parametrisation: String },
+    Nominal {
+        /// The nominal robot.
+        robot: Box<Robot>,
+        /// `dh`, `hayati` or `frame`, lower case.
+        parametrisation: String,
+    },
     /// A 6R arm with no published nominal.
     Generic6r,
 }
 
 impl ModelSpec {
+    /// The model named by `model` (`irb120`, `generic6r` or a `.urdf` path) in `parametrisation`
+    /// (`dh`, `hayati` or `frame`, any case; ignored by `generic6r`).
     pub fn parse(model: &str, parametrisation: &str) -> Result<ModelSpec> {
         let p = parametrisation.to_ascii_lowercase();
         if !matches!(p.as_str(), "dh" | "hayati" | "frame") {
@@ -59,12 +66,16 @@ pub const DEFAULT_RANK_TOL: f64 = 1e-7;
 /// 500 million rows, so what lies beyond is not noise.
 pub const DEFAULT_OUTLIER_K: f64 = 6.0;
 
+/// Everything a calibration run is asked to do, beside its data.
 #[derive(Clone, Debug)]
 pub struct CalibOptions {
+    /// The kinematic model to calibrate.
     pub model: ModelSpec,
+    /// The calibration method.
     pub method: Method,
     /// Hold out this fraction (stratified over L) instead of the dataset's split column.
     pub test_fraction: Option<f64>,
+    /// Seed of the split and of the stochastic methods.
     pub seed: u64,
     /// Relative singular-value tolerance of the identifiability analysis.
     pub rank_tol: f64,
@@ -106,6 +117,7 @@ pub struct CalibOptions {
 }
 
 impl CalibOptions {
+    /// The options of calibrating `model` by `method`, every other option at its default.
     pub fn new(model: ModelSpec, method: Method) -> Self {
         CalibOptions {
             model,

@@ -35,7 +35,9 @@ pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions)
 /// requested effect blocks), the robust screen, the rows' inputs with their torque model (in
 /// `split`) and the identifiability at the start. Built by [`prepare`].
 pub struct Prepared {
+    /// The train / test split with the rows' inputs and their torque model.
     pub split: SplitData,
+    /// The model with its instrument placed and the requested effect blocks.
     pub model: CalibModel,
     /// The robust screen of the training rows (`None` when off or with too few rows).
     pub screen: Option<crate::calib::problem::robust::Screen>,
@@ -323,10 +325,15 @@ pub(super) fn test_inlier_metrics(metrics: &mut Metrics, split: &SplitData, test
 /// A model fitted outside the pipeline: the start `x0`, the fit `x`, the identifiability
 /// analysis that fixed what it held, and the torque model of its effect blocks.
 pub struct FittedModel {
+    /// The fitted model.
     pub model: CalibModel,
+    /// The start of the fit (internal units).
     pub x0: Vec<f64>,
+    /// The fitted parameter vector (internal units).
     pub x: Vec<f64>,
+    /// The identifiability analysis that decided which parameters were held.
     pub id: Identifiability,
+    /// How the effect blocks get their joint torques on new rows.
     pub torque_model: Option<crate::calib::effects::inputs::TorqueModel>,
 }
 

@@ -17,15 +17,24 @@ use std::path::Path;
 /// A parameter in the report (display units: mm, degrees).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ParamReport {
+    /// Parameter name (`joint_2.dtheta`, an instrument placement or an effect parameter).
     pub name: String,
+    /// Display unit of `nominal`, `value`, `std_uncertainty`, `truth` and `error`.
     pub unit: String,
+    /// Start value of the fit (display units).
     pub nominal: f64,
+    /// Calibrated value (display units).
     pub value: f64,
+    /// Standard uncertainty of `value` (display units); absent for a fixed parameter or without a
+    /// covariance.
     pub std_uncertainty: Option<f64>,
+    /// Held at its start value, not fitted (not identifiable from the data, or held by the
+    /// options).
     pub fixed: bool,
     /// With a truth file: the value this model should reach on noise-free data.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub truth: Option<f64>,
+    /// With a truth file: `value` minus `truth` (display units).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<f64>,
     /// error / std_uncertainty.
@@ -33,10 +42,15 @@ pub struct ParamReport {
     pub z: Option<f64>,
 }
 
+/// Reading errors of the model before (at its start values) and after calibration, on the training
+/// and the test rows.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Metrics {
+    /// Training rows, model at its start values.
     pub train_before: ErrorStats,
+    /// Test rows, model at its start values (absent without test rows).
     pub test_before: Option<ErrorStats>,
+    /// Training rows, calibrated model (with its corrector).
     pub train_after: ErrorStats,
     /// Every test row.
     pub test_after: Option<ErrorStats>,
@@ -53,15 +67,19 @@ pub struct Metrics {
     /// before and after calibration.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_position_before: Option<ErrorStats>,
+    /// The same after calibration.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_position_after: Option<ErrorStats>,
 }
 
+/// How the calibrated parameters compare with the truth-equivalent values (with a truth file).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TruthComparison {
     /// Identifiable parameters within 3 standard uncertainties of the truth.
     pub within_3_sigma: usize,
+    /// Identifiable (not fixed) parameters.
     pub identifiable: usize,
+    /// Largest |z| = |error| / standard uncertainty over the parameters.
     pub max_abs_z: f64,
     /// How the truth-equivalent values were obtained.
     pub method: String,
@@ -75,20 +93,37 @@ pub struct CalibResult {
     /// See [`crate::io::SCHEMA_VERSION`].
     #[serde(default = "crate::io::schema_version")]
     pub schema_version: u32,
+    /// Version of twincal that wrote the result.
     pub twincal_version: String,
+    /// Where the calibrated data came from (the dataset's source).
     pub data: String,
+    /// The calibration method.
     pub method: Method,
+    /// Name of the calibrated model.
     pub model_name: String,
+    /// Seed of the run.
     pub seed: u64,
+    /// Training rows.
     pub n_train: usize,
+    /// Test rows.
     pub n_test: usize,
+    /// Every parameter of the model with its value and uncertainty (display units).
     pub parameters: Vec<ParamReport>,
+    /// The identifiability analysis of the training rows at the nominal parameters (rank, condition
+    /// numbers, fixed parameters).
     pub identifiability: serde_json::Value,
+    /// Reading errors before and after calibration.
     pub metrics: Metrics,
+    /// Iterations the solver ran.
     pub iterations: usize,
+    /// Model evaluations the solver made.
     pub evaluations: usize,
+    /// Whether the solver stopped on a convergence criterion (not a budget, a non-finite value or
+    /// no descent).
     pub converged: bool,
+    /// Why the solver stopped.
     pub stop_reason: String,
+    /// Wall time of the calibration, s.
     pub wall_time_s: f64,
     /// Standard deviation of one reading estimated from the data, mm (the residual spread of
     /// the fit, or the repeatability of repeated configurations where there are enough).
@@ -101,6 +136,7 @@ pub struct CalibResult {
     /// Things a user should know before trusting the result (did not converge, few rows, ...).
     #[serde(default)]
     pub warnings: Vec<String>,
+    /// With a truth file: the parameters against their truth-equivalent values.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub truth_comparison: Option<TruthComparison>,
     /// Repeated configurations in the data and the spread of L over them.
@@ -113,10 +149,13 @@ pub struct CalibResult {
     /// the robust scale of the kept rows' residuals (mm), the rows kept out and their runs.
     #[serde(default)]
     pub outlier_k: f64,
+    /// Robust scale of the kept training rows' residuals, mm (0 without the screen).
     #[serde(default)]
     pub robust_scale_mm: f64,
+    /// Training rows kept out of the fit as outliers.
     #[serde(default)]
     pub outliers: Vec<Outlier>,
+    /// Runs of consecutive outlier rows.
     #[serde(default)]
     pub outlier_runs: Vec<OutlierRun>,
     /// Stretches whose readings were one constant offset off: corrected by it and kept. The
@@ -135,6 +174,7 @@ pub struct CalibResult {
     pub loss: Loss,
     /// The model itself (chain and parameter vector, internal units m / rad).
     pub model: CalibModel,
+    /// The calibrated parameter vector (internal units m / rad, in the model's order).
     pub x: Vec<f64>,
     /// The learned corrector of what the geometry and effects leave, if the method fits one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -175,9 +215,6 @@ impl CalibResult {
         self.model.predict_with(&self.x, &q, &inp, &mut w) * 1e3 + self.correction_mm(&q, &inp)
     }
 
-    /// The dataset columns the model reads besides the joint angles, each with what reads it:
-    /// `temp` or `t` for a thermal block (by how it was driven) or a corrector with that input.
-    /// Torques and backlash flanks come from the angles and the acquisition order.
     /// The learned wavelet network (the first, when there is one per reading value: they share
     /// their inputs).
     pub(super) fn wavelet_network(&self) -> Option<&crate::calib::correctors::awnn::Awnn> {
@@ -200,6 +237,9 @@ impl CalibResult {
             })
     }
 
+    /// The dataset columns the model reads besides the joint angles, each with what reads it:
+    /// `temp` or `t` for a thermal block (by how it was driven) or a corrector with that input.
+    /// Torques and backlash flanks come from the angles and the acquisition order.
     pub fn columns_read(&self) -> Vec<(&'static str, String)> {
         use crate::calib::effects::{EffectKind, ThermalDrive};
         let mut out = Vec::new();
@@ -294,6 +334,9 @@ impl CalibResult {
         out
     }
 
+    /// Reads a result file and checks it: JSON of a calibration result of a supported schema, no
+    /// number beyond what a calibration writes, and a model, corrector and torque model consistent
+    /// with each other. Errors name the file.
     pub fn load(path: &Path) -> Result<CalibResult> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let value: serde_json::Value =

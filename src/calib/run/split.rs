@@ -95,9 +95,13 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
 pub struct SplitData {
     /// The static-torque model of the effects (set by the effects stage where there is one).
     pub torque_model: Option<crate::calib::effects::inputs::TorqueModel>,
+    /// Data rows (0-based) of the training samples.
     pub train_idx: Vec<usize>,
+    /// Data rows (0-based) of the test samples.
     pub test_idx: Vec<usize>,
+    /// The training rows as samples.
     pub train: Samples,
+    /// The test rows as samples.
     pub test: Samples,
 }
 
@@ -109,6 +113,9 @@ pub(super) fn distinct_configurations(data: &Dataset, rows: &[usize]) -> usize {
     keys.len()
 }
 
+/// Splits `data` into training and test samples (the dataset's split column, or
+/// `opts.test_fraction`); errors on rows beyond the robot's joint limits, or on fewer than 8
+/// training rows or 8 distinct training configurations.
 pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
     if let Some(robot) = opts.model.robot() {
         data.require_joints(robot.dof(), &format!("the robot '{}'", robot.name))?;
@@ -158,7 +165,7 @@ pub fn outside_limits<'a>(data: &'a Dataset, limits: &'a [(f64, f64)]) -> impl I
 /// Stage "effects": adds the requested effect blocks to the model and gives every sample the
 /// per-row inputs they need (computed over the whole file in acquisition order, then split);
 /// with `inputs` the rows get their inputs (and the result its torque model) even without
-/// effect blocks, for a solver that reads them ([`Solver::needs_row_inputs`]).
+/// effect blocks, for a solver that reads them ([`Solver::needs_row_inputs`](crate::calib::methods::Solver::needs_row_inputs)).
 pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Dataset, opts: &CalibOptions, inputs: bool) -> Result<()> {
     if opts.effects.is_empty() && !inputs {
         return Ok(());

@@ -34,6 +34,7 @@ impl Backlash {
     fn default_breakaway() -> f64 {
         0.5
     }
+    /// Half the dead band of joint `j`, rad (0 for a joint the list does not cover).
     pub fn half_width_rad(&self, j: usize) -> f64 {
         0.5 * self.width_deg.get(j).copied().unwrap_or(0.0).to_radians()
     }
@@ -180,14 +181,19 @@ pub use crate::robot::statics::{approach_sides, Payload};
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Effects {
+    /// Torsional joint compliance.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub compliance: Option<Compliance>,
+    /// Gear backlash.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub backlash: Option<Backlash>,
+    /// Thermal drift.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thermal: Option<Thermal>,
+    /// A payload on the flange.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub payload: Option<Payload>,
+    /// Encoder eccentricity.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub eccentricity: Option<Eccentricity>,
 }

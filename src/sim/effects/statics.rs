@@ -27,8 +27,9 @@ pub struct Transmission {
 pub enum Contact {
     /// No backlash: plain spring.
     Spring,
-    /// On the positive / negative flank, spring loaded.
+    /// On the positive flank, spring loaded.
     Positive,
+    /// On the negative flank, spring loaded.
     Negative,
     /// Held at the approach flank by static friction against a load pulling it into the band
     /// (the shaft still twists by load/stiffness).
@@ -81,9 +82,13 @@ impl Transmission {
 pub struct Equilibrium {
     /// Link-side joint angles, as seen by the chain (rad, commanded + deflection).
     pub q: Vec<f64>,
+    /// Link-side deflection per joint (link minus motor side), rad.
     pub deflection: Vec<f64>,
+    /// Load torque per joint, N·m.
     pub torque: Vec<f64>,
+    /// Where each joint's transmission rests.
     pub contact: Vec<Contact>,
+    /// Fixed-point iterations the solve took.
     pub iterations: usize,
 }
 

@@ -20,6 +20,8 @@ pub const MAX_FRACTION_OF_RANGE: f64 = 0.1;
 /// Finest step a written reading is rounded to, mm.
 pub const FINEST_READING_STEP_MM: f64 = 1e-6;
 
+/// A draw-wire sensor (the scenario's `[sensor]`): its placement, reading errors, hold and
+/// sampling.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DrawWire {
@@ -89,7 +91,9 @@ impl ReadingPolynomial {
 /// A reading the sensor could not give.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OutOfRange {
+    /// The value asked for, mm.
     pub value_mm: f64,
+    /// The sensor's valid range [min, max], mm.
     pub range_mm: [f64; 2],
 }
 
@@ -196,9 +200,11 @@ impl DrawWire {
         d.clamp(0.0, finest as f64) as usize
     }
 
+    /// The cable exit point in the base frame, m.
     pub fn exit_point_m(&self) -> Vector3<f64> {
         Vector3::from(self.exit_point_mm) * 1e-3
     }
+    /// The cable attachment point in the flange frame, m.
     pub fn tool_point_m(&self) -> Vector3<f64> {
         Vector3::from(self.tool_point_mm) * 1e-3
     }

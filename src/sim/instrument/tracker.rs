@@ -26,6 +26,7 @@ pub struct TrackerReading {
     pub std_mm: f64,
 }
 
+/// A laser tracker (the scenario's `[tracker]`): its placement, noise and written decimals.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tracker {
@@ -72,7 +73,10 @@ fn is_default_angle_decimals(v: &usize) -> bool {
 /// One 6-D reading of [`Tracker::read_pose`]: position (mm) and intrinsic X-Y-Z angles (degrees).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PoseReading {
+    /// What a perfect tracker reads.
     pub ideal: [f64; 6],
+    /// The position as [`Tracker::read`] gives it (mean of the noisy samples, unrounded), then the
+    /// noisy orientation.
     pub read: [f64; 6],
 }
 

@@ -36,6 +36,7 @@ pub enum OnTimeout {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Acquisition {
+    /// How the readings are taken (default `settled`).
     #[serde(default)]
     pub model: AcquisitionModel,
     /// Structural damping ratio ζ of each transmission in the simulated tour (real arms: a few
@@ -51,8 +52,11 @@ pub struct Acquisition {
     /// the window before; it opens when they differ by less than `gate_mm`.
     #[serde(default = "Acquisition::default_gate_window")]
     pub gate_window_s: f64,
+    /// Largest difference (mm) between the means of two consecutive gate windows at which the gate
+    /// opens.
     #[serde(default = "Acquisition::default_gate_mm")]
     pub gate_mm: f64,
+    /// What happens when the gate is still closed at the end of the hold (default `reject`).
     #[serde(default)]
     pub on_timeout: OnTimeout,
     /// Time step of the moves before their final deceleration, s.
@@ -137,6 +141,7 @@ impl Acquisition {
 /// Timing of a tour: every move and when each pose is reached and read.
 #[derive(Clone, Debug)]
 pub struct Schedule {
+    /// The move to each pose, in order.
     pub moves: Vec<Move>,
     /// Start of the move to each pose, s from the start of acquisition.
     pub move_start: Vec<f64>,
@@ -225,12 +230,15 @@ pub struct Acquired {
     pub negligible_s: Option<f64>,
     /// Backlash flank the rule predicts (±1) for comparison.
     pub rule_sides: Vec<f64>,
+    /// Steps and wall time per phase of the pose's simulation.
     pub stats: PhaseStats,
 }
 
 /// The sensor and gate settings a tour needs.
 #[derive(Clone, Copy, Debug)]
 pub struct TourSettings {
+    /// Seed of the run (noise streams).
     pub seed: u64,
+    /// Joint speed while moving, fraction of the URDF speed limits.
     pub speed_fraction: f64,
 }

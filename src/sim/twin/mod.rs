@@ -113,8 +113,11 @@ pub struct RestingPose {
     pub q_link: Vec<f64>,
     /// Encoder eccentricity: true motor-side minus commanded (reported) angle per joint, rad.
     pub eccentricity: Vec<f64>,
+    /// Link-side deflection per joint (link side minus motor side), rad.
     pub deflection: Vec<f64>,
+    /// Load torque per joint at rest (gravity, payload, cable tension), N·m.
     pub torque: Vec<f64>,
+    /// Where each joint's transmission came to rest.
     pub contact: Vec<Contact>,
     /// Tool point, base frame, m.
     pub tool: Vector3<f64>,
@@ -127,20 +130,30 @@ pub struct RestingPose {
 /// The immutable true robot: geometry with its errors, effects and sensor.
 #[derive(Clone, Debug)]
 pub struct Twin {
+    /// The robot as its URDF describes it (nominal geometry, joints, inertials).
     pub robot: Robot,
+    /// The robot's error chain, which `params` act on.
     pub chain: Chain,
     /// True geometric error parameters (chain units: m, rad).
     pub params: Vec<f64>,
+    /// The twin's non-geometric effects.
     pub effects: Effects,
+    /// The draw-wire sensor (with a tracker: the tool point it reads, the hold and samples).
     pub sensor: DrawWire,
     /// A laser tracker that reads the tool point instead of the cable (`None`: the cable reads).
     pub tracker: Option<crate::sim::instrument::Tracker>,
+    /// The static loads on the joints: the links' weight, the payload and the cable's pull.
     pub load: LoadModel,
+    /// The joint transmission (compliance in series with backlash); `None` when the joints are
+    /// rigid.
     pub transmission: Option<Transmission>,
+    /// Options of the rapier settling loop.
     pub settle: SettleOptions,
 }
 
 impl Twin {
+    /// The twin of `robot` with true error parameters `params` (chain units: m, rad), its effects,
+    /// sensor and settling options; read by the cable until [`Self::with_tracker`].
     pub fn new(robot: Robot, params: Vec<f64>, effects: Effects, sensor: DrawWire, settle: SettleOptions) -> Self {
         let chain = robot.error_chain();
         let load = LoadModel::new(&robot, effects.payload.as_ref(), sensor.cable_load());

@@ -8,7 +8,9 @@
 /// One move from `from` to `to` (commanded angles, rad).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Move {
+    /// Start angles, rad.
     pub from: Vec<f64>,
+    /// End angles, rad.
     pub to: Vec<f64>,
     /// Total duration, s (0 when no joint moves).
     pub duration: f64,
