@@ -100,7 +100,7 @@ impl DiagnoseOptions {
     /// instrument placed on every row, LM, no split and no screen (the diagnosis screens the
     /// rows itself, with their inputs).
     pub fn baseline_options(&self) -> CalibOptions {
-        let mut o = CalibOptions::new(self.model.clone(), Method::Lm);
+        let mut o = CalibOptions::new(self.model.clone(), Method::LM);
         o.test_fraction = Some(0.0);
         o.rank_tol = self.rank_tol;
         o.seed = self.seed;

@@ -32,8 +32,8 @@ pub struct CalibrateRequest {
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub reading: Reading,
-    /// lm, ekf, pf, pso, rbf, dsade-gkan (Evo-NPH; ablations dsade-gkan-v1, -v2, -v3), pso-ekf-awnn (ablations: pso-ekf-awnn-v1 .. -v5; pso-ekf-awnn-x: network also on temperature and backlash flanks, network/LM alternations).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "lm"))]
+    /// The calibration method (any case).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "lm", ignore_case = true, value_parser = super::method_values()))]
     pub method: String,
     /// The model fitted.
     #[cfg_attr(feature = "clap", command(flatten))]

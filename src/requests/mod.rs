@@ -11,8 +11,6 @@
 //! a JSON object of options (Python's keyword arguments), naming any unknown option and the
 //! option whose value has the wrong type.
 
-// Every public item here is documented (CI's -Dwarnings holds it); the rest of the library
-// follows module by module (issue 34).
 mod calibrate;
 mod diagnose;
 mod groups;
@@ -22,3 +20,10 @@ pub use calibrate::{check_effort, CalibrateRequest, MAX_EFFORT, MIN_EFFORT};
 pub use diagnose::DiagnoseRequest;
 pub use groups::{Floor, Loads, ModelChoice, Reading, Robust};
 pub use json::from_json;
+
+/// The registered methods as clap's possible values of `--method` (and `compare --methods`): their
+/// names and one line of help each, from [`METHODS`](crate::calib::methods::METHODS).
+#[cfg(feature = "clap")]
+pub fn method_values() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(crate::calib::methods::METHODS.iter().map(|m| clap::builder::PossibleValue::new(m.name).help(m.help)))
+}

@@ -178,7 +178,7 @@ impl AwnnBench {
             eprintln!("bench awnn: accuracy over {seeds} seeds");
         }
         let mut rows = Vec::new();
-        let q_opts = CalibOptions::new(self.spec.clone(), Method::PsoEkfAwnn(Ablation::Extended));
+        let q_opts = CalibOptions::new(self.spec.clone(), Ablation::Extended.method());
         let mut q_rows = Vec::new();
         let mut z_rows = Vec::new();
         let zero = PsoEkfAwnn { start: NetStart::Zero, ..Default::default() };
@@ -319,13 +319,13 @@ fn real_data() -> Result<()> {
     if hsr.exists() {
         let ds = Dataset::load(&hsr)?;
         let mut cells = Vec::new();
-        for m in [Method::Lm, Method::PsoEkfAwnn(Ablation::Full)] {
+        for m in [Method::LM, Method::PSO_EKF_AWNN] {
             let mut o = CalibOptions::new(ModelSpec::Generic6r, m);
             o.test_fraction = Some(0.2);
             let r = calibrate_with(&ds, None, &o, m.solver(1.0).as_ref())?;
             if let (Some(rep), Some(t)) = (&r.repeatability, &r.metrics.test_after) {
                 cells.push(format!("{} {:.4} mm ({:.3} x floor, {:.1} s)", m.name(), t.rmse, t.rmse / rep.pooled_std, r.wall_time_s));
-                if m == Method::Lm {
+                if m == Method::LM {
                     cells.insert(0, format!("repeatability floor {:.4} mm", rep.pooled_std));
                 }
             }
@@ -343,9 +343,9 @@ pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
         Scenario::from_toml(include_str!("../../../scenarios/irb120_pso_ekf.toml"), "irb120_pso_ekf").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
     let spec = ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: "hayati".into() };
     let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-awnn-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
-    let lm_opts = CalibOptions::new(spec.clone(), Method::Lm);
-    let awnn_opts = CalibOptions::new(spec.clone(), Method::PsoEkfAwnn(Ablation::Full));
-    let bench = AwnnBench { base, robot, spec, lm_opts, awnn_opts, lm: Method::Lm.solver(1.0), tmp_dir };
+    let lm_opts = CalibOptions::new(spec.clone(), Method::LM);
+    let awnn_opts = CalibOptions::new(spec.clone(), Method::PSO_EKF_AWNN);
+    let bench = AwnnBench { base, robot, spec, lm_opts, awnn_opts, lm: Method::LM.solver(1.0), tmp_dir };
     println!("PSO-EKF-AWNN benchmark (irb120_pso_ekf: 400 poses, 300 train / 100 test, every effect on)");
     let (ds, h) = bench.speed(repeat, quiet)?;
     bench.accuracy(seeds, quiet)?;

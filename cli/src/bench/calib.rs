@@ -96,7 +96,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
     // search over the cable's exit point, the outlier screen, identifiability, covariance, the
     // truth comparison).
     let (ds, truth) = gen(base.seed, 600, 100)?;
-    let opts = CalibOptions::new(spec.clone(), Method::Lm);
+    let opts = CalibOptions::new(spec.clone(), Method::LM);
     let c = lm_speed(&ds, Some(&truth), &opts, repeat)?;
     println!("calibration benchmark");
     println!(
@@ -116,7 +116,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
         Scenario::from_toml(include_str!("../../../scenarios/irb120_tracker.toml"), "irb120_tracker").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
     (ts.sampling.poses, ts.sampling.test) = (1100, 100);
     let tds = run_generate(&ts, &trobot, &Silent)?.dataset;
-    let topts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(trobot), parametrisation: "hayati".into() }, Method::Lm);
+    let topts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(trobot), parametrisation: "hayati".into() }, Method::LM);
     let t = lm_speed(&tds, None, &topts, repeat)?;
     println!(
         "  LM, {} tracker points ({} residuals): {:8.2} ms median (target < 50 ms), {} iterations; one residual+Jacobian evaluation {:.3} ms -> LM = {:.1} evaluations; whole calibrate {:.1} ms; test RMSE {:.4} mm per coordinate",
@@ -196,7 +196,7 @@ fn untuned_methods(base: &Scenario, robot: &twincal::robot::Robot, spec: &twinca
         })
         .collect::<Result<_>>()?;
     println!("  untuned methods on other spreads and noise (5 seeds, 400 poses, floor {:.4} mm): median test RMSE / floor, time per run", sets[0].1);
-    for m in Method::ALL {
+    for m in Method::family(twincal::calib::methods::Family::Baseline) {
         let t0 = Instant::now();
         let ratios: Vec<f64> = sets
             .par_iter()
@@ -226,7 +226,7 @@ fn real_data() -> Result<()> {
         return Ok(());
     }
     let ds = twincal::dataset::Dataset::load(&hsr)?;
-    let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::Lm);
+    let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
     o.test_fraction = Some(0.2);
     let r = twincal::calib::run::calibrate(&ds, None, &o)?;
     if let (Some(rep), Some(t), Some(tt)) = (&r.repeatability, &r.metrics.test_after, &r.metrics.test_after_trimmed) {

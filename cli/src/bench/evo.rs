@@ -86,7 +86,7 @@ fn ablations(ds: &Dataset, truth: &TruthFile) -> Result<()> {
         "| method | test RMSE (mm) | vs LM | non-geometric error recovered | geometry, RMS (x − truth-eq.)/tolerance | seconds |\n|---|---|---|---|---|---|"
     );
     let test_idx = ds.test_indices();
-    let lm = calibrate_with(ds, Some(truth), &options(Method::Lm), Method::Lm.solver(1.0).as_ref())?;
+    let lm = calibrate_with(ds, Some(truth), &options(Method::LM), Method::LM.solver(1.0).as_ref())?;
     let lm_rmse = lm.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
     // The non-geometric error: measured lengths minus the truth-equivalent rigid model (the
     // sensor's linearity error is part of what a corrector can learn; the reading noise stays).
@@ -116,7 +116,7 @@ fn ablations(ds: &Dataset, truth: &TruthFile) -> Result<()> {
         );
     };
     row("lm", &lm);
-    for m in [Method::DsadeGkanV1, Method::DsadeGkanV2, Method::DsadeGkanV3, Method::DsadeGkan] {
+    for m in [Method::DSADE_GKAN_V1, Method::DSADE_GKAN_V2, Method::DSADE_GKAN_V3, Method::DSADE_GKAN] {
         let r = calibrate_with(ds, Some(truth), &options(m), m.solver(1.0).as_ref())?;
         row(m.name(), &r);
     }
@@ -171,7 +171,7 @@ pub fn bench_dsade(repeat: usize, seeds: u64) -> Result<()> {
     let tmp = tempfile::Builder::new().prefix("twincal-dsade-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let dir = tmp.path().join("evo");
     let (ds, truth) = dataset(&dir, None)?;
-    let prep = prepare(&ds, &options(Method::DsadeGkan))?;
+    let prep = prepare(&ds, &options(Method::DSADE_GKAN))?;
     let fit = ReadingFit { model: &prep.model, data: &prep.train };
     println!("Evo-NPH benchmark on irb120_evo_nph ({} train, {} test poses)", prep.train.len(), prep.test.len());
 
@@ -235,7 +235,7 @@ pub fn bench_ik(repeat: usize) -> Result<()> {
     let tmp = tempfile::Builder::new().prefix("twincal-ik-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let dir = tmp.path().join("evo");
     let (ds, truth) = dataset(&dir, None)?;
-    let mut r = calibrate_with(&ds, Some(&truth), &options(Method::DsadeGkan), Method::DsadeGkan.solver(1.0).as_ref())?;
+    let mut r = calibrate_with(&ds, Some(&truth), &options(Method::DSADE_GKAN), Method::DSADE_GKAN.solver(1.0).as_ref())?;
     r.data = dir.display().to_string();
     let check = TwinCheck::load(&dir, &r)?;
     let n = 1000;

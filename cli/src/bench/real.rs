@@ -14,7 +14,6 @@
 
 use std::path::Path;
 use std::time::Instant;
-use twincal::calib::methods::psoekf::Ablation;
 use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
 use twincal::dataset::{Dataset, Split};
 use twincal::error::Result;
@@ -127,7 +126,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("  HSR-RobotCali, generic6r, every 5th row held out (target: converged, <= 1.15 x the floor without the worst 1 %, < 10 s):");
         let mut times = Vec::new();
         for seed in 0..seeds {
-            let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::Lm);
+            let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
             o.seed = seed;
             let t0 = Instant::now();
             let r = calibrate(&ds, None, &o)?;
@@ -159,7 +158,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("  RobotCali IRB 120, hayati, {seeds} random 80/20 splits: test RMSE mean ± sd (mm), every test row | rows that are not outliers");
         println!("    (the papers: LM about 1.2, Evo-NPH 0.62, PSO-EKF-AWNN 0.73 mm, splits unpublished)");
         let mut floor = f64::NAN;
-        for method in [Method::Lm, Method::DsadeGkan, Method::PsoEkfAwnn(Ablation::Full)] {
+        for method in [Method::LM, Method::DSADE_GKAN, Method::PSO_EKF_AWNN] {
             use twincal::calib::problem::noise_model::NoiseChoice;
             for (k, noise) in [
                 (twincal::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Auto),

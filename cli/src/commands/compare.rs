@@ -82,7 +82,8 @@ pub struct CompareArgs {
     pub data: PathBuf,
     #[command(flatten)]
     pub reading: Reading,
-    #[arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf")]
+    /// The methods compared (comma-separated, any case).
+    #[arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf", ignore_case = true, value_parser = twincal::requests::method_values())]
     pub methods: Vec<String>,
     /// Number of seeds (1 to 1000).
     #[arg(long, default_value_t = 30, allow_negative_numbers = true)]

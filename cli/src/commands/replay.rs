@@ -121,7 +121,7 @@ fn after_calibration(
 ) -> Option<AfterCalibration> {
     use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
     let run = |d: &Dataset, f: Option<f64>, p: &str| {
-        let mut o = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: p.into() }, Method::Lm);
+        let mut o = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: p.into() }, Method::LM);
         (o.test_fraction, o.seed, o.split_by) = (f, seed, by);
         calibrate(d, None, &o).ok()
     };

@@ -73,7 +73,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn lm_reaches_the_noise_floor_and_the_truth_over_seeds() {
     let mut ratios = Vec::new();
     for (ds, truth) in five_seeds() {
-        let r = calibrate(ds, Some(truth), &irb120(Method::Lm, "hayati")).unwrap();
+        let r = calibrate(ds, Some(truth), &irb120(Method::LM, "hayati")).unwrap();
         let floor = truth.noise_std_mm;
         let (before, test) = (r.metrics.test_before.unwrap(), r.metrics.test_after.unwrap());
         assert!(before.rmse > 20.0 * floor, "the nominal model should be far off: {}", before.rmse);
@@ -111,14 +111,14 @@ fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
         s.sensor.samples = 20;
     });
     // (PSO, the slowest, is measured over the same kind of scenario by `twincal bench calib`.)
-    for (m, limit) in [(Method::Lm, 1.12), (Method::Ekf, 1.15), (Method::Rbf, 1.2)] {
+    for (m, limit) in [(Method::LM, 1.12), (Method::EKF, 1.15), (Method::RBF, 1.2)] {
         let t0 = std::time::Instant::now();
         let mut ratios = Vec::new();
         for (ds, truth) in &sets {
             let o = irb120(m, "hayati");
             let r = calibrate(ds, Some(truth), &o).unwrap();
             ratios.push(r.metrics.test_after.unwrap().rmse / truth.noise_std_mm);
-            if m == Method::Ekf {
+            if m == Method::EKF {
                 // The noise the method was given came from the data: near the true reading noise.
                 assert!(
                     (r.noise_estimate_mm / truth.noise_std_mm - 1.0).abs() < 0.25,
@@ -136,7 +136,7 @@ fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
     // the nominal model, on every seed.
     for (ds, truth) in sets.iter().take(3) {
         let t0 = std::time::Instant::now();
-        let mut o = irb120(Method::Pf, "hayati");
+        let mut o = irb120(Method::PF, "hayati");
         o.effort = 0.5;
         let r = calibrate(ds, Some(truth), &o).unwrap();
         let (before, after) = (r.metrics.test_before.unwrap().rmse, r.metrics.test_after.unwrap().rmse);
@@ -174,7 +174,7 @@ fn truth_comparison_catches_a_calibration_started_far_off() {
     let (_, ds, truth) = geometric();
     // Joint zeros started 120° off: LM lands on another description of the arm that fits the
     // lengths as well as the truth does, with parameters far from the truth's.
-    let r = calibrate_with(ds, Some(truth), &irb120(Method::Lm, "hayati"), &FarOff(120.0)).unwrap();
+    let r = calibrate_with(ds, Some(truth), &irb120(Method::LM, "hayati"), &FarOff(120.0)).unwrap();
     let test = r.metrics.test_after.unwrap().rmse;
     assert!(test < 1.1 * truth.noise_std_mm, "the wrong basin fits the data: {test}");
     let cmp = r.truth_comparison.clone().unwrap();
@@ -198,12 +198,12 @@ fn truth_comparison_catches_a_calibration_started_far_off() {
 fn papers_dh_model_flags_the_parallel_axes() {
     let (mut dh_rmse, mut hay_rmse, mut floor) = (Vec::new(), Vec::new(), 0.0);
     for (ds, truth) in five_seeds() {
-        let dh = calibrate(ds, Some(truth), &irb120(Method::Lm, "dh")).unwrap();
+        let dh = calibrate(ds, Some(truth), &irb120(Method::LM, "dh")).unwrap();
         let fixed: Vec<&str> = dh.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
         // Joints 2 and 3 are parallel: their D-H d cannot be told from the offsets around them.
         assert!(fixed.iter().any(|n| *n == "joint_2.d" || *n == "joint_3.d"), "{fixed:?}");
         assert!(!dh.identifiability["invisible"].as_array().unwrap().is_empty());
-        let hay = calibrate(ds, Some(truth), &irb120(Method::Lm, "hayati")).unwrap();
+        let hay = calibrate(ds, Some(truth), &irb120(Method::LM, "hayati")).unwrap();
         assert!(hay.parameters.iter().any(|p| p.name == "joint_2.beta" && !p.fixed));
         dh_rmse.push(dh.metrics.test_after.unwrap().rmse);
         hay_rmse.push(hay.metrics.test_after.unwrap().rmse);
@@ -259,13 +259,13 @@ fn calibrate_predict_and_export_through_the_cli() {
 #[test]
 fn test_fraction_zero_trains_on_every_row() {
     let (_, ds, _) = geometric();
-    let mut o = irb120(Method::Lm, "hayati");
+    let mut o = irb120(Method::LM, "hayati");
     o.test_fraction = Some(0.0);
     let r = calibrate(ds, None, &o).unwrap();
     assert_eq!(r.n_train, ds.rows.len());
     assert_eq!(r.n_test, 0);
     assert!(r.metrics.test_after.is_none() && r.truth_comparison.is_none());
-    let mut o = irb120(Method::Lm, "hayati");
+    let mut o = irb120(Method::LM, "hayati");
     o.test_fraction = Some(0.25);
     let r = calibrate(ds, None, &o).unwrap();
     assert_eq!(r.n_test, 100);
@@ -306,7 +306,7 @@ fn bad_calibration_input_is_named_and_leaves_nothing() {
     let result = out.path().join("r.json");
     let bad = out.path().join("bad.csv");
     let cases: Vec<(Vec<String>, Option<&str>, &str)> = vec![
-        (vec!["--method".into(), "newton".into()], None, "unknown method"),
+        (vec!["--method".into(), "newton".into()], None, "invalid value 'newton' for '--method"),
         (vec!["--model".into(), "kuka".into()], None, "unknown model"),
         (vec!["--test-fraction".into(), "1.5".into()], None, "test-fraction"),
         (vec!["--outliers".into(), "1".into()], None, "--outliers"),
@@ -353,7 +353,7 @@ fn bad_calibration_input_is_named_and_leaves_nothing() {
 fn hsr_robotcali_generic_model_reaches_the_repeatability_floor() {
     let Some(path) = datasets::shared("data/hsr-robotcali/hsr_robotcali_pool.csv") else { return };
     let ds = Dataset::load(&path).unwrap();
-    let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::Lm);
+    let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
     o.test_fraction = Some(0.2);
     let r = calibrate(&ds, None, &o).unwrap();
     let rep = r.repeatability.clone().expect("repeated configurations are present");
@@ -419,12 +419,12 @@ fn pso_ekf_awnn_learns_a_joint_space_field_that_lm_cannot_fit() {
             o.effort = 0.5;
             calibrate(&ds, None, &o).unwrap()
         };
-        let a = run(Method::PsoEkfAwnn(Ablation::Full));
+        let a = run(Method::PSO_EKF_AWNN);
         assert!(a.stop_reason.contains("condition number"), "{}", a.stop_reason);
         assert!(matches!(a.corrector, Some(twincal::calib::correctors::Corrector::Awnn(_))));
-        lm.push(run(Method::Lm).metrics.test_after.unwrap().rmse);
+        lm.push(run(Method::LM).metrics.test_after.unwrap().rmse);
         aw.push(a.metrics.test_after.unwrap().rmse);
-        v1.push(run(Method::PsoEkfAwnn(Ablation::V1Symbolic)).metrics.test_after.unwrap().rmse);
+        v1.push(run(Ablation::V1Symbolic.method()).metrics.test_after.unwrap().rmse);
     }
     let (lm, aw, v1) = (median(lm), median(aw), median(v1));
     assert!(aw < 0.75 * lm, "median test RMSE: pso-ekf-awnn {aw:.4} mm vs LM {lm:.4} mm");
@@ -437,12 +437,11 @@ fn pso_ekf_awnn_learns_a_joint_space_field_that_lm_cannot_fit() {
 /// network is chosen on the training rows alone (scrambled test lengths change nothing).
 #[test]
 fn pso_ekf_awnn_beats_lm_on_the_all_effects_scenario() {
-    use twincal::calib::methods::psoekf::Ablation;
     let sets = scenario_seeds("irb120_pso_ekf", 1077..1082, |_| {});
     let mut ratios = Vec::new();
     for (ds, _) in &sets {
-        let lm = calibrate(ds, None, &irb120(Method::Lm, "hayati")).unwrap().metrics.test_after.unwrap().rmse;
-        let a = calibrate(ds, None, &irb120(Method::PsoEkfAwnn(Ablation::Full), "hayati")).unwrap();
+        let lm = calibrate(ds, None, &irb120(Method::LM, "hayati")).unwrap().metrics.test_after.unwrap().rmse;
+        let a = calibrate(ds, None, &irb120(Method::PSO_EKF_AWNN, "hayati")).unwrap();
         assert!(a.stop_reason.contains("chosen by 5-fold CV on the training rows"), "{}", a.stop_reason);
         ratios.push(a.metrics.test_after.unwrap().rmse / lm);
     }
@@ -450,7 +449,7 @@ fn pso_ekf_awnn_beats_lm_on_the_all_effects_scenario() {
     assert!(wins >= 4 && median(ratios.clone()) < 0.985, "test RMSE ratios to LM {ratios:?}");
 
     let ds = &sets[0].0;
-    let o = irb120(Method::PsoEkfAwnn(Ablation::Full), "hayati");
+    let o = irb120(Method::PSO_EKF_AWNN, "hayati");
     let a = calibrate(ds, None, &o).unwrap();
     let b = calibrate(&datasets::test_lengths_scrambled(ds), None, &o).unwrap();
     assert_eq!(a.stop_reason, b.stop_reason);
@@ -503,7 +502,7 @@ fn compare_scores_the_residuals_the_calibration_scored() {
     let g = generate(&s, &robot, &Silent).unwrap();
     let ds = g.dataset;
     assert!(ds.rows.iter().all(|r| r.temp_c.is_some()), "the scenario logs temperature");
-    let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm);
+    let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM);
     o.effects = vec![(EffectKind::ThermalDrift, None)];
     let r = calibrate(&ds, None, &o).unwrap();
     let t = r.metrics.test_after.unwrap();
@@ -601,11 +600,11 @@ fn a_method_ending_worse_than_nominal_warns_and_constant_lengths_are_refused() {
             Ok(twincal::calib::methods::Solution { report: lm.minimize(p.fit, &x0, p.fixed, obs), corrector: None })
         }
     }
-    let r = calibrate_with(ds, None, &irb120(Method::Lm, "hayati"), &Stuck).unwrap();
+    let r = calibrate_with(ds, None, &irb120(Method::LM, "hayati"), &Stuck).unwrap();
     assert!(r.metrics.train_after.rmse > r.metrics.train_before.rmse);
     assert!(r.warnings.iter().any(|w| w.contains("pf ended worse than the nominal model")), "{:?}", r.warnings);
     // Constant L.
     let flat = Dataset { rows: ds.rows.iter().map(|row| Row { reading_mm: vec![512.5], ..row.clone() }).collect(), source: "flat".into() };
-    let e = calibrate(&flat, None, &irb120(Method::Lm, "hayati")).unwrap_err().to_string();
+    let e = calibrate(&flat, None, &irb120(Method::LM, "hayati")).unwrap_err().to_string();
     assert!(e.contains("every row reads the same length (L = 512.5 mm)"), "{e}");
 }

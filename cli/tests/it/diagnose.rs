@@ -292,7 +292,7 @@ fn a_thermal_drift_in_logged_sweeps_is_sized_within_its_uncertainty() {
         eprintln!("seed {seed}: diagnose {}", c.summary());
         assert!(h.named_by(c) && (c.magnitude - h.magnitude).abs() <= 3.0 * c.uncertainty, "seed {seed}: hidden {h:?}, named {}", c.summary());
         let g = generate(&s, &robot, &Silent).unwrap();
-        let mut opts = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm);
+        let mut opts = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM);
         opts.effects = vec![(EffectKind::ThermalDrift, None)];
         let r = calibrate(&g.dataset, None, &opts).unwrap();
         let p = r.parameters.iter().find(|p| p.name == "thermal.alpha").expect("the drift's parameter");

@@ -50,15 +50,15 @@ fn dsade_gkan_beats_lm_on_held_out_rows_over_seeds_and_is_reproducible() {
     let mut lm = Vec::new();
     let mut evo = Vec::new();
     for seed in 0..3 {
-        lm.push(test(Method::Lm, seed).metrics.test_after.unwrap().rmse);
-        let r = test(Method::DsadeGkan, seed);
+        lm.push(test(Method::LM, seed).metrics.test_after.unwrap().rmse);
+        let r = test(Method::DSADE_GKAN, seed);
         assert!(matches!(r.corrector, Some(twincal::calib::correctors::Corrector::Gkan(_))));
         evo.push(r.metrics.test_after.unwrap().rmse);
     }
     assert!(median(evo.clone()) < median(lm.clone()), "dsade-gkan {evo:?} vs lm {lm:?}");
     // Same seed, same result (the DE runs on rayon threads).
-    let a = test(Method::DsadeGkan, 7);
-    let b = test(Method::DsadeGkan, 7);
+    let a = test(Method::DSADE_GKAN, 7);
+    let b = test(Method::DSADE_GKAN, 7);
     assert_eq!(a.x, b.x);
     assert_eq!(serde_json::to_string(&a.corrector).unwrap(), serde_json::to_string(&b.corrector).unwrap());
 }
@@ -125,7 +125,7 @@ fn ik_on_a_dsade_result_solves_reachable_targets_and_beats_the_nominal_on_the_tw
 #[test]
 fn the_network_is_chosen_on_training_rows_only_and_dh_form_works() {
     let (_, ds) = evo();
-    let mut o = opts(Method::DsadeGkan, 5);
+    let mut o = opts(Method::DSADE_GKAN, 5);
     o.test_fraction = None;
     let a = calibrate(ds, None, &o).unwrap();
     assert!(a.stop_reason.contains("chosen by 5-fold CV on the training rows"), "{}", a.stop_reason);
@@ -134,10 +134,10 @@ fn the_network_is_chosen_on_training_rows_only_and_dh_form_works() {
     assert_eq!(a.x, b.x);
     assert!(b.metrics.test_after.unwrap().rmse > 2.0 * a.metrics.test_after.unwrap().rmse);
 
-    let mut dh = opts(Method::DsadeGkan, 5);
+    let mut dh = opts(Method::DSADE_GKAN, 5);
     dh.model = ModelSpec::parse("irb120", "dh").unwrap();
     let r = calibrate(ds, None, &dh).unwrap();
-    let lm = calibrate(ds, None, &CalibOptions { method: Method::Lm, ..dh.clone() }).unwrap();
+    let lm = calibrate(ds, None, &CalibOptions { method: Method::LM, ..dh.clone() }).unwrap();
     let (e, l) = (r.metrics.test_after.unwrap().rmse, lm.metrics.test_after.unwrap().rmse);
     assert!(r.stop_reason.contains("GKAN") && e < 1.1 * l, "dh: dsade-gkan {e} vs lm {l}");
 }

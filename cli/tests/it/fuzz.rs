@@ -21,9 +21,9 @@ fn fixtures() -> &'static (Vec<Value>, Dataset) {
         let (s, robot) = Scenario::default_embedded().unwrap();
         let data = generate(&s, &robot, &Silent).unwrap().dataset;
         let spec = ModelSpec::Nominal { robot: Box::new(robot), parametrisation: "hayati".into() };
-        let mut lm = CalibOptions::new(spec.clone(), Method::Lm);
+        let mut lm = CalibOptions::new(spec.clone(), Method::LM);
         lm.effects = vec![(EffectKind::JointCompliance, Some(1)), (EffectKind::Backlash, Some(2)), (EffectKind::ThermalDrift, None)];
-        let results = [calibrate(&data, None, &lm).unwrap(), calibrate(&data, None, &CalibOptions::new(spec, Method::Rbf)).unwrap()];
+        let results = [calibrate(&data, None, &lm).unwrap(), calibrate(&data, None, &CalibOptions::new(spec, Method::RBF)).unwrap()];
         (results.iter().map(|r| serde_json::to_value(r).unwrap()).collect(), data)
     })
 }

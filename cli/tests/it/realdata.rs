@@ -31,7 +31,7 @@ fn hsr_generic_model_converges_and_predicts_interleaved_rows_near_the_floor() {
     let mut ratios = Vec::new();
     let mut first = None;
     for seed in 0..3 {
-        let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::Lm);
+        let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
         o.seed = seed;
         let r = calibrate(&ds, None, &o).unwrap();
         assert!(r.converged, "seed {seed}: {}", r.stop_reason);
@@ -61,7 +61,7 @@ fn robotcali_lm_converges_and_names_the_disturbed_stretch() {
     let Some(path) = shared("robotcali-irb120/robotcali_pool.csv") else { return };
     let ds = Dataset::load(&path).unwrap();
     for seed in 0..3 {
-        let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm);
+        let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM);
         o.test_fraction = Some(0.2);
         // The papers' protocol (random rows), against their LM figure; held-out whole sweeps are
         // the next test's yardstick.
@@ -131,7 +131,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     assert_eq!(glitches.len(), 24);
     let ds = Dataset::load(dir.path()).unwrap();
     let truth = twincal::calib::run::TruthFile::find(dir.path()).unwrap();
-    let lm = calibrate(&ds, truth.as_ref(), &CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm)).unwrap();
+    let lm = calibrate(&ds, truth.as_ref(), &CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM)).unwrap();
     assert!(lm.converged, "{}", lm.stop_reason);
     // Random rows as the test set and rows taken as independent: the test rows share their
     // sweeps' rounding with training rows, the held-out RMSE falls below the floor, and the
@@ -142,7 +142,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         split_by: twincal::calib::run::SplitBy::Rows,
         test_fraction: Some(0.25),
         noise_model: NoiseChoice::Off,
-        ..CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm)
+        ..CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM)
     };
     let independent = calibrate(&ds, None, &rows).unwrap();
     let floor = independent.noise_floor.as_ref().unwrap().total_mm;
@@ -186,7 +186,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     let independent = calibrate(
         &ds,
         truth.as_ref(),
-        &CalibOptions { noise_model: NoiseChoice::Off, ..CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::Lm) },
+        &CalibOptions { noise_model: NoiseChoice::Off, ..CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM) },
     )
     .unwrap();
     let u = independent.truth_comparison.as_ref().unwrap();
@@ -195,9 +195,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         t.within_3_sigma, t.identifiable, t.max_abs_z, u.within_3_sigma, u.identifiable, u.max_abs_z
     );
     assert!(t.within_3_sigma > u.within_3_sigma && t.max_abs_z < u.max_abs_z, "{t:?} against {u:?}");
-    for (method, model) in
-        [(Method::DsadeGkan, "irb120"), (Method::PsoEkfAwnn(twincal::calib::methods::psoekf::Ablation::Full), "irb120"), (Method::Lm, "generic6r")]
-    {
+    for (method, model) in [(Method::DSADE_GKAN, "irb120"), (Method::PSO_EKF_AWNN, "irb120"), (Method::LM, "generic6r")] {
         let spec = if model == "generic6r" { ModelSpec::Generic6r } else { ModelSpec::parse(model, "hayati").unwrap() };
         let r = calibrate(&ds, None, &CalibOptions::new(spec, method)).unwrap();
         let e = r.metrics.test_after_inliers.unwrap().rmse;
@@ -228,7 +226,7 @@ fn lands_in_the_same_basin_on_80_percent_of_the_rows(ds: &Dataset, a: &CalibResu
             .collect(),
         source: "80 % of the training rows".into(),
     };
-    let b = calibrate(&fewer, None, &CalibOptions::new(ModelSpec::Generic6r, Method::Lm)).unwrap();
+    let b = calibrate(&fewer, None, &CalibOptions::new(ModelSpec::Generic6r, Method::LM)).unwrap();
     let test = Dataset { rows: ds.rows.iter().filter(|r| r.split == Some(Split::Test)).cloned().collect(), source: "held out".into() };
     let (pa, pb) = (a.predict_rows(&test), b.predict_rows(&test));
     let diff = (pa.iter().zip(&pb).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / pa.len() as f64).sqrt();
@@ -264,7 +262,7 @@ fn tracker_grids_of_a_ur5_and_a_wam_calibrate_below_the_published_error() {
         let spec = ModelSpec::parse(urdf.to_str().unwrap(), "hayati").unwrap();
         let mut after = Vec::new();
         for seed in 0..3 {
-            let mut o = CalibOptions::new(spec.clone(), Method::Lm);
+            let mut o = CalibOptions::new(spec.clone(), Method::LM);
             o.test_fraction = Some(0.2);
             o.seed = seed;
             let r = calibrate(&ds, None, &o).unwrap();
@@ -316,8 +314,8 @@ fn diagnosed_model_on_held_out_blocks(rel: &str) {
     };
     let (train, test) = split_rows(&ds, Some(0.25), 0, SplitBy::Blocks).unwrap();
     let train_ds = Dataset { rows: train.iter().map(|&i| ds.rows[i].clone()).collect(), source: rel.into() };
-    let calibrated = calibrate(&train_ds, None, &CalibOptions::new(spec.clone(), Method::Lm)).unwrap();
-    let independent = calibrate(&train_ds, None, &CalibOptions { noise_model: NoiseChoice::Off, ..CalibOptions::new(spec.clone(), Method::Lm) }).unwrap();
+    let calibrated = calibrate(&train_ds, None, &CalibOptions::new(spec.clone(), Method::LM)).unwrap();
+    let independent = calibrate(&train_ds, None, &CalibOptions { noise_model: NoiseChoice::Off, ..CalibOptions::new(spec.clone(), Method::LM) }).unwrap();
     let (d, diagnosed) = diagnose(&train_ds, &DiagnoseOptions::new(spec), &|_| {}).unwrap();
     // Every row predicted in acquisition order (backlash flanks follow it), the test rows judged.
     let residuals = |r: &CalibResult| -> Vec<Vec<f64>> {

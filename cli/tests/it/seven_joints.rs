@@ -40,7 +40,7 @@ fn a_seven_joint_arm_calibrates_to_the_noise_floor_with_its_parameters_within_3_
         assert_eq!(ds.n_joints(), 7);
         assert!(ds.to_csv_string().starts_with("q1,q2,q3,q4,q5,q6,q7,L,"));
         let truth = TruthFile::find(dir.path()).unwrap().unwrap();
-        let r = calibrate(&ds, Some(&truth), &CalibOptions::new(wam(), Method::Lm)).unwrap();
+        let r = calibrate(&ds, Some(&truth), &CalibOptions::new(wam(), Method::LM)).unwrap();
         let test = r.metrics.test_after.as_ref().unwrap().rmse;
         let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
         assert!(r.converged, "seed {seed}: {}", r.stop_reason);

@@ -29,103 +29,216 @@ pub use rbf::RbfSolver;
 use serde::{Deserialize, Serialize};
 pub use solver::{Problem, Solution, Solver};
 
-/// The methods the command line offers by name (stored in result.json by that name).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(into = "String", try_from = "String")]
-pub enum Method {
-    /// Levenberg–Marquardt on the identifiable parameters.
-    Lm,
+/// Which family a method belongs to: the core's baselines, Evo-NPH and its ablations, PSO-EKF-AWNN
+/// and its ablations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    /// lm, ekf, pf, pso, rbf.
+    Baseline,
+    /// Evo-NPH (DS-ADE + GKAN) and its ablations.
+    EvoNph,
+    /// PSO-EKF-AWNN and its ablations.
+    PsoEkfAwnn,
+}
+
+/// One registered method: the name it is chosen and stored by, what it does (the `--method`
+/// help), its family, whether it learns a corrector of the residuals, and its solver with the
+/// default settings at an effort (a multiple of the stochastic methods' default budgets).
+pub struct MethodDef {
+    /// The name on the command line and in result.json.
+    pub name: &'static str,
+    /// One line for `--help`.
+    pub help: &'static str,
+    /// Its family.
+    pub family: Family,
+    /// Whether it adds a learned corrector (such methods fit with equal weights, as their
+    /// correctors learn plain residuals).
+    pub learns_corrector: bool,
+    /// The solver with its default settings at an effort.
+    pub solver: fn(f64) -> Box<dyn Solver>,
+}
+
+/// A row of [`METHODS`].
+const fn row(name: &'static str, family: Family, learns_corrector: bool, solver: fn(f64) -> Box<dyn Solver>, help: &'static str) -> MethodDef {
+    MethodDef { name, help, family, learns_corrector, solver }
+}
+
+fn evo(variant: EvoVariant, effort: f64) -> Box<dyn Solver> {
+    Box::new(EvoNphSolver::new(variant, effort))
+}
+
+fn awnn(variant: Ablation, effort: f64) -> Box<dyn Solver> {
+    Box::new(PsoEkfAwnn { pso_iterations: ((10.0 * effort).ceil() as usize).max(2), ..PsoEkfAwnn::variant(variant) })
+}
+
+/// Every method, in the order `--help` lists them: the one table that `--method` parses, lists
+/// and documents (a new method is its file and its line here).
+pub const METHODS: &[MethodDef] = &[
+    row("lm", Family::Baseline, false, |_| Box::new(LmSolver::default()), "Levenberg-Marquardt on the identifiable parameters"),
+    row("ekf", Family::Baseline, false, |e| Box::new(EkfSolver { epochs: (20.0 * e).ceil() as usize }), "the extended Kalman filter"),
+    row(
+        "pf",
+        Family::Baseline,
+        false,
+        |e| Box::new(PfSolver { particles: (4000.0 * e).max(100.0) as usize, ..Default::default() }),
+        "the regularised particle filter",
+    ),
+    row(
+        "pso",
+        Family::Baseline,
+        false,
+        |e| Box::new(PsoSolver { iterations: (1500.0 * e).max(10.0) as usize, ..Default::default() }),
+        "particle swarm optimisation",
+    ),
+    row("rbf", Family::Baseline, true, |_| Box::new(RbfSolver::default()), "LM geometry, then an RBF network on its residuals"),
+    row("dsade-gkan", Family::EvoNph, true, |e| evo(EvoVariant::Full, e), "Evo-NPH: DS-ADE over the geometry and the GKAN's coefficients"),
+    row("dsade-gkan-v1", Family::EvoNph, true, |e| evo(EvoVariant::Sequential, e), "Evo-NPH ablation V1: LM geometry, then the GKAN"),
+    row("dsade-gkan-v2", Family::EvoNph, true, |e| evo(EvoVariant::Mlp, e), "Evo-NPH ablation V2: a ReLU MLP of matched size instead of the GKAN"),
+    row("dsade-gkan-v3", Family::EvoNph, true, |e| evo(EvoVariant::SingleStrategy, e), "Evo-NPH ablation V3: single-strategy DE"),
+    row("pso-ekf-awnn", Family::PsoEkfAwnn, true, |e| awnn(Ablation::Full, e), "PSO-EKF-AWNN: PSO-tuned EKF, then an adaptive wavelet network"),
+    row("pso-ekf-awnn-v1", Family::PsoEkfAwnn, true, |e| awnn(Ablation::V1Symbolic, e), "PSO-EKF-AWNN ablation V1: symbolic EKF then LM, no network"),
+    row(
+        "pso-ekf-awnn-v2",
+        Family::PsoEkfAwnn,
+        true,
+        |e| awnn(Ablation::V2RandomInit, e),
+        "PSO-EKF-AWNN ablation V2: hyperparameters drawn at random instead of by PSO",
+    ),
+    row("pso-ekf-awnn-v3", Family::PsoEkfAwnn, true, |e| awnn(Ablation::V3Mlp, e), "PSO-EKF-AWNN ablation V3: a ReLU MLP instead of the wavelet network"),
+    row("pso-ekf-awnn-v4", Family::PsoEkfAwnn, true, |e| awnn(Ablation::V4Morlet, e), "PSO-EKF-AWNN ablation V4: Morlet instead of Mexican-hat wavelets"),
+    row("pso-ekf-awnn-v5", Family::PsoEkfAwnn, true, |e| awnn(Ablation::V5Joint, e), "PSO-EKF-AWNN ablation V5: geometry and network fitted jointly"),
+    row(
+        "pso-ekf-awnn-x",
+        Family::PsoEkfAwnn,
+        true,
+        |e| awnn(Ablation::Extended, e),
+        "PSO-EKF-AWNN extended: the network also sees temperature (or time) and backlash flanks, then network/LM alternations",
+    ),
+];
+
+/// A registered method (a row of [`METHODS`]), stored in result.json by its name.
+#[derive(Clone, Copy)]
+pub struct Method(&'static MethodDef);
+
+impl PartialEq for Method {
+    fn eq(&self, other: &Method) -> bool {
+        self.0.name == other.0.name
+    }
+}
+
+impl Eq for Method {}
+
+impl std::fmt::Debug for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Method({})", self.0.name)
+    }
+}
+
+impl Serialize for Method {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.0.name)
+    }
+}
+
+impl<'de> Deserialize<'de> for Method {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Method, D::Error> {
+        let name = String::deserialize(d)?;
+        Method::parse(&name).map_err(serde::de::Error::custom)
+    }
+}
+
+impl Method {
+    /// Levenberg-Marquardt.
+    pub const LM: Method = Method(&METHODS[0]);
     /// The extended Kalman filter.
-    Ekf,
+    pub const EKF: Method = Method(&METHODS[1]);
     /// The regularised particle filter.
-    Pf,
+    pub const PF: Method = Method(&METHODS[2]);
     /// Particle swarm optimisation.
-    Pso,
-    /// Levenberg–Marquardt geometry, then an RBF network on its residuals.
-    Rbf,
-    /// Evo-NPH: DS-ADE over geometry and GKAN coefficients ([`evonph`]).
-    #[serde(rename = "dsade-gkan")]
-    DsadeGkan,
-    /// Evo-NPH ablation V1: sequential (LM geometry, then the GKAN).
-    #[serde(rename = "dsade-gkan-v1")]
-    DsadeGkanV1,
-    /// Evo-NPH ablation V2: a matched-size ReLU MLP instead of the GKAN.
-    #[serde(rename = "dsade-gkan-v2")]
-    DsadeGkanV2,
-    /// Evo-NPH ablation V3: single-strategy DE.
-    #[serde(rename = "dsade-gkan-v3")]
-    DsadeGkanV3,
-    /// PSO-EKF-AWNN or one of its ablations (see [`psoekf`]).
-    PsoEkfAwnn(Ablation),
-}
+    pub const PSO: Method = Method(&METHODS[3]);
+    /// LM, then an RBF network.
+    pub const RBF: Method = Method(&METHODS[4]);
+    /// Evo-NPH.
+    pub const DSADE_GKAN: Method = Method(&METHODS[5]);
+    /// Evo-NPH ablation V1.
+    pub const DSADE_GKAN_V1: Method = Method(&METHODS[6]);
+    /// Evo-NPH ablation V2.
+    pub const DSADE_GKAN_V2: Method = Method(&METHODS[7]);
+    /// Evo-NPH ablation V3.
+    pub const DSADE_GKAN_V3: Method = Method(&METHODS[8]);
+    /// PSO-EKF-AWNN.
+    pub const PSO_EKF_AWNN: Method = Method(&METHODS[9]);
 
-impl Method {
-    /// Whether the method adds a learned corrector of the residuals (rbf and the papers'
-    /// methods): they fit with equal weights, as their correctors learn plain residuals.
-    pub fn learns_corrector(self) -> bool {
-        matches!(self, Method::Rbf | Method::DsadeGkan | Method::DsadeGkanV1 | Method::DsadeGkanV2 | Method::DsadeGkanV3 | Method::PsoEkfAwnn(_))
+    /// Every registered method.
+    pub fn all() -> impl Iterator<Item = Method> {
+        METHODS.iter().map(Method)
     }
-}
 
-impl From<Method> for String {
-    fn from(m: Method) -> String {
-        m.name().into()
+    /// The methods of a family, in the table's order.
+    pub fn family(family: Family) -> impl Iterator<Item = Method> {
+        Method::all().filter(move |m| m.0.family == family)
     }
-}
-
-impl TryFrom<String> for Method {
-    type Error = Error;
-    fn try_from(s: String) -> Result<Method> {
-        Method::parse(&s)
-    }
-}
-
-impl Method {
-    /// The core's baseline methods.
-    pub const ALL: [Method; 5] = [Method::Lm, Method::Ekf, Method::Pf, Method::Pso, Method::Rbf];
-
-    /// The Evo-NPH method and its ablations (not in [`Method::ALL`], the core's baselines).
-    pub const EVO_NPH: [Method; 4] = [Method::DsadeGkan, Method::DsadeGkanV1, Method::DsadeGkanV2, Method::DsadeGkanV3];
 
     /// The method called `s` (any case), or an error listing the names.
     pub fn parse(s: &str) -> Result<Method> {
         let s = s.trim().to_ascii_lowercase();
-        Method::ALL.into_iter().chain(Method::EVO_NPH).chain(Ablation::ALL.map(Method::PsoEkfAwnn)).find(|m| m.name() == s).ok_or_else(|| {
-            Error::Invalid(format!(
-                "unknown method '{s}' (expected lm, ekf, pf, pso, rbf, dsade-gkan or its ablations dsade-gkan-v1, -v2, -v3, \
-                 pso-ekf-awnn or its ablations pso-ekf-awnn-v1 .. -v5 and pso-ekf-awnn-x)"
-            ))
-        })
+        Method::all()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| Error::Invalid(format!("unknown method '{s}' (expected one of {})", METHODS.iter().map(|m| m.name).collect::<Vec<_>>().join(", "))))
     }
-    /// The name the method is registered and stored under (`lm`, `dsade-gkan-v2`, `pso-ekf-awnn-x`,
-    /// ...).
+
+    /// The name the method is registered and stored under (`lm`, `dsade-gkan-v2`,
+    /// `pso-ekf-awnn-x`, ...).
     pub fn name(self) -> &'static str {
-        match self {
-            Method::Lm => "lm",
-            Method::Ekf => "ekf",
-            Method::Pf => "pf",
-            Method::Pso => "pso",
-            Method::Rbf => "rbf",
-            Method::DsadeGkan => EvoVariant::Full.method_name(),
-            Method::DsadeGkanV1 => EvoVariant::Sequential.method_name(),
-            Method::DsadeGkanV2 => EvoVariant::Mlp.method_name(),
-            Method::DsadeGkanV3 => EvoVariant::SingleStrategy.method_name(),
-            Method::PsoEkfAwnn(v) => v.method_name(),
-        }
+        self.0.name
     }
+
+    /// Its line of `--help`.
+    pub fn help(self) -> &'static str {
+        self.0.help
+    }
+
+    /// Whether the method adds a learned corrector of the residuals (rbf and the papers'
+    /// methods): they fit with equal weights, as their correctors learn plain residuals.
+    pub fn learns_corrector(self) -> bool {
+        self.0.learns_corrector
+    }
+
     /// The method with its default settings; `effort` scales the budget of the stochastic ones.
     pub fn solver(self, effort: f64) -> Box<dyn Solver> {
-        match self {
-            Method::Lm => Box::new(LmSolver::default()),
-            Method::Ekf => Box::new(EkfSolver { epochs: (20.0 * effort).ceil() as usize }),
-            Method::Pf => Box::new(PfSolver { particles: (4000.0 * effort).max(100.0) as usize, ..Default::default() }),
-            Method::Pso => Box::new(PsoSolver { iterations: (1500.0 * effort).max(10.0) as usize, ..Default::default() }),
-            Method::Rbf => Box::new(RbfSolver::default()),
-            Method::DsadeGkan => Box::new(EvoNphSolver::new(EvoVariant::Full, effort)),
-            Method::DsadeGkanV1 => Box::new(EvoNphSolver::new(EvoVariant::Sequential, effort)),
-            Method::DsadeGkanV2 => Box::new(EvoNphSolver::new(EvoVariant::Mlp, effort)),
-            Method::DsadeGkanV3 => Box::new(EvoNphSolver::new(EvoVariant::SingleStrategy, effort)),
-            Method::PsoEkfAwnn(v) => Box::new(PsoEkfAwnn { pso_iterations: ((10.0 * effort).ceil() as usize).max(2), ..PsoEkfAwnn::variant(v) }),
+        (self.0.solver)(effort)
+    }
+}
+
+impl Ablation {
+    /// The registered method of this variant.
+    pub fn method(self) -> Method {
+        Method::parse(self.method_name()).expect("every ablation is registered in METHODS")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_registered_method_names_itself_and_parses_back() {
+        for (i, def) in METHODS.iter().enumerate() {
+            assert_eq!((def.solver)(1.0).name(), def.name, "row {i}: the solver names itself otherwise");
+            assert_eq!(Method::parse(&def.name.to_ascii_uppercase()).unwrap().name(), def.name);
+            assert!(METHODS[..i].iter().all(|d| d.name != def.name), "{} registered twice", def.name);
         }
+        for (m, name) in [(Method::LM, "lm"), (Method::EKF, "ekf"), (Method::PF, "pf"), (Method::PSO, "pso"), (Method::RBF, "rbf")] {
+            assert_eq!(m.name(), name);
+        }
+        for (m, name) in [(Method::DSADE_GKAN, "dsade-gkan"), (Method::DSADE_GKAN_V1, "dsade-gkan-v1"), (Method::DSADE_GKAN_V2, "dsade-gkan-v2")] {
+            assert_eq!(m.name(), name);
+        }
+        assert_eq!((Method::DSADE_GKAN_V3.name(), Method::PSO_EKF_AWNN.name()), ("dsade-gkan-v3", "pso-ekf-awnn"));
+        assert!(Ablation::ALL.iter().all(|a| a.method().name() == a.method_name()));
+        let err = Method::parse("newton").unwrap_err().to_string();
+        assert!(err.contains("unknown method 'newton'") && err.contains("pso-ekf-awnn-x"), "{err}");
+        assert_eq!(serde_json::to_string(&Method::RBF).unwrap(), "\"rbf\"");
+        assert_eq!(serde_json::from_str::<Method>("\"pso-ekf-awnn-v4\"").unwrap(), Ablation::V4Morlet.method());
     }
 }

@@ -24,7 +24,7 @@ use std::time::Instant;
 pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions) -> Result<CalibResult> {
     let solver = match (opts.method, opts.loss) {
         (_, Loss::L2) => opts.method.solver(opts.effort),
-        (Method::Lm, loss) => Box::new(crate::calib::methods::LmSolver { loss, ..Default::default() }),
+        (m, loss) if m == Method::LM => Box::new(crate::calib::methods::LmSolver { loss, ..Default::default() }),
         (m, loss) => return Err(Error::Invalid(format!("--loss {} applies to --method lm, not {}", loss.name(), m.name()))),
     };
     calibrate_with(data, truth, opts, solver.as_ref())
@@ -367,7 +367,7 @@ pub fn result_of_fit(
         schema_version: crate::io::SCHEMA_VERSION,
         twincal_version: env!("CARGO_PKG_VERSION").into(),
         data: data.source.clone(),
-        method: Method::Lm,
+        method: Method::LM,
         model_name: model.name.clone(),
         seed,
         n_train: rows.len(),
