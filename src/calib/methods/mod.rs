@@ -116,6 +116,21 @@ pub const METHODS: &[MethodDef] = &[
     ),
 ];
 
+/// Whether two byte strings are equal (in a `const fn`).
+const fn same(a: &[u8], b: &[u8]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
 /// A registered method (a row of [`METHODS`]), stored in result.json by its name.
 #[derive(Clone, Copy)]
 pub struct Method(&'static MethodDef);
@@ -149,25 +164,38 @@ impl<'de> Deserialize<'de> for Method {
 
 impl Method {
     /// Levenberg-Marquardt.
-    pub const LM: Method = Method(&METHODS[0]);
+    pub const LM: Method = Method::registered("lm");
     /// The extended Kalman filter.
-    pub const EKF: Method = Method(&METHODS[1]);
+    pub const EKF: Method = Method::registered("ekf");
     /// The regularised particle filter.
-    pub const PF: Method = Method(&METHODS[2]);
+    pub const PF: Method = Method::registered("pf");
     /// Particle swarm optimisation.
-    pub const PSO: Method = Method(&METHODS[3]);
+    pub const PSO: Method = Method::registered("pso");
     /// LM, then an RBF network.
-    pub const RBF: Method = Method(&METHODS[4]);
+    pub const RBF: Method = Method::registered("rbf");
     /// Evo-NPH.
-    pub const DSADE_GKAN: Method = Method(&METHODS[5]);
+    pub const DSADE_GKAN: Method = Method::registered("dsade-gkan");
     /// Evo-NPH ablation V1.
-    pub const DSADE_GKAN_V1: Method = Method(&METHODS[6]);
+    pub const DSADE_GKAN_V1: Method = Method::registered("dsade-gkan-v1");
     /// Evo-NPH ablation V2.
-    pub const DSADE_GKAN_V2: Method = Method(&METHODS[7]);
+    pub const DSADE_GKAN_V2: Method = Method::registered("dsade-gkan-v2");
     /// Evo-NPH ablation V3.
-    pub const DSADE_GKAN_V3: Method = Method(&METHODS[8]);
+    pub const DSADE_GKAN_V3: Method = Method::registered("dsade-gkan-v3");
     /// PSO-EKF-AWNN.
-    pub const PSO_EKF_AWNN: Method = Method(&METHODS[9]);
+    pub const PSO_EKF_AWNN: Method = Method::registered("pso-ekf-awnn");
+
+    /// The row of [`METHODS`] called `name`, found when the program is compiled (a name that is
+    /// not registered stops the build), so the table's order is free.
+    const fn registered(name: &str) -> Method {
+        let mut i = 0;
+        while i < METHODS.len() {
+            if same(METHODS[i].name.as_bytes(), name.as_bytes()) {
+                return Method(&METHODS[i]);
+            }
+            i += 1;
+        }
+        panic!("a Method constant names a method that is not in METHODS")
+    }
 
     /// Every registered method.
     pub fn all() -> impl Iterator<Item = Method> {
