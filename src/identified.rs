@@ -227,25 +227,6 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
         let k = m.effect_params(b).start;
         let label = block.label();
         match block.kind {
-            EffectKind::JointCompliance | EffectKind::Backlash if r.x[k] > 0.0 => {
-                scenario.effects.set_size(block.kind.name(), n, block.joint, r.x[k], 0.0).map_err(Error::Invalid)?;
-                written.push(label);
-            }
-            EffectKind::EncoderEccentricity if r.x[k].hypot(r.x[k + 1]).to_degrees() < crate::sim::effects::MAX_ECCENTRICITY_DEG => {
-                let (a, c) = (r.x[k], r.x[k + 1]);
-                scenario.effects.set_size(block.kind.name(), n, block.joint, a.hypot(c), c.atan2(a)).map_err(Error::Invalid)?;
-                written.push(label);
-            }
-            EffectKind::EncoderEccentricity => {
-                notes.push(format!(
-                    "{label}: identified at {:.3}°, beyond the twin's {}°, left out.",
-                    r.x[k].hypot(r.x[k + 1]).to_degrees(),
-                    crate::sim::effects::MAX_ECCENTRICITY_DEG
-                ));
-            }
-            EffectKind::JointCompliance | EffectKind::Backlash => {
-                notes.push(format!("{label}: identified as {} (not physical), left out.", r.x[k]));
-            }
             EffectKind::SensorNonlinearity => match block.range_m {
                 Some([lo, hi]) if m.measurement == Measurement::Length => {
                     scenario.sensor.polynomial = Some(crate::sim::instrument::drawwire::ReadingPolynomial {
@@ -256,9 +237,12 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
                 }
                 _ => notes.push(format!("{label}: identified without its reading range; left out.")),
             },
-            EffectKind::ThermalDrift => {
-                notes.push(format!("{label}: identified, but the twin does not take it from a calibration yet; left out."));
-            }
+            // Every other effect: the size the block says the twin takes, which the twin may
+            // still refuse (beyond its range); either way the note names why it is left out.
+            kind => match kind.def().twin_size(block, &r.x, k).and_then(|(size, phase)| scenario.effects.set_size(kind.name(), n, block.joint, size, phase)) {
+                Ok(()) => written.push(label),
+                Err(why) => notes.push(format!("{label}: {why}, left out.")),
+            },
         }
     }
     if let Some((mass, com)) = r.torque_model.as_ref().and_then(|t| t.payload) {

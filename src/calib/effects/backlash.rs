@@ -26,6 +26,12 @@ impl Effect for Backlash {
         st.dq[j] += x[k] * inp.side(j);
         st.joint_terms.push((k, j, inp.side(j)));
     }
+    fn twin_size(&self, _b: &EffectBlock, x: &[f64], k: usize) -> std::result::Result<(f64, f64), String> {
+        match x[k] > 0.0 {
+            true => Ok((x[k], 0.0)),
+            false => Err(format!("identified as {} (not physical)", x[k])),
+        }
+    }
     fn size(&self, _b: &EffectBlock, x: &[f64], k: usize, var: &dyn Fn(usize, usize) -> f64) -> Size {
         Size::new("band width (2 x half band)", 2.0 * x[k] * DEG, "deg", 2.0 * var(k, k).max(0.0).sqrt() * DEG)
     }

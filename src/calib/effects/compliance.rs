@@ -32,6 +32,12 @@ impl Effect for JointCompliance {
         st.dq[j] += x[k] * inp.torque(j);
         st.joint_terms.push((k, j, inp.torque(j)));
     }
+    fn twin_size(&self, _b: &EffectBlock, x: &[f64], k: usize) -> std::result::Result<(f64, f64), String> {
+        match x[k] > 0.0 {
+            true => Ok((x[k], 0.0)),
+            false => Err(format!("identified as {} (not physical)", x[k])),
+        }
+    }
     fn size(&self, _b: &EffectBlock, x: &[f64], k: usize, var: &dyn Fn(usize, usize) -> f64) -> Size {
         Size::new("compliance", x[k] * 1e6, "urad/Nm", var(k, k).max(0.0).sqrt() * 1e6)
     }

@@ -39,6 +39,10 @@ impl Effect for EncoderEccentricity {
         let v = (a * a * var(k, k) + b * b * var(k + 1, k + 1) + 2.0 * a * b * var(k, k + 1)) / (amp * amp);
         Size::new("first-harmonic amplitude", amp * DEG, "deg", v.max(0.0).sqrt() * DEG)
     }
+    fn twin_size(&self, _b: &EffectBlock, x: &[f64], k: usize) -> std::result::Result<(f64, f64), String> {
+        let (a, c) = (x[k], x[k + 1]);
+        Ok((a.hypot(c), c.atan2(a)))
+    }
     fn plausible(&self, _joint: Option<usize>) -> f64 {
         0.1f64.to_radians()
     }

@@ -77,6 +77,12 @@ pub trait Effect: Sync {
     fn physical_sign(&self, _x: &[f64], _k: usize) -> bool {
         true
     }
+    /// What an identified twin takes of the fitted block: its size and phase in the units the
+    /// twin's `Effects::set_size` reads (the calibration block's internal ones), or why it takes
+    /// none (a value physics forbids, an effect the twin does not take from a calibration).
+    fn twin_size(&self, _b: &EffectBlock, _x: &[f64], _k: usize) -> std::result::Result<(f64, f64), String> {
+        Err("identified, but the twin does not take it from a calibration yet".into())
+    }
     /// Hidden-effect generator: the largest plausible size (internal units) on `joint`.
     fn plausible(&self, _joint: Option<usize>) -> f64 {
         0.0

@@ -235,6 +235,9 @@ impl Effects {
                 let b = self.backlash.get_or_insert(Backlash { width_deg: vec![0.0; n], breakaway_nm: 0.3 });
                 b.width_deg[j] = 2.0 * size.to_degrees();
             }
+            "encoder_eccentricity" if size.to_degrees().abs() >= MAX_ECCENTRICITY_DEG => {
+                return Err(format!("identified at {:.3}°, beyond the twin's {MAX_ECCENTRICITY_DEG}°", size.to_degrees()));
+            }
             "encoder_eccentricity" => {
                 let e = self.eccentricity.get_or_insert(Eccentricity { amplitude_deg: vec![0.0; n], phase_deg: vec![0.0; n] });
                 e.amplitude_deg[j] = size.to_degrees();
