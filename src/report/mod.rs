@@ -15,9 +15,9 @@ pub mod verdict;
 
 use crate::calib::model::{Kind, Placement};
 use crate::calib::problem::{ReadingFit, Samples};
-use crate::calib::run::{CalibOptions, CalibResult};
+use crate::calib::run::CalibResult;
 use crate::dataset::Dataset;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::measurement::Measurement;
 use crate::robot::kinematics::Frame;
 use nalgebra::Matrix3;
@@ -360,9 +360,17 @@ pub fn residuals_after(r: &CalibResult, data: &Dataset) -> Vec<f64> {
 }
 
 impl CalibFigures {
-    /// The figures of calibration `r` of `data` run with `opts` (for the train / test split).
-    pub fn new(r: &CalibResult, data: &Dataset, opts: &CalibOptions) -> Result<CalibFigures> {
-        let (mut train_idx, test_idx) = crate::calib::run::split_rows(data, opts.test_fraction, opts.seed, opts.split_by)?;
+    /// The figures of calibration `r` of `data`, split into training and test rows as the
+    /// result records (its `test_rows`).
+    pub fn new(r: &CalibResult, data: &Dataset) -> Result<CalibFigures> {
+        let n = data.rows.len();
+        if let Some(&bad) = r.test_rows.iter().find(|&&i| i >= n) {
+            return Err(Error::Invalid(format!("the result's test row {} is beyond these data's {n} rows (a result of other data?)", bad + 1)));
+        }
+        let test_idx = r.test_rows.clone();
+        let mut in_test = vec![false; n];
+        test_idx.iter().for_each(|&i| in_test[i] = true);
+        let mut train_idx: Vec<usize> = (0..n).filter(|&i| !in_test[i]).collect();
         // Readings in a reading step are shown corrected, as the calibration took them (test
         // rows by their nearest training row).
         let all: Vec<usize> = (0..data.rows.len()).collect();

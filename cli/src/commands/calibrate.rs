@@ -97,7 +97,7 @@ pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool) -> Res
     use twincal::calib::run::ModelSpec;
     let (result, data, opts) = (&c.result, &c.data, &c.opts);
     let mut outputs = OutputSet::new();
-    let figures = if a.figures.rrd.is_some() || a.figures.report.is_some() { Some(twincal::report::CalibFigures::new(result, data, opts)?) } else { None };
+    let figures = if a.figures.rrd.is_some() || a.figures.report.is_some() { Some(twincal::report::CalibFigures::new(result, data)?) } else { None };
     if let (Some(p), Some(f)) = (&a.figures.rrd, &figures) {
         crate::viz::results::record_calibration(result, f, &mut outputs, p)?;
     }

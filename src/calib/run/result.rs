@@ -193,8 +193,11 @@ pub struct CalibResult {
     /// reading steps. Not stored in the file.
     #[serde(skip)]
     pub test_residuals_mm: Vec<f64>,
-    /// Data rows (0-based) of the test rows.
-    #[serde(skip)]
+    /// The rows held out as the test set (0-based here; 1-based row numbers in the file, as an
+    /// outlier's `row`): what the report, the recording and a user's own script need to tell
+    /// training rows from test rows without redoing the split. Absent in files written before
+    /// it was stored, and for a calibration without test rows.
+    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "one_based")]
     pub test_rows: Vec<usize>,
     /// How the fit weighted the training rows by their own standard deviations (absent: equal
     /// weights).
@@ -468,5 +471,38 @@ pub(super) fn beyond_magnitude(v: &serde_json::Value, limit: f64) -> Option<(Str
         Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| beyond_magnitude(x, limit).map(|(p, n)| (format!("[{i}]{p}"), n))),
         Value::Object(map) => map.iter().find_map(|(k, x)| beyond_magnitude(x, limit).map(|(p, n)| (format!(".{k}{p}"), n))),
         _ => None,
+    }
+}
+
+/// Row indices stored as 1-based row numbers (the file's convention for rows).
+mod one_based {
+    use serde::{de::Error as _, Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(rows: &[usize], s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.collect_seq(rows.iter().map(|i| i + 1))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> std::result::Result<Vec<usize>, D::Error> {
+        Vec::<usize>::deserialize(d)?
+            .into_iter()
+            .map(|r| r.checked_sub(1).ok_or_else(|| D::Error::custom("test_rows holds 1-based row numbers; 0 is not one")))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod one_based_tests {
+    #[derive(serde::Serialize, serde::Deserialize)]
+    struct Rows {
+        #[serde(with = "super::one_based")]
+        r: Vec<usize>,
+    }
+
+    #[test]
+    fn test_rows_are_row_numbers_in_files() {
+        assert_eq!(serde_json::to_string(&Rows { r: vec![0, 7] }).unwrap(), r#"{"r":[1,8]}"#);
+        assert_eq!(serde_json::from_str::<Rows>(r#"{"r":[1,8]}"#).unwrap().r, vec![0, 7]);
+        let e = serde_json::from_str::<Rows>(r#"{"r":[0]}"#).err().unwrap().to_string();
+        assert!(e.contains("1-based row numbers"), "{e}");
     }
 }
