@@ -192,6 +192,29 @@ impl Layout {
             return Err(Error::data(source, format!("line 1: the header holds the readings of two instruments, {both}; keep one; header found: {}", found())));
         }
         let measurement = complete.first().copied();
+        // A wider instrument's columns given in part (rx and ry without rz beside x, y, z) are a
+        // mistake, not columns to ignore (unless the reading asked for is the narrower one).
+        if let (Some(m), None) = (measurement, want) {
+            for w in Measurement::ALL.into_iter().filter(|w| within(&m, w)) {
+                let extra: Vec<&str> = w.def().file_columns().iter().copied().filter(|c| !m.def().file_columns().contains(c)).collect();
+                let (given, lacking): (Vec<&str>, Vec<&str>) = extra.iter().copied().partition(|c| pos[Column::reading(c).index()].is_some());
+                if !given.is_empty() {
+                    return Err(Error::data(
+                        source,
+                        format!(
+                            "line 1: {} given without {}: a {} needs all of {} (or --measurement {} to read {} alone); header found: {}",
+                            given.join(", "),
+                            lacking.join(", "),
+                            w.def().describe(),
+                            w.def().file_columns().join(", "),
+                            m.name(),
+                            m.def().file_columns().join(", "),
+                            found()
+                        ),
+                    ));
+                }
+            }
+        }
         let mut missing: Vec<String> = (0..joints).map(Column::Q).filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
         if measurement.is_none() {
             // Name the columns of a partly given instrument (x and y without z), else L.
@@ -519,6 +542,29 @@ pub(super) fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Resu
     // The lengths: every reading column but a pose's angles.
     let measurement = rows.first().and_then(|r| Measurement::of_file_dim(r.reading_mm.len()));
     let lengths = measurement.map_or(0, |m| m.file_lengths());
+    // A pose's angles (rx, ry, rz, degrees) in radians: every one within ±π, one spanning more
+    // than the radians heuristic's span.
+    if let Some(m) = measurement.filter(|m| angles == AngleUnit::Auto && rows.len() >= RADIANS_MIN_ROWS && m.def().file_columns().len() > lengths) {
+        let names = &m.def().file_columns()[lengths..];
+        let max_abs = rows.iter().flat_map(|r| r.reading_mm[lengths..].iter()).fold(0.0_f64, |a, v| a.max(v.abs()));
+        let span = (lengths..lengths + names.len())
+            .map(|k| {
+                let (lo, hi) = rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r.reading_mm[k]), hi.max(r.reading_mm[k])));
+                hi - lo
+            })
+            .fold(0.0_f64, f64::max);
+        if max_abs <= POSE_RADIANS_MAX_ABS && span > RADIANS_MIN_SPAN {
+            return Err(Error::data(
+                source,
+                format!(
+                    "columns {} look like radians (all {} rows have |angle| <= {max_abs:.3}, one spans {span:.3}); a pose's \
+                     angles must be in degrees: convert them (x 180/pi), or pass --angles deg if they really are degrees",
+                    names.join(", "),
+                    rows.len()
+                ),
+            ));
+        }
+    }
     let max_abs = rows.iter().flat_map(|r| r.reading_mm.iter().take(lengths)).fold(None, |m: Option<f64>, v| Some(m.map_or(v.abs(), |m| m.max(v.abs()))));
     if let (Some(max), Some(m)) = (max_abs, measurement) {
         if max < METRES_MAX_L {

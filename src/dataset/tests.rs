@@ -227,6 +227,25 @@ fn error_radians() {
 }
 
 #[test]
+fn error_pose_angles_in_radians_or_in_part() {
+    let pose = |r: f64| -> String {
+        let rows: String =
+            (0..12).map(|i| format!("10,20,30,40,50,{},900,100,800,{},{},{}\n", i, r * (0.1 * i as f64 - 0.5), r * 0.3, r * 0.05 * i as f64)).collect();
+        format!("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n{rows}")
+    };
+    // The same orientations in degrees read; in radians refused, naming the way out.
+    assert!(parse(&pose(57.29577951308232)).is_ok());
+    let msg = err(&pose(1.0));
+    assert_contains(&msg, &["rx, ry, rz look like radians", "--angles deg"]);
+    assert!(parse_with(&pose(1.0), &LoadOptions { angles: AngleUnit::Deg, ..Default::default() }).is_ok(), "--angles deg reads them as given");
+    // rx and ry without rz: neither a pose nor a point read silently.
+    let text = "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry\n10,20,30,40,50,60,900,100,800,10,20\n";
+    assert_contains(&err(text), &["line 1", "rx, ry given without rz", "--measurement point"]);
+    let point = LoadOptions { measurement: Some(crate::measurement::Measurement::Point), ..Default::default() };
+    assert_eq!(parse_with(text, &point).unwrap().rows[0].reading_mm, vec![900.0, 100.0, 800.0]);
+}
+
+#[test]
 fn error_implausible_angle() {
     let msg = err(&format!("{HEADER}\n{GOOD}\n1,2,3,4,-720.5,6,300\n"));
     assert_contains(&msg, &["line 3", "column q5", "implausible", "720"]);

@@ -19,6 +19,9 @@ pub const RADIANS_MIN_ROWS: usize = 10;
 /// Radians heuristic: every |q| at most this (2π plus 5 %).
 pub const RADIANS_MAX_ABS: f64 = 2.0 * std::f64::consts::PI * 1.05;
 
+/// Radians heuristic for a pose's angles (rx, ry, rz): every |angle| at most this (π plus 5 %).
+pub const POSE_RADIANS_MAX_ABS: f64 = std::f64::consts::PI * 1.05;
+
 /// Radians heuristic: at least one joint must span more than this (same unit as the file).
 pub const RADIANS_MIN_SPAN: f64 = 0.1;
 
