@@ -217,6 +217,14 @@ pub fn mean_std(v: &[f64]) -> (f64, f64) {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_floor_below_a_tenth_of_a_micrometre_is_not_judged() {
+        let oof = vec![1e-9; 40];
+        assert!(short_of_floor(&oof, 1, None, 1e-2), "a real floor: the residuals fall short of it");
+        assert!(!short_of_floor(&oof, 1, None, 5e-5), "a noise-free twin's floor: nothing to judge");
+    }
+
     use super::*;
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
@@ -425,11 +433,26 @@ pub fn nested_f_test_deff(rss0: f64, rss1: f64, extra: usize, dof1: usize, deff:
     f_survival(f, extra as f64, (dof1 as f64 / deff).max(1.0))
 }
 
+/// Below this (mm, a nanometre) a length, an RMSE or a difference of two is numerical, not
+/// physical: no arm, instrument or logging resolution reaches it, so nothing is judged on it (a
+/// noise-free twin dataset fits to ~1e-9 mm before and after).
+pub const NUMERICAL_MM: f64 = 1e-6;
+
+/// Below this floor (mm, a tenth of a micrometre) no held-out RMSE is judged against it: real
+/// instruments and logs sit orders of magnitude above; only a noise-free twin's does, whose
+/// angles are exactly the logged ones.
+pub const MIN_JUDGED_FLOOR_MM: f64 = 1e-4;
+
 /// Whether held-out residuals `oof` (`dim` values per row, in blocks `groups`) fall short of
 /// the data's floor `floor_mm` by more than twice their mean square's standard error: no model
 /// predicts unseen rows better than the floor, so the held-out rows shared errors with the
-/// training rows (the split leaks).
+/// training rows (the split leaks). Never for a floor of at most [`MIN_JUDGED_FLOOR_MM`].
 pub fn short_of_floor(oof: &[f64], dim: usize, groups: Option<&[usize]>, floor_mm: f64) -> bool {
+    // A floor below a tenth of a micrometre (a noise-free twin's logging resolution, which its
+    // exact angles do not even reach) says nothing a model could fall short of.
+    if !(floor_mm > MIN_JUDGED_FLOOR_MM) {
+        return false;
+    }
     let (ms, se) = mean_square_with_se(oof, dim, groups);
     ms + 2.0 * se < floor_mm * floor_mm
 }

@@ -279,7 +279,9 @@ pub(super) fn check_design(data: &Dataset, split: &SplitData, fixed: &[bool], wa
 /// `noise` (mm) and missing the test rows.
 pub(super) fn metric_warnings(name: &str, metrics: &Metrics, noise: f64) -> Vec<String> {
     let mut warnings = Vec::new();
-    if metrics.train_after.rmse > metrics.train_before.rmse {
+    // Differences of a nanometre or less are numerical (a noise-free dataset), not worse.
+    let worse = |before: f64, after: f64| after > before && after - before > crate::stats::NUMERICAL_MM;
+    if worse(metrics.train_before.rmse, metrics.train_after.rmse) {
         warnings.push(format!(
             "{} ended worse than the nominal model it started from (training RMSE {:.4} -> {:.4} mm): the result is not a calibration; \
              try --method lm, or a larger --effort",
@@ -287,7 +289,7 @@ pub(super) fn metric_warnings(name: &str, metrics: &Metrics, noise: f64) -> Vec<
         ));
     } else if let (Some(before), Some(after)) = (&metrics.test_before, &metrics.test_after) {
         // Beyond 5 %: a model already calibrated (its own URDF export) moves within noise.
-        if after.rmse > 1.05 * before.rmse {
+        if after.rmse > 1.05 * before.rmse && worse(before.rmse, after.rmse) {
             warnings.push(format!(
                 "the calibrated model predicts the test rows worse than the nominal model (test RMSE {:.4} -> {:.4} mm) while it fits the training \
                  rows better: the training poses do not cover the test rows (a joint held still or a narrow range) or the model follows their noise",
