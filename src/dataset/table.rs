@@ -195,25 +195,7 @@ impl Layout {
         // A wider instrument's columns given in part (rx and ry without rz beside x, y, z) are a
         // mistake, not columns to ignore (unless the reading asked for is the narrower one).
         if let (Some(m), None) = (measurement, want) {
-            for w in Measurement::ALL.into_iter().filter(|w| within(&m, w)) {
-                let extra: Vec<&str> = w.def().file_columns().iter().copied().filter(|c| !m.def().file_columns().contains(c)).collect();
-                let (given, lacking): (Vec<&str>, Vec<&str>) = extra.iter().copied().partition(|c| pos[Column::reading(c).index()].is_some());
-                if !given.is_empty() {
-                    return Err(Error::data(
-                        source,
-                        format!(
-                            "line 1: {} given without {}: a {} needs all of {} (or --measurement {} to read {} alone); header found: {}",
-                            given.join(", "),
-                            lacking.join(", "),
-                            w.def().describe(),
-                            w.def().file_columns().join(", "),
-                            m.name(),
-                            m.def().file_columns().join(", "),
-                            found()
-                        ),
-                    ));
-                }
-            }
+            partial_wider(m, &pos, source, &found())?;
         }
         let mut missing: Vec<String> = (0..joints).map(Column::Q).filter(|c| pos[c.index()].is_none()).map(|c| c.name()).collect();
         if measurement.is_none() {
@@ -511,6 +493,31 @@ pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &
         )),
         _ => Ok(()),
     }
+}
+
+/// The error for a wider instrument's reading columns given in part beside the complete ones of
+/// `m` (a pose's `rx, ry` without `rz` beside `x, y, z`), if any.
+fn partial_wider(m: Measurement, pos: &[Option<usize>], source: &str, found: &str) -> Result<()> {
+    let within = |a: &Measurement, b: &Measurement| a != b && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c));
+    for w in Measurement::ALL.into_iter().filter(|w| within(&m, w)) {
+        let extra: Vec<&str> = w.def().file_columns().iter().copied().filter(|c| !m.def().file_columns().contains(c)).collect();
+        let (given, lacking): (Vec<&str>, Vec<&str>) = extra.iter().copied().partition(|c| pos[Column::reading(c).index()].is_some());
+        if !given.is_empty() {
+            return Err(Error::data(
+                source,
+                format!(
+                    "line 1: {} given without {}: a {} needs all of {} (or --measurement {} to read {} alone); header found: {found}",
+                    given.join(", "),
+                    lacking.join(", "),
+                    w.def().describe(),
+                    w.def().file_columns().join(", "),
+                    m.name(),
+                    m.def().file_columns().join(", "),
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The radians and metres heuristics described in the module docs (radians only with
