@@ -168,7 +168,6 @@ impl Layout {
         let mut complete: Vec<Measurement> = Measurement::ALL.into_iter().filter(has).collect();
         // An instrument whose columns another one's include (a point's x, y, z in a pose's) is
         // that one; the one asked for is read alone.
-        let within = |a: &Measurement, b: &Measurement| a != b && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c));
         let all = complete.clone();
         complete.retain(|a| !all.iter().any(|b| within(a, b)));
         if let Some(w) = want {
@@ -495,10 +494,20 @@ pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &
     }
 }
 
+/// Whether instrument `a`'s reading columns are all among `b`'s (a point's x, y, z in a pose's).
+fn within(a: &Measurement, b: &Measurement) -> bool {
+    a != b && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c))
+}
+
+/// The spread (max − min) of `value` over `rows`.
+fn span(rows: &[Row], value: impl Fn(&Row) -> f64) -> f64 {
+    let (lo, hi) = rows.iter().map(value).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    hi - lo
+}
+
 /// The error for a wider instrument's reading columns given in part beside the complete ones of
 /// `m` (a pose's `rx, ry` without `rz` beside `x, y, z`), if any.
 fn partial_wider(m: Measurement, pos: &[Option<usize>], source: &str, found: &str) -> Result<()> {
-    let within = |a: &Measurement, b: &Measurement| a != b && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c));
     for w in Measurement::ALL.into_iter().filter(|w| within(&m, w)) {
         let extra: Vec<&str> = w.def().file_columns().iter().copied().filter(|c| !m.def().file_columns().contains(c)).collect();
         let (given, lacking): (Vec<&str>, Vec<&str>) = extra.iter().copied().partition(|c| pos[Column::reading(c).index()].is_some());
@@ -525,12 +534,7 @@ fn partial_wider(m: Measurement, pos: &[Option<usize>], source: &str, found: &st
 pub(super) fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
     if angles == AngleUnit::Auto && rows.len() >= RADIANS_MIN_ROWS {
         let max_abs = rows.iter().flat_map(|r| r.q_deg.iter()).fold(0.0_f64, |m, q| m.max(q.abs()));
-        let spans: Vec<f64> = (0..rows[0].q_deg.len())
-            .map(|j| {
-                let (lo, hi) = rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r.q_deg[j]), hi.max(r.q_deg[j])));
-                hi - lo
-            })
-            .collect();
+        let spans: Vec<f64> = (0..rows[0].q_deg.len()).map(|j| span(rows, |r| r.q_deg[j])).collect();
         let (widest, span) = spans.iter().copied().enumerate().fold((0, 0.0), |best, (j, s)| if s > best.1 { (j, s) } else { best });
         if max_abs <= RADIANS_MAX_ABS && span > RADIANS_MIN_SPAN {
             return Err(Error::data(
@@ -554,17 +558,12 @@ pub(super) fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Resu
     if let Some(m) = measurement.filter(|m| angles == AngleUnit::Auto && rows.len() >= RADIANS_MIN_ROWS && m.def().file_columns().len() > lengths) {
         let names = &m.def().file_columns()[lengths..];
         let max_abs = rows.iter().flat_map(|r| r.reading_mm[lengths..].iter()).fold(0.0_f64, |a, v| a.max(v.abs()));
-        let span = (lengths..lengths + names.len())
-            .map(|k| {
-                let (lo, hi) = rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r.reading_mm[k]), hi.max(r.reading_mm[k])));
-                hi - lo
-            })
-            .fold(0.0_f64, f64::max);
-        if max_abs <= POSE_RADIANS_MAX_ABS && span > RADIANS_MIN_SPAN {
+        let widest = (lengths..lengths + names.len()).map(|k| span(rows, |r| r.reading_mm[k])).fold(0.0_f64, f64::max);
+        if max_abs <= POSE_RADIANS_MAX_ABS && widest > RADIANS_MIN_SPAN {
             return Err(Error::data(
                 source,
                 format!(
-                    "columns {} look like radians (all {} rows have |angle| <= {max_abs:.3}, one spans {span:.3}); a pose's \
+                    "columns {} look like radians (all {} rows have |angle| <= {max_abs:.3}, one spans {widest:.3}); a pose's \
                      angles must be in degrees: convert them (x 180/pi), or pass --angles deg if they really are degrees",
                     names.join(", "),
                     rows.len()
