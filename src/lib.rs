@@ -21,6 +21,7 @@ pub mod error;
 pub mod identified;
 pub mod ik;
 pub mod io;
+pub mod jobs;
 pub mod math;
 pub mod measurement;
 pub mod optim;

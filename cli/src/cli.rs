@@ -34,13 +34,13 @@ pub enum Command {
         seed: Option<u64>,
     },
     /// Calibrate a model on measured data (dataset folder, CSV or xlsx).
-    Calibrate(commands::CalibrateArgs),
+    Calibrate(commands::CalibrateJob),
     /// From measured data: what the geometric model gets wrong, which effect causes it, how big
     /// it is and how much better the extended model predicts unseen rows.
-    Diagnose(commands::DiagnoseArgs),
+    Diagnose(commands::DiagnoseJob),
     /// The twin driven through a measured acquisition: per row its reading beside the measured
     /// one, and how far apart they are (what the simulation gets wrong).
-    Replay(commands::ReplayArgs),
+    Replay(commands::ReplayJob),
     /// Predict readings (cable lengths or tracker points) with a calibrated model.
     Predict {
         /// A result.json written by `calibrate`.
@@ -58,7 +58,7 @@ pub enum Command {
     /// twin dataset also the true tool-point error of each solution against nominal and floor.
     Ik(crate::commands::ik::IkArgs),
     /// Compare methods over seeds: accuracy and time tables with Wilcoxon signed-rank tests.
-    Compare(commands::CompareArgs),
+    Compare(commands::CompareJob),
     /// Join the partial files of `--shard i/N` runs (compare, study hold, bench diagnose): every
     /// item exactly once, then the same table (and compare's --out and --rrd, a hold study's
     /// --rrd) as one run.

@@ -10,6 +10,6 @@
 pub mod bench;
 pub mod cli;
 pub mod commands;
-pub mod shard;
+/// Sharded studies (the library's, which `compare` uses too).
+pub use twincal::jobs::shard;
 pub mod signals;
-pub mod viz;

@@ -1,9 +1,10 @@
 //! `twincal._native`: the twincal library's commands for Python, in memory.
 //!
-//! The Python package (`twincal/__init__.py`) wraps this module: its keyword arguments become
-//! the command line's options (parsed by the same clap definitions, so defaults, checks and
-//! messages are the CLI's), mappings of numpy arrays become datasets (read by the same reader
-//! as a CSV file), and results come back as objects and arrays. Long work runs with the GIL
+//! The Python package (`twincal/__init__.py`) wraps this module, which is over the library only
+//! (and its recordings, `twincal-viz`): keyword arguments become the library's typed requests
+//! (`twincal::requests`, `twincal::jobs`: the command line's options, with the same defaults,
+//! checks and messages), mappings of numpy arrays become datasets (read by the same reader as a
+//! CSV file), and results come back as objects and arrays. Long work runs with the GIL
 //! released; an optional progress callback is called from the calling thread.
 
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -19,7 +20,8 @@ use twincal::dataset::AngleUnit;
 use twincal::dataset::{ColumnValues, Dataset};
 use twincal::requests::{from_json, CalibrateRequest, DiagnoseRequest, Reading};
 use twincal::sim::generate::Progress;
-use twincal_cli::commands::{self, CalibrateArgs, Calibration, DiagnoseArgs, Diagnosed};
+use twincal::jobs::{self, CalibrateJob, Calibration, CompareJob, CompareRequest, Compared, DiagnoseJob, Diagnosed, ReplayJob, ReplayRequest};
+use twincal_viz::Rerun;
 
 create_exception!(
     _native,
@@ -35,13 +37,6 @@ fn err(e: twincal::Error) -> PyErr {
 /// A request from its options as JSON (Python's keyword arguments, `twincal/__init__.py`).
 fn request<T: serde::de::DeserializeOwned + serde::Serialize + Default>(command: &str, options: &str) -> PyResult<T> {
     from_json(command, options).map_err(err)
-}
-
-/// A clap error as one message: its text without the "error: " prefix and the usage lines.
-fn clap_message(e: &clap::Error) -> String {
-    let text = e.render().to_string();
-    let text = text.split("\n\nUsage:").next().unwrap_or(&text).trim();
-    text.strip_prefix("error: ").unwrap_or(text).to_string()
 }
 
 /// Progress as the library reports it, read by the calling thread for the Python callback.
@@ -181,7 +176,7 @@ fn load(src: Source, opts: &twincal::dataset::LoadOptions, truth: Option<&str>) 
     match src {
         Source::Path(p) => {
             let data = Dataset::load_with(&p, opts)?;
-            let file = commands::data_inputs(&p).swap_remove(0);
+            let file = jobs::data_inputs(&p).swap_remove(0);
             let bytes = std::fs::read(&file).map_err(|e| twincal::Error::io(&file, e))?;
             let sha256 = sha256_hex(&bytes);
             let truth = match truth {
@@ -236,7 +231,7 @@ fn columns_py(py: Python<'_>, ds: &Dataset) -> PyResult<Columns> {
 #[pyo3(signature = (scenario=None, seed=None, progress=None))]
 fn generate(py: Python<'_>, scenario: Option<PathBuf>, seed: Option<u64>, progress: Option<Bound<'_, PyAny>>) -> PyResult<(Columns, String)> {
     let (ds, truth) = released(py, progress.as_ref(), |t| {
-        let (mut s, robot) = commands::load_scenario(scenario.as_deref())?;
+        let (mut s, robot) = jobs::load_scenario(scenario.as_deref())?;
         if let Some(seed) = seed {
             s.seed = seed;
         }
@@ -275,7 +270,7 @@ fn angle_unit(s: &str) -> PyResult<AngleUnit> {
 /// What a Result holds: a calibration run here (which can still write every output `calibrate`
 /// writes), or a result read from a file (which predicts and solves IK).
 enum Held {
-    Run { c: Box<Calibration>, args: Box<CalibrateArgs>, data_path: Option<PathBuf> },
+    Run { c: Box<Calibration>, args: Box<CalibrateJob>, data_path: Option<PathBuf> },
     Read { result: Box<CalibResult> },
 }
 
@@ -317,7 +312,7 @@ impl PyCalibration {
         let (values, warning) = py
             .detach(|| {
                 let ds = dataset(src, &opts)?;
-                commands::predicted_readings(r, &ds, opts.euler, "the model")
+                jobs::predicted_readings(r, &ds, opts.euler, "the model")
             })
             .map_err(err)?;
         let d = r.model.measurement.file_dim();
@@ -334,7 +329,7 @@ impl PyCalibration {
         if targets.shape().len() != 2 || targets.shape()[1] != 3 {
             return Err(TwincalError::new_err(format!("targets must be an (n, 3) array of x, y, z in mm, got shape {:?}", targets.shape())));
         }
-        twincal_cli::commands::ik::check_tol_mm(tol_mm, "tol_mm").map_err(err)?;
+        twincal::ik::solver::check_tol_mm(tol_mm, "tol_mm").map_err(err)?;
         let kinds: Vec<JacobianKind> = match jacobian.to_ascii_lowercase().as_str() {
             "all" => JacobianKind::ALL.to_vec(),
             s => vec![JacobianKind::ALL
@@ -379,7 +374,7 @@ impl PyCalibration {
                 if let Some(p) = data_path {
                     a.data = p.clone();
                 }
-                py.detach(|| a.check_files(data_path.is_some()).and_then(|_| commands::write_calibration(&a, c, true))).map_err(err)
+                py.detach(|| a.check_files(data_path.is_some()).and_then(|_| jobs::write_calibration(&a, c, &Rerun))).map_err(err)
             }
             Held::Read { result } => {
                 if urdf.is_some() || rrd.is_some() || report.is_some() || scenario_out.is_some() {
@@ -408,12 +403,12 @@ fn calibrate(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str, truth: Opti
     let req: CalibrateRequest = request("calibrate", options)?;
     let planned = req.options().map_err(err)?;
     let opts = req.load_options().map_err(err)?;
-    let args = CalibrateArgs { data: MEMORY.into(), request: req, out: "result.json".into(), urdf: None, figures: Default::default(), scenario_out: None };
+    let args = CalibrateJob::new(MEMORY.into(), req);
     let c = released(py, progress.as_ref(), |t| {
         t.start(1, "calibrate");
         let l = load(src, &opts, truth.as_deref())?;
         let path = l.path.clone();
-        let c = commands::calibrate_loaded(planned, l.data, l.truth.as_ref(), Some(l.sha256))?;
+        let c = jobs::calibrate_loaded(planned, l.data, l.truth.as_ref(), Some(l.sha256))?;
         t.inc(1);
         Ok((c, path))
     })?;
@@ -430,7 +425,7 @@ fn load_result(path: PathBuf) -> PyResult<PyCalibration> {
 #[pyclass(name = "Diagnosis", module = "twincal._native", frozen)]
 struct PyDiagnosis {
     d: Box<Diagnosed>,
-    args: Box<DiagnoseArgs>,
+    args: Box<DiagnoseJob>,
     data_path: Option<PathBuf>,
 }
 
@@ -464,7 +459,7 @@ impl PyDiagnosis {
         if let Some(p) = &self.data_path {
             a.data = p.clone();
         }
-        py.detach(|| a.check_files(self.data_path.is_some()).and_then(|_| commands::write_diagnosis(&a, &self.d, true))).map_err(err)
+        py.detach(|| a.check_files(self.data_path.is_some()).and_then(|_| jobs::write_diagnosis(&a, &self.d, &Rerun))).map_err(err)
     }
 }
 
@@ -477,38 +472,71 @@ fn diagnose(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str, progress: Op
     let req: DiagnoseRequest = request("diagnose", options)?;
     let planned = req.options().map_err(err)?;
     let opts = req.load_options().map_err(err)?;
-    let args = DiagnoseArgs {
-        data: MEMORY.into(),
-        request: req,
-        out: "report.json".into(),
-        result: "diagnosed.json".into(),
-        figures: Default::default(),
-        scenario_out: None,
-    };
+    let args = DiagnoseJob::new(MEMORY.into(), req);
     let (d, path) = released(py, progress.as_ref(), |t| {
         let l = load(src, &opts, None)?;
         let path = l.path.clone();
-        let d = commands::diagnose_loaded(&args, planned, l.data, &|line: &str| t.say(line))?;
+        let d = jobs::diagnose_loaded(&args.request, planned, l.data, &|line: &str| t.say(line))?;
         Ok((d, path))
     })?;
     Ok(PyDiagnosis { d: Box::new(d), args: Box::new(args), data_path: path })
 }
 
-/// Runs a twincal command line in this process (argv without the program name), as the
-/// `twincal` executable does; raises TwincalError where it would exit with code 2.
+/// Replays the measured acquisition `data` (a path) through the twin of `scenario`, as
+/// `twincal replay`, writing its files into the folder `out`; `options`: a JSON object of its
+/// options ([`ReplayRequest`]). Returns replay.json's text.
 #[pyfunction]
-fn cli(py: Python<'_>, argv: Vec<String>) -> PyResult<()> {
-    use clap::Parser;
-    let args = match twincal_cli::cli::Cli::try_parse_from(std::iter::once("twincal".to_string()).chain(argv)) {
-        Ok(a) => a,
-        Err(e) if !e.use_stderr() => {
-            // --help and --version: printed, as the command line does.
-            println!("{}", e.render());
-            return Ok(());
+#[pyo3(signature = (data, scenario, options, out, progress=None))]
+fn replay(py: Python<'_>, data: PathBuf, scenario: PathBuf, options: &str, out: PathBuf, progress: Option<Bound<'_, PyAny>>) -> PyResult<String> {
+    let request: ReplayRequest = request("replay", options)?;
+    let job = ReplayJob { data, scenario, request, out, rrd: None, report: None };
+    let summary = released(py, progress.as_ref(), |t| jobs::replay(&job, t, &Rerun))?;
+    serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
+}
+
+/// Compares methods over seeds on `data` (a path), as `twincal compare`; `options`: a JSON
+/// object of its options ([`CompareRequest`]: methods, seeds, model, ...). Writes the tables'
+/// JSON to `out`, or with `shard` ("i/N") appends that shard's items to `shard_out`. Returns the
+/// tables (Markdown), or the shard's line.
+#[pyfunction]
+#[pyo3(signature = (data, options, out=None, shard=None, shard_out=None, progress=None))]
+fn compare(
+    py: Python<'_>,
+    data: PathBuf,
+    options: &str,
+    out: Option<PathBuf>,
+    shard: Option<String>,
+    shard_out: Option<PathBuf>,
+    progress: Option<Bound<'_, PyAny>>,
+) -> PyResult<String> {
+    let request: CompareRequest = request("compare", options)?;
+    let job = CompareJob { data, request, out, rrd: None, shard, shard_out };
+    let done = released(py, progress.as_ref(), |t| jobs::compare(&job, t, &Rerun))?;
+    Ok(match done {
+        Compared::Done(c) => c.table,
+        Compared::Shard(line) => line,
+    })
+}
+
+/// Joins the partial files of sharded compares, as `twincal reduce`, writing the tables' JSON
+/// to `out`; returns the tables (Markdown).
+#[pyfunction]
+fn reduce(py: Python<'_>, parts: Vec<PathBuf>, out: PathBuf) -> PyResult<String> {
+    py.detach(|| {
+        if parts.is_empty() {
+            return Err(twincal::Error::Invalid("reduce needs the shards' partial files".into()));
         }
-        Err(e) => return Err(TwincalError::new_err(clap_message(&e))),
-    };
-    py.detach(|| twincal_cli::cli::run(args)).map_err(err)
+        twincal::io::check_outputs(&parts.iter().map(|p| ("part", p.as_path())).collect::<Vec<_>>(), &[("out", out.as_path())])?;
+        let read = jobs::shard::Parts::read(&parts)?;
+        if read.kind() != "compare" {
+            return Err(twincal::Error::Invalid(format!(
+                "twincal.reduce joins the parts of sharded compares; these are of a '{}' study (join them with the command line's `twincal reduce`)",
+                read.kind()
+            )));
+        }
+        jobs::reduce_compare(read, Some(&out), None, &Rerun).map(|(c, ..)| c.table)
+    })
+    .map_err(err)
 }
 
 #[pymodule]
@@ -521,7 +549,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(load_result, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
-    m.add_function(wrap_pyfunction!(cli, m)?)?;
+    m.add_function(wrap_pyfunction!(replay, m)?)?;
+    m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(reduce, m)?)?;
     m.add_class::<PyCalibration>()?;
     m.add_class::<PyDiagnosis>()?;
     Ok(())

@@ -17,6 +17,9 @@ import csv
 import json
 import math
 import os
+import shutil
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
@@ -48,24 +51,6 @@ Progress = Optional[Callable[[str, int, int], Any]]
 
 # Options that name files a command writes: from Python they go to save(), or are handled here.
 _OUTPUTS = {"out", "urdf", "rrd", "report", "scenario_out", "result"}
-
-
-def _argv(options: Mapping[str, Any]) -> list[str]:
-    """Keyword options as command-line options (``--name=value``; True: a bare flag)."""
-    argv: list[str] = []
-    for key, value in options.items():
-        if value is None or value is False:
-            continue
-        flag = "--" + key.replace("_", "-")
-        if value is True:
-            argv.append(flag)
-            continue
-        if isinstance(value, (list, tuple)):
-            value = ",".join(os.fspath(v) if isinstance(v, os.PathLike) else str(v) for v in value)
-        elif isinstance(value, os.PathLike):
-            value = os.fspath(value)
-        argv.append(f"{flag}={value}")
-    return argv
 
 
 def _plain(name: str, value: Any) -> Any:
@@ -373,49 +358,71 @@ def _staged(data: Data, tmp: str, angles: Optional[str]) -> str:
     return p
 
 
-def replay(data: Data, scenario: Union[str, os.PathLike], **options: Any) -> dict:
+def replay(data: Data, scenario: Union[str, os.PathLike], *, progress: Progress = None, **options: Any) -> dict:
     """Drive the twin of ``scenario`` through a measured acquisition, as ``twincal replay``: the
     summary (replay.json) as a dict, with its per-row table (replay.csv) under ``"rows"`` as
-    arrays. Options: ``test_fraction``, ``seed``, ``angles``, ``measurement``, ``euler``."""
-    _no_outputs("replay", options, "the command line (twincal.cli)")
+    arrays. Options: ``test_fraction``, ``split_by``, ``seed``, ``angles``, ``measurement``,
+    ``euler``."""
+    _no_outputs("replay", options, "the command line's replay --out")
+    if "seed" in options:
+        options["seed"] = _seed(options["seed"])
     with tempfile.TemporaryDirectory(prefix="twincal-") as tmp:
         out = os.path.join(tmp, "replay")
-        argv = ["--quiet", "replay", "--data", _staged(data, tmp, options.get("angles")), "--scenario", os.fspath(scenario), "--out", out]
-        _native.cli(argv + _argv(options))
-        with open(os.path.join(out, "replay.json")) as f:
-            summary = json.load(f)
+        text = _native.replay(_staged(data, tmp, options.get("angles")), os.fspath(scenario), _options(options), out, progress)
+        summary = json.loads(text)
         summary["rows"] = _read_csv(Path(out) / "replay.csv")
     return summary
 
 
-def compare(data: Data, methods: Sequence[str] = ("lm", "ekf", "pf", "pso", "rbf"), seeds: int = 30, *, shard: Optional[str] = None, shard_out=None, **options: Any) -> Optional[dict]:
+def compare(
+    data: Data,
+    methods: Sequence[str] = ("lm", "ekf", "pf", "pso", "rbf"),
+    seeds: int = 30,
+    *,
+    shard: Optional[str] = None,
+    shard_out=None,
+    progress: Progress = None,
+    **options: Any,
+) -> Optional[dict]:
     """Compare methods over seeds, as ``twincal compare``: the tables (what ``--out`` writes) as a
-    dict. With ``shard="i/N"`` and ``shard_out=PATH`` it runs that shard's items only, appending
-    them to the partial file, and returns None: join the parts with :func:`reduce`."""
-    _no_outputs("compare", options, "the command line (twincal.cli)")
+    dict. With ``shard="i/N"`` and
+    ``shard_out=PATH`` it runs that shard's items only, appending them to the partial file, and
+    returns None: join the parts with :func:`reduce`."""
+    _no_outputs("compare", options, "the command line's compare --out")
+    request = _options({**options, "methods": _names(methods, "methods"), "seeds": seeds})
     with tempfile.TemporaryDirectory(prefix="twincal-") as tmp:
-        argv = ["--quiet", "compare", "--data", _staged(data, tmp, options.get("angles")), f"--methods={','.join(_names(methods, 'methods') or [])}", f"--seeds={seeds}"]
-        argv += _argv({**options, "shard": shard, "shard_out": shard_out})
-        if shard is not None:
-            _native.cli(argv)
+        staged = _staged(data, tmp, options.get("angles"))
+        if shard is not None or shard_out is not None:
+            part = os.fspath(shard_out) if shard_out is not None else None
+            _native.compare(staged, request, None, shard, part, progress)
             return None
         out = os.path.join(tmp, "compare.json")
-        _native.cli(argv + ["--out", out])
+        _native.compare(staged, request, out, None, None, progress)
         with open(out) as f:
             return json.load(f)
 
 
 def reduce(parts: Sequence[Union[str, os.PathLike]], out: Optional[Union[str, os.PathLike]] = None) -> dict:
     """Join the partial files of sharded compares, as ``twincal reduce``: every item exactly once
-    (duplicates dropped, missing ones named in the error), then the tables as one compare's."""
+    (duplicates dropped, missing ones named in the error), then the tables as one compare's
+    (written to ``out`` too when given)."""
     with tempfile.TemporaryDirectory(prefix="twincal-") as tmp:
         target = os.fspath(out) if out is not None else os.path.join(tmp, "compare.json")
-        _native.cli(["--quiet", "reduce", *_paths(parts, "parts"), "--out", target])
+        _native.reduce(_paths(parts, "parts"), target)
         with open(target) as f:
             return json.load(f)
 
 
 def cli(argv: Sequence[str]) -> None:
-    """Run a ``twincal`` command line in this process (``argv`` without the program name);
-    raises :class:`TwincalError` where the executable exits with code 2."""
-    _native.cli([os.fspath(a) for a in argv])
+    """Run a ``twincal`` command line (``argv`` without the program name) with the installed
+    ``twincal`` executable (``$TWINCAL_BIN``, else the one on ``PATH``; ``cargo install --path
+    cli`` installs it): this package is the library's Python API and holds no command line.
+    Raises :class:`TwincalError` where the executable fails, with its message."""
+    exe = os.environ.get("TWINCAL_BIN") or shutil.which("twincal")
+    if not exe:
+        raise TwincalError("twincal.cli runs the twincal executable, which was not found: set TWINCAL_BIN or put twincal on PATH (cargo install --path cli)")
+    done = subprocess.run([exe, *[os.fspath(a) for a in argv]], stderr=subprocess.PIPE, text=True)
+    sys.stderr.write(done.stderr)
+    if done.returncode != 0:
+        errors = [line[len("error: ") :] for line in done.stderr.splitlines() if line.startswith("error: ")]
+        raise TwincalError(errors[-1] if errors else f"twincal exited with code {done.returncode}")

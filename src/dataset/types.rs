@@ -52,6 +52,17 @@ pub enum AngleUnit {
     Rad,
 }
 
+impl AngleUnit {
+    /// The unit's name as `--angles` takes it: `auto`, `deg` or `rad`.
+    pub fn name(self) -> &'static str {
+        match self {
+            AngleUnit::Auto => "auto",
+            AngleUnit::Deg => "deg",
+            AngleUnit::Rad => "rad",
+        }
+    }
+}
+
 impl std::str::FromStr for AngleUnit {
     type Err = String;
     /// `auto`, `deg` (also `degrees`) or `rad` (also `radians`), case-insensitive.

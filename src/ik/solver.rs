@@ -32,6 +32,7 @@
 use crate::calib::correctors::Correct;
 use crate::calib::effects::RowInputs;
 use crate::calib::model::{CalibModel, ModelWork};
+use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -105,6 +106,18 @@ pub struct IkSolution {
     pub iterations: usize,
     /// |t − p̂(q)|, mm (NaN never: +∞ is not produced either; `invalid` reports 0).
     pub residual_mm: f64,
+}
+
+/// Largest `--tol-mm`: beyond a centimetre a "solution" says nothing about where the tool is.
+pub const MAX_TOL_MM: f64 = 10.0;
+
+/// The check of `--tol-mm` (and of Python's `Result.ik(tol_mm=...)`, `option` naming it as its
+/// caller spells it): within (0, [`MAX_TOL_MM`]].
+pub fn check_tol_mm(tol_mm: f64, option: &str) -> Result<()> {
+    if !(tol_mm > 0.0 && tol_mm <= MAX_TOL_MM) {
+        return Err(Error::Invalid(format!("{option} must be in (0, {MAX_TOL_MM}] mm, got {tol_mm}")));
+    }
+    Ok(())
 }
 
 /// Solver settings.

@@ -36,14 +36,9 @@ pub fn bench_command(
         BenchTarget::Calib => {
             // The full method comparison is the `compare` command on one of the benchmark's datasets.
             let run_compare = |dir: &Path| -> Result<()> {
-                let args = CompareArgs {
+                let args = CompareJob {
                     data: dir.to_path_buf(),
-                    reading: Reading { angles: AngleUnit::Deg, ..Reading::default() },
-                    methods: ["lm", "ekf", "pf", "pso", "rbf"].map(String::from).to_vec(),
-                    seeds: 30,
-                    model: ModelChoice { model: "irb120".into(), params: None },
-                    test_fraction: None,
-                    effort: 1.0,
+                    request: CompareRequest { reading: Reading { angles: AngleUnit::Deg, ..Reading::default() }, ..CompareRequest::default() },
                     out: None,
                     rrd: None,
                     shard: None,

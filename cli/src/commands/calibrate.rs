@@ -1,122 +1,13 @@
-//! `twincal calibrate`: its arguments, the run and the summary it prints.
+//! `twincal calibrate`: the run (the library's job) and the summary it prints.
 
 use super::*;
-use twincal::requests::CalibrateRequest;
 
-/// Arguments of `twincal calibrate` (the field docs are its `--help`): the data, the request
-/// (the library's [`CalibrateRequest`], which Python fills from keyword arguments) and the files
-/// it writes.
-#[derive(Clone, Debug, clap::Args)]
-pub struct CalibrateArgs {
-    /// Dataset folder (DIR/dataset.csv, with truth.json when the twin made it), CSV, or xlsx (file.xlsx#Sheet).
-    #[arg(long)]
-    pub data: PathBuf,
-    #[command(flatten)]
-    pub request: CalibrateRequest,
-    /// The calibrated model and its report.
-    #[arg(long, default_value = "result.json")]
-    pub out: PathBuf,
-    /// Also write the calibrated model as a URDF.
-    #[arg(long)]
-    pub urdf: Option<PathBuf>,
-    #[command(flatten)]
-    pub figures: Figures,
-    /// Also write the identified twin: a scenario (and, beside it, the calibrated URDF it names)
-    /// whose geometry, instrument placement, effect sizes, noise and logging resolutions are the
-    /// identified ones, so that `generate` and `replay` simulate this robot.
-    #[arg(long)]
-    pub scenario_out: Option<PathBuf>,
-}
-
-/// What `calibrate` computed, before anything is written: the result, its verdict, and what
-/// the outputs are drawn from (the options and the data calibrated on).
-pub struct Calibration {
-    pub result: twincal::calib::run::CalibResult,
-    pub verdict: Option<twincal::report::verdict::Verdict>,
-    pub opts: twincal::calib::run::CalibOptions,
-    pub data: Dataset,
-}
-
-impl CalibrateArgs {
-    /// Every option checked and resolved (reads no data; reads --robot's URDF).
-    pub fn options(&self) -> Result<(twincal::calib::run::CalibOptions, [Limit; 2])> {
-        self.request.options()
-    }
-
-    /// The files this calibration reads and writes, by option, checked against each other
-    /// (no output over an input, no two outputs on one file). `data`: whether `--data` is read.
-    pub fn check_files(&self, data: bool) -> Result<()> {
-        let a = self;
-        let data_files = if data { data_inputs(&a.data) } else { Vec::new() };
-        let model_file = a.request.model.input();
-        let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
-        if let Some(m) = &model_file {
-            inputs.push(("--model", m));
-        }
-        let mut outs: Vec<(&str, &Path)> = vec![("--out", &a.out)];
-        outs.extend(a.urdf.as_deref().map(|p| ("--urdf", p)));
-        check_model_outputs(&inputs, outs, a.figures.rrd.as_deref(), a.figures.report.as_deref(), a.scenario_out.as_deref())
-    }
-}
-
-/// `twincal calibrate`. Its outputs (`--out`, `--urdf`, `--rrd`) appear together or not at all.
+/// `twincal calibrate` (the library's [`CalibrateJob`]), and what it prints. Its outputs
+/// (`--out`, `--urdf`, `--rrd`, `--report`, `--scenario-out`) appear together or not at all.
 /// Warnings (an optimiser that stopped without converging) go to stderr also with `--quiet`.
-pub fn calibrate(a: &CalibrateArgs, quiet: bool) -> Result<()> {
-    let planned = a.options()?;
-    a.check_files(true)?;
-    let data = load_dataset(&a.data, &a.request.reading, true)?;
-    let truth = twincal::calib::run::TruthFile::find(&a.data)?;
-    // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
-    let file = &data_inputs(&a.data)[0];
-    let sha = twincal::dataset::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?);
-    let c = calibrate_loaded(planned, data, truth.as_ref(), Some(sha))?;
-    write_calibration(a, &c, quiet)
-}
-
-/// The calibration `calibrate` runs, with its options (`CalibrateArgs::options`) on data
-/// already loaded: `truth` the twin's truth file when it belongs to these data, `data_sha256`
-/// the fingerprint of the bytes they came from.
-pub fn calibrate_loaded(
-    (opts, limits): (twincal::calib::run::CalibOptions, [Limit; 2]),
-    data: Dataset,
-    truth: Option<&twincal::calib::run::TruthFile>,
-    data_sha256: Option<String>,
-) -> Result<Calibration> {
-    let mut result = twincal::calib::run::calibrate(&data, truth, &opts)?;
-    result.data_sha256 = data_sha256;
-    let test = result.metrics.test_after.as_ref();
-    let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
-    let verdict = judge(&[(limits[0], "test_rmse_mm", test.map(|t| t.rmse), source), (limits[1], "test_max_mm", test.map(|t| t.max), source)]);
-    Ok(Calibration { result, verdict, opts, data })
-}
-
-/// What `calibrate` writes of a calibration (`--out`, and `--urdf`, `--rrd`, `--report`,
-/// `--scenario-out` when given), all together or none, and what it prints. The caller has
-/// checked the files (`CalibrateArgs::check_files`).
-pub fn write_calibration(a: &CalibrateArgs, c: &Calibration, quiet: bool) -> Result<()> {
-    use twincal::calib::run::ModelSpec;
-    let (result, data, opts) = (&c.result, &c.data, &c.opts);
-    let mut outputs = OutputSet::new();
-    let figures = if a.figures.rrd.is_some() || a.figures.report.is_some() { Some(twincal::report::CalibFigures::new(result, data)?) } else { None };
-    if let (Some(p), Some(f)) = (&a.figures.rrd, &figures) {
-        crate::viz::results::record_calibration(result, f, &mut outputs, p)?;
-    }
-    if let (Some(p), Some(f)) = (&a.figures.report, &figures) {
-        outputs.write(p, twincal::report::html::calibration_page(result, f, c.verdict.as_ref()).as_bytes())?;
-    }
-    if let Some(p) = &a.urdf {
-        let nominal = match &opts.model {
-            ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
-            ModelSpec::Generic6r => None,
-        };
-        outputs.write(p, twincal::calib::run::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
-    }
-    if let Some(p) = &a.scenario_out {
-        let how = if a.request.placement_only { "calibrate --placement-only" } else { "calibrate" };
-        stage_identified_twin(&mut outputs, p, result, data, opts.model.robot(), how)?;
-    }
-    outputs.write_json(&a.out, &with_verdict(result, c.verdict.as_ref())?)?;
-    outputs.commit()?;
+pub fn calibrate(a: &CalibrateJob, quiet: bool) -> Result<()> {
+    let c = a.run(&twincal_viz::Rerun)?;
+    let result = &c.result;
     if !quiet {
         print_summary(result);
         if let Some(p) = &a.scenario_out {

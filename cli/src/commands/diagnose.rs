@@ -1,120 +1,17 @@
-//! `twincal diagnose`: its arguments, the run and the summary it prints.
+//! `twincal diagnose`: the run (the library's job) and the summary it prints.
 
 use super::*;
-use twincal::requests::DiagnoseRequest;
 
-/// Arguments of `twincal diagnose` (the field docs are its `--help`): the data, the request
-/// (the library's [`DiagnoseRequest`], which Python fills from keyword arguments) and the files
-/// it writes.
-#[derive(Clone, Debug, clap::Args)]
-pub struct DiagnoseArgs {
-    /// Dataset folder, CSV or xlsx (q1..qN and L, or a tracker's x, y, z; optional t, temp). No
-    /// truth file is read.
-    #[arg(long)]
-    pub data: PathBuf,
-    #[command(flatten)]
-    pub request: DiagnoseRequest,
-    /// The diagnosis report.
-    #[arg(long, default_value = "report.json")]
-    pub out: PathBuf,
-    /// The extended model, saved like any calibration result.
-    #[arg(long, default_value = "diagnosed.json")]
-    pub result: PathBuf,
-    #[command(flatten)]
-    pub figures: Figures,
-    /// Also write the identified twin (scenario and URDF, see `calibrate --scenario-out`),
-    /// with the named causes at their sizes.
-    #[arg(long)]
-    pub scenario_out: Option<PathBuf>,
-}
-
-/// What `diagnose` found, before anything is written: the report, the extended model (a
-/// calibration result), the verdict, and the data and options they came from.
-pub struct Diagnosed {
-    pub report: twincal::diagnose::Diagnosis,
-    pub result: twincal::calib::run::CalibResult,
-    pub verdict: Option<twincal::report::verdict::Verdict>,
-    pub opts: twincal::diagnose::DiagnoseOptions,
-    pub data: Dataset,
-}
-
-impl DiagnoseArgs {
-    /// Every option checked and resolved (reads no data; reads --robot's URDF).
-    pub fn options(&self) -> Result<(twincal::diagnose::DiagnoseOptions, Limit)> {
-        self.request.options()
-    }
-
-    /// The files this diagnosis reads and writes, checked against each other. `data`: whether
-    /// `--data` is read.
-    pub fn check_files(&self, data: bool) -> Result<()> {
-        let a = self;
-        let data_files = if data { data_inputs(&a.data) } else { Vec::new() };
-        let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
-        let model_file = a.request.model.input();
-        if let Some(m) = &model_file {
-            inputs.push(("--model", m));
-        }
-        if let Some(r) = &a.request.loads.robot {
-            inputs.push(("--robot", r));
-        }
-        let outs: Vec<(&str, &Path)> = vec![("--out", &a.out), ("--result", &a.result)];
-        check_model_outputs(&inputs, outs, a.figures.rrd.as_deref(), a.figures.report.as_deref(), a.scenario_out.as_deref())
-    }
-}
-
-/// `twincal diagnose`: report.json, the extended model (a calibration result) and optionally a
-/// recording, all together or none.
-pub fn diagnose(a: &DiagnoseArgs, quiet: bool) -> Result<()> {
-    a.check_files(true)?;
-    let planned = a.options()?;
-    let data = load_dataset(&a.data, &a.request.reading, true)?;
+/// `twincal diagnose` (the library's [`DiagnoseJob`]): report.json, the extended model (a
+/// calibration result) and optionally a recording, all together or none; and what it prints.
+pub fn diagnose(a: &DiagnoseJob, quiet: bool) -> Result<()> {
     let say = |line: &str| {
         if !quiet {
             eprintln!("  {line}");
         }
     };
-    let d = diagnose_loaded(a, planned, data, &say)?;
-    write_diagnosis(a, &d, quiet)
-}
-
-/// The diagnosis `diagnose` runs, with its options (`DiagnoseArgs::options`) on data already
-/// loaded; `say` hears each step's line.
-pub fn diagnose_loaded(
-    a: &DiagnoseArgs,
-    (opts, limit): (twincal::diagnose::DiagnoseOptions, Limit),
-    mut data: Dataset,
-    say: &(dyn Fn(&str) + Sync),
-) -> Result<Diagnosed> {
-    if let Some(f) = a.request.test_fraction {
-        // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
-        let (train, _) = twincal::calib::run::split_rows(&data, Some(f), a.request.seed, a.request.split_by.parse()?)?;
-        let rows = train.iter().map(|&i| twincal::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
-        data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
-    }
-    let (report, result) = twincal::diagnose::diagnose(&data, &opts, say)?;
-    let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
-    Ok(Diagnosed { report, result, verdict, opts, data })
-}
-
-/// What `diagnose` writes of a diagnosis (`--out`, `--result`, and `--rrd`, `--report`,
-/// `--scenario-out` when given), all together or none, and what it prints. The caller has
-/// checked the files (`DiagnoseArgs::check_files`).
-pub fn write_diagnosis(a: &DiagnoseArgs, d: &Diagnosed, quiet: bool) -> Result<()> {
-    let (report, result, data) = (&d.report, &d.result, &d.data);
-    let mut outputs = OutputSet::new();
-    let figures = (a.figures.rrd.is_some() || a.figures.report.is_some()).then(|| twincal::report::DiagnosisFigures::new(report, result, data));
-    if let (Some(p), Some(f)) = (&a.figures.rrd, &figures) {
-        crate::viz::results::record_diagnosis(report, f, &mut outputs, p)?;
-    }
-    if let (Some(p), Some(f)) = (&a.figures.report, &figures) {
-        outputs.write(p, twincal::report::html::diagnosis_page(report, f, d.verdict.as_ref()).as_bytes())?;
-    }
-    if let Some(p) = &a.scenario_out {
-        stage_identified_twin(&mut outputs, p, result, data, d.opts.model.robot(), "diagnose")?;
-    }
-    outputs.write_json(&a.out, &with_verdict(report, d.verdict.as_ref())?)?;
-    outputs.write_json(&a.result, result)?;
-    outputs.commit()?;
+    let d = a.run(&say, &twincal_viz::Rerun)?;
+    let report = &d.report;
     if !quiet {
         print_diagnosis(report);
         eprintln!("  wrote {} and {}; the same model by calibrate: {}", a.out.display(), a.result.display(), calibrate_line(a, &report.effects_option));
@@ -128,7 +25,7 @@ pub fn write_diagnosis(a: &DiagnoseArgs, d: &Diagnosed, quiet: bool) -> Result<(
 
 /// The `calibrate` command that fits the diagnosed model: the same data, model and loads, and
 /// the effects kept (none: the geometric model).
-fn calibrate_line(a: &DiagnoseArgs, effects: &str) -> String {
+fn calibrate_line(a: &DiagnoseJob, effects: &str) -> String {
     let quote = |p: &Path| {
         let t = p.display().to_string();
         if t.chars().all(|c| c.is_ascii_alphanumeric() || "/._-#".contains(c)) {

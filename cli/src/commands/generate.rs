@@ -24,7 +24,7 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
     let elapsed = t0.elapsed().as_secs_f64();
     let mut outputs = OutputSet::new();
     if let Some(path) = rrd {
-        crate::viz::scenes::record_dataset(&g, &mut outputs, path)?;
+        twincal_viz::scenes::record_dataset(&g, &mut outputs, path)?;
     }
     stage_outputs(&g, out, &mut outputs)?;
     outputs.commit()?;

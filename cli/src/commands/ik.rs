@@ -7,19 +7,9 @@ use std::path::{Path, PathBuf};
 use twincal::calib::run::CalibResult;
 use twincal::dataset::truth::TruthFile;
 use twincal::error::{Error, Result};
+pub use twincal::ik::solver::{check_tol_mm, MAX_TOL_MM};
 use twincal::ik::{ik_runs, random_targets, table, IkOptions, IkRun, IkStatus, JacobianKind, TwinCheck};
 
-/// Largest `--tol-mm`: beyond a centimetre a "solution" says nothing about where the tool is.
-pub const MAX_TOL_MM: f64 = 10.0;
-
-/// The check of `--tol-mm` (and of Python's `Result.ik(tol_mm=...)`, `option` naming it as its
-/// caller spells it): within (0, [`MAX_TOL_MM`]].
-pub fn check_tol_mm(tol_mm: f64, option: &str) -> Result<()> {
-    if !(tol_mm > 0.0 && tol_mm <= MAX_TOL_MM) {
-        return Err(Error::Invalid(format!("{option} must be in (0, {MAX_TOL_MM}] mm, got {tol_mm}")));
-    }
-    Ok(())
-}
 
 /// Reads target points (mm) from a CSV with columns x, y, z (header required; other columns
 /// ignored), by the dataset reader's rules ([`twincal::dataset::read_csv_columns`]: `;` or tab,

@@ -133,7 +133,7 @@ fn finish_hold(config: &HoldConfig, rows: &[twincal::sim::study::HoldStudyRow], 
     }
     if let Some(p) = rrd {
         let mut outputs = OutputSet::new();
-        crate::viz::study::record_hold_study(rows, &config.scenario, config.floor_mm, &mut outputs, p)?;
+        twincal_viz::study::record_hold_study(rows, &config.scenario, config.floor_mm, &mut outputs, p)?;
         outputs.commit()?;
         if !quiet {
             eprintln!("  wrote {}", p.display());

@@ -2,8 +2,8 @@
 //! the views of the layout (blueprint) sent with it.
 #![allow(dead_code)]
 
-use re_log_encoding::DecoderApp;
-use re_sdk::log::{Chunk, LogMsg};
+use twincal_viz::re_log_encoding::DecoderApp;
+use twincal_viz::re_sdk::log::{Chunk, LogMsg};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
@@ -37,13 +37,13 @@ pub struct Recording {
     pub timeline: Option<String>,
 }
 
-fn strings<C: re_sdk_types::Component>(chunk: &Chunk, component: &'static str, text: impl Fn(&C) -> String) -> Vec<String> {
+fn strings<C: twincal_viz::re_sdk_types::Component>(chunk: &Chunk, component: &'static str, text: impl Fn(&C) -> String) -> Vec<String> {
     chunk.iter_component::<C>(component.into()).flat_map(|batch| batch.iter().map(&text).collect::<Vec<_>>()).collect()
 }
 
 pub fn read(path: &Path) -> Recording {
-    use re_sdk::blueprint::components::{QueryExpression, TimelineName, ViewClass, ViewOrigin};
-    use re_sdk_types::components::Name;
+    use twincal_viz::re_sdk::blueprint::components::{QueryExpression, TimelineName, ViewClass, ViewOrigin};
+    use twincal_viz::re_sdk_types::components::Name;
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut rec = Recording::default();
     let mut views: BTreeMap<String, View> = BTreeMap::new();
@@ -156,7 +156,7 @@ pub fn scalars(path: &Path, entity: &str) -> Vec<f64> {
         }
         let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
         if chunk.entity_path().to_string() == entity {
-            for batch in chunk.iter_component::<re_sdk_types::components::Scalar>("Scalars:scalars".into()) {
+            for batch in chunk.iter_component::<twincal_viz::re_sdk_types::components::Scalar>("Scalars:scalars".into()) {
                 out.extend(batch.iter().map(|s| s.0 .0));
             }
         }

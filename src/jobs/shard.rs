@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use twincal::error::{Error, Result};
+use crate::error::{Error, Result};
 
 /// What a sharded study is over: every shard of one study holds the same configuration.
 pub trait Config: Clone + Serialize + DeserializeOwned {
@@ -30,10 +30,15 @@ pub struct Line<C, R> {
     /// The study's kind (lines written before it was recorded are compare's).
     #[serde(default = "compare_kind")]
     pub kind: String,
+    /// The work item's id.
     pub item: u64,
+    /// The hash of the study's configuration ([`Config::hash`]).
     pub config_hash: String,
+    /// The version of twincal that ran the item.
     pub twincal_version: String,
+    /// The study's configuration.
     pub config: C,
+    /// What the item found.
     #[serde(flatten)]
     pub result: R,
 }
@@ -75,8 +80,11 @@ pub fn from_options<C: Config>(
 
 /// A running shard: which items it runs, which its file already holds, and the file.
 pub struct Shard {
+    /// `i` of `--shard i/N`.
     pub index: u64,
+    /// `N` of `--shard i/N`.
     pub count: u64,
+    /// The partial file.
     pub out: PathBuf,
     done: std::collections::BTreeSet<u64>,
     sink: Mutex<std::fs::File>,
@@ -88,7 +96,7 @@ impl Shard {
     /// resumed: its items are skipped, a torn last line cut off; a file of another study is
     /// refused). `inputs` are the files the study reads, which `out` must not be.
     pub fn open<C: Config>(spec: &str, out: &Path, config: &C, inputs: &[(&str, &Path)]) -> Result<Shard> {
-        twincal::io::check_outputs(inputs, &[("--shard-out", out)])?;
+        crate::io::check_outputs(inputs, &[("--shard-out", out)])?;
         let (index, count) = parse(spec)?;
         if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty() && !d.is_dir()) {
             return Err(Error::Invalid(format!("--shard-out {}: its folder {} does not exist", out.display(), dir.display())));

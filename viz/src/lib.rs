@@ -1,6 +1,6 @@
-//! Visualisation: recordings for the [Rerun](https://rerun.io) viewer, behind plain types.
+//! twincal's visualisation: recordings for the [Rerun](https://rerun.io) viewer, behind plain types.
 //!
-//! This module is the only place that knows about Rerun. The rest of twincal passes plain
+//! This package is the only one that knows about Rerun. The rest of twincal passes plain
 //! `f64` arrays and strings to a [`Recorder`]; with the default `rerun` cargo feature it writes an
 //! `.rrd` file, without it [`Recorder::create`] returns an error and nothing else changes.
 //!
@@ -32,6 +32,9 @@
 //!   either a complete recording or untouched. Dropping a `Recorder` without `finish` discards
 //!   the recording.
 
+// As in the library: numeric code indexes several arrays in step.
+#![allow(clippy::needless_range_loop)]
+
 use std::path::Path;
 
 #[cfg(not(feature = "rerun"))]
@@ -41,13 +44,20 @@ mod backend;
 #[path = "recorder.rs"]
 mod backend;
 
+mod jobs;
 pub mod layout;
 pub mod plot;
 pub mod results;
 pub mod scenes;
 pub mod study;
 
+pub use jobs::Rerun;
 pub use layout::{Blueprint, Layout, ViewKind, ViewSpec};
+
+/// Rerun's SDK crates this package records with, for readers of its recordings (the command
+/// line's integration tests decode them) at the very same version.
+#[cfg(feature = "rerun")]
+pub use {re_log_encoding, re_sdk, re_sdk_types};
 
 /// A recording sink. With the `rerun` feature it writes an `.rrd` file; without it,
 /// [`Recorder::create`] returns an error saying twincal was built without Rerun support.

@@ -1,0 +1,129 @@
+//! A diagnosis job: the data, the request and the files it writes.
+
+use super::files::{check_model_outputs, data_inputs, load_dataset, stage_identified_twin, Figures, Recordings};
+use crate::calib::run::CalibResult;
+use crate::dataset::Dataset;
+use crate::diagnose::{Diagnosis, DiagnoseOptions};
+use crate::error::Result;
+use crate::io::OutputSet;
+use crate::report::verdict::{judge, with_verdict, Limit, Verdict};
+use crate::requests::DiagnoseRequest;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A diagnosis as `twincal diagnose` runs it (the field docs are its `--help`): the data, the
+/// request (which Python fills from keyword arguments) and the files it writes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct DiagnoseJob {
+    /// Dataset folder, CSV or xlsx (q1..qN and L, or a tracker's x, y, z; optional t, temp). No
+    /// truth file is read.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub data: PathBuf,
+    /// The diagnosis's options.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    pub request: DiagnoseRequest,
+    /// The diagnosis report.
+    #[cfg_attr(feature = "clap", arg(long, default_value = "report.json"))]
+    pub out: PathBuf,
+    /// The extended model, saved like any calibration result.
+    #[cfg_attr(feature = "clap", arg(long, default_value = "diagnosed.json"))]
+    pub result: PathBuf,
+    /// The recording and the HTML report.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    pub figures: Figures,
+    /// Also write the identified twin (scenario and URDF, see `calibrate --scenario-out`),
+    /// with the named causes at their sizes.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub scenario_out: Option<PathBuf>,
+}
+
+/// What `diagnose` found, before anything is written: the report, the extended model (a
+/// calibration result), the verdict, and the data and options they came from.
+pub struct Diagnosed {
+    /// What report.json holds.
+    pub report: Diagnosis,
+    /// The extended model (diagnosed.json).
+    pub result: CalibResult,
+    /// The verdict against `--max-heldout-rmse-mm`, when given.
+    pub verdict: Option<Verdict>,
+    /// The resolved options.
+    pub opts: DiagnoseOptions,
+    /// The rows diagnosed (the training rows of `--test-fraction`, when given).
+    pub data: Dataset,
+}
+
+impl DiagnoseJob {
+    /// A job on `data` with `request` and the command's default outputs (`report.json`,
+    /// `diagnosed.json`).
+    pub fn new(data: PathBuf, request: DiagnoseRequest) -> Self {
+        DiagnoseJob { data, request, out: "report.json".into(), result: "diagnosed.json".into(), figures: Figures::default(), scenario_out: None }
+    }
+
+    /// Every option checked and resolved (reads no data; reads --robot's URDF).
+    pub fn options(&self) -> Result<(DiagnoseOptions, Limit)> {
+        self.request.options()
+    }
+
+    /// The files this diagnosis reads and writes, checked against each other. `data`: whether
+    /// `--data` is read.
+    pub fn check_files(&self, data: bool) -> Result<()> {
+        let data_files = if data { data_inputs(&self.data) } else { Vec::new() };
+        let mut inputs: Vec<(&str, &Path)> = data_files.iter().map(|p| ("--data", p.as_path())).collect();
+        let model_file = self.request.model.input();
+        if let Some(m) = &model_file {
+            inputs.push(("--model", m));
+        }
+        if let Some(r) = &self.request.loads.robot {
+            inputs.push(("--robot", r));
+        }
+        let outs: Vec<(&str, &Path)> = vec![("--out", &self.out), ("--result", &self.result)];
+        check_model_outputs(&inputs, outs, self.figures.rrd.as_deref(), self.figures.report.as_deref(), self.scenario_out.as_deref())
+    }
+
+    /// The whole job: checks the files and the options, reads the data, diagnoses (`say` hears
+    /// each step's line) and writes every output, together or none.
+    pub fn run(&self, say: &(dyn Fn(&str) + Sync), recordings: &dyn Recordings) -> Result<Diagnosed> {
+        self.check_files(true)?;
+        let planned = self.options()?;
+        let data = load_dataset(&self.data, &self.request.reading, true)?;
+        let d = diagnose_loaded(&self.request, planned, data, say)?;
+        write_diagnosis(self, &d, recordings)?;
+        Ok(d)
+    }
+}
+
+/// The diagnosis a job runs, with its options ([`DiagnoseJob::options`]) on data already
+/// loaded; `say` hears each step's line.
+pub fn diagnose_loaded(request: &DiagnoseRequest, (opts, limit): (DiagnoseOptions, Limit), mut data: Dataset, say: &(dyn Fn(&str) + Sync)) -> Result<Diagnosed> {
+    if let Some(f) = request.test_fraction {
+        // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
+        let (train, _) = crate::calib::run::split_rows(&data, Some(f), request.seed, request.split_by.parse()?)?;
+        let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
+        data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
+    }
+    let (report, result) = crate::diagnose::diagnose(&data, &opts, say)?;
+    let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
+    Ok(Diagnosed { report, result, verdict, opts, data })
+}
+
+/// Writes what `diagnose` writes of a diagnosis (`--out`, `--result`, and `--rrd`, `--report`,
+/// `--scenario-out` when given), all together or none. The caller has checked the files
+/// ([`DiagnoseJob::check_files`]).
+pub fn write_diagnosis(a: &DiagnoseJob, d: &Diagnosed, recordings: &dyn Recordings) -> Result<()> {
+    let (report, result, data) = (&d.report, &d.result, &d.data);
+    let mut outputs = OutputSet::new();
+    let figures = (a.figures.rrd.is_some() || a.figures.report.is_some()).then(|| crate::report::DiagnosisFigures::new(report, result, data));
+    if let (Some(p), Some(f)) = (&a.figures.rrd, &figures) {
+        recordings.diagnosis(report, f, &mut outputs, p)?;
+    }
+    if let (Some(p), Some(f)) = (&a.figures.report, &figures) {
+        outputs.write(p, crate::report::html::diagnosis_page(report, f, d.verdict.as_ref()).as_bytes())?;
+    }
+    if let Some(p) = &a.scenario_out {
+        stage_identified_twin(&mut outputs, p, result, data, d.opts.model.robot(), "diagnose")?;
+    }
+    outputs.write_json(&a.out, &with_verdict(report, d.verdict.as_ref())?)?;
+    outputs.write_json(&a.result, result)?;
+    outputs.commit()
+}

@@ -1,0 +1,31 @@
+//! A user's request run end to end on files, as the command line and Python both run it: read
+//! the inputs (a dataset folder, CSV or xlsx sheet, a scenario, a model), run the calibration or
+//! the diagnosis, and stage every output in one [`OutputSet`](crate::io::OutputSet) so that they
+//! appear together or not at all, none over a file the run reads.
+//!
+//! Recordings for the Rerun viewer come through [`Recordings`], which the `twincal-viz` package
+//! implements: this library writes none itself. What a run prints is its caller's.
+
+mod calibrate;
+mod compare;
+mod diagnose;
+mod files;
+mod predict;
+mod replay;
+pub mod shard;
+
+pub use calibrate::{calibrate_loaded, write_calibration, CalibrateJob, Calibration};
+pub use compare::{
+    check_seeds, compare, finish as finish_comparison, reduce_compare, CompareConfig, CompareItem, CompareJob, CompareRequest, CompareRun, Compared, Comparison,
+    MAX_COMPARE_JOBS, MAX_SEEDS, MIN_SEEDS_FOR_TEST,
+};
+pub use diagnose::{diagnose_loaded, write_diagnosis, DiagnoseJob, Diagnosed};
+pub use files::{
+    check_model_outputs, data_inputs, load_dataset, load_scenario, scenario_inputs, scenario_urdf_path, stage_identified_twin, Figures, NoRecordings,
+    Recordings,
+};
+pub use replay::{replay, AfterCalibration, Fidelity, ReplayJob, ReplayRequest, ReplaySummary};
+pub use predict::{prediction_csv, predicted_readings, residuals};
+
+#[cfg(test)]
+mod tests;
