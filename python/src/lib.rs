@@ -18,9 +18,9 @@ use std::time::{Duration, Instant};
 use twincal::calib::run::{CalibResult, TruthFile};
 use twincal::dataset::AngleUnit;
 use twincal::dataset::{ColumnValues, Dataset};
+use twincal::jobs::{self, CalibrateJob, Calibration, CompareJob, CompareRequest, Compared, DiagnoseJob, Diagnosed, ReplayJob, ReplayRequest};
 use twincal::requests::{from_json, CalibrateRequest, DiagnoseRequest, Reading};
 use twincal::sim::generate::Progress;
-use twincal::jobs::{self, CalibrateJob, Calibration, CompareJob, CompareRequest, Compared, DiagnoseJob, Diagnosed, ReplayJob, ReplayRequest};
 use twincal_viz::Rerun;
 
 create_exception!(
@@ -512,10 +512,13 @@ fn compare(
     let request: CompareRequest = request("compare", options)?;
     let job = CompareJob { data, request, out, rrd: None, shard, shard_out };
     let done = released(py, progress.as_ref(), |t| jobs::compare(&job, t, &Rerun))?;
-    Ok(match done {
-        Compared::Done(c) => c.table,
-        Compared::Shard(line) => line,
-    })
+    match done {
+        Compared::Done(c) => {
+            c.outputs.commit().map_err(err)?;
+            Ok(c.table)
+        }
+        Compared::Shard(line) => Ok(line),
+    }
 }
 
 /// Joins the partial files of sharded compares, as `twincal reduce`, writing the tables' JSON
@@ -534,7 +537,9 @@ fn reduce(py: Python<'_>, parts: Vec<PathBuf>, out: PathBuf) -> PyResult<String>
                 read.kind()
             )));
         }
-        jobs::reduce_compare(read, Some(&out), None, &Rerun).map(|(c, ..)| c.table)
+        let (c, ..) = jobs::reduce_compare(read, Some(&out), None, &Rerun)?;
+        c.outputs.commit()?;
+        Ok(c.table)
     })
     .map_err(err)
 }

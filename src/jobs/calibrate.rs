@@ -94,7 +94,12 @@ impl CalibrateJob {
 /// The calibration a job runs, with its options ([`CalibrateJob::options`]) on data already
 /// loaded: `truth` the twin's truth file when it belongs to these data, `data_sha256` the
 /// fingerprint of the bytes they came from.
-pub fn calibrate_loaded((opts, limits): (CalibOptions, [Limit; 2]), data: Dataset, truth: Option<&TruthFile>, data_sha256: Option<String>) -> Result<Calibration> {
+pub fn calibrate_loaded(
+    (opts, limits): (CalibOptions, [Limit; 2]),
+    data: Dataset,
+    truth: Option<&TruthFile>,
+    data_sha256: Option<String>,
+) -> Result<Calibration> {
     let mut result = crate::calib::run::calibrate(&data, truth, &opts)?;
     result.data_sha256 = data_sha256;
     let test = result.metrics.test_after.as_ref();

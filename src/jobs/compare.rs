@@ -185,19 +185,22 @@ pub struct CompareJob {
     pub shard_out: Option<PathBuf>,
 }
 
-/// What a comparison found: the tables (Markdown, what `compare` prints) and each
-/// calibration's warnings, once per method and wording.
-#[derive(Clone, Debug)]
+/// What a comparison found: the tables (Markdown, what `compare` prints), each calibration's
+/// warnings, once per method and wording, and its outputs (`out`, `rrd`) staged: they appear
+/// when the caller commits them (after showing the table, so that a failure to show it leaves
+/// no file behind), and not at all when it drops them.
 pub struct Comparison {
     /// The accuracy and time table and the Wilcoxon tests, Markdown.
     pub table: String,
     /// `METHOD (seed S, ...): WARNING` lines.
     pub warnings: Vec<String>,
+    /// The staged outputs: `outputs.commit()` writes them.
+    pub outputs: OutputSet,
 }
 
 /// What [`compare`] did: the whole comparison, or one shard's part.
 pub enum Compared {
-    /// Every item ran here: the tables (and `--out`, `--rrd` written).
+    /// Every item ran here: the tables (and `--out`, `--rrd` staged).
     Done(Comparison),
     /// A shard ran its items and appended them to its partial file: the line it reports.
     Shard(String),
@@ -290,8 +293,8 @@ pub fn compare(a: &CompareJob, bar: &dyn Progress, recordings: &dyn Recordings) 
     finish(&config, &runs, a.out.as_deref(), a.rrd.as_deref(), recordings).map(Compared::Done)
 }
 
-/// The table, the warnings and the outputs of a finished comparison (every item's run, in item
-/// order): what `compare` prints and writes, and `reduce` the same from the shards' parts.
+/// The table, the warnings and the outputs (staged) of a finished comparison (every item's run,
+/// in item order): what `compare` prints and writes, and `reduce` the same from the shards' parts.
 pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, rrd: Option<&Path>, recordings: &dyn Recordings) -> Result<Comparison> {
     use crate::stats::wilcoxon_signed_rank;
     let methods: Vec<Method> = config.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
@@ -334,8 +337,7 @@ pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, r
     if let Some(p) = out {
         outputs.write_json(p, &serde_json::json!({"data": config.data, "seeds": seeds, "test_fraction": frac, "runs": runs, "wilcoxon": tests}))?;
     }
-    outputs.commit()?;
-    Ok(Comparison { table, warnings: run_warnings(runs) })
+    Ok(Comparison { table, warnings: run_warnings(runs), outputs })
 }
 
 /// The methods `compare` runs, after checking its options: methods given once each, the
@@ -384,12 +386,7 @@ fn compare_config(a: &CompareRequest, ds: &Dataset, file: &Path, methods: &[Meth
             Some(m) => Some(crate::dataset::truth::sha256_hex(&std::fs::read(&m).map_err(|e| Error::io(&m, e))?)),
             None => None,
         },
-        reading: format!(
-            "angles {}, measurement {}, euler {}",
-            a.reading.angles.name(),
-            ds.measurement().map_or("none", |m| m.name()),
-            a.reading.euler
-        ),
+        reading: format!("angles {}, measurement {}, euler {}", a.reading.angles.name(), ds.measurement().map_or("none", |m| m.name()), a.reading.euler),
         twincal_version: env!("CARGO_PKG_VERSION").into(),
     })
 }

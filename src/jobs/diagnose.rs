@@ -3,7 +3,7 @@
 use super::files::{check_model_outputs, data_inputs, load_dataset, stage_identified_twin, Figures, Recordings};
 use crate::calib::run::CalibResult;
 use crate::dataset::Dataset;
-use crate::diagnose::{Diagnosis, DiagnoseOptions};
+use crate::diagnose::{DiagnoseOptions, Diagnosis};
 use crate::error::Result;
 use crate::io::OutputSet;
 use crate::report::verdict::{judge, with_verdict, Limit, Verdict};
@@ -95,7 +95,12 @@ impl DiagnoseJob {
 
 /// The diagnosis a job runs, with its options ([`DiagnoseJob::options`]) on data already
 /// loaded; `say` hears each step's line.
-pub fn diagnose_loaded(request: &DiagnoseRequest, (opts, limit): (DiagnoseOptions, Limit), mut data: Dataset, say: &(dyn Fn(&str) + Sync)) -> Result<Diagnosed> {
+pub fn diagnose_loaded(
+    request: &DiagnoseRequest,
+    (opts, limit): (DiagnoseOptions, Limit),
+    mut data: Dataset,
+    say: &(dyn Fn(&str) + Sync),
+) -> Result<Diagnosed> {
     if let Some(f) = request.test_fraction {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
         let (train, _) = crate::calib::run::split_rows(&data, Some(f), request.seed, request.split_by.parse()?)?;

@@ -74,7 +74,14 @@ pub fn check_model_outputs<'a>(
 
 /// Stages the identified twin of `result` (see [`crate::identified`]): the scenario at `path`
 /// and its URDF beside it.
-pub fn stage_identified_twin(outputs: &mut OutputSet, path: &Path, result: &CalibResult, data: &Dataset, nominal: Option<&crate::robot::Robot>, how: &str) -> Result<()> {
+pub fn stage_identified_twin(
+    outputs: &mut OutputSet,
+    path: &Path,
+    result: &CalibResult,
+    data: &Dataset,
+    nominal: Option<&crate::robot::Robot>,
+    how: &str,
+) -> Result<()> {
     let twin = crate::identified::identified_scenario(result, data, nominal, path, how)?;
     outputs.write(&scenario_urdf_path(path), twin.urdf.as_bytes())?;
     outputs.write(path, twin.toml.as_bytes())

@@ -16,16 +16,16 @@ pub mod shard;
 
 pub use calibrate::{calibrate_loaded, write_calibration, CalibrateJob, Calibration};
 pub use compare::{
-    check_seeds, compare, finish as finish_comparison, reduce_compare, CompareConfig, CompareItem, CompareJob, CompareRequest, CompareRun, Compared, Comparison,
-    MAX_COMPARE_JOBS, MAX_SEEDS, MIN_SEEDS_FOR_TEST,
+    check_seeds, compare, finish as finish_comparison, reduce_compare, CompareConfig, CompareItem, CompareJob, CompareRequest, CompareRun, Compared,
+    Comparison, MAX_COMPARE_JOBS, MAX_SEEDS, MIN_SEEDS_FOR_TEST,
 };
 pub use diagnose::{diagnose_loaded, write_diagnosis, DiagnoseJob, Diagnosed};
 pub use files::{
     check_model_outputs, data_inputs, load_dataset, load_scenario, scenario_inputs, scenario_urdf_path, stage_identified_twin, Figures, NoRecordings,
     Recordings,
 };
+pub use predict::{predicted_readings, prediction_csv, residuals};
 pub use replay::{replay, AfterCalibration, Fidelity, ReplayJob, ReplayRequest, ReplaySummary};
-pub use predict::{prediction_csv, predicted_readings, residuals};
 
 #[cfg(test)]
 mod tests;

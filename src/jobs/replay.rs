@@ -255,7 +255,8 @@ pub fn replay(a: &ReplayJob, progress: &dyn Progress, recordings: &dyn Recording
             (row.split, p.split) = (Some(split), split);
         }
     }
-    summary.after_calibration = judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.request.test_fraction, a.request.seed, split_by));
+    summary.after_calibration =
+        judged_idx.as_ref().and_then(|_| after_calibration(&data, &twin_data.dataset, &robot, a.request.test_fraction, a.request.seed, split_by));
     summary.seconds = t0.elapsed().as_secs_f64();
     let mut outputs = OutputSet::new();
     if let Some(f) = &figs {
@@ -330,12 +331,7 @@ fn same_instrument(m: Measurement, twin_m: Measurement) -> Result<()> {
 /// The twin's own dataset where the scenario logs the angles at a resolution: the twin's arm
 /// stands somewhere within the logging step of each measured angle (as the real one did), and
 /// its log reads the measured angle. None without a logging resolution.
-fn jittered_twin(
-    s: &Scenario,
-    robot: &crate::robot::Robot,
-    poses: &[Vec<f64>],
-    times: Option<Vec<f64>>,
-) -> Result<Option<crate::sim::generate::Generated>> {
+fn jittered_twin(s: &Scenario, robot: &crate::robot::Robot, poses: &[Vec<f64>], times: Option<Vec<f64>>) -> Result<Option<crate::sim::generate::Generated>> {
     Ok(match s.sampling.logged_decimals {
         Some(dec) => {
             use rand::{Rng, SeedableRng};
@@ -344,11 +340,8 @@ fn jittered_twin(
                 .iter()
                 .enumerate()
                 .map(|(i, q)| {
-                    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(crate::sim::scenario::stream_seed(
-                        s.seed,
-                        crate::sim::scenario::Stream::LoggedAngle,
-                        i as u64,
-                    ));
+                    let mut rng =
+                        rand_chacha::ChaCha8Rng::seed_from_u64(crate::sim::scenario::stream_seed(s.seed, crate::sim::scenario::Stream::LoggedAngle, i as u64));
                     q.iter().map(|v| v + (rng.random::<f64>() - 0.5) * step.to_radians()).collect()
                 })
                 .collect();

@@ -6,13 +6,13 @@
 //! the parts: one configuration, every item exactly once (duplicates from retries dropped,
 //! missing items named). `compare`, `study hold` and `bench diagnose` shard this way.
 
+use crate::error::{Error, Result};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use crate::error::{Error, Result};
 
 /// What a sharded study is over: every shard of one study holds the same configuration.
 pub trait Config: Clone + Serialize + DeserializeOwned {

@@ -10,19 +10,21 @@ use twincal::jobs::{Compared, Comparison};
 /// across seeds (test RMSE) and per sample (|test residual| of seed 0).
 pub fn compare(a: &CompareJob, quiet: bool) -> Result<()> {
     match twincal::jobs::compare(a, progress(quiet).as_ref(), &twincal_viz::Rerun)? {
-        Compared::Done(c) => print_comparison(&c),
+        Compared::Done(c) => print_comparison(c)?,
         Compared::Shard(line) if !quiet => eprintln!("{line}"),
         Compared::Shard(_) => {}
     }
     Ok(())
 }
 
-/// The table on stdout, each calibration's warnings on stderr.
-fn print_comparison(c: &Comparison) {
+/// The table on stdout, each calibration's warnings on stderr, then the outputs written (none
+/// when the table could not be shown).
+fn print_comparison(c: Comparison) -> Result<()> {
     println!("{}", c.table);
     for w in &c.warnings {
         eprintln!("warning: {w}");
     }
+    c.outputs.commit()
 }
 
 /// `twincal reduce PARTS...`: the shards' partial files of one study joined, checked (one
@@ -52,6 +54,5 @@ pub fn reduce(parts: &[PathBuf], out: Option<&Path>, rrd: Option<&Path>, quiet: 
     if !quiet {
         eprintln!("reduced {} parts: {items} items of config {}, {duplicates} duplicates dropped", parts.len(), &hash[..12]);
     }
-    print_comparison(&c);
-    Ok(())
+    print_comparison(c)
 }

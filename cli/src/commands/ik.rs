@@ -10,7 +10,6 @@ use twincal::error::{Error, Result};
 pub use twincal::ik::solver::{check_tol_mm, MAX_TOL_MM};
 use twincal::ik::{ik_runs, random_targets, table, IkOptions, IkRun, IkStatus, JacobianKind, TwinCheck};
 
-
 /// Reads target points (mm) from a CSV with columns x, y, z (header required; other columns
 /// ignored), by the dataset reader's rules ([`twincal::dataset::read_csv_columns`]: `;` or tab,
 /// decimal commas, quotes, comments, a byte-order mark). Non-numeric fields are refused with the

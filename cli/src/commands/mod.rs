@@ -19,8 +19,8 @@ pub use diagnose::diagnose;
 pub use generate::generate;
 pub use predict::predict;
 pub use replay::replay;
-pub use twincal::jobs::ReplayJob;
 pub use study::{study, StudyTarget};
+pub use twincal::jobs::ReplayJob;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -28,7 +28,8 @@ pub use twincal::dataset::AngleUnit;
 use twincal::error::{Error, Result};
 use twincal::io::{check_outputs, OutputSet};
 pub use twincal::jobs::{
-    check_seeds, data_inputs, load_scenario, scenario_urdf_path, CalibrateJob, CompareJob, CompareRequest, CompareRun, DiagnoseJob, Figures, MAX_COMPARE_JOBS, MAX_SEEDS,
+    check_seeds, data_inputs, load_scenario, scenario_urdf_path, CalibrateJob, CompareJob, CompareRequest, CompareRun, DiagnoseJob, Figures, MAX_COMPARE_JOBS,
+    MAX_SEEDS,
 };
 use twincal::jobs::{load_dataset, scenario_inputs};
 pub use twincal::requests::{ModelChoice, Reading};

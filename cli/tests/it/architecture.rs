@@ -399,8 +399,8 @@ fn cycles_of(files: &BTreeMap<PathBuf, BTreeSet<PathBuf>>) -> Vec<String> {
 }
 
 #[test]
-fn the_command_line_and_the_python_package_have_no_import_cycle() {
-    for src in ["cli/src", "python/src"] {
+fn the_recordings_the_command_line_and_the_python_package_have_no_import_cycle() {
+    for src in ["viz/src", "cli/src", "python/src"] {
         let files = file_graph(src);
         assert!(!files.is_empty(), "no source files in {src}");
         let found = cycles_of(&files);

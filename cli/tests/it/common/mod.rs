@@ -2,10 +2,10 @@
 //! the views of the layout (blueprint) sent with it.
 #![allow(dead_code)]
 
-use twincal_viz::re_log_encoding::DecoderApp;
-use twincal_viz::re_sdk::log::{Chunk, LogMsg};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
+use twincal_viz::re_log_encoding::DecoderApp;
+use twincal_viz::re_sdk::log::{Chunk, LogMsg};
 
 /// What one entity holds.
 #[derive(Debug, Default)]
