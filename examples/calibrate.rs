@@ -29,11 +29,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (options, _limits) = CalibrateRequest::default().options()?;
     let result = calibrate(&generated.dataset, Some(&truth), &options)?;
 
-    let m = &result.metrics;
+    let m = &result.evaluation.metrics;
     let (before, after) = (m.test_before.as_ref().ok_or("no test rows")?, m.test_after.as_ref().ok_or("no test rows")?);
-    println!("scenario {} seed {seed}: {} train / {} test rows, model {}", scenario.name, result.n_train, result.n_test, result.model_name);
-    println!("held-out RMSE {:.4} mm before, {:.4} mm after ({} iterations)", before.rmse, after.rmse, result.iterations);
-    let t = result.truth_comparison.as_ref().ok_or("no truth comparison")?;
+    println!(
+        "scenario {} seed {seed}: {} train / {} test rows, model {}",
+        scenario.name, result.provenance.n_train, result.provenance.n_test, result.provenance.model_name
+    );
+    println!("held-out RMSE {:.4} mm before, {:.4} mm after ({} iterations)", before.rmse, after.rmse, result.solve.iterations);
+    let t = result.evaluation.truth_comparison.as_ref().ok_or("no truth comparison")?;
     println!("truth: {}/{} identifiable parameters within 3 sigma (max |z| {:.2})", t.within_3_sigma, t.identifiable, t.max_abs_z);
     // The example fails loudly when the calibration does not do its job.
     if after.rmse.is_nan() || after.rmse >= 0.5 * before.rmse {

@@ -59,7 +59,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
     let mut scenario = Scenario {
         name: stem.clone(),
         description: format!("identified twin of {}", data.source),
-        seed: r.seed,
+        seed: r.provenance.seed,
         robot: urdf_file.clone(),
         geometry: Geometry::default(),
         effects: Default::default(),
@@ -91,8 +91,8 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
     if let Some((g, note)) = glitches(r, data.rows.len()).filter(|_| scenario.tracker.is_none()) {
         scenario.glitches = Some(g);
         notes.push(note);
-    } else if !r.outliers.is_empty() {
-        notes.push(format!("{} rows the calibration kept out as outliers are not modelled (no [glitches]).", r.outliers.len()));
+    } else if !r.screen.outliers.is_empty() {
+        notes.push(format!("{} rows the calibration kept out as outliers are not modelled (no [glitches]).", r.screen.outliers.len()));
     }
     scenario.validate(&robot, &scenario_path.display().to_string())?;
     let body = toml::to_string(&scenario).map_err(|e| Error::Invalid(format!("cannot write the scenario: {e}")))?;
@@ -122,13 +122,13 @@ fn header_notes(r: &CalibResult, data: &Dataset, has_nominal: bool, how: &str, u
 
 /// The reading noise: the data's, less what the logging steps already give (mm per value).
 fn reading_sigma(r: &CalibResult, notes: &mut Vec<String>) -> f64 {
-    let floor = r.noise_floor.as_ref();
+    let floor = r.evaluation.noise_floor.as_ref();
     let part = |name: &str| floor.and_then(|f| f.sources.iter().find(|s| s.source == name)).map_or(0.0, |s| s.rms_mm);
     let (angle_part, reading_part) = (part("angle_resolution"), part("reading_resolution"));
-    let sigma = (r.noise_estimate_mm.powi(2) - angle_part.powi(2) - reading_part.powi(2)).max(0.0).sqrt();
+    let sigma = (r.solve.noise_estimate_mm.powi(2) - angle_part.powi(2) - reading_part.powi(2)).max(0.0).sqrt();
     notes.push(format!(
         "Reading noise {sigma:.4} mm per value: the data's {:.4} mm less the logging steps' share ({angle_part:.4} mm from the angles, {reading_part:.4} mm from the readings), one sample per reading.",
-        r.noise_estimate_mm
+        r.solve.noise_estimate_mm
     ));
     sigma
 }
@@ -274,28 +274,28 @@ fn ranges(data: &Dataset, robot: &Robot) -> Vec<[f64; 2]> {
 /// offsets when reading steps are the most, scattered rows otherwise. With a note saying so.
 fn glitches(r: &CalibResult, rows: usize) -> Option<(crate::sim::scenario::Glitches, String)> {
     use crate::sim::scenario::{GlitchKind, Glitches};
-    let in_runs = |row: usize| r.outlier_runs.iter().any(|u| (u.first_row..=u.last_row).contains(&row));
-    let lone = r.outliers.iter().filter(|o| !in_runs(o.row)).count();
-    let mut lengths: Vec<f64> = r.reading_steps.iter().map(|s| (s.last_row + 1 - s.first_row) as f64).collect();
-    lengths.extend(r.outlier_runs.iter().map(|u| (u.last_row + 1 - u.first_row) as f64));
+    let in_runs = |row: usize| r.screen.outlier_runs.iter().any(|u| (u.first_row..=u.last_row).contains(&row));
+    let lone = r.screen.outliers.iter().filter(|o| !in_runs(o.row)).count();
+    let mut lengths: Vec<f64> = r.screen.reading_steps.iter().map(|s| (s.last_row + 1 - s.first_row) as f64).collect();
+    lengths.extend(r.screen.outlier_runs.iter().map(|u| (u.last_row + 1 - u.first_row) as f64));
     lengths.extend(std::iter::repeat_n(1.0, lone));
-    let mut sizes: Vec<f64> = r.reading_steps.iter().map(|s| s.offset_mm.abs()).collect();
-    sizes.extend(r.outlier_runs.iter().map(|u| u.median_residual_mm.abs()));
-    sizes.extend(r.outliers.iter().filter(|o| !in_runs(o.row)).map(|o| o.residual_mm.abs()));
-    if lengths.is_empty() || r.n_train == 0 {
+    let mut sizes: Vec<f64> = r.screen.reading_steps.iter().map(|s| s.offset_mm.abs()).collect();
+    sizes.extend(r.screen.outlier_runs.iter().map(|u| u.median_residual_mm.abs()));
+    sizes.extend(r.screen.outliers.iter().filter(|o| !in_runs(o.row)).map(|o| o.residual_mm.abs()));
+    if lengths.is_empty() || r.provenance.n_train == 0 {
         return None;
     }
     let found = lengths.len();
     let len = crate::stats::median(&lengths).round().max(1.0) as usize;
     let size = crate::stats::median(&sizes) / 1.25;
-    let runs = ((found as f64 * rows as f64 / r.n_train as f64).round() as usize).max(1).min(rows / 4 / len);
-    let kind = if r.reading_steps.len() * 2 >= found { GlitchKind::Offset } else { GlitchKind::Scatter };
+    let runs = ((found as f64 * rows as f64 / r.provenance.n_train as f64).round() as usize).max(1).min(rows / 4 / len);
+    let kind = if r.screen.reading_steps.len() * 2 >= found { GlitchKind::Offset } else { GlitchKind::Scatter };
     (runs > 0 && size > 0.0).then(|| {
         let note = format!(
             "Glitches as the calibration found them in its {} training rows ({} reading steps, {} outlier runs, {lone} lone outliers): {runs} runs of {len} rows, {size:.3} mm x (1 + U(0, 0.5)), {} (placed from the seed, not at the data's rows).",
-            r.n_train,
-            r.reading_steps.len(),
-            r.outlier_runs.len(),
+            r.provenance.n_train,
+            r.screen.reading_steps.len(),
+            r.screen.outlier_runs.len(),
             if kind == GlitchKind::Offset { "constant offsets" } else { "scattered" }
         );
         (Glitches { runs, rows: len, size_mm: size, kind, joint: None, size_deg: None }, note)

@@ -19,7 +19,7 @@ def main(seed: int = 7) -> dict:
     data, truth = twincal.generate(seed=seed)
     result = twincal.calibrate(data, truth=truth)
     before, after = result.metrics["test_before"]["rmse"], result.metrics["test_after"]["rmse"]
-    t = result.as_dict()["truth_comparison"]
+    t = result.as_dict()["evaluation"]["truth_comparison"]
     print(f"seed {seed}: {len(data['L'])} rows, held-out RMSE {before:.4f} mm before, {after:.4f} mm after")
     print(f"truth: {t['within_3_sigma']}/{t['identifiable']} identifiable parameters within 3 sigma (max |z| {t['max_abs_z']:.2f})")
     if not after < 0.5 * before:

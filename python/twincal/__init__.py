@@ -211,7 +211,7 @@ class Result:
     @property
     def metrics(self) -> dict:
         """Residual statistics before and after, on training and test rows (mm)."""
-        return dict(self._dict["metrics"])
+        return dict(self._dict["evaluation"]["metrics"])
 
     @property
     def verdict(self) -> Optional[dict]:
@@ -259,10 +259,10 @@ class Result:
         self._native.save(os.fspath(out), f(urdf), f(rrd), f(report), f(scenario_out))
 
     def __repr__(self) -> str:
-        m = self._dict["metrics"]
+        m = self._dict["evaluation"]["metrics"]
         test = m.get("test_after")
         return (
-            f"<twincal.Result {self._dict['method']} / {self._dict['model_name']}: train RMSE {m['train_after']['rmse']:.4f} mm"
+            f"<twincal.Result {self._dict['provenance']['method']} / {self._dict['provenance']['model_name']}: train RMSE {m['train_after']['rmse']:.4f} mm"
             + (f", test RMSE {test['rmse']:.4f} mm" if test else "")
             + ">"
         )

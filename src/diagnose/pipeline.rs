@@ -359,7 +359,7 @@ pub(super) fn final_stage(
     };
     // The data's own floor: repeatability and logging resolutions, never the fit's residual.
     let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg, opts.instrument_accuracy_mm)?;
-    let noise_floor = result.noise_floor.clone().expect("result_of_fit sets the floor");
+    let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
     let (noise_floor_mm, noise_floor_source) = (noise_floor.total_mm, floor_source_text(&noise_floor));
     let current_oof = rms(&current.oof);
     warnings.extend(leak_warning(&current.oof, dim, ctx.groups.as_deref(), noise_floor_mm, shared));

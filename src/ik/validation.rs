@@ -50,7 +50,7 @@ impl TwinCheck {
     pub fn load(data: &Path, r: &CalibResult) -> Result<TwinCheck> {
         let truth = TruthFile::find(data)?
             .ok_or_else(|| Error::Invalid(format!("{}: no truth.json beside the data; twin validation needs the twin's dataset folder", data.display())))?;
-        if let (Some(ours), Some(link)) = (&r.data_sha256, &truth.dataset) {
+        if let (Some(ours), Some(link)) = (&r.provenance.data_sha256, &truth.dataset) {
             if *ours != link.sha256 {
                 return Err(Error::Invalid(format!(
                     "{}: this twin was generated with other data than the model was calibrated on (dataset SHA-256 {} vs the model's {}); \

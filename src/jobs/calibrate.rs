@@ -101,8 +101,8 @@ pub fn calibrate_loaded(
     data_sha256: Option<String>,
 ) -> Result<Calibration> {
     let mut result = crate::calib::run::calibrate(&data, truth, &opts)?;
-    result.data_sha256 = data_sha256;
-    let test = result.metrics.test_after.as_ref();
+    result.provenance.data_sha256 = data_sha256;
+    let test = result.evaluation.metrics.test_after.as_ref();
     let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
     let verdict = judge(&[(limits[0], "test_rmse_mm", test.map(|t| t.rmse), source), (limits[1], "test_max_mm", test.map(|t| t.max), source)]);
     Ok(Calibration { result, verdict, opts, data })

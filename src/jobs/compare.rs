@@ -268,11 +268,11 @@ pub fn compare(a: &CompareJob, bar: &dyn Progress, recordings: &dyn Recordings) 
             let run = CompareRun {
                 method: m.name().into(),
                 seed: *seed,
-                train: r.metrics.train_after,
-                test: r.metrics.test_after.unwrap_or_default(),
-                iterations: r.iterations,
-                seconds: r.wall_time_s,
-                test_position: r.metrics.test_position_after,
+                train: r.evaluation.metrics.train_after,
+                test: r.evaluation.metrics.test_after.unwrap_or_default(),
+                iterations: r.solve.iterations,
+                seconds: r.provenance.wall_time_s,
+                test_position: r.evaluation.metrics.test_position_after,
                 warnings: r.warnings,
                 test_abs_residuals,
             };

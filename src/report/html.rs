@@ -154,17 +154,17 @@ fn per_row_table(residuals: &[Residual], sets: &[(&str, Vec<bool>)]) -> String {
 /// The calibration page.
 pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verdict>) -> String {
     let mut s = head(&format!("twincal calibration: {}", f.title));
-    let m = &r.metrics;
+    let m = &r.evaluation.metrics;
     let _ = writeln!(
         s,
         "<p>{} training rows, {} test rows; {} iterations, {} ({}), {:.2} s. twincal {}.</p>",
-        r.n_train,
-        r.n_test,
-        r.iterations,
-        if r.converged { "converged" } else { "did not converge" },
-        esc(&r.stop_reason),
-        r.wall_time_s,
-        esc(&r.twincal_version)
+        r.provenance.n_train,
+        r.provenance.n_test,
+        r.solve.iterations,
+        if r.solve.converged { "converged" } else { "did not converge" },
+        esc(&r.solve.stop_reason),
+        r.provenance.wall_time_s,
+        esc(&r.provenance.twincal_version)
     );
     s.push_str(&verdict_html(verdict));
     let meas = f.measurement;
@@ -184,8 +184,8 @@ pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verd
         let _ = write!(s, "<h2>Position error per row (mm)</h2><p class=\"note\">The rows read a {}: |Δp| is the distance between the measured and the predicted point; the RMS of each coordinate is over the rows.</p>", esc(meas.def().describe()));
         s.push_str(&per_row_table(&residuals, &[("train", f.train.clone()), ("test", f.test.clone())]));
     }
-    let _ = write!(s, "<p class=\"note\">Noise estimate from the data: {:.4} mm.", r.noise_estimate_mm);
-    if let Some(t) = &r.truth_comparison {
+    let _ = write!(s, "<p class=\"note\">Noise estimate from the data: {:.4} mm.", r.solve.noise_estimate_mm);
+    if let Some(t) = &r.evaluation.truth_comparison {
         let _ = write!(
             s,
             " Truth file: {}/{} identifiable parameters within 3σ of their truth-equivalent values (max |z| = {:.2}); sensor noise floor {:.4} mm.",

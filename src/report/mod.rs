@@ -364,10 +364,10 @@ impl CalibFigures {
     /// result records (its `test_rows`).
     pub fn new(r: &CalibResult, data: &Dataset) -> Result<CalibFigures> {
         let n = data.rows.len();
-        if let Some(&bad) = r.test_rows.iter().find(|&&i| i >= n) {
+        if let Some(&bad) = r.provenance.test_rows.iter().find(|&&i| i >= n) {
             return Err(Error::Invalid(format!("the result's test row {} is beyond these data's {n} rows (a result of other data?)", bad + 1)));
         }
-        let test_idx = r.test_rows.clone();
+        let test_idx = r.provenance.test_rows.clone();
         let mut in_test = vec![false; n];
         test_idx.iter().for_each(|&i| in_test[i] = true);
         let mut train_idx: Vec<usize> = (0..n).filter(|&i| !in_test[i]).collect();
@@ -375,9 +375,9 @@ impl CalibFigures {
         // rows by their nearest training row).
         let all: Vec<usize> = (0..data.rows.len()).collect();
         let raw = all_samples(r, data);
-        let s = crate::calib::problem::robust::apply_steps_nearest(&raw, &all, &train_idx, &r.reading_steps);
+        let s = crate::calib::problem::robust::apply_steps_nearest(&raw, &all, &train_idx, &r.screen.reading_steps);
         // The calibration kept its training outliers out: so do its figures.
-        train_idx.retain(|i| !r.outliers.iter().any(|o| o.row == i + 1));
+        train_idx.retain(|i| !r.screen.outliers.iter().any(|o| o.row == i + 1));
         let mut train = vec![false; data.rows.len()];
         for &i in &train_idx {
             train[i] = true;
@@ -429,7 +429,7 @@ impl CalibFigures {
             })
             .collect();
         Ok(CalibFigures {
-            title: format!("{} / {} on {}", r.method.name(), r.model_name, r.data),
+            title: format!("{} / {} on {}", r.provenance.method.name(), r.provenance.model_name, r.provenance.data),
             train,
             test: held_out,
             measurement: r.model.measurement,

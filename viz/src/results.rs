@@ -13,21 +13,21 @@ use twincal::report::{max_abs, CalibFigures, DiagnosisFigures, Group, Residual};
 /// its warnings.
 fn calibration_summary(r: &twincal::calib::run::CalibResult, f: &CalibFigures, first: &Residual) -> String {
     let meas = f.measurement;
-    let m = &r.metrics;
+    let m = &r.evaluation.metrics;
     let mut doc = format!(
         "## {}\n\n{} train / {} test rows, {} iterations, {}.\n\n| residual (mm) | RMSE | STD | MAX |\n|---|---:|---:|---:|\n",
         f.title,
-        r.n_train,
-        r.n_test,
-        r.iterations,
-        if r.converged { "converged" } else { "**did not converge**" }
+        r.provenance.n_train,
+        r.provenance.n_test,
+        r.solve.iterations,
+        if r.solve.converged { "converged" } else { "**did not converge**" }
     );
     doc.push_str(&stats_line("train before", Some(&m.train_before)));
     doc.push_str(&stats_line("train after", Some(&m.train_after)));
     doc.push_str(&stats_line("test before", m.test_before.as_ref()));
     doc.push_str(&stats_line("test after", m.test_after.as_ref()));
-    doc.push_str(&format!("\nNoise estimate {:.4} mm.", r.noise_estimate_mm));
-    if let Some(t) = &r.truth_comparison {
+    doc.push_str(&format!("\nNoise estimate {:.4} mm.", r.solve.noise_estimate_mm));
+    if let Some(t) = &r.evaluation.truth_comparison {
         doc.push_str(&format!(" Truth: {}/{} parameters within 3σ (max |z| {:.2}).", t.within_3_sigma, t.identifiable, t.max_abs_z));
     }
     if meas.dim() == 1 {

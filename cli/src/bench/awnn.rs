@@ -60,7 +60,7 @@ impl Solver for Timed {
 }
 
 fn test_rmse(r: &CalibResult) -> f64 {
-    r.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN)
+    r.evaluation.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN)
 }
 
 /// A dataset whose training rows are the subset `keep` of `ds`'s (test rows unchanged).
@@ -149,7 +149,7 @@ impl AwnnBench {
         let (mut t_lm, mut t_full) = (Vec::new(), Vec::new());
         let mut last = None;
         for _ in 0..repeat.max(3) {
-            t_lm.push(calibrate_with(&ds, None, &self.lm_opts, self.lm.as_ref())?.wall_time_s);
+            t_lm.push(calibrate_with(&ds, None, &self.lm_opts, self.lm.as_ref())?.provenance.wall_time_s);
             let t0 = Instant::now();
             let r = calibrate_with(&ds, Some(&truth), &self.awnn_opts, &timed)?;
             t_full.push(t0.elapsed().as_secs_f64());
@@ -167,7 +167,13 @@ impl AwnnBench {
         println!("    network start (LM + CV)    : {:8.1} ms", t_start * 1e3);
         println!("    whole calibration          : {:8.1} ms = {:.1} x LM's {:.1} ms", full_med * 1e3, full_med / lm_med, lm_med * 1e3);
         if let Some(r) = &last {
-            println!("    Stage 0 chose Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.2e}; {}", h.q_rel, h.r_rel, h.lr, r.stop_reason.split("; ").last().unwrap_or(""));
+            println!(
+                "    Stage 0 chose Q = {:.2e}·σ̄², R = {:.2e}·σ², η = {:.2e}; {}",
+                h.q_rel,
+                h.r_rel,
+                h.lr,
+                r.solve.stop_reason.split("; ").last().unwrap_or("")
+            );
         }
         Ok((ds, h))
     }
@@ -277,7 +283,7 @@ impl AwnnBench {
                 let mut o = self.awnn_opts.clone();
                 o.seed = k;
                 let r = calibrate_with(&sub, None, &o, &PsoEkfAwnn::default())?;
-                kept += usize::from(!r.stop_reason.contains("zero output weights"));
+                kept += usize::from(!r.solve.stop_reason.contains("zero output weights"));
                 aa.push(test_rmse(&r));
                 if n == 300 {
                     break;
@@ -323,8 +329,8 @@ fn real_data() -> Result<()> {
             let mut o = CalibOptions::new(ModelSpec::Generic6r, m);
             o.test_fraction = Some(0.2);
             let r = calibrate_with(&ds, None, &o, m.solver(1.0).as_ref())?;
-            if let (Some(rep), Some(t)) = (&r.repeatability, &r.metrics.test_after) {
-                cells.push(format!("{} {:.4} mm ({:.3} x floor, {:.1} s)", m.name(), t.rmse, t.rmse / rep.pooled_std, r.wall_time_s));
+            if let (Some(rep), Some(t)) = (&r.evaluation.repeatability, &r.evaluation.metrics.test_after) {
+                cells.push(format!("{} {:.4} mm ({:.3} x floor, {:.1} s)", m.name(), t.rmse, t.rmse / rep.pooled_std, r.provenance.wall_time_s));
                 if m == Method::LM {
                     cells.insert(0, format!("repeatability floor {:.4} mm", rep.pooled_std));
                 }

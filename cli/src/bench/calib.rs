@@ -56,8 +56,8 @@ fn lm_speed(
         iterations = rep.iterations;
         ev_t.push(evaluation_s(&fit, &prepared.model.nominal));
         let whole = twincal::calib::run::calibrate(ds, truth, opts)?;
-        whole_t.push(whole.wall_time_s);
-        test_rmse = whole.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN);
+        whole_t.push(whole.provenance.wall_time_s);
+        test_rmse = whole.evaluation.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN);
     }
     Ok(LmSpeed {
         rows: fit.data.len(),
@@ -157,8 +157,8 @@ fn accuracy_over_seeds(
         .map(|seed| {
             let (ds, truth) = gen(1000 + seed, 400, 100)?;
             let r = twincal::calib::run::calibrate(&ds, Some(&truth), opts)?;
-            let c = r.truth_comparison.clone().ok_or_else(|| Error::Invalid("no truth comparison".into()))?;
-            Ok((r.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN) / truth.noise_std_mm, c.within_3_sigma, c.identifiable, c.max_abs_z))
+            let c = r.evaluation.truth_comparison.clone().ok_or_else(|| Error::Invalid("no truth comparison".into()))?;
+            Ok((r.evaluation.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN) / truth.noise_std_mm, c.within_3_sigma, c.identifiable, c.max_abs_z))
         })
         .collect();
     let rows: Vec<(f64, usize, usize, f64)> = rows.into_iter().collect::<Result<_>>()?;
@@ -202,7 +202,7 @@ fn untuned_methods(base: &Scenario, robot: &twincal::robot::Robot, spec: &twinca
             .par_iter()
             .map(|(ds, floor)| {
                 let r = twincal::calib::run::calibrate(ds, None, &CalibOptions::new(spec.clone(), m))?;
-                Ok(r.metrics.test_after.map(|t| t.rmse).unwrap_or(f64::NAN) / floor)
+                Ok(r.evaluation.metrics.test_after.map(|t| t.rmse).unwrap_or(f64::NAN) / floor)
             })
             .collect::<Result<_>>()?;
         println!(
@@ -229,14 +229,14 @@ fn real_data() -> Result<()> {
     let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
     o.test_fraction = Some(0.2);
     let r = twincal::calib::run::calibrate(&ds, None, &o)?;
-    if let (Some(rep), Some(t), Some(tt)) = (&r.repeatability, &r.metrics.test_after, &r.metrics.test_after_trimmed) {
+    if let (Some(rep), Some(t), Some(tt)) = (&r.evaluation.repeatability, &r.evaluation.metrics.test_after, &r.evaluation.metrics.test_after_trimmed) {
         println!(
             "  HSR-RobotCali (generic6r, 80/20): held-out RMSE {:.4} mm, repeatability floor {:.4} mm, ratio {:.3} (target < 1.3); without the worst 1 % {:.3}; {:.1} s (bench real: the interleaved split over seeds)",
             t.rmse,
             rep.pooled_std,
             t.rmse / rep.pooled_std,
             tt.rmse / rep.pooled_std,
-            r.wall_time_s
+            r.provenance.wall_time_s
         );
     }
     Ok(())

@@ -87,7 +87,7 @@ fn ablations(ds: &Dataset, truth: &TruthFile) -> Result<()> {
     );
     let test_idx = ds.test_indices();
     let lm = calibrate_with(ds, Some(truth), &options(Method::LM), Method::LM.solver(1.0).as_ref())?;
-    let lm_rmse = lm.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
+    let lm_rmse = lm.evaluation.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
     // The non-geometric error: measured lengths minus the truth-equivalent rigid model (the
     // sensor's linearity error is part of what a corrector can learn; the reading noise stays).
     let x_eq: Vec<f64> = lm.parameters.iter().enumerate().map(|(k, p)| p.truth.unwrap_or(p.value) / lm.model.kinds[k].display()).collect();
@@ -106,13 +106,13 @@ fn ablations(ds: &Dataset, truth: &TruthFile) -> Result<()> {
         (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt()
     };
     let row = |name: &str, r: &CalibResult| {
-        let t = r.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
+        let t = r.evaluation.metrics.test_after.as_ref().map(|m| m.rmse).unwrap_or(f64::NAN);
         println!(
             "| {name} | {t:.4} | {:+.1} % | {:.0} % | {:.2} | {:.2} |",
             100.0 * (t / lm_rmse - 1.0),
             100.0 * (1.0 - truth_rms(r) / ng),
             geo_dev(r),
-            r.wall_time_s
+            r.provenance.wall_time_s
         );
     };
     row("lm", &lm);
@@ -236,7 +236,7 @@ pub fn bench_ik(repeat: usize) -> Result<()> {
     let dir = tmp.path().join("evo");
     let (ds, truth) = dataset(&dir, None)?;
     let mut r = calibrate_with(&ds, Some(&truth), &options(Method::DSADE_GKAN), Method::DSADE_GKAN.solver(1.0).as_ref())?;
-    r.data = dir.display().to_string();
+    r.provenance.data = dir.display().to_string();
     let check = TwinCheck::load(&dir, &r)?;
     let n = 1000;
     let targets = twincal::ik::random_targets(&r, Some(&check), n, 0);

@@ -38,13 +38,13 @@ fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: 
     let t0 = Instant::now();
     let r = calibrate(data, None, &opts)?;
     let seconds = t0.elapsed().as_secs_f64();
-    let err: Vec<f64> = r.test_rows.iter().map(|&i| r.predict_mm(&q_cmd[i]) - truth[i]).collect();
+    let err: Vec<f64> = r.provenance.test_rows.iter().map(|&i| r.predict_mm(&q_cmd[i]) - truth[i]).collect();
     let true_mm = (err.iter().map(|e| e * e).sum::<f64>() / err.len().max(1) as f64).sqrt();
     Ok(Run {
-        test_mm: r.metrics.test_after.as_ref().map_or(f64::NAN, |m| m.rmse),
+        test_mm: r.evaluation.metrics.test_after.as_ref().map_or(f64::NAN, |m| m.rmse),
         true_mm,
         seconds,
-        removed_mm: r.noise_model.as_ref().and_then(|n| n.removed_rms_mm).unwrap_or(0.0),
+        removed_mm: r.solve.noise_model.as_ref().and_then(|n| n.removed_rms_mm).unwrap_or(0.0),
     })
 }
 

@@ -131,13 +131,14 @@ pub fn bench_real(seeds: u64) -> Result<()> {
             let t0 = Instant::now();
             let r = calibrate(&ds, None, &o)?;
             times.push(t0.elapsed().as_secs_f64());
-            let floor = r.noise_floor.as_ref().map_or(f64::NAN, |f| f.total_mm);
-            let (all, trimmed) = (r.metrics.test_after.map_or(f64::NAN, |t| t.rmse), r.metrics.test_after_trimmed.map_or(f64::NAN, |t| t.rmse));
+            let floor = r.evaluation.noise_floor.as_ref().map_or(f64::NAN, |f| f.total_mm);
+            let (all, trimmed) =
+                (r.evaluation.metrics.test_after.map_or(f64::NAN, |t| t.rmse), r.evaluation.metrics.test_after_trimmed.map_or(f64::NAN, |t| t.rmse));
             println!(
                 "    seed {seed}: held-out {all:.4} mm, without the worst 1 % {trimmed:.4} mm = {:.3} x the floor {floor:.4} mm; converged {} ({} iterations), {:.1} s",
                 trimmed / floor,
-                r.converged,
-                r.iterations,
+                r.solve.converged,
+                r.solve.iterations,
                 times.last().expect("just pushed")
             );
         }
@@ -178,12 +179,12 @@ pub fn bench_real(seeds: u64) -> Result<()> {
                     runs.push(calibrate(&ds, None, &o)?);
                 }
                 if floor.is_nan() {
-                    floor = runs[0].noise_floor.as_ref().map_or(f64::NAN, |f| f.total_mm);
+                    floor = runs[0].evaluation.noise_floor.as_ref().map_or(f64::NAN, |f| f.total_mm);
                 }
-                let all: Vec<f64> = runs.iter().map(|r| r.metrics.test_after.map_or(f64::NAN, |t| t.rmse)).collect();
-                let inl: Vec<f64> = runs.iter().map(|r| r.metrics.test_after_inliers.map_or(f64::NAN, |t| t.rmse)).collect();
+                let all: Vec<f64> = runs.iter().map(|r| r.evaluation.metrics.test_after.map_or(f64::NAN, |t| t.rmse)).collect();
+                let inl: Vec<f64> = runs.iter().map(|r| r.evaluation.metrics.test_after_inliers.map_or(f64::NAN, |t| t.rmse)).collect();
                 let (ma, sa) = mean_sd(&all);
-                let conv = runs.iter().filter(|r| r.converged).count();
+                let conv = runs.iter().filter(|r| r.solve.converged).count();
                 let label = match (k > 0.0, noise) {
                     (true, NoiseChoice::Auto) => "screened",
                     (true, NoiseChoice::Off) => "screened, --noise-model off",

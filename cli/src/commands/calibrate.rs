@@ -43,14 +43,14 @@ pub fn calibration_warnings(r: &twincal::calib::run::CalibResult) -> Vec<String>
 
 /// How the rows were weighted and the noise model that took the angles' logging error out.
 fn print_noise_handling(r: &twincal::calib::run::CalibResult) {
-    if let Some(w) = &r.weighting {
+    if let Some(w) = &r.solve.weighting {
         eprintln!(
             "  weights from the rows' own standard deviations ({} of {} training rows, RMS {:.4} mm): 1/(floor² + s²) with the floor {:.4} mm the data add \
              (robust residual sd {:.4} mm); largest / smallest weight {:.2}",
             w.rows_with_std, w.rows, w.instrument_rms_mm, w.floor_mm, w.residual_sd_mm, w.weight_span
         );
     }
-    if let Some(n) = &r.noise_model {
+    if let Some(n) = &r.solve.noise_model {
         eprintln!(
             "  noise model: joint angles logged at {} deg, shared by the rows of a sweep (rounding {:.4} mm, reading noise {:.4} mm per value); \
              the logging error estimated per sweep and joint was taken out of the training readings before the fit (RMS {:.4} mm; --noise-model off keeps them)",
@@ -64,30 +64,31 @@ fn print_noise_handling(r: &twincal::calib::run::CalibResult) {
 
 /// The outlier screen: rows kept out, their runs, reading steps, and the test inliers' errors.
 fn print_screen(r: &twincal::calib::run::CalibResult) {
-    let m = &r.metrics;
+    let m = &r.evaluation.metrics;
     let row = |label: &str, s: &twincal::stats::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
     // The screen ran when it has a robust scale (it does not for too few rows per parameter,
     // nor for readings of several values).
-    if r.outlier_k > 0.0 && r.robust_scale_mm > 0.0 {
-        let runs: Vec<String> = r.outlier_runs.iter().map(|u| format!("rows {}-{} ({:+.2} mm)", u.first_row, u.last_row, u.median_residual_mm)).collect();
+    if r.screen.outlier_k > 0.0 && r.screen.robust_scale_mm > 0.0 {
+        let runs: Vec<String> =
+            r.screen.outlier_runs.iter().map(|u| format!("rows {}-{} ({:+.2} mm)", u.first_row, u.last_row, u.median_residual_mm)).collect();
         eprintln!(
             "  outliers (> {} robust sd of {:.4} mm): {} training rows kept out{}; {} test rows beyond the same rule",
-            r.outlier_k,
-            r.robust_scale_mm,
-            r.outliers.len(),
+            r.screen.outlier_k,
+            r.screen.robust_scale_mm,
+            r.screen.outliers.len(),
             if runs.is_empty() { String::new() } else { format!(", runs: {}", runs.join(", ")) },
-            r.test_outliers.len()
+            r.screen.test_outliers.len()
         );
-        for s in &r.reading_steps {
+        for s in &r.screen.reading_steps {
             eprintln!(
                 "  reading step: rows {}-{} read {:+.2} ± {:.2} mm off ({} training rows), corrected and kept",
                 s.first_row, s.last_row, s.offset_mm, s.std_mm, s.rows
             );
         }
-        if r.test_rows_in_steps > 0 {
-            eprintln!("  {} test rows inside reading steps corrected by their step's offset (from training rows)", r.test_rows_in_steps);
+        if r.screen.test_rows_in_steps > 0 {
+            eprintln!("  {} test rows inside reading steps corrected by their step's offset (from training rows)", r.screen.test_rows_in_steps);
         }
-        if let (Some(t), false) = (&m.test_after_inliers, r.test_outliers.is_empty()) {
+        if let (Some(t), false) = (&m.test_after_inliers, r.screen.test_outliers.is_empty()) {
             eprintln!("{}", row("test inliers", t));
         }
     }
@@ -95,11 +96,11 @@ fn print_screen(r: &twincal::calib::run::CalibResult) {
 
 /// The data's noise floor and the held-out RMSE against it.
 fn print_floor(r: &twincal::calib::run::CalibResult) {
-    let m = &r.metrics;
-    if r.noise_floor.as_ref().is_some_and(|f| f.sources.is_empty()) {
+    let m = &r.evaluation.metrics;
+    if r.evaluation.noise_floor.as_ref().is_some_and(|f| f.sources.is_empty()) {
         eprintln!("  noise floor of the data: not measurable (no repeated configurations, and neither the angles nor the readings show a logging step)");
     }
-    if let Some(f) = r.noise_floor.as_ref().filter(|f| !f.sources.is_empty()) {
+    if let Some(f) = r.evaluation.noise_floor.as_ref().filter(|f| !f.sources.is_empty()) {
         let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
         // Without repeated configurations the reading's own noise is not in the data: the
         // floor is only what the logging resolutions show, a lower bound.
@@ -118,17 +119,17 @@ fn print_floor(r: &twincal::calib::run::CalibResult) {
 }
 
 fn print_summary(r: &twincal::calib::run::CalibResult) {
-    let m = &r.metrics;
+    let m = &r.evaluation.metrics;
     let row = |label: &str, s: &twincal::stats::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
     eprintln!(
         "{} / {} on {} ({} train, {} test rows), {} iterations, {:.3} s",
-        r.method.name(),
-        r.model_name,
-        r.data,
-        r.n_train,
-        r.n_test,
-        r.iterations,
-        r.wall_time_s
+        r.provenance.method.name(),
+        r.provenance.model_name,
+        r.provenance.data,
+        r.provenance.n_train,
+        r.provenance.n_test,
+        r.solve.iterations,
+        r.provenance.wall_time_s
     );
     eprintln!("  {:<14} {:>10} {:>10} {:>10}   (mm)", "residuals", "RMSE", "STD", "MAX");
     eprintln!("{}", row("train before", &m.train_before));
@@ -156,11 +157,11 @@ fn print_summary(r: &twincal::calib::run::CalibResult) {
         r.parameters.len(),
         fixed.join(", ")
     );
-    let id = |k: &str| r.identifiability.get(k).and_then(|v| v.as_f64());
+    let id = |k: &str| r.solve.identifiability.get(k).and_then(|v| v.as_f64());
     if let (Some(all), Some(c)) = (id("condition_all"), id("condition_identifiable")) {
         eprintln!("  condition number: {all:.3e} with every parameter free, {c:.3e} for the identifiable set");
     }
-    if let Some(still) = r.identifiability.get("still_joints").and_then(|v| v.as_array()).filter(|v| !v.is_empty()) {
+    if let Some(still) = r.solve.identifiability.get("still_joints").and_then(|v| v.as_array()).filter(|v| !v.is_empty()) {
         let joints: Vec<String> = still.iter().map(|j| j.to_string()).collect();
         eprintln!("  joints that do not move in the data (held for the identifiability analysis): {}", joints.join(", "));
     }
@@ -169,7 +170,7 @@ fn print_summary(r: &twincal::calib::run::CalibResult) {
         eprintln!("{}", row("test, best 99%", t));
     }
     print_floor(r);
-    if let Some(t) = &r.truth_comparison {
+    if let Some(t) = &r.evaluation.truth_comparison {
         eprintln!(
             "  truth: {}/{} identifiable parameters within 3σ (max |z| = {:.2}); sensor noise floor {:.4} mm",
             t.within_3_sigma, t.identifiable, t.max_abs_z, t.noise_floor_mm

@@ -203,14 +203,14 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
 /// another folder). Where both exist and the model records its data's SHA-256, the one whose
 /// dataset matches wins.
 fn result_data(model: &Path, r: &CalibResult) -> PathBuf {
-    let recorded = PathBuf::from(&r.data);
+    let recorded = PathBuf::from(&r.provenance.data);
     if recorded.is_absolute() {
         return recorded;
     }
     let beside = model.parent().map(|d| d.join(&recorded));
     let matches = |p: &Path| {
         let file = super::data_inputs(p).swap_remove(0);
-        match (&r.data_sha256, std::fs::read(&file)) {
+        match (&r.provenance.data_sha256, std::fs::read(&file)) {
             (Some(sha), Ok(bytes)) => twincal::dataset::truth::sha256_hex(&bytes) == *sha,
             _ => false,
         }

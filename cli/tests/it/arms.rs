@@ -143,11 +143,11 @@ fn ur_tracker_scenarios_calibrate_to_the_noise_and_diagnose_a_hidden_compliance(
             ok(twincal(&["generate", "--scenario", &p(&plain), "--seed", seed, "--out", &p(&data)]), "generate");
             ok(twincal(&["calibrate", "--data", &p(&data), "--model", urdf, "--out", &p(&result)]), "calibrate");
             let (r, t) = (json(&result), json(&data.join("truth.json")));
-            let (test, noise) = (r["metrics"]["test_after"]["rmse"].as_f64().unwrap(), t["noise_std_mm"].as_f64().unwrap());
-            let cmp = &r["truth_comparison"];
+            let (test, noise) = (r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap(), t["noise_std_mm"].as_f64().unwrap());
+            let cmp = &r["evaluation"]["truth_comparison"];
             let (identifiable, within) = (cmp["identifiable"].as_u64().unwrap(), cmp["within_3_sigma"].as_u64().unwrap());
             eprintln!("{arm} seed {seed}: test RMSE {test:.5} mm, noise {noise:.5} mm ({:.3}), {within}/{identifiable} within 3 sigma", test / noise);
-            assert!(r["converged"].as_bool().unwrap(), "{arm} seed {seed}: {}", r["stop_reason"]);
+            assert!(r["solve"]["converged"].as_bool().unwrap(), "{arm} seed {seed}: {}", r["solve"]["stop_reason"]);
             assert!(test < 1.15 * noise, "{arm} seed {seed}: test RMSE {test} mm against the noise {noise} mm");
             assert!(identifiable >= 27 && within == identifiable, "{arm} seed {seed}: {cmp}");
 

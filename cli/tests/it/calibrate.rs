@@ -75,10 +75,10 @@ fn lm_reaches_the_noise_floor_and_the_truth_over_seeds() {
     for (ds, truth) in five_seeds() {
         let r = calibrate(ds, Some(truth), &irb120(Method::LM, "hayati")).unwrap();
         let floor = truth.noise_std_mm;
-        let (before, test) = (r.metrics.test_before.unwrap(), r.metrics.test_after.unwrap());
+        let (before, test) = (r.evaluation.metrics.test_before.unwrap(), r.evaluation.metrics.test_after.unwrap());
         assert!(before.rmse > 20.0 * floor, "the nominal model should be far off: {}", before.rmse);
         ratios.push(test.rmse / floor);
-        let cmp = r.truth_comparison.unwrap();
+        let cmp = r.evaluation.truth_comparison.unwrap();
         assert!(cmp.identifiable >= 20);
         assert!(
             cmp.within_3_sigma + 1 >= cmp.identifiable,
@@ -117,13 +117,13 @@ fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
         for (ds, truth) in &sets {
             let o = irb120(m, "hayati");
             let r = calibrate(ds, Some(truth), &o).unwrap();
-            ratios.push(r.metrics.test_after.unwrap().rmse / truth.noise_std_mm);
+            ratios.push(r.evaluation.metrics.test_after.unwrap().rmse / truth.noise_std_mm);
             if m == Method::EKF {
                 // The noise the method was given came from the data: near the true reading noise.
                 assert!(
-                    (r.noise_estimate_mm / truth.noise_std_mm - 1.0).abs() < 0.25,
+                    (r.solve.noise_estimate_mm / truth.noise_std_mm - 1.0).abs() < 0.25,
                     "{m:?}: noise estimate {} vs {}",
-                    r.noise_estimate_mm,
+                    r.solve.noise_estimate_mm,
                     truth.noise_std_mm
                 );
             }
@@ -139,7 +139,7 @@ fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
         let mut o = irb120(Method::PF, "hayati");
         o.effort = 0.5;
         let r = calibrate(ds, Some(truth), &o).unwrap();
-        let (before, after) = (r.metrics.test_before.unwrap().rmse, r.metrics.test_after.unwrap().rmse);
+        let (before, after) = (r.evaluation.metrics.test_before.unwrap().rmse, r.evaluation.metrics.test_after.unwrap().rmse);
         eprintln!("pf: test RMSE {after:.4} vs {before:.4} before, {:.1} s", t0.elapsed().as_secs_f64());
         assert!(after < 0.5 * before, "pf: test RMSE {after} vs {before} before");
     }
@@ -175,9 +175,9 @@ fn truth_comparison_catches_a_calibration_started_far_off() {
     // Joint zeros started 120° off: LM lands on another description of the arm that fits the
     // lengths as well as the truth does, with parameters far from the truth's.
     let r = calibrate_with(ds, Some(truth), &irb120(Method::LM, "hayati"), &FarOff(120.0)).unwrap();
-    let test = r.metrics.test_after.unwrap().rmse;
+    let test = r.evaluation.metrics.test_after.unwrap().rmse;
     assert!(test < 1.1 * truth.noise_std_mm, "the wrong basin fits the data: {test}");
-    let cmp = r.truth_comparison.clone().unwrap();
+    let cmp = r.evaluation.truth_comparison.clone().unwrap();
     assert!(cmp.within_3_sigma + 3 <= cmp.identifiable && cmp.max_abs_z > 100.0, "the far-off calibration must be caught: {cmp:?}");
     // What a comparison started from the estimate would have said: nothing moves, all agrees.
     let fixed: Vec<bool> = r.parameters.iter().map(|p| p.fixed).collect();
@@ -202,11 +202,11 @@ fn papers_dh_model_flags_the_parallel_axes() {
         let fixed: Vec<&str> = dh.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
         // Joints 2 and 3 are parallel: their D-H d cannot be told from the offsets around them.
         assert!(fixed.iter().any(|n| *n == "joint_2.d" || *n == "joint_3.d"), "{fixed:?}");
-        assert!(!dh.identifiability["invisible"].as_array().unwrap().is_empty());
+        assert!(!dh.solve.identifiability["invisible"].as_array().unwrap().is_empty());
         let hay = calibrate(ds, Some(truth), &irb120(Method::LM, "hayati")).unwrap();
         assert!(hay.parameters.iter().any(|p| p.name == "joint_2.beta" && !p.fixed));
-        dh_rmse.push(dh.metrics.test_after.unwrap().rmse);
-        hay_rmse.push(hay.metrics.test_after.unwrap().rmse);
+        dh_rmse.push(dh.evaluation.metrics.test_after.unwrap().rmse);
+        hay_rmse.push(hay.evaluation.metrics.test_after.unwrap().rmse);
         floor = truth.noise_std_mm;
     }
     // Plain D-H cannot express a tilt between the parallel axes (Hayati's β), which the true arm
@@ -225,8 +225,8 @@ fn calibrate_predict_and_export_through_the_cli() {
     let o = twincal(&["calibrate", "--data", dir.to_str().unwrap(), "--method", "lm", "--out", result.to_str().unwrap(), "--urdf", urdf.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
-    for key in ["parameters", "identifiability", "metrics", "iterations", "wall_time_s", "truth_comparison"] {
-        assert!(!json[key].is_null(), "result.json lacks {key}");
+    for key in ["parameters", "solve/identifiability", "evaluation/metrics", "solve/iterations", "provenance/wall_time_s", "evaluation/truth_comparison"] {
+        assert!(json.pointer(&format!("/{key}")).is_some_and(|v| !v.is_null()), "result.json lacks {key}");
     }
     assert!(json["parameters"][0]["std_uncertainty"].is_number() || json["parameters"][0]["fixed"] == true);
     // The calibrated URDF loads as a robot.
@@ -252,7 +252,7 @@ fn calibrate_predict_and_export_through_the_cli() {
         })
         .collect();
     let rmse = (res.iter().map(|r| r * r).sum::<f64>() / res.len() as f64).sqrt();
-    let reported = json["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+    let reported = json["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap();
     assert!((rmse - reported).abs() < 1e-9, "{rmse} vs {reported}");
 }
 
@@ -262,13 +262,13 @@ fn test_fraction_zero_trains_on_every_row() {
     let mut o = irb120(Method::LM, "hayati");
     o.test_fraction = Some(0.0);
     let r = calibrate(ds, None, &o).unwrap();
-    assert_eq!(r.n_train, ds.rows.len());
-    assert_eq!(r.n_test, 0);
-    assert!(r.metrics.test_after.is_none() && r.truth_comparison.is_none());
+    assert_eq!(r.provenance.n_train, ds.rows.len());
+    assert_eq!(r.provenance.n_test, 0);
+    assert!(r.evaluation.metrics.test_after.is_none() && r.evaluation.truth_comparison.is_none());
     let mut o = irb120(Method::LM, "hayati");
     o.test_fraction = Some(0.25);
     let r = calibrate(ds, None, &o).unwrap();
-    assert_eq!(r.n_test, 100);
+    assert_eq!(r.provenance.n_test, 100);
 }
 
 #[test]
@@ -356,9 +356,9 @@ fn hsr_robotcali_generic_model_reaches_the_repeatability_floor() {
     let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
     o.test_fraction = Some(0.2);
     let r = calibrate(&ds, None, &o).unwrap();
-    let rep = r.repeatability.clone().expect("repeated configurations are present");
+    let rep = r.evaluation.repeatability.clone().expect("repeated configurations are present");
     assert!(rep.groups >= 10, "{rep:?}");
-    let test = r.metrics.test_after.unwrap().rmse;
+    let test = r.evaluation.metrics.test_after.unwrap().rmse;
     eprintln!("HSR held-out RMSE {test:.4} mm, floor {:.4} mm, ratio {:.3}", rep.pooled_std, test / rep.pooled_std);
     // The held-out rows are whole blocks (a configuration measured again and again is one block:
     // its repeats never sit on both sides of the split), so they are unseen configurations:
@@ -420,11 +420,11 @@ fn pso_ekf_awnn_learns_a_joint_space_field_that_lm_cannot_fit() {
             calibrate(&ds, None, &o).unwrap()
         };
         let a = run(Method::PSO_EKF_AWNN);
-        assert!(a.stop_reason.contains("condition number"), "{}", a.stop_reason);
+        assert!(a.solve.stop_reason.contains("condition number"), "{}", a.solve.stop_reason);
         assert!(matches!(a.corrector, Some(twincal::calib::correctors::Corrector::Awnn(_))));
-        lm.push(run(Method::LM).metrics.test_after.unwrap().rmse);
-        aw.push(a.metrics.test_after.unwrap().rmse);
-        v1.push(run(Ablation::V1Symbolic.method()).metrics.test_after.unwrap().rmse);
+        lm.push(run(Method::LM).evaluation.metrics.test_after.unwrap().rmse);
+        aw.push(a.evaluation.metrics.test_after.unwrap().rmse);
+        v1.push(run(Ablation::V1Symbolic.method()).evaluation.metrics.test_after.unwrap().rmse);
     }
     let (lm, aw, v1) = (median(lm), median(aw), median(v1));
     assert!(aw < 0.75 * lm, "median test RMSE: pso-ekf-awnn {aw:.4} mm vs LM {lm:.4} mm");
@@ -440,10 +440,10 @@ fn pso_ekf_awnn_beats_lm_on_the_all_effects_scenario() {
     let sets = scenario_seeds("irb120_pso_ekf", 1077..1082, |_| {});
     let mut ratios = Vec::new();
     for (ds, _) in &sets {
-        let lm = calibrate(ds, None, &irb120(Method::LM, "hayati")).unwrap().metrics.test_after.unwrap().rmse;
+        let lm = calibrate(ds, None, &irb120(Method::LM, "hayati")).unwrap().evaluation.metrics.test_after.unwrap().rmse;
         let a = calibrate(ds, None, &irb120(Method::PSO_EKF_AWNN, "hayati")).unwrap();
-        assert!(a.stop_reason.contains("chosen by 5-fold CV on the training rows"), "{}", a.stop_reason);
-        ratios.push(a.metrics.test_after.unwrap().rmse / lm);
+        assert!(a.solve.stop_reason.contains("chosen by 5-fold CV on the training rows"), "{}", a.solve.stop_reason);
+        ratios.push(a.evaluation.metrics.test_after.unwrap().rmse / lm);
     }
     let wins = ratios.iter().filter(|r| **r < 1.0).count();
     assert!(wins >= 4 && median(ratios.clone()) < 0.985, "test RMSE ratios to LM {ratios:?}");
@@ -452,7 +452,7 @@ fn pso_ekf_awnn_beats_lm_on_the_all_effects_scenario() {
     let o = irb120(Method::PSO_EKF_AWNN, "hayati");
     let a = calibrate(ds, None, &o).unwrap();
     let b = calibrate(&datasets::test_lengths_scrambled(ds), None, &o).unwrap();
-    assert_eq!(a.stop_reason, b.stop_reason);
+    assert_eq!(a.solve.stop_reason, b.solve.stop_reason);
     assert_eq!(a.x, b.x);
 }
 
@@ -468,7 +468,7 @@ fn pso_ekf_awnn_cli_result_round_trips_and_is_reproducible() {
     let a = twincal::calib::run::CalibResult::load(&out("a.json")).unwrap();
     let b = twincal::calib::run::CalibResult::load(&out("b.json")).unwrap();
     assert_eq!(a.x, b.x, "same seed, same result");
-    assert_eq!(a.method.name(), "pso-ekf-awnn");
+    assert_eq!(a.provenance.method.name(), "pso-ekf-awnn");
     assert!(matches!(&a.corrector, Some(twincal::calib::correctors::Corrector::Awnn(_))), "{:?}", a.corrector);
     // predict uses the stored network: its predictions are the result's own.
     let o = twincal(&["predict", "--model", out("a.json").to_str().unwrap(), "--data", dir.to_str().unwrap(), "--out", out("p.csv").to_str().unwrap()]);
@@ -505,11 +505,11 @@ fn compare_scores_the_residuals_the_calibration_scored() {
     let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM);
     o.effects = vec![(EffectKind::ThermalDrift, None)];
     let r = calibrate(&ds, None, &o).unwrap();
-    let t = r.metrics.test_after.unwrap();
+    let t = r.evaluation.metrics.test_after.unwrap();
     assert_eq!(r.test_residuals_mm.len(), t.n);
     let rms = (r.test_residuals_mm.iter().map(|v| v * v).sum::<f64>() / t.n as f64).sqrt();
     assert!((rms - t.rmse).abs() < 1e-12 * t.rmse.max(1.0), "{rms} vs {}", t.rmse);
-    let angles_only: Vec<f64> = r.test_rows.iter().map(|&i| ds.rows[i].l_mm().unwrap() - r.predict_mm(&ds.rows[i].q_deg)).collect();
+    let angles_only: Vec<f64> = r.provenance.test_rows.iter().map(|&i| ds.rows[i].l_mm().unwrap() - r.predict_mm(&ds.rows[i].q_deg)).collect();
     let worst = angles_only.iter().zip(&r.test_residuals_mm).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(worst > 1e-3, "without the temperature the prediction should differ (by {worst} mm)");
 }
@@ -601,7 +601,7 @@ fn a_method_ending_worse_than_nominal_warns_and_constant_lengths_are_refused() {
         }
     }
     let r = calibrate_with(ds, None, &irb120(Method::LM, "hayati"), &Stuck).unwrap();
-    assert!(r.metrics.train_after.rmse > r.metrics.train_before.rmse);
+    assert!(r.evaluation.metrics.train_after.rmse > r.evaluation.metrics.train_before.rmse);
     assert!(r.warnings.iter().any(|w| w.contains("pf ended worse than the nominal model")), "{:?}", r.warnings);
     // Constant L.
     let flat = Dataset { rows: ds.rows.iter().map(|row| Row { reading_mm: vec![512.5], ..row.clone() }).collect(), source: "flat".into() };

@@ -334,7 +334,7 @@ fn stale_truth_is_detected() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("warning:") && stderr(&o).contains("no dataset fingerprint"), "{}", stderr(&o));
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
-    assert!(r["truth_comparison"].is_null(), "an unmatched truth must not be used");
+    assert!(r["evaluation"]["truth_comparison"].is_null(), "an unmatched truth must not be used");
 }
 
 #[test]
@@ -450,7 +450,7 @@ fn an_optimiser_stopped_by_its_budget_is_a_warning_even_when_quiet() {
     let e = stderr(&o);
     assert!(e.contains("warning: pso stopped without converging (maximum number of iterations reached"), "{e}");
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
-    assert_eq!(r["converged"], false);
+    assert_eq!(r["solve"]["converged"], false);
     // A converged LM run prints no warning.
     let o = twincal(&["calibrate", "--data", s(&data), "--out", s(&res)]);
     assert!(o.status.success());
@@ -664,9 +664,9 @@ fn hand_edited_result_values_out_of_range_are_refused() {
     assert!(o.status.success(), "{}", stderr(&o));
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&res).unwrap()).unwrap();
     type Edit = fn(&mut serde_json::Value);
-    assert_eq!(r["schema_version"], 1, "result.json carries its schema version");
+    assert_eq!(r["schema_version"], 2, "result.json carries its schema version");
     let cases: [(Edit, &str); 7] = [
-        (|r| r["schema_version"] = 2.into(), "schema_version 2, written by a newer twincal"),
+        (|r| r["schema_version"] = 3.into(), "schema_version 3, written by a newer twincal"),
         (|r| r["torque_model"]["links"].as_array_mut().unwrap().truncate(3), "3 link masses for a model of 6 joints"),
         (|r| r["torque_model"]["links"][1][0] = 1e6.into(), "link 2 has mass 1000000 kg"),
         (|r| r["torque_model"]["cable"][2] = 1e9.into(), "cable tension 1e9 N"),
@@ -822,7 +822,8 @@ fn nonsense_from_the_second_sweep_is_refused_or_said() {
     let e = stderr(&o);
     assert!(o.status.success(), "{e}");
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&v5).unwrap()).unwrap();
-    let (train, test) = (r["metrics"]["train_after"]["rmse"].as_f64().unwrap(), r["metrics"]["test_after"]["rmse"].as_f64().unwrap());
+    let (train, test) =
+        (r["evaluation"]["metrics"]["train_after"]["rmse"].as_f64().unwrap(), r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap());
     let said = e.contains("fits the training rows far inside the reading noise");
     let kept = r["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("far inside the reading noise"));
     assert!(said && kept, "train {train}, test {test}: {e}");
@@ -831,4 +832,41 @@ fn nonsense_from_the_second_sweep_is_refused_or_said() {
     assert!(twincal(&["calibrate", "--data", s(&full), "--method", "pso-ekf-awnn-x", "--out", &x]).status.success());
     let o = twincal(&["ik", "--model", &x, "--random", "2", "--no-twin", "--jacobian", "analytic", "--out", &out("ikx.csv")]);
     assert!(o.status.success() && stderr(&o).contains("warning: the model reads backlash flanks"), "{}", stderr(&o));
+}
+
+/// result.json of layout 1 (flat: before `provenance`, `solve`, `screen` and `evaluation`)
+/// still loads and predicts as the nested file it came from; a file of a newer layout is
+/// refused by name.
+#[test]
+fn a_flat_result_file_of_layout_1_still_loads_and_predicts_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (data, nested) = (dir.path().join("d"), dir.path().join("r2.json"));
+    assert!(twincal(&["generate", "--out", &s(&data)]).status.success());
+    let o = twincal(&["calibrate", "--data", &s(&data), "--out", &s(&nested)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&nested).unwrap()).unwrap();
+    assert_eq!(v["schema_version"], 2);
+    assert!(v["provenance"]["test_rows"].as_array().is_some_and(|t| !t.is_empty()) && v["evaluation"]["metrics"]["test_after"]["rmse"].is_number());
+    let mut flat = v.as_object().unwrap().clone();
+    for group in ["provenance", "solve", "screen", "evaluation"] {
+        for (k, x) in flat.remove(group).unwrap().as_object().unwrap() {
+            flat.insert(k.clone(), x.clone());
+        }
+    }
+    flat.insert("schema_version".into(), 1.into());
+    let old = dir.path().join("r1.json");
+    std::fs::write(&old, serde_json::to_string_pretty(&flat).unwrap()).unwrap();
+    let predict = |model: &Path, out: &str| {
+        let out = dir.path().join(out);
+        let o = twincal(&["predict", "--model", &s(model), "--data", &s(&data), "--out", &s(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read_to_string(out).unwrap()
+    };
+    assert_eq!(predict(&old, "p1.csv"), predict(&nested, "p2.csv"));
+    flat.insert("schema_version".into(), 3.into());
+    std::fs::write(&old, serde_json::to_string_pretty(&flat).unwrap()).unwrap();
+    let o = twincal(&["predict", "--model", &s(&old), "--data", &s(&data), "--out", &s(&dir.path().join("p3.csv"))]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("schema_version 3, written by a newer twincal"), "{}", stderr(&o));
 }

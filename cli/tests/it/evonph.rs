@@ -50,10 +50,10 @@ fn dsade_gkan_beats_lm_on_held_out_rows_over_seeds_and_is_reproducible() {
     let mut lm = Vec::new();
     let mut evo = Vec::new();
     for seed in 0..3 {
-        lm.push(test(Method::LM, seed).metrics.test_after.unwrap().rmse);
+        lm.push(test(Method::LM, seed).evaluation.metrics.test_after.unwrap().rmse);
         let r = test(Method::DSADE_GKAN, seed);
         assert!(matches!(r.corrector, Some(twincal::calib::correctors::Corrector::Gkan(_))));
-        evo.push(r.metrics.test_after.unwrap().rmse);
+        evo.push(r.evaluation.metrics.test_after.unwrap().rmse);
     }
     assert!(median(evo.clone()) < median(lm.clone()), "dsade-gkan {evo:?} vs lm {lm:?}");
     // Same seed, same result (the DE runs on rayon threads).
@@ -128,18 +128,18 @@ fn the_network_is_chosen_on_training_rows_only_and_dh_form_works() {
     let mut o = opts(Method::DSADE_GKAN, 5);
     o.test_fraction = None;
     let a = calibrate(ds, None, &o).unwrap();
-    assert!(a.stop_reason.contains("chosen by 5-fold CV on the training rows"), "{}", a.stop_reason);
+    assert!(a.solve.stop_reason.contains("chosen by 5-fold CV on the training rows"), "{}", a.solve.stop_reason);
     let b = calibrate(&datasets::test_lengths_scrambled(ds), None, &o).unwrap();
-    assert_eq!(a.stop_reason, b.stop_reason);
+    assert_eq!(a.solve.stop_reason, b.solve.stop_reason);
     assert_eq!(a.x, b.x);
-    assert!(b.metrics.test_after.unwrap().rmse > 2.0 * a.metrics.test_after.unwrap().rmse);
+    assert!(b.evaluation.metrics.test_after.unwrap().rmse > 2.0 * a.evaluation.metrics.test_after.unwrap().rmse);
 
     let mut dh = opts(Method::DSADE_GKAN, 5);
     dh.model = ModelSpec::parse("irb120", "dh").unwrap();
     let r = calibrate(ds, None, &dh).unwrap();
     let lm = calibrate(ds, None, &CalibOptions { method: Method::LM, ..dh.clone() }).unwrap();
-    let (e, l) = (r.metrics.test_after.unwrap().rmse, lm.metrics.test_after.unwrap().rmse);
-    assert!(r.stop_reason.contains("GKAN") && e < 1.1 * l, "dh: dsade-gkan {e} vs lm {l}");
+    let (e, l) = (r.evaluation.metrics.test_after.unwrap().rmse, lm.evaluation.metrics.test_after.unwrap().rmse);
+    assert!(r.solve.stop_reason.contains("GKAN") && e < 1.1 * l, "dh: dsade-gkan {e} vs lm {l}");
 }
 
 /// `dsade-gkan` on a laser tracker's points: one GKAN per coordinate, the geometry shared. On the
@@ -160,7 +160,7 @@ fn dsade_gkan_learns_one_network_per_coordinate_on_tracker_points() {
     let dir = tempfile::tempdir().unwrap();
     let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let json = |path: &str| -> serde_json::Value { serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap() };
-    let test_rmse = |r: &serde_json::Value| r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+    let test_rmse = |r: &serde_json::Value| r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap();
     for (name, scenario, seeds) in [("compliance", &compliance, &["1", "2", "3"][..]), ("geometric", &base, &["1"][..])] {
         std::fs::write(at(&format!("{name}.toml")), scenario).unwrap();
         for seed in seeds {
@@ -176,7 +176,7 @@ fn dsade_gkan_learns_one_network_per_coordinate_on_tracker_points() {
             let values = evo["corrector"]["values"].as_array().unwrap();
             assert_eq!(values.len(), 3, "{name} {seed}");
             assert!(values.iter().all(|v| v["kind"] == "gkan"), "{name} {seed}");
-            let reason = evo["stop_reason"].as_str().unwrap();
+            let reason = evo["solve"]["stop_reason"].as_str().unwrap();
             if name == "compliance" {
                 assert!(test_rmse(&evo) < 0.8 * test_rmse(&lm), "seed {seed}: dsade-gkan {} vs lm {}: {reason}", test_rmse(&evo), test_rmse(&lm));
                 assert!(reason.contains("chosen by 5-fold CV"), "{reason}");

@@ -134,15 +134,15 @@ fn the_commands_take_a_tracker_dataset() {
     assert!(out.status.success(), "{err}");
     assert!(err.contains("per coordinate (x, y, z)") && err.contains("position error"), "{err}");
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
-    let test = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+    let test = r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap();
     assert_eq!(r["model"]["measurement"], "point");
     // The screen takes a row of three values as one: the bumped rows, and only they, are out
     // (kept out of the fit when they are training rows, flagged when they are test rows).
-    let rows = |key: &str| r[key].as_array().unwrap().iter().map(|o| o["row"].as_u64().unwrap()).collect::<Vec<u64>>();
+    let rows = |key: &str| r["screen"][key].as_array().unwrap().iter().map(|o| o["row"].as_u64().unwrap()).collect::<Vec<u64>>();
     let mut out = [rows("outliers"), rows("test_outliers")].concat();
     out.sort();
     assert_eq!(out, bumped, "{err}");
-    let inliers = r["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap_or(test);
+    let inliers = r["evaluation"]["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap_or(test);
     assert!(inliers < 1.2 * NOISE_M * 1e3, "held-out RMSE {inliers} mm (inliers) vs noise {} mm\n{err}", NOISE_M * 1e3);
 
     let out = twincal(&["predict", "--model", result.to_str().unwrap(), "--data", data, "--out", pred.to_str().unwrap()]);
@@ -153,7 +153,7 @@ fn the_commands_take_a_tracker_dataset() {
     // The result's held-out numbers come back from the model it wrote: predict's residuals on
     // the test rows, without the flagged ones, give the result's test RMSE.
     let reproduce = |model: &serde_json::Value, csv: &str| -> f64 {
-        let flagged: Vec<u64> = model["test_outliers"].as_array().unwrap().iter().map(|o| o["row"].as_u64().unwrap()).collect();
+        let flagged: Vec<u64> = model["screen"]["test_outliers"].as_array().unwrap().iter().map(|o| o["row"].as_u64().unwrap()).collect();
         let r: Vec<f64> = csv
             .lines()
             .skip(1)
@@ -163,7 +163,7 @@ fn the_commands_take_a_tracker_dataset() {
             .collect();
         (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt()
     };
-    let stored = r["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
+    let stored = r["evaluation"]["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
     assert!((reproduce(&r, &csv) - stored).abs() < 1e-9, "predict gives {} mm, the result says {stored} mm", reproduce(&r, &csv));
 
     // `rbf` fits one network per coordinate on the LM residuals: no worse on unseen rows, and
@@ -174,12 +174,12 @@ fn the_commands_take_a_tracker_dataset() {
     let rb: serde_json::Value = serde_json::from_slice(&std::fs::read(&rbf).unwrap()).unwrap();
     assert_eq!(rb["corrector"]["kind"], "values");
     assert_eq!(rb["corrector"]["values"].as_array().unwrap().len(), 3);
-    let rbf_inliers = rb["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
+    let rbf_inliers = rb["evaluation"]["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
     assert!(rbf_inliers < 1.2 * NOISE_M * 1e3, "rbf held-out RMSE {rbf_inliers} mm");
     let out = twincal(&["predict", "--model", rbf.to_str().unwrap(), "--data", data, "--out", pred.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let csv = std::fs::read_to_string(&pred).unwrap();
-    let stored = rb["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
+    let stored = rb["evaluation"]["metrics"]["test_after_inliers"]["rmse"].as_f64().unwrap();
     assert!((reproduce(&rb, &csv) - stored).abs() < 1e-9, "rbf: predict gives {} mm, the result says {stored} mm", reproduce(&rb, &csv));
 
     // What reads cable lengths only names what the file holds.
@@ -228,9 +228,9 @@ fn the_twin_writes_a_tracker_dataset_that_calibrates_to_its_truth() {
         let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
         let truth: serde_json::Value = serde_json::from_slice(&std::fs::read(data.join("truth.json")).unwrap()).unwrap();
         let noise = truth["noise_std_mm"].as_f64().unwrap();
-        let test = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+        let test = r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap();
         assert!(test / noise > 0.8 && test / noise < 1.25, "seed {seed}: held-out RMSE {test:.5} mm against the noise {noise:.5} mm\n{err}");
-        let c = &r["truth_comparison"];
+        let c = &r["evaluation"]["truth_comparison"];
         let (within, identifiable) = (c["within_3_sigma"].as_u64().unwrap(), c["identifiable"].as_u64().unwrap());
         assert_eq!(within, identifiable, "seed {seed}: {within}/{identifiable} within 3σ\n{err}");
         if seed == "1" {
@@ -403,13 +403,13 @@ fn the_report_and_the_recording_draw_a_tracker_dataset() {
     assert_eq!(figure(&page, "Position error |Δp| vs x").matches("<circle").count(), 2 * rows + 3, "points and three legend markers");
     // The position error per row: |Δp|² is the sum of the coordinates' squares, and the
     // coordinates' RMS over the test rows gives the result's per-value test RMSE.
-    let n_test = r["n_test"].as_u64().unwrap() as f64;
+    let n_test = r["provenance"]["n_test"].as_u64().unwrap() as f64;
     let [before, after] = ["test, before", "test, after"].map(|name| table_row(&page, "Position error per row", name));
     let (n, rms_dp, max_dp, xyz) = (after[0], after[1], after[3], &after[4..7]);
     assert_eq!(n, n_test);
     let sum_sq: f64 = xyz.iter().map(|v| v * v).sum();
     assert!((sum_sq.sqrt() - rms_dp).abs() < 3e-4, "RMS |Δp| {rms_dp} against the coordinates' {xyz:?}");
-    let per_value = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+    let per_value = r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap();
     assert!(((sum_sq / 3.0).sqrt() - per_value).abs() < 2e-4, "{xyz:?} against the result's {per_value}");
     assert!(max_dp >= rms_dp && before[1] > 10.0 * rms_dp, "before {before:?}, after {after:?}");
     // The instrument's panels: the tracker's translation and the reflector in mm, its
@@ -496,7 +496,7 @@ fn pso_ekf_awnn_corrects_a_tracker_point_per_coordinate() {
         r["path"] = out.to_str().unwrap().into();
         r
     };
-    let test_rmse = |r: &serde_json::Value| r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+    let test_rmse = |r: &serde_json::Value| r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap();
     for seed in ["1", "2", "3"] {
         let data = dir.path().join(format!("t{seed}"));
         let out = twincal(&["generate", "--scenario", scenario, "--seed", seed, "--out", data.to_str().unwrap(), "--quiet"]);
@@ -515,11 +515,11 @@ fn pso_ekf_awnn_corrects_a_tracker_point_per_coordinate() {
         assert!(values.iter().all(|v| v["kind"] == "awnn" && v["weights"].as_array().unwrap().len() == values[0]["weights"].as_array().unwrap().len()));
         // Where the network's choice found no layout better than the geometry alone by one
         // standard error, no stage learns one later: every output weight stays zero.
-        if r["stop_reason"].as_str().unwrap().starts_with("network: no network layout beat") {
+        if r["solve"]["stop_reason"].as_str().unwrap().starts_with("network: no network layout beat") {
             assert!(values.iter().all(|v| v["weights"].as_array().unwrap().iter().all(|w| w.as_f64() == Some(0.0))), "seed {seed}");
         }
         // predict with the written result: its residuals on the test rows give the printed RMSE.
-        assert!(r["test_outliers"].as_array().is_none_or(|o| o.is_empty()));
+        assert!(r["screen"]["test_outliers"].as_array().is_none_or(|o| o.is_empty()));
         let pred = dir.path().join(format!("p{seed}.csv"));
         let out = twincal(&["predict", "--model", r["path"].as_str().unwrap(), "--data", data.to_str().unwrap(), "--out", pred.to_str().unwrap()]);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -624,7 +624,7 @@ fn tracker_files_as_users_have_them() {
     let (code, err) = run(&["calibrate", "--data", data.to_str().unwrap(), "--test-fraction", &frac, "--seed", "0", "--out", &at("c0.json"), "--quiet"]);
     assert_eq!(code, Some(0), "{err}");
     let c0: serde_json::Value = serde_json::from_slice(&std::fs::read(at("c0.json")).unwrap()).unwrap();
-    let (a, b) = (seed0["test_position"]["mae"].as_f64().unwrap(), c0["metrics"]["test_position_after"]["mae"].as_f64().unwrap());
+    let (a, b) = (seed0["test_position"]["mae"].as_f64().unwrap(), c0["evaluation"]["metrics"]["test_position_after"]["mae"].as_f64().unwrap());
     assert!((a - b).abs() < 1e-12 && a > 0.0, "compare {a} vs calibrate {b}");
 }
 
@@ -680,13 +680,13 @@ fn per_row_standard_deviations_weight_the_fit() {
             assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
             let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
             if ignore {
-                assert!(r.get("weighting").is_none());
+                assert!(r["solve"].get("weighting").is_none());
             } else {
-                let w = &r["weighting"];
+                let w = &r["solve"]["weighting"];
                 // The twin's model is exact: the instrument's noise is all there is.
                 assert!(w["floor_mm"].as_f64().unwrap() < 0.01 && w["weight_span"].as_f64().unwrap() > 50.0, "{w}");
                 assert_eq!(w["rows_with_std"], w["rows"]);
-                assert_eq!(r["outliers"].as_array().unwrap().len(), 0, "rows as noisy as their std says are no outliers");
+                assert_eq!(r["screen"]["outliers"].as_array().unwrap().len(), 0, "rows as noisy as their std says are no outliers");
             }
             let out = twincal(&["predict", "--model", &p(&result), "--data", &p(&q), "--out", &p(&pred), "--quiet"]);
             assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

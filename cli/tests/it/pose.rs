@@ -101,9 +101,9 @@ fn pose_data_calibrate_to_the_noise_and_recover_the_tracker_and_the_probe() {
             // The twin's 100 µrad per sample over 50 samples: 0.0008° per axis.
             assert!(pos < 0.01 && ang < 0.01, "position RMSE {pos} mm, largest angle residual {ang} deg");
         }
-        let test = r["metrics"]["test_after"]["rmse"].as_f64().unwrap();
+        let test = r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap();
         let noise = test_noise(&data);
-        let cmp = &r["truth_comparison"];
+        let cmp = &r["evaluation"]["truth_comparison"];
         let identifiable = cmp["identifiable"].as_u64().unwrap();
         // The tracker's and the probe's placement, each against its truth.
         let params = r["parameters"].as_array().unwrap();

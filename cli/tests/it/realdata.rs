@@ -14,7 +14,7 @@ fn shared(rel: &str) -> Option<PathBuf> {
 }
 
 fn condition_identifiable(r: &CalibResult) -> f64 {
-    r.identifiability["condition_identifiable"].as_f64().unwrap()
+    r.solve.identifiability["condition_identifiable"].as_f64().unwrap()
 }
 
 /// The unknown arm: every 5th row of the pool held out (the rows interleave with the training
@@ -34,13 +34,13 @@ fn hsr_generic_model_converges_and_predicts_interleaved_rows_near_the_floor() {
         let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
         o.seed = seed;
         let r = calibrate(&ds, None, &o).unwrap();
-        assert!(r.converged, "seed {seed}: {}", r.stop_reason);
-        assert_eq!(r.identifiability["still_joints"], serde_json::json!([6]), "seed {seed}");
+        assert!(r.solve.converged, "seed {seed}: {}", r.solve.stop_reason);
+        assert_eq!(r.solve.identifiability["still_joints"], serde_json::json!([6]), "seed {seed}");
         assert!(condition_identifiable(&r) < 1e7, "seed {seed}: condition {}", condition_identifiable(&r));
-        let floor = r.noise_floor.as_ref().unwrap();
+        let floor = r.evaluation.noise_floor.as_ref().unwrap();
         assert!(floor.sources.iter().any(|s| s.source == "repeatability") && floor.sources.iter().any(|s| s.source == "angle_resolution"), "{floor:?}");
-        let trimmed = r.metrics.test_after_trimmed.unwrap().rmse;
-        eprintln!("seed {seed}: held-out RMSE without the worst 1 % {trimmed:.4} mm, floor {:.4} mm, {} iterations", floor.total_mm, r.iterations);
+        let trimmed = r.evaluation.metrics.test_after_trimmed.unwrap().rmse;
+        eprintln!("seed {seed}: held-out RMSE without the worst 1 % {trimmed:.4} mm, floor {:.4} mm, {} iterations", floor.total_mm, r.solve.iterations);
         ratios.push(trimmed / floor.total_mm);
         first.get_or_insert(r);
     }
@@ -68,16 +68,16 @@ fn robotcali_lm_converges_and_names_the_disturbed_stretch() {
         o.split_by = twincal::calib::run::SplitBy::Rows;
         o.seed = seed;
         let r = calibrate(&ds, None, &o).unwrap();
-        assert!(r.converged, "seed {seed}: {}", r.stop_reason);
+        assert!(r.solve.converged, "seed {seed}: {}", r.solve.stop_reason);
         // Rows ~114-176 read 3.7, then 6.2, then 8.2 mm short: three reading steps, corrected.
-        let steps: Vec<_> = r.reading_steps.iter().filter(|s| s.first_row >= 100 && s.last_row <= 190).collect();
-        assert!(steps.len() >= 2 && steps.iter().all(|s| s.offset_mm < -3.0), "seed {seed}: {:?}", r.reading_steps);
+        let steps: Vec<_> = r.screen.reading_steps.iter().filter(|s| s.first_row >= 100 && s.last_row <= 190).collect();
+        assert!(steps.len() >= 2 && steps.iter().all(|s| s.offset_mm < -3.0), "seed {seed}: {:?}", r.screen.reading_steps);
         let (lo, hi) = steps.iter().fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s.offset_mm), b.max(s.offset_mm)));
         assert!(hi - lo > 3.0, "seed {seed}: the offsets of a slipping reading grow: {steps:?}");
-        let angle = r.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
+        let angle = r.evaluation.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
         assert!((0.2..0.35).contains(&angle), "seed {seed}: angle-resolution floor {angle}");
-        let inliers = r.metrics.test_after_inliers.unwrap();
-        let all = r.metrics.test_after.unwrap();
+        let inliers = r.evaluation.metrics.test_after_inliers.unwrap();
+        let all = r.evaluation.metrics.test_after.unwrap();
         eprintln!("seed {seed}: test RMSE {:.3} mm on every row, {:.3} mm on the {} inliers", all.rmse, inliers.rmse, inliers.n);
         assert!(inliers.rmse < 0.75 && inliers.n >= 140, "seed {seed}: {inliers:?}");
         // The papers report LM at about 1.2 mm on this robot.
@@ -132,7 +132,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     let ds = Dataset::load(dir.path()).unwrap();
     let truth = twincal::calib::run::TruthFile::find(dir.path()).unwrap();
     let lm = calibrate(&ds, truth.as_ref(), &CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM)).unwrap();
-    assert!(lm.converged, "{}", lm.stop_reason);
+    assert!(lm.solve.converged, "{}", lm.solve.stop_reason);
     // Random rows as the test set and rows taken as independent: the test rows share their
     // sweeps' rounding with training rows, the held-out RMSE falls below the floor, and the
     // result says the split leaks (the default, the file's own split with the noise model, not).
@@ -145,14 +145,14 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         ..CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM)
     };
     let independent = calibrate(&ds, None, &rows).unwrap();
-    let floor = independent.noise_floor.as_ref().unwrap().total_mm;
-    eprintln!("random rows, rows independent: test inliers {:.4} mm, floor {floor:.4} mm", independent.metrics.test_after_inliers.unwrap().rmse);
+    let floor = independent.evaluation.noise_floor.as_ref().unwrap().total_mm;
+    eprintln!("random rows, rows independent: test inliers {:.4} mm, floor {floor:.4} mm", independent.evaluation.metrics.test_after_inliers.unwrap().rmse);
     assert!(leaks(&independent), "{:?}", independent.warnings);
     // The glitch runs are one offset each: found as reading steps where the truth put them, with
     // the offset the truth gives (the median of measured minus true length over the run).
-    assert_eq!(lm.reading_steps.len(), 3, "{:?} (outlier runs {:?})", lm.reading_steps, lm.outlier_runs);
+    assert_eq!(lm.screen.reading_steps.len(), 3, "{:?} (outlier runs {:?})", lm.screen.reading_steps, lm.screen.outlier_runs);
     let tr = truth.as_ref().unwrap();
-    for st in &lm.reading_steps {
+    for st in &lm.screen.reading_steps {
         let rows: Vec<usize> = (st.first_row - 1..st.last_row).collect();
         assert!(rows.len() >= 4 && rows.iter().all(|r| glitches.contains(r)), "step {st:?} is no glitch run");
         let mut off: Vec<f64> = rows.iter().map(|&r| ds.rows[r].l_mm().unwrap() - tr.poses[r].length_true_mm).collect();
@@ -160,28 +160,28 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         let want = off[off.len() / 2];
         // Rows of one sweep share the rounding of the joints that hold still: the step's offset
         // holds that common error too, at most a few times the angle-resolution floor.
-        let angle = lm.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
+        let angle = lm.evaluation.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
         assert!((st.offset_mm - want).abs() < 4.0 * st.std_mm + 2.0 * angle, "step {st:?}: the truth's offset is {want:.3} mm");
     }
     // A test row between a step's first (last) training row and the clean training row before
     // (after) it may be on either side of the jump: it takes the mean of both offsets and may
     // stand out; nothing else may.
-    let at_edge = |row: usize| lm.reading_steps.iter().any(|s| row + 3 >= s.first_row && row <= s.last_row + 3);
-    for o in lm.outliers.iter().chain(&lm.test_outliers) {
+    let at_edge = |row: usize| lm.screen.reading_steps.iter().any(|s| row + 3 >= s.first_row && row <= s.last_row + 3);
+    for o in lm.screen.outliers.iter().chain(&lm.screen.test_outliers) {
         assert!(glitches.contains(&(o.row - 1)) || at_edge(o.row), "row {} is no glitch: {o:?}", o.row);
     }
-    let floor = lm.noise_floor.as_ref().unwrap();
+    let floor = lm.evaluation.noise_floor.as_ref().unwrap();
     let angle = floor.sources.iter().find(|s| s.source == "angle_resolution").unwrap();
     assert!((0.15..0.35).contains(&angle.rms_mm) && angle.detail.contains("0.1 deg"), "{angle:?}");
     // The test rows reach the floor: they share sweeps with the training rows (the scenario's own
     // split), but the noise model keeps the fit from learning the sweeps' rounding, so they are
     // predicted at the floor, not below it.
-    let inliers = lm.metrics.test_after_inliers.unwrap();
+    let inliers = lm.evaluation.metrics.test_after_inliers.unwrap();
     assert!(inliers.rmse < 1.1 * floor.total_mm, "{inliers:?} vs floor {}", floor.total_mm);
     // Against the truth at the commanded angles (the logged ones are rounded), the fit with the
     // logging error as its noise model is near the truth within its uncertainties, and nearer
     // than the fit that takes rows as independent.
-    let t = lm.truth_comparison.as_ref().unwrap();
+    let t = lm.evaluation.truth_comparison.as_ref().unwrap();
     assert!(t.within_3_sigma * 10 >= t.identifiable * 9 && t.max_abs_z < 6.0, "{t:?}");
     let independent = calibrate(
         &ds,
@@ -189,7 +189,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         &CalibOptions { noise_model: NoiseChoice::Off, ..CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM) },
     )
     .unwrap();
-    let u = independent.truth_comparison.as_ref().unwrap();
+    let u = independent.evaluation.truth_comparison.as_ref().unwrap();
     eprintln!(
         "truth comparison: noise model {}/{} within 3 sigma (max |z| {:.2}), rows independent {}/{} ({:.2})",
         t.within_3_sigma, t.identifiable, t.max_abs_z, u.within_3_sigma, u.identifiable, u.max_abs_z
@@ -198,9 +198,9 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     for (method, model) in [(Method::DSADE_GKAN, "irb120"), (Method::PSO_EKF_AWNN, "irb120"), (Method::LM, "generic6r")] {
         let spec = if model == "generic6r" { ModelSpec::Generic6r } else { ModelSpec::parse(model, "hayati").unwrap() };
         let r = calibrate(&ds, None, &CalibOptions::new(spec, method)).unwrap();
-        let e = r.metrics.test_after_inliers.unwrap().rmse;
+        let e = r.evaluation.metrics.test_after_inliers.unwrap().rmse;
         eprintln!("{} / {model}: test inliers {e:.4} mm (LM {:.4})", method.name(), inliers.rmse);
-        assert_eq!(r.reading_steps.len(), 3, "{}: {:?}", method.name(), r.reading_steps);
+        assert_eq!(r.screen.reading_steps.len(), 3, "{}: {:?}", method.name(), r.screen.reading_steps);
         assert!(e < 1.1 * floor.total_mm, "{} / {model}: {e} vs floor {}", method.name(), floor.total_mm);
     }
 }
@@ -230,10 +230,10 @@ fn lands_in_the_same_basin_on_80_percent_of_the_rows(ds: &Dataset, a: &CalibResu
     let test = Dataset { rows: ds.rows.iter().filter(|r| r.split == Some(Split::Test)).cloned().collect(), source: "held out".into() };
     let (pa, pb) = (a.predict_rows(&test), b.predict_rows(&test));
     let diff = (pa.iter().zip(&pb).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / pa.len() as f64).sqrt();
-    let floor = a.noise_floor.as_ref().unwrap().total_mm;
+    let floor = a.evaluation.noise_floor.as_ref().unwrap().total_mm;
     eprintln!("RMS difference of the two fits' predictions {diff:.4} mm, floor {floor:.4} mm");
     assert!(diff < 0.5 * floor, "{diff} vs floor {floor}");
-    let ratio = b.metrics.test_after_trimmed.unwrap().rmse / floor;
+    let ratio = b.evaluation.metrics.test_after_trimmed.unwrap().rmse / floor;
     assert!(ratio <= 1.2, "80 % fit: {ratio}");
 }
 
@@ -266,7 +266,7 @@ fn tracker_grids_of_a_ur5_and_a_wam_calibrate_below_the_published_error() {
             o.test_fraction = Some(0.2);
             o.seed = seed;
             let r = calibrate(&ds, None, &o).unwrap();
-            let (b, a) = (r.metrics.test_position_before.unwrap(), r.metrics.test_position_after.unwrap());
+            let (b, a) = (r.evaluation.metrics.test_position_before.unwrap(), r.evaluation.metrics.test_position_after.unwrap());
             eprintln!("{rel} seed {seed}: held-out |dp| mean {:.4} mm (RMS {:.4}), before {:.4} mm", a.mae, a.rmse, b.mae);
             assert!(a.mae < factor * b.mae, "{rel} seed {seed}: {} vs {}", a.mae, b.mae);
             after.push(a.mae);
@@ -334,7 +334,7 @@ fn diagnosed_model_on_held_out_blocks(rel: &str) {
         "{rel}: {} of {} held-out rows; calibrate {ra:.4} mm (noise model {}; {rc:.4} mm without, ratio {:.3}), diagnose ({}) {rb:.4} mm, ratio {:.3}",
         keep.len(),
         test.len(),
-        if calibrated.noise_model.is_some() { "on" } else { "not needed" },
+        if calibrated.solve.noise_model.is_some() { "on" } else { "not needed" },
         ra / rc,
         d.verdict,
         rb / ra

@@ -111,7 +111,7 @@ fn generate_calibrate_and_compare_recordings_hold_what_their_views_show() {
     assert_eq!(v["pass"], false, "{v}");
     assert_eq!((v["checks"][0]["name"].as_str(), v["checks"][0]["pass"].as_bool()), (Some("test_rmse_mm"), Some(true)));
     assert_eq!((v["checks"][1]["name"].as_str(), v["checks"][1]["pass"].as_bool()), (Some("test_max_mm"), Some(false)));
-    assert_eq!(v["checks"][1]["value"].as_f64(), j["metrics"]["test_after"]["max"].as_f64());
+    assert_eq!(v["checks"][1]["value"].as_f64(), j["evaluation"]["metrics"]["test_after"]["max"].as_f64());
 
     let r = common::read(&cal);
     assert_eq!(r.timeline.as_deref(), Some("iteration"));
@@ -140,7 +140,7 @@ fn generate_calibrate_and_compare_recordings_hold_what_their_views_show() {
     assert!(r.entities_of(before).iter().all(|e| !e.starts_with("/world/after")) && r.entities_of(before).contains(&"/world/before/train"));
     // Iteration 0 is the starting point, the last one the result.
     let rms = common::scalars(&cal, "/convergence/rms/train");
-    let m = &j["metrics"];
+    let m = &j["evaluation"]["metrics"];
     assert!(rms.len() >= 2, "{rms:?}");
     assert!((rms[0] - m["train_before"]["rmse"].as_f64().unwrap()).abs() < 1e-9, "{rms:?} vs {}", m["train_before"]);
     assert!((rms[rms.len() - 1] - m["train_after"]["rmse"].as_f64().unwrap()).abs() < 1e-9, "{rms:?} vs {}", m["train_after"]);

@@ -41,11 +41,11 @@ fn a_seven_joint_arm_calibrates_to_the_noise_floor_with_its_parameters_within_3_
         assert!(ds.to_csv_string().starts_with("q1,q2,q3,q4,q5,q6,q7,L,"));
         let truth = TruthFile::find(dir.path()).unwrap().unwrap();
         let r = calibrate(&ds, Some(&truth), &CalibOptions::new(wam(), Method::LM)).unwrap();
-        let test = r.metrics.test_after.as_ref().unwrap().rmse;
+        let test = r.evaluation.metrics.test_after.as_ref().unwrap().rmse;
         let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
-        assert!(r.converged, "seed {seed}: {}", r.stop_reason);
+        assert!(r.solve.converged, "seed {seed}: {}", r.solve.stop_reason);
         assert!(test < 1.3 * floor, "seed {seed}: held-out RMSE {test} mm vs reading noise {floor} mm");
-        let cmp = r.truth_comparison.clone().unwrap();
+        let cmp = r.evaluation.truth_comparison.clone().unwrap();
         assert!(cmp.identifiable >= 29, "seed {seed}: {cmp:?}");
         assert_eq!(cmp.within_3_sigma, cmp.identifiable, "seed {seed}: {cmp:?}");
         // The model keeps the URDF's seven joint limits (IK and sampling use them).
@@ -156,11 +156,11 @@ fn a_seven_joint_arm_measured_by_a_laser_tracker() {
         ok(twincal(&["generate", "--scenario", &p("plain.toml"), "--seed", seed, "--out", &p(&format!("d{seed}"))]));
         ok(twincal(&["calibrate", "--data", &p(&format!("d{seed}")), "--model", urdf, "--out", &p(&format!("r{seed}.json"))]));
         let (r, truth) = (json(&format!("r{seed}.json")), json(&format!("d{seed}/truth.json")));
-        let (test, noise) = (r["metrics"]["test_after"]["rmse"].as_f64().unwrap(), truth["noise_std_mm"].as_f64().unwrap());
+        let (test, noise) = (r["evaluation"]["metrics"]["test_after"]["rmse"].as_f64().unwrap(), truth["noise_std_mm"].as_f64().unwrap());
         assert!(test / noise > 0.8 && test / noise < 1.25, "seed {seed}: held-out RMSE {test} mm against the noise {noise} mm");
-        let c = &r["truth_comparison"];
+        let c = &r["evaluation"]["truth_comparison"];
         assert!(c["identifiable"].as_u64().unwrap() >= 30 && c["within_3_sigma"] == c["identifiable"], "seed {seed}: {c}");
-        assert!(r["weighting"]["rows_with_std"].as_u64().unwrap() > 0, "the rows' std weight the fit");
+        assert!(r["solve"]["weighting"]["rows_with_std"].as_u64().unwrap() > 0, "the rows' std weight the fit");
         for name in ["tracker.x", "tracker.y", "tracker.z"] {
             let q = r["parameters"].as_array().unwrap().iter().find(|q| q["name"] == name).unwrap();
             let e = (q["value"].as_f64().unwrap() - q["truth"].as_f64().unwrap()).abs();

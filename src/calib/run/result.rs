@@ -87,33 +87,42 @@ pub struct TruthComparison {
     pub noise_floor_mm: f64,
 }
 
-/// The calibrated model: everything `predict` needs, and the report.
+/// Where a result comes from: the software, the data and how they were split, the method and
+/// its seed, the time it took.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct CalibResult {
-    /// See [`crate::io::SCHEMA_VERSION`].
-    #[serde(default = "crate::io::schema_version")]
-    pub schema_version: u32,
+pub struct Provenance {
     /// Version of twincal that wrote the result.
     pub twincal_version: String,
     /// Where the calibrated data came from (the dataset's source).
     pub data: String,
+    /// SHA-256 of the data file calibrated on (written by `calibrate`): `ik` checks that a twin
+    /// it validates against was generated with these very data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_sha256: Option<String>,
     /// The calibration method.
     pub method: Method,
     /// Name of the calibrated model.
     pub model_name: String,
-    /// Seed of the run.
+    /// Seed of the run (the split and a stochastic method).
     pub seed: u64,
     /// Training rows.
     pub n_train: usize,
     /// Test rows.
     pub n_test: usize,
-    /// Every parameter of the model with its value and uncertainty (display units).
-    pub parameters: Vec<ParamReport>,
-    /// The identifiability analysis of the training rows at the nominal parameters (rank, condition
-    /// numbers, fixed parameters).
-    pub identifiability: serde_json::Value,
-    /// Reading errors before and after calibration.
-    pub metrics: Metrics,
+    /// The rows held out as the test set (0-based here; 1-based row numbers in the file, as an
+    /// outlier's `row`): what the report, the recording and a user's own script need to tell
+    /// training rows from test rows without redoing the split. Absent in files written before
+    /// it was stored, and for a calibration without test rows.
+    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "one_based")]
+    pub test_rows: Vec<usize>,
+    /// Wall time of the calibration, s.
+    pub wall_time_s: f64,
+}
+
+/// How the solver ran: its iterations and stop, the loss, the noise model and weights it fitted
+/// with, and the identifiability analysis that chose the free parameters.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Solve {
     /// Iterations the solver ran.
     pub iterations: usize,
     /// Model evaluations the solver made.
@@ -123,30 +132,31 @@ pub struct CalibResult {
     pub converged: bool,
     /// Why the solver stopped.
     pub stop_reason: String,
-    /// Wall time of the calibration, s.
-    pub wall_time_s: f64,
+    /// The least-squares loss.
+    #[serde(default)]
+    pub loss: Loss,
     /// Standard deviation of one reading estimated from the data, mm (the residual spread of
     /// the fit, or the repeatability of repeated configurations where there are enough).
     #[serde(default)]
     pub noise_estimate_mm: f64,
-    /// SHA-256 of the data file calibrated on (written by `calibrate`): `ik` checks that a twin
-    /// it validates against was generated with these very data.
+    /// How the fit weighted the training rows by their own standard deviations (absent: equal
+    /// weights).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub data_sha256: Option<String>,
-    /// Things a user should know before trusting the result (did not converge, few rows, ...).
-    #[serde(default)]
-    pub warnings: Vec<String>,
-    /// With a truth file: the parameters against their truth-equivalent values.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub truth_comparison: Option<TruthComparison>,
-    /// Repeated configurations in the data and the spread of L over them.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub repeatability: Option<crate::stats::metrics::Repeatability>,
-    /// The data's own floor: repeatability and logging resolutions, each named.
+    pub weighting: Option<crate::calib::problem::weighting::Weighting>,
+    /// The joint angles' logging error as the fit's noise model (absent: the training rows were
+    /// taken as independent): see [`crate::calib::problem::noise_model::remove_logging_error`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub noise_floor: Option<crate::calib::problem::floor::NoiseFloor>,
-    /// The robust screen of the training rows: threshold (robust standard deviations, 0 = off),
-    /// the robust scale of the kept rows' residuals (mm), the rows kept out and their runs.
+    pub noise_model: Option<crate::calib::problem::gls::NoiseModel>,
+    /// The identifiability analysis of the training rows at the nominal parameters (rank, condition
+    /// numbers, fixed parameters).
+    pub identifiability: serde_json::Value,
+}
+
+/// The robust screen of the training rows: its threshold and scale, the rows kept out and
+/// their runs, the reading steps corrected, and the test rows beyond the same rule.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Screen {
+    /// Threshold of the screen, robust standard deviations (0 = off).
     #[serde(default)]
     pub outlier_k: f64,
     /// Robust scale of the kept training rows' residuals, mm (0 without the screen).
@@ -169,10 +179,45 @@ pub struct CalibResult {
     /// Test rows beyond the same threshold around the calibrated model's training residuals.
     #[serde(default)]
     pub test_outliers: Vec<Outlier>,
-    /// The least-squares loss.
-    #[serde(default)]
-    pub loss: Loss,
-    /// The model itself (chain and parameter vector, internal units m / rad).
+}
+
+/// How good the result is: reading errors before and after on training and test rows, the
+/// truth comparison (with a truth file), and the data's own floor.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Evaluation {
+    /// Reading errors before and after calibration.
+    pub metrics: Metrics,
+    /// With a truth file: the parameters against their truth-equivalent values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth_comparison: Option<TruthComparison>,
+    /// Repeated configurations in the data and the spread of the readings over them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub repeatability: Option<crate::stats::metrics::Repeatability>,
+    /// The data's own floor: repeatability and logging resolutions, each named.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_floor: Option<crate::calib::problem::floor::NoiseFloor>,
+}
+
+/// The version of result.json's layout this build writes: 2 nests the result by what it is
+/// (`provenance`, the model, `solve`, `screen`, `evaluation`); files of version 1 (flat) are
+/// still read.
+pub const RESULT_SCHEMA_VERSION: u32 = 2;
+
+fn result_schema_version() -> u32 {
+    RESULT_SCHEMA_VERSION
+}
+
+/// The calibrated model (everything `predict` needs: `model`, `x`, `corrector`,
+/// `torque_model`, and `parameters`, its report in display units), where it came from, how it
+/// was solved and screened, how good it is, and what a user must know (`warnings`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CalibResult {
+    /// The layout of the file ([`RESULT_SCHEMA_VERSION`]).
+    #[serde(default = "result_schema_version")]
+    pub schema_version: u32,
+    /// Where the result comes from.
+    pub provenance: Provenance,
+    /// The model itself (chain, instrument placement and effect blocks; internal units m / rad).
     pub model: CalibModel,
     /// The calibrated parameter vector (internal units m / rad, in the model's order).
     pub x: Vec<f64>,
@@ -185,28 +230,51 @@ pub struct CalibResult {
     /// How the effect blocks get their joint torques on new rows (with effects only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub torque_model: Option<crate::calib::effects::inputs::TorqueModel>,
+    /// Every parameter of the model with its value and uncertainty (display units).
+    pub parameters: Vec<ParamReport>,
+    /// How the solver ran.
+    pub solve: Solve,
+    /// The robust screen of the training rows.
+    pub screen: Screen,
+    /// How good the result is.
+    pub evaluation: Evaluation,
+    /// Things a user should know before trusting the result (did not converge, few rows, ...).
+    #[serde(default)]
+    pub warnings: Vec<String>,
     /// Parameter values per iteration (display units), for convergence plots.
     #[serde(skip)]
     pub history: Vec<Vec<f64>>,
-    /// Measured minus predicted reading of each test row (mm, in `test_rows` order), exactly as
-    /// the metrics saw them: with the rows' inputs (time, temperature, flanks, torques) and
-    /// reading steps. Not stored in the file.
+    /// Measured minus predicted reading of each test row (mm, in `provenance.test_rows` order),
+    /// exactly as the metrics saw them: with the rows' inputs (time, temperature, flanks,
+    /// torques) and reading steps. Not stored in the file.
     #[serde(skip)]
     pub test_residuals_mm: Vec<f64>,
-    /// The rows held out as the test set (0-based here; 1-based row numbers in the file, as an
-    /// outlier's `row`): what the report, the recording and a user's own script need to tell
-    /// training rows from test rows without redoing the split. Absent in files written before
-    /// it was stored, and for a calibration without test rows.
-    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "one_based")]
-    pub test_rows: Vec<usize>,
-    /// How the fit weighted the training rows by their own standard deviations (absent: equal
-    /// weights).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub weighting: Option<crate::calib::problem::weighting::Weighting>,
-    /// The joint angles' logging error as the fit's noise model (absent: the training rows were
-    /// taken as independent): see [`crate::calib::problem::noise_model::remove_logging_error`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub noise_model: Option<crate::calib::problem::gls::NoiseModel>,
+}
+
+/// Where each key of a version-1 (flat) result file goes in the nested layout.
+const FLAT_KEYS: [(&str, &[&str]); 4] = [
+    ("provenance", &["twincal_version", "data", "data_sha256", "method", "model_name", "seed", "n_train", "n_test", "test_rows", "wall_time_s"]),
+    ("solve", &["iterations", "evaluations", "converged", "stop_reason", "loss", "noise_estimate_mm", "weighting", "noise_model", "identifiability"]),
+    ("screen", &["outlier_k", "robust_scale_mm", "outliers", "outlier_runs", "reading_steps", "test_rows_in_steps", "test_outliers"]),
+    ("evaluation", &["metrics", "truth_comparison", "repeatability", "noise_floor"]),
+];
+
+/// A version-1 result file's JSON (flat: no `provenance`) in the nested layout; other JSON as it is.
+fn nested(mut value: serde_json::Value) -> serde_json::Value {
+    let Some(map) = value.as_object_mut() else { return value };
+    if map.contains_key("provenance") || map.get("schema_version").and_then(serde_json::Value::as_u64).is_some_and(|v| v >= 2) {
+        return value;
+    }
+    for (group, keys) in FLAT_KEYS {
+        let mut inner = serde_json::Map::new();
+        for k in keys {
+            if let Some(v) = map.remove(*k) {
+                inner.insert(k.to_string(), v);
+            }
+        }
+        map.insert(group.to_string(), serde_json::Value::Object(inner));
+    }
+    value
 }
 
 impl CalibResult {
@@ -364,8 +432,16 @@ impl CalibResult {
                 ));
             }
         }
-        let mut r: CalibResult = serde_json::from_value(value).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
-        crate::io::check_schema(r.schema_version, "a calibration result").map_err(|e| Error::model(path.display(), e))?;
+        if let Some(v) = value.get("schema_version").and_then(serde_json::Value::as_u64).filter(|v| *v > u64::from(RESULT_SCHEMA_VERSION)) {
+            return Err(Error::model(
+                path.display(),
+                format!("a calibration result of schema_version {v}, written by a newer twincal; this one reads up to {RESULT_SCHEMA_VERSION}: update twincal"),
+            ));
+        }
+        let mut r: CalibResult =
+            serde_json::from_value(nested(value)).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        // Read in the current layout, whatever the file's.
+        r.schema_version = RESULT_SCHEMA_VERSION;
         if let Some(net) = r.legacy_rbf.take() {
             r.corrector.get_or_insert(Corrector::Rbf(net));
         }
