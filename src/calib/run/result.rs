@@ -155,7 +155,7 @@ pub struct Solve {
 /// The robust screen of the training rows: its threshold and scale, the rows kept out and
 /// their runs, the reading steps corrected, and the test rows beyond the same rule.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
-pub struct Screen {
+pub struct ScreenReport {
     /// Threshold of the screen, robust standard deviations (0 = off).
     #[serde(default)]
     pub outlier_k: f64,
@@ -179,6 +179,23 @@ pub struct Screen {
     /// Test rows beyond the same threshold around the calibrated model's training residuals.
     #[serde(default)]
     pub test_outliers: Vec<Outlier>,
+}
+
+impl ScreenReport {
+    /// What a calibration's screen (`None`: it did not run) at threshold `outlier_k` kept out
+    /// and corrected, with the test rows it judged.
+    pub fn of(screen: Option<crate::calib::problem::robust::Screen>, outlier_k: f64, test_rows_in_steps: usize, test_outliers: Vec<Outlier>) -> Self {
+        let Some(s) = screen else { return ScreenReport { outlier_k, test_rows_in_steps, test_outliers, ..ScreenReport::default() } };
+        ScreenReport {
+            outlier_k,
+            robust_scale_mm: s.scale_mm,
+            outliers: s.outliers,
+            outlier_runs: s.runs,
+            reading_steps: s.steps,
+            test_rows_in_steps,
+            test_outliers,
+        }
+    }
 }
 
 /// How good the result is: reading errors before and after on training and test rows, the
@@ -235,7 +252,7 @@ pub struct CalibResult {
     /// How the solver ran.
     pub solve: Solve,
     /// The robust screen of the training rows.
-    pub screen: Screen,
+    pub screen: ScreenReport,
     /// How good the result is.
     pub evaluation: Evaluation,
     /// Things a user should know before trusting the result (did not converge, few rows, ...).
