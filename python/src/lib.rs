@@ -187,6 +187,9 @@ fn load(src: Source, opts: &twincal::dataset::LoadOptions, truth: Option<&str>) 
                 }
                 None => TruthFile::find(&p)?,
             };
+            // Resolved now, so that a later change of working directory cannot point the
+            // outputs' check (no output over an input) at another file.
+            let p = std::path::absolute(&p).unwrap_or(p);
             Ok(Loaded { data, sha256, truth, path: Some(p) })
         }
         Source::Columns(cols) => {
@@ -400,7 +403,8 @@ impl PyCalibration {
 #[pyo3(signature = (data, options, truth=None, progress=None))]
 fn calibrate(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str, truth: Option<String>, progress: Option<Bound<'_, PyAny>>) -> PyResult<PyCalibration> {
     let src = source(data)?;
-    let req: CalibrateRequest = request("calibrate", options)?;
+    let mut req: CalibrateRequest = request("calibrate", options)?;
+    req.model.resolve_paths();
     let planned = req.options().map_err(err)?;
     let opts = req.load_options().map_err(err)?;
     let args = CalibrateJob::new(MEMORY.into(), req);
@@ -469,7 +473,9 @@ impl PyDiagnosis {
 #[pyo3(signature = (data, options, progress=None))]
 fn diagnose(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str, progress: Option<Bound<'_, PyAny>>) -> PyResult<PyDiagnosis> {
     let src = source(data)?;
-    let req: DiagnoseRequest = request("diagnose", options)?;
+    let mut req: DiagnoseRequest = request("diagnose", options)?;
+    req.model.resolve_paths();
+    req.loads.robot = req.loads.robot.map(|p| std::path::absolute(&p).unwrap_or(p));
     let planned = req.options().map_err(err)?;
     let opts = req.load_options().map_err(err)?;
     let args = DiagnoseJob::new(MEMORY.into(), req);

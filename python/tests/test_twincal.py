@@ -320,3 +320,39 @@ def test_cli_runs_the_executable_and_raises_its_error(tmp_path):
         pytest.skip("TWINCAL_BIN not set: no twincal executable for twincal.cli")
     with pytest.raises(twincal.TwincalError, match="invalid value 'newton' for '--method"):
         twincal.cli(["calibrate", "--data", tmp_path, "--method", "newton"])
+
+
+def test_paths_are_guarded_by_the_files_they_name_and_odd_inputs_are_named(tmp_path, monkeypatch):
+    """An input is the file it named when it was given: a later chdir cannot turn save() onto
+    it. A truth.json path is read as the truth; a 3-D ik input and a masked array's masked
+    entries are refused by name, never read around."""
+    data, truth = twincal.generate()
+    small = {k: v[:150] for k, v in data.items()}
+    d = tmp_path / "out" / "d"
+    d.mkdir(parents=True)
+    csv = twincal.to_csv(small)
+    (d / "dataset.csv").write_text(csv)
+    (tmp_path / "out" / "arm.urdf").write_text((ROOT / "urdf" / "irb120.urdf").read_text())
+    monkeypatch.chdir(tmp_path)
+    r = twincal.calibrate("out/d", model="out/arm.urdf")
+    monkeypatch.chdir(tmp_path / "out")
+    with pytest.raises(twincal.TwincalError, match="dataset.csv"):
+        r.save("d/dataset.csv")
+    with pytest.raises(twincal.TwincalError, match="arm.urdf"):
+        r.save("r.json", urdf="arm.urdf")
+    assert (d / "dataset.csv").read_text() == csv and not (tmp_path / "out" / "r.json").exists()
+    r.save("r.json")
+    assert json.loads((tmp_path / "out" / "r.json").read_text())["schema_version"] == 2
+    # The truth from a file, as from the dict generate returned.
+    path = tmp_path / "truth.json"
+    path.write_text(json.dumps(truth))
+    got = twincal.calibrate(data, truth=path).as_dict()["evaluation"]["truth_comparison"]
+    assert got == twincal.calibrate(data, truth=truth).as_dict()["evaluation"]["truth_comparison"] and got is not None
+    with pytest.raises(twincal.TwincalError, match="truth: cannot read"):
+        twincal.calibrate(data, truth=tmp_path / "missing.json")
+    with pytest.raises(twincal.TwincalError, match=r"targets must be an \(n, 3\) array"):
+        r.ik(np.zeros((2, 3, 1)))
+    masked = dict(small)
+    masked["L"] = np.ma.masked_array(small["L"], mask=np.arange(150) == 5)
+    with pytest.raises(twincal.TwincalError, match="column L: NaN"):
+        twincal.calibrate(masked)

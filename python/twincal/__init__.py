@@ -130,7 +130,8 @@ def _columns(data: Data) -> Any:
     out: list[tuple[str, Any]] = []
     for key in data.keys():
         name = str(key)
-        v = np.asarray(data[key])
+        v = data[key]
+        v = _unmasked(name, v) if np.ma.isMaskedArray(v) else np.asarray(v)
         if name.strip().lower() == "q" and v.ndim == 2:
             out.extend((f"q{j + 1}", np.ascontiguousarray(v[:, j], dtype=np.float64)) for j in range(v.shape[1]))
             continue
@@ -141,6 +142,38 @@ def _columns(data: Data) -> Any:
         else:
             out.append((name, ["" if x is None or (isinstance(x, float) and x != x) else str(x) for x in v.tolist()]))
     return out
+
+
+def _unmasked(name: str, v: Any) -> np.ndarray:
+    """An array of floats with a masked array's masked entries as NaN (never their hidden
+    values): the dataset reader then refuses them by row, or reads them as empty cells where a
+    column may have some (``sx, sy, sz``)."""
+    if np.ma.isMaskedArray(v):
+        if v.dtype.kind not in "biuf":
+            raise TwincalError(f"column {name}: a masked array of {v.dtype} is not supported; pass plain values")
+        return np.ma.filled(v.astype(np.float64), np.nan)
+    try:
+        return np.asarray(v, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TwincalError(f"{name}: expected numbers, got {np.asarray(v).dtype}") from None
+
+
+def _truth_text(truth: Any) -> Optional[str]:
+    """The truth as JSON text: the dict ``generate`` returns, its text, or a truth.json path."""
+    if truth is None:
+        return None
+    if isinstance(truth, dict):
+        return json.dumps(truth)
+    if isinstance(truth, os.PathLike) or (isinstance(truth, str) and not truth.lstrip().startswith("{")):
+        path = os.fspath(truth)
+        try:
+            with open(path) as f:
+                return f.read()
+        except OSError as e:
+            raise TwincalError(f"truth: cannot read {path}: {e.strerror}") from None
+    if isinstance(truth, str):
+        return truth
+    raise TwincalError(f"truth must be the dict generate returns, its JSON text or a truth.json path, got {type(truth).__name__}")
 
 
 def _mapping(columns: Sequence[tuple[str, Any]]) -> dict[str, np.ndarray]:
@@ -231,7 +264,9 @@ class Result:
         degrees, ``euler`` convention).
         """
         if isinstance(data, np.ndarray) or (isinstance(data, (list, tuple)) and not isinstance(data, str)):
-            q = np.atleast_2d(np.asarray(data, dtype=np.float64))
+            q = np.atleast_2d(_unmasked("q", data))
+            if q.ndim != 2:
+                raise TwincalError(f"joint angles must be an (n, N) array in degrees, got shape {q.shape}")
             data = {f"q{j + 1}": q[:, j] for j in range(q.shape[1])}
         values, warning = self._native.predict(_columns(data), angles, euler)
         if warning:
@@ -244,7 +279,9 @@ class Result:
         """Inverse kinematics for target points (n, 3), mm in the robot's base frame, as
         ``twincal ik --targets``: ``{"q_deg", "status", "iterations", "residual_mm"}`` for one
         Jacobian (analytic, neural, hybrid), or a dict of them by label for ``"all"``."""
-        t = np.ascontiguousarray(np.atleast_2d(np.asarray(targets, dtype=np.float64)))
+        t = np.ascontiguousarray(np.atleast_2d(_unmasked("targets", targets)))
+        if t.ndim != 2 or t.shape[1] != 3:
+            raise TwincalError(f"targets must be an (n, 3) array of x, y, z in mm (or one point of 3), got shape {t.shape}")
         runs = {
             label: {"q_deg": q, "status": np.array(status, dtype=str), "iterations": np.array(iters), "residual_mm": res}
             for label, q, status, iters, res in self._native.ik(t, jacobian, tol_mm, _seed(seed))
@@ -274,7 +311,7 @@ def calibrate(
     *,
     model: Optional[str] = None,
     effects: Optional[Iterable[str]] = None,
-    truth: Optional[Union[dict, str]] = None,
+    truth: Optional[Union[dict, str, os.PathLike]] = None,
     progress: Progress = None,
     **options: Any,
 ) -> Result:
@@ -284,13 +321,12 @@ def calibrate(
     irb120 (default), a .urdf path or generic6r; ``effects``: e.g. ``["compliance:2", "backlash"]``.
     Any other ``calibrate`` option by name: ``test_fraction``, ``seed``, ``params``, ``effort``,
     ``outliers``, ``loss``, ``angles``, ``measurement``, ``euler``, ``payload_kg``, ... ``truth``:
-    the twin's truth (the dict ``generate`` returns) for in-memory data; a dataset folder finds its
-    own truth.json. Outputs are written by :meth:`Result.save`.
+    the twin's truth (the dict ``generate`` returns, its JSON text, or a truth.json path) for
+    in-memory data; a dataset folder finds its own truth.json. Outputs are written by :meth:`Result.save`.
     """
     _no_outputs("calibrate", options, "Result.save()")
     opts = {"method": method, "model": model, "effects": _names(effects, "effects"), **options}
-    truth_text = json.dumps(truth) if isinstance(truth, dict) else truth
-    return Result(_native.calibrate(_columns(data), _options(opts), truth_text, progress))
+    return Result(_native.calibrate(_columns(data), _options(opts), _truth_text(truth), progress))
 
 
 def load_result(path: Union[str, os.PathLike]) -> Result:

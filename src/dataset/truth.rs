@@ -1,40 +1,24 @@
-//! The truth file the twin writes beside a dataset, as far as calibration needs it, and the link
-//! that ties it to the exact dataset it describes.
+//! The truth file the twin writes beside a dataset (`truth.json`): its one schema, which the twin
+//! writes and the calibration, `ik` and Python read, and the link that ties it to the exact
+//! dataset it describes.
 
+use crate::dataset::Split;
 use crate::error::{Error, Result};
+use crate::robot::statics::Contact;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Name of the truth file in a dataset folder.
 pub const TRUTH_FILE: &str = "truth.json";
 
-/// What a truth file says, as far as calibration needs it.
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthFile {
-    /// See [`crate::io::SCHEMA_VERSION`].
-    #[serde(default = "crate::io::schema_version")]
-    pub schema_version: u32,
-    /// True geometric deviations by name: mm for `.dx/.dy/.dz`, degrees otherwise.
-    #[serde(default)]
-    pub parameters: std::collections::BTreeMap<String, f64>,
-    /// The dataset this truth belongs to (absent in files written before twincal recorded it).
-    #[serde(default)]
-    pub dataset: Option<DatasetLink>,
-    /// The draw-wire sensor's true placement.
-    pub sensor: TruthSensor,
-    /// The tracker that wrote `x, y, z` (a tracker dataset), as its scenario gave it.
-    #[serde(default)]
-    pub tracker: Option<TruthTracker>,
-    /// The true tool point (cable attachment or reflector) on the flange.
-    pub tool: TruthTool,
-    /// Standard deviation of one written reading value, mm.
-    pub noise_std_mm: f64,
-    /// Ground truth of each dataset row, in file order.
-    pub poses: Vec<TruthPose>,
-}
+/// What a truth file says, read below the twin: the one schema with the effects as JSON and the
+/// tracker's placement.
+pub type TruthFile = Truth;
+
 /// A tracker's placement as the truth file states it (the rest of its scenario entry, its noise
 /// and decimals, is the twin's business).
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TruthTracker {
     /// The base-to-tracker translation `t` of `y = R·p + t`, mm.
     pub translation_mm: [f64; 3],
@@ -45,35 +29,212 @@ pub struct TruthTracker {
     #[serde(default)]
     pub probe_rotation_deg: Option<[f64; 3]>,
 }
-/// The draw-wire sensor as the truth file states it.
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthSensor {
+/// Per-pose ground truth.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PoseTruth {
+    /// Index of the pose among the sampled poses (acquisition order; rejected poses keep their
+    /// number).
+    #[serde(default)]
+    pub index: usize,
+    /// The subset the pose's row belongs to.
+    #[serde(default)]
+    pub split: Split,
+    /// Acquisition time, s from the start of acquisition (unrounded; the row's `t` is rounded to
+    /// [`crate::sim::generate::T_DECIMALS`]).
+    #[serde(default)]
+    pub t_s: f64,
+    /// The structure's true temperature rise over ambient, K (drives the thermal scaling).
+    #[serde(default)]
+    pub delta_t_k: f64,
+    /// What the temperature sensor wrote in the `temp` column, °C (absent without a column).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temp_measured_c: Option<f64>,
+    /// Commanded (controller) joint angles, degrees.
+    #[serde(default)]
+    pub q_cmd_deg: Vec<f64>,
+    /// Encoder eccentricity, true motor-side minus commanded angle per joint, millidegrees
+    /// (absent when the effect is off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eccentricity_mdeg: Option<Vec<f64>>,
+    /// Link-side angles the chain sees (commanded + eccentricity + deflection), degrees.
+    #[serde(default)]
+    pub q_link_deg: Vec<f64>,
+    /// Link-side deflection per joint (link side minus motor side), millidegrees.
+    #[serde(default)]
+    pub deflection_mdeg: Vec<f64>,
+    /// Load torque per joint at rest (gravity, payload, cable tension), N·m.
+    #[serde(default)]
+    pub joint_torque_nm: Vec<f64>,
+    /// Backlash flank each joint arrived on (±1), by the approach rule.
+    #[serde(default)]
+    pub approach_side: Vec<f64>,
+    /// Where each joint's transmission came to rest (spring, a flank, held, free).
+    #[serde(default)]
+    pub contact: Vec<Contact>,
+    /// True tool position, base frame, mm.
+    #[serde(default)]
+    pub tool_mm: [f64; 3],
+    /// Distance + length offset, mm (no linearity error, no noise).
+    pub length_true_mm: f64,
+    /// What a perfect reading would give: true length + linearity error, mm.
+    #[serde(default)]
+    pub length_noise_free_mm: f64,
+    /// The draw-wire's reading, mm: noise, resolution and any glitch run included (the value a
+    /// draw-wire dataset holds).
+    #[serde(default)]
+    pub length_measured_mm: f64,
+    /// With a tracker: the reflector's true position in the tracker's frame, mm (no noise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point_true_mm: Option<[f64; 3]>,
+    /// With a tracker: what it wrote (`x, y, z`), mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point_measured_mm: Option<[f64; 3]>,
+    /// With a 6-D probe: its true pose in the tracker's frame (`x, y, z` mm, `rx, ry, rz`
+    /// degrees, intrinsic X-Y-Z; no noise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose_true: Option<[f64; 6]>,
+    /// Simulation steps the arm took to settle (0 for the quasi-static model or a rigid arm).
+    #[serde(default)]
+    pub settle_steps: usize,
+    /// Simulated time the arm took to come to rest, s. Longer than the sensor's hold time means
+    /// a real reading would have been taken while the arm still moved.
+    #[serde(default)]
+    pub settle_time_s: f64,
+    /// How the simulated acquisition went at this pose (absent for settled / quasi-static datasets).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acquisition: Option<PoseAcquisition>,
+}
+
+/// Per pose of a simulated acquisition (`acquisition.model = "simulated"`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PoseAcquisition {
+    /// Duration of the move to this pose, s.
+    pub move_s: f64,
+    /// When the stability gate opened, s after arrival; `null`: still closed when the hold ended.
+    pub gate_s: Option<f64>,
+    /// The readings were taken with the gate closed (`on_timeout = "read"`).
+    pub read_with_gate_closed: bool,
+    /// What the transient adds to L: the window's mean noise-free length minus that of the arm at
+    /// rest on the flanks it ends on, mm. With a tracker: the distance of the window's mean tool
+    /// point from the arm at rest, mm.
+    pub transient_mm: f64,
+    /// From when on the transient could no longer reach 1 nm at the tool by the readings (its
+    /// amplitude decaying at the slowest modelled rate), s after arrival; `null`: it still could.
+    pub negligible_s: Option<f64>,
+    /// The flank the load/approach rule predicts per joint (±1); `contact` is what the motion gave.
+    pub rule_side: Vec<f64>,
+}
+
+/// A sampled pose that gave no dataset row, and why.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Rejected {
+    /// Index of the pose among the sampled poses.
+    pub index: usize,
+    /// Commanded joint angles, degrees.
+    pub q_cmd_deg: Vec<f64>,
+    /// Why the pose was rejected (settling failed, reading out of range, stability gate still
+    /// closed).
+    pub reason: String,
+}
+
+/// The draw-wire sensor's settings, as the truth file records them (see
+/// [`crate::sim::instrument::DrawWire`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SensorTruth {
     /// Cable exit point in the base frame, mm.
     pub exit_point_mm: [f64; 3],
     /// Added to the geometric distance, mm.
     pub length_offset_mm: f64,
+    /// Standard deviation of one raw sample, mm.
+    #[serde(default)]
+    pub noise_std_mm: f64,
+    /// Standard deviation of a written reading: `noise_std_mm` / √`samples`, mm.
+    #[serde(default)]
+    pub averaged_noise_std_mm: f64,
+    /// Quantisation step of one raw sample, mm (0 = none).
+    #[serde(default)]
+    pub resolution_mm: f64,
+    /// Amplitude of the linearity error, % of full scale (range width).
+    #[serde(default)]
+    pub linearity_pct_fs: f64,
+    /// Valid reading range [min, max], mm.
+    #[serde(default)]
+    pub range_mm: [f64; 2],
+    /// Cable tension acting on the tool, N.
+    #[serde(default)]
+    pub tension_n: f64,
+    /// Raw samples averaged per reading.
+    #[serde(default)]
+    pub samples: usize,
+    /// Hold time before sampling, s.
+    #[serde(default)]
+    pub hold_s: f64,
+    /// Sampling rate, Hz.
+    #[serde(default)]
+    pub rate_hz: f64,
 }
-/// The tool point as the truth file states it.
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthTool {
+
+/// The tool point the instrument reads, as the truth file records it.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ToolTruth {
     /// Cable attachment point (or reflector) in the flange frame, mm.
     pub point_mm: [f64; 3],
 }
-/// One row's truth, as far as calibration needs it.
-#[derive(Clone, Debug, Deserialize)]
-pub struct TruthPose {
-    /// True cable length: distance plus length offset, mm (no linearity error, no noise).
-    pub length_true_mm: f64,
-    /// The commanded joint angles, degrees, before the controller logged them (rounded): the
-    /// angles the true arm stood at.
+
+/// truth.json, the one truth schema: everything true about a generated dataset. The twin writes
+/// it (`sim::generate::Truth`, with its own `Effects` and `Tracker` as `E` and `T`); a reader
+/// below the twin (the calibration's truth comparison, `ik`, Python) reads it with the effects as
+/// JSON and the tracker's placement ([`TruthFile`]). What a reader needs is required; what only
+/// the twin's own files hold defaults when absent, so hand-written truths stay readable.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Truth<E = serde_json::Value, T = TruthTracker> {
+    /// See [`crate::io::SCHEMA_VERSION`].
+    #[serde(default = "crate::io::schema_version")]
+    pub schema_version: u32,
+    /// The dataset this truth belongs to (written first by the twin's writer; absent in files
+    /// written before twincal recorded it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<DatasetLink>,
+    /// The scenario's `name`.
     #[serde(default)]
-    pub q_cmd_deg: Option<Vec<f64>>,
-    /// A tracker's noise-free reading, mm.
+    pub scenario: String,
+    /// The seed the dataset was generated with.
     #[serde(default)]
-    pub point_true_mm: Option<[f64; 3]>,
-    /// A 6-D probe's noise-free pose (`x, y, z` mm, `rx, ry, rz` degrees, intrinsic X-Y-Z).
+    pub seed: u64,
+    /// Name of the robot.
     #[serde(default)]
-    pub pose_true: Option<[f64; 6]>,
+    pub robot: String,
+    /// The robot's URDF text, for a robot other than the embedded IRB 120: the truth file then
+    /// holds everything needed to rebuild the twin (`ik` validates against it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot_urdf: Option<String>,
+    /// Unit of each kind of value in the file, by name.
+    #[serde(default)]
+    pub units: BTreeMap<String, String>,
+    /// True geometric deviations: mm for dx/dy/dz, degrees for rx/ry/rz/dtheta.
+    #[serde(default)]
+    pub parameters: BTreeMap<String, f64>,
+    /// The twin's effects and their true settings.
+    #[serde(default)]
+    pub effects: E,
+    /// The draw-wire sensor.
+    pub sensor: SensorTruth,
+    /// The tracker that wrote `x, y, z` (absent for a draw-wire dataset).
+    #[serde(default = "Option::default", skip_serializing_if = "Option::is_none")]
+    pub tracker: Option<T>,
+    /// The tool point.
+    pub tool: ToolTruth,
+    /// Standard deviation of one written reading value, mm: the averaged cable noise, or for a
+    /// tracker the RMS over the poses of one coordinate's averaged noise.
+    pub noise_std_mm: f64,
+    /// Ground truth of each dataset row, in file order.
+    pub poses: Vec<PoseTruth>,
+    /// Sampled poses that gave no row.
+    #[serde(default)]
+    pub rejected: Vec<Rejected>,
+    /// Dataset rows (0-based, in file order) whose reading carries a glitch run's offset.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub glitch_rows: Vec<usize>,
 }
 
 impl TruthFile {

@@ -106,10 +106,11 @@ impl LoadOptions {
 }
 
 /// Which subset a row belongs to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Split {
-    /// A training row.
+    /// A training row (a truth pose without a split is one).
+    #[default]
     Train,
     /// A held-out test row.
     Test,

@@ -464,8 +464,51 @@ pub fn reduce_compare(read: Parts, out: Option<&Path>, rrd: Option<&Path>, recor
     if read.kind() != "compare" {
         return Err(Error::Invalid(format!("the parts are of a '{}' study, not a comparison", read.kind())));
     }
-    let (config, items, duplicates) = read.gather::<CompareConfig, CompareItem>()?;
-    let runs: Vec<CompareRun> = items.into_iter().map(|l| CompareRun { test_abs_residuals: l.test_abs_residuals, ..l.run }).collect();
+    let (mut config, items, duplicates) = read.gather::<CompareConfig, CompareItem>()?;
+    let mut runs: Vec<CompareRun> = items.into_iter().map(|l| CompareRun { test_abs_residuals: l.test_abs_residuals, ..l.run }).collect();
+    check_runs(&config, &runs)?;
+    // What is printed of the parts' text shows its control characters, never acts on them.
+    config.data = printable(&config.data);
+    runs.iter_mut().for_each(|r| r.warnings.iter_mut().for_each(|w| *w = printable(w)));
+    let hash = config.hash();
     let c = finish(&config, &runs, out, rrd, recordings)?;
-    Ok((c, runs.len(), duplicates, config.hash()))
+    Ok((c, runs.len(), duplicates, hash))
+}
+
+/// Every run of a comparison read from parts is one a calibration can have given: the methods
+/// the configuration lists, finite non-negative errors and times, and per-sample residuals of
+/// seed 0 as many for every method (the test rows of one split). A part edited by hand is
+/// refused with the item named.
+fn check_runs(config: &CompareConfig, runs: &[CompareRun]) -> Result<()> {
+    let bad = |r: &CompareRun, what: &str| Error::Invalid(format!("{} seed {}: {what} (a hand-edited part?)", printable(&r.method), r.seed));
+    let stats_ok = |s: &ErrorStats| [s.rmse, s.std, s.max, s.mae].iter().all(|v| v.is_finite() && *v >= 0.0) && s.max >= s.mae;
+    let mut seed0_len: Option<usize> = None;
+    for r in runs {
+        if !config.methods.contains(&r.method) {
+            return Err(bad(r, "a method the comparison does not list"));
+        }
+        if !stats_ok(&r.train) || !stats_ok(&r.test) || r.test_position.as_ref().is_some_and(|p| !stats_ok(p)) {
+            return Err(bad(r, "an error statistic that is negative, not finite, or a MAX below the mean"));
+        }
+        if !(r.seconds.is_finite() && r.seconds >= 0.0) {
+            return Err(bad(r, &format!("a time of {} s", r.seconds)));
+        }
+        if r.test_abs_residuals.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(bad(r, "a |test residual| that is negative or not finite"));
+        }
+        if r.seed == 0 {
+            match seed0_len {
+                Some(n) if n != r.test_abs_residuals.len() => {
+                    return Err(bad(r, &format!("{} per-sample test residuals where the other methods have {n}", r.test_abs_residuals.len())))
+                }
+                _ => seed0_len = Some(r.test_abs_residuals.len()),
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `s` with its control characters (terminal escapes, line breaks) written as `\u{..}`.
+fn printable(s: &str) -> String {
+    s.chars().map(|c| if c.is_control() { format!("\\u{{{:x}}}", c as u32) } else { c.to_string() }).collect()
 }

@@ -230,16 +230,35 @@ impl Parts {
             return Err(Error::data(first_file.display(), "its configuration does not match its hash (a hand-edited part?)"));
         }
         let total = config.items();
-        let mut by_item: BTreeMap<u64, R> = BTreeMap::new();
+        let first_config = lines[0].0.config.clone();
+        // Each item's result as first read (untimed, to tell a retry from an edit) and typed.
+        let mut by_item: BTreeMap<u64, (serde_json::Value, PathBuf, R)> = BTreeMap::new();
         let mut duplicates = 0;
         for (l, p) in lines {
             if l.item >= total {
                 return Err(Error::data(p.display(), format!("item {} is beyond the study's {total} items", l.item)));
             }
+            // The hash ties the parts only if every line's configuration is one it hashes (the
+            // same study reached by another path to its data hashes the same).
+            if l.config != first_config && typed::<C>(l.config.clone(), &p, l.item)?.hash() != first_hash {
+                return Err(Error::data(p.display(), format!("item {}: its configuration differs from the one its hash names (a hand-edited part?)", l.item)));
+            }
+            let untimed = untimed(&l.result);
             match by_item.entry(l.item) {
-                std::collections::btree_map::Entry::Occupied(_) => duplicates += 1,
+                std::collections::btree_map::Entry::Occupied(o) if o.get().0 == untimed => duplicates += 1,
+                std::collections::btree_map::Entry::Occupied(o) => {
+                    return Err(Error::data(
+                        p.display(),
+                        format!(
+                            "item {} is also in {} with other results: a retried item gives the same numbers, so one of the parts was edited or written by another build",
+                            l.item,
+                            o.get().1.display()
+                        ),
+                    ));
+                }
                 std::collections::btree_map::Entry::Vacant(v) => {
-                    v.insert(typed(l.result, &p, l.item)?);
+                    let r = typed(l.result, &p, l.item)?;
+                    v.insert((untimed, p, r));
                 }
             }
         }
@@ -253,6 +272,17 @@ impl Parts {
                 if missing.len() > 20 { ", ..." } else { "" }
             )));
         }
-        Ok((config, by_item.into_values().collect(), duplicates))
+        Ok((config, by_item.into_values().map(|(_, _, r)| r).collect(), duplicates))
+    }
+}
+
+/// A result without its measured times (keys naming seconds), which a retried item does not
+/// repeat.
+fn untimed(v: &serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match v {
+        Value::Object(m) => Value::Object(m.iter().filter(|(k, _)| !k.contains("second")).map(|(k, x)| (k.clone(), untimed(x))).collect()),
+        Value::Array(a) => Value::Array(a.iter().map(untimed).collect()),
+        other => other.clone(),
     }
 }

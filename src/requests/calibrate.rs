@@ -148,6 +148,20 @@ impl CalibrateRequest {
         opts.row_std = !a.robust.floor.ignore_row_std;
         opts.reading_steps = !a.robust.no_reading_steps;
         opts.placement_only = a.placement_only;
+        if a.placement_only {
+            // The instrument's placement alone is fitted: nothing else may be asked to be.
+            if !opts.effects.is_empty() {
+                return Err(Error::Invalid(
+                    "--placement-only fits the instrument's placement alone, with the robot as it is: --effects cannot be fitted with it (drop one of them)"
+                        .into(),
+                ));
+            }
+            if matches!(opts.model, crate::calib::run::ModelSpec::Generic6r) {
+                return Err(Error::Invalid(
+                    "--placement-only needs the robot's own geometry (a URDF or irb120): the generic 6R model has none to keep, its geometry is what it searches for".into(),
+                ));
+            }
+        }
         Ok((opts, limits))
     }
 
@@ -169,4 +183,21 @@ fn sensor_guess(g: Option<&[f64]>) -> Result<Option<SensorGuess>> {
     }
     let m = |v: f64| v * 1e-3;
     Ok(Some(SensorGuess { exit_m: [m(g[0]), m(g[1]), m(g[2])], offset_m: m(g[3]), tool_m: [m(g[4]), m(g[5]), m(g[6])] }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn placement_only_refuses_what_it_would_not_fit() {
+        let r = CalibrateRequest { placement_only: true, effects: vec!["compliance:2".into()], ..CalibrateRequest::default() };
+        let e = r.options().err().unwrap().to_string();
+        assert!(e.contains("--placement-only") && e.contains("--effects"), "{e}");
+        let mut r = CalibrateRequest { placement_only: true, ..CalibrateRequest::default() };
+        r.model.model = "generic6r".into();
+        let e = r.options().err().unwrap().to_string();
+        assert!(e.contains("--placement-only") && e.contains("generic 6R"), "{e}");
+        assert!(CalibrateRequest { placement_only: true, ..CalibrateRequest::default() }.options().is_ok());
+    }
 }

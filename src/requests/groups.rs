@@ -101,6 +101,17 @@ impl ModelChoice {
     pub fn input(&self) -> Option<PathBuf> {
         self.model.ends_with(".urdf").then(|| PathBuf::from(&self.model))
     }
+
+    /// A URDF path made absolute against the current working directory, so that the request
+    /// names the same file after the working directory changes (Python: a `chdir` between
+    /// `calibrate` and `save` must not let an output land on the model it read).
+    pub fn resolve_paths(&mut self) {
+        if let Some(p) = self.input() {
+            if let Ok(abs) = std::path::absolute(&p) {
+                self.model = abs.to_string_lossy().into_owned();
+            }
+        }
+    }
 }
 
 /// What loads the joints, for the torque-driven effects (`--robot`, `--payload-kg`,

@@ -119,3 +119,22 @@ pub fn approach_sides(home: &[f64], poses: &[Vec<f64>]) -> Vec<Vec<f64>> {
         })
         .collect()
 }
+
+/// Which flank a joint rests on, or free inside the band.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Contact {
+    /// No backlash: plain spring.
+    Spring,
+    /// On the positive flank, spring loaded.
+    Positive,
+    /// On the negative flank, spring loaded.
+    Negative,
+    /// Held at the approach flank by static friction against a load pulling it into the band
+    /// (the shaft still twists by load/stiffness).
+    Held,
+    /// Inside the band, on neither flank: a simulation stopped early, or in the simulated tour a
+    /// link the move's deceleration carried off its flank and friction holds (load at most the
+    /// breakaway).
+    Free,
+}

@@ -4,7 +4,6 @@ use crate::dataset::{Dataset, Row, Split};
 use crate::error::{Error, Result};
 use crate::robot::kinematics::Frame;
 use crate::robot::Robot;
-use crate::sim::effects::statics::Contact;
 use crate::sim::scenario::{halton, stream_seed, Order, Scenario, Stream, HALTON_BASES};
 use crate::sim::twin::tour::{Acquired, AcquisitionModel, OnTimeout, Schedule, TourSettings};
 use crate::sim::twin::{approach_sides, PoseCommand, RestingPose, Twin};
@@ -31,173 +30,11 @@ pub fn round_decimals(v: f64, decimals: usize) -> f64 {
 
 pub use crate::progress::{Progress, Silent};
 
-/// Per-pose ground truth.
-#[derive(Clone, Debug, Serialize)]
-pub struct PoseTruth {
-    /// Index of the pose among the sampled poses (acquisition order; rejected poses keep their
-    /// number).
-    pub index: usize,
-    /// The subset the pose's row belongs to.
-    pub split: Split,
-    /// Acquisition time, s from the start of acquisition (unrounded; the row's `t` is rounded to
-    /// [`T_DECIMALS`]).
-    pub t_s: f64,
-    /// The structure's true temperature rise over ambient, K (drives the thermal scaling).
-    pub delta_t_k: f64,
-    /// What the temperature sensor wrote in the `temp` column, °C (absent without a column).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub temp_measured_c: Option<f64>,
-    /// Commanded (controller) joint angles, degrees.
-    pub q_cmd_deg: Vec<f64>,
-    /// Encoder eccentricity, true motor-side minus commanded angle per joint, millidegrees
-    /// (absent when the effect is off).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub eccentricity_mdeg: Option<Vec<f64>>,
-    /// Link-side angles the chain sees (commanded + eccentricity + deflection), degrees.
-    pub q_link_deg: Vec<f64>,
-    /// Link-side deflection per joint (link side minus motor side), millidegrees.
-    pub deflection_mdeg: Vec<f64>,
-    /// Load torque per joint at rest (gravity, payload, cable tension), N·m.
-    pub joint_torque_nm: Vec<f64>,
-    /// Backlash flank each joint arrived on (±1), by the approach rule.
-    pub approach_side: Vec<f64>,
-    /// Where each joint's transmission came to rest (spring, a flank, held, free).
-    pub contact: Vec<Contact>,
-    /// True tool position, base frame, mm.
-    pub tool_mm: [f64; 3],
-    /// Distance + length offset, mm (no linearity error, no noise).
-    pub length_true_mm: f64,
-    /// What a perfect reading would give: true length + linearity error, mm.
-    pub length_noise_free_mm: f64,
-    /// The draw-wire's reading, mm: noise, resolution and any glitch run included (the value a
-    /// draw-wire dataset holds).
-    pub length_measured_mm: f64,
-    /// With a tracker: the reflector's true position in the tracker's frame, mm (no noise).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub point_true_mm: Option<[f64; 3]>,
-    /// With a tracker: what it wrote (`x, y, z`), mm.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub point_measured_mm: Option<[f64; 3]>,
-    /// With a 6-D probe: its true pose in the tracker's frame (`x, y, z` mm, `rx, ry, rz`
-    /// degrees, intrinsic X-Y-Z; no noise).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub pose_true: Option<[f64; 6]>,
-    /// Simulation steps the arm took to settle (0 for the quasi-static model or a rigid arm).
-    pub settle_steps: usize,
-    /// Simulated time the arm took to come to rest, s. Longer than the sensor's hold time means
-    /// a real reading would have been taken while the arm still moved.
-    pub settle_time_s: f64,
-    /// How the simulated acquisition went at this pose (absent for settled / quasi-static datasets).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub acquisition: Option<PoseAcquisition>,
-}
+pub use crate::dataset::truth::{PoseAcquisition, PoseTruth, Rejected, SensorTruth, ToolTruth};
 
-/// Per pose of a simulated acquisition (`acquisition.model = "simulated"`).
-#[derive(Clone, Debug, Serialize)]
-pub struct PoseAcquisition {
-    /// Duration of the move to this pose, s.
-    pub move_s: f64,
-    /// When the stability gate opened, s after arrival; `null`: still closed when the hold ended.
-    pub gate_s: Option<f64>,
-    /// The readings were taken with the gate closed (`on_timeout = "read"`).
-    pub read_with_gate_closed: bool,
-    /// What the transient adds to L: the window's mean noise-free length minus that of the arm at
-    /// rest on the flanks it ends on, mm. With a tracker: the distance of the window's mean tool
-    /// point from the arm at rest, mm.
-    pub transient_mm: f64,
-    /// From when on the transient could no longer reach 1 nm at the tool by the readings (its
-    /// amplitude decaying at the slowest modelled rate), s after arrival; `null`: it still could.
-    pub negligible_s: Option<f64>,
-    /// The flank the load/approach rule predicts per joint (±1); `contact` is what the motion gave.
-    pub rule_side: Vec<f64>,
-}
-
-/// A sampled pose that gave no dataset row, and why.
-#[derive(Clone, Debug, Serialize)]
-pub struct Rejected {
-    /// Index of the pose among the sampled poses.
-    pub index: usize,
-    /// Commanded joint angles, degrees.
-    pub q_cmd_deg: Vec<f64>,
-    /// Why the pose was rejected (settling failed, reading out of range, stability gate still
-    /// closed).
-    pub reason: String,
-}
-
-/// The draw-wire sensor's settings, as the truth file records them (see
-/// [`crate::sim::instrument::DrawWire`]).
-#[derive(Clone, Debug, Serialize)]
-pub struct SensorTruth {
-    /// Cable exit point in the base frame, mm.
-    pub exit_point_mm: [f64; 3],
-    /// Added to the geometric distance, mm.
-    pub length_offset_mm: f64,
-    /// Standard deviation of one raw sample, mm.
-    pub noise_std_mm: f64,
-    /// Standard deviation of a written reading: `noise_std_mm` / √`samples`, mm.
-    pub averaged_noise_std_mm: f64,
-    /// Quantisation step of one raw sample, mm (0 = none).
-    pub resolution_mm: f64,
-    /// Amplitude of the linearity error, % of full scale (range width).
-    pub linearity_pct_fs: f64,
-    /// Valid reading range [min, max], mm.
-    pub range_mm: [f64; 2],
-    /// Cable tension acting on the tool, N.
-    pub tension_n: f64,
-    /// Raw samples averaged per reading.
-    pub samples: usize,
-    /// Hold time before sampling, s.
-    pub hold_s: f64,
-    /// Sampling rate, Hz.
-    pub rate_hz: f64,
-}
-
-/// The tool point the instrument reads, as the truth file records it.
-#[derive(Clone, Debug, Serialize)]
-pub struct ToolTruth {
-    /// Cable attachment point (or reflector) in the flange frame, mm.
-    pub point_mm: [f64; 3],
-}
-
-/// Everything true about a generated dataset.
-#[derive(Clone, Debug, Serialize)]
-pub struct Truth {
-    /// See [`crate::io::SCHEMA_VERSION`].
-    pub schema_version: u32,
-    /// The scenario's `name`.
-    pub scenario: String,
-    /// The seed the dataset was generated with.
-    pub seed: u64,
-    /// Name of the robot.
-    pub robot: String,
-    /// The robot's URDF text, for a robot other than the embedded IRB 120: the truth file then
-    /// holds everything needed to rebuild the twin (`ik` validates against it).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub robot_urdf: Option<String>,
-    /// Unit of each kind of value in the file, by name.
-    pub units: BTreeMap<&'static str, &'static str>,
-    /// True geometric deviations: mm for dx/dy/dz, degrees for rx/ry/rz/dtheta.
-    pub parameters: BTreeMap<String, f64>,
-    /// The twin's effects and their true settings.
-    pub effects: crate::sim::effects::Effects,
-    /// The draw-wire sensor.
-    pub sensor: SensorTruth,
-    /// The tracker that wrote `x, y, z` (absent for a draw-wire dataset).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub tracker: Option<crate::sim::instrument::Tracker>,
-    /// The tool point.
-    pub tool: ToolTruth,
-    /// Standard deviation of one written reading value, mm: the averaged cable noise, or for a
-    /// tracker the RMS over the poses of one coordinate's averaged noise.
-    pub noise_std_mm: f64,
-    /// Ground truth of each dataset row, in file order.
-    pub poses: Vec<PoseTruth>,
-    /// Sampled poses that gave no row.
-    pub rejected: Vec<Rejected>,
-    /// Dataset rows (0-based, in file order) whose reading carries a glitch run's offset.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub glitch_rows: Vec<usize>,
-}
+/// Everything true about a generated dataset, as truth.json holds it: the one truth schema
+/// ([`crate::dataset::truth::Truth`]) with the twin's own effects and tracker tables.
+pub type Truth = crate::dataset::truth::Truth<crate::sim::effects::Effects, crate::sim::instrument::Tracker>;
 
 /// A generated dataset with its truth and the link frames (for recordings).
 pub struct Generated {
@@ -368,7 +205,8 @@ pub use crate::dataset::split::stratified_split;
 /// joint with a tiny speed limit) would keep the simulation busy for as long, so it is refused.
 pub const MAX_ROBOT_TIME_S: f64 = 86_400.0;
 
-/// Refuses an acquisition whose last reading (`times`, s) comes after [`MAX_ROBOT_TIME_S`].
+/// Refuses an acquisition whose last reading (`times`, s) comes after [`MAX_ROBOT_TIME_S`]
+/// (the twin's own schedule; measured times, as `replay` gives them, are the data's).
 pub fn check_robot_time(s: &Scenario, times: &[f64]) -> Result<()> {
     let end = times.iter().copied().fold(0.0, f64::max);
     if end > MAX_ROBOT_TIME_S || !end.is_finite() {
@@ -505,12 +343,17 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
         }
     });
     let read_at: Option<Vec<f64>> = given_times.clone().filter(|_| schedule.is_some());
+    // Measured times span what the acquisition spanned (a series of days replays); only the
+    // twin's own schedule is held to a day of robot time.
+    let own_schedule = given_times.is_none();
     let times = match (given_times, &schedule) {
         (_, Some(sc)) => sc.read_t.clone(),
         (Some(t), None) => t,
         (None, None) => acquisition_times(s, robot, &poses),
     };
-    check_robot_time(s, &times)?;
+    if own_schedule {
+        check_robot_time(s, &times)?;
+    }
     let sides = approach_sides(&vec![0.0; robot.dof()], &poses);
     let chain = &twin.chain;
     let nominal_lengths: Vec<f64> = poses.iter().map(|q| nominal_length(chain, &s.sensor, q)).collect();
@@ -704,17 +547,21 @@ fn truth_file(
     let parameters = names.iter().zip(robot.param_kinds()).zip(&twin.params).map(|((n, kind), v)| (n.clone(), kind.to_file(*v))).collect();
     let sn = &s.sensor;
     let averaged = sn.noise_std_mm / (sn.samples as f64).sqrt();
-    let units = BTreeMap::from([
-        ("parameters", "mm for <joint>.dx/dy/dz, degrees for <joint>.rx/ry/rz/dtheta"),
-        ("angles", "degrees, controller convention"),
-        ("lengths", "mm"),
-        ("time", "s from the start of acquisition"),
-        ("deflection_mdeg", "millidegrees, link side minus motor side"),
-        ("eccentricity_mdeg", "millidegrees, true motor side minus commanded (encoder) angle"),
-        ("temperature", "°C for temp_measured_c, K for delta_t_k (the structure's true rise)"),
-    ]);
+    let units = BTreeMap::from(
+        [
+            ("parameters", "mm for <joint>.dx/dy/dz, degrees for <joint>.rx/ry/rz/dtheta"),
+            ("angles", "degrees, controller convention"),
+            ("lengths", "mm"),
+            ("time", "s from the start of acquisition"),
+            ("deflection_mdeg", "millidegrees, link side minus motor side"),
+            ("eccentricity_mdeg", "millidegrees, true motor side minus commanded (encoder) angle"),
+            ("temperature", "°C for temp_measured_c, K for delta_t_k (the structure's true rise)"),
+        ]
+        .map(|(k, v)| (k.to_string(), v.to_string())),
+    );
     Truth {
         schema_version: crate::io::SCHEMA_VERSION,
+        dataset: None,
         scenario: s.name.clone(),
         seed: s.seed,
         robot: robot.name.clone(),

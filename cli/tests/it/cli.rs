@@ -665,8 +665,14 @@ fn hand_edited_result_values_out_of_range_are_refused() {
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&res).unwrap()).unwrap();
     type Edit = fn(&mut serde_json::Value);
     assert_eq!(r["schema_version"], 2, "result.json carries its schema version");
-    let cases: [(Edit, &str); 7] = [
+    let cases: [(Edit, &str); 8] = [
         (|r| r["schema_version"] = 3.into(), "schema_version 3, written by a newer twincal"),
+        (
+            |r| {
+                r.as_object_mut().unwrap().remove("torque_model");
+            },
+            "joint_compliance block reads joint torques, but the file has no torque_model",
+        ),
         (|r| r["torque_model"]["links"].as_array_mut().unwrap().truncate(3), "3 link masses for a model of 6 joints"),
         (|r| r["torque_model"]["links"][1][0] = 1e6.into(), "link 2 has mass 1000000 kg"),
         (|r| r["torque_model"]["cable"][2] = 1e9.into(), "cable tension 1e9 N"),

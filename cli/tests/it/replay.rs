@@ -201,4 +201,12 @@ fn the_simulated_tour_reads_at_the_measured_times() {
     for (a, b) in ds.rows.iter().zip(&twin.rows) {
         assert!((a.t_s.unwrap() - b.t_s.unwrap()).abs() < 1e-3, "measured t {:?}, twin t {:?}", a.t_s, b.t_s);
     }
+    // A measured acquisition of days (the UR10's series a spans 100 h) replays at its own times:
+    // only the twin's own schedule is held to a day of robot time.
+    ds.rows.iter_mut().enumerate().for_each(|(i, r)| r.t_s = Some(3000.0 * i as f64 + 100.0));
+    let long = dir.path().join("long.csv");
+    ds.write_csv(&long).unwrap();
+    ok(twincal(&["replay", "--data", &p(&long), "--scenario", &p(&scenario), "--out", &p(&dir.path().join("r2")), "--quiet"]), "replay of 99 h");
+    let twin = twincal::dataset::Dataset::load(&dir.path().join("r2/twin")).unwrap();
+    assert!((twin.rows[119].t_s.unwrap() - ds.rows[119].t_s.unwrap()).abs() < 1e-3 && ds.rows[119].t_s.unwrap() > 3.5e5);
 }

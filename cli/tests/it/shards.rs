@@ -103,6 +103,48 @@ fn shards_reduce_to_the_single_run() {
     let missing = dir.path().join("no/such/part.jsonl");
     refused(&["--shard", "0/2", "--shard-out", &p(&missing)], "its folder");
     assert!(!dir.path().join("no").exists());
+    edited_parts_are_refused(dir.path(), &part);
+}
+
+/// A part edited by hand is refused with the item named: a configuration that is not the one
+/// its hash names (checked on every line, not the first only), a duplicate item with other
+/// numbers, a negative error, a shortened residual list; text from a part is printed with its
+/// control characters shown, never acted on (no forged `error:` line, no terminal escape).
+fn edited_parts_are_refused(dir: &Path, part: &Path) {
+    let p = |x: &Path| x.to_str().unwrap().to_owned();
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(part).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let write = |name: &str, lines: &[serde_json::Value]| {
+        let f = dir.join(name);
+        std::fs::write(&f, lines.iter().map(|l| l.to_string() + "\n").collect::<String>()).unwrap();
+        f
+    };
+    let refused = |lines: &[serde_json::Value], says: &str| {
+        let f = write("edited.jsonl", lines);
+        let o = twincal(&["reduce", &p(&f)]);
+        assert_eq!(o.status.code(), Some(2), "{says}: {}", String::from_utf8_lossy(&o.stdout));
+        assert!(String::from_utf8_lossy(&o.stderr).contains(says), "{says}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    let mut e = lines.clone();
+    e[5]["config"]["effort"] = 0.5.into();
+    refused(&e, &format!("item {}: its configuration differs from the one its hash names", e[5]["item"]));
+    let mut e = lines.clone();
+    let mut dup = e[4].clone();
+    dup["run"]["test"]["rmse"] = 1.0.into();
+    e.push(dup);
+    refused(&e, &format!("item {} is also in", e[4]["item"]));
+    let mut e = lines.clone();
+    e[3]["run"]["train"]["rmse"] = (-0.1).into();
+    refused(&e, "an error statistic that is negative");
+    let mut e = lines.clone();
+    let seed0 = e.iter().position(|l| l["run"]["seed"] == 0 && l["run"]["method"] == "rbf").unwrap();
+    e[seed0]["test_abs_residuals"].as_array_mut().unwrap().pop();
+    refused(&e, "per-sample test residuals where the other methods have");
+    // A forged line: shown, not acted on.
+    let mut e = lines.clone();
+    e[2]["run"]["warnings"] = serde_json::json!(["\u{1b}[2J\nerror: forged"]);
+    let o = ok(twincal(&["reduce", &p(&write("forged.jsonl", &e))]), "reduce of a part with control characters");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains('\u{1b}') && !err.lines().any(|l| l.starts_with("error:")) && err.contains("\\u{1b}[2J\\u{a}error: forged"), "{err}");
 }
 
 /// The lines of a run's stdout.

@@ -21,6 +21,9 @@ impl Effect for JointCompliance {
     fn params(&self, b: &EffectBlock) -> Vec<(String, EffectUnit)> {
         vec![(format!("compliance.j{}", b.joint_number()), EffectUnit::Compliance)]
     }
+    fn reads_torques(&self) -> bool {
+        true
+    }
     fn configure(&self, _b: &mut EffectBlock, _data: &Dataset, has_torques: bool) -> Result<()> {
         if !has_torques {
             return Err(Error::Invalid("joint_compliance needs joint torques: give the robot's URDF (--robot FILE) for its inertial data".into()));

@@ -60,6 +60,11 @@ pub trait Effect: Sync {
     fn start(&self, b: &EffectBlock, _t_span_s: f64) -> Vec<f64> {
         vec![0.0; self.n_params(b)]
     }
+    /// Whether the block reads the rows' joint torques (a result file must then carry the torque
+    /// model that computes them on new rows).
+    fn reads_torques(&self) -> bool {
+        false
+    }
     /// Sets the block up for these data, or says what they lack.
     fn configure(&self, _b: &mut EffectBlock, _data: &Dataset, _has_torques: bool) -> Result<()> {
         Ok(())

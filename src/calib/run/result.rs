@@ -494,6 +494,12 @@ impl CalibResult {
         }
         if let Some(t) = &r.torque_model {
             t.validate(chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
+        } else if let Some(b) = r.model.effects.iter().find(|b| b.kind.def().reads_torques()) {
+            // Without it the block would read zero torque on every row: a silent error.
+            return Err(Error::model(
+                path.display(),
+                format!("the model's {} block reads joint torques, but the file has no torque_model to compute them (edited result file?)", b.kind.name()),
+            ));
         }
         let consistent = r.x.len() == r.model.n_params()
             && r.model.nominal.len() == r.model.n_params()

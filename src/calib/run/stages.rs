@@ -224,7 +224,7 @@ pub fn truth_stage(
     let commanded: Option<Vec<Vec<f64>>> = split
         .train_idx
         .iter()
-        .map(|&i| t.poses[i].q_cmd_deg.as_ref().filter(|q| q.len() == robot.dof()).map(|q| q.iter().map(|d| d.to_radians()).collect()))
+        .map(|&i| Some(&t.poses[i].q_cmd_deg).filter(|q| q.len() == robot.dof()).map(|q| q.iter().map(|d| d.to_radians()).collect()))
         .collect();
     let clean = Samples { y: y?.concat(), q: commanded.unwrap_or_else(|| split.train.q.clone()), ..split.train.clone() };
     crate::calib::run::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)

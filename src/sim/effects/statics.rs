@@ -21,24 +21,7 @@ pub struct Transmission {
     pub breakaway: f64,
 }
 
-/// Which flank a joint rests on, or free inside the band.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Contact {
-    /// No backlash: plain spring.
-    Spring,
-    /// On the positive flank, spring loaded.
-    Positive,
-    /// On the negative flank, spring loaded.
-    Negative,
-    /// Held at the approach flank by static friction against a load pulling it into the band
-    /// (the shaft still twists by load/stiffness).
-    Held,
-    /// Inside the band, on neither flank: a simulation stopped early, or in the simulated tour a
-    /// link the move's deceleration carried off its flank and friction holds (load at most the
-    /// breakaway).
-    Free,
-}
+pub use crate::robot::statics::Contact;
 
 impl Transmission {
     /// `None` when the joints are rigid (no compliance, no backlash).
