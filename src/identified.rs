@@ -233,10 +233,18 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
                         range_mm: [lo * 1e3, hi * 1e3],
                         legendre_mm: [r.x[k] * 1e3, r.x[k + 1] * 1e3, r.x[k + 2] * 1e3],
                     });
+                    notes.push(format!(
+                        "{label}: identified on readings of {:.1} to {:.1} mm; beyond them the twin holds its end values (the data say nothing there).",
+                        lo * 1e3,
+                        hi * 1e3
+                    ));
                     written.push(label);
                 }
                 _ => notes.push(format!("{label}: identified without its reading range; left out.")),
             },
+            // A block the data could not show is not carried: not identifiable, or every
+            // parameter within two standard uncertainties of zero.
+            _ if !shown_by_the_data(r, &kind_params(block), notes, &label) => {}
             // Every other effect: the size the block says the twin takes, which the twin may
             // still refuse (beyond its range); either way the note names why it is left out.
             kind => match kind.def().twin_size(block, &r.x, k).and_then(|(size, phase)| scenario.effects.set_size(kind.name(), n, block.joint, size, phase)) {
@@ -245,6 +253,12 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
             },
         }
     }
+    if let Some(c) = &r.corrector {
+        notes.push(format!(
+            "The calibration's learned corrector ({}) is no physical effect the twin simulates: left out, the twin reads what its geometry and effects give.",
+            c.name()
+        ));
+    }
     if let Some((mass, com)) = r.torque_model.as_ref().and_then(|t| t.payload) {
         scenario.effects.payload = Some(crate::sim::effects::Payload { mass_kg: mass, com_mm: com.map(|v| v * 1e3) });
     }
@@ -252,6 +266,37 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
         notes.push(format!("Effects at their identified sizes: {}.", written.join(", ")));
     }
     Ok(())
+}
+
+/// The names of an effect block's parameters, as the result's `parameters` list them.
+fn kind_params(block: &crate::calib::effects::EffectBlock) -> Vec<String> {
+    block.kind.def().params(block).into_iter().map(|(name, _)| name).collect()
+}
+
+/// Smallest |value| / standard uncertainty of a block's largest parameter for the twin to carry
+/// it: within two standard uncertainties of zero the data do not tell it from no effect.
+pub const MIN_CARRIED_Z: f64 = 2.0;
+
+/// Whether the data showed the block whose parameters are `names`: identifiable, with a
+/// parameter at least [`MIN_CARRIED_Z`] standard uncertainties from zero; else a note says why
+/// it is left out.
+fn shown_by_the_data(r: &CalibResult, names: &[String], notes: &mut Vec<String>, label: &str) -> bool {
+    let params: Vec<&crate::calib::run::ParamReport> = r.parameters.iter().filter(|p| names.contains(&p.name)).collect();
+    if params.is_empty() {
+        return true;
+    }
+    if params.iter().all(|p| p.fixed) {
+        notes.push(format!("{label}: not identifiable from these data, left out."));
+        return false;
+    }
+    let z = params.iter().filter(|p| !p.fixed).map(|p| p.std_uncertainty.filter(|s| *s > 0.0).map_or(f64::INFINITY, |s| p.value.abs() / s)).fold(0.0, f64::max);
+    if z < MIN_CARRIED_Z {
+        let shown: Vec<String> =
+            params.iter().map(|p| format!("{} = {:.4} ± {:.4} {}", p.name, p.value, p.std_uncertainty.unwrap_or(f64::NAN), p.unit)).collect();
+        notes.push(format!("{label}: {} is not told from zero by these data (|z| = {z:.2} < {MIN_CARRIED_Z}), left out.", shown.join(", ")));
+        return false;
+    }
+    true
 }
 
 /// Each joint's range over the data (degrees), widened to at least 1° and kept inside the

@@ -68,6 +68,7 @@ impl Progress for Ticker {
     fn inc(&self, n: u64) {
         self.done.fetch_add(n, Ordering::SeqCst);
         self.stamp.fetch_add(1, Ordering::SeqCst);
+        twincal::progress::check_stop();
     }
 }
 
@@ -75,29 +76,42 @@ fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
     p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_else(|| "unknown panic".into())
 }
 
-/// Runs `work` with the GIL released. With a `progress` callable, the work runs on a scoped
-/// thread and this thread calls `progress(what, done, total)` whenever the work reports news
-/// (at most every 0.1 s); an exception in the callback is raised once the work is done.
+/// Runs of the library in flight in this process: the last one to end after a Ctrl-C lets
+/// computations run again.
+static IN_FLIGHT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// Runs `work` with the GIL released, on a scoped thread, while this thread checks for signals
+/// every 50 ms: a Ctrl-C (KeyboardInterrupt) asks the work to stop (it unwinds at its next
+/// check, dropping whatever it staged, see [`twincal::progress::request_stop`]) and is raised
+/// once it has. With a `progress` callable this thread also calls `progress(what, done, total)`
+/// whenever the work reports news (at most every 0.1 s); an exception in the callback is raised
+/// once the work is done.
 fn released<T: Send>(py: Python<'_>, progress: Option<&Bound<'_, PyAny>>, work: impl FnOnce(&Ticker) -> twincal::Result<T> + Send) -> PyResult<T> {
     let ticker = Ticker::default();
-    let Some(cb) = progress else {
-        return py.detach(|| work(&ticker)).map_err(err);
-    };
     let mut cb_err: Option<PyErr> = None;
+    let mut interrupted: Option<PyErr> = None;
+    IN_FLIGHT.fetch_add(1, Ordering::SeqCst);
     let joined = std::thread::scope(|s| {
         let h = s.spawn(|| work(&ticker));
         let mut seen = u64::MAX;
+        let mut last_call = Instant::now() - Duration::from_secs(1);
         loop {
             let finished = py.detach(|| {
                 let t0 = Instant::now();
-                while !h.is_finished() && t0.elapsed() < Duration::from_millis(100) {
+                while !h.is_finished() && t0.elapsed() < Duration::from_millis(50) {
                     std::thread::sleep(Duration::from_millis(2));
                 }
                 h.is_finished()
             });
+            if interrupted.is_none() {
+                if let Err(e) = py.check_signals() {
+                    twincal::progress::request_stop();
+                    interrupted = Some(e);
+                }
+            }
             let stamp = ticker.stamp.load(Ordering::SeqCst);
-            if stamp != seen && cb_err.is_none() {
-                seen = stamp;
+            if let Some(cb) = progress.filter(|_| stamp != seen && cb_err.is_none() && (finished || last_call.elapsed() >= Duration::from_millis(100))) {
+                (seen, last_call) = (stamp, Instant::now());
                 if let Err(e) = cb.call1(ticker.state()) {
                     cb_err = Some(e);
                 }
@@ -108,7 +122,20 @@ fn released<T: Send>(py: Python<'_>, progress: Option<&Bound<'_, PyAny>>, work: 
         }
         h.join()
     });
-    let out = joined.map_err(|p| PyRuntimeError::new_err(format!("twincal failed unexpectedly: {}", panic_text(p.as_ref()))))?;
+    if IN_FLIGHT.fetch_sub(1, Ordering::SeqCst) == 1 {
+        twincal::progress::clear_stop();
+    }
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
+    let out = joined.map_err(|p| {
+        if p.is::<twincal::progress::Stopped>() {
+            // Another thread's Ctrl-C stopped this work too.
+            pyo3::exceptions::PyKeyboardInterrupt::new_err("stopped by a Ctrl-C (KeyboardInterrupt) in another thread")
+        } else {
+            PyRuntimeError::new_err(format!("twincal failed unexpectedly: {}", panic_text(p.as_ref())))
+        }
+    })?;
     if let Some(e) = cb_err {
         return Err(e);
     }

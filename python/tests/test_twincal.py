@@ -356,3 +356,21 @@ def test_paths_are_guarded_by_the_files_they_name_and_odd_inputs_are_named(tmp_p
     masked["L"] = np.ma.masked_array(small["L"], mask=np.arange(150) == 5)
     with pytest.raises(twincal.TwincalError, match="column L: NaN"):
         twincal.calibrate(masked)
+
+
+def test_ctrl_c_stops_a_long_calibration_promptly_and_the_next_one_runs():
+    """A SIGINT one second into a PSO calibration of ~40 s raises KeyboardInterrupt within a
+    second or so (the work unwinds at its next residual evaluation), and the library runs again."""
+    import signal
+
+    data, _ = twincal.generate()
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        twincal.calibrate(data, method="pso", effort=10)
+    elapsed = time.perf_counter() - t0
+    timer.cancel()
+    assert elapsed < 3.0, f"KeyboardInterrupt after {elapsed:.1f} s"
+    r = twincal.calibrate(data)
+    assert r.metrics["train_after"]["rmse"] < r.metrics["train_before"]["rmse"]

@@ -18,6 +18,7 @@ import json
 import math
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -457,8 +458,15 @@ def cli(argv: Sequence[str]) -> None:
     exe = os.environ.get("TWINCAL_BIN") or shutil.which("twincal")
     if not exe:
         raise TwincalError("twincal.cli runs the twincal executable, which was not found: set TWINCAL_BIN or put twincal on PATH (cargo install --path cli)")
-    done = subprocess.run([exe, *[os.fspath(a) for a in argv]], stderr=subprocess.PIPE, text=True)
-    sys.stderr.write(done.stderr)
-    if done.returncode != 0:
-        errors = [line[len("error: ") :] for line in done.stderr.splitlines() if line.startswith("error: ")]
-        raise TwincalError(errors[-1] if errors else f"twincal exited with code {done.returncode}")
+    proc = subprocess.Popen([exe, *[os.fspath(a) for a in argv]], stderr=subprocess.PIPE, text=True)
+    try:
+        _, err = proc.communicate()
+    except KeyboardInterrupt:
+        # Ctrl-C: the command stops as on a terminal (its staged outputs removed), then Python.
+        proc.send_signal(signal.SIGINT)
+        proc.wait()
+        raise
+    sys.stderr.write(err)
+    if proc.returncode != 0:
+        errors = [line[len("error: ") :] for line in err.splitlines() if line.startswith("error: ")]
+        raise TwincalError(errors[-1] if errors else f"twincal exited with code {proc.returncode}")

@@ -87,8 +87,9 @@ pub(super) fn prepare_rows(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     let prepared = crate::calib::run::prepare(data, &opts.baseline_options(), true)?;
     let base = prepared.model;
     let torque = prepared.split.torque_model;
-    // Torques exist where there are inertial data (the nominal robot's or `--robot`'s).
-    let has_torques = torque.is_some();
+    // Torques exist where something loads the joints: link masses (the nominal robot's or
+    // `--robot`'s inertial data), a payload or a cable's tension.
+    let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque());
     let mut all = prepared.split.train;
     let fold_warning = fold_rows_check(all.len(), dim, prepared.id.fixed_mask.iter().filter(|f| !**f).count(), opts)?;
 

@@ -24,7 +24,7 @@ pub use files::{
     check_model_outputs, data_inputs, load_dataset, load_scenario, scenario_inputs, scenario_urdf_path, stage_identified_twin, Figures, NoRecordings,
     Recordings,
 };
-pub use predict::{predicted_readings, prediction_csv, residuals};
+pub use predict::{predicted_readings, prediction_csv, residuals, rotation_residual_deg};
 pub use replay::{replay, AfterCalibration, Fidelity, ReplayJob, ReplayRequest, ReplaySummary};
 
 #[cfg(test)]

@@ -9,10 +9,14 @@ use crate::measurement::Euler;
 /// `x, y, z, rx, ry, rz`): `q1..qN,L,L_pred,residual` when every row has a measured reading,
 /// `q1..qN,L_pred` otherwise (for a point, `x_pred,y_pred,z_pred` and residuals
 /// `x_residual,...`). `rows` pairs each row's angles with its measured reading (empty when none),
-/// `predicted` holds the readings row after row. The last `angles` columns are angles in
-/// degrees: their residuals are wrapped into (−180°, 180°].
-pub fn prediction_csv(columns: &[&str], angles: usize, rows: &[(&[f64], &[f64])], predicted: &[f64]) -> String {
+/// `predicted` holds the readings row after row. With `angles` (a pose), the last three columns
+/// are Euler angles in degrees in that convention, and their residual is the orientation error
+/// as a rotation vector, `wx_residual, wy_residual, wz_residual` (degrees, in the frame the pose
+/// is read in: measured · predictedᵀ as axis × angle): differences of Euler angles mean nothing
+/// near gimbal lock, where a thousandth of a degree turns two of them by tens of degrees.
+pub fn prediction_csv(columns: &[&str], angles: Option<Euler>, rows: &[(&[f64], &[f64])], predicted: &[f64]) -> String {
     let d = columns.len();
+    let lengths = if angles.is_some() { d - 3 } else { d };
     let measured = rows.iter().all(|(_, y)| y.len() == d);
     let joints: Vec<String> = (1..=rows.first().map_or(0, |(q, _)| q.len())).map(|j| format!("q{j},")).collect();
     let mut head: Vec<String> = Vec::new();
@@ -21,7 +25,10 @@ pub fn prediction_csv(columns: &[&str], angles: usize, rows: &[(&[f64], &[f64])]
     }
     head.extend(columns.iter().map(|c| format!("{c}_pred")));
     if measured {
-        head.extend(columns.iter().map(|c| if d == 1 { "residual".to_string() } else { format!("{c}_residual") }));
+        head.extend(columns[..lengths].iter().map(|c| if d == 1 { "residual".to_string() } else { format!("{c}_residual") }));
+        if angles.is_some() {
+            head.extend(["wx_residual", "wy_residual", "wz_residual"].map(String::from));
+        }
     }
     let mut text = joints.concat() + &head.join(",") + "\n";
     for ((q, y), p) in rows.iter().zip(predicted.chunks(d)) {
@@ -31,12 +38,23 @@ pub fn prediction_csv(columns: &[&str], angles: usize, rows: &[(&[f64], &[f64])]
         }
         cells.extend(p.iter().map(|v| v.to_string()));
         if measured {
-            cells.extend(residuals(y, p, d - angles).iter().map(|v| v.to_string()));
+            cells.extend(residuals(&y[..lengths], &p[..lengths], lengths).iter().map(|v| v.to_string()));
+            if let Some(e) = angles {
+                cells.extend(rotation_residual_deg(&y[lengths..], &p[lengths..], e).iter().map(|v| (v + 0.0).to_string()));
+            }
         }
         text.push_str(&cells.join(","));
         text.push('\n');
     }
     text
+}
+
+/// The orientation error of a pose as a rotation vector, degrees: `measured · predictedᵀ` as axis
+/// × angle, from Euler angles (degrees) in the convention `euler`.
+pub fn rotation_residual_deg(measured: &[f64], predicted: &[f64], euler: Euler) -> [f64; 3] {
+    let r = |a: &[f64]| euler.matrix([a[0], a[1], a[2]].map(f64::to_radians));
+    let err = nalgebra::Rotation3::from_matrix_unchecked(r(measured) * r(predicted).transpose());
+    err.scaled_axis().map(f64::to_degrees).into()
 }
 
 /// Measured − predicted of one row; values from `lengths` on are angles (degrees), wrapped into

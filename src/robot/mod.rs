@@ -69,6 +69,8 @@ pub struct JointSpec {
     pub upper: f64,
     /// The URDF's velocity limit, rad/s; 0 when the URDF gives none (see [`Self::speed_limit`]).
     pub max_velocity: f64,
+    /// A `continuous` joint (no stops; its limits are one turn, [-π, π]).
+    pub continuous: bool,
 }
 
 /// Speed limit (rad/s) taken for a joint whose URDF gives none (`velocity` 0 or no `<limit>`,
@@ -197,8 +199,12 @@ fn inertial_of(link: &urdf_rs::Link) -> Inertial {
     Inertial { mass: i.mass.value, com: f.pos, inertia: f.rot * local * f.rot.transpose() }
 }
 
+/// Farthest (m) a joint may sit from its parent link's frame: the longest link of an industrial
+/// arm is a few metres; beyond this a URDF is in other units or broken.
+pub const MAX_JOINT_OFFSET_M: f64 = 20.0;
+
 /// The URDF's one root link, after checking the links' inertials and that the joints form a
-/// tree with finite origins and axes.
+/// tree with finite origins (within [`MAX_JOINT_OFFSET_M`]) and axes.
 fn tree_root(urdf: &urdf_rs::Robot) -> std::result::Result<String, String> {
     for link in &urdf.links {
         check_inertial(link)?;
@@ -211,6 +217,14 @@ fn tree_root(urdf: &urdf_rs::Robot) -> std::result::Result<String, String> {
         let o = &j.origin;
         if o.xyz.0.iter().chain(&o.rpy.0).chain(&j.axis.xyz.0).any(|v| !v.is_finite()) {
             return Err(format!("joint '{}' has a non-finite origin or axis", j.name));
+        }
+        let d = Vector3::from(o.xyz.0).norm();
+        if d > MAX_JOINT_OFFSET_M {
+            return Err(format!(
+                "joint '{}' sits {} m from its parent link's frame, beyond the {MAX_JOINT_OFFSET_M} m any arm's link spans (lengths in mm where URDF takes metres?)",
+                j.name,
+                crate::error::shown(d)
+            ));
         }
     }
     let children: std::collections::HashSet<&str> = urdf.joints.iter().map(|j| j.child.link.as_str()).collect();
@@ -272,6 +286,7 @@ fn joint_spec(j: &urdf_rs::Joint, full: &Frame) -> std::result::Result<JointSpec
         lower,
         upper,
         max_velocity: j.limit.velocity,
+        continuous: j.joint_type == urdf_rs::JointType::Continuous,
     })
 }
 
@@ -319,6 +334,12 @@ impl Robot {
             let child_inertial = link_by_name(&j.child.link).map(inertial_of).unwrap_or(Inertial::zero());
             match &j.joint_type {
                 urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
+                    if let Some(m) = &j.mimic {
+                        return Err(err(format!(
+                            "joint '{}' mimics joint '{}': mimic joints are not supported (each joint of the chain is its own angle, read from its own column)",
+                            j.name, m.joint
+                        )));
+                    }
                     joints.push(joint_spec(j, &pending.compose(&origin)).map_err(err)?);
                     links.push(child_inertial);
                     pending = Frame::identity();
@@ -485,5 +506,29 @@ mod tests {
         // The same robot with sane values loads.
         let ok = format!(r#"<robot name="r">{}{}{}</robot>"#, link("base", "1", "0.01"), link("arm", "1", "0.01"), revolute("j1", "base", "arm"),);
         assert_eq!(Robot::from_urdf_str(&ok, "ok.urdf").expect("loads").dof(), 1);
+    }
+
+    #[test]
+    fn a_link_in_millimetres_and_a_mimic_joint_are_named() {
+        // 1 000 km: a URDF written in mm (or broken) is refused, naming the joint and the units.
+        let far = format!(r#"<robot name="r">{}{}{}</robot>"#, link("base", "1", "0.01"), link("arm", "1", "0.01"), revolute("j1", "base", "arm"))
+            .replace(r#"xyz="0 0 0.1""#, r#"xyz="0 0 1000000""#);
+        let e = Robot::from_urdf_str(&far, "far.urdf").unwrap_err().to_string();
+        assert!(e.contains("far.urdf") && e.contains("joint 'j1' sits 1000000 m") && e.contains("mm where URDF takes metres"), "{e}");
+        let mimic = format!(
+            r#"<robot name="r">{}{}{}{}{}</robot>"#,
+            link("base", "1", "0.01"),
+            link("a", "1", "0.01"),
+            link("b", "1", "0.01"),
+            revolute("j1", "base", "a"),
+            revolute("j2", "a", "b")
+        )
+        .replace(
+            r#"<limit lower="-1" upper="1" effort="0" velocity="1"/></joint>"#,
+            r#"<limit lower="-1" upper="1" effort="0" velocity="1"/><mimic joint="j1"/></joint>"#,
+        );
+        let e = Robot::from_urdf_str(&mimic, "mimic.urdf").unwrap_err().to_string();
+        assert!(e.contains("joint 'j1' mimics joint 'j1'") || e.contains("mimics joint 'j1'"), "{e}");
+        assert!(e.contains("mimic joints are not supported"), "{e}");
     }
 }

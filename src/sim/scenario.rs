@@ -131,6 +131,12 @@ impl GlitchKind {
     }
 }
 
+/// Largest geometric deviation of a joint origin's offset `geometry.set` (and its random spread)
+/// takes, mm: a metre is already no calibration error.
+pub const MAX_DEVIATION_MM: f64 = 1000.0;
+/// Largest angular deviation (origin rotation, joint zero) `geometry.set` takes, degrees.
+pub const MAX_DEVIATION_DEG: f64 = 180.0;
+
 /// True geometric deviations: random with the given standard deviations, then explicit values.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -314,7 +320,8 @@ impl Scenario {
         Ok(())
     }
 
-    /// The geometry section: parameters the robot has, finite spreads.
+    /// The geometry section: parameters the robot has, finite spreads, deviations within
+    /// [`MAX_DEVIATION_MM`] and [`MAX_DEVIATION_DEG`].
     fn validate_geometry(&self, robot: &Robot) -> std::result::Result<(), String> {
         let names = robot.param_names();
         for k in self.geometry.set.keys() {
@@ -335,6 +342,28 @@ impl Scenario {
         }
         if let Some((k, v)) = g.set.iter().find(|(_, v)| !v.is_finite()) {
             return Err(format!("geometry.set.\"{k}\" = {v} must be finite"));
+        }
+        // A deviation of an arm's geometry, not another arm: a metre, half a turn at most.
+        for (k, v) in &g.set {
+            let (limit, unit) = match crate::robot::GeoKind::of_name(k) {
+                Some(crate::robot::GeoKind::Length) => (MAX_DEVIATION_MM, "mm"),
+                _ => (MAX_DEVIATION_DEG, "degrees"),
+            };
+            if v.abs() > limit {
+                return Err(format!(
+                    "geometry.set.\"{k}\" = {} {unit} is beyond the {limit} {unit} a geometric error can be (a deviation from the URDF, not another arm)",
+                    crate::error::shown(*v)
+                ));
+            }
+        }
+        for (key, v, limit) in [
+            ("origin_offset_std_mm", g.origin_offset_std_mm, MAX_DEVIATION_MM),
+            ("origin_rotation_std_deg", g.origin_rotation_std_deg, MAX_DEVIATION_DEG),
+            ("joint_zero_std_deg", g.joint_zero_std_deg, MAX_DEVIATION_DEG),
+        ] {
+            if v > limit {
+                return Err(format!("geometry.{key} = {} is beyond {limit}", crate::error::shown(v)));
+            }
         }
         Ok(())
     }

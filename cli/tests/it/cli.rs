@@ -876,3 +876,48 @@ fn a_flat_result_file_of_layout_1_still_loads_and_predicts_the_same() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("schema_version 3, written by a newer twincal"), "{}", stderr(&o));
 }
+
+/// A URDF without link masses loads no joint: compliance asked of it is refused (by calibrate's
+/// --effects and diagnose's --candidates), naming what would load the joints; a payload does.
+#[test]
+fn compliance_on_a_urdf_without_masses_is_refused_until_something_loads_the_joints() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let data = dir.path().join("d");
+    assert!(twincal(&["generate", "--out", &s(&data)]).status.success());
+    let text = std::fs::read_to_string(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../urdf/irb120.urdf"))).unwrap();
+    let mut bare = String::new();
+    let mut rest = text.as_str();
+    while let Some(i) = rest.find("<inertial>") {
+        bare.push_str(&rest[..i]);
+        rest = &rest[rest[i..].find("</inertial>").unwrap() + i + "</inertial>".len()..];
+    }
+    bare.push_str(rest);
+    assert!(!bare.contains("<mass"));
+    let urdf = dir.path().join("bare.urdf");
+    std::fs::write(&urdf, bare).unwrap();
+    let out = dir.path().join("r.json");
+    for args in [
+        vec!["calibrate", "--data", &s(&data), "--model", &s(&urdf), "--effects", "compliance:2", "--out", &s(&out)],
+        vec![
+            "diagnose",
+            "--data",
+            &s(&data),
+            "--model",
+            &s(&urdf),
+            "--candidates",
+            "compliance",
+            "--out",
+            &s(&out),
+            "--result",
+            &s(&dir.path().join("m.json")),
+        ],
+    ] {
+        let o = twincal(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("nothing loads the joints"), "{args:?}: {}", stderr(&o));
+        assert!(!out.exists());
+    }
+    let o = twincal(&["calibrate", "--data", &s(&data), "--model", &s(&urdf), "--effects", "compliance:2", "--payload-kg", "3", "--out", &s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

@@ -94,6 +94,17 @@ impl Corrector {
         }
     }
 
+    /// The corrector's kind, as messages name it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Corrector::Rbf(_) => "RBF network",
+            Corrector::Gkan(_) => "graph KAN",
+            Corrector::Mlp(_) => "perceptron",
+            Corrector::Awnn(_) => "wavelet network",
+            Corrector::Values(v) => v.values.first().map_or("per-value corrector", Corrector::name),
+        }
+    }
+
     /// The corrector as a [`Correct`].
     pub fn as_correct(&self) -> &dyn Correct {
         match self {

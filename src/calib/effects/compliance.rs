@@ -26,7 +26,7 @@ impl Effect for JointCompliance {
     }
     fn configure(&self, _b: &mut EffectBlock, _data: &Dataset, has_torques: bool) -> Result<()> {
         if !has_torques {
-            return Err(Error::Invalid("joint_compliance needs joint torques: give the robot's URDF (--robot FILE) for its inertial data".into()));
+            return Err(Error::Invalid("joint_compliance needs joint torques, and nothing loads the joints here: give a URDF with its links' <inertial> masses (--robot FILE), a payload (--payload-kg) or a cable tension (--cable-tension-n)".into()));
         }
         Ok(())
     }

@@ -52,6 +52,15 @@ pub struct TorqueModel {
     pub torque_threshold_nm: f64,
 }
 
+impl TorqueModel {
+    /// Whether anything loads the joints: a link with mass (the URDF's `<inertial>`), a payload or
+    /// a cable's tension. A URDF without inertials and no payload gives zero torque everywhere,
+    /// and a torque-driven effect is not identifiable from it.
+    pub fn carries_torque(&self) -> bool {
+        self.links.iter().any(|(m, _)| *m > 0.0) || self.payload.is_some_and(|(m, _)| m > 0.0) || self.cable.is_some_and(|(_, _, f)| f > 0.0)
+    }
+}
+
 /// Largest mass (kg) of a link or payload a result file may hold: heavier than any arm's link.
 pub const MAX_MASS_KG: f64 = 10_000.0;
 /// Farthest (m) a centre of mass, a cable's exit or tool point sits from its frame.

@@ -128,6 +128,7 @@ impl LeastSquares for ReadingFit<'_> {
         self.data.y.len()
     }
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
+        crate::progress::check_stop();
         let d = self.data.dim;
         let mut y = [0.0; MAX_DIM];
         with_work(self.model, |w| {
@@ -164,6 +165,7 @@ impl LeastSquares for ReadingFit<'_> {
 impl ReadingFit<'_> {
     /// The Jacobian into `j` and, given `r`, the residuals from the same pass's readings.
     fn jacobian_pass(&self, x: &[f64], j: &mut DMatrix<f64>, mut r: Option<&mut [f64]>) {
+        crate::progress::check_stop();
         let (n, d) = (self.model.n_params(), self.data.dim);
         // Column k of J starts at k·ld (column-major).
         let ld = j.nrows();
@@ -227,6 +229,7 @@ impl Observations for ReadingFit<'_> {
         self.data.y[i] * 1e3 * self.data.weight(i)
     }
     fn gradient(&self, x: &[f64], i: usize, g: &mut [f64]) {
+        crate::progress::check_stop();
         let (n, d) = (self.model.n_params(), self.data.dim);
         let (row, c) = (i / d, i % d);
         if d == 1 {

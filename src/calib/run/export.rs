@@ -83,11 +83,17 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
         let (lo, hi) = nominal.and_then(|r| r.joints.get(j)).map(|jt| (jt.lower, jt.upper)).unwrap_or((-std::f64::consts::TAU, std::f64::consts::TAU));
         let vel = nominal.and_then(|r| r.joints.get(j)).map(|jt| jt.max_velocity).unwrap_or(1.0);
         let a = axes[j];
-        let _ = writeln!(out, "  <joint name=\"joint_{}\" type=\"revolute\">", j + 1);
+        // A continuous joint stays one (its stops-free rotation is the nominal's, not a ±180° range).
+        let continuous = nominal.and_then(|r| r.joints.get(j)).is_some_and(|jt| jt.continuous);
+        let _ = writeln!(out, "  <joint name=\"joint_{}\" type=\"{}\">", j + 1, if continuous { "continuous" } else { "revolute" });
         let _ = writeln!(out, "    <parent link=\"{parent}\"/>\n    <child link=\"{link}\"/>");
         let _ = writeln!(out, "    {}", origin(&rel));
         let _ = writeln!(out, "    <axis xyz=\"{} {} {}\"/>", a.x, a.y, a.z);
-        let _ = writeln!(out, "    <limit lower=\"{lo}\" upper=\"{hi}\" effort=\"0\" velocity=\"{vel}\"/>");
+        if continuous {
+            let _ = writeln!(out, "    <limit effort=\"0\" velocity=\"{vel}\"/>");
+        } else {
+            let _ = writeln!(out, "    <limit lower=\"{lo}\" upper=\"{hi}\" effort=\"0\" velocity=\"{vel}\"/>");
+        }
         let _ = writeln!(out, "  </joint>");
         parent = link;
         parent_frame = frames[j];
@@ -179,5 +185,21 @@ mod tests {
                 assert!((r.links.iter().map(|l| l.mass).sum::<f64>() - robot.links.iter().map(|l| l.mass).sum::<f64>()).abs() < 1e-9);
             }
         }
+    }
+
+    #[test]
+    fn a_continuous_joint_is_exported_as_one() {
+        // The IRB 120 with its joint 6 made continuous: the export keeps the type (no ±180° stops).
+        let text = crate::robot::IRB120_URDF;
+        let i = text.rfind("type=\"revolute\"").unwrap();
+        let text = format!("{}type=\"continuous\"{}", &text[..i], &text[i + "type=\"revolute\"".len()..]);
+        let robot = Robot::from_urdf_str(&text, "continuous").unwrap();
+        assert!(robot.joints[5].continuous && !robot.joints[4].continuous);
+        let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        let m = CalibModel::frame(&robot, &g);
+        let exported = urdf(&m, &m.nominal, Some(&robot), "calibrated");
+        assert_eq!(exported.matches("type=\"continuous\"").count(), 1, "{exported}");
+        let back = Robot::from_urdf_str(&exported, "exported").unwrap();
+        assert!(back.joints[5].continuous && (back.joints[5].upper - std::f64::consts::PI).abs() < 1e-12);
     }
 }

@@ -175,6 +175,7 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
     let robot = opts.inertial_robot();
     let torque = robot.map(|r| crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads, placement.exit(), placement.tool));
     let all = crate::calib::effects::inputs::row_inputs(data, torque.as_ref());
+    let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque());
     split.torque_model = torque;
     split.train.inputs = split.train_idx.iter().map(|&i| all[i].clone()).collect();
     split.test.inputs = split.test_idx.iter().map(|&i| all[i].clone()).collect();
@@ -185,7 +186,7 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
             (_, j) => vec![j],
         };
         for j in joints {
-            model.add_effect(crate::calib::effects::inputs::block_for(data, kind, j, robot.is_some())?, span);
+            model.add_effect(crate::calib::effects::inputs::block_for(data, kind, j, has_torques)?, span);
         }
     }
     Ok(())

@@ -79,11 +79,12 @@ pub struct ReadingPolynomial {
 }
 
 impl ReadingPolynomial {
-    /// The error at reading `l`, mm.
+    /// The error at reading `l`, mm. Beyond the readings it was identified on it holds its end
+    /// value: the quadratic extrapolated grows without bound (metres a few ranges out).
     pub fn at(&self, l: f64) -> f64 {
         let [lo, hi] = self.range_mm;
         let half = 0.5 * (hi - lo);
-        let (p, _) = crate::math::legendre((l - 0.5 * (lo + hi)) / half);
+        let (p, _) = crate::math::legendre(((l - 0.5 * (lo + hi)) / half).clamp(-1.0, 1.0));
         (0..3).map(|k| self.legendre_mm[k] * p[k]).sum()
     }
 }
