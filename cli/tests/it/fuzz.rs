@@ -1,7 +1,8 @@
-//! Property tests (a fuzz harness in the suite) for the two readers of files a user may have
-//! edited by hand: the result-file loader (`CalibResult::load`, then `predict` on what it
-//! accepted) and the `ik --targets` reader (`dataset::read_csv_columns`). Whatever the bytes,
-//! they answer with a value or an error: never a panic.
+//! Property tests (a fuzz harness in the suite) for the readers of files a user may have edited
+//! by hand: the result-file loader (`CalibResult::load`, then `predict` on what it accepted),
+//! the `ik --targets` reader (`dataset::read_csv_columns`), the scenario loader (then a short
+//! generation of what it accepted) and the shard parts `reduce` joins. Whatever the bytes, they
+//! answer with a value or an error: never a panic.
 
 use proptest::prelude::*;
 use serde_json::Value;
@@ -86,6 +87,19 @@ fn the_fixtures_load_and_a_known_bad_edit_is_refused() {
     assert!(CalibResult::load(&path).is_err());
 }
 
+/// The scenario property's base case: each unedited scenario loads and generates its first poses
+/// (so the property reaches the generation).
+#[test]
+fn the_fuzzed_scenarios_load_and_generate_unedited() {
+    let root = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios"));
+    for file in ["irb120_evo_nph.toml", "irb120_tracker.toml", "ur10_pose.toml"] {
+        let (mut s, robot) = Scenario::load(&root.join(file)).unwrap();
+        s.sampling.poses = s.sampling.poses.min(6);
+        s.sampling.test = s.sampling.test.min(1);
+        assert_eq!(generate(&s, &robot, &Silent).unwrap().dataset.rows.len(), 6, "{file}");
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 96, failure_persistence: None, ..ProptestConfig::default() })]
 
@@ -137,4 +151,93 @@ proptest! {
             prop_assert!(n <= lines.len());
         }
     }
+
+    #[test]
+    fn an_edited_scenario_loads_and_generates_or_is_refused(which in 0usize..3, edits in proptest::collection::vec((any::<prop::sample::Index>(), replacement()), 1..4)) {
+        let root = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios"));
+        let file = ["irb120_evo_nph.toml", "irb120_tracker.toml", "ur10_pose.toml"][which];
+        let text = std::fs::read_to_string(root.join(file)).unwrap();
+        let mut v: Value = serde_json::to_value(toml::from_str::<toml::Value>(&text).unwrap()).unwrap();
+        let mut paths = Vec::new();
+        leaves(&v, String::new(), &mut paths);
+        for (at, new) in &edits {
+            if let Some(slot) = v.pointer_mut(&paths[at.index(paths.len())]) {
+                *slot = new.clone();
+            }
+        }
+        // TOML has no null: an edit to null removes the key.
+        fn no_nulls(v: &mut Value) {
+            match v {
+                Value::Object(m) => { m.retain(|_, c| !c.is_null()); m.values_mut().for_each(no_nulls) }
+                Value::Array(a) => { a.retain(|c| !c.is_null()); a.iter_mut().for_each(no_nulls) }
+                _ => {}
+            }
+        }
+        no_nulls(&mut v);
+        let Ok(edited) = toml::to_string(&v) else { return Ok(()) };
+        // The scenario in a folder of its own, its URDF where it names it (../urdf/).
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("s")).unwrap();
+        std::fs::create_dir_all(dir.path().join("urdf")).unwrap();
+        std::fs::copy(root.join("../urdf/ur10.urdf"), dir.path().join("urdf/ur10.urdf")).unwrap();
+        let path = dir.path().join("s").join(file);
+        std::fs::write(&path, &edited).unwrap();
+        let outcome = std::panic::catch_unwind(|| {
+            if let Ok((mut s, robot)) = Scenario::load(&path) {
+                // What it accepted generates, or says why not (a few poses: the property is the
+                // absence of a panic, not the dataset).
+                s.sampling.poses = s.sampling.poses.min(6);
+                s.sampling.test = s.sampling.test.min(1);
+                let _ = generate(&s, &robot, &Silent);
+            }
+        });
+        prop_assert!(outcome.is_ok(), "panicked after editing {:?}", edits.iter().map(|(i, n)| (paths[i.index(paths.len())].clone(), n.clone())).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn an_edited_shard_part_reduces_or_is_refused(edits in proptest::collection::vec((any::<prop::sample::Index>(), any::<prop::sample::Index>(), replacement()), 1..4)) {
+        let lines = part_fixture();
+        let mut lines = lines.clone();
+        let mut edited = Vec::new();
+        for (line, at, new) in &edits {
+            let l = &mut lines[line.index(4)];
+            let mut paths = Vec::new();
+            leaves(l, String::new(), &mut paths);
+            let p = paths[at.index(paths.len())].clone();
+            if let Some(slot) = l.pointer_mut(&p) {
+                *slot = new.clone();
+            }
+            edited.push((p, new.clone()));
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let part = dir.path().join("part.jsonl");
+        std::fs::write(&part, lines.iter().map(|l| l.to_string() + "\n").collect::<String>()).unwrap();
+        let outcome = std::panic::catch_unwind(|| {
+            let read = twincal::jobs::shard::Parts::read(std::slice::from_ref(&part))?;
+            twincal::jobs::reduce_compare(read, None, None, &twincal::jobs::NoRecordings).map(|_| ())
+        });
+        prop_assert!(outcome.is_ok(), "panicked after editing {edited:?}");
+    }
+}
+
+/// The lines of a whole one-shard comparison (lm and rbf over two seeds on the fixture's first
+/// 200 rows), as JSON.
+fn part_fixture() -> &'static Vec<Value> {
+    static F: OnceLock<Vec<Value>> = OnceLock::new();
+    F.get_or_init(|| {
+        let (_, data) = fixtures();
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("d.csv");
+        Dataset { rows: data.rows[..200].to_vec(), source: "first rows".into() }.write_csv(&csv).unwrap();
+        let part = dir.path().join("part.jsonl");
+        let request = twincal::jobs::CompareRequest { methods: vec!["lm".into(), "rbf".into()], seeds: 2, ..Default::default() };
+        let job = twincal::jobs::CompareJob { data: csv, request, out: None, rrd: None, shard: Some("0/1".into()), shard_out: Some(part.clone()) };
+        twincal::jobs::compare(&job, &Silent, &twincal::jobs::NoRecordings).unwrap();
+        let lines: Vec<Value> = std::fs::read_to_string(&part).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+        assert_eq!(lines.len(), 4);
+        // Unedited, the part reduces.
+        let read = twincal::jobs::shard::Parts::read(&[part]).unwrap();
+        twincal::jobs::reduce_compare(read, None, None, &twincal::jobs::NoRecordings).unwrap();
+        lines
+    })
 }
