@@ -138,7 +138,7 @@ fn reading_sigma(r: &CalibResult, notes: &mut Vec<String>) -> f64 {
 fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Option<usize>, notes: &mut Vec<String>) -> (DrawWire, Option<Tracker>) {
     let m = &r.model;
     let p = m.placement(&r.x);
-    let mm = |v: nalgebra::Vector3<f64>| [v.x * 1e3, v.y * 1e3, v.z * 1e3];
+    let mm = |v: nalgebra::Vector3<f64>| [crate::units::to_mm(v.x), crate::units::to_mm(v.y), crate::units::to_mm(v.z)];
     let tension = r.torque_model.as_ref().and_then(|t| t.cable).map_or(0.0, |c| c.2);
     let max_reading = data.rows.iter().filter_map(|row| row.reading_mm.first()).fold(0.0_f64, |a, v| a.max(v.abs()));
     let mut sensor = DrawWire {
@@ -159,7 +159,7 @@ fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Opt
     let tracker = match p.exit() {
         Some(exit) => {
             sensor.exit_point_mm = mm(exit);
-            sensor.length_offset_mm = p.own[3] * 1e3;
+            sensor.length_offset_mm = crate::units::to_mm(p.own[3]);
             sensor.noise_std_mm = sigma;
             if let Some((nu, k, n)) = heavy_tails(r, data) {
                 sensor.noise_t_dof = Some(nu);
@@ -176,7 +176,7 @@ fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Opt
             let o = &p.own;
             let probe = (m.measurement == Measurement::Pose).then(|| probe_noise(r, o, data, notes));
             Some(Tracker {
-                translation_mm: [o[0] * 1e3, o[1] * 1e3, o[2] * 1e3],
+                translation_mm: [crate::units::to_mm(o[0]), crate::units::to_mm(o[1]), crate::units::to_mm(o[2])],
                 rotation_deg: [o[3].to_degrees(), o[4].to_degrees(), o[5].to_degrees()],
                 noise_um: {
                     let um = probe.map_or(sigma, |(_, _, pos)| pos) * 1e3;
@@ -230,13 +230,13 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
             EffectKind::SensorNonlinearity => match block.range_m {
                 Some([lo, hi]) if m.measurement == Measurement::Length => {
                     scenario.sensor.polynomial = Some(crate::sim::instrument::drawwire::ReadingPolynomial {
-                        range_mm: [lo * 1e3, hi * 1e3],
-                        legendre_mm: [r.x[k] * 1e3, r.x[k + 1] * 1e3, r.x[k + 2] * 1e3],
+                        range_mm: [crate::units::to_mm(lo), crate::units::to_mm(hi)],
+                        legendre_mm: [crate::units::to_mm(r.x[k]), crate::units::to_mm(r.x[k + 1]), crate::units::to_mm(r.x[k + 2])],
                     });
                     notes.push(format!(
                         "{label}: identified on readings of {:.1} to {:.1} mm; beyond them the twin holds its end values (the data say nothing there).",
-                        lo * 1e3,
-                        hi * 1e3
+                        crate::units::to_mm(lo),
+                        crate::units::to_mm(hi)
                     ));
                     written.push(label);
                 }
@@ -260,7 +260,7 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
         ));
     }
     if let Some((mass, com)) = r.torque_model.as_ref().and_then(|t| t.payload) {
-        scenario.effects.payload = Some(crate::sim::effects::Payload { mass_kg: mass, com_mm: com.map(|v| v * 1e3) });
+        scenario.effects.payload = Some(crate::sim::effects::Payload { mass_kg: mass, com_mm: com.map(crate::units::to_mm) });
     }
     if !written.is_empty() {
         notes.push(format!("Effects at their identified sizes: {}.", written.join(", ")));

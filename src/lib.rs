@@ -32,5 +32,6 @@ pub mod robot;
 pub mod seed;
 pub mod sim;
 pub mod stats;
+pub mod units;
 
 pub use error::{Error, Result};

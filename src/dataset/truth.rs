@@ -243,11 +243,11 @@ impl TruthFile {
     pub fn placement(&self) -> crate::measurement::Placement {
         use crate::measurement::Placement;
         use nalgebra::Vector3;
-        let mm = |v: [f64; 3]| Vector3::from(v) * 1e-3;
+        let mm = |v: [f64; 3]| crate::units::to_m(Vector3::from(v));
         let tool = mm(self.tool.point_mm);
         match &self.tracker {
             Some(t) => Placement::tracker(t.translation_mm, t.rotation_deg, t.probe_rotation_deg, tool),
-            None => Placement::cable(mm(self.sensor.exit_point_mm), self.sensor.length_offset_mm * 1e-3, tool),
+            None => Placement::cable(mm(self.sensor.exit_point_mm), crate::units::to_m(self.sensor.length_offset_mm), tool),
         }
     }
 
@@ -256,9 +256,9 @@ impl TruthFile {
     pub fn true_reading(&self, i: usize, measurement: crate::measurement::Measurement) -> Option<Vec<f64>> {
         let p = self.poses.get(i)?;
         match (measurement, p.point_true_mm) {
-            (crate::measurement::Measurement::Length, _) if self.tracker.is_none() => Some(vec![p.length_true_mm * 1e-3]),
-            (crate::measurement::Measurement::Point, Some(v)) => Some(v.iter().map(|c| c * 1e-3).collect()),
-            (crate::measurement::Measurement::Pose, _) => Some(measurement.values_of_file(&p.pose_true?).iter().map(|c| c * 1e-3).collect()),
+            (crate::measurement::Measurement::Length, _) if self.tracker.is_none() => Some(vec![crate::units::to_m(p.length_true_mm)]),
+            (crate::measurement::Measurement::Point, Some(v)) => Some(v.iter().map(crate::units::to_m).collect()),
+            (crate::measurement::Measurement::Pose, _) => Some(measurement.values_of_file(&p.pose_true?).iter().map(crate::units::to_m).collect()),
             _ => None,
         }
     }

@@ -105,7 +105,11 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
 fn nominal_at_poses(s: &Scenario, robot: &Robot) -> Result<(Dataset, CalibModel, Samples)> {
     let data = poses(s, robot)?;
     let sn = &s.sensor;
-    let guess = SensorGuess { exit_m: sn.exit_point_mm.map(|v| v * 1e-3), offset_m: sn.length_offset_mm * 1e-3, tool_m: sn.tool_point_mm.map(|v| v * 1e-3) };
+    let guess = SensorGuess {
+        exit_m: sn.exit_point_mm.map(crate::units::to_m),
+        offset_m: crate::units::to_m(sn.length_offset_mm),
+        tool_m: sn.tool_point_mm.map(crate::units::to_m),
+    };
     let model = CalibModel::dh(robot, &guess, true);
     let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
     let samples = Samples::new(q, vec![0.0; data.rows.len()]);

@@ -192,7 +192,7 @@ impl<'a> IkModel<'a> {
         let mut reach = 0.0f64;
         for _ in 0..2000 {
             let q = m.random_q(&mut rng);
-            reach = reach.max(model.tool_point_with(x, &q, &m.inp, &mut w).norm() * 1e3);
+            reach = reach.max(crate::units::to_mm(model.tool_point_with(x, &q, &m.inp, &mut w).norm()));
         }
         m.reach_mm = reach * 1.01 + 1.0;
         m
@@ -213,8 +213,8 @@ impl<'a> IkModel<'a> {
             return self.position_point(q, w, jac, &rt, c);
         }
         let IkWork { model: mw, cols, dp, g } = w;
-        let p = self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp) * 1e3;
-        let d = p - self.exit * 1e3;
+        let p = crate::units::to_mm(self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp));
+        let d = p - crate::units::to_mm(self.exit);
         let dist = d.norm().max(1e-9);
         let u = d / dist;
         let delta = match self.corrector {
@@ -226,7 +226,7 @@ impl<'a> IkModel<'a> {
         };
         if let Some(kind) = jac {
             for (j, out) in cols.iter_mut().enumerate() {
-                let jp = dp[j] * 1e3;
+                let jp = crate::units::to_mm(dp[j]);
                 *out = match kind {
                     JacobianKind::Analytic => jp,
                     JacobianKind::Neural => u * g[j],
@@ -243,7 +243,7 @@ impl<'a> IkModel<'a> {
     fn position_point(&self, q: &[f64], w: &mut IkWork, jac: Option<JacobianKind>, rt: &nalgebra::Matrix3<f64>, c: &dyn Correct) -> Vector3<f64> {
         let IkWork { model: mw, cols, dp, g } = w;
         let n = q.len();
-        let p = self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp) * 1e3;
+        let p = crate::units::to_mm(self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp));
         let mut all = [0.0; crate::measurement::MAX_DIM];
         let delta = &mut all[..c.dim()];
         g.resize(c.dim() * n, 0.0);
@@ -251,7 +251,7 @@ impl<'a> IkModel<'a> {
         let delta = [delta[0], delta[1], delta[2]];
         if let Some(kind) = jac {
             for (j, out) in cols.iter_mut().enumerate() {
-                let jp = dp[j] * 1e3;
+                let jp = crate::units::to_mm(dp[j]);
                 let jd = rt * Vector3::new(g[j], g[n + j], g[2 * n + j]);
                 *out = match kind {
                     JacobianKind::Analytic => jp,

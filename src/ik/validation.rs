@@ -125,7 +125,7 @@ impl TwinCheck {
         for _ in 0..300 {
             let q = random_in(&ranges, &mut rng);
             a.push(c.twin_point_raw(&q));
-            b.push(r.model.tool_point(&c.x_eq, &q, &mut w) * 1e3);
+            b.push(crate::units::to_mm(r.model.tool_point(&c.x_eq, &q, &mut w)));
         }
         (c.rot, c.trans) = rigid_fit(&a, &b);
         c.fit_rms_mm = (a.iter().zip(&b).map(|(p, q)| (c.rot * p + c.trans - q).norm_squared()).sum::<f64>() / a.len() as f64).sqrt();
@@ -133,7 +133,7 @@ impl TwinCheck {
     }
     fn twin_point_raw(&self, q: &[f64]) -> Vector3<f64> {
         let sides = crate::sim::twin::approach_sides(&vec![0.0; q.len()], &[q.to_vec()]).remove(0);
-        self.twin.quasi_static(&PoseCommand { q_cmd: q.to_vec(), sides, t: self.t_ref }).tool * 1e3
+        crate::units::to_mm(self.twin.quasi_static(&PoseCommand { q_cmd: q.to_vec(), sides, t: self.t_ref }).tool)
     }
     /// The twin's true tool point for commanded angles `q` (rad), mm, in the calibration's frame.
     pub fn true_point(&self, q: &[f64]) -> Vector3<f64> {

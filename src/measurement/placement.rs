@@ -25,7 +25,7 @@ impl Placement {
     /// rotation (degrees, X-Y-Z), and with a 6-D probe its orientation on the flange (degrees),
     /// which makes it read poses instead of points.
     pub fn tracker(translation_mm: [f64; 3], rotation_deg: [f64; 3], probe_rotation_deg: Option<[f64; 3]>, tool: Vector3<f64>) -> Placement {
-        let mut own: Vec<f64> = translation_mm.iter().map(|v| v * 1e-3).chain(rotation_deg.iter().map(|v| v.to_radians())).collect();
+        let mut own: Vec<f64> = translation_mm.iter().map(crate::units::to_m).chain(rotation_deg.iter().map(|v| v.to_radians())).collect();
         let measurement = match probe_rotation_deg {
             Some(r) => {
                 own.extend(r.map(f64::to_radians));

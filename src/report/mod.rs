@@ -308,7 +308,7 @@ pub struct CalibFigures {
 }
 
 fn mm3(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
-    [v.x * 1e3, v.y * 1e3, v.z * 1e3]
+    [crate::units::to_mm(v.x), crate::units::to_mm(v.y), crate::units::to_mm(v.z)]
 }
 
 /// The calibrated tool point of every row of `s` (mm) and the calibrated instrument.
@@ -337,7 +337,7 @@ fn arm_pose(r: &CalibResult, x: &[f64], s: &Samples, row: usize) -> Option<ArmPo
     let frames: Vec<Frame> = (0..chain.n_frames())
         .map(|f| {
             let fr = chain.frame(&fk, f);
-            Frame { rot: fr.rot, pos: fr.pos * 1e3 }
+            Frame { rot: fr.rot, pos: crate::units::to_mm(fr.pos) }
         })
         .collect();
     let mut w = r.model.work();
@@ -388,7 +388,7 @@ impl CalibFigures {
         }
         let x0 = &r.model.nominal;
         let before_mm = ReadingFit { model: &r.model, data: &s }.residuals_mm(x0);
-        let after_mm: Vec<f64> = residuals_after(r, data).iter().zip(raw.y.iter().zip(&s.y)).map(|(v, (a, b))| v - (a - b) * 1e3).collect();
+        let after_mm: Vec<f64> = residuals_after(r, data).iter().zip(raw.y.iter().zip(&s.y)).map(|(v, (a, b))| v - crate::units::to_mm(a - b)).collect();
         let (tool_mm, instrument) = tool_points_and_instrument(r, &s);
 
         // Convergence: the start, then every iteration the optimiser reported.

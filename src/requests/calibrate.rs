@@ -181,7 +181,7 @@ fn sensor_guess(g: Option<&[f64]>) -> Result<Option<SensorGuess>> {
     if g.iter().any(|v| !v.is_finite()) {
         return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
     }
-    let m = |v: f64| v * 1e-3;
+    let m = crate::units::to_m::<f64>;
     Ok(Some(SensorGuess { exit_m: [m(g[0]), m(g[1]), m(g[2])], offset_m: m(g[3]), tool_m: [m(g[4]), m(g[5]), m(g[6])] }))
 }
 

@@ -141,14 +141,14 @@ impl GeoKind {
     /// A value in the code's unit (m, rad) in the file's (mm, degrees).
     pub fn to_file(self, v: f64) -> f64 {
         match self {
-            GeoKind::Length => v * 1e3,
+            GeoKind::Length => crate::units::to_mm(v),
             GeoKind::Angle => v.to_degrees(),
         }
     }
     /// A value in the file's unit (mm, degrees) in the code's (m, rad).
     pub fn from_file(self, v: f64) -> f64 {
         match self {
-            GeoKind::Length => v * 1e-3,
+            GeoKind::Length => crate::units::to_m(v),
             GeoKind::Angle => v.to_radians(),
         }
     }

@@ -63,7 +63,7 @@ impl LoadModel {
         LoadModel {
             gravity: Vector3::new(0.0, 0.0, -GRAVITY),
             links: robot.links.iter().map(|l| (l.mass, l.com)).collect(),
-            payload: payload.filter(|p| p.mass_kg > 0.0).map(|p| (p.mass_kg, Vector3::from(p.com_mm) * 1e-3)),
+            payload: payload.filter(|p| p.mass_kg > 0.0).map(|p| (p.mass_kg, crate::units::to_m(Vector3::from(p.com_mm)))),
             cable,
         }
     }

@@ -52,7 +52,7 @@ impl Generated {
     /// True tool point of dataset row `i`, m.
     pub fn truth_tool(&self, i: usize) -> nalgebra::Vector3<f64> {
         let p = self.truth.poses[i].tool_mm;
-        nalgebra::Vector3::new(p[0], p[1], p[2]) * 1e-3
+        crate::units::to_m(nalgebra::Vector3::new(p[0], p[1], p[2]))
     }
 }
 
@@ -119,7 +119,7 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
         let l = s.sensor.ideal_length(&p);
         // A tracker has no cable range to keep inside.
         let in_range = s.tracker.is_some() || (l > lo + margin && l < hi - margin);
-        if p.z * 1e3 >= s.sampling.min_tool_z_mm && in_range {
+        if crate::units::to_mm(p.z) >= s.sampling.min_tool_z_mm && in_range {
             out.push(q);
         }
     }
@@ -467,7 +467,7 @@ impl Tour<'_> {
             joint_torque_nm: rest.torque.clone(),
             approach_side: self.sides[i].clone(),
             contact: rest.contact.clone(),
-            tool_mm: [rest.tool.x * 1e3, rest.tool.y * 1e3, rest.tool.z * 1e3],
+            tool_mm: [crate::units::to_mm(rest.tool.x), crate::units::to_mm(rest.tool.y), crate::units::to_mm(rest.tool.z)],
             length_true_mm: l_true,
             length_noise_free_mm: noise_free,
             length_measured_mm: reading,

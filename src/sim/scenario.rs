@@ -483,7 +483,7 @@ impl Scenario {
                 };
                 let v = g.set.get(name).copied().unwrap_or(random);
                 if is_len {
-                    v * 1e-3
+                    crate::units::to_m(v)
                 } else {
                     v.to_radians()
                 }

@@ -73,7 +73,7 @@ impl<'a> EffectCorrection<'a> {
         EffectCorrection { model, x, x_off }
     }
     fn value(&self, q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
-        (self.model.predict_with(self.x, q, inp, w) - self.model.predict_with(&self.x_off, q, inp, w)) * 1e3
+        crate::units::to_mm(self.model.predict_with(self.x, q, inp, w) - self.model.predict_with(&self.x_off, q, inp, w))
     }
 }
 
@@ -102,9 +102,9 @@ impl Correct for EffectCorrection<'_> {
         let mut g0 = vec![0.0; g.len()];
         let without = self.model.length_grad_q(&self.x_off, q, inp, &mut w, &mut g0);
         for (a, b) in g.iter_mut().zip(g0) {
-            *a = (*a - b) * 1e3;
+            *a = crate::units::to_mm(*a - b);
         }
-        (with - without) * 1e3
+        crate::units::to_mm(with - without)
     }
 }
 

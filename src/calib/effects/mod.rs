@@ -210,7 +210,7 @@ impl EffectUnit {
             EffectUnit::Compliance | EffectUnit::PerKelvin | EffectUnit::Ratio => 1e6,
             EffectUnit::SmallAngle | EffectUnit::AnglePerKelvin => 180.0 / std::f64::consts::PI * 1e3,
             EffectUnit::Seconds => 1.0,
-            EffectUnit::Length => 1e3,
+            EffectUnit::Length => crate::units::MM_PER_M,
         }
     }
     /// The display unit (`urad/Nm`, `mdeg`, ...).

@@ -29,7 +29,7 @@ impl Effect for SensorNonlinearity {
         if !(lo < hi) {
             return Err(Error::Invalid("sensor_nonlinearity needs measured lengths over a range".into()));
         }
-        b.range_m = Some([lo * 1e-3, hi * 1e-3]);
+        b.range_m = Some([crate::units::to_m(lo), crate::units::to_m(hi)]);
         Ok(())
     }
     fn size(&self, _b: &EffectBlock, x: &[f64], k: usize, var: &dyn Fn(usize, usize) -> f64) -> Size {
@@ -50,6 +50,6 @@ impl Effect for SensorNonlinearity {
                 v += at[a] * at[b] * var(k + a, k + b);
             }
         }
-        Size::new("largest reading correction", best.abs() * 1e3, "mm", v.max(0.0).sqrt() * 1e3)
+        Size::new("largest reading correction", crate::units::to_mm(best.abs()), "mm", crate::units::to_mm(v.max(0.0).sqrt()))
     }
 }

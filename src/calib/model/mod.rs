@@ -41,7 +41,7 @@ impl Kind {
     /// Factor from internal units to display units (mm, degrees).
     pub fn display(self) -> f64 {
         match self {
-            Kind::Length => 1e3,
+            Kind::Length => crate::units::MM_PER_M,
             Kind::Angle => 180.0 / std::f64::consts::PI,
             Kind::Effect(u) => u.display(),
         }

@@ -37,8 +37,8 @@ impl Tolerances {
         let sensor = model.placement_range();
         (0..model.n_params())
             .map(|k| match model.kinds[k] {
-                _ if sensor.contains(&k) => self.sensor_mm * 1e-3,
-                Kind::Length => self.length_mm * 1e-3,
+                _ if sensor.contains(&k) => crate::units::to_m(self.sensor_mm),
+                Kind::Length => crate::units::to_m(self.length_mm),
                 Kind::Angle => self.angle_deg.to_radians(),
                 Kind::Effect(u) => effect_scale(u),
             })

@@ -106,7 +106,7 @@ pub fn noise_floor(
             .zip(&data.inputs)
             .map(|(q, inp)| {
                 model.readings_grad_q(x, q, inp, &mut w, &mut y, &mut g);
-                g.iter().map(|d| (d * 1e3).powi(2) * var_q).sum::<f64>() / dim as f64
+                g.iter().map(|d| crate::units::to_mm(d).powi(2) * var_q).sum::<f64>() / dim as f64
             })
             .sum::<f64>()
             / data.len().max(1) as f64;

@@ -135,7 +135,7 @@ impl LeastSquares for ReadingFit<'_> {
             for (i, ri) in r.chunks_mut(d).enumerate() {
                 self.model.readings_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d]);
                 for (k, rk) in ri.iter_mut().enumerate() {
-                    *rk = (self.data.y[i * d + k] - y[k]) * 1e3 * self.data.weight(i * d + k);
+                    *rk = crate::units::to_mm(self.data.y[i * d + k] - y[k]) * self.data.weight(i * d + k);
                 }
             }
         });
@@ -186,11 +186,11 @@ impl ReadingFit<'_> {
                     self.model.readings_grad_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d], &mut g);
                     if let Some(r) = r.as_deref_mut() {
                         for (k, rk) in r[i * d..(i + 1) * d].iter_mut().enumerate() {
-                            *rk = (self.data.y[i * d + k] - y[k]) * 1e3 * self.data.weight(i * d + k);
+                            *rk = crate::units::to_mm(self.data.y[i * d + k] - y[k]) * self.data.weight(i * d + k);
                         }
                     }
                     for c in 0..d {
-                        let s = -1e3 * self.data.weight(i * d + c);
+                        let s = -crate::units::MM_PER_M * self.data.weight(i * d + c);
                         for k in 0..n {
                             block[k * h + row * d + c] = g[c * n + k] * s;
                         }
@@ -223,10 +223,10 @@ impl Observations for ReadingFit<'_> {
         let (row, c) = (i / d, i % d);
         let mut y = [0.0; MAX_DIM];
         with_work(self.model, |w| self.model.readings_with(x, &self.data.q[row], &self.data.inputs[row], w, &mut y[..d]));
-        y[c] * 1e3 * self.data.weight(i)
+        crate::units::to_mm(y[c]) * self.data.weight(i)
     }
     fn measured(&self, i: usize) -> f64 {
-        self.data.y[i] * 1e3 * self.data.weight(i)
+        crate::units::to_mm(self.data.y[i]) * self.data.weight(i)
     }
     fn gradient(&self, x: &[f64], i: usize, g: &mut [f64]) {
         crate::progress::check_stop();
@@ -244,7 +244,7 @@ impl Observations for ReadingFit<'_> {
                 g.copy_from_slice(&jac[c * n..(c + 1) * n]);
             });
         }
-        let s = 1e3 * self.data.weight(i);
+        let s = crate::units::MM_PER_M * self.data.weight(i);
         g.iter_mut().for_each(|v| *v *= s);
     }
 }

@@ -34,7 +34,7 @@ pub fn rounding_model_at(
     let jq: Vec<Vec<f64>> = (0..s.len())
         .map(|i| {
             base.readings_grad_q(x, &s.q[i], &s.inputs[i], &mut w, &mut y, &mut g);
-            g.iter().map(|v| v * 1e3).collect()
+            g.iter().map(crate::units::to_mm).collect()
         })
         .collect();
     // The joints whose logging error each block shares, over all of its rows in the dataset.
@@ -131,7 +131,7 @@ pub fn remove_logging_error(
     let x2 = lm().minimize(&ReadingFit { model, data: &gls }, &x1, fixed, &mut crate::optim::NoObserver).x;
     let r = ReadingFit { model, data: &plain }.residuals_mm(&x2);
     let u = whitening.rounding_estimate(&r);
-    let corrected = Samples { y: train.y.iter().zip(&u).map(|(y, u)| y - u * 1e-3).collect(), ..plain };
+    let corrected = Samples { y: train.y.iter().zip(&u).map(|(y, u)| y - crate::units::to_m(u)).collect(), ..plain };
     let removed = (u.iter().map(|v| v * v).sum::<f64>() / u.len().max(1) as f64).sqrt();
     Some((NoiseModel { removed_rms_mm: Some(removed), ..m.summary(step) }, whitening, corrected))
 }

@@ -81,7 +81,7 @@ pub fn apply_steps(data: &Samples, rows: &[usize], steps: &[ReadingStep]) -> Sam
     debug_assert_eq!(data.dim, 1, "reading steps are a cable encoder's");
     let mut out = data.clone();
     for (l, &row) in out.y.iter_mut().zip(rows) {
-        *l -= step_offset_mm(steps, row) * 1e-3;
+        *l -= crate::units::to_m(step_offset_mm(steps, row));
     }
     out
 }
@@ -107,7 +107,7 @@ pub fn apply_steps_nearest(data: &Samples, rows: &[usize], seen: &[usize], steps
             (Some(n), None) | (None, Some(n)) => step_offset_mm(steps, n),
             (None, None) => 0.0,
         };
-        *l -= off * 1e-3;
+        *l -= crate::units::to_m(off);
     }
     out
 }

@@ -57,7 +57,7 @@ impl LeastSquares for PoseMatch<'_> {
     }
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
         self.eval(x, |i, a, jac| {
-            let d = (jac.point - self.target[i][a]) * 1e3;
+            let d = crate::units::to_mm(jac.point - self.target[i][a]);
             for c in 0..3 {
                 r[9 * i + 3 * a + c] = d[c];
             }
@@ -68,7 +68,7 @@ impl LeastSquares for PoseMatch<'_> {
         self.eval(x, |i, a, jac| {
             for (k, d) in jac.dparam.iter().enumerate() {
                 for c in 0..3 {
-                    j[(9 * i + 3 * a + c, k)] = d[c] * 1e3;
+                    j[(9 * i + 3 * a + c, k)] = crate::units::to_mm(d[c]);
                 }
             }
         });
@@ -84,7 +84,7 @@ fn true_frame_params(robot: &Robot, truth: &TruthFile) -> Option<Vec<f64>> {
 pub fn map_truth(model: &CalibModel, robot: &Robot, truth: &TruthFile, q: &[Vec<f64>]) -> Option<Vec<f64>> {
     let p_true = true_frame_params(robot, truth)?;
     let true_chain: Chain = robot.error_chain();
-    let tool = Vector3::from(truth.tool.point_mm) * 1e-3;
+    let tool = crate::units::to_m(Vector3::from(truth.tool.point_mm));
     let local = [tool, tool + Vector3::new(0.1, 0.0, 0.0), tool + Vector3::new(0.0, 0.1, 0.0)];
     let mut ws = FkWork::new(&true_chain);
     let target = q

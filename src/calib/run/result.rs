@@ -300,7 +300,7 @@ impl CalibResult {
         let q: Vec<f64> = q_deg.iter().map(|d| d.to_radians()).collect();
         let mut w = self.model.work();
         let inp = RowInputs::default();
-        self.model.predict_with(&self.x, &q, &inp, &mut w) * 1e3 + self.correction_mm(&q, &inp)
+        crate::units::to_mm(self.model.predict_with(&self.x, &q, &inp, &mut w)) + self.correction_mm(&q, &inp)
     }
 
     /// The learned wavelet network (the first, when there is one per reading value: they share
@@ -375,12 +375,12 @@ impl CalibResult {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
             self.model.readings_with(&self.x, &q, inp, &mut w, &mut y);
             if y.len() == 1 {
-                out.push(y[0] * 1e3 + self.correction_mm(&q, inp));
+                out.push(crate::units::to_mm(y[0]) + self.correction_mm(&q, inp));
             } else {
                 if let Some(c) = &self.corrector {
                     c.as_correct().corrections_mm(&q, inp, &mut corr);
                 }
-                out.extend(y.iter().zip(&corr).map(|(v, c)| v * 1e3 + c));
+                out.extend(y.iter().zip(&corr).map(|(v, c)| crate::units::to_mm(v) + c));
             }
         }
         out

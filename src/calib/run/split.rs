@@ -77,7 +77,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     let dim = m.map_or(1, |m| m.dim());
     let reading = |r: &crate::dataset::Row| -> Vec<f64> {
         match r.values_mm() {
-            Some(v) if v.len() == dim => v.iter().map(|v| v * 1e-3).collect(),
+            Some(v) if v.len() == dim => v.iter().map(crate::units::to_m).collect(),
             _ => vec![f64::NAN; dim],
         }
     };

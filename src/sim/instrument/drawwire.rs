@@ -203,11 +203,11 @@ impl DrawWire {
 
     /// The cable exit point in the base frame, m.
     pub fn exit_point_m(&self) -> Vector3<f64> {
-        Vector3::from(self.exit_point_mm) * 1e-3
+        crate::units::to_m(Vector3::from(self.exit_point_mm))
     }
     /// The cable attachment point in the flange frame, m.
     pub fn tool_point_m(&self) -> Vector3<f64> {
-        Vector3::from(self.tool_point_mm) * 1e-3
+        crate::units::to_m(Vector3::from(self.tool_point_mm))
     }
     /// Duration of the sampling window, s.
     pub fn window_s(&self) -> f64 {
@@ -230,7 +230,7 @@ impl DrawWire {
     /// [`Measurement::Length`] reading, distance + offset, taken in mm.
     pub fn ideal_length(&self, p_m: &Vector3<f64>) -> f64 {
         let mut y = [0.0];
-        Measurement::Length.reading(&self.own_mm(), &(p_m * 1e3), &mut y);
+        Measurement::Length.reading(&self.own_mm(), &crate::units::to_mm(p_m), &mut y);
         y[0]
     }
 

@@ -15,6 +15,6 @@ pub fn placement(sensor: &DrawWire, tracker: Option<&Tracker>) -> crate::measure
     let tool = sensor.tool_point_m();
     match tracker {
         Some(t) => Placement::tracker(t.translation_mm, t.rotation_deg, t.probe_rotation_deg, tool),
-        None => Placement::cable(sensor.exit_point_m(), sensor.length_offset_mm * 1e-3, tool),
+        None => Placement::cable(sensor.exit_point_m(), crate::units::to_m(sensor.length_offset_mm), tool),
     }
 }

@@ -126,14 +126,14 @@ impl Tracker {
     pub fn ideal_mm(&self, p: &Vector3<f64>) -> [f64; 3] {
         let mut y = [0.0; 3];
         Measurement::Point.reading(&self.own(), p, &mut y);
-        y.map(|v| v * 1e3)
+        y.map(crate::units::to_mm)
     }
 
     /// A reading of reflector position `p` (m): the mean of `samples` noisy samples.
     pub fn read(&self, p: &Vector3<f64>, samples: usize, rng: &mut impl Rng) -> TrackerReading {
         let ideal_mm = self.ideal_mm(p);
         // One sample's noise grows with the distance from the tracker.
-        let distance_m = ideal_mm.iter().map(|v| v * v).sum::<f64>().sqrt() * 1e-3;
+        let distance_m = crate::units::to_m(ideal_mm.iter().map(|v| v * v).sum::<f64>().sqrt());
         let std_mm = (self.noise_um + self.noise_um_per_m * distance_m) * 1e-3 / (samples.max(1) as f64).sqrt();
         let read_mm = ideal_mm.map(|v| v + std_mm * rng.sample::<f64, _>(rand_distr::StandardNormal));
         TrackerReading { ideal_mm, read_mm, std_mm }

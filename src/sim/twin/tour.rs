@@ -650,7 +650,7 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     let transient_mm = if twin.tracker.is_some() {
         // How far the window's mean point is from the arm at rest (a rigid transform away from
         // what the tracker reads).
-        (tool_sum / sn.samples as f64 - reference).norm() * 1e3
+        crate::units::to_mm((tool_sum / sn.samples as f64 - reference).norm())
     } else {
         let mean_l = lengths.iter().sum::<f64>() / lengths.len() as f64;
         mean_l - sn.ideal_length(&reference)
