@@ -244,7 +244,7 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
             },
             // A block the data could not show is not carried: not identifiable, or every
             // parameter within two standard uncertainties of zero.
-            _ if !shown_by_the_data(r, &kind_params(block), notes, &label) => {}
+            _ if !shown_by_the_data(r.parameters.get(m.effect_params(b)).unwrap_or_default(), notes, &label) => {}
             // Every other effect: the size the block says the twin takes, which the twin may
             // still refuse (beyond its range); either way the note names why it is left out.
             kind => match kind.def().twin_size(block, &r.x, k).and_then(|(size, phase)| scenario.effects.set_size(kind.name(), n, block.joint, size, phase)) {
@@ -268,20 +268,14 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
     Ok(())
 }
 
-/// The names of an effect block's parameters, as the result's `parameters` list them.
-fn kind_params(block: &crate::calib::effects::EffectBlock) -> Vec<String> {
-    block.kind.def().params(block).into_iter().map(|(name, _)| name).collect()
-}
-
 /// Smallest |value| / standard uncertainty of a block's largest parameter for the twin to carry
 /// it: within two standard uncertainties of zero the data do not tell it from no effect.
 pub const MIN_CARRIED_Z: f64 = 2.0;
 
-/// Whether the data showed the block whose parameters are `names`: identifiable, with a
-/// parameter at least [`MIN_CARRIED_Z`] standard uncertainties from zero; else a note says why
-/// it is left out.
-fn shown_by_the_data(r: &CalibResult, names: &[String], notes: &mut Vec<String>, label: &str) -> bool {
-    let params: Vec<&crate::calib::run::ParamReport> = r.parameters.iter().filter(|p| names.contains(&p.name)).collect();
+/// Whether the data showed the block whose parameter reports are `params` (the result's
+/// `parameters` over the block's range): identifiable, with a parameter at least
+/// [`MIN_CARRIED_Z`] standard uncertainties from zero; else a note says why it is left out.
+fn shown_by_the_data(params: &[crate::calib::run::ParamReport], notes: &mut Vec<String>, label: &str) -> bool {
     if params.is_empty() {
         return true;
     }

@@ -289,9 +289,14 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// SHA-256 of a file's bytes, lower-case hex; an unreadable file is an error naming it.
+pub fn file_sha256(path: &Path) -> Result<String> {
+    Ok(sha256_hex(&std::fs::read(path).map_err(|e| Error::io(path, e))?))
+}
+
 /// The file a dataset path reads: `DIR/dataset.csv` for a folder, the file itself otherwise
 /// (without an xlsx `#Sheet` suffix).
-fn dataset_file(data: &Path) -> PathBuf {
+pub fn dataset_file(data: &Path) -> PathBuf {
     if data.is_dir() {
         return data.join(crate::dataset::DATASET_FILE);
     }
@@ -304,6 +309,13 @@ fn dataset_file(data: &Path) -> PathBuf {
     data.to_path_buf()
 }
 
+/// The truth file that belongs beside a dataset path: `DIR/truth.json` in a dataset folder, or
+/// in the folder of a dataset file.
+pub fn truth_file(data: &Path) -> PathBuf {
+    let dir = if data.is_dir() { data.to_path_buf() } else { dataset_file(data).parent().map(Path::to_path_buf).unwrap_or_default() };
+    dir.join(TRUTH_FILE)
+}
+
 impl TruthFile {
     /// `DIR/truth.json` next to a dataset folder or file, if present and if it belongs to that
     /// dataset. A truth file whose dataset fingerprint does not match the dataset file's bytes
@@ -313,8 +325,7 @@ impl TruthFile {
     /// stderr.
     pub fn find(data: &Path) -> Result<Option<TruthFile>> {
         let file = dataset_file(data);
-        let dir = if data.is_dir() { data.to_path_buf() } else { file.parent().map(|p| p.to_path_buf()).unwrap_or_default() };
-        let p = dir.join(TRUTH_FILE);
+        let p = truth_file(data);
         if !p.exists() {
             return Ok(None);
         }

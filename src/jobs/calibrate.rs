@@ -3,7 +3,7 @@
 use super::files::{check_model_outputs, data_inputs, load_dataset, stage_identified_twin, Figures, Recordings};
 use crate::calib::run::{CalibOptions, CalibResult, ModelSpec, TruthFile};
 use crate::dataset::Dataset;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::io::OutputSet;
 use crate::report::verdict::{judge, with_verdict, Limit, Verdict};
 use crate::requests::CalibrateRequest;
@@ -84,7 +84,7 @@ impl CalibrateJob {
         let truth = TruthFile::find(&self.data)?;
         // The exact bytes calibrated on, so that `ik` can tell their twin from another one.
         let file = &data_inputs(&self.data)[0];
-        let sha = crate::dataset::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?);
+        let sha = crate::dataset::truth::file_sha256(file)?;
         let c = calibrate_loaded(planned, data, truth.as_ref(), Some(sha))?;
         write_calibration(self, &c, recordings)?;
         Ok(c)

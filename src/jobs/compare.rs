@@ -375,7 +375,7 @@ fn compare_config(a: &CompareRequest, ds: &Dataset, file: &Path, methods: &[Meth
     let (seeds, effort) = (a.seeds, a.effort);
     Ok(CompareConfig {
         data: ds.source.clone(),
-        data_sha256: crate::dataset::truth::sha256_hex(&std::fs::read(file).map_err(|e| Error::io(file, e))?),
+        data_sha256: crate::dataset::truth::file_sha256(file)?,
         rows: n,
         methods: methods.iter().map(|m| m.name().to_string()).collect(),
         seeds,
@@ -383,7 +383,7 @@ fn compare_config(a: &CompareRequest, ds: &Dataset, file: &Path, methods: &[Meth
         effort,
         model: format!("{} {}", a.model.model, a.model.params.as_deref().unwrap_or("")).trim().to_string(),
         model_sha256: match a.model.input() {
-            Some(m) => Some(crate::dataset::truth::sha256_hex(&std::fs::read(&m).map_err(|e| Error::io(&m, e))?)),
+            Some(m) => Some(crate::dataset::truth::file_sha256(&m)?),
             None => None,
         },
         reading: format!("angles {}, measurement {}, euler {}", a.reading.angles.name(), ds.measurement().map_or("none", |m| m.name()), a.reading.euler),

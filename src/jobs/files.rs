@@ -15,16 +15,7 @@ use std::path::{Path, PathBuf};
 /// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without
 /// an xlsx `#Sheet`), plus the truth file `calibrate` reads beside either.
 pub fn data_inputs(data: &Path) -> Vec<PathBuf> {
-    let file = if data.is_dir() {
-        data.join(crate::dataset::DATASET_FILE)
-    } else {
-        match data.to_string_lossy().rsplit_once('#') {
-            Some((f, _)) if !data.exists() => PathBuf::from(f),
-            _ => data.to_path_buf(),
-        }
-    };
-    let dir = if data.is_dir() { data.to_path_buf() } else { file.parent().map(Path::to_path_buf).unwrap_or_default() };
-    vec![file, dir.join(crate::dataset::truth::TRUTH_FILE)]
+    vec![crate::dataset::truth::dataset_file(data), crate::dataset::truth::truth_file(data)]
 }
 
 /// Loads a dataset for a job. `require_length`: the reading columns must be present (calibrate,
