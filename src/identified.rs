@@ -54,7 +54,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         notes.push(format!("Joint angles logged at {d} decimals of a degree, as the data are."));
     }
 
-    let (sensor, tracker) = instrument(r, data, sigma, reading_decimals, &mut notes);
+    let (sensor, tracker) = instrument(r, data, sigma, reading_decimals, &mut notes)?;
 
     let mut scenario = Scenario {
         name: stem.clone(),
@@ -64,7 +64,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         geometry: Geometry::default(),
         effects: Default::default(),
         sensor,
-        tracker,
+        instruments: crate::sim::instrument::Instruments { tracker },
         sampling: Sampling {
             poses: data.rows.len().min(crate::sim::scenario::MAX_POSES),
             test: 0,
@@ -88,7 +88,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         notes.push(format!("{:.0} % of the data's moves turn one or two joints: the twin's tour sweeps, {len} poses a sweep (the median).", share * 100.0));
     }
     write_effects(r, &mut scenario, n, &mut notes)?;
-    if let Some((g, note)) = glitches(r, data.rows.len()).filter(|_| scenario.tracker.is_none()) {
+    if let Some((g, note)) = glitches(r, data.rows.len()).filter(|_| scenario.instruments.active().is_none()) {
         scenario.glitches = Some(g);
         notes.push(note);
     } else if !r.screen.outliers.is_empty() {
@@ -135,7 +135,7 @@ fn reading_sigma(r: &CalibResult, notes: &mut Vec<String>) -> f64 {
 
 /// The instrument of the twin: a draw-wire sensor at the identified placement (a length
 /// reading), or a tracker (a point or a pose) with a placeholder draw-wire section.
-fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Option<usize>, notes: &mut Vec<String>) -> (DrawWire, Option<Tracker>) {
+fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Option<usize>, notes: &mut Vec<String>) -> Result<(DrawWire, Option<Tracker>)> {
     let m = &r.model;
     let p = m.placement(&r.x);
     let mm = |v: nalgebra::Vector3<f64>| [crate::units::to_mm(v.x), crate::units::to_mm(v.y), crate::units::to_mm(v.z)];
@@ -172,7 +172,7 @@ fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Opt
             sensor.tension_n = tension;
             None
         }
-        None => {
+        None if matches!(m.measurement, Measurement::Point | Measurement::Pose) => {
             let o = &p.own;
             let probe = (m.measurement == Measurement::Pose).then(|| probe_noise(r, o, data, notes));
             Some(Tracker {
@@ -193,8 +193,14 @@ fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Opt
                 write_std: data.rows.iter().any(|row| row.std_mm.is_some()),
             })
         }
+        None => {
+            return Err(Error::Invalid(format!(
+                "an identified twin reads with a draw-wire or a tracker; it has no twin instrument for a {} yet",
+                m.measurement.def().describe()
+            )))
+        }
     };
-    (sensor, tracker)
+    Ok((sensor, tracker))
 }
 
 /// A 6-D probe's orientation on the flange (degrees), its orientation noise (µrad per axis) and

@@ -20,6 +20,13 @@ pub fn to_m<T: Mul<f64>>(millimetres: T) -> T::Output {
     millimetres * 1e-3
 }
 
+/// `v` rounded to `decimals` decimals, as an instrument writes it: the f64 nearest to the
+/// decimal text `v` prints as with that precision, so the dataset writer prints it with at most
+/// `decimals` decimals and reading it back gives the same value.
+pub fn round_decimals(v: f64, decimals: usize) -> f64 {
+    format!("{v:.decimals$}").parse().unwrap_or(v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

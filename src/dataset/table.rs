@@ -468,10 +468,12 @@ pub(super) fn row_reading(layout: &Layout, cells: &Cells, raw: &RawRow, euler: E
         }
         reading_mm.push(v);
     }
-    if m == Measurement::Pose && euler != Euler::XYZ {
-        let r = euler.matrix([reading_mm[3].to_radians(), reading_mm[4].to_radians(), reading_mm[5].to_radians()]);
+    // Trailing angles of a rotation (a pose's) are turned into intrinsic X-Y-Z.
+    if m.def().file_angles() == 3 && euler != Euler::XYZ {
+        let n = reading_mm.len();
+        let r = euler.matrix([reading_mm[n - 3].to_radians(), reading_mm[n - 2].to_radians(), reading_mm[n - 1].to_radians()]);
         let a = crate::measurement::pose::xyz_angles(&r);
-        reading_mm[3..6].iter_mut().zip(a).for_each(|(v, a)| *v = a.to_degrees());
+        reading_mm[n - 3..].iter_mut().zip(a).for_each(|(v, a)| *v = a.to_degrees());
     }
     Ok(reading_mm)
 }

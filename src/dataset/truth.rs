@@ -93,6 +93,13 @@ pub struct PoseTruth {
     /// degrees, intrinsic X-Y-Z; no noise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pose_true: Option<[f64; 6]>,
+    /// With another instrument than these: its true reading (its dataset columns: mm, and
+    /// degrees for angles; no noise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reading_true: Option<Vec<f64>>,
+    /// ... and what it wrote.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reading_measured: Option<Vec<f64>>,
     /// Simulation steps the arm took to settle (0 for the quasi-static model or a rigid arm).
     #[serde(default)]
     pub settle_steps: usize,
@@ -103,6 +110,38 @@ pub struct PoseTruth {
     /// How the simulated acquisition went at this pose (absent for settled / quasi-static datasets).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acquisition: Option<PoseAcquisition>,
+}
+
+impl PoseTruth {
+    /// The noise-free reading of an instrument other than the cable, as the model reads it
+    /// (values, mm), when this pose holds one of `measurement`'s dimension.
+    pub fn instrument_reading_mm(&self, measurement: crate::measurement::Measurement) -> Option<Vec<f64>> {
+        // A probe's truth also holds its point, which a pose file read as points compares to.
+        let candidates = [self.reading_true.as_deref(), self.pose_true.as_ref().map(|v| &v[..]), self.point_true_mm.as_ref().map(|v| &v[..])];
+        let file = candidates.into_iter().flatten().find(|v| v.len() == measurement.file_dim())?;
+        Some(measurement.values_of_file(file))
+    }
+
+    /// What a perfect instrument reading `measurement` would give at this pose, model values
+    /// (mm): the cable's true length with its linearity error, or another instrument's
+    /// noise-free reading.
+    pub fn noise_free_reading_mm(&self, measurement: crate::measurement::Measurement) -> Option<Vec<f64>> {
+        match measurement {
+            crate::measurement::Measurement::Length => Some(vec![self.length_noise_free_mm]),
+            m => self.instrument_reading_mm(m),
+        }
+    }
+}
+
+/// The true placement of an instrument that has no table of its own in truth.json.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstrumentTruth {
+    /// What it reads.
+    pub measurement: crate::measurement::Measurement,
+    /// Its own placement parameters (the measurement's `placement_names` but the target's), m
+    /// and rad.
+    pub own: Vec<f64>,
 }
 
 /// Per pose of a simulated acquisition (`acquisition.model = "simulated"`).
@@ -222,6 +261,10 @@ pub struct Truth<E = serde_json::Value, T = TruthTracker> {
     /// The tracker that wrote `x, y, z` (absent for a draw-wire dataset).
     #[serde(default = "Option::default", skip_serializing_if = "Option::is_none")]
     pub tracker: Option<T>,
+    /// The placement of another instrument than the cable and the tracker, which have their
+    /// own tables.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instrument: Option<InstrumentTruth>,
     /// The tool point.
     pub tool: ToolTruth,
     /// Standard deviation of one written reading value, mm: the averaged cable noise, or for a
@@ -245,6 +288,9 @@ impl TruthFile {
         use nalgebra::Vector3;
         let mm = |v: [f64; 3]| crate::units::to_m(Vector3::from(v));
         let tool = mm(self.tool.point_mm);
+        if let Some(i) = &self.instrument {
+            return Placement { measurement: i.measurement, own: i.own.clone(), tool };
+        }
         match &self.tracker {
             Some(t) => Placement::tracker(t.translation_mm, t.rotation_deg, t.probe_rotation_deg, tool),
             None => Placement::cable(mm(self.sensor.exit_point_mm), crate::units::to_m(self.sensor.length_offset_mm), tool),
@@ -255,12 +301,12 @@ impl TruthFile {
     /// hold that kind of reading.
     pub fn true_reading(&self, i: usize, measurement: crate::measurement::Measurement) -> Option<Vec<f64>> {
         let p = self.poses.get(i)?;
-        match (measurement, p.point_true_mm) {
-            (crate::measurement::Measurement::Length, _) if self.tracker.is_none() => Some(vec![crate::units::to_m(p.length_true_mm)]),
-            (crate::measurement::Measurement::Point, Some(v)) => Some(v.iter().map(crate::units::to_m).collect()),
-            (crate::measurement::Measurement::Pose, _) => Some(measurement.values_of_file(&p.pose_true?).iter().map(crate::units::to_m).collect()),
-            _ => None,
-        }
+        let values = match measurement {
+            crate::measurement::Measurement::Length if self.tracker.is_none() && self.instrument.is_none() => vec![p.length_true_mm],
+            crate::measurement::Measurement::Length => return None,
+            _ => p.instrument_reading_mm(measurement)?,
+        };
+        Some(values.iter().map(crate::units::to_m).collect())
     }
 }
 

@@ -183,9 +183,8 @@ impl<'a> IkModel<'a> {
         let placement = model.placement(x);
         let exit = placement.exit().unwrap_or_else(Vector3::zeros);
         // A pose's corrector also corrects its axes: its first three values are the origin's.
-        let to_base = (corrector.is_some_and(|c| c.dim() == model.measurement.dim() && c.dim() >= 3)
-            && model.measurement != crate::measurement::Measurement::Length)
-            .then(|| crate::measurement::point::tracker_rotation(&placement.own).transpose());
+        let to_base =
+            model.measurement.def().frame(&placement.own).axes.filter(|_| corrector.is_some_and(|c| c.dim() == model.measurement.dim() && c.dim() >= 3));
         let mut m = IkModel { model, x, corrector, limits, inp: RowInputs::default(), exit, to_base, reach_mm: f64::INFINITY };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let mut w = model.work();

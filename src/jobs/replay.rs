@@ -196,7 +196,7 @@ pub fn replay(a: &ReplayJob, progress: &dyn Progress, recordings: &dyn Recording
     let (csv_path, json_path, twin_dir) = replay_outputs(a, &s)?;
     let data = load_dataset(&a.data, &a.request.reading, true)?;
     let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings to replay against"))?;
-    let twin_m = s.tracker.as_ref().map_or(Measurement::Length, crate::sim::instrument::Tracker::measurement);
+    let twin_m = s.instruments.measurement();
     same_instrument(m, twin_m)?;
     data.require_joints(robot.dof(), &format!("the scenario's robot '{}'", robot.name))?;
     let n = data.rows.len();
@@ -322,7 +322,12 @@ fn same_instrument(m: Measurement, twin_m: Measurement) -> Result<()> {
             m.def().file_columns().join(", "),
             twin_m.def().describe(),
             twin_m.def().file_columns().join(", "),
-            if m == Measurement::Pose && twin_m == Measurement::Point { " (read the file with --measurement point)" } else { "" }
+            // A file whose columns include the twin's (a pose's x, y, z) can be read as the twin's.
+            if twin_m.def().file_columns().iter().all(|c| m.def().file_columns().contains(c)) {
+                format!(" (read the file with --measurement {})", twin_m.name())
+            } else {
+                String::new()
+            }
         )));
     }
     Ok(())
@@ -357,11 +362,7 @@ fn twin_readings(g: &crate::sim::generate::Generated, m: Measurement, n: usize) 
     let d = m.dim();
     let mut twin: Vec<Option<(Vec<f64>, Vec<f64>)>> = vec![None; n];
     for (row, p) in g.dataset.rows.iter().zip(&g.truth.poses) {
-        let ideal = match m {
-            Measurement::Length => vec![p.length_noise_free_mm],
-            Measurement::Point => p.point_true_mm.map(|v| v.to_vec()).unwrap_or_default(),
-            Measurement::Pose => p.pose_true.map(|v| m.values_of_file(&v)).unwrap_or_default(),
-        };
+        let ideal = p.noise_free_reading_mm(m).unwrap_or_default();
         if let (Some(read), true) = (row.values_mm(), ideal.len() == d) {
             twin[p.index] = Some((read, ideal));
         }
@@ -441,7 +442,7 @@ fn figures(
         residual.extend(measured[i].iter().zip(ideal).map(|(a, b)| a - b));
     }
     let kept = data.subset(&rows);
-    let placement = crate::sim::instrument::placement(&s.sensor, s.tracker.as_ref());
+    let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
     let line = |f: &Fidelity| Some(f.residual);
     let mut stats = vec![("every row: measured − twin".to_string(), line(&summary.all)), ("every row, no outliers".to_string(), Some(summary.all.inliers))];
     if let Some(j) = &summary.judged {

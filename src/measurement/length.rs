@@ -47,6 +47,12 @@ impl Instrument for Length {
         }
         (l > MAX_L_MM).then(|| format!("cable length {} mm is implausible (no draw-wire sensor measures more than {MAX_L_MM} mm)", crate::error::shown(l)))
     }
+    fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
+        super::InstrumentFrame { origin: Vector3::new(own[0], own[1], own[2]), axes: None }
+    }
+    fn panel_titles(&self) -> (&'static str, &'static str) {
+        ("Sensor (mm)", "Sensor angles (deg)")
+    }
     fn locate(&self, p: &[Vector3<f64>], _rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)> {
         let (e, c) = multilaterate(p, y)?;
         Some((vec![e[0], e[1], e[2], c], Vector3::zeros()))

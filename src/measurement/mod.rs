@@ -111,6 +111,37 @@ pub trait Instrument: Sync {
     /// cannot tell its target from the data gives a zero one. `None` when the rows cannot place
     /// it.
     fn locate(&self, p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)>;
+    /// A row's dataset columns (mm, angles in degrees in the convention `euler`) of the
+    /// model's values `v` (mm): the inverse of [`Self::values_of_file`].
+    fn file_of_values(&self, v: &[f64], _euler: Euler) -> Vec<f64> {
+        v.to_vec()
+    }
+    /// Where the instrument sits for its own placement parameters `own` (m, rad): its origin
+    /// in the base frame and, for an instrument reading coordinates in a frame of its own, that
+    /// frame's axes (columns, base frame).
+    fn frame(&self, own: &[f64]) -> InstrumentFrame;
+    /// The orientation of the target on the flange (a 6-D probe's; identity for a point).
+    fn target_rotation(&self, _own: &[f64]) -> Matrix3<f64> {
+        Matrix3::identity()
+    }
+    /// The titles of the report's panels of the instrument's placement: its lengths (mm) and
+    /// its angles (degrees).
+    fn panel_titles(&self) -> (&'static str, &'static str);
+    /// Whether [`Self::reading_grad`]'s readings equal [`Self::reading`]'s to the bit, so one
+    /// pass gives residuals and Jacobian alike.
+    fn exact_grad_reading(&self) -> bool {
+        false
+    }
+}
+
+/// Where an instrument sits ([`Instrument::frame`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InstrumentFrame {
+    /// Its origin (a cable's exit point, a tracker's origin), base frame, m.
+    pub origin: Vector3<f64>,
+    /// The axes its reading's coordinates are taken along (columns, base frame), when it reads
+    /// coordinates.
+    pub axes: Option<Matrix3<f64>>,
 }
 
 /// A measurement type.
@@ -171,13 +202,7 @@ impl Measurement {
     /// of the model's values `v` (mm): the inverse of [`Self::values_of_file`] (a pose's axes
     /// made orthonormal first; NaN angles when they are degenerate).
     pub fn file_of_values(self, v: &[f64], euler: Euler) -> Vec<f64> {
-        match self {
-            Measurement::Pose => {
-                let angles = pose::reading_rotation(v).map_or([f64::NAN; 3], |r| euler.angles(&r).map(f64::to_degrees));
-                v[..3].iter().copied().chain(angles).collect()
-            }
-            _ => v.to_vec(),
-        }
+        self.def().file_of_values(v, euler)
     }
 
     /// The number of value groups ([`Instrument::value_groups`]): 1 when the values are alike.

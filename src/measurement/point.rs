@@ -73,6 +73,18 @@ impl Instrument for Point {
         (v.abs() > MAX_COORD_MM)
             .then(|| format!("tracker coordinate {} = {} mm is implausible (|value| > {MAX_COORD_MM} mm)", self.columns()[k], crate::error::shown(v)))
     }
+    fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
+        // A tracker reads y = R·p + t: its origin (y = 0) is −Rᵀt in the base frame and its
+        // axes are the columns of Rᵀ.
+        let rt = tracker_rotation(own).transpose();
+        super::InstrumentFrame { origin: -(rt * Vector3::new(own[0], own[1], own[2])), axes: Some(rt) }
+    }
+    fn panel_titles(&self) -> (&'static str, &'static str) {
+        ("Tracker and reflector (mm)", "Tracker rotation (deg)")
+    }
+    fn exact_grad_reading(&self) -> bool {
+        true
+    }
     /// The rigid transform that best maps the nominal target points onto the readings
     /// (least squares, by the SVD of their cross-covariance).
     fn locate(&self, p: &[Vector3<f64>], _rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)> {

@@ -292,6 +292,19 @@ impl Instrument for Pose {
             chunk.copy_from_slice(a.as_slice());
         }
     }
+    fn file_of_values(&self, v: &[f64], euler: Euler) -> Vec<f64> {
+        let angles = reading_rotation(v).map_or([f64::NAN; 3], |r| euler.angles(&r).map(f64::to_degrees));
+        v[..3].iter().copied().chain(angles).collect()
+    }
+    fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
+        super::point::Point.frame(own)
+    }
+    fn target_rotation(&self, own: &[f64]) -> Matrix3<f64> {
+        probe_rotation(own)
+    }
+    fn panel_titles(&self) -> (&'static str, &'static str) {
+        ("Tracker and probe (mm)", "Tracker and probe rotations (deg)")
+    }
     /// The tracker's rotation and the probe's from the orientations alone: the rotation
     /// between two readings is the rotation between the same two flange orientations seen
     /// through the tracker (`M_i·M_jᵀ = R·F_i·F_jᵀ·Rᵀ`), so the tracker's rotation maps the

@@ -178,11 +178,7 @@ impl Group {
     /// The panel's title for an instrument of measurement `m` (the instrument's panels are
     /// named for it).
     pub fn title(self, m: Measurement) -> &'static str {
-        let (lengths, angles) = match m {
-            Measurement::Length => ("Sensor (mm)", "Sensor angles (deg)"),
-            Measurement::Point => ("Tracker and reflector (mm)", "Tracker rotation (deg)"),
-            Measurement::Pose => ("Tracker and probe (mm)", "Tracker and probe rotations (deg)"),
-        };
+        let (lengths, angles) = m.def().panel_titles();
         match self {
             Group::Lengths => "Lengths (mm)",
             Group::Angles => "Angles (deg)",
@@ -261,19 +257,10 @@ pub struct InstrumentPose {
 }
 
 impl InstrumentPose {
-    /// The pose of the instrument placed at `p`. A tracker reads `y = R·p + t`, so its origin
-    /// (`y = 0`) is `−Rᵀt` in the base frame and its axes are the columns of `Rᵀ`.
+    /// The pose of the instrument placed at `p` ([`Instrument::frame`](crate::measurement::Instrument::frame)).
     pub fn of(p: &Placement) -> InstrumentPose {
-        match p.measurement {
-            Measurement::Length => {
-                InstrumentPose { measurement: p.measurement, origin_mm: mm3(&p.exit().unwrap_or_else(nalgebra::Vector3::zeros)), axes: None }
-            }
-            Measurement::Point | Measurement::Pose => {
-                let rt = crate::measurement::point::tracker_rotation(&p.own).transpose();
-                let t = nalgebra::Vector3::new(p.own[0], p.own[1], p.own[2]);
-                InstrumentPose { measurement: p.measurement, origin_mm: mm3(&(-(rt * t))), axes: Some(rt) }
-            }
-        }
+        let f = p.measurement.def().frame(&p.own);
+        InstrumentPose { measurement: p.measurement, origin_mm: mm3(&f.origin), axes: f.axes }
     }
 }
 

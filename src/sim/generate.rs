@@ -21,12 +21,7 @@ pub const STD_DECIMALS: usize = 6;
 /// Decimals of the temperature column (mK).
 pub const TEMP_DECIMALS: usize = 3;
 
-/// `v` rounded to `decimals` decimals: the f64 nearest to the decimal text `v` prints as with
-/// that precision, so the dataset writer prints it with at most `decimals` decimals and reading
-/// it back gives the same value.
-pub fn round_decimals(v: f64, decimals: usize) -> f64 {
-    format!("{v:.decimals$}").parse().unwrap_or(v)
-}
+pub use crate::units::round_decimals;
 
 pub use crate::progress::{Progress, Silent};
 
@@ -58,7 +53,7 @@ impl Generated {
 
 /// Builds the twin a scenario describes.
 pub fn build_twin(s: &Scenario, robot: &Robot) -> Twin {
-    Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.sensor.clone(), s.simulation.clone()).with_tracker(s.tracker.clone())
+    Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.sensor.clone(), s.simulation.clone()).with_instruments(s.instruments.clone())
 }
 
 /// Length (mm) the nominal arm (no geometric error, no effect) gives at joint angles `q` (rad).
@@ -117,8 +112,8 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
         i += 1;
         let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool);
         let l = s.sensor.ideal_length(&p);
-        // A tracker has no cable range to keep inside.
-        let in_range = s.tracker.is_some() || (l > lo + margin && l < hi - margin);
+        // Another instrument (a tracker) has no cable range to keep inside.
+        let in_range = s.instruments.active().is_some() || (l > lo + margin && l < hi - margin);
         if crate::units::to_mm(p.z) >= s.sampling.min_tool_z_mm && in_range {
             out.push(q);
         }
@@ -436,25 +431,18 @@ impl Tour<'_> {
         let time = self.times[i];
         let dt = self.twin.effects.thermal.as_ref().map(|th| th.delta_t(time)).unwrap_or(0.0);
         let temp = measured_temp(s, i, time);
-        let (point, pose) = tracker_reading(s, i, &rest);
-        let reading_mm = match (&pose, point) {
-            (Some((_, read)), _) => read.clone(),
-            (None, Some((_, read, _))) => read.to_vec(),
-            (None, None) => vec![reading],
-        };
+        let other = instrument_reading(s, i, &rest);
+        let reading_mm = other.as_ref().map_or_else(|| vec![reading], |r| r.read.clone());
         let row = Row {
             q_deg: self.poses[i].iter().map(|v| round_decimals(v.to_degrees(), s.sampling.written_decimals())).collect(),
             reading_mm,
             t_s: Some(round_decimals(time, T_DECIMALS)),
             temp_c: temp,
             split: Some(self.split[i]),
-            std_mm: match (&s.tracker, point) {
-                (Some(tr), Some((_, _, sd))) if tr.write_std => Some([round_decimals(sd, STD_DECIMALS); 3]),
-                _ => None,
-            },
+            std_mm: other.as_ref().filter(|r| r.write_std).map(|r| [round_decimals(r.std_mm, STD_DECIMALS); 3]),
             block: None,
         };
-        let truth = PoseTruth {
+        let mut truth = PoseTruth {
             index: i,
             split: self.split[i],
             t_s: time,
@@ -471,9 +459,11 @@ impl Tour<'_> {
             length_true_mm: l_true,
             length_noise_free_mm: noise_free,
             length_measured_mm: reading,
-            point_true_mm: point.map(|(ideal, _, _)| ideal),
-            point_measured_mm: point.map(|(_, read, _)| read),
-            pose_true: pose.as_ref().map(|(ideal, _)| *ideal),
+            point_true_mm: None,
+            point_measured_mm: None,
+            pose_true: None,
+            reading_true: None,
+            reading_measured: None,
             settle_steps: rest.steps,
             settle_time_s: match &acq {
                 Some(a) => a.negligible_s.unwrap_or(s.sensor.hold_s + s.sensor.window_s()),
@@ -481,7 +471,10 @@ impl Tour<'_> {
             },
             acquisition: acq,
         };
-        Ok(PoseOutput { row, truth, frames: rest.frames, point_var: point.map(|(_, _, sd)| sd * sd) })
+        if let (Some(i), Some(r)) = (s.instruments.active(), &other) {
+            i.record(r, &mut truth);
+        }
+        Ok(PoseOutput { row, truth, frames: rest.frames, point_var: other.map(|r| r.std_mm * r.std_mm) })
     }
 }
 
@@ -506,25 +499,12 @@ fn cable_reading(s: &Scenario, i: usize, rest: &RestingPose, series: Option<&[f6
     Ok((l_true, noise_free, round_decimals(reading, s.sensor.reading_decimals())))
 }
 
-/// A tracker's reading of pose `i`'s tool point, from its own noise stream: (ideal, read, sd)
-/// in mm, and a 6-D probe's pose (ideal, read at the tracker's decimals).
-#[allow(clippy::type_complexity)]
-fn tracker_reading(s: &Scenario, i: usize, rest: &RestingPose) -> (Option<([f64; 3], [f64; 3], f64)>, Option<([f64; 6], Vec<f64>)>) {
-    let mut pose = None;
-    let point = s.tracker.as_ref().map(|tr| {
-        let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
-        let r = if tr.probe_rotation_deg.is_some() {
-            // A 6-D probe also reads the flange's orientation (the twin's resting frames).
-            let (r, p) = tr.read_pose(&rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.sensor.samples, &mut rng);
-            let read: Vec<f64> = p.read.iter().enumerate().map(|(k, v)| round_decimals(*v, if k < 3 { tr.decimals } else { tr.angle_decimals })).collect();
-            pose = Some((p.ideal, read));
-            r
-        } else {
-            tr.read(&rest.tool, s.sensor.samples, &mut rng)
-        };
-        (r.ideal_mm, r.read_mm.map(|v| round_decimals(v, tr.decimals)), r.std_mm)
-    });
-    (point, pose)
+/// The reading of pose `i`'s tool point by the instrument that reads instead of the cable (a
+/// tracker), from its own noise stream; the flange's orientation is the twin's resting frame's.
+fn instrument_reading(s: &Scenario, i: usize, rest: &RestingPose) -> Option<crate::sim::instrument::TwinReading> {
+    let instrument = s.instruments.active()?;
+    let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
+    Some(instrument.reading(&rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.sensor.samples, &mut rng))
 }
 
 /// Angles in degrees.
@@ -582,9 +562,14 @@ fn truth_file(
             hold_s: sn.hold_s,
             rate_hz: sn.rate_hz,
         },
-        tracker: s.tracker.clone(),
+        tracker: s.instruments.tracker.clone(),
+        instrument: s
+            .instruments
+            .active()
+            .filter(|i| !i.own_truth_table())
+            .map(|i| crate::dataset::truth::InstrumentTruth { measurement: i.measurement(), own: i.placement(sn.tool_point_m()).own }),
         tool: ToolTruth { point_mm: sn.tool_point_mm },
-        noise_std_mm: if s.tracker.is_some() { (point_var.iter().sum::<f64>() / point_var.len().max(1) as f64).sqrt() } else { averaged },
+        noise_std_mm: if s.instruments.active().is_some() { (point_var.iter().sum::<f64>() / point_var.len().max(1) as f64).sqrt() } else { averaged },
         poses: truth_poses,
         rejected,
         glitch_rows,

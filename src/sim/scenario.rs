@@ -50,11 +50,9 @@ pub struct Scenario {
     pub effects: Effects,
     /// The draw-wire sensor (with a tracker: the tool point, the hold and the samples averaged).
     pub sensor: DrawWire,
-    /// A laser tracker instead of the cable's reading: the dataset then holds the tool point's
-    /// `x, y, z` in the tracker's frame. The `[sensor]` still gives the tool point (the
-    /// reflector), the hold and the samples averaged; it pulls no cable.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub tracker: Option<crate::sim::instrument::Tracker>,
+    /// An instrument that reads instead of the cable (`[tracker]`), each under its own key.
+    #[serde(flatten)]
+    pub instruments: crate::sim::instrument::Instruments,
     /// How the commanded poses are sampled.
     pub sampling: Sampling,
     /// Options of the rapier settling loop.
@@ -303,13 +301,13 @@ impl Scenario {
         }
         self.effects.validate(robot.dof()).map_err(err)?;
         self.sensor.validate().map_err(err)?;
-        if let Some(t) = &self.tracker {
-            t.validate().map_err(err)?;
+        self.instruments.validate().map_err(err)?;
+        if let Some(i) = self.instruments.active() {
             if self.sensor.tension_n != 0.0 {
-                return Err(err(format!("sensor.tension_n = {}: with a [tracker] no cable pulls on the tool; set it to 0", self.sensor.tension_n)));
+                return Err(err(format!("sensor.tension_n = {}: with a [{}] no cable pulls on the tool; set it to 0", self.sensor.tension_n, i.key())));
             }
             if self.glitches.is_some() {
-                return Err(err("[glitches] disturb a cable's reading; a [tracker] scenario has none".into()));
+                return Err(err(format!("[glitches] disturb a cable's reading; a [{}] scenario has none", i.key())));
             }
         }
         self.validate_geometry(robot).map_err(err)?;

@@ -53,18 +53,29 @@ pub(super) fn rows_of(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
 pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
     let chain = &g.twin.chain;
     let zero = vec![0.0; chain.n_params()];
+    let placement = twincal::sim::instrument::placement(&g.twin.sensor, &g.twin.instruments);
+    let frame = placement.measurement.def().frame(&placement.own);
     g.dataset
         .rows
         .iter()
         .map(|r| {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            match &g.twin.tracker {
-                // A tracker's point: how far the reading is from the nominal arm's reflector.
-                Some(t) => {
-                    let nominal = t.ideal_mm(&chain.point(&q, &zero, 1.0, chain.flange(), &g.twin.sensor.tool_point_m()));
-                    (0..3).map(|k| (r.reading_mm[k] - nominal[k]).powi(2)).sum::<f64>().sqrt()
+            let p = chain.point(&q, &zero, 1.0, chain.flange(), &g.twin.sensor.tool_point_m());
+            match (g.twin.instruments.active(), frame.axes) {
+                (None, _) => r.l_mm().unwrap_or(f64::NAN) - twincal::sim::generate::nominal_length(chain, &g.twin.sensor, &q),
+                // A point in the instrument's frame (a tracker's): how far the reading is from
+                // the nominal arm's reflector.
+                (Some(_), Some(axes)) => {
+                    let nominal = twincal::units::to_mm(axes.transpose() * (p - frame.origin));
+                    let lengths = placement.measurement.file_lengths().min(3);
+                    (0..lengths).map(|k| (r.reading_mm[k] - nominal[k]).powi(2)).sum::<f64>().sqrt()
                 }
-                None => r.l_mm().unwrap_or(f64::NAN) - twincal::sim::generate::nominal_length(chain, &g.twin.sensor, &q),
+                // Another reading of one value: measured minus the nominal arm's.
+                (Some(_), None) => {
+                    let mut y = [0.0; twincal::measurement::MAX_DIM];
+                    placement.measurement.reading(&placement.own, &p, &mut y[..placement.measurement.dim()]);
+                    r.reading_mm.first().map_or(f64::NAN, |v| v - twincal::units::to_mm(y[0]))
+                }
             }
         })
         .collect()
@@ -261,8 +272,8 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
     let n = res.len();
     let split: Vec<&str> = g.truth.poses.iter().map(|p| if p.split == twincal::dataset::Split::Test { "test" } else { "train" }).collect();
     let tools: Vec<[f64; 3]> = (0..n).map(|i| mm(&g.truth_tool(i))).collect();
-    let instrument = twincal::report::InstrumentPose::of(&twincal::sim::instrument::placement(&g.twin.sensor, g.twin.tracker.as_ref()));
-    let tracker = g.twin.tracker.is_some();
+    let instrument = twincal::report::InstrumentPose::of(&twincal::sim::instrument::placement(&g.twin.sensor, &g.twin.instruments));
+    let tracker = g.twin.instruments.active().is_some();
     let (quantity, what, instrument_text) = if tracker {
         (
             "|Δp|",

@@ -60,7 +60,7 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
         // The simulated tour: rapier steps per pose, and how the stability gate and the transient fared.
         let closed = acq.iter().filter(|a| a.gate_s.is_none()).count();
         let worst = acq.iter().map(|a| a.transient_mm.abs()).fold(0.0f64, f64::max);
-        let of = if g.twin.tracker.is_some() { "at the tool" } else { "in L" };
+        let of = if g.twin.instruments.active().is_some() { "at the tool" } else { "in L" };
         eprintln!(
             "  simulated tour: {mean_steps:.0} rapier steps per pose; gate still closed after the {} s hold: {closed} read anyway; largest transient {of} {worst:.1e} mm",
             g.twin.sensor.hold_s

@@ -69,9 +69,8 @@ pub fn study(
     }
     let poses = study_poses(&s, &robot, study)?;
     let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
-    let noise = match &s.tracker {
-        // A tracker's noise grows with the distance: stated per sample, then averaged.
-        Some(t) => format!("tracker noise {} µm + {} µm/m per sample, {} samples averaged", t.noise_um, t.noise_um_per_m, s.sensor.samples),
+    let noise = match s.instruments.active() {
+        Some(i) => format!("{} per sample, {} samples averaged", i.noise(), s.sensor.samples),
         None => format!("averaged reading noise {:.2} µm", floor * 1e3),
     };
     let config = HoldConfig {

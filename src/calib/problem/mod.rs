@@ -12,7 +12,7 @@ pub mod weighting;
 
 use crate::calib::effects::RowInputs;
 use crate::calib::model::{CalibModel, ModelWork};
-use crate::measurement::{Measurement, MAX_DIM};
+use crate::measurement::MAX_DIM;
 use crate::optim::{Cost, LeastSquares, Observations};
 use nalgebra::DMatrix;
 use std::cell::RefCell;
@@ -146,11 +146,11 @@ impl LeastSquares for ReadingFit<'_> {
     fn jacobian(&self, x: &[f64], j: &mut DMatrix<f64>) {
         self.jacobian_pass(x, j, None);
     }
-    /// A tracker's point is read by the same expression with and without its derivatives, so
-    /// the readings of the Jacobian's pass are the residuals' bit for bit. (A cable length's
-    /// derivative pass clamps the distance at 1 pm: it keeps two passes.)
+    /// Where an instrument's reading is the same expression with and without its derivatives
+    /// (a tracker's point), the readings of the Jacobian's pass are the residuals' bit for bit.
+    /// (A cable length's derivative pass clamps the distance at 1 pm: it keeps two passes.)
     fn joint_pass(&self) -> bool {
-        self.model.measurement == Measurement::Point
+        self.model.measurement.def().exact_grad_reading()
     }
     fn residuals_and_jacobian(&self, x: &[f64], r: &mut [f64], j: &mut DMatrix<f64>) {
         if self.joint_pass() {
@@ -290,6 +290,7 @@ mod tests {
     use super::*;
     use crate::calib::effects::{EffectBlock, EffectKind};
     use crate::calib::model::{Placement, SensorGuess};
+    use crate::measurement::Measurement;
     use crate::optim::{LevenbergMarquardt, NoObserver};
     use crate::robot::Robot;
     use nalgebra::Vector3;

@@ -116,11 +116,7 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
         }
         None => {
             // A pose's probe has its orientation on the flange.
-            let rot = if model.measurement == crate::measurement::Measurement::Pose {
-                crate::measurement::pose::probe_rotation(&placement.own)
-            } else {
-                nalgebra::Matrix3::identity()
-            };
+            let rot = model.measurement.def().target_rotation(&placement.own);
             fixed(&mut out, "tracker_target", "flange", &Frame { rot, pos: placement.tool });
             let names = model.measurement.placement_names();
             let own: Vec<String> = names.iter().zip(&placement.own).map(|(n, v)| format!("{n} = {v}")).collect();

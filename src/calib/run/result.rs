@@ -268,30 +268,35 @@ pub struct CalibResult {
     pub test_residuals_mm: Vec<f64>,
 }
 
-/// Where each key of a version-1 (flat) result file goes in the nested layout.
-const FLAT_KEYS: [(&str, &[&str]); 4] = [
-    ("provenance", &["twincal_version", "data", "data_sha256", "method", "model_name", "seed", "n_train", "n_test", "test_rows", "wall_time_s"]),
-    ("solve", &["iterations", "evaluations", "converged", "stop_reason", "loss", "noise_estimate_mm", "weighting", "noise_model", "identifiability"]),
-    ("screen", &["outlier_k", "robust_scale_mm", "outliers", "outlier_runs", "reading_steps", "test_rows_in_steps", "test_outliers"]),
-    ("evaluation", &["metrics", "truth_comparison", "repeatability", "noise_floor"]),
-];
+/// A version-1 result file (flat: every group's keys side by side at the top): each group takes
+/// its own keys, as its struct names them, and the rest (the model, the warnings) stays on top.
+#[derive(Deserialize)]
+struct FlatLayout {
+    #[serde(flatten)]
+    provenance: Provenance,
+    #[serde(flatten)]
+    solve: Solve,
+    #[serde(flatten)]
+    screen: ScreenReport,
+    #[serde(flatten)]
+    evaluation: Evaluation,
+    #[serde(flatten)]
+    rest: serde_json::Map<String, serde_json::Value>,
+}
 
 /// A version-1 result file's JSON (flat: no `provenance`) in the nested layout; other JSON as it is.
-fn nested(mut value: serde_json::Value) -> serde_json::Value {
-    let Some(map) = value.as_object_mut() else { return value };
+fn nested(value: serde_json::Value) -> std::result::Result<serde_json::Value, serde_json::Error> {
+    let Some(map) = value.as_object() else { return Ok(value) };
     if map.contains_key("provenance") || map.get("schema_version").and_then(serde_json::Value::as_u64).is_some_and(|v| v >= 2) {
-        return value;
+        return Ok(value);
     }
-    for (group, keys) in FLAT_KEYS {
-        let mut inner = serde_json::Map::new();
-        for k in keys {
-            if let Some(v) = map.remove(*k) {
-                inner.insert(k.to_string(), v);
-            }
-        }
-        map.insert(group.to_string(), serde_json::Value::Object(inner));
-    }
-    value
+    let flat: FlatLayout = serde_json::from_value(value)?;
+    let mut map = flat.rest;
+    map.insert("provenance".into(), serde_json::to_value(flat.provenance)?);
+    map.insert("solve".into(), serde_json::to_value(flat.solve)?);
+    map.insert("screen".into(), serde_json::to_value(flat.screen)?);
+    map.insert("evaluation".into(), serde_json::to_value(flat.evaluation)?);
+    Ok(serde_json::Value::Object(map))
 }
 
 impl CalibResult {
@@ -456,7 +461,7 @@ impl CalibResult {
             ));
         }
         let mut r: CalibResult =
-            serde_json::from_value(nested(value)).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+            nested(value).and_then(serde_json::from_value).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
         // Read in the current layout, whatever the file's.
         r.schema_version = RESULT_SCHEMA_VERSION;
         if let Some(net) = r.legacy_rbf.take() {

@@ -88,15 +88,6 @@ impl Tracker {
         6
     }
 
-    /// What it reads: a point, or a pose with a 6-D probe.
-    pub fn measurement(&self) -> Measurement {
-        if self.probe_rotation_deg.is_some() {
-            Measurement::Pose
-        } else {
-            Measurement::Point
-        }
-    }
-
     /// A 6-D reading of the probe whose origin is at `p` (base frame, m) on the flange rotated
     /// by `flange_rot`: the position as [`Self::read`] gives it (same noise draws), then the
     /// orientation turned by a small rotation of `orientation_noise_urad / √samples` per axis.
@@ -140,7 +131,7 @@ impl Tracker {
     }
 
     /// An error naming the key whose value is out of range.
-    pub fn validate(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), String> {
         if let Some(v) = self.translation_mm.iter().find(|v| !(v.is_finite() && v.abs() <= MAX_DISTANCE_MM)) {
             return Err(format!("tracker.translation_mm holds {v}: each coordinate must be finite and within ±{MAX_DISTANCE_MM} mm"));
         }
@@ -168,5 +159,59 @@ impl Tracker {
             return Err(format!("tracker.decimals = {} must be at most {MAX_DECIMALS}", self.decimals));
         }
         Ok(())
+    }
+}
+
+impl super::TwinInstrument for Tracker {
+    fn key(&self) -> &'static str {
+        "tracker"
+    }
+    /// A point, or a pose with a 6-D probe.
+    fn measurement(&self) -> Measurement {
+        if self.probe_rotation_deg.is_some() {
+            Measurement::Pose
+        } else {
+            Measurement::Point
+        }
+    }
+    fn placement(&self, tool: Vector3<f64>) -> crate::measurement::Placement {
+        crate::measurement::Placement::tracker(self.translation_mm, self.rotation_deg, self.probe_rotation_deg, tool)
+    }
+    fn reading(&self, p: &Vector3<f64>, flange_rot: &nalgebra::Matrix3<f64>, samples: usize, rng: &mut rand_chacha::ChaCha8Rng) -> super::TwinReading {
+        use crate::units::round_decimals;
+        if self.probe_rotation_deg.is_some() {
+            // A 6-D probe also reads the flange's orientation.
+            let (r, pose) = self.read_pose(p, flange_rot, samples, rng);
+            let read = pose.read.iter().enumerate().map(|(k, v)| round_decimals(*v, if k < 3 { self.decimals } else { self.angle_decimals })).collect();
+            super::TwinReading { ideal: pose.ideal.to_vec(), read, std_mm: r.std_mm, write_std: self.write_std }
+        } else {
+            let r = self.read(p, samples, rng);
+            super::TwinReading {
+                ideal: r.ideal_mm.to_vec(),
+                read: r.read_mm.map(|v| round_decimals(v, self.decimals)).to_vec(),
+                std_mm: r.std_mm,
+                write_std: self.write_std,
+            }
+        }
+    }
+    fn raw_sample(&self, p: &Vector3<f64>, rng: &mut rand_chacha::ChaCha8Rng) -> Vec<f64> {
+        self.read(p, 1, rng).read_mm.to_vec()
+    }
+    fn validate(&self) -> Result<(), String> {
+        self.check()
+    }
+    /// Its noise grows with the distance.
+    fn noise(&self) -> String {
+        format!("tracker noise {} µm + {} µm/m", self.noise_um, self.noise_um_per_m)
+    }
+    /// The reflector's point as `point_true_mm` / `point_measured_mm`, a probe's pose as
+    /// `pose_true` (the truth's tracker fields).
+    fn record(&self, r: &super::TwinReading, t: &mut crate::dataset::truth::PoseTruth) {
+        t.point_true_mm = Some([r.ideal[0], r.ideal[1], r.ideal[2]]);
+        t.point_measured_mm = Some([r.read[0], r.read[1], r.read[2]]);
+        t.pose_true = (r.ideal.len() == 6).then(|| [r.ideal[0], r.ideal[1], r.ideal[2], r.ideal[3], r.ideal[4], r.ideal[5]]);
+    }
+    fn own_truth_table(&self) -> bool {
+        true
     }
 }

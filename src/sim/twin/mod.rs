@@ -140,8 +140,8 @@ pub struct Twin {
     pub effects: Effects,
     /// The draw-wire sensor (with a tracker: the tool point it reads, the hold and samples).
     pub sensor: DrawWire,
-    /// A laser tracker that reads the tool point instead of the cable (`None`: the cable reads).
-    pub tracker: Option<crate::sim::instrument::Tracker>,
+    /// An instrument that reads the tool point instead of the cable (none: the cable reads).
+    pub instruments: crate::sim::instrument::Instruments,
     /// The static loads on the joints: the links' weight, the payload and the cable's pull.
     pub load: LoadModel,
     /// The joint transmission (compliance in series with backlash); `None` when the joints are
@@ -153,17 +153,17 @@ pub struct Twin {
 
 impl Twin {
     /// The twin of `robot` with true error parameters `params` (chain units: m, rad), its effects,
-    /// sensor and settling options; read by the cable until [`Self::with_tracker`].
+    /// sensor and settling options; read by the cable until [`Self::with_instruments`].
     pub fn new(robot: Robot, params: Vec<f64>, effects: Effects, sensor: DrawWire, settle: SettleOptions) -> Self {
         let chain = robot.error_chain();
         let load = LoadModel::new(&robot, effects.payload.as_ref(), sensor.cable_load());
         let transmission = Transmission::from_effects(&effects, robot.dof());
-        Twin { robot, chain, params, effects, sensor, tracker: None, load, transmission, settle }
+        Twin { robot, chain, params, effects, sensor, instruments: Default::default(), load, transmission, settle }
     }
 
-    /// The twin read by `tracker` instead of its cable.
-    pub fn with_tracker(mut self, tracker: Option<crate::sim::instrument::Tracker>) -> Self {
-        self.tracker = tracker;
+    /// The twin read by the active one of `instruments` instead of its cable.
+    pub fn with_instruments(mut self, instruments: crate::sim::instrument::Instruments) -> Self {
+        self.instruments = instruments;
         self
     }
 

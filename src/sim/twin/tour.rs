@@ -329,8 +329,8 @@ fn motor_of(twin: &Twin, j: usize, q: f64, v: f64) -> (f64, f64) {
 /// reading of noise-free length `l` (mm), or with a tracker its reading of tool point `tool` (one
 /// sample's noise).
 fn gate_sample(twin: &Twin, tool: &Vector3<f64>, l: f64, rng: &mut ChaCha8Rng, raw: &mut Vec<f64>) {
-    match &twin.tracker {
-        Some(tr) => raw.extend(tr.read(tool, 1, rng).read_mm),
+    match twin.instruments.active() {
+        Some(i) => raw.extend(i.raw_sample(tool, rng)),
         None => raw.push(twin.sensor.raw_sample(l, rng)),
     }
 }
@@ -488,7 +488,7 @@ fn hold(sim: &mut Sim, mv: &Move, seed: u64, i: usize, clock: Clock, hold_sample
     let ng = acq.gate_samples(sn.rate_hz);
     let mut rng = ChaCha8Rng::seed_from_u64(crate::seed::stream_seed(seed, crate::seed::Stream::Gate, i as u64));
     // The instrument's raw samples, `dim` values each: the cable's length or the tracker's point.
-    let dim = if twin.tracker.is_some() { 3 } else { 1 };
+    let dim = twin.instruments.active().map_or(1, |i| i.measurement().file_lengths());
     let mut raw: Vec<f64> = Vec::with_capacity((dim * hold_samples).min(1 << 16));
     let (mut gate_s, mut negligible_s) = (None, None);
     let slow = sim.omega.iter().copied().fold(f64::INFINITY, f64::min);
@@ -647,7 +647,7 @@ fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: u
     let (q_link, deflection) = sim.link(mv, t);
     let contact = sim.contacts(&deflection);
     let reference = sim.rest_reference(&mv.to, &deflection, t_read).0;
-    let transient_mm = if twin.tracker.is_some() {
+    let transient_mm = if twin.instruments.active().is_some() {
         // How far the window's mean point is from the arm at rest (a rigid transform away from
         // what the tracker reads).
         crate::units::to_mm((tool_sum / sn.samples as f64 - reference).norm())
