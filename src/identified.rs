@@ -64,7 +64,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         geometry: Geometry::default(),
         effects: Default::default(),
         sensor,
-        instruments: crate::sim::instrument::Instruments { tracker },
+        instruments: crate::sim::instrument::Instruments { tracker, ..Default::default() },
         sampling: Sampling {
             poses: data.rows.len().min(crate::sim::scenario::MAX_POSES),
             test: 0,

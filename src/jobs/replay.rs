@@ -307,7 +307,7 @@ fn fidelity_on(rows: &[usize], twin: &[Option<(Vec<f64>, Vec<f64>)>], measured: 
     let inlier = |v: &Vec<f64>| v.iter().all(|x| (x - med).abs() <= k * scale);
     Fidelity {
         residual: ErrorStats::of(&flat),
-        position: (d > 1).then(|| ErrorStats::of(&r.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect::<Vec<_>>())),
+        position: (d > 1).then(|| ErrorStats::of(&r.iter().map(|v| v.iter().take(3).map(|x| x * x).sum::<f64>().sqrt()).collect::<Vec<_>>())),
         outlier_rows: r.iter().filter(|v| !inlier(v)).count(),
         inliers: ErrorStats::of(&r.iter().filter(|v| inlier(v)).flatten().copied().collect::<Vec<_>>()),
     }

@@ -26,7 +26,7 @@ pub struct Reading {
     /// The instrument whose columns to read when the header holds more than one's (point: only
     /// x, y, z of a file that also has a pose's rx, ry, rz); default: what the header holds
     /// (L: length; x, y, z: point; x, y, z, rx, ry, rz: pose).
-    #[cfg_attr(feature = "clap", arg(long, value_name = "length|point|pose"))]
+    #[cfg_attr(feature = "clap", arg(long, ignore_case = true, value_parser = clap::builder::PossibleValuesParser::new(Measurement::ALL.map(Measurement::name))))]
     pub measurement: Option<String>,
     /// The Euler convention of a pose's rx, ry, rz (degrees): capitals for rotations about the
     /// moving axes (intrinsic; XYZ is R = Rx(rx)·Ry(ry)·Rz(rz)), lower case for the fixed axes
