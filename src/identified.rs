@@ -1,7 +1,7 @@
 //! The identified twin: a calibrated model (and the effects a diagnosis named) written back as
 //! a twin scenario, so that `generate` and `replay` simulate *that* robot.
 //!
-//! The scenario's robot is the calibrated model exported as a URDF ([`crate::calib::run::export::urdf`],
+//! The scenario's robot is the calibrated model exported as a URDF ([`crate::export::urdf::urdf`],
 //! inertials carried over from the nominal robot), written beside it; its geometric errors are
 //! then zero (they are in the URDF). The instrument's placement, the effect sizes, the reading
 //! noise and the logging resolutions are the identified ones; what the data did not determine
@@ -41,7 +41,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
     let m = &r.model;
     let stem = scenario_path.file_stem().and_then(|s| s.to_str()).unwrap_or("twin").to_string();
     let urdf_file = format!("{stem}.urdf");
-    let urdf = crate::calib::run::export::urdf(m, &r.x, nominal, &stem);
+    let urdf = crate::export::urdf::urdf(m, &r.x, nominal, &stem);
     let robot = Robot::from_urdf_str(&urdf, &stem).map_err(|e| Error::Calibration(format!("the exported URDF does not load back: {e}")))?;
     let n = robot.dof();
     let mut notes = header_notes(r, data, nominal.is_some(), how, &urdf_file);
@@ -56,6 +56,9 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
 
     let (sensor, tracker) = instrument(r, data, sigma, reading_decimals, &mut notes)?;
 
+    // `..Default::default()` in `Instruments` has no effect while the tracker is its only key;
+    // it leaves any other instrument's key at its default.
+    #[allow(clippy::needless_update)]
     let mut scenario = Scenario {
         name: stem.clone(),
         description: format!("identified twin of {}", data.source),

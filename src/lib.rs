@@ -18,6 +18,7 @@ pub mod calib;
 pub mod dataset;
 pub mod diagnose;
 pub mod error;
+pub mod export;
 pub mod identified;
 pub mod ik;
 pub mod io;

@@ -41,6 +41,10 @@ pub enum Command {
     /// The twin driven through a measured acquisition: per row its reading beside the measured
     /// one, and how far apart they are (what the simulation gets wrong).
     Replay(commands::ReplayJob),
+    /// Write a calibrated model for a controller or driver: URDF, a per-joint frame table, a
+    /// standard or modified D-H table, or the ROS UR driver's kinematics YAML; read back and
+    /// checked before it is written, with what it cannot carry named.
+    Export(twincal::jobs::ExportJob),
     /// Predict readings (cable lengths or tracker points) with a calibrated model.
     Predict {
         /// A result.json written by `calibrate`.
@@ -139,6 +143,7 @@ pub fn run(args: Cli) -> twincal::Result<()> {
         Command::Compare(a) => commands::compare(&a, args.quiet),
         Command::Reduce { parts, out, rrd } => commands::reduce(&parts, out.as_deref(), rrd.as_deref(), args.quiet),
         Command::Replay(a) => commands::replay(&a, args.quiet),
+        Command::Export(a) => commands::export(&a, args.quiet),
         Command::Ik(a) => crate::commands::ik::ik(&a, args.quiet),
         Command::Study { what, scenario, holds, speeds, poses, rrd, shard } => commands::study(
             what,

@@ -577,6 +577,24 @@ fn reduce(py: Python<'_>, parts: Vec<PathBuf>, out: PathBuf) -> PyResult<String>
     .map_err(err)
 }
 
+/// Writes the calibrated model `model` (a result.json path) as `twincal export` does; `options`:
+/// a JSON object of its `format` and `robot`. Returns the summary's JSON (format, file, warnings,
+/// read-back difference).
+#[pyfunction]
+fn export(py: Python<'_>, model: PathBuf, out: PathBuf, options: &str) -> PyResult<String> {
+    #[derive(serde::Deserialize, serde::Serialize, Default)]
+    #[serde(deny_unknown_fields, default)]
+    struct Options {
+        format: Option<String>,
+        robot: Option<String>,
+    }
+    let o: Options = request("export", options)?;
+    let robot = o.robot.map(|r| if r == "irb120" { r } else { std::path::absolute(&r).map_or(r, |p| p.display().to_string()) });
+    let job = jobs::ExportJob { model, out, format: o.format, robot };
+    let summary = py.detach(|| job.run()).map_err(err)?;
+    serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TwincalError", m.py().get_type::<TwincalError>())?;
@@ -590,6 +608,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(replay, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(reduce, m)?)?;
+    m.add_function(wrap_pyfunction!(export, m)?)?;
     m.add_class::<PyCalibration>()?;
     m.add_class::<PyDiagnosis>()?;
     Ok(())

@@ -374,3 +374,24 @@ def test_ctrl_c_stops_a_long_calibration_promptly_and_the_next_one_runs():
     assert elapsed < 3.0, f"KeyboardInterrupt after {elapsed:.1f} s"
     r = twincal.calibrate(data)
     assert r.metrics["train_after"]["rmse"] < r.metrics["train_before"]["rmse"]
+
+
+def test_export_writes_every_format_as_the_command_line_and_refuses_bad_input(embedded, tmp_path):
+    _, data, truth = embedded
+    r = twincal.calibrate(data, truth=truth)
+    r.save(tmp_path / "r.json")
+    for name, fmt in [("k.urdf", None), ("k.yaml", None), ("dh.csv", "dh"), ("mdh.json", "mdh"), ("frames.csv", "frames")]:
+        s = twincal.export(tmp_path / "r.json", tmp_path / name, format=fmt, robot="irb120")
+        assert s["round_trip_m"] < 1e-9 and (tmp_path / name).exists()
+        run_cli("export", "--model", tmp_path / "r.json", "--out", tmp_path / ("cli_" + name), *(["--format", fmt] if fmt else []), "--robot", "irb120")
+        assert (tmp_path / name).read_text() == (tmp_path / ("cli_" + name)).read_text()
+    # The IRB 120's flange is not turned onto joint 6's axis: the UR file says where the tool goes.
+    assert any("off joint 6's axis" in w for w in twincal.export(tmp_path / "r.json", tmp_path / "k2.yaml")["warnings"])
+    with pytest.raises(twincal.TwincalError, match="give --format"):
+        twincal.export(tmp_path / "r.json", tmp_path / "t.csv")
+    with pytest.raises(twincal.TwincalError, match="unknown export format 'step'"):
+        twincal.export(tmp_path / "r.json", tmp_path / "t.csv", format="step")
+    with pytest.raises(twincal.TwincalError, match="refusing to overwrite"):
+        twincal.export(tmp_path / "r.json", tmp_path / "r.json", format="frames")
+    with pytest.raises(twincal.TwincalError, match="format must be a string"):
+        twincal.export(tmp_path / "r.json", tmp_path / "t.csv", format=3)

@@ -43,6 +43,7 @@ __all__ = [
     "replay",
     "compare",
     "reduce",
+    "export",
     "cli",
     "__version__",
 ]
@@ -448,6 +449,20 @@ def reduce(parts: Sequence[Union[str, os.PathLike]], out: Optional[Union[str, os
         _native.reduce(_paths(parts, "parts"), target)
         with open(target) as f:
             return json.load(f)
+
+
+def export(model: Union[str, os.PathLike], out: Union[str, os.PathLike], *, format: Optional[str] = None, robot: Optional[str] = None) -> dict:
+    """Write the calibrated model ``model`` (a result.json path) for a controller or driver, as
+    ``twincal export``: ``format`` urdf, frames, dh, mdh or ur-yaml (default: from ``out``'s
+    extension), ``robot`` the nominal robot (irb120 or a URDF path) for a URDF's inertials and
+    limits. The file is read back and checked before it is written. Returns the summary: the
+    format, the file, what it does not carry (``warnings``) and the read-back difference
+    (``round_trip_m``)."""
+    for name, v in (("format", format), ("robot", robot)):
+        if v is not None and not isinstance(v, str):
+            raise TwincalError(f"{name} must be a string, got {type(v).__name__}")
+    text = _native.export(os.fspath(model), os.fspath(out), _options({"format": format, "robot": robot}))
+    return json.loads(text)
 
 
 def cli(argv: Sequence[str]) -> None:

@@ -126,7 +126,7 @@ pub fn write_calibration(a: &CalibrateJob, c: &Calibration, recordings: &dyn Rec
             ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
             ModelSpec::Generic6r => None,
         };
-        outputs.write(p, crate::calib::run::export::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
+        outputs.write(p, crate::export::urdf::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
     }
     if let Some(p) = &a.scenario_out {
         let how = if a.request.placement_only { "calibrate --placement-only" } else { "calibrate" };

@@ -9,6 +9,7 @@
 mod calibrate;
 mod compare;
 mod diagnose;
+mod export;
 mod files;
 mod predict;
 mod replay;
@@ -20,6 +21,7 @@ pub use compare::{
     Comparison, MAX_COMPARE_JOBS, MAX_SEEDS, MIN_SEEDS_FOR_TEST,
 };
 pub use diagnose::{diagnose_loaded, write_diagnosis, DiagnoseJob, Diagnosed};
+pub use export::{ExportJob, ExportSummary};
 pub use files::{
     check_model_outputs, data_inputs, load_dataset, load_scenario, scenario_inputs, scenario_urdf_path, stage_identified_twin, Figures, NoRecordings,
     Recordings,

@@ -88,6 +88,18 @@ impl Frame {
     }
 }
 
+/// URDF roll, pitch, yaw of rotation `m` (m = Rz(yaw)·Ry(pitch)·Rx(roll)), exact to rounding
+/// also at and near gimbal lock (pitch ±90°, where the yaw is taken as 0). nalgebra's
+/// `euler_angles` loses the orientation there (0.05 rad for a pitch 1.5e-8 rad off the lock).
+pub fn rpy(m: &nalgebra::Matrix3<f64>) -> [f64; 3] {
+    // The yaw first (0 at lock), then pitch and roll from Rz(−yaw)·m = Ry(pitch)·Rx(roll), whose
+    // first column is (cos p, 0, −sin p) and second row (0, cos r, −sin r) whatever the yaw's
+    // rounding: the three angles then compose back to m.
+    let y = if m[(0, 0)].hypot(m[(1, 0)]) > 1e-12 { m[(1, 0)].atan2(m[(0, 0)]) } else { 0.0 };
+    let n = Rotation3::from_axis_angle(&Vector3::z_axis(), -y).into_inner() * m;
+    [(-n[(1, 2)]).atan2(n[(1, 1)]), (-n[(2, 0)]).atan2(n[(0, 0)]), y]
+}
+
 /// Rotation matrix about a unit axis.
 ///
 /// Inlined (the coordinate axes of every chain are a few instructions besides the sine and
@@ -359,6 +371,20 @@ impl ChainBuilder {
             return;
         }
         self.op(OpKind::Rot, axis, base, None, param, false);
+    }
+    /// A fixed transform as a URDF origin states it: the translation `xyz` (m), then the rotation
+    /// `rpy` (rad; R = Rz(yaw)·Ry(pitch)·Rx(roll)).
+    pub fn origin(&mut self, xyz: [f64; 3], rpy: [f64; 3]) {
+        for (k, v) in xyz.into_iter().enumerate() {
+            self.trans(Vector3::ith(k, 1.0), v, None, false);
+        }
+        for k in [2, 1, 0] {
+            self.rot(Vector3::ith(k, 1.0), rpy[k], None);
+        }
+    }
+    /// A fixed transform `f` (its rotation as URDF roll, pitch, yaw: [`rpy`]).
+    pub fn fixed(&mut self, f: &Frame) {
+        self.origin(f.pos.into(), rpy(&f.rot));
     }
     /// The joint rotation; closes the frame of the joint's child link.
     pub fn joint(&mut self, axis: Vector3<f64>, offset: f64, param: Option<usize>) -> usize {

@@ -11,6 +11,7 @@ mod calibrate;
 mod cli;
 mod diagnose;
 mod evonph;
+mod export;
 mod fuzz;
 mod inputs;
 mod measurement;

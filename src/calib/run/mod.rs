@@ -10,7 +10,6 @@
 //! [`Solver`] value that carries its own settings.
 
 pub mod equivalent;
-pub mod export;
 pub mod generic;
 mod options;
 mod pipeline;

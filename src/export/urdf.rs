@@ -1,44 +1,18 @@
-//! Export of a calibrated model as a URDF: one revolute joint per chain joint, with the
+//! A calibrated model as a URDF: one revolute joint per chain joint, with the
 //! calibrated frame between consecutive joint axes as its origin (joint zero offsets folded in),
 //! fixed frames for the flange, the draw-wire tool point and the cable exit point. Inertial data
 //! are carried over from the nominal robot when there is one, moved into the calibrated frames.
 
+use super::joint_frames;
 use crate::calib::model::CalibModel;
-use crate::robot::kinematics::{FkWork, Frame};
+use crate::robot::kinematics::{rpy, FkWork, Frame};
 use crate::robot::Robot;
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::Vector3;
 use std::fmt::Write;
 
 fn origin(f: &Frame) -> String {
     let [r, p, y] = rpy(&f.rot);
     format!("<origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>", f.pos.x, f.pos.y, f.pos.z, r, p, y)
-}
-
-/// URDF roll, pitch, yaw of rotation `m` (m = Rz(yaw)·Ry(pitch)·Rx(roll)), exact to rounding
-/// also at and near gimbal lock (pitch ±90°, where the yaw is taken as 0). nalgebra's
-/// `euler_angles` loses the orientation there (0.05 rad for a pitch 1.5e-8 rad off the lock).
-fn rpy(m: &nalgebra::Matrix3<f64>) -> [f64; 3] {
-    // The yaw first (0 at lock), then pitch and roll from Rz(−yaw)·m = Ry(pitch)·Rx(roll), whose
-    // first column is (cos p, 0, −sin p) and second row (0, cos r, −sin r) whatever the yaw's
-    // rounding: the three angles then compose back to m.
-    let y = if m[(0, 0)].hypot(m[(1, 0)]) > 1e-12 { m[(1, 0)].atan2(m[(0, 0)]) } else { 0.0 };
-    let n = Rotation3::from_axis_angle(&Vector3::z_axis(), -y).into_inner() * m;
-    [(-n[(1, 2)]).atan2(n[(1, 1)]), (-n[(2, 0)]).atan2(n[(0, 0)]), y]
-}
-
-/// Link frames of a chain at zero joint angles: the frame right after each joint rotation.
-fn joint_frames(model: &CalibModel, x: &[f64]) -> (Vec<Frame>, Vec<Vector3<f64>>, Frame) {
-    let chain = &model.chain;
-    let mut ws = FkWork::new(chain);
-    chain.forward(&vec![0.0; chain.n_joints], &x[..model.n_chain()], 1.0, &mut ws);
-    let mut frames = Vec::new();
-    let mut axes = Vec::new();
-    for j in 0..chain.n_joints {
-        let k = chain.joint_op(j).expect("every joint has an op");
-        frames.push(ws.pre[k + 1]);
-        axes.push(chain.ops[k].axis);
-    }
-    (frames, axes, chain.frame(&ws, chain.flange()))
 }
 
 /// The calibrated URDF text. `nominal` supplies inertials (moved into the calibrated frames).
@@ -127,9 +101,50 @@ pub fn urdf(model: &CalibModel, x: &[f64], nominal: Option<&Robot>, name: &str) 
     out
 }
 
+/// The URDF format.
+pub struct Urdf;
+
+impl super::ExportFormat for Urdf {
+    fn name(&self) -> &'static str {
+        "urdf"
+    }
+    fn describe(&self) -> &'static str {
+        "a URDF: the calibrated frames as joint origins, inertials from the nominal robot"
+    }
+    fn extensions(&self) -> &'static [&'static str] {
+        &["urdf"]
+    }
+    fn write(
+        &self,
+        _table: &super::JointTable,
+        model: &CalibModel,
+        x: &[f64],
+        nominal: Option<&Robot>,
+        _ext: &str,
+        _warnings: &mut Vec<String>,
+    ) -> crate::error::Result<String> {
+        Ok(urdf(model, x, nominal, "calibrated"))
+    }
+    /// The chain from the base link to the flange, and the tool point: the origin of the fixed
+    /// frame the export hangs on the flange (`cable_tool_point` or `tracker_target`), else the
+    /// flange's own origin.
+    fn read(&self, text: &str, _ext: &str) -> crate::error::Result<super::ReadBack> {
+        let robot = Robot::from_urdf_str(text, "the exported URDF")?;
+        let doc = urdf_rs::read_from_string(text).map_err(|e| crate::error::Error::Invalid(format!("the exported URDF: {e}")))?;
+        let tcp = doc
+            .joints
+            .iter()
+            .find(|j| j.parent.link == robot.flange_name && matches!(j.child.link.as_str(), "cable_tool_point" | "tracker_target"))
+            .map_or_else(Vector3::zeros, |j| Vector3::new(j.origin.xyz[0], j.origin.xyz[1], j.origin.xyz[2]));
+        let chain = robot.error_chain();
+        Ok(super::ReadBack { params: vec![0.0; chain.n_params()], chain, tcp })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Rotation3;
 
     #[test]
     fn rpy_is_exact_at_and_near_gimbal_lock() {

@@ -1,0 +1,16 @@
+//! `twincal export`: a calibrated model for a controller or driver (the library's
+//! [`twincal::jobs::ExportJob`]), and what the file does not carry.
+
+use super::*;
+
+/// Runs the export and prints what it wrote, its read-back check and its warnings.
+pub fn export(job: &twincal::jobs::ExportJob, quiet: bool) -> Result<()> {
+    let s = job.run()?;
+    for w in &s.warnings {
+        eprintln!("warning: {w}");
+    }
+    if !quiet {
+        eprintln!("wrote {} ({}); read back, its tool point is the model's to {:.1e} m over 64 configurations", s.out.display(), s.format, s.round_trip_m);
+    }
+    Ok(())
+}
