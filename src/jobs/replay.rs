@@ -157,16 +157,16 @@ fn after_calibration(
     seed: u64,
     by: crate::calib::run::SplitBy,
 ) -> Option<AfterCalibration> {
-    use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
-    let run = |d: &Dataset, f: Option<f64>, p: &str| {
-        let mut o = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: p.into() }, Method::LM);
+    use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation};
+    let run = |d: &Dataset, f: Option<f64>, p: Parametrisation| {
+        let mut o = CalibOptions::new(ModelSpec::nominal(robot.clone(), p), Method::LM);
         (o.test_fraction, o.seed, o.split_by) = (f, seed, by);
         calibrate(d, None, &o).ok()
     };
-    let pair = |p: &str| Some((run(data, test_fraction, p)?, run(twin, None, p)?));
-    let (model, (real, tw)) = match pair("hayati") {
-        Some(r) => ("hayati", r),
-        None => ("frame", pair("frame")?),
+    let pair = |p: Parametrisation| Some((run(data, test_fraction, p)?, run(twin, None, p)?));
+    let (model, (real, tw)) = match pair(Parametrisation::Hayati) {
+        Some(r) => (Parametrisation::Hayati.name(), r),
+        None => (Parametrisation::Frame.name(), pair(Parametrisation::Frame)?),
     };
     if real.test_residuals_mm.is_empty() || tw.test_residuals_mm.is_empty() {
         return None;

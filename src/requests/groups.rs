@@ -94,7 +94,7 @@ impl ModelChoice {
                 )));
             }
         }
-        ModelSpec::parse(&self.model, self.params.as_deref().unwrap_or("hayati"))
+        ModelSpec::parse(&self.model, self.params.as_deref().unwrap_or(crate::calib::run::Parametrisation::Hayati.name()))
     }
 
     /// `--model` as an input file, when it names one (a .urdf).

@@ -347,7 +347,7 @@ fn real_data() -> Result<()> {
 pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
     let (base, robot) =
         Scenario::from_toml(include_str!("../../../scenarios/irb120_pso_ekf.toml"), "irb120_pso_ekf").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
-    let spec = ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: "hayati".into() };
+    let spec = ModelSpec::nominal(robot.clone(), twincal::calib::run::Parametrisation::Hayati);
     let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-awnn-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let lm_opts = CalibOptions::new(spec.clone(), Method::LM);
     let awnn_opts = CalibOptions::new(spec.clone(), Method::PSO_EKF_AWNN);

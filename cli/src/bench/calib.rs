@@ -76,7 +76,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
     use twincal::calib::run::{CalibOptions, Method, ModelSpec, TruthFile};
     let (base, robot) =
         Scenario::from_toml(include_str!("../../../scenarios/irb120_geometric.toml"), "irb120_geometric").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
-    let spec = ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: "hayati".into() };
+    let spec = ModelSpec::nominal(robot.clone(), twincal::calib::run::Parametrisation::Hayati);
     // Removed on every exit path (by its Drop).
     let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let tmp = tmp_dir.path();
@@ -116,7 +116,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
         Scenario::from_toml(include_str!("../../../scenarios/irb120_tracker.toml"), "irb120_tracker").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
     (ts.sampling.poses, ts.sampling.test) = (1100, 100);
     let tds = run_generate(&ts, &trobot, &Silent)?.dataset;
-    let topts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(trobot), parametrisation: "hayati".into() }, Method::LM);
+    let topts = CalibOptions::new(ModelSpec::nominal(trobot, twincal::calib::run::Parametrisation::Hayati), Method::LM);
     let t = lm_speed(&tds, None, &topts, repeat)?;
     println!(
         "  LM, {} tracker points ({} residuals): {:8.2} ms median (target < 50 ms), {} iterations; one residual+Jacobian evaluation {:.3} ms -> LM = {:.1} evaluations; whole calibrate {:.1} ms; test RMSE {:.4} mm per coordinate",

@@ -124,7 +124,10 @@ fn strip(g: &Generated) -> Dataset {
 }
 
 fn options() -> Result<twincal::diagnose::DiagnoseOptions> {
-    Ok(twincal::diagnose::DiagnoseOptions::new(twincal::calib::run::ModelSpec::parse("irb120", "hayati")?))
+    Ok(twincal::diagnose::DiagnoseOptions::new(twincal::calib::run::ModelSpec::nominal(
+        twincal::robot::Robot::irb120(),
+        twincal::calib::run::Parametrisation::Hayati,
+    )))
 }
 
 /// A hidden effect diagnosed: its line, whether it was named first, sized (3σ or 30 %), and

@@ -28,7 +28,7 @@ fn dataset(dir: &Path, seed: Option<u64>) -> Result<(Dataset, TruthFile)> {
 }
 
 fn options(method: Method) -> CalibOptions {
-    CalibOptions::new(ModelSpec::Nominal { robot: Box::new(twincal::robot::Robot::irb120()), parametrisation: "hayati".into() }, method)
+    CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), method)
 }
 
 /// The calibration problem as the pipeline builds it (split, sensor placement, identifiability,

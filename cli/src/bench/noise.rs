@@ -31,7 +31,7 @@ struct Run {
 /// Calibrates `data` with `method` and the noise model `choice`, judged on its held-out blocks
 /// against the twin's noise-free readings `truth` at the commanded angles `q_cmd` (degrees).
 fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: twincal::calib::problem::noise_model::NoiseChoice, seed: u64) -> Result<Run> {
-    let mut opts = CalibOptions::new(ModelSpec::parse("irb120", "hayati")?, Method::parse(method)?);
+    let mut opts = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), Method::parse(method)?);
     opts.test_fraction = Some(0.25);
     opts.seed = seed;
     opts.noise_model = choice;

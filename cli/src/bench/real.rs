@@ -69,7 +69,7 @@ pub fn bench_diagnose_ur10(runs: usize) -> Result<()> {
     // The position table of the README (the file's orientation columns are a pose's).
     let point = twincal::dataset::LoadOptions { measurement: Some(twincal::measurement::Measurement::Point), ..Default::default() };
     let ds = Dataset::from_csv_reader_with(sorted.as_bytes(), &format!("{} (sorted by t)", data.display()), &point)?;
-    let opts = DiagnoseOptions::new(ModelSpec::parse(&urdf.to_string_lossy(), "hayati")?);
+    let opts = DiagnoseOptions::new(ModelSpec::nominal(twincal::robot::Robot::from_urdf_file(&urdf)?, twincal::calib::run::Parametrisation::Hayati));
     let mut times = Vec::new();
     let mut found: Vec<String> = Vec::new();
     for run in 1..=runs {
@@ -169,7 +169,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
                 let mut runs: Vec<CalibResult> = Vec::new();
                 let t0 = Instant::now();
                 for seed in 0..seeds {
-                    let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati")?, method);
+                    let mut o = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), method);
                     o.test_fraction = Some(0.2);
                     // The papers' protocol: random rows (their splits are not published).
                     o.split_by = twincal::calib::run::SplitBy::Rows;

@@ -49,7 +49,7 @@ pub fn bench_replay(s: &Scenario, robot: &Robot, repeat: usize) -> Result<()> {
         r / b
     );
     // Identification: a calibration, then the identified twin written from it.
-    let opts = CalibOptions::new(ModelSpec::parse("irb120", "hayati")?, Method::LM);
+    let opts = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), Method::LM);
     let t0 = Instant::now();
     let result = calibrate(&measured.dataset, None, &opts)?;
     let calib_s = t0.elapsed().as_secs_f64();

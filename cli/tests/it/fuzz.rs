@@ -21,7 +21,7 @@ fn fixtures() -> &'static (Vec<Value>, Dataset) {
     F.get_or_init(|| {
         let (s, robot) = Scenario::default_embedded().unwrap();
         let data = generate(&s, &robot, &Silent).unwrap().dataset;
-        let spec = ModelSpec::Nominal { robot: Box::new(robot), parametrisation: "hayati".into() };
+        let spec = ModelSpec::nominal(robot, twincal::calib::run::Parametrisation::Hayati);
         let mut lm = CalibOptions::new(spec.clone(), Method::LM);
         lm.effects = vec![(EffectKind::JointCompliance, Some(1)), (EffectKind::Backlash, Some(2)), (EffectKind::ThermalDrift, None)];
         let results = [calibrate(&data, None, &lm).unwrap(), calibrate(&data, None, &CalibOptions::new(spec, Method::RBF)).unwrap()];

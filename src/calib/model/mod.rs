@@ -56,6 +56,38 @@ impl Kind {
     }
 }
 
+/// How a nominal robot's geometric errors are parametrised (`--params`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Parametrisation {
+    /// Denavit–Hartenberg: θ, d, a, α per joint.
+    Dh,
+    /// D-H with Hayati's β for nearly parallel consecutive axes (the default).
+    Hayati,
+    /// A full frame (3 translations, 3 rotations) per link.
+    Frame,
+}
+
+impl Parametrisation {
+    /// Every parametrisation.
+    pub const ALL: [Parametrisation; 3] = [Parametrisation::Dh, Parametrisation::Hayati, Parametrisation::Frame];
+    /// Its name in options, files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Parametrisation::Dh => "dh",
+            Parametrisation::Hayati => "hayati",
+            Parametrisation::Frame => "frame",
+        }
+    }
+    /// The parametrisation called `s` (any case), or an error listing them.
+    pub fn parse(s: &str) -> crate::error::Result<Parametrisation> {
+        Self::ALL
+            .into_iter()
+            .find(|p| p.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| crate::error::Error::Invalid(format!("unknown parametrisation '{s}' (expected dh, hayati or frame)")))
+    }
+}
+
 /// A calibration model: a kinematic chain, the instrument's placement and effect blocks, with one
 /// named parameter vector (internal units m and rad).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -469,12 +501,13 @@ impl CalibModel {
     pub fn frame(robot: &Robot, sensor: &SensorGuess) -> CalibModel {
         let chain = robot.error_chain();
         let kinds = chain.param_names.iter().map(|n| if GeoKind::of_name(n) == Some(GeoKind::Length) { Kind::Length } else { Kind::Angle }).collect();
-        CalibModel { limits: robot.limits(), ..CalibModel::with_sensor("frame", chain, kinds, sensor) }
+        CalibModel { limits: robot.limits(), ..CalibModel::with_sensor(Parametrisation::Frame.name(), chain, kinds, sensor) }
     }
 
     /// Standard D-H (`hayati = false`) or D-H with Hayati's β on parallel axes.
     pub fn dh(robot: &Robot, sensor: &SensorGuess, hayati: bool) -> CalibModel {
-        let m = CalibModel::from_table(if hayati { "hayati" } else { "dh" }, &DhTable::from_robot(robot), sensor, hayati, true);
+        let p = if hayati { Parametrisation::Hayati } else { Parametrisation::Dh };
+        let m = CalibModel::from_table(p.name(), &DhTable::from_robot(robot), sensor, hayati, true);
         CalibModel { limits: robot.limits(), ..m }
     }
 

@@ -21,7 +21,7 @@ mod stages;
 pub use crate::calib::methods::{Method, Solver};
 pub use crate::calib::problem::identify::{identify, still_joints, STILL_SPAN_DEG};
 pub use crate::dataset::truth::TruthFile;
-pub use options::{CalibOptions, ModelSpec, SplitBy, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL};
+pub use options::{CalibOptions, ModelSpec, Parametrisation, SplitBy, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL};
 pub use pipeline::*;
 pub use result::*;
 pub use split::*;

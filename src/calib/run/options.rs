@@ -12,29 +12,31 @@ use crate::robot::Robot;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+pub use crate::calib::model::Parametrisation;
+
 /// Which kinematic model to calibrate.
 #[derive(Clone, Debug)]
 pub enum ModelSpec {
-    /// A robot with a nominal URDF (the embedded IRB 120 or a file) in a parametrisation:
-    /// `dh`, `hayati` or `frame`.
+    /// A robot with a nominal URDF (the embedded IRB 120 or a file) in a parametrisation.
     Nominal {
         /// The nominal robot.
         robot: Box<Robot>,
-        /// `dh`, `hayati` or `frame`, lower case.
-        parametrisation: String,
+        /// How its errors are parametrised.
+        parametrisation: Parametrisation,
     },
     /// A 6R arm with no published nominal.
     Generic6r,
 }
 
 impl ModelSpec {
+    /// The nominal `robot` in parametrisation `p`.
+    pub fn nominal(robot: Robot, p: Parametrisation) -> ModelSpec {
+        ModelSpec::Nominal { robot: Box::new(robot), parametrisation: p }
+    }
     /// The model named by `model` (`irb120`, `generic6r` or a `.urdf` path) in `parametrisation`
     /// (`dh`, `hayati` or `frame`, any case; ignored by `generic6r`).
     pub fn parse(model: &str, parametrisation: &str) -> Result<ModelSpec> {
-        let p = parametrisation.to_ascii_lowercase();
-        if !matches!(p.as_str(), "dh" | "hayati" | "frame") {
-            return Err(Error::Invalid(format!("unknown parametrisation '{parametrisation}' (expected dh, hayati or frame)")));
-        }
+        let p = Parametrisation::parse(parametrisation)?;
         match model {
             "irb120" => Ok(ModelSpec::Nominal { robot: Box::new(Robot::irb120()), parametrisation: p }),
             "generic6r" => Ok(ModelSpec::Generic6r),

@@ -3,7 +3,7 @@
 //! nominal tool points, then exit point, offset and tool point by a sensor-only least-squares fit;
 //! for the generic 6R model, a global search for the whole structure ([`crate::calib::run::generic`]).
 
-use super::options::{CalibOptions, ModelSpec};
+use super::options::{CalibOptions, ModelSpec, Parametrisation};
 use crate::calib::model::{CalibModel, Placement, SensorGuess};
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
@@ -14,10 +14,10 @@ use crate::optim::{LevenbergMarquardt, NoObserver};
 /// The calibration model of `spec` with the sensor at `guess`.
 pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
     match spec {
-        ModelSpec::Nominal { robot, parametrisation } => match parametrisation.as_str() {
-            "frame" => CalibModel::frame(robot, guess),
-            "dh" => CalibModel::dh(robot, guess, false),
-            _ => CalibModel::dh(robot, guess, true),
+        ModelSpec::Nominal { robot, parametrisation } => match parametrisation {
+            Parametrisation::Frame => CalibModel::frame(robot, guess),
+            Parametrisation::Dh => CalibModel::dh(robot, guess, false),
+            Parametrisation::Hayati => CalibModel::dh(robot, guess, true),
         },
         ModelSpec::Generic6r => CalibModel::generic(6, guess),
     }
