@@ -15,6 +15,7 @@
 #![warn(missing_docs)]
 
 pub mod calib;
+pub mod compensate;
 pub mod dataset;
 pub mod diagnose;
 pub mod error;

@@ -165,6 +165,9 @@ pub struct IkModel<'a> {
     /// Joint limits (lower, upper), rad, one pair per joint.
     pub limits: Vec<(f64, f64)>,
     inp: RowInputs,
+    /// The loads on the joints, when the joints' static torques at each configuration feed the
+    /// model (a compliance block, a backlash block's load rule): [`Self::with_loads`].
+    loads: Option<crate::calib::effects::inputs::TorqueModel>,
     exit: Vector3<f64>,
     /// For a corrector of a tracker's x, y, z: the tracker-to-base rotation Rᵀ that carries its
     /// corrections (tracker frame) to the base frame the targets are in.
@@ -185,7 +188,7 @@ impl<'a> IkModel<'a> {
         // A pose's corrector also corrects its axes: its first three values are the origin's.
         let to_base =
             model.measurement.def().frame(&placement.own).axes.filter(|_| corrector.is_some_and(|c| c.dim() == model.measurement.dim() && c.dim() >= 3));
-        let mut m = IkModel { model, x, corrector, limits, inp: RowInputs::default(), exit, to_base, reach_mm: f64::INFINITY };
+        let mut m = IkModel { model, x, corrector, limits, inp: RowInputs::default(), loads: None, exit, to_base, reach_mm: f64::INFINITY };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let mut w = model.work();
         let mut reach = 0.0f64;
@@ -195,6 +198,25 @@ impl<'a> IkModel<'a> {
         }
         m.reach_mm = reach * 1.01 + 1.0;
         m
+    }
+    /// The model read with the joints' static torques under `loads` at every configuration
+    /// (gravity on the links and the payload), and each backlash flank the one the load pushes
+    /// to where the torque exceeds the load rule's threshold (unknown, the band's middle,
+    /// elsewhere: a target carries no approach history).
+    pub fn with_loads(mut self, loads: crate::calib::effects::inputs::TorqueModel) -> Self {
+        self.loads = Some(loads);
+        self
+    }
+    /// The row inputs at joint angles `q`: the loads' torques and flanks, or none.
+    pub fn inputs_at(&self, q: &[f64]) -> RowInputs {
+        match &self.loads {
+            Some(tm) => {
+                let torque = tm.torques(q);
+                let side = torque.iter().map(|t| if t.abs() > tm.torque_threshold_nm { t.signum() } else { 0.0 }).collect();
+                RowInputs { torque, side, ..RowInputs::default() }
+            }
+            None => self.inp.clone(),
+        }
     }
     /// A workspace sized for this model's joints.
     pub fn work(&self) -> IkWork {
@@ -208,16 +230,18 @@ impl<'a> IkModel<'a> {
     /// p̂(q) in mm and, when `jac` is given, the chosen Jacobian (mm/rad, 3 × N, a column per
     /// joint) into `w.cols`.
     pub fn position(&self, q: &[f64], w: &mut IkWork, jac: Option<JacobianKind>) -> Vector3<f64> {
+        let loaded = self.loads.as_ref().map(|_| self.inputs_at(q));
+        let inp = loaded.as_ref().unwrap_or(&self.inp);
         if let (Some(rt), Some(c)) = (self.to_base, self.corrector) {
-            return self.position_point(q, w, jac, &rt, c);
+            return self.position_point(q, inp, w, jac, &rt, c);
         }
         let IkWork { model: mw, cols, dp, g } = w;
-        let p = crate::units::to_mm(self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp));
+        let p = crate::units::to_mm(self.model.tool_point_jac_q(self.x, q, inp, mw, dp));
         let d = p - crate::units::to_mm(self.exit);
         let dist = d.norm().max(1e-9);
         let u = d / dist;
         let delta = match self.corrector {
-            Some(c) => c.correction_grad_mm(q, &self.inp, g),
+            Some(c) => c.correction_grad_mm(q, inp, g),
             None => {
                 g.fill(0.0);
                 0.0
@@ -239,14 +263,22 @@ impl<'a> IkModel<'a> {
     /// [`Self::position`] with a corrector of a tracker's x, y, z: `p̂ = p + Rᵀ·δ(q)`, the
     /// correction carried from the tracker's frame to the base; its Jacobian `J_p + Rᵀ·∂δ/∂q`
     /// is exact (Rᵀ is constant), `Neural` is `Rᵀ·∂δ/∂q` alone.
-    fn position_point(&self, q: &[f64], w: &mut IkWork, jac: Option<JacobianKind>, rt: &nalgebra::Matrix3<f64>, c: &dyn Correct) -> Vector3<f64> {
+    fn position_point(
+        &self,
+        q: &[f64],
+        inp: &RowInputs,
+        w: &mut IkWork,
+        jac: Option<JacobianKind>,
+        rt: &nalgebra::Matrix3<f64>,
+        c: &dyn Correct,
+    ) -> Vector3<f64> {
         let IkWork { model: mw, cols, dp, g } = w;
         let n = q.len();
-        let p = crate::units::to_mm(self.model.tool_point_jac_q(self.x, q, &self.inp, mw, dp));
+        let p = crate::units::to_mm(self.model.tool_point_jac_q(self.x, q, inp, mw, dp));
         let mut all = [0.0; crate::measurement::MAX_DIM];
         let delta = &mut all[..c.dim()];
         g.resize(c.dim() * n, 0.0);
-        c.corrections_grad_mm(q, &self.inp, delta, g);
+        c.corrections_grad_mm(q, inp, delta, g);
         let delta = [delta[0], delta[1], delta[2]];
         if let Some(kind) = jac {
             for (j, out) in cols.iter_mut().enumerate() {
@@ -268,14 +300,26 @@ impl<'a> IkModel<'a> {
 
     /// Solves one target (mm, in the model's frame).
     pub fn solve(&self, target: &Vector3<f64>, kind: JacobianKind, o: &IkOptions, w: &mut IkWork) -> IkSolution {
+        self.solve_from(target, None, kind, o, w)
+    }
+
+    /// Solves one target starting from `start` (rad; clamped to the limits) when given, else from
+    /// the middle of the ranges; then from the seeded random restarts while it has not converged.
+    pub fn solve_from(&self, target: &Vector3<f64>, start: Option<&[f64]>, kind: JacobianKind, o: &IkOptions, w: &mut IkWork) -> IkSolution {
         if !target.iter().all(|v| v.is_finite()) {
             return IkSolution { status: IkStatus::Invalid, q: self.mid(), iterations: 0, residual_mm: 0.0 };
         }
+        let first: Vec<f64> = match start {
+            Some(q) if q.len() == self.limits.len() && q.iter().all(|v| v.is_finite()) => {
+                q.iter().zip(&self.limits).map(|(v, (lo, hi))| v.clamp(*lo, *hi)).collect()
+            }
+            _ => self.mid(),
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(o.seed);
         let mut best: Option<(f64, Vec<f64>, IkStatus)> = None;
         let mut iterations = 0;
         for start in 0..=o.restarts {
-            let q0 = if start == 0 { self.mid() } else { self.random_q(&mut rng) };
+            let q0 = if start == 0 { first.clone() } else { self.random_q(&mut rng) };
             let (res, q, it, stuck) = self.descend(target, q0, kind, o, w);
             iterations += it;
             if best.as_ref().is_none_or(|b| res < b.0) {

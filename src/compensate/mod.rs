@@ -1,0 +1,245 @@
+//! Compensation: the joint commands that make the calibrated arm reach given targets.
+//!
+//! A target is a point in the robot's base frame (mm), or a joint configuration taught on the
+//! nominal model (its nominal tool point is the target). For each, the nominal controller's
+//! command is the nominal model's inverse kinematics (or the taught angles); the compensated
+//! command is the calibrated model's: its geometry, its effects (compliance under the static
+//! torques of the links and the stated payload at that very configuration, encoder
+//! eccentricity, ...) and its learned corrector, solved by damped least squares from the
+//! nominal command ([`IkModel::solve_from`]). For a controller that takes Cartesian targets
+//! through its own nominal kinematics, the *filtered* target is the nominal forward kinematics
+//! of the compensated command: sent as a Cartesian target, the controller's nominal inverse
+//! kinematics turns it back into that command.
+//!
+//! Both models keep the calibrated tool point (TCP), so what the compensation gains is the
+//! arm's own, not the tool's.
+
+pub mod verify;
+
+#[cfg(test)]
+mod tests;
+
+use crate::calib::correctors::Correct;
+use crate::calib::effects::inputs::TorqueModel;
+use crate::calib::run::CalibResult;
+use crate::error::{Error, Result};
+use crate::ik::{solver::check_tol_mm, IkModel, IkOptions, IkStatus, JacobianKind};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// One target.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Target {
+    /// A point in the robot's base frame, mm.
+    Point(Vector3<f64>),
+    /// Joint angles taught on the nominal model, rad: the target is their nominal tool point.
+    Joints(Vec<f64>),
+}
+
+/// What became of one target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// The calibrated model reaches it within the tolerance.
+    Reachable,
+    /// Only with a joint at its limit, not within the tolerance.
+    Limit,
+    /// The solve stalled where the Jacobian loses rank.
+    Singular,
+    /// Beyond the arm's reach, or not solved.
+    Unreachable,
+    /// Not a finite target.
+    Invalid,
+}
+
+impl Status {
+    fn of(s: IkStatus) -> Status {
+        match s {
+            IkStatus::Converged => Status::Reachable,
+            IkStatus::JointLimit => Status::Limit,
+            IkStatus::Singular => Status::Singular,
+            IkStatus::Unreachable | IkStatus::NotConverged => Status::Unreachable,
+            IkStatus::Invalid => Status::Invalid,
+        }
+    }
+    /// Its name in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Reachable => "reachable",
+            Status::Limit => "limit",
+            Status::Singular => "singular",
+            Status::Unreachable => "unreachable",
+            Status::Invalid => "invalid",
+        }
+    }
+}
+
+/// One compensated target.
+#[derive(Clone, Debug, Serialize)]
+pub struct Compensated {
+    /// The target point, base frame, mm.
+    pub target_mm: [f64; 3],
+    /// The nominal controller's command, rad (its inverse kinematics, or the taught angles).
+    pub nominal_q: Vec<f64>,
+    /// The compensated command, rad.
+    pub command_q: Vec<f64>,
+    /// How the compensation went.
+    pub status: Status,
+    /// |calibrated model at the command − target|, mm: what the calibration predicts is left.
+    pub residual_mm: f64,
+    /// |calibrated model at the nominal command − target|, mm: the error the calibration
+    /// predicts without the compensation.
+    pub nominal_error_mm: f64,
+    /// The nominal forward kinematics of the command, mm: the Cartesian target to send a
+    /// controller that applies its own nominal kinematics.
+    pub filtered_mm: [f64; 3],
+}
+
+/// A calibrated result's compensation: the calibrated and the nominal model as IK models.
+pub struct Compensator<'a> {
+    calibrated: IkModel<'a>,
+    nominal: IkModel<'a>,
+    options: IkOptions,
+}
+
+/// The nominal parameter vector of `r`: the chain at its nominal values, no effect, the
+/// calibrated placement (the TCP) kept.
+pub fn nominal_x(r: &CalibResult) -> Vec<f64> {
+    let m = &r.model;
+    let mut x = r.x.clone();
+    for (k, p) in r.parameters.iter().enumerate().take(m.n_chain()) {
+        x[k] = p.nominal / m.kinds[k].display();
+    }
+    for b in 0..m.effects.len() {
+        for k in m.effect_params(b) {
+            x[k] = 0.0;
+        }
+    }
+    x
+}
+
+impl<'a> Compensator<'a> {
+    /// The compensation of `r` (with `x_nom` = [`nominal_x`]`(r)`) under `loads` (the joints'
+    /// static torques: the result's torque model with the payload the program runs with), to a
+    /// tolerance of `tol_mm`.
+    pub fn new(r: &'a CalibResult, x_nom: &'a [f64], loads: Option<TorqueModel>, tol_mm: f64) -> Result<Compensator<'a>> {
+        check_tol_mm(tol_mm, "--tol-mm")?;
+        if x_nom.len() != r.x.len() {
+            return Err(Error::Invalid("the nominal parameters do not match the model".into()));
+        }
+        let limits = r.model.joint_limits();
+        let corr: Option<&dyn Correct> = r.corrector.as_ref().map(|c| c.as_correct());
+        let mut calibrated = IkModel::new(&r.model, &r.x, corr, limits.clone());
+        if let Some(l) = loads {
+            calibrated = calibrated.with_loads(l);
+        }
+        let nominal = IkModel::new(&r.model, x_nom, None, limits);
+        let options = IkOptions { tol_mm, max_iter: 100, ..IkOptions::default() };
+        Ok(Compensator { calibrated, nominal, options })
+    }
+
+    /// The rigid transform (rotation, translation) that best maps the points `truth` (mm)
+    /// measured at configurations `qs` (rad) onto the calibrated model's predictions there (the
+    /// nominal model's with `nominal`): a registration of the model's base frame to the
+    /// measuring frame, as an accuracy test makes one.
+    pub fn registration(&self, qs: &[Vec<f64>], truth: &[Vector3<f64>], nominal: bool) -> (nalgebra::Matrix3<f64>, Vector3<f64>) {
+        let m = if nominal { &self.nominal } else { &self.calibrated };
+        let mut w = m.work();
+        let predicted: Vec<Vector3<f64>> = qs.iter().map(|q| m.position(q, &mut w, None)).collect();
+        crate::ik::rigid_fit(truth, &predicted)
+    }
+
+    /// Where the calibrated model puts the tool at joint angles `q` (rad), mm, in its frame.
+    pub fn predicted(&self, q: &[f64]) -> Vector3<f64> {
+        self.calibrated.position(q, &mut self.calibrated.work(), None)
+    }
+
+    /// Every target compensated (in parallel, each thread with its own workspaces).
+    pub fn compensate(&self, targets: &[Target]) -> Vec<Compensated> {
+        targets
+            .par_iter()
+            .map_init(
+                || (self.calibrated.work(), self.nominal.work()),
+                |(wc, wn), t| {
+                    let (target, nominal_q) = match t {
+                        Target::Point(p) => {
+                            let s = self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn);
+                            (*p, s.q)
+                        }
+                        Target::Joints(q) => (self.nominal.position(q, wn, None), q.clone()),
+                    };
+                    let s = self.calibrated.solve_from(&target, Some(&nominal_q), JacobianKind::Hybrid, &self.options, wc);
+                    let nominal_error_mm = (self.calibrated.position(&nominal_q, wc, None) - target).norm();
+                    let filtered = self.nominal.position(&s.q, wn, None);
+                    Compensated {
+                        target_mm: target.into(),
+                        nominal_error_mm: if s.status == IkStatus::Invalid { 0.0 } else { nominal_error_mm },
+                        status: Status::of(s.status),
+                        residual_mm: s.residual_mm,
+                        filtered_mm: filtered.into(),
+                        nominal_q,
+                        command_q: s.q,
+                    }
+                },
+            )
+            .collect()
+    }
+}
+
+/// The targets of a CSV: columns `x, y, z` (mm, base frame), else `q1..qN` (degrees, taught on
+/// the nominal model), by the dataset reader's rules; or what is wrong with it.
+pub fn read_targets(path: &std::path::Path, n_joints: usize) -> Result<Vec<Target>> {
+    let far = crate::measurement::point::MAX_COORD_MM;
+    let targets: Vec<Target> = match crate::dataset::read_csv_columns(path, &["x", "y", "z"]) {
+        Ok(rows) => {
+            if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| c.abs() > far)) {
+                return Err(Error::data(path.display(), format!("target {} ({:?}) mm is implausible (a coordinate beyond {far} mm)", i + 1, v)));
+            }
+            rows.into_iter().map(|v| Target::Point(Vector3::new(v[0], v[1], v[2]))).collect()
+        }
+        Err(xyz) => {
+            let names: Vec<String> = (1..=n_joints).map(|j| format!("q{j}")).collect();
+            let cols: Vec<&str> = names.iter().map(String::as_str).collect();
+            let rows = crate::dataset::read_csv_columns(path, &cols).map_err(|_| {
+                Error::data(
+                    path.display(),
+                    format!("targets need columns x, y, z (mm, base frame) or q1..q{n_joints} (degrees, taught on the nominal model): {xyz}"),
+                )
+            })?;
+            if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| !c.is_finite() || c.abs() > 3600.0)) {
+                return Err(Error::data(path.display(), format!("target {} has joint angles {:?}: each must be finite degrees within ±3600", i + 1, v)));
+            }
+            rows.into_iter().map(|v| Target::Joints(v.iter().map(|d| d.to_radians()).collect())).collect()
+        }
+    };
+    if targets.is_empty() {
+        return Err(Error::data(path.display(), "no targets after the header"));
+    }
+    Ok(targets)
+}
+
+/// The commands as CSV: per target its point (mm), the command (degrees), the status, the
+/// predicted residual and the uncompensated error (mm), the filtered Cartesian target (mm) and
+/// the nominal command (degrees).
+pub fn commands_csv(rows: &[Compensated]) -> String {
+    use std::fmt::Write;
+    let n = rows.first().map_or(0, |r| r.command_q.len());
+    let q = |p: &str| (1..=n).map(|j| format!("{p}q{j}_deg")).collect::<Vec<_>>().join(",");
+    let mut out = format!("x_mm,y_mm,z_mm,{},status,residual_mm,nominal_error_mm,x_filtered_mm,y_filtered_mm,z_filtered_mm,{}\n", q(""), q("nominal_"));
+    let deg = |v: &[f64]| v.iter().map(|a| format!("{:.9}", a.to_degrees())).collect::<Vec<_>>().join(",");
+    for r in rows {
+        let [x, y, z] = r.target_mm;
+        let [fx, fy, fz] = r.filtered_mm;
+        let _ = writeln!(
+            out,
+            "{x:.6},{y:.6},{z:.6},{},{},{:.6},{:.6},{fx:.6},{fy:.6},{fz:.6},{}",
+            deg(&r.command_q),
+            r.status.name(),
+            r.residual_mm,
+            r.nominal_error_mm,
+            deg(&r.nominal_q)
+        );
+    }
+    out
+}
