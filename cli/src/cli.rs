@@ -45,6 +45,11 @@ pub enum Command {
     /// standard or modified D-H table, or the ROS UR driver's kinematics YAML; read back and
     /// checked before it is written, with what it cannot carry named.
     Export(twincal::jobs::ExportJob),
+    /// The joint commands that make the calibrated arm reach a program's targets (points in the
+    /// base frame, or joint targets taught on the nominal model), with the payload it runs with:
+    /// per target the command, its status, the predicted residual and the filtered Cartesian
+    /// target for a controller that applies its own nominal kinematics.
+    Compensate(twincal::jobs::CompensateJob),
     /// Predict readings (cable lengths or tracker points) with a calibrated model.
     Predict {
         /// A result.json written by `calibrate`.
@@ -144,6 +149,7 @@ pub fn run(args: Cli) -> twincal::Result<()> {
         Command::Reduce { parts, out, rrd } => commands::reduce(&parts, out.as_deref(), rrd.as_deref(), args.quiet),
         Command::Replay(a) => commands::replay(&a, args.quiet),
         Command::Export(a) => commands::export(&a, args.quiet),
+        Command::Compensate(a) => commands::compensate(&a, args.quiet),
         Command::Ik(a) => crate::commands::ik::ik(&a, args.quiet),
         Command::Study { what, scenario, holds, speeds, poses, rrd, shard } => commands::study(
             what,

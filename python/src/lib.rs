@@ -595,6 +595,29 @@ fn export(py: Python<'_>, model: PathBuf, out: PathBuf, options: &str) -> PyResu
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
+/// Compensates a program's targets with a calibrated model, as `twincal compensate`; `options`:
+/// a JSON object of its `payload_kg`, `payload_com_mm` and `tol_mm`. Returns the summary's JSON
+/// (per target the command, status, residuals and filtered target).
+#[pyfunction]
+fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, options: &str) -> PyResult<String> {
+    #[derive(serde::Deserialize, serde::Serialize)]
+    #[serde(deny_unknown_fields, default)]
+    struct Options {
+        payload_kg: Option<f64>,
+        payload_com_mm: Option<Vec<f64>>,
+        tol_mm: f64,
+    }
+    impl Default for Options {
+        fn default() -> Self {
+            Options { payload_kg: None, payload_com_mm: None, tol_mm: 0.001 }
+        }
+    }
+    let o: Options = request("compensate", options)?;
+    let job = jobs::CompensateJob { model, targets, payload_kg: o.payload_kg, payload_com_mm: o.payload_com_mm, tol_mm: o.tol_mm, out };
+    let summary = py.detach(|| job.run()).map_err(err)?;
+    serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TwincalError", m.py().get_type::<TwincalError>())?;
@@ -609,6 +632,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(reduce, m)?)?;
     m.add_function(wrap_pyfunction!(export, m)?)?;
+    m.add_function(wrap_pyfunction!(compensate, m)?)?;
     m.add_class::<PyCalibration>()?;
     m.add_class::<PyDiagnosis>()?;
     Ok(())

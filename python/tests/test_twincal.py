@@ -395,3 +395,20 @@ def test_export_writes_every_format_as_the_command_line_and_refuses_bad_input(em
         twincal.export(tmp_path / "r.json", tmp_path / "r.json", format="frames")
     with pytest.raises(twincal.TwincalError, match="format must be a string"):
         twincal.export(tmp_path / "r.json", tmp_path / "t.csv", format=3)
+
+
+def test_compensate_agrees_with_the_command_line_and_beats_the_nominal_commands(embedded, tmp_path):
+    _, data, truth = embedded
+    r = twincal.calibrate(data, truth=truth)
+    r.save(tmp_path / "r.json")
+    targets = tmp_path / "t.csv"
+    targets.write_text("x,y,z\n" + "".join(f"{p[0]},{p[1]},{p[2]}\n" for p in (q["tool_mm"] for q in truth["poses"][:20])))
+    s = twincal.compensate(tmp_path / "r.json", targets, tmp_path / "c.csv")
+    assert all(t["status"] == "reachable" for t in s["targets"])
+    assert max(t["residual_mm"] for t in s["targets"]) <= 0.001 < min(t["nominal_error_mm"] for t in s["targets"])
+    run_cli("compensate", "--model", tmp_path / "r.json", "--targets", targets, "--out", tmp_path / "cli.csv")
+    assert (tmp_path / "c.csv").read_text() == (tmp_path / "cli.csv").read_text()
+    with pytest.raises(twincal.TwincalError, match="--payload-kg must be in"):
+        twincal.compensate(tmp_path / "r.json", targets, tmp_path / "d.csv", payload_kg=-1.0)
+    with pytest.raises(twincal.TwincalError, match="refusing to overwrite"):
+        twincal.compensate(tmp_path / "r.json", targets, targets)

@@ -44,6 +44,7 @@ __all__ = [
     "compare",
     "reduce",
     "export",
+    "compensate",
     "cli",
     "__version__",
 ]
@@ -463,6 +464,24 @@ def export(model: Union[str, os.PathLike], out: Union[str, os.PathLike], *, form
             raise TwincalError(f"{name} must be a string, got {type(v).__name__}")
     text = _native.export(os.fspath(model), os.fspath(out), _options({"format": format, "robot": robot}))
     return json.loads(text)
+
+
+def compensate(
+    model: Union[str, os.PathLike],
+    targets: Union[str, os.PathLike],
+    out: Union[str, os.PathLike],
+    *,
+    payload_kg: Optional[float] = None,
+    payload_com_mm: Optional[Sequence[float]] = None,
+    tol_mm: float = 0.001,
+) -> dict:
+    """The joint commands that make the calibrated arm reach a program's targets, as ``twincal
+    compensate``: ``model`` a result.json path, ``targets`` a CSV of x, y, z (mm, base frame) or
+    q1..qN (degrees, taught on the nominal model), the payload the program runs with; writes the
+    commands CSV to ``out`` and returns the summary (per target the command in radians, status,
+    predicted residual, uncompensated error and filtered Cartesian target)."""
+    options = _options({"payload_kg": payload_kg, "payload_com_mm": None if payload_com_mm is None else list(payload_com_mm), "tol_mm": tol_mm})
+    return json.loads(_native.compensate(os.fspath(model), os.fspath(targets), os.fspath(out), options))
 
 
 def cli(argv: Sequence[str]) -> None:

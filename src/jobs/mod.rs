@@ -8,6 +8,7 @@
 
 mod calibrate;
 mod compare;
+mod compensate;
 mod diagnose;
 mod export;
 mod files;
@@ -20,6 +21,7 @@ pub use compare::{
     check_seeds, compare, finish as finish_comparison, reduce_compare, CompareConfig, CompareItem, CompareJob, CompareRequest, CompareRun, Compared,
     Comparison, MAX_COMPARE_JOBS, MAX_SEEDS, MIN_SEEDS_FOR_TEST,
 };
+pub use compensate::{CompensateJob, CompensateSummary};
 pub use diagnose::{diagnose_loaded, write_diagnosis, DiagnoseJob, Diagnosed};
 pub use export::{ExportJob, ExportSummary};
 pub use files::{

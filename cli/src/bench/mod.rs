@@ -14,6 +14,7 @@
 
 pub mod awnn;
 pub mod calib;
+pub mod compensate;
 pub mod diagnose;
 pub mod evo;
 pub mod noise;

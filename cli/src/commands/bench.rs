@@ -63,6 +63,7 @@ pub fn bench_command(
             let (s, robot) = load_scenario(scenario)?;
             crate::bench::replay::bench_replay(&s, &robot, repeat)
         }
+        BenchTarget::Compensate => crate::bench::compensate::bench_compensate(seeds),
     }
 }
 
@@ -89,6 +90,7 @@ fn takes(what: BenchTarget) -> Takes {
         BenchTarget::DiagnoseUr10 => t(false, false, None, "../shared/data; --repeat runs"),
         BenchTarget::NoiseModel => t(false, false, Some(5), "realistic IRB 120 acquisitions it generates"),
         BenchTarget::Replay => t(true, false, None, "a scenario; --repeat runs"),
+        BenchTarget::Compensate => t(false, false, Some(10), "IRB 120 cable and tracker scenarios, with and without compliance"),
     }
 }
 

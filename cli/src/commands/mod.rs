@@ -4,6 +4,7 @@
 mod bench;
 mod calibrate;
 mod compare;
+mod compensate;
 mod diagnose;
 mod export;
 mod generate;
@@ -16,6 +17,7 @@ pub use bench::bench_command;
 use calibrate::print_verdict;
 pub use calibrate::{calibrate, calibration_warnings};
 pub use compare::{compare, reduce};
+pub use compensate::compensate;
 pub use diagnose::diagnose;
 pub use export::export;
 pub use generate::generate;
@@ -68,6 +70,10 @@ pub enum BenchTarget {
     /// Replay of 1 000 rows through the scenario's acquisition (default: the embedded
     /// scenario's simulated tour) against 5 s, and the identified twin's cost against 1 s.
     Replay,
+    /// Compensation verified on executed poses: nominal against compensated commands for unseen
+    /// targets on the twin, AP over seeds for geometric and non-geometric scenarios, cable and
+    /// tracker; and compensate's time for 10 000 targets.
+    Compensate,
 }
 
 /// `--shard i/N --shard-out PART.jsonl` of `study hold` and `bench diagnose` (see

@@ -9,6 +9,7 @@ mod architecture;
 mod arms;
 mod calibrate;
 mod cli;
+mod compensate;
 mod diagnose;
 mod evonph;
 mod export;

@@ -1,0 +1,28 @@
+//! `twincal compensate`: the library's [`twincal::jobs::CompensateJob`], and what it prints.
+
+use super::*;
+
+/// Runs the compensation and prints its summary and warnings.
+pub fn compensate(job: &twincal::jobs::CompensateJob, quiet: bool) -> Result<()> {
+    let s = job.run()?;
+    for w in &s.warnings {
+        eprintln!("warning: {w}");
+    }
+    if !quiet {
+        let reached: Vec<&twincal::compensate::Compensated> = s.targets.iter().filter(|t| t.status == twincal::compensate::Status::Reachable).collect();
+        let rms = |v: &mut dyn Iterator<Item = f64>| {
+            let (n, ss) = v.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x * x));
+            (ss / n.max(1) as f64).sqrt()
+        };
+        eprintln!(
+            "compensated {} targets ({} reachable){}: predicted error of the nominal commands RMS {:.4} mm, of the compensated {:.6} mm; wrote {}",
+            s.targets.len(),
+            s.reachable,
+            s.payload.map_or(String::new(), |(m, c)| format!(" under a {m} kg payload at ({}, {}, {}) mm", c[0], c[1], c[2])),
+            rms(&mut reached.iter().map(|t| t.nominal_error_mm)),
+            rms(&mut reached.iter().map(|t| t.residual_mm)),
+            job.out.display()
+        );
+    }
+    Ok(())
+}
