@@ -50,6 +50,10 @@ pub enum Command {
     /// per target the command, its status, the predicted residual and the filtered Cartesian
     /// target for a controller that applies its own nominal kinematics.
     Compensate(twincal::jobs::CompensateJob),
+    /// ISO 9283 pose accuracy (AP), repeatability (RP), distance accuracy (AD) and the
+    /// orientation error of measured poses against one or more models' commanded positions
+    /// (before and after a calibration).
+    Iso9283(twincal::jobs::Iso9283Job),
     /// Predict readings (cable lengths or tracker points) with a calibrated model.
     Predict {
         /// A result.json written by `calibrate`.
@@ -150,6 +154,14 @@ pub fn run(args: Cli) -> twincal::Result<()> {
         Command::Replay(a) => commands::replay(&a, args.quiet),
         Command::Export(a) => commands::export(&a, args.quiet),
         Command::Compensate(a) => commands::compensate(&a, args.quiet),
+        Command::Iso9283(a) => {
+            let e = a.run()?;
+            for w in &e.warnings {
+                eprintln!("warning: {w}");
+            }
+            print!("{}", twincal::jobs::iso9283_table(&e));
+            Ok(())
+        }
         Command::Ik(a) => crate::commands::ik::ik(&a, args.quiet),
         Command::Study { what, scenario, holds, speeds, poses, rrd, shard } => commands::study(
             what,

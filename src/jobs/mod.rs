@@ -12,6 +12,7 @@ mod compensate;
 mod diagnose;
 mod export;
 mod files;
+mod iso9283;
 mod predict;
 mod replay;
 pub mod shard;
@@ -28,6 +29,7 @@ pub use files::{
     check_model_outputs, data_inputs, load_dataset, load_scenario, scenario_inputs, scenario_urdf_path, stage_identified_twin, Figures, NoRecordings,
     Recordings,
 };
+pub use iso9283::{figures as iso9283_figures, iso9283_table, Iso9283, Iso9283Job, ModelFigures, PoseFigures};
 pub use predict::{predicted_readings, prediction_csv, residuals, rotation_residual_deg};
 pub use replay::{replay, AfterCalibration, Fidelity, ReplayJob, ReplayRequest, ReplaySummary};
 

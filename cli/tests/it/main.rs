@@ -15,6 +15,7 @@ mod evonph;
 mod export;
 mod fuzz;
 mod inputs;
+mod iso9283;
 mod measurement;
 mod pose;
 mod realdata;
