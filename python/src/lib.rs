@@ -618,6 +618,16 @@ fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, op
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
+/// ISO 9283 figures of the measured poses `data` (a path) against each of `models` (result.json
+/// paths), as `twincal iso9283`; returns the evaluation's JSON.
+#[pyfunction]
+fn iso9283(py: Python<'_>, data: PathBuf, models: Vec<PathBuf>, options: &str) -> PyResult<String> {
+    let reading: twincal::requests::Reading = request("iso9283", options)?;
+    let job = jobs::Iso9283Job { data, model: models, reading, out: None };
+    let e = py.detach(|| job.run()).map_err(err)?;
+    serde_json::to_string(&e).map_err(|e| TwincalError::new_err(format!("cannot serialise the evaluation: {e}")))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TwincalError", m.py().get_type::<TwincalError>())?;
@@ -633,6 +643,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(reduce, m)?)?;
     m.add_function(wrap_pyfunction!(export, m)?)?;
     m.add_function(wrap_pyfunction!(compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(iso9283, m)?)?;
     m.add_class::<PyCalibration>()?;
     m.add_class::<PyDiagnosis>()?;
     Ok(())

@@ -412,3 +412,16 @@ def test_compensate_agrees_with_the_command_line_and_beats_the_nominal_commands(
         twincal.compensate(tmp_path / "r.json", targets, tmp_path / "d.csv", payload_kg=-1.0)
     with pytest.raises(twincal.TwincalError, match="refusing to overwrite"):
         twincal.compensate(tmp_path / "r.json", targets, targets)
+
+
+def test_iso9283_agrees_with_the_command_line(tmp_path):
+    d = tmp_path / "tw"
+    run_cli("generate", "--scenario", ROOT / "scenarios/irb120_tracker.toml", "--out", d)
+    run_cli("calibrate", "--data", d, "--out", tmp_path / "a.json")
+    e = twincal.iso9283(d, tmp_path / "a.json")
+    run_cli("iso9283", "--data", d, "--model", tmp_path / "a.json", "--out", tmp_path / "cli.json")
+    cli = json.loads((tmp_path / "cli.json").read_text())
+    assert e["models"][0]["ap_mm"] == cli["models"][0]["ap_mm"] and e["models"][0]["rows"] == "held out"
+    assert e["models"][0]["ap_mm"]["mean"] < 0.02
+    with pytest.raises(twincal.TwincalError, match="unknown option 'colour'"):
+        twincal.iso9283(d, tmp_path / "a.json", colour="red")

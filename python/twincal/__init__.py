@@ -45,6 +45,7 @@ __all__ = [
     "reduce",
     "export",
     "compensate",
+    "iso9283",
     "cli",
     "__version__",
 ]
@@ -482,6 +483,15 @@ def compensate(
     predicted residual, uncompensated error and filtered Cartesian target)."""
     options = _options({"payload_kg": payload_kg, "payload_com_mm": None if payload_com_mm is None else list(payload_com_mm), "tol_mm": tol_mm})
     return json.loads(_native.compensate(os.fspath(model), os.fspath(targets), os.fspath(out), options))
+
+
+def iso9283(data: Union[str, os.PathLike], models: Any, **options: Any) -> dict:
+    """ISO 9283 pose accuracy (AP), repeatability (RP), distance accuracy (AD) and orientation
+    error of the measured poses ``data`` (a path) against each model of ``models`` (a result.json
+    path or a list of them: before and after), as ``twincal iso9283``; options: ``angles``,
+    ``measurement``, ``euler``."""
+    _no_outputs("iso9283", options, "the command line's iso9283 --out")
+    return json.loads(_native.iso9283(os.fspath(data), _paths(models, "models"), _options(options)))
 
 
 def cli(argv: Sequence[str]) -> None:
