@@ -193,8 +193,8 @@ pub fn read_targets(path: &std::path::Path, n_joints: usize) -> Result<Vec<Targe
     let far = crate::measurement::point::MAX_COORD_MM;
     let targets: Vec<Target> = match crate::dataset::read_csv_columns(path, &["x", "y", "z"]) {
         Ok(rows) => {
-            if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| c.abs() > far)) {
-                return Err(Error::data(path.display(), format!("target {} ({:?}) mm is implausible (a coordinate beyond {far} mm)", i + 1, v)));
+            if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| !c.is_finite() || c.abs() > far)) {
+                return Err(Error::data(path.display(), format!("target {} ({:?}) mm is not a point (a coordinate not finite or beyond {far} mm)", i + 1, v)));
             }
             rows.into_iter().map(|v| Target::Point(Vector3::new(v[0], v[1], v[2]))).collect()
         }

@@ -199,7 +199,11 @@ pub fn export(result: &CalibResult, format: &dyn ExportFormat, ext: &str, nomina
     let text = format.write(&table, &result.model, &result.x, nominal, ext, &mut warnings)?;
     let worst = round_trip_error(&format.read(&text, ext)?, &result.model, &result.x, 64);
     if !(worst <= ROUND_TRIP_TOL_M) {
-        return Err(Error::Invalid(format!("the {} export does not reproduce the model (off by {worst:e} m): not written", format.name())));
+        return Err(Error::Invalid(format!(
+            "the {} export does not reproduce the model (off by {worst:e} m): not written{}",
+            format.name(),
+            if format.name().ends_with("dh") { " (a D-H table of nearly parallel axes is ill-conditioned: write a frame table or a URDF)" } else { "" }
+        )));
     }
     Ok(Exported { text, warnings })
 }

@@ -70,6 +70,25 @@ impl CompensateJob {
         check_outputs(&[("--model", self.model.clone()), ("--targets", self.targets.clone())], &[("--out", self.out.as_path())])?;
         let r = CalibResult::load(&self.model)?;
         let targets = read_targets(&self.targets, r.model.chain.n_joints)?;
+        // Taught joint targets lie inside the arm's limits (a radian file read as degrees does not).
+        let limits = r.model.joint_limits();
+        for (i, t) in targets.iter().enumerate() {
+            if let crate::compensate::Target::Joints(q) = t {
+                if let Some((j, v)) = q.iter().enumerate().find(|(j, v)| !(limits[*j].0 - 1e-9..=limits[*j].1 + 1e-9).contains(*v)) {
+                    return Err(Error::data(
+                        self.targets.display(),
+                        format!(
+                            "target {}: q{} = {} deg is outside the joint's limits [{:.1}, {:.1}] deg",
+                            i + 1,
+                            j + 1,
+                            crate::error::shown(v.to_degrees()),
+                            limits[j].0.to_degrees(),
+                            limits[j].1.to_degrees()
+                        ),
+                    ));
+                }
+            }
+        }
         let mut warnings = Vec::new();
         let loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.0;
         let mut torque = r.torque_model.clone();

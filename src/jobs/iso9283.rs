@@ -207,6 +207,9 @@ impl Iso9283Job {
                 per_pose,
             });
         }
+        if models.iter().any(|m| m.rows != models[0].rows) {
+            warnings.push("the models are judged on different rows (each calibrated on these data on the rows it held out, the others on every row): compare them on rows judged alike".into());
+        }
         let out = Iso9283 { schema_version: crate::io::schema_version(), data: data.source.clone(), n_rows: data.rows.len(), models, warnings };
         if let Some(p) = &self.out {
             let mut outputs = OutputSet::new();

@@ -8,7 +8,9 @@ pub fn compensate(job: &twincal::jobs::CompensateJob, quiet: bool) -> Result<()>
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
-    if !quiet {
+    if !quiet && s.reachable == 0 {
+        eprintln!("compensated {} targets, none reachable; wrote {}", s.targets.len(), job.out.display());
+    } else if !quiet {
         let reached: Vec<&twincal::compensate::Compensated> = s.targets.iter().filter(|t| t.status == twincal::compensate::Status::Reachable).collect();
         let rms = |v: &mut dyn Iterator<Item = f64>| {
             let (n, ss) = v.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x * x));

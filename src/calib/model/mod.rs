@@ -507,7 +507,8 @@ impl CalibModel {
     /// Standard D-H (`hayati = false`) or D-H with Hayati's β on parallel axes.
     pub fn dh(robot: &Robot, sensor: &SensorGuess, hayati: bool) -> CalibModel {
         let p = if hayati { Parametrisation::Hayati } else { Parametrisation::Dh };
-        let m = CalibModel::from_table(p.name(), &DhTable::from_robot(robot), sensor, hayati, true);
+        let table = if hayati { DhTable::from_robot_hayati(robot) } else { DhTable::from_robot(robot) };
+        let m = CalibModel::from_table(p.name(), &table, sensor, hayati, true);
         CalibModel { limits: robot.limits(), ..m }
     }
 
@@ -520,8 +521,11 @@ impl CalibModel {
 
     /// A 6R model with absolute D-H values as parameters (no nominal robot), base = D-H frame 0.
     pub fn generic(n: usize, sensor: &SensorGuess) -> CalibModel {
-        let table =
-            DhTable { base: Frame::identity(), rows: vec![DhRow { theta: 0.0, d: 0.0, a: 0.0, alpha: 0.0, parallel: false }; n], tool: Frame::identity() };
+        let table = DhTable {
+            base: Frame::identity(),
+            rows: vec![DhRow { theta: 0.0, d: 0.0, a: 0.0, alpha: 0.0, parallel: false, beta: 0.0 }; n],
+            tool: Frame::identity(),
+        };
         let (chain, kinds) = table.chain(false, false);
         CalibModel::with_sensor("generic6r", chain, kinds, sensor)
     }
@@ -551,7 +555,14 @@ pub struct DhRow {
     pub alpha: f64,
     /// This joint's axis is parallel to the next one (Hayati's β replaces Δd).
     pub parallel: bool,
+    /// Hayati's nominal tilt β about the new y axis, rad, of a row whose next axis is nearly
+    /// but not exactly parallel (a calibrated arm's): 0 otherwise.
+    pub beta: f64,
 }
+
+/// Consecutive axes closer to parallel than this (rad) take Hayati's form in a `hayati` table
+/// (a β tilt instead of a far common normal: 0.4 m of offset at 1e-4 rad would put it 4 km away).
+pub const NEARLY_PARALLEL_RAD: f64 = 0.05;
 
 /// A D-H description of a serial arm: fixed base transform, rows, fixed flange transform.
 #[derive(Clone, Debug, PartialEq)]
@@ -571,6 +582,17 @@ fn signed_angle(from: &Vector3<f64>, to: &Vector3<f64>, about: &Vector3<f64>) ->
 impl DhTable {
     /// Derives the D-H table of a robot from its joint axes at zero angles.
     pub fn from_robot(robot: &Robot) -> DhTable {
+        Self::from_robot_within(robot, 1e-9)
+    }
+
+    /// [`Self::from_robot`] in Hayati's form: consecutive axes within [`NEARLY_PARALLEL_RAD`]
+    /// of parallel are parallel rows with a nominal β (exact: the row's origin where the next
+    /// axis pierces the plane normal to the previous one, α and β the tilt between them).
+    pub fn from_robot_hayati(robot: &Robot) -> DhTable {
+        Self::from_robot_within(robot, NEARLY_PARALLEL_RAD)
+    }
+
+    fn from_robot_within(robot: &Robot, parallel_rad: f64) -> DhTable {
         let chain = robot.error_chain();
         let n = chain.n_joints;
         let mut ws = FkWork::new(&chain);
@@ -598,7 +620,25 @@ impl DhTable {
             let (zp, op) = (prev.rot.column(2).into_owned(), prev.pos);
             let (pi, zi) = if i < n { lines[i] } else { (flange.pos, zp) };
             let cross = zp.cross(&zi);
-            let parallel = cross.norm() < 1e-9;
+            let parallel = cross.norm() < 1e-9 || (i < n && cross.norm() < parallel_rad.sin() && zp.dot(&zi) > 0.0);
+            if parallel && i < n && cross.norm() >= 1e-9 {
+                // Nearly parallel: the origin where axis i pierces the plane through the previous
+                // origin normal to the previous axis (d = 0), x towards it, then α and β tilt z
+                // onto axis i.
+                let q = pi + zi * ((op - pi).dot(&zp) / zi.dot(&zp));
+                let gap = q - op;
+                let xi = if gap.norm() > 1e-9 { gap.normalize() } else { prev.rot.column(0).into_owned() };
+                let f = Matrix3::from_columns(&[xi, zp.cross(&xi), zp]);
+                let local = f.transpose() * zi;
+                let beta = local.x.clamp(-1.0, 1.0).asin();
+                let alpha = (-local.y).atan2(local.z);
+                let theta = signed_angle(&prev.rot.column(0).into_owned(), &xi, &zp);
+                rows.push(DhRow { theta, d: 0.0, a: gap.dot(&xi), alpha, parallel: true, beta });
+                let rot =
+                    f * Rotation3::from_axis_angle(&Vector3::x_axis(), alpha).into_inner() * Rotation3::from_axis_angle(&Vector3::y_axis(), beta).into_inner();
+                frames.push(Frame { rot, pos: q });
+                continue;
+            }
             let (foot_prev, foot_i, xi) = if !parallel {
                 // Closest points of the two lines.
                 let w0 = op - pi;
@@ -625,7 +665,7 @@ impl DhTable {
             let d = (foot_prev - op).dot(&zp);
             let a = (foot_i - foot_prev).dot(&xi);
             let alpha = signed_angle(&zp, &zi, &xi);
-            rows.push(DhRow { theta, d, a, alpha, parallel: parallel && i < n });
+            rows.push(DhRow { theta, d, a, alpha, parallel: parallel && i < n, beta: 0.0 });
             frames.push(Frame { rot: Matrix3::from_columns(&[xi, zi.cross(&xi), zi]), pos: foot_i });
         }
         let tool = flange.relative_to(&frames[n]);
@@ -672,7 +712,7 @@ impl DhTable {
             if beta {
                 let be = b.param(format!("joint_{j}.beta"));
                 kinds.push(Kind::Angle);
-                b.rot(y, 0.0, Some(be));
+                b.rot(y, row.beta, Some(be));
             }
         }
         // The joint ops close link frames right after the joint rotation; D-H puts the link's
