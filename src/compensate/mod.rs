@@ -191,6 +191,15 @@ impl<'a> Compensator<'a> {
 /// the nominal model), by the dataset reader's rules; or what is wrong with it.
 pub fn read_targets(path: &std::path::Path, n_joints: usize) -> Result<Vec<Target>> {
     let far = crate::measurement::point::MAX_COORD_MM;
+    // A file is points or joints, for this arm: both kinds of columns, or a joint beyond the arm's,
+    // is a file meant for something else.
+    let has = |c: &str| crate::dataset::read_csv_columns(path, &[c]).is_ok();
+    if has(&format!("q{}", n_joints + 1)) {
+        return Err(Error::data(path.display(), format!("the targets have a column q{}: the model's arm has {n_joints} joints", n_joints + 1)));
+    }
+    if has("x") && has("q1") {
+        return Err(Error::data(path.display(), "the targets have both x, y, z and joint columns: give points or joint targets, not both"));
+    }
     let targets: Vec<Target> = match crate::dataset::read_csv_columns(path, &["x", "y", "z"]) {
         Ok(rows) => {
             if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| !c.is_finite() || c.abs() > far)) {

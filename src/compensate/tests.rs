@@ -44,3 +44,25 @@ fn compensation_carries_compliance_under_the_payload() {
     assert!(c.compensated_ap_mm.mean < 2.0 * err, "{c:?}");
     assert!(geometric.compensated_ap_mm.mean > 2.0 * c.compensated_ap_mm.mean, "{geometric:?}");
 }
+
+#[test]
+fn a_targets_file_is_points_or_this_arms_joints() {
+    let dir = std::env::temp_dir().join(format!("twincal-targets-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let points = super::read_targets(&file("p.csv", "x,y,z\n400,0,500\n"), 6).unwrap();
+    assert_eq!(points, [super::Target::Point(nalgebra::Vector3::new(400.0, 0.0, 500.0))]);
+    let joints = super::read_targets(&file("q.csv", "q1,q2,q3,q4,q5,q6\n10,0,0,0,30,0\n"), 6).unwrap();
+    assert!(matches!(&joints[0], super::Target::Joints(q) if (q[0] - 10f64.to_radians()).abs() < 1e-15));
+    let e = super::read_targets(&file("q7.csv", "q1,q2,q3,q4,q5,q6,q7\n0,0,0,0,30,0,0\n"), 6).unwrap_err().to_string();
+    assert!(e.contains("column q7") && e.contains("6 joints"), "{e}");
+    let e = super::read_targets(&file("both.csv", "x,y,z,q1,q2,q3,q4,q5,q6\n400,0,500,0,0,0,0,30,0\n"), 6).unwrap_err().to_string();
+    assert!(e.contains("not both"), "{e}");
+    let e = super::read_targets(&file("nan.csv", "x,y,z\nNaN,0,500\n"), 6).unwrap_err().to_string();
+    assert!(e.contains("not a point"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
