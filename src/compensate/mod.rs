@@ -155,6 +155,12 @@ impl<'a> Compensator<'a> {
         self.calibrated.position(q, &mut self.calibrated.work(), None)
     }
 
+    /// The nominal controller's command for each point (its inverse kinematics), without the
+    /// compensation (in parallel).
+    pub fn nominal_commands(&self, points: &[Vector3<f64>]) -> Vec<Vec<f64>> {
+        points.par_iter().map_init(|| self.nominal.work(), |wn, p| self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn).q).collect()
+    }
+
     /// Every target compensated (in parallel, each thread with its own workspaces).
     pub fn compensate(&self, targets: &[Target]) -> Vec<Compensated> {
         targets

@@ -94,10 +94,10 @@ pub fn verify_seed(s: &Scenario, robot: &Robot, opts: &CalibOptions, n_targets: 
     let reg_q: Vec<Vec<f64>> = g.dataset.rows.iter().map(|row| row.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
     let reg_true: Vec<Vector3<f64>> = g.truth.poses.iter().map(|p| Vector3::from(p.tool_mm)).collect();
     let (to_cal, to_nom) = (c.registration(&reg_q, &reg_true, false), c.registration(&reg_q, &reg_true, true));
-    let in_frame = |(rot, t): &(nalgebra::Matrix3<f64>, Vector3<f64>)| targets.iter().map(|p| Target::Point(rot * p + t)).collect::<Vec<_>>();
-    let solved = c.compensate(&in_frame(&to_cal));
-    let solved_nom = c.compensate(&in_frame(&to_nom));
-    let nominal = execute(&s, robot, &solved_nom.iter().map(|k| k.nominal_q.clone()).collect::<Vec<_>>())?;
+    let solved = c.compensate(&targets.iter().map(|p| Target::Point(to_cal.0 * p + to_cal.1)).collect::<Vec<_>>());
+    let (rot, tr) = &to_nom;
+    let nominal_q = c.nominal_commands(&targets.iter().map(|p| rot * p + tr).collect::<Vec<_>>());
+    let nominal = execute(&s, robot, &nominal_q)?;
     let compensated = execute(&s, robot, &solved.iter().map(|k| k.command_q.clone()).collect::<Vec<_>>())?;
     let (mut before, mut after, mut predicted, mut residual) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (k, t) in targets.iter().enumerate() {
@@ -105,7 +105,7 @@ pub fn verify_seed(s: &Scenario, robot: &Robot, opts: &CalibOptions, n_targets: 
             before.push((a - t).norm());
             after.push((b - t).norm());
             let (rot, tr) = &to_cal;
-            predicted.push((rot.transpose() * (c.predicted(&solved_nom[k].nominal_q) - tr) - t).norm());
+            predicted.push((rot.transpose() * (c.predicted(&nominal_q[k]) - tr) - t).norm());
             residual.push(solved[k].residual_mm);
         }
     }

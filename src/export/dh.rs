@@ -181,32 +181,21 @@ impl Normals {
             })
             .collect()
     }
-    fn modified(&self) -> Vec<DhRow> {
-        let n = self.dirs.len();
-        (0..n)
-            .map(|i| {
-                let z = self.dirs[i];
-                let (alpha, a) = match i {
-                    0 => (0.0, 0.0),
-                    _ => {
-                        let (p, r, x) = &self.feet[i - 1];
-                        (angle_about(&self.dirs[i - 1], &z, x), (r - p).dot(x))
-                    }
-                };
-                let (x_prev, o_prev) = self.before(i);
-                let (x, o) = match self.feet.get(i) {
-                    Some((p, _, x)) => (*x, *p),
-                    None => (x_prev, o_prev),
-                };
-                DhRow {
-                    theta_deg: angle_about(&x_prev, &x, &z).to_degrees(),
-                    d_mm: crate::units::to_mm(z.dot(&(o - o_prev))),
-                    a_mm: crate::units::to_mm(a),
-                    alpha_deg: alpha.to_degrees(),
-                }
-            })
-            .collect()
-    }
+}
+
+/// The modified (Craig) rows of a standard table whose last row is zero (as [`Normals`] builds
+/// it): the same frames regrouped, `Tx(a)·Rx(α)` of the normal before joint i moved into row i
+/// (they commute), so row i holds the standard α and a of row i − 1 (none for the first) with
+/// the standard θ and d of row i, and the tool transform is the same.
+fn modified_of(standard: &[DhRow]) -> Vec<DhRow> {
+    standard
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let (alpha_deg, a_mm) = i.checked_sub(1).map_or((0.0, 0.0), |k| (standard[k].alpha_deg, standard[k].a_mm));
+            DhRow { theta_deg: r.theta_deg, d_mm: r.d_mm, a_mm, alpha_deg }
+        })
+        .collect()
 }
 
 impl DhFile {
@@ -321,7 +310,8 @@ impl ExportFormat for Dh {
     }
     fn write(&self, table: &JointTable, _model: &CalibModel, _x: &[f64], _nominal: Option<&Robot>, ext: &str, warnings: &mut Vec<String>) -> Result<String> {
         let nm = normals(table);
-        let joints = if self.modified { nm.modified() } else { nm.standard() };
+        let standard = nm.standard();
+        let joints = if self.modified { modified_of(&standard) } else { standard };
         if let Some((i, r)) = joints.iter().enumerate().find(|(_, r)| r.d_mm.abs() > LARGE_D_MM) {
             warnings.push(format!(
                 "D-H row {} has d = {:.0} mm: consecutive joint axes there are nearly parallel, so their common normal lies far away (the table is exact, but a frame table or the URDF states this arm without it)",
