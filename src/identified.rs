@@ -83,6 +83,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         simulation: Default::default(),
         acquisition: Acquisition { model: AcquisitionModel::QuasiStatic, ..Default::default() },
         glitches: None,
+        workspace: None,
     };
     // An acquisition that moves one or two joints at a time is written as sweeps.
     if let Some((len, share)) = sweeps(data) {

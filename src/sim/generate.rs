@@ -62,20 +62,18 @@ pub fn nominal_length(chain: &crate::robot::kinematics::Chain, sensor: &crate::s
     sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &sensor.tool_point_m()))
 }
 
-/// Samples commanded poses (rad) by a Halton sequence over the joint ranges, keeping those whose
-/// nominal tool point is above `min_tool_z_mm` and whose nominal reading is inside the sensor
-/// range (with a tracker: every pose above the floor).
+/// Samples commanded poses (rad) by a Halton sequence over the joint ranges, keeping those the
+/// scenario's [`Scenario::cell`] finds feasible: the nominal tool point above `min_tool_z_mm`,
+/// the nominal reading inside the sensor range (a tracker's distance range, if given) and the
+/// `[workspace]`, if any, kept clear of.
 pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
     let n = robot.dof();
     if n > HALTON_BASES.len() {
         return Err(Error::Invalid(format!("Halton sampling supports up to {} joints", HALTON_BASES.len())));
     }
     let ranges = s.ranges_rad(robot);
-    let chain = robot.error_chain();
-    let zero = vec![0.0; chain.n_params()];
-    let tool = s.sensor.tool_point_m();
-    let [lo, hi] = s.sensor.range_mm;
-    let margin = 0.01 * (hi - lo);
+    let cell = s.cell(robot);
+    let mut fk = cell.work();
     let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Sampling, 0));
     let start: u64 = rng.random_range(100..10_000);
     let mut out = Vec::with_capacity(s.sampling.poses);
@@ -85,7 +83,12 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
         if i > limit {
             return Err(Error::Scenario {
                 path: s.name.clone(),
-                msg: format!("only {} of {} poses are reachable inside the sensor range and above min_tool_z_mm", out.len(), s.sampling.poses),
+                msg: format!(
+                    "only {} of {} poses are reachable inside the instrument's range, above min_tool_z_mm{}",
+                    out.len(),
+                    s.sampling.poses,
+                    if s.workspace.is_some() { " and clear of the [workspace]" } else { "" }
+                ),
             });
         }
         // Commanded angles at the dataset's precision: the written angles are the simulated ones.
@@ -110,11 +113,7 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
             .map(|q| round_decimals(q.to_degrees(), s.sampling.angle_decimals).to_radians())
             .collect();
         i += 1;
-        let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool);
-        let l = s.sensor.ideal_length(&p);
-        // Another instrument (a tracker) has no cable range to keep inside.
-        let in_range = s.instruments.active().is_some() || (l > lo + margin && l < hi - margin);
-        if crate::units::to_mm(p.z) >= s.sampling.min_tool_z_mm && in_range {
+        if cell.check(&q, &mut fk).is_ok() {
             out.push(q);
         }
     }

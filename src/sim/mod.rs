@@ -13,3 +13,4 @@ pub mod instrument;
 pub mod scenario;
 pub mod study;
 pub mod twin;
+pub mod workspace;

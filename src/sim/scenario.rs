@@ -65,6 +65,10 @@ pub struct Scenario {
     /// Runs of disturbed readings (a bumped cable, a glitching reader), as real acquisitions have.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub glitches: Option<Glitches>,
+    /// The cell around the arm (floor, keep-out boxes, link capsules, the instrument's line of
+    /// sight and range): sampled and planned poses keep clear of it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub workspace: Option<crate::sim::workspace::Workspace>,
 }
 
 /// Runs of consecutive disturbed readings (in acquisition order): `runs` runs of `rows` rows
@@ -288,6 +292,22 @@ impl Scenario {
         Some(if p.is_relative() { dir.map(|d| d.join(&p)).unwrap_or(p) } else { p })
     }
 
+    /// The feasibility check of this scenario's commanded poses on `robot`: the tool above
+    /// `sampling.min_tool_z_mm`, the instrument's range (the cable's, or the tracker's
+    /// `workspace.tracker_range_mm`) and the `[workspace]`, if any.
+    pub fn cell(&self, robot: &Robot) -> crate::sim::workspace::Cell {
+        use crate::sim::workspace::{Cell, Reach};
+        let reach = match (&self.instruments.tracker, self.instruments.active()) {
+            (Some(_), Some(i)) => {
+                let pl = i.placement(self.sensor.tool_point_m());
+                let origin = pl.measurement.def().frame(&pl.own).origin;
+                Reach::Tracker { origin, range_mm: self.workspace.as_ref().and_then(|w| w.tracker_range_mm) }
+            }
+            _ => Reach::Cable(self.sensor.clone()),
+        };
+        Cell::new(robot.error_chain(), self.sensor.tool_point_m(), self.sampling.min_tool_z_mm, Some(reach), self.workspace.clone())
+    }
+
     /// Checks every section against `robot`; the error names `origin` and the first bad key.
     pub fn validate(&self, robot: &Robot, origin: &str) -> Result<()> {
         let err = |msg: String| Error::Scenario { path: origin.to_string(), msg };
@@ -302,6 +322,12 @@ impl Scenario {
         self.effects.validate(robot.dof()).map_err(err)?;
         self.sensor.validate().map_err(err)?;
         self.instruments.validate().map_err(err)?;
+        if let Some(w) = &self.workspace {
+            w.validate().map_err(err)?;
+            if w.tracker_range_mm.is_some() && self.instruments.tracker.is_none() {
+                return Err(err("workspace.tracker_range_mm needs a [tracker]".into()));
+            }
+        }
         if let Some(i) = self.instruments.active() {
             if self.sensor.tension_n != 0.0 {
                 return Err(err(format!("sensor.tension_n = {}: with a [{}] no cable pulls on the tool; set it to 0", self.sensor.tension_n, i.key())));
