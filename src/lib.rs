@@ -27,6 +27,7 @@ pub mod jobs;
 pub mod math;
 pub mod measurement;
 pub mod optim;
+pub mod plan;
 pub mod progress;
 pub mod report;
 pub mod requests;

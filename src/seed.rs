@@ -21,6 +21,8 @@ pub enum Stream {
     TrackerNoise = 8,
     /// Where within its logging step a replayed row's true joint angle sits, one item per row.
     LoggedAngle = 9,
+    /// A measurement plan's candidate pool (the Halton start) and its random comparison sets.
+    Plan = 10,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).

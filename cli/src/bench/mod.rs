@@ -15,6 +15,7 @@
 pub mod awnn;
 pub mod calib;
 pub mod compensate;
+pub mod plan;
 pub mod diagnose;
 pub mod evo;
 pub mod noise;

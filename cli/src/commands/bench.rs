@@ -64,6 +64,7 @@ pub fn bench_command(
             crate::bench::replay::bench_replay(&s, &robot, repeat)
         }
         BenchTarget::Compensate => crate::bench::compensate::bench_compensate(seeds),
+        BenchTarget::Plan => crate::bench::plan::bench_plan(seeds, repeat),
     }
 }
 
@@ -91,6 +92,7 @@ fn takes(what: BenchTarget) -> Takes {
         BenchTarget::NoiseModel => t(false, false, Some(5), "realistic IRB 120 acquisitions it generates"),
         BenchTarget::Replay => t(true, false, None, "a scenario; --repeat runs"),
         BenchTarget::Compensate => t(false, false, Some(10), "IRB 120 cable and tracker scenarios, with and without compliance"),
+        BenchTarget::Plan => t(false, false, Some(10), "IRB 120 tracker and cable scenarios; --repeat runs of the speed"),
     }
 }
 

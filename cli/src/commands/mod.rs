@@ -74,6 +74,10 @@ pub enum BenchTarget {
     /// targets on the twin, AP over seeds for geometric and non-geometric scenarios, cable and
     /// tracker; and compensate's time for 10 000 targets.
     Compensate,
+    /// Measurement plans verified on the twin: planned against random feasible poses, each
+    /// calibrated, true error on independent test poses over seeds; and plan's time for 30 poses
+    /// of 10 000 candidates.
+    Plan,
 }
 
 /// `--shard i/N --shard-out PART.jsonl` of `study hold` and `bench diagnose` (see

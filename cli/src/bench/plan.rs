@@ -1,0 +1,81 @@
+//! `twincal bench plan`: measurement plans verified on the twin ([`twincal::plan::verify`]) —
+//! for N in {15, 30, 60} planned poses against random feasible sets of N, 2N, 3N and 4N poses,
+//! each calibrated alone and judged by its true error on independent test poses, over seeds —
+//! and the time a plan of 30 poses out of 10 000 candidates takes against its 5 s target.
+
+use std::path::Path;
+use std::time::Instant;
+use twincal::error::Result;
+use twincal::plan::verify::{study, Comparison, StudyOptions};
+use twincal::plan::{plan, PlanOptions};
+use twincal::sim::scenario::Scenario;
+
+/// The scenarios compared: (label, scenario file, plan sizes).
+const CASES: [(&str, &str, &[usize]); 2] =
+    [("IRB 120, laser tracker, geometric", "irb120_tracker", &[15, 30, 60]), ("IRB 120, draw-wire cable, geometric", "irb120_geometric", &[40, 60, 120])];
+
+fn load(file: &str) -> Result<(Scenario, twincal::robot::Robot)> {
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios"));
+    let path = dir.join(format!("{file}.toml"));
+    let text = std::fs::read_to_string(&path).map_err(|e| twincal::error::Error::io(&path, e))?;
+    let s = Scenario::from_toml(&text, file)?;
+    let robot = s.load_robot(Some(dir))?;
+    Ok((s, robot))
+}
+
+fn print(label: &str, rows: &[Comparison], seeds: u64) {
+    println!("\n## {label} ({seeds} seeds; true position error on 200 independent test poses after calibration, RMS mm, median over seeds)\n");
+    let sizes = &rows[0].random_sizes;
+    let head: Vec<String> = (0..sizes.len()).map(|k| format!("random {}N", sizes[k] / rows[0].n)).collect();
+    println!("| N | planned | {} | random poses reaching the plan's error | planned better than random N (seeds) |", head.join(" | "));
+    println!("|---|---|{}---|---|", "---|".repeat(sizes.len()));
+    for c in rows {
+        let wins = c.seeds.iter().filter(|r| r.planned_mm < r.random_mm[0]).count();
+        println!(
+            "| {} | {:.4} | {} | {} | {wins}/{} |",
+            c.n,
+            c.planned_median_mm,
+            c.random_median_mm.iter().map(|e| format!("{e:.4}")).collect::<Vec<_>>().join(" | "),
+            c.random_poses_to_match.map_or(format!("more than {}", sizes.last().unwrap_or(&0)), |k| k.to_string()),
+            c.seeds.len()
+        );
+    }
+}
+
+/// Runs the study over `seeds` seeds and prints its tables, then the speed.
+pub fn bench_plan(seeds: u64, repeat: usize) -> Result<()> {
+    println!("# Measurement plans verified on the twin (I-optimal and D-optimal, 10 000 feasible candidates, Hayati model)");
+    for (label, file, ns) in CASES {
+        let (s, robot) = load(file)?;
+        for criterion in ["i", "d"] {
+            let plan = PlanOptions { criterion: criterion.into(), ..PlanOptions::default() };
+            let o = StudyOptions { ns: ns.to_vec(), multiples: vec![1, 2, 3, 4], seeds: (1..=seeds).collect(), test_poses: 200, plan };
+            let rows = study(&s, &robot, &o)?;
+            print(&format!("{label}, criterion {criterion}"), &rows, seeds);
+        }
+    }
+    speed(repeat)
+}
+
+/// `plan` for 30 poses out of 10 000 candidates on the tracker scenario: median of `repeat` runs
+/// against the 5 s target, and the stages' share.
+fn speed(repeat: usize) -> Result<()> {
+    let (s, robot) = load("irb120_tracker")?;
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..repeat.max(1) {
+        let t0 = Instant::now();
+        last = Some(plan(&s, &robot, &PlanOptions::default())?);
+        times.push(t0.elapsed().as_secs_f64());
+    }
+    let med = twincal::stats::median(&times);
+    let p = last.expect("ran at least once");
+    println!(
+        "\n## Speed\n\nplan 30 of 10 000 candidates (irb120_tracker, {} parameters): {med:.2} s median of {} runs (target < 5 s; {} exchange sweeps, {} swaps)",
+        p.identifiable.len(),
+        times.len(),
+        p.design.sweeps,
+        p.design.exchanges
+    );
+    Ok(())
+}

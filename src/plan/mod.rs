@@ -1,0 +1,324 @@
+//! Measurement planning: which poses to measure so that a calibration identifies its parameters
+//! best, before the arm is touched.
+//!
+//! 1. **Candidates** ([`candidates`]): a large pool of commanded poses drawn by a Halton sequence
+//!    over the scenario's joint ranges, each kept only when the scenario's cell finds it
+//!    feasible ([`crate::sim::workspace`]: joint ranges, the tool above the floor height, the
+//!    instrument's range, link capsules clear of the floor, keep-out boxes and each other, the
+//!    instrument's line of sight).
+//! 2. **Identification Jacobian** ([`Model`]): the calibration model (the nominal arm in the
+//!    chosen parametrisation, the instrument at the scenario's placement) differentiated at
+//!    every candidate, one block of rows per pose. The parameters the whole pool cannot tell
+//!    apart are held, as a calibration holds them ([`crate::calib::problem::identify`]); the
+//!    others' columns are scaled to unit RMS over the pool.
+//! 3. **Design** ([`design`]): N candidates chosen by an observability index with an exchange
+//!    algorithm. The default is I-optimal, the mean prediction variance over the pool (the
+//!    workspace the arm will be used in): D-optimality (O1) also rewards sharpening parameter
+//!    combinations the readings barely see, which buys no accuracy (on the IRB 120 tracker
+//!    scenario its plans were no better than random sets of 1.5 N, see `twincal bench plan`).
+//! 4. **Tour** ([`tour`]): the chosen poses ordered into a short acquisition, timed by the twin's
+//!    motion model.
+//!
+//! The plan never sees the twin's true parameters: only the nominal arm, the instrument's
+//! placement as the engineer sets it up, and the cell.
+
+pub mod design;
+pub mod tour;
+pub mod verify;
+
+pub use design::{criterion, Criterion, Design, Pool, CRITERIA};
+
+use crate::calib::model::{CalibModel, Parametrisation, SensorGuess};
+use crate::calib::problem::{identify::analyse, ReadingFit, Samples};
+use crate::calib::run::placement::build_model;
+use crate::calib::run::{ModelSpec, DEFAULT_RANK_TOL};
+use crate::error::{Error, Result};
+use crate::optim::LeastSquares;
+use crate::robot::Robot;
+use crate::seed::{stream_seed, Stream};
+use crate::sim::scenario::{halton, Scenario, HALTON_BASES};
+use crate::sim::workspace::Refusal;
+use nalgebra::{DMatrix, SymmetricEigen};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// A feasible candidate pool.
+#[derive(Clone, Debug, Serialize)]
+pub struct Candidates {
+    /// The feasible poses, rad, at the scenario's commanded precision.
+    #[serde(skip)]
+    pub q: Vec<Vec<f64>>,
+    /// Poses drawn to find them.
+    pub drawn: usize,
+    /// Poses refused, by reason.
+    pub refused: BTreeMap<String, usize>,
+}
+
+/// `count` feasible commanded poses of scenario `s` (Halton over its joint ranges, started
+/// from `seed`; angles rounded to `sampling.angle_decimals` as the twin commands them), with
+/// the counts of those refused. Fewer when the cell refuses nearly everything (at most
+/// 50·count + 10 000 draws).
+pub fn candidates(s: &Scenario, robot: &Robot, count: usize, seed: u64) -> Result<Candidates> {
+    let n = robot.dof();
+    if n > HALTON_BASES.len() {
+        return Err(Error::Invalid(format!("Halton sampling supports up to {} joints", HALTON_BASES.len())));
+    }
+    let ranges = s.ranges_rad(robot);
+    let cell = s.cell(robot);
+    let mut fk = cell.work();
+    let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, Stream::Plan, 0));
+    let start: u64 = rand::Rng::random_range(&mut rng, 100..1_000_000);
+    let mut refused: BTreeMap<Refusal, usize> = BTreeMap::new();
+    let mut q = Vec::with_capacity(count);
+    let limit = 50 * count as u64 + 10_000;
+    let mut drawn = 0u64;
+    while q.len() < count && drawn < limit {
+        let i = start + drawn;
+        drawn += 1;
+        let pose: Vec<f64> = (0..n)
+            .map(|j| ranges[j].0 + halton(i, HALTON_BASES[j]) * (ranges[j].1 - ranges[j].0))
+            .map(|v| crate::units::round_decimals(v.to_degrees(), s.sampling.angle_decimals).to_radians())
+            .collect();
+        match cell.check(&pose, &mut fk) {
+            Ok(()) => q.push(pose),
+            Err(r) => *refused.entry(r).or_default() += 1,
+        }
+    }
+    Ok(Candidates { q, drawn: drawn as usize, refused: refused.into_iter().map(|(r, k)| (r.name().to_string(), k)).collect() })
+}
+
+/// The calibration model a plan designs for, and its parameters' roles.
+pub struct Model {
+    /// The model: the nominal arm in the parametrisation, the instrument at the scenario's
+    /// placement.
+    pub model: CalibModel,
+}
+
+impl Model {
+    /// The model of scenario `s`'s arm in parametrisation `p` with its instrument placed as the
+    /// scenario places it.
+    pub fn new(s: &Scenario, robot: &Robot, p: Parametrisation) -> Model {
+        let zero = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+        let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
+        Model { model: build_model(&ModelSpec::nominal(robot.clone(), p), &zero).with_placement(&placement) }
+    }
+
+    /// The Jacobian of the readings (mm) at the nominal parameters for poses `q`: one row per
+    /// reading value, pose after pose.
+    pub fn jacobian(&self, q: &[Vec<f64>]) -> DMatrix<f64> {
+        let dim = self.model.measurement.dim();
+        let data = Samples::readings(q.to_vec(), vec![0.0; q.len() * dim], dim);
+        let fit = ReadingFit { model: &self.model, data: &data };
+        let mut j = DMatrix::zeros(q.len() * dim, self.model.n_params());
+        fit.jacobian(&self.model.nominal, &mut j);
+        j
+    }
+}
+
+/// The design problem of a pool: which parameters it identifies, and their scaled rows.
+pub struct Problem {
+    /// The scaled rows of the identifiable columns, per candidate.
+    pub pool: Pool,
+    /// The parameters the pool identifies (the design's columns).
+    pub identifiable: Vec<String>,
+    /// The parameters no pose of the pool tells apart from the others (held at nominal).
+    pub fixed: Vec<String>,
+    /// Each identifiable column's RMS over the pool (mm per parameter unit): the scale.
+    pub scale: Vec<f64>,
+}
+
+/// The design problem of `model` over the poses `q`.
+pub fn problem(model: &Model, q: &[Vec<f64>]) -> Problem {
+    let j = model.jacobian(q);
+    let m = &model.model;
+    // JᵀJ = RᵀR with R = Λ^½Vᵀ: the identifiability analysis of R is that of J (same column
+    // norms, singular values, right vectors and Gram–Schmidt residuals) at p×p instead of rows×p.
+    let eig = SymmetricEigen::new(j.transpose() * &j);
+    let r = DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt())) * eig.eigenvectors.transpose();
+    let nc = m.n_chain();
+    let priority: Vec<usize> = (nc..m.n_params()).chain(0..nc).collect();
+    let id = analyse(&r, &m.names, &vec![false; m.n_params()], DEFAULT_RANK_TOL, &priority);
+    let keep: Vec<usize> = (0..m.n_params()).filter(|&k| !id.fixed_mask[k]).collect();
+    let rows = j.nrows().max(1) as f64;
+    let scale: Vec<f64> = keep.iter().map(|&k| (j.column(k).norm_squared() / rows).sqrt()).collect();
+    let d = m.measurement.dim();
+    let p = keep.len();
+    let mut scaled = vec![0.0; j.nrows() * p];
+    for row in 0..j.nrows() {
+        for (c, &k) in keep.iter().enumerate() {
+            scaled[row * p + c] = j[(row, k)] / scale[c];
+        }
+    }
+    Problem { pool: Pool::new(scaled, d, p), identifiable: id.identifiable, fixed: id.fixed, scale }
+}
+
+/// Every criterion's value of a design, with the condition number.
+#[derive(Clone, Debug, Serialize)]
+pub struct Indices {
+    /// O1, D-optimal.
+    pub o1_d: f64,
+    /// I-optimal: the mean prediction variance over the pool, per unit noise variance
+    /// (smaller is better).
+    pub i_prediction_variance: f64,
+    /// O3, the smallest singular value.
+    pub o3_min_sv: f64,
+    /// O4, noise amplification.
+    pub o4_noise: f64,
+    /// O5.
+    pub o5_a: f64,
+    /// Largest over smallest singular value of the scaled Jacobian.
+    pub condition: f64,
+}
+
+impl Indices {
+    /// The indices of the candidates `set` of `pool`.
+    pub fn of(pool: &Pool, set: &[usize]) -> Indices {
+        let info = pool.information(set);
+        let sv = design::singular_values(&info);
+        let m = set.len() * pool.d;
+        let v = |c: &dyn Criterion| c.value(&info, m, pool);
+        let (lo, hi) = (sv.last().copied().unwrap_or(0.0), sv.first().copied().unwrap_or(0.0));
+        Indices {
+            o1_d: v(&design::DOptimal),
+            i_prediction_variance: design::prediction_variance(&info, pool),
+            o3_min_sv: v(&design::MinSingular),
+            o4_noise: v(&design::NoiseAmplification),
+            o5_a: v(&design::AOptimal),
+            condition: if lo > 0.0 { hi / lo } else { f64::INFINITY },
+        }
+    }
+}
+
+/// What a plan is asked for.
+#[derive(Clone, Debug)]
+pub struct PlanOptions {
+    /// Poses to plan.
+    pub n: usize,
+    /// Feasible candidates to choose from.
+    pub candidates: usize,
+    /// The observability index maximised ([`CRITERIA`]'s names).
+    pub criterion: String,
+    /// The parametrisation the calibration will use.
+    pub parametrisation: Parametrisation,
+    /// Seed of the candidate pool and of the random comparison sets.
+    pub seed: u64,
+    /// Most exchange sweeps.
+    pub max_sweeps: usize,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions { n: 30, candidates: 10_000, criterion: "i".into(), parametrisation: Parametrisation::Hayati, seed: 1, max_sweeps: 8 }
+    }
+}
+
+/// Random feasible sets drawn to compare a plan with.
+pub const RANDOM_SETS: usize = 25;
+
+/// A measurement plan.
+#[derive(Clone, Debug, Serialize)]
+pub struct Plan {
+    /// The scenario planned for.
+    pub scenario: String,
+    /// The robot.
+    pub robot: String,
+    /// The instrument (`length`, `point`, `pose`).
+    pub measurement: String,
+    /// The parametrisation designed for.
+    pub parametrisation: String,
+    /// The criterion maximised, and what it is.
+    pub criterion: String,
+    /// What the criterion is.
+    pub criterion_describe: String,
+    /// Seed of the pool.
+    pub seed: u64,
+    /// The candidate pool.
+    pub candidates: Candidates,
+    /// The parameters the pool identifies (the design's), and those held.
+    pub identifiable: Vec<String>,
+    /// Parameters held at nominal: no pose of the pool tells them apart.
+    pub fixed: Vec<String>,
+    /// The planned poses, rad, in tour order.
+    #[serde(skip)]
+    pub poses: Vec<Vec<f64>>,
+    /// The planned poses, degrees, in tour order.
+    pub poses_deg: Vec<Vec<f64>>,
+    /// The plan's indices.
+    pub indices: Indices,
+    /// The median indices of [`RANDOM_SETS`] random feasible sets of the same size.
+    pub random_median: Indices,
+    /// The search.
+    pub design: Design,
+    /// The tour's timing, and that of the same poses in the order the design chose them.
+    pub tour: tour::TourTime,
+    /// The same poses, unordered.
+    pub unordered: tour::TourTime,
+    /// Wall time of planning, s.
+    pub seconds: f64,
+}
+
+/// `n` distinct indices of `0..len`, seeded.
+pub fn random_set(len: usize, n: usize, seed: u64) -> Vec<usize> {
+    let mut all: Vec<usize> = (0..len).collect();
+    all.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+    all.truncate(n.min(len));
+    all
+}
+
+/// The median of each index over `sets`.
+fn median_indices(pool: &Pool, sets: &[Vec<usize>]) -> Indices {
+    let all: Vec<Indices> = sets.iter().map(|s| Indices::of(pool, s)).collect();
+    let med = |f: &dyn Fn(&Indices) -> f64| crate::stats::median(&all.iter().map(f).collect::<Vec<f64>>());
+    Indices { o1_d: med(&|i| i.o1_d), i_prediction_variance: med(&|i| i.i_prediction_variance), o3_min_sv: med(&|i| i.o3_min_sv), o4_noise: med(&|i| i.o4_noise), o5_a: med(&|i| i.o5_a), condition: med(&|i| i.condition) }
+}
+
+/// Plans `opts.n` poses for scenario `s` on `robot` (see the module docs).
+pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
+    let t0 = std::time::Instant::now();
+    let crit = criterion(&opts.criterion)?;
+    if opts.n == 0 || opts.candidates < opts.n {
+        return Err(Error::Invalid(format!("a plan needs 1 <= poses <= candidates, got {} poses of {} candidates", opts.n, opts.candidates)));
+    }
+    let cands = candidates(s, robot, opts.candidates, opts.seed)?;
+    if cands.q.len() < opts.n {
+        return Err(Error::Invalid(format!(
+            "only {} feasible poses in {} drawn (refused: {}); {} asked: widen the ranges or the [workspace]",
+            cands.q.len(),
+            cands.drawn,
+            cands.refused.iter().map(|(k, v)| format!("{k} {v}")).collect::<Vec<_>>().join(", "),
+            opts.n
+        )));
+    }
+    let model = Model::new(s, robot, opts.parametrisation);
+    let prob = problem(&model, &cands.q);
+    let d = design::design(&prob.pool, opts.n, crit, opts.max_sweeps);
+    let chosen: Vec<Vec<f64>> = d.chosen.iter().map(|&c| cands.q[c].clone()).collect();
+    let motion = tour::Motion::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s + s.sensor.window_s());
+    let home = vec![0.0; robot.dof()];
+    let order = motion.order(&home, &chosen);
+    let poses: Vec<Vec<f64>> = order.iter().map(|&i| chosen[i].clone()).collect();
+    let sets: Vec<Vec<usize>> = (0..RANDOM_SETS).map(|k| random_set(cands.q.len(), opts.n, stream_seed(opts.seed, Stream::Plan, 1 + k as u64))).collect();
+    Ok(Plan {
+        scenario: s.name.clone(),
+        robot: robot.name.clone(),
+        measurement: model.model.measurement.name().to_string(),
+        parametrisation: opts.parametrisation.name().to_string(),
+        criterion: crit.name().to_string(),
+        criterion_describe: crit.describe().to_string(),
+        seed: opts.seed,
+        identifiable: prob.identifiable.clone(),
+        fixed: prob.fixed.clone(),
+        poses_deg: poses.iter().map(|q| q.iter().map(|v| crate::units::round_decimals(v.to_degrees(), s.sampling.angle_decimals)).collect()).collect(),
+        indices: Indices::of(&prob.pool, &d.chosen),
+        random_median: median_indices(&prob.pool, &sets),
+        tour: motion.time(&home, &poses),
+        unordered: motion.time(&home, &chosen),
+        poses,
+        candidates: cands,
+        design: d,
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}

@@ -1,0 +1,135 @@
+//! A plan verified on the twin, not assumed: for each seed the twin (its true geometry and
+//! effects drawn from the seed) measures the planned poses and random feasible sets of several
+//! sizes; each set is calibrated alone; each calibrated model's true error is measured on
+//! independent test poses.
+//!
+//! The true error of a model: its tool point at a test pose (its own prediction, with its
+//! effects), against the twin's true tool point there, after the rigid registration of the
+//! model's base frame to the twin's made on the model's own calibration poses (as an accuracy
+//! test registers a robot: no measurement of the arm fixes where it stands in the cell). RMS
+//! over the test poses, mm. The test poses are feasible poses drawn from a stream of their own,
+//! none of them a row of any calibration.
+
+use super::{candidates, plan, random_set, PlanOptions};
+use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
+use crate::compensate::{nominal_x, Compensator};
+use crate::error::{Error, Result};
+use crate::robot::Robot;
+use crate::seed::{stream_seed, Stream};
+use crate::sim::generate::{generate_at, Silent};
+use crate::sim::scenario::Scenario;
+use nalgebra::Vector3;
+use serde::Serialize;
+
+/// The twin's true tool points (mm) at `poses` (rad), `None` where it refused one.
+fn true_tool(s: &Scenario, robot: &Robot, poses: &[Vec<f64>]) -> Result<(crate::dataset::Dataset, Vec<Option<Vector3<f64>>>)> {
+    let g = generate_at(s, robot, poses.to_vec(), None, &Silent)?;
+    let mut out = vec![None; poses.len()];
+    for p in &g.truth.poses {
+        out[p.index] = Some(Vector3::from(p.tool_mm));
+    }
+    Ok((g.dataset, out))
+}
+
+/// The scenario measuring every pose given it, none held out, no glitch.
+fn all_train(s: &Scenario, seed: u64, n: usize) -> Scenario {
+    let mut s = s.clone();
+    s.seed = seed;
+    s.sampling.poses = n;
+    s.sampling.test = 0;
+    s.glitches = None;
+    s
+}
+
+/// The true error (RMS over the test poses, mm) of the model calibrated on the twin's readings at
+/// `poses`; `test` holds the test poses and the twin's true tool points there.
+pub fn true_error(s: &Scenario, robot: &Robot, opts: &CalibOptions, poses: &[Vec<f64>], test: &(Vec<Vec<f64>>, Vec<Vector3<f64>>)) -> Result<f64> {
+    let (data, truth) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses)?;
+    let r = calibrate(&data, None, opts)?;
+    let x_nom = nominal_x(&r);
+    let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001)?;
+    let (reg_q, reg_true): (Vec<Vec<f64>>, Vec<Vector3<f64>>) = poses.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
+    let (rot, tr) = c.registration(&reg_q, &reg_true, false);
+    let sq: Vec<f64> = test.0.iter().zip(&test.1).map(|(q, t)| (rot * t + tr - c.predicted(q)).norm_squared()).collect();
+    Ok((sq.iter().sum::<f64>() / sq.len().max(1) as f64).sqrt())
+}
+
+/// One seed's comparison at one N.
+#[derive(Clone, Debug, Serialize)]
+pub struct SeedRow {
+    /// The scenario's seed (the twin's truth and the pool).
+    pub seed: u64,
+    /// The planned poses' true error, mm.
+    pub planned_mm: f64,
+    /// Random feasible sets' true errors, mm, one per size in [`Comparison::random_sizes`].
+    pub random_mm: Vec<f64>,
+}
+
+/// Planned against random at one N, over the seeds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    /// Poses planned.
+    pub n: usize,
+    /// The sizes of the random sets compared.
+    pub random_sizes: Vec<usize>,
+    /// Per seed.
+    pub seeds: Vec<SeedRow>,
+    /// Median over the seeds of the planned error, mm.
+    pub planned_median_mm: f64,
+    /// Median over the seeds of each random size's error, mm.
+    pub random_median_mm: Vec<f64>,
+    /// The fewest random poses (of the sizes tried) whose median error is at most the plan's;
+    /// `None` when no size tried reaches it.
+    pub random_poses_to_match: Option<usize>,
+}
+
+/// What the study runs.
+#[derive(Clone, Debug)]
+pub struct StudyOptions {
+    /// Plan sizes.
+    pub ns: Vec<usize>,
+    /// Random set sizes, as multiples of N.
+    pub multiples: Vec<usize>,
+    /// Seeds.
+    pub seeds: Vec<u64>,
+    /// Test poses per seed.
+    pub test_poses: usize,
+    /// The plan's options (its `n` and `seed` are set per run).
+    pub plan: PlanOptions,
+}
+
+/// Plans and random sets compared on the twin of `s` (see the module docs).
+pub fn study(s: &Scenario, robot: &Robot, o: &StudyOptions) -> Result<Vec<Comparison>> {
+    let calib = CalibOptions::new(ModelSpec::nominal(robot.clone(), o.plan.parametrisation), Method::LM);
+    let mut out = Vec::new();
+    for &n in &o.ns {
+        let sizes: Vec<usize> = o.multiples.iter().map(|m| m * n).collect();
+        let mut rows = Vec::new();
+        for &seed in &o.seeds {
+            let s = all_train(s, seed, n);
+            let test_q = candidates(&s, robot, o.test_poses, stream_seed(seed, Stream::Plan, 1_000_000))?.q;
+            let (_, truth) = true_tool(&all_train(&s, seed, test_q.len()), robot, &test_q)?;
+            let test: (Vec<Vec<f64>>, Vec<Vector3<f64>>) = test_q.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
+            if test.0.is_empty() {
+                return Err(Error::Invalid(format!("seed {seed}: the twin refused every test pose")));
+            }
+            let p = plan(&s, robot, &PlanOptions { n, seed, ..o.plan.clone() })?;
+            let pool = candidates(&s, robot, o.plan.candidates, seed)?.q;
+            let planned_mm = true_error(&s, robot, &calib, &p.poses, &test)?;
+            let random_mm = sizes
+                .iter()
+                .map(|&k| {
+                    let set = random_set(pool.len(), k, stream_seed(seed, Stream::Plan, 2_000_000 + k as u64));
+                    true_error(&s, robot, &calib, &set.iter().map(|&i| pool[i].clone()).collect::<Vec<_>>(), &test)
+                })
+                .collect::<Result<Vec<f64>>>()?;
+            rows.push(SeedRow { seed, planned_mm, random_mm });
+        }
+        let med = |f: &dyn Fn(&SeedRow) -> f64| crate::stats::median(&rows.iter().map(f).collect::<Vec<f64>>());
+        let planned_median_mm = med(&|r| r.planned_mm);
+        let random_median_mm: Vec<f64> = (0..sizes.len()).map(|k| med(&|r| r.random_mm[k])).collect();
+        let random_poses_to_match = sizes.iter().zip(&random_median_mm).find(|(_, e)| **e <= planned_median_mm).map(|(k, _)| *k);
+        out.push(Comparison { n, random_sizes: sizes, seeds: rows, planned_median_mm, random_median_mm, random_poses_to_match });
+    }
+    Ok(out)
+}
