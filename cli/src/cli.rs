@@ -32,7 +32,15 @@ pub enum Command {
         /// Override the scenario's seed.
         #[arg(long, allow_negative_numbers = true)]
         seed: Option<u64>,
+        /// Measure these poses instead of sampling them: a pose list (columns q1..qN in
+        /// degrees, as `twincal plan` writes it), in its order, none held out.
+        #[arg(long)]
+        poses: Option<PathBuf>,
     },
+    /// Plan the measurement poses worth measuring for a scenario's arm, instrument and cell:
+    /// feasible candidates (limits, collisions, keep-out, line of sight, range), the
+    /// calibration's identifiable parameters, an optimal design and a short tour.
+    Plan(twincal::jobs::PlanJob),
     /// Calibrate a model on measured data (dataset folder, CSV or xlsx).
     Calibrate(commands::CalibrateJob),
     /// From measured data: what the geometric model gets wrong, which effect causes it, how big
@@ -145,7 +153,8 @@ pub enum Command {
 pub fn run(args: Cli) -> twincal::Result<()> {
     let quiet = args.quiet;
     match args.command {
-        Command::Generate { scenario, out, rrd, seed } => commands::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, args.quiet),
+        Command::Generate { scenario, out, rrd, seed, poses } => commands::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, poses.as_deref(), args.quiet),
+        Command::Plan(a) => commands::plan(&a, args.quiet),
         Command::Calibrate(a) => commands::calibrate(&a, args.quiet),
         Command::Diagnose(a) => commands::diagnose(&a, args.quiet),
         Command::Predict { model, data, reading, out } => commands::predict(&model, &data, &reading, &out, args.quiet),

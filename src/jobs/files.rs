@@ -104,6 +104,8 @@ pub trait Recordings: Sync {
     /// Stages the recording of a comparison at `path`: its tables (Markdown), the methods in
     /// order and every run.
     fn comparison(&self, table: &str, methods: &[String], runs: &[super::CompareRun], outputs: &mut OutputSet, path: &Path) -> Result<()>;
+    /// Stages the recording of a measurement plan for scenario `s` at `path`.
+    fn plan(&self, plan: &crate::plan::Plan, s: &Scenario, robot: &crate::robot::Robot, outputs: &mut OutputSet, path: &Path) -> Result<()>;
 }
 
 /// No recordings: a job asked for one fails before writing anything.
@@ -126,6 +128,9 @@ impl Recordings for NoRecordings {
         Self::refuse(path)
     }
     fn comparison(&self, _: &str, _: &[String], _: &[super::CompareRun], _: &mut OutputSet, path: &Path) -> Result<()> {
+        Self::refuse(path)
+    }
+    fn plan(&self, _: &crate::plan::Plan, _: &Scenario, _: &crate::robot::Robot, _: &mut OutputSet, path: &Path) -> Result<()> {
         Self::refuse(path)
     }
 }

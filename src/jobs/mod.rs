@@ -13,6 +13,7 @@ mod diagnose;
 mod export;
 mod files;
 mod iso9283;
+mod plan;
 mod predict;
 mod replay;
 pub mod shard;
@@ -30,6 +31,7 @@ pub use files::{
     Recordings,
 };
 pub use iso9283::{figures as iso9283_figures, iso9283_table, Iso9283, Iso9283Job, ModelFigures, PoseFigures};
+pub use plan::{PlanJob, PLAN_FILE, POSES_FILE};
 pub use predict::{predicted_readings, prediction_csv, residuals, rotation_residual_deg};
 pub use replay::{replay, AfterCalibration, Fidelity, ReplayJob, ReplayRequest, ReplaySummary};
 

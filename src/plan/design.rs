@@ -363,7 +363,7 @@ mod tests {
     fn random_pool(c: usize, d: usize, p: usize, seed: u64) -> Pool {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         // Half the candidates are weak (scaled by 0.1): a design should avoid them.
-        let rows = (0..c * d * p).map(|i| rng.random::<f64>() * 2.0 - 1.0).enumerate().map(|(i, v)| if (i / (d * p)) % 2 == 0 { v } else { 0.1 * v }).collect();
+        let rows = (0..c * d * p).map(|_| rng.random::<f64>() * 2.0 - 1.0).enumerate().map(|(i, v)| if (i / (d * p)) % 2 == 0 { v } else { 0.1 * v }).collect();
         Pool::new(rows, d, p)
     }
 

@@ -26,18 +26,23 @@ pub mod design;
 pub mod tour;
 pub mod verify;
 
+#[cfg(test)]
+mod tests;
+
 pub use design::{criterion, Criterion, Design, Pool, CRITERIA};
 
 use crate::calib::model::{CalibModel, Parametrisation, SensorGuess};
 use crate::calib::problem::{identify::analyse, ReadingFit, Samples};
 use crate::calib::run::placement::build_model;
-use crate::calib::run::{ModelSpec, DEFAULT_RANK_TOL};
+use crate::calib::run::ModelSpec;
+#[allow(unused_imports)]
+use crate::calib::run::DEFAULT_RANK_TOL;
 use crate::error::{Error, Result};
 use crate::optim::LeastSquares;
 use crate::robot::Robot;
 use crate::seed::{stream_seed, Stream};
 use crate::sim::scenario::{halton, Scenario, HALTON_BASES};
-use crate::sim::workspace::Refusal;
+use crate::sim::workspace::{Refusal, Workspace};
 use nalgebra::{DMatrix, SymmetricEigen};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -59,7 +64,8 @@ pub struct Candidates {
 
 /// `count` feasible commanded poses of scenario `s` (Halton over its joint ranges, started
 /// from `seed`; angles rounded to `sampling.angle_decimals` as the twin commands them), with
-/// the counts of those refused. Fewer when the cell refuses nearly everything (at most
+/// the counts of those refused. The scenario's [`Scenario::cell`] judges them, with the default
+/// [`Workspace`] (link capsules kept apart, the instrument's line of sight) when it has none. Fewer when the cell refuses nearly everything (at most
 /// 50·count + 10 000 draws).
 pub fn candidates(s: &Scenario, robot: &Robot, count: usize, seed: u64) -> Result<Candidates> {
     let n = robot.dof();
@@ -67,7 +73,12 @@ pub fn candidates(s: &Scenario, robot: &Robot, count: usize, seed: u64) -> Resul
         return Err(Error::Invalid(format!("Halton sampling supports up to {} joints", HALTON_BASES.len())));
     }
     let ranges = s.ranges_rad(robot);
-    let cell = s.cell(robot);
+    // A plan always keeps the links apart and the instrument's line clear: without a
+    // [workspace], with its defaults.
+    let cell = match &s.workspace {
+        Some(_) => s.cell(robot),
+        None => Scenario { workspace: Some(Workspace::default()), ..s.clone() }.cell(robot),
+    };
     let mut fk = cell.work();
     let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, Stream::Plan, 0));
     let start: u64 = rand::Rng::random_range(&mut rng, 100..1_000_000);
@@ -130,6 +141,12 @@ pub struct Problem {
     pub scale: Vec<f64>,
 }
 
+/// Relative singular value below which a parameter combination is left out of the design. A
+/// calibration fits down to [`DEFAULT_RANK_TOL`] (1e-7); a combination the whole pool sees
+/// that weakly moves no reading by more than rounding, and an index of its singular value
+/// (O3, O4, O5) would measure rounding too.
+pub const DESIGN_RANK_TOL: f64 = 1e-4;
+
 /// The design problem of `model` over the poses `q`.
 pub fn problem(model: &Model, q: &[Vec<f64>]) -> Problem {
     let j = model.jacobian(q);
@@ -140,7 +157,7 @@ pub fn problem(model: &Model, q: &[Vec<f64>]) -> Problem {
     let r = DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt())) * eig.eigenvectors.transpose();
     let nc = m.n_chain();
     let priority: Vec<usize> = (nc..m.n_params()).chain(0..nc).collect();
-    let id = analyse(&r, &m.names, &vec![false; m.n_params()], DEFAULT_RANK_TOL, &priority);
+    let id = analyse(&r, &m.names, &vec![false; m.n_params()], DESIGN_RANK_TOL, &priority);
     let keep: Vec<usize> = (0..m.n_params()).filter(|&k| !id.fixed_mask[k]).collect();
     let rows = j.nrows().max(1) as f64;
     let scale: Vec<f64> = keep.iter().map(|&k| (j.column(k).norm_squared() / rows).sqrt()).collect();

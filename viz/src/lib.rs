@@ -46,6 +46,7 @@ mod backend;
 
 mod jobs;
 pub mod layout;
+pub mod plan;
 pub mod plot;
 pub mod results;
 pub mod scenes;

@@ -3,7 +3,7 @@
 use super::*;
 
 /// `twincal generate`.
-pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: Option<u64>, quiet: bool) -> Result<()> {
+pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: Option<u64>, poses: Option<&Path>, quiet: bool) -> Result<()> {
     if out.exists() && !out.is_dir() {
         return Err(Error::Invalid(format!("--out {} is a file; generate writes a folder (dataset.csv, truth.json)", out.display())));
     }
@@ -14,13 +14,23 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
         outputs_named.push(("--rrd", p));
     }
     let (mut s, robot) = load_scenario(scenario)?;
-    let read = scenario_inputs(scenario, &s);
+    let mut read = scenario_inputs(scenario, &s);
+    read.extend(poses.map(|p| ("--poses", p.to_path_buf())));
     check_outputs(&read, &outputs_named)?;
     if let Some(seed) = seed {
         s.seed = seed;
     }
     let t0 = Instant::now();
-    let g = run_generate(&s, &robot, progress(quiet).as_ref())?;
+    let g = match poses {
+        None => run_generate(&s, &robot, progress(quiet).as_ref())?,
+        Some(p) => {
+            // The listed poses, in their order, every one a training row.
+            let q = twincal::sim::generate::read_pose_list(p, &robot)?;
+            s.sampling.poses = q.len();
+            s.sampling.test = 0;
+            twincal::sim::generate::generate_at(&s, &robot, q, None, progress(quiet).as_ref())?
+        }
+    };
     let elapsed = t0.elapsed().as_secs_f64();
     let mut outputs = OutputSet::new();
     if let Some(path) = rrd {

@@ -1,0 +1,57 @@
+//! `twincal plan`: the library's [`twincal::jobs::PlanJob`], and what it prints.
+
+use super::*;
+
+/// Plans, writes, and prints the plan's summary.
+pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
+    let p = job.run(&twincal_viz::Rerun)?;
+    if quiet {
+        return Ok(());
+    }
+    let c = &p.candidates;
+    let refused: Vec<String> = c.refused.iter().map(|(k, v)| format!("{k} {v}")).collect();
+    eprintln!(
+        "planned {} poses of {} feasible candidates ({} drawn{}) in {:.2} s",
+        p.poses.len(),
+        c.q.len(),
+        c.drawn,
+        if refused.is_empty() { String::new() } else { format!("; refused: {}", refused.join(", ")) },
+        p.seconds
+    );
+    eprintln!(
+        "  {} parameters identifiable ({} held: no candidate tells them apart); criterion {}: {}",
+        p.identifiable.len(),
+        p.fixed.len(),
+        p.criterion,
+        p.criterion_describe
+    );
+    eprintln!("  index                                     plan    random sets of {} (median of {})", p.poses.len(), twincal::plan::RANDOM_SETS);
+    let (a, b) = (&p.indices, &p.random_median);
+    for (name, x, y) in [
+        ("mean prediction variance (I, lower better)", a.i_prediction_variance, b.i_prediction_variance),
+        ("O1 (D-optimal)", a.o1_d, b.o1_d),
+        ("O3 (smallest singular value)", a.o3_min_sv, b.o3_min_sv),
+        ("O4 (noise amplification)", a.o4_noise, b.o4_noise),
+        ("O5", a.o5_a, b.o5_a),
+        ("condition number", a.condition, b.condition),
+    ] {
+        eprintln!("  {name:<42} {:<8} {}", shown(x), shown(y));
+    }
+    eprintln!(
+        "  tour: {:.0} s ({:.0} s moving, {:.0} s holding and reading); in the design's order {:.0} s",
+        p.tour.total_s, p.tour.moving_s, p.tour.reading_s, p.unordered.total_s
+    );
+    eprintln!("  wrote {}/{} and {}/{}", job.out.display(), twincal::jobs::POSES_FILE, job.out.display(), twincal::jobs::PLAN_FILE);
+    if let Some(r) = &job.rrd {
+        eprintln!("  wrote {}", r.display());
+    }
+    Ok(())
+}
+
+fn shown(v: f64) -> String {
+    if v.is_finite() && v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e4) {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.4}")
+    }
+}

@@ -1,0 +1,118 @@
+//! `twincal plan`: a measurement plan for a scenario's arm, instrument and cell
+//! ([`crate::plan`]), written as a pose list (`poses.csv`, what `generate --poses` and a robot
+//! program step through) and its indices (`plan.json`), whole or not at all.
+
+use super::files::{load_scenario, scenario_inputs, Recordings};
+use crate::calib::model::Parametrisation;
+use crate::error::{Error, Result};
+use crate::io::{check_outputs, OutputSet};
+use crate::plan::{plan, Plan, PlanOptions};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// The pose list a plan writes in its folder.
+pub const POSES_FILE: &str = "poses.csv";
+/// The plan's indices, pool and tour, in its folder.
+pub const PLAN_FILE: &str = "plan.json";
+
+/// A plan as `twincal plan` runs it; Python's `twincal.plan` arguments.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+#[serde(deny_unknown_fields)]
+pub struct PlanJob {
+    /// The scenario: its robot, its instrument's placement ([sensor], [tracker]), the joint
+    /// ranges and tool height of [sampling], and the cell ([workspace]); default: the embedded
+    /// one.
+    #[cfg_attr(feature = "clap", arg(long))]
+    #[serde(default)]
+    pub scenario: Option<PathBuf>,
+    /// Poses to plan.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 30))]
+    #[serde(default = "default_poses")]
+    pub poses: usize,
+    /// Feasible candidates to choose from.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 10_000))]
+    #[serde(default = "default_candidates")]
+    pub candidates: usize,
+    /// The index maximised: i (I-optimal: mean prediction variance over the candidates), d (O1,
+    /// D-optimal), min-sv (O3), noise (O4, noise amplification) or a (O5).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "i"))]
+    #[serde(default = "default_criterion")]
+    pub criterion: String,
+    /// The parametrisation the calibration will use: hayati, dh or frame.
+    #[cfg_attr(feature = "clap", arg(long, default_value = "hayati"))]
+    #[serde(default = "default_params")]
+    pub params: String,
+    /// Seed of the candidate pool (default: the scenario's).
+    #[cfg_attr(feature = "clap", arg(long))]
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Folder to write poses.csv and plan.json in.
+    #[cfg_attr(feature = "clap", arg(long, default_value = "plan"))]
+    #[serde(default = "default_out")]
+    pub out: PathBuf,
+    /// Also write a Rerun recording of the plan here.
+    #[cfg_attr(feature = "clap", arg(long))]
+    #[serde(default)]
+    pub rrd: Option<PathBuf>,
+}
+
+fn default_poses() -> usize {
+    30
+}
+fn default_candidates() -> usize {
+    10_000
+}
+fn default_criterion() -> String {
+    "i".into()
+}
+fn default_params() -> String {
+    "hayati".into()
+}
+fn default_out() -> PathBuf {
+    PathBuf::from("plan")
+}
+
+/// Most candidates a plan draws.
+pub const MAX_CANDIDATES: usize = 200_000;
+
+impl PlanJob {
+    /// Plans and writes poses.csv, plan.json and the recording, if asked.
+    pub fn run(&self, recordings: &dyn Recordings) -> Result<Plan> {
+        if self.out.exists() && !self.out.is_dir() {
+            return Err(Error::Invalid(format!("--out {} is a file; plan writes a folder ({POSES_FILE}, {PLAN_FILE})", self.out.display())));
+        }
+        if !(1..=crate::sim::twin::MAX_POSES).contains(&self.poses) {
+            return Err(Error::Invalid(format!("--poses must be in 1..={}, got {}", crate::sim::twin::MAX_POSES, self.poses)));
+        }
+        if !(self.poses..=MAX_CANDIDATES).contains(&self.candidates) {
+            return Err(Error::Invalid(format!("--candidates must be in {}..={MAX_CANDIDATES} (at least --poses), got {}", self.poses, self.candidates)));
+        }
+        crate::plan::criterion(&self.criterion)?;
+        let parametrisation = Parametrisation::parse(&self.params)?;
+        let (s, robot) = load_scenario(self.scenario.as_deref())?;
+        let (poses_path, plan_path) = (self.out.join(POSES_FILE), self.out.join(PLAN_FILE));
+        let mut outs = vec![("--out", poses_path.as_path()), ("--out", plan_path.as_path())];
+        if let Some(r) = &self.rrd {
+            outs.push(("--rrd", r.as_path()));
+        }
+        check_outputs(&scenario_inputs(self.scenario.as_deref(), &s), &outs)?;
+        let opts = PlanOptions {
+            n: self.poses,
+            candidates: self.candidates,
+            criterion: self.criterion.clone(),
+            parametrisation,
+            seed: self.seed.unwrap_or(s.seed),
+            ..PlanOptions::default()
+        };
+        let p = plan(&s, &robot, &opts)?;
+        let mut outputs = OutputSet::new();
+        if let Some(r) = &self.rrd {
+            recordings.plan(&p, &s, &robot, &mut outputs, r)?;
+        }
+        outputs.write(&poses_path, crate::sim::generate::pose_list_csv(&p.poses, s.sampling.angle_decimals).as_bytes())?;
+        outputs.write_json(&plan_path, &p)?;
+        outputs.commit()?;
+        Ok(p)
+    }
+}
