@@ -258,14 +258,22 @@ fn columns_py(py: Python<'_>, ds: &Dataset) -> PyResult<Columns> {
 /// Simulates a scenario (a TOML path; the embedded default when None), as `twincal generate`.
 /// Returns the dataset's columns and truth.json's text, the bytes `generate` writes.
 #[pyfunction]
-#[pyo3(signature = (scenario=None, seed=None, progress=None))]
-fn generate(py: Python<'_>, scenario: Option<PathBuf>, seed: Option<u64>, progress: Option<Bound<'_, PyAny>>) -> PyResult<(Columns, String)> {
+#[pyo3(signature = (scenario=None, seed=None, progress=None, poses=None))]
+fn generate(py: Python<'_>, scenario: Option<PathBuf>, seed: Option<u64>, progress: Option<Bound<'_, PyAny>>, poses: Option<PathBuf>) -> PyResult<(Columns, String)> {
     let (ds, truth) = released(py, progress.as_ref(), |t| {
         let (mut s, robot) = jobs::load_scenario(scenario.as_deref())?;
         if let Some(seed) = seed {
             s.seed = seed;
         }
-        let g = twincal::sim::generate::generate(&s, &robot, t)?;
+        let g = match &poses {
+            None => twincal::sim::generate::generate(&s, &robot, t)?,
+            Some(p) => {
+                let q = twincal::sim::generate::read_pose_list(p, &robot)?;
+                s.sampling.poses = q.len();
+                s.sampling.test = 0;
+                twincal::sim::generate::generate_at(&s, &robot, q, None, t)?
+            }
+        };
         let (_, truth) = twincal::sim::generate::output_texts(&g)?;
         Ok((g.dataset, truth))
     })?;
@@ -618,6 +626,17 @@ fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, op
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
+/// Plans measurement poses as `twincal plan`, writing poses.csv and plan.json into `out`;
+/// `options`: a JSON object of its `scenario`, `poses`, `candidates`, `criterion`, `params`,
+/// `seed` and `rrd`. Returns plan.json's text.
+#[pyfunction]
+fn plan(py: Python<'_>, out: PathBuf, options: &str) -> PyResult<String> {
+    let mut job: jobs::PlanJob = request("plan", options)?;
+    job.out = out;
+    let p = py.detach(|| job.run(&Rerun)).map_err(err)?;
+    serde_json::to_string(&p).map_err(|e| TwincalError::new_err(format!("cannot serialise the plan: {e}")))
+}
+
 /// ISO 9283 figures of the measured poses `data` (a path) against each of `models` (result.json
 /// paths), as `twincal iso9283`; returns the evaluation's JSON.
 #[pyfunction]
@@ -644,6 +663,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(export, m)?)?;
     m.add_function(wrap_pyfunction!(compensate, m)?)?;
     m.add_function(wrap_pyfunction!(iso9283, m)?)?;
+    m.add_function(wrap_pyfunction!(plan, m)?)?;
     m.add_class::<PyCalibration>()?;
     m.add_class::<PyDiagnosis>()?;
     Ok(())

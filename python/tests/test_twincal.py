@@ -425,3 +425,21 @@ def test_iso9283_agrees_with_the_command_line(tmp_path):
     assert e["models"][0]["ap_mm"]["mean"] < 0.02
     with pytest.raises(twincal.TwincalError, match="unknown option 'colour'"):
         twincal.iso9283(d, tmp_path / "a.json", colour="red")
+
+
+def test_plan_agrees_with_the_command_line_and_its_poses_are_what_generate_measures(tmp_path):
+    scenario = ROOT / "scenarios/irb120_tracker.toml"
+    p = twincal.plan(tmp_path / "p", scenario=scenario, poses=12, candidates=1500, seed=3)
+    assert len(p["poses_deg"]) == 12 and p["criterion"] == "i"
+    assert p["indices"]["i_prediction_variance"] < p["random_median"]["i_prediction_variance"]
+    data, truth = twincal.generate(scenario, poses=tmp_path / "p" / "poses.csv")
+    assert len(data["q1"]) == 12
+    assert np.allclose(np.column_stack([data[f"q{j}"] for j in range(1, 7)]), np.array(p["poses_deg"]), atol=1e-6)
+    run_cli("plan", "--scenario", scenario, "--poses", 12, "--candidates", 1500, "--seed", 3, "--out", tmp_path / "cli")
+    assert (tmp_path / "p" / "poses.csv").read_text() == (tmp_path / "cli" / "poses.csv").read_text()
+    with pytest.raises(twincal.TwincalError, match="unknown criterion 'e'"):
+        twincal.plan(tmp_path / "q", criterion="e")
+    with pytest.raises(twincal.TwincalError, match="--candidates must be"):
+        twincal.plan(tmp_path / "q", poses=40, candidates=20)
+    with pytest.raises(twincal.TwincalError, match="poses"):
+        twincal.plan(tmp_path / "q", poses="many")

@@ -46,6 +46,7 @@ __all__ = [
     "export",
     "compensate",
     "iso9283",
+    "plan",
     "cli",
     "__version__",
 ]
@@ -192,14 +193,23 @@ def _frame(data: dict[str, np.ndarray], as_frame: bool) -> Any:
     return pd.DataFrame(data)
 
 
-def generate(scenario: Optional[Union[str, os.PathLike]] = None, seed: Optional[int] = None, *, as_frame: bool = False, progress: Progress = None) -> tuple[Any, dict]:
-    """Simulate a scenario (TOML path; None: the embedded IRB 120 default), as ``twincal generate``.
+def generate(
+    scenario: Optional[Union[str, os.PathLike]] = None,
+    seed: Optional[int] = None,
+    *,
+    poses: Optional[Union[str, os.PathLike]] = None,
+    as_frame: bool = False,
+    progress: Progress = None,
+) -> tuple[Any, dict]:
+    """Simulate a scenario (TOML path; None: the embedded IRB 120 default), as ``twincal generate``;
+    with ``poses`` (a pose list as :func:`plan` writes it, q1..qN in degrees) the twin measures
+    those poses in their order, none held out, as ``generate --poses``.
 
     Returns ``(data, truth)``: the dataset's columns (a dict of numpy arrays, or a pandas
     DataFrame with ``as_frame=True``), equal value for value to the ``dataset.csv`` that
     ``twincal generate`` writes, and its ``truth.json`` as a dict.
     """
-    columns, truth = _native.generate(None if scenario is None else os.fspath(scenario), _seed(seed), progress)
+    columns, truth = _native.generate(None if scenario is None else os.fspath(scenario), _seed(seed), progress, None if poses is None else os.fspath(poses))
     return _frame(_mapping(columns), as_frame), json.loads(truth)
 
 
@@ -483,6 +493,36 @@ def compensate(
     predicted residual, uncompensated error and filtered Cartesian target)."""
     options = _options({"payload_kg": payload_kg, "payload_com_mm": None if payload_com_mm is None else list(payload_com_mm), "tol_mm": tol_mm})
     return json.loads(_native.compensate(os.fspath(model), os.fspath(targets), os.fspath(out), options))
+
+
+def plan(
+    out: Union[str, os.PathLike],
+    *,
+    scenario: Optional[Union[str, os.PathLike]] = None,
+    poses: int = 30,
+    candidates: int = 10_000,
+    criterion: str = "i",
+    params: str = "hayati",
+    seed: Optional[int] = None,
+    rrd: Optional[Union[str, os.PathLike]] = None,
+) -> dict:
+    """Measurement poses worth measuring, as ``twincal plan``: feasible candidates of the scenario's
+    arm, instrument and cell (None: the embedded one), ``poses`` of them chosen by ``criterion``
+    (``i``, ``d``, ``min-sv``, ``noise``, ``a``) for the ``params`` parametrisation, ordered into a
+    short tour. Writes ``poses.csv`` (what :func:`generate` takes as ``poses``) and ``plan.json``
+    into the folder ``out`` (and a recording at ``rrd``); returns plan.json as a dict."""
+    options = _options(
+        {
+            "scenario": None if scenario is None else os.fspath(scenario),
+            "poses": poses,
+            "candidates": candidates,
+            "criterion": criterion,
+            "params": params,
+            "seed": _seed(seed),
+            "rrd": None if rrd is None else os.fspath(rrd),
+        }
+    )
+    return json.loads(_native.plan(os.fspath(out), options))
 
 
 def iso9283(data: Union[str, os.PathLike], models: Any, **options: Any) -> dict:

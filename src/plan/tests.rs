@@ -51,7 +51,7 @@ fn planned_poses_calibrate_to_a_smaller_true_error_than_random_ones_on_the_twin(
     let (s, robot) = scenario();
     let o = StudyOptions {
         ns: vec![15],
-        multiples: vec![1],
+        multiples: vec![1.0],
         seeds: vec![1, 2, 3, 4],
         test_poses: 100,
         plan: PlanOptions { candidates: 2000, ..PlanOptions::default() },

@@ -88,8 +88,8 @@ pub struct Comparison {
 pub struct StudyOptions {
     /// Plan sizes.
     pub ns: Vec<usize>,
-    /// Random set sizes, as multiples of N.
-    pub multiples: Vec<usize>,
+    /// Random set sizes, as multiples of N (rounded to whole poses).
+    pub multiples: Vec<f64>,
     /// Seeds.
     pub seeds: Vec<u64>,
     /// Test poses per seed.
@@ -103,7 +103,7 @@ pub fn study(s: &Scenario, robot: &Robot, o: &StudyOptions) -> Result<Vec<Compar
     let calib = CalibOptions::new(ModelSpec::nominal(robot.clone(), o.plan.parametrisation), Method::LM);
     let mut out = Vec::new();
     for &n in &o.ns {
-        let sizes: Vec<usize> = o.multiples.iter().map(|m| m * n).collect();
+        let sizes: Vec<usize> = o.multiples.iter().map(|m| (m * n as f64).round().max(1.0) as usize).collect();
         let mut rows = Vec::new();
         for &seed in &o.seeds {
             let s = all_train(s, seed, n);

@@ -1,5 +1,5 @@
 //! `twincal bench plan`: measurement plans verified on the twin ([`twincal::plan::verify`]) —
-//! for N in {15, 30, 60} planned poses against random feasible sets of N, 2N, 3N and 4N poses,
+//! for N in {15, 30, 60} planned poses against random feasible sets of N, 1.5N, 2N, 3N and 4N poses,
 //! each calibrated alone and judged by its true error on independent test poses, over seeds —
 //! and the time a plan of 30 poses out of 10 000 candidates takes against its 5 s target.
 
@@ -26,7 +26,7 @@ fn load(file: &str) -> Result<(Scenario, twincal::robot::Robot)> {
 fn print(label: &str, rows: &[Comparison], seeds: u64) {
     println!("\n## {label} ({seeds} seeds; true position error on 200 independent test poses after calibration, RMS mm, median over seeds)\n");
     let sizes = &rows[0].random_sizes;
-    let head: Vec<String> = (0..sizes.len()).map(|k| format!("random {}N", sizes[k] / rows[0].n)).collect();
+    let head: Vec<String> = (0..sizes.len()).map(|k| format!("random {}N", sizes[k] as f64 / rows[0].n as f64)).collect();
     println!("| N | planned | {} | random poses reaching the plan's error | planned better than random N (seeds) |", head.join(" | "));
     println!("|---|---|{}---|---|", "---|".repeat(sizes.len()));
     for c in rows {
@@ -49,7 +49,7 @@ pub fn bench_plan(seeds: u64, repeat: usize) -> Result<()> {
         let (s, robot) = load(file)?;
         for criterion in ["i", "d"] {
             let plan = PlanOptions { criterion: criterion.into(), ..PlanOptions::default() };
-            let o = StudyOptions { ns: ns.to_vec(), multiples: vec![1, 2, 3, 4], seeds: (1..=seeds).collect(), test_poses: 200, plan };
+            let o = StudyOptions { ns: ns.to_vec(), multiples: vec![1.0, 1.5, 2.0, 3.0, 4.0], seeds: (1..=seeds).collect(), test_poses: 200, plan };
             let rows = study(&s, &robot, &o)?;
             print(&format!("{label}, criterion {criterion}"), &rows, seeds);
         }

@@ -17,6 +17,7 @@ mod fuzz;
 mod inputs;
 mod iso9283;
 mod measurement;
+mod plan;
 mod pose;
 mod realdata;
 mod recordings;

@@ -1,0 +1,100 @@
+//! `twincal plan`, end to end: a plan in a cell with a floor and a keep-out box, every planned
+//! pose feasible and inside the ranges; its pose list measured by `generate --poses` and
+//! calibrated; the recording; bad requests and bad pose lists refused with exit code 2.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn twincal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).output().expect("runs")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+const CELL: &str = "\n[workspace]\nlink_radius_mm = 45.0\nfloor_z_mm = 0.0\nkeep_out = [{ name = \"fixture\", min_mm = [250.0, -400.0, 0.0], max_mm = [450.0, -200.0, 300.0] }]\n";
+
+#[test]
+fn a_plan_is_feasible_measured_by_generate_and_calibrated() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let text = std::fs::read_to_string(root.join("scenarios/irb120_tracker.toml")).unwrap() + CELL;
+    let scenario = dir.path().join("cell.toml");
+    std::fs::write(&scenario, text).unwrap();
+    let out = dir.path().join("plan");
+    let rrd = dir.path().join("plan.rrd");
+    let o = twincal(&["plan", "--scenario", s(&scenario), "--poses", "20", "--candidates", "3000", "--out", s(&out), "--rrd", s(&rrd)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("planned 20 poses") && err.contains("link in a keep-out box"), "{err}");
+    let plan: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    assert!(plan["tour"]["total_s"].as_f64().unwrap() <= plan["unordered"]["total_s"].as_f64().unwrap());
+    assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
+    // The pose list: 20 rows, inside the scenario's ranges, measured in its order.
+    let data = dir.path().join("d");
+    let o = twincal(&["--quiet", "generate", "--scenario", s(&scenario), "--poses", s(&out.join("poses.csv")), "--out", s(&data)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let truth: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(data.join("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["poses"].as_array().unwrap().len(), 20);
+    // Every planned tool point clear of the box and the floor (the capsules' axes are checked
+    // by the library's tests; the tool point is the last capsule's end).
+    for p in truth["poses"].as_array().unwrap() {
+        let t: Vec<f64> = p["tool_mm"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let inside = t[0] > 250.0 - 45.0 && t[0] < 450.0 + 45.0 && t[1] > -445.0 && t[1] < -155.0 && t[2] < 345.0;
+        assert!(!inside && t[2] > 45.0, "tool point {t:?} in the box or on the floor");
+    }
+    let o = twincal(&["--quiet", "calibrate", "--data", s(&data), "--out", s(&dir.path().join("r.json"))]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn bad_plan_requests_and_pose_lists_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p");
+    let file = dir.path().join("file.txt");
+    std::fs::write(&file, "x").unwrap();
+    for (args, needle) in [
+        (vec!["--poses", "0"], "--poses must be in"),
+        (vec!["--poses", "40", "--candidates", "20"], "--candidates must be in"),
+        (vec!["--criterion", "e"], "unknown criterion 'e'"),
+        (vec!["--params", "xyz"], "xyz"),
+        (vec!["--scenario", "nowhere.toml"], "nowhere.toml"),
+    ] {
+        let mut a = vec!["plan", "--out", s(&out)];
+        a.extend(args);
+        let o = twincal(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{a:?}: {err}");
+        assert!(err.contains(needle), "{a:?}: {err}");
+        assert!(!out.exists(), "{a:?} wrote {}", out.display());
+    }
+    let o = twincal(&["plan", "--out", s(&file)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
+    // Pose lists generate refuses, and the dataset it does not write.
+    let data = dir.path().join("d");
+    for (text, needle) in [
+        ("q1,q2,q3,q4,q5,q6\n10,20,30,40,50,500\n", "outside joint 6's limits"),
+        ("q1,q2,q3,q4,q5,q6,q7\n0,0,0,0,0,0,0\n", "has a column q7"),
+        ("q1,q2,q3\n0,0,0\n", "q1..q6"),
+        ("q1,q2,q3,q4,q5,q6\nNaN,0,0,0,0,0\n", "outside joint 1's limits"),
+        ("q1,q2,q3,q4,q5,q6\n", "no poses"),
+    ] {
+        let poses = dir.path().join("poses.csv");
+        std::fs::write(&poses, text).unwrap();
+        let o = twincal(&["generate", "--poses", s(&poses), "--out", s(&data)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{text}: {err}");
+        assert!(err.contains(needle), "{text}: {err}");
+        assert!(!data.exists());
+    }
+    // A pose list where generate would write its dataset: refused, the list untouched.
+    let d2 = dir.path().join("d2");
+    std::fs::create_dir(&d2).unwrap();
+    let poses = d2.join("dataset.csv");
+    std::fs::write(&poses, "q1,q2,q3,q4,q5,q6\n0,0,0,0,30,0\n").unwrap();
+    let o = twincal(&["generate", "--poses", s(&poses), "--out", s(&d2)]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read_to_string(&poses).unwrap(), "q1,q2,q3,q4,q5,q6\n0,0,0,0,30,0\n");
+}
