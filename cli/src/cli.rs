@@ -153,7 +153,9 @@ pub enum Command {
 pub fn run(args: Cli) -> twincal::Result<()> {
     let quiet = args.quiet;
     match args.command {
-        Command::Generate { scenario, out, rrd, seed, poses } => commands::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, poses.as_deref(), args.quiet),
+        Command::Generate { scenario, out, rrd, seed, poses } => {
+            commands::generate(scenario.as_deref(), &out, rrd.as_deref(), seed, poses.as_deref(), args.quiet)
+        }
         Command::Plan(a) => commands::plan(&a, args.quiet),
         Command::Calibrate(a) => commands::calibrate(&a, args.quiet),
         Command::Diagnose(a) => commands::diagnose(&a, args.quiet),

@@ -259,7 +259,13 @@ fn columns_py(py: Python<'_>, ds: &Dataset) -> PyResult<Columns> {
 /// Returns the dataset's columns and truth.json's text, the bytes `generate` writes.
 #[pyfunction]
 #[pyo3(signature = (scenario=None, seed=None, progress=None, poses=None))]
-fn generate(py: Python<'_>, scenario: Option<PathBuf>, seed: Option<u64>, progress: Option<Bound<'_, PyAny>>, poses: Option<PathBuf>) -> PyResult<(Columns, String)> {
+fn generate(
+    py: Python<'_>,
+    scenario: Option<PathBuf>,
+    seed: Option<u64>,
+    progress: Option<Bound<'_, PyAny>>,
+    poses: Option<PathBuf>,
+) -> PyResult<(Columns, String)> {
     let (ds, truth) = released(py, progress.as_ref(), |t| {
         let (mut s, robot) = jobs::load_scenario(scenario.as_deref())?;
         if let Some(seed) = seed {

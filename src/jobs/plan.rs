@@ -73,6 +73,21 @@ fn default_out() -> PathBuf {
     PathBuf::from("plan")
 }
 
+impl Default for PlanJob {
+    fn default() -> Self {
+        PlanJob {
+            scenario: None,
+            poses: default_poses(),
+            candidates: default_candidates(),
+            criterion: default_criterion(),
+            params: default_params(),
+            seed: None,
+            out: default_out(),
+            rrd: None,
+        }
+    }
+}
+
 /// Most candidates a plan draws.
 pub const MAX_CANDIDATES: usize = 200_000;
 

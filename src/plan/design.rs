@@ -127,9 +127,11 @@ pub const CRITERIA: [&dyn Criterion; 5] = [&IOptimal, &DOptimal, &MinSingular, &
 
 /// The criterion named `name`.
 pub fn criterion(name: &str) -> crate::Result<&'static dyn Criterion> {
-    CRITERIA.iter().copied().find(|c| c.name() == name).ok_or_else(|| {
-        crate::Error::Invalid(format!("unknown criterion '{name}' (expected one of: {})", CRITERIA.map(|c| c.name()).join(", ")))
-    })
+    CRITERIA
+        .iter()
+        .copied()
+        .find(|c| c.name() == name)
+        .ok_or_else(|| crate::Error::Invalid(format!("unknown criterion '{name}' (expected one of: {})", CRITERIA.map(|c| c.name()).join(", "))))
 }
 
 /// The candidates: `d` rows of `p` scaled Jacobian values each, candidate after candidate.
@@ -245,13 +247,7 @@ fn gain(l: &DMatrix<f64>, a: &[f64], d: usize, p: usize, z: &mut [f64]) -> f64 {
 /// Each candidate's determinant gain given M (its Cholesky factor `l`); chosen ones get −∞.
 fn gains(pool: &Pool, l: &DMatrix<f64>, chosen: &[bool]) -> Vec<f64> {
     let (d, p) = (pool.d, pool.p);
-    (0..pool.len())
-        .into_par_iter()
-        .map_init(
-            || vec![0.0; d * p],
-            |z, c| if chosen[c] { f64::NEG_INFINITY } else { gain(l, pool.block(c), d, p, z) },
-        )
-        .collect()
+    (0..pool.len()).into_par_iter().map_init(|| vec![0.0; d * p], |z, c| if chosen[c] { f64::NEG_INFINITY } else { gain(l, pool.block(c), d, p, z) }).collect()
 }
 
 fn cholesky(m: &DMatrix<f64>) -> DMatrix<f64> {

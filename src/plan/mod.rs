@@ -289,7 +289,14 @@ pub fn random_set(len: usize, n: usize, seed: u64) -> Vec<usize> {
 fn median_indices(pool: &Pool, sets: &[Vec<usize>]) -> Indices {
     let all: Vec<Indices> = sets.iter().map(|s| Indices::of(pool, s)).collect();
     let med = |f: &dyn Fn(&Indices) -> f64| crate::stats::median(&all.iter().map(f).collect::<Vec<f64>>());
-    Indices { o1_d: med(&|i| i.o1_d), i_prediction_variance: med(&|i| i.i_prediction_variance), o3_min_sv: med(&|i| i.o3_min_sv), o4_noise: med(&|i| i.o4_noise), o5_a: med(&|i| i.o5_a), condition: med(&|i| i.condition) }
+    Indices {
+        o1_d: med(&|i| i.o1_d),
+        i_prediction_variance: med(&|i| i.i_prediction_variance),
+        o3_min_sv: med(&|i| i.o3_min_sv),
+        o4_noise: med(&|i| i.o4_noise),
+        o5_a: med(&|i| i.o5_a),
+        condition: med(&|i| i.condition),
+    }
 }
 
 /// Plans `opts.n` poses for scenario `s` on `robot` (see the module docs).

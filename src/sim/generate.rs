@@ -638,8 +638,7 @@ pub fn read_pose_list(path: &std::path::Path, robot: &Robot) -> Result<Vec<Vec<f
     }
     let names: Vec<String> = (1..=n).map(|j| format!("q{j}")).collect();
     let cols: Vec<&str> = names.iter().map(String::as_str).collect();
-    let rows = crate::dataset::read_csv_columns(path, &cols)
-        .map_err(|e| Error::data(&at, format!("a pose list needs the columns q1..q{n} (degrees): {e}")))?;
+    let rows = crate::dataset::read_csv_columns(path, &cols).map_err(|e| Error::data(&at, format!("a pose list needs the columns q1..q{n} (degrees): {e}")))?;
     if rows.is_empty() {
         return Err(Error::data(&at, "no poses after the header"));
     }
@@ -654,7 +653,14 @@ pub fn read_pose_list(path: &std::path::Path, robot: &Robot) -> Result<Vec<Vec<f
             if !v.is_finite() || v.to_radians() < lo - 1e-9 || v.to_radians() > hi + 1e-9 {
                 return Err(Error::data(
                     &at,
-                    format!("pose {}: q{} = {v}° is outside joint {}'s limits [{:.2}, {:.2}]° (angles are degrees)", i + 1, j + 1, j + 1, lo.to_degrees(), hi.to_degrees()),
+                    format!(
+                        "pose {}: q{} = {v}° is outside joint {}'s limits [{:.2}, {:.2}]° (angles are degrees)",
+                        i + 1,
+                        j + 1,
+                        j + 1,
+                        lo.to_degrees(),
+                        hi.to_degrees()
+                    ),
                 ));
             }
         }

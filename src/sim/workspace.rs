@@ -65,7 +65,14 @@ fn yes() -> bool {
 
 impl Default for Workspace {
     fn default() -> Self {
-        Workspace { link_radius_mm: Workspace::default_radius(), floor_z_mm: None, keep_out: Vec::new(), self_collision: true, line_of_sight: true, tracker_range_mm: None }
+        Workspace {
+            link_radius_mm: Workspace::default_radius(),
+            floor_z_mm: None,
+            keep_out: Vec::new(),
+            self_collision: true,
+            line_of_sight: true,
+            tracker_range_mm: None,
+        }
     }
 }
 

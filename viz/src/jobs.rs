@@ -26,7 +26,14 @@ impl twincal::jobs::Recordings for Rerun {
             runs.iter().map(|r| super::results::CompareRow { method: &r.method, seed: r.seed, test_rmse_mm: r.test.rmse, test_max_mm: r.test.max }).collect();
         super::results::record_comparison(table, methods, &rows, outputs, path)
     }
-    fn plan(&self, plan: &twincal::plan::Plan, s: &twincal::sim::scenario::Scenario, robot: &twincal::robot::Robot, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+    fn plan(
+        &self,
+        plan: &twincal::plan::Plan,
+        s: &twincal::sim::scenario::Scenario,
+        robot: &twincal::robot::Robot,
+        outputs: &mut OutputSet,
+        path: &Path,
+    ) -> Result<()> {
         super::plan::record_plan(plan, s, robot, outputs, path)
     }
 }

@@ -59,7 +59,7 @@ pub fn record_plan(p: &Plan, s: &Scenario, robot: &Robot, outputs: &mut OutputSe
     let planned: Vec<[f64; 3]> = p.poses.iter().map(|q| tool(q, &mut fk)).collect();
     let labels: Vec<String> = (0..planned.len()).map(|i| format!("pose {}", i + 1)).collect();
     rec.points_hover("world/planned", &planned, Some(&[AFTER]), Some(9.0), &labels);
-    rec.line_strips("world/tour", &[planned.clone()], [60, 190, 230, 120], 1.5);
+    rec.line_strips("world/tour", std::slice::from_ref(&planned), [60, 190, 230, 120], 1.5);
     if let Some(ws) = &s.workspace {
         for (k, b) in ws.keep_out.iter().enumerate() {
             rec.segments(&format!("world/keep_out/{k}"), &box_edges(b.min_mm, b.max_mm), &[[235, 60, 60, 255]], 3.0);
@@ -75,7 +75,10 @@ pub fn record_plan(p: &Plan, s: &Scenario, robot: &Robot, outputs: &mut OutputSe
     }
     rec.layout(Blueprint {
         root: Layout::Horizontal(
-            vec![Layout::view(K::Spatial3d, "Planned poses: candidates (grey), plan in tour order (blue), arm capsules", "/world"), Layout::view(K::Text, "Legend", "/docs")],
+            vec![
+                Layout::view(K::Spatial3d, "Planned poses: candidates (grey), plan in tour order (blue), arm capsules", "/world"),
+                Layout::view(K::Text, "Legend", "/docs"),
+            ],
             vec![3.0, 1.0],
         ),
         timeline: Some("pose".into()),

@@ -15,10 +15,10 @@
 pub mod awnn;
 pub mod calib;
 pub mod compensate;
-pub mod plan;
 pub mod diagnose;
 pub mod evo;
 pub mod noise;
+pub mod plan;
 pub mod real;
 pub mod replay;
 pub mod twin;

@@ -26,7 +26,7 @@ fn load(file: &str) -> Result<(Scenario, twincal::robot::Robot)> {
 fn print(label: &str, rows: &[Comparison], seeds: u64) {
     println!("\n## {label} ({seeds} seeds; true position error on 200 independent test poses after calibration, RMS mm, median over seeds)\n");
     let sizes = &rows[0].random_sizes;
-    let head: Vec<String> = (0..sizes.len()).map(|k| format!("random {}N", sizes[k] as f64 / rows[0].n as f64)).collect();
+    let head: Vec<String> = (0..sizes.len()).map(|k| format!("random {}N", o_round(sizes[k] as f64 / rows[0].n as f64))).collect();
     println!("| N | planned | {} | random poses reaching the plan's error | planned better than random N (seeds) |", head.join(" | "));
     println!("|---|---|{}---|---|", "---|".repeat(sizes.len()));
     for c in rows {
@@ -78,4 +78,14 @@ fn speed(repeat: usize) -> Result<()> {
         p.design.exchanges
     );
     Ok(())
+}
+
+/// A multiple as the table heads it: 1.5, 2 (one decimal at most).
+fn o_round(m: f64) -> String {
+    let r = (m * 10.0).round() / 10.0;
+    if r.fract() == 0.0 {
+        format!("{r:.0}")
+    } else {
+        format!("{r:.1}")
+    }
 }
