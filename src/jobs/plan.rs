@@ -43,6 +43,20 @@ pub struct PlanJob {
     #[cfg_attr(feature = "clap", arg(long, default_value = "hayati"))]
     #[serde(default = "default_params")]
     pub params: String,
+    /// Effects the calibration will fit beside the geometry, whose parameters the plan also
+    /// makes observable: compliance, eccentricity, nonlinearity, ... (KIND[:JOINT], comma-separated).
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
+    #[serde(default)]
+    pub effects: Vec<String>,
+    /// The payload mounted while measuring, kg (default: the scenario's [effects.payload]); it
+    /// loads the joints for the load-driven effects.
+    #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
+    #[serde(default)]
+    pub payload_kg: Option<f64>,
+    /// Its centre of mass in the flange frame, mm (x,y,z).
+    #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, value_delimiter = ',', allow_hyphen_values = true, value_name = "X,Y,Z"))]
+    #[serde(default)]
+    pub payload_com_mm: Option<Vec<f64>>,
     /// Seed of the candidate pool (default: the scenario's).
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
@@ -81,6 +95,9 @@ impl Default for PlanJob {
             candidates: default_candidates(),
             criterion: default_criterion(),
             params: default_params(),
+            effects: Vec::new(),
+            payload_kg: None,
+            payload_com_mm: None,
             seed: None,
             out: default_out(),
             rrd: None,
@@ -112,12 +129,22 @@ impl PlanJob {
             outs.push(("--rrd", r.as_path()));
         }
         check_outputs(&scenario_inputs(self.scenario.as_deref(), &s), &outs)?;
+        let effects = crate::requests::parse_effects("--effects", &self.effects)?;
+        let mut loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.0;
+        if loads.payload.is_none() {
+            loads.payload = s.effects.payload.clone();
+        }
+        if s.instruments.active().is_none() {
+            loads.cable_tension_n = s.sensor.tension_n;
+        }
         let opts = PlanOptions {
             n: self.poses,
             candidates: self.candidates,
             criterion: self.criterion.clone(),
             parametrisation,
             seed: self.seed.unwrap_or(s.seed),
+            effects,
+            loads,
             ..PlanOptions::default()
         };
         let p = plan(&s, &robot, &opts)?;

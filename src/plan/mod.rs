@@ -31,12 +31,15 @@ mod tests;
 
 pub use design::{criterion, Criterion, Design, Pool, CRITERIA};
 
+use crate::calib::effects::inputs::{block_for, row_inputs, time_span, LoadOptions, TorqueModel};
+use crate::calib::effects::{EffectKind, RowInputs};
 use crate::calib::model::{CalibModel, Parametrisation, SensorGuess};
 use crate::calib::problem::{identify::analyse, ReadingFit, Samples};
 use crate::calib::run::placement::build_model;
 use crate::calib::run::ModelSpec;
 #[allow(unused_imports)]
 use crate::calib::run::DEFAULT_RANK_TOL;
+use crate::dataset::{Dataset, Row};
 use crate::error::{Error, Result};
 use crate::optim::LeastSquares;
 use crate::robot::Robot;
@@ -101,27 +104,76 @@ pub fn candidates(s: &Scenario, robot: &Robot, count: usize, seed: u64) -> Resul
     Ok(Candidates { q, drawn: drawn as usize, refused: refused.into_iter().map(|(r, k)| (r.name().to_string(), k)).collect() })
 }
 
-/// The calibration model a plan designs for, and its parameters' roles.
+/// The calibration model a plan designs for: the geometry, the instrument and the effect blocks
+/// the calibration will fit, with the static torques that drive the load-driven ones.
 pub struct Model {
     /// The model: the nominal arm in the parametrisation, the instrument at the scenario's
-    /// placement.
+    /// placement, the effect blocks at their nominal values.
     pub model: CalibModel,
+    /// The static-torque model of the effect blocks (the links and the payload mounted).
+    pub torque: Option<TorqueModel>,
 }
 
 impl Model {
     /// The model of scenario `s`'s arm in parametrisation `p` with its instrument placed as the
-    /// scenario places it.
-    pub fn new(s: &Scenario, robot: &Robot, p: Parametrisation) -> Model {
+    /// scenario places it and the effect blocks `effects` (a kind, on one joint or, for
+    /// per-joint kinds without a joint, on every joint) loaded by `loads` (the payload the
+    /// engineer mounts, the cable's tension from its data sheet).
+    pub fn new(s: &Scenario, robot: &Robot, p: Parametrisation, effects: &[(EffectKind, Option<usize>)], loads: &LoadOptions) -> Result<Model> {
         let zero = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
         let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
-        Model { model: build_model(&ModelSpec::nominal(robot.clone(), p), &zero).with_placement(&placement) }
+        let mut model = build_model(&ModelSpec::nominal(robot.clone(), p), &zero).with_placement(&placement);
+        if effects.is_empty() {
+            return Ok(Model { model, torque: None });
+        }
+        let exit = (s.instruments.active().is_none()).then(|| s.sensor.exit_point_m());
+        let torque = TorqueModel::new(robot, loads, exit, s.sensor.tool_point_m());
+        // The effects are configured on the candidates as a calibration configures them on its
+        // data: a dataset of nominal readings at every candidate of a small Halton pool.
+        let probe = candidates(s, robot, 200, s.seed)?.q;
+        let data = Model { model: model.clone(), torque: None }.dataset(&probe);
+        for &(kind, joint) in effects {
+            let joints: Vec<Option<usize>> = if joint.is_none() && kind.per_joint() { (0..robot.dof()).map(Some).collect() } else { vec![joint] };
+            for j in joints {
+                model.add_effect(block_for(&data, kind, j, true)?, time_span(&data));
+            }
+        }
+        Ok(Model { model, torque: Some(torque) })
+    }
+
+    /// The nominal model's readings at `q` as a dataset (mm, degrees), for configuring blocks
+    /// and computing row inputs.
+    fn dataset(&self, q: &[Vec<f64>]) -> Dataset {
+        let dim = self.model.measurement.dim();
+        let mut w = self.model.work();
+        let mut y = vec![0.0; dim];
+        let rows = q
+            .iter()
+            .map(|q| {
+                self.model.readings_with(&self.model.nominal, q, &RowInputs::default(), &mut w, &mut y);
+                // Lengths in mm (a 6-D probe's angle values too: no block reads them).
+                let reading: Vec<f64> = y.iter().map(|v| crate::units::to_mm(*v)).collect();
+                Row { q_deg: q.iter().map(|v| v.to_degrees()).collect(), reading_mm: reading, t_s: None, temp_c: None, split: None, std_mm: None, block: None }
+            })
+            .collect();
+        Dataset { rows, source: "plan candidates".into() }
+    }
+
+    /// What each pose carries besides its angles: the static torques (under the payload) of the
+    /// load-driven effects.
+    pub fn inputs(&self, q: &[Vec<f64>]) -> Vec<RowInputs> {
+        match &self.torque {
+            Some(t) => row_inputs(&self.dataset(q), Some(t)),
+            None => vec![RowInputs::default(); q.len()],
+        }
     }
 
     /// The Jacobian of the readings (mm) at the nominal parameters for poses `q`: one row per
     /// reading value, pose after pose.
     pub fn jacobian(&self, q: &[Vec<f64>]) -> DMatrix<f64> {
         let dim = self.model.measurement.dim();
-        let data = Samples::readings(q.to_vec(), vec![0.0; q.len() * dim], dim);
+        let mut data = Samples::readings(q.to_vec(), vec![0.0; q.len() * dim], dim);
+        data.inputs = self.inputs(q);
         let fit = ReadingFit { model: &self.model, data: &data };
         let mut j = DMatrix::zeros(q.len() * dim, self.model.n_params());
         fit.jacobian(&self.model.nominal, &mut j);
@@ -157,7 +209,12 @@ pub fn problem(model: &Model, q: &[Vec<f64>]) -> Problem {
     let r = DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt())) * eig.eigenvectors.transpose();
     let nc = m.n_chain();
     let priority: Vec<usize> = (nc..m.n_params()).chain(0..nc).collect();
-    let id = analyse(&r, &m.names, &vec![false; m.n_params()], DESIGN_RANK_TOL, &priority);
+    // A column the pool never moves (a compliance of a joint no load turns) is held outright:
+    // R's rounding would give it a tiny norm of noise instead of zero.
+    let norms: Vec<f64> = (0..m.n_params()).map(|k| j.column(k).norm()).collect();
+    let top = norms.iter().copied().fold(0.0, f64::max);
+    let dead: Vec<bool> = norms.iter().map(|n| !(*n > 1e-9 * top)).collect();
+    let id = analyse(&r, &m.names, &dead, DESIGN_RANK_TOL, &priority);
     let keep: Vec<usize> = (0..m.n_params()).filter(|&k| !id.fixed_mask[k]).collect();
     let rows = j.nrows().max(1) as f64;
     let scale: Vec<f64> = keep.iter().map(|&k| (j.column(k).norm_squared() / rows).sqrt()).collect();
@@ -224,11 +281,26 @@ pub struct PlanOptions {
     pub seed: u64,
     /// Most exchange sweeps.
     pub max_sweeps: usize,
+    /// Effect blocks the calibration will fit beside the geometry (a kind, on one joint or on
+    /// every joint): their parameters join the design.
+    pub effects: Vec<(EffectKind, Option<usize>)>,
+    /// What loads the joints while measuring (the payload mounted, the cable's tension), for
+    /// the load-driven effects.
+    pub loads: LoadOptions,
 }
 
 impl Default for PlanOptions {
     fn default() -> Self {
-        PlanOptions { n: 30, candidates: 10_000, criterion: "i".into(), parametrisation: Parametrisation::Hayati, seed: 1, max_sweeps: 8 }
+        PlanOptions {
+            n: 30,
+            candidates: 10_000,
+            criterion: "i".into(),
+            parametrisation: Parametrisation::Hayati,
+            seed: 1,
+            max_sweeps: 8,
+            effects: Vec::new(),
+            loads: LoadOptions::default(),
+        }
     }
 }
 
@@ -316,7 +388,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
             opts.n
         )));
     }
-    let model = Model::new(s, robot, opts.parametrisation);
+    let model = Model::new(s, robot, opts.parametrisation, &opts.effects, &opts.loads)?;
     let prob = problem(&model, &cands.q);
     let d = design::design(&prob.pool, opts.n, crit, opts.max_sweeps);
     let chosen: Vec<Vec<f64>> = d.chosen.iter().map(|&c| cands.q[c].clone()).collect();

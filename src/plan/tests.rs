@@ -62,3 +62,22 @@ fn planned_poses_calibrate_to_a_smaller_true_error_than_random_ones_on_the_twin(
     assert!(c.planned_median_mm < 0.9 * c.random_median_mm[0], "{c:?}");
     assert!(wins >= 3, "{c:?}");
 }
+
+#[test]
+fn a_plan_for_compliance_designs_for_its_parameters_under_the_payload() {
+    let (s, robot) = scenario();
+    let loads = LoadOptions { payload: Some(crate::robot::statics::Payload { mass_kg: 3.0, com_mm: [40.0, 0.0, 60.0] }), ..LoadOptions::default() };
+    let o = PlanOptions { n: 30, candidates: 2000, effects: vec![(EffectKind::JointCompliance, None)], loads, ..PlanOptions::default() };
+    let p = plan(&s, &robot, &o).unwrap();
+    let compliance: Vec<&String> = p.identifiable.iter().filter(|n| n.contains("compliance")).collect();
+    // Joints 2 and 3 carry the arm's weight on every pose: their compliance is seen.
+    assert!(compliance.len() >= 2, "{:?}", p.identifiable);
+    assert!(p.indices.i_prediction_variance < p.random_median.i_prediction_variance, "{:?} vs {:?}", p.indices, p.random_median);
+    // The same plan without the effect is another design: the compliance moves the choice.
+    let geometric = plan(&s, &robot, &PlanOptions { effects: Vec::new(), ..o.clone() }).unwrap();
+    assert!(geometric.identifiable.len() + compliance.len() == p.identifiable.len(), "{:?} vs {:?}", geometric.identifiable, p.identifiable);
+    assert_ne!(geometric.poses, p.poses);
+    // An effect the candidates cannot configure is refused by name.
+    let e = plan(&s, &robot, &PlanOptions { effects: vec![(EffectKind::ThermalDrift, None)], ..o.clone() }).unwrap_err().to_string();
+    assert!(e.contains("thermal") || e.contains("temp"), "{e}");
+}

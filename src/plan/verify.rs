@@ -133,3 +133,75 @@ pub fn study(s: &Scenario, robot: &Robot, o: &StudyOptions) -> Result<Vec<Compar
     }
     Ok(out)
 }
+
+/// What a diagnosis and an extended calibration make of one set of poses with an effect hidden
+/// in the twin.
+#[derive(Clone, Debug, Serialize)]
+pub struct EffectCheck {
+    /// The joints (1-based) `diagnose` named the effect on, with its size and standard
+    /// uncertainty in the diagnosis's unit.
+    pub named: Vec<(usize, f64, f64)>,
+    /// The true error (mm, as [`true_error`]) of the calibration that fits the effect.
+    pub true_error_mm: f64,
+}
+
+/// One seed of the hidden-effect comparison.
+#[derive(Clone, Debug, Serialize)]
+pub struct HiddenRow {
+    /// The seed.
+    pub seed: u64,
+    /// The planned poses (the plan includes the effect's parameters).
+    pub planned: EffectCheck,
+    /// A random feasible set of the same size.
+    pub random: EffectCheck,
+}
+
+/// Diagnoses and calibrates the twin's readings at `poses`, for the effect `kind`.
+fn effect_check(
+    s: &Scenario,
+    robot: &Robot,
+    kind: crate::calib::effects::EffectKind,
+    loads: &crate::calib::effects::inputs::LoadOptions,
+    poses: &[Vec<f64>],
+    test: &(Vec<Vec<f64>>, Vec<Vector3<f64>>),
+) -> Result<EffectCheck> {
+    let spec = ModelSpec::nominal(robot.clone(), crate::calib::model::Parametrisation::Hayati);
+    let (data, _) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses)?;
+    let mut d = crate::diagnose::DiagnoseOptions::new(spec.clone());
+    d.loads = loads.clone();
+    d.seed = s.seed;
+    let (diag, _) = crate::diagnose::diagnose(&data, &d, &|_| {})?;
+    let named = diag.causes.iter().filter(|c| c.cause == kind.name()).map(|c| (c.joint.unwrap_or(0), c.magnitude, c.uncertainty)).collect();
+    let mut calib = CalibOptions::new(spec, Method::LM);
+    calib.effects = vec![(kind, None)];
+    calib.loads = loads.clone();
+    Ok(EffectCheck { named, true_error_mm: true_error(s, robot, &calib, poses, test)? })
+}
+
+/// With an effect hidden in the twin of `s` (its scenario holds it; the plan and the
+/// calibration are told only its kind, as an engineer suspecting it would be): per seed, a
+/// plan of `n` poses that includes the effect's parameters against a random feasible set of
+/// `n`, each diagnosed (does it name the effect, on which joints, how big?) and calibrated with
+/// the effect (true error on independent test poses).
+pub fn hidden_effect(s: &Scenario, robot: &Robot, n: usize, seeds: &[u64], test_poses: usize, o: &PlanOptions) -> Result<Vec<HiddenRow>> {
+    let [(kind, _)] = o.effects[..] else {
+        return Err(Error::Invalid("the hidden-effect comparison plans for exactly one effect kind".into()));
+    };
+    let mut rows = Vec::new();
+    for &seed in seeds {
+        let s = all_train(s, seed, n);
+        let test_q = candidates(&s, robot, test_poses, stream_seed(seed, Stream::Plan, 1_000_000))?.q;
+        let (_, truth) = true_tool(&all_train(&s, seed, test_q.len()), robot, &test_q)?;
+        let test: (Vec<Vec<f64>>, Vec<Vector3<f64>>) = test_q.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
+        let p = plan(&s, robot, &PlanOptions { n, seed, ..o.clone() })?;
+        let pool = candidates(&s, robot, o.candidates, seed)?.q;
+        let set = random_set(pool.len(), n, stream_seed(seed, Stream::Plan, 2_000_000 + n as u64));
+        let random: Vec<Vec<f64>> = set.iter().map(|&i| pool[i].clone()).collect();
+        rows.push(HiddenRow {
+            seed,
+            planned: effect_check(&s, robot, kind, &o.loads, &p.poses, &test)?,
+            random: effect_check(&s, robot, kind, &o.loads, &random, &test)?,
+        });
+    }
+    Ok(rows)
+}

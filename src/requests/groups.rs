@@ -248,7 +248,7 @@ impl Robust {
 
 /// The `KIND[:JOINT]` items of an option (`--effects`, `--candidates`; `option` names it in
 /// errors): a kind, optionally with its joint, 1..N (checked against the data later).
-pub(super) fn parse_effects(option: &str, list: &[String]) -> Result<Vec<(EffectKind, Option<usize>)>> {
+pub fn parse_effects(option: &str, list: &[String]) -> Result<Vec<(EffectKind, Option<usize>)>> {
     // `--effects ,` (or an empty string) names nothing: an option given must name an effect.
     if !list.is_empty() && list.iter().all(|s| s.trim().is_empty()) {
         return Err(Error::Invalid(format!("{option} '{}' names no effect: give KIND[:JOINT] items separated by commas", list.join(","))));

@@ -18,7 +18,7 @@ mod json;
 
 pub use calibrate::{check_effort, CalibrateRequest, MAX_EFFORT, MIN_EFFORT};
 pub use diagnose::DiagnoseRequest;
-pub use groups::{Floor, Loads, ModelChoice, Reading, Robust};
+pub use groups::{parse_effects, Floor, Loads, ModelChoice, Reading, Robust};
 pub use json::from_json;
 
 /// The registered methods as clap's possible values of `--method` (and `compare --methods`): their

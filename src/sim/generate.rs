@@ -77,6 +77,7 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
     let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Sampling, 0));
     let start: u64 = rng.random_range(100..10_000);
     let mut out = Vec::with_capacity(s.sampling.poses);
+    let mut refused: BTreeMap<crate::sim::workspace::Refusal, usize> = BTreeMap::new();
     let mut i = start;
     let limit = start + 200 * s.sampling.poses as u64 + 10_000;
     while out.len() < s.sampling.poses {
@@ -84,10 +85,12 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
             return Err(Error::Scenario {
                 path: s.name.clone(),
                 msg: format!(
-                    "only {} of {} poses are reachable inside the instrument's range, above min_tool_z_mm{}",
+                    "only {} of {} poses are reachable inside the {}, above min_tool_z_mm{} (refused: {})",
                     out.len(),
                     s.sampling.poses,
-                    if s.workspace.is_some() { " and clear of the [workspace]" } else { "" }
+                    if s.instruments.active().is_some() { "tracker's range" } else { "sensor range" },
+                    if s.workspace.is_some() { " and clear of the [workspace]" } else { "" },
+                    refused.iter().map(|(r, k)| format!("{} {k}", r.name())).collect::<Vec<_>>().join(", ")
                 ),
             });
         }
@@ -113,8 +116,9 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
             .map(|q| round_decimals(q.to_degrees(), s.sampling.angle_decimals).to_radians())
             .collect();
         i += 1;
-        if cell.check(&q, &mut fk).is_ok() {
-            out.push(q);
+        match cell.check(&q, &mut fk) {
+            Ok(()) => out.push(q),
+            Err(r) => *refused.entry(r).or_insert(0usize) += 1,
         }
     }
     if s.sampling.order == Order::Shuffled {

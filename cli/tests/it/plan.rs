@@ -59,6 +59,9 @@ fn bad_plan_requests_and_pose_lists_are_refused_by_name() {
         (vec!["--poses", "40", "--candidates", "20"], "--candidates must be in"),
         (vec!["--criterion", "e"], "unknown criterion 'e'"),
         (vec!["--params", "xyz"], "xyz"),
+        (vec!["--effects", "bogus"], "bogus"),
+        (vec!["--effects", "thermal"], "thermal"),
+        (vec!["--effects", "compliance", "--payload-kg", "-3"], "--payload-kg must be in"),
         (vec!["--scenario", "nowhere.toml"], "nowhere.toml"),
     ] {
         let mut a = vec!["plan", "--out", s(&out)];
