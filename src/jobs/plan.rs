@@ -106,7 +106,10 @@ impl Default for PlanJob {
 }
 
 /// Most candidates a plan draws.
-pub const MAX_CANDIDATES: usize = 200_000;
+pub const MAX_CANDIDATES: usize = 100_000;
+
+/// Most poses a plan chooses (the exchange visits each against every candidate).
+pub const MAX_PLAN_POSES: usize = 2_000;
 
 impl PlanJob {
     /// Plans and writes poses.csv, plan.json and the recording, if asked.
@@ -114,8 +117,8 @@ impl PlanJob {
         if self.out.exists() && !self.out.is_dir() {
             return Err(Error::Invalid(format!("--out {} is a file; plan writes a folder ({POSES_FILE}, {PLAN_FILE})", self.out.display())));
         }
-        if !(1..=crate::sim::twin::MAX_POSES).contains(&self.poses) {
-            return Err(Error::Invalid(format!("--poses must be in 1..={}, got {}", crate::sim::twin::MAX_POSES, self.poses)));
+        if !(1..=MAX_PLAN_POSES).contains(&self.poses) {
+            return Err(Error::Invalid(format!("--poses must be in 1..={MAX_PLAN_POSES}, got {}", self.poses)));
         }
         if !(self.poses..=MAX_CANDIDATES).contains(&self.candidates) {
             return Err(Error::Invalid(format!("--candidates must be in {}..={MAX_CANDIDATES} (at least --poses), got {}", self.poses, self.candidates)));
