@@ -78,7 +78,7 @@ fn hidden(seeds: u64) -> Result<()> {
     );
     println!("| poses | N | diagnose named compliance (seeds) | joints named (all seeds) | joint 2 named as, µrad/Nm (median) | true error calibrated with compliance, mm (median) |");
     println!("|---|---|---|---|---|---|");
-    for n in [15usize, 30] {
+    for n in [60usize, 120] {
         let rows = twincal::plan::verify::hidden_effect(&s, &robot, n, &(1..=seeds).collect::<Vec<_>>(), 200, &o)?;
         for (label, pick) in [("planned (with compliance)", true), ("random feasible", false)] {
             let checks: Vec<&twincal::plan::verify::EffectCheck> = rows.iter().map(|r| if pick { &r.planned } else { &r.random }).collect();
