@@ -648,7 +648,7 @@ fn plan(py: Python<'_>, out: PathBuf, options: &str) -> PyResult<String> {
 #[pyfunction]
 fn iso9283(py: Python<'_>, data: PathBuf, models: Vec<PathBuf>, options: &str) -> PyResult<String> {
     let reading: twincal::requests::Reading = request("iso9283", options)?;
-    let job = jobs::Iso9283Job { data, model: models, reading, out: None };
+    let job = jobs::Iso9283Job { data, model: models, reading, out: None, report: None };
     let e = py.detach(|| job.run()).map_err(err)?;
     serde_json::to_string(&e).map_err(|e| TwincalError::new_err(format!("cannot serialise the evaluation: {e}")))
 }

@@ -51,6 +51,11 @@ pub struct Iso9283Job {
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
     pub out: Option<PathBuf>,
+    /// Also write the figures as an HTML page: the table, each model's per-pose AP as
+    /// histograms on one axis, the warnings.
+    #[cfg_attr(feature = "clap", arg(long))]
+    #[serde(default)]
+    pub report: Option<PathBuf>,
 }
 
 /// One pose's figures.
@@ -169,7 +174,8 @@ impl Iso9283Job {
     pub fn run(&self) -> Result<Iso9283> {
         let mut inputs: Vec<(&str, PathBuf)> = data_inputs(&self.data).into_iter().map(|p| ("--data", p)).collect();
         inputs.extend(self.model.iter().map(|m| ("--model", m.clone())));
-        let outs: Vec<(&str, &std::path::Path)> = self.out.iter().map(|p| ("--out", p.as_path())).collect();
+        let outs: Vec<(&str, &std::path::Path)> =
+            self.out.iter().map(|p| ("--out", p.as_path())).chain(self.report.iter().map(|p| ("--report", p.as_path()))).collect();
         check_outputs(&inputs, &outs)?;
         if self.model.is_empty() {
             return Err(Error::Invalid("iso9283 needs at least one --model".into()));
@@ -211,11 +217,14 @@ impl Iso9283Job {
             warnings.push("the models are judged on different rows (each calibrated on these data on the rows it held out, the others on every row): compare them on rows judged alike".into());
         }
         let out = Iso9283 { schema_version: crate::io::schema_version(), data: data.source.clone(), n_rows: data.rows.len(), models, warnings };
+        let mut outputs = OutputSet::new();
         if let Some(p) = &self.out {
-            let mut outputs = OutputSet::new();
             outputs.write_json(p, &out)?;
-            outputs.commit()?;
         }
+        if let Some(p) = &self.report {
+            outputs.write(p, iso9283_page(&out).as_bytes())?;
+        }
+        outputs.commit()?;
         Ok(out)
     }
 }
@@ -238,6 +247,57 @@ pub fn iso9283_table(e: &Iso9283) -> String {
         ));
     }
     out
+}
+
+/// Colours of the models' histograms, in the order given (the first, grey: the one before).
+const MODEL_COLOURS: [&str; 5] = ["#9a9a9a", "#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"];
+
+/// The figures as an HTML page (`iso9283 --report`).
+pub fn iso9283_page(e: &Iso9283) -> String {
+    use crate::report::svg::{esc, histograms};
+    let mut b = String::new();
+    b.push_str(&format!(
+        "<p class=\"note\">{} ({} rows). AP: the distance from the mean attained position of a pose's cycles to its commanded position (the model's prediction); \
+         RP: the spread of a pose's cycles (the arm's own, the same for every model); AD: the error of the distance between consecutive rows; \
+         poses are rows with the same joint angles to 0.01°. A model calibrated on these data is judged on the rows it held out.</p>\n",
+        esc(&e.data),
+        e.n_rows
+    ));
+    b.push_str("<table><tr><th>model</th><th>rows</th><th>poses</th><th>AP mean (mm)</th><th>AP max (mm)</th><th>RP mean (mm)</th><th>AD mean (mm)</th><th>orientation mean (deg)</th></tr>");
+    let opt = |s: &Option<ErrorStats>, d: usize| s.as_ref().map_or("–".to_string(), |s| format!("{:.d$}", s.mean));
+    for m in &e.models {
+        b.push_str(&format!(
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&m.model.display().to_string()),
+            esc(&m.rows),
+            m.poses,
+            m.ap_mm.mean,
+            m.ap_mm.max,
+            opt(&m.rp_mm, 4),
+            opt(&m.ad_mm, 4),
+            opt(&m.orientation_deg, 5)
+        ));
+    }
+    b.push_str("</table>\n");
+    let top = e.models.iter().flat_map(|m| m.per_pose.iter().map(|p| p.ap_mm)).fold(0.0f64, f64::max).max(1e-6);
+    let hists: Vec<(String, String, Vec<f64>, Vec<f64>)> = e
+        .models
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let (edges, counts) = crate::report::histogram(&m.per_pose.iter().map(|p| p.ap_mm).collect::<Vec<_>>(), 30, 0.0, top);
+            let name = m.model.file_name().map_or_else(|| m.model.display().to_string(), |f| f.to_string_lossy().into_owned());
+            (name, MODEL_COLOURS[k % MODEL_COLOURS.len()].to_string(), edges, counts)
+        })
+        .collect();
+    b.push_str("<h2>Position accuracy per pose</h2>\n");
+    b.push_str(&histograms("AP per pose, every model", "AP (mm)", &hists));
+    if !e.warnings.is_empty() {
+        b.push_str("<h2>Warnings</h2><ul>");
+        e.warnings.iter().for_each(|w| b.push_str(&format!("<li>{}</li>", esc(w))));
+        b.push_str("</ul>\n");
+    }
+    crate::report::html::page("ISO 9283 pose accuracy and repeatability", &b)
 }
 
 #[cfg(test)]

@@ -338,6 +338,14 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
     s
 }
 
+/// A page of `title` around `body` (HTML), in the reports' style.
+pub fn page(title: &str, body: &str) -> String {
+    let mut s = head(title);
+    s.push_str(body);
+    s.push_str("</body></html>\n");
+    s
+}
+
 /// The page of a replay (`replay --report`): the summary's numbers, then the residual field
 /// measured − twin beside the twin's own noise (grey), as histograms and against the joint
 /// angles, the reading, time and temperature; judged rows (held out) in orange.

@@ -34,8 +34,13 @@ fn a_calibration_brings_the_held_out_pose_accuracy_of_twin_tracker_data_to_its_n
     ok(twincal(&["--quiet", "calibrate", "--data", s(&data), "--placement-only", "--out", s(&before)]));
     ok(twincal(&["--quiet", "calibrate", "--data", s(&data), "--out", s(&after)]));
     let out = dir.path().join("iso.json");
-    let table = ok(twincal(&["iso9283", "--data", s(&data), "--model", s(&before), "--model", s(&after), "--out", s(&out)]));
+    let page = dir.path().join("iso.html");
+    let table = ok(twincal(&["iso9283", "--data", s(&data), "--model", s(&before), "--model", s(&after), "--out", s(&out), "--report", s(&page)]));
     assert!(table.contains("| held out |"), "{table}");
+    // The HTML page holds the same table and the per-pose AP histograms.
+    let html = std::fs::read_to_string(&page).unwrap();
+    let ap_text = format!("{:.4}", ap_means(&out)[1]);
+    assert!(html.contains("<h1>ISO 9283") && html.contains(&ap_text) && html.contains("<svg") && html.contains("AP per pose"), "{html}");
     let ap = ap_means(&out);
     // Nominal (registered): the geometric errors' millimetre; calibrated: the tracker's noise.
     assert!(ap[0] > 0.2 && ap[1] < 0.01 && ap[1] < ap[0] / 30.0, "{ap:?}\n{table}");
@@ -48,6 +53,8 @@ fn a_calibration_brings_the_held_out_pose_accuracy_of_twin_tracker_data_to_its_n
     assert!(err.contains("model predicts a laser-tracker") || err.contains("judges positions"), "{err}");
     assert_eq!(twincal(&["iso9283", "--data", s(&data)]).status.code(), Some(2));
     let o = twincal(&["iso9283", "--data", s(&data), "--model", s(&after), "--out", s(&after)]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = twincal(&["iso9283", "--data", s(&data), "--model", s(&after), "--report", s(&after)]);
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
