@@ -39,8 +39,7 @@ pub fn record_plan(p: &Plan, s: &Scenario, robot: &Robot, outputs: &mut OutputSe
         &format!(
             "# twincal plan: {} poses of {} feasible candidates\n\nScenario `{}`, robot {}, instrument {}, {} parametrisation, criterion {} ({}).\n\n\
              * grey points: every feasible candidate's tool point; blue: the planned ones, joined in tour order ({:.0} s of acquisition);\n\
-             * on the `pose` timeline: the nominal arm at each planned pose, its link capsules ({radius} mm radius) and the instrument's line to the target;\n\
-             * red boxes: the scenario's keep-out boxes.",
+             * on the `pose` timeline: the nominal arm at each planned pose, its link capsules ({radius} mm radius) and the instrument's line to the target{}",
             p.poses.len(),
             p.candidates.q.len(),
             p.scenario,
@@ -49,7 +48,8 @@ pub fn record_plan(p: &Plan, s: &Scenario, robot: &Robot, outputs: &mut OutputSe
             p.parametrisation,
             p.criterion,
             p.criterion_describe,
-            p.tour.total_s
+            p.tour.total_s,
+            if s.workspace.as_ref().is_some_and(|w| !w.keep_out.is_empty()) { ";\n* red boxes: the scenario's keep-out boxes." } else { "." }
         ),
     );
     let instrument = twincal::report::InstrumentPose::of(&twincal::sim::instrument::placement(&s.sensor, &s.instruments));
