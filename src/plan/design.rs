@@ -30,6 +30,13 @@ pub trait Criterion: Sync {
     fn value(&self, info: &DMatrix<f64>, rows: usize, pool: &Pool) -> f64;
 }
 
+/// An index of the singular values `sv` of the stacked scaled Jacobian of `rows` rows (O1, O3,
+/// O4, O5): their [`Criterion::value`] is this of the design's singular values.
+pub trait SingularIndex {
+    /// The index of `sv`.
+    fn of_sv(&self, sv: &[f64], rows: usize) -> f64;
+}
+
 /// O1: the geometric mean of the singular values over √m, D-optimality (the volume of the
 /// parameters' confidence ellipsoid).
 pub struct DOptimal;
@@ -54,7 +61,12 @@ impl Criterion for DOptimal {
         "O1, D-optimal: (Π σ)^(1/p) / √m"
     }
     fn value(&self, info: &DMatrix<f64>, rows: usize, _pool: &Pool) -> f64 {
-        let sv = singular_values(info);
+        self.of_sv(&singular_values(info), rows)
+    }
+}
+
+impl SingularIndex for DOptimal {
+    fn of_sv(&self, sv: &[f64], rows: usize) -> f64 {
         let p = sv.len().max(1) as f64;
         (sv.iter().map(|s| s.max(1e-300).ln()).sum::<f64>() / p).exp() / (rows.max(1) as f64).sqrt()
     }
@@ -79,8 +91,14 @@ impl Criterion for MinSingular {
     fn describe(&self) -> &'static str {
         "O3, the smallest singular value"
     }
-    fn value(&self, info: &DMatrix<f64>, _rows: usize, _pool: &Pool) -> f64 {
-        singular_values(info).iter().copied().fold(f64::INFINITY, f64::min)
+    fn value(&self, info: &DMatrix<f64>, rows: usize, _pool: &Pool) -> f64 {
+        self.of_sv(&singular_values(info), rows)
+    }
+}
+
+impl SingularIndex for MinSingular {
+    fn of_sv(&self, sv: &[f64], _rows: usize) -> f64 {
+        sv.iter().copied().fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -91,8 +109,13 @@ impl Criterion for NoiseAmplification {
     fn describe(&self) -> &'static str {
         "O4, noise amplification: σ_min² / σ_max"
     }
-    fn value(&self, info: &DMatrix<f64>, _rows: usize, _pool: &Pool) -> f64 {
-        let sv = singular_values(info);
+    fn value(&self, info: &DMatrix<f64>, rows: usize, _pool: &Pool) -> f64 {
+        self.of_sv(&singular_values(info), rows)
+    }
+}
+
+impl SingularIndex for NoiseAmplification {
+    fn of_sv(&self, sv: &[f64], _rows: usize) -> f64 {
         let (lo, hi) = sv.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| (lo.min(*s), hi.max(*s)));
         if hi > 0.0 {
             lo * lo / hi
@@ -109,8 +132,14 @@ impl Criterion for AOptimal {
     fn describe(&self) -> &'static str {
         "O5: 1 / Σ (1/σ)"
     }
-    fn value(&self, info: &DMatrix<f64>, _rows: usize, _pool: &Pool) -> f64 {
-        1.0 / singular_values(info).iter().map(|s| 1.0 / s.max(1e-300)).sum::<f64>()
+    fn value(&self, info: &DMatrix<f64>, rows: usize, _pool: &Pool) -> f64 {
+        self.of_sv(&singular_values(info), rows)
+    }
+}
+
+impl SingularIndex for AOptimal {
+    fn of_sv(&self, sv: &[f64], _rows: usize) -> f64 {
+        1.0 / sv.iter().map(|s| 1.0 / s.max(1e-300)).sum::<f64>()
     }
 }
 

@@ -37,13 +37,12 @@ use crate::calib::model::{CalibModel, Parametrisation, SensorGuess};
 use crate::calib::problem::{identify::analyse, ReadingFit, Samples};
 use crate::calib::run::placement::build_model;
 use crate::calib::run::ModelSpec;
-#[allow(unused_imports)]
-use crate::calib::run::DEFAULT_RANK_TOL;
 use crate::dataset::{Dataset, Row};
 use crate::error::{Error, Result};
 use crate::optim::LeastSquares;
 use crate::robot::Robot;
 use crate::seed::{stream_seed, Stream};
+use crate::sim::generate::commanded_pose;
 use crate::sim::scenario::{halton, Scenario, HALTON_BASES};
 use crate::sim::workspace::{Refusal, Workspace};
 use nalgebra::{DMatrix, SymmetricEigen};
@@ -92,10 +91,7 @@ pub fn candidates(s: &Scenario, robot: &Robot, count: usize, seed: u64) -> Resul
     while q.len() < count && drawn < limit {
         let i = start + drawn;
         drawn += 1;
-        let pose: Vec<f64> = (0..n)
-            .map(|j| ranges[j].0 + halton(i, HALTON_BASES[j]) * (ranges[j].1 - ranges[j].0))
-            .map(|v| crate::units::round_decimals(v.to_degrees(), s.sampling.angle_decimals).to_radians())
-            .collect();
+        let pose = commanded_pose(&ranges, |j| halton(i, HALTON_BASES[j]), s.sampling.angle_decimals);
         match cell.check(&pose, &mut fk) {
             Ok(()) => q.push(pose),
             Err(r) => *refused.entry(r).or_default() += 1,
@@ -194,7 +190,7 @@ pub struct Problem {
 }
 
 /// Relative singular value below which a parameter combination is left out of the design. A
-/// calibration fits down to [`DEFAULT_RANK_TOL`] (1e-7); a combination the whole pool sees
+/// calibration fits down to [`DEFAULT_RANK_TOL`](crate::calib::run::DEFAULT_RANK_TOL) (1e-7); a combination the whole pool sees
 /// that weakly moves no reading by more than rounding, and an index of its singular value
 /// (O3, O4, O5) would measure rounding too.
 pub const DESIGN_RANK_TOL: f64 = 1e-4;
@@ -250,17 +246,17 @@ pub struct Indices {
 impl Indices {
     /// The indices of the candidates `set` of `pool`.
     pub fn of(pool: &Pool, set: &[usize]) -> Indices {
+        use design::SingularIndex;
         let info = pool.information(set);
         let sv = design::singular_values(&info);
         let m = set.len() * pool.d;
-        let v = |c: &dyn Criterion| c.value(&info, m, pool);
         let (lo, hi) = (sv.last().copied().unwrap_or(0.0), sv.first().copied().unwrap_or(0.0));
         Indices {
-            o1_d: v(&design::DOptimal),
+            o1_d: design::DOptimal.of_sv(&sv, m),
             i_prediction_variance: design::prediction_variance(&info, pool),
-            o3_min_sv: v(&design::MinSingular),
-            o4_noise: v(&design::NoiseAmplification),
-            o5_a: v(&design::AOptimal),
+            o3_min_sv: design::MinSingular.of_sv(&sv, m),
+            o4_noise: design::NoiseAmplification.of_sv(&sv, m),
+            o5_a: design::AOptimal.of_sv(&sv, m),
             condition: if lo > 0.0 { hi / lo } else { f64::INFINITY },
         }
     }

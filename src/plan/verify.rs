@@ -41,9 +41,30 @@ fn all_train(s: &Scenario, seed: u64, n: usize) -> Scenario {
     s
 }
 
+/// Test poses (rad) and the twin's true tool points there (mm).
+pub type TestSet = (Vec<Vec<f64>>, Vec<Vector3<f64>>);
+
+/// The independent test poses of `seed` (`count` feasible poses from a stream of their own) and
+/// the twin's true tool points there (mm); poses the twin refused are left out.
+fn test_set(s: &Scenario, robot: &Robot, seed: u64, count: usize) -> Result<TestSet> {
+    let test_q = candidates(s, robot, count, stream_seed(seed, Stream::Plan, 1_000_000))?.q;
+    let (_, truth) = true_tool(&all_train(s, seed, test_q.len()), robot, &test_q)?;
+    let test: TestSet = test_q.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
+    if test.0.is_empty() {
+        return Err(Error::Invalid(format!("seed {seed}: the twin refused every test pose")));
+    }
+    Ok(test)
+}
+
+/// `k` poses drawn at random from the plan's candidate `pool` (seeded by `seed` and `k`): the
+/// random feasible set a plan of the same constraints is compared with.
+fn random_poses(pool: &[Vec<f64>], k: usize, seed: u64) -> Vec<Vec<f64>> {
+    random_set(pool.len(), k, stream_seed(seed, Stream::Plan, 2_000_000 + k as u64)).iter().map(|&i| pool[i].clone()).collect()
+}
+
 /// The true error (RMS over the test poses, mm) of the model calibrated on the twin's readings at
 /// `poses`; `test` holds the test poses and the twin's true tool points there.
-pub fn true_error(s: &Scenario, robot: &Robot, opts: &CalibOptions, poses: &[Vec<f64>], test: &(Vec<Vec<f64>>, Vec<Vector3<f64>>)) -> Result<f64> {
+pub fn true_error(s: &Scenario, robot: &Robot, opts: &CalibOptions, poses: &[Vec<f64>], test: &TestSet) -> Result<f64> {
     let (data, truth) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses)?;
     let r = calibrate(&data, None, opts)?;
     let x_nom = nominal_x(&r);
@@ -107,22 +128,11 @@ pub fn study(s: &Scenario, robot: &Robot, o: &StudyOptions) -> Result<Vec<Compar
         let mut rows = Vec::new();
         for &seed in &o.seeds {
             let s = all_train(s, seed, n);
-            let test_q = candidates(&s, robot, o.test_poses, stream_seed(seed, Stream::Plan, 1_000_000))?.q;
-            let (_, truth) = true_tool(&all_train(&s, seed, test_q.len()), robot, &test_q)?;
-            let test: (Vec<Vec<f64>>, Vec<Vector3<f64>>) = test_q.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
-            if test.0.is_empty() {
-                return Err(Error::Invalid(format!("seed {seed}: the twin refused every test pose")));
-            }
+            let test = test_set(&s, robot, seed, o.test_poses)?;
             let p = plan(&s, robot, &PlanOptions { n, seed, ..o.plan.clone() })?;
-            let pool = candidates(&s, robot, o.plan.candidates, seed)?.q;
             let planned_mm = true_error(&s, robot, &calib, &p.poses, &test)?;
-            let random_mm = sizes
-                .iter()
-                .map(|&k| {
-                    let set = random_set(pool.len(), k, stream_seed(seed, Stream::Plan, 2_000_000 + k as u64));
-                    true_error(&s, robot, &calib, &set.iter().map(|&i| pool[i].clone()).collect::<Vec<_>>(), &test)
-                })
-                .collect::<Result<Vec<f64>>>()?;
+            let random_mm =
+                sizes.iter().map(|&k| true_error(&s, robot, &calib, &random_poses(&p.candidates.q, k, seed), &test)).collect::<Result<Vec<f64>>>()?;
             rows.push(SeedRow { seed, planned_mm, random_mm });
         }
         let med = |f: &dyn Fn(&SeedRow) -> f64| crate::stats::median(&rows.iter().map(f).collect::<Vec<f64>>());
@@ -163,7 +173,7 @@ fn effect_check(
     kind: crate::calib::effects::EffectKind,
     loads: &crate::calib::effects::inputs::LoadOptions,
     poses: &[Vec<f64>],
-    test: &(Vec<Vec<f64>>, Vec<Vector3<f64>>),
+    test: &TestSet,
 ) -> Result<EffectCheck> {
     let spec = ModelSpec::nominal(robot.clone(), crate::calib::model::Parametrisation::Hayati);
     let (data, _) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses)?;
@@ -190,13 +200,9 @@ pub fn hidden_effect(s: &Scenario, robot: &Robot, n: usize, seeds: &[u64], test_
     let mut rows = Vec::new();
     for &seed in seeds {
         let s = all_train(s, seed, n);
-        let test_q = candidates(&s, robot, test_poses, stream_seed(seed, Stream::Plan, 1_000_000))?.q;
-        let (_, truth) = true_tool(&all_train(&s, seed, test_q.len()), robot, &test_q)?;
-        let test: (Vec<Vec<f64>>, Vec<Vector3<f64>>) = test_q.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
+        let test = test_set(&s, robot, seed, test_poses)?;
         let p = plan(&s, robot, &PlanOptions { n, seed, ..o.clone() })?;
-        let pool = candidates(&s, robot, o.candidates, seed)?.q;
-        let set = random_set(pool.len(), n, stream_seed(seed, Stream::Plan, 2_000_000 + n as u64));
-        let random: Vec<Vec<f64>> = set.iter().map(|&i| pool[i].clone()).collect();
+        let random = random_poses(&p.candidates.q, n, seed);
         rows.push(HiddenRow {
             seed,
             planned: effect_check(&s, robot, kind, &o.loads, &p.poses, &test)?,

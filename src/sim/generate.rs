@@ -62,6 +62,12 @@ pub fn nominal_length(chain: &crate::robot::kinematics::Chain, sensor: &crate::s
     sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &sensor.tool_point_m()))
 }
 
+/// The commanded pose (rad) at `unit(j)` ∈ [0, 1] of each joint's range (`ranges`, rad), rounded
+/// to `decimals` of a degree as the twin commands it (the written angles are the simulated ones).
+pub fn commanded_pose(ranges: &[(f64, f64)], unit: impl Fn(usize) -> f64, decimals: usize) -> Vec<f64> {
+    (0..ranges.len()).map(|j| ranges[j].0 + unit(j) * (ranges[j].1 - ranges[j].0)).map(|q| round_decimals(q.to_degrees(), decimals).to_radians()).collect()
+}
+
 /// Samples commanded poses (rad) by a Halton sequence over the joint ranges, keeping those the
 /// scenario's [`Scenario::cell`] finds feasible: the nominal tool point above `min_tool_z_mm`,
 /// the nominal reading inside the sensor range (a tracker's distance range, if given) and the
@@ -111,10 +117,7 @@ pub fn sample_poses(s: &Scenario, robot: &Robot) -> Result<Vec<Vec<f64>>> {
             }
             _ => halton(i, HALTON_BASES[j]),
         };
-        let q: Vec<f64> = (0..n)
-            .map(|j| ranges[j].0 + unit(j) * (ranges[j].1 - ranges[j].0))
-            .map(|q| round_decimals(q.to_degrees(), s.sampling.angle_decimals).to_radians())
-            .collect();
+        let q = commanded_pose(&ranges, unit, s.sampling.angle_decimals);
         i += 1;
         match cell.check(&q, &mut fk) {
             Ok(()) => out.push(q),
