@@ -610,7 +610,7 @@ fn export(py: Python<'_>, model: PathBuf, out: PathBuf, options: &str) -> PyResu
 }
 
 /// Compensates a program's targets with a calibrated model, as `twincal compensate`; `options`:
-/// a JSON object of its `payload_kg`, `payload_com_mm` and `tol_mm`. Returns the summary's JSON
+/// a JSON object of its `payload_kg`, `payload_com_mm`, `tol_mm`, `tol_deg` and `euler`. Returns the summary's JSON
 /// (per target the command, status, residuals and filtered target).
 #[pyfunction]
 fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, options: &str) -> PyResult<String> {
@@ -620,14 +620,25 @@ fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, op
         payload_kg: Option<f64>,
         payload_com_mm: Option<Vec<f64>>,
         tol_mm: f64,
+        tol_deg: f64,
+        euler: String,
     }
     impl Default for Options {
         fn default() -> Self {
-            Options { payload_kg: None, payload_com_mm: None, tol_mm: 0.001 }
+            Options { payload_kg: None, payload_com_mm: None, tol_mm: 0.001, tol_deg: 0.001, euler: "XYZ".into() }
         }
     }
     let o: Options = request("compensate", options)?;
-    let job = jobs::CompensateJob { model, targets, payload_kg: o.payload_kg, payload_com_mm: o.payload_com_mm, tol_mm: o.tol_mm, out };
+    let job = jobs::CompensateJob {
+        model,
+        targets,
+        payload_kg: o.payload_kg,
+        payload_com_mm: o.payload_com_mm,
+        tol_mm: o.tol_mm,
+        tol_deg: o.tol_deg,
+        euler: o.euler,
+        out,
+    };
     let summary = py.detach(|| job.run()).map_err(err)?;
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }

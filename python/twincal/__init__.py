@@ -485,13 +485,25 @@ def compensate(
     payload_kg: Optional[float] = None,
     payload_com_mm: Optional[Sequence[float]] = None,
     tol_mm: float = 0.001,
+    tol_deg: float = 0.001,
+    euler: str = "XYZ",
 ) -> dict:
     """The joint commands that make the calibrated arm reach a program's targets, as ``twincal
-    compensate``: ``model`` a result.json path, ``targets`` a CSV of x, y, z (mm, base frame) or
-    q1..qN (degrees, taught on the nominal model), the payload the program runs with; writes the
-    commands CSV to ``out`` and returns the summary (per target the command in radians, status,
-    predicted residual, uncompensated error and filtered Cartesian target)."""
-    options = _options({"payload_kg": payload_kg, "payload_com_mm": None if payload_com_mm is None else list(payload_com_mm), "tol_mm": tol_mm})
+    compensate``: ``model`` a result.json path, ``targets`` a CSV of x, y, z (mm, base frame),
+    with rx, ry, rz (degrees, the tool's orientation in the Euler convention ``euler``) for
+    poses, or q1..qN (degrees, taught on the nominal model), the payload the program runs with;
+    writes the commands CSV to ``out`` and returns the summary (per target the command in
+    radians, status, predicted residual, uncompensated error and filtered Cartesian target; for
+    poses also the orientation residuals in degrees)."""
+    options = _options(
+        {
+            "payload_kg": payload_kg,
+            "payload_com_mm": None if payload_com_mm is None else list(payload_com_mm),
+            "tol_mm": tol_mm,
+            "tol_deg": tol_deg,
+            "euler": euler,
+        }
+    )
     return json.loads(_native.compensate(os.fspath(model), os.fspath(targets), os.fspath(out), options))
 
 

@@ -1,7 +1,9 @@
 //! Compensation: the joint commands that make the calibrated arm reach given targets.
 //!
-//! A target is a point in the robot's base frame (mm), or a joint configuration taught on the
-//! nominal model (its nominal tool point is the target). For each, the nominal controller's
+//! A target is a point in the robot's base frame (mm), a pose (the point and the tool's
+//! orientation: the flange's axes, turned by a 6-D probe's calibrated orientation when the
+//! calibration measured poses), or a joint configuration taught on the nominal model (its
+//! nominal tool point is the target). For each, the nominal controller's
 //! command is the nominal model's inverse kinematics (or the taught angles); the compensated
 //! command is the calibrated model's: its geometry, its effects (compliance under the static
 //! torques of the links and the stated payload at that very configuration, encoder
@@ -23,8 +25,9 @@ use crate::calib::correctors::Correct;
 use crate::calib::effects::inputs::TorqueModel;
 use crate::calib::run::CalibResult;
 use crate::error::{Error, Result};
-use crate::ik::{solver::check_tol_mm, IkModel, IkOptions, IkStatus, JacobianKind};
-use nalgebra::Vector3;
+use crate::measurement::Euler;
+use crate::ik::{solver::check_tol_mm, IkModel, IkOptions, IkStatus, IkWork, JacobianKind};
+use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -33,6 +36,8 @@ use serde::Serialize;
 pub enum Target {
     /// A point in the robot's base frame, mm.
     Point(Vector3<f64>),
+    /// A point (mm) and the tool's orientation there (base frame).
+    Pose(Vector3<f64>, Matrix3<f64>),
     /// Joint angles taught on the nominal model, rad: the target is their nominal tool point.
     Joints(Vec<f64>),
 }
@@ -94,6 +99,27 @@ pub struct Compensated {
     /// The nominal forward kinematics of the command, mm: the Cartesian target to send a
     /// controller that applies its own nominal kinematics.
     pub filtered_mm: [f64; 3],
+    /// For a pose target, the orientations: [`PoseParts`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pose: Option<PoseParts>,
+}
+
+/// The orientation side of a compensated pose target.
+#[derive(Clone, Debug, Serialize)]
+pub struct PoseParts {
+    /// The target's orientation (base frame).
+    #[serde(skip)]
+    pub target: Matrix3<f64>,
+    /// The angle left between the target's orientation and the calibrated model's at the
+    /// command, degrees.
+    pub residual_deg: f64,
+    /// The angle between the target's orientation and the calibrated model's at the nominal
+    /// command, degrees.
+    pub nominal_error_deg: f64,
+    /// The nominal model's tool orientation at the command (base frame): the orientation of
+    /// the filtered Cartesian target.
+    #[serde(skip)]
+    pub filtered: Matrix3<f64>,
 }
 
 /// A calibrated result's compensation: the calibrated and the nominal model as IK models.
@@ -122,9 +148,12 @@ pub fn nominal_x(r: &CalibResult) -> Vec<f64> {
 impl<'a> Compensator<'a> {
     /// The compensation of `r` (with `x_nom` = [`nominal_x`]`(r)`) under `loads` (the joints'
     /// static torques: the result's torque model with the payload the program runs with), to a
-    /// tolerance of `tol_mm`.
-    pub fn new(r: &'a CalibResult, x_nom: &'a [f64], loads: Option<TorqueModel>, tol_mm: f64) -> Result<Compensator<'a>> {
+    /// tolerance of `tol_mm` (and `tol_deg` on a pose target's orientation).
+    pub fn new(r: &'a CalibResult, x_nom: &'a [f64], loads: Option<TorqueModel>, tol_mm: f64, tol_deg: f64) -> Result<Compensator<'a>> {
         check_tol_mm(tol_mm, "--tol-mm")?;
+        if !(tol_deg > 0.0 && tol_deg <= 1.0) {
+            return Err(Error::Invalid(format!("--tol-deg must be in (0, 1] degrees, got {tol_deg}")));
+        }
         if x_nom.len() != r.x.len() {
             return Err(Error::Invalid("the nominal parameters do not match the model".into()));
         }
@@ -135,7 +164,7 @@ impl<'a> Compensator<'a> {
             calibrated = calibrated.with_loads(l);
         }
         let nominal = IkModel::new(&r.model, x_nom, None, limits);
-        let options = IkOptions { tol_mm, max_iter: 100, ..IkOptions::default() };
+        let options = IkOptions { tol_mm, tol_deg, max_iter: 100, ..IkOptions::default() };
         Ok(Compensator { calibrated, nominal, options })
     }
 
@@ -161,6 +190,18 @@ impl<'a> Compensator<'a> {
         points.par_iter().map_init(|| self.nominal.work(), |wn, p| self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn).q).collect()
     }
 
+    /// The nominal controller's command for each pose (its inverse kinematics of the point and
+    /// the orientation), without the compensation (in parallel).
+    pub fn nominal_pose_commands(&self, poses: &[(Vector3<f64>, Matrix3<f64>)]) -> Vec<Vec<f64>> {
+        poses.par_iter().map_init(|| self.nominal.work(), |wn, (p, r)| self.nominal.solve_pose_from(p, r, None, JacobianKind::Analytic, &self.options, wn).q).collect()
+    }
+
+    /// Where the calibrated model puts the tool and how it turns it at joint angles `q` (rad):
+    /// mm and the orientation, in its frame.
+    pub fn predicted_pose(&self, q: &[f64]) -> (Vector3<f64>, Matrix3<f64>) {
+        self.calibrated.pose(q, &mut self.calibrated.work(), None)
+    }
+
     /// Every target compensated (in parallel, each thread with its own workspaces).
     pub fn compensate(&self, targets: &[Target]) -> Vec<Compensated> {
         targets
@@ -168,8 +209,11 @@ impl<'a> Compensator<'a> {
             .map_init(
                 || (self.calibrated.work(), self.nominal.work()),
                 |(wc, wn), t| {
+                    if let Target::Pose(p, r) = t {
+                        return self.compensate_pose(p, r, wc, wn);
+                    }
                     let (target, nominal_q) = match t {
-                        Target::Point(p) => {
+                        Target::Point(p) | Target::Pose(p, _) => {
                             let s = self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn);
                             (*p, s.q)
                         }
@@ -186,75 +230,157 @@ impl<'a> Compensator<'a> {
                         filtered_mm: filtered.into(),
                         nominal_q,
                         command_q: s.q,
+                        pose: None,
                     }
                 },
             )
             .collect()
     }
+
+    /// One pose target: the nominal controller's pose IK, then the calibrated model's from it.
+    fn compensate_pose(&self, p: &Vector3<f64>, r: &Matrix3<f64>, wc: &mut IkWork, wn: &mut IkWork) -> Compensated {
+        let nominal_q = self.nominal.solve_pose_from(p, r, None, JacobianKind::Analytic, &self.options, wn).q;
+        let s = self.calibrated.solve_pose_from(p, r, Some(&nominal_q), JacobianKind::Hybrid, &self.options, wc);
+        let (np, nr) = self.calibrated.pose(&nominal_q, wc, None);
+        let (fp, fr) = self.nominal.pose(&s.q, wn, None);
+        let invalid = s.status == IkStatus::Invalid;
+        Compensated {
+            target_mm: (*p).into(),
+            nominal_error_mm: if invalid { 0.0 } else { (np - p).norm() },
+            status: Status::of(s.status),
+            residual_mm: s.residual_mm,
+            filtered_mm: fp.into(),
+            pose: Some(PoseParts {
+                target: *r,
+                residual_deg: s.residual_deg,
+                nominal_error_deg: if invalid { 0.0 } else { crate::ik::solver::turn(r, &nr).norm().to_degrees() },
+                filtered: fr,
+            }),
+            nominal_q,
+            command_q: s.q,
+        }
+    }
 }
 
-/// The targets of a CSV: columns `x, y, z` (mm, base frame), else `q1..qN` (degrees, taught on
-/// the nominal model), by the dataset reader's rules; or what is wrong with it.
-pub fn read_targets(path: &std::path::Path, n_joints: usize) -> Result<Vec<Target>> {
+/// The targets of a CSV: columns `x, y, z` (mm, base frame), with `rx, ry, rz` (degrees, the
+/// tool's orientation in the Euler convention `euler`) for poses, else `q1..qN` (degrees, taught
+/// on the nominal model), by the dataset reader's rules (read once); or what is wrong with it.
+pub fn read_targets(path: &std::path::Path, n_joints: usize, euler: Euler) -> Result<Vec<Target>> {
     let far = crate::measurement::point::MAX_COORD_MM;
-    // A file is points or joints, for this arm: both kinds of columns, or a joint beyond the arm's,
-    // is a file meant for something else.
-    let has = |c: &str| crate::dataset::read_csv_columns(path, &[c]).is_ok();
-    if has(&format!("q{}", n_joints + 1)) {
-        return Err(Error::data(path.display(), format!("the targets have a column q{}: the model's arm has {n_joints} joints", n_joints + 1)));
+    let max_angle = crate::measurement::pose::MAX_ANGLE_DEG;
+    let bad = |m: String| Error::data(path.display(), m);
+    let t = crate::dataset::CsvColumns::read(path)?;
+    // A file is points, poses or joints, for this arm: both kinds of columns, or a joint beyond
+    // the arm's, is a file meant for something else.
+    if t.has(&format!("q{}", n_joints + 1)) {
+        return Err(bad(format!("the targets have a column q{}: the model's arm has {n_joints} joints", n_joints + 1)));
     }
-    if has("x") && has("q1") {
-        return Err(Error::data(path.display(), "the targets have both x, y, z and joint columns: give points or joint targets, not both"));
+    if t.has("x") && t.has("q1") {
+        return Err(bad("the targets have both x, y, z and joint columns: give points or joint targets, not both".into()));
     }
-    let targets: Vec<Target> = match crate::dataset::read_csv_columns(path, &["x", "y", "z"]) {
-        Ok(rows) => {
-            if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| !c.is_finite() || c.abs() > far)) {
-                return Err(Error::data(path.display(), format!("target {} ({:?}) mm is not a point (a coordinate not finite or beyond {far} mm)", i + 1, v)));
-            }
-            rows.into_iter().map(|v| Target::Point(Vector3::new(v[0], v[1], v[2]))).collect()
+    let angles = ["rx", "ry", "rz"].iter().filter(|a| t.has(a)).count();
+    if angles > 0 && angles < 3 {
+        return Err(bad(format!("the targets have {angles} of the orientation columns rx, ry, rz (header '{}'): a pose needs all three", t.header())));
+    }
+    if angles == 3 && !t.has("x") {
+        return Err(bad("the targets have rx, ry, rz but no x, y, z: a pose target needs its point (mm, base frame)".into()));
+    }
+    let targets: Vec<Target> = if t.has("x") {
+        let pose = angles == 3;
+        let rows = t.columns(if pose { &["x", "y", "z", "rx", "ry", "rz"] } else { &["x", "y", "z"] })?;
+        if rows.is_empty() {
+            return Err(bad("no targets after the header".into()));
         }
-        Err(xyz) => {
-            let names: Vec<String> = (1..=n_joints).map(|j| format!("q{j}")).collect();
-            let cols: Vec<&str> = names.iter().map(String::as_str).collect();
-            let rows = crate::dataset::read_csv_columns(path, &cols).map_err(|_| {
-                Error::data(
-                    path.display(),
-                    format!("targets need columns x, y, z (mm, base frame) or q1..q{n_joints} (degrees, taught on the nominal model): {xyz}"),
-                )
-            })?;
-            if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| !c.is_finite() || c.abs() > 3600.0)) {
-                return Err(Error::data(path.display(), format!("target {} has joint angles {:?}: each must be finite degrees within ±3600", i + 1, v)));
-            }
-            rows.into_iter().map(|v| Target::Joints(v.iter().map(|d| d.to_radians()).collect())).collect()
+        if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v[..3].iter().any(|c| !c.is_finite() || c.abs() > far)) {
+            return Err(bad(format!("target {} ({:?}) mm is not a point (a coordinate not finite or beyond {far} mm)", i + 1, &v[..3])));
         }
+        if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v[3..].iter().any(|c| !c.is_finite() || c.abs() > max_angle)) {
+            return Err(bad(format!("target {} has the orientation {:?}: each angle must be finite degrees within ±{max_angle}", i + 1, &v[3..])));
+        }
+        // Metres read as millimetres put every target inside the arm's base.
+        if rows.iter().all(|v| v[..3].iter().all(|c| c.abs() < METRES_MM)) {
+            return Err(bad(format!("every target lies within {METRES_MM} mm of the base origin: are the coordinates in metres? Targets are in mm")));
+        }
+        rows.into_iter()
+            .map(|v| {
+                let p = Vector3::new(v[0], v[1], v[2]);
+                if pose {
+                    Target::Pose(p, euler.matrix([v[3], v[4], v[5]].map(f64::to_radians)))
+                } else {
+                    Target::Point(p)
+                }
+            })
+            .collect()
+    } else {
+        let names: Vec<String> = (1..=n_joints).map(|j| format!("q{j}")).collect();
+        let cols: Vec<&str> = names.iter().map(String::as_str).collect();
+        let rows = t.columns(&cols).map_err(|_| {
+            bad(format!(
+                "targets need columns x, y, z (mm, base frame; with rx, ry, rz in degrees for poses) or q1..q{n_joints} (degrees, taught on the nominal model): the header is '{}'",
+                t.header()
+            ))
+        })?;
+        if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| !c.is_finite() || c.abs() > 3600.0)) {
+            return Err(bad(format!("target {} has joint angles {:?}: each must be finite degrees within ±3600", i + 1, v)));
+        }
+        rows.into_iter().map(|v| Target::Joints(v.iter().map(|d| d.to_radians()).collect())).collect()
     };
     if targets.is_empty() {
-        return Err(Error::data(path.display(), "no targets after the header"));
+        return Err(bad("no targets after the header".into()));
     }
     Ok(targets)
 }
 
-/// The commands as CSV: per target its point (mm), the command (degrees), the status, the
-/// predicted residual and the uncompensated error (mm), the filtered Cartesian target (mm) and
-/// the nominal command (degrees).
-pub fn commands_csv(rows: &[Compensated]) -> String {
+/// Below this (mm) on every coordinate of every target, a target file is taken for metres.
+const METRES_MM: f64 = 5.0;
+
+/// The commands as CSV: per target its point (mm; for a pose also its orientation, degrees in
+/// the convention `euler`), the command (degrees), the status, the predicted residual and the
+/// uncompensated error (mm; degrees for a pose's orientation), the filtered Cartesian target
+/// (mm, degrees) and the nominal command (degrees).
+pub fn commands_csv(rows: &[Compensated], euler: Euler) -> String {
     use std::fmt::Write;
     let n = rows.first().map_or(0, |r| r.command_q.len());
+    let pose = rows.iter().any(|r| r.pose.is_some());
     let q = |p: &str| (1..=n).map(|j| format!("{p}q{j}_deg")).collect::<Vec<_>>().join(",");
-    let mut out = format!("x_mm,y_mm,z_mm,{},status,residual_mm,nominal_error_mm,x_filtered_mm,y_filtered_mm,z_filtered_mm,{}\n", q(""), q("nominal_"));
+    let mut out = if pose {
+        format!(
+            "x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,{},status,residual_mm,residual_deg,nominal_error_mm,nominal_error_deg,x_filtered_mm,y_filtered_mm,z_filtered_mm,rx_filtered_deg,ry_filtered_deg,rz_filtered_deg,{}\n",
+            q(""),
+            q("nominal_")
+        )
+    } else {
+        format!("x_mm,y_mm,z_mm,{},status,residual_mm,nominal_error_mm,x_filtered_mm,y_filtered_mm,z_filtered_mm,{}\n", q(""), q("nominal_"))
+    };
     let deg = |v: &[f64]| v.iter().map(|a| format!("{:.9}", a.to_degrees())).collect::<Vec<_>>().join(",");
+    let angles = |m: &Matrix3<f64>| deg(&euler.angles(m));
     for r in rows {
         let [x, y, z] = r.target_mm;
         let [fx, fy, fz] = r.filtered_mm;
-        let _ = writeln!(
-            out,
-            "{x:.6},{y:.6},{z:.6},{},{},{:.6},{:.6},{fx:.6},{fy:.6},{fz:.6},{}",
-            deg(&r.command_q),
-            r.status.name(),
-            r.residual_mm,
-            r.nominal_error_mm,
-            deg(&r.nominal_q)
-        );
+        let _ = match &r.pose {
+            Some(o) => writeln!(
+                out,
+                "{x:.6},{y:.6},{z:.6},{},{},{},{:.6},{:.6},{:.6},{:.6},{fx:.6},{fy:.6},{fz:.6},{},{}",
+                angles(&o.target),
+                deg(&r.command_q),
+                r.status.name(),
+                r.residual_mm,
+                o.residual_deg,
+                r.nominal_error_mm,
+                o.nominal_error_deg,
+                angles(&o.filtered),
+                deg(&r.nominal_q)
+            ),
+            None => writeln!(
+                out,
+                "{x:.6},{y:.6},{z:.6},{},{},{:.6},{:.6},{fx:.6},{fy:.6},{fz:.6},{}",
+                deg(&r.command_q),
+                r.status.name(),
+                r.residual_mm,
+                r.nominal_error_mm,
+                deg(&r.nominal_q)
+            ),
+        };
     }
     out
 }

@@ -23,7 +23,8 @@ use crate::robot::Robot;
 use crate::sim::generate::{generate, generate_at, Generated, Silent};
 use crate::sim::scenario::Scenario;
 use crate::stats::metrics::ErrorStats;
-use nalgebra::Vector3;
+use crate::measurement::Euler;
+use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
@@ -49,15 +50,25 @@ pub struct SeedCheck {
     pub predicted_nominal_ap_mm: ErrorStats,
     /// The compensated commands' AP as the calibrated model predicts it (its IK residual), mm.
     pub predicted_compensated_ap_mm: ErrorStats,
+    /// For pose targets: the angle between each target's orientation and the attained one
+    /// (degrees) with the nominal commands, and with the compensated ones.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_deg: Option<(ErrorStats, ErrorStats)>,
 }
 
-/// The attained tool point (mm) of every executed command, in command order; `None` where the
-/// twin rejected the pose.
-fn execute(s: &Scenario, robot: &Robot, commands: &[Vec<f64>]) -> Result<Vec<Option<Vector3<f64>>>> {
+/// The attained tool pose of every executed command, in command order (the point in mm, the
+/// tool's orientation when the twin's instrument reads it: a 6-D probe's, in the base frame);
+/// `None` where the twin rejected the pose.
+type Attained = Option<(Vector3<f64>, Option<Matrix3<f64>>)>;
+
+fn execute(s: &Scenario, robot: &Robot, commands: &[Vec<f64>]) -> Result<Vec<Attained>> {
     let g: Generated = generate_at(s, robot, commands.to_vec(), None, &Silent)?;
+    // y = R·p + t: a probe's orientation in the tracker's frame turned back to the base's.
+    let to_base = g.truth.tracker.as_ref().map(|t| Euler::XYZ.matrix(t.rotation_deg.map(f64::to_radians)).transpose());
     let mut out = vec![None; commands.len()];
     for p in &g.truth.poses {
-        out[p.index] = Some(Vector3::from(p.tool_mm));
+        let rot = p.pose_true.zip(to_base).map(|(v, r)| r * Euler::XYZ.matrix([v[3], v[4], v[5]].map(f64::to_radians)));
+        out[p.index] = Some((Vector3::from(p.tool_mm), rot));
     }
     Ok(out)
 }
@@ -78,35 +89,50 @@ fn random_configurations(g: &Generated, n: usize, seed: u64) -> Vec<Vec<f64>> {
 }
 
 /// Calibrates the twin of `s` (at seed `seed`) with `opts`, then executes the nominal and the
-/// compensated commands for `n_targets` unseen targets on it.
-pub fn verify_seed(s: &Scenario, robot: &Robot, opts: &CalibOptions, n_targets: usize, seed: u64) -> Result<SeedCheck> {
+/// compensated commands for `n_targets` unseen targets on it: points, or with `poses` (a twin
+/// whose instrument reads a 6-D probe) the probe's true poses, position and orientation.
+pub fn verify_seed(s: &Scenario, robot: &Robot, opts: &CalibOptions, n_targets: usize, seed: u64, poses: bool) -> Result<SeedCheck> {
     let mut s = s.clone();
     s.seed = seed;
     let g = generate(&s, robot, &Silent)?;
     let r: CalibResult = calibrate(&g.dataset, None, opts)?;
-    // Targets: the twin's true tool points at configurations of their own.
+    // Targets: the twin's true tool points (and orientations) at configurations of their own.
     let configurations = random_configurations(&g, n_targets, seed);
-    let truth = execute(&s, robot, &configurations)?;
-    let targets: Vec<Vector3<f64>> = truth.iter().flatten().copied().collect();
+    let truth: Vec<(Vector3<f64>, Option<Matrix3<f64>>)> = execute(&s, robot, &configurations)?.into_iter().flatten().collect();
+    if poses && truth.iter().any(|t| t.1.is_none()) {
+        return Err(Error::Invalid(format!("{}: pose targets need a twin whose instrument reads the tool's orientation (a 6-D probe)", s.name)));
+    }
     let x_nom = nominal_x(&r);
-    let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001)?;
+    let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
     // Each model registered to the twin on the calibration's configurations.
     let reg_q: Vec<Vec<f64>> = g.dataset.rows.iter().map(|row| row.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
     let reg_true: Vec<Vector3<f64>> = g.truth.poses.iter().map(|p| Vector3::from(p.tool_mm)).collect();
     let (to_cal, to_nom) = (c.registration(&reg_q, &reg_true, false), c.registration(&reg_q, &reg_true, true));
-    let solved = c.compensate(&targets.iter().map(|p| Target::Point(to_cal.0 * p + to_cal.1)).collect::<Vec<_>>());
-    let (rot, tr) = &to_nom;
-    let nominal_q = c.nominal_commands(&targets.iter().map(|p| rot * p + tr).collect::<Vec<_>>());
+    // A target in a model's frame: its point and orientation carried by the registration.
+    let carry = |(rot, tr): &(Matrix3<f64>, Vector3<f64>), (p, o): &(Vector3<f64>, Option<Matrix3<f64>>)| match o.filter(|_| poses) {
+        Some(o) => Target::Pose(rot * p + tr, rot * o),
+        None => Target::Point(rot * p + tr),
+    };
+    let solved = c.compensate(&truth.iter().map(|t| carry(&to_cal, t)).collect::<Vec<_>>());
+    let nominal_q: Vec<Vec<f64>> = match poses {
+        true => c.nominal_pose_commands(&truth.iter().map(|(p, o)| (to_nom.0 * p + to_nom.1, to_nom.0 * o.unwrap_or_default())).collect::<Vec<_>>()),
+        false => c.nominal_commands(&truth.iter().map(|(p, _)| to_nom.0 * p + to_nom.1).collect::<Vec<_>>()),
+    };
     let nominal = execute(&s, robot, &nominal_q)?;
     let compensated = execute(&s, robot, &solved.iter().map(|k| k.command_q.clone()).collect::<Vec<_>>())?;
     let (mut before, mut after, mut predicted, mut residual) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (k, t) in targets.iter().enumerate() {
-        if let (Some(a), Some(b), Status::Reachable) = (nominal[k], compensated[k], solved[k].status) {
+    let (mut turn_before, mut turn_after) = (Vec::new(), Vec::new());
+    for (k, (t, o)) in truth.iter().enumerate() {
+        if let (Some((a, ra)), Some((b, rb)), Status::Reachable) = (nominal[k], compensated[k], solved[k].status) {
             before.push((a - t).norm());
             after.push((b - t).norm());
             let (rot, tr) = &to_cal;
             predicted.push((rot.transpose() * (c.predicted(&nominal_q[k]) - tr) - t).norm());
             residual.push(solved[k].residual_mm);
+            if let (true, Some(o), Some(ra), Some(rb)) = (poses, o, ra, rb) {
+                turn_before.push(crate::ik::solver::turn(o, &ra).norm().to_degrees());
+                turn_after.push(crate::ik::solver::turn(o, &rb).norm().to_degrees());
+            }
         }
     }
     if after.is_empty() {
@@ -121,5 +147,6 @@ pub fn verify_seed(s: &Scenario, robot: &Robot, opts: &CalibOptions, n_targets: 
         compensated_ap_mm: ErrorStats::of(&after),
         predicted_nominal_ap_mm: ErrorStats::of(&predicted),
         predicted_compensated_ap_mm: ErrorStats::of(&residual),
+        orientation_deg: poses.then(|| (ErrorStats::of(&turn_before), ErrorStats::of(&turn_after))),
     })
 }

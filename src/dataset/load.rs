@@ -267,40 +267,85 @@ impl Dataset {
 
 /// The numeric columns `names` of a CSV file (other columns ignored), read by the dataset reader's
 /// rules: delimiter detected (`,`, `;`, tab), decimal commas with `;` / tab, `#` comments, quoted
-/// fields, a byte-order mark. A header matches a name case-insensitively, also as `NAME_mm`. A
+/// fields, a byte-order mark. A header matches a name case-insensitively, also as `NAME_mm` or `NAME_deg`. A
 /// non-finite cell (`NaN`, `inf`) reads as it is (the caller decides what that means); an empty
 /// cell, a short row or other text is an error naming the line and column, as for a dataset's
 /// cells. One `Vec` per row, in `names` order.
 pub fn read_csv_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>> {
-    let source = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let table = csv_io::read_table(std::io::BufReader::new(file), &source)?;
-    let found = table.header.join(",");
-    let pos = names
-        .iter()
-        .map(|n| table.header.iter().position(|h| h.trim().eq_ignore_ascii_case(n) || h.trim().eq_ignore_ascii_case(&format!("{n}_mm"))))
-        .collect::<Option<Vec<usize>>>()
-        .ok_or_else(|| Error::data(&source, format!("the header '{found}' lacks the columns {}", names.join(", "))))?;
-    // A column named twice is ambiguous (which x?): refused, as the dataset reader refuses it.
-    for (n, &i) in names.iter().zip(&pos) {
-        let same = |h: &String| h.trim().eq_ignore_ascii_case(n) || h.trim().eq_ignore_ascii_case(&format!("{n}_mm"));
-        if table.header.iter().enumerate().any(|(k, h)| k != i && same(h)) {
-            return Err(Error::data(&source, format!("the header '{found}' names the column {n} twice")));
-        }
+    CsvColumns::read(path)?.columns(names)
+}
+
+/// A CSV file read once, to ask for its columns by name ([`read_csv_columns`]'s rules).
+pub struct CsvColumns {
+    source: String,
+    table: RawTable,
+}
+
+impl CsvColumns {
+    /// Reads `path` (delimiter, decimal commas, comments, quotes and a byte-order mark as
+    /// [`read_csv_columns`] reads them).
+    pub fn read(path: &Path) -> Result<CsvColumns> {
+        let source = path.display().to_string();
+        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let table = csv_io::read_table(std::io::BufReader::new(file), &source)?;
+        Ok(CsvColumns { source, table })
     }
-    let cells = Cells { source: &source, decimal_comma: table.decimal_comma };
-    let value = |row: &RawRow, i: usize, name: &str| -> Result<f64> {
-        let cell =
-            row.cells.get(i).ok_or_else(|| Error::data(&source, format!("line {}: {} fields, expected at least {}", row.line, row.cells.len(), i + 1)))?;
-        // A non-finite value (NaN, inf) is the caller's to answer; anything else reads as a dataset cell.
-        if let Cell::Text(t) = cell {
-            if let Some(v) = parse_number(t, table.decimal_comma).filter(|v| !v.is_finite()) {
-                return Ok(v);
+
+    fn matches(h: &str, n: &str) -> bool {
+        let h = h.trim();
+        h.eq_ignore_ascii_case(n) || ["_mm", "_deg"].iter().any(|u| h.eq_ignore_ascii_case(&format!("{n}{u}")))
+    }
+
+    /// Whether the header has a column `name` (also as `name_mm` or `name_deg`, any case).
+    pub fn has(&self, name: &str) -> bool {
+        self.table.header.iter().any(|h| Self::matches(h, name))
+    }
+
+    /// The header as the file gives it, comma-joined.
+    pub fn header(&self) -> String {
+        self.table.header.join(",")
+    }
+
+    /// Rows of data.
+    pub fn len(&self) -> usize {
+        self.table.rows.len()
+    }
+
+    /// No row of data.
+    pub fn is_empty(&self) -> bool {
+        self.table.rows.is_empty()
+    }
+
+    /// The columns `names`, one `Vec` per row in `names` order, or an error naming what is missing
+    /// or malformed.
+    pub fn columns(&self, names: &[&str]) -> Result<Vec<Vec<f64>>> {
+        let (source, table) = (&self.source, &self.table);
+        let found = self.header();
+        let pos = names
+            .iter()
+            .map(|n| table.header.iter().position(|h| Self::matches(h, n)))
+            .collect::<Option<Vec<usize>>>()
+            .ok_or_else(|| Error::data(source, format!("the header '{found}' lacks the columns {}", names.join(", "))))?;
+        // A column named twice is ambiguous (which x?): refused, as the dataset reader refuses it.
+        for (n, &i) in names.iter().zip(&pos) {
+            if table.header.iter().enumerate().any(|(k, h)| k != i && Self::matches(h, n)) {
+                return Err(Error::data(source, format!("the header '{found}' names the column {n} twice")));
             }
         }
-        cells.required(Some(cell), name, row.line)
-    };
-    table.rows.iter().map(|row| pos.iter().zip(names).map(|(&i, name)| value(row, i, name)).collect()).collect()
+        let cells = Cells { source, decimal_comma: table.decimal_comma };
+        let value = |row: &RawRow, i: usize, name: &str| -> Result<f64> {
+            let cell =
+                row.cells.get(i).ok_or_else(|| Error::data(source, format!("line {}: {} fields, expected at least {}", row.line, row.cells.len(), i + 1)))?;
+            // A non-finite value (NaN, inf) is the caller's to answer; anything else reads as a dataset cell.
+            if let Cell::Text(t) = cell {
+                if let Some(v) = parse_number(t, table.decimal_comma).filter(|v| !v.is_finite()) {
+                    return Ok(v);
+                }
+            }
+            cells.required(Some(cell), name, row.line)
+        };
+        table.rows.iter().map(|row| pos.iter().zip(names).map(|(&i, name)| value(row, i, name)).collect()).collect()
+    }
 }
 
 /// Splits `book.xlsx#Sheet` into the file and the sheet name. A path that exists as given is never

@@ -65,7 +65,7 @@ pub mod truth;
 mod types;
 mod xlsx;
 
-pub use load::read_csv_columns;
+pub use load::{read_csv_columns, CsvColumns};
 pub use table::{MAX_STD_MM, STD_COLUMNS};
 pub use types::*;
 

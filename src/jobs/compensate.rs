@@ -16,8 +16,9 @@ pub struct CompensateJob {
     /// A result.json written by `calibrate` (or diagnosed.json by `diagnose`).
     #[cfg_attr(feature = "clap", arg(long))]
     pub model: PathBuf,
-    /// The program's targets, CSV: columns x, y, z (mm, the robot's base frame), or q1..qN
-    /// (degrees, joint targets taught on the nominal model).
+    /// The program's targets, CSV: columns x, y, z (mm, the robot's base frame), with rx, ry, rz
+    /// (degrees, the tool's orientation, `--euler`) for poses, or q1..qN (degrees, joint targets
+    /// taught on the nominal model).
     #[cfg_attr(feature = "clap", arg(long))]
     pub targets: PathBuf,
     /// The payload the program runs with, kg (default: the one the calibration stated); it
@@ -33,6 +34,16 @@ pub struct CompensateJob {
     #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.001))]
     #[serde(default = "default_tol")]
     pub tol_mm: f64,
+    /// Orientation residual at which a pose target counts as reached, degrees.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.001))]
+    #[serde(default = "default_tol")]
+    pub tol_deg: f64,
+    /// The Euler convention of the targets' (and the commands') rx, ry, rz: capitals for
+    /// rotations about the moving axes (intrinsic; XYZ is R = Rx(rx)·Ry(ry)·Rz(rz)), lower case
+    /// for the fixed axes (extrinsic; xyz is R = Rz(rz)·Ry(ry)·Rx(rx)).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "XYZ"))]
+    #[serde(default = "default_euler")]
+    pub euler: String,
     /// The commands: per target its point, the compensated joint angles, the status, the
     /// predicted residual and uncompensated error, the filtered Cartesian target and the nominal
     /// command.
@@ -43,6 +54,9 @@ pub struct CompensateJob {
 
 fn default_tol() -> f64 {
     0.001
+}
+fn default_euler() -> String {
+    "XYZ".into()
 }
 fn default_out() -> PathBuf {
     PathBuf::from("commands.csv")
@@ -69,7 +83,8 @@ impl CompensateJob {
     pub fn run(&self) -> Result<CompensateSummary> {
         check_outputs(&[("--model", self.model.clone()), ("--targets", self.targets.clone())], &[("--out", self.out.as_path())])?;
         let r = CalibResult::load(&self.model)?;
-        let targets = read_targets(&self.targets, r.model.chain.n_joints)?;
+        let euler = crate::measurement::Euler::parse(&self.euler).map_err(|e| Error::Invalid(format!("--euler: {e}")))?;
+        let targets = read_targets(&self.targets, r.model.chain.n_joints, euler)?;
         // Taught joint targets lie inside the arm's limits (a radian file read as degrees does not).
         let limits = r.model.joint_limits();
         for (i, t) in targets.iter().enumerate() {
@@ -99,7 +114,7 @@ impl CompensateJob {
         }
         let x_nom = nominal_x(&r);
         let payload = torque.as_ref().map(|t| t.payload.map_or((0.0, [0.0; 3]), |(m, c)| (m, c.map(crate::units::to_mm))));
-        let c = Compensator::new(&r, &x_nom, torque, self.tol_mm)?;
+        let c = Compensator::new(&r, &x_nom, torque, self.tol_mm, self.tol_deg)?;
         let solved = c.compensate(&targets);
         let reachable = solved.iter().filter(|s| s.status == Status::Reachable).count();
         if reachable < solved.len() {
@@ -109,7 +124,7 @@ impl CompensateJob {
             return Err(Error::Invalid("no targets".into()));
         }
         let mut outputs = OutputSet::new();
-        outputs.write(&self.out, commands_csv(&solved).as_bytes())?;
+        outputs.write(&self.out, commands_csv(&solved, euler).as_bytes())?;
         outputs.commit()?;
         Ok(CompensateSummary { reachable, not_reached: solved.len() - reachable, targets: solved, payload, warnings })
     }

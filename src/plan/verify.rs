@@ -68,7 +68,7 @@ pub fn true_error(s: &Scenario, robot: &Robot, opts: &CalibOptions, poses: &[Vec
     let (data, truth) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses)?;
     let r = calibrate(&data, None, opts)?;
     let x_nom = nominal_x(&r);
-    let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001)?;
+    let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
     let (reg_q, reg_true): (Vec<Vec<f64>>, Vec<Vector3<f64>>) = poses.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
     let (rot, tr) = c.registration(&reg_q, &reg_true, false);
     let sq: Vec<f64> = test.0.iter().zip(&test.1).map(|(q, t)| (rot * t + tr - c.predicted(q)).norm_squared()).collect();

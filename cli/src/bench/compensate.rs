@@ -17,13 +17,15 @@ const COMPLIANCE: &str =
     "[effects.compliance]\nstiffness_nm_per_rad = [1.5e5, 2.0e4, 3.0e4, 3.0e4, 3.0e4, 2.0e4]\n\n[effects.payload]\nmass_kg = 3.0\ncom_mm = [40.0, 0.0, 60.0]\n\n";
 
 /// The scenarios: (label, scenario file, text added before `[sensor]`, whether the calibration
-/// models the compliance with the stated payload).
-const CASES: [(&str, &str, &str, bool); 5] = [
-    ("IRB 120, cable, geometric", "irb120_geometric", "", false),
-    ("IRB 120, tracker, geometric", "irb120_tracker", "", false),
-    ("IRB 120, tracker, compliance under 3 kg", "irb120_tracker", COMPLIANCE, true),
-    ("IRB 120, cable, compliance under 3 kg", "irb120_geometric", COMPLIANCE, true),
-    ("IRB 120, tracker, compliance under 3 kg, calibrated geometric only", "irb120_tracker", COMPLIANCE, false),
+/// models the compliance with the stated payload, whether the targets are poses).
+const CASES: [(&str, &str, &str, bool, bool); 7] = [
+    ("IRB 120, cable, geometric", "irb120_geometric", "", false, false),
+    ("IRB 120, tracker, geometric", "irb120_tracker", "", false, false),
+    ("IRB 120, tracker, compliance under 3 kg", "irb120_tracker", COMPLIANCE, true, false),
+    ("IRB 120, cable, compliance under 3 kg", "irb120_geometric", COMPLIANCE, true, false),
+    ("IRB 120, tracker, compliance under 3 kg, calibrated geometric only", "irb120_tracker", COMPLIANCE, false, false),
+    ("UR10, 6-D probe, geometric, pose targets", "ur10_pose", "", false, true),
+    ("UR10, 6-D probe, compliance under 3 kg, pose targets", "ur10_pose", COMPLIANCE, true, true),
 ];
 
 fn mean_sd(v: &[f64]) -> (f64, f64) {
@@ -36,11 +38,12 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
 pub fn bench_compensate(seeds: u64) -> Result<()> {
     let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios"));
     println!("# Compensation verified on executed poses ({seeds} seeds, 100 unseen targets each, AP of one cycle in mm: mean over targets, then mean ± sd over seeds)\n");
+    println!("(pose targets: also the angle between each target's orientation and the attained one, degrees, mean over targets)\n");
     println!(
-        "| scenario | calibration test RMSE | nominal AP | nominal AP max | predicted nominal AP | compensated AP | compensated AP max | targets judged |"
+        "| scenario | calibration test RMSE | nominal AP | nominal AP max | predicted nominal AP | compensated AP | compensated AP max | nominal angle ° | compensated angle ° | targets judged |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
-    for (label, file, extra, model_it) in CASES {
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for (label, file, extra, model_it, poses) in CASES {
         let path = dir.join(format!("{file}.toml"));
         let text = std::fs::read_to_string(&path).map_err(|e| twincal::error::Error::io(&path, e))?.replacen("[sensor]", &format!("{extra}[sensor]"), 1);
         let s = Scenario::from_toml(&text, file)?;
@@ -50,19 +53,25 @@ pub fn bench_compensate(seeds: u64) -> Result<()> {
             opts.effects = (0..robot.dof()).map(|j| (EffectKind::JointCompliance, Some(j))).collect();
             opts.loads.payload = s.effects.payload.clone();
         }
-        let checks: Vec<SeedCheck> = (1..=seeds).map(|seed| verify_seed(&s, &robot, &opts, 100, seed)).collect::<Result<_>>()?;
+        let checks: Vec<SeedCheck> = (1..=seeds).map(|seed| verify_seed(&s, &robot, &opts, 100, seed, poses)).collect::<Result<_>>()?;
         let col = |f: &dyn Fn(&SeedCheck) -> f64| {
             let (m, sd) = mean_sd(&checks.iter().map(f).collect::<Vec<_>>());
             format!("{m:.4} ± {sd:.4}")
         };
+        let angle = |f: &dyn Fn(&(twincal::stats::metrics::ErrorStats, twincal::stats::metrics::ErrorStats)) -> f64| match poses {
+            true => col(&|c| c.orientation_deg.as_ref().map_or(f64::NAN, f)),
+            false => "–".to_string(),
+        };
         println!(
-            "| {label} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {label} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             col(&|c| c.calibration_test_rmse_mm),
             col(&|c| c.nominal_ap_mm.mean),
             col(&|c| c.nominal_ap_mm.max),
             col(&|c| c.predicted_nominal_ap_mm.mean),
             col(&|c| c.compensated_ap_mm.mean),
             col(&|c| c.compensated_ap_mm.max),
+            angle(&|o| o.0.mean),
+            angle(&|o| o.1.mean),
             checks.iter().map(|c| c.judged).sum::<usize>()
         );
     }
@@ -77,7 +86,7 @@ fn speed() -> Result<()> {
     let g = twincal::sim::generate::generate(&s, &robot, &twincal::sim::generate::Silent)?;
     let r = twincal::calib::run::calibrate(&g.dataset, None, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM))?;
     let x_nom = twincal::compensate::nominal_x(&r);
-    let c = twincal::compensate::Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001)?;
+    let c = twincal::compensate::Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
     let targets: Vec<twincal::compensate::Target> = (0..10_000)
         .map(|i| {
             twincal::compensate::Target::Point(c.predicted(&g.dataset.rows[i % g.dataset.rows.len()].q_deg.iter().map(|d| d.to_radians()).collect::<Vec<_>>()))

@@ -469,6 +469,25 @@ impl CalibModel {
         w.jac.point
     }
 
+    /// The tool's orientation in the base frame at the configuration of the last
+    /// [`Self::tool_point_jac_q`] on `w` (the flange's axes, turned by a pose probe's calibrated
+    /// orientation on the flange when the instrument reads poses), and its angular Jacobian with
+    /// respect to each commanded joint angle (rad/rad, base frame) into `dw`.
+    pub fn tool_rotation_jac_q(&self, x: &[f64], w: &ModelWork, dw: &mut [Vector3<f64>]) -> nalgebra::Matrix3<f64> {
+        let flange = self.chain.flange();
+        self.chain.angular_jacobian(&w.fk, flange, dw);
+        if !self.effects.is_empty() {
+            for (j, d) in dw.iter_mut().enumerate().take(self.chain.n_joints) {
+                *d *= 1.0 + w.eff.ddq_dq[j];
+            }
+        }
+        let rot = self.chain.frame(&w.fk, flange).rot;
+        match self.measurement {
+            crate::measurement::Measurement::Pose => rot * crate::measurement::pose::probe_rotation(self.sensor(x).0),
+            _ => rot,
+        }
+    }
+
     /// Display value (mm / degrees) of parameter `k`.
     pub fn display(&self, k: usize, v: f64) -> f64 {
         v * self.kinds[k].display()
