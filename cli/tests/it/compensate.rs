@@ -74,3 +74,75 @@ fn compensate_writes_commands_for_points_and_taught_joints_and_refuses_bad_reque
     }
     assert!(!never.exists());
 }
+
+/// Pose targets on a UR10 calibrated from a 6-D probe: each reached in position and orientation
+/// (the model's residuals within the tolerances), the orientation columns written in the
+/// convention asked for, and bad pose requests refused by name.
+#[test]
+fn compensate_reaches_pose_targets_in_position_and_orientation() {
+    use twincal::compensate::nominal_x;
+    use twincal::ik::IkModel;
+    use twincal::measurement::Euler;
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/ur10_pose.toml");
+    let data = dir.path().join("d");
+    assert!(twincal(&["--quiet", "generate", "--scenario", scenario, "--out", s(&data)]).status.success());
+    let result = dir.path().join("r.json");
+    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/../urdf/ur10.urdf");
+    let o = twincal(&["--quiet", "calibrate", "--data", s(&data), "--model", urdf, "--out", s(&result)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Targets: the nominal model's tool poses at three configurations, in extrinsic z-y-x angles.
+    let r = twincal::calib::run::CalibResult::load(&result).unwrap();
+    let x_nom = nominal_x(&r);
+    let ik = IkModel::new(&r.model, &x_nom, None, r.model.joint_limits());
+    let mut w = ik.work();
+    let zyx = Euler::parse("zyx").unwrap();
+    let mut text = String::from("x,y,z,rx,ry,rz\n");
+    let configurations = [[10.0, -60.0, 70.0, -100.0, -80.0, 20.0], [-30.0, -110.0, -40.0, -60.0, 50.0, -90.0], [60.0, -45.0, 100.0, -150.0, -30.0, 120.0f64]];
+    for q in &configurations {
+        let (p, m) = ik.pose(&q.map(f64::to_radians), &mut w, None);
+        let a = zyx.angles(&m).map(f64::to_degrees);
+        text += &format!("{},{},{},{},{},{}\n", p.x, p.y, p.z, a[0], a[1], a[2]);
+    }
+    let targets = dir.path().join("poses.csv");
+    std::fs::write(&targets, &text).unwrap();
+    let out = dir.path().join("c.csv");
+    let o = twincal(&["--quiet", "compensate", "--model", s(&result), "--targets", s(&targets), "--euler", "zyx", "--out", s(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let written = std::fs::read_to_string(&out).unwrap();
+    let mut rd = csv::Reader::from_reader(written.as_bytes());
+    let header: Vec<String> = rd.headers().unwrap().iter().map(String::from).collect();
+    assert_eq!(&header[..7], ["x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg", "q1_deg"]);
+    let col = |n: &str| header.iter().position(|h| h == n).unwrap();
+    let rows: Vec<csv::StringRecord> = rd.records().map(Result::unwrap).collect();
+    let given: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    for (row, g) in rows.iter().zip(&given) {
+        let v = |n: &str| row[col(n)].parse::<f64>().unwrap();
+        assert_eq!(&row[col("status")], "reachable", "{written}");
+        assert!(v("residual_mm") <= 0.001 && v("residual_deg") <= 0.001, "{written}");
+        // The calibration moves the arm: the nominal command misses the target by more.
+        assert!(v("nominal_error_mm") > 0.05 && v("nominal_error_deg") > 0.001, "{written}");
+        assert!((v("rx_deg") - g[3]).abs() < 1e-6 && (v("rz_deg") - g[5]).abs() < 1e-6, "{written}");
+        // The filtered pose is the nominal model's at the command.
+        let q: Vec<f64> = (1..=6).map(|j| v(&format!("q{j}_deg")).to_radians()).collect();
+        let (fp, fm) = ik.pose(&q, &mut w, None);
+        let fa = zyx.angles(&fm).map(f64::to_degrees);
+        assert!((fp.x - v("x_filtered_mm")).abs() < 1e-5 && (fa[1] - v("ry_filtered_deg")).abs() < 1e-5, "{written}");
+    }
+    let two = dir.path().join("two.csv");
+    std::fs::write(&two, "x,y,z,rx,ry\n400,0,500,0,0\n").unwrap();
+    for (args, needle) in [
+        (vec!["--targets", s(&targets), "--euler", "XXY"], "--euler"),
+        (vec!["--targets", s(&targets), "--tol-deg", "0"], "--tol-deg must be in"),
+        (vec!["--targets", s(&two)], "2 of the orientation columns"),
+    ] {
+        let never = dir.path().join("never.csv");
+        let mut full = vec!["--quiet", "compensate", "--model", s(&result), "--out", s(&never)];
+        full.extend(args.iter().copied());
+        let o = twincal(&full);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle) && !err.contains("panicked"), "{args:?}: {err}");
+        assert!(!never.exists());
+    }
+}
