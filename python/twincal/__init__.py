@@ -514,18 +514,21 @@ def plan(
     poses: int = 30,
     candidates: int = 10_000,
     criterion: str = "i",
-    params: str = "hayati",
+    params: Optional[str] = None,
     effects: Any = None,
     payload_kg: Optional[float] = None,
     payload_com_mm: Optional[Sequence[float]] = None,
     seed: Optional[int] = None,
     rrd: Optional[Union[str, os.PathLike]] = None,
+    model: Optional[Union[str, os.PathLike]] = None,
 ) -> dict:
     """Measurement poses worth measuring, as ``twincal plan``: feasible candidates of the scenario's
     arm, instrument and cell (None: the embedded one), ``poses`` of them chosen by ``criterion``
-    (``i``, ``d``, ``min-sv``, ``noise``, ``a``) for the ``params`` parametrisation and the
-    ``effects`` the calibration will fit (``"compliance"``, under the payload mounted: the
-    scenario's unless ``payload_kg`` says), ordered into a short tour. Writes ``poses.csv`` (what :func:`generate` takes as ``poses``) and ``plan.json``
+    (``i``, ``d``, ``min-sv``, ``noise``, ``a``) for the ``params`` parametrisation (None:
+    hayati) and the ``effects`` the calibration will fit (``"compliance"``, under the payload
+    mounted: the scenario's unless ``payload_kg`` says), or for the next calibration of the
+    calibrated arm ``model`` (a result.json: its parametrisation and effect blocks, at its
+    calibrated values), ordered into a short tour. Writes ``poses.csv`` (what :func:`generate` takes as ``poses``) and ``plan.json``
     into the folder ``out`` (and a recording at ``rrd``); returns plan.json as a dict."""
     options = _options(
         {
@@ -539,6 +542,7 @@ def plan(
             "payload_com_mm": None if payload_com_mm is None else list(payload_com_mm),
             "seed": _seed(seed),
             "rrd": None if rrd is None else os.fspath(rrd),
+            "model": None if model is None else os.fspath(model),
         }
     )
     return json.loads(_native.plan(os.fspath(out), options))

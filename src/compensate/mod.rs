@@ -25,8 +25,8 @@ use crate::calib::correctors::Correct;
 use crate::calib::effects::inputs::TorqueModel;
 use crate::calib::run::CalibResult;
 use crate::error::{Error, Result};
-use crate::measurement::Euler;
 use crate::ik::{solver::check_tol_mm, IkModel, IkOptions, IkStatus, IkWork, JacobianKind};
+use crate::measurement::Euler;
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -185,15 +185,33 @@ impl<'a> Compensator<'a> {
     }
 
     /// The nominal controller's command for each point (its inverse kinematics), without the
-    /// compensation (in parallel).
-    pub fn nominal_commands(&self, points: &[Vector3<f64>]) -> Vec<Vec<f64>> {
-        points.par_iter().map_init(|| self.nominal.work(), |wn, p| self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn).q).collect()
+    /// compensation (in parallel); `None` where the nominal model does not reach the point (a
+    /// controller would refuse it).
+    pub fn nominal_commands(&self, points: &[Vector3<f64>]) -> Vec<Option<Vec<f64>>> {
+        points
+            .par_iter()
+            .map_init(
+                || self.nominal.work(),
+                |wn, p| Some(self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn)).filter(|s| s.status == IkStatus::Converged).map(|s| s.q),
+            )
+            .collect()
     }
 
     /// The nominal controller's command for each pose (its inverse kinematics of the point and
-    /// the orientation), without the compensation (in parallel).
-    pub fn nominal_pose_commands(&self, poses: &[(Vector3<f64>, Matrix3<f64>)]) -> Vec<Vec<f64>> {
-        poses.par_iter().map_init(|| self.nominal.work(), |wn, (p, r)| self.nominal.solve_pose_from(p, r, None, JacobianKind::Analytic, &self.options, wn).q).collect()
+    /// the orientation), without the compensation (in parallel); `None` where the nominal model
+    /// does not reach the pose.
+    pub fn nominal_pose_commands(&self, poses: &[(Vector3<f64>, Matrix3<f64>)]) -> Vec<Option<Vec<f64>>> {
+        poses
+            .par_iter()
+            .map_init(
+                || self.nominal.work(),
+                |wn, (p, r)| {
+                    Some(self.nominal.solve_pose_from(p, r, None, JacobianKind::Analytic, &self.options, wn))
+                        .filter(|s| s.status == IkStatus::Converged)
+                        .map(|s| s.q)
+                },
+            )
+            .collect()
     }
 
     /// Where the calibrated model puts the tool and how it turns it at joint angles `q` (rad):

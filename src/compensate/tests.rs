@@ -105,4 +105,3 @@ fn a_targets_file_is_points_poses_or_this_arms_joints() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
-

@@ -19,11 +19,11 @@
 use super::{nominal_x, Compensator, Status, Target};
 use crate::calib::run::{calibrate, CalibOptions, CalibResult};
 use crate::error::{Error, Result};
+use crate::measurement::Euler;
 use crate::robot::Robot;
 use crate::sim::generate::{generate, generate_at, Generated, Silent};
 use crate::sim::scenario::Scenario;
 use crate::stats::metrics::ErrorStats;
-use crate::measurement::Euler;
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
@@ -36,7 +36,7 @@ pub struct SeedCheck {
     /// The calibration's held-out RMSE on its own test rows, mm.
     pub calibration_test_rmse_mm: f64,
     /// Targets drawn, and how many of them both commands reached on the twin (the rest were
-    /// rejected by the twin, or not reachable on the calibrated model).
+    /// rejected by the twin, or not reachable on the nominal or the calibrated model).
     pub targets: usize,
     /// Targets judged.
     pub judged: usize,
@@ -114,20 +114,23 @@ pub fn verify_seed(s: &Scenario, robot: &Robot, opts: &CalibOptions, n_targets: 
         None => Target::Point(rot * p + tr),
     };
     let solved = c.compensate(&truth.iter().map(|t| carry(&to_cal, t)).collect::<Vec<_>>());
-    let nominal_q: Vec<Vec<f64>> = match poses {
+    // The nominal controller's commands (none where its own model does not reach the target: a
+    // controller refuses those, and they are not judged).
+    let nominal_q: Vec<Option<Vec<f64>>> = match poses {
         true => c.nominal_pose_commands(&truth.iter().map(|(p, o)| (to_nom.0 * p + to_nom.1, to_nom.0 * o.unwrap_or_default())).collect::<Vec<_>>()),
         false => c.nominal_commands(&truth.iter().map(|(p, _)| to_nom.0 * p + to_nom.1).collect::<Vec<_>>()),
     };
-    let nominal = execute(&s, robot, &nominal_q)?;
+    let mid: Vec<f64> = r.model.joint_limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect();
+    let nominal = execute(&s, robot, &nominal_q.iter().map(|q| q.clone().unwrap_or_else(|| mid.clone())).collect::<Vec<_>>())?;
     let compensated = execute(&s, robot, &solved.iter().map(|k| k.command_q.clone()).collect::<Vec<_>>())?;
     let (mut before, mut after, mut predicted, mut residual) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut turn_before, mut turn_after) = (Vec::new(), Vec::new());
     for (k, (t, o)) in truth.iter().enumerate() {
-        if let (Some((a, ra)), Some((b, rb)), Status::Reachable) = (nominal[k], compensated[k], solved[k].status) {
+        if let (Some(nq), Some((a, ra)), Some((b, rb)), Status::Reachable) = (&nominal_q[k], nominal[k], compensated[k], solved[k].status) {
             before.push((a - t).norm());
             after.push((b - t).norm());
             let (rot, tr) = &to_cal;
-            predicted.push((rot.transpose() * (c.predicted(&nominal_q[k]) - tr) - t).norm());
+            predicted.push((rot.transpose() * (c.predicted(nq) - tr) - t).norm());
             residual.push(solved[k].residual_mm);
             if let (true, Some(o), Some(ra), Some(rb)) = (poses, o, ra, rb) {
                 turn_before.push(crate::ik::solver::turn(o, &ra).norm().to_degrees());

@@ -343,7 +343,15 @@ impl<'a> IkModel<'a> {
 
     /// Descents from `first`, then from the seeded random restarts while none has converged:
     /// (the best one's score, its angles, why it stopped, iterations over all starts).
-    fn search<const D: usize>(&self, first: Vec<f64>, o: &IkOptions, w: &mut IkWork, cols: &mut [SVector<f64, D>], eval: &Eval<D>, judge: &Judge<D>) -> (f64, Vec<f64>, IkStatus, usize) {
+    fn search<const D: usize>(
+        &self,
+        first: Vec<f64>,
+        o: &IkOptions,
+        w: &mut IkWork,
+        cols: &mut [SVector<f64, D>],
+        eval: &Eval<D>,
+        judge: &Judge<D>,
+    ) -> (f64, Vec<f64>, IkStatus, usize) {
         let mut rng = ChaCha8Rng::seed_from_u64(o.seed);
         let mut best: Option<(f64, Vec<f64>, IkStatus)> = None;
         let mut iterations = 0;
@@ -366,7 +374,15 @@ impl<'a> IkModel<'a> {
     /// One damped least-squares descent on the weighted error `eval` returns (target − model, D
     /// coordinates, its Jacobian columns into `cols`): (the score `judge` gives the last error,
     /// q, iterations, `Converged` or why it stopped).
-    fn descend<const D: usize>(&self, mut q: Vec<f64>, o: &IkOptions, w: &mut IkWork, cols: &mut [SVector<f64, D>], eval: &Eval<D>, judge: &Judge<D>) -> (f64, Vec<f64>, usize, IkStatus) {
+    fn descend<const D: usize>(
+        &self,
+        mut q: Vec<f64>,
+        o: &IkOptions,
+        w: &mut IkWork,
+        cols: &mut [SVector<f64, D>],
+        eval: &Eval<D>,
+        judge: &Judge<D>,
+    ) -> (f64, Vec<f64>, usize, IkStatus) {
         let lam2 = o.damping * o.damping;
         let mut res = f64::INFINITY;
         for it in 0..o.max_iter {
@@ -438,7 +454,15 @@ impl<'a> IkModel<'a> {
     /// converged when the position is within `tol_mm` and the orientation within `tol_deg`.
     /// The orientation is the geometric model's with its effects: a corrector corrects the
     /// position only.
-    pub fn solve_pose_from(&self, target: &Vector3<f64>, rot: &Matrix3<f64>, start: Option<&[f64]>, kind: JacobianKind, o: &IkOptions, w: &mut IkWork) -> PoseSolution {
+    pub fn solve_pose_from(
+        &self,
+        target: &Vector3<f64>,
+        rot: &Matrix3<f64>,
+        start: Option<&[f64]>,
+        kind: JacobianKind,
+        o: &IkOptions,
+        w: &mut IkWork,
+    ) -> PoseSolution {
         let lever = crate::measurement::pose::LEVER_MM;
         if !target.iter().chain(rot.iter()).all(|v| v.is_finite()) {
             return PoseSolution { status: IkStatus::Invalid, q: self.mid(), iterations: 0, residual_mm: 0.0, residual_deg: 0.0 };
@@ -644,7 +668,8 @@ mod tests {
         use crate::robot::statics::Payload;
         let robot = Robot::irb120();
         let (m, limits) = model();
-        let probe = Placement { measurement: Measurement::Pose, own: vec![2.0, -0.3, 0.2, 0.02, -0.01, 0.7, 0.1, -0.2, 1.5], tool: Vector3::new(0.06, 0.08, 0.1) };
+        let probe =
+            Placement { measurement: Measurement::Pose, own: vec![2.0, -0.3, 0.2, 0.02, -0.01, 0.7, 0.1, -0.2, 1.5], tool: Vector3::new(0.06, 0.08, 0.1) };
         let mut m = m.with_placement(&probe);
         for kind in [EffectKind::EncoderEccentricity, EffectKind::JointCompliance] {
             for j in 0..6 {

@@ -4,6 +4,7 @@
 
 use super::files::{load_scenario, scenario_inputs, Recordings};
 use crate::calib::model::Parametrisation;
+use crate::calib::run::CalibResult;
 use crate::error::{Error, Result};
 use crate::io::{check_outputs, OutputSet};
 use crate::plan::{plan, Plan, PlanOptions};
@@ -39,10 +40,17 @@ pub struct PlanJob {
     #[cfg_attr(feature = "clap", arg(long, default_value = "i"))]
     #[serde(default = "default_criterion")]
     pub criterion: String,
-    /// The parametrisation the calibration will use: hayati, dh or frame.
-    #[cfg_attr(feature = "clap", arg(long, default_value = "hayati"))]
-    #[serde(default = "default_params")]
-    pub params: String,
+    /// The parametrisation the calibration will use: hayati (default), dh or frame.
+    #[cfg_attr(feature = "clap", arg(long))]
+    #[serde(default)]
+    pub params: Option<String>,
+    /// Plan the next calibration of this calibrated arm (a result.json or diagnosed.json): its
+    /// parametrisation, its instrument's calibrated placement and its effect blocks, linearised
+    /// at its calibrated values, with the payload it was calibrated with (or --payload-kg); the
+    /// scenario gives the cell. Not with --params or --effects.
+    #[cfg_attr(feature = "clap", arg(long))]
+    #[serde(default)]
+    pub model: Option<PathBuf>,
     /// Effects the calibration will fit beside the geometry, whose parameters the plan also
     /// makes observable: compliance, eccentricity, nonlinearity, ... (KIND[:JOINT], comma-separated).
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
@@ -80,9 +88,6 @@ fn default_candidates() -> usize {
 fn default_criterion() -> String {
     "i".into()
 }
-fn default_params() -> String {
-    "hayati".into()
-}
 fn default_out() -> PathBuf {
     PathBuf::from("plan")
 }
@@ -94,7 +99,8 @@ impl Default for PlanJob {
             poses: default_poses(),
             candidates: default_candidates(),
             criterion: default_criterion(),
-            params: default_params(),
+            params: None,
+            model: None,
             effects: Vec::new(),
             payload_kg: None,
             payload_com_mm: None,
@@ -124,17 +130,29 @@ impl PlanJob {
             return Err(Error::Invalid(format!("--candidates must be in {}..={MAX_CANDIDATES} (at least --poses), got {}", self.poses, self.candidates)));
         }
         crate::plan::criterion(&self.criterion)?;
-        let parametrisation = Parametrisation::parse(&self.params)?;
+        let parametrisation = Parametrisation::parse(self.params.as_deref().unwrap_or("hayati"))?;
+        if self.model.is_some() && (self.params.is_some() || !self.effects.is_empty()) {
+            return Err(Error::Invalid(
+                "--model plans for the calibrated model's own parametrisation and effect blocks: not with --params or --effects".into(),
+            ));
+        }
         let (s, robot) = load_scenario(self.scenario.as_deref())?;
         let (poses_path, plan_path) = (self.out.join(POSES_FILE), self.out.join(PLAN_FILE));
         let mut outs = vec![("--out", poses_path.as_path()), ("--out", plan_path.as_path())];
         if let Some(r) = &self.rrd {
             outs.push(("--rrd", r.as_path()));
         }
-        check_outputs(&scenario_inputs(self.scenario.as_deref(), &s), &outs)?;
+        let mut inputs = scenario_inputs(self.scenario.as_deref(), &s);
+        if let Some(m) = &self.model {
+            inputs.push(("--model", m.clone()));
+        }
+        check_outputs(&inputs, &outs)?;
+        let calibrated = self.model.as_deref().map(CalibResult::load).transpose()?.map(std::sync::Arc::new);
         let effects = crate::requests::parse_effects("--effects", &self.effects)?;
         let mut loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.0;
-        if loads.payload.is_none() {
+        // The payload mounted: the one asked for, else the scenario's (a calibrated model's own
+        // when planning for it).
+        if loads.payload.is_none() && calibrated.is_none() {
             loads.payload = s.effects.payload.clone();
         }
         if s.instruments.active().is_none() {
@@ -148,6 +166,7 @@ impl PlanJob {
             seed: self.seed.unwrap_or(s.seed),
             effects,
             loads,
+            calibrated,
             ..PlanOptions::default()
         };
         let p = plan(&s, &robot, &opts)?;

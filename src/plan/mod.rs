@@ -36,10 +36,11 @@ use crate::calib::effects::{EffectKind, RowInputs};
 use crate::calib::model::{CalibModel, Parametrisation, SensorGuess};
 use crate::calib::problem::{identify::analyse, ReadingFit, Samples};
 use crate::calib::run::placement::build_model;
-use crate::calib::run::ModelSpec;
+use crate::calib::run::{CalibResult, ModelSpec};
 use crate::dataset::{Dataset, Row};
 use crate::error::{Error, Result};
 use crate::optim::LeastSquares;
+use crate::robot::statics::Payload;
 use crate::robot::Robot;
 use crate::seed::{stream_seed, Stream};
 use crate::sim::generate::commanded_pose;
@@ -104,8 +105,11 @@ pub fn candidates(s: &Scenario, robot: &Robot, count: usize, seed: u64) -> Resul
 /// the calibration will fit, with the static torques that drive the load-driven ones.
 pub struct Model {
     /// The model: the nominal arm in the parametrisation, the instrument at the scenario's
-    /// placement, the effect blocks at their nominal values.
+    /// placement, the effect blocks at their nominal values (or a calibrated result's model).
     pub model: CalibModel,
+    /// The parameters the design linearises the model at: its nominal values, or a calibrated
+    /// result's.
+    pub x: Vec<f64>,
     /// The static-torque model of the effect blocks (the links and the payload mounted).
     pub torque: Option<TorqueModel>,
 }
@@ -120,21 +124,46 @@ impl Model {
         let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
         let mut model = build_model(&ModelSpec::nominal(robot.clone(), p), &zero).with_placement(&placement);
         if effects.is_empty() {
-            return Ok(Model { model, torque: None });
+            return Ok(Model { x: model.nominal.clone(), model, torque: None });
         }
         let exit = (s.instruments.active().is_none()).then(|| s.sensor.exit_point_m());
         let torque = TorqueModel::new(robot, loads, exit, s.sensor.tool_point_m());
         // The effects are configured on the candidates as a calibration configures them on its
         // data: a dataset of nominal readings at every candidate of a small Halton pool.
         let probe = candidates(s, robot, 200, s.seed)?.q;
-        let data = Model { model: model.clone(), torque: None }.dataset(&probe);
+        let data = Model { x: model.nominal.clone(), model: model.clone(), torque: None }.dataset(&probe);
         for &(kind, joint) in effects {
             let joints: Vec<Option<usize>> = if joint.is_none() && kind.per_joint() { (0..robot.dof()).map(Some).collect() } else { vec![joint] };
             for j in joints {
                 model.add_effect(block_for(&data, kind, j, true)?, time_span(&data));
             }
         }
-        Ok(Model { model, torque: Some(torque) })
+        Ok(Model { x: model.nominal.clone(), model, torque: Some(torque) })
+    }
+
+    /// The model of a calibrated result (its chain in its parametrisation, its instrument's
+    /// calibrated placement, its effect blocks), linearised at its calibrated values, for
+    /// scenario `s`'s arm `robot`: the plan of its next calibration. Its torque model carries
+    /// `payload` when given, else the payload it was calibrated with. A result for another arm
+    /// (joint count) or another instrument than the scenario's is refused.
+    pub fn from_result(r: &CalibResult, s: &Scenario, robot: &Robot, payload: Option<&Payload>) -> Result<Model> {
+        let n = r.model.chain.n_joints;
+        if n != robot.dof() {
+            return Err(Error::Invalid(format!("the model's arm has {n} joints, the scenario's robot {} has {}", robot.name, robot.dof())));
+        }
+        let theirs = crate::sim::instrument::placement(&s.sensor, &s.instruments).measurement;
+        if r.model.measurement != theirs {
+            return Err(Error::Invalid(format!(
+                "the model was calibrated on {} readings, the scenario measures {}: plan with the scenario of the instrument the model was calibrated with",
+                r.model.measurement.name(),
+                theirs.name()
+            )));
+        }
+        let mut torque = r.torque_model.clone();
+        if let (Some(t), Some(p)) = (&mut torque, payload) {
+            t.payload = Some((p.mass_kg, p.com_mm.map(crate::units::to_m)));
+        }
+        Ok(Model { model: r.model.clone(), x: r.x.clone(), torque })
     }
 
     /// The nominal model's readings at `q` as a dataset (mm, degrees), for configuring blocks
@@ -146,7 +175,7 @@ impl Model {
         let rows = q
             .iter()
             .map(|q| {
-                self.model.readings_with(&self.model.nominal, q, &RowInputs::default(), &mut w, &mut y);
+                self.model.readings_with(&self.x, q, &RowInputs::default(), &mut w, &mut y);
                 // Lengths in mm (a 6-D probe's angle values too: no block reads them).
                 let reading: Vec<f64> = y.iter().map(|v| crate::units::to_mm(*v)).collect();
                 Row { q_deg: q.iter().map(|v| v.to_degrees()).collect(), reading_mm: reading, t_s: None, temp_c: None, split: None, std_mm: None, block: None }
@@ -164,15 +193,15 @@ impl Model {
         }
     }
 
-    /// The Jacobian of the readings (mm) at the nominal parameters for poses `q`: one row per
-    /// reading value, pose after pose.
+    /// The Jacobian of the readings (mm) at the model's parameters `x` for poses `q`: one row
+    /// per reading value, pose after pose.
     pub fn jacobian(&self, q: &[Vec<f64>]) -> DMatrix<f64> {
         let dim = self.model.measurement.dim();
         let mut data = Samples::readings(q.to_vec(), vec![0.0; q.len() * dim], dim);
         data.inputs = self.inputs(q);
         let fit = ReadingFit { model: &self.model, data: &data };
         let mut j = DMatrix::zeros(q.len() * dim, self.model.n_params());
-        fit.jacobian(&self.model.nominal, &mut j);
+        fit.jacobian(&self.x, &mut j);
         j
     }
 }
@@ -283,6 +312,10 @@ pub struct PlanOptions {
     /// What loads the joints while measuring (the payload mounted, the cable's tension), for
     /// the load-driven effects.
     pub loads: LoadOptions,
+    /// Plan for this calibrated arm ([`Model::from_result`]) instead of the scenario's nominal
+    /// one: `parametrisation` and `effects` are then the result's, and `loads.payload`, when
+    /// given, replaces the payload it was calibrated with.
+    pub calibrated: Option<std::sync::Arc<CalibResult>>,
 }
 
 impl Default for PlanOptions {
@@ -296,6 +329,7 @@ impl Default for PlanOptions {
             max_sweeps: 8,
             effects: Vec::new(),
             loads: LoadOptions::default(),
+            calibrated: None,
         }
     }
 }
@@ -384,7 +418,10 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
             opts.n
         )));
     }
-    let model = Model::new(s, robot, opts.parametrisation, &opts.effects, &opts.loads)?;
+    let model = match &opts.calibrated {
+        Some(r) => Model::from_result(r, s, robot, opts.loads.payload.as_ref())?,
+        None => Model::new(s, robot, opts.parametrisation, &opts.effects, &opts.loads)?,
+    };
     let prob = problem(&model, &cands.q);
     let d = design::design(&prob.pool, opts.n, crit, opts.max_sweeps);
     let chosen: Vec<Vec<f64>> = d.chosen.iter().map(|&c| cands.q[c].clone()).collect();
@@ -397,7 +434,10 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         scenario: s.name.clone(),
         robot: robot.name.clone(),
         measurement: model.model.measurement.name().to_string(),
-        parametrisation: opts.parametrisation.name().to_string(),
+        parametrisation: match &opts.calibrated {
+            Some(r) => format!("{} (calibrated, {})", r.provenance.model_name, r.provenance.data),
+            None => opts.parametrisation.name().to_string(),
+        },
         criterion: crit.name().to_string(),
         criterion_describe: crit.describe().to_string(),
         seed: opts.seed,

@@ -19,8 +19,9 @@ pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
         p.seconds
     );
     eprintln!(
-        "  {} parameters identifiable ({} held: no candidate tells them apart); criterion {}: {}",
+        "  {} parameters of the {} model identifiable ({} held: no candidate tells them apart); criterion {}: {}",
         p.identifiable.len(),
+        p.parametrisation,
         p.fixed.len(),
         p.criterion,
         p.criterion_describe

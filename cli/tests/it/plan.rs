@@ -101,3 +101,49 @@ fn bad_plan_requests_and_pose_lists_are_refused_by_name() {
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read_to_string(&poses).unwrap(), "q1,q2,q3,q4,q5,q6\n0,0,0,0,30,0\n");
 }
+
+/// A plan for the next calibration of a calibrated arm (`--model`): the result's own compliance
+/// blocks are designed for under its payload, its parametrisation named; a model of another
+/// instrument than the scenario's, or `--model` with `--effects`, is refused by name.
+#[test]
+fn a_plan_for_a_calibrated_model_designs_for_its_own_blocks() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("d");
+    assert!(twincal(&["--quiet", "generate", "--out", s(&data)]).status.success());
+    let result = dir.path().join("r.json");
+    let o = twincal(&[
+        "--quiet",
+        "calibrate",
+        "--data",
+        s(&data),
+        "--effects",
+        "compliance",
+        "--payload-kg",
+        "3",
+        "--payload-com-mm",
+        "40,0,60",
+        "--out",
+        s(&result),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("plan");
+    let o = twincal(&["--quiet", "plan", "--model", s(&result), "--poses", "40", "--candidates", "2000", "--out", s(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plan: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    let identifiable: Vec<&str> = plan["identifiable"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert!(identifiable.iter().filter(|n| n.contains("compliance")).count() >= 4, "{identifiable:?}");
+    assert!(plan["parametrisation"].as_str().unwrap().contains("calibrated"), "{}", plan["parametrisation"]);
+    assert!(plan["indices"]["i_prediction_variance"].as_f64().unwrap() < plan["random_median"]["i_prediction_variance"].as_f64().unwrap());
+    let tracker = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/irb120_tracker.toml");
+    for (extra, needle) in [(vec!["--scenario", tracker], "calibrated on length readings"), (vec!["--effects", "compliance"], "not with --params or --effects")]
+    {
+        let never = dir.path().join("never");
+        let mut args = vec!["--quiet", "plan", "--model", s(&result), "--out", s(&never)];
+        args.extend(extra.iter().copied());
+        let o = twincal(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(needle) && !err.contains("panicked"), "{err}");
+        assert!(!never.exists());
+    }
+}
