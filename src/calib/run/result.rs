@@ -284,6 +284,29 @@ struct FlatLayout {
     rest: serde_json::Map<String, serde_json::Value>,
 }
 
+/// The first key (as `group.key`) of `given`'s top level or of its groups (objects one level down)
+/// that `known` — the same result as twincal writes it — lacks. A key twincal leaves out when
+/// empty may be given as `null`; `rbf` is an old file's corrector.
+fn unknown_keys(given: &serde_json::Value, known: &serde_json::Value) -> Option<String> {
+    let (Some(g), Some(k)) = (given.as_object(), known.as_object()) else { return None };
+    for (key, v) in g {
+        if v.is_null() || (key == "rbf") {
+            continue;
+        }
+        match k.get(key) {
+            None => return Some(key.clone()),
+            Some(kv) => {
+                if let (Some(go), Some(ko)) = (v.as_object(), kv.as_object()) {
+                    if let Some(sub) = go.iter().find(|(sk, sv)| !sv.is_null() && !ko.contains_key(*sk)) {
+                        return Some(format!("{key}.{}", sub.0));
+                    }
+                }
+            }
+        }
+    }
+    None
+}
+
 /// A version-1 result file's JSON (flat: no `provenance`) in the nested layout; other JSON as it is.
 fn nested(value: serde_json::Value) -> std::result::Result<serde_json::Value, serde_json::Error> {
     let Some(map) = value.as_object() else { return Ok(value) };
@@ -460,8 +483,18 @@ impl CalibResult {
                 format!("a calibration result of schema_version {v}, written by a newer twincal; this one reads up to {RESULT_SCHEMA_VERSION}: update twincal"),
             ));
         }
+        let flat = !value.get("provenance").is_some_and(serde_json::Value::is_object);
+        let given = (!flat).then(|| value.clone());
         let mut r: CalibResult =
             nested(value).and_then(serde_json::from_value).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        // A key twincal does not write is a typo or someone else's file: named, not ignored (the
+        // top level and its groups; a version-1 flat file is read as it is).
+        if let Some(given) = given {
+            let known = serde_json::to_value(&r).map_err(|e| Error::model(path.display(), format!("cannot check the file's keys: {e}")))?;
+            if let Some(k) = unknown_keys(&given, &known) {
+                return Err(Error::model(path.display(), format!("unknown key '{k}' (a typo, or not a twincal result file?)")));
+            }
+        }
         // Read in the current layout, whatever the file's.
         r.schema_version = RESULT_SCHEMA_VERSION;
         if let Some(net) = r.legacy_rbf.take() {
@@ -515,6 +548,17 @@ impl CalibResult {
             && r.model.n_params() == chain.n_params() + r.model.measurement.n_placement() + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
             && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
             && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
+        let reported = r.parameters.len() == r.model.n_params() && r.parameters.iter().zip(&r.model.names).all(|(p, n)| &p.name == n);
+        if consistent && !reported {
+            return Err(Error::model(
+                path.display(),
+                format!(
+                    "the parameter report lists {} parameters, the model has {} (or names them otherwise): edited or truncated result file?",
+                    r.parameters.len(),
+                    r.model.n_params()
+                ),
+            ));
+        }
         if !consistent || r.x.iter().any(|v| !v.is_finite()) {
             return Err(Error::model(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
         }
