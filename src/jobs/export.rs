@@ -69,6 +69,13 @@ impl ExportJob {
             if r.dof() != result.model.chain.n_joints {
                 return Err(Error::Invalid(format!("--robot '{}' has {} joints, the model {}", r.name, r.dof(), result.model.chain.n_joints)));
             }
+            let gap = nominal_gap_mm(&result, r);
+            if gap > OTHER_ARM_MM {
+                return Err(Error::Invalid(format!(
+                    "--robot '{}' is not the arm the model was calibrated on: its flange is {gap:.1} mm from the model's nominal flange at the same joint angles",
+                    r.name
+                )));
+            }
         }
         let ext = crate::export::extension(&self.out);
         let exported = crate::export::export(&result, format, &ext, nominal.as_ref())?;
@@ -79,4 +86,30 @@ impl ExportJob {
         outputs.commit()?;
         Ok(ExportSummary { format: format.name().into(), out: self.out.clone(), warnings: exported.warnings, round_trip_m })
     }
+}
+
+/// Beyond this (mm) between a robot's flange and a model's nominal one, the robot is another arm.
+const OTHER_ARM_MM: f64 = 1.0;
+
+/// The largest distance (mm) between `robot`'s flange and the nominal flange of `r`'s model
+/// (its chain at the nominal values) over 32 seeded configurations inside the robot's limits.
+/// A model without a nominal arm (`generic6r`) gives 0: there is nothing to compare.
+fn nominal_gap_mm(r: &CalibResult, robot: &Robot) -> f64 {
+    use rand::{Rng, SeedableRng};
+    if r.provenance.model_name.starts_with("generic") {
+        return 0.0;
+    }
+    let x = crate::compensate::nominal_x(r);
+    let chain = robot.error_chain();
+    let zero = vec![0.0; chain.n_params()];
+    let (mut wm, mut wr) = (r.model.work(), crate::robot::kinematics::FkWork::new(&chain));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    (0..32)
+        .map(|_| {
+            let q: Vec<f64> = robot.limits().iter().map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>()).collect();
+            chain.forward(&q, &zero, 1.0, &mut wr);
+            let theirs = chain.frame(&wr, chain.flange()).pos;
+            crate::units::to_mm((r.model.flange_frame(&x, &q, &mut wm).pos - theirs).norm())
+        })
+        .fold(0.0, f64::max)
 }

@@ -640,7 +640,8 @@ fn diagnose_checks_its_folds_and_suggests_a_command_that_runs() {
 }
 
 /// A hand-edited result file is checked as a whole on load: link masses and their count, the
-/// cable's tension, the chain's axes and offsets; each refusal names what is wrong (exit 2).
+/// cable's tension, the chain's axes and offsets, keys twincal does not write, a parameter report
+/// that does not match the model; each refusal names what is wrong (exit 2).
 #[test]
 fn hand_edited_result_values_out_of_range_are_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -665,7 +666,7 @@ fn hand_edited_result_values_out_of_range_are_refused() {
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&res).unwrap()).unwrap();
     type Edit = fn(&mut serde_json::Value);
     assert_eq!(r["schema_version"], 2, "result.json carries its schema version");
-    let cases: [(Edit, &str); 8] = [
+    let cases: [(Edit, &str); 11] = [
         (|r| r["schema_version"] = 3.into(), "schema_version 3, written by a newer twincal"),
         (
             |r| {
@@ -679,6 +680,9 @@ fn hand_edited_result_values_out_of_range_are_refused() {
         (|r| r["torque_model"]["payload"][0] = (-0.5).into(), "payload -0.5 kg"),
         (|r| r["model"]["chain"]["ops"][0]["axis"] = serde_json::json!([0.0, 0.0, 5.0]), "is not a unit vector"),
         (|r| r["model"]["chain"]["ops"][1]["base"] = 1e6.into(), "offset 1000000"),
+        (|r| r["calibrated_by"] = "me".into(), "unknown key 'calibrated_by'"),
+        (|r| r["model"]["stiffness"] = 1.into(), "unknown key 'model.stiffness'"),
+        (|r| r["parameters"].as_array_mut().unwrap().truncate(5), "the parameter report lists 5 parameters"),
     ];
     for (k, (edit, needle)) in cases.iter().enumerate() {
         let mut bad = r.clone();

@@ -70,6 +70,7 @@ fn effects_and_correctors_are_named_as_not_carried_and_bad_requests_write_nothin
         (vec!["--out", "t.txt", "--format", "dh"], "a dh file ends in .csv or .json"),
         (vec!["--out", "t.yaml", "--robot", "nowhere.urdf"], "nowhere.urdf"),
         (vec!["--out", "t.yaml", "--robot", "ur5"], "expected irb120 or a .urdf path"),
+        (vec!["--out", "t.urdf", "--robot", concat!(env!("CARGO_MANIFEST_DIR"), "/../urdf/ur10.urdf")], "is not the arm the model was calibrated on"),
     ] {
         let mut full = vec!["--quiet", "export", "--model", s(&result)];
         let owned: Vec<String> = args.iter().map(|a| if a.starts_with("t.") { s(&dir.path().join(a)).to_string() } else { a.to_string() }).collect();
