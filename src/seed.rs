@@ -23,6 +23,8 @@ pub enum Stream {
     LoggedAngle = 9,
     /// A measurement plan's candidate pool (the Halton start) and its random comparison sets.
     Plan = 10,
+    /// A pose list's payload runs after the first: each run's noise and acquisition.
+    PayloadRun = 11,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).

@@ -274,10 +274,8 @@ fn generate(
         let g = match &poses {
             None => twincal::sim::generate::generate(&s, &robot, t)?,
             Some(p) => {
-                let q = twincal::sim::generate::read_pose_list(p, &robot)?;
-                s.sampling.poses = q.len();
-                s.sampling.test = 0;
-                twincal::sim::generate::generate_at(&s, &robot, q, None, t)?
+                let list = twincal::sim::pose_list::read_pose_list(p, &robot)?;
+                twincal::sim::pose_list::generate_pose_list(&s, &robot, list, t)?
             }
         };
         let (_, truth) = twincal::sim::generate::output_texts(&g)?;

@@ -521,6 +521,7 @@ def plan(
     seed: Optional[int] = None,
     rrd: Optional[Union[str, os.PathLike]] = None,
     model: Optional[Union[str, os.PathLike]] = None,
+    payloads: Optional[Sequence[float]] = None,
 ) -> dict:
     """Measurement poses worth measuring, as ``twincal plan``: feasible candidates of the scenario's
     arm, instrument and cell (None: the embedded one), ``poses`` of them chosen by ``criterion``
@@ -528,7 +529,8 @@ def plan(
     hayati) and the ``effects`` the calibration will fit (``"compliance"``, under the payload
     mounted: the scenario's unless ``payload_kg`` says), or for the next calibration of the
     calibrated arm ``model`` (a result.json: its parametrisation and effect blocks, at its
-    calibrated values), ordered into a short tour. Writes ``poses.csv`` (what :func:`generate` takes as ``poses``) and ``plan.json``
+    calibrated values), ordered into a short tour; with ``payloads`` (kg, e.g. ``[0, 2, 5]``) each
+    pose also gets the payload to measure it with. Writes ``poses.csv`` (what :func:`generate` takes as ``poses``) and ``plan.json``
     into the folder ``out`` (and a recording at ``rrd``); returns plan.json as a dict."""
     options = _options(
         {
@@ -543,6 +545,7 @@ def plan(
             "seed": _seed(seed),
             "rrd": None if rrd is None else os.fspath(rrd),
             "model": None if model is None else os.fspath(model),
+            "payloads": None if payloads is None else list(payloads),
         }
     )
     return json.loads(_native.plan(os.fspath(out), options))

@@ -202,7 +202,7 @@ impl Dataset {
 
     /// The dataset as columns, the ones [`Self::to_csv_string`] writes in its order: `q1..qN`,
     /// the reading's columns (those of the first row with a reading), `sx, sy, sz` when some row
-    /// has them, and `t`, `temp`, `split` when every row has them; numbers (NaN where a row has no
+    /// has them, and `t`, `temp`, `payload_kg`, `block`, `split` when every row has them; numbers (NaN where a row has no
     /// value) and `split` as text. [`Self::from_columns`] reads them back to the same rows.
     pub fn columns(&self) -> Vec<(String, ColumnValues)> {
         let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
@@ -221,6 +221,9 @@ impl Dataset {
         }
         if all(|r| r.temp_c.is_some()) {
             out.push(("temp".into(), number(&|r: &Row| r.temp_c)));
+        }
+        if all(|r| r.payload_kg.is_some()) {
+            out.push(("payload_kg".into(), number(&|r: &Row| r.payload_kg)));
         }
         if all(|r| r.block.is_some()) {
             out.push(("block".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.block.clone().unwrap_or_default()).collect())));

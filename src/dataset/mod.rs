@@ -66,7 +66,7 @@ mod types;
 mod xlsx;
 
 pub use load::{read_csv_columns, CsvColumns};
-pub use table::{MAX_STD_MM, STD_COLUMNS};
+pub use table::{MAX_PAYLOAD_KG, MAX_STD_MM, STD_COLUMNS};
 pub use types::*;
 
 #[cfg(test)]

@@ -68,9 +68,14 @@ pub(super) enum Column {
     Split,
     /// A declared block label.
     Block,
+    /// The payload mounted, kg.
+    Payload,
     /// A tracker's per-row standard deviation of position coordinate `k`: [`STD_COLUMNS`]`[k]`.
     Std(usize),
 }
+
+/// Largest payload (kg) a `payload_kg` cell may hold (as `--payload-kg`).
+pub const MAX_PAYLOAD_KG: f64 = 1000.0;
 
 /// The per-row standard deviation columns of a tracker's position (mm), in x, y, z order.
 pub const STD_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
@@ -80,9 +85,9 @@ pub const STD_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
 pub const MAX_STD_MM: f64 = 100.0;
 
 impl Column {
-    const OTHERS: [Column; 7] = [Column::T, Column::Temp, Column::Split, Column::Std(0), Column::Std(1), Column::Std(2), Column::Block];
+    const OTHERS: [Column; 8] = [Column::T, Column::Temp, Column::Split, Column::Std(0), Column::Std(1), Column::Std(2), Column::Block, Column::Payload];
     /// Slots of the named columns ([`Self::OTHERS`]) before the reading columns.
-    const NAMED: usize = 7;
+    const NAMED: usize = 8;
 
     /// Slot in [`Layout::pos`]: the named columns, the reading columns, then the joints.
     pub(super) fn index(self) -> usize {
@@ -92,6 +97,7 @@ impl Column {
             Column::Split => 2,
             Column::Std(k) => 3 + k,
             Column::Block => 6,
+            Column::Payload => 7,
             Column::Reading(i) => Self::NAMED + i,
             Column::Q(j) => Self::NAMED + reading_names().len() + j,
         }
@@ -105,6 +111,7 @@ impl Column {
             Column::Temp => "temp".into(),
             Column::Split => "split".into(),
             Column::Block => "block".into(),
+            Column::Payload => "payload_kg".into(),
             Column::Std(k) => STD_COLUMNS[k].into(),
         }
     }
@@ -382,6 +389,7 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &LoadOptions) ->
     let mut first_split_missing: Option<usize> = None;
     // First line with an empty `t` / `temp` cell.
     let (mut first_t_missing, mut first_temp_missing): (Option<usize>, Option<usize>) = (None, None);
+    let mut first_payload_missing: Option<usize> = None;
     for raw in &table.rows {
         let line = raw.line;
         let q_deg = row_angles(&layout, &cells, raw, opts.angles)?;
@@ -410,7 +418,14 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &LoadOptions) ->
         if layout.pos[Column::Block.index()].is_some() && block.is_none() {
             return Err(cell_error(src, line, Column::Block, "empty block label; when the file has a block column, every row must name its block"));
         }
-        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block });
+        let payload_kg = cells.number(layout.cell(raw, Column::Payload), Column::Payload, line)?;
+        if let Some(m) = payload_kg {
+            check_bounds(m, (0.0, MAX_PAYLOAD_KG), "payload (kg)", line, Column::Payload, src)?;
+        }
+        if payload_kg.is_none() {
+            first_payload_missing = first_payload_missing.or(Some(line));
+        }
+        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.
@@ -421,8 +436,11 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &LoadOptions) ->
     }
     // So are `t` and `temp`: a model driven by them needs them on every row, and a gap would
     // silently drop the column from it (an empty column is no column).
-    let gaps =
-        [(Column::T, first_t_missing, rows.iter().any(|r| r.t_s.is_some())), (Column::Temp, first_temp_missing, rows.iter().any(|r| r.temp_c.is_some()))];
+    let gaps = [
+        (Column::T, first_t_missing, rows.iter().any(|r| r.t_s.is_some())),
+        (Column::Temp, first_temp_missing, rows.iter().any(|r| r.temp_c.is_some())),
+        (Column::Payload, first_payload_missing, rows.iter().any(|r| r.payload_kg.is_some())),
+    ];
     for (c, missing, some) in gaps {
         if let (Some(line), true) = (missing, some) {
             let name = c.name();

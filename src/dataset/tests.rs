@@ -29,7 +29,7 @@ fn assert_contains(msg: &str, parts: &[&str]) {
 }
 
 fn row(q: [f64; 6], l: f64) -> Row {
-    Row { q_deg: q.to_vec(), reading_mm: vec![l], t_s: None, temp_c: None, split: None, std_mm: None, block: None }
+    Row { q_deg: q.to_vec(), reading_mm: vec![l], t_s: None, temp_c: None, split: None, std_mm: None, block: None, payload_kg: None }
 }
 
 /// Says on the test process's stderr that a test skips what needs `absent` (written to the
@@ -50,7 +50,16 @@ fn round_trip_is_exact() {
     let awkward = [0.1 + 0.2, -1.0 / 3.0, 719.999_999_999_999_9, 1e-300, -0.0, 123.456_789_012_345_68];
     let ds = Dataset {
         rows: vec![
-            Row { q_deg: awkward.to_vec(), reading_mm: vec![350.07], t_s: Some(0.0), temp_c: Some(21.5), split: Some(Split::Train), std_mm: None, block: None },
+            Row {
+                q_deg: awkward.to_vec(),
+                reading_mm: vec![350.07],
+                t_s: Some(0.0),
+                temp_c: Some(21.5),
+                split: Some(Split::Train),
+                std_mm: None,
+                block: None,
+                payload_kg: None,
+            },
             Row {
                 q_deg: vec![1.405, -74.025, 220.99, -166.357, 41.989, 65.122],
                 reading_mm: vec![std::f64::consts::PI * 100.0],
@@ -59,6 +68,7 @@ fn round_trip_is_exact() {
                 split: Some(Split::Test),
                 std_mm: None,
                 block: None,
+                payload_kg: None,
             },
         ],
         source: "mem".into(),

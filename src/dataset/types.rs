@@ -127,7 +127,7 @@ impl Split {
 }
 
 /// One static configuration and its measurement.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Row {
     /// Joint angles `q1..qN`, degrees, controller convention; every row of a dataset has the
     /// same N.
@@ -150,6 +150,10 @@ pub struct Row {
     /// The block the user declared the row in (`block` column: any label; rows of one block share
     /// an error, see [`blocks`](super::blocks)). `None` without the column.
     pub block: Option<String>,
+    /// The payload mounted when the row was measured, kg (`payload_kg` column): a load-driven
+    /// effect reads the row's torques under it (at the centre of mass the calibration states).
+    /// `None` without the column: the calibration's payload for every row.
+    pub payload_kg: Option<f64>,
 }
 
 impl Row {

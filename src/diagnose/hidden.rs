@@ -95,6 +95,7 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
             split: None,
             std_mm: None,
             block: None,
+            payload_kg: None,
         })
         .collect();
     Ok(Dataset { rows, source: s.name.clone() })

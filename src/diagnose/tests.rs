@@ -20,6 +20,7 @@ fn data() -> Dataset {
                 split: None,
                 std_mm: None,
                 block: None,
+                payload_kg: None,
             }
         })
         .collect();

@@ -61,6 +61,13 @@ pub struct PlanJob {
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
     #[serde(default)]
     pub payload_kg: Option<f64>,
+    /// Payloads the engineer can mount, kg (comma-separated, e.g. 0,2,5): each pose is planned
+    /// with the one that makes the load-driven effects most observable, and poses.csv says which
+    /// (payload_kg); their centre of mass is --payload-com-mm's (the scenario's payload's). Needs
+    /// a load-driven effect (--effects compliance, or a --model with one).
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
+    #[serde(default)]
+    pub payloads: Vec<f64>,
     /// Its centre of mass in the flange frame, mm (x,y,z).
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, value_delimiter = ',', allow_hyphen_values = true, value_name = "X,Y,Z"))]
     #[serde(default)]
@@ -103,6 +110,7 @@ impl Default for PlanJob {
             model: None,
             effects: Vec::new(),
             payload_kg: None,
+            payloads: Vec::new(),
             payload_com_mm: None,
             seed: None,
             out: default_out(),
@@ -113,6 +121,9 @@ impl Default for PlanJob {
 
 /// Most candidates a plan draws.
 pub const MAX_CANDIDATES: usize = 100_000;
+
+/// Most payloads a plan chooses from.
+pub const MAX_PAYLOADS: usize = 10;
 
 /// Most poses a plan chooses (the exchange visits each against every candidate).
 pub const MAX_PLAN_POSES: usize = 2_000;
@@ -149,6 +160,22 @@ impl PlanJob {
         check_outputs(&inputs, &outs)?;
         let calibrated = self.model.as_deref().map(CalibResult::load).transpose()?.map(std::sync::Arc::new);
         let effects = crate::requests::parse_effects("--effects", &self.effects)?;
+        if let Some(m) = self.payloads.iter().find(|m| !(m.is_finite() && (0.0..=crate::dataset::MAX_PAYLOAD_KG).contains(*m))) {
+            return Err(Error::Invalid(format!("--payloads: {m} kg is not a payload (finite, in [0, {}] kg)", crate::dataset::MAX_PAYLOAD_KG)));
+        }
+        if self.payloads.len() > MAX_PAYLOADS {
+            return Err(Error::Invalid(format!("--payloads lists {} payloads; at most {MAX_PAYLOADS}", self.payloads.len())));
+        }
+        if self.payloads.iter().enumerate().any(|(i, m)| self.payloads[..i].contains(m)) {
+            return Err(Error::Invalid("--payloads lists a payload twice".into()));
+        }
+        let loaded = effects.iter().any(|(k, _)| k.def().reads_torques())
+            || calibrated.as_ref().is_some_and(|r| r.model.effects.iter().any(|b| b.kind.def().reads_torques()));
+        if !self.payloads.is_empty() && !loaded {
+            return Err(Error::Invalid(
+                "--payloads changes only what load-driven effects see: plan them with --effects compliance (or a --model with compliance)".into(),
+            ));
+        }
         let mut loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.0;
         // The payload mounted: the one asked for, else the scenario's (a calibrated model's own
         // when planning for it).
@@ -167,6 +194,7 @@ impl PlanJob {
             effects,
             loads,
             calibrated,
+            payloads: self.payloads.clone(),
             ..PlanOptions::default()
         };
         let p = plan(&s, &robot, &opts)?;
@@ -174,7 +202,8 @@ impl PlanJob {
         if let Some(r) = &self.rrd {
             recordings.plan(&p, &s, &robot, &mut outputs, r)?;
         }
-        outputs.write(&poses_path, crate::sim::generate::pose_list_csv(&p.poses, s.sampling.angle_decimals).as_bytes())?;
+        let list = crate::sim::pose_list::PoseList { q: p.poses.clone(), payload_kg: p.payload_kg.clone() };
+        outputs.write(&poses_path, crate::sim::pose_list::pose_list_csv(&list, s.sampling.angle_decimals).as_bytes())?;
         outputs.write_json(&plan_path, &p)?;
         outputs.commit()?;
         Ok(p)

@@ -131,7 +131,7 @@ impl Model {
         // The effects are configured on the candidates as a calibration configures them on its
         // data: a dataset of nominal readings at every candidate of a small Halton pool.
         let probe = candidates(s, robot, 200, s.seed)?.q;
-        let data = Model { x: model.nominal.clone(), model: model.clone(), torque: None }.dataset(&probe);
+        let data = Model { x: model.nominal.clone(), model: model.clone(), torque: None }.dataset(&probe, None);
         for &(kind, joint) in effects {
             let joints: Vec<Option<usize>> = if joint.is_none() && kind.per_joint() { (0..robot.dof()).map(Some).collect() } else { vec![joint] };
             for j in joints {
@@ -167,18 +167,28 @@ impl Model {
     }
 
     /// The nominal model's readings at `q` as a dataset (mm, degrees), for configuring blocks
-    /// and computing row inputs.
-    fn dataset(&self, q: &[Vec<f64>]) -> Dataset {
+    /// and computing row inputs; with `payload_kg`, each row's payload.
+    fn dataset(&self, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> Dataset {
         let dim = self.model.measurement.dim();
         let mut w = self.model.work();
         let mut y = vec![0.0; dim];
         let rows = q
             .iter()
-            .map(|q| {
+            .enumerate()
+            .map(|(i, q)| {
                 self.model.readings_with(&self.x, q, &RowInputs::default(), &mut w, &mut y);
                 // Lengths in mm (a 6-D probe's angle values too: no block reads them).
                 let reading: Vec<f64> = y.iter().map(|v| crate::units::to_mm(*v)).collect();
-                Row { q_deg: q.iter().map(|v| v.to_degrees()).collect(), reading_mm: reading, t_s: None, temp_c: None, split: None, std_mm: None, block: None }
+                Row {
+                    q_deg: q.iter().map(|v| v.to_degrees()).collect(),
+                    reading_mm: reading,
+                    t_s: None,
+                    temp_c: None,
+                    split: None,
+                    std_mm: None,
+                    block: None,
+                    payload_kg: payload_kg.map(|p| p[i]),
+                }
             })
             .collect();
         Dataset { rows, source: "plan candidates".into() }
@@ -186,19 +196,19 @@ impl Model {
 
     /// What each pose carries besides its angles: the static torques (under the payload) of the
     /// load-driven effects.
-    pub fn inputs(&self, q: &[Vec<f64>]) -> Vec<RowInputs> {
+    pub fn inputs(&self, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> Vec<RowInputs> {
         match &self.torque {
-            Some(t) => row_inputs(&self.dataset(q), Some(t)),
+            Some(t) => row_inputs(&self.dataset(q, payload_kg), Some(t)),
             None => vec![RowInputs::default(); q.len()],
         }
     }
 
-    /// The Jacobian of the readings (mm) at the model's parameters `x` for poses `q`: one row
-    /// per reading value, pose after pose.
-    pub fn jacobian(&self, q: &[Vec<f64>]) -> DMatrix<f64> {
+    /// The Jacobian of the readings (mm) at the model's parameters `x` for poses `q` (with
+    /// `payload_kg`, each under its own payload): one row per reading value, pose after pose.
+    pub fn jacobian(&self, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> DMatrix<f64> {
         let dim = self.model.measurement.dim();
         let mut data = Samples::readings(q.to_vec(), vec![0.0; q.len() * dim], dim);
-        data.inputs = self.inputs(q);
+        data.inputs = self.inputs(q, payload_kg);
         let fit = ReadingFit { model: &self.model, data: &data };
         let mut j = DMatrix::zeros(q.len() * dim, self.model.n_params());
         fit.jacobian(&self.x, &mut j);
@@ -224,9 +234,10 @@ pub struct Problem {
 /// (O3, O4, O5) would measure rounding too.
 pub const DESIGN_RANK_TOL: f64 = 1e-4;
 
-/// The design problem of `model` over the poses `q`.
-pub fn problem(model: &Model, q: &[Vec<f64>]) -> Problem {
-    let j = model.jacobian(q);
+/// The design problem of `model` over the poses `q` (with `payload_kg`, each candidate under its
+/// own payload).
+pub fn problem(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> Problem {
+    let j = model.jacobian(q, payload_kg);
     let m = &model.model;
     // JᵀJ = RᵀR with R = Λ^½Vᵀ: the identifiability analysis of R is that of J (same column
     // norms, singular values, right vectors and Gram–Schmidt residuals) at p×p instead of rows×p.
@@ -312,6 +323,9 @@ pub struct PlanOptions {
     /// What loads the joints while measuring (the payload mounted, the cable's tension), for
     /// the load-driven effects.
     pub loads: LoadOptions,
+    /// Payloads the engineer can mount, kg: each candidate pose is offered under each, and the
+    /// plan says which payload every pose is measured with (empty: `loads.payload` throughout).
+    pub payloads: Vec<f64>,
     /// Plan for this calibrated arm ([`Model::from_result`]) instead of the scenario's nominal
     /// one: `parametrisation` and `effects` are then the result's, and `loads.payload`, when
     /// given, replaces the payload it was calibrated with.
@@ -329,6 +343,7 @@ impl Default for PlanOptions {
             max_sweeps: 8,
             effects: Vec::new(),
             loads: LoadOptions::default(),
+            payloads: Vec::new(),
             calibrated: None,
         }
     }
@@ -365,6 +380,9 @@ pub struct Plan {
     pub poses: Vec<Vec<f64>>,
     /// The planned poses, degrees, in tour order.
     pub poses_deg: Vec<Vec<f64>>,
+    /// The payload each planned pose is measured with, kg (with payloads to choose from).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub payload_kg: Option<Vec<f64>>,
     /// The plan's indices.
     pub indices: Indices,
     /// The median indices of [`RANDOM_SETS`] random feasible sets of the same size.
@@ -422,14 +440,30 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         Some(r) => Model::from_result(r, s, robot, opts.loads.payload.as_ref())?,
         None => Model::new(s, robot, opts.parametrisation, &opts.effects, &opts.loads)?,
     };
-    let prob = problem(&model, &cands.q);
+    // With payloads, every candidate pose under every payload: candidate k·M + i is pose i under
+    // payload k.
+    let offered: Option<Vec<f64>> = (!opts.payloads.is_empty()).then(|| opts.payloads.iter().flat_map(|&m| std::iter::repeat_n(m, cands.q.len())).collect());
+    let pool_q: Vec<Vec<f64>> = match &offered {
+        Some(_) => opts.payloads.iter().flat_map(|_| cands.q.iter().cloned()).collect(),
+        None => cands.q.clone(),
+    };
+    let prob = problem(&model, &pool_q, offered.as_deref());
     let d = design::design(&prob.pool, opts.n, crit, opts.max_sweeps);
-    let chosen: Vec<Vec<f64>> = d.chosen.iter().map(|&c| cands.q[c].clone()).collect();
     let motion = tour::Motion::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s + s.sensor.window_s());
     let home = vec![0.0; robot.dof()];
-    let order = motion.order(&home, &chosen);
-    let poses: Vec<Vec<f64>> = order.iter().map(|&i| chosen[i].clone()).collect();
-    let sets: Vec<Vec<usize>> = (0..RANDOM_SETS).map(|k| random_set(cands.q.len(), opts.n, stream_seed(opts.seed, Stream::Plan, 1 + k as u64))).collect();
+    // The tour: one payload after the other (in the order given), each payload's poses ordered.
+    let groups: Vec<Vec<usize>> = match &offered {
+        Some(p) => opts.payloads.iter().map(|m| d.chosen.iter().copied().filter(|&c| p[c] == *m).collect()).filter(|g: &Vec<usize>| !g.is_empty()).collect(),
+        None => vec![d.chosen.clone()],
+    };
+    let mut toured: Vec<usize> = Vec::with_capacity(d.chosen.len());
+    for g in &groups {
+        let qs: Vec<Vec<f64>> = g.iter().map(|&c| pool_q[c].clone()).collect();
+        toured.extend(motion.order(&home, &qs).into_iter().map(|i| g[i]));
+    }
+    let poses: Vec<Vec<f64>> = toured.iter().map(|&c| pool_q[c].clone()).collect();
+    let chosen: Vec<Vec<f64>> = d.chosen.iter().map(|&c| pool_q[c].clone()).collect();
+    let sets: Vec<Vec<usize>> = (0..RANDOM_SETS).map(|k| random_set(pool_q.len(), opts.n, stream_seed(opts.seed, Stream::Plan, 1 + k as u64))).collect();
     Ok(Plan {
         scenario: s.name.clone(),
         robot: robot.name.clone(),
@@ -444,6 +478,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         identifiable: prob.identifiable.clone(),
         fixed: prob.fixed.clone(),
         poses_deg: poses.iter().map(|q| q.iter().map(|v| crate::units::round_decimals(v.to_degrees(), s.sampling.angle_decimals)).collect()).collect(),
+        payload_kg: offered.as_ref().map(|p| toured.iter().map(|&c| p[c]).collect()),
         indices: Indices::of(&prob.pool, &d.chosen),
         random_median: median_indices(&prob.pool, &sets),
         tour: motion.time(&home, &poses),

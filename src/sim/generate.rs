@@ -447,6 +447,7 @@ impl Tour<'_> {
             split: Some(self.split[i]),
             std_mm: other.as_ref().filter(|r| r.write_std).map(|r| [round_decimals(r.std_mm, STD_DECIMALS); 3]),
             block: None,
+            payload_kg: None,
         };
         let mut truth = PoseTruth {
             index: i,
@@ -614,64 +615,4 @@ pub fn write_outputs(g: &Generated, dir: &std::path::Path) -> Result<()> {
     let mut outputs = crate::io::OutputSet::new();
     stage_outputs(g, dir, &mut outputs)?;
     outputs.commit()
-}
-
-/// A pose list as CSV (what `twincal plan` writes, `generate --poses` reads, a robot program
-/// can step through): a header `pose,q1..qN`, then one row per pose in the order given, the
-/// joint angles in degrees at `decimals`.
-pub fn pose_list_csv(poses: &[Vec<f64>], decimals: usize) -> String {
-    let n = poses.first().map_or(0, |q| q.len());
-    let mut out = String::from("pose");
-    (1..=n).for_each(|j| out.push_str(&format!(",q{j}")));
-    out.push('\n');
-    for (i, q) in poses.iter().enumerate() {
-        out.push_str(&(i + 1).to_string());
-        for v in q {
-            out.push_str(&format!(",{:.*}", decimals, round_decimals(v.to_degrees(), decimals)));
-        }
-        out.push('\n');
-    }
-    out
-}
-
-/// The poses (rad) of a pose list (columns `q1..qN`, degrees; other columns ignored) for
-/// `robot`, by the dataset reader's rules; each inside the URDF's joint limits. Errors name the
-/// file and the first bad pose.
-pub fn read_pose_list(path: &std::path::Path, robot: &Robot) -> Result<Vec<Vec<f64>>> {
-    let n = robot.dof();
-    let at = path.display();
-    if crate::dataset::read_csv_columns(path, &[&format!("q{}", n + 1)]).is_ok() {
-        return Err(Error::data(&at, format!("the pose list has a column q{}: the robot ({}) has {n} joints", n + 1, robot.name)));
-    }
-    let names: Vec<String> = (1..=n).map(|j| format!("q{j}")).collect();
-    let cols: Vec<&str> = names.iter().map(String::as_str).collect();
-    let rows = crate::dataset::read_csv_columns(path, &cols).map_err(|e| Error::data(&at, format!("a pose list needs the columns q1..q{n} (degrees): {e}")))?;
-    if rows.is_empty() {
-        return Err(Error::data(&at, "no poses after the header"));
-    }
-    if rows.len() > crate::sim::scenario::MAX_POSES {
-        return Err(Error::data(&at, format!("{} poses: a run takes at most {}", rows.len(), crate::sim::scenario::MAX_POSES)));
-    }
-    let limits = robot.limits();
-    let mut out = Vec::with_capacity(rows.len());
-    for (i, row) in rows.iter().enumerate() {
-        for (j, v) in row.iter().enumerate() {
-            let (lo, hi) = limits[j];
-            if !v.is_finite() || v.to_radians() < lo - 1e-9 || v.to_radians() > hi + 1e-9 {
-                return Err(Error::data(
-                    &at,
-                    format!(
-                        "pose {}: q{} = {v}° is outside joint {}'s limits [{:.2}, {:.2}]° (angles are degrees)",
-                        i + 1,
-                        j + 1,
-                        j + 1,
-                        lo.to_degrees(),
-                        hi.to_degrees()
-                    ),
-                ));
-            }
-        }
-        out.push(row.iter().map(|d| d.to_radians()).collect());
-    }
-    Ok(out)
 }

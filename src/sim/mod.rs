@@ -10,6 +10,7 @@
 pub mod effects;
 pub mod generate;
 pub mod instrument;
+pub mod pose_list;
 pub mod scenario;
 pub mod study;
 pub mod twin;

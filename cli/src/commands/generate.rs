@@ -25,10 +25,8 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
         None => run_generate(&s, &robot, progress(quiet).as_ref())?,
         Some(p) => {
             // The listed poses, in their order, every one a training row.
-            let q = twincal::sim::generate::read_pose_list(p, &robot)?;
-            s.sampling.poses = q.len();
-            s.sampling.test = 0;
-            twincal::sim::generate::generate_at(&s, &robot, q, None, progress(quiet).as_ref())?
+            let list = twincal::sim::pose_list::read_pose_list(p, &robot)?;
+            twincal::sim::pose_list::generate_pose_list(&s, &robot, list, progress(quiet).as_ref())?
         }
     };
     let elapsed = t0.elapsed().as_secs_f64();

@@ -26,6 +26,17 @@ pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
         p.criterion,
         p.criterion_describe
     );
+    if let Some(payloads) = &p.payload_kg {
+        let mut counts: Vec<(f64, usize)> = Vec::new();
+        for m in payloads {
+            match counts.iter_mut().find(|(v, _)| v == m) {
+                Some((_, k)) => *k += 1,
+                None => counts.push((*m, 1)),
+            }
+        }
+        let text: Vec<String> = counts.iter().map(|(m, k)| format!("{m} kg × {k}")).collect();
+        eprintln!("  payloads: {} (measured one payload after the other)", text.join(", "));
+    }
     eprintln!("  index                                     plan    random sets of {} (median of {})", p.poses.len(), twincal::plan::RANDOM_SETS);
     let (a, b) = (&p.indices, &p.random_median);
     for (name, x, y) in [

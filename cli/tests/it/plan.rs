@@ -147,3 +147,94 @@ fn a_plan_for_a_calibrated_model_designs_for_its_own_blocks() {
         assert!(!never.exists());
     }
 }
+
+/// Plans over payloads (`--payloads 0,6`) for a compliance hidden in a tracker twin: each pose
+/// gets its payload, `generate --poses` measures one payload after the other (the rows carry
+/// `payload_kg`, times go on), and a calibration with compliance reads each row's torques under
+/// its own payload and sizes joint 2's compliance; bad payload requests are refused by name.
+#[test]
+fn a_plan_over_payloads_is_measured_one_payload_after_the_other_and_sizes_the_compliance() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let hidden = "[effects.compliance]\nstiffness_nm_per_rad = [1.5e5, 2.0e4, 3.0e4, 3.0e4, 3.0e4, 2.0e4]\n\n[effects.payload]\nmass_kg = 3.0\ncom_mm = [40.0, 0.0, 60.0]\n\n[sensor]";
+    let text = std::fs::read_to_string(root.join("scenarios/irb120_tracker.toml")).unwrap().replacen("[sensor]", hidden, 1);
+    let scenario = dir.path().join("c.toml");
+    std::fs::write(&scenario, text).unwrap();
+    let out = dir.path().join("plan");
+    let o = twincal(&[
+        "plan",
+        "--scenario",
+        s(&scenario),
+        "--effects",
+        "compliance",
+        "--payloads",
+        "0,6",
+        "--poses",
+        "50",
+        "--candidates",
+        "2000",
+        "--out",
+        s(&out),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("payloads: "), "{err}");
+    let list = std::fs::read_to_string(out.join("poses.csv")).unwrap();
+    assert!(list.lines().next().unwrap().ends_with(",payload_kg"), "{list}");
+    let payloads: Vec<f64> = list.lines().skip(1).map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect();
+    assert_eq!(payloads.len(), 50);
+    // One payload after the other, each used.
+    assert!(payloads.windows(2).filter(|w| w[0] != w[1]).count() == 1 && payloads.contains(&0.0) && payloads.contains(&6.0), "{payloads:?}");
+    let data = dir.path().join("d");
+    let o = twincal(&["--quiet", "generate", "--scenario", s(&scenario), "--poses", s(&out.join("poses.csv")), "--out", s(&data)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ds = twincal::dataset::Dataset::load(&data.join("dataset.csv")).unwrap();
+    assert_eq!(ds.rows.iter().map(|r| r.payload_kg.unwrap()).collect::<Vec<_>>(), payloads);
+    assert!(ds.rows.windows(2).all(|w| w[1].t_s.unwrap() > w[0].t_s.unwrap()));
+    let result = dir.path().join("r.json");
+    let o = twincal(&[
+        "--quiet",
+        "calibrate",
+        "--data",
+        s(&data),
+        "--effects",
+        "compliance",
+        "--payload-kg",
+        "3",
+        "--payload-com-mm",
+        "40,0,60",
+        "--out",
+        s(&result),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
+    let j2 = r["parameters"].as_array().unwrap().iter().find(|p| p["name"] == "compliance.j2").unwrap();
+    let (v, truth) = (j2["value"].as_f64().unwrap(), j2["truth"].as_f64().unwrap());
+    assert!((v - truth).abs() < 0.01 * truth, "compliance j2 {v} vs truth {truth}");
+    for (extra, needle) in [(vec!["--payloads", "0,-1"], "--payloads: -1 kg is not a payload"), (vec!["--payloads", "2,2"], "a payload twice")] {
+        let never = dir.path().join("never");
+        let mut args = vec!["--quiet", "plan", "--scenario", s(&scenario), "--effects", "compliance", "--out", s(&never)];
+        args.extend(extra.iter().copied());
+        let o = twincal(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(needle) && !err.contains("panicked"), "{err}");
+    }
+    let o = twincal(&["--quiet", "plan", "--scenario", s(&scenario), "--payloads", "0,6", "--out", s(&dir.path().join("never"))]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("load-driven effects"), "{}", String::from_utf8_lossy(&o.stderr));
+    // A pose list's payload out of range, and a dataset's payload column with a gap, are named.
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, list.replacen(",0\n", ",-3\n", 1)).unwrap();
+    let o = twincal(&["--quiet", "generate", "--scenario", s(&scenario), "--poses", s(&bad), "--out", s(&dir.path().join("never"))]);
+    assert!(o.status.code() == Some(2) && String::from_utf8_lossy(&o.stderr).contains("payload_kg = -3"), "{}", String::from_utf8_lossy(&o.stderr));
+    let gap = dir.path().join("gap.csv");
+    let csv = std::fs::read_to_string(data.join("dataset.csv")).unwrap();
+    let mut lines: Vec<String> = csv.lines().map(String::from).collect();
+    let col = lines[0].split(',').position(|h| h == "payload_kg").unwrap();
+    let mut cells: Vec<String> = lines[3].split(',').map(String::from).collect();
+    cells[col].clear();
+    lines[3] = cells.join(",");
+    std::fs::write(&gap, lines.join("\n") + "\n").unwrap();
+    let o = twincal(&["--quiet", "calibrate", "--data", s(&gap), "--out", s(&dir.path().join("never.json"))]);
+    assert!(o.status.code() == Some(2) && String::from_utf8_lossy(&o.stderr).contains("empty payload_kg value"), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -115,10 +115,20 @@ impl TorqueModel {
 
     /// Static joint torques (N·m) at commanded angles `q` (rad).
     pub fn torques(&self, q: &[f64]) -> Vec<f64> {
+        self.torques_under(q, None)
+    }
+
+    /// [`Self::torques`] with a payload of `mass_kg` mounted instead of the model's (at the
+    /// model's payload's centre of mass, the flange's origin without one); `None`: the model's.
+    pub fn torques_under(&self, q: &[f64], mass_kg: Option<f64>) -> Vec<f64> {
+        let payload = match mass_kg {
+            Some(m) => Some((m, self.payload.map_or([0.0; 3], |p| p.1))),
+            None => self.payload,
+        };
         let load = LoadModel {
             gravity: Vector3::new(0.0, 0.0, -GRAVITY),
             links: self.links.iter().map(|(m, c)| (*m, Vector3::from(*c))).collect(),
-            payload: self.payload.map(|(m, c)| (m, Vector3::from(c))),
+            payload: payload.map(|(m, c)| (m, Vector3::from(c))),
             cable: self.cable.map(|(e, t, f)| CableLoad { exit_point: Vector3::from(e), tool_point: Vector3::from(t), tension: f }),
         };
         let zero = vec![0.0; self.chain.n_params()];
@@ -131,8 +141,9 @@ impl TorqueModel {
     }
 }
 
-/// Inputs of every row of `data` (file order). Without a torque model the torques are zero and
-/// the flanks follow the approach motion only.
+/// Inputs of every row of `data` (file order): the torques under the row's own payload where it
+/// has one (`payload_kg`), else the torque model's. Without a torque model the torques are zero
+/// and the flanks follow the approach motion only.
 pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs> {
     let n = data.rows.len();
     let mut out: Vec<RowInputs> = data.rows.iter().map(|r| RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect();
@@ -141,7 +152,7 @@ pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs
         out[i].torque = match torque {
             Some(tm) => {
                 let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-                let mut t = tm.torques(&q);
+                let mut t = tm.torques_under(&q, r.payload_kg);
                 t.resize(nq, 0.0);
                 t
             }
@@ -207,7 +218,16 @@ mod tests {
         let q1 = [10.0, 10.0, 5.0, 20.0, -3.0];
         let rows: Vec<Row> = q1
             .iter()
-            .map(|&a| Row { q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0], reading_mm: vec![500.0], t_s: None, temp_c: None, split: None, std_mm: None, block: None })
+            .map(|&a| Row {
+                q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0],
+                reading_mm: vec![500.0],
+                t_s: None,
+                temp_c: None,
+                split: None,
+                std_mm: None,
+                block: None,
+                payload_kg: None,
+            })
             .collect();
         let data = Dataset { rows, source: "test".into() };
         let inp = row_inputs(&data, None);

@@ -111,6 +111,7 @@ mod tests {
                 split: None,
                 std_mm: s.map(|v| [v; 3]),
                 block: None,
+                payload_kg: None,
             })
             .collect();
         Dataset { rows, source: "mem".into() }
