@@ -17,13 +17,20 @@ use crate::error::{Error, Result};
 use crate::robot::Robot;
 use crate::seed::{stream_seed, Stream};
 use crate::sim::generate::{generate_at, Silent};
+use crate::sim::pose_list::PoseList;
 use crate::sim::scenario::Scenario;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use nalgebra::Vector3;
 use serde::Serialize;
 
-/// The twin's true tool points (mm) at `poses` (rad), `None` where it refused one.
-fn true_tool(s: &Scenario, robot: &Robot, poses: &[Vec<f64>]) -> Result<(crate::dataset::Dataset, Vec<Option<Vector3<f64>>>)> {
-    let g = generate_at(s, robot, poses.to_vec(), None, &Silent)?;
+/// The twin's true tool points (mm) at `poses` (rad; with `payloads`, each measured under its
+/// own payload, one payload after the other), `None` where it refused one.
+fn true_tool(s: &Scenario, robot: &Robot, poses: &[Vec<f64>], payloads: Option<&[f64]>) -> Result<(crate::dataset::Dataset, Vec<Option<Vector3<f64>>>)> {
+    let g = match payloads {
+        None => generate_at(s, robot, poses.to_vec(), None, &Silent)?,
+        Some(p) => crate::sim::pose_list::generate_pose_list(s, robot, PoseList { q: poses.to_vec(), payload_kg: Some(p.to_vec()) }, &Silent)?,
+    };
     let mut out = vec![None; poses.len()];
     for p in &g.truth.poses {
         out[p.index] = Some(Vector3::from(p.tool_mm));
@@ -48,7 +55,7 @@ pub type TestSet = (Vec<Vec<f64>>, Vec<Vector3<f64>>);
 /// the twin's true tool points there (mm); poses the twin refused are left out.
 fn test_set(s: &Scenario, robot: &Robot, seed: u64, count: usize) -> Result<TestSet> {
     let test_q = candidates(s, robot, count, stream_seed(seed, Stream::Plan, 1_000_000))?.q;
-    let (_, truth) = true_tool(&all_train(s, seed, test_q.len()), robot, &test_q)?;
+    let (_, truth) = true_tool(&all_train(s, seed, test_q.len()), robot, &test_q, None)?;
     let test: TestSet = test_q.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
     if test.0.is_empty() {
         return Err(Error::Invalid(format!("seed {seed}: the twin refused every test pose")));
@@ -64,8 +71,8 @@ fn random_poses(pool: &[Vec<f64>], k: usize, seed: u64) -> Vec<Vec<f64>> {
 
 /// The true error (RMS over the test poses, mm) of the model calibrated on the twin's readings at
 /// `poses`; `test` holds the test poses and the twin's true tool points there.
-pub fn true_error(s: &Scenario, robot: &Robot, opts: &CalibOptions, poses: &[Vec<f64>], test: &TestSet) -> Result<f64> {
-    let (data, truth) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses)?;
+pub fn true_error(s: &Scenario, robot: &Robot, opts: &CalibOptions, poses: &[Vec<f64>], payloads: Option<&[f64]>, test: &TestSet) -> Result<f64> {
+    let (data, truth) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses, payloads)?;
     let r = calibrate(&data, None, opts)?;
     let x_nom = nominal_x(&r);
     let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
@@ -130,9 +137,9 @@ pub fn study(s: &Scenario, robot: &Robot, o: &StudyOptions) -> Result<Vec<Compar
             let s = all_train(s, seed, n);
             let test = test_set(&s, robot, seed, o.test_poses)?;
             let p = plan(&s, robot, &PlanOptions { n, seed, ..o.plan.clone() })?;
-            let planned_mm = true_error(&s, robot, &calib, &p.poses, &test)?;
+            let planned_mm = true_error(&s, robot, &calib, &p.poses, p.payload_kg.as_deref(), &test)?;
             let random_mm =
-                sizes.iter().map(|&k| true_error(&s, robot, &calib, &random_poses(&p.candidates.q, k, seed), &test)).collect::<Result<Vec<f64>>>()?;
+                sizes.iter().map(|&k| true_error(&s, robot, &calib, &random_poses(&p.candidates.q, k, seed), None, &test)).collect::<Result<Vec<f64>>>()?;
             rows.push(SeedRow { seed, planned_mm, random_mm });
         }
         let med = |f: &dyn Fn(&SeedRow) -> f64| crate::stats::median(&rows.iter().map(f).collect::<Vec<f64>>());
@@ -151,6 +158,8 @@ pub struct EffectCheck {
     /// The joints (1-based) `diagnose` named the effect on, with its size and standard
     /// uncertainty in the diagnosis's unit.
     pub named: Vec<(usize, f64, f64)>,
+    /// The other causes `diagnose` named (`kind[jJ]`): what the set made it see that is not there.
+    pub others: Vec<String>,
     /// The true error (mm, as [`true_error`]) of the calibration that fits the effect.
     pub true_error_mm: f64,
 }
@@ -162,8 +171,11 @@ pub struct HiddenRow {
     pub seed: u64,
     /// The planned poses (the plan includes the effect's parameters).
     pub planned: EffectCheck,
-    /// A random feasible set of the same size.
+    /// A random feasible set of the same size, at the scenario's payload.
     pub random: EffectCheck,
+    /// With payloads to choose from: the same random set, each pose under a payload drawn at
+    /// random from them.
+    pub random_payloads: Option<EffectCheck>,
 }
 
 /// Diagnoses and calibrates the twin's readings at `poses`, for the effect `kind`.
@@ -173,19 +185,22 @@ fn effect_check(
     kind: crate::calib::effects::EffectKind,
     loads: &crate::calib::effects::inputs::LoadOptions,
     poses: &[Vec<f64>],
+    payloads: Option<&[f64]>,
     test: &TestSet,
 ) -> Result<EffectCheck> {
     let spec = ModelSpec::nominal(robot.clone(), crate::calib::model::Parametrisation::Hayati);
-    let (data, _) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses)?;
+    let (data, _) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses, payloads)?;
     let mut d = crate::diagnose::DiagnoseOptions::new(spec.clone());
     d.loads = loads.clone();
     d.seed = s.seed;
     let (diag, _) = crate::diagnose::diagnose(&data, &d, &|_| {})?;
     let named = diag.causes.iter().filter(|c| c.cause == kind.name()).map(|c| (c.joint.unwrap_or(0), c.magnitude, c.uncertainty)).collect();
+    let others =
+        diag.causes.iter().filter(|c| c.cause != kind.name()).map(|c| c.joint.map_or(c.cause.clone(), |j| format!("{}[j{j}]", c.cause))).collect();
     let mut calib = CalibOptions::new(spec, Method::LM);
     calib.effects = vec![(kind, None)];
     calib.loads = loads.clone();
-    Ok(EffectCheck { named, true_error_mm: true_error(s, robot, &calib, poses, test)? })
+    Ok(EffectCheck { named, others, true_error_mm: true_error(s, robot, &calib, poses, payloads, test)? })
 }
 
 /// With an effect hidden in the twin of `s` (its scenario holds it; the plan and the
@@ -203,10 +218,15 @@ pub fn hidden_effect(s: &Scenario, robot: &Robot, n: usize, seeds: &[u64], test_
         let test = test_set(&s, robot, seed, test_poses)?;
         let p = plan(&s, robot, &PlanOptions { n, seed, ..o.clone() })?;
         let random = random_poses(&p.candidates.q, n, seed);
+        let drawn: Option<Vec<f64>> = (!o.payloads.is_empty()).then(|| {
+            let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, Stream::Plan, 1000));
+            (0..n).map(|_| o.payloads[rng.random_range(0..o.payloads.len())]).collect()
+        });
         rows.push(HiddenRow {
             seed,
-            planned: effect_check(&s, robot, kind, &o.loads, &p.poses, &test)?,
-            random: effect_check(&s, robot, kind, &o.loads, &random, &test)?,
+            planned: effect_check(&s, robot, kind, &o.loads, &p.poses, p.payload_kg.as_deref(), &test)?,
+            random: effect_check(&s, robot, kind, &o.loads, &random, None, &test)?,
+            random_payloads: drawn.map(|d| effect_check(&s, robot, kind, &o.loads, &random, Some(&d), &test)).transpose()?,
         });
     }
     Ok(rows)

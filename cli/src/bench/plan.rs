@@ -62,35 +62,55 @@ pub fn bench_plan(seeds: u64, repeat: usize) -> Result<()> {
 const COMPLIANCE: &str =
     "[effects.compliance]\nstiffness_nm_per_rad = [1.5e5, 2.0e4, 3.0e4, 3.0e4, 3.0e4, 2.0e4]\n\n[effects.payload]\nmass_kg = 3.0\ncom_mm = [40.0, 0.0, 60.0]\n\n";
 
-/// The hidden-effect comparison: a plan that includes the compliance's parameters against random
-/// feasible sets of the same size, each diagnosed and calibrated with compliance.
-fn hidden(seeds: u64) -> Result<()> {
+/// Compliance twenty times stiffer, no payload in the scenario: the engineer measures without one
+/// unless a plan says to mount one (0 or 5 kg at the same centre of mass).
+const STIFF: &str =
+    "[effects.compliance]\nstiffness_nm_per_rad = [3.0e6, 4.0e5, 6.0e5, 6.0e5, 6.0e5, 4.0e5]\n\n[effects.payload]\nmass_kg = 0.0\ncom_mm = [40.0, 0.0, 60.0]\n\n";
+
+/// The hidden-effect comparisons: a plan that includes the compliance's parameters against random
+/// feasible sets of the same size, each diagnosed and calibrated with compliance; then a stiff
+/// compliance with no payload mounted, planned over payloads of 0 and 5 kg.
+pub fn hidden(seeds: u64) -> Result<()> {
+    hidden_case("joint compliance under a 3 kg payload", COMPLIANCE, &[60, 120], &[], seeds)?;
+    hidden_case("joint compliance 20 times stiffer, no payload mounted; the plan chooses 0 or 5 kg per pose", STIFF, &[60], &[0.0, 5.0], seeds)
+}
+
+/// One hidden-effect comparison (`extra` added to the tracker scenario before `[sensor]`).
+fn hidden_case(what: &str, extra: &str, sizes: &[usize], payloads: &[f64], seeds: u64) -> Result<()> {
     let (_, robot) = load("irb120_tracker")?;
     let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/irb120_tracker.toml"));
     let text = std::fs::read_to_string(path).map_err(|e| twincal::error::Error::io(path, e))?;
-    let s = Scenario::from_toml(&text.replacen("[sensor]", &format!("{COMPLIANCE}[sensor]"), 1), "irb120_tracker + compliance")?;
+    let s = Scenario::from_toml(&text.replacen("[sensor]", &format!("{extra}[sensor]"), 1), "irb120_tracker + compliance")?;
     let truth: Vec<f64> = s.effects.compliance.as_ref().map_or(vec![], |c| c.stiffness_nm_per_rad.iter().map(|k| 1e6 / k).collect());
     let loads = twincal::calib::effects::inputs::LoadOptions { payload: s.effects.payload.clone(), ..Default::default() };
-    let o = PlanOptions { effects: vec![(twincal::calib::effects::EffectKind::JointCompliance, None)], loads, ..PlanOptions::default() };
+    let o = PlanOptions { effects: vec![(twincal::calib::effects::EffectKind::JointCompliance, None)], loads, payloads: payloads.to_vec(), ..PlanOptions::default() };
     println!(
-        "\n## Hidden effect: joint compliance under a 3 kg payload (IRB 120, laser tracker; {seeds} seeds; true compliance per joint {} µrad/Nm)\n",
-        truth.iter().map(|c| format!("{c:.1}")).collect::<Vec<_>>().join(", ")
+        "\n## Hidden effect: {what} (IRB 120, laser tracker; {seeds} seeds; true compliance per joint {} µrad/Nm)\n",
+        truth.iter().map(|c| format!("{c:.2}")).collect::<Vec<_>>().join(", ")
     );
-    println!("| poses | N | diagnose named compliance (seeds) | joints named (all seeds) | joint 2 named as, µrad/Nm (median) | true error calibrated with compliance, mm (median) |");
-    println!("|---|---|---|---|---|---|");
-    for n in [60usize, 120] {
+    println!("| poses | N | diagnose named compliance (seeds) | joints named (all seeds) | other causes named (all seeds) | joint 2 named as, µrad/Nm (median) | true error calibrated with compliance, mm (median) |");
+    println!("|---|---|---|---|---|---|---|");
+    for &n in sizes {
         let rows = twincal::plan::verify::hidden_effect(&s, &robot, n, &(1..=seeds).collect::<Vec<_>>(), 200, &o)?;
-        for (label, pick) in [("planned (with compliance)", true), ("random feasible", false)] {
-            let checks: Vec<&twincal::plan::verify::EffectCheck> = rows.iter().map(|r| if pick { &r.planned } else { &r.random }).collect();
+        let planned = if payloads.is_empty() { "planned (with compliance)" } else { "planned (with compliance and payloads)" };
+        let mut cases: Vec<(&str, Vec<&twincal::plan::verify::EffectCheck>)> =
+            vec![(planned, rows.iter().map(|r| &r.planned).collect()), ("random feasible", rows.iter().map(|r| &r.random).collect())];
+        if !payloads.is_empty() {
+            cases.push(("random feasible, random payload", rows.iter().filter_map(|r| r.random_payloads.as_ref()).collect()));
+        }
+        for (label, checks) in cases {
             let named = checks.iter().filter(|c| !c.named.is_empty()).count();
             let mut joints = std::collections::BTreeMap::<usize, usize>::new();
             checks.iter().flat_map(|c| c.named.iter()).for_each(|(j, ..)| *joints.entry(*j).or_default() += 1);
+            let mut others = std::collections::BTreeMap::<String, usize>::new();
+            checks.iter().flat_map(|c| c.others.iter()).for_each(|o| *others.entry(o.clone()).or_default() += 1);
             let j2: Vec<f64> = checks.iter().flat_map(|c| c.named.iter().filter(|(j, ..)| *j == 2).map(|(_, m, _)| *m)).collect();
             println!(
-                "| {label} | {n} | {named}/{} | {} | {} | {:.4} |",
+                "| {label} | {n} | {named}/{} | {} | {} | {} | {:.4} |",
                 checks.len(),
                 joints.iter().map(|(j, k)| format!("{j}: {k}")).collect::<Vec<_>>().join(", "),
-                if j2.is_empty() { "never named".into() } else { format!("{:.1} ({} seeds)", twincal::stats::median(&j2), j2.len()) },
+                if others.is_empty() { "none".into() } else { others.iter().map(|(c, k)| format!("{c}: {k}")).collect::<Vec<_>>().join(", ") },
+                if j2.is_empty() { "never named".into() } else { format!("{:.2} ({} seeds)", twincal::stats::median(&j2), j2.len()) },
                 twincal::stats::median(&checks.iter().map(|c| c.true_error_mm).collect::<Vec<_>>())
             );
         }

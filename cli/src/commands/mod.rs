@@ -80,6 +80,10 @@ pub enum BenchTarget {
     /// calibrated, true error on independent test poses over seeds; and plan's time for 30 poses
     /// of 10 000 candidates.
     Plan,
+    /// Measurement plans against hidden compliance alone (part of `plan`): does a plan that
+    /// includes the effect (and, with payloads to choose from, the payload per pose) name and size
+    /// it where random feasible poses do not?
+    PlanHidden,
 }
 
 /// `--shard i/N --shard-out PART.jsonl` of `study hold` and `bench diagnose` (see
