@@ -412,6 +412,10 @@ def test_compensate_agrees_with_the_command_line_and_beats_the_nominal_commands(
         twincal.compensate(tmp_path / "r.json", targets, tmp_path / "d.csv", payload_kg=-1.0)
     with pytest.raises(twincal.TwincalError, match="refusing to overwrite"):
         twincal.compensate(tmp_path / "r.json", targets, targets)
+    with pytest.raises(twincal.TwincalError, match="--euler"):
+        twincal.compensate(tmp_path / "r.json", targets, tmp_path / "e.csv", euler="XXY")
+    with pytest.raises(twincal.TwincalError, match="euler"):
+        twincal.compensate(tmp_path / "r.json", targets, tmp_path / "e.csv", euler=3)
 
 
 def test_iso9283_agrees_with_the_command_line(tmp_path):
@@ -443,3 +447,10 @@ def test_plan_agrees_with_the_command_line_and_its_poses_are_what_generate_measu
         twincal.plan(tmp_path / "q", poses=40, candidates=20)
     with pytest.raises(twincal.TwincalError, match="poses"):
         twincal.plan(tmp_path / "q", poses="many")
+    # Over payloads: each pose gets its own, and generate measures them with the rows' payload.
+    w = twincal.plan(tmp_path / "w", scenario=scenario, poses=12, candidates=1500, seed=3, effects="compliance", payloads=[0, 4])
+    assert len(w["payload_kg"]) == 12 and set(w["payload_kg"]) <= {0.0, 4.0}
+    data, _ = twincal.generate(scenario, poses=tmp_path / "w" / "poses.csv")
+    assert list(data["payload_kg"]) == w["payload_kg"]
+    with pytest.raises(twincal.TwincalError, match="payloads"):
+        twincal.plan(tmp_path / "v", payloads=["heavy"])

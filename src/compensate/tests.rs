@@ -55,7 +55,7 @@ fn compensated_pose_commands_reach_position_and_orientation_on_the_twin() {
     let c = verify_seed(&s, &robot, &opts, 40, 1, true).unwrap();
     eprintln!("{c:#?}");
     let err = c.calibration_test_rmse_mm;
-    let (before, after) = c.orientation_deg.clone().unwrap();
+    let (before, after) = c.orientation_deg.unwrap();
     assert!(c.judged >= 30, "{c:?}");
     assert!(c.compensated_ap_mm.mean < 2.0 * err && c.nominal_ap_mm.mean > 10.0 * c.compensated_ap_mm.mean, "{c:?}");
     assert!(after.mean < 0.01 && before.mean > 5.0 * after.mean, "{before:?} {after:?}");

@@ -19,9 +19,9 @@ use crate::seed::{stream_seed, Stream};
 use crate::sim::generate::{generate_at, Silent};
 use crate::sim::pose_list::PoseList;
 use crate::sim::scenario::Scenario;
+use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use nalgebra::Vector3;
 use serde::Serialize;
 
 /// The twin's true tool points (mm) at `poses` (rad; with `payloads`, each measured under its
@@ -195,8 +195,7 @@ fn effect_check(
     d.seed = s.seed;
     let (diag, _) = crate::diagnose::diagnose(&data, &d, &|_| {})?;
     let named = diag.causes.iter().filter(|c| c.cause == kind.name()).map(|c| (c.joint.unwrap_or(0), c.magnitude, c.uncertainty)).collect();
-    let others =
-        diag.causes.iter().filter(|c| c.cause != kind.name()).map(|c| c.joint.map_or(c.cause.clone(), |j| format!("{}[j{j}]", c.cause))).collect();
+    let others = diag.causes.iter().filter(|c| c.cause != kind.name()).map(|c| c.joint.map_or(c.cause.clone(), |j| format!("{}[j{j}]", c.cause))).collect();
     let mut calib = CalibOptions::new(spec, Method::LM);
     calib.effects = vec![(kind, None)];
     calib.loads = loads.clone();

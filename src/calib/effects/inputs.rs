@@ -77,7 +77,8 @@ impl TorqueModel {
         TorqueModel {
             chain: robot.error_chain(),
             links: load.links.iter().map(|(m, c)| (*m, [c.x, c.y, c.z])).collect(),
-            payload: load.payload.map(|(m, c)| (m, [c.x, c.y, c.z])),
+            // A payload stated at zero mass still states where the rows' own payloads sit.
+            payload: loads.payload.as_ref().map(|p| (p.mass_kg, p.com_mm.map(crate::units::to_m))),
             cable: exit_m.filter(|_| loads.cable_tension_n > 0.0).map(|e| ([e.x, e.y, e.z], [tool_m.x, tool_m.y, tool_m.z], loads.cable_tension_n)),
             torque_threshold_nm: loads.torque_threshold_nm,
         }

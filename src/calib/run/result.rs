@@ -513,65 +513,61 @@ impl CalibResult {
                 ));
             }
         }
-        let chain = &r.model.chain;
-        chain.validate().map_err(|e| Error::model(path.display(), e))?;
-        let temps = crate::dataset::MIN_TEMP_C..=crate::dataset::MAX_TEMP_C;
-        if let Some(t) = r.model.effects.iter().find_map(|b| match b.thermal {
-            Some(crate::calib::effects::ThermalDrive::Temperature { ref_c }) if !temps.contains(&ref_c) => Some(ref_c),
-            _ => None,
-        }) {
-            return Err(Error::model(
-                path.display(),
-                format!(
-                    "the thermal block's reference temperature {} °C is outside [{}, {}] °C (edited result file?)",
-                    crate::error::shown(t),
-                    temps.start(),
-                    temps.end()
-                ),
-            ));
-        }
-        if let Some(t) = &r.torque_model {
-            t.validate(chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
-        } else if let Some(b) = r.model.effects.iter().find(|b| b.kind.def().reads_torques()) {
-            // Without it the block would read zero torque on every row: a silent error.
-            return Err(Error::model(
-                path.display(),
-                format!("the model's {} block reads joint torques, but the file has no torque_model to compute them (edited result file?)", b.kind.name()),
-            ));
-        }
-        let consistent = r.x.len() == r.model.n_params()
-            && r.model.nominal.len() == r.model.n_params()
-            && r.model.effects.iter().all(|e| e.joint.is_none_or(|j| j < chain.n_joints))
-            && (r.model.limits.is_empty() || r.model.limits.len() == chain.n_joints)
-            && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
-            && r.model.kinds.len() == r.model.n_params()
-            && r.model.n_params() == chain.n_params() + r.model.measurement.n_placement() + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
-            && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
-            && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
-        let reported = r.parameters.len() == r.model.n_params() && r.parameters.iter().zip(&r.model.names).all(|(p, n)| &p.name == n);
-        if consistent && !reported {
-            return Err(Error::model(
-                path.display(),
-                format!(
-                    "the parameter report lists {} parameters, the model has {} (or names them otherwise): edited or truncated result file?",
-                    r.parameters.len(),
-                    r.model.n_params()
-                ),
-            ));
-        }
-        if !consistent || r.x.iter().any(|v| !v.is_finite()) {
-            return Err(Error::model(path.display(), "the calibrated model is inconsistent (edited or truncated result file?)"));
-        }
-        let place = r.model.placement(&r.x);
-        let names = r.model.measurement.placement_names();
-        if let Some((name, v)) = names.iter().zip(place.own.iter().chain(place.tool.iter())).find(|(_, v)| v.abs() > MAX_PLACEMENT) {
-            return Err(Error::model(
-                path.display(),
-                format!("the instrument's placement {name} = {} is beyond {MAX_PLACEMENT} (m or rad; edited result file?)", crate::error::shown(*v)),
-            ));
-        }
+        check_model(&r).map_err(|e| Error::model(path.display(), e))?;
         Ok(r)
     }
+}
+
+/// The checks of a result file's model after it parsed: chain, thermal reference, torque model,
+/// the consistency of its parts and sizes, the parameter report, the instrument's placement;
+/// what is wrong, for [`CalibResult::load`] to name with the file.
+fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
+    let chain = &r.model.chain;
+    chain.validate()?;
+    let temps = crate::dataset::MIN_TEMP_C..=crate::dataset::MAX_TEMP_C;
+    if let Some(t) = r.model.effects.iter().find_map(|b| match b.thermal {
+        Some(crate::calib::effects::ThermalDrive::Temperature { ref_c }) if !temps.contains(&ref_c) => Some(ref_c),
+        _ => None,
+    }) {
+        return Err(format!(
+            "the thermal block's reference temperature {} °C is outside [{}, {}] °C (edited result file?)",
+            crate::error::shown(t),
+            temps.start(),
+            temps.end()
+        ));
+    }
+    if let Some(t) = &r.torque_model {
+        t.validate(chain.n_joints)?;
+    } else if let Some(b) = r.model.effects.iter().find(|b| b.kind.def().reads_torques()) {
+        // Without it the block would read zero torque on every row: a silent error.
+        return Err(format!("the model's {} block reads joint torques, but the file has no torque_model to compute them (edited result file?)", b.kind.name()));
+    }
+    let consistent = r.x.len() == r.model.n_params()
+        && r.model.nominal.len() == r.model.n_params()
+        && r.model.effects.iter().all(|e| e.joint.is_none_or(|j| j < chain.n_joints))
+        && (r.model.limits.is_empty() || r.model.limits.len() == chain.n_joints)
+        && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
+        && r.model.kinds.len() == r.model.n_params()
+        && r.model.n_params() == chain.n_params() + r.model.measurement.n_placement() + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
+        && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
+        && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
+    let reported = r.parameters.len() == r.model.n_params() && r.parameters.iter().zip(&r.model.names).all(|(p, n)| &p.name == n);
+    if consistent && !reported {
+        return Err(format!(
+            "the parameter report lists {} parameters, the model has {} (or names them otherwise): edited or truncated result file?",
+            r.parameters.len(),
+            r.model.n_params()
+        ));
+    }
+    if !consistent || r.x.iter().any(|v| !v.is_finite()) {
+        return Err("the calibrated model is inconsistent (edited or truncated result file?)".into());
+    }
+    let place = r.model.placement(&r.x);
+    let names = r.model.measurement.placement_names();
+    if let Some((name, v)) = names.iter().zip(place.own.iter().chain(place.tool.iter())).find(|(_, v)| v.abs() > MAX_PLACEMENT) {
+        return Err(format!("the instrument's placement {name} = {} is beyond {MAX_PLACEMENT} (m or rad; edited result file?)", crate::error::shown(*v)));
+    }
+    Ok(())
 }
 
 /// How far outside a joint's limits (degrees) a row may be before it is refused: encoders read
