@@ -76,8 +76,21 @@ pub fn true_error(s: &Scenario, robot: &Robot, opts: &CalibOptions, poses: &[Vec
     let r = calibrate(&data, None, opts)?;
     let x_nom = nominal_x(&r);
     let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
-    let (reg_q, reg_true): (Vec<Vec<f64>>, Vec<Vector3<f64>>) = poses.iter().zip(&truth).filter_map(|(q, t)| t.map(|t| (q.clone(), t))).unzip();
-    let (rot, tr) = c.registration(&reg_q, &reg_true, false);
+    // The registration on the calibration's own rows, each predicted under its own payload (the
+    // rows are the poses the twin measured, in order).
+    let reg_true: Vec<Vector3<f64>> = truth.iter().flatten().copied().collect();
+    let inputs = crate::calib::effects::inputs::row_inputs(&data, r.torque_model.as_ref());
+    let mut w = r.model.work();
+    let predicted: Vec<Vector3<f64>> = data
+        .rows
+        .iter()
+        .zip(&inputs)
+        .map(|(row, inp)| crate::units::to_mm(r.model.tool_point_with(&r.x, &row.q_deg.iter().map(|d| d.to_radians()).collect::<Vec<_>>(), inp, &mut w)))
+        .collect();
+    if predicted.len() != reg_true.len() {
+        return Err(Error::Invalid(format!("{} rows for {} measured poses", predicted.len(), reg_true.len())));
+    }
+    let (rot, tr) = crate::ik::rigid_fit(&reg_true, &predicted);
     let sq: Vec<f64> = test.0.iter().zip(&test.1).map(|(q, t)| (rot * t + tr - c.predicted(q)).norm_squared()).collect();
     Ok((sq.iter().sum::<f64>() / sq.len().max(1) as f64).sqrt())
 }
