@@ -255,7 +255,7 @@ mod tests {
     use crate::dataset::Row;
 
     fn row(q: &[f64], t: f64) -> Row {
-        Row { q_deg: q.to_vec(), reading_mm: vec![500.0], t_s: Some(t), temp_c: None, split: None, std_mm: None, block: None, payload_kg: None }
+        Row { q_deg: q.to_vec(), reading_mm: vec![500.0], t_s: Some(t), temp_c: None, split: None, std_mm: None, ..Default::default() }
     }
 
     #[test]

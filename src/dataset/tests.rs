@@ -29,7 +29,7 @@ fn assert_contains(msg: &str, parts: &[&str]) {
 }
 
 fn row(q: [f64; 6], l: f64) -> Row {
-    Row { q_deg: q.to_vec(), reading_mm: vec![l], t_s: None, temp_c: None, split: None, std_mm: None, block: None, payload_kg: None }
+    Row { q_deg: q.to_vec(), reading_mm: vec![l], ..Default::default() }
 }
 
 /// Says on the test process's stderr that a test skips what needs `absent` (written to the
@@ -57,8 +57,7 @@ fn round_trip_is_exact() {
                 temp_c: Some(21.5),
                 split: Some(Split::Train),
                 std_mm: None,
-                block: None,
-                payload_kg: None,
+                ..Default::default()
             },
             Row {
                 q_deg: vec![1.405, -74.025, 220.99, -166.357, 41.989, 65.122],
@@ -67,8 +66,7 @@ fn round_trip_is_exact() {
                 temp_c: Some(-3.25e-7),
                 split: Some(Split::Test),
                 std_mm: None,
-                block: None,
-                payload_kg: None,
+                ..Default::default()
             },
         ],
         source: "mem".into(),

@@ -94,8 +94,7 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
             temp_c: Some(th.ambient_c + th.delta_t(*ti)),
             split: None,
             std_mm: None,
-            block: None,
-            payload_kg: None,
+            ..Default::default()
         })
         .collect();
     Ok(Dataset { rows, source: s.name.clone() })

@@ -19,8 +19,7 @@ fn data() -> Dataset {
                 temp_c: None,
                 split: None,
                 std_mm: None,
-                block: None,
-                payload_kg: None,
+                ..Default::default()
             }
         })
         .collect();

@@ -395,11 +395,7 @@ impl<'a> IkModel<'a> {
             if done {
                 return (res, q, it, IkStatus::Converged);
             }
-            let mut jjt = SMatrix::<f64, D, D>::zeros();
-            for c in cols.iter() {
-                jjt += c * c.transpose();
-            }
-            let Some(inv) = (jjt + SMatrix::<f64, D, D>::identity() * lam2).try_inverse() else {
+            let Some(inv) = (gram(cols) + SMatrix::<f64, D, D>::identity() * lam2).try_inverse() else {
                 return (res, q, it, IkStatus::Singular);
             };
             let y = inv * e;
@@ -418,10 +414,7 @@ impl<'a> IkModel<'a> {
         if done {
             return (res, q, o.max_iter, IkStatus::Converged);
         }
-        let mut jjt = SMatrix::<f64, D, D>::zeros();
-        for c in cols.iter() {
-            jjt += c * c.transpose();
-        }
+        let jjt = gram(cols);
         // (dynamically sized: a generic fixed size has no eigen-decomposition; once per failed start)
         let eig = nalgebra::DMatrix::from_column_slice(D, D, jjt.as_slice()).symmetric_eigenvalues();
         let (lo, hi) = (eig.min().max(0.0), eig.max());
@@ -500,6 +493,11 @@ impl<'a> IkModel<'a> {
         };
         PoseSolution { status, q, iterations, residual_mm, residual_deg }
     }
+}
+
+/// J Jᵀ of the Jacobian whose columns are `cols`.
+fn gram<const D: usize>(cols: &[SVector<f64, D>]) -> SMatrix<f64, D, D> {
+    cols.iter().fold(SMatrix::zeros(), |m, c| m + c * c.transpose())
 }
 
 /// Fewest random restarts of a pose solve ([`IkModel::solve_pose_from`]).

@@ -311,16 +311,7 @@ mod tests {
         let mut data = Dataset::default();
         let q = |a: f64| vec![a, 0.0, 0.0, 0.0, 0.0, 0.0];
         for (qq, y) in [(q(1.0), [9.9, 0.0, 0.0]), (q(1.003), [10.1, 0.0, 0.0]), (q(2.0), [0.0, 20.0, 0.0]), (q(0.998), [10.0, 0.0, 0.0])] {
-            data.rows.push(crate::dataset::Row {
-                q_deg: qq,
-                reading_mm: y.to_vec(),
-                t_s: None,
-                temp_c: None,
-                split: None,
-                std_mm: None,
-                block: None,
-                payload_kg: None,
-            });
+            data.rows.push(crate::dataset::Row { q_deg: qq, reading_mm: y.to_vec(), ..Default::default() });
         }
         let measured: Vec<Vec<f64>> = data.rows.iter().map(|r| r.reading_mm.clone()).collect();
         let commanded = vec![vec![10.3, 0.0, 0.0], vec![10.3, 0.0, 0.0], vec![0.0, 20.4, 0.0], vec![10.3, 0.0, 0.0]];

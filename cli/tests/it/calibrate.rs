@@ -398,8 +398,7 @@ fn hayati_plus_field(seed: u64, field: impl Fn(&[f64]) -> f64) -> Dataset {
                 temp_c: None,
                 split: Some(if i % 4 == 0 { Split::Test } else { Split::Train }),
                 std_mm: None,
-                block: None,
-                payload_kg: None,
+                ..Default::default()
             }
         })
         .collect();

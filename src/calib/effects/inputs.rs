@@ -217,19 +217,7 @@ mod tests {
     #[test]
     fn row_flanks_follow_the_twins_approach_rule() {
         let q1 = [10.0, 10.0, 5.0, 20.0, -3.0];
-        let rows: Vec<Row> = q1
-            .iter()
-            .map(|&a| Row {
-                q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0],
-                reading_mm: vec![500.0],
-                t_s: None,
-                temp_c: None,
-                split: None,
-                std_mm: None,
-                block: None,
-                payload_kg: None,
-            })
-            .collect();
+        let rows: Vec<Row> = q1.iter().map(|&a| Row { q_deg: vec![a, 0.0, -a, 0.0, 0.0, 0.0], reading_mm: vec![500.0], ..Default::default() }).collect();
         let data = Dataset { rows, source: "test".into() };
         let inp = row_inputs(&data, None);
         let side = |j: usize| inp.iter().map(|r| r.side[j]).collect::<Vec<f64>>();

@@ -110,8 +110,7 @@ mod tests {
                 temp_c: None,
                 split: None,
                 std_mm: s.map(|v| [v; 3]),
-                block: None,
-                payload_kg: None,
+                ..Default::default()
             })
             .collect();
         Dataset { rows, source: "mem".into() }
