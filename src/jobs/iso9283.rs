@@ -169,6 +169,10 @@ pub fn figures(
     (per_pose, (!ad.is_empty()).then(|| ErrorStats::of(&ad)))
 }
 
+/// A mean AP beyond this (mm) says the model is not of these data's arm and instrument: a
+/// nominal model is off by a few mm, a calibrated one by far less.
+const OTHER_ARM_AP_MM: f64 = 100.0;
+
 impl Iso9283Job {
     /// Reads the data and every model, evaluates each, writes `--out` when given.
     pub fn run(&self) -> Result<Iso9283> {
@@ -202,11 +206,19 @@ impl Iso9283Job {
             let all: Vec<usize> = (0..data.rows.len()).collect();
             let rp: Vec<f64> = figures(&data, &all, &measured, &commanded, euler).0.iter().filter_map(|p| p.rp_mm).collect();
             let orient: Vec<f64> = per_pose.iter().filter_map(|p| p.orientation_deg).collect();
+            let ap = ErrorStats::of(&per_pose.iter().map(|p| p.ap_mm).collect::<Vec<_>>());
+            if ap.mean > OTHER_ARM_AP_MM {
+                warnings.push(format!(
+                    "the model {} misses these poses by {:.1} mm on average: a model of another arm, or of the instrument where it stood before it moved?",
+                    path.display(),
+                    ap.mean
+                ));
+            }
             models.push(ModelFigures {
                 model: path.clone(),
                 rows: if own { "held out".into() } else { "all".into() },
                 poses: per_pose.len(),
-                ap_mm: ErrorStats::of(&per_pose.iter().map(|p| p.ap_mm).collect::<Vec<_>>()),
+                ap_mm: ap,
                 rp_mm: (!rp.is_empty()).then(|| ErrorStats::of(&rp)),
                 ad_mm,
                 orientation_deg: (!orient.is_empty()).then(|| ErrorStats::of(&orient)),

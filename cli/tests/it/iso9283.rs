@@ -44,6 +44,13 @@ fn a_calibration_brings_the_held_out_pose_accuracy_of_twin_tracker_data_to_its_n
     let ap = ap_means(&out);
     // Nominal (registered): the geometric errors' millimetre; calibrated: the tracker's noise.
     assert!(ap[0] > 0.2 && ap[1] < 0.01 && ap[1] < ap[0] / 30.0, "{ap:?}\n{table}");
+    // Another arm's tracker data (a UR10's) judged by this IRB 120 model: judged, and named.
+    let other = dir.path().join("ur10");
+    let ur10 = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/ur10_tracker.toml"));
+    ok(twincal(&["--quiet", "generate", "--scenario", s(ur10), "--out", s(&other)]));
+    let o = twincal(&["iso9283", "--data", s(&other), "--model", s(&after)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("a model of another arm"), "{err}");
     // A draw-wire's lengths are not positions; a missing model is clap's error.
     let cable = dir.path().join("c");
     ok(twincal(&["--quiet", "generate", "--out", s(&cable)]));
