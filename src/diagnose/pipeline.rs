@@ -89,7 +89,8 @@ pub(super) fn prepare_rows(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     let torque = prepared.split.torque_model;
     // Torques exist where something loads the joints: link masses (the nominal robot's or
     // `--robot`'s inertial data), a payload or a cable's tension.
-    let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque());
+    // Rows with their own payload load the joints too.
+    let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque() || data.rows.iter().any(|r| r.payload_kg.is_some_and(|m| m > 0.0)));
     let mut all = prepared.split.train;
     let fold_warning = fold_rows_check(all.len(), dim, prepared.id.fixed_mask.iter().filter(|f| !**f).count(), opts)?;
 

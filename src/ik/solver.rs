@@ -360,7 +360,9 @@ impl<'a> IkModel<'a> {
             let (res, q, it, stuck) = self.descend(q0, o, w, cols, eval, judge);
             iterations += it;
             let done = stuck == IkStatus::Converged;
-            if best.as_ref().is_none_or(|b| res < b.0) {
+            // A start that converged is kept even where its score is higher than a failed one's (a
+            // pose's score weighs position and orientation together; converging is judged on each).
+            if done || best.as_ref().is_none_or(|b| res < b.0) {
                 best = Some((res, q, stuck));
             }
             if done {

@@ -481,8 +481,20 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         payload_kg: offered.as_ref().map(|p| toured.iter().map(|&c| p[c]).collect()),
         indices: Indices::of(&prob.pool, &d.chosen),
         random_median: median_indices(&prob.pool, &sets),
-        tour: motion.time(&home, &poses),
-        unordered: motion.time(&home, &chosen),
+        tour: {
+            let mut t = motion.time(&home, &poses);
+            t.payload_changes_s = groups.len().saturating_sub(1) as f64 * crate::sim::pose_list::PAYLOAD_CHANGE_S;
+            t.total_s += t.payload_changes_s;
+            t
+        },
+        unordered: {
+            // In the design's order the payload changes wherever consecutive poses differ in it.
+            let mut t = motion.time(&home, &chosen);
+            let changes = offered.as_ref().map_or(0, |p| d.chosen.windows(2).filter(|w| p[w[0]] != p[w[1]]).count());
+            t.payload_changes_s = changes as f64 * crate::sim::pose_list::PAYLOAD_CHANGE_S;
+            t.total_s += t.payload_changes_s;
+            t
+        },
         poses,
         candidates: cands,
         design: d,

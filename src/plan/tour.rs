@@ -17,8 +17,15 @@ pub struct TourTime {
     pub moving_s: f64,
     /// Holding and reading at the poses, s.
     pub reading_s: f64,
-    /// The whole acquisition, from home to the last reading, s.
+    /// The whole acquisition, from home to the last reading, s (with the payload changes).
     pub total_s: f64,
+    /// Changing the payload between runs, s (included in `total_s`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub payload_changes_s: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// How the tour is timed: joint speeds (rad/s), the ramp (s), and the time spent at each pose (s).
@@ -47,7 +54,7 @@ impl Motion {
             prev = q;
         }
         let reading = self.at_pose_s * poses.len() as f64;
-        TourTime { moving_s: moving, reading_s: reading, total_s: moving + reading }
+        TourTime { moving_s: moving, reading_s: reading, total_s: moving + reading, payload_changes_s: 0.0 }
     }
 
     /// A short visiting order of `poses` from `home` (indices into `poses`).

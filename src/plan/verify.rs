@@ -187,7 +187,7 @@ pub struct HiddenRow {
     /// A random feasible set of the same size, at the scenario's payload.
     pub random: EffectCheck,
     /// With payloads to choose from: the same random set, each pose under a payload drawn at
-    /// random from them.
+    /// random from them, measured one payload after the other.
     pub random_payloads: Option<EffectCheck>,
 }
 
@@ -238,7 +238,15 @@ pub fn hidden_effect(s: &Scenario, robot: &Robot, n: usize, seeds: &[u64], test_
             seed,
             planned: effect_check(&s, robot, kind, &o.loads, &p.poses, p.payload_kg.as_deref(), &test)?,
             random: effect_check(&s, robot, kind, &o.loads, &random, None, &test)?,
-            random_payloads: drawn.map(|d| effect_check(&s, robot, kind, &o.loads, &random, Some(&d), &test)).transpose()?,
+            random_payloads: drawn
+                .map(|d| {
+                    // Measured as the plan is: one payload after the other (in --payloads' order).
+                    let mut order: Vec<usize> = (0..n).collect();
+                    order.sort_by_key(|&i| o.payloads.iter().position(|m| *m == d[i]));
+                    let (q, m): (Vec<Vec<f64>>, Vec<f64>) = order.iter().map(|&i| (random[i].clone(), d[i])).unzip();
+                    effect_check(&s, robot, kind, &o.loads, &q, Some(&m), &test)
+                })
+                .transpose()?,
         });
     }
     Ok(rows)

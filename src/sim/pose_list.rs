@@ -119,6 +119,12 @@ pub fn generate_pose_list(s: &Scenario, robot: &Robot, list: PoseList, progress:
     s.sampling.poses = list.q.len();
     s.sampling.test = 0;
     let Some(payloads) = list.payload_kg else { return generate_at(&s, robot, list.q, None, progress) };
+    if payloads.len() != list.q.len() {
+        return Err(Error::Invalid(format!("{} payloads for {} poses: one payload per pose", payloads.len(), list.q.len())));
+    }
+    if list.q.is_empty() {
+        return Err(Error::Invalid("no poses".into()));
+    }
     if s.effects.thermal.is_some() {
         return Err(Error::Invalid(
             "a pose list with payloads is measured one payload at a time, each run a new acquisition; the scenario's thermal drift would restart its warm-up with each run: drop payload_kg or [effects.thermal]".into(),

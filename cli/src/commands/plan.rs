@@ -50,8 +50,12 @@ pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
         eprintln!("  {name:<42} {:<8} {}", shown(x), shown(y));
     }
     eprintln!(
-        "  tour: {:.0} s ({:.0} s moving, {:.0} s holding and reading); in the design's order {:.0} s",
-        p.tour.total_s, p.tour.moving_s, p.tour.reading_s, p.unordered.total_s
+        "  tour: {:.0} s ({:.0} s moving, {:.0} s holding and reading{}); in the design's order {:.0} s",
+        p.tour.total_s,
+        p.tour.moving_s,
+        p.tour.reading_s,
+        if p.tour.payload_changes_s > 0.0 { format!(", {:.0} s changing the payload", p.tour.payload_changes_s) } else { String::new() },
+        p.unordered.total_s
     );
     eprintln!("  wrote {}/{} and {}/{}", job.out.display(), twincal::jobs::POSES_FILE, job.out.display(), twincal::jobs::PLAN_FILE);
     if let Some(r) = &job.rrd {

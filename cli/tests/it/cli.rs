@@ -684,6 +684,14 @@ fn hand_edited_result_values_out_of_range_are_refused() {
         (|r| r["model"]["stiffness"] = 1.into(), "unknown key 'model.stiffness'"),
         (|r| r["parameters"].as_array_mut().unwrap().truncate(5), "the parameter report lists 5 parameters"),
     ];
+    // What twincal leaves out when empty may be given empty.
+    let mut empty = r.clone();
+    empty["provenance"]["test_rows"] = serde_json::json!([]);
+    empty["corrector"] = serde_json::Value::Null;
+    let p = dir.path().join("empty.json");
+    std::fs::write(&p, serde_json::to_string(&empty).unwrap()).unwrap();
+    let o = twincal(&["predict", "--model", s(&p), "--data", s(&data), "--out", s(&dir.path().join("pe.csv"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
     for (k, (edit, needle)) in cases.iter().enumerate() {
         let mut bad = r.clone();
         edit(&mut bad);

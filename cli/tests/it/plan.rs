@@ -178,7 +178,7 @@ fn a_plan_over_payloads_is_measured_one_payload_after_the_other_and_sizes_the_co
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("payloads: "), "{err}");
+    assert!(err.contains("payloads: ") && err.contains("s changing the payload"), "{err}");
     let list = std::fs::read_to_string(out.join("poses.csv")).unwrap();
     assert!(list.lines().next().unwrap().ends_with(",payload_kg"), "{list}");
     let payloads: Vec<f64> = list.lines().skip(1).map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect();

@@ -284,20 +284,25 @@ struct FlatLayout {
     rest: serde_json::Map<String, serde_json::Value>,
 }
 
+/// A value twincal leaves out when it writes a result: `null`, `[]`, `{}`.
+fn empty(v: &serde_json::Value) -> bool {
+    v.is_null() || v.as_array().is_some_and(Vec::is_empty) || v.as_object().is_some_and(serde_json::Map::is_empty)
+}
+
 /// The first key (as `group.key`) of `given`'s top level or of its groups (objects one level down)
 /// that `known` — the same result as twincal writes it — lacks. A key twincal leaves out when
-/// empty may be given as `null`; `rbf` is an old file's corrector.
+/// empty may be given empty ([`empty`]); `rbf` is an old file's corrector.
 fn unknown_keys(given: &serde_json::Value, known: &serde_json::Value) -> Option<String> {
     let (Some(g), Some(k)) = (given.as_object(), known.as_object()) else { return None };
     for (key, v) in g {
-        if v.is_null() || (key == "rbf") {
+        if empty(v) || (key == "rbf") {
             continue;
         }
         match k.get(key) {
             None => return Some(key.clone()),
             Some(kv) => {
                 if let (Some(go), Some(ko)) = (v.as_object(), kv.as_object()) {
-                    if let Some(sub) = go.iter().find(|(sk, sv)| !sv.is_null() && !ko.contains_key(*sk)) {
+                    if let Some(sub) = go.iter().find(|(sk, sv)| !empty(sv) && !ko.contains_key(*sk)) {
                         return Some(format!("{key}.{}", sub.0));
                     }
                 }

@@ -175,7 +175,8 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
     let robot = opts.inertial_robot();
     let torque = robot.map(|r| crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads, placement.exit(), placement.tool));
     let all = crate::calib::effects::inputs::row_inputs(data, torque.as_ref());
-    let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque());
+    // Rows with their own payload load the joints too.
+    let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque() || data.rows.iter().any(|r| r.payload_kg.is_some_and(|m| m > 0.0)));
     split.torque_model = torque;
     split.train.inputs = split.train_idx.iter().map(|&i| all[i].clone()).collect();
     split.test.inputs = split.test_idx.iter().map(|&i| all[i].clone()).collect();
