@@ -227,11 +227,9 @@ impl<'a> Compensator<'a> {
             .map_init(
                 || (self.calibrated.work(), self.nominal.work()),
                 |(wc, wn), t| {
-                    if let Target::Pose(p, r) = t {
-                        return self.compensate_pose(p, r, wc, wn);
-                    }
                     let (target, nominal_q) = match t {
-                        Target::Point(p) | Target::Pose(p, _) => {
+                        Target::Pose(p, r) => return self.compensate_pose(p, r, wc, wn),
+                        Target::Point(p) => {
                             let s = self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn);
                             (*p, s.q)
                         }
