@@ -436,6 +436,8 @@ def test_plan_agrees_with_the_command_line_and_its_poses_are_what_generate_measu
     p = twincal.plan(tmp_path / "p", scenario=scenario, poses=12, candidates=1500, seed=3)
     assert len(p["poses_deg"]) == 12 and p["criterion"] == "i"
     assert p["indices"]["i_prediction_variance"] < p["random_median"]["i_prediction_variance"]
+    # The certified ceiling: no 12 poses of the pool below it, the plan above it.
+    assert 0 < p["ceiling"]["bound"]["lower"] <= p["indices"]["i_prediction_variance"]
     data, truth = twincal.generate(scenario, poses=tmp_path / "p" / "poses.csv")
     assert len(data["q1"]) == 12
     assert np.allclose(np.column_stack([data[f"q{j}"] for j in range(1, 7)]), np.array(p["poses_deg"]), atol=1e-6)

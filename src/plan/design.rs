@@ -28,6 +28,12 @@ pub trait Criterion: Sync {
     /// Its value for a design with information matrix `info` (the ridge included) of `rows`
     /// stacked rows, drawn from `pool`.
     fn value(&self, info: &DMatrix<f64>, rows: usize, pool: &Pool) -> f64;
+    /// Every candidate's exact improvement of the criterion when added to a design of
+    /// information `m` (−∞ for the `taken` ones), where the criterion can tell it cheaply; `None`
+    /// lets the exchange judge a shortlist of the largest determinant gains instead.
+    fn gains(&self, _pool: &Pool, _m: &DMatrix<f64>, _taken: &[bool]) -> Option<Vec<f64>> {
+        None
+    }
 }
 
 /// An index of the singular values `sv` of the stacked scaled Jacobian of `rows` rows (O1, O3,
@@ -81,6 +87,44 @@ impl Criterion for IOptimal {
     }
     fn value(&self, info: &DMatrix<f64>, _rows: usize, pool: &Pool) -> f64 {
         -prediction_variance(info, pool)
+    }
+    /// Adding candidate A to M lowers trace(M⁻¹W) by trace((I + A M⁻¹Aᵀ)⁻¹ A M⁻¹WM⁻¹ Aᵀ)
+    /// (Woodbury): with B = A M⁻¹, trace((I + B Aᵀ)⁻¹ B W Bᵀ), about 2·d·p² per candidate.
+    fn gains(&self, pool: &Pool, m: &DMatrix<f64>, taken: &[bool]) -> Option<Vec<f64>> {
+        let (d, p) = (pool.d, pool.p);
+        let l = cholesky(m);
+        let minv = nalgebra::Cholesky::pack_dirty(l).inverse();
+        let (mi, w) = (minv.as_slice(), pool.mean.as_slice());
+        let gains = (0..pool.len())
+            .into_par_iter()
+            .map_init(
+                || (vec![0.0; d * p], vec![0.0; d * p]),
+                |(b, bw), c| {
+                    if taken[c] {
+                        return f64::NEG_INFINITY;
+                    }
+                    let a = pool.block(c);
+                    // B = A M⁻¹ and BW (M⁻¹, W symmetric: column j is row j).
+                    for r in 0..d {
+                        let ar = &a[r * p..(r + 1) * p];
+                        for j in 0..p {
+                            b[r * p + j] = ar.iter().zip(&mi[j * p..(j + 1) * p]).map(|(x, y)| x * y).sum();
+                        }
+                        for j in 0..p {
+                            bw[r * p + j] = b[r * p..(r + 1) * p].iter().zip(&w[j * p..(j + 1) * p]).map(|(x, y)| x * y).sum();
+                        }
+                    }
+                    let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(u, v)| u * v).sum::<f64>();
+                    let u = DMatrix::from_fn(d, d, |r, s| dot(&b[r * p..(r + 1) * p], &a[s * p..(s + 1) * p]) + if r == s { 1.0 } else { 0.0 });
+                    let v = DMatrix::from_fn(d, d, |r, s| dot(&bw[r * p..(r + 1) * p], &b[s * p..(s + 1) * p]));
+                    match u.cholesky() {
+                        Some(ch) => ch.solve(&v).trace() / pool.target_dim as f64,
+                        None => f64::NEG_INFINITY,
+                    }
+                },
+            )
+            .collect();
+        Some(gains)
     }
 }
 
@@ -148,7 +192,7 @@ impl SingularIndex for AOptimal {
 pub fn prediction_variance(info: &DMatrix<f64>, pool: &Pool) -> f64 {
     let l = cholesky(info);
     let x = nalgebra::Cholesky::pack_dirty(l).solve(&pool.mean);
-    x.trace() / pool.d as f64
+    x.trace() / pool.target_dim as f64
 }
 
 /// Every criterion, the default first.
@@ -171,19 +215,31 @@ pub struct Pool {
     pub d: usize,
     /// Columns (parameters).
     pub p: usize,
-    /// The mean information per candidate, Σ A_cᵀA_c / C.
+    /// The mean information per candidate, Σ A_cᵀA_c / C, of what the plan promises accuracy on
+    /// (the I criterion's W): the readings' by default, [`Pool::with_target`] sets another.
     pub mean: DMatrix<f64>,
+    /// The number of values per pose `mean` stands for (the I criterion's mean variance is per
+    /// value).
+    pub target_dim: usize,
 }
 
 impl Pool {
     /// The pool of `rows` (see [`Pool::rows`]).
     pub fn new(rows: Vec<f64>, d: usize, p: usize) -> Pool {
-        let mut pool = Pool { rows, d, p, mean: DMatrix::zeros(p, p) };
+        let mut pool = Pool { rows, d, p, mean: DMatrix::zeros(p, p), target_dim: d };
         let c = pool.len();
         let mut m = DMatrix::zeros(p, p);
         (0..c).for_each(|k| pool.add(&mut m, k, 1.0));
         pool.mean = m / c.max(1) as f64;
         pool
+    }
+    /// The pool judged by the I criterion on `mean`, the mean information per pose of `dim`
+    /// values other than the readings (the tool point's, for instance).
+    pub fn with_target(mut self, mean: DMatrix<f64>, dim: usize) -> Pool {
+        assert_eq!((mean.nrows(), mean.ncols()), (self.p, self.p), "the target's information has the design's columns");
+        self.mean = mean;
+        self.target_dim = dim;
+        self
     }
     /// Number of candidates.
     pub fn len(&self) -> usize {
@@ -312,6 +368,12 @@ pub fn value_of(pool: &Pool, set: &[usize], crit: &dyn Criterion) -> f64 {
 /// Chooses `n` of the pool's candidates that maximise `crit`: greedy D-optimal start, then
 /// exchange sweeps (at most `max_sweeps`) until none swaps. `stop` is asked between steps.
 pub fn design(pool: &Pool, n: usize, crit: &dyn Criterion, max_sweeps: usize) -> Design {
+    exchange(pool, greedy(pool, n), crit, max_sweeps)
+}
+
+/// The greedy D-optimal start: `n` candidates added one at a time, each the one that raises
+/// log det M most.
+pub fn greedy(pool: &Pool, n: usize) -> Vec<usize> {
     let n = n.min(pool.len());
     let mut chosen = Vec::with_capacity(n);
     let mut taken = vec![false; pool.len()];
@@ -324,6 +386,18 @@ pub fn design(pool: &Pool, n: usize, crit: &dyn Criterion, max_sweeps: usize) ->
         taken[c] = true;
         pool.add(&mut m, c, 1.0);
     }
+    chosen
+}
+
+/// Fedorov's exchange from the set `start` (distinct candidates): sweeps (at most
+/// `max_sweeps`) that swap each chosen candidate for the one that makes the design best, until
+/// a sweep swaps nothing.
+pub fn exchange(pool: &Pool, start: Vec<usize>, crit: &dyn Criterion, max_sweeps: usize) -> Design {
+    let n = start.len();
+    let mut chosen = start;
+    let mut taken = vec![false; pool.len()];
+    chosen.iter().for_each(|&c| taken[c] = true);
+    let mut m = pool.information(&chosen);
     let is_d = crit.name() == DOptimal.name();
     let score = |m: &DMatrix<f64>| if is_d { logdet(m) } else { crit.value(m, n * pool.d, pool) };
     let mut current = score(&m);
@@ -336,9 +410,16 @@ pub fn design(pool: &Pool, n: usize, crit: &dyn Criterion, max_sweeps: usize) ->
             let out = chosen[k];
             let mut minus = m.clone();
             pool.add(&mut minus, out, -1.0);
-            let g = gains(pool, &cholesky(&minus), &taken);
+            let exact = if is_d { None } else { crit.gains(pool, &minus, &taken) };
+            let g = if exact.is_none() { gains(pool, &cholesky(&minus), &taken) } else { Vec::new() };
             let best = if is_d {
                 argmax(&g).map(|c| (c, logdet(&minus) + g[c]))
+            } else if let Some(exact) = exact {
+                argmax(&exact).map(|c| {
+                    let mut t = minus.clone();
+                    pool.add(&mut t, c, 1.0);
+                    (c, score(&t))
+                })
             } else {
                 let mut order: Vec<usize> = (0..g.len()).filter(|&c| g[c].is_finite()).collect();
                 let keep = SHORTLIST.min(order.len());
@@ -424,6 +505,26 @@ mod tests {
                     set.swap(i, j);
                 }
                 assert!(best.value > value_of(&pool, &set[..8], crit), "{}: a random design beats the plan", crit.name());
+            }
+        }
+    }
+
+    #[test]
+    fn the_exact_i_gains_are_the_change_of_the_mean_prediction_variance() {
+        for (d, p) in [(1, 5), (3, 6)] {
+            let pool = random_pool(60, d, p, 4);
+            let set = [0, 2, 4, 6, 8, 10];
+            let m = pool.information(&set);
+            let mut taken = vec![false; pool.len()];
+            set.iter().for_each(|&c| taken[c] = true);
+            let g = IOptimal.gains(&pool, &m, &taken).expect("the I criterion tells every candidate's gain");
+            assert!(set.iter().all(|&c| g[c] == f64::NEG_INFINITY));
+            let before = prediction_variance(&m, &pool);
+            for c in [1, 7, 33, 59] {
+                let mut m2 = m.clone();
+                pool.add(&mut m2, c, 1.0);
+                let direct = before - prediction_variance(&m2, &pool);
+                assert!((direct - g[c]).abs() < 1e-9 * before, "d={d} candidate {c}: {direct} vs {}", g[c]);
             }
         }
     }

@@ -22,6 +22,7 @@
 //! The plan never sees the twin's true parameters: only the nominal arm, the instrument's
 //! placement as the engineer sets it up, and the cell.
 
+pub mod bound;
 pub mod design;
 pub mod tour;
 pub mod verify;
@@ -46,7 +47,7 @@ use crate::seed::{stream_seed, Stream};
 use crate::sim::generate::commanded_pose;
 use crate::sim::scenario::{halton, Scenario, HALTON_BASES};
 use crate::sim::workspace::{Refusal, Workspace};
-use nalgebra::{DMatrix, SymmetricEigen};
+use nalgebra::{DMatrix, SymmetricEigen, Vector3};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -262,7 +263,49 @@ pub fn problem(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> Pro
             scaled[row * p + c] = j[(row, k)] / scale[c];
         }
     }
-    Problem { pool: Pool::new(scaled, d, p), identifiable: id.identifiable, fixed: id.fixed, scale }
+    let target = tool_point_information(model, q, payload_kg, &keep, &scale);
+    Problem { pool: Pool::new(scaled, d, p).with_target(target, 3), identifiable: id.identifiable, fixed: id.fixed, scale }
+}
+
+/// What a calibration is judged on: the mean information per pose over the pool of the
+/// predicted tool point (mm, base frame, per scaled parameter of the `keep` columns), rigid
+/// motions of the whole arm aside — W = E[GᵀG] − E[GᵀB] E[BᵀB]⁻¹ E[BᵀG], with G the tool point's
+/// Jacobian and B = [I, −[p]ₓ] the motion of the point under a small turn and shift of the base.
+/// An accuracy test registers the arm's base frame to the cell before it measures (no reading
+/// of the arm fixes where it stands), and a draw-wire's one length per pose is not the tool's
+/// 3-D position: trace(M⁻¹W)/3 is the variance of the calibrated arm's tool point over its
+/// workspace, as [`verify::true_error`] measures it.
+fn tool_point_information(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f64]>, keep: &[usize], scale: &[f64]) -> DMatrix<f64> {
+    let (m, p) = (&model.model, keep.len());
+    let inputs = model.inputs(q, payload_kg);
+    let mut w = m.work();
+    let mut dx = vec![Vector3::zeros(); m.n_params()];
+    let pts: Vec<(Vector3<f64>, DMatrix<f64>)> = q
+        .iter()
+        .zip(&inputs)
+        .map(|(q, inp)| {
+            let pt = m.tool_point_grad_with(&model.x, q, inp, &mut w, &mut dx);
+            let g = DMatrix::from_fn(3, p, |r, c| crate::units::to_mm(dx[keep[c]][r]) / scale[c]);
+            (pt, g)
+        })
+        .collect();
+    let n = pts.len().max(1) as f64;
+    let centre = pts.iter().fold(Vector3::zeros(), |a, (pt, _)| a + pt) / n;
+    let (mut gg, mut bg, mut bb) = (DMatrix::zeros(p, p), DMatrix::zeros(6, p), DMatrix::zeros(6, 6));
+    for (pt, g) in &pts {
+        // Lever in m, centred: the projection does not depend on B's scale, its conditioning does.
+        let r = pt - centre;
+        let mut b = DMatrix::zeros(3, 6);
+        b.view_mut((0, 0), (3, 3)).fill_with_identity();
+        b.view_mut((0, 3), (3, 3)).copy_from(&(-r.cross_matrix()));
+        gg += g.transpose() * g;
+        bg += b.transpose() * g;
+        bb += b.transpose() * &b;
+    }
+    let fit = bb.clone().cholesky().map(|c| c.solve(&bg)).unwrap_or_else(|| DMatrix::zeros(6, p));
+    let w = (gg - bg.transpose() * fit) / n;
+    // Symmetric to the last bit.
+    (&w + w.transpose()) * 0.5
 }
 
 /// Every criterion's value of a design, with the condition number.
@@ -387,6 +430,10 @@ pub struct Plan {
     pub indices: Indices,
     /// The median indices of [`RANDOM_SETS`] random feasible sets of the same size.
     pub random_median: Indices,
+    /// The best any set of as many poses of the pool could do (a certified bound on the mean
+    /// prediction variance), and how many random feasible poses the plan and that best are
+    /// worth; `None` when the plan reads fewer values than there are parameters.
+    pub ceiling: Option<bound::Ceiling>,
     /// The search.
     pub design: Design,
     /// The tour's timing, and that of the same poses in the order the design chose them.
@@ -480,6 +527,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         poses_deg: poses.iter().map(|q| q.iter().map(|v| crate::units::round_decimals(v.to_degrees(), s.sampling.angle_decimals)).collect()).collect(),
         payload_kg: offered.as_ref().map(|p| toured.iter().map(|&c| p[c]).collect()),
         indices: Indices::of(&prob.pool, &d.chosen),
+        ceiling: bound::ceiling(&prob.pool, &d.chosen, design::prediction_variance(&prob.pool.information(&d.chosen), &prob.pool), opts.seed),
         random_median: median_indices(&prob.pool, &sets),
         tour: {
             let mut t = motion.time(&home, &poses);

@@ -81,3 +81,50 @@ fn a_plan_for_compliance_designs_for_its_parameters_under_the_payload() {
     let e = plan(&s, &robot, &PlanOptions { effects: vec![(EffectKind::ThermalDrift, None)], ..o.clone() }).unwrap_err().to_string();
     assert!(e.contains("thermal") || e.contains("temp"), "{e}");
 }
+
+#[test]
+fn the_tool_point_information_is_the_mean_error_left_after_a_rigid_registration() {
+    // For any parameter change δ, δᵀWδ is the mean over the pool of |Gδ − Bξ|² with ξ the
+    // small rigid motion of the base that best absorbs Gδ.
+    let (s, robot) = scenario();
+    let q = candidates(&s, &robot, 300, 3).unwrap().q;
+    let model = Model::new(&s, &robot, Parametrisation::Hayati, &[], &LoadOptions::default()).unwrap();
+    let n = model.model.n_params();
+    let keep: Vec<usize> = (0..n).collect();
+    let scale = vec![1.0; n];
+    let w = tool_point_information(&model, &q, None, &keep, &scale);
+    let mut wk = model.model.work();
+    let mut dx = vec![Vector3::zeros(); n];
+    let mut rows = Vec::new();
+    for qi in &q {
+        let pt = crate::units::to_mm(model.model.tool_point_grad_with(&model.x, qi, &RowInputs::default(), &mut wk, &mut dx));
+        rows.push((pt, DMatrix::from_fn(3, n, |r, c| crate::units::to_mm(dx[c][r]))));
+    }
+    for k in 0..3 {
+        let delta = nalgebra::DVector::from_fn(n, |i, _| (((i + 7 * k) as f64) * 0.91).sin() * 1e-4);
+        // Least squares over ξ = (t, ω): e_i ≈ t + ω × p_i.
+        let e: Vec<Vector3<f64>> = rows.iter().map(|(_, g)| Vector3::from_iterator((g * &delta).iter().copied())).collect();
+        let b = DMatrix::from_fn(3 * q.len(), 6, |r, c| {
+            let p = rows[r / 3].0 / 1000.0;
+            let skew = -p.cross_matrix();
+            if c < 3 {
+                if r % 3 == c {
+                    1.0
+                } else {
+                    0.0
+                }
+            } else {
+                skew[(r % 3, c - 3)]
+            }
+        });
+        let y = nalgebra::DVector::from_iterator(3 * q.len(), e.iter().flat_map(|v| v.iter().copied()));
+        let xi = b.clone().svd(true, true).solve(&y, 1e-14).unwrap();
+        let left = (&y - &b * xi).norm_squared() / q.len() as f64;
+        let quad = (delta.transpose() * &w * &delta)[(0, 0)];
+        assert!((quad - left).abs() < 1e-6 * left.max(1e-30), "δ {k}: δᵀWδ {quad} vs mean error left {left}");
+        assert!(left > 0.0 && left < (y.norm_squared() / q.len() as f64), "the registration absorbs part of the error");
+    }
+    // A turn of the whole arm about the base's z axis is absorbed whole: joint 1's zero.
+    let j1 = model.model.index("joint_1.theta").expect("the Hayati model names joint 1's zero");
+    assert!(w[(j1, j1)] < 1e-12 * w.diagonal().max(), "joint 1's zero: {:.3e} of {:.3e}", w[(j1, j1)], w.diagonal().max());
+}

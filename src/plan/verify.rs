@@ -104,6 +104,12 @@ pub struct SeedRow {
     pub planned_mm: f64,
     /// Random feasible sets' true errors, mm, one per size in [`Comparison::random_sizes`].
     pub random_mm: Vec<f64>,
+    /// The random feasible poses the plan is worth, predicted by its mean prediction variance
+    /// ([`super::bound::Ceiling::plan_worth`]).
+    pub predicted_plan_worth: Option<usize>,
+    /// The most random feasible poses any set of N poses of the pool is worth, predicted
+    /// ([`super::bound::Ceiling::best_worth`]).
+    pub predicted_best_worth: Option<usize>,
 }
 
 /// Planned against random at one N, over the seeds.
@@ -122,6 +128,11 @@ pub struct Comparison {
     /// The fewest random poses (of the sizes tried) whose median error is at most the plan's;
     /// `None` when no size tried reaches it.
     pub random_poses_to_match: Option<usize>,
+    /// Median over the seeds of [`SeedRow::predicted_plan_worth`] (the seeds where the search
+    /// reached it).
+    pub predicted_plan_worth: Option<f64>,
+    /// Median over the seeds of [`SeedRow::predicted_best_worth`].
+    pub predicted_best_worth: Option<f64>,
 }
 
 /// What the study runs.
@@ -153,13 +164,34 @@ pub fn study(s: &Scenario, robot: &Robot, o: &StudyOptions) -> Result<Vec<Compar
             let planned_mm = true_error(&s, robot, &calib, &p.poses, p.payload_kg.as_deref(), &test)?;
             let random_mm =
                 sizes.iter().map(|&k| true_error(&s, robot, &calib, &random_poses(&p.candidates.q, k, seed), None, &test)).collect::<Result<Vec<f64>>>()?;
-            rows.push(SeedRow { seed, planned_mm, random_mm });
+            let ce = p.ceiling.as_ref();
+            rows.push(SeedRow {
+                seed,
+                planned_mm,
+                random_mm,
+                predicted_plan_worth: ce.and_then(|c| c.plan_worth),
+                predicted_best_worth: ce.and_then(|c| c.best_worth),
+            });
         }
         let med = |f: &dyn Fn(&SeedRow) -> f64| crate::stats::median(&rows.iter().map(f).collect::<Vec<f64>>());
         let planned_median_mm = med(&|r| r.planned_mm);
         let random_median_mm: Vec<f64> = (0..sizes.len()).map(|k| med(&|r| r.random_mm[k])).collect();
         let random_poses_to_match = sizes.iter().zip(&random_median_mm).find(|(_, e)| **e <= planned_median_mm).map(|(k, _)| *k);
-        out.push(Comparison { n, random_sizes: sizes, seeds: rows, planned_median_mm, random_median_mm, random_poses_to_match });
+        let worth = |f: &dyn Fn(&SeedRow) -> Option<usize>| {
+            let v: Vec<f64> = rows.iter().filter_map(|r| f(r).map(|k| k as f64)).collect();
+            (!v.is_empty()).then(|| crate::stats::median(&v))
+        };
+        let (predicted_plan_worth, predicted_best_worth) = (worth(&|r| r.predicted_plan_worth), worth(&|r| r.predicted_best_worth));
+        out.push(Comparison {
+            n,
+            random_sizes: sizes,
+            seeds: rows,
+            planned_median_mm,
+            random_median_mm,
+            random_poses_to_match,
+            predicted_plan_worth,
+            predicted_best_worth,
+        });
     }
     Ok(out)
 }

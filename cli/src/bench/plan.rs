@@ -27,17 +27,23 @@ fn print(label: &str, rows: &[Comparison], seeds: u64) {
     println!("\n## {label} ({seeds} seeds; true position error on 200 independent test poses after calibration, RMS mm, median over seeds)\n");
     let sizes = &rows[0].random_sizes;
     let head: Vec<String> = (0..sizes.len()).map(|k| format!("random {}N", o_round(sizes[k] as f64 / rows[0].n as f64))).collect();
-    println!("| N | planned | {} | random poses reaching the plan's error | planned better than random N (seeds) |", head.join(" | "));
-    println!("|---|---|{}---|---|", "---|".repeat(sizes.len()));
+    println!(
+        "| N | planned | {} | random poses reaching the plan's error | planned better than random N (seeds) | predicted worth of the plan, random poses | predicted worth of the best possible N |",
+        head.join(" | ")
+    );
+    println!("|---|---|{}---|---|---|---|", "---|".repeat(sizes.len()));
     for c in rows {
         let wins = c.seeds.iter().filter(|r| r.planned_mm < r.random_mm[0]).count();
+        let worth = |w: Option<f64>| w.map_or("beyond 8N".to_string(), |k| format!("{k:.0} ({:.1}N)", k / c.n as f64));
         println!(
-            "| {} | {:.4} | {} | {} | {wins}/{} |",
+            "| {} | {:.4} | {} | {} | {wins}/{} | {} | {} |",
             c.n,
             c.planned_median_mm,
             c.random_median_mm.iter().map(|e| format!("{e:.4}")).collect::<Vec<_>>().join(" | "),
             c.random_poses_to_match.map_or(format!("more than {}", sizes.last().unwrap_or(&0)), |k| k.to_string()),
-            c.seeds.len()
+            c.seeds.len(),
+            worth(c.predicted_plan_worth),
+            worth(c.predicted_best_worth)
         );
     }
 }

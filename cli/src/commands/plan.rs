@@ -49,6 +49,30 @@ pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
     ] {
         eprintln!("  {name:<42} {:<8} {}", shown(x), shown(y));
     }
+    match &p.ceiling {
+        Some(ce) => {
+            let worth = |w: Option<usize>| w.map_or(format!("more than {}", ce.searched_to), |k| format!("about {k}"));
+            eprintln!(
+                "  best any {n} poses of this pool can do: I >= {} (certified, {} iterations); the plan is {:.0} % above it",
+                shown(ce.bound.lower),
+                ce.bound.iterations,
+                100.0 * (a.i_prediction_variance / ce.bound.lower - 1.0),
+                n = p.poses.len()
+            );
+            eprintln!(
+                "  worth in random feasible poses (predicted, median I): the plan {}, the best possible {n} {}",
+                worth(ce.plan_worth),
+                worth(ce.best_worth),
+                n = p.poses.len()
+            );
+        }
+        None => eprintln!(
+            "  warning: {} poses read fewer values than the {} parameters: no set of {} poses identifies them all (plan more poses)",
+            p.poses.len(),
+            p.identifiable.len(),
+            p.poses.len()
+        ),
+    }
     eprintln!(
         "  tour: {:.0} s ({:.0} s moving, {:.0} s holding and reading{}); in the design's order {:.0} s",
         p.tour.total_s,

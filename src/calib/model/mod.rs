@@ -469,6 +469,34 @@ impl CalibModel {
         w.jac.point
     }
 
+    /// Tool point (m, base frame, effects of the row applied) and its derivative with respect to
+    /// every parameter into `dx` (m per parameter unit; [`Self::n_params`] vectors): the chain's,
+    /// the target point's on the flange and the effects'; the instrument's own placement does
+    /// not move the tool (zero). The row's inputs are held fixed.
+    pub fn tool_point_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dx: &mut [Vector3<f64>]) -> Vector3<f64> {
+        let nc = self.n_chain();
+        let (_, tool) = self.sensor(x);
+        let scale = self.apply_effects(x, q, inp, w);
+        self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
+        self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
+        dx.iter_mut().for_each(|d| *d = Vector3::zeros());
+        dx[..nc].copy_from_slice(&w.jac.dparam[..nc]);
+        let rot = self.chain.frame(&w.fk, self.chain.flange()).rot;
+        let t = self.placement_range().start + self.measurement.target_index();
+        for m in 0..3 {
+            dx[t + m] = rot.column(m).into_owned();
+        }
+        if !self.effects.is_empty() {
+            for &(k, j, d) in &w.eff.joint_terms {
+                dx[k] += w.jac.dq[j] * d;
+            }
+            for &(k, d) in &w.eff.scale_terms {
+                dx[k] += w.jac.dscale * d;
+            }
+        }
+        w.jac.point
+    }
+
     /// The tool's orientation in the base frame at the configuration of the last
     /// [`Self::tool_point_jac_q`] on `w` (the flange's axes, turned by a pose probe's calibrated
     /// orientation on the flange when the instrument reads poses), and its angular Jacobian with
@@ -895,6 +923,17 @@ mod tests {
                         jac[i * n + k]
                     );
                 }
+            }
+            // The tool point's parameter Jacobian (what a plan's accuracy is judged on).
+            let mut dx = vec![Vector3::zeros(); n];
+            let p0 = m.tool_point_grad_with(&x, &q, &inp, &mut w, &mut dx);
+            assert_eq!(p0, m.tool_point_with(&x, &q, &inp, &mut w));
+            for k in 0..n {
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[k] += h;
+                xm[k] -= h;
+                let fd = (m.tool_point_with(&xp, &q, &inp, &mut w) - m.tool_point_with(&xm, &q, &inp, &mut w)) / (2.0 * h);
+                assert!((fd - dx[k]).norm() < 1e-7 * (1.0 + fd.norm()), "tool point / {}: {fd} vs {}", m.names[k], dx[k]);
             }
             // And with respect to the joint angles (the row's inputs held).
             let mut gq = vec![0.0; d * 6];
