@@ -52,11 +52,11 @@ pub struct MinSingular;
 pub struct NoiseAmplification;
 /// O5: 1/Σ(1/σ), A-optimality-like (the parameters' summed variance).
 pub struct AOptimal;
-/// I-optimal: the mean variance of a predicted reading over the pool's poses, per unit noise
-/// variance, trace(M⁻¹ W) with W the pool's mean information per pose (its value is the
-/// negative, so that larger is better). The pool stands for the workspace the calibrated arm
-/// will work in, so this is the accuracy a plan promises there (for a tracker, the predicted
-/// tool point's).
+/// I-optimal: the mean variance over the pool's poses of what the pool's [`Pool::mean`] stands
+/// for, per unit noise variance, trace(M⁻¹ W) / [`Pool::target_dim`] (its value is the
+/// negative, so that larger is better). A plan's pool holds the calibrated arm's tool point,
+/// its base registered ([`super::problem`]): the accuracy a plan promises over the workspace the
+/// pool stands for.
 pub struct IOptimal;
 
 impl Criterion for DOptimal {
@@ -83,7 +83,7 @@ impl Criterion for IOptimal {
         "i"
     }
     fn describe(&self) -> &'static str {
-        "I-optimal: mean prediction variance over the pool, trace(M⁻¹ W)"
+        "I-optimal: mean variance of the predicted tool point over the pool, base registered, trace(M⁻¹ W)/3"
     }
     fn value(&self, info: &DMatrix<f64>, _rows: usize, pool: &Pool) -> f64 {
         -prediction_variance(info, pool)
@@ -187,7 +187,7 @@ impl SingularIndex for AOptimal {
     }
 }
 
-/// trace(M⁻¹ W) / d: the mean variance of a predicted reading value over the pool's poses, per
+/// trace(M⁻¹ W) / [`Pool::target_dim`]: the mean variance of a predicted value (the tool point's coordinates in a plan) over the pool's poses, per
 /// unit noise variance.
 pub fn prediction_variance(info: &DMatrix<f64>, pool: &Pool) -> f64 {
     let l = cholesky(info);
