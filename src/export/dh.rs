@@ -108,23 +108,15 @@ fn normals(t: &JointTable) -> Normals {
     let lines: Vec<(Vector3<f64>, Vector3<f64>)> = (0..n).map(|j| t.axis_line(j)).collect();
     // The first frame: on axis 1 at the foot of the base origin, x the base's x (else y) made
     // perpendicular to the axis.
-    let (c1, z1) = lines[0];
-    let o0 = c1 - z1 * c1.dot(&z1);
-    let x0 = [Vector3::x(), Vector3::y()].iter().map(|v| v - z1 * v.dot(&z1)).find(|v| v.norm() > 1e-6).unwrap_or_else(Vector3::x).normalize();
-    let base = Frame { rot: Matrix3::from_columns(&[x0, z1.cross(&x0), z1]), pos: o0 };
-    let (mut anchor, mut x_prev) = (o0, x0);
+    let base = crate::robot::kinematics::dh_base_frame(&lines[0].0, &lines[0].1);
+    let (mut anchor, mut x_prev) = (base.pos, base.rot.column(0).into_owned());
     let mut feet = Vec::new();
     for i in 0..n.saturating_sub(1) {
         let ((c, z), (c2, z2)) = (lines[i], lines[i + 1]);
         let cross = z.cross(&z2);
         let (p, r) = if cross.norm() > 1e-12 {
             // Closest points of two skew (or intersecting) lines.
-            let w = c - c2;
-            let (b, d, e) = (z.dot(&z2), z.dot(&w), z2.dot(&w));
-            let den = 1.0 - b * b;
-            let s = (b * e - d) / den;
-            let u = (e - b * d) / den;
-            (c + z * s, c2 + z2 * u)
+            crate::robot::kinematics::closest_points(&c, &z, &c2, &z2)
         } else {
             // Parallel: the normal through the previous foot on axis i.
             (anchor, c2 + z2 * (anchor - c2).dot(&z2))

@@ -88,6 +88,24 @@ impl Frame {
     }
 }
 
+/// The closest points of two lines given by a point and a unit direction, on the first and on
+/// the second (their common normal's feet). The lines must not be parallel (|z1 × z2| > 0).
+pub fn closest_points(c1: &Vector3<f64>, z1: &Vector3<f64>, c2: &Vector3<f64>, z2: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let w = c1 - c2;
+    let (b, d, e) = (z1.dot(z2), z1.dot(&w), z2.dot(&w));
+    let den = 1.0 - b * b;
+    (c1 + z1 * ((b * e - d) / den), c2 + z2 * ((e - b * d) / den))
+}
+
+/// D-H frame 0 of an arm whose first joint axis is the line through `c` along the unit `z`: its
+/// origin on the axis at the foot of the base origin, its x the base's x (the base's y where x
+/// lies along the axis) made perpendicular to the axis.
+pub fn dh_base_frame(c: &Vector3<f64>, z: &Vector3<f64>) -> Frame {
+    let o = c - z * c.dot(z);
+    let x = [Vector3::x(), Vector3::y()].iter().map(|v| v - z * v.dot(z)).find(|v| v.norm() > 1e-6).unwrap_or_else(Vector3::x).normalize();
+    Frame { rot: Matrix3::from_columns(&[x, z.cross(&x), *z]), pos: o }
+}
+
 /// URDF roll, pitch, yaw of rotation `m` (m = Rz(yaw)·Ry(pitch)·Rx(roll)), exact to rounding
 /// also at and near gimbal lock (pitch ±90°, where the yaw is taken as 0). nalgebra's
 /// `euler_angles` loses the orientation there (0.05 rad for a pitch 1.5e-8 rad off the lock).

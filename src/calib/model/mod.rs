@@ -653,14 +653,7 @@ impl DhTable {
             .collect();
         let flange = chain.frame(&ws, chain.flange());
         // Frame 0 on joint 1's axis, at the foot of the base origin; x0 from world x.
-        let (p1, z0) = lines[0];
-        let o0 = p1 + z0 * (-p1).dot(&z0);
-        let mut x0 = Vector3::x() - z0 * z0.x;
-        if x0.norm() < 1e-9 {
-            x0 = Vector3::y() - z0 * z0.y;
-        }
-        let x0 = x0.normalize();
-        let mut frames = vec![Frame { rot: Matrix3::from_columns(&[x0, z0.cross(&x0), z0]), pos: o0 }];
+        let mut frames = vec![crate::robot::kinematics::dh_base_frame(&lines[0].0, &lines[0].1)];
         let mut rows = Vec::with_capacity(n);
         for i in 1..=n {
             let prev = frames[i - 1];
@@ -688,13 +681,7 @@ impl DhTable {
             }
             let (foot_prev, foot_i, xi) = if !parallel {
                 // Closest points of the two lines.
-                let w0 = op - pi;
-                let (a, b, c, d, e) = (zp.dot(&zp), zp.dot(&zi), zi.dot(&zi), zp.dot(&w0), zi.dot(&w0));
-                let den = a * c - b * b;
-                let s = (b * e - c * d) / den;
-                let t = (a * e - b * d) / den;
-                let fp = op + zp * s;
-                let fi = pi + zi * t;
+                let (fp, fi) = crate::robot::kinematics::closest_points(&op, &zp, &pi, &zi);
                 let gap = fi - fp;
                 let x = if gap.norm() > 1e-9 { gap.normalize() } else { cross.normalize() };
                 (fp, fi, x)
