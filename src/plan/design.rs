@@ -7,7 +7,8 @@
 //! determinant through the Cholesky factor of M. An exchange pass then visits each chosen
 //! candidate in turn and swaps it for the unchosen one that makes the design best (Fedorov's
 //! exchange), until a sweep swaps nothing. For the D criterion every candidate is judged
-//! exactly by the same determinant; for the others the exchange judges the few candidates with
+//! exactly by the same determinant, for the I criterion exactly by the Woodbury update of
+//! trace(M⁻¹W) ([`Criterion::gains`]); for the others the exchange judges the few candidates with
 //! the largest determinant gain (a shortlist) by the criterion itself, from the eigenvalues of
 //! the exchanged design's M.
 //!
@@ -275,7 +276,7 @@ impl Pool {
 }
 
 /// Added to the information matrix's diagonal (the scaled rows are about 1 per column).
-const RIDGE: f64 = 1e-9;
+pub const RIDGE: f64 = 1e-9;
 
 /// Shortlist of the exchange for a criterion other than D.
 const SHORTLIST: usize = 64;

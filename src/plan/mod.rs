@@ -274,7 +274,9 @@ pub fn problem(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> Pro
 /// An accuracy test registers the arm's base frame to the cell before it measures (no reading
 /// of the arm fixes where it stands), and a draw-wire's one length per pose is not the tool's
 /// 3-D position: trace(M⁻¹W)/3 is the variance of the calibrated arm's tool point over its
-/// workspace, as [`verify::true_error`] measures it.
+/// workspace with the registration that best fits the whole pool — close to, and a little below,
+/// what [`verify::true_error`] measures (which registers on the calibration's own poses). With
+/// payloads to choose from, the pool is every pose under every payload, and so is the average.
 fn tool_point_information(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f64]>, keep: &[usize], scale: &[f64]) -> DMatrix<f64> {
     let (m, p) = (&model.model, keep.len());
     let inputs = model.inputs(q, payload_kg);
@@ -302,7 +304,9 @@ fn tool_point_information(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f6
         bg += b.transpose() * g;
         bb += b.transpose() * &b;
     }
-    let fit = bb.clone().cholesky().map(|c| c.solve(&bg)).unwrap_or_else(|| DMatrix::zeros(6, p));
+    // A pool whose tool points leave a rigid motion unseen (all on a line) still registers the
+    // rest: the least-squares motion by the pseudo-inverse.
+    let fit = bb.svd(true, true).solve(&bg, 1e-12).unwrap_or_else(|_| DMatrix::zeros(6, p));
     let w = (gg - bg.transpose() * fit) / n;
     // Symmetric to the last bit.
     (&w + w.transpose()) * 0.5
@@ -432,8 +436,11 @@ pub struct Plan {
     pub random_median: Indices,
     /// The best any set of as many poses of the pool could do (a certified bound on the mean
     /// prediction variance), and how many random feasible poses the plan and that best are
-    /// worth; `None` when the plan reads fewer values than there are parameters.
+    /// worth; `None` when the plan reads fewer values than there are parameters, or the pool
+    /// gives no finite bound ([`Plan::ceiling_note`] says which).
     pub ceiling: Option<bound::Ceiling>,
+    /// Why there is no ceiling, when there is none.
+    pub ceiling_note: Option<String>,
     /// The search.
     pub design: Design,
     /// The tour's timing, and that of the same poses in the order the design chose them.
@@ -510,6 +517,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
     }
     let poses: Vec<Vec<f64>> = toured.iter().map(|&c| pool_q[c].clone()).collect();
     let chosen: Vec<Vec<f64>> = d.chosen.iter().map(|&c| pool_q[c].clone()).collect();
+    let ceiling = bound::ceiling(&prob.pool, &d.chosen, design::prediction_variance(&prob.pool.information(&d.chosen), &prob.pool), opts.seed);
     let sets: Vec<Vec<usize>> = (0..RANDOM_SETS).map(|k| random_set(pool_q.len(), opts.n, stream_seed(opts.seed, Stream::Plan, 1 + k as u64))).collect();
     Ok(Plan {
         scenario: s.name.clone(),
@@ -527,7 +535,20 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         poses_deg: poses.iter().map(|q| q.iter().map(|v| crate::units::round_decimals(v.to_degrees(), s.sampling.angle_decimals)).collect()).collect(),
         payload_kg: offered.as_ref().map(|p| toured.iter().map(|&c| p[c]).collect()),
         indices: Indices::of(&prob.pool, &d.chosen),
-        ceiling: bound::ceiling(&prob.pool, &d.chosen, design::prediction_variance(&prob.pool.information(&d.chosen), &prob.pool), opts.seed),
+        ceiling: ceiling.clone(),
+        ceiling_note: ceiling.is_none().then(|| {
+            let values = d.chosen.len() * prob.pool.d;
+            if values < prob.pool.p {
+                format!(
+                    "{} poses read {values} values for {} parameters: no set of {} poses identifies them all (plan more poses)",
+                    d.chosen.len(),
+                    prob.pool.p,
+                    d.chosen.len()
+                )
+            } else {
+                "the pool gives no finite bound (its information is singular, or nothing to predict)".to_string()
+            }
+        }),
         random_median: median_indices(&prob.pool, &sets),
         tour: {
             let mut t = motion.time(&home, &poses);

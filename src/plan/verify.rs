@@ -128,8 +128,8 @@ pub struct Comparison {
     /// The fewest random poses (of the sizes tried) whose median error is at most the plan's;
     /// `None` when no size tried reaches it.
     pub random_poses_to_match: Option<usize>,
-    /// Median over the seeds of [`SeedRow::predicted_plan_worth`] (the seeds where the search
-    /// reached it).
+    /// Median over the seeds of [`SeedRow::predicted_plan_worth`] (a seed beyond the search
+    /// counts as more than any; `None` when the median is beyond it).
     pub predicted_plan_worth: Option<f64>,
     /// Median over the seeds of [`SeedRow::predicted_best_worth`].
     pub predicted_best_worth: Option<f64>,
@@ -177,9 +177,11 @@ pub fn study(s: &Scenario, robot: &Robot, o: &StudyOptions) -> Result<Vec<Compar
         let planned_median_mm = med(&|r| r.planned_mm);
         let random_median_mm: Vec<f64> = (0..sizes.len()).map(|k| med(&|r| r.random_mm[k])).collect();
         let random_poses_to_match = sizes.iter().zip(&random_median_mm).find(|(_, e)| **e <= planned_median_mm).map(|(k, _)| *k);
+        // A seed whose search passed 8 N counts as beyond it (an infinite worth): the median
+        // is then beyond 8 N when half the seeds are.
         let worth = |f: &dyn Fn(&SeedRow) -> Option<usize>| {
-            let v: Vec<f64> = rows.iter().filter_map(|r| f(r).map(|k| k as f64)).collect();
-            (!v.is_empty()).then(|| crate::stats::median(&v))
+            let v: Vec<f64> = rows.iter().map(|r| f(r).map_or(f64::INFINITY, |k| k as f64)).collect();
+            Some(crate::stats::median(&v)).filter(|m| m.is_finite())
         };
         let (predicted_plan_worth, predicted_best_worth) = (worth(&|r| r.predicted_plan_worth), worth(&|r| r.predicted_best_worth));
         out.push(Comparison {

@@ -53,25 +53,20 @@ pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
         Some(ce) => {
             let worth = |w: Option<usize>| w.map_or(format!("more than {}", ce.searched_to), |k| format!("about {k}"));
             eprintln!(
-                "  best any {n} poses of this pool can do: I >= {} (certified, {} iterations); the plan is {:.0} % above it",
+                "  best any {n} poses of this pool can do: I >= {} (a certified bound, {} iterations); the plan is {:.0} % above it",
                 shown(ce.bound.lower),
                 ce.bound.iterations,
                 100.0 * (a.i_prediction_variance / ce.bound.lower - 1.0),
                 n = p.poses.len()
             );
             eprintln!(
-                "  worth in random feasible poses (predicted, median I): the plan {}, the best possible {n} {}",
+                "  worth in random feasible poses (estimated, median I of 25 draws): the plan {}, the best possible {n} {}",
                 worth(ce.plan_worth),
                 worth(ce.best_worth),
                 n = p.poses.len()
             );
         }
-        None => eprintln!(
-            "  warning: {} poses read fewer values than the {} parameters: no set of {} poses identifies them all (plan more poses)",
-            p.poses.len(),
-            p.identifiable.len(),
-            p.poses.len()
-        ),
+        None => eprintln!("  warning: no ceiling: {}", p.ceiling_note.as_deref().unwrap_or("none computed")),
     }
     eprintln!(
         "  tour: {:.0} s ({:.0} s moving, {:.0} s holding and reading{}); in the design's order {:.0} s",

@@ -33,10 +33,13 @@ fn a_plan_is_feasible_measured_by_generate_and_calibrated() {
     // The ceiling: a certified bound below the plan, what the plan and the best 20 are worth.
     let (ce, i) = (&plan["ceiling"], plan["indices"]["i_prediction_variance"].as_f64().unwrap());
     let lower = ce["bound"]["lower"].as_f64().unwrap();
-    assert!(lower > 0.0 && lower <= i && ce["bound"]["gap"].as_f64().unwrap() <= 0.01, "{ce}");
+    assert!(lower > 0.0 && lower <= i && ce["bound"]["gap"].as_f64().unwrap() < 0.05, "{ce}");
     let (pw, bw) = (ce["plan_worth"].as_u64().unwrap(), ce["best_worth"].as_u64().unwrap());
     assert!(20 < pw && pw <= bw && bw <= 160, "{ce}");
-    assert!(err.contains(&format!("best any 20 poses of this pool can do: I >= {lower:.4}")) && err.contains(&format!("the plan about {pw}")), "{err}");
+    assert!(
+        err.contains(&format!("best any 20 poses of this pool can do: I >= {lower:.4} (a certified bound")) && err.contains(&format!("the plan about {pw}")),
+        "{err}"
+    );
     assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
     // The pose list: 20 rows, inside the scenario's ranges, measured in its order.
     let data = dir.path().join("d");
@@ -86,9 +89,9 @@ fn bad_plan_requests_and_pose_lists_are_refused_by_name() {
     let o = twincal(&["plan", "--poses", "12", "--candidates", "500", "--out", s(&out)]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("warning: 12 poses read fewer values than the") && !err.contains("best any"), "{err}");
+    assert!(err.contains("warning: no ceiling: 12 poses read 12 values for") && !err.contains("best any"), "{err}");
     let plan: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
-    assert!(plan["ceiling"].is_null(), "{}", plan["ceiling"]);
+    assert!(plan["ceiling"].is_null() && plan["ceiling_note"].as_str().unwrap().contains("plan more poses"), "{}", plan["ceiling"]);
     std::fs::remove_dir_all(&out).unwrap();
     // Pose lists generate refuses, and the dataset it does not write.
     let data = dir.path().join("d");
