@@ -202,21 +202,22 @@ pub struct Ceiling {
     pub searched_to: usize,
 }
 
-/// The ceiling of the plan `chosen` (its mean prediction variance `value`) over `pool`; `None`
-/// when the plan has fewer reading values than the design has parameters (no set of its size
-/// identifies them, and a bound over weightings would not see that), or when the pool gives no
-/// finite positive bound (nothing to predict, a singular pool).
-pub fn ceiling(pool: &Pool, chosen: &[usize], value: f64, seed: u64) -> Option<Ceiling> {
+/// The ceiling of the plan `chosen` (its mean prediction variance `value`) over `pool`; why there
+/// is none when the plan has fewer reading values than the design has parameters (no set of its
+/// size identifies them, and a bound over weightings would not see that), or when the pool gives
+/// no finite positive bound (nothing to predict, a singular pool).
+pub fn ceiling(pool: &Pool, chosen: &[usize], value: f64, seed: u64) -> Result<Ceiling, String> {
     let n = chosen.len();
-    if n * pool.d < pool.p {
-        return None;
+    let values = n * pool.d;
+    if values < pool.p {
+        return Err(format!("{n} poses read {values} values for {} parameters: no set of {n} poses identifies them all (plan more poses)", pool.p));
     }
     let bound = i_bound(pool, n, chosen);
     if !(bound.lower.is_finite() && bound.lower > 0.0 && bound.gap.is_finite()) {
-        return None;
+        return Err("the pool gives no finite bound (its information is singular, or nothing to predict)".into());
     }
     let searched_to = (8 * n).min(pool.len());
-    Some(Ceiling {
+    Ok(Ceiling {
         plan_worth: random_equivalent(pool, n, value, searched_to, seed),
         best_worth: random_equivalent(pool, n, bound.lower, searched_to, seed),
         bound,
@@ -268,6 +269,6 @@ mod tests {
         let (pw, bw) = (c.plan_worth.expect("reached within 8 N"), c.best_worth.expect("reached within 8 N"));
         assert!(12 < pw && pw <= bw, "{c:?}");
         // Fewer values than parameters: no ceiling.
-        assert!(ceiling(&pl, &plan.chosen[..2], value, 1).is_none());
+        assert!(ceiling(&pl, &plan.chosen[..2], value, 1).unwrap_err().contains("6 values for 8 parameters"));
     }
 }

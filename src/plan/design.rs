@@ -374,7 +374,7 @@ pub fn design(pool: &Pool, n: usize, crit: &dyn Criterion, max_sweeps: usize) ->
 
 /// The greedy D-optimal start: `n` candidates added one at a time, each the one that raises
 /// log det M most.
-pub fn greedy(pool: &Pool, n: usize) -> Vec<usize> {
+fn greedy(pool: &Pool, n: usize) -> Vec<usize> {
     let n = n.min(pool.len());
     let mut chosen = Vec::with_capacity(n);
     let mut taken = vec![false; pool.len()];
@@ -393,7 +393,7 @@ pub fn greedy(pool: &Pool, n: usize) -> Vec<usize> {
 /// Fedorov's exchange from the set `start` (distinct candidates): sweeps (at most
 /// `max_sweeps`) that swap each chosen candidate for the one that makes the design best, until
 /// a sweep swaps nothing.
-pub fn exchange(pool: &Pool, start: Vec<usize>, crit: &dyn Criterion, max_sweeps: usize) -> Design {
+fn exchange(pool: &Pool, start: Vec<usize>, crit: &dyn Criterion, max_sweeps: usize) -> Design {
     let n = start.len();
     let mut chosen = start;
     let mut taken = vec![false; pool.len()];

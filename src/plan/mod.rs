@@ -517,7 +517,11 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
     }
     let poses: Vec<Vec<f64>> = toured.iter().map(|&c| pool_q[c].clone()).collect();
     let chosen: Vec<Vec<f64>> = d.chosen.iter().map(|&c| pool_q[c].clone()).collect();
-    let ceiling = bound::ceiling(&prob.pool, &d.chosen, design::prediction_variance(&prob.pool.information(&d.chosen), &prob.pool), opts.seed);
+    let indices = Indices::of(&prob.pool, &d.chosen);
+    let (ceiling, ceiling_note) = match bound::ceiling(&prob.pool, &d.chosen, indices.i_prediction_variance, opts.seed) {
+        Ok(c) => (Some(c), None),
+        Err(why) => (None, Some(why)),
+    };
     let sets: Vec<Vec<usize>> = (0..RANDOM_SETS).map(|k| random_set(pool_q.len(), opts.n, stream_seed(opts.seed, Stream::Plan, 1 + k as u64))).collect();
     Ok(Plan {
         scenario: s.name.clone(),
@@ -534,21 +538,9 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         fixed: prob.fixed.clone(),
         poses_deg: poses.iter().map(|q| q.iter().map(|v| crate::units::round_decimals(v.to_degrees(), s.sampling.angle_decimals)).collect()).collect(),
         payload_kg: offered.as_ref().map(|p| toured.iter().map(|&c| p[c]).collect()),
-        indices: Indices::of(&prob.pool, &d.chosen),
-        ceiling: ceiling.clone(),
-        ceiling_note: ceiling.is_none().then(|| {
-            let values = d.chosen.len() * prob.pool.d;
-            if values < prob.pool.p {
-                format!(
-                    "{} poses read {values} values for {} parameters: no set of {} poses identifies them all (plan more poses)",
-                    d.chosen.len(),
-                    prob.pool.p,
-                    d.chosen.len()
-                )
-            } else {
-                "the pool gives no finite bound (its information is singular, or nothing to predict)".to_string()
-            }
-        }),
+        indices,
+        ceiling,
+        ceiling_note,
         random_median: median_indices(&prob.pool, &sets),
         tour: {
             let mut t = motion.time(&home, &poses);

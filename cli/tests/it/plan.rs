@@ -13,6 +13,25 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// `calibrate` of `data` with compliance under 3 kg at (40, 0, 60) mm, written to `result`.
+fn calibrate_with_compliance(data: &Path, result: &Path) {
+    let o = twincal(&[
+        "--quiet",
+        "calibrate",
+        "--data",
+        s(data),
+        "--effects",
+        "compliance",
+        "--payload-kg",
+        "3",
+        "--payload-com-mm",
+        "40,0,60",
+        "--out",
+        s(result),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 const CELL: &str = "\n[workspace]\nlink_radius_mm = 45.0\nfloor_z_mm = 0.0\nkeep_out = [{ name = \"fixture\", min_mm = [250.0, -400.0, 0.0], max_mm = [450.0, -200.0, 300.0] }]\n";
 
 #[test]
@@ -129,21 +148,7 @@ fn a_plan_for_a_calibrated_model_designs_for_its_own_blocks() {
     let data = dir.path().join("d");
     assert!(twincal(&["--quiet", "generate", "--out", s(&data)]).status.success());
     let result = dir.path().join("r.json");
-    let o = twincal(&[
-        "--quiet",
-        "calibrate",
-        "--data",
-        s(&data),
-        "--effects",
-        "compliance",
-        "--payload-kg",
-        "3",
-        "--payload-com-mm",
-        "40,0,60",
-        "--out",
-        s(&result),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    calibrate_with_compliance(&data, &result);
     let out = dir.path().join("plan");
     let o = twincal(&["--quiet", "plan", "--model", s(&result), "--poses", "40", "--candidates", "2000", "--out", s(&out)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -210,21 +215,7 @@ fn a_plan_over_payloads_is_measured_one_payload_after_the_other_and_sizes_the_co
     assert_eq!(ds.rows.iter().map(|r| r.payload_kg.unwrap()).collect::<Vec<_>>(), payloads);
     assert!(ds.rows.windows(2).all(|w| w[1].t_s.unwrap() > w[0].t_s.unwrap()));
     let result = dir.path().join("r.json");
-    let o = twincal(&[
-        "--quiet",
-        "calibrate",
-        "--data",
-        s(&data),
-        "--effects",
-        "compliance",
-        "--payload-kg",
-        "3",
-        "--payload-com-mm",
-        "40,0,60",
-        "--out",
-        s(&result),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    calibrate_with_compliance(&data, &result);
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
     let j2 = r["parameters"].as_array().unwrap().iter().find(|p| p["name"] == "compliance.j2").unwrap();
     let (v, truth) = (j2["value"].as_f64().unwrap(), j2["truth"].as_f64().unwrap());
