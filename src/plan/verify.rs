@@ -73,13 +73,19 @@ fn random_poses(pool: &[Vec<f64>], k: usize, seed: u64) -> Vec<Vec<f64>> {
 /// `poses`; `test` holds the test poses and the twin's true tool points there.
 pub fn true_error(s: &Scenario, robot: &Robot, opts: &CalibOptions, poses: &[Vec<f64>], payloads: Option<&[f64]>, test: &TestSet) -> Result<f64> {
     let (data, truth) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses, payloads)?;
-    let r = calibrate(&data, None, opts)?;
+    error_of(&data, &truth, opts, test)
+}
+
+/// [`true_error`] of the twin's readings `data` already taken, with its true tool points
+/// `truth` at the poses (`None` where it refused one).
+fn error_of(data: &crate::dataset::Dataset, truth: &[Option<Vector3<f64>>], opts: &CalibOptions, test: &TestSet) -> Result<f64> {
+    let r = calibrate(data, None, opts)?;
     let x_nom = nominal_x(&r);
     let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
     // The registration on the calibration's own rows, each predicted under its own payload (the
     // rows are the poses the twin measured, in order).
     let reg_true: Vec<Vector3<f64>> = truth.iter().flatten().copied().collect();
-    let inputs = crate::calib::effects::inputs::row_inputs(&data, r.torque_model.as_ref());
+    let inputs = crate::calib::effects::inputs::row_inputs(data, r.torque_model.as_ref());
     let mut w = r.model.work();
     let predicted: Vec<Vector3<f64>> = data
         .rows
@@ -236,7 +242,8 @@ fn effect_check(
     test: &TestSet,
 ) -> Result<EffectCheck> {
     let spec = ModelSpec::nominal(robot.clone(), crate::calib::model::Parametrisation::Hayati);
-    let (data, _) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses, payloads)?;
+    // One acquisition serves the diagnosis and the calibration.
+    let (data, truth) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses, payloads)?;
     let mut d = crate::diagnose::DiagnoseOptions::new(spec.clone());
     d.loads = loads.clone();
     d.seed = s.seed;
@@ -246,7 +253,7 @@ fn effect_check(
     let mut calib = CalibOptions::new(spec, Method::LM);
     calib.effects = vec![(kind, None)];
     calib.loads = loads.clone();
-    Ok(EffectCheck { named, others, true_error_mm: true_error(s, robot, &calib, poses, payloads, test)? })
+    Ok(EffectCheck { named, others, true_error_mm: error_of(&data, &truth, &calib, test)? })
 }
 
 /// With an effect hidden in the twin of `s` (its scenario holds it; the plan and the
