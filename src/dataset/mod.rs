@@ -60,12 +60,14 @@ mod csv_io;
 mod load;
 pub mod logging;
 pub mod split;
+mod stations;
 mod table;
 pub mod truth;
 mod types;
 mod xlsx;
 
 pub use load::{read_csv_columns, CsvColumns};
+pub use stations::Stations;
 pub use table::{MAX_PAYLOAD_KG, MAX_STD_MM, STD_COLUMNS};
 pub use types::*;
 

@@ -70,6 +70,8 @@ pub(super) enum Column {
     Block,
     /// The payload mounted, kg.
     Payload,
+    /// A declared instrument station (a tracker's place between re-stationings).
+    Station,
     /// A tracker's per-row standard deviation of position coordinate `k`: [`STD_COLUMNS`]`[k]`.
     Std(usize),
 }
@@ -85,9 +87,10 @@ pub const STD_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
 pub const MAX_STD_MM: f64 = 100.0;
 
 impl Column {
-    const OTHERS: [Column; 8] = [Column::T, Column::Temp, Column::Split, Column::Std(0), Column::Std(1), Column::Std(2), Column::Block, Column::Payload];
+    const OTHERS: [Column; 9] =
+        [Column::T, Column::Temp, Column::Split, Column::Std(0), Column::Std(1), Column::Std(2), Column::Block, Column::Payload, Column::Station];
     /// Slots of the named columns ([`Self::OTHERS`]) before the reading columns.
-    const NAMED: usize = 8;
+    const NAMED: usize = 9;
 
     /// Slot in [`Layout::pos`]: the named columns, the reading columns, then the joints.
     pub(super) fn index(self) -> usize {
@@ -98,6 +101,7 @@ impl Column {
             Column::Std(k) => 3 + k,
             Column::Block => 6,
             Column::Payload => 7,
+            Column::Station => 8,
             Column::Reading(i) => Self::NAMED + i,
             Column::Q(j) => Self::NAMED + reading_names().len() + j,
         }
@@ -112,6 +116,7 @@ impl Column {
             Column::Split => "split".into(),
             Column::Block => "block".into(),
             Column::Payload => "payload_kg".into(),
+            Column::Station => "station".into(),
             Column::Std(k) => STD_COLUMNS[k].into(),
         }
     }
@@ -325,19 +330,21 @@ pub(super) fn split_value(cell: Option<&Cell>, line: usize, source: &str) -> Res
     }
 }
 
-/// A declared block's label (text or a number, trimmed); `None` for an empty cell or no column.
-pub(super) fn block_label(cell: Option<&Cell>, line: usize, source: &str) -> Result<Option<String>> {
+/// A declared label of column `c` (a block's or a station's: text or a number, trimmed); `None`
+/// for an empty cell or no column.
+pub(super) fn label(cell: Option<&Cell>, c: Column, line: usize, source: &str) -> Result<Option<String>> {
+    let what = c.name();
     let text = match cell {
         None | Some(Cell::Empty) => return Ok(None),
         Some(Cell::Text(s)) => s.trim().to_string(),
         Some(Cell::Number(v)) => crate::error::shown(*v),
-        Some(Cell::Other(what)) => return Err(cell_error(source, line, Column::Block, format!("{what} is not a block label"))),
+        Some(Cell::Other(other)) => return Err(cell_error(source, line, c, format!("{other} is not a {what} label"))),
     };
     if text.is_empty() {
         return Ok(None);
     }
     if text.len() > 100 || text.chars().any(|c| c.is_control() || c == ',' || c == '"') {
-        return Err(cell_error(source, line, Column::Block, "a block label is at most 100 characters, without commas, quotes or control characters"));
+        return Err(cell_error(source, line, c, format!("a {what} label is at most 100 characters, without commas, quotes or control characters")));
     }
     Ok(Some(text))
 }
@@ -414,9 +421,13 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &LoadOptions) ->
             first_split_missing = Some(line);
         }
         let std_mm = row_std(&layout, &cells, raw, line)?;
-        let block = block_label(layout.cell(raw, Column::Block), line, src)?;
+        let block = label(layout.cell(raw, Column::Block), Column::Block, line, src)?;
         if layout.pos[Column::Block.index()].is_some() && block.is_none() {
             return Err(cell_error(src, line, Column::Block, "empty block label; when the file has a block column, every row must name its block"));
+        }
+        let station = label(layout.cell(raw, Column::Station), Column::Station, line, src)?;
+        if layout.pos[Column::Station.index()].is_some() && station.is_none() {
+            return Err(cell_error(src, line, Column::Station, "empty station label; when the file has a station column, every row must name its station"));
         }
         let payload_kg = cells.number(layout.cell(raw, Column::Payload), Column::Payload, line)?;
         if let Some(m) = payload_kg {
@@ -425,7 +436,7 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &LoadOptions) ->
         if payload_kg.is_none() {
             first_payload_missing = first_payload_missing.or(Some(line));
         }
-        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg });
+        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg, station });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.

@@ -154,6 +154,10 @@ pub struct Row {
     /// effect reads the row's torques under it (at the centre of mass the calibration states).
     /// `None` without the column: the calibration's payload for every row.
     pub payload_kg: Option<f64>,
+    /// Where the instrument stood when the row was measured (`station` column: any label; a
+    /// tracker re-stationed between sessions stands at another). Every station has its own
+    /// placement in a calibration, the arm is shared. `None` without the column.
+    pub station: Option<String>,
 }
 
 impl Row {

@@ -163,7 +163,7 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
         }
     }
     // The instrument moved: its placement refitted on the run's rows.
-    let placement = model.placement_range();
+    let placement = model.setup_range();
     if run.y.len() > 2 * placement.len() {
         let fixed: Vec<bool> = (0..x.len()).map(|k| !placement.contains(&k)).collect();
         let plain = run.unweighted();

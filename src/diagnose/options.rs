@@ -49,6 +49,9 @@ pub struct DiagnoseOptions {
     /// Whether the joint angles' logging error is the fits' noise model where rows share
     /// blocks (`Off`: rows taken as independent).
     pub noise_model: crate::calib::problem::noise_model::NoiseChoice,
+    /// Where the instrument's stations come from (resolved by the job before the rows are
+    /// diagnosed: [`crate::calib::run::setup::resolve_stations`]).
+    pub stations: crate::calib::run::StationSource,
 }
 
 /// Default cross-validation folds of a diagnosis.
@@ -94,6 +97,7 @@ impl DiagnoseOptions {
             instrument_accuracy_mm: None,
             row_std: true,
             noise_model: crate::calib::problem::noise_model::NoiseChoice::Auto,
+            stations: crate::calib::run::StationSource::Auto,
         }
     }
     /// The calibration whose stages the diagnosis starts from: the geometric model with its
@@ -109,6 +113,7 @@ impl DiagnoseOptions {
         o.loads = self.loads.clone();
         o.row_std = self.row_std;
         o.instrument_accuracy_mm = self.instrument_accuracy_mm;
+        o.stations = self.stations;
         o
     }
 }

@@ -101,13 +101,26 @@ pub fn diagnose_loaded(
     mut data: Dataset,
     say: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosed> {
+    // The instrument's stations, over every row before any is held out.
+    let (labelled, found) = crate::calib::run::setup::resolve_stations(&data, &opts.baseline_options())?;
+    if let Some(l) = labelled {
+        data = l;
+    }
+    if !found.is_empty() {
+        say(&format!(
+            "set-up changes: {} change point(s) in the residuals of a first fit; the instrument stood at {} stations",
+            found.len(),
+            data.stations().len()
+        ));
+    }
     if let Some(f) = request.test_fraction {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
         let (train, _) = crate::calib::run::split_rows(&data, Some(f), request.seed, request.split_by.parse()?)?;
         let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
         data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
     }
-    let (report, result) = crate::diagnose::diagnose(&data, &opts, say)?;
+    let (report, mut result) = crate::diagnose::diagnose(&data, &opts, say)?;
+    result.setup = crate::calib::run::setup::setup_report(&result.model, &result.x, &data, opts.stations, &found);
     let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
     Ok(Diagnosed { report, result, verdict, opts, data })
 }

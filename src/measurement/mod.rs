@@ -86,6 +86,13 @@ pub trait Instrument: Sync {
     }
     /// The placement parameters' names, the instrument's own first, then the target's three.
     fn placement_names(&self) -> &'static [&'static str];
+    /// How many of the instrument's own placement parameters (the first ones) say where it
+    /// stands: what re-stationing it changes (a tracker's base-to-tracker transform, a
+    /// draw-wire's exit point and length offset). The others (a probe's orientation on the
+    /// flange) and the target go with the arm.
+    fn n_station(&self) -> usize {
+        self.placement_names().len() - 3
+    }
     /// Whether placement parameter `k` is an angle (rad); the others are lengths (m).
     fn placement_is_angle(&self, _k: usize) -> bool {
         false

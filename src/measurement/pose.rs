@@ -214,6 +214,9 @@ impl Instrument for Pose {
     fn placement_is_angle(&self, k: usize) -> bool {
         (3..9).contains(&k)
     }
+    fn n_station(&self) -> usize {
+        6
+    }
     fn value_groups(&self) -> &'static [usize] {
         &[0, 0, 0, 1, 1, 1, 1, 1, 1]
     }

@@ -189,6 +189,7 @@ impl Model {
                     std_mm: None,
                     block: None,
                     payload_kg: payload_kg.map(|p| p[i]),
+                    station: None,
                 }
             })
             .collect();

@@ -189,7 +189,7 @@ impl Group {
     }
     /// The panel of parameter `k` of `model`.
     pub fn of(model: &crate::calib::model::CalibModel, k: usize) -> Group {
-        let placement = model.placement_range().contains(&k);
+        let placement = model.setup_range().contains(&k);
         match model.kinds[k] {
             Kind::Effect(_) => Group::Effects,
             Kind::Angle if placement => Group::SensorAngles,

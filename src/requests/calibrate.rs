@@ -148,6 +148,7 @@ impl CalibrateRequest {
         opts.row_std = !a.robust.floor.ignore_row_std;
         opts.reading_steps = !a.robust.no_reading_steps;
         opts.placement_only = a.placement_only;
+        opts.stations = a.reading.stations;
         if a.placement_only {
             // The instrument's placement alone is fitted: nothing else may be asked to be.
             if !opts.effects.is_empty() {

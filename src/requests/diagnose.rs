@@ -105,6 +105,7 @@ impl DiagnoseRequest {
         // Checked here, with the other options, before any data are read.
         a.split_by.parse::<crate::calib::run::SplitBy>()?;
         opts.candidates = parse_effects("--candidates", &a.candidates)?;
+        opts.stations = a.reading.stations;
         Ok((opts, limit))
     }
 

@@ -6,6 +6,7 @@
 use crate::calib::effects::EffectKind;
 use crate::calib::problem::robust::Loss;
 use crate::calib::run::ModelSpec;
+use crate::calib::run::StationSource;
 use crate::dataset::{AngleUnit, LoadOptions};
 use crate::error::{Error, Result};
 use crate::measurement::{Euler, Measurement};
@@ -33,11 +34,17 @@ pub struct Reading {
     /// (extrinsic; xyz is R = Rz(rz)·Ry(ry)·Rx(rx)); ZYX, ZYZ, ... likewise.
     #[cfg_attr(feature = "clap", arg(long, default_value = "XYZ"))]
     pub euler: String,
+    /// Where the instrument stood: auto (the station column where the file has one, then, for a
+    /// tracker, the change points a first fit finds: a re-stationed, re-registered or bumped
+    /// tracker), declared (the station column only), blocks (each declared block a station) or
+    /// one (one placement for every row). Each station is fitted a placement of its own.
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = StationSource::Auto))]
+    pub stations: StationSource,
 }
 
 impl Default for Reading {
     fn default() -> Self {
-        Reading { angles: AngleUnit::Auto, measurement: None, euler: "XYZ".into() }
+        Reading { angles: AngleUnit::Auto, measurement: None, euler: "XYZ".into(), stations: StationSource::Auto }
     }
 }
 

@@ -448,6 +448,7 @@ impl Tour<'_> {
             std_mm: other.as_ref().filter(|r| r.write_std).map(|r| [round_decimals(r.std_mm, STD_DECIMALS); 3]),
             block: None,
             payload_kg: None,
+            station: None,
         };
         let mut truth = PoseTruth {
             index: i,

@@ -218,8 +218,13 @@ mod tests {
         for k in m.first_effect()..x.len() {
             x[k] += 2e-4 * ((k as f64) * 1.3).sin();
         }
-        let inp =
-            RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
+        let inp = RowInputs {
+            t_s: Some(900.0),
+            temp_c: Some(24.5),
+            torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1],
+            side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0],
+            station: 0,
+        };
         let c = EffectCorrection::new(&m, &x);
         let err = gradient_error(&c, &configurations(), &inp, 1e-6);
         assert!(err < 1e-6, "relative gradient error {err}");

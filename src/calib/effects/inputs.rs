@@ -144,10 +144,13 @@ impl TorqueModel {
 
 /// Inputs of every row of `data` (file order): the torques under the row's own payload where it
 /// has one (`payload_kg`), else the torque model's. Without a torque model the torques are zero
-/// and the flanks follow the approach motion only.
+/// and the flanks follow the approach motion only. The rows' stations are numbered as
+/// [`Dataset::stations`] numbers them.
 pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs> {
     let n = data.rows.len();
-    let mut out: Vec<RowInputs> = data.rows.iter().map(|r| RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect();
+    let stations = data.stations();
+    let mut out: Vec<RowInputs> =
+        data.rows.iter().zip(&stations.of_row).map(|(r, &station)| RowInputs { t_s: r.t_s, temp_c: r.temp_c, station, ..Default::default() }).collect();
     let nq = data.n_joints();
     for (i, r) in data.rows.iter().enumerate() {
         out[i].torque = match torque {

@@ -298,6 +298,9 @@ pub struct RowInputs {
     pub torque: Vec<f64>,
     /// Backlash flank per joint (±1; 0 when unknown); empty when no flank is known.
     pub side: Vec<f64>,
+    /// The instrument's station the row was read from: an index into the model's
+    /// [`stations`](crate::calib::model::CalibModel::stations), 0 for the first (and only).
+    pub station: usize,
 }
 
 impl RowInputs {

@@ -114,9 +114,41 @@ pub struct CalibModel {
     /// written before there was a choice are draw-wire lengths.
     #[serde(default)]
     pub measurement: Measurement,
+    /// The instrument's stations by label, in the order of their first rows, when it was
+    /// re-stationed during the measurements (a tracker moved between sessions): the first stands
+    /// where the placement parameters say, each other one has its own
+    /// [`n_station`](crate::measurement::Instrument::n_station) parameters after them
+    /// ([`Self::station_range`]); the arm, the target and the probe's mount are shared. Empty:
+    /// one station. A row says its station in [`RowInputs::station`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stations: Vec<String>,
 }
 
 pub use crate::measurement::Placement;
+
+/// The instrument's placement one row is read with: its own parameters (its station's where the
+/// row's station is not the first; the rest shared) and the target on the flange.
+struct Sensor {
+    own: [f64; MAX_OWN],
+    n_own: usize,
+    tool: Vector3<f64>,
+    /// The first parameter of the row's station block and its length (0 for the first station).
+    station: (usize, usize),
+}
+
+impl Sensor {
+    fn own(&self) -> &[f64] {
+        &self.own[..self.n_own]
+    }
+    /// The parameter index of own placement parameter `m`, the chain having `nc`.
+    fn column(&self, nc: usize, m: usize) -> usize {
+        if m < self.station.1 {
+            self.station.0 + m
+        } else {
+            nc + m
+        }
+    }
+}
 
 /// Reusable buffers for model evaluations.
 pub struct ModelWork {
@@ -147,8 +179,61 @@ impl CalibModel {
     }
     /// The instrument placement held in `x` (the public way to read it: no index arithmetic).
     pub fn placement(&self, x: &[f64]) -> Placement {
-        let (own, tool) = self.sensor(x);
-        Placement { measurement: self.measurement, own: own.to_vec(), tool }
+        let s = self.sensor(x, 0);
+        Placement { measurement: self.measurement, own: s.own().to_vec(), tool: s.tool }
+    }
+    /// The placement of station `s` (its own station parameters in place of the first
+    /// station's; the target and the rest shared).
+    pub fn station_placement(&self, x: &[f64], s: usize) -> Placement {
+        let st = self.sensor(x, s);
+        Placement { measurement: self.measurement, own: st.own().to_vec(), tool: st.tool }
+    }
+    /// Number of the instrument's stations (1 without re-stationing).
+    pub fn n_stations(&self) -> usize {
+        self.stations.len().max(1)
+    }
+    /// Parameters of one station beyond the first ([`Instrument::n_station`](crate::measurement::Instrument::n_station)).
+    pub fn n_station_params(&self) -> usize {
+        self.measurement.def().n_station()
+    }
+    /// Indices of station `s`'s own parameters (`s` ≥ 1; the first station's are the
+    /// placement's first ones).
+    pub fn station_range(&self, s: usize) -> std::ops::Range<usize> {
+        debug_assert!(s >= 1 && s < self.n_stations());
+        let ns = self.n_station_params();
+        let start = self.placement_range().end + (s - 1) * ns;
+        start..start + ns
+    }
+    /// Indices of every parameter that places the instrument: the placement and the other
+    /// stations'.
+    pub fn setup_range(&self) -> std::ops::Range<usize> {
+        self.n_chain()..self.first_effect()
+    }
+    /// This model with the instrument at `labels.len()` stations, the first at the placement,
+    /// station `s` ≥ 1 at `own[s - 1]` (its [`Self::n_station_params`] values); one label or
+    /// none: one station. Chosen before effect blocks are added.
+    pub fn with_stations(mut self, labels: Vec<String>, own: &[Vec<f64>]) -> CalibModel {
+        assert!(self.effects.is_empty(), "the stations are chosen before effect blocks are added");
+        let end = self.placement_range().end;
+        self.names.truncate(end);
+        self.kinds.truncate(end);
+        self.nominal.truncate(end);
+        let m = self.measurement;
+        let ns = m.def().n_station();
+        if labels.len() > 1 {
+            for (label, values) in labels.iter().skip(1).zip(own) {
+                debug_assert_eq!(values.len(), ns);
+                for k in 0..ns {
+                    self.names.push(format!("{}@{label}", m.placement_names()[k]));
+                    self.kinds.push(if m.def().placement_is_angle(k) { Kind::Angle } else { Kind::Length });
+                    self.nominal.push(values[k]);
+                }
+            }
+            self.stations = labels;
+        } else {
+            self.stations = Vec::new();
+        }
+        self
     }
     /// Writes a placement into `x` (the inverse of [`Self::placement`]); the placement must be
     /// of this model's measurement.
@@ -173,6 +258,7 @@ impl CalibModel {
         self.nominal.extend(&p.own);
         self.nominal.extend(p.tool.iter());
         self.measurement = m;
+        self.stations = Vec::new();
         self
     }
     /// Indices of the instrument's placement parameters in the parameter vector.
@@ -185,7 +271,7 @@ impl CalibModel {
     }
     /// Index of the first effect parameter.
     pub fn first_effect(&self) -> usize {
-        self.placement_range().end
+        self.placement_range().end + (self.n_stations() - 1) * self.n_station_params()
     }
     /// Adds an effect block (no-op if an equal block is present); its parameters start at
     /// "no effect" in `nominal`. `t_span_s` is the data's time span (warm-up starting value).
@@ -239,11 +325,21 @@ impl CalibModel {
         self.names.iter().position(|n| n == name)
     }
 
-    /// The instrument's own placement parameters and the target point on the flange (m).
-    fn sensor<'x>(&self, x: &'x [f64]) -> (&'x [f64], Vector3<f64>) {
+    /// The instrument's own placement parameters at `station` and the target point on the
+    /// flange (m). A station the model does not have reads the first's.
+    fn sensor(&self, x: &[f64], station: usize) -> Sensor {
         let s = &x[self.placement_range()];
         let t = self.measurement.target_index();
-        (&s[..t], Vector3::new(s[t], s[t + 1], s[t + 2]))
+        let mut own = [0.0; MAX_OWN];
+        own[..t].copy_from_slice(&s[..t]);
+        let mut at = (0, 0);
+        if station > 0 && station < self.n_stations() {
+            let r = self.station_range(station);
+            own[..r.len()].copy_from_slice(&x[r.clone()]);
+            at = (r.start, r.len());
+        }
+        debug_assert!(station < self.n_stations(), "station {station} of {}", self.n_stations());
+        Sensor { own, n_own: t, tool: Vector3::new(s[t], s[t + 1], s[t + 2]), station: at }
     }
 
     /// Tool point in the base frame for joint angles `q` (rad), m (geometry only).
@@ -253,7 +349,7 @@ impl CalibModel {
 
     /// Tool point with the joint-offset and thermal effects of the row applied, m.
     pub fn tool_point_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Vector3<f64> {
-        let (_, tool) = self.sensor(x);
+        let tool = self.sensor(x, 0).tool;
         self.flange_frame_with(x, q, inp, w).point(&tool)
     }
 
@@ -285,7 +381,8 @@ impl CalibModel {
 
     /// Predicted readings (m, [`Measurement::dim`] values into `y`), every effect included.
     pub fn readings_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64]) {
-        let (own, tool) = self.sensor(x);
+        let sensor = self.sensor(x, inp.station);
+        let (own, tool) = (sensor.own(), sensor.tool);
         let def = self.measurement.def();
         if def.n_targets() == 1 {
             def.reading(own, std::slice::from_ref(&self.tool_point_with(x, q, inp, w)), y);
@@ -350,8 +447,10 @@ impl CalibModel {
     /// `jac` (row-major, one row of [`Self::n_params`] per reading value).
     pub fn readings_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], jac: &mut [f64]) {
         let (nc, n, dim) = (self.n_chain(), self.n_params(), self.measurement.dim());
-        let (own, tool) = self.sensor(x);
+        let sensor = self.sensor(x, inp.station);
+        let (own, tool) = (sensor.own(), sensor.tool);
         let n_own = own.len();
+        let setup = self.setup_range();
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
@@ -363,7 +462,10 @@ impl CalibModel {
         for i in 0..dim {
             let g = &mut jac[i * n..(i + 1) * n];
             let u = &dy_dp[i * nt..(i + 1) * nt];
-            g[nc..nc + n_own].copy_from_slice(&dy_down[i * n_own..(i + 1) * n_own]);
+            g[setup.clone()].iter_mut().for_each(|v| *v = 0.0);
+            for m in 0..n_own {
+                g[sensor.column(nc, m)] = dy_down[i * n_own + m];
+            }
             for k in 0..nc {
                 g[k] = u[0].dot(&jac0.dparam[k]);
                 for t in 1..nt {
@@ -374,7 +476,7 @@ impl CalibModel {
             for t in 1..nt {
                 let ur = rot.transpose() * u[t];
                 for m in 0..n_own {
-                    g[nc + m] += ur.dot(&dlocal[t * n_own + m]);
+                    g[sensor.column(nc, m)] += ur.dot(&dlocal[t * n_own + m]);
                 }
             }
             // Every point moves with the target as the flange turns it.
@@ -427,7 +529,8 @@ impl CalibModel {
     /// included; the row's inputs (torques, flanks, time) are held fixed.
     pub fn readings_grad_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], g: &mut [f64]) {
         let (nc, nj, dim) = (self.n_chain(), self.chain.n_joints, self.measurement.dim());
-        let (own, tool) = self.sensor(x);
+        let sensor = self.sensor(x, inp.station);
+        let (own, tool) = (sensor.own(), sensor.tool);
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
@@ -458,7 +561,7 @@ impl CalibModel {
     /// commanded joint angle (m/rad) into `dp`; the row's inputs are held fixed.
     pub fn tool_point_jac_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dp: &mut [Vector3<f64>]) -> Vector3<f64> {
         let nc = self.n_chain();
-        let (_, tool) = self.sensor(x);
+        let tool = self.sensor(x, 0).tool;
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
@@ -475,7 +578,7 @@ impl CalibModel {
     /// not move the tool (zero). The row's inputs are held fixed.
     pub fn tool_point_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dx: &mut [Vector3<f64>]) -> Vector3<f64> {
         let nc = self.n_chain();
-        let (_, tool) = self.sensor(x);
+        let tool = self.sensor(x, 0).tool;
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
@@ -511,7 +614,7 @@ impl CalibModel {
         }
         let rot = self.chain.frame(&w.fk, flange).rot;
         match self.measurement {
-            crate::measurement::Measurement::Pose => rot * crate::measurement::pose::probe_rotation(self.sensor(x).0),
+            crate::measurement::Measurement::Pose => rot * crate::measurement::pose::probe_rotation(self.sensor(x, 0).own()),
             _ => rot,
         }
     }
@@ -532,7 +635,7 @@ impl CalibModel {
         nominal.extend(sensor.exit_m.iter());
         nominal.push(sensor.offset_m);
         nominal.extend(sensor.tool_m.iter());
-        CalibModel { name: name.into(), chain, names, kinds, nominal, effects: Vec::new(), limits: Vec::new(), measurement }
+        CalibModel { name: name.into(), chain, names, kinds, nominal, effects: Vec::new(), limits: Vec::new(), measurement, stations: Vec::new() }
     }
 
     /// Joint limits (rad) for inverse kinematics and sampling: the nominal robot's, else a full
@@ -816,8 +919,13 @@ mod tests {
                 *v += scale * ((k as f64) * 1.3).sin();
             }
             assert!(x.len() >= first + 29);
-            let inp =
-                RowInputs { t_s: Some(900.0), temp_c: Some(24.5), torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0] };
+            let inp = RowInputs {
+                t_s: Some(900.0),
+                temp_c: Some(24.5),
+                torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1],
+                side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0],
+                station: 0,
+            };
             let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
             let mut w = m.work();
             let mut g = vec![0.0; m.n_params()];
@@ -842,6 +950,56 @@ mod tests {
             let mut wr = rigid.work();
             let l0 = m.predict_with(&m.nominal, &q, &inp, &mut w);
             assert!((l0 - rigid.predict(&rigid.nominal, &q, &mut wr)).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn station_gradients_match_finite_differences() {
+        use crate::calib::effects::{EffectBlock, EffectKind, RowInputs};
+        let robot = Robot::irb120();
+        for measurement in Measurement::ALL {
+            let own: Vec<f64> = (0..measurement.target_index()).map(|k| 0.2 * (k as f64 * 0.9).sin() + 0.05).collect();
+            let p = Placement { measurement, own, tool: Vector3::new(0.01, -0.02, 0.08) };
+            let ns = measurement.def().n_station();
+            let others: Vec<Vec<f64>> = (1..3).map(|s| (0..ns).map(|k| 0.3 * ((k + 5 * s) as f64 * 0.7).cos()).collect()).collect();
+            let labels = vec!["a".to_string(), "b".to_string(), "c".to_string()];
+            let mut m = CalibModel::dh(&robot, &guess(), true).with_placement(&p).with_stations(labels, &others);
+            m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
+            assert_eq!(m.n_params(), 25 + measurement.n_placement() + 2 * ns + 1);
+            assert_eq!(m.first_effect(), m.station_range(2).end);
+            let mut x = m.nominal.clone();
+            x[m.first_effect()] = 1e-5;
+            let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
+            let mut w = m.work();
+            let d = measurement.dim();
+            for station in 0..3 {
+                let inp = RowInputs { torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], station, ..Default::default() };
+                let (mut y, mut jac) = (vec![0.0; d], vec![0.0; d * m.n_params()]);
+                m.readings_grad_with(&x, &q, &inp, &mut w, &mut y, &mut jac);
+                // Without the effect, a station reads as a one-station model placed there.
+                let alone = CalibModel::dh(&robot, &guess(), true).with_placement(&m.station_placement(&x, station));
+                let mut x0 = x.clone();
+                x0[m.first_effect()] = 0.0;
+                let (mut y0, mut y1) = (vec![0.0; d], vec![0.0; d]);
+                m.readings_with(&x0, &q, &inp, &mut w, &mut y0);
+                let mut wa = alone.work();
+                alone.readings_with(&alone.nominal, &q, &RowInputs::default(), &mut wa, &mut y1);
+                assert!(y0.iter().zip(&y1).all(|(a, b)| (a - b).abs() < 1e-12), "{} station {station}: {y0:?} vs {y1:?}", measurement.name());
+                let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
+                for k in 0..m.n_params() {
+                    let h = 1e-7;
+                    let (mut xp, mut xm) = (x.clone(), x.clone());
+                    xp[k] += h;
+                    xm[k] -= h;
+                    m.readings_with(&xp, &q, &inp, &mut w, &mut yp);
+                    m.readings_with(&xm, &q, &inp, &mut w, &mut ym);
+                    for i in 0..d {
+                        let fd = (yp[i] - ym[i]) / (2.0 * h);
+                        let g = jac[i * m.n_params() + k];
+                        assert!((fd - g).abs() < 1e-6 * (1.0 + g.abs()), "{} station {station} value {i} / {}: {fd} vs {g}", measurement.name(), m.names[k]);
+                    }
+                }
+            }
         }
     }
 

@@ -34,7 +34,7 @@ impl Default for Tolerances {
 impl Tolerances {
     /// One standard deviation per parameter of `model`, in its internal units (m, rad).
     pub fn prior_std(&self, model: &CalibModel) -> Vec<f64> {
-        let sensor = model.placement_range();
+        let sensor = model.setup_range();
         (0..model.n_params())
             .map(|k| match model.kinds[k] {
                 _ if sensor.contains(&k) => crate::units::to_m(self.sensor_mm),

@@ -15,13 +15,14 @@ mod options;
 mod pipeline;
 pub mod placement;
 mod result;
+pub mod setup;
 mod split;
 mod stages;
 
 pub use crate::calib::methods::{Method, Solver};
 pub use crate::calib::problem::identify::{identify, still_joints, STILL_SPAN_DEG};
 pub use crate::dataset::truth::TruthFile;
-pub use options::{CalibOptions, ModelSpec, Parametrisation, SplitBy, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL};
+pub use options::{CalibOptions, ModelSpec, Parametrisation, SplitBy, StationSource, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL};
 pub use pipeline::*;
 pub use result::*;
 pub use split::*;

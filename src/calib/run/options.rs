@@ -116,6 +116,8 @@ pub struct CalibOptions {
     pub placement_only: bool,
     /// Whether the joint angles' logging error is modelled where training rows share blocks.
     pub noise_model: crate::calib::problem::noise_model::NoiseChoice,
+    /// Where the instrument's stations come from ([`super::setup`]).
+    pub stations: StationSource,
 }
 
 impl CalibOptions {
@@ -142,6 +144,7 @@ impl CalibOptions {
             instrument_accuracy_mm: None,
             split_by: SplitBy::Blocks,
             noise_model: crate::calib::problem::noise_model::NoiseChoice::Auto,
+            stations: StationSource::Auto,
         }
     }
     /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
@@ -171,6 +174,35 @@ impl std::str::FromStr for SplitBy {
             "blocks" => Ok(SplitBy::Blocks),
             "rows" => Ok(SplitBy::Rows),
             _ => Err(Error::Invalid(format!("--split-by must be blocks or rows, got '{s}'"))),
+        }
+    }
+}
+
+/// Where a calibration takes the instrument's stations from (`--stations`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum StationSource {
+    /// The `station` column where the file has one; for a tracker, then the change points a
+    /// first fit finds ([`super::setup`]) (a re-stationed, re-registered or bumped tracker).
+    #[default]
+    Auto,
+    /// The `station` column only (one station without it).
+    Declared,
+    /// Each declared block (`block` column) a station of its own.
+    Blocks,
+    /// One placement for every row, whatever the file says.
+    One,
+}
+
+impl StationSource {
+    /// Its name as `--stations` takes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            StationSource::Auto => "auto",
+            StationSource::Declared => "declared",
+            StationSource::Blocks => "blocks",
+            StationSource::One => "one",
         }
     }
 }

@@ -79,7 +79,7 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
         };
         return Err(Error::data(&data.source, msg));
     }
-    let mut model = crate::calib::run::placement::place_sensor(opts, &split.train)?;
+    let mut model = crate::calib::run::placement::place_sensor(opts, &split.train, &data.stations().labels)?;
     // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
     // (A learned corrector learns plain residuals: its methods fit with equal weights.)
     let weighting = if opts.row_std && !opts.method.learns_corrector() {
@@ -106,12 +106,15 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
 /// Runs a calibration with a given solver. `truth` enables the parameter-error report.
 pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions, solver: &dyn Solver) -> Result<CalibResult> {
     let t0 = Instant::now();
+    // Stage "set-up": the instrument's stations (declared, declared blocks, change points).
+    let (labelled, found) = super::setup::resolve_stations(data, opts)?;
+    let data = labelled.as_ref().unwrap_or(data);
     let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting } = prepare(data, opts, solver.needs_row_inputs())?;
     let mut warnings = setup_warnings(&model, data, screen.is_some(), opts);
     let x0 = model.nominal.clone();
     let mut fixed = id.fixed_mask.clone();
     if opts.placement_only {
-        let free = model.placement_range();
+        let free = model.setup_range();
         fixed.iter_mut().enumerate().filter(|(k, _)| !free.contains(k)).for_each(|(_, f)| *f = true);
     }
     let (noise_model, as_read) = noise_model_stage(&model, &x0, &fixed, &mut split, data, opts);
@@ -190,6 +193,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         screen: ScreenReport::of(screen, opts.outlier_k, test_in_steps, test_outliers),
         evaluation: Evaluation { metrics, truth_comparison, repeatability, noise_floor: Some(noise_floor) },
         warnings,
+        setup: super::setup::setup_report(&model, &x, data, opts.stations, &found),
         x,
         corrector,
         legacy_rbf: None,
@@ -389,6 +393,7 @@ pub fn result_of_fit(
         screen: ScreenReport::default(),
         evaluation: Evaluation { metrics, truth_comparison: None, repeatability, noise_floor: Some(noise_floor) },
         warnings: Vec::new(),
+        setup: super::setup::setup_report(&model, &x, data, super::options::StationSource::Declared, &[]),
         x,
         corrector: None,
         legacy_rbf: None,

@@ -7,7 +7,6 @@ use super::options::{CalibOptions, ModelSpec, Parametrisation};
 use crate::calib::model::{CalibModel, Placement, SensorGuess};
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
-use crate::measurement::length::multilaterate;
 use crate::measurement::Measurement;
 use crate::optim::{LevenbergMarquardt, NoObserver};
 
@@ -27,12 +26,14 @@ pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
 /// aligned), or for the generic model a global search from broad bounds. Another instrument
 /// than the draw-wire (a tracker's points) is located from the nominal flange points
 /// ([`Instrument::locate`](crate::measurement::Instrument::locate)) and aligned the same way.
-pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> {
+/// With several `stations` (the rows' [`RowInputs::station`](crate::calib::effects::RowInputs)
+/// index them), each is located from its own training rows and aligned with the others.
+pub fn place_sensor(opts: &CalibOptions, train: &Samples, stations: &[String]) -> Result<CalibModel> {
     let spec = &opts.model;
     let zero_guess = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
     let measurement = Measurement::of_dim(train.dim).unwrap_or_default();
+    let what = measurement.def().describe();
     if measurement != Measurement::Length {
-        let what = measurement.def().describe();
         if opts.sensor_guess.is_some() {
             return Err(Error::Invalid(format!("--sensor-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
         }
@@ -42,39 +43,52 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples) -> Result<CalibModel> 
         let ModelSpec::Nominal { .. } = spec else {
             return Err(Error::Invalid(format!("the generic model (generic6r) searches a draw-wire set-up; a {what} needs a nominal arm (irb120 or a URDF)")));
         };
-        let m = build_model(spec, &zero_guess);
-        let mut w = m.work();
-        let flanges: Vec<_> = train.q.iter().map(|q| m.flange_frame(&m.nominal, q, &mut w)).collect();
-        let (pts, rots): (Vec<_>, Vec<_>) = flanges.iter().map(|f| (f.pos, f.rot)).unzip();
-        let (own, tool) = measurement.def().locate(&pts, &rots, &train.y).ok_or_else(|| {
-            Error::Calibration(format!("cannot place the instrument ({what}) from the nominal arm: need at least 3 poses whose points are not on one line"))
-        })?;
-        let model = m.with_placement(&Placement { measurement, own, tool });
-        return Ok(align_placement(model, train));
     }
-    match spec {
-        // The generic model's start is its search over arm topologies, which places the sensor
-        // for each candidate arm; a fixed guess with no arm around it (the old all-zero D-H
-        // chain) started fits far from any real robot.
-        ModelSpec::Generic6r if opts.sensor_guess.is_some() => Err(Error::Invalid(
-            "--sensor-guess applies to a nominal model (irb120 or a URDF); the generic model (generic6r) places its sensor in its own search".into(),
-        )),
-        ModelSpec::Nominal { .. } => {
-            let guess = match &opts.sensor_guess {
-                Some(g) => g.clone(),
-                None => {
-                    let m = build_model(spec, &zero_guess);
-                    let mut w = m.work();
-                    let pts: Vec<_> = train.q.iter().map(|q| m.tool_point(&m.nominal, q, &mut w)).collect();
-                    let (e, c) = multilaterate(&pts, &train.y)
-                        .ok_or_else(|| Error::Calibration("cannot locate the cable exit point: need at least 6 well-spread poses".into()))?;
-                    SensorGuess { exit_m: e, offset_m: c, tool_m: [0.0; 3] }
-                }
-            };
-            Ok(align_placement(build_model(spec, &guess), train))
+    if let (ModelSpec::Generic6r, true) = (spec, stations.len() > 1) {
+        return Err(Error::Invalid("the generic model (generic6r) searches one draw-wire set-up; these rows stand at several stations".into()));
+    }
+    if measurement == Measurement::Length && !matches!(spec, ModelSpec::Nominal { .. }) {
+        if opts.sensor_guess.is_some() {
+            // The generic model's start is its search over arm topologies, which places the
+            // sensor for each candidate arm; a fixed guess with no arm around it (the old
+            // all-zero D-H chain) started fits far from any real robot.
+            return Err(Error::Invalid(
+                "--sensor-guess applies to a nominal model (irb120 or a URDF); the generic model (generic6r) places its sensor in its own search".into(),
+            ));
         }
-        ModelSpec::Generic6r => super::generic::search(train, opts),
+        return super::generic::search(train, opts);
     }
+    let m = build_model(spec, &zero_guess);
+    let mut w = m.work();
+    let flanges: Vec<_> = train.q.iter().map(|q| m.flange_frame(&m.nominal, q, &mut w)).collect();
+    let n_stations = stations.len().max(1);
+    let mut placements = Vec::with_capacity(n_stations);
+    for s in 0..n_stations {
+        let rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == s).collect();
+        let label = stations.get(s).map_or(String::new(), |l| format!(" at station {l}"));
+        let placement = match (measurement, &opts.sensor_guess) {
+            (Measurement::Length, Some(g)) if s == 0 => Placement::cable(g.exit_m.into(), g.offset_m, g.tool_m.into()),
+            _ => {
+                let pts: Vec<_> = rows.iter().map(|&i| flanges[i].pos).collect();
+                let rots: Vec<_> = rows.iter().map(|&i| flanges[i].rot).collect();
+                let y: Vec<f64> = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
+                let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| {
+                    Error::Calibration(match measurement {
+                        Measurement::Length => format!("cannot locate the cable exit point{label}: need at least 6 well-spread poses"),
+                        _ => {
+                            format!("cannot place the instrument ({what}){label} from the nominal arm: need at least 3 poses whose points are not on one line")
+                        }
+                    })
+                })?;
+                Placement { measurement, own, tool }
+            }
+        };
+        placements.push(placement);
+    }
+    let ns = measurement.def().n_station();
+    let others: Vec<Vec<f64>> = placements[1..].iter().map(|p| p.own[..ns].to_vec()).collect();
+    let model = m.with_placement(&placements[0]).with_stations(stations.to_vec(), &others);
+    Ok(align_placement(model, train))
 }
 
 /// Aligns the instrument alone (its own placement and the tool point) to the nominal robot, so

@@ -258,6 +258,9 @@ pub struct CalibResult {
     /// Things a user should know before trusting the result (did not converge, few rows, ...).
     #[serde(default)]
     pub warnings: Vec<String>,
+    /// The instrument's stations, where it stood at more than one ([`super::setup`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub setup: Option<SetupReport>,
     /// Parameter values per iteration (display units), for convergence plots.
     #[serde(skip)]
     pub history: Vec<Vec<f64>>,
@@ -553,7 +556,13 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
         && (r.model.limits.is_empty() || r.model.limits.len() == chain.n_joints)
         && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
         && r.model.kinds.len() == r.model.n_params()
-        && r.model.n_params() == chain.n_params() + r.model.measurement.n_placement() + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
+        && r.model.n_params()
+            == chain.n_params()
+                + r.model.measurement.n_placement()
+                + (r.model.n_stations() - 1) * r.model.n_station_params()
+                + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
+        && r.model.stations.len() != 1
+        && r.model.stations.iter().enumerate().all(|(i, s)| !s.is_empty() && !r.model.stations[..i].contains(s))
         && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
         && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
     let reported = r.parameters.len() == r.model.n_params() && r.parameters.iter().zip(&r.model.names).all(|(p, n)| &p.name == n);
@@ -571,6 +580,13 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
     let names = r.model.measurement.placement_names();
     if let Some((name, v)) = names.iter().zip(place.own.iter().chain(place.tool.iter())).find(|(_, v)| v.abs() > MAX_PLACEMENT) {
         return Err(format!("the instrument's placement {name} = {} is beyond {MAX_PLACEMENT} (m or rad; edited result file?)", crate::error::shown(*v)));
+    }
+    if let Some(k) = r.model.setup_range().find(|k| r.x[*k].abs() > MAX_PLACEMENT) {
+        return Err(format!(
+            "the instrument's placement {} = {} is beyond {MAX_PLACEMENT} (m or rad; edited result file?)",
+            r.model.names[k],
+            crate::error::shown(r.x[k])
+        ));
     }
     Ok(())
 }
@@ -654,4 +670,45 @@ mod one_based_tests {
         let e = serde_json::from_str::<Rows>(r#"{"r":[0]}"#).err().unwrap().to_string();
         assert!(e.contains("1-based row numbers"), "{e}");
     }
+}
+
+/// How a station came to be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StationOrigin {
+    /// Named in the file (`station` column, or a declared block with `--stations blocks`).
+    Declared,
+    /// Found: a change point in the residuals of a first fit.
+    ChangePoint,
+}
+
+/// One station of the instrument in a calibration's result: its rows and where it stood
+/// relative to the first station.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StationReport {
+    /// Its label (the file's, or `A.2` for the second part of a declared station `A` that a
+    /// change point split, `2` for the second part of a file without stations).
+    pub label: String,
+    /// Declared or found.
+    pub origin: StationOrigin,
+    /// Its number of rows.
+    pub rows: usize,
+    /// Its first and last data rows (1-based).
+    pub first_row: usize,
+    /// See `first_row`.
+    pub last_row: usize,
+    /// How far its origin sits from the first station's, mm (0 for the first).
+    pub shift_mm: f64,
+    /// How far its axes are turned from the first station's, degrees (a draw-wire, which has
+    /// no axes: 0).
+    pub turn_deg: f64,
+}
+
+/// The stations of a calibration's rows, as its result reports them.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SetupReport {
+    /// Where the stations came from (`--stations`).
+    pub source: super::options::StationSource,
+    /// Every station, in the order of its first row.
+    pub stations: Vec<StationReport>,
 }

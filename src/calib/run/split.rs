@@ -68,8 +68,8 @@ pub fn block_split(blocks: &crate::dataset::blocks::Blocks, n_test: usize, seed:
     blocks.of_row.iter().map(|&b| chosen[b]).collect()
 }
 
-/// The rows `idx` of a dataset as calibration samples (radians, metres), with their time and
-/// temperature; torques and backlash sides are added by [`crate::calib::effects::inputs`] where needed. A row
+/// The rows `idx` of a dataset as calibration samples (radians, metres), with their time,
+/// temperature and station ([`Dataset::stations`]); torques and backlash sides are added by [`crate::calib::effects::inputs`] where needed. A row
 /// without a reading reads NaN.
 pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     let rows = idx.iter().map(|&i| &data.rows[i]);
@@ -81,11 +81,16 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
             _ => vec![f64::NAN; dim],
         }
     };
+    let stations = data.stations();
     Samples {
         q: rows.clone().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
         y: rows.clone().flat_map(reading).collect(),
         dim,
-        inputs: rows.map(|r| crate::calib::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, ..Default::default() }).collect(),
+        inputs: idx
+            .iter()
+            .zip(rows)
+            .map(|(&i, r)| crate::calib::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, station: stations.of_row[i], ..Default::default() })
+            .collect(),
         w: None,
         gls: None,
     }
