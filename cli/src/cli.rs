@@ -72,6 +72,10 @@ pub enum Command {
         data: PathBuf,
         #[command(flatten)]
         reading: commands::Reading,
+        /// Rows a station the model was not calibrated at is registered on (its first ones, then
+        /// not unseen); 0 refuses such a station.
+        #[arg(long, default_value_t = twincal::calib::run::DEFAULT_REGISTER_ROWS)]
+        register_rows: usize,
         #[arg(long, default_value = "predictions.csv")]
         out: PathBuf,
     },
@@ -159,7 +163,7 @@ pub fn run(args: Cli) -> twincal::Result<()> {
         Command::Plan(a) => commands::plan(&a, args.quiet),
         Command::Calibrate(a) => commands::calibrate(&a, args.quiet),
         Command::Diagnose(a) => commands::diagnose(&a, args.quiet),
-        Command::Predict { model, data, reading, out } => commands::predict(&model, &data, &reading, &out, args.quiet),
+        Command::Predict { model, data, reading, register_rows, out } => commands::predict(&model, &data, &reading, register_rows, &out, args.quiet),
         Command::Compare(a) => commands::compare(&a, args.quiet),
         Command::Reduce { parts, out, rrd } => commands::reduce(&parts, out.as_deref(), rrd.as_deref(), args.quiet),
         Command::Replay(a) => commands::replay(&a, args.quiet),

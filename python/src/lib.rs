@@ -345,18 +345,26 @@ impl PyCalibration {
 
     /// Readings the model predicts for the rows of `data` (columns q1..qN, and whatever else
     /// the model reads), in the file's reading columns: an (n, d) array.
-    #[pyo3(signature = (data, angles="auto", euler="XYZ"))]
-    fn predict<'py>(&self, py: Python<'py>, data: &Bound<'py, PyAny>, angles: &str, euler: &str) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<String>)> {
-        let reading = Reading { angles: angle_unit(angles)?, measurement: None, euler: euler.to_string() };
+    #[pyo3(signature = (data, angles="auto", euler="XYZ", register_rows=twincal::calib::run::DEFAULT_REGISTER_ROWS))]
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        data: &Bound<'py, PyAny>,
+        angles: &str,
+        euler: &str,
+        register_rows: usize,
+    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<String>)> {
+        let reading = Reading { angles: angle_unit(angles)?, measurement: None, euler: euler.to_string(), ..Default::default() };
         let opts = reading.load_options(false).map_err(err)?;
         let src = source(data)?;
         let r = self.result();
-        let (values, warning) = py
+        let p = py
             .detach(|| {
                 let ds = dataset(src, &opts)?;
-                jobs::predicted_readings(r, &ds, opts.euler, "the model")
+                jobs::predicted_readings(r, &ds, opts.euler, "the model", register_rows)
             })
             .map_err(err)?;
+        let (values, warning) = (p.values, (!p.warnings.is_empty()).then(|| p.warnings.join("; ")));
         let d = r.model.measurement.file_dim();
         let n = values.len() / d;
         Ok((PyArray1::from_vec(py, values).reshape([n, d])?, warning))
@@ -657,7 +665,7 @@ fn plan(py: Python<'_>, out: PathBuf, options: &str) -> PyResult<String> {
 #[pyfunction]
 fn iso9283(py: Python<'_>, data: PathBuf, models: Vec<PathBuf>, options: &str) -> PyResult<String> {
     let reading: twincal::requests::Reading = request("iso9283", options)?;
-    let job = jobs::Iso9283Job { data, model: models, reading, out: None, report: None };
+    let job = jobs::Iso9283Job { data, model: models, reading, out: None, report: None, register_rows: twincal::calib::run::DEFAULT_REGISTER_ROWS };
     let e = py.detach(|| job.run()).map_err(err)?;
     serde_json::to_string(&e).map_err(|e| TwincalError::new_err(format!("cannot serialise the evaluation: {e}")))
 }

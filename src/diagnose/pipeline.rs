@@ -377,6 +377,7 @@ pub(super) fn final_stage(
         data: data.source.clone(),
         rows: data.rows.len(),
         reading: reading_note(measurement),
+        setup: None,
         outliers,
         outlier_runs,
         explained_by_causes: explained_rows,

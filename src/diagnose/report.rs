@@ -144,6 +144,10 @@ pub struct Diagnosis {
     /// then per coordinate. Empty for a cable length.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub reading: String,
+    /// Where the instrument stood, when it stood at more than one station: each station's rows
+    /// and its shift and turn from the first (set-up changes declared or found as change points).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub setup: Option<crate::calib::run::SetupReport>,
     /// Rows kept out of the fits as outliers.
     pub outliers: Vec<Outlier>,
     /// Runs of consecutive outlier rows.

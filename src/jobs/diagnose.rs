@@ -119,8 +119,9 @@ pub fn diagnose_loaded(
         let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
         data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
     }
-    let (report, mut result) = crate::diagnose::diagnose(&data, &opts, say)?;
+    let (mut report, mut result) = crate::diagnose::diagnose(&data, &opts, say)?;
     result.setup = crate::calib::run::setup::setup_report(&result.model, &result.x, &data, opts.stations, &found);
+    report.setup = result.setup.clone();
     let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
     Ok(Diagnosed { report, result, verdict, opts, data })
 }

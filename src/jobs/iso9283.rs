@@ -56,6 +56,15 @@ pub struct Iso9283Job {
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
     pub report: Option<PathBuf>,
+    /// Rows a station the model was not calibrated at is registered on (its first ones; they are
+    /// then not judged); 0 refuses such a station.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = crate::calib::run::DEFAULT_REGISTER_ROWS))]
+    #[serde(default = "default_register_rows")]
+    pub register_rows: usize,
+}
+
+fn default_register_rows() -> usize {
+    crate::calib::run::DEFAULT_REGISTER_ROWS
 }
 
 /// One pose's figures.
@@ -196,12 +205,14 @@ impl Iso9283Job {
         let mut models = Vec::new();
         for path in &self.model {
             let r = CalibResult::load(path)?;
-            let (flat, warning) = predicted_readings(&r, &data, euler, &format!("the model {}", path.display()))?;
-            warnings.extend(warning);
+            let p = predicted_readings(&r, &data, euler, &format!("the model {}", path.display()), self.register_rows)?;
+            warnings.extend(p.warnings.iter().cloned());
             let d = r.model.measurement.file_dim();
-            let commanded: Vec<Vec<f64>> = flat.chunks(d).map(<[f64]>::to_vec).collect();
+            let commanded: Vec<Vec<f64>> = p.values.chunks(d).map(<[f64]>::to_vec).collect();
             let own = sha.is_some() && r.provenance.data_sha256 == sha && !r.provenance.test_rows.is_empty();
+            let registration = p.registration_rows();
             let judged: Vec<usize> = if own { r.provenance.test_rows.clone() } else { (0..data.rows.len()).collect() };
+            let judged: Vec<usize> = judged.into_iter().filter(|i| !registration.contains(i)).collect();
             let (per_pose, ad_mm) = figures(&data, &judged, &measured, &commanded, euler);
             let all: Vec<usize> = (0..data.rows.len()).collect();
             let rp: Vec<f64> = figures(&data, &all, &measured, &commanded, euler).0.iter().filter_map(|p| p.rp_mm).collect();

@@ -32,7 +32,7 @@ pub use files::{
 };
 pub use iso9283::{figures as iso9283_figures, iso9283_table, Iso9283, Iso9283Job, ModelFigures, PoseFigures};
 pub use plan::{PlanJob, PLAN_FILE, POSES_FILE};
-pub use predict::{predicted_readings, prediction_csv, residuals, rotation_residual_deg};
+pub use predict::{predicted_readings, prediction_csv, residuals, rotation_residual_deg, Predicted};
 pub use replay::{replay, AfterCalibration, Fidelity, ReplayJob, ReplayRequest, ReplaySummary};
 
 #[cfg(test)]

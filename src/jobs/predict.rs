@@ -72,28 +72,62 @@ pub fn residuals(y: &[f64], p: &[f64], lengths: usize) -> Vec<f64> {
     y.iter().zip(p).enumerate().map(|(k, (a, b))| if k < lengths { a - b } else { wrap(a - b) }).collect()
 }
 
+/// A calibrated model's readings of a dataset's rows ([`predicted_readings`]).
+#[derive(Clone, Debug, Default)]
+pub struct Predicted {
+    /// The readings in the file's columns, `file_dim` values a row.
+    pub values: Vec<f64>,
+    /// The readings as the model's values (mm; a pose's origin and axis tips), `dim` a row.
+    pub model_values: Vec<f64>,
+    /// What the user should know: rows beyond the joint limits the model knows.
+    pub warnings: Vec<String>,
+    /// Stations the model was not calibrated at, each registered on its first rows: those rows
+    /// are not unseen.
+    pub registered: Vec<crate::calib::run::Registration>,
+}
+
+impl Predicted {
+    /// The data rows (0-based) a registration fitted: a judgement of unseen rows leaves them out.
+    pub fn registration_rows(&self) -> Vec<usize> {
+        self.registered.iter().flat_map(|r| r.rows.iter().map(|i| i - 1)).collect()
+    }
+}
+
 /// A calibrated model's readings of every row of `ds` (which need no measured readings), in
 /// the file's columns: `file_dim` values a row, a pose's angles in the `euler` convention. Also
 /// a warning when rows lie beyond the joint limits the model knows (it extrapolates there).
+/// Rows at a station the model was not calibrated at are predicted with that station's
+/// placement registered on its first `register_rows` rows (0: refused).
 /// `model` names the model in errors.
-pub fn predicted_readings(result: &CalibResult, ds: &Dataset, euler: Euler, model: &str) -> Result<(Vec<f64>, Option<String>)> {
+pub fn predicted_readings(result: &CalibResult, ds: &Dataset, euler: Euler, model: &str, register_rows: usize) -> Result<Predicted> {
     ds.require_joints(result.model.chain.n_joints, model)?;
     result.require_columns(ds)?;
     let outside: Vec<(usize, usize, f64)> = crate::calib::run::outside_limits(ds, &result.model.limits).collect();
-    let warning = outside.first().map(|(i, j, q)| {
-        format!(
-            "{} value(s) lie outside the model's joint limits (first: row {}, q{} = {} deg); the model extrapolates there",
-            outside.len(),
-            i + 1,
-            j + 1,
-            crate::error::shown(*q)
-        )
-    });
+    let mut warnings: Vec<String> = outside
+        .first()
+        .map(|(i, j, q)| {
+            format!(
+                "{} value(s) lie outside the model's joint limits (first: row {}, q{} = {} deg); the model extrapolates there",
+                outside.len(),
+                i + 1,
+                j + 1,
+                crate::error::shown(*q)
+            )
+        })
+        .into_iter()
+        .collect();
     result.require_measurement(ds)?;
+    let registered = result.at_stations(ds, register_rows)?;
+    let (result, ds) = match &registered {
+        Some((r, d, _)) => (r, d),
+        None => (result, ds),
+    };
+    let registered = registered.as_ref().map(|(_, _, g)| g.clone()).unwrap_or_default();
+    warnings.extend(registered.iter().map(crate::calib::run::Registration::line));
     let m = result.model.measurement;
     let predicted = result.predict_rows(ds);
     if let Some(i) = predicted.iter().position(|p| !p.is_finite()) {
         return Err(Error::Calibration(format!("the model predicted a non-finite reading for row {}", i / m.dim() + 1)));
     }
-    Ok((predicted.chunks(m.dim()).flat_map(|v| m.file_of_values(v, euler)).collect(), warning))
+    Ok(Predicted { values: predicted.chunks(m.dim()).flat_map(|v| m.file_of_values(v, euler)).collect(), model_values: predicted, warnings, registered })
 }

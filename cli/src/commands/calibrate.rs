@@ -150,6 +150,9 @@ fn print_summary(r: &twincal::calib::run::CalibResult) {
         }
     }
     print_noise_handling(r);
+    if let Some(setup) = &r.setup {
+        setup.lines().iter().for_each(|l| eprintln!("  {l}"));
+    }
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     eprintln!(
         "  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}",

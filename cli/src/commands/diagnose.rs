@@ -85,6 +85,9 @@ fn print_diagnosis(d: &twincal::diagnose::Diagnosis) {
     for f in &d.run_faults {
         eprintln!("  rows {}-{}: {}", f.first_row, f.last_row, f.evidence);
     }
+    if let Some(setup) = &d.setup {
+        setup.lines().iter().for_each(|l| eprintln!("  {l}"));
+    }
     eprintln!("  acquisition: {} (design effect {:.2})", d.acquisition.summary, d.design_effect);
     if let Some(n) = &d.noise_model {
         eprintln!(

@@ -6,7 +6,7 @@ use twincal::measurement::Euler;
 
 /// `twincal predict`: the calibrated model's length for every row of a dataset (which needs no
 /// measured lengths), with the residual where a length was measured.
-pub fn predict(model: &Path, data: &Path, reading: &Reading, out: &Path, quiet: bool) -> Result<()> {
+pub fn predict(model: &Path, data: &Path, reading: &Reading, register_rows: usize, out: &Path, quiet: bool) -> Result<()> {
     let data_files = data_inputs(data);
     let mut inputs: Vec<(&str, &Path)> = vec![("--model", model)];
     inputs.extend(data_files.iter().map(|p| ("--data", p.as_path())));
@@ -14,12 +14,12 @@ pub fn predict(model: &Path, data: &Path, reading: &Reading, out: &Path, quiet: 
     let result = load_model(model)?;
     let ds = load_dataset(data, reading, false)?;
     let euler = reading.resolve()?.1;
-    let (file_predicted, warning) = predicted_readings(&result, &ds, euler, &format!("the model {}", model.display()))?;
-    if let Some(w) = warning {
+    let p = predicted_readings(&result, &ds, euler, &format!("the model {}", model.display()), register_rows)?;
+    for w in &p.warnings {
         eprintln!("warning: {w}");
     }
+    let (file_predicted, predicted) = (&p.values, &p.model_values);
     let m = result.model.measurement;
-    let predicted = result.predict_rows(&ds);
     // Written in the file's own columns: a pose's origin and angles, in the convention it was
     // read in (the model's values are its origin and axes; the rows keep intrinsic X-Y-Z).
     let (d, lengths) = (m.file_dim(), m.file_lengths());

@@ -204,14 +204,33 @@ impl CalibModel {
         let start = self.placement_range().end + (s - 1) * ns;
         start..start + ns
     }
+    /// Adds a station labelled `label` whose own parameters are `own` (its
+    /// [`Self::n_station_params`] values) after the others' (effect blocks keep their
+    /// parameters, after it), into the model and into the parameter vector `x`; returns its
+    /// index. A model of one unnamed station names it `first` first.
+    pub fn add_station(&mut self, x: &mut Vec<f64>, label: &str, own: &[f64], first: &str) -> usize {
+        if self.stations.is_empty() {
+            self.stations.push(first.to_string());
+        }
+        let m = self.measurement;
+        let at = self.first_effect();
+        for k in (0..m.def().n_station()).rev() {
+            self.names.insert(at, format!("{}@{label}", m.placement_names()[k]));
+            self.kinds.insert(at, if m.def().placement_is_angle(k) { Kind::Angle } else { Kind::Length });
+            self.nominal.insert(at, own[k]);
+            x.insert(at, own[k]);
+        }
+        self.stations.push(label.to_string());
+        self.stations.len() - 1
+    }
     /// Indices of every parameter that places the instrument: the placement and the other
     /// stations'.
     pub fn setup_range(&self) -> std::ops::Range<usize> {
         self.n_chain()..self.first_effect()
     }
     /// This model with the instrument at `labels.len()` stations, the first at the placement,
-    /// station `s` ≥ 1 at `own[s - 1]` (its [`Self::n_station_params`] values); one label or
-    /// none: one station. Chosen before effect blocks are added.
+    /// station `s` ≥ 1 at `own[s - 1]` (its [`Self::n_station_params`] values); no label: one
+    /// unnamed station. Chosen before effect blocks are added.
     pub fn with_stations(mut self, labels: Vec<String>, own: &[Vec<f64>]) -> CalibModel {
         assert!(self.effects.is_empty(), "the stations are chosen before effect blocks are added");
         let end = self.placement_range().end;
@@ -220,7 +239,7 @@ impl CalibModel {
         self.nominal.truncate(end);
         let m = self.measurement;
         let ns = m.def().n_station();
-        if labels.len() > 1 {
+        if !labels.is_empty() {
             for (label, values) in labels.iter().skip(1).zip(own) {
                 debug_assert_eq!(values.len(), ns);
                 for k in 0..ns {
@@ -229,10 +248,8 @@ impl CalibModel {
                     self.nominal.push(values[k]);
                 }
             }
-            self.stations = labels;
-        } else {
-            self.stations = Vec::new();
         }
+        self.stations = labels;
         self
     }
     /// Writes a placement into `x` (the inverse of [`Self::placement`]); the placement must be
@@ -359,7 +376,7 @@ impl CalibModel {
     }
 
     /// The flange frame with the joint-offset and thermal effects of the row applied.
-    fn flange_frame_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Frame {
+    pub fn flange_frame_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Frame {
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..self.n_chain()], scale, &mut w.fk);
         self.chain.frame(&w.fk, self.chain.flange())

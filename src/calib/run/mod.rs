@@ -14,6 +14,7 @@ pub mod generic;
 mod options;
 mod pipeline;
 pub mod placement;
+pub mod register;
 mod result;
 pub mod setup;
 mod split;
@@ -24,6 +25,7 @@ pub use crate::calib::problem::identify::{identify, still_joints, STILL_SPAN_DEG
 pub use crate::dataset::truth::TruthFile;
 pub use options::{CalibOptions, ModelSpec, Parametrisation, SplitBy, StationSource, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL};
 pub use pipeline::*;
+pub use register::{Registration, DEFAULT_REGISTER_ROWS};
 pub use result::*;
 pub use split::*;
 pub use stages::*;

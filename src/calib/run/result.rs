@@ -402,7 +402,7 @@ impl CalibResult {
     /// per row, row after row) of every row of a dataset (rows in acquisition order: backlash
     /// flanks follow the order), every effect and corrector included.
     pub fn predict_rows(&self, data: &Dataset) -> Vec<f64> {
-        let inputs = crate::calib::effects::inputs::row_inputs(data, self.torque_model.as_ref());
+        let inputs = self.row_inputs(data);
         let mut w = self.model.work();
         let mut y = vec![0.0; self.model.measurement.dim()];
         let mut corr = vec![0.0; y.len()];
@@ -561,7 +561,6 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
                 + r.model.measurement.n_placement()
                 + (r.model.n_stations() - 1) * r.model.n_station_params()
                 + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
-        && r.model.stations.len() != 1
         && r.model.stations.iter().enumerate().all(|(i, s)| !s.is_empty() && !r.model.stations[..i].contains(s))
         && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
         && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
@@ -702,6 +701,29 @@ pub struct StationReport {
     /// How far its axes are turned from the first station's, degrees (a draw-wire, which has
     /// no axes: 0).
     pub turn_deg: f64,
+}
+
+impl SetupReport {
+    /// What a summary prints of the stations: a line for where they came from, then one per
+    /// station with its rows and where it stood relative to the first.
+    pub fn lines(&self) -> Vec<String> {
+        let found = self.stations.iter().filter(|s| s.origin == StationOrigin::ChangePoint).count();
+        let how = match (found, self.stations.len() - found) {
+            (0, _) => "as the file declares them".to_string(),
+            (_, 0) => "found as change points in the residuals of a first fit".to_string(),
+            (f, d) => format!("{d} declared, {f} found as change points in the residuals of a first fit"),
+        };
+        let mut out = vec![format!("set-up: the instrument stood at {} stations ({how}), each with its own placement, the arm shared:", self.stations.len())];
+        for (k, s) in self.stations.iter().enumerate() {
+            let at = if k == 0 {
+                "the reference".to_string()
+            } else {
+                format!("{:.3} mm and {:.4}° from station {}", s.shift_mm, s.turn_deg, self.stations[0].label)
+            };
+            out.push(format!("  station {}: rows {}-{} ({} rows), {at}", s.label, s.first_row, s.last_row, s.rows));
+        }
+        out
+    }
 }
 
 /// The stations of a calibration's rows, as its result reports them.
