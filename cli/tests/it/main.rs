@@ -24,5 +24,6 @@ mod recordings;
 mod replay;
 mod seven_joints;
 mod shards;
+mod stations;
 mod tour;
 mod twin;

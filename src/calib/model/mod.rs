@@ -982,7 +982,7 @@ mod tests {
             let labels = vec!["a".to_string(), "b".to_string(), "c".to_string()];
             let mut m = CalibModel::dh(&robot, &guess(), true).with_placement(&p).with_stations(labels, &others);
             m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
-            assert_eq!(m.n_params(), 25 + measurement.n_placement() + 2 * ns + 1);
+            assert_eq!(m.n_params(), m.n_chain() + measurement.n_placement() + 2 * ns + 1);
             assert_eq!(m.first_effect(), m.station_range(2).end);
             let mut x = m.nominal.clone();
             x[m.first_effect()] = 1e-5;
