@@ -231,6 +231,9 @@ impl Dataset {
         if all(|r| r.station.is_some()) {
             out.push(("station".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.station.clone().unwrap_or_default()).collect())));
         }
+        if all(|r| r.mount.is_some()) {
+            out.push(("mount".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.mount.clone().unwrap_or_default()).collect())));
+        }
         if all(|r| r.split.is_some()) {
             out.push(("split".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.split.map_or("", |s| s.as_str()).to_string()).collect())));
         }

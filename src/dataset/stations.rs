@@ -3,7 +3,8 @@
 //! the same, so a calibration fits one placement per station. Stations come from the rows'
 //! `station` column (declared), from a declared `block` column when the user says blocks are
 //! stations, or from change points a first fit finds in the residuals
-//! ([`crate::calib::run::setup`]), which label the rows the same way.
+//! ([`crate::calib::run::setup`]), which label the rows the same way. The target's mounts on the
+//! flange (a probe re-mounted) are labelled alike, in a `mount` column.
 
 use super::types::Dataset;
 
@@ -64,6 +65,12 @@ impl Dataset {
     /// The stations the rows name in their `station` column (one when it is absent).
     pub fn stations(&self) -> Stations {
         Stations::of_labels(self.rows.iter().map(|r| r.station.as_deref()))
+    }
+
+    /// The target's mounts the rows name in their `mount` column (one when it is absent),
+    /// numbered as [`Self::stations`] numbers stations.
+    pub fn mounts(&self) -> Stations {
+        Stations::of_labels(self.rows.iter().map(|r| r.mount.as_deref()))
     }
 
     /// This dataset with each declared block its own station (`station` set to the block's

@@ -72,6 +72,8 @@ pub(super) enum Column {
     Payload,
     /// A declared instrument station (a tracker's place between re-stationings).
     Station,
+    /// A declared mount of the target on the flange (a probe re-mounted between sessions).
+    Mount,
     /// A tracker's per-row standard deviation of position coordinate `k`: [`STD_COLUMNS`]`[k]`.
     Std(usize),
 }
@@ -87,10 +89,20 @@ pub const STD_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
 pub const MAX_STD_MM: f64 = 100.0;
 
 impl Column {
-    const OTHERS: [Column; 9] =
-        [Column::T, Column::Temp, Column::Split, Column::Std(0), Column::Std(1), Column::Std(2), Column::Block, Column::Payload, Column::Station];
+    const OTHERS: [Column; 10] = [
+        Column::T,
+        Column::Temp,
+        Column::Split,
+        Column::Std(0),
+        Column::Std(1),
+        Column::Std(2),
+        Column::Block,
+        Column::Payload,
+        Column::Station,
+        Column::Mount,
+    ];
     /// Slots of the named columns ([`Self::OTHERS`]) before the reading columns.
-    const NAMED: usize = 9;
+    const NAMED: usize = 10;
 
     /// Slot in [`Layout::pos`]: the named columns, the reading columns, then the joints.
     pub(super) fn index(self) -> usize {
@@ -102,6 +114,7 @@ impl Column {
             Column::Block => 6,
             Column::Payload => 7,
             Column::Station => 8,
+            Column::Mount => 9,
             Column::Reading(i) => Self::NAMED + i,
             Column::Q(j) => Self::NAMED + reading_names().len() + j,
         }
@@ -117,6 +130,7 @@ impl Column {
             Column::Block => "block".into(),
             Column::Payload => "payload_kg".into(),
             Column::Station => "station".into(),
+            Column::Mount => "mount".into(),
             Column::Std(k) => STD_COLUMNS[k].into(),
         }
     }
@@ -425,10 +439,14 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &LoadOptions) ->
         if layout.pos[Column::Block.index()].is_some() && block.is_none() {
             return Err(cell_error(src, line, Column::Block, "empty block label; when the file has a block column, every row must name its block"));
         }
-        let station = label(layout.cell(raw, Column::Station), Column::Station, line, src)?;
-        if layout.pos[Column::Station.index()].is_some() && station.is_none() {
-            return Err(cell_error(src, line, Column::Station, "empty station label; when the file has a station column, every row must name its station"));
-        }
+        let [station, mount] = [Column::Station, Column::Mount].map(|c| match label(layout.cell(raw, c), c, line, src) {
+            Ok(None) if layout.pos[c.index()].is_some() => {
+                let what = c.name();
+                Err(cell_error(src, line, c, format!("empty {what} label; when the file has a {what} column, every row must name its {what}")))
+            }
+            other => other,
+        });
+        let (station, mount) = (station?, mount?);
         let payload_kg = cells.number(layout.cell(raw, Column::Payload), Column::Payload, line)?;
         if let Some(m) = payload_kg {
             check_bounds(m, (0.0, MAX_PAYLOAD_KG), "payload (kg)", line, Column::Payload, src)?;
@@ -436,7 +454,7 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &LoadOptions) ->
         if payload_kg.is_none() {
             first_payload_missing = first_payload_missing.or(Some(line));
         }
-        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg, station });
+        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg, station, mount });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.

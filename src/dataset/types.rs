@@ -158,6 +158,10 @@ pub struct Row {
     /// tracker re-stationed between sessions stands at another). Every station has its own
     /// placement in a calibration, the arm is shared. `None` without the column.
     pub station: Option<String>,
+    /// How the target sat on the flange when the row was measured (`mount` column: any label;
+    /// a probe re-mounted between sessions sits otherwise). Every mount has its own target (and
+    /// probe orientation) in a calibration. `None` without the column.
+    pub mount: Option<String>,
 }
 
 impl Row {

@@ -190,6 +190,7 @@ impl Model {
                     block: None,
                     payload_kg: payload_kg.map(|p| p[i]),
                     station: None,
+                    mount: None,
                 }
             })
             .collect();

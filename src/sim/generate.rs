@@ -449,6 +449,7 @@ impl Tour<'_> {
             block: None,
             payload_kg: None,
             station: None,
+            mount: None,
         };
         let mut truth = PoseTruth {
             index: i,

@@ -144,13 +144,17 @@ impl TorqueModel {
 
 /// Inputs of every row of `data` (file order): the torques under the row's own payload where it
 /// has one (`payload_kg`), else the torque model's. Without a torque model the torques are zero
-/// and the flanks follow the approach motion only. The rows' stations are numbered as
-/// [`Dataset::stations`] numbers them.
+/// and the flanks follow the approach motion only. The rows' stations and mounts are numbered as
+/// [`Dataset::stations`] and [`Dataset::mounts`] number them.
 pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs> {
     let n = data.rows.len();
-    let stations = data.stations();
-    let mut out: Vec<RowInputs> =
-        data.rows.iter().zip(&stations.of_row).map(|(r, &station)| RowInputs { t_s: r.t_s, temp_c: r.temp_c, station, ..Default::default() }).collect();
+    let (stations, mounts) = (data.stations(), data.mounts());
+    let mut out: Vec<RowInputs> = data
+        .rows
+        .iter()
+        .zip(stations.of_row.iter().zip(&mounts.of_row))
+        .map(|(r, (&station, &mount))| RowInputs { t_s: r.t_s, temp_c: r.temp_c, station, mount, ..Default::default() })
+        .collect();
     let nq = data.n_joints();
     for (i, r) in data.rows.iter().enumerate() {
         out[i].torque = match torque {

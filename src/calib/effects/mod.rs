@@ -301,6 +301,9 @@ pub struct RowInputs {
     /// The instrument's station the row was read from: an index into the model's
     /// [`stations`](crate::calib::model::CalibModel::stations), 0 for the first (and only).
     pub station: usize,
+    /// The target's mount on the flange the row was read with: an index into the model's
+    /// [`mounts`](crate::calib::model::CalibModel::mounts), 0 for the first (and only).
+    pub mount: usize,
 }
 
 impl RowInputs {

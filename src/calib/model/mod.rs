@@ -118,35 +118,66 @@ pub struct CalibModel {
     /// re-stationed during the measurements (a tracker moved between sessions): the first stands
     /// where the placement parameters say, each other one has its own
     /// [`n_station`](crate::measurement::Instrument::n_station) parameters after them
-    /// ([`Self::station_range`]); the arm, the target and the probe's mount are shared. Empty:
-    /// one station. A row says its station in [`RowInputs::station`].
+    /// ([`Self::setup_block`]); the arm and the target's mount are shared. Empty: one station.
+    /// A row says its station in [`RowInputs::station`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub stations: Vec<String>,
+    /// The target's mounts on the flange by label (a probe or a reflector re-mounted between
+    /// sessions): the first is the placement's, each other one has its own placement parameters
+    /// after the stations' (the target, and a probe's orientation on the flange). Empty: one
+    /// mount. A row says its mount in [`RowInputs::mount`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mounts: Vec<String>,
+}
+
+/// What a set-up change moves: where the instrument stands (a tracker re-stationed,
+/// re-registered or bumped), or how its target sits on the flange (a probe re-mounted).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SetupKind {
+    /// The instrument's own place: the first [`n_station`](crate::measurement::Instrument::n_station)
+    /// placement parameters.
+    Station,
+    /// The target's mount on the flange: the other placement parameters.
+    Mount,
+}
+
+impl SetupKind {
+    /// Both kinds, stations first (their blocks' order in the parameter vector).
+    pub const ALL: [SetupKind; 2] = [SetupKind::Station, SetupKind::Mount];
+    /// Its name in messages and files.
+    pub fn name(self) -> &'static str {
+        match self {
+            SetupKind::Station => "station",
+            SetupKind::Mount => "mount",
+        }
+    }
+    /// A row's index of this kind.
+    pub fn of(self, inp: &RowInputs) -> usize {
+        match self {
+            SetupKind::Station => inp.station,
+            SetupKind::Mount => inp.mount,
+        }
+    }
 }
 
 pub use crate::measurement::Placement;
 
 /// The instrument's placement one row is read with: its own parameters (its station's where the
-/// row's station is not the first; the rest shared) and the target on the flange.
+/// row's station is not the first, its mount's likewise) and the target on the flange, with the
+/// parameter index each value comes from.
 struct Sensor {
-    own: [f64; MAX_OWN],
+    vals: [f64; MAX_OWN + 3],
+    cols: [usize; MAX_OWN + 3],
     n_own: usize,
-    tool: Vector3<f64>,
-    /// The first parameter of the row's station block and its length (0 for the first station).
-    station: (usize, usize),
 }
 
 impl Sensor {
     fn own(&self) -> &[f64] {
-        &self.own[..self.n_own]
+        &self.vals[..self.n_own]
     }
-    /// The parameter index of own placement parameter `m`, the chain having `nc`.
-    fn column(&self, nc: usize, m: usize) -> usize {
-        if m < self.station.1 {
-            self.station.0 + m
-        } else {
-            nc + m
-        }
+    fn tool(&self) -> Vector3<f64> {
+        Vector3::new(self.vals[self.n_own], self.vals[self.n_own + 1], self.vals[self.n_own + 2])
     }
 }
 
@@ -179,77 +210,118 @@ impl CalibModel {
     }
     /// The instrument placement held in `x` (the public way to read it: no index arithmetic).
     pub fn placement(&self, x: &[f64]) -> Placement {
-        let s = self.sensor(x, 0);
-        Placement { measurement: self.measurement, own: s.own().to_vec(), tool: s.tool }
+        self.placement_at(x, 0, 0)
     }
-    /// The placement of station `s` (its own station parameters in place of the first
-    /// station's; the target and the rest shared).
+    /// The placement at station `station` with mount `mount` (their own parameters in place of
+    /// the first ones').
+    pub fn placement_at(&self, x: &[f64], station: usize, mount: usize) -> Placement {
+        let s = self.sensor(x, station, mount);
+        Placement { measurement: self.measurement, own: s.own().to_vec(), tool: s.tool() }
+    }
+    /// The placement of station `s` (the first mount).
     pub fn station_placement(&self, x: &[f64], s: usize) -> Placement {
-        let st = self.sensor(x, s);
-        Placement { measurement: self.measurement, own: st.own().to_vec(), tool: st.tool }
+        self.placement_at(x, s, 0)
+    }
+    /// The labels of the set-ups of kind `k` (empty: one, unnamed).
+    pub fn setups(&self, k: SetupKind) -> &[String] {
+        match k {
+            SetupKind::Station => &self.stations,
+            SetupKind::Mount => &self.mounts,
+        }
+    }
+    fn setups_mut(&mut self, k: SetupKind) -> &mut Vec<String> {
+        match k {
+            SetupKind::Station => &mut self.stations,
+            SetupKind::Mount => &mut self.mounts,
+        }
+    }
+    /// Number of set-ups of kind `k` (1 without a change).
+    pub fn n_setups(&self, k: SetupKind) -> usize {
+        self.setups(k).len().max(1)
     }
     /// Number of the instrument's stations (1 without re-stationing).
     pub fn n_stations(&self) -> usize {
-        self.stations.len().max(1)
+        self.n_setups(SetupKind::Station)
+    }
+    /// The placement parameters (indices among them) a set-up of kind `k` has its own of.
+    pub fn setup_params(&self, k: SetupKind) -> std::ops::Range<usize> {
+        let ns = self.measurement.def().n_station();
+        match k {
+            SetupKind::Station => 0..ns,
+            SetupKind::Mount => ns..self.measurement.n_placement(),
+        }
     }
     /// Parameters of one station beyond the first ([`Instrument::n_station`](crate::measurement::Instrument::n_station)).
     pub fn n_station_params(&self) -> usize {
-        self.measurement.def().n_station()
+        self.setup_params(SetupKind::Station).len()
     }
-    /// Indices of station `s`'s own parameters (`s` ≥ 1; the first station's are the
-    /// placement's first ones).
+    /// Indices of set-up `s`'s own parameters (`s` ≥ 1; the first's are the placement's).
+    pub fn setup_block(&self, k: SetupKind, s: usize) -> std::ops::Range<usize> {
+        debug_assert!(s >= 1 && s < self.n_setups(k));
+        let mut start = self.placement_range().end;
+        for kind in SetupKind::ALL {
+            let n = self.setup_params(kind).len();
+            if kind == k {
+                start += (s - 1) * n;
+                return start..start + n;
+            }
+            start += (self.n_setups(kind) - 1) * n;
+        }
+        unreachable!("every kind is in SetupKind::ALL")
+    }
+    /// Indices of station `s`'s own parameters (`s` ≥ 1).
     pub fn station_range(&self, s: usize) -> std::ops::Range<usize> {
-        debug_assert!(s >= 1 && s < self.n_stations());
-        let ns = self.n_station_params();
-        let start = self.placement_range().end + (s - 1) * ns;
-        start..start + ns
+        self.setup_block(SetupKind::Station, s)
     }
-    /// Adds a station labelled `label` whose own parameters are `own` (its
-    /// [`Self::n_station_params`] values) after the others' (effect blocks keep their
+    /// Adds a set-up of kind `k` labelled `label` whose own parameters are `values` (its
+    /// [`Self::setup_params`]' values) after the others of its kind (effect blocks keep their
     /// parameters, after it), into the model and into the parameter vector `x`; returns its
-    /// index. A model of one unnamed station names it `first` first.
-    pub fn add_station(&mut self, x: &mut Vec<f64>, label: &str, own: &[f64], first: &str) -> usize {
-        if self.stations.is_empty() {
-            self.stations.push(first.to_string());
+    /// index. A model of one unnamed set-up of the kind names it `first` first.
+    pub fn add_setup(&mut self, k: SetupKind, x: &mut Vec<f64>, label: &str, values: &[f64], first: &str) -> usize {
+        if self.setups(k).is_empty() {
+            self.setups_mut(k).push(first.to_string());
         }
         let m = self.measurement;
-        let at = self.first_effect();
-        for k in (0..m.def().n_station()).rev() {
-            self.names.insert(at, format!("{}@{label}", m.placement_names()[k]));
-            self.kinds.insert(at, if m.def().placement_is_angle(k) { Kind::Angle } else { Kind::Length });
-            self.nominal.insert(at, own[k]);
-            x.insert(at, own[k]);
+        let params = self.setup_params(k);
+        let at = match k {
+            SetupKind::Station => self.first_effect() - (self.n_setups(SetupKind::Mount) - 1) * self.setup_params(SetupKind::Mount).len(),
+            SetupKind::Mount => self.first_effect(),
+        };
+        for (i, p) in params.enumerate().rev() {
+            self.names.insert(at, format!("{}@{label}", m.placement_names()[p]));
+            self.kinds.insert(at, if m.def().placement_is_angle(p) { Kind::Angle } else { Kind::Length });
+            self.nominal.insert(at, values[i]);
+            x.insert(at, values[i]);
         }
-        self.stations.push(label.to_string());
-        self.stations.len() - 1
+        self.setups_mut(k).push(label.to_string());
+        self.setups(k).len() - 1
     }
     /// Indices of every parameter that places the instrument: the placement and the other
-    /// stations'.
+    /// stations' and mounts'.
     pub fn setup_range(&self) -> std::ops::Range<usize> {
         self.n_chain()..self.first_effect()
     }
-    /// This model with the instrument at `labels.len()` stations, the first at the placement,
-    /// station `s` ≥ 1 at `own[s - 1]` (its [`Self::n_station_params`] values); no label: one
-    /// unnamed station. Chosen before effect blocks are added.
-    pub fn with_stations(mut self, labels: Vec<String>, own: &[Vec<f64>]) -> CalibModel {
-        assert!(self.effects.is_empty(), "the stations are chosen before effect blocks are added");
+    /// This model with the instrument at `stations.0.len()` stations and `mounts.0.len()`
+    /// mounts, the first of each at the placement, the others at their values in `.1` (each
+    /// its [`Self::setup_params`]' values); no label: one unnamed. Chosen before effect blocks
+    /// are added.
+    pub fn with_setups(mut self, stations: (Vec<String>, &[Vec<f64>]), mounts: (Vec<String>, &[Vec<f64>])) -> CalibModel {
+        assert!(self.effects.is_empty(), "the set-ups are chosen before effect blocks are added");
         let end = self.placement_range().end;
         self.names.truncate(end);
         self.kinds.truncate(end);
         self.nominal.truncate(end);
-        let m = self.measurement;
-        let ns = m.def().n_station();
-        if !labels.is_empty() {
-            for (label, values) in labels.iter().skip(1).zip(own) {
-                debug_assert_eq!(values.len(), ns);
-                for k in 0..ns {
-                    self.names.push(format!("{}@{label}", m.placement_names()[k]));
-                    self.kinds.push(if m.def().placement_is_angle(k) { Kind::Angle } else { Kind::Length });
-                    self.nominal.push(values[k]);
-                }
+        self.stations = Vec::new();
+        self.mounts = Vec::new();
+        let mut x = self.nominal.clone();
+        for (k, (labels, values)) in SetupKind::ALL.into_iter().zip([stations, mounts]) {
+            if let Some(first) = labels.first() {
+                self.setups_mut(k).push(first.clone());
+            }
+            for (label, v) in labels.iter().skip(1).zip(values) {
+                self.add_setup(k, &mut x, label, v, "");
             }
         }
-        self.stations = labels;
         self
     }
     /// Writes a placement into `x` (the inverse of [`Self::placement`]); the placement must be
@@ -276,6 +348,7 @@ impl CalibModel {
         self.nominal.extend(p.tool.iter());
         self.measurement = m;
         self.stations = Vec::new();
+        self.mounts = Vec::new();
         self
     }
     /// Indices of the instrument's placement parameters in the parameter vector.
@@ -288,7 +361,7 @@ impl CalibModel {
     }
     /// Index of the first effect parameter.
     pub fn first_effect(&self) -> usize {
-        self.placement_range().end + (self.n_stations() - 1) * self.n_station_params()
+        self.placement_range().end + SetupKind::ALL.iter().map(|k| (self.n_setups(*k) - 1) * self.setup_params(*k).len()).sum::<usize>()
     }
     /// Adds an effect block (no-op if an equal block is present); its parameters start at
     /// "no effect" in `nominal`. `t_span_s` is the data's time span (warm-up starting value).
@@ -343,20 +416,32 @@ impl CalibModel {
     }
 
     /// The instrument's own placement parameters at `station` and the target point on the
-    /// flange (m). A station the model does not have reads the first's.
-    fn sensor(&self, x: &[f64], station: usize) -> Sensor {
-        let s = &x[self.placement_range()];
-        let t = self.measurement.target_index();
-        let mut own = [0.0; MAX_OWN];
-        own[..t].copy_from_slice(&s[..t]);
-        let mut at = (0, 0);
-        if station > 0 && station < self.n_stations() {
-            let r = self.station_range(station);
-            own[..r.len()].copy_from_slice(&x[r.clone()]);
-            at = (r.start, r.len());
+    /// flange (m) of `mount`, with the parameter each comes from. A set-up the model does not
+    /// have reads the first's.
+    fn sensor(&self, x: &[f64], station: usize, mount: usize) -> Sensor {
+        let r = self.placement_range();
+        let n = r.len();
+        let mut out = Sensor { vals: [0.0; MAX_OWN + 3], cols: [0; MAX_OWN + 3], n_own: self.measurement.target_index() };
+        out.vals[..n].copy_from_slice(&x[r.clone()]);
+        for (k, c) in out.cols[..n].iter_mut().enumerate() {
+            *c = r.start + k;
         }
-        debug_assert!(station < self.n_stations(), "station {station} of {}", self.n_stations());
-        Sensor { own, n_own: t, tool: Vector3::new(s[t], s[t + 1], s[t + 2]), station: at }
+        for (kind, s) in [(SetupKind::Station, station), (SetupKind::Mount, mount)] {
+            debug_assert!(s < self.n_setups(kind), "{} {s} of {}", kind.name(), self.n_setups(kind));
+            if s > 0 && s < self.n_setups(kind) {
+                let block = self.setup_block(kind, s);
+                for (p, c) in self.setup_params(kind).zip(block) {
+                    out.vals[p] = x[c];
+                    out.cols[p] = c;
+                }
+            }
+        }
+        out
+    }
+
+    /// [`Self::sensor`] of a row.
+    fn sensor_of(&self, x: &[f64], inp: &RowInputs) -> Sensor {
+        self.sensor(x, inp.station, inp.mount)
     }
 
     /// Tool point in the base frame for joint angles `q` (rad), m (geometry only).
@@ -366,7 +451,7 @@ impl CalibModel {
 
     /// Tool point with the joint-offset and thermal effects of the row applied, m.
     pub fn tool_point_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Vector3<f64> {
-        let tool = self.sensor(x, 0).tool;
+        let tool = self.sensor_of(x, inp).tool();
         self.flange_frame_with(x, q, inp, w).point(&tool)
     }
 
@@ -398,8 +483,8 @@ impl CalibModel {
 
     /// Predicted readings (m, [`Measurement::dim`] values into `y`), every effect included.
     pub fn readings_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64]) {
-        let sensor = self.sensor(x, inp.station);
-        let (own, tool) = (sensor.own(), sensor.tool);
+        let sensor = self.sensor_of(x, inp);
+        let (own, tool) = (sensor.own(), sensor.tool());
         let def = self.measurement.def();
         if def.n_targets() == 1 {
             def.reading(own, std::slice::from_ref(&self.tool_point_with(x, q, inp, w)), y);
@@ -464,8 +549,8 @@ impl CalibModel {
     /// `jac` (row-major, one row of [`Self::n_params`] per reading value).
     pub fn readings_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], jac: &mut [f64]) {
         let (nc, n, dim) = (self.n_chain(), self.n_params(), self.measurement.dim());
-        let sensor = self.sensor(x, inp.station);
-        let (own, tool) = (sensor.own(), sensor.tool);
+        let sensor = self.sensor_of(x, inp);
+        let (own, tool) = (sensor.own(), sensor.tool());
         let n_own = own.len();
         let setup = self.setup_range();
         let scale = self.apply_effects(x, q, inp, w);
@@ -481,7 +566,7 @@ impl CalibModel {
             let u = &dy_dp[i * nt..(i + 1) * nt];
             g[setup.clone()].iter_mut().for_each(|v| *v = 0.0);
             for m in 0..n_own {
-                g[sensor.column(nc, m)] = dy_down[i * n_own + m];
+                g[sensor.cols[m]] = dy_down[i * n_own + m];
             }
             for k in 0..nc {
                 g[k] = u[0].dot(&jac0.dparam[k]);
@@ -493,13 +578,15 @@ impl CalibModel {
             for t in 1..nt {
                 let ur = rot.transpose() * u[t];
                 for m in 0..n_own {
-                    g[sensor.column(nc, m)] += ur.dot(&dlocal[t * n_own + m]);
+                    g[sensor.cols[m]] += ur.dot(&dlocal[t * n_own + m]);
                 }
             }
             // Every point moves with the target as the flange turns it.
             let u_sum = u[1..].iter().fold(u[0], |a, b| a + b);
             let ut = rot.transpose() * u_sum;
-            g[nc + n_own..nc + n_own + 3].copy_from_slice(ut.as_slice());
+            for (c, v) in sensor.cols[n_own..n_own + 3].iter().zip(ut.iter()) {
+                g[*c] = *v;
+            }
             if self.effects.is_empty() {
                 continue;
             }
@@ -546,8 +633,8 @@ impl CalibModel {
     /// included; the row's inputs (torques, flanks, time) are held fixed.
     pub fn readings_grad_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], g: &mut [f64]) {
         let (nc, nj, dim) = (self.n_chain(), self.chain.n_joints, self.measurement.dim());
-        let sensor = self.sensor(x, inp.station);
-        let (own, tool) = (sensor.own(), sensor.tool);
+        let sensor = self.sensor_of(x, inp);
+        let (own, tool) = (sensor.own(), sensor.tool());
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
@@ -578,7 +665,7 @@ impl CalibModel {
     /// commanded joint angle (m/rad) into `dp`; the row's inputs are held fixed.
     pub fn tool_point_jac_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dp: &mut [Vector3<f64>]) -> Vector3<f64> {
         let nc = self.n_chain();
-        let tool = self.sensor(x, 0).tool;
+        let tool = self.sensor_of(x, inp).tool();
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
@@ -595,16 +682,16 @@ impl CalibModel {
     /// not move the tool (zero). The row's inputs are held fixed.
     pub fn tool_point_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dx: &mut [Vector3<f64>]) -> Vector3<f64> {
         let nc = self.n_chain();
-        let tool = self.sensor(x, 0).tool;
+        let sensor = self.sensor_of(x, inp);
+        let tool = sensor.tool();
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
         dx.iter_mut().for_each(|d| *d = Vector3::zeros());
         dx[..nc].copy_from_slice(&w.jac.dparam[..nc]);
         let rot = self.chain.frame(&w.fk, self.chain.flange()).rot;
-        let t = self.placement_range().start + self.measurement.target_index();
         for m in 0..3 {
-            dx[t + m] = rot.column(m).into_owned();
+            dx[sensor.cols[sensor.n_own + m]] = rot.column(m).into_owned();
         }
         if !self.effects.is_empty() {
             for &(k, j, d) in &w.eff.joint_terms {
@@ -631,7 +718,7 @@ impl CalibModel {
         }
         let rot = self.chain.frame(&w.fk, flange).rot;
         match self.measurement {
-            crate::measurement::Measurement::Pose => rot * crate::measurement::pose::probe_rotation(self.sensor(x, 0).own()),
+            crate::measurement::Measurement::Pose => rot * crate::measurement::pose::probe_rotation(self.sensor(x, 0, 0).own()),
             _ => rot,
         }
     }
@@ -652,7 +739,18 @@ impl CalibModel {
         nominal.extend(sensor.exit_m.iter());
         nominal.push(sensor.offset_m);
         nominal.extend(sensor.tool_m.iter());
-        CalibModel { name: name.into(), chain, names, kinds, nominal, effects: Vec::new(), limits: Vec::new(), measurement, stations: Vec::new() }
+        CalibModel {
+            name: name.into(),
+            chain,
+            names,
+            kinds,
+            nominal,
+            effects: Vec::new(),
+            limits: Vec::new(),
+            measurement,
+            stations: Vec::new(),
+            mounts: Vec::new(),
+        }
     }
 
     /// Joint limits (rad) for inverse kinematics and sampling: the nominal robot's, else a full
@@ -942,6 +1040,7 @@ mod tests {
                 torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1],
                 side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0],
                 station: 0,
+                mount: 0,
             };
             let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
             let mut w = m.work();
@@ -971,38 +1070,44 @@ mod tests {
     }
 
     #[test]
-    fn station_gradients_match_finite_differences() {
+    fn station_and_mount_gradients_match_finite_differences() {
         use crate::calib::effects::{EffectBlock, EffectKind, RowInputs};
         let robot = Robot::irb120();
         for measurement in Measurement::ALL {
             let own: Vec<f64> = (0..measurement.target_index()).map(|k| 0.2 * (k as f64 * 0.9).sin() + 0.05).collect();
             let p = Placement { measurement, own, tool: Vector3::new(0.01, -0.02, 0.08) };
-            let ns = measurement.def().n_station();
+            let base = CalibModel::dh(&robot, &guess(), true).with_placement(&p);
+            let (ns, nm) = (base.setup_params(SetupKind::Station).len(), base.setup_params(SetupKind::Mount).len());
+            assert_eq!(ns + nm, measurement.n_placement());
             let others: Vec<Vec<f64>> = (1..3).map(|s| (0..ns).map(|k| 0.3 * ((k + 5 * s) as f64 * 0.7).cos()).collect()).collect();
-            let labels = vec!["a".to_string(), "b".to_string(), "c".to_string()];
-            let mut m = CalibModel::dh(&robot, &guess(), true).with_placement(&p).with_stations(labels, &others);
+            let mount: Vec<Vec<f64>> = vec![(0..nm).map(|k| 0.05 * (k as f64 * 1.7).sin() + 0.02).collect()];
+            let labels = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+            let mut m = base.with_setups((labels(&["a", "b", "c"]), &others), (labels(&["m1", "m2"]), &mount));
             m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
-            assert_eq!(m.n_params(), m.n_chain() + measurement.n_placement() + 2 * ns + 1);
-            assert_eq!(m.first_effect(), m.station_range(2).end);
+            assert_eq!(m.n_params(), m.n_chain() + measurement.n_placement() + 2 * ns + nm + 1);
+            assert_eq!(m.first_effect(), m.setup_block(SetupKind::Mount, 1).end);
+            assert_eq!(m.station_range(2).end, m.setup_block(SetupKind::Mount, 1).start);
             let mut x = m.nominal.clone();
             x[m.first_effect()] = 1e-5;
             let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
             let mut w = m.work();
             let d = measurement.dim();
-            for station in 0..3 {
-                let inp = RowInputs { torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], station, ..Default::default() };
+            for (station, mount) in [(0, 0), (1, 0), (2, 1), (0, 1)] {
+                let inp = RowInputs { torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], station, mount, ..Default::default() };
                 let (mut y, mut jac) = (vec![0.0; d], vec![0.0; d * m.n_params()]);
                 m.readings_grad_with(&x, &q, &inp, &mut w, &mut y, &mut jac);
-                // Without the effect, a station reads as a one-station model placed there.
-                let alone = CalibModel::dh(&robot, &guess(), true).with_placement(&m.station_placement(&x, station));
+                // Without the effect, a set-up reads as a one-set-up model placed there.
+                let alone = CalibModel::dh(&robot, &guess(), true).with_placement(&m.placement_at(&x, station, mount));
                 let mut x0 = x.clone();
                 x0[m.first_effect()] = 0.0;
                 let (mut y0, mut y1) = (vec![0.0; d], vec![0.0; d]);
                 m.readings_with(&x0, &q, &inp, &mut w, &mut y0);
                 let mut wa = alone.work();
                 alone.readings_with(&alone.nominal, &q, &RowInputs::default(), &mut wa, &mut y1);
-                assert!(y0.iter().zip(&y1).all(|(a, b)| (a - b).abs() < 1e-12), "{} station {station}: {y0:?} vs {y1:?}", measurement.name());
+                assert!(y0.iter().zip(&y1).all(|(a, b)| (a - b).abs() < 1e-12), "{} ({station}, {mount}): {y0:?} vs {y1:?}", measurement.name());
                 let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
+                let mut dx = vec![Vector3::zeros(); m.n_params()];
+                m.tool_point_grad_with(&x, &q, &inp, &mut w, &mut dx);
                 for k in 0..m.n_params() {
                     let h = 1e-7;
                     let (mut xp, mut xm) = (x.clone(), x.clone());
@@ -1013,8 +1118,16 @@ mod tests {
                     for i in 0..d {
                         let fd = (yp[i] - ym[i]) / (2.0 * h);
                         let g = jac[i * m.n_params() + k];
-                        assert!((fd - g).abs() < 1e-6 * (1.0 + g.abs()), "{} station {station} value {i} / {}: {fd} vs {g}", measurement.name(), m.names[k]);
+                        assert!((fd - g).abs() < 1e-6 * (1.0 + g.abs()), "{} ({station}, {mount}) value {i} / {}: {fd} vs {g}", measurement.name(), m.names[k]);
                     }
+                    let fd = (m.tool_point_with(&xp, &q, &inp, &mut w) - m.tool_point_with(&xm, &q, &inp, &mut w)) / (2.0 * h);
+                    assert!(
+                        (fd - dx[k]).norm() < 1e-6 * (1.0 + fd.norm()),
+                        "{} ({station}, {mount}) tool point / {}: {fd} vs {}",
+                        measurement.name(),
+                        m.names[k],
+                        dx[k]
+                    );
                 }
             }
         }

@@ -79,7 +79,7 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
         };
         return Err(Error::data(&data.source, msg));
     }
-    let mut model = crate::calib::run::placement::place_sensor(opts, &split.train, &data.stations().labels)?;
+    let mut model = crate::calib::run::placement::place_sensor(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
     // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
     // (A learned corrector learns plain residuals: its methods fit with equal weights.)
     let weighting = if opts.row_std && !opts.method.learns_corrector() {

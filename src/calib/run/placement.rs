@@ -4,7 +4,7 @@
 //! for the generic 6R model, a global search for the whole structure ([`crate::calib::run::generic`]).
 
 use super::options::{CalibOptions, ModelSpec, Parametrisation};
-use crate::calib::model::{CalibModel, Placement, SensorGuess};
+use crate::calib::model::{CalibModel, Placement, SensorGuess, SetupKind};
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
 use crate::measurement::Measurement;
@@ -26,9 +26,12 @@ pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
 /// aligned), or for the generic model a global search from broad bounds. Another instrument
 /// than the draw-wire (a tracker's points) is located from the nominal flange points
 /// ([`Instrument::locate`](crate::measurement::Instrument::locate)) and aligned the same way.
-/// With several `stations` (the rows' [`RowInputs::station`](crate::calib::effects::RowInputs)
-/// index them), each is located from its own training rows and aligned with the others.
-pub fn place_sensor(opts: &CalibOptions, train: &Samples, stations: &[String]) -> Result<CalibModel> {
+/// With several stations or mounts (`labels`: the stations', then the mounts'; the rows'
+/// [`RowInputs`](crate::calib::effects::RowInputs) index them), each station is located from its
+/// own training rows, each mount of a 6-D probe from its rows at their most common station (a
+/// point's target starts at the first mount's), and all are aligned together.
+pub fn place_sensor(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Result<CalibModel> {
+    let stations = labels[0];
     let spec = &opts.model;
     let zero_guess = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
     let measurement = Measurement::of_dim(train.dim).unwrap_or_default();
@@ -44,8 +47,8 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples, stations: &[String]) -
             return Err(Error::Invalid(format!("the generic model (generic6r) searches a draw-wire set-up; a {what} needs a nominal arm (irb120 or a URDF)")));
         };
     }
-    if let (ModelSpec::Generic6r, true) = (spec, stations.len() > 1) {
-        return Err(Error::Invalid("the generic model (generic6r) searches one draw-wire set-up; these rows stand at several stations".into()));
+    if let (ModelSpec::Generic6r, true) = (spec, stations.len() > 1 || labels[1].len() > 1) {
+        return Err(Error::Invalid("the generic model (generic6r) searches one draw-wire set-up; these rows stand at several stations or mounts".into()));
     }
     if measurement == Measurement::Length && !matches!(spec, ModelSpec::Nominal { .. }) {
         if opts.sensor_guess.is_some() {
@@ -61,33 +64,57 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples, stations: &[String]) -
     let m = build_model(spec, &zero_guess);
     let mut w = m.work();
     let flanges: Vec<_> = train.q.iter().map(|q| m.flange_frame(&m.nominal, q, &mut w)).collect();
-    let n_stations = stations.len().max(1);
-    let mut placements = Vec::with_capacity(n_stations);
-    for s in 0..n_stations {
-        let rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == s).collect();
-        let label = stations.get(s).map_or(String::new(), |l| format!(" at station {l}"));
-        let placement = match (measurement, &opts.sensor_guess) {
-            (Measurement::Length, Some(g)) if s == 0 => Placement::cable(g.exit_m.into(), g.offset_m, g.tool_m.into()),
-            _ => {
-                let pts: Vec<_> = rows.iter().map(|&i| flanges[i].pos).collect();
-                let rots: Vec<_> = rows.iter().map(|&i| flanges[i].rot).collect();
-                let y: Vec<f64> = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
-                let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| {
-                    Error::Calibration(match measurement {
-                        Measurement::Length => format!("cannot locate the cable exit point{label}: need at least 6 well-spread poses"),
-                        _ => {
-                            format!("cannot place the instrument ({what}){label} from the nominal arm: need at least 3 poses whose points are not on one line")
-                        }
-                    })
-                })?;
-                Placement { measurement, own, tool }
-            }
-        };
-        placements.push(placement);
+    let locate = |rows: &[usize], label: String| -> Result<Placement> {
+        let pts: Vec<_> = rows.iter().map(|&i| flanges[i].pos).collect();
+        let rots: Vec<_> = rows.iter().map(|&i| flanges[i].rot).collect();
+        let y: Vec<f64> = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
+        let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| {
+            Error::Calibration(match measurement {
+                Measurement::Length => format!("cannot locate the cable exit point{label}: need at least 6 well-spread poses"),
+                _ => format!("cannot place the instrument ({what}){label} from the nominal arm: need at least 3 poses whose points are not on one line"),
+            })
+        })?;
+        Ok(Placement { measurement, own, tool })
+    };
+    let rows_of = |kind: SetupKind, s: usize| -> Vec<usize> { (0..train.len()).filter(|i| kind.of(&train.inputs[*i]) == s).collect() };
+    let at = |kind: SetupKind, s: usize| labels[usize::from(kind == SetupKind::Mount)].get(s).map_or(String::new(), |l| format!(" at {} {l}", kind.name()));
+    // The first station and mount together: the rows of both.
+    let first_rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
+    let first = match (measurement, &opts.sensor_guess) {
+        (Measurement::Length, Some(g)) => Placement::cable(g.exit_m.into(), g.offset_m, g.tool_m.into()),
+        _ => {
+            let rows = if first_rows.len() >= 3 { first_rows } else { rows_of(SetupKind::Station, 0) };
+            locate(&rows, at(SetupKind::Station, 0))?
+        }
+    };
+    let values = |p: &Placement, kind: SetupKind| -> Vec<f64> {
+        let all: Vec<f64> = p.own.iter().chain(p.tool.iter()).copied().collect();
+        let n = measurement.def().n_station();
+        match kind {
+            SetupKind::Station => all[..n].to_vec(),
+            SetupKind::Mount => all[n..].to_vec(),
+        }
+    };
+    let mut others: [Vec<Vec<f64>>; 2] = [Vec::new(), Vec::new()];
+    for s in 1..stations.len().max(1) {
+        others[0].push(values(&locate(&rows_of(SetupKind::Station, s), at(SetupKind::Station, s))?, SetupKind::Station));
     }
-    let ns = measurement.def().n_station();
-    let others: Vec<Vec<f64>> = placements[1..].iter().map(|p| p.own[..ns].to_vec()).collect();
-    let model = m.with_placement(&placements[0]).with_stations(stations.to_vec(), &others);
+    for s in 1..labels[1].len().max(1) {
+        let rows = rows_of(SetupKind::Mount, s);
+        // A probe's mount is found with its orientation; a point's target starts at the first's.
+        let p = if measurement.def().n_targets() > 1 {
+            let mut count = vec![0usize; stations.len().max(1)];
+            rows.iter().for_each(|&i| count[train.inputs[i].station] += 1);
+            let st = (0..count.len()).max_by_key(|k| (count[*k], usize::MAX - k)).unwrap_or(0);
+            let at_st: Vec<usize> = rows.iter().copied().filter(|&i| train.inputs[i].station == st).collect();
+            locate(&at_st, at(SetupKind::Mount, s))?
+        } else {
+            first.clone()
+        };
+        others[1].push(values(&p, SetupKind::Mount));
+    }
+    let [st, mo] = others;
+    let model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
     Ok(align_placement(model, train))
 }
 

@@ -556,12 +556,9 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
         && (r.model.limits.is_empty() || r.model.limits.len() == chain.n_joints)
         && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
         && r.model.kinds.len() == r.model.n_params()
-        && r.model.n_params()
-            == chain.n_params()
-                + r.model.measurement.n_placement()
-                + (r.model.n_stations() - 1) * r.model.n_station_params()
-                + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
-        && r.model.stations.iter().enumerate().all(|(i, s)| !s.is_empty() && !r.model.stations[..i].contains(s))
+        && r.model.n_params() == r.model.first_effect() + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
+        && r.model.placement_range().end == chain.n_params() + r.model.measurement.n_placement()
+        && [&r.model.stations, &r.model.mounts].iter().all(|l| l.iter().enumerate().all(|(i, s)| !s.is_empty() && !l[..i].contains(s)))
         && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
         && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));
     let reported = r.parameters.len() == r.model.n_params() && r.parameters.iter().zip(&r.model.names).all(|(p, n)| &p.name == n);
@@ -681,10 +678,10 @@ pub enum StationOrigin {
     ChangePoint,
 }
 
-/// One station of the instrument in a calibration's result: its rows and where it stood
-/// relative to the first station.
+/// One station of the instrument, or one mount of its target, in a calibration's result: its
+/// rows and where it stood (sat) relative to the first.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct StationReport {
+pub struct SetupPart {
     /// Its label (the file's, or `A.2` for the second part of a declared station `A` that a
     /// change point split, `2` for the second part of a file without stations).
     pub label: String,
@@ -696,31 +693,37 @@ pub struct StationReport {
     pub first_row: usize,
     /// See `first_row`.
     pub last_row: usize,
-    /// How far its origin sits from the first station's, mm (0 for the first).
+    /// How far its origin sits from the first's, mm (a mount: its target on the flange; 0 for
+    /// the first).
     pub shift_mm: f64,
-    /// How far its axes are turned from the first station's, degrees (a draw-wire, which has
-    /// no axes: 0).
+    /// How far its axes are turned from the first's, degrees (a mount: a 6-D probe's
+    /// orientation on the flange; a draw-wire's station and a point's mount, which have no
+    /// axes: 0).
     pub turn_deg: f64,
 }
 
 impl SetupReport {
-    /// What a summary prints of the stations: a line for where they came from, then one per
-    /// station with its rows and where it stood relative to the first.
+    /// What a summary prints of the set-ups: a line for the stations and one for the mounts
+    /// where there are several, then one per station or mount with its rows and where it stood
+    /// relative to the first.
     pub fn lines(&self) -> Vec<String> {
-        let found = self.stations.iter().filter(|s| s.origin == StationOrigin::ChangePoint).count();
-        let how = match (found, self.stations.len() - found) {
-            (0, _) => "as the file declares them".to_string(),
-            (_, 0) => "found as change points in the residuals of a first fit".to_string(),
-            (f, d) => format!("{d} declared, {f} found as change points in the residuals of a first fit"),
-        };
-        let mut out = vec![format!("set-up: the instrument stood at {} stations ({how}), each with its own placement, the arm shared:", self.stations.len())];
-        for (k, s) in self.stations.iter().enumerate() {
-            let at = if k == 0 {
-                "the reference".to_string()
-            } else {
-                format!("{:.3} mm and {:.4}° from station {}", s.shift_mm, s.turn_deg, self.stations[0].label)
+        let mut out = Vec::new();
+        for (what, parts, verb) in [("station", &self.stations, "the instrument stood at"), ("mount", &self.mounts, "the target sat on")] {
+            if parts.is_empty() {
+                continue;
+            }
+            let found = parts.iter().filter(|s| s.origin == StationOrigin::ChangePoint).count();
+            let how = match (found, parts.len() - found) {
+                (0, _) => "as the file declares them".to_string(),
+                (_, 0) => "found as change points in the residuals of a first fit".to_string(),
+                (f, d) => format!("{d} declared, {f} found as change points in the residuals of a first fit"),
             };
-            out.push(format!("  station {}: rows {}-{} ({} rows), {at}", s.label, s.first_row, s.last_row, s.rows));
+            out.push(format!("set-up: {verb} {} {what}s ({how}), each with its own placement, the arm shared:", parts.len()));
+            for (k, s) in parts.iter().enumerate() {
+                let at =
+                    if k == 0 { "the reference".to_string() } else { format!("{:.3} mm and {:.4}° from {what} {}", s.shift_mm, s.turn_deg, parts[0].label) };
+                out.push(format!("  {what} {}: rows {}-{} ({} rows), {at}", s.label, s.first_row, s.last_row, s.rows));
+            }
         }
         out
     }
@@ -731,6 +734,10 @@ impl SetupReport {
 pub struct SetupReport {
     /// Where the stations came from (`--stations`).
     pub source: super::options::StationSource,
-    /// Every station, in the order of its first row.
-    pub stations: Vec<StationReport>,
+    /// Every station, in the order of its first row (none where the instrument stood at one).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stations: Vec<SetupPart>,
+    /// Every mount of the target, in the order of its first row (none where it sat on one).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mounts: Vec<SetupPart>,
 }

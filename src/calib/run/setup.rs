@@ -18,9 +18,9 @@
 
 use super::options::{CalibOptions, StationSource};
 use super::placement::place_sensor;
-use super::result::{SetupReport, StationOrigin, StationReport};
+use super::result::{SetupPart, SetupReport, StationOrigin};
 use super::split::samples;
-use crate::calib::model::CalibModel;
+use crate::calib::model::{CalibModel, SetupKind};
 use crate::calib::problem::identify::identify;
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::Dataset;
@@ -39,15 +39,22 @@ pub const MIN_STATION_ROWS: usize = 10;
 /// its declared ones plus this).
 pub const MAX_CHANGES: usize = 12;
 
+/// A set-up change a first fit's residuals showed: the kind and the label of the new set-up.
+pub type Found = Vec<(SetupKind, String)>;
+
 /// The data with their stations resolved by `opts.stations`: `None` when the rows' own
-/// `station` column (or its absence) stands as it is, else a copy whose rows name their
-/// stations (declared blocks, change points), with the labels that change points gave.
-pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<Dataset>, Vec<String>)> {
+/// `station` and `mount` columns (or their absence) stand as they are, else a copy whose rows
+/// name their stations and mounts (declared blocks, change points), with the set-ups that
+/// change points gave.
+pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<Dataset>, Found)> {
     match opts.stations {
         StationSource::Declared => Ok((None, Vec::new())),
         StationSource::One => {
             let mut d = data.clone();
-            d.rows.iter_mut().for_each(|r| r.station = None);
+            d.rows.iter_mut().for_each(|r| {
+                r.station = None;
+                r.mount = None;
+            });
             Ok((Some(d), Vec::new()))
         }
         StationSource::Blocks => {
@@ -66,47 +73,70 @@ pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<D
     }
 }
 
-/// The change-point search of [`resolve_stations`]: a first fit with the stations so far, the
-/// best change point over every station's rows, until none is left.
-fn find_changes(data: &Dataset, opts: &CalibOptions) -> Result<(Option<Dataset>, Vec<String>)> {
+/// The labels of kind `k` of a dataset's rows.
+fn labels_of(data: &Dataset, k: SetupKind) -> crate::dataset::Stations {
+    match k {
+        SetupKind::Station => data.stations(),
+        SetupKind::Mount => data.mounts(),
+    }
+}
+
+/// A row's label of kind `k`.
+pub fn label_of(r: &crate::dataset::Row, k: SetupKind) -> Option<&str> {
+    match k {
+        SetupKind::Station => r.station.as_deref(),
+        SetupKind::Mount => r.mount.as_deref(),
+    }
+}
+
+fn label_mut(r: &mut crate::dataset::Row, k: SetupKind) -> &mut Option<String> {
+    match k {
+        SetupKind::Station => &mut r.station,
+        SetupKind::Mount => &mut r.mount,
+    }
+}
+
+/// The change-point search of [`resolve_stations`]: a first fit with the set-ups so far, the
+/// best change point over every set-up's rows, until none is left.
+fn find_changes(data: &Dataset, opts: &CalibOptions) -> Result<(Option<Dataset>, Found)> {
     let mut labelled = data.clone();
-    let declared = data.rows.iter().all(|r| r.station.is_some());
     let mut found = Vec::new();
     for _ in 0..MAX_CHANGES {
         let (model, x, all) = first_fit(&labelled, opts)?;
-        let Some((station, row)) = best_change(&model, &x, &all) else { break };
-        let label = new_label(&labelled, station, declared);
-        let old = labelled.rows[row].station.clone();
-        for r in labelled.rows[row..].iter_mut().filter(|r| r.station == old) {
-            r.station = Some(label.clone());
-        }
-        if !declared && labelled.rows[0].station.is_none() {
-            // The first station of a file without stations is `1`.
-            for r in labelled.rows.iter_mut().filter(|r| r.station.is_none()) {
-                r.station = Some("1".into());
+        let Some(change) = best_change(&model, &x, &all) else { break };
+        for kind in change.kinds {
+            let declared = data.rows.iter().all(|r| label_of(r, kind).is_some());
+            let label = new_label(&labelled, kind, change.row, declared);
+            let old = label_of(&labelled.rows[change.row], kind).map(str::to_string);
+            for r in labelled.rows[change.row..].iter_mut().filter(|r| label_of(r, kind) == old.as_deref()) {
+                *label_mut(r, kind) = Some(label.clone());
             }
+            // The first set-up of a file that names none is `1`.
+            for r in labelled.rows.iter_mut().filter(|r| label_of(r, kind).is_none()) {
+                *label_mut(r, kind) = Some("1".into());
+            }
+            found.push((kind, label));
         }
-        found.push(label);
     }
     Ok(if found.is_empty() { (None, found) } else { (Some(labelled), found) })
 }
 
-/// A label for a new station split off station `s` of `data`: `N` (the next number) for a
-/// file without stations, `A.k` for the k-th part of a declared station `A`.
-fn new_label(data: &Dataset, s: usize, declared: bool) -> String {
-    let st = data.stations();
+/// A label for a new set-up of kind `kind` split off at row `row` of `data`: `N` (the next
+/// number) where the file names none of the kind, `A.k` for the k-th part of a declared `A`.
+fn new_label(data: &Dataset, kind: SetupKind, row: usize, declared: bool) -> String {
+    let st = labels_of(data, kind);
     if !declared {
         return (st.len() + 1).to_string();
     }
-    let base = st.labels[s].split('.').next().unwrap_or_default().to_string();
+    let base = st.labels[st.of_row[row]].split('.').next().unwrap_or_default().to_string();
     (2..).map(|k| format!("{base}.{k}")).find(|l| !st.labels.contains(l)).unwrap_or(base)
 }
 
-/// The geometric model fitted to every row with the stations `data` names (no screen): what the
+/// The geometric model fitted to every row with the set-ups `data` names (no screen): what the
 /// change-point search reads the residuals of.
 fn first_fit(data: &Dataset, opts: &CalibOptions) -> Result<(CalibModel, Vec<f64>, Samples)> {
     let all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    let model = place_sensor(opts, &all, &data.stations().labels)?;
+    let model = place_sensor(opts, &all, [&data.stations().labels, &data.mounts().labels])?;
     let fit = ReadingFit { model: &model, data: &all };
     let id = identify(&fit, &model.nominal, opts.rank_tol);
     let x = LevenbergMarquardt::budget(100).minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver).x;
@@ -114,21 +144,34 @@ fn first_fit(data: &Dataset, opts: &CalibOptions) -> Result<(CalibModel, Vec<f64
 }
 
 /// Each row's standardised residuals and the Jacobian of its prediction with respect to its
-/// station's own parameters (same units), row after row: `dim` values and `dim × ns` entries.
+/// station's and its mount's own parameters (same units; `ns + nm` columns), row after row.
 fn standardised(model: &CalibModel, x: &[f64], all: &Samples) -> (Vec<f64>, Vec<f64>) {
-    let (d, n, ns) = (all.dim, model.n_params(), model.n_station_params());
+    let (d, n) = (all.dim, model.n_params());
     let nc = model.n_chain();
-    let (mut r, mut j) = (vec![0.0; all.len() * d], vec![0.0; all.len() * d * ns]);
+    let cols_of = |inp: &crate::calib::effects::RowInputs| -> Vec<usize> {
+        SetupKind::ALL
+            .iter()
+            .flat_map(|&k| {
+                let s = k.of(inp);
+                let params = model.setup_params(k);
+                match s {
+                    0 => params.map(|p| nc + p).collect::<Vec<_>>(),
+                    _ => model.setup_block(k, s).collect(),
+                }
+            })
+            .collect()
+    };
+    let np = model.measurement.n_placement();
+    let (mut r, mut j) = (vec![0.0; all.len() * d], vec![0.0; all.len() * d * np]);
     let mut w = model.work();
     let (mut y, mut g) = ([0.0; MAX_DIM], vec![0.0; d * n]);
     for i in 0..all.len() {
         model.readings_grad_with(x, &all.q[i], &all.inputs[i], &mut w, &mut y[..d], &mut g);
-        let s = all.inputs[i].station;
-        let first = if s == 0 { nc } else { model.station_range(s).start };
+        let cols = cols_of(&all.inputs[i]);
         for c in 0..d {
             r[i * d + c] = crate::units::to_mm(all.y[i * d + c] - y[c]);
-            for k in 0..ns {
-                j[(i * d + c) * ns + k] = crate::units::to_mm(g[c * n + first + k]);
+            for (k, col) in cols.iter().enumerate() {
+                j[(i * d + c) * np + k] = crate::units::to_mm(g[c * n + col]);
             }
         }
     }
@@ -140,38 +183,59 @@ fn standardised(model: &CalibModel, x: &[f64], all: &Samples) -> (Vec<f64>, Vec<
         let scale = crate::stats::robust_scale(&vals).1.max(1e-9);
         for (k, v) in r.iter_mut().enumerate().filter(|(k, _)| group(k % d) == gi) {
             *v /= scale;
-            j[k * ns..(k + 1) * ns].iter_mut().for_each(|e| *e /= scale);
+            j[k * np..(k + 1) * np].iter_mut().for_each(|e| *e /= scale);
         }
     }
     (r, j)
 }
 
-/// The best change point of any station's rows: (station, first data row of the new station).
-fn best_change(model: &CalibModel, x: &[f64], all: &Samples) -> Option<(usize, usize)> {
+/// A change point: the first data row after it and what changed there.
+struct Change {
+    row: usize,
+    kinds: Vec<SetupKind>,
+}
+
+/// The best change point of any set-up's rows (the rows of one station and one mount, in file
+/// order), of the hypothesis (the station moved, the mount changed, or both) that its gain
+/// beyond its penalty favours most.
+fn best_change(model: &CalibModel, x: &[f64], all: &Samples) -> Option<Change> {
     let (r, j) = standardised(model, x, all);
-    let (d, ns) = (all.dim, model.n_station_params());
-    let values = (all.len() * d) as f64;
-    let threshold = CHANGE_PENALTY * ns as f64 * values.ln();
+    let d = all.dim;
+    let ns = model.n_station_params();
+    let np = model.measurement.n_placement();
+    let ln = ((all.len() * d) as f64).ln();
+    let hypotheses: [(Vec<SetupKind>, std::ops::Range<usize>); 3] =
+        [(vec![SetupKind::Station], 0..ns), (vec![SetupKind::Mount], ns..np), (vec![SetupKind::Station, SetupKind::Mount], 0..np)];
     let mut best: Option<(f64, usize, usize)> = None;
-    for s in 0..model.n_stations() {
-        let rows: Vec<usize> = (0..all.len()).filter(|i| all.inputs[*i].station == s).collect();
+    let mut pairs: Vec<(usize, usize)> = all.inputs.iter().map(|i| (i.station, i.mount)).collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    for (st, mo) in pairs {
+        let rows: Vec<usize> = (0..all.len()).filter(|i| (all.inputs[*i].station, all.inputs[*i].mount) == (st, mo)).collect();
         if rows.len() < 2 * MIN_STATION_ROWS {
             continue;
         }
-        let sums = PrefixSums::new(&rows, &r, &j, d, ns);
-        let whole = sums.rss(0, rows.len());
-        for k in MIN_STATION_ROWS..=rows.len() - MIN_STATION_ROWS {
-            let gain = whole - sums.rss(0, k) - sums.rss(k, rows.len());
-            if gain > threshold && gain > CHANGE_SHARE * whole && best.is_none_or(|b| gain > b.0) {
-                best = Some((gain, s, rows[k]));
+        let sums = PrefixSums::new(&rows, &r, &j, d, np);
+        for (h, (_, cols)) in hypotheses.iter().enumerate() {
+            if cols.is_empty() {
+                continue;
+            }
+            let whole = sums.rss(0, rows.len(), cols.clone());
+            let threshold = CHANGE_PENALTY * cols.len() as f64 * ln;
+            for k in MIN_STATION_ROWS..=rows.len() - MIN_STATION_ROWS {
+                let gain = whole - sums.rss(0, k, cols.clone()) - sums.rss(k, rows.len(), cols.clone());
+                let score = gain - threshold;
+                if score > 0.0 && gain > CHANGE_SHARE * whole && best.is_none_or(|b| score > b.0) {
+                    best = Some((score, h, rows[k]));
+                }
             }
         }
     }
-    best.map(|(_, s, row)| (s, row))
+    best.map(|(_, h, row)| Change { row, kinds: hypotheses[h].0.clone() })
 }
 
-/// Running sums over a station's rows of JᵀJ, Jᵀr and rᵀr: the residual sum of squares of any
-/// stretch after a fit of the station's parameters to it, in O(ns³).
+/// Running sums over a set-up's rows of JᵀJ, Jᵀr and rᵀr: the residual sum of squares of any
+/// stretch after a fit of some of the set-up's parameters to it, in O(n³) for n of them.
 struct PrefixSums {
     ata: Vec<DMatrix<f64>>,
     atb: Vec<DVector<f64>>,
@@ -179,17 +243,17 @@ struct PrefixSums {
 }
 
 impl PrefixSums {
-    fn new(rows: &[usize], r: &[f64], j: &[f64], d: usize, ns: usize) -> PrefixSums {
-        let mut out = PrefixSums { ata: vec![DMatrix::zeros(ns, ns)], atb: vec![DVector::zeros(ns)], btb: vec![0.0] };
+    fn new(rows: &[usize], r: &[f64], j: &[f64], d: usize, np: usize) -> PrefixSums {
+        let mut out = PrefixSums { ata: vec![DMatrix::zeros(np, np)], atb: vec![DVector::zeros(np)], btb: vec![0.0] };
         for &i in rows {
             let (mut a, mut b, mut e) =
                 (out.ata.last().cloned().unwrap_or_default(), out.atb.last().cloned().unwrap_or_default(), *out.btb.last().unwrap_or(&0.0));
             for c in 0..d {
                 let v = i * d + c;
-                let jr = &j[v * ns..(v + 1) * ns];
-                for p in 0..ns {
+                let jr = &j[v * np..(v + 1) * np];
+                for p in 0..np {
                     b[p] += jr[p] * r[v];
-                    for q in 0..ns {
+                    for q in 0..np {
                         a[(p, q)] += jr[p] * jr[q];
                     }
                 }
@@ -202,48 +266,64 @@ impl PrefixSums {
         out
     }
 
-    /// The residual sum of squares of rows `from..to` (of the station's) after their own fit.
-    fn rss(&self, from: usize, to: usize) -> f64 {
-        let a = &self.ata[to] - &self.ata[from];
-        let b = &self.atb[to] - &self.atb[from];
+    /// The residual sum of squares of rows `from..to` (of the set-up's) after their own fit of
+    /// the parameters `cols`.
+    fn rss(&self, from: usize, to: usize, cols: std::ops::Range<usize>) -> f64 {
+        let n = cols.len();
+        let a = (&self.ata[to] - &self.ata[from]).view((cols.start, cols.start), (n, n)).into_owned();
+        let b = (&self.atb[to] - &self.atb[from]).rows(cols.start, n).into_owned();
         let e = self.btb[to] - self.btb[from];
         let explained = a.svd(true, true).solve(&b, 1e-10).map_or(0.0, |z| b.dot(&z));
         (e - explained).max(0.0)
     }
 }
 
-/// The stations of a fitted model on `data` (labelled as the model's stations), as the result
-/// reports them: rows, origin and where each stood relative to the first.
-pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: StationSource, found: &[String]) -> Option<SetupReport> {
-    if model.n_stations() < 2 {
+/// The set-ups of a fitted model on `data` (labelled as the model's), as the result reports
+/// them: rows, origin and where each stood (a station) or sat (a mount) relative to the first.
+/// `found`: the set-ups change points gave.
+pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: StationSource, found: &[(SetupKind, String)]) -> Option<SetupReport> {
+    if model.n_stations() < 2 && model.n_setups(SetupKind::Mount) < 2 {
         return None;
     }
-    let st = data.stations();
     let def = model.measurement.def();
-    let first = def.frame(&model.station_placement(x, 0).own);
-    let stations = (0..model.n_stations())
-        .map(|s| {
-            let rows = st.rows(s);
-            let frame = def.frame(&model.station_placement(x, s).own);
-            let turn_deg = match (first.axes, frame.axes) {
-                (Some(a), Some(b)) => nalgebra::Rotation3::from_matrix_unchecked(a.transpose() * b).angle().to_degrees(),
-                _ => 0.0,
-            };
-            let label = model.stations[s].clone();
-            StationReport {
-                origin: if found.contains(&label) || (s == 0 && found.iter().any(|f| !f.contains('.'))) {
-                    StationOrigin::ChangePoint
-                } else {
-                    StationOrigin::Declared
-                },
-                label,
-                rows: rows.len(),
-                first_row: rows.first().map_or(0, |r| r + 1),
-                last_row: rows.last().map_or(0, |r| r + 1),
-                shift_mm: crate::units::to_mm((frame.origin - first.origin).norm()),
-                turn_deg,
-            }
-        })
-        .collect();
-    Some(SetupReport { source, stations })
+    let parts = |kind: SetupKind| -> Vec<SetupPart> {
+        if model.n_setups(kind) < 2 {
+            return Vec::new();
+        }
+        let st = labels_of(data, kind);
+        let at = |s: usize| match kind {
+            SetupKind::Station => model.placement_at(x, s, 0),
+            SetupKind::Mount => model.placement_at(x, 0, s),
+        };
+        let first = at(0);
+        let auto = found.iter().any(|(k, l)| *k == kind && !l.contains('.'));
+        (0..model.n_setups(kind))
+            .map(|s| {
+                let p = at(s);
+                let (shift_mm, turn) = match kind {
+                    SetupKind::Station => {
+                        let (a, b) = (def.frame(&first.own), def.frame(&p.own));
+                        let turn = a.axes.zip(b.axes).map(|(a, b)| a.transpose() * b);
+                        (crate::units::to_mm((b.origin - a.origin).norm()), turn)
+                    }
+                    SetupKind::Mount => {
+                        (crate::units::to_mm((p.tool - first.tool).norm()), Some(def.target_rotation(&first.own).transpose() * def.target_rotation(&p.own)))
+                    }
+                };
+                let label = model.setups(kind)[s].clone();
+                let rows = st.labels.iter().position(|l| *l == label).map(|k| st.rows(k)).unwrap_or_default();
+                let changed = found.iter().any(|(k, l)| *k == kind && *l == label) || (s == 0 && auto);
+                SetupPart {
+                    origin: if changed { StationOrigin::ChangePoint } else { StationOrigin::Declared },
+                    label,
+                    rows: rows.len(),
+                    first_row: rows.first().map_or(0, |r| r + 1),
+                    last_row: rows.last().map_or(0, |r| r + 1),
+                    shift_mm,
+                    turn_deg: turn.map_or(0.0, |m| nalgebra::Rotation3::from_matrix_unchecked(m).angle().to_degrees()),
+                }
+            })
+            .collect()
+    };
+    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount) })
 }

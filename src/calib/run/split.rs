@@ -69,7 +69,7 @@ pub fn block_split(blocks: &crate::dataset::blocks::Blocks, n_test: usize, seed:
 }
 
 /// The rows `idx` of a dataset as calibration samples (radians, metres), with their time,
-/// temperature and station ([`Dataset::stations`]); torques and backlash sides are added by [`crate::calib::effects::inputs`] where needed. A row
+/// temperature, station and mount ([`Dataset::stations`], [`Dataset::mounts`]); torques and backlash sides are added by [`crate::calib::effects::inputs`] where needed. A row
 /// without a reading reads NaN.
 pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     let rows = idx.iter().map(|&i| &data.rows[i]);
@@ -81,7 +81,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
             _ => vec![f64::NAN; dim],
         }
     };
-    let stations = data.stations();
+    let (stations, mounts) = (data.stations(), data.mounts());
     Samples {
         q: rows.clone().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
         y: rows.clone().flat_map(reading).collect(),
@@ -89,7 +89,13 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
         inputs: idx
             .iter()
             .zip(rows)
-            .map(|(&i, r)| crate::calib::effects::RowInputs { t_s: r.t_s, temp_c: r.temp_c, station: stations.of_row[i], ..Default::default() })
+            .map(|(&i, r)| crate::calib::effects::RowInputs {
+                t_s: r.t_s,
+                temp_c: r.temp_c,
+                station: stations.of_row[i],
+                mount: mounts.of_row[i],
+                ..Default::default()
+            })
             .collect(),
         w: None,
         gls: None,

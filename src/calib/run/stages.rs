@@ -141,7 +141,7 @@ pub fn outlier_stage(
         split.train_idx = screen.keep.iter().map(|&i| split.train_idx[i]).collect();
         split.train = screen.corrected.subset(&screen.keep);
         if matches!(opts.model, ModelSpec::Nominal { .. }) {
-            *model = crate::calib::run::placement::place_sensor(opts, &split.train, &data.stations().labels)?;
+            *model = crate::calib::run::placement::place_sensor(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
             placed_again = true;
         }
     }
