@@ -364,6 +364,7 @@ pub(super) fn final_stage(
     let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
     let (noise_floor_mm, noise_floor_source) = (noise_floor.total_mm, floor_source_text(&noise_floor));
     let current_oof = rms(&current.oof);
+    let unexplained = unexplained_note(&current, &ctx.data, &noise_floor, data);
     warnings.extend(leak_warning(&current.oof, dim, ctx.groups.as_deref(), noise_floor_mm, shared));
     let diagnosis = Diagnosis {
         schema_version: crate::io::SCHEMA_VERSION,
@@ -400,7 +401,12 @@ pub(super) fn final_stage(
         },
         evidence: sel.evidence,
         steps: sel.steps,
-        verdict: verdict_of(&causes),
+        verdict: match (&unexplained, causes.is_empty()) {
+            (None, _) => verdict_of(&causes),
+            (Some(_), true) => "unexplained".into(),
+            (Some(_), false) => format!("{} + unexplained", verdict_of(&causes)),
+        },
+        unexplained,
         causes,
         final_heldout_rmse_mm: current_oof,
         final_train_rmse_mm,
@@ -410,6 +416,51 @@ pub(super) fn final_stage(
         effects_option: effects_option(&current.model),
     };
     Ok((diagnosis, result))
+}
+
+/// The final fit's held-out residual where it stays above [`UNEXPLAINED_RATIO`] times a floor the
+/// data measure: how far, and where it concentrates. The position values alone are compared
+/// with the floor (a 6-D pose's axes have a noise of their own).
+pub(super) fn unexplained_note(current: &Fitted, rows: &Samples, floor: &crate::calib::problem::floor::NoiseFloor, data: &Dataset) -> Option<String> {
+    let measured = ["repeatability", "row_std", "instrument_accuracy"];
+    let measured_floor = floor.sources.iter().filter(|s| measured.contains(&s.source.as_str())).map(|s| s.rms_mm * s.rms_mm).sum::<f64>().sqrt();
+    let d = rows.dim;
+    if measured_floor <= 0.0 || current.oof.len() != rows.len() * d {
+        return None;
+    }
+    let m = current.model.measurement;
+    let groups = m.def().value_groups();
+    let position = |c: usize| groups.get(c).copied().unwrap_or(0) == 0;
+    let rms_of = |idx: &mut dyn Iterator<Item = usize>| {
+        let v: Vec<f64> = idx.flat_map(|i| (0..d).filter(|c| position(*c)).map(move |c| current.oof[i * d + c])).collect();
+        (!v.is_empty()).then(|| rms(&v))
+    };
+    let all = rms_of(&mut (0..rows.len()))?;
+    let floor_mm = floor.total_mm.max(measured_floor);
+    if all <= UNEXPLAINED_RATIO * floor_mm {
+        return None;
+    }
+    let mut at = Vec::new();
+    let stations = data.stations();
+    if !stations.is_single() {
+        let per: Vec<String> = (0..stations.len())
+            .filter_map(|s| rms_of(&mut (0..rows.len()).filter(|i| rows.inputs[*i].station == s)).map(|v| format!("station {} {v:.4} mm", stations.labels[s])))
+            .collect();
+        at.push(format!("by station: {}", per.join(", ")));
+    }
+    if rows.inputs.iter().all(|i| i.t_s.is_some()) && rows.len() >= 30 {
+        let mut order: Vec<usize> = (0..rows.len()).collect();
+        order.sort_by(|a, b| rows.inputs[*a].t_s.partial_cmp(&rows.inputs[*b].t_s).unwrap_or(std::cmp::Ordering::Equal));
+        let thirds: Vec<String> = order.chunks(order.len().div_ceil(3)).filter_map(|c| rms_of(&mut c.iter().copied())).map(|v| format!("{v:.4}")).collect();
+        at.push(format!("by time (first, middle, last third): {} mm", thirds.join(", ")));
+    }
+    let what = if m.n_value_groups() > 1 { "of the positions " } else { "" };
+    Some(format!(
+        "the final held-out RMSE {what}{all:.4} mm is {:.1}x the data's floor ({floor_mm:.4} mm: {}); neither the causes named nor the set-up's stations explain the rest{}",
+        all / floor_mm,
+        floor.sources.iter().map(|s| s.source.as_str()).collect::<Vec<_>>().join(", "),
+        if at.is_empty() { String::new() } else { format!("; it concentrates {}", at.join("; ")) }
+    ))
 }
 
 /// Where the floor comes from, as one line: each source with its RMS, and a note when it is a

@@ -212,8 +212,16 @@ pub struct Diagnosis {
     pub steps: Vec<Step>,
     /// Causes in the order found; empty = `geometric_only`.
     pub causes: Vec<Cause>,
-    /// `geometric_only`, or the causes kept joined by ` + ` (`backlash[j2] + thermal_drift`).
+    /// `geometric_only`, or the causes kept joined by ` + ` (`backlash[j2] + thermal_drift`);
+    /// `unexplained` (alone or after the causes) where the final held-out fit stays far above a
+    /// floor the data measure ([`Self::unexplained`]).
     pub verdict: String,
+    /// Where the final held-out RMSE stays above [`UNEXPLAINED_RATIO`] times a floor the data
+    /// measure (repeatability, the rows' own standard deviations, a stated accuracy): how far,
+    /// and where the residual concentrates (stations, time, what it follows). `None` otherwise
+    /// (or where the floor is only a lower bound from logging resolutions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unexplained: Option<String>,
     /// Held-out RMSE of the model with every kept cause, on the folds selection judged on, mm.
     pub final_heldout_rmse_mm: f64,
     /// RMSE of the final model (the one `--result` holds) on every kept row it was fitted to.
@@ -243,6 +251,10 @@ pub(super) fn no_structure() -> Structure {
 pub(super) fn one() -> f64 {
     1.0
 }
+
+/// How many times a measured floor the final held-out RMSE may be before the rest is reported as
+/// unexplained.
+pub const UNEXPLAINED_RATIO: f64 = 3.0;
 
 impl Diagnosis {
     /// The final held-out RMSE against the data's floor, in words: a ratio where repeated

@@ -102,8 +102,11 @@ fn print_diagnosis(d: &twincal::diagnose::Diagnosis) {
     );
     let top: Vec<String> = d.evidence.iter().take(4).map(|e| format!("{} r={:+.2}", e.feature, e.correlation)).collect();
     eprintln!("  residual follows most: {}", top.join(", "));
-    if d.causes.is_empty() {
-        eprintln!("  verdict: geometric_only (no effect improves the held-out fit significantly)");
+    match (&d.unexplained, d.causes.is_empty()) {
+        (None, true) => eprintln!("  verdict: geometric_only (no effect improves the held-out fit significantly)"),
+        (Some(u), true) => eprintln!("  verdict: unexplained: {u}"),
+        (Some(u), false) => eprintln!("  unexplained remainder: {u}"),
+        (None, false) => {}
     }
     for (i, c) in d.causes.iter().enumerate() {
         eprintln!("  cause {}: {}", i + 1, c.summary());
