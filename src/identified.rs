@@ -195,6 +195,8 @@ fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Opt
                 orientation_noise_urad: probe.map_or(0.0, |(_, u, _)| u),
                 angle_decimals: 6,
                 write_std: data.rows.iter().any(|row| row.std_mm.is_some()),
+                moves: Vec::new(),
+                write_station: false,
             })
         }
         None => {

@@ -456,3 +456,37 @@ def test_plan_agrees_with_the_command_line_and_its_poses_are_what_generate_measu
     assert list(data["payload_kg"]) == w["payload_kg"]
     with pytest.raises(twincal.TwincalError, match="payloads"):
         twincal.plan(tmp_path / "v", payloads=["heavy"])
+
+
+def test_a_moved_tracker_is_a_station_of_its_own_and_a_new_one_is_registered(tmp_path):
+    d = tmp_path / "tw"
+    run_cli("generate", "--scenario", ROOT / "scenarios/irb120_tracker.toml", "--out", d)
+    import csv
+
+    rows = list(csv.DictReader(open(d / "dataset.csv")))
+    half = len(rows) // 2
+    for i, r in enumerate(rows):
+        if i >= half:
+            r["x"], r["y"] = str(float(r["y"]) + 300.0), str(-float(r["x"]))
+        r["station"] = "east" if i < half else "west"
+    moved = tmp_path / "moved.csv"
+    with open(moved, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    r = twincal.calibrate(moved)
+    setup = r.setup
+    assert [s["label"] for s in setup["stations"]] == ["east", "west"]
+    assert abs(setup["stations"][1]["turn_deg"] - 90.0) < 0.01
+    one = twincal.calibrate(moved, stations="one")
+    assert one.setup is None
+    assert one.metrics["test_after"]["rmse"] > 100 * r.metrics["test_after"]["rmse"]
+    east = {k: [row[k] for row in rows[:half]] for k in rows[0]}
+    model = twincal.calibrate({k: np.array(v, dtype=float) if k not in ("station", "split") else np.array(v) for k, v in east.items()})
+    with pytest.warns(UserWarning, match="station west: not one the model was calibrated at"):
+        p = model.predict(moved)
+    assert np.sqrt(np.mean((p[half + 12 :] - np.array([[float(x[c]) for c in "xyz"] for x in rows[half + 12 :]])) ** 2)) < 0.02
+    with pytest.raises(twincal.TwincalError, match="register each on its first rows"):
+        model.predict(moved, register_rows=0)
+    with pytest.raises(twincal.TwincalError, match="unknown variant `north`|stations"):
+        twincal.calibrate(moved, stations="north")

@@ -261,6 +261,12 @@ class Result:
         return dict(self._dict["evaluation"]["metrics"])
 
     @property
+    def setup(self) -> Optional[dict]:
+        """The instrument's stations and the target's mounts where there were several: each one's
+        rows and its shift and turn from the first (``None`` for one of each)."""
+        return self._dict.get("setup")
+
+    @property
     def verdict(self) -> Optional[dict]:
         """The verdict against max_test_rmse_mm / max_test_max_mm, when given."""
         return self._dict.get("verdict")
@@ -269,20 +275,24 @@ class Result:
     def warnings(self) -> list[str]:
         return list(self._native.warnings)
 
-    def predict(self, data: Union[np.ndarray, Data], *, angles: str = "auto", euler: str = "XYZ") -> np.ndarray:
+    def predict(self, data: Union[np.ndarray, Data], *, angles: str = "auto", euler: str = "XYZ", register_rows: int = 12) -> np.ndarray:
         """Readings the model predicts, in mm (as ``twincal predict``).
 
         ``data``: an (n, N) array of joint angles in degrees, or a dataset (mapping or path) with
-        ``q1..qN`` and whatever else the model reads (``temp``, ``t``). Returns shape (n,) for a
-        cable length, (n, 3) for a tracker's point, (n, 6) for a pose (x, y, z mm; rx, ry, rz in
-        degrees, ``euler`` convention).
+        ``q1..qN`` and whatever else the model reads (``temp``, ``t``, ``station``, ``mount``).
+        Returns shape (n,) for a cable length, (n, 3) for a tracker's point, (n, 6) for a pose
+        (x, y, z mm; rx, ry, rz in degrees, ``euler`` convention). A station (or mount) the model
+        was not calibrated at is registered on its first ``register_rows`` rows (a warning says
+        which); 0 refuses it.
         """
         if isinstance(data, np.ndarray) or (isinstance(data, (list, tuple)) and not isinstance(data, str)):
             q = np.atleast_2d(_unmasked("q", data))
             if q.ndim != 2:
                 raise TwincalError(f"joint angles must be an (n, N) array in degrees, got shape {q.shape}")
             data = {f"q{j + 1}": q[:, j] for j in range(q.shape[1])}
-        values, warning = self._native.predict(_columns(data), angles, euler)
+        if isinstance(register_rows, bool) or not isinstance(register_rows, (int, np.integer)) or register_rows < 0:
+            raise TwincalError(f"register_rows must be a whole number of rows >= 0, got {register_rows!r}")
+        values, warning = self._native.predict(_columns(data), angles, euler, int(register_rows))
         if warning:
             import warnings
 

@@ -448,7 +448,7 @@ impl Tour<'_> {
             std_mm: other.as_ref().filter(|r| r.write_std).map(|r| [round_decimals(r.std_mm, STD_DECIMALS); 3]),
             block: None,
             payload_kg: None,
-            station: None,
+            station: s.instruments.active().map(|ins| ins.station(i)).filter(|(_, written)| *written).map(|(k, _)| (k + 1).to_string()),
             mount: None,
         };
         let mut truth = PoseTruth {
@@ -513,7 +513,7 @@ fn cable_reading(s: &Scenario, i: usize, rest: &RestingPose, series: Option<&[f6
 fn instrument_reading(s: &Scenario, i: usize, rest: &RestingPose) -> Option<crate::sim::instrument::TwinReading> {
     let instrument = s.instruments.active()?;
     let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
-    Some(instrument.reading(&rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.sensor.samples, &mut rng))
+    Some(instrument.reading_at(i, &rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.sensor.samples, &mut rng))
 }
 
 /// Angles in degrees.

@@ -47,6 +47,16 @@ pub trait TwinInstrument: Sync {
     /// Its reading of the target at `p` (base frame, m) on the flange rotated by `flange_rot`:
     /// the mean of `samples` samples, its noise drawn from `rng`.
     fn reading(&self, p: &Vector3<f64>, flange_rot: &Matrix3<f64>, samples: usize, rng: &mut ChaCha8Rng) -> TwinReading;
+    /// The station pose `pose` (0-based, acquisition order) is read from (0: where the scenario
+    /// places it; an instrument moved during the acquisition counts its moves), and whether the
+    /// dataset states it (a `station` column).
+    fn station(&self, _pose: usize) -> (usize, bool) {
+        (0, false)
+    }
+    /// [`Self::reading`] of pose `pose`, from the station the instrument stood at then.
+    fn reading_at(&self, _pose: usize, p: &Vector3<f64>, flange_rot: &Matrix3<f64>, samples: usize, rng: &mut ChaCha8Rng) -> TwinReading {
+        self.reading(p, flange_rot, samples, rng)
+    }
     /// One raw sample's length values (mm) of the target at `p` (base frame, m), for a
     /// simulated acquisition's stability gate.
     fn raw_sample(&self, p: &Vector3<f64>, rng: &mut ChaCha8Rng) -> Vec<f64>;

@@ -60,6 +60,28 @@ pub struct Tracker {
     /// samples: what a tracker logs beside its point) as the dataset's `sx, sy, sz`, mm.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub write_std: bool,
+    /// Where the tracker stood from a pose on, when it was re-stationed, re-registered or bumped
+    /// during the acquisition: each move a station of its own (`2`, `3`, ... after the first,
+    /// `1`), in the order of their `from_pose`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub moves: Vec<TrackerMove>,
+    /// Write each row's station as the dataset's `station` column (else the calibration must
+    /// find the moves itself).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub write_station: bool,
+}
+
+/// A tracker moved during the acquisition ([`Tracker::moves`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackerMove {
+    /// The first pose (0-based, in acquisition order) read from the new station.
+    pub from_pose: usize,
+    /// The base-to-tracker translation from then on, mm (as [`Tracker::translation_mm`]).
+    pub translation_mm: [f64; 3],
+    /// The base-to-tracker rotation from then on, degrees (as [`Tracker::rotation_deg`]).
+    #[serde(default)]
+    pub rotation_deg: [f64; 3],
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -130,8 +152,31 @@ impl Tracker {
         TrackerReading { ideal_mm, read_mm, std_mm }
     }
 
+    /// The station pose `i` (0-based, acquisition order) is read from: 0 before the first move.
+    pub fn station_of_pose(&self, i: usize) -> usize {
+        self.moves.iter().take_while(|m| m.from_pose <= i).count()
+    }
+
+    /// The tracker as it stood at station `k` ([`Self::station_of_pose`]).
+    pub fn at_station(&self, k: usize) -> Tracker {
+        match k.checked_sub(1).and_then(|m| self.moves.get(m)) {
+            Some(m) => Tracker { translation_mm: m.translation_mm, rotation_deg: m.rotation_deg, moves: Vec::new(), write_station: false, ..self.clone() },
+            None => Tracker { moves: Vec::new(), write_station: false, ..self.clone() },
+        }
+    }
+
     /// An error naming the key whose value is out of range.
     fn check(&self) -> Result<(), String> {
+        for (k, m) in self.moves.iter().enumerate() {
+            if m.from_pose == 0 || (k > 0 && m.from_pose <= self.moves[k - 1].from_pose) {
+                return Err(format!("tracker.moves[{k}].from_pose = {}: the moves start after pose 0, each after the one before", m.from_pose));
+            }
+            let at = self.at_station(k + 1);
+            at.check().map_err(|e| e.replacen("tracker.", &format!("tracker.moves[{k}]."), 1))?;
+        }
+        if self.write_station && self.moves.is_empty() {
+            return Err("tracker.write_station writes the stations of tracker.moves: give the moves too".into());
+        }
         if let Some(v) = self.translation_mm.iter().find(|v| !(v.is_finite() && v.abs() <= MAX_DISTANCE_MM)) {
             return Err(format!("tracker.translation_mm holds {v}: each coordinate must be finite and within ±{MAX_DISTANCE_MM} mm"));
         }
@@ -176,6 +221,22 @@ impl super::TwinInstrument for Tracker {
     }
     fn placement(&self, tool: Vector3<f64>) -> crate::measurement::Placement {
         crate::measurement::Placement::tracker(self.translation_mm, self.rotation_deg, self.probe_rotation_deg, tool)
+    }
+    fn station(&self, pose: usize) -> (usize, bool) {
+        (self.station_of_pose(pose), self.write_station)
+    }
+    fn reading_at(
+        &self,
+        pose: usize,
+        p: &Vector3<f64>,
+        flange_rot: &nalgebra::Matrix3<f64>,
+        samples: usize,
+        rng: &mut rand_chacha::ChaCha8Rng,
+    ) -> super::TwinReading {
+        match self.station_of_pose(pose) {
+            0 => self.reading(p, flange_rot, samples, rng),
+            k => self.at_station(k).reading(p, flange_rot, samples, rng),
+        }
     }
     fn reading(&self, p: &Vector3<f64>, flange_rot: &nalgebra::Matrix3<f64>, samples: usize, rng: &mut rand_chacha::ChaCha8Rng) -> super::TwinReading {
         use crate::units::round_decimals;
