@@ -66,6 +66,7 @@ pub fn bench_command(
         BenchTarget::Compensate => crate::bench::compensate::bench_compensate(seeds),
         BenchTarget::Plan => crate::bench::plan::bench_plan(seeds, repeat),
         BenchTarget::PlanHidden => crate::bench::plan::hidden(seeds),
+        BenchTarget::Stations => crate::bench::stations::bench_stations(seeds),
     }
 }
 
@@ -95,6 +96,7 @@ fn takes(what: BenchTarget) -> Takes {
         BenchTarget::Compensate => t(false, false, Some(10), "IRB 120 cable and tracker scenarios, with and without compliance"),
         BenchTarget::Plan => t(false, false, Some(10), "IRB 120 tracker and cable scenarios; --repeat runs of the speed"),
         BenchTarget::PlanHidden => t(false, false, Some(10), "the IRB 120 tracker scenario with compliance hidden"),
+        BenchTarget::Stations => t(false, false, Some(20), "IRB 120 point and UR10 pose tracker scenarios with the tracker moved"),
     }
 }
 

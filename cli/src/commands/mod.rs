@@ -84,6 +84,10 @@ pub enum BenchTarget {
     /// includes the effect (and, with payloads to choose from, the payload per pose) name and size
     /// it where random feasible poses do not?
     PlanHidden,
+    /// Set-up changes of a tracker campaign on the twin: a tracker re-stationed, re-registered or
+    /// bumped found at its rows and sized, no false alarm on one that never moved or on a
+    /// misfit; a 3-station campaign of 3 000 poses timed.
+    Stations,
 }
 
 /// `--shard i/N --shard-out PART.jsonl` of `study hold` and `bench diagnose` (see
