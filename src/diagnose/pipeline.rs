@@ -362,9 +362,7 @@ pub(super) fn final_stage(
     // The data's own floor: repeatability and logging resolutions, never the fit's residual.
     let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg, opts.instrument_accuracy_mm)?;
     let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
-    let (noise_floor_mm, noise_floor_source) = (noise_floor.total_mm, floor_source_text(&noise_floor));
-    let current_oof = rms(&current.oof);
-    let unexplained = unexplained_note(&current, &ctx.data, &noise_floor, data);
+    let (noise_floor_mm, noise_floor_source, current_oof) = (noise_floor.total_mm, floor_source_text(&noise_floor), rms(&current.oof));
     warnings.extend(leak_warning(&current.oof, dim, ctx.groups.as_deref(), noise_floor_mm, shared));
     let diagnosis = Diagnosis {
         schema_version: crate::io::SCHEMA_VERSION,
@@ -401,12 +399,8 @@ pub(super) fn final_stage(
         },
         evidence: sel.evidence,
         steps: sel.steps,
-        verdict: match (&unexplained, causes.is_empty()) {
-            (None, _) => verdict_of(&causes),
-            (Some(_), true) => "unexplained".into(),
-            (Some(_), false) => format!("{} + unexplained", verdict_of(&causes)),
-        },
-        unexplained,
+        unexplained: result.evaluation.noise_floor.as_ref().and_then(|f| unexplained_note(&current, &ctx.data, f, data)),
+        verdict: String::new(),
         causes,
         final_heldout_rmse_mm: current_oof,
         final_train_rmse_mm,
@@ -415,7 +409,17 @@ pub(super) fn final_stage(
         seconds: t0.elapsed().as_secs_f64(),
         effects_option: effects_option(&current.model),
     };
-    Ok((diagnosis, result))
+    Ok((Diagnosis { verdict: verdict_with(&diagnosis.causes, diagnosis.unexplained.is_some()), ..diagnosis }, result))
+}
+
+/// The verdict: the causes ([`verdict_of`]), and `unexplained` where the rest stays far above
+/// the floor.
+fn verdict_with(causes: &[Cause], unexplained: bool) -> String {
+    match (unexplained, causes.is_empty()) {
+        (false, _) => verdict_of(causes),
+        (true, true) => "unexplained".into(),
+        (true, false) => format!("{} + unexplained", verdict_of(causes)),
+    }
 }
 
 /// The final fit's held-out residual where it stays above [`UNEXPLAINED_RATIO`] times a floor the

@@ -134,54 +134,11 @@ impl CalibResult {
     /// `rows` rows of each (everything else held).
     fn register(&mut self, data: &Dataset, unknown: &[(SetupKind, String)], rows: usize) -> Result<Vec<Registration>> {
         let m = self.model.measurement;
-        let what = m.def().describe();
         let groups: Vec<Vec<usize>> = unknown
             .iter()
             .map(|(k, l)| data.rows.iter().enumerate().filter(|(_, r)| label_of(r, *k) == Some(l.as_str())).map(|(i, _)| i).take(rows).collect())
             .collect();
-        let mut model = self.model.clone();
-        let mut x = self.x.clone();
-        for ((k, label), idx) in unknown.iter().zip(&groups) {
-            let n = model.setup_params(*k).len();
-            if idx.len() * m.dim() < 2 * n || idx.len() < 3 {
-                return Err(Error::data(
-                    &data.source,
-                    format!(
-                        "{} {label}: {} rows are too few to register a {what}'s placement (at least 3, and twice as many values as its {n} parameters)",
-                        k.name(),
-                        idx.len()
-                    ),
-                ));
-            }
-            // The start: the instrument located from the calibrated arm's flange on these rows
-            // (a point's target: the calibrated one).
-            let inputs = self.row_inputs(data);
-            let sub = super::split::samples(data, idx);
-            let mut w = model.work();
-            let (pts, rots): (Vec<_>, Vec<_>) = idx
-                .iter()
-                .zip(&sub.q)
-                .map(|(&i, q)| {
-                    let f = model.flange_frame_with(&x, q, &inputs[i], &mut w);
-                    (f.pos, f.rot)
-                })
-                .unzip();
-            let (own, tool) = m.def().locate(&pts, &rots, &sub.y).ok_or_else(|| {
-                Error::data(
-                    &data.source,
-                    format!("{} {label}: cannot place the {what} from rows {}-{} (points on one line?)", k.name(), idx[0] + 1, idx[idx.len() - 1] + 1),
-                )
-            })?;
-            let located: Vec<f64> = own.iter().chain(tool.iter()).copied().collect();
-            let calibrated = model.placement(&x);
-            let start: Vec<f64> = match (k, m.def().n_targets() > 1) {
-                (SetupKind::Mount, false) => {
-                    calibrated.own.iter().chain(calibrated.tool.iter()).copied().collect::<Vec<f64>>()[model.setup_params(*k)].to_vec()
-                }
-                _ => located[model.setup_params(*k)].to_vec(),
-            };
-            model.add_setup(*k, &mut x, label, &start, CALIBRATED_SETUP);
-        }
+        let (model, x) = self.with_new_setups(data, unknown, &groups)?;
         // Every registration row with its set-ups as the extended model numbers them.
         let extended = CalibResult { model: model.clone(), x: x.clone(), ..self.clone() };
         let all: Vec<usize> = {
@@ -236,5 +193,57 @@ impl CalibResult {
             .zip(&groups)
             .map(|((k, l), idx)| Registration { kind: *k, label: l.clone(), rows: idx.iter().map(|i| i + 1).collect(), rms_mm: rms_of(idx) })
             .collect())
+    }
+
+    /// This model's parameters with the set-ups `unknown` added, each started where the
+    /// calibrated arm's flange on its rows `groups` places it (a point's target: the calibrated
+    /// one).
+    fn with_new_setups(&self, data: &Dataset, unknown: &[(SetupKind, String)], groups: &[Vec<usize>]) -> Result<(crate::calib::model::CalibModel, Vec<f64>)> {
+        let m = self.model.measurement;
+        let what = m.def().describe();
+        let mut model = self.model.clone();
+        let mut x = self.x.clone();
+        for ((k, label), idx) in unknown.iter().zip(groups) {
+            let n = model.setup_params(*k).len();
+            if idx.len() * m.dim() < 2 * n || idx.len() < 3 {
+                return Err(Error::data(
+                    &data.source,
+                    format!(
+                        "{} {label}: {} rows are too few to register a {what}'s placement (at least 3, and twice as many values as its {n} parameters)",
+                        k.name(),
+                        idx.len()
+                    ),
+                ));
+            }
+            // The start: the instrument located from the calibrated arm's flange on these rows
+            // (a point's target: the calibrated one).
+            let inputs = self.row_inputs(data);
+            let sub = super::split::samples(data, idx);
+            let mut w = model.work();
+            let (pts, rots): (Vec<_>, Vec<_>) = idx
+                .iter()
+                .zip(&sub.q)
+                .map(|(&i, q)| {
+                    let f = model.flange_frame_with(&x, q, &inputs[i], &mut w);
+                    (f.pos, f.rot)
+                })
+                .unzip();
+            let (own, tool) = m.def().locate(&pts, &rots, &sub.y).ok_or_else(|| {
+                Error::data(
+                    &data.source,
+                    format!("{} {label}: cannot place the {what} from rows {}-{} (points on one line?)", k.name(), idx[0] + 1, idx[idx.len() - 1] + 1),
+                )
+            })?;
+            let located: Vec<f64> = own.iter().chain(tool.iter()).copied().collect();
+            let calibrated = model.placement(&x);
+            let start: Vec<f64> = match (k, m.def().n_targets() > 1) {
+                (SetupKind::Mount, false) => {
+                    calibrated.own.iter().chain(calibrated.tool.iter()).copied().collect::<Vec<f64>>()[model.setup_params(*k)].to_vec()
+                }
+                _ => located[model.setup_params(*k)].to_vec(),
+            };
+            model.add_setup(*k, &mut x, label, &start, CALIBRATED_SETUP);
+        }
+        Ok((model, x))
     }
 }
