@@ -233,7 +233,29 @@ pub fn truth_stage(
 /// The repeatability of the readings over repeated configurations: for several values per row
 /// (a point), pooled over the values (each coordinate's within-group variance, averaged).
 pub fn reading_repeatability(data: &Dataset) -> Option<crate::stats::metrics::Repeatability> {
-    let q_deg: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
+    // Repeats belong together only under one set of conditions: a configuration measured at
+    // another station, with another mount, under another payload or in another declared block
+    // is no repeat (what separates them would raise the floor that then hides it). Each
+    // condition joins the angles as a coordinate far beyond any angle.
+    let (stations, mounts) = (data.stations(), data.mounts());
+    let blocks = crate::dataset::Stations::of_labels(data.rows.iter().map(|r| r.block.as_deref()));
+    let apart = 1e3;
+    let keyed: Vec<Vec<f64>> = data
+        .rows
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let mut q = r.q_deg.clone();
+            q.extend([
+                stations.of_row[i] as f64 * apart,
+                mounts.of_row[i] as f64 * apart,
+                blocks.of_row[i] as f64 * apart,
+                r.payload_kg.unwrap_or(0.0) * apart,
+            ]);
+            q
+        })
+        .collect();
+    let q_deg: Vec<&[f64]> = keyed.iter().map(Vec::as_slice).collect();
     // The values as the model reads them (a pose's origin and axes).
     let values: Vec<Vec<f64>> = data.rows.iter().map(|r| r.values_mm().unwrap_or_default()).collect();
     let dim = values.first().map_or(1, |v| v.len()).max(1);
@@ -318,4 +340,42 @@ pub fn floor_stage(
     let row_std_mm = (!stds.is_empty()).then(|| crate::stats::rms(&stds));
     let instrument = crate::calib::problem::floor::Instrument { row_std_mm, accuracy_mm: instrument_accuracy_mm };
     crate::calib::problem::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat, instrument)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::dataset::{Dataset, Row};
+
+    /// Ten configurations measured twice at each of two stations (the second reading 0.01 mm
+    /// off the first, the second station 5 mm off the first), then twice more under a payload
+    /// (0.3 mm off): repeats are pooled within a station and a payload only.
+    #[test]
+    fn repeats_are_pooled_within_a_station_and_a_payload_only() {
+        let mut rows = Vec::new();
+        for (station, payload, offset) in [("a", 0.0, 0.0), ("b", 0.0, 5.0), ("a", 3.0, 0.3)] {
+            for k in 0..10 {
+                for rep in 0..2 {
+                    rows.push(Row {
+                        q_deg: vec![k as f64 * 7.0, 10.0, -20.0, 0.0, 30.0, 0.0],
+                        reading_mm: vec![400.0 + k as f64 + offset + 0.01 * rep as f64],
+                        station: Some(station.into()),
+                        payload_kg: Some(payload),
+                        ..Default::default()
+                    });
+                }
+            }
+        }
+        let data = Dataset { rows, source: "test".into() };
+        let r = super::reading_repeatability(&data).unwrap();
+        // Each pair differs by 0.01 mm: a pooled std of 0.01 / √2.
+        assert!((r.pooled_std - 0.01 / 2f64.sqrt()).abs() < 1e-9, "{r:?}");
+        assert_eq!((r.groups, r.rows), (30, 60));
+        // Read as one station without payloads, the offsets join the repeats.
+        let mut one = data.clone();
+        one.rows.iter_mut().for_each(|r| {
+            r.station = None;
+            r.payload_kg = None;
+        });
+        assert!(super::reading_repeatability(&one).unwrap().pooled_std > 1.0);
+    }
 }
