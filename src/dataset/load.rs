@@ -23,6 +23,9 @@ impl Dataset {
 
     /// [`Self::load`] with explicit [`LoadOptions`] (angle unit, whether `L` is required).
     pub fn load_with(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
+        if let Some(files) = campaign_files(path) {
+            return Self::load_campaign(path, &files, opts);
+        }
         if path.is_dir() {
             return Self::load_csv_file(&path.join(DATASET_FILE), opts);
         }
@@ -40,6 +43,37 @@ impl Dataset {
                  or an .xlsx file (optionally file.xlsx#Sheet)",
             )),
         }
+    }
+
+    /// A campaign: the CSV files of a folder (by name), each read on its own, their rows one
+    /// after the other; a file's rows that name no station stand at a station named by the
+    /// file (its name without `.csv`). The files must read the same instrument on the same arm.
+    fn load_campaign(dir: &Path, files: &[PathBuf], opts: &LoadOptions) -> Result<Dataset> {
+        let mut rows: Vec<Row> = Vec::new();
+        let mut first: Option<(String, Option<Measurement>, usize)> = None;
+        for f in files {
+            let d = Self::load_csv_file(f, opts)?;
+            let what = (d.source.clone(), d.measurement(), d.n_joints());
+            match &first {
+                Some((src, m, n)) if (*m, *n) != (what.1, what.2) => {
+                    return Err(Error::data(
+                        dir.display(),
+                        format!(
+                            "a campaign's files must read one instrument on one arm: {src} holds {n} joints and {}, {} holds {} and {}",
+                            m.map_or("no readings", |m| m.def().describe()),
+                            what.0,
+                            what.2,
+                            what.1.map_or("no readings", |m| m.def().describe())
+                        ),
+                    ))
+                }
+                Some(_) => {}
+                None => first = Some(what),
+            }
+            let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            rows.extend(d.rows.into_iter().map(|r| Row { station: r.station.or_else(|| Some(stem.clone())), ..r }));
+        }
+        Ok(Dataset { rows, source: dir.display().to_string() })
     }
 
     pub(super) fn load_csv_file(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
@@ -374,4 +408,19 @@ pub(super) fn split_sheet(path: &Path) -> (PathBuf, Option<String>) {
         }
     }
     (path.to_path_buf(), None)
+}
+
+/// The files of a campaign folder: a folder without `dataset.csv` whose `.csv` files (by name)
+/// are its sessions ([`Dataset::load`]); `None` for anything else.
+pub fn campaign_files(path: &Path) -> Option<Vec<PathBuf>> {
+    if !path.is_dir() || path.join(DATASET_FILE).exists() {
+        return None;
+    }
+    let mut files: Vec<PathBuf> = std::fs::read_dir(path)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file() && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")))
+        .collect();
+    files.sort();
+    (!files.is_empty()).then_some(files)
 }

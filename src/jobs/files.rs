@@ -15,7 +15,10 @@ use std::path::{Path, PathBuf};
 /// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without
 /// an xlsx `#Sheet`), plus the truth file `calibrate` reads beside either.
 pub fn data_inputs(data: &Path) -> Vec<PathBuf> {
-    vec![crate::dataset::truth::dataset_file(data), crate::dataset::truth::truth_file(data)]
+    match crate::dataset::campaign_files(data) {
+        Some(files) => files,
+        None => vec![crate::dataset::truth::dataset_file(data), crate::dataset::truth::truth_file(data)],
+    }
 }
 
 /// Loads a dataset for a job. `require_length`: the reading columns must be present (calibrate,

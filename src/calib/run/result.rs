@@ -714,7 +714,7 @@ impl SetupReport {
             }
             let found = parts.iter().filter(|s| s.origin == StationOrigin::ChangePoint).count();
             let how = match (found, parts.len() - found) {
-                (0, _) => "as the file declares them".to_string(),
+                (0, _) => "as declared".to_string(),
                 (_, 0) => "found as change points in the residuals of a first fit".to_string(),
                 (f, d) => format!("{d} declared, {f} found as change points in the residuals of a first fit"),
             };
