@@ -137,6 +137,44 @@ fn reading_sigma(r: &CalibResult, notes: &mut Vec<String>) -> f64 {
     sigma
 }
 
+/// The identified tracker's moves: each station after the first where the data's rows stand,
+/// from its first row on (replay reads the rows in order, one pose a row). None where the
+/// stations' rows interleave (a note says the twin stands at the first), and a note where the
+/// target had several mounts (the twin keeps the first).
+fn tracker_moves(r: &CalibResult, data: &Dataset, notes: &mut Vec<String>) -> Vec<crate::sim::instrument::tracker::TrackerMove> {
+    use crate::calib::model::SetupKind;
+    let m = &r.model;
+    if m.n_setups(SetupKind::Mount) > 1 {
+        notes.push(format!("The target sat on {} mounts; the twin's sits on the first ({}).", m.n_setups(SetupKind::Mount), m.mounts[0]));
+    }
+    if m.n_stations() < 2 {
+        return Vec::new();
+    }
+    // Each station's rows, as the result reports them (found stations name no row of the file).
+    let parts = r.setup.as_ref().map(|u| u.stations.as_slice()).unwrap_or_default();
+    let firsts: Vec<usize> = parts.iter().map(|p| p.first_row.saturating_sub(1)).collect();
+    // Contiguous and in order: each station's rows one stretch, after the one before.
+    let ordered = parts.len() == m.n_stations()
+        && parts.iter().all(|p| p.rows > 0 && p.last_row + 1 == p.first_row + p.rows)
+        && parts.windows(2).all(|w| w[1].first_row == w[0].last_row + 1)
+        && parts.last().is_some_and(|p| p.last_row == data.rows.len());
+    if !ordered {
+        notes.push(format!("The tracker stood at {} stations whose rows interleave: the twin stands at the first ({}).", m.n_stations(), m.stations[0]));
+        return Vec::new();
+    }
+    notes.push(format!("The tracker stood at {} stations, each from its first row on: {}.", m.n_stations(), m.stations.join(", ")));
+    (1..m.n_stations())
+        .map(|s| {
+            let o = m.placement_at(&r.x, s, 0).own;
+            crate::sim::instrument::tracker::TrackerMove {
+                from_pose: firsts[s],
+                translation_mm: [crate::units::to_mm(o[0]), crate::units::to_mm(o[1]), crate::units::to_mm(o[2])],
+                rotation_deg: [o[3].to_degrees(), o[4].to_degrees(), o[5].to_degrees()],
+            }
+        })
+        .collect()
+}
+
 /// The instrument of the twin: a draw-wire sensor at the identified placement (a length
 /// reading), or a tracker (a point or a pose) with a placeholder draw-wire section.
 fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Option<usize>, notes: &mut Vec<String>) -> Result<(DrawWire, Option<Tracker>)> {
@@ -195,7 +233,7 @@ fn instrument(r: &CalibResult, data: &Dataset, sigma: f64, reading_decimals: Opt
                 orientation_noise_urad: probe.map_or(0.0, |(_, u, _)| u),
                 angle_decimals: 6,
                 write_std: data.rows.iter().any(|row| row.std_mm.is_some()),
-                moves: Vec::new(),
+                moves: tracker_moves(r, data, notes),
                 write_station: false,
             })
         }

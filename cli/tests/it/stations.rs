@@ -234,3 +234,33 @@ fn the_ur10_series_calibrate_as_one_campaign_of_three_stations() {
     let o = twincal(&["calibrate", "--data", campaign.to_str().unwrap(), "--model", urdf.to_str().unwrap(), "--out", campaign.join("b.csv").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// The twin's tracker moved twice during its acquisition (`[tracker] moves`, no station
+/// column): `calibrate` finds both moves, its identified twin (`--scenario-out`) moves its tracker
+/// at the same rows, and `replay` of the data through it leaves the tracker's noise, not the
+/// moves.
+#[test]
+fn a_twin_tracker_moved_twice_is_found_identified_and_replayed() {
+    let text = std::fs::read_to_string(root().join("scenarios/irb120_tracker.toml")).unwrap().replacen(
+        "[tracker]\n",
+        "[tracker]\nmoves = [{ from_pose = 120, translation_mm = [2000.0, 900.0, 250.0], rotation_deg = [0.5, 0.0, -35.0] }, { from_pose = 220, translation_mm = [2000.2, 900.1, 249.9], rotation_deg = [0.5, 0.0, -35.01] }]\n",
+        1,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let (scenario, data, out, twin, replay) =
+        (dir.path().join("moved.toml"), dir.path().join("data"), dir.path().join("r.json"), dir.path().join("twin.toml"), dir.path().join("replay"));
+    std::fs::write(&scenario, text).unwrap();
+    ok(twincal(&["generate", "--scenario", scenario.to_str().unwrap(), "--out", data.to_str().unwrap()]), "generate");
+    let d = Dataset::load(&data).unwrap();
+    assert!(d.rows.iter().all(|r| r.station.is_none()), "the stations are not written without write_station");
+    ok(twincal(&["calibrate", "--data", data.to_str().unwrap(), "--out", out.to_str().unwrap(), "--scenario-out", twin.to_str().unwrap()]), "calibrate");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let firsts: Vec<u64> = r["setup"]["stations"].as_array().unwrap().iter().map(|s| s["first_row"].as_u64().unwrap()).collect();
+    assert_eq!(firsts, [1, 121, 221]);
+    let toml = std::fs::read_to_string(&twin).unwrap();
+    assert_eq!(toml.matches("[[tracker.moves]]").count(), 2, "{toml}");
+    let o = ok(twincal(&["replay", "--data", data.to_str().unwrap(), "--scenario", twin.to_str().unwrap(), "--out", replay.to_str().unwrap()]), "replay");
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(replay.join("replay.json")).unwrap()).unwrap();
+    let rmse = summary["all"]["residual"]["rmse"].as_f64().unwrap_or_else(|| panic!("{summary}"));
+    assert!(rmse < 0.01, "replay RMSE {rmse} mm: {}", String::from_utf8_lossy(&o.stderr));
+}
