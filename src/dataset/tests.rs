@@ -297,9 +297,31 @@ fn load_errors_name_the_path() {
     let msg = Dataset::load(&dir.path().join("data.txt")).expect_err("unsupported").to_string();
     assert_contains(&msg, &["data.txt", "unsupported"]);
 
-    // A folder without dataset.csv.
-    let msg = Dataset::load(dir.path()).expect_err("empty folder").to_string();
+    // A folder without dataset.csv and without a CSV file.
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).expect("mkdir");
+    let msg = Dataset::load(&empty).expect_err("empty folder").to_string();
     assert_contains(&msg, &[DATASET_FILE]);
+    // A folder of CSV files without dataset.csv is a campaign: its bad file is named.
+    let msg = Dataset::load(dir.path()).expect_err("a campaign with a bad file").to_string();
+    assert_contains(&msg, &[&bad.display().to_string(), "line 3", "q3"]);
+}
+
+#[test]
+fn a_folder_of_sessions_is_a_campaign_each_file_a_station() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("b.csv"), format!("{HEADER}\n{GOOD}\n{GOOD}\n")).expect("write");
+    std::fs::write(dir.path().join("a.csv"), format!("{HEADER},station\n{GOOD},east\n{GOOD},west\n{GOOD},east\n")).expect("write");
+    std::fs::write(dir.path().join("notes.txt"), "not a session").expect("write");
+    let d = Dataset::load(dir.path()).expect("a campaign");
+    assert_eq!(d.rows.len(), 5);
+    let s = d.stations();
+    assert_eq!(s.labels, vec!["east", "west", "b"]);
+    assert_eq!(s.of_row, vec![0, 1, 0, 2, 2]);
+    // Another instrument in one file is refused by name.
+    std::fs::write(dir.path().join("c.csv"), "q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3,4,5,6,700,800,900\n").expect("write");
+    let msg = Dataset::load(dir.path()).expect_err("mixed instruments").to_string();
+    assert_contains(&msg, &["one instrument on one arm", "c.csv"]);
 }
 
 // ---- the real HSR-RobotCali pool (skipped when absent) -----------------------------------
