@@ -15,14 +15,20 @@
 //! tracker: base-to-tracker translation and rotation and the reflector (flange frame)), then its
 //! effect blocks. Internal units are metres and radians; readings are predicted in metres.
 
+mod dh;
+mod setup;
 pub mod tolerance;
+
+pub use crate::measurement::Placement;
+pub use dh::{DhRow, DhTable, NEARLY_PARALLEL_RAD};
+pub use setup::SetupKind;
 
 use crate::calib::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::measurement::{Measurement, MAX_DIM, MAX_OWN, MAX_TARGETS};
-use crate::robot::kinematics::{Chain, ChainBuilder, FkWork, Frame, PointJacobian};
+use crate::robot::kinematics::{Chain, FkWork, Frame, PointJacobian};
 use crate::robot::GeoKind;
 use crate::robot::Robot;
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// Physical kind of a parameter (for units and scaling).
@@ -130,39 +136,6 @@ pub struct CalibModel {
     pub mounts: Vec<String>,
 }
 
-/// What a set-up change moves: where the instrument stands (a tracker re-stationed,
-/// re-registered or bumped), or how its target sits on the flange (a probe re-mounted).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SetupKind {
-    /// The instrument's own place: the first [`n_station`](crate::measurement::Instrument::n_station)
-    /// placement parameters.
-    Station,
-    /// The target's mount on the flange: the other placement parameters.
-    Mount,
-}
-
-impl SetupKind {
-    /// Both kinds, stations first (their blocks' order in the parameter vector).
-    pub const ALL: [SetupKind; 2] = [SetupKind::Station, SetupKind::Mount];
-    /// Its name in messages and files.
-    pub fn name(self) -> &'static str {
-        match self {
-            SetupKind::Station => "station",
-            SetupKind::Mount => "mount",
-        }
-    }
-    /// A row's index of this kind.
-    pub fn of(self, inp: &RowInputs) -> usize {
-        match self {
-            SetupKind::Station => inp.station,
-            SetupKind::Mount => inp.mount,
-        }
-    }
-}
-
-pub use crate::measurement::Placement;
-
 /// The instrument's placement one row is read with: its own parameters (its station's where the
 /// row's station is not the first, its mount's likewise) and the target on the flange, with the
 /// parameter index each value comes from.
@@ -221,108 +194,6 @@ impl CalibModel {
     /// The placement of station `s` (the first mount).
     pub fn station_placement(&self, x: &[f64], s: usize) -> Placement {
         self.placement_at(x, s, 0)
-    }
-    /// The labels of the set-ups of kind `k` (empty: one, unnamed).
-    pub fn setups(&self, k: SetupKind) -> &[String] {
-        match k {
-            SetupKind::Station => &self.stations,
-            SetupKind::Mount => &self.mounts,
-        }
-    }
-    fn setups_mut(&mut self, k: SetupKind) -> &mut Vec<String> {
-        match k {
-            SetupKind::Station => &mut self.stations,
-            SetupKind::Mount => &mut self.mounts,
-        }
-    }
-    /// Number of set-ups of kind `k` (1 without a change).
-    pub fn n_setups(&self, k: SetupKind) -> usize {
-        self.setups(k).len().max(1)
-    }
-    /// Number of the instrument's stations (1 without re-stationing).
-    pub fn n_stations(&self) -> usize {
-        self.n_setups(SetupKind::Station)
-    }
-    /// The placement parameters (indices among them) a set-up of kind `k` has its own of.
-    pub fn setup_params(&self, k: SetupKind) -> std::ops::Range<usize> {
-        let ns = self.measurement.def().n_station();
-        match k {
-            SetupKind::Station => 0..ns,
-            SetupKind::Mount => ns..self.measurement.n_placement(),
-        }
-    }
-    /// Parameters of one station beyond the first ([`Instrument::n_station`](crate::measurement::Instrument::n_station)).
-    pub fn n_station_params(&self) -> usize {
-        self.setup_params(SetupKind::Station).len()
-    }
-    /// Indices of set-up `s`'s own parameters (`s` ≥ 1; the first's are the placement's).
-    pub fn setup_block(&self, k: SetupKind, s: usize) -> std::ops::Range<usize> {
-        debug_assert!(s >= 1 && s < self.n_setups(k));
-        let mut start = self.placement_range().end;
-        for kind in SetupKind::ALL {
-            let n = self.setup_params(kind).len();
-            if kind == k {
-                start += (s - 1) * n;
-                return start..start + n;
-            }
-            start += (self.n_setups(kind) - 1) * n;
-        }
-        unreachable!("every kind is in SetupKind::ALL")
-    }
-    /// Indices of station `s`'s own parameters (`s` ≥ 1).
-    pub fn station_range(&self, s: usize) -> std::ops::Range<usize> {
-        self.setup_block(SetupKind::Station, s)
-    }
-    /// Adds a set-up of kind `k` labelled `label` whose own parameters are `values` (its
-    /// [`Self::setup_params`]' values) after the others of its kind (effect blocks keep their
-    /// parameters, after it), into the model and into the parameter vector `x`; returns its
-    /// index. A model of one unnamed set-up of the kind names it `first` first.
-    pub fn add_setup(&mut self, k: SetupKind, x: &mut Vec<f64>, label: &str, values: &[f64], first: &str) -> usize {
-        if self.setups(k).is_empty() {
-            self.setups_mut(k).push(first.to_string());
-        }
-        let m = self.measurement;
-        let params = self.setup_params(k);
-        let at = match k {
-            SetupKind::Station => self.first_effect() - (self.n_setups(SetupKind::Mount) - 1) * self.setup_params(SetupKind::Mount).len(),
-            SetupKind::Mount => self.first_effect(),
-        };
-        for (i, p) in params.enumerate().rev() {
-            self.names.insert(at, format!("{}@{label}", m.placement_names()[p]));
-            self.kinds.insert(at, if m.def().placement_is_angle(p) { Kind::Angle } else { Kind::Length });
-            self.nominal.insert(at, values[i]);
-            x.insert(at, values[i]);
-        }
-        self.setups_mut(k).push(label.to_string());
-        self.setups(k).len() - 1
-    }
-    /// Indices of every parameter that places the instrument: the placement and the other
-    /// stations' and mounts'.
-    pub fn setup_range(&self) -> std::ops::Range<usize> {
-        self.n_chain()..self.first_effect()
-    }
-    /// This model with the instrument at `stations.0.len()` stations and `mounts.0.len()`
-    /// mounts, the first of each at the placement, the others at their values in `.1` (each
-    /// its [`Self::setup_params`]' values); no label: one unnamed. Chosen before effect blocks
-    /// are added.
-    pub fn with_setups(mut self, stations: (Vec<String>, &[Vec<f64>]), mounts: (Vec<String>, &[Vec<f64>])) -> CalibModel {
-        assert!(self.effects.is_empty(), "the set-ups are chosen before effect blocks are added");
-        let end = self.placement_range().end;
-        self.names.truncate(end);
-        self.kinds.truncate(end);
-        self.nominal.truncate(end);
-        self.stations = Vec::new();
-        self.mounts = Vec::new();
-        let mut x = self.nominal.clone();
-        for (k, (labels, values)) in SetupKind::ALL.into_iter().zip([stations, mounts]) {
-            if let Some(first) = labels.first() {
-                self.setups_mut(k).push(first.clone());
-            }
-            for (label, v) in labels.iter().skip(1).zip(values) {
-                self.add_setup(k, &mut x, label, v, "");
-            }
-        }
-        self
     }
     /// Writes a placement into `x` (the inverse of [`Self::placement`]); the placement must be
     /// of this model's measurement.
@@ -805,175 +676,6 @@ pub struct SensorGuess {
     pub offset_m: f64,
     /// Cable attachment point in the flange frame, m.
     pub tool_m: [f64; 3],
-}
-
-/// One standard D-H row (Craig's distal convention: Rz(θ)·Tz(d)·Tx(a)·Rx(α)).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DhRow {
-    /// Joint angle offset θ, rad.
-    pub theta: f64,
-    /// Offset d along the previous z axis, m.
-    pub d: f64,
-    /// Length a along the new x axis, m.
-    pub a: f64,
-    /// Twist α about the new x axis, rad.
-    pub alpha: f64,
-    /// This joint's axis is parallel to the next one (Hayati's β replaces Δd).
-    pub parallel: bool,
-    /// Hayati's nominal tilt β about the new y axis, rad, of a row whose next axis is nearly
-    /// but not exactly parallel (a calibrated arm's): 0 otherwise.
-    pub beta: f64,
-}
-
-/// Consecutive axes closer to parallel than this (rad) take Hayati's form in a `hayati` table
-/// (a β tilt instead of a far common normal: 0.4 m of offset at 1e-4 rad would put it 4 km away).
-pub const NEARLY_PARALLEL_RAD: f64 = 0.05;
-
-/// A D-H description of a serial arm: fixed base transform, rows, fixed flange transform.
-#[derive(Clone, Debug, PartialEq)]
-pub struct DhTable {
-    /// Fixed transform from the base frame to D-H frame 0.
-    pub base: Frame,
-    /// One row per joint.
-    pub rows: Vec<DhRow>,
-    /// Fixed transform from the last D-H frame to the flange.
-    pub tool: Frame,
-}
-
-fn signed_angle(from: &Vector3<f64>, to: &Vector3<f64>, about: &Vector3<f64>) -> f64 {
-    from.cross(to).dot(about).atan2(from.dot(to))
-}
-
-impl DhTable {
-    /// Derives the D-H table of a robot from its joint axes at zero angles.
-    pub fn from_robot(robot: &Robot) -> DhTable {
-        Self::from_robot_within(robot, 1e-9)
-    }
-
-    /// [`Self::from_robot`] in Hayati's form: consecutive axes within [`NEARLY_PARALLEL_RAD`]
-    /// of parallel are parallel rows with a nominal β (exact: the row's origin where the next
-    /// axis pierces the plane normal to the previous one, α and β the tilt between them).
-    pub fn from_robot_hayati(robot: &Robot) -> DhTable {
-        Self::from_robot_within(robot, NEARLY_PARALLEL_RAD)
-    }
-
-    fn from_robot_within(robot: &Robot, parallel_rad: f64) -> DhTable {
-        let chain = robot.error_chain();
-        let n = chain.n_joints;
-        let mut ws = FkWork::new(&chain);
-        chain.forward(&vec![0.0; n], &vec![0.0; chain.n_params()], 1.0, &mut ws);
-        let lines: Vec<(Vector3<f64>, Vector3<f64>)> = (0..n)
-            .map(|j| {
-                let k = chain.joint_op(j).expect("joint op");
-                let f = ws.pre[k];
-                (f.pos, (f.rot * chain.ops[k].axis).normalize())
-            })
-            .collect();
-        let flange = chain.frame(&ws, chain.flange());
-        // Frame 0 on joint 1's axis, at the foot of the base origin; x0 from world x.
-        let mut frames = vec![crate::robot::kinematics::dh_base_frame(&lines[0].0, &lines[0].1)];
-        let mut rows = Vec::with_capacity(n);
-        for i in 1..=n {
-            let prev = frames[i - 1];
-            let (zp, op) = (prev.rot.column(2).into_owned(), prev.pos);
-            let (pi, zi) = if i < n { lines[i] } else { (flange.pos, zp) };
-            let cross = zp.cross(&zi);
-            let parallel = cross.norm() < 1e-9 || (i < n && cross.norm() < parallel_rad.sin() && zp.dot(&zi) > 0.0);
-            if parallel && i < n && cross.norm() >= 1e-9 {
-                // Nearly parallel: the origin where axis i pierces the plane through the previous
-                // origin normal to the previous axis (d = 0), x towards it, then α and β tilt z
-                // onto axis i.
-                let q = pi + zi * ((op - pi).dot(&zp) / zi.dot(&zp));
-                let gap = q - op;
-                let xi = if gap.norm() > 1e-9 { gap.normalize() } else { prev.rot.column(0).into_owned() };
-                let f = Matrix3::from_columns(&[xi, zp.cross(&xi), zp]);
-                let local = f.transpose() * zi;
-                let beta = local.x.clamp(-1.0, 1.0).asin();
-                let alpha = (-local.y).atan2(local.z);
-                let theta = signed_angle(&prev.rot.column(0).into_owned(), &xi, &zp);
-                rows.push(DhRow { theta, d: 0.0, a: gap.dot(&xi), alpha, parallel: true, beta });
-                let rot =
-                    f * Rotation3::from_axis_angle(&Vector3::x_axis(), alpha).into_inner() * Rotation3::from_axis_angle(&Vector3::y_axis(), beta).into_inner();
-                frames.push(Frame { rot, pos: q });
-                continue;
-            }
-            let (foot_prev, foot_i, xi) = if !parallel {
-                // Closest points of the two lines.
-                let (fp, fi) = crate::robot::kinematics::closest_points(&op, &zp, &pi, &zi);
-                let gap = fi - fp;
-                let x = if gap.norm() > 1e-9 { gap.normalize() } else { cross.normalize() };
-                (fp, fi, x)
-            } else {
-                // Parallel axes: the common normal through the previous origin (d = 0), or for the
-                // flange the foot of the flange origin on the last axis.
-                let fi = if i < n { pi + zi * (op - pi).dot(&zi) } else { op + zp * (flange.pos - op).dot(&zp) };
-                let fp = if i < n { op } else { fi };
-                let gap = fi - fp;
-                let x = if gap.norm() > 1e-9 { gap.normalize() } else { prev.rot.column(0).into_owned() };
-                (fp, fi, x)
-            };
-            let xp = prev.rot.column(0).into_owned();
-            let theta = signed_angle(&xp, &xi, &zp);
-            let d = (foot_prev - op).dot(&zp);
-            let a = (foot_i - foot_prev).dot(&xi);
-            let alpha = signed_angle(&zp, &zi, &xi);
-            rows.push(DhRow { theta, d, a, alpha, parallel: parallel && i < n, beta: 0.0 });
-            frames.push(Frame { rot: Matrix3::from_columns(&[xi, zi.cross(&xi), zi]), pos: foot_i });
-        }
-        let tool = flange.relative_to(&frames[n]);
-        DhTable { base: frames[0], rows, tool }
-    }
-
-    /// The chain of this table with deviation parameters (`absolute = false`: values are nominal +
-    /// parameter) or absolute parameters (`absolute = true` is expressed by nominal zeros).
-    pub fn chain(&self, hayati: bool, with_fixed: bool) -> (Chain, Vec<Kind>) {
-        let mut b = ChainBuilder::new();
-        let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
-        let mut kinds = Vec::new();
-        let fixed = |b: &mut ChainBuilder, f: &Frame| {
-            b.trans(x, f.pos.x, None, true);
-            b.trans(y, f.pos.y, None, true);
-            b.trans(z, f.pos.z, None, true);
-            let (r, p, yw) = Rotation3::from_matrix_unchecked(f.rot).euler_angles();
-            b.rot(z, yw, None);
-            b.rot(y, p, None);
-            b.rot(x, r, None);
-        };
-        if with_fixed {
-            fixed(&mut b, &self.base);
-        }
-        for (i, row) in self.rows.iter().enumerate() {
-            let j = i + 1;
-            let th = b.param(format!("joint_{j}.theta"));
-            kinds.push(Kind::Angle);
-            b.joint(z, row.theta, Some(th));
-            let beta = hayati && row.parallel;
-            if beta {
-                b.trans(z, row.d, None, true);
-            } else {
-                let d = b.param(format!("joint_{j}.d"));
-                kinds.push(Kind::Length);
-                b.trans(z, row.d, Some(d), true);
-            }
-            let a = b.param(format!("joint_{j}.a"));
-            kinds.push(Kind::Length);
-            b.trans(x, row.a, Some(a), true);
-            let al = b.param(format!("joint_{j}.alpha"));
-            kinds.push(Kind::Angle);
-            b.rot(x, row.alpha, Some(al));
-            if beta {
-                let be = b.param(format!("joint_{j}.beta"));
-                kinds.push(Kind::Angle);
-                b.rot(y, row.beta, Some(be));
-            }
-        }
-        // The joint ops close link frames right after the joint rotation; D-H puts the link's
-        // geometry after it, which is the same serial product.
-        if with_fixed {
-            fixed(&mut b, &self.tool);
-        }
-        (b.finish(), kinds)
-    }
 }
 
 #[cfg(test)]
