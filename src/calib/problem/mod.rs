@@ -219,6 +219,7 @@ impl Observations for ReadingFit<'_> {
         self.data.y.len()
     }
     fn predict(&self, x: &[f64], i: usize) -> f64 {
+        crate::progress::check_stop();
         let d = self.data.dim;
         let (row, c) = (i / d, i % d);
         let mut y = [0.0; MAX_DIM];
