@@ -35,6 +35,11 @@ impl Placement {
         };
         Placement { measurement, own, tool }
     }
+    /// Every placement value in the parameter vector's order: the instrument's own, then the
+    /// target's three.
+    pub fn values(&self) -> Vec<f64> {
+        self.own.iter().chain(self.tool.iter()).copied().collect()
+    }
     /// The draw-wire's exit point (base frame, m); `None` for another instrument.
     pub fn exit(&self) -> Option<Vector3<f64>> {
         (self.measurement == Measurement::Length).then(|| Vector3::new(self.own[0], self.own[1], self.own[2]))

@@ -88,7 +88,7 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]
         }
     };
     let values = |p: &Placement, kind: SetupKind| -> Vec<f64> {
-        let all: Vec<f64> = p.own.iter().chain(p.tool.iter()).copied().collect();
+        let all = p.values();
         let n = measurement.def().n_station();
         match kind {
             SetupKind::Station => all[..n].to_vec(),

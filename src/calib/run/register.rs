@@ -5,7 +5,7 @@
 //! predicted as unseen.
 
 use super::result::{CalibResult, ParamReport};
-use super::setup::label_of;
+use super::setup::{label_mut, label_of};
 use crate::calib::effects::RowInputs;
 use crate::calib::model::SetupKind;
 use crate::calib::problem::{ReadingFit, Samples};
@@ -94,10 +94,7 @@ impl CalibResult {
         let mut unknown: Vec<(SetupKind, String)> = Vec::new();
         for (k, of) in SetupKind::ALL.into_iter().zip(&of_row) {
             for (r, s) in named.rows.iter_mut().zip(of) {
-                let slot = match k {
-                    SetupKind::Station => &mut r.station,
-                    SetupKind::Mount => &mut r.mount,
-                };
+                let slot = label_mut(r, k);
                 if s.is_none() {
                     let label = slot.get_or_insert_with(|| UNNAMED_SETUP.into()).clone();
                     if !unknown.contains(&(k, label.clone())) {
@@ -118,10 +115,7 @@ impl CalibResult {
         // Rows of the set-ups the model was calibrated at, named as it now names them.
         for (k, of) in SetupKind::ALL.into_iter().zip(&of_row) {
             for (r, s) in named.rows.iter_mut().zip(of) {
-                let slot = match k {
-                    SetupKind::Station => &mut r.station,
-                    SetupKind::Mount => &mut r.mount,
-                };
+                let slot = label_mut(r, k);
                 if *s == Some(0) && slot.is_none() {
                     *slot = out.model.setups(k).first().cloned();
                 }
@@ -203,6 +197,8 @@ impl CalibResult {
         let what = m.def().describe();
         let mut model = self.model.clone();
         let mut x = self.x.clone();
+        // The rows' inputs for the flange (their torques and flanks; no set-up moves the flange).
+        let inputs = self.row_inputs(data);
         for ((k, label), idx) in unknown.iter().zip(groups) {
             let n = model.setup_params(*k).len();
             if idx.len() * m.dim() < 2 * n || idx.len() < 3 {
@@ -217,7 +213,6 @@ impl CalibResult {
             }
             // The start: the instrument located from the calibrated arm's flange on these rows
             // (a point's target: the calibrated one).
-            let inputs = self.row_inputs(data);
             let sub = super::split::samples(data, idx);
             let mut w = model.work();
             let (pts, rots): (Vec<_>, Vec<_>) = idx
@@ -234,14 +229,12 @@ impl CalibResult {
                     format!("{} {label}: cannot place the {what} from rows {}-{} (points on one line?)", k.name(), idx[0] + 1, idx[idx.len() - 1] + 1),
                 )
             })?;
-            let located: Vec<f64> = own.iter().chain(tool.iter()).copied().collect();
-            let calibrated = model.placement(&x);
-            let start: Vec<f64> = match (k, m.def().n_targets() > 1) {
-                (SetupKind::Mount, false) => {
-                    calibrated.own.iter().chain(calibrated.tool.iter()).copied().collect::<Vec<f64>>()[model.setup_params(*k)].to_vec()
-                }
-                _ => located[model.setup_params(*k)].to_vec(),
+            let located = crate::measurement::Placement { measurement: m, own, tool };
+            let from = match (k, m.def().n_targets() > 1) {
+                (SetupKind::Mount, false) => model.placement(&x),
+                _ => located,
             };
+            let start = from.values()[model.setup_params(*k)].to_vec();
             model.add_setup(*k, &mut x, label, &start, CALIBRATED_SETUP);
         }
         Ok((model, x))

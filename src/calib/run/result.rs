@@ -557,7 +557,6 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
         && r.model.limits.iter().all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
         && r.model.kinds.len() == r.model.n_params()
         && r.model.n_params() == r.model.first_effect() + r.model.effects.iter().map(EffectBlock::n_params).sum::<usize>()
-        && r.model.placement_range().end == chain.n_params() + r.model.measurement.n_placement()
         && [&r.model.stations, &r.model.mounts].iter().all(|l| l.iter().enumerate().all(|(i, s)| !s.is_empty() && !l[..i].contains(s)))
         && chain.frame_end.last().is_some_and(|e| *e == chain.ops.len())
         && chain.ops.iter().all(|o| o.joint.is_none_or(|j| j < chain.n_joints) && o.param.is_none_or(|k| k < chain.n_params()));

@@ -89,7 +89,8 @@ pub fn label_of(r: &crate::dataset::Row, k: SetupKind) -> Option<&str> {
     }
 }
 
-fn label_mut(r: &mut crate::dataset::Row, k: SetupKind) -> &mut Option<String> {
+/// A row's label of kind `k`, to set.
+pub(super) fn label_mut(r: &mut crate::dataset::Row, k: SetupKind) -> &mut Option<String> {
     match k {
         SetupKind::Station => &mut r.station,
         SetupKind::Mount => &mut r.mount,
