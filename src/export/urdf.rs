@@ -173,7 +173,8 @@ mod tests {
             line([0.8, 0.0, 0.7], [0.0, 1.0, 0.0]),
             line([0.8, 0.0, 0.7], [1.0, 0.0, 0.0]),
         ];
-        let generic = model_around(&frames_of(&lines), &[0.2, -1.3, 3.7, -2.8, 0.7, 1.1], &g);
+        let cable = crate::measurement::Placement::cable(Vector3::from(g.exit_m), g.offset_m, Vector3::from(g.tool_m));
+        let generic = model_around(&frames_of(&lines), &[0.2, -1.3, 3.7, -2.8, 0.7, 1.1], &cable);
         for m in [CalibModel::dh(&robot, &g, true), CalibModel::frame(&robot, &g), generic] {
             let mut x = m.nominal.clone();
             for k in 0..m.n_chain() {

@@ -1,7 +1,7 @@
 //! Where an instrument sits: its own placement parameters and the target point on the flange.
 
 use super::Measurement;
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 /// Where the instrument sits in a parameter vector: its own parameters (for the draw-wire the
 /// exit point in the base frame and the length offset; for a tracker the base-to-tracker
@@ -39,6 +39,17 @@ impl Placement {
     /// target's three.
     pub fn values(&self) -> Vec<f64> {
         self.own.iter().chain(self.tool.iter()).copied().collect()
+    }
+    /// The same instrument on a flange frame re-expressed: `rot` and `pos` are the old flange
+    /// frame in the new one (the target point moves with them, a probe's orientation on the
+    /// flange turns with them; the instrument's own station does not change).
+    pub fn on_flange(&self, rot: &Matrix3<f64>, pos: &Vector3<f64>) -> Placement {
+        let mut own = self.own.clone();
+        if self.measurement == Measurement::Pose {
+            let r = rot * super::pose::probe_rotation(&own);
+            own[6..9].copy_from_slice(&super::pose::xyz_angles(&r));
+        }
+        Placement { measurement: self.measurement, own, tool: rot * self.tool + pos }
     }
     /// The draw-wire's exit point (base frame, m); `None` for another instrument.
     pub fn exit(&self) -> Option<Vector3<f64>> {

@@ -153,6 +153,9 @@ fn print_summary(r: &twincal::calib::run::CalibResult) {
     if let Some(setup) = &r.setup {
         setup.lines().iter().for_each(|l| eprintln!("  {l}"));
     }
+    if let Some(s) = &r.solve.search {
+        eprintln!("  generic arm: {} shapes drawn, {} converged on every training row, {} of them at the best cost", s.starts, s.finalists, s.in_best_basin);
+    }
     let fixed: Vec<&str> = r.parameters.iter().filter(|p| p.fixed).map(|p| p.name.as_str()).collect();
     eprintln!(
         "  identifiable: {} of {} parameters; fixed (not identifiable from these poses): {}",

@@ -14,6 +14,7 @@ mod diagnose;
 mod evonph;
 mod export;
 mod fuzz;
+mod generic;
 mod inputs;
 mod iso9283;
 mod measurement;

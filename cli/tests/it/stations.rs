@@ -7,13 +7,13 @@
 //! model was not calibrated at on its first rows; the real UR10 series (../shared, skipped when
 //! absent) calibrate as one campaign of three stations.
 
+use crate::datasets::generated;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation, StationOrigin};
 use twincal::dataset::Dataset;
 use twincal::measurement::{Euler, Measurement};
-use twincal::sim::scenario::Scenario;
 
 fn root() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
@@ -26,17 +26,6 @@ fn twincal(args: &[&str]) -> Output {
 fn ok(o: Output, what: &str) -> Output {
     assert!(o.status.success(), "{what}: {}", String::from_utf8_lossy(&o.stderr));
     o
-}
-
-/// The twin's dataset of scenario `name` at `seed`, with `extra` tables before `[sensor]`.
-fn generated(name: &str, seed: u64, extra: &str) -> (Dataset, twincal::robot::Robot) {
-    let path = root().join("scenarios").join(format!("{name}.toml"));
-    let text = std::fs::read_to_string(&path).unwrap().replacen("[sensor]", &format!("{extra}\n[sensor]"), 1);
-    let mut s = Scenario::from_toml(&text, name).unwrap();
-    s.seed = seed;
-    let robot = s.load_robot(path.parent()).unwrap();
-    let g = twincal::sim::generate::generate(&s, &robot, &twincal::sim::generate::Silent).unwrap();
-    (g.dataset, robot)
 }
 
 /// `data` with the readings of rows `from..` moved rigidly (turned by `turn` about the

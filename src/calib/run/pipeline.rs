@@ -47,6 +47,8 @@ pub struct Prepared {
     pub id: Identifiability,
     /// How the training rows are weighted (per-row standard deviations), `None` for equal weights.
     pub weighting: Option<crate::calib::problem::weighting::Weighting>,
+    /// What the generic model's search did (`None` for a nominal arm).
+    pub search: Option<super::generic::SearchReport>,
 }
 
 /// Stages "split", "placement", "outliers", "effects" and "identifiability" of a calibration
@@ -79,7 +81,7 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
         };
         return Err(Error::data(&data.source, msg));
     }
-    let mut model = crate::calib::run::placement::place_sensor(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
+    let (mut model, search) = crate::calib::run::placement::place(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
     // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
     // (A learned corrector learns plain residuals: its methods fit with equal weights.)
     let weighting = if opts.row_std && !opts.method.learns_corrector() {
@@ -100,7 +102,7 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     }
     let test_rows_in_steps = samples(data, &split.test_idx).y.iter().zip(&split.test.y).filter(|(a, b)| a != b).count();
     let id = identify(&ReadingFit { model: &model, data: &split.train }, &model.nominal, opts.rank_tol);
-    Ok(Prepared { split, model, screen, test_rows_in_steps, id, weighting })
+    Ok(Prepared { split, model, screen, test_rows_in_steps, id, weighting, search })
 }
 
 /// Runs a calibration with a given solver. `truth` enables the parameter-error report.
@@ -109,7 +111,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     // Stage "set-up": the instrument's stations (declared, declared blocks, change points).
     let (labelled, found) = super::setup::resolve_stations(data, opts)?;
     let data = labelled.as_ref().unwrap_or(data);
-    let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting } = prepare(data, opts, solver.needs_row_inputs())?;
+    let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting, search } = prepare(data, opts, solver.needs_row_inputs())?;
     let mut warnings = setup_warnings(&model, data, screen.is_some(), opts);
     let x0 = model.nominal.clone();
     let mut fixed = id.fixed_mask.clone();
@@ -189,6 +191,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
             weighting,
             noise_model,
             identifiability: serde_json::to_value(&id).unwrap_or_default(),
+            search,
         },
         screen: ScreenReport::of(screen, opts.outlier_k, test_in_steps, test_outliers),
         evaluation: Evaluation { metrics, truth_comparison, repeatability, noise_floor: Some(noise_floor) },
@@ -389,6 +392,7 @@ pub fn result_of_fit(
             weighting: None,
             noise_model: None,
             identifiability: serde_json::to_value(id).unwrap_or_default(),
+            search: None,
         },
         screen: ScreenReport::default(),
         evaluation: Evaluation { metrics, truth_comparison: None, repeatability, noise_floor: Some(noise_floor) },

@@ -3,6 +3,7 @@
 //! nominal tool points, then exit point, offset and tool point by a sensor-only least-squares fit;
 //! for the generic 6R model, a global search for the whole structure ([`crate::calib::run::generic`]).
 
+use super::generic::SearchReport;
 use super::options::{CalibOptions, ModelSpec, Parametrisation};
 use crate::calib::model::{CalibModel, Placement, SensorGuess, SetupKind};
 use crate::calib::problem::{ReadingFit, Samples};
@@ -31,6 +32,11 @@ pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
 /// own training rows, each mount of a 6-D probe from its rows at their most common station (a
 /// point's target starts at the first mount's), and all are aligned together.
 pub fn place_sensor(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Result<CalibModel> {
+    place(opts, train, labels).map(|(m, _)| m)
+}
+
+/// [`place_sensor`] with what the generic model's search did (`None` for a nominal arm).
+pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Result<(CalibModel, Option<SearchReport>)> {
     let stations = labels[0];
     let spec = &opts.model;
     let zero_guess = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
@@ -43,29 +49,42 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]
         if opts.loads.cable_tension_n != 0.0 {
             return Err(Error::Invalid(format!("--cable-tension-n is a draw-wire's pull on the tool; these rows hold a {what}: no cable pulls")));
         }
-        let ModelSpec::Nominal { .. } = spec else {
-            return Err(Error::Invalid(format!("the generic model (generic6r) searches a draw-wire set-up; a {what} needs a nominal arm (irb120 or a URDF)")));
-        };
-    }
-    if let (ModelSpec::Generic6r, true) = (spec, stations.len() > 1 || labels[1].len() > 1) {
-        return Err(Error::Invalid("the generic model (generic6r) searches one draw-wire set-up; these rows stand at several stations or mounts".into()));
     }
     if measurement == Measurement::Length && !matches!(spec, ModelSpec::Nominal { .. }) {
+        if stations.len() > 1 || labels[1].len() > 1 {
+            return Err(Error::Invalid("the generic model searches one draw-wire set-up; these rows stand at several stations or mounts".into()));
+        }
         if opts.sensor_guess.is_some() {
             // The generic model's start is its search over arm topologies, which places the
             // sensor for each candidate arm; a fixed guess with no arm around it (the old
             // all-zero D-H chain) started fits far from any real robot.
             return Err(Error::Invalid(
-                "--sensor-guess applies to a nominal model (irb120 or a URDF); the generic model (generic6r) places its sensor in its own search".into(),
+                "--sensor-guess applies to a nominal model (irb120 or a URDF); the generic model places its sensor in its own search".into(),
             ));
         }
-        return super::generic::search(train, opts);
+        return super::generic::search(train, opts).map(|s| (s.model, Some(s.report)));
     }
-    let m = build_model(spec, &zero_guess);
+    // The arm: the nominal's, or the generic search's on the first station's and mount's rows
+    // (whose placement it found with the arm).
+    let (m, searched, report) = match spec {
+        ModelSpec::Nominal { .. } => (build_model(spec, &zero_guess), None, None),
+        ModelSpec::Generic6r => {
+            let rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
+            let s = super::generic::search(&train.subset(&rows), opts)?;
+            let p = s.model.placement(&s.model.nominal);
+            (s.model, Some(p), Some(s.report))
+        }
+    };
     let mut w = m.work();
     let flanges: Vec<_> = train.q.iter().map(|q| m.flange_frame(&m.nominal, q, &mut w)).collect();
+    // A point's other stations are located from the target points of the arm as found (a
+    // nominal arm's target starts at the flange's origin; a generic arm's is far from it).
+    let target = match (&searched, measurement) {
+        (Some(p), Measurement::Point) => p.tool,
+        _ => nalgebra::Vector3::zeros(),
+    };
     let locate = |rows: &[usize], label: String| -> Result<Placement> {
-        let pts: Vec<_> = rows.iter().map(|&i| flanges[i].pos).collect();
+        let pts: Vec<_> = rows.iter().map(|&i| flanges[i].point(&target)).collect();
         let rots: Vec<_> = rows.iter().map(|&i| flanges[i].rot).collect();
         let y: Vec<f64> = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
         let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| {
@@ -81,6 +100,7 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]
     // The first station and mount together: the rows of both.
     let first_rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
     let first = match (measurement, &opts.sensor_guess) {
+        _ if searched.is_some() => searched.clone().expect("searched"),
         (Measurement::Length, Some(g)) => Placement::cable(g.exit_m.into(), g.offset_m, g.tool_m.into()),
         _ => {
             let rows = if first_rows.len() >= 3 { first_rows } else { rows_of(SetupKind::Station, 0) };
@@ -115,7 +135,7 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]
     }
     let [st, mo] = others;
     let model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
-    Ok(align_placement(model, train))
+    Ok((align_placement(model, train), report))
 }
 
 /// Aligns the instrument alone (its own placement and the tool point) to the nominal robot, so

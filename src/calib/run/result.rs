@@ -150,6 +150,10 @@ pub struct Solve {
     /// The identifiability analysis of the training rows at the nominal parameters (rank, condition
     /// numbers, fixed parameters).
     pub identifiability: serde_json::Value,
+    /// The generic model's global search: starts, finalists, how many reached the best basin
+    /// (absent for a nominal arm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub search: Option<super::generic::SearchReport>,
 }
 
 /// The robust screen of the training rows: its threshold and scale, the rows kept out and

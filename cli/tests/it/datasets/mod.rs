@@ -23,6 +23,18 @@ pub fn skip(absent: &Path) {
     let _ = writeln!(std::io::stderr(), "SKIP: {} is absent (read from ../shared at run time)", absent.display());
 }
 
+/// The twin's dataset of the project's scenario `name` at `seed`, with `extra` tables inserted
+/// before `[sensor]`, and the scenario's robot.
+pub fn generated(name: &str, seed: u64, extra: &str) -> (Dataset, twincal::robot::Robot) {
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("scenarios").join(format!("{name}.toml"));
+    let text = std::fs::read_to_string(&path).unwrap().replacen("[sensor]", &format!("{extra}\n[sensor]"), 1);
+    let mut s = twincal::sim::scenario::Scenario::from_toml(&text, name).unwrap();
+    s.seed = seed;
+    let robot = s.load_robot(path.parent()).unwrap();
+    let g = twincal::sim::generate::generate(&s, &robot, &twincal::sim::generate::Silent).unwrap();
+    (g.dataset, robot)
+}
+
 /// `ds` with every test row's length moved by +0.5 or −0.7 mm (alternately): a method that
 /// chooses anything on the test rows would see it.
 pub fn test_lengths_scrambled(ds: &Dataset) -> Dataset {

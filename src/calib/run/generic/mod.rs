@@ -24,7 +24,12 @@
 //! result does not depend on the number of threads.
 
 use super::options::CalibOptions;
-use crate::calib::model::{CalibModel, Kind, SensorGuess};
+use crate::calib::model::{CalibModel, Kind, Placement, SensorGuess};
+use crate::measurement::Measurement;
+use serde::{Deserialize, Serialize};
+use shapes::Shape;
+
+pub mod shapes;
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
@@ -40,6 +45,9 @@ use rayon::prelude::*;
 /// (on HSR the winner of 4 finalists was always among the first 2: the same model on seeds 0–4,
 /// 2 s sooner).
 const STAGES: [(usize, usize, usize); 2] = [(16, 150, 25), (2, 650, 150)];
+/// The stages under a tracker: three values a row tell the shapes apart sooner, and eight
+/// finalists say how many of the screened shapes reach the best basin.
+const TRACKER_STAGES: [(usize, usize, usize); 2] = [(16, 150, 25), (8, 650, 150)];
 /// Starts at effort 1.
 const STARTS: usize = 320;
 
@@ -103,7 +111,7 @@ pub fn frames_of(lines: &[Line]) -> Vec<Frame> {
 /// x and y (`joint_j.tilt_x/tilt_y`, rad) — move that line alone. At q_ref the arm is the
 /// identity and the tool point is in the base frame. In chain form each exponential is
 /// G·Rz·G⁻¹ with G's parameters entering both sides (the second with factor −1).
-pub fn model_around(frames: &[Frame], q_ref: &[f64], sensor: &SensorGuess) -> CalibModel {
+pub fn model_around(frames: &[Frame], q_ref: &[f64], placement: &Placement) -> CalibModel {
     let mut b = ChainBuilder::new();
     let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
     let mut kinds = Vec::new();
@@ -130,33 +138,8 @@ pub fn model_around(frames: &[Frame], q_ref: &[f64], sensor: &SensorGuess) -> Ca
         b.trans_coef(x, -f.pos.x, idx[0], -1.0, true);
     }
     let chain = b.finish();
-    CalibModel::with_sensor("generic6r", chain, kinds, sensor)
-}
-
-/// A plausible industrial 6R topology at the reference pose (m), and a tool point.
-fn topology(rng: &mut ChaCha8Rng) -> (Vec<Line>, Vector3<f64>) {
-    let mut sign = || if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-    let (s2, s3, s4, s5, s6) = (sign(), sign(), sign(), sign(), sign());
-    let up = Line { point: Vector3::zeros(), dir: Vector3::z() };
-    let shoulder = Vector3::new(rng.random_range(0.0..0.3), 0.0, 0.0);
-    let j2 = Line { point: shoulder, dir: Vector3::y() * s2 };
-    let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-    let elbow = shoulder + Vector3::new(phi.cos(), 0.0, phi.sin()) * rng.random_range(0.3..1.1);
-    let j3 = Line { point: elbow, dir: Vector3::y() * s3 };
-    let psi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-    let forearm = Vector3::new(psi.cos(), 0.0, psi.sin());
-    let normal = Vector3::y().cross(&forearm);
-    let wrist = elbow + normal * rng.random_range(-0.25..0.25) + forearm * rng.random_range(0.3..1.3);
-    let j4 = Line { point: wrist, dir: forearm * s4 };
-    let chi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-    let w5 = Vector3::y() * chi.cos() + normal * chi.sin();
-    let j5 = Line { point: wrist, dir: w5 * s5 };
-    let omega: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-    let across = w5.cross(&forearm);
-    let w6 = forearm * omega.cos() + across * omega.sin();
-    let j6 = Line { point: wrist, dir: w6 * s6 };
-    let tool = wrist + w6 * rng.random_range(0.05..0.35);
-    (vec![up, j2, j3, j4, j5, j6], tool)
+    let name = if frames.len() == 6 { "generic6r".to_string() } else { format!("generic{}r", frames.len()) };
+    CalibModel::with_sensor(&name, chain, kinds, &SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] }).with_placement(placement)
 }
 
 /// The start of one topology: the model around its lines, the cable's exit point a median
@@ -165,8 +148,7 @@ fn topology(rng: &mut ChaCha8Rng) -> (Vec<Line>, Vector3<f64>) {
 fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[f64], data: &Samples) -> Option<CalibModel> {
     let reach = crate::stats::median(&data.y);
     let exit = tool + exit_dir * reach;
-    let guess = SensorGuess { exit_m: [exit.x, exit.y, exit.z], offset_m: 0.0, tool_m: [tool.x, tool.y, tool.z] };
-    let mut model = model_around(&frames_of(lines), q_ref, &guess);
+    let mut model = model_around(&frames_of(lines), q_ref, &Placement::cable(exit, 0.0, *tool));
     let mut w = model.work();
     let misfit: Vec<f64> = data.q.iter().zip(&data.y).map(|(q, l)| l - model.predict(&model.nominal, q, &mut w)).collect();
     if let Some(k) = model.length_offset_index() {
@@ -207,10 +189,8 @@ pub fn rechart(model: &CalibModel, x: &[f64]) -> CalibModel {
         })
         .collect();
     let flange = model.chain.frame(&ws, model.chain.flange());
-    let p = model.placement(x);
-    let tool = flange.point(&p.tool);
-    let sensor = SensorGuess { exit_m: [p.own[0], p.own[1], p.own[2]], offset_m: p.own[3], tool_m: tool.into() };
-    model_around(&frames_of(&lines), &q_ref, &sensor)
+    let p = model.placement(x).on_flange(&flange.rot, &flange.pos);
+    model_around(&frames_of(&lines), &q_ref, &p)
 }
 
 /// Polishes a generic model on `data` until a fit in a fresh chart settles within
@@ -236,31 +216,89 @@ const SETTLED_ITER: usize = 30;
 const CHART_ITER: usize = 100;
 const MAX_CHARTS: usize = 6;
 
-/// Global search for the generic model (see the module docs): the best candidate, its
-/// `nominal` the parameter vector polished on the search rows.
-pub fn search(train: &Samples, opts: &CalibOptions) -> Result<CalibModel> {
-    let n = train.q.first().map_or(0, |q| q.len());
-    if n != 6 {
-        return Err(Error::Calibration(format!("the generic model is a 6R arm; the data hold {n} joint angles")));
+/// What the generic search did: how many starts it drew, how many it converged on every
+/// training row, and how many of those reached the best cost (within [`SAME_BASIN`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SearchReport {
+    /// Arm shapes drawn (seeded).
+    pub starts: usize,
+    /// Candidates converged on every training row after the screening stages.
+    pub finalists: usize,
+    /// Finalists whose converged cost is within [`SAME_BASIN`] of the best.
+    pub in_best_basin: usize,
+}
+
+/// Two converged costs within this relative difference are the same basin.
+pub const SAME_BASIN: f64 = 1e-3;
+
+/// The searched model (its `nominal` the parameter vector polished on the search rows) and
+/// what the search did.
+pub struct Searched {
+    /// The best candidate.
+    pub model: CalibModel,
+    /// Starts, finalists and how many reached the best basin.
+    pub report: SearchReport,
+}
+
+/// The candidate arms of a search: each start's model, in draw order (`None` where the start
+/// could not place its instrument). A draw-wire is searched with spherical-wrist arms (its
+/// results since the first version depend on that stream); a tracker with every shape of the
+/// data's joint count in turn.
+fn candidates(train: &Samples, starts: usize, q_ref: &[f64], seed: u64) -> Result<Vec<Option<CalibModel>>> {
+    let n = q_ref.len();
+    let measurement = Measurement::of_dim(train.dim).unwrap_or_default();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6765_6e65_7269_6336);
+    if measurement == Measurement::Length {
+        if n != 6 {
+            return Err(Error::Calibration(format!("the generic model searches a 6R arm under a draw-wire; the data hold {n} joint angles")));
+        }
+        let draws: Vec<(Vec<Line>, Vector3<f64>, Vector3<f64>)> = (0..starts)
+            .map(|_| {
+                let (lines, tool) = shapes::spherical_wrist(&mut rng);
+                let d = Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+                (lines, tool, if d.norm() > 1e-3 { d.normalize() } else { Vector3::z() })
+            })
+            .collect();
+        return Ok(draws.par_iter().map(|(lines, tool, dir)| start(lines, tool, dir, q_ref, train)).collect());
     }
+    let family = Shape::of_joints(n);
+    if family.is_empty() {
+        return Err(Error::Calibration(format!("the generic model searches arms of 6 or 7 joints; the data hold {n} joint angles")));
+    }
+    let draws: Vec<(Vec<Line>, Vector3<f64>)> = (0..starts).map(|i| family[i % family.len()].draw(&mut rng)).collect();
+    Ok(draws.par_iter().map(|(lines, tool)| start_tracker(lines, tool, q_ref, train, measurement)).collect())
+}
+
+/// The start of one arm under a tracker: the model around its lines, the tracker (and a
+/// probe's orientation and origin on the flange) placed by the instrument's own rigid fit of
+/// the arm's predicted points to the readings.
+fn start_tracker(lines: &[Line], tool: &Vector3<f64>, q_ref: &[f64], data: &Samples, measurement: Measurement) -> Option<CalibModel> {
+    let frames = frames_of(lines);
+    let bare = model_around(&frames, q_ref, &Placement::cable(Vector3::zeros(), 0.0, *tool));
+    let mut w = bare.work();
+    let flanges: Vec<_> = data.q.iter().map(|q| bare.flange_frame(&bare.nominal, q, &mut w)).collect();
+    let rots: Vec<_> = flanges.iter().map(|f| f.rot).collect();
+    let pts: Vec<_> = match measurement {
+        Measurement::Pose => flanges.iter().map(|f| f.pos).collect(),
+        _ => flanges.iter().map(|f| f.point(tool)).collect(),
+    };
+    let (own, found) = measurement.def().locate(&pts, &rots, &data.y)?;
+    let tool = if measurement == Measurement::Pose { found } else { *tool };
+    let model = bare.with_placement(&Placement { measurement, own, tool });
+    model.nominal.iter().all(|v| v.is_finite()).then_some(model)
+}
+
+/// Global search for the generic model (see the module docs).
+pub fn search(train: &Samples, opts: &CalibOptions) -> Result<Searched> {
+    let n = train.q.first().map_or(0, |q| q.len());
     let q_ref: Vec<f64> = (0..n).map(|j| train.q.iter().map(|q| q[j]).sum::<f64>() / train.len() as f64).collect();
     let every = |rows: usize| train.subset(&(0..train.len()).step_by(train.len().div_ceil(rows).max(1)).collect::<Vec<_>>());
-    let starts = ((STARTS as f64 * opts.effort).ceil() as usize).max(STAGES[0].0);
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x6765_6e65_7269_6336);
-    let topologies: Vec<(Vec<Line>, Vector3<f64>, Vector3<f64>)> = (0..starts)
-        .map(|_| {
-            let (lines, tool) = topology(&mut rng);
-            let d = Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
-            (lines, tool, if d.norm() > 1e-3 { d.normalize() } else { Vector3::z() })
-        })
-        .collect();
-    let first = every(STAGES[0].1);
-    let mut pool: Vec<(f64, usize, CalibModel)> = topologies
-        .par_iter()
-        .enumerate()
-        .filter_map(|(i, (lines, tool, dir))| start(lines, tool, dir, &q_ref, &first).map(|m| (f64::INFINITY, i, m)))
-        .collect();
-    for &(keep, rows, iters) in &STAGES {
+    let stages = if train.dim == 1 { STAGES } else { TRACKER_STAGES };
+    let starts = ((STARTS as f64 * opts.effort).ceil() as usize).max(stages[0].0);
+    let first = every(stages[0].1);
+    let mut pool: Vec<(f64, usize, CalibModel)> =
+        candidates(&first, starts, &q_ref, opts.seed)?.into_iter().enumerate().filter_map(|(i, m)| m.map(|m| (f64::INFINITY, i, m))).collect();
+    for &(keep, rows, iters) in &stages {
         let data = every(rows);
         let lm = LevenbergMarquardt::budget(iters).tolerances(1e-8, 1e-10);
         pool = pool
@@ -281,12 +319,14 @@ pub fn search(train: &Samples, opts: &CalibOptions) -> Result<CalibModel> {
             let (cost, model, _) = converge(&model, train, opts.rank_tol);
             (cost, i, model)
         })
+        .filter(|c| c.0.is_finite())
         .collect();
+    let best_cost = finalists.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
+    let report = SearchReport { starts, finalists: finalists.len(), in_best_basin: finalists.iter().filter(|c| c.0 <= best_cost * (1.0 + SAME_BASIN)).count() };
     finalists
         .into_iter()
-        .filter(|c| c.0.is_finite())
         .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
-        .map(|c| c.2)
+        .map(|c| Searched { model: c.2, report })
         .ok_or_else(|| Error::Calibration("the generic model's search found no start that fits the data".into()))
 }
 
@@ -297,7 +337,7 @@ mod tests {
     #[test]
     fn the_model_puts_its_axes_on_the_lines_at_the_reference_pose() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let (lines, tool) = topology(&mut rng);
+        let (lines, tool) = shapes::spherical_wrist(&mut rng);
         let q_ref = [0.3, -1.2, 3.7, -2.9, 0.7, 1.1];
         let frames = frames_of(&lines);
         for (f, l) in frames.iter().zip(&lines) {
@@ -305,7 +345,7 @@ mod tests {
             assert!((z - l.dir).norm() < 1e-12, "axis direction");
             assert!((f.pos - l.point).cross(&l.dir).norm() < 1e-12, "origin on the line");
         }
-        let m = model_around(&frames, &q_ref, &SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [tool.x, tool.y, tool.z] });
+        let m = model_around(&frames, &q_ref, &Placement::cable(Vector3::zeros(), 0.0, tool));
         let mut w = m.work();
         assert!((m.tool_point(&m.nominal, &q_ref, &mut w) - tool).norm() < 1e-12);
         // Rotating joint 2 by 0.1 rad turns the tool point about line 2.
