@@ -432,7 +432,7 @@ impl PyCalibration {
                         "a result read from a file saves only its JSON (out); the URDF, recording, report and twin need the calibration run",
                     ));
                 }
-                twincal::io::write_json(&out, &**result).map_err(err)
+                result.check_writable().and_then(|_| twincal::io::write_json(&out, &**result)).map_err(err)
             }
         }
     }

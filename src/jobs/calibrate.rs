@@ -113,6 +113,7 @@ pub fn calibrate_loaded(
 /// ([`CalibrateJob::check_files`]).
 pub fn write_calibration(a: &CalibrateJob, c: &Calibration, recordings: &dyn Recordings) -> Result<()> {
     let (result, data, opts) = (&c.result, &c.data, &c.opts);
+    result.check_writable()?;
     let mut outputs = OutputSet::new();
     let figures = if a.figures.rrd.is_some() || a.figures.report.is_some() { Some(crate::report::CalibFigures::new(result, data)?) } else { None };
     if let (Some(p), Some(f)) = (&a.figures.rrd, &figures) {
@@ -124,7 +125,7 @@ pub fn write_calibration(a: &CalibrateJob, c: &Calibration, recordings: &dyn Rec
     if let Some(p) = &a.urdf {
         let nominal = match &opts.model {
             ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
-            ModelSpec::Generic6r => None,
+            ModelSpec::Generic => None,
         };
         outputs.write(p, crate::export::urdf::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
     }

@@ -131,6 +131,7 @@ pub fn diagnose_loaded(
 /// ([`DiagnoseJob::check_files`]).
 pub fn write_diagnosis(a: &DiagnoseJob, d: &Diagnosed, recordings: &dyn Recordings) -> Result<()> {
     let (report, result, data) = (&d.report, &d.result, &d.data);
+    result.check_writable()?;
     let mut outputs = OutputSet::new();
     let figures = (a.figures.rrd.is_some() || a.figures.report.is_some()).then(|| crate::report::DiagnosisFigures::new(report, result, data));
     if let (Some(p), Some(f)) = (&a.figures.rrd, &figures) {

@@ -43,6 +43,12 @@ pub fn probe_rotation(own: &[f64]) -> Matrix3<f64> {
     rotation(&own[6..9]).0
 }
 
+/// Farthest a pose probe's origin is placed from the flange's by the placement's start, m.
+const MAX_PROBE_OFFSET_M: f64 = 1.0;
+/// The weight, per row, with which the start holds a probe's origin to the flange's where the
+/// rows would put it beyond [`MAX_PROBE_OFFSET_M`] (m of residual per m of origin).
+const TOOL_HOLD: f64 = 1e-2;
+
 /// Largest plausible |Euler angle| of a pose reading, degrees.
 pub const MAX_ANGLE_DEG: f64 = 720.0;
 
@@ -345,21 +351,33 @@ impl Instrument for Pose {
             r_tool = nearest_rotation(&rot.iter().zip(&m).map(|(f, mi)| f.transpose() * r_tr.transpose() * mi).sum())?;
             r_tr = nearest_rotation(&rot.iter().zip(&m).map(|(f, mi)| mi * r_tool.transpose() * f.transpose()).sum())?;
         }
-        // y_i − R·p_i = R·F_i·tool + t: linear in (tool, t).
-        let mut a = nalgebra::DMatrix::zeros(3 * n, 6);
-        let mut b = nalgebra::DVector::zeros(3 * n);
-        for i in 0..n {
-            let rf = r_tr * rot[i];
-            let rhs = Vector3::new(y[9 * i], y[9 * i + 1], y[9 * i + 2]) - r_tr * p[i];
+        // y_i − R·p_i = R·F_i·tool + t: linear in (tool, t). Where the flange's orientation
+        // hardly changes (a line, a surface scan), F_i·tool is a constant t absorbs, and the
+        // rows' small errors put the origin anywhere: one farther from the flange than any probe
+        // sits is solved again with three rows holding it to the flange's origin (the directions
+        // the data do not see stay there instead of kilometres away).
+        let solve = |hold: f64| -> Option<nalgebra::DVector<f64>> {
+            let mut a = nalgebra::DMatrix::zeros(3 * n + 3, 6);
+            let mut b = nalgebra::DVector::zeros(3 * n + 3);
             for c in 0..3 {
-                for k in 0..3 {
-                    a[(3 * i + c, k)] = rf[(c, k)];
-                }
-                a[(3 * i + c, 3 + c)] = 1.0;
-                b[3 * i + c] = rhs[c];
+                a[(3 * n + c, c)] = hold * (n as f64).sqrt();
             }
-        }
-        let sol = a.svd(true, true).solve(&b, 1e-12).ok()?;
+            for i in 0..n {
+                let rf = r_tr * rot[i];
+                let rhs = Vector3::new(y[9 * i], y[9 * i + 1], y[9 * i + 2]) - r_tr * p[i];
+                for c in 0..3 {
+                    for k in 0..3 {
+                        a[(3 * i + c, k)] = rf[(c, k)];
+                    }
+                    a[(3 * i + c, 3 + c)] = 1.0;
+                    b[3 * i + c] = rhs[c];
+                }
+            }
+            a.svd(true, true).solve(&b, 1e-12).ok()
+        };
+        let free = solve(0.0)?;
+        let far = |s: &nalgebra::DVector<f64>| !(s[0].hypot(s[1]).hypot(s[2]) <= MAX_PROBE_OFFSET_M);
+        let sol = if far(&free) { solve(TOOL_HOLD)? } else { free };
         let tool = Vector3::new(sol[0], sol[1], sol[2]);
         let (ta, tt) = (xyz_angles(&r_tr), xyz_angles(&r_tool));
         let own = vec![sol[3], sol[4], sol[5], ta[0], ta[1], ta[2], tt[0], tt[1], tt[2]];

@@ -157,9 +157,9 @@ impl CalibrateRequest {
                         .into(),
                 ));
             }
-            if matches!(opts.model, crate::calib::run::ModelSpec::Generic6r) {
+            if matches!(opts.model, crate::calib::run::ModelSpec::Generic) {
                 return Err(Error::Invalid(
-                    "--placement-only needs the robot's own geometry (a URDF or irb120): the generic 6R model has none to keep, its geometry is what it searches for".into(),
+                    "--placement-only needs the robot's own geometry (a URDF or irb120): the generic arm has none to keep, its geometry is what it searches for".into(),
                 ));
             }
         }
@@ -198,7 +198,7 @@ mod tests {
         let mut r = CalibrateRequest { placement_only: true, ..CalibrateRequest::default() };
         r.model.model = "generic6r".into();
         let e = r.options().err().unwrap().to_string();
-        assert!(e.contains("--placement-only") && e.contains("generic 6R"), "{e}");
+        assert!(e.contains("--placement-only") && e.contains("generic arm"), "{e}");
         assert!(CalibrateRequest { placement_only: true, ..CalibrateRequest::default() }.options().is_ok());
     }
 }

@@ -75,11 +75,12 @@ impl Reading {
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(default)]
 pub struct ModelChoice {
-    /// irb120 (embedded URDF), a .urdf path, or generic6r (no nominal).
+    /// irb120 (embedded URDF), a .urdf path, or generic (no nominal: the arm's axes found from
+    /// the data; 6 or 7 joints, also written generic6r / generic7r).
     #[cfg_attr(feature = "clap", arg(long, default_value = "irb120"))]
     pub model: String,
     /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes; the default), dh (papers' 24)
-    /// or frame. Not for generic6r.
+    /// or frame. Not for the generic arm.
     #[cfg_attr(feature = "clap", arg(long))]
     pub params: Option<String>,
 }
@@ -91,13 +92,14 @@ impl Default for ModelChoice {
 }
 
 impl ModelChoice {
-    /// The model these options name; `--params` is refused for `generic6r`, which has no
+    /// The model these options name; `--params` is refused for the generic arm, which has no
     /// nominal model to parametrise.
     pub fn spec(&self) -> Result<ModelSpec> {
-        if self.model == "generic6r" {
+        if ModelSpec::is_generic_name(&self.model) {
             if let Some(p) = &self.params {
                 return Err(Error::Invalid(format!(
-                    "--params {p} applies to nominal models (irb120 or a .urdf); generic6r has no nominal model to parametrise"
+                    "--params {p} applies to nominal models (irb120 or a .urdf); {} has no nominal model to parametrise",
+                    self.model
                 )));
             }
         }

@@ -326,7 +326,7 @@ fn real_data() -> Result<()> {
         let ds = Dataset::load(&hsr)?;
         let mut cells = Vec::new();
         for m in [Method::LM, Method::PSO_EKF_AWNN] {
-            let mut o = CalibOptions::new(ModelSpec::Generic6r, m);
+            let mut o = CalibOptions::new(ModelSpec::Generic, m);
             o.test_fraction = Some(0.2);
             let r = calibrate_with(&ds, None, &o, m.solver(1.0).as_ref())?;
             if let (Some(rep), Some(t)) = (&r.evaluation.repeatability, &r.evaluation.metrics.test_after) {

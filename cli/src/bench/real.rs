@@ -126,7 +126,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("  HSR-RobotCali, generic6r, every 5th row held out (target: converged, <= 1.15 x the floor without the worst 1 %, < 10 s):");
         let mut times = Vec::new();
         for seed in 0..seeds {
-            let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
+            let mut o = CalibOptions::new(ModelSpec::Generic, Method::LM);
             o.seed = seed;
             let t0 = Instant::now();
             let r = calibrate(&ds, None, &o)?;
@@ -145,7 +145,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("    median wall time {:.1} s", median(&times));
         let ds = Dataset::load(&p)?;
         let t0 = Instant::now();
-        let (d, _) = twincal::diagnose::diagnose(&ds, &twincal::diagnose::DiagnoseOptions::new(ModelSpec::Generic6r), &|_| {})?;
+        let (d, _) = twincal::diagnose::diagnose(&ds, &twincal::diagnose::DiagnoseOptions::new(ModelSpec::Generic), &|_| {})?;
         println!(
             "  HSR-RobotCali diagnose --model generic6r: {} ; final held-out {:.4} mm = {:.2} x the floor; {:.1} s (target < 30 s)",
             d.verdict,

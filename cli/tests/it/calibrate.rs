@@ -353,7 +353,7 @@ fn bad_calibration_input_is_named_and_leaves_nothing() {
 fn hsr_robotcali_generic_model_reaches_the_repeatability_floor() {
     let Some(path) = datasets::shared("data/hsr-robotcali/hsr_robotcali_pool.csv") else { return };
     let ds = Dataset::load(&path).unwrap();
-    let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
+    let mut o = CalibOptions::new(ModelSpec::Generic, Method::LM);
     o.test_fraction = Some(0.2);
     let r = calibrate(&ds, None, &o).unwrap();
     let rep = r.evaluation.repeatability.clone().expect("repeated configurations are present");

@@ -25,7 +25,7 @@ fn options(spec: ModelSpec, seed: u64, test_fraction: Option<f64>) -> CalibOptio
 /// The generic arm against the URDF-seeded calibration on `data`; returns both held-out errors.
 fn generic_against_urdf(what: &str, data: &Dataset, robot: &Robot, seed: u64, test_fraction: Option<f64>) -> (f64, f64) {
     let urdf = calibrate(data, None, &options(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), seed, test_fraction)).unwrap();
-    let generic = calibrate(data, None, &options(ModelSpec::Generic6r, seed, test_fraction)).unwrap();
+    let generic = calibrate(data, None, &options(ModelSpec::Generic, seed, test_fraction)).unwrap();
     let (g, u) = (held_out(&generic), held_out(&urdf));
     let search = generic.solve.search.as_ref().expect("the generic search reports itself");
     eprintln!("{what}: held-out mean |dp| generic {g:.4} mm, URDF-seeded {u:.4} mm; search {search:?}");

@@ -31,7 +31,7 @@ fn hsr_generic_model_converges_and_predicts_interleaved_rows_near_the_floor() {
     let mut ratios = Vec::new();
     let mut first = None;
     for seed in 0..3 {
-        let mut o = CalibOptions::new(ModelSpec::Generic6r, Method::LM);
+        let mut o = CalibOptions::new(ModelSpec::Generic, Method::LM);
         o.seed = seed;
         let r = calibrate(&ds, None, &o).unwrap();
         assert!(r.solve.converged, "seed {seed}: {}", r.solve.stop_reason);
@@ -196,7 +196,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     );
     assert!(t.within_3_sigma > u.within_3_sigma && t.max_abs_z < u.max_abs_z, "{t:?} against {u:?}");
     for (method, model) in [(Method::DSADE_GKAN, "irb120"), (Method::PSO_EKF_AWNN, "irb120"), (Method::LM, "generic6r")] {
-        let spec = if model == "generic6r" { ModelSpec::Generic6r } else { ModelSpec::parse(model, "hayati").unwrap() };
+        let spec = if model == "generic6r" { ModelSpec::Generic } else { ModelSpec::parse(model, "hayati").unwrap() };
         let r = calibrate(&ds, None, &CalibOptions::new(spec, method)).unwrap();
         let e = r.evaluation.metrics.test_after_inliers.unwrap().rmse;
         eprintln!("{} / {model}: test inliers {e:.4} mm (LM {:.4})", method.name(), inliers.rmse);
@@ -226,7 +226,7 @@ fn lands_in_the_same_basin_on_80_percent_of_the_rows(ds: &Dataset, a: &CalibResu
             .collect(),
         source: "80 % of the training rows".into(),
     };
-    let b = calibrate(&fewer, None, &CalibOptions::new(ModelSpec::Generic6r, Method::LM)).unwrap();
+    let b = calibrate(&fewer, None, &CalibOptions::new(ModelSpec::Generic, Method::LM)).unwrap();
     let test = Dataset { rows: ds.rows.iter().filter(|r| r.split == Some(Split::Test)).cloned().collect(), source: "held out".into() };
     let (pa, pb) = (a.predict_rows(&test), b.predict_rows(&test));
     let diff = (pa.iter().zip(&pb).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / pa.len() as f64).sqrt();
@@ -301,7 +301,7 @@ fn diagnosed_model_on_held_out_blocks(rel: &str) {
             return;
         }
         Some(u) => ModelSpec::parse(u.to_str().unwrap(), "hayati").unwrap(),
-        None if rel.starts_with("hsr") => ModelSpec::Generic6r,
+        None if rel.starts_with("hsr") => ModelSpec::Generic,
         None => ModelSpec::parse("irb120", "hayati").unwrap(),
     };
     let load = LoadOptions { measurement, ..Default::default() };

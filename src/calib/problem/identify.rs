@@ -60,11 +60,22 @@ pub struct Identifiability {
     pub fixed_mask: Vec<bool>,
 }
 
+/// A column whose norm is below this fraction of the largest is rounding, not a parameter the
+/// data see (a still joint's axis: its exponential is the identity up to 1e-16), and is zero
+/// for the analysis: scaled to unit length it would look like any other.
+const ROUNDING_COLUMN: f64 = 1e-12;
+
+/// The Jacobian with unit columns, and the columns' norms (zero for a column of rounding).
 fn scaled(j: &DMatrix<f64>) -> (DMatrix<f64>, Vec<f64>) {
     let mut s = j.clone();
+    let largest = j.column_iter().map(|c| c.norm()).fold(0.0, f64::max);
     let mut norms = Vec::with_capacity(j.ncols());
     for mut c in s.column_iter_mut() {
-        let n = c.norm();
+        let mut n = c.norm();
+        if n <= ROUNDING_COLUMN * largest {
+            n = 0.0;
+            c.fill(0.0);
+        }
         norms.push(n);
         if n > 0.0 {
             c /= n;

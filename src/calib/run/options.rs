@@ -24,8 +24,9 @@ pub enum ModelSpec {
         /// How its errors are parametrised.
         parametrisation: Parametrisation,
     },
-    /// A 6R arm with no published nominal.
-    Generic6r,
+    /// An arm with no published nominal (6 or 7 revolute joints, as the data hold): its axes
+    /// are found from the data by a global search ([`crate::calib::run::generic`]).
+    Generic,
 }
 
 impl ModelSpec {
@@ -33,25 +34,32 @@ impl ModelSpec {
     pub fn nominal(robot: Robot, p: Parametrisation) -> ModelSpec {
         ModelSpec::Nominal { robot: Box::new(robot), parametrisation: p }
     }
-    /// The model named by `model` (`irb120`, `generic6r` or a `.urdf` path) in `parametrisation`
-    /// (`dh`, `hayati` or `frame`, any case; ignored by `generic6r`).
+    /// Names of the generic arm: `generic` (the joints as the data hold them), `generic6r` and
+    /// `generic7r` (the same search; the data's joint count decides).
+    pub const GENERIC_NAMES: [&'static str; 3] = ["generic", "generic6r", "generic7r"];
+    /// Whether `model` names the generic arm.
+    pub fn is_generic_name(model: &str) -> bool {
+        Self::GENERIC_NAMES.contains(&model)
+    }
+    /// The model named by `model` (`irb120`, `generic` or a `.urdf` path) in `parametrisation`
+    /// (`dh`, `hayati` or `frame`, any case; ignored by the generic arm).
     pub fn parse(model: &str, parametrisation: &str) -> Result<ModelSpec> {
         let p = Parametrisation::parse(parametrisation)?;
         match model {
             "irb120" => Ok(ModelSpec::Nominal { robot: Box::new(Robot::irb120()), parametrisation: p }),
-            "generic6r" => Ok(ModelSpec::Generic6r),
+            name if Self::is_generic_name(name) => Ok(ModelSpec::Generic),
             path if path.ends_with(".urdf") => {
                 let robot = Robot::from_urdf_file(Path::new(path))?;
                 Ok(ModelSpec::Nominal { robot: Box::new(robot), parametrisation: p })
             }
-            other => Err(Error::Invalid(format!("unknown model '{other}' (expected irb120, generic6r or a .urdf path)"))),
+            other => Err(Error::Invalid(format!("unknown model '{other}' (expected irb120, generic or a .urdf path)"))),
         }
     }
     /// The nominal robot, where there is one.
     pub fn robot(&self) -> Option<&Robot> {
         match self {
             ModelSpec::Nominal { robot, .. } => Some(robot.as_ref()),
-            ModelSpec::Generic6r => None,
+            ModelSpec::Generic => None,
         }
     }
 }

@@ -207,13 +207,42 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     })
 }
 
-/// Warnings about the pipeline's setup: a thermal block run as a warm-up, no outlier screen.
+/// A pose probe turning less than this over a mount's rows, degrees, leaves its origin on the
+/// flange ill-determined (a turn of δ rad sees the origin with a lever of δ).
+pub const MIN_PROBE_TURN_DEG: f64 = 1.0;
+
+/// The smallest, over a pose probe's mounts, of the largest turn of its readings from the
+/// mount's first one (degrees), with that mount's label; `None` for another instrument.
+fn probe_turn(model: &CalibModel, data: &Dataset) -> Option<(f64, Option<String>)> {
+    if model.measurement != crate::measurement::Measurement::Pose {
+        return None;
+    }
+    let mut first: Vec<(Option<&str>, nalgebra::Matrix3<f64>, f64)> = Vec::new();
+    for r in &data.rows {
+        let m = crate::measurement::Euler::XYZ.matrix([r.reading_mm[3], r.reading_mm[4], r.reading_mm[5]].map(f64::to_radians));
+        match first.iter_mut().find(|(label, ..)| *label == r.mount.as_deref()) {
+            Some((_, m0, turn)) => *turn = turn.max(nalgebra::Rotation3::from_matrix_unchecked(m * m0.transpose()).angle().to_degrees()),
+            None => first.push((r.mount.as_deref(), m, 0.0)),
+        }
+    }
+    first.into_iter().map(|(l, _, t)| (t, l.map(str::to_string))).min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// Warnings about the pipeline's setup: a thermal block run as a warm-up, no outlier screen, a
+/// probe that hardly turns.
 pub(super) fn setup_warnings(model: &CalibModel, data: &Dataset, screened: bool, opts: &CalibOptions) -> Vec<String> {
     let mut warnings = Vec::new();
     if model.effects.iter().any(|b| matches!(b.thermal, Some(crate::calib::effects::ThermalDrive::WarmUp))) && data.rows.iter().all(|r| r.temp_c.is_some()) {
         warnings.push(format!(
             "the temp column spans less than {} K, so it drives no thermal drift: the thermal block runs on t as a warm-up",
             crate::calib::effects::MIN_TEMP_SPREAD_K
+        ));
+    }
+    if let Some((turn, mount)) = probe_turn(model, data).filter(|(t, _)| *t < MIN_PROBE_TURN_DEG) {
+        let at = mount.map_or(String::new(), |m| format!(" on mount {m}"));
+        warnings.push(format!(
+            "the probe{at} turns by at most {turn:.3}° over these rows: where its orientation hardly changes, its origin on the flange cannot be told \
+             from the tracker's position, so the directions the rows do not see are held at the flange's origin (see the fixed tool.* parameters)"
         ));
     }
     if !screened && opts.outlier_k > 0.0 {

@@ -19,7 +19,7 @@ pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
             Parametrisation::Dh => CalibModel::dh(robot, guess, false),
             Parametrisation::Hayati => CalibModel::dh(robot, guess, true),
         },
-        ModelSpec::Generic6r => CalibModel::generic(6, guess),
+        ModelSpec::Generic => CalibModel::generic(6, guess),
     }
 }
 
@@ -68,7 +68,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     // (whose placement it found with the arm).
     let (m, searched, report) = match spec {
         ModelSpec::Nominal { .. } => (build_model(spec, &zero_guess), None, None),
-        ModelSpec::Generic6r => {
+        ModelSpec::Generic => {
             let rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
             let s = super::generic::search(&train.subset(&rows), opts)?;
             let p = s.model.placement(&s.model.nominal);
@@ -135,17 +135,22 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     }
     let [st, mo] = others;
     let model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
-    Ok((align_placement(model, train), report))
+    Ok((align_placement(model, train, opts.rank_tol), report))
 }
 
 /// Aligns the instrument alone (its own placement and the tool point) to the nominal robot, so
 /// that every method starts from "nominal kinematics, best-fitting instrument" and the
 /// identifiability analysis sees a realistic tool point (a tool point on the last axis would
 /// hide that axis' direction).
-fn align_placement(mut model: CalibModel, train: &Samples) -> CalibModel {
+///
+/// Placement parameters the rows do not determine (a probe's origin on the flange where its
+/// orientation hardly changes) stay where the start put them: the identifiability analysis of
+/// the placement alone holds them.
+fn align_placement(mut model: CalibModel, train: &Samples, rank_tol: f64) -> CalibModel {
     let nc = model.n_chain();
-    let fixed: Vec<bool> = (0..model.n_params()).map(|k| k < nc).collect();
     let fit = ReadingFit { model: &model, data: train };
+    let id = crate::calib::problem::identify::identify(&fit, &model.nominal, rank_tol);
+    let fixed: Vec<bool> = (0..model.n_params()).map(|k| k < nc || id.fixed_mask[k]).collect();
     let lm = LevenbergMarquardt::budget(200);
     let x = lm.minimize(&fit, &model.nominal, &fixed, &mut NoObserver).x;
     if x.iter().all(|v| v.is_finite()) {

@@ -469,6 +469,22 @@ impl CalibResult {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let value: serde_json::Value =
             serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+        Self::from_value(value, &path.display())
+    }
+
+    /// Checks, before it is written, that [`Self::load`] will read this result back: no command
+    /// writes a file its own loader refuses (a placement kilometres away, a non-finite value);
+    /// the error says what would be refused, and nothing is written.
+    pub fn check_writable(&self) -> Result<()> {
+        let value = serde_json::to_value(self).map_err(|e| Error::Calibration(format!("cannot serialise the result: {e}")))?;
+        Self::from_value(value, &"the result")
+            .map(|_| ())
+            .map_err(|e| Error::Calibration(format!("the calibration gave a result twincal could not read back, so nothing was written: {e}")))
+    }
+
+    /// [`Self::load`] of a parsed file (`origin` names it in errors).
+    fn from_value(value: serde_json::Value, origin: &dyn std::fmt::Display) -> Result<CalibResult> {
+        let path = Origin(origin);
         // What the model computes with holds no number a calibration could not have produced.
         for key in ["model", "x", "corrector", "torque_model", "rbf"] {
             if let Some((at, n)) = value.get(key).and_then(|v| beyond_magnitude(v, MAX_MODEL_MAGNITUDE)) {
@@ -527,6 +543,15 @@ impl CalibResult {
         }
         check_model(&r).map_err(|e| Error::model(path.display(), e))?;
         Ok(r)
+    }
+}
+
+/// What a result's checks name: a file, or the result about to be written.
+struct Origin<'a>(&'a dyn std::fmt::Display);
+
+impl Origin<'_> {
+    fn display(&self) -> String {
+        self.0.to_string()
     }
 }
 

@@ -60,6 +60,10 @@ pub struct Line {
     pub dir: Vector3<f64>,
 }
 
+/// Farthest a joint frame's origin is put from the previous one, m: where two axes come closest
+/// farther away than any arm's link, the frame goes to the previous origin's foot instead.
+const MAX_ORIGIN_STEP_M: f64 = 5.0;
+
 /// Unit vector perpendicular to `z`, as close as possible to `hint`.
 fn perpendicular(z: &Vector3<f64>, hint: &Vector3<f64>) -> Vector3<f64> {
     let v = hint - z * z.dot(hint);
@@ -94,7 +98,14 @@ pub fn frames_of(lines: &[Line]) -> Vec<Frame> {
                     let t = (e - b * d) / den;
                     let foot = l.point + z * t;
                     let gap = foot - (op + zp * s);
-                    (foot, if gap.norm() > 1e-6 { gap } else { cross })
+                    if (foot - op).norm() > MAX_ORIGIN_STEP_M {
+                        // Lines nearly parallel far from the arm (a joint the data never move
+                        // is free to tilt): the previous origin's foot keeps the frame near.
+                        let near = l.point + z * z.dot(&(op - l.point));
+                        (near, near - op)
+                    } else {
+                        (foot, if gap.norm() > 1e-6 { gap } else { cross })
+                    }
                 }
             }
         };
@@ -288,10 +299,26 @@ fn start_tracker(lines: &[Line], tool: &Vector3<f64>, q_ref: &[f64], data: &Samp
     model.nominal.iter().all(|v| v.is_finite()).then_some(model)
 }
 
+/// The search's reference pose: each joint's mean angle over the rows, or exactly its angle
+/// where it never moves (a mean a rounding away from it would turn a still joint by 1e-16 rad,
+/// and the column-scaled identifiability analysis would take its axis for one the data see).
+fn reference_of(train: &Samples, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|j| {
+            let (lo, hi) = train.q.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), q| (a.min(q[j]), b.max(q[j])));
+            if hi - lo < 1e-12 {
+                lo
+            } else {
+                train.q.iter().map(|q| q[j]).sum::<f64>() / train.len() as f64
+            }
+        })
+        .collect()
+}
+
 /// Global search for the generic model (see the module docs).
 pub fn search(train: &Samples, opts: &CalibOptions) -> Result<Searched> {
     let n = train.q.first().map_or(0, |q| q.len());
-    let q_ref: Vec<f64> = (0..n).map(|j| train.q.iter().map(|q| q[j]).sum::<f64>() / train.len() as f64).collect();
+    let q_ref = reference_of(train, n);
     let every = |rows: usize| train.subset(&(0..train.len()).step_by(train.len().div_ceil(rows).max(1)).collect::<Vec<_>>());
     let stages = if train.dim == 1 { STAGES } else { TRACKER_STAGES };
     let starts = ((STARTS as f64 * opts.effort).ceil() as usize).max(stages[0].0);
