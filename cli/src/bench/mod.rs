@@ -7,7 +7,8 @@
 //! * [`evo`]: `bench dsade` and `bench ik` (Evo-NPH: DS-ADE + GKAN, the hybrid-Jacobian IK);
 //! * [`awnn`]: `bench awnn` (PSO-EKF-AWNN and its ablations);
 //! * [`real`]: `bench real` (the real measured datasets in ../shared/data) and `bench
-//!   diagnose-ur10` (diagnose on the UR10's 11 911-row series against 60 s);
+//!   diagnose-ur10` (diagnose on the UR10's 11 911-row series against 60 s), with [`generic`]
+//!   (the tracker files without their URDF: the generic arm against the URDF-seeded one);
 //! * [`noise`]: `bench noise-model` (the logging error modelled or not, in lm, dsade-gkan and
 //!   pso-ekf-awnn, on realistic acquisitions of the twin);
 //! * [`replay`]: `bench replay` (1 000 rows replayed against 5 s, the identified twin's cost);
@@ -19,6 +20,7 @@ pub mod calib;
 pub mod compensate;
 pub mod diagnose;
 pub mod evo;
+pub mod generic;
 pub mod noise;
 pub mod plan;
 pub mod real;

@@ -4,6 +4,7 @@
 //! * HSR-RobotCali, the generic model: every fifth row of the pool held out (interleaved with
 //!   the training rows); per search seed the held-out RMSE without the worst 1 % over the data's
 //!   floor, convergence and wall time; then `diagnose --model generic6r`, timed.
+//! * The tracker files without their URDF ([`crate::bench::generic`]).
 //! * RobotCali (the papers' IRB 120): `seeds` random 80/20 splits of LM, `dsade-gkan` and
 //!   `pso-ekf-awnn`, with the outlier screen (default) and without it (`--outliers 0`, every
 //!   row trains, as the papers' figures presumably do): test RMSE on every test row and on the
@@ -154,6 +155,7 @@ pub fn bench_real(seeds: u64) -> Result<()> {
             t0.elapsed().as_secs_f64()
         );
     }
+    crate::bench::generic::bench_generic_trackers(seeds, &shared_in)?;
     if let Some(p) = shared("robotcali-irb120/robotcali_pool.csv") {
         let ds = Dataset::load(&p)?;
         println!("  RobotCali IRB 120, hayati, {seeds} random 80/20 splits: test RMSE mean ± sd (mm), every test row | rows that are not outliers");

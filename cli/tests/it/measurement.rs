@@ -185,7 +185,6 @@ fn the_commands_take_a_tracker_dataset() {
     // What reads cable lengths only names what the file holds.
     for (args, says) in [
         (vec!["calibrate", "--data", data, "--sensor-guess", "1,2,3,4,5,6,7", "--out", "/dev/null/x.json"], "--sensor-guess places a draw-wire"),
-        (vec!["calibrate", "--data", data, "--model", "generic6r", "--out", "/dev/null/x.json"], "needs a nominal arm"),
         (
             vec!["calibrate", "--data", data, "--effects", "sensor_nonlinearity", "--out", "/dev/null/x.json"],
             "sensor_nonlinearity is a draw-wire's reading error",

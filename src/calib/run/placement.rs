@@ -62,7 +62,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
                 "--sensor-guess applies to a nominal model (irb120 or a URDF); the generic model places its sensor in its own search".into(),
             ));
         }
-        return super::generic::search(train, opts).map(|s| (s.model, Some(s.report)));
+        return super::generic::search(train, &search_settings(opts)).map(|s| (s.model, Some(s.report)));
     }
     // The arm: the nominal's, or the generic search's on the first station's and mount's rows
     // (whose placement it found with the arm).
@@ -70,7 +70,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         ModelSpec::Nominal { .. } => (build_model(spec, &zero_guess), None, None),
         ModelSpec::Generic => {
             let rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
-            let s = super::generic::search(&train.subset(&rows), opts)?;
+            let s = super::generic::search(&train.subset(&rows), &search_settings(opts))?;
             let p = s.model.placement(&s.model.nominal);
             (s.model, Some(p), Some(s.report))
         }
@@ -136,6 +136,11 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let [st, mo] = others;
     let model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
     Ok((align_placement(model, train, opts.rank_tol), report))
+}
+
+/// The generic search's settings of a calibration's options.
+fn search_settings(opts: &CalibOptions) -> super::generic::SearchSettings {
+    super::generic::SearchSettings { effort: opts.effort, seed: opts.seed, rank_tol: opts.rank_tol }
 }
 
 /// Aligns the instrument alone (its own placement and the tool point) to the nominal robot, so

@@ -23,7 +23,6 @@
 //! polish, not the best basin). Starts are drawn from the seed alone and fitted in parallel: the
 //! result does not depend on the number of threads.
 
-use super::options::CalibOptions;
 use crate::calib::model::{CalibModel, Kind, Placement, SensorGuess};
 use crate::measurement::Measurement;
 use serde::{Deserialize, Serialize};
@@ -49,7 +48,7 @@ const STAGES: [(usize, usize, usize); 2] = [(16, 150, 25), (2, 650, 150)];
 /// finalists say how many of the screened shapes reach the best basin.
 const TRACKER_STAGES: [(usize, usize, usize); 2] = [(16, 150, 25), (8, 650, 150)];
 /// Starts at effort 1.
-const STARTS: usize = 320;
+pub const STARTS: usize = 320;
 
 /// An axis line in the base frame at the reference pose.
 #[derive(Clone, Copy, Debug)]
@@ -315,8 +314,19 @@ fn reference_of(train: &Samples, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// How a search runs: its budget, its seed and the identifiability threshold of its fits.
+#[derive(Clone, Copy, Debug)]
+pub struct SearchSettings {
+    /// Multiplies the number of starts (1 = [`STARTS`]).
+    pub effort: f64,
+    /// Seeds the shapes drawn.
+    pub seed: u64,
+    /// The fits' identifiability threshold (relative singular value).
+    pub rank_tol: f64,
+}
+
 /// Global search for the generic model (see the module docs).
-pub fn search(train: &Samples, opts: &CalibOptions) -> Result<Searched> {
+pub fn search(train: &Samples, opts: &SearchSettings) -> Result<Searched> {
     let n = train.q.first().map_or(0, |q| q.len());
     let q_ref = reference_of(train, n);
     let every = |rows: usize| train.subset(&(0..train.len()).step_by(train.len().div_ceil(rows).max(1)).collect::<Vec<_>>());
