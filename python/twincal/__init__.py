@@ -342,7 +342,7 @@ def calibrate(
     """Calibrate a model on measured data, as ``twincal calibrate``.
 
     ``method``: lm, ekf, pf, pso, rbf, dsade-gkan, pso-ekf-awnn (and their ablations); ``model``:
-    irb120 (default), a .urdf path or generic6r; ``effects``: e.g. ``["compliance:2", "backlash"]``.
+    irb120 (default), a .urdf path or generic (no nominal: the axes found from the data); ``effects``: e.g. ``["compliance:2", "backlash"]``.
     Any other ``calibrate`` option by name: ``test_fraction``, ``seed``, ``params``, ``effort``,
     ``outliers``, ``loss``, ``angles``, ``measurement``, ``euler``, ``payload_kg``, ... ``truth``:
     the twin's truth (the dict ``generate`` returns, its JSON text, or a truth.json path) for

@@ -53,7 +53,7 @@ pub fn bench_generic_trackers(seeds: u64, shared: &dyn Fn(&str, &str) -> Option<
             let (u, tu, _) = run(&data, ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), seed)?;
             let (g, tg, search) = run(&data, ModelSpec::Generic, seed)?;
             let s = search.map_or(String::from("-"), |s| format!("{} of {} finalists at the best cost", s.in_best_basin, s.finalists));
-            println!("    {rel} seed {seed}: generic {g:.4} mm, URDF-seeded {u:.4} mm (ratio {:.4}); {tg:.1} s against {tu:.1} s; {s}", g / u);
+            println!("    {rel} seed {seed}: generic {g:.4} mm, URDF-seeded {u:.4} mm (ratio {:.4}); {tg:.1} s against {tu:.2} s; {s}", g / u);
             times.push(tg);
             base_times.push(tu);
             ratios.push(g / u);

@@ -42,14 +42,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let zero_guess = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
     let measurement = Measurement::of_dim(train.dim).unwrap_or_default();
     let what = measurement.def().describe();
-    if measurement != Measurement::Length {
-        if opts.sensor_guess.is_some() {
-            return Err(Error::Invalid(format!("--sensor-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
-        }
-        if opts.loads.cable_tension_n != 0.0 {
-            return Err(Error::Invalid(format!("--cable-tension-n is a draw-wire's pull on the tool; these rows hold a {what}: no cable pulls")));
-        }
-    }
+    refuse_cable_options(opts, measurement)?;
     if measurement == Measurement::Length && !matches!(spec, ModelSpec::Nominal { .. }) {
         if stations.len() > 1 || labels[1].len() > 1 {
             return Err(Error::Invalid("the generic model searches one draw-wire set-up; these rows stand at several stations or mounts".into()));
@@ -136,6 +129,21 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let [st, mo] = others;
     let model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
     Ok((align_placement(model, train, opts.rank_tol), report))
+}
+
+/// Refuses a draw-wire's options (a guess of its placement, its cable's pull) on another
+/// instrument's rows.
+fn refuse_cable_options(opts: &CalibOptions, measurement: Measurement) -> Result<()> {
+    let what = measurement.def().describe();
+    if measurement != Measurement::Length {
+        if opts.sensor_guess.is_some() {
+            return Err(Error::Invalid(format!("--sensor-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
+        }
+        if opts.loads.cable_tension_n != 0.0 {
+            return Err(Error::Invalid(format!("--cable-tension-n is a draw-wire's pull on the tool; these rows hold a {what}: no cable pulls")));
+        }
+    }
+    Ok(())
 }
 
 /// The generic search's settings of a calibration's options.
