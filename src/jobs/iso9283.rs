@@ -210,6 +210,12 @@ impl Iso9283Job {
             let d = r.model.measurement.file_dim();
             let commanded: Vec<Vec<f64>> = p.values.chunks(d).map(<[f64]>::to_vec).collect();
             let own = sha.is_some() && r.provenance.data_sha256 == sha && !r.provenance.test_rows.is_empty();
+            if let Some(row) = r.provenance.test_rows.iter().find(|i| **i >= data.rows.len()).filter(|_| own) {
+                return Err(Error::model(
+                    path.display(),
+                    format!("provenance.test_rows names row {}, past the {} rows of {} (edited result file?)", row + 1, data.rows.len(), data.source),
+                ));
+            }
             let registration = p.registration_rows();
             let judged: Vec<usize> = if own { r.provenance.test_rows.clone() } else { (0..data.rows.len()).collect() };
             let judged: Vec<usize> = judged.into_iter().filter(|i| !registration.contains(i)).collect();

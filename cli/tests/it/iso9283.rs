@@ -63,6 +63,22 @@ fn a_calibration_brings_the_held_out_pose_accuracy_of_twin_tracker_data_to_its_n
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
     let o = twincal(&["iso9283", "--data", s(&data), "--model", s(&after), "--report", s(&after)]);
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    // A result whose held-out rows were edited: a row past the data, a row named twice.
+    let text = std::fs::read_to_string(&after).unwrap();
+    let mut r: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let rows = r["provenance"]["test_rows"].as_array().unwrap().clone();
+    assert!(!rows.is_empty());
+    for (edit, says) in [(99999, "past the"), (rows[0].as_u64().unwrap(), "twice")] {
+        let mut edited = rows.clone();
+        edited.push(serde_json::json!(edit));
+        r["provenance"]["test_rows"] = serde_json::Value::Array(edited);
+        let path = dir.path().join("edited.json");
+        std::fs::write(&path, serde_json::to_string(&r).unwrap()).unwrap();
+        let o = twincal(&["iso9283", "--data", s(&data), "--model", s(&path)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("test_rows") && err.contains(says) && !err.contains("panicked"), "{err}");
+    }
 }
 
 /// The UR10's ISO-cube series d, judged on the rows its registration held out: the nominal arm

@@ -561,6 +561,10 @@ impl Origin<'_> {
 fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
     let chain = &r.model.chain;
     chain.validate()?;
+    let mut seen = std::collections::BTreeSet::new();
+    if let Some(row) = r.provenance.test_rows.iter().find(|i| !seen.insert(**i)) {
+        return Err(format!("provenance.test_rows names row {} twice: a calibration holds a row out once (edited result file?)", row + 1));
+    }
     let temps = crate::dataset::MIN_TEMP_C..=crate::dataset::MAX_TEMP_C;
     if let Some(t) = r.model.effects.iter().find_map(|b| match b.thermal {
         Some(crate::calib::effects::ThermalDrive::Temperature { ref_c }) if !temps.contains(&ref_c) => Some(ref_c),
