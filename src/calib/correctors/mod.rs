@@ -223,8 +223,7 @@ mod tests {
             temp_c: Some(24.5),
             torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1],
             side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0],
-            station: 0,
-            mount: 0,
+            ..Default::default()
         };
         let c = EffectCorrection::new(&m, &x);
         let err = gradient_error(&c, &configurations(), &inp, 1e-6);

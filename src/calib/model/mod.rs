@@ -8,7 +8,8 @@
 //!   to the next one (IRB 120 joints 2–3), where Δd is not identifiable.
 //! * `frame`: the twin's own per-joint frame errors (7 per joint), heavily redundant; the
 //!   identifiability analysis reduces it to its base parameters.
-//! * `generic6r`: absolute D-H values for an arm without a published nominal, found by a global search.
+//! * `generic6r` / `generic7r`: an arm without a published nominal, a product of exponentials
+//!   around axis lines found by a global search ([`crate::calib::run::generic`]).
 //!
 //! Every model ends with its instrument's placement parameters ([`Measurement`]; for the
 //! draw-wire: cable exit point (base frame), length offset and tool point (flange frame); for a
@@ -601,27 +602,26 @@ impl CalibModel {
 
     /// A model of `chain` (its parameters' `kinds`) measured by a draw-wire placed as `sensor`.
     pub fn with_sensor(name: &str, chain: Chain, kinds: Vec<Kind>, sensor: &SensorGuess) -> CalibModel {
-        let measurement = Measurement::Length;
-        let mut names = chain.param_names.clone();
-        names.extend(measurement.placement_names().iter().map(|s| s.to_string()));
-        let mut kinds = kinds;
-        kinds.extend(std::iter::repeat_n(Kind::Length, measurement.n_placement()));
-        let mut nominal = vec![0.0; chain.n_params()];
-        nominal.extend(sensor.exit_m.iter());
-        nominal.push(sensor.offset_m);
-        nominal.extend(sensor.tool_m.iter());
-        CalibModel {
+        CalibModel::of_chain(name, chain, kinds, &Placement::cable(sensor.exit_m.into(), sensor.offset_m, sensor.tool_m.into()))
+    }
+
+    /// A model of `chain` (its parameters' `kinds`, all at zero) measured by the instrument
+    /// placed as `placement`: one station, one mount, no effect block.
+    pub fn of_chain(name: &str, chain: Chain, kinds: Vec<Kind>, placement: &Placement) -> CalibModel {
+        let nominal = vec![0.0; chain.n_params()];
+        let model = CalibModel {
             name: name.into(),
+            names: chain.param_names.clone(),
             chain,
-            names,
             kinds,
             nominal,
             effects: Vec::new(),
             limits: Vec::new(),
-            measurement,
+            measurement: placement.measurement,
             stations: Vec::new(),
             mounts: Vec::new(),
-        }
+        };
+        model.with_placement(placement)
     }
 
     /// Joint limits (rad) for inverse kinematics and sampling: the nominal robot's, else a full

@@ -6,6 +6,28 @@ fn guess() -> SensorGuess {
     SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] }
 }
 
+/// Central differences (step `h`) of a row's readings and of its tool point with respect to
+/// parameter `k` of `x`.
+fn central_differences(
+    m: &CalibModel,
+    x: &[f64],
+    k: usize,
+    h: f64,
+    q: &[f64],
+    inp: &crate::calib::effects::RowInputs,
+    w: &mut ModelWork,
+) -> (Vec<f64>, Vector3<f64>) {
+    let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+    xp[k] += h;
+    xm[k] -= h;
+    let d = m.measurement.dim();
+    let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
+    m.readings_with(&xp, q, inp, w, &mut yp);
+    m.readings_with(&xm, q, inp, w, &mut ym);
+    let dy = yp.iter().zip(&ym).map(|(a, b)| (a - b) / (2.0 * h)).collect();
+    (dy, (m.tool_point_with(&xp, q, inp, w) - m.tool_point_with(&xm, q, inp, w)) / (2.0 * h))
+}
+
 #[test]
 fn dh_tables_reproduce_the_urdf() {
     let robot = Robot::irb120();
@@ -61,8 +83,7 @@ fn effect_gradients_match_finite_differences() {
             temp_c: Some(24.5),
             torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1],
             side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0],
-            station: 0,
-            mount: 0,
+            ..Default::default()
         };
         let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
         let mut w = m.work();
@@ -74,13 +95,9 @@ fn effect_gradients_match_finite_differences() {
         m.tool_point_grad_with(&x, &q, &inp, &mut w, &mut dx);
         for k in 0..m.n_params() {
             let h = if m.kinds[k] == Kind::Effect(crate::calib::effects::EffectUnit::Seconds) { 1e-2 } else { 1e-7 };
-            let (mut xp, mut xm) = (x.clone(), x.clone());
-            xp[k] += h;
-            xm[k] -= h;
-            let fd = (m.predict_with(&xp, &q, &inp, &mut w) - m.predict_with(&xm, &q, &inp, &mut w)) / (2.0 * h);
+            let (dy, fd) = central_differences(&m, &x, k, h, &q, &inp, &mut w);
             let tol = 1e-7 * (1.0 + g[k].abs());
-            assert!((fd - g[k]).abs() < tol, "{:?} {}: {fd} vs {}", thermal, m.names[k], g[k]);
-            let fd = (m.tool_point_with(&xp, &q, &inp, &mut w) - m.tool_point_with(&xm, &q, &inp, &mut w)) / (2.0 * h);
+            assert!((dy[0] - g[k]).abs() < tol, "{:?} {}: {} vs {}", thermal, m.names[k], dy[0], g[k]);
             assert!((fd - dx[k]).norm() < 1e-7 * (1.0 + fd.norm()), "{:?} tool point / {}: {fd} vs {}", thermal, m.names[k], dx[k]);
         }
         // With no effect active the prediction equals the rigid model's.
@@ -127,22 +144,14 @@ fn station_and_mount_gradients_match_finite_differences() {
             let mut wa = alone.work();
             alone.readings_with(&alone.nominal, &q, &RowInputs::default(), &mut wa, &mut y1);
             assert!(y0.iter().zip(&y1).all(|(a, b)| (a - b).abs() < 1e-12), "{} ({station}, {mount}): {y0:?} vs {y1:?}", measurement.name());
-            let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
             let mut dx = vec![Vector3::zeros(); m.n_params()];
             m.tool_point_grad_with(&x, &q, &inp, &mut w, &mut dx);
             for k in 0..m.n_params() {
-                let h = 1e-7;
-                let (mut xp, mut xm) = (x.clone(), x.clone());
-                xp[k] += h;
-                xm[k] -= h;
-                m.readings_with(&xp, &q, &inp, &mut w, &mut yp);
-                m.readings_with(&xm, &q, &inp, &mut w, &mut ym);
-                for i in 0..d {
-                    let fd = (yp[i] - ym[i]) / (2.0 * h);
+                let (dy, fd) = central_differences(&m, &x, k, 1e-7, &q, &inp, &mut w);
+                for (i, dy) in dy.iter().enumerate() {
                     let g = jac[i * m.n_params() + k];
-                    assert!((fd - g).abs() < 1e-6 * (1.0 + g.abs()), "{} ({station}, {mount}) value {i} / {}: {fd} vs {g}", measurement.name(), m.names[k]);
+                    assert!((dy - g).abs() < 1e-6 * (1.0 + g.abs()), "{} ({station}, {mount}) value {i} / {}: {dy} vs {g}", measurement.name(), m.names[k]);
                 }
-                let fd = (m.tool_point_with(&xp, &q, &inp, &mut w) - m.tool_point_with(&xm, &q, &inp, &mut w)) / (2.0 * h);
                 assert!(
                     (fd - dx[k]).norm() < 1e-6 * (1.0 + fd.norm()),
                     "{} ({station}, {mount}) tool point / {}: {fd} vs {}",
@@ -173,11 +182,7 @@ fn length_gradient_matches_finite_differences() {
         let mut g = vec![0.0; m.n_params()];
         m.predict_grad(&x, &q, &mut w, &mut g);
         for k in 0..m.n_params() {
-            let h = 1e-7;
-            let (mut xp, mut xm) = (x.clone(), x.clone());
-            xp[k] += h;
-            xm[k] -= h;
-            let fd = (m.predict(&xp, &q, &mut w) - m.predict(&xm, &q, &mut w)) / (2.0 * h);
+            let fd = central_differences(&m, &x, k, 1e-7, &q, &Default::default(), &mut w).0[0];
             assert!((fd - g[k]).abs() < 1e-7, "{} {}: {fd} vs {}", m.name, m.names[k], g[k]);
         }
     }
@@ -209,26 +214,16 @@ fn tracker_readings_jacobians_match_finite_differences() {
         assert_eq!(y, plain);
         let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
         let h = 1e-7;
-        for k in 0..n {
-            let (mut xp, mut xm) = (x.clone(), x.clone());
-            xp[k] += h;
-            xm[k] -= h;
-            m.readings_with(&xp, &q, &inp, &mut w, &mut yp);
-            m.readings_with(&xm, &q, &inp, &mut w, &mut ym);
-            for i in 0..d {
-                let fd = (yp[i] - ym[i]) / (2.0 * h);
-                assert!((fd - jac[i * n + k]).abs() < 1e-7 * (1.0 + fd.abs()), "{} y{i} / {}: {fd} vs {}", m.measurement.name(), m.names[k], jac[i * n + k]);
-            }
-        }
-        // The tool point's parameter Jacobian (what a plan's accuracy is judged on).
+        // The readings' and the tool point's parameter Jacobians (the tool point's is what a
+        // plan's accuracy is judged on).
         let mut dx = vec![Vector3::zeros(); n];
         let p0 = m.tool_point_grad_with(&x, &q, &inp, &mut w, &mut dx);
         assert_eq!(p0, m.tool_point_with(&x, &q, &inp, &mut w));
         for k in 0..n {
-            let (mut xp, mut xm) = (x.clone(), x.clone());
-            xp[k] += h;
-            xm[k] -= h;
-            let fd = (m.tool_point_with(&xp, &q, &inp, &mut w) - m.tool_point_with(&xm, &q, &inp, &mut w)) / (2.0 * h);
+            let (dy, fd) = central_differences(&m, &x, k, h, &q, &inp, &mut w);
+            for (i, dy) in dy.iter().enumerate() {
+                assert!((dy - jac[i * n + k]).abs() < 1e-7 * (1.0 + dy.abs()), "{} y{i} / {}: {dy} vs {}", m.measurement.name(), m.names[k], jac[i * n + k]);
+            }
             assert!((fd - dx[k]).norm() < 1e-7 * (1.0 + fd.norm()), "tool point / {}: {fd} vs {}", m.names[k], dx[k]);
         }
         // And with respect to the joint angles (the row's inputs held).

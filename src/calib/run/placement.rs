@@ -1,7 +1,7 @@
 //! Pipeline stage "sensor placement": the starting model of a calibration. For an arm with a
 //! nominal description, the draw-wire's exit point and length offset by multilateration from the
 //! nominal tool points, then exit point, offset and tool point by a sensor-only least-squares fit;
-//! for the generic 6R model, a global search for the whole structure ([`crate::calib::run::generic`]).
+//! for the generic arm, a global search for the whole structure ([`crate::calib::run::generic`]).
 
 use super::generic::SearchReport;
 use super::options::{CalibOptions, ModelSpec, Parametrisation};

@@ -469,7 +469,7 @@ impl CalibResult {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let value: serde_json::Value =
             serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
-        Self::from_value(value, &path.display())
+        Self::from_value(value, &path.display().to_string())
     }
 
     /// Checks, before it is written, that [`Self::load`] will read this result back: no command
@@ -477,19 +477,18 @@ impl CalibResult {
     /// the error says what would be refused, and nothing is written.
     pub fn check_writable(&self) -> Result<()> {
         let value = serde_json::to_value(self).map_err(|e| Error::Calibration(format!("cannot serialise the result: {e}")))?;
-        Self::from_value(value, &"the result")
+        Self::from_value(value, "the result")
             .map(|_| ())
             .map_err(|e| Error::Calibration(format!("the calibration gave a result twincal could not read back, so nothing was written: {e}")))
     }
 
     /// [`Self::load`] of a parsed file (`origin` names it in errors).
-    fn from_value(value: serde_json::Value, origin: &dyn std::fmt::Display) -> Result<CalibResult> {
-        let path = Origin(origin);
+    fn from_value(value: serde_json::Value, origin: &str) -> Result<CalibResult> {
         // What the model computes with holds no number a calibration could not have produced.
         for key in ["model", "x", "corrector", "torque_model", "rbf"] {
             if let Some((at, n)) = value.get(key).and_then(|v| beyond_magnitude(v, MAX_MODEL_MAGNITUDE)) {
                 return Err(Error::model(
-                    path.display(),
+                    origin,
                     format!("{key}{at} = {n} is beyond what a calibration writes (|value| <= {MAX_MODEL_MAGNITUDE:e}); edited result file?"),
                 ));
             }
@@ -500,27 +499,27 @@ impl CalibResult {
         for key in ["corrector", "rbf"] {
             if let Some((at, n)) = value.get(key).and_then(corrector_output_beyond) {
                 return Err(Error::model(
-                    path.display(),
+                    origin,
                     format!("{key}{at} = {n} is beyond what a calibration writes (a correction within {MAX_CORRECTOR_MAGNITUDE:e} mm); edited result file?"),
                 ));
             }
         }
         if let Some(v) = value.get("schema_version").and_then(serde_json::Value::as_u64).filter(|v| *v > u64::from(RESULT_SCHEMA_VERSION)) {
             return Err(Error::model(
-                path.display(),
+                origin,
                 format!("a calibration result of schema_version {v}, written by a newer twincal; this one reads up to {RESULT_SCHEMA_VERSION}: update twincal"),
             ));
         }
         let flat = !value.get("provenance").is_some_and(serde_json::Value::is_object);
         let given = (!flat).then(|| value.clone());
         let mut r: CalibResult =
-            nested(value).and_then(serde_json::from_value).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+            nested(value).and_then(serde_json::from_value).map_err(|e| Error::model(origin, format!("not a twincal calibration result: {e}")))?;
         // A key twincal does not write is a typo or someone else's file: named, not ignored (the
         // top level and its groups; a version-1 flat file is read as it is).
         if let Some(given) = given {
-            let known = serde_json::to_value(&r).map_err(|e| Error::model(path.display(), format!("cannot check the file's keys: {e}")))?;
+            let known = serde_json::to_value(&r).map_err(|e| Error::model(origin, format!("cannot check the file's keys: {e}")))?;
             if let Some(k) = unknown_keys(&given, &known) {
-                return Err(Error::model(path.display(), format!("unknown key '{k}' (a typo, or not a twincal result file?)")));
+                return Err(Error::model(origin, format!("unknown key '{k}' (a typo, or not a twincal result file?)")));
             }
         }
         // Read in the current layout, whatever the file's.
@@ -529,11 +528,11 @@ impl CalibResult {
             r.corrector.get_or_insert(Corrector::Rbf(net));
         }
         if let Some(c) = &r.corrector {
-            c.validate(r.model.chain.n_joints).map_err(|e| Error::model(path.display(), e))?;
+            c.validate(r.model.chain.n_joints).map_err(|e| Error::model(origin, e))?;
             let (want, has) = (r.model.measurement.dim(), c.as_correct().dim());
             if want != has {
                 return Err(Error::model(
-                    path.display(),
+                    origin,
                     format!(
                         "the corrector corrects {has} value(s) per row, the model's {} reads {want} (edited result file?)",
                         r.model.measurement.def().describe()
@@ -541,17 +540,8 @@ impl CalibResult {
                 ));
             }
         }
-        check_model(&r).map_err(|e| Error::model(path.display(), e))?;
+        check_model(&r).map_err(|e| Error::model(origin, e))?;
         Ok(r)
-    }
-}
-
-/// What a result's checks name: a file, or the result about to be written.
-struct Origin<'a>(&'a dyn std::fmt::Display);
-
-impl Origin<'_> {
-    fn display(&self) -> String {
-        self.0.to_string()
     }
 }
 

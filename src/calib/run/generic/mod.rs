@@ -1,7 +1,7 @@
-//! The generic 6R model, for arms without a published nominal.
+//! The generic arm (6 or 7 revolute joints), for arms without a published nominal.
 //!
 //! **Parametrisation.** A calibration sees the arm only where the data put it; on a narrow range
-//! of joint angles what the lengths determine is where each joint axis lies *there*. So the
+//! of joint angles what the readings determine is where each joint axis lies *there*. So the
 //! model is a product of exponentials around the mean training pose q̄: each joint turns what
 //! follows it about its own axis line, given in the base frame at q̄, by q − q̄
 //! ([`model_around`]). A line's parameters (its origin moved, its direction tilted) move that
@@ -12,31 +12,32 @@
 //! 36 m link and a tool point 23 m out; serial per-joint frame errors, tried next, couple every
 //! line to the errors upstream of it (condition number 1e7 against 1e5 here).
 //!
-//! **Search.** Starts are plausible industrial topologies at q̄ (seeded draws: joint 1 vertical;
-//! joint 2 horizontal, offset from it by a shoulder link; joint 3 parallel to 2 at the end of an
-//! upper arm of 0.3–1.1 m; a forearm of 0.3–1.3 m to a spherical wrist whose axes 4, 5, 6 meet;
-//! a tool point 50–350 mm from the wrist centre; the cable's exit point a median reading away
-//! from it in a drawn direction). They go through successive stages (`STAGES`): every start is
-//! fitted briefly on a few rows, the best survive to a longer fit on more rows, and the last few
-//! converge on every training row (in fresh charts, see [`converge`]), where the lowest
-//! *converged* cost wins (ranking after a short polish picks the candidate that is quickest to
-//! polish, not the best basin). Starts are drawn from the seed alone and fitted in parallel: the
-//! result does not depend on the number of threads.
-
-use crate::calib::model::{CalibModel, Kind, Placement, SensorGuess};
-use crate::measurement::Measurement;
-use serde::{Deserialize, Serialize};
-use shapes::Shape;
+//! **Search.** Starts are plausible industrial shapes at q̄ ([`shapes`]: seeded draws of link
+//! lengths, signs and angles). Under a draw-wire they are 6R spherical-wrist arms, the cable's
+//! exit point a median reading away from the tool point in a drawn direction; under a tracker
+//! every shape of the data's joint count in turn, the tracker (and a 6-D probe) placed by the
+//! instrument's own rigid fit. They go through successive stages (`STAGES`, `TRACKER_STAGES`):
+//! every start is fitted briefly on a few rows, the best survive to a longer fit on more rows,
+//! and the last few converge on every training row (in fresh charts, see [`converge`]), where
+//! the lowest *converged* cost wins (ranking after a short polish picks the candidate that is
+//! quickest to polish, not the best basin); [`SearchReport`] says how many reached it. Starts are
+//! drawn from the seed alone and fitted in parallel: the result does not depend on the number of
+//! threads.
 
 pub mod shapes;
+
+use crate::calib::model::{CalibModel, Kind, Placement};
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
+use crate::measurement::Measurement;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use crate::robot::kinematics::{ChainBuilder, Frame};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use shapes::Shape;
 
 /// The search's successive stages: (starts kept, rows seen at most, LM iterations). Every start
 /// is screened briefly on a few rows, the best 16 survive to a longer fit on more rows, and the
@@ -149,7 +150,7 @@ pub fn model_around(frames: &[Frame], q_ref: &[f64], placement: &Placement) -> C
     }
     let chain = b.finish();
     let name = if frames.len() == 6 { "generic6r".to_string() } else { format!("generic{}r", frames.len()) };
-    CalibModel::with_sensor(&name, chain, kinds, &SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] }).with_placement(placement)
+    CalibModel::of_chain(&name, chain, kinds, placement)
 }
 
 /// The start of one topology: the model around its lines, the cable's exit point a median
