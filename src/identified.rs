@@ -127,8 +127,9 @@ fn header_notes(r: &CalibResult, data: &Dataset, has_nominal: bool, how: &str, u
 /// The reading noise: the data's, less what the logging steps already give (mm per value).
 fn reading_sigma(r: &CalibResult, notes: &mut Vec<String>) -> f64 {
     let floor = r.evaluation.noise_floor.as_ref();
-    let part = |name: &str| floor.and_then(|f| f.sources.iter().find(|s| s.source == name)).map_or(0.0, |s| s.rms_mm);
-    let (angle_part, reading_part) = (part("angle_resolution"), part("reading_resolution"));
+    use crate::calib::problem::floor::FloorKind;
+    let part = |kind: FloorKind| floor.map_or(0.0, |f| f.part(kind));
+    let (angle_part, reading_part) = (part(FloorKind::AngleResolution), part(FloorKind::ReadingResolution));
     let sigma = (r.solve.noise_estimate_mm.powi(2) - angle_part.powi(2) - reading_part.powi(2)).max(0.0).sqrt();
     notes.push(format!(
         "Reading noise {sigma:.4} mm per value: the data's {:.4} mm less the logging steps' share ({angle_part:.4} mm from the angles, {reading_part:.4} mm from the readings), one sample per reading.",

@@ -27,9 +27,24 @@ pub fn round_decimals(v: f64, decimals: usize) -> f64 {
     format!("{v:.decimals$}").parse().unwrap_or(v)
 }
 
+/// `value ± uncertainty` with the decimals that show the uncertainty to two significant digits,
+/// never fewer than four (`0.0010 ± 0.0000` of a size in thousandths of a degree says nothing;
+/// `0.00097 ± 0.000040` does).
+pub fn with_uncertainty(value: f64, uncertainty: f64) -> String {
+    let decimals = if uncertainty.is_finite() && uncertainty > 0.0 { (1.0 - uncertainty.log10().floor()).clamp(4.0, 12.0) as usize } else { 4 };
+    format!("{value:.decimals$} ± {uncertainty:.decimals$}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_uncertainty_is_shown_to_two_significant_digits() {
+        assert_eq!(with_uncertainty(9.664, 0.3127), "9.6640 ± 0.3127");
+        assert_eq!(with_uncertainty(0.000_972_49, 0.000_040_43), "0.000972 ± 0.000040");
+        assert_eq!(with_uncertainty(1.5, f64::NAN), "1.5000 ± NaN");
+    }
 
     #[test]
     fn lengths_convert_exactly_as_the_factors_they_replace() {

@@ -10,7 +10,7 @@
 
 use crate::calib::effects::inputs::{row_inputs, LoadOptions, TorqueModel};
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
-use crate::calib::model::{CalibModel, SensorGuess};
+use crate::calib::model::CalibModel;
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::{Dataset, Row};
 use crate::error::{Error, Result};
@@ -100,35 +100,39 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
     Ok(Dataset { rows, source: s.name.clone() })
 }
 
-/// The scenario's commanded poses ([`poses`]), the nominal model with the scenario's sensor
-/// placed as it is, and the poses as samples (radians, zero readings, no inputs).
+/// The scenario's commanded poses ([`poses`]), the nominal Hayati model read by the scenario's
+/// instrument placed as it is (its draw-wire, or its tracker), and the poses as samples
+/// (radians, zero readings, no inputs).
 fn nominal_at_poses(s: &Scenario, robot: &Robot) -> Result<(Dataset, CalibModel, Samples)> {
     let data = poses(s, robot)?;
-    let sn = &s.sensor;
-    let guess = SensorGuess {
-        exit_m: sn.exit_point_mm.map(crate::units::to_m),
-        offset_m: crate::units::to_m(sn.length_offset_mm),
-        tool_m: sn.tool_point_mm.map(crate::units::to_m),
-    };
-    let model = CalibModel::dh(robot, &guess, true);
+    let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
+    let (chain, kinds) = crate::calib::model::DhTable::from_robot_hayati(robot).chain(true, true);
+    let model = CalibModel { limits: robot.limits(), ..CalibModel::of_chain("hayati", chain, kinds, &placement) };
     let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
-    let samples = Samples::new(q, vec![0.0; data.rows.len()]);
+    let dim = model.measurement.dim();
+    let samples = Samples::readings(q, vec![0.0; data.rows.len() * dim], dim);
     Ok((data, model, samples))
 }
 
-/// RMS (mm) per unit size of the length change a rigid fit cannot absorb, at the scenario's
-/// poses. The size is the block's first parameter, or for eccentricity the amplitude at phase
-/// `phase` (A·sin(q + φ) = A cos φ·sin q + A sin φ·cos q).
+/// The static torques the twin's arm carries at `s`'s poses: the draw-wire's tension where the
+/// cable reads, none where another instrument does (a tracker pulls on nothing).
+fn twin_torques(s: &Scenario, robot: &Robot) -> TorqueModel {
+    let sn = &s.sensor;
+    let cable = s.instruments.active().is_none();
+    let loads = LoadOptions { cable_tension_n: if cable { sn.tension_n } else { 0.0 }, ..Default::default() };
+    TorqueModel::new(robot, &loads, cable.then(|| sn.exit_point_m()), sn.tool_point_m())
+}
+
+/// RMS (mm per reading value) per unit size of the reading change a rigid fit cannot absorb,
+/// at the scenario's poses. The size is the block's first parameter, or for eccentricity the
+/// amplitude at phase `phase` (A·sin(q + φ) = A cos φ·sin q + A sin φ·cos q).
 pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Option<usize>, phase: f64) -> Result<f64> {
     let (data, mut model, mut samples) = nominal_at_poses(s, robot)?;
-    let sn = &s.sensor;
     let ref_c = data.rows[0].temp_c.unwrap_or(21.0);
     model.add_effect(block(kind, joint, ref_c), 0.0);
-    let loads = LoadOptions { cable_tension_n: sn.tension_n, ..Default::default() };
-    let torque = TorqueModel::new(robot, &loads, Some(sn.exit_point_m()), sn.tool_point_m());
-    samples.inputs = row_inputs(&data, Some(&torque));
+    samples.inputs = row_inputs(&data, Some(&twin_torques(s, robot)));
     let fit = ReadingFit { model: &model, data: &samples };
-    let mut j = DMatrix::zeros(samples.len(), model.n_params());
+    let mut j = DMatrix::zeros(samples.y.len(), model.n_params());
     LeastSquares::jacobian(&fit, &model.nominal, &mut j);
     let k = model.effect_params(0).start;
     let mut g = DVector::from_column_slice(j.column(k).as_slice());
@@ -138,7 +142,7 @@ pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Opti
     let rigid = j.columns(0, model.first_effect()).into_owned();
     let coef = rigid.clone().svd(true, true).solve(&g, 1e-10).map_err(|e| Error::Invalid(format!("projection: {e}")))?;
     let rest = &g - &rigid * coef;
-    Ok(rest.norm() / (samples.len() as f64).sqrt())
+    Ok(rest.norm() / (samples.y.len() as f64).sqrt())
 }
 
 /// The base scenario with `seed` (no hidden effect).
@@ -200,6 +204,63 @@ pub fn hidden_realistic(seed: u64, decimals: usize, factors: std::ops::Range<f64
     let sigma = (noise * noise + floor * floor).sqrt();
     let (mut s, robot, h) = hide_in(s, robot, seed, 1, sigma, factors, true)?;
     s.name = format!("hidden-{seed}-realistic-{decimals}");
+    Ok((s, robot, h, sigma))
+}
+
+/// The tracker scenario every hidden tracker-effect scenario starts from: the IRB 120's
+/// reflector read in 3-D by a laser tracker 2.5 m away, the rows' own standard deviations
+/// written as `sx, sy, sz`.
+pub const TRACKER_SCENARIO: &str = include_str!("../../scenarios/irb120_tracker.toml");
+
+/// Rows of a hidden tracker-effect scenario: each its own pose, measured once (no repeats, no
+/// sweeps): independent rows.
+pub const TRACKER_POSES: usize = 400;
+
+/// The tracker scenario with `seed` and no hidden effect: [`TRACKER_POSES`] rows, every row
+/// with its `sx, sy, sz`.
+pub fn clean_tracker(seed: u64) -> Result<(Scenario, Robot)> {
+    let mut s = Scenario::from_toml(TRACKER_SCENARIO, "scenarios/irb120_tracker.toml (embedded)")?;
+    s.seed = seed;
+    s.sampling.poses = TRACKER_POSES;
+    s.sampling.test = 0;
+    let tracker = s.instruments.tracker.as_mut().ok_or_else(|| Error::Invalid("the tracker scenario has no [tracker]".into()))?;
+    tracker.write_std = true;
+    s.name = format!("tracker-{seed}");
+    let robot = s.load_robot(None)?;
+    Ok((s, robot))
+}
+
+/// RMS over the scenario's poses of one row's standard deviation per coordinate (mm): the
+/// tracker's `a + b·distance` per sample, averaged over the sensor's samples, at the nominal
+/// arm's reflector.
+pub fn tracker_row_noise_mm(s: &Scenario, robot: &Robot) -> Result<f64> {
+    let tracker = s.instruments.tracker.as_ref().ok_or_else(|| Error::Invalid(format!("{} has no [tracker]", s.name)))?;
+    let (_, model, samples) = nominal_at_poses(s, robot)?;
+    let mut w = model.work();
+    let mut y = vec![0.0; model.measurement.dim()];
+    let per_sample = |d_m: f64| (tracker.noise_um + tracker.noise_um_per_m * d_m) * 1e-3 / (s.sensor.samples.max(1) as f64).sqrt();
+    let ms = samples
+        .q
+        .iter()
+        .zip(&samples.inputs)
+        .map(|(q, inp)| {
+            model.readings_with(&model.nominal, q, inp, &mut w, &mut y);
+            per_sample(y.iter().map(|v| v * v).sum::<f64>().sqrt()).powi(2)
+        })
+        .sum::<f64>()
+        / samples.len().max(1) as f64;
+    Ok(ms.sqrt())
+}
+
+/// A [`clean_tracker`] scenario with one cause drawn from `seed` whose reading change a rigid
+/// fit (arm and tracker placement) cannot absorb is `factors` times one row's noise per
+/// coordinate (RMS): at half the noise, an effect a row cannot show but hundreds of independent
+/// rows do. Also returns that noise, mm.
+pub fn hidden_tracker(seed: u64, factors: std::ops::Range<f64>) -> Result<(Scenario, Robot, Vec<Hidden>, f64)> {
+    let (s, robot) = clean_tracker(seed)?;
+    let sigma = tracker_row_noise_mm(&s, &robot)?;
+    let (mut s, robot, h) = hide_in(s, robot, seed, 1, sigma, factors, true)?;
+    s.name = format!("hidden-{seed}-tracker");
     Ok((s, robot, h, sigma))
 }
 

@@ -280,7 +280,8 @@ pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     let not_physical = drop_not_physical(&chain, &found, &rewhitened, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
     let repeat = crate::calib::run::reading_repeatability(&kept_rows);
     let floor = crate::calib::run::floor_stage(base, &baseline.x, &kept_rows, &kept, opts.angle_step_deg, opts.instrument_accuracy_mm, repeat.as_ref());
-    let below_floor = drop_below_floor(&found, floor.total_mm, &mut confirmed, progress);
+    let (dim, value_groups) = (ctx.data.dim, base.measurement.def().value_groups());
+    let below_floor = drop_below_floor(&found, &chain, &floor, dim, value_groups, ctx.groups.as_deref(), &mut confirmed, progress);
     found.truncate(confirmed);
     let current = chain[confirmed].clone();
     let other_rmse: Vec<f64> = chain[..=confirmed].iter().map(|f| rms(&ctx.heldout(&f.model, &f.x, &f.fixed, &ctx.other_folds))).collect();
@@ -426,8 +427,7 @@ fn verdict_with(causes: &[Cause], unexplained: bool) -> String {
 /// data measure: how far, and where it concentrates. The position values alone are compared
 /// with the floor (a 6-D pose's axes have a noise of their own).
 pub(super) fn unexplained_note(current: &Fitted, rows: &Samples, floor: &crate::calib::problem::floor::NoiseFloor, data: &Dataset) -> Option<String> {
-    let measured = ["repeatability", "row_std", "instrument_accuracy"];
-    let measured_floor = floor.sources.iter().filter(|s| measured.contains(&s.source.as_str())).map(|s| s.rms_mm * s.rms_mm).sum::<f64>().sqrt();
+    let measured_floor = floor.sources.iter().filter(|s| s.source.measured()).map(|s| s.rms_mm * s.rms_mm).sum::<f64>().sqrt();
     let d = rows.dim;
     if measured_floor <= 0.0 || current.oof.len() != rows.len() * d {
         return None;
@@ -440,7 +440,11 @@ pub(super) fn unexplained_note(current: &Fitted, rows: &Samples, floor: &crate::
         (!v.is_empty()).then(|| rms(&v))
     };
     let all = rms_of(&mut (0..rows.len()))?;
-    let floor_mm = floor.total_mm.max(measured_floor);
+    // The positions' own floor where a reading holds other kinds of values too.
+    let floor_mm = match floor.by_group.first() {
+        Some(g) if g.measured => g.total_mm,
+        _ => floor.total_mm.max(measured_floor),
+    };
     if all <= UNEXPLAINED_RATIO * floor_mm {
         return None;
     }
@@ -462,7 +466,7 @@ pub(super) fn unexplained_note(current: &Fitted, rows: &Samples, floor: &crate::
     Some(format!(
         "the final held-out RMSE {what}{all:.4} mm is {:.1}x the data's floor ({floor_mm:.4} mm: {}); neither the causes named nor the set-up's stations explain the rest{}",
         all / floor_mm,
-        floor.sources.iter().map(|s| s.source.as_str()).collect::<Vec<_>>().join(", "),
+        floor.sources.iter().map(|s| s.source.name()).collect::<Vec<_>>().join(", "),
         if at.is_empty() { String::new() } else { format!("; it concentrates {}", at.join("; ")) }
     ))
 }
@@ -471,7 +475,7 @@ pub(super) fn unexplained_note(current: &Fitted, rows: &Samples, floor: &crate::
 /// lower bound (no repeated configurations).
 pub(super) fn floor_source_text(floor: &crate::calib::problem::floor::NoiseFloor) -> String {
     let mut text: Vec<String> = floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
-    if !floor.sources.iter().any(|s| s.source == "repeatability") {
+    if !floor.has(crate::calib::problem::floor::FloorKind::Repeatability) && !floor.sources.iter().any(|s| s.source.measured()) {
         text.push("no repeated configurations: the reading's repeatability is unknown, so this is a lower bound".into());
     }
     text.join("; ")

@@ -93,8 +93,14 @@ impl Cause {
     pub fn summary(&self) -> String {
         let joint = self.joint.map(|j| format!(" joint {j}")).unwrap_or_default();
         format!(
-            "{}{joint}: {} {:.4} ± {:.4} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e})",
-            self.cause, self.quantity, self.magnitude, self.uncertainty, self.unit, self.heldout_rmse_before_mm, self.heldout_rmse_after_mm, self.p_value
+            "{}{joint}: {} {} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e})",
+            self.cause,
+            self.quantity,
+            crate::units::with_uncertainty(self.magnitude, self.uncertainty),
+            self.unit,
+            self.heldout_rmse_before_mm,
+            self.heldout_rmse_after_mm,
+            self.p_value
         )
     }
 }
@@ -257,10 +263,11 @@ pub(super) fn one() -> f64 {
 pub const UNEXPLAINED_RATIO: f64 = 3.0;
 
 impl Diagnosis {
-    /// The final held-out RMSE against the data's floor, in words: a ratio where repeated
-    /// configurations give the floor, else what is known of it.
+    /// The final held-out RMSE against the data's floor, in words: a ratio where a source the
+    /// data or the instrument measure gives the floor (repeats, the rows' own standard
+    /// deviations, a stated accuracy), else what is known of it.
     pub fn against_floor(&self) -> String {
-        if self.noise_floor.sources.iter().any(|s| s.source == "repeatability") {
+        if self.noise_floor.sources.iter().any(|s| s.source.measured()) {
             format!("{:.2} x the noise floor", self.final_heldout_rmse_mm / self.noise_floor_mm)
         } else {
             format!("no repeated configurations, so the floor is known only down to the logging resolution ({:.4} mm)", self.noise_floor_mm)

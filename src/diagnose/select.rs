@@ -6,36 +6,104 @@ use super::options::*;
 use super::report::*;
 use crate::calib::effects::{EffectBlock, Size};
 use crate::calib::model::CalibModel;
+use crate::calib::problem::floor::NoiseFloor;
 use crate::calib::problem::{ReadingFit, Samples};
 use crate::stats::rms;
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// Share of the data's floor (mm RMS) that what a cause explains of the held-out rows must reach
-/// for it to be named: √(before² − after²) of the held-out RMSE. Below, the cause may be real and
-/// significant, but its correction is smaller than the error the data's floor leaves in every
-/// row. (At half the floor, effects hidden at 0.13–0.19× the floor in sweeps logged at 0.1° and
-/// 0.01° were named: on blocked folds their gains came out at 0.51–0.67× the floor, while effects
-/// at 1.5× and more gained 1.4× and more.)
+/// The most a cause's gain on the held-out rows must reach, as a share of the data's floor
+/// (mm RMS): √(before² − after²) of the held-out RMSE. Where the rows' errors are shared (a
+/// sweep's rounding, few independent blocks) the floor's own sampling error over the held-out
+/// rows is as large as the floor, and this share rules (at half the floor, effects hidden at
+/// 0.13–0.19× the floor in sweeps logged at 0.1° and 0.01° were named: on blocked folds their
+/// gains came out at 0.51–0.67× the floor, while effects at 1.5× and more gained 1.4× and more).
 pub const BELOW_FLOOR_SHARE: f64 = 1.0;
 
-/// Every kept cause (`found`: block, held-out RMSE before and after, p; the first `confirmed`
-/// of them) that explains at least [`BELOW_FLOOR_SHARE`] of the data's floor `floor_mm` on the
-/// held-out rows: the first that does not ends the list, like an unconfirmed one (`confirmed` is
-/// lowered). One line per cause left out, with its figures.
-pub(super) fn drop_below_floor(found: &[(EffectBlock, f64, f64, f64)], floor_mm: f64, confirmed: &mut usize, progress: &dyn Fn(&str)) -> Vec<String> {
-    let Some(k) = found[..*confirmed].iter().position(|(_, before, after, _)| (before * before - after * after).max(0.0).sqrt() < BELOW_FLOOR_SHARE * floor_mm)
-    else {
+/// How many standard errors of the floor's mean square over the held-out values a cause's
+/// gain in mean square must reach (see [`gain_threshold`]).
+pub const FLOOR_SAMPLING_Z: f64 = 3.0;
+
+/// The gain (mm RMS, √(before² − after²) of the held-out RMSE) a cause must reach on `n`
+/// held-out values with design effect `deff` (how many times the rows' shared errors inflate
+/// the variance of a mean square over them) where the floor is `floor_mm`: the floor's mean
+/// square varies by floor²·√(2·deff / n) from one set of held-out values to another, so a gain
+/// in mean square of [`FLOOR_SAMPLING_Z`] such errors is beyond what the floor's sampling
+/// gives; never more than [`BELOW_FLOOR_SHARE`] of the floor. On 300 independent tracker rows
+/// (900 values) that is 0.38 of the floor: an effect of half one row's noise is named, while a
+/// sweep's shared rounding (20 blocks of 20 rows, design effect near 20) still needs nearly the
+/// whole floor.
+pub fn gain_threshold(floor_mm: f64, n: usize, deff: f64) -> f64 {
+    let share2 = (FLOOR_SAMPLING_Z * (2.0 * deff.max(1.0) / n.max(1) as f64).sqrt()).min(BELOW_FLOOR_SHARE * BELOW_FLOOR_SHARE);
+    floor_mm * share2.sqrt()
+}
+
+/// A cause's gain on one kind of held-out value against that kind's floor.
+struct GroupGain {
+    group: &'static str,
+    before: f64,
+    after: f64,
+    gain: f64,
+    threshold: f64,
+}
+
+/// The gain of the model `after` over `before` (held-out residuals, `dim` values a row) on each
+/// kind of value the floor judges: the whole reading, or a pose's position and (where repeats
+/// measure it) its orientation apart, each against its own floor and its own sampling error
+/// (`groups`: the held-out rows' blocks).
+fn group_gains(before: &[f64], after: &[f64], dim: usize, value_groups: &[usize], floor: &NoiseFloor, groups: Option<&[usize]>) -> Vec<GroupGain> {
+    let n_groups = floor.by_group.len().max(1);
+    (0..n_groups)
+        .filter(|&g| floor.by_group.get(g).is_none_or(|f| g == 0 || f.measured))
+        .map(|g| {
+            let cols: Vec<usize> = (0..dim).filter(|&c| value_groups.get(c).copied().unwrap_or(0) == g || floor.by_group.is_empty()).collect();
+            let pick = |r: &[f64]| -> Vec<f64> { r.chunks(dim).flat_map(|row| cols.iter().map(move |&c| row[c])).collect() };
+            let (b, a) = (pick(before), pick(after));
+            let deff = groups.map_or(1.0, |gr| crate::stats::design_effect(&a, cols.len(), gr));
+            let (before, after) = (rms(&b), rms(&a));
+            GroupGain {
+                group: floor.by_group.get(g).map_or("reading", |f| if f.group == "position" { "position" } else { "orientation" }),
+                before,
+                after,
+                gain: (before * before - after * after).max(0.0).sqrt(),
+                threshold: gain_threshold(floor.of_group(g), a.len(), deff),
+            }
+        })
+        .collect()
+}
+
+/// Every kept cause (`found`; `chain[k + 1]` the model with the first k + 1, whose held-out
+/// residuals are `oof`; the first `confirmed` of them) whose gain on the held-out rows reaches
+/// [`gain_threshold`] of the data's floor on some kind of value: the first that does not ends
+/// the list, like an unconfirmed one (`confirmed` is lowered). One line per cause left out,
+/// with its figures.
+pub(super) fn drop_below_floor(
+    found: &[Found],
+    chain: &[Fitted],
+    floor: &NoiseFloor,
+    dim: usize,
+    value_groups: &[usize],
+    groups: Option<&[usize]>,
+    confirmed: &mut usize,
+    progress: &dyn Fn(&str),
+) -> Vec<String> {
+    let gains: Vec<Vec<GroupGain>> = (0..*confirmed).map(|k| group_gains(&chain[k].oof, &chain[k + 1].oof, dim, value_groups, floor, groups)).collect();
+    let Some(k) = gains.iter().position(|g| !g.iter().any(|g| g.gain >= g.threshold)) else {
         return Vec::new();
     };
-    let notes: Vec<String> = found[k..*confirmed]
-        .iter()
-        .map(|(b, before, after, _)| {
-            format!(
-                "{} left out of the model: it explains {:.4} mm RMS of the held-out rows ({before:.4} -> {after:.4} mm), below {BELOW_FLOOR_SHARE} x the data's floor {floor_mm:.4} mm",
-                b.label(),
-                (before * before - after * after).max(0.0).sqrt()
-            )
+    let notes: Vec<String> = (k..*confirmed)
+        .map(|i| {
+            let parts: Vec<String> = gains[i]
+                .iter()
+                .map(|g| {
+                    let of = if g.group == "reading" { String::new() } else { format!(" of the {}", g.group) };
+                    format!(
+                        "it explains {:.4} mm RMS{of} ({:.4} -> {:.4} mm), below the {:.4} mm the floor's sampling allows",
+                        g.gain, g.before, g.after, g.threshold
+                    )
+                })
+                .collect();
+            format!("{} left out of the model: on the held-out rows {} (the data's floor {:.4} mm)", found[i].0.label(), parts.join("; "), floor.total_mm)
         })
         .collect();
     notes.iter().for_each(|n| progress(&format!("below the floor: {n}")));

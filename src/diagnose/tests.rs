@@ -105,3 +105,41 @@ fn a_leak_is_warned_only_beyond_the_held_out_mean_squares_sampling_error() {
     let w = leak_warning(&even, 1, Some(&groups), floor, true).expect("a leak");
     assert!(w.contains("split leaks") && w.contains("declare them in a block column"), "{w}");
 }
+
+#[test]
+fn the_gain_a_cause_needs_follows_the_floors_sampling_error() {
+    use super::select::{gain_threshold, BELOW_FLOOR_SHARE};
+    // 300 independent tracker rows, three values each: the floor's mean square varies by
+    // √(2/900) of itself, so a gain of 0.38 of the floor is beyond three such errors.
+    let independent = gain_threshold(1.0, 900, 1.0);
+    assert!((independent - (3.0 * (2.0f64 / 900.0).sqrt()).sqrt()).abs() < 1e-12 && independent < 0.4, "{independent}");
+    // Half of one row's noise is then named; a tenth is not.
+    assert!(0.5 > independent && 0.1 < independent);
+    // Twenty sweeps of twenty rows sharing their rounding (design effect up to 20): nearly the
+    // whole floor, and never more.
+    assert!(gain_threshold(0.24, 400, 20.0) > 0.95 * 0.24);
+    assert_eq!(gain_threshold(0.24, 400, 25.0), BELOW_FLOOR_SHARE * 0.24);
+    // Fewer values, a larger share; never above the floor.
+    assert!(gain_threshold(1.0, 100, 1.0) > independent && gain_threshold(1.0, 2, 1.0) <= 1.0);
+}
+
+/// A hidden tracker effect at half one row's noise on 400 independent rows (the rows' own
+/// `sx, sy, sz` giving the floor) is named and sized; the same rows without it name nothing.
+#[test]
+fn an_effect_of_half_one_rows_noise_on_independent_tracker_rows_is_named() {
+    use crate::diagnose::hidden::{clean_tracker, hidden_tracker};
+    use crate::diagnose::{diagnose, DiagnoseOptions};
+    let opts = DiagnoseOptions::new(crate::calib::run::ModelSpec::nominal(Robot::irb120(), crate::calib::run::Parametrisation::Hayati));
+    let strip =
+        |g: crate::sim::generate::Generated| Dataset { rows: g.dataset.rows.into_iter().map(|r| Row { split: None, ..r }).collect(), source: g.dataset.source };
+    let (s, robot, truth, sigma) = hidden_tracker(50_001, 0.5..0.6).unwrap();
+    let data = strip(crate::sim::generate::generate(&s, &robot, &crate::sim::generate::Silent).unwrap());
+    assert!(data.rows.iter().all(|r| r.std_mm.is_some()), "the rows carry sx, sy, sz");
+    let (d, _) = diagnose(&data, &opts, &|_| {}).unwrap();
+    assert!((d.noise_floor_mm / sigma - 1.0).abs() < 0.05, "floor {} against the rows' noise {sigma}", d.noise_floor_mm);
+    let first = d.causes.first().unwrap_or_else(|| panic!("nothing named: {} {:?}", d.verdict, d.steps.last().map(|s| &s.kept)));
+    assert!(truth[0].named_by(first) && truth[0].sized_by(first), "{truth:?} -> {}", first.summary());
+    let (s, robot) = clean_tracker(40_001).unwrap();
+    let (d, _) = diagnose(&strip(crate::sim::generate::generate(&s, &robot, &crate::sim::generate::Silent).unwrap()), &opts, &|_| {}).unwrap();
+    assert!(d.causes.is_empty(), "false alarm: {}", d.verdict);
+}

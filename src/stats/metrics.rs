@@ -61,6 +61,10 @@ pub struct Repeatability {
     pub rows: usize,
     /// Largest `max − min` of `l` within a group.
     pub max_spread: f64,
+    /// Where a reading holds several values (a point's x, y, z; a pose's origin and axes), each
+    /// value's own pooled standard deviation, in the reading's order; empty for one value.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub per_value_std: Vec<f64>,
 }
 
 /// Repeatability floor of `l` over repeated joint configurations `q_deg` (degrees).
@@ -115,7 +119,7 @@ pub fn repeatability<Q: AsRef<[f64]>>(q_deg: &[Q], l: &[f64], tol_deg: f64) -> O
     if groups == 0 {
         return None;
     }
-    Some(Repeatability { pooled_std: (ss / dof as f64).sqrt(), groups, rows: nrows, max_spread })
+    Some(Repeatability { pooled_std: (ss / dof as f64).sqrt(), groups, rows: nrows, max_spread, per_value_std: Vec::new() })
 }
 
 /// Union rows whose joint vectors are exactly equal (sort lexicographically, link neighbours).

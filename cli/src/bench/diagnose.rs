@@ -21,8 +21,10 @@ impl DetectionConfig {
     /// The detection part over `seeds` seeds, the scenarios of `categories` only (all when
     /// empty; an unknown category is an error naming the known ones).
     pub fn new(seeds: u64, categories: &[String]) -> Result<DetectionConfig> {
-        // Item ids 0, 1 are seed 1's hidden and clean scenarios, 2·seeds.. its six realistic ones.
-        let known: Vec<String> = [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).map(|id| Variant::of(id, seeds).1.category()).collect();
+        // Item ids 0, 1 are seed 1's hidden and clean scenarios, 2·seeds.. its six realistic
+        // ones, 8·seeds.. its two tracker ones.
+        let known: Vec<String> =
+            [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).chain(8 * seeds..8 * seeds + 2).map(|id| Variant::of(id, seeds).1.category()).collect();
         if let Some(c) = categories.iter().find(|c| !known.contains(c)) {
             return Err(twincal::error::Error::Invalid(format!("unknown --categories entry '{c}': known are {}", known.join(", "))));
         }
@@ -48,8 +50,9 @@ impl crate::shard::Config for DetectionConfig {
     }
 }
 
-/// Work items per seed: hidden, clean, and 2 loggings × (clean, above, below).
-const VARIANTS: u64 = 8;
+/// Work items per seed: hidden, clean, 2 loggings × (clean, above, below), and a tracker's
+/// clean and half-noise scenarios.
+const VARIANTS: u64 = 10;
 
 /// What one work item diagnoses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,15 +64,22 @@ enum Variant {
     /// Sweeps, angles logged at `decimals`, glitch runs; `Some(true)`: one effect above the
     /// floor, `Some(false)`: one far below it, `None`: no effect.
     Realistic { decimals: usize, effect: Option<bool> },
+    /// Tracker points, 400 independent rows with their `sx, sy, sz`; `true`: one effect at half
+    /// one row's noise, `false`: none.
+    Tracker { effect: bool },
 }
 
 impl Variant {
     /// The seed and variant of item `id`: the first `2·seeds` items are the hidden and clean
     /// scenarios of seeds 1, 2, ... (as before realistic acquisitions were added), the rest six
-    /// realistic ones per seed.
+    /// realistic ones per seed, then two tracker ones per seed (clean, an effect).
     fn of(id: u64, seeds: u64) -> (u64, Variant) {
         if id < 2 * seeds {
             return (id / 2 + 1, if id % 2 == 0 { Variant::Hidden } else { Variant::Clean });
+        }
+        if id >= 8 * seeds {
+            let k = id - 8 * seeds;
+            return (k / 2 + 1, Variant::Tracker { effect: k % 2 == 1 });
         }
         let k = id - 2 * seeds;
         let decimals = if (k % 6) < 3 { 1 } else { 2 };
@@ -80,6 +90,7 @@ impl Variant {
     fn category(self) -> String {
         match self {
             Variant::Hidden => "hidden".into(),
+            Variant::Tracker { effect } => if effect { "tracker-half" } else { "tracker-clean" }.into(),
             Variant::Clean => "clean".into(),
             Variant::Realistic { decimals, effect } => {
                 format!(
@@ -103,7 +114,8 @@ pub struct DetectionItem {
     pub detected: bool,
     pub sized: bool,
     pub alarm: bool,
-    /// `hidden`, `clean` or `realistic-<decimals>-<clean|above|below>`.
+    /// `hidden`, `clean`, `realistic-<decimals>-<clean|above|below>` or
+    /// `tracker-<clean|half>`.
     #[serde(default)]
     pub category: String,
     /// The size within 3 standard uncertainties (not the 30 % band).
@@ -152,7 +164,7 @@ fn judge_hidden(seed: u64, h: &twincal::diagnose::hidden::Hidden, d: &twincal::d
 /// Work item `id` of the detection part: a scenario generated from its seed and diagnosed.
 pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
     use twincal::diagnose::diagnose;
-    use twincal::diagnose::hidden::{clean, hidden, hidden_realistic, realistic};
+    use twincal::diagnose::hidden::{clean, clean_tracker, hidden, hidden_realistic, hidden_tracker, realistic};
     let (seed, variant) = Variant::of(id, seeds);
     let opts = options()?;
     let category = variant.category();
@@ -199,8 +211,27 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let line = if above { (!named || !within || extra).then_some(line) } else { named_any.then_some(line) };
             Ok(DetectionItem { extra, ..item(line, named, sized, !above && named_any, within, floor) })
         }
+        Variant::Tracker { effect: false } => {
+            let (s, robot) = clean_tracker(40_000 + seed)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let alarm = !d.causes.is_empty();
+            let line = alarm.then(|| format!("    tracker clean seed {}: false alarm {}", 40_000 + seed, d.verdict));
+            Ok(item(line, false, false, alarm, false, d.noise_floor_mm))
+        }
+        Variant::Tracker { effect: true } => {
+            let (s, robot, truth, sigma) = hidden_tracker(50_000 + seed, TRACKER_HALF)?;
+            let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
+            let (line, named, sized, within) = judge_hidden(50_000 + seed, &truth[0], &d);
+            let extra = d.causes.len() > 1;
+            let line = (!named || !within || extra).then(|| format!("{line} [tracker, {sigma:.4} mm per coordinate]"));
+            Ok(DetectionItem { extra, ..item(line, named, sized, false, within, sigma) })
+        }
     }
 }
+
+/// The hidden tracker effects' size: what a rigid fit leaves of it, as multiples of one row's
+/// noise per coordinate.
+const TRACKER_HALF: std::ops::Range<f64> = 0.5..0.6;
 
 /// The detection part's lines and rates, from every item in order (what `bench diagnose`
 /// prints, and `reduce` the same from the shards' parts).
@@ -261,6 +292,37 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
         if !below.is_empty() {
             println!("    one effect at 0.05-0.2x the floor: {}/{} named anything (target 0)", count(&below, |i| i.alarm), below.len());
         }
+    }
+    print_tracker(&of("tracker-clean"), &of("tracker-half"));
+}
+
+/// The tracker categories' rates: false alarms on clean rows, the half-noise effect named.
+fn print_tracker(clean: &[&DetectionItem], half: &[&DetectionItem]) {
+    if clean.is_empty() && half.is_empty() {
+        return;
+    }
+    let count = |v: &[&DetectionItem], f: fn(&DetectionItem) -> bool| v.iter().filter(|i| f(i)).count();
+    let noise: Vec<f64> = half.iter().chain(clean).map(|i| i.floor_mm).filter(|f| *f > 0.0).collect();
+    println!(
+        "  tracker points ({} independent rows with sx, sy, sz; one row's noise {:.4} mm per coordinate, median):",
+        twincal::diagnose::hidden::TRACKER_POSES,
+        median(&noise)
+    );
+    if !clean.is_empty() {
+        println!("    no effect: {}/{} false alarms (target 0)", count(clean, |i| i.alarm), clean.len());
+    }
+    if !half.is_empty() {
+        println!(
+            "    one effect at {}-{}x one row's noise: {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma, {}/{} name a cause not hidden",
+            TRACKER_HALF.start,
+            TRACKER_HALF.end,
+            count(half, |i| i.detected),
+            half.len(),
+            count(half, |i| i.within_3_sigma),
+            half.len(),
+            count(half, |i| i.extra),
+            half.len()
+        );
     }
 }
 

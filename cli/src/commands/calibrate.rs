@@ -104,7 +104,7 @@ fn print_floor(r: &twincal::calib::run::CalibResult) {
         let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
         // Without repeated configurations the reading's own noise is not in the data: the
         // floor is only what the logging resolutions show, a lower bound.
-        let measured = f.sources.iter().any(|s| s.source == "repeatability");
+        let measured = f.has(twincal::calib::problem::floor::FloorKind::Repeatability);
         let (bound, why) = if measured { ("", "") } else { ("at least ", "; no repeated configurations, so the reading's own noise is not measured") };
         eprintln!("  noise floor of the data: {bound}{:.4} mm ({}{why})", f.total_mm, parts.join(", "));
         if let (Some(t), Some(tt), true) = (&m.test_after, &m.test_after_trimmed, f.total_mm > 0.0) {

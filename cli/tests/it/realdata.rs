@@ -2,6 +2,7 @@
 //! and never committed. A test whose files are absent says SKIP and passes.
 
 use std::path::{Path, PathBuf};
+use twincal::calib::problem::floor::FloorKind;
 use twincal::calib::problem::noise_model::NoiseChoice;
 use twincal::calib::problem::robust::step_offset_mm;
 use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
@@ -38,7 +39,7 @@ fn hsr_generic_model_converges_and_predicts_interleaved_rows_near_the_floor() {
         assert_eq!(r.solve.identifiability["still_joints"], serde_json::json!([6]), "seed {seed}");
         assert!(condition_identifiable(&r) < 1e7, "seed {seed}: condition {}", condition_identifiable(&r));
         let floor = r.evaluation.noise_floor.as_ref().unwrap();
-        assert!(floor.sources.iter().any(|s| s.source == "repeatability") && floor.sources.iter().any(|s| s.source == "angle_resolution"), "{floor:?}");
+        assert!(floor.has(FloorKind::Repeatability) && floor.has(FloorKind::AngleResolution), "{floor:?}");
         let trimmed = r.evaluation.metrics.test_after_trimmed.unwrap().rmse;
         eprintln!("seed {seed}: held-out RMSE without the worst 1 % {trimmed:.4} mm, floor {:.4} mm, {} iterations", floor.total_mm, r.solve.iterations);
         ratios.push(trimmed / floor.total_mm);
@@ -74,7 +75,7 @@ fn robotcali_lm_converges_and_names_the_disturbed_stretch() {
         assert!(steps.len() >= 2 && steps.iter().all(|s| s.offset_mm < -3.0), "seed {seed}: {:?}", r.screen.reading_steps);
         let (lo, hi) = steps.iter().fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s.offset_mm), b.max(s.offset_mm)));
         assert!(hi - lo > 3.0, "seed {seed}: the offsets of a slipping reading grow: {steps:?}");
-        let angle = r.evaluation.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
+        let angle = r.evaluation.noise_floor.as_ref().unwrap().part(FloorKind::AngleResolution);
         assert!((0.2..0.35).contains(&angle), "seed {seed}: angle-resolution floor {angle}");
         let inliers = r.evaluation.metrics.test_after_inliers.unwrap();
         let all = r.evaluation.metrics.test_after.unwrap();
@@ -101,7 +102,7 @@ fn robotcali_diagnosis_exports_the_model_it_reports() {
         assert!(c.magnitude.abs() >= 2.0 * c.uncertainty, "{}", c.summary());
         assert!(c.confirmation_rmse_after_mm < c.confirmation_rmse_before_mm, "{}", c.summary());
     }
-    assert!(d.noise_floor.sources.iter().any(|s| s.source == "angle_resolution"), "{:?}", d.noise_floor);
+    assert!(d.noise_floor.has(FloorKind::AngleResolution), "{:?}", d.noise_floor);
     let predicted = result.predict_rows(&ds);
     let out: Vec<usize> = d.outliers.iter().map(|o| o.row - 1).collect();
     let kept: Vec<f64> =
@@ -160,7 +161,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         let want = off[off.len() / 2];
         // Rows of one sweep share the rounding of the joints that hold still: the step's offset
         // holds that common error too, at most a few times the angle-resolution floor.
-        let angle = lm.evaluation.noise_floor.as_ref().unwrap().sources.iter().find(|s| s.source == "angle_resolution").unwrap().rms_mm;
+        let angle = lm.evaluation.noise_floor.as_ref().unwrap().part(FloorKind::AngleResolution);
         assert!((st.offset_mm - want).abs() < 4.0 * st.std_mm + 2.0 * angle, "step {st:?}: the truth's offset is {want:.3} mm");
     }
     // A test row between a step's first (last) training row and the clean training row before
@@ -171,7 +172,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         assert!(glitches.contains(&(o.row - 1)) || at_edge(o.row), "row {} is no glitch: {o:?}", o.row);
     }
     let floor = lm.evaluation.noise_floor.as_ref().unwrap();
-    let angle = floor.sources.iter().find(|s| s.source == "angle_resolution").unwrap();
+    let angle = floor.sources.iter().find(|s| s.source == FloorKind::AngleResolution).unwrap();
     assert!((0.15..0.35).contains(&angle.rms_mm) && angle.detail.contains("0.1 deg"), "{angle:?}");
     // The test rows reach the floor: they share sweeps with the training rows (the scenario's own
     // split), but the noise model keeps the fit from learning the sweeps' rounding, so they are

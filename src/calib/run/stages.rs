@@ -271,7 +271,8 @@ pub fn reading_repeatability(data: &Dataset) -> Option<crate::stats::metrics::Re
     }
     let pooled_std = (per.iter().map(|r| r.pooled_std.powi(2)).sum::<f64>() / per.len() as f64).sqrt();
     let max_spread = per.iter().map(|r| r.max_spread).fold(0.0, f64::max);
-    Some(crate::stats::metrics::Repeatability { pooled_std, max_spread, ..first }).filter(|r| r.groups > 0)
+    let per_value_std = per.iter().map(|r| r.pooled_std).collect();
+    Some(crate::stats::metrics::Repeatability { pooled_std, max_spread, per_value_std, ..first }).filter(|r| r.groups > 0)
 }
 
 /// The outlier screens' rule (`k` robust standard deviations, reading steps if `steps`) for
@@ -279,7 +280,7 @@ pub fn reading_repeatability(data: &Dataset) -> Option<crate::stats::metrics::Re
 /// angle-resolution part of their floor, what the angles' logging alone puts on a reading.
 pub fn screen_rule(model: &CalibModel, data: &Dataset, rows: &Samples, k: f64, steps: bool, angle_step_deg: Option<f64>) -> ScreenRule {
     let floor = floor_stage(model, &model.nominal, data, rows, angle_step_deg, None, None);
-    let min_scale_mm = floor.sources.iter().find(|s| s.source == "angle_resolution").map_or(0.0, |s| s.rms_mm);
+    let min_scale_mm = floor.part(crate::calib::problem::floor::FloorKind::AngleResolution);
     ScreenRule { k, steps, min_scale_mm }
 }
 
