@@ -350,8 +350,14 @@ pub(super) fn final_stage(
     let FinalFit { id: final_id, x: final_x, train_rmse_mm: final_train_rmse_mm, covs } = final_fit(&current, &kept, groups.as_deref(), opts.rank_tol);
     let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
     let unphysical = unphysical_causes(&current.model, &final_x, &kept_blocks);
-    let mut warnings: Vec<String> =
-        fold_warning.into_iter().chain(few_blocks).chain(sel.not_physical.iter().cloned()).chain(sel.below_floor.iter().cloned()).chain(unphysical).collect();
+    let mut warnings: Vec<String> = fold_warning
+        .into_iter()
+        .chain(crate::calib::effects::inputs::payload_warning(data, &opts.loads))
+        .chain(few_blocks)
+        .chain(sel.not_physical.iter().cloned())
+        .chain(sel.below_floor.iter().cloned())
+        .chain(unphysical)
+        .collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
     let fitted = crate::calib::run::FittedModel {
         model: current.model.clone(),

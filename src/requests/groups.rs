@@ -164,7 +164,14 @@ impl Loads {
                 }
                 o.payload = Some(Payload { mass_kg: m, com_mm: [com[0], com[1], com[2]] });
             }
-            (None, Some(_)) => return Err(Error::Invalid("--payload-com-mm needs --payload-kg".into())),
+            // The centre of mass of the rows' own payloads (a `payload_kg` column): a payload of
+            // no mass of its own that states where theirs sits.
+            (None, Some(com)) => {
+                if com.len() != 3 || com.iter().any(|v| !v.is_finite() || v.abs() > 5000.0) {
+                    return Err(Error::Invalid("--payload-com-mm needs 3 finite values in mm (x,y,z in the flange frame, each within ±5000)".into()));
+                }
+                o.payload = Some(Payload { mass_kg: 0.0, com_mm: [com[0], com[1], com[2]] });
+            }
         }
         let robot = match &self.robot {
             Some(p) => Some(Robot::from_urdf_file(p)?),

@@ -33,6 +33,23 @@ impl Default for LoadOptions {
     }
 }
 
+/// What the rows' own payloads leave unsaid: rows that carry a `payload_kg` with no payload
+/// centre of mass stated (it is then taken at the flange's origin, and a load-driven effect's
+/// size depends on it), or a centre of mass stated with no payload on any row.
+pub fn payload_warning(data: &crate::dataset::Dataset, loads: &LoadOptions) -> Option<String> {
+    let loaded = data.rows.iter().filter(|r| r.payload_kg.is_some_and(|m| m > 0.0)).count();
+    match &loads.payload {
+        None if loaded > 0 => Some(format!(
+            "{loaded} rows carry a payload (payload_kg) but no centre of mass is stated: it is taken at the flange's origin; \
+             state it with --payload-com-mm X,Y,Z (flange frame), as the sizes of load-driven effects (joint_compliance) depend on it"
+        )),
+        Some(p) if p.mass_kg == 0.0 && p.com_mm != [0.0; 3] && loaded == 0 => {
+            Some("--payload-com-mm is given with no payload: neither --payload-kg nor a payload_kg column loads the arm, so it changes nothing".into())
+        }
+        _ => None,
+    }
+}
+
 /// The static-torque model of a calibration, self-contained so that a saved result can compute
 /// the torques of new rows: the robot's nominal chain, its link masses and centres of mass, the
 /// payload and the cable's pull.

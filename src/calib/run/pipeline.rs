@@ -163,6 +163,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.angle_step_deg, opts.instrument_accuracy_mm, repeatability.as_ref());
     warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm, opts.angle_step_deg));
+    warnings.extend(crate::calib::effects::inputs::payload_warning(data, &opts.loads));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
