@@ -348,16 +348,10 @@ pub(super) fn final_stage(
     let groups = shared.then(|| blocks.ids_of(&final_keep));
     let (kept, noise_model) = final_whitening(kept, noise_model, &all, &current, data, &blocks, &final_keep);
     let FinalFit { id: final_id, x: final_x, train_rmse_mm: final_train_rmse_mm, covs } = final_fit(&current, &kept, groups.as_deref(), opts.rank_tol);
-    let kept_blocks: Vec<EffectBlock> = found.iter().map(|f| f.0.clone()).collect();
-    let unphysical = unphysical_causes(&current.model, &final_x, &kept_blocks);
-    let mut warnings: Vec<String> = fold_warning
-        .into_iter()
-        .chain(crate::calib::effects::inputs::payload_warning(data, &opts.loads))
-        .chain(few_blocks)
-        .chain(sel.not_physical.iter().cloned())
-        .chain(sel.below_floor.iter().cloned())
-        .chain(unphysical)
-        .collect();
+    let unphysical = unphysical_causes(&current.model, &final_x, &found.iter().map(|f| f.0.clone()).collect::<Vec<EffectBlock>>());
+    let set_up = [fold_warning, crate::calib::effects::inputs::payload_warning(data, &opts.loads), few_blocks];
+    let dropped = sel.not_physical.iter().chain(&sel.below_floor).cloned();
+    let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
     let fitted = crate::calib::run::FittedModel {
         model: current.model.clone(),

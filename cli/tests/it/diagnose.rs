@@ -364,7 +364,8 @@ fn payload_runs_reveal_a_compliance_the_unloaded_arm_hides() {
     let robot = s.load_robot(None).unwrap();
     let poses = twincal::sim::generate::sample_poses(&s, &robot).unwrap();
     let runs = [0.0, 1.5, 3.0];
-    let list = PoseList { q: runs.iter().flat_map(|_| poses.iter().cloned()).collect(), payload_kg: Some(runs.iter().flat_map(|m| vec![*m; poses.len()]).collect()) };
+    let list =
+        PoseList { q: runs.iter().flat_map(|_| poses.iter().cloned()).collect(), payload_kg: Some(runs.iter().flat_map(|m| vec![*m; poses.len()]).collect()) };
     let g = generate_pose_list(&s, &robot, list, &Silent).unwrap();
     let rows: Vec<Row> = g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect();
     let truth = 1.0 / 6e5 * 1e6; // µrad/N·m

@@ -163,7 +163,6 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.angle_step_deg, opts.instrument_accuracy_mm, repeatability.as_ref());
     warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm, opts.angle_step_deg));
-    warnings.extend(crate::calib::effects::inputs::payload_warning(data, &opts.loads));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
@@ -232,7 +231,7 @@ fn probe_turn(model: &CalibModel, data: &Dataset) -> Option<(f64, Option<String>
 /// Warnings about the pipeline's setup: a thermal block run as a warm-up, no outlier screen, a
 /// probe that hardly turns.
 pub(super) fn setup_warnings(model: &CalibModel, data: &Dataset, screened: bool, opts: &CalibOptions) -> Vec<String> {
-    let mut warnings = Vec::new();
+    let mut warnings: Vec<String> = crate::calib::effects::inputs::payload_warning(data, &opts.loads).into_iter().collect();
     if model.effects.iter().any(|b| matches!(b.thermal, Some(crate::calib::effects::ThermalDrive::WarmUp))) && data.rows.iter().all(|r| r.temp_c.is_some()) {
         warnings.push(format!(
             "the temp column spans less than {} K, so it drives no thermal drift: the thermal block runs on t as a warm-up",
