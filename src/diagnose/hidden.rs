@@ -127,10 +127,24 @@ fn twin_torques(s: &Scenario, robot: &Robot) -> TorqueModel {
 /// at the scenario's poses. The size is the block's first parameter, or for eccentricity the
 /// amplitude at phase `phase` (A·sin(q + φ) = A cos φ·sin q + A sin φ·cos q).
 pub fn unabsorbed_rms(s: &Scenario, robot: &Robot, kind: EffectKind, joint: Option<usize>, phase: f64) -> Result<f64> {
-    let (data, mut model, mut samples) = nominal_at_poses(s, robot)?;
+    let (data, model, samples) = nominal_at_poses(s, robot)?;
+    unabsorbed_at(&data, model, samples, &twin_torques(s, robot), kind, joint, phase)
+}
+
+/// [`unabsorbed_rms`] at the rows `data` (their q as `samples`) of the rigid `model`, the rows'
+/// torques from `torque`.
+fn unabsorbed_at(
+    data: &Dataset,
+    mut model: CalibModel,
+    mut samples: Samples,
+    torque: &TorqueModel,
+    kind: EffectKind,
+    joint: Option<usize>,
+    phase: f64,
+) -> Result<f64> {
     let ref_c = data.rows[0].temp_c.unwrap_or(21.0);
     model.add_effect(block(kind, joint, ref_c), 0.0);
-    samples.inputs = row_inputs(&data, Some(&twin_torques(s, robot)));
+    samples.inputs = row_inputs(data, Some(torque));
     let fit = ReadingFit { model: &model, data: &samples };
     let mut j = DMatrix::zeros(samples.y.len(), model.n_params());
     LeastSquares::jacobian(&fit, &model.nominal, &mut j);
@@ -262,6 +276,62 @@ pub fn hidden_tracker(seed: u64, factors: std::ops::Range<f64>) -> Result<(Scena
     let (mut s, robot, h) = hide_in(s, robot, seed, 1, sigma, factors, true)?;
     s.name = format!("hidden-{seed}-tracker");
     Ok((s, robot, h, sigma))
+}
+
+/// The payloads of [`hidden_payload_runs`], kg: none, half and the IRB 120's rated 3 kg.
+pub const PAYLOAD_RUNS_KG: [f64; 3] = [0.0, 1.5, 3.0];
+/// Poses of each payload run (the same poses in every run).
+pub const PAYLOAD_RUN_POSES: usize = 120;
+/// The payload's centre of mass in the flange frame, mm (as a user states it).
+pub const PAYLOAD_COM_MM: [f64; 3] = [150.0, 0.0, 100.0];
+/// What a rigid fit leaves of the hidden compliance in the unloaded run alone, at most, as a
+/// multiple of one row's noise: below what [`super`]'s gain test can name on that run's rows.
+pub const UNLOADED_FACTOR: f64 = 0.3;
+
+/// A compliance the unloaded arm hides and payload runs reveal: the [`clean_tracker`] scenario
+/// of `seed` (its reflector's `sx, sy, sz` written) measured at [`PAYLOAD_RUN_POSES`] poses
+/// under each payload of [`PAYLOAD_RUNS_KG`] in turn, with a joint compliance drawn from the
+/// seed (shoulder, elbow or wrist pitch) sized so that what a rigid fit leaves of it over the
+/// runs is `factors` × one row's noise, but over the unloaded run at most [`UNLOADED_FACTOR`]
+/// × that noise, and never beyond its plausible size. Returns the scenario, the arm, the pose list to measure, what was hidden (its
+/// `factor` over the runs) and the noise, mm.
+pub fn hidden_payload_runs(seed: u64, factors: std::ops::Range<f64>) -> Result<(Scenario, Robot, crate::sim::pose_list::PoseList, Hidden, f64)> {
+    let (mut s, robot) = clean_tracker(seed)?;
+    s.sampling.poses = PAYLOAD_RUN_POSES;
+    s.effects.payload = Some(crate::sim::effects::Payload { mass_kg: 0.0, com_mm: PAYLOAD_COM_MM });
+    let sigma = tracker_row_noise_mm(&s, &robot)?;
+    let poses = crate::sim::generate::sample_poses(&s, &robot)?;
+    let list = crate::sim::pose_list::PoseList {
+        q: PAYLOAD_RUNS_KG.iter().flat_map(|_| poses.iter().cloned()).collect(),
+        payload_kg: Some(PAYLOAD_RUNS_KG.iter().flat_map(|m| vec![*m; poses.len()]).collect()),
+    };
+    let rows = |payload: Option<f64>| -> Dataset {
+        let per_run = list.q.iter().zip(list.payload_kg.iter().flatten()).filter(|(_, m)| payload.is_none_or(|p| p == **m));
+        Dataset {
+            rows: per_run.map(|(q, m)| Row { q_deg: q.iter().map(|v| v.to_degrees()).collect(), payload_kg: Some(*m), ..Default::default() }).collect(),
+            source: s.name.clone(),
+        }
+    };
+    let loads = LoadOptions { payload: Some(crate::robot::statics::Payload { mass_kg: 0.0, com_mm: PAYLOAD_COM_MM }), ..Default::default() };
+    let torque = TorqueModel::new(&robot, &loads, None, s.sensor.tool_point_m());
+    let unabsorbed = |data: &Dataset, joint: usize| -> Result<f64> {
+        let (_, model, _) = nominal_at_poses(&s, &robot)?;
+        let dim = model.measurement.dim();
+        let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
+        let samples = Samples::readings(q, vec![0.0; data.rows.len() * dim], dim);
+        unabsorbed_at(data, model, samples, &torque, EffectKind::JointCompliance, Some(joint), 0.0)
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5041_594c_4f41);
+    let joint = [1usize, 2, 4][rng.random_range(0..3)];
+    let (over_runs, unloaded) = (unabsorbed(&rows(None), joint)?, unabsorbed(&rows(Some(0.0)), joint)?);
+    let wanted = rng.random_range(factors.clone()) * sigma / over_runs;
+    let kind = EffectKind::JointCompliance;
+    let size = wanted.min(UNLOADED_FACTOR * sigma / unloaded.max(f64::MIN_POSITIVE)).min(kind.def().plausible(Some(joint)));
+    s.effects.set_size(kind.name(), robot.dof(), Some(joint), size, 0.0).map_err(Error::Invalid)?;
+    s.name = format!("hidden-{seed}-payload-runs");
+    let hidden =
+        Hidden { cause: kind, joint: Some(joint), magnitude: kind.def().reported(Some(joint), size), internal: size, factor: size * over_runs / sigma };
+    Ok((s, robot, list, hidden, sigma))
 }
 
 /// `s` with `n` different causes drawn from `seed`, each at `factors` × `sigma` (mm) left over

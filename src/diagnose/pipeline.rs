@@ -280,8 +280,7 @@ pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     let not_physical = drop_not_physical(&chain, &found, &rewhitened, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
     let repeat = crate::calib::run::reading_repeatability(&kept_rows);
     let floor = crate::calib::run::floor_stage(base, &baseline.x, &kept_rows, &kept, opts.angle_step_deg, opts.instrument_accuracy_mm, repeat.as_ref());
-    let (dim, value_groups) = (ctx.data.dim, base.measurement.def().value_groups());
-    let below_floor = drop_below_floor(&found, &chain, &floor, dim, value_groups, ctx.groups.as_deref(), &mut confirmed, progress);
+    let below_floor = drop_below_floor(&found, &chain, &floor, ctx.groups.as_deref(), &mut confirmed, progress);
     found.truncate(confirmed);
     let current = chain[confirmed].clone();
     let other_rmse: Vec<f64> = chain[..=confirmed].iter().map(|f| rms(&ctx.heldout(&f.model, &f.x, &f.fixed, &ctx.other_folds))).collect();

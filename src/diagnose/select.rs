@@ -81,12 +81,12 @@ pub(super) fn drop_below_floor(
     found: &[Found],
     chain: &[Fitted],
     floor: &NoiseFloor,
-    dim: usize,
-    value_groups: &[usize],
     groups: Option<&[usize]>,
     confirmed: &mut usize,
     progress: &dyn Fn(&str),
 ) -> Vec<String> {
+    let m = chain[0].model.measurement;
+    let (dim, value_groups) = (m.dim(), m.def().value_groups());
     let gains: Vec<Vec<GroupGain>> = (0..*confirmed).map(|k| group_gains(&chain[k].oof, &chain[k + 1].oof, dim, value_groups, floor, groups)).collect();
     let Some(k) = gains.iter().position(|g| !g.iter().any(|g| g.gain >= g.threshold)) else {
         return Vec::new();

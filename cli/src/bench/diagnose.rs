@@ -22,9 +22,9 @@ impl DetectionConfig {
     /// empty; an unknown category is an error naming the known ones).
     pub fn new(seeds: u64, categories: &[String]) -> Result<DetectionConfig> {
         // Item ids 0, 1 are seed 1's hidden and clean scenarios, 2·seeds.. its six realistic
-        // ones, 8·seeds.. its two tracker ones.
+        // ones, 8·seeds.. its three tracker ones.
         let known: Vec<String> =
-            [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).chain(8 * seeds..8 * seeds + 2).map(|id| Variant::of(id, seeds).1.category()).collect();
+            [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).chain(8 * seeds..8 * seeds + 3).map(|id| Variant::of(id, seeds).1.category()).collect();
         if let Some(c) = categories.iter().find(|c| !known.contains(c)) {
             return Err(twincal::error::Error::Invalid(format!("unknown --categories entry '{c}': known are {}", known.join(", "))));
         }
@@ -51,10 +51,21 @@ impl crate::shard::Config for DetectionConfig {
 }
 
 /// Work items per seed: hidden, clean, 2 loggings × (clean, above, below), and a tracker's
-/// clean and half-noise scenarios.
-const VARIANTS: u64 = 10;
+/// clean, half-noise and payload-run scenarios.
+const VARIANTS: u64 = 11;
 
 /// What one work item diagnoses.
+/// A tracker scenario of the detection part.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TrackerCase {
+    /// 400 independent rows, no effect.
+    Clean,
+    /// 400 independent rows, one effect at half one row's noise.
+    Half,
+    /// Payload runs (0, 1.5, 3 kg at the same 120 poses), a compliance the unloaded run hides.
+    PayloadRuns,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Variant {
     /// One effect at 1.5–4× the reading noise, angles unrounded, Halton order.
@@ -64,9 +75,8 @@ enum Variant {
     /// Sweeps, angles logged at `decimals`, glitch runs; `Some(true)`: one effect above the
     /// floor, `Some(false)`: one far below it, `None`: no effect.
     Realistic { decimals: usize, effect: Option<bool> },
-    /// Tracker points, 400 independent rows with their `sx, sy, sz`; `true`: one effect at half
-    /// one row's noise, `false`: none.
-    Tracker { effect: bool },
+    /// Tracker points with their `sx, sy, sz`.
+    Tracker(TrackerCase),
 }
 
 impl Variant {
@@ -79,7 +89,7 @@ impl Variant {
         }
         if id >= 8 * seeds {
             let k = id - 8 * seeds;
-            return (k / 2 + 1, Variant::Tracker { effect: k % 2 == 1 });
+            return (k / 3 + 1, Variant::Tracker([TrackerCase::Clean, TrackerCase::Half, TrackerCase::PayloadRuns][(k % 3) as usize]));
         }
         let k = id - 2 * seeds;
         let decimals = if (k % 6) < 3 { 1 } else { 2 };
@@ -90,7 +100,9 @@ impl Variant {
     fn category(self) -> String {
         match self {
             Variant::Hidden => "hidden".into(),
-            Variant::Tracker { effect } => if effect { "tracker-half" } else { "tracker-clean" }.into(),
+            Variant::Tracker(TrackerCase::Clean) => "tracker-clean".into(),
+            Variant::Tracker(TrackerCase::Half) => "tracker-half".into(),
+            Variant::Tracker(TrackerCase::PayloadRuns) => "tracker-payload".into(),
             Variant::Clean => "clean".into(),
             Variant::Realistic { decimals, effect } => {
                 format!(
@@ -115,7 +127,7 @@ pub struct DetectionItem {
     pub sized: bool,
     pub alarm: bool,
     /// `hidden`, `clean`, `realistic-<decimals>-<clean|above|below>` or
-    /// `tracker-<clean|half>`.
+    /// `tracker-<clean|half|payload>`.
     #[serde(default)]
     pub category: String,
     /// The size within 3 standard uncertainties (not the 30 % band).
@@ -211,20 +223,39 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let line = if above { (!named || !within || extra).then_some(line) } else { named_any.then_some(line) };
             Ok(DetectionItem { extra, ..item(line, named, sized, !above && named_any, within, floor) })
         }
-        Variant::Tracker { effect: false } => {
+        Variant::Tracker(TrackerCase::Clean) => {
             let (s, robot) = clean_tracker(40_000 + seed)?;
             let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
             let alarm = !d.causes.is_empty();
             let line = alarm.then(|| format!("    tracker clean seed {}: false alarm {}", 40_000 + seed, d.verdict));
             Ok(item(line, false, false, alarm, false, d.noise_floor_mm))
         }
-        Variant::Tracker { effect: true } => {
+        Variant::Tracker(TrackerCase::Half) => {
             let (s, robot, truth, sigma) = hidden_tracker(50_000 + seed, TRACKER_HALF)?;
             let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
             let (line, named, sized, within) = judge_hidden(50_000 + seed, &truth[0], &d);
             let extra = d.causes.len() > 1;
             let line = (!named || !within || extra).then(|| format!("{line} [tracker, {sigma:.4} mm per coordinate]"));
             Ok(DetectionItem { extra, ..item(line, named, sized, false, within, sigma) })
+        }
+        Variant::Tracker(TrackerCase::PayloadRuns) => {
+            let (s, robot, list, truth, sigma) = twincal::diagnose::hidden::hidden_payload_runs(60_000 + seed, 1.0..2.0)?;
+            let g = twincal::sim::pose_list::generate_pose_list(&s, &robot, list, &Silent)?;
+            let payload = twincal::robot::statics::Payload { mass_kg: 0.0, com_mm: twincal::diagnose::hidden::PAYLOAD_COM_MM };
+            let opts = twincal::diagnose::DiagnoseOptions {
+                loads: twincal::calib::effects::inputs::LoadOptions { payload: Some(payload), ..Default::default() },
+                ..opts
+            };
+            let data = strip(&g);
+            let (d, _) = diagnose(&data, &opts, &|_| {})?;
+            let (line, named, sized, within) = judge_hidden(60_000 + seed, &truth, &d);
+            let extra = d.causes.len() > 1;
+            // The unloaded run alone, diagnosed as it would be without the other runs.
+            let unloaded = Dataset { rows: data.rows.iter().filter(|r| r.payload_kg == Some(0.0)).cloned().collect(), source: data.source.clone() };
+            let (du, _) = diagnose(&unloaded, &opts, &|_| {})?;
+            let seen_unloaded = du.causes.iter().any(|c| truth.named_by(c));
+            let line = Some(format!("{line} [payload runs, {sigma:.4} mm per coordinate; the unloaded run alone: {}]", du.verdict));
+            Ok(DetectionItem { extra, ..item(line, named, sized, seen_unloaded, within, sigma) })
         }
     }
 }
@@ -294,6 +325,30 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
         }
     }
     print_tracker(&of("tracker-clean"), &of("tracker-half"));
+    print_payload_runs(&of("tracker-payload"));
+}
+
+/// The payload-run category's rates: the compliance named and sized.
+fn print_payload_runs(runs: &[&DetectionItem]) {
+    if runs.is_empty() {
+        return;
+    }
+    let count = |f: fn(&DetectionItem) -> bool| runs.iter().filter(|i| f(i)).count();
+    use twincal::diagnose::hidden::{PAYLOAD_RUNS_KG, PAYLOAD_RUN_POSES, UNLOADED_FACTOR};
+    println!(
+        "  payload runs ({PAYLOAD_RUN_POSES} tracker poses at each of {PAYLOAD_RUNS_KG:?} kg; a joint compliance at 1-2x one row's noise over the runs where it stays under {UNLOADED_FACTOR}x in the unloaded run, else at {UNLOADED_FACTOR}x there):"
+    );
+    println!(
+        "    {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma, {}/{} name a cause not hidden; the unloaded run alone names it on {}/{}",
+        count(|i| i.detected),
+        runs.len(),
+        count(|i| i.within_3_sigma),
+        runs.len(),
+        count(|i| i.extra),
+        runs.len(),
+        count(|i| i.alarm),
+        runs.len()
+    );
 }
 
 /// The tracker categories' rates: false alarms on clean rows, the half-noise effect named.
