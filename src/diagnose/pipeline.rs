@@ -338,7 +338,7 @@ pub(super) fn final_stage(
         ..
     } = p;
     let Selected { kept, kept_rows, ctx, confirmation, few_blocks, baseline, current, found, .. } = sel;
-    let (dim, shared) = (measurement.dim(), blocks.any_shared());
+    let shared = blocks.any_shared();
     // Rows first taken for outliers that the causes explain rejoin the final fit.
     let (kept, kept_rows, final_keep, explained) =
         rejoin_explained(&current, &all, data, (kept, kept_rows, keep), (&mut outliers, &mut outlier_runs), opts.outlier_k, progress);
@@ -363,7 +363,8 @@ pub(super) fn final_stage(
     let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg, opts.instrument_accuracy_mm)?;
     let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
     let (noise_floor_mm, noise_floor_source, current_oof) = (noise_floor.total_mm, floor_source_text(&noise_floor), rms(&current.oof));
-    warnings.extend(leak_warning(&current.oof, dim, ctx.groups.as_deref(), noise_floor_mm, shared));
+    warnings.extend(leak_on_positions(&current.oof, measurement, ctx.groups.as_deref(), &noise_floor, shared));
+    let (position_rms, judged_floor) = ((!noise_floor.by_group.is_empty()).then(|| rms(&positions_of(&current.oof, measurement))), noise_floor.of_group(0));
     let diagnosis = Diagnosis {
         schema_version: crate::io::SCHEMA_VERSION,
         warnings,
@@ -390,21 +391,16 @@ pub(super) fn final_stage(
         selection_rows: ctx.data.len(),
         confirmation_rows: confirmation.len(),
         unconfirmed: sel.unconfirmed,
-        baseline: Baseline {
-            model: base.name.clone(),
-            heldout_rmse_mm: rms(&baseline.oof),
-            heldout_rmse_blocked_mm: sel.rmse_blocked,
-            heldout_rmse_interleaved_mm: sel.rmse_interleaved,
-            train_rmse_mm: rms(&sel.base_in),
-        },
+        baseline: baseline_report(&base.name, &baseline, &sel.base_in, sel.rmse_blocked, sel.rmse_interleaved),
         evidence: sel.evidence,
         steps: sel.steps,
         unexplained: result.evaluation.noise_floor.as_ref().and_then(|f| unexplained_note(&current, &ctx.data, f, data)),
         verdict: String::new(),
         causes,
         final_heldout_rmse_mm: current_oof,
+        final_heldout_rmse_position_mm: position_rms,
         final_train_rmse_mm,
-        floor_share_of_remaining: (noise_floor_mm / current_oof).powi(2).min(1.0),
+        floor_share_of_remaining: (judged_floor / position_rms.unwrap_or(current_oof)).powi(2).min(1.0),
         comparison: compare_with_rbf(&ctx, &baseline, &current, opts.seed),
         seconds: t0.elapsed().as_secs_f64(),
         effects_option: effects_option(&current.model),
@@ -468,6 +464,43 @@ pub(super) fn unexplained_note(current: &Fitted, rows: &Samples, floor: &crate::
         floor.sources.iter().map(|s| s.source.name()).collect::<Vec<_>>().join(", "),
         if at.is_empty() { String::new() } else { format!("; it concentrates {}", at.join("; ")) }
     ))
+}
+
+/// [`leak_warning`] on the values the floor describes: a 6-D pose's positions against the
+/// positions' floor (its axes have a noise of their own, smaller, and nine values' RMSE set
+/// against the positions' floor would always look short of it), else every value.
+fn leak_on_positions(
+    oof: &[f64],
+    m: crate::measurement::Measurement,
+    groups: Option<&[usize]>,
+    floor: &crate::calib::problem::floor::NoiseFloor,
+    shared: bool,
+) -> Option<String> {
+    let (dim, value_groups) = (m.dim(), m.def().value_groups());
+    if floor.by_group.is_empty() {
+        return leak_warning(oof, dim, groups, floor.total_mm, shared);
+    }
+    let n_positions = value_groups.iter().filter(|g| **g == 0).count();
+    leak_warning(&positions_of(oof, m), n_positions, groups, floor.of_group(0), shared)
+}
+
+/// The position values of held-out residuals `oof` of a reading of kind `m` (every value for a
+/// reading of one kind).
+fn positions_of(oof: &[f64], m: crate::measurement::Measurement) -> Vec<f64> {
+    let (dim, value_groups) = (m.dim(), m.def().value_groups());
+    let cols: Vec<usize> = (0..dim).filter(|&c| value_groups.get(c).copied().unwrap_or(0) == 0).collect();
+    oof.chunks(dim).flat_map(|row| cols.iter().map(move |&c| row[c])).collect()
+}
+
+/// The geometric baseline's report: its model's name and its held-out and training RMSE.
+fn baseline_report(model: &str, baseline: &Fitted, base_in: &[f64], blocked: f64, interleaved: f64) -> Baseline {
+    Baseline {
+        model: model.into(),
+        heldout_rmse_mm: rms(&baseline.oof),
+        heldout_rmse_blocked_mm: blocked,
+        heldout_rmse_interleaved_mm: interleaved,
+        train_rmse_mm: rms(base_in),
+    }
 }
 
 /// Where the floor comes from, as one line: each source with its RMS, and a note when it is a

@@ -230,6 +230,10 @@ pub struct Diagnosis {
     pub unexplained: Option<String>,
     /// Held-out RMSE of the model with every kept cause, on the folds selection judged on, mm.
     pub final_heldout_rmse_mm: f64,
+    /// The same over a 6-D pose's position values alone (what its floor describes), mm; absent
+    /// for one kind of value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub final_heldout_rmse_position_mm: Option<f64>,
     /// RMSE of the final model (the one `--result` holds) on every kept row it was fitted to.
     pub final_train_rmse_mm: f64,
     /// Share of the final held-out mean square that the data's floor accounts for (floor² /
@@ -267,7 +271,10 @@ impl Diagnosis {
     /// data or the instrument measure gives the floor (repeats, the rows' own standard
     /// deviations, a stated accuracy), else what is known of it.
     pub fn against_floor(&self) -> String {
-        if self.noise_floor.sources.iter().any(|s| s.source.measured()) {
+        if let Some(p) = self.final_heldout_rmse_position_mm.filter(|_| self.noise_floor.by_group.first().is_some_and(|g| g.measured)) {
+            let floor = self.noise_floor.of_group(0);
+            format!("of the positions {p:.4} mm, {:.2} x their noise floor {floor:.4} mm", p / floor)
+        } else if self.noise_floor.sources.iter().any(|s| s.source.measured()) {
             format!("{:.2} x the noise floor", self.final_heldout_rmse_mm / self.noise_floor_mm)
         } else {
             format!("no repeated configurations, so the floor is known only down to the logging resolution ({:.4} mm)", self.noise_floor_mm)

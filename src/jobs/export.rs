@@ -1,7 +1,7 @@
 //! `twincal export`: a calibrated model written for a controller or a driver ([`crate::export`]),
 //! checked by reading it back before it is written.
 
-use crate::calib::run::CalibResult;
+use crate::calib::run::{CalibResult, OTHER_ARM_MM};
 use crate::error::{Error, Result};
 use crate::io::{check_outputs, OutputSet};
 use crate::robot::Robot;
@@ -87,9 +87,6 @@ impl ExportJob {
         Ok(ExportSummary { format: format.name().into(), out: self.out.clone(), warnings: exported.warnings, round_trip_m })
     }
 }
-
-/// Beyond this (mm) between a robot's flange and a model's nominal one, the robot is another arm.
-const OTHER_ARM_MM: f64 = 1.0;
 
 /// The largest distance (mm) between `robot`'s flange and the nominal flange of `r`'s model
 /// (its chain at the nominal values) over 32 seeded configurations inside the robot's limits.

@@ -143,6 +143,9 @@ impl CalibrateRequest {
         opts.sensor_guess = sensor_guess(a.sensor_guess.as_deref())?;
         opts.effects = parse_effects("--effects", &a.effects)?;
         (opts.loads, opts.inertial) = a.loads.resolve()?;
+        if let Some(path) = &a.loads.robot {
+            crate::calib::run::check_inertial(&opts.model, opts.inertial.as_ref(), &path.display().to_string())?;
+        }
         (opts.outlier_k, opts.loss) = a.robust.resolve()?;
         (opts.angle_step_deg, opts.instrument_accuracy_mm) = a.robust.floor.resolve()?;
         opts.row_std = !a.robust.floor.ignore_row_std;

@@ -96,6 +96,9 @@ impl DiagnoseRequest {
         }
         let mut opts = DiagnoseOptions::new(a.model.spec()?);
         (opts.loads, opts.inertial) = a.loads.resolve()?;
+        if let Some(path) = &a.loads.robot {
+            crate::calib::run::check_inertial(&opts.model, opts.inertial.as_ref(), &path.display().to_string())?;
+        }
         opts.folds = a.folds;
         opts.alpha = a.alpha;
         opts.seed = a.seed;

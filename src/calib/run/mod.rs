@@ -23,7 +23,9 @@ mod stages;
 pub use crate::calib::methods::{Method, Solver};
 pub use crate::calib::problem::identify::{identify, still_joints, STILL_SPAN_DEG};
 pub use crate::dataset::truth::TruthFile;
-pub use options::{CalibOptions, ModelSpec, Parametrisation, SplitBy, StationSource, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL};
+pub use options::{
+    check_inertial, flange_gap_mm, CalibOptions, ModelSpec, Parametrisation, SplitBy, StationSource, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL, OTHER_ARM_MM,
+};
 pub use pipeline::*;
 pub use register::{Registration, DEFAULT_REGISTER_ROWS};
 pub use result::*;

@@ -155,11 +155,52 @@ impl CalibOptions {
             stations: StationSource::Auto,
         }
     }
-    /// The robot whose inertial data give the joint torques: the calibrated nominal robot, else
-    /// the one given for the purpose.
+    /// The robot whose inertial data give the joint torques: the one given for the purpose
+    /// (`--robot`), else the calibrated nominal robot.
     pub fn inertial_robot(&self) -> Option<&Robot> {
-        self.model.robot().or(self.inertial.as_ref())
+        self.inertial.as_ref().or(self.model.robot())
     }
+}
+
+/// Beyond this (mm) between two arms' flanges at the same joint angles, they are two arms.
+pub const OTHER_ARM_MM: f64 = 1.0;
+
+/// The largest distance (mm) between the flanges of `a` and `b` at their nominal geometry over
+/// 16 seeded configurations inside `a`'s limits; `None` where their joint counts differ.
+pub fn flange_gap_mm(a: &Robot, b: &Robot) -> Option<f64> {
+    use rand::{Rng, SeedableRng};
+    if a.dof() != b.dof() {
+        return None;
+    }
+    let (ca, cb) = (a.error_chain(), b.error_chain());
+    let (za, zb) = (vec![0.0; ca.n_params()], vec![0.0; cb.n_params()]);
+    let (mut wa, mut wb) = (crate::robot::kinematics::FkWork::new(&ca), crate::robot::kinematics::FkWork::new(&cb));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let gap = (0..16)
+        .map(|_| {
+            let q: Vec<f64> = a.limits().iter().map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>()).collect();
+            ca.forward(&q, &za, 1.0, &mut wa);
+            cb.forward(&q, &zb, 1.0, &mut wb);
+            crate::units::to_mm((ca.frame(&wa, ca.flange()).pos - cb.frame(&wb, cb.flange()).pos).norm())
+        })
+        .fold(0.0, f64::max);
+    Some(gap)
+}
+
+/// `--robot` (the URDF whose inertial data give the torques) must be the arm the model is of:
+/// the same joints and, for a nominal arm, the same flange within [`OTHER_ARM_MM`]. A URDF of
+/// another arm beside the default model (`irb120`) is what a user who meant `--model` gives.
+pub fn check_inertial(model: &ModelSpec, inertial: Option<&Robot>, source: &str) -> Result<()> {
+    let (Some(given), Some(nominal)) = (inertial, model.robot()) else { return Ok(()) };
+    let why = match flange_gap_mm(nominal, given) {
+        None => format!("it has {} joints, the model's arm {}", given.dof(), nominal.dof()),
+        Some(gap) if gap > OTHER_ARM_MM => format!("its flange stands up to {gap:.1} mm from the model's at the same joint angles"),
+        Some(_) => return Ok(()),
+    };
+    Err(Error::Invalid(format!(
+        "--robot {source} is another arm than the model's ({}): {why}; give the arm to calibrate as --model {source} (--robot only lends the model's arm its inertial data)",
+        nominal.name
+    )))
 }
 
 /// How `--test-fraction` draws its test rows.
@@ -212,5 +253,27 @@ impl StationSource {
             StationSource::Blocks => "blocks",
             StationSource::One => "one",
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A UR10's URDF given as `--robot` beside the default IRB 120 model is another arm (it was
+    /// ignored without a word); the model's own arm, or any with the generic arm, is not.
+    #[test]
+    fn a_robot_for_the_torques_must_be_the_models_arm() {
+        let ur10 = Robot::from_urdf_file(&Path::new(env!("CARGO_MANIFEST_DIR")).join("urdf/ur10.urdf")).unwrap();
+        let irb = ModelSpec::nominal(Robot::irb120(), Parametrisation::Hayati);
+        let e = check_inertial(&irb, Some(&ur10), "ur10.urdf").unwrap_err().to_string();
+        assert!(e.contains("--robot ur10.urdf is another arm than the model's") && e.contains("--model ur10.urdf"), "{e}");
+        assert!(check_inertial(&irb, Some(&Robot::irb120()), "irb120.urdf").is_ok());
+        assert!(check_inertial(&ModelSpec::Generic, Some(&ur10), "ur10.urdf").is_ok());
+        assert_eq!(flange_gap_mm(&Robot::irb120(), &Robot::irb120()), Some(0.0));
+        // Given, it is the one whose inertial data give the torques.
+        let mut opts = CalibOptions::new(ModelSpec::nominal(ur10.clone(), Parametrisation::Hayati), Method::LM);
+        opts.inertial = Some(ur10.clone());
+        assert_eq!(opts.inertial_robot().map(|r| r.name.as_str()), Some(ur10.name.as_str()));
     }
 }
