@@ -23,9 +23,11 @@ pub struct RunFault {
     pub first_row: usize,
     /// Last data row of the run, 1-based.
     pub last_row: usize,
-    /// `joint_offset`, `joint_sign`, `joint_stale`, `joint_swap`, `instrument_moved`,
+    /// `joint_offset`, `joint_sign`, `joint_stale`, `joint_swap`, each also with
+    /// `+reading_offset` (the reading jumped at the same time), `instrument_moved`,
     /// `reading_offset`; `ambiguous` when the best and the runner-up both leave the rows like
-    /// the kept rows; `unexplained` when no hypothesis does.
+    /// the kept rows; `unexplained` when no hypothesis does. A combined cause competes with the
+    /// others by its evidence against its extra freedom (BIC); its own parts are no rivals.
     pub cause: String,
     /// The joints concerned, 1-based.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -33,6 +35,9 @@ pub struct RunFault {
     /// An offset's size (degrees for a joint, mm for the reading), where the cause has one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
+    /// The reading's offset (mm) of a joint fault with a reading jump (`joint_*+reading_offset`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reading_offset_mm: Option<f64>,
     /// RMS residual of the run's rows as logged, and corrected by the cause, mm.
     pub rms_as_logged_mm: f64,
     /// RMS residual of the run's rows corrected by the cause, mm.
@@ -55,6 +60,10 @@ pub const CLEAR_RATIO: f64 = 4.0;
 /// ... above which the runner-up no longer explains the rows too (robust standard deviations of the
 /// kept rows).
 pub const RUNNER_UP_SIGMAS: f64 = 2.0;
+/// ... or the runner-up has more free numbers than the named one and its BIC is at least this
+/// much worse (very strong evidence against it): a combined fault's two offsets fit a few rows
+/// of another joint's fault nearly as well, by their extra freedom alone.
+pub const STRONG_EVIDENCE_BIC: f64 = 10.0;
 /// Largest joint offset tried, degrees.
 pub const MAX_OFFSET_DEG: f64 = 20.0;
 
@@ -62,8 +71,34 @@ struct Hypothesis {
     cause: &'static str,
     joints: Vec<usize>,
     value: Option<f64>,
+    /// The reading's offset (mm) a combined hypothesis adds to its joint fault.
+    reading: Option<f64>,
     params: usize,
     rss: f64,
+}
+
+/// What the run's residuals `r` leave after one reading offset: the offset (their mean) and
+/// the sum of squares around it.
+fn less_offset(r: &[f64]) -> (f64, f64) {
+    let mean = r.iter().sum::<f64>() / r.len().max(1) as f64;
+    (mean, r.iter().map(|v| (v - mean).powi(2)).sum())
+}
+
+/// The cause a joint fault of kind `cause` has when the reading jumped too.
+fn with_reading(cause: &'static str) -> &'static str {
+    match cause {
+        "joint_offset" => "joint_offset+reading_offset",
+        "joint_sign" => "joint_sign+reading_offset",
+        "joint_stale" => "joint_stale+reading_offset",
+        _ => "joint_swap+reading_offset",
+    }
+}
+
+/// Whether `a` is `b` with fewer freedoms (no fault at all, a single fault inside a combined
+/// one): not a rival explanation of the rows but a part of it.
+fn nested_in(a: &Hypothesis, b: &Hypothesis) -> bool {
+    a.cause == "unexplained"
+        || (b.reading.is_some() && a.reading.is_none() && (a.cause == "reading_offset" || (with_reading(a.cause) == b.cause && a.joints == b.joints)))
 }
 
 /// The run's residuals (mm, unweighted) with joint angles `q` (rad) for its rows.
@@ -76,12 +111,18 @@ fn rss(r: &[f64]) -> f64 {
     r.iter().map(|v| v * v).sum()
 }
 
-/// The offset (rad) of joint `j` that best explains the run: a grid of 0.1° steps over
-/// ±[`MAX_OFFSET_DEG`], then golden-section search around the best point.
-fn best_offset(model: &CalibModel, x: &[f64], run: &Samples, j: usize) -> (f64, f64) {
+/// The offset (rad) of joint `j` that best explains the run and its sum of squares: a grid of
+/// 0.1° steps over ±[`MAX_OFFSET_DEG`], then golden-section search around the best point.
+/// With `reading`, the reading's offset is fitted with it (the mean residual at each offset).
+fn best_offset(model: &CalibModel, x: &[f64], run: &Samples, j: usize, reading: bool) -> (f64, f64) {
     let cost = |d: f64| {
         let q: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { v + d } else { *v }).collect()).collect();
-        rss(&residuals(model, x, run, &q))
+        let r = residuals(model, x, run, &q);
+        if reading {
+            less_offset(&r).1
+        } else {
+            rss(&r)
+        }
     };
     let step = 0.1f64.to_radians();
     let n = (MAX_OFFSET_DEG / 0.1) as i64;
@@ -108,46 +149,30 @@ fn best_offset(model: &CalibModel, x: &[f64], run: &Samples, j: usize) -> (f64, 
 }
 
 /// Every hypothesis for the run's rows `rows` (indices into `all`, consecutive; `all` in
-/// acquisition order, readings as logged, unweighted).
+/// acquisition order, readings as logged, unweighted): the reading's offset, each joint's
+/// faults alone and each with a reading offset besides (a cable re-hooked after the fault), the
+/// instrument moved.
 fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> Vec<Hypothesis> {
     let run = all.subset(rows);
     let nj = model.chain.n_joints;
     let mut out = Vec::new();
     let r = residuals(model, x, &run, &run.q);
-    out.push(Hypothesis { cause: "unexplained", joints: vec![], value: None, params: 0, rss: rss(&r) });
+    out.push(Hypothesis { cause: "unexplained", joints: vec![], value: None, reading: None, params: 0, rss: rss(&r) });
     // The reading jumped: one offset.
-    let mean = r.iter().sum::<f64>() / r.len() as f64;
-    out.push(Hypothesis { cause: "reading_offset", joints: vec![], value: Some(mean), params: 1, rss: r.iter().map(|v| (v - mean).powi(2)).sum() });
+    let (mean, left) = less_offset(&r);
+    out.push(Hypothesis { cause: "reading_offset", joints: vec![], value: Some(mean), reading: None, params: 1, rss: left });
+    // A joint fault whose rows read `q`, alone and with the reading's offset.
+    let mut joint_fault = |cause: &'static str, joints: Vec<usize>, q: &[Vec<f64>]| {
+        let r = residuals(model, x, &run, q);
+        let (mean, left) = less_offset(&r);
+        out.push(Hypothesis { cause: with_reading(cause), joints: joints.clone(), value: None, reading: Some(mean), params: 1, rss: left });
+        out.push(Hypothesis { cause, joints, value: None, reading: None, params: 0, rss: rss(&r) });
+    };
     for j in 0..nj {
-        let (d, c) = best_offset(model, x, &run, j);
-        out.push(Hypothesis { cause: "joint_offset", joints: vec![j + 1], value: Some(d.to_degrees()), params: 1, rss: c });
         let flipped: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { -v } else { *v }).collect()).collect();
-        out.push(Hypothesis { cause: "joint_sign", joints: vec![j + 1], value: None, params: 0, rss: rss(&residuals(model, x, &run, &flipped)) });
-        // A stale joint: logged constant over the run while it moved on. Its true angles are
-        // taken on the line between the rows either side of the run, or continuing the steps
-        // of the two rows before it (a sweep that ends within the run); the better counts.
-        let (first, last) = (rows[0], rows[rows.len() - 1]);
-        let constant = run.q.iter().all(|q| q[j] == run.q[0][j]);
-        if constant && first > 1 {
-            let a = all.q[first - 1][j];
-            let steps = [(last + 1 < all.len()).then(|| (all.q[last + 1][j] - a) / (rows.len() as f64 + 1.0)), Some(all.q[first - 1][j] - all.q[first - 2][j])];
-            let best = steps
-                .into_iter()
-                .flatten()
-                .filter(|d| d.abs() > 1e-9)
-                .map(|d| {
-                    let q: Vec<Vec<f64>> = run
-                        .q
-                        .iter()
-                        .enumerate()
-                        .map(|(k, q)| q.iter().enumerate().map(|(i, v)| if i == j { a + d * (k as f64 + 1.0) } else { *v }).collect())
-                        .collect();
-                    rss(&residuals(model, x, &run, &q))
-                })
-                .fold(f64::INFINITY, f64::min);
-            if best.is_finite() {
-                out.push(Hypothesis { cause: "joint_stale", joints: vec![j + 1], value: None, params: 0, rss: best });
-            }
+        joint_fault("joint_sign", vec![j + 1], &flipped);
+        if let Some(q) = stale_angles(all, &run, rows, j, &|q| rss(&residuals(model, x, &run, q))) {
+            joint_fault("joint_stale", vec![j + 1], &q);
         }
         for k in j + 1..nj {
             let swapped: Vec<Vec<f64>> = run
@@ -159,8 +184,16 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
                     q
                 })
                 .collect();
-            out.push(Hypothesis { cause: "joint_swap", joints: vec![j + 1, k + 1], value: None, params: 0, rss: rss(&residuals(model, x, &run, &swapped)) });
+            joint_fault("joint_swap", vec![j + 1, k + 1], &swapped);
         }
+    }
+    for j in 0..nj {
+        let (d, c) = best_offset(model, x, &run, j, false);
+        out.push(Hypothesis { cause: "joint_offset", joints: vec![j + 1], value: Some(d.to_degrees()), reading: None, params: 1, rss: c });
+        let (d, c) = best_offset(model, x, &run, j, true);
+        let q: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { v + d } else { *v }).collect()).collect();
+        let mean = less_offset(&residuals(model, x, &run, &q)).0;
+        out.push(Hypothesis { cause: "joint_offset+reading_offset", joints: vec![j + 1], value: Some(d.to_degrees()), reading: Some(mean), params: 2, rss: c });
     }
     // The instrument moved: its placement refitted on the run's rows.
     let placement = model.setup_range();
@@ -169,9 +202,37 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
         let plain = run.unweighted();
         let fit = ReadingFit { model, data: &plain };
         let xm = LevenbergMarquardt::budget(50).minimize(&fit, x, &fixed, &mut NoObserver).x;
-        out.push(Hypothesis { cause: "instrument_moved", joints: vec![], value: None, params: placement.len(), rss: rss(&fit.residuals_mm(&xm)) });
+        out.push(Hypothesis {
+            cause: "instrument_moved",
+            joints: vec![],
+            value: None,
+            reading: None,
+            params: placement.len(),
+            rss: rss(&fit.residuals_mm(&xm)),
+        });
     }
     out
+}
+
+/// A stale joint `j`: logged constant over the run (`rows` of `all`, as `run`) while it moved
+/// on. Its true angles are taken on the line between the rows either side of the run, or
+/// continuing the steps of the two rows before it (a sweep that ends within the run); the one
+/// `cost` prefers. `None` where the joint is not constant over the run or nothing moves it.
+fn stale_angles(all: &Samples, run: &Samples, rows: &[usize], j: usize, cost: &dyn Fn(&[Vec<f64>]) -> f64) -> Option<Vec<Vec<f64>>> {
+    let (first, last) = (rows[0], rows[rows.len() - 1]);
+    if !(run.q.iter().all(|q| q[j] == run.q[0][j]) && first > 1) {
+        return None;
+    }
+    let a = all.q[first - 1][j];
+    let steps = [(last + 1 < all.len()).then(|| (all.q[last + 1][j] - a) / (rows.len() as f64 + 1.0)), Some(all.q[first - 1][j] - all.q[first - 2][j])];
+    steps
+        .into_iter()
+        .flatten()
+        .filter(|d| d.abs() > 1e-9)
+        .map(|d| -> Vec<Vec<f64>> {
+            run.q.iter().enumerate().map(|(k, q)| q.iter().enumerate().map(|(i, v)| if i == j { a + d * (k as f64 + 1.0) } else { *v }).collect()).collect()
+        })
+        .min_by(|p, q| cost(p).total_cmp(&cost(q)))
 }
 
 /// Names what went wrong in each run of outlier rows (`runs`: first and last row, 0-based,
@@ -187,10 +248,15 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
             h.sort_by(|a, b| bic(a).total_cmp(&bic(b)));
             let rms = |h: &Hypothesis| (h.rss / n).sqrt();
             let logged = h.iter().find(|h| h.cause == "unexplained").map_or(f64::NAN, rms);
-            let best = &h[0];
+            // A combined fault only where none of its parts alone leaves the rows like the kept
+            // rows: with a few rows, a joint's free offset beside a reading jump fits their noise.
+            let fits_alone = |o: &Hypothesis| o.cause != "unexplained" && rms(o) <= EXPLAINED_SIGMAS * scale_mm && nested_in(o, &h[0]);
+            let best = h.iter().find(|o| fits_alone(o)).unwrap_or(&h[0]);
             // The runner-up: the best hypothesis of another kind or other joints.
-            let runner = h.iter().skip(1).find(|o| o.cause != best.cause || o.joints != best.joints);
-            let clear = runner.is_none_or(|o| o.rss >= CLEAR_RATIO * best.rss && rms(o) > RUNNER_UP_SIGMAS * scale_mm);
+            let runner = h.iter().skip(1).find(|o| (o.cause != best.cause || o.joints != best.joints) && !nested_in(o, best) && !nested_in(best, o));
+            let clear = runner.is_none_or(|o| {
+                (o.rss >= CLEAR_RATIO * best.rss && rms(o) > RUNNER_UP_SIGMAS * scale_mm) || (o.params > best.params && bic(o) - bic(best) >= STRONG_EVIDENCE_BIC)
+            });
             let fits = best.cause != "unexplained" && rms(best) <= EXPLAINED_SIGMAS * scale_mm;
             let explained = fits && clear;
             let (runner_up, runner_up_rms_mm) = runner.map_or((String::new(), f64::NAN), |o| (label(o), rms(o)));
@@ -237,6 +303,7 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
                 },
                 joints: if explained { best.joints.clone() } else { vec![] },
                 value: if explained { best.value } else { None },
+                reading_offset_mm: if explained { best.reading } else { None },
                 rms_as_logged_mm: logged,
                 rms_corrected_mm: if explained { rms(best) } else { logged },
                 runner_up,
@@ -249,11 +316,14 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
 
 fn label(h: &Hypothesis) -> String {
     let joints = h.joints.iter().map(|j| format!("j{j}")).collect::<Vec<_>>().join("<->");
-    let value = match (h.cause, h.value) {
-        ("joint_offset", Some(v)) => format!(" {v:+.3} deg"),
+    let mut value = match (h.cause, h.value) {
+        ("joint_offset" | "joint_offset+reading_offset", Some(v)) => format!(" {v:+.3} deg"),
         ("reading_offset", Some(v)) => format!(" {v:+.3} mm"),
         _ => String::new(),
     };
+    if let Some(r) = h.reading {
+        value += &format!(", reading {r:+.3} mm");
+    }
     if joints.is_empty() {
         format!("{}{value}", h.cause)
     } else {

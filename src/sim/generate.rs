@@ -146,7 +146,16 @@ fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<
         let first = r * slot + rng.random_range(0..=slot - g.rows);
         if g.kind.in_joints() {
             corrupt_joints(g, &mut rng, rows, first.max(1), s.sampling.written_decimals());
-            hit.extend(first.max(1)..first.max(1) + g.rows);
+            let run = first.max(1)..(first.max(1) + g.rows).min(n);
+            if g.kind == crate::sim::scenario::GlitchKind::JointOffsetAndReading {
+                let size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                for i in run.clone() {
+                    let l = round_decimals(rows[i].l_mm().expect("generated rows carry a reading") + size, s.sensor.reading_decimals());
+                    rows[i].reading_mm = vec![l];
+                    truth[i].length_measured_mm = l;
+                }
+            }
+            hit.extend(run);
             continue;
         }
         let mut size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
@@ -179,7 +188,7 @@ fn corrupt_joints(g: &crate::sim::scenario::Glitches, rng: &mut ChaCha8Rng, rows
     });
     let moving = (0..n).max_by(|&a, &b| (span(a).1 - span(a).0).total_cmp(&(span(b).1 - span(b).0)));
     match g.kind {
-        GlitchKind::JointOffset => {
+        GlitchKind::JointOffset | GlitchKind::JointOffsetAndReading => {
             let size = g.size_deg.unwrap_or(1.0) * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
             rows[run].iter_mut().for_each(|r| r.q_deg[drawn] = round_decimals(r.q_deg[drawn] + size, decimals));
         }

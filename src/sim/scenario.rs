@@ -121,15 +121,19 @@ pub enum GlitchKind {
     JointStale,
     /// Two neighbouring joints are logged in each other's columns.
     JointSwap,
+    /// One joint's logged angle is off as [`GlitchKind::JointOffset`] and the reading jumps at
+    /// the same row by `size_mm` × (1 + U(0, 0.5)) (a cable re-hooked after the fault).
+    JointOffsetAndReading,
 }
 
 impl GlitchKind {
     fn is_default(&self) -> bool {
         *self == GlitchKind::Offset
     }
-    /// Whether the fault is in the logged joint angles (not in the reading).
+    /// Whether the fault is in the logged joint angles (besides, for
+    /// [`GlitchKind::JointOffsetAndReading`], the reading).
     pub fn in_joints(self) -> bool {
-        matches!(self, GlitchKind::JointOffset | GlitchKind::JointSign | GlitchKind::JointStale | GlitchKind::JointSwap)
+        matches!(self, GlitchKind::JointOffset | GlitchKind::JointSign | GlitchKind::JointStale | GlitchKind::JointSwap | GlitchKind::JointOffsetAndReading)
     }
 }
 

@@ -384,3 +384,29 @@ fn payload_runs_reveal_a_compliance_the_unloaded_arm_hides() {
     let d = diagnose(&all, &opts, &|_| {}).unwrap().0;
     assert!(d.warnings.iter().any(|w| w.contains("no centre of mass is stated")), "{:?}", d.warnings);
 }
+
+/// A run where one joint is logged off and the reading jumps at the same row (a cable re-hooked
+/// after the fault): neither a joint's fault nor a reading offset alone explains it; the two
+/// together are named, with both sizes.
+#[test]
+fn a_joint_fault_with_a_reading_jump_is_named_as_both() {
+    use twincal::diagnose::hidden::realistic;
+    use twincal::sim::scenario::{GlitchKind, Glitches};
+    let (mut s, robot) = realistic(20_001, 2).unwrap();
+    s.glitches = Some(Glitches { runs: 3, rows: 8, size_mm: 2.0, kind: GlitchKind::JointOffsetAndReading, joint: None, size_deg: Some(1.0) });
+    let g = generate(&s, &robot, &Silent).unwrap();
+    let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
+    let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap()), &|_| {}).unwrap().0;
+    for f in &d.run_faults {
+        eprintln!("rows {}-{}: {} ({})", f.first_row, f.last_row, f.cause, f.evidence);
+    }
+    let named: Vec<_> = d.run_faults.iter().filter(|f| f.cause == "joint_offset+reading_offset").collect();
+    assert!(named.len() >= 2, "{:?}", d.run_faults);
+    for f in named {
+        let rows: Vec<usize> = (f.first_row - 1..f.last_row).collect();
+        assert!(rows.iter().all(|r| g.truth.glitch_rows.contains(r)), "rows {}-{} are no hidden run", f.first_row, f.last_row);
+        assert!((0.95..1.55).contains(&f.value.unwrap().abs()) && (1.9..3.1).contains(&f.reading_offset_mm.unwrap().abs()), "{f:?}");
+        assert!(f.rms_corrected_mm < 0.1 * f.rms_as_logged_mm, "{f:?}");
+    }
+    assert!(d.causes.is_empty(), "{}", d.verdict);
+}
