@@ -666,8 +666,11 @@ fn hand_edited_result_values_out_of_range_are_refused() {
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&res).unwrap()).unwrap();
     type Edit = fn(&mut serde_json::Value);
     assert_eq!(r["schema_version"], 2, "result.json carries its schema version");
-    let cases: [(Edit, &str); 11] = [
+    let cases: [(Edit, &str); 13] = [
         (|r| r["schema_version"] = 3.into(), "schema_version 3, written by a newer twincal"),
+        // A wrong type is named by its JSON path.
+        (|r| r["schema_version"] = "2".into(), "schema_version: invalid type: string \"2\""),
+        (|r| r["solve"]["iterations"] = "many".into(), "solve.iterations: invalid type"),
         (
             |r| {
                 r.as_object_mut().unwrap().remove("torque_model");
@@ -691,6 +694,11 @@ fn hand_edited_result_values_out_of_range_are_refused() {
     let p = dir.path().join("empty.json");
     std::fs::write(&p, serde_json::to_string(&empty).unwrap()).unwrap();
     let o = twincal(&["predict", "--model", s(&p), "--data", s(&data), "--out", s(&dir.path().join("pe.csv"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Saved by an editor with a byte-order mark, as data files may be: read.
+    let bom = dir.path().join("bom.json");
+    std::fs::write(&bom, format!("\u{feff}{}", std::fs::read_to_string(&res).unwrap())).unwrap();
+    let o = twincal(&["predict", "--model", s(&bom), "--data", s(&data), "--out", s(&dir.path().join("pb.csv"))]);
     assert!(o.status.success(), "{}", stderr(&o));
     for (k, (edit, needle)) in cases.iter().enumerate() {
         let mut bad = r.clone();

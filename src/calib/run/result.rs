@@ -467,8 +467,10 @@ impl CalibResult {
     /// with each other. Errors name the file.
     pub fn load(path: &Path) -> Result<CalibResult> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        // A byte-order mark (an editor's UTF-8 save) is no part of the JSON, as in data files.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
         let value: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
+            serde_json::from_str(text).map_err(|e| Error::model(path.display(), format!("not a twincal calibration result: {e}")))?;
         Self::from_value(value, &path.display().to_string())
     }
 
@@ -512,8 +514,17 @@ impl CalibResult {
         }
         let flat = !value.get("provenance").is_some_and(serde_json::Value::is_object);
         let given = (!flat).then(|| value.clone());
-        let mut r: CalibResult =
-            nested(value).and_then(serde_json::from_value).map_err(|e| Error::model(origin, format!("not a twincal calibration result: {e}")))?;
+        let not_a_result = |e: &dyn std::fmt::Display| Error::model(origin, format!("not a twincal calibration result: {e}"));
+        let value = nested(value).map_err(|e| not_a_result(&e))?;
+        // The wrong-typed value named by its JSON path (`provenance.schema_version: invalid type ...`).
+        let mut r: CalibResult = serde_path_to_error::deserialize(value).map_err(|e| {
+            let at = e.path().to_string();
+            if at == "." {
+                not_a_result(e.inner())
+            } else {
+                not_a_result(&format!("{at}: {}", e.inner()))
+            }
+        })?;
         // A key twincal does not write is a typo or someone else's file: named, not ignored (the
         // top level and its groups; a version-1 flat file is read as it is).
         if let Some(given) = given {
