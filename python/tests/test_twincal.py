@@ -152,6 +152,10 @@ def test_bad_input_raises_the_command_lines_message(embedded):
         twincal.calibrate(data, effort=float("nan"))
     with pytest.raises(twincal.TwincalError, match="option 'folds'.*invalid type"):
         twincal.diagnose(data, folds=2.5)
+    # candidates= reads a string as the command line's list, as effects= does: an unknown one
+    # is then named, not refused as "expected a sequence".
+    with pytest.raises(twincal.TwincalError, match="unknown effect 'stiction'"):
+        twincal.diagnose(data, candidates="backlash,stiction")
     with pytest.raises(twincal.TwincalError, match=r"--test-fraction must be in \[0, 1\)"):
         twincal.calibrate(data, test_fraction=1.5)
     with pytest.raises(twincal.TwincalError, match="does not belong to"):
@@ -396,6 +400,10 @@ def test_export_writes_every_format_as_the_command_line_and_refuses_bad_input(em
         twincal.export(tmp_path / "r.json", tmp_path / "r.json", format="frames")
     with pytest.raises(twincal.TwincalError, match="format must be a string"):
         twincal.export(tmp_path / "r.json", tmp_path / "t.csv", format=3)
+    # The robot as a path object, as every other path argument takes.
+    assert twincal.export(tmp_path / "r.json", tmp_path / "p.urdf", robot=ROOT / "urdf" / "irb120.urdf")["round_trip_m"] < 1e-9
+    with pytest.raises(twincal.TwincalError, match="robot must be irb120 or a URDF path"):
+        twincal.export(tmp_path / "r.json", tmp_path / "t.urdf", robot=3)
 
 
 def test_compensate_agrees_with_the_command_line_and_beats_the_nominal_commands(embedded, tmp_path):
@@ -457,6 +465,17 @@ def test_plan_agrees_with_the_command_line_and_its_poses_are_what_generate_measu
     assert list(data["payload_kg"]) == w["payload_kg"]
     with pytest.raises(twincal.TwincalError, match="payloads"):
         twincal.plan(tmp_path / "v", payloads=["heavy"])
+    # Wrong types are named, not numpy's or Python's iteration errors.
+    with pytest.raises(twincal.TwincalError, match="payloads must be a list of numbers, got int"):
+        twincal.plan(tmp_path / "v", payloads=5)
+    with pytest.raises(twincal.TwincalError, match="payloads: entry 2 is masked"):
+        twincal.plan(tmp_path / "v", payloads=np.ma.masked_array([0.0, 2.0], mask=[False, True]))
+    with pytest.raises(twincal.TwincalError, match="payloads must be a list of numbers, got a 0-d array"):
+        twincal.plan(tmp_path / "v", payloads=np.ma.masked_array(3.0))
+    with pytest.raises(twincal.TwincalError, match="effects must be a string or a list of strings, got int"):
+        twincal.plan(tmp_path / "v", effects=5)
+    with pytest.raises(twincal.TwincalError, match="payload_com_mm must be a list of numbers"):
+        twincal.plan(tmp_path / "v", payload_kg=1.0, payload_com_mm=5)
 
 
 def test_a_moved_tracker_is_a_station_of_its_own_and_a_new_one_is_registered(tmp_path):

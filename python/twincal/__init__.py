@@ -93,6 +93,29 @@ def _seed(seed: Any, name: str = "seed") -> Any:
     return int(seed)
 
 
+def _numbers(value: Any, name: str, length: Optional[int] = None) -> Optional[list[float]]:
+    """A list of numbers (payloads, a centre of mass): a sequence or an array of numbers, of
+    ``length`` where given; a masked entry, a NaN or a non-number is refused by name."""
+    if value is None:
+        return None
+    if isinstance(value, (str, bytes)) or np.ndim(value) != 1:
+        what = "a 0-d array" if isinstance(value, np.ndarray) and value.ndim == 0 else type(value).__name__
+        raise TwincalError(f"{name} must be a list of numbers{'' if length is None else f' ({length})'}, got {what}")
+    if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
+        k = int(np.flatnonzero(np.ma.getmaskarray(value))[0])
+        raise TwincalError(f"{name}: entry {k + 1} is masked; pass the value or leave it out")
+    out = []
+    for k, v in enumerate(np.ma.getdata(value) if np.ma.isMaskedArray(value) else value):
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise TwincalError(f"{name}: entry {k + 1} must be a number, got {type(v).__name__} {v!r}")
+        if not math.isfinite(float(v)):
+            raise TwincalError(f"{name}: entry {k + 1} must be a finite number, got {float(v)}")
+        out.append(float(v))
+    if length is not None and len(out) != length:
+        raise TwincalError(f"{name} must hold {length} numbers, got {len(out)}")
+    return out
+
+
 def _names(value: Any, name: str) -> Optional[list[str]]:
     """A list of names (methods, effects): a string is the command line's comma-separated list
     (``"lm"`` is one method, not two letters), else an iterable of strings."""
@@ -391,6 +414,9 @@ def diagnose(data: Data, *, progress: Progress = None, **options: Any) -> Diagno
     ``candidates``, ``folds``, ``alpha``, ``seed``, ``test_fraction``, ...). ``progress`` hears
     each step as ``(line, 0, 0)``."""
     _no_outputs("diagnose", options, "Diagnosis.save()")
+    # A string is the command line's comma-separated list, as for effects= and methods=.
+    if "candidates" in options:
+        options["candidates"] = _names(options["candidates"], "candidates")
     return Diagnosis(_native.diagnose(_columns(data), _options(options), progress))
 
 
@@ -473,16 +499,21 @@ def reduce(parts: Sequence[Union[str, os.PathLike]], out: Optional[Union[str, os
             return json.load(f)
 
 
-def export(model: Union[str, os.PathLike], out: Union[str, os.PathLike], *, format: Optional[str] = None, robot: Optional[str] = None) -> dict:
+def export(
+    model: Union[str, os.PathLike], out: Union[str, os.PathLike], *, format: Optional[str] = None, robot: Optional[Union[str, os.PathLike]] = None
+) -> dict:
     """Write the calibrated model ``model`` (a result.json path) for a controller or driver, as
     ``twincal export``: ``format`` urdf, frames, dh, mdh or ur-yaml (default: from ``out``'s
     extension), ``robot`` the nominal robot (irb120 or a URDF path) for a URDF's inertials and
     limits. The file is read back and checked before it is written. Returns the summary: the
     format, the file, what it does not carry (``warnings``) and the read-back difference
     (``round_trip_m``)."""
-    for name, v in (("format", format), ("robot", robot)):
-        if v is not None and not isinstance(v, str):
-            raise TwincalError(f"{name} must be a string, got {type(v).__name__}")
+    if format is not None and not isinstance(format, str):
+        raise TwincalError(f"format must be a string, got {type(format).__name__}")
+    if robot is not None:
+        if not isinstance(robot, (str, os.PathLike)):
+            raise TwincalError(f"robot must be irb120 or a URDF path (a string or os.PathLike), got {type(robot).__name__}")
+        robot = os.fspath(robot)
     text = _native.export(os.fspath(model), os.fspath(out), _options({"format": format, "robot": robot}))
     return json.loads(text)
 
@@ -508,7 +539,7 @@ def compensate(
     options = _options(
         {
             "payload_kg": payload_kg,
-            "payload_com_mm": None if payload_com_mm is None else list(payload_com_mm),
+            "payload_com_mm": _numbers(payload_com_mm, "payload_com_mm", 3),
             "tol_mm": tol_mm,
             "tol_deg": tol_deg,
             "euler": euler,
@@ -549,13 +580,13 @@ def plan(
             "candidates": candidates,
             "criterion": criterion,
             "params": params,
-            "effects": None if effects is None else ([e.strip() for e in effects.split(",")] if isinstance(effects, str) else list(effects)),
+            "effects": _names(effects, "effects"),
             "payload_kg": payload_kg,
-            "payload_com_mm": None if payload_com_mm is None else list(payload_com_mm),
+            "payload_com_mm": _numbers(payload_com_mm, "payload_com_mm", 3),
             "seed": _seed(seed),
             "rrd": None if rrd is None else os.fspath(rrd),
             "model": None if model is None else os.fspath(model),
-            "payloads": None if payloads is None else list(payloads),
+            "payloads": _numbers(payloads, "payloads"),
         }
     )
     return json.loads(_native.plan(os.fspath(out), options))

@@ -91,7 +91,7 @@ impl ExportJob {
 /// The largest distance (mm) between `robot`'s flange and the nominal flange of `r`'s model
 /// (its chain at the nominal values) over 32 seeded configurations inside the robot's limits.
 /// A model without a nominal arm (`generic6r`) gives 0: there is nothing to compare.
-fn nominal_gap_mm(r: &CalibResult, robot: &Robot) -> f64 {
+pub(crate) fn nominal_gap_mm(r: &CalibResult, robot: &Robot) -> f64 {
     use rand::{Rng, SeedableRng};
     if r.provenance.model_name.starts_with("generic") {
         return 0.0;

@@ -169,6 +169,13 @@ impl PlanJob {
         if self.payloads.iter().enumerate().any(|(i, m)| self.payloads[..i].contains(m)) {
             return Err(Error::Invalid("--payloads lists a payload twice".into()));
         }
+        // A calibrated model of another arm than the scenario's plans nothing worth measuring.
+        if let Some(gap) = calibrated.as_ref().map(|r| super::export::nominal_gap_mm(r, &robot)).filter(|g| *g > crate::calib::run::OTHER_ARM_MM) {
+            return Err(Error::Invalid(format!(
+                "--model is another arm than the scenario's {}: its flange stands up to {gap:.1} mm from the scenario robot's at the same joint angles",
+                robot.name
+            )));
+        }
         let loaded = effects.iter().any(|(k, _)| k.def().reads_torques())
             || calibrated.as_ref().is_some_and(|r| r.model.effects.iter().any(|b| b.kind.def().reads_torques()));
         if !self.payloads.is_empty() && !loaded {
@@ -197,7 +204,10 @@ impl PlanJob {
             payloads: self.payloads.clone(),
             ..PlanOptions::default()
         };
-        let p = plan(&s, &robot, &opts)?;
+        let mut p = plan(&s, &robot, &opts)?;
+        if self.payload_kg.is_some() && !loaded {
+            p.warnings.push("--payload-kg changes only what load-driven effects see, and none is planned: plan them with --effects compliance (or a --model with compliance)".into());
+        }
         let mut outputs = OutputSet::new();
         if let Some(r) = &self.rrd {
             recordings.plan(&p, &s, &robot, &mut outputs, r)?;

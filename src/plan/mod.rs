@@ -443,6 +443,9 @@ pub struct Plan {
     pub ceiling: Option<bound::Ceiling>,
     /// Why there is no ceiling, when there is none.
     pub ceiling_note: Option<String>,
+    /// What the plan was asked that changes nothing (a payload no planned effect sees), in words.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// The search.
     pub design: Design,
     /// The tour's timing, and that of the same poses in the order the design chose them.
@@ -543,6 +546,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         indices,
         ceiling,
         ceiling_note,
+        warnings: Vec::new(),
         random_median: median_indices(&prob.pool, &sets),
         tour: {
             let mut t = motion.time(&home, &poses);

@@ -5,6 +5,11 @@ use super::*;
 /// Plans, writes, and prints the plan's summary.
 pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
     let p = job.run(&twincal_viz::Rerun)?;
+    // Every warning is a `warning:` line on stderr, also with --quiet.
+    if p.ceiling.is_none() {
+        eprintln!("warning: no ceiling: {}", p.ceiling_note.as_deref().unwrap_or("none computed"));
+    }
+    p.warnings.iter().for_each(|w| eprintln!("warning: {w}"));
     if quiet {
         return Ok(());
     }
@@ -49,24 +54,21 @@ pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
     ] {
         eprintln!("  {name:<42} {:<8} {}", shown(x), shown(y));
     }
-    match &p.ceiling {
-        Some(ce) => {
-            let worth = |w: Option<usize>| w.map_or(format!("more than {}", ce.searched_to), |k| format!("about {k}"));
-            eprintln!(
-                "  best any {n} poses of this pool can do: I >= {} (a certified bound, {} iterations); the plan is {:.0} % above it",
-                shown(ce.bound.lower),
-                ce.bound.iterations,
-                100.0 * (a.i_prediction_variance / ce.bound.lower - 1.0),
-                n = p.poses.len()
-            );
-            eprintln!(
-                "  worth in random feasible poses (estimated, median I of 25 draws): the plan {}, the best possible {n} {}",
-                worth(ce.plan_worth),
-                worth(ce.best_worth),
-                n = p.poses.len()
-            );
-        }
-        None => eprintln!("  warning: no ceiling: {}", p.ceiling_note.as_deref().unwrap_or("none computed")),
+    if let Some(ce) = &p.ceiling {
+        let worth = |w: Option<usize>| w.map_or(format!("more than {}", ce.searched_to), |k| format!("about {k}"));
+        eprintln!(
+            "  best any {n} poses of this pool can do: I >= {} (a certified bound, {} iterations); the plan is {:.0} % above it",
+            shown(ce.bound.lower),
+            ce.bound.iterations,
+            100.0 * (a.i_prediction_variance / ce.bound.lower - 1.0),
+            n = p.poses.len()
+        );
+        eprintln!(
+            "  worth in random feasible poses (estimated, median I of 25 draws): the plan {}, the best possible {n} {}",
+            worth(ce.plan_worth),
+            worth(ce.best_worth),
+            n = p.poses.len()
+        );
     }
     eprintln!(
         "  tour: {:.0} s ({:.0} s moving, {:.0} s holding and reading{}); in the design's order {:.0} s",

@@ -112,6 +112,11 @@ fn bad_plan_requests_and_pose_lists_are_refused_by_name() {
     let plan: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
     assert!(plan["ceiling"].is_null() && plan["ceiling_note"].as_str().unwrap().contains("plan more poses"), "{}", plan["ceiling"]);
     std::fs::remove_dir_all(&out).unwrap();
+    // The warning is a `warning:` line of its own, also with --quiet (the summary is not).
+    let o = twincal(&["plan", "--quiet", "--poses", "12", "--candidates", "500", "--out", s(&out)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.lines().any(|l| l.starts_with("warning: no ceiling: 12 poses")) && !err.contains("planned"), "{err}");
+    std::fs::remove_dir_all(&out).unwrap();
     // Pose lists generate refuses, and the dataset it does not write.
     let data = dir.path().join("d");
     for (text, needle) in [
@@ -246,4 +251,28 @@ fn a_plan_over_payloads_is_measured_one_payload_after_the_other_and_sizes_the_co
     std::fs::write(&gap, lines.join("\n") + "\n").unwrap();
     let o = twincal(&["--quiet", "calibrate", "--data", s(&gap), "--out", s(&dir.path().join("never.json"))]);
     assert!(o.status.code() == Some(2) && String::from_utf8_lossy(&o.stderr).contains("empty payload_kg value"), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// `plan --model` with another arm's result refuses it (it planned silently for the wrong arm);
+/// `--payload-kg` with no load-driven effect is warned (it was ignored without a word).
+#[test]
+fn plan_refuses_another_arms_model_and_warns_a_payload_nothing_sees() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let data = dir.path().join("ur10");
+    let o = twincal(&["generate", "--scenario", s(&root.join("scenarios/ur10_tracker.toml")), "--out", s(&data)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let result = dir.path().join("ur10.json");
+    let o = twincal(&["calibrate", "--data", s(&data.join("dataset.csv")), "--model", s(&root.join("urdf/ur10.urdf")), "--out", s(&result)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("p");
+    let o = twincal(&["plan", "--model", s(&result), "--poses", "30", "--candidates", "500", "--out", s(&out)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--model is another arm than the scenario's") && !out.exists(), "{err}");
+    let o = twincal(&["plan", "--quiet", "--payload-kg", "3", "--poses", "30", "--candidates", "500", "--out", s(&out)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.lines().any(|l| l.starts_with("warning: --payload-kg changes only what load-driven effects see")), "{err}");
+    let plan: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(plan["warnings"].as_array().map(Vec::len), Some(1), "{}", plan["warnings"]);
 }
