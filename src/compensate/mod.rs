@@ -313,6 +313,14 @@ pub fn read_targets(path: &std::path::Path, n_joints: usize, euler: Euler) -> Re
         if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v[3..].iter().any(|c| !c.is_finite() || c.abs() > max_angle)) {
             return Err(bad(format!("target {} has the orientation {:?}: each angle must be finite degrees within ±{max_angle}", i + 1, &v[3..])));
         }
+        let angles: Vec<Vec<f64>> = rows.iter().map(|v| v[3..].to_vec()).collect();
+        if let Some((largest, j, span)) = crate::dataset::looks_like_radians(&angles, crate::dataset::POSE_RADIANS_MAX_ABS) {
+            return Err(bad(format!(
+                "columns rx, ry, rz look like radians (all {} targets have |angle| <= {largest:.3}, {} spans {span:.3}): a pose target's angles are degrees (x 180/pi)",
+                rows.len(),
+                ["rx", "ry", "rz"][j]
+            )));
+        }
         // Metres read as millimetres put every target inside the arm's base.
         if rows.iter().all(|v| v[..3].iter().all(|c| c.abs() < METRES_MM)) {
             return Err(bad(format!("every target lies within {METRES_MM} mm of the base origin: are the coordinates in metres? Targets are in mm")));
@@ -338,6 +346,13 @@ pub fn read_targets(path: &std::path::Path, n_joints: usize, euler: Euler) -> Re
         })?;
         if let Some((i, v)) = rows.iter().enumerate().find(|(_, v)| v.iter().any(|c| !c.is_finite() || c.abs() > 3600.0)) {
             return Err(bad(format!("target {} has joint angles {:?}: each must be finite degrees within ±3600", i + 1, v)));
+        }
+        if let Some((largest, j, span)) = crate::dataset::looks_like_radians(&rows, crate::dataset::RADIANS_MAX_ABS) {
+            return Err(bad(format!(
+                "columns q1..q{n_joints} look like radians (all {} targets have |q| <= {largest:.3}, q{} spans {span:.3}): joint targets are degrees (x 180/pi)",
+                rows.len(),
+                j + 1
+            )));
         }
         rows.into_iter().map(|v| Target::Joints(v.iter().map(|d| d.to_radians()).collect())).collect()
     };

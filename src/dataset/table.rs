@@ -581,23 +581,19 @@ fn partial_wider(m: Measurement, pos: &[Option<usize>], source: &str, found: &st
 /// The radians and metres heuristics described in the module docs (radians only with
 /// [`AngleUnit::Auto`]).
 pub(super) fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Result<()> {
-    if angles == AngleUnit::Auto && rows.len() >= RADIANS_MIN_ROWS {
-        let max_abs = rows.iter().flat_map(|r| r.q_deg.iter()).fold(0.0_f64, |m, q| m.max(q.abs()));
-        let spans: Vec<f64> = (0..rows[0].q_deg.len()).map(|j| span(rows, |r| r.q_deg[j])).collect();
-        let (widest, span) = spans.iter().copied().enumerate().fold((0, 0.0), |best, (j, s)| if s > best.1 { (j, s) } else { best });
-        if max_abs <= RADIANS_MAX_ABS && span > RADIANS_MIN_SPAN {
-            return Err(Error::data(
-                source,
-                format!(
-                    "columns q1..q{} look like radians (all {} rows have |q| <= {max_abs:.3}, q{} \
-                     spans {span:.3}); the file must hold joint angles in degrees; if they really \
-                     are degrees pass --angles deg (or --angles rad to convert)",
-                    spans.len(),
-                    rows.len(),
-                    widest + 1
-                ),
-            ));
-        }
+    let q: Vec<Vec<f64>> = if angles == AngleUnit::Auto { rows.iter().map(|r| r.q_deg.clone()).collect() } else { Vec::new() };
+    if let Some((max_abs, widest, span)) = super::looks_like_radians(&q, RADIANS_MAX_ABS) {
+        return Err(Error::data(
+            source,
+            format!(
+                "columns q1..q{} look like radians (all {} rows have |q| <= {max_abs:.3}, q{} \
+                 spans {span:.3}); the file must hold joint angles in degrees; if they really \
+                 are degrees pass --angles deg (or --angles rad to convert)",
+                q[0].len(),
+                rows.len(),
+                widest + 1
+            ),
+        ));
     }
     // The lengths: every reading column but a pose's angles.
     let measurement = rows.first().and_then(|r| Measurement::of_file_dim(r.reading_mm.len()));

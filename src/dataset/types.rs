@@ -25,6 +25,25 @@ pub const POSE_RADIANS_MAX_ABS: f64 = std::f64::consts::PI * 1.05;
 /// Radians heuristic: at least one joint must span more than this (same unit as the file).
 pub const RADIANS_MIN_SPAN: f64 = 0.1;
 
+/// Angles in degrees that look like radians: at least [`RADIANS_MIN_ROWS`] rows (`rows`, each
+/// its angles in degrees), every |angle| at most `max_abs` (radians' range: [`RADIANS_MAX_ABS`]
+/// for joints, [`POSE_RADIANS_MAX_ABS`] for a pose's angles) and one column spanning more than
+/// [`RADIANS_MIN_SPAN`]. What the data's, a pose list's and a target file's readers all refuse:
+/// `Some((largest |angle|, widest column (0-based), its span))`.
+pub fn looks_like_radians(rows: &[Vec<f64>], max_abs: f64) -> Option<(f64, usize, f64)> {
+    let n = rows.first().map_or(0, Vec::len);
+    if rows.len() < RADIANS_MIN_ROWS || n == 0 {
+        return None;
+    }
+    let largest = rows.iter().flatten().fold(0.0_f64, |m, q| m.max(q.abs()));
+    let span = |j: usize| {
+        let (lo, hi) = rows.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r[j]), hi.max(r[j])));
+        hi - lo
+    };
+    let (widest, spans) = (0..n).map(|j| (j, span(j))).fold((0, 0.0), |best, (j, s)| if s > best.1 { (j, s) } else { best });
+    (largest <= max_abs && spans > RADIANS_MIN_SPAN).then_some((largest, widest, spans))
+}
+
 /// Metres heuristic: every `L` below this is taken as metres.
 pub const METRES_MAX_L: f64 = 5.0;
 

@@ -75,6 +75,16 @@ pub fn read_pose_list(path: &std::path::Path, robot: &Robot) -> Result<PoseList>
     if rows.len() > crate::sim::scenario::MAX_POSES {
         return Err(Error::data(&at, format!("{} poses: a run takes at most {}", rows.len(), crate::sim::scenario::MAX_POSES)));
     }
+    if let Some((largest, j, span)) = crate::dataset::looks_like_radians(&rows, crate::dataset::RADIANS_MAX_ABS) {
+        return Err(Error::data(
+            &at,
+            format!(
+                "columns q1..q{n} look like radians (all {} poses have |q| <= {largest:.3}, q{} spans {span:.3}): a pose list holds joint angles in degrees (x 180/pi)",
+                rows.len(),
+                j + 1
+            ),
+        ));
+    }
     let limits = robot.limits();
     let mut q = Vec::with_capacity(rows.len());
     for (i, row) in rows.iter().enumerate() {

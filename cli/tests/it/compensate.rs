@@ -73,6 +73,20 @@ fn compensate_writes_commands_for_points_and_taught_joints_and_refuses_bad_reque
         assert!(err.contains(needle) && !err.contains("panicked"), "{args:?}: {err}");
     }
     assert!(!never.exists());
+    // Joint targets and pose angles written in radians are refused, not read as tiny degrees.
+    let q_rad = dir.path().join("q_rad.csv");
+    let rows: Vec<String> = (0..12).map(|k| format!("0.2,{},-0.4,0.6,0.8,1.0", -0.5 + 0.1 * k as f64)).collect();
+    std::fs::write(&q_rad, format!("q1,q2,q3,q4,q5,q6\n{}\n", rows.join("\n"))).unwrap();
+    let p_rad = dir.path().join("p_rad.csv");
+    let rows: Vec<String> = (0..12).map(|k| format!("{},200,400,3.1,{},0.5", 300 + 10 * k, -0.3 + 0.05 * k as f64)).collect();
+    std::fs::write(&p_rad, format!("x,y,z,rx,ry,rz\n{}\n", rows.join("\n"))).unwrap();
+    for (file, needle) in [(&q_rad, "columns q1..q6 look like radians (all 12 targets"), (&p_rad, "columns rx, ry, rz look like radians (all 12 targets")] {
+        let o = twincal(&["--quiet", "compensate", "--model", s(&result), "--targets", s(file), "--out", s(&never)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(needle), "{err}");
+    }
+    assert!(!never.exists());
 }
 
 /// Pose targets on a UR10 calibrated from a 6-D probe: each reached in position and orientation

@@ -119,7 +119,13 @@ fn bad_plan_requests_and_pose_lists_are_refused_by_name() {
     std::fs::remove_dir_all(&out).unwrap();
     // Pose lists generate refuses, and the dataset it does not write.
     let data = dir.path().join("d");
+    // Twelve poses written in radians (every |q| within 2π, q2 spanning 1.1).
+    let radians: String = std::iter::once("q1,q2,q3,q4,q5,q6".to_string())
+        .chain((0..12).map(|k| format!("0.1,{},0.3,-0.2,0.5,1.0", 0.1 * k as f64)))
+        .collect::<Vec<_>>()
+        .join("\n");
     for (text, needle) in [
+        (radians.as_str(), "columns q1..q6 look like radians (all 12 poses have |q| <= 1.100, q2 spans 1.100)"),
         ("q1,q2,q3,q4,q5,q6\n10,20,30,40,50,500\n", "outside joint 6's limits"),
         ("q1,q2,q3,q4,q5,q6,q7\n0,0,0,0,0,0,0\n", "has a column q7"),
         ("q1,q2,q3\n0,0,0\n", "q1..q6"),
