@@ -4,8 +4,8 @@
 //! The data are measured positions (a tracker's point or pose) at commanded joint angles; a
 //! model's *commanded* position for a row is where it puts the tool at those angles, in the
 //! instrument's frame (its placement included: a model registered to these data, e.g. by
-//! `calibrate --placement-only`, compares in their frame). Rows with the same joint angles
-//! rounded to 0.01° are the cycles of one pose (a robot logs the angles it reached, which differ
+//! `calibrate --placement-only`, compares in their frame). Rows whose joint angles agree
+//! within 0.01° on every joint are the cycles of one pose (a robot logs the angles it reached, which differ
 //! between cycles by thousandths of a degree). Per pose, ISO 9283's
 //! * position accuracy AP = |mean attained − commanded| (mm),
 //! * position repeatability RP = l̄ + 3·S_l, l the distances of the attained positions from their
@@ -27,7 +27,6 @@ use crate::requests::Reading;
 use crate::stats::metrics::ErrorStats;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 /// An ISO 9283 evaluation as `twincal iso9283` runs it.
@@ -117,19 +116,15 @@ pub struct Iso9283 {
     pub warnings: Vec<String>,
 }
 
-/// The poses of `rows`: rows with the same joint angles rounded to 0.01°, in first-visit order.
+/// Joint angles (degrees) within this of each other on every joint are one pose's cycles.
+pub const SAME_POSE_DEG: f64 = 0.01;
+
+/// The poses of `rows`: rows whose joint angles agree within [`SAME_POSE_DEG`] on every joint
+/// (linked in a chain, as the repeatability floor groups them; never split by a rounding
+/// boundary), in first-visit order.
 fn poses(data: &Dataset, rows: &[usize]) -> Vec<Vec<usize>> {
-    let mut by_key: BTreeMap<Vec<i64>, usize> = BTreeMap::new();
-    let mut out: Vec<Vec<usize>> = Vec::new();
-    for &i in rows {
-        let key: Vec<i64> = data.rows[i].q_deg.iter().map(|d| (d * 1e2).round() as i64).collect();
-        let k = *by_key.entry(key).or_insert_with(|| {
-            out.push(Vec::new());
-            out.len() - 1
-        });
-        out[k].push(i);
-    }
-    out
+    let q: Vec<&[f64]> = data.rows.iter().map(|r| r.q_deg.as_slice()).collect();
+    crate::stats::metrics::configuration_groups(&q, rows, SAME_POSE_DEG)
 }
 
 fn mean(v: &[Vector3<f64>]) -> Vector3<f64> {
@@ -288,7 +283,7 @@ pub fn iso9283_page(e: &Iso9283) -> String {
     b.push_str(&format!(
         "<p class=\"note\">{} ({} rows). AP: the distance from the mean attained position of a pose's cycles to its commanded position (the model's prediction); \
          RP: the spread of a pose's cycles (the arm's own, the same for every model); AD: the error of the distance between consecutive rows; \
-         poses are rows with the same joint angles to 0.01°. A model calibrated on these data is judged on the rows it held out.</p>\n",
+         poses are rows whose joint angles agree within 0.01°. A model calibrated on these data is judged on the rows it held out.</p>\n",
         esc(&e.data),
         e.n_rows
     ));
@@ -332,6 +327,17 @@ pub fn iso9283_page(e: &Iso9283) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two cycles 0.0002° apart that straddle a 0.01° rounding boundary are one pose (rounding
+    /// made them two, and two poses without RP); poses 0.05° apart stay two.
+    #[test]
+    fn cycles_are_grouped_by_tolerance_not_by_rounding() {
+        let mut data = Dataset::default();
+        for a in [10.00499, 10.00519, 10.06, 10.00505] {
+            data.rows.push(crate::dataset::Row { q_deg: vec![a, -20.0, 30.0, 0.0, 45.0, 0.0], reading_mm: vec![0.0; 3], ..Default::default() });
+        }
+        assert_eq!(poses(&data, &[0, 1, 2, 3]), vec![vec![0, 1, 3], vec![2]]);
+    }
 
     #[test]
     fn ap_rp_and_ad_follow_their_definitions() {

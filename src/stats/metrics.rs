@@ -67,6 +67,28 @@ pub struct Repeatability {
     pub per_value_std: Vec<f64>,
 }
 
+/// The rows `rows` of `q_deg` (degrees; rows with a non-finite angle are left out) grouped as
+/// [`repeatability`] groups them: linked within `tol_deg` on every joint, single linkage. Each
+/// group in row order, the groups in the order of their first row.
+pub fn configuration_groups<Q: AsRef<[f64]>>(q_deg: &[Q], rows: &[usize], tol_deg: f64) -> Vec<Vec<usize>> {
+    let q_deg: Vec<&[f64]> = q_deg.iter().map(|q| q.as_ref()).collect();
+    let rows: Vec<usize> = rows.iter().copied().filter(|&i| q_deg[i].iter().all(|v| v.is_finite())).collect();
+    let max_abs = rows.iter().flat_map(|&i| q_deg[i].iter()).fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut uf = UnionFind::new(q_deg.len());
+    if !(tol_deg.is_finite() && tol_deg > 0.0) || tol_deg < 1e-12 * max_abs {
+        link_exact(&q_deg, &rows, &mut uf);
+    } else {
+        link_grid(&q_deg, &rows, tol_deg, &mut uf);
+    }
+    let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for &i in &rows {
+        members.entry(uf.find(i)).or_default().push(i);
+    }
+    let mut groups: Vec<Vec<usize>> = members.into_values().collect();
+    groups.sort_by_key(|g| g[0]);
+    groups
+}
+
 /// Repeatability floor of `l` over repeated joint configurations `q_deg` (degrees).
 ///
 /// Two rows are *linked* when their joint vectors differ by at most `tol_deg` on every joint
