@@ -124,6 +124,9 @@ impl OutputSet {
     /// Renames every staged file into place, in staging order. A rename that fails stops the
     /// commit with an error; the files not yet renamed are removed.
     pub fn commit(mut self) -> Result<()> {
+        // A stop asked for (Ctrl-C) after the work's last check: nothing is put in place (the
+        // staged files go with the unwinding set).
+        crate::progress::check_stop();
         let mut reg = staged_registry();
         while !self.staged.is_empty() {
             let s = &self.staged[0];

@@ -611,7 +611,7 @@ fn export(py: Python<'_>, model: PathBuf, out: PathBuf, options: &str) -> PyResu
     let o: Options = request("export", options)?;
     let robot = o.robot.map(|r| if r == "irb120" { r } else { std::path::absolute(&r).map_or(r, |p| p.display().to_string()) });
     let job = jobs::ExportJob { model, out, format: o.format, robot };
-    let summary = py.detach(|| job.run()).map_err(err)?;
+    let summary = released(py, None, |_| job.run())?;
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
@@ -645,7 +645,7 @@ fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, op
         euler: o.euler,
         out,
     };
-    let summary = py.detach(|| job.run()).map_err(err)?;
+    let summary = released(py, None, |_| job.run())?;
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
@@ -656,7 +656,7 @@ fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, op
 fn plan(py: Python<'_>, out: PathBuf, options: &str) -> PyResult<String> {
     let mut job: jobs::PlanJob = request("plan", options)?;
     job.out = out;
-    let p = py.detach(|| job.run(&Rerun)).map_err(err)?;
+    let p = released(py, None, |_| job.run(&Rerun))?;
     serde_json::to_string(&p).map_err(|e| TwincalError::new_err(format!("cannot serialise the plan: {e}")))
 }
 
@@ -666,7 +666,7 @@ fn plan(py: Python<'_>, out: PathBuf, options: &str) -> PyResult<String> {
 fn iso9283(py: Python<'_>, data: PathBuf, models: Vec<PathBuf>, options: &str) -> PyResult<String> {
     let reading: twincal::requests::Reading = request("iso9283", options)?;
     let job = jobs::Iso9283Job { data, model: models, reading, out: None, report: None, register_rows: twincal::calib::run::DEFAULT_REGISTER_ROWS };
-    let e = py.detach(|| job.run()).map_err(err)?;
+    let e = released(py, None, |_| job.run())?;
     serde_json::to_string(&e).map_err(|e| TwincalError::new_err(format!("cannot serialise the evaluation: {e}")))
 }
 

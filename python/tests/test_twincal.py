@@ -381,6 +381,24 @@ def test_ctrl_c_stops_a_long_calibration_promptly_and_the_next_one_runs():
     assert r.metrics["train_after"]["rmse"] < r.metrics["train_before"]["rmse"]
 
 
+def test_ctrl_c_stops_a_long_plan_and_writes_nothing(tmp_path):
+    """A SIGINT one second into a plan of ~14 s (150 poses of 50 000 candidates) raises
+    KeyboardInterrupt promptly and leaves no poses.csv or plan.json (plan ran to its end and wrote
+    them before)."""
+    import signal
+
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        twincal.plan(tmp_path / "p", poses=150, candidates=50_000)
+    elapsed = time.perf_counter() - t0
+    timer.cancel()
+    assert elapsed < 6.0, f"KeyboardInterrupt after {elapsed:.1f} s"
+    assert not (tmp_path / "p" / "poses.csv").exists() and not (tmp_path / "p" / "plan.json").exists()
+    assert "indices" in twincal.plan(tmp_path / "q", poses=12, candidates=500) and (tmp_path / "q" / "poses.csv").exists()
+
+
 def test_export_writes_every_format_as_the_command_line_and_refuses_bad_input(embedded, tmp_path):
     _, data, truth = embedded
     r = twincal.calibrate(data, truth=truth)
