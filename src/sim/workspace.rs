@@ -93,6 +93,15 @@ impl Workspace {
             if b.min_mm.iter().chain(&b.max_mm).any(|v| !v.is_finite()) || (0..3).any(|i| b.min_mm[i] >= b.max_mm[i]) {
                 return Err(format!("workspace.keep_out[{k}] ({}) needs finite min_mm below max_mm on every axis", b.name));
             }
+            // The arm's fixed base stands at the base frame's origin: a box around it refuses
+            // every pose, which is no plan.
+            let gap = (0..3).map(|i| b.min_mm[i].max(-b.max_mm[i]).max(0.0)).map(|d| d * d).sum::<f64>().sqrt();
+            if gap <= self.link_radius_mm {
+                return Err(format!(
+                    "workspace.keep_out[{k}] ({}) holds the robot's fixed base (the base frame's origin, within the link radius {} mm): every pose would be refused; keep the box off the base",
+                    b.name, self.link_radius_mm
+                ));
+            }
         }
         if let Some([lo, hi]) = self.tracker_range_mm {
             if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && lo < hi) {
@@ -324,6 +333,21 @@ mod tests {
         assert_eq!(c.check(&folded, &mut fk), Err(Refusal::SelfCollision));
         let off = Workspace { self_collision: false, ..Workspace::default() };
         assert_ne!(cell(off, None).check(&folded, &mut fk), Err(Refusal::SelfCollision));
+    }
+
+    #[test]
+    fn a_keep_out_box_around_the_base_is_refused_by_name() {
+        let base = Workspace {
+            keep_out: vec![KeepOut { name: "pedestal".into(), min_mm: [-200.0, -200.0, -500.0], max_mm: [200.0, 200.0, 10.0] }],
+            ..Workspace::default()
+        };
+        let e = base.validate().unwrap_err();
+        assert!(e.contains("keep_out[0] (pedestal) holds the robot's fixed base"), "{e}");
+        let beside = Workspace {
+            keep_out: vec![KeepOut { name: "table".into(), min_mm: [400.0, -200.0, -500.0], max_mm: [900.0, 200.0, 100.0] }],
+            ..Workspace::default()
+        };
+        assert!(beside.validate().is_ok());
     }
 
     #[test]
