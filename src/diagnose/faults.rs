@@ -84,21 +84,28 @@ fn less_offset(r: &[f64]) -> (f64, f64) {
     (mean, r.iter().map(|v| (v - mean).powi(2)).sum())
 }
 
-/// The cause a joint fault of kind `cause` has when the reading jumped too.
-fn with_reading(cause: &'static str) -> &'static str {
+/// The cause a joint fault of kind `cause` has when the reading jumped too (`None` for a cause
+/// that is no joint fault).
+fn with_reading(cause: &str) -> Option<&'static str> {
     match cause {
-        "joint_offset" => "joint_offset+reading_offset",
-        "joint_sign" => "joint_sign+reading_offset",
-        "joint_stale" => "joint_stale+reading_offset",
-        _ => "joint_swap+reading_offset",
+        "joint_offset" => Some("joint_offset+reading_offset"),
+        "joint_sign" => Some("joint_sign+reading_offset"),
+        "joint_stale" => Some("joint_stale+reading_offset"),
+        "joint_swap" => Some("joint_swap+reading_offset"),
+        _ => None,
     }
+}
+
+/// The run's joint angles `q` with joint `j` turned by `d` (rad).
+fn offset_joint(q: &[Vec<f64>], j: usize, d: f64) -> Vec<Vec<f64>> {
+    q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { v + d } else { *v }).collect()).collect()
 }
 
 /// Whether `a` is `b` with fewer freedoms (no fault at all, a single fault inside a combined
 /// one): not a rival explanation of the rows but a part of it.
 fn nested_in(a: &Hypothesis, b: &Hypothesis) -> bool {
     a.cause == "unexplained"
-        || (b.reading.is_some() && a.reading.is_none() && (a.cause == "reading_offset" || (with_reading(a.cause) == b.cause && a.joints == b.joints)))
+        || (b.reading.is_some() && a.reading.is_none() && (a.cause == "reading_offset" || (with_reading(a.cause) == Some(b.cause) && a.joints == b.joints)))
 }
 
 /// The run's residuals (mm, unweighted) with joint angles `q` (rad) for its rows.
@@ -116,8 +123,7 @@ fn rss(r: &[f64]) -> f64 {
 /// With `reading`, the reading's offset is fitted with it (the mean residual at each offset).
 fn best_offset(model: &CalibModel, x: &[f64], run: &Samples, j: usize, reading: bool) -> (f64, f64) {
     let cost = |d: f64| {
-        let q: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { v + d } else { *v }).collect()).collect();
-        let r = residuals(model, x, run, &q);
+        let r = residuals(model, x, run, &offset_joint(&run.q, j, d));
         if reading {
             less_offset(&r).1
         } else {
@@ -165,7 +171,9 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
     let mut joint_fault = |cause: &'static str, joints: Vec<usize>, q: &[Vec<f64>]| {
         let r = residuals(model, x, &run, q);
         let (mean, left) = less_offset(&r);
-        out.push(Hypothesis { cause: with_reading(cause), joints: joints.clone(), value: None, reading: Some(mean), params: 1, rss: left });
+        if let Some(combined) = with_reading(cause) {
+            out.push(Hypothesis { cause: combined, joints: joints.clone(), value: None, reading: Some(mean), params: 1, rss: left });
+        }
         out.push(Hypothesis { cause, joints, value: None, reading: None, params: 0, rss: rss(&r) });
     };
     for j in 0..nj {
@@ -191,8 +199,7 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
         let (d, c) = best_offset(model, x, &run, j, false);
         out.push(Hypothesis { cause: "joint_offset", joints: vec![j + 1], value: Some(d.to_degrees()), reading: None, params: 1, rss: c });
         let (d, c) = best_offset(model, x, &run, j, true);
-        let q: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { v + d } else { *v }).collect()).collect();
-        let mean = less_offset(&residuals(model, x, &run, &q)).0;
+        let mean = less_offset(&residuals(model, x, &run, &offset_joint(&run.q, j, d))).0;
         out.push(Hypothesis { cause: "joint_offset+reading_offset", joints: vec![j + 1], value: Some(d.to_degrees()), reading: Some(mean), params: 2, rss: c });
     }
     // The instrument moved: its placement refitted on the run's rows.

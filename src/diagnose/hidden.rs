@@ -100,17 +100,28 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
     Ok(Dataset { rows, source: s.name.clone() })
 }
 
-/// The scenario's commanded poses ([`poses`]), the nominal Hayati model read by the scenario's
-/// instrument placed as it is (its draw-wire, or its tracker), and the poses as samples
-/// (radians, zero readings, no inputs).
-fn nominal_at_poses(s: &Scenario, robot: &Robot) -> Result<(Dataset, CalibModel, Samples)> {
-    let data = poses(s, robot)?;
+/// The nominal Hayati model of `robot` read by the scenario's instrument placed as it is (its
+/// draw-wire, or its tracker).
+fn nominal_model(s: &Scenario, robot: &Robot) -> CalibModel {
     let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
     let (chain, kinds) = crate::calib::model::DhTable::from_robot_hayati(robot).chain(true, true);
-    let model = CalibModel { limits: robot.limits(), ..CalibModel::of_chain("hayati", chain, kinds, &placement) };
+    CalibModel { limits: robot.limits(), ..CalibModel::of_chain("hayati", chain, kinds, &placement) }
+}
+
+/// The rows of `data` as samples of `model`'s readings: their q (radians), zero readings, no
+/// inputs.
+fn zero_samples(model: &CalibModel, data: &Dataset) -> Samples {
     let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
     let dim = model.measurement.dim();
-    let samples = Samples::readings(q, vec![0.0; data.rows.len() * dim], dim);
+    Samples::readings(q, vec![0.0; data.rows.len() * dim], dim)
+}
+
+/// The scenario's commanded poses ([`poses`]), the [`nominal_model`], and the poses as
+/// [`zero_samples`].
+fn nominal_at_poses(s: &Scenario, robot: &Robot) -> Result<(Dataset, CalibModel, Samples)> {
+    let data = poses(s, robot)?;
+    let model = nominal_model(s, robot);
+    let samples = zero_samples(&model, &data);
     Ok((data, model, samples))
 }
 
@@ -314,12 +325,9 @@ pub fn hidden_payload_runs(seed: u64, factors: std::ops::Range<f64>) -> Result<(
     };
     let loads = LoadOptions { payload: Some(crate::robot::statics::Payload { mass_kg: 0.0, com_mm: PAYLOAD_COM_MM }), ..Default::default() };
     let torque = TorqueModel::new(&robot, &loads, None, s.sensor.tool_point_m());
+    let model = nominal_model(&s, &robot);
     let unabsorbed = |data: &Dataset, joint: usize| -> Result<f64> {
-        let (_, model, _) = nominal_at_poses(&s, &robot)?;
-        let dim = model.measurement.dim();
-        let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
-        let samples = Samples::readings(q, vec![0.0; data.rows.len() * dim], dim);
-        unabsorbed_at(data, model, samples, &torque, EffectKind::JointCompliance, Some(joint), 0.0)
+        unabsorbed_at(data, model.clone(), zero_samples(&model, data), &torque, EffectKind::JointCompliance, Some(joint), 0.0)
     };
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5041_594c_4f41);
     let joint = [1usize, 2, 4][rng.random_range(0..3)];

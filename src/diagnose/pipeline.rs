@@ -364,7 +364,7 @@ pub(super) fn final_stage(
     let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
     let (noise_floor_mm, noise_floor_source, current_oof) = (noise_floor.total_mm, floor_source_text(&noise_floor), rms(&current.oof));
     warnings.extend(leak_on_positions(&current.oof, measurement, ctx.groups.as_deref(), &noise_floor, shared));
-    let (position_rms, judged_floor) = ((!noise_floor.by_group.is_empty()).then(|| rms(&positions_of(&current.oof, measurement))), noise_floor.of_group(0));
+    let (position_rms, judged_floor) = ((!noise_floor.by_group.is_empty()).then(|| rms(&measurement.group_values(&current.oof, 0))), noise_floor.of_group(0));
     let diagnosis = Diagnosis {
         schema_version: crate::io::SCHEMA_VERSION,
         warnings,
@@ -476,20 +476,12 @@ fn leak_on_positions(
     floor: &crate::calib::problem::floor::NoiseFloor,
     shared: bool,
 ) -> Option<String> {
-    let (dim, value_groups) = (m.dim(), m.def().value_groups());
     if floor.by_group.is_empty() {
-        return leak_warning(oof, dim, groups, floor.total_mm, shared);
+        return leak_warning(oof, m.dim(), groups, floor.total_mm, shared);
     }
-    let n_positions = value_groups.iter().filter(|g| **g == 0).count();
-    leak_warning(&positions_of(oof, m), n_positions, groups, floor.of_group(0), shared)
-}
-
-/// The position values of held-out residuals `oof` of a reading of kind `m` (every value for a
-/// reading of one kind).
-fn positions_of(oof: &[f64], m: crate::measurement::Measurement) -> Vec<f64> {
-    let (dim, value_groups) = (m.dim(), m.def().value_groups());
-    let cols: Vec<usize> = (0..dim).filter(|&c| value_groups.get(c).copied().unwrap_or(0) == 0).collect();
-    oof.chunks(dim).flat_map(|row| cols.iter().map(move |&c| row[c])).collect()
+    let positions = m.group_values(oof, 0);
+    let per_row = positions.len() / (oof.len() / m.dim()).max(1);
+    leak_warning(&positions, per_row, groups, floor.of_group(0), shared)
 }
 
 /// The geometric baseline's report: its model's name and its held-out and training RMSE.
@@ -507,7 +499,7 @@ fn baseline_report(model: &str, baseline: &Fitted, base_in: &[f64], blocked: f64
 /// lower bound (no repeated configurations).
 pub(super) fn floor_source_text(floor: &crate::calib::problem::floor::NoiseFloor) -> String {
     let mut text: Vec<String> = floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
-    if !floor.has(crate::calib::problem::floor::FloorKind::Repeatability) && !floor.sources.iter().any(|s| s.source.measured()) {
+    if !floor.is_measured() {
         text.push("no repeated configurations: the reading's repeatability is unknown, so this is a lower bound".into());
     }
     text.join("; ")

@@ -274,7 +274,7 @@ impl Diagnosis {
         if let Some(p) = self.final_heldout_rmse_position_mm.filter(|_| self.noise_floor.by_group.first().is_some_and(|g| g.measured)) {
             let floor = self.noise_floor.of_group(0);
             format!("of the positions {p:.4} mm, {:.2} x their noise floor {floor:.4} mm", p / floor)
-        } else if self.noise_floor.sources.iter().any(|s| s.source.measured()) {
+        } else if self.noise_floor.is_measured() {
             format!("{:.2} x the noise floor", self.final_heldout_rmse_mm / self.noise_floor_mm)
         } else {
             format!("no repeated configurations, so the floor is known only down to the logging resolution ({:.4} mm)", self.noise_floor_mm)

@@ -6,8 +6,9 @@ use super::options::*;
 use super::report::*;
 use crate::calib::effects::{EffectBlock, Size};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::floor::NoiseFloor;
+use crate::calib::problem::floor::{NoiseFloor, ValueKind};
 use crate::calib::problem::{ReadingFit, Samples};
+use crate::measurement::Measurement;
 use crate::stats::rms;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -40,29 +41,28 @@ pub fn gain_threshold(floor_mm: f64, n: usize, deff: f64) -> f64 {
 
 /// A cause's gain on one kind of held-out value against that kind's floor.
 struct GroupGain {
-    group: &'static str,
+    /// `None`: every value of the reading.
+    group: Option<ValueKind>,
     before: f64,
     after: f64,
     gain: f64,
     threshold: f64,
 }
 
-/// The gain of the model `after` over `before` (held-out residuals, `dim` values a row) on each
-/// kind of value the floor judges: the whole reading, or a pose's position and (where repeats
-/// measure it) its orientation apart, each against its own floor and its own sampling error
-/// (`groups`: the held-out rows' blocks).
-fn group_gains(before: &[f64], after: &[f64], dim: usize, value_groups: &[usize], floor: &NoiseFloor, groups: Option<&[usize]>) -> Vec<GroupGain> {
-    let n_groups = floor.by_group.len().max(1);
-    (0..n_groups)
+/// The gain of the model `after` over `before` (held-out residuals of readings of kind `m`)
+/// on each kind of value the floor judges: the whole reading, or a pose's position and (where
+/// repeats measure it) its orientation apart, each against its own floor and its own sampling
+/// error (`groups`: the held-out rows' blocks).
+fn group_gains(before: &[f64], after: &[f64], m: Measurement, floor: &NoiseFloor, groups: Option<&[usize]>) -> Vec<GroupGain> {
+    let n_rows = before.len() / m.dim().max(1);
+    (0..floor.by_group.len().max(1))
         .filter(|&g| floor.by_group.get(g).is_none_or(|f| g == 0 || f.measured))
         .map(|g| {
-            let cols: Vec<usize> = (0..dim).filter(|&c| value_groups.get(c).copied().unwrap_or(0) == g || floor.by_group.is_empty()).collect();
-            let pick = |r: &[f64]| -> Vec<f64> { r.chunks(dim).flat_map(|row| cols.iter().map(move |&c| row[c])).collect() };
-            let (b, a) = (pick(before), pick(after));
-            let deff = groups.map_or(1.0, |gr| crate::stats::design_effect(&a, cols.len(), gr));
+            let (b, a) = (m.group_values(before, g), m.group_values(after, g));
+            let deff = groups.map_or(1.0, |gr| crate::stats::design_effect(&a, a.len() / n_rows.max(1), gr));
             let (before, after) = (rms(&b), rms(&a));
             GroupGain {
-                group: floor.by_group.get(g).map_or("reading", |f| if f.group == "position" { "position" } else { "orientation" }),
+                group: floor.by_group.get(g).map(|f| f.group),
                 before,
                 after,
                 gain: (before * before - after * after).max(0.0).sqrt(),
@@ -86,8 +86,7 @@ pub(super) fn drop_below_floor(
     progress: &dyn Fn(&str),
 ) -> Vec<String> {
     let m = chain[0].model.measurement;
-    let (dim, value_groups) = (m.dim(), m.def().value_groups());
-    let gains: Vec<Vec<GroupGain>> = (0..*confirmed).map(|k| group_gains(&chain[k].oof, &chain[k + 1].oof, dim, value_groups, floor, groups)).collect();
+    let gains: Vec<Vec<GroupGain>> = (0..*confirmed).map(|k| group_gains(&chain[k].oof, &chain[k + 1].oof, m, floor, groups)).collect();
     let Some(k) = gains.iter().position(|g| !g.iter().any(|g| g.gain >= g.threshold)) else {
         return Vec::new();
     };
@@ -96,7 +95,7 @@ pub(super) fn drop_below_floor(
             let parts: Vec<String> = gains[i]
                 .iter()
                 .map(|g| {
-                    let of = if g.group == "reading" { String::new() } else { format!(" of the {}", g.group) };
+                    let of = g.group.map_or(String::new(), |k| format!(" of the {}", k.name()));
                     format!(
                         "it explains {:.4} mm RMS{of} ({:.4} -> {:.4} mm), below the {:.4} mm the floor's sampling allows",
                         g.gain, g.before, g.after, g.threshold

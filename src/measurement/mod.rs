@@ -217,6 +217,14 @@ impl Measurement {
         self.def().value_groups().iter().max().map_or(1, |g| g + 1)
     }
 
+    /// The values of group `g` ([`Instrument::value_groups`]; every value where they are
+    /// alike) of row-major `values`, [`Self::dim`] a row: a pose's positions (group 0) or axes.
+    pub fn group_values(self, values: &[f64], g: usize) -> Vec<f64> {
+        let (dim, groups) = (self.dim(), self.def().value_groups());
+        let cols: Vec<usize> = (0..dim).filter(|&c| groups.get(c).copied().unwrap_or(0) == g).collect();
+        values.chunks(dim).flat_map(|row| cols.iter().map(move |&c| row[c])).collect()
+    }
+
     /// The placement parameters' names, the instrument's own first, then the target's.
     pub fn placement_names(self) -> &'static [&'static str] {
         self.def().placement_names()

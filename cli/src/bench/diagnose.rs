@@ -272,7 +272,6 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
     }
     let seeds = config.seeds;
     let of = |cat: &str| items.iter().filter(|i| i.category == cat).collect::<Vec<_>>();
-    let count = |v: &[&DetectionItem], f: fn(&DetectionItem) -> bool| v.iter().filter(|i| f(i)).count();
     let n = seeds as f64;
     let hidden = of("hidden");
     let (detected, sized) = (count(&hidden, |i| i.detected), count(&hidden, |i| i.sized));
@@ -328,25 +327,29 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
     print_payload_runs(&of("tracker-payload"));
 }
 
+/// How many of `items` `f` holds for.
+fn count(items: &[&DetectionItem], f: fn(&DetectionItem) -> bool) -> usize {
+    items.iter().filter(|i| f(i)).count()
+}
+
 /// The payload-run category's rates: the compliance named and sized.
 fn print_payload_runs(runs: &[&DetectionItem]) {
     if runs.is_empty() {
         return;
     }
-    let count = |f: fn(&DetectionItem) -> bool| runs.iter().filter(|i| f(i)).count();
     use twincal::diagnose::hidden::{PAYLOAD_RUNS_KG, PAYLOAD_RUN_POSES, UNLOADED_FACTOR};
     println!(
         "  payload runs ({PAYLOAD_RUN_POSES} tracker poses at each of {PAYLOAD_RUNS_KG:?} kg; a joint compliance at 1-2x one row's noise over the runs where it stays under {UNLOADED_FACTOR}x in the unloaded run, else at {UNLOADED_FACTOR}x there):"
     );
     println!(
         "    {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma, {}/{} name a cause not hidden; the unloaded run alone names it on {}/{}",
-        count(|i| i.detected),
+        count(runs, |i| i.detected),
         runs.len(),
-        count(|i| i.within_3_sigma),
+        count(runs, |i| i.within_3_sigma),
         runs.len(),
-        count(|i| i.extra),
+        count(runs, |i| i.extra),
         runs.len(),
-        count(|i| i.alarm),
+        count(runs, |i| i.alarm),
         runs.len()
     );
 }
@@ -356,7 +359,6 @@ fn print_tracker(clean: &[&DetectionItem], half: &[&DetectionItem]) {
     if clean.is_empty() && half.is_empty() {
         return;
     }
-    let count = |v: &[&DetectionItem], f: fn(&DetectionItem) -> bool| v.iter().filter(|i| f(i)).count();
     let noise: Vec<f64> = half.iter().chain(clean).map(|i| i.floor_mm).filter(|f| *f > 0.0).collect();
     println!(
         "  tracker points ({} independent rows with sx, sy, sz; one row's noise {:.4} mm per coordinate, median):",

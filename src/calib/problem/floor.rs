@@ -78,11 +78,31 @@ pub struct NoiseFloor {
     pub by_group: Vec<GroupFloor>,
 }
 
+/// A kind of reading value with a floor of its own.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ValueKind {
+    /// A pose's position (value group 0).
+    Position,
+    /// A pose's axes at the lever (value group 1).
+    Orientation,
+}
+
+impl ValueKind {
+    /// Its name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            ValueKind::Position => "position",
+            ValueKind::Orientation => "orientation",
+        }
+    }
+}
+
 /// The floor of one kind of reading value (a pose's position, or its axes).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct GroupFloor {
-    /// `position` or `orientation`.
-    pub group: String,
+    /// Which kind.
+    pub group: ValueKind,
     /// Combined like [`NoiseFloor::total_mm`], over this kind's values, mm.
     pub total_mm: f64,
     /// Whether a source the data or the instrument measure reaches it (else it is a logging
@@ -102,6 +122,11 @@ impl NoiseFloor {
     /// The floor of the value group `g` (the whole floor for one kind of value).
     pub fn of_group(&self, g: usize) -> f64 {
         self.by_group.get(g).map_or(self.total_mm, |f| f.total_mm)
+    }
+    /// Whether a source the data or the instrument measure is one (repeats, the rows' own
+    /// standard deviations, a stated accuracy), not only logging steps' lower bounds.
+    pub fn is_measured(&self) -> bool {
+        self.sources.iter().any(|s| s.source.measured())
     }
 }
 
@@ -271,7 +296,7 @@ fn group_floors(model: &CalibModel, parts: &[(FloorKind, f64)], repeat: Option<&
                 })
                 .collect();
             GroupFloor {
-                group: if g == 0 { "position" } else { "orientation" }.into(),
+                group: if g == 0 { ValueKind::Position } else { ValueKind::Orientation },
                 total_mm: combine(&group_parts),
                 measured: group_parts.iter().any(|p| p.0.measured() && p.1 > 0.0),
             }
@@ -339,8 +364,8 @@ mod tests {
         // The position: the largest estimate of the reading's error (the rows' 0.03 mm) and the
         // angles' logging; the orientation: its repeats alone (the rows' sx, sy, sz are positions').
         let angle_pos = f.by_group[0].total_mm.powi(2) - 0.03f64.powi(2);
-        assert!(pos.group == "position" && pos.measured && (pos.total_mm - 0.03).abs() < 1e-3 && angle_pos > 0.0, "{pos:?}");
-        assert!(ori.group == "orientation" && ori.measured && (ori.total_mm - 0.001).abs() < 2e-4, "{ori:?}");
+        assert!(pos.group == ValueKind::Position && pos.measured && (pos.total_mm - 0.03).abs() < 1e-3 && angle_pos > 0.0, "{pos:?}");
+        assert!(ori.group == ValueKind::Orientation && ori.measured && (ori.total_mm - 0.001).abs() < 2e-4, "{ori:?}");
         assert_eq!(f.of_group(1), ori.total_mm);
         // Without repeats the orientation's floor is the angles' logging only: not measured.
         let f = noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), None, None, Instrument { row_std_mm: Some(0.03), accuracy_mm: None });
