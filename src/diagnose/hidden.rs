@@ -55,7 +55,7 @@ impl Hidden {
 
 /// The block that represents `kind` on `joint` (thermal blocks driven by temperature).
 fn block(kind: EffectKind, joint: Option<usize>, ref_c: f64) -> EffectBlock {
-    let thermal = (kind == EffectKind::ThermalDrift).then_some(ThermalDrive::Temperature { ref_c });
+    let thermal = (kind == EffectKind::ThermalDrift).then_some(ThermalDrive::Temperature { ref_c, sensor_lag: false });
     EffectBlock { kind, joint, thermal, range_m: None }
 }
 
@@ -286,6 +286,43 @@ pub fn hidden_tracker(seed: u64, factors: std::ops::Range<f64>) -> Result<(Scena
     let sigma = tracker_row_noise_mm(&s, &robot)?;
     let (mut s, robot, h) = hide_in(s, robot, seed, 1, sigma, factors, true)?;
     s.name = format!("hidden-{seed}-tracker");
+    Ok((s, robot, h, sigma))
+}
+
+/// The warm-up of [`hidden_warm_up`]: expansion coefficient range (ppm/K, steel to aluminium),
+/// the structure's rise (K), its time constant (s) and the temperature sensor's lag behind it
+/// as a share of that time constant.
+pub const WARM_UP_ALPHA_PPM: std::ops::Range<f64> = 12.0..25.0;
+/// See [`WARM_UP_ALPHA_PPM`].
+pub const WARM_UP_RISE_K: std::ops::Range<f64> = 4.0..10.0;
+/// See [`WARM_UP_ALPHA_PPM`].
+pub const WARM_UP_TAU_S: std::ops::Range<f64> = 600.0..1200.0;
+/// See [`WARM_UP_ALPHA_PPM`].
+pub const WARM_UP_LAG_SHARE: std::ops::Range<f64> = 0.2..0.5;
+/// Noise of one temperature reading in [`hidden_warm_up`], K.
+pub const WARM_UP_TEMP_NOISE_K: f64 = 0.01;
+
+/// A warm-up the temperature sensor lags: the [`clean_tracker`] scenario of `seed` with the
+/// whole arm's thermal expansion, the structure warming by a rise over a time constant and the
+/// `temp` column read by a sensor that lags it (with a reading noise of
+/// [`WARM_UP_TEMP_NOISE_K`]), each drawn from the seed within the [`WARM_UP_ALPHA_PPM`] ranges.
+/// Returns the scenario, the arm, what was hidden (its size in ppm/K; `factor` is the lag over
+/// the time constant) and one row's noise, mm.
+pub fn hidden_warm_up(seed: u64) -> Result<(Scenario, Robot, Hidden, f64)> {
+    let (mut s, robot) = clean_tracker(seed)?;
+    let sigma = tracker_row_noise_mm(&s, &robot)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5741_524d_5550);
+    let alpha = rng.random_range(WARM_UP_ALPHA_PPM) * 1e-6;
+    let tau = rng.random_range(WARM_UP_TAU_S);
+    let share = rng.random_range(WARM_UP_LAG_SHARE);
+    let thermal = crate::sim::effects::Thermal {
+        temp_lag_s: share * tau,
+        temp_noise_k: WARM_UP_TEMP_NOISE_K,
+        ..crate::sim::effects::Thermal::new(alpha, rng.random_range(WARM_UP_RISE_K), tau, 20.0)
+    };
+    s.effects.thermal = Some(thermal);
+    s.name = format!("warm-up-{seed}");
+    let h = Hidden { cause: EffectKind::ThermalDrift, joint: None, magnitude: alpha * 1e6, internal: alpha, factor: share };
     Ok((s, robot, h, sigma))
 }
 

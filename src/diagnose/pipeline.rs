@@ -404,6 +404,7 @@ pub(super) fn final_stage(
         comparison: compare_with_rbf(&ctx, &baseline, &current, opts.seed),
         seconds: t0.elapsed().as_secs_f64(),
         effects_option: effects_option(&current.model),
+        no_sensor_lag: without_sensor_lag(&current.model),
     };
     Ok((Diagnosis { verdict: verdict_with(&diagnosis.causes, diagnosis.unexplained.is_some()), ..diagnosis }, result))
 }
@@ -516,6 +517,12 @@ pub(super) fn effects_option(model: &CalibModel) -> String {
         })
         .collect::<Vec<_>>()
         .join(",")
+}
+
+/// Whether `model` holds a temperature-driven thermal block that fits no sensor lag (calibrate
+/// then needs `--no-sensor-lag` to fit the same model on rows with a time column).
+pub(super) fn without_sensor_lag(model: &CalibModel) -> bool {
+    model.effects.iter().any(|e| matches!(e.thermal, Some(crate::calib::effects::ThermalDrive::Temperature { sensor_lag: false, .. })))
 }
 
 /// The start of the final model's parameters for its report: the baseline's geometry with every

@@ -248,6 +248,10 @@ pub struct Diagnosis {
     pub seconds: f64,
     /// The effects kept, as calibration effect options (for `calibrate --effects`).
     pub effects_option: String,
+    /// Whether a thermal cause was kept without its sensor lag (its refinement did not earn its
+    /// place): the same model by calibrate then takes `--no-sensor-lag`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub no_sensor_lag: bool,
     /// What the user should know about this diagnosis (a kept cause whose size the final fit
     /// turned unphysical, ...).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

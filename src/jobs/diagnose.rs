@@ -98,11 +98,53 @@ impl DiagnoseJob {
 pub fn diagnose_loaded(
     request: &DiagnoseRequest,
     (opts, limit): (DiagnoseOptions, Limit),
-    mut data: Dataset,
+    original: Dataset,
     say: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosed> {
+    let (found, (mut report, mut result), data) = match diagnose_on_stations(request, &opts, original.clone(), &opts.baseline_options(), say)? {
+        // Change points found before any cause was in the model may be a drift the causes named
+        // explain (a warm-up reads as a slow train of moves): searched again with them.
+        (found, (report, result), data) if !found.is_empty() && !result.model.effects.is_empty() => {
+            let mut with = opts.baseline_options();
+            with.effects = result.model.effects.iter().map(|b| (b.kind, b.joint)).collect();
+            let (_, again) = crate::calib::run::setup::resolve_stations(&original, &with)?;
+            if again.len() < found.len() {
+                say(&format!(
+                    "set-up changes searched again with {} in the model: {} of the {} change points were its drift; the diagnosis again",
+                    effects_list(&result.model),
+                    found.len() - again.len(),
+                    found.len()
+                ));
+                diagnose_on_stations(request, &opts, original, &with, say)?
+            } else {
+                (found, (report, result), data)
+            }
+        }
+        other => other,
+    };
+    result.setup = crate::calib::run::setup::setup_report(&result.model, &result.x, &data, opts.stations, &found);
+    report.setup = result.setup.clone();
+    let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
+    Ok(Diagnosed { report, result, verdict, opts, data })
+}
+
+/// The labels of a model's effect blocks, joined.
+fn effects_list(m: &crate::calib::model::CalibModel) -> String {
+    m.effects.iter().map(|b| b.label()).collect::<Vec<_>>().join(", ")
+}
+
+/// The stations of `data` resolved with `setup` (its effects in the first fit), then the
+/// diagnosis on them (on the training rows of `--test-fraction` where given): the set-up
+/// changes found, the diagnosis and the rows it ran on.
+fn diagnose_on_stations(
+    request: &DiagnoseRequest,
+    opts: &DiagnoseOptions,
+    mut data: Dataset,
+    setup: &crate::calib::run::CalibOptions,
+    say: &(dyn Fn(&str) + Sync),
+) -> Result<(crate::calib::run::setup::Found, (crate::diagnose::Diagnosis, crate::calib::run::CalibResult), Dataset)> {
     // The instrument's stations, over every row before any is held out.
-    let (labelled, found) = crate::calib::run::setup::resolve_stations(&data, &opts.baseline_options())?;
+    let (labelled, found) = crate::calib::run::setup::resolve_stations(&data, setup)?;
     if let Some(l) = labelled {
         data = l;
     }
@@ -119,11 +161,8 @@ pub fn diagnose_loaded(
         let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
         data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
     }
-    let (mut report, mut result) = crate::diagnose::diagnose(&data, &opts, say)?;
-    result.setup = crate::calib::run::setup::setup_report(&result.model, &result.x, &data, opts.stations, &found);
-    report.setup = result.setup.clone();
-    let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
-    Ok(Diagnosed { report, result, verdict, opts, data })
+    let d = crate::diagnose::diagnose(&data, opts, say)?;
+    Ok((found, d, data))
 }
 
 /// Writes what `diagnose` writes of a diagnosis (`--out`, `--result`, and `--rrd`, `--report`,

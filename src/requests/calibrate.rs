@@ -77,6 +77,10 @@ pub struct CalibrateRequest {
     /// eccentricity, nonlinearity, each optionally on one joint (backlash:2).
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
     pub effects: Vec<String>,
+    /// Fit a temperature-driven thermal block without the sensor's lag (the `temp` column taken
+    /// as the structure's temperature), even where the rows have a time column.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub no_sensor_lag: bool,
     /// What loads the joints.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
@@ -107,6 +111,7 @@ impl Default for CalibrateRequest {
             max_test_rmse_mm: None,
             max_test_max_mm: None,
             effects: Vec::new(),
+            no_sensor_lag: false,
             loads: Loads::default(),
             robust: Robust::default(),
             placement_only: false,
@@ -142,6 +147,7 @@ impl CalibrateRequest {
         opts.effort = a.effort;
         opts.sensor_guess = sensor_guess(a.sensor_guess.as_deref())?;
         opts.effects = parse_effects("--effects", &a.effects)?;
+        opts.sensor_lag = !a.no_sensor_lag;
         (opts.loads, opts.inertial) = a.loads.resolve()?;
         if let Some(path) = &a.loads.robot {
             crate::calib::run::check_inertial(&opts.model, opts.inertial.as_ref(), &path.display().to_string())?;

@@ -199,6 +199,18 @@ pub fn robust_scale(v: &[f64]) -> (f64, f64) {
 
 pub use crate::math::median;
 
+/// The least-squares slope of y against x over the points `(x, y)`; `None` with fewer than
+/// three points or fewer than two distinct x.
+pub fn slope(points: &[(f64, f64)]) -> Option<f64> {
+    if points.len() < 3 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let (mx, my) = points.iter().fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let (sxy, sxx) = points.iter().fold((0.0, 0.0), |(a, b), (x, y)| (a + (x - mx) * (y - my), b + (x - mx) * (x - mx)));
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
 /// Mean and sample standard deviation (`n − 1` denominator) of the non-NaN values of `v`.
 /// `(NaN, NaN)` when there are none; the std is 0 for a single value.
 pub fn mean_std(v: &[f64]) -> (f64, f64) {

@@ -22,9 +22,9 @@ impl DetectionConfig {
     /// empty; an unknown category is an error naming the known ones).
     pub fn new(seeds: u64, categories: &[String]) -> Result<DetectionConfig> {
         // Item ids 0, 1 are seed 1's hidden and clean scenarios, 2·seeds.. its six realistic
-        // ones, 8·seeds.. its three tracker ones.
+        // ones, 8·seeds.. its tracker ones.
         let known: Vec<String> =
-            [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).chain(8 * seeds..8 * seeds + 3).map(|id| Variant::of(id, seeds).1.category()).collect();
+            [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).chain(8 * seeds..8 * seeds + TRACKER_CASES.len() as u64).map(|id| Variant::of(id, seeds).1.category()).collect();
         if let Some(c) = categories.iter().find(|c| !known.contains(c)) {
             return Err(twincal::error::Error::Invalid(format!("unknown --categories entry '{c}': known are {}", known.join(", "))));
         }
@@ -50,9 +50,12 @@ impl crate::shard::Config for DetectionConfig {
     }
 }
 
-/// Work items per seed: hidden, clean, 2 loggings × (clean, above, below), and a tracker's
-/// clean, half-noise and payload-run scenarios.
-const VARIANTS: u64 = 11;
+/// Work items per seed: hidden, clean, 2 loggings × (clean, above, below), and the tracker
+/// cases.
+const VARIANTS: u64 = 8 + TRACKER_CASES.len() as u64;
+
+/// The tracker cases of each seed, in item order.
+const TRACKER_CASES: [TrackerCase; 4] = [TrackerCase::Clean, TrackerCase::Half, TrackerCase::PayloadRuns, TrackerCase::WarmUp];
 
 /// What one work item diagnoses.
 /// A tracker scenario of the detection part.
@@ -64,6 +67,8 @@ enum TrackerCase {
     Half,
     /// Payload runs (0, 1.5, 3 kg at the same 120 poses), a compliance the unloaded run hides.
     PayloadRuns,
+    /// 400 rows over a warm-up whose temperature sensor lags the structure.
+    WarmUp,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,14 +87,14 @@ enum Variant {
 impl Variant {
     /// The seed and variant of item `id`: the first `2·seeds` items are the hidden and clean
     /// scenarios of seeds 1, 2, ... (as before realistic acquisitions were added), the rest six
-    /// realistic ones per seed, then two tracker ones per seed (clean, an effect).
+    /// realistic ones per seed, then the [`TRACKER_CASES`] of each seed.
     fn of(id: u64, seeds: u64) -> (u64, Variant) {
         if id < 2 * seeds {
             return (id / 2 + 1, if id % 2 == 0 { Variant::Hidden } else { Variant::Clean });
         }
         if id >= 8 * seeds {
-            let k = id - 8 * seeds;
-            return (k / 3 + 1, Variant::Tracker([TrackerCase::Clean, TrackerCase::Half, TrackerCase::PayloadRuns][(k % 3) as usize]));
+            let (k, n) = (id - 8 * seeds, TRACKER_CASES.len() as u64);
+            return (k / n + 1, Variant::Tracker(TRACKER_CASES[(k % n) as usize]));
         }
         let k = id - 2 * seeds;
         let decimals = if (k % 6) < 3 { 1 } else { 2 };
@@ -103,6 +108,7 @@ impl Variant {
             Variant::Tracker(TrackerCase::Clean) => "tracker-clean".into(),
             Variant::Tracker(TrackerCase::Half) => "tracker-half".into(),
             Variant::Tracker(TrackerCase::PayloadRuns) => "tracker-payload".into(),
+            Variant::Tracker(TrackerCase::WarmUp) => "tracker-warmup".into(),
             Variant::Clean => "clean".into(),
             Variant::Realistic { decimals, effect } => {
                 format!(
@@ -127,7 +133,7 @@ pub struct DetectionItem {
     pub sized: bool,
     pub alarm: bool,
     /// `hidden`, `clean`, `realistic-<decimals>-<clean|above|below>` or
-    /// `tracker-<clean|half|payload>`.
+    /// `tracker-<clean|half|payload|warmup>`.
     #[serde(default)]
     pub category: String,
     /// The size within 3 standard uncertainties (not the 30 % band).
@@ -257,6 +263,21 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let line = Some(format!("{line} [payload runs, {sigma:.4} mm per coordinate; the unloaded run alone: {}]", du.verdict));
             Ok(DetectionItem { extra, ..item(line, named, sized, seen_unloaded, within, sigma) })
         }
+        Variant::Tracker(TrackerCase::WarmUp) => {
+            let (s, robot, truth, sigma) = twincal::diagnose::hidden::hidden_warm_up(70_000 + seed)?;
+            let data = strip(&run_generate(&s, &robot, &Silent)?);
+            // As `diagnose` runs it: the tracker's set-up changes searched first (a warm-up must
+            // not read as moves of the tracker).
+            let request = twincal::requests::DiagnoseRequest::default();
+            let d = twincal::jobs::diagnose_loaded(&request, (opts, Default::default()), data, &|_| {})?;
+            let (line, named, sized, within) = judge_hidden(70_000 + seed, &truth, &d.report);
+            let moves = d.report.setup.as_ref().map_or(0, |s| s.stations.len().saturating_sub(1) + s.mounts.len().saturating_sub(1));
+            let extra = d.report.causes.len() > 1;
+            let line = (!named || !within || extra || moves > 0)
+                .then(|| format!("{line} [warm-up, sensor lag {:.2} of the time constant, {sigma:.4} mm per coordinate; {moves} set-up changes found]", truth.factor));
+            // The alarm: a set-up change found on a tracker that never moved.
+            Ok(DetectionItem { extra, ..item(line, named, sized, moves > 0, within, sigma) })
+        }
     }
 }
 
@@ -325,6 +346,7 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
     }
     print_tracker(&of("tracker-clean"), &of("tracker-half"));
     print_payload_runs(&of("tracker-payload"));
+    print_warm_up(&of("tracker-warmup"));
 }
 
 /// How many of `items` `f` holds for.
@@ -343,6 +365,37 @@ fn print_payload_runs(runs: &[&DetectionItem]) {
     );
     println!(
         "    {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma, {}/{} name a cause not hidden; the unloaded run alone names it on {}/{}",
+        count(runs, |i| i.detected),
+        runs.len(),
+        count(runs, |i| i.within_3_sigma),
+        runs.len(),
+        count(runs, |i| i.extra),
+        runs.len(),
+        count(runs, |i| i.alarm),
+        runs.len()
+    );
+}
+
+/// The warm-up category's rates: the expansion named and sized, no set-up change found.
+fn print_warm_up(runs: &[&DetectionItem]) {
+    if runs.is_empty() {
+        return;
+    }
+    use twincal::diagnose::hidden::{WARM_UP_ALPHA_PPM, WARM_UP_LAG_SHARE, WARM_UP_RISE_K, WARM_UP_TAU_S, WARM_UP_TEMP_NOISE_K};
+    println!(
+        "  warm-ups ({} tracker rows; {}-{} ppm/K over a {}-{} K rise, time constant {}-{} s, the temperature sensor lagging {}-{} of it, {WARM_UP_TEMP_NOISE_K} K reading noise):",
+        twincal::diagnose::hidden::TRACKER_POSES,
+        WARM_UP_ALPHA_PPM.start,
+        WARM_UP_ALPHA_PPM.end,
+        WARM_UP_RISE_K.start,
+        WARM_UP_RISE_K.end,
+        WARM_UP_TAU_S.start,
+        WARM_UP_TAU_S.end,
+        WARM_UP_LAG_SHARE.start,
+        WARM_UP_LAG_SHARE.end
+    );
+    println!(
+        "    {}/{} named first (target >= 95 %), {}/{} sized within 3 sigma (target >= 95 %), {}/{} name a cause not hidden, {}/{} find a set-up change that did not happen (target 0)",
         count(runs, |i| i.detected),
         runs.len(),
         count(runs, |i| i.within_3_sigma),

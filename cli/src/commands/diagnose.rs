@@ -14,7 +14,7 @@ pub fn diagnose(a: &DiagnoseJob, quiet: bool) -> Result<()> {
     let report = &d.report;
     if !quiet {
         print_diagnosis(report);
-        eprintln!("  wrote {} and {}; the same model by calibrate: {}", a.out.display(), a.result.display(), calibrate_line(a, &report.effects_option));
+        eprintln!("  wrote {} and {}; the same model by calibrate: {}", a.out.display(), a.result.display(), calibrate_line(a, &report.effects_option, report.no_sensor_lag));
     }
     for w in &report.warnings {
         eprintln!("warning: {w}");
@@ -25,7 +25,7 @@ pub fn diagnose(a: &DiagnoseJob, quiet: bool) -> Result<()> {
 
 /// The `calibrate` command that fits the diagnosed model: the same data, model and loads, and
 /// the effects kept (none: the geometric model).
-fn calibrate_line(a: &DiagnoseJob, effects: &str) -> String {
+fn calibrate_line(a: &DiagnoseJob, effects: &str, no_sensor_lag: bool) -> String {
     let quote = |p: &Path| {
         let t = p.display().to_string();
         if t.chars().all(|c| c.is_ascii_alphanumeric() || "/._-#".contains(c)) {
@@ -58,6 +58,9 @@ fn calibrate_line(a: &DiagnoseJob, effects: &str) -> String {
     }
     if !effects.is_empty() {
         line += &format!(" --effects {effects}");
+    }
+    if no_sensor_lag {
+        line += " --no-sensor-lag";
     }
     if let Some(r) = a.request.floor.angle_resolution_deg {
         line += &format!(" --angle-resolution-deg {r}");

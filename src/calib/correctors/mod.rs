@@ -211,7 +211,7 @@ mod tests {
             m.add_effect(EffectBlock::joint(EffectKind::Backlash, j), 3600.0);
             m.add_effect(EffectBlock::joint(EffectKind::EncoderEccentricity, j), 3600.0);
         }
-        let thermal = Some(ThermalDrive::Temperature { ref_c: 21.0 });
+        let thermal = Some(ThermalDrive::Temperature { ref_c: 21.0, sensor_lag: false });
         m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: None, thermal, range_m: None }, 3600.0);
         m.add_effect(EffectBlock { kind: EffectKind::SensorNonlinearity, joint: None, thermal: None, range_m: Some([0.4, 1.6]) }, 3600.0);
         let mut x = m.nominal.clone();

@@ -166,11 +166,13 @@ impl TorqueModel {
 pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs> {
     let n = data.rows.len();
     let (stations, mounts) = (data.stations(), data.mounts());
+    let rates = temperature_rates(data);
     let mut out: Vec<RowInputs> = data
         .rows
         .iter()
         .zip(stations.of_row.iter().zip(&mounts.of_row))
-        .map(|(r, (&station, &mount))| RowInputs { t_s: r.t_s, temp_c: r.temp_c, station, mount, ..Default::default() })
+        .zip(rates)
+        .map(|((r, (&station, &mount)), rate)| RowInputs { t_s: r.t_s, temp_c: r.temp_c, temp_rate_k_per_s: rate, station, mount, ..Default::default() })
         .collect();
     let nq = data.n_joints();
     for (i, r) in data.rows.iter().enumerate() {
@@ -199,6 +201,37 @@ pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs
                 }
             })
             .collect();
+    }
+    out
+}
+
+/// Share of a run's time span on either side of a row over which its temperature rate is taken.
+pub const RATE_WINDOW_SHARE: f64 = 0.05;
+
+/// The rate of the measured temperature at every row of `data` (K/s, file order): the
+/// least-squares slope of `temp` against `t` over the rows of the row's run within ±h of it, h
+/// a [`RATE_WINDOW_SHARE`] of the run's time span. A run is a stretch of rows, in file order,
+/// whose `t` never goes back (a session that restarts its clock starts a new one), so that no
+/// rate mixes two sessions. `None` where a row lacks `t` or `temp` or its window holds fewer
+/// than three rows of two distinct times.
+pub fn temperature_rates(data: &Dataset) -> Vec<Option<f64>> {
+    let n = data.rows.len();
+    let mut out = vec![None; n];
+    let mut start = 0;
+    while start < n {
+        let mut end = start + 1;
+        while end < n && matches!((data.rows[end - 1].t_s, data.rows[end].t_s), (Some(a), Some(b)) if b >= a) {
+            end += 1;
+        }
+        let run: Option<Vec<(f64, f64)>> = data.rows[start..end].iter().map(|r| Some((r.t_s?, r.temp_c?))).collect();
+        if let Some(run) = run {
+            let h = RATE_WINDOW_SHARE * (run[run.len() - 1].0 - run[0].0);
+            for (i, &(t, _)) in run.iter().enumerate() {
+                let (lo, hi) = (run.partition_point(|p| p.0 < t - h), run.partition_point(|p| p.0 <= t + h));
+                out[start + i] = crate::stats::slope(&run[lo..hi]);
+            }
+        }
+        start = end;
     }
     out
 }
@@ -251,5 +284,28 @@ mod tests {
         let poses: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
         let twin = crate::robot::statics::approach_sides(&[0.0; 6], &poses);
         assert!(inp.iter().zip(&twin).all(|(r, t)| r.side.iter().zip(t).all(|(a, b)| a == b)));
+    }
+
+    /// The temperature's rate is the local slope of `temp` against `t`, within each run of rows
+    /// whose clock never goes back; none without both columns or with too few rows.
+    #[test]
+    fn temperature_rates_follow_each_run() {
+        let row = |t: f64, temp: f64| Row { q_deg: vec![0.0; 6], reading_mm: vec![500.0], t_s: Some(t), temp_c: Some(temp), ..Default::default() };
+        // A ramp of 0.01 K/s over 100 s, then a second session restarting its clock at 0 and
+        // cooling at 0.002 K/s.
+        let mut rows: Vec<Row> = (0..=100).map(|k| row(k as f64, 20.0 + 0.01 * k as f64)).collect();
+        rows.extend((0..=50).map(|k| row(2.0 * k as f64, 25.0 - 0.004 * k as f64)));
+        let data = Dataset { rows, source: "test".into() };
+        let rates = temperature_rates(&data);
+        assert!(rates[..101].iter().all(|r| r.is_some_and(|v| (v - 0.01).abs() < 1e-12)), "{:?}", &rates[..3]);
+        assert!(rates[101..].iter().all(|r| r.is_some_and(|v| (v + 0.002).abs() < 1e-12)), "{:?}", &rates[101..104]);
+        // The inputs carry them.
+        let inp = row_inputs(&data, None);
+        assert_eq!(inp[50].temp_rate_k_per_s, rates[50]);
+        // Without temperatures, or with two rows, no rate.
+        let no_temp = Dataset { rows: data.rows.iter().map(|r| Row { temp_c: None, ..r.clone() }).collect(), source: "test".into() };
+        assert!(temperature_rates(&no_temp).iter().all(Option::is_none));
+        let two = Dataset { rows: data.rows[..2].to_vec(), source: "test".into() };
+        assert!(temperature_rates(&two).iter().all(Option::is_none));
     }
 }

@@ -6,8 +6,8 @@
 //! |---|---|---|
 //! | `joint_compliance` (joint j) | c_j, rad/(N·m) | joint angle + c_j·τ_j (static torque from the URDF inertials, payload, cable) |
 //! | `backlash` (joint j) | h_j, rad (half band) | joint angle + h_j·side_j (load side, else approach side) |
-//! | `thermal_drift` | α, 1/K (with `temp`) or s, τ (time only) | every link length × (1 + α·(T − T_ref)) or (1 + s·(1 − e^(−t/τ))) |
-//! | `thermal_drift` (joint j) | z_j, rad/K (with `temp`) or z_j, τ_j (time only) | joint angle + z_j·(T − T_ref) or z_j·(1 − e^(−t/τ_j)): joint-zero drift |
+//! | `thermal_drift` | α, 1/K, and L, s (with `temp`; L with `t`) or s, τ (time only) | every link length × (1 + α·(T + L·dT/dt − T_ref)) or (1 + s·(1 − e^(−t/τ))) |
+//! | `thermal_drift` (joint j) | z_j, rad/K, and L_j, s (with `temp`) or z_j, τ_j (time only) | joint angle + z_j·(T + L_j·dT/dt − T_ref) or z_j·(1 − e^(−t/τ_j)): joint-zero drift |
 //! | `encoder_eccentricity` (joint j) | a_j, b_j, rad | joint angle + a_j·sin q_j + b_j·cos q_j |
 //! | `sensor_nonlinearity` | p2..p4, m | reading + Σ p_k·P_k(v), Legendre polynomials P2..P4 over the data's reading range |
 //!
@@ -81,6 +81,12 @@ pub trait Effect: Sync {
     /// Whether the fitted parameters have the sign physics allows.
     fn physical_sign(&self, _x: &[f64], _k: usize) -> bool {
         true
+    }
+    /// Whether the block's later parameters act only through its first (a warm-up's time
+    /// constant, a sensor's lag scale the size): at a size of zero the data cannot see them, so
+    /// their identifiability is judged with the size at [`Effect::plausible`].
+    fn later_params_scaled_by_size(&self, _b: &EffectBlock) -> bool {
+        false
     }
     /// What an identified twin takes of the fitted block: its size and phase in the units the
     /// twin's `Effects::set_size` reads (the calibration block's internal ones), or why it takes
@@ -197,8 +203,11 @@ pub enum EffectUnit {
     PerKelvin,
     /// dimensionless, shown in ppm.
     Ratio,
-    /// s.
+    /// s: a warm-up's time constant (positive).
     Seconds,
+    /// s, signed: a temperature sensor's lag behind the structure (negative: the structure's
+    /// behind the air the sensor reads).
+    Lag,
     /// m, shown in mm.
     Length,
 }
@@ -209,7 +218,7 @@ impl EffectUnit {
         match self {
             EffectUnit::Compliance | EffectUnit::PerKelvin | EffectUnit::Ratio => 1e6,
             EffectUnit::SmallAngle | EffectUnit::AnglePerKelvin => 180.0 / std::f64::consts::PI * 1e3,
-            EffectUnit::Seconds => 1.0,
+            EffectUnit::Seconds | EffectUnit::Lag => 1.0,
             EffectUnit::Length => crate::units::MM_PER_M,
         }
     }
@@ -221,7 +230,7 @@ impl EffectUnit {
             EffectUnit::AnglePerKelvin => "mdeg/K",
             EffectUnit::PerKelvin => "ppm/K",
             EffectUnit::Ratio => "ppm",
-            EffectUnit::Seconds => "s",
+            EffectUnit::Seconds | EffectUnit::Lag => "s",
             EffectUnit::Length => "mm",
         }
     }
@@ -231,10 +240,17 @@ impl EffectUnit {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ThermalDrive {
-    /// Measured temperature: scale = 1 + α·(T − `ref_c`).
+    /// Measured temperature: scale = 1 + α·(T − `ref_c`), or with the sensor's lag fitted
+    /// 1 + α·(T + L·dT/dt − `ref_c`).
     Temperature {
         /// Reference temperature T_ref, °C.
         ref_c: f64,
+        /// Whether the block fits the sensor's lag L (s) behind the structure besides its size:
+        /// the structure's temperature taken as T + L·dT/dt (a first-order sensor that lags the
+        /// structure by L > 0 reads exactly that; a structure that lags the air a sensor reads,
+        /// L < 0, to first order). On when the rows have a `t` column to take dT/dt from.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        sensor_lag: bool,
     },
     /// Time only: first-order warm-up, scale = 1 + s·(1 − e^(−t/τ)).
     WarmUp,
@@ -281,6 +297,16 @@ impl EffectBlock {
     pub fn start(&self, t_span_s: f64) -> Vec<f64> {
         self.kind.def().start(self, t_span_s)
     }
+    /// The block without the refinement a diagnosis tests apart, once the block itself has
+    /// earned its place (a thermal block's sensor lag); the block itself where it has none.
+    pub fn unrefined(&self) -> EffectBlock {
+        match self.thermal {
+            Some(ThermalDrive::Temperature { ref_c, sensor_lag: true }) => {
+                EffectBlock { thermal: Some(ThermalDrive::Temperature { ref_c, sensor_lag: false }), ..self.clone() }
+            }
+            _ => self.clone(),
+        }
+    }
     /// The number `j + 1` of the block's joint in parameter names (0 for a whole-arm block).
     fn joint_number(&self) -> usize {
         self.joint.map(|j| j + 1).unwrap_or(0)
@@ -294,6 +320,9 @@ pub struct RowInputs {
     pub t_s: Option<f64>,
     /// Measured temperature, °C.
     pub temp_c: Option<f64>,
+    /// Rate of the measured temperature, K/s: the slope of `temp` against `t` over the row's
+    /// neighbours in time ([`inputs::temperature_rates`]); `None` without both columns.
+    pub temp_rate_k_per_s: Option<f64>,
     /// Static joint torques, N·m, one per joint; empty without an inertial model (read as zero).
     pub torque: Vec<f64>,
     /// Backlash flank per joint (±1; 0 when unknown); empty when no flank is known.
@@ -361,7 +390,8 @@ mod tests {
     fn every_block_counts_the_parameters_it_names() {
         for kind in EffectKind::ALL {
             for joint in kind.joint_options(3) {
-                for thermal in [None, Some(ThermalDrive::WarmUp), Some(ThermalDrive::Temperature { ref_c: 20.0 })] {
+                let lagged = |sensor_lag| Some(ThermalDrive::Temperature { ref_c: 20.0, sensor_lag });
+                for thermal in [None, Some(ThermalDrive::WarmUp), lagged(false), lagged(true)] {
                     let b = EffectBlock { kind, joint, thermal, range_m: None };
                     assert_eq!(b.n_params(), b.params().len(), "{}", b.label());
                     assert_eq!(b.start(600.0).len(), b.n_params(), "{}", b.label());

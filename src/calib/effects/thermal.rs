@@ -1,6 +1,13 @@
 //! Thermal drift: the links grow by α·(T − T_ref) with a measured temperature (or by a warm-up
 //! s·(1 − e^(−t/τ)) with time only), and a joint's zero drifts by z_j per kelvin (or z_j at full
 //! warm-up). One whole-arm block (the length scale) and one block per joint (the zero drift).
+//!
+//! A temperature sensor rarely reads the structure itself: a probe on the casting or in the
+//! cabinet follows it with a lag, and the structure follows the air with its own. Where the rows
+//! have a time column, a temperature-driven block therefore also fits a signed lag L (s) and
+//! takes the structure at T + L·dT/dt: exact for a first-order sensor lagging the structure
+//! (L > 0), first order for a structure lagging the sensed air (L < 0). Left out, a lag of a
+//! third of the warm-up's time constant sizes the expansion ten percent low.
 
 use super::*;
 
@@ -12,6 +19,12 @@ pub struct ThermalDrift;
 
 fn by_temperature(b: &EffectBlock) -> bool {
     matches!(b.thermal, Some(ThermalDrive::Temperature { .. }))
+}
+
+/// Whether the block fits the sensor's lag besides its size (a temperature drive over rows
+/// with time).
+fn lagged(b: &EffectBlock) -> bool {
+    matches!(b.thermal, Some(ThermalDrive::Temperature { sensor_lag: true, .. }))
 }
 
 impl Effect for ThermalDrift {
@@ -29,18 +42,23 @@ impl Effect for ThermalDrift {
     }
     fn params(&self, b: &EffectBlock) -> Vec<(String, EffectUnit)> {
         let j = b.joint_number();
-        match (by_temperature(b), b.joint) {
+        let mut out = match (by_temperature(b), b.joint) {
             (true, None) => vec![("thermal.alpha".into(), EffectUnit::PerKelvin)],
             (false, None) => vec![("thermal.scale".into(), EffectUnit::Ratio), ("thermal.tau".into(), EffectUnit::Seconds)],
             (true, Some(_)) => vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::AnglePerKelvin)],
             (false, Some(_)) => {
                 vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::SmallAngle), (format!("thermal.zero_drift.j{j}.tau"), EffectUnit::Seconds)]
             }
+        };
+        if lagged(b) {
+            out.push((format!("{}.sensor_lag", out[0].0), EffectUnit::Lag));
         }
+        out
     }
     fn n_params(&self, b: &EffectBlock) -> usize {
-        // A warm-up (time only) has its time constant besides the size.
-        if by_temperature(b) {
+        // A warm-up (time only) has its time constant besides the size, a lagged temperature
+        // drive its lag.
+        if by_temperature(b) && !lagged(b) {
             1
         } else {
             2
@@ -62,7 +80,7 @@ impl Effect for ThermalDrift {
         let spread = temps.as_ref().map(|t| t.iter().fold(f64::NEG_INFINITY, |a, v| a.max(*v)) - t.iter().fold(f64::INFINITY, |a, v| a.min(*v)));
         let has_t = !data.rows.is_empty() && data.rows.iter().all(|r| r.t_s.is_some());
         match (temps, spread) {
-            (Some(t), Some(s)) if !t.is_empty() && s >= MIN_TEMP_SPREAD_K => b.thermal = Some(ThermalDrive::Temperature { ref_c: t[0] }),
+            (Some(t), Some(s)) if !t.is_empty() && s >= MIN_TEMP_SPREAD_K => b.thermal = Some(ThermalDrive::Temperature { ref_c: t[0], sensor_lag: has_t }),
             _ if has_t => b.thermal = Some(ThermalDrive::WarmUp),
             (Some(t), Some(_)) if !t.is_empty() => {
                 return Err(Error::Invalid(format!(
@@ -76,8 +94,14 @@ impl Effect for ThermalDrift {
     }
     fn apply(&self, b: &EffectBlock, x: &[f64], k: usize, _q: &[f64], inp: &RowInputs, st: &mut EffectState) {
         // The thermal state: temperature rise (with `temp`) or warm-up fraction.
-        let (f, dfdtau) = match b.thermal {
-            Some(ThermalDrive::Temperature { ref_c }) => (inp.temp_c.map(|t| t - ref_c).unwrap_or(0.0), None),
+        // `dfdp`: the derivative of the state by the block's second parameter (a warm-up's time
+        // constant, a sensor's lag), when it has one.
+        let (f, dfdp) = match b.thermal {
+            Some(ThermalDrive::Temperature { ref_c, sensor_lag }) => {
+                let rate = inp.temp_rate_k_per_s.unwrap_or(0.0);
+                let lag = if sensor_lag { x[k + 1] } else { 0.0 };
+                (inp.temp_c.map(|t| t - ref_c + lag * rate).unwrap_or(0.0), sensor_lag.then_some(rate))
+            }
             _ => {
                 let t = inp.t_s.unwrap_or(0.0);
                 let tau = x[k + 1].max(1e-3);
@@ -89,14 +113,14 @@ impl Effect for ThermalDrift {
             None => {
                 st.scale += x[k] * f;
                 st.scale_terms.push((k, f));
-                if let Some(d) = dfdtau {
+                if let Some(d) = dfdp {
                     st.scale_terms.push((k + 1, x[k] * d));
                 }
             }
             Some(j) => {
                 st.dq[j] += x[k] * f;
                 st.joint_terms.push((k, j, f));
-                if let Some(d) = dfdtau {
+                if let Some(d) = dfdp {
                     st.joint_terms.push((k + 1, j, x[k] * d));
                 }
             }
@@ -104,12 +128,22 @@ impl Effect for ThermalDrift {
     }
     fn size(&self, b: &EffectBlock, x: &[f64], k: usize, var: &dyn Fn(usize, usize) -> f64) -> Size {
         let sd = var(k, k).max(0.0).sqrt();
-        match (by_temperature(b), b.joint) {
-            (true, None) => Size::new("expansion coefficient", x[k] * 1e6, "ppm/K", sd * 1e6),
-            (false, None) => Size::new("warm-up length growth", x[k] * 1e6, "ppm", sd * 1e6),
-            (true, Some(_)) => Size::new("joint-zero drift", x[k] * DEG, "deg/K", sd * DEG),
-            (false, Some(_)) => Size::new("joint-zero drift at full warm-up", x[k] * DEG, "deg", sd * DEG),
-        }
+        // The second parameter, a time (a warm-up's time constant, a sensor's lag), is said
+        // beside the size.
+        let time = |what: &str| match self.n_params(b) {
+            1 => String::new(),
+            _ => format!(" ({what} {:.0} ± {:.0} s)", x[k + 1], var(k + 1, k + 1).max(0.0).sqrt()),
+        };
+        let (quantity, value, unit, scale) = match (by_temperature(b), b.joint) {
+            (true, None) => (format!("expansion coefficient{}", time("sensor lag")), x[k] * 1e6, "ppm/K", 1e6),
+            (false, None) => (format!("warm-up length growth{}", time("time constant")), x[k] * 1e6, "ppm", 1e6),
+            (true, Some(_)) => (format!("joint-zero drift{}", time("sensor lag")), x[k] * DEG, "deg/K", DEG),
+            (false, Some(_)) => (format!("joint-zero drift at full warm-up{}", time("time constant")), x[k] * DEG, "deg", DEG),
+        };
+        Size::new(&quantity, value, unit, sd * scale)
+    }
+    fn later_params_scaled_by_size(&self, b: &EffectBlock) -> bool {
+        self.n_params(b) > 1
     }
     fn plausible(&self, joint: Option<usize>) -> f64 {
         match joint {

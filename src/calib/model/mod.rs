@@ -248,6 +248,22 @@ impl CalibModel {
         }
         self.effects.push(block);
     }
+    /// The point at which the data's view of the parameters is judged from `x`: every block
+    /// whose later parameters act only through its size
+    /// ([`Effect::later_params_scaled_by_size`](crate::calib::effects::Effect::later_params_scaled_by_size))
+    /// and whose size is zero there takes its plausible size, so that a warm-up's time constant
+    /// or a sensor's lag is not held as invisible merely because the fit starts without a drift.
+    pub fn identifiability_point(&self, x: &[f64]) -> Vec<f64> {
+        let mut p = x.to_vec();
+        for (b, block) in self.effects.iter().enumerate() {
+            let k = self.effect_params(b).start;
+            let def = block.kind.def();
+            if def.later_params_scaled_by_size(block) && p[k] == 0.0 {
+                p[k] = def.plausible(block.joint);
+            }
+        }
+        p
+    }
     /// Parameter range of effect block `b`.
     pub fn effect_params(&self, b: usize) -> std::ops::Range<usize> {
         let start = self.first_effect() + self.effects[..b].iter().map(EffectBlock::n_params).sum::<usize>();

@@ -55,7 +55,7 @@ fn dh_tables_reproduce_the_urdf() {
 fn effect_gradients_match_finite_differences() {
     use crate::calib::effects::{EffectBlock, EffectKind, RowInputs, ThermalDrive};
     let robot = Robot::irb120();
-    for thermal in [ThermalDrive::WarmUp, ThermalDrive::Temperature { ref_c: 21.0 }] {
+    for thermal in [ThermalDrive::WarmUp, ThermalDrive::Temperature { ref_c: 21.0, sensor_lag: false }, ThermalDrive::Temperature { ref_c: 21.0, sensor_lag: true }] {
         let mut m = CalibModel::dh(&robot, &guess(), true);
         for j in 0..6 {
             m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, j), 3600.0);
@@ -70,7 +70,7 @@ fn effect_gradients_match_finite_differences() {
         for (k, v) in x.iter_mut().enumerate() {
             let scale = match m.kinds[k] {
                 Kind::Effect(crate::calib::effects::EffectUnit::Compliance) => 1e-5,
-                Kind::Effect(crate::calib::effects::EffectUnit::Seconds) => 0.0,
+                Kind::Effect(crate::calib::effects::EffectUnit::Seconds | crate::calib::effects::EffectUnit::Lag) => 50.0,
                 Kind::Effect(crate::calib::effects::EffectUnit::Ratio | crate::calib::effects::EffectUnit::PerKelvin) => 1e-4,
                 Kind::Effect(_) => 1e-3,
                 _ => 0.01,
@@ -81,6 +81,7 @@ fn effect_gradients_match_finite_differences() {
         let inp = RowInputs {
             t_s: Some(900.0),
             temp_c: Some(24.5),
+            temp_rate_k_per_s: Some(2.5e-3),
             torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1],
             side: vec![1.0, -1.0, 1.0, -1.0, 1.0, 1.0],
             ..Default::default()
@@ -94,7 +95,7 @@ fn effect_gradients_match_finite_differences() {
         let mut dx = vec![Vector3::zeros(); m.n_params()];
         m.tool_point_grad_with(&x, &q, &inp, &mut w, &mut dx);
         for k in 0..m.n_params() {
-            let h = if m.kinds[k] == Kind::Effect(crate::calib::effects::EffectUnit::Seconds) { 1e-2 } else { 1e-7 };
+            let h = if matches!(m.kinds[k], Kind::Effect(crate::calib::effects::EffectUnit::Seconds | crate::calib::effects::EffectUnit::Lag)) { 1e-2 } else { 1e-7 };
             let (dy, fd) = central_differences(&m, &x, k, h, &q, &inp, &mut w);
             let tol = 1e-7 * (1.0 + g[k].abs());
             assert!((dy[0] - g[k]).abs() < tol, "{:?} {}: {} vs {}", thermal, m.names[k], dy[0], g[k]);

@@ -49,7 +49,9 @@ impl Tolerances {
 /// A plausible size of an effect parameter on an industrial arm, one standard deviation:
 /// 50 µrad/(N·m) of joint compliance (a 20 kN·m/rad gear), 10 millidegrees of backlash or
 /// eccentricity, 2 millidegrees per kelvin of joint-zero drift, 25 ppm/K of expansion (aluminium 23, steel 12), 100 ppm of warm-up growth, a
-/// warm-up time constant of half an hour, 0.1 mm of reading nonlinearity.
+/// warm-up time constant of half an hour, a temperature sensor's lag of ten minutes (a probe in
+/// air follows within minutes, a casting's core its surface within tens), 0.1 mm of reading
+/// nonlinearity.
 pub fn effect_scale(u: EffectUnit) -> f64 {
     match u {
         EffectUnit::Compliance => 50e-6,
@@ -58,6 +60,7 @@ pub fn effect_scale(u: EffectUnit) -> f64 {
         EffectUnit::PerKelvin => 25e-6,
         EffectUnit::Ratio => 1e-4,
         EffectUnit::Seconds => 1800.0,
+        EffectUnit::Lag => 600.0,
         EffectUnit::Length => 1e-4,
     }
 }

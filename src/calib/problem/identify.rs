@@ -227,7 +227,9 @@ fn fix_weak_combinations(s: &DMatrix<f64>, order: &[usize], tol: f64, fixed_mask
 /// A joint that does not move in the data ([`still_joints`]) is held at its median angle for
 /// the analysis: its jitter (a few encoder counts) would otherwise make its own and its
 /// neighbours' parameters look identifiable, and a fit would then buy accuracy through a lever
-/// the data cannot see. The tool point absorbs what is fixed.
+/// the data cannot see. The tool point absorbs what is fixed. An effect's time constant or lag,
+/// which acts only through its size, is judged at a plausible size
+/// ([`CalibModel::identifiability_point`](crate::calib::model::CalibModel::identifiability_point)).
 pub fn identify(fit: &ReadingFit, x: &[f64], tol: f64) -> Identifiability {
     let nc = fit.model.n_chain();
     let priority: Vec<usize> = (nc..fit.model.n_params()).chain(0..nc).collect();
@@ -244,7 +246,8 @@ pub fn identify(fit: &ReadingFit, x: &[f64], tol: f64) -> Identifiability {
         held = d;
         &held
     };
-    let mut id = analyse(&jacobian(&ReadingFit { model: fit.model, data }, x), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority);
+    let at = fit.model.identifiability_point(x);
+    let mut id = analyse(&jacobian(&ReadingFit { model: fit.model, data }, &at), &fit.model.names, &vec![false; fit.model.n_params()], tol, &priority);
     id.still_joints = still.iter().map(|j| j + 1).collect();
     // Rows, not residuals: a tracker's row gives three.
     id.n_poses = fit.data.len();

@@ -98,6 +98,9 @@ pub struct CalibOptions {
     /// Non-geometric effects to fit beside the geometry: a kind, on one joint (0-based) or,
     /// for per-joint kinds given without a joint, on every joint.
     pub effects: Vec<(EffectKind, Option<usize>)>,
+    /// Whether a temperature-driven thermal block fits the sensor's lag where the rows have a
+    /// time column (see [`crate::calib::effects::ThermalDrive`]).
+    pub sensor_lag: bool,
     /// What loads the joints (payload, cable tension), for the torque-driven effects.
     pub loads: LoadOptions,
     /// Inertial model for the joint torques when the calibrated model has none (generic 6R).
@@ -141,6 +144,7 @@ impl CalibOptions {
             effort: 1.0,
             tolerances: Tolerances::default(),
             effects: Vec::new(),
+            sensor_lag: true,
             loads: LoadOptions::default(),
             inertial: None,
             outlier_k: DEFAULT_OUTLIER_K,

@@ -374,6 +374,9 @@ impl CalibResult {
         for b in self.model.effects.iter().filter(|b| b.kind == EffectKind::ThermalDrift) {
             let col = if matches!(b.thermal, Some(ThermalDrive::Temperature { .. })) { "temp" } else { "t" };
             out.push((col, format!("its {} block", b.label())));
+            if matches!(b.thermal, Some(ThermalDrive::Temperature { sensor_lag: true, .. })) {
+                out.push(("t", format!("its {} block's sensor lag (the temperature's rate)", b.label())));
+            }
         }
         if let Some(n) = self.wavelet_network() {
             for f in &n.extra {
@@ -568,7 +571,7 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
     }
     let temps = crate::dataset::MIN_TEMP_C..=crate::dataset::MAX_TEMP_C;
     if let Some(t) = r.model.effects.iter().find_map(|b| match b.thermal {
-        Some(crate::calib::effects::ThermalDrive::Temperature { ref_c }) if !temps.contains(&ref_c) => Some(ref_c),
+        Some(crate::calib::effects::ThermalDrive::Temperature { ref_c, .. }) if !temps.contains(&ref_c) => Some(ref_c),
         _ => None,
     }) {
         return Err(format!(

@@ -133,11 +133,15 @@ fn new_label(data: &Dataset, kind: SetupKind, row: usize, declared: bool) -> Str
     (2..).map(|k| format!("{base}.{k}")).find(|l| !st.labels.contains(l)).unwrap_or(base)
 }
 
-/// The geometric model fitted to every row with the set-ups `data` names (no screen): what the
-/// change-point search reads the residuals of.
+/// The model fitted to every row with the set-ups `data` names (no screen), the effects asked
+/// for included (a warm-up's drift left in the residuals would look like a slow train of
+/// moves): what the change-point search reads the residuals of.
 fn first_fit(data: &Dataset, opts: &CalibOptions) -> Result<(CalibModel, Vec<f64>, Samples)> {
-    let all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    let model = place_sensor(opts, &all, [&data.stations().labels, &data.mounts().labels])?;
+    let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
+    let mut model = place_sensor(opts, &all, [&data.stations().labels, &data.mounts().labels])?;
+    if !opts.effects.is_empty() {
+        all.inputs = super::split::add_effects(&mut model, data, opts)?.1;
+    }
     let fit = ReadingFit { model: &model, data: &all };
     let id = identify(&fit, &model.nominal, opts.rank_tol);
     let x = LevenbergMarquardt::budget(100).minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver).x;

@@ -5,6 +5,7 @@ use super::options::*;
 use super::result::*;
 use crate::calib::model::CalibModel;
 use crate::calib::problem::Samples;
+use crate::calib::effects::RowInputs;
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::robot::Robot;
@@ -181,16 +182,22 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
     if opts.effects.is_empty() && !inputs {
         return Ok(());
     }
-    let x = &model.nominal;
-    let placement = model.placement(x);
+    let (torque, all) = add_effects(model, data, opts)?;
+    split.torque_model = torque;
+    split.train.inputs = split.train_idx.iter().map(|&i| all[i].clone()).collect();
+    split.test.inputs = split.test_idx.iter().map(|&i| all[i].clone()).collect();
+    Ok(())
+}
+
+/// The effect blocks `opts` asks for added to `model`, with the torque model (from the model's
+/// placement) and every row's inputs (file order) they read.
+pub fn add_effects(model: &mut CalibModel, data: &Dataset, opts: &CalibOptions) -> Result<(Option<crate::calib::effects::inputs::TorqueModel>, Vec<RowInputs>)> {
+    let placement = model.placement(&model.nominal);
     let robot = opts.inertial_robot();
     let torque = robot.map(|r| crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads, placement.exit(), placement.tool));
     let all = crate::calib::effects::inputs::row_inputs(data, torque.as_ref());
     // Rows with their own payload load the joints too.
     let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque() || data.rows.iter().any(|r| r.payload_kg.is_some_and(|m| m > 0.0)));
-    split.torque_model = torque;
-    split.train.inputs = split.train_idx.iter().map(|&i| all[i].clone()).collect();
-    split.test.inputs = split.test_idx.iter().map(|&i| all[i].clone()).collect();
     let span = crate::calib::effects::inputs::time_span(data);
     for &(kind, joint) in &opts.effects {
         let joints: Vec<Option<usize>> = match (kind.per_joint(), joint) {
@@ -198,10 +205,11 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
             (_, j) => vec![j],
         };
         for j in joints {
-            model.add_effect(crate::calib::effects::inputs::block_for(data, kind, j, has_torques)?, span);
+            let b = crate::calib::effects::inputs::block_for(data, kind, j, has_torques)?;
+            model.add_effect(if opts.sensor_lag { b } else { b.unrefined() }, span);
         }
     }
-    Ok(())
+    Ok((torque, all))
 }
 
 /// What the rows of `data` read: every row must have a reading (a cable length `L`, or a
