@@ -34,13 +34,15 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     let (d, r, screened_with) = diagnose_screened(data, opts, progress, ScreenBy::BestEffect)?;
     // The exported model holds the named causes' blocks, in the order they were kept.
     let Some(b) = screened_with else { return Ok((d, r)) };
-    if r.model.effects.contains(&b) {
+    // Blocks compared without their refinements (a thermal block's sensor lag).
+    let holds = |r: &crate::calib::run::CalibResult, b: &EffectBlock| r.model.effects.iter().any(|e| e.unrefined() == b.unrefined());
+    if holds(&r, &b) {
         return Ok((d, r));
     }
-    if let Some(f) = r.model.effects.first().cloned() {
+    if let Some(f) = r.model.effects.first().map(EffectBlock::unrefined) {
         progress(&format!("{} explained the flagged rows but {} was kept first: the diagnosis again, on {}'s screen", b.label(), f.label(), f.label()));
         let (d2, r2, with) = diagnose_screened(data, opts, progress, ScreenBy::Effect(f.clone()))?;
-        if with.as_ref() == Some(&f) && r2.model.effects.contains(&f) {
+        if with.as_ref().map(EffectBlock::unrefined) == Some(f.clone()) && holds(&r2, &f) {
             return Ok((d2, r2));
         }
     }

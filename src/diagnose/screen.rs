@@ -199,7 +199,9 @@ pub(super) fn screen_with_effects(
     only: Option<&EffectBlock>,
 ) -> Result<Option<(EffectBlock, Screen)>> {
     let span = time_span(data);
-    let pool: Vec<EffectBlock> = candidate_pool(data, &all.q, opts, has_torques)?.into_iter().filter(|b| only.is_none_or(|o| o == b)).collect();
+    // Each candidate in its unrefined form, as the selection first tries it.
+    let pool: Vec<EffectBlock> =
+        candidate_pool(data, &all.q, opts, has_torques)?.iter().map(EffectBlock::unrefined).filter(|b| only.is_none_or(|o| o.unrefined() == *b)).collect();
     let rows: Vec<usize> = (0..all.len()).collect();
     let tried: Vec<(EffectBlock, Screen)> = pool
         .par_iter()
