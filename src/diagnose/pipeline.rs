@@ -354,6 +354,10 @@ pub(super) fn final_stage(
     let dropped = sel.not_physical.iter().chain(&sel.below_floor).cloned();
     let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
+    warnings.extend(found.iter().zip(&causes).filter_map(|((b, ..), c)| {
+        let size = crate::calib::effects::Size { quantity: c.quantity.clone(), value: c.magnitude, unit: c.unit.clone(), uncertainty: c.uncertainty };
+        b.kind.def().attribution(b, &size)
+    }));
     let fitted = crate::calib::run::FittedModel {
         model: current.model.clone(),
         x0: base_start(&current.model, &x_base),

@@ -82,6 +82,11 @@ pub trait Effect: Sync {
     fn physical_sign(&self, _x: &[f64], _k: usize) -> bool {
         true
     }
+    /// Whose effect a fitted size can be, where it is not the arm's own (a whole-arm expansion
+    /// no metal of an arm has): a sentence for the report, or `None`.
+    fn attribution(&self, _b: &EffectBlock, _size: &Size) -> Option<String> {
+        None
+    }
     /// Whether the block's later parameters act only through its first (a warm-up's time
     /// constant, a sensor's lag scale the size): at a size of zero the data cannot see them, so
     /// their identifiability is judged with the size at [`Effect::plausible`].
@@ -398,5 +403,24 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A whole-arm expansion no metal of an arm has is attributed to what else can drift;
+    /// within the metals' range (by 3σ), a joint's drift or a time-only warm-up, nothing is said.
+    #[test]
+    fn an_expansion_beyond_the_arms_metals_is_attributed_elsewhere() {
+        let arm = EffectBlock { kind: EffectKind::ThermalDrift, joint: None, thermal: Some(ThermalDrive::Temperature { ref_c: 20.0, sensor_lag: true }), range_m: None };
+        let say = |b: &EffectBlock, value: f64, uncertainty: f64| {
+            b.kind.def().attribution(b, &Size { quantity: "expansion coefficient".into(), value, unit: "ppm/K".into(), uncertainty })
+        };
+        let far = say(&arm, 87.0, 0.12).expect("87 ppm/K is no arm's metal");
+        assert!(far.contains("3.3x") && far.contains("air compensation"), "{far}");
+        assert!(say(&arm, -5.0, 0.5).is_some_and(|s| s.contains("below")));
+        assert!(say(&arm, 23.0, 0.2).is_none());
+        assert!(say(&arm, 28.0, 1.0).is_none(), "within 3 sigma of the range");
+        let joint = EffectBlock { joint: Some(1), ..arm.clone() };
+        assert!(say(&joint, 87.0, 0.1).is_none());
+        let warm_up = EffectBlock { thermal: Some(ThermalDrive::WarmUp), ..arm };
+        assert!(say(&warm_up, 500.0, 1.0).is_none());
     }
 }

@@ -11,6 +11,11 @@
 
 use super::*;
 
+/// The range of linear expansion (ppm/K) of what an arm's structure is made of: steel 11–13,
+/// cast iron 10–12, aluminium 22–24, magnesium 25–26. A whole-arm expansion beyond it (by
+/// three standard uncertainties) is not the arm's alone.
+pub const STRUCTURE_EXPANSION_PPM_PER_K: (f64, f64) = (10.0, 26.0);
+
 /// Least spread of a `temp` column (K) that drives a thermal block: below it the column is a
 /// constant, and the block runs on `t` (a warm-up) when the rows have it.
 pub const MIN_TEMP_SPREAD_K: f64 = 0.01;
@@ -141,6 +146,25 @@ impl Effect for ThermalDrift {
             (false, Some(_)) => (format!("joint-zero drift at full warm-up{}", time("time constant")), x[k] * DEG, "deg", DEG),
         };
         Size::new(&quantity, value, unit, sd * scale)
+    }
+    fn attribution(&self, b: &EffectBlock, s: &Size) -> Option<String> {
+        let (lo, hi) = STRUCTURE_EXPANSION_PPM_PER_K;
+        if !(by_temperature(b) && b.joint.is_none()) || (s.value - 3.0 * s.uncertainty <= hi && s.value + 3.0 * s.uncertainty >= lo) {
+            return None;
+        }
+        let why = if s.value > hi {
+            format!("{:.1}x the most an arm's metal expands ({hi} ppm/K for magnesium; aluminium 23, steel 12)", s.value / hi)
+        } else {
+            format!("below what any arm's metal expands ({lo} ppm/K, cast iron)")
+        };
+        Some(format!(
+            "thermal_drift: an expansion of {} ppm/K of the whole arm is {why}: the drift that follows this temperature is not the arm's structure alone. \
+             Whose it can be: the instrument's (a laser tracker's air compensation, whose weather station reads another air than the beam crosses), \
+             the instrument's stand or the arm's base and floor (a grown or tilted mount scales every reading alike), or a temperature read somewhere \
+             that moves less than the structure (then the structure's rise is larger than the reading's and the size stands for that ratio); \
+             the model predicts it only while the temperature behaves as in these rows",
+            crate::units::with_uncertainty(s.value, s.uncertainty)
+        ))
     }
     fn later_params_scaled_by_size(&self, b: &EffectBlock) -> bool {
         self.n_params(b) > 1
