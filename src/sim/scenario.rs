@@ -238,6 +238,21 @@ impl Sampling {
     }
 }
 
+/// The first array of a scenario's text (`raw`) whose length the parsed scenario (`kept`,
+/// serialised back) does not keep, as an error naming its key; `path` is the key so far.
+fn array_lengths(raw: &toml::Value, kept: &toml::Value, path: &str) -> std::result::Result<(), String> {
+    match (raw, kept) {
+        (toml::Value::Table(a), toml::Value::Table(b)) => {
+            a.iter().filter_map(|(k, v)| Some((k, v, b.get(k)?))).try_for_each(|(k, v, w)| array_lengths(v, w, &if path.is_empty() { k.clone() } else { format!("{path}.{k}") }))
+        }
+        (toml::Value::Array(a), toml::Value::Array(b)) if a.len() != b.len() => {
+            Err(format!("{path} has {} values; it takes {}", a.len(), b.len()))
+        }
+        (toml::Value::Array(a), toml::Value::Array(b)) => a.iter().zip(b).enumerate().try_for_each(|(i, (v, w))| array_lengths(v, w, &format!("{path}[{i}]"))),
+        _ => Ok(()),
+    }
+}
+
 impl Scenario {
     fn default_robot() -> String {
         "irb120".into()
@@ -245,7 +260,13 @@ impl Scenario {
 
     /// Parses a scenario from TOML text, without validating it; `origin` names the text in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Scenario> {
-        let s: Scenario = toml::from_str(text).map_err(|e| Error::Scenario { path: origin.to_string(), msg: e.to_string() })?;
+        let bad = |msg: String| Error::Scenario { path: origin.to_string(), msg };
+        let s: Scenario = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
+        // A fixed-length array given more values reads its first ones and drops the rest
+        // without a word: every array must keep its length through the scenario.
+        let raw: toml::Table = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
+        let kept = toml::Table::try_from(&s).map_err(|e| bad(e.to_string()))?;
+        array_lengths(&toml::Value::Table(raw), &toml::Value::Table(kept), "").map_err(bad)?;
         Ok(s)
     }
 
@@ -584,6 +605,24 @@ mod tests {
             Scenario::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
         assert_eq!(Scenario::from_toml(IDEAL, "x").expect("ideal").sampling.angle_decimals, 6);
+    }
+
+    /// A fixed-length array given more values is refused naming its key (serde read the first
+    /// ones and dropped the rest); arrays of the right length, and lists of any length, pass.
+    #[test]
+    fn arrays_of_the_wrong_length_are_refused_naming_the_key() {
+        let tracker = include_str!("../../scenarios/irb120_tracker.toml");
+        for (from, to, key) in [
+            ("exit_point_mm = [800.0, 300.0, 50.0]", "exit_point_mm = [800.0, 300.0, 50.0, 999.0]", "sensor.exit_point_mm has 4 values; it takes 3"),
+            ("ranges_deg = [[-90, 90],", "ranges_deg = [[-90, 90, 5],", "sampling.ranges_deg[0] has 3 values; it takes 2"),
+            ("[sensor]\n", "[sensor]\npolynomial = { range_mm = [100.0, 900.0], legendre_mm = [1.0, 2.0, 3.0, 4.0, 5.0] }\n", "sensor.polynomial.legendre_mm has 5 values"),
+        ] {
+            let text = tracker.replacen(from, to, 1);
+            assert_ne!(text, tracker, "{from}");
+            let e = Scenario::from_toml(&text, "t.toml").expect_err(key).to_string();
+            assert!(e.contains(key), "{e}");
+        }
+        assert!(Scenario::from_toml(tracker, "t.toml").is_ok());
     }
 
     #[test]
