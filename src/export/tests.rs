@@ -53,7 +53,7 @@ fn every_export_read_back_gives_the_calibrated_tool_point_to_a_nanometre() {
                     // (a D-H model's a6 and alpha6 move it off; the rest goes to the tool offset),
                     // and a D-H table's far common normal of nearly parallel axes (a Hayati model's).
                     let said =
-                        |w: &String| (f.name() == "ur-yaml" && w.contains("off joint 6's axis")) || (f.name().ends_with("dh") && w.contains("nearly parallel"));
+                        |w: &String| (f.name() == "ur-yaml" && (w.contains("off joint 6's axis") || w.contains("turned from joint 6's frame"))) || (f.name().ends_with("dh") && w.contains("nearly parallel"));
                     assert!(warnings.iter().all(said), "{} {} {}: {warnings:?}", robot.name, m.name, f.name());
                 }
             }
@@ -72,7 +72,13 @@ fn a_flange_off_joint_6s_axis_goes_to_the_ur_tool_offset_with_a_warning() {
     let mut warnings = Vec::new();
     let text = ur_yaml::UrYaml.write(&table, &m, &x, None, "yaml", &mut warnings).unwrap();
     assert_eq!(warnings.len(), 1, "{warnings:?}");
-    assert!(warnings[0].contains("off joint 6's axis") && warnings[0].contains("TCP"), "{}", warnings[0]);
+    assert!(warnings[0].contains("off joint 6's axis") && warnings[0].contains("turned") && warnings[0].contains("TCP"), "{}", warnings[0]);
+    // A flange turned but on the axis names the turn only (no "off by (0, 0, 0) mm").
+    let mut turned = JointTable::of(&m, &x);
+    turned.flange = turned.flange.compose(&Frame { pos: Vector3::zeros(), ..tilt });
+    let mut only = Vec::new();
+    ur_yaml::UrYaml.write(&turned, &m, &x, None, "yaml", &mut only).unwrap();
+    assert!(only.len() == 1 && only[0].contains("turned from joint 6's frame") && !only[0].contains("off joint 6's axis"), "{only:?}");
     let back = ur_yaml::UrYaml.read(&text, "yaml").unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     let mut w = m.work();

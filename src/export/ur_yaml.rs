@@ -81,14 +81,18 @@ impl ExportFormat for UrYaml {
         }
         let (links, offset) = link_frames(table);
         let tcp = offset.point(&table.tcp);
-        if offset.pos.norm() > ON_AXIS || (offset.rot - Matrix3::identity()).norm() > ON_AXIS {
+        let (moved, turned) = (offset.pos.norm() > ON_AXIS, (offset.rot - Matrix3::identity()).norm() > ON_AXIS);
+        if moved || turned {
             let [r, p, y] = rpy(&offset.rot).map(f64::to_degrees);
             let o = crate::units::to_mm(offset.pos);
+            // Only what is off is named.
+            let off = [
+                moved.then(|| format!("off joint 6's axis by ({:.4}, {:.4}, {:.4}) mm", o.x, o.y, o.z)),
+                turned.then(|| format!("turned from joint 6's frame by rpy ({r:.4}, {p:.4}, {y:.4})°")),
+            ];
             warnings.push(format!(
-                "the calibrated flange is off joint 6's axis by ({:.4}, {:.4}, {:.4}) mm and rpy ({r:.4}, {p:.4}, {y:.4})°, which a UR joint origin cannot hold: set the tool (TCP) relative to tool0 to the tool point below, ({:.4}, {:.4}, {:.4}) mm",
-                o.x,
-                o.y,
-                o.z,
+                "the calibrated flange is {}, which a UR joint origin cannot hold: set the tool (TCP) relative to tool0 to the tool point below, ({:.4}, {:.4}, {:.4}) mm",
+                off.into_iter().flatten().collect::<Vec<_>>().join(" and "),
                 crate::units::to_mm(tcp.x),
                 crate::units::to_mm(tcp.y),
                 crate::units::to_mm(tcp.z)
