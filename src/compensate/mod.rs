@@ -129,14 +129,14 @@ pub struct Compensator<'a> {
     options: IkOptions,
 }
 
-/// The nominal parameter vector of `r`: the chain at its nominal values, no effect, the
-/// calibrated placement (the TCP) kept.
+/// The nominal parameter vector of `r`: the chain at the model's nominal values (never the
+/// parameter report's, which a diagnosis starts from its geometric fit and an editor may change),
+/// no effect, the calibrated placement (the TCP) kept.
 pub fn nominal_x(r: &CalibResult) -> Vec<f64> {
     let m = &r.model;
     let mut x = r.x.clone();
-    for (k, p) in r.parameters.iter().enumerate().take(m.n_chain()) {
-        x[k] = p.nominal / m.kinds[k].display();
-    }
+    let n = m.n_chain();
+    x[..n].copy_from_slice(&m.nominal[..n]);
     for b in 0..m.effects.len() {
         for k in m.effect_params(b) {
             x[k] = 0.0;

@@ -237,7 +237,7 @@ pub fn ik_runs(r: &CalibResult, targets: &[Vector3<f64>], kinds: &[JacobianKind]
     let m = IkModel::new(&r.model, &r.x, corr, limits.clone());
     let mut runs: Vec<IkRun> = kinds.iter().map(|k| run_ik(&format!("calibrated/{}", k.name()), &m, *k, targets, o, check)).collect();
     if let Some(c) = check {
-        let x_nom: Vec<f64> = r.parameters.iter().enumerate().map(|(k, p)| p.nominal / r.model.kinds[k].display()).collect();
+        let x_nom = r.model.nominal.clone();
         let nominal = IkModel::new(&r.model, &x_nom, None, limits.clone());
         runs.push(run_ik("nominal/analytic (uncalibrated)", &nominal, JacobianKind::Analytic, targets, o, check));
         let floor = IkModel::new(&r.model, &c.x_eq, None, limits);

@@ -562,6 +562,26 @@ impl CalibResult {
 /// The checks of a result file's model after it parsed: chain, thermal reference, torque model,
 /// the consistency of its parts and sizes, the parameter report, the instrument's placement;
 /// what is wrong, for [`CalibResult::load`] to name with the file.
+/// The parameter report of a result read from a file: each value the model's `x` in display
+/// units (the report is derived, and an edit there would change nothing a command computes),
+/// finite nominal values and uncertainties that are not negative.
+fn check_parameter_report(r: &CalibResult) -> std::result::Result<(), String> {
+    for (k, p) in r.parameters.iter().enumerate() {
+        let want = r.x[k] * r.model.kinds[k].display();
+        let bad = |what: String| Err(format!("parameters[{k}] ({}): {what} (edited result file?)", p.name));
+        if (p.value - want).abs() > 1e-9 * want.abs().max(1.0) {
+            return bad(format!("value {} is not the model's {} (x)", crate::error::shown(p.value), crate::error::shown(want)));
+        }
+        if !p.nominal.is_finite() || p.nominal.abs() > MAX_MODEL_MAGNITUDE {
+            return bad(format!("nominal {} is beyond what a calibration writes", crate::error::shown(p.nominal)));
+        }
+        if let Some(s) = p.std_uncertainty.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+            return bad(format!("std_uncertainty {} must be a finite number >= 0", crate::error::shown(s)));
+        }
+    }
+    Ok(())
+}
+
 fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
     let chain = &r.model.chain;
     chain.validate()?;
@@ -607,6 +627,20 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
     }
     if !consistent || r.x.iter().any(|v| !v.is_finite()) {
         return Err("the calibrated model is inconsistent (edited or truncated result file?)".into());
+    }
+    check_parameter_report(r)?;
+    // A chain's deviation beyond a turn or beyond the instrument's farthest placement is no
+    // calibration's.
+    if let Some(k) = (0..r.model.n_chain()).find(|&k| {
+        let limit = if r.model.kinds[k] == crate::calib::model::Kind::Angle { std::f64::consts::TAU } else { MAX_PLACEMENT };
+        r.x[k].abs() > limit || r.model.nominal[k].abs() > limit
+    }) {
+        return Err(format!(
+            "the chain's {} = {} (x) / {} (nominal) is beyond what a calibration writes (a turn, or {MAX_PLACEMENT} m; m or rad; edited result file?)",
+            r.model.names[k],
+            crate::error::shown(r.x[k]),
+            crate::error::shown(r.model.nominal[k])
+        ));
     }
     let place = r.model.placement(&r.x);
     let names = r.model.measurement.placement_names();
