@@ -52,8 +52,10 @@ fn every_export_read_back_gives_the_calibrated_tool_point_to_a_nanometre() {
                     // Every format carries the chain. Allowed: a UR file's flange off joint 6's axis
                     // (a D-H model's a6 and alpha6 move it off; the rest goes to the tool offset),
                     // and a D-H table's far common normal of nearly parallel axes (a Hayati model's).
-                    let said =
-                        |w: &String| (f.name() == "ur-yaml" && (w.contains("off joint 6's axis") || w.contains("turned from joint 6's frame"))) || (f.name().ends_with("dh") && w.contains("nearly parallel"));
+                    let said = |w: &String| {
+                        (f.name() == "ur-yaml" && (w.contains("off joint 6's axis") || w.contains("turned from joint 6's frame")))
+                            || (f.name().ends_with("dh") && w.contains("nearly parallel"))
+                    };
                     assert!(warnings.iter().all(said), "{} {} {}: {warnings:?}", robot.name, m.name, f.name());
                 }
             }

@@ -122,9 +122,31 @@ pub fn read_pose_list(path: &std::path::Path, robot: &Robot) -> Result<PoseList>
     Ok(PoseList { q, payload_kg })
 }
 
+/// Every pose of a list must pass the scenario's feasibility check (the tool's height, the
+/// instrument's range, the `[workspace]`'s floor, keep-out boxes, self-collision and line of
+/// sight), as sampled poses do: the first that does not is named by its row, with how many
+/// others fail.
+fn check_feasible(s: &Scenario, robot: &Robot, q: &[Vec<f64>]) -> Result<()> {
+    let cell = s.cell(robot);
+    let mut fk = cell.work();
+    let refused: Vec<(usize, crate::sim::workspace::Refusal)> =
+        q.iter().enumerate().filter_map(|(i, p)| cell.check(p, &mut fk).err().map(|r| (i, r))).collect();
+    let Some((row, why)) = refused.first() else { return Ok(()) };
+    let others = match refused.len() {
+        1 => String::new(),
+        n => format!(" (and {} more poses)", n - 1),
+    };
+    Err(Error::Invalid(format!(
+        "pose {} of the list{others} fails the scenario's feasibility check: {}; the twin measures only poses its cell allows (the tool's height, the instrument's range, [workspace]): drop them or change the scenario",
+        row + 1,
+        why.name()
+    )))
+}
+
 /// Measures a pose list on the twin of `s`, in its order, every pose a training row (see the
 /// module docs for lists with payloads).
 pub fn generate_pose_list(s: &Scenario, robot: &Robot, list: PoseList, progress: &dyn Progress) -> Result<Generated> {
+    check_feasible(s, robot, &list.q)?;
     let mut s = s.clone();
     s.sampling.poses = list.q.len();
     s.sampling.test = 0;

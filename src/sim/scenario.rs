@@ -242,12 +242,11 @@ impl Sampling {
 /// serialised back) does not keep, as an error naming its key; `path` is the key so far.
 fn array_lengths(raw: &toml::Value, kept: &toml::Value, path: &str) -> std::result::Result<(), String> {
     match (raw, kept) {
-        (toml::Value::Table(a), toml::Value::Table(b)) => {
-            a.iter().filter_map(|(k, v)| Some((k, v, b.get(k)?))).try_for_each(|(k, v, w)| array_lengths(v, w, &if path.is_empty() { k.clone() } else { format!("{path}.{k}") }))
-        }
-        (toml::Value::Array(a), toml::Value::Array(b)) if a.len() != b.len() => {
-            Err(format!("{path} has {} values; it takes {}", a.len(), b.len()))
-        }
+        (toml::Value::Table(a), toml::Value::Table(b)) => a
+            .iter()
+            .filter_map(|(k, v)| Some((k, v, b.get(k)?)))
+            .try_for_each(|(k, v, w)| array_lengths(v, w, &if path.is_empty() { k.clone() } else { format!("{path}.{k}") })),
+        (toml::Value::Array(a), toml::Value::Array(b)) if a.len() != b.len() => Err(format!("{path} has {} values; it takes {}", a.len(), b.len())),
         (toml::Value::Array(a), toml::Value::Array(b)) => a.iter().zip(b).enumerate().try_for_each(|(i, (v, w))| array_lengths(v, w, &format!("{path}[{i}]"))),
         _ => Ok(()),
     }
@@ -615,7 +614,11 @@ mod tests {
         for (from, to, key) in [
             ("exit_point_mm = [800.0, 300.0, 50.0]", "exit_point_mm = [800.0, 300.0, 50.0, 999.0]", "sensor.exit_point_mm has 4 values; it takes 3"),
             ("ranges_deg = [[-90, 90],", "ranges_deg = [[-90, 90, 5],", "sampling.ranges_deg[0] has 3 values; it takes 2"),
-            ("[sensor]\n", "[sensor]\npolynomial = { range_mm = [100.0, 900.0], legendre_mm = [1.0, 2.0, 3.0, 4.0, 5.0] }\n", "sensor.polynomial.legendre_mm has 5 values"),
+            (
+                "[sensor]\n",
+                "[sensor]\npolynomial = { range_mm = [100.0, 900.0], legendre_mm = [1.0, 2.0, 3.0, 4.0, 5.0] }\n",
+                "sensor.polynomial.legendre_mm has 5 values",
+            ),
         ] {
             let text = tracker.replacen(from, to, 1);
             assert_ne!(text, tracker, "{from}");

@@ -23,8 +23,12 @@ impl DetectionConfig {
     pub fn new(seeds: u64, categories: &[String]) -> Result<DetectionConfig> {
         // Item ids 0, 1 are seed 1's hidden and clean scenarios, 2·seeds.. its six realistic
         // ones, 8·seeds.. its tracker ones.
-        let known: Vec<String> =
-            [0, 1].into_iter().chain(2 * seeds..2 * seeds + 6).chain(8 * seeds..8 * seeds + TRACKER_CASES.len() as u64).map(|id| Variant::of(id, seeds).1.category()).collect();
+        let known: Vec<String> = [0, 1]
+            .into_iter()
+            .chain(2 * seeds..2 * seeds + 6)
+            .chain(8 * seeds..8 * seeds + TRACKER_CASES.len() as u64)
+            .map(|id| Variant::of(id, seeds).1.category())
+            .collect();
         if let Some(c) = categories.iter().find(|c| !known.contains(c)) {
             return Err(twincal::error::Error::Invalid(format!("unknown --categories entry '{c}': known are {}", known.join(", "))));
         }
@@ -273,8 +277,9 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let (line, named, sized, within) = judge_hidden(70_000 + seed, &truth, &d.report);
             let moves = d.report.setup.as_ref().map_or(0, |s| s.stations.len().saturating_sub(1) + s.mounts.len().saturating_sub(1));
             let extra = d.report.causes.len() > 1;
-            let line = (!named || !within || extra || moves > 0)
-                .then(|| format!("{line} [warm-up, sensor lag {:.2} of the time constant, {sigma:.4} mm per coordinate; {moves} set-up changes found]", truth.factor));
+            let line = (!named || !within || extra || moves > 0).then(|| {
+                format!("{line} [warm-up, sensor lag {:.2} of the time constant, {sigma:.4} mm per coordinate; {moves} set-up changes found]", truth.factor)
+            });
             // The alarm: a set-up change found on a tracker that never moved.
             Ok(DetectionItem { extra, ..item(line, named, sized, moves > 0, within, sigma) })
         }

@@ -14,7 +14,12 @@ pub fn diagnose(a: &DiagnoseJob, quiet: bool) -> Result<()> {
     let report = &d.report;
     if !quiet {
         print_diagnosis(report);
-        eprintln!("  wrote {} and {}; the same model by calibrate: {}", a.out.display(), a.result.display(), calibrate_line(a, &report.effects_option, report.no_sensor_lag));
+        eprintln!(
+            "  wrote {} and {}; the same model by calibrate: {}",
+            a.out.display(),
+            a.result.display(),
+            calibrate_line(a, &report.effects_option, report.no_sensor_lag)
+        );
     }
     for w in &report.warnings {
         eprintln!("warning: {w}");

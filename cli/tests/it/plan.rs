@@ -75,6 +75,24 @@ fn a_plan_is_feasible_measured_by_generate_and_calibrated() {
     }
     let o = twincal(&["--quiet", "calibrate", "--data", s(&data), "--out", s(&dir.path().join("r.json"))]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // A pose the cell refuses (the tool in the fixture's box) added to the list: refused by
+    // its row and reason, nothing written.
+    let mut list = std::fs::read_to_string(out.join("poses.csv")).unwrap();
+    let header = list.lines().next().unwrap().to_string();
+    let q = |c: &str| match c {
+        "q1" => "-40",
+        "q2" | "q5" => "60",
+        "q3" => "30",
+        _ => "0",
+    };
+    list.push_str(&format!("{}\n", header.split(',').map(q).collect::<Vec<_>>().join(",")));
+    let bad = dir.path().join("bad_poses.csv");
+    std::fs::write(&bad, list).unwrap();
+    let o = twincal(&["--quiet", "generate", "--scenario", s(&scenario), "--poses", s(&bad), "--out", s(&dir.path().join("d2"))]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("pose 21 of the list") && err.contains("link in a keep-out box"), "{err}");
+    assert!(!dir.path().join("d2").join("dataset.csv").exists());
 }
 
 #[test]

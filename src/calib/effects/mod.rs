@@ -409,7 +409,12 @@ mod tests {
     /// within the metals' range (by 3σ), a joint's drift or a time-only warm-up, nothing is said.
     #[test]
     fn an_expansion_beyond_the_arms_metals_is_attributed_elsewhere() {
-        let arm = EffectBlock { kind: EffectKind::ThermalDrift, joint: None, thermal: Some(ThermalDrive::Temperature { ref_c: 20.0, sensor_lag: true }), range_m: None };
+        let arm = EffectBlock {
+            kind: EffectKind::ThermalDrift,
+            joint: None,
+            thermal: Some(ThermalDrive::Temperature { ref_c: 20.0, sensor_lag: true }),
+            range_m: None,
+        };
         let say = |b: &EffectBlock, value: f64, uncertainty: f64| {
             b.kind.def().attribution(b, &Size { quantity: "expansion coefficient".into(), value, unit: "ppm/K".into(), uncertainty })
         };

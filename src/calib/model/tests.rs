@@ -55,7 +55,9 @@ fn dh_tables_reproduce_the_urdf() {
 fn effect_gradients_match_finite_differences() {
     use crate::calib::effects::{EffectBlock, EffectKind, RowInputs, ThermalDrive};
     let robot = Robot::irb120();
-    for thermal in [ThermalDrive::WarmUp, ThermalDrive::Temperature { ref_c: 21.0, sensor_lag: false }, ThermalDrive::Temperature { ref_c: 21.0, sensor_lag: true }] {
+    for thermal in
+        [ThermalDrive::WarmUp, ThermalDrive::Temperature { ref_c: 21.0, sensor_lag: false }, ThermalDrive::Temperature { ref_c: 21.0, sensor_lag: true }]
+    {
         let mut m = CalibModel::dh(&robot, &guess(), true);
         for j in 0..6 {
             m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, j), 3600.0);
@@ -95,7 +97,11 @@ fn effect_gradients_match_finite_differences() {
         let mut dx = vec![Vector3::zeros(); m.n_params()];
         m.tool_point_grad_with(&x, &q, &inp, &mut w, &mut dx);
         for k in 0..m.n_params() {
-            let h = if matches!(m.kinds[k], Kind::Effect(crate::calib::effects::EffectUnit::Seconds | crate::calib::effects::EffectUnit::Lag)) { 1e-2 } else { 1e-7 };
+            let h = if matches!(m.kinds[k], Kind::Effect(crate::calib::effects::EffectUnit::Seconds | crate::calib::effects::EffectUnit::Lag)) {
+                1e-2
+            } else {
+                1e-7
+            };
             let (dy, fd) = central_differences(&m, &x, k, h, &q, &inp, &mut w);
             let tol = 1e-7 * (1.0 + g[k].abs());
             assert!((dy[0] - g[k]).abs() < tol, "{:?} {}: {} vs {}", thermal, m.names[k], dy[0], g[k]);

@@ -3,9 +3,9 @@
 
 use super::options::*;
 use super::result::*;
+use crate::calib::effects::RowInputs;
 use crate::calib::model::CalibModel;
 use crate::calib::problem::Samples;
-use crate::calib::effects::RowInputs;
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::robot::Robot;
@@ -191,7 +191,11 @@ pub fn effects_stage(model: &mut CalibModel, split: &mut SplitData, data: &Datas
 
 /// The effect blocks `opts` asks for added to `model`, with the torque model (from the model's
 /// placement) and every row's inputs (file order) they read.
-pub fn add_effects(model: &mut CalibModel, data: &Dataset, opts: &CalibOptions) -> Result<(Option<crate::calib::effects::inputs::TorqueModel>, Vec<RowInputs>)> {
+pub fn add_effects(
+    model: &mut CalibModel,
+    data: &Dataset,
+    opts: &CalibOptions,
+) -> Result<(Option<crate::calib::effects::inputs::TorqueModel>, Vec<RowInputs>)> {
     let placement = model.placement(&model.nominal);
     let robot = opts.inertial_robot();
     let torque = robot.map(|r| crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads, placement.exit(), placement.tool));
