@@ -15,6 +15,12 @@
 //!
 //! Both models keep the calibrated tool point (TCP), so what the compensation gains is the
 //! arm's own, not the tool's.
+//!
+//! A command stays on its nominal command's branch: the calibrated solve descends from the
+//! nominal command alone, and only where that fails do restarts run, their answer kept only
+//! within [`BRANCH_DEG`] of the nominal command on every joint. Each angle is written as the
+//! turn nearest its reference within the joint's limits (the nominal command's nearest zero,
+//! the compensated one's nearest the nominal), so that −12° is never written 348°.
 
 pub mod verify;
 
@@ -129,6 +135,53 @@ pub struct Compensator<'a> {
     options: IkOptions,
 }
 
+/// Largest change of any joint (degrees) between a nominal command and its compensated one
+/// found by restarts: beyond it the restart found another arm configuration, not the nominal
+/// command's.
+pub const BRANCH_DEG: f64 = 10.0;
+
+/// Each angle of `q` (rad) moved by whole turns to the one nearest `reference` that stays within
+/// its joint's `limits`.
+fn nearest_turns(q: &mut [f64], reference: &[f64], limits: &[(f64, f64)]) {
+    use std::f64::consts::TAU;
+    for ((v, r), (lo, hi)) in q.iter_mut().zip(reference).zip(limits) {
+        let k = ((*r - *v) / TAU).round();
+        let candidates = [k - 1.0, k, k + 1.0].map(|k| *v + k * TAU);
+        if let Some(best) = candidates.into_iter().filter(|c| (*lo - 1e-9..=*hi + 1e-9).contains(c)).min_by(|a, b| (a - r).abs().total_cmp(&(b - r).abs())) {
+            *v = best;
+        }
+    }
+}
+
+/// A solve's answer: its status and its angles (a point's or a pose's solution).
+trait Solved {
+    fn status(&self) -> IkStatus;
+    fn q_mut(&mut self) -> &mut Vec<f64>;
+}
+
+impl Solved for crate::ik::IkSolution {
+    fn status(&self) -> IkStatus {
+        self.status
+    }
+    fn q_mut(&mut self) -> &mut Vec<f64> {
+        &mut self.q
+    }
+}
+
+impl Solved for crate::ik::solver::PoseSolution {
+    fn status(&self) -> IkStatus {
+        self.status
+    }
+    fn q_mut(&mut self) -> &mut Vec<f64> {
+        &mut self.q
+    }
+}
+
+/// Whether every joint of `q` lies within [`BRANCH_DEG`] of `nominal` (rad).
+fn on_branch(q: &[f64], nominal: &[f64]) -> bool {
+    q.iter().zip(nominal).all(|(a, b)| (a - b).abs() <= BRANCH_DEG.to_radians())
+}
+
 /// The nominal parameter vector of `r`: the chain at the model's nominal values (never the
 /// parameter report's, which a diagnosis starts from its geometric fit and an editor may change),
 /// no effect, the calibrated placement (the TCP) kept.
@@ -192,7 +245,9 @@ impl<'a> Compensator<'a> {
             .par_iter()
             .map_init(
                 || self.nominal.work(),
-                |wn, p| Some(self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn)).filter(|s| s.status == IkStatus::Converged).map(|s| s.q),
+                |wn, p| {
+                    Some(self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn)).filter(|s| s.status == IkStatus::Converged).map(|s| self.turned(s.q))
+                },
             )
             .collect()
     }
@@ -208,10 +263,38 @@ impl<'a> Compensator<'a> {
                 |wn, (p, r)| {
                     Some(self.nominal.solve_pose_from(p, r, None, JacobianKind::Analytic, &self.options, wn))
                         .filter(|s| s.status == IkStatus::Converged)
-                        .map(|s| s.q)
+                        .map(|s| self.turned(s.q))
                 },
             )
             .collect()
+    }
+
+    /// A nominal command's angles at the turns nearest zero within the limits.
+    fn turned(&self, mut q: Vec<f64>) -> Vec<f64> {
+        let zero = vec![0.0; q.len()];
+        nearest_turns(&mut q, &zero, &self.nominal.limits);
+        q
+    }
+
+    /// The calibrated solve `solve(options, start)` kept on `nominal`'s branch: from the nominal
+    /// command alone first; where that fails, with restarts, whose answer is kept only within
+    /// [`BRANCH_DEG`] of the nominal command (else the local answer, not converged, stands).
+    /// The answer's angles at the turns nearest the nominal command's.
+    fn on_nominal_branch<S: Solved>(&self, nominal: &[f64], mut solve: impl FnMut(&IkOptions, &[f64]) -> S) -> S {
+        let local = solve(&IkOptions { local: true, ..self.options.clone() }, nominal);
+        let mut s = if local.status() == IkStatus::Converged {
+            local
+        } else {
+            let mut again = solve(&self.options, nominal);
+            nearest_turns(again.q_mut(), nominal, &self.calibrated.limits);
+            if again.status() == IkStatus::Converged && on_branch(again.q_mut(), nominal) {
+                again
+            } else {
+                local
+            }
+        };
+        nearest_turns(s.q_mut(), nominal, &self.calibrated.limits);
+        s
     }
 
     /// Where the calibrated model puts the tool and how it turns it at joint angles `q` (rad):
@@ -231,11 +314,11 @@ impl<'a> Compensator<'a> {
                         Target::Pose(p, r) => return self.compensate_pose(p, r, wc, wn),
                         Target::Point(p) => {
                             let s = self.nominal.solve(p, JacobianKind::Analytic, &self.options, wn);
-                            (*p, s.q)
+                            (*p, self.turned(s.q))
                         }
                         Target::Joints(q) => (self.nominal.position(q, wn, None), q.clone()),
                     };
-                    let s = self.calibrated.solve_from(&target, Some(&nominal_q), JacobianKind::Hybrid, &self.options, wc);
+                    let s = self.on_nominal_branch(&nominal_q, |o, start| self.calibrated.solve_from(&target, Some(start), JacobianKind::Hybrid, o, wc));
                     let nominal_error_mm = (self.calibrated.position(&nominal_q, wc, None) - target).norm();
                     let filtered = self.nominal.position(&s.q, wn, None);
                     Compensated {
@@ -255,8 +338,8 @@ impl<'a> Compensator<'a> {
 
     /// One pose target: the nominal controller's pose IK, then the calibrated model's from it.
     fn compensate_pose(&self, p: &Vector3<f64>, r: &Matrix3<f64>, wc: &mut IkWork, wn: &mut IkWork) -> Compensated {
-        let nominal_q = self.nominal.solve_pose_from(p, r, None, JacobianKind::Analytic, &self.options, wn).q;
-        let s = self.calibrated.solve_pose_from(p, r, Some(&nominal_q), JacobianKind::Hybrid, &self.options, wc);
+        let nominal_q = self.turned(self.nominal.solve_pose_from(p, r, None, JacobianKind::Analytic, &self.options, wn).q);
+        let s = self.on_nominal_branch(&nominal_q, |o, start| self.calibrated.solve_pose_from(p, r, Some(start), JacobianKind::Hybrid, o, wc));
         let (np, nr) = self.calibrated.pose(&nominal_q, wc, None);
         let (fp, fr) = self.nominal.pose(&s.q, wn, None);
         let invalid = s.status == IkStatus::Invalid;

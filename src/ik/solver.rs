@@ -137,11 +137,14 @@ pub struct IkOptions {
     pub seed: u64,
     /// Orientation error that counts as converged for a pose target, degrees.
     pub tol_deg: f64,
+    /// Descend from the start only, with no random restart: a solve that must stay on the
+    /// start's branch (a compensated command beside its nominal one).
+    pub local: bool,
 }
 
 impl Default for IkOptions {
     fn default() -> Self {
-        IkOptions { tol_mm: 0.01, damping: 0.5, max_iter: 60, restarts: 6, max_step: 0.35, seed: 0, tol_deg: 0.001 }
+        IkOptions { tol_mm: 0.01, damping: 0.5, max_iter: 60, restarts: 6, max_step: 0.35, seed: 0, tol_deg: 0.001, local: false }
     }
 }
 
@@ -355,7 +358,7 @@ impl<'a> IkModel<'a> {
         let mut rng = ChaCha8Rng::seed_from_u64(o.seed);
         let mut best: Option<(f64, Vec<f64>, IkStatus)> = None;
         let mut iterations = 0;
-        for start in 0..=o.restarts {
+        for start in 0..=(if o.local { 0 } else { o.restarts }) {
             let q0 = if start == 0 { first.clone() } else { self.random_q(&mut rng) };
             let (res, q, it, stuck) = self.descend(q0, o, w, cols, eval, judge);
             iterations += it;
@@ -505,9 +508,22 @@ fn gram<const D: usize>(cols: &[SVector<f64, D>]) -> SMatrix<f64, D, D> {
 /// Fewest random restarts of a pose solve ([`IkModel::solve_pose_from`]).
 pub const POSE_RESTARTS: usize = 24;
 
-/// The rotation vector (axis × angle, rad, base frame) that turns `r` onto `target`.
+/// The rotation vector (axis × angle, rad, base frame) that turns `r` onto `target`: the angle
+/// from the product's antisymmetric part and trace (atan2, so that a product a rounding error
+/// away from orthonormal near no turn at all gives a tiny vector, never NaN, as an arccosine of
+/// a cosine above one did and sent converged solves to restarts on other branches); near a half
+/// turn, the rotation nearest the product.
 pub fn turn(target: &Matrix3<f64>, r: &Matrix3<f64>) -> Vector3<f64> {
-    nalgebra::Rotation3::from_matrix_unchecked(target * r.transpose()).scaled_axis()
+    let m = target * r.transpose();
+    let v = Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]) * 0.5;
+    let (sin, cos) = (v.norm(), ((m.trace() - 1.0) * 0.5).clamp(-1.0, 1.0));
+    if cos < -0.99 {
+        return nalgebra::Rotation3::from_matrix_eps(&m, 1e-12, 100, nalgebra::Rotation3::identity()).scaled_axis();
+    }
+    if sin == 0.0 {
+        return Vector3::zeros();
+    }
+    v * (sin.atan2(cos) / sin)
 }
 
 /// A descent's error and Jacobian: target − model at q (D weighted coordinates), its columns.
@@ -551,6 +567,24 @@ pub fn rigid_fit(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> (Matrix3<f64>, Vecto
 
 #[cfg(test)]
 mod tests {
+    /// `turn` is nalgebra's rotation vector of the product for any turn, and stays finite (a tiny
+    /// vector) for a product a rounding error away from orthonormal near no turn at all.
+    #[test]
+    fn a_turn_is_the_rotation_vector_and_never_nan() {
+        use nalgebra::Rotation3;
+        for k in 0..200 {
+            let f = k as f64;
+            let a = Rotation3::from_euler_angles(0.7 * f, -0.3 * f, 1.1 * f).into_inner();
+            let b = Rotation3::from_euler_angles(0.2 * f.sin(), 3.0 * f.cos(), 0.05 * f).into_inner();
+            let want = Rotation3::from_matrix_unchecked(a * b.transpose()).scaled_axis();
+            let got = turn(&a, &b);
+            assert!((got - want).norm() < 1e-9 || (got.norm() - std::f64::consts::PI).abs() < 1e-6, "{k}: {got} vs {want}");
+        }
+        let r = Rotation3::from_euler_angles(0.4, -1.2, 2.9).into_inner();
+        let nearly = r * (1.0 + 4e-16) + Matrix3::from_element(1e-16);
+        let t = turn(&nearly, &r);
+        assert!(t.iter().all(|v| v.is_finite()) && t.norm() < 1e-12, "{t}");
+    }
     use super::*;
     use crate::calib::correctors::gkan::{Gkan, GkanShape};
     use crate::calib::model::SensorGuess;

@@ -159,4 +159,51 @@ fn compensate_reaches_pose_targets_in_position_and_orientation() {
         assert!(err.contains(needle) && !err.contains("panicked"), "{args:?}: {err}");
         assert!(!never.exists());
     }
+    // Fifteen poses over the whole workspace, written in two conventions: each command is the
+    // same whatever the convention, beside its nominal command (its branch), its angles the
+    // turns nearest the nominal's.
+    let mut rng = 7u64;
+    let mut next = || {
+        rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((rng >> 11) as f64 / (1u64 << 53) as f64) * 340.0 - 170.0
+    };
+    let xyz = Euler::parse("XYZ").unwrap();
+    let (mut a, mut b) = (String::from("x,y,z,rx,ry,rz\n"), String::from("x,y,z,rx,ry,rz\n"));
+    for _ in 0..15 {
+        let q: Vec<f64> = (0..6).map(|_| next().to_radians()).collect();
+        let (p, m) = ik.pose(&q, &mut w, None);
+        for (text, e) in [(&mut a, &zyx), (&mut b, &xyz)] {
+            let g = e.angles(&m).map(f64::to_degrees);
+            *text += &format!("{},{},{},{},{},{}\n", p.x, p.y, p.z, g[0], g[1], g[2]);
+        }
+    }
+    let commands = |text: &str, euler: &str| -> Vec<(String, Vec<f64>, Vec<f64>)> {
+        let (t, out) = (dir.path().join(format!("t_{euler}.csv")), dir.path().join(format!("c_{euler}.csv")));
+        std::fs::write(&t, text).unwrap();
+        let o = twincal(&["--quiet", "compensate", "--model", s(&result), "--targets", s(&t), "--euler", euler, "--out", s(&out)]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let written = std::fs::read_to_string(&out).unwrap();
+        let mut rd = csv::Reader::from_reader(written.as_bytes());
+        let header: Vec<String> = rd.headers().unwrap().iter().map(String::from).collect();
+        let col = |n: &str| header.iter().position(|h| h == n).unwrap();
+        rd.records()
+            .map(|r| {
+                let r = r.unwrap();
+                let qs = |p: &str| (1..=6).map(|j| r[col(&format!("{p}q{j}_deg"))].parse::<f64>().unwrap()).collect::<Vec<f64>>();
+                (r[col("status")].to_string(), qs(""), qs("nominal_"))
+            })
+            .collect()
+    };
+    let (ca, cb) = (commands(&a, "zyx"), commands(&b, "XYZ"));
+    let reached = ca.iter().filter(|c| c.0 == "reachable").count();
+    assert!(reached >= 12, "{reached} of 15 reached: {ca:?}");
+    for ((sa, qa, na), (sb, qb, nb)) in ca.iter().zip(&cb) {
+        assert_eq!(sa, sb);
+        if sa != "reachable" {
+            continue;
+        }
+        let far = |q: &[f64], n: &[f64]| q.iter().zip(n).map(|(x, y)| (x - y).abs()).fold(0.0f64, f64::max);
+        assert!(far(qa, na) <= twincal::compensate::BRANCH_DEG, "a command off its nominal's branch: {qa:?} from {na:?}");
+        assert!(far(qa, qb) < 1e-3 && far(na, nb) < 1e-3, "the convention changed the command: {qa:?} / {qb:?} (nominal {na:?} / {nb:?})");
+    }
 }
