@@ -108,6 +108,9 @@ pub struct ReplaySummary {
     pub replayed: usize,
     /// Rows (1-based) the twin could not read, with the reason.
     pub rejected: Vec<(usize, String)>,
+    /// What the user should know of the replay (readings beyond the reading polynomial's range).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// Which rows `judged` covers.
     pub judged_on: String,
     /// Every replayed row.
@@ -228,6 +231,7 @@ pub fn replay(a: &ReplayJob, progress: &dyn Progress, recordings: &dyn Recording
         scenario: a.scenario.display().to_string(),
         measurement: m.name().into(),
         rows: n,
+        warnings: g.warnings(),
         replayed: twin.iter().filter(|t| t.is_some()).count(),
         rejected,
         judged_on,

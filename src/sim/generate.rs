@@ -44,6 +44,12 @@ pub struct Generated {
 }
 
 impl Generated {
+    /// What the user should know of this simulation: readings beyond the range the sensor's
+    /// reading polynomial was identified on.
+    pub fn warnings(&self) -> Vec<String> {
+        let lengths: Vec<f64> = self.dataset.rows.iter().filter_map(|r| r.l_mm()).collect();
+        self.twin.sensor.polynomial.as_ref().and_then(|p| p.beyond_range(&lengths)).into_iter().collect()
+    }
     /// True tool point of dataset row `i`, m.
     pub fn truth_tool(&self, i: usize) -> nalgebra::Vector3<f64> {
         let p = self.truth.poses[i].tool_mm;

@@ -36,6 +36,9 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
     }
     stage_outputs(&g, out, &mut outputs)?;
     outputs.commit()?;
+    for w in g.warnings() {
+        eprintln!("warning: {w}");
+    }
     if !quiet {
         summary(&g, out, elapsed, rrd);
     }

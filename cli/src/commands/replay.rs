@@ -13,6 +13,9 @@ pub fn replay(a: &ReplayJob, quiet: bool) -> Result<()> {
     for (row, why) in summary.rejected.iter().take(3) {
         eprintln!("warning: row {row} was not replayed: {why}");
     }
+    for w in &summary.warnings {
+        eprintln!("warning: {w}");
+    }
     Ok(())
 }
 

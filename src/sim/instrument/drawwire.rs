@@ -87,6 +87,22 @@ impl ReadingPolynomial {
         let (p, _) = crate::math::legendre(((l - 0.5 * (lo + hi)) / half).clamp(-1.0, 1.0));
         (0..3).map(|k| self.legendre_mm[k] * p[k]).sum()
     }
+
+    /// How many of the readings `lengths_mm` lie beyond the range the polynomial was identified
+    /// on, and how far the farthest does: a warning (the polynomial holds its end values there,
+    /// which the data never showed), or `None` when every reading is within it.
+    pub fn beyond_range(&self, lengths_mm: &[f64]) -> Option<String> {
+        let [lo, hi] = self.range_mm;
+        let beyond: Vec<f64> = lengths_mm.iter().map(|l| (lo - l).max(l - hi)).filter(|d| *d > 0.0).collect();
+        let far = beyond.iter().fold(0.0f64, |a, d| a.max(*d));
+        (!beyond.is_empty()).then(|| {
+            format!(
+                "{} of {} readings lie outside sensor.polynomial.range_mm [{lo}, {hi}] mm (the farthest {far:.1} mm beyond it): there the reading polynomial holds its end value, which no data showed",
+                beyond.len(),
+                lengths_mm.len()
+            )
+        })
+    }
 }
 
 /// A reading the sensor could not give.
@@ -308,5 +324,22 @@ impl DrawWire {
             sum += s;
         }
         Ok(sum / self.samples as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Readings beyond the polynomial's range are counted and the farthest named; none beyond, no
+    /// warning.
+    #[test]
+    fn readings_beyond_the_polynomials_range_are_counted() {
+        let p = ReadingPolynomial { range_mm: [450.0, 500.0], legendre_mm: [0.05, 0.0, 0.0] };
+        let w = p.beyond_range(&[440.0, 460.0, 499.0, 530.5]).expect("two readings beyond");
+        assert!(w.contains("2 of 4 readings") && w.contains("the farthest 30.5 mm"), "{w}");
+        assert_eq!(p.beyond_range(&[450.0, 475.0, 500.0]), None);
+        // Beyond it the error holds its end value.
+        assert_eq!(p.at(700.0), p.at(500.0));
     }
 }
