@@ -479,23 +479,40 @@ pub fn reduce_compare(read: Parts, out: Option<&Path>, rrd: Option<&Path>, recor
 /// the configuration lists, finite non-negative errors and times, and per-sample residuals of
 /// seed 0 as many for every method (the test rows of one split). A part edited by hand is
 /// refused with the item named.
+/// What is wrong with one run's numbers (a negative or non-finite statistic, time or residual),
+/// whatever its study.
+fn run_numbers(r: &CompareRun) -> std::result::Result<(), String> {
+    let stats_ok = |s: &ErrorStats| [s.rmse, s.std, s.max, s.mae].iter().all(|v| v.is_finite() && *v >= 0.0) && s.max >= s.mae;
+    if !stats_ok(&r.train) || !stats_ok(&r.test) || r.test_position.as_ref().is_some_and(|p| !stats_ok(p)) {
+        return Err("an error statistic that is negative, not finite, or a MAX below the mean".into());
+    }
+    if !(r.seconds.is_finite() && r.seconds >= 0.0) {
+        return Err(format!("a time of {} s", r.seconds));
+    }
+    if r.test_abs_residuals.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+        return Err("a |test residual| that is negative or not finite".into());
+    }
+    Ok(())
+}
+
+impl shard::Item for CompareItem {
+    fn check(&self) -> std::result::Result<(), String> {
+        run_numbers(&self.run)?;
+        match self.test_abs_residuals.iter().all(|v| v.is_finite() && *v >= 0.0) {
+            true => Ok(()),
+            false => Err("a |test residual| that is negative or not finite".into()),
+        }
+    }
+}
+
 fn check_runs(config: &CompareConfig, runs: &[CompareRun]) -> Result<()> {
     let bad = |r: &CompareRun, what: &str| Error::Invalid(format!("{} seed {}: {what} (a hand-edited part?)", printable(&r.method), r.seed));
-    let stats_ok = |s: &ErrorStats| [s.rmse, s.std, s.max, s.mae].iter().all(|v| v.is_finite() && *v >= 0.0) && s.max >= s.mae;
     let mut seed0_len: Option<usize> = None;
     for r in runs {
         if !config.methods.contains(&r.method) {
             return Err(bad(r, "a method the comparison does not list"));
         }
-        if !stats_ok(&r.train) || !stats_ok(&r.test) || r.test_position.as_ref().is_some_and(|p| !stats_ok(p)) {
-            return Err(bad(r, "an error statistic that is negative, not finite, or a MAX below the mean"));
-        }
-        if !(r.seconds.is_finite() && r.seconds >= 0.0) {
-            return Err(bad(r, &format!("a time of {} s", r.seconds)));
-        }
-        if r.test_abs_residuals.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(bad(r, "a |test residual| that is negative or not finite"));
-        }
+        run_numbers(r).map_err(|why| bad(r, &why))?;
         if r.seed == 0 {
             match seed0_len {
                 Some(n) if n != r.test_abs_residuals.len() => {

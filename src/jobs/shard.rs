@@ -14,6 +14,13 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+/// One work item's result in a part: what it must hold to be a result the study wrote (finite
+/// statistics, spreads and sizes not negative), checked for every line `reduce` reads.
+pub trait Item: DeserializeOwned {
+    /// What is wrong with the item, or `Ok`.
+    fn check(&self) -> std::result::Result<(), String>;
+}
+
 /// What a sharded study is over: every shard of one study holds the same configuration.
 pub trait Config: Clone + Serialize + DeserializeOwned {
     /// The study's kind, written on every line (`reduce` tells the parts apart by it).
@@ -204,7 +211,7 @@ impl Parts {
     /// many duplicate lines (from retried shards) were dropped. Parts of another study, a
     /// configuration that does not match its hash, items beyond the study's and missing items
     /// are errors naming them.
-    pub fn gather<C: Config, R: DeserializeOwned>(self) -> Result<(C, Vec<R>, usize)> {
+    pub fn gather<C: Config, R: Item>(self) -> Result<(C, Vec<R>, usize)> {
         let lines = self.lines;
         let (first_hash, first_file) = (lines[0].0.config_hash.clone(), lines[0].1.clone());
         if let Some((l, p)) = lines.iter().find(|(l, _)| l.config_hash != first_hash || l.kind != C::KIND) {
@@ -257,7 +264,8 @@ impl Parts {
                     ));
                 }
                 std::collections::btree_map::Entry::Vacant(v) => {
-                    let r = typed(l.result, &p, l.item)?;
+                    let r: R = typed(l.result, &p, l.item)?;
+                    r.check().map_err(|why| Error::data(p.display(), format!("item {}: {why} (a hand-edited part?)", l.item)))?;
                     v.insert((untimed, p, r));
                 }
             }

@@ -33,6 +33,31 @@ pub struct HoldStudyRow {
     pub time_per_pose_s: f64,
 }
 
+impl HoldStudyRow {
+    /// What is wrong with a row read back (a part of a sharded study): every number finite,
+    /// spreads, sizes and times not negative, the bias within the largest error, at least one
+    /// pose and no more closed gates than poses.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let finite = [self.speed_fraction, self.hold_s, self.bias_mm, self.spread_mm, self.max_mm, self.time_per_pose_s];
+        if !finite.iter().all(|v| v.is_finite()) || self.median_gate_s.is_some_and(|g| !g.is_finite()) {
+            return Err("a number that is not finite".into());
+        }
+        if self.spread_mm < 0.0 || self.max_mm < 0.0 || self.time_per_pose_s < 0.0 || self.hold_s < 0.0 || self.median_gate_s.is_some_and(|g| g < 0.0) {
+            return Err(format!(
+                "a spread, size or time below zero (spread_mm {}, max_mm {}, time_per_pose_s {})",
+                self.spread_mm, self.max_mm, self.time_per_pose_s
+            ));
+        }
+        if self.bias_mm.abs() > self.max_mm * (1.0 + 1e-9) {
+            return Err(format!("a bias of {} mm beyond the largest error {} mm", self.bias_mm, self.max_mm));
+        }
+        if self.poses == 0 || self.gate_closed > self.poses || !(self.speed_fraction > 0.0 && self.speed_fraction <= 1.0) {
+            return Err(format!("{} poses, {} closed gates, speed fraction {}", self.poses, self.gate_closed, self.speed_fraction));
+        }
+        Ok(())
+    }
+}
+
 /// The study's settings.
 #[derive(Clone, Debug)]
 pub struct HoldStudy {

@@ -152,6 +152,15 @@ pub struct DetectionItem {
     pub extra: bool,
 }
 
+impl crate::shard::Item for DetectionItem {
+    fn check(&self) -> std::result::Result<(), String> {
+        match self.floor_mm.is_finite() && self.floor_mm >= 0.0 {
+            true => Ok(()),
+            false => Err(format!("a floor of {} mm", self.floor_mm)),
+        }
+    }
+}
+
 fn strip(g: &Generated) -> Dataset {
     use twincal::dataset::Row;
     Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: g.dataset.source.clone() }

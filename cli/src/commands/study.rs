@@ -41,6 +41,12 @@ pub struct HoldItem {
     pub row: twincal::sim::study::HoldStudyRow,
 }
 
+impl crate::shard::Item for HoldItem {
+    fn check(&self) -> std::result::Result<(), String> {
+        self.row.check()
+    }
+}
+
 /// `twincal study hold`: the table on stdout, optionally a Rerun recording; with `shard`
 /// (`i/N`) only that shard's settings (work item `id`: speed `id / holds`, hold `id % holds`),
 /// appended to `shard_out` for `twincal reduce`. `poses_given`: whether the user chose

@@ -176,6 +176,19 @@ fn a_hold_study_and_the_diagnosis_benchmark_shard_and_reduce_to_the_single_run()
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_twincal")).args(study).args(["--shard", "0/1", "--shard-out", &p(&part)]).output().unwrap();
     assert!(String::from_utf8_lossy(&o.stderr).contains("5 items run, 1 already in"), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(stdout(&ok(twincal(&["reduce", &p(&part)]), "reduce")), single);
+    // A hold part edited to numbers no study writes is refused with the item named, as compare
+    // parts are.
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&part).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    for (key, value, says) in [("bias_mm", 1e308, "beyond the largest error"), ("spread_mm", -5.0, "below zero")] {
+        let mut e = lines.clone();
+        e[1]["row"][key] = value.into();
+        let f = dir.path().join("edited-hold.jsonl");
+        std::fs::write(&f, e.iter().map(|l| l.to_string() + "\n").collect::<String>()).unwrap();
+        let o = twincal(&["reduce", &p(&f)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{key}: {err}");
+        assert!(err.contains(&format!("item {}", e[1]["item"])) && err.contains(says) && err.contains("hand-edited"), "{key}: {err}");
+    }
     // bench diagnose: seed × (hidden, clean, six realistic acquisitions) are the items, here
     // the hidden and clean ones (the realistic ones are diagnosed in tests/diagnose.rs); the
     // sharded run leaves out the timing (one machine's) and prints the same detection lines and
