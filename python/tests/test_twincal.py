@@ -358,7 +358,7 @@ def test_paths_are_guarded_by_the_files_they_name_and_odd_inputs_are_named(tmp_p
         r.ik(np.zeros((2, 3, 1)))
     masked = dict(small)
     masked["L"] = np.ma.masked_array(small["L"], mask=np.arange(150) == 5)
-    with pytest.raises(twincal.TwincalError, match="column L: NaN"):
+    with pytest.raises(twincal.TwincalError, match="column L: row 6 is masked"):
         twincal.calibrate(masked)
 
 

@@ -172,13 +172,20 @@ def _columns(data: Data) -> Any:
     return out
 
 
+_MAY_BE_EMPTY = ("sx", "sy", "sz")
+
+
 def _unmasked(name: str, v: Any) -> np.ndarray:
     """An array of floats with a masked array's masked entries as NaN (never their hidden
-    values): the dataset reader then refuses them by row, or reads them as empty cells where a
-    column may have some (``sx, sy, sz``)."""
+    values) in the columns whose cells may be empty (``sx, sy, sz``, read as empty cells);
+    elsewhere a masked entry is refused by its row, as masked."""
     if np.ma.isMaskedArray(v):
         if v.dtype.kind not in "biuf":
             raise TwincalError(f"column {name}: a masked array of {v.dtype} is not supported; pass plain values")
+        mask = np.ma.getmaskarray(v)
+        if mask.any() and name.strip().lower() not in _MAY_BE_EMPTY:
+            row = int(np.argwhere(mask)[0][0])
+            raise TwincalError(f"column {name}: row {row + 1} is masked; a value is required there (pass it, or drop the row)")
         return np.ma.filled(v.astype(np.float64), np.nan)
     try:
         return np.asarray(v, dtype=np.float64)
