@@ -214,6 +214,19 @@ pub struct Sampling {
 }
 
 impl Sampling {
+    /// Joint ranges in degrees that look like radians (every bound within the radians' range
+    /// [`crate::dataset::RADIANS_MAX_ABS`] and one range wider than
+    /// [`crate::dataset::RADIANS_MIN_SPAN`], as the data's reader judges angles): a warning, since
+    /// a scenario of narrow ranges may be meant.
+    pub fn radians_warning(&self) -> Option<String> {
+        let ranges = self.ranges_deg.as_ref()?;
+        let largest = ranges.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        let widest = ranges.iter().map(|[lo, hi]| hi - lo).fold(0.0f64, f64::max);
+        (largest <= crate::dataset::RADIANS_MAX_ABS && widest > crate::dataset::RADIANS_MIN_SPAN).then(|| {
+            format!("sampling.ranges_deg: every bound is within ±{largest:.2}, as radians would be; the ranges are degrees (the twin samples within ±{largest:.2}°)")
+        })
+    }
+
     fn default_margin() -> f64 {
         5.0
     }
@@ -277,6 +290,9 @@ impl Scenario {
         let s = Scenario::from_toml(&text, &origin)?;
         let robot = s.load_robot(path.parent())?;
         s.validate(&robot, &origin)?;
+        if let Some(w) = s.sampling.radians_warning() {
+            eprintln!("warning: {origin}: {w}");
+        }
         for j in robot.joints.iter().filter(|j| !j.has_speed_limit()) {
             eprintln!(
                 "warning: joint '{}' of robot '{}' has no velocity limit in its URDF (<limit velocity=...> is 0 or absent); \
@@ -626,6 +642,19 @@ mod tests {
             assert!(e.contains(key), "{e}");
         }
         assert!(Scenario::from_toml(tracker, "t.toml").is_ok());
+    }
+
+    /// Ranges written in radians are warned (every bound within the radians' range); degree
+    /// ranges are not.
+    #[test]
+    fn ranges_in_radians_are_warned() {
+        let tracker = include_str!("../../scenarios/irb120_tracker.toml");
+        assert_eq!(Scenario::from_toml(tracker, "t.toml").unwrap().sampling.radians_warning(), None);
+        let rad = tracker.replacen("ranges_deg = [[-90, 90],", "ranges_deg = [[-1.57, 1.57],", 1);
+        let rad = rad.replace("[-45, 80]", "[-0.8, 1.4]").replace("[-90, 50]", "[-1.5, 0.8]").replace("[-150, 150]", "[-2.6, 2.6]");
+        let rad = rad.replace("[-100, 100]", "[-1.7, 1.7]").replace("[-180, 180]", "[-3.1, 3.1]");
+        let w = Scenario::from_toml(&rad, "t.toml").unwrap().sampling.radians_warning().expect("radians");
+        assert!(w.contains("sampling.ranges_deg") && w.contains("3.10"), "{w}");
     }
 
     #[test]
