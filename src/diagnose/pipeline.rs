@@ -354,10 +354,7 @@ pub(super) fn final_stage(
     let dropped = sel.not_physical.iter().chain(&sel.below_floor).cloned();
     let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
-    warnings.extend(found.iter().zip(&causes).filter_map(|((b, ..), c)| {
-        let size = crate::calib::effects::Size { quantity: c.quantity.clone(), value: c.magnitude, unit: c.unit.clone(), uncertainty: c.uncertainty };
-        b.kind.def().attribution(b, &size)
-    }));
+    warnings.extend(attributions(&found, &causes));
     let fitted = crate::calib::run::FittedModel {
         model: current.model.clone(),
         x0: base_start(&current.model, &x_base),
@@ -510,6 +507,19 @@ pub(super) fn floor_source_text(floor: &crate::calib::problem::floor::NoiseFloor
         text.push("no repeated configurations: the reading's repeatability is unknown, so this is a lower bound".into());
     }
     text.join("; ")
+}
+
+/// Whose drift each named cause can be where it is not the arm's own
+/// ([`Effect::attribution`](crate::calib::effects::Effect::attribution)).
+fn attributions(found: &[Found], causes: &[Cause]) -> Vec<String> {
+    found
+        .iter()
+        .zip(causes)
+        .filter_map(|((b, ..), c)| {
+            let size = crate::calib::effects::Size { quantity: c.quantity.clone(), value: c.magnitude, unit: c.unit.clone(), uncertainty: c.uncertainty };
+            b.kind.def().attribution(b, &size)
+        })
+        .collect()
 }
 
 /// The `--effects` value that calibrates `model`'s effect blocks (`backlash:2,thermal_drift`).
