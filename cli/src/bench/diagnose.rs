@@ -377,17 +377,16 @@ fn print_payload_runs(runs: &[&DetectionItem]) {
     println!(
         "  payload runs ({PAYLOAD_RUN_POSES} tracker poses at each of {PAYLOAD_RUNS_KG:?} kg; a joint compliance at 1-2x one row's noise over the runs where it stays under {UNLOADED_FACTOR}x in the unloaded run, else at {UNLOADED_FACTOR}x there):"
     );
+    let [named, sized, extra, alarm] = rates(runs);
     println!(
-        "    {}/{} named first with the right joint (target >= 95 %), {}/{} sized within 3 sigma, {}/{} name a cause not hidden; the unloaded run alone names it on {}/{}",
-        count(runs, |i| i.detected),
-        runs.len(),
-        count(runs, |i| i.within_3_sigma),
-        runs.len(),
-        count(runs, |i| i.extra),
-        runs.len(),
-        count(runs, |i| i.alarm),
-        runs.len()
+        "    {named} named first with the right joint (target >= 95 %), {sized} sized within 3 sigma, {extra} name a cause not hidden; the unloaded run alone names it on {alarm}"
     );
+}
+
+/// `k/n` of the items named first, sized within 3σ, naming a cause not hidden, and alarmed.
+fn rates(runs: &[&DetectionItem]) -> [String; 4] {
+    let of = |f: fn(&DetectionItem) -> bool| format!("{}/{}", count(runs, f), runs.len());
+    [of(|i| i.detected), of(|i| i.within_3_sigma), of(|i| i.extra), of(|i| i.alarm)]
 }
 
 /// The warm-up category's rates: the expansion named and sized, no set-up change found.
@@ -408,16 +407,9 @@ fn print_warm_up(runs: &[&DetectionItem]) {
         WARM_UP_LAG_SHARE.start,
         WARM_UP_LAG_SHARE.end
     );
+    let [named, sized, extra, alarm] = rates(runs);
     println!(
-        "    {}/{} named first (target >= 95 %), {}/{} sized within 3 sigma (target >= 95 %), {}/{} name a cause not hidden, {}/{} find a set-up change that did not happen (target 0)",
-        count(runs, |i| i.detected),
-        runs.len(),
-        count(runs, |i| i.within_3_sigma),
-        runs.len(),
-        count(runs, |i| i.extra),
-        runs.len(),
-        count(runs, |i| i.alarm),
-        runs.len()
+        "    {named} named first (target >= 95 %), {sized} sized within 3 sigma (target >= 95 %), {extra} name a cause not hidden, {alarm} find a set-up change that did not happen (target 0)"
     );
 }
 
