@@ -1,6 +1,7 @@
 //! Property tests (a fuzz harness in the suite) for the readers of files a user may have edited
 //! by hand: the result-file loader (`CalibResult::load`, then `predict` on what it accepted),
-//! the `ik --targets` reader (`dataset::read_csv_columns`), the scenario loader (then a short
+//! the `ik --targets` reader (`dataset::read_csv_columns`), the pose-list, `compensate
+//! --targets` and dataset readers (the data `iso9283` reads), the scenario loader (then a short
 //! generation of what it accepted) and the shard parts `reduce` joins. Whatever the bytes, they
 //! answer with a value or an error: never a panic.
 
@@ -150,6 +151,37 @@ proptest! {
         if let Ok(Ok(n)) = outcome {
             prop_assert!(n <= lines.len());
         }
+    }
+
+    #[test]
+    fn the_pose_list_targets_and_data_readers_answer_any_text(
+        lines in proptest::collection::vec(proptest::collection::vec(prop_oneof![
+            3 => (-200.0..200.0f64).prop_map(|v| v.to_string()),
+            1 => (-3.0..3.0f64).prop_map(|v| v.to_string()),
+            1 => Just(String::new()), 1 => Just("NaN".to_string()), 1 => Just("1e308".to_string()),
+            1 => Just("1,5".to_string()), 1 => "[a-z#;\"]{1,4}",
+        ], 0..9), 0..8),
+        header in prop_oneof![
+            Just("q1,q2,q3,q4,q5,q6"), Just("q1,q2,q3,q4,q5,q6,payload_kg"), Just("x,y,z,rx,ry,rz"), Just("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz"),
+            Just("\u{feff}q1;q2;q3;q4;q5;q6;L"), Just("q1,q2,q3,q4,q5,q6,q7"), Just("x,y,z,rx,ry"), Just("")
+        ],
+        sep in prop_oneof![Just(","), Just(";")],
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("rows.csv");
+        let body: Vec<String> = lines.iter().map(|l| l.join(sep)).collect();
+        std::fs::write(&path, format!("{header}\n{}\n", body.join("\n"))).unwrap();
+        let robot = twincal::robot::Robot::irb120();
+        let poses = std::panic::catch_unwind(|| twincal::sim::pose_list::read_pose_list(&path, &robot).map(|l| l.q));
+        prop_assert!(poses.is_ok(), "the pose-list reader panicked");
+        if let Ok(Ok(q)) = poses {
+            let limits = robot.limits();
+            prop_assert!(q.iter().all(|p| p.iter().zip(&limits).all(|(v, (lo, hi))| v.is_finite() && *v >= lo - 1e-9 && *v <= hi + 1e-9)), "a pose outside the limits: {q:?}");
+        }
+        let targets = std::panic::catch_unwind(|| twincal::compensate::read_targets(&path, 6, twincal::measurement::Euler::XYZ).map(|t| t.len()));
+        prop_assert!(targets.is_ok(), "the targets reader panicked");
+        let data = std::panic::catch_unwind(|| Dataset::load(&path).map(|d| d.rows.len()));
+        prop_assert!(data.is_ok(), "the dataset reader panicked");
     }
 
     #[test]
