@@ -666,7 +666,7 @@ fn hand_edited_result_values_out_of_range_are_refused() {
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&res).unwrap()).unwrap();
     type Edit = fn(&mut serde_json::Value);
     assert_eq!(r["schema_version"], 2, "result.json carries its schema version");
-    let cases: [(Edit, &str); 17] = [
+    let cases: [(Edit, &str); 18] = [
         (|r| r["schema_version"] = 3.into(), "schema_version 3, written by a newer twincal"),
         // A wrong type is named by its JSON path.
         (|r| r["schema_version"] = "2".into(), "schema_version: invalid type: string \"2\""),
@@ -689,7 +689,8 @@ fn hand_edited_result_values_out_of_range_are_refused() {
         // The report is derived from the model: an edit there is refused, not half-applied.
         (|r| r["parameters"][3]["nominal"] = 1e300.into(), "parameters[3] (joint_1.alpha): nominal 1e300"),
         (|r| r["parameters"][3]["std_uncertainty"] = (-1.0).into(), "std_uncertainty -1 must be a finite number >= 0"),
-        (|r| r["x"][5] = 1e6.into(), "parameters[5] (joint_2.a): value"),
+        (|r| r["x"][5] = 1e6.into(), "the chain's joint_2.a = 1000000 (x)"),
+        (|r| r["parameters"][5]["value"] = 7.into(), "parameters[5] (joint_2.a): value 7 is not the model's"),
         (|r| r["model"]["nominal"][5] = 1e5.into(), "the chain's joint_2.a"),
     ];
     // What twincal leaves out when empty may be given empty.

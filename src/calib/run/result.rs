@@ -628,15 +628,11 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
     if !consistent || r.x.iter().any(|v| !v.is_finite()) {
         return Err("the calibrated model is inconsistent (edited or truncated result file?)".into());
     }
-    check_parameter_report(r)?;
-    // A chain's deviation beyond a turn or beyond the instrument's farthest placement is no
-    // calibration's.
-    if let Some(k) = (0..r.model.n_chain()).find(|&k| {
-        let limit = if r.model.kinds[k] == crate::calib::model::Kind::Angle { std::f64::consts::TAU } else { MAX_PLACEMENT };
-        r.x[k].abs() > limit || r.model.nominal[k].abs() > limit
-    }) {
+    // A chain's deviation beyond the instrument's farthest placement is no calibration's (an
+    // angle may wander by whole turns: the bound is 100 rad, as the chain's own offsets').
+    if let Some(k) = (0..r.model.n_chain()).find(|&k| r.x[k].abs() > MAX_PLACEMENT || r.model.nominal[k].abs() > MAX_PLACEMENT) {
         return Err(format!(
-            "the chain's {} = {} (x) / {} (nominal) is beyond what a calibration writes (a turn, or {MAX_PLACEMENT} m; m or rad; edited result file?)",
+            "the chain's {} = {} (x) / {} (nominal) is beyond what a calibration writes ({MAX_PLACEMENT} m or rad; edited result file?)",
             r.model.names[k],
             crate::error::shown(r.x[k]),
             crate::error::shown(r.model.nominal[k])
@@ -654,7 +650,7 @@ fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
             crate::error::shown(r.x[k])
         ));
     }
-    Ok(())
+    check_parameter_report(r)
 }
 
 /// How far outside a joint's limits (degrees) a row may be before it is refused: encoders read
