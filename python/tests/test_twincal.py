@@ -409,7 +409,9 @@ def test_export_writes_every_format_as_the_command_line_and_refuses_bad_input(em
         run_cli("export", "--model", tmp_path / "r.json", "--out", tmp_path / ("cli_" + name), *(["--format", fmt] if fmt else []), "--robot", "irb120")
         assert (tmp_path / name).read_text() == (tmp_path / ("cli_" + name)).read_text()
     # The IRB 120's flange is not turned onto joint 6's axis: the UR file says where the tool goes.
-    assert any("off joint 6's axis" in w for w in twincal.export(tmp_path / "r.json", tmp_path / "k2.yaml")["warnings"])
+    # The flange sits on the axis, turned only: the warning names the turn and no zero offset.
+    said = twincal.export(tmp_path / "r.json", tmp_path / "k2.yaml")["warnings"]
+    assert any("turned from joint 6's frame" in w and "off joint 6's axis" not in w for w in said), said
     with pytest.raises(twincal.TwincalError, match="give --format"):
         twincal.export(tmp_path / "r.json", tmp_path / "t.csv")
     with pytest.raises(twincal.TwincalError, match="unknown export format 'step'"):
