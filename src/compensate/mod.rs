@@ -281,20 +281,19 @@ impl<'a> Compensator<'a> {
     /// [`BRANCH_DEG`] of the nominal command (else the local answer, not converged, stands).
     /// The answer's angles at the turns nearest the nominal command's.
     fn on_nominal_branch<S: Solved>(&self, nominal: &[f64], mut solve: impl FnMut(&IkOptions, &[f64]) -> S) -> S {
-        let local = solve(&IkOptions { local: true, ..self.options.clone() }, nominal);
-        let mut s = if local.status() == IkStatus::Converged {
-            local
-        } else {
-            let mut again = solve(&self.options, nominal);
-            nearest_turns(again.q_mut(), nominal, &self.calibrated.limits);
-            if again.status() == IkStatus::Converged && on_branch(again.q_mut(), nominal) {
-                again
-            } else {
-                local
-            }
+        let turned = |mut s: S| {
+            nearest_turns(s.q_mut(), nominal, &self.calibrated.limits);
+            s
         };
-        nearest_turns(s.q_mut(), nominal, &self.calibrated.limits);
-        s
+        let local = turned(solve(&IkOptions { local: true, ..self.options.clone() }, nominal));
+        if local.status() == IkStatus::Converged {
+            return local;
+        }
+        let mut again = turned(solve(&self.options, nominal));
+        match again.status() == IkStatus::Converged && on_branch(again.q_mut(), nominal) {
+            true => again,
+            false => local,
+        }
     }
 
     /// Where the calibrated model puts the tool and how it turns it at joint angles `q` (rad):

@@ -101,21 +101,22 @@ pub fn diagnose_loaded(
     original: Dataset,
     say: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosed> {
-    let (found, (mut report, mut result), data) = match diagnose_on_stations(request, &opts, original.clone(), &opts.baseline_options(), say)? {
+    let resolve = |setup: &crate::calib::run::CalibOptions| crate::calib::run::setup::resolve_stations(&original, setup);
+    let (found, (mut report, mut result), data) = match diagnose_on_stations(request, &opts, &original, resolve(&opts.baseline_options())?, say)? {
         // Change points found before any cause was in the model may be a drift the causes named
         // explain (a warm-up reads as a slow train of moves): searched again with them.
         (found, (report, result), data) if !found.is_empty() && !result.model.effects.is_empty() => {
             let mut with = opts.baseline_options();
             with.effects = result.model.effects.iter().map(|b| (b.kind, b.joint)).collect();
-            let (_, again) = crate::calib::run::setup::resolve_stations(&original, &with)?;
-            if again.len() < found.len() {
+            let again = resolve(&with)?;
+            if again.1.len() < found.len() {
                 say(&format!(
                     "set-up changes searched again with {} in the model: {} of the {} change points were its drift; the diagnosis again",
                     effects_list(&result.model),
-                    found.len() - again.len(),
+                    found.len() - again.1.len(),
                     found.len()
                 ));
-                diagnose_on_stations(request, &opts, original, &with, say)?
+                diagnose_on_stations(request, &opts, &original, again, say)?
             } else {
                 (found, (report, result), data)
             }
@@ -133,21 +134,17 @@ fn effects_list(m: &crate::calib::model::CalibModel) -> String {
     m.effects.iter().map(|b| b.label()).collect::<Vec<_>>().join(", ")
 }
 
-/// The stations of `data` resolved with `setup` (its effects in the first fit), then the
-/// diagnosis on them (on the training rows of `--test-fraction` where given): the set-up
-/// changes found, the diagnosis and the rows it ran on.
+/// The diagnosis of `original` on its resolved stations (`resolved`: the relabelled rows, if
+/// any, and the set-up changes found), on the training rows of `--test-fraction` where given:
+/// the set-up changes, the diagnosis and the rows it ran on.
 fn diagnose_on_stations(
     request: &DiagnoseRequest,
     opts: &DiagnoseOptions,
-    mut data: Dataset,
-    setup: &crate::calib::run::CalibOptions,
+    original: &Dataset,
+    (labelled, found): (Option<Dataset>, crate::calib::run::setup::Found),
     say: &(dyn Fn(&str) + Sync),
 ) -> Result<(crate::calib::run::setup::Found, (crate::diagnose::Diagnosis, crate::calib::run::CalibResult), Dataset)> {
-    // The instrument's stations, over every row before any is held out.
-    let (labelled, found) = crate::calib::run::setup::resolve_stations(&data, setup)?;
-    if let Some(l) = labelled {
-        data = l;
-    }
+    let mut data = labelled.unwrap_or_else(|| original.clone());
     if !found.is_empty() {
         say(&format!(
             "set-up changes: {} change point(s) in the residuals of a first fit; the instrument stood at {} stations",

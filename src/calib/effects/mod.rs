@@ -302,6 +302,11 @@ impl EffectBlock {
     pub fn start(&self, t_span_s: f64) -> Vec<f64> {
         self.kind.def().start(self, t_span_s)
     }
+    /// Whether the block fits a temperature sensor's lag besides its size (a temperature drive
+    /// over rows with time).
+    pub fn fits_sensor_lag(&self) -> bool {
+        matches!(self.thermal, Some(ThermalDrive::Temperature { sensor_lag: true, .. }))
+    }
     /// The block without the refinement a diagnosis tests apart, once the block itself has
     /// earned its place (a thermal block's sensor lag); the block itself where it has none.
     pub fn unrefined(&self) -> EffectBlock {

@@ -26,12 +26,6 @@ fn by_temperature(b: &EffectBlock) -> bool {
     matches!(b.thermal, Some(ThermalDrive::Temperature { .. }))
 }
 
-/// Whether the block fits the sensor's lag besides its size (a temperature drive over rows
-/// with time).
-fn lagged(b: &EffectBlock) -> bool {
-    matches!(b.thermal, Some(ThermalDrive::Temperature { sensor_lag: true, .. }))
-}
-
 impl Effect for ThermalDrift {
     fn name(&self) -> &'static str {
         "thermal_drift"
@@ -55,7 +49,7 @@ impl Effect for ThermalDrift {
                 vec![(format!("thermal.zero_drift.j{j}"), EffectUnit::SmallAngle), (format!("thermal.zero_drift.j{j}.tau"), EffectUnit::Seconds)]
             }
         };
-        if lagged(b) {
+        if b.fits_sensor_lag() {
             out.push((format!("{}.sensor_lag", out[0].0), EffectUnit::Lag));
         }
         out
@@ -63,7 +57,7 @@ impl Effect for ThermalDrift {
     fn n_params(&self, b: &EffectBlock) -> usize {
         // A warm-up (time only) has its time constant besides the size, a lagged temperature
         // drive its lag.
-        if by_temperature(b) && !lagged(b) {
+        if by_temperature(b) && !b.fits_sensor_lag() {
             1
         } else {
             2

@@ -374,7 +374,7 @@ impl CalibResult {
         for b in self.model.effects.iter().filter(|b| b.kind == EffectKind::ThermalDrift) {
             let col = if matches!(b.thermal, Some(ThermalDrive::Temperature { .. })) { "temp" } else { "t" };
             out.push((col, format!("its {} block", b.label())));
-            if matches!(b.thermal, Some(ThermalDrive::Temperature { sensor_lag: true, .. })) {
+            if b.fits_sensor_lag() {
                 out.push(("t", format!("its {} block's sensor lag (the temperature's rate)", b.label())));
             }
         }
