@@ -6,6 +6,9 @@
 //! rapier simulation with its effects and instrument, dataset generation) → [`dataset`] →
 //! [`calib`] (models × [`optim`] × correctors, the [`measurement`] an instrument gives) → [`ik`],
 //! [`diagnose`] → [`report`].
+//!
+//! Start from the [`prelude`]: its example runs the whole job (the twin's data, a calibration, a
+//! diagnosis, compensated commands) as `cargo test` checks it.
 
 // Numeric code indexes several arrays in step (`for k in 0..n { a[k] … b[k] … }`), and its
 // comparisons are written `!(x > 0.0)` on purpose so that NaN fails them: these two lints fight
@@ -28,6 +31,7 @@ pub mod math;
 pub mod measurement;
 pub mod optim;
 pub mod plan;
+pub mod prelude;
 pub mod progress;
 pub mod report;
 pub mod requests;

@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 #[derive(Parser)]
-#[command(name = "twincal", version, about = "Digital twin and calibration of serial arms measured with a draw-wire sensor")]
+#[command(name = "twincal", version, about = "Digital twin, calibration and diagnosis of serial arms measured with a draw-wire sensor or a laser tracker")]
 pub struct Cli {
     /// No progress bars or summaries on stderr (warnings and errors are still printed).
     #[arg(long, global = true)]

@@ -191,14 +191,14 @@ const TRUTH_FIX: &str = "pass the truth twincal.generate returned with exactly t
 
 /// The dataset a source holds, read and checked as `--data` reads a file. In-memory data keep
 /// their label for messages only.
-fn dataset(src: Source, opts: &twincal::dataset::LoadOptions) -> twincal::Result<Dataset> {
+fn dataset(src: Source, opts: &twincal::dataset::ReadOptions) -> twincal::Result<Dataset> {
     match src {
         Source::Path(p) => Dataset::load_with(&p, opts),
         Source::Columns(c) => Dataset::from_columns(c, MEMORY, opts),
     }
 }
 
-fn load(src: Source, opts: &twincal::dataset::LoadOptions, truth: Option<&str>) -> twincal::Result<Loaded> {
+fn load(src: Source, opts: &twincal::dataset::ReadOptions, truth: Option<&str>) -> twincal::Result<Loaded> {
     use twincal::dataset::truth::sha256_hex;
     match src {
         Source::Path(p) => {
@@ -288,7 +288,7 @@ fn generate(
 #[pyfunction]
 #[pyo3(signature = (data, angles="auto"))]
 fn to_csv(data: &Bound<'_, PyAny>, angles: &str) -> PyResult<String> {
-    let opts = Reading { angles: angle_unit(angles)?, ..Reading::default() }.load_options(false).map_err(err)?;
+    let opts = Reading { angles: angle_unit(angles)?, ..Reading::default() }.load_options(false);
     let ds = dataset(source(data)?, &opts).map_err(err)?;
     Ok(ds.to_csv_string())
 }
@@ -299,7 +299,7 @@ fn to_csv(data: &Bound<'_, PyAny>, angles: &str) -> PyResult<String> {
 #[pyo3(signature = (data, options))]
 fn read(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str) -> PyResult<Columns> {
     let a: Reading = request("read", options)?;
-    let opts = a.load_options(false).map_err(err)?;
+    let opts = a.load_options(false);
     let src = source(data)?;
     let ds = py.detach(|| dataset(src, &opts)).map_err(err)?;
     columns_py(py, &ds)
@@ -354,8 +354,13 @@ impl PyCalibration {
         euler: &str,
         register_rows: usize,
     ) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<String>)> {
-        let reading = Reading { angles: angle_unit(angles)?, measurement: None, euler: euler.to_string(), ..Default::default() };
-        let opts = reading.load_options(false).map_err(err)?;
+        let reading = Reading {
+            angles: angle_unit(angles)?,
+            measurement: None,
+            euler: euler.parse().map_err(|e: String| err(twincal::Error::Invalid(format!("--euler: {e}"))))?,
+            ..Default::default()
+        };
+        let opts = reading.load_options(false);
         let src = source(data)?;
         let r = self.result();
         let p = py
@@ -453,7 +458,7 @@ fn calibrate(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str, truth: Opti
     let mut req: CalibrateRequest = request("calibrate", options)?;
     req.model.resolve_paths();
     let planned = req.options().map_err(err)?;
-    let opts = req.load_options().map_err(err)?;
+    let opts = req.load_options();
     let args = CalibrateJob::new(MEMORY.into(), req);
     let c = released(py, progress.as_ref(), |t| {
         t.start(1, "calibrate");
@@ -524,7 +529,7 @@ fn diagnose(py: Python<'_>, data: &Bound<'_, PyAny>, options: &str, progress: Op
     req.model.resolve_paths();
     req.loads.robot = req.loads.robot.map(|p| std::path::absolute(&p).unwrap_or(p));
     let planned = req.options().map_err(err)?;
-    let opts = req.load_options().map_err(err)?;
+    let opts = req.load_options();
     let args = DiagnoseJob::new(MEMORY.into(), req);
     let (d, path) = released(py, progress.as_ref(), |t| {
         let l = load(src, &opts, None)?;
@@ -642,7 +647,7 @@ fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, op
         payload_com_mm: o.payload_com_mm,
         tol_mm: o.tol_mm,
         tol_deg: o.tol_deg,
-        euler: o.euler,
+        euler: o.euler.parse().map_err(|e: String| err(twincal::Error::Invalid(format!("--euler: {e}"))))?,
         out,
     };
     let summary = released(py, None, |_| job.run())?;

@@ -34,7 +34,7 @@ fn compensation_carries_compliance_under_the_payload() {
     let (s, robot) = scenario("irb120_tracker", extra);
     let mut opts = CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM);
     opts.effects = (0..6).map(|j| (crate::calib::effects::EffectKind::JointCompliance, Some(j))).collect();
-    opts.loads.payload = s.effects.payload.clone();
+    opts.loads.joints.payload = s.effects.payload.clone();
     let c = verify_seed(&s, &robot, &opts, 60, 2, false).unwrap();
     eprintln!("{c:#?}");
     let geometric = verify_seed(&s, &robot, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM), 60, 2, false).unwrap();

@@ -18,11 +18,11 @@ impl Dataset {
     /// sheet, or sheet named by `path.xlsx#SheetName`). See the [dataset module](crate::dataset) for the accepted
     /// columns and the validation performed.
     pub fn load(path: &Path) -> Result<Dataset> {
-        Self::load_with(path, &LoadOptions::default())
+        Self::load_with(path, &ReadOptions::default())
     }
 
-    /// [`Self::load`] with explicit [`LoadOptions`] (angle unit, whether `L` is required).
-    pub fn load_with(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
+    /// [`Self::load`] with explicit [`ReadOptions`] (angle unit, whether `L` is required).
+    pub fn load_with(path: &Path, opts: &ReadOptions) -> Result<Dataset> {
         if let Some(files) = campaign_files(path) {
             return Self::load_campaign(path, &files, opts);
         }
@@ -48,7 +48,7 @@ impl Dataset {
     /// A campaign: the CSV files of a folder (by name), each read on its own, their rows one
     /// after the other; a file's rows that name no station stand at a station named by the
     /// file (its name without `.csv`). The files must read the same instrument on the same arm.
-    fn load_campaign(dir: &Path, files: &[PathBuf], opts: &LoadOptions) -> Result<Dataset> {
+    fn load_campaign(dir: &Path, files: &[PathBuf], opts: &ReadOptions) -> Result<Dataset> {
         let mut rows: Vec<Row> = Vec::new();
         let mut first: Option<(String, Option<Measurement>, usize)> = None;
         for f in files {
@@ -76,7 +76,7 @@ impl Dataset {
         Ok(Dataset { rows, source: dir.display().to_string() })
     }
 
-    pub(super) fn load_csv_file(path: &Path, opts: &LoadOptions) -> Result<Dataset> {
+    pub(super) fn load_csv_file(path: &Path, opts: &ReadOptions) -> Result<Dataset> {
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         Self::from_csv_reader_with(std::io::BufReader::new(file), &path.display().to_string(), opts)
     }
@@ -84,11 +84,11 @@ impl Dataset {
     /// Parse and validate CSV text; `source` names the input in error messages and becomes
     /// [`Dataset::source`].
     pub fn from_csv_reader<R: std::io::Read>(r: R, source: &str) -> Result<Dataset> {
-        Self::from_csv_reader_with(r, source, &LoadOptions::default())
+        Self::from_csv_reader_with(r, source, &ReadOptions::default())
     }
 
-    /// [`Self::from_csv_reader`] with explicit [`LoadOptions`].
-    pub fn from_csv_reader_with<R: std::io::Read>(r: R, source: &str, opts: &LoadOptions) -> Result<Dataset> {
+    /// [`Self::from_csv_reader`] with explicit [`ReadOptions`].
+    pub fn from_csv_reader_with<R: std::io::Read>(r: R, source: &str, opts: &ReadOptions) -> Result<Dataset> {
         from_table(csv_io::read_table(r, source)?, source.to_owned(), opts)
     }
 
@@ -96,7 +96,7 @@ impl Dataset {
     /// exactly as a file with these columns would be: the same header rules, bounds, unit checks
     /// and messages. A missing number (NaN) in `sx, sy, sz` leaves the cell empty; elsewhere it
     /// is refused like a NaN cell. Messages name line k + 2 for row k (the header is line 1).
-    pub fn from_columns(columns: Vec<(String, ColumnValues)>, source: &str, opts: &LoadOptions) -> Result<Dataset> {
+    pub fn from_columns(columns: Vec<(String, ColumnValues)>, source: &str, opts: &ReadOptions) -> Result<Dataset> {
         let n = columns.first().map_or(0, |(_, c)| c.len());
         if let Some((name, c)) = columns.iter().find(|(_, c)| c.len() != n) {
             return Err(Error::data(

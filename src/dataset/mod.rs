@@ -27,7 +27,7 @@
 //!
 //! # Load options
 //!
-//! [`Dataset::load_with`] takes [`LoadOptions`]: the joint angle unit ([`AngleUnit::Auto`] applies
+//! [`Dataset::load_with`] takes [`ReadOptions`]: the joint angle unit ([`AngleUnit::Auto`] applies
 //! the radians heuristic below, [`AngleUnit::Deg`] skips it, [`AngleUnit::Rad`] converts the
 //! angles to degrees on load) and whether `L` is required (`require_length: false` accepts a
 //! file of poses `q1..qN` only, e.g. for prediction; rows then have `l_mm == None`). A dataset

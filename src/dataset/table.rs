@@ -397,7 +397,7 @@ pub(super) fn check_bounds(v: f64, (lo, hi): (f64, f64), what: &str, line: usize
     Ok(())
 }
 
-pub(super) fn from_table(table: RawTable, source: String, opts: &LoadOptions) -> Result<Dataset> {
+pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) -> Result<Dataset> {
     let src = source.as_str();
     let layout = Layout::new(&table.header, src, opts.require_length, opts.measurement)?;
     if table.rows.is_empty() {

@@ -245,11 +245,11 @@ fn error_pose_angles_in_radians_or_in_part() {
     assert!(parse(&pose(57.29577951308232)).is_ok());
     let msg = err(&pose(1.0));
     assert_contains(&msg, &["rx, ry, rz look like radians", "--angles deg"]);
-    assert!(parse_with(&pose(1.0), &LoadOptions { angles: AngleUnit::Deg, ..Default::default() }).is_ok(), "--angles deg reads them as given");
+    assert!(parse_with(&pose(1.0), &ReadOptions { angles: AngleUnit::Deg, ..Default::default() }).is_ok(), "--angles deg reads them as given");
     // rx and ry without rz: neither a pose nor a point read silently.
     let text = "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry\n10,20,30,40,50,60,900,100,800,10,20\n";
     assert_contains(&err(text), &["line 1", "rx, ry given without rz", "--measurement point"]);
-    let point = LoadOptions { measurement: Some(crate::measurement::Measurement::Point), ..Default::default() };
+    let point = ReadOptions { measurement: Some(crate::measurement::Measurement::Point), ..Default::default() };
     assert_eq!(parse_with(text, &point).unwrap().rows[0].reading_mm, vec![900.0, 100.0, 800.0]);
 }
 
@@ -374,7 +374,7 @@ fn real_pool_xlsx_matches_csv() {
 
 // ---- issue 6: inputs a real user sends ---------------------------------------------------
 
-fn parse_with(text: &str, opts: &LoadOptions) -> Result<Dataset> {
+fn parse_with(text: &str, opts: &ReadOptions) -> Result<Dataset> {
     Dataset::from_csv_reader_with(text.as_bytes(), "test.csv", opts)
 }
 
@@ -444,10 +444,10 @@ fn angle_unit_options() {
     let text = narrow_degrees();
     let msg = err(&text);
     assert_contains(&msg, &["look like radians", "--angles deg", "--angles rad"]);
-    let deg = parse_with(&text, &LoadOptions { angles: AngleUnit::Deg, ..Default::default() }).expect("degrees on request");
+    let deg = parse_with(&text, &ReadOptions { angles: AngleUnit::Deg, ..Default::default() }).expect("degrees on request");
     assert_eq!(deg.rows.len(), 12);
     assert_eq!(deg.rows[0].q_deg[0], -3.0);
-    let rad = parse_with(&text, &LoadOptions { angles: AngleUnit::Rad, ..Default::default() }).expect("radians converted");
+    let rad = parse_with(&text, &ReadOptions { angles: AngleUnit::Rad, ..Default::default() }).expect("radians converted");
     for (r, d) in rad.rows.iter().zip(&deg.rows) {
         for j in 0..6 {
             assert_eq!(r.q_deg[j], d.q_deg[j].to_degrees());
@@ -455,7 +455,7 @@ fn angle_unit_options() {
     }
     // Radians beyond 720° after conversion are still refused, naming both values.
     let msg =
-        parse_with(&format!("{HEADER}\n1,2,3,4,13,6,300\n"), &LoadOptions { angles: AngleUnit::Rad, ..Default::default() }).expect_err("13 rad").to_string();
+        parse_with(&format!("{HEADER}\n1,2,3,4,13,6,300\n"), &ReadOptions { angles: AngleUnit::Rad, ..Default::default() }).expect_err("13 rad").to_string();
     assert_contains(&msg, &["line 2", "column q5", "13 rad", "implausible"]);
     assert_eq!("DEG".parse::<AngleUnit>(), Ok(AngleUnit::Deg));
     assert_eq!("radians".parse::<AngleUnit>(), Ok(AngleUnit::Rad));
@@ -468,7 +468,7 @@ fn poses_without_length() {
     let text = "q1,q2,q3,q4,q5,q6\n1,2,3,4,5,6\n7,8,9,10,11,12\n";
     let msg = err(text);
     assert_contains(&msg, &["missing required column(s) L"]);
-    let ds = parse_with(text, &LoadOptions::poses()).expect("poses");
+    let ds = parse_with(text, &ReadOptions::poses()).expect("poses");
     assert_eq!(ds.rows.len(), 2);
     assert!(ds.rows.iter().all(|r| r.l_mm().is_none()));
     assert!(!ds.has_length());
@@ -478,15 +478,15 @@ fn poses_without_length() {
     // Written without an L column, and read back the same.
     let out = ds.to_csv_string();
     assert_eq!(out, "q1,q2,q3,q4,q5,q6\n1,2,3,4,5,6\n7,8,9,10,11,12\n");
-    assert_eq!(parse_with(&out, &LoadOptions::poses()).expect("reload").rows, ds.rows);
+    assert_eq!(parse_with(&out, &ReadOptions::poses()).expect("reload").rows, ds.rows);
     // With an L column present it must still be filled and valid; q1..q6 stay required.
-    let with_l = parse_with(&format!("{HEADER}\n{GOOD}\n"), &LoadOptions::poses()).expect("L given");
+    let with_l = parse_with(&format!("{HEADER}\n{GOOD}\n"), &ReadOptions::poses()).expect("L given");
     assert_eq!(with_l.rows[0].l_mm(), Some(350.07));
     assert!(with_l.has_length());
     assert_eq!(with_l.lengths_mm().expect("lengths"), vec![350.07]);
-    let msg = parse_with(&format!("{HEADER}\n1,2,3,4,5,6,\n"), &LoadOptions::poses()).expect_err("empty L").to_string();
+    let msg = parse_with(&format!("{HEADER}\n1,2,3,4,5,6,\n"), &ReadOptions::poses()).expect_err("empty L").to_string();
     assert_contains(&msg, &["line 2", "column L", "empty"]);
-    let msg = parse_with("q1,q2,q3,q5,q6\n1,2,3,5,6\n", &LoadOptions::poses()).expect_err("q4").to_string();
+    let msg = parse_with("q1,q2,q3,q5,q6\n1,2,3,5,6\n", &ReadOptions::poses()).expect_err("q4").to_string();
     assert_contains(&msg, &["missing", "q4", "optional L"]);
 }
 
@@ -686,7 +686,7 @@ fn files_that_are_not_spreadsheets() {
 // ---- property tests ----------------------------------------------------------------------
 
 /// The documented invariants of every accepted dataset.
-fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
+fn assert_invariants(ds: &Dataset, opts: &ReadOptions) {
     assert!(!ds.rows.is_empty());
     let mut last_t = f64::NEG_INFINITY;
     for r in &ds.rows {
@@ -716,7 +716,7 @@ fn assert_invariants(ds: &Dataset, opts: &LoadOptions) {
     }
     // What the writer writes reads back to the same rows (angles are degrees by now; optional
     // columns only some rows fill are not written).
-    let again = LoadOptions { angles: AngleUnit::Deg, ..*opts };
+    let again = ReadOptions { angles: AngleUnit::Deg, ..*opts };
     let back = Dataset::from_csv_reader_with(ds.to_csv_string().as_bytes(), "again.csv", &again);
     let back = back.expect("a written dataset reloads");
     let all = |f: fn(&Row) -> bool| ds.rows.iter().all(f);
@@ -729,8 +729,8 @@ mod props {
     use super::*;
     use proptest::prelude::*;
 
-    fn opts() -> impl Strategy<Value = LoadOptions> {
-        (prop_oneof![Just(AngleUnit::Auto), Just(AngleUnit::Deg), Just(AngleUnit::Rad)], any::<bool>()).prop_map(|(angles, require_length)| LoadOptions {
+    fn opts() -> impl Strategy<Value = ReadOptions> {
+        (prop_oneof![Just(AngleUnit::Auto), Just(AngleUnit::Deg), Just(AngleUnit::Rad)], any::<bool>()).prop_map(|(angles, require_length)| ReadOptions {
             angles,
             require_length,
             ..Default::default()

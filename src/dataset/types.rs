@@ -97,7 +97,7 @@ impl std::str::FromStr for AngleUnit {
 
 /// How [`Dataset::load_with`] reads a file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct LoadOptions {
+pub struct ReadOptions {
     /// Unit of `q1..qN`.
     pub angles: AngleUnit,
     /// Whether the `L` column must be present (it always must be for calibration).
@@ -110,17 +110,17 @@ pub struct LoadOptions {
     pub euler: Euler,
 }
 
-impl Default for LoadOptions {
+impl Default for ReadOptions {
     /// Today's behaviour of [`Dataset::load`]: [`AngleUnit::Auto`], `L` required.
     fn default() -> Self {
-        LoadOptions { angles: AngleUnit::Auto, require_length: true, measurement: None, euler: Euler::XYZ }
+        ReadOptions { angles: AngleUnit::Auto, require_length: true, measurement: None, euler: Euler::XYZ }
     }
 }
 
-impl LoadOptions {
+impl ReadOptions {
     /// Poses (`q1..qN`) with an optional `L` column, e.g. for prediction.
     pub fn poses() -> Self {
-        LoadOptions { require_length: false, ..Default::default() }
+        ReadOptions { require_length: false, ..Default::default() }
     }
 }
 

@@ -8,7 +8,7 @@
 //! geometric calibration can explain), and the size is set so that what is left over has an RMS
 //! of `factor` × the reading noise.
 
-use crate::calib::effects::inputs::{row_inputs, LoadOptions, TorqueModel};
+use crate::calib::effects::inputs::{row_inputs, JointLoads, TorqueModel};
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
 use crate::calib::model::CalibModel;
 use crate::calib::problem::{ReadingFit, Samples};
@@ -130,7 +130,7 @@ fn nominal_at_poses(s: &Scenario, robot: &Robot) -> Result<(Dataset, CalibModel,
 fn twin_torques(s: &Scenario, robot: &Robot) -> TorqueModel {
     let sn = &s.sensor;
     let cable = s.instruments.active().is_none();
-    let loads = LoadOptions { cable_tension_n: if cable { sn.tension_n } else { 0.0 }, ..Default::default() };
+    let loads = JointLoads { cable_tension_n: if cable { sn.tension_n } else { 0.0 }, ..Default::default() };
     TorqueModel::new(robot, &loads, cable.then(|| sn.exit_point_m()), sn.tool_point_m())
 }
 
@@ -269,7 +269,7 @@ pub fn tracker_row_noise_mm(s: &Scenario, robot: &Robot) -> Result<f64> {
         .iter()
         .zip(&samples.inputs)
         .map(|(q, inp)| {
-            model.readings_with(&model.nominal, q, inp, &mut w, &mut y);
+            model.readings(&model.nominal, q, inp, &mut w, &mut y);
             per_sample(y.iter().map(|v| v * v).sum::<f64>().sqrt()).powi(2)
         })
         .sum::<f64>()
@@ -360,7 +360,7 @@ pub fn hidden_payload_runs(seed: u64, factors: std::ops::Range<f64>) -> Result<(
             source: s.name.clone(),
         }
     };
-    let loads = LoadOptions { payload: Some(crate::robot::statics::Payload { mass_kg: 0.0, com_mm: PAYLOAD_COM_MM }), ..Default::default() };
+    let loads = JointLoads { payload: Some(crate::robot::statics::Payload { mass_kg: 0.0, com_mm: PAYLOAD_COM_MM }), ..Default::default() };
     let torque = TorqueModel::new(&robot, &loads, None, s.sensor.tool_point_m());
     let model = nominal_model(&s, &robot);
     let unabsorbed = |data: &Dataset, joint: usize| -> Result<f64> {

@@ -281,7 +281,8 @@ pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     let rewhitened = |m: &Fitted| final_whitening(kept.clone(), p.noise_model.clone(), &p.all, m, data, blocks, keep).0;
     let not_physical = drop_not_physical(&chain, &found, &rewhitened, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
     let repeat = crate::calib::run::reading_repeatability(&kept_rows);
-    let floor = crate::calib::run::floor_stage(base, &baseline.x, &kept_rows, &kept, opts.angle_step_deg, opts.instrument_accuracy_mm, repeat.as_ref());
+    let floor =
+        crate::calib::run::floor_stage(base, &baseline.x, &kept_rows, &kept, opts.floor.angle_step_deg, opts.floor.instrument_accuracy_mm, repeat.as_ref());
     let below_floor = drop_below_floor(&found, &chain, &floor, ctx.groups.as_deref(), &mut confirmed, progress);
     found.truncate(confirmed);
     let current = chain[confirmed].clone();
@@ -343,14 +344,14 @@ pub(super) fn final_stage(
     let shared = blocks.any_shared();
     // Rows first taken for outliers that the causes explain rejoin the final fit.
     let (kept, kept_rows, final_keep, explained) =
-        rejoin_explained(&current, &all, data, (kept, kept_rows, keep), (&mut outliers, &mut outlier_runs), opts.outlier_k, progress);
+        rejoin_explained(&current, &all, data, (kept, kept_rows, keep), (&mut outliers, &mut outlier_runs), opts.screen.outlier_k, progress);
     let mut explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).chain(first_flagged).collect();
     explained_rows.sort_unstable();
     let groups = shared.then(|| blocks.ids_of(&final_keep));
     let (kept, noise_model) = final_whitening(kept, noise_model, &all, &current, data, &blocks, &final_keep);
     let FinalFit { id: final_id, x: final_x, train_rmse_mm: final_train_rmse_mm, covs } = final_fit(&current, &kept, groups.as_deref(), opts.rank_tol);
     let unphysical = unphysical_causes(&current.model, &final_x, &found.iter().map(|f| f.0.clone()).collect::<Vec<EffectBlock>>());
-    let set_up = [fold_warning, crate::calib::effects::inputs::payload_warning(data, &opts.loads), few_blocks];
+    let set_up = [fold_warning, crate::calib::effects::inputs::payload_warning(data, &opts.loads.joints), few_blocks];
     let dropped = sel.not_physical.iter().chain(&sel.below_floor).cloned();
     let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
@@ -363,7 +364,7 @@ pub(super) fn final_stage(
         torque_model: torque,
     };
     // The data's own floor: repeatability and logging resolutions, never the fit's residual.
-    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.angle_step_deg, opts.instrument_accuracy_mm)?;
+    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.floor.angle_step_deg, opts.floor.instrument_accuracy_mm)?;
     let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
     let (noise_floor_mm, noise_floor_source, current_oof) = (noise_floor.total_mm, floor_source_text(&noise_floor), rms(&current.oof));
     warnings.extend(leak_on_positions(&current.oof, measurement, ctx.groups.as_deref(), &noise_floor, shared));

@@ -32,7 +32,7 @@ pub(super) fn acquisition_structure(
     keep: &[usize],
     progress: &dyn Fn(&str),
 ) -> (crate::dataset::blocks::Blocks, Structure, Option<NoiseModel>) {
-    let (mut blocks, angle_step) = crate::dataset::blocks::detect(data, opts.angle_step_deg);
+    let (mut blocks, angle_step) = crate::dataset::blocks::detect(data, opts.floor.angle_step_deg);
     for s in steps {
         blocks.split_before(s.first_row - 1, Boundary::ReadingStep);
         blocks.split_before(s.last_row, Boundary::ReadingStep);
@@ -42,7 +42,7 @@ pub(super) fn acquisition_structure(
         return (blocks, acquisition, None);
     }
     progress(&format!("acquisition: {}", acquisition.summary));
-    let Some(step) = angle_step.filter(|_| opts.noise_model == crate::calib::problem::noise_model::NoiseChoice::Auto) else {
+    let Some(step) = angle_step.filter(|_| opts.floor.noise_model == crate::calib::problem::noise_model::NoiseChoice::Auto) else {
         return (blocks, acquisition, None);
     };
     let rows: Vec<usize> = (0..all.len()).collect();
@@ -248,7 +248,7 @@ pub(super) fn screen_rows(
 ) -> Result<(crate::calib::problem::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
     let refit_rows = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(base, d, x, opts.rank_tol);
     // No row is an outlier for lying as far off as the angles' logging alone puts a reading.
-    let rule = crate::calib::run::screen_rule(base, data, all, opts.outlier_k, opts.reading_steps, opts.angle_step_deg);
+    let rule = crate::calib::run::screen_rule(base, data, all, opts.screen.outlier_k, opts.screen.reading_steps, opts.floor.angle_step_deg);
     let geo_screen = crate::calib::problem::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), rule, &refit_rows);
     let flagged = flagged_rows(&geo_screen);
     // Rows the geometric screen flagged that a candidate effect explains stay in.

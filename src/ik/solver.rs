@@ -667,7 +667,7 @@ mod tests {
         let p_hat = ik.position(&q, &mut w, Some(JacobianKind::Hybrid));
         let cols = w.cols.clone();
         let (mut y, mut delta) = ([0.0; 3], [0.0; 3]);
-        m.readings_with(&x, &q, &RowInputs::default(), &mut m.work(), &mut y);
+        m.readings(&x, &q, &RowInputs::default(), &mut m.work(), &mut y);
         corr.as_correct().corrections_mm(&q, &RowInputs::default(), &mut delta);
         let mut seen = [0.0; 3];
         Measurement::Point.reading(&tracker.own, &(p_hat * 1e-3), &mut seen);
@@ -695,7 +695,7 @@ mod tests {
     /// status, not a false convergence.
     #[test]
     fn pose_targets_are_reached_with_an_exact_orientation_jacobian() {
-        use crate::calib::effects::inputs::{LoadOptions, TorqueModel};
+        use crate::calib::effects::inputs::{JointLoads, TorqueModel};
         use crate::calib::effects::{EffectBlock, EffectKind};
         use crate::calib::model::Placement;
         use crate::measurement::Measurement;
@@ -729,7 +729,7 @@ mod tests {
             let fd = Vector3::new(d[(2, 1)] - d[(1, 2)], d[(0, 2)] - d[(2, 0)], d[(1, 0)] - d[(0, 1)]) / 4e-6;
             assert!((fd - col).norm() < 1e-6, "joint {j}: {fd:?} vs {col:?}");
         }
-        let loads = LoadOptions { payload: Some(Payload { mass_kg: 3.0, com_mm: [40.0, 0.0, 60.0] }), ..LoadOptions::default() };
+        let loads = JointLoads { payload: Some(Payload { mass_kg: 3.0, com_mm: [40.0, 0.0, 60.0] }), ..JointLoads::default() };
         let ik = IkModel::new(&m, &x, None, limits.clone()).with_loads(TorqueModel::new(&robot, &loads, None, probe.tool));
         let o = IkOptions { tol_mm: 0.001, tol_deg: 0.001, max_iter: 100, ..IkOptions::default() };
         let mut rng = ChaCha8Rng::seed_from_u64(5);

@@ -15,6 +15,9 @@ use std::path::{Path, PathBuf};
 
 /// Most seeds `compare` (and `bench calib`) accept.
 pub const MAX_SEEDS: u64 = 1000;
+/// The methods `compare` runs when none are named: the classical ones.
+pub const DEFAULT_METHODS: [Method; 5] = [Method::LM, Method::EKF, Method::PF, Method::PSO, Method::RBF];
+
 /// Most calibrations (methods × seeds) one `compare` runs.
 pub const MAX_COMPARE_JOBS: u64 = 5000;
 
@@ -128,9 +131,9 @@ pub struct CompareRequest {
     /// The methods compared (comma-separated, any case).
     #[cfg_attr(
         feature = "clap",
-        arg(long, value_delimiter = ',', default_value = "lm,ekf,pf,pso,rbf", ignore_case = true, value_parser = crate::requests::method_values())
+        arg(long, value_enum, value_delimiter = ',', default_values_t = DEFAULT_METHODS, ignore_case = true)
     )]
-    pub methods: Vec<String>,
+    pub methods: Vec<Method>,
     /// Number of seeds (1 to 1000).
     #[cfg_attr(feature = "clap", arg(long, default_value_t = 30, allow_negative_numbers = true))]
     pub seeds: u64,
@@ -150,7 +153,7 @@ impl Default for CompareRequest {
     fn default() -> Self {
         CompareRequest {
             reading: Reading::default(),
-            methods: ["lm", "ekf", "pf", "pso", "rbf"].map(String::from).to_vec(),
+            methods: DEFAULT_METHODS.to_vec(),
             seeds: 30,
             model: ModelChoice::default(),
             test_fraction: None,
@@ -257,7 +260,7 @@ pub fn compare(a: &CompareJob, bar: &dyn Progress, recordings: &dyn Recordings) 
         .par_iter()
         .map(|(id, seed, m)| {
             let mut o = CalibOptions::new(spec.clone(), *m);
-            o.test_fraction = Some(frac);
+            o.split.test_fraction = Some(frac);
             o.seed = *seed;
             o.effort = effort;
             let r = run(&ds, None, &o)?;
@@ -344,7 +347,7 @@ pub fn finish(config: &CompareConfig, runs: &[CompareRun], out: Option<&Path>, r
 /// seeds, the number of calibrations, the test fraction and the effort.
 fn check_compare_request(a: &CompareRequest) -> Result<Vec<Method>> {
     let (seeds, test_fraction, effort) = (a.seeds, a.test_fraction, a.effort);
-    let methods: Vec<Method> = a.methods.iter().map(|m| Method::parse(m)).collect::<Result<_>>()?;
+    let methods = a.methods.clone();
     if methods.is_empty() {
         return Err(Error::Invalid("--methods is empty: compare needs at least one method".into()));
     }
@@ -381,7 +384,7 @@ fn compare_config(a: &CompareRequest, ds: &Dataset, file: &Path, methods: &[Meth
         seeds,
         test_fraction: frac,
         effort,
-        model: format!("{} {}", a.model.model, a.model.params.as_deref().unwrap_or("")).trim().to_string(),
+        model: format!("{} {}", a.model.model, a.model.params.map_or("", |p| p.name())).trim().to_string(),
         model_sha256: match a.model.input() {
             Some(m) => Some(crate::dataset::truth::file_sha256(&m)?),
             None => None,

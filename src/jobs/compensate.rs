@@ -41,9 +41,9 @@ pub struct CompensateJob {
     /// The Euler convention of the targets' (and the commands') rx, ry, rz: capitals for
     /// rotations about the moving axes (intrinsic; XYZ is R = Rx(rx)·Ry(ry)·Rz(rz)), lower case
     /// for the fixed axes (extrinsic; xyz is R = Rz(rz)·Ry(ry)·Rx(rx)).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "XYZ"))]
-    #[serde(default = "default_euler")]
-    pub euler: String,
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = crate::measurement::Euler::default()))]
+    #[serde(default)]
+    pub euler: crate::measurement::Euler,
     /// The commands: per target its point, the compensated joint angles, the status, the
     /// predicted residual and uncompensated error, the filtered Cartesian target and the nominal
     /// command.
@@ -54,9 +54,6 @@ pub struct CompensateJob {
 
 fn default_tol() -> f64 {
     0.001
-}
-fn default_euler() -> String {
-    "XYZ".into()
 }
 fn default_out() -> PathBuf {
     PathBuf::from("commands.csv")
@@ -83,7 +80,7 @@ impl CompensateJob {
     pub fn run(&self) -> Result<CompensateSummary> {
         check_outputs(&[("--model", self.model.clone()), ("--targets", self.targets.clone())], &[("--out", self.out.as_path())])?;
         let r = CalibResult::load(&self.model)?;
-        let euler = crate::measurement::Euler::parse(&self.euler).map_err(|e| Error::Invalid(format!("--euler: {e}")))?;
+        let euler = self.euler;
         let targets = read_targets(&self.targets, r.model.chain.n_joints, euler)?;
         // Taught joint targets lie inside the arm's limits (a radian file read as degrees does not).
         let limits = r.model.joint_limits();
@@ -105,7 +102,7 @@ impl CompensateJob {
             }
         }
         let mut warnings = Vec::new();
-        let loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.0;
+        let loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.joints;
         let mut torque = r.torque_model.clone();
         match (&mut torque, &loads.payload) {
             (Some(tm), Some(p)) => tm.payload = Some((p.mass_kg, p.com_mm.map(crate::units::to_m))),

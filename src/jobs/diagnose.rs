@@ -154,7 +154,8 @@ fn diagnose_on_stations(
     }
     if let Some(f) = request.test_fraction {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
-        let (train, _) = crate::calib::run::split_rows(&data, Some(f), request.seed, request.split_by.parse()?)?;
+        let blocks = crate::dataset::blocks::detect(&data, request.floor.angle_resolution_deg).0;
+        let (train, _) = crate::calib::run::split_rows(&data, &blocks, Some(f), request.seed, request.split_by)?;
         let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
         data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
     }

@@ -24,7 +24,7 @@ pub fn data_inputs(data: &Path) -> Vec<PathBuf> {
 /// Loads a dataset for a job. `require_length`: the reading columns must be present (calibrate,
 /// compare) or may be absent (predict).
 pub fn load_dataset(path: &Path, reading: &Reading, require_length: bool) -> Result<Dataset> {
-    Dataset::load_with(path, &reading.load_options(require_length)?)
+    Dataset::load_with(path, &reading.load_options(require_length))
 }
 
 /// A scenario and its robot: the file at `path`, or the embedded default scenario.

@@ -189,7 +189,7 @@ impl Iso9283Job {
             return Err(Error::Invalid("iso9283 needs at least one --model".into()));
         }
         let data = load_dataset(&self.data, &self.reading, true)?;
-        let euler = self.reading.resolve()?.1;
+        let euler = self.reading.euler;
         let m = data.measurement().ok_or_else(|| Error::data(&data.source, "no readings"))?;
         if m.file_lengths() < 3 {
             return Err(Error::data(&data.source, format!("ISO 9283 judges positions: these rows hold a {}, not a tracker's x, y, z", m.def().describe())));

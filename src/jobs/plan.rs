@@ -41,9 +41,9 @@ pub struct PlanJob {
     #[serde(default = "default_criterion")]
     pub criterion: String,
     /// The parametrisation the calibration will use: hayati (default), dh or frame.
-    #[cfg_attr(feature = "clap", arg(long))]
+    #[cfg_attr(feature = "clap", arg(long, value_enum, ignore_case = true))]
     #[serde(default)]
-    pub params: Option<String>,
+    pub params: Option<Parametrisation>,
     /// Plan the next calibration of this calibrated arm (a result.json or diagnosed.json): its
     /// parametrisation, its instrument's calibrated placement and its effect blocks, linearised
     /// at its calibrated values, with the payload it was calibrated with (or --payload-kg); the
@@ -55,7 +55,7 @@ pub struct PlanJob {
     /// makes observable: compliance, eccentricity, nonlinearity, ... (KIND[:JOINT], comma-separated).
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
     #[serde(default)]
-    pub effects: Vec<String>,
+    pub effects: Vec<crate::calib::effects::EffectChoice>,
     /// The payload mounted while measuring, kg (default: the scenario's [effects.payload]); it
     /// loads the joints for the load-driven effects.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
@@ -141,7 +141,7 @@ impl PlanJob {
             return Err(Error::Invalid(format!("--candidates must be in {}..={MAX_CANDIDATES} (at least --poses), got {}", self.poses, self.candidates)));
         }
         crate::plan::criterion(&self.criterion)?;
-        let parametrisation = Parametrisation::parse(self.params.as_deref().unwrap_or("hayati"))?;
+        let parametrisation = self.params.unwrap_or_default();
         if self.model.is_some() && (self.params.is_some() || !self.effects.is_empty()) {
             return Err(Error::Invalid(
                 "--model plans for the calibrated model's own parametrisation and effect blocks: not with --params or --effects".into(),
@@ -159,7 +159,7 @@ impl PlanJob {
         }
         check_outputs(&inputs, &outs)?;
         let calibrated = self.model.as_deref().map(CalibResult::load).transpose()?.map(std::sync::Arc::new);
-        let effects = crate::requests::parse_effects("--effects", &self.effects)?;
+        let effects: Vec<_> = self.effects.iter().map(|c| c.pair()).collect();
         if let Some(m) = self.payloads.iter().find(|m| !(m.is_finite() && (0.0..=crate::dataset::MAX_PAYLOAD_KG).contains(*m))) {
             return Err(Error::Invalid(format!("--payloads: {m} kg is not a payload (finite, in [0, {}] kg)", crate::dataset::MAX_PAYLOAD_KG)));
         }
@@ -183,7 +183,8 @@ impl PlanJob {
                 "--payloads changes only what load-driven effects see: plan them with --effects compliance (or a --model with compliance)".into(),
             ));
         }
-        let mut loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.0;
+        let mut loads =
+            crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.joints;
         // The payload mounted: the one asked for, else the scenario's (a calibrated model's own
         // when planning for it).
         if loads.payload.is_none() && calibrated.is_none() {

@@ -17,7 +17,7 @@ use std::time::Instant;
 
 /// How a replay judges the twin (the field docs are `twincal replay --help`): its options but
 /// `--data`, `--scenario` and the files it writes; Python's `twincal.replay` keyword arguments.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Default, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(default)]
 pub struct ReplayRequest {
@@ -31,17 +31,11 @@ pub struct ReplayRequest {
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
     pub test_fraction: Option<f64>,
     /// How --test-fraction draws its rows: blocks or rows (as `calibrate --split-by`).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "blocks"))]
-    pub split_by: String,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = crate::calib::run::SplitBy::default()))]
+    pub split_by: crate::calib::run::SplitBy,
     /// Seed of that split.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, default_value_t = 0))]
     pub seed: u64,
-}
-
-impl Default for ReplayRequest {
-    fn default() -> Self {
-        ReplayRequest { reading: Reading::default(), test_fraction: None, split_by: "blocks".into(), seed: 0 }
-    }
 }
 
 /// A replay as `twincal replay` runs it: the data, the twin, the request and the files it writes.
@@ -163,7 +157,7 @@ fn after_calibration(
     use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation};
     let run = |d: &Dataset, f: Option<f64>, p: Parametrisation| {
         let mut o = CalibOptions::new(ModelSpec::nominal(robot.clone(), p), Method::LM);
-        (o.test_fraction, o.seed, o.split_by) = (f, seed, by);
+        (o.split.test_fraction, o.seed, o.split.by) = (f, seed, by);
         calibrate(d, None, &o).ok()
     };
     let pair = |p: Parametrisation| Some((run(data, test_fraction, p)?, run(twin, None, p)?));
@@ -194,7 +188,7 @@ pub fn replay(a: &ReplayJob, progress: &dyn Progress, recordings: &dyn Recording
             return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
         }
     }
-    let split_by: crate::calib::run::SplitBy = a.request.split_by.parse()?;
+    let split_by = a.request.split_by;
     let (mut s, robot) = Scenario::load(&a.scenario)?;
     let (csv_path, json_path, twin_dir) = replay_outputs(a, &s)?;
     let data = load_dataset(&a.data, &a.request.reading, true)?;
@@ -378,7 +372,8 @@ fn twin_readings(g: &crate::sim::generate::Generated, m: Measurement, n: usize) 
 fn judged_rows(a: &ReplayRequest, data: &Dataset, split_by: crate::calib::run::SplitBy) -> Result<(Option<Vec<usize>>, String)> {
     Ok(match a.test_fraction {
         Some(f) => {
-            let (_, test) = crate::calib::run::split_rows(data, Some(f), a.seed, split_by)?;
+            let blocks = crate::dataset::blocks::detect(data, None).0;
+            let (_, test) = crate::calib::run::split_rows(data, &blocks, Some(f), a.seed, split_by)?;
             (Some(test), format!("the rows --test-fraction {f} --seed {} holds out (as calibrate and diagnose draw them)", a.seed))
         }
         None if data.rows.iter().any(|r| r.split == Some(Split::Test)) => (Some(data.test_indices()), "the data's test rows (split column)".into()),

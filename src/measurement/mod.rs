@@ -154,6 +154,7 @@ pub struct InstrumentFrame {
 /// A measurement type.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Measurement {
     /// The cable length of a draw-wire sensor: |tool point − exit point| + length offset.
     #[default]

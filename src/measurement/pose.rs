@@ -172,6 +172,19 @@ impl From<Euler> for String {
     }
 }
 
+impl std::fmt::Display for Euler {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+impl std::str::FromStr for Euler {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Euler, String> {
+        Euler::parse(s)
+    }
+}
+
 /// Intrinsic X-Y-Z angles (rad) of rotation `m`: the inverse of [`Euler::XYZ`]'s matrix, the
 /// middle angle in [−90°, 90°].
 pub fn xyz_angles(m: &Matrix3<f64>) -> [f64; 3] {

@@ -32,7 +32,7 @@ mod tests;
 
 pub use design::{criterion, Criterion, Design, Pool, CRITERIA};
 
-use crate::calib::effects::inputs::{block_for, row_inputs, time_span, LoadOptions, TorqueModel};
+use crate::calib::effects::inputs::{block_for, row_inputs, time_span, JointLoads, TorqueModel};
 use crate::calib::effects::{EffectKind, RowInputs};
 use crate::calib::model::{CalibModel, Parametrisation, SensorGuess};
 use crate::calib::problem::{identify::analyse, ReadingFit, Samples};
@@ -120,7 +120,7 @@ impl Model {
     /// scenario places it and the effect blocks `effects` (a kind, on one joint or, for
     /// per-joint kinds without a joint, on every joint) loaded by `loads` (the payload the
     /// engineer mounts, the cable's tension from its data sheet).
-    pub fn new(s: &Scenario, robot: &Robot, p: Parametrisation, effects: &[(EffectKind, Option<usize>)], loads: &LoadOptions) -> Result<Model> {
+    pub fn new(s: &Scenario, robot: &Robot, p: Parametrisation, effects: &[(EffectKind, Option<usize>)], loads: &JointLoads) -> Result<Model> {
         let zero = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
         let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
         let mut model = build_model(&ModelSpec::nominal(robot.clone(), p), &zero).with_placement(&placement);
@@ -177,7 +177,7 @@ impl Model {
             .iter()
             .enumerate()
             .map(|(i, q)| {
-                self.model.readings_with(&self.x, q, &RowInputs::default(), &mut w, &mut y);
+                self.model.readings(&self.x, q, &RowInputs::default(), &mut w, &mut y);
                 // Lengths in mm (a 6-D probe's angle values too: no block reads them).
                 let reading: Vec<f64> = y.iter().map(|v| crate::units::to_mm(*v)).collect();
                 Row {
@@ -371,7 +371,7 @@ pub struct PlanOptions {
     pub effects: Vec<(EffectKind, Option<usize>)>,
     /// What loads the joints while measuring (the payload mounted, the cable's tension), for
     /// the load-driven effects.
-    pub loads: LoadOptions,
+    pub loads: JointLoads,
     /// Payloads the engineer can mount, kg: each candidate pose is offered under each, and the
     /// plan says which payload every pose is measured with (empty: `loads.payload` throughout).
     pub payloads: Vec<f64>,
@@ -391,7 +391,7 @@ impl Default for PlanOptions {
             seed: 1,
             max_sweeps: 8,
             effects: Vec::new(),
-            loads: LoadOptions::default(),
+            loads: JointLoads::default(),
             payloads: Vec::new(),
             calibrated: None,
         }

@@ -66,7 +66,7 @@ fn planned_poses_calibrate_to_a_smaller_true_error_than_random_ones_on_the_twin(
 #[test]
 fn a_plan_for_compliance_designs_for_its_parameters_under_the_payload() {
     let (s, robot) = scenario();
-    let loads = LoadOptions { payload: Some(crate::robot::statics::Payload { mass_kg: 3.0, com_mm: [40.0, 0.0, 60.0] }), ..LoadOptions::default() };
+    let loads = JointLoads { payload: Some(crate::robot::statics::Payload { mass_kg: 3.0, com_mm: [40.0, 0.0, 60.0] }), ..JointLoads::default() };
     let o = PlanOptions { n: 30, candidates: 2000, effects: vec![(EffectKind::JointCompliance, None)], loads, ..PlanOptions::default() };
     let p = plan(&s, &robot, &o).unwrap();
     let compliance: Vec<&String> = p.identifiable.iter().filter(|n| n.contains("compliance")).collect();
@@ -88,7 +88,7 @@ fn the_tool_point_information_is_the_mean_error_left_after_a_rigid_registration(
     // small rigid motion of the base that best absorbs Gδ.
     let (s, robot) = scenario();
     let q = candidates(&s, &robot, 300, 3).unwrap().q;
-    let model = Model::new(&s, &robot, Parametrisation::Hayati, &[], &LoadOptions::default()).unwrap();
+    let model = Model::new(&s, &robot, Parametrisation::Hayati, &[], &JointLoads::default()).unwrap();
     let n = model.model.n_params();
     let keep: Vec<usize> = (0..n).collect();
     let scale = vec![1.0; n];

@@ -236,7 +236,7 @@ fn effect_check(
     s: &Scenario,
     robot: &Robot,
     kind: crate::calib::effects::EffectKind,
-    loads: &crate::calib::effects::inputs::LoadOptions,
+    loads: &crate::calib::effects::inputs::JointLoads,
     poses: &[Vec<f64>],
     payloads: Option<&[f64]>,
     test: &TestSet,
@@ -245,14 +245,14 @@ fn effect_check(
     // One acquisition serves the diagnosis and the calibration.
     let (data, truth) = true_tool(&all_train(s, s.seed, poses.len()), robot, poses, payloads)?;
     let mut d = crate::diagnose::DiagnoseOptions::new(spec.clone());
-    d.loads = loads.clone();
+    d.loads.joints = loads.clone();
     d.seed = s.seed;
     let (diag, _) = crate::diagnose::diagnose(&data, &d, &|_| {})?;
     let named = diag.causes.iter().filter(|c| c.cause == kind.name()).map(|c| (c.joint.unwrap_or(0), c.magnitude, c.uncertainty)).collect();
     let others = diag.causes.iter().filter(|c| c.cause != kind.name()).map(|c| c.joint.map_or(c.cause.clone(), |j| format!("{}[j{j}]", c.cause))).collect();
     let mut calib = CalibOptions::new(spec, Method::LM);
     calib.effects = vec![(kind, None)];
-    calib.loads = loads.clone();
+    calib.loads.joints = loads.clone();
     Ok(EffectCheck { named, others, true_error_mm: error_of(&data, &truth, &calib, test)? })
 }
 

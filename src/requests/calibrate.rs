@@ -1,10 +1,11 @@
 //! A calibration as a user asks for it: `twincal calibrate`'s options but `--data` and the
 //! files it writes, Python's `twincal.calibrate` keyword arguments.
 
-use super::groups::{parse_effects, Loads, ModelChoice, Reading, Robust};
+use super::groups::{Loads, ModelChoice, Reading, Robust};
+use crate::calib::effects::EffectChoice;
 use crate::calib::model::SensorGuess;
-use crate::calib::run::{CalibOptions, Method, DEFAULT_RANK_TOL};
-use crate::dataset::LoadOptions;
+use crate::calib::run::{CalibOptions, Method, SplitBy, SplitOptions, DEFAULT_EFFORT, DEFAULT_RANK_TOL};
+use crate::dataset::ReadOptions;
 use crate::error::{Error, Result};
 use crate::report::verdict::Limit;
 use serde::{Deserialize, Serialize};
@@ -33,8 +34,8 @@ pub struct CalibrateRequest {
     #[serde(flatten)]
     pub reading: Reading,
     /// The calibration method (any case).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "lm", ignore_case = true, value_parser = super::method_values()))]
-    pub method: String,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, ignore_case = true, default_value_t = Method::default()))]
+    pub method: Method,
     /// The model fitted.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
@@ -44,13 +45,8 @@ pub struct CalibrateRequest {
     pub test_fraction: Option<f64>,
     /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks:
     /// test rows share no error with training rows) or rows (stratified by the reading).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "blocks"))]
-    pub split_by: String,
-    /// The joint angles' logging error: auto (where training rows share sweeps and the angles
-    /// are logged at a step, estimated per sweep and joint, at most half a step, and taken out
-    /// of the readings before the fit) or off (rows taken as independent).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "auto"))]
-    pub noise_model: String,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = SplitBy::default()))]
+    pub split_by: SplitBy,
     /// Seed of the hold-out split and of the stochastic methods.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, default_value_t = 0))]
     pub seed: u64,
@@ -65,7 +61,7 @@ pub struct CalibrateRequest {
     #[cfg_attr(feature = "clap", arg(long, default_value_t = DEFAULT_RANK_TOL, allow_negative_numbers = true))]
     pub rank_tol: f64,
     /// Budget of the stochastic methods and of the generic model's global search (1 = default).
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1.0, allow_negative_numbers = true))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = DEFAULT_EFFORT, allow_negative_numbers = true))]
     pub effort: f64,
     /// Accuracy limit for the verdict in --out: RMSE of the test rows after calibration, mm.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
@@ -76,7 +72,7 @@ pub struct CalibrateRequest {
     /// Non-geometric effects to fit with the geometry: compliance, backlash, thermal,
     /// eccentricity, nonlinearity, each optionally on one joint (backlash:2).
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
-    pub effects: Vec<String>,
+    pub effects: Vec<EffectChoice>,
     /// Fit a temperature-driven thermal block without the sensor's lag (the `temp` column taken
     /// as the structure's temperature), even where the rows have a time column.
     #[cfg_attr(feature = "clap", arg(long))]
@@ -99,15 +95,14 @@ impl Default for CalibrateRequest {
     fn default() -> Self {
         CalibrateRequest {
             reading: Reading::default(),
-            method: "lm".into(),
+            method: Method::default(),
             model: ModelChoice::default(),
             test_fraction: None,
-            split_by: "blocks".into(),
-            noise_model: "auto".into(),
+            split_by: SplitBy::default(),
             seed: 0,
             sensor_guess: None,
             rank_tol: DEFAULT_RANK_TOL,
-            effort: 1.0,
+            effort: DEFAULT_EFFORT,
             max_test_rmse_mm: None,
             max_test_max_mm: None,
             effects: Vec::new(),
@@ -124,7 +119,6 @@ impl CalibrateRequest {
     /// limits (reads no data; reads --robot's URDF).
     pub fn options(&self) -> Result<(CalibOptions, [Limit; 2])> {
         let a = self;
-        let method = Method::parse(&a.method)?;
         if !(a.rank_tol > 0.0 && a.rank_tol < 1.0) {
             return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
         }
@@ -138,26 +132,27 @@ impl CalibrateRequest {
         for l in &limits {
             l.validate()?;
         }
-        let mut opts = CalibOptions::new(a.model.spec()?, method);
-        opts.test_fraction = a.test_fraction;
-        opts.split_by = a.split_by.parse()?;
-        opts.noise_model = a.noise_model.parse()?;
-        opts.seed = a.seed;
-        opts.rank_tol = a.rank_tol;
-        opts.effort = a.effort;
-        opts.sensor_guess = sensor_guess(a.sensor_guess.as_deref())?;
-        opts.effects = parse_effects("--effects", &a.effects)?;
-        opts.sensor_lag = !a.no_sensor_lag;
-        (opts.loads, opts.inertial) = a.loads.resolve()?;
+        let model = a.model.spec()?;
+        let loads = a.loads.resolve()?;
         if let Some(path) = &a.loads.robot {
-            crate::calib::run::check_inertial(&opts.model, opts.inertial.as_ref(), &path.display().to_string())?;
+            crate::calib::run::check_inertial(&model, loads.inertial.as_ref(), &path.display().to_string())?;
         }
-        (opts.outlier_k, opts.loss) = a.robust.resolve()?;
-        (opts.angle_step_deg, opts.instrument_accuracy_mm) = a.robust.floor.resolve()?;
-        opts.row_std = !a.robust.floor.ignore_row_std;
-        opts.reading_steps = !a.robust.no_reading_steps;
-        opts.placement_only = a.placement_only;
-        opts.stations = a.reading.stations;
+        let opts = CalibOptions {
+            split: SplitOptions { test_fraction: a.test_fraction, by: a.split_by },
+            seed: a.seed,
+            rank_tol: a.rank_tol,
+            effort: a.effort,
+            sensor_guess: sensor_guess(a.sensor_guess.as_deref())?,
+            effects: a.effects.iter().map(|c| c.pair()).collect(),
+            sensor_lag: !a.no_sensor_lag,
+            loads,
+            screen: a.robust.resolve()?,
+            loss: a.robust.loss,
+            floor: a.robust.floor.resolve()?,
+            placement_only: a.placement_only,
+            stations: a.reading.stations,
+            ..CalibOptions::new(model, a.method)
+        };
         if a.placement_only {
             // The instrument's placement alone is fitted: nothing else may be asked to be.
             if !opts.effects.is_empty() {
@@ -177,7 +172,7 @@ impl CalibrateRequest {
 
     /// How the data are read (`--angles`, `--measurement`, `--euler`); a calibration needs a
     /// reading.
-    pub fn load_options(&self) -> Result<LoadOptions> {
+    pub fn load_options(&self) -> ReadOptions {
         self.reading.load_options(true)
     }
 }
@@ -201,7 +196,7 @@ mod tests {
 
     #[test]
     fn placement_only_refuses_what_it_would_not_fit() {
-        let r = CalibrateRequest { placement_only: true, effects: vec!["compliance:2".into()], ..CalibrateRequest::default() };
+        let r = CalibrateRequest { placement_only: true, effects: vec!["compliance:2".parse().unwrap()], ..CalibrateRequest::default() };
         let e = r.options().err().unwrap().to_string();
         assert!(e.contains("--placement-only") && e.contains("--effects"), "{e}");
         let mut r = CalibrateRequest { placement_only: true, ..CalibrateRequest::default() };

@@ -1,8 +1,10 @@
 //! A diagnosis as a user asks for it: `twincal diagnose`'s options but `--data` and the files it
 //! writes, Python's `twincal.diagnose` keyword arguments.
 
-use super::groups::{parse_effects, Floor, Loads, ModelChoice, Reading};
-use crate::dataset::LoadOptions;
+use super::groups::{Floor, Loads, ModelChoice, Reading};
+use crate::calib::effects::EffectChoice;
+use crate::calib::run::SplitBy;
+use crate::dataset::ReadOptions;
 use crate::diagnose::{DiagnoseOptions, DEFAULT_ALPHA, DEFAULT_FOLDS};
 use crate::error::{Error, Result};
 use crate::report::verdict::Limit;
@@ -27,7 +29,7 @@ pub struct DiagnoseRequest {
     pub loads: Loads,
     /// Candidate effects (default: every kind the data support).
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
-    pub candidates: Vec<String>,
+    pub candidates: Vec<EffectChoice>,
     /// Cross-validation folds (contiguous blocks of acquisition order).
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, default_value_t = DEFAULT_FOLDS))]
     pub folds: usize,
@@ -44,11 +46,6 @@ pub struct DiagnoseRequest {
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub floor: Floor,
-    /// The joint angles' logging error: auto (where rows share sweeps and the angles are
-    /// logged at a step, every fit is generalised least squares with the covariance it implies)
-    /// or off (rows taken as independent).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "auto"))]
-    pub noise_model: String,
     /// Diagnose on the other rows only: hold out this fraction of the rows (the split
     /// `calibrate --test-fraction` draws with the same --seed), never seen, so that `replay`
     /// can measure the identified twin on them.
@@ -56,8 +53,8 @@ pub struct DiagnoseRequest {
     pub test_fraction: Option<f64>,
     /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks) or
     /// rows (stratified by the reading).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "blocks"))]
-    pub split_by: String,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = SplitBy::default()))]
+    pub split_by: SplitBy,
 }
 
 impl Default for DiagnoseRequest {
@@ -72,9 +69,8 @@ impl Default for DiagnoseRequest {
             seed: 0,
             max_test_rmse_mm: None,
             floor: Floor::default(),
-            noise_model: "auto".into(),
             test_fraction: None,
-            split_by: "blocks".into(),
+            split_by: SplitBy::default(),
         }
     }
 }
@@ -94,26 +90,26 @@ impl DiagnoseRequest {
         if !(a.alpha > 0.0 && a.alpha < 0.5) {
             return Err(Error::Invalid(format!("--alpha must be in (0, 0.5), got {}", a.alpha)));
         }
-        let mut opts = DiagnoseOptions::new(a.model.spec()?);
-        (opts.loads, opts.inertial) = a.loads.resolve()?;
+        let model = a.model.spec()?;
+        let loads = a.loads.resolve()?;
         if let Some(path) = &a.loads.robot {
-            crate::calib::run::check_inertial(&opts.model, opts.inertial.as_ref(), &path.display().to_string())?;
+            crate::calib::run::check_inertial(&model, loads.inertial.as_ref(), &path.display().to_string())?;
         }
-        opts.folds = a.folds;
-        opts.alpha = a.alpha;
-        opts.seed = a.seed;
-        opts.row_std = !a.floor.ignore_row_std;
-        opts.noise_model = a.noise_model.parse()?;
-        (opts.angle_step_deg, opts.instrument_accuracy_mm) = a.floor.resolve()?;
-        // Checked here, with the other options, before any data are read.
-        a.split_by.parse::<crate::calib::run::SplitBy>()?;
-        opts.candidates = parse_effects("--candidates", &a.candidates)?;
-        opts.stations = a.reading.stations;
+        let opts = DiagnoseOptions {
+            loads,
+            folds: a.folds,
+            alpha: a.alpha,
+            seed: a.seed,
+            floor: a.floor.resolve()?,
+            candidates: a.candidates.iter().map(|c| c.pair()).collect(),
+            stations: a.reading.stations,
+            ..DiagnoseOptions::new(model)
+        };
         Ok((opts, limit))
     }
 
     /// How the data are read (`--angles`, `--measurement`, `--euler`).
-    pub fn load_options(&self) -> Result<LoadOptions> {
+    pub fn load_options(&self) -> ReadOptions {
         self.reading.load_options(true)
     }
 }

@@ -3,11 +3,11 @@
 //! ([`Floor`]) and the robust screen ([`Robust`]); and the `KIND[:JOINT]` lists of effects.
 //! The field docs are the command line's `--help`.
 
-use crate::calib::effects::EffectKind;
+use crate::calib::effects::inputs::JointLoads;
+use crate::calib::problem::noise_model::NoiseChoice;
 use crate::calib::problem::robust::Loss;
-use crate::calib::run::ModelSpec;
-use crate::calib::run::StationSource;
-use crate::dataset::{AngleUnit, LoadOptions};
+use crate::calib::run::{FloorOptions, LoadOptions, ModelSpec, Parametrisation, ScreenOptions, StationSource};
+use crate::dataset::{AngleUnit, ReadOptions};
 use crate::error::{Error, Result};
 use crate::measurement::{Euler, Measurement};
 use crate::robot::statics::Payload;
@@ -17,7 +17,7 @@ use std::path::PathBuf;
 
 /// How a dataset is read: the joint angles' unit and the reading columns (`--angles`,
 /// `--measurement`, `--euler`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(default)]
 pub struct Reading {
@@ -27,13 +27,13 @@ pub struct Reading {
     /// The instrument whose columns to read when the header holds more than one's (point: only
     /// x, y, z of a file that also has a pose's rx, ry, rz); default: what the header holds
     /// (L: length; x, y, z: point; x, y, z, rx, ry, rz: pose).
-    #[cfg_attr(feature = "clap", arg(long, ignore_case = true, value_parser = clap::builder::PossibleValuesParser::new(Measurement::ALL.map(Measurement::name))))]
-    pub measurement: Option<String>,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, ignore_case = true))]
+    pub measurement: Option<Measurement>,
     /// The Euler convention of a pose's rx, ry, rz (degrees): capitals for rotations about the
     /// moving axes (intrinsic; XYZ is R = Rx(rx)·Ry(ry)·Rz(rz)), lower case for the fixed axes
     /// (extrinsic; xyz is R = Rz(rz)·Ry(ry)·Rx(rx)); ZYX, ZYZ, ... likewise.
-    #[cfg_attr(feature = "clap", arg(long, default_value = "XYZ"))]
-    pub euler: String,
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = Euler::default()))]
+    pub euler: Euler,
     /// Where the instrument stood: auto (the station column where the file has one, then, for a
     /// tracker, the change points a first fit finds: a re-stationed, re-registered or bumped
     /// tracker), declared (the station column only), blocks (each declared block a station) or
@@ -42,31 +42,12 @@ pub struct Reading {
     pub stations: StationSource,
 }
 
-impl Default for Reading {
-    fn default() -> Self {
-        Reading { angles: AngleUnit::Auto, measurement: None, euler: "XYZ".into(), stations: StationSource::Auto }
-    }
-}
-
 impl Reading {
-    /// The instrument asked for and the Euler convention, or an error naming the option.
-    pub fn resolve(&self) -> Result<(Option<Measurement>, Euler)> {
-        let measurement = match &self.measurement {
-            None => None,
-            Some(name) => Some(Measurement::ALL.into_iter().find(|m| m.name().eq_ignore_ascii_case(name.trim())).ok_or_else(|| {
-                Error::Invalid(format!("--measurement '{name}' is not one of {}", Measurement::ALL.iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")))
-            })?),
-        };
-        let euler = Euler::parse(&self.euler).map_err(|e| Error::Invalid(format!("--euler: {e}")))?;
-        Ok((measurement, euler))
-    }
-
     /// How a dataset is read with these options (any source: a file, or columns in memory).
     /// `require_length`: the `L` column must be there when the header holds no other
     /// instrument's.
-    pub fn load_options(&self, require_length: bool) -> Result<LoadOptions> {
-        let (measurement, euler) = self.resolve()?;
-        Ok(LoadOptions { angles: self.angles, require_length, measurement, euler })
+    pub fn load_options(&self, require_length: bool) -> ReadOptions {
+        ReadOptions { angles: self.angles, require_length, measurement: self.measurement, euler: self.euler }
     }
 }
 
@@ -81,8 +62,8 @@ pub struct ModelChoice {
     pub model: String,
     /// Parametrisation of a nominal model: hayati (D-H, β on parallel axes; the default), dh (papers' 24)
     /// or frame. Not for the generic arm.
-    #[cfg_attr(feature = "clap", arg(long))]
-    pub params: Option<String>,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, ignore_case = true))]
+    pub params: Option<Parametrisation>,
 }
 
 impl Default for ModelChoice {
@@ -98,12 +79,13 @@ impl ModelChoice {
         if ModelSpec::is_generic_name(&self.model) {
             if let Some(p) = &self.params {
                 return Err(Error::Invalid(format!(
-                    "--params {p} applies to nominal models (irb120 or a .urdf); {} has no nominal model to parametrise",
+                    "--params {} applies to nominal models (irb120 or a .urdf); {} has no nominal model to parametrise",
+                    p.name(),
                     self.model
                 )));
             }
         }
-        ModelSpec::parse(&self.model, self.params.as_deref().unwrap_or(crate::calib::run::Parametrisation::Hayati.name()))
+        ModelSpec::parse(&self.model, self.params.unwrap_or_default())
     }
 
     /// `--model` as an input file, when it names one (a .urdf).
@@ -145,9 +127,9 @@ pub struct Loads {
 }
 
 impl Loads {
-    /// The load options and the inertial robot (`--robot`, read from its URDF), validated.
-    pub fn resolve(&self) -> Result<(crate::calib::effects::inputs::LoadOptions, Option<Robot>)> {
-        let mut o = crate::calib::effects::inputs::LoadOptions::default();
+    /// What loads the joints and the inertial robot (`--robot`, read from its URDF), validated.
+    pub fn resolve(&self) -> Result<LoadOptions> {
+        let mut o = JointLoads::default();
         if !(self.cable_tension_n.is_finite() && (0.0..=1000.0).contains(&self.cable_tension_n)) {
             return Err(Error::Invalid(format!("--cable-tension-n must be in [0, 1000] N, got {}", self.cable_tension_n)));
         }
@@ -173,11 +155,11 @@ impl Loads {
                 o.payload = Some(Payload { mass_kg: 0.0, com_mm: [com[0], com[1], com[2]] });
             }
         }
-        let robot = match &self.robot {
+        let inertial = match &self.robot {
             Some(p) => Some(Robot::from_urdf_file(p)?),
             None => None,
         };
-        Ok((o, robot))
+        Ok(LoadOptions { joints: o, inertial })
     }
 }
 
@@ -199,17 +181,27 @@ pub struct Floor {
     /// tracker's sx, sy, sz; by default they weight the fits as 1/(floor² + s²)).
     #[cfg_attr(feature = "clap", arg(long))]
     pub ignore_row_std: bool,
+    /// The joint angles' logging error: auto (where rows share sweeps and the angles are
+    /// logged at a step, the fits model the error it puts on every row of a sweep; estimated
+    /// per sweep and joint, at most half a step) or off (rows taken as independent).
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = NoiseChoice::default()))]
+    pub noise_model: NoiseChoice,
 }
 
 impl Floor {
-    /// (the angles' logging step in degrees, the instrument's accuracy in mm), validated.
-    pub fn resolve(&self) -> Result<(Option<f64>, Option<f64>)> {
+    /// The floor's options, validated.
+    pub fn resolve(&self) -> Result<FloorOptions> {
         if let Some(r) = self.angle_resolution_deg {
             if !(r.is_finite() && r > 0.0 && r <= 10.0) {
                 return Err(Error::Invalid(format!("--angle-resolution-deg must be in (0, 10] degrees, got {r}")));
             }
         }
-        Ok((self.angle_resolution_deg, instrument_accuracy(self.instrument_accuracy_mm)?))
+        Ok(FloorOptions {
+            angle_step_deg: self.angle_resolution_deg,
+            instrument_accuracy_mm: instrument_accuracy(self.instrument_accuracy_mm)?,
+            row_std: !self.ignore_row_std,
+            noise_model: self.noise_model,
+        })
     }
 }
 
@@ -238,8 +230,8 @@ pub struct Robust {
     #[cfg_attr(feature = "clap", arg(long))]
     pub no_reading_steps: bool,
     /// Least-squares loss of `--method lm`: l2, huber or cauchy (by IRLS, robust scale from the data).
-    #[cfg_attr(feature = "clap", arg(long, default_value = "l2"))]
-    pub loss: String,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, ignore_case = true, default_value_t = Loss::default()))]
+    pub loss: Loss,
     /// The data's floor and the rows' weights.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
@@ -248,49 +240,19 @@ pub struct Robust {
 
 impl Default for Robust {
     fn default() -> Self {
-        Robust { outliers: crate::calib::run::DEFAULT_OUTLIER_K, no_reading_steps: false, loss: "l2".into(), floor: Floor::default() }
+        let screen = ScreenOptions::default();
+        Robust { outliers: screen.outlier_k, no_reading_steps: !screen.reading_steps, loss: Loss::default(), floor: Floor::default() }
     }
 }
 
 impl Robust {
-    /// (outlier threshold, loss), validated.
-    pub fn resolve(&self) -> Result<(f64, Loss)> {
+    /// The screen's options, validated.
+    pub fn resolve(&self) -> Result<ScreenOptions> {
         if !(self.outliers.is_finite() && (self.outliers == 0.0 || (2.0..=100.0).contains(&self.outliers))) {
             return Err(Error::Invalid(format!("--outliers must be 0 (off) or in [2, 100] robust standard deviations, got {}", self.outliers)));
         }
-        Ok((self.outliers, Loss::parse(&self.loss)?))
+        Ok(ScreenOptions { outlier_k: self.outliers, reading_steps: !self.no_reading_steps })
     }
-}
-
-/// The `KIND[:JOINT]` items of an option (`--effects`, `--candidates`; `option` names it in
-/// errors): a kind, optionally with its joint, 1..N (checked against the data later).
-pub fn parse_effects(option: &str, list: &[String]) -> Result<Vec<(EffectKind, Option<usize>)>> {
-    // `--effects ,` (or an empty string) names nothing: an option given must name an effect.
-    if !list.is_empty() && list.iter().all(|s| s.trim().is_empty()) {
-        return Err(Error::Invalid(format!("{option} '{}' names no effect: give KIND[:JOINT] items separated by commas", list.join(","))));
-    }
-    list.iter().filter(|s| !s.trim().is_empty()).map(|item| parse_effect(option, item)).collect()
-}
-
-fn parse_effect(option: &str, item: &str) -> Result<(EffectKind, Option<usize>)> {
-    let kind = |k: &str| EffectKind::parse(k).map_err(|e| Error::Invalid(format!("{option} {item}: {e}")));
-    let (kind, joint) = match item.split_once(':') {
-        Some((k, j)) => {
-            let max = crate::dataset::MAX_JOINTS;
-            let bad = || Error::Invalid(format!("{option} {item}: the joint after ':' must be a joint number, 1..N"));
-            let j: usize = j.trim().parse().map_err(|_| bad())?;
-            if !(1..=max).contains(&j) {
-                return Err(bad());
-            }
-            (kind(k)?, Some(j - 1))
-        }
-        None => (kind(item)?, None),
-    };
-    let allowed = kind.joint_options(crate::dataset::MAX_JOINTS).contains(&joint) || (joint.is_none() && kind.per_joint());
-    if !allowed {
-        return Err(Error::Invalid(format!("{option} {item}: {} is not a per-joint effect", kind.name())));
-    }
-    Ok((kind, joint))
 }
 
 #[cfg(test)]
@@ -299,10 +261,10 @@ mod tests {
 
     #[test]
     fn generic6r_takes_no_parametrisation() {
-        let spec = |model: &str, params: Option<&str>| ModelChoice { model: model.into(), params: params.map(String::from) }.spec();
-        let e = spec("generic6r", Some("dh")).unwrap_err().to_string();
+        let spec = |model: &str, params: Option<Parametrisation>| ModelChoice { model: model.into(), params }.spec();
+        let e = spec("generic6r", Some(Parametrisation::Dh)).unwrap_err().to_string();
         assert!(e.contains("--params dh"), "{e}");
         assert!(spec("generic6r", None).is_ok());
-        assert!(spec("irb120", Some("frame")).is_ok());
+        assert!(spec("irb120", Some(Parametrisation::Frame)).is_ok());
     }
 }

@@ -42,8 +42,8 @@ mod tests {
     fn options_are_read_by_name_with_their_defaults() {
         let r: CalibrateRequest =
             from_json("calibrate", r#"{"method": "ekf", "test_fraction": 0.2, "cable_tension_n": 5.0, "effects": ["backlash:2"]}"#).unwrap();
-        assert_eq!((r.method.as_str(), r.test_fraction, r.loads.cable_tension_n), ("ekf", Some(0.2), 5.0));
-        assert_eq!(r.effects, vec!["backlash:2".to_string()]);
+        assert_eq!((r.method.name(), r.test_fraction, r.loads.cable_tension_n), ("ekf", Some(0.2), 5.0));
+        assert_eq!(r.effects, vec!["backlash:2".parse().unwrap()]);
         let d = CalibrateRequest::default();
         assert_eq!((r.seed, r.effort, r.robust.outliers), (d.seed, d.effort, d.robust.outliers));
         let r: DiagnoseRequest = from_json("diagnose", "{}").unwrap();

@@ -18,12 +18,5 @@ mod json;
 
 pub use calibrate::{check_effort, CalibrateRequest, MAX_EFFORT, MIN_EFFORT};
 pub use diagnose::DiagnoseRequest;
-pub use groups::{parse_effects, Floor, Loads, ModelChoice, Reading, Robust};
+pub use groups::{Floor, Loads, ModelChoice, Reading, Robust};
 pub use json::from_json;
-
-/// The registered methods as clap's possible values of `--method` (and `compare --methods`): their
-/// names and one line of help each, from [`METHODS`](crate::calib::methods::METHODS).
-#[cfg(feature = "clap")]
-pub fn method_values() -> clap::builder::PossibleValuesParser {
-    clap::builder::PossibleValuesParser::new(crate::calib::methods::METHODS.iter().map(|m| clap::builder::PossibleValue::new(m.name).help(m.help)))
-}

@@ -327,7 +327,7 @@ fn real_data() -> Result<()> {
         let mut cells = Vec::new();
         for m in [Method::LM, Method::PSO_EKF_AWNN] {
             let mut o = CalibOptions::new(ModelSpec::Generic, m);
-            o.test_fraction = Some(0.2);
+            o.split.test_fraction = Some(0.2);
             let r = calibrate_with(&ds, None, &o, m.solver(1.0).as_ref())?;
             if let (Some(rep), Some(t)) = (&r.evaluation.repeatability, &r.evaluation.metrics.test_after) {
                 cells.push(format!("{} {:.4} mm ({:.3} x floor, {:.1} s)", m.name(), t.rmse, t.rmse / rep.pooled_std, r.provenance.wall_time_s));

@@ -227,7 +227,7 @@ fn real_data() -> Result<()> {
     }
     let ds = twincal::dataset::Dataset::load(&hsr)?;
     let mut o = CalibOptions::new(ModelSpec::Generic, Method::LM);
-    o.test_fraction = Some(0.2);
+    o.split.test_fraction = Some(0.2);
     let r = twincal::calib::run::calibrate(&ds, None, &o)?;
     if let (Some(rep), Some(t), Some(tt)) = (&r.evaluation.repeatability, &r.evaluation.metrics.test_after, &r.evaluation.metrics.test_after_trimmed) {
         println!(

@@ -51,7 +51,7 @@ pub fn bench_compensate(seeds: u64) -> Result<()> {
         let mut opts = CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM);
         if model_it {
             opts.effects = (0..robot.dof()).map(|j| (EffectKind::JointCompliance, Some(j))).collect();
-            opts.loads.payload = s.effects.payload.clone();
+            opts.loads.joints.payload = s.effects.payload.clone();
         }
         let checks: Vec<SeedCheck> = (1..=seeds).map(|seed| verify_seed(&s, &robot, &opts, 100, seed, poses)).collect::<Result<_>>()?;
         let col = |f: &dyn Fn(&SeedCheck) -> f64| {

@@ -262,7 +262,10 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let g = twincal::sim::pose_list::generate_pose_list(&s, &robot, list, &Silent)?;
             let payload = twincal::robot::statics::Payload { mass_kg: 0.0, com_mm: twincal::diagnose::hidden::PAYLOAD_COM_MM };
             let opts = twincal::diagnose::DiagnoseOptions {
-                loads: twincal::calib::effects::inputs::LoadOptions { payload: Some(payload), ..Default::default() },
+                loads: twincal::calib::run::LoadOptions {
+                    joints: twincal::calib::effects::inputs::JointLoads { payload: Some(payload), ..Default::default() },
+                    inertial: None,
+                },
                 ..opts
             };
             let data = strip(&g);
@@ -492,7 +495,11 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
     let (s, robot) = twincal::diagnose::hidden::realistic(20_001, 1)?;
     let data = strip(&run_generate(&s, &robot, &Silent)?);
     let timed = |choice: twincal::calib::problem::noise_model::NoiseChoice| -> Result<(f64, String)> {
-        let opts = twincal::diagnose::DiagnoseOptions { noise_model: choice, ..options()? };
+        let opts = {
+            let mut o = options()?;
+            o.floor.noise_model = choice;
+            o
+        };
         let mut t = Vec::new();
         let mut verdict = String::new();
         for _ in 0..3 {

@@ -47,7 +47,11 @@ struct Prepared {
 /// benchmark compares the solvers on every training row), then the noise and priors the solvers
 /// are given.
 fn prepare(ds: &Dataset, opts: &CalibOptions) -> Result<Prepared> {
-    let unscreened = CalibOptions { outlier_k: 0.0, ..opts.clone() };
+    let unscreened = {
+        let mut o = opts.clone();
+        o.screen.outlier_k = 0.0;
+        o
+    };
     let p = twincal::calib::run::prepare(ds, &unscreened, false)?;
     let (split, model, fixed) = (p.split, p.model, p.id.fixed_mask);
     let x0 = model.nominal.clone();

@@ -20,7 +20,7 @@ pub const GENERIC_TIME_TARGET_S: f64 = 30.0;
 fn run(data: &Dataset, spec: ModelSpec, seed: u64) -> Result<(f64, f64, Option<twincal::calib::run::generic::SearchReport>)> {
     let mut o = CalibOptions::new(spec, Method::LM);
     o.seed = seed;
-    o.test_fraction = Some(0.2);
+    o.split.test_fraction = Some(0.2);
     let t0 = Instant::now();
     let r = calibrate(data, None, &o)?;
     let mae = r.evaluation.metrics.test_position_after.map_or(f64::NAN, |m| m.mae);

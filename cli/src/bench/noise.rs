@@ -32,9 +32,9 @@ struct Run {
 /// against the twin's noise-free readings `truth` at the commanded angles `q_cmd` (degrees).
 fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: twincal::calib::problem::noise_model::NoiseChoice, seed: u64) -> Result<Run> {
     let mut opts = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), Method::parse(method)?);
-    opts.test_fraction = Some(0.25);
+    opts.split.test_fraction = Some(0.25);
     opts.seed = seed;
-    opts.noise_model = choice;
+    opts.floor.noise_model = choice;
     let t0 = Instant::now();
     let r = calibrate(data, None, &opts)?;
     let seconds = t0.elapsed().as_secs_f64();

@@ -88,7 +88,7 @@ fn hidden_case(what: &str, extra: &str, sizes: &[usize], payloads: &[f64], seeds
     let text = std::fs::read_to_string(path).map_err(|e| twincal::error::Error::io(path, e))?;
     let s = Scenario::from_toml(&text.replacen("[sensor]", &format!("{extra}[sensor]"), 1), "irb120_tracker + compliance")?;
     let truth: Vec<f64> = s.effects.compliance.as_ref().map_or(vec![], |c| c.stiffness_nm_per_rad.iter().map(|k| 1e6 / k).collect());
-    let loads = twincal::calib::effects::inputs::LoadOptions { payload: s.effects.payload.clone(), ..Default::default() };
+    let loads = twincal::calib::effects::inputs::JointLoads { payload: s.effects.payload.clone(), ..Default::default() };
     let o = PlanOptions {
         effects: vec![(twincal::calib::effects::EffectKind::JointCompliance, None)],
         loads,

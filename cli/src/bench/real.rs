@@ -68,7 +68,7 @@ pub fn bench_diagnose_ur10(runs: usize) -> Result<()> {
     let text = std::fs::read_to_string(&data).map_err(|e| twincal::error::Error::io(&data, e))?;
     let sorted = sorted_by_column(&text, "t").ok_or_else(|| twincal::error::Error::data(data.display(), "no header with a t column"))?;
     // The position table of the README (the file's orientation columns are a pose's).
-    let point = twincal::dataset::LoadOptions { measurement: Some(twincal::measurement::Measurement::Point), ..Default::default() };
+    let point = twincal::dataset::ReadOptions { measurement: Some(twincal::measurement::Measurement::Point), ..Default::default() };
     let ds = Dataset::from_csv_reader_with(sorted.as_bytes(), &format!("{} (sorted by t)", data.display()), &point)?;
     let opts = DiagnoseOptions::new(ModelSpec::nominal(twincal::robot::Robot::from_urdf_file(&urdf)?, twincal::calib::run::Parametrisation::Hayati));
     let mut times = Vec::new();
@@ -172,12 +172,12 @@ pub fn bench_real(seeds: u64) -> Result<()> {
                 let t0 = Instant::now();
                 for seed in 0..seeds {
                     let mut o = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), method);
-                    o.test_fraction = Some(0.2);
+                    o.split.test_fraction = Some(0.2);
                     // The papers' protocol: random rows (their splits are not published).
-                    o.split_by = twincal::calib::run::SplitBy::Rows;
+                    o.split.by = twincal::calib::run::SplitBy::Rows;
                     o.seed = seed;
-                    o.outlier_k = k;
-                    o.noise_model = noise;
+                    o.screen.outlier_k = k;
+                    o.floor.noise_model = noise;
                     runs.push(calibrate(&ds, None, &o)?);
                 }
                 if floor.is_nan() {

@@ -44,7 +44,7 @@ fn calibrate_line(a: &DiagnoseJob, effects: &str, no_sensor_lag: bool) -> String
         line += &format!(" --model {}", quote(Path::new(&a.request.model.model)));
     }
     if let Some(p) = &a.request.model.params {
-        line += &format!(" --params {p}");
+        line += &format!(" --params {}", p.name());
     }
     if a.request.reading.angles != AngleUnit::Auto {
         line += &format!(" --angles {}", clap::ValueEnum::to_possible_value(&a.request.reading.angles).map(|v| v.get_name().to_string()).unwrap_or_default());

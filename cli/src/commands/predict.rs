@@ -13,7 +13,7 @@ pub fn predict(model: &Path, data: &Path, reading: &Reading, register_rows: usiz
     check_outputs(&inputs, &[("--out", out)])?;
     let result = load_model(model)?;
     let ds = load_dataset(data, reading, false)?;
-    let euler = reading.resolve()?.1;
+    let euler = reading.euler;
     let p = predicted_readings(&result, &ds, euler, &format!("the model {}", model.display()), register_rows)?;
     for w in &p.warnings {
         eprintln!("warning: {w}");

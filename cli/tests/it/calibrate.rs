@@ -29,7 +29,7 @@ fn geometric() -> &'static (PathBuf, Dataset, TruthFile) {
 }
 
 fn irb120(method: Method, params: &str) -> CalibOptions {
-    CalibOptions::new(ModelSpec::parse("irb120", params).unwrap(), method)
+    CalibOptions::new(ModelSpec::parse("irb120", params.parse().unwrap()).unwrap(), method)
 }
 
 /// irb120_geometric-like datasets over several seeds, optionally with other spreads and noise.
@@ -260,13 +260,13 @@ fn calibrate_predict_and_export_through_the_cli() {
 fn test_fraction_zero_trains_on_every_row() {
     let (_, ds, _) = geometric();
     let mut o = irb120(Method::LM, "hayati");
-    o.test_fraction = Some(0.0);
+    o.split.test_fraction = Some(0.0);
     let r = calibrate(ds, None, &o).unwrap();
     assert_eq!(r.provenance.n_train, ds.rows.len());
     assert_eq!(r.provenance.n_test, 0);
     assert!(r.evaluation.metrics.test_after.is_none() && r.evaluation.truth_comparison.is_none());
     let mut o = irb120(Method::LM, "hayati");
-    o.test_fraction = Some(0.25);
+    o.split.test_fraction = Some(0.25);
     let r = calibrate(ds, None, &o).unwrap();
     assert_eq!(r.provenance.n_test, 100);
 }
@@ -310,7 +310,7 @@ fn bad_calibration_input_is_named_and_leaves_nothing() {
         (vec!["--model".into(), "kuka".into()], None, "unknown model"),
         (vec!["--test-fraction".into(), "1.5".into()], None, "test-fraction"),
         (vec!["--outliers".into(), "1".into()], None, "--outliers"),
-        (vec!["--loss".into(), "tukey".into()], None, "unknown loss"),
+        (vec!["--loss".into(), "tukey".into()], None, "invalid value 'tukey' for '--loss"),
         (vec!["--method".into(), "ekf".into(), "--loss".into(), "huber".into()], None, "applies to --method lm"),
         (vec!["--angle-resolution-deg".into(), "0".into()], None, "--angle-resolution-deg"),
         (vec!["--effects".into(), ",".into()], None, "names no effect"),
@@ -354,7 +354,7 @@ fn hsr_robotcali_generic_model_reaches_the_repeatability_floor() {
     let Some(path) = datasets::shared("data/hsr-robotcali/hsr_robotcali_pool.csv") else { return };
     let ds = Dataset::load(&path).unwrap();
     let mut o = CalibOptions::new(ModelSpec::Generic, Method::LM);
-    o.test_fraction = Some(0.2);
+    o.split.test_fraction = Some(0.2);
     let r = calibrate(&ds, None, &o).unwrap();
     let rep = r.evaluation.repeatability.clone().expect("repeated configurations are present");
     assert!(rep.groups >= 10, "{rep:?}");
@@ -390,7 +390,7 @@ fn hayati_plus_field(seed: u64, field: impl Fn(&[f64]) -> f64) -> Dataset {
             let q_deg: [f64; 6] = std::array::from_fn(|j| rng.random_range(ranges[j][0]..ranges[j][1]));
             let q: Vec<f64> = q_deg.iter().map(|d: &f64| d.to_radians()).collect();
             let noise = 0.01 * (rng.random_range(-1.0f64..1.0) + rng.random_range(-1.0..1.0) + rng.random_range(-1.0..1.0));
-            let l = model.predict(&x, &q, &mut w) * 1e3 + field(&q) + noise;
+            let l = model.length(&x, &q, &twincal::calib::effects::RowInputs::default(), &mut w) * 1e3 + field(&q) + noise;
             Row {
                 q_deg: q_deg.to_vec(),
                 reading_mm: vec![l],
@@ -502,7 +502,7 @@ fn compare_scores_the_residuals_the_calibration_scored() {
     let g = generate(&s, &robot, &Silent).unwrap();
     let ds = g.dataset;
     assert!(ds.rows.iter().all(|r| r.temp_c.is_some()), "the scenario logs temperature");
-    let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM);
+    let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), Method::LM);
     o.effects = vec![(EffectKind::ThermalDrift, None)];
     let r = calibrate(&ds, None, &o).unwrap();
     let t = r.evaluation.metrics.test_after.unwrap();

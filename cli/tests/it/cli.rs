@@ -383,7 +383,7 @@ fn options_that_do_not_apply_or_make_no_sense_are_refused() {
         (vec!["bench", "calib", "--categories", "hidden"], "--categories applies to bench diagnose"),
         (vec!["bench", "diagnose", "--categories", "hidden,foo"], "unknown --categories entry 'foo'"),
         (vec!["bench", "noise-model", "--scenario", "x.toml"], "--scenario applies to bench twin, replay, not bench noise-model"),
-        (vec!["calibrate", "--data", d, "--noise-model", "gls"], "--noise-model must be auto or off, not 'gls'"),
+        (vec!["calibrate", "--data", d, "--noise-model", "gls"], "invalid value 'gls' for '--noise-model"),
         (vec!["compare", "--data", d, "--test-fraction", "0"], "--test-fraction must be in (0, 1)"),
         (vec!["compare", "--data", d, "--seeds", "18000000000000000000"], "--seeds must be between 1 and 1000"),
         (vec!["compare", "--data", d, "--seeds", "0"], "--seeds must be between 1 and 1000, got 0"),
@@ -731,9 +731,9 @@ fn messages_name_the_option_given_and_numbers_briefly() {
     let data = small_geometric(dir.path(), "d");
     let out = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
     for (cand, needle) in [
-        ("backlash:0", "--candidates backlash:0: the joint"),
+        ("backlash:0", "invalid value 'backlash:0' for '--candidates <CANDIDATES>': the joint"),
         ("backlash:9", "--candidates backlash: joint 9"),
-        ("nonsense", "--candidates nonsense: unknown effect"),
+        ("nonsense", "invalid value 'nonsense' for '--candidates <CANDIDATES>': unknown effect"),
     ] {
         let o = twincal(&["diagnose", "--data", s(&data), "--candidates", cand, "--out", &out("d.json"), "--result", &out("r.json")]);
         let e = stderr(&o);

@@ -17,7 +17,7 @@ fn run(s: &Scenario, robot: &Robot) -> Diagnosis {
     let g = generate(s, robot, &Silent).unwrap();
     // Only what measured data hold: the generator's split column is dropped too.
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap());
+    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap());
     diagnose(&data, &opts, &|_| {}).unwrap().0
 }
 
@@ -172,9 +172,9 @@ fn the_simulated_tour_shows_its_backlash() {
     let truth_width = s.effects.backlash.as_ref().unwrap().width_deg[1];
     let g = generate(&s, &robot, &Silent).unwrap();
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-    let mut opts = DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap());
-    opts.loads.payload = Some(Payload { mass_kg: 0.5, com_mm: [40.0, 0.0, 0.0] });
-    opts.loads.cable_tension_n = 6.0;
+    let mut opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap());
+    opts.loads.joints.payload = Some(Payload { mass_kg: 0.5, com_mm: [40.0, 0.0, 0.0] });
+    opts.loads.joints.cable_tension_n = 6.0;
     let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
     let found: Vec<_> = d.causes.iter().map(|c| (&c.cause, c.joint, c.magnitude, c.uncertainty)).collect();
     let c = d.causes.iter().find(|c| c.cause == "backlash" && c.joint == Some(2)).unwrap_or_else(|| panic!("no joint-2 backlash: {found:?}"));
@@ -199,7 +199,7 @@ fn a_hidden_effect_is_named_in_sweep_ordered_data_with_glitch_runs() {
         let h = &truth[0];
         let g = generate(&s, &robot, &Silent).unwrap();
         let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-        let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap()), &|_| {}).unwrap().0;
+        let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
         eprintln!(
             "seed {seed}: hidden {h:?}; judged on {}; found {:?}",
             d.judged_on,
@@ -235,7 +235,7 @@ fn a_drift_behind_a_constant_temperature_column_is_named_over_time() {
     let g = generate(&s, &robot, &Silent).unwrap();
     let rows: Vec<Row> = g.dataset.rows.iter().map(|r| Row { split: None, temp_c: Some(21.0), ..r.clone() }).collect();
     let data = Dataset { rows, source: "broken temperature sensor".into() };
-    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap());
+    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap());
     let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
     assert!(d.causes.iter().any(|c| c.cause == "thermal_drift" && c.joint.is_none()), "{}", d.verdict);
     // The model it writes runs on t: predict needs t, not temp.
@@ -292,7 +292,7 @@ fn a_thermal_drift_in_logged_sweeps_is_sized_within_its_uncertainty() {
         eprintln!("seed {seed}: diagnose {}", c.summary());
         assert!(h.named_by(c) && (c.magnitude - h.magnitude).abs() <= 3.0 * c.uncertainty, "seed {seed}: hidden {h:?}, named {}", c.summary());
         let g = generate(&s, &robot, &Silent).unwrap();
-        let mut opts = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), Method::LM);
+        let mut opts = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), Method::LM);
         opts.effects = vec![(EffectKind::ThermalDrift, None)];
         let r = calibrate(&g.dataset, None, &opts).unwrap();
         let p = r.parameters.iter().find(|p| p.name == "thermal.alpha").expect("the drift's parameter");
@@ -325,7 +325,7 @@ fn joint_reading_faults_are_named_with_their_rows() {
         s.glitches = Some(Glitches { runs: 3, rows: 8, size_mm: 2.0, kind, joint, size_deg: None });
         let g = generate(&s, &robot, &Silent).unwrap();
         let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-        let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap()), &|_| {}).unwrap().0;
+        let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
         for f in &d.run_faults {
             eprintln!("{name}: rows {}-{}: {}", f.first_row, f.last_row, f.evidence);
         }
@@ -354,7 +354,7 @@ fn joint_reading_faults_are_named_with_their_rows() {
 /// once the payload's centre of mass is stated; without it a warning says the size depends on it.
 #[test]
 fn payload_runs_reveal_a_compliance_the_unloaded_arm_hides() {
-    use twincal::calib::effects::inputs::LoadOptions;
+    use twincal::calib::effects::inputs::JointLoads;
     use twincal::sim::pose_list::{generate_pose_list, PoseList};
     let scenario = include_str!("../../../scenarios/irb120_tracker.toml")
         .replace("[sensor]", "[effects.compliance]\nstiffness_nm_per_rad = [1e12, 1e12, 6e5, 1e12, 1e12, 1e12]\n\n[effects.payload]\nmass_kg = 0.0\ncom_mm = [150.0, 0.0, 100.0]\n\n[sensor]")
@@ -369,14 +369,14 @@ fn payload_runs_reveal_a_compliance_the_unloaded_arm_hides() {
     let g = generate_pose_list(&s, &robot, list, &Silent).unwrap();
     let rows: Vec<Row> = g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect();
     let truth = 1.0 / 6e5 * 1e6; // µrad/N·m
-    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap());
+    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap());
     let unloaded = Dataset { rows: rows.iter().filter(|r| r.payload_kg == Some(0.0)).cloned().collect(), source: "unloaded".into() };
     assert_eq!(unloaded.rows.len(), 120);
     let d = diagnose(&unloaded, &opts, &|_| {}).unwrap().0;
     assert!(d.causes.is_empty(), "the unloaded run alone: {}", d.verdict);
     let all = Dataset { rows, source: "payload runs".into() };
-    let com = LoadOptions { payload: Some(twincal::robot::statics::Payload { mass_kg: 0.0, com_mm: [150.0, 0.0, 100.0] }), ..Default::default() };
-    let d = diagnose(&all, &DiagnoseOptions { loads: com, ..opts.clone() }, &|_| {}).unwrap().0;
+    let com = JointLoads { payload: Some(twincal::robot::statics::Payload { mass_kg: 0.0, com_mm: [150.0, 0.0, 100.0] }), ..Default::default() };
+    let d = diagnose(&all, &DiagnoseOptions { loads: twincal::calib::run::LoadOptions { joints: com, inertial: None }, ..opts.clone() }, &|_| {}).unwrap().0;
     let first = d.causes.first().unwrap_or_else(|| panic!("the payload runs: {}", d.verdict));
     eprintln!("payload runs: {} (truth {truth:.4} urad/Nm)", first.summary());
     assert!(first.cause == "joint_compliance" && first.joint == Some(3), "{}", d.verdict);
@@ -396,7 +396,7 @@ fn a_joint_fault_with_a_reading_jump_is_named_as_both() {
     s.glitches = Some(Glitches { runs: 3, rows: 8, size_mm: 2.0, kind: GlitchKind::JointOffsetAndReading, joint: None, size_deg: Some(1.0) });
     let g = generate(&s, &robot, &Silent).unwrap();
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-    let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", "hayati").unwrap()), &|_| {}).unwrap().0;
+    let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
     for f in &d.run_faults {
         eprintln!("rows {}-{}: {} ({})", f.first_row, f.last_row, f.cause, f.evidence);
     }
@@ -424,7 +424,7 @@ fn a_warm_up_behind_a_lagging_sensor_is_sized_and_not_taken_for_moves() {
     s.effects.thermal = Some(Thermal { temp_lag_s: 300.0, ..Thermal::new(23e-6, 10.0, 900.0, 20.0) });
     let robot = s.load_robot(None).unwrap();
     let data = generate(&s, &robot, &Silent).unwrap().dataset;
-    let spec = || ModelSpec::parse("irb120", "hayati").unwrap();
+    let spec = || ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap();
     let param = |r: &twincal::calib::run::CalibResult, name: &str| {
         let p = r.parameters.iter().find(|p| p.name == name).unwrap_or_else(|| panic!("no {name}"));
         (p.value, p.std_uncertainty.unwrap_or(f64::NAN))

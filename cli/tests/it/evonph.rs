@@ -31,8 +31,8 @@ fn evo() -> (&'static PathBuf, &'static Dataset) {
 }
 
 fn opts(m: Method, seed: u64) -> CalibOptions {
-    let mut o = CalibOptions::new(ModelSpec::parse("irb120", "hayati").unwrap(), m);
-    o.test_fraction = Some(0.25);
+    let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), m);
+    o.split.test_fraction = Some(0.25);
     o.seed = seed;
     o.effort = 0.1;
     o
@@ -126,7 +126,7 @@ fn ik_on_a_dsade_result_solves_reachable_targets_and_beats_the_nominal_on_the_tw
 fn the_network_is_chosen_on_training_rows_only_and_dh_form_works() {
     let (_, ds) = evo();
     let mut o = opts(Method::DSADE_GKAN, 5);
-    o.test_fraction = None;
+    o.split.test_fraction = None;
     let a = calibrate(ds, None, &o).unwrap();
     assert!(a.solve.stop_reason.contains("chosen by 5-fold CV on the training rows"), "{}", a.solve.stop_reason);
     let b = calibrate(&datasets::test_lengths_scrambled(ds), None, &o).unwrap();
@@ -135,7 +135,7 @@ fn the_network_is_chosen_on_training_rows_only_and_dh_form_works() {
     assert!(b.evaluation.metrics.test_after.unwrap().rmse > 2.0 * a.evaluation.metrics.test_after.unwrap().rmse);
 
     let mut dh = opts(Method::DSADE_GKAN, 5);
-    dh.model = ModelSpec::parse("irb120", "dh").unwrap();
+    dh.model = ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Dh).unwrap();
     let r = calibrate(ds, None, &dh).unwrap();
     let lm = calibrate(ds, None, &CalibOptions { method: Method::LM, ..dh.clone() }).unwrap();
     let (e, l) = (r.evaluation.metrics.test_after.unwrap().rmse, lm.evaluation.metrics.test_after.unwrap().rmse);

@@ -262,7 +262,8 @@ fn part_fixture() -> &'static Vec<Value> {
         let csv = dir.path().join("d.csv");
         Dataset { rows: data.rows[..200].to_vec(), source: "first rows".into() }.write_csv(&csv).unwrap();
         let part = dir.path().join("part.jsonl");
-        let request = twincal::jobs::CompareRequest { methods: vec!["lm".into(), "rbf".into()], seeds: 2, ..Default::default() };
+        let request =
+            twincal::jobs::CompareRequest { methods: vec![twincal::calib::run::Method::LM, twincal::calib::run::Method::RBF], seeds: 2, ..Default::default() };
         let job = twincal::jobs::CompareJob { data: csv, request, out: None, rrd: None, shard: Some("0/1".into()), shard_out: Some(part.clone()) };
         twincal::jobs::compare(&job, &Silent, &twincal::jobs::NoRecordings).unwrap();
         let lines: Vec<Value> = std::fs::read_to_string(&part).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();

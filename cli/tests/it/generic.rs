@@ -18,7 +18,7 @@ fn held_out(r: &CalibResult) -> f64 {
 fn options(spec: ModelSpec, seed: u64, test_fraction: Option<f64>) -> CalibOptions {
     let mut o = CalibOptions::new(spec, Method::LM);
     o.seed = seed;
-    o.test_fraction = test_fraction;
+    o.split.test_fraction = test_fraction;
     o
 }
 

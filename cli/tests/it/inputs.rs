@@ -2,7 +2,7 @@
 //! writes for a narrow joint range read back with the angle-unit option.
 
 use std::path::Path;
-use twincal::dataset::{AngleUnit, Dataset, LoadOptions};
+use twincal::dataset::{AngleUnit, Dataset, ReadOptions};
 use twincal::sim::generate::{generate, Silent};
 use twincal::sim::scenario::Scenario;
 
@@ -77,6 +77,6 @@ fn a_narrow_range_dataset_of_the_twin_reloads_with_angles_deg() {
     g.dataset.write_csv(&path).unwrap();
     let msg = Dataset::load(&path).unwrap_err().to_string();
     assert!(msg.contains("look like radians") && msg.contains("--angles deg"), "{msg}");
-    let ds = Dataset::load_with(&path, &LoadOptions { angles: AngleUnit::Deg, ..Default::default() }).unwrap();
+    let ds = Dataset::load_with(&path, &ReadOptions { angles: AngleUnit::Deg, ..Default::default() }).unwrap();
     assert_eq!(ds.rows, g.dataset.rows);
 }

@@ -52,7 +52,7 @@ fn a_tracker_point_dataset_calibrates_to_its_noise_on_unseen_rows() {
             let mut w = truth_model.work();
             let mut y = vec![0.0; 3 * n];
             for (qi, yi) in q.iter().zip(y.chunks_mut(3)) {
-                truth_model.readings_with(&x_true, qi, &Default::default(), &mut w, yi);
+                truth_model.readings(&x_true, qi, &Default::default(), &mut w, yi);
             }
             let noisy = y.iter().map(|v| v + NOISE_M * gauss(rng)).collect();
             (Samples::readings(q.clone(), noisy, 3), Samples::readings(q, y, 3))
@@ -117,7 +117,7 @@ fn the_commands_take_a_tracker_dataset() {
     for row in 1..=240u64 {
         let q: Vec<f64> = limits.iter().map(|(lo, hi)| lo + (hi - lo) * (0.15 + 0.7 * rng.random::<f64>())).collect();
         let mut y = [0.0; 3];
-        truth.readings_with(&x, &q, &Default::default(), &mut w, &mut y);
+        truth.readings(&x, &q, &Default::default(), &mut w, &mut y);
         if bumped.contains(&row) {
             y[1] += 1.5e-3;
         }

@@ -163,14 +163,14 @@ fn pose_columns_are_detected_and_the_euler_convention_is_read() {
     std::fs::write(&f, "q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n1,2,3,4,5,6,1000,200,300,10,20,30\n").unwrap();
     let g = dir.path().join("g.csv");
     std::fs::write(&g, format!("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n1,2,3,4,5,6,1000,200,300,{},{},{}\n", zyx[0], zyx[1], zyx[2])).unwrap();
-    use twincal::dataset::LoadOptions;
-    let pose = Dataset::load_with(&f, &LoadOptions::poses()).unwrap();
+    use twincal::dataset::ReadOptions;
+    let pose = Dataset::load_with(&f, &ReadOptions::poses()).unwrap();
     assert_eq!(pose.measurement(), Some(Measurement::Pose));
-    let point = Dataset::load_with(&f, &LoadOptions { measurement: Some(Measurement::Point), ..LoadOptions::poses() }).unwrap();
+    let point = Dataset::load_with(&f, &ReadOptions { measurement: Some(Measurement::Point), ..ReadOptions::poses() }).unwrap();
     assert_eq!(point.measurement(), Some(Measurement::Point));
     assert_eq!(point.rows[0].reading_mm, vec![1000.0, 200.0, 300.0]);
     let euler = twincal::measurement::Euler::parse("ZYX").unwrap();
-    let other = Dataset::load_with(&g, &LoadOptions { euler, ..LoadOptions::poses() }).unwrap();
+    let other = Dataset::load_with(&g, &ReadOptions { euler, ..ReadOptions::poses() }).unwrap();
     let (u, v) = (pose.rows[0].values_mm().unwrap(), other.rows[0].values_mm().unwrap());
     assert!(u.iter().zip(&v).all(|(a, b)| (a - b).abs() < 1e-9), "{u:?} vs {v:?}");
     // The CLI names a bad convention and a missing column.
@@ -178,7 +178,7 @@ fn pose_columns_are_detected_and_the_euler_convention_is_read() {
     assert_eq!(out.status.code(), Some(2));
     let missing = dir.path().join("m.csv");
     std::fs::write(&missing, "q1,q2,q3,q4,q5,q6,x,y,z\n1,2,3,4,5,6,1000,200,300\n").unwrap();
-    let e = Dataset::load_with(&missing, &LoadOptions { measurement: Some(Measurement::Pose), ..LoadOptions::poses() }).unwrap_err().to_string();
+    let e = Dataset::load_with(&missing, &ReadOptions { measurement: Some(Measurement::Pose), ..ReadOptions::poses() }).unwrap_err().to_string();
     assert!(e.contains("rx, ry, rz") || e.contains("missing rx"), "{e}");
 }
 

@@ -25,7 +25,7 @@ fn scenario(seed: u64) -> (Scenario, twincal::robot::Robot) {
 }
 
 fn wam() -> ModelSpec {
-    ModelSpec::parse(root().join("urdf/wam.urdf").to_str().unwrap(), "hayati").unwrap()
+    ModelSpec::parse(root().join("urdf/wam.urdf").to_str().unwrap(), twincal::calib::run::Parametrisation::Hayati).unwrap()
 }
 
 #[test]

@@ -73,7 +73,7 @@ impl<'a> EffectCorrection<'a> {
         EffectCorrection { model, x, x_off }
     }
     fn value(&self, q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
-        crate::units::to_mm(self.model.predict_with(self.x, q, inp, w) - self.model.predict_with(&self.x_off, q, inp, w))
+        crate::units::to_mm(self.model.length(self.x, q, inp, w) - self.model.length(&self.x_off, q, inp, w))
     }
 }
 

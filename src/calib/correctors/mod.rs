@@ -231,10 +231,10 @@ mod tests {
         // It is the whole non-geometric part: geometry + correction = the full prediction.
         let q = &configurations()[3];
         let mut w = m.work();
-        let full = m.predict_with(&x, q, &inp, &mut w) * 1e3;
+        let full = m.length(&x, q, &inp, &mut w) * 1e3;
         let mut x_geo = x.clone();
         x_geo[m.first_effect()..].copy_from_slice(&m.nominal[m.first_effect()..]);
-        let geo = m.predict_with(&x_geo, q, &inp, &mut w) * 1e3;
+        let geo = m.length(&x_geo, q, &inp, &mut w) * 1e3;
         let corr = c.correction_mm(q, &inp);
         assert!(corr.abs() > 1e-3 && (geo + corr - full).abs() < 1e-9, "{geo} + {corr} vs {full}");
         // The model's q-gradient itself (every effect on) against finite differences.
@@ -244,7 +244,7 @@ mod tests {
             let (mut qp, mut qm) = (q.clone(), q.clone());
             qp[j] += 1e-7;
             qm[j] -= 1e-7;
-            let fd = (m.predict_with(&x, &qp, &inp, &mut w) - m.predict_with(&x, &qm, &inp, &mut w)) / 2e-7;
+            let fd = (m.length(&x, &qp, &inp, &mut w) - m.length(&x, &qm, &inp, &mut w)) / 2e-7;
             assert!((fd - g[j]).abs() < 1e-7 * (1.0 + g[j].abs()), "joint {j}: {fd} vs {}", g[j]);
         }
     }

@@ -2,7 +2,7 @@
 //! (before any train/test split): static joint torques from an inertial model (the URDF's
 //! links, an optional payload and the cable's pull) and the backlash flank of every joint.
 //!
-//! The flank rule: where the static torque on a joint exceeds [`LoadOptions::torque_threshold_nm`]
+//! The flank rule: where the static torque on a joint exceeds [`JointLoads::torque_threshold_nm`]
 //! the load holds the link on the flank it points to; below it the link stays on the flank its
 //! last motion left it on (the link trails the motor: a move towards larger angles leaves it on
 //! the negative flank). The arm is assumed to start at its home pose (all angles zero).
@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 
 /// What loads the joints, as far as the user knows it.
 #[derive(Clone, Debug)]
-pub struct LoadOptions {
+pub struct JointLoads {
     /// Payload on the flank (mass and centre of mass in the flange frame, mm).
     pub payload: Option<Payload>,
     /// Draw-wire spring tension, N (from the sensor's data sheet; 0 = ignore).
@@ -27,16 +27,16 @@ pub struct LoadOptions {
     pub torque_threshold_nm: f64,
 }
 
-impl Default for LoadOptions {
+impl Default for JointLoads {
     fn default() -> Self {
-        LoadOptions { payload: None, cable_tension_n: 0.0, torque_threshold_nm: 0.5 }
+        JointLoads { payload: None, cable_tension_n: 0.0, torque_threshold_nm: 0.5 }
     }
 }
 
 /// What the rows' own payloads leave unsaid: rows that carry a `payload_kg` with no payload
 /// centre of mass stated (it is then taken at the flange's origin, and a load-driven effect's
 /// size depends on it), or a centre of mass stated with no payload on any row.
-pub fn payload_warning(data: &crate::dataset::Dataset, loads: &LoadOptions) -> Option<String> {
+pub fn payload_warning(data: &crate::dataset::Dataset, loads: &JointLoads) -> Option<String> {
     let loaded = data.rows.iter().filter(|r| r.payload_kg.is_some_and(|m| m > 0.0)).count();
     match &loads.payload {
         None if loaded > 0 => Some(format!(
@@ -89,7 +89,7 @@ impl TorqueModel {
     /// The torque model of `robot` (its link inertials) under `loads`; the cable's pull from exit
     /// point `exit_m` (base frame, m; `None`: no cable) to the tool point `tool_m` (flange frame,
     /// m), when the tension is not zero.
-    pub fn new(robot: &Robot, loads: &LoadOptions, exit_m: Option<Vector3<f64>>, tool_m: Vector3<f64>) -> TorqueModel {
+    pub fn new(robot: &Robot, loads: &JointLoads, exit_m: Option<Vector3<f64>>, tool_m: Vector3<f64>) -> TorqueModel {
         let load = LoadModel::new(robot, loads.payload.as_ref(), None);
         TorqueModel {
             chain: robot.error_chain(),

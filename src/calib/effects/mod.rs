@@ -20,12 +20,14 @@
 //! registry: one line per effect.
 
 mod backlash;
+mod choice;
 mod compliance;
 mod eccentricity;
 pub mod inputs;
 mod nonlinearity;
 mod thermal;
 
+pub use choice::EffectChoice;
 pub use thermal::MIN_TEMP_SPREAD_K;
 
 use crate::dataset::Dataset;

@@ -687,7 +687,7 @@ mod tests {
         for _ in 0..40 {
             let q: Vec<f64> = limits.iter().map(|(lo, hi)| lo + (hi - lo) * (0.2 + 0.6 * rng.random::<f64>())).collect();
             let mut y = vec![0.0; d];
-            model.readings_with(&model.nominal, &q, &Default::default(), &mut w, &mut y);
+            model.readings(&model.nominal, &q, &Default::default(), &mut w, &mut y);
             for (c, v) in y.iter_mut().enumerate() {
                 *v += 1e-4 * (q[1] * (c + 1) as f64).sin() + 2e-5 * rng.random::<f64>();
             }

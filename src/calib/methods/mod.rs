@@ -162,6 +162,40 @@ impl<'de> Deserialize<'de> for Method {
     }
 }
 
+impl Default for Method {
+    /// Levenberg–Marquardt.
+    fn default() -> Method {
+        Method::LM
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.0.name)
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Method> {
+        Method::parse(s)
+    }
+}
+
+/// Every registered method, in the table's order, as clap's possible values take them.
+#[cfg(feature = "clap")]
+static ALL_METHODS: std::sync::LazyLock<Vec<Method>> = std::sync::LazyLock::new(|| Method::all().collect());
+
+#[cfg(feature = "clap")]
+impl clap::ValueEnum for Method {
+    fn value_variants<'a>() -> &'a [Method] {
+        &ALL_METHODS
+    }
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.0.name).help(self.0.help))
+    }
+}
+
 impl Method {
     /// Levenberg-Marquardt.
     pub const LM: Method = Method::registered("lm");

@@ -798,7 +798,7 @@ mod tests {
         let mut w = model.work();
         let mut y = vec![0.0; 3 * n];
         for (qi, yi) in q.iter().zip(y.chunks_mut(3)) {
-            model.readings_with(&model.nominal, qi, &Default::default(), &mut w, yi);
+            model.readings(&model.nominal, qi, &Default::default(), &mut w, yi);
         }
         (model, Samples::readings(q, y, 3))
     }

@@ -64,12 +64,14 @@ impl Kind {
 }
 
 /// How a nominal robot's geometric errors are parametrised (`--params`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Parametrisation {
     /// Denavit–Hartenberg: θ, d, a, α per joint.
     Dh,
     /// D-H with Hayati's β for nearly parallel consecutive axes (the default).
+    #[default]
     Hayati,
     /// A full frame (3 translations, 3 rotations) per link.
     Frame,
@@ -92,6 +94,13 @@ impl Parametrisation {
             .into_iter()
             .find(|p| p.name().eq_ignore_ascii_case(s.trim()))
             .ok_or_else(|| crate::error::Error::Invalid(format!("unknown parametrisation '{s}' (expected dh, hayati or frame)")))
+    }
+}
+
+impl std::str::FromStr for Parametrisation {
+    type Err = crate::error::Error;
+    fn from_str(s: &str) -> crate::error::Result<Parametrisation> {
+        Parametrisation::parse(s)
     }
 }
 
@@ -355,22 +364,17 @@ impl CalibModel {
         self.chain.frame(&w.fk, self.chain.flange())
     }
 
-    /// Predicted cable length (m) of a row with no per-row inputs (a one-value measurement).
-    pub fn predict(&self, x: &[f64], q: &[f64], w: &mut ModelWork) -> f64 {
-        self.predict_with(x, q, &RowInputs::default(), w)
-    }
-
     /// The predicted reading of a one-value measurement (the draw-wire's length, m), every
-    /// effect included: [`Self::readings_with`]'s only value.
-    pub fn predict_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
+    /// effect included: [`Self::readings`]'s only value.
+    pub fn length(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> f64 {
         debug_assert_eq!(self.measurement.dim(), 1);
         let mut y = [0.0; MAX_DIM];
-        self.readings_with(x, q, inp, w, &mut y);
+        self.readings(x, q, inp, w, &mut y);
         y[0]
     }
 
     /// Predicted readings (m, [`Measurement::dim`] values into `y`), every effect included.
-    pub fn readings_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64]) {
+    pub fn readings(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64]) {
         let sensor = self.sensor_of(x, inp);
         let (own, tool) = (sensor.own(), sensor.tool());
         let def = self.measurement.def();
@@ -419,23 +423,18 @@ impl CalibModel {
         (pts, nt)
     }
 
-    /// Predicted length (m) of a row with no per-row inputs and its gradient into `g`.
-    pub fn predict_grad(&self, x: &[f64], q: &[f64], w: &mut ModelWork, g: &mut [f64]) -> f64 {
-        self.predict_grad_with(x, q, &RowInputs::default(), w, g)
-    }
-
     /// The predicted reading of a one-value measurement (m) and its gradient with respect to
     /// every parameter into `g`.
-    pub fn predict_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, g: &mut [f64]) -> f64 {
+    pub fn length_grad(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, g: &mut [f64]) -> f64 {
         debug_assert_eq!(self.measurement.dim(), 1);
         let mut y = [0.0; MAX_DIM];
-        self.readings_grad_with(x, q, inp, w, &mut y, g);
+        self.readings_grad(x, q, inp, w, &mut y, g);
         y[0]
     }
 
     /// Predicted readings (m) into `y` and their Jacobian with respect to every parameter into
     /// `jac` (row-major, one row of [`Self::n_params`] per reading value).
-    pub fn readings_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], jac: &mut [f64]) {
+    pub fn readings_grad(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], jac: &mut [f64]) {
         let (nc, n, dim) = (self.n_chain(), self.n_params(), self.measurement.dim());
         let sensor = self.sensor_of(x, inp);
         let (own, tool) = (sensor.own(), sensor.tool());

@@ -22,8 +22,8 @@ fn central_differences(
     xm[k] -= h;
     let d = m.measurement.dim();
     let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
-    m.readings_with(&xp, q, inp, w, &mut yp);
-    m.readings_with(&xm, q, inp, w, &mut ym);
+    m.readings(&xp, q, inp, w, &mut yp);
+    m.readings(&xm, q, inp, w, &mut ym);
     let dy = yp.iter().zip(&ym).map(|(a, b)| (a - b) / (2.0 * h)).collect();
     (dy, (m.tool_point_with(&xp, q, inp, w) - m.tool_point_with(&xm, q, inp, w)) / (2.0 * h))
 }
@@ -91,7 +91,7 @@ fn effect_gradients_match_finite_differences() {
         let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
         let mut w = m.work();
         let mut g = vec![0.0; m.n_params()];
-        m.predict_grad_with(&x, &q, &inp, &mut w, &mut g);
+        m.length_grad(&x, &q, &inp, &mut w, &mut g);
         // And the tool point's parameter Jacobian with every effect (the thermal scale's
         // terms too) on the cable's model: the cable's own parameters do not move the tool.
         let mut dx = vec![Vector3::zeros(); m.n_params()];
@@ -110,8 +110,8 @@ fn effect_gradients_match_finite_differences() {
         // With no effect active the prediction equals the rigid model's.
         let rigid = CalibModel::dh(&robot, &guess(), true);
         let mut wr = rigid.work();
-        let l0 = m.predict_with(&m.nominal, &q, &inp, &mut w);
-        assert!((l0 - rigid.predict(&rigid.nominal, &q, &mut wr)).abs() < 1e-15);
+        let l0 = m.length(&m.nominal, &q, &inp, &mut w);
+        assert!((l0 - rigid.length(&rigid.nominal, &q, &RowInputs::default(), &mut wr)).abs() < 1e-15);
     }
 }
 
@@ -141,15 +141,15 @@ fn station_and_mount_gradients_match_finite_differences() {
         for (station, mount) in [(0, 0), (1, 0), (2, 1), (0, 1)] {
             let inp = RowInputs { torque: vec![1.0, -30.0, 12.0, 0.8, -0.6, 0.1], station, mount, ..Default::default() };
             let (mut y, mut jac) = (vec![0.0; d], vec![0.0; d * m.n_params()]);
-            m.readings_grad_with(&x, &q, &inp, &mut w, &mut y, &mut jac);
+            m.readings_grad(&x, &q, &inp, &mut w, &mut y, &mut jac);
             // Without the effect, a set-up reads as a one-set-up model placed there.
             let alone = CalibModel::dh(&robot, &guess(), true).with_placement(&m.placement_at(&x, station, mount));
             let mut x0 = x.clone();
             x0[m.first_effect()] = 0.0;
             let (mut y0, mut y1) = (vec![0.0; d], vec![0.0; d]);
-            m.readings_with(&x0, &q, &inp, &mut w, &mut y0);
+            m.readings(&x0, &q, &inp, &mut w, &mut y0);
             let mut wa = alone.work();
-            alone.readings_with(&alone.nominal, &q, &RowInputs::default(), &mut wa, &mut y1);
+            alone.readings(&alone.nominal, &q, &RowInputs::default(), &mut wa, &mut y1);
             assert!(y0.iter().zip(&y1).all(|(a, b)| (a - b).abs() < 1e-12), "{} ({station}, {mount}): {y0:?} vs {y1:?}", measurement.name());
             let mut dx = vec![Vector3::zeros(); m.n_params()];
             m.tool_point_grad_with(&x, &q, &inp, &mut w, &mut dx);
@@ -187,7 +187,7 @@ fn length_gradient_matches_finite_differences() {
         let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
         let mut w = m.work();
         let mut g = vec![0.0; m.n_params()];
-        m.predict_grad(&x, &q, &mut w, &mut g);
+        m.length_grad(&x, &q, &RowInputs::default(), &mut w, &mut g);
         for k in 0..m.n_params() {
             let fd = central_differences(&m, &x, k, 1e-7, &q, &Default::default(), &mut w).0[0];
             assert!((fd - g[k]).abs() < 1e-7, "{} {}: {fd} vs {}", m.name, m.names[k], g[k]);
@@ -215,9 +215,9 @@ fn tracker_readings_jacobians_match_finite_differences() {
         let q = [0.3, -0.4, 0.5, 1.0, -0.7, 0.2];
         let (n, d, mut w) = (m.n_params(), m.measurement.dim(), m.work());
         let (mut y, mut jac) = (vec![0.0; d], vec![0.0; d * n]);
-        m.readings_grad_with(&x, &q, &inp, &mut w, &mut y, &mut jac);
+        m.readings_grad(&x, &q, &inp, &mut w, &mut y, &mut jac);
         let mut plain = vec![0.0; d];
-        m.readings_with(&x, &q, &inp, &mut w, &mut plain);
+        m.readings(&x, &q, &inp, &mut w, &mut plain);
         assert_eq!(y, plain);
         let (mut yp, mut ym) = (vec![0.0; d], vec![0.0; d]);
         let h = 1e-7;
@@ -241,8 +241,8 @@ fn tracker_readings_jacobians_match_finite_differences() {
             let (mut qp, mut qm) = (q, q);
             qp[j] += h;
             qm[j] -= h;
-            m.readings_with(&x, &qp, &inp, &mut w, &mut yp);
-            m.readings_with(&x, &qm, &inp, &mut w, &mut ym);
+            m.readings(&x, &qp, &inp, &mut w, &mut yp);
+            m.readings(&x, &qm, &inp, &mut w, &mut ym);
             for i in 0..d {
                 let fd = (yp[i] - ym[i]) / (2.0 * h);
                 assert!((fd - gq[i * 6 + j]).abs() < 1e-7 * (1.0 + fd.abs()), "{} y{i} / q{}: {fd} vs {}", m.measurement.name(), j + 1, gq[i * 6 + j]);

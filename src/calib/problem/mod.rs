@@ -133,7 +133,7 @@ impl LeastSquares for ReadingFit<'_> {
         let mut y = [0.0; MAX_DIM];
         with_work(self.model, |w| {
             for (i, ri) in r.chunks_mut(d).enumerate() {
-                self.model.readings_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d]);
+                self.model.readings(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d]);
                 for (k, rk) in ri.iter_mut().enumerate() {
                     *rk = crate::units::to_mm(self.data.y[i * d + k] - y[k]) * self.data.weight(i * d + k);
                 }
@@ -183,7 +183,7 @@ impl ReadingFit<'_> {
                 let h = rows * d;
                 for row in 0..rows {
                     let i = i0 + row;
-                    self.model.readings_grad_with(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d], &mut g);
+                    self.model.readings_grad(x, &self.data.q[i], &self.data.inputs[i], w, &mut y[..d], &mut g);
                     if let Some(r) = r.as_deref_mut() {
                         for (k, rk) in r[i * d..(i + 1) * d].iter_mut().enumerate() {
                             *rk = crate::units::to_mm(self.data.y[i * d + k] - y[k]) * self.data.weight(i * d + k);
@@ -223,7 +223,7 @@ impl Observations for ReadingFit<'_> {
         let d = self.data.dim;
         let (row, c) = (i / d, i % d);
         let mut y = [0.0; MAX_DIM];
-        with_work(self.model, |w| self.model.readings_with(x, &self.data.q[row], &self.data.inputs[row], w, &mut y[..d]));
+        with_work(self.model, |w| self.model.readings(x, &self.data.q[row], &self.data.inputs[row], w, &mut y[..d]));
         crate::units::to_mm(y[c]) * self.data.weight(i)
     }
     fn measured(&self, i: usize) -> f64 {
@@ -234,14 +234,14 @@ impl Observations for ReadingFit<'_> {
         let (n, d) = (self.model.n_params(), self.data.dim);
         let (row, c) = (i / d, i % d);
         if d == 1 {
-            with_work(self.model, |w| self.model.predict_grad_with(x, &self.data.q[row], &self.data.inputs[row], w, g));
+            with_work(self.model, |w| self.model.length_grad(x, &self.data.q[row], &self.data.inputs[row], w, g));
         } else {
             // The row's whole Jacobian, in a reused buffer (the filters call this per value).
             JAC.with(|cell| {
                 let mut jac = cell.borrow_mut();
                 jac.resize(n * d, 0.0);
                 let mut y = [0.0; MAX_DIM];
-                with_work(self.model, |w| self.model.readings_grad_with(x, &self.data.q[row], &self.data.inputs[row], w, &mut y[..d], &mut jac));
+                with_work(self.model, |w| self.model.readings_grad(x, &self.data.q[row], &self.data.inputs[row], w, &mut y[..d], &mut jac));
                 g.copy_from_slice(&jac[c * n..(c + 1) * n]);
             });
         }
@@ -332,7 +332,7 @@ mod tests {
         let mut w = model.work();
         for i in 0..data.len() {
             let mut y = [0.0; MAX_DIM];
-            model.readings_with(&truth, &data.q[i], &data.inputs[i], &mut w, &mut y[..3]);
+            model.readings(&truth, &data.q[i], &data.inputs[i], &mut w, &mut y[..3]);
             for c in 0..3 {
                 data.y[i * 3 + c] = y[c] + 1e-6 * ((i * 3 + c) as f64).sin();
             }

@@ -74,6 +74,7 @@ pub fn shares_rounding(q: &[&[f64]], j: usize, step: f64) -> bool {
 /// Whether `calibrate` models the joint angles' logging error.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum NoiseChoice {
     /// Where training rows share blocks and the angles are logged at a step
     /// ([`remove_logging_error`]); rows otherwise as they are.
@@ -83,20 +84,9 @@ pub enum NoiseChoice {
     Off,
 }
 
-impl std::str::FromStr for NoiseChoice {
-    type Err = crate::error::Error;
-    fn from_str(s: &str) -> crate::error::Result<NoiseChoice> {
-        match s {
-            "auto" => Ok(NoiseChoice::Auto),
-            "off" => Ok(NoiseChoice::Off),
-            _ => Err(crate::error::Error::Invalid(format!("--noise-model must be auto or off, not '{s}'"))),
-        }
-    }
-}
-
 /// The training readings `train` with the joint angles' logging error taken out (row `i` is the
 /// dataset `data`'s row `rows[i]`) where they share blocks and the angles are logged at a step
-/// (`step_deg`, or the data's decimals), before any method fits them: `model` is fitted from
+/// (`blocks` and the step of [`crate::dataset::blocks::detect`]), before any method fits them: `model` is fitted from
 /// `x0` (parameters `fixed` held) by least squares, then by generalised least squares with the
 /// covariance the logging implies ([`RoundingModel`]); the logging error that fit's residuals
 /// show, per block and joint ([`Whitening::rounding_estimate`], at most half a step), is taken
@@ -113,9 +103,8 @@ pub fn remove_logging_error(
     train: &Samples,
     rows: &[usize],
     data: &Dataset,
-    step_deg: Option<f64>,
+    (blocks, step): (&crate::dataset::blocks::Blocks, Option<f64>),
 ) -> Option<(NoiseModel, Whitening, Samples)> {
-    let (blocks, step) = crate::dataset::blocks::detect(data, step_deg);
     let step = step?;
     let ids: Vec<usize> = rows.iter().map(|&r| blocks.of_row[r]).collect();
     if !ids.windows(2).any(|w| w[0] == w[1]) || train.w.is_some() {
@@ -125,7 +114,7 @@ pub fn remove_logging_error(
     let plain = train.unweighted();
     let x1 = lm().minimize(&ReadingFit { model, data: &plain }, x0, fixed, &mut crate::optim::NoObserver).x;
     let all: Vec<usize> = (0..train.len()).collect();
-    let m = Arc::new(rounding_model_at(model, &x1, &plain, rows, &all, data, &blocks, step));
+    let m = Arc::new(rounding_model_at(model, &x1, &plain, rows, &all, data, blocks, step));
     let whitening = Whitening::new(m.clone(), all);
     let gls = Samples { gls: Some(whitening.clone()), ..plain.clone() };
     let x2 = lm().minimize(&ReadingFit { model, data: &gls }, &x1, fixed, &mut crate::optim::NoObserver).x;

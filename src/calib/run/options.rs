@@ -1,11 +1,12 @@
 //! The options of a calibration: the model to fit, the method, the split, the noise model and
 //! what the stages may do.
 
-use crate::calib::effects::inputs::LoadOptions;
+use crate::calib::effects::inputs::JointLoads;
 use crate::calib::effects::EffectKind;
 use crate::calib::methods::Method;
 use crate::calib::model::tolerance::Tolerances;
 use crate::calib::model::SensorGuess;
+use crate::calib::problem::noise_model::NoiseChoice;
 use crate::calib::problem::robust::Loss;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
@@ -41,10 +42,9 @@ impl ModelSpec {
     pub fn is_generic_name(model: &str) -> bool {
         Self::GENERIC_NAMES.contains(&model)
     }
-    /// The model named by `model` (`irb120`, `generic` or a `.urdf` path) in `parametrisation`
-    /// (`dh`, `hayati` or `frame`, any case; ignored by the generic arm).
-    pub fn parse(model: &str, parametrisation: &str) -> Result<ModelSpec> {
-        let p = Parametrisation::parse(parametrisation)?;
+    /// The model named by `model` (`irb120`, `generic` or a `.urdf` path) in parametrisation
+    /// `p` (ignored by the generic arm).
+    pub fn parse(model: &str, p: Parametrisation) -> Result<ModelSpec> {
         match model {
             "irb120" => Ok(ModelSpec::Nominal { robot: Box::new(Robot::irb120()), parametrisation: p }),
             name if Self::is_generic_name(name) => Ok(ModelSpec::Generic),
@@ -76,6 +76,64 @@ pub const DEFAULT_RANK_TOL: f64 = 1e-7;
 /// 500 million rows, so what lies beyond is not noise.
 pub const DEFAULT_OUTLIER_K: f64 = 6.0;
 
+/// How a calibration holds rows out for its test (`--test-fraction`, `--split-by`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SplitOptions {
+    /// Hold out this fraction instead of the dataset's split column.
+    pub test_fraction: Option<f64>,
+    /// How the fraction draws its rows.
+    pub by: SplitBy,
+}
+
+/// The robust screen of the rows (`--outliers`, `--no-reading-steps`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScreenOptions {
+    /// Rows more than this many robust standard deviations off the fit are outliers, kept out
+    /// and listed ([`crate::calib::problem::robust::screen`]); 0 keeps every row.
+    pub outlier_k: f64,
+    /// Runs of outliers that are one constant offset of the reading are corrected and kept
+    /// ([`crate::calib::problem::robust::reading_steps`]) instead of kept out.
+    pub reading_steps: bool,
+}
+
+impl Default for ScreenOptions {
+    fn default() -> Self {
+        ScreenOptions { outlier_k: DEFAULT_OUTLIER_K, reading_steps: true }
+    }
+}
+
+/// What the data's floor is made of and how the rows are weighted (`--angle-resolution-deg`,
+/// `--instrument-accuracy-mm`, `--ignore-row-std`, `--noise-model`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FloorOptions {
+    /// Logging step of the joint angles, degrees (default: from the data's decimals).
+    pub angle_step_deg: Option<f64>,
+    /// The instrument's stated accuracy, mm per coordinate (or of the cable length).
+    pub instrument_accuracy_mm: Option<f64>,
+    /// Weight the fits by the rows' own standard deviations where the data give them (a
+    /// tracker's `sx, sy, sz`; [`crate::calib::problem::weighting`]).
+    pub row_std: bool,
+    /// Whether the joint angles' logging error is modelled where rows share blocks.
+    pub noise_model: NoiseChoice,
+}
+
+impl Default for FloorOptions {
+    fn default() -> Self {
+        FloorOptions { angle_step_deg: None, instrument_accuracy_mm: None, row_std: true, noise_model: NoiseChoice::Auto }
+    }
+}
+
+/// What loads the joints and whose inertial data give their torques (`--payload-kg`,
+/// `--payload-com-mm`, `--cable-tension-n`, `--robot`).
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// The payload and the cable's tension.
+    pub joints: JointLoads,
+    /// Inertial model for the joint torques when the calibrated model has none (the generic
+    /// arm), or given for the purpose.
+    pub inertial: Option<Robot>,
+}
+
 /// Everything a calibration run is asked to do, beside its data.
 #[derive(Clone, Debug)]
 pub struct CalibOptions {
@@ -83,8 +141,8 @@ pub struct CalibOptions {
     pub model: ModelSpec,
     /// The calibration method.
     pub method: Method,
-    /// Hold out this fraction (stratified over L) instead of the dataset's split column.
-    pub test_fraction: Option<f64>,
+    /// How rows are held out.
+    pub split: SplitOptions,
     /// Seed of the split and of the stochastic methods.
     pub seed: u64,
     /// Relative singular-value tolerance of the identifiability analysis.
@@ -101,35 +159,23 @@ pub struct CalibOptions {
     /// Whether a temperature-driven thermal block fits the sensor's lag where the rows have a
     /// time column (see [`crate::calib::effects::ThermalDrive`]).
     pub sensor_lag: bool,
-    /// What loads the joints (payload, cable tension), for the torque-driven effects.
+    /// What loads the joints, for the torque-driven effects.
     pub loads: LoadOptions,
-    /// Inertial model for the joint torques when the calibrated model has none (generic 6R).
-    pub inertial: Option<Robot>,
-    /// Training rows more than this many robust standard deviations off the fit are outliers,
-    /// kept out and listed ([`crate::calib::problem::robust::screen`]); 0 keeps every row.
-    pub outlier_k: f64,
-    /// Runs of outliers that are one constant offset of the reading are corrected and kept
-    /// ([`crate::calib::problem::robust::reading_steps`]) instead of kept out.
-    pub reading_steps: bool,
+    /// The robust screen of the training rows.
+    pub screen: ScreenOptions,
     /// The loss of the least-squares methods (`lm`): squared, or Huber / Cauchy by IRLS.
     pub loss: Loss,
-    /// Logging step of the joint angles, degrees, for the noise floor (default: from the data's
-    /// decimals).
-    pub angle_step_deg: Option<f64>,
-    /// The instrument's stated accuracy, mm per coordinate, for the noise floor.
-    pub instrument_accuracy_mm: Option<f64>,
-    /// How a test fraction draws its rows.
-    pub split_by: SplitBy,
-    /// Weight the fit by the rows' own standard deviations where the data give them (a
-    /// tracker's `sx, sy, sz`; [`crate::calib::problem::weighting`]).
-    pub row_std: bool,
+    /// The data's floor and the rows' weights.
+    pub floor: FloorOptions,
     /// Fit the instrument's placement only, everything else held at its nominal value.
     pub placement_only: bool,
-    /// Whether the joint angles' logging error is modelled where training rows share blocks.
-    pub noise_model: crate::calib::problem::noise_model::NoiseChoice,
     /// Where the instrument's stations come from ([`super::setup`]).
     pub stations: StationSource,
 }
+
+/// Default effort of the stochastic methods and of the generic arm's search (their default
+/// budgets).
+pub const DEFAULT_EFFORT: f64 = 1.0;
 
 impl CalibOptions {
     /// The options of calibrating `model` by `method`, every other option at its default.
@@ -137,32 +183,26 @@ impl CalibOptions {
         CalibOptions {
             model,
             method,
-            test_fraction: None,
+            split: SplitOptions::default(),
             seed: 0,
             rank_tol: DEFAULT_RANK_TOL,
             sensor_guess: None,
-            effort: 1.0,
+            effort: DEFAULT_EFFORT,
             tolerances: Tolerances::default(),
             effects: Vec::new(),
             sensor_lag: true,
             loads: LoadOptions::default(),
-            inertial: None,
-            outlier_k: DEFAULT_OUTLIER_K,
-            reading_steps: true,
-            row_std: true,
+            screen: ScreenOptions::default(),
+            loss: Loss::default(),
+            floor: FloorOptions::default(),
             placement_only: false,
-            loss: Loss::L2,
-            angle_step_deg: None,
-            instrument_accuracy_mm: None,
-            split_by: SplitBy::Blocks,
-            noise_model: crate::calib::problem::noise_model::NoiseChoice::Auto,
             stations: StationSource::Auto,
         }
     }
     /// The robot whose inertial data give the joint torques: the one given for the purpose
     /// (`--robot`), else the calibrated nominal robot.
     pub fn inertial_robot(&self) -> Option<&Robot> {
-        self.inertial.as_ref().or(self.model.robot())
+        self.loads.inertial.as_ref().or(self.model.robot())
     }
 }
 
@@ -210,6 +250,7 @@ pub fn check_inertial(model: &ModelSpec, inertial: Option<&Robot>, source: &str)
 /// How `--test-fraction` draws its test rows.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SplitBy {
     /// Whole blocks of the acquisition ([`crate::dataset::blocks`]) where rows share a sweep, a
     /// pause or a declared block (rows otherwise): test rows share no error with training rows.
@@ -218,17 +259,6 @@ pub enum SplitBy {
     /// Rows, stratified by the reading, whatever blocks they are in (as the papers split; rows
     /// of one sweep then sit on both sides).
     Rows,
-}
-
-impl std::str::FromStr for SplitBy {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<SplitBy> {
-        match s {
-            "blocks" => Ok(SplitBy::Blocks),
-            "rows" => Ok(SplitBy::Rows),
-            _ => Err(Error::Invalid(format!("--split-by must be blocks or rows, got '{s}'"))),
-        }
-    }
 }
 
 /// Where a calibration takes the instrument's stations from (`--stations`).
@@ -277,7 +307,7 @@ mod tests {
         assert_eq!(flange_gap_mm(&Robot::irb120(), &Robot::irb120()), Some(0.0));
         // Given, it is the one whose inertial data give the torques.
         let mut opts = CalibOptions::new(ModelSpec::nominal(ur10.clone(), Parametrisation::Hayati), Method::LM);
-        opts.inertial = Some(ur10.clone());
+        opts.loads.inertial = Some(ur10.clone());
         assert_eq!(opts.inertial_robot().map(|r| r.name.as_str()), Some(ur10.name.as_str()));
     }
 }

@@ -84,7 +84,7 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     let (mut model, search) = crate::calib::run::placement::place(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
     // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
     // (A learned corrector learns plain residuals: its methods fit with equal weights.)
-    let weighting = if opts.row_std && !opts.method.learns_corrector() {
+    let weighting = if opts.floor.row_std && !opts.method.learns_corrector() {
         crate::calib::problem::weighting::training_weights(&model, data, &split.train_idx, &split.train, opts.rank_tol).map(|(w, info)| {
             split.train.w = Some(w);
             info
@@ -158,11 +158,11 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut metrics = metrics_stage(&plain_fit, &test_fit, &x0, &x, correct);
     warnings.extend(metric_warnings(solver.name(), &metrics, noise));
     let test_residuals_mm = residuals_with(&test_fit, &x, correct);
-    let test_outliers = test_outlier_stage(&plain_fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.outlier_k);
+    let test_outliers = test_outlier_stage(&plain_fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.screen.outlier_k);
     test_inlier_metrics(&mut metrics, &split, &test_residuals_mm, &test_outliers);
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.angle_step_deg, opts.instrument_accuracy_mm, repeatability.as_ref());
-    warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm, opts.angle_step_deg));
+    let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.floor.angle_step_deg, opts.floor.instrument_accuracy_mm, repeatability.as_ref());
+    warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
@@ -193,7 +193,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
             identifiability: serde_json::to_value(&id).unwrap_or_default(),
             search,
         },
-        screen: ScreenReport::of(screen, opts.outlier_k, test_in_steps, test_outliers),
+        screen: ScreenReport::of(screen, opts.screen.outlier_k, test_in_steps, test_outliers),
         evaluation: Evaluation { metrics, truth_comparison, repeatability, noise_floor: Some(noise_floor) },
         warnings,
         setup: super::setup::setup_report(&model, &x, data, opts.stations, &found),
@@ -231,7 +231,7 @@ fn probe_turn(model: &CalibModel, data: &Dataset) -> Option<(f64, Option<String>
 /// Warnings about the pipeline's setup: a thermal block run as a warm-up, no outlier screen, a
 /// probe that hardly turns.
 pub(super) fn setup_warnings(model: &CalibModel, data: &Dataset, screened: bool, opts: &CalibOptions) -> Vec<String> {
-    let mut warnings: Vec<String> = crate::calib::effects::inputs::payload_warning(data, &opts.loads).into_iter().collect();
+    let mut warnings: Vec<String> = crate::calib::effects::inputs::payload_warning(data, &opts.loads.joints).into_iter().collect();
     if model.effects.iter().any(|b| matches!(b.thermal, Some(crate::calib::effects::ThermalDrive::WarmUp))) && data.rows.iter().all(|r| r.temp_c.is_some()) {
         warnings.push(format!(
             "the temp column spans less than {} K, so it drives no thermal drift: the thermal block runs on t as a warm-up",
@@ -245,7 +245,7 @@ pub(super) fn setup_warnings(model: &CalibModel, data: &Dataset, screened: bool,
              from the tracker's position, so the directions the rows do not see are held at the flange's origin (see the fixed tool.* parameters)"
         ));
     }
-    if !screened && opts.outlier_k > 0.0 {
+    if !screened && opts.screen.outlier_k > 0.0 {
         warnings.push(format!(
             "no outlier screen: fewer than {SCREEN_ROWS_PER_PARAM} training rows (reading values) per identifiable parameter, too few for a robust scale of the residuals"
         ));
@@ -264,10 +264,16 @@ pub(super) fn noise_model_stage(
     data: &Dataset,
     opts: &CalibOptions,
 ) -> (Option<crate::calib::problem::gls::NoiseModel>, Option<Samples>) {
-    let logging = match opts.noise_model {
-        crate::calib::problem::noise_model::NoiseChoice::Auto => {
-            crate::calib::problem::noise_model::remove_logging_error(model, x0, fixed, &split.train, &split.train_idx, data, opts.angle_step_deg)
-        }
+    let logging = match opts.floor.noise_model {
+        crate::calib::problem::noise_model::NoiseChoice::Auto => crate::calib::problem::noise_model::remove_logging_error(
+            model,
+            x0,
+            fixed,
+            &split.train,
+            &split.train_idx,
+            data,
+            (&split.blocks, split.angle_step_deg),
+        ),
         crate::calib::problem::noise_model::NoiseChoice::Off => None,
     };
     // With the noise model: the rows as read, whitened by it.

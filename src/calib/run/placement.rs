@@ -139,7 +139,7 @@ fn refuse_cable_options(opts: &CalibOptions, measurement: Measurement) -> Result
         if opts.sensor_guess.is_some() {
             return Err(Error::Invalid(format!("--sensor-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
         }
-        if opts.loads.cable_tension_n != 0.0 {
+        if opts.loads.joints.cable_tension_n != 0.0 {
             return Err(Error::Invalid(format!("--cable-tension-n is a draw-wire's pull on the tool; these rows hold a {what}: no cable pulls")));
         }
     }

@@ -340,7 +340,7 @@ impl CalibResult {
         let q: Vec<f64> = q_deg.iter().map(|d| d.to_radians()).collect();
         let mut w = self.model.work();
         let inp = RowInputs::default();
-        crate::units::to_mm(self.model.predict_with(&self.x, &q, &inp, &mut w)) + self.correction_mm(&q, &inp)
+        crate::units::to_mm(self.model.length(&self.x, &q, &inp, &mut w)) + self.correction_mm(&q, &inp)
     }
 
     /// The learned wavelet network (the first, when there is one per reading value: they share
@@ -416,7 +416,7 @@ impl CalibResult {
         let mut out = Vec::with_capacity(data.rows.len() * y.len());
         for (r, inp) in data.rows.iter().zip(&inputs) {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            self.model.readings_with(&self.x, &q, inp, &mut w, &mut y);
+            self.model.readings(&self.x, &q, inp, &mut w, &mut y);
             if y.len() == 1 {
                 out.push(crate::units::to_mm(y[0]) + self.correction_mm(&q, inp));
             } else {

@@ -171,7 +171,7 @@ fn standardised(model: &CalibModel, x: &[f64], all: &Samples) -> (Vec<f64>, Vec<
     let mut w = model.work();
     let (mut y, mut g) = ([0.0; MAX_DIM], vec![0.0; d * n]);
     for i in 0..all.len() {
-        model.readings_grad_with(x, &all.q[i], &all.inputs[i], &mut w, &mut y[..d], &mut g);
+        model.readings_grad(x, &all.q[i], &all.inputs[i], &mut w, &mut y[..d], &mut g);
         let cols = cols_of(&all.inputs[i]);
         for c in 0..d {
             r[i * d + c] = crate::units::to_mm(all.y[i * d + c] - y[c]);

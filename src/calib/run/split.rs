@@ -6,13 +6,14 @@ use super::result::*;
 use crate::calib::effects::RowInputs;
 use crate::calib::model::CalibModel;
 use crate::calib::problem::Samples;
+use crate::dataset::blocks::Blocks;
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
 use crate::robot::Robot;
 
 /// The rows a calibration trains and tests on: the dataset's split column, or with a test
 /// fraction `f` a held-out share drawn by `by` from `seed`.
-pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64, by: SplitBy) -> Result<(Vec<usize>, Vec<usize>)> {
+pub fn split_rows(data: &Dataset, blocks: &Blocks, test_fraction: Option<f64>, seed: u64, by: SplitBy) -> Result<(Vec<usize>, Vec<usize>)> {
     let n = data.rows.len();
     match test_fraction {
         Some(f) => {
@@ -22,9 +23,8 @@ pub fn split_rows(data: &Dataset, test_fraction: Option<f64>, seed: u64, by: Spl
             let n_test = (f * n as f64).round() as usize;
             // Rows that share a sweep (or a pause, a declared block) share its errors: the test
             // rows are then whole blocks, never rows of a block whose other rows train.
-            let (blocks, _) = crate::dataset::blocks::detect(data, None);
             if by == SplitBy::Blocks && blocks.any_shared() && n_test > 0 {
-                let test = block_split(&blocks, n_test, seed);
+                let test = block_split(blocks, n_test, seed);
                 return Ok(((0..n).filter(|i| !test[*i]).collect(), (0..n).filter(|i| test[*i]).collect()));
             }
             // Strata by the reading: the cable length, or a point's distance from the
@@ -115,6 +115,13 @@ pub struct SplitData {
     pub train: Samples,
     /// The test rows as samples.
     pub test: Samples,
+    /// The blocks of rows that share an error (a sweep, a pause, a declared block), of every
+    /// row, detected once with the joint angles' logging step: the split, the noise model and
+    /// the leak warning read the same blocks.
+    pub blocks: Blocks,
+    /// The joint angles' logging step, degrees: given (`--angle-resolution-deg`) or read from
+    /// their decimals; `None` where they are not rounded.
+    pub angle_step_deg: Option<f64>,
 }
 
 /// Number of distinct joint configurations among `rows` (angles compared to 1e-6 degrees).
@@ -133,10 +140,11 @@ pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
         data.require_joints(robot.dof(), &format!("the robot '{}'", robot.name))?;
         check_joint_limits(data, robot)?;
     }
-    if let Some(robot) = opts.inertial.as_ref() {
+    if let Some(robot) = opts.loads.inertial.as_ref() {
         data.require_joints(robot.dof(), &format!("the inertial robot '{}' (--robot)", robot.name))?;
     }
-    let (train_idx, test_idx) = split_rows(data, opts.test_fraction, opts.seed, opts.split_by)?;
+    let (blocks, angle_step_deg) = crate::dataset::blocks::detect(data, opts.floor.angle_step_deg);
+    let (train_idx, test_idx) = split_rows(data, &blocks, opts.split.test_fraction, opts.seed, opts.split.by)?;
     if train_idx.len() < 8 {
         return Err(Error::Calibration(format!("only {} training rows; at least 8 are needed", train_idx.len())));
     }
@@ -149,7 +157,7 @@ pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
     }
     let train = samples(data, &train_idx);
     let test = samples(data, &test_idx);
-    Ok(SplitData { torque_model: None, train_idx, test_idx, train, test })
+    Ok(SplitData { torque_model: None, train_idx, test_idx, train, test, blocks, angle_step_deg })
 }
 
 /// Refuses rows whose joint angles lie beyond the robot's limits (more than the slack).
@@ -198,7 +206,7 @@ pub fn add_effects(
 ) -> Result<(Option<crate::calib::effects::inputs::TorqueModel>, Vec<RowInputs>)> {
     let placement = model.placement(&model.nominal);
     let robot = opts.inertial_robot();
-    let torque = robot.map(|r| crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads, placement.exit(), placement.tool));
+    let torque = robot.map(|r| crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads.joints, placement.exit(), placement.tool));
     let all = crate::calib::effects::inputs::row_inputs(data, torque.as_ref());
     // Rows with their own payload load the joints too.
     let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque() || data.rows.iter().any(|r| r.payload_kg.is_some_and(|m| m > 0.0)));

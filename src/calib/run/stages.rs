@@ -117,7 +117,7 @@ pub fn outlier_stage(
     data: &Dataset,
     opts: &CalibOptions,
 ) -> Result<(Option<crate::calib::problem::robust::Screen>, bool)> {
-    if opts.outlier_k <= 0.0 {
+    if opts.screen.outlier_k <= 0.0 {
         return Ok((None, false));
     }
     // With few rows per parameter a fit nearly interpolates them: the residuals' robust scale
@@ -130,7 +130,7 @@ pub fn outlier_stage(
     let screen = {
         let m: &CalibModel = model;
         let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(m, d, x, opts.rank_tol);
-        let rule = screen_rule(m, data, &split.train, opts.outlier_k, opts.reading_steps, opts.angle_step_deg);
+        let rule = screen_rule(m, data, &split.train, opts.screen.outlier_k, opts.screen.reading_steps, opts.floor.angle_step_deg);
         crate::calib::problem::robust::screen(m, &m.nominal, &split.train, &split.train_idx, rule, &refit)
     };
     if !screen.steps.is_empty() {
@@ -289,14 +289,7 @@ pub fn screen_rule(model: &CalibModel, data: &Dataset, rows: &Samples, k: f64, s
 /// means the test rows shared errors with training rows (rows of one sweep on both sides of a
 /// random split share its rounding). The warning, if so; none for a pose's angles, which the
 /// floor does not hold.
-pub(super) fn leak_warning(
-    data: &Dataset,
-    split: &SplitData,
-    test_r: &[f64],
-    test_outliers: &[Outlier],
-    floor_mm: f64,
-    angle_step_deg: Option<f64>,
-) -> Option<String> {
+pub(super) fn leak_warning(data: &Dataset, split: &SplitData, test_r: &[f64], test_outliers: &[Outlier], floor_mm: f64) -> Option<String> {
     let d = split.test.dim.max(1);
     if split.test.is_empty() || !(floor_mm > 0.0) || data.measurement().is_some_and(|m| m.file_lengths() != d) {
         return None;
@@ -305,7 +298,7 @@ pub(super) fn leak_warning(
     kept.sort_by_key(|&i| split.test_idx[i]);
     let r: Vec<f64> = kept.iter().flat_map(|&i| test_r[i * d..(i + 1) * d].iter().copied()).collect();
     let rows: Vec<usize> = kept.iter().map(|&i| split.test_idx[i]).collect();
-    let groups = crate::dataset::blocks::detect(data, angle_step_deg).0.ids_of(&rows);
+    let groups = split.blocks.ids_of(&rows);
     (!r.is_empty() && crate::stats::short_of_floor(&r, d, Some(&groups), floor_mm)).then(|| {
         format!(
             "the held-out RMSE of the test rows that are not outliers ({:.4} mm) is below the data's floor ({floor_mm:.4} mm) by more than its \

@@ -161,7 +161,8 @@ fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[
     let exit = tool + exit_dir * reach;
     let mut model = model_around(&frames_of(lines), q_ref, &Placement::cable(exit, 0.0, *tool));
     let mut w = model.work();
-    let misfit: Vec<f64> = data.q.iter().zip(&data.y).map(|(q, l)| l - model.predict(&model.nominal, q, &mut w)).collect();
+    let misfit: Vec<f64> =
+        data.q.iter().zip(&data.y).map(|(q, l)| l - model.length(&model.nominal, q, &crate::calib::effects::RowInputs::default(), &mut w)).collect();
     if let Some(k) = model.length_offset_index() {
         model.nominal[k] = crate::stats::median(&misfit);
     }
