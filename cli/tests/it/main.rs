@@ -11,6 +11,7 @@ mod calibrate;
 mod cli;
 mod compensate;
 mod diagnose;
+mod docs;
 mod evonph;
 mod export;
 mod fuzz;
