@@ -18,6 +18,19 @@ use crate::sim::scenario::{Geometry, Order, Sampling, Scenario};
 use crate::sim::twin::tour::{Acquisition, AcquisitionModel};
 use std::path::Path;
 
+/// The twin's effect a calibration block of `kind` is, set at a size by
+/// [`crate::sim::effects::Effects::set_size`] (a sensor's nonlinearity is the instrument's, not
+/// the twin's arm's: `None`).
+pub fn twin_effect(kind: EffectKind) -> Option<crate::sim::effects::SizedEffect> {
+    use crate::sim::effects::SizedEffect;
+    match kind {
+        EffectKind::JointCompliance => Some(SizedEffect::Compliance),
+        EffectKind::Backlash => Some(SizedEffect::Backlash),
+        EffectKind::ThermalDrift => Some(SizedEffect::Thermal),
+        EffectKind::EncoderEccentricity => Some(SizedEffect::Eccentricity),
+        EffectKind::SensorNonlinearity => None,
+    }
+}
 /// Largest noise (µm per coordinate and sample) a twin's tracker takes (`Tracker::validate`).
 const MAX_TRACKER_NOISE_UM: f64 = 1000.0;
 
@@ -298,7 +311,11 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
             _ if !shown_by_the_data(r.parameters.get(m.effect_params(b)).unwrap_or_default(), notes, &label) => {}
             // Every other effect: the size the block says the twin takes, which the twin may
             // still refuse (beyond its range); either way the note names why it is left out.
-            kind => match kind.def().twin_size(block, &r.x, k).and_then(|(size, phase)| scenario.effects.set_size(kind.name(), n, block.joint, size, phase)) {
+            kind => match kind.def().twin_size(block, &r.x, k).and_then(|(size, phase)| {
+                twin_effect(kind)
+                    .ok_or_else(|| format!("the twin cannot take a '{}' at a given size", kind.name()))
+                    .and_then(|t| scenario.effects.set_size(t, n, block.joint, size, phase))
+            }) {
                 Ok(()) => written.push(label),
                 Err(why) => notes.push(format!("{label}: {why}, left out.")),
             },

@@ -372,7 +372,7 @@ pub fn hidden_payload_runs(seed: u64, factors: std::ops::Range<f64>) -> Result<(
     let wanted = rng.random_range(factors.clone()) * sigma / over_runs;
     let kind = EffectKind::JointCompliance;
     let size = wanted.min(UNLOADED_FACTOR * sigma / unloaded.max(f64::MIN_POSITIVE)).min(kind.def().plausible(Some(joint)));
-    s.effects.set_size(kind.name(), robot.dof(), Some(joint), size, 0.0).map_err(Error::Invalid)?;
+    s.effects.set_size(crate::sim::effects::SizedEffect::Compliance, robot.dof(), Some(joint), size, 0.0).map_err(Error::Invalid)?;
     s.name = format!("hidden-{seed}-payload-runs");
     let hidden =
         Hidden { cause: kind, joint: Some(joint), magnitude: kind.def().reported(Some(joint), size), internal: size, factor: size * over_runs / sigma };
@@ -410,7 +410,8 @@ fn hide_in(
         let top = if clamp { factors.end.min(kind.def().plausible(joint) * a / sigma) } else { factors.end };
         let factor = if top > factors.start { rng.random_range(factors.start..top) } else { factors.start };
         let v = factor * sigma / a;
-        s.effects.set_size(kind.name(), robot.dof(), joint, v, phase).map_err(Error::Invalid)?;
+        let twin = crate::identified::twin_effect(kind).ok_or_else(|| Error::Invalid(format!("the twin cannot take a '{}' at a given size", kind.name())))?;
+        s.effects.set_size(twin, robot.dof(), joint, v, phase).map_err(Error::Invalid)?;
         out.push(Hidden { cause: kind, joint, magnitude: kind.def().reported(joint, v), internal: v, factor });
     }
     s.name = format!("hidden-{seed}");

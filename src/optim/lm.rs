@@ -198,8 +198,16 @@ fn normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], a: &mut DMatr
     let nonzero: usize = free.iter().map(|&c| js[c * m..(c + 1) * m].iter().filter(|v| **v != 0.0).count()).sum();
     if nonzero * SPARSE_SHARE < m * nf {
         sparse_normal_equations(jac, free, r, a, g);
-        return;
+    } else {
+        dense_normal_equations(jac, free, r, a, g);
     }
+}
+
+/// [`normal_equations`] column against column, [`TILE`] × [`TILE`] at a time.
+fn dense_normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], a: &mut DMatrix<f64>, g: &mut [f64]) {
+    let m = r.len();
+    let js = jac.as_slice();
+    let nf = free.len();
     // Column `k` of the list: free column `k` of J, or `r` for `k == nf`.
     let col = |k: usize| -> &[f64] {
         if k < nf {
@@ -907,9 +915,9 @@ mod tests {
     #[test]
     fn sparse_normal_equations_match_plain_dot_products() {
         let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| x * y).sum() };
-        let (m, n) = (90, 40);
-        // Columns 0..4 shared by every row, then 12 per value of three, each on its value's rows.
-        let jac = DMatrix::from_fn(m, n, |i, k| if k < 4 || (k - 4) / 12 == i % 3 { ((i * 31 + k * 17) as f64 * 0.7311).sin() } else { 0.0 });
+        let (m, n) = (90, 64);
+        // Columns 0..4 shared by every row, then 6 per value of ten, each on its value's rows.
+        let jac = DMatrix::from_fn(m, n, |i, k| if k < 4 || (k - 4) / 6 == i % 10 { ((i * 31 + k * 17) as f64 * 0.7311).sin() } else { 0.0 });
         let r: Vec<f64> = (0..m).map(|i| (i as f64 * 1.37).cos()).collect();
         let free: Vec<usize> = (0..n).filter(|k| k % 7 != 5).collect();
         let nf = free.len();
@@ -936,7 +944,7 @@ mod tests {
                 let free = free_indices(&fixed, n);
                 let nf = free.len();
                 let (mut a, mut g) = (DMatrix::<f64>::zeros(nf, nf), vec![0.0; nf]);
-                normal_equations(&jac, &free, &r, &mut a, &mut g);
+                dense_normal_equations(&jac, &free, &r, &mut a, &mut g);
                 for (ia, &ca) in free.iter().enumerate() {
                     assert_eq!(g[ia].to_bits(), dot(jac.column(ca).as_slice(), &r).to_bits());
                     for (ib, &cb) in free.iter().enumerate() {

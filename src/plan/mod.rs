@@ -220,7 +220,7 @@ impl Model {
 }
 
 /// The design problem of a pool: which parameters it identifies, and their scaled rows.
-pub struct Problem {
+pub struct PoolDesign {
     /// The scaled rows of the identifiable columns, per candidate.
     pub pool: Pool,
     /// The parameters the pool identifies (the design's columns).
@@ -239,7 +239,7 @@ pub const DESIGN_RANK_TOL: f64 = 1e-4;
 
 /// The design problem of `model` over the poses `q` (with `payload_kg`, each candidate under its
 /// own payload).
-pub fn problem(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> Problem {
+pub fn pool_design(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> PoolDesign {
     let j = model.jacobian(q, payload_kg);
     let m = &model.model;
     // JᵀJ = RᵀR with R = Λ^½Vᵀ: the identifiability analysis of R is that of J (same column
@@ -266,7 +266,7 @@ pub fn problem(model: &Model, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> Pro
         }
     }
     let target = tool_point_information(model, q, payload_kg, &keep, &scale);
-    Problem { pool: Pool::new(scaled, d, p).with_target(target, 3), identifiable: id.identifiable, fixed: id.fixed, scale }
+    PoolDesign { pool: Pool::new(scaled, d, p).with_target(target, 3), identifiable: id.identifiable, fixed: id.fixed, scale }
 }
 
 /// What a calibration is judged on: the mean information per pose over the pool of the
@@ -506,7 +506,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         Some(_) => opts.payloads.iter().flat_map(|_| cands.q.iter().cloned()).collect(),
         None => cands.q.clone(),
     };
-    let prob = problem(&model, &pool_q, offered.as_deref());
+    let prob = pool_design(&model, &pool_q, offered.as_deref());
     let d = design::design(&prob.pool, opts.n, crit, opts.max_sweeps);
     let motion = tour::Motion::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s + s.sensor.window_s());
     let home = vec![0.0; robot.dof()];

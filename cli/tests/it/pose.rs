@@ -193,7 +193,7 @@ fn a_small_effect_in_6d_poses_is_judged_on_the_positions_against_their_floor() {
     let (mut s, robot) = twincal::sim::scenario::Scenario::load(&root.join("scenarios/ur10_pose.toml")).unwrap();
     (s.seed, s.sampling.poses, s.sampling.test) = (3, 400, 0);
     s.instruments.tracker.as_mut().unwrap().write_std = true;
-    s.effects.set_size("encoder_eccentricity", 6, Some(1), 0.001f64.to_radians(), 40f64.to_radians()).unwrap();
+    s.effects.set_size(twincal::sim::effects::SizedEffect::Eccentricity, 6, Some(1), 0.001f64.to_radians(), 40f64.to_radians()).unwrap();
     let g = twincal::sim::generate::generate(&s, &robot, &twincal::sim::generate::Silent).unwrap();
     let data = twincal::dataset::Dataset {
         rows: g.dataset.rows.iter().map(|r| twincal::dataset::Row { split: None, ..r.clone() }).collect(),

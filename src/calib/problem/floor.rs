@@ -175,7 +175,7 @@ pub use crate::dataset::logging::{logging_decimals, logging_step};
 /// tracker's `sx, sy, sz`) and the accuracy the user states (`--instrument-accuracy-mm`), each a
 /// standard uncertainty of one position coordinate, mm.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Instrument {
+pub struct InstrumentNoise {
     /// RMS of the rows' own standard deviations of one coordinate, mm; `None` where the rows give
     /// none.
     pub row_std_mm: Option<f64>,
@@ -198,7 +198,7 @@ pub fn noise_floor(
     angle_step_deg: Option<Step>,
     length_step_mm: Option<f64>,
     repeat: Option<&Repeatability>,
-    instrument: Instrument,
+    instrument: InstrumentNoise,
 ) -> NoiseFloor {
     let mut sources = Vec::new();
     let cols = model.measurement.def().columns().join(", ");
@@ -325,7 +325,7 @@ mod tests {
         let m = CalibModel::dh(&robot, &SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.1, tool_m: [0.0, 0.0, 0.05] }, true);
         let q: Vec<Vec<f64>> = (0..50).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin()).collect()).collect();
         let data = Samples::new(q, vec![0.5; 50]);
-        let none = Instrument::default();
+        let none = InstrumentNoise::default();
         let f1 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), None, none);
         let f2 = noise_floor(&m, &m.nominal, &data, Some(Step::Given(0.2)), Some(0.01), None, none);
         let angle = |f: &NoiseFloor| f.sources.iter().find(|s| s.source == FloorKind::AngleResolution).unwrap().rms_mm;
@@ -339,9 +339,9 @@ mod tests {
         assert!((f3.total_mm - (angle(&f1).powi(2) + 0.05f64.powi(2)).sqrt()).abs() < 1e-12);
         // A stated accuracy larger than the repeats' spread takes its place; rows' standard
         // deviations without repeats take the reading step's.
-        let f4 = noise_floor(&m, &m.nominal, &data, None, Some(0.01), Some(&rep), Instrument { row_std_mm: Some(0.02), accuracy_mm: Some(0.08) });
+        let f4 = noise_floor(&m, &m.nominal, &data, None, Some(0.01), Some(&rep), InstrumentNoise { row_std_mm: Some(0.02), accuracy_mm: Some(0.08) });
         assert!((f4.total_mm - 0.08).abs() < 1e-12, "{f4:?}");
-        let f5 = noise_floor(&m, &m.nominal, &data, None, Some(0.001), None, Instrument { row_std_mm: Some(0.02), accuracy_mm: None });
+        let f5 = noise_floor(&m, &m.nominal, &data, None, Some(0.001), None, InstrumentNoise { row_std_mm: Some(0.02), accuracy_mm: None });
         assert!((f5.total_mm - 0.02).abs() < 1e-12 && f5.sources.iter().any(|s| s.source == FloorKind::RowStd), "{f5:?}");
     }
 
@@ -359,7 +359,8 @@ mod tests {
         // Repeats spread 0.02 mm on the origin and 0.001 mm on the axes' tips; the rows state 0.03 mm.
         let per_value_std = [0.02, 0.02, 0.02, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001].to_vec();
         let rep = Repeatability { pooled_std: 0.0116, groups: 5, rows: 10, max_spread: 0.05, per_value_std };
-        let f = noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), Some(1e-4), Some(&rep), Instrument { row_std_mm: Some(0.03), accuracy_mm: None });
+        let f =
+            noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), Some(1e-4), Some(&rep), InstrumentNoise { row_std_mm: Some(0.03), accuracy_mm: None });
         let [pos, ori] = f.by_group.as_slice() else { panic!("{f:?}") };
         // The position: the largest estimate of the reading's error (the rows' 0.03 mm) and the
         // angles' logging; the orientation: its repeats alone (the rows' sx, sy, sz are positions').
@@ -368,13 +369,13 @@ mod tests {
         assert!(ori.group == ValueKind::Orientation && ori.measured && (ori.total_mm - 0.001).abs() < 2e-4, "{ori:?}");
         assert_eq!(f.of_group(1), ori.total_mm);
         // Without repeats the orientation's floor is the angles' logging only: not measured.
-        let f = noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), None, None, Instrument { row_std_mm: Some(0.03), accuracy_mm: None });
+        let f = noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), None, None, InstrumentNoise { row_std_mm: Some(0.03), accuracy_mm: None });
         assert!(!f.by_group[1].measured && f.by_group[1].total_mm < 1e-3, "{f:?}");
         // A point reading has one kind of value: no groups.
         let (chain, kinds) = DhTable::from_robot_hayati(&robot).chain(true, true);
         let point = Placement::tracker([2000.0, 0.0, 300.0], [0.0, 0.0, 40.0], None, nalgebra::Vector3::new(0.0, 0.05, 0.1));
         let m = CalibModel::of_chain("hayati", chain, kinds, &point);
         let data = Samples::readings(data.q.clone(), vec![0.0; 40 * 3], 3);
-        assert!(noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), None, Some(&rep), Instrument::default()).by_group.is_empty());
+        assert!(noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), None, Some(&rep), InstrumentNoise::default()).by_group.is_empty());
     }
 }

@@ -332,7 +332,7 @@ pub fn floor_stage(
     // The rows' own standard deviations, RMS per coordinate over the rows that give them.
     let stds: Vec<f64> = data.rows.iter().filter_map(|r| r.std_mm).flatten().collect();
     let row_std_mm = (!stds.is_empty()).then(|| crate::stats::rms(&stds));
-    let instrument = crate::calib::problem::floor::Instrument { row_std_mm, accuracy_mm: instrument_accuracy_mm };
+    let instrument = crate::calib::problem::floor::InstrumentNoise { row_std_mm, accuracy_mm: instrument_accuracy_mm };
     crate::calib::problem::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat, instrument)
 }
 

@@ -198,6 +198,31 @@ pub struct Effects {
     pub eccentricity: Option<Eccentricity>,
 }
 
+/// The effects the twin takes at a given physical size ([`Effects::set_size`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SizedEffect {
+    /// Joint compliance.
+    Compliance,
+    /// Gear backlash.
+    Backlash,
+    /// Encoder eccentricity.
+    Eccentricity,
+    /// Thermal drift (the whole arm's growth, or a joint's zero drift).
+    Thermal,
+}
+
+impl SizedEffect {
+    /// Its key in a scenario's `[effects]`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SizedEffect::Compliance => "compliance",
+            SizedEffect::Backlash => "backlash",
+            SizedEffect::Eccentricity => "eccentricity",
+            SizedEffect::Thermal => "thermal",
+        }
+    }
+}
+
 impl Effects {
     /// Whether the joints can move at all under load (otherwise the arm is rigid).
     pub fn joints_yield(&self) -> bool {
@@ -215,35 +240,35 @@ impl Effects {
         ];
         on.into_iter().flatten()
     }
-    /// Puts an effect of a known physical size into the twin of an arm with `n` joints, by the
-    /// name a calibration block of it has (the hidden-effect generator and the identified twin
-    /// use this): `joint_compliance` (compliance `size` rad/N·m), `backlash` (half the band,
-    /// rad), `encoder_eccentricity` (amplitude rad at `phase` rad), `thermal_drift` (the length
-    /// scale per kelvin for the whole arm, a joint's zero drift rad/K; on the warm-up
-    /// [`Thermal::warm_up`] when the twin has no thermal effect yet). Other effects are refused.
-    pub fn set_size(&mut self, name: &str, n: usize, joint: Option<usize>, size: f64, phase: f64) -> Result<(), String> {
+    /// Puts an effect of a known physical size into the twin of an arm with `n` joints (the
+    /// hidden-effect generator and the identified twin use this): a compliance `size` rad/N·m,
+    /// a backlash of half-band `size` rad, an eccentricity of amplitude `size` rad at `phase`
+    /// rad, a thermal drift of `size` per kelvin for the whole arm or a joint's zero drift of
+    /// `size` rad/K (on the warm-up [`Thermal::warm_up`] when the twin has no thermal effect
+    /// yet).
+    pub fn set_size(&mut self, kind: SizedEffect, n: usize, joint: Option<usize>, size: f64, phase: f64) -> Result<(), String> {
         let j = joint.unwrap_or(0);
         if j >= n {
-            return Err(format!("{name}: joint {} of an arm with {n} joints", j + 1));
+            return Err(format!("{}: joint {} of an arm with {n} joints", kind.name(), j + 1));
         }
-        match name {
-            "joint_compliance" => {
+        match kind {
+            SizedEffect::Compliance => {
                 let c = self.compliance.get_or_insert(Compliance { stiffness_nm_per_rad: vec![1e12; n], damping_nms_per_rad: None });
                 c.stiffness_nm_per_rad[j] = 1.0 / size;
             }
-            "backlash" => {
+            SizedEffect::Backlash => {
                 let b = self.backlash.get_or_insert(Backlash { width_deg: vec![0.0; n], breakaway_nm: 0.3 });
                 b.width_deg[j] = 2.0 * size.to_degrees();
             }
-            "encoder_eccentricity" if size.to_degrees().abs() >= MAX_ECCENTRICITY_DEG => {
+            SizedEffect::Eccentricity if size.to_degrees().abs() >= MAX_ECCENTRICITY_DEG => {
                 return Err(format!("identified at {:.3}°, beyond the twin's {MAX_ECCENTRICITY_DEG}°", size.to_degrees()));
             }
-            "encoder_eccentricity" => {
+            SizedEffect::Eccentricity => {
                 let e = self.eccentricity.get_or_insert(Eccentricity { amplitude_deg: vec![0.0; n], phase_deg: vec![0.0; n] });
                 e.amplitude_deg[j] = size.to_degrees();
                 e.phase_deg[j] = phase.to_degrees();
             }
-            "thermal_drift" => {
+            SizedEffect::Thermal => {
                 let t = self.thermal.get_or_insert_with(Thermal::warm_up);
                 match joint {
                     None => t.alpha_per_k = size,
@@ -253,7 +278,6 @@ impl Effects {
                     }
                 }
             }
-            other => return Err(format!("the twin cannot take a '{other}' at a given size")),
         }
         Ok(())
     }
@@ -523,13 +547,13 @@ mod tests {
     }
 
     #[test]
-    fn an_effect_is_set_at_its_physical_size_by_its_calibration_name() {
+    fn an_effect_is_set_at_its_physical_size() {
         let mut e = Effects::default();
-        e.set_size("joint_compliance", 6, Some(1), 2e-6, 0.0).unwrap();
-        e.set_size("backlash", 6, Some(2), 0.05f64.to_radians(), 0.0).unwrap();
-        e.set_size("encoder_eccentricity", 6, Some(0), 0.02f64.to_radians(), 0.5).unwrap();
-        e.set_size("thermal_drift", 6, None, 20e-6, 0.0).unwrap();
-        e.set_size("thermal_drift", 6, Some(4), 1e-3f64.to_radians(), 0.0).unwrap();
+        e.set_size(SizedEffect::Compliance, 6, Some(1), 2e-6, 0.0).unwrap();
+        e.set_size(SizedEffect::Backlash, 6, Some(2), 0.05f64.to_radians(), 0.0).unwrap();
+        e.set_size(SizedEffect::Eccentricity, 6, Some(0), 0.02f64.to_radians(), 0.5).unwrap();
+        e.set_size(SizedEffect::Thermal, 6, None, 20e-6, 0.0).unwrap();
+        e.set_size(SizedEffect::Thermal, 6, Some(4), 1e-3f64.to_radians(), 0.0).unwrap();
         assert!((e.compliance.as_ref().unwrap().stiffness_nm_per_rad[1] - 5e5).abs() < 1e-6);
         assert!((e.backlash.as_ref().unwrap().width_deg[2] - 0.1).abs() < 1e-12);
         let ecc = e.eccentricity.as_ref().unwrap();
@@ -538,7 +562,6 @@ mod tests {
         assert_eq!((t.alpha_per_k, t.delta_t_max_k, t.time_constant_s), (20e-6, 5.0, 600.0));
         assert!((t.zero_drift_deg_per_k[4] - 1e-3).abs() < 1e-15 && t.zero_drift_deg_per_k.len() == 6);
         e.validate(6).unwrap();
-        assert!(e.set_size("sensor_nonlinearity", 6, None, 1.0, 0.0).unwrap_err().contains("sensor_nonlinearity"));
-        assert!(e.set_size("backlash", 6, Some(6), 1e-3, 0.0).unwrap_err().contains("joint 7"));
+        assert!(e.set_size(SizedEffect::Backlash, 6, Some(6), 1e-3, 0.0).unwrap_err().contains("joint 7"));
     }
 }
