@@ -216,6 +216,7 @@ impl Report {
 pub mod de;
 pub mod ekf;
 pub mod lm;
+mod normal;
 pub mod pf;
 pub mod pso;
 mod util;
