@@ -21,7 +21,7 @@ fn main() -> ExitCode {
     // A stdout or stderr that cannot be written (a full disk, `>/dev/full`) ends the command
     // with a one-line error (when stderr still takes it) and exit code 2, never a panic message.
     std::panic::set_hook(Box::new(move |info| {
-        if stream_failure(info.payload()).is_none() && !twincal::io::panics_are_quiet() {
+        if stream_failure(info.payload()).is_none() && !twincal::output::panics_are_quiet() {
             default_hook(info);
         }
     }));

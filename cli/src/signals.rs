@@ -3,7 +3,7 @@
 use twincal::{Error, Result};
 
 /// Installs a SIGINT / SIGTERM handler (once per process) that removes every staged temporary
-/// output file ([`twincal::io::abandon_staged_and_exit`]) and exits with 128 + the signal number
+/// output file ([`twincal::output::abandon_staged_and_exit`]) and exits with 128 + the signal number
 /// (130 / 143). A commit in progress finishes first.
 pub fn install_signal_cleanup() -> Result<()> {
     use signal_hook::consts::{SIGINT, SIGTERM};
@@ -20,7 +20,7 @@ pub fn install_signal_cleanup() -> Result<()> {
         std::thread::spawn(move || {
             if let Some(sig) = signals.forever().next() {
                 let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
-                twincal::io::abandon_staged_and_exit(&format!("error: interrupted by {name}; unfinished outputs removed"), 128 + sig);
+                twincal::output::abandon_staged_and_exit(&format!("error: interrupted by {name}; unfinished outputs removed"), 128 + sig);
             }
         });
     });

@@ -437,7 +437,7 @@ impl PyCalibration {
                         "a result read from a file saves only its JSON (out); the URDF, recording, report and twin need the calibration run",
                     ));
                 }
-                result.check_writable().and_then(|_| twincal::io::write_json(&out, &**result)).map_err(err)
+                result.check_writable().and_then(|_| twincal::output::write_json(&out, &**result)).map_err(err)
             }
         }
     }
@@ -587,7 +587,7 @@ fn reduce(py: Python<'_>, parts: Vec<PathBuf>, out: PathBuf) -> PyResult<String>
         if parts.is_empty() {
             return Err(twincal::Error::Invalid("reduce needs the shards' partial files".into()));
         }
-        twincal::io::check_outputs(&parts.iter().map(|p| ("part", p.as_path())).collect::<Vec<_>>(), &[("out", out.as_path())])?;
+        twincal::output::check_outputs(&parts.iter().map(|p| ("part", p.as_path())).collect::<Vec<_>>(), &[("out", out.as_path())])?;
         let read = jobs::shard::Parts::read(&parts)?;
         if read.kind() != "compare" {
             return Err(twincal::Error::Invalid(format!(

@@ -277,7 +277,7 @@ impl Dataset {
     /// Writes [`Self::to_csv_string`] to `path` atomically (all or nothing). For the folder layout
     /// read by [`Self::load`], pass `dir.join(DATASET_FILE)`.
     pub fn write_csv(&self, path: &Path) -> Result<()> {
-        crate::io::write_atomic(path, self.to_csv_string().as_bytes())
+        crate::output::write_atomic(path, self.to_csv_string().as_bytes())
     }
 
     /// Indices of training rows: rows marked `train`, or every row when no row has a split.

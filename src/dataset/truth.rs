@@ -227,8 +227,8 @@ pub struct ToolTruth {
 /// the twin's own files hold defaults when absent, so hand-written truths stay readable.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Truth<E = serde_json::Value, T = TruthTracker> {
-    /// See [`crate::io::SCHEMA_VERSION`].
-    #[serde(default = "crate::io::schema_version")]
+    /// See [`crate::output::SCHEMA_VERSION`].
+    #[serde(default = "crate::output::schema_version")]
     pub schema_version: u32,
     /// The dataset this truth belongs to (written first by the twin's writer; absent in files
     /// written before twincal recorded it).
@@ -395,7 +395,7 @@ impl TruthFile {
     /// A truth file's text (`label` names it in errors).
     pub fn parse(text: &str, label: &str) -> Result<TruthFile> {
         let t: TruthFile = serde_json::from_str(text).map_err(|e| Error::data(label, format!("malformed truth file: {e}")))?;
-        crate::io::check_schema(t.schema_version, "a truth file").map_err(|e| Error::data(label, e))?;
+        crate::output::check_schema(t.schema_version, "a truth file").map_err(|e| Error::data(label, e))?;
         Ok(t)
     }
 

@@ -30,7 +30,7 @@ type Sparse = BTreeMap<u32, Vec<(u32, Data)>>;
 pub(super) fn read_table(path: &Path, sheet: Option<&str>) -> Result<(RawTable, String)> {
     let file = path.display().to_string();
     check_magic(path, &file)?;
-    let (cells, source) = match crate::io::catch_quietly(|| read_sparse(path, sheet, &file)) {
+    let (cells, source) = match crate::output::catch_quietly(|| read_sparse(path, sheet, &file)) {
         Ok(r) => r?,
         Err(what) => return Err(Error::data(&file, format!("cannot read spreadsheet: the file is malformed (the reader failed: {what})"))),
     };

@@ -370,7 +370,7 @@ pub(super) fn final_stage(
     warnings.extend(leak_on_positions(&current.oof, measurement, ctx.groups.as_deref(), &noise_floor, shared));
     let (position_rms, judged_floor) = ((!noise_floor.by_group.is_empty()).then(|| rms(&measurement.group_values(&current.oof, 0))), noise_floor.of_group(0));
     let diagnosis = Diagnosis {
-        schema_version: crate::io::SCHEMA_VERSION,
+        schema_version: crate::output::SCHEMA_VERSION,
         warnings,
         acquisition,
         noise_model,

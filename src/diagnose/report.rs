@@ -137,8 +137,8 @@ pub struct Comparison {
 /// Everything `diagnose` found.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Diagnosis {
-    /// See [`crate::io::SCHEMA_VERSION`].
-    #[serde(default = "crate::io::schema_version")]
+    /// See [`crate::output::SCHEMA_VERSION`].
+    #[serde(default = "crate::output::schema_version")]
     pub schema_version: u32,
     /// Version of twincal that wrote the diagnosis.
     pub twincal_version: String,

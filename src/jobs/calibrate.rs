@@ -4,7 +4,7 @@ use super::files::{check_model_outputs, data_inputs, load_dataset, stage_identif
 use crate::calib::run::{CalibOptions, CalibResult, ModelSpec, TruthFile};
 use crate::dataset::Dataset;
 use crate::error::Result;
-use crate::io::OutputSet;
+use crate::output::OutputSet;
 use crate::report::verdict::{judge, with_verdict, Limit, Verdict};
 use crate::requests::CalibrateRequest;
 use serde::{Deserialize, Serialize};

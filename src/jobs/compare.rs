@@ -6,7 +6,7 @@ use super::shard::{self, Parts};
 use crate::calib::run::Method;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::io::{check_outputs, OutputSet};
+use crate::output::{check_outputs, OutputSet};
 use crate::progress::Progress;
 use crate::requests::{ModelChoice, Reading};
 use crate::stats::metrics::ErrorStats;

@@ -4,7 +4,7 @@
 use crate::calib::run::CalibResult;
 use crate::compensate::{commands_csv, nominal_x, read_targets, Compensated, Compensator, Status};
 use crate::error::{Error, Result};
-use crate::io::{check_outputs, OutputSet};
+use crate::output::{check_outputs, OutputSet};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 

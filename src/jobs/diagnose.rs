@@ -5,7 +5,7 @@ use crate::calib::run::CalibResult;
 use crate::dataset::Dataset;
 use crate::diagnose::{DiagnoseOptions, Diagnosis};
 use crate::error::Result;
-use crate::io::OutputSet;
+use crate::output::OutputSet;
 use crate::report::verdict::{judge, with_verdict, Limit, Verdict};
 use crate::requests::DiagnoseRequest;
 use serde::{Deserialize, Serialize};

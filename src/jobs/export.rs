@@ -3,7 +3,7 @@
 
 use crate::calib::run::{CalibResult, OTHER_ARM_MM};
 use crate::error::{Error, Result};
-use crate::io::{check_outputs, OutputSet};
+use crate::output::{check_outputs, OutputSet};
 use crate::robot::Robot;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;

@@ -5,7 +5,7 @@ use crate::calib::run::CalibResult;
 use crate::dataset::Dataset;
 use crate::diagnose::Diagnosis;
 use crate::error::Result;
-use crate::io::{check_outputs, OutputSet};
+use crate::output::{check_outputs, OutputSet};
 use crate::report::{CalibFigures, DiagnosisFigures, ReplayFigures};
 use crate::requests::Reading;
 use crate::sim::scenario::Scenario;

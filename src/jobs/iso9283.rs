@@ -22,7 +22,7 @@ use super::predict::{predicted_readings, rotation_residual_deg};
 use crate::calib::run::CalibResult;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::io::{check_outputs, OutputSet};
+use crate::output::{check_outputs, OutputSet};
 use crate::requests::Reading;
 use crate::stats::metrics::ErrorStats;
 use nalgebra::Vector3;
@@ -104,7 +104,7 @@ pub struct ModelFigures {
 /// The evaluation of every model.
 #[derive(Clone, Debug, Serialize)]
 pub struct Iso9283 {
-    /// See [`crate::io::SCHEMA_VERSION`].
+    /// See [`crate::output::SCHEMA_VERSION`].
     pub schema_version: u32,
     /// The data.
     pub data: String,
@@ -240,7 +240,7 @@ impl Iso9283Job {
         if models.iter().any(|m| m.rows != models[0].rows) {
             warnings.push("the models are judged on different rows (each calibrated on these data on the rows it held out, the others on every row): compare them on rows judged alike".into());
         }
-        let out = Iso9283 { schema_version: crate::io::schema_version(), data: data.source.clone(), n_rows: data.rows.len(), models, warnings };
+        let out = Iso9283 { schema_version: crate::output::schema_version(), data: data.source.clone(), n_rows: data.rows.len(), models, warnings };
         let mut outputs = OutputSet::new();
         if let Some(p) = &self.out {
             outputs.write_json(p, &out)?;

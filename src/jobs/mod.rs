@@ -1,6 +1,6 @@
 //! A user's request run end to end on files, as the command line and Python both run it: read
 //! the inputs (a dataset folder, CSV or xlsx sheet, a scenario, a model), run the calibration or
-//! the diagnosis, and stage every output in one [`OutputSet`](crate::io::OutputSet) so that they
+//! the diagnosis, and stage every output in one [`OutputSet`](crate::output::OutputSet) so that they
 //! appear together or not at all, none over a file the run reads.
 //!
 //! Recordings for the Rerun viewer come through [`Recordings`], which the `twincal-viz` package

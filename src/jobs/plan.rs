@@ -6,7 +6,7 @@ use super::files::{load_scenario, scenario_inputs, Recordings};
 use crate::calib::model::Parametrisation;
 use crate::calib::run::CalibResult;
 use crate::error::{Error, Result};
-use crate::io::{check_outputs, OutputSet};
+use crate::output::{check_outputs, OutputSet};
 use crate::plan::{plan, Plan, PlanOptions};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;

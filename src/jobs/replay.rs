@@ -5,8 +5,8 @@
 use super::files::{data_inputs, load_dataset, scenario_inputs, Recordings};
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};
-use crate::io::{check_outputs, OutputSet};
 use crate::measurement::Measurement;
+use crate::output::{check_outputs, OutputSet};
 use crate::progress::Progress;
 use crate::requests::Reading;
 use crate::sim::scenario::Scenario;

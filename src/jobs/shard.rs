@@ -103,7 +103,7 @@ impl Shard {
     /// resumed: its items are skipped, a torn last line cut off; a file of another study is
     /// refused). `inputs` are the files the study reads, which `out` must not be.
     pub fn open<C: Config>(spec: &str, out: &Path, config: &C, inputs: &[(&str, &Path)]) -> Result<Shard> {
-        crate::io::check_outputs(inputs, &[("--shard-out", out)])?;
+        crate::output::check_outputs(inputs, &[("--shard-out", out)])?;
         let (index, count) = parse(spec)?;
         if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty() && !d.is_dir()) {
             return Err(Error::Invalid(format!("--shard-out {}: its folder {} does not exist", out.display(), dir.display())));

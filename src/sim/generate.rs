@@ -564,7 +564,7 @@ fn truth_file(
         .map(|(k, v)| (k.to_string(), v.to_string())),
     );
     Truth {
-        schema_version: crate::io::SCHEMA_VERSION,
+        schema_version: crate::output::SCHEMA_VERSION,
         dataset: None,
         scenario: s.name.clone(),
         seed: s.seed,
@@ -604,7 +604,7 @@ fn truth_file(
 /// by `outputs.commit()`). truth.json starts with a `dataset` link (file name, SHA-256 of the
 /// exact dataset.csv bytes, row count) that [`crate::dataset::truth::TruthFile::find`] checks, so a
 /// truth file is never trusted beside a dataset it does not describe.
-pub fn stage_outputs(g: &Generated, dir: &std::path::Path, outputs: &mut crate::io::OutputSet) -> Result<()> {
+pub fn stage_outputs(g: &Generated, dir: &std::path::Path, outputs: &mut crate::output::OutputSet) -> Result<()> {
     let (csv, truth) = output_texts(g)?;
     outputs.write(&dir.join(crate::dataset::DATASET_FILE), csv.as_bytes())?;
     outputs.write(&dir.join(crate::dataset::truth::TRUTH_FILE), truth.as_bytes())
@@ -629,7 +629,7 @@ pub fn output_texts(g: &Generated) -> Result<(String, String)> {
 
 /// Writes `dataset.csv` and `truth.json` into `dir`, both or neither (see [`stage_outputs`]).
 pub fn write_outputs(g: &Generated, dir: &std::path::Path) -> Result<()> {
-    let mut outputs = crate::io::OutputSet::new();
+    let mut outputs = crate::output::OutputSet::new();
     stage_outputs(g, dir, &mut outputs)?;
     outputs.commit()
 }

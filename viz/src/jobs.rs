@@ -4,7 +4,7 @@ use std::path::Path;
 use twincal::calib::run::CalibResult;
 use twincal::diagnose::Diagnosis;
 use twincal::error::Result;
-use twincal::io::OutputSet;
+use twincal::output::OutputSet;
 use twincal::report::{CalibFigures, DiagnosisFigures, ReplayFigures};
 
 /// Recordings for the Rerun viewer: what `--rrd` of `calibrate`, `diagnose`, `replay` and `compare`

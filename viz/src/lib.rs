@@ -26,7 +26,7 @@
 //! * **Errors:** logging methods never panic and return nothing. The first problem (bad input
 //!   such as a colour count that does not match the point count, or an I/O error) is remembered,
 //!   later logging is skipped, and [`Recorder::finish`] returns that error. The file is written
-//!   to a temporary file staged in a [`twincal::io::OutputSet`] next to the target: either the
+//!   to a temporary file staged in a [`twincal::output::OutputSet`] next to the target: either the
 //!   recorder's own ([`Recorder::create`], renamed into place by a successful `finish`) or the
 //!   command's ([`Recorder::staged`], renamed with the command's other outputs). The target is
 //!   either a complete recording or untouched. Dropping a `Recorder` without `finish` discards
@@ -68,7 +68,7 @@ pub struct Recorder {
     inner: backend::Backend,
     /// The recorder's own output set ([`Recorder::create`]); `None` when the caller's set holds
     /// the staged file ([`Recorder::staged`]).
-    own: Option<twincal::io::OutputSet>,
+    own: Option<twincal::output::OutputSet>,
 }
 
 impl std::fmt::Debug for Recorder {
@@ -84,7 +84,7 @@ impl Recorder {
     /// layouts per application id. Missing parent directories are created. Data goes to a hidden
     /// temporary file next to `path` until [`finish`](Self::finish) renames it into place.
     pub fn create(app_id: &str, path: &Path) -> twincal::error::Result<Recorder> {
-        let mut own = twincal::io::OutputSet::new();
+        let mut own = twincal::output::OutputSet::new();
         let file = own.stage(path)?;
         Ok(Recorder { inner: backend::Backend::with_file(app_id, file, path)?, own: Some(own) })
     }
@@ -92,7 +92,7 @@ impl Recorder {
     /// A recording staged as one of a command's outputs: written to a temporary file of
     /// `outputs`, renamed into place by `outputs.commit()` after a successful
     /// [`finish`](Self::finish), removed when `outputs` is dropped uncommitted.
-    pub fn staged(app_id: &str, outputs: &mut twincal::io::OutputSet, path: &Path) -> twincal::error::Result<Recorder> {
+    pub fn staged(app_id: &str, outputs: &mut twincal::output::OutputSet, path: &Path) -> twincal::error::Result<Recorder> {
         let file = outputs.stage(path)?;
         Ok(Recorder { inner: backend::Backend::with_file(app_id, file, path)?, own: None })
     }

@@ -7,7 +7,7 @@ use super::scenes::{draw_instrument, instrument_line, mm, AFTER, ARM, BEFORE, HI
 use super::{Blueprint, Layout, Recorder, ViewKind as K};
 use std::path::Path;
 use twincal::error::Result;
-use twincal::io::OutputSet;
+use twincal::output::OutputSet;
 use twincal::plan::Plan;
 use twincal::robot::Robot;
 use twincal::sim::scenario::Scenario;

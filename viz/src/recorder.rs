@@ -104,7 +104,7 @@ fn f32x3(p: &[f64; 3]) -> [f32; 3] {
 
 impl Backend {
     /// A recording encoded into `file` (a temporary file staged by the caller's
-    /// [`twincal::io::OutputSet`]); `path` is the target the messages name.
+    /// [`twincal::output::OutputSet`]); `path` is the target the messages name.
     pub(super) fn with_file(app_id: &str, file: File, path: &Path) -> Result<Backend> {
         // rerun 0.36: only `&'static str` converts infallibly (and panics when empty).
         let app = re_sdk::ApplicationId::try_new(app_id).map_err(|e| Error::Invalid(format!("invalid Rerun application id {app_id:?}: {e}")))?;

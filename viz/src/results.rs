@@ -6,7 +6,7 @@ use super::scenes::*;
 use super::{Blueprint, Layout, Recorder, ViewKind as K};
 use std::path::Path;
 use twincal::error::Result;
-use twincal::io::OutputSet;
+use twincal::output::OutputSet;
 use twincal::report::{max_abs, CalibFigures, DiagnosisFigures, Group, Residual};
 
 /// The summary text of a calibration's recording: its metrics, the truth, what the colours say,

@@ -6,7 +6,7 @@ use super::{histogram, residual_color, Blueprint, Layout, Recorder, ViewKind as 
 use nalgebra::Vector3;
 use std::path::Path;
 use twincal::error::Result;
-use twincal::io::OutputSet;
+use twincal::output::OutputSet;
 use twincal::report::{max_abs, Feature, InstrumentPose, Residual};
 use twincal::sim::generate::Generated;
 

@@ -7,7 +7,7 @@ use super::scenes::PALETTE;
 use super::{Blueprint, Layout, Recorder, ViewKind as K};
 use std::path::Path;
 use twincal::error::Result;
-use twincal::io::OutputSet;
+use twincal::output::OutputSet;
 use twincal::sim::study::HoldStudyRow;
 
 /// The three quantities plotted: entity name, view title, value of a row in µm.

@@ -171,7 +171,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     if let Some(d) = &twin_dir {
         read.extend(super::data_inputs(d).into_iter().map(|p| ("the twin", p)));
     }
-    twincal::io::check_outputs(&read, &[("--out", &a.out)])?;
+    twincal::output::check_outputs(&read, &[("--out", &a.out)])?;
     let check = twin_dir.as_deref().map(|d| TwinCheck::load(d, &r)).transpose()?;
     let targets: Vec<Vector3<f64>> = match (&a.targets, a.random) {
         (Some(f), _) => read_targets(f)?,
@@ -181,7 +181,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     let o = IkOptions { tol_mm: a.tol_mm, seed: a.seed, ..Default::default() };
     let runs = ik_runs(&r, &targets, &kinds, &o, check.as_ref());
     let csv = solutions_csv(&r, &runs, &targets);
-    let mut outputs = twincal::io::OutputSet::new();
+    let mut outputs = twincal::output::OutputSet::new();
     outputs.write(&a.out, csv.as_bytes())?;
     outputs.commit()?;
     if !quiet {

@@ -32,12 +32,12 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 pub use twincal::dataset::AngleUnit;
 use twincal::error::{Error, Result};
-use twincal::io::{check_outputs, OutputSet};
 pub use twincal::jobs::{
     check_seeds, data_inputs, load_scenario, scenario_urdf_path, CalibrateJob, CompareJob, CompareRequest, CompareRun, DiagnoseJob, Figures, MAX_COMPARE_JOBS,
     MAX_SEEDS,
 };
 use twincal::jobs::{load_dataset, scenario_inputs};
+use twincal::output::{check_outputs, OutputSet};
 pub use twincal::requests::{ModelChoice, Reading};
 use twincal::sim::generate::{generate as run_generate, stage_outputs, Generated, Progress, Silent};
 

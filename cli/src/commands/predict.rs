@@ -32,7 +32,7 @@ pub fn predict(model: &Path, data: &Path, reading: &Reading, register_rows: usiz
     };
     let measured: Vec<Vec<f64>> = ds.rows.iter().map(|r| if r.reading_mm.len() == d { in_convention(&r.reading_mm) } else { Vec::new() }).collect();
     let rows: Vec<(&[f64], &[f64])> = ds.rows.iter().zip(&measured).map(|(r, v)| (r.q_deg.as_slice(), v.as_slice())).collect();
-    twincal::io::write_atomic(out, prediction_csv(m.def().file_columns(), (d > lengths).then_some(euler), &rows, file_predicted).as_bytes())?;
+    twincal::output::write_atomic(out, prediction_csv(m.def().file_columns(), (d > lengths).then_some(euler), &rows, file_predicted).as_bytes())?;
     if !quiet {
         let res: Vec<f64> = rows
             .iter()
