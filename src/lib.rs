@@ -19,6 +19,7 @@
 
 pub mod calib;
 pub mod compensate;
+pub mod controller;
 pub mod dataset;
 pub mod diagnose;
 pub mod error;

@@ -53,6 +53,10 @@ pub enum Command {
     /// standard or modified D-H table, or the ROS UR driver's kinematics YAML; read back and
     /// checked before it is written, with what it cannot carry named.
     Export(twincal::jobs::ExportJob),
+    /// Write a pose list (plan's poses.csv, or any list generate --poses reads) as a measurement
+    /// program the controller runs as it is: ABB RAPID, KUKA KRL or URScript, joint moves in the
+    /// list's order, a hold and a wait until each pose is measured.
+    Program(twincal::jobs::ProgramJob),
     /// The joint commands that make the calibrated arm reach a program's targets (points in the
     /// base frame, or joint targets taught on the nominal model), with the payload it runs with:
     /// per target the command, its status, the predicted residual and the filtered Cartesian
@@ -168,6 +172,7 @@ pub fn run(args: Cli) -> twincal::Result<()> {
         Command::Reduce { parts, out, rrd } => commands::reduce(&parts, out.as_deref(), rrd.as_deref(), args.quiet),
         Command::Replay(a) => commands::replay(&a, args.quiet),
         Command::Export(a) => commands::export(&a, args.quiet),
+        Command::Program(a) => commands::program(&a, args.quiet),
         Command::Compensate(a) => commands::compensate(&a, args.quiet),
         Command::Iso9283(a) => {
             let e = a.run()?;

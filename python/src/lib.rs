@@ -654,6 +654,16 @@ fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, op
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
+/// Writes a pose list as a measurement program, as `twincal program`; `options`: a JSON object
+/// of the job's fields (`poses`, `format`, `robot`, `name`, `hold_s`, `speed_fraction`, `out`).
+/// Returns the summary's JSON.
+#[pyfunction]
+fn program(py: Python<'_>, options: &str) -> PyResult<String> {
+    let job: jobs::ProgramJob = serde_json::from_str(options).map_err(|e| TwincalError::new_err(format!("program: {e}")))?;
+    let summary = released(py, None, |_| job.run())?;
+    serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
+}
+
 /// Plans measurement poses as `twincal plan`, writing poses.csv and plan.json into `out`;
 /// `options`: a JSON object of its `scenario`, `poses`, `candidates`, `criterion`, `params`,
 /// `seed` and `rrd`. Returns plan.json's text.
@@ -692,6 +702,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(compensate, m)?)?;
     m.add_function(wrap_pyfunction!(iso9283, m)?)?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;
+    m.add_function(wrap_pyfunction!(program, m)?)?;
     m.add_class::<PyCalibration>()?;
     m.add_class::<PyDiagnosis>()?;
     Ok(())

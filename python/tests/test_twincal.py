@@ -530,3 +530,23 @@ def test_a_moved_tracker_is_a_station_of_its_own_and_a_new_one_is_registered(tmp
         model.predict(moved, register_rows=0)
     with pytest.raises(twincal.TwincalError, match="unknown variant `north`|stations"):
         twincal.calibrate(moved, stations="north")
+
+
+def test_a_plan_and_a_pose_list_become_measurement_programs(tmp_path):
+    """plan(program_format=...) writes the tour as a RAPID module beside poses.csv; program()
+    writes the same pose list as KRL; wrong types and values raise TwincalError."""
+    twincal.plan(tmp_path / "p", poses=6, candidates=300, program_format="rapid", hold_s=1.0)
+    module = (tmp_path / "p" / "twincal_plan.mod").read_text()
+    assert module.startswith("MODULE twincal_plan") and module.count("MoveAbsJ twc_p") == 6
+    assert "CONST num twc_hold := 1;" in module
+    s = twincal.program(tmp_path / "p" / "poses.csv", tmp_path / "k", format="krl", hold_s=0.5)
+    assert s["poses"] == 6 and s["format"] == "krl"
+    assert (tmp_path / "k" / "twincal_tour.src").read_text().count("PTP TWC_P") == 6
+    assert "DECL E6AXIS TWC_P6=" in (tmp_path / "k" / "twincal_tour.dat").read_text()
+    with pytest.raises(twincal.TwincalError, match="unknown variant"):
+        twincal.program(tmp_path / "p" / "poses.csv", tmp_path / "x", format="fanuc")
+    with pytest.raises(twincal.TwincalError, match="hold-s"):
+        twincal.program(tmp_path / "p" / "poses.csv", tmp_path / "x", format="rapid", hold_s=-1.0)
+    with pytest.raises(twincal.TwincalError, match="robot must be"):
+        twincal.program(tmp_path / "p" / "poses.csv", tmp_path / "x", format="rapid", robot=3)
+    assert not (tmp_path / "x").exists()

@@ -47,6 +47,7 @@ __all__ = [
     "compensate",
     "iso9283",
     "plan",
+    "program",
     "cli",
     "__version__",
 ]
@@ -570,6 +571,8 @@ def plan(
     rrd: Optional[Union[str, os.PathLike]] = None,
     model: Optional[Union[str, os.PathLike]] = None,
     payloads: Optional[Sequence[float]] = None,
+    program_format: Optional[str] = None,
+    hold_s: float = 2.0,
 ) -> dict:
     """Measurement poses worth measuring, as ``twincal plan``: feasible candidates of the scenario's
     arm, instrument and cell (None: the embedded one), ``poses`` of them chosen by ``criterion``
@@ -579,7 +582,9 @@ def plan(
     calibrated arm ``model`` (a result.json: its parametrisation and effect blocks, at its
     calibrated values), ordered into a short tour; with ``payloads`` (kg, e.g. ``[0, 2, 5]``) each
     pose also gets the payload to measure it with. Writes ``poses.csv`` (what :func:`generate` takes as ``poses``) and ``plan.json``
-    into the folder ``out`` (and a recording at ``rrd``); returns plan.json as a dict."""
+    into the folder ``out`` (and a recording at ``rrd``); with ``program_format`` (``rapid``,
+    ``krl``, ``urscript``) also the tour as a measurement program the controller runs (``hold_s``
+    seconds still at each pose, then a wait until it is measured); returns plan.json as a dict."""
     options = _options(
         {
             "scenario": None if scenario is None else os.fspath(scenario),
@@ -594,9 +599,45 @@ def plan(
             "rrd": None if rrd is None else os.fspath(rrd),
             "model": None if model is None else os.fspath(model),
             "payloads": _numbers(payloads, "payloads"),
+            "program_format": program_format,
+            "hold_s": hold_s,
         }
     )
     return json.loads(_native.plan(os.fspath(out), options))
+
+
+def program(
+    poses: Union[str, os.PathLike],
+    out: Union[str, os.PathLike],
+    *,
+    format: str,
+    robot: Union[str, os.PathLike] = "irb120",
+    name: str = "twincal_tour",
+    hold_s: float = 2.0,
+    speed_fraction: float = 0.2,
+) -> dict:
+    """Write the pose list ``poses`` (a poses.csv: ``q1..qN`` in degrees, optionally
+    ``payload_kg``) as a measurement program for the controller, as ``twincal program``:
+    ``format`` ``rapid`` (NAME.mod), ``krl`` (NAME.src and NAME.dat) or ``urscript``
+    (NAME.script), into the folder ``out``; the poses must lie within ``robot``'s joint limits
+    (irb120 or a URDF path). Returns the summary: the format, the files, the number of poses."""
+    if not isinstance(robot, (str, os.PathLike)):
+        raise TwincalError(f"robot must be irb120 or a URDF path (a string or os.PathLike), got {type(robot).__name__}")
+    robot = os.fspath(robot)
+    if robot != "irb120":
+        robot = os.path.abspath(robot)
+    options = _options(
+        {
+            "poses": os.path.abspath(os.fspath(poses)),
+            "format": format,
+            "robot": robot,
+            "name": name,
+            "hold_s": hold_s,
+            "speed_fraction": speed_fraction,
+            "out": os.fspath(out),
+        }
+    )
+    return json.loads(_native.program(options))
 
 
 def iso9283(data: Union[str, os.PathLike], models: Any, **options: Any) -> dict:

@@ -15,6 +15,7 @@ mod files;
 mod iso9283;
 mod plan;
 mod predict;
+mod program;
 mod replay;
 pub mod shard;
 
@@ -31,8 +32,9 @@ pub use files::{
     Recordings,
 };
 pub use iso9283::{figures as iso9283_figures, iso9283_table, Iso9283, Iso9283Job, ModelFigures, PoseFigures};
-pub use plan::{PlanJob, PLAN_FILE, POSES_FILE};
+pub use plan::{PlanJob, PLAN_FILE, POSES_FILE, PROGRAM_NAME};
 pub use predict::{predicted_readings, prediction_csv, residuals, rotation_residual_deg, Predicted};
+pub use program::{ProgramJob, ProgramSummary};
 pub use replay::{replay, AfterCalibration, Fidelity, ReplayJob, ReplayRequest, ReplaySummary};
 
 #[cfg(test)]

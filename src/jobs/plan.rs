@@ -13,6 +13,8 @@ use std::path::PathBuf;
 
 /// The pose list a plan writes in its folder.
 pub const POSES_FILE: &str = "poses.csv";
+/// The name of the measurement program `--program-format` writes in the plan's folder.
+pub const PROGRAM_NAME: &str = "twincal_plan";
 /// The plan's indices, pool and tour, in its folder.
 pub const PLAN_FILE: &str = "plan.json";
 
@@ -76,6 +78,16 @@ pub struct PlanJob {
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
     pub seed: Option<u64>,
+    /// Also write the tour as a program the controller runs as it is, in --out: rapid
+    /// (twincal_plan.mod), krl (twincal_plan.src and .dat) or urscript (twincal_plan.script):
+    /// joint moves in the tour's order, the hold, then a wait until the pose is measured.
+    #[cfg_attr(feature = "clap", arg(long, value_enum))]
+    #[serde(default)]
+    pub program_format: Option<crate::controller::Language>,
+    /// Seconds the program holds the arm still at each pose before it waits for the measurement.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = crate::controller::DEFAULT_HOLD_S, allow_negative_numbers = true))]
+    #[serde(default = "default_hold_s")]
+    pub hold_s: f64,
     /// Folder to write poses.csv and plan.json in.
     #[cfg_attr(feature = "clap", arg(long, default_value = "plan"))]
     #[serde(default = "default_out")]
@@ -95,6 +107,9 @@ fn default_candidates() -> usize {
 fn default_criterion() -> String {
     "i".into()
 }
+fn default_hold_s() -> f64 {
+    crate::controller::DEFAULT_HOLD_S
+}
 fn default_out() -> PathBuf {
     PathBuf::from("plan")
 }
@@ -113,6 +128,8 @@ impl Default for PlanJob {
             payloads: Vec::new(),
             payload_com_mm: None,
             seed: None,
+            program_format: None,
+            hold_s: default_hold_s(),
             out: default_out(),
             rrd: None,
         }
@@ -149,9 +166,17 @@ impl PlanJob {
         }
         let (s, robot) = load_scenario(self.scenario.as_deref())?;
         let (poses_path, plan_path) = (self.out.join(POSES_FILE), self.out.join(PLAN_FILE));
+        if self.program_format.is_some() && !(self.hold_s.is_finite() && (0.0..=3600.0).contains(&self.hold_s)) {
+            return Err(Error::Invalid(format!("--hold-s must be in [0, 3600] s, got {}", self.hold_s)));
+        }
+        let program_paths: Vec<PathBuf> =
+            self.program_format.map(|l| l.file_names(PROGRAM_NAME).iter().map(|n| self.out.join(n)).collect()).unwrap_or_default();
         let mut outs = vec![("--out", poses_path.as_path()), ("--out", plan_path.as_path())];
         if let Some(r) = &self.rrd {
             outs.push(("--rrd", r.as_path()));
+        }
+        for p in &program_paths {
+            outs.push(("--program-format", p.as_path()));
         }
         let mut inputs = scenario_inputs(self.scenario.as_deref(), &s);
         if let Some(m) = &self.model {
@@ -215,6 +240,19 @@ impl PlanJob {
         }
         let list = crate::sim::pose_list::PoseList { q: p.poses.clone(), payload_kg: p.payload_kg.clone() };
         outputs.write(&poses_path, crate::sim::pose_list::pose_list_csv(&list, s.sampling.angle_decimals).as_bytes())?;
+        if let Some(lang) = self.program_format {
+            let tour = crate::controller::Tour {
+                name: PROGRAM_NAME.into(),
+                q: p.poses.clone(),
+                payload_kg: p.payload_kg.clone(),
+                hold_s: self.hold_s,
+                speed_fraction: s.sampling.speed_fraction,
+                about: vec![format!("Planned by twincal plan for the scenario {} ({}), criterion {}, seed {}.", p.scenario, p.robot, p.criterion, p.seed)],
+            };
+            for f in lang.measurement_program(&tour)? {
+                outputs.write(&self.out.join(&f.name), f.text.as_bytes())?;
+            }
+        }
         outputs.write_json(&plan_path, &p)?;
         outputs.commit()?;
         Ok(p)

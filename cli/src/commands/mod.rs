@@ -11,6 +11,7 @@ mod generate;
 pub mod ik;
 mod plan;
 mod predict;
+mod program;
 mod replay;
 mod study;
 
@@ -24,6 +25,7 @@ pub use export::export;
 pub use generate::generate;
 pub use plan::plan;
 pub use predict::predict;
+pub use program::program;
 pub use replay::replay;
 pub use study::{study, StudyTarget};
 pub use twincal::jobs::ReplayJob;

@@ -79,6 +79,10 @@ pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
         p.unordered.total_s
     );
     eprintln!("  wrote {}/{} and {}/{}", job.out.display(), twincal::jobs::POSES_FILE, job.out.display(), twincal::jobs::PLAN_FILE);
+    if let Some(lang) = job.program_format {
+        let files: Vec<String> = lang.file_names(twincal::jobs::PROGRAM_NAME).iter().map(|n| job.out.join(n).display().to_string()).collect();
+        eprintln!("  wrote the measurement program ({}): {}", lang.name(), files.join(" and "));
+    }
     if let Some(r) = &job.rrd {
         eprintln!("  wrote {}", r.display());
     }

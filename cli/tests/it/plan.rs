@@ -300,3 +300,63 @@ fn plan_refuses_another_arms_model_and_warns_a_payload_nothing_sees() {
     let plan: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
     assert_eq!(plan["warnings"].as_array().map(Vec::len), Some(1), "{}", plan["warnings"]);
 }
+
+/// The joint angles (degrees) of a pose list's rows.
+fn pose_rows(path: &Path) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let qs: Vec<usize> = (0..header.len()).filter(|&k| header[k].starts_with('q')).collect();
+    lines.map(|l| l.split(',').collect::<Vec<_>>()).map(|c| qs.iter().map(|&k| c[k].parse().unwrap()).collect()).collect()
+}
+
+/// A plan written as a measurement program, and a pose list written as one by `twincal
+/// program`: the program moves to the pose list's poses in its order (read back to the pose
+/// list's decimals), in RAPID, KRL and URScript; an existing output is never a pose list read,
+/// and a bad request writes nothing.
+#[test]
+fn a_plan_and_a_pose_list_become_measurement_programs() {
+    use twincal::controller::{Language, ProgramFile};
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let read = |lang: Language, folder: &Path, name: &str| -> Vec<Vec<f64>> {
+        let files: Vec<ProgramFile> = lang
+            .file_names(name)
+            .into_iter()
+            .map(|n| ProgramFile { text: std::fs::read_to_string(folder.join(&n)).unwrap_or_else(|e| panic!("{n}: {e}")), name: n })
+            .collect();
+        lang.joint_targets(&files).unwrap().iter().map(|q| q.iter().map(|v| v.to_degrees()).collect()).collect()
+    };
+    let same = |a: &[Vec<f64>], b: &[Vec<f64>]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.iter().zip(y).all(|(u, v)| (u - v).abs() < 1e-5));
+    // The IRB 120's plan as RAPID, then its pose list as KRL.
+    let p = dir.path().join("p");
+    let o = twincal(&["plan", "--poses", "8", "--candidates", "400", "--program-format", "rapid", "--hold-s", "1.5", "--out", s(&p)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let poses = pose_rows(&p.join("poses.csv"));
+    assert_eq!(poses.len(), 8);
+    assert!(same(&read(Language::Rapid, &p, "twincal_plan"), &poses));
+    assert!(std::fs::read_to_string(p.join("twincal_plan.mod")).unwrap().contains("CONST num twc_hold := 1.5;"));
+    let k = dir.path().join("k");
+    let o = twincal(&["program", "--poses", s(&p.join("poses.csv")), "--format", "krl", "--out", s(&k)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(same(&read(Language::Krl, &k, "twincal_tour"), &poses));
+    // A UR10's plan as URScript.
+    let u = dir.path().join("u");
+    let ur10 = root.join("scenarios/ur10_tracker.toml");
+    let o = twincal(&["plan", "--scenario", s(&ur10), "--poses", "8", "--candidates", "400", "--program-format", "urscript", "--out", s(&u)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(same(&read(Language::Urscript, &u, "twincal_plan"), &pose_rows(&u.join("poses.csv"))));
+    // Refused, nothing written: a pose list outside the robot's limits, a bad name, an output
+    // that is the pose list itself.
+    let bad = dir.path().join("bad");
+    let o = twincal(&["program", "--poses", s(&p.join("poses.csv")), "--format", "rapid", "--name", "9x", "--out", s(&bad)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("program name '9x'") && !bad.exists());
+    let o = twincal(&["program", "--poses", s(&u.join("poses.csv")), "--format", "rapid", "--out", s(&bad)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("limits") && !bad.exists(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::copy(p.join("poses.csv"), k.join("same.mod")).unwrap();
+    let o = twincal(&["program", "--poses", s(&k.join("same.mod")), "--format", "rapid", "--name", "same", "--out", s(&k)]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(same(&pose_rows(&k.join("same.mod")), &poses), "the pose list is left as it was");
+}
