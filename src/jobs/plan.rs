@@ -146,8 +146,8 @@ pub const MAX_PAYLOADS: usize = 10;
 pub const MAX_PLAN_POSES: usize = 2_000;
 
 impl PlanJob {
-    /// Plans and writes poses.csv, plan.json and the recording, if asked.
-    pub fn run(&self, recordings: &dyn Recordings) -> Result<Plan> {
+    /// The options that need no file, checked before any is read.
+    fn check(&self) -> Result<()> {
         if self.out.exists() && !self.out.is_dir() {
             return Err(Error::Invalid(format!("--out {} is a file; plan writes a folder ({POSES_FILE}, {PLAN_FILE})", self.out.display())));
         }
@@ -158,17 +158,32 @@ impl PlanJob {
             return Err(Error::Invalid(format!("--candidates must be in {}..={MAX_CANDIDATES} (at least --poses), got {}", self.poses, self.candidates)));
         }
         crate::plan::criterion(&self.criterion)?;
-        let parametrisation = self.params.unwrap_or_default();
         if self.model.is_some() && (self.params.is_some() || !self.effects.is_empty()) {
             return Err(Error::Invalid(
                 "--model plans for the calibrated model's own parametrisation and effect blocks: not with --params or --effects".into(),
             ));
         }
-        let (s, robot) = load_scenario(self.scenario.as_deref())?;
-        let (poses_path, plan_path) = (self.out.join(POSES_FILE), self.out.join(PLAN_FILE));
         if self.program_format.is_some() && !(self.hold_s.is_finite() && (0.0..=3600.0).contains(&self.hold_s)) {
             return Err(Error::Invalid(format!("--hold-s must be in [0, 3600] s, got {}", self.hold_s)));
         }
+        if let Some(m) = self.payloads.iter().find(|m| !(m.is_finite() && (0.0..=crate::dataset::MAX_PAYLOAD_KG).contains(*m))) {
+            return Err(Error::Invalid(format!("--payloads: {m} kg is not a payload (finite, in [0, {}] kg)", crate::dataset::MAX_PAYLOAD_KG)));
+        }
+        if self.payloads.len() > MAX_PAYLOADS {
+            return Err(Error::Invalid(format!("--payloads lists {} payloads; at most {MAX_PAYLOADS}", self.payloads.len())));
+        }
+        if self.payloads.iter().enumerate().any(|(i, m)| self.payloads[..i].contains(m)) {
+            return Err(Error::Invalid("--payloads lists a payload twice".into()));
+        }
+        Ok(())
+    }
+
+    /// Plans and writes poses.csv, plan.json and the recording, if asked.
+    pub fn run(&self, recordings: &dyn Recordings) -> Result<Plan> {
+        self.check()?;
+        let parametrisation = self.params.unwrap_or_default();
+        let (s, robot) = load_scenario(self.scenario.as_deref())?;
+        let (poses_path, plan_path) = (self.out.join(POSES_FILE), self.out.join(PLAN_FILE));
         let program_paths: Vec<PathBuf> =
             self.program_format.map(|l| l.file_names(PROGRAM_NAME).iter().map(|n| self.out.join(n)).collect()).unwrap_or_default();
         let mut outs = vec![("--out", poses_path.as_path()), ("--out", plan_path.as_path())];
@@ -185,15 +200,6 @@ impl PlanJob {
         check_outputs(&inputs, &outs)?;
         let calibrated = self.model.as_deref().map(CalibResult::load).transpose()?.map(std::sync::Arc::new);
         let effects: Vec<_> = self.effects.iter().map(|c| c.pair()).collect();
-        if let Some(m) = self.payloads.iter().find(|m| !(m.is_finite() && (0.0..=crate::dataset::MAX_PAYLOAD_KG).contains(*m))) {
-            return Err(Error::Invalid(format!("--payloads: {m} kg is not a payload (finite, in [0, {}] kg)", crate::dataset::MAX_PAYLOAD_KG)));
-        }
-        if self.payloads.len() > MAX_PAYLOADS {
-            return Err(Error::Invalid(format!("--payloads lists {} payloads; at most {MAX_PAYLOADS}", self.payloads.len())));
-        }
-        if self.payloads.iter().enumerate().any(|(i, m)| self.payloads[..i].contains(m)) {
-            return Err(Error::Invalid("--payloads lists a payload twice".into()));
-        }
         // A calibrated model of another arm than the scenario's plans nothing worth measuring.
         if let Some(gap) = calibrated.as_ref().map(|r| super::export::nominal_gap_mm(r, &robot)).filter(|g| *g > crate::calib::run::OTHER_ARM_MM) {
             return Err(Error::Invalid(format!(
