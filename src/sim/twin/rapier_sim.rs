@@ -89,11 +89,29 @@ pub(super) fn simulate(twin: &Twin, cmd: &PoseCommand) -> Result<RestingPose> {
     let frames: Vec<Frame> = (0..chain.n_frames()).map(|f| chain.frame(&ws, f)).collect();
 
     let (mut world, handles, bodies) = build(twin, &frames)?;
+    let pose = Posed { cmd, frames: &frames, params: &params, scale };
     let Some(trans) = twin.transmission.as_ref() else {
         // Rigid arm: nothing moves, the multibody's own forward kinematics gives the pose.
-        return read_back(twin, &world, &handles, cmd, vec![0.0; n], vec![Contact::Spring; n], 0, &params, scale);
+        return read_back(twin, &world, &handles, &pose, Settled { deflection: vec![0.0; n], contact: vec![Contact::Spring; n], steps: 0 });
     };
-    settle(twin, trans, &mut world, &handles, &bodies, cmd, &frames, &params, scale)
+    settle(twin, trans, &mut world, (&handles, &bodies), &pose)
+}
+
+/// The pose a simulation settles: its command, the link frames it starts from (base, links,
+/// flange) and the geometry at its time (parameters and thermal scale).
+struct Posed<'a> {
+    cmd: &'a PoseCommand,
+    frames: &'a [Frame],
+    params: &'a [f64],
+    scale: f64,
+}
+
+/// Where the transmission came to rest: each joint's deflection (link − motor, rad) and
+/// contact, after how many steps.
+struct Settled {
+    deflection: Vec<f64>,
+    contact: Vec<Contact>,
+    steps: usize,
 }
 
 /// The multibody at the configuration whose link frames are `frames` (base, links, flange): a
@@ -170,18 +188,14 @@ pub(super) fn joint_inertias(twin: &Twin, frames: &[Frame]) -> Vec<f64> {
         .collect()
 }
 
-#[allow(clippy::too_many_arguments)]
 fn settle(
     twin: &Twin,
     trans: &Transmission,
     world: &mut PhysicsWorld,
-    handles: &[MultibodyJointHandle],
-    bodies: &[RigidBodyHandle],
-    cmd: &PoseCommand,
-    frames: &[Frame],
-    params: &[f64],
-    scale: f64,
+    (handles, bodies): (&[MultibodyJointHandle], &[RigidBodyHandle]),
+    pose: &Posed,
 ) -> Result<RestingPose> {
+    let (cmd, frames) = (pose.cmd, pose.frames);
     let chain = &twin.chain;
     let n = chain.n_joints;
     // Every joint arrives resting on the flank its approach motion leaves it on.
@@ -238,7 +252,7 @@ fn settle(
         return Err(Error::Simulation(format!("pose did not settle within {} steps", twin.settle.max_steps)));
     }
     let contact = contacts(&states, &delta, &trans.half_band);
-    read_back(twin, world, handles, cmd, delta, contact, steps, params, scale)
+    read_back(twin, world, handles, pose, Settled { deflection: delta, contact, steps })
 }
 
 /// Puts the multibody (`handle`) at the joints' starting deflections `initial` and sets each
@@ -311,18 +325,9 @@ fn slip(trans: &Transmission, states: &mut [State], delta: &[f64]) -> bool {
     slipped
 }
 
-#[allow(clippy::too_many_arguments)]
-fn read_back(
-    twin: &Twin,
-    world: &PhysicsWorld,
-    handles: &[MultibodyJointHandle],
-    cmd: &PoseCommand,
-    deflection: Vec<f64>,
-    contact: Vec<Contact>,
-    steps: usize,
-    params: &[f64],
-    scale: f64,
-) -> Result<RestingPose> {
+fn read_back(twin: &Twin, world: &PhysicsWorld, handles: &[MultibodyJointHandle], pose: &Posed, settled: Settled) -> Result<RestingPose> {
+    let (cmd, params, scale) = (pose.cmd, pose.params, pose.scale);
+    let Settled { deflection, contact, steps } = settled;
     let chain = &twin.chain;
     let n = chain.n_joints;
     let (mb, _) = world.multibody_joints.get(handles[0]).ok_or_else(|| Error::Simulation("multibody missing".into()))?;

@@ -364,31 +364,35 @@ pub fn acquire(
         None => Schedule::new(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses),
     };
     let rule = super::approach_sides(home, poses);
+    let run = TourRun { twin, acq, settings, schedule: &schedule, home, poses, rule: &rule, progress };
     let starts: Vec<usize> = (0..poses.len()).step_by(acq.chunk_poses.max(1)).collect();
     let chunks: Vec<Vec<Result<Acquired>>> = starts
         .par_iter()
         .map(|&a| {
             let b = (a + acq.chunk_poses).min(poses.len());
-            let r = run_chunk(twin, acq, settings, &schedule, home, poses, &rule, a, b, progress);
+            let r = run_chunk(&run, a, b);
             r.unwrap_or_else(|e| (a..b).map(|_| Err(Error::Simulation(e.to_string()))).collect())
         })
         .collect();
     chunks.into_iter().flatten().collect()
 }
 
-#[allow(clippy::too_many_arguments)]
-fn run_chunk(
-    twin: &Twin,
-    acq: &Acquisition,
+/// One tour, as every chunk of it reads it: the twin, the acquisition and its settings, the
+/// schedule, the start, the poses and the flanks the approach rule puts each joint on.
+struct TourRun<'a> {
+    twin: &'a Twin,
+    acq: &'a Acquisition,
     settings: TourSettings,
-    schedule: &Schedule,
-    home: &[f64],
-    poses: &[Vec<f64>],
-    rule: &[Vec<f64>],
-    a: usize,
-    b: usize,
-    progress: &dyn crate::progress::Progress,
-) -> Result<Vec<Result<Acquired>>> {
+    schedule: &'a Schedule,
+    home: &'a [f64],
+    poses: &'a [Vec<f64>],
+    rule: &'a [Vec<f64>],
+    progress: &'a dyn crate::progress::Progress,
+}
+
+/// Simulates poses `a..b` of the tour, from rest at the pose before them.
+fn run_chunk(run: &TourRun, a: usize, b: usize) -> Result<Vec<Result<Acquired>>> {
+    let TourRun { twin, acq, settings, schedule, home, poses, rule, progress } = *run;
     let chain = &twin.chain;
     let n = chain.n_joints;
     // At rest at the pose before the chunk, on the rule's flanks.
