@@ -364,11 +364,12 @@ impl CsvColumns {
     pub fn columns(&self, names: &[&str]) -> Result<Vec<Vec<f64>>> {
         let (source, table) = (&self.source, &self.table);
         let found = self.header();
-        let pos = names
-            .iter()
-            .map(|n| table.header.iter().position(|h| Self::matches(h, n)))
-            .collect::<Option<Vec<usize>>>()
-            .ok_or_else(|| Error::data(source, format!("the header '{found}' lacks the columns {}", names.join(", "))))?;
+        let missing: Vec<&str> = names.iter().copied().filter(|n| !table.header.iter().any(|h| Self::matches(h, n))).collect();
+        if !missing.is_empty() {
+            let what = if missing.len() == 1 { "the column" } else { "the columns" };
+            return Err(Error::data(source, format!("the header '{found}' lacks {what} {}", missing.join(", "))));
+        }
+        let pos: Vec<usize> = names.iter().map(|n| table.header.iter().position(|h| Self::matches(h, n)).unwrap_or(0)).collect();
         // A column named twice is ambiguous (which x?): refused, as the dataset reader refuses it.
         for (n, &i) in names.iter().zip(&pos) {
             if table.header.iter().enumerate().any(|(k, h)| k != i && Self::matches(h, n)) {

@@ -68,7 +68,7 @@ pub fn read_pose_list(path: &std::path::Path, robot: &Robot) -> Result<PoseList>
     }
     let names: Vec<String> = (1..=n).map(|j| format!("q{j}")).collect();
     let cols: Vec<&str> = names.iter().map(String::as_str).collect();
-    let rows = t.columns(&cols).map_err(|e| Error::data(&at, format!("a pose list needs the columns q1..q{n} (degrees): {e}")))?;
+    let rows = t.columns(&cols).map_err(|e| Error::Invalid(format!("{e} (a pose list for {}, {n} joints, needs q1..q{n} in degrees)", robot.name)))?;
     if rows.is_empty() {
         return Err(Error::data(&at, "no poses after the header"));
     }
@@ -90,7 +90,10 @@ pub fn read_pose_list(path: &std::path::Path, robot: &Robot) -> Result<PoseList>
     for (i, row) in rows.iter().enumerate() {
         for (j, v) in row.iter().enumerate() {
             let (lo, hi) = limits[j];
-            if !v.is_finite() || v.to_radians() < lo - 1e-9 || v.to_radians() > hi + 1e-9 {
+            if !v.is_finite() {
+                return Err(Error::data(&at, format!("pose {}: q{} = {v} is not a number of degrees", i + 1, j + 1)));
+            }
+            if v.to_radians() < lo - 1e-9 || v.to_radians() > hi + 1e-9 {
                 return Err(Error::data(
                     &at,
                     format!(

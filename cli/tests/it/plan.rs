@@ -147,7 +147,7 @@ fn bad_plan_requests_and_pose_lists_are_refused_by_name() {
         ("q1,q2,q3,q4,q5,q6\n10,20,30,40,50,500\n", "outside joint 6's limits"),
         ("q1,q2,q3,q4,q5,q6,q7\n0,0,0,0,0,0,0\n", "has a column q7"),
         ("q1,q2,q3\n0,0,0\n", "q1..q6"),
-        ("q1,q2,q3,q4,q5,q6\nNaN,0,0,0,0,0\n", "outside joint 1's limits"),
+        ("q1,q2,q3,q4,q5,q6\nNaN,0,0,0,0,0\n", "pose 1: q1 = NaN is not a number of degrees"),
         ("q1,q2,q3,q4,q5,q6\n", "no poses"),
     ] {
         let poses = dir.path().join("poses.csv");
