@@ -130,7 +130,11 @@ pub fn write_calibration(a: &CalibrateJob, c: &Calibration, recordings: &dyn Rec
         outputs.write(p, crate::export::urdf::urdf(&result.model, &result.x, nominal, "calibrated").as_bytes())?;
     }
     if let Some(p) = &a.scenario_out {
-        let how = if a.request.placement_only { "calibrate --placement-only" } else { "calibrate" };
+        let how = match opts.free {
+            crate::calib::run::FreeParams::All => "calibrate",
+            crate::calib::run::FreeParams::Placement => "calibrate --placement-only",
+            crate::calib::run::FreeParams::Controller => "calibrate --controller-subset",
+        };
         stage_identified_twin(&mut outputs, p, result, data, opts.model.robot(), how)?;
     }
     outputs.write_json(&a.out, &with_verdict(result, c.verdict.as_ref())?)?;

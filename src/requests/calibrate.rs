@@ -4,7 +4,7 @@
 use super::groups::{Loads, ModelChoice, Reading, Robust};
 use crate::calib::effects::EffectChoice;
 use crate::calib::model::SensorGuess;
-use crate::calib::run::{CalibOptions, Method, SplitBy, SplitOptions, DEFAULT_EFFORT, DEFAULT_RANK_TOL};
+use crate::calib::run::{CalibOptions, FreeParams, Method, SplitBy, SplitOptions, DEFAULT_EFFORT, DEFAULT_RANK_TOL};
 use crate::dataset::ReadOptions;
 use crate::error::{Error, Result};
 use crate::report::verdict::Limit;
@@ -89,6 +89,11 @@ pub struct CalibrateRequest {
     /// --scenario-out, the nominal twin of a set-up whose instrument was not surveyed.
     #[cfg_attr(feature = "clap", arg(long))]
     pub placement_only: bool,
+    /// Fit only what a controller that takes no new kinematic model can be given: the joints'
+    /// zero offsets, the base frame (the instrument's placement) and the tool point, the rest of
+    /// the arm held at its nominal model; its held-out accuracy is what such a controller keeps.
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with = "placement_only"))]
+    pub controller_subset: bool,
 }
 
 impl Default for CalibrateRequest {
@@ -110,6 +115,7 @@ impl Default for CalibrateRequest {
             loads: Loads::default(),
             robust: Robust::default(),
             placement_only: false,
+            controller_subset: false,
         }
     }
 }
@@ -149,22 +155,28 @@ impl CalibrateRequest {
             screen: a.robust.resolve()?,
             loss: a.robust.loss,
             floor: a.robust.floor.resolve()?,
-            placement_only: a.placement_only,
+            free: match (a.placement_only, a.controller_subset) {
+                (true, true) => return Err(Error::Invalid("--placement-only and --controller-subset each choose what is fitted: give one of them".into())),
+                (true, false) => FreeParams::Placement,
+                (false, true) => FreeParams::Controller,
+                (false, false) => FreeParams::All,
+            },
             stations: a.reading.stations,
             ..CalibOptions::new(model, a.method)
         };
-        if a.placement_only {
-            // The instrument's placement alone is fitted: nothing else may be asked to be.
+        if opts.free != FreeParams::All {
+            // The subset alone is fitted: nothing else may be asked to be.
+            let flag = if a.placement_only { "--placement-only" } else { "--controller-subset" };
             if !opts.effects.is_empty() {
-                return Err(Error::Invalid(
-                    "--placement-only fits the instrument's placement alone, with the robot as it is: --effects cannot be fitted with it (drop one of them)"
-                        .into(),
-                ));
+                return Err(Error::Invalid(format!(
+                    "{flag} fits the instrument's placement{} alone, with the rest of the robot as it is: --effects cannot be fitted with it (drop one of them)",
+                    if a.placement_only { "" } else { ", the joints' zero offsets and the tool" }
+                )));
             }
             if matches!(opts.model, crate::calib::run::ModelSpec::Generic) {
-                return Err(Error::Invalid(
-                    "--placement-only needs the robot's own geometry (a URDF or irb120): the generic arm has none to keep, its geometry is what it searches for".into(),
-                ));
+                return Err(Error::Invalid(format!(
+                    "{flag} needs the robot's own geometry (a URDF or irb120): the generic arm has none to keep, its geometry is what it searches for"
+                )));
             }
         }
         Ok((opts, limits))

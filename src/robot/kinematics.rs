@@ -208,6 +208,11 @@ impl PointJacobian {
 }
 
 impl Chain {
+    /// The parameters that are joint zero offsets (each added to a joint's own rotation), in
+    /// joint order: what a controller's joint calibration table holds.
+    pub fn zero_offset_params(&self) -> Vec<usize> {
+        self.ops.iter().filter(|o| o.joint.is_some()).filter_map(|o| o.param).collect()
+    }
     /// Number of parameters (the length of `p`).
     pub fn n_params(&self) -> usize {
         self.param_names.len()

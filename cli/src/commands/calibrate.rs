@@ -10,6 +10,10 @@ pub fn calibrate(a: &CalibrateJob, quiet: bool) -> Result<()> {
     let result = &c.result;
     if !quiet {
         print_summary(result);
+        let subset = [(a.request.placement_only, "--placement-only"), (a.request.controller_subset, "--controller-subset")];
+        if let Some((_, flag)) = subset.iter().find(|(on, _)| *on) {
+            eprintln!("  {flag}: every other parameter is held at the nominal model by request (the fixed list above includes them)");
+        }
         if let Some(p) = &a.scenario_out {
             eprintln!("  identified twin: {} (robot {})", p.display(), scenario_urdf_path(p).display());
         }

@@ -44,6 +44,22 @@ fn a_calibration_brings_the_held_out_pose_accuracy_of_twin_tracker_data_to_its_n
     let ap = ap_means(&out);
     // Nominal (registered): the geometric errors' millimetre; calibrated: the tracker's noise.
     assert!(ap[0] > 0.2 && ap[1] < 0.01 && ap[1] < ap[0] / 30.0, "{ap:?}\n{table}");
+    // What a controller without a kinematic model keeps (joint zero offsets, base, tool): fitted
+    // on those alone, between the nominal and the full model, and nothing else moved.
+    let subset = dir.path().join("subset.json");
+    let printed = ok(twincal(&["calibrate", "--data", s(&data), "--controller-subset", "--out", s(&subset)]));
+    let sub: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&subset).unwrap()).unwrap();
+    for p in sub["parameters"].as_array().unwrap().iter().filter(|p| !p["fixed"].as_bool().unwrap()) {
+        let name = p["name"].as_str().unwrap();
+        assert!(!name.starts_with("joint_") || name.ends_with(".theta"), "{name} fitted by --controller-subset");
+    }
+    let out3 = dir.path().join("iso3.json");
+    ok(twincal(&["iso9283", "--data", s(&data), "--model", s(&before), "--model", s(&subset), "--model", s(&after), "--out", s(&out3)]));
+    let ap3 = ap_means(&out3);
+    assert!(ap3[0] > ap3[1] && ap3[1] > 3.0 * ap3[2], "nominal / controller subset / full: {ap3:?}\n{printed}");
+    let e = twincal(&["calibrate", "--data", s(&data), "--controller-subset", "--effects", "compliance", "--out", s(&dir.path().join("x.json"))]);
+    assert_eq!(e.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&e.stderr).contains("--controller-subset fits"), "{}", String::from_utf8_lossy(&e.stderr));
     // Another arm's tracker data (a UR10's) judged by this IRB 120 model: judged, and named.
     let other = dir.path().join("ur10");
     let ur10 = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/ur10_tracker.toml"));

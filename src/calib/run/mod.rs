@@ -24,8 +24,8 @@ pub use crate::calib::methods::{Method, Solver};
 pub use crate::calib::problem::identify::{identify, still_joints, STILL_SPAN_DEG};
 pub use crate::dataset::truth::TruthFile;
 pub use options::{
-    check_inertial, flange_gap_mm, CalibOptions, FloorOptions, LoadOptions, ModelSpec, Parametrisation, ScreenOptions, SplitBy, SplitOptions, StationSource,
-    DEFAULT_EFFORT, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL, OTHER_ARM_MM,
+    check_inertial, flange_gap_mm, CalibOptions, FloorOptions, FreeParams, LoadOptions, ModelSpec, Parametrisation, ScreenOptions, SplitBy, SplitOptions,
+    StationSource, DEFAULT_EFFORT, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL, OTHER_ARM_MM,
 };
 pub use pipeline::*;
 pub use register::{Registration, DEFAULT_REGISTER_ROWS};

@@ -167,8 +167,8 @@ pub struct CalibOptions {
     pub loss: Loss,
     /// The data's floor and the rows' weights.
     pub floor: FloorOptions,
-    /// Fit the instrument's placement only, everything else held at its nominal value.
-    pub placement_only: bool,
+    /// Which parameters are fitted; the others are held at their nominal values.
+    pub free: FreeParams,
     /// Where the instrument's stations come from ([`super::setup`]).
     pub stations: StationSource,
 }
@@ -195,7 +195,7 @@ impl CalibOptions {
             screen: ScreenOptions::default(),
             loss: Loss::default(),
             floor: FloorOptions::default(),
-            placement_only: false,
+            free: FreeParams::All,
             stations: StationSource::Auto,
         }
     }
@@ -245,6 +245,21 @@ pub fn check_inertial(model: &ModelSpec, inertial: Option<&Robot>, source: &str)
         "--robot {source} is another arm than the model's ({}): {why}; give the arm to calibrate as --model {source} (--robot only lends the model's arm its inertial data)",
         nominal.name
     )))
+}
+
+/// Which parameters a calibration fits (the rest held at their nominal values).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FreeParams {
+    /// Every identifiable parameter.
+    #[default]
+    All,
+    /// The instrument's placement only (`--placement-only`): the nominal twin of a set-up whose
+    /// instrument was not surveyed.
+    Placement,
+    /// What a controller that takes no new kinematic model can be given (`--controller-subset`):
+    /// the joints' zero offsets, and the placement (the base frame against the instrument) with
+    /// the tool point.
+    Controller,
 }
 
 /// How `--test-fraction` draws its test rows.

@@ -115,10 +115,13 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut warnings = setup_warnings(&model, data, screen.is_some(), opts);
     let x0 = model.nominal.clone();
     let mut fixed = id.fixed_mask.clone();
-    if opts.placement_only {
-        let free = model.setup_range();
-        fixed.iter_mut().enumerate().filter(|(k, _)| !free.contains(k)).for_each(|(_, f)| *f = true);
-    }
+    let zero_offsets = model.chain.zero_offset_params();
+    let held = |k: usize| match opts.free {
+        FreeParams::All => false,
+        FreeParams::Placement => !model.setup_range().contains(&k),
+        FreeParams::Controller => !model.setup_range().contains(&k) && !zero_offsets.contains(&k),
+    };
+    fixed.iter_mut().enumerate().filter(|(k, _)| held(*k)).for_each(|(_, f)| *f = true);
     let (noise_model, as_read) = noise_model_stage(&model, &x0, &fixed, &mut split, data, opts);
     let fit = ReadingFit { model: &model, data: &split.train };
     check_design(data, &split, &fixed, &mut warnings)?;

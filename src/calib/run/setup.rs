@@ -65,7 +65,7 @@ pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<D
         }
         StationSource::Auto => {
             let tracker = matches!(data.measurement(), Some(Measurement::Point | Measurement::Pose));
-            if !tracker || !matches!(opts.model, super::options::ModelSpec::Nominal { .. }) || opts.placement_only {
+            if !tracker || !matches!(opts.model, super::options::ModelSpec::Nominal { .. }) || opts.free != super::options::FreeParams::All {
                 return Ok((None, Vec::new()));
             }
             find_changes(data, opts)
