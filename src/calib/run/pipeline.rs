@@ -105,6 +105,18 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     Ok(Prepared { split, model, screen, test_rows_in_steps, id, weighting, search })
 }
 
+/// The parameters held at their nominal values: those the data cannot identify, and those
+/// `free` does not fit.
+fn held_fixed(model: &CalibModel, id: &Identifiability, free: FreeParams) -> Vec<bool> {
+    let zero_offsets = model.chain.zero_offset_params();
+    let held = |k: usize| match free {
+        FreeParams::All => false,
+        FreeParams::Placement => !model.setup_range().contains(&k),
+        FreeParams::Controller => !model.setup_range().contains(&k) && !zero_offsets.contains(&k),
+    };
+    id.fixed_mask.iter().enumerate().map(|(k, f)| *f || held(k)).collect()
+}
+
 /// Runs a calibration with a given solver. `truth` enables the parameter-error report.
 pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions, solver: &dyn Solver) -> Result<CalibResult> {
     let t0 = Instant::now();
@@ -114,14 +126,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting, search } = prepare(data, opts, solver.needs_row_inputs())?;
     let mut warnings = setup_warnings(&model, data, screen.is_some(), opts);
     let x0 = model.nominal.clone();
-    let mut fixed = id.fixed_mask.clone();
-    let zero_offsets = model.chain.zero_offset_params();
-    let held = |k: usize| match opts.free {
-        FreeParams::All => false,
-        FreeParams::Placement => !model.setup_range().contains(&k),
-        FreeParams::Controller => !model.setup_range().contains(&k) && !zero_offsets.contains(&k),
-    };
-    fixed.iter_mut().enumerate().filter(|(k, _)| held(*k)).for_each(|(_, f)| *f = true);
+    let fixed = held_fixed(&model, &id, opts.free);
     let (noise_model, as_read) = noise_model_stage(&model, &x0, &fixed, &mut split, data, opts);
     let fit = ReadingFit { model: &model, data: &split.train };
     check_design(data, &split, &fixed, &mut warnings)?;
