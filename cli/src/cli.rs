@@ -57,6 +57,10 @@ pub enum Command {
     /// program the controller runs as it is: ABB RAPID, KUKA KRL or URScript, joint moves in the
     /// list's order, a hold and a wait until each pose is measured.
     Program(twincal::jobs::ProgramJob),
+    /// What a controller that takes no new kinematic model can be given of a calibration
+    /// (`calibrate --controller-subset`): the joints' zero offsets, the tool and the instrument's
+    /// frame, as RAPID tooldata / wobjdata, KRL FRAMEs for TOOL_DATA / BASE_DATA, or URScript.
+    ControllerData(twincal::jobs::ControllerDataJob),
     /// The joint commands that make the calibrated arm reach a program's targets (points in the
     /// base frame, or joint targets taught on the nominal model), with the payload it runs with:
     /// per target the command, its status, the predicted residual and the filtered Cartesian
@@ -173,6 +177,7 @@ pub fn run(args: Cli) -> twincal::Result<()> {
         Command::Replay(a) => commands::replay(&a, args.quiet),
         Command::Export(a) => commands::export(&a, args.quiet),
         Command::Program(a) => commands::program(&a, args.quiet),
+        Command::ControllerData(a) => commands::controller_data(&a, args.quiet),
         Command::Compensate(a) => commands::compensate(&a, args.quiet),
         Command::Iso9283(a) => {
             let e = a.run()?;

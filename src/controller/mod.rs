@@ -18,7 +18,10 @@
 
 mod krl;
 mod rapid;
+mod subset;
 mod urscript;
+
+pub use subset::ControllerData;
 
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -64,6 +67,14 @@ impl Language {
             return Err(Error::Invalid(format!("a {} program moves arms of {} to {} joints; this one has {n}", self.name(), range.start(), range.end())));
         }
         Ok(self.dialect().measurement_program(tour))
+    }
+    /// The extension of its data file ([`ControllerData::write`]).
+    pub fn data_extension(self) -> &'static str {
+        match self {
+            Language::Rapid => "mod",
+            Language::Krl => "dat",
+            Language::Urscript => "script",
+        }
     }
     /// The names of the files a program called `name` is written in.
     pub fn file_names(self, name: &str) -> Vec<String> {

@@ -9,6 +9,7 @@
 mod calibrate;
 mod compare;
 mod compensate;
+mod controller_data;
 mod diagnose;
 mod export;
 mod files;
@@ -25,6 +26,7 @@ pub use compare::{
     Comparison, MAX_COMPARE_JOBS, MAX_SEEDS, MIN_SEEDS_FOR_TEST,
 };
 pub use compensate::{CompensateJob, CompensateSummary};
+pub use controller_data::{ControllerDataJob, ControllerDataSummary};
 pub use diagnose::{diagnose_loaded, write_diagnosis, DiagnoseJob, Diagnosed};
 pub use export::{ExportJob, ExportSummary};
 pub use files::{

@@ -57,6 +57,42 @@ fn a_calibration_brings_the_held_out_pose_accuracy_of_twin_tracker_data_to_its_n
     ok(twincal(&["iso9283", "--data", s(&data), "--model", s(&before), "--model", s(&subset), "--model", s(&after), "--out", s(&out3)]));
     let ap3 = ap_means(&out3);
     assert!(ap3[0] > ap3[1] && ap3[1] > 3.0 * ap3[2], "nominal / controller subset / full: {ap3:?}\n{printed}");
+    // Written as the controllers' own data: the same tool in RAPID, KRL and URScript, the
+    // offsets of the result; a full calibration's values are refused.
+    let (m, k, u) = (dir.path().join("twc_cal.mod"), dir.path().join("twc_cal.dat"), dir.path().join("twc_cal.script"));
+    ok(twincal(&["controller-data", "--model", s(&subset), "--format", "rapid", "--tool-mass-kg", "0.5", "--out", s(&m)]));
+    ok(twincal(&["controller-data", "--model", s(&subset), "--format", "krl", "--out", s(&k)]));
+    ok(twincal(&["controller-data", "--model", s(&subset), "--format", "urscript", "--out", s(&u)]));
+    let (mt, kt, ut) = (std::fs::read_to_string(&m).unwrap(), std::fs::read_to_string(&k).unwrap(), std::fs::read_to_string(&u).unwrap());
+    let after_marker = |t: &str, marker: &str| -> Vec<f64> {
+        let rest = &t[t.find(marker).unwrap_or_else(|| panic!("{marker} in {t}")) + marker.len()..];
+        rest.split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e')).filter(|w| !w.is_empty()).take(3).map(|w| w.parse().unwrap()).collect()
+    };
+    let rapid = after_marker(&mt, "twc_tool := [TRUE,[[");
+    let krl = after_marker(&kt.replace("X ", "").replace("Y ", "").replace("Z ", ""), "TWC_TOOL={");
+    let ur: Vec<f64> = after_marker(&ut, "set_tcp(p[").iter().map(|v| v * 1000.0).collect();
+    for (a, b) in rapid.iter().zip(&krl).chain(rapid.iter().zip(&ur)) {
+        assert!((a - b).abs() < 1e-3, "tool: RAPID {rapid:?}, KRL {krl:?}, URScript {ur:?}");
+    }
+    let thetas: Vec<f64> = sub["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["name"].as_str().unwrap().ends_with(".theta"))
+        .map(|p| p["value"].as_f64().unwrap() - p["nominal"].as_f64().unwrap())
+        .collect();
+    for (j, d) in thetas.iter().enumerate() {
+        let line = mt
+            .lines()
+            .find(|l| l.trim_start_matches(['!', ' ']).starts_with(&format!("joint_{} ", j + 1)))
+            .unwrap_or_else(|| panic!("joint_{} in {mt}", j + 1));
+        let written: f64 = line.split_whitespace().last().unwrap().parse().unwrap();
+        assert!((written - d).abs() < 2e-6, "joint_{}: {written} written, {d} in the result", j + 1);
+    }
+    assert!(mt.contains("PERS wobjdata twc_instrument") && kt.contains("TWC_BASE={") && ut.contains("twc_instrument = p["));
+    let full = twincal(&["controller-data", "--model", s(&after), "--format", "krl", "--out", s(&dir.path().join("full.dat"))]);
+    assert_eq!(full.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&full.stderr).contains("--controller-subset") && !dir.path().join("full.dat").exists());
     let e = twincal(&["calibrate", "--data", s(&data), "--controller-subset", "--effects", "compliance", "--out", s(&dir.path().join("x.json"))]);
     assert_eq!(e.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&e.stderr).contains("--controller-subset fits"), "{}", String::from_utf8_lossy(&e.stderr));
