@@ -664,6 +664,16 @@ fn program(py: Python<'_>, options: &str) -> PyResult<String> {
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
+/// Writes a controller-subset calibration as the controller's data, as `twincal
+/// controller-data`; `options`: a JSON object of the job's fields (`model`, `format`,
+/// `tool_mass_kg`, `out`). Returns the summary's JSON.
+#[pyfunction]
+fn controller_data(py: Python<'_>, options: &str) -> PyResult<String> {
+    let job: jobs::ControllerDataJob = serde_json::from_str(options).map_err(|e| TwincalError::new_err(format!("controller_data: {e}")))?;
+    let summary = released(py, None, |_| job.run())?;
+    serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
+}
+
 /// Plans measurement poses as `twincal plan`, writing poses.csv and plan.json into `out`;
 /// `options`: a JSON object of its `scenario`, `poses`, `candidates`, `criterion`, `params`,
 /// `seed` and `rrd`. Returns plan.json's text.
@@ -703,6 +713,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(iso9283, m)?)?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;
     m.add_function(wrap_pyfunction!(program, m)?)?;
+    m.add_function(wrap_pyfunction!(controller_data, m)?)?;
     m.add_class::<PyCalibration>()?;
     m.add_class::<PyDiagnosis>()?;
     Ok(())

@@ -550,3 +550,18 @@ def test_a_plan_and_a_pose_list_become_measurement_programs(tmp_path):
     with pytest.raises(twincal.TwincalError, match="robot must be"):
         twincal.program(tmp_path / "p" / "poses.csv", tmp_path / "x", format="rapid", robot=3)
     assert not (tmp_path / "x").exists()
+
+
+def test_the_controller_subset_is_written_as_the_controllers_data(tmp_path):
+    """calibrate(controller_subset=True) on the twin's tracker data, then controller_data() as
+    KRL: the offsets of the result; a full calibration is refused."""
+    data, _ = twincal.generate(scenario=ROOT / "scenarios" / "irb120_tracker.toml")
+    subset = twincal.calibrate(data, controller_subset=True)
+    subset.save(tmp_path / "subset.json")
+    s = twincal.controller_data(tmp_path / "subset.json", tmp_path / "cal.dat", format="krl")
+    assert [n for n, _ in s["joint_offsets_deg"]] == [f"joint_{j}" for j in range(1, 7)]
+    assert "DECL GLOBAL FRAME TWC_TOOL={X " in (tmp_path / "cal.dat").read_text()
+    twincal.calibrate(data).save(tmp_path / "full.json")
+    with pytest.raises(twincal.TwincalError, match="controller-subset"):
+        twincal.controller_data(tmp_path / "full.json", tmp_path / "full.dat", format="krl")
+    assert not (tmp_path / "full.dat").exists()

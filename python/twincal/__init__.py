@@ -48,6 +48,7 @@ __all__ = [
     "iso9283",
     "plan",
     "program",
+    "controller_data",
     "cli",
     "__version__",
 ]
@@ -604,6 +605,21 @@ def plan(
         }
     )
     return json.loads(_native.plan(os.fspath(out), options))
+
+
+def controller_data(
+    model: Union[str, os.PathLike], out: Union[str, os.PathLike], *, format: str, tool_mass_kg: Optional[float] = None
+) -> dict:
+    """Write a ``calibrate(..., controller_subset=True)`` result (a result.json path) as the
+    controller's own data, as ``twincal controller-data``: ``format`` ``rapid`` (a .mod of
+    tooldata, wobjdata and the joint offsets), ``krl`` (a .dat of FRAMEs for TOOL_DATA and
+    BASE_DATA) or ``urscript`` (a .script); ``tool_mass_kg`` where the calibration states no
+    payload (RAPID's tooldata needs a mass). Returns the summary: the file, the joint offsets
+    (degrees) and the tool point (mm)."""
+    options = _options(
+        {"model": os.path.abspath(os.fspath(model)), "format": format, "tool_mass_kg": tool_mass_kg, "out": os.fspath(out)}
+    )
+    return json.loads(_native.controller_data(options))
 
 
 def program(
