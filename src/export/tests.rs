@@ -159,3 +159,29 @@ fn a_hayati_model_of_an_exported_calibrated_urdf_is_exact_and_loadable() {
         }
     }
 }
+
+/// A UR kinematics file read as a robot: the UR10's nominal written by the exporter, read back as
+/// a model's nominal arm, puts the flange where the URDF's does (1e-9 m over 200 configurations).
+#[test]
+fn a_ur_kinematics_file_is_a_nominal_robot() {
+    let ur10 = Robot::from_urdf_str(include_str!("../../urdf/ur10.urdf"), "ur10").unwrap();
+    let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.0, 0.0, 0.0] };
+    let m = CalibModel::dh(&ur10, &g, true);
+    let mut warnings = Vec::new();
+    let text = ur_yaml::UrYaml.write(&JointTable::of(&m, &m.nominal), &m, &m.nominal, None, "yaml", &mut warnings).unwrap();
+    let robot = ur_yaml::robot(&text, "ur10.yaml").unwrap();
+    assert_eq!(robot.dof(), 6);
+    let (a, b) = (ur10.error_chain(), robot.error_chain());
+    let (za, zb) = (vec![0.0; a.n_params()], vec![0.0; b.n_params()]);
+    let (mut wa, mut wb) = (crate::robot::kinematics::FkWork::new(&a), crate::robot::kinematics::FkWork::new(&b));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    for _ in 0..200 {
+        let q: Vec<f64> = (0..6).map(|_| rng.random_range(-3.0..3.0)).collect();
+        a.forward(&q, &za, 1.0, &mut wa);
+        b.forward(&q, &zb, 1.0, &mut wb);
+        let (fa, fb) = (a.frame(&wa, a.flange()), b.frame(&wb, b.flange()));
+        assert!((fa.pos - fb.pos).norm() < 1e-9 && (fa.rot - fb.rot).norm() < 1e-9, "{q:?}");
+    }
+    let e = ur_yaml::robot(&text.replace("    pitch:", "    pich:"), "bad.yaml").unwrap_err().to_string();
+    assert!(e.contains("bad.yaml") && e.contains("pich"), "{e}");
+}

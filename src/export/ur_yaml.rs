@@ -146,6 +146,40 @@ impl ExportFormat for UrYaml {
     }
 }
 
+/// A UR's kinematics file (the factory calibration the UR driver's `ur_calibration` extracts,
+/// or one `export --format ur-yaml` wrote) as a robot: six revolute joints about their own z at
+/// the file's origins, the flange (`tool0`) on `wrist_3`, the base UR's D-H base frame. The file
+/// holds no limits, masses or speeds: joints of ±360° at 180°/s, no inertials (a calibration's
+/// torques then come from `--robot`, the arm's URDF).
+pub fn robot(text: &str, source: &str) -> Result<Robot> {
+    let values = parse(text).map_err(|e| Error::Invalid(format!("{source}: {e}")))?;
+    let mut urdf = String::from("<?xml version=\"1.0\"?>\n<robot name=\"ur_kinematics\">\n  <link name=\"base\"/>\n");
+    let mut parent = String::from("base");
+    for (name, v) in LINKS.iter().zip(&values) {
+        if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+            return Err(Error::Invalid(format!("{source}: {name} holds {x}, not a finite number")));
+        }
+        let _ = write!(
+            urdf,
+            "  <link name=\"{name}_link\"/>\n  <joint name=\"{name}_joint\" type=\"revolute\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{name}_link\"/>\n    \
+             <origin xyz=\"{:?} {:?} {:?}\" rpy=\"{:?} {:?} {:?}\"/>\n    <axis xyz=\"0 0 1\"/>\n    \
+             <limit lower=\"{:?}\" upper=\"{:?}\" effort=\"0\" velocity=\"{:?}\"/>\n  </joint>\n",
+            v[0],
+            v[1],
+            v[2],
+            v[3],
+            v[4],
+            v[5],
+            -std::f64::consts::TAU,
+            std::f64::consts::TAU,
+            std::f64::consts::PI
+        );
+        parent = format!("{name}_link");
+    }
+    urdf.push_str("  <link name=\"flange\"/>\n  <joint name=\"wrist_3-flange\" type=\"fixed\">\n    <parent link=\"wrist_3_link\"/>\n    <child link=\"flange\"/>\n    <origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>\n  </joint>\n</robot>\n");
+    Robot::from_urdf_str(&urdf, source)
+}
+
 /// The six links' `x, y, z, roll, pitch, yaw` of a UR kinematics file, or what is wrong with it.
 /// The file is read as the driver's files are laid out: `kinematics:`, a line per link name,
 /// then its six `key: value` lines; other keys are refused by name.

@@ -56,7 +56,8 @@ impl Reading {
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(default)]
 pub struct ModelChoice {
-    /// irb120 (embedded URDF), a .urdf path, or generic (no nominal: the arm's axes found from
+    /// irb120 (embedded URDF), a .urdf path, a UR kinematics .yaml (the factory calibration the
+    /// UR driver extracts, as the nominal), or generic (no nominal: the arm's axes found from
     /// the data; 6 or 7 joints, also written generic6r / generic7r).
     #[cfg_attr(feature = "clap", arg(long, default_value = "irb120"))]
     pub model: String,
@@ -85,12 +86,17 @@ impl ModelChoice {
                 )));
             }
         }
+        if let Some(path) = self.input().filter(|p| p.extension().is_some_and(|e| e == "yaml" || e == "yml")) {
+            let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+            let robot = crate::export::ur_yaml::robot(&text, &path.display().to_string())?;
+            return Ok(ModelSpec::nominal(robot, self.params.unwrap_or_default()));
+        }
         ModelSpec::parse(&self.model, self.params.unwrap_or_default())
     }
 
-    /// `--model` as an input file, when it names one (a .urdf).
+    /// `--model` as an input file, when it names one (a .urdf, or a UR kinematics .yaml).
     pub fn input(&self) -> Option<PathBuf> {
-        self.model.ends_with(".urdf").then(|| PathBuf::from(&self.model))
+        [".urdf", ".yaml", ".yml"].iter().any(|e| self.model.ends_with(e)).then(|| PathBuf::from(&self.model))
     }
 
     /// A URDF path made absolute against the current working directory, so that the request

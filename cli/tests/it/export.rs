@@ -90,3 +90,30 @@ fn effects_and_correctors_are_named_as_not_carried_and_bad_requests_write_nothin
     let o = twincal(&["--quiet", "export", "--model", s(&edited), "--out", s(&dir.path().join("e.urdf"))]);
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// A UR's kinematics file as the nominal (the factory calibration the UR driver extracts): the
+/// UR10's own kinematics written as one and given as `--model` (with the URDF lending its
+/// inertials) calibrates the twin's tracker data as the URDF does (held-out RMSE equal to 1e-6
+/// mm); a file that is no kinematics file is refused by name.
+#[test]
+fn a_ur_kinematics_file_is_the_nominal_of_a_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |n: &str| dir.path().join(n);
+    let ur10 = root().join("urdf/ur10.urdf");
+    let ok = |o: Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    ok(twincal(&["--quiet", "generate", "--scenario", s(&root().join("scenarios/ur10_tracker.toml")), "--out", s(&d("data"))]));
+    // The nominal arm (placement only) written as a UR kinematics file.
+    ok(twincal(&["--quiet", "calibrate", "--data", s(&d("data")), "--model", s(&ur10), "--placement-only", "--out", s(&d("nominal.json"))]));
+    ok(twincal(&["--quiet", "export", "--model", s(&d("nominal.json")), "--out", s(&d("factory.yaml"))]));
+    let rmse = |p: &Path| CalibResult::load(p).unwrap().evaluation.metrics.test_after.unwrap().rmse;
+    ok(twincal(&["--quiet", "calibrate", "--data", s(&d("data")), "--model", s(&ur10), "--out", s(&d("urdf.json"))]));
+    ok(twincal(&["--quiet", "calibrate", "--data", s(&d("data")), "--model", s(&d("factory.yaml")), "--robot", s(&ur10), "--out", s(&d("yaml.json"))]));
+    assert!((rmse(&d("urdf.json")) - rmse(&d("yaml.json"))).abs() < 1e-6, "{} vs {}", rmse(&d("urdf.json")), rmse(&d("yaml.json")));
+    // A file that is no UR kinematics file is refused by name.
+    std::fs::write(d("bad.yaml"), "kinematics:\n  shoulder:\n    x: 0\n").unwrap();
+    let o = twincal(&["calibrate", "--data", s(&d("data")), "--model", s(&d("bad.yaml")), "--out", s(&d("bad.json"))]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("bad.yaml") && !d("bad.json").exists(), "{}", String::from_utf8_lossy(&o.stderr));
+}
