@@ -201,7 +201,7 @@ pub fn nominal_x(r: &CalibResult) -> Vec<f64> {
 impl<'a> Compensator<'a> {
     /// The compensation of `r` (with `x_nom` = [`nominal_x`]`(r)`) under `loads` (the joints'
     /// static torques: the result's torque model with the payload the program runs with), to a
-    /// tolerance of `tol_mm` (and `tol_deg` on a pose target's orientation).
+    /// tolerance of `tol_mm` (and `tol_deg` on a pose target's orientation). Example: the whole job (the twin's data, this call, the others) runs as a doctest in [`crate::prelude`].
     pub fn new(r: &'a CalibResult, x_nom: &'a [f64], loads: Option<TorqueModel>, tol_mm: f64, tol_deg: f64) -> Result<Compensator<'a>> {
         check_tol_mm(tol_mm, "--tol-mm")?;
         if !(tol_deg > 0.0 && tol_deg <= 1.0) {

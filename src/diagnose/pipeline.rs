@@ -27,6 +27,8 @@ use std::time::Instant;
 /// another effect first (a thermal drift of the whole arm where one joint's drift screened the
 /// rows), the diagnosis runs again on that effect's screen if it too explains the flagged rows;
 /// should it keep neither, on the rows the geometric screen kept.
+///
+/// Example: the whole job (the twin's data, this call, the others) runs as a doctest in [`crate::prelude`].
 pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
     if opts.folds < 2 || opts.folds > 20 {
         return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));

@@ -20,7 +20,7 @@ use crate::stats::metrics::ErrorStats;
 use nalgebra::DMatrix;
 use std::time::Instant;
 
-/// Runs a calibration with the method named in `opts` at its default settings.
+/// Runs a calibration with the method named in `opts` at its default settings. Example: the whole job (the twin's data, this call, the others) runs as a doctest in [`crate::prelude`].
 pub fn calibrate(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions) -> Result<CalibResult> {
     let solver = match (opts.method, opts.loss) {
         (_, Loss::L2) => opts.method.solver(opts.effort),

@@ -335,7 +335,8 @@ fn nested(value: serde_json::Value) -> std::result::Result<serde_json::Value, se
 }
 
 impl CalibResult {
-    /// Predicted length (mm) at joint angles in degrees.
+    /// Predicted length (mm) at joint angles in degrees (a draw-wire's model; a tracker's
+    /// readings: [`crate::jobs::predicted_readings`]). Example: the whole job (the twin's data, this call, the others) runs as a doctest in [`crate::prelude`].
     pub fn predict_mm(&self, q_deg: &[f64]) -> f64 {
         let q: Vec<f64> = q_deg.iter().map(|d| d.to_radians()).collect();
         let mut w = self.model.work();
