@@ -206,8 +206,11 @@ impl CalibOptions {
     }
 }
 
-/// Beyond this (mm) between two arms' flanges at the same joint angles, they are two arms.
-pub const OTHER_ARM_MM: f64 = 1.0;
+/// Beyond this (mm) between two arms' flanges at the same joint angles, they are two arms. One
+/// arm's own calibrated geometry departs from its URDF by millimetres (a UR's factory
+/// calibration; the UR10 tracker twin's arm by up to 2.1 mm); another make or size of arm by
+/// hundreds.
+pub const OTHER_ARM_MM: f64 = 20.0;
 
 /// The largest distance (mm) between the flanges of `a` and `b` at their nominal geometry over
 /// 16 seeded configurations inside `a`'s limits; `None` where their joint counts differ.
