@@ -1,7 +1,7 @@
 //! KUKA KRL: the tour as a program (`.src`) moving by `PTP` to the `E6AXIS` targets of its data
 //! list (`.dat`), the handshake on the data list's global variables.
 
-use super::{deg, header, numbers, Dialect, ProgramFile, Tour};
+use super::{deg, header, number, Dialect, ProgramFile, Tour};
 use crate::error::{Error, Result};
 use std::fmt::Write;
 
@@ -73,8 +73,7 @@ impl Dialect for Krl {
             let body = &dat[at + decl.len()..];
             let body = &body[..body.find('}').ok_or_else(|| Error::Invalid(format!("{name}: unclosed E6AXIS")))?];
             // "A1 0.5,A2 -90.0,...,E6 0.0": each item its axis, then its value.
-            let items: Vec<&str> = body.split(',').collect();
-            let values = numbers(&items.iter().map(|i| i.split_whitespace().nth(1).unwrap_or("")).collect::<Vec<_>>().join(","), name)?;
+            let values: Vec<f64> = body.split(',').map(|item| number(item.split_whitespace().nth(1).unwrap_or(""), name)).collect::<Result<_>>()?;
             out.push(values.into_iter().take(joints).map(f64::to_radians).collect());
         }
         Ok(out)

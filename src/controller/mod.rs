@@ -68,22 +68,22 @@ impl Language {
         }
         Ok(self.dialect().measurement_program(tour))
     }
-    /// The extension of its data file ([`ControllerData::write`]).
-    pub fn data_extension(self) -> &'static str {
+    /// The extensions of its files: a program's, the data file last.
+    fn extensions(self) -> &'static [&'static str] {
         match self {
-            Language::Rapid => "mod",
-            Language::Krl => "dat",
-            Language::Urscript => "script",
-        }
-    }
-    /// The names of the files a program called `name` is written in.
-    pub fn file_names(self, name: &str) -> Vec<String> {
-        let exts: &[&str] = match self {
             Language::Rapid => &["mod"],
             Language::Krl => &["src", "dat"],
             Language::Urscript => &["script"],
-        };
-        exts.iter().map(|e| format!("{name}.{e}")).collect()
+        }
+    }
+    /// The extension of its data file ([`ControllerData::write`]): a module, a data list, a
+    /// script.
+    pub fn data_extension(self) -> &'static str {
+        self.extensions()[self.extensions().len() - 1]
+    }
+    /// The names of the files a program called `name` is written in.
+    pub fn file_names(self, name: &str) -> Vec<String> {
+        self.extensions().iter().map(|e| format!("{name}.{e}")).collect()
     }
     /// The joint targets (rad) of a program this language's [`Self::measurement_program`]
     /// wrote, in the order the program moves to them; `files` as written.
@@ -127,6 +127,14 @@ pub const DEFAULT_SPEED_FRACTION: f64 = 0.2;
 /// Longest program name the three languages all take.
 pub const MAX_NAME: usize = 24;
 
+/// `--hold-s`, checked: in [0, 3600] s (a plan checks it before it plans).
+pub fn check_hold_s(hold_s: f64) -> Result<()> {
+    if !(hold_s.is_finite() && (0.0..=3600.0).contains(&hold_s)) {
+        return Err(Error::Invalid(format!("--hold-s must be in [0, 3600] s, got {hold_s}")));
+    }
+    Ok(())
+}
+
 impl Tour {
     /// Refuses a tour no controller could run: no pose, a name the languages do not take, a
     /// non-finite angle, a hold or a speed out of range.
@@ -146,9 +154,7 @@ impl Tour {
         if self.payload_kg.as_ref().is_some_and(|p| p.len() != self.q.len() || p.iter().any(|m| !m.is_finite() || *m < 0.0)) {
             return Err(Error::Invalid("payload_kg: one finite, non-negative payload per pose".into()));
         }
-        if !(self.hold_s.is_finite() && (0.0..=3600.0).contains(&self.hold_s)) {
-            return Err(Error::Invalid(format!("--hold-s must be in [0, 3600] s, got {}", self.hold_s)));
-        }
+        check_hold_s(self.hold_s)?;
         if !(self.speed_fraction > 0.0 && self.speed_fraction <= 1.0) {
             return Err(Error::Invalid(format!("--speed-fraction must be in (0, 1], got {}", self.speed_fraction)));
         }
@@ -173,9 +179,14 @@ trait Dialect: Sync {
     fn joint_targets(&self, files: &[ProgramFile]) -> Result<Vec<Vec<f64>>>;
 }
 
+/// The number `text` (`-2`, `9E+09`), or an error naming `what`.
+fn number(text: &str, what: &str) -> Result<f64> {
+    text.trim().parse::<f64>().map_err(|_| Error::Invalid(format!("{what}: '{}' is not a number", text.trim())))
+}
+
 /// The numbers of a comma-separated list (`1.5, -2, 9E+09`), or an error naming `what`.
 fn numbers(list: &str, what: &str) -> Result<Vec<f64>> {
-    list.split(',').map(|t| t.trim().parse::<f64>().map_err(|_| Error::Invalid(format!("{what}: '{}' is not a number", t.trim())))).collect()
+    list.split(',').map(|t| number(t, what)).collect()
 }
 
 /// The header comment's lines: what the program does, the angles' `unit`, the `handshake`,

@@ -54,17 +54,10 @@ impl ExportJob {
             None => crate::export::format_of_path(&self.out)?,
         };
         let mut inputs: Vec<(&str, PathBuf)> = vec![("--model", self.model.clone())];
-        if let Some(r) = self.robot.as_deref().filter(|r| *r != "irb120") {
-            inputs.push(("--robot", PathBuf::from(r)));
-        }
+        inputs.extend(self.robot.as_deref().and_then(super::files::named_robot_input));
         check_outputs(&inputs, &[("--out", self.out.as_path())])?;
         let result = CalibResult::load(&self.model)?;
-        let nominal = match self.robot.as_deref() {
-            None => None,
-            Some("irb120") => Some(Robot::irb120()),
-            Some(path) if path.ends_with(".urdf") => Some(Robot::from_urdf_file(std::path::Path::new(path))?),
-            Some(other) => return Err(Error::Invalid(format!("--robot '{other}': expected irb120 or a .urdf path"))),
-        };
+        let nominal = self.robot.as_deref().map(super::files::named_robot).transpose()?;
         if let Some(r) = &nominal {
             if r.dof() != result.model.chain.n_joints {
                 return Err(Error::Invalid(format!("--robot '{}' has {} joints, the model {}", r.name, r.dof(), result.model.chain.n_joints)));

@@ -163,8 +163,8 @@ impl PlanJob {
                 "--model plans for the calibrated model's own parametrisation and effect blocks: not with --params or --effects".into(),
             ));
         }
-        if self.program_format.is_some() && !(self.hold_s.is_finite() && (0.0..=3600.0).contains(&self.hold_s)) {
-            return Err(Error::Invalid(format!("--hold-s must be in [0, 3600] s, got {}", self.hold_s)));
+        if self.program_format.is_some() {
+            crate::controller::check_hold_s(self.hold_s)?;
         }
         if let Some(m) = self.payloads.iter().find(|m| !(m.is_finite() && (0.0..=crate::dataset::MAX_PAYLOAD_KG).contains(*m))) {
             return Err(Error::Invalid(format!("--payloads: {m} kg is not a payload (finite, in [0, {}] kg)", crate::dataset::MAX_PAYLOAD_KG)));

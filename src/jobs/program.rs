@@ -4,7 +4,6 @@
 use crate::controller::{Language, Tour, DEFAULT_HOLD_S, DEFAULT_SPEED_FRACTION};
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, OutputSet};
-use crate::robot::Robot;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -71,16 +70,10 @@ impl ProgramJob {
         if self.out.exists() && !self.out.is_dir() {
             return Err(Error::Invalid(format!("--out {} is a file; program writes a folder", self.out.display())));
         }
-        let robot = match self.robot.as_str() {
-            "irb120" => Robot::irb120(),
-            path if path.ends_with(".urdf") => Robot::from_urdf_file(std::path::Path::new(path))?,
-            other => return Err(Error::Invalid(format!("--robot '{other}': expected irb120 or a .urdf path"))),
-        };
+        let robot = super::files::named_robot(&self.robot)?;
         let files: Vec<PathBuf> = self.format.file_names(&self.name).iter().map(|n| self.out.join(n)).collect();
         let mut inputs = vec![("--poses", self.poses.clone())];
-        if self.robot != "irb120" {
-            inputs.push(("--robot", PathBuf::from(&self.robot)));
-        }
+        inputs.extend(super::files::named_robot_input(&self.robot));
         let outs: Vec<(&str, &std::path::Path)> = files.iter().map(|p| ("--out", p.as_path())).collect();
         check_outputs(&inputs, &outs)?;
         let list = crate::sim::pose_list::read_pose_list(&self.poses, &robot)?;
