@@ -338,6 +338,58 @@ impl<'a> Compensator<'a> {
     /// One pose target: the nominal controller's pose IK, then the calibrated model's from it.
     fn compensate_pose(&self, p: &Vector3<f64>, r: &Matrix3<f64>, wc: &mut IkWork, wn: &mut IkWork) -> Compensated {
         let nominal_q = self.turned(self.nominal.solve_pose_from(p, r, None, JacobianKind::Analytic, &self.options, wn).q);
+        self.compensate_commanded(p, r, nominal_q, wc, wn)
+    }
+
+    /// Workspaces for [`Self::compensate_commanded`] and [`Self::nominal_pose_command`]: the
+    /// calibrated model's, the nominal model's.
+    pub fn works(&self) -> (IkWork, IkWork) {
+        (self.calibrated.work(), self.nominal.work())
+    }
+
+    /// The tolerances a target is reached within: mm, and degrees for a pose's orientation.
+    pub fn tolerances(&self) -> (f64, f64) {
+        (self.options.tol_mm, self.options.tol_deg)
+    }
+
+    /// The joints' limits (rad).
+    pub fn limits(&self) -> &[(f64, f64)] {
+        &self.nominal.limits
+    }
+
+    /// Where the nominal model puts the tool and how it turns it at `q` (rad): mm, base frame.
+    pub fn nominal_pose(&self, q: &[f64], wn: &mut IkWork) -> (Vector3<f64>, Matrix3<f64>) {
+        self.nominal.pose(q, wn, None)
+    }
+
+    /// The nominal controller's command for the pose `p` (mm), `r`, where the controller chooses
+    /// among the arm's solutions by what the program states (its configuration data, or the
+    /// arm's last position): local solves from each of `starts` in turn, then one with random
+    /// restarts; the first converged answer `accept` takes (it may move angles by whole turns to
+    /// the ones the program states). `None` where none converges to an accepted answer.
+    pub fn nominal_pose_command(
+        &self,
+        p: &Vector3<f64>,
+        r: &Matrix3<f64>,
+        starts: &[Vec<f64>],
+        accept: &dyn Fn(&mut Vec<f64>) -> bool,
+        wn: &mut IkWork,
+    ) -> Option<Vec<f64>> {
+        let local = IkOptions { local: true, ..self.options.clone() };
+        for start in starts {
+            let mut s = self.nominal.solve_pose_from(p, r, Some(start), JacobianKind::Analytic, &local, wn);
+            if s.status == IkStatus::Converged && accept(&mut s.q) {
+                return Some(s.q);
+            }
+        }
+        let mut s = self.nominal.solve_pose_from(p, r, starts.first().map(Vec::as_slice), JacobianKind::Analytic, &self.options, wn);
+        (s.status == IkStatus::Converged && accept(&mut s.q)).then_some(s.q)
+    }
+
+    /// A pose target (`p` mm, `r`, base frame) whose nominal command `nominal_q` (rad) is known
+    /// (a program's interpretation by its controller): the calibrated model's command from it, on
+    /// its branch.
+    pub fn compensate_commanded(&self, p: &Vector3<f64>, r: &Matrix3<f64>, nominal_q: Vec<f64>, wc: &mut IkWork, wn: &mut IkWork) -> Compensated {
         let s = self.on_nominal_branch(&nominal_q, |o, start| self.calibrated.solve_pose_from(p, r, Some(start), JacobianKind::Hybrid, o, wc));
         let (np, nr) = self.calibrated.pose(&nominal_q, wc, None);
         let (fp, fr) = self.nominal.pose(&s.q, wn, None);

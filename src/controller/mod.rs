@@ -16,6 +16,7 @@
 //! mapped first. Each language reads its own programs' joint targets back
 //! ([`Language::joint_targets`]), which the tests use to check a written program.
 
+pub mod filter;
 mod krl;
 mod rapid;
 mod subset;
@@ -84,6 +85,19 @@ impl Language {
     /// The names of the files a program called `name` is written in.
     pub fn file_names(self, name: &str) -> Vec<String> {
         self.extensions().iter().map(|e| format!("{name}.{e}")).collect()
+    }
+    /// The language of a program file, by its extension (`.mod`, `.prg`, `.sys`: RAPID; `.src`,
+    /// `.dat`: KRL; `.script`, `.urscript`: URScript).
+    pub fn of_file(path: &std::path::Path) -> Result<Language> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        match ext.as_str() {
+            "mod" | "modx" | "prg" | "sys" => Ok(Language::Rapid),
+            "src" | "dat" => Ok(Language::Krl),
+            "script" | "urscript" => Ok(Language::Urscript),
+            _ => {
+                Err(Error::data(path.display(), format!("'.{ext}' is not a program file twincal reads: RAPID .mod/.prg/.sys, KRL .src/.dat, URScript .script")))
+            }
+        }
     }
     /// The joint targets (rad) of a program this language's [`Self::measurement_program`]
     /// wrote, in the order the program moves to them; `files` as written.

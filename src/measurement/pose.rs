@@ -73,6 +73,8 @@ impl Default for Euler {
 impl Euler {
     /// Intrinsic X-Y-Z: `R = Rx(a)·Ry(b)·Rz(c)` (the twin's convention, and the UR10 data's).
     pub const XYZ: Euler = Euler { axes: [0, 1, 2], intrinsic: true };
+    /// Intrinsic Z-Y-X: `R = Rz(a)·Ry(b)·Rx(c)` (KUKA's A, B, C).
+    pub const ZYX: Euler = Euler { axes: [2, 1, 0], intrinsic: true };
 
     /// Reads a convention: three letters of `xyz` (extrinsic) or `XYZ` (intrinsic), no two
     /// consecutive ones the same (`ZYX`, `xyz`, `ZYZ`, ...).

@@ -291,6 +291,39 @@ fn joint_spec(j: &urdf_rs::Joint, full: &Frame) -> std::result::Result<JointSpec
 }
 
 impl Robot {
+    /// The controller's own frames as its URDF states them (the ROS-Industrial convention): the
+    /// controller's base frame (link `base`) in the chain's base frame, and its flange frame
+    /// (link `tool0`, the frame a program's tool data are written in) in the chain's flange
+    /// frame, each reached from the chain through fixed joints; the identity where the URDF has
+    /// no such link.
+    pub fn controller_frames(&self) -> (Frame, Frame) {
+        let Ok(urdf) = urdf_rs::read_from_string(&self.urdf) else { return (Frame::identity(), Frame::identity()) };
+        // A link's pose in the nearest ancestor that a moving joint moves (or the root), through
+        // the fixed joints between, and that ancestor's name.
+        let up = |name: &str| -> Option<(Frame, String)> {
+            let mut f = Frame::identity();
+            let mut at = name.to_string();
+            loop {
+                let Some(j) = urdf.joints.iter().find(|j| j.child.link == at) else { return Some((f, at)) };
+                if j.joint_type != urdf_rs::JointType::Fixed {
+                    return Some((f, at));
+                }
+                f = frame_from_xyz_rpy(&j.origin.xyz.0, &j.origin.rpy.0).compose(&f);
+                at = j.parent.link.clone();
+            }
+        };
+        let exists = |n: &str| urdf.links.iter().any(|l| l.name == n);
+        let base = match (exists("base"), up("base"), up(&self.base_link)) {
+            (true, Some((b, root)), Some((own, own_root))) if root == own_root => b.relative_to(&own),
+            _ => Frame::identity(),
+        };
+        let tool0 = match (exists("tool0"), up("tool0"), up(&self.flange_name)) {
+            (true, Some((t, at)), Some((fl, fl_at))) if at == fl_at => t.relative_to(&fl),
+            _ => Frame::identity(),
+        };
+        (base, tool0)
+    }
+
     /// The IRB 120 shipped with twincal.
     pub fn irb120() -> Robot {
         Robot::from_urdf_str(IRB120_URDF, "urdf/irb120.urdf (embedded)").expect("embedded URDF is valid")
