@@ -620,36 +620,15 @@ fn export(py: Python<'_>, model: PathBuf, out: PathBuf, options: &str) -> PyResu
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
-/// Compensates a program's targets with a calibrated model, as `twincal compensate`; `options`:
-/// a JSON object of its `payload_kg`, `payload_com_mm`, `tol_mm`, `tol_deg` and `euler`. Returns the summary's JSON
-/// (per target the command, status, residuals and filtered target).
+/// Compensates a program's targets (a CSV) or filters a robot program with a calibrated model,
+/// as `twincal compensate`; `options`: a JSON object of the job's fields (`model`, `targets` or
+/// `program`, `frames`, `robot`, `joint_targets`, `leave`, `start_joints_deg`, `filtered_dir`,
+/// `report`, `payload_kg`, `payload_com_mm`, `tol_mm`, `tol_deg`, `euler`, `out`). Returns the
+/// summary's JSON (per target the command, status, residuals and filtered target; for a program
+/// also each target's outcome and the run-time motions left).
 #[pyfunction]
-fn compensate(py: Python<'_>, model: PathBuf, targets: PathBuf, out: PathBuf, options: &str) -> PyResult<String> {
-    #[derive(serde::Deserialize, serde::Serialize)]
-    #[serde(deny_unknown_fields, default)]
-    struct Options {
-        payload_kg: Option<f64>,
-        payload_com_mm: Option<Vec<f64>>,
-        tol_mm: f64,
-        tol_deg: f64,
-        euler: String,
-    }
-    impl Default for Options {
-        fn default() -> Self {
-            Options { payload_kg: None, payload_com_mm: None, tol_mm: 0.001, tol_deg: 0.001, euler: "XYZ".into() }
-        }
-    }
-    let o: Options = request("compensate", options)?;
-    let job = jobs::CompensateJob {
-        model,
-        targets,
-        payload_kg: o.payload_kg,
-        payload_com_mm: o.payload_com_mm,
-        tol_mm: o.tol_mm,
-        tol_deg: o.tol_deg,
-        euler: o.euler.parse().map_err(|e: String| err(twincal::Error::Invalid(format!("--euler: {e}"))))?,
-        out,
-    };
+fn compensate(py: Python<'_>, options: &str) -> PyResult<String> {
+    let job: jobs::CompensateJob = serde_json::from_str(options).map_err(|e| TwincalError::new_err(format!("compensate: {e}")))?;
     let summary = released(py, None, |_| job.run())?;
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }

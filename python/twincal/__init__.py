@@ -529,9 +529,17 @@ def export(
 
 def compensate(
     model: Union[str, os.PathLike],
-    targets: Union[str, os.PathLike],
-    out: Union[str, os.PathLike],
+    targets: Optional[Union[str, os.PathLike]] = None,
+    out: Union[str, os.PathLike] = "commands.csv",
     *,
+    program: Optional[Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]]] = None,
+    frames: Optional[Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]]] = None,
+    robot: Optional[Union[str, os.PathLike]] = None,
+    joint_targets: bool = False,
+    leave: Optional[Sequence[str]] = None,
+    start_joints_deg: Optional[Sequence[float]] = None,
+    filtered_dir: Union[str, os.PathLike] = "filtered",
+    report: Union[str, os.PathLike] = "filter_report.csv",
     payload_kg: Optional[float] = None,
     payload_com_mm: Optional[Sequence[float]] = None,
     tol_mm: float = 0.001,
@@ -544,17 +552,53 @@ def compensate(
     poses, or q1..qN (degrees, taught on the nominal model), the payload the program runs with;
     writes the commands CSV to ``out`` and returns the summary (per target the command in
     radians, status, predicted residual, uncompensated error and filtered Cartesian target; for
-    poses also the orientation residuals in degrees)."""
+    poses also the orientation residuals in degrees).
+
+    With ``program`` (a RAPID .mod/.prg, a KRL .src with its .dat, a URScript .script; a path
+    or a list of paths) instead of ``targets``, the program is filtered: its targets compensated
+    in place, with the frames it declares or ``frames`` declare (a module with tooldata /
+    wobjdata, KUKA's $config.dat, a script with set_tcp), the controller's base and tool0 from
+    ``robot`` (irb120 or a URDF path); the copies go to ``filtered_dir``, a line per target to
+    ``report``, and the summary's ``program`` holds each target's outcome and the run-time
+    motions left as written."""
+
+    def paths(v: Any, name: str) -> Any:
+        if v is None:
+            return None
+        if isinstance(v, (str, os.PathLike)):
+            v = [v]
+        if not isinstance(v, (list, tuple)) or not all(isinstance(p, (str, os.PathLike)) for p in v):
+            raise TwincalError(f"{name} must be a path or a list of paths, got {type(v).__name__}")
+        return [os.path.abspath(os.fspath(p)) for p in v]
+
+    if robot is not None and not isinstance(robot, (str, os.PathLike)):
+        raise TwincalError(f"robot must be irb120 or a URDF path (a string or os.PathLike), got {type(robot).__name__}")
+    robot_name = None if robot is None else os.fspath(robot)
+    if robot_name not in (None, "irb120"):
+        robot_name = os.path.abspath(robot_name)
+    if isinstance(leave, str):
+        leave = [leave]
     options = _options(
         {
+            "model": os.path.abspath(os.fspath(model)),
+            "targets": None if targets is None else os.path.abspath(os.fspath(targets)),
+            "program": paths(program, "program"),
+            "frames": paths(frames, "frames"),
+            "robot": robot_name,
+            "joint_targets": joint_targets,
+            "leave": leave,
+            "start_joints_deg": _numbers(start_joints_deg, "start_joints_deg"),
+            "filtered_dir": os.fspath(filtered_dir),
+            "report": os.fspath(report),
             "payload_kg": payload_kg,
             "payload_com_mm": _numbers(payload_com_mm, "payload_com_mm", 3),
             "tol_mm": tol_mm,
             "tol_deg": tol_deg,
             "euler": euler,
+            "out": os.fspath(out),
         }
     )
-    return json.loads(_native.compensate(os.fspath(model), os.fspath(targets), os.fspath(out), options))
+    return json.loads(_native.compensate(options))
 
 
 def plan(

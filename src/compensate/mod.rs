@@ -135,6 +135,10 @@ pub struct Compensator<'a> {
     options: IkOptions,
 }
 
+/// Random starts of [`Compensator::nominal_pose_nearest`] besides the present joints: enough to
+/// find each of a six-axis arm's solutions.
+const NEAREST_STARTS: usize = 32;
+
 /// Largest change of any joint (degrees) between a nominal command and its compensated one
 /// found by restarts: beyond it the restart found another arm configuration, not the nominal
 /// command's.
@@ -296,6 +300,13 @@ impl<'a> Compensator<'a> {
         }
     }
 
+    /// Whether the calibrated model at `q` (rad) puts the tool on the pose `p` (mm), `r` within
+    /// `factor` times the tolerances.
+    pub fn reaches(&self, q: &[f64], p: &Vector3<f64>, r: &Matrix3<f64>, factor: f64) -> bool {
+        let (cp, cr) = self.predicted_pose(q);
+        (cp - p).norm() <= factor * self.options.tol_mm && crate::ik::solver::turn(r, &cr).norm().to_degrees() <= factor * self.options.tol_deg
+    }
+
     /// Where the calibrated model puts the tool and how it turns it at joint angles `q` (rad):
     /// mm and the orientation, in its frame.
     pub fn predicted_pose(&self, q: &[f64]) -> (Vector3<f64>, Matrix3<f64>) {
@@ -384,6 +395,28 @@ impl<'a> Compensator<'a> {
         }
         let mut s = self.nominal.solve_pose_from(p, r, starts.first().map(Vec::as_slice), JacobianKind::Analytic, &self.options, wn);
         (s.status == IkStatus::Converged && accept(&mut s.q)).then_some(s.q)
+    }
+
+    /// The nominal controller's command for the pose `p` (mm), `r` where the controller takes
+    /// the arm's solution nearest its present joints `previous` (rad; a UR's `movej` and
+    /// `movel` to a pose): local solves from `previous` and from seeded random starts, the
+    /// converged answer nearest `previous` (the largest joint difference, each angle at its turn
+    /// nearest `previous`).
+    pub fn nominal_pose_nearest(&self, p: &Vector3<f64>, r: &Matrix3<f64>, previous: &[f64], wn: &mut IkWork) -> Option<Vec<f64>> {
+        use rand::SeedableRng;
+        let local = IkOptions { local: true, ..self.options.clone() };
+
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x4EA2_E570);
+        let starts = std::iter::once(previous.to_vec()).chain((0..NEAREST_STARTS).map(|_| self.nominal.random_q(&mut rng))).collect::<Vec<_>>();
+        let distance = |q: &[f64]| q.iter().zip(previous).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        starts
+            .iter()
+            .filter_map(|start| {
+                let mut s = self.nominal.solve_pose_from(p, r, Some(start), JacobianKind::Analytic, &local, wn);
+                nearest_turns(&mut s.q, previous, &self.nominal.limits);
+                (s.status == IkStatus::Converged).then_some(s.q)
+            })
+            .min_by(|a, b| distance(a).total_cmp(&distance(b)))
     }
 
     /// A pose target (`p` mm, `r`, base frame) whose nominal command `nominal_q` (rad) is known

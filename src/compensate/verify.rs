@@ -59,9 +59,9 @@ pub struct SeedCheck {
 /// The attained tool pose of every executed command, in command order (the point in mm, the
 /// tool's orientation when the twin's instrument reads it: a 6-D probe's, in the base frame);
 /// `None` where the twin rejected the pose.
-type Attained = Option<(Vector3<f64>, Option<Matrix3<f64>>)>;
+pub(crate) type Attained = Option<(Vector3<f64>, Option<Matrix3<f64>>)>;
 
-fn execute(s: &Scenario, robot: &Robot, commands: &[Vec<f64>]) -> Result<Vec<Attained>> {
+pub(crate) fn execute(s: &Scenario, robot: &Robot, commands: &[Vec<f64>]) -> Result<Vec<Attained>> {
     let g: Generated = generate_at(s, robot, commands.to_vec(), None, &Silent)?;
     // y = R·p + t: a probe's orientation in the tracker's frame turned back to the base's.
     let to_base = g.truth.tracker.as_ref().map(|t| Euler::XYZ.matrix(t.rotation_deg.map(f64::to_radians)).transpose());
@@ -75,17 +75,22 @@ fn execute(s: &Scenario, robot: &Robot, commands: &[Vec<f64>]) -> Result<Vec<Att
 
 /// `n` random configurations (rad) inside the joint ranges the data of `g` cover, shrunk by a
 /// tenth at each end.
-fn random_configurations(g: &Generated, n: usize, seed: u64) -> Vec<Vec<f64>> {
+pub(crate) fn random_configurations(g: &Generated, n: usize, seed: u64) -> Vec<Vec<f64>> {
+    let ranges = data_ranges(g);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_7A26_E75C_0DE5);
+    (0..n).map(|_| ranges.iter().map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>()).collect()).collect()
+}
+
+/// Each joint's range (rad) in the data of `g`, shrunk by a tenth at each end.
+pub(crate) fn data_ranges(g: &Generated) -> Vec<(f64, f64)> {
     let dof = g.dataset.n_joints();
-    let ranges: Vec<(f64, f64)> = (0..dof)
+    (0..dof)
         .map(|j| {
             let (lo, hi) = g.dataset.rows.iter().map(|r| r.q_deg[j].to_radians()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
             let m = 0.1 * (hi - lo);
             (lo + m, hi - m)
         })
-        .collect();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_7A26_E75C_0DE5);
-    (0..n).map(|_| ranges.iter().map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>()).collect()).collect()
+        .collect()
 }
 
 /// Calibrates the twin of `s` (at seed `seed`) with `opts`, then executes the nominal and the

@@ -19,8 +19,50 @@ pub struct CompensateJob {
     /// The program's targets, CSV: columns x, y, z (mm, the robot's base frame), with rx, ry, rz
     /// (degrees, the tool's orientation, `--euler`) for poses, or q1..qN (degrees, joint targets
     /// taught on the nominal model).
+    #[cfg_attr(feature = "clap", arg(long, required_unless_present = "program", conflicts_with = "program"))]
+    #[serde(default)]
+    pub targets: Option<PathBuf>,
+    /// A robot program to filter, its targets compensated in place: ABB RAPID (.mod, .prg,
+    /// .sys), KUKA KRL (.src with its .dat: give both, the option repeated), URScript (.script).
+    /// The filtered copies go to `--filtered-dir`, a line per target to `--report`.
     #[cfg_attr(feature = "clap", arg(long))]
-    pub targets: PathBuf,
+    #[serde(default)]
+    pub program: Vec<PathBuf>,
+    /// Files that declare frames the program moves with but does not declare itself: a RAPID
+    /// module with its tooldata / wobjdata, KUKA's $config.dat (TOOL_DATA, BASE_DATA), a
+    /// URScript with the installation's set_tcp (repeat the option for several).
+    #[cfg_attr(feature = "clap", arg(long, requires = "program"))]
+    #[serde(default)]
+    pub frames: Vec<PathBuf>,
+    /// The arm's URDF (or irb120), whose links `base` and `tool0` are the controller's base and
+    /// flange frames (default: the model's base and flange frames are the controller's).
+    #[cfg_attr(feature = "clap", arg(long, requires = "program"))]
+    #[serde(default)]
+    pub robot: Option<String>,
+    /// Compensate the program's joint targets too (MoveAbsJ, E6AXIS, movej([...])): each is
+    /// moved so that the calibrated arm puts the tool where the nominal one did.
+    #[cfg_attr(feature = "clap", arg(long, requires = "program"))]
+    #[serde(default)]
+    pub joint_targets: bool,
+    /// Targets to leave as written, by name (taught on the robot; comma-separated).
+    #[cfg_attr(feature = "clap", arg(long, requires = "program", value_delimiter = ','))]
+    #[serde(default)]
+    pub leave: Vec<String>,
+    /// The arm's joints when the program starts, degrees (comma-separated): a URScript pose (and
+    /// a KRL one without S and T) is solved nearest the arm's previous position (default: the
+    /// middle of each joint's range).
+    #[cfg_attr(feature = "clap", arg(long, requires = "program", value_delimiter = ',', allow_negative_numbers = true, allow_hyphen_values = true))]
+    #[serde(default)]
+    pub start_joints_deg: Option<Vec<f64>>,
+    /// Where the filtered copies of the program's files are written (their own names).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "filtered"))]
+    #[serde(default = "default_filtered_dir")]
+    pub filtered_dir: PathBuf,
+    /// The filter's report: a line per target (its outcome, configuration data before and
+    /// after, the predicted residual, the uncompensated error, how far it moved).
+    #[cfg_attr(feature = "clap", arg(long, default_value = "filter_report.csv"))]
+    #[serde(default = "default_report")]
+    pub report: PathBuf,
     /// The payload the program runs with, kg (default: the one the calibration stated); it
     /// loads the joints of a model with compliance.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
@@ -55,6 +97,15 @@ pub struct CompensateJob {
 fn default_tol() -> f64 {
     0.001
 }
+/// A payload: mass kg, centre of mass mm (flange frame).
+type Payload = (f64, [f64; 3]);
+
+fn default_filtered_dir() -> PathBuf {
+    PathBuf::from("filtered")
+}
+fn default_report() -> PathBuf {
+    PathBuf::from("filter_report.csv")
+}
 fn default_out() -> PathBuf {
     PathBuf::from("commands.csv")
 }
@@ -73,22 +124,30 @@ pub struct CompensateSummary {
     pub payload: Option<(f64, [f64; 3])>,
     /// What the user should know (a payload that changes nothing, targets not reached).
     pub warnings: Vec<String>,
+    /// A filtered program: per target what became of it, and the run-time motions left.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub program: Option<crate::controller::filter::Filtered>,
 }
 
 impl CompensateJob {
-    /// Reads the model and the targets, compensates, writes the commands.
+    /// Reads the model and the targets (or the program), compensates, writes the commands (or
+    /// the filtered program and its report).
     pub fn run(&self) -> Result<CompensateSummary> {
-        check_outputs(&[("--model", self.model.clone()), ("--targets", self.targets.clone())], &[("--out", self.out.as_path())])?;
+        let Some(targets_path) = &self.targets else { return self.run_program() };
+        if !self.program.is_empty() {
+            return Err(Error::Invalid("give --targets or --program, not both".into()));
+        }
+        check_outputs(&[("--model", self.model.clone()), ("--targets", targets_path.clone())], &[("--out", self.out.as_path())])?;
         let r = CalibResult::load(&self.model)?;
         let euler = self.euler;
-        let targets = read_targets(&self.targets, r.model.chain.n_joints, euler)?;
+        let targets = read_targets(targets_path, r.model.chain.n_joints, euler)?;
         // Taught joint targets lie inside the arm's limits (a radian file read as degrees does not).
         let limits = r.model.joint_limits();
         for (i, t) in targets.iter().enumerate() {
             if let crate::compensate::Target::Joints(q) = t {
                 if let Some((j, v)) = q.iter().enumerate().find(|(j, v)| !(limits[*j].0 - 1e-9..=limits[*j].1 + 1e-9).contains(*v)) {
                     return Err(Error::data(
-                        self.targets.display(),
+                        targets_path.display(),
                         format!(
                             "target {}: q{} = {} deg is outside the joint's limits [{:.1}, {:.1}] deg",
                             i + 1,
@@ -102,15 +161,8 @@ impl CompensateJob {
             }
         }
         let mut warnings = Vec::new();
-        let loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.joints;
-        let mut torque = r.torque_model.clone();
-        match (&mut torque, &loads.payload) {
-            (Some(tm), Some(p)) => tm.payload = Some((p.mass_kg, p.com_mm.map(crate::units::to_m))),
-            (None, Some(_)) => warnings.push("the model has no load-driven effect (no compliance block): --payload-kg changes nothing".into()),
-            _ => {}
-        }
+        let (torque, payload) = self.loads(&r, &mut warnings)?;
         let x_nom = nominal_x(&r);
-        let payload = torque.as_ref().map(|t| t.payload.map_or((0.0, [0.0; 3]), |(m, c)| (m, c.map(crate::units::to_mm))));
         let c = Compensator::new(&r, &x_nom, torque, self.tol_mm, self.tol_deg)?;
         let solved = c.compensate(&targets);
         let reachable = solved.iter().filter(|s| s.status == Status::Reachable).count();
@@ -123,6 +175,82 @@ impl CompensateJob {
         let mut outputs = OutputSet::new();
         outputs.write(&self.out, commands_csv(&solved, euler).as_bytes())?;
         outputs.commit()?;
-        Ok(CompensateSummary { reachable, not_reached: solved.len() - reachable, targets: solved, payload, warnings })
+        Ok(CompensateSummary { reachable, not_reached: solved.len() - reachable, targets: solved, payload, warnings, program: None })
+    }
+
+    /// The joints' loads the commands are computed under: the result's torque model with the
+    /// stated payload; and that payload (kg, mm) where the model has load-driven effects.
+    fn loads(&self, r: &CalibResult, warnings: &mut Vec<String>) -> Result<(Option<crate::calib::effects::inputs::TorqueModel>, Option<Payload>)> {
+        let loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.joints;
+        let mut torque = r.torque_model.clone();
+        match (&mut torque, &loads.payload) {
+            (Some(tm), Some(p)) => tm.payload = Some((p.mass_kg, p.com_mm.map(crate::units::to_m))),
+            (None, Some(_)) => warnings.push("the model has no load-driven effect (no compliance block): --payload-kg changes nothing".into()),
+            _ => {}
+        }
+        let payload = torque.as_ref().map(|t| t.payload.map_or((0.0, [0.0; 3]), |(m, c)| (m, c.map(crate::units::to_mm))));
+        Ok((torque, payload))
+    }
+
+    /// Filters `--program`: reads its files (and `--frames`), writes the filtered copies and the
+    /// report, all or none.
+    fn run_program(&self) -> Result<CompensateSummary> {
+        use crate::controller::{filter, Language, ProgramFile};
+        let Some(first) = self.program.first() else { return Err(Error::Invalid("give --targets (a CSV) or --program (a robot program)".into())) };
+        let lang = Language::of_file(first)?;
+        if let Some(p) = self.program.iter().find(|p| Language::of_file(p).ok() != Some(lang)) {
+            return Err(Error::data(p.display(), format!("a {} program's files are {}: this one is not", lang.name(), lang.file_names("*").join(", "))));
+        }
+        let outputs: Vec<PathBuf> = self.program.iter().map(|p| self.filtered_dir.join(p.file_name().unwrap_or_default())).collect();
+        let mut inputs: Vec<(&str, PathBuf)> = vec![("--model", self.model.clone())];
+        inputs.extend(self.program.iter().map(|p| ("--program", p.clone())));
+        inputs.extend(self.frames.iter().map(|p| ("--frames", p.clone())));
+        inputs.extend(self.robot.as_deref().and_then(crate::jobs::files::named_robot_input));
+        let mut named: Vec<(&str, &std::path::Path)> = outputs.iter().map(|p| ("--filtered-dir", p.as_path())).collect();
+        named.push(("--report", self.report.as_path()));
+        check_outputs(&inputs, &named)?;
+        let read = |p: &PathBuf| -> Result<ProgramFile> {
+            let text = std::fs::read_to_string(p).map_err(|e| Error::data(p.display(), format!("cannot read it as text: {e}")))?;
+            Ok(ProgramFile { name: p.file_name().unwrap_or_default().to_string_lossy().into_owned(), text })
+        };
+        let files: Vec<ProgramFile> = self.program.iter().map(read).collect::<Result<_>>()?;
+        let frames: Vec<ProgramFile> = self.frames.iter().map(read).collect::<Result<_>>()?;
+        let r = CalibResult::load(&self.model)?;
+        let robot = self.robot.as_deref().map(crate::jobs::files::named_robot).transpose()?;
+        let mut warnings = Vec::new();
+        if robot.is_none() {
+            warnings.push(
+                "no --robot: the model's base and flange frames are taken as the controller's (give the arm's URDF, or irb120, to read its base and tool0)"
+                    .into(),
+            );
+        }
+        let start_q = match &self.start_joints_deg {
+            Some(q) if q.len() != r.model.chain.n_joints || q.iter().any(|v| !v.is_finite()) => {
+                return Err(Error::Invalid(format!("--start-joints-deg: {} finite angles, one per joint, got {q:?}", r.model.chain.n_joints)))
+            }
+            q => q.as_ref().map(|q| q.iter().map(|d| d.to_radians()).collect()),
+        };
+        let (torque, payload) = self.loads(&r, &mut warnings)?;
+        let x_nom = nominal_x(&r);
+        let c = Compensator::new(&r, &x_nom, torque, self.tol_mm, self.tol_deg)?;
+        let setup = filter::Setup::new(&r, &x_nom, robot.as_ref());
+        let options = filter::FilterOptions { joint_targets: self.joint_targets, leave: self.leave.clone(), start_q };
+        let f = filter::filter_program(&c, &setup, lang, &files, &frames, &options)?;
+        let mut out = OutputSet::new();
+        for (file, path) in f.files.iter().zip(&outputs) {
+            out.write(path, file.text.as_bytes())?;
+        }
+        out.write(&self.report, filter::report_csv(&f).as_bytes())?;
+        out.commit()?;
+        let solved: Vec<Compensated> = f.targets.iter().filter_map(|t| t.compensated.clone()).collect();
+        let reachable = solved.iter().filter(|s| s.status == Status::Reachable).count();
+        let left = f.targets.iter().filter(|t| !matches!(t.outcome, filter::Outcome::Filtered | filter::Outcome::NothingToMove)).count();
+        if left > 0 {
+            warnings.push(format!("{left} of {} targets left as written (see the outcome column of {})", f.targets.len(), self.report.display()));
+        }
+        for n in &f.run_time {
+            warnings.push(format!("{}:{}:{}: {} left as written: {}", n.file, n.line, n.column, n.target, n.reason));
+        }
+        Ok(CompensateSummary { reachable, not_reached: solved.len() - reachable, targets: solved, payload, warnings, program: Some(f) })
     }
 }

@@ -23,6 +23,7 @@ pub mod evo;
 pub mod generic;
 pub mod noise;
 pub mod plan;
+pub mod programs;
 pub mod real;
 pub mod replay;
 pub mod stations;

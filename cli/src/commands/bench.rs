@@ -64,6 +64,7 @@ pub fn bench_command(
             crate::bench::replay::bench_replay(&s, &robot, repeat)
         }
         BenchTarget::Compensate => crate::bench::compensate::bench_compensate(seeds),
+        BenchTarget::Programs => crate::bench::programs::bench_programs(seeds, repeat),
         BenchTarget::Plan => crate::bench::plan::bench_plan(seeds, repeat),
         BenchTarget::PlanHidden => crate::bench::plan::hidden(seeds),
         BenchTarget::Stations => crate::bench::stations::bench_stations(seeds),
@@ -94,6 +95,9 @@ fn takes(what: BenchTarget) -> Takes {
         BenchTarget::NoiseModel => t(false, false, Some(5), "realistic IRB 120 acquisitions it generates"),
         BenchTarget::Replay => t(true, false, None, "a scenario; --repeat runs"),
         BenchTarget::Compensate => t(false, false, Some(10), "IRB 120 cable and tracker scenarios, with and without compliance"),
+        BenchTarget::Programs => {
+            t(false, false, Some(10), "IRB 120, UR10 and KUKA-like tracker scenarios, with and without compliance; --repeat runs of the speed")
+        }
         BenchTarget::Plan => t(false, false, Some(10), "IRB 120 tracker and cable scenarios; --repeat runs of the speed"),
         BenchTarget::PlanHidden => t(false, false, Some(10), "the IRB 120 tracker scenario with compliance hidden"),
         BenchTarget::Stations => t(false, false, Some(20), "IRB 120 point and UR10 pose tracker scenarios with the tracker moved"),

@@ -80,6 +80,11 @@ pub enum BenchTarget {
     /// targets on the twin, AP over seeds for geometric and non-geometric scenarios, cable and
     /// tracker; and compensate's time for 10 000 targets.
     Compensate,
+    /// Robot programs filtered and executed on the twin: RAPID on an IRB 120, URScript on a
+    /// UR10, KRL on a KUKA-like arm, each written offline in a work object with a tool, as
+    /// written and filtered, interpreted by a nominal controller, AP over seeds; and the filter's
+    /// time for a 10 000-target module.
+    Programs,
     /// Measurement plans verified on the twin: planned against random feasible poses, each
     /// calibrated, true error on independent test poses over seeds; and plan's time for 30 poses
     /// of 10 000 candidates.

@@ -21,6 +21,7 @@ mod iso9283;
 mod measurement;
 mod plan;
 mod pose;
+mod programs;
 mod realdata;
 mod recordings;
 mod replay;

@@ -123,44 +123,61 @@ fn quadrant(q: f64) -> i64 {
     (q.to_degrees() / 90.0).floor() as i64
 }
 
-/// The shoulder, elbow and wrist part of a pose layout's values (its other configuration data
-/// follow the joint angles: quadrants, signs).
-pub(super) fn arm_bits(layout: Layout, v: &[f64]) -> Option<i64> {
+/// How far (degrees) a joint may stand beyond the quadrant or the sign the configuration data
+/// state and still agree with them: a target taught at a quadrant's edge, or moved across it by
+/// its compensation, keeps its branch. Joint 5 within it of zero agrees with either wrist.
+pub const MARGIN_DEG: f64 = 1.0;
+
+/// Whether joint angles `q` (rad) agree with the configuration data `cfg` of a layout: the
+/// shoulder and the elbow as stated, the wrist as stated (or joint 5 within [`MARGIN_DEG`] of
+/// zero), each stated quadrant (RAPID) or sign (KRL's T) within [`MARGIN_DEG`].
+pub(super) fn agrees(layout: Layout, cfg: &[i64], q: &[f64], setup: &Setup) -> bool {
+    let m = MARGIN_DEG.to_radians();
+    let b = setup.branch(q);
+    let wrist_free = q[4].abs() < m;
+    let arm = |shoulder: bool, elbow: bool, wrist: bool| shoulder == b.shoulder && elbow == b.elbow && (wrist == b.wrist || wrist_free);
     match layout {
-        Layout::RapidPose => Some(v[10].round() as i64),
-        Layout::KrlPose { config: true } => Some(v[6].round() as i64 & 0b111),
-        _ => None,
+        Layout::RapidPose => {
+            let quadrant_ok = |v: f64, want: i64| v >= (want as f64 * 90.0).to_radians() - m && v <= ((want + 1) as f64 * 90.0).to_radians() + m;
+            quadrant_ok(q[0], cfg[0])
+                && quadrant_ok(q[3], cfg[1])
+                && quadrant_ok(q[5], cfg[2])
+                && arm(cfg[3] >> 2 & 1 == 1, cfg[3] >> 1 & 1 == 1, cfg[3] & 1 == 1)
+        }
+        Layout::KrlPose { .. } => {
+            let signs = (0..6).all(|j| if cfg[1] >> j & 1 == 1 { q[j] <= m } else { q[j] >= -m });
+            signs && arm(cfg[0] & 1 == 1, cfg[0] >> 1 & 1 == 1, cfg[0] >> 2 & 1 == 1)
+        }
+        _ => true,
     }
 }
 
-/// Whether joint angles `q` (rad) have the configuration `cfg`, after moving joints by whole
-/// turns (within `limits`) to the turn the configuration states.
+/// Whether joint angles `q` (rad) have the configuration `cfg` ([`agrees`]), after moving joints
+/// by whole turns (within `limits`) to the turn the configuration states.
 pub(super) fn matches(layout: Layout, cfg: &[i64], q: &mut [f64], limits: &[(f64, f64)], setup: &Setup) -> bool {
     use std::f64::consts::TAU;
+    let m = MARGIN_DEG.to_radians();
     let fits = |v: f64, j: usize| v >= limits[j].0 - 1e-9 && v <= limits[j].1 + 1e-9;
-    match layout {
-        Layout::RapidPose => {
-            for (j, want) in [(0usize, cfg[0]), (3, cfg[1]), (5, cfg[2])] {
-                let k = ((want as f64 * 90.0 + 45.0).to_radians() - q[j]) / TAU;
-                let v = q[j] + k.round() * TAU;
-                if quadrant(v) == want && fits(v, j) {
-                    q[j] = v;
-                }
+    // The range each joint's turn should fall in.
+    let wanted = |j: usize| -> Option<(f64, f64)> {
+        match layout {
+            Layout::RapidPose => [(0usize, 0usize), (3, 1), (5, 2)]
+                .iter()
+                .find(|(jj, _)| *jj == j)
+                .map(|(_, k)| ((cfg[*k] as f64 * 90.0).to_radians() - m, ((cfg[*k] + 1) as f64 * 90.0).to_radians() + m)),
+            Layout::KrlPose { .. } if cfg[1] >> j & 1 == 1 => Some((f64::NEG_INFINITY, m)),
+            Layout::KrlPose { .. } => Some((-m, f64::INFINITY)),
+            _ => None,
+        }
+    };
+    for (j, v) in q.iter_mut().enumerate().take(6) {
+        if let Some((lo, hi)) = wanted(j) {
+            if let Some(shifted) = [*v, *v - TAU, *v + TAU, *v - 2.0 * TAU, *v + 2.0 * TAU].into_iter().find(|x| *x >= lo && *x <= hi && fits(*x, j)) {
+                *v = shifted;
             }
         }
-        Layout::KrlPose { .. } => {
-            for (j, v) in q.iter_mut().enumerate().take(6) {
-                let negative = cfg[1] >> j & 1 == 1;
-                for shifted in [*v - TAU, *v + TAU] {
-                    if (*v < 0.0) != negative && (shifted < 0.0) == negative && fits(shifted, j) {
-                        *v = shifted;
-                    }
-                }
-            }
-        }
-        _ => return true,
     }
-    config_of(layout, &setup.branch(q), q) == cfg
+    agrees(layout, cfg, q, setup)
 }
 
 /// Start points for the nominal inverse kinematics of a target with configuration `cfg`: the

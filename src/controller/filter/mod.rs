@@ -26,6 +26,7 @@ mod rapid;
 pub mod sample;
 mod text;
 mod urscript;
+pub mod verify;
 
 #[cfg(test)]
 mod tests;
@@ -275,7 +276,8 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
         let (outcome, new, compensated) = match (&plan.frames, result) {
             (Err(left), _) => (Outcome::Left(left.clone()), None, None),
             (Ok(_), Solved::NoNominal) => (Outcome::NoNominalSolution, None, None),
-            (Ok(_), Solved::Done(k, values)) => judge(site, &k, values, c.tolerances()),
+            (Ok(_), Solved::Done(k, values)) => judge(site, &k, values, c.tolerances(), setup),
+            (Ok(_), Solved::Elsewhere(k)) => (Outcome::BranchChange, None, Some(*k)),
             (Ok(_), Solved::Skipped) => unreachable!("every planned site is solved"),
         };
         let moved = new.as_ref().map(|v: &Vec<f64>| moved(site, v));
@@ -344,6 +346,9 @@ enum Solved {
     Done(Box<Compensated>, Vec<f64>),
     /// Left before solving.
     Skipped,
+    /// The controller would read the filtered target, from where the filtered program leaves
+    /// the arm, as another of the arm's solutions (a language without configuration data).
+    Elsewhere(Box<Compensated>),
 }
 
 /// Every planned site solved: those that state their configuration in parallel, the others
@@ -361,23 +366,76 @@ fn solve_all(c: &Compensator, setup: &Setup, sites: &[Site], plans: &[Plan], o: 
         )
         .collect();
     let (mut wc, mut wn) = c.works();
-    let mut last: Vec<f64> = o.start_q.clone().unwrap_or_else(|| c.limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect());
+    // Where the program as written leaves the arm, and where the filtered program does.
+    let start: Vec<f64> = o.start_q.clone().unwrap_or_else(|| c.limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect());
+    let (mut nominal_last, mut command_last) = (start.clone(), start);
     for (k, (s, p)) in sites.iter().zip(plans).enumerate() {
-        match (&p.frames, &out[k]) {
-            (Ok(f), Solved::Skipped) => out[k] = solve_site(c, setup, s, f, Some(&last), &mut wc, &mut wn),
-            _ => {}
+        if let (Ok(f), Solved::Skipped) = (&p.frames, &out[k]) {
+            // The filtered target as the controller reads it, from where the filtered program
+            // leaves the arm, must command the compensated joints, not another solution: the
+            // compensation from the written program's reading, else from the reading the
+            // filtered program's position gives.
+            let (solved, read) = {
+                let mut tries = [&nominal_last, &command_last].into_iter().map(|from| {
+                    let solved = solve_site(c, setup, s, f, Some(from), &mut wc, &mut wn);
+                    match solved {
+                        Solved::Done(done, values) if done.status == Status::Reachable => {
+                            let (tp, tr) = model_pose(setup, s.layout, &values, f);
+                            let (ap, ar) = model_pose(setup, s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>(), f);
+                            match c.nominal_pose_nearest(&tp, &tr, &command_last, &mut wn) {
+                                // Two solves, each within the tolerance: within three times it.
+                                Some(q) if c.reaches(&q, &ap, &ar, 3.0) => (Solved::Done(done, values), Some(q)),
+                                _ => (Solved::Elsewhere(done), None),
+                            }
+                        }
+                        other => (other, None),
+                    }
+                });
+                let first = tries.next().unwrap_or((Solved::NoNominal, None));
+                match first {
+                    (Solved::Elsewhere(done), _) => match tries.next() {
+                        Some((Solved::Done(d, v), read)) => (Solved::Done(d, v), read),
+                        _ => (Solved::Elsewhere(done), None),
+                    },
+                    other => other,
+                }
+            };
+            out[k] = solved;
+            // The filtered program leaves the arm where its controller reads the target.
+            if let Some(q) = read {
+                if let Solved::Done(done, _) = &out[k] {
+                    nominal_last = done.nominal_q.clone();
+                    command_last = q;
+                    continue;
+                }
+            }
         }
-        // The arm stands at each target it moves to: a solved one's command, a joint target
-        // left as written at its angles.
+        // The arm stands at each target it moves to: a solved one's command (the nominal one
+        // where the target is left as written), a joint target left as written at its angles.
         match &out[k] {
-            Solved::Done(done, _) => last = done.nominal_q.clone(),
+            Solved::Done(done, _) => {
+                nominal_last = done.nominal_q.clone();
+                command_last = if done.status == Status::Reachable { done.command_q.clone() } else { done.nominal_q.clone() };
+            }
+            Solved::Elsewhere(done) => {
+                nominal_last = done.nominal_q.clone();
+                command_last = done.nominal_q.clone();
+            }
             _ if s.layout.joints() && !s.nums.is_empty() && !s.uses.is_empty() => {
-                last = joints_of(s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>())
+                nominal_last = joints_of(s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>());
+                command_last = nominal_last.clone();
             }
             _ => {}
         }
     }
     out
+}
+
+/// A pose site's `values` as the model's tool target (its tool point, mm, and orientation),
+/// moved with `tool` in `frame`.
+fn model_pose(setup: &Setup, layout: Layout, values: &[f64], (tool, frame): &(Isometry3<f64>, Isometry3<f64>)) -> (Vector3<f64>, Matrix3<f64>) {
+    let (pose, _) = pose_of(layout, values);
+    setup.model_target(&(frame * pose * tool.inverse()))
 }
 
 /// One site: its pose in the model's terms, the nominal controller's command, the compensated
@@ -399,18 +457,17 @@ fn solve_site(
         let new = joint_values(s.layout, &k.command_q);
         return Solved::Done(Box::new(k), new);
     }
-    let (pose, config) = pose_of(s.layout, &v);
-    let (p, r) = setup.model_target(&(frame * pose * tool.inverse()));
-    let seeds: Vec<Vec<f64>> = match (&config, previous) {
-        (Some(cfg), _) => branch::seeds(s.layout, cfg, c.limits()),
-        (None, Some(q)) => vec![q.to_vec()],
-        (None, None) => Vec::new(),
+    let config = pose_of(s.layout, &v).1;
+    let (p, r) = model_pose(setup, s.layout, &v, &(*tool, *frame));
+    let nominal = match (&config, previous) {
+        (Some(cfg), _) => {
+            let accept = |q: &mut Vec<f64>| branch::matches(s.layout, cfg, q, c.limits(), setup);
+            c.nominal_pose_command(&p, &r, &branch::seeds(s.layout, cfg, c.limits()), &accept, wn)
+        }
+        (None, Some(q)) => c.nominal_pose_nearest(&p, &r, q, wn),
+        (None, None) => c.nominal_pose_command(&p, &r, &[], &|_| true, wn),
     };
-    let accept = |q: &mut Vec<f64>| match &config {
-        Some(cfg) => branch::matches(s.layout, cfg, q, c.limits(), setup),
-        None => true,
-    };
-    let Some(nominal_q) = c.nominal_pose_command(&p, &r, &seeds, &accept, wn) else { return Solved::NoNominal };
+    let Some(nominal_q) = nominal else { return Solved::NoNominal };
     let k = c.compensate_commanded(&p, &r, nominal_q, wc, wn);
     let filtered = match &k.pose {
         Some(parts) => setup.program_pose(&Vector3::from(k.filtered_mm), &parts.filtered),
@@ -425,13 +482,15 @@ fn solve_site(
 /// Judges a solved site: not reached, a branch change, nothing to move (the calibrated model
 /// already puts the tool within the compensation's tolerance at the nominal command), or
 /// filtered.
-fn judge(site: &Site, k: &Compensated, new: Vec<f64>, (tol_mm, tol_deg): (f64, f64)) -> (Outcome, Option<Vec<f64>>, Option<Compensated>) {
+fn judge(site: &Site, k: &Compensated, new: Vec<f64>, (tol_mm, tol_deg): (f64, f64), setup: &Setup) -> (Outcome, Option<Vec<f64>>, Option<Compensated>) {
     if k.status != Status::Reachable {
         return (Outcome::NotReached(k.status), None, Some(k.clone()));
     }
     let old: Vec<f64> = site.nums.iter().map(|n| n.value).collect();
-    if branch::arm_bits(site.layout, &old) != branch::arm_bits(site.layout, &new) {
-        return (Outcome::BranchChange, Some(new), Some(k.clone()));
+    if let (_, Some(cfg)) = (site.layout.has_config(), pose_config(site.layout, &old)) {
+        if !branch::agrees(site.layout, &cfg, &k.command_q, setup) {
+            return (Outcome::BranchChange, Some(new), Some(k.clone()));
+        }
     }
     if k.nominal_error_mm <= tol_mm && k.pose.as_ref().is_none_or(|p| p.nominal_error_deg <= tol_deg) {
         return (Outcome::NothingToMove, Some(new), Some(k.clone()));
@@ -509,6 +568,14 @@ fn joint_values(layout: Layout, q: &[f64]) -> Vec<f64> {
     match layout {
         Layout::UrJoints => q.to_vec(),
         _ => q.iter().map(|r| r.to_degrees()).collect(),
+    }
+}
+
+/// The configuration data a pose layout's values state, if any.
+fn pose_config(layout: Layout, v: &[f64]) -> Option<Vec<i64>> {
+    match layout {
+        Layout::RapidPose | Layout::KrlPose { config: true } => pose_of(layout, v).1,
+        _ => None,
     }
 }
 

@@ -132,7 +132,7 @@ fn filtered_targets_equal_compensate_on_the_same_targets() {
             let q_read = &after.compensated.as_ref().unwrap().nominal_q;
             assert!(q_read.iter().zip(&k_prog.command_q).all(|(a, b)| (a - b).abs() < 1e-6), "{lang:?} {}: {q_read:?} vs {:?}", t.name, k_prog.command_q);
         }
-        assert!(compared >= 7, "{lang:?}: only {compared} of 20 compared: {}", report_csv(&f));
+        assert!(compared >= 5, "{lang:?}: only {compared} of 20 compared: {}", report_csv(&f));
     }
 }
 
