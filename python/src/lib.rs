@@ -628,7 +628,7 @@ fn export(py: Python<'_>, model: PathBuf, out: PathBuf, options: &str) -> PyResu
 /// also each target's outcome and the run-time motions left).
 #[pyfunction]
 fn compensate(py: Python<'_>, options: &str) -> PyResult<String> {
-    let job: jobs::CompensateJob = serde_json::from_str(options).map_err(|e| TwincalError::new_err(format!("compensate: {e}")))?;
+    let job: jobs::CompensateJob = request("compensate", options)?;
     let summary = released(py, None, |_| job.run())?;
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }

@@ -441,10 +441,32 @@ def test_compensate_agrees_with_the_command_line_and_beats_the_nominal_commands(
         twincal.compensate(tmp_path / "r.json", targets, tmp_path / "d.csv", payload_kg=-1.0)
     with pytest.raises(twincal.TwincalError, match="refusing to overwrite"):
         twincal.compensate(tmp_path / "r.json", targets, targets)
-    with pytest.raises(twincal.TwincalError, match="--euler"):
+    with pytest.raises(twincal.TwincalError, match="option 'euler'.*not three axis letters"):
         twincal.compensate(tmp_path / "r.json", targets, tmp_path / "e.csv", euler="XXY")
     with pytest.raises(twincal.TwincalError, match="euler"):
         twincal.compensate(tmp_path / "r.json", targets, tmp_path / "e.csv", euler=3)
+
+
+def test_compensate_filters_a_program_as_the_command_line_does(embedded, tmp_path):
+    _, data, truth = embedded
+    r = twincal.calibrate(data, truth=truth)
+    r.save(tmp_path / "r.json")
+    poses = tmp_path / "poses.csv"
+    poses.write_text("q1,q2,q3,q4,q5,q6\n" + "".join(",".join(str(v) for v in p["q_cmd_deg"]) + "\n" for p in truth["poses"][:12]))
+    twincal.program(poses, tmp_path / "prog", format="rapid", name="tour")
+    module = tmp_path / "prog" / "tour.mod"
+    # Joint targets are left unless asked: the copy is the program's bytes.
+    s = twincal.compensate(tmp_path / "r.json", program=module, robot="irb120", filtered_dir=tmp_path / "same", report=tmp_path / "same.csv")
+    assert (tmp_path / "same" / "tour.mod").read_bytes() == module.read_bytes()
+    assert len(s["program"]["targets"]) == 12 and all(t["outcome"] == {"left": "joint_target"} for t in s["program"]["targets"])
+    s = twincal.compensate(tmp_path / "r.json", program=[module], robot="irb120", joint_targets=True, filtered_dir=tmp_path / "f", report=tmp_path / "f.csv")
+    assert sum(t["outcome"] == "filtered" for t in s["program"]["targets"]) == 12
+    run_cli("compensate", "--model", tmp_path / "r.json", "--program", module, "--robot", "irb120", "--joint-targets", "--filtered-dir", tmp_path / "cli", "--report", tmp_path / "cli.csv")
+    assert (tmp_path / "f" / "tour.mod").read_text() == (tmp_path / "cli" / "tour.mod").read_text() != module.read_text()
+    with pytest.raises(twincal.TwincalError, match="program must be a path or a list of paths"):
+        twincal.compensate(tmp_path / "r.json", program=3)
+    with pytest.raises(twincal.TwincalError, match="is also an input"):
+        twincal.compensate(tmp_path / "r.json", program=module, filtered_dir=tmp_path / "prog")
 
 
 def test_iso9283_agrees_with_the_command_line(tmp_path):

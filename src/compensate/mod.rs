@@ -139,6 +139,10 @@ pub struct Compensator<'a> {
 /// find each of a six-axis arm's solutions.
 const NEAREST_STARTS: usize = 32;
 
+/// Largest joint change (degrees) from the arm's present joints that the descent from them may
+/// make and be taken as the arm's continuation ([`Compensator::nominal_pose_nearest`]).
+const CONTINUATION_DEG: f64 = 45.0;
+
 /// Largest change of any joint (degrees) between a nominal command and its compensated one
 /// found by restarts: beyond it the restart found another arm configuration, not the nominal
 /// command's.
@@ -301,10 +305,12 @@ impl<'a> Compensator<'a> {
     }
 
     /// Whether the calibrated model at `q` (rad) puts the tool on the pose `p` (mm), `r` within
-    /// `factor` times the tolerances.
+    /// `factor` times the tolerances (and never closer than a program writes its numbers:
+    /// 1e-5 mm, 1e-6°).
     pub fn reaches(&self, q: &[f64], p: &Vector3<f64>, r: &Matrix3<f64>, factor: f64) -> bool {
         let (cp, cr) = self.predicted_pose(q);
-        (cp - p).norm() <= factor * self.options.tol_mm && crate::ik::solver::turn(r, &cr).norm().to_degrees() <= factor * self.options.tol_deg
+        (cp - p).norm() <= (factor * self.options.tol_mm).max(1e-5)
+            && crate::ik::solver::turn(r, &cr).norm().to_degrees() <= (factor * self.options.tol_deg).max(1e-6)
     }
 
     /// Where the calibrated model puts the tool and how it turns it at joint angles `q` (rad):
@@ -399,16 +405,24 @@ impl<'a> Compensator<'a> {
 
     /// The nominal controller's command for the pose `p` (mm), `r` where the controller takes
     /// the arm's solution nearest its present joints `previous` (rad; a UR's `movej` and
-    /// `movel` to a pose): local solves from `previous` and from seeded random starts, the
-    /// converged answer nearest `previous` (the largest joint difference, each angle at its turn
-    /// nearest `previous`).
+    /// `movel` to a pose): the descent from `previous` where it ends within
+    /// [`CONTINUATION_DEG`] of it, else local solves from seeded random starts, the converged
+    /// answer nearest `previous` (the largest joint difference, each angle at its turn nearest
+    /// `previous`).
     pub fn nominal_pose_nearest(&self, p: &Vector3<f64>, r: &Matrix3<f64>, previous: &[f64], wn: &mut IkWork) -> Option<Vec<f64>> {
         use rand::SeedableRng;
         let local = IkOptions { local: true, ..self.options.clone() };
-
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x4EA2_E570);
-        let starts = std::iter::once(previous.to_vec()).chain((0..NEAREST_STARTS).map(|_| self.nominal.random_q(&mut rng))).collect::<Vec<_>>();
         let distance = |q: &[f64]| q.iter().zip(previous).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        // The solution the arm continues to from where it stands, where the descent from there
+        // finds one near (it follows the target as the arm would).
+        let mut s =
+            self.nominal.solve_pose_from(p, r, Some(previous), JacobianKind::Analytic, &IkOptions { max_iter: 4 * local.max_iter, ..local.clone() }, wn);
+        nearest_turns(&mut s.q, previous, &self.nominal.limits);
+        if s.status == IkStatus::Converged && distance(&s.q) <= CONTINUATION_DEG.to_radians() {
+            return Some(s.q);
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x4EA2_E570);
+        let starts = (0..NEAREST_STARTS).map(|_| self.nominal.random_q(&mut rng)).collect::<Vec<_>>();
         starts
             .iter()
             .filter_map(|start| {

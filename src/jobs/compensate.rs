@@ -97,6 +97,30 @@ pub struct CompensateJob {
 fn default_tol() -> f64 {
     0.001
 }
+impl Default for CompensateJob {
+    /// Every option at its default (the model and the targets or program still to be given).
+    fn default() -> Self {
+        CompensateJob {
+            model: PathBuf::new(),
+            targets: None,
+            program: Vec::new(),
+            frames: Vec::new(),
+            robot: None,
+            joint_targets: false,
+            leave: Vec::new(),
+            start_joints_deg: None,
+            filtered_dir: default_filtered_dir(),
+            report: default_report(),
+            payload_kg: None,
+            payload_com_mm: None,
+            tol_mm: default_tol(),
+            tol_deg: default_tol(),
+            euler: crate::measurement::Euler::default(),
+            out: default_out(),
+        }
+    }
+}
+
 /// A payload: mass kg, centre of mass mm (flange frame).
 type Payload = (f64, [f64; 3]);
 

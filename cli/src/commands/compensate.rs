@@ -8,14 +8,33 @@ pub fn compensate(job: &twincal::jobs::CompensateJob, quiet: bool) -> Result<()>
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
+    let rms = |v: &mut dyn Iterator<Item = f64>| {
+        let (n, ss) = v.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x * x));
+        (ss / n.max(1) as f64).sqrt()
+    };
+    if let (Some(f), false) = (&s.program, quiet) {
+        use twincal::controller::filter::Outcome;
+        let done: Vec<&twincal::compensate::Compensated> =
+            f.targets.iter().filter(|t| t.outcome == Outcome::Filtered).filter_map(|t| t.compensated.as_ref()).collect();
+        let nothing = f.targets.iter().filter(|t| t.outcome == Outcome::NothingToMove).count();
+        eprintln!(
+            "filtered {} of {} targets ({nothing} with nothing to move, {} left as written, {} run-time motions left){}: predicted error of the written targets RMS {:.4} mm, of the filtered {:.6} mm; wrote {} and {}",
+            done.len(),
+            f.targets.len(),
+            f.targets.len() - done.len() - nothing,
+            f.run_time.len(),
+            s.payload.map_or(String::new(), |(m, c)| format!(" under a {m} kg payload at ({}, {}, {}) mm", c[0], c[1], c[2])),
+            rms(&mut done.iter().map(|t| t.nominal_error_mm)),
+            rms(&mut done.iter().map(|t| t.residual_mm)),
+            job.filtered_dir.display(),
+            job.report.display()
+        );
+        return Ok(());
+    }
     if !quiet && s.reachable == 0 {
         eprintln!("compensated {} targets, none reachable; wrote {}", s.targets.len(), job.out.display());
     } else if !quiet {
         let reached: Vec<&twincal::compensate::Compensated> = s.targets.iter().filter(|t| t.status == twincal::compensate::Status::Reachable).collect();
-        let rms = |v: &mut dyn Iterator<Item = f64>| {
-            let (n, ss) = v.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x * x));
-            (ss / n.max(1) as f64).sqrt()
-        };
         eprintln!(
             "compensated {} targets ({} reachable){}: predicted error of the nominal commands RMS {:.4} mm, of the compensated {:.6} mm; wrote {}",
             s.targets.len(),

@@ -269,7 +269,7 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
     }
     let plans: Vec<Plan> = parsed.sites.iter().map(|s| plan(s, &parsed, o)).collect();
     let results = solve_all(c, setup, &parsed.sites, &plans, o);
-    let mut edits: Vec<Vec<(std::ops::Range<usize>, String)>> = vec![Vec::new(); files.len()];
+    let mut edits: Vec<Vec<(std::ops::Range<usize>, String)>> = vec![Vec::new(); parsed.sites.len()];
     let mut targets = Vec::with_capacity(parsed.sites.len());
     for ((site, plan), result) in parsed.sites.iter().zip(&plans).zip(results) {
         let (l, col) = text::line_col(&files[site.file].text, site.at);
@@ -283,7 +283,7 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
         let moved = new.as_ref().map(|v: &Vec<f64>| moved(site, v));
         if outcome == Outcome::Filtered {
             if let Some(v) = &new {
-                edits[site.file].extend(rewrite(site, v));
+                edits[targets.len()] = rewrite(site, v);
             }
         }
         targets.push(TargetReport {
@@ -302,8 +302,133 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
             moved_deg: moved.and_then(|m| m.1),
         });
     }
-    let files = files.iter().zip(edits).map(|(f, e)| ProgramFile { name: f.name.clone(), text: text::apply(&f.text, e) }).collect();
-    Ok(Filtered { files, targets, run_time: parsed.notes })
+    // Without configuration data the controller reads each target from where the last one
+    // left the arm: the filtered program is read back as it would run, and a target it reads
+    // as another of the arm's solutions is left as written (until none is).
+    let mut out = written(files, &parsed.sites, &edits);
+    for _ in 0..READ_BACK_PASSES {
+        let wrong = read_back(c, setup, r, &out, frames, &parsed.sites, &plans, &targets, o)?;
+        if wrong.is_empty() {
+            break;
+        }
+        for k in wrong {
+            targets[k].outcome = Outcome::BranchChange;
+            edits[k].clear();
+        }
+        out = written(files, &parsed.sites, &edits);
+    }
+    Ok(Filtered { files: out, targets, run_time: parsed.notes })
+}
+
+/// The nominal controller's joint command for each target of the program `files` (in the
+/// order the reader lists them): a joint target's angles, a pose's nominal inverse kinematics on
+/// the branch its configuration data state or, without them, nearest where the previous target
+/// left the arm; `None` where it finds none (or the target's frames are not known).
+pub fn read_program(
+    c: &Compensator,
+    setup: &Setup,
+    lang: Language,
+    files: &[ProgramFile],
+    frames: &[ProgramFile],
+    o: &FilterOptions,
+) -> Result<Vec<Option<Vec<f64>>>> {
+    let r = reader(lang);
+    let mut parsed = r.parse(files, frames)?;
+    let (tool0, frame0) = r.defaults();
+    parsed.tools.entry(tool0.to_string()).or_insert(Some(Isometry3::identity()));
+    parsed.frames.entry(frame0.to_string()).or_insert(Some(Isometry3::identity()));
+    let everything = FilterOptions { joint_targets: true, leave: Vec::new(), start_q: o.start_q.clone() };
+    let (_, mut wn) = c.works();
+    let mut last: Vec<f64> = o.start_q.clone().unwrap_or_else(|| c.limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect());
+    let mut out = Vec::with_capacity(parsed.sites.len());
+    for s in &parsed.sites {
+        let v: Vec<f64> = s.nums.iter().map(|n| n.value).collect();
+        let q = match plan(s, &parsed, &everything).frames {
+            _ if s.layout.joints() && !v.is_empty() => Some(joints_of(s.layout, &v)),
+            Ok(f) if !v.is_empty() => {
+                let (p, rot) = model_pose(setup, s.layout, &v, &f);
+                match pose_of(s.layout, &v).1 {
+                    Some(cfg) => {
+                        let accept = |q: &mut Vec<f64>| branch::matches(s.layout, &cfg, q, c.limits(), setup);
+                        c.nominal_pose_command(&p, &rot, &branch::seeds(s.layout, &cfg, c.limits()), &accept, &mut wn)
+                    }
+                    None => c.nominal_pose_nearest(&p, &rot, &last, &mut wn),
+                }
+            }
+            _ => None,
+        };
+        if let Some(q) = &q {
+            last = q.clone();
+        }
+        out.push(q);
+    }
+    Ok(out)
+}
+
+/// Most read-back passes of a program without configuration data.
+const READ_BACK_PASSES: usize = 4;
+
+/// The program's files with each site's edits applied.
+fn written(files: &[ProgramFile], sites: &[Site], edits: &[Vec<(std::ops::Range<usize>, String)>]) -> Vec<ProgramFile> {
+    files
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let mine: Vec<(std::ops::Range<usize>, String)> =
+                sites.iter().zip(edits).filter(|(s, _)| s.file == i).flat_map(|(_, e)| e.iter().cloned()).collect();
+            ProgramFile { name: f.name.clone(), text: text::apply(&f.text, mine) }
+        })
+        .collect()
+}
+
+/// The filtered targets of a program without configuration data that its controller, reading
+/// the filtered files target by target from where the arm stands, commands to a place the
+/// calibrated model does not put the tool on the written target: their indices.
+#[allow(clippy::too_many_arguments)]
+fn read_back(
+    c: &Compensator,
+    setup: &Setup,
+    r: &dyn Reader,
+    out: &[ProgramFile],
+    frames: &[ProgramFile],
+    sites: &[Site],
+    plans: &[Plan],
+    targets: &[TargetReport],
+    o: &FilterOptions,
+) -> Result<Vec<usize>> {
+    if !sites.iter().zip(targets).any(|(s, t)| t.outcome == Outcome::Filtered && !s.layout.has_config() && !s.layout.joints()) {
+        return Ok(Vec::new());
+    }
+    let now = r.parse(out, frames)?.sites;
+    let (_, mut wn) = c.works();
+    let mut last: Vec<f64> = o.start_q.clone().unwrap_or_else(|| c.limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect());
+    let mut wrong = Vec::new();
+    for (k, ((s, p), t)) in sites.iter().zip(plans).zip(targets).enumerate() {
+        let values: Vec<f64> = now[k].nums.iter().map(|n| n.value).collect();
+        match &p.frames {
+            _ if s.layout.joints() && !values.is_empty() && !s.uses.is_empty() => {
+                last = match (&t.outcome, &t.compensated) {
+                    (Outcome::Filtered, Some(k)) => k.command_q.clone(),
+                    _ => joints_of(s.layout, &values),
+                }
+            }
+            Ok(f) if !s.layout.has_config() && !s.layout.joints() => {
+                let (tp, tr) = model_pose(setup, s.layout, &values, f);
+                let read = c.nominal_pose_nearest(&tp, &tr, &last, &mut wn);
+                if t.outcome == Outcome::Filtered {
+                    let (ap, ar) = model_pose(setup, s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>(), f);
+                    if !read.as_ref().is_some_and(|q| c.reaches(q, &ap, &ar, 3.0)) {
+                        wrong.push(k);
+                    }
+                }
+                if let Some(q) = read {
+                    last = q;
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(wrong)
 }
 
 /// A site's frames resolved, or why it is left before any solve.
@@ -401,25 +526,27 @@ fn solve_all(c: &Compensator, setup: &Setup, sites: &[Site], plans: &[Plan], o: 
                 }
             };
             out[k] = solved;
-            // The filtered program leaves the arm where its controller reads the target.
-            if let Some(q) = read {
-                if let Solved::Done(done, _) = &out[k] {
-                    nominal_last = done.nominal_q.clone();
-                    command_last = q;
-                    continue;
-                }
+            // The program as written leaves the arm at its reading of the target; the filtered
+            // one where its controller reads the filtered target, or the target as written
+            // where it is left.
+            if let Solved::Done(done, _) | Solved::Elsewhere(done) = &out[k] {
+                nominal_last = done.nominal_q.clone();
             }
+            command_last = match read {
+                Some(q) => q,
+                None => {
+                    let (ap, ar) = model_pose(setup, s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>(), f);
+                    c.nominal_pose_nearest(&ap, &ar, &command_last, &mut wn).unwrap_or(command_last)
+                }
+            };
+            continue;
         }
-        // The arm stands at each target it moves to: a solved one's command (the nominal one
-        // where the target is left as written), a joint target left as written at its angles.
+        // The arm stands at each joint target it moves to: a compensated one at its command
+        // in the filtered program, one left as written at its angles.
         match &out[k] {
-            Solved::Done(done, _) => {
+            Solved::Done(done, _) if s.layout.joints() => {
                 nominal_last = done.nominal_q.clone();
                 command_last = if done.status == Status::Reachable { done.command_q.clone() } else { done.nominal_q.clone() };
-            }
-            Solved::Elsewhere(done) => {
-                nominal_last = done.nominal_q.clone();
-                command_last = done.nominal_q.clone();
             }
             _ if s.layout.joints() && !s.nums.is_empty() && !s.uses.is_empty() => {
                 nominal_last = joints_of(s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>());

@@ -13,7 +13,8 @@
 //! so the twin's instrument reads the TCP. Each program's AP (ISO 9283 position accuracy, one
 //! cycle) is the distance from each target to the attained point after the rigid registration
 //! that best maps the attained points onto the targets (the frame a cell's accuracy test
-//! registers), so that no program is charged for where the cell puts the arm.
+//! registers), fitted on the targets the filter moved, so that no program is charged for where
+//! the cell puts the arm.
 
 use super::sample::{pose_layout, SampleProgram};
 use super::{filter_program, FilterOptions, Outcome, Setup};
@@ -62,8 +63,7 @@ fn interpret(
     files: &[crate::controller::ProgramFile],
     frames: &[crate::controller::ProgramFile],
 ) -> Result<Vec<Option<Vec<f64>>>> {
-    let f = filter_program(c, setup, lang, files, frames, &FilterOptions::default())?;
-    Ok(f.targets.iter().skip(1).map(|t| t.compensated.as_ref().map(|k| k.nominal_q.clone())).collect())
+    Ok(super::read_program(c, setup, lang, files, frames, &FilterOptions::default())?.into_iter().skip(1).collect())
 }
 
 /// A program's configurations: a seeded walk through the joint ranges the data cover, each
@@ -130,19 +130,22 @@ pub fn verify_program(s: &Scenario, robot: &Robot, opts: &CalibOptions, lang: La
     let run = |cmds: &[Option<Vec<f64>>]| execute(&s, robot, &judged.iter().map(|&k| cmds[k].clone().unwrap_or_default()).collect::<Vec<_>>());
     let (a, b) = (run(&before)?, run(&after)?);
     let both: Vec<usize> = (0..judged.len()).filter(|&i| a[i].is_some() && b[i].is_some()).collect();
-    if both.len() < 3 {
+    if both.len() < 3 || both.iter().filter(|&&i| filtered.targets[judged[i] + 1].outcome == Outcome::Filtered).count() < 3 {
         return Err(Error::Invalid(format!("seed {seed}: only {} targets executed by both programs", both.len())));
     }
     let target: Vec<Vector3<f64>> = both.iter().map(|&i| points[judged[i]]).collect();
-    // Each target's AP after the registration of the program's attained points.
+    // Each target's AP after the registration of the program's attained points, fitted on the
+    // targets the filter moved (the same for both programs: a target left as written, executed
+    // with its full error, does not tilt the frame the others are judged in).
+    let moved: Vec<bool> = both.iter().map(|&i| filtered.targets[judged[i] + 1].outcome == Outcome::Filtered).collect();
     let ap = |attained: &[crate::compensate::verify::Attained]| -> Vec<f64> {
         let got: Vec<Vector3<f64>> = both.iter().map(|&i| attained[i].as_ref().map(|x| x.0).unwrap_or_default()).collect();
-        let (rr, tt) = crate::ik::rigid_fit(&got, &target);
+        let pick = |v: &[Vector3<f64>]| v.iter().zip(&moved).filter(|(_, m)| **m).map(|(p, _)| *p).collect::<Vec<_>>();
+        let (rr, tt) = crate::ik::rigid_fit(&pick(&got), &pick(&target));
         got.iter().zip(&target).map(|(g, t)| (rr * g + tt - t).norm()).collect()
     };
     let (ap_a, ap_b) = (ap(&a), ap(&b));
-    let filtered_only: Vec<f64> =
-        both.iter().zip(&ap_b).filter(|(&i, _)| filtered.targets[judged[i] + 1].outcome == Outcome::Filtered).map(|(_, e)| *e).collect();
+    let filtered_only: Vec<f64> = ap_b.iter().zip(&moved).filter(|(_, m)| **m).map(|(e, _)| *e).collect();
     Ok(ProgramCheck {
         seed,
         calibration_test_rmse_mm: r.evaluation.metrics.test_after.as_ref().map_or(f64::NAN, |m| m.rmse),
