@@ -509,21 +509,30 @@ def reduce(parts: Sequence[Union[str, os.PathLike]], out: Optional[Union[str, os
 
 
 def export(
-    model: Union[str, os.PathLike], out: Union[str, os.PathLike], *, format: Optional[str] = None, robot: Optional[Union[str, os.PathLike]] = None
+    model: Union[str, os.PathLike],
+    out: Union[str, os.PathLike],
+    *,
+    format: Optional[str] = None,
+    robot: Optional[Union[str, os.PathLike]] = None,
+    against: Optional[Union[str, os.PathLike]] = None,
 ) -> dict:
     """Write the calibrated model ``model`` (a result.json path) for a controller or driver, as
     ``twincal export``: ``format`` urdf, frames, dh, mdh or ur-yaml (default: from ``out``'s
     extension), ``robot`` the nominal robot (irb120 or a URDF path) for a URDF's inertials and
     limits. The file is read back and checked before it is written. Returns the summary: the
     format, the file, what it does not carry (``warnings``) and the read-back difference
-    (``round_trip_m``)."""
+    (``round_trip_m``); with ``against`` (another file of the format: the maker's calibration),
+    ``against`` joint by joint (each frame in its parent's: ``position_mm``, ``rotation_deg``)."""
+    if against is not None and not isinstance(against, (str, os.PathLike)):
+        raise TwincalError(f"against must be a path, got {type(against).__name__}")
     if format is not None and not isinstance(format, str):
         raise TwincalError(f"format must be a string, got {type(format).__name__}")
     if robot is not None:
         if not isinstance(robot, (str, os.PathLike)):
             raise TwincalError(f"robot must be irb120 or a URDF path (a string or os.PathLike), got {type(robot).__name__}")
         robot = os.fspath(robot)
-    text = _native.export(os.fspath(model), os.fspath(out), _options({"format": format, "robot": robot}))
+    against = None if against is None else os.path.abspath(os.fspath(against))
+    text = _native.export(os.fspath(model), os.fspath(out), _options({"format": format, "robot": robot, "against": against}))
     return json.loads(text)
 
 
@@ -652,16 +661,36 @@ def plan(
 
 
 def controller_data(
-    model: Union[str, os.PathLike], out: Union[str, os.PathLike], *, format: str, tool_mass_kg: Optional[float] = None
+    model: Union[str, os.PathLike],
+    out: Union[str, os.PathLike],
+    *,
+    format: str,
+    tool_mass_kg: Optional[float] = None,
+    full: Optional[Union[str, os.PathLike]] = None,
+    robot: Optional[Union[str, os.PathLike]] = None,
 ) -> dict:
     """Write a ``calibrate(..., controller_subset=True)`` result (a result.json path) as the
     controller's own data, as ``twincal controller-data``: ``format`` ``rapid`` (a .mod of
     tooldata, wobjdata and the joint offsets), ``krl`` (a .dat of FRAMEs for TOOL_DATA and
     BASE_DATA) or ``urscript`` (a .script); ``tool_mass_kg`` where the calibration states no
-    payload (RAPID's tooldata needs a mass). Returns the summary: the file, the joint offsets
-    (degrees) and the tool point (mm)."""
+    payload (RAPID's tooldata needs a mass); ``full`` a full calibration of the same rows, whose
+    held-out RMSE is reported beside the subset's; ``robot`` (irb120 or a URDF path) whose
+    ``tool0`` and ``base`` the data are written in. Returns the summary: the file, the joint
+    offsets (degrees), the tool point (mm) and ``held_out`` (nominal, subset and full RMSE)."""
+    if robot is not None and not isinstance(robot, (str, os.PathLike)):
+        raise TwincalError(f"robot must be irb120 or a URDF path (a string or os.PathLike), got {type(robot).__name__}")
+    robot_name = None if robot is None else os.fspath(robot)
+    if robot_name not in (None, "irb120"):
+        robot_name = os.path.abspath(robot_name)
     options = _options(
-        {"model": os.path.abspath(os.fspath(model)), "format": format, "tool_mass_kg": tool_mass_kg, "out": os.fspath(out)}
+        {
+            "model": os.path.abspath(os.fspath(model)),
+            "format": format,
+            "tool_mass_kg": tool_mass_kg,
+            "full": None if full is None else os.path.abspath(os.fspath(full)),
+            "robot": robot_name,
+            "out": os.fspath(out),
+        }
     )
     return json.loads(_native.controller_data(options))
 

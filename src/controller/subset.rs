@@ -24,6 +24,9 @@ pub struct ControllerData {
     pub tool_mm: Vector3<f64>,
     /// The tool's orientation in the flange frame (a 6-D probe's; identity for a point).
     pub tool_rot: Matrix3<f64>,
+    /// Whether the instrument measured the tool's orientation (a 6-D probe): else the tool has
+    /// none of its own, and its axes are the controller flange's.
+    pub tool_oriented: bool,
     /// The instrument's frame in the robot's base frame (origin mm, axes as columns), where the
     /// instrument reads coordinates of its own: a user frame in which points measured by it are
     /// the robot's targets.
@@ -33,6 +36,9 @@ pub struct ControllerData {
     /// The joints whose offset the data cannot tell from the base frame or the tool (held at
     /// zero, their share in those).
     pub held: Vec<String>,
+    /// What the subset leaves on the calibration's held-out rows, beside the nominal model and a
+    /// full calibration of the same rows, in words (a line of the file's header).
+    pub accuracy: Option<String>,
 }
 
 impl ControllerData {
@@ -61,9 +67,27 @@ impl ControllerData {
             held,
             tool_mm: crate::units::to_mm(placement.tool),
             tool_rot: m.measurement.def().target_rotation(&placement.own),
+            tool_oriented: m.measurement == crate::measurement::Measurement::Pose,
             user_frame: frame.axes.map(|a| (crate::units::to_mm(frame.origin), a)),
             payload: r.torque_model.as_ref().and_then(|t| t.payload).filter(|(mass, _)| *mass > 0.0).map(|(mass, c)| (mass, c.map(crate::units::to_mm))),
+            accuracy: None,
         })
+    }
+
+    /// The data in the controller's own frames ([`crate::robot::Robot::controller_frames`]): the
+    /// tool in the controller's flange frame (tool0; a tool without an orientation of its own
+    /// keeps tool0's axes), the instrument's frame in the controller's base frame.
+    pub fn in_controller_frames(mut self, base: &crate::robot::kinematics::Frame, tool0: &crate::robot::kinematics::Frame) -> ControllerData {
+        // tool0⁻¹ · (tool point, tool axes): both given in the model's flange frame.
+        let rt = tool0.rot.transpose();
+        self.tool_mm = rt * (self.tool_mm - crate::units::to_mm(tool0.pos));
+        if self.tool_oriented {
+            self.tool_rot = rt * self.tool_rot;
+        }
+        self.payload = self.payload.map(|(m, c)| (m, (rt * (nalgebra::Vector3::from(c) - crate::units::to_mm(tool0.pos))).into()));
+        let rb = base.rot.transpose();
+        self.user_frame = self.user_frame.map(|(o, a)| (rb * (o - crate::units::to_mm(base.pos)), rb * a));
+        self
     }
 
     /// The data as a file of `lang` (its name, its text); `tool_mass_kg` stands in for a
@@ -84,6 +108,7 @@ impl ControllerData {
             "enter them in the controller's joint calibration with its own sign convention):".into(),
         ];
         lines.extend(self.joint_offsets_deg.iter().map(|(n, v)| format!("  {n} {:+.6}", clean(*v))));
+        lines.extend(self.accuracy.clone());
         if !self.held.is_empty() {
             lines.push(format!("Held at zero, the data cannot tell them from the base frame and the tool: {}.", self.held.join(", ")));
         }

@@ -30,6 +30,45 @@ pub struct ExportJob {
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
     pub robot: Option<String>,
+    /// Another kinematics file of the same format (the maker's calibration: a UR's
+    /// calibration.yaml) to compare with, joint by joint: how far each joint's frame, placed in
+    /// its parent's, lies from the file's.
+    #[cfg_attr(feature = "clap", arg(long))]
+    #[serde(default)]
+    pub against: Option<PathBuf>,
+}
+
+/// How far one joint's frame lies from another file's, each placed in its parent joint's frame
+/// at zero joint angles.
+#[derive(Clone, Debug, Serialize)]
+pub struct JointGap {
+    /// The joint (1-based).
+    pub joint: usize,
+    /// Distance between the two frames' origins, mm.
+    pub position_mm: f64,
+    /// Angle between the two frames' orientations, degrees.
+    pub rotation_deg: f64,
+}
+
+/// Joint by joint, how far the frames of `a` lie from those of `b` (the same number of joints),
+/// each in its parent's frame at zero joint angles; then the flange's.
+fn joint_gaps(a: &crate::export::ReadBack, b: &crate::export::ReadBack) -> Vec<JointGap> {
+    use crate::robot::kinematics::FkWork;
+    let local = |r: &crate::export::ReadBack| {
+        let mut fk = FkWork::new(&r.chain);
+        r.chain.forward(&vec![0.0; r.chain.n_joints], &r.params, 1.0, &mut fk);
+        (1..r.chain.n_frames()).map(|f| r.chain.frame(&fk, f).relative_to(&r.chain.frame(&fk, f - 1))).collect::<Vec<_>>()
+    };
+    local(a)
+        .iter()
+        .zip(local(b))
+        .enumerate()
+        .map(|(j, (fa, fb))| JointGap {
+            joint: j + 1,
+            position_mm: crate::units::to_mm((fa.pos - fb.pos).norm()),
+            rotation_deg: crate::ik::solver::turn(&fa.rot, &fb.rot).norm().to_degrees(),
+        })
+        .collect()
 }
 
 /// What an export wrote.
@@ -44,6 +83,10 @@ pub struct ExportSummary {
     /// The largest difference between the file's tool point, read back, and the model's, over
     /// 64 configurations spread over ±180° per joint, m.
     pub round_trip_m: f64,
+    /// With `--against`: joint by joint (then the flange), how far the written file's frames lie
+    /// from the other file's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub against: Option<Vec<JointGap>>,
 }
 
 impl ExportJob {
@@ -55,6 +98,7 @@ impl ExportJob {
         };
         let mut inputs: Vec<(&str, PathBuf)> = vec![("--model", self.model.clone())];
         inputs.extend(self.robot.as_deref().and_then(super::files::named_robot_input));
+        inputs.extend(self.against.iter().map(|p| ("--against", p.clone())));
         check_outputs(&inputs, &[("--out", self.out.as_path())])?;
         let result = CalibResult::load(&self.model)?;
         let nominal = self.robot.as_deref().map(super::files::named_robot).transpose()?;
@@ -74,10 +118,22 @@ impl ExportJob {
         let exported = crate::export::export(&result, format, &ext, nominal.as_ref())?;
         let back = format.read(&exported.text, &ext)?;
         let round_trip_m = crate::export::round_trip_error(&back, &result.model, &result.x, 64);
+        let against = match &self.against {
+            None => None,
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|e| Error::io(p, e))?;
+                let other =
+                    format.read(&text, &crate::export::extension(p)).map_err(|e| Error::data(p.display(), format!("not a {} file: {e}", format.name())))?;
+                if other.chain.n_joints != back.chain.n_joints || other.chain.n_frames() != back.chain.n_frames() {
+                    return Err(Error::data(p.display(), format!("states {} joints, the model {}", other.chain.n_joints, back.chain.n_joints)));
+                }
+                Some(joint_gaps(&back, &other))
+            }
+        };
         let mut outputs = OutputSet::new();
         outputs.write(&self.out, exported.text.as_bytes())?;
         outputs.commit()?;
-        Ok(ExportSummary { format: format.name().into(), out: self.out.clone(), warnings: exported.warnings, round_trip_m })
+        Ok(ExportSummary { format: format.name().into(), out: self.out.clone(), warnings: exported.warnings, round_trip_m, against })
     }
 }
 

@@ -16,6 +16,13 @@ pub fn controller_data(job: &twincal::jobs::ControllerDataJob, quiet: bool) -> R
             s.tool_mm[1],
             s.tool_mm[2]
         );
+        if let Some(h) = &s.held_out {
+            let full = h.full_rmse_mm.map_or(String::new(), |f| format!(", the full calibration {f:.4} mm"));
+            eprintln!(
+                "on the calibration's {} held-out rows (RMSE): nominal {:.4} mm, this subset {:.4} mm{full}",
+                h.rows, h.nominal_rmse_mm, h.subset_rmse_mm
+            );
+        }
     }
     Ok(())
 }

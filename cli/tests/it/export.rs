@@ -111,6 +111,30 @@ fn a_ur_kinematics_file_is_the_nominal_of_a_calibration() {
     ok(twincal(&["--quiet", "calibrate", "--data", s(&d("data")), "--model", s(&ur10), "--out", s(&d("urdf.json"))]));
     ok(twincal(&["--quiet", "calibrate", "--data", s(&d("data")), "--model", s(&d("factory.yaml")), "--robot", s(&ur10), "--out", s(&d("yaml.json"))]));
     assert!((rmse(&d("urdf.json")) - rmse(&d("yaml.json"))).abs() < 1e-6, "{} vs {}", rmse(&d("urdf.json")), rmse(&d("yaml.json")));
+    // Joint by joint against the factory file: the file itself is its own to 1e-6 mm; the
+    // recalibration departs from it by the twin's geometric errors (a few tenths of a mm).
+    let gaps = |model: &Path, out: &str| -> Vec<(f64, f64)> {
+        let o = twincal(&["export", "--model", s(model), "--out", s(&d(out)), "--against", s(&d("factory.yaml"))]);
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "{err}");
+        let rows: Vec<(f64, f64)> = err
+            .lines()
+            .filter(|l| {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                (w.first() == Some(&"joint") && w.get(1).is_some_and(|n| n.parse::<usize>().is_ok())) || w.first() == Some(&"flange")
+            })
+            .map(|l| {
+                let v: Vec<f64> = l.split_whitespace().filter_map(|w| w.trim_end_matches('°').parse().ok()).collect();
+                (v[v.len() - 2], v[v.len() - 1])
+            })
+            .collect();
+        assert_eq!(rows.len(), 7, "six joints and the flange: {err}");
+        rows
+    };
+    assert!(gaps(&d("nominal.json"), "same.yaml").iter().all(|(p, r)| *p < 1e-6 && *r < 1e-6));
+    let moved = gaps(&d("yaml.json"), "recal.yaml");
+    let largest = moved.iter().map(|g| g.0).fold(0.0, f64::max);
+    assert!(largest > 0.05 && largest < 5.0, "{moved:?}");
     // A file that is no UR kinematics file is refused by name.
     std::fs::write(d("bad.yaml"), "kinematics:\n  shoulder:\n    x: 0\n").unwrap();
     let o = twincal(&["calibrate", "--data", s(&d("data")), "--model", s(&d("bad.yaml")), "--out", s(&d("bad.json"))]);

@@ -90,6 +90,41 @@ fn a_calibration_brings_the_held_out_pose_accuracy_of_twin_tracker_data_to_its_n
         assert!((written - d).abs() < 2e-6, "joint_{}: {written} written, {d} in the result", j + 1);
     }
     assert!(mt.contains("PERS wobjdata twc_instrument") && kt.contains("TWC_BASE={") && ut.contains("twc_instrument = p["));
+    // Beside the full calibration of the same rows, in the controller's own frames: the subset's
+    // held-out RMSE between the nominal's and the full model's, the tool in tool0 (the IRB 120's
+    // flange frame turned 90° about y).
+    let m2 = dir.path().join("twc_cal2.mod");
+    let o = twincal(&[
+        "controller-data",
+        "--model",
+        s(&subset),
+        "--full",
+        s(&after),
+        "--robot",
+        "irb120",
+        "--format",
+        "rapid",
+        "--tool-mass-kg",
+        "0.5",
+        "--out",
+        s(&m2),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(o.status.success(), "{err}");
+    let m2t = std::fs::read_to_string(&m2).unwrap();
+    let line = m2t.lines().find(|l| l.contains("held-out rows (RMSE)")).unwrap_or_else(|| panic!("{m2t}"));
+    let rmse: Vec<f64> = line.split(" mm").filter_map(|w| w.split_whitespace().last().and_then(|v| v.parse().ok())).collect();
+    assert!(rmse.len() == 3 && rmse[0] > rmse[1] && rmse[1] > 3.0 * rmse[2], "nominal / subset / full: {line}");
+    assert!(err.contains(&format!("this subset {:.4} mm", rmse[1])), "{err}");
+    let tool0 = after_marker(&m2t, "twc_tool := [TRUE,[[");
+    assert!((tool0[0] + rapid[2]).abs() < 1e-3 && (tool0[1] - rapid[1]).abs() < 1e-3 && (tool0[2] - rapid[0]).abs() < 1e-3, "tool0 {tool0:?} flange {rapid:?}");
+    // A full calibration of other data is no comparison: refused, nothing written.
+    let (data5, seed5) = (dir.path().join("d5"), dir.path().join("seed5.json"));
+    ok(twincal(&["--quiet", "generate", "--scenario", s(scenario), "--seed", "5", "--out", s(&data5)]));
+    ok(twincal(&["--quiet", "calibrate", "--data", s(&data5), "--out", s(&seed5)]));
+    let other = twincal(&["controller-data", "--model", s(&subset), "--full", s(&seed5), "--format", "krl", "--out", s(&dir.path().join("o.dat"))]);
+    assert_eq!(other.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&other.stderr).contains("not calibrated on the same rows") && !dir.path().join("o.dat").exists());
     let full = twincal(&["controller-data", "--model", s(&after), "--format", "krl", "--out", s(&dir.path().join("full.dat"))]);
     assert_eq!(full.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&full.stderr).contains("--controller-subset") && !dir.path().join("full.dat").exists());

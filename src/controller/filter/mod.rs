@@ -271,8 +271,9 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
     let results = solve_all(c, setup, &parsed.sites, &plans, o);
     let mut edits: Vec<Vec<(std::ops::Range<usize>, String)>> = vec![Vec::new(); parsed.sites.len()];
     let mut targets = Vec::with_capacity(parsed.sites.len());
+    let lines: Vec<text::Lines> = files.iter().map(|f| text::Lines::new(&f.text)).collect();
     for ((site, plan), result) in parsed.sites.iter().zip(&plans).zip(results) {
-        let (l, col) = text::line_col(&files[site.file].text, site.at);
+        let (l, col) = lines[site.file].at(site.at);
         let (outcome, new, compensated) = match (&plan.frames, result) {
             (Err(left), _) => (Outcome::Left(left.clone()), None, None),
             (Ok(_), Solved::NoNominal) => (Outcome::NoNominalSolution, None, None),

@@ -189,7 +189,7 @@ fn malformed_programs_are_refused_by_line_and_column() {
     let x_nom = nominal_x(r);
     let c = compensator(r, &x_nom, 0.001, 0.001);
     let setup = Setup::new(r, &x_nom, Some(robot));
-    let cases: [(Language, &str, &str, &str); 7] = [
+    let cases: [(Language, &str, &str, &str); 8] = [
         (
             Language::Rapid,
             "a.mod",
@@ -212,10 +212,20 @@ fn malformed_programs_are_refused_by_line_and_column() {
             "a.script:2:9: a pose p[x, y, z, rx, ry, rz] holds six numbers, found 5",
         ),
         (Language::Urscript, "a.script", "def a():\n  movel(p[0.1, 0.2, 0.3, 0, 0, 0, a=1.2)\nend\n", "a.script:2:"),
+        (Language::Krl, "a.dat", "DEFDAT A\n  DECL E6POS XP1={X 1e999,Y 2.0,Z 3.0,A 0,B 0,C 0,S 2,T 0}\nENDDAT\n", "a.dat:2:21: '1e999' is beyond"),
     ];
     for (lang, name, text, want) in cases {
         let files = [ProgramFile { name: name.into(), text: text.into() }];
         let e = filter_program(&c, &setup, lang, &files, &[], &FilterOptions::default()).unwrap_err().to_string();
         assert!(e.contains(want), "{name}: '{e}' does not contain '{want}'");
+    }
+}
+
+#[test]
+fn line_and_column_by_index_agree_with_the_scan() {
+    let t = "ab\nçd\r\n\nxyz";
+    let lines = text::Lines::new(t);
+    for at in 0..=t.len() {
+        assert_eq!(lines.at(at), text::line_col(t, at), "byte {at}");
     }
 }

@@ -65,6 +65,28 @@ pub(crate) fn line_col(text: &str, at: usize) -> (usize, usize) {
     (line, col)
 }
 
+/// The starts of a text's lines, for line and column of many offsets (each a binary search, not
+/// a scan from the start).
+pub(crate) struct Lines<'a> {
+    text: &'a str,
+    starts: Vec<usize>,
+}
+
+impl<'a> Lines<'a> {
+    /// The line starts of `text`.
+    pub(crate) fn new(text: &'a str) -> Lines<'a> {
+        let starts = std::iter::once(0).chain(text.bytes().enumerate().filter(|(_, b)| *b == b'\n').map(|(i, _)| i + 1)).collect();
+        Lines { text, starts }
+    }
+    /// 1-based line and column (in characters) of byte `at`, as [`line_col`].
+    pub(crate) fn at(&self, at: usize) -> (usize, usize) {
+        let at = self.text.floor_char_boundary_compat(at.min(self.text.len()));
+        let line = self.starts.partition_point(|s| *s <= at);
+        let start = self.starts[line - 1];
+        (line, self.text[start..at].chars().count() + 1)
+    }
+}
+
 /// `str::floor_char_boundary` on stable Rust.
 trait FloorBoundary {
     fn floor_char_boundary_compat(&self, i: usize) -> usize;
@@ -125,6 +147,10 @@ fn number_at(s: &[u8]) -> Option<(f64, usize, Style)> {
     text.parse::<f64>().ok().map(|v| (v, i, Style::Decimal(decimals)))
 }
 
+/// Largest magnitude of a number in a target's data (RAPID writes an unused external axis as
+/// 9E+09).
+const MAX_NUMBER: f64 = 1e10;
+
 /// The numbers in `range` of the (masked) `text`, in order; an error (by line and column of
 /// `file`) at anything in it that is neither a number, nor punctuation of `allowed`, nor a
 /// name of letters (`TRUE`, `FALSE`, a KRL field name): such a literal is not the data the
@@ -159,6 +185,10 @@ pub(crate) fn numbers_in(file: &str, text: &str, range: Range<usize>, allowed: &
             // A number glued to a letter or a second point (1.2.3, 5x) is not a number.
             if b.get(i + len).is_some_and(|n| n.is_ascii_alphanumeric() || *n == b'.' || *n == b'_') && i + len < range.end {
                 return Err(error_at(file, text, i, format!("'{}' is not a number", token(text, i, range.end))));
+            }
+            // An overflowing literal (1e999) is no target's number; RAPID's unused axis is 9E+09.
+            if !value.is_finite() || value.abs() > MAX_NUMBER {
+                return Err(error_at(file, text, i, format!("'{}' is beyond any target's number (|v| <= {MAX_NUMBER:e})", token(text, i, range.end))));
             }
             out.push(Num { span: i..i + len, value, style });
             i += len;
