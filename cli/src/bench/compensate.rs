@@ -12,8 +12,9 @@ use twincal::compensate::verify::{verify_seed, SeedCheck};
 use twincal::error::Result;
 use twincal::sim::scenario::Scenario;
 
-/// Compliance under a 3 kg payload, added to a scenario before its `[sensor]`.
-const COMPLIANCE: &str =
+/// Compliance under a 3 kg payload, added to a scenario before its `[sensor]` (also the
+/// programs' bench's).
+pub(crate) const COMPLIANCE: &str =
     "[effects.compliance]\nstiffness_nm_per_rad = [1.5e5, 2.0e4, 3.0e4, 3.0e4, 3.0e4, 2.0e4]\n\n[effects.payload]\nmass_kg = 3.0\ncom_mm = [40.0, 0.0, 60.0]\n\n";
 
 /// The scenarios: (label, scenario file, text added before `[sensor]`, whether the calibration
@@ -28,7 +29,8 @@ const CASES: [(&str, &str, &str, bool, bool); 7] = [
     ("UR10, 6-D probe, compliance under 3 kg, pose targets", "ur10_pose", COMPLIANCE, true, true),
 ];
 
-fn mean_sd(v: &[f64]) -> (f64, f64) {
+/// Mean and sample standard deviation.
+pub(crate) fn mean_sd(v: &[f64]) -> (f64, f64) {
     let n = v.len().max(1) as f64;
     let m = v.iter().sum::<f64>() / n;
     (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt())

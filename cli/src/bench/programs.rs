@@ -4,6 +4,7 @@
 //! the twin's true arm, AP (ISO 9283, one cycle) of each; geometric and compliance under a
 //! payload. Then the filter's speed on a 10 000-target RAPID module against its 2 s target.
 
+use super::compensate::{mean_sd, COMPLIANCE};
 use std::path::Path;
 use std::time::Instant;
 use twincal::calib::effects::EffectKind;
@@ -12,10 +13,6 @@ use twincal::controller::filter::verify::{verify_program, ProgramCheck};
 use twincal::controller::Language;
 use twincal::error::Result;
 use twincal::sim::scenario::Scenario;
-
-/// Compliance under a 3 kg payload, added to a scenario before its `[sensor]`.
-const COMPLIANCE: &str =
-    "[effects.compliance]\nstiffness_nm_per_rad = [1.5e5, 2.0e4, 3.0e4, 3.0e4, 3.0e4, 2.0e4]\n\n[effects.payload]\nmass_kg = 3.0\ncom_mm = [40.0, 0.0, 60.0]\n\n";
 
 /// The cases: (label, language, scenario, text added before `[sensor]`, whether the
 /// calibration models the compliance with the stated payload).
@@ -30,12 +27,6 @@ const CASES: [(&str, Language, &str, &str, bool); 6] = [
 
 /// Targets per program.
 const TARGETS: usize = 120;
-
-fn mean_sd(v: &[f64]) -> (f64, f64) {
-    let n = v.len().max(1) as f64;
-    let m = v.iter().sum::<f64>() / n;
-    (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt())
-}
 
 /// A case's scenario, robot and calibration options.
 fn case(dir: &Path, file: &str, extra: &str, model_it: bool) -> Result<(Scenario, twincal::robot::Robot, CalibOptions)> {

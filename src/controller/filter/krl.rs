@@ -5,7 +5,7 @@
 //! `BASE_NO`); `TOOL_DATA` and `BASE_DATA` from `$config.dat` (given with the program's
 //! frames) or any `FRAME` the files declare. `$ROBROOT` is taken as the world frame.
 
-use super::text::{self, error_at, group_end, numbers_in, split_top, trim, Num};
+use super::text::{self, error_at, group_end, lines, numbers_in, split_top, trim, Num};
 use super::{Layout, Left, Parsed, Reader, RunTime, Site};
 use crate::controller::ProgramFile;
 use crate::error::Result;
@@ -63,20 +63,6 @@ impl Reader for KrlReader {
         }
         Ok(p)
     }
-}
-
-/// The lines of masked text, trimmed.
-fn lines(m: &str) -> Vec<Range<usize>> {
-    let mut out = Vec::new();
-    let mut start = 0;
-    for (i, c) in m.bytes().enumerate() {
-        if c == b'\n' {
-            out.push(trim(m, start..i));
-            start = i + 1;
-        }
-    }
-    out.push(trim(m, start..m.len()));
-    out
 }
 
 /// An aggregate `{X 1.0,Y 2,...}` at `open`: its fields (upper case) and their numbers.

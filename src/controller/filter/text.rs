@@ -263,6 +263,20 @@ pub(crate) fn split_top(text: &str, range: Range<usize>) -> Vec<Range<usize>> {
     out
 }
 
+/// The lines of (masked) text, each trimmed.
+pub(crate) fn lines(m: &str) -> Vec<Range<usize>> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for (i, c) in m.bytes().enumerate() {
+        if c == b'\n' {
+            out.push(trim(m, start..i));
+            start = i + 1;
+        }
+    }
+    out.push(trim(m, start..m.len()));
+    out
+}
+
 /// `range` without its leading and trailing whitespace.
 pub(crate) fn trim(text: &str, range: Range<usize>) -> Range<usize> {
     let s = &text[range.clone()];

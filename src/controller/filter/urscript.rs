@@ -5,7 +5,7 @@
 //! `set_tcp`). Poses are in the base frame: a feature frame applied with `pose_trans` is a
 //! run-time target.
 
-use super::text::{self, error_at, group_end, numbers_in, split_top, trim, Num};
+use super::text::{self, error_at, group_end, lines, numbers_in, split_top, trim, Num};
 use super::{Layout, Left, Parsed, Reader, RunTime, Site};
 use crate::controller::ProgramFile;
 use crate::error::Result;
@@ -53,20 +53,6 @@ impl Reader for UrReader {
         }
         Ok(p)
     }
-}
-
-/// The lines of masked text, trimmed.
-fn lines(m: &str) -> Vec<Range<usize>> {
-    let mut out = Vec::new();
-    let mut start = 0;
-    for (i, c) in m.bytes().enumerate() {
-        if c == b'\n' {
-            out.push(trim(m, start..i));
-            start = i + 1;
-        }
-    }
-    out.push(trim(m, start..m.len()));
-    out
 }
 
 /// The numbers of the list that opens at `open` (`[` or the `p` of `p[`): a pose's six or a
