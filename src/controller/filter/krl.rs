@@ -5,7 +5,7 @@
 //! `BASE_NO`); `TOOL_DATA` and `BASE_DATA` from `$config.dat` (given with the program's
 //! frames) or any `FRAME` the files declare. `$ROBROOT` is taken as the world frame.
 
-use super::text::{self, error_at, group_end, lines, numbers_in, split_top, trim, Num};
+use super::text::{self, error_at, group_end, lines, numbers_in, split_top, trim, Num, Source};
 use super::{Layout, Left, Parsed, Reader, RunTime, Site};
 use crate::controller::ProgramFile;
 use crate::error::Result;
@@ -166,11 +166,11 @@ fn code_line(name: &str, src: &str, m: &str, line: Range<usize>, file: usize, p:
         return Ok(());
     }
     if let Some(v) = compact.strip_prefix("$TOOL=") {
-        st.tool = selected(v, "TOOL_DATA", name, src, m, line.start, p, true)?;
+        st.tool = selected(&Source { name, text: src, mask: m, file }, v, line.start, p, true)?;
         return Ok(());
     }
     if let Some(v) = compact.strip_prefix("$BASE=") {
-        st.base = selected(v, "BASE_DATA", name, src, m, line.start, p, false)?;
+        st.base = selected(&Source { name, text: src, mask: m, file }, v, line.start, p, false)?;
         return Ok(());
     }
     if let Some(v) = compact.strip_prefix("BAS(#TOOL,").and_then(|v| v.strip_suffix(')')) {
@@ -190,7 +190,7 @@ fn code_line(name: &str, src: &str, m: &str, line: Range<usize>, file: usize, p:
     }
     let word: String = up.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
     if let Some(&(_, n)) = MOTIONS.iter().find(|(w, _)| *w == word) {
-        return motion(name, src, m, line.start + word.len()..line.end, n, file, p, st);
+        return motion(&Source { name, text: src, mask: m, file }, line.start + word.len()..line.end, n, p, st);
     }
     if word.ends_with("_REL") && MOTIONS.iter().any(|(w, _)| word.starts_with(w)) {
         let (l, c) = text::line_col(src, line.start);
@@ -216,8 +216,8 @@ fn code_line(name: &str, src: &str, m: &str, line: Range<usize>, file: usize, p:
 
 /// The name a `$TOOL =` / `$BASE =` value selects (`TOOL_DATA[1]`, a declared `FRAME`,
 /// `$NULLFRAME`); an inline frame is declared under the line's name.
-#[allow(clippy::too_many_arguments)]
-fn selected(v: &str, table: &str, name: &str, src: &str, m: &str, at: usize, p: &mut Parsed, tool: bool) -> Result<String> {
+fn selected(f: &Source, v: &str, at: usize, p: &mut Parsed, tool: bool) -> Result<String> {
+    let (name, src, m) = (f.name, f.text, f.mask);
     if v.starts_with('{') {
         let open = at + m[at..].find('{').unwrap_or(0);
         let (fields, _) = aggregate(name, src, m, open)?;
@@ -232,14 +232,13 @@ fn selected(v: &str, table: &str, name: &str, src: &str, m: &str, at: usize, p: 
     }
     Ok(match v {
         "$NULLFRAME" | "$WORLD" | "$ROBROOT" => "$NULLFRAME".into(),
-        other if other.starts_with(table) => other.to_string(),
         other => other.to_string(),
     })
 }
 
 /// A motion's targets: a declared point's use, an inline aggregate's site, or a note.
-#[allow(clippy::too_many_arguments)]
-fn motion(name: &str, src: &str, m: &str, args: Range<usize>, n: usize, file: usize, p: &mut Parsed, st: &State) -> Result<()> {
+fn motion(f: &Source, args: Range<usize>, n: usize, p: &mut Parsed, st: &State) -> Result<()> {
+    let (name, src, m, file) = (f.name, f.text, f.mask, f.file);
     // The targets end where the approximation (C_PTP, C_DIS, ...) or the spline's options begin.
     let text = &m[args.clone()];
     let stop = text.to_ascii_uppercase().find(" C_").map_or(args.end, |k| args.start + k);

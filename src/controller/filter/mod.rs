@@ -308,7 +308,7 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
     // as another of the arm's solutions is left as written (until none is).
     let mut out = written(files, &parsed.sites, &edits);
     for _ in 0..READ_BACK_PASSES {
-        let wrong = read_back(c, setup, r, &out, frames, &parsed.sites, &plans, &targets, o)?;
+        let wrong = read_back(&Arm { c, setup, o }, r, &out, frames, &parsed.sites, &plans, &targets)?;
         if wrong.is_empty() {
             break;
         }
@@ -366,6 +366,14 @@ pub fn read_program(
     Ok(out)
 }
 
+/// The compensation, the arm's set-up and the filter's options, as the read-back takes them.
+#[derive(Clone, Copy)]
+struct Arm<'a> {
+    c: &'a Compensator<'a>,
+    setup: &'a Setup,
+    o: &'a FilterOptions,
+}
+
 /// Most read-back passes of a program without configuration data.
 const READ_BACK_PASSES: usize = 4;
 
@@ -385,18 +393,16 @@ fn written(files: &[ProgramFile], sites: &[Site], edits: &[Vec<(std::ops::Range<
 /// The filtered targets of a program without configuration data that its controller, reading
 /// the filtered files target by target from where the arm stands, commands to a place the
 /// calibrated model does not put the tool on the written target: their indices.
-#[allow(clippy::too_many_arguments)]
 fn read_back(
-    c: &Compensator,
-    setup: &Setup,
+    arm: &Arm,
     r: &dyn Reader,
     out: &[ProgramFile],
     frames: &[ProgramFile],
     sites: &[Site],
     plans: &[Plan],
     targets: &[TargetReport],
-    o: &FilterOptions,
 ) -> Result<Vec<usize>> {
+    let Arm { c, setup, o } = *arm;
     if !sites.iter().zip(targets).any(|(s, t)| t.outcome == Outcome::Filtered && !s.layout.has_config() && !s.layout.joints()) {
         return Ok(Vec::new());
     }

@@ -56,6 +56,20 @@ pub(crate) fn mask(text: &str, comment: u8, quotes: &[u8]) -> String {
     String::from_utf8(out).unwrap_or_else(|e| String::from_utf8_lossy(e.as_bytes()).into_owned())
 }
 
+/// A program file as a reader reads it: its name (for messages), its text and its mask, and its
+/// index among the program's files (`usize::MAX` for a file read for its frames only).
+#[derive(Clone, Copy)]
+pub(crate) struct Source<'a> {
+    /// The file's name.
+    pub name: &'a str,
+    /// Its text.
+    pub text: &'a str,
+    /// Its text with comments and strings masked ([`mask`]).
+    pub mask: &'a str,
+    /// Its index among the program's files.
+    pub file: usize,
+}
+
 /// 1-based line and column (in characters) of byte `at` of `text`.
 pub(crate) fn line_col(text: &str, at: usize) -> (usize, usize) {
     let at = at.min(text.len());

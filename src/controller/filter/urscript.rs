@@ -5,7 +5,7 @@
 //! `set_tcp`). Poses are in the base frame: a feature frame applied with `pose_trans` is a
 //! run-time target.
 
-use super::text::{self, error_at, group_end, lines, numbers_in, split_top, trim, Num};
+use super::text::{self, error_at, group_end, lines, numbers_in, split_top, trim, Num, Source};
 use super::{Layout, Left, Parsed, Reader, RunTime, Site};
 use crate::controller::ProgramFile;
 use crate::error::Result;
@@ -48,7 +48,7 @@ impl Reader for UrReader {
                     continue;
                 }
                 assignment(&f.name, &f.text, &m, line.clone(), i, &mut p, &mut vars)?;
-                motions(&f.name, &f.text, &m, line, i, &mut p, &vars, &tool)?;
+                motions(&Source { name: &f.name, text: &f.text, mask: &m, file: i }, line, &mut p, &vars, &tool)?;
             }
         }
         Ok(p)
@@ -128,8 +128,8 @@ fn assignment(name: &str, src: &str, m: &str, line: Range<usize>, file: usize, p
 }
 
 /// The motions of a line: each target a declared variable's use, an inline site, or a note.
-#[allow(clippy::too_many_arguments)]
-fn motions(name: &str, src: &str, m: &str, line: Range<usize>, file: usize, p: &mut Parsed, vars: &BTreeMap<String, usize>, tool: &str) -> Result<()> {
+fn motions(f: &Source, line: Range<usize>, p: &mut Parsed, vars: &BTreeMap<String, usize>, tool: &str) -> Result<()> {
+    let (name, src, m, file) = (f.name, f.text, f.mask, f.file);
     let s = &m[line.clone()];
     for (word, n) in MOTIONS {
         let mut from = 0;
