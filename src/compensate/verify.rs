@@ -81,6 +81,14 @@ pub(crate) fn random_configurations(g: &Generated, n: usize, seed: u64) -> Vec<V
     (0..n).map(|_| ranges.iter().map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>()).collect()).collect()
 }
 
+/// The calibration's rows of `g`: their joint angles (rad) and the twin's true tool points there
+/// (mm), on which a model is registered to the twin.
+pub(crate) fn calibration_rows(g: &Generated) -> (Vec<Vec<f64>>, Vec<Vector3<f64>>) {
+    let q = g.dataset.rows.iter().map(|row| row.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
+    let truth = g.truth.poses.iter().map(|p| Vector3::from(p.tool_mm)).collect();
+    (q, truth)
+}
+
 /// Each joint's range (rad) in the data of `g`, shrunk by a tenth at each end.
 pub(crate) fn data_ranges(g: &Generated) -> Vec<(f64, f64)> {
     let dof = g.dataset.n_joints();
@@ -110,8 +118,7 @@ pub fn verify_seed(s: &Scenario, robot: &Robot, opts: &CalibOptions, n_targets: 
     let x_nom = nominal_x(&r);
     let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
     // Each model registered to the twin on the calibration's configurations.
-    let reg_q: Vec<Vec<f64>> = g.dataset.rows.iter().map(|row| row.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
-    let reg_true: Vec<Vector3<f64>> = g.truth.poses.iter().map(|p| Vector3::from(p.tool_mm)).collect();
+    let (reg_q, reg_true) = calibration_rows(&g);
     let (to_cal, to_nom) = (c.registration(&reg_q, &reg_true, false), c.registration(&reg_q, &reg_true, true));
     // A target in a model's frame: its point and orientation carried by the registration.
     let carry = |(rot, tr): &(Matrix3<f64>, Vector3<f64>), (p, o): &(Vector3<f64>, Option<Matrix3<f64>>)| match o.filter(|_| poses) {

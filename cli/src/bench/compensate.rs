@@ -36,6 +36,22 @@ pub(crate) fn mean_sd(v: &[f64]) -> (f64, f64) {
     (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt())
 }
 
+/// A case's scenario (the file `dir/file.toml` with `extra` added before its `[sensor]`), robot
+/// and calibration options (LM, Hayati; with `model_it`, compliance at every joint under the
+/// scenario's payload). Also the programs' bench's.
+pub(crate) fn case(dir: &Path, file: &str, extra: &str, model_it: bool) -> Result<(Scenario, twincal::robot::Robot, CalibOptions)> {
+    let path = dir.join(format!("{file}.toml"));
+    let text = std::fs::read_to_string(&path).map_err(|e| twincal::error::Error::io(&path, e))?.replacen("[sensor]", &format!("{extra}[sensor]"), 1);
+    let s = Scenario::from_toml(&text, file)?;
+    let robot = s.load_robot(Some(dir))?;
+    let mut opts = CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM);
+    if model_it {
+        opts.effects = (0..robot.dof()).map(|j| (EffectKind::JointCompliance, Some(j))).collect();
+        opts.loads.joints.payload = s.effects.payload.clone();
+    }
+    Ok((s, robot, opts))
+}
+
 /// Runs every case over `seeds` seeds and prints the table.
 pub fn bench_compensate(seeds: u64) -> Result<()> {
     let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios"));
@@ -46,15 +62,7 @@ pub fn bench_compensate(seeds: u64) -> Result<()> {
     );
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for (label, file, extra, model_it, poses) in CASES {
-        let path = dir.join(format!("{file}.toml"));
-        let text = std::fs::read_to_string(&path).map_err(|e| twincal::error::Error::io(&path, e))?.replacen("[sensor]", &format!("{extra}[sensor]"), 1);
-        let s = Scenario::from_toml(&text, file)?;
-        let robot = s.load_robot(Some(dir))?;
-        let mut opts = CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM);
-        if model_it {
-            opts.effects = (0..robot.dof()).map(|j| (EffectKind::JointCompliance, Some(j))).collect();
-            opts.loads.joints.payload = s.effects.payload.clone();
-        }
+        let (s, robot, opts) = case(dir, file, extra, model_it)?;
         let checks: Vec<SeedCheck> = (1..=seeds).map(|seed| verify_seed(&s, &robot, &opts, 100, seed, poses)).collect::<Result<_>>()?;
         let col = |f: &dyn Fn(&SeedCheck) -> f64| {
             let (m, sd) = mean_sd(&checks.iter().map(f).collect::<Vec<_>>());

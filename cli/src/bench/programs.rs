@@ -4,15 +4,12 @@
 //! the twin's true arm, AP (ISO 9283, one cycle) of each; geometric and compliance under a
 //! payload. Then the filter's speed on a 10 000-target RAPID module against its 2 s target.
 
-use super::compensate::{mean_sd, COMPLIANCE};
+use super::compensate::{case, mean_sd, COMPLIANCE};
 use std::path::Path;
 use std::time::Instant;
-use twincal::calib::effects::EffectKind;
-use twincal::calib::run::{CalibOptions, Method, ModelSpec, Parametrisation};
 use twincal::controller::filter::verify::{verify_program, ProgramCheck};
 use twincal::controller::Language;
 use twincal::error::Result;
-use twincal::sim::scenario::Scenario;
 
 /// The cases: (label, language, scenario, text added before `[sensor]`, whether the
 /// calibration models the compliance with the stated payload).
@@ -27,20 +24,6 @@ const CASES: [(&str, Language, &str, &str, bool); 6] = [
 
 /// Targets per program.
 const TARGETS: usize = 120;
-
-/// A case's scenario, robot and calibration options.
-fn case(dir: &Path, file: &str, extra: &str, model_it: bool) -> Result<(Scenario, twincal::robot::Robot, CalibOptions)> {
-    let path = dir.join(format!("{file}.toml"));
-    let text = std::fs::read_to_string(&path).map_err(|e| twincal::error::Error::io(&path, e))?.replacen("[sensor]", &format!("{extra}[sensor]"), 1);
-    let s = Scenario::from_toml(&text, file)?;
-    let robot = s.load_robot(Some(dir))?;
-    let mut opts = CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM);
-    if model_it {
-        opts.effects = (0..robot.dof()).map(|j| (EffectKind::JointCompliance, Some(j))).collect();
-        opts.loads.joints.payload = s.effects.payload.clone();
-    }
-    Ok((s, robot, opts))
-}
 
 /// Runs every case over `seeds` seeds and prints the table, then the speed.
 pub fn bench_programs(seeds: u64, repeat: usize) -> Result<()> {

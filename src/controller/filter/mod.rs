@@ -92,6 +92,13 @@ pub(crate) struct Site {
     pub left: Option<Left>,
 }
 
+impl Site {
+    /// Its numbers' values, in the layout's order.
+    fn values(&self) -> Vec<f64> {
+        self.nums.iter().map(|n| n.value).collect()
+    }
+}
+
 /// What the parser found in a program: its targets, the frames it declares, what it computes
 /// at run time.
 #[derive(Clone, Debug, Default)]
@@ -255,15 +262,28 @@ fn reader(lang: Language) -> &'static dyn Reader {
     }
 }
 
-/// The program `files` in `lang` filtered for the compensation `c` of an arm set up as `setup`,
-/// with the frames declared in `frames`; or what is wrong with the program (by file, line and
-/// column).
-pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[ProgramFile], frames: &[ProgramFile], o: &FilterOptions) -> Result<Filtered> {
+/// The program `files` read in `lang` with the frames `frames` declare, its default tool and
+/// frame (the flange, the base) declared where the program does not.
+fn parse(lang: Language, files: &[ProgramFile], frames: &[ProgramFile]) -> Result<Parsed> {
     let r = reader(lang);
     let mut parsed = r.parse(files, frames)?;
     let (tool0, frame0) = r.defaults();
     parsed.tools.entry(tool0.to_string()).or_insert(Some(Isometry3::identity()));
     parsed.frames.entry(frame0.to_string()).or_insert(Some(Isometry3::identity()));
+    Ok(parsed)
+}
+
+/// The arm's joints (rad) when the program starts: `--start-joints-deg`, else the middle of each
+/// joint's range.
+fn start_joints(c: &Compensator, o: &FilterOptions) -> Vec<f64> {
+    o.start_q.clone().unwrap_or_else(|| c.limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect())
+}
+
+/// The program `files` in `lang` filtered for the compensation `c` of an arm set up as `setup`,
+/// with the frames declared in `frames`; or what is wrong with the program (by file, line and
+/// column).
+pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[ProgramFile], frames: &[ProgramFile], o: &FilterOptions) -> Result<Filtered> {
+    let parsed = parse(lang, files, frames)?;
     if setup.n_joints != 6 && parsed.sites.iter().any(|s| s.layout.has_config() || s.layout.joints()) {
         return Err(Error::Invalid(format!("a {} program moves a six-axis arm; the model's has {} joints", lang.name(), setup.n_joints)));
     }
@@ -295,7 +315,7 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
             kind: if site.layout.joints() { "joints" } else { "pose" },
             tool: site.uses.first().map_or(String::new(), |u| u.0.clone()),
             frame: site.uses.first().map_or(String::new(), |u| u.1.clone()),
-            config_before: config_text(site, site.nums.iter().map(|n| n.value).collect::<Vec<_>>().as_slice()),
+            config_before: config_text(site, site.values().as_slice()),
             config_after: new.as_ref().map_or(String::new(), |v| config_text(site, v)),
             outcome,
             compensated,
@@ -308,7 +328,7 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
     // as another of the arm's solutions is left as written (until none is).
     let mut out = written(files, &parsed.sites, &edits);
     for _ in 0..READ_BACK_PASSES {
-        let wrong = read_back(&Arm { c, setup, o }, r, &out, frames, &parsed.sites, &plans, &targets)?;
+        let wrong = read_back(&Arm { c, setup, o }, lang, &out, frames, &parsed.sites, &plans, &targets)?;
         if wrong.is_empty() {
             break;
         }
@@ -333,17 +353,13 @@ pub fn read_program(
     frames: &[ProgramFile],
     o: &FilterOptions,
 ) -> Result<Vec<Option<Vec<f64>>>> {
-    let r = reader(lang);
-    let mut parsed = r.parse(files, frames)?;
-    let (tool0, frame0) = r.defaults();
-    parsed.tools.entry(tool0.to_string()).or_insert(Some(Isometry3::identity()));
-    parsed.frames.entry(frame0.to_string()).or_insert(Some(Isometry3::identity()));
+    let parsed = parse(lang, files, frames)?;
     let everything = FilterOptions { joint_targets: true, leave: Vec::new(), start_q: o.start_q.clone() };
     let (_, mut wn) = c.works();
-    let mut last: Vec<f64> = o.start_q.clone().unwrap_or_else(|| c.limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect());
+    let mut last = start_joints(c, o);
     let mut out = Vec::with_capacity(parsed.sites.len());
     for s in &parsed.sites {
-        let v: Vec<f64> = s.nums.iter().map(|n| n.value).collect();
+        let v = s.values();
         let q = match plan(s, &parsed, &everything).frames {
             _ if s.layout.joints() && !v.is_empty() => Some(joints_of(s.layout, &v)),
             Ok(f) if !v.is_empty() => {
@@ -391,11 +407,11 @@ fn written(files: &[ProgramFile], sites: &[Site], edits: &[Vec<(std::ops::Range<
 }
 
 /// The filtered targets of a program without configuration data that its controller, reading
-/// the filtered files target by target from where the arm stands, commands to a place the
-/// calibrated model does not put the tool on the written target: their indices.
+/// the filtered files target by target from where the arm stands ([`read_program`]), commands
+/// to a place the calibrated model does not put the tool on the written target: their indices.
 fn read_back(
     arm: &Arm,
-    r: &dyn Reader,
+    lang: Language,
     out: &[ProgramFile],
     frames: &[ProgramFile],
     sites: &[Site],
@@ -403,36 +419,18 @@ fn read_back(
     targets: &[TargetReport],
 ) -> Result<Vec<usize>> {
     let Arm { c, setup, o } = *arm;
-    if !sites.iter().zip(targets).any(|(s, t)| t.outcome == Outcome::Filtered && !s.layout.has_config() && !s.layout.joints()) {
+    let checked = |s: &Site, t: &TargetReport| t.outcome == Outcome::Filtered && !s.layout.has_config() && !s.layout.joints();
+    if !sites.iter().zip(targets).any(|(s, t)| checked(s, t)) {
         return Ok(Vec::new());
     }
-    let now = r.parse(out, frames)?.sites;
-    let (_, mut wn) = c.works();
-    let mut last: Vec<f64> = o.start_q.clone().unwrap_or_else(|| c.limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect());
+    let read = read_program(c, setup, lang, out, frames, o)?;
     let mut wrong = Vec::new();
     for (k, ((s, p), t)) in sites.iter().zip(plans).zip(targets).enumerate() {
-        let values: Vec<f64> = now[k].nums.iter().map(|n| n.value).collect();
-        match &p.frames {
-            _ if s.layout.joints() && !values.is_empty() && !s.uses.is_empty() => {
-                last = match (&t.outcome, &t.compensated) {
-                    (Outcome::Filtered, Some(k)) => k.command_q.clone(),
-                    _ => joints_of(s.layout, &values),
-                }
+        if let (true, Ok(f)) = (checked(s, t), &p.frames) {
+            let (ap, ar) = model_pose(setup, s.layout, &s.values(), f);
+            if !read[k].as_ref().is_some_and(|q| c.reaches(q, &ap, &ar, 3.0)) {
+                wrong.push(k);
             }
-            Ok(f) if !s.layout.has_config() && !s.layout.joints() => {
-                let (tp, tr) = model_pose(setup, s.layout, &values, f);
-                let read = c.nominal_pose_nearest(&tp, &tr, &last, &mut wn);
-                if t.outcome == Outcome::Filtered {
-                    let (ap, ar) = model_pose(setup, s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>(), f);
-                    if !read.as_ref().is_some_and(|q| c.reaches(q, &ap, &ar, 3.0)) {
-                        wrong.push(k);
-                    }
-                }
-                if let Some(q) = read {
-                    last = q;
-                }
-            }
-            _ => {}
         }
     }
     Ok(wrong)
@@ -499,7 +497,7 @@ fn solve_all(c: &Compensator, setup: &Setup, sites: &[Site], plans: &[Plan], o: 
         .collect();
     let (mut wc, mut wn) = c.works();
     // Where the program as written leaves the arm, and where the filtered program does.
-    let start: Vec<f64> = o.start_q.clone().unwrap_or_else(|| c.limits().iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect());
+    let start = start_joints(c, o);
     let (mut nominal_last, mut command_last) = (start.clone(), start);
     for (k, (s, p)) in sites.iter().zip(plans).enumerate() {
         if let (Ok(f), Solved::Skipped) = (&p.frames, &out[k]) {
@@ -513,7 +511,7 @@ fn solve_all(c: &Compensator, setup: &Setup, sites: &[Site], plans: &[Plan], o: 
                     match solved {
                         Solved::Done(done, values) if done.status == Status::Reachable => {
                             let (tp, tr) = model_pose(setup, s.layout, &values, f);
-                            let (ap, ar) = model_pose(setup, s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>(), f);
+                            let (ap, ar) = model_pose(setup, s.layout, &s.values(), f);
                             match c.nominal_pose_nearest(&tp, &tr, &command_last, &mut wn) {
                                 // Two solves, each within the tolerance: within three times it.
                                 Some(q) if c.reaches(&q, &ap, &ar, 3.0) => (Solved::Done(done, values), Some(q)),
@@ -542,7 +540,7 @@ fn solve_all(c: &Compensator, setup: &Setup, sites: &[Site], plans: &[Plan], o: 
             command_last = match read {
                 Some(q) => q,
                 None => {
-                    let (ap, ar) = model_pose(setup, s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>(), f);
+                    let (ap, ar) = model_pose(setup, s.layout, &s.values(), f);
                     c.nominal_pose_nearest(&ap, &ar, &command_last, &mut wn).unwrap_or(command_last)
                 }
             };
@@ -556,7 +554,7 @@ fn solve_all(c: &Compensator, setup: &Setup, sites: &[Site], plans: &[Plan], o: 
                 command_last = if done.status == Status::Reachable { done.command_q.clone() } else { done.nominal_q.clone() };
             }
             _ if s.layout.joints() && !s.nums.is_empty() && !s.uses.is_empty() => {
-                nominal_last = joints_of(s.layout, &s.nums.iter().map(|n| n.value).collect::<Vec<_>>());
+                nominal_last = joints_of(s.layout, &s.values());
                 command_last = nominal_last.clone();
             }
             _ => {}
@@ -583,7 +581,7 @@ fn solve_site(
     wc: &mut crate::ik::IkWork,
     wn: &mut crate::ik::IkWork,
 ) -> Solved {
-    let v: Vec<f64> = s.nums.iter().map(|n| n.value).collect();
+    let v = s.values();
     if s.layout.joints() {
         let q = joints_of(s.layout, &v);
         let (p, r) = c.nominal_pose(&q, wn);
@@ -620,8 +618,8 @@ fn judge(site: &Site, k: &Compensated, new: Vec<f64>, (tol_mm, tol_deg): (f64, f
     if k.status != Status::Reachable {
         return (Outcome::NotReached(k.status), None, Some(k.clone()));
     }
-    let old: Vec<f64> = site.nums.iter().map(|n| n.value).collect();
-    if let (_, Some(cfg)) = (site.layout.has_config(), pose_config(site.layout, &old)) {
+    let old = site.values();
+    if let Some(cfg) = pose_config(site.layout, &old) {
         if !branch::agrees(site.layout, &cfg, &k.command_q, setup) {
             return (Outcome::BranchChange, Some(new), Some(k.clone()));
         }
@@ -635,7 +633,7 @@ fn judge(site: &Site, k: &Compensated, new: Vec<f64>, (tol_mm, tol_deg): (f64, f
 /// How far the new numbers move the target: its TCP (mm) and its orientation or its largest
 /// joint change (degrees).
 fn moved(site: &Site, new: &[f64]) -> (Option<f64>, Option<f64>) {
-    let old: Vec<f64> = site.nums.iter().map(|n| n.value).collect();
+    let old = site.values();
     if site.layout.joints() {
         let a = joints_of(site.layout, &old);
         let b = joints_of(site.layout, new);

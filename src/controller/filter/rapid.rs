@@ -2,7 +2,7 @@
 //! inline in a motion), the `tooldata` and `wobjdata` they are moved with, and the motions of
 //! `MoveL`, `MoveJ`, `MoveC`, their `DO` forms and `MoveAbsJ`.
 
-use super::text::{self, error_at, group_end, is_name, numbers_in, split_top, trim};
+use super::text::{self, error_at, group_end, is_name, numbers_in, split_top, split_top_at, trim};
 use super::{Layout, Left, Parsed, Reader, RunTime, Site};
 use crate::controller::ProgramFile;
 use crate::error::Result;
@@ -273,26 +273,12 @@ fn arguments(m: &str, args: Range<usize>) -> (Vec<Range<usize>>, Option<String>)
     let mut positional = Vec::new();
     let mut wobj = None;
     for part in split_top(m, args) {
-        // A part is `[\Opt ...] value [\Opt:=v ...]`: cut at each top-level backslash.
-        let b = m.as_bytes();
-        let mut pieces = Vec::new();
-        let (mut depth, mut start) = (0i32, part.start);
-        for i in part.clone() {
-            match b[i] {
-                b'[' | b'(' | b'{' => depth += 1,
-                b']' | b')' | b'}' => depth -= 1,
-                b'\\' if depth == 0 => {
-                    pieces.push(start..i);
-                    start = i;
-                }
-                _ => {}
-            }
-        }
-        pieces.push(start..part.end);
-        for piece in pieces {
+        // A part is `[\Opt ...] value [\Opt:=v ...]`: what follows each top-level backslash is
+        // an optional argument, what precedes the first one the positional argument.
+        for (j, piece) in split_top_at(m, part, b'\\').into_iter().enumerate() {
             let t = m[piece.clone()].trim();
-            if let Some(opt) = t.strip_prefix('\\') {
-                if let Some(v) = opt.split_once(":=").filter(|(k, _)| k.trim().eq_ignore_ascii_case("WObj")) {
+            if j > 0 {
+                if let Some(v) = t.split_once(":=").filter(|(k, _)| k.trim().eq_ignore_ascii_case("WObj")) {
                     wobj = Some(v.1.trim().to_ascii_lowercase());
                 }
             } else if !t.is_empty() {

@@ -153,7 +153,7 @@ fn parse_values(files: &[ProgramFile], name: &str, lang: Language, k: usize) -> 
     let p = reader(lang).parse(files, &frames).unwrap();
     let s = &p.sites[k];
     assert_eq!(s.name, name);
-    s.nums.iter().map(|n| n.value).collect()
+    s.values()
 }
 
 #[test]

@@ -260,13 +260,19 @@ fn at_text(text: &str, at: usize) -> String {
 
 /// Splits `range` of the masked `text` at the commas outside brackets: the ranges of the parts.
 pub(crate) fn split_top(text: &str, range: Range<usize>) -> Vec<Range<usize>> {
+    split_top_at(text, range, b',')
+}
+
+/// Splits `range` of the masked `text` at each `separator` outside brackets: the ranges of the
+/// parts, the separators left out.
+pub(crate) fn split_top_at(text: &str, range: Range<usize>, separator: u8) -> Vec<Range<usize>> {
     let b = text.as_bytes();
     let (mut depth, mut start, mut out) = (0i32, range.start, Vec::new());
     for i in range.clone() {
         match b[i] {
             b'[' | b'{' | b'(' => depth += 1,
             b']' | b'}' | b')' => depth -= 1,
-            b',' if depth == 0 => {
+            c if c == separator && depth == 0 => {
                 out.push(start..i);
                 start = i + 1;
             }

@@ -87,7 +87,7 @@ fn set_tcp(name: &str, src: &str, m: &str, line: Range<usize>, p: &mut Parsed, v
         let (_, nums) = literal(name, src, m, arg.start)?;
         Some(pose_mm(&nums.iter().map(|n| n.value).collect::<Vec<_>>()))
     } else {
-        vars.get(m[arg.clone()].trim()).map(|&k| pose_mm(&p.sites[k].nums.iter().map(|n| n.value).collect::<Vec<_>>()))
+        vars.get(m[arg.clone()].trim()).map(|&k| pose_mm(&p.sites[k].values()))
     };
     if let Some(t) = pose {
         p.tools.insert(key.clone(), Some(t));

@@ -19,7 +19,7 @@
 use super::sample::{pose_layout, SampleProgram};
 use super::{filter_program, FilterOptions, Outcome, Setup};
 use crate::calib::run::{calibrate, CalibOptions};
-use crate::compensate::verify::{data_ranges, execute};
+use crate::compensate::verify::{calibration_rows, data_ranges, execute};
 use crate::compensate::{nominal_x, Compensator};
 use crate::controller::Language;
 use crate::error::{Error, Result};
@@ -102,8 +102,7 @@ pub fn verify_program(s: &Scenario, robot: &Robot, opts: &CalibOptions, lang: La
     let x_nom = nominal_x(&r);
     let c = Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
     let setup = Setup::new(&r, &x_nom, Some(robot));
-    let reg_q: Vec<Vec<f64>> = g.dataset.rows.iter().map(|row| row.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
-    let reg_true: Vec<Vector3<f64>> = g.truth.poses.iter().map(|p| Vector3::from(p.tool_mm)).collect();
+    let (reg_q, reg_true) = calibration_rows(&g);
     let (rot, tr) = c.registration(&reg_q, &reg_true, false);
     // The targets: the twin's true tool points, in the calibrated model's frame.
     let configurations = walk(&data_ranges(&g), n_targets, seed);
