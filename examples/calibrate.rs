@@ -5,7 +5,7 @@
 //!
 //! `cargo run --release --example calibrate [SEED]` (CI runs it with the default seed).
 
-use twincal::calib::run::calibrate;
+use twincal::calib::pipeline::calibrate;
 use twincal::dataset::truth::TruthFile;
 use twincal::requests::CalibrateRequest;
 use twincal::sim::generate::{generate, output_texts, Silent};

@@ -8,7 +8,7 @@
 //! keeps its nominal value, and the scenario's comments say which.
 
 use crate::calib::effects::EffectKind;
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::measurement::Measurement;
@@ -61,8 +61,8 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
 
     let sigma = reading_sigma(r, &mut notes);
     let lengths = m.measurement.file_lengths();
-    let reading_decimals = crate::calib::problem::floor::logging_decimals(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
-    let logged_decimals = crate::calib::problem::floor::logging_decimals(data.rows.iter().flat_map(|row| row.q_deg.iter().copied())).filter(|d| *d < 6);
+    let reading_decimals = crate::calib::fit::floor::logging_decimals(data.rows.iter().flat_map(|row| row.reading_mm.iter().take(lengths).copied()));
+    let logged_decimals = crate::calib::fit::floor::logging_decimals(data.rows.iter().flat_map(|row| row.q_deg.iter().copied())).filter(|d| *d < 6);
     if let Some(d) = logged_decimals {
         notes.push(format!("Joint angles logged at {d} decimals of a degree, as the data are."));
     }
@@ -140,7 +140,7 @@ fn header_notes(r: &CalibResult, data: &Dataset, has_nominal: bool, how: &str, u
 /// The reading noise: the data's, less what the logging steps already give (mm per value).
 fn reading_sigma(r: &CalibResult, notes: &mut Vec<String>) -> f64 {
     let floor = r.evaluation.noise_floor.as_ref();
-    use crate::calib::problem::floor::FloorKind;
+    use crate::calib::fit::floor::FloorKind;
     let part = |kind: FloorKind| floor.map_or(0.0, |f| f.part(kind));
     let (angle_part, reading_part) = (part(FloorKind::AngleResolution), part(FloorKind::ReadingResolution));
     let sigma = (r.solve.noise_estimate_mm.powi(2) - angle_part.powi(2) - reading_part.powi(2)).max(0.0).sqrt();
@@ -343,7 +343,7 @@ pub const MIN_CARRIED_Z: f64 = 2.0;
 /// Whether the data showed the block whose parameter reports are `params` (the result's
 /// `parameters` over the block's range): identifiable, with a parameter at least
 /// [`MIN_CARRIED_Z`] standard uncertainties from zero; else a note says why it is left out.
-fn shown_by_the_data(params: &[crate::calib::run::ParamReport], notes: &mut Vec<String>, label: &str) -> bool {
+fn shown_by_the_data(params: &[crate::calib::pipeline::ParamReport], notes: &mut Vec<String>, label: &str) -> bool {
     if params.is_empty() {
         return true;
     }
@@ -417,7 +417,7 @@ fn heavy_tails(r: &CalibResult, data: &Dataset) -> Option<(f64, f64, usize)> {
     let predicted = r.predict_rows(data);
     let res: Vec<f64> = data.rows.iter().zip(&predicted).filter_map(|(row, p)| Some(row.values_mm()?.first()? - p)).filter(|v| v.is_finite()).collect();
     let (med, scale) = crate::stats::robust_scale(&res);
-    let kept: Vec<f64> = res.iter().copied().filter(|v| (v - med).abs() <= crate::calib::run::DEFAULT_OUTLIER_K * scale).collect();
+    let kept: Vec<f64> = res.iter().copied().filter(|v| (v - med).abs() <= crate::calib::pipeline::DEFAULT_OUTLIER_K * scale).collect();
     let n = kept.len();
     if n < 50 {
         return None;

@@ -44,7 +44,7 @@
 //! ```
 
 pub use crate::calib::effects::{EffectChoice, EffectKind};
-pub use crate::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec, Parametrisation};
+pub use crate::calib::pipeline::{calibrate, CalibOptions, CalibResult, Method, ModelSpec, Parametrisation};
 pub use crate::compensate::{nominal_x, Compensated, Compensator, Status, Target};
 pub use crate::dataset::{Dataset, ReadOptions};
 pub use crate::diagnose::{diagnose, DiagnoseOptions, Diagnosis};

@@ -82,7 +82,7 @@ pub enum Command {
         reading: commands::Reading,
         /// Rows a station the model was not calibrated at is registered on (its first ones, then
         /// not unseen); 0 refuses such a station.
-        #[arg(long, default_value_t = twincal::calib::run::DEFAULT_REGISTER_ROWS)]
+        #[arg(long, default_value_t = twincal::calib::pipeline::DEFAULT_REGISTER_ROWS)]
         register_rows: usize,
         #[arg(long, default_value = "predictions.csv")]
         out: PathBuf,

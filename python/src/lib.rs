@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
-use twincal::calib::run::{CalibResult, TruthFile};
+use twincal::calib::pipeline::{CalibResult, TruthFile};
 use twincal::dataset::AngleUnit;
 use twincal::dataset::{ColumnValues, Dataset};
 use twincal::jobs::{self, CalibrateJob, Calibration, CompareJob, CompareRequest, Compared, DiagnoseJob, Diagnosed, ReplayJob, ReplayRequest};
@@ -345,7 +345,7 @@ impl PyCalibration {
 
     /// Readings the model predicts for the rows of `data` (columns q1..qN, and whatever else
     /// the model reads), in the file's reading columns: an (n, d) array.
-    #[pyo3(signature = (data, angles="auto", euler="XYZ", register_rows=twincal::calib::run::DEFAULT_REGISTER_ROWS))]
+    #[pyo3(signature = (data, angles="auto", euler="XYZ", register_rows=twincal::calib::pipeline::DEFAULT_REGISTER_ROWS))]
     fn predict<'py>(
         &self,
         py: Python<'py>,
@@ -670,7 +670,7 @@ fn plan(py: Python<'_>, out: PathBuf, options: &str) -> PyResult<String> {
 #[pyfunction]
 fn iso9283(py: Python<'_>, data: PathBuf, models: Vec<PathBuf>, options: &str) -> PyResult<String> {
     let reading: twincal::requests::Reading = request("iso9283", options)?;
-    let job = jobs::Iso9283Job { data, model: models, reading, out: None, report: None, register_rows: twincal::calib::run::DEFAULT_REGISTER_ROWS };
+    let job = jobs::Iso9283Job { data, model: models, reading, out: None, report: None, register_rows: twincal::calib::pipeline::DEFAULT_REGISTER_ROWS };
     let e = released(py, None, |_| job.run())?;
     serde_json::to_string(&e).map_err(|e| TwincalError::new_err(format!("cannot serialise the evaluation: {e}")))
 }

@@ -29,7 +29,7 @@ mod tests;
 
 use crate::calib::correctors::Correct;
 use crate::calib::effects::inputs::TorqueModel;
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::error::{Error, Result};
 use crate::ik::{solver::check_tol_mm, IkModel, IkOptions, IkStatus, IkWork, JacobianKind};
 use crate::measurement::Euler;

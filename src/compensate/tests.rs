@@ -1,5 +1,5 @@
 use super::verify::verify_seed;
-use crate::calib::run::{CalibOptions, Method, ModelSpec, Parametrisation};
+use crate::calib::pipeline::{CalibOptions, Method, ModelSpec, Parametrisation};
 use crate::sim::scenario::Scenario;
 
 fn scenario(name: &str, extra: &str) -> (Scenario, crate::robot::Robot) {

@@ -17,7 +17,7 @@
 //! distance between the attained point and the target in the twin's frame.
 
 use super::{nominal_x, Compensator, Status, Target};
-use crate::calib::run::{calibrate, CalibOptions, CalibResult};
+use crate::calib::pipeline::{calibrate, CalibOptions, CalibResult};
 use crate::error::{Error, Result};
 use crate::measurement::Euler;
 use crate::robot::Robot;

@@ -8,7 +8,7 @@
 //! and are refused.
 
 use super::Language;
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::error::{Error, Result};
 use crate::robot::kinematics::rpy;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};

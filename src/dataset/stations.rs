@@ -3,7 +3,7 @@
 //! the same, so a calibration fits one placement per station. Stations come from the rows'
 //! `station` column (declared), from a declared `block` column when the user says blocks are
 //! stations, or from change points a first fit finds in the residuals
-//! ([`crate::calib::run::setup`]), which label the rows the same way. The target's mounts on the
+//! ([`crate::calib::pipeline::setup`]), which label the rows the same way. The target's mounts on the
 //! flange (a probe re-mounted) are labelled alike, in a `mount` column.
 
 use super::types::Dataset;

@@ -2,7 +2,7 @@
 //!
 //! A run of rows far off the model is a fault of the acquisition, not of the model, and there
 //! is more than one kind: the reading jumped (a reading step, see
-//! [`crate::calib::problem::robust::reading_steps`]), one joint's logged angle is wrong over the run (an
+//! [`crate::calib::fit::robust::reading_steps`]), one joint's logged angle is wrong over the run (an
 //! offset, the wrong sign, a value the controller stopped updating, two joints in each other's
 //! columns), or the instrument was moved. Each hypothesis is a correction of the run's rows
 //! with few or no free numbers; the model (fitted on the kept rows) predicts the corrected
@@ -10,8 +10,8 @@
 //! with its evidence, when it stands clear of the runner-up. Otherwise the run is unexplained
 //! (a jumble). The rows stay out of the fits either way; the report says why they are off.
 
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::optim::{LevenbergMarquardt, NoObserver};
 use serde::{Deserialize, Serialize};
 

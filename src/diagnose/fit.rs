@@ -5,9 +5,9 @@
 use super::options::*;
 use super::report::*;
 use crate::calib::effects::{EffectBlock, Size};
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::{ReadingFit, Samples};
-use crate::calib::run::identify;
+use crate::calib::pipeline::identify;
 use crate::optim::{LevenbergMarquardt, NoObserver};
 use crate::stats::nested_f_test_deff;
 use crate::stats::rms;

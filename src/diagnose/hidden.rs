@@ -10,8 +10,8 @@
 
 use crate::calib::effects::inputs::{row_inputs, JointLoads, TorqueModel};
 use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::{Dataset, Row};
 use crate::error::{Error, Result};
 use crate::optim::LeastSquares;
@@ -213,8 +213,8 @@ pub fn realistic(seed: u64, decimals: usize) -> Result<(Scenario, Robot)> {
 /// of realistic data must rise above.
 pub fn logging_floor_mm(s: &Scenario, robot: &Robot, step_deg: f64) -> Result<f64> {
     let (_, model, samples) = nominal_at_poses(s, robot)?;
-    let step = crate::calib::problem::floor::Step::Given(step_deg);
-    let f = crate::calib::problem::floor::noise_floor(&model, &model.nominal, &samples, Some(step), None, None, Default::default());
+    let step = crate::calib::fit::floor::Step::Given(step_deg);
+    let f = crate::calib::fit::floor::noise_floor(&model, &model.nominal, &samples, Some(step), None, None, Default::default());
     Ok(f.total_mm)
 }
 

@@ -1,7 +1,7 @@
 //! The diagnosis's options and their defaults.
 
 use crate::calib::effects::EffectKind;
-use crate::calib::run::{CalibOptions, FloorOptions, LoadOptions, Method, ModelSpec, ScreenOptions, SplitOptions, StationSource, DEFAULT_RANK_TOL};
+use crate::calib::pipeline::{CalibOptions, FloorOptions, LoadOptions, Method, ModelSpec, ScreenOptions, SplitOptions, StationSource, DEFAULT_RANK_TOL};
 
 /// Settings of a diagnosis.
 #[derive(Clone, Debug)]
@@ -35,7 +35,7 @@ pub struct DiagnoseOptions {
     /// The data's floor and the rows' weights.
     pub floor: FloorOptions,
     /// Where the instrument's stations come from (resolved by the job before the rows are
-    /// diagnosed: [`crate::calib::run::setup::resolve_stations`]).
+    /// diagnosed: [`crate::calib::pipeline::setup::resolve_stations`]).
     pub stations: StationSource,
 }
 

@@ -8,9 +8,9 @@ use super::screen::*;
 use super::select::*;
 use crate::calib::effects::inputs::time_span;
 use crate::calib::effects::EffectBlock;
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::{ReadingFit, Samples};
-use crate::calib::run::identify;
+use crate::calib::pipeline::identify;
 use crate::dataset::blocks::Structure;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
@@ -29,7 +29,7 @@ use std::time::Instant;
 /// should it keep neither, on the rows the geometric screen kept.
 ///
 /// Example: the whole job (the twin's data, this call, the others) runs as a doctest in [`crate::prelude`].
-pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
+pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str)) -> Result<(Diagnosis, crate::calib::pipeline::CalibResult)> {
     if opts.folds < 2 || opts.folds > 20 {
         return Err(Error::Invalid(format!("--folds must be in 2..=20, got {}", opts.folds)));
     }
@@ -37,7 +37,7 @@ pub fn diagnose(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str))
     // The exported model holds the named causes' blocks, in the order they were kept.
     let Some(b) = screened_with else { return Ok((d, r)) };
     // Blocks compared without their refinements (a thermal block's sensor lag).
-    let holds = |r: &crate::calib::run::CalibResult, b: &EffectBlock| r.model.effects.iter().any(|e| e.unrefined() == b.unrefined());
+    let holds = |r: &crate::calib::pipeline::CalibResult, b: &EffectBlock| r.model.effects.iter().any(|e| e.unrefined() == b.unrefined());
     if holds(&r, &b) {
         return Ok((d, r));
     }
@@ -68,10 +68,10 @@ pub(super) struct Prepared {
     /// The screen's kept rows (indices into `all`), outliers, their runs, the geometric fit on
     /// the kept rows, and the reading steps.
     pub(super) keep: Vec<usize>,
-    pub(super) outliers: Vec<crate::calib::problem::robust::Outlier>,
-    pub(super) outlier_runs: Vec<crate::calib::problem::robust::OutlierRun>,
+    pub(super) outliers: Vec<crate::calib::fit::robust::Outlier>,
+    pub(super) outlier_runs: Vec<crate::calib::fit::robust::OutlierRun>,
     pub(super) x_base: Vec<f64>,
-    pub(super) reading_steps: Vec<crate::calib::problem::robust::ReadingStep>,
+    pub(super) reading_steps: Vec<crate::calib::fit::robust::ReadingStep>,
     pub(super) screened_with: Option<EffectBlock>,
     pub(super) first_flagged: Vec<usize>,
     /// What went wrong in each run of outlier rows and each reading step.
@@ -84,11 +84,11 @@ pub(super) struct Prepared {
 /// [`Prepared`] rows for [`diagnose_screened`].
 pub(super) fn prepare_rows(data: &Dataset, opts: &DiagnoseOptions, progress: &dyn Fn(&str), by: ScreenBy) -> Result<Prepared> {
     // Every row needs its reading: a cable length, or a tracker's point (x, y, z).
-    let measurement = crate::calib::run::reading_measurement(data)?;
+    let measurement = crate::calib::pipeline::reading_measurement(data)?;
     let dim = measurement.dim();
     // The calibration's stages on every row (no split: the diagnosis cross-validates), with
     // every row's inputs; the diagnosis screens the rows itself, inputs included.
-    let prepared = crate::calib::run::prepare(data, &opts.baseline_options(), true)?;
+    let prepared = crate::calib::pipeline::prepare(data, &opts.baseline_options(), true)?;
     let base = prepared.model;
     let torque = prepared.split.torque_model;
     // Torques exist where something loads the joints: link masses (the nominal robot's or
@@ -168,7 +168,7 @@ pub(super) fn rejoin_explained(
     all: &Samples,
     data: &Dataset,
     (kept, kept_rows, keep): (Samples, Dataset, Vec<usize>),
-    (outliers, runs): (&mut Vec<crate::calib::problem::robust::Outlier>, &mut Vec<crate::calib::problem::robust::OutlierRun>),
+    (outliers, runs): (&mut Vec<crate::calib::fit::robust::Outlier>, &mut Vec<crate::calib::fit::robust::OutlierRun>),
     outlier_k: f64,
     progress: &dyn Fn(&str),
 ) -> (Samples, Dataset, Vec<usize>, Vec<usize>) {
@@ -182,7 +182,7 @@ pub(super) fn rejoin_explained(
         explained.iter().map(|i| i + 1).collect::<Vec<_>>()
     ));
     outliers.retain(|o| !explained.contains(&(o.row - 1)));
-    *runs = crate::calib::problem::robust::runs(outliers);
+    *runs = crate::calib::fit::robust::runs(outliers);
     let keep: Vec<usize> = (0..all.len()).filter(|i| !outliers.iter().any(|o| o.row == i + 1)).collect();
     let rows = data.subset(&keep);
     (all.subset(&keep), rows, keep, explained)
@@ -192,7 +192,7 @@ pub(super) fn rejoin_explained(
 /// by their noise model); its sizes, its residual and the --result file all come from this one
 /// fit. Each cause's uncertainty counts the rows its blocks share (`groups`).
 pub(super) struct FinalFit {
-    pub(super) id: crate::calib::problem::identify::Identifiability,
+    pub(super) id: crate::calib::fit::identify::Identifiability,
     pub(super) x: Vec<f64>,
     pub(super) train_rmse_mm: f64,
     pub(super) covs: Covariances,
@@ -223,7 +223,7 @@ pub(super) fn diagnose_screened(
     opts: &DiagnoseOptions,
     progress: &dyn Fn(&str),
     by: ScreenBy,
-) -> Result<(Diagnosis, crate::calib::run::CalibResult, Option<EffectBlock>)> {
+) -> Result<(Diagnosis, crate::calib::pipeline::CalibResult, Option<EffectBlock>)> {
     let t0 = Instant::now();
     let mut prepared = prepare_rows(data, opts, progress, by)?;
     let screened_with = prepared.screened_with.take();
@@ -282,9 +282,16 @@ pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     // with that whitening absorbs the sweeps' shared logging error (see `final_whitening`).
     let rewhitened = |m: &Fitted| final_whitening(kept.clone(), p.noise_model.clone(), &p.all, m, data, blocks, keep).0;
     let not_physical = drop_not_physical(&chain, &found, &rewhitened, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
-    let repeat = crate::calib::run::reading_repeatability(&kept_rows);
-    let floor =
-        crate::calib::run::floor_stage(base, &baseline.x, &kept_rows, &kept, opts.floor.angle_step_deg, opts.floor.instrument_accuracy_mm, repeat.as_ref());
+    let repeat = crate::calib::pipeline::reading_repeatability(&kept_rows);
+    let floor = crate::calib::pipeline::floor_stage(
+        base,
+        &baseline.x,
+        &kept_rows,
+        &kept,
+        opts.floor.angle_step_deg,
+        opts.floor.instrument_accuracy_mm,
+        repeat.as_ref(),
+    );
     let below_floor = drop_below_floor(&found, &chain, &floor, ctx.groups.as_deref(), &mut confirmed, progress);
     found.truncate(confirmed);
     let current = chain[confirmed].clone();
@@ -323,7 +330,7 @@ pub(super) fn final_stage(
     p: Prepared,
     sel: Selected,
     t0: Instant,
-) -> Result<(Diagnosis, crate::calib::run::CalibResult)> {
+) -> Result<(Diagnosis, crate::calib::pipeline::CalibResult)> {
     let Prepared {
         base,
         torque,
@@ -358,7 +365,7 @@ pub(super) fn final_stage(
     let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
     warnings.extend(attributions(&found, &causes));
-    let fitted = crate::calib::run::FittedModel {
+    let fitted = crate::calib::pipeline::FittedModel {
         model: current.model.clone(),
         x0: base_start(&current.model, &x_base),
         x: final_x,
@@ -366,7 +373,7 @@ pub(super) fn final_stage(
         torque_model: torque,
     };
     // The data's own floor: repeatability and logging resolutions, never the fit's residual.
-    let result = crate::calib::run::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.floor.angle_step_deg, opts.floor.instrument_accuracy_mm)?;
+    let result = crate::calib::pipeline::result_of_fit(&kept_rows, &kept, fitted, opts.seed, opts.floor.angle_step_deg, opts.floor.instrument_accuracy_mm)?;
     let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
     let (noise_floor_mm, noise_floor_source, current_oof) = (noise_floor.total_mm, floor_source_text(&noise_floor), rms(&current.oof));
     warnings.extend(leak_on_positions(&current.oof, measurement, ctx.groups.as_deref(), &noise_floor, shared));
@@ -428,7 +435,7 @@ fn verdict_with(causes: &[Cause], unexplained: bool) -> String {
 /// The final fit's held-out residual where it stays above [`UNEXPLAINED_RATIO`] times a floor the
 /// data measure: how far, and where it concentrates. The position values alone are compared
 /// with the floor (a 6-D pose's axes have a noise of their own).
-pub(super) fn unexplained_note(current: &Fitted, rows: &Samples, floor: &crate::calib::problem::floor::NoiseFloor, data: &Dataset) -> Option<String> {
+pub(super) fn unexplained_note(current: &Fitted, rows: &Samples, floor: &crate::calib::fit::floor::NoiseFloor, data: &Dataset) -> Option<String> {
     let measured_floor = floor.sources.iter().filter(|s| s.source.measured()).map(|s| s.rms_mm * s.rms_mm).sum::<f64>().sqrt();
     let d = rows.dim;
     if measured_floor <= 0.0 || current.oof.len() != rows.len() * d {
@@ -480,7 +487,7 @@ fn leak_on_positions(
     oof: &[f64],
     m: crate::measurement::Measurement,
     groups: Option<&[usize]>,
-    floor: &crate::calib::problem::floor::NoiseFloor,
+    floor: &crate::calib::fit::floor::NoiseFloor,
     shared: bool,
 ) -> Option<String> {
     if floor.by_group.is_empty() {
@@ -504,7 +511,7 @@ fn baseline_report(model: &str, baseline: &Fitted, base_in: &[f64], blocked: f64
 
 /// Where the floor comes from, as one line: each source with its RMS, and a note when it is a
 /// lower bound (no repeated configurations).
-pub(super) fn floor_source_text(floor: &crate::calib::problem::floor::NoiseFloor) -> String {
+pub(super) fn floor_source_text(floor: &crate::calib::fit::floor::NoiseFloor) -> String {
     let mut text: Vec<String> = floor.sources.iter().map(|s| format!("{} {:.4} mm: {}", s.source, s.rms_mm, s.detail)).collect();
     if !floor.is_measured() {
         text.push("no repeated configurations: the reading's repeatability is unknown, so this is a lower bound".into());

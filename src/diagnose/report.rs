@@ -1,8 +1,8 @@
 //! What a diagnosis reports (`diagnosed.json`): the evidence, the selection's steps, the causes
 //! with their sizes, the baseline and the final model's held-out error.
 
-pub use crate::calib::problem::gls::NoiseModel;
-pub use crate::calib::problem::robust::{Outlier, OutlierRun};
+pub use crate::calib::fit::gls::NoiseModel;
+pub use crate::calib::fit::robust::{Outlier, OutlierRun};
 use crate::dataset::blocks::Structure;
 use serde::{Deserialize, Serialize};
 
@@ -153,7 +153,7 @@ pub struct Diagnosis {
     /// Where the instrument stood, when it stood at more than one station: each station's rows
     /// and its shift and turn from the first (set-up changes declared or found as change points).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub setup: Option<crate::calib::run::SetupReport>,
+    pub setup: Option<crate::calib::pipeline::SetupReport>,
     /// Rows kept out of the fits as outliers.
     pub outliers: Vec<Outlier>,
     /// Runs of consecutive outlier rows.
@@ -165,18 +165,18 @@ pub struct Diagnosis {
     /// Stretches of the acquisition whose readings sit one constant offset off (the reading
     /// jumped and stayed): a cause of the sensor, corrected and kept, not fitted by the model.
     #[serde(default)]
-    pub reading_steps: Vec<crate::calib::problem::robust::ReadingStep>,
+    pub reading_steps: Vec<crate::calib::fit::robust::ReadingStep>,
     /// What went wrong in each run of outlier rows and each reading step: the hypothesis that
     /// explains the rows as logged (the reading, one joint's logged angle, the instrument), or
     /// `unexplained` ([`faults`](crate::diagnose::faults)).
     #[serde(default)]
     pub run_faults: Vec<super::faults::RunFault>,
-    /// The data's own floor ([`crate::calib::problem::floor`]): its total and a line naming its sources.
+    /// The data's own floor ([`crate::calib::fit::floor`]): its total and a line naming its sources.
     pub noise_floor_mm: f64,
     /// Where the floor comes from, in one line: each source with its RMS.
     pub noise_floor_source: String,
     /// The floor with each of its sources.
-    pub noise_floor: crate::calib::problem::floor::NoiseFloor,
+    pub noise_floor: crate::calib::fit::floor::NoiseFloor,
     /// Which folds selection judged on: `blocked` (contiguous blocks of acquisition order) or
     /// `interleaved` (when blocks cover different parts of the joint space, so that blocked folds
     /// measure extrapolation: baseline blocked RMSE above 1.5x the interleaved one), and why.
@@ -188,7 +188,7 @@ pub struct Diagnosis {
     #[serde(default = "no_structure")]
     pub acquisition: Structure,
     /// The joint angles' logging error as the fits' noise model (generalised least squares over
-    /// the blocks, see [`crate::calib::problem::gls`]), where rows share blocks and the angles are logged
+    /// the blocks, see [`crate::calib::fit::gls`]), where rows share blocks and the angles are logged
     /// at a step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_model: Option<NoiseModel>,

@@ -7,9 +7,9 @@ use super::options::*;
 use super::report::*;
 use crate::calib::effects::inputs::{block_for, time_span};
 use crate::calib::effects::{EffectBlock, EffectKind};
+use crate::calib::fit::robust::Screen;
+use crate::calib::fit::Samples;
 use crate::calib::model::CalibModel;
-use crate::calib::problem::robust::Screen;
-use crate::calib::problem::Samples;
 use crate::dataset::blocks::{Boundary, Structure};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
@@ -25,7 +25,7 @@ use rayon::prelude::*;
 pub(super) fn acquisition_structure(
     data: &Dataset,
     opts: &DiagnoseOptions,
-    steps: &[crate::calib::problem::robust::ReadingStep],
+    steps: &[crate::calib::fit::robust::ReadingStep],
     base: &CalibModel,
     x: &[f64],
     all: &mut Samples,
@@ -42,17 +42,17 @@ pub(super) fn acquisition_structure(
         return (blocks, acquisition, None);
     }
     progress(&format!("acquisition: {}", acquisition.summary));
-    let Some(step) = angle_step.filter(|_| opts.floor.noise_model == crate::calib::problem::noise_model::NoiseChoice::Auto) else {
+    let Some(step) = angle_step.filter(|_| opts.floor.noise_model == crate::calib::fit::noise_model::NoiseChoice::Auto) else {
         return (blocks, acquisition, None);
     };
     let rows: Vec<usize> = (0..all.len()).collect();
-    let m = std::sync::Arc::new(crate::calib::problem::noise_model::rounding_model_at(base, x, all, &rows, keep, data, &blocks, step));
+    let m = std::sync::Arc::new(crate::calib::fit::noise_model::rounding_model_at(base, x, all, &rows, keep, data, &blocks, step));
     let noise = m.summary(step);
     progress(&format!(
         "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
         noise.rounding_mm, noise.reading_noise_mm
     ));
-    all.gls = Some(crate::calib::problem::gls::Whitening::new(m, (0..all.len()).collect()));
+    all.gls = Some(crate::calib::fit::gls::Whitening::new(m, (0..all.len()).collect()));
     (blocks, acquisition, Some(noise))
 }
 
@@ -74,18 +74,10 @@ pub(super) fn final_whitening(
     let Some(n) = noise_model.as_ref().filter(|_| !current.model.effects.is_empty() && all.gls.is_some()) else { return (kept, noise_model) };
     let rows: Vec<usize> = (0..all.len()).collect();
     let plain = Samples { gls: None, ..all.clone() };
-    let m = std::sync::Arc::new(crate::calib::problem::noise_model::rounding_model_at(
-        &current.model,
-        &current.x,
-        &plain,
-        &rows,
-        keep,
-        data,
-        blocks,
-        n.angle_step_deg,
-    ));
+    let m =
+        std::sync::Arc::new(crate::calib::fit::noise_model::rounding_model_at(&current.model, &current.x, &plain, &rows, keep, data, blocks, n.angle_step_deg));
     let summary = m.summary(n.angle_step_deg);
-    let whitened = Samples { gls: Some(crate::calib::problem::gls::Whitening::new(m, rows)), ..plain };
+    let whitened = Samples { gls: Some(crate::calib::fit::gls::Whitening::new(m, rows)), ..plain };
     (whitened.subset(keep), Some(summary))
 }
 
@@ -127,7 +119,7 @@ pub(super) fn candidates(data: &Dataset, listed: &[(EffectKind, Option<usize>)],
 /// blocks on a joint that does not move whose effect is then constant (one backlash side and one
 /// eccentricity phase throughout: offsets the geometry already holds).
 pub(super) fn candidate_pool(data: &Dataset, q: &[Vec<f64>], opts: &DiagnoseOptions, has_torques: bool) -> Result<Vec<EffectBlock>> {
-    let still = crate::calib::run::still_joints(q);
+    let still = crate::calib::pipeline::still_joints(q);
     Ok(candidates(data, &opts.candidates, has_torques)?
         .into_iter()
         .filter(|b| !(b.kind.def().constant_on_still_joint() && b.joint.is_some_and(|j| still.contains(&j))))
@@ -181,7 +173,7 @@ pub const EFFECT_SCREEN_TIGHTER: f64 = 0.8;
 
 /// Rows the screen `s` takes out of the plain model's account: outliers and the rows of
 /// reading steps.
-pub(super) fn flagged_rows(s: &crate::calib::problem::robust::Screen) -> usize {
+pub(super) fn flagged_rows(s: &crate::calib::fit::robust::Screen) -> usize {
     s.outliers.len() + s.steps.iter().map(|st| st.rows).sum::<usize>()
 }
 
@@ -207,14 +199,14 @@ pub(super) fn screen_with_effects(
         .par_iter()
         .map(|b| {
             let (m, x0) = with_block(base, &geo.x, b, span);
-            let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(&m, d, x, opts.rank_tol);
-            let s = crate::calib::problem::robust::screen(&m, &x0, all, &rows, geo.rule, &refit);
+            let refit = |d: &Samples, x: &[f64]| crate::calib::fit::robust::screen_fit(&m, d, x, opts.rank_tol);
+            let s = crate::calib::fit::robust::screen(&m, &x0, all, &rows, geo.rule, &refit);
             (b.clone(), s)
         })
         .collect();
     // Fewest rows flagged among the candidates that keep the scale; of those, the narrowest.
-    let fewer = |s: &crate::calib::problem::robust::Screen| 2 * s.outliers.len() <= geo.outliers.len() && !geo.outliers.is_empty();
-    let tighter = |s: &crate::calib::problem::robust::Screen| s.outliers.len() <= geo.outliers.len() && s.scale_mm <= EFFECT_SCREEN_TIGHTER * geo.scale_mm;
+    let fewer = |s: &crate::calib::fit::robust::Screen| 2 * s.outliers.len() <= geo.outliers.len() && !geo.outliers.is_empty();
+    let tighter = |s: &crate::calib::fit::robust::Screen| s.outliers.len() <= geo.outliers.len() && s.scale_mm <= EFFECT_SCREEN_TIGHTER * geo.scale_mm;
     Ok(tried
         .into_iter()
         .filter(|(_, s)| s.scale_mm <= EFFECT_SCREEN_MAX_SCALE * geo.scale_mm && (fewer(s) || tighter(s)))
@@ -245,11 +237,11 @@ pub(super) fn screen_rows(
     has_torques: bool,
     by: &ScreenBy,
     progress: &dyn Fn(&str),
-) -> Result<(crate::calib::problem::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
-    let refit_rows = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(base, d, x, opts.rank_tol);
+) -> Result<(crate::calib::fit::robust::Screen, Option<EffectBlock>, Vec<usize>)> {
+    let refit_rows = |d: &Samples, x: &[f64]| crate::calib::fit::robust::screen_fit(base, d, x, opts.rank_tol);
     // No row is an outlier for lying as far off as the angles' logging alone puts a reading.
-    let rule = crate::calib::run::screen_rule(base, data, all, opts.screen.outlier_k, opts.screen.reading_steps, opts.floor.angle_step_deg);
-    let geo_screen = crate::calib::problem::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), rule, &refit_rows);
+    let rule = crate::calib::pipeline::screen_rule(base, data, all, opts.screen.outlier_k, opts.screen.reading_steps, opts.floor.angle_step_deg);
+    let geo_screen = crate::calib::fit::robust::screen(base, &base.nominal, all, &(0..all.len()).collect::<Vec<_>>(), rule, &refit_rows);
     let flagged = flagged_rows(&geo_screen);
     // Rows the geometric screen flagged that a candidate effect explains stay in.
     let only = match by {

@@ -5,9 +5,9 @@ use super::fit::*;
 use super::options::*;
 use super::report::*;
 use crate::calib::effects::{EffectBlock, Size};
+use crate::calib::fit::floor::{NoiseFloor, ValueKind};
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::floor::{NoiseFloor, ValueKind};
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::measurement::Measurement;
 use crate::stats::rms;
 use rayon::prelude::*;
@@ -309,7 +309,7 @@ pub(super) fn explained_by_causes(current: &Fitted, all: &Samples, dim: usize, k
     let res_all = ReadingFit { model: &current.model, data: &Samples { gls: None, ..all.clone() } }.residuals_mm(&current.x);
     let kept_res: Vec<f64> = keep.iter().flat_map(|&i| res_all[i * dim..(i + 1) * dim].iter().copied()).collect();
     let (med, scale) = crate::stats::robust_scale(&kept_res);
-    let far = |i: usize| crate::calib::problem::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
+    let far = |i: usize| crate::calib::fit::robust::farthest_from(&res_all[i * dim..(i + 1) * dim], med);
     outliers.iter().map(|o| o.row - 1).filter(|&i| (far(i) - med).abs() <= outlier_k * scale).collect()
 }
 

@@ -129,7 +129,7 @@ fn the_gain_a_cause_needs_follows_the_floors_sampling_error() {
 fn an_effect_of_half_one_rows_noise_on_independent_tracker_rows_is_named() {
     use crate::diagnose::hidden::{clean_tracker, hidden_tracker};
     use crate::diagnose::{diagnose, DiagnoseOptions};
-    let opts = DiagnoseOptions::new(crate::calib::run::ModelSpec::nominal(Robot::irb120(), crate::calib::run::Parametrisation::Hayati));
+    let opts = DiagnoseOptions::new(crate::calib::pipeline::ModelSpec::nominal(Robot::irb120(), crate::calib::pipeline::Parametrisation::Hayati));
     let strip =
         |g: crate::sim::generate::Generated| Dataset { rows: g.dataset.rows.into_iter().map(|r| Row { split: None, ..r }).collect(), source: g.dataset.source };
     let (s, robot, truth, sigma) = hidden_tracker(50_001, 0.5..0.6).unwrap();

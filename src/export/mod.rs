@@ -24,7 +24,7 @@ pub mod urdf;
 mod tests;
 
 use crate::calib::model::CalibModel;
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::error::{Error, Result};
 use crate::robot::kinematics::{Chain, FkWork, Frame};
 use crate::robot::Robot;

@@ -163,7 +163,7 @@ mod tests {
         let robot = Robot::irb120();
         let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
         // The generic model: a product of exponentials around lines at a reference pose.
-        use crate::calib::run::generic::{frames_of, model_around, Line};
+        use crate::calib::pipeline::generic::{frames_of, model_around, Line};
         let line = |p: [f64; 3], d: [f64; 3]| Line { point: Vector3::from(p), dir: Vector3::from(d).normalize() };
         let lines = [
             line([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]),

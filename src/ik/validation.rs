@@ -18,7 +18,7 @@
 
 use super::solver::{rigid_fit, IkModel, IkOptions, IkSolution, IkStatus, JacobianKind};
 use crate::calib::correctors::Correct;
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::dataset::truth::TruthFile;
 use crate::error::{Error, Result};
 use crate::robot::Robot;

@@ -1,7 +1,7 @@
 //! A calibration job: the data, the request and the files it writes.
 
 use super::files::{check_model_outputs, data_inputs, load_dataset, stage_identified_twin, Figures, Recordings};
-use crate::calib::run::{CalibOptions, CalibResult, ModelSpec, TruthFile};
+use crate::calib::pipeline::{CalibOptions, CalibResult, ModelSpec, TruthFile};
 use crate::dataset::Dataset;
 use crate::error::Result;
 use crate::output::OutputSet;
@@ -100,7 +100,7 @@ pub fn calibrate_loaded(
     truth: Option<&TruthFile>,
     data_sha256: Option<String>,
 ) -> Result<Calibration> {
-    let mut result = crate::calib::run::calibrate(&data, truth, &opts)?;
+    let mut result = crate::calib::pipeline::calibrate(&data, truth, &opts)?;
     result.provenance.data_sha256 = data_sha256;
     let test = result.evaluation.metrics.test_after.as_ref();
     let source = if test.is_some() { "test rows after calibration" } else { "no test rows: hold some out with --test-fraction or a split column" };
@@ -131,9 +131,9 @@ pub fn write_calibration(a: &CalibrateJob, c: &Calibration, recordings: &dyn Rec
     }
     if let Some(p) = &a.scenario_out {
         let how = match opts.free {
-            crate::calib::run::FreeParams::All => "calibrate",
-            crate::calib::run::FreeParams::Placement => "calibrate --placement-only",
-            crate::calib::run::FreeParams::Controller => "calibrate --controller-subset",
+            crate::calib::pipeline::FreeParams::All => "calibrate",
+            crate::calib::pipeline::FreeParams::Placement => "calibrate --placement-only",
+            crate::calib::pipeline::FreeParams::Controller => "calibrate --controller-subset",
         };
         stage_identified_twin(&mut outputs, p, result, data, opts.model.robot(), how)?;
     }

@@ -3,7 +3,7 @@
 
 use super::files::{data_inputs, load_dataset, Recordings};
 use super::shard::{self, Parts};
-use crate::calib::run::Method;
+use crate::calib::pipeline::Method;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, OutputSet};
@@ -217,7 +217,7 @@ pub const MIN_SEEDS_FOR_TEST: usize = 6;
 /// accuracy / time table and Wilcoxon signed-rank tests of each method against the first one,
 /// across seeds (test RMSE) and per sample (|test residual| of seed 0).
 pub fn compare(a: &CompareJob, bar: &dyn Progress, recordings: &dyn Recordings) -> Result<Compared> {
-    use crate::calib::run::{calibrate as run, CalibOptions};
+    use crate::calib::pipeline::{calibrate as run, CalibOptions};
     use rayon::prelude::*;
     let r = &a.request;
     let (seeds, test_fraction, effort) = (r.seeds, r.test_fraction, r.effort);

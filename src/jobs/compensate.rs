@@ -1,7 +1,7 @@
 //! `twincal compensate`: the joint commands that make the calibrated arm reach a program's
 //! targets ([`crate::compensate`]), written as a CSV whole or not at all.
 
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::compensate::{commands_csv, nominal_x, read_targets, Compensated, Compensator, Status};
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, OutputSet};

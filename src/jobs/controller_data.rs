@@ -1,7 +1,7 @@
 //! `twincal controller-data`: what a controller that takes no new kinematic model can be given
 //! of a calibration ([`crate::controller::ControllerData`]), as RAPID, KRL or URScript data.
 
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::controller::{ControllerData, Language};
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, OutputSet};

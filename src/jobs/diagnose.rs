@@ -1,7 +1,7 @@
 //! A diagnosis job: the data, the request and the files it writes.
 
 use super::files::{check_model_outputs, data_inputs, load_dataset, stage_identified_twin, Figures, Recordings};
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::dataset::Dataset;
 use crate::diagnose::{DiagnoseOptions, Diagnosis};
 use crate::error::Result;
@@ -101,7 +101,7 @@ pub fn diagnose_loaded(
     original: Dataset,
     say: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosed> {
-    let resolve = |setup: &crate::calib::run::CalibOptions| crate::calib::run::setup::resolve_stations(&original, setup);
+    let resolve = |setup: &crate::calib::pipeline::CalibOptions| crate::calib::pipeline::resolve_stations(&original, setup);
     let (found, (mut report, mut result), data) = match diagnose_on_stations(request, &opts, &original, resolve(&opts.baseline_options())?, say)? {
         // Change points found before any cause was in the model may be a drift the causes named
         // explain (a warm-up reads as a slow train of moves): searched again with them.
@@ -123,7 +123,7 @@ pub fn diagnose_loaded(
         }
         other => other,
     };
-    result.setup = crate::calib::run::setup::setup_report(&result.model, &result.x, &data, opts.stations, &found);
+    result.setup = crate::calib::pipeline::setup::setup_report(&result.model, &result.x, &data, opts.stations, &found);
     report.setup = result.setup.clone();
     let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
     Ok(Diagnosed { report, result, verdict, opts, data })
@@ -141,9 +141,9 @@ fn diagnose_on_stations(
     request: &DiagnoseRequest,
     opts: &DiagnoseOptions,
     original: &Dataset,
-    (labelled, found): (Option<Dataset>, crate::calib::run::setup::Found),
+    (labelled, found): (Option<Dataset>, crate::calib::pipeline::setup::Found),
     say: &(dyn Fn(&str) + Sync),
-) -> Result<(crate::calib::run::setup::Found, (crate::diagnose::Diagnosis, crate::calib::run::CalibResult), Dataset)> {
+) -> Result<(crate::calib::pipeline::setup::Found, (crate::diagnose::Diagnosis, crate::calib::pipeline::CalibResult), Dataset)> {
     let mut data = labelled.unwrap_or_else(|| original.clone());
     if !found.is_empty() {
         say(&format!(
@@ -155,7 +155,7 @@ fn diagnose_on_stations(
     if let Some(f) = request.test_fraction {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
         let blocks = crate::dataset::blocks::detect(&data, request.floor.angle_resolution_deg).0;
-        let (train, _) = crate::calib::run::split_rows(&data, &blocks, Some(f), request.seed, request.split_by)?;
+        let (train, _) = crate::calib::pipeline::split_rows(&data, &blocks, Some(f), request.seed, request.split_by)?;
         let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
         data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
     }

@@ -1,7 +1,7 @@
 //! `twincal export`: a calibrated model written for a controller or a driver ([`crate::export`]),
 //! checked by reading it back before it is written.
 
-use crate::calib::run::{CalibResult, OTHER_ARM_MM};
+use crate::calib::pipeline::{CalibResult, OTHER_ARM_MM};
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, OutputSet};
 use crate::robot::Robot;

@@ -1,7 +1,7 @@
 //! What every job shares: the files a `--data` path reads, scenarios, the outputs' checks, the
 //! identified twin's files and the recordings' interface.
 
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::dataset::Dataset;
 use crate::diagnose::Diagnosis;
 use crate::error::Result;

@@ -19,7 +19,7 @@
 
 use super::files::{data_inputs, load_dataset};
 use super::predict::{predicted_readings, rotation_residual_deg};
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, OutputSet};
@@ -57,13 +57,13 @@ pub struct Iso9283Job {
     pub report: Option<PathBuf>,
     /// Rows a station the model was not calibrated at is registered on (its first ones; they are
     /// then not judged); 0 refuses such a station.
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = crate::calib::run::DEFAULT_REGISTER_ROWS))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = crate::calib::pipeline::DEFAULT_REGISTER_ROWS))]
     #[serde(default = "default_register_rows")]
     pub register_rows: usize,
 }
 
 fn default_register_rows() -> usize {
-    crate::calib::run::DEFAULT_REGISTER_ROWS
+    crate::calib::pipeline::DEFAULT_REGISTER_ROWS
 }
 
 /// One pose's figures.

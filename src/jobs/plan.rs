@@ -4,7 +4,7 @@
 
 use super::files::{load_scenario, scenario_inputs, Recordings};
 use crate::calib::model::Parametrisation;
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, OutputSet};
 use crate::plan::{plan, Plan, PlanOptions};
@@ -201,7 +201,7 @@ impl PlanJob {
         let calibrated = self.model.as_deref().map(CalibResult::load).transpose()?.map(std::sync::Arc::new);
         let effects: Vec<_> = self.effects.iter().map(|c| c.pair()).collect();
         // A calibrated model of another arm than the scenario's plans nothing worth measuring.
-        if let Some(gap) = calibrated.as_ref().map(|r| super::export::nominal_gap_mm(r, &robot)).filter(|g| *g > crate::calib::run::OTHER_ARM_MM) {
+        if let Some(gap) = calibrated.as_ref().map(|r| super::export::nominal_gap_mm(r, &robot)).filter(|g| *g > crate::calib::pipeline::OTHER_ARM_MM) {
             return Err(Error::Invalid(format!(
                 "--model is another arm than the scenario's {}: its flange stands up to {gap:.1} mm from the scenario robot's at the same joint angles",
                 robot.name

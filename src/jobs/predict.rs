@@ -1,6 +1,6 @@
 //! A calibrated model's readings for a dataset's rows, and the CSV `predict` writes of them.
 
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::measurement::Euler;
@@ -83,7 +83,7 @@ pub struct Predicted {
     pub warnings: Vec<String>,
     /// Stations the model was not calibrated at, each registered on its first rows: those rows
     /// are not unseen.
-    pub registered: Vec<crate::calib::run::Registration>,
+    pub registered: Vec<crate::calib::pipeline::Registration>,
 }
 
 impl Predicted {
@@ -102,7 +102,7 @@ impl Predicted {
 pub fn predicted_readings(result: &CalibResult, ds: &Dataset, euler: Euler, model: &str, register_rows: usize) -> Result<Predicted> {
     ds.require_joints(result.model.chain.n_joints, model)?;
     result.require_columns(ds)?;
-    let outside: Vec<(usize, usize, f64)> = crate::calib::run::outside_limits(ds, &result.model.limits).collect();
+    let outside: Vec<(usize, usize, f64)> = crate::calib::pipeline::outside_limits(ds, &result.model.limits).collect();
     let mut warnings: Vec<String> = outside
         .first()
         .map(|(i, j, q)| {
@@ -123,7 +123,7 @@ pub fn predicted_readings(result: &CalibResult, ds: &Dataset, euler: Euler, mode
         None => (result, ds),
     };
     let registered = registered.as_ref().map(|(_, _, g)| g.clone()).unwrap_or_default();
-    warnings.extend(registered.iter().map(crate::calib::run::Registration::line));
+    warnings.extend(registered.iter().map(crate::calib::pipeline::Registration::line));
     let m = result.model.measurement;
     let predicted = result.predict_rows(ds);
     if let Some(i) = predicted.iter().position(|p| !p.is_finite()) {

@@ -31,8 +31,8 @@ pub struct ReplayRequest {
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
     pub test_fraction: Option<f64>,
     /// How --test-fraction draws its rows: blocks or rows (as `calibrate --split-by`).
-    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = crate::calib::run::SplitBy::default()))]
-    pub split_by: crate::calib::run::SplitBy,
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = crate::calib::pipeline::SplitBy::default()))]
+    pub split_by: crate::calib::pipeline::SplitBy,
     /// Seed of that split.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, default_value_t = 0))]
     pub seed: u64,
@@ -152,9 +152,9 @@ fn after_calibration(
     robot: &crate::robot::Robot,
     test_fraction: Option<f64>,
     seed: u64,
-    by: crate::calib::run::SplitBy,
+    by: crate::calib::pipeline::SplitBy,
 ) -> Option<AfterCalibration> {
-    use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation};
+    use crate::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation};
     let run = |d: &Dataset, f: Option<f64>, p: Parametrisation| {
         let mut o = CalibOptions::new(ModelSpec::nominal(robot.clone(), p), Method::LM);
         (o.split.test_fraction, o.seed, o.split.by) = (f, seed, by);
@@ -301,7 +301,7 @@ fn fidelity_on(rows: &[usize], twin: &[Option<(Vec<f64>, Vec<f64>)>], measured: 
     let r: Vec<Vec<f64>> = rows.iter().filter_map(|&i| residual_of(twin, measured, i)).collect();
     let flat: Vec<f64> = r.iter().flatten().copied().collect();
     let (med, scale) = crate::stats::robust_scale(&flat);
-    let k = crate::calib::run::DEFAULT_OUTLIER_K;
+    let k = crate::calib::pipeline::DEFAULT_OUTLIER_K;
     let inlier = |v: &Vec<f64>| v.iter().all(|x| (x - med).abs() <= k * scale);
     Fidelity {
         residual: ErrorStats::of(&flat),
@@ -369,11 +369,11 @@ fn twin_readings(g: &crate::sim::generate::Generated, m: Measurement, n: usize) 
 }
 
 /// The rows the twin is judged on (None: every row), and how they were chosen.
-fn judged_rows(a: &ReplayRequest, data: &Dataset, split_by: crate::calib::run::SplitBy) -> Result<(Option<Vec<usize>>, String)> {
+fn judged_rows(a: &ReplayRequest, data: &Dataset, split_by: crate::calib::pipeline::SplitBy) -> Result<(Option<Vec<usize>>, String)> {
     Ok(match a.test_fraction {
         Some(f) => {
             let blocks = crate::dataset::blocks::detect(data, None).0;
-            let (_, test) = crate::calib::run::split_rows(data, &blocks, Some(f), a.seed, split_by)?;
+            let (_, test) = crate::calib::pipeline::split_rows(data, &blocks, Some(f), a.seed, split_by)?;
             (Some(test), format!("the rows --test-fraction {f} --seed {} holds out (as calibrate and diagnose draw them)", a.seed))
         }
         None if data.rows.iter().any(|r| r.split == Some(Split::Test)) => (Some(data.test_indices()), "the data's test rows (split column)".into()),

@@ -9,7 +9,7 @@
 //! 2. **Identification Jacobian** ([`Model`]): the calibration model (the nominal arm in the
 //!    chosen parametrisation, the instrument at the scenario's placement) differentiated at
 //!    every candidate, one block of rows per pose. The parameters the whole pool cannot tell
-//!    apart are held, as a calibration holds them ([`crate::calib::problem::identify`]); the
+//!    apart are held, as a calibration holds them ([`crate::calib::fit::identify`]); the
 //!    others' columns are scaled to unit RMS over the pool.
 //! 3. **Design** ([`design`]): N candidates chosen by an observability index with an exchange
 //!    algorithm. The default is I-optimal, the mean prediction variance over the pool (the
@@ -34,10 +34,10 @@ pub use design::{criterion, Criterion, Design, Pool, CRITERIA};
 
 use crate::calib::effects::inputs::{block_for, row_inputs, time_span, JointLoads, TorqueModel};
 use crate::calib::effects::{EffectKind, RowInputs};
+use crate::calib::fit::{identify::analyse, ReadingFit, Samples};
 use crate::calib::model::{CalibModel, Parametrisation, SensorGuess};
-use crate::calib::problem::{identify::analyse, ReadingFit, Samples};
-use crate::calib::run::placement::build_model;
-use crate::calib::run::{CalibResult, ModelSpec};
+use crate::calib::pipeline::placement::build_model;
+use crate::calib::pipeline::{CalibResult, ModelSpec};
 use crate::dataset::{Dataset, Row};
 use crate::error::{Error, Result};
 use crate::optim::LeastSquares;
@@ -232,7 +232,7 @@ pub struct PoolDesign {
 }
 
 /// Relative singular value below which a parameter combination is left out of the design. A
-/// calibration fits down to [`DEFAULT_RANK_TOL`](crate::calib::run::DEFAULT_RANK_TOL) (1e-7); a combination the whole pool sees
+/// calibration fits down to [`DEFAULT_RANK_TOL`](crate::calib::pipeline::DEFAULT_RANK_TOL) (1e-7); a combination the whole pool sees
 /// that weakly moves no reading by more than rounding, and an index of its singular value
 /// (O3, O4, O5) would measure rounding too.
 pub const DESIGN_RANK_TOL: f64 = 1e-4;

@@ -11,7 +11,7 @@
 //! none of them a row of any calibration.
 
 use super::{candidates, plan, random_set, PlanOptions};
-use crate::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
+use crate::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec};
 use crate::compensate::{nominal_x, Compensator};
 use crate::error::{Error, Result};
 use crate::robot::Robot;

@@ -6,7 +6,7 @@ use super::histogram;
 use super::svg::{error_bars, esc, histograms, plot, Series};
 use super::verdict::Verdict;
 use super::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group, Residual};
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::measurement::Measurement;
 use crate::stats::metrics::ErrorStats;
 use std::fmt::Write as _;

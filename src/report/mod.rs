@@ -13,9 +13,9 @@ pub mod svg;
 pub mod ticks;
 pub mod verdict;
 
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::{Kind, Placement};
-use crate::calib::problem::{ReadingFit, Samples};
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::measurement::Measurement;
@@ -308,7 +308,7 @@ fn tool_points_and_instrument(r: &CalibResult, s: &Samples) -> (Vec<[f64; 3]>, I
 /// Every row of `data` as samples with the model's per-row inputs (torques, flanks, time).
 fn all_samples(r: &CalibResult, data: &Dataset) -> Samples {
     let all: Vec<usize> = (0..data.rows.len()).collect();
-    let mut s = crate::calib::run::samples(data, &all);
+    let mut s = crate::calib::pipeline::samples(data, &all);
     s.inputs = crate::calib::effects::inputs::row_inputs(data, r.torque_model.as_ref());
     s
 }
@@ -362,7 +362,7 @@ impl CalibFigures {
         // rows by their nearest training row).
         let all: Vec<usize> = (0..data.rows.len()).collect();
         let raw = all_samples(r, data);
-        let s = crate::calib::problem::robust::apply_steps_nearest(&raw, &all, &train_idx, &r.screen.reading_steps);
+        let s = crate::calib::fit::robust::apply_steps_nearest(&raw, &all, &train_idx, &r.screen.reading_steps);
         // The calibration kept its training outliers out: so do its figures.
         train_idx.retain(|i| !r.screen.outliers.iter().any(|o| o.row == i + 1));
         let mut train = vec![false; data.rows.len()];
@@ -486,7 +486,7 @@ impl DiagnosisFigures {
         let all: Vec<usize> = (0..data.rows.len()).collect();
         // Reading steps are a cable encoder's: only one-value readings have any.
         let raw = all_samples(r, data);
-        let s = if d.reading_steps.is_empty() { raw } else { crate::calib::problem::robust::apply_steps(&raw, &all, &d.reading_steps) };
+        let s = if d.reading_steps.is_empty() { raw } else { crate::calib::fit::robust::apply_steps(&raw, &all, &d.reading_steps) };
         let fit = ReadingFit { model: &r.model, data: &s };
         let after_mm = fit.residuals_mm(&r.x);
         let first = r.model.first_effect();

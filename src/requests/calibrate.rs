@@ -4,7 +4,7 @@
 use super::groups::{Loads, ModelChoice, Reading, Robust};
 use crate::calib::effects::EffectChoice;
 use crate::calib::model::SensorGuess;
-use crate::calib::run::{CalibOptions, FreeParams, Method, SplitBy, SplitOptions, DEFAULT_EFFORT, DEFAULT_RANK_TOL};
+use crate::calib::pipeline::{CalibOptions, FreeParams, Method, SplitBy, SplitOptions, DEFAULT_EFFORT, DEFAULT_RANK_TOL};
 use crate::dataset::ReadOptions;
 use crate::error::{Error, Result};
 use crate::report::verdict::Limit;
@@ -141,7 +141,7 @@ impl CalibrateRequest {
         let model = a.model.spec()?;
         let loads = a.loads.resolve()?;
         if let Some(path) = &a.loads.robot {
-            crate::calib::run::check_inertial(&model, loads.inertial.as_ref(), &path.display().to_string())?;
+            crate::calib::pipeline::check_inertial(&model, loads.inertial.as_ref(), &path.display().to_string())?;
         }
         let opts = CalibOptions {
             split: SplitOptions { test_fraction: a.test_fraction, by: a.split_by },
@@ -173,7 +173,7 @@ impl CalibrateRequest {
                     if a.placement_only { "" } else { ", the joints' zero offsets and the tool" }
                 )));
             }
-            if matches!(opts.model, crate::calib::run::ModelSpec::Generic) {
+            if matches!(opts.model, crate::calib::pipeline::ModelSpec::Generic) {
                 return Err(Error::Invalid(format!(
                     "{flag} needs the robot's own geometry (a URDF or irb120): the generic arm has none to keep, its geometry is what it searches for"
                 )));

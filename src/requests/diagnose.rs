@@ -3,7 +3,7 @@
 
 use super::groups::{Floor, Loads, ModelChoice, Reading};
 use crate::calib::effects::EffectChoice;
-use crate::calib::run::SplitBy;
+use crate::calib::pipeline::SplitBy;
 use crate::dataset::ReadOptions;
 use crate::diagnose::{DiagnoseOptions, DEFAULT_ALPHA, DEFAULT_FOLDS};
 use crate::error::{Error, Result};
@@ -93,7 +93,7 @@ impl DiagnoseRequest {
         let model = a.model.spec()?;
         let loads = a.loads.resolve()?;
         if let Some(path) = &a.loads.robot {
-            crate::calib::run::check_inertial(&model, loads.inertial.as_ref(), &path.display().to_string())?;
+            crate::calib::pipeline::check_inertial(&model, loads.inertial.as_ref(), &path.display().to_string())?;
         }
         let opts = DiagnoseOptions {
             loads,

@@ -4,9 +4,9 @@
 //! The field docs are the command line's `--help`.
 
 use crate::calib::effects::inputs::JointLoads;
-use crate::calib::problem::noise_model::NoiseChoice;
-use crate::calib::problem::robust::Loss;
-use crate::calib::run::{FloorOptions, LoadOptions, ModelSpec, Parametrisation, ScreenOptions, StationSource};
+use crate::calib::fit::noise_model::NoiseChoice;
+use crate::calib::fit::robust::Loss;
+use crate::calib::pipeline::{FloorOptions, LoadOptions, ModelSpec, Parametrisation, ScreenOptions, StationSource};
 use crate::dataset::{AngleUnit, ReadOptions};
 use crate::error::{Error, Result};
 use crate::measurement::{Euler, Measurement};
@@ -229,7 +229,7 @@ fn instrument_accuracy(v: Option<f64>) -> Result<Option<f64>> {
 pub struct Robust {
     /// Training rows more than this many robust standard deviations (1.4826 MAD) off the fit
     /// are outliers: kept out and listed in the result (0: keep every row).
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = crate::calib::run::DEFAULT_OUTLIER_K, allow_negative_numbers = true))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = crate::calib::pipeline::DEFAULT_OUTLIER_K, allow_negative_numbers = true))]
     pub outliers: f64,
     /// Keep out the rows of a run of outliers even when they all sit one constant offset off
     /// (by default such a reading step is corrected and its rows kept).

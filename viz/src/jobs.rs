@@ -1,7 +1,7 @@
 //! The library's jobs' recordings ([`twincal::jobs::Recordings`]) written for the Rerun viewer.
 
 use std::path::Path;
-use twincal::calib::run::CalibResult;
+use twincal::calib::pipeline::CalibResult;
 use twincal::diagnose::Diagnosis;
 use twincal::error::Result;
 use twincal::output::OutputSet;

@@ -11,7 +11,7 @@ use twincal::report::{max_abs, CalibFigures, DiagnosisFigures, Group, Residual};
 
 /// The summary text of a calibration's recording: its metrics, the truth, what the colours say,
 /// its warnings.
-fn calibration_summary(r: &twincal::calib::run::CalibResult, f: &CalibFigures, first: &Residual) -> String {
+fn calibration_summary(r: &twincal::calib::pipeline::CalibResult, f: &CalibFigures, first: &Residual) -> String {
     let meas = f.measurement;
     let m = &r.evaluation.metrics;
     let mut doc = format!(
@@ -90,7 +90,7 @@ fn final_changes(rec: &mut Recorder, f: &CalibFigures, g: Group) {
 /// coloured by the residual before and after (side by side, own colour scales; test rows larger),
 /// histograms, the numbers, and each parameter group's final change with ±1σ and the
 /// truth-equivalent value. Timeline `iteration` (0 = start): RMS and cost, parameter changes.
-pub fn record_calibration(r: &twincal::calib::run::CalibResult, f: &CalibFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
+pub fn record_calibration(r: &twincal::calib::pipeline::CalibResult, f: &CalibFigures, outputs: &mut OutputSet, path: &Path) -> Result<()> {
     let mut rec = Recorder::staged("twincal", outputs, path)?;
     rec.set_static(true);
     let residuals = f.residuals();

@@ -6,10 +6,10 @@
 use std::path::Path;
 use std::sync::Mutex;
 use std::time::Instant;
+use twincal::calib::fit::{ReadingFit, Samples};
 use twincal::calib::methods::psoekf::{Ablation, Hyper, NetStart, PsoEkfAwnn};
 use twincal::calib::methods::{Method, Problem, Solution, Solver};
-use twincal::calib::problem::{ReadingFit, Samples};
-use twincal::calib::run::{calibrate_with, split_stage, CalibOptions, CalibResult, ModelSpec, TruthFile};
+use twincal::calib::pipeline::{calibrate_with, split_stage, CalibOptions, CalibResult, ModelSpec, TruthFile};
 use twincal::dataset::{Dataset, Split};
 use twincal::error::{Error, Result};
 use twincal::optim::Observer;
@@ -82,7 +82,7 @@ pub struct TruthView {
 pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &CalibOptions) -> Option<TruthView> {
     let robot = opts.model.robot()?;
     let split = split_stage(ds, opts).ok()?;
-    let rigid = twincal::calib::run::equivalent::map_truth(&r.model, robot, truth, &split.train.q)?;
+    let rigid = twincal::calib::pipeline::equivalent::map_truth(&r.model, robot, truth, &split.train.q)?;
     let nc = r.model.n_chain();
     let dist = |t: &[f64]| {
         let v: Vec<f64> = r
@@ -347,7 +347,7 @@ fn real_data() -> Result<()> {
 pub fn bench_awnn(repeat: usize, seeds: u64, quiet: bool) -> Result<()> {
     let (base, robot) =
         Scenario::from_toml(include_str!("../../../scenarios/irb120_pso_ekf.toml"), "irb120_pso_ekf").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
-    let spec = ModelSpec::nominal(robot.clone(), twincal::calib::run::Parametrisation::Hayati);
+    let spec = ModelSpec::nominal(robot.clone(), twincal::calib::pipeline::Parametrisation::Hayati);
     let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-awnn-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let lm_opts = CalibOptions::new(spec.clone(), Method::LM);
     let awnn_opts = CalibOptions::new(spec.clone(), Method::PSO_EKF_AWNN);

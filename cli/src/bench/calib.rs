@@ -3,7 +3,7 @@
 
 use std::path::Path;
 use std::time::Instant;
-use twincal::calib::problem::ReadingFit;
+use twincal::calib::fit::ReadingFit;
 use twincal::error::{Error, Result};
 use twincal::optim::LeastSquares;
 use twincal::sim::generate::{generate as run_generate, write_outputs, Silent};
@@ -41,11 +41,11 @@ struct LmSpeed {
 
 fn lm_speed(
     ds: &twincal::dataset::Dataset,
-    truth: Option<&twincal::calib::run::TruthFile>,
-    opts: &twincal::calib::run::CalibOptions,
+    truth: Option<&twincal::calib::pipeline::TruthFile>,
+    opts: &twincal::calib::pipeline::CalibOptions,
     repeat: usize,
 ) -> Result<LmSpeed> {
-    let prepared = twincal::calib::run::prepare(ds, opts, false)?;
+    let prepared = twincal::calib::pipeline::prepare(ds, opts, false)?;
     let fit = ReadingFit { model: &prepared.model, data: &prepared.split.train };
     let lm = twincal::calib::methods::LmSolver::default().lm;
     let (mut lm_t, mut ev_t, mut whole_t, mut iterations, mut test_rmse) = (Vec::new(), Vec::new(), Vec::new(), 0, f64::NAN);
@@ -55,7 +55,7 @@ fn lm_speed(
         lm_t.push(t0.elapsed().as_secs_f64());
         iterations = rep.iterations;
         ev_t.push(evaluation_s(&fit, &prepared.model.nominal));
-        let whole = twincal::calib::run::calibrate(ds, truth, opts)?;
+        let whole = twincal::calib::pipeline::calibrate(ds, truth, opts)?;
         whole_t.push(whole.provenance.wall_time_s);
         test_rmse = whole.evaluation.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN);
     }
@@ -73,10 +73,10 @@ fn lm_speed(
 /// `twincal bench calib`: the calibration core's targets, measured. `compare`, when given, runs
 /// on a 400-pose dataset folder of the benchmark (the caller's full method comparison).
 pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Result<()> {
-    use twincal::calib::run::{CalibOptions, Method, ModelSpec, TruthFile};
+    use twincal::calib::pipeline::{CalibOptions, Method, ModelSpec, TruthFile};
     let (base, robot) =
         Scenario::from_toml(include_str!("../../../scenarios/irb120_geometric.toml"), "irb120_geometric").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
-    let spec = ModelSpec::nominal(robot.clone(), twincal::calib::run::Parametrisation::Hayati);
+    let spec = ModelSpec::nominal(robot.clone(), twincal::calib::pipeline::Parametrisation::Hayati);
     // Removed on every exit path (by its Drop).
     let tmp_dir = tempfile::Builder::new().prefix("twincal-bench-").tempdir().map_err(|e| Error::create_dir(std::env::temp_dir(), e))?;
     let tmp = tmp_dir.path();
@@ -116,7 +116,7 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
         Scenario::from_toml(include_str!("../../../scenarios/irb120_tracker.toml"), "irb120_tracker").and_then(|s| s.load_robot(None).map(|r| (s, r)))?;
     (ts.sampling.poses, ts.sampling.test) = (1100, 100);
     let tds = run_generate(&ts, &trobot, &Silent)?.dataset;
-    let topts = CalibOptions::new(ModelSpec::nominal(trobot, twincal::calib::run::Parametrisation::Hayati), Method::LM);
+    let topts = CalibOptions::new(ModelSpec::nominal(trobot, twincal::calib::pipeline::Parametrisation::Hayati), Method::LM);
     let t = lm_speed(&tds, None, &topts, repeat)?;
     println!(
         "  LM, {} tracker points ({} residuals): {:8.2} ms median (target < 50 ms), {} iterations; one residual+Jacobian evaluation {:.3} ms -> LM = {:.1} evaluations; whole calibrate {:.1} ms; test RMSE {:.4} mm per coordinate",
@@ -148,15 +148,15 @@ pub fn bench_calib(repeat: usize, seeds: u64, compare: Option<OnDataset>) -> Res
 #[allow(clippy::type_complexity)]
 fn accuracy_over_seeds(
     seeds: u64,
-    opts: &twincal::calib::run::CalibOptions,
-    gen: &(dyn Fn(u64, usize, usize) -> Result<(twincal::dataset::Dataset, twincal::calib::run::TruthFile)> + Sync),
+    opts: &twincal::calib::pipeline::CalibOptions,
+    gen: &(dyn Fn(u64, usize, usize) -> Result<(twincal::dataset::Dataset, twincal::calib::pipeline::TruthFile)> + Sync),
 ) -> Result<()> {
     use rayon::prelude::*;
     let rows: Vec<Result<(f64, usize, usize, f64)>> = (0..seeds)
         .into_par_iter()
         .map(|seed| {
             let (ds, truth) = gen(1000 + seed, 400, 100)?;
-            let r = twincal::calib::run::calibrate(&ds, Some(&truth), opts)?;
+            let r = twincal::calib::pipeline::calibrate(&ds, Some(&truth), opts)?;
             let c = r.evaluation.truth_comparison.clone().ok_or_else(|| Error::Invalid("no truth comparison".into()))?;
             Ok((r.evaluation.metrics.test_after.map(|m| m.rmse).unwrap_or(f64::NAN) / truth.noise_std_mm, c.within_3_sigma, c.identifiable, c.max_abs_z))
         })
@@ -178,9 +178,9 @@ fn accuracy_over_seeds(
 /// 2b. Untuned methods: a scenario whose spreads and noise differ from the defaults (0.8 mm,
 /// 0.12°, 0.15° and 0.2 mm raw noise, 20 samples); priors come from the documented tolerances
 /// and the noise from the data, never from the scenario.
-fn untuned_methods(base: &Scenario, robot: &twincal::robot::Robot, spec: &twincal::calib::run::ModelSpec) -> Result<()> {
+fn untuned_methods(base: &Scenario, robot: &twincal::robot::Robot, spec: &twincal::calib::pipeline::ModelSpec) -> Result<()> {
     use rayon::prelude::*;
-    use twincal::calib::run::{CalibOptions, Method};
+    use twincal::calib::pipeline::{CalibOptions, Method};
     let mut other = base.clone();
     other.geometry.origin_offset_std_mm = 0.8;
     other.geometry.origin_rotation_std_deg = 0.12;
@@ -201,7 +201,7 @@ fn untuned_methods(base: &Scenario, robot: &twincal::robot::Robot, spec: &twinca
         let ratios: Vec<f64> = sets
             .par_iter()
             .map(|(ds, floor)| {
-                let r = twincal::calib::run::calibrate(ds, None, &CalibOptions::new(spec.clone(), m))?;
+                let r = twincal::calib::pipeline::calibrate(ds, None, &CalibOptions::new(spec.clone(), m))?;
                 Ok(r.evaluation.metrics.test_after.map(|t| t.rmse).unwrap_or(f64::NAN) / floor)
             })
             .collect::<Result<_>>()?;
@@ -219,7 +219,7 @@ fn untuned_methods(base: &Scenario, robot: &twincal::robot::Robot, spec: &twinca
 
 /// 4. Real data: the HSR-RobotCali pool, when ../shared has it.
 fn real_data() -> Result<()> {
-    use twincal::calib::run::{CalibOptions, Method, ModelSpec};
+    use twincal::calib::pipeline::{CalibOptions, Method, ModelSpec};
     let hsr = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/hsr-robotcali/hsr_robotcali_pool.csv");
     if !hsr.exists() {
         println!("  HSR-RobotCali: skipped, {} is absent", hsr.display());
@@ -228,7 +228,7 @@ fn real_data() -> Result<()> {
     let ds = twincal::dataset::Dataset::load(&hsr)?;
     let mut o = CalibOptions::new(ModelSpec::Generic, Method::LM);
     o.split.test_fraction = Some(0.2);
-    let r = twincal::calib::run::calibrate(&ds, None, &o)?;
+    let r = twincal::calib::pipeline::calibrate(&ds, None, &o)?;
     if let (Some(rep), Some(t), Some(tt)) = (&r.evaluation.repeatability, &r.evaluation.metrics.test_after, &r.evaluation.metrics.test_after_trimmed) {
         println!(
             "  HSR-RobotCali (generic6r, 80/20): held-out RMSE {:.4} mm, repeatability floor {:.4} mm, ratio {:.3} (target < 1.3); without the worst 1 % {:.3}; {:.1} s (bench real: the interleaved split over seeds)",

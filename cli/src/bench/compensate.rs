@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::time::Instant;
 use twincal::calib::effects::EffectKind;
-use twincal::calib::run::{CalibOptions, Method, ModelSpec, Parametrisation};
+use twincal::calib::pipeline::{CalibOptions, Method, ModelSpec, Parametrisation};
 use twincal::compensate::verify::{verify_seed, SeedCheck};
 use twincal::error::Result;
 use twincal::sim::scenario::Scenario;
@@ -94,7 +94,7 @@ fn speed() -> Result<()> {
     let s = Scenario::from_toml(twincal::sim::scenario::DEFAULT_SCENARIO, twincal::sim::scenario::DEFAULT_SCENARIO_NAME)?;
     let robot = s.load_robot(None)?;
     let g = twincal::sim::generate::generate(&s, &robot, &twincal::sim::generate::Silent)?;
-    let r = twincal::calib::run::calibrate(&g.dataset, None, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM))?;
+    let r = twincal::calib::pipeline::calibrate(&g.dataset, None, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM))?;
     let x_nom = twincal::compensate::nominal_x(&r);
     let c = twincal::compensate::Compensator::new(&r, &x_nom, r.torque_model.clone(), 0.001, 0.001)?;
     let targets: Vec<twincal::compensate::Target> = (0..10_000)

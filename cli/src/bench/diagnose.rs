@@ -167,9 +167,9 @@ fn strip(g: &Generated) -> Dataset {
 }
 
 fn options() -> Result<twincal::diagnose::DiagnoseOptions> {
-    Ok(twincal::diagnose::DiagnoseOptions::new(twincal::calib::run::ModelSpec::nominal(
+    Ok(twincal::diagnose::DiagnoseOptions::new(twincal::calib::pipeline::ModelSpec::nominal(
         twincal::robot::Robot::irb120(),
-        twincal::calib::run::Parametrisation::Hayati,
+        twincal::calib::pipeline::Parametrisation::Hayati,
     )))
 }
 
@@ -262,7 +262,7 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let g = twincal::sim::pose_list::generate_pose_list(&s, &robot, list, &Silent)?;
             let payload = twincal::robot::statics::Payload { mass_kg: 0.0, com_mm: twincal::diagnose::hidden::PAYLOAD_COM_MM };
             let opts = twincal::diagnose::DiagnoseOptions {
-                loads: twincal::calib::run::LoadOptions {
+                loads: twincal::calib::pipeline::LoadOptions {
                     joints: twincal::calib::effects::inputs::JointLoads { payload: Some(payload), ..Default::default() },
                     inertial: None,
                 },
@@ -494,7 +494,7 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
     // logged at 0.1°) diagnosed with and without it, median of three each.
     let (s, robot) = twincal::diagnose::hidden::realistic(20_001, 1)?;
     let data = strip(&run_generate(&s, &robot, &Silent)?);
-    let timed = |choice: twincal::calib::problem::noise_model::NoiseChoice| -> Result<(f64, String)> {
+    let timed = |choice: twincal::calib::fit::noise_model::NoiseChoice| -> Result<(f64, String)> {
         let opts = {
             let mut o = options()?;
             o.floor.noise_model = choice;
@@ -509,8 +509,7 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
         }
         Ok((median(&t), verdict))
     };
-    let ((on, v_on), (off, v_off)) =
-        (timed(twincal::calib::problem::noise_model::NoiseChoice::Auto)?, timed(twincal::calib::problem::noise_model::NoiseChoice::Off)?);
+    let ((on, v_on), (off, v_off)) = (timed(twincal::calib::fit::noise_model::NoiseChoice::Auto)?, timed(twincal::calib::fit::noise_model::NoiseChoice::Off)?);
     println!(
         "  the logging noise model's cost: {} poses in sweeps, angles logged at 0.1 deg: {on:.2} s with it, {off:.2} s without (ratio {:.2}, medians of 3); found {v_on} / {v_off}",
         data.rows.len(),

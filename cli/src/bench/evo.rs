@@ -3,10 +3,10 @@
 
 use std::path::Path;
 use std::time::Instant;
+use twincal::calib::fit::ReadingFit;
 use twincal::calib::methods::evonph::{EvoNphSolver, EvoRun, EvoVariant};
 use twincal::calib::methods::Problem;
-use twincal::calib::problem::ReadingFit;
-use twincal::calib::run::{calibrate_with, CalibOptions, CalibResult, Method, ModelSpec, TruthFile};
+use twincal::calib::pipeline::{calibrate_with, CalibOptions, CalibResult, Method, ModelSpec, TruthFile};
 use twincal::dataset::Dataset;
 use twincal::error::{Error, Result};
 use twincal::ik::{ik_runs, table, TwinCheck};
@@ -28,22 +28,22 @@ fn dataset(dir: &Path, seed: Option<u64>) -> Result<(Dataset, TruthFile)> {
 }
 
 fn options(method: Method) -> CalibOptions {
-    CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), method)
+    CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::pipeline::Parametrisation::Hayati), method)
 }
 
 /// The calibration problem as the pipeline builds it (split, sensor placement, identifiability,
 /// noise, tolerances), for running a solver directly.
 struct Prepared {
     model: twincal::calib::model::CalibModel,
-    train: twincal::calib::problem::Samples,
-    test: twincal::calib::problem::Samples,
+    train: twincal::calib::fit::Samples,
+    test: twincal::calib::fit::Samples,
     x0: Vec<f64>,
     fixed: Vec<bool>,
     prior: Vec<f64>,
     noise: f64,
 }
 
-/// The calibration's own stages ([`twincal::calib::run::prepare`]) without the outlier screen (the
+/// The calibration's own stages ([`twincal::calib::pipeline::prepare`]) without the outlier screen (the
 /// benchmark compares the solvers on every training row), then the noise and priors the solvers
 /// are given.
 fn prepare(ds: &Dataset, opts: &CalibOptions) -> Result<Prepared> {
@@ -52,11 +52,11 @@ fn prepare(ds: &Dataset, opts: &CalibOptions) -> Result<Prepared> {
         o.screen.outlier_k = 0.0;
         o
     };
-    let p = twincal::calib::run::prepare(ds, &unscreened, false)?;
+    let p = twincal::calib::pipeline::prepare(ds, &unscreened, false)?;
     let (split, model, fixed) = (p.split, p.model, p.id.fixed_mask);
     let x0 = model.nominal.clone();
     let fit = ReadingFit { model: &model, data: &split.train };
-    let noise = twincal::calib::run::estimate_noise(&fit, &x0, &fixed, None);
+    let noise = twincal::calib::pipeline::estimate_noise(&fit, &x0, &fixed, None);
     let prior = opts.tolerances.prior_std(&model);
     Ok(Prepared { train: split.train, test: split.test, x0, fixed, prior, noise, model })
 }

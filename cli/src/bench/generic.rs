@@ -6,7 +6,7 @@
 //! baseline).
 
 use std::time::Instant;
-use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation};
+use twincal::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation};
 use twincal::dataset::Dataset;
 use twincal::error::Result;
 use twincal::robot::Robot;
@@ -17,7 +17,7 @@ pub const GENERIC_RATIO_TARGET: f64 = 1.05;
 pub const GENERIC_TIME_TARGET_S: f64 = 30.0;
 
 /// One calibration: (held-out mean |Δp| mm, wall time s, the search's report if any).
-fn run(data: &Dataset, spec: ModelSpec, seed: u64) -> Result<(f64, f64, Option<twincal::calib::run::generic::SearchReport>)> {
+fn run(data: &Dataset, spec: ModelSpec, seed: u64) -> Result<(f64, f64, Option<twincal::calib::pipeline::generic::SearchReport>)> {
     let mut o = CalibOptions::new(spec, Method::LM);
     o.seed = seed;
     o.split.test_fraction = Some(0.2);

@@ -1,5 +1,5 @@
 //! `twincal bench noise-model`: what modelling the joint angles' logging error
-//! ([`twincal::calib::problem::noise_model::remove_logging_error`], `calibrate --noise-model auto`) changes in
+//! ([`twincal::calib::fit::noise_model::remove_logging_error`], `calibrate --noise-model auto`) changes in
 //! lm, dsade-gkan and pso-ekf-awnn, against the same methods taking the rows as independent
 //! (`--noise-model off`), on real-like acquisitions of the twin: the IRB 120 with its geometric
 //! errors read by a draw-wire, in sweeps of 20 poses, the angles logged at 0.1°, with glitch runs
@@ -11,7 +11,7 @@
 //! each seed's ratio auto/off; each run's time.
 
 use std::time::Instant;
-use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
+use twincal::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec};
 use twincal::dataset::{Dataset, Row};
 use twincal::error::Result;
 use twincal::sim::generate::{generate as run_generate, Silent};
@@ -30,8 +30,9 @@ struct Run {
 
 /// Calibrates `data` with `method` and the noise model `choice`, judged on its held-out blocks
 /// against the twin's noise-free readings `truth` at the commanded angles `q_cmd` (degrees).
-fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: twincal::calib::problem::noise_model::NoiseChoice, seed: u64) -> Result<Run> {
-    let mut opts = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), Method::parse(method)?);
+fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: twincal::calib::fit::noise_model::NoiseChoice, seed: u64) -> Result<Run> {
+    let mut opts =
+        CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::pipeline::Parametrisation::Hayati), Method::parse(method)?);
     opts.split.test_fraction = Some(0.25);
     opts.seed = seed;
     opts.floor.noise_model = choice;
@@ -51,7 +52,7 @@ fn run(data: &Dataset, q_cmd: &[Vec<f64>], truth: &[f64], method: &str, choice: 
 /// `twincal bench noise-model --seeds N`: per seed a realistic acquisition, each method with
 /// and without the noise model; prints each seed's line and the medians.
 pub fn bench_noise_model(seeds: u64) -> Result<()> {
-    use twincal::calib::problem::noise_model::NoiseChoice::{Auto, Off};
+    use twincal::calib::fit::noise_model::NoiseChoice::{Auto, Off};
     println!("bench noise-model: IRB 120 geometric errors, draw-wire, sweeps of 20 poses, angles logged at 0.1 deg, glitch runs, 400 poses;");
     println!("  held-out whole sweeps (25 %); 'true' is the model's reading at the commanded angles against the twin's noise-free reading");
     // Per method: (auto, off) runs over seeds.

@@ -62,7 +62,7 @@ fn speed(dir: &Path, repeat: usize) -> Result<()> {
     use twincal::controller::filter::{filter_program, sample::SampleProgram, FilterOptions, Setup};
     let (s, robot, opts) = case(dir, "irb120_tracker", "", false)?;
     let g = twincal::sim::generate::generate(&s, &robot, &twincal::sim::generate::Silent)?;
-    let r = twincal::calib::run::calibrate(&g.dataset, None, &opts)?;
+    let r = twincal::calib::pipeline::calibrate(&g.dataset, None, &opts)?;
     let x_nom = twincal::compensate::nominal_x(&r);
     let c = twincal::compensate::Compensator::new(&r, &x_nom, None, 0.001, 0.001)?;
     let setup = Setup::new(&r, &x_nom, Some(&robot));

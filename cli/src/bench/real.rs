@@ -15,7 +15,7 @@
 
 use std::path::Path;
 use std::time::Instant;
-use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
+use twincal::calib::pipeline::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
 use twincal::dataset::{Dataset, Split};
 use twincal::error::Result;
 
@@ -70,7 +70,7 @@ pub fn bench_diagnose_ur10(runs: usize) -> Result<()> {
     // The position table of the README (the file's orientation columns are a pose's).
     let point = twincal::dataset::ReadOptions { measurement: Some(twincal::measurement::Measurement::Point), ..Default::default() };
     let ds = Dataset::from_csv_reader_with(sorted.as_bytes(), &format!("{} (sorted by t)", data.display()), &point)?;
-    let opts = DiagnoseOptions::new(ModelSpec::nominal(twincal::robot::Robot::from_urdf_file(&urdf)?, twincal::calib::run::Parametrisation::Hayati));
+    let opts = DiagnoseOptions::new(ModelSpec::nominal(twincal::robot::Robot::from_urdf_file(&urdf)?, twincal::calib::pipeline::Parametrisation::Hayati));
     let mut times = Vec::new();
     let mut found: Vec<String> = Vec::new();
     for run in 1..=runs {
@@ -162,19 +162,20 @@ pub fn bench_real(seeds: u64) -> Result<()> {
         println!("    (the papers: LM about 1.2, Evo-NPH 0.62, PSO-EKF-AWNN 0.73 mm, splits unpublished)");
         let mut floor = f64::NAN;
         for method in [Method::LM, Method::DSADE_GKAN, Method::PSO_EKF_AWNN] {
-            use twincal::calib::problem::noise_model::NoiseChoice;
+            use twincal::calib::fit::noise_model::NoiseChoice;
             for (k, noise) in [
-                (twincal::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Auto),
-                (twincal::calib::run::DEFAULT_OUTLIER_K, NoiseChoice::Off),
+                (twincal::calib::pipeline::DEFAULT_OUTLIER_K, NoiseChoice::Auto),
+                (twincal::calib::pipeline::DEFAULT_OUTLIER_K, NoiseChoice::Off),
                 (0.0, NoiseChoice::Auto),
             ] {
                 let mut runs: Vec<CalibResult> = Vec::new();
                 let t0 = Instant::now();
                 for seed in 0..seeds {
-                    let mut o = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), method);
+                    let mut o =
+                        CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::pipeline::Parametrisation::Hayati), method);
                     o.split.test_fraction = Some(0.2);
                     // The papers' protocol: random rows (their splits are not published).
-                    o.split.by = twincal::calib::run::SplitBy::Rows;
+                    o.split.by = twincal::calib::pipeline::SplitBy::Rows;
                     o.seed = seed;
                     o.screen.outlier_k = k;
                     o.floor.noise_model = noise;

@@ -4,7 +4,7 @@
 //! identification, against 1 s.
 
 use std::time::Instant;
-use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
+use twincal::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec};
 use twincal::error::Result;
 use twincal::robot::Robot;
 use twincal::sim::generate::{generate, generate_at, Silent};
@@ -49,7 +49,7 @@ pub fn bench_replay(s: &Scenario, robot: &Robot, repeat: usize) -> Result<()> {
         r / b
     );
     // Identification: a calibration, then the identified twin written from it.
-    let opts = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::run::Parametrisation::Hayati), Method::LM);
+    let opts = CalibOptions::new(ModelSpec::nominal(twincal::robot::Robot::irb120(), twincal::calib::pipeline::Parametrisation::Hayati), Method::LM);
     let t0 = Instant::now();
     let result = calibrate(&measured.dataset, None, &opts)?;
     let calib_s = t0.elapsed().as_secs_f64();

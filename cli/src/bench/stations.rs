@@ -10,7 +10,7 @@
 
 use std::path::Path;
 use std::time::Instant;
-use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec, Parametrisation};
+use twincal::calib::pipeline::{calibrate, CalibOptions, CalibResult, Method, ModelSpec, Parametrisation};
 use twincal::error::{Error, Result};
 use twincal::sim::scenario::Scenario;
 
@@ -153,7 +153,7 @@ fn campaign_time() -> Result<()> {
     let t1 = Instant::now();
     let mut d = twincal::diagnose::DiagnoseOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati));
     d.seed = 1;
-    let (labelled, _) = twincal::calib::run::setup::resolve_stations(&g.dataset, &d.baseline_options())?;
+    let (labelled, _) = twincal::calib::pipeline::resolve_stations(&g.dataset, &d.baseline_options())?;
     let (report, _) = twincal::diagnose::diagnose(labelled.as_ref().unwrap_or(&g.dataset), &d, &|_| {})?;
     let t_diag = t1.elapsed().as_secs_f64();
     let stations = r.setup.as_ref().map_or(1, |u| u.stations.len());

@@ -41,12 +41,12 @@ pub(super) fn print_verdict(v: Option<&twincal::report::verdict::Verdict>, file:
 
 /// What a user must know about a calibration that succeeded: an optimiser that stopped on its
 /// iteration / evaluation budget instead of a convergence test.
-pub fn calibration_warnings(r: &twincal::calib::run::CalibResult) -> Vec<String> {
+pub fn calibration_warnings(r: &twincal::calib::pipeline::CalibResult) -> Vec<String> {
     r.warnings.clone()
 }
 
 /// How the rows were weighted and the noise model that took the angles' logging error out.
-fn print_noise_handling(r: &twincal::calib::run::CalibResult) {
+fn print_noise_handling(r: &twincal::calib::pipeline::CalibResult) {
     if let Some(w) = &r.solve.weighting {
         eprintln!(
             "  weights from the rows' own standard deviations ({} of {} training rows, RMS {:.4} mm): 1/(floor² + s²) with the floor {:.4} mm the data add \
@@ -67,7 +67,7 @@ fn print_noise_handling(r: &twincal::calib::run::CalibResult) {
 }
 
 /// The outlier screen: rows kept out, their runs, reading steps, and the test inliers' errors.
-fn print_screen(r: &twincal::calib::run::CalibResult) {
+fn print_screen(r: &twincal::calib::pipeline::CalibResult) {
     let m = &r.evaluation.metrics;
     let row = |label: &str, s: &twincal::stats::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
     // The screen ran when it has a robust scale (it does not for too few rows per parameter,
@@ -99,7 +99,7 @@ fn print_screen(r: &twincal::calib::run::CalibResult) {
 }
 
 /// The data's noise floor and the held-out RMSE against it.
-fn print_floor(r: &twincal::calib::run::CalibResult) {
+fn print_floor(r: &twincal::calib::pipeline::CalibResult) {
     let m = &r.evaluation.metrics;
     if r.evaluation.noise_floor.as_ref().is_some_and(|f| f.sources.is_empty()) {
         eprintln!("  noise floor of the data: not measurable (no repeated configurations, and neither the angles nor the readings show a logging step)");
@@ -108,7 +108,7 @@ fn print_floor(r: &twincal::calib::run::CalibResult) {
         let parts: Vec<String> = f.sources.iter().map(|s| format!("{} {:.4}", s.source, s.rms_mm)).collect();
         // Without repeated configurations the reading's own noise is not in the data: the
         // floor is only what the logging resolutions show, a lower bound.
-        let measured = f.has(twincal::calib::problem::floor::FloorKind::Repeatability);
+        let measured = f.has(twincal::calib::fit::floor::FloorKind::Repeatability);
         let (bound, why) = if measured { ("", "") } else { ("at least ", "; no repeated configurations, so the reading's own noise is not measured") };
         eprintln!("  noise floor of the data: {bound}{:.4} mm ({}{why})", f.total_mm, parts.join(", "));
         if let (Some(t), Some(tt), true) = (&m.test_after, &m.test_after_trimmed, f.total_mm > 0.0) {
@@ -122,7 +122,7 @@ fn print_floor(r: &twincal::calib::run::CalibResult) {
     }
 }
 
-fn print_summary(r: &twincal::calib::run::CalibResult) {
+fn print_summary(r: &twincal::calib::pipeline::CalibResult) {
     let m = &r.evaluation.metrics;
     let row = |label: &str, s: &twincal::stats::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
     eprintln!(

@@ -4,7 +4,7 @@
 
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
-use twincal::calib::run::CalibResult;
+use twincal::calib::pipeline::CalibResult;
 use twincal::dataset::truth::TruthFile;
 use twincal::error::{Error, Result};
 pub use twincal::ik::solver::{check_tol_mm, MAX_TOL_MM};

@@ -168,6 +168,6 @@ fn check_repeat(repeat: usize) -> Result<()> {
 const MAX_BOUND_RATIO: f64 = 10.0;
 
 /// Loads a calibrated model (result.json); its errors are labelled `model PATH`.
-fn load_model(path: &Path) -> Result<twincal::calib::run::CalibResult> {
-    twincal::calib::run::CalibResult::load(path)
+fn load_model(path: &Path) -> Result<twincal::calib::pipeline::CalibResult> {
+    twincal::calib::pipeline::CalibResult::load(path)
 }

@@ -368,7 +368,7 @@ fn the_library_has_no_import_cycle_among_files_folders_or_top_level_modules() {
     // The reader sees the uses it must: the pipeline uses the model and the problem, and a
     // method its solver interface through a `super::` path.
     let uses = |a: &str, b: &str| files[Path::new(a)].contains(Path::new(b));
-    assert!(uses("calib/run/pipeline.rs", "calib/model/mod.rs") && uses("calib/run/pipeline.rs", "calib/problem/mod.rs"));
+    assert!(uses("calib/pipeline/calibrate.rs", "calib/model/mod.rs") && uses("calib/pipeline/calibrate.rs", "calib/fit/mod.rs"));
     assert!(uses("calib/methods/lm.rs", "calib/methods/solver.rs"));
     let top = coarsen(&files, |f| f.iter().next().unwrap().to_string_lossy().trim_end_matches(".rs").to_string());
     // The twin and the calibration sit side by side: neither uses the other.
@@ -462,4 +462,56 @@ fn every_source_path_architecture_md_names_exists() {
     }
     assert!(checked > 20, "only {checked} paths found in ARCHITECTURE.md");
     assert!(missing.is_empty(), "ARCHITECTURE.md names paths that do not exist (from the project root, src/ or cli/src/): {missing:?}");
+}
+
+/// The functions of a stripped file that take the calibrate options (`&CalibOptions`).
+fn option_takers(code: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for (k, _) in code.match_indices("fn ") {
+        let rest = &code[k + 3..];
+        let name: String = rest.chars().take_while(|c| is_ident(*c)).collect();
+        let Some(open) = rest.find('(') else { continue };
+        let mut depth = 0;
+        let close = rest[open..]
+            .char_indices()
+            .find(|&(_, c)| {
+                depth += i32::from(c == '(') - i32::from(c == ')');
+                depth == 0
+            })
+            .map_or(rest.len(), |(i, _)| open + i);
+        if rest[open..close].contains("&CalibOptions") {
+            out.push(name);
+        }
+    }
+    out
+}
+
+/// The walk of the options through `calibrate`: only `calib/pipeline/calibrate.rs` hands them
+/// to another stage's file. A stage (split, placement, set-up, the other stages) reads them and
+/// returns what it found; it never calls a function of another file that takes them, so each
+/// stage is entered from the one corridor, not from a room the options passed before.
+#[test]
+fn only_the_calibrate_pipeline_hands_its_options_to_another_stage() {
+    let dir = root().join("src/calib/pipeline");
+    let mut files = Vec::new();
+    rust_files(&dir, &mut files);
+    let code: Vec<(PathBuf, String)> = files.iter().map(|f| (f.clone(), strip(&std::fs::read_to_string(f).unwrap()))).collect();
+    let takers: Vec<(String, &PathBuf)> = code.iter().flat_map(|(f, c)| option_takers(c).into_iter().map(move |n| (n, f))).collect();
+    assert!(takers.len() >= 8, "only {} functions take the options: {takers:?}", takers.len());
+    let corridor = dir.join("calibrate.rs");
+    let mut handed = Vec::new();
+    for (file, c) in code.iter().filter(|(f, _)| *f != corridor) {
+        for (name, home) in takers.iter().filter(|(_, home)| *home != file) {
+            let called = c.match_indices(name.as_str()).any(|(i, _)| {
+                let before = c[..i].chars().next_back().is_some_and(is_ident);
+                let after = c[i + name.len()..].trim_start().starts_with('(');
+                !before && after && !c[..i].ends_with("fn ")
+            });
+            // A name the file defines itself is its own function.
+            if called && !option_takers(c).contains(name) {
+                handed.push(format!("{} calls {name} of {}", file.display(), home.display()));
+            }
+        }
+    }
+    assert!(handed.is_empty(), "a stage hands the calibrate options to another stage's file: {handed:#?}");
 }

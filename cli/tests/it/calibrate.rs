@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
-use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, TruthFile};
+use twincal::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec, TruthFile};
 use twincal::dataset::{Dataset, Row};
 use twincal::sim::generate::{generate, write_outputs, Silent};
 use twincal::sim::scenario::Scenario;
@@ -168,8 +168,8 @@ impl twincal::calib::methods::Solver for FarOff {
 /// own estimate would have agreed with it.
 #[test]
 fn truth_comparison_catches_a_calibration_started_far_off() {
-    use twincal::calib::problem::{ReadingFit, Samples};
-    use twincal::calib::run::calibrate_with;
+    use twincal::calib::fit::{ReadingFit, Samples};
+    use twincal::calib::pipeline::calibrate_with;
     use twincal::optim::{LevenbergMarquardt, NoObserver};
     let (_, ds, truth) = geometric();
     // Joint zeros started 120° off: LM lands on another description of the arm that fits the
@@ -465,8 +465,8 @@ fn pso_ekf_awnn_cli_result_round_trips_and_is_reproducible() {
         let o = twincal(&["calibrate", "--data", dir.to_str().unwrap(), "--method", "pso-ekf-awnn", "--effort", "0.3", "--out", out(name).to_str().unwrap()]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
-    let a = twincal::calib::run::CalibResult::load(&out("a.json")).unwrap();
-    let b = twincal::calib::run::CalibResult::load(&out("b.json")).unwrap();
+    let a = twincal::calib::pipeline::CalibResult::load(&out("a.json")).unwrap();
+    let b = twincal::calib::pipeline::CalibResult::load(&out("b.json")).unwrap();
     assert_eq!(a.x, b.x, "same seed, same result");
     assert_eq!(a.provenance.method.name(), "pso-ekf-awnn");
     assert!(matches!(&a.corrector, Some(twincal::calib::correctors::Corrector::Awnn(_))), "{:?}", a.corrector);
@@ -502,7 +502,7 @@ fn compare_scores_the_residuals_the_calibration_scored() {
     let g = generate(&s, &robot, &Silent).unwrap();
     let ds = g.dataset;
     assert!(ds.rows.iter().all(|r| r.temp_c.is_some()), "the scenario logs temperature");
-    let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), Method::LM);
+    let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), Method::LM);
     o.effects = vec![(EffectKind::ThermalDrift, None)];
     let r = calibrate(&ds, None, &o).unwrap();
     let t = r.evaluation.metrics.test_after.unwrap();
@@ -584,7 +584,7 @@ fn a_model_reading_temperature_is_not_silently_used_without_it() {
 /// lengths never change is refused.
 #[test]
 fn a_method_ending_worse_than_nominal_warns_and_constant_lengths_are_refused() {
-    use twincal::calib::run::calibrate_with;
+    use twincal::calib::pipeline::calibrate_with;
     let (_, ds, _) = geometric();
     // Zero iterations from joint zeros 5° off: the "result" is the bad start.
     struct Stuck;

@@ -106,7 +106,7 @@ fn compensate_reaches_pose_targets_in_position_and_orientation() {
     let o = twincal(&["--quiet", "calibrate", "--data", s(&data), "--model", urdf, "--out", s(&result)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // Targets: the nominal model's tool poses at three configurations, in extrinsic z-y-x angles.
-    let r = twincal::calib::run::CalibResult::load(&result).unwrap();
+    let r = twincal::calib::pipeline::CalibResult::load(&result).unwrap();
     let x_nom = nominal_x(&r);
     let ik = IkModel::new(&r.model, &x_nom, None, r.model.joint_limits());
     let mut w = ik.work();

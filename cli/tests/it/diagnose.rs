@@ -5,7 +5,7 @@
 #[cfg(feature = "rerun")]
 use crate::common;
 
-use twincal::calib::run::ModelSpec;
+use twincal::calib::pipeline::ModelSpec;
 use twincal::dataset::{Dataset, Row};
 use twincal::diagnose::hidden::{clean, hidden};
 use twincal::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
@@ -17,7 +17,7 @@ fn run(s: &Scenario, robot: &Robot) -> Diagnosis {
     let g = generate(s, robot, &Silent).unwrap();
     // Only what measured data hold: the generator's split column is dropped too.
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap());
+    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap());
     diagnose(&data, &opts, &|_| {}).unwrap().0
 }
 
@@ -172,7 +172,7 @@ fn the_simulated_tour_shows_its_backlash() {
     let truth_width = s.effects.backlash.as_ref().unwrap().width_deg[1];
     let g = generate(&s, &robot, &Silent).unwrap();
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-    let mut opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap());
+    let mut opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap());
     opts.loads.joints.payload = Some(Payload { mass_kg: 0.5, com_mm: [40.0, 0.0, 0.0] });
     opts.loads.joints.cable_tension_n = 6.0;
     let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
@@ -199,7 +199,8 @@ fn a_hidden_effect_is_named_in_sweep_ordered_data_with_glitch_runs() {
         let h = &truth[0];
         let g = generate(&s, &robot, &Silent).unwrap();
         let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-        let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
+        let d =
+            diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
         eprintln!(
             "seed {seed}: hidden {h:?}; judged on {}; found {:?}",
             d.judged_on,
@@ -235,7 +236,7 @@ fn a_drift_behind_a_constant_temperature_column_is_named_over_time() {
     let g = generate(&s, &robot, &Silent).unwrap();
     let rows: Vec<Row> = g.dataset.rows.iter().map(|r| Row { split: None, temp_c: Some(21.0), ..r.clone() }).collect();
     let data = Dataset { rows, source: "broken temperature sensor".into() };
-    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap());
+    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap());
     let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
     assert!(d.causes.iter().any(|c| c.cause == "thermal_drift" && c.joint.is_none()), "{}", d.verdict);
     // The model it writes runs on t: predict needs t, not temp.
@@ -281,7 +282,7 @@ fn real_like_acquisitions_in_sweeps_with_logged_angles() {
 #[test]
 fn a_thermal_drift_in_logged_sweeps_is_sized_within_its_uncertainty() {
     use twincal::calib::effects::EffectKind;
-    use twincal::calib::run::{calibrate, CalibOptions, Method};
+    use twincal::calib::pipeline::{calibrate, CalibOptions, Method};
     let (s0, robot, truth, _) = twincal::diagnose::hidden::hidden_realistic(30_005, 2, 1.5..4.0).unwrap();
     let h = &truth[0];
     assert!(h.cause == EffectKind::ThermalDrift && h.joint.is_none(), "{h:?}");
@@ -292,7 +293,7 @@ fn a_thermal_drift_in_logged_sweeps_is_sized_within_its_uncertainty() {
         eprintln!("seed {seed}: diagnose {}", c.summary());
         assert!(h.named_by(c) && (c.magnitude - h.magnitude).abs() <= 3.0 * c.uncertainty, "seed {seed}: hidden {h:?}, named {}", c.summary());
         let g = generate(&s, &robot, &Silent).unwrap();
-        let mut opts = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), Method::LM);
+        let mut opts = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), Method::LM);
         opts.effects = vec![(EffectKind::ThermalDrift, None)];
         let r = calibrate(&g.dataset, None, &opts).unwrap();
         let p = r.parameters.iter().find(|p| p.name == "thermal.alpha").expect("the drift's parameter");
@@ -325,7 +326,8 @@ fn joint_reading_faults_are_named_with_their_rows() {
         s.glitches = Some(Glitches { runs: 3, rows: 8, size_mm: 2.0, kind, joint, size_deg: None });
         let g = generate(&s, &robot, &Silent).unwrap();
         let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-        let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
+        let d =
+            diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
         for f in &d.run_faults {
             eprintln!("{name}: rows {}-{}: {}", f.first_row, f.last_row, f.evidence);
         }
@@ -369,14 +371,15 @@ fn payload_runs_reveal_a_compliance_the_unloaded_arm_hides() {
     let g = generate_pose_list(&s, &robot, list, &Silent).unwrap();
     let rows: Vec<Row> = g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect();
     let truth = 1.0 / 6e5 * 1e6; // µrad/N·m
-    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap());
+    let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap());
     let unloaded = Dataset { rows: rows.iter().filter(|r| r.payload_kg == Some(0.0)).cloned().collect(), source: "unloaded".into() };
     assert_eq!(unloaded.rows.len(), 120);
     let d = diagnose(&unloaded, &opts, &|_| {}).unwrap().0;
     assert!(d.causes.is_empty(), "the unloaded run alone: {}", d.verdict);
     let all = Dataset { rows, source: "payload runs".into() };
     let com = JointLoads { payload: Some(twincal::robot::statics::Payload { mass_kg: 0.0, com_mm: [150.0, 0.0, 100.0] }), ..Default::default() };
-    let d = diagnose(&all, &DiagnoseOptions { loads: twincal::calib::run::LoadOptions { joints: com, inertial: None }, ..opts.clone() }, &|_| {}).unwrap().0;
+    let d =
+        diagnose(&all, &DiagnoseOptions { loads: twincal::calib::pipeline::LoadOptions { joints: com, inertial: None }, ..opts.clone() }, &|_| {}).unwrap().0;
     let first = d.causes.first().unwrap_or_else(|| panic!("the payload runs: {}", d.verdict));
     eprintln!("payload runs: {} (truth {truth:.4} urad/Nm)", first.summary());
     assert!(first.cause == "joint_compliance" && first.joint == Some(3), "{}", d.verdict);
@@ -396,7 +399,7 @@ fn a_joint_fault_with_a_reading_jump_is_named_as_both() {
     s.glitches = Some(Glitches { runs: 3, rows: 8, size_mm: 2.0, kind: GlitchKind::JointOffsetAndReading, joint: None, size_deg: Some(1.0) });
     let g = generate(&s, &robot, &Silent).unwrap();
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
-    let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
+    let d = diagnose(&data, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap().0;
     for f in &d.run_faults {
         eprintln!("rows {}-{}: {} ({})", f.first_row, f.last_row, f.cause, f.evidence);
     }
@@ -424,16 +427,16 @@ fn a_warm_up_behind_a_lagging_sensor_is_sized_and_not_taken_for_moves() {
     s.effects.thermal = Some(Thermal { temp_lag_s: 300.0, ..Thermal::new(23e-6, 10.0, 900.0, 20.0) });
     let robot = s.load_robot(None).unwrap();
     let data = generate(&s, &robot, &Silent).unwrap().dataset;
-    let spec = || ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap();
-    let param = |r: &twincal::calib::run::CalibResult, name: &str| {
+    let spec = || ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap();
+    let param = |r: &twincal::calib::pipeline::CalibResult, name: &str| {
         let p = r.parameters.iter().find(|p| p.name == name).unwrap_or_else(|| panic!("no {name}"));
         (p.value, p.std_uncertainty.unwrap_or(f64::NAN))
     };
     let fit = |lag: bool| {
-        let mut o = twincal::calib::run::CalibOptions::new(spec(), twincal::calib::run::Method::LM);
+        let mut o = twincal::calib::pipeline::CalibOptions::new(spec(), twincal::calib::pipeline::Method::LM);
         o.effects = vec![(twincal::calib::effects::EffectKind::ThermalDrift, None)];
         o.sensor_lag = lag;
-        twincal::calib::run::calibrate(&data, None, &o).unwrap()
+        twincal::calib::pipeline::calibrate(&data, None, &o).unwrap()
     };
     let r = fit(true);
     let ((alpha, sd), (lag, lag_sd)) = (param(&r, "thermal.alpha"), param(&r, "thermal.alpha.sensor_lag"));

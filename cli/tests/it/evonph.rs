@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::{Command, Output};
 use std::sync::OnceLock;
-use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec};
+use twincal::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec};
 use twincal::dataset::Dataset;
 use twincal::sim::generate::{generate, write_outputs, Silent};
 use twincal::sim::scenario::Scenario;
@@ -31,7 +31,7 @@ fn evo() -> (&'static PathBuf, &'static Dataset) {
 }
 
 fn opts(m: Method, seed: u64) -> CalibOptions {
-    let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), m);
+    let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), m);
     o.split.test_fraction = Some(0.25);
     o.seed = seed;
     o.effort = 0.1;
@@ -135,7 +135,7 @@ fn the_network_is_chosen_on_training_rows_only_and_dh_form_works() {
     assert!(b.evaluation.metrics.test_after.unwrap().rmse > 2.0 * a.evaluation.metrics.test_after.unwrap().rmse);
 
     let mut dh = opts(Method::DSADE_GKAN, 5);
-    dh.model = ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Dh).unwrap();
+    dh.model = ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Dh).unwrap();
     let r = calibrate(ds, None, &dh).unwrap();
     let lm = calibrate(ds, None, &CalibOptions { method: Method::LM, ..dh.clone() }).unwrap();
     let (e, l) = (r.evaluation.metrics.test_after.unwrap().rmse, lm.evaluation.metrics.test_after.unwrap().rmse);

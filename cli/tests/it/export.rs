@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use twincal::calib::run::CalibResult;
+use twincal::calib::pipeline::CalibResult;
 
 fn twincal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).output().expect("runs")

@@ -10,7 +10,7 @@ use serde_json::Value;
 use std::path::Path;
 use std::sync::OnceLock;
 use twincal::calib::effects::EffectKind;
-use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
+use twincal::calib::pipeline::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
 use twincal::dataset::Dataset;
 use twincal::sim::generate::{generate, Silent};
 use twincal::sim::scenario::Scenario;
@@ -22,7 +22,7 @@ fn fixtures() -> &'static (Vec<Value>, Dataset) {
     F.get_or_init(|| {
         let (s, robot) = Scenario::default_embedded().unwrap();
         let data = generate(&s, &robot, &Silent).unwrap().dataset;
-        let spec = ModelSpec::nominal(robot, twincal::calib::run::Parametrisation::Hayati);
+        let spec = ModelSpec::nominal(robot, twincal::calib::pipeline::Parametrisation::Hayati);
         let mut lm = CalibOptions::new(spec.clone(), Method::LM);
         lm.effects = vec![(EffectKind::JointCompliance, Some(1)), (EffectKind::Backlash, Some(2)), (EffectKind::ThermalDrift, None)];
         let results = [calibrate(&data, None, &lm).unwrap(), calibrate(&data, None, &CalibOptions::new(spec, Method::RBF)).unwrap()];
@@ -262,8 +262,11 @@ fn part_fixture() -> &'static Vec<Value> {
         let csv = dir.path().join("d.csv");
         Dataset { rows: data.rows[..200].to_vec(), source: "first rows".into() }.write_csv(&csv).unwrap();
         let part = dir.path().join("part.jsonl");
-        let request =
-            twincal::jobs::CompareRequest { methods: vec![twincal::calib::run::Method::LM, twincal::calib::run::Method::RBF], seeds: 2, ..Default::default() };
+        let request = twincal::jobs::CompareRequest {
+            methods: vec![twincal::calib::pipeline::Method::LM, twincal::calib::pipeline::Method::RBF],
+            seeds: 2,
+            ..Default::default()
+        };
         let job = twincal::jobs::CompareJob { data: csv, request, out: None, rrd: None, shard: Some("0/1".into()), shard_out: Some(part.clone()) };
         twincal::jobs::compare(&job, &Silent, &twincal::jobs::NoRecordings).unwrap();
         let lines: Vec<Value> = std::fs::read_to_string(&part).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();

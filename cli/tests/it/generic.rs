@@ -6,7 +6,7 @@
 //! than one of its finalists reaches the best basin, and the URDF it exports, taken as the
 //! nominal of a later run, calibrates to the same held-out error.
 
-use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec, Parametrisation};
+use twincal::calib::pipeline::{calibrate, CalibOptions, CalibResult, Method, ModelSpec, Parametrisation};
 use twincal::dataset::Dataset;
 use twincal::robot::Robot;
 

@@ -11,9 +11,9 @@ use crate::common;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use twincal::calib::fit::{ReadingFit, Samples};
 use twincal::calib::model::{CalibModel, Placement, SensorGuess};
-use twincal::calib::problem::{ReadingFit, Samples};
-use twincal::calib::run::identify;
+use twincal::calib::pipeline::identify;
 use twincal::measurement::Measurement;
 use twincal::optim::{LevenbergMarquardt, NoObserver};
 use twincal::robot::Robot;
@@ -71,7 +71,7 @@ fn a_tracker_point_dataset_calibrates_to_its_noise_on_unseen_rows() {
         start.nominal = LevenbergMarquardt::budget(200).minimize(&ReadingFit { model: &start, data: &train }, &start.nominal, &arm, &mut NoObserver).x;
         let fit = ReadingFit { model: &start, data: &train };
         assert_eq!(fit.residuals_mm(&start.nominal).len(), 3 * train.len());
-        let id = identify(&fit, &start.nominal, twincal::calib::run::DEFAULT_RANK_TOL);
+        let id = identify(&fit, &start.nominal, twincal::calib::pipeline::DEFAULT_RANK_TOL);
         let x = LevenbergMarquardt::budget(100).minimize(&fit, &start.nominal, &id.fixed_mask, &mut NoObserver).x;
 
         let rms = |r: &[f64]| (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt();

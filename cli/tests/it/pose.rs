@@ -199,7 +199,7 @@ fn a_small_effect_in_6d_poses_is_judged_on_the_positions_against_their_floor() {
         rows: g.dataset.rows.iter().map(|r| twincal::dataset::Row { split: None, ..r.clone() }).collect(),
         source: "ur10 poses".into(),
     };
-    let opts = DiagnoseOptions::new(twincal::calib::run::ModelSpec::nominal(robot.clone(), twincal::calib::run::Parametrisation::Hayati));
+    let opts = DiagnoseOptions::new(twincal::calib::pipeline::ModelSpec::nominal(robot.clone(), twincal::calib::pipeline::Parametrisation::Hayati));
     let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
     let [pos, ori] = d.noise_floor.by_group.as_slice() else { panic!("{:?}", d.noise_floor) };
     assert!(pos.measured && !ori.measured && pos.total_mm > 10.0 * ori.total_mm, "{:?}", d.noise_floor);

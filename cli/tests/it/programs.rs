@@ -5,7 +5,7 @@
 
 use std::path::Path;
 use std::process::{Command, Output};
-use twincal::calib::run::CalibResult;
+use twincal::calib::pipeline::CalibResult;
 use twincal::compensate::{nominal_x, Compensator};
 use twincal::controller::filter::{sample::SampleProgram, Layout, Setup};
 use twincal::controller::Language;

@@ -2,10 +2,10 @@
 //! and never committed. A test whose files are absent says SKIP and passes.
 
 use std::path::{Path, PathBuf};
-use twincal::calib::problem::floor::FloorKind;
-use twincal::calib::problem::noise_model::NoiseChoice;
-use twincal::calib::problem::robust::step_offset_mm;
-use twincal::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
+use twincal::calib::fit::floor::FloorKind;
+use twincal::calib::fit::noise_model::NoiseChoice;
+use twincal::calib::fit::robust::step_offset_mm;
+use twincal::calib::pipeline::{calibrate, CalibOptions, CalibResult, Method, ModelSpec};
 use twincal::dataset::{Dataset, Split};
 use twincal::diagnose::{diagnose, DiagnoseOptions};
 
@@ -62,11 +62,11 @@ fn robotcali_lm_converges_and_names_the_disturbed_stretch() {
     let Some(path) = shared("robotcali-irb120/robotcali_pool.csv") else { return };
     let ds = Dataset::load(&path).unwrap();
     for seed in 0..3 {
-        let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), Method::LM);
+        let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), Method::LM);
         o.split.test_fraction = Some(0.2);
         // The papers' protocol (random rows), against their LM figure; held-out whole sweeps are
         // the next test's yardstick.
-        o.split.by = twincal::calib::run::SplitBy::Rows;
+        o.split.by = twincal::calib::pipeline::SplitBy::Rows;
         o.seed = seed;
         let r = calibrate(&ds, None, &o).unwrap();
         assert!(r.solve.converged, "seed {seed}: {}", r.solve.stop_reason);
@@ -94,7 +94,8 @@ fn robotcali_lm_converges_and_names_the_disturbed_stretch() {
 fn robotcali_diagnosis_exports_the_model_it_reports() {
     let Some(path) = shared("robotcali-irb120/robotcali_pool.csv") else { return };
     let ds = Dataset::load(&path).unwrap();
-    let (d, result) = diagnose(&ds, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap();
+    let (d, result) =
+        diagnose(&ds, &DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap()), &|_| {}).unwrap();
     assert_eq!(d.judged_on, "interleaved", "{}", d.judged_on_reason);
     assert!(d.baseline.heldout_rmse_blocked_mm > 1.5 * d.baseline.heldout_rmse_interleaved_mm);
     assert!(d.reading_steps.iter().filter(|s| s.first_row >= 100 && s.last_row <= 190 && s.offset_mm < -3.0).count() >= 2, "{:?}", d.reading_steps);
@@ -131,9 +132,10 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     let glitches = &g.truth.glitch_rows;
     assert_eq!(glitches.len(), 24);
     let ds = Dataset::load(dir.path()).unwrap();
-    let truth = twincal::calib::run::TruthFile::find(dir.path()).unwrap();
-    let lm = calibrate(&ds, truth.as_ref(), &CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), Method::LM))
-        .unwrap();
+    let truth = twincal::calib::pipeline::TruthFile::find(dir.path()).unwrap();
+    let lm =
+        calibrate(&ds, truth.as_ref(), &CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), Method::LM))
+            .unwrap();
     assert!(lm.solve.converged, "{}", lm.solve.stop_reason);
     // Random rows as the test set and rows taken as independent: the test rows share their
     // sweeps' rounding with training rows, the held-out RMSE falls below the floor, and the
@@ -141,9 +143,9 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     let leaks = |r: &CalibResult| r.warnings.iter().any(|w| w.contains("the split leaks"));
     assert!(!leaks(&lm), "{:?}", lm.warnings);
     let rows = CalibOptions {
-        split: twincal::calib::run::SplitOptions { test_fraction: Some(0.25), by: twincal::calib::run::SplitBy::Rows },
-        floor: twincal::calib::run::FloorOptions { noise_model: NoiseChoice::Off, ..Default::default() },
-        ..CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), Method::LM)
+        split: twincal::calib::pipeline::SplitOptions { test_fraction: Some(0.25), by: twincal::calib::pipeline::SplitBy::Rows },
+        floor: twincal::calib::pipeline::FloorOptions { noise_model: NoiseChoice::Off, ..Default::default() },
+        ..CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), Method::LM)
     };
     let independent = calibrate(&ds, None, &rows).unwrap();
     let floor = independent.evaluation.noise_floor.as_ref().unwrap().total_mm;
@@ -188,8 +190,8 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
         &ds,
         truth.as_ref(),
         &CalibOptions {
-            floor: twincal::calib::run::FloorOptions { noise_model: NoiseChoice::Off, ..Default::default() },
-            ..CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(), Method::LM)
+            floor: twincal::calib::pipeline::FloorOptions { noise_model: NoiseChoice::Off, ..Default::default() },
+            ..CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), Method::LM)
         },
     )
     .unwrap();
@@ -200,7 +202,7 @@ fn the_realistic_twin_scenario_names_its_glitches_and_reaches_its_floor() {
     );
     assert!(t.within_3_sigma > u.within_3_sigma && t.max_abs_z < u.max_abs_z, "{t:?} against {u:?}");
     for (method, model) in [(Method::DSADE_GKAN, "irb120"), (Method::PSO_EKF_AWNN, "irb120"), (Method::LM, "generic6r")] {
-        let spec = if model == "generic6r" { ModelSpec::Generic } else { ModelSpec::parse(model, twincal::calib::run::Parametrisation::Hayati).unwrap() };
+        let spec = if model == "generic6r" { ModelSpec::Generic } else { ModelSpec::parse(model, twincal::calib::pipeline::Parametrisation::Hayati).unwrap() };
         let r = calibrate(&ds, None, &CalibOptions::new(spec, method)).unwrap();
         let e = r.evaluation.metrics.test_after_inliers.unwrap().rmse;
         eprintln!("{} / {model}: test inliers {e:.4} mm (LM {:.4})", method.name(), inliers.rmse);
@@ -263,7 +265,7 @@ fn tracker_grids_of_a_ur5_and_a_wam_calibrate_below_the_published_error() {
             continue;
         }
         let ds = Dataset::load(&path).unwrap();
-        let spec = ModelSpec::parse(urdf.to_str().unwrap(), twincal::calib::run::Parametrisation::Hayati).unwrap();
+        let spec = ModelSpec::parse(urdf.to_str().unwrap(), twincal::calib::pipeline::Parametrisation::Hayati).unwrap();
         let mut after = Vec::new();
         for seed in 0..3 {
             let mut o = CalibOptions::new(spec.clone(), Method::LM);
@@ -286,7 +288,7 @@ fn tracker_grids_of_a_ur5_and_a_wam_calibrate_below_the_published_error() {
 /// (LM) on the same training rows, outside glitch stretches (rows either model misses by more
 /// than 8 median absolute residuals). One test per file, so that they run side by side.
 fn diagnosed_model_on_held_out_blocks(rel: &str) {
-    use twincal::calib::run::{split_rows, SplitBy};
+    use twincal::calib::pipeline::{split_rows, SplitBy};
     use twincal::dataset::ReadOptions;
     use twincal::measurement::Measurement;
     let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
@@ -304,9 +306,9 @@ fn diagnosed_model_on_held_out_blocks(rel: &str) {
             crate::datasets::skip(u);
             return;
         }
-        Some(u) => ModelSpec::parse(u.to_str().unwrap(), twincal::calib::run::Parametrisation::Hayati).unwrap(),
+        Some(u) => ModelSpec::parse(u.to_str().unwrap(), twincal::calib::pipeline::Parametrisation::Hayati).unwrap(),
         None if rel.starts_with("hsr") => ModelSpec::Generic,
-        None => ModelSpec::parse("irb120", twincal::calib::run::Parametrisation::Hayati).unwrap(),
+        None => ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(),
     };
     let load = ReadOptions { measurement, ..Default::default() };
     // Series a spans 100 h in a file not in time order: read sorted by t.
@@ -323,7 +325,7 @@ fn diagnosed_model_on_held_out_blocks(rel: &str) {
         &train_ds,
         None,
         &CalibOptions {
-            floor: twincal::calib::run::FloorOptions { noise_model: NoiseChoice::Off, ..Default::default() },
+            floor: twincal::calib::pipeline::FloorOptions { noise_model: NoiseChoice::Off, ..Default::default() },
             ..CalibOptions::new(spec.clone(), Method::LM)
         },
     )

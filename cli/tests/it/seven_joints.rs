@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, TruthFile};
+use twincal::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec, TruthFile};
 use twincal::dataset::{Dataset, Row};
 use twincal::diagnose::{diagnose, DiagnoseOptions};
 use twincal::sim::generate::{generate, write_outputs, Silent};
@@ -25,7 +25,7 @@ fn scenario(seed: u64) -> (Scenario, twincal::robot::Robot) {
 }
 
 fn wam() -> ModelSpec {
-    ModelSpec::parse(root().join("urdf/wam.urdf").to_str().unwrap(), twincal::calib::run::Parametrisation::Hayati).unwrap()
+    ModelSpec::parse(root().join("urdf/wam.urdf").to_str().unwrap(), twincal::calib::pipeline::Parametrisation::Hayati).unwrap()
 }
 
 #[test]

@@ -11,7 +11,7 @@ use crate::datasets::generated;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use twincal::calib::run::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation, StationOrigin};
+use twincal::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation, StationOrigin};
 use twincal::dataset::Dataset;
 use twincal::measurement::{Euler, Measurement};
 
@@ -49,7 +49,7 @@ fn options(robot: &twincal::robot::Robot) -> CalibOptions {
     CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM)
 }
 
-fn test_rmse(r: &twincal::calib::run::CalibResult) -> f64 {
+fn test_rmse(r: &twincal::calib::pipeline::CalibResult) -> f64 {
     r.evaluation.metrics.test_after.as_ref().unwrap().rmse
 }
 

@@ -63,7 +63,7 @@ use super::gkan_select::{penalty_gram, penalty_rows, select, Selection};
 use super::solver::{Problem, Solution, Solver};
 use crate::calib::correctors::gkan::{Gkan, GkanShape, Mlp};
 use crate::calib::correctors::Corrector;
-use crate::calib::problem::ReadingFit;
+use crate::calib::fit::ReadingFit;
 use crate::error::{Error, Result};
 use crate::optim::{Bounds, Cost, De, DeVariant, Event, LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use nalgebra::{DMatrix, DVector};
@@ -663,8 +663,8 @@ impl Solver for EvoNphSolver {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::fit::Samples;
     use crate::calib::model::{CalibModel, Placement, SensorGuess};
-    use crate::calib::problem::Samples;
     use crate::measurement::Measurement;
     use crate::robot::Robot;
     use nalgebra::Vector3;

@@ -9,13 +9,13 @@ use crate::optim::{LevenbergMarquardt, Observer};
 pub struct LmSolver {
     /// The Levenberg–Marquardt settings.
     pub lm: LevenbergMarquardt,
-    /// Squared residuals, or a robust loss by IRLS ([`crate::calib::problem::robust::irls`]).
-    pub loss: crate::calib::problem::robust::Loss,
+    /// Squared residuals, or a robust loss by IRLS ([`crate::calib::fit::robust::irls`]).
+    pub loss: crate::calib::fit::robust::Loss,
 }
 
 impl Default for LmSolver {
     fn default() -> Self {
-        LmSolver { lm: LevenbergMarquardt::budget(2000), loss: crate::calib::problem::robust::Loss::L2 }
+        LmSolver { lm: LevenbergMarquardt::budget(2000), loss: crate::calib::fit::robust::Loss::L2 }
     }
 }
 
@@ -24,6 +24,6 @@ impl Solver for LmSolver {
         "lm"
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
-        Ok(Solution { report: crate::calib::problem::robust::irls(&self.lm, p.fit, p.x0, p.fixed, self.loss, obs), corrector: None })
+        Ok(Solution { report: crate::calib::fit::robust::irls(&self.lm, p.fit, p.x0, p.fixed, self.loss, obs), corrector: None })
     }
 }

@@ -1,7 +1,7 @@
 //! Method `pso`: Particle swarm optimisation.
 
 use super::solver::{Problem, Solution, Solver};
-use crate::calib::problem::{FreeCost, ReadingFit};
+use crate::calib::fit::{FreeCost, ReadingFit};
 use crate::error::Result;
 use crate::optim::{Bounds, Observer, Pso};
 

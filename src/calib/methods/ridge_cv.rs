@@ -12,7 +12,7 @@
 //! rows' residuals to the others' — a flexible basis then "predicts" them, most of all when a
 //! fold has about as many rows as the model has parameters.
 
-use crate::calib::problem::ReadingFit;
+use crate::calib::fit::ReadingFit;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use nalgebra::{Cholesky, DMatrix, DVector};
 use rayon::prelude::*;

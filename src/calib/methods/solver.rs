@@ -1,7 +1,7 @@
 //! What every calibration method is: a [`Solver`] that solves a [`Problem`] into a [`Solution`].
 
 use crate::calib::correctors::Corrector;
-use crate::calib::problem::ReadingFit;
+use crate::calib::fit::ReadingFit;
 use crate::error::Result;
 use crate::optim::{Observer, Report};
 use rand::seq::SliceRandom;

@@ -9,7 +9,7 @@
 //! * `frame`: the twin's own per-joint frame errors (7 per joint), heavily redundant; the
 //!   identifiability analysis reduces it to its base parameters.
 //! * `generic6r` / `generic7r`: an arm without a published nominal, a product of exponentials
-//!   around axis lines found by a global search ([`crate::calib::run::generic`]).
+//!   around axis lines found by a global search ([`crate::calib::pipeline::generic`]).
 //!
 //! Every model ends with its instrument's placement parameters ([`Measurement`]; for the
 //! draw-wire: cable exit point (base frame), length offset and tool point (flange frame); for a

@@ -14,7 +14,7 @@
 
 use super::Layout;
 use crate::calib::model::CalibModel;
-use crate::calib::run::CalibResult;
+use crate::calib::pipeline::CalibResult;
 use crate::robot::kinematics::FkWork;
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 

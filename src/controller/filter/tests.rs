@@ -1,6 +1,6 @@
 use super::sample::{pose_layout, SampleProgram};
 use super::*;
-use crate::calib::run::{calibrate, CalibOptions, CalibResult, Method, ModelSpec, Parametrisation};
+use crate::calib::pipeline::{calibrate, CalibOptions, CalibResult, Method, ModelSpec, Parametrisation};
 use crate::compensate::{nominal_x, Target};
 use crate::sim::generate::{generate, Silent};
 use crate::sim::scenario::Scenario;

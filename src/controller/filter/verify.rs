@@ -18,7 +18,7 @@
 
 use super::sample::{pose_layout, SampleProgram};
 use super::{filter_program, FilterOptions, Outcome, Setup};
-use crate::calib::run::{calibrate, CalibOptions};
+use crate::calib::pipeline::{calibrate, CalibOptions};
 use crate::compensate::verify::{calibration_rows, data_ranges, execute};
 use crate::compensate::{nominal_x, Compensator};
 use crate::controller::Language;

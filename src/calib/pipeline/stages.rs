@@ -5,10 +5,10 @@ use super::options::*;
 use super::result::*;
 use super::split::*;
 use crate::calib::correctors::Correct;
+use crate::calib::fit::identify::identify;
+use crate::calib::fit::robust::{Outlier, ScreenRule};
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::identify::identify;
-use crate::calib::problem::robust::{Outlier, ScreenRule};
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::truth::TruthFile;
 use crate::dataset::Dataset;
 use crate::error::Result;
@@ -103,20 +103,20 @@ pub(super) fn stats(fit: &ReadingFit, x: &[f64], corrector: Option<&dyn Correct>
 /// The outlier screen needs this many training rows per identifiable parameter.
 pub const SCREEN_ROWS_PER_PARAM: usize = 3;
 
-/// Stage "outliers": the training rows far off a robust fit ([`crate::calib::problem::robust::screen`], the
+/// Stage "outliers": the training rows far off a robust fit ([`crate::calib::fit::robust::screen`], the
 /// identifiable parameters refitted with the Cauchy loss at each pass) are taken out of the split;
-/// readings in a reading step are corrected by its offset, in training and test rows alike; a
-/// nominal model's sensor is then placed again on the rows kept (a new model: the second value
-/// says so). `None` when the screen is off. The screen's scale is never taken below the
+/// readings in a reading step are corrected by its offset, in training and test rows alike; the
+/// second value says whether the training rows changed (the pipeline then places a nominal
+/// model's instrument again on the rows kept). `None` when the screen is off. The screen's scale is never taken below the
 /// angle-resolution part of the training rows' floor: where a sweep's rows share the angles'
 /// rounding their residuals' robust scale can fall far below the rounding itself, and the
 /// screen would flag good rows (as `diagnose` does, see docs/diagnose.md).
 pub fn outlier_stage(
-    model: &mut CalibModel,
+    model: &CalibModel,
     split: &mut SplitData,
     data: &Dataset,
     opts: &CalibOptions,
-) -> Result<(Option<crate::calib::problem::robust::Screen>, bool)> {
+) -> Result<(Option<crate::calib::fit::robust::Screen>, bool)> {
     if opts.screen.outlier_k <= 0.0 {
         return Ok((None, false));
     }
@@ -128,24 +128,20 @@ pub fn outlier_stage(
         return Ok((None, false));
     }
     let screen = {
-        let m: &CalibModel = model;
-        let refit = |d: &Samples, x: &[f64]| crate::calib::problem::robust::screen_fit(m, d, x, opts.rank_tol);
+        let m = model;
+        let refit = |d: &Samples, x: &[f64]| crate::calib::fit::robust::screen_fit(m, d, x, opts.rank_tol);
         let rule = screen_rule(m, data, &split.train, opts.screen.outlier_k, opts.screen.reading_steps, opts.floor.angle_step_deg);
-        crate::calib::problem::robust::screen(m, &m.nominal, &split.train, &split.train_idx, rule, &refit)
+        crate::calib::fit::robust::screen(m, &m.nominal, &split.train, &split.train_idx, rule, &refit)
     };
     if !screen.steps.is_empty() {
-        split.test = crate::calib::problem::robust::apply_steps_nearest(&split.test, &split.test_idx, &split.train_idx, &screen.steps);
+        split.test = crate::calib::fit::robust::apply_steps_nearest(&split.test, &split.test_idx, &split.train_idx, &screen.steps);
     }
-    let mut placed_again = false;
-    if !screen.outliers.is_empty() || !screen.steps.is_empty() {
+    let changed = !screen.outliers.is_empty() || !screen.steps.is_empty();
+    if changed {
         split.train_idx = screen.keep.iter().map(|&i| split.train_idx[i]).collect();
         split.train = screen.corrected.subset(&screen.keep);
-        if matches!(opts.model, ModelSpec::Nominal { .. }) {
-            *model = crate::calib::run::placement::place_sensor(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
-            placed_again = true;
-        }
     }
-    Ok((Some(screen), placed_again))
+    Ok((Some(screen), changed))
 }
 
 /// Test rows beyond `k` robust standard deviations of the calibrated model's training
@@ -161,7 +157,7 @@ pub(super) fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[u
     // value farthest out.
     let groups = fit.model.measurement.def().value_groups();
     let group = |k: usize| groups.get(k).copied().unwrap_or(0);
-    let stats = crate::calib::problem::robust::group_scales(&r, d, groups, &(0..r.len() / d).collect::<Vec<_>>());
+    let stats = crate::calib::fit::robust::group_scales(&r, d, groups, &(0..r.len() / d).collect::<Vec<_>>());
     let n_groups = stats.len();
     test_r
         .chunks(d)
@@ -169,7 +165,7 @@ pub(super) fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[u
         .filter_map(|(vs, &i)| {
             let (med, scale) = stats[0];
             if n_groups == 1 {
-                let v = crate::calib::problem::robust::farthest_from(vs, med);
+                let v = crate::calib::fit::robust::farthest_from(vs, med);
                 return (!((v - med).abs() <= k * scale)).then(|| Outlier { row: i + 1, residual_mm: v, robust_z: (v - med) / scale });
             }
             let (z, v) = vs.iter().enumerate().map(|(c, v)| ((v - stats[group(c)].0) / stats[group(c)].1, *v)).fold((0.0_f64, f64::NAN), |a, b| {
@@ -202,7 +198,7 @@ pub fn metrics_stage(fit: &ReadingFit, test_fit: &ReadingFit, x0: &[f64], x: &[f
 }
 
 /// Stage "truth comparison": each identifiable parameter against its truth-equivalent value
-/// (computed from the truth, see [`crate::calib::run::equivalent`]), with z = error / standard uncertainty.
+/// (computed from the truth, see [`crate::calib::pipeline::equivalent`]), with z = error / standard uncertainty.
 /// Returns the truth-equivalent vector (internal units) where it could be computed.
 pub fn truth_stage(
     model: &CalibModel,
@@ -227,7 +223,7 @@ pub fn truth_stage(
         .map(|&i| Some(&t.poses[i].q_cmd_deg).filter(|q| q.len() == robot.dof()).map(|q| q.iter().map(|d| d.to_radians()).collect()))
         .collect();
     let clean = Samples { y: y?.concat(), q: commanded.unwrap_or_else(|| split.train.q.clone()), ..split.train.clone() };
-    crate::calib::run::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)
+    crate::calib::pipeline::equivalent::truth_equivalent(model, robot, t, &clean, x0, fixed)
 }
 
 /// The repeatability of the readings over repeated configurations: for several values per row
@@ -280,7 +276,7 @@ pub fn reading_repeatability(data: &Dataset) -> Option<crate::stats::metrics::Re
 /// angle-resolution part of their floor, what the angles' logging alone puts on a reading.
 pub fn screen_rule(model: &CalibModel, data: &Dataset, rows: &Samples, k: f64, steps: bool, angle_step_deg: Option<f64>) -> ScreenRule {
     let floor = floor_stage(model, &model.nominal, data, rows, angle_step_deg, None, None);
-    let min_scale_mm = floor.part(crate::calib::problem::floor::FloorKind::AngleResolution);
+    let min_scale_mm = floor.part(crate::calib::fit::floor::FloorKind::AngleResolution);
     ScreenRule { k, steps, min_scale_mm }
 }
 
@@ -311,7 +307,7 @@ pub(super) fn leak_warning(data: &Dataset, split: &SplitData, test_r: &[f64], te
 
 /// Stage "floor": the data's own floor for the model at `x` over `rows` (the rows of `data`):
 /// the repeatability given, the joint angles' logging step (`angle_step_deg`, else read from the
-/// data's decimals) and the readings' logging step. See [`crate::calib::problem::floor`].
+/// data's decimals) and the readings' logging step. See [`crate::calib::fit::floor`].
 pub fn floor_stage(
     model: &CalibModel,
     x: &[f64],
@@ -320,8 +316,8 @@ pub fn floor_stage(
     angle_step_deg: Option<f64>,
     instrument_accuracy_mm: Option<f64>,
     repeat: Option<&crate::stats::metrics::Repeatability>,
-) -> crate::calib::problem::floor::NoiseFloor {
-    use crate::calib::problem::floor::{logging_step, Step};
+) -> crate::calib::fit::floor::NoiseFloor {
+    use crate::calib::fit::floor::{logging_step, Step};
     let angle_step = match angle_step_deg {
         Some(v) => Some(Step::Given(v)),
         None => logging_step(data.rows.iter().flat_map(|r| r.q_deg.iter().copied())).map(Step::Detected),
@@ -332,8 +328,8 @@ pub fn floor_stage(
     // The rows' own standard deviations, RMS per coordinate over the rows that give them.
     let stds: Vec<f64> = data.rows.iter().filter_map(|r| r.std_mm).flatten().collect();
     let row_std_mm = (!stds.is_empty()).then(|| crate::stats::rms(&stds));
-    let instrument = crate::calib::problem::floor::InstrumentNoise { row_std_mm, accuracy_mm: instrument_accuracy_mm };
-    crate::calib::problem::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat, instrument)
+    let instrument = crate::calib::fit::floor::InstrumentNoise { row_std_mm, accuracy_mm: instrument_accuracy_mm };
+    crate::calib::fit::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat, instrument)
 }
 
 #[cfg(test)]

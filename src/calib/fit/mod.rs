@@ -48,12 +48,12 @@ pub struct Samples {
     pub inputs: Vec<RowInputs>,
     /// The square root of each value's weight in the fit, relative (about 1 for a typical
     /// value), or `None` for equal weights: a tracker's per-row standard deviations give them
-    /// (see [`crate::calib::problem::weighting`]). Every residual the fit sees is scaled by it.
+    /// (see [`crate::calib::fit::weighting`]). Every residual the fit sees is scaled by it.
     pub w: Option<Vec<f64>>,
     /// The whitening of rows that share the joint angles' logging error in blocks
-    /// ([`crate::calib::problem::gls`]): least-squares fits ([`ReadingFit`]) whiten their residuals by it. The
+    /// ([`crate::calib::fit::gls`]): least-squares fits ([`ReadingFit`]) whiten their residuals by it. The
     /// sequential filters (EKF, PF) and [`Self::unweighted`] do not.
-    pub gls: Option<crate::calib::problem::gls::Whitening>,
+    pub gls: Option<crate::calib::fit::gls::Whitening>,
 }
 
 impl Samples {

@@ -15,8 +15,8 @@
 //!    thermal, ...) add to the lengths, a rigid model absorbs here just as it does in the
 //!    calibration.
 
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::truth::TruthFile;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};

@@ -1,12 +1,12 @@
 //! Pipeline stage "sensor placement": the starting model of a calibration. For an arm with a
 //! nominal description, the draw-wire's exit point and length offset by multilateration from the
 //! nominal tool points, then exit point, offset and tool point by a sensor-only least-squares fit;
-//! for the generic arm, a global search for the whole structure ([`crate::calib::run::generic`]).
+//! for the generic arm, a global search for the whole structure ([`crate::calib::pipeline::generic`]).
 
 use super::generic::SearchReport;
 use super::options::{CalibOptions, ModelSpec, Parametrisation};
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::{CalibModel, Placement, SensorGuess, SetupKind};
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
 use crate::measurement::Measurement;
 use crate::optim::{LevenbergMarquardt, NoObserver};
@@ -162,7 +162,7 @@ fn search_settings(opts: &CalibOptions) -> super::generic::SearchSettings {
 fn align_placement(mut model: CalibModel, train: &Samples, rank_tol: f64) -> CalibModel {
     let nc = model.n_chain();
     let fit = ReadingFit { model: &model, data: train };
-    let id = crate::calib::problem::identify::identify(&fit, &model.nominal, rank_tol);
+    let id = crate::calib::fit::identify::identify(&fit, &model.nominal, rank_tol);
     let fixed: Vec<bool> = (0..model.n_params()).map(|k| k < nc || id.fixed_mask[k]).collect();
     let lm = LevenbergMarquardt::budget(200);
     let x = lm.minimize(&fit, &model.nominal, &fixed, &mut NoObserver).x;

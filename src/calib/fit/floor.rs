@@ -3,8 +3,8 @@
 //! on each reading value (the angle steps propagated through the model's joint Jacobian). Each
 //! source is named; the final residual of a fit is never one of them.
 
+use crate::calib::fit::Samples;
 use crate::calib::model::CalibModel;
-use crate::calib::problem::Samples;
 use crate::stats::metrics::Repeatability;
 use serde::{Deserialize, Serialize};
 

@@ -4,8 +4,8 @@
 use super::options::*;
 use super::result::*;
 use crate::calib::effects::RowInputs;
+use crate::calib::fit::Samples;
 use crate::calib::model::CalibModel;
-use crate::calib::problem::Samples;
 use crate::dataset::blocks::Blocks;
 use crate::dataset::{Dataset, Split};
 use crate::error::{Error, Result};

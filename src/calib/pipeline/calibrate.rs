@@ -5,17 +5,17 @@ use super::options::*;
 use super::result::*;
 use super::split::*;
 use super::stages::*;
+use crate::calib::fit::identify::identify;
+use crate::calib::fit::identify::Identifiability;
+use crate::calib::fit::robust::{Loss, Outlier};
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::methods::{Method, Solver};
 use crate::calib::methods::{Problem, Solution};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::identify::identify;
-use crate::calib::problem::identify::Identifiability;
-use crate::calib::problem::robust::{Loss, Outlier};
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::truth::TruthFile;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::optim::{covariance, History};
+use crate::optim::{covariance, History, LevenbergMarquardt, NoObserver};
 use crate::stats::metrics::ErrorStats;
 use nalgebra::DMatrix;
 use std::time::Instant;
@@ -40,13 +40,13 @@ pub struct Prepared {
     /// The model with its instrument placed and the requested effect blocks.
     pub model: CalibModel,
     /// The robust screen of the training rows (`None` when off or with too few rows).
-    pub screen: Option<crate::calib::problem::robust::Screen>,
+    pub screen: Option<crate::calib::fit::robust::Screen>,
     /// Test rows whose reading a reading step corrected.
     pub test_rows_in_steps: usize,
     /// Which parameters the training poses determine, at the model's nominal.
     pub id: Identifiability,
     /// How the training rows are weighted (per-row standard deviations), `None` for equal weights.
-    pub weighting: Option<crate::calib::problem::weighting::Weighting>,
+    pub weighting: Option<crate::calib::fit::weighting::Weighting>,
     /// What the generic model's search did (`None` for a nominal arm).
     pub search: Option<super::generic::SearchReport>,
 }
@@ -81,11 +81,11 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
         };
         return Err(Error::data(&data.source, msg));
     }
-    let (mut model, search) = crate::calib::run::placement::place(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
+    let (mut model, search) = crate::calib::pipeline::placement::place(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
     // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
     // (A learned corrector learns plain residuals: its methods fit with equal weights.)
     let weighting = if opts.floor.row_std && !opts.method.learns_corrector() {
-        crate::calib::problem::weighting::training_weights(&model, data, &split.train_idx, &split.train, opts.rank_tol).map(|(w, info)| {
+        crate::calib::fit::weighting::training_weights(&model, data, &split.train_idx, &split.train, opts.rank_tol).map(|(w, info)| {
             split.train.w = Some(w);
             info
         })
@@ -95,9 +95,10 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     // The effects asked for are in the model before the screen: a warm-up's drift or a backlash
     // band, screened against the geometry alone, would look like reading steps and outliers.
     effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
-    let (screen, placed_again) = outlier_stage(&mut model, &mut split, data, opts)?;
-    if placed_again {
-        // The sensor placed again on the kept rows is a new model: the effects go back in.
+    let (screen, rows_changed) = outlier_stage(&model, &mut split, data, opts)?;
+    if rows_changed && matches!(opts.model, ModelSpec::Nominal { .. }) {
+        // The instrument placed again on the kept rows is a new model: the effects go back in.
+        model = crate::calib::pipeline::placement::place_sensor(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
         effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
     }
     let test_rows_in_steps = samples(data, &split.test_idx).y.iter().zip(&split.test.y).filter(|(a, b)| a != b).count();
@@ -117,11 +118,33 @@ fn held_fixed(model: &CalibModel, id: &Identifiability, free: FreeParams) -> Vec
     id.fixed_mask.iter().enumerate().map(|(k, f)| *f || held(k)).collect()
 }
 
+/// Stage "set-up" of a calibration with `opts`: the data with their stations resolved
+/// ([`setup::resolve`](super::setup::resolve)), the change points read from a first fit of
+/// every row.
+pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<Dataset>, super::setup::Found)> {
+    super::setup::resolve(data, opts, &|d: &Dataset| first_fit(d, opts))
+}
+
+/// The model fitted to every row with the set-ups `data` names (no screen), the effects asked
+/// for included (a warm-up's drift left in the residuals would look like a slow train of
+/// moves): what the change-point search reads the residuals of.
+fn first_fit(data: &Dataset, opts: &CalibOptions) -> Result<(CalibModel, Vec<f64>, Samples)> {
+    let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
+    let mut model = crate::calib::pipeline::placement::place_sensor(opts, &all, [&data.stations().labels, &data.mounts().labels])?;
+    if !opts.effects.is_empty() {
+        all.inputs = add_effects(&mut model, data, opts)?.1;
+    }
+    let fit = ReadingFit { model: &model, data: &all };
+    let id = identify(&fit, &model.nominal, opts.rank_tol);
+    let x = LevenbergMarquardt::budget(100).minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver).x;
+    Ok((model, x, all))
+}
+
 /// Runs a calibration with a given solver. `truth` enables the parameter-error report.
 pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOptions, solver: &dyn Solver) -> Result<CalibResult> {
     let t0 = Instant::now();
     // Stage "set-up": the instrument's stations (declared, declared blocks, change points).
-    let (labelled, found) = super::setup::resolve_stations(data, opts)?;
+    let (labelled, found) = resolve_stations(data, opts)?;
     let data = labelled.as_ref().unwrap_or(data);
     let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting, search } = prepare(data, opts, solver.needs_row_inputs())?;
     let mut warnings = setup_warnings(&model, data, screen.is_some(), opts);
@@ -271,18 +294,12 @@ pub(super) fn noise_model_stage(
     split: &mut SplitData,
     data: &Dataset,
     opts: &CalibOptions,
-) -> (Option<crate::calib::problem::gls::NoiseModel>, Option<Samples>) {
+) -> (Option<crate::calib::fit::gls::NoiseModel>, Option<Samples>) {
     let logging = match opts.floor.noise_model {
-        crate::calib::problem::noise_model::NoiseChoice::Auto => crate::calib::problem::noise_model::remove_logging_error(
-            model,
-            x0,
-            fixed,
-            &split.train,
-            &split.train_idx,
-            data,
-            (&split.blocks, split.angle_step_deg),
-        ),
-        crate::calib::problem::noise_model::NoiseChoice::Off => None,
+        crate::calib::fit::noise_model::NoiseChoice::Auto => {
+            crate::calib::fit::noise_model::remove_logging_error(model, x0, fixed, &split.train, &split.train_idx, data, (&split.blocks, split.angle_step_deg))
+        }
+        crate::calib::fit::noise_model::NoiseChoice::Off => None,
     };
     // With the noise model: the rows as read, whitened by it.
     match logging {

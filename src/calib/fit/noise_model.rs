@@ -1,11 +1,11 @@
 //! The joint angles' logging error as the noise model of a fit on a dataset: the
 //! [`RoundingModel`] of its rows through a model ([`rounding_model_at`]), and what `calibrate`
 //! does with it ([`remove_logging_error`]). The covariance and its whitening are in
-//! [`crate::calib::problem::gls`].
+//! [`crate::calib::fit::gls`].
 
+use crate::calib::fit::gls::{NoiseModel, RoundingModel, Whitening};
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::gls::{NoiseModel, RoundingModel, Whitening};
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::blocks::Blocks;
 use crate::dataset::Dataset;
 use serde::{Deserialize, Serialize};

@@ -26,8 +26,8 @@
 
 pub mod shapes;
 
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::{CalibModel, Kind, Placement};
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::error::{Error, Result};
 use crate::measurement::Measurement;
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver};
@@ -173,7 +173,7 @@ fn start(lines: &[Line], tool: &Vector3<f64>, exit_dir: &Vector3<f64>, q_ref: &[
 /// within few iterations).
 fn fit(model: &CalibModel, data: &Samples, lm: &LevenbergMarquardt, rank_tol: f64) -> (f64, Vec<f64>, bool) {
     let fit = ReadingFit { model, data };
-    let id = crate::calib::problem::identify::identify(&fit, &model.nominal, rank_tol);
+    let id = crate::calib::fit::identify::identify(&fit, &model.nominal, rank_tol);
     let rep = lm.minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver);
     let cost = LeastSquares::cost(&fit, &rep.x);
     let settled = rep.converged() && rep.iterations <= SETTLED_ITER;

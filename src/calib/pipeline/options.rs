@@ -3,11 +3,11 @@
 
 use crate::calib::effects::inputs::JointLoads;
 use crate::calib::effects::EffectKind;
+use crate::calib::fit::noise_model::NoiseChoice;
+use crate::calib::fit::robust::Loss;
 use crate::calib::methods::Method;
 use crate::calib::model::tolerance::Tolerances;
 use crate::calib::model::SensorGuess;
-use crate::calib::problem::noise_model::NoiseChoice;
-use crate::calib::problem::robust::Loss;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
 use serde::{Deserialize, Serialize};
@@ -26,7 +26,7 @@ pub enum ModelSpec {
         parametrisation: Parametrisation,
     },
     /// An arm with no published nominal (6 or 7 revolute joints, as the data hold): its axes
-    /// are found from the data by a global search ([`crate::calib::run::generic`]).
+    /// are found from the data by a global search ([`crate::calib::pipeline::generic`]).
     Generic,
 }
 
@@ -89,10 +89,10 @@ pub struct SplitOptions {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScreenOptions {
     /// Rows more than this many robust standard deviations off the fit are outliers, kept out
-    /// and listed ([`crate::calib::problem::robust::screen`]); 0 keeps every row.
+    /// and listed ([`crate::calib::fit::robust::screen`]); 0 keeps every row.
     pub outlier_k: f64,
     /// Runs of outliers that are one constant offset of the reading are corrected and kept
-    /// ([`crate::calib::problem::robust::reading_steps`]) instead of kept out.
+    /// ([`crate::calib::fit::robust::reading_steps`]) instead of kept out.
     pub reading_steps: bool,
 }
 
@@ -111,7 +111,7 @@ pub struct FloorOptions {
     /// The instrument's stated accuracy, mm per coordinate (or of the cable length).
     pub instrument_accuracy_mm: Option<f64>,
     /// Weight the fits by the rows' own standard deviations where the data give them (a
-    /// tracker's `sx, sy, sz`; [`crate::calib::problem::weighting`]).
+    /// tracker's `sx, sy, sz`; [`crate::calib::fit::weighting`]).
     pub row_std: bool,
     /// Whether the joint angles' logging error is modelled where rows share blocks.
     pub noise_model: NoiseChoice,

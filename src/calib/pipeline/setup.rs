@@ -17,16 +17,12 @@
 //! of the tracker explains only in part, is not taken for one.
 
 use super::options::{CalibOptions, StationSource};
-use super::placement::place_sensor;
 use super::result::{SetupPart, SetupReport, StationOrigin};
-use super::split::samples;
+use crate::calib::fit::Samples;
 use crate::calib::model::{CalibModel, SetupKind};
-use crate::calib::problem::identify::identify;
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::measurement::{Measurement, MAX_DIM};
-use crate::optim::{LevenbergMarquardt, NoObserver};
 use nalgebra::{DMatrix, DVector};
 
 /// Least gain of a change point, in units of `dof × ln(values)` of the standardised residuals.
@@ -42,11 +38,17 @@ pub const MAX_CHANGES: usize = 12;
 /// A set-up change a first fit's residuals showed: the kind and the label of the new set-up.
 pub type Found = Vec<(SetupKind, String)>;
 
+/// A first fit of every row with the set-ups a dataset names: the model, its parameters and the
+/// rows, whose residuals the change-point search reads. The pipeline gives it
+/// ([`resolve_stations`](super::resolve_stations)), so that this stage hands the options to no
+/// other.
+pub type FirstFit<'a> = &'a dyn Fn(&Dataset) -> Result<(CalibModel, Vec<f64>, Samples)>;
+
 /// The data with their stations resolved by `opts.stations`: `None` when the rows' own
 /// `station` and `mount` columns (or their absence) stand as they are, else a copy whose rows
 /// name their stations and mounts (declared blocks, change points), with the set-ups that
 /// change points gave.
-pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<Dataset>, Found)> {
+pub fn resolve(data: &Dataset, opts: &CalibOptions, fit_all: FirstFit) -> Result<(Option<Dataset>, Found)> {
     match opts.stations {
         StationSource::Declared => Ok((None, Vec::new())),
         StationSource::One => {
@@ -68,7 +70,7 @@ pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<D
             if !tracker || !matches!(opts.model, super::options::ModelSpec::Nominal { .. }) || opts.free != super::options::FreeParams::All {
                 return Ok((None, Vec::new()));
             }
-            find_changes(data, opts)
+            find_changes(data, fit_all)
         }
     }
 }
@@ -97,13 +99,13 @@ pub(super) fn label_mut(r: &mut crate::dataset::Row, k: SetupKind) -> &mut Optio
     }
 }
 
-/// The change-point search of [`resolve_stations`]: a first fit with the set-ups so far, the
-/// best change point over every set-up's rows, until none is left.
-fn find_changes(data: &Dataset, opts: &CalibOptions) -> Result<(Option<Dataset>, Found)> {
+/// The change-point search of [`resolve`]: a first fit with the set-ups so far, the best change
+/// point over every set-up's rows, until none is left.
+fn find_changes(data: &Dataset, fit_all: FirstFit) -> Result<(Option<Dataset>, Found)> {
     let mut labelled = data.clone();
     let mut found = Vec::new();
     for _ in 0..MAX_CHANGES {
-        let (model, x, all) = first_fit(&labelled, opts)?;
+        let (model, x, all) = fit_all(&labelled)?;
         let Some(change) = best_change(&model, &x, &all) else { break };
         for kind in change.kinds {
             let declared = data.rows.iter().all(|r| label_of(r, kind).is_some());
@@ -131,21 +133,6 @@ fn new_label(data: &Dataset, kind: SetupKind, row: usize, declared: bool) -> Str
     }
     let base = st.labels[st.of_row[row]].split('.').next().unwrap_or_default().to_string();
     (2..).map(|k| format!("{base}.{k}")).find(|l| !st.labels.contains(l)).unwrap_or(base)
-}
-
-/// The model fitted to every row with the set-ups `data` names (no screen), the effects asked
-/// for included (a warm-up's drift left in the residuals would look like a slow train of
-/// moves): what the change-point search reads the residuals of.
-fn first_fit(data: &Dataset, opts: &CalibOptions) -> Result<(CalibModel, Vec<f64>, Samples)> {
-    let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    let mut model = place_sensor(opts, &all, [&data.stations().labels, &data.mounts().labels])?;
-    if !opts.effects.is_empty() {
-        all.inputs = super::split::add_effects(&mut model, data, opts)?.1;
-    }
-    let fit = ReadingFit { model: &model, data: &all };
-    let id = identify(&fit, &model.nominal, opts.rank_tol);
-    let x = LevenbergMarquardt::budget(100).minimize(&fit, &model.nominal, &id.fixed_mask, &mut NoObserver).x;
-    Ok((model, x, all))
 }
 
 /// Each row's standardised residuals and the Jacobian of its prediction with respect to its

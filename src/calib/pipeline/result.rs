@@ -5,9 +5,9 @@ use crate::calib::correctors::rbf::RbfNetwork;
 use crate::calib::correctors::{Correct, Corrector, EffectCorrection};
 use crate::calib::effects::EffectBlock;
 use crate::calib::effects::RowInputs;
+use crate::calib::fit::robust::{Loss, Outlier, OutlierRun, ReadingStep};
 use crate::calib::methods::Method;
 use crate::calib::model::CalibModel;
-use crate::calib::problem::robust::{Loss, Outlier, OutlierRun, ReadingStep};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::stats::metrics::ErrorStats;
@@ -142,11 +142,11 @@ pub struct Solve {
     /// How the fit weighted the training rows by their own standard deviations (absent: equal
     /// weights).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub weighting: Option<crate::calib::problem::weighting::Weighting>,
+    pub weighting: Option<crate::calib::fit::weighting::Weighting>,
     /// The joint angles' logging error as the fit's noise model (absent: the training rows were
-    /// taken as independent): see [`crate::calib::problem::noise_model::remove_logging_error`].
+    /// taken as independent): see [`crate::calib::fit::noise_model::remove_logging_error`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub noise_model: Option<crate::calib::problem::gls::NoiseModel>,
+    pub noise_model: Option<crate::calib::fit::gls::NoiseModel>,
     /// The identifiability analysis of the training rows at the nominal parameters (rank, condition
     /// numbers, fixed parameters).
     pub identifiability: serde_json::Value,
@@ -188,7 +188,7 @@ pub struct ScreenReport {
 impl ScreenReport {
     /// What a calibration's screen (`None`: it did not run) at threshold `outlier_k` kept out
     /// and corrected, with the test rows it judged.
-    pub fn of(screen: Option<crate::calib::problem::robust::Screen>, outlier_k: f64, test_rows_in_steps: usize, test_outliers: Vec<Outlier>) -> Self {
+    pub fn of(screen: Option<crate::calib::fit::robust::Screen>, outlier_k: f64, test_rows_in_steps: usize, test_outliers: Vec<Outlier>) -> Self {
         let Some(s) = screen else { return ScreenReport { outlier_k, test_rows_in_steps, test_outliers, ..ScreenReport::default() } };
         ScreenReport {
             outlier_k,
@@ -216,7 +216,7 @@ pub struct Evaluation {
     pub repeatability: Option<crate::stats::metrics::Repeatability>,
     /// The data's own floor: repeatability and logging resolutions, each named.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub noise_floor: Option<crate::calib::problem::floor::NoiseFloor>,
+    pub noise_floor: Option<crate::calib::fit::floor::NoiseFloor>,
 }
 
 /// The version of result.json's layout this build writes: 2 nests the result by what it is

@@ -13,8 +13,8 @@
 //! * [`Loss`] and [`irls`]: Huber or Cauchy by iteratively reweighted least squares, the
 //!   weights from the residuals over a robust scale re-estimated at every pass.
 
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::optim::{LeastSquares, LevenbergMarquardt, NoObserver, Observer, Report};
 use crate::stats::{median, robust_scale};
 use nalgebra::DMatrix;
@@ -272,7 +272,7 @@ pub struct ScreenRule {
 /// in, and the screen let it through.)
 pub fn screen_fit(model: &CalibModel, data: &Samples, x: &[f64], rank_tol: f64) -> Vec<f64> {
     let fit = ReadingFit { model, data };
-    let fixed = crate::calib::problem::identify::identify(&fit, x, rank_tol).fixed_mask;
+    let fixed = crate::calib::fit::identify::identify(&fit, x, rank_tol).fixed_mask;
     let lm = LevenbergMarquardt::budget(200).tolerances(1e-6, 1e-6);
     irls(&lm, &fit, x, &fixed, Loss::Cauchy, &mut NoObserver).x
 }

@@ -52,7 +52,7 @@ pub struct Identifiability {
     /// Parameter combinations the data cannot see (null space), strongest terms first.
     pub invisible: Vec<Combination>,
     /// Joints (1-based) that do not move in the data and were held at their median angle for
-    /// the analysis (see [`crate::calib::run::identify`]).
+    /// the analysis (see [`crate::calib::pipeline::identify`]).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub still_joints: Vec<usize>,
     /// Index mask: true = fixed.

@@ -13,8 +13,8 @@
 //! deviation and keep equal weights. Each weight is relative to the median one, so weighted
 //! residuals stay in millimetres of a typical row.
 
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::CalibModel;
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::Dataset;
 use crate::measurement::Measurement;
 use serde::{Deserialize, Serialize};
@@ -84,13 +84,13 @@ fn has_row_std(measurement: Measurement, dataset: &Dataset, rows: &[usize]) -> b
 }
 
 /// [`weights`] for the training samples of a calibration: the first fit is the outlier screen's
-/// robust one ([`crate::calib::problem::robust::screen_fit`]) from the model's nominal values.
+/// robust one ([`crate::calib::fit::robust::screen_fit`]) from the model's nominal values.
 pub fn training_weights(model: &CalibModel, dataset: &Dataset, rows: &[usize], data: &Samples, rank_tol: f64) -> Option<(Vec<f64>, Weighting)> {
     if !has_row_std(model.measurement, dataset, rows) {
         return None;
     }
     let plain = data.unweighted();
-    let x = crate::calib::problem::robust::screen_fit(model, &plain, &model.nominal, rank_tol);
+    let x = crate::calib::fit::robust::screen_fit(model, &plain, &model.nominal, rank_tol);
     let r = ReadingFit { model, data: &plain }.residuals_mm(&x);
     weights(model.measurement, dataset, rows, &plain, &r)
 }

@@ -4,7 +4,7 @@
 //! A controller that logs angles at 0.1° hands the fit angles off by up to 0.05°, and in a sweep
 //! the joints that hold are off by the *same* amount on every row of the sweep (and so is a joint
 //! swept in increments that are whole multiples of the step: its logged increments are all the
-//! same, see [`crate::calib::problem::noise_model::shares_rounding`]; "holds" below covers both). That error is in
+//! same, see [`crate::calib::fit::noise_model::shares_rounding`]; "holds" below covers both). That error is in
 //! the inputs, not the reading: through the reading's derivative with respect to the joint
 //! angles, g = ∂y/∂q, it puts a shared, configuration-shaped offset on the sweep's readings. A
 //! least-squares fit that takes rows as independent lets any flexible term (an eccentricity, a
@@ -20,8 +20,8 @@
 //! is shaped like a holding joint's rounding costs the fit little; what repeats across blocks
 //! costs it in full. Blocks of one row get the diagonal weight their rounding gives them.
 //!
-//! [`Samples::gls`](crate::calib::problem::Samples::gls) carries a [`Whitening`]; every fit of
-//! [`ReadingFit`](crate::calib::problem::ReadingFit) on those samples whitens its residuals and
+//! [`Samples::gls`](crate::calib::fit::Samples::gls) carries a [`Whitening`]; every fit of
+//! [`ReadingFit`](crate::calib::fit::ReadingFit) on those samples whitens its residuals and
 //! Jacobian, and a subset of them keeps the factors of its blocks.
 
 use nalgebra::{DMatrix, DVector};

@@ -7,8 +7,8 @@
 use super::result::{CalibResult, ParamReport};
 use super::setup::{label_mut, label_of};
 use crate::calib::effects::RowInputs;
+use crate::calib::fit::{ReadingFit, Samples};
 use crate::calib::model::SetupKind;
-use crate::calib::problem::{ReadingFit, Samples};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::optim::{LevenbergMarquardt, NoObserver};
