@@ -24,11 +24,11 @@ use std::path::Path;
 pub fn twin_effect(kind: EffectKind) -> Option<crate::sim::effects::SizedEffect> {
     use crate::sim::effects::SizedEffect;
     match kind {
-        EffectKind::JointCompliance => Some(SizedEffect::Compliance),
+        EffectKind::Compliance => Some(SizedEffect::Compliance),
         EffectKind::Backlash => Some(SizedEffect::Backlash),
-        EffectKind::ThermalDrift => Some(SizedEffect::Thermal),
-        EffectKind::EncoderEccentricity => Some(SizedEffect::Eccentricity),
-        EffectKind::SensorNonlinearity => None,
+        EffectKind::Thermal => Some(SizedEffect::Thermal),
+        EffectKind::Eccentricity => Some(SizedEffect::Eccentricity),
+        EffectKind::Nonlinearity => None,
     }
 }
 /// Largest noise (µm per coordinate and sample) a twin's tracker takes (`Tracker::validate`).
@@ -79,7 +79,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         robot: urdf_file.clone(),
         geometry: Geometry::default(),
         effects: Default::default(),
-        sensor,
+        draw_wire: sensor,
         instruments: crate::sim::instrument::Instruments { tracker, ..Default::default() },
         sampling: Sampling {
             poses: data.rows.len().min(crate::sim::scenario::MAX_POSES),
@@ -291,9 +291,9 @@ fn write_effects(r: &CalibResult, scenario: &mut Scenario, n: usize, notes: &mut
         let k = m.effect_params(b).start;
         let label = block.label();
         match block.kind {
-            EffectKind::SensorNonlinearity => match block.range_m {
+            EffectKind::Nonlinearity => match block.range_m {
                 Some([lo, hi]) if m.measurement == Measurement::Length => {
-                    scenario.sensor.polynomial = Some(crate::sim::instrument::drawwire::ReadingPolynomial {
+                    scenario.draw_wire.polynomial = Some(crate::sim::instrument::drawwire::ReadingPolynomial {
                         range_mm: [crate::units::to_mm(lo), crate::units::to_mm(hi)],
                         legendre_mm: [crate::units::to_mm(r.x[k]), crate::units::to_mm(r.x[k + 1]), crate::units::to_mm(r.x[k + 2])],
                     });

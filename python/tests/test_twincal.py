@@ -242,8 +242,8 @@ def test_diagnose_names_a_hidden_compliance_and_agrees_with_the_command_line(tmp
     data, _ = twincal.generate(scenario, seed=1)
     lines = []
     dg = twincal.diagnose(data, progress=lambda line, *_: lines.append(line))
-    assert dg.report["verdict"] == "joint_compliance[j2]", dg.report["causes"]
-    assert dg.effects == "joint_compliance:2"
+    assert dg.report["verdict"] == "compliance[j2]", dg.report["causes"]
+    assert dg.effects == "compliance:2"
     assert lines, "progress heard the diagnosis's steps"
     # The extended model predicts; the same run by the command line writes the same report.
     assert dg.result.predict(q_matrix(data)[:2]).shape == (2,)

@@ -33,7 +33,7 @@ fn compensation_carries_compliance_under_the_payload() {
     let extra = "[effects.compliance]\nstiffness_nm_per_rad = [1.5e5, 2.0e4, 3.0e4, 3.0e4, 3.0e4, 2.0e4]\n\n[effects.payload]\nmass_kg = 3.0\ncom_mm = [40.0, 0.0, 60.0]\n";
     let (s, robot) = scenario("irb120_tracker", extra);
     let mut opts = CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM);
-    opts.effects = (0..6).map(|j| (crate::calib::effects::EffectKind::JointCompliance, Some(j))).collect();
+    opts.effects = (0..6).map(|j| (crate::calib::effects::EffectKind::Compliance, Some(j))).collect();
     opts.loads.joints.payload = s.effects.payload.clone();
     let c = verify_seed(&s, &robot, &opts, 60, 2, false).unwrap();
     eprintln!("{c:#?}");

@@ -179,7 +179,7 @@ pub struct Rejected {
 /// The draw-wire sensor's settings, as the truth file records them (see
 /// [`crate::sim::instrument::DrawWire`]).
 #[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct SensorTruth {
+pub struct DrawWireTruth {
     /// Cable exit point in the base frame, mm.
     pub exit_point_mm: [f64; 3],
     /// Added to the geometric distance, mm.
@@ -257,7 +257,8 @@ pub struct Truth<E = serde_json::Value, T = TruthTracker> {
     #[serde(default)]
     pub effects: E,
     /// The draw-wire sensor.
-    pub sensor: SensorTruth,
+    #[serde(rename = "sensor")]
+    pub draw_wire: DrawWireTruth,
     /// The tracker that wrote `x, y, z` (absent for a draw-wire dataset).
     #[serde(default = "Option::default", skip_serializing_if = "Option::is_none")]
     pub tracker: Option<T>,
@@ -293,7 +294,7 @@ impl TruthFile {
         }
         match &self.tracker {
             Some(t) => Placement::tracker(t.translation_mm, t.rotation_deg, t.probe_rotation_deg, tool),
-            None => Placement::cable(mm(self.sensor.exit_point_mm), crate::units::to_m(self.sensor.length_offset_mm), tool),
+            None => Placement::cable(mm(self.draw_wire.exit_point_mm), crate::units::to_m(self.draw_wire.length_offset_mm), tool),
         }
     }
 

@@ -55,7 +55,7 @@ impl Hidden {
 
 /// The block that represents `kind` on `joint` (thermal blocks driven by temperature).
 fn block(kind: EffectKind, joint: Option<usize>, ref_c: f64) -> EffectBlock {
-    let thermal = (kind == EffectKind::ThermalDrift).then_some(ThermalDrive::Temperature { ref_c, sensor_lag: false });
+    let thermal = (kind == EffectKind::Thermal).then_some(ThermalDrive::Temperature { ref_c, sensor_lag: false });
     EffectBlock { kind, joint, thermal, range_m: None }
 }
 
@@ -64,15 +64,15 @@ fn block(kind: EffectKind, joint: Option<usize>, ref_c: f64) -> EffectBlock {
 pub fn causes(n: usize) -> Vec<(EffectKind, Option<usize>)> {
     let mut v = Vec::new();
     for j in 0..n {
-        v.push((EffectKind::JointCompliance, Some(j)));
+        v.push((EffectKind::Compliance, Some(j)));
         v.push((EffectKind::Backlash, Some(j)));
     }
-    v.push((EffectKind::ThermalDrift, None));
+    v.push((EffectKind::Thermal, None));
     for j in 0..n.min(3) {
-        v.push((EffectKind::ThermalDrift, Some(j)));
+        v.push((EffectKind::Thermal, Some(j)));
     }
     for j in 0..n {
-        v.push((EffectKind::EncoderEccentricity, Some(j)));
+        v.push((EffectKind::Eccentricity, Some(j)));
     }
     v
 }
@@ -103,7 +103,7 @@ fn poses(s: &Scenario, robot: &Robot) -> Result<Dataset> {
 /// The nominal Hayati model of `robot` read by the scenario's instrument placed as it is (its
 /// draw-wire, or its tracker).
 fn nominal_model(s: &Scenario, robot: &Robot) -> CalibModel {
-    let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
+    let placement = crate::sim::instrument::placement(&s.draw_wire, &s.instruments);
     let (chain, kinds) = crate::calib::model::DhTable::from_robot_hayati(robot).chain(true, true);
     CalibModel { limits: robot.limits(), ..CalibModel::of_chain("hayati", chain, kinds, &placement) }
 }
@@ -128,7 +128,7 @@ fn nominal_at_poses(s: &Scenario, robot: &Robot) -> Result<(Dataset, CalibModel,
 /// The static torques the twin's arm carries at `s`'s poses: the draw-wire's tension where the
 /// cable reads, none where another instrument does (a tracker pulls on nothing).
 fn twin_torques(s: &Scenario, robot: &Robot) -> TorqueModel {
-    let sn = &s.sensor;
+    let sn = &s.draw_wire;
     let cable = s.instruments.active().is_none();
     let loads = JointLoads { cable_tension_n: if cable { sn.tension_n } else { 0.0 }, ..Default::default() };
     TorqueModel::new(robot, &loads, cable.then(|| sn.exit_point_m()), sn.tool_point_m())
@@ -161,7 +161,7 @@ fn unabsorbed_at(
     LeastSquares::jacobian(&fit, &model.nominal, &mut j);
     let k = model.effect_params(0).start;
     let mut g = DVector::from_column_slice(j.column(k).as_slice());
-    if kind == EffectKind::EncoderEccentricity {
+    if kind == EffectKind::Eccentricity {
         g = g * phase.cos() + DVector::from_column_slice(j.column(k + 1).as_slice()) * phase.sin();
     }
     let rigid = j.columns(0, model.first_effect()).into_owned();
@@ -184,7 +184,7 @@ pub fn clean(seed: u64) -> Result<(Scenario, Robot)> {
 /// absorbs, among the causes that stay plausible at that size.
 pub fn hidden(seed: u64, n: usize) -> Result<(Scenario, Robot, Vec<Hidden>)> {
     let (s, robot) = clean(seed)?;
-    let sigma = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    let sigma = s.draw_wire.noise_std_mm / (s.draw_wire.samples as f64).sqrt();
     hide_in(s, robot, seed, n, sigma, 1.5..4.0, false)
 }
 
@@ -224,7 +224,7 @@ pub fn logging_floor_mm(s: &Scenario, robot: &Robot, step_deg: f64) -> Result<f6
 /// not. Also returns the floor, mm.
 pub fn hidden_realistic(seed: u64, decimals: usize, factors: std::ops::Range<f64>) -> Result<(Scenario, Robot, Vec<Hidden>, f64)> {
     let (s, robot) = realistic(seed, decimals)?;
-    let noise = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    let noise = s.draw_wire.noise_std_mm / (s.draw_wire.samples as f64).sqrt();
     let floor = logging_floor_mm(&s, &robot, 10f64.powi(-(decimals as i32)))?;
     let sigma = (noise * noise + floor * floor).sqrt();
     let (mut s, robot, h) = hide_in(s, robot, seed, 1, sigma, factors, true)?;
@@ -263,7 +263,7 @@ pub fn tracker_row_noise_mm(s: &Scenario, robot: &Robot) -> Result<f64> {
     let (_, model, samples) = nominal_at_poses(s, robot)?;
     let mut w = model.work();
     let mut y = vec![0.0; model.measurement.dim()];
-    let per_sample = |d_m: f64| (tracker.noise_um + tracker.noise_um_per_m * d_m) * 1e-3 / (s.sensor.samples.max(1) as f64).sqrt();
+    let per_sample = |d_m: f64| (tracker.noise_um + tracker.noise_um_per_m * d_m) * 1e-3 / (s.draw_wire.samples.max(1) as f64).sqrt();
     let ms = samples
         .q
         .iter()
@@ -322,7 +322,7 @@ pub fn hidden_warm_up(seed: u64) -> Result<(Scenario, Robot, Hidden, f64)> {
     };
     s.effects.thermal = Some(thermal);
     s.name = format!("warm-up-{seed}");
-    let h = Hidden { cause: EffectKind::ThermalDrift, joint: None, magnitude: alpha * 1e6, internal: alpha, factor: share };
+    let h = Hidden { cause: EffectKind::Thermal, joint: None, magnitude: alpha * 1e6, internal: alpha, factor: share };
     Ok((s, robot, h, sigma))
 }
 
@@ -361,16 +361,16 @@ pub fn hidden_payload_runs(seed: u64, factors: std::ops::Range<f64>) -> Result<(
         }
     };
     let loads = JointLoads { payload: Some(crate::robot::statics::Payload { mass_kg: 0.0, com_mm: PAYLOAD_COM_MM }), ..Default::default() };
-    let torque = TorqueModel::new(&robot, &loads, None, s.sensor.tool_point_m());
+    let torque = TorqueModel::new(&robot, &loads, None, s.draw_wire.tool_point_m());
     let model = nominal_model(&s, &robot);
     let unabsorbed = |data: &Dataset, joint: usize| -> Result<f64> {
-        unabsorbed_at(data, model.clone(), zero_samples(&model, data), &torque, EffectKind::JointCompliance, Some(joint), 0.0)
+        unabsorbed_at(data, model.clone(), zero_samples(&model, data), &torque, EffectKind::Compliance, Some(joint), 0.0)
     };
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5041_594c_4f41);
     let joint = [1usize, 2, 4][rng.random_range(0..3)];
     let (over_runs, unloaded) = (unabsorbed(&rows(None), joint)?, unabsorbed(&rows(Some(0.0)), joint)?);
     let wanted = rng.random_range(factors.clone()) * sigma / over_runs;
-    let kind = EffectKind::JointCompliance;
+    let kind = EffectKind::Compliance;
     let size = wanted.min(UNLOADED_FACTOR * sigma / unloaded.max(f64::MIN_POSITIVE)).min(kind.def().plausible(Some(joint)));
     s.effects.set_size(crate::sim::effects::SizedEffect::Compliance, robot.dof(), Some(joint), size, 0.0).map_err(Error::Invalid)?;
     s.name = format!("hidden-{seed}-payload-runs");
@@ -394,7 +394,7 @@ fn hide_in(
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x4849_4444_454e);
     let mut pool: Vec<(EffectKind, Option<usize>, f64, f64)> = Vec::new();
     for (kind, joint) in causes(robot.dof()) {
-        let phase = if kind == EffectKind::EncoderEccentricity { rng.random_range(-std::f64::consts::PI..std::f64::consts::PI) } else { 0.0 };
+        let phase = if kind == EffectKind::Eccentricity { rng.random_range(-std::f64::consts::PI..std::f64::consts::PI) } else { 0.0 };
         let a = unabsorbed_rms(&s, &robot, kind, joint, phase)?;
         let needed = if clamp { factors.start } else { factors.end };
         if a > 0.0 && needed * sigma / a <= kind.def().plausible(joint) {

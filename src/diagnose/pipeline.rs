@@ -532,7 +532,7 @@ fn attributions(found: &[Found], causes: &[Cause]) -> Vec<String> {
         .collect()
 }
 
-/// The `--effects` value that calibrates `model`'s effect blocks (`backlash:2,thermal_drift`).
+/// The `--effects` value that calibrates `model`'s effect blocks (`backlash:2,thermal`).
 pub(super) fn effects_option(model: &CalibModel) -> String {
     model
         .effects

@@ -20,7 +20,7 @@ pub struct Evidence {
 /// One candidate in one selection step.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Candidate {
-    /// The cause's name (its effect kind, e.g. `joint_compliance`).
+    /// The cause's name (its effect kind, e.g. `compliance`).
     pub cause: String,
     /// Joint 1..N for a per-joint cause.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -56,7 +56,7 @@ pub struct Step {
 /// A cause found in the data.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Cause {
-    /// The cause's name (its effect kind, e.g. `joint_compliance`).
+    /// The cause's name (its effect kind, e.g. `compliance`).
     pub cause: String,
     /// Joint 1..N for per-joint effects.
     pub joint: Option<usize>,
@@ -88,7 +88,7 @@ pub struct Cause {
 }
 
 impl Cause {
-    /// One line: `joint_compliance joint 2: compliance 9.66 ± 0.31 urad/Nm; held-out RMSE
+    /// One line: `compliance joint 2: compliance 9.66 ± 0.31 urad/Nm; held-out RMSE
     /// 0.0121 -> 0.0073 mm (p = 2.8e-25)`.
     pub fn summary(&self) -> String {
         let joint = self.joint.map(|j| format!(" joint {j}")).unwrap_or_default();
@@ -218,7 +218,7 @@ pub struct Diagnosis {
     pub steps: Vec<Step>,
     /// Causes in the order found; empty = `geometric_only`.
     pub causes: Vec<Cause>,
-    /// `geometric_only`, or the causes kept joined by ` + ` (`backlash[j2] + thermal_drift`);
+    /// `geometric_only`, or the causes kept joined by ` + ` (`backlash[j2] + thermal`);
     /// `unexplained` (alone or after the causes) where the final held-out fit stays far above a
     /// floor the data measure ([`Self::unexplained`]).
     pub verdict: String,

@@ -313,7 +313,7 @@ pub(super) fn explained_by_causes(current: &Fitted, all: &Samples, dim: usize, k
     outliers.iter().map(|o| o.row - 1).filter(|&i| (far(i) - med).abs() <= outlier_k * scale).collect()
 }
 
-/// The verdict: `geometric_only`, or the causes kept (`backlash[j2] + thermal_drift`).
+/// The verdict: `geometric_only`, or the causes kept (`backlash[j2] + thermal`).
 pub(super) fn verdict_of(causes: &[Cause]) -> String {
     if causes.is_empty() {
         return "geometric_only".into();

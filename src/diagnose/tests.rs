@@ -31,14 +31,14 @@ fn listed_candidates_keep_their_joint_count_once_and_name_what_the_data_lack() {
     let d = data();
     // Every kind on every joint the data support (no torques: no compliance).
     let all = candidates(&d, &[], false).unwrap();
-    assert!(all.iter().all(|b| b.kind != EffectKind::JointCompliance));
+    assert!(all.iter().all(|b| b.kind != EffectKind::Compliance));
     assert_eq!(all.iter().filter(|b| b.kind == EffectKind::Backlash).count(), 6);
     // A joint given is that block only; listed twice, it is still one candidate.
     let two = candidates(&d, &[(EffectKind::Backlash, Some(1)), (EffectKind::Backlash, Some(1))], false).unwrap();
     assert_eq!(two.len(), 1);
     assert_eq!((two[0].kind, two[0].joint), (EffectKind::Backlash, Some(1)));
     // A listed candidate the data cannot support is an error, not a silent "geometric only".
-    let e = candidates(&d, &[(EffectKind::JointCompliance, None)], false).unwrap_err().to_string();
+    let e = candidates(&d, &[(EffectKind::Compliance, None)], false).unwrap_err().to_string();
     assert!(e.contains("joint torques"), "{e}");
     let e = candidates(&d, &[(EffectKind::Backlash, Some(8))], false).unwrap_err().to_string();
     assert!(e.contains("joint 9 is beyond the data's 6 joints"), "{e}");
@@ -47,11 +47,11 @@ fn listed_candidates_keep_their_joint_count_once_and_name_what_the_data_lack() {
 #[test]
 fn a_warm_up_outside_its_physical_range_or_an_oversized_effect_is_not_physical() {
     use crate::calib::effects::ThermalDrive;
-    use crate::calib::model::SensorGuess;
+    use crate::calib::model::DrawWireGuess;
     let robot = Robot::irb120();
-    let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
+    let guess = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
     let mut m = CalibModel::dh(&robot, &guess, true);
-    m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: Some(0), thermal: Some(ThermalDrive::WarmUp), range_m: None }, 3600.0);
+    m.add_effect(EffectBlock { kind: EffectKind::Thermal, joint: Some(0), thermal: Some(ThermalDrive::WarmUp), range_m: None }, 3600.0);
     let k = m.effect_params(0).start;
     let mut x = m.nominal.clone();
     (x[k], x[k + 1]) = (0.01f64.to_radians(), 1200.0);
@@ -68,11 +68,11 @@ fn a_warm_up_outside_its_physical_range_or_an_oversized_effect_is_not_physical()
 
 #[test]
 fn a_kept_cause_that_ends_unphysical_is_named_in_a_warning() {
-    use crate::calib::model::SensorGuess;
+    use crate::calib::model::DrawWireGuess;
     let robot = Robot::irb120();
-    let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
+    let guess = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
     let mut m = CalibModel::dh(&robot, &guess, true);
-    let (band, spring) = (EffectBlock::joint(EffectKind::Backlash, 2), EffectBlock::joint(EffectKind::JointCompliance, 1));
+    let (band, spring) = (EffectBlock::joint(EffectKind::Backlash, 2), EffectBlock::joint(EffectKind::Compliance, 1));
     m.add_effect(spring.clone(), 3600.0);
     m.add_effect(band.clone(), 3600.0);
     let mut x = m.nominal.clone();

@@ -1,5 +1,5 @@
 use super::*;
-use crate::calib::model::SensorGuess;
+use crate::calib::model::DrawWireGuess;
 use rand::{Rng, SeedableRng};
 
 fn arms() -> Vec<Robot> {
@@ -13,7 +13,7 @@ fn arms() -> Vec<Robot> {
 /// The arm's models (D-H, Hayati, frame) with every chain parameter moved off its nominal, as a
 /// calibration leaves them.
 fn calibrated(robot: &Robot) -> Vec<(CalibModel, Vec<f64>)> {
-    let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+    let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
     [CalibModel::dh(robot, &g, false), CalibModel::dh(robot, &g, true), CalibModel::frame(robot, &g)]
         .into_iter()
         .map(|m| {
@@ -140,7 +140,7 @@ fn a_hayati_model_of_an_exported_calibrated_urdf_is_exact_and_loadable() {
         for (m, x) in calibrated(&robot) {
             let text = urdf::urdf(&m, &x, Some(&robot), "calibrated");
             let back = Robot::from_urdf_str(&text, "exported").unwrap();
-            let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: x[m.n_chain() + 4..m.n_chain() + 7].try_into().unwrap() };
+            let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: x[m.n_chain() + 4..m.n_chain() + 7].try_into().unwrap() };
             let h = CalibModel::dh(&back, &g, true);
             assert!(
                 h.chain.ops.iter().all(|o| o.base.abs() < 10.0),
@@ -165,7 +165,7 @@ fn a_hayati_model_of_an_exported_calibrated_urdf_is_exact_and_loadable() {
 #[test]
 fn a_ur_kinematics_file_is_a_nominal_robot() {
     let ur10 = Robot::from_urdf_str(include_str!("../../urdf/ur10.urdf"), "ur10").unwrap();
-    let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.0, 0.0, 0.0] };
+    let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.0, 0.0, 0.0] };
     let m = CalibModel::dh(&ur10, &g, true);
     let mut warnings = Vec::new();
     let text = ur_yaml::UrYaml.write(&JointTable::of(&m, &m.nominal), &m, &m.nominal, None, "yaml", &mut warnings).unwrap();

@@ -156,12 +156,12 @@ mod tests {
             assert!((back - m).norm() < 1e-12, "({r}, {p}, {y}) -> ({a}, {b}, {c}): {:.3e}", (back - m).norm());
         }
     }
-    use crate::calib::model::SensorGuess;
+    use crate::calib::model::DrawWireGuess;
 
     #[test]
     fn exported_urdf_reproduces_the_calibrated_model() {
         let robot = Robot::irb120();
-        let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
         // The generic model: a product of exponentials around lines at a reference pose.
         use crate::calib::pipeline::generic::{frames_of, model_around, Line};
         let line = |p: [f64; 3], d: [f64; 3]| Line { point: Vector3::from(p), dir: Vector3::from(d).normalize() };
@@ -207,7 +207,7 @@ mod tests {
         let text = format!("{}type=\"continuous\"{}", &text[..i], &text[i + "type=\"revolute\"".len()..]);
         let robot = Robot::from_urdf_str(&text, "continuous").unwrap();
         assert!(robot.joints[5].continuous && !robot.joints[4].continuous);
-        let g = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
         let m = CalibModel::frame(&robot, &g);
         let exported = urdf(&m, &m.nominal, Some(&robot), "calibrated");
         assert_eq!(exported.matches("type=\"continuous\"").count(), 1, "{exported}");

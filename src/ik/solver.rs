@@ -587,12 +587,12 @@ mod tests {
     }
     use super::*;
     use crate::calib::correctors::gkan::{Gkan, GkanShape};
-    use crate::calib::model::SensorGuess;
+    use crate::calib::model::DrawWireGuess;
     use crate::robot::Robot;
 
     fn model() -> (CalibModel, Vec<(f64, f64)>) {
         let robot = Robot::irb120();
-        let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        let guess = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
         (CalibModel::dh(&robot, &guess, true), robot.limits())
     }
 
@@ -705,7 +705,7 @@ mod tests {
         let probe =
             Placement { measurement: Measurement::Pose, own: vec![2.0, -0.3, 0.2, 0.02, -0.01, 0.7, 0.1, -0.2, 1.5], tool: Vector3::new(0.06, 0.08, 0.1) };
         let mut m = m.with_placement(&probe);
-        for kind in [EffectKind::EncoderEccentricity, EffectKind::JointCompliance] {
+        for kind in [EffectKind::Eccentricity, EffectKind::Compliance] {
             for j in 0..6 {
                 m.add_effect(EffectBlock::joint(kind, j), 1.0);
             }

@@ -100,9 +100,9 @@ impl TwinCheck {
             serde_json::from_value(raw.get("effects").cloned().unwrap_or_default()).map_err(|e| Error::data(tpath.display(), format!("effects: {e}")))?;
         let tension = raw.pointer("/sensor/tension_n").and_then(|v| v.as_f64()).unwrap_or(0.0);
         let sensor = serde_json::from_value(serde_json::json!({
-            "exit_point_mm": truth.sensor.exit_point_mm,
+            "exit_point_mm": truth.draw_wire.exit_point_mm,
             "tool_point_mm": truth.tool.point_mm,
-            "length_offset_mm": truth.sensor.length_offset_mm,
+            "length_offset_mm": truth.draw_wire.length_offset_mm,
             "tension_n": tension,
         }))
         .map_err(|e| Error::data(tpath.display(), format!("sensor: {e}")))?;

@@ -222,7 +222,7 @@ impl PlanJob {
             loads.payload = s.effects.payload.clone();
         }
         if s.instruments.active().is_none() {
-            loads.cable_tension_n = s.sensor.tension_n;
+            loads.cable_tension_n = s.draw_wire.tension_n;
         }
         let opts = PlanOptions {
             n: self.poses,

@@ -441,7 +441,7 @@ fn figures(
         residual.extend(measured[i].iter().zip(ideal).map(|(a, b)| a - b));
     }
     let kept = data.subset(&rows);
-    let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
+    let placement = crate::sim::instrument::placement(&s.draw_wire, &s.instruments);
     let line = |f: &Fidelity| Some(f.residual);
     let mut stats = vec![("every row: measured − twin".to_string(), line(&summary.all)), ("every row, no outliers".to_string(), Some(summary.all.inliers))];
     if let Some(j) = &summary.judged {

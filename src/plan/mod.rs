@@ -35,7 +35,7 @@ pub use design::{criterion, Criterion, Design, Pool, CRITERIA};
 use crate::calib::effects::inputs::{block_for, row_inputs, time_span, JointLoads, TorqueModel};
 use crate::calib::effects::{EffectKind, RowInputs};
 use crate::calib::fit::{identify::analyse, ReadingFit, Samples};
-use crate::calib::model::{CalibModel, Parametrisation, SensorGuess};
+use crate::calib::model::{CalibModel, DrawWireGuess, Parametrisation};
 use crate::calib::pipeline::placement::build_model;
 use crate::calib::pipeline::{CalibResult, ModelSpec};
 use crate::dataset::{Dataset, Row};
@@ -121,14 +121,14 @@ impl Model {
     /// per-joint kinds without a joint, on every joint) loaded by `loads` (the payload the
     /// engineer mounts, the cable's tension from its data sheet).
     pub fn new(s: &Scenario, robot: &Robot, p: Parametrisation, effects: &[(EffectKind, Option<usize>)], loads: &JointLoads) -> Result<Model> {
-        let zero = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
-        let placement = crate::sim::instrument::placement(&s.sensor, &s.instruments);
+        let zero = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+        let placement = crate::sim::instrument::placement(&s.draw_wire, &s.instruments);
         let mut model = build_model(&ModelSpec::nominal(robot.clone(), p), &zero).with_placement(&placement);
         if effects.is_empty() {
             return Ok(Model { x: model.nominal.clone(), model, torque: None });
         }
-        let exit = (s.instruments.active().is_none()).then(|| s.sensor.exit_point_m());
-        let torque = TorqueModel::new(robot, loads, exit, s.sensor.tool_point_m());
+        let exit = (s.instruments.active().is_none()).then(|| s.draw_wire.exit_point_m());
+        let torque = TorqueModel::new(robot, loads, exit, s.draw_wire.tool_point_m());
         // The effects are configured on the candidates as a calibration configures them on its
         // data: a dataset of nominal readings at every candidate of a small Halton pool.
         let probe = candidates(s, robot, 200, s.seed)?.q;
@@ -152,7 +152,7 @@ impl Model {
         if n != robot.dof() {
             return Err(Error::Invalid(format!("the model's arm has {n} joints, the scenario's robot {} has {}", robot.name, robot.dof())));
         }
-        let theirs = crate::sim::instrument::placement(&s.sensor, &s.instruments).measurement;
+        let theirs = crate::sim::instrument::placement(&s.draw_wire, &s.instruments).measurement;
         if r.model.measurement != theirs {
             return Err(Error::Invalid(format!(
                 "the model was calibrated on {} readings, the scenario measures {}: plan with the scenario of the instrument the model was calibrated with",
@@ -508,7 +508,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
     };
     let prob = pool_design(&model, &pool_q, offered.as_deref());
     let d = design::design(&prob.pool, opts.n, crit, opts.max_sweeps);
-    let motion = tour::Motion::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s + s.sensor.window_s());
+    let motion = tour::Motion::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.draw_wire.hold_s + s.draw_wire.window_s());
     let home = vec![0.0; robot.dof()];
     // The tour: one payload after the other (in the order given), each payload's poses ordered.
     let groups: Vec<Vec<usize>> = match &offered {

@@ -67,7 +67,7 @@ fn planned_poses_calibrate_to_a_smaller_true_error_than_random_ones_on_the_twin(
 fn a_plan_for_compliance_designs_for_its_parameters_under_the_payload() {
     let (s, robot) = scenario();
     let loads = JointLoads { payload: Some(crate::robot::statics::Payload { mass_kg: 3.0, com_mm: [40.0, 0.0, 60.0] }), ..JointLoads::default() };
-    let o = PlanOptions { n: 30, candidates: 2000, effects: vec![(EffectKind::JointCompliance, None)], loads, ..PlanOptions::default() };
+    let o = PlanOptions { n: 30, candidates: 2000, effects: vec![(EffectKind::Compliance, None)], loads, ..PlanOptions::default() };
     let p = plan(&s, &robot, &o).unwrap();
     let compliance: Vec<&String> = p.identifiable.iter().filter(|n| n.contains("compliance")).collect();
     // Joints 2 and 3 carry the arm's weight on every pose: their compliance is seen.
@@ -78,7 +78,7 @@ fn a_plan_for_compliance_designs_for_its_parameters_under_the_payload() {
     assert!(geometric.identifiable.len() + compliance.len() == p.identifiable.len(), "{:?} vs {:?}", geometric.identifiable, p.identifiable);
     assert_ne!(geometric.poses, p.poses);
     // An effect the candidates cannot configure is refused by name.
-    let e = plan(&s, &robot, &PlanOptions { effects: vec![(EffectKind::ThermalDrift, None)], ..o.clone() }).unwrap_err().to_string();
+    let e = plan(&s, &robot, &PlanOptions { effects: vec![(EffectKind::Thermal, None)], ..o.clone() }).unwrap_err().to_string();
     assert!(e.contains("thermal") || e.contains("temp"), "{e}");
 }
 

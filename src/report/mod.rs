@@ -154,24 +154,24 @@ pub enum Group {
     Angles,
     /// The instrument's placement lengths, mm: the draw-wire sensor's exit point, length offset
     /// and tool point; a laser tracker's translation and the reflector on the flange.
-    Sensor,
+    Placement,
     /// The instrument's placement angles, degrees: a laser tracker's rotation (the draw-wire
     /// has none).
-    SensorAngles,
+    PlacementAngles,
     /// Non-geometric effects (their own units).
     Effects,
 }
 
 impl Group {
     /// Every group, in panel order.
-    pub const ALL: [Group; 5] = [Group::Lengths, Group::Angles, Group::Sensor, Group::SensorAngles, Group::Effects];
-    /// The group's short name (`lengths`, `angles`, `sensor`, `sensor_angles`, `effects`).
+    pub const ALL: [Group; 5] = [Group::Lengths, Group::Angles, Group::Placement, Group::PlacementAngles, Group::Effects];
+    /// The group's short name (`lengths`, `angles`, `placement`, `placement_angles`, `effects`).
     pub fn name(self) -> &'static str {
         match self {
             Group::Lengths => "lengths",
             Group::Angles => "angles",
-            Group::Sensor => "sensor",
-            Group::SensorAngles => "sensor_angles",
+            Group::Placement => "placement",
+            Group::PlacementAngles => "placement_angles",
             Group::Effects => "effects",
         }
     }
@@ -182,8 +182,8 @@ impl Group {
         match self {
             Group::Lengths => "Lengths (mm)",
             Group::Angles => "Angles (deg)",
-            Group::Sensor => lengths,
-            Group::SensorAngles => angles,
+            Group::Placement => lengths,
+            Group::PlacementAngles => angles,
             Group::Effects => "Effects (own units)",
         }
     }
@@ -192,8 +192,8 @@ impl Group {
         let placement = model.setup_range().contains(&k);
         match model.kinds[k] {
             Kind::Effect(_) => Group::Effects,
-            Kind::Angle if placement => Group::SensorAngles,
-            _ if placement => Group::Sensor,
+            Kind::Angle if placement => Group::PlacementAngles,
+            _ if placement => Group::Placement,
             Kind::Length => Group::Lengths,
             Kind::Angle => Group::Angles,
         }

@@ -3,7 +3,7 @@
 
 use super::groups::{Loads, ModelChoice, Reading, Robust};
 use crate::calib::effects::EffectChoice;
-use crate::calib::model::SensorGuess;
+use crate::calib::model::DrawWireGuess;
 use crate::calib::pipeline::{CalibOptions, FreeParams, Method, SplitBy, SplitOptions, DEFAULT_EFFORT, DEFAULT_RANK_TOL};
 use crate::dataset::ReadOptions;
 use crate::error::{Error, Result};
@@ -50,12 +50,21 @@ pub struct CalibrateRequest {
     /// Seed of the hold-out split and of the stochastic methods.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true, default_value_t = 0))]
     pub seed: u64,
-    /// Sensor geometry guess, mm: exit x,y,z, length offset, tool x,y,z (default: estimated).
+    /// The draw-wire's placement guess, mm: cable exit x,y,z, length offset, tool x,y,z (default:
+    /// estimated; `--sensor-guess` is its former name).
     #[cfg_attr(
         feature = "clap",
-        arg(long, allow_negative_numbers = true, value_delimiter = ',', allow_hyphen_values = true, value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ")
+        arg(
+            long,
+            alias = "sensor-guess",
+            allow_negative_numbers = true,
+            value_delimiter = ',',
+            allow_hyphen_values = true,
+            value_name = "EX,EY,EZ,OFFSET,TX,TY,TZ"
+        )
     )]
-    pub sensor_guess: Option<Vec<f64>>,
+    #[serde(alias = "sensor_guess")]
+    pub draw_wire_guess: Option<Vec<f64>>,
     /// Relative singular-value threshold for identifiability (combinations the data see below
     /// this fraction of the strongest are fixed).
     #[cfg_attr(feature = "clap", arg(long, default_value_t = DEFAULT_RANK_TOL, allow_negative_numbers = true))]
@@ -105,7 +114,7 @@ impl Default for CalibrateRequest {
             test_fraction: None,
             split_by: SplitBy::default(),
             seed: 0,
-            sensor_guess: None,
+            draw_wire_guess: None,
             rank_tol: DEFAULT_RANK_TOL,
             effort: DEFAULT_EFFORT,
             max_test_rmse_mm: None,
@@ -148,7 +157,7 @@ impl CalibrateRequest {
             seed: a.seed,
             rank_tol: a.rank_tol,
             effort: a.effort,
-            sensor_guess: sensor_guess(a.sensor_guess.as_deref())?,
+            draw_wire_guess: draw_wire_guess(a.draw_wire_guess.as_deref())?,
             effects: a.effects.iter().map(|c| c.pair()).collect(),
             sensor_lag: !a.no_sensor_lag,
             loads,
@@ -189,17 +198,17 @@ impl CalibrateRequest {
     }
 }
 
-/// `--sensor-guess`: seven values in mm, as the model's guess in metres.
-fn sensor_guess(g: Option<&[f64]>) -> Result<Option<SensorGuess>> {
+/// `--draw-wire-guess`: seven values in mm, as the model's guess in metres.
+fn draw_wire_guess(g: Option<&[f64]>) -> Result<Option<DrawWireGuess>> {
     let Some(g) = g else { return Ok(None) };
     if g.len() != 7 {
-        return Err(Error::Invalid(format!("--sensor-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
+        return Err(Error::Invalid(format!("--draw-wire-guess needs 7 values in mm (exit x,y,z, length offset, tool x,y,z), got {}", g.len())));
     }
     if g.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Invalid("--sensor-guess values must be finite numbers (mm)".into()));
+        return Err(Error::Invalid("--draw-wire-guess values must be finite numbers (mm)".into()));
     }
     let m = crate::units::to_m::<f64>;
-    Ok(Some(SensorGuess { exit_m: [m(g[0]), m(g[1]), m(g[2])], offset_m: m(g[3]), tool_m: [m(g[4]), m(g[5]), m(g[6])] }))
+    Ok(Some(DrawWireGuess { exit_m: [m(g[0]), m(g[1]), m(g[2])], offset_m: m(g[3]), tool_m: [m(g[4]), m(g[5]), m(g[6])] }))
 }
 
 #[cfg(test)]

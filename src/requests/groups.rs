@@ -118,7 +118,7 @@ impl ModelChoice {
 #[serde(default)]
 pub struct Loads {
     /// URDF whose inertial data give the static joint torques (default: the model's own robot;
-    /// needed for joint_compliance with generic6r).
+    /// needed for compliance with generic6r).
     #[cfg_attr(feature = "clap", arg(long))]
     pub robot: Option<PathBuf>,
     /// Payload on the flange, kg.

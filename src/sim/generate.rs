@@ -25,7 +25,7 @@ pub use crate::units::round_decimals;
 
 pub use crate::progress::{Progress, Silent};
 
-pub use crate::dataset::truth::{PoseAcquisition, PoseTruth, Rejected, SensorTruth, ToolTruth};
+pub use crate::dataset::truth::{DrawWireTruth, PoseAcquisition, PoseTruth, Rejected, ToolTruth};
 
 /// Everything true about a generated dataset, as truth.json holds it: the one truth schema
 /// ([`crate::dataset::truth::Truth`]) with the twin's own effects and tracker tables.
@@ -48,7 +48,7 @@ impl Generated {
     /// reading polynomial was identified on.
     pub fn warnings(&self) -> Vec<String> {
         let lengths: Vec<f64> = self.dataset.rows.iter().filter_map(|r| r.l_mm()).collect();
-        self.twin.sensor.polynomial.as_ref().and_then(|p| p.beyond_range(&lengths)).into_iter().collect()
+        self.twin.draw_wire.polynomial.as_ref().and_then(|p| p.beyond_range(&lengths)).into_iter().collect()
     }
     /// True tool point of dataset row `i`, m.
     pub fn truth_tool(&self, i: usize) -> nalgebra::Vector3<f64> {
@@ -59,7 +59,7 @@ impl Generated {
 
 /// Builds the twin a scenario describes.
 pub fn build_twin(s: &Scenario, robot: &Robot) -> Twin {
-    Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.sensor.clone(), s.simulation.clone()).with_instruments(s.instruments.clone())
+    Twin::new(robot.clone(), s.true_params(robot), s.effects.clone(), s.draw_wire.clone(), s.simulation.clone()).with_instruments(s.instruments.clone())
 }
 
 /// Length (mm) the nominal arm (no geometric error, no effect) gives at joint angles `q` (rad).
@@ -156,7 +156,7 @@ fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<
             if g.kind == crate::sim::scenario::GlitchKind::JointOffsetAndReading {
                 let size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
                 for i in run.clone() {
-                    let l = round_decimals(rows[i].l_mm().expect("generated rows carry a reading") + size, s.sensor.reading_decimals());
+                    let l = round_decimals(rows[i].l_mm().expect("generated rows carry a reading") + size, s.draw_wire.reading_decimals());
                     rows[i].reading_mm = vec![l];
                     truth[i].length_measured_mm = l;
                 }
@@ -170,7 +170,7 @@ fn add_glitches(s: &Scenario, rows: &mut [Row], truth: &mut [PoseTruth]) -> Vec<
                 size = g.size_mm * (1.0 + 0.5 * rng.random::<f64>()) * if rng.random_bool(0.5) { 1.0 } else { -1.0 };
             }
             let l = rows[i].l_mm().expect("generated rows carry a reading") + size;
-            let l = round_decimals(l, s.sensor.reading_decimals());
+            let l = round_decimals(l, s.draw_wire.reading_decimals());
             rows[i].reading_mm = vec![l];
             truth[i].length_measured_mm = l;
             hit.push(i);
@@ -252,8 +252,8 @@ pub fn acquisition_times(s: &Scenario, robot: &Robot, poses: &[Vec<f64>]) -> Vec
             let move_s =
                 q.iter().zip(&prev).zip(&robot.joints).map(|((a, b), j)| (a - b).abs() / (s.sampling.speed_fraction * j.speed_limit())).fold(0.0, f64::max);
             prev = q.clone();
-            let at = t + move_s + s.sensor.hold_s + 0.5 * s.sensor.window_s();
-            t += move_s + s.sensor.hold_s + s.sensor.window_s();
+            let at = t + move_s + s.draw_wire.hold_s + 0.5 * s.draw_wire.window_s();
+            t += move_s + s.draw_wire.hold_s + s.draw_wire.window_s();
             at
         })
         .collect()
@@ -352,7 +352,7 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
     // With given times the simulated tour waits at rest before each move to read at them (or
     // reads as soon as it can); the rows carry the times it read at.
     let schedule = (s.acquisition.model == AcquisitionModel::Simulated).then(|| {
-        let (sf, ramp, hold, window) = (s.sampling.speed_fraction, s.acquisition.ramp_s, s.sensor.hold_s, s.sensor.window_s());
+        let (sf, ramp, hold, window) = (s.sampling.speed_fraction, s.acquisition.ramp_s, s.draw_wire.hold_s, s.draw_wire.window_s());
         match &given_times {
             Some(at) => Schedule::new_at(robot, sf, ramp, hold, window, &home, &poses, at),
             None => Schedule::new(robot, sf, ramp, hold, window, &home, &poses),
@@ -372,7 +372,7 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
     }
     let sides = approach_sides(&vec![0.0; robot.dof()], &poses);
     let chain = &twin.chain;
-    let nominal_lengths: Vec<f64> = poses.iter().map(|q| nominal_length(chain, &s.sensor, q)).collect();
+    let nominal_lengths: Vec<f64> = poses.iter().map(|q| nominal_length(chain, &s.draw_wire, q)).collect();
     let split = stratified_split(&nominal_lengths, s.sampling.test, s.seed);
 
     let results = acquire_all(s, &twin, &poses, &sides, &times, read_at.as_deref(), progress);
@@ -433,7 +433,7 @@ impl Tour<'_> {
                 if closed && s.acquisition.on_timeout == OnTimeout::Reject {
                     return Err(format!(
                         "stability gate still closed when the {} s hold ended (readings differed by {} mm or more between {} s windows)",
-                        s.sensor.hold_s, s.acquisition.gate_mm, s.acquisition.gate_window_s
+                        s.draw_wire.hold_s, s.acquisition.gate_mm, s.acquisition.gate_window_s
                     ));
                 }
                 let pa = PoseAcquisition {
@@ -490,7 +490,7 @@ impl Tour<'_> {
             reading_measured: None,
             settle_steps: rest.steps,
             settle_time_s: match &acq {
-                Some(a) => a.negligible_s.unwrap_or(s.sensor.hold_s + s.sensor.window_s()),
+                Some(a) => a.negligible_s.unwrap_or(s.draw_wire.hold_s + s.draw_wire.window_s()),
                 None => rest.steps as f64 * s.simulation.dt_s,
             },
             acquisition: acq,
@@ -508,19 +508,19 @@ impl Tour<'_> {
 fn cable_reading(s: &Scenario, i: usize, rest: &RestingPose, series: Option<&[f64]>) -> std::result::Result<(f64, f64, f64), String> {
     let l_true = match series {
         Some(l) => l.iter().sum::<f64>() / l.len().max(1) as f64,
-        None => s.sensor.ideal_length(&rest.tool),
+        None => s.draw_wire.ideal_length(&rest.tool),
     };
     let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::Noise, i as u64));
     let read = match series {
-        Some(l) => s.sensor.read_series(l, &mut rng),
-        None => s.sensor.read(l_true, &mut rng),
+        Some(l) => s.draw_wire.read_series(l, &mut rng),
+        None => s.draw_wire.read(l_true, &mut rng),
     };
     let noise_free = match series {
-        Some(l) => l.iter().map(|v| v + s.sensor.linearity_error(*v)).sum::<f64>() / l.len().max(1) as f64,
-        None => l_true + s.sensor.linearity_error(l_true),
+        Some(l) => l.iter().map(|v| v + s.draw_wire.linearity_error(*v)).sum::<f64>() / l.len().max(1) as f64,
+        None => l_true + s.draw_wire.linearity_error(l_true),
     };
     let reading = read.map_err(|e| e.to_string())?;
-    Ok((l_true, noise_free, round_decimals(reading, s.sensor.reading_decimals())))
+    Ok((l_true, noise_free, round_decimals(reading, s.draw_wire.reading_decimals())))
 }
 
 /// The reading of pose `i`'s tool point by the instrument that reads instead of the cable (a
@@ -528,7 +528,7 @@ fn cable_reading(s: &Scenario, i: usize, rest: &RestingPose, series: Option<&[f6
 fn instrument_reading(s: &Scenario, i: usize, rest: &RestingPose) -> Option<crate::sim::instrument::TwinReading> {
     let instrument = s.instruments.active()?;
     let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(s.seed, Stream::TrackerNoise, i as u64));
-    Some(instrument.reading_at(i, &rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.sensor.samples, &mut rng))
+    Some(instrument.reading_at(i, &rest.tool, &rest.frames[rest.frames.len() - 1].rot, s.draw_wire.samples, &mut rng))
 }
 
 /// Angles in degrees.
@@ -549,7 +549,7 @@ fn truth_file(
 ) -> Truth {
     let names = robot.param_names();
     let parameters = names.iter().zip(robot.param_kinds()).zip(&twin.params).map(|((n, kind), v)| (n.clone(), kind.to_file(*v))).collect();
-    let sn = &s.sensor;
+    let sn = &s.draw_wire;
     let averaged = sn.noise_std_mm / (sn.samples as f64).sqrt();
     let units = BTreeMap::from(
         [
@@ -573,7 +573,7 @@ fn truth_file(
         units,
         parameters,
         effects: s.effects.clone(),
-        sensor: SensorTruth {
+        draw_wire: DrawWireTruth {
             exit_point_mm: sn.exit_point_mm,
             length_offset_mm: sn.length_offset_mm,
             noise_std_mm: sn.noise_std_mm,

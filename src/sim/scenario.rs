@@ -48,8 +48,10 @@ pub struct Scenario {
     /// default.
     #[serde(default)]
     pub effects: Effects,
-    /// The draw-wire sensor (with a tracker: the tool point, the hold and the samples averaged).
-    pub sensor: DrawWire,
+    /// The draw-wire sensor, the file's `[sensor]` table (with another instrument: the tool
+    /// point, the hold and the samples averaged).
+    #[serde(rename = "sensor")]
+    pub draw_wire: DrawWire,
     /// An instrument that reads instead of the cable (`[tracker]`), each under its own key.
     #[serde(flatten)]
     pub instruments: crate::sim::instrument::Instruments,
@@ -339,13 +341,13 @@ impl Scenario {
         use crate::sim::workspace::{Cell, Reach};
         let reach = match (&self.instruments.tracker, self.instruments.active()) {
             (Some(_), Some(i)) => {
-                let pl = i.placement(self.sensor.tool_point_m());
+                let pl = i.placement(self.draw_wire.tool_point_m());
                 let origin = pl.measurement.def().frame(&pl.own).origin;
                 Reach::Tracker { origin, range_mm: self.workspace.as_ref().and_then(|w| w.tracker_range_mm) }
             }
-            _ => Reach::Cable(self.sensor.clone()),
+            _ => Reach::Cable(self.draw_wire.clone()),
         };
-        Cell::new(robot.error_chain(), self.sensor.tool_point_m(), self.sampling.min_tool_z_mm, Some(reach), self.workspace.clone())
+        Cell::new(robot.error_chain(), self.draw_wire.tool_point_m(), self.sampling.min_tool_z_mm, Some(reach), self.workspace.clone())
     }
 
     /// Checks every section against `robot`; the error names `origin` and the first bad key.
@@ -360,7 +362,7 @@ impl Scenario {
             )));
         }
         self.effects.validate(robot.dof()).map_err(err)?;
-        self.sensor.validate().map_err(err)?;
+        self.draw_wire.validate().map_err(err)?;
         self.instruments.validate().map_err(err)?;
         if let Some(w) = &self.workspace {
             w.validate().map_err(err)?;
@@ -369,8 +371,8 @@ impl Scenario {
             }
         }
         if let Some(i) = self.instruments.active() {
-            if self.sensor.tension_n != 0.0 {
-                return Err(err(format!("sensor.tension_n = {}: with a [{}] no cable pulls on the tool; set it to 0", self.sensor.tension_n, i.key())));
+            if self.draw_wire.tension_n != 0.0 {
+                return Err(err(format!("sensor.tension_n = {}: with a [{}] no cable pulls on the tool; set it to 0", self.draw_wire.tension_n, i.key())));
             }
             if self.glitches.is_some() {
                 return Err(err(format!("[glitches] disturb a cable's reading; a [{}] scenario has none", i.key())));
@@ -380,7 +382,7 @@ impl Scenario {
         self.validate_sampling(robot).map_err(err)?;
         self.validate_glitches().map_err(err)?;
         self.simulation.validate().map_err(err)?;
-        self.acquisition.validate(self.simulation.dt_s, self.sensor.rate_hz).map_err(err)?;
+        self.acquisition.validate(self.simulation.dt_s, self.draw_wire.rate_hz).map_err(err)?;
         Ok(())
     }
 
@@ -498,7 +500,7 @@ impl Scenario {
             if g.runs == 0 || g.rows == 0 || g.runs * g.rows > sm.poses / 4 {
                 return Err(format!("glitches: {} runs of {} rows must be at least one row and at most a quarter of the {} poses", g.runs, g.rows, sm.poses));
             }
-            if !(g.size_mm.is_finite() && g.size_mm > 0.0 && g.size_mm <= 0.1 * (self.sensor.range_mm[1] - self.sensor.range_mm[0])) {
+            if !(g.size_mm.is_finite() && g.size_mm > 0.0 && g.size_mm <= 0.1 * (self.draw_wire.range_mm[1] - self.draw_wire.range_mm[0])) {
                 return Err(format!("glitches.size_mm = {} must be positive and at most 10 % of the sensor range", g.size_mm));
             }
             let joints = self.sampling.ranges_deg.as_ref().map_or(usize::MAX, |r| r.len());

@@ -131,7 +131,7 @@ pub fn hold_setting(s: &Scenario, robot: &Robot, poses: &[Vec<f64>], v: f64, h: 
     let home = vec![0.0; robot.dof()];
     let acq = Acquisition { model: AcquisitionModel::Simulated, on_timeout: OnTimeout::Read, ..s.acquisition.clone() };
     let mut sc = s.clone();
-    sc.sensor.hold_s = h;
+    sc.draw_wire.hold_s = h;
     sc.sampling.speed_fraction = v;
     let times = crate::sim::generate::acquisition_times(&sc, robot, poses);
     if crate::sim::generate::check_robot_time(&sc, &times).is_err() {
@@ -153,8 +153,8 @@ pub fn hold_setting(s: &Scenario, robot: &Robot, poses: &[Vec<f64>], v: f64, h: 
     let bias = e.iter().sum::<f64>() / m;
     let spread = if e.len() > 1 { (e.iter().map(|x| (x - bias).powi(2)).sum::<f64>() / (m - 1.0)).sqrt() } else { 0.0 };
     let gates: Vec<f64> = acquired.iter().filter_map(|a| a.gate_s).collect();
-    let schedule = Schedule::new(robot, v, acq.ramp_s, h, sc.sensor.window_s(), &home, poses);
-    let end = schedule.read_t.last().copied().unwrap_or(0.0) + 0.5 * sc.sensor.window_s();
+    let schedule = Schedule::new(robot, v, acq.ramp_s, h, sc.draw_wire.window_s(), &home, poses);
+    let end = schedule.read_t.last().copied().unwrap_or(0.0) + 0.5 * sc.draw_wire.window_s();
     Ok(HoldStudyRow {
         speed_fraction: v,
         hold_s: h,

@@ -52,7 +52,7 @@ pub fn record_plan(p: &Plan, s: &Scenario, robot: &Robot, outputs: &mut OutputSe
             if s.workspace.as_ref().is_some_and(|w| !w.keep_out.is_empty()) { ";\n* red boxes: the scenario's keep-out boxes." } else { "." }
         ),
     );
-    let instrument = twincal::report::InstrumentPose::of(&twincal::sim::instrument::placement(&s.sensor, &s.instruments));
+    let instrument = twincal::report::InstrumentPose::of(&twincal::sim::instrument::placement(&s.draw_wire, &s.instruments));
     draw_instrument(&mut rec, &instrument, None);
     let pool: Vec<[f64; 3]> = p.candidates.q.iter().map(|q| tool(q, &mut fk)).collect();
     rec.points("world/candidates", &pool, Some(&[BEFORE]), Some(2.0), None);

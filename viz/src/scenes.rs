@@ -53,16 +53,16 @@ pub(super) fn rows_of(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
 pub fn nominal_residuals(g: &Generated) -> Vec<f64> {
     let chain = &g.twin.chain;
     let zero = vec![0.0; chain.n_params()];
-    let placement = twincal::sim::instrument::placement(&g.twin.sensor, &g.twin.instruments);
+    let placement = twincal::sim::instrument::placement(&g.twin.draw_wire, &g.twin.instruments);
     let frame = placement.measurement.def().frame(&placement.own);
     g.dataset
         .rows
         .iter()
         .map(|r| {
             let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-            let p = chain.point(&q, &zero, 1.0, chain.flange(), &g.twin.sensor.tool_point_m());
+            let p = chain.point(&q, &zero, 1.0, chain.flange(), &g.twin.draw_wire.tool_point_m());
             match (g.twin.instruments.active(), frame.axes) {
-                (None, _) => r.l_mm().unwrap_or(f64::NAN) - twincal::sim::generate::nominal_length(chain, &g.twin.sensor, &q),
+                (None, _) => r.l_mm().unwrap_or(f64::NAN) - twincal::sim::generate::nominal_length(chain, &g.twin.draw_wire, &q),
                 // A point in the instrument's frame (a tracker's): how far the reading is from
                 // the nominal arm's reflector.
                 (Some(_), Some(axes)) => {
@@ -272,7 +272,7 @@ pub fn record_dataset(g: &Generated, outputs: &mut OutputSet, path: &Path) -> Re
     let n = res.len();
     let split: Vec<&str> = g.truth.poses.iter().map(|p| if p.split == twincal::dataset::Split::Test { "test" } else { "train" }).collect();
     let tools: Vec<[f64; 3]> = (0..n).map(|i| mm(&g.truth_tool(i))).collect();
-    let instrument = twincal::report::InstrumentPose::of(&twincal::sim::instrument::placement(&g.twin.sensor, &g.twin.instruments));
+    let instrument = twincal::report::InstrumentPose::of(&twincal::sim::instrument::placement(&g.twin.draw_wire, &g.twin.instruments));
     let tracker = g.twin.instruments.active().is_some();
     let (quantity, what, instrument_text) = if tracker {
         (
@@ -363,12 +363,12 @@ pub(super) fn draw_instrument(rec: &mut Recorder, inst: &InstrumentPose, tool: O
     let o = inst.origin_mm;
     match (inst.measurement, inst.axes) {
         (twincal::measurement::Measurement::Point | twincal::measurement::Measurement::Pose, Some(axes)) => {
-            rec.transform("world/sensor/tracker", o, rows_of(&axes));
-            rec.axes("world/sensor/tracker", 150.0);
-            rec.points("world/sensor/tracker/head", &[[0.0; 3]], Some(&[TRACKER]), Some(40.0), Some(&["laser tracker".to_string()]));
+            rec.transform("world/instrument/tracker", o, rows_of(&axes));
+            rec.axes("world/instrument/tracker", 150.0);
+            rec.points("world/instrument/tracker/head", &[[0.0; 3]], Some(&[TRACKER]), Some(40.0), Some(&["laser tracker".to_string()]));
         }
         _ => {
-            rec.points("world/sensor/cable_exit", &[o], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
+            rec.points("world/instrument/cable_exit", &[o], Some(&[CABLE]), Some(14.0), Some(&["cable exit".to_string()]));
         }
     }
     if let Some(t) = tool {

@@ -185,8 +185,8 @@ fn untuned_methods(base: &Scenario, robot: &twincal::robot::Robot, spec: &twinca
     other.geometry.origin_offset_std_mm = 0.8;
     other.geometry.origin_rotation_std_deg = 0.12;
     other.geometry.joint_zero_std_deg = 0.15;
-    other.sensor.noise_std_mm = 0.2;
-    other.sensor.samples = 20;
+    other.draw_wire.noise_std_mm = 0.2;
+    other.draw_wire.samples = 20;
     let sets: Vec<(twincal::dataset::Dataset, f64)> = (0..5u64)
         .map(|i| {
             let mut s = other.clone();

@@ -46,7 +46,7 @@ pub(crate) fn case(dir: &Path, file: &str, extra: &str, model_it: bool) -> Resul
     let robot = s.load_robot(Some(dir))?;
     let mut opts = CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM);
     if model_it {
-        opts.effects = (0..robot.dof()).map(|j| (EffectKind::JointCompliance, Some(j))).collect();
+        opts.effects = (0..robot.dof()).map(|j| (EffectKind::Compliance, Some(j))).collect();
         opts.loads.joints.payload = s.effects.payload.clone();
     }
     Ok((s, robot, opts))

@@ -89,12 +89,8 @@ fn hidden_case(what: &str, extra: &str, sizes: &[usize], payloads: &[f64], seeds
     let s = Scenario::from_toml(&text.replacen("[sensor]", &format!("{extra}[sensor]"), 1), "irb120_tracker + compliance")?;
     let truth: Vec<f64> = s.effects.compliance.as_ref().map_or(vec![], |c| c.stiffness_nm_per_rad.iter().map(|k| 1e6 / k).collect());
     let loads = twincal::calib::effects::inputs::JointLoads { payload: s.effects.payload.clone(), ..Default::default() };
-    let o = PlanOptions {
-        effects: vec![(twincal::calib::effects::EffectKind::JointCompliance, None)],
-        loads,
-        payloads: payloads.to_vec(),
-        ..PlanOptions::default()
-    };
+    let o =
+        PlanOptions { effects: vec![(twincal::calib::effects::EffectKind::Compliance, None)], loads, payloads: payloads.to_vec(), ..PlanOptions::default() };
     println!(
         "\n## Hidden effect: {what} (IRB 120, laser tracker; {seeds} seeds; true compliance per joint {} µrad/Nm)\n",
         truth.iter().map(|c| format!("{c:.2}")).collect::<Vec<_>>().join(", ")

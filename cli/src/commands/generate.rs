@@ -55,7 +55,7 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     if let Some(tr) = &t.tracker {
         eprintln!("  read by a laser tracker (x, y, z in its frame): {:.4} mm per coordinate, averaged noise (RMS over the poses)", t.noise_std_mm);
         if tr.probe_rotation_deg.is_some() {
-            let sd = tr.orientation_noise_urad / (g.twin.sensor.samples.max(1) as f64).sqrt();
+            let sd = tr.orientation_noise_urad / (g.twin.draw_wire.samples.max(1) as f64).sqrt();
             eprintln!(
                 "  with a 6-D probe (rx, ry, rz: degrees, intrinsic X-Y-Z in the tracker's frame): {sd:.1} µrad per axis, averaged noise ({:.4} mm at the {} mm lever the model reads the axes at)",
                 sd * 1e-6 * twincal::measurement::pose::LEVER_MM,
@@ -65,8 +65,8 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     }
     let acq: Vec<&twincal::sim::generate::PoseAcquisition> = t.poses.iter().filter_map(|p| p.acquisition.as_ref()).collect();
     if acq.is_empty() {
-        let slow = t.poses.iter().filter(|p| p.settle_time_s > g.twin.sensor.hold_s).count();
-        eprintln!("  mean settle steps per pose: {mean_steps:.0}; poses still moving after the {} s hold: {slow}", g.twin.sensor.hold_s);
+        let slow = t.poses.iter().filter(|p| p.settle_time_s > g.twin.draw_wire.hold_s).count();
+        eprintln!("  mean settle steps per pose: {mean_steps:.0}; poses still moving after the {} s hold: {slow}", g.twin.draw_wire.hold_s);
     } else {
         // The simulated tour: rapier steps per pose, and how the stability gate and the transient fared.
         let closed = acq.iter().filter(|a| a.gate_s.is_none()).count();
@@ -74,7 +74,7 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
         let of = if g.twin.instruments.active().is_some() { "at the tool" } else { "in L" };
         eprintln!(
             "  simulated tour: {mean_steps:.0} rapier steps per pose; gate still closed after the {} s hold: {closed} read anyway; largest transient {of} {worst:.1e} mm",
-            g.twin.sensor.hold_s
+            g.twin.draw_wire.hold_s
         );
     }
     if !t.rejected.is_empty() {

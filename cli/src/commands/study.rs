@@ -74,9 +74,9 @@ pub fn study(
         eprintln!("warning: --poses {}: scenario {} has {} poses; the study takes all {}", study.poses, s.name, s.sampling.poses, s.sampling.poses);
     }
     let poses = study_poses(&s, &robot, study)?;
-    let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+    let floor = s.draw_wire.noise_std_mm / (s.draw_wire.samples as f64).sqrt();
     let noise = match s.instruments.active() {
-        Some(i) => format!("{} per sample, {} samples averaged", i.noise(), s.sensor.samples),
+        Some(i) => format!("{} per sample, {} samples averaged", i.noise(), s.draw_wire.samples),
         None => format!("averaged reading noise {:.2} µm", floor * 1e3),
     };
     let config = HoldConfig {

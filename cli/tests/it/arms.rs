@@ -160,7 +160,7 @@ fn ur_tracker_scenarios_calibrate_to_the_noise_and_diagnose_a_hidden_compliance(
             let (size, before, after) =
                 (c["magnitude"].as_f64().unwrap(), c["heldout_rmse_before_mm"].as_f64().unwrap(), d["final_heldout_rmse_mm"].as_f64().unwrap());
             eprintln!("{arm} seed {seed}: diagnose {} {size:.3} urad/Nm (truth {truth_compliance}), held-out RMSE {before:.4} -> {after:.4} mm", d["verdict"]);
-            assert_eq!(d["verdict"], "joint_compliance[j2]", "{arm} seed {seed}: {}", d["causes"]);
+            assert_eq!(d["verdict"], "compliance[j2]", "{arm} seed {seed}: {}", d["causes"]);
             assert!((size - truth_compliance).abs() < 0.05 * truth_compliance, "{arm} seed {seed}: {size} against the truth {truth_compliance}");
             let noise = json(&data.join("truth.json"))["noise_std_mm"].as_f64().unwrap();
             assert!(after < 1.15 * noise, "{arm} seed {seed}: held-out {after} mm against the noise {noise} mm");

@@ -107,8 +107,8 @@ fn untuned_methods_reach_the_floor_on_other_spreads_and_noise() {
         s.geometry.origin_offset_std_mm = 0.8;
         s.geometry.origin_rotation_std_deg = 0.12;
         s.geometry.joint_zero_std_deg = 0.15;
-        s.sensor.noise_std_mm = 0.2;
-        s.sensor.samples = 20;
+        s.draw_wire.noise_std_mm = 0.2;
+        s.draw_wire.samples = 20;
     });
     // (PSO, the slowest, is measured over the same kind of scenario by `twincal bench calib`.)
     for (m, limit) in [(Method::LM, 1.12), (Method::EKF, 1.15), (Method::RBF, 1.2)] {
@@ -373,10 +373,10 @@ fn hsr_robotcali_generic_model_reaches_the_repeatability_floor() {
 /// field (mm) that no geometry represents, plus 0.01 mm of noise; 300 train / 100 test.
 fn hayati_plus_field(seed: u64, field: impl Fn(&[f64]) -> f64) -> Dataset {
     use rand::{Rng, SeedableRng};
-    use twincal::calib::model::{CalibModel, SensorGuess};
+    use twincal::calib::model::{CalibModel, DrawWireGuess};
     use twincal::dataset::{Row, Split};
     let robot = twincal::robot::Robot::irb120();
-    let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+    let guess = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
     let model = CalibModel::dh(&robot, &guess, true);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut x = model.nominal.clone();
@@ -503,7 +503,7 @@ fn compare_scores_the_residuals_the_calibration_scored() {
     let ds = g.dataset;
     assert!(ds.rows.iter().all(|r| r.temp_c.is_some()), "the scenario logs temperature");
     let mut o = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), Method::LM);
-    o.effects = vec![(EffectKind::ThermalDrift, None)];
+    o.effects = vec![(EffectKind::Thermal, None)];
     let r = calibrate(&ds, None, &o).unwrap();
     let t = r.evaluation.metrics.test_after.unwrap();
     assert_eq!(r.test_residuals_mm.len(), t.n);

@@ -353,7 +353,7 @@ fn negative_sensor_guess_is_accepted() {
     assert!(o.status.success(), "{}", stderr(&o));
     let res = dir.path().join("r.json");
     // Space-separated value starting with '-', as a user types it.
-    let o = twincal(&["calibrate", "--data", s(&data), "--sensor-guess", "-690,-310,45,118,60,0,0", "--out", s(&res)]);
+    let o = twincal(&["calibrate", "--data", s(&data), "--draw-wire-guess", "-690,-310,45,118,60,0,0", "--out", s(&res)]);
     assert!(o.status.success(), "{}", stderr(&o));
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&res).unwrap()).unwrap();
     let exit_x = r["parameters"].as_array().unwrap().iter().find(|p| p["name"] == "exit.x").unwrap()["value"].as_f64().unwrap();
@@ -393,7 +393,7 @@ fn options_that_do_not_apply_or_make_no_sense_are_refused() {
         (vec!["diagnose", "--data", d, "--folds", "-3"], "invalid value '-3' for '--folds <FOLDS>'"),
         (vec!["calibrate", "--data", d, "--effort", "11"], "--effort must be in [0.01, 10], got 11"),
         (vec!["calibrate", "--data", d, "--angles", "grad"], "invalid value 'grad'"),
-        (vec!["calibrate", "--data", d, "--model", "generic6r", "--sensor-guess", "0,0,0,0,0,0,0"], "--sensor-guess applies to a nominal model"),
+        (vec!["calibrate", "--data", d, "--model", "generic6r", "--draw-wire-guess", "0,0,0,0,0,0,0"], "--draw-wire-guess applies to a nominal model"),
     ];
     for (args, needle) in cases {
         let t0 = std::time::Instant::now();
@@ -675,7 +675,7 @@ fn hand_edited_result_values_out_of_range_are_refused() {
             |r| {
                 r.as_object_mut().unwrap().remove("torque_model");
             },
-            "joint_compliance block reads joint torques, but the file has no torque_model",
+            "compliance block reads joint torques, but the file has no torque_model",
         ),
         (|r| r["torque_model"]["links"].as_array_mut().unwrap().truncate(3), "3 link masses for a model of 6 joints"),
         (|r| r["torque_model"]["links"][1][0] = 1e6.into(), "link 2 has mass 1000000 kg"),

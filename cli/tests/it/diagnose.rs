@@ -35,7 +35,7 @@ fn a_hidden_effect_is_named_with_its_size() {
         // The extended model predicts unseen rows about as well as the rows it was fitted to
         // (no repeated configurations here, so the data's floor is only their resolution), and
         // near the reading noise the scenario draws.
-        let sigma = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+        let sigma = s.draw_wire.noise_std_mm / (s.draw_wire.samples as f64).sqrt();
         assert!(d.final_heldout_rmse_mm < 1.25 * d.final_train_rmse_mm, "seed {seed}: {} vs in-sample {}", d.final_heldout_rmse_mm, d.final_train_rmse_mm);
         assert!(d.final_heldout_rmse_mm < 1.5 * sigma, "seed {seed}: {} vs reading noise {sigma}", d.final_heldout_rmse_mm);
         assert!(d.noise_floor_source.contains("lower bound"), "{}", d.noise_floor_source);
@@ -238,7 +238,7 @@ fn a_drift_behind_a_constant_temperature_column_is_named_over_time() {
     let data = Dataset { rows, source: "broken temperature sensor".into() };
     let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap());
     let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
-    assert!(d.causes.iter().any(|c| c.cause == "thermal_drift" && c.joint.is_none()), "{}", d.verdict);
+    assert!(d.causes.iter().any(|c| c.cause == "thermal" && c.joint.is_none()), "{}", d.verdict);
     // The model it writes runs on t: predict needs t, not temp.
     let (_, result) = diagnose(&data, &opts, &|_| {}).unwrap();
     assert!(result.columns_read().iter().all(|(c, _)| *c == "t"), "{:?}", result.columns_read());
@@ -275,7 +275,7 @@ fn real_like_acquisitions_in_sweeps_with_logged_angles() {
 
 /// A thermal drift of the whole arm (99 ppm/K over a 5 K warm-up) hidden in sweeps logged at 0.01°
 /// with three glitch runs, on six seeds: the diagnosis names it and `calibrate --effects
-/// thermal_drift` sizes it, each within 3 of its stated standard uncertainties of the truth. The
+/// thermal` sizes it, each within 3 of its stated standard uncertainties of the truth. The
 /// twin's sweeps step in round increments, so the swept joint's rounding, like the holding
 /// joints', is shared by the sweep; and the rows are screened with the drift in the model (the
 /// geometry alone takes the start of the warm-up for reading steps and corrects it away).
@@ -285,7 +285,7 @@ fn a_thermal_drift_in_logged_sweeps_is_sized_within_its_uncertainty() {
     use twincal::calib::pipeline::{calibrate, CalibOptions, Method};
     let (s0, robot, truth, _) = twincal::diagnose::hidden::hidden_realistic(30_005, 2, 1.5..4.0).unwrap();
     let h = &truth[0];
-    assert!(h.cause == EffectKind::ThermalDrift && h.joint.is_none(), "{h:?}");
+    assert!(h.cause == EffectKind::Thermal && h.joint.is_none(), "{h:?}");
     for seed in [101, 103, 104, 106, 109, 111] {
         let s = Scenario { seed, name: format!("thermal-{seed}"), ..s0.clone() };
         let d = run(&s, &robot);
@@ -294,7 +294,7 @@ fn a_thermal_drift_in_logged_sweeps_is_sized_within_its_uncertainty() {
         assert!(h.named_by(c) && (c.magnitude - h.magnitude).abs() <= 3.0 * c.uncertainty, "seed {seed}: hidden {h:?}, named {}", c.summary());
         let g = generate(&s, &robot, &Silent).unwrap();
         let mut opts = CalibOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap(), Method::LM);
-        opts.effects = vec![(EffectKind::ThermalDrift, None)];
+        opts.effects = vec![(EffectKind::Thermal, None)];
         let r = calibrate(&g.dataset, None, &opts).unwrap();
         let p = r.parameters.iter().find(|p| p.name == "thermal.alpha").expect("the drift's parameter");
         let sd = p.std_uncertainty.expect("an uncertainty");
@@ -382,7 +382,7 @@ fn payload_runs_reveal_a_compliance_the_unloaded_arm_hides() {
         diagnose(&all, &DiagnoseOptions { loads: twincal::calib::pipeline::LoadOptions { joints: com, inertial: None }, ..opts.clone() }, &|_| {}).unwrap().0;
     let first = d.causes.first().unwrap_or_else(|| panic!("the payload runs: {}", d.verdict));
     eprintln!("payload runs: {} (truth {truth:.4} urad/Nm)", first.summary());
-    assert!(first.cause == "joint_compliance" && first.joint == Some(3), "{}", d.verdict);
+    assert!(first.cause == "compliance" && first.joint == Some(3), "{}", d.verdict);
     assert!((first.magnitude - truth).abs() < 3.0 * first.uncertainty, "{} vs {truth}", first.summary());
     let d = diagnose(&all, &opts, &|_| {}).unwrap().0;
     assert!(d.warnings.iter().any(|w| w.contains("no centre of mass is stated")), "{:?}", d.warnings);
@@ -434,7 +434,7 @@ fn a_warm_up_behind_a_lagging_sensor_is_sized_and_not_taken_for_moves() {
     };
     let fit = |lag: bool| {
         let mut o = twincal::calib::pipeline::CalibOptions::new(spec(), twincal::calib::pipeline::Method::LM);
-        o.effects = vec![(twincal::calib::effects::EffectKind::ThermalDrift, None)];
+        o.effects = vec![(twincal::calib::effects::EffectKind::Thermal, None)];
         o.sensor_lag = lag;
         twincal::calib::pipeline::calibrate(&data, None, &o).unwrap()
     };
@@ -452,7 +452,7 @@ fn a_warm_up_behind_a_lagging_sensor_is_sized_and_not_taken_for_moves() {
     let d = twincal::jobs::diagnose_loaded(&twincal::requests::DiagnoseRequest::default(), (opts, Default::default()), rows, &|_| {}).unwrap();
     let first = d.report.causes.first().unwrap_or_else(|| panic!("nothing named: {}", d.report.verdict));
     eprintln!("diagnose: {}", first.summary());
-    assert!(first.cause == "thermal_drift" && first.joint.is_none(), "{}", d.report.verdict);
+    assert!(first.cause == "thermal" && first.joint.is_none(), "{}", d.report.verdict);
     assert!((first.magnitude - 23.0).abs() < 3.0 * first.uncertainty, "{}", first.summary());
     assert!(d.report.setup.as_ref().is_none_or(|s| s.stations.len() <= 1 && s.mounts.len() <= 1), "set-up changes found: {:?}", d.report.setup);
 }

@@ -61,7 +61,7 @@ fn effects_and_correctors_are_named_as_not_carried_and_bad_requests_write_nothin
     let o = twincal(&["export", "--model", s(&result), "--out", s(&out), "--format", "frames"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("warning: encoder_eccentricity[j1] is not carried") && err.contains("corrector is not carried"), "{err}");
+    assert!(err.contains("warning: eccentricity[j1] is not carried") && err.contains("corrector is not carried"), "{err}");
     let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!(file["not_carried"].as_array().unwrap().len(), 2, "{file}");
     for (args, needle) in [

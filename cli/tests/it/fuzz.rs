@@ -24,7 +24,7 @@ fn fixtures() -> &'static (Vec<Value>, Dataset) {
         let data = generate(&s, &robot, &Silent).unwrap().dataset;
         let spec = ModelSpec::nominal(robot, twincal::calib::pipeline::Parametrisation::Hayati);
         let mut lm = CalibOptions::new(spec.clone(), Method::LM);
-        lm.effects = vec![(EffectKind::JointCompliance, Some(1)), (EffectKind::Backlash, Some(2)), (EffectKind::ThermalDrift, None)];
+        lm.effects = vec![(EffectKind::Compliance, Some(1)), (EffectKind::Backlash, Some(2)), (EffectKind::Thermal, None)];
         let results = [calibrate(&data, None, &lm).unwrap(), calibrate(&data, None, &CalibOptions::new(spec, Method::RBF)).unwrap()];
         (results.iter().map(|r| serde_json::to_value(r).unwrap()).collect(), data)
     })

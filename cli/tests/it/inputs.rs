@@ -30,12 +30,12 @@ fn generated_numbers_are_written_at_their_precision() {
     let (mut s, robot) = ideal();
     s.sampling.poses = 20;
     s.sampling.test = 4;
-    s.sensor.noise_std_mm = 0.05;
-    s.sensor.resolution_mm = 0.01;
-    s.sensor.samples = 50;
+    s.draw_wire.noise_std_mm = 0.05;
+    s.draw_wire.resolution_mm = 0.01;
+    s.draw_wire.samples = 50;
     s.sampling.angle_decimals = 4;
     s.validate(&robot, "patched").unwrap();
-    assert_eq!(s.sensor.reading_decimals(), 4, "0.01 mm / 50 samples = 0.0002 mm");
+    assert_eq!(s.draw_wire.reading_decimals(), 4, "0.01 mm / 50 samples = 0.0002 mm");
     let g = generate(&s, &robot, &Silent).unwrap();
     let text = g.dataset.to_csv_string();
     assert!(text.starts_with("q1,q2,q3,q4,q5,q6,L,t,temp,split\n"), "{text}");
@@ -57,7 +57,7 @@ fn generated_numbers_are_written_at_their_precision() {
 
     // Without quantisation the reading keeps 6 decimals (1e-6 mm), the default angles 6.
     let (s, robot) = ideal();
-    assert_eq!(s.sensor.reading_decimals(), 6);
+    assert_eq!(s.draw_wire.reading_decimals(), 6);
     let g = generate(&s, &robot, &Silent).unwrap();
     let widest = decimals_per_column(&g.dataset.to_csv_string());
     assert!(widest[..7].iter().all(|d| *d <= 6), "{widest:?}");

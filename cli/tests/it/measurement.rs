@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use twincal::calib::fit::{ReadingFit, Samples};
-use twincal::calib::model::{CalibModel, Placement, SensorGuess};
+use twincal::calib::model::{CalibModel, DrawWireGuess, Placement};
 use twincal::calib::pipeline::identify;
 use twincal::measurement::Measurement;
 use twincal::optim::{LevenbergMarquardt, NoObserver};
@@ -29,7 +29,7 @@ fn gauss(rng: &mut ChaCha8Rng) -> f64 {
 #[test]
 fn a_tracker_point_dataset_calibrates_to_its_noise_on_unseen_rows() {
     let robot = Robot::irb120();
-    let cable = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+    let cable = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
     // The tracker 2.5 m in front of the arm, turned by 40° about z and a little about x and y;
     // a reflector 80 mm out on the flange and 36 mm off its axis (a reflector on the axis would
     // leave the last axis' direction unseen).
@@ -100,7 +100,7 @@ fn twincal(args: &[&str]) -> std::process::Output {
 #[test]
 fn the_commands_take_a_tracker_dataset() {
     let robot = Robot::irb120();
-    let cable = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+    let cable = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
     let tracker = Placement { measurement: Measurement::Point, own: vec![1.8, 0.6, -0.2, -0.01, 0.02, -2.1], tool: Vector3::new(-0.025, 0.03, 0.07) };
     let truth = CalibModel::dh(&robot, &cable, true).with_placement(&tracker);
     let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -184,11 +184,8 @@ fn the_commands_take_a_tracker_dataset() {
 
     // What reads cable lengths only names what the file holds.
     for (args, says) in [
-        (vec!["calibrate", "--data", data, "--sensor-guess", "1,2,3,4,5,6,7", "--out", "/dev/null/x.json"], "--sensor-guess places a draw-wire"),
-        (
-            vec!["calibrate", "--data", data, "--effects", "sensor_nonlinearity", "--out", "/dev/null/x.json"],
-            "sensor_nonlinearity is a draw-wire's reading error",
-        ),
+        (vec!["calibrate", "--data", data, "--draw-wire-guess", "1,2,3,4,5,6,7", "--out", "/dev/null/x.json"], "--draw-wire-guess places a draw-wire"),
+        (vec!["calibrate", "--data", data, "--effects", "nonlinearity", "--out", "/dev/null/x.json"], "nonlinearity is a draw-wire's reading error"),
     ] {
         let out = twincal(&args);
         let err = String::from_utf8_lossy(&out.stderr);
@@ -291,7 +288,7 @@ fn diagnose_names_an_effect_hidden_in_tracker_points() {
         (
             "compliance",
             with("[effects.compliance]\nstiffness_nm_per_rad = [1.0e9, 5.0e4, 1.0e9, 1.0e9, 1.0e9, 1.0e9]\n[effects.payload]\nmass_kg = 1.0\ncom_mm = [40.0, 0.0, 0.0]\n"),
-            "joint_compliance[j2]",
+            "compliance[j2]",
             1.0 / 5.0e4 * 1e6,
         ),
         ("backlash", with("[effects.backlash]\nwidth_deg = [0.0, 0.0, 0.015, 0.0, 0.0, 0.0]\nbreakaway_nm = 0.3\n"), "backlash[j3]", 0.015),
@@ -302,7 +299,7 @@ fn diagnose_names_an_effect_hidden_in_tracker_points() {
             "tour",
             with("[effects.compliance]\nstiffness_nm_per_rad = [1.0e9, 5.0e4, 1.0e9, 1.0e9, 1.0e9, 1.0e9]\n")
                 + "\n[acquisition]\nmodel = \"simulated\"\ndamping_ratio = 0.05\n",
-            "joint_compliance[j2]",
+            "compliance[j2]",
             1.0 / 5.0e4 * 1e6,
         ),
     ];
@@ -457,8 +454,8 @@ fn the_report_and_the_recording_draw_a_tracker_dataset() {
         let rec = common::read(std::path::Path::new(&p(file)));
         rec.assert_no_empty_view();
         for (e, c) in [
-            ("/world/sensor/tracker", "Transform3D:translation"),
-            ("/world/sensor/tracker/head", "Points3D:positions"),
+            ("/world/instrument/tracker", "Transform3D:translation"),
+            ("/world/instrument/tracker/head", "Points3D:positions"),
             ("/world/line_of_sight", "LineStrips3D:strips"),
             ("/world/after/train", "Points3D:colors"),
             ("/residuals/before", "BarChart:values"),
@@ -467,12 +464,12 @@ fn the_report_and_the_recording_draw_a_tracker_dataset() {
         ] {
             assert!(rec.holds(e, c, "static"), "{file}: {e} lacks {c}");
         }
-        assert!(!rec.entities.contains_key("/world/cable") && !rec.entities.contains_key("/world/sensor/cable_exit"), "{file}: a cable");
+        assert!(!rec.entities.contains_key("/world/cable") && !rec.entities.contains_key("/world/instrument/cable_exit"), "{file}: a cable");
         for view in sides {
             rec.view(view);
         }
         if file == "cal.rrd" {
-            assert_eq!(rec.view("Tracker rotation (deg) change ±1σ").origin, "/final/sensor_angles");
+            assert_eq!(rec.view("Tracker rotation (deg) change ±1σ").origin, "/final/placement_angles");
         }
     }
 }

@@ -48,7 +48,7 @@ fn generate_calibrate_and_compare_recordings_hold_what_their_views_show() {
         ("/world/tool_points", "Points3D:labels", "static"),
         ("/world/colorbar/bar", "LineStrips3D:strips", "static"),
         ("/world/colorbar/values", "Points3D:labels", "static"),
-        ("/world/sensor/cable_exit", "Points3D:positions", "static"),
+        ("/world/instrument/cable_exit", "Points3D:positions", "static"),
         ("/world/arm/frame_1", "Transform3D:translation", "pose"),
         ("/world/arm/frame_1", "TransformAxes3D:axis_length", "static"),
         ("/world/arm/links", "LineStrips3D:strips", "pose"),
@@ -129,12 +129,12 @@ fn generate_calibrate_and_compare_recordings_hold_what_their_views_show() {
         ("/convergence/cost", "Scalars:scalars", "iteration"),
         ("/final/lengths/change", "Points2D:positions", "static"),
         ("/final/angles/sigma", "LineStrips2D:strips", "static"),
-        ("/final/sensor/truth", "Points2D:positions", "static"),
+        ("/final/placement/truth", "Points2D:positions", "static"),
         ("/docs/summary", "TextDocument:text", "static"),
     ] {
         assert!(r.holds(e, c, t), "calibrate: {e} lacks {c} on {t}: {:?}", r.entities.get(e));
     }
-    assert!(r.entities.keys().any(|e| e.starts_with("/params/lengths/")) && r.entities.keys().any(|e| e.starts_with("/params/sensor/")));
+    assert!(r.entities.keys().any(|e| e.starts_with("/params/lengths/")) && r.entities.keys().any(|e| e.starts_with("/params/placement/")));
     // The two 3D views each leave out the other side.
     let before = r.view("Before calibration");
     assert!(r.entities_of(before).iter().all(|e| !e.starts_with("/world/after")) && r.entities_of(before).contains(&"/world/before/train"));
@@ -227,8 +227,8 @@ fn generate_draws_a_tracker_and_its_line_of_sight() {
     std::fs::write(&sc, text).unwrap();
     let (_, r) = generated(dir.path(), &sc);
     for (e, c, t) in [
-        ("/world/sensor/tracker", "Transform3D:translation", "static"),
-        ("/world/sensor/tracker/head", "Points3D:positions", "static"),
+        ("/world/instrument/tracker", "Transform3D:translation", "static"),
+        ("/world/instrument/tracker/head", "Points3D:positions", "static"),
         ("/world/line_of_sight", "LineStrips3D:strips", "pose"),
         ("/world/tool_points", "Points3D:labels", "static"),
         ("/world/colorbar/values", "Points3D:labels", "static"),
@@ -237,7 +237,7 @@ fn generate_draws_a_tracker_and_its_line_of_sight() {
     ] {
         assert!(r.holds(e, c, t), "generate: {e} lacks {c} on {t}: {:?}", r.entities.get(e));
     }
-    assert!(!r.entities.contains_key("/world/cable") && !r.entities.contains_key("/world/sensor/cable_exit"), "no cable is drawn");
+    assert!(!r.entities.contains_key("/world/cable") && !r.entities.contains_key("/world/instrument/cable_exit"), "no cable is drawn");
     assert_eq!(r.entities["/world/line_of_sight"].rows.get("pose"), Some(&40), "one line of sight per pose");
     for f in ["q1", "q6", "x", "y", "z"] {
         assert!(r.holds(&format!("/plots/{f}/points"), "Points2D:positions", "static"), "plot {f}");

@@ -71,11 +71,11 @@ fn an_identified_twin_replays_held_out_rows_to_the_noise() {
         assert!(twin > 0.7 * real && twin < 1.4 * real && after["ks_p_value"].as_f64().unwrap() > 1e-4, "seed {seed}: {after}");
         // The compliance identified is the hidden one (10 µrad/N·m) within its uncertainty.
         let dg = json(&d("dg.json"));
-        assert_eq!(dg["verdict"], "joint_compliance[j2]", "seed {seed}: {}", dg["causes"]);
+        assert_eq!(dg["verdict"], "compliance[j2]", "seed {seed}: {}", dg["causes"]);
         let (size, sd) = (dg["causes"][0]["magnitude"].as_f64().unwrap(), dg["causes"][0]["uncertainty"].as_f64().unwrap());
         assert!((size - 10.0).abs() < 3.0 * sd, "seed {seed}: {size} ± {sd} against the hidden 10 urad/Nm");
         let twin = std::fs::read_to_string(&full).unwrap();
-        assert!(twin.contains("[effects.compliance]") && twin.contains("# Effects at their identified sizes: joint_compliance[j2]."), "{twin}");
+        assert!(twin.contains("[effects.compliance]") && twin.contains("# Effects at their identified sizes: compliance[j2]."), "{twin}");
         // Gaussian noise stays Gaussian in the identified twin.
         assert!(!twin.contains("noise_t_dof"), "{twin}");
         if seed == "1" {

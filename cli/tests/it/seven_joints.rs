@@ -42,7 +42,7 @@ fn a_seven_joint_arm_calibrates_to_the_noise_floor_with_its_parameters_within_3_
         let truth = TruthFile::find(dir.path()).unwrap().unwrap();
         let r = calibrate(&ds, Some(&truth), &CalibOptions::new(wam(), Method::LM)).unwrap();
         let test = r.evaluation.metrics.test_after.as_ref().unwrap().rmse;
-        let floor = s.sensor.noise_std_mm / (s.sensor.samples as f64).sqrt();
+        let floor = s.draw_wire.noise_std_mm / (s.draw_wire.samples as f64).sqrt();
         assert!(r.solve.converged, "seed {seed}: {}", r.solve.stop_reason);
         assert!(test < 1.3 * floor, "seed {seed}: held-out RMSE {test} mm vs reading noise {floor} mm");
         let cmp = r.evaluation.truth_comparison.clone().unwrap();
@@ -64,7 +64,7 @@ fn a_hidden_compliance_on_a_seven_joint_arm_is_named_with_its_size() {
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
     let (d, _) = diagnose(&data, &DiagnoseOptions::new(wam()), &|_| {}).unwrap();
     let first = d.causes.first().unwrap_or_else(|| panic!("nothing named: {}", d.verdict));
-    assert_eq!((first.cause.as_str(), first.joint), ("joint_compliance", Some(2)), "{:?}", d.causes);
+    assert_eq!((first.cause.as_str(), first.joint), ("compliance", Some(2)), "{:?}", d.causes);
     assert!((first.magnitude - 50.0).abs() < 3.0 * first.uncertainty, "{} ± {} vs 50 urad/Nm", first.magnitude, first.uncertainty);
     assert!(d.final_heldout_rmse_mm < 0.2 * first.heldout_rmse_before_mm);
 }
@@ -194,7 +194,7 @@ fn a_seven_joint_arm_measured_by_a_laser_tracker() {
     ok(twincal(&["generate", "--scenario", &p("hidden.toml"), "--seed", "5", "--out", &p("c5")]));
     ok(twincal(&["diagnose", "--data", &p("c5"), "--model", urdf, "--out", &p("c5.json"), "--result", &p("c5r.json")]));
     let d = json("c5.json");
-    assert_eq!(d["verdict"], "joint_compliance[j2]", "{}", d["causes"]);
+    assert_eq!(d["verdict"], "compliance[j2]", "{}", d["causes"]);
     let (size, sd) = (d["causes"][0]["magnitude"].as_f64().unwrap(), d["causes"][0]["uncertainty"].as_f64().unwrap());
     assert!((size - 50.0).abs() < 3.0 * sd + 0.5, "{size} ± {sd} against the truth 50");
 }

@@ -59,9 +59,9 @@ fn slow_tour_with_ample_hold_equals_the_quasi_static_model() {
         // The quasi-static model at the reading's time on the simulated flanks.
         let mid = a.lengths.len() / 2;
         let l = a.lengths.iter().sum::<f64>() / a.lengths.len() as f64;
-        let schedule = twincal::sim::twin::tour::Schedule::new(&robot, 0.01, 1.0, s.sensor.hold_s, s.sensor.window_s(), &[0.0; 6], &poses);
+        let schedule = twincal::sim::twin::tour::Schedule::new(&robot, 0.01, 1.0, s.draw_wire.hold_s, s.draw_wire.window_s(), &[0.0; 6], &poses);
         let qs = twin.quasi_static(&PoseCommand { q_cmd: poses[i].clone(), sides: sides.clone(), t: schedule.read_t[i] });
-        let d = (l - twin.sensor.ideal_length(&qs.tool)).abs();
+        let d = (l - twin.draw_wire.ideal_length(&qs.tool)).abs();
         worst = worst.max(d);
         assert!((a.rest.tool - qs.tool).norm() * 1e3 < 1e-3, "pose {i}: tool {:e} mm off", (a.rest.tool - qs.tool).norm() * 1e3);
         assert!(a.transient_mm.abs() < 1e-3 && (a.lengths[mid] - l).abs() < 1e-6, "pose {i}: transient {}", a.transient_mm);
@@ -148,7 +148,7 @@ fn short_hold_on_a_lightly_damped_arm_shows_the_transient() {
     let mut quick = s.clone();
     quick.sampling.poses = 10;
     quick.sampling.test = 2;
-    quick.sensor.hold_s = 0.02;
+    quick.draw_wire.hold_s = 0.02;
     let g = generate(&quick, &robot, &Silent).err().expect("every pose rejected");
     assert!(g.to_string().contains("stability gate still closed"), "{g}");
     quick.acquisition.on_timeout = OnTimeout::Read;
@@ -166,7 +166,7 @@ fn tour_is_deterministic_whatever_the_thread_count() {
     let (mut s, robot) = embedded();
     s.sampling.poses = 24;
     s.sampling.test = 4;
-    s.sensor.hold_s = 0.1;
+    s.draw_wire.hold_s = 0.1;
     s.acquisition.chunk_poses = 5;
     s.validate(&robot, "small").unwrap();
     let run = |s: &Scenario, threads: usize| {

@@ -16,7 +16,7 @@ fn scenario(name: &str) -> (Scenario, Robot) {
 
 fn sensor() -> DrawWire {
     let (s, _) = scenario("irb120_evo_nph");
-    s.sensor
+    s.draw_wire
 }
 
 fn deg(v: [f64; 6]) -> Vec<f64> {
@@ -30,13 +30,13 @@ fn ideal_length_equals_analytic_distance() {
     assert_eq!(g.dataset.rows.len(), s.sampling.poses);
     let chain = robot.error_chain();
     let zero = vec![0.0; chain.n_params()];
-    let e = Vector3::from(s.sensor.exit_point_mm);
-    let tool = Vector3::from(s.sensor.tool_point_mm) * 1e-3;
+    let e = Vector3::from(s.draw_wire.exit_point_mm);
+    let tool = Vector3::from(s.draw_wire.tool_point_mm) * 1e-3;
     let mut worst: f64 = 0.0;
     for r in &g.dataset.rows {
         let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
         let p = chain.point(&q, &zero, 1.0, chain.flange(), &tool) * 1e3;
-        let l = (p - e).norm() + s.sensor.length_offset_mm;
+        let l = (p - e).norm() + s.draw_wire.length_offset_mm;
         worst = worst.max((r.l_mm().unwrap() - l).abs());
     }
     assert!(worst < 1e-6, "worst |L - analytic| = {worst:e} mm");
@@ -151,7 +151,7 @@ fn thermal_growth_shows_in_length_over_time() {
     let effects = Effects { thermal: Some(th.clone()), ..Default::default() };
     let twin = compliant_twin(effects);
     let q = deg([30.0, 30.0, 10.0, 0.0, 30.0, 0.0]);
-    let l = |t: f64| twin.sensor.ideal_length(&twin.simulate(&PoseCommand { q_cmd: q.clone(), sides: vec![-1.0; 6], t }).unwrap().tool);
+    let l = |t: f64| twin.draw_wire.ideal_length(&twin.simulate(&PoseCommand { q_cmd: q.clone(), sides: vec![-1.0; 6], t }).unwrap().tool);
     let ls: Vec<f64> = [0.0, 300.0, 900.0, 3600.0, 20000.0].iter().map(|t| l(*t)).collect();
     for w in ls.windows(2) {
         assert!(w[1] != w[0]);
@@ -213,7 +213,7 @@ fn another_six_r_urdf_loads_and_simulates_the_same_way() {
         assert!(sim.deflection.iter().any(|d| d.abs() > 1e-6));
     }
     // Its D-H description reproduces its URDF kinematics.
-    let guess = twincal::calib::model::SensorGuess { exit_m: [0.9, -0.2, 0.0], offset_m: 0.08, tool_m: [0.04, 0.0, 0.005] };
+    let guess = twincal::calib::model::DrawWireGuess { exit_m: [0.9, -0.2, 0.0], offset_m: 0.08, tool_m: [0.04, 0.0, 0.005] };
     let dh = twincal::calib::model::CalibModel::dh(&robot, &guess, true);
     let fr = twincal::calib::model::CalibModel::frame(&robot, &guess);
     let (mut a, mut b) = (dh.work(), fr.work());
@@ -270,7 +270,7 @@ fn eccentricity_moves_the_settled_tool_as_the_quasi_static_model_says() {
         let simulated = (sim.tool - before.tool) * 1e3;
         assert!((predicted - simulated).norm() < 1e-3, "pose {i}: rapier shift {simulated:?} vs quasi-static {predicted:?} mm");
         moved = moved.max(simulated.norm());
-        moved_l = moved_l.max((ecc.sensor.ideal_length(&sim.tool) - plain.sensor.ideal_length(&before.tool)).abs());
+        moved_l = moved_l.max((ecc.draw_wire.ideal_length(&sim.tool) - plain.draw_wire.ideal_length(&before.tool)).abs());
     }
     assert!(worst < 1e-3, "worst rapier vs quasi-static tool distance {worst:e} mm");
     assert!(moved > 0.05, "eccentricity should move the tool, at most {moved} mm");
@@ -286,8 +286,8 @@ fn eccentricity_changes_l_by_its_first_order_sensitivity() {
     let e = eccentricity();
     let twin = Twin::new(robot, zero.clone(), Effects { eccentricity: Some(e.clone()), ..Default::default() }, sensor(), SettleOptions::default());
     let rigid = compliant_twin(Effects::default());
-    let tool = twin.sensor.tool_point_m();
-    let length = |q: &[f64]| twin.sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &tool));
+    let tool = twin.draw_wire.tool_point_m();
+    let length = |q: &[f64]| twin.draw_wire.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &tool));
     for q in [[20.0, 30.0, -20.0, 10.0, 45.0, 30.0], [-40.0, 10.0, 20.0, -60.0, -30.0, 90.0]] {
         let q = deg(q);
         let cmd = PoseCommand { q_cmd: q.clone(), sides: vec![-1.0; 6], t: 0.0 };
@@ -296,7 +296,7 @@ fn eccentricity_changes_l_by_its_first_order_sensitivity() {
         let q_true: Vec<f64> = q.iter().zip(&shift).map(|(a, b)| a + b).collect();
         assert!((rest.tool - chain.point(&q_true, &zero, 1.0, chain.flange(), &tool)).norm() < 1e-12);
         // ΔL against Σ ∂L/∂q_j · e_j (central differences; second order ≈ 1e-4 mm).
-        let dl = twin.sensor.ideal_length(&rest.tool) - twin.sensor.ideal_length(&rigid.simulate(&cmd).unwrap().tool);
+        let dl = twin.draw_wire.ideal_length(&rest.tool) - twin.draw_wire.ideal_length(&rigid.simulate(&cmd).unwrap().tool);
         let h = 1e-6;
         let linear: f64 = (0..6)
             .map(|j| {
@@ -325,7 +325,7 @@ fn dataset_records_the_encoder_angles_and_truth_the_eccentricity() {
     let g = generate(&s, &robot, &Silent).unwrap();
     let chain = robot.error_chain();
     let zero = vec![0.0; chain.n_params()];
-    let tool = s.sensor.tool_point_m();
+    let tool = s.draw_wire.tool_point_m();
     let (mut worst, mut off): (f64, f64) = (0.0, 0.0);
     for (r, t) in g.dataset.rows.iter().zip(&g.truth.poses) {
         let q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
@@ -336,7 +336,7 @@ fn dataset_records_the_encoder_angles_and_truth_the_eccentricity() {
             assert!((t.q_cmd_deg[j] - r.q_deg[j]).abs() < 1e-9, "the dataset holds the commanded angles");
         }
         let q_true: Vec<f64> = q.iter().zip(&ecc).map(|(a, b)| a + b).collect();
-        let l = |q: &[f64]| s.sensor.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &tool));
+        let l = |q: &[f64]| s.draw_wire.ideal_length(&chain.point(q, &zero, 1.0, chain.flange(), &tool));
         worst = worst.max((r.l_mm().unwrap() - l(&q_true)).abs());
         off = off.max((r.l_mm().unwrap() - l(&q)).abs());
     }

@@ -151,7 +151,7 @@ mod tests {
     use super::*;
     use crate::calib::correctors::rbf::RbfOptions;
     use crate::calib::effects::{EffectBlock, EffectKind, ThermalDrive};
-    use crate::calib::model::{CalibModel, SensorGuess};
+    use crate::calib::model::{CalibModel, DrawWireGuess};
     use crate::robot::Robot;
 
     fn configurations() -> Vec<Vec<f64>> {
@@ -204,16 +204,16 @@ mod tests {
     #[test]
     fn effect_correction_gradient_matches_finite_differences() {
         let robot = Robot::irb120();
-        let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        let guess = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
         let mut m = CalibModel::dh(&robot, &guess, true);
         for j in 0..6 {
-            m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, j), 3600.0);
+            m.add_effect(EffectBlock::joint(EffectKind::Compliance, j), 3600.0);
             m.add_effect(EffectBlock::joint(EffectKind::Backlash, j), 3600.0);
-            m.add_effect(EffectBlock::joint(EffectKind::EncoderEccentricity, j), 3600.0);
+            m.add_effect(EffectBlock::joint(EffectKind::Eccentricity, j), 3600.0);
         }
         let thermal = Some(ThermalDrive::Temperature { ref_c: 21.0, sensor_lag: false });
-        m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: None, thermal, range_m: None }, 3600.0);
-        m.add_effect(EffectBlock { kind: EffectKind::SensorNonlinearity, joint: None, thermal: None, range_m: Some([0.4, 1.6]) }, 3600.0);
+        m.add_effect(EffectBlock { kind: EffectKind::Thermal, joint: None, thermal, range_m: None }, 3600.0);
+        m.add_effect(EffectBlock { kind: EffectKind::Nonlinearity, joint: None, thermal: None, range_m: Some([0.4, 1.6]) }, 3600.0);
         let mut x = m.nominal.clone();
         for k in m.first_effect()..x.len() {
             x[k] += 2e-4 * ((k as f64) * 1.3).sin();

@@ -55,7 +55,7 @@ impl std::str::FromStr for EffectChoice {
 
 impl std::fmt::Display for EffectChoice {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let name = self.kind.def().short().unwrap_or(self.kind.name());
+        let name = self.kind.name();
         match self.joint {
             Some(j) => write!(f, "{name}:{}", j + 1),
             None => f.write_str(name),
@@ -84,8 +84,11 @@ mod tests {
     fn a_choice_reads_and_writes_kind_and_joint() {
         for (text, kind, joint, back) in [
             ("backlash:2", EffectKind::Backlash, Some(1), "backlash:2"),
-            ("Compliance", EffectKind::JointCompliance, None, "compliance"),
-            ("thermal_drift", EffectKind::ThermalDrift, None, "thermal"),
+            ("Compliance", EffectKind::Compliance, None, "compliance"),
+            ("thermal", EffectKind::Thermal, None, "thermal"),
+            // The names earlier versions wrote are read as the kinds they named.
+            ("thermal_drift", EffectKind::Thermal, None, "thermal"),
+            ("Joint_Compliance:1", EffectKind::Compliance, Some(0), "compliance:1"),
         ] {
             let c: EffectChoice = text.parse().unwrap();
             assert_eq!((c.kind, c.joint), (kind, joint), "{text}");

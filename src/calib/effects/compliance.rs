@@ -3,14 +3,11 @@
 
 use super::*;
 
-pub struct JointCompliance;
+pub struct Compliance;
 
-impl Effect for JointCompliance {
+impl Effect for Compliance {
     fn name(&self) -> &'static str {
-        "joint_compliance"
-    }
-    fn short(&self) -> Option<&'static str> {
-        Some("compliance")
+        "compliance"
     }
     fn per_joint(&self) -> bool {
         true
@@ -26,7 +23,7 @@ impl Effect for JointCompliance {
     }
     fn configure(&self, _b: &mut EffectBlock, _data: &Dataset, has_torques: bool) -> Result<()> {
         if !has_torques {
-            return Err(Error::Invalid("joint_compliance needs joint torques, and nothing loads the joints here: give a URDF with its links' <inertial> masses (--robot FILE), a payload (--payload-kg) or a cable tension (--cable-tension-n)".into()));
+            return Err(Error::Invalid("compliance needs joint torques, and nothing loads the joints here: give a URDF with its links' <inertial> masses (--robot FILE), a payload (--payload-kg) or a cable tension (--cable-tension-n)".into()));
         }
         Ok(())
     }

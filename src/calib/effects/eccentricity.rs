@@ -3,14 +3,11 @@
 
 use super::*;
 
-pub struct EncoderEccentricity;
+pub struct Eccentricity;
 
-impl Effect for EncoderEccentricity {
+impl Effect for Eccentricity {
     fn name(&self) -> &'static str {
-        "encoder_eccentricity"
-    }
-    fn short(&self) -> Option<&'static str> {
-        Some("eccentricity")
+        "eccentricity"
     }
     fn per_joint(&self) -> bool {
         true

@@ -41,7 +41,7 @@ pub fn payload_warning(data: &crate::dataset::Dataset, loads: &JointLoads) -> Op
     match &loads.payload {
         None if loaded > 0 => Some(format!(
             "{loaded} rows carry a payload (payload_kg) but no centre of mass is stated: it is taken at the flange's origin; \
-             state it with --payload-com-mm X,Y,Z (flange frame), as the sizes of load-driven effects (joint_compliance) depend on it"
+             state it with --payload-com-mm X,Y,Z (flange frame), as the sizes of load-driven effects (compliance) depend on it"
         )),
         Some(p) if p.mass_kg == 0.0 && p.com_mm != [0.0; 3] && loaded == 0 => {
             Some("--payload-com-mm is given with no payload: neither --payload-kg nor a payload_kg column loads the arm, so it changes nothing".into())

@@ -4,12 +4,12 @@
 //!
 //! | block | parameters | what it adds |
 //! |---|---|---|
-//! | `joint_compliance` (joint j) | c_j, rad/(N·m) | joint angle + c_j·τ_j (static torque from the URDF inertials, payload, cable) |
+//! | `compliance` (joint j) | c_j, rad/(N·m) | joint angle + c_j·τ_j (static torque from the URDF inertials, payload, cable) |
 //! | `backlash` (joint j) | h_j, rad (half band) | joint angle + h_j·side_j (load side, else approach side) |
-//! | `thermal_drift` | α, 1/K, and L, s (with `temp`; L with `t`) or s, τ (time only) | every link length × (1 + α·(T + L·dT/dt − T_ref)) or (1 + s·(1 − e^(−t/τ))) |
-//! | `thermal_drift` (joint j) | z_j, rad/K, and L_j, s (with `temp`) or z_j, τ_j (time only) | joint angle + z_j·(T + L_j·dT/dt − T_ref) or z_j·(1 − e^(−t/τ_j)): joint-zero drift |
-//! | `encoder_eccentricity` (joint j) | a_j, b_j, rad | joint angle + a_j·sin q_j + b_j·cos q_j |
-//! | `sensor_nonlinearity` | p2..p4, m | reading + Σ p_k·P_k(v), Legendre polynomials P2..P4 over the data's reading range |
+//! | `thermal` | α, 1/K, and L, s (with `temp`; L with `t`) or s, τ (time only) | every link length × (1 + α·(T + L·dT/dt − T_ref)) or (1 + s·(1 − e^(−t/τ))) |
+//! | `thermal` (joint j) | z_j, rad/K, and L_j, s (with `temp`) or z_j, τ_j (time only) | joint angle + z_j·(T + L_j·dT/dt − T_ref) or z_j·(1 − e^(−t/τ_j)): joint-zero drift |
+//! | `eccentricity` (joint j) | a_j, b_j, rad | joint angle + a_j·sin q_j + b_j·cos q_j |
+//! | `nonlinearity` | p2..p4, m | reading + Σ p_k·P_k(v), Legendre polynomials P2..P4 over the data's reading range |
 //!
 //! The per-row inputs they need (torques, sides, time, temperature) travel in one
 //! [`RowInputs`] per sample. Derivatives are analytic and checked against finite differences.
@@ -39,10 +39,6 @@ use serde::{Deserialize, Serialize};
 pub trait Effect: Sync {
     /// The name in result files, `--effects` and reports.
     fn name(&self) -> &'static str;
-    /// A short name `--effects` also accepts.
-    fn short(&self) -> Option<&'static str> {
-        None
-    }
     /// Whether the effect has one block per joint.
     fn per_joint(&self) -> bool;
     /// The joints a block may sit on for an arm of `n` joints (`None`: the whole arm).
@@ -138,33 +134,36 @@ const DEG: f64 = 180.0 / std::f64::consts::PI;
 #[serde(rename_all = "snake_case")]
 pub enum EffectKind {
     /// Each joint gives way in proportion to the static torque it carries.
-    JointCompliance,
+    #[serde(alias = "joint_compliance")]
+    Compliance,
     /// Gear backlash: a joint sits half its band to the side the load (or the approach) puts it on.
     Backlash,
     /// Links grow with temperature (or a warm-up with time), and joint zeros drift with it.
-    ThermalDrift,
+    #[serde(alias = "thermal_drift")]
+    Thermal,
     /// The true joint angle is the reading plus a first harmonic of it.
-    EncoderEccentricity,
+    #[serde(alias = "encoder_eccentricity")]
+    Eccentricity,
     /// The reading plus Legendre polynomials P2..P4 over the reading range.
-    SensorNonlinearity,
+    #[serde(alias = "sensor_nonlinearity")]
+    Nonlinearity,
 }
 
 impl EffectKind {
     /// Every kind, in the order selection and reports list them.
-    pub const ALL: [EffectKind; 5] =
-        [EffectKind::JointCompliance, EffectKind::Backlash, EffectKind::ThermalDrift, EffectKind::EncoderEccentricity, EffectKind::SensorNonlinearity];
+    pub const ALL: [EffectKind; 5] = [EffectKind::Compliance, EffectKind::Backlash, EffectKind::Thermal, EffectKind::Eccentricity, EffectKind::Nonlinearity];
 
     /// The registry: the component behind each kind.
     pub fn def(self) -> &'static dyn Effect {
         match self {
-            EffectKind::JointCompliance => &compliance::JointCompliance,
+            EffectKind::Compliance => &compliance::Compliance,
             EffectKind::Backlash => &backlash::Backlash,
-            EffectKind::ThermalDrift => &thermal::ThermalDrift,
-            EffectKind::EncoderEccentricity => &eccentricity::EncoderEccentricity,
-            EffectKind::SensorNonlinearity => &nonlinearity::SensorNonlinearity,
+            EffectKind::Thermal => &thermal::Thermal,
+            EffectKind::Eccentricity => &eccentricity::Eccentricity,
+            EffectKind::Nonlinearity => &nonlinearity::Nonlinearity,
         }
     }
-    /// The kind's name in files and options (`joint_compliance`, `backlash`, ...).
+    /// The kind's name in files and options (`compliance`, `backlash`, ...).
     pub fn name(self) -> &'static str {
         self.def().name()
     }
@@ -181,12 +180,21 @@ impl EffectKind {
     pub fn takes_joint(self) -> bool {
         self.def().joint_options(1).iter().any(Option::is_some)
     }
-    /// Accepts the names above and the short forms `compliance`, `thermal`, `eccentricity`,
-    /// `nonlinearity`.
+    /// The names earlier versions wrote in result files and reports, read as the kinds' names
+    /// (the `serde` aliases of [`EffectKind`] say the same).
+    pub const FORMER_NAMES: [(&'static str, EffectKind); 4] = [
+        ("joint_compliance", EffectKind::Compliance),
+        ("thermal_drift", EffectKind::Thermal),
+        ("encoder_eccentricity", EffectKind::Eccentricity),
+        ("sensor_nonlinearity", EffectKind::Nonlinearity),
+    ];
+
+    /// The kind of a name (any case; a former name is read as the kind it named).
     pub fn parse(s: &str) -> Result<EffectKind> {
         let s = s.trim().to_ascii_lowercase();
-        EffectKind::ALL.into_iter().find(|k| k.def().short() == Some(s.as_str()) || k.name() == s).ok_or_else(|| {
-            let names: Vec<&str> = EffectKind::ALL.iter().map(|k| k.def().short().unwrap_or(k.name())).collect();
+        let former = EffectKind::FORMER_NAMES.iter().find(|(n, _)| *n == s).map(|(_, k)| *k);
+        EffectKind::ALL.into_iter().find(|k| k.name() == s).or(former).ok_or_else(|| {
+            let names: Vec<&str> = EffectKind::ALL.iter().map(|k| k.name()).collect();
             Error::Invalid(format!(
                 "unknown effect '{s}' (expected {} or {}, optionally with :JOINT, e.g. compliance:2)",
                 names[..names.len() - 1].join(", "),
@@ -284,7 +292,7 @@ impl EffectBlock {
     pub fn joint(kind: EffectKind, j: usize) -> Self {
         EffectBlock { kind, joint: Some(j), thermal: None, range_m: None }
     }
-    /// A short label: `joint_compliance[j2]`, `thermal_drift`.
+    /// A short label: `compliance[j2]`, `thermal`.
     pub fn label(&self) -> String {
         match self.joint {
             Some(j) => format!("{}[j{}]", self.kind.name(), j + 1),
@@ -416,12 +424,8 @@ mod tests {
     /// within the metals' range (by 3σ), a joint's drift or a time-only warm-up, nothing is said.
     #[test]
     fn an_expansion_beyond_the_arms_metals_is_attributed_elsewhere() {
-        let arm = EffectBlock {
-            kind: EffectKind::ThermalDrift,
-            joint: None,
-            thermal: Some(ThermalDrive::Temperature { ref_c: 20.0, sensor_lag: true }),
-            range_m: None,
-        };
+        let arm =
+            EffectBlock { kind: EffectKind::Thermal, joint: None, thermal: Some(ThermalDrive::Temperature { ref_c: 20.0, sensor_lag: true }), range_m: None };
         let say = |b: &EffectBlock, value: f64, uncertainty: f64| {
             b.kind.def().attribution(b, &Size { quantity: "expansion coefficient".into(), value, unit: "ppm/K".into(), uncertainty })
         };

@@ -3,14 +3,11 @@
 
 use super::*;
 
-pub struct SensorNonlinearity;
+pub struct Nonlinearity;
 
-impl Effect for SensorNonlinearity {
+impl Effect for Nonlinearity {
     fn name(&self) -> &'static str {
-        "sensor_nonlinearity"
-    }
-    fn short(&self) -> Option<&'static str> {
-        Some("nonlinearity")
+        "nonlinearity"
     }
     fn per_joint(&self) -> bool {
         false
@@ -23,11 +20,11 @@ impl Effect for SensorNonlinearity {
     }
     fn configure(&self, b: &mut EffectBlock, data: &Dataset, _has_torques: bool) -> Result<()> {
         if let Some(m) = data.measurement().filter(|m| *m != crate::measurement::Measurement::Length) {
-            return Err(Error::Invalid(format!("sensor_nonlinearity is a draw-wire's reading error; these rows hold a {}", m.def().describe())));
+            return Err(Error::Invalid(format!("nonlinearity is a draw-wire's reading error; these rows hold a {}", m.def().describe())));
         }
         let (lo, hi) = data.rows.iter().filter_map(|r| r.l_mm()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), l| (a.min(l), b.max(l)));
         if !(lo < hi) {
-            return Err(Error::Invalid("sensor_nonlinearity needs measured lengths over a range".into()));
+            return Err(Error::Invalid("nonlinearity needs measured lengths over a range".into()));
         }
         b.range_m = Some([crate::units::to_m(lo), crate::units::to_m(hi)]);
         Ok(())

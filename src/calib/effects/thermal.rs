@@ -20,18 +20,15 @@ pub const STRUCTURE_EXPANSION_PPM_PER_K: (f64, f64) = (10.0, 26.0);
 /// constant, and the block runs on `t` (a warm-up) when the rows have it.
 pub const MIN_TEMP_SPREAD_K: f64 = 0.01;
 
-pub struct ThermalDrift;
+pub struct Thermal;
 
 fn by_temperature(b: &EffectBlock) -> bool {
     matches!(b.thermal, Some(ThermalDrive::Temperature { .. }))
 }
 
-impl Effect for ThermalDrift {
+impl Effect for Thermal {
     fn name(&self) -> &'static str {
-        "thermal_drift"
-    }
-    fn short(&self) -> Option<&'static str> {
-        Some("thermal")
+        "thermal"
     }
     fn per_joint(&self) -> bool {
         false
@@ -81,13 +78,11 @@ impl Effect for ThermalDrift {
         match (temps, spread) {
             (Some(t), Some(s)) if !t.is_empty() && s >= MIN_TEMP_SPREAD_K => b.thermal = Some(ThermalDrive::Temperature { ref_c: t[0], sensor_lag: has_t }),
             _ if has_t => b.thermal = Some(ThermalDrive::WarmUp),
-            (Some(t), Some(_)) if !t.is_empty() => {
-                return Err(Error::Invalid(format!(
-                    "thermal_drift: the temp column reads {} °C on every row (it spans less than {MIN_TEMP_SPREAD_K} K) and there is no t column: nothing drives a drift",
-                    t[0]
-                )))
-            }
-            _ => return Err(Error::Invalid("thermal_drift needs a temp or t column on every row".into())),
+            (Some(t), Some(_)) if !t.is_empty() => return Err(Error::Invalid(format!(
+                "thermal: the temp column reads {} °C on every row (it spans less than {MIN_TEMP_SPREAD_K} K) and there is no t column: nothing drives a drift",
+                t[0]
+            ))),
+            _ => return Err(Error::Invalid("thermal needs a temp or t column on every row".into())),
         }
         Ok(())
     }
@@ -152,7 +147,7 @@ impl Effect for ThermalDrift {
             format!("below what any arm's metal expands ({lo} ppm/K, cast iron)")
         };
         Some(format!(
-            "thermal_drift: an expansion of {} ppm/K of the whole arm is {why}: the drift that follows this temperature is not the arm's structure alone. \
+            "thermal: an expansion of {} ppm/K of the whole arm is {why}: the drift that follows this temperature is not the arm's structure alone. \
              Whose it can be: the instrument's (a laser tracker's air compensation, whose weather station reads another air than the beam crosses), \
              the instrument's stand or the arm's base and floor (a grown or tilted mount scales every reading alike), or a temperature read somewhere \
              that moves less than the structure (then the structure's rise is larger than the reading's and the size stands for that ratio); \

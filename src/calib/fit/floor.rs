@@ -319,10 +319,10 @@ mod tests {
 
     #[test]
     fn angle_quantisation_propagates_through_the_joint_jacobian() {
-        use crate::calib::model::SensorGuess;
+        use crate::calib::model::DrawWireGuess;
         use crate::robot::Robot;
         let robot = Robot::irb120();
-        let m = CalibModel::dh(&robot, &SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.1, tool_m: [0.0, 0.0, 0.05] }, true);
+        let m = CalibModel::dh(&robot, &DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.1, tool_m: [0.0, 0.0, 0.05] }, true);
         let q: Vec<Vec<f64>> = (0..50).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin()).collect()).collect();
         let data = Samples::new(q, vec![0.5; 50]);
         let none = InstrumentNoise::default();

@@ -290,7 +290,7 @@ impl Cost for FreeCost<'_> {
 mod tests {
     use super::*;
     use crate::calib::effects::{EffectBlock, EffectKind};
-    use crate::calib::model::{Placement, SensorGuess};
+    use crate::calib::model::{DrawWireGuess, Placement};
     use crate::measurement::Measurement;
     use crate::optim::{LevenbergMarquardt, NoObserver};
     use crate::robot::Robot;
@@ -318,10 +318,10 @@ mod tests {
     #[test]
     fn a_trackers_joint_pass_is_the_two_passes_bit_for_bit() {
         let robot = Robot::irb120();
-        let guess = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
+        let guess = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.0, 0.0] };
         let tracker = Placement { measurement: Measurement::Point, own: vec![0.2, -0.1, 0.05, 0.03, -0.02, 0.6], tool: Vector3::new(0.01, 0.02, 0.08) };
         let mut model = CalibModel::dh(&robot, &guess, true).with_placement(&tracker);
-        model.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
+        model.add_effect(EffectBlock::joint(EffectKind::Compliance, 1), 3600.0);
         let q: Vec<Vec<f64>> = (0..37).map(|i| (0..6).map(|j| ((i * 6 + j) as f64 * 0.37).sin() * 1.5).collect()).collect();
         let mut truth = model.nominal.clone();
         truth.iter_mut().enumerate().for_each(|(k, v)| *v += 1e-4 * ((k as f64) * 1.3).sin());

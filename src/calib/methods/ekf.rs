@@ -12,9 +12,14 @@ pub struct EkfSolver {
     pub epochs: usize,
 }
 
+impl EkfSolver {
+    /// The name the method is registered under (its row of [`super::METHODS`]).
+    pub const NAME: &'static str = "ekf";
+}
+
 impl Solver for EkfSolver {
     fn name(&self) -> &'static str {
-        "ekf"
+        Self::NAME
     }
     fn needs_noise(&self) -> bool {
         true

@@ -83,7 +83,7 @@ pub enum EvoVariant {
 
 impl EvoVariant {
     /// The name the variant is registered under ([`super::Method`]).
-    pub fn method_name(self) -> &'static str {
+    pub const fn method_name(self) -> &'static str {
         match self {
             EvoVariant::Full => "dsade-gkan",
             EvoVariant::Sequential => "dsade-gkan-v1",
@@ -664,7 +664,7 @@ impl Solver for EvoNphSolver {
 mod tests {
     use super::*;
     use crate::calib::fit::Samples;
-    use crate::calib::model::{CalibModel, Placement, SensorGuess};
+    use crate::calib::model::{CalibModel, DrawWireGuess, Placement};
     use crate::measurement::Measurement;
     use crate::robot::Robot;
     use nalgebra::Vector3;
@@ -674,7 +674,7 @@ mod tests {
     /// A model reading `m` and readings of it at 40 random poses, off by a smooth field.
     fn problem_data(m: Measurement) -> (CalibModel, Samples) {
         let robot = Robot::irb120();
-        let cable = SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.004, -0.003] };
+        let cable = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.06, 0.004, -0.003] };
         let mut model = CalibModel::dh(&robot, &cable, true);
         if m == Measurement::Point {
             model = model.with_placement(&Placement { measurement: m, own: vec![1.8, 0.6, -0.2, -0.01, 0.02, -2.1], tool: Vector3::new(-0.025, 0.03, 0.07) });

@@ -19,9 +19,14 @@ impl Default for LmSolver {
     }
 }
 
+impl LmSolver {
+    /// The name the method is registered under (its row of [`super::METHODS`]).
+    pub const NAME: &'static str = "lm";
+}
+
 impl Solver for LmSolver {
     fn name(&self) -> &'static str {
-        "lm"
+        Self::NAME
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         Ok(Solution { report: crate::calib::fit::robust::irls(&self.lm, p.fit, p.x0, p.fixed, self.loss, obs), corrector: None })

@@ -74,41 +74,71 @@ fn awnn(variant: Ablation, effort: f64) -> Box<dyn Solver> {
 /// Every method, in the order `--help` lists them: the one table that `--method` parses, lists
 /// and documents (a new method is its file and its line here).
 pub const METHODS: &[MethodDef] = &[
-    row("lm", Family::Baseline, false, |_| Box::new(LmSolver::default()), "Levenberg-Marquardt on the identifiable parameters"),
-    row("ekf", Family::Baseline, false, |e| Box::new(EkfSolver { epochs: (20.0 * e).ceil() as usize }), "the extended Kalman filter"),
+    row(LmSolver::NAME, Family::Baseline, false, |_| Box::new(LmSolver::default()), "Levenberg-Marquardt on the identifiable parameters"),
+    row(EkfSolver::NAME, Family::Baseline, false, |e| Box::new(EkfSolver { epochs: (20.0 * e).ceil() as usize }), "the extended Kalman filter"),
     row(
-        "pf",
+        PfSolver::NAME,
         Family::Baseline,
         false,
         |e| Box::new(PfSolver { particles: (4000.0 * e).max(100.0) as usize, ..Default::default() }),
         "the regularised particle filter",
     ),
     row(
-        "pso",
+        PsoSolver::NAME,
         Family::Baseline,
         false,
         |e| Box::new(PsoSolver { iterations: (1500.0 * e).max(10.0) as usize, ..Default::default() }),
         "particle swarm optimisation",
     ),
-    row("rbf", Family::Baseline, true, |_| Box::new(RbfSolver::default()), "LM geometry, then an RBF network on its residuals"),
-    row("dsade-gkan", Family::EvoNph, true, |e| evo(EvoVariant::Full, e), "Evo-NPH: DS-ADE over the geometry and the GKAN's coefficients"),
-    row("dsade-gkan-v1", Family::EvoNph, true, |e| evo(EvoVariant::Sequential, e), "Evo-NPH ablation V1: LM geometry, then the GKAN"),
-    row("dsade-gkan-v2", Family::EvoNph, true, |e| evo(EvoVariant::Mlp, e), "Evo-NPH ablation V2: a ReLU MLP of matched size instead of the GKAN"),
-    row("dsade-gkan-v3", Family::EvoNph, true, |e| evo(EvoVariant::SingleStrategy, e), "Evo-NPH ablation V3: single-strategy DE"),
-    row("pso-ekf-awnn", Family::PsoEkfAwnn, true, |e| awnn(Ablation::Full, e), "PSO-EKF-AWNN: PSO-tuned EKF, then an adaptive wavelet network"),
-    row("pso-ekf-awnn-v1", Family::PsoEkfAwnn, true, |e| awnn(Ablation::V1Symbolic, e), "PSO-EKF-AWNN ablation V1: symbolic EKF then LM, no network"),
+    row(RbfSolver::NAME, Family::Baseline, true, |_| Box::new(RbfSolver::default()), "LM geometry, then an RBF network on its residuals"),
+    row(EvoVariant::Full.method_name(), Family::EvoNph, true, |e| evo(EvoVariant::Full, e), "Evo-NPH: DS-ADE over the geometry and the GKAN's coefficients"),
+    row(EvoVariant::Sequential.method_name(), Family::EvoNph, true, |e| evo(EvoVariant::Sequential, e), "Evo-NPH ablation V1: LM geometry, then the GKAN"),
     row(
-        "pso-ekf-awnn-v2",
+        EvoVariant::Mlp.method_name(),
+        Family::EvoNph,
+        true,
+        |e| evo(EvoVariant::Mlp, e),
+        "Evo-NPH ablation V2: a ReLU MLP of matched size instead of the GKAN",
+    ),
+    row(EvoVariant::SingleStrategy.method_name(), Family::EvoNph, true, |e| evo(EvoVariant::SingleStrategy, e), "Evo-NPH ablation V3: single-strategy DE"),
+    row(Ablation::Full.method_name(), Family::PsoEkfAwnn, true, |e| awnn(Ablation::Full, e), "PSO-EKF-AWNN: PSO-tuned EKF, then an adaptive wavelet network"),
+    row(
+        Ablation::V1Symbolic.method_name(),
+        Family::PsoEkfAwnn,
+        true,
+        |e| awnn(Ablation::V1Symbolic, e),
+        "PSO-EKF-AWNN ablation V1: symbolic EKF then LM, no network",
+    ),
+    row(
+        Ablation::V2RandomInit.method_name(),
         Family::PsoEkfAwnn,
         true,
         |e| awnn(Ablation::V2RandomInit, e),
         "PSO-EKF-AWNN ablation V2: hyperparameters drawn at random instead of by PSO",
     ),
-    row("pso-ekf-awnn-v3", Family::PsoEkfAwnn, true, |e| awnn(Ablation::V3Mlp, e), "PSO-EKF-AWNN ablation V3: a ReLU MLP instead of the wavelet network"),
-    row("pso-ekf-awnn-v4", Family::PsoEkfAwnn, true, |e| awnn(Ablation::V4Morlet, e), "PSO-EKF-AWNN ablation V4: Morlet instead of Mexican-hat wavelets"),
-    row("pso-ekf-awnn-v5", Family::PsoEkfAwnn, true, |e| awnn(Ablation::V5Joint, e), "PSO-EKF-AWNN ablation V5: geometry and network fitted jointly"),
     row(
-        "pso-ekf-awnn-x",
+        Ablation::V3Mlp.method_name(),
+        Family::PsoEkfAwnn,
+        true,
+        |e| awnn(Ablation::V3Mlp, e),
+        "PSO-EKF-AWNN ablation V3: a ReLU MLP instead of the wavelet network",
+    ),
+    row(
+        Ablation::V4Morlet.method_name(),
+        Family::PsoEkfAwnn,
+        true,
+        |e| awnn(Ablation::V4Morlet, e),
+        "PSO-EKF-AWNN ablation V4: Morlet instead of Mexican-hat wavelets",
+    ),
+    row(
+        Ablation::V5Joint.method_name(),
+        Family::PsoEkfAwnn,
+        true,
+        |e| awnn(Ablation::V5Joint, e),
+        "PSO-EKF-AWNN ablation V5: geometry and network fitted jointly",
+    ),
+    row(
+        Ablation::Extended.method_name(),
         Family::PsoEkfAwnn,
         true,
         |e| awnn(Ablation::Extended, e),
@@ -198,25 +228,25 @@ impl clap::ValueEnum for Method {
 
 impl Method {
     /// Levenberg-Marquardt.
-    pub const LM: Method = Method::registered("lm");
+    pub const LM: Method = Method::registered(LmSolver::NAME);
     /// The extended Kalman filter.
-    pub const EKF: Method = Method::registered("ekf");
+    pub const EKF: Method = Method::registered(EkfSolver::NAME);
     /// The regularised particle filter.
-    pub const PF: Method = Method::registered("pf");
+    pub const PF: Method = Method::registered(PfSolver::NAME);
     /// Particle swarm optimisation.
-    pub const PSO: Method = Method::registered("pso");
+    pub const PSO: Method = Method::registered(PsoSolver::NAME);
     /// LM, then an RBF network.
-    pub const RBF: Method = Method::registered("rbf");
+    pub const RBF: Method = Method::registered(RbfSolver::NAME);
     /// Evo-NPH.
-    pub const DSADE_GKAN: Method = Method::registered("dsade-gkan");
+    pub const DSADE_GKAN: Method = Method::registered(EvoVariant::Full.method_name());
     /// Evo-NPH ablation V1.
-    pub const DSADE_GKAN_V1: Method = Method::registered("dsade-gkan-v1");
+    pub const DSADE_GKAN_V1: Method = Method::registered(EvoVariant::Sequential.method_name());
     /// Evo-NPH ablation V2.
-    pub const DSADE_GKAN_V2: Method = Method::registered("dsade-gkan-v2");
+    pub const DSADE_GKAN_V2: Method = Method::registered(EvoVariant::Mlp.method_name());
     /// Evo-NPH ablation V3.
-    pub const DSADE_GKAN_V3: Method = Method::registered("dsade-gkan-v3");
+    pub const DSADE_GKAN_V3: Method = Method::registered(EvoVariant::SingleStrategy.method_name());
     /// PSO-EKF-AWNN.
-    pub const PSO_EKF_AWNN: Method = Method::registered("pso-ekf-awnn");
+    pub const PSO_EKF_AWNN: Method = Method::registered(Ablation::Full.method_name());
 
     /// The row of [`METHODS`] called `name`, found when the program is compiled (a name that is
     /// not registered stops the build), so the table's order is free.
@@ -275,7 +305,7 @@ impl Method {
 impl Ablation {
     /// The registered method of this variant.
     pub fn method(self) -> Method {
-        Method::parse(self.method_name()).expect("every ablation is registered in METHODS")
+        Method::registered(self.method_name())
     }
 }
 

@@ -23,9 +23,14 @@ impl Default for PfSolver {
     }
 }
 
+impl PfSolver {
+    /// The name the method is registered under (its row of [`super::METHODS`]).
+    pub const NAME: &'static str = "pf";
+}
+
 impl Solver for PfSolver {
     fn name(&self) -> &'static str {
-        "pf"
+        Self::NAME
     }
     fn needs_noise(&self) -> bool {
         true

@@ -37,9 +37,14 @@ impl Observer for Expand<'_, '_> {
     }
 }
 
+impl PsoSolver {
+    /// The name the method is registered under (its row of [`super::METHODS`]).
+    pub const NAME: &'static str = "pso";
+}
+
 impl Solver for PsoSolver {
     fn name(&self) -> &'static str {
-        "pso"
+        Self::NAME
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let free = p.free();

@@ -94,7 +94,7 @@ impl Ablation {
     pub const ALL: [Ablation; 7] =
         [Ablation::Full, Ablation::V1Symbolic, Ablation::V2RandomInit, Ablation::V3Mlp, Ablation::V4Morlet, Ablation::V5Joint, Ablation::Extended];
     /// The method name of this variant on the command line.
-    pub fn method_name(self) -> &'static str {
+    pub const fn method_name(self) -> &'static str {
         match self {
             Ablation::Full => "pso-ekf-awnn",
             Ablation::V1Symbolic => "pso-ekf-awnn-v1",
@@ -783,7 +783,7 @@ impl PsoEkfAwnn {
 mod tests {
     use super::*;
     use crate::calib::correctors::awnn::Activation;
-    use crate::calib::model::{CalibModel, Placement, SensorGuess};
+    use crate::calib::model::{CalibModel, DrawWireGuess, Placement};
     use crate::measurement::Measurement;
     use crate::robot::Robot;
     use nalgebra::Vector3;
@@ -791,7 +791,7 @@ mod tests {
     /// A tracker model (three values per row) and `n` rows of its readings at seeded poses.
     fn tracker_rows(n: usize) -> (CalibModel, Samples) {
         let robot = Robot::irb120();
-        let cable = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+        let cable = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
         let tracker = Placement { measurement: Measurement::Point, own: vec![2.5, -0.4, 0.3, 0.02, -0.015, 0.7], tool: Vector3::new(0.03, -0.02, 0.08) };
         let model = CalibModel::dh(&robot, &cable, true).with_placement(&tracker);
         let q: Vec<Vec<f64>> = (0..n).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin() * 1.2).collect()).collect();

@@ -25,9 +25,14 @@ impl Default for RbfSolver {
     }
 }
 
+impl RbfSolver {
+    /// The name the method is registered under (its row of [`super::METHODS`]).
+    pub const NAME: &'static str = "rbf";
+}
+
 impl Solver for RbfSolver {
     fn name(&self) -> &'static str {
-        "rbf"
+        Self::NAME
     }
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution> {
         let report = self.lm.solve(p, obs)?.report;

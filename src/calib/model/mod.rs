@@ -117,9 +117,9 @@ pub struct CalibModel {
     pub names: Vec<String>,
     /// Physical kind of each parameter.
     pub kinds: Vec<Kind>,
-    /// Nominal parameter vector (deviations zero, sensor at its nominal guess, effects off).
+    /// Nominal parameter vector (deviations zero, instrument at its nominal guess, effects off).
     pub nominal: Vec<f64>,
-    /// Non-geometric effect blocks; their parameters follow the sensor's.
+    /// Non-geometric effect blocks; their parameters follow the instrument placement's.
     #[serde(default)]
     pub effects: Vec<EffectBlock>,
     /// Joint limits (rad) of the nominal robot, one pair per joint; empty for a model without a
@@ -149,13 +149,13 @@ pub struct CalibModel {
 /// The instrument's placement one row is read with: its own parameters (its station's where the
 /// row's station is not the first, its mount's likewise) and the target on the flange, with the
 /// parameter index each value comes from.
-struct Sensor {
+struct Placed {
     vals: [f64; MAX_OWN + 3],
     cols: [usize; MAX_OWN + 3],
     n_own: usize,
 }
 
-impl Sensor {
+impl Placed {
     fn own(&self) -> &[f64] {
         &self.vals[..self.n_own]
     }
@@ -198,7 +198,7 @@ impl CalibModel {
     /// The placement at station `station` with mount `mount` (their own parameters in place of
     /// the first ones').
     pub fn placement_at(&self, x: &[f64], station: usize, mount: usize) -> Placement {
-        let s = self.sensor(x, station, mount);
+        let s = self.placed(x, station, mount);
         Placement { measurement: self.measurement, own: s.own().to_vec(), tool: s.tool() }
     }
     /// The placement of station `s` (the first mount).
@@ -280,7 +280,7 @@ impl CalibModel {
     }
     /// The sensor nonlinearity block: its first parameter and normalisation range.
     fn nonlinearity(&self) -> Option<(usize, [f64; 2])> {
-        let b = self.effects.iter().position(|e| e.kind == EffectKind::SensorNonlinearity)?;
+        let b = self.effects.iter().position(|e| e.kind == EffectKind::Nonlinearity)?;
         Some((self.effect_params(b).start, self.effects[b].range_m.unwrap_or([0.0, 1.0])))
     }
     /// Joint angles and scale with the joint-offset and thermal effects applied (into `w`).
@@ -315,10 +315,10 @@ impl CalibModel {
     /// The instrument's own placement parameters at `station` and the target point on the
     /// flange (m) of `mount`, with the parameter each comes from. A set-up the model does not
     /// have reads the first's.
-    fn sensor(&self, x: &[f64], station: usize, mount: usize) -> Sensor {
+    fn placed(&self, x: &[f64], station: usize, mount: usize) -> Placed {
         let r = self.placement_range();
         let n = r.len();
-        let mut out = Sensor { vals: [0.0; MAX_OWN + 3], cols: [0; MAX_OWN + 3], n_own: self.measurement.target_index() };
+        let mut out = Placed { vals: [0.0; MAX_OWN + 3], cols: [0; MAX_OWN + 3], n_own: self.measurement.target_index() };
         out.vals[..n].copy_from_slice(&x[r.clone()]);
         for (k, c) in out.cols[..n].iter_mut().enumerate() {
             *c = r.start + k;
@@ -336,9 +336,9 @@ impl CalibModel {
         out
     }
 
-    /// [`Self::sensor`] of a row.
-    fn sensor_of(&self, x: &[f64], inp: &RowInputs) -> Sensor {
-        self.sensor(x, inp.station, inp.mount)
+    /// [`Self::placed`] of a row.
+    fn placed_of(&self, x: &[f64], inp: &RowInputs) -> Placed {
+        self.placed(x, inp.station, inp.mount)
     }
 
     /// Tool point in the base frame for joint angles `q` (rad), m (geometry only).
@@ -348,7 +348,7 @@ impl CalibModel {
 
     /// Tool point with the joint-offset and thermal effects of the row applied, m.
     pub fn tool_point_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork) -> Vector3<f64> {
-        let tool = self.sensor_of(x, inp).tool();
+        let tool = self.placed_of(x, inp).tool();
         self.flange_frame_with(x, q, inp, w).point(&tool)
     }
 
@@ -375,8 +375,8 @@ impl CalibModel {
 
     /// Predicted readings (m, [`Measurement::dim`] values into `y`), every effect included.
     pub fn readings(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64]) {
-        let sensor = self.sensor_of(x, inp);
-        let (own, tool) = (sensor.own(), sensor.tool());
+        let placed = self.placed_of(x, inp);
+        let (own, tool) = (placed.own(), placed.tool());
         let def = self.measurement.def();
         if def.n_targets() == 1 {
             def.reading(own, std::slice::from_ref(&self.tool_point_with(x, q, inp, w)), y);
@@ -436,8 +436,8 @@ impl CalibModel {
     /// `jac` (row-major, one row of [`Self::n_params`] per reading value).
     pub fn readings_grad(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], jac: &mut [f64]) {
         let (nc, n, dim) = (self.n_chain(), self.n_params(), self.measurement.dim());
-        let sensor = self.sensor_of(x, inp);
-        let (own, tool) = (sensor.own(), sensor.tool());
+        let placed = self.placed_of(x, inp);
+        let (own, tool) = (placed.own(), placed.tool());
         let n_own = own.len();
         let setup = self.setup_range();
         let scale = self.apply_effects(x, q, inp, w);
@@ -453,7 +453,7 @@ impl CalibModel {
             let u = &dy_dp[i * nt..(i + 1) * nt];
             g[setup.clone()].iter_mut().for_each(|v| *v = 0.0);
             for m in 0..n_own {
-                g[sensor.cols[m]] = dy_down[i * n_own + m];
+                g[placed.cols[m]] = dy_down[i * n_own + m];
             }
             for k in 0..nc {
                 g[k] = u[0].dot(&jac0.dparam[k]);
@@ -465,13 +465,13 @@ impl CalibModel {
             for t in 1..nt {
                 let ur = rot.transpose() * u[t];
                 for m in 0..n_own {
-                    g[sensor.cols[m]] += ur.dot(&dlocal[t * n_own + m]);
+                    g[placed.cols[m]] += ur.dot(&dlocal[t * n_own + m]);
                 }
             }
             // Every point moves with the target as the flange turns it.
             let u_sum = u[1..].iter().fold(u[0], |a, b| a + b);
             let ut = rot.transpose() * u_sum;
-            for (c, v) in sensor.cols[n_own..n_own + 3].iter().zip(ut.iter()) {
+            for (c, v) in placed.cols[n_own..n_own + 3].iter().zip(ut.iter()) {
                 g[*c] = *v;
             }
             if self.effects.is_empty() {
@@ -520,8 +520,8 @@ impl CalibModel {
     /// included; the row's inputs (torques, flanks, time) are held fixed.
     pub fn readings_grad_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], g: &mut [f64]) {
         let (nc, nj, dim) = (self.n_chain(), self.chain.n_joints, self.measurement.dim());
-        let sensor = self.sensor_of(x, inp);
-        let (own, tool) = (sensor.own(), sensor.tool());
+        let placed = self.placed_of(x, inp);
+        let (own, tool) = (placed.own(), placed.tool());
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
@@ -552,7 +552,7 @@ impl CalibModel {
     /// commanded joint angle (m/rad) into `dp`; the row's inputs are held fixed.
     pub fn tool_point_jac_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dp: &mut [Vector3<f64>]) -> Vector3<f64> {
         let nc = self.n_chain();
-        let tool = self.sensor_of(x, inp).tool();
+        let tool = self.placed_of(x, inp).tool();
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
@@ -569,8 +569,8 @@ impl CalibModel {
     /// not move the tool (zero). The row's inputs are held fixed.
     pub fn tool_point_grad_with(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, dx: &mut [Vector3<f64>]) -> Vector3<f64> {
         let nc = self.n_chain();
-        let sensor = self.sensor_of(x, inp);
-        let tool = sensor.tool();
+        let placed = self.placed_of(x, inp);
+        let tool = placed.tool();
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         self.chain.point_jacobian(&w.fk, self.chain.flange(), &tool, &mut w.jac);
@@ -578,7 +578,7 @@ impl CalibModel {
         dx[..nc].copy_from_slice(&w.jac.dparam[..nc]);
         let rot = self.chain.frame(&w.fk, self.chain.flange()).rot;
         for m in 0..3 {
-            dx[sensor.cols[sensor.n_own + m]] = rot.column(m).into_owned();
+            dx[placed.cols[placed.n_own + m]] = rot.column(m).into_owned();
         }
         if !self.effects.is_empty() {
             for &(k, j, d) in &w.eff.joint_terms {
@@ -605,7 +605,7 @@ impl CalibModel {
         }
         let rot = self.chain.frame(&w.fk, flange).rot;
         match self.measurement {
-            crate::measurement::Measurement::Pose => rot * crate::measurement::pose::probe_rotation(self.sensor(x, 0, 0).own()),
+            crate::measurement::Measurement::Pose => rot * crate::measurement::pose::probe_rotation(self.placed(x, 0, 0).own()),
             _ => rot,
         }
     }
@@ -615,9 +615,9 @@ impl CalibModel {
         v * self.kinds[k].display()
     }
 
-    /// A model of `chain` (its parameters' `kinds`) measured by a draw-wire placed as `sensor`.
-    pub fn with_sensor(name: &str, chain: Chain, kinds: Vec<Kind>, sensor: &SensorGuess) -> CalibModel {
-        CalibModel::of_chain(name, chain, kinds, &Placement::cable(sensor.exit_m.into(), sensor.offset_m, sensor.tool_m.into()))
+    /// A model of `chain` (its parameters' `kinds`) measured by a draw-wire placed as `guess`.
+    pub fn with_draw_wire(name: &str, chain: Chain, kinds: Vec<Kind>, guess: &DrawWireGuess) -> CalibModel {
+        CalibModel::of_chain(name, chain, kinds, &Placement::cable(guess.exit_m.into(), guess.offset_m, guess.tool_m.into()))
     }
 
     /// A model of `chain` (its parameters' `kinds`, all at zero) measured by the instrument
@@ -649,14 +649,14 @@ impl CalibModel {
     }
 
     /// The twin's per-joint frame-error model.
-    pub fn frame(robot: &Robot, sensor: &SensorGuess) -> CalibModel {
+    pub fn frame(robot: &Robot, sensor: &DrawWireGuess) -> CalibModel {
         let chain = robot.error_chain();
         let kinds = chain.param_names.iter().map(|n| if GeoKind::of_name(n) == Some(GeoKind::Length) { Kind::Length } else { Kind::Angle }).collect();
-        CalibModel { limits: robot.limits(), ..CalibModel::with_sensor(Parametrisation::Frame.name(), chain, kinds, sensor) }
+        CalibModel { limits: robot.limits(), ..CalibModel::with_draw_wire(Parametrisation::Frame.name(), chain, kinds, sensor) }
     }
 
     /// Standard D-H (`hayati = false`) or D-H with Hayati's β on parallel axes.
-    pub fn dh(robot: &Robot, sensor: &SensorGuess, hayati: bool) -> CalibModel {
+    pub fn dh(robot: &Robot, sensor: &DrawWireGuess, hayati: bool) -> CalibModel {
         let p = if hayati { Parametrisation::Hayati } else { Parametrisation::Dh };
         let table = if hayati { DhTable::from_robot_hayati(robot) } else { DhTable::from_robot(robot) };
         let m = CalibModel::from_table(p.name(), &table, sensor, hayati, true);
@@ -665,26 +665,26 @@ impl CalibModel {
 
     /// A model of D-H deviations from `table` (Hayati's β on its parallel rows when `hayati`),
     /// with the table's base and flange frames when `with_fixed`.
-    pub fn from_table(name: &str, table: &DhTable, sensor: &SensorGuess, hayati: bool, with_fixed: bool) -> CalibModel {
+    pub fn from_table(name: &str, table: &DhTable, sensor: &DrawWireGuess, hayati: bool, with_fixed: bool) -> CalibModel {
         let (chain, kinds) = table.chain(hayati, with_fixed);
-        CalibModel::with_sensor(name, chain, kinds, sensor)
+        CalibModel::with_draw_wire(name, chain, kinds, sensor)
     }
 
     /// A 6R model with absolute D-H values as parameters (no nominal robot), base = D-H frame 0.
-    pub fn generic(n: usize, sensor: &SensorGuess) -> CalibModel {
+    pub fn generic(n: usize, sensor: &DrawWireGuess) -> CalibModel {
         let table = DhTable {
             base: Frame::identity(),
             rows: vec![DhRow { theta: 0.0, d: 0.0, a: 0.0, alpha: 0.0, parallel: false, beta: 0.0 }; n],
             tool: Frame::identity(),
         };
         let (chain, kinds) = table.chain(false, false);
-        CalibModel::with_sensor("generic6r", chain, kinds, sensor)
+        CalibModel::with_draw_wire("generic6r", chain, kinds, sensor)
     }
 }
 
 /// Initial guess of the sensor geometry.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SensorGuess {
+pub struct DrawWireGuess {
     /// Cable exit point in the base frame, m.
     pub exit_m: [f64; 3],
     /// Length offset added to the geometric distance, m.

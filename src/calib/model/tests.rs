@@ -2,8 +2,8 @@
 //! central differences.
 use super::*;
 
-fn guess() -> SensorGuess {
-    SensorGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] }
+fn guess() -> DrawWireGuess {
+    DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] }
 }
 
 /// Central differences (step `h`) of a row's readings and of its tool point with respect to
@@ -60,13 +60,13 @@ fn effect_gradients_match_finite_differences() {
     {
         let mut m = CalibModel::dh(&robot, &guess(), true);
         for j in 0..6 {
-            m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, j), 3600.0);
+            m.add_effect(EffectBlock::joint(EffectKind::Compliance, j), 3600.0);
             m.add_effect(EffectBlock::joint(EffectKind::Backlash, j), 3600.0);
-            m.add_effect(EffectBlock::joint(EffectKind::EncoderEccentricity, j), 3600.0);
+            m.add_effect(EffectBlock::joint(EffectKind::Eccentricity, j), 3600.0);
         }
-        m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: None, thermal: Some(thermal), range_m: None }, 3600.0);
-        m.add_effect(EffectBlock { kind: EffectKind::ThermalDrift, joint: Some(1), thermal: Some(thermal), range_m: None }, 3600.0);
-        m.add_effect(EffectBlock { kind: EffectKind::SensorNonlinearity, joint: None, thermal: None, range_m: Some([0.4, 1.6]) }, 3600.0);
+        m.add_effect(EffectBlock { kind: EffectKind::Thermal, joint: None, thermal: Some(thermal), range_m: None }, 3600.0);
+        m.add_effect(EffectBlock { kind: EffectKind::Thermal, joint: Some(1), thermal: Some(thermal), range_m: None }, 3600.0);
+        m.add_effect(EffectBlock { kind: EffectKind::Nonlinearity, joint: None, thermal: None, range_m: Some([0.4, 1.6]) }, 3600.0);
         let mut x = m.nominal.clone();
         let first = m.first_effect();
         for (k, v) in x.iter_mut().enumerate() {
@@ -129,7 +129,7 @@ fn station_and_mount_gradients_match_finite_differences() {
         let mount: Vec<Vec<f64>> = vec![(0..nm).map(|k| 0.05 * (k as f64 * 1.7).sin() + 0.02).collect()];
         let labels = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
         let mut m = base.with_setups((labels(&["a", "b", "c"]), &others), (labels(&["m1", "m2"]), &mount));
-        m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
+        m.add_effect(EffectBlock::joint(EffectKind::Compliance, 1), 3600.0);
         assert_eq!(m.n_params(), m.n_chain() + measurement.n_placement() + 2 * ns + nm + 1);
         assert_eq!(m.first_effect(), m.setup_block(SetupKind::Mount, 1).end);
         assert_eq!(m.station_range(2).end, m.setup_block(SetupKind::Mount, 1).start);
@@ -205,7 +205,7 @@ fn tracker_readings_jacobians_match_finite_differences() {
         let mut m = CalibModel::dh(&robot, &guess(), true).with_placement(&tracker);
         assert_eq!(m.placement(&m.nominal), tracker);
         assert_eq!(m.names[m.placement_range()].join(","), tracker.measurement.placement_names().join(","));
-        m.add_effect(EffectBlock::joint(EffectKind::JointCompliance, 1), 3600.0);
+        m.add_effect(EffectBlock::joint(EffectKind::Compliance, 1), 3600.0);
         m.add_effect(EffectBlock::joint(EffectKind::Backlash, 2), 3600.0);
         let mut x = m.nominal.clone();
         for (k, v) in x.iter_mut().enumerate() {

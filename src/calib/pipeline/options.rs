@@ -7,7 +7,7 @@ use crate::calib::fit::noise_model::NoiseChoice;
 use crate::calib::fit::robust::Loss;
 use crate::calib::methods::Method;
 use crate::calib::model::tolerance::Tolerances;
-use crate::calib::model::SensorGuess;
+use crate::calib::model::DrawWireGuess;
 use crate::error::{Error, Result};
 use crate::robot::Robot;
 use serde::{Deserialize, Serialize};
@@ -148,7 +148,7 @@ pub struct CalibOptions {
     /// Relative singular-value tolerance of the identifiability analysis.
     pub rank_tol: f64,
     /// Sensor geometry guess; estimated from the data when absent.
-    pub sensor_guess: Option<SensorGuess>,
+    pub draw_wire_guess: Option<DrawWireGuess>,
     /// Effort scale for the stochastic methods (1 = default budget).
     pub effort: f64,
     /// Manufacturing and set-up tolerances (priors and search boxes of the methods).
@@ -186,7 +186,7 @@ impl CalibOptions {
             split: SplitOptions::default(),
             seed: 0,
             rank_tol: DEFAULT_RANK_TOL,
-            sensor_guess: None,
+            draw_wire_guess: None,
             effort: DEFAULT_EFFORT,
             tolerances: Tolerances::default(),
             effects: Vec::new(),

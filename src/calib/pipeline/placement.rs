@@ -6,13 +6,13 @@
 use super::generic::SearchReport;
 use super::options::{CalibOptions, ModelSpec, Parametrisation};
 use crate::calib::fit::{ReadingFit, Samples};
-use crate::calib::model::{CalibModel, Placement, SensorGuess, SetupKind};
+use crate::calib::model::{CalibModel, DrawWireGuess, Placement, SetupKind};
 use crate::error::{Error, Result};
 use crate::measurement::Measurement;
 use crate::optim::{LevenbergMarquardt, NoObserver};
 
 /// The calibration model of `spec` with the sensor at `guess`.
-pub fn build_model(spec: &ModelSpec, guess: &SensorGuess) -> CalibModel {
+pub fn build_model(spec: &ModelSpec, guess: &DrawWireGuess) -> CalibModel {
     match spec {
         ModelSpec::Nominal { robot, parametrisation } => match parametrisation {
             Parametrisation::Frame => CalibModel::frame(robot, guess),
@@ -39,7 +39,7 @@ pub fn place_sensor(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]
 pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Result<(CalibModel, Option<SearchReport>)> {
     let stations = labels[0];
     let spec = &opts.model;
-    let zero_guess = SensorGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+    let zero_guess = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
     let measurement = Measurement::of_dim(train.dim).unwrap_or_default();
     let what = measurement.def().describe();
     refuse_cable_options(opts, measurement)?;
@@ -47,12 +47,12 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         if stations.len() > 1 || labels[1].len() > 1 {
             return Err(Error::Invalid("the generic model searches one draw-wire set-up; these rows stand at several stations or mounts".into()));
         }
-        if opts.sensor_guess.is_some() {
+        if opts.draw_wire_guess.is_some() {
             // The generic model's start is its search over arm topologies, which places the
             // sensor for each candidate arm; a fixed guess with no arm around it (the old
             // all-zero D-H chain) started fits far from any real robot.
             return Err(Error::Invalid(
-                "--sensor-guess applies to a nominal model (irb120 or a URDF); the generic model places its sensor in its own search".into(),
+                "--draw-wire-guess applies to a nominal model (irb120 or a URDF); the generic model places its sensor in its own search".into(),
             ));
         }
         return super::generic::search(train, &search_settings(opts)).map(|s| (s.model, Some(s.report)));
@@ -92,7 +92,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let at = |kind: SetupKind, s: usize| labels[usize::from(kind == SetupKind::Mount)].get(s).map_or(String::new(), |l| format!(" at {} {l}", kind.name()));
     // The first station and mount together: the rows of both.
     let first_rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
-    let first = match (measurement, &opts.sensor_guess) {
+    let first = match (measurement, &opts.draw_wire_guess) {
         _ if searched.is_some() => searched.clone().expect("searched"),
         (Measurement::Length, Some(g)) => Placement::cable(g.exit_m.into(), g.offset_m, g.tool_m.into()),
         _ => {
@@ -136,8 +136,8 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
 fn refuse_cable_options(opts: &CalibOptions, measurement: Measurement) -> Result<()> {
     let what = measurement.def().describe();
     if measurement != Measurement::Length {
-        if opts.sensor_guess.is_some() {
-            return Err(Error::Invalid(format!("--sensor-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
+        if opts.draw_wire_guess.is_some() {
+            return Err(Error::Invalid(format!("--draw-wire-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
         }
         if opts.loads.joints.cable_tension_n != 0.0 {
             return Err(Error::Invalid(format!("--cable-tension-n is a draw-wire's pull on the tool; these rows hold a {what}: no cable pulls")));

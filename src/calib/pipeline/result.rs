@@ -372,7 +372,7 @@ impl CalibResult {
     pub fn columns_read(&self) -> Vec<(&'static str, String)> {
         use crate::calib::effects::{EffectKind, ThermalDrive};
         let mut out = Vec::new();
-        for b in self.model.effects.iter().filter(|b| b.kind == EffectKind::ThermalDrift) {
+        for b in self.model.effects.iter().filter(|b| b.kind == EffectKind::Thermal) {
             let col = if matches!(b.thermal, Some(ThermalDrive::Temperature { .. })) { "temp" } else { "t" };
             out.push((col, format!("its {} block", b.label())));
             if b.fits_sensor_lag() {

@@ -139,7 +139,7 @@ pub struct Twin {
     /// The twin's non-geometric effects.
     pub effects: Effects,
     /// The draw-wire sensor (with a tracker: the tool point it reads, the hold and samples).
-    pub sensor: DrawWire,
+    pub draw_wire: DrawWire,
     /// An instrument that reads the tool point instead of the cable (none: the cable reads).
     pub instruments: crate::sim::instrument::Instruments,
     /// The static loads on the joints: the links' weight, the payload and the cable's pull.
@@ -154,11 +154,11 @@ pub struct Twin {
 impl Twin {
     /// The twin of `robot` with true error parameters `params` (chain units: m, rad), its effects,
     /// sensor and settling options; read by the cable until [`Self::with_instruments`].
-    pub fn new(robot: Robot, params: Vec<f64>, effects: Effects, sensor: DrawWire, settle: SettleOptions) -> Self {
+    pub fn new(robot: Robot, params: Vec<f64>, effects: Effects, draw_wire: DrawWire, settle: SettleOptions) -> Self {
         let chain = robot.error_chain();
-        let load = LoadModel::new(&robot, effects.payload.as_ref(), sensor.cable_load());
+        let load = LoadModel::new(&robot, effects.payload.as_ref(), draw_wire.cable_load());
         let transmission = Transmission::from_effects(&effects, robot.dof());
-        Twin { robot, chain, params, effects, sensor, instruments: Default::default(), load, transmission, settle }
+        Twin { robot, chain, params, effects, draw_wire, instruments: Default::default(), load, transmission, settle }
     }
 
     /// The twin read by the active one of `instruments` instead of its cable.
@@ -188,7 +188,7 @@ impl Twin {
         let mut ws = FkWork::new(&self.chain);
         self.chain.forward(&q_link, p, scale, &mut ws);
         let frames: Vec<Frame> = (0..self.chain.n_frames()).map(|f| self.chain.frame(&ws, f)).collect();
-        let tool = frames[self.chain.flange()].point(&self.sensor.tool_point_m());
+        let tool = frames[self.chain.flange()].point(&self.draw_wire.tool_point_m());
         (tool, frames)
     }
 

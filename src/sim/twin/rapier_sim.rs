@@ -203,7 +203,7 @@ fn settle(
     let initial: Vec<f64> = (0..n).map(|j| cmd.sides[j] * trans.half_band[j]).collect();
     start_at(twin, trans, world, handles[0], &initial, frames)?;
 
-    let tool_local = twin.sensor.tool_point_m();
+    let tool_local = twin.draw_wire.tool_point_m();
     let flange_in_last = frames[chain.flange()].relative_to(&frames[n]);
     let tool_in_last = flange_in_last.point(&tool_local);
     let last_body = bodies[n];
@@ -338,7 +338,7 @@ fn read_back(twin: &Twin, world: &PhysicsWorld, handles: &[MultibodyJointHandle]
     chain.forward(&q_link, params, scale, &mut ws);
     let flange_in_last = chain.frame(&ws, chain.flange()).relative_to(&chain.frame(&ws, n));
     frames.push(frames[n].compose(&flange_in_last));
-    let tool = frames[n + 1].point(&twin.sensor.tool_point_m());
+    let tool = frames[n + 1].point(&twin.draw_wire.tool_point_m());
     let mut torque = vec![0.0; n];
     let mut jac = crate::robot::kinematics::PointJacobian::new(chain);
     twin.load.torques(chain, &ws, &mut jac, &mut torque);

@@ -232,8 +232,8 @@ impl<'a> Sim<'a> {
         let (p, scale) = self.twin.params_at(t_abs);
         let chain = &self.twin.chain;
         chain.forward(&q, &p, scale, &mut self.ws);
-        let tool = chain.frame(&self.ws, chain.flange()).point(&self.twin.sensor.tool_point_m());
-        (tool, self.twin.sensor.ideal_length(&tool))
+        let tool = chain.frame(&self.ws, chain.flange()).point(&self.twin.draw_wire.tool_point_m());
+        (tool, self.twin.draw_wire.ideal_length(&tool))
     }
 
     /// Tool point (m) of the arm at rest at commanded pose `q_cmd` at time `t`, on the flanks the
@@ -284,7 +284,7 @@ impl<'a> Sim<'a> {
             }
         }
         chain.forward(&q, &p, scale, &mut self.ws);
-        (chain.frame(&self.ws, chain.flange()).point(&twin.sensor.tool_point_m()), q, states)
+        (chain.frame(&self.ws, chain.flange()).point(&twin.draw_wire.tool_point_m()), q, states)
     }
 
     /// Puts the arm at rest (no velocity) at its static equilibrium on its current flanks, at time
@@ -331,7 +331,7 @@ fn motor_of(twin: &Twin, j: usize, q: f64, v: f64) -> (f64, f64) {
 fn gate_sample(twin: &Twin, tool: &Vector3<f64>, l: f64, rng: &mut ChaCha8Rng, raw: &mut Vec<f64>) {
     match twin.instruments.active() {
         Some(i) => raw.extend(i.raw_sample(tool, rng)),
-        None => raw.push(twin.sensor.raw_sample(l, rng)),
+        None => raw.push(twin.draw_wire.raw_sample(l, rng)),
     }
 }
 
@@ -358,7 +358,7 @@ pub fn acquire(
     progress: &dyn crate::progress::Progress,
 ) -> Vec<Result<Acquired>> {
     use rayon::prelude::*;
-    let sn = &twin.sensor;
+    let sn = &twin.draw_wire;
     let schedule = match read_at {
         Some(at) => Schedule::new_at(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses, at),
         None => Schedule::new(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses),
@@ -426,7 +426,7 @@ fn run_chunk(run: &TourRun, a: usize, b: usize) -> Result<Vec<Result<Acquired>>>
         None => vec![State::Spring; n],
     };
     let axes = (0..n).map(|j| chain.joint_op(j).map(|op| chain.ops[op].axis).unwrap_or_else(Vector3::z)).collect();
-    let tool_in_last = frames[chain.flange()].relative_to(&frames[n]).point(&twin.sensor.tool_point_m());
+    let tool_in_last = frames[chain.flange()].relative_to(&frames[n]).point(&twin.draw_wire.tool_point_m());
     let mut sim = Sim {
         twin,
         acq,
@@ -485,7 +485,7 @@ struct Hold {
 /// rate, is negligible by the time the readings start.
 fn hold(sim: &mut Sim, mv: &Move, seed: u64, i: usize, clock: Clock, hold_samples: usize) -> Result<Hold> {
     let (twin, acq) = (sim.twin, sim.acq);
-    let sn = &twin.sensor;
+    let sn = &twin.draw_wire;
     let Clock { t_start, sub, fine_dt, period } = clock;
     let arrive = mv.duration;
     let window_start = arrive + sn.hold_s;
@@ -536,7 +536,7 @@ fn hold(sim: &mut Sim, mv: &Move, seed: u64, i: usize, clock: Clock, hold_sample
 /// their tool points (m), the time reached and the steps taken (none once `resting`).
 fn reading_window(sim: &mut Sim, mv: &Move, clock: Clock, window_start: f64, resting: bool) -> Result<(Vec<f64>, Vector3<f64>, f64, usize)> {
     let Clock { t_start, sub, fine_dt, period } = clock;
-    let samples = sim.twin.sensor.samples;
+    let samples = sim.twin.draw_wire.samples;
     let mut s = 0;
     let mut lengths = Vec::with_capacity(samples);
     let mut tool_sum = Vector3::zeros();
@@ -601,7 +601,7 @@ fn next_state(before: State, ahead: f64, (k, h, breakaway): (f64, f64, f64), fin
 fn acquire_pose(sim: &mut Sim, settings: TourSettings, schedule: &Schedule, i: usize, rule: &[f64]) -> Result<Acquired> {
     use std::time::Instant;
     let twin = sim.twin;
-    let sn = &twin.sensor;
+    let sn = &twin.draw_wire;
     let acq = sim.acq;
     let mv = &schedule.moves[i];
     let t_start = schedule.move_start[i];
