@@ -2,7 +2,7 @@
 //! one parsed command. `main` adds the process's concerns (signals, exit codes); the Python
 //! package runs the same commands in its process.
 
-use crate::commands::{self, BenchTarget, StudyTarget};
+use crate::commands;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -113,51 +113,10 @@ pub enum Command {
     /// datasets in ../shared/data), `diagnose-ur10` (diagnose on the UR10's 11 911-row series,
     /// --repeat runs, against 60 s) or `replay` (1 000 rows replayed through the scenario's
     /// acquisition against 5 s, the identified twin's cost against 1 s).
-    Bench {
-        #[arg(value_enum, default_value_t = BenchTarget::Twin)]
-        what: BenchTarget,
-        /// twin, replay: scenario TOML (default: the embedded one).
-        #[arg(long)]
-        scenario: Option<PathBuf>,
-        /// Repetitions, 1 to 1000 (the median is reported).
-        #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
-        repeat: usize,
-        /// calib: number of seeds for the accuracy targets, 1 to 1000 (default 20).
-        #[arg(long, allow_negative_numbers = true)]
-        seeds: Option<u64>,
-        /// calib: also time `compare` over 30 seeds with every method.
-        #[arg(long)]
-        compare: bool,
-        /// diagnose: only these kinds of scenario (hidden, clean, realistic-1-clean,
-        /// realistic-1-above, realistic-1-below, and the same with 2 for 0.01 deg logging).
-        #[arg(long, value_delimiter = ',')]
-        categories: Vec<String>,
-        #[command(flatten)]
-        shard: commands::ShardArgs,
-    },
+    Bench(commands::BenchArgs),
     /// Studies of the acquisition protocol on the simulated tour: `hold` (bias and spread of the
     /// readings against the hold time and the approach speed).
-    Study {
-        #[arg(value_enum)]
-        what: StudyTarget,
-        /// Scenario TOML; default: the embedded irb120_evo_nph scenario.
-        #[arg(long)]
-        scenario: Option<PathBuf>,
-        /// Hold times, s.
-        #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1,0.2,0.5,1,2", allow_negative_numbers = true)]
-        holds: Vec<f64>,
-        /// Approach speeds, fractions of the URDF speed limits.
-        #[arg(long, value_delimiter = ',', default_value = "0.05,0.2,0.5", allow_negative_numbers = true)]
-        speeds: Vec<f64>,
-        /// The first this many poses of the scenario's tour [default: 60].
-        #[arg(long, allow_negative_numbers = true)]
-        poses: Option<usize>,
-        /// Rerun recording of bias and spread against the hold time.
-        #[arg(long)]
-        rrd: Option<PathBuf>,
-        #[command(flatten)]
-        shard: commands::ShardArgs,
-    },
+    Study(commands::StudyArgs),
 }
 
 /// Runs one parsed command line (what `twincal ARGS` does, but for the process's exit code and
@@ -188,18 +147,7 @@ pub fn run(args: Cli) -> twincal::Result<()> {
             Ok(())
         }
         Command::Ik(a) => crate::commands::ik::ik(&a, args.quiet),
-        Command::Study { what, scenario, holds, speeds, poses, rrd, shard } => commands::study(
-            what,
-            scenario.as_deref(),
-            &twincal::sim::study::HoldStudy { holds_s: holds, speed_fractions: speeds, poses: poses.unwrap_or(twincal::sim::study::DEFAULT_POSES) },
-            poses.is_some(),
-            rrd.as_deref(),
-            shard.shard.as_deref(),
-            shard.shard_out.as_deref(),
-            args.quiet,
-        ),
-        Command::Bench { what, scenario, repeat, seeds, compare, categories, shard } => {
-            commands::bench_command(what, scenario.as_deref(), repeat, seeds, compare, &categories, &shard, quiet)
-        }
+        Command::Study(a) => commands::study(&a, args.quiet),
+        Command::Bench(a) => commands::bench_command(&a, quiet),
     }
 }

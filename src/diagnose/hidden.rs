@@ -214,7 +214,12 @@ pub fn realistic(seed: u64, decimals: usize) -> Result<(Scenario, Robot)> {
 pub fn logging_floor_mm(s: &Scenario, robot: &Robot, step_deg: f64) -> Result<f64> {
     let (_, model, samples) = nominal_at_poses(s, robot)?;
     let step = crate::calib::fit::floor::Step::Given(step_deg);
-    let f = crate::calib::fit::floor::noise_floor(&model, &model.nominal, &samples, Some(step), None, None, Default::default());
+    let f = crate::calib::fit::floor::noise_floor(
+        &model,
+        &model.nominal,
+        &samples,
+        crate::calib::fit::floor::FloorInputs { angle_step: Some(step), reading_step_mm: None, repeat: None, instrument: Default::default() },
+    );
     Ok(f.total_mm)
 }
 

@@ -98,22 +98,22 @@ pub(super) fn prepare_rows(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     let mut all = prepared.split.train;
     let fold_warning = fold_rows_check(all.len(), dim, prepared.id.fixed_mask.iter().filter(|f| !**f).count(), opts)?;
 
-    let (screen, screened_with, first_flagged) = screen_rows(&base, &all, data, opts, has_torques, &by, progress)?;
-    let (keep, outliers, outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
+    let (mut screen, screened_with, first_flagged) = screen_rows(&base, &all, data, opts, has_torques, &by, progress)?;
     // What went wrong in each run of outlier rows and each reading step, tested on the rows as
     // logged (see `faults`).
     let spans: Vec<(usize, usize)> =
-        outlier_runs.iter().map(|r| (r.first_row - 1, r.last_row - 1)).chain(reading_steps.iter().map(|s| (s.first_row - 1, s.last_row - 1))).collect();
-    let run_faults = super::faults::explain_runs(&base, &x_base, &all, &spans, screen.scale_mm);
+        screen.runs.iter().map(|r| (r.first_row - 1, r.last_row - 1)).chain(screen.steps.iter().map(|s| (s.first_row - 1, s.last_row - 1))).collect();
+    let run_faults = super::faults::explain_runs(&base, &screen.x, &all, &spans, screen.scale_mm);
     // Readings in a reading step are taken corrected by its offset from here on.
-    all.y = screen.corrected.y;
-    for s in &reading_steps {
+    all.y = std::mem::take(&mut screen.corrected.y);
+    for s in &screen.steps {
         progress(&format!("reading step: rows {}-{} read {:+.2} ± {:.2} mm off; corrected and kept", s.first_row, s.last_row, s.offset_mm, s.std_mm));
     }
-    if !outliers.is_empty() {
-        progress(&format!("{} outlier rows kept out of the fit: {:?}", outliers.len(), outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
+    if !screen.outliers.is_empty() {
+        progress(&format!("{} outlier rows kept out of the fit: {:?}", screen.outliers.len(), screen.outliers.iter().map(|o| o.row).collect::<Vec<_>>()));
     }
-    let (blocks, acquisition, noise_model) = acquisition_structure(data, opts, &reading_steps, &base, &x_base, &mut all, &keep, progress);
+    let (blocks, acquisition, noise_model) = acquisition_structure(data, opts, &base, &screen, &mut all, progress);
+    let (keep, outliers, outlier_runs, x_base, reading_steps) = (screen.keep, screen.outliers, screen.runs, screen.x, screen.steps);
     Ok(Prepared {
         base,
         torque,
@@ -281,17 +281,9 @@ pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     // geometric model's the causes' own signal counts as reading noise, and a slow cause fitted
     // with that whitening absorbs the sweeps' shared logging error (see `final_whitening`).
     let rewhitened = |m: &Fitted| final_whitening(kept.clone(), p.noise_model.clone(), &p.all, m, data, blocks, keep).0;
-    let not_physical = drop_not_physical(&chain, &found, &rewhitened, kept_groups.as_deref(), opts.min_size_sigmas, opts.rank_tol, &mut confirmed, progress);
+    let not_physical = drop_not_physical(&chain, &found, &rewhitened, kept_groups.as_deref(), opts, &mut confirmed, progress);
     let repeat = crate::calib::pipeline::reading_repeatability(&kept_rows);
-    let floor = crate::calib::pipeline::floor_stage(
-        base,
-        &baseline.x,
-        &kept_rows,
-        &kept,
-        opts.floor.angle_step_deg,
-        opts.floor.instrument_accuracy_mm,
-        repeat.as_ref(),
-    );
+    let floor = crate::calib::pipeline::floor_stage(base, &baseline.x, &kept_rows, &kept, &opts.floor, repeat.as_ref());
     let below_floor = drop_below_floor(&found, &chain, &floor, ctx.groups.as_deref(), &mut confirmed, progress);
     found.truncate(confirmed);
     let current = chain[confirmed].clone();

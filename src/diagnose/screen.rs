@@ -7,6 +7,7 @@ use super::options::*;
 use super::report::*;
 use crate::calib::effects::inputs::{block_for, time_span};
 use crate::calib::effects::{EffectBlock, EffectKind};
+use crate::calib::fit::noise_model::Logging;
 use crate::calib::fit::robust::Screen;
 use crate::calib::fit::Samples;
 use crate::calib::model::CalibModel;
@@ -21,17 +22,15 @@ use rayon::prelude::*;
 /// step, the logging error as the noise model of every fit from here on: `all` gets its
 /// whitening (generalised least squares over the blocks, see `calib::gls`), from the geometric
 /// model `base` at `x` and the kept rows `keep`.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn acquisition_structure(
     data: &Dataset,
     opts: &DiagnoseOptions,
-    steps: &[crate::calib::fit::robust::ReadingStep],
     base: &CalibModel,
-    x: &[f64],
+    screen: &Screen,
     all: &mut Samples,
-    keep: &[usize],
     progress: &dyn Fn(&str),
 ) -> (crate::dataset::blocks::Blocks, Structure, Option<NoiseModel>) {
+    let (steps, x, keep) = (&screen.steps, &screen.x, &screen.keep[..]);
     let (mut blocks, angle_step) = crate::dataset::blocks::detect(data, opts.floor.angle_step_deg);
     for s in steps {
         blocks.split_before(s.first_row - 1, Boundary::ReadingStep);
@@ -46,7 +45,8 @@ pub(super) fn acquisition_structure(
         return (blocks, acquisition, None);
     };
     let rows: Vec<usize> = (0..all.len()).collect();
-    let m = std::sync::Arc::new(crate::calib::fit::noise_model::rounding_model_at(base, x, all, &rows, keep, data, &blocks, step));
+    let m =
+        std::sync::Arc::new(crate::calib::fit::noise_model::rounding_model_at(base, x, all, &rows, keep, Logging { data, blocks: &blocks, step_deg: step }));
     let noise = m.summary(step);
     progress(&format!(
         "joint angles logged at {step} deg: their shared error is a noise model of the fits (rounding {:.4} mm, reading noise {:.4} mm per value)",
@@ -74,8 +74,14 @@ pub(super) fn final_whitening(
     let Some(n) = noise_model.as_ref().filter(|_| !current.model.effects.is_empty() && all.gls.is_some()) else { return (kept, noise_model) };
     let rows: Vec<usize> = (0..all.len()).collect();
     let plain = Samples { gls: None, ..all.clone() };
-    let m =
-        std::sync::Arc::new(crate::calib::fit::noise_model::rounding_model_at(&current.model, &current.x, &plain, &rows, keep, data, blocks, n.angle_step_deg));
+    let m = std::sync::Arc::new(crate::calib::fit::noise_model::rounding_model_at(
+        &current.model,
+        &current.x,
+        &plain,
+        &rows,
+        keep,
+        Logging { data, blocks, step_deg: n.angle_step_deg },
+    ));
     let summary = m.summary(n.angle_step_deg);
     let whitened = Samples { gls: Some(crate::calib::fit::gls::Whitening::new(m, rows)), ..plain };
     (whitened.subset(keep), Some(summary))

@@ -115,14 +115,12 @@ pub(super) fn drop_below_floor(
 /// `kept` gives them with the noise model at that model, as the final fit has them): the first
 /// that is not ends the list, like an unconfirmed one (`confirmed` is lowered). One line per
 /// cause left out, saying why.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn drop_not_physical(
     chain: &[Fitted],
     found: &[(EffectBlock, f64, f64, f64)],
     kept: &dyn Fn(&Fitted) -> Samples,
     groups: Option<&[usize]>,
-    min_size_sigmas: f64,
-    rank_tol: f64,
+    opts: &DiagnoseOptions,
     confirmed: &mut usize,
     progress: &dyn Fn(&str),
 ) -> Vec<String> {
@@ -130,13 +128,13 @@ pub(super) fn drop_not_physical(
     while *confirmed > 0 {
         let m = &chain[*confirmed];
         let kept = kept(m);
-        let (x, fixed) = refit(&m.model, &kept, &m.x, rank_tol);
+        let (x, fixed) = refit(&m.model, &kept, &m.x, opts.rank_tol);
         let covs = Covariances::of(&ReadingFit { model: &m.model, data: &kept }, &x, &fixed, groups);
         let Some((k, why)) = found[..*confirmed].iter().enumerate().find_map(|(k, f)| {
             let b = m.model.effects.iter().position(|e| e == &f.0)?;
             let size = covs.size(&f.0, &x, m.model.effect_params(b));
-            let weak = (size.value.abs() < min_size_sigmas * size.uncertainty)
-                .then(|| format!("its size {:.4} ± {:.4} {} is under {min_size_sigmas} of its uncertainties", size.value, size.uncertainty, size.unit));
+            let weak = (size.value.abs() < opts.min_size_sigmas * size.uncertainty)
+                .then(|| format!("its size {:.4} ± {:.4} {} is under {} of its uncertainties", size.value, size.uncertainty, size.unit, opts.min_size_sigmas));
             implausible_param(&m.model, &x, b).or(weak).map(|w| (k, w))
         }) else {
             break;

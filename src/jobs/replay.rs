@@ -241,7 +241,8 @@ pub fn replay(a: &ReplayJob, progress: &dyn Progress, recordings: &dyn Recording
     // The judged rows as a set: replay.csv marks them, and they are the twin's test rows.
     let judged_set: Option<std::collections::BTreeSet<usize>> = judged_idx.as_ref().map(|v| v.iter().copied().collect());
     let text = replay_csv(&data, robot.dof(), m, &measured, &twin, judged_set.as_ref());
-    let figs = (a.rrd.is_some() || a.report.is_some()).then(|| figures(&summary, &data, &g, &twin, &measured, judged_idx.as_deref(), &s, m));
+    let figs = (a.rrd.is_some() || a.report.is_some())
+        .then(|| figures(&summary, &Replayed { data: &data, g: &g, twin: &twin, measured: &measured, judged: judged_idx.as_deref() }, &s, m));
     // The twin's dataset: the judged rows are its test rows.
     let twin_data = match jittered_g.as_mut() {
         Some(j) => j,
@@ -420,18 +421,19 @@ fn replay_csv(
     text
 }
 
+/// The rows of a replay: the measured data, the twin's run over them, each row's twin reading
+/// (with its noise-free reading), the measured values and the rows judged.
+struct Replayed<'a> {
+    data: &'a Dataset,
+    g: &'a crate::sim::generate::Generated,
+    twin: &'a [Option<(Vec<f64>, Vec<f64>)>],
+    measured: &'a [Vec<f64>],
+    judged: Option<&'a [usize]>,
+}
+
 /// The report's and the recording's figures, over the replayed rows.
-#[allow(clippy::too_many_arguments)]
-fn figures(
-    summary: &ReplaySummary,
-    data: &Dataset,
-    g: &crate::sim::generate::Generated,
-    twin: &[Option<(Vec<f64>, Vec<f64>)>],
-    measured: &[Vec<f64>],
-    judged: Option<&[usize]>,
-    s: &Scenario,
-    m: Measurement,
-) -> crate::report::ReplayFigures {
+fn figures(summary: &ReplaySummary, r: &Replayed, s: &Scenario, m: Measurement) -> crate::report::ReplayFigures {
+    let Replayed { data, g, twin, measured, judged } = *r;
     let rows: Vec<usize> = (0..data.rows.len()).filter(|&i| twin[i].is_some()).collect();
     let tool_of: std::collections::BTreeMap<usize, [f64; 3]> = g.truth.poses.iter().map(|p| (p.index, p.tool_mm)).collect();
     let (mut noise, mut residual) = (Vec::new(), Vec::new());

@@ -168,7 +168,7 @@ impl Ekf {
                 }
                 let y = o.measured(i) - o.predict(&x, i) - hook.offset(i);
                 evaluations += 1;
-                if !buffers.update(o, i, y, &mut x, &mut p, (&free, &is_free), r) {
+                if !buffers.update(o, Innovation { row: i, value: y, variance: r }, &mut x, &mut p, (&free, &is_free)) {
                     skipped += 1;
                     continue;
                 }
@@ -213,16 +213,25 @@ struct UpdateBuffers {
     w: DVector<f64>,
 }
 
+/// One observation's innovation: its row, the reading less the prediction, and the reading's
+/// variance.
+#[derive(Clone, Copy)]
+struct Innovation {
+    row: usize,
+    value: f64,
+    variance: f64,
+}
+
 impl UpdateBuffers {
     fn new(n: usize) -> Self {
         UpdateBuffers { hrow: vec![0.0; n], h: DVector::zeros(n), u: DVector::zeros(n), gain: DVector::zeros(n), w: DVector::zeros(n) }
     }
 
-    /// Updates `x` and `p` by observation `i`'s innovation `y` (reading variance `r`), in Joseph
-    /// form; false, with nothing changed, when the innovation, the gradient or the innovation
-    /// variance is not finite.
-    #[allow(clippy::too_many_arguments)]
-    fn update<O: Observations>(&mut self, o: &O, i: usize, y: f64, x: &mut [f64], p: &mut DMatrix<f64>, (free, is_free): (&[usize], &[bool]), r: f64) -> bool {
+    /// Updates `x` and `p` by an observation's innovation (its reading variance with it), in
+    /// Joseph form; false, with nothing changed, when the innovation, the gradient or the
+    /// innovation variance is not finite.
+    fn update<O: Observations>(&mut self, o: &O, inn: Innovation, x: &mut [f64], p: &mut DMatrix<f64>, (free, is_free): (&[usize], &[bool])) -> bool {
+        let Innovation { row: i, value: y, variance: r } = inn;
         let (h, u, gain, w) = (&mut self.h, &mut self.u, &mut self.gain, &mut self.w);
         o.gradient(x, i, &mut self.hrow);
         for k in 0..h.len() {

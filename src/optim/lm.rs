@@ -46,7 +46,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::normal::normal_equations;
+use super::normal::{normal_equations, SparseRows};
 use super::util::free_indices;
 use super::{Event, LeastSquares, Observer, Report, Termination};
 
@@ -241,7 +241,7 @@ impl LevenbergMarquardt {
                 p.jacobian(&pt.x, &mut pt.jac);
             }
             // Normal equations over the free columns (J is column-major: columns are contiguous).
-            normal_equations(&pt.jac, &w.free, &pt.r, &mut w.a, &mut w.g);
+            normal_equations(&pt.jac, &w.free, &pt.r, (&mut w.a, &mut w.g), &mut w.sparse);
             if w.g.iter().chain(w.a.iter()).any(|v| !v.is_finite()) {
                 break (Termination::NonFinite, "non-finite Jacobian");
             }
@@ -249,8 +249,8 @@ impl LevenbergMarquardt {
                 obs.observe(&Event { method: METHOD, iteration: iterations, cost: pt.f, x: &pt.x });
                 break (Termination::GradientTolerance, "gradient tolerance (gtol) reached");
             }
-            let dfloor = update_scale(&mut w.scale, &w.a);
-            if let Some(stop) = self.step(p, &mut pt, &mut w, &mut damper, dfloor, iterations, obs) {
+            w.scale_floor = update_scale(&mut w.scale, &w.a);
+            if let Some(stop) = self.step(p, &mut pt, &mut w, &mut damper, iterations, obs) {
                 break stop;
             }
         };
@@ -274,21 +274,11 @@ impl LevenbergMarquardt {
     /// One outer iteration's steps from the normal equations in `w`: damped steps, more damping
     /// after each rejection, until one is accepted (None, or the stop it reached) or the damping
     /// gives out (the stop).
-    #[allow(clippy::too_many_arguments)]
-    fn step<P: LeastSquares>(
-        &self,
-        p: &P,
-        pt: &mut Point,
-        w: &mut Work,
-        damper: &mut Damper,
-        dfloor: f64,
-        iteration: usize,
-        obs: &mut dyn Observer,
-    ) -> Option<Stop> {
+    fn step<P: LeastSquares>(&self, p: &P, pt: &mut Point, w: &mut Work, damper: &mut Damper, iteration: usize, obs: &mut dyn Observer) -> Option<Stop> {
         let mut rejections = 0;
         loop {
             for (d, s) in w.damping.iter_mut().zip(&w.scale) {
-                *d = damper.lambda * s.max(dfloor);
+                *d = damper.lambda * s.max(w.scale_floor);
             }
             let solved = damped_step(&w.a, &w.g, &w.damping, &mut w.chol, &mut w.delta);
             let mut step_small = false;
@@ -440,6 +430,10 @@ struct Work {
     g: Vec<f64>,
     /// D: running max of diag(A).
     scale: Vec<f64>,
+    /// The floor of D's entries in the damping (from `scale` at this iteration).
+    scale_floor: f64,
+    /// The sparse normal equations' scratch.
+    sparse: SparseRows,
     delta: Vec<f64>,
     /// λD, floored.
     damping: Vec<f64>,
@@ -456,6 +450,8 @@ impl Work {
             chol: DMatrix::zeros(nf, nf),
             g: vec![0.0; nf],
             scale: vec![0.0; nf],
+            scale_floor: 0.0,
+            sparse: SparseRows::default(),
             delta: vec![0.0; nf],
             damping: vec![0.0; nf],
             x_new: x.to_vec(),

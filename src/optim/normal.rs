@@ -21,13 +21,15 @@ const TILE: usize = 4;
 /// products of two non-zero entries are summed row by row instead ([`sparse_normal_equations`]):
 /// the same sums in the same order without the zero products, so equal to the dense ones but
 /// for the sign of an entry that is zero.
-pub(super) fn normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], a: &mut DMatrix<f64>, g: &mut [f64]) {
+/// `rows` is the sparse path's scratch, kept by the caller across iterations (nothing allocated
+/// once it has grown to the Jacobian's size).
+pub(super) fn normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], (a, g): (&mut DMatrix<f64>, &mut [f64]), rows: &mut SparseRows) {
     let m = r.len();
     let js = jac.as_slice();
     let nf = free.len();
     let nonzero: usize = free.iter().map(|&c| js[c * m..(c + 1) * m].iter().filter(|v| **v != 0.0).count()).sum();
     if nonzero * SPARSE_SHARE < m * nf {
-        sparse_normal_equations(jac, free, r, a, g);
+        sparse_normal_equations(jac, free, r, (a, g), rows);
     } else {
         dense_normal_equations(jac, free, r, a, g);
     }
@@ -84,18 +86,31 @@ fn dense_normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], a: &mut
     }
 }
 
+/// The non-zero free entries of a Jacobian row by row (compressed rows), reused from one
+/// iteration to the next.
+#[derive(Default)]
+pub(super) struct SparseRows {
+    /// Where each row's entries start in `entries` (one more than the rows).
+    start: Vec<usize>,
+    /// The next free slot of each row while filling.
+    fill: Vec<usize>,
+    /// (free column, value) of each non-zero entry, each row's in column order.
+    entries: Vec<(usize, f64)>,
+}
+
 /// Below one non-zero entry in this many, the normal equations are summed row by row.
 const SPARSE_SHARE: usize = 4;
 
 /// [`normal_equations`] over the non-zero entries only: each row's non-zero free entries (in
 /// column order) add their products to the lower triangle, rows in order, which is then
 /// mirrored.
-fn sparse_normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], a: &mut DMatrix<f64>, g: &mut [f64]) {
+fn sparse_normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], (a, g): (&mut DMatrix<f64>, &mut [f64]), rows: &mut SparseRows) {
     let m = r.len();
     let js = jac.as_slice();
     let nf = free.len();
-    // The non-zero entries row by row (compressed rows), each row's in column order.
-    let mut start = vec![0usize; m + 1];
+    let SparseRows { start, fill, entries } = rows;
+    start.clear();
+    start.resize(m + 1, 0);
     for &c in free {
         for (i, v) in js[c * m..(c + 1) * m].iter().enumerate() {
             if *v != 0.0 {
@@ -106,8 +121,10 @@ fn sparse_normal_equations(jac: &DMatrix<f64>, free: &[usize], r: &[f64], a: &mu
     for i in 0..m {
         start[i + 1] += start[i];
     }
-    let mut fill = start.clone();
-    let mut entries = vec![(0usize, 0.0f64); start[m]];
+    fill.clear();
+    fill.extend_from_slice(start);
+    entries.clear();
+    entries.resize(start[m], (0, 0.0));
     for (k, &c) in free.iter().enumerate() {
         for (i, v) in js[c * m..(c + 1) * m].iter().enumerate() {
             if *v != 0.0 {
@@ -158,11 +175,15 @@ mod tests {
         let nonzero = free.iter().map(|&c| jac.column(c).iter().filter(|v| **v != 0.0).count()).sum::<usize>();
         assert!(nonzero * SPARSE_SHARE < m * nf, "the case must take the sparse path");
         let (mut a, mut g) = (DMatrix::<f64>::zeros(nf, nf), vec![0.0; nf]);
-        normal_equations(&jac, &free, &r, &mut a, &mut g);
-        for (ia, &ca) in free.iter().enumerate() {
-            assert_eq!(g[ia], dot(jac.column(ca).as_slice(), &r));
-            for (ib, &cb) in free.iter().enumerate() {
-                assert_eq!(a[(ia, ib)], dot(jac.column(ca).as_slice(), jac.column(cb).as_slice()), "({ia}, {ib})");
+        // Twice with the same scratch: what the first call left in it changes nothing.
+        let mut rows = SparseRows::default();
+        for _ in 0..2 {
+            normal_equations(&jac, &free, &r, (&mut a, &mut g), &mut rows);
+            for (ia, &ca) in free.iter().enumerate() {
+                assert_eq!(g[ia], dot(jac.column(ca).as_slice(), &r));
+                for (ib, &cb) in free.iter().enumerate() {
+                    assert_eq!(a[(ia, ib)], dot(jac.column(ca).as_slice(), jac.column(cb).as_slice()), "({ia}, {ib})");
+                }
             }
         }
     }

@@ -351,13 +351,7 @@ pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_time
     let home = vec![0.0; robot.dof()];
     // With given times the simulated tour waits at rest before each move to read at them (or
     // reads as soon as it can); the rows carry the times it read at.
-    let schedule = (s.acquisition.model == AcquisitionModel::Simulated).then(|| {
-        let (sf, ramp, hold, window) = (s.sampling.speed_fraction, s.acquisition.ramp_s, s.draw_wire.hold_s, s.draw_wire.window_s());
-        match &given_times {
-            Some(at) => Schedule::new_at(robot, sf, ramp, hold, window, &home, &poses, at),
-            None => Schedule::new(robot, sf, ramp, hold, window, &home, &poses),
-        }
-    });
+    let schedule = (s.acquisition.model == AcquisitionModel::Simulated).then(|| Schedule::new(robot, &s.timing(), &home, &poses, given_times.as_deref()));
     let read_at: Option<Vec<f64>> = given_times.clone().filter(|_| schedule.is_some());
     // Measured times span what the acquisition spanned (a series of days replays); only the
     // twin's own schedule is held to a day of robot time.

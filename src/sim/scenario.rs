@@ -268,6 +268,16 @@ fn array_lengths(raw: &toml::Value, kept: &toml::Value, path: &str) -> std::resu
 }
 
 impl Scenario {
+    /// How the scenario's tour moves and reads: its speed, ramps, hold and reading window.
+    pub fn timing(&self) -> crate::sim::twin::tour::Timing {
+        crate::sim::twin::tour::Timing {
+            speed_fraction: self.sampling.speed_fraction,
+            ramp_s: self.acquisition.ramp_s,
+            hold_s: self.draw_wire.hold_s,
+            window_s: self.draw_wire.window_s(),
+        }
+    }
+
     fn default_robot() -> String {
         "irb120".into()
     }

@@ -153,7 +153,8 @@ pub fn hold_setting(s: &Scenario, robot: &Robot, poses: &[Vec<f64>], v: f64, h: 
     let bias = e.iter().sum::<f64>() / m;
     let spread = if e.len() > 1 { (e.iter().map(|x| (x - bias).powi(2)).sum::<f64>() / (m - 1.0)).sqrt() } else { 0.0 };
     let gates: Vec<f64> = acquired.iter().filter_map(|a| a.gate_s).collect();
-    let schedule = Schedule::new(robot, v, acq.ramp_s, h, sc.draw_wire.window_s(), &home, poses);
+    let timing = crate::sim::twin::tour::Timing { speed_fraction: v, ramp_s: acq.ramp_s, hold_s: h, window_s: sc.draw_wire.window_s() };
+    let schedule = Schedule::new(robot, &timing, &home, poses, None);
     let end = schedule.read_t.last().copied().unwrap_or(0.0) + 0.5 * sc.draw_wire.window_s();
     Ok(HoldStudyRow {
         speed_fraction: v,

@@ -116,15 +116,7 @@ fn print_phases(steps: &[usize; 5], secs: &[f64; 5], n: usize, t_seq: f64) {
 /// The robot time the scenario's acquisition takes over `poses` (s): the last reading's time
 /// and half a window.
 fn robot_time(s: &Scenario, robot: &Robot, home: &[f64], poses: &[Vec<f64>]) -> f64 {
-    let sc = twincal::sim::twin::tour::Schedule::new(
-        robot,
-        s.sampling.speed_fraction,
-        s.acquisition.ramp_s,
-        s.draw_wire.hold_s,
-        s.draw_wire.window_s(),
-        home,
-        poses,
-    );
+    let sc = twincal::sim::twin::tour::Schedule::new(robot, &s.timing(), home, poses, None);
     sc.read_t.last().copied().unwrap_or(0.0) + 0.5 * s.draw_wire.window_s()
 }
 

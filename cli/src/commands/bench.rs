@@ -3,18 +3,35 @@
 
 use super::*;
 
+/// The options of `twincal bench`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct BenchArgs {
+    #[arg(value_enum, default_value_t = BenchTarget::Twin)]
+    pub what: BenchTarget,
+    /// twin, replay: scenario TOML (default: the embedded one).
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+    /// Repetitions, 1 to 1000 (the median is reported).
+    #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
+    pub repeat: usize,
+    /// calib: number of seeds for the accuracy targets, 1 to 1000 (default 20).
+    #[arg(long, allow_negative_numbers = true)]
+    pub seeds: Option<u64>,
+    /// calib: also time `compare` over 30 seeds with every method.
+    #[arg(long)]
+    pub compare: bool,
+    /// diagnose: only these kinds of scenario (hidden, clean, realistic-1-clean,
+    /// realistic-1-above, realistic-1-below, and the same with 2 for 0.01 deg logging).
+    #[arg(long, value_delimiter = ',')]
+    pub categories: Vec<String>,
+    #[command(flatten)]
+    pub shard: ShardArgs,
+}
+
 /// `twincal bench TARGET`: checks that every option given applies to the target, then runs it.
-#[allow(clippy::too_many_arguments)]
-pub fn bench_command(
-    what: BenchTarget,
-    scenario: Option<&Path>,
-    repeat: usize,
-    seeds: Option<u64>,
-    compare: bool,
-    categories: &[String],
-    shard: &ShardArgs,
-    quiet: bool,
-) -> Result<()> {
+pub fn bench_command(a: &BenchArgs, quiet: bool) -> Result<()> {
+    let (what, scenario, repeat, seeds, compare, categories, shard) =
+        (a.what, a.scenario.as_deref(), a.repeat, a.seeds, a.compare, &a.categories[..], &a.shard);
     check_repeat(repeat)?;
     if !categories.is_empty() && what != BenchTarget::Diagnose {
         return Err(Error::Invalid("--categories applies to bench diagnose".into()));

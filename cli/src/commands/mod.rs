@@ -16,7 +16,7 @@ mod program;
 mod replay;
 mod study;
 
-pub use bench::bench_command;
+pub use bench::{bench_command, BenchArgs};
 use calibrate::print_verdict;
 pub use calibrate::{calibrate, calibration_warnings};
 pub use compare::{compare, reduce};
@@ -29,7 +29,7 @@ pub use plan::plan;
 pub use predict::predict;
 pub use program::program;
 pub use replay::replay;
-pub use study::{study, StudyTarget};
+pub use study::{study, StudyArgs, StudyTarget};
 pub use twincal::jobs::ReplayJob;
 
 use std::path::{Path, PathBuf};

@@ -47,21 +47,42 @@ impl crate::shard::Item for HoldItem {
     }
 }
 
+/// The options of `twincal study`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct StudyArgs {
+    #[arg(value_enum)]
+    pub what: StudyTarget,
+    /// Scenario TOML; default: the embedded irb120_evo_nph scenario.
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+    /// Hold times, s.
+    #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1,0.2,0.5,1,2", allow_negative_numbers = true)]
+    pub holds: Vec<f64>,
+    /// Approach speeds, fractions of the URDF speed limits.
+    #[arg(long, value_delimiter = ',', default_value = "0.05,0.2,0.5", allow_negative_numbers = true)]
+    pub speeds: Vec<f64>,
+    /// The first this many poses of the scenario's tour [default: 60].
+    #[arg(long, allow_negative_numbers = true)]
+    pub poses: Option<usize>,
+    /// Rerun recording of bias and spread against the hold time.
+    #[arg(long)]
+    pub rrd: Option<PathBuf>,
+    #[command(flatten)]
+    pub shard: ShardArgs,
+}
+
 /// `twincal study hold`: the table on stdout, optionally a Rerun recording; with `shard`
 /// (`i/N`) only that shard's settings (work item `id`: speed `id / holds`, hold `id % holds`),
-/// appended to `shard_out` for `twincal reduce`. `poses_given`: whether the user chose
-/// `study.poses` (a scenario with fewer is then said).
-#[allow(clippy::too_many_arguments)]
-pub fn study(
-    what: StudyTarget,
-    scenario: Option<&Path>,
-    study: &twincal::sim::study::HoldStudy,
-    poses_given: bool,
-    rrd: Option<&Path>,
-    shard: Option<&str>,
-    shard_out: Option<&Path>,
-    quiet: bool,
-) -> Result<()> {
+/// appended to `shard_out` for `twincal reduce`. A scenario with fewer poses than `--poses`
+/// asks for is said.
+pub fn study(a: &StudyArgs, quiet: bool) -> Result<()> {
+    let study = &twincal::sim::study::HoldStudy {
+        holds_s: a.holds.clone(),
+        speed_fractions: a.speeds.clone(),
+        poses: a.poses.unwrap_or(twincal::sim::study::DEFAULT_POSES),
+    };
+    let (what, scenario, poses_given, rrd) = (a.what, a.scenario.as_deref(), a.poses.is_some(), a.rrd.as_deref());
+    let (shard, shard_out) = (a.shard.shard.as_deref(), a.shard.shard_out.as_deref());
     use twincal::sim::study::{hold_setting, hold_study_at, study_poses};
     let StudyTarget::Hold = what;
     study.validate().map_err(Error::Invalid)?;

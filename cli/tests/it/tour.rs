@@ -59,7 +59,8 @@ fn slow_tour_with_ample_hold_equals_the_quasi_static_model() {
         // The quasi-static model at the reading's time on the simulated flanks.
         let mid = a.lengths.len() / 2;
         let l = a.lengths.iter().sum::<f64>() / a.lengths.len() as f64;
-        let schedule = twincal::sim::twin::tour::Schedule::new(&robot, 0.01, 1.0, s.draw_wire.hold_s, s.draw_wire.window_s(), &[0.0; 6], &poses);
+        let timing = twincal::sim::twin::tour::Timing { speed_fraction: 0.01, ramp_s: 1.0, hold_s: s.draw_wire.hold_s, window_s: s.draw_wire.window_s() };
+        let schedule = twincal::sim::twin::tour::Schedule::new(&robot, &timing, &[0.0; 6], &poses, None);
         let qs = twin.quasi_static(&PoseCommand { q_cmd: poses[i].clone(), sides: sides.clone(), t: schedule.read_t[i] });
         let d = (l - twin.draw_wire.ideal_length(&qs.tool)).abs();
         worst = worst.max(d);

@@ -78,10 +78,12 @@ impl Effect for Thermal {
         match (temps, spread) {
             (Some(t), Some(s)) if !t.is_empty() && s >= MIN_TEMP_SPREAD_K => b.thermal = Some(ThermalDrive::Temperature { ref_c: t[0], sensor_lag: has_t }),
             _ if has_t => b.thermal = Some(ThermalDrive::WarmUp),
-            (Some(t), Some(_)) if !t.is_empty() => return Err(Error::Invalid(format!(
+            (Some(t), Some(_)) if !t.is_empty() => {
+                return Err(Error::Invalid(format!(
                 "thermal: the temp column reads {} °C on every row (it spans less than {MIN_TEMP_SPREAD_K} K) and there is no t column: nothing drives a drift",
                 t[0]
-            ))),
+            )))
+            }
             _ => return Err(Error::Invalid("thermal needs a temp or t column on every row".into())),
         }
         Ok(())

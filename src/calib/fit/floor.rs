@@ -183,6 +183,21 @@ pub struct InstrumentNoise {
     pub accuracy_mm: Option<f64>,
 }
 
+/// What a floor is made of, as the data give it: the joint angles' logging step, the readings'
+/// logging step (mm), the repeatability where configurations repeat, and what the instrument
+/// states of itself.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FloorInputs<'a> {
+    /// The joint angles' logging step, degrees (given or detected).
+    pub angle_step: Option<Step>,
+    /// The readings' logging step, mm.
+    pub reading_step_mm: Option<f64>,
+    /// The repeatability of repeated configurations.
+    pub repeat: Option<&'a Repeatability>,
+    /// The rows' own standard deviations and the stated accuracy.
+    pub instrument: InstrumentNoise,
+}
+
 /// The floor of `data` (every row) for the model at `x`: repeatability where configurations
 /// repeat, the joint angles' logging step (uniform quantisation, step²/12 per joint, through
 /// ∂L/∂q of each row), the reading's step and what the instrument states of itself.
@@ -191,15 +206,8 @@ pub struct InstrumentNoise {
 /// the reading's logging step; where the instrument states its uncertainty (rows' standard
 /// deviations, a stated accuracy), the largest of these, since each is an estimate of the same
 /// error and a stated accuracy includes what repeats do not show.
-pub fn noise_floor(
-    model: &CalibModel,
-    x: &[f64],
-    data: &Samples,
-    angle_step_deg: Option<Step>,
-    length_step_mm: Option<f64>,
-    repeat: Option<&Repeatability>,
-    instrument: InstrumentNoise,
-) -> NoiseFloor {
+pub fn noise_floor(model: &CalibModel, x: &[f64], data: &Samples, inputs: FloorInputs) -> NoiseFloor {
+    let FloorInputs { angle_step: angle_step_deg, reading_step_mm: length_step_mm, repeat, instrument } = inputs;
     let mut sources = Vec::new();
     let cols = model.measurement.def().columns().join(", ");
     let dim = model.measurement.dim();
@@ -326,8 +334,14 @@ mod tests {
         let q: Vec<Vec<f64>> = (0..50).map(|k| (0..6).map(|j| ((k * 7 + j * 3) as f64 * 0.37).sin()).collect()).collect();
         let data = Samples::new(q, vec![0.5; 50]);
         let none = InstrumentNoise::default();
-        let f1 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), None, none);
-        let f2 = noise_floor(&m, &m.nominal, &data, Some(Step::Given(0.2)), Some(0.01), None, none);
+        let f1 = noise_floor(
+            &m,
+            &m.nominal,
+            &data,
+            FloorInputs { angle_step: Some(Step::Detected(0.1)), reading_step_mm: Some(0.01), repeat: None, instrument: none },
+        );
+        let f2 =
+            noise_floor(&m, &m.nominal, &data, FloorInputs { angle_step: Some(Step::Given(0.2)), reading_step_mm: Some(0.01), repeat: None, instrument: none });
         let angle = |f: &NoiseFloor| f.sources.iter().find(|s| s.source == FloorKind::AngleResolution).unwrap().rms_mm;
         // Linear in the step; a 0.1 deg step over a ~0.5 m arm is a few tenths of a millimetre.
         assert!((angle(&f2) / angle(&f1) - 2.0).abs() < 1e-12);
@@ -335,13 +349,38 @@ mod tests {
         assert!((f1.total_mm - (angle(&f1).powi(2) + 0.01f64.powi(2) / 12.0).sqrt()).abs() < 1e-12);
         // With repeatability, the reading's step is inside it and is not added again.
         let rep = Repeatability { pooled_std: 0.05, groups: 3, rows: 7, max_spread: 0.1, per_value_std: Vec::new() };
-        let f3 = noise_floor(&m, &m.nominal, &data, Some(Step::Detected(0.1)), Some(0.01), Some(&rep), none);
+        let f3 = noise_floor(
+            &m,
+            &m.nominal,
+            &data,
+            FloorInputs { angle_step: Some(Step::Detected(0.1)), reading_step_mm: Some(0.01), repeat: Some(&rep), instrument: none },
+        );
         assert!((f3.total_mm - (angle(&f1).powi(2) + 0.05f64.powi(2)).sqrt()).abs() < 1e-12);
         // A stated accuracy larger than the repeats' spread takes its place; rows' standard
         // deviations without repeats take the reading step's.
-        let f4 = noise_floor(&m, &m.nominal, &data, None, Some(0.01), Some(&rep), InstrumentNoise { row_std_mm: Some(0.02), accuracy_mm: Some(0.08) });
+        let f4 = noise_floor(
+            &m,
+            &m.nominal,
+            &data,
+            FloorInputs {
+                angle_step: None,
+                reading_step_mm: Some(0.01),
+                repeat: Some(&rep),
+                instrument: InstrumentNoise { row_std_mm: Some(0.02), accuracy_mm: Some(0.08) },
+            },
+        );
         assert!((f4.total_mm - 0.08).abs() < 1e-12, "{f4:?}");
-        let f5 = noise_floor(&m, &m.nominal, &data, None, Some(0.001), None, InstrumentNoise { row_std_mm: Some(0.02), accuracy_mm: None });
+        let f5 = noise_floor(
+            &m,
+            &m.nominal,
+            &data,
+            FloorInputs {
+                angle_step: None,
+                reading_step_mm: Some(0.001),
+                repeat: None,
+                instrument: InstrumentNoise { row_std_mm: Some(0.02), accuracy_mm: None },
+            },
+        );
         assert!((f5.total_mm - 0.02).abs() < 1e-12 && f5.sources.iter().any(|s| s.source == FloorKind::RowStd), "{f5:?}");
     }
 
@@ -359,8 +398,17 @@ mod tests {
         // Repeats spread 0.02 mm on the origin and 0.001 mm on the axes' tips; the rows state 0.03 mm.
         let per_value_std = [0.02, 0.02, 0.02, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001].to_vec();
         let rep = Repeatability { pooled_std: 0.0116, groups: 5, rows: 10, max_spread: 0.05, per_value_std };
-        let f =
-            noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), Some(1e-4), Some(&rep), InstrumentNoise { row_std_mm: Some(0.03), accuracy_mm: None });
+        let f = noise_floor(
+            &m,
+            &m.nominal,
+            &data,
+            FloorInputs {
+                angle_step: Some(Step::Given(1e-4)),
+                reading_step_mm: Some(1e-4),
+                repeat: Some(&rep),
+                instrument: InstrumentNoise { row_std_mm: Some(0.03), accuracy_mm: None },
+            },
+        );
         let [pos, ori] = f.by_group.as_slice() else { panic!("{f:?}") };
         // The position: the largest estimate of the reading's error (the rows' 0.03 mm) and the
         // angles' logging; the orientation: its repeats alone (the rows' sx, sy, sz are positions').
@@ -369,13 +417,30 @@ mod tests {
         assert!(ori.group == ValueKind::Orientation && ori.measured && (ori.total_mm - 0.001).abs() < 2e-4, "{ori:?}");
         assert_eq!(f.of_group(1), ori.total_mm);
         // Without repeats the orientation's floor is the angles' logging only: not measured.
-        let f = noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), None, None, InstrumentNoise { row_std_mm: Some(0.03), accuracy_mm: None });
+        let f = noise_floor(
+            &m,
+            &m.nominal,
+            &data,
+            FloorInputs {
+                angle_step: Some(Step::Given(1e-4)),
+                reading_step_mm: None,
+                repeat: None,
+                instrument: InstrumentNoise { row_std_mm: Some(0.03), accuracy_mm: None },
+            },
+        );
         assert!(!f.by_group[1].measured && f.by_group[1].total_mm < 1e-3, "{f:?}");
         // A point reading has one kind of value: no groups.
         let (chain, kinds) = DhTable::from_robot_hayati(&robot).chain(true, true);
         let point = Placement::tracker([2000.0, 0.0, 300.0], [0.0, 0.0, 40.0], None, nalgebra::Vector3::new(0.0, 0.05, 0.1));
         let m = CalibModel::of_chain("hayati", chain, kinds, &point);
         let data = Samples::readings(data.q.clone(), vec![0.0; 40 * 3], 3);
-        assert!(noise_floor(&m, &m.nominal, &data, Some(Step::Given(1e-4)), None, Some(&rep), InstrumentNoise::default()).by_group.is_empty());
+        assert!(noise_floor(
+            &m,
+            &m.nominal,
+            &data,
+            FloorInputs { angle_step: Some(Step::Given(1e-4)), reading_step_mm: None, repeat: Some(&rep), instrument: InstrumentNoise::default() }
+        )
+        .by_group
+        .is_empty());
     }
 }

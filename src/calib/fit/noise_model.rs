@@ -11,23 +11,27 @@ use crate::dataset::Dataset;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
+/// How a dataset's joint angles were logged, as its rows show it: the dataset, its acquisition
+/// blocks and the logging step (degrees). Resolved once ([`crate::calib::pipeline::SplitData`]
+/// keeps the blocks and the step) and read by every stage that models the logging error.
+#[derive(Clone, Copy)]
+pub struct Logging<'a> {
+    /// The dataset the rows index.
+    pub data: &'a Dataset,
+    /// Its acquisition blocks.
+    pub blocks: &'a Blocks,
+    /// The joint angles' logging step, degrees.
+    pub step_deg: f64,
+}
+
 /// The logging error of the samples `s` (row `i` is the dataset `data`'s row `rows[i]`, the
 /// acquisition's blocks `blocks`, angles logged at `step` degrees) through `base` at `x`:
 /// each row's ∂reading/∂q, the joints that hold in its block (within half a step of the
 /// block's first row throughout), and the reading's own noise: the mean squared residual of
 /// the samples `keep` less what the logging explains, at least a twentieth of the latter (so
 /// that the covariance stays well conditioned).
-#[allow(clippy::too_many_arguments)]
-pub fn rounding_model_at(
-    base: &CalibModel,
-    x: &[f64],
-    s: &Samples,
-    rows: &[usize],
-    keep: &[usize],
-    data: &Dataset,
-    blocks: &Blocks,
-    step: f64,
-) -> RoundingModel {
+pub fn rounding_model_at(base: &CalibModel, x: &[f64], s: &Samples, rows: &[usize], keep: &[usize], log: Logging) -> RoundingModel {
+    let Logging { data, blocks, step_deg: step } = log;
     let (dim, nj) = (s.dim, base.chain.n_joints);
     let mut w = base.work();
     let (mut y, mut g) = (vec![0.0; dim], vec![0.0; nj * dim]);
@@ -95,17 +99,16 @@ pub enum NoiseChoice {
 /// finds no rounding in them to learn. Returns the noise model, the whitening of the rows and
 /// the corrected samples, or `None` where the rows are independent, weighted by their own standard deviations, or the
 /// angles unrounded (the readings untouched).
-#[allow(clippy::too_many_arguments)]
 pub fn remove_logging_error(
     model: &CalibModel,
     x0: &[f64],
     fixed: &[bool],
     train: &Samples,
     rows: &[usize],
-    data: &Dataset,
-    (blocks, step): (&crate::dataset::blocks::Blocks, Option<f64>),
+    log: Option<Logging>,
 ) -> Option<(NoiseModel, Whitening, Samples)> {
-    let step = step?;
+    let log = log?;
+    let (blocks, step) = (log.blocks, log.step_deg);
     let ids: Vec<usize> = rows.iter().map(|&r| blocks.of_row[r]).collect();
     if !ids.windows(2).any(|w| w[0] == w[1]) || train.w.is_some() {
         return None;
@@ -114,7 +117,7 @@ pub fn remove_logging_error(
     let plain = train.unweighted();
     let x1 = lm().minimize(&ReadingFit { model, data: &plain }, x0, fixed, &mut crate::optim::NoObserver).x;
     let all: Vec<usize> = (0..train.len()).collect();
-    let m = Arc::new(rounding_model_at(model, &x1, &plain, rows, &all, data, blocks, step));
+    let m = Arc::new(rounding_model_at(model, &x1, &plain, rows, &all, log));
     let whitening = Whitening::new(m.clone(), all);
     let gls = Samples { gls: Some(whitening.clone()), ..plain.clone() };
     let x2 = lm().minimize(&ReadingFit { model, data: &gls }, &x1, fixed, &mut crate::optim::NoObserver).x;

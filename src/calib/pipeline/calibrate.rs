@@ -192,7 +192,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let test_outliers = test_outlier_stage(&plain_fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.screen.outlier_k);
     test_inlier_metrics(&mut metrics, &split, &test_residuals_mm, &test_outliers);
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    let noise_floor = floor_stage(&model, &x, data, &all_rows, opts.floor.angle_step_deg, opts.floor.instrument_accuracy_mm, repeatability.as_ref());
+    let noise_floor = floor_stage(&model, &x, data, &all_rows, &opts.floor, repeatability.as_ref());
     warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
@@ -297,7 +297,7 @@ pub(super) fn noise_model_stage(
 ) -> (Option<crate::calib::fit::gls::NoiseModel>, Option<Samples>) {
     let logging = match opts.floor.noise_model {
         crate::calib::fit::noise_model::NoiseChoice::Auto => {
-            crate::calib::fit::noise_model::remove_logging_error(model, x0, fixed, &split.train, &split.train_idx, data, (&split.blocks, split.angle_step_deg))
+            crate::calib::fit::noise_model::remove_logging_error(model, x0, fixed, &split.train, &split.train_idx, split.logging(data))
         }
         crate::calib::fit::noise_model::NoiseChoice::Off => None,
     };
@@ -426,7 +426,8 @@ pub fn result_of_fit(
     let metrics = metrics_stage(&ReadingFit { model: &model, data: &plain }, &ReadingFit { model: &model, data: &empty }, x0, &x, None);
     data.require_readings()?;
     let repeatability = reading_repeatability(data);
-    let noise_floor = floor_stage(&model, &x, data, rows, angle_step_deg, instrument_accuracy_mm, repeatability.as_ref());
+    let noise_floor =
+        floor_stage(&model, &x, data, rows, &FloorOptions { angle_step_deg, instrument_accuracy_mm, ..Default::default() }, repeatability.as_ref());
     Ok(CalibResult {
         schema_version: super::result::RESULT_SCHEMA_VERSION,
         provenance: Provenance {

@@ -124,6 +124,13 @@ pub struct SplitData {
     pub angle_step_deg: Option<f64>,
 }
 
+impl SplitData {
+    /// How `data`'s angles were logged (its blocks and step), `None` where they are not rounded.
+    pub fn logging<'a>(&'a self, data: &'a Dataset) -> Option<crate::calib::fit::noise_model::Logging<'a>> {
+        self.angle_step_deg.map(|step_deg| crate::calib::fit::noise_model::Logging { data, blocks: &self.blocks, step_deg })
+    }
+}
+
 /// Number of distinct joint configurations among `rows` (angles compared to 1e-6 degrees).
 pub(super) fn distinct_configurations(data: &Dataset, rows: &[usize]) -> usize {
     let mut keys: Vec<Vec<i64>> = rows.iter().map(|&i| data.rows[i].q_deg.iter().map(|v| (v * 1e6).round() as i64).collect()).collect();

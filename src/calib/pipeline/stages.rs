@@ -275,7 +275,7 @@ pub fn reading_repeatability(data: &Dataset) -> Option<crate::stats::metrics::Re
 /// `model` at its nominal parameters on `rows` of `data`: its scale never below the
 /// angle-resolution part of their floor, what the angles' logging alone puts on a reading.
 pub fn screen_rule(model: &CalibModel, data: &Dataset, rows: &Samples, k: f64, steps: bool, angle_step_deg: Option<f64>) -> ScreenRule {
-    let floor = floor_stage(model, &model.nominal, data, rows, angle_step_deg, None, None);
+    let floor = floor_stage(model, &model.nominal, data, rows, &FloorOptions { angle_step_deg, ..Default::default() }, None);
     let min_scale_mm = floor.part(crate::calib::fit::floor::FloorKind::AngleResolution);
     ScreenRule { k, steps, min_scale_mm }
 }
@@ -306,17 +306,17 @@ pub(super) fn leak_warning(data: &Dataset, split: &SplitData, test_r: &[f64], te
 }
 
 /// Stage "floor": the data's own floor for the model at `x` over `rows` (the rows of `data`):
-/// the repeatability given, the joint angles' logging step (`angle_step_deg`, else read from the
+/// the repeatability given, the joint angles' logging step (the options', else read from the
 /// data's decimals) and the readings' logging step. See [`crate::calib::fit::floor`].
 pub fn floor_stage(
     model: &CalibModel,
     x: &[f64],
     data: &Dataset,
     rows: &Samples,
-    angle_step_deg: Option<f64>,
-    instrument_accuracy_mm: Option<f64>,
+    floor: &FloorOptions,
     repeat: Option<&crate::stats::metrics::Repeatability>,
 ) -> crate::calib::fit::floor::NoiseFloor {
+    let (angle_step_deg, instrument_accuracy_mm) = (floor.angle_step_deg, floor.instrument_accuracy_mm);
     use crate::calib::fit::floor::{logging_step, Step};
     let angle_step = match angle_step_deg {
         Some(v) => Some(Step::Given(v)),
@@ -329,7 +329,12 @@ pub fn floor_stage(
     let stds: Vec<f64> = data.rows.iter().filter_map(|r| r.std_mm).flatten().collect();
     let row_std_mm = (!stds.is_empty()).then(|| crate::stats::rms(&stds));
     let instrument = crate::calib::fit::floor::InstrumentNoise { row_std_mm, accuracy_mm: instrument_accuracy_mm };
-    crate::calib::fit::floor::noise_floor(model, x, rows, angle_step, reading_step, repeat, instrument)
+    crate::calib::fit::floor::noise_floor(
+        model,
+        x,
+        rows,
+        crate::calib::fit::floor::FloorInputs { angle_step, reading_step_mm: reading_step, repeat, instrument },
+    )
 }
 
 #[cfg(test)]

@@ -151,44 +151,53 @@ pub struct Schedule {
     pub read_t: Vec<f64>,
 }
 
-impl Schedule {
-    /// The tour from `home` through `poses` (commanded angles, rad): each move at `speed_fraction`
-    /// of the URDF speed limits with ramps of `ramp_s`, then `hold_s` still and `window_s` of readings.
-    pub fn new(robot: &Robot, speed_fraction: f64, ramp_s: f64, hold_s: f64, window_s: f64, home: &[f64], poses: &[Vec<f64>]) -> Schedule {
-        let speed: Vec<f64> = robot.joints.iter().map(|j| speed_fraction * j.speed_limit()).collect();
-        let mut s = Schedule { moves: Vec::new(), move_start: Vec::new(), arrival: Vec::new(), read_t: Vec::new() };
-        let mut t = 0.0;
-        let mut prev = home.to_vec();
-        for q in poses {
-            let m = Move::plan(&prev, q, &speed, ramp_s);
-            s.move_start.push(t);
-            t += m.duration;
-            s.arrival.push(t);
-            s.read_t.push(t + hold_s + 0.5 * window_s);
-            t += hold_s + window_s;
-            s.moves.push(m);
-            prev = q.clone();
-        }
-        s
-    }
+/// How a tour moves and reads: the fraction of the URDF speed limits its moves run at, their
+/// ramps, the hold still after each and the window of readings after the hold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timing {
+    /// Fraction of each joint's URDF speed limit.
+    pub speed_fraction: f64,
+    /// Acceleration and deceleration ramp of a move, s.
+    pub ramp_s: f64,
+    /// Hold still before the readings, s.
+    pub hold_s: f64,
+    /// Window of readings after the hold, s.
+    pub window_s: f64,
+}
 
-    /// [`Self::new`] read at the times `read_at` (s, one per pose, a measured acquisition's): the
-    /// arm waits at rest before each move so that its reading window is centred on that time,
-    /// or, when the move cannot end in time, reads as soon as it can.
-    #[allow(clippy::too_many_arguments)]
-    pub fn new_at(robot: &Robot, speed_fraction: f64, ramp_s: f64, hold_s: f64, window_s: f64, home: &[f64], poses: &[Vec<f64>], read_at: &[f64]) -> Schedule {
+impl Schedule {
+    /// The tour from `home` through `poses` (commanded angles, rad): each move at the timing's
+    /// speed with its ramps, then its hold still and its window of readings. With `read_at` (s,
+    /// one per pose, a measured acquisition's) the arm waits at rest before each move so that
+    /// its reading window is centred on that time, or, when the move cannot end in time, reads
+    /// as soon as it can.
+    pub fn new(robot: &Robot, timing: &Timing, home: &[f64], poses: &[Vec<f64>], read_at: Option<&[f64]>) -> Schedule {
+        let Timing { speed_fraction, ramp_s, hold_s, window_s } = *timing;
         let speed: Vec<f64> = robot.joints.iter().map(|j| speed_fraction * j.speed_limit()).collect();
         let mut s = Schedule { moves: Vec::new(), move_start: Vec::new(), arrival: Vec::new(), read_t: Vec::new() };
         let mut t = 0.0;
         let mut prev = home.to_vec();
-        for (q, at) in poses.iter().zip(read_at) {
+        // (Each branch keeps its own sums: a dataset is byte-identical to what it was.)
+        let n = read_at.map_or(poses.len(), |at| at.len().min(poses.len()));
+        for (k, q) in poses[..n].iter().enumerate() {
             let m = Move::plan(&prev, q, &speed, ramp_s);
-            let start = t.max(at - 0.5 * window_s - hold_s - m.duration);
-            s.move_start.push(start);
-            s.arrival.push(start + m.duration);
-            let read = start + m.duration + hold_s + 0.5 * window_s;
-            s.read_t.push(read);
-            t = read + 0.5 * window_s;
+            match read_at {
+                Some(at) => {
+                    let start = t.max(at[k] - 0.5 * window_s - hold_s - m.duration);
+                    s.move_start.push(start);
+                    s.arrival.push(start + m.duration);
+                    let read = start + m.duration + hold_s + 0.5 * window_s;
+                    s.read_t.push(read);
+                    t = read + 0.5 * window_s;
+                }
+                None => {
+                    s.move_start.push(t);
+                    t += m.duration;
+                    s.arrival.push(t);
+                    s.read_t.push(t + hold_s + 0.5 * window_s);
+                    t += hold_s + window_s;
+                }
+            }
             s.moves.push(m);
             prev = q.clone();
         }

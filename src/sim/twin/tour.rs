@@ -27,7 +27,7 @@
 //! [`super::approach_sides`]), at the time the schedule gives, so chunks are independent and
 //! run in parallel with results that do not depend on the number of threads.
 
-pub use super::acquisition::{Acquired, Acquisition, AcquisitionModel, OnTimeout, PhaseStats, Schedule, TourSettings, MAX_COARSE_DT_S, PHASES};
+pub use super::acquisition::{Acquired, Acquisition, AcquisitionModel, OnTimeout, PhaseStats, Schedule, Timing, TourSettings, MAX_COARSE_DT_S, PHASES};
 use super::motion::Move;
 use super::rapier_sim::{build, contacts, dvec, joint_inertias, nvec, State};
 use super::{PoseCommand, RestingPose, Twin};
@@ -359,10 +359,8 @@ pub fn acquire(
 ) -> Vec<Result<Acquired>> {
     use rayon::prelude::*;
     let sn = &twin.draw_wire;
-    let schedule = match read_at {
-        Some(at) => Schedule::new_at(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses, at),
-        None => Schedule::new(&twin.robot, settings.speed_fraction, acq.ramp_s, sn.hold_s, sn.window_s(), home, poses),
-    };
+    let timing = Timing { speed_fraction: settings.speed_fraction, ramp_s: acq.ramp_s, hold_s: sn.hold_s, window_s: sn.window_s() };
+    let schedule = Schedule::new(&twin.robot, &timing, home, poses, read_at);
     let rule = super::approach_sides(home, poses);
     let run = TourRun { twin, acq, settings, schedule: &schedule, home, poses, rule: &rule, progress };
     let starts: Vec<usize> = (0..poses.len()).step_by(acq.chunk_poses.max(1)).collect();
