@@ -406,7 +406,7 @@ impl<'a> Compensator<'a> {
     /// The nominal controller's command for the pose `p` (mm), `r` where the controller takes
     /// the arm's solution nearest its present joints `previous` (rad; a UR's `movej` and
     /// `movel` to a pose): the descent from `previous` where it ends within
-    /// [`CONTINUATION_DEG`] of it, else local solves from seeded random starts, the converged
+    /// `CONTINUATION_DEG` of it, else local solves from seeded random starts, the converged
     /// answer nearest `previous` (the largest joint difference, each angle at its turn nearest
     /// `previous`).
     pub fn nominal_pose_nearest(&self, p: &Vector3<f64>, r: &Matrix3<f64>, previous: &[f64], wn: &mut IkWork) -> Option<Vec<f64>> {

@@ -35,7 +35,7 @@ pub struct DiagnoseOptions {
     /// The data's floor and the rows' weights.
     pub floor: FloorOptions,
     /// Where the instrument's stations come from (resolved by the job before the rows are
-    /// diagnosed: [`crate::calib::pipeline::setup::resolve_stations`]).
+    /// diagnosed: [`crate::calib::pipeline::resolve_stations`]).
     pub stations: StationSource,
 }
 

@@ -23,8 +23,8 @@ pub const PLAN_FILE: &str = "plan.json";
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(deny_unknown_fields)]
 pub struct PlanJob {
-    /// The scenario: its robot, its instrument's placement ([sensor], [tracker]), the joint
-    /// ranges and tool height of [sampling], and the cell ([workspace]); default: the embedded
+    /// The scenario: its robot, its instrument's placement (`[sensor]`, `[tracker]`), the joint
+    /// ranges and tool height of `[sampling]`, and the cell (`[workspace]`); default: the embedded
     /// one.
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
@@ -54,7 +54,7 @@ pub struct PlanJob {
     #[serde(default)]
     pub model: Option<PathBuf>,
     /// Effects the calibration will fit beside the geometry, whose parameters the plan also
-    /// makes observable: compliance, eccentricity, nonlinearity, ... (KIND[:JOINT], comma-separated).
+    /// makes observable: compliance, eccentricity, nonlinearity, ... (`KIND[:JOINT]`, comma-separated).
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
     #[serde(default)]
     pub effects: Vec<crate::calib::effects::EffectChoice>,

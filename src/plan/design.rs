@@ -56,7 +56,7 @@ pub struct AOptimal;
 /// I-optimal: the mean variance over the pool's poses of what the pool's [`Pool::mean`] stands
 /// for, per unit noise variance, trace(M⁻¹ W) / [`Pool::target_dim`] (its value is the
 /// negative, so that larger is better). A plan's pool holds the calibrated arm's tool point,
-/// its base registered ([`super::problem`]): the accuracy a plan promises over the workspace the
+/// its base registered ([`super::PoolDesign`]): the accuracy a plan promises over the workspace the
 /// pool stands for.
 pub struct IOptimal;
 

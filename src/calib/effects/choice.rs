@@ -98,6 +98,11 @@ mod tests {
         for bad in ["", "backlash:0", "backlash:x", "warp", "nonlinearity:2"] {
             assert!(bad.parse::<EffectChoice>().is_err(), "{bad}");
         }
+        // A result file of an earlier version names its blocks' kinds by their former names.
+        for (former, kind) in EffectKind::FORMER_NAMES {
+            assert_eq!(serde_json::from_str::<EffectKind>(&format!("\"{former}\"")).unwrap(), kind);
+            assert_eq!(serde_json::to_string(&kind).unwrap(), format!("\"{}\"", kind.name()));
+        }
         let json = serde_json::to_string(&vec!["backlash:2".parse::<EffectChoice>().unwrap()]).unwrap();
         assert_eq!(json, r#"["backlash:2"]"#);
     }

@@ -1,5 +1,5 @@
 //! Calibration methods as solver values. Each method is a struct that carries its own settings
-//! and solves a [`Problem`]; the pipeline in [`super::run`] only calls [`Solver::solve`], so a new
+//! and solves a [`Problem`]; the pipeline in [`super::pipeline`] only calls [`Solver::solve`], so a new
 //! method (or one with other settings) is added beside these, not inside the pipeline.
 //!
 //! Nothing here knows how the data were made: spreads come from the documented
