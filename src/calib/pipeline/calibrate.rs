@@ -1,6 +1,7 @@
 //! The `calibrate` pipeline: the prepared rows and model, the solve, and the result assembled
 //! from the stages.
 
+use super::effect_blocks::*;
 use super::options::*;
 use super::result::*;
 use super::split::*;

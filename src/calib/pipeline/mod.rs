@@ -10,6 +10,7 @@
 //! [`Solver`] value that carries its own settings.
 
 mod calibrate;
+mod effect_blocks;
 pub mod equivalent;
 pub mod generic;
 mod options;
@@ -24,6 +25,7 @@ pub use crate::calib::fit::identify::{identify, still_joints, STILL_SPAN_DEG};
 pub use crate::calib::methods::{Method, Solver};
 pub use crate::dataset::truth::TruthFile;
 pub use calibrate::*;
+pub use effect_blocks::*;
 pub use options::{
     check_inertial, flange_gap_mm, CalibOptions, FloorOptions, FreeParams, LoadOptions, ModelSpec, Parametrisation, ScreenOptions, SplitBy, SplitOptions,
     StationSource, DEFAULT_EFFORT, DEFAULT_OUTLIER_K, DEFAULT_RANK_TOL, OTHER_ARM_MM,
