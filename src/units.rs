@@ -35,9 +35,24 @@ pub fn with_uncertainty(value: f64, uncertainty: f64) -> String {
     format!("{value:.decimals$} ± {uncertainty:.decimals$}")
 }
 
+/// A duration in seconds as a reader takes it in: seconds up to two minutes, minutes up to two
+/// hours, hours beyond (`45 s`, `12.5 min`, `3.80 h`).
+pub fn duration(s: f64) -> String {
+    match s {
+        s if s < 120.0 => format!("{s:.0} s"),
+        s if s < 7200.0 => format!("{:.1} min", s / 60.0),
+        s => format!("{:.2} h", s / 3600.0),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_duration_reads_in_its_unit() {
+        assert_eq!([duration(45.2), duration(750.0), duration(13_680.0)], ["45 s", "12.5 min", "3.80 h"]);
+    }
 
     #[test]
     fn an_uncertainty_is_shown_to_two_significant_digits() {

@@ -229,6 +229,14 @@ pub fn detect(data: &Dataset, angle_step_deg: Option<f64>) -> (Blocks, Option<f6
     (b, step)
 }
 
+/// The pause in `t` before row `row` (0-based), s, where there is one: a step in `t` beyond
+/// [`GAP_FACTOR`] median steps and [`GAP_MIN_S`] (what starts a new block).
+pub fn pause_before(data: &Dataset, row: usize) -> Option<f64> {
+    let gap = time_gap(data)?;
+    let (a, b) = (data.rows.get(row.checked_sub(1)?)?.t_s?, data.rows.get(row)?.t_s?);
+    (b - a > gap).then_some(b - a)
+}
+
 /// The pause in `t` (s) beyond which a new block starts, when every row has `t`.
 fn time_gap(data: &Dataset) -> Option<f64> {
     let t: Vec<f64> = data.rows.iter().map(|r| r.t_s).collect::<Option<Vec<f64>>>()?;

@@ -253,3 +253,45 @@ fn a_twin_tracker_moved_twice_is_found_identified_and_replayed() {
     let rmse = summary["all"]["residual"]["rmse"].as_f64().unwrap_or_else(|| panic!("{summary}"));
     assert!(rmse < 0.01, "replay RMSE {rmse} mm: {}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// Under the generic arm (no nominal: the axes found from the data), a re-stationed and a
+/// bumped tracker are found where they moved and sized, and the calibration predicts unseen
+/// rows as well as on the unmoved data; the unmoved data raise no alarm. UR5 tracker points,
+/// two seeds.
+#[test]
+fn a_moved_tracker_is_found_under_the_generic_arm() {
+    let moves = [
+        ("re-stationed", Rotation3::from_euler_angles(0.0, 0.0, 25f64.to_radians()).into_inner(), Vector3::new(600.0, -250.0, 120.0)),
+        ("bumped", Rotation3::from_euler_angles(0.0, 0.0, 0.01f64.to_radians()).into_inner(), Vector3::new(0.15, 0.1, -0.08)),
+    ];
+    let opts = CalibOptions::new(ModelSpec::Generic, Method::LM);
+    for seed in 1..=2 {
+        let (data, _) = generated("ur5_tracker", seed, "");
+        let still = calibrate(&data, None, &opts).unwrap();
+        assert!(still.setup.is_none(), "seed {seed}: a tracker that never moved: {:?}", still.setup);
+        for (what, turn, shift) in &moves {
+            let from = data.rows.len() * 3 / 5;
+            // The re-stationed tracker after a pause of two hours in `t` (another session).
+            let mut m = moved(&data, from, *turn, *shift);
+            let pause = (*what == "re-stationed").then_some(7200.0);
+            for r in &mut m.rows[from..] {
+                r.t_s = r.t_s.map(|t| t + pause.unwrap_or(0.0));
+            }
+            let r = calibrate(&m, None, &opts).unwrap();
+            let setup = r.setup.as_ref().unwrap_or_else(|| panic!("seed {seed}: the {what} tracker not found under the generic arm"));
+            assert_eq!(setup.stations.len(), 2, "seed {seed} {what}: {setup:?}");
+            let s = &setup.stations[1];
+            assert_eq!((s.first_row, s.origin), (from + 1, StationOrigin::ChangePoint), "seed {seed} {what}: {setup:?}");
+            let origin_shift = (turn.transpose() * -shift).norm();
+            assert!((s.shift_mm - origin_shift).abs() < 0.02 * origin_shift + 0.01, "seed {seed} {what}: shift {} vs {origin_shift}", s.shift_mm);
+            assert!(test_rmse(&r) < 1.1 * test_rmse(&still), "seed {seed} {what}: test RMSE {} vs {} unmoved", test_rmse(&r), test_rmse(&still));
+            // The pause is named with the change it explains (its length and the row's own step).
+            let step = data.rows[from].t_s.unwrap() - data.rows[from - 1].t_s.unwrap();
+            match pause {
+                Some(p) => assert!(s.after_pause_s.is_some_and(|a| (a - p - step).abs() < 1e-6), "seed {seed}: {:?}", s.after_pause_s),
+                None => assert_eq!(s.after_pause_s, None, "seed {seed} {what}"),
+            }
+            assert_eq!(r.setup.as_ref().unwrap().lines().iter().any(|l| l.contains("after a pause of 2.00 h in t")), pause.is_some(), "{:?}", setup.lines());
+        }
+    }
+}

@@ -767,6 +767,10 @@ pub struct SetupPart {
     /// orientation on the flange; a draw-wire's station and a point's mount, which have no
     /// axes: 0).
     pub turn_deg: f64,
+    /// The pause in `t` before its first row, s, where the rows read one there (a found change
+    /// that a break between sessions explains).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub after_pause_s: Option<f64>,
 }
 
 impl SetupReport {
@@ -789,7 +793,8 @@ impl SetupReport {
             for (k, s) in parts.iter().enumerate() {
                 let at =
                     if k == 0 { "the reference".to_string() } else { format!("{:.3} mm and {:.4}° from {what} {}", s.shift_mm, s.turn_deg, parts[0].label) };
-                out.push(format!("  {what} {}: rows {}-{} ({} rows), {at}", s.label, s.first_row, s.last_row, s.rows));
+                let pause = s.after_pause_s.map_or(String::new(), |p| format!(", after a pause of {} in t", crate::units::duration(p)));
+                out.push(format!("  {what} {}: rows {}-{} ({} rows), {at}{pause}", s.label, s.first_row, s.last_row, s.rows));
             }
         }
         out

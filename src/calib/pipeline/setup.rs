@@ -67,7 +67,7 @@ pub fn resolve(data: &Dataset, opts: &CalibOptions, fit_all: FirstFit) -> Result
         }
         StationSource::Auto => {
             let tracker = matches!(data.measurement(), Some(Measurement::Point | Measurement::Pose));
-            if !tracker || !matches!(opts.model, super::options::ModelSpec::Nominal { .. }) || opts.free != super::options::FreeParams::All {
+            if !tracker || opts.free != super::options::FreeParams::All {
                 return Ok((None, Vec::new()));
             }
             find_changes(data, fit_all)
@@ -313,6 +313,7 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
                     last_row: rows.last().map_or(0, |r| r + 1),
                     shift_mm,
                     turn_deg: turn.map_or(0.0, |m| nalgebra::Rotation3::from_matrix_unchecked(m).angle().to_degrees()),
+                    after_pause_s: rows.first().filter(|_| s > 0).and_then(|&r| crate::dataset::blocks::pause_before(data, r)),
                 }
             })
             .collect()
