@@ -422,3 +422,76 @@ fn hide_in(
     s.name = format!("hidden-{seed}");
     Ok((s, robot, out))
 }
+
+/// How a tracker moved between two sessions of a campaign, as the benchmark hides it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TrackerMove {
+    /// Set up again elsewhere: metres away and tens of degrees turned.
+    Restationed,
+    /// Registered again on its reference marks: a millimetre or two, a twentieth of a degree.
+    Reregistered,
+    /// A tripod leg knocked: a fifth of a millimetre, a hundredth of a degree.
+    Bumped,
+}
+
+/// A tracker moved at row `from` (0-based): the readings from there on turned by `turn` about
+/// the tracker's origin, then shifted by `shift_mm`.
+#[derive(Clone, Copy, Debug)]
+pub struct MovedTracker {
+    /// The kind of move.
+    pub kind: TrackerMove,
+    /// The first row the tracker read from its new place.
+    pub from: usize,
+    /// The readings' turn.
+    pub turn: nalgebra::Rotation3<f64>,
+    /// The readings' shift after the turn, mm.
+    pub shift_mm: nalgebra::Vector3<f64>,
+}
+
+impl MovedTracker {
+    /// How far the tracker's origin moved, mm (the inverse of the readings' move).
+    pub fn origin_shift_mm(&self) -> f64 {
+        (self.turn.inverse() * -self.shift_mm).norm()
+    }
+    /// How far its axes turned, degrees.
+    pub fn turn_deg(&self) -> f64 {
+        self.turn.angle().to_degrees()
+    }
+    /// `data` as the moved tracker read it: rows `from..` moved (a 6-D reading's orientation
+    /// turned with it).
+    pub fn apply(&self, data: &Dataset) -> Dataset {
+        let mut d = data.clone();
+        for r in &mut d.rows[self.from..] {
+            let p = self.turn * nalgebra::Vector3::new(r.reading_mm[0], r.reading_mm[1], r.reading_mm[2]) + self.shift_mm;
+            r.reading_mm[..3].copy_from_slice(p.as_slice());
+            if r.reading_mm.len() == 6 {
+                let o = self.turn.matrix() * crate::measurement::Euler::XYZ.matrix([r.reading_mm[3], r.reading_mm[4], r.reading_mm[5]].map(f64::to_radians));
+                r.reading_mm[3..].copy_from_slice(&crate::measurement::Euler::XYZ.angles(&o).map(f64::to_degrees));
+            }
+        }
+        d
+    }
+}
+
+/// A clean tracker scenario ([`clean_tracker`]) whose tracker moves once, between 30 % and
+/// 70 % of the rows: re-stationed, re-registered or bumped by turns of the seed, each sized from
+/// the seed within its kind's range.
+pub fn moved_tracker(seed: u64) -> Result<(Scenario, Robot, MovedTracker)> {
+    let (mut s, robot) = clean_tracker(seed)?;
+    s.name = format!("tracker-moved-{seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x4d4f_5645_4420);
+    let kind = [TrackerMove::Restationed, TrackerMove::Reregistered, TrackerMove::Bumped][(seed % 3) as usize];
+    let (turn_deg, shift_mm): (std::ops::Range<f64>, std::ops::Range<f64>) = match kind {
+        TrackerMove::Restationed => (15.0..40.0, 300.0..1500.0),
+        TrackerMove::Reregistered => (0.02..0.1, 0.5..3.0),
+        TrackerMove::Bumped => (0.005..0.02, 0.1..0.3),
+    };
+    let axis = nalgebra::Unit::new_normalize(nalgebra::Vector3::new(rng.random_range(-0.2..0.2), rng.random_range(-0.2..0.2), 1.0));
+    let turn = nalgebra::Rotation3::from_axis_angle(&axis, rng.random_range(turn_deg).to_radians() * if rng.random_bool(0.5) { 1.0 } else { -1.0 });
+    let direction =
+        nalgebra::Unit::new_normalize(nalgebra::Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-0.3..0.3)));
+    let shift_mm = direction.into_inner() * rng.random_range(shift_mm);
+    let from = rng.random_range(TRACKER_POSES * 3 / 10..TRACKER_POSES * 7 / 10);
+    Ok((s, robot, MovedTracker { kind, from, turn, shift_mm }))
+}

@@ -59,7 +59,7 @@ impl crate::shard::Config for DetectionConfig {
 const VARIANTS: u64 = 8 + TRACKER_CASES.len() as u64;
 
 /// The tracker cases of each seed, in item order.
-const TRACKER_CASES: [TrackerCase; 4] = [TrackerCase::Clean, TrackerCase::Half, TrackerCase::PayloadRuns, TrackerCase::WarmUp];
+const TRACKER_CASES: [TrackerCase; 5] = [TrackerCase::Clean, TrackerCase::Half, TrackerCase::PayloadRuns, TrackerCase::WarmUp, TrackerCase::Moved];
 
 /// What one work item diagnoses.
 /// A tracker scenario of the detection part.
@@ -73,6 +73,8 @@ enum TrackerCase {
     PayloadRuns,
     /// 400 rows over a warm-up whose temperature sensor lags the structure.
     WarmUp,
+    /// 400 rows of a rigid arm, the tracker re-stationed, re-registered or bumped once.
+    Moved,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -113,6 +115,7 @@ impl Variant {
             Variant::Tracker(TrackerCase::Half) => "tracker-half".into(),
             Variant::Tracker(TrackerCase::PayloadRuns) => "tracker-payload".into(),
             Variant::Tracker(TrackerCase::WarmUp) => "tracker-warmup".into(),
+            Variant::Tracker(TrackerCase::Moved) => "tracker-moved".into(),
             Variant::Clean => "clean".into(),
             Variant::Realistic { decimals, effect } => {
                 format!(
@@ -137,7 +140,7 @@ pub struct DetectionItem {
     pub sized: bool,
     pub alarm: bool,
     /// `hidden`, `clean`, `realistic-<decimals>-<clean|above|below>` or
-    /// `tracker-<clean|half|payload|warmup>`.
+    /// `tracker-<clean|half|payload|warmup|moved>`.
     #[serde(default)]
     pub category: String,
     /// The size within 3 standard uncertainties (not the 30 % band).
@@ -295,7 +298,42 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             // The alarm: a set-up change found on a tracker that never moved.
             Ok(DetectionItem { extra, ..item(line, named, sized, moves > 0, within, sigma) })
         }
+        Variant::Tracker(TrackerCase::Moved) => moved_item(80_000 + seed, opts, item),
     }
+}
+
+/// A rigid arm's tracker data with the tracker moved once, diagnosed as the command runs it:
+/// `detected` where exactly one station change is found at the row it happened and sized
+/// (shift within 2 % + 0.01 mm, turn within 1 % + 0.001°), `alarm` where a cause is named.
+fn moved_item(
+    seed: u64,
+    opts: twincal::diagnose::DiagnoseOptions,
+    item: impl Fn(Option<String>, bool, bool, bool, bool, f64) -> DetectionItem,
+) -> Result<DetectionItem> {
+    let (s, robot, m) = twincal::diagnose::hidden::moved_tracker(seed)?;
+    let data = m.apply(&strip(&run_generate(&s, &robot, &Silent)?));
+    let sigma = twincal::diagnose::hidden::tracker_row_noise_mm(&s, &robot)?;
+    let request = twincal::requests::DiagnoseRequest::default();
+    let d = twincal::jobs::diagnose_loaded(&request, (opts, Default::default()), data, &|_| {})?;
+    let stations = d.report.setup.as_ref().map_or(&[][..], |s| &s.stations[..]);
+    let (shift, turn) = (m.origin_shift_mm(), m.turn_deg());
+    let found = match stations {
+        [_, st] => st.first_row == m.from + 1 && (st.shift_mm - shift).abs() < 0.02 * shift + 0.01 && (st.turn_deg - turn).abs() < 0.01 * turn + 0.001,
+        _ => false,
+    };
+    let alarm = !d.report.causes.is_empty();
+    let at = |st: &twincal::calib::pipeline::SetupPart| format!("row {} {:.3} mm {:.4} deg", st.first_row, st.shift_mm, st.turn_deg);
+    let line = (!found || alarm).then(|| {
+        format!(
+            "    seed {seed}: tracker {:?} at row {} by {shift:.3} mm and {turn:.4} deg -> {} station(s) [{}], {}",
+            m.kind,
+            m.from + 1,
+            stations.len().max(1),
+            stations.iter().skip(1).map(at).collect::<Vec<_>>().join("; "),
+            d.report.verdict
+        )
+    });
+    Ok(item(line, found, found, alarm, found, sigma))
 }
 
 /// The hidden tracker effects' size: what a rigid fit leaves of it, as multiples of one row's
@@ -364,6 +402,20 @@ pub fn print_detection(config: &DetectionConfig, items: &[DetectionItem]) {
     print_tracker(&of("tracker-clean"), &of("tracker-half"));
     print_payload_runs(&of("tracker-payload"));
     print_warm_up(&of("tracker-warmup"));
+    print_moved(&of("tracker-moved"));
+}
+
+/// The moved-tracker category's rates: the set-up change found and sized, no cause named.
+fn print_moved(runs: &[&DetectionItem]) {
+    if runs.is_empty() {
+        return;
+    }
+    println!(
+        "  a moved tracker ({} rows of a rigid arm, the tracker re-stationed, re-registered or bumped once between 30 and 70 % of the rows):",
+        twincal::diagnose::hidden::TRACKER_POSES
+    );
+    let [found, _, _, alarm] = rates(runs);
+    println!("    {found} set-up changes found at their row and sized (target 20/20), {alarm} false alarms: a cause named (target 0)");
 }
 
 /// How many of `items` `f` holds for.
