@@ -126,12 +126,33 @@ pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<D
     super::setup::resolve(data, opts, &|d: &Dataset| first_fit(d, opts))
 }
 
+/// The generic arm's search of a first fit runs on at most this many rows, spread evenly over
+/// the file (the fit itself then takes every row): its arm is a start, not the result.
+pub const FIRST_FIT_SEARCH_ROWS: usize = 2000;
+
 /// The model fitted to every row with the set-ups `data` names (no screen), the effects asked
 /// for included (a warm-up's drift left in the residuals would look like a slow train of
-/// moves): what the change-point search reads the residuals of.
+/// moves): what the change-point search reads the residuals of. Under the generic arm its
+/// search starts from [`FIRST_FIT_SEARCH_ROWS`] rows at most.
 fn first_fit(data: &Dataset, opts: &CalibOptions) -> Result<(CalibModel, Vec<f64>, Samples)> {
     let mut all = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
-    let mut model = crate::calib::pipeline::placement::place_sensor(opts, &all, [&data.stations().labels, &data.mounts().labels])?;
+    let labels = [&data.stations().labels[..], &data.mounts().labels[..]];
+    let mut model = match opts.model {
+        ModelSpec::Generic if all.len() > FIRST_FIT_SEARCH_ROWS => {
+            // Every k-th row of each set-up (station and mount), and at least its first 30.
+            let every = all.len().div_ceil(FIRST_FIT_SEARCH_ROWS);
+            let mut seen = std::collections::HashMap::new();
+            let spread: Vec<usize> = (0..all.len())
+                .filter(|&i| {
+                    let rank = seen.entry((all.inputs[i].station, all.inputs[i].mount)).or_insert(0usize);
+                    *rank += 1;
+                    (*rank - 1) % every == 0 || *rank <= 30
+                })
+                .collect();
+            crate::calib::pipeline::placement::place_sensor(opts, &all.subset(&spread), labels)?
+        }
+        _ => crate::calib::pipeline::placement::place_sensor(opts, &all, labels)?,
+    };
     if !opts.effects.is_empty() {
         all.inputs = add_effects(&mut model, data, opts)?.1;
     }
