@@ -138,6 +138,106 @@ pub const DEFAULT_HOLD_S: f64 = 2.0;
 /// Default joint speed of a measurement program's moves, a fraction of each joint's maximum.
 pub const DEFAULT_SPEED_FRACTION: f64 = 0.2;
 
+/// The words a program may not be named, of the three languages (RAPID and KRL read them in any
+/// case): the name is the module's, the `DEF`'s or the `def`'s.
+const KEYWORDS: &[&str] = &[
+    // RAPID
+    "module",
+    "endmodule",
+    "proc",
+    "endproc",
+    "func",
+    "endfunc",
+    "trap",
+    "endtrap",
+    "const",
+    "pers",
+    "var",
+    "if",
+    "then",
+    "else",
+    "elseif",
+    "endif",
+    "for",
+    "from",
+    "to",
+    "step",
+    "do",
+    "endfor",
+    "while",
+    "endwhile",
+    "test",
+    "case",
+    "default",
+    "endtest",
+    "return",
+    "goto",
+    "and",
+    "or",
+    "not",
+    "xor",
+    "div",
+    "mod",
+    "true",
+    "false",
+    "local",
+    "task",
+    "sysmodule",
+    "nostepin",
+    "viewonly",
+    "readonly",
+    "inout",
+    "raise",
+    "retry",
+    "trynext",
+    "error",
+    "undo",
+    "backward",
+    "connect",
+    "with",
+    "exit",
+    // KRL (beside the shared ones)
+    "def",
+    "end",
+    "defdat",
+    "enddat",
+    "deffct",
+    "endfct",
+    "decl",
+    "global",
+    "public",
+    "repeat",
+    "until",
+    "loop",
+    "endloop",
+    "switch",
+    "endswitch",
+    "halt",
+    "wait",
+    "sec",
+    "ptp",
+    "lin",
+    "circ",
+    "int",
+    "real",
+    "bool",
+    "char",
+    "struc",
+    "enum",
+    "signal",
+    "continue",
+    "exor",
+    // URScript (beside the shared ones)
+    "elif",
+    "in",
+    "break",
+    "pass",
+    "thread",
+    "run",
+    "kill",
+    "none",
+];
+
 /// Longest program name the three languages all take.
 pub const MAX_NAME: usize = 24;
 
@@ -158,6 +258,9 @@ impl Tour {
             && self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
         if !ok {
             return Err(Error::Invalid(format!("program name '{}': a letter, then letters, digits and '_', at most {MAX_NAME} characters", self.name)));
+        }
+        if KEYWORDS.iter().any(|k| k.eq_ignore_ascii_case(&self.name)) {
+            return Err(Error::Invalid(format!("program name '{}' is a keyword of RAPID, KRL or URScript: a controller would not load it", self.name)));
         }
         if self.q.is_empty() {
             return Err(Error::Invalid("a measurement program needs at least one pose".into()));

@@ -40,6 +40,9 @@ fn a_measurement_program_moves_through_the_tour_and_waits_at_each_pose() {
 fn tours_no_controller_runs_are_refused() {
     let bad = |t: Tour, lang: Language| lang.measurement_program(&t).unwrap_err().to_string();
     assert!(bad(Tour { name: "9lives".into(), ..tour(6) }, Language::Rapid).contains("program name"));
+    for (name, lang) in [("MODULE", Language::Rapid), ("def", Language::Krl), ("Thread", Language::Urscript), ("ptp", Language::Rapid)] {
+        assert!(bad(Tour { name: name.into(), ..tour(6) }, lang).contains("is a keyword"), "{name}");
+    }
     assert!(bad(Tour { q: vec![], ..tour(6) }, Language::Krl).contains("at least one pose"));
     let mut nan = tour(6);
     nan.q[2][1] = f64::NAN;

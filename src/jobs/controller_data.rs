@@ -76,6 +76,12 @@ impl HeldOut {
                         a.test_rows == b.test_rows
                     )));
                 }
+                // A subset beside itself (or beside another subset) is no comparison.
+                if crate::controller::ControllerData::of(f).is_ok() {
+                    return Err(Error::Invalid(
+                        "--full names a calibration of the controller subset, not a full one: give `calibrate`'s result without --controller-subset on the same rows".into(),
+                    ));
+                }
                 Some(f.evaluation.metrics.test_after.as_ref().map_or(f64::NAN, |t| t.rmse))
             }
         };

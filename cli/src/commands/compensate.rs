@@ -17,15 +17,22 @@ pub fn compensate(job: &twincal::jobs::CompensateJob, quiet: bool) -> Result<()>
         let done: Vec<&twincal::compensate::Compensated> =
             f.targets.iter().filter(|t| t.outcome == Outcome::Filtered).filter_map(|t| t.compensated.as_ref()).collect();
         let nothing = f.targets.iter().filter(|t| t.outcome == Outcome::NothingToMove).count();
+        // An RMS over no target is no error of zero.
+        let predicted = match done.is_empty() {
+            true => "no target filtered, so no predicted error to state".to_string(),
+            false => format!(
+                "predicted error of the written targets RMS {:.4} mm, of the filtered {:.6} mm",
+                rms(&mut done.iter().map(|t| t.nominal_error_mm)),
+                rms(&mut done.iter().map(|t| t.residual_mm))
+            ),
+        };
         eprintln!(
-            "filtered {} of {} targets ({nothing} with nothing to move, {} left as written, {} run-time motions left){}: predicted error of the written targets RMS {:.4} mm, of the filtered {:.6} mm; wrote {} and {}",
+            "filtered {} of {} targets ({nothing} with nothing to move, {} left as written, {} run-time motions left){}: {predicted}; wrote {} and {}",
             done.len(),
             f.targets.len(),
             f.targets.len() - done.len() - nothing,
             f.run_time.len(),
             s.payload.map_or(String::new(), |(m, c)| format!(" under a {m} kg payload at ({}, {}, {}) mm", c[0], c[1], c[2])),
-            rms(&mut done.iter().map(|t| t.nominal_error_mm)),
-            rms(&mut done.iter().map(|t| t.residual_mm)),
             job.filtered_dir.display(),
             job.report.display()
         );

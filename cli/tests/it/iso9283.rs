@@ -125,6 +125,10 @@ fn a_calibration_brings_the_held_out_pose_accuracy_of_twin_tracker_data_to_its_n
     let other = twincal(&["controller-data", "--model", s(&subset), "--full", s(&seed5), "--format", "krl", "--out", s(&dir.path().join("o.dat"))]);
     assert_eq!(other.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&other.stderr).contains("not calibrated on the same rows") && !dir.path().join("o.dat").exists());
+    // The subset given as its own full calibration is no comparison either.
+    let itself = twincal(&["controller-data", "--model", s(&subset), "--full", s(&subset), "--format", "krl", "--out", s(&dir.path().join("i.dat"))]);
+    assert_eq!(itself.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&itself.stderr).contains("not a full one") && !dir.path().join("i.dat").exists());
     let full = twincal(&["controller-data", "--model", s(&after), "--format", "krl", "--out", s(&dir.path().join("full.dat"))]);
     assert_eq!(full.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&full.stderr).contains("--controller-subset") && !dir.path().join("full.dat").exists());
