@@ -275,6 +275,11 @@ impl CompensateJob {
         for n in &f.run_time {
             warnings.push(format!("{}:{}:{}: {} left as written: {}", n.file, n.line, n.column, n.target, n.reason));
         }
+        if f.targets.is_empty() && f.run_time.is_empty() {
+            warnings.push(
+                "the program holds no motion target twincal reads (robtarget / jointtarget data or Move instructions, KRL POS / E6POS / AXIS, URScript movel / movej / movep / movec): written as it is".into(),
+            );
+        }
         Ok(CompensateSummary { reachable, not_reached: solved.len() - reachable, targets: solved, payload, warnings, program: Some(f) })
     }
 }

@@ -138,6 +138,13 @@ fn a_program_with_nothing_to_move_comes_back_byte_identical_and_bad_programs_are
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read(out.join("cell.mod")).unwrap(), module.as_bytes());
+    // A module with no motion at all: written as it is, and said (even with --quiet).
+    let empty = dir.path().join("empty.mod");
+    std::fs::write(&empty, "MODULE empty\n  PROC main()\n  ENDPROC\nENDMODULE\n").unwrap();
+    let (out2, r2) = (dir.path().join("f2"), dir.path().join("r2.csv"));
+    let o = twincal(&["--quiet", "compensate", "--model", s(&result), "--program", s(&empty), "--filtered-dir", s(&out2), "--report", s(&r2)]);
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stderr).contains("holds no motion target"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(out2.join("empty.mod")).unwrap(), std::fs::read(&empty).unwrap());
     // Bad programs and requests: exit code 2, a message naming the problem, nothing written.
     let bad = dir.path().join("bad.mod");
     std::fs::write(&bad, "MODULE bad\n  CONST robtarget p := [[1,2,3],[1,0,0,0],[0,0,0,0]];\nENDMODULE\n").unwrap();
