@@ -233,12 +233,13 @@ impl CompensateJob {
         let mut named: Vec<(&str, &std::path::Path)> = outputs.iter().map(|p| ("--filtered-dir", p.as_path())).collect();
         named.push(("--report", self.report.as_path()));
         check_outputs(&inputs, &named)?;
-        let read = |p: &PathBuf| -> Result<ProgramFile> {
-            let text = std::fs::read_to_string(p).map_err(|e| Error::data(p.display(), format!("cannot read it as text: {e}")))?;
-            Ok(ProgramFile { name: p.file_name().unwrap_or_default().to_string_lossy().into_owned(), text })
+        let read = |p: &PathBuf| -> Result<(ProgramFile, bool)> {
+            let bytes = std::fs::read(p).map_err(|e| Error::data(p.display(), format!("cannot read it: {e}")))?;
+            let (text, latin1) = program_text(bytes);
+            Ok((ProgramFile { name: p.file_name().unwrap_or_default().to_string_lossy().into_owned(), text }, latin1))
         };
-        let files: Vec<ProgramFile> = self.program.iter().map(read).collect::<Result<_>>()?;
-        let frames: Vec<ProgramFile> = self.frames.iter().map(read).collect::<Result<_>>()?;
+        let (files, latin1): (Vec<ProgramFile>, Vec<bool>) = self.program.iter().map(read).collect::<Result<Vec<_>>>()?.into_iter().unzip();
+        let frames: Vec<ProgramFile> = self.frames.iter().map(|p| read(p).map(|(f, _)| f)).collect::<Result<_>>()?;
         let r = CalibResult::load(&self.model)?;
         let robot = self.robot.as_deref().map(crate::jobs::files::named_robot).transpose()?;
         let mut warnings = Vec::new();
@@ -247,6 +248,9 @@ impl CompensateJob {
                 "no --robot: the model's base and flange frames are taken as the controller's (give the arm's URDF, or irb120, to read its base and tool0)"
                     .into(),
             );
+        }
+        for (p, _) in self.program.iter().zip(&latin1).filter(|(_, l)| **l) {
+            warnings.push(format!("{}: not UTF-8, read and written as ISO-8859-1 (Latin-1), as older controllers save their programs", p.display()));
         }
         let start_q = match &self.start_joints_deg {
             Some(q) if q.len() != r.model.chain.n_joints || q.iter().any(|v| !v.is_finite()) => {
@@ -261,8 +265,12 @@ impl CompensateJob {
         let options = filter::FilterOptions { joint_targets: self.joint_targets, leave: self.leave.clone(), start_q };
         let f = filter::filter_program(&c, &setup, lang, &files, &frames, &options)?;
         let mut out = OutputSet::new();
-        for (file, path) in f.files.iter().zip(&outputs) {
-            out.write(path, file.text.as_bytes())?;
+        for ((file, path), latin1) in f.files.iter().zip(&outputs).zip(&latin1) {
+            match latin1 {
+                // Every character came from one byte, and the filter writes ASCII only.
+                true => out.write(path, &file.text.chars().map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?')).collect::<Vec<u8>>())?,
+                false => out.write(path, file.text.as_bytes())?,
+            }
         }
         out.write(&self.report, filter::report_csv(&f).as_bytes())?;
         out.commit()?;
@@ -281,5 +289,14 @@ impl CompensateJob {
             );
         }
         Ok(CompensateSummary { reachable, not_reached: solved.len() - reachable, targets: solved, payload, warnings, program: Some(f) })
+    }
+}
+
+/// A program file's text: UTF-8 where the bytes are, else ISO-8859-1 (each byte its character,
+/// as RAPID and KRL files of older controllers are saved), with whether it was the latter.
+fn program_text(bytes: Vec<u8>) -> (String, bool) {
+    match String::from_utf8(bytes) {
+        Ok(text) => (text, false),
+        Err(e) => (e.into_bytes().iter().map(|&b| char::from(b)).collect(), true),
     }
 }

@@ -110,6 +110,31 @@ fn programs_are_filtered_in_place_in_each_language() {
                 f.text.split('\n').filter(|l| l.contains("twc_t") && l.contains(":=") || l.contains("DECL E6POS") || l.contains("movel(p[")).count();
             assert!(changed.len() <= target_lines && changed.len() >= if f.name.ends_with(".src") { 0 } else { 8 }, "{lang:?} {}: {changed:?}", f.name);
         }
+        // The same program saved in ISO-8859-1 with a degree sign in its first line: filtered
+        // to the same numbers, written back in its encoding.
+        let latin_dir = dir.path().join(format!("latin_{}", lang.name()));
+        std::fs::create_dir_all(&latin_dir).unwrap();
+        let mark = |t: &str| t.replacen('\n', " \u{b0}\n", 1);
+        let latin1 = |t: &str| t.chars().map(|c| c as u8).collect::<Vec<u8>>();
+        let latin_paths: Vec<_> = files.iter().map(|f| latin_dir.join(&f.name)).collect();
+        for (f, p) in files.iter().zip(&latin_paths) {
+            std::fs::write(p, latin1(&mark(&f.text))).unwrap();
+        }
+        let out_l = dir.path().join(format!("out_latin_{}", lang.name()));
+        let report_l = dir.path().join(format!("report_latin_{}.csv", lang.name()));
+        let mut args = vec!["--quiet", "compensate", "--model", s(&result), "--robot", "irb120", "--filtered-dir", s(&out_l), "--report", s(&report_l)];
+        for p in &latin_paths {
+            args.extend(["--program", s(p)]);
+        }
+        for p in &frame_paths {
+            args.extend(["--frames", s(p)]);
+        }
+        let o = twincal(&args);
+        assert!(o.status.success() && String::from_utf8_lossy(&o.stderr).contains("ISO-8859-1"), "{lang:?}: {}", String::from_utf8_lossy(&o.stderr));
+        for f in &files {
+            let utf8 = std::fs::read_to_string(out.join(&f.name)).unwrap();
+            assert_eq!(std::fs::read(out_l.join(&f.name)).unwrap(), latin1(&mark(&utf8)), "{lang:?} {}", f.name);
+        }
     }
 }
 
@@ -145,6 +170,17 @@ fn a_program_with_nothing_to_move_comes_back_byte_identical_and_bad_programs_are
     let o = twincal(&["--quiet", "compensate", "--model", s(&result), "--program", s(&empty), "--filtered-dir", s(&out2), "--report", s(&r2)]);
     assert!(o.status.success() && String::from_utf8_lossy(&o.stderr).contains("holds no motion target"), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read(out2.join("empty.mod")).unwrap(), std::fs::read(&empty).unwrap());
+    // An older controller's module saved in ISO-8859-1 (a degree sign in a comment): read and
+    // written back byte for byte in its encoding, and said.
+    let latin = dir.path().join("latin.mod");
+    let latin_bytes = module.replace("taught on the pendant", "taught at 20 \u{b0}C").chars().map(|c| c as u8).collect::<Vec<u8>>();
+    assert!(String::from_utf8(latin_bytes.clone()).is_err());
+    std::fs::write(&latin, &latin_bytes).unwrap();
+    let (out3, r3) = (dir.path().join("f3"), dir.path().join("r3.csv"));
+    let o =
+        twincal(&["--quiet", "compensate", "--model", s(&result), "--program", s(&latin), "--robot", "irb120", "--filtered-dir", s(&out3), "--report", s(&r3)]);
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stderr).contains("ISO-8859-1"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(out3.join("latin.mod")).unwrap(), latin_bytes);
     // Bad programs and requests: exit code 2, a message naming the problem, nothing written.
     let bad = dir.path().join("bad.mod");
     std::fs::write(&bad, "MODULE bad\n  CONST robtarget p := [[1,2,3],[1,0,0,0],[0,0,0,0]];\nENDMODULE\n").unwrap();
