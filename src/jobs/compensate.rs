@@ -235,6 +235,14 @@ impl CompensateJob {
         check_outputs(&inputs, &named)?;
         let read = |p: &PathBuf| -> Result<(ProgramFile, bool)> {
             let bytes = std::fs::read(p).map_err(|e| Error::data(p.display(), format!("cannot read it: {e}")))?;
+            if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
+                return Err(Error::data(p.display(), "a UTF-16 file: save the program as UTF-8 or ISO-8859-1"));
+            }
+            // A program is text: a control byte other than tab, line feed, form feed and carriage
+            // return says the file is something else (an archive, a binary backup).
+            if let Some(k) = bytes.iter().position(|&b| (b < 0x20 && !matches!(b, b'\t' | b'\n' | 0x0c | b'\r')) || b == 0x7f) {
+                return Err(Error::data(p.display(), format!("not a program's text: control byte 0x{:02x} at byte {k}", bytes[k])));
+            }
             let (text, latin1) = program_text(bytes);
             Ok((ProgramFile { name: p.file_name().unwrap_or_default().to_string_lossy().into_owned(), text }, latin1))
         };

@@ -186,10 +186,13 @@ fn a_program_with_nothing_to_move_comes_back_byte_identical_and_bad_programs_are
     std::fs::write(&bad, "MODULE bad\n  CONST robtarget p := [[1,2,3],[1,0,0,0],[0,0,0,0]];\nENDMODULE\n").unwrap();
     let txt = dir.path().join("prog.txt");
     std::fs::write(&txt, "MoveL p, v100, z10, tool0;").unwrap();
+    let binary = dir.path().join("backup.mod");
+    std::fs::write(&binary, b"MODULE\x00\x01\x02 binary").unwrap();
     let never = dir.path().join("never");
     for (args, needle) in [
         (vec!["--program", s(&bad)], "bad.mod:2:24: a robtarget is"),
         (vec!["--program", s(&txt)], "is not a program file"),
+        (vec!["--program", s(&binary)], "not a program's text: control byte 0x00 at byte 6"),
         (vec!["--program", s(&path), "--targets", s(&path)], "cannot be used with"),
         (vec!["--program", s(&path), "--filtered-dir", s(dir.path())], "is also an input"),
         (vec!["--program", s(&dir.path().join("nowhere.mod"))], "nowhere.mod"),
