@@ -233,20 +233,11 @@ impl CompensateJob {
         let mut named: Vec<(&str, &std::path::Path)> = outputs.iter().map(|p| ("--filtered-dir", p.as_path())).collect();
         named.push(("--report", self.report.as_path()));
         check_outputs(&inputs, &named)?;
-        let read = |p: &PathBuf| -> Result<(ProgramFile, bool)> {
-            let bytes = std::fs::read(p).map_err(|e| Error::data(p.display(), format!("cannot read it: {e}")))?;
-            if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
-                return Err(Error::data(p.display(), "a UTF-16 file: save the program as UTF-8 or ISO-8859-1"));
-            }
-            // A program is text: a control byte other than tab, line feed, form feed and carriage
-            // return says the file is something else (an archive, a binary backup).
-            if let Some(k) = bytes.iter().position(|&b| (b < 0x20 && !matches!(b, b'\t' | b'\n' | 0x0c | b'\r')) || b == 0x7f) {
-                return Err(Error::data(p.display(), format!("not a program's text: control byte 0x{:02x} at byte {k}", bytes[k])));
-            }
-            let (text, latin1) = program_text(bytes);
-            Ok((ProgramFile { name: p.file_name().unwrap_or_default().to_string_lossy().into_owned(), text }, latin1))
+        let read = |p: &PathBuf| -> Result<(ProgramFile, Encoding)> {
+            let (text, encoding) = Encoding::read(p)?;
+            Ok((ProgramFile { name: p.file_name().unwrap_or_default().to_string_lossy().into_owned(), text }, encoding))
         };
-        let (files, latin1): (Vec<ProgramFile>, Vec<bool>) = self.program.iter().map(read).collect::<Result<Vec<_>>>()?.into_iter().unzip();
+        let (files, encodings): (Vec<ProgramFile>, Vec<Encoding>) = self.program.iter().map(read).collect::<Result<Vec<_>>>()?.into_iter().unzip();
         let frames: Vec<ProgramFile> = self.frames.iter().map(|p| read(p).map(|(f, _)| f)).collect::<Result<_>>()?;
         let r = CalibResult::load(&self.model)?;
         let robot = self.robot.as_deref().map(crate::jobs::files::named_robot).transpose()?;
@@ -257,7 +248,7 @@ impl CompensateJob {
                     .into(),
             );
         }
-        for (p, _) in self.program.iter().zip(&latin1).filter(|(_, l)| **l) {
+        for (p, _) in self.program.iter().zip(&encodings).filter(|(_, e)| **e == Encoding::Latin1) {
             warnings.push(format!("{}: not UTF-8, read and written as ISO-8859-1 (Latin-1), as older controllers save their programs", p.display()));
         }
         let start_q = match &self.start_joints_deg {
@@ -273,12 +264,8 @@ impl CompensateJob {
         let options = filter::FilterOptions { joint_targets: self.joint_targets, leave: self.leave.clone(), start_q };
         let f = filter::filter_program(&c, &setup, lang, &files, &frames, &options)?;
         let mut out = OutputSet::new();
-        for ((file, path), latin1) in f.files.iter().zip(&outputs).zip(&latin1) {
-            match latin1 {
-                // Every character came from one byte, and the filter writes ASCII only.
-                true => out.write(path, &file.text.chars().map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?')).collect::<Vec<u8>>())?,
-                false => out.write(path, file.text.as_bytes())?,
-            }
+        for ((file, path), encoding) in f.files.iter().zip(&outputs).zip(&encodings) {
+            out.write(path, &encoding.bytes(&file.text, path)?)?;
         }
         out.write(&self.report, filter::report_csv(&f).as_bytes())?;
         out.commit()?;
@@ -300,11 +287,42 @@ impl CompensateJob {
     }
 }
 
-/// A program file's text: UTF-8 where the bytes are, else ISO-8859-1 (each byte its character,
-/// as RAPID and KRL files of older controllers are saved), with whether it was the latter.
-fn program_text(bytes: Vec<u8>) -> (String, bool) {
-    match String::from_utf8(bytes) {
-        Ok(text) => (text, false),
-        Err(e) => (e.into_bytes().iter().map(|&b| char::from(b)).collect(), true),
+/// How a program file's bytes hold its text: UTF-8, or ISO-8859-1 (each byte its character),
+/// as RAPID and KRL files of older controllers are saved. A file is read and written back in its
+/// own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Encoding {
+    Utf8,
+    Latin1,
+}
+
+impl Encoding {
+    /// The text of program file `p` and its encoding; a UTF-16 or binary file (a control byte
+    /// other than tab, line feed, form feed and carriage return: an archive, a binary backup) is
+    /// refused by name.
+    fn read(p: &std::path::Path) -> Result<(String, Encoding)> {
+        let bytes = std::fs::read(p).map_err(|e| Error::data(p.display(), format!("cannot read it: {e}")))?;
+        if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
+            return Err(Error::data(p.display(), "a UTF-16 file: save the program as UTF-8 or ISO-8859-1"));
+        }
+        if let Some(k) = bytes.iter().position(|&b| (b < 0x20 && !matches!(b, b'\t' | b'\n' | 0x0c | b'\r')) || b == 0x7f) {
+            return Err(Error::data(p.display(), format!("not a program's text: control byte 0x{:02x} at byte {k}", bytes[k])));
+        }
+        Ok(match String::from_utf8(bytes) {
+            Ok(text) => (text, Encoding::Utf8),
+            Err(e) => (e.into_bytes().iter().map(|&b| char::from(b)).collect(), Encoding::Latin1),
+        })
+    }
+
+    /// `text` as bytes of this encoding, for the file `path`; a character ISO-8859-1 has no byte
+    /// for is refused, not replaced.
+    fn bytes(self, text: &str, path: &std::path::Path) -> Result<Vec<u8>> {
+        match self {
+            Encoding::Utf8 => Ok(text.as_bytes().to_vec()),
+            Encoding::Latin1 => text
+                .chars()
+                .map(|c| u8::try_from(u32::from(c)).map_err(|_| Error::data(path.display(), format!("'{c}' has no ISO-8859-1 byte, the file's encoding"))))
+                .collect(),
+        }
     }
 }

@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use twincal::calib::pipeline::{calibrate, CalibOptions, Method, ModelSpec, Parametrisation, StationOrigin};
 use twincal::dataset::Dataset;
-use twincal::measurement::{Euler, Measurement};
+use twincal::diagnose::hidden::{MovedTracker, TrackerMove};
+use twincal::measurement::Measurement;
 
 fn root() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
@@ -29,20 +30,10 @@ fn ok(o: Output, what: &str) -> Output {
 }
 
 /// `data` with the readings of rows `from..` moved rigidly (turned by `turn` about the
-/// tracker's origin, then shifted by `shift_mm`): the tracker placed elsewhere. A pose's
-/// orientation turns with it.
+/// tracker's origin, then shifted by `shift_mm`): the tracker placed elsewhere, as
+/// [`MovedTracker::apply`] moves it.
 fn moved(data: &Dataset, from: usize, turn: Matrix3<f64>, shift_mm: Vector3<f64>) -> Dataset {
-    let mut d = data.clone();
-    for r in &mut d.rows[from..] {
-        let p = turn * Vector3::new(r.reading_mm[0], r.reading_mm[1], r.reading_mm[2]) + shift_mm;
-        r.reading_mm[..3].copy_from_slice(p.as_slice());
-        if r.reading_mm.len() == 6 {
-            let o = turn * Euler::XYZ.matrix([r.reading_mm[3], r.reading_mm[4], r.reading_mm[5]].map(f64::to_radians));
-            let a = Euler::XYZ.angles(&o).map(f64::to_degrees);
-            r.reading_mm[3..].copy_from_slice(&a);
-        }
-    }
-    d
+    MovedTracker { kind: TrackerMove::Restationed, from, turn: Rotation3::from_matrix_unchecked(turn), shift_mm }.apply(data)
 }
 
 fn options(robot: &twincal::robot::Robot) -> CalibOptions {

@@ -129,6 +129,8 @@ pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<D
 /// The generic arm's search of a first fit runs on at most this many rows, spread evenly over
 /// the file (the fit itself then takes every row): its arm is a start, not the result.
 pub const FIRST_FIT_SEARCH_ROWS: usize = 2000;
+/// ... and on at least this many of each set-up's rows (all of a smaller one).
+pub const FIRST_FIT_SEARCH_MIN_ROWS: usize = 30;
 
 /// The model fitted to every row with the set-ups `data` names (no screen), the effects asked
 /// for included (a warm-up's drift left in the residuals would look like a slow train of
@@ -139,14 +141,14 @@ fn first_fit(data: &Dataset, opts: &CalibOptions) -> Result<(CalibModel, Vec<f64
     let labels = [&data.stations().labels[..], &data.mounts().labels[..]];
     let mut model = match opts.model {
         ModelSpec::Generic if all.len() > FIRST_FIT_SEARCH_ROWS => {
-            // Every k-th row of each set-up (station and mount), and at least its first 30.
+            // Every k-th row of each set-up (station and mount), and at least its first few.
             let every = all.len().div_ceil(FIRST_FIT_SEARCH_ROWS);
             let mut seen = std::collections::HashMap::new();
             let spread: Vec<usize> = (0..all.len())
                 .filter(|&i| {
                     let rank = seen.entry((all.inputs[i].station, all.inputs[i].mount)).or_insert(0usize);
                     *rank += 1;
-                    (*rank - 1) % every == 0 || *rank <= 30
+                    (*rank - 1) % every == 0 || *rank <= FIRST_FIT_SEARCH_MIN_ROWS
                 })
                 .collect();
             crate::calib::pipeline::placement::place_sensor(opts, &all.subset(&spread), labels)?
