@@ -97,6 +97,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         acquisition: Acquisition { model: AcquisitionModel::QuasiStatic, ..Default::default() },
         glitches: None,
         workspace: None,
+        sockets: None,
     };
     // An acquisition that moves one or two joints at a time is written as sweeps.
     if let Some((len, share)) = sweeps(data) {

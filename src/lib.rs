@@ -39,6 +39,7 @@ pub mod requests;
 pub mod robot;
 pub mod seed;
 pub mod sim;
+pub mod sockets_check;
 pub mod stats;
 pub mod units;
 

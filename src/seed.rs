@@ -25,6 +25,9 @@ pub enum Stream {
     Plan = 10,
     /// A pose list's payload runs after the first: each run's noise and acquisition.
     PayloadRun = 11,
+    /// A ball seated in an artifact's sockets: each seated configuration's orientation, seat
+    /// and backlash flanks, one item per socket of each placement.
+    Seating = 12,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).

@@ -145,7 +145,7 @@ impl Dataset {
     /// What the rows' readings are (from their number of values, which the loader took from the
     /// header's columns); `None` for a dataset of poses without readings.
     pub fn measurement(&self) -> Option<Measurement> {
-        Measurement::of_file_dim(self.rows.first()?.reading_mm.len())
+        self.rows.first()?.measurement()
     }
 
     /// True when every row has a cable length (and there is at least one row).
@@ -155,7 +155,7 @@ impl Dataset {
 
     /// True when every row has a reading (and there is at least one row).
     pub fn has_readings(&self) -> bool {
-        !self.rows.is_empty() && self.rows.iter().all(|r| !r.reading_mm.is_empty())
+        !self.rows.is_empty() && self.rows.iter().all(|r| r.measurement().is_some())
     }
 
     /// An error naming the source unless every row has a cable length: calibration and anything
@@ -182,8 +182,8 @@ impl Dataset {
 
     /// An error naming the source unless every row has a reading of one kind (any instrument).
     pub fn require_readings(&self) -> Result<()> {
-        let d = self.rows.first().map_or(0, |r| r.reading_mm.len());
-        match self.rows.iter().position(|r| r.reading_mm.is_empty() || r.reading_mm.len() != d) {
+        let m = self.rows.first().and_then(|r| r.measurement());
+        match self.rows.iter().position(|r| r.measurement().is_none() || r.measurement() != m) {
             None if !self.rows.is_empty() => Ok(()),
             None => Err(Error::data(&self.source, "no rows")),
             Some(i) => Err(Error::data(
@@ -263,7 +263,11 @@ impl Dataset {
             out.push(("block".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.block.clone().unwrap_or_default()).collect())));
         }
         if all(|r| r.station.is_some()) {
-            out.push(("station".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.station.clone().unwrap_or_default()).collect())));
+            let name = if self.measurement() == Some(Measurement::Socket) { "placement" } else { "station" };
+            out.push((name.into(), ColumnValues::Texts(self.rows.iter().map(|r| r.station.clone().unwrap_or_default()).collect())));
+        }
+        if all(|r| r.socket.is_some()) {
+            out.push(("socket".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.socket.clone().unwrap_or_default()).collect())));
         }
         if all(|r| r.mount.is_some()) {
             out.push(("mount".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.mount.clone().unwrap_or_default()).collect())));

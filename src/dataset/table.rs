@@ -74,6 +74,8 @@ pub(super) enum Column {
     Station,
     /// A declared mount of the target on the flange (a probe re-mounted between sessions).
     Mount,
+    /// The socket of an artifact a ball on the flange was seated in (the row reads nothing).
+    Socket,
     /// A tracker's per-row standard deviation of position coordinate `k`: [`STD_COLUMNS`]`[k]`.
     Std(usize),
 }
@@ -89,7 +91,7 @@ pub const STD_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
 pub const MAX_STD_MM: f64 = 100.0;
 
 impl Column {
-    const OTHERS: [Column; 10] = [
+    const OTHERS: [Column; 11] = [
         Column::T,
         Column::Temp,
         Column::Split,
@@ -100,9 +102,13 @@ impl Column {
         Column::Payload,
         Column::Station,
         Column::Mount,
+        Column::Socket,
     ];
     /// Slots of the named columns ([`Self::OTHERS`]) before the reading columns.
-    const NAMED: usize = 10;
+    const NAMED: usize = 11;
+    /// The header an artifact's placement goes by: the station of a socket's rows (where the
+    /// artifact stood).
+    pub(super) const PLACEMENT: &'static str = "placement";
 
     /// Slot in [`Layout::pos`]: the named columns, the reading columns, then the joints.
     pub(super) fn index(self) -> usize {
@@ -115,6 +121,7 @@ impl Column {
             Column::Payload => 7,
             Column::Station => 8,
             Column::Mount => 9,
+            Column::Socket => 10,
             Column::Reading(i) => Self::NAMED + i,
             Column::Q(j) => Self::NAMED + reading_names().len() + j,
         }
@@ -131,6 +138,7 @@ impl Column {
             Column::Payload => "payload_kg".into(),
             Column::Station => "station".into(),
             Column::Mount => "mount".into(),
+            Column::Socket => "socket".into(),
             Column::Std(k) => STD_COLUMNS[k].into(),
         }
     }
@@ -159,6 +167,9 @@ impl Column {
         };
         if let Some(i) = reading_names().iter().position(|n| n.eq_ignore_ascii_case(bare)) {
             return Some(Column::Reading(i));
+        }
+        if h.eq_ignore_ascii_case(Self::PLACEMENT) {
+            return Some(Column::Station);
         }
         Self::OTHERS.into_iter().find(|c| c.name().eq_ignore_ascii_case(h))
     }
@@ -190,7 +201,13 @@ impl Layout {
         }
         // The joints are q1..qN with N the highest joint named; at least one is needed.
         let joints = (0..MAX_JOINTS).rev().find(|&j| pos[Column::Q(j).index()].is_some()).map_or(1, |j| j + 1);
-        let has = |m: &Measurement| m.def().file_columns().iter().all(|c| pos[Column::reading(c).index()].is_some());
+        // A ball in a socket reads no column: its rows name their socket.
+        let has = |m: &Measurement| {
+            if m.is_constant() {
+                return pos[Column::Socket.index()].is_some();
+            }
+            m.def().file_columns().iter().all(|c| pos[Column::reading(c).index()].is_some())
+        };
         let mut complete: Vec<Measurement> = Measurement::ALL.into_iter().filter(has).collect();
         // An instrument whose columns another one's include (a point's x, y, z in a pose's) is
         // that one; the one asked for is read alone.
@@ -439,14 +456,14 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
         if layout.pos[Column::Block.index()].is_some() && block.is_none() {
             return Err(cell_error(src, line, Column::Block, "empty block label; when the file has a block column, every row must name its block"));
         }
-        let [station, mount] = [Column::Station, Column::Mount].map(|c| match label(layout.cell(raw, c), c, line, src) {
+        let [station, mount, socket] = [Column::Station, Column::Mount, Column::Socket].map(|c| match label(layout.cell(raw, c), c, line, src) {
             Ok(None) if layout.pos[c.index()].is_some() => {
                 let what = c.name();
                 Err(cell_error(src, line, c, format!("empty {what} label; when the file has a {what} column, every row must name its {what}")))
             }
             other => other,
         });
-        let (station, mount) = (station?, mount?);
+        let (station, mount, socket) = (station?, mount?, socket?);
         let payload_kg = cells.number(layout.cell(raw, Column::Payload), Column::Payload, line)?;
         if let Some(m) = payload_kg {
             check_bounds(m, (0.0, MAX_PAYLOAD_KG), "payload (kg)", line, Column::Payload, src)?;
@@ -454,7 +471,7 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
         if payload_kg.is_none() {
             first_payload_missing = first_payload_missing.or(Some(line));
         }
-        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg, station, mount });
+        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg, station, mount, socket });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.
@@ -545,7 +562,7 @@ pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &
 
 /// Whether instrument `a`'s reading columns are all among `b`'s (a point's x, y, z in a pose's).
 fn within(a: &Measurement, b: &Measurement) -> bool {
-    a != b && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c))
+    a != b && !a.is_constant() && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c))
 }
 
 /// The spread (max − min) of `value` over `rows`.

@@ -181,6 +181,10 @@ pub struct Row {
     /// a probe re-mounted between sessions sits otherwise). Every mount has its own target (and
     /// probe orientation) in a calibration. `None` without the column.
     pub mount: Option<String>,
+    /// The socket of an artifact the ball on the flange was seated in (`socket` column: any
+    /// label; the row reads nothing, see [`Measurement::Socket`]). The artifact's placement is
+    /// the row's [`Self::station`] (a `placement` column). `None` without the column.
+    pub socket: Option<String>,
 }
 
 impl Row {
@@ -195,7 +199,16 @@ impl Row {
     /// The reading as the model reads its values (mm; see [`Measurement::dim`]): the columns
     /// themselves, or a pose's origin and axes. `None` without a reading.
     pub fn values_mm(&self) -> Option<Vec<f64>> {
-        Some(Measurement::of_file_dim(self.reading_mm.len())?.values_of_file(&self.reading_mm))
+        Some(self.measurement()?.values_of_file(&self.reading_mm))
+    }
+
+    /// What read the row: the instrument of its reading columns, or a ball in a socket when it
+    /// names one. `None` for a row of joint angles only.
+    pub fn measurement(&self) -> Option<Measurement> {
+        if self.socket.is_some() {
+            return Some(Measurement::Socket);
+        }
+        Measurement::of_file_dim(self.reading_mm.len())
     }
 }
 

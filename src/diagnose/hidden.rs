@@ -113,7 +113,7 @@ fn nominal_model(s: &Scenario, robot: &Robot) -> CalibModel {
 fn zero_samples(model: &CalibModel, data: &Dataset) -> Samples {
     let q: Vec<Vec<f64>> = data.rows.iter().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect();
     let dim = model.measurement.dim();
-    Samples::readings(q, vec![0.0; data.rows.len() * dim], dim)
+    Samples::of(model.measurement, q, vec![0.0; data.rows.len() * dim])
 }
 
 /// The scenario's commanded poses ([`poses`]), the [`nominal_model`], and the poses as

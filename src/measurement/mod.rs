@@ -10,6 +10,7 @@
 //! | `length` ([`length`]) | a draw-wire's cable length `L` | exit point (base frame, 3), length offset (1), tool point (flange frame, 3) |
 //! | `point` ([`point`]) | a laser tracker's target position `x, y, z` | base-to-tracker translation (3) and rotation (3), target point (flange frame, 3) |
 //! | `pose` ([`pose`]) | a 6-D probe's position and orientation `x, y, z, rx, ry, rz` (degrees, Euler angles), read by the model as nine lengths | base-to-tracker translation and rotation (6), probe orientation on the flange (3), probe origin (flange frame, 3) |
+//! | `socket` ([`socket`]) | none: a ball on the flange seated in a socket (`socket` and `placement` columns name which); the model reads the ball's centre minus the socket's, always zero | the socket's centre (base frame, 3; one station per socket), the ball's centre (flange frame, 3) |
 //!
 //! The placement is split in two: the instrument's own parameters (where it sits and its reading
 //! offset) and the **target** on the flange (the tool point the cable is hooked to, or the
@@ -26,6 +27,7 @@ pub mod length;
 mod placement;
 pub mod point;
 pub mod pose;
+pub mod socket;
 
 use nalgebra::{Matrix3, Vector3};
 pub use placement::Placement;
@@ -163,11 +165,14 @@ pub enum Measurement {
     Point,
     /// A laser tracker's 6-D pose of a probe (position and orientation), in the tracker's frame.
     Pose,
+    /// A ball on the flange seated in a socket of an artifact: no reading, the ball's centre
+    /// held at the socket's.
+    Socket,
 }
 
 impl Measurement {
     /// Every measurement type.
-    pub const ALL: [Measurement; 3] = [Measurement::Length, Measurement::Point, Measurement::Pose];
+    pub const ALL: [Measurement; 4] = [Measurement::Length, Measurement::Point, Measurement::Pose, Measurement::Socket];
 
     /// The registry: the type's implementation.
     pub fn def(self) -> &'static dyn Instrument {
@@ -175,6 +180,7 @@ impl Measurement {
             Measurement::Length => &length::Length,
             Measurement::Point => &point::Point,
             Measurement::Pose => &pose::Pose,
+            Measurement::Socket => &socket::Socket,
         }
     }
 
@@ -254,15 +260,17 @@ impl Measurement {
         self.def().reading(own, std::slice::from_ref(p), y)
     }
 
-    /// The measurement type with `dim` values per row as the model reads them. Every type has
-    /// its own dimension (a test holds it), so samples carry their type in their length.
-    pub fn of_dim(dim: usize) -> Option<Measurement> {
-        Self::ALL.into_iter().find(|m| m.dim() == dim)
+    /// The measurement type with `n` reading columns per dataset row (each type that reads
+    /// columns has its own number; a ball in a socket reads none, and its rows say so by their
+    /// socket: [`crate::dataset::Row::socket`]).
+    pub fn of_file_dim(n: usize) -> Option<Measurement> {
+        Self::ALL.into_iter().find(|m| m.file_dim() == n && n > 0)
     }
 
-    /// The measurement type with `n` reading columns per dataset row (its own number too).
-    pub fn of_file_dim(n: usize) -> Option<Measurement> {
-        Self::ALL.into_iter().find(|m| m.file_dim() == n)
+    /// Whether the rows of this type read nothing and hold a constant instead (a ball seated in
+    /// a socket).
+    pub fn is_constant(self) -> bool {
+        self.file_dim() == 0
     }
 }
 
@@ -353,16 +361,17 @@ mod tests {
     }
 
     #[test]
-    fn every_type_has_its_own_dimension_in_the_model_and_in_a_file() {
-        for m in Measurement::ALL {
-            assert_eq!(Measurement::of_dim(m.dim()), Some(m), "{}", m.name());
+    fn every_type_that_reads_columns_has_its_own_number_of_them() {
+        for m in Measurement::ALL.into_iter().filter(|m| !m.is_constant()) {
             assert_eq!(Measurement::of_file_dim(m.file_dim()), Some(m), "{}", m.name());
         }
+        assert_eq!(Measurement::of_file_dim(0), None, "no reading column: poses only, or a socket's rows");
     }
 
+    /// (A socket's placement is found by the pivot fit: tested in [`socket`].)
     #[test]
     fn locate_recovers_the_placement_of_exact_readings() {
-        for m in Measurement::ALL {
+        for m in Measurement::ALL.into_iter().filter(|m| !m.is_constant()) {
             let n_own = m.target_index();
             let own: Vec<f64> = (0..n_own).map(|k| 0.2 * (k as f64 * 1.3).cos() + 0.05).collect();
             let (pts, rots): (Vec<Vector3<f64>>, Vec<Matrix3<f64>>) = (0..40)

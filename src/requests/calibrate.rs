@@ -103,6 +103,11 @@ pub struct CalibrateRequest {
     /// the arm held at its nominal model; its held-out accuracy is what such a controller keeps.
     #[cfg_attr(feature = "clap", arg(long, conflicts_with = "placement_only"))]
     pub controller_subset: bool,
+    /// Known distance between sockets of the artifact a ball was seated in, mm: 50 for an
+    /// artifact of two sockets, A:B=50 between sockets A and B (repeat or comma-separate for
+    /// more); it holds on every placement of the artifact.
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', value_name = "[A:B=]MM"))]
+    pub spacing_mm: Vec<crate::calib::model::KnownSpacing>,
 }
 
 impl Default for CalibrateRequest {
@@ -125,6 +130,7 @@ impl Default for CalibrateRequest {
             robust: Robust::default(),
             placement_only: false,
             controller_subset: false,
+            spacing_mm: Vec::new(),
         }
     }
 }
@@ -171,6 +177,7 @@ impl CalibrateRequest {
                 (false, false) => FreeParams::All,
             },
             stations: a.reading.stations,
+            spacings: a.spacing_mm.clone(),
             ..CalibOptions::new(model, a.method)
         };
         if opts.free != FreeParams::All {

@@ -7,6 +7,7 @@
 //! scenario and seed). Nothing here reads a calibration: the calibration side sees only the
 //! dataset, never these settings.
 
+pub mod artifact;
 pub mod effects;
 pub mod generate;
 pub mod instrument;

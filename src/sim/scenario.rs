@@ -71,6 +71,11 @@ pub struct Scenario {
     /// sight and range): sampled and planned poses keep clear of it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub workspace: Option<crate::sim::workspace::Workspace>,
+    /// A ball on the flange seated in the sockets of an artifact (`[sockets]`): `generate`
+    /// writes the seated joint angles instead of the instrument's readings
+    /// ([`crate::sim::artifact`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sockets: Option<crate::sim::artifact::Sockets>,
 }
 
 /// Runs of consecutive disturbed readings (in acquisition order): `runs` runs of `rows` rows
@@ -387,6 +392,9 @@ impl Scenario {
             if self.glitches.is_some() {
                 return Err(err(format!("[glitches] disturb a cable's reading; a [{}] scenario has none", i.key())));
             }
+        }
+        if let Some(a) = &self.sockets {
+            a.validate().map_err(err)?;
         }
         self.validate_geometry(robot).map_err(err)?;
         self.validate_sampling(robot).map_err(err)?;

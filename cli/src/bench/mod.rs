@@ -12,6 +12,8 @@
 //! * [`noise`]: `bench noise-model` (the logging error modelled or not, in lm, dsade-gkan and
 //!   pso-ekf-awnn, on realistic acquisitions of the twin);
 //! * [`replay`]: `bench replay` (1 000 rows replayed against 5 s, the identified twin's cost);
+//! * [`sockets`]: `bench sockets` (a ball seated in an artifact's sockets: calibrated from the
+//!   seated rows, judged on unseen tracker points);
 //! * [`stations`]: `bench stations` (a tracker moved during the acquisition: found, sized, no
 //!   false alarm; a 3-station campaign of 3 000 poses timed).
 
@@ -26,5 +28,6 @@ pub mod plan;
 pub mod programs;
 pub mod real;
 pub mod replay;
+pub mod sockets;
 pub mod stations;
 pub mod twin;

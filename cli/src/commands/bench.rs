@@ -85,6 +85,7 @@ pub fn bench_command(a: &BenchArgs, quiet: bool) -> Result<()> {
         BenchTarget::Plan => crate::bench::plan::bench_plan(seeds, repeat),
         BenchTarget::PlanHidden => crate::bench::plan::hidden(seeds),
         BenchTarget::Stations => crate::bench::stations::bench_stations(seeds),
+        BenchTarget::Sockets => crate::bench::sockets::bench_sockets(seeds),
     }
 }
 
@@ -118,6 +119,7 @@ fn takes(what: BenchTarget) -> Takes {
         BenchTarget::Plan => t(false, false, Some(10), "IRB 120 tracker and cable scenarios; --repeat runs of the speed"),
         BenchTarget::PlanHidden => t(false, false, Some(10), "the IRB 120 tracker scenario with compliance hidden"),
         BenchTarget::Stations => t(false, false, Some(20), "IRB 120 point and UR10 pose tracker scenarios with the tracker moved"),
+        BenchTarget::Sockets => t(false, false, Some(10), "the IRB 120 ball-in-socket scenario, judged on its tracker's points"),
     }
 }
 

@@ -14,6 +14,12 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
         outputs_named.push(("--rrd", p));
     }
     let (mut s, robot) = load_scenario(scenario)?;
+    if s.sockets.is_some() && poses.is_none() {
+        if let Some(seed) = seed {
+            s.seed = seed;
+        }
+        return seat(&s, &robot, scenario, out, rrd, quiet);
+    }
     let mut read = scenario_inputs(scenario, &s);
     read.extend(poses.map(|p| ("--poses", p.to_path_buf())));
     check_outputs(&read, &outputs_named)?;
@@ -87,4 +93,51 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     if let Some(p) = rrd {
         eprintln!("  wrote {}", p.display());
     }
+}
+
+/// `twincal generate` of a scenario with `[sockets]`: the ball seated in the artifact's sockets,
+/// dataset.csv (joint angles, socket, placement, t, split) and sockets.json (the truth).
+fn seat(
+    s: &twincal::sim::scenario::Scenario,
+    robot: &twincal::robot::Robot,
+    scenario: Option<&Path>,
+    out: &Path,
+    rrd: Option<&Path>,
+    quiet: bool,
+) -> Result<()> {
+    if rrd.is_some() {
+        return Err(Error::Invalid(
+            "--rrd records a tour of the instrument's readings; a [sockets] scenario's recording is not written yet (drop --rrd)".into(),
+        ));
+    }
+    let art = s.sockets.as_ref().expect("a [sockets] scenario");
+    let dataset = out.join(twincal::dataset::DATASET_FILE);
+    let truth = out.join(twincal::sim::artifact::SOCKETS_TRUTH_FILE);
+    check_outputs(&scenario_inputs(scenario, s), &[("--out", dataset.as_path()), ("--out", truth.as_path())])?;
+    let t0 = Instant::now();
+    let twin = twincal::sim::generate::build_twin(s, robot);
+    let (data, t) = twincal::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
+    let mut outputs = OutputSet::new();
+    outputs.write(&dataset, data.to_csv_string().as_bytes())?;
+    outputs.write_json(&truth, &t)?;
+    outputs.commit()?;
+    if !quiet {
+        let test = data.rows.iter().filter(|r| r.split == Some(twincal::dataset::Split::Test)).count();
+        eprintln!(
+            "scenario {} (seed {}): a ball seated {} times in {} sockets at {} placements ({} train / {test} test) in {:.2} s; {} configurations out of reach redrawn",
+            s.name,
+            s.seed,
+            data.rows.len(),
+            art.layout_mm.len(),
+            art.placements.len(),
+            data.rows.len() - test,
+            t0.elapsed().as_secs_f64(),
+            t.unreachable
+        );
+        for (a, b, d) in &t.designed_spacings_mm {
+            eprintln!("  spacing {a}:{b} designed {d:.3} mm (state it with calibrate --spacing-mm {a}:{b}={d})");
+        }
+        eprintln!("  wrote {} and {}", dataset.display(), truth.display());
+    }
+    Ok(())
 }

@@ -97,6 +97,10 @@ pub enum BenchTarget {
     /// bumped found at its rows and sized, no false alarm on one that never moved or on a
     /// misfit; a 3-station campaign of 3 000 poses timed.
     Stations,
+    /// A ball seated in an artifact's sockets on the twin: calibrated from the seated rows
+    /// alone, judged on unseen tracker points of the same arm beside the nominal arm and a
+    /// tracker calibration from as many rows.
+    Sockets,
 }
 
 /// `--shard i/N --shard-out PART.jsonl` of `study hold` and `bench diagnose` (see

@@ -44,6 +44,8 @@ pub struct Samples {
     pub y: Vec<f64>,
     /// Values per row ([`Measurement::dim`](crate::measurement::Measurement::dim)).
     pub dim: usize,
+    /// What read the rows.
+    pub measurement: crate::measurement::Measurement,
     /// What each row carries besides q and its reading (time, temperature, torques, backlash sides).
     pub inputs: Vec<RowInputs>,
     /// The square root of each value's weight in the fit, relative (about 1 for a typical
@@ -61,11 +63,20 @@ impl Samples {
     pub fn new(q: Vec<Vec<f64>>, l: Vec<f64>) -> Self {
         Samples::readings(q, l, 1)
     }
-    /// Readings of `dim` values per row with no per-row inputs.
+    /// Readings of `dim` values per row with no per-row inputs: a draw-wire's lengths (1), a
+    /// tracker's points (3) or poses (9).
     pub fn readings(q: Vec<Vec<f64>>, y: Vec<f64>, dim: usize) -> Self {
+        use crate::measurement::Measurement;
+        let m = [Measurement::Length, Measurement::Point, Measurement::Pose].into_iter().find(|m| m.dim() == dim).unwrap_or_default();
+        Samples::of(m, q, y)
+    }
+    /// Readings of instrument `measurement` ([`Measurement::dim`](crate::measurement::Measurement::dim)
+    /// values per row) with no per-row inputs.
+    pub fn of(measurement: crate::measurement::Measurement, q: Vec<Vec<f64>>, y: Vec<f64>) -> Self {
+        let dim = measurement.dim();
         debug_assert_eq!(q.len() * dim, y.len());
         let inputs = vec![RowInputs::default(); q.len()];
-        Samples { q, y, dim, inputs, w: None, gls: None }
+        Samples { q, y, dim, measurement, inputs, w: None, gls: None }
     }
     /// The rows `idx`.
     pub fn subset(&self, idx: &[usize]) -> Samples {
@@ -73,6 +84,7 @@ impl Samples {
             q: idx.iter().map(|&i| self.q[i].clone()).collect(),
             y: idx.iter().flat_map(|&i| self.row(i).iter().copied()).collect(),
             dim: self.dim,
+            measurement: self.measurement,
             inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
             w: self.w.as_ref().map(|w| idx.iter().flat_map(|&i| w[i * self.dim..(i + 1) * self.dim].iter().copied()).collect()),
             gls: self.gls.as_ref().map(|g| g.subset(idx)),
@@ -103,7 +115,8 @@ impl Samples {
 }
 
 /// A model fitted to samples: one residual per reading value, row after row, each scaled by its
-/// weight factor ([`Samples::w`]; mm as they are without weights).
+/// weight factor ([`Samples::w`]; mm as they are without weights), then one per known spacing of
+/// the model's sockets ([`CalibModel::spacings`], mm), which no row carries.
 pub struct ReadingFit<'a> {
     /// The model.
     pub model: &'a CalibModel,
@@ -112,7 +125,8 @@ pub struct ReadingFit<'a> {
 }
 
 impl ReadingFit<'_> {
-    /// Residuals (mm, weighted as the fit sees them: [`Samples::w`]) at `x`.
+    /// The rows' residuals (mm, weighted as the fit sees them: [`Samples::w`]) at `x`, without
+    /// the spacings'.
     pub fn residuals_mm(&self, x: &[f64]) -> Vec<f64> {
         let mut r = vec![0.0; self.data.y.len()];
         LeastSquares::residuals(self, x, &mut r);
@@ -125,11 +139,14 @@ impl LeastSquares for ReadingFit<'_> {
         self.model.n_params()
     }
     fn n_residuals(&self) -> usize {
-        self.data.y.len()
+        self.data.y.len() + self.model.spacings.len()
     }
+    /// The rows' residuals, and the spacings' where `r` has room for them.
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
         crate::progress::check_stop();
-        let d = self.data.dim;
+        let (d, ny) = (self.data.dim, self.data.y.len());
+        let (r, spacing) = r.split_at_mut(ny);
+        self.model.spacing_residuals(x, spacing);
         let mut y = [0.0; MAX_DIM];
         with_work(self.model, |w| {
             for (i, ri) in r.chunks_mut(d).enumerate() {
@@ -201,10 +218,24 @@ impl ReadingFit<'_> {
                 }
             }
         });
+        let ny = self.data.y.len();
+        // The spacings' rows where `j` has room for them (a Jacobian of the rows alone has not).
+        if !self.model.spacings.is_empty() && ld >= ny + self.model.spacings.len() {
+            let mut g = vec![0.0; n * self.model.spacings.len()];
+            self.model.spacing_jacobian(x, &mut g);
+            for (k, row) in g.chunks(n).enumerate() {
+                for (c, v) in row.iter().enumerate() {
+                    js[c * ld + ny + k] = *v;
+                }
+            }
+            if let Some(r) = r.as_deref_mut().filter(|r| r.len() > ny) {
+                self.model.spacing_residuals(x, &mut r[ny..]);
+            }
+        }
         if let Some(g) = &self.data.gls {
             g.apply_rows(j);
             if let Some(r) = r {
-                g.apply(r);
+                g.apply(&mut r[..ny]);
             }
         }
     }

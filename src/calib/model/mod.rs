@@ -18,11 +18,13 @@
 
 mod dh;
 mod setup;
+mod spacing;
 pub mod tolerance;
 
 pub use crate::measurement::Placement;
 pub use dh::{DhRow, DhTable, NEARLY_PARALLEL_RAD};
 pub use setup::SetupKind;
+pub use spacing::{resolve_spacings, KnownSpacing, Spacing, MAX_SPACING_MM};
 
 use crate::calib::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::measurement::{Measurement, MAX_DIM, MAX_OWN, MAX_TARGETS};
@@ -144,6 +146,11 @@ pub struct CalibModel {
     /// mount. A row says its mount in [`RowInputs::mount`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mounts: Vec<String>,
+    /// Known distances between sockets of one artifact placement (a ball seated in sockets:
+    /// [`Measurement::Socket`]), each a residual of its own beside the rows'. Empty for every
+    /// other instrument.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub spacings: Vec<Spacing>,
 }
 
 /// The instrument's placement one row is read with: its own parameters (its station's where the
@@ -230,6 +237,7 @@ impl CalibModel {
         self.measurement = m;
         self.stations = Vec::new();
         self.mounts = Vec::new();
+        self.spacings = Vec::new();
         self
     }
     /// Indices of the instrument's placement parameters in the parameter vector.
@@ -635,6 +643,7 @@ impl CalibModel {
             measurement: placement.measurement,
             stations: Vec::new(),
             mounts: Vec::new(),
+            spacings: Vec::new(),
         };
         model.with_placement(placement)
     }

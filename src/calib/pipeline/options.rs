@@ -171,6 +171,9 @@ pub struct CalibOptions {
     pub free: FreeParams,
     /// Where the instrument's stations come from ([`super::setup`]).
     pub stations: StationSource,
+    /// Known distances between sockets of the artifact a ball was seated in (its rows'
+    /// scale); refused for another instrument's rows.
+    pub spacings: Vec<crate::calib::model::KnownSpacing>,
 }
 
 /// Default effort of the stochastic methods and of the generic arm's search (their default
@@ -197,6 +200,7 @@ impl CalibOptions {
             floor: FloorOptions::default(),
             free: FreeParams::All,
             stations: StationSource::Auto,
+            spacings: Vec::new(),
         }
     }
     /// The robot whose inertial data give the joint torques: the one given for the purpose

@@ -40,7 +40,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let stations = labels[0];
     let spec = &opts.model;
     let zero_guess = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
-    let measurement = Measurement::of_dim(train.dim).unwrap_or_default();
+    let measurement = train.measurement;
     let what = measurement.def().describe();
     refuse_cable_options(opts, measurement)?;
     if measurement == Measurement::Length && !matches!(spec, ModelSpec::Nominal { .. }) {
@@ -83,6 +83,12 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| {
             Error::Calibration(match measurement {
                 Measurement::Length => format!("cannot locate the cable exit point{label}: need at least 6 well-spread poses"),
+                Measurement::Socket => format!(
+                    "cannot place the socket{label} from the nominal arm: {} seated configuration(s); the ball's centre on the flange shows only when the tool turns about it: seat at least {} configurations turned by more than {:.0} deg",
+                    rows.len(),
+                    crate::measurement::socket::MIN_ROWS_PER_SOCKET,
+                    crate::measurement::socket::MIN_TURN_RAD.to_degrees()
+                ),
                 _ => format!("cannot place the instrument ({what}){label} from the nominal arm: need at least 3 poses whose points are not on one line"),
             })
         })?;
@@ -127,7 +133,10 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         others[1].push(values(&p, SetupKind::Mount));
     }
     let [st, mo] = others;
-    let model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
+    let mut model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
+    if measurement == Measurement::Socket {
+        model.spacings = crate::calib::model::resolve_spacings(stations, &opts.spacings)?;
+    }
     Ok((align_placement(model, train, opts.rank_tol), report))
 }
 
@@ -135,6 +144,9 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
 /// instrument's rows.
 fn refuse_cable_options(opts: &CalibOptions, measurement: Measurement) -> Result<()> {
     let what = measurement.def().describe();
+    if measurement != Measurement::Socket && !opts.spacings.is_empty() {
+        return Err(Error::Invalid(format!("--spacing-mm states the distance between an artifact's sockets; these rows hold a {what}")));
+    }
     if measurement != Measurement::Length {
         if opts.draw_wire_guess.is_some() {
             return Err(Error::Invalid(format!("--draw-wire-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));

@@ -8,7 +8,7 @@ use super::result::{CalibResult, ParamReport};
 use super::setup::{label_mut, label_of};
 use crate::calib::effects::RowInputs;
 use crate::calib::fit::{ReadingFit, Samples};
-use crate::calib::model::SetupKind;
+use crate::calib::model::{CalibModel, Placement, SetupKind};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::optim::{LevenbergMarquardt, NoObserver};
@@ -239,4 +239,38 @@ impl CalibResult {
         }
         Ok((model, x))
     }
+}
+
+/// The arm of `model` at `x` (its chain held as calibrated) read by the instrument of `data`'s
+/// rows: that instrument placed from the calibrated flange on `rows` (where it stands and its
+/// target on the flange, both fitted; nothing of the arm). How a calibration by one kind of
+/// data is judged on another: a ball-in-socket calibration, which never sees the base frame,
+/// on a tracker's points once the tracker is registered. The model must have no effect block.
+pub fn under_instrument(model: &CalibModel, x: &[f64], data: &Dataset, rows: &[usize]) -> Result<(CalibModel, Vec<f64>)> {
+    let m = data.measurement().ok_or_else(|| Error::data(&data.source, "the rows hold no reading to register an instrument on"))?;
+    if !model.effects.is_empty() {
+        return Err(Error::Invalid("a model with effect blocks is registered under its own instrument only".into()));
+    }
+    let nc = model.n_chain();
+    let zero = Placement { measurement: m, own: vec![0.0; m.target_index()], tool: nalgebra::Vector3::zeros() };
+    let mut other = model.clone().with_placement(&zero);
+    other.nominal[..nc].copy_from_slice(&x[..nc]);
+    let sub = super::split::samples(data, rows);
+    let mut w = other.work();
+    let flanges: Vec<_> = sub.q.iter().map(|q| other.flange_frame(&other.nominal, q, &mut w)).collect();
+    let pts: Vec<_> = flanges.iter().map(|f| f.pos).collect();
+    let rots: Vec<_> = flanges.iter().map(|f| f.rot).collect();
+    let (own, tool) = m
+        .def()
+        .locate(&pts, &rots, &sub.y)
+        .ok_or_else(|| Error::Calibration(format!("cannot place the {} from the calibrated arm on {} rows", m.def().describe(), rows.len())))?;
+    let mut start = other.nominal.clone();
+    other.set_placement(&mut start, &Placement { measurement: m, own, tool });
+    let fixed: Vec<bool> = (0..start.len()).map(|k| k < nc).collect();
+    let fit = ReadingFit { model: &other, data: &Samples { w: None, gls: None, ..sub } };
+    let x = LevenbergMarquardt::budget(200).minimize(&fit, &start, &fixed, &mut NoObserver).x;
+    if x.iter().any(|v| !v.is_finite()) {
+        return Err(Error::Calibration("the instrument's registration diverged".into()));
+    }
+    Ok((other, x))
 }

@@ -85,6 +85,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
         q: rows.clone().map(|r| r.q_deg.iter().map(|d| d.to_radians()).collect()).collect(),
         y: rows.clone().flat_map(reading).collect(),
         dim,
+        measurement: m.unwrap_or_default(),
         inputs: idx
             .iter()
             .zip(rows)

@@ -258,7 +258,7 @@ pub struct Searched {
 /// data's joint count in turn.
 fn candidates(train: &Samples, starts: usize, q_ref: &[f64], seed: u64) -> Result<Vec<Option<CalibModel>>> {
     let n = q_ref.len();
-    let measurement = Measurement::of_dim(train.dim).unwrap_or_default();
+    let measurement = train.measurement;
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6765_6e65_7269_6336);
     if measurement == Measurement::Length {
         if n != 6 {

@@ -1,0 +1,234 @@
+//! Known distances between sockets of one artifact: residual blocks on two stations' socket
+//! centres alone, no row behind them. Sockets seated by a ball fix where the sockets are
+//! relative to the arm, not how large the arm is (the whole arm, the ball and the sockets
+//! scaled together read the same); a known spacing between two sockets of one placement is what
+//! gives the arm its scale.
+
+use super::{CalibModel, SetupKind};
+use crate::measurement::Measurement;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+/// A known distance between the sockets of stations `a` and `b` (one placement of one artifact).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Spacing {
+    /// The first socket's station (index into the model's stations).
+    pub a: usize,
+    /// The second socket's station.
+    pub b: usize,
+    /// The distance between their centres as the artifact was made, mm.
+    pub mm: f64,
+}
+
+impl CalibModel {
+    /// The centre of the socket of station `s` (m, base frame) and the parameter indices its
+    /// coordinates come from.
+    fn socket_centre(&self, x: &[f64], s: usize) -> (Vector3<f64>, [usize; 3]) {
+        debug_assert_eq!(self.measurement, Measurement::Socket);
+        let r = self.placement_range();
+        let cols = if s == 0 {
+            [r.start, r.start + 1, r.start + 2]
+        } else {
+            let b = self.setup_block(SetupKind::Station, s);
+            [b.start, b.start + 1, b.start + 2]
+        };
+        (Vector3::new(x[cols[0]], x[cols[1]], x[cols[2]]), cols)
+    }
+
+    /// The distance (mm) between the sockets of spacing `k` at `x`.
+    pub fn spacing_mm(&self, x: &[f64], k: usize) -> f64 {
+        let sp = &self.spacings[k];
+        crate::units::to_mm((self.socket_centre(x, sp.a).0 - self.socket_centre(x, sp.b).0).norm())
+    }
+
+    /// The spacings' residuals (mm: known minus modelled distance) into `r`, one per spacing.
+    pub fn spacing_residuals(&self, x: &[f64], r: &mut [f64]) {
+        for (k, rk) in r.iter_mut().enumerate().take(self.spacings.len()) {
+            *rk = self.spacings[k].mm - self.spacing_mm(x, k);
+        }
+    }
+
+    /// The spacings' residuals' derivatives (mm per parameter unit) into `jac`, row-major, one
+    /// row of [`Self::n_params`] per spacing.
+    pub fn spacing_jacobian(&self, x: &[f64], jac: &mut [f64]) {
+        let n = self.n_params();
+        for (k, sp) in self.spacings.iter().enumerate() {
+            let row = &mut jac[k * n..(k + 1) * n];
+            row.iter_mut().for_each(|v| *v = 0.0);
+            let ((pa, ca), (pb, cb)) = (self.socket_centre(x, sp.a), self.socket_centre(x, sp.b));
+            let d = pa - pb;
+            let u = d / d.norm().max(1e-12);
+            for i in 0..3 {
+                row[ca[i]] -= crate::units::MM_PER_M * u[i];
+                row[cb[i]] += crate::units::MM_PER_M * u[i];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::model::{DrawWireGuess, Placement};
+    use crate::robot::Robot;
+
+    #[test]
+    fn spacing_derivatives_match_finite_differences() {
+        let guess = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+        let socket = Placement { measurement: Measurement::Socket, own: vec![0.4, 0.1, 0.2], tool: Vector3::new(0.0, 0.0, 0.05) };
+        let model = CalibModel::dh(&Robot::irb120(), &guess, true).with_placement(&socket);
+        let mut model = model.with_setups((vec!["p/a".into(), "p/b".into(), "p/c".into()], &[vec![0.45, 0.1, 0.2], vec![0.43, 0.14, 0.21]]), (Vec::new(), &[]));
+        let x = model.nominal.clone();
+        model.spacings = vec![Spacing { a: 0, b: 1, mm: 50.01 }, Spacing { a: 1, b: 2, mm: 49.0 }];
+        let n = model.n_params();
+        let mut jac = vec![0.0; 2 * n];
+        model.spacing_jacobian(&x, &mut jac);
+        let mut r0 = [0.0; 2];
+        model.spacing_residuals(&x, &mut r0);
+        assert!((r0[0] - 0.01).abs() < 1e-9, "{r0:?}");
+        let h = 1e-7;
+        for p in 0..n {
+            let (mut a, mut b) = (x.clone(), x.clone());
+            a[p] += h;
+            b[p] -= h;
+            let (mut ra, mut rb) = ([0.0; 2], [0.0; 2]);
+            model.spacing_residuals(&a, &mut ra);
+            model.spacing_residuals(&b, &mut rb);
+            for k in 0..2 {
+                let fd = (ra[k] - rb[k]) / (2.0 * h);
+                assert!((fd - jac[k * n + p]).abs() < 1e-5, "spacing {k} d/d{}: {fd} vs {}", model.names[p], jac[k * n + p]);
+            }
+        }
+    }
+}
+
+/// A known distance between two sockets of an artifact as a user states it (`--spacing-mm`):
+/// `50` for an artifact of two sockets, `A:B=50` between the sockets labelled `A` and `B`; it
+/// holds on every placement of the artifact.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct KnownSpacing {
+    /// The two sockets' labels; `None`: the artifact's only two.
+    pub sockets: Option<(String, String)>,
+    /// The distance between their centres, mm.
+    pub mm: f64,
+}
+
+/// Largest spacing between two sockets an artifact may state, mm (a plate is no wider than a
+/// cell).
+pub const MAX_SPACING_MM: f64 = 5000.0;
+
+impl std::str::FromStr for KnownSpacing {
+    type Err = crate::error::Error;
+    fn from_str(s: &str) -> crate::error::Result<KnownSpacing> {
+        let bad = |why: &str| {
+            crate::error::Error::Invalid(format!("--spacing-mm '{s}': {why} (give 50 for an artifact of two sockets, or A:B=50 between sockets A and B)"))
+        };
+        let (sockets, value) = match s.rsplit_once('=') {
+            Some((pair, v)) => {
+                let (a, b) = pair.split_once(':').ok_or_else(|| bad("name the two sockets as A:B"))?;
+                let (a, b) = (a.trim(), b.trim());
+                if a.is_empty() || b.is_empty() || a == b {
+                    return Err(bad("two different socket labels are needed"));
+                }
+                (Some((a.to_string(), b.to_string())), v)
+            }
+            None => (None, s),
+        };
+        let mm: f64 = value.trim().parse().map_err(|_| bad("the distance is not a number"))?;
+        if !(mm > 0.0 && mm <= MAX_SPACING_MM) {
+            return Err(bad(&format!("the distance must be in (0, {MAX_SPACING_MM}] mm")));
+        }
+        Ok(KnownSpacing { sockets, mm })
+    }
+}
+
+impl TryFrom<String> for KnownSpacing {
+    type Error = crate::error::Error;
+    fn try_from(s: String) -> crate::error::Result<KnownSpacing> {
+        s.parse()
+    }
+}
+
+impl From<KnownSpacing> for String {
+    fn from(k: KnownSpacing) -> String {
+        k.to_string()
+    }
+}
+
+impl std::fmt::Display for KnownSpacing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.sockets {
+            Some((a, b)) => write!(f, "{a}:{b}={}", self.mm),
+            None => write!(f, "{}", self.mm),
+        }
+    }
+}
+
+/// The spacings of the stated distances `known` between the sockets of each placement, the
+/// model's stations being `labels` (`placement/socket`, as
+/// [`crate::dataset::socket_station`] names them). An error says what the rows cannot determine:
+/// no spacing (no scale), one socket, a stated socket no row was seated in.
+pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing]) -> crate::error::Result<Vec<Spacing>> {
+    use crate::error::Error;
+    let split = |l: &str| -> (String, String) {
+        match l.rsplit_once('/') {
+            Some((p, s)) => (p.to_string(), s.to_string()),
+            None => (String::new(), l.to_string()),
+        }
+    };
+    let parts: Vec<(String, String)> = labels.iter().map(|l| split(l)).collect();
+    let mut placements: Vec<String> = Vec::new();
+    for (p, _) in &parts {
+        if !placements.contains(p) {
+            placements.push(p.clone());
+        }
+    }
+    if labels.len() < 2 {
+        return Err(Error::Calibration(
+            "the ball was seated in one socket only: one fixed point shows neither the arm's scale nor most of its geometry; seat it in two or more sockets a known distance apart (--spacing-mm)".into(),
+        ));
+    }
+    if known.is_empty() {
+        return Err(Error::Calibration(format!(
+            "no known spacing between sockets: seated rows fix where the sockets are relative to the arm, not how large the arm is (the arm, the ball and {} sockets scaled together read the same); give the distance between two sockets of the artifact with --spacing-mm",
+            labels.len()
+        )));
+    }
+    let mut out = Vec::new();
+    for p in &placements {
+        let at = |s: &str| parts.iter().position(|(pp, ss)| pp == p && ss == s);
+        let here: Vec<usize> = (0..parts.len()).filter(|&k| &parts[k].0 == p).collect();
+        let name = if p.is_empty() { String::new() } else { format!(" at placement {p}") };
+        for k in known {
+            match &k.sockets {
+                None if here.len() == 2 => out.push(Spacing { a: here[0], b: here[1], mm: k.mm }),
+                // A placement with one socket seated is a fixed point and no spacing.
+                None if here.len() < 2 => {}
+                None => {
+                    return Err(Error::Calibration(format!(
+                        "--spacing-mm {} names no sockets, but the artifact{name} has {} sockets seated ({}): name them as A:B={}",
+                        k.mm,
+                        here.len(),
+                        here.iter().map(|&i| parts[i].1.as_str()).collect::<Vec<_>>().join(", "),
+                        k.mm
+                    )))
+                }
+                Some((a, b)) => match (at(a), at(b)) {
+                    (Some(ia), Some(ib)) => out.push(Spacing { a: ia, b: ib, mm: k.mm }),
+                    // A placement where one of the two was not seated carries no such spacing.
+                    _ => {}
+                },
+            }
+        }
+    }
+    if out.is_empty() {
+        return Err(Error::Calibration(format!(
+            "no stated spacing ties two seated sockets of one placement (stated: {}; seated: {}): without one nothing fixes the arm's scale",
+            known.iter().map(|k| k.to_string()).collect::<Vec<_>>().join(", "),
+            labels.join(", ")
+        )));
+    }
+    Ok(out)
+}

@@ -1,0 +1,85 @@
+//! A ball-in-socket calibration judged as the issue of record asks: on the twin, the ball seated
+//! in the artifact's sockets ([`crate::sim::artifact`]) and calibrated from those rows alone,
+//! then judged on a laser tracker's points of the same arm that no fit saw, after the tracker is
+//! registered on other points (the sockets never see the base frame, so a tracker must be placed
+//! before their arm can be compared with it). Beside it: the nominal arm registered the same
+//! way, and a tracker calibration of the same arm from as many rows as the sockets gave.
+
+use crate::calib::fit::ReadingFit;
+use crate::calib::model::KnownSpacing;
+use crate::calib::pipeline::{calibrate, samples, CalibOptions, CalibResult};
+use crate::dataset::{Dataset, Split};
+use crate::error::{Error, Result};
+use crate::robot::Robot;
+use crate::sim::scenario::Scenario;
+use crate::sim::twin::acquisition::AcquisitionModel;
+use serde::Serialize;
+
+/// What one seed of [`check`] measured: the held-out tracker points' position error |Δp| (RMS
+/// over the points, mm) under each model.
+#[derive(Clone, Debug, Serialize)]
+pub struct SocketCheck {
+    /// The scenario's seed.
+    pub seed: u64,
+    /// Seated rows the sockets' calibration trained on.
+    pub socket_rows: usize,
+    /// The socket rows' held-out RMSE (per coordinate of the ball's centre about its socket), mm.
+    pub socket_test_rmse_mm: f64,
+    /// The nominal arm, the tracker registered on its training points.
+    pub nominal_mm: f64,
+    /// The arm the sockets calibrated, registered the same way.
+    pub sockets_mm: f64,
+    /// A tracker calibration of the same arm from as many training rows as the sockets had.
+    pub tracker_mm: f64,
+    /// Tracker points the registration and the tracker calibration may use, and the points judged.
+    pub tracker_rows: (usize, usize),
+}
+
+/// The `[sockets]` scenario `s` at its seed: the sockets' data calibrated with `opts` (their
+/// stated spacings added: the artifact's designed distances, as a user states them), then
+/// judged on the scenario's tracker points (the same file without `[sockets]`, acquired
+/// quasi-statically).
+pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<SocketCheck> {
+    let art = s.sockets.as_ref().ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets]", s.name)))?;
+    if s.instruments.tracker.is_none() {
+        return Err(Error::Invalid(format!("scenario {} has no [tracker] to judge the sockets' calibration on", s.name)));
+    }
+    let twin = crate::sim::generate::build_twin(s, robot);
+    let (seated, truth) = crate::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
+    let spacings: Vec<KnownSpacing> =
+        truth.designed_spacings_mm.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
+    let socket_opts = CalibOptions { spacings, ..opts.clone() };
+    let by_sockets = calibrate(&seated, None, &socket_opts)?;
+    let mut ts = Scenario { sockets: None, ..s.clone() };
+    ts.acquisition.model = AcquisitionModel::QuasiStatic;
+    let tracker = crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset;
+    let (train, test) = (tracker.train_indices(), tracker.test_indices());
+    let judged = |r: &CalibResult, x: &[f64]| -> Result<f64> {
+        let (model, xr) = crate::calib::pipeline::register::under_instrument(&r.model, x, &tracker, &train)?;
+        Ok(position_rms(&ReadingFit { model: &model, data: &samples(&tracker, &test) }.residuals_mm(&xr)))
+    };
+    let nominal_mm = judged(&by_sockets, &by_sockets.model.nominal)?;
+    let sockets_mm = judged(&by_sockets, &by_sockets.x)?;
+    // The tracker's own calibration on as many training rows as the sockets had.
+    let n = by_sockets.provenance.n_train.min(train.len());
+    let rows: Vec<_> =
+        tracker.rows.iter().enumerate().filter(|(i, r)| r.split == Some(Split::Test) || train[..n].contains(i)).map(|(_, r)| r.clone()).collect();
+    let fewer = Dataset { rows, source: format!("{} tracker", s.name) };
+    let by_tracker = calibrate(&fewer, None, &CalibOptions { spacings: Vec::new(), ..opts.clone() })?;
+    let tracker_mm = position_rms(&ReadingFit { model: &by_tracker.model, data: &samples(&tracker, &test) }.residuals_mm(&by_tracker.x));
+    Ok(SocketCheck {
+        seed: s.seed,
+        socket_rows: by_sockets.provenance.n_train,
+        socket_test_rmse_mm: by_sockets.evaluation.metrics.test_after.as_ref().map_or(f64::NAN, |m| m.rmse),
+        nominal_mm,
+        sockets_mm,
+        tracker_mm,
+        tracker_rows: (train.len(), test.len()),
+    })
+}
+
+/// RMS over points of the position error |Δp| of residuals `r` (mm, x, y, z per point).
+fn position_rms(r: &[f64]) -> f64 {
+    let sq: Vec<f64> = r.chunks(3).map(|c| c.iter().map(|v| v * v).sum::<f64>()).collect();
+    (sq.iter().sum::<f64>() / sq.len().max(1) as f64).sqrt()
+}
