@@ -23,6 +23,9 @@ impl Dataset {
 
     /// [`Self::load`] with explicit [`ReadOptions`] (angle unit, whether `L` is required).
     pub fn load_with(path: &Path, opts: &ReadOptions) -> Result<Dataset> {
+        if let Some(files) = artifact_files(path) {
+            return Self::load_artifact(path, &files, opts);
+        }
         if let Some(files) = campaign_files(path) {
             return Self::load_campaign(path, &files, opts);
         }
@@ -72,6 +75,28 @@ impl Dataset {
             }
             let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
             rows.extend(d.rows.into_iter().map(|r| Row { station: r.station.or_else(|| Some(stem.clone())), ..r }));
+        }
+        Ok(Dataset { rows, source: dir.display().to_string() })
+    }
+
+    /// A ball seated in an artifact's sockets, recorded as such tools record it: a folder of
+    /// one folder per placement of the artifact, each with one CSV file per socket of the
+    /// configurations seated in it (joint angles `q1..qN`, one row a configuration; `--angles
+    /// rad` for radians). The rows stand at their placement (the folder's name) and in their
+    /// socket (the file's name without `.csv`), in that order.
+    fn load_artifact(dir: &Path, files: &[(String, PathBuf)], opts: &ReadOptions) -> Result<Dataset> {
+        let mut rows: Vec<Row> = Vec::new();
+        let poses = ReadOptions { require_length: false, measurement: None, ..*opts };
+        for (placement, f) in files {
+            let d = Self::load_csv_file(f, &poses)?;
+            if let Some(m) = d.measurement() {
+                return Err(Error::data(&d.source, format!("a socket's file holds joint angles only; this one reads a {} too", m.def().describe())));
+            }
+            if let Some(r) = rows.first().filter(|r| r.q_deg.len() != d.n_joints()) {
+                return Err(Error::data(&d.source, format!("holds {} joint angles per row, the artifact's other files {}", d.n_joints(), r.q_deg.len())));
+            }
+            let socket = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            rows.extend(d.rows.into_iter().map(|r| Row { station: Some(placement.clone()), socket: Some(socket.clone()), ..r }));
         }
         Ok(Dataset { rows, source: dir.display().to_string() })
     }
@@ -428,4 +453,21 @@ pub fn campaign_files(path: &Path) -> Option<Vec<PathBuf>> {
         .collect();
     files.sort();
     (!files.is_empty()).then_some(files)
+}
+
+/// The files of an artifact's folder ([`Dataset::load`]): a folder without `dataset.csv` and
+/// without CSV files of its own whose sub-folders (the placements) hold CSV files (the sockets),
+/// each with its placement's name, sorted; `None` for any other path.
+pub fn artifact_files(path: &Path) -> Option<Vec<(String, PathBuf)>> {
+    if !path.is_dir() || path.join(DATASET_FILE).exists() || campaign_files(path).is_some() {
+        return None;
+    }
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(path).ok()?.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir()).collect();
+    dirs.sort();
+    let mut out = Vec::new();
+    for d in dirs {
+        let name = d.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        out.extend(campaign_files(&d).unwrap_or_default().into_iter().map(|f| (name.clone(), f)));
+    }
+    (!out.is_empty()).then_some(out)
 }

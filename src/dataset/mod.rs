@@ -66,7 +66,7 @@ pub mod truth;
 mod types;
 mod xlsx;
 
-pub use load::{campaign_files, read_csv_columns, CsvColumns};
+pub use load::{artifact_files, campaign_files, read_csv_columns, CsvColumns};
 pub use stations::{socket_station, Stations};
 pub use table::{MAX_PAYLOAD_KG, MAX_STD_MM, STD_COLUMNS};
 pub use types::*;

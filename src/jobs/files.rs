@@ -29,6 +29,9 @@ pub fn named_robot_input(name: &str) -> Option<(&'static str, PathBuf)> {
 /// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without
 /// an xlsx `#Sheet`), plus the truth file `calibrate` reads beside either.
 pub fn data_inputs(data: &Path) -> Vec<PathBuf> {
+    if let Some(files) = crate::dataset::artifact_files(data) {
+        return files.into_iter().map(|(_, f)| f).collect();
+    }
     match crate::dataset::campaign_files(data) {
         Some(files) => files,
         None => vec![crate::dataset::truth::dataset_file(data), crate::dataset::truth::truth_file(data)],

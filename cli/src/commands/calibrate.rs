@@ -157,6 +157,9 @@ fn print_summary(r: &twincal::calib::pipeline::CalibResult) {
     if let Some(setup) = &r.setup {
         setup.lines().iter().for_each(|l| eprintln!("  {l}"));
     }
+    if let Some(a) = &r.artifact {
+        a.lines().iter().for_each(|l| eprintln!("  {l}"));
+    }
     if let Some(s) = &r.solve.search {
         eprintln!("  generic arm: {} shapes drawn, {} converged on every training row, {} of them at the best cost", s.starts, s.finalists, s.in_best_basin);
     }

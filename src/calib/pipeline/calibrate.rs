@@ -171,6 +171,12 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let (labelled, found) = resolve_stations(data, opts)?;
     let data = labelled.as_ref().unwrap_or(data);
     let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting, search } = prepare(data, opts, solver.needs_row_inputs())?;
+    if !model.spacings.is_empty() && solver.name() != Method::LM.name() {
+        return Err(Error::Invalid(format!(
+            "a ball seated in sockets is calibrated by least squares over its rows and the sockets' spacings (--method lm); {} reads the rows one by one and never sees a spacing",
+            solver.name()
+        )));
+    }
     let mut warnings = setup_warnings(&model, data, screen.is_some(), opts);
     let x0 = model.nominal.clone();
     let fixed = held_fixed(&model, &id, opts.free);
@@ -220,6 +226,8 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
+    let held: Vec<String> = parameters.iter().filter(|p| p.fixed).map(|p| p.name.clone()).collect();
+    let artifact = super::artifact::report(&model, &x, &split.train, &held);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
     Ok(CalibResult {
         schema_version: super::result::RESULT_SCHEMA_VERSION,
@@ -252,6 +260,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         evaluation: Evaluation { metrics, truth_comparison, repeatability, noise_floor: Some(noise_floor) },
         warnings,
         setup: super::setup::setup_report(&model, &x, data, opts.stations, &found),
+        artifact,
         x,
         corrector,
         legacy_rbf: None,
@@ -483,6 +492,7 @@ pub fn result_of_fit(
         evaluation: Evaluation { metrics, truth_comparison: None, repeatability, noise_floor: Some(noise_floor) },
         warnings: Vec::new(),
         setup: super::setup::setup_report(&model, &x, data, super::options::StationSource::Declared, &[]),
+        artifact: None,
         x,
         corrector: None,
         legacy_rbf: None,

@@ -9,6 +9,7 @@
 //! Each stage is a function of its own below or in the module named; the method is a
 //! [`Solver`] value that carries its own settings.
 
+pub mod artifact;
 mod calibrate;
 mod effect_blocks;
 pub mod equivalent;

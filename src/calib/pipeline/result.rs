@@ -265,6 +265,10 @@ pub struct CalibResult {
     /// The instrument's stations, where it stood at more than one ([`super::setup`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub setup: Option<SetupReport>,
+    /// A ball seated in an artifact's sockets: each socket, each spacing, and what such rows
+    /// cannot determine ([`super::artifact`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub artifact: Option<super::artifact::ArtifactReport>,
     /// Parameter values per iteration (display units), for convergence plots.
     #[serde(skip)]
     pub history: Vec<Vec<f64>>,
@@ -779,7 +783,8 @@ impl SetupReport {
     /// relative to the first.
     pub fn lines(&self) -> Vec<String> {
         let mut out = Vec::new();
-        for (what, parts, verb) in [("station", &self.stations, "the instrument stood at"), ("mount", &self.mounts, "the target sat on")] {
+        let stood = if self.seated { ("socket", "the ball was seated in") } else { ("station", "the instrument stood at") };
+        for (what, parts, verb) in [(stood.0, &self.stations, stood.1), ("mount", &self.mounts, "the target sat on")] {
             if parts.is_empty() {
                 continue;
             }
@@ -812,4 +817,7 @@ pub struct SetupReport {
     /// Every mount of the target, in the order of its first row (none where it sat on one).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mounts: Vec<SetupPart>,
+    /// Whether the stations are the sockets a ball was seated in.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub seated: bool,
 }

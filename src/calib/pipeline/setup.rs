@@ -318,5 +318,6 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
             })
             .collect()
     };
-    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount) })
+    let seated = model.measurement == crate::measurement::Measurement::Socket;
+    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount), seated })
 }

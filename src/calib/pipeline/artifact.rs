@@ -1,0 +1,118 @@
+//! What a calibration from a ball seated in an artifact's sockets reports beside the rows'
+//! errors: each socket's centre and scatter, each stated spacing against the fitted one, and
+//! what such rows cannot determine, said in words a user acts on.
+
+use crate::calib::fit::Samples;
+use crate::calib::model::CalibModel;
+use crate::measurement::Measurement;
+use serde::{Deserialize, Serialize};
+
+/// One socket of one placement, as fitted.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SocketFit {
+    /// Its station label (`placement/socket`).
+    pub label: String,
+    /// Training rows seated in it.
+    pub rows: usize,
+    /// Its centre in the base frame as the model places it, mm.
+    pub centre_mm: [f64; 3],
+    /// RMS distance of the modelled ball centres of its training rows from its centre, mm: how
+    /// well the rows agree on one point.
+    pub scatter_mm: f64,
+}
+
+/// A stated spacing and the one the fit reached.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SpacingFit {
+    /// The two sockets' station labels.
+    pub sockets: (String, String),
+    /// The distance stated, mm.
+    pub stated_mm: f64,
+    /// The distance between the fitted centres, mm.
+    pub fitted_mm: f64,
+}
+
+/// The artifact's part of a calibration's result.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ArtifactReport {
+    /// The ball's centre on the flange as fitted, mm.
+    pub ball_mm: [f64; 3],
+    /// Every socket of every placement.
+    pub sockets: Vec<SocketFit>,
+    /// Every stated spacing.
+    pub spacings: Vec<SpacingFit>,
+    /// What rows of this kind cannot determine, each a sentence.
+    pub cannot_see: Vec<String>,
+}
+
+impl ArtifactReport {
+    /// The lines a summary prints.
+    pub fn lines(&self) -> Vec<String> {
+        let b = self.ball_mm;
+        let mut out = vec![format!("ball's centre on the flange: ({:.3}, {:.3}, {:.3}) mm", b[0], b[1], b[2])];
+        for s in &self.sockets {
+            out.push(format!("  socket {}: {} training rows, scatter {:.4} mm about its centre", s.label, s.rows, s.scatter_mm));
+        }
+        for s in &self.spacings {
+            out.push(format!("  spacing {}-{}: stated {:.4} mm, fitted {:.4} mm", s.sockets.0, s.sockets.1, s.stated_mm, s.fitted_mm));
+        }
+        out.extend(self.cannot_see.iter().map(|c| format!("cannot see: {c}")));
+        out
+    }
+}
+
+/// The report of `model` at `x` on its training rows `train`; `None` for another instrument.
+/// `fixed`: the names of the parameters the rows left free (held at nominal).
+pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String]) -> Option<ArtifactReport> {
+    if model.measurement != Measurement::Socket {
+        return None;
+    }
+    let labels: Vec<String> = if model.stations.is_empty() { vec![String::new()] } else { model.stations.clone() };
+    let mut w = model.work();
+    let mut y = [0.0; crate::measurement::MAX_DIM];
+    let sockets = labels
+        .iter()
+        .enumerate()
+        .map(|(s, label)| {
+            let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == s).collect();
+            let sq: f64 = rows
+                .iter()
+                .map(|&i| {
+                    model.readings(x, &train.q[i], &train.inputs[i], &mut w, &mut y[..3]);
+                    y[..3].iter().map(|v| v * v).sum::<f64>()
+                })
+                .sum();
+            let c = model.station_placement(x, s).own;
+            SocketFit {
+                label: label.clone(),
+                rows: rows.len(),
+                centre_mm: [c[0], c[1], c[2]].map(crate::units::to_mm),
+                scatter_mm: crate::units::to_mm((sq / rows.len().max(1) as f64).sqrt()),
+            }
+        })
+        .collect();
+    let spacings = (0..model.spacings.len())
+        .map(|k| {
+            let sp = &model.spacings[k];
+            SpacingFit { sockets: (labels[sp.a].clone(), labels[sp.b].clone()), stated_mm: sp.mm, fitted_mm: model.spacing_mm(x, k) }
+        })
+        .collect();
+    let ball = model.placement(x).tool;
+    let shortest = model.spacings.iter().map(|s| s.mm).fold(f64::INFINITY, f64::min);
+    let placements: std::collections::BTreeSet<&str> = labels.iter().map(|l| l.rsplit_once('/').map_or("", |(p, _)| p)).collect();
+    let mut cannot_see = vec![
+        "the base frame: every socket moves with it, so the arm is placed relative to its sockets, not to the robot's base (register a tracker, or touch points known in the base frame, to place it)".to_string(),
+        format!(
+            "the arm's scale beyond the stated spacing: an error of e mm in the stated {shortest:.1} mm scales every length by e/{shortest:.1} (0.01 mm: {:.0} ppm, {:.3} mm at 500 mm); state the spacing as made and at the artifact's temperature (PLA grows about 68 ppm/K)",
+            0.01 / shortest * 1e6,
+            0.01 / shortest * 500.0
+        ),
+    ];
+    if placements.len() < 2 {
+        cannot_see.push("the arm away from this one placement of the artifact: place it at two or more places across the workspace".into());
+    }
+    if !fixed.is_empty() {
+        cannot_see.push(format!("{} (held at nominal: the rows leave them free)", fixed.join(", ")));
+    }
+    Some(ArtifactReport { ball_mm: [ball.x, ball.y, ball.z].map(crate::units::to_mm), sockets, spacings, cannot_see })
+}
