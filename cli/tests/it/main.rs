@@ -27,6 +27,7 @@ mod recordings;
 mod replay;
 mod seven_joints;
 mod shards;
+mod sockets;
 mod stations;
 mod tour;
 mod twin;
