@@ -41,6 +41,7 @@ pub mod seed;
 pub mod sim;
 pub mod sockets_check;
 pub mod stats;
+pub mod tcp;
 pub mod units;
 
 pub use error::{Error, Result};

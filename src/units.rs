@@ -20,6 +20,9 @@ pub fn to_m<T: Mul<f64>>(millimetres: T) -> T::Output {
     millimetres * 1e-3
 }
 
+/// Decimals of the time column the twin writes (ms).
+pub const T_DECIMALS: usize = 3;
+
 /// `v` rounded to `decimals` decimals, as an instrument writes it: the f64 nearest to the
 /// decimal text `v` prints as with that precision, so the dataset writer prints it with at most
 /// `decimals` decimals and reading it back gives the same value.

@@ -57,6 +57,13 @@ pub enum Command {
     /// program the controller runs as it is: ABB RAPID, KUKA KRL or URScript, joint moves in the
     /// list's order, a hold and a wait until each pose is measured.
     Program(twincal::jobs::ProgramJob),
+    /// The N-point TCP: the tool's tip on the flange from four or more configurations holding
+    /// it at one fixed point (or several), with its accuracy from the residuals; on the nominal
+    /// arm or a calibration's (--model).
+    Tcp(twincal::jobs::TcpJob),
+    /// The 3-point user frame: a work object's frame from the tool's tip touched at its origin,
+    /// a point on its +x axis and a point on its xy plane, with the accuracy the tool gives it.
+    UserFrame(twincal::jobs::UserFrameJob),
     /// What a controller that takes no new kinematic model can be given of a calibration
     /// (`calibrate --controller-subset`): the joints' zero offsets, the tool and the instrument's
     /// frame, as RAPID tooldata / wobjdata, KRL FRAMEs for TOOL_DATA / BASE_DATA, or URScript.
@@ -136,6 +143,8 @@ pub fn run(args: Cli) -> twincal::Result<()> {
         Command::Replay(a) => commands::replay(&a, args.quiet),
         Command::Export(a) => commands::export(&a, args.quiet),
         Command::Program(a) => commands::program(&a, args.quiet),
+        Command::Tcp(a) => commands::tcp(&a, args.quiet),
+        Command::UserFrame(a) => commands::user_frame(&a, args.quiet),
         Command::ControllerData(a) => commands::controller_data(&a, args.quiet),
         Command::Compensate(a) => commands::compensate(&a, args.quiet),
         Command::Iso9283(a) => {

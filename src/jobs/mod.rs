@@ -19,6 +19,7 @@ mod predict;
 mod program;
 mod replay;
 pub mod shard;
+pub mod tcp;
 
 pub use calibrate::{calibrate_loaded, write_calibration, CalibrateJob, Calibration};
 pub use compare::{
@@ -38,6 +39,7 @@ pub use plan::{PlanJob, PLAN_FILE, POSES_FILE, PROGRAM_NAME};
 pub use predict::{predicted_readings, prediction_csv, residuals, rotation_residual_deg, Predicted};
 pub use program::{ProgramJob, ProgramSummary};
 pub use replay::{replay, AfterCalibration, Fidelity, ReplayJob, ReplayRequest, ReplaySummary};
+pub use tcp::{TcpJob, UserFrameJob};
 
 #[cfg(test)]
 mod tests;

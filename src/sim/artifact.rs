@@ -74,6 +74,11 @@ pub struct Sockets {
     /// turned about the ball within this cone (and about its own axis freely).
     #[serde(default = "Sockets::default_tilt")]
     pub tilt_deg: f64,
+    /// Turn the configurations about each socket as a routine asks (each at `tilt_deg` from the
+    /// socket's axis, their approaches spread evenly around it) instead of at random within the
+    /// cone.
+    #[serde(default)]
+    pub spread: bool,
     /// Seconds between two seated configurations (the rows' `t`).
     #[serde(default = "Sockets::default_step")]
     pub step_s: f64,
@@ -103,8 +108,10 @@ impl Sockets {
 
     /// What is wrong with the table, if anything.
     pub fn validate(&self) -> std::result::Result<(), String> {
-        if self.layout_mm.len() < 2 {
-            return Err("[sockets] layout_mm needs two sockets at least (their spacing gives the arm's scale)".into());
+        // One socket is a fixed point (the TCP routine's); a calibration needs two a known
+        // distance apart, and says so.
+        if self.layout_mm.is_empty() {
+            return Err("[sockets] layout_mm places no socket".into());
         }
         if !self.labels.is_empty() && self.labels.len() != self.layout_mm.len() {
             return Err(format!("[sockets] labels names {} sockets, layout_mm places {}", self.labels.len(), self.layout_mm.len()));
@@ -272,11 +279,17 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
                         art.per_socket
                     )));
                 }
-                let (tilt, azim, spin) = (
+                let (mut tilt, mut azim, mut spin) = (
                     rng.random::<f64>().sqrt() * art.tilt_deg.to_radians(),
                     rng.random_range(0.0..std::f64::consts::TAU),
                     rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
                 );
+                if art.spread {
+                    // Evenly around the socket's axis, the tool turned with the approach.
+                    tilt = art.tilt_deg.to_radians();
+                    azim = std::f64::consts::TAU * (seated as f64 + rng.random::<f64>()) / art.per_socket as f64;
+                    spin = azim + 0.1 * spin;
+                }
                 let local = Vector3::new(tilt.sin() * azim.cos(), tilt.sin() * azim.sin(), -tilt.cos());
                 let approach = frame.rot * local;
                 let off =
@@ -308,7 +321,7 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
                 let split = if rng.random::<f64>() < art.test_fraction { Split::Test } else { Split::Train };
                 rows.push(Row {
                     q_deg: q_read.iter().map(|v| crate::units::round_decimals(v.to_degrees(), decimals)).collect(),
-                    t_s: Some(crate::units::round_decimals(t, crate::sim::generate::T_DECIMALS)),
+                    t_s: Some(crate::units::round_decimals(t, crate::units::T_DECIMALS)),
                     split: Some(split),
                     station: Some(plabel.clone()),
                     socket: Some(art.label(k)),

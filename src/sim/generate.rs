@@ -14,8 +14,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// Decimals of the time column (ms).
-pub const T_DECIMALS: usize = 3;
+pub use crate::units::T_DECIMALS;
 /// Decimals of a written per-row standard deviation (`sx, sy, sz`), mm: 1 nm.
 pub const STD_DECIMALS: usize = 6;
 /// Decimals of the temperature column (mK).

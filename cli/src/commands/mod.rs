@@ -15,6 +15,7 @@ mod predict;
 mod program;
 mod replay;
 mod study;
+mod tcp;
 
 pub use bench::{bench_command, BenchArgs};
 use calibrate::print_verdict;
@@ -30,6 +31,7 @@ pub use predict::predict;
 pub use program::program;
 pub use replay::replay;
 pub use study::{study, StudyArgs, StudyTarget};
+pub use tcp::{tcp, user_frame};
 pub use twincal::jobs::ReplayJob;
 
 use std::path::{Path, PathBuf};

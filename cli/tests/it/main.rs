@@ -29,5 +29,6 @@ mod seven_joints;
 mod shards;
 mod sockets;
 mod stations;
+mod tcp;
 mod tour;
 mod twin;

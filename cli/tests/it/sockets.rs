@@ -111,7 +111,10 @@ fn what_socket_rows_cannot_determine_is_said() {
         assert!(err.contains(expect), "{extra:?}: expected '{expect}' in: {err}");
     };
     refused(&data, &[], "no known spacing between sockets");
-    let one = Dataset { rows: data.rows.iter().filter(|r| r.socket.as_deref() == Some("A") && r.station.as_deref() == Some("p1")).cloned().collect(), ..data.clone() };
+    let one = Dataset {
+        rows: data.rows.iter().filter(|r| r.socket.as_deref() == Some("A") && r.station.as_deref() == Some("p1")).cloned().collect(),
+        ..data.clone()
+    };
     refused(&one, &["--spacing-mm", "A:B=50"], "seated in one socket only");
     let few: Vec<_> = data.rows.iter().enumerate().filter(|(i, _)| i % 30 < 2).map(|(_, r)| twincal::dataset::Row { split: None, ..r.clone() }).collect();
     refused(&Dataset { rows: few, ..data.clone() }, &["--spacing-mm", "A:B=50"], "cannot place the socket");
