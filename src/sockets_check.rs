@@ -83,3 +83,67 @@ fn position_rms(r: &[f64]) -> f64 {
     let sq: Vec<f64> = r.chunks(3).map(|c| c.iter().map(|v| v * v).sum::<f64>()).collect();
     (sq.iter().sum::<f64>() / sq.len().max(1) as f64).sqrt()
 }
+
+/// One placement of the artifact that a calibration on another placement never saw, judged as
+/// the published ball-in-socket work judges it: each socket's scatter (RMS distance of the
+/// predicted ball centres of its rows from their mean) and the error of the distance between
+/// the sockets' means against the stated spacing.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlacementCheck {
+    /// The scenario's seed.
+    pub seed: u64,
+    /// The placement the calibration trained on.
+    pub trained_on: String,
+    /// The placement judged.
+    pub judged: String,
+    /// `nominal` (the nominal arm, the ball placed on the training rows) or `twincal`.
+    pub model: String,
+    /// Each socket's scatter, mm, by socket label.
+    pub scatter_mm: Vec<(String, f64)>,
+    /// |distance between the first two sockets' means − the stated spacing|, mm.
+    pub spacing_error_mm: f64,
+}
+
+/// The `[sockets]` scenario `s` at its seed, calibrated with `opts` on each placement alone and
+/// judged on every other one ([`PlacementCheck`]), beside the nominal arm.
+pub fn held_out_placements(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<Vec<PlacementCheck>> {
+    let art = s.sockets.as_ref().ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets]", s.name)))?;
+    let twin = crate::sim::generate::build_twin(s, robot);
+    let (seated, truth) = crate::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
+    let (a, b, stated) = truth.designed_spacings_mm.first().cloned().ok_or_else(|| Error::Invalid("the artifact needs two sockets".into()))?;
+    let spacings = vec![KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: stated }];
+    let placements: Vec<String> = (1..=art.placements.len()).map(|k| format!("p{k}")).collect();
+    let mut out = Vec::new();
+    for p in &placements {
+        // Every row of the placement trains (the judged ones are the other placements').
+        let rows =
+            seated.rows.iter().filter(|r| r.station.as_deref() == Some(p)).map(|r| crate::dataset::Row { split: Some(Split::Train), ..r.clone() }).collect();
+        let train = Dataset { rows, source: format!("{} {p}", s.name) };
+        let r = calibrate(&train, None, &CalibOptions { spacings: spacings.clone(), ..opts.clone() })?;
+        for q in placements.iter().filter(|q| *q != p) {
+            for (name, x) in [("nominal", &r.model.nominal), ("twincal", &r.x)] {
+                let mut w = r.model.work();
+                let mut centres = |sock: &str| -> Vec<nalgebra::Vector3<f64>> {
+                    seated
+                        .rows
+                        .iter()
+                        .filter(|row| row.station.as_deref() == Some(q) && row.socket.as_deref() == Some(sock))
+                        .map(|row| crate::units::to_mm(r.model.tool_point(x, &row.q_deg.iter().map(|d| d.to_radians()).collect::<Vec<_>>(), &mut w)))
+                        .collect()
+                };
+                let (ca, cb) = (centres(&a), centres(&b));
+                let mean = |c: &[nalgebra::Vector3<f64>]| c.iter().sum::<nalgebra::Vector3<f64>>() / c.len().max(1) as f64;
+                let scatter = |c: &[nalgebra::Vector3<f64>]| (c.iter().map(|v| (v - mean(c)).norm_squared()).sum::<f64>() / c.len().max(1) as f64).sqrt();
+                out.push(PlacementCheck {
+                    seed: s.seed,
+                    trained_on: p.clone(),
+                    judged: q.clone(),
+                    model: name.into(),
+                    scatter_mm: vec![(a.clone(), scatter(&ca)), (b.clone(), scatter(&cb))],
+                    spacing_error_mm: ((mean(&ca) - mean(&cb)).norm() - stated).abs(),
+                });
+            }
+        }
+    }
+    Ok(out)
+}

@@ -9,10 +9,14 @@ use std::time::Instant;
 use twincal::calib::pipeline::{CalibOptions, Method, ModelSpec, Parametrisation};
 use twincal::error::{Error, Result};
 use twincal::sim::scenario::Scenario;
-use twincal::sockets_check::{check, SocketCheck};
+use twincal::sockets_check::{check, held_out_placements, PlacementCheck, SocketCheck};
 
 /// The cases: (label, scenario file).
-const CASES: [(&str, &str); 1] = [("IRB 120, two sockets 50 mm apart, three placements, 30 seatings per socket", "irb120_sockets")];
+const CASES: [(&str, &str); 3] = [
+    ("IRB 120, two sockets 50 mm apart, three placements, 30 seatings per socket", "irb120_sockets"),
+    ("UR10, the same plate and seatings", "ur10_sockets"),
+    ("Barrett WAM (7 joints), the same plate and seatings", "wam_sockets"),
+];
 
 /// Runs every case over `seeds` seeds and prints the table.
 pub fn bench_sockets(seeds: u64) -> Result<()> {
@@ -50,6 +54,43 @@ pub fn bench_sockets(seeds: u64) -> Result<()> {
             col(&|c| c.tracker_mm),
             times[times.len() / 2]
         );
+    }
+    held_out(dir, seeds)
+}
+
+/// Each placement trained on alone, every other one judged: socket scatter and spacing error.
+fn held_out(dir: &Path, seeds: u64) -> Result<()> {
+    println!("\n# A held-out placement ({seeds} seeds): calibrated on one placement's rows alone, judged on each other placement by each socket's scatter (RMS distance of the predicted ball centres from their mean) and the spacing error (|distance between the socket means - 50 mm|); mean over seeds and sockets, mm\n");
+    println!("| arm | trained on | judged | nominal: scatter | twincal: scatter | nominal: spacing error | twincal: spacing error |");
+    println!("|---|---|---|---|---|---|---|");
+    for (label, file) in CASES {
+        let path = dir.join(format!("{file}.toml"));
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        let s0 = Scenario::from_toml(&text, file)?;
+        let robot = s0.load_robot(Some(dir))?;
+        let opts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: Parametrisation::Hayati }, Method::LM);
+        let all: Vec<PlacementCheck> =
+            (1..=seeds).map(|seed| held_out_placements(&Scenario { seed, ..s0.clone() }, &robot, &opts)).collect::<Result<Vec<_>>>()?.concat();
+        let arm = label.split(',').next().unwrap_or(label);
+        let mut pairs: Vec<(String, String)> = all.iter().map(|c| (c.trained_on.clone(), c.judged.clone())).collect();
+        pairs.dedup();
+        pairs.sort();
+        pairs.dedup();
+        for (t, j) in pairs {
+            let of = |model: &str, f: &dyn Fn(&PlacementCheck) -> f64| {
+                let v: Vec<f64> = all.iter().filter(|c| c.trained_on == t && c.judged == j && c.model == model).map(f).collect();
+                v.iter().sum::<f64>() / v.len().max(1) as f64
+            };
+            let scatter = |c: &PlacementCheck| c.scatter_mm.iter().map(|(_, v)| v).sum::<f64>() / c.scatter_mm.len().max(1) as f64;
+            let spacing = |c: &PlacementCheck| c.spacing_error_mm;
+            println!(
+                "| {arm} | {t} | {j} | {:.4} | {:.4} | {:.4} | {:.4} |",
+                of("nominal", &scatter),
+                of("twincal", &scatter),
+                of("nominal", &spacing),
+                of("twincal", &spacing)
+            );
+        }
     }
     Ok(())
 }

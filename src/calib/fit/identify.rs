@@ -270,8 +270,9 @@ pub fn still_joints(q: &[Vec<f64>]) -> Vec<usize> {
 }
 
 fn jacobian(fit: &ReadingFit, x: &[f64]) -> DMatrix<f64> {
-    // The spacings' rows too: a known spacing is what makes the arm's scale identifiable.
-    let mut j = DMatrix::zeros(fit.n_residuals(), fit.model.n_params());
+    // The spacings' rows too (a known spacing is what makes the arm's scale identifiable), not
+    // the pulls' (a prior says nothing of what the rows see).
+    let mut j = DMatrix::zeros(fit.data.y.len() + fit.model.spacings.len(), fit.model.n_params());
     LeastSquares::jacobian(fit, x, &mut j);
     j
 }

@@ -11,6 +11,7 @@ pub mod robust;
 pub mod weighting;
 
 use crate::calib::effects::RowInputs;
+use crate::calib::model::PULL_SCALE_MM;
 use crate::calib::model::{CalibModel, ModelWork};
 use crate::measurement::MAX_DIM;
 use crate::optim::{Cost, LeastSquares, Observations};
@@ -139,14 +140,17 @@ impl LeastSquares for ReadingFit<'_> {
         self.model.n_params()
     }
     fn n_residuals(&self) -> usize {
-        self.data.y.len() + self.model.spacings.len()
+        self.data.y.len() + self.model.n_block_residuals()
     }
-    /// The rows' residuals, and the spacings' where `r` has room for them.
+    /// The rows' residuals, then the spacings' and the pulls' where `r` has room for them.
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
         crate::progress::check_stop();
-        let (d, ny) = (self.data.dim, self.data.y.len());
-        let (r, spacing) = r.split_at_mut(ny);
-        self.model.spacing_residuals(x, spacing);
+        let (d, ny, ns) = (self.data.dim, self.data.y.len(), self.model.spacings.len());
+        let (r, blocks) = r.split_at_mut(ny);
+        self.model.spacing_residuals(x, blocks);
+        if blocks.len() > ns {
+            self.model.pull_residuals(x, &mut blocks[ns..]);
+        }
         let mut y = [0.0; MAX_DIM];
         with_work(self.model, |w| {
             for (i, ri) in r.chunks_mut(d).enumerate() {
@@ -230,6 +234,19 @@ impl ReadingFit<'_> {
             }
             if let Some(r) = r.as_deref_mut().filter(|r| r.len() > ny) {
                 self.model.spacing_residuals(x, &mut r[ny..]);
+            }
+        }
+        // The pulls' rows likewise (an identifiability analysis of the rows and spacings has none).
+        let ns = self.model.spacings.len();
+        if !self.model.pulls.is_empty() && ld >= ny + ns + self.model.pulls.len() {
+            for (i, p) in self.model.pulls.iter().enumerate() {
+                for c in 0..n {
+                    js[c * ld + ny + ns + i] = 0.0;
+                }
+                js[p.k * ld + ny + ns + i] = -PULL_SCALE_MM / p.std;
+            }
+            if let Some(r) = r.as_deref_mut().filter(|r| r.len() > ny + ns) {
+                self.model.pull_residuals(x, &mut r[ny + ns..]);
             }
         }
         if let Some(g) = &self.data.gls {

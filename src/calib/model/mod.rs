@@ -24,7 +24,7 @@ pub mod tolerance;
 pub use crate::measurement::Placement;
 pub use dh::{DhRow, DhTable, NEARLY_PARALLEL_RAD};
 pub use setup::SetupKind;
-pub use spacing::{resolve_spacings, KnownSpacing, Spacing, MAX_SPACING_MM};
+pub use spacing::{resolve_spacings, KnownSpacing, Pull, Spacing, MAX_SPACING_MM, PULL_SCALE_MM};
 
 use crate::calib::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::measurement::{Measurement, MAX_DIM, MAX_OWN, MAX_TARGETS};
@@ -151,6 +151,11 @@ pub struct CalibModel {
     /// other instrument.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub spacings: Vec<Spacing>,
+    /// Pulls of the arm's parameters toward their nominal values from the documented
+    /// tolerances, where the rows leave directions nearly free (a ball in sockets); residuals
+    /// after the spacings'.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pulls: Vec<Pull>,
 }
 
 /// The instrument's placement one row is read with: its own parameters (its station's where the
@@ -238,6 +243,7 @@ impl CalibModel {
         self.stations = Vec::new();
         self.mounts = Vec::new();
         self.spacings = Vec::new();
+        self.pulls = Vec::new();
         self
     }
     /// Indices of the instrument's placement parameters in the parameter vector.
@@ -644,6 +650,7 @@ impl CalibModel {
             stations: Vec::new(),
             mounts: Vec::new(),
             spacings: Vec::new(),
+            pulls: Vec::new(),
         };
         model.with_placement(placement)
     }

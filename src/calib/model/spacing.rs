@@ -21,7 +21,39 @@ pub struct Spacing {
     pub mm: f64,
 }
 
+/// A pull of one parameter toward its nominal value, one standard deviation `std` (internal
+/// units) apart: a prior from the documented tolerances, for rows that leave some directions of
+/// the arm nearly free (a ball on the last joint's axis sees no part of the wrist beyond one
+/// point, so its links' parameters could wander by tens of degrees along a valley the rows cannot
+/// tell from the bottom). Its residual is [`PULL_SCALE_MM`] per standard deviation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pull {
+    /// The parameter's index.
+    pub k: usize,
+    /// Its nominal value, internal units.
+    pub to: f64,
+    /// One standard deviation, internal units.
+    pub std: f64,
+}
+
+/// The residual (mm) of a pull one standard deviation off: a seated ball's scatter, so that a
+/// tolerance's worth of departure weighs as one seating does.
+pub const PULL_SCALE_MM: f64 = 0.001;
+
 impl CalibModel {
+    /// Residuals beside the rows': the spacings' ([`Spacing`]), then the pulls' ([`Pull`]).
+    pub fn n_block_residuals(&self) -> usize {
+        self.spacings.len() + self.pulls.len()
+    }
+
+    /// The pulls' residuals (mm) into `r`, one per pull.
+    pub fn pull_residuals(&self, x: &[f64], r: &mut [f64]) {
+        for (p, rk) in self.pulls.iter().zip(r.iter_mut()) {
+            *rk = PULL_SCALE_MM * (p.to - x[p.k]) / p.std;
+        }
+    }
+
     /// The centre of the socket of station `s` (m, base frame) and the parameter indices its
     /// coordinates come from.
     fn socket_centre(&self, x: &[f64], s: usize) -> (Vector3<f64>, [usize; 3]) {

@@ -61,6 +61,22 @@ impl ArtifactReport {
     }
 }
 
+/// A ball nearer than this to the last joint's axis (mm) leaves that axis unseen.
+pub const BALL_OFF_AXIS_MM: f64 = 20.0;
+
+/// How far the ball sits from the last joint's axis (mm), at the first training row: half the
+/// chord it moves through when that joint turns by a small angle, over the angle's sine.
+fn off_last_axis_mm(model: &CalibModel, x: &[f64], train: &Samples) -> Option<f64> {
+    let q = train.q.first()?.clone();
+    let mut w = model.work();
+    let h = 0.01;
+    let (mut a, mut b) = (q.clone(), q);
+    *a.last_mut()? += h;
+    *b.last_mut()? -= h;
+    let chord = (model.tool_point(x, &a, &mut w) - model.tool_point(x, &b, &mut w)).norm();
+    Some(crate::units::to_mm(chord / (2.0 * h.sin())))
+}
+
 /// The report of `model` at `x` on its training rows `train`; `None` for another instrument.
 /// `fixed`: the names of the parameters the rows left free (held at nominal).
 pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String]) -> Option<ArtifactReport> {
@@ -108,6 +124,11 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String]) 
             0.01 / shortest * 500.0
         ),
     ];
+    if let Some(d) = off_last_axis_mm(model, x, train).filter(|d| *d < BALL_OFF_AXIS_MM) {
+        cannot_see.push(format!(
+            "the last joint's axis: the ball sits {d:.1} mm from it, so turning that joint hardly moves the ball and the wrist's last link is seen as one point (held by the tolerances' pull); put the ball {BALL_OFF_AXIS_MM:.0} mm or more off the flange's axis (an offset stylus) to see it"
+        ));
+    }
     if placements.len() < 2 {
         cannot_see.push("the arm away from this one placement of the artifact: place it at two or more places across the workspace".into());
     }

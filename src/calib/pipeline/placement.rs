@@ -136,6 +136,10 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let mut model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
     if measurement == Measurement::Socket {
         model.spacings = crate::calib::model::resolve_spacings(stations, &opts.spacings)?;
+        // The arm pulled toward its nominal by the documented tolerances (the published
+        // objective's pull): a ball on the last axis leaves the wrist's links nearly free.
+        let std = opts.tolerances.prior_std(&model);
+        model.pulls = (0..model.n_chain()).map(|k| crate::calib::model::Pull { k, to: model.nominal[k], std: std[k] }).collect();
     }
     Ok((align_placement(model, train, opts.rank_tol), report))
 }
