@@ -37,6 +37,8 @@ pub struct DiagnoseOptions {
     /// Where the instrument's stations come from (resolved by the job before the rows are
     /// diagnosed: [`crate::calib::pipeline::resolve_stations`]).
     pub stations: StationSource,
+    /// Known distances between the sockets a ball was seated in ([`CalibOptions::spacings`]).
+    pub spacings: Vec<crate::calib::model::KnownSpacing>,
 }
 
 /// Default cross-validation folds of a diagnosis.
@@ -78,6 +80,7 @@ impl DiagnoseOptions {
             min_size_sigmas: DEFAULT_MIN_SIZE_SIGMAS,
             floor: FloorOptions::default(),
             stations: StationSource::Auto,
+            spacings: Vec::new(),
         }
     }
     /// The calibration whose stages the diagnosis starts from: the geometric model with its
@@ -93,6 +96,7 @@ impl DiagnoseOptions {
             loads: self.loads.clone(),
             floor: self.floor,
             stations: self.stations,
+            spacings: self.spacings.clone(),
             ..CalibOptions::new(self.model.clone(), Method::LM)
         }
     }

@@ -101,6 +101,11 @@ impl Predicted {
 /// `model` names the model in errors.
 pub fn predicted_readings(result: &CalibResult, ds: &Dataset, euler: Euler, model: &str, register_rows: usize) -> Result<Predicted> {
     ds.require_joints(result.model.chain.n_joints, model)?;
+    if result.model.measurement.is_constant() {
+        return Err(Error::Invalid(format!(
+            "{model} was calibrated from a ball seated in sockets, which read nothing to predict: its held-out rows are judged by calibrate, and on another instrument's rows once that instrument is registered"
+        )));
+    }
     result.require_columns(ds)?;
     let outside: Vec<(usize, usize, f64)> = crate::calib::pipeline::outside_limits(ds, &result.model.limits).collect();
     let mut warnings: Vec<String> = outside

@@ -1,7 +1,7 @@
 //! A calibration as a user asks for it: `twincal calibrate`'s options but `--data` and the
 //! files it writes, Python's `twincal.calibrate` keyword arguments.
 
-use super::groups::{Loads, ModelChoice, Reading, Robust};
+use super::groups::{Artifact, Loads, ModelChoice, Reading, Robust};
 use crate::calib::effects::EffectChoice;
 use crate::calib::model::DrawWireGuess;
 use crate::calib::pipeline::{CalibOptions, FreeParams, Method, SplitBy, SplitOptions, DEFAULT_EFFORT, DEFAULT_RANK_TOL};
@@ -103,11 +103,10 @@ pub struct CalibrateRequest {
     /// the arm held at its nominal model; its held-out accuracy is what such a controller keeps.
     #[cfg_attr(feature = "clap", arg(long, conflicts_with = "placement_only"))]
     pub controller_subset: bool,
-    /// Known distance between sockets of the artifact a ball was seated in, mm: 50 for an
-    /// artifact of two sockets, A:B=50 between sockets A and B (repeat or comma-separate for
-    /// more); it holds on every placement of the artifact.
-    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', value_name = "[A:B=]MM"))]
-    pub spacing_mm: Vec<crate::calib::model::KnownSpacing>,
+    /// The artifact a ball was seated in.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    #[serde(flatten)]
+    pub artifact: Artifact,
 }
 
 impl Default for CalibrateRequest {
@@ -130,7 +129,7 @@ impl Default for CalibrateRequest {
             robust: Robust::default(),
             placement_only: false,
             controller_subset: false,
-            spacing_mm: Vec::new(),
+            artifact: Artifact::default(),
         }
     }
 }
@@ -177,7 +176,7 @@ impl CalibrateRequest {
                 (false, false) => FreeParams::All,
             },
             stations: a.reading.stations,
-            spacings: a.spacing_mm.clone(),
+            spacings: a.artifact.spacing_mm.clone(),
             ..CalibOptions::new(model, a.method)
         };
         if opts.free != FreeParams::All {

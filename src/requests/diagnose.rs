@@ -1,7 +1,7 @@
 //! A diagnosis as a user asks for it: `twincal diagnose`'s options but `--data` and the files it
 //! writes, Python's `twincal.diagnose` keyword arguments.
 
-use super::groups::{Floor, Loads, ModelChoice, Reading};
+use super::groups::{Artifact, Floor, Loads, ModelChoice, Reading};
 use crate::calib::effects::EffectChoice;
 use crate::calib::pipeline::SplitBy;
 use crate::dataset::ReadOptions;
@@ -27,6 +27,10 @@ pub struct DiagnoseRequest {
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub loads: Loads,
+    /// The artifact a ball was seated in.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    #[serde(flatten)]
+    pub artifact: Artifact,
     /// Candidate effects (default: every kind the data support).
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ','))]
     pub candidates: Vec<EffectChoice>,
@@ -61,6 +65,7 @@ impl Default for DiagnoseRequest {
     fn default() -> Self {
         DiagnoseRequest {
             reading: Reading::default(),
+            artifact: Artifact::default(),
             model: ModelChoice::default(),
             loads: Loads::default(),
             candidates: Vec::new(),
@@ -103,6 +108,7 @@ impl DiagnoseRequest {
             floor: a.floor.resolve()?,
             candidates: a.candidates.iter().map(|c| c.pair()).collect(),
             stations: a.reading.stations,
+            spacings: a.artifact.spacing_mm.clone(),
             ..DiagnoseOptions::new(model)
         };
         Ok((opts, limit))

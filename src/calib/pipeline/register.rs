@@ -63,7 +63,7 @@ impl CalibResult {
             .map(|r| match (label_of(r, k), known.len()) {
                 (None, 0 | 1) => Some(0),
                 (None, _) => None,
-                (Some(l), _) => known.iter().position(|x| x == l),
+                (Some(l), _) => known.iter().position(|x| *x == l),
             })
             .collect()
     }
@@ -130,7 +130,7 @@ impl CalibResult {
         let m = self.model.measurement;
         let groups: Vec<Vec<usize>> = unknown
             .iter()
-            .map(|(k, l)| data.rows.iter().enumerate().filter(|(_, r)| label_of(r, *k) == Some(l.as_str())).map(|(i, _)| i).take(rows).collect())
+            .map(|(k, l)| data.rows.iter().enumerate().filter(|(_, r)| label_of(r, *k).as_deref() == Some(l.as_str())).map(|(i, _)| i).take(rows).collect())
             .collect();
         let (model, x) = self.with_new_setups(data, unknown, &groups)?;
         // Every registration row with its set-ups as the extended model numbers them.

@@ -84,10 +84,12 @@ fn labels_of(data: &Dataset, k: SetupKind) -> crate::dataset::Stations {
 }
 
 /// A row's label of kind `k`.
-pub fn label_of(r: &crate::dataset::Row, k: SetupKind) -> Option<&str> {
-    match k {
-        SetupKind::Station => r.station.as_deref(),
-        SetupKind::Mount => r.mount.as_deref(),
+pub fn label_of(r: &crate::dataset::Row, k: SetupKind) -> Option<String> {
+    match (k, &r.socket) {
+        // A seated ball's station is its socket at its placement.
+        (SetupKind::Station, Some(s)) => Some(crate::dataset::socket_station(r.station.as_deref(), s)),
+        (SetupKind::Station, None) => r.station.clone(),
+        (SetupKind::Mount, _) => r.mount.clone(),
     }
 }
 
@@ -110,8 +112,8 @@ fn find_changes(data: &Dataset, fit_all: FirstFit) -> Result<(Option<Dataset>, F
         for kind in change.kinds {
             let declared = data.rows.iter().all(|r| label_of(r, kind).is_some());
             let label = new_label(&labelled, kind, change.row, declared);
-            let old = label_of(&labelled.rows[change.row], kind).map(str::to_string);
-            for r in labelled.rows[change.row..].iter_mut().filter(|r| label_of(r, kind) == old.as_deref()) {
+            let old = label_of(&labelled.rows[change.row], kind);
+            for r in labelled.rows[change.row..].iter_mut().filter(|r| label_of(r, kind) == old) {
                 *label_mut(r, kind) = Some(label.clone());
             }
             // The first set-up of a file that names none is `1`.
