@@ -247,11 +247,12 @@ pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing]) -> crate::err
                         k.mm
                     )))
                 }
-                Some((a, b)) => match (at(a), at(b)) {
-                    (Some(ia), Some(ib)) => out.push(Spacing { a: ia, b: ib, mm: k.mm }),
-                    // A placement where one of the two was not seated carries no such spacing.
-                    _ => {}
-                },
+                // A placement where one of the two was not seated carries no such spacing.
+                Some((a, b)) => {
+                    if let (Some(ia), Some(ib)) = (at(a), at(b)) {
+                        out.push(Spacing { a: ia, b: ib, mm: k.mm });
+                    }
+                }
             }
         }
     }

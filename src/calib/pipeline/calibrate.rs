@@ -171,12 +171,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let (labelled, found) = resolve_stations(data, opts)?;
     let data = labelled.as_ref().unwrap_or(data);
     let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting, search } = prepare(data, opts, solver.needs_row_inputs())?;
-    if !model.spacings.is_empty() && solver.name() != Method::LM.name() {
-        return Err(Error::Invalid(format!(
-            "a ball seated in sockets is calibrated by least squares over its rows and the sockets' spacings (--method lm); {} reads the rows one by one and never sees a spacing",
-            solver.name()
-        )));
-    }
+    sees_the_blocks(&model, solver)?;
     let mut warnings = setup_warnings(&model, data, screen.is_some(), opts);
     let x0 = model.nominal.clone();
     let fixed = held_fixed(&model, &id, opts.free);
@@ -269,6 +264,18 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         test_residuals_mm,
         model,
     })
+}
+
+/// Refuses a solver that reads the rows one by one (and never a spacing) for a model with
+/// residual blocks of its own (a ball in sockets).
+fn sees_the_blocks(model: &CalibModel, solver: &dyn Solver) -> Result<()> {
+    if !model.spacings.is_empty() && solver.name() != Method::LM.name() {
+        return Err(Error::Invalid(format!(
+            "a ball seated in sockets is calibrated by least squares over its rows and the sockets' spacings (--method lm); {} reads the rows one by one and never sees a spacing",
+            solver.name()
+        )));
+    }
+    Ok(())
 }
 
 /// A pose probe turning less than this over a mount's rows, degrees, leaves its origin on the

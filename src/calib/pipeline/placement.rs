@@ -41,7 +41,6 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let spec = &opts.model;
     let zero_guess = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
     let measurement = train.measurement;
-    let what = measurement.def().describe();
     refuse_cable_options(opts, measurement)?;
     if measurement == Measurement::Length && !matches!(spec, ModelSpec::Nominal { .. }) {
         if stations.len() > 1 || labels[1].len() > 1 {
@@ -80,18 +79,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         let pts: Vec<_> = rows.iter().map(|&i| flanges[i].point(&target)).collect();
         let rots: Vec<_> = rows.iter().map(|&i| flanges[i].rot).collect();
         let y: Vec<f64> = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
-        let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| {
-            Error::Calibration(match measurement {
-                Measurement::Length => format!("cannot locate the cable exit point{label}: need at least 6 well-spread poses"),
-                Measurement::Socket => format!(
-                    "cannot place the socket{label} from the nominal arm: {} seated configuration(s); the ball's centre on the flange shows only when the tool turns about it: seat at least {} configurations turned by more than {:.0} deg",
-                    rows.len(),
-                    crate::measurement::socket::MIN_ROWS_PER_SOCKET,
-                    crate::measurement::socket::MIN_TURN_RAD.to_degrees()
-                ),
-                _ => format!("cannot place the instrument ({what}){label} from the nominal arm: need at least 3 poses whose points are not on one line"),
-            })
-        })?;
+        let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| not_located(measurement, &label, rows.len()))?;
         Ok(Placement { measurement, own, tool })
     };
     let rows_of = |kind: SetupKind, s: usize| -> Vec<usize> { (0..train.len()).filter(|i| kind.of(&train.inputs[*i]) == s).collect() };
@@ -135,13 +123,34 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let [st, mo] = others;
     let mut model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
     if measurement == Measurement::Socket {
-        model.spacings = crate::calib::model::resolve_spacings(stations, &opts.spacings)?;
-        // The arm pulled toward its nominal by the documented tolerances (the published
-        // objective's pull): a ball on the last axis leaves the wrist's links nearly free.
-        let std = opts.tolerances.prior_std(&model);
-        model.pulls = (0..model.n_chain()).map(|k| crate::calib::model::Pull { k, to: model.nominal[k], std: std[k] }).collect();
+        socket_blocks(&mut model, stations, opts)?;
     }
     Ok((align_placement(model, train, opts.rank_tol), report))
+}
+
+/// The error of an instrument that `rows` rows cannot place (`label`: where).
+fn not_located(measurement: Measurement, label: &str, rows: usize) -> Error {
+    let what = measurement.def().describe();
+    Error::Calibration(match measurement {
+        Measurement::Length => format!("cannot locate the cable exit point{label}: need at least 6 well-spread poses"),
+        Measurement::Socket => format!(
+            "cannot place the socket{label} from the nominal arm: {rows} seated configuration(s); the ball's centre on the flange shows only when the tool turns about it: seat at least {} configurations turned by more than {:.0} deg",
+            crate::measurement::socket::MIN_ROWS_PER_SOCKET,
+            crate::measurement::socket::MIN_TURN_RAD.to_degrees()
+        ),
+        _ => format!("cannot place the instrument ({what}){label} from the nominal arm: need at least 3 poses whose points are not on one line"),
+    })
+}
+
+/// A ball in sockets' residual blocks: the stated spacings between the sockets of each
+/// placement (`stations`), and the arm pulled toward its nominal by the documented tolerances
+/// (the published objective's pull: a ball on the last axis leaves the wrist's links nearly
+/// free).
+fn socket_blocks(model: &mut CalibModel, stations: &[String], opts: &CalibOptions) -> Result<()> {
+    model.spacings = crate::calib::model::resolve_spacings(stations, &opts.spacings)?;
+    let std = opts.tolerances.prior_std(model);
+    model.pulls = (0..model.n_chain()).map(|k| crate::calib::model::Pull { k, to: model.nominal[k], std: std[k] }).collect();
+    Ok(())
 }
 
 /// Refuses a draw-wire's options (a guess of its placement, its cable's pull) on another

@@ -14,6 +14,8 @@ use crate::stats::metrics::ErrorStats;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+pub use super::setup::{SetupPart, SetupReport, StationOrigin};
+
 /// A parameter in the report (display units: mm, degrees).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ParamReport {
@@ -737,87 +739,4 @@ mod one_based_tests {
         let e = serde_json::from_str::<Rows>(r#"{"r":[0]}"#).err().unwrap().to_string();
         assert!(e.contains("1-based row numbers"), "{e}");
     }
-}
-
-/// How a station came to be.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StationOrigin {
-    /// Named in the file (`station` column, or a declared block with `--stations blocks`).
-    Declared,
-    /// Found: a change point in the residuals of a first fit.
-    ChangePoint,
-}
-
-/// One station of the instrument, or one mount of its target, in a calibration's result: its
-/// rows and where it stood (sat) relative to the first.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SetupPart {
-    /// Its label (the file's, or `A.2` for the second part of a declared station `A` that a
-    /// change point split, `2` for the second part of a file without stations).
-    pub label: String,
-    /// Declared or found.
-    pub origin: StationOrigin,
-    /// Its number of rows.
-    pub rows: usize,
-    /// Its first and last data rows (1-based).
-    pub first_row: usize,
-    /// See `first_row`.
-    pub last_row: usize,
-    /// How far its origin sits from the first's, mm (a mount: its target on the flange; 0 for
-    /// the first).
-    pub shift_mm: f64,
-    /// How far its axes are turned from the first's, degrees (a mount: a 6-D probe's
-    /// orientation on the flange; a draw-wire's station and a point's mount, which have no
-    /// axes: 0).
-    pub turn_deg: f64,
-    /// The pause in `t` before its first row, s, where the rows read one there (a found change
-    /// that a break between sessions explains).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub after_pause_s: Option<f64>,
-}
-
-impl SetupReport {
-    /// What a summary prints of the set-ups: a line for the stations and one for the mounts
-    /// where there are several, then one per station or mount with its rows and where it stood
-    /// relative to the first.
-    pub fn lines(&self) -> Vec<String> {
-        let mut out = Vec::new();
-        let stood = if self.seated { ("socket", "the ball was seated in") } else { ("station", "the instrument stood at") };
-        for (what, parts, verb) in [(stood.0, &self.stations, stood.1), ("mount", &self.mounts, "the target sat on")] {
-            if parts.is_empty() {
-                continue;
-            }
-            let found = parts.iter().filter(|s| s.origin == StationOrigin::ChangePoint).count();
-            let how = match (found, parts.len() - found) {
-                (0, _) => "as declared".to_string(),
-                (_, 0) => "found as change points in the residuals of a first fit".to_string(),
-                (f, d) => format!("{d} declared, {f} found as change points in the residuals of a first fit"),
-            };
-            out.push(format!("set-up: {verb} {} {what}s ({how}), each with its own placement, the arm shared:", parts.len()));
-            for (k, s) in parts.iter().enumerate() {
-                let at =
-                    if k == 0 { "the reference".to_string() } else { format!("{:.3} mm and {:.4}° from {what} {}", s.shift_mm, s.turn_deg, parts[0].label) };
-                let pause = s.after_pause_s.map_or(String::new(), |p| format!(", after a pause of {} in t", crate::units::duration(p)));
-                out.push(format!("  {what} {}: rows {}-{} ({} rows), {at}{pause}", s.label, s.first_row, s.last_row, s.rows));
-            }
-        }
-        out
-    }
-}
-
-/// The stations of a calibration's rows, as its result reports them.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct SetupReport {
-    /// Where the stations came from (`--stations`).
-    pub source: super::options::StationSource,
-    /// Every station, in the order of its first row (none where the instrument stood at one).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub stations: Vec<SetupPart>,
-    /// Every mount of the target, in the order of its first row (none where it sat on one).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub mounts: Vec<SetupPart>,
-    /// Whether the stations are the sockets a ball was seated in.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub seated: bool,
 }
