@@ -147,3 +147,54 @@ pub fn held_out_placements(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> 
     }
     Ok(out)
 }
+
+/// Seated rows and a few tracker points of the same arm in one fit, judged on tracker points
+/// neither fit saw: what a handful of points beside the sockets adds.
+#[derive(Clone, Debug, Serialize)]
+pub struct MixedCheck {
+    /// The scenario's seed.
+    pub seed: u64,
+    /// Tracker points beside the seated rows.
+    pub points: usize,
+    /// The sockets alone, judged as [`check`] judges them (|Δp| RMS, mm).
+    pub sockets_mm: f64,
+    /// The sockets and the points in one fit: the held-out tracker points' |Δp| RMS, mm.
+    pub mixed_mm: f64,
+    /// The first placement's spacing as the mixed fit found it, and as the artifact was made
+    /// (at its temperature), mm.
+    pub spacing_fitted_mm: f64,
+    /// See `spacing_fitted_mm`.
+    pub spacing_made_mm: f64,
+}
+
+/// The `[sockets]` scenario `s` at its seed: its seated rows with the first `points` training
+/// points of its tracker (the same arm) in one file, calibrated with `opts` and judged on the
+/// tracker's test points; beside the sockets alone ([`check`]).
+pub fn mixed(s: &Scenario, robot: &Robot, opts: &CalibOptions, points: usize) -> Result<MixedCheck> {
+    let art = s.sockets.as_ref().ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets]", s.name)))?;
+    let alone = check(s, robot, opts)?;
+    let twin = crate::sim::generate::build_twin(s, robot);
+    let (seated, truth) = crate::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
+    let mut ts = Scenario { sockets: None, ..s.clone() };
+    ts.acquisition.model = AcquisitionModel::QuasiStatic;
+    let tracker = crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset;
+    let beside: Vec<_> = tracker.rows.iter().filter(|r| r.split == Some(Split::Train)).take(points).cloned().collect();
+    let judged: Vec<_> = tracker.rows.iter().filter(|r| r.split == Some(Split::Test)).cloned().collect();
+    let train: Vec<_> = seated.rows.iter().map(|r| crate::dataset::Row { split: Some(Split::Train), ..r.clone() }).chain(beside).collect();
+    let n_train = train.len();
+    let both = Dataset { rows: train.into_iter().chain(judged).collect(), source: format!("{} sockets and points", s.name) };
+    let spacings: Vec<KnownSpacing> =
+        truth.designed_spacings_mm.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
+    let r = calibrate(&both, None, &CalibOptions { spacings, ..opts.clone() })?;
+    let test: Vec<usize> = (n_train..both.rows.len()).collect();
+    let mixed_mm = position_rms(&ReadingFit { model: &r.model, data: &samples(&both, &test) }.residuals_mm(&r.x));
+    // (The samples of `both` number its rows as the model does: the same dataset.)
+    Ok(MixedCheck {
+        seed: s.seed,
+        points,
+        sockets_mm: alone.sockets_mm,
+        mixed_mm,
+        spacing_fitted_mm: if r.model.spacings.is_empty() { f64::NAN } else { r.model.spacing_mm(&r.x, 0) },
+        spacing_made_mm: truth.spacings_mm.first().map_or(f64::NAN, |s| s.2),
+    })
+}

@@ -170,7 +170,17 @@ impl Dataset {
     /// What the rows' readings are (from their number of values, which the loader took from the
     /// header's columns); `None` for a dataset of poses without readings.
     pub fn measurement(&self) -> Option<Measurement> {
+        if self.rows.iter().any(|r| r.socket.is_some()) {
+            return Some(Measurement::Socket);
+        }
         self.rows.first()?.measurement()
+    }
+
+    /// The other instrument whose rows stand beside the first's (a tracker's points beside
+    /// seated rows), if any.
+    pub fn also_measurement(&self) -> Option<Measurement> {
+        let first = self.measurement()?;
+        self.rows.iter().filter_map(|r| r.measurement()).find(|m| *m != first)
     }
 
     /// True when every row has a cable length (and there is at least one row).
@@ -207,8 +217,8 @@ impl Dataset {
 
     /// An error naming the source unless every row has a reading of one kind (any instrument).
     pub fn require_readings(&self) -> Result<()> {
-        let m = self.rows.first().and_then(|r| r.measurement());
-        match self.rows.iter().position(|r| r.measurement().is_none() || r.measurement() != m) {
+        let kinds = [self.measurement(), self.also_measurement()];
+        match self.rows.iter().position(|r| r.measurement().is_none() || !kinds.contains(&r.measurement())) {
             None if !self.rows.is_empty() => Ok(()),
             None => Err(Error::data(&self.source, "no rows")),
             Some(i) => Err(Error::data(
@@ -287,11 +297,13 @@ impl Dataset {
         if all(|r| r.block.is_some()) {
             out.push(("block".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.block.clone().unwrap_or_default()).collect())));
         }
-        if all(|r| r.station.is_some()) {
+        // (A tracker's points beside seated rows stand at no placement.)
+        let beside = self.also_measurement().is_some();
+        if self.rows.iter().all(|r| r.station.is_some() || (r.socket.is_none() && beside)) && self.rows.iter().any(|r| r.station.is_some()) {
             let name = if self.measurement() == Some(Measurement::Socket) { "placement" } else { "station" };
             out.push((name.into(), ColumnValues::Texts(self.rows.iter().map(|r| r.station.clone().unwrap_or_default()).collect())));
         }
-        if all(|r| r.socket.is_some()) {
+        if self.rows.iter().any(|r| r.socket.is_some()) {
             out.push(("socket".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.socket.clone().unwrap_or_default()).collect())));
         }
         if all(|r| r.mount.is_some()) {

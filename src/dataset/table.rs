@@ -229,6 +229,11 @@ impl Layout {
             }
             complete = vec![w];
         }
+        // Seated rows beside a tracker's points (sockets plus a few points, one fit): the rows
+        // that name a socket read nothing, the others the points.
+        if complete.len() == 2 && complete.contains(&Measurement::Socket) && complete.contains(&Measurement::Point) {
+            complete.retain(|m| *m == Measurement::Point);
+        }
         if complete.len() > 1 {
             let both = complete.iter().map(|m| format!("{} ({})", m.def().columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" and ");
             return Err(Error::data(source, format!("line 1: the header holds the readings of two instruments, {both}; keep one; header found: {}", found())));
@@ -431,7 +436,9 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
     for raw in &table.rows {
         let line = raw.line;
         let q_deg = row_angles(&layout, &cells, raw, opts.angles)?;
-        let reading_mm = row_reading(&layout, &cells, raw, opts.euler)?;
+        let mixed = layout.measurement.is_some_and(|m| !m.is_constant()) && layout.pos[Column::Socket.index()].is_some();
+        let seated = mixed && label(layout.cell(raw, Column::Socket), Column::Socket, line, src)?.is_some();
+        let reading_mm = if seated { no_reading(&layout, &cells, raw)? } else { row_reading(&layout, &cells, raw, opts.euler)? };
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
             check_time(t, last_t, line, src)?;
@@ -457,6 +464,8 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
             return Err(cell_error(src, line, Column::Block, "empty block label; when the file has a block column, every row must name its block"));
         }
         let [station, mount, socket] = [Column::Station, Column::Mount, Column::Socket].map(|c| match label(layout.cell(raw, c), c, line, src) {
+            // Beside a tracker's points, a row without a socket is a point, at no placement.
+            Ok(None) if mixed && (c == Column::Socket || (c == Column::Station && !seated)) => Ok(None),
             Ok(None) if layout.pos[c.index()].is_some() => {
                 let what = c.name();
                 Err(cell_error(src, line, c, format!("empty {what} label; when the file has a {what} column, every row must name its {what}")))
@@ -540,6 +549,23 @@ pub(super) fn row_reading(layout: &Layout, cells: &Cells, raw: &RawRow, euler: E
         reading_mm[n - 3..].iter_mut().zip(a).for_each(|(v, a)| *v = a.to_degrees());
     }
     Ok(reading_mm)
+}
+
+/// A seated row's reading cells beside a tracker's points: empty (it reads nothing).
+fn no_reading(layout: &Layout, cells: &Cells, raw: &RawRow) -> Result<Vec<f64>> {
+    let Some(m) = layout.measurement else { return Ok(Vec::new()) };
+    for name in m.def().file_columns() {
+        let c = Column::reading(name);
+        if cells.number(layout.cell(raw, c), c, raw.line)?.is_some() {
+            return Err(cell_error(
+                cells.source,
+                raw.line,
+                c,
+                "a row seated in a socket reads nothing: leave the tracker's columns empty on it (or its socket, if the tracker read it)",
+            ));
+        }
+    }
+    Ok(Vec::new())
 }
 
 /// A row's time `t` (s): plausible, and not before the previous row's (`last`: its time, line).

@@ -91,8 +91,8 @@ fn socket_files_are_byte_identical_and_read_as_tools_write_them() {
 }
 
 /// What socket rows cannot determine is said, never fitted silently: no spacing (no scale), one
-/// socket, too few or unturned seatings, a method that never sees a spacing; a socket column
-/// beside a tracker's readings is refused.
+/// socket, too few or unturned seatings, a method that never sees a spacing; a seated row with
+/// a tracker's reading is refused.
 #[test]
 fn what_socket_rows_cannot_determine_is_said() {
     let dir = tempfile::tempdir().unwrap();
@@ -135,5 +135,34 @@ fn what_socket_rows_cannot_determine_is_said() {
     std::fs::write(&f, header + "\n" + &body.join("\n")).unwrap();
     let o = twincal(&["calibrate", "--data", f.to_str().unwrap(), "--spacing-mm", "A:B=50", "--quiet"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("two instruments"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("reads nothing"), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// Seated rows and 20 tracker points of the same arm in one fit (one file: a row naming its
+/// socket reads nothing, the others the tracker's x, y, z): the held-out tracker points several
+/// times better than the sockets alone, and the plate's spacing found as it was made rather than
+/// as stated. The file round-trips; a seated row with a tracker reading is refused.
+#[test]
+fn sockets_and_a_few_tracker_points_fit_together() {
+    let (s, robot) = scenario(&|t| t);
+    for seed in [1u64, 2] {
+        let c = twincal::sockets_check::mixed(&Scenario { seed, ..s.clone() }, &robot, &lm(&robot), 20).unwrap();
+        assert!(c.mixed_mm < c.sockets_mm / 4.0 && c.mixed_mm < 0.02, "seed {seed}: {c:?}");
+        assert!((c.spacing_fitted_mm - c.spacing_made_mm).abs() < 0.008, "seed {seed}: {c:?}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("mixed.csv");
+    let text = "q1,q2,q3,q4,q5,q6,x,y,z,placement,socket\n\
+                10,20,30,40,50,60,,,,p1,A\n\
+                11,21,31,41,51,61,400.1,20.2,300.3,,\n";
+    std::fs::write(&f, text).unwrap();
+    let d = Dataset::load(&f).unwrap();
+    assert_eq!(d.measurement(), Some(twincal::measurement::Measurement::Socket));
+    assert_eq!(d.also_measurement(), Some(twincal::measurement::Measurement::Point));
+    let back = dir.path().join("back.csv");
+    d.write_csv(&back).unwrap();
+    assert_eq!(Dataset::load(&back).unwrap().rows, d.rows);
+    std::fs::write(&f, text.replace("60,,,,p1,A", "60,1,2,3,p1,A")).unwrap();
+    let e = Dataset::load(&f).unwrap_err().to_string();
+    assert!(e.contains("reads nothing"), "{e}");
 }

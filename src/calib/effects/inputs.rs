@@ -167,12 +167,16 @@ pub fn row_inputs(data: &Dataset, torque: Option<&TorqueModel>) -> Vec<RowInputs
     let n = data.rows.len();
     let (stations, mounts) = (data.stations(), data.mounts());
     let rates = temperature_rates(data);
+    let first = data.measurement();
     let mut out: Vec<RowInputs> = data
         .rows
         .iter()
         .zip(stations.of_row.iter().zip(&mounts.of_row))
         .zip(rates)
-        .map(|((r, (&station, &mount)), rate)| RowInputs { t_s: r.t_s, temp_c: r.temp_c, temp_rate_k_per_s: rate, station, mount, ..Default::default() })
+        .map(|((r, (&station, &mount)), rate)| {
+            let instrument = usize::from(r.measurement().is_some() && r.measurement() != first);
+            RowInputs { t_s: r.t_s, temp_c: r.temp_c, temp_rate_k_per_s: rate, station, mount, instrument, ..Default::default() }
+        })
         .collect();
     let nq = data.n_joints();
     for (i, r) in data.rows.iter().enumerate() {

@@ -353,6 +353,9 @@ pub struct RowInputs {
     /// The target's mount on the flange the row was read with: an index into the model's
     /// [`mounts`](crate::calib::model::CalibModel::mounts), 0 for the first (and only).
     pub mount: usize,
+    /// Which instrument read the row: 0 the model's, 1 the other one beside it
+    /// ([`crate::calib::model::CalibModel::also`]: a tracker's points beside seated rows).
+    pub instrument: usize,
 }
 
 impl RowInputs {

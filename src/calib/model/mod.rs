@@ -156,6 +156,12 @@ pub struct CalibModel {
     /// after the spacings'.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub pulls: Vec<Pull>,
+    /// A second instrument whose rows share the arm (a tracker's points beside seated rows):
+    /// its placement parameters (its own, then its target on the flange) follow the first
+    /// instrument's, before the set-ups' blocks; a row it read says so
+    /// ([`RowInputs::instrument`] = 1). One station, one mount.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub also: Option<Measurement>,
 }
 
 /// The instrument's placement one row is read with: its own parameters (its station's where the
@@ -200,7 +206,8 @@ impl CalibModel {
     }
     /// A workspace sized for this model.
     pub fn work(&self) -> ModelWork {
-        let extra = (1..self.measurement.def().n_targets()).map(|_| PointJacobian::new(&self.chain)).collect();
+        let most = self.measurement.def().n_targets().max(self.also.map_or(1, |m| m.def().n_targets()));
+        let extra = (1..most).map(|_| PointJacobian::new(&self.chain)).collect();
         ModelWork { fk: FkWork::new(&self.chain), jac: PointJacobian::new(&self.chain), extra, eff: EffectState::default(), q: vec![0.0; self.chain.n_joints] }
     }
     /// The instrument placement held in `x` (the public way to read it: no index arithmetic).
@@ -244,7 +251,35 @@ impl CalibModel {
         self.mounts = Vec::new();
         self.spacings = Vec::new();
         self.pulls = Vec::new();
+        self.also = None;
         self
+    }
+    /// This model with a second instrument placed at `p` whose rows share the arm: its
+    /// placement parameters after the first's (and before the set-ups' blocks).
+    pub fn with_also(mut self, p: &Placement) -> CalibModel {
+        assert!(self.effects.is_empty() && self.also.is_none(), "the second instrument is placed before effect blocks are added");
+        let at = self.placement_range().end;
+        let m = p.measurement;
+        let values: Vec<f64> = p.own.iter().chain(p.tool.iter()).copied().collect();
+        for (k, v) in values.iter().enumerate().rev() {
+            self.names.insert(at, format!("{}@{}", m.placement_names()[k], m.name()));
+            self.kinds.insert(at, if m.def().placement_is_angle(k) { Kind::Angle } else { Kind::Length });
+            self.nominal.insert(at, *v);
+        }
+        self.also = Some(m);
+        self
+    }
+    /// Indices of the second instrument's placement parameters (empty without one).
+    pub fn also_range(&self) -> std::ops::Range<usize> {
+        let at = self.placement_range().end;
+        at..at + self.also.map_or(0, |m| m.n_placement())
+    }
+    /// The instrument that read a row.
+    pub fn measurement_of(&self, inp: &RowInputs) -> Measurement {
+        match (inp.instrument, self.also) {
+            (1, Some(m)) => m,
+            _ => self.measurement,
+        }
     }
     /// Indices of the instrument's placement parameters in the parameter vector.
     pub fn placement_range(&self) -> std::ops::Range<usize> {
@@ -256,7 +291,7 @@ impl CalibModel {
     }
     /// Index of the first effect parameter.
     pub fn first_effect(&self) -> usize {
-        self.placement_range().end + SetupKind::ALL.iter().map(|k| (self.n_setups(*k) - 1) * self.setup_params(*k).len()).sum::<usize>()
+        self.also_range().end + SetupKind::ALL.iter().map(|k| (self.n_setups(*k) - 1) * self.setup_params(*k).len()).sum::<usize>()
     }
     /// Adds an effect block (no-op if an equal block is present); its parameters start at
     /// "no effect" in `nominal`. `t_span_s` is the data's time span (warm-up starting value).
@@ -350,8 +385,17 @@ impl CalibModel {
         out
     }
 
-    /// [`Self::placed`] of a row.
+    /// [`Self::placed`] of a row (the second instrument's placement for a row it read).
     fn placed_of(&self, x: &[f64], inp: &RowInputs) -> Placed {
+        if let (1, Some(m)) = (inp.instrument, self.also) {
+            let r = self.also_range();
+            let mut out = Placed { vals: [0.0; MAX_OWN + 3], cols: [0; MAX_OWN + 3], n_own: m.target_index() };
+            out.vals[..r.len()].copy_from_slice(&x[r.clone()]);
+            for (k, c) in out.cols[..r.len()].iter_mut().enumerate() {
+                *c = r.start + k;
+            }
+            return out;
+        }
         self.placed(x, inp.station, inp.mount)
     }
 
@@ -391,16 +435,17 @@ impl CalibModel {
     pub fn readings(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64]) {
         let placed = self.placed_of(x, inp);
         let (own, tool) = (placed.own(), placed.tool());
-        let def = self.measurement.def();
+        let m = self.measurement_of(inp);
+        let def = m.def();
         if def.n_targets() == 1 {
             def.reading(own, std::slice::from_ref(&self.tool_point_with(x, q, inp, w)), y);
         } else {
             let flange = self.flange_frame_with(x, q, inp, w);
-            let (local, nt) = self.targets(own, &tool, &mut [Vector3::zeros(); MAX_TARGETS * MAX_OWN]);
+            let (local, nt) = Self::targets(def, own, &tool, &mut [Vector3::zeros(); MAX_TARGETS * MAX_OWN]);
             let pts = local.map(|l| flange.point(&l));
             def.reading(own, &pts[..nt], y);
         }
-        if self.measurement.dim() == 1 {
+        if m.dim() == 1 {
             let l = y[0];
             y[0] = l + self.reading_correction(x, l).0;
         }
@@ -409,8 +454,12 @@ impl CalibModel {
     /// The instrument's points of the flange frame (flange coordinates; the first is the
     /// target) with their number, and their derivatives with respect to the instrument's own
     /// parameters into `dlocal`.
-    fn targets(&self, own: &[f64], tool: &Vector3<f64>, dlocal: &mut [Vector3<f64>]) -> ([Vector3<f64>; MAX_TARGETS], usize) {
-        let def = self.measurement.def();
+    fn targets(
+        def: &dyn crate::measurement::Instrument,
+        own: &[f64],
+        tool: &Vector3<f64>,
+        dlocal: &mut [Vector3<f64>],
+    ) -> ([Vector3<f64>; MAX_TARGETS], usize) {
         let nt = def.n_targets();
         let mut local = [Vector3::zeros(); MAX_TARGETS];
         def.targets(own, tool, &mut local[..nt], &mut dlocal[..nt * own.len()]);
@@ -421,9 +470,16 @@ impl CalibModel {
     /// evaluation (into `w.jac` and `w.extra`), and the points' derivatives with respect to
     /// the instrument's own parameters into `dlocal`; returns the points (base frame) and their
     /// number.
-    fn target_jacobians(&self, own: &[f64], tool: &Vector3<f64>, w: &mut ModelWork, dlocal: &mut [Vector3<f64>]) -> ([Vector3<f64>; MAX_TARGETS], usize) {
+    fn target_jacobians(
+        &self,
+        def: &dyn crate::measurement::Instrument,
+        own: &[f64],
+        tool: &Vector3<f64>,
+        w: &mut ModelWork,
+        dlocal: &mut [Vector3<f64>],
+    ) -> ([Vector3<f64>; MAX_TARGETS], usize) {
         let flange = self.chain.flange();
-        let (local, nt) = self.targets(own, tool, dlocal);
+        let (local, nt) = Self::targets(def, own, tool, dlocal);
         self.chain.point_jacobian(&w.fk, flange, &local[0], &mut w.jac);
         if w.extra.len() + 1 < nt {
             w.extra.resize_with(nt - 1, || PointJacobian::new(&self.chain));
@@ -449,7 +505,8 @@ impl CalibModel {
     /// Predicted readings (m) into `y` and their Jacobian with respect to every parameter into
     /// `jac` (row-major, one row of [`Self::n_params`] per reading value).
     pub fn readings_grad(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], jac: &mut [f64]) {
-        let (nc, n, dim) = (self.n_chain(), self.n_params(), self.measurement.dim());
+        let m = self.measurement_of(inp);
+        let (nc, n, dim) = (self.n_chain(), self.n_params(), m.dim());
         let placed = self.placed_of(x, inp);
         let (own, tool) = (placed.own(), placed.tool());
         let n_own = own.len();
@@ -457,9 +514,9 @@ impl CalibModel {
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
-        let (pts, nt) = self.target_jacobians(own, &tool, w, &mut dlocal);
+        let (pts, nt) = self.target_jacobians(m.def(), own, &tool, w, &mut dlocal);
         let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM * MAX_TARGETS], [0.0; MAX_DIM * MAX_OWN]);
-        self.measurement.def().reading_grad(own, &pts[..nt], y, &mut dy_dp[..dim * nt], &mut dy_down[..dim * n_own]);
+        m.def().reading_grad(own, &pts[..nt], y, &mut dy_dp[..dim * nt], &mut dy_down[..dim * n_own]);
         let rot = self.chain.frame(&w.fk, self.chain.flange()).rot;
         let (jac0, extra) = (&w.jac, &w.extra);
         for i in 0..dim {
@@ -533,15 +590,16 @@ impl CalibModel {
     /// angles (m/rad) into `g` (row-major, one row of N joints per reading value), every effect
     /// included; the row's inputs (torques, flanks, time) are held fixed.
     pub fn readings_grad_q(&self, x: &[f64], q: &[f64], inp: &RowInputs, w: &mut ModelWork, y: &mut [f64], g: &mut [f64]) {
-        let (nc, nj, dim) = (self.n_chain(), self.chain.n_joints, self.measurement.dim());
+        let m = self.measurement_of(inp);
+        let (nc, nj, dim) = (self.n_chain(), self.chain.n_joints, m.dim());
         let placed = self.placed_of(x, inp);
         let (own, tool) = (placed.own(), placed.tool());
         let scale = self.apply_effects(x, q, inp, w);
         self.chain.forward(&w.q, &x[..nc], scale, &mut w.fk);
         let mut dlocal = [Vector3::zeros(); MAX_TARGETS * MAX_OWN];
-        let (pts, nt) = self.target_jacobians(own, &tool, w, &mut dlocal);
+        let (pts, nt) = self.target_jacobians(m.def(), own, &tool, w, &mut dlocal);
         let (mut dy_dp, mut dy_down) = ([Vector3::zeros(); MAX_DIM * MAX_TARGETS], [0.0; MAX_DIM * MAX_OWN]);
-        self.measurement.def().reading_grad(own, &pts[..nt], y, &mut dy_dp[..dim * nt], &mut dy_down[..dim * own.len()]);
+        m.def().reading_grad(own, &pts[..nt], y, &mut dy_dp[..dim * nt], &mut dy_down[..dim * own.len()]);
         let (corr, dcorr) = if dim == 1 {
             let (c, d, _) = self.reading_correction(x, y[0]);
             (c, d)
@@ -651,6 +709,7 @@ impl CalibModel {
             mounts: Vec::new(),
             spacings: Vec::new(),
             pulls: Vec::new(),
+            also: None,
         };
         model.with_placement(placement)
     }

@@ -74,7 +74,7 @@ impl CalibModel {
     /// Indices of set-up `s`'s own parameters (`s` ≥ 1; the first's are the placement's).
     pub fn setup_block(&self, k: SetupKind, s: usize) -> std::ops::Range<usize> {
         debug_assert!(s >= 1 && s < self.n_setups(k));
-        let mut start = self.placement_range().end;
+        let mut start = self.also_range().end;
         for kind in SetupKind::ALL {
             let n = self.setup_params(kind).len();
             if kind == k {
@@ -123,7 +123,7 @@ impl CalibModel {
     /// are added.
     pub fn with_setups(mut self, stations: (Vec<String>, &[Vec<f64>]), mounts: (Vec<String>, &[Vec<f64>])) -> CalibModel {
         assert!(self.effects.is_empty(), "the set-ups are chosen before effect blocks are added");
-        let end = self.placement_range().end;
+        let end = self.also_range().end;
         self.names.truncate(end);
         self.kinds.truncate(end);
         self.nominal.truncate(end);

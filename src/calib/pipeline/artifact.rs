@@ -35,6 +35,9 @@ pub struct SpacingFit {
 /// The artifact's part of a calibration's result.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ArtifactReport {
+    /// What read rows beside the seated ones (a tracker's points), if anything.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beside: Option<String>,
     /// The ball's centre on the flange as fitted, mm.
     pub ball_mm: [f64; 3],
     /// Every socket of every placement.
@@ -50,6 +53,7 @@ impl ArtifactReport {
     pub fn lines(&self) -> Vec<String> {
         let b = self.ball_mm;
         let mut out = vec![format!("ball's centre on the flange: ({:.3}, {:.3}, {:.3}) mm", b[0], b[1], b[2])];
+        out.extend(self.beside.clone());
         for s in &self.sockets {
             out.push(format!("  socket {}: {} training rows, scatter {:.4} mm about its centre", s.label, s.rows, s.scatter_mm));
         }
@@ -90,7 +94,7 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String]) 
         .iter()
         .enumerate()
         .map(|(s, label)| {
-            let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == s).collect();
+            let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == s && train.inputs[i].instrument == 0).collect();
             let sq: f64 = rows
                 .iter()
                 .map(|&i| {
@@ -116,14 +120,17 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String]) 
     let ball = model.placement(x).tool;
     let shortest = model.spacings.iter().map(|s| s.mm).fold(f64::INFINITY, f64::min);
     let placements: std::collections::BTreeSet<&str> = labels.iter().map(|l| l.rsplit_once('/').map_or("", |(p, _)| p)).collect();
+    let beside = (0..train.len()).filter(|&i| train.inputs[i].instrument == 1).count();
     let mut cannot_see = vec![
         "the base frame: every socket moves with it, so the arm is placed relative to its sockets, not to the robot's base (register a tracker, or touch points known in the base frame, to place it)".to_string(),
-        format!(
+    ];
+    if beside == 0 {
+        cannot_see.push(format!(
             "the arm's scale beyond the stated spacing: an error of e mm in the stated {shortest:.1} mm scales every length by e/{shortest:.1} (0.01 mm: {:.0} ppm, {:.3} mm at 500 mm); state the spacing as made and at the artifact's temperature (PLA grows about 68 ppm/K)",
             0.01 / shortest * 1e6,
             0.01 / shortest * 500.0
-        ),
-    ];
+        ));
+    }
     if let Some(d) = off_last_axis_mm(model, x, train).filter(|d| *d < BALL_OFF_AXIS_MM) {
         cannot_see.push(format!(
             "the last joint's axis: the ball sits {d:.1} mm from it, so turning that joint hardly moves the ball and the wrist's last link is seen as one point (held by the tolerances' pull); put the ball {BALL_OFF_AXIS_MM:.0} mm or more off the flange's axis (an offset stylus) to see it"
@@ -135,5 +142,11 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String]) 
     if !fixed.is_empty() {
         cannot_see.push(format!("{} (held at nominal: the rows leave them free)", fixed.join(", ")));
     }
-    Some(ArtifactReport { ball_mm: [ball.x, ball.y, ball.z].map(crate::units::to_mm), sockets, spacings, cannot_see })
+    let beside_line = (beside > 0).then(|| {
+        format!(
+            "{beside} {} rows beside the seated ones: the arm's scale from them as well as from the spacings",
+            model.also.map_or("other", |m| m.def().describe())
+        )
+    });
+    Some(ArtifactReport { beside: beside_line, ball_mm: [ball.x, ball.y, ball.z].map(crate::units::to_mm), sockets, spacings, cannot_see })
 }

@@ -82,10 +82,12 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| not_located(measurement, &label, rows.len()))?;
         Ok(Placement { measurement, own, tool })
     };
-    let rows_of = |kind: SetupKind, s: usize| -> Vec<usize> { (0..train.len()).filter(|i| kind.of(&train.inputs[*i]) == s).collect() };
+    // (The first instrument's rows: a second one beside it is placed after.)
+    let own_row = |i: &usize| train.inputs[*i].instrument == 0;
+    let rows_of = |kind: SetupKind, s: usize| -> Vec<usize> { (0..train.len()).filter(own_row).filter(|i| kind.of(&train.inputs[*i]) == s).collect() };
     let at = |kind: SetupKind, s: usize| labels[usize::from(kind == SetupKind::Mount)].get(s).map_or(String::new(), |l| format!(" at {} {l}", kind.name()));
     // The first station and mount together: the rows of both.
-    let first_rows: Vec<usize> = (0..train.len()).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
+    let first_rows: Vec<usize> = (0..train.len()).filter(own_row).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
     let first = match (measurement, &opts.draw_wire_guess) {
         _ if searched.is_some() => searched.clone().expect("searched"),
         (Measurement::Length, Some(g)) => Placement::cable(g.exit_m.into(), g.offset_m, g.tool_m.into()),
@@ -125,7 +127,28 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     if measurement == Measurement::Socket {
         socket_blocks(&mut model, stations, opts)?;
     }
+    if let Some(p) = place_also(&model, train)? {
+        model = model.with_also(&p);
+    }
     Ok((align_placement(model, train, opts.rank_tol), report))
+}
+
+/// The second instrument of `train`'s rows that say so (a tracker's points beside seated rows),
+/// placed from the nominal arm's flange on them; `None` without such rows.
+fn place_also(model: &CalibModel, train: &Samples) -> Result<Option<Placement>> {
+    let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].instrument == 1).collect();
+    if rows.is_empty() {
+        return Ok(None);
+    }
+    let m = if model.measurement == Measurement::Socket { Measurement::Point } else { model.measurement };
+    let mut w = model.work();
+    let flanges: Vec<_> = rows.iter().map(|&i| model.flange_frame(&model.nominal, &train.q[i], &mut w)).collect();
+    let pts: Vec<_> = flanges.iter().map(|f| f.pos).collect();
+    let rots: Vec<_> = flanges.iter().map(|f| f.rot).collect();
+    let y: Vec<f64> = rows.iter().flat_map(|&i| train.row(i).iter().copied()).collect();
+    let (own, tool) =
+        m.def().locate(&pts, &rots, &y).ok_or_else(|| not_located(m, &format!(" beside the {}", model.measurement.def().describe()), rows.len()))?;
+    Ok(Some(Placement { measurement: m, own, tool }))
 }
 
 /// The error of an instrument that `rows` rows cannot place (`label`: where).

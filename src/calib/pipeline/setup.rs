@@ -280,6 +280,7 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
         return None;
     }
     let def = model.measurement.def();
+    let seated_model = model.measurement == crate::measurement::Measurement::Socket;
     let parts = |kind: SetupKind| -> Vec<SetupPart> {
         if model.n_setups(kind) < 2 {
             return Vec::new();
@@ -305,7 +306,11 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
                     }
                 };
                 let label = model.setups(kind)[s].clone();
-                let rows = st.labels.iter().position(|l| *l == label).map(|k| st.rows(k)).unwrap_or_default();
+                let mut rows = st.labels.iter().position(|l| *l == label).map(|k| st.rows(k)).unwrap_or_default();
+                // (A tracker's points beside seated rows stand at no socket.)
+                if seated_model {
+                    rows.retain(|&i| data.rows[i].socket.is_some());
+                }
                 let changed = found.iter().any(|(k, l)| *k == kind && *l == label) || (s == 0 && auto);
                 SetupPart {
                     origin: if changed { StationOrigin::ChangePoint } else { StationOrigin::Declared },
@@ -320,8 +325,7 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
             })
             .collect()
     };
-    let seated = model.measurement == crate::measurement::Measurement::Socket;
-    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount), seated })
+    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount), seated: seated_model })
 }
 
 /// How a station came to be.

@@ -94,6 +94,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
                 temp_c: r.temp_c,
                 station: stations.of_row[i],
                 mount: mounts.of_row[i],
+                instrument: usize::from(r.measurement().is_some() && r.measurement() != m),
                 ..Default::default()
             })
             .collect(),
