@@ -587,3 +587,21 @@ def test_the_controller_subset_is_written_as_the_controllers_data(tmp_path):
     with pytest.raises(twincal.TwincalError, match="controller-subset"):
         twincal.controller_data(tmp_path / "full.json", tmp_path / "full.dat", format="krl")
     assert not (tmp_path / "full.dat").exists()
+
+
+def test_a_ball_in_sockets_calibrates_as_the_command_line_does(tmp_path):
+    """Seated rows (a socket column, no reading) calibrated with their stated spacing, from a
+    folder and from columns in memory, agree with the command line; without a spacing the
+    command line's message is raised."""
+    scenario = ROOT / "scenarios" / "irb120_sockets.toml"
+    d = tmp_path / "sockets"
+    run_cli("generate", "--scenario", scenario, "--out", d)
+    run_cli("calibrate", "--data", d, "--spacing-mm", "A:B=50", "--out", tmp_path / "cli.json")
+    r = twincal.calibrate(str(d), spacing_mm=["A:B=50"])
+    cli = json.loads((tmp_path / "cli.json").read_text())
+    assert untimed(json.loads(r.to_json())["evaluation"]) == untimed(cli["evaluation"])
+    assert r.metrics["test_after"]["rmse"] < 0.02
+    with pytest.raises(twincal.TwincalError, match="no known spacing"):
+        twincal.calibrate(str(d))
+    with pytest.raises(twincal.TwincalError, match="seats a ball"):
+        twincal.generate(str(scenario))

@@ -201,13 +201,7 @@ impl Layout {
         }
         // The joints are q1..qN with N the highest joint named; at least one is needed.
         let joints = (0..MAX_JOINTS).rev().find(|&j| pos[Column::Q(j).index()].is_some()).map_or(1, |j| j + 1);
-        // A ball in a socket reads no column: its rows name their socket.
-        let has = |m: &Measurement| {
-            if m.is_constant() {
-                return pos[Column::Socket.index()].is_some();
-            }
-            m.def().file_columns().iter().all(|c| pos[Column::reading(c).index()].is_some())
-        };
+        let has = |m: &Measurement| present(m, &pos);
         let mut complete: Vec<Measurement> = Measurement::ALL.into_iter().filter(has).collect();
         // An instrument whose columns another one's include (a point's x, y, z in a pose's) is
         // that one; the one asked for is read alone.
@@ -229,11 +223,7 @@ impl Layout {
             }
             complete = vec![w];
         }
-        // Seated rows beside a tracker's points (sockets plus a few points, one fit): the rows
-        // that name a socket read nothing, the others the points.
-        if complete.len() == 2 && complete.contains(&Measurement::Socket) && complete.contains(&Measurement::Point) {
-            complete.retain(|m| *m == Measurement::Point);
-        }
+        seated_beside_points(&mut complete);
         if complete.len() > 1 {
             let both = complete.iter().map(|m| format!("{} ({})", m.def().columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" and ");
             return Err(Error::data(source, format!("line 1: the header holds the readings of two instruments, {both}; keep one; header found: {}", found())));
@@ -583,6 +573,23 @@ pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &
             ),
         )),
         _ => Ok(()),
+    }
+}
+
+/// Whether the header (its columns' positions `pos`) holds instrument `m`'s columns (a ball in
+/// a socket reads none: its rows name their socket).
+fn present(m: &Measurement, pos: &[Option<usize>]) -> bool {
+    if m.is_constant() {
+        return pos[Column::Socket.index()].is_some();
+    }
+    m.def().file_columns().iter().all(|c| pos[Column::reading(c).index()].is_some())
+}
+
+/// Seated rows beside a tracker's points (sockets plus a few points, one fit): the header's
+/// instruments `complete` read as the points', the rows that name a socket reading nothing.
+fn seated_beside_points(complete: &mut Vec<Measurement>) {
+    if complete.len() == 2 && complete.contains(&Measurement::Socket) && complete.contains(&Measurement::Point) {
+        complete.retain(|m| *m == Measurement::Point);
     }
 }
 

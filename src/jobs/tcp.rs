@@ -70,6 +70,23 @@ fn read_joints(path: &Path, angles: AngleUnit) -> Result<Dataset> {
 
 use crate::measurement::Measurement;
 
+/// Refuses an `--out` over a file the routine reads (`inputs`, and the arm's).
+fn check(mut inputs: Vec<(&'static str, PathBuf)>, arm: &ArmChoice, out: &Option<PathBuf>) -> Result<()> {
+    inputs.extend(arm.inputs());
+    let outs: Vec<(&str, &Path)> = out.iter().map(|p| ("--out", p.as_path())).collect();
+    check_outputs(&inputs, &outs)
+}
+
+/// Writes `value` as JSON to `out`, whole or not at all (nothing without `--out`).
+fn write<T: Serialize>(out: &Option<PathBuf>, value: &T) -> Result<()> {
+    if let Some(p) = out {
+        let mut set = OutputSet::new();
+        set.write_json(p, value)?;
+        set.commit()?;
+    }
+    Ok(())
+}
+
 /// `twincal tcp`: the N-point TCP; Python's `twincal.tcp` arguments.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
@@ -96,19 +113,12 @@ pub struct TcpJob {
 impl TcpJob {
     /// Reads the configurations, fits the tool and writes `--out`, whole or not at all.
     pub fn run(&self) -> Result<TcpFit> {
-        let mut inputs = vec![("--data", self.data.clone())];
-        inputs.extend(self.arm.inputs());
-        let outs: Vec<(&str, &Path)> = self.out.iter().map(|p| ("--out", p.as_path())).collect();
-        check_outputs(&inputs, &outs)?;
+        check(vec![("--data", self.data.clone())], &self.arm, &self.out)?;
         let data = read_joints(&self.data, self.angles)?;
         let flanges = self.arm.flanges(&data)?;
         let points = crate::dataset::Stations::of_labels(data.rows.iter().map(|r| r.socket.as_deref()));
         let fit = crate::tcp::tcp(&flanges, &points.of_row, &points.labels)?;
-        if let Some(p) = &self.out {
-            let mut set = OutputSet::new();
-            set.write_json(p, &fit)?;
-            set.commit()?;
-        }
+        write(&self.out, &fit)?;
         Ok(fit)
     }
 }
@@ -143,10 +153,7 @@ pub struct UserFrameJob {
 impl UserFrameJob {
     /// Reads the three configurations and the tool, and writes `--out`, whole or not at all.
     pub fn run(&self) -> Result<UserFrame> {
-        let mut inputs = vec![("--data", self.data.clone()), ("--tcp", self.tcp.clone())];
-        inputs.extend(self.arm.inputs());
-        let outs: Vec<(&str, &Path)> = self.out.iter().map(|p| ("--out", p.as_path())).collect();
-        check_outputs(&inputs, &outs)?;
+        check(vec![("--data", self.data.clone()), ("--tcp", self.tcp.clone())], &self.arm, &self.out)?;
         let text = std::fs::read_to_string(&self.tcp).map_err(|e| Error::io(&self.tcp, e))?;
         let tool: TcpFit = serde_json::from_str(&text).map_err(|e| Error::data(self.tcp.display(), format!("not a tcp result file: {e}")))?;
         if tool.tool_mm.iter().chain(&tool.tool_sd_mm).any(|v| !v.is_finite()) {
@@ -164,11 +171,7 @@ impl UserFrameJob {
         let tips: Vec<Vector3<f64>> = flanges.iter().map(|f| f.point(&t)).collect();
         let sd = tool.tool_sd_mm.iter().map(|s| s * s).sum::<f64>().sqrt().max(tool.rms_mm);
         let frame = crate::tcp::user_frame(&tips[0], &tips[1], &tips[2], sd)?;
-        if let Some(p) = &self.out {
-            let mut set = OutputSet::new();
-            set.write_json(p, &frame)?;
-            set.commit()?;
-        }
+        write(&self.out, &frame)?;
         Ok(frame)
     }
 }

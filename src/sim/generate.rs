@@ -335,6 +335,18 @@ pub fn acquire_all(
     out
 }
 
+/// Refuses a `[sockets]` scenario: its acquisition is the ball seated in the sockets
+/// ([`crate::sim::artifact::seat`], what `twincal generate` runs), not the instrument's tour.
+pub fn refuse_sockets(s: &Scenario) -> Result<()> {
+    match s.sockets {
+        Some(_) => Err(Error::Invalid(format!(
+            "scenario {} seats a ball in sockets ([sockets]): its rows come from the seating (twincal generate writes them), not from the instrument's tour",
+            s.name
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Runs a scenario end to end. Poses are simulated in parallel; results do not depend on the
 /// number of threads.
 pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<Generated> {
@@ -346,6 +358,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
 /// sampled ones, read at the given times (s) where there are some (a replay of a measured
 /// acquisition, see `twincal replay`), else at the scenario's acquisition times.
 pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_times: Option<Vec<f64>>, progress: &dyn Progress) -> Result<Generated> {
+    refuse_sockets(s)?;
     let twin = build_twin(s, robot);
     let home = vec![0.0; robot.dof()];
     // With given times the simulated tour waits at rest before each move to read at them (or

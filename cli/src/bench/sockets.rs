@@ -40,6 +40,22 @@ const VARIANTS: [(&str, &[(&str, &str)]); 3] = [
     ("as made: spacing 0.01 mm long, PLA 1 K warm, seated within 0.01 mm", &[]),
 ];
 
+/// The scenario `file` (its text edited by `edits`), its robot and the calibration's options.
+fn load_case(dir: &Path, file: &str, edits: &[(&str, &str)]) -> Result<(Scenario, twincal::robot::Robot, CalibOptions)> {
+    let path = dir.join(format!("{file}.toml"));
+    let mut text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    for (from, to) in edits {
+        if !text.contains(from) {
+            return Err(Error::Invalid(format!("{file}.toml: the benchmark's variant expects '{from}'")));
+        }
+        text = text.replace(from, to);
+    }
+    let s = Scenario::from_toml(&text, file)?;
+    let robot = s.load_robot(Some(dir))?;
+    let opts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: Parametrisation::Hayati }, Method::LM);
+    Ok((s, robot, opts))
+}
+
 /// Runs every case over `seeds` seeds and prints the table.
 pub fn bench_sockets(seeds: u64) -> Result<()> {
     let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios"));
@@ -47,17 +63,7 @@ pub fn bench_sockets(seeds: u64) -> Result<()> {
     println!("| case | artifact | seated rows (train) | socket rows' test RMSE | nominal | sockets | tracker, as many rows | sockets / tracker (worst seed) | calibration time (median) |");
     println!("|---|---|---|---|---|---|---|---|---|");
     for ((label, file), (variant, edits)) in CASES.iter().flat_map(|c| VARIANTS.iter().map(move |v| (c, v))) {
-        let path = dir.join(format!("{file}.toml"));
-        let mut text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-        for (from, to) in edits.iter() {
-            if !text.contains(from) {
-                return Err(Error::Invalid(format!("{file}.toml: the benchmark's variant expects '{from}'")));
-            }
-            text = text.replace(from, to);
-        }
-        let s0 = Scenario::from_toml(&text, file)?;
-        let robot = s0.load_robot(Some(dir))?;
-        let opts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: Parametrisation::Hayati }, Method::LM);
+        let (s0, robot, opts) = load_case(dir, file, edits)?;
         let mut times = Vec::new();
         let checks: Vec<SocketCheck> = (1..=seeds)
             .map(|seed| {
@@ -96,10 +102,7 @@ fn beside(dir: &Path, seeds: u64) -> Result<()> {
     println!("| arm | sockets alone | sockets + {POINTS} points | spacing fitted - made (mean abs) |");
     println!("|---|---|---|---|");
     for (label, file) in CASES {
-        let path = dir.join(format!("{file}.toml"));
-        let s0 = Scenario::from_toml(&std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?, file)?;
-        let robot = s0.load_robot(Some(dir))?;
-        let opts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: Parametrisation::Hayati }, Method::LM);
+        let (s0, robot, opts) = load_case(dir, file, &[])?;
         let all: Vec<MixedCheck> = (1..=seeds).map(|seed| mixed(&Scenario { seed, ..s0.clone() }, &robot, &opts, POINTS)).collect::<Result<_>>()?;
         let col = |f: &dyn Fn(&MixedCheck) -> f64| {
             let (m, sd) = mean_sd(&all.iter().map(f).collect::<Vec<_>>());
@@ -117,11 +120,7 @@ fn held_out(dir: &Path, seeds: u64) -> Result<()> {
     println!("| arm | trained on | judged | nominal: scatter | twincal: scatter | nominal: spacing error | twincal: spacing error |");
     println!("|---|---|---|---|---|---|---|");
     for (label, file) in CASES {
-        let path = dir.join(format!("{file}.toml"));
-        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-        let s0 = Scenario::from_toml(&text, file)?;
-        let robot = s0.load_robot(Some(dir))?;
-        let opts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: Parametrisation::Hayati }, Method::LM);
+        let (s0, robot, opts) = load_case(dir, file, &[])?;
         let all: Vec<PlacementCheck> =
             (1..=seeds).map(|seed| held_out_placements(&Scenario { seed, ..s0.clone() }, &robot, &opts)).collect::<Result<Vec<_>>>()?.concat();
         let arm = label.split(',').next().unwrap_or(label);
