@@ -82,11 +82,25 @@ fn off_last_axis_mm(model: &CalibModel, x: &[f64], train: &Samples) -> Option<f6
 }
 
 /// The report of `model` at `x` on its training rows `train`; `None` for another instrument.
-/// `fixed`: the names of the parameters the rows left free (held at nominal).
-pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String]) -> Option<ArtifactReport> {
+/// `parameters`: the result's parameters (those held, and those the rows determine no better
+/// than their `tolerances`, are named).
+pub fn report(
+    model: &CalibModel,
+    x: &[f64],
+    train: &Samples,
+    parameters: &[super::result::ParamReport],
+    tolerances: &crate::calib::model::tolerance::Tolerances,
+) -> Option<ArtifactReport> {
     if model.measurement != Measurement::Socket {
         return None;
     }
+    let fixed: Vec<String> = parameters.iter().filter(|p| p.fixed).map(|p| p.name.clone()).collect();
+    let prior = tolerances.prior_std(model);
+    // The arm's parameters whose uncertainty exceeds their tolerance: the pull holds them, not the rows.
+    let loose: Vec<String> = (0..model.n_chain())
+        .filter(|&k| !parameters[k].fixed && parameters[k].std_uncertainty.is_some_and(|sd| sd > model.display(k, prior[k])))
+        .map(|k| format!("{} (±{:.3} {})", parameters[k].name, parameters[k].std_uncertainty.unwrap_or(f64::NAN), parameters[k].unit))
+        .collect();
     let labels: Vec<String> = if model.stations.is_empty() { vec![String::new()] } else { model.stations.clone() };
     let mut w = model.work();
     let mut y = [0.0; crate::measurement::MAX_DIM];
@@ -141,6 +155,17 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String]) 
     }
     if !fixed.is_empty() {
         cannot_see.push(format!("{} (held at nominal: the rows leave them free)", fixed.join(", ")));
+    }
+    if !loose.is_empty() {
+        cannot_see.push(format!(
+            "{}: the rows determine them no better than their documented tolerance, and the pull toward the nominal holds them{}",
+            loose.join(", "),
+            if loose.iter().any(|l| l.starts_with("joint_1.theta")) {
+                " (joint 1's zero: a turn about the base's axis moves every socket with the arm)"
+            } else {
+                ""
+            }
+        ));
     }
     let beside_line = (beside > 0).then(|| {
         format!(

@@ -221,8 +221,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
-    let held: Vec<String> = parameters.iter().filter(|p| p.fixed).map(|p| p.name.clone()).collect();
-    let artifact = super::artifact::report(&model, &x, &split.train, &held);
+    let artifact = super::artifact::report(&model, &x, &split.train, &parameters, &opts.tolerances);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
     Ok(CalibResult {
         schema_version: super::result::RESULT_SCHEMA_VERSION,
