@@ -65,6 +65,19 @@ impl ArtifactReport {
     }
 }
 
+/// The arm's parameters of `model` (named `names`, with their standard uncertainties `sd` and
+/// units `unit`, display units; `None` where held) whose uncertainty exceeds their documented
+/// `tolerances`: the pull toward the nominal holds them, not the rows.
+pub fn loose(model: &CalibModel, params: &[(String, Option<f64>, String)], tolerances: &crate::calib::model::tolerance::Tolerances) -> Vec<String> {
+    let prior = tolerances.prior_std(model);
+    (0..model.n_chain().min(params.len()))
+        .filter_map(|k| {
+            let (name, sd, unit) = &params[k];
+            sd.filter(|sd| *sd > model.display(k, prior[k])).map(|sd| format!("{name} (±{sd:.3} {unit})"))
+        })
+        .collect()
+}
+
 /// A ball nearer than this to the last joint's axis (mm) leaves that axis unseen.
 pub const BALL_OFF_AXIS_MM: f64 = 20.0;
 
@@ -82,25 +95,12 @@ fn off_last_axis_mm(model: &CalibModel, x: &[f64], train: &Samples) -> Option<f6
 }
 
 /// The report of `model` at `x` on its training rows `train`; `None` for another instrument.
-/// `parameters`: the result's parameters (those held, and those the rows determine no better
-/// than their `tolerances`, are named).
-pub fn report(
-    model: &CalibModel,
-    x: &[f64],
-    train: &Samples,
-    parameters: &[super::result::ParamReport],
-    tolerances: &crate::calib::model::tolerance::Tolerances,
-) -> Option<ArtifactReport> {
+/// `fixed`: the parameters the rows leave free (held at nominal); `loose`: the arm's parameters
+/// they determine no better than their tolerance, each with its uncertainty ([`loose`]).
+pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String], loose: &[String]) -> Option<ArtifactReport> {
     if model.measurement != Measurement::Socket {
         return None;
     }
-    let fixed: Vec<String> = parameters.iter().filter(|p| p.fixed).map(|p| p.name.clone()).collect();
-    let prior = tolerances.prior_std(model);
-    // The arm's parameters whose uncertainty exceeds their tolerance: the pull holds them, not the rows.
-    let loose: Vec<String> = (0..model.n_chain())
-        .filter(|&k| !parameters[k].fixed && parameters[k].std_uncertainty.is_some_and(|sd| sd > model.display(k, prior[k])))
-        .map(|k| format!("{} (±{:.3} {})", parameters[k].name, parameters[k].std_uncertainty.unwrap_or(f64::NAN), parameters[k].unit))
-        .collect();
     let labels: Vec<String> = if model.stations.is_empty() { vec![String::new()] } else { model.stations.clone() };
     let mut w = model.work();
     let mut y = [0.0; crate::measurement::MAX_DIM];

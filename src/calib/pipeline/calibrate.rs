@@ -221,7 +221,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
-    let artifact = super::artifact::report(&model, &x, &split.train, &parameters, &opts.tolerances);
+    let artifact = artifact_report(&model, &x, &split.train, &parameters, opts);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
     Ok(CalibResult {
         schema_version: super::result::RESULT_SCHEMA_VERSION,
@@ -263,6 +263,15 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
         test_residuals_mm,
         model,
     })
+}
+
+/// [`super::artifact::report`] of a result's `parameters` (held, and loose against the
+/// tolerances).
+fn artifact_report(model: &CalibModel, x: &[f64], train: &Samples, parameters: &[ParamReport], opts: &CalibOptions) -> Option<super::artifact::ArtifactReport> {
+    let fixed: Vec<String> = parameters.iter().filter(|p| p.fixed).map(|p| p.name.clone()).collect();
+    let params: Vec<(String, Option<f64>, String)> =
+        parameters.iter().map(|p| (p.name.clone(), p.std_uncertainty.filter(|_| !p.fixed), p.unit.clone())).collect();
+    super::artifact::report(model, x, train, &fixed, &super::artifact::loose(model, &params, &opts.tolerances))
 }
 
 /// Refuses a solver that reads the rows one by one (and never a spacing) for a model with
