@@ -58,12 +58,6 @@ impl TcpFit {
     }
 }
 
-/// The largest angle (degrees) between two of the rotations `rot`.
-fn turn_deg(rot: &[&Matrix3<f64>]) -> f64 {
-    let angle = |a: &Matrix3<f64>, b: &Matrix3<f64>| (((a.transpose() * b).trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
-    rot.iter().map(|a| rot.iter().map(|b| angle(a, b)).fold(0.0, f64::max)).fold(0.0, f64::max).to_degrees()
-}
-
 /// The N-point TCP of flange frames `flanges` (base frame, m), configuration `i` holding the tip
 /// at fixed point `point[i]` (labels `labels`): the tool and every fixed point by least squares
 /// (`R_i·t + p_i = s_k`, linear), with the uncertainty of the tool from the residuals. An error
@@ -78,8 +72,8 @@ pub fn tcp(flanges: &[Frame], point: &[usize], labels: &[String]) -> Result<TcpF
     }
     let mut turn = f64::INFINITY;
     for g in 0..k {
-        let rot: Vec<&Matrix3<f64>> = (0..n).filter(|&i| point[i] == g).map(|i| &flanges[i].rot).collect();
-        let t = turn_deg(&rot);
+        let rot: Vec<Matrix3<f64>> = (0..n).filter(|&i| point[i] == g).map(|i| flanges[i].rot).collect();
+        let t = crate::measurement::socket::turn_spread(&rot).to_degrees();
         if rot.len() < 2 || t < MIN_TCP_TURN_DEG {
             let name = labels.get(g).map_or(String::new(), |l| format!(" {l}"));
             return Err(Error::Calibration(format!(

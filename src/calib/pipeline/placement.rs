@@ -141,14 +141,23 @@ fn place_also(model: &CalibModel, train: &Samples) -> Result<Option<Placement>> 
         return Ok(None);
     }
     let m = if model.measurement == Measurement::Socket { Measurement::Point } else { model.measurement };
+    let q: Vec<Vec<f64>> = rows.iter().map(|&i| train.q[i].clone()).collect();
+    let y: Vec<f64> = rows.iter().flat_map(|&i| train.row(i).iter().copied()).collect();
+    let p = locate_on(model, &model.nominal, m, &q, &y)
+        .ok_or_else(|| not_located(m, &format!(" beside the {}", model.measurement.def().describe()), rows.len()))?;
+    Ok(Some(p))
+}
+
+/// Instrument `m` placed from the flange frames of `model` at `x` at joint angles `q` and its
+/// readings `y` there ([`Instrument::locate`](crate::measurement::Instrument::locate)); `None`
+/// when the rows cannot place it.
+pub fn locate_on(model: &CalibModel, x: &[f64], m: Measurement, q: &[Vec<f64>], y: &[f64]) -> Option<Placement> {
     let mut w = model.work();
-    let flanges: Vec<_> = rows.iter().map(|&i| model.flange_frame(&model.nominal, &train.q[i], &mut w)).collect();
+    let flanges: Vec<_> = q.iter().map(|q| model.flange_frame(x, q, &mut w)).collect();
     let pts: Vec<_> = flanges.iter().map(|f| f.pos).collect();
     let rots: Vec<_> = flanges.iter().map(|f| f.rot).collect();
-    let y: Vec<f64> = rows.iter().flat_map(|&i| train.row(i).iter().copied()).collect();
-    let (own, tool) =
-        m.def().locate(&pts, &rots, &y).ok_or_else(|| not_located(m, &format!(" beside the {}", model.measurement.def().describe()), rows.len()))?;
-    Ok(Some(Placement { measurement: m, own, tool }))
+    let (own, tool) = m.def().locate(&pts, &rots, y)?;
+    Some(Placement { measurement: m, own, tool })
 }
 
 /// The error of an instrument that `rows` rows cannot place (`label`: where).

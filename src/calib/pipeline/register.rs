@@ -256,16 +256,10 @@ pub fn under_instrument(model: &CalibModel, x: &[f64], data: &Dataset, rows: &[u
     let mut other = model.clone().with_placement(&zero);
     other.nominal[..nc].copy_from_slice(&x[..nc]);
     let sub = super::split::samples(data, rows);
-    let mut w = other.work();
-    let flanges: Vec<_> = sub.q.iter().map(|q| other.flange_frame(&other.nominal, q, &mut w)).collect();
-    let pts: Vec<_> = flanges.iter().map(|f| f.pos).collect();
-    let rots: Vec<_> = flanges.iter().map(|f| f.rot).collect();
-    let (own, tool) = m
-        .def()
-        .locate(&pts, &rots, &sub.y)
+    let located = super::placement::locate_on(&other, &other.nominal, m, &sub.q, &sub.y)
         .ok_or_else(|| Error::Calibration(format!("cannot place the {} from the calibrated arm on {} rows", m.def().describe(), rows.len())))?;
     let mut start = other.nominal.clone();
-    other.set_placement(&mut start, &Placement { measurement: m, own, tool });
+    other.set_placement(&mut start, &located);
     let fixed: Vec<bool> = (0..start.len()).map(|k| k < nc).collect();
     let fit = ReadingFit { model: &other, data: &Samples { w: None, gls: None, ..sub } };
     let x = LevenbergMarquardt::budget(200).minimize(&fit, &start, &fixed, &mut NoObserver).x;
