@@ -127,7 +127,7 @@ pub fn held_out_placements(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> 
                     seated
                         .rows
                         .iter()
-                        .filter(|row| row.station.as_deref() == Some(q) && row.socket.as_deref() == Some(sock))
+                        .filter(|row| row.station.as_deref() == Some(q) && row.socket() == Some(sock))
                         .map(|row| crate::units::to_mm(r.model.tool_point(x, &row.q_deg.iter().map(|d| d.to_radians()).collect::<Vec<_>>(), &mut w)))
                         .collect()
                 };

@@ -96,7 +96,7 @@ impl Dataset {
                 return Err(Error::data(&d.source, format!("holds {} joint angles per row, the artifact's other files {}", d.n_joints(), r.q_deg.len())));
             }
             let socket = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-            rows.extend(d.rows.into_iter().map(|r| Row { station: Some(placement.clone()), socket: Some(socket.clone()), ..r }));
+            rows.extend(d.rows.into_iter().map(|r| Row { station: Some(placement.clone()), feature: Some(Feature::socket(socket.clone())), ..r }));
         }
         Ok(Dataset { rows, source: dir.display().to_string() })
     }
@@ -168,10 +168,11 @@ impl Dataset {
     }
 
     /// What the rows' readings are (from their number of values, which the loader took from the
-    /// header's columns); `None` for a dataset of poses without readings.
+    /// header's columns; the instrument at the artifact's feature when rows name one); `None`
+    /// for a dataset of poses without readings.
     pub fn measurement(&self) -> Option<Measurement> {
-        if self.rows.iter().any(|r| r.socket.is_some()) {
-            return Some(Measurement::Socket);
+        if let Some(r) = self.rows.iter().find(|r| r.feature.is_some()) {
+            return r.measurement();
         }
         self.rows.first()?.measurement()
     }
@@ -299,12 +300,13 @@ impl Dataset {
         }
         // (A tracker's points beside seated rows stand at no placement.)
         let beside = self.also_measurement().is_some();
-        if self.rows.iter().all(|r| r.station.is_some() || (r.socket.is_none() && beside)) && self.rows.iter().any(|r| r.station.is_some()) {
-            let name = if self.measurement() == Some(Measurement::Socket) { "placement" } else { "station" };
+        if self.rows.iter().all(|r| r.station.is_some() || (r.feature.is_none() && beside)) && self.rows.iter().any(|r| r.station.is_some()) {
+            let name = if self.measurement().is_some_and(|m| m.feature().is_some()) { "placement" } else { "station" };
             out.push((name.into(), ColumnValues::Texts(self.rows.iter().map(|r| r.station.clone().unwrap_or_default()).collect())));
         }
-        if self.rows.iter().any(|r| r.socket.is_some()) {
-            out.push(("socket".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.socket.clone().unwrap_or_default()).collect())));
+        if let Some(kind) = self.rows.iter().find_map(|r| r.feature.as_ref().map(|f| f.kind)) {
+            let labels = self.rows.iter().map(|r| r.feature.as_ref().map(|f| f.label.clone()).unwrap_or_default()).collect();
+            out.push((kind.column().into(), ColumnValues::Texts(labels)));
         }
         if all(|r| r.mount.is_some()) {
             out.push(("mount".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.mount.clone().unwrap_or_default()).collect())));

@@ -67,7 +67,7 @@ mod types;
 mod xlsx;
 
 pub use load::{artifact_files, campaign_files, read_csv_columns, CsvColumns};
-pub use stations::{socket_station, Stations};
+pub use stations::{feature_station, Stations};
 pub use table::{MAX_PAYLOAD_KG, MAX_STD_MM, STD_COLUMNS};
 pub use types::*;
 

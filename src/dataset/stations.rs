@@ -61,22 +61,24 @@ impl Stations {
     }
 }
 
-/// The station of a ball seated in `socket` of the artifact at `placement`: `placement/socket`,
-/// or the socket's label alone when the rows name no placement.
-pub fn socket_station(placement: Option<&str>, socket: &str) -> String {
+/// The station of the rows at feature `feature` (a socket, a face) of the artifact at
+/// `placement`: `placement/feature`, or the feature's label alone when the rows name no
+/// placement.
+pub fn feature_station(placement: Option<&str>, feature: &str) -> String {
     match placement {
-        Some(p) => format!("{p}/{socket}"),
-        None => socket.to_string(),
+        Some(p) => format!("{p}/{feature}"),
+        None => feature.to_string(),
     }
 }
 
 impl Dataset {
-    /// The stations the rows name in their `station` column (one when it is absent). A ball's
-    /// rows stand at their socket: each socket of each placement of the artifact is a station
-    /// of its own, labelled `placement/socket` ([`socket_station`]).
+    /// The stations the rows name in their `station` column (one when it is absent). Rows at
+    /// an artifact's feature stand at it: each socket or face of each placement of the artifact
+    /// is a station of its own, labelled `placement/feature` ([`feature_station`]).
     pub fn stations(&self) -> Stations {
-        if self.rows.iter().any(|r| r.socket.is_some()) {
-            let labels: Vec<Option<String>> = self.rows.iter().map(|r| r.socket.as_deref().map(|s| socket_station(r.station.as_deref(), s))).collect();
+        if self.rows.iter().any(|r| r.feature.is_some()) {
+            let labels: Vec<Option<String>> =
+                self.rows.iter().map(|r| r.feature.as_ref().map(|f| feature_station(r.station.as_deref(), &f.label))).collect();
             return Stations::of_labels(labels.iter().map(|l| l.as_deref()));
         }
         Stations::of_labels(self.rows.iter().map(|r| r.station.as_deref()))

@@ -3,7 +3,7 @@
 
 use super::types::*;
 use crate::error::{Error, Result};
-use crate::measurement::{Euler, Measurement};
+use crate::measurement::{Euler, FeatureKind, Measurement};
 
 /// A cell as read from the file, before interpretation.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,8 +74,9 @@ pub(super) enum Column {
     Station,
     /// A declared mount of the target on the flange (a probe re-mounted between sessions).
     Mount,
-    /// The socket of an artifact a ball on the flange was seated in (the row reads nothing).
-    Socket,
+    /// The feature of an artifact the row stands at: a socket the ball on the flange was
+    /// seated in (the row reads nothing) or a face a probe touched or an indicator read.
+    Feature(FeatureKind),
     /// A tracker's per-row standard deviation of position coordinate `k`: [`STD_COLUMNS`]`[k]`.
     Std(usize),
 }
@@ -91,7 +92,7 @@ pub const STD_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
 pub const MAX_STD_MM: f64 = 100.0;
 
 impl Column {
-    const OTHERS: [Column; 11] = [
+    const OTHERS: [Column; 12] = [
         Column::T,
         Column::Temp,
         Column::Split,
@@ -102,10 +103,11 @@ impl Column {
         Column::Payload,
         Column::Station,
         Column::Mount,
-        Column::Socket,
+        Column::Feature(FeatureKind::Socket),
+        Column::Feature(FeatureKind::Plane),
     ];
     /// Slots of the named columns ([`Self::OTHERS`]) before the reading columns.
-    const NAMED: usize = 11;
+    const NAMED: usize = 12;
     /// The header an artifact's placement goes by: the station of a socket's rows (where the
     /// artifact stood).
     pub(super) const PLACEMENT: &'static str = "placement";
@@ -121,7 +123,8 @@ impl Column {
             Column::Payload => 7,
             Column::Station => 8,
             Column::Mount => 9,
-            Column::Socket => 10,
+            Column::Feature(FeatureKind::Socket) => 10,
+            Column::Feature(FeatureKind::Plane) => 11,
             Column::Reading(i) => Self::NAMED + i,
             Column::Q(j) => Self::NAMED + reading_names().len() + j,
         }
@@ -138,7 +141,7 @@ impl Column {
             Column::Payload => "payload_kg".into(),
             Column::Station => "station".into(),
             Column::Mount => "mount".into(),
-            Column::Socket => "socket".into(),
+            Column::Feature(k) => k.column().into(),
             Column::Std(k) => STD_COLUMNS[k].into(),
         }
     }
@@ -182,6 +185,8 @@ pub(super) struct Layout {
     pub(super) joints: usize,
     /// The instrument whose reading columns the header holds, if any.
     pub(super) measurement: Option<Measurement>,
+    /// The kind of artifact's feature the header's column names, if any.
+    pub(super) feature: Option<FeatureKind>,
 }
 
 impl Layout {
@@ -199,6 +204,14 @@ impl Layout {
                 pos[c.index()] = Some(i);
             }
         }
+        let named: Vec<FeatureKind> = FeatureKind::ALL.into_iter().filter(|k| pos[Column::Feature(*k).index()].is_some()).collect();
+        if named.len() > 1 {
+            return Err(Error::data(
+                source,
+                format!("line 1: the header names sockets and faces (socket and plane columns); a file holds one artifact's kind of feature; header found: {}", found()),
+            ));
+        }
+        let feature = named.first().copied();
         // The joints are q1..qN with N the highest joint named; at least one is needed.
         let joints = (0..MAX_JOINTS).rev().find(|&j| pos[Column::Q(j).index()].is_some()).map_or(1, |j| j + 1);
         let has = |m: &Measurement| present(m, &pos);
@@ -275,7 +288,7 @@ impl Layout {
                 ));
             }
         }
-        Ok(Layout { pos, joints, measurement })
+        Ok(Layout { pos, joints, measurement, feature })
     }
 
     pub(super) fn cell<'a>(&self, row: &'a RawRow, c: Column) -> Option<&'a Cell> {
@@ -426,8 +439,9 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
     for raw in &table.rows {
         let line = raw.line;
         let q_deg = row_angles(&layout, &cells, raw, opts.angles)?;
-        let mixed = layout.measurement.is_some_and(|m| !m.is_constant()) && layout.pos[Column::Socket.index()].is_some();
-        let seated = mixed && label(layout.cell(raw, Column::Socket), Column::Socket, line, src)?.is_some();
+        let socket = Column::Feature(FeatureKind::Socket);
+        let mixed = layout.measurement.is_some_and(|m| m.feature().is_none()) && layout.pos[socket.index()].is_some();
+        let seated = mixed && label(layout.cell(raw, socket), socket, line, src)?.is_some();
         let reading_mm = if seated { no_reading(&layout, &cells, raw)? } else { row_reading(&layout, &cells, raw, opts.euler)? };
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
@@ -453,16 +467,18 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
         if layout.pos[Column::Block.index()].is_some() && block.is_none() {
             return Err(cell_error(src, line, Column::Block, "empty block label; when the file has a block column, every row must name its block"));
         }
-        let [station, mount, socket] = [Column::Station, Column::Mount, Column::Socket].map(|c| match label(layout.cell(raw, c), c, line, src) {
+        let feature_column = Column::Feature(layout.feature.unwrap_or(FeatureKind::Socket));
+        let [station, mount, feature] = [Column::Station, Column::Mount, feature_column].map(|c| match label(layout.cell(raw, c), c, line, src) {
             // Beside a tracker's points, a row without a socket is a point, at no placement.
-            Ok(None) if mixed && (c == Column::Socket || (c == Column::Station && !seated)) => Ok(None),
+            Ok(None) if mixed && (c == socket || (c == Column::Station && !seated)) => Ok(None),
             Ok(None) if layout.pos[c.index()].is_some() => {
                 let what = c.name();
                 Err(cell_error(src, line, c, format!("empty {what} label; when the file has a {what} column, every row must name its {what}")))
             }
             other => other,
         });
-        let (station, mount, socket) = (station?, mount?, socket?);
+        let (station, mount) = (station?, mount?);
+        let feature = feature?.map(|label| Feature { kind: layout.feature.unwrap_or(FeatureKind::Socket), label });
         let payload_kg = cells.number(layout.cell(raw, Column::Payload), Column::Payload, line)?;
         if let Some(m) = payload_kg {
             check_bounds(m, (0.0, MAX_PAYLOAD_KG), "payload (kg)", line, Column::Payload, src)?;
@@ -470,7 +486,7 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
         if payload_kg.is_none() {
             first_payload_missing = first_payload_missing.or(Some(line));
         }
-        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg, station, mount, socket });
+        rows.push(Row { q_deg, reading_mm, t_s, temp_c, split, std_mm, block, payload_kg, station, mount, feature });
     }
 
     // A split column is all-or-nothing: a partially filled one would silently drop rows.
@@ -576,13 +592,15 @@ pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &
     }
 }
 
-/// Whether the header (its columns' positions `pos`) holds instrument `m`'s columns (a ball in
-/// a socket reads none: its rows name their socket).
+/// Whether the header (its columns' positions `pos`) holds instrument `m`'s columns (an
+/// instrument at an artifact's feature needs its feature's column too: a ball in a socket reads
+/// nothing, its rows name their socket).
 fn present(m: &Measurement, pos: &[Option<usize>]) -> bool {
-    if m.is_constant() {
-        return pos[Column::Socket.index()].is_some();
+    let columns = m.def().file_columns().iter().all(|c| pos[Column::reading(c).index()].is_some());
+    match m.feature() {
+        Some(k) => columns && pos[Column::Feature(k).index()].is_some(),
+        None => columns && !m.def().file_columns().is_empty(),
     }
-    m.def().file_columns().iter().all(|c| pos[Column::reading(c).index()].is_some())
 }
 
 /// Seated rows beside a tracker's points (sockets plus a few points, one fit): the header's
@@ -593,9 +611,10 @@ fn seated_beside_points(complete: &mut Vec<Measurement>) {
     }
 }
 
-/// Whether instrument `a`'s reading columns are all among `b`'s (a point's x, y, z in a pose's).
+/// Whether instrument `a`'s reading columns are all among `b`'s, at the same kind of feature
+/// (a point's x, y, z in a pose's; a probe's contacts, which read nothing, in an indicator's).
 fn within(a: &Measurement, b: &Measurement) -> bool {
-    a != b && !a.is_constant() && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c))
+    a != b && a.feature() == b.feature() && a.def().file_columns().iter().all(|c| b.def().file_columns().contains(c))
 }
 
 /// The spread (max − min) of `value` over `rows`.

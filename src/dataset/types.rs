@@ -2,7 +2,7 @@
 //! deviations, split, block), the load options and the readers' limits.
 
 pub use crate::measurement::length::MAX_L_MM;
-use crate::measurement::{Euler, Measurement};
+use crate::measurement::{Euler, FeatureKind, Measurement};
 
 /// File name of the CSV inside a dataset folder.
 pub const DATASET_FILE: &str = "dataset.csv";
@@ -181,10 +181,31 @@ pub struct Row {
     /// a probe re-mounted between sessions sits otherwise). Every mount has its own target (and
     /// probe orientation) in a calibration. `None` without the column.
     pub mount: Option<String>,
-    /// The socket of an artifact the ball on the flange was seated in (`socket` column: any
-    /// label; the row reads nothing, see [`Measurement::Socket`]). The artifact's placement is
-    /// the row's [`Self::station`] (a `placement` column). `None` without the column.
-    pub socket: Option<String>,
+    /// The feature of an artifact the row stands at: the socket the ball on the flange was
+    /// seated in (`socket` column; the row reads nothing, see [`Measurement::Socket`]) or the
+    /// face a probe touched or an indicator read (`plane` column). The artifact's placement is
+    /// the row's [`Self::station`] (a `placement` column). `None` without such a column.
+    pub feature: Option<Feature>,
+}
+
+/// A feature of an artifact a row names ([`Row::feature`]): its kind and its label (any text).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Feature {
+    /// A socket or a face.
+    pub kind: FeatureKind,
+    /// Its label on the artifact ("A", "top").
+    pub label: String,
+}
+
+impl Feature {
+    /// A socket labelled `label`.
+    pub fn socket(label: impl Into<String>) -> Feature {
+        Feature { kind: FeatureKind::Socket, label: label.into() }
+    }
+    /// A face labelled `label`.
+    pub fn plane(label: impl Into<String>) -> Feature {
+        Feature { kind: FeatureKind::Plane, label: label.into() }
+    }
 }
 
 impl Row {
@@ -202,13 +223,19 @@ impl Row {
         Some(self.measurement()?.values_of_file(&self.reading_mm))
     }
 
-    /// What read the row: the instrument of its reading columns, or a ball in a socket when it
-    /// names one. `None` for a row of joint angles only.
+    /// What read the row: the instrument of its reading columns, or the one at the artifact's
+    /// feature it names (a ball in a socket, a probe or an indicator on a face). `None` for a
+    /// row of joint angles only.
     pub fn measurement(&self) -> Option<Measurement> {
-        if self.socket.is_some() {
-            return Some(Measurement::Socket);
+        match &self.feature {
+            Some(f) => Measurement::of_feature(f.kind, self.reading_mm.len()),
+            None => Measurement::of_file_dim(self.reading_mm.len()),
         }
-        Measurement::of_file_dim(self.reading_mm.len())
+    }
+
+    /// The label of the socket the row names, if it names one.
+    pub fn socket(&self) -> Option<&str> {
+        self.feature.as_ref().filter(|f| f.kind == FeatureKind::Socket).map(|f| f.label.as_str())
     }
 }
 

@@ -103,7 +103,8 @@ pub fn predicted_readings(result: &CalibResult, ds: &Dataset, euler: Euler, mode
     ds.require_joints(result.model.chain.n_joints, model)?;
     if result.model.measurement.is_constant() {
         return Err(Error::Invalid(format!(
-            "{model} was calibrated from a ball seated in sockets, which read nothing to predict: its held-out rows are judged by calibrate, and on another instrument's rows once that instrument is registered"
+            "{model} was calibrated from rows of a {}, which read nothing to predict: its held-out rows are judged by calibrate, and on another instrument's rows once that instrument is registered",
+            result.model.measurement.def().describe()
         )));
     }
     result.require_columns(ds)?;

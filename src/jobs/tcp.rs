@@ -116,7 +116,7 @@ impl TcpJob {
         check(vec![("--data", self.data.clone())], &self.arm, &self.out)?;
         let data = read_joints(&self.data, self.angles)?;
         let flanges = self.arm.flanges(&data)?;
-        let points = crate::dataset::Stations::of_labels(data.rows.iter().map(|r| r.socket.as_deref()));
+        let points = crate::dataset::Stations::of_labels(data.rows.iter().map(|r| r.socket()));
         let fit = crate::tcp::tcp(&flanges, &points.of_row, &points.labels)?;
         write(&self.out, &fit)?;
         Ok(fit)

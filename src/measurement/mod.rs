@@ -11,6 +11,8 @@
 //! | `point` ([`point`]) | a laser tracker's target position `x, y, z` | base-to-tracker translation (3) and rotation (3), target point (flange frame, 3) |
 //! | `pose` ([`pose`]) | a 6-D probe's position and orientation `x, y, z, rx, ry, rz` (degrees, Euler angles), read by the model as nine lengths | base-to-tracker translation and rotation (6), probe orientation on the flange (3), probe origin (flange frame, 3) |
 //! | `socket` ([`socket`]) | none: a ball on the flange seated in a socket (`socket` and `placement` columns name which); the model reads the ball's centre minus the socket's, always zero | the socket's centre (base frame, 3; one station per socket), the ball's centre (flange frame, 3) |
+//! | `plane` ([`plane`]) | none: a touch probe's contact with a face (`plane` and `placement` columns name which); the model reads how far the stylus' centre stands below the face's offset, always zero | the face's normal (2 angles) and offset (one station per face), the stylus' centre (flange frame, 3) |
+//! | `indicator` ([`plane`]) | a dial indicator's plunger travel `indicator` on a face (`plane`, `placement` columns) | as `plane`, the indicator's zero point the target |
 //!
 //! The placement is split in two: the instrument's own parameters (where it sits and its reading
 //! offset) and the **target** on the flange (the tool point the cable is hooked to, or the
@@ -25,6 +27,7 @@
 
 pub mod length;
 mod placement;
+pub mod plane;
 pub mod point;
 pub mod pose;
 pub mod socket;
@@ -141,6 +144,41 @@ pub trait Instrument: Sync {
     fn exact_grad_reading(&self) -> bool {
         false
     }
+    /// The artifact's feature its rows name (a socket, a face), when the instrument stands at
+    /// one: each feature of each placement is then a station of its own.
+    fn feature(&self) -> Option<FeatureKind> {
+        None
+    }
+    /// The instrument's own placement from the rows as [`Self::locate`] takes them, the target
+    /// on the flange already known (`tool`, flange frame, m): a second face of an artifact
+    /// touched by the stylus the first face placed. `None`: locate it as the first.
+    fn locate_about(&self, _p: &[Vector3<f64>], _rot: &[Matrix3<f64>], _y: &[f64], _tool: &Vector3<f64>) -> Option<Vec<f64>> {
+        None
+    }
+}
+
+/// The kind of an artifact's feature a row names: what held the target still (a socket) or
+/// where it touched (a face). The rows' column of that name carries the feature's label.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FeatureKind {
+    /// A socket a ball on the flange was seated in.
+    Socket,
+    /// A face touched by a probe or read by a dial indicator.
+    Plane,
+}
+
+impl FeatureKind {
+    /// Every kind.
+    pub const ALL: [FeatureKind; 2] = [FeatureKind::Socket, FeatureKind::Plane];
+
+    /// The column naming the feature, and the word for it.
+    pub fn column(self) -> &'static str {
+        match self {
+            FeatureKind::Socket => "socket",
+            FeatureKind::Plane => "plane",
+        }
+    }
 }
 
 /// Where an instrument sits ([`Instrument::frame`]).
@@ -168,11 +206,16 @@ pub enum Measurement {
     /// A ball on the flange seated in a socket of an artifact: no reading, the ball's centre
     /// held at the socket's.
     Socket,
+    /// A touch-trigger probe on the flange touching a face of an artifact: no reading, the
+    /// stylus' centre on the face (its radius and pre-travel above it).
+    Plane,
+    /// A dial indicator on the flange reading a face of an artifact: its plunger's travel.
+    Indicator,
 }
 
 impl Measurement {
     /// Every measurement type.
-    pub const ALL: [Measurement; 4] = [Measurement::Length, Measurement::Point, Measurement::Pose, Measurement::Socket];
+    pub const ALL: [Measurement; 6] = [Measurement::Length, Measurement::Point, Measurement::Pose, Measurement::Socket, Measurement::Plane, Measurement::Indicator];
 
     /// The registry: the type's implementation.
     pub fn def(self) -> &'static dyn Instrument {
@@ -181,6 +224,8 @@ impl Measurement {
             Measurement::Point => &point::Point,
             Measurement::Pose => &pose::Pose,
             Measurement::Socket => &socket::Socket,
+            Measurement::Plane => &plane::Plane,
+            Measurement::Indicator => &plane::Indicator,
         }
     }
 
@@ -260,17 +305,27 @@ impl Measurement {
         self.def().reading(own, std::slice::from_ref(p), y)
     }
 
-    /// The measurement type with `n` reading columns per dataset row (each type that reads
-    /// columns has its own number; a ball in a socket reads none, and its rows say so by their
-    /// socket: [`crate::dataset::Row::socket`]).
+    /// The measurement type with `n` reading columns per dataset row when the row names no
+    /// artifact's feature (each such type has its own number; the instruments at a feature are
+    /// told by it: [`Self::of_feature`]).
     pub fn of_file_dim(n: usize) -> Option<Measurement> {
-        Self::ALL.into_iter().find(|m| m.file_dim() == n && n > 0)
+        Self::ALL.into_iter().find(|m| m.file_dim() == n && n > 0 && m.feature().is_none())
     }
 
     /// Whether the rows of this type read nothing and hold a constant instead (a ball seated in
-    /// a socket).
+    /// a socket, a probe's contact with a face).
     pub fn is_constant(self) -> bool {
         self.file_dim() == 0
+    }
+
+    /// See [`Instrument::feature`].
+    pub fn feature(self) -> Option<FeatureKind> {
+        self.def().feature()
+    }
+
+    /// The instrument whose rows name a feature of kind `kind` and read `file_dim` columns.
+    pub fn of_feature(kind: FeatureKind, file_dim: usize) -> Option<Measurement> {
+        Self::ALL.into_iter().find(|m| m.feature() == Some(kind) && m.file_dim() == file_dim)
     }
 }
 
@@ -362,16 +417,17 @@ mod tests {
 
     #[test]
     fn every_type_that_reads_columns_has_its_own_number_of_them() {
-        for m in Measurement::ALL.into_iter().filter(|m| !m.is_constant()) {
+        for m in Measurement::ALL.into_iter().filter(|m| m.feature().is_none()) {
             assert_eq!(Measurement::of_file_dim(m.file_dim()), Some(m), "{}", m.name());
         }
         assert_eq!(Measurement::of_file_dim(0), None, "no reading column: poses only, or a socket's rows");
     }
 
-    /// (A socket's placement is found by the pivot fit: tested in [`socket`].)
+    /// (A socket's placement is found by the pivot fit, a face's with its stylus: tested in
+    /// [`socket`] and [`plane`].)
     #[test]
     fn locate_recovers_the_placement_of_exact_readings() {
-        for m in Measurement::ALL.into_iter().filter(|m| !m.is_constant()) {
+        for m in Measurement::ALL.into_iter().filter(|m| m.feature().is_none()) {
             let n_own = m.target_index();
             let own: Vec<f64> = (0..n_own).map(|k| 0.2 * (k as f64 * 1.3).cos() + 0.05).collect();
             let (pts, rots): (Vec<Vector3<f64>>, Vec<Matrix3<f64>>) = (0..40)

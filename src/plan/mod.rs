@@ -191,7 +191,7 @@ impl Model {
                     payload_kg: payload_kg.map(|p| p[i]),
                     station: None,
                     mount: None,
-                    socket: None,
+                    feature: None,
                 }
             })
             .collect();

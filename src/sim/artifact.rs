@@ -263,7 +263,7 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
         let plabel = format!("p{}", pi + 1);
         for k in 0..art.layout_mm.len() {
             let centre = frame.point(&art.made_m(k));
-            let station = crate::dataset::socket_station(Some(&plabel), &art.label(k));
+            let station = crate::dataset::feature_station(Some(&plabel), &art.label(k));
             truth.sockets_mm.push((station, crate::units::to_mm(centre).into()));
             let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, Stream::Seating, (pi * 64 + k) as u64));
             let mut q_prev: Option<Vec<f64>> = None;
@@ -324,7 +324,7 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
                     t_s: Some(crate::units::round_decimals(t, crate::units::T_DECIMALS)),
                     split: Some(split),
                     station: Some(plabel.clone()),
-                    socket: Some(art.label(k)),
+                    feature: Some(crate::dataset::Feature::socket(art.label(k))),
                     ..Default::default()
                 });
                 q_prev = Some(q_link);

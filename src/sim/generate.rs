@@ -471,7 +471,7 @@ impl Tour<'_> {
             payload_kg: None,
             station: s.instruments.active().map(|ins| ins.station(i)).filter(|(_, written)| *written).map(|(k, _)| (k + 1).to_string()),
             mount: None,
-            socket: None,
+            feature: None,
         };
         let mut truth = PoseTruth {
             index: i,

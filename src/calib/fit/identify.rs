@@ -272,7 +272,7 @@ pub fn still_joints(q: &[Vec<f64>]) -> Vec<usize> {
 fn jacobian(fit: &ReadingFit, x: &[f64]) -> DMatrix<f64> {
     // The spacings' rows too (a known spacing is what makes the arm's scale identifiable), not
     // the pulls' (a prior says nothing of what the rows see).
-    let mut j = DMatrix::zeros(fit.data.y.len() + fit.model.spacings.len(), fit.model.n_params());
+    let mut j = DMatrix::zeros(fit.data.y.len() + fit.model.n_spacing_residuals(), fit.model.n_params());
     LeastSquares::jacobian(fit, x, &mut j);
     j
 }

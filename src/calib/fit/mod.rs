@@ -145,7 +145,7 @@ impl LeastSquares for ReadingFit<'_> {
     /// The rows' residuals, then the spacings' and the pulls' where `r` has room for them.
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
         crate::progress::check_stop();
-        let (d, ny, ns) = (self.data.dim, self.data.y.len(), self.model.spacings.len());
+        let (d, ny, ns) = (self.data.dim, self.data.y.len(), self.model.n_spacing_residuals());
         let (r, blocks) = r.split_at_mut(ny);
         self.model.spacing_residuals(x, blocks);
         if blocks.len() > ns {
@@ -224,8 +224,9 @@ impl ReadingFit<'_> {
         });
         let ny = self.data.y.len();
         // The spacings' rows where `j` has room for them (a Jacobian of the rows alone has not).
-        if !self.model.spacings.is_empty() && ld >= ny + self.model.spacings.len() {
-            let mut g = vec![0.0; n * self.model.spacings.len()];
+        let ns = self.model.n_spacing_residuals();
+        if ns > 0 && ld >= ny + ns {
+            let mut g = vec![0.0; n * ns];
             self.model.spacing_jacobian(x, &mut g);
             for (k, row) in g.chunks(n).enumerate() {
                 for (c, v) in row.iter().enumerate() {
@@ -237,7 +238,6 @@ impl ReadingFit<'_> {
             }
         }
         // The pulls' rows likewise (an identifiability analysis of the rows and spacings has none).
-        let ns = self.model.spacings.len();
         if !self.model.pulls.is_empty() && ld >= ny + ns + self.model.pulls.len() {
             for (i, p) in self.model.pulls.iter().enumerate() {
                 for c in 0..n {

@@ -1,11 +1,11 @@
-//! Known distances between sockets of one artifact: residual blocks on two stations' socket
-//! centres alone, no row behind them. Sockets seated by a ball fix where the sockets are
-//! relative to the arm, not how large the arm is (the whole arm, the ball and the sockets
-//! scaled together read the same); a known spacing between two sockets of one placement is what
-//! gives the arm its scale.
+//! Known distances between features of one artifact: residual blocks on two stations' own
+//! parameters alone, no row behind them. Sockets seated by a ball (faces touched by a probe) fix
+//! where the features are relative to the arm, not how large the arm is (the whole arm, the ball
+//! and the sockets scaled together read the same); a known spacing between two sockets of one
+//! placement, or a known step between two parallel faces, is what gives the arm its scale.
 
 use super::{CalibModel, SetupKind};
-use crate::measurement::Measurement;
+use crate::measurement::FeatureKind;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -41,10 +41,29 @@ pub struct Pull {
 /// tolerance's worth of departure weighs as one seating does.
 pub const PULL_SCALE_MM: f64 = 0.001;
 
+/// How far apart (mm) the two faces of a stated step may lean, per radian between their
+/// normals: the residual of two normals one radian apart is this many millimetres (a gauge
+/// block's faces are parallel within a micrometre over its length).
+pub const PARALLEL_LEVER_MM: f64 = 100.0;
+
 impl CalibModel {
     /// Residuals beside the rows': the spacings' ([`Spacing`]), then the pulls' ([`Pull`]).
     pub fn n_block_residuals(&self) -> usize {
-        self.spacings.len() + self.pulls.len()
+        self.n_spacing_residuals() + self.pulls.len()
+    }
+
+    /// The spacings' residuals: one per spacing between sockets (the distance), three per step
+    /// between faces (the step and the faces' lean from parallel, two angles).
+    pub fn n_spacing_residuals(&self) -> usize {
+        self.spacings.len() * self.spacing_rows()
+    }
+
+    /// Residuals per spacing ([`Self::n_spacing_residuals`]).
+    fn spacing_rows(&self) -> usize {
+        match self.measurement.feature() {
+            Some(FeatureKind::Plane) => 3,
+            _ => 1,
+        }
     }
 
     /// The pulls' residuals (mm) into `r`, one per pull.
@@ -54,47 +73,68 @@ impl CalibModel {
         }
     }
 
-    /// The centre of the socket of station `s` (m, base frame) and the parameter indices its
-    /// coordinates come from.
-    fn socket_centre(&self, x: &[f64], s: usize) -> (Vector3<f64>, [usize; 3]) {
-        debug_assert_eq!(self.measurement, Measurement::Socket);
-        let r = self.placement_range();
-        let cols = if s == 0 {
-            [r.start, r.start + 1, r.start + 2]
-        } else {
-            let b = self.setup_block(SetupKind::Station, s);
-            [b.start, b.start + 1, b.start + 2]
-        };
+    /// The first three own parameters of station `s`'s feature (a socket's centre, m; a face's
+    /// normal angles and offset) and their indices.
+    fn feature_own(&self, x: &[f64], s: usize) -> (Vector3<f64>, [usize; 3]) {
+        debug_assert!(self.measurement.feature().is_some());
+        let start = if s == 0 { self.placement_range().start } else { self.setup_block(SetupKind::Station, s).start };
+        let cols = [start, start + 1, start + 2];
         (Vector3::new(x[cols[0]], x[cols[1]], x[cols[2]]), cols)
     }
 
-    /// The distance (mm) between the sockets of spacing `k` at `x`.
+    /// The distance (mm) between the features of spacing `k` at `x`: two sockets' centres, or
+    /// two parallel faces' offsets (the step).
     pub fn spacing_mm(&self, x: &[f64], k: usize) -> f64 {
         let sp = &self.spacings[k];
-        crate::units::to_mm((self.socket_centre(x, sp.a).0 - self.socket_centre(x, sp.b).0).norm())
+        let ((a, _), (b, _)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
+        match self.measurement.feature() {
+            Some(FeatureKind::Plane) => crate::units::to_mm((b.z - a.z).abs()),
+            _ => crate::units::to_mm((a - b).norm()),
+        }
     }
 
-    /// The spacings' residuals (mm: known minus modelled distance) into `r`, one per spacing.
+    /// The spacings' residuals (mm: known minus modelled distance; a step's faces' lean from
+    /// parallel after it) into `r`, [`Self::n_spacing_residuals`] of them.
     pub fn spacing_residuals(&self, x: &[f64], r: &mut [f64]) {
-        for (k, rk) in r.iter_mut().enumerate().take(self.spacings.len()) {
-            *rk = self.spacings[k].mm - self.spacing_mm(x, k);
+        let rows = self.spacing_rows();
+        for (k, rk) in r.chunks_mut(rows).enumerate().take(self.spacings.len()) {
+            rk[0] = self.spacings[k].mm - self.spacing_mm(x, k);
+            if rows == 3 {
+                let sp = &self.spacings[k];
+                let ((a, _), (b, _)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
+                rk[1] = PARALLEL_LEVER_MM * (b.x - a.x).sin() * a.y.cos();
+                rk[2] = PARALLEL_LEVER_MM * (b.y - a.y);
+            }
         }
     }
 
     /// The spacings' residuals' derivatives (mm per parameter unit) into `jac`, row-major, one
-    /// row of [`Self::n_params`] per spacing.
+    /// row of [`Self::n_params`] per residual.
     pub fn spacing_jacobian(&self, x: &[f64], jac: &mut [f64]) {
         let n = self.n_params();
+        let rows = self.spacing_rows();
+        jac.iter_mut().take(n * self.n_spacing_residuals()).for_each(|v| *v = 0.0);
         for (k, sp) in self.spacings.iter().enumerate() {
-            let row = &mut jac[k * n..(k + 1) * n];
-            row.iter_mut().for_each(|v| *v = 0.0);
-            let ((pa, ca), (pb, cb)) = (self.socket_centre(x, sp.a), self.socket_centre(x, sp.b));
-            let d = pa - pb;
-            let u = d / d.norm().max(1e-12);
-            for i in 0..3 {
-                row[ca[i]] -= crate::units::MM_PER_M * u[i];
-                row[cb[i]] += crate::units::MM_PER_M * u[i];
+            let block = &mut jac[k * rows * n..(k + 1) * rows * n];
+            let ((pa, ca), (pb, cb)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
+            if rows == 1 {
+                let d = pa - pb;
+                let u = d / d.norm().max(1e-12);
+                for i in 0..3 {
+                    block[ca[i]] -= crate::units::MM_PER_M * u[i];
+                    block[cb[i]] += crate::units::MM_PER_M * u[i];
+                }
+                continue;
             }
+            let sign = if pb.z >= pa.z { 1.0 } else { -1.0 };
+            block[ca[2]] += crate::units::MM_PER_M * sign;
+            block[cb[2]] -= crate::units::MM_PER_M * sign;
+            let (da, ca_b) = ((pb.x - pa.x).cos() * pa.y.cos(), (pb.x - pa.x).sin() * pa.y.sin());
+            block[n + cb[0]] += PARALLEL_LEVER_MM * da;
+            block[n + ca[0]] -= PARALLEL_LEVER_MM * da;
+            block[n + ca[1]] -= PARALLEL_LEVER_MM * ca_b;
+            block[2 * n + cb[1]] += PARALLEL_LEVER_MM;
+            block[2 * n + ca[1]] -= PARALLEL_LEVER_MM;
         }
     }
 }
@@ -103,7 +143,37 @@ impl CalibModel {
 mod tests {
     use super::*;
     use crate::calib::model::{DrawWireGuess, Placement};
+    use crate::measurement::Measurement;
     use crate::robot::Robot;
+
+    #[test]
+    fn step_derivatives_match_finite_differences() {
+        let guess = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
+        let face = Placement { measurement: Measurement::Plane, own: vec![0.5, 0.6, 0.2], tool: Vector3::new(0.0, 0.0, 0.05) };
+        let model = CalibModel::dh(&Robot::irb120(), &guess, true).with_placement(&face);
+        let mut model = model.with_setups((vec!["p/a".into(), "p/b".into()], &[vec![0.52, 0.57, 0.226]]), (Vec::new(), &[]));
+        model.spacings = vec![Spacing { a: 0, b: 1, mm: 25.0 }];
+        let (x, n) = (model.nominal.clone(), model.n_params());
+        assert_eq!(model.n_spacing_residuals(), 3);
+        let mut jac = vec![0.0; 3 * n];
+        model.spacing_jacobian(&x, &mut jac);
+        let mut r0 = [0.0; 3];
+        model.spacing_residuals(&x, &mut r0);
+        assert!((r0[0] - -1.0).abs() < 1e-9, "25 stated, 26 fitted: {r0:?}");
+        let h = 1e-7;
+        for p in 0..n {
+            let (mut a, mut b) = (x.clone(), x.clone());
+            a[p] += h;
+            b[p] -= h;
+            let (mut ra, mut rb) = ([0.0; 3], [0.0; 3]);
+            model.spacing_residuals(&a, &mut ra);
+            model.spacing_residuals(&b, &mut rb);
+            for k in 0..3 {
+                let fd = (ra[k] - rb[k]) / (2.0 * h);
+                assert!((fd - jac[k * n + p]).abs() < 1e-4, "step residual {k} d/d{}: {fd} vs {}", model.names[p], jac[k * n + p]);
+            }
+        }
+    }
 
     #[test]
     fn spacing_derivatives_match_finite_differences() {
@@ -155,14 +225,16 @@ impl std::str::FromStr for KnownSpacing {
     type Err = crate::error::Error;
     fn from_str(s: &str) -> crate::error::Result<KnownSpacing> {
         let bad = |why: &str| {
-            crate::error::Error::Invalid(format!("--spacing-mm '{s}': {why} (give 50 for an artifact of two sockets, or A:B=50 between sockets A and B)"))
+            crate::error::Error::Invalid(format!(
+                "--spacing-mm '{s}': {why} (give 50 for an artifact of two sockets or a step of two faces, or A:B=50 between sockets or faces A and B)"
+            ))
         };
         let (sockets, value) = match s.rsplit_once('=') {
             Some((pair, v)) => {
-                let (a, b) = pair.split_once(':').ok_or_else(|| bad("name the two sockets as A:B"))?;
+                let (a, b) = pair.split_once(':').ok_or_else(|| bad("name the two features as A:B"))?;
                 let (a, b) = (a.trim(), b.trim());
                 if a.is_empty() || b.is_empty() || a == b {
-                    return Err(bad("two different socket labels are needed"));
+                    return Err(bad("two different labels are needed"));
                 }
                 (Some((a.to_string(), b.to_string())), v)
             }
@@ -200,10 +272,14 @@ impl std::fmt::Display for KnownSpacing {
 
 /// The spacings of the stated distances `known` between the sockets of each placement, the
 /// model's stations being `labels` (`placement/socket`, as
-/// [`crate::dataset::socket_station`] names them). An error says what the rows cannot determine:
+/// [`crate::dataset::feature_station`] names them). An error says what the rows cannot determine:
 /// no spacing (no scale), one socket, a stated socket no row was seated in.
-pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing]) -> crate::error::Result<Vec<Spacing>> {
+pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing], kind: FeatureKind) -> crate::error::Result<Vec<Spacing>> {
     use crate::error::Error;
+    let (many, known_as) = match kind {
+        FeatureKind::Socket => ("sockets", "spacing"),
+        FeatureKind::Plane => ("faces", "step"),
+    };
     let split = |l: &str| -> (String, String) {
         match l.rsplit_once('/') {
             Some((p, s)) => (p.to_string(), s.to_string()),
@@ -218,13 +294,14 @@ pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing]) -> crate::err
         }
     }
     if labels.len() < 2 {
-        return Err(Error::Calibration(
-            "the ball was seated in one socket only: one fixed point shows neither the arm's scale nor most of its geometry; seat it in two or more sockets a known distance apart (--spacing-mm)".into(),
-        ));
+        return Err(Error::Calibration(match kind {
+            FeatureKind::Socket => "the ball was seated in one socket only: one fixed point shows neither the arm's scale nor most of its geometry; seat it in two or more sockets a known distance apart (--spacing-mm)".into(),
+            FeatureKind::Plane => "the probe touched one face only: one face fixes the stylus along its normal alone, and neither the arm's scale nor most of its geometry; touch two or more faces, two of them parallel a known step apart (--spacing-mm), and place the artifact turned differently".into(),
+        }));
     }
     if known.is_empty() {
         return Err(Error::Calibration(format!(
-            "no known spacing between sockets: seated rows fix where the sockets are relative to the arm, not how large the arm is (the arm, the ball and {} sockets scaled together read the same); give the distance between two sockets of the artifact with --spacing-mm",
+            "no known {known_as} between {many}: the rows fix where the {many} are relative to the arm, not how large the arm is (the arm, its target and {} {many} scaled together read the same); give the distance between two {many} of the artifact with --spacing-mm",
             labels.len()
         )));
     }
@@ -240,7 +317,7 @@ pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing]) -> crate::err
                 None if here.len() < 2 => {}
                 None => {
                     return Err(Error::Calibration(format!(
-                        "--spacing-mm {} names no sockets, but the artifact{name} has {} sockets seated ({}): name them as A:B={}",
+                        "--spacing-mm {} names no {many}, but the artifact{name} has {} {many} in the rows ({}): name them as A:B={}",
                         k.mm,
                         here.len(),
                         here.iter().map(|&i| parts[i].1.as_str()).collect::<Vec<_>>().join(", "),
@@ -258,7 +335,7 @@ pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing]) -> crate::err
     }
     if out.is_empty() {
         return Err(Error::Calibration(format!(
-            "no stated spacing ties two seated sockets of one placement (stated: {}; seated: {}): without one nothing fixes the arm's scale",
+            "no stated {known_as} ties two {many} of one placement in the rows (stated: {}; in the rows: {}): without one nothing fixes the arm's scale",
             known.iter().map(|k| k.to_string()).collect::<Vec<_>>().join(", "),
             labels.join(", ")
         )));

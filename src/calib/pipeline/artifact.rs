@@ -1,10 +1,10 @@
-//! What a calibration from a ball seated in an artifact's sockets reports beside the rows'
-//! errors: each socket's centre and scatter, each stated spacing against the fitted one, and
-//! what such rows cannot determine, said in words a user acts on.
+//! What a calibration from an artifact reports beside the rows' errors: each socket's centre
+//! and scatter (each face's normal, offset and scatter), each stated spacing (step) against the
+//! fitted one, and what such rows cannot determine, said in words a user acts on.
 
 use crate::calib::fit::Samples;
 use crate::calib::model::CalibModel;
-use crate::measurement::Measurement;
+use crate::measurement::FeatureKind;
 use serde::{Deserialize, Serialize};
 
 /// One socket of one placement, as fitted.
@@ -21,10 +21,27 @@ pub struct SocketFit {
     pub scatter_mm: f64,
 }
 
+/// One face of one placement, as fitted.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FaceFit {
+    /// Its station label (`placement/face`).
+    pub label: String,
+    /// Training rows on it.
+    pub rows: usize,
+    /// Its unit normal in the base frame (toward the probe's side).
+    pub normal: [f64; 3],
+    /// Its offset along the normal from the base frame's origin, with the stylus' radius and
+    /// pre-travel, mm.
+    pub offset_mm: f64,
+    /// RMS distance of the modelled stylus centres of its training rows from where the face
+    /// holds them, mm.
+    pub scatter_mm: f64,
+}
+
 /// A stated spacing and the one the fit reached.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SpacingFit {
-    /// The two sockets' station labels.
+    /// The two sockets' (faces') station labels.
     pub sockets: (String, String),
     /// The distance stated, mm.
     pub stated_mm: f64,
@@ -38,10 +55,16 @@ pub struct ArtifactReport {
     /// What read rows beside the seated ones (a tracker's points), if anything.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub beside: Option<String>,
-    /// The ball's centre on the flange as fitted, mm.
-    pub ball_mm: [f64; 3],
+    /// The features' kind.
+    pub feature: FeatureKind,
+    /// The target on the flange as fitted (the ball's centre, the stylus' centre), mm.
+    pub target_mm: [f64; 3],
     /// Every socket of every placement.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sockets: Vec<SocketFit>,
+    /// Every face of every placement.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub faces: Vec<FaceFit>,
     /// Every stated spacing.
     pub spacings: Vec<SpacingFit>,
     /// What rows of this kind cannot determine, each a sentence.
@@ -51,14 +74,25 @@ pub struct ArtifactReport {
 impl ArtifactReport {
     /// The lines a summary prints.
     pub fn lines(&self) -> Vec<String> {
-        let b = self.ball_mm;
-        let mut out = vec![format!("ball's centre on the flange: ({:.3}, {:.3}, {:.3}) mm", b[0], b[1], b[2])];
+        let b = self.target_mm;
+        let (target, spacing) = match self.feature {
+            FeatureKind::Socket => ("ball's centre", "spacing"),
+            FeatureKind::Plane => ("stylus' centre (indicator's zero point)", "step"),
+        };
+        let mut out = vec![format!("{target} on the flange: ({:.3}, {:.3}, {:.3}) mm", b[0], b[1], b[2])];
         out.extend(self.beside.clone());
         for s in &self.sockets {
             out.push(format!("  socket {}: {} training rows, scatter {:.4} mm about its centre", s.label, s.rows, s.scatter_mm));
         }
+        for f in &self.faces {
+            let n = f.normal;
+            out.push(format!(
+                "  face {}: {} training rows, normal ({:.4}, {:.4}, {:.4}), scatter {:.4} mm about it",
+                f.label, f.rows, n[0], n[1], n[2], f.scatter_mm
+            ));
+        }
         for s in &self.spacings {
-            out.push(format!("  spacing {}-{}: stated {:.4} mm, fitted {:.4} mm", s.sockets.0, s.sockets.1, s.stated_mm, s.fitted_mm));
+            out.push(format!("  {spacing} {}-{}: stated {:.4} mm, fitted {:.4} mm", s.sockets.0, s.sockets.1, s.stated_mm, s.fitted_mm));
         }
         out.extend(self.cannot_see.iter().map(|c| format!("cannot see: {c}")));
         out
@@ -94,84 +128,114 @@ fn off_last_axis_mm(model: &CalibModel, x: &[f64], train: &Samples) -> Option<f6
     Some(crate::units::to_mm(chord / (2.0 * h.sin())))
 }
 
-/// The report of `model` at `x` on its training rows `train`; `None` for another instrument.
-/// `fixed`: the parameters the rows leave free (held at nominal); `loose`: the arm's parameters
-/// they determine no better than their tolerance, each with its uncertainty ([`loose`]).
+/// The report of `model` at `x` on its training rows `train`; `None` for an instrument at no
+/// artifact's feature. `fixed`: the parameters the rows leave free (held at nominal); `loose`:
+/// the arm's parameters they determine no better than their tolerance, each with its
+/// uncertainty ([`loose`]).
 pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String], loose: &[String]) -> Option<ArtifactReport> {
-    if model.measurement != Measurement::Socket {
-        return None;
-    }
+    let feature = model.measurement.feature()?;
     let labels: Vec<String> = if model.stations.is_empty() { vec![String::new()] } else { model.stations.clone() };
     let mut w = model.work();
     let mut y = [0.0; crate::measurement::MAX_DIM];
-    let sockets = labels
-        .iter()
-        .enumerate()
-        .map(|(s, label)| {
-            let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == s && train.inputs[i].instrument == 0).collect();
-            let sq: f64 = rows
-                .iter()
-                .map(|&i| {
-                    model.readings(x, &train.q[i], &train.inputs[i], &mut w, &mut y[..3]);
-                    y[..3].iter().map(|v| v * v).sum::<f64>()
-                })
-                .sum();
-            let c = model.station_placement(x, s).own;
-            SocketFit {
-                label: label.clone(),
-                rows: rows.len(),
-                centre_mm: [c[0], c[1], c[2]].map(crate::units::to_mm),
-                scatter_mm: crate::units::to_mm((sq / rows.len().max(1) as f64).sqrt()),
+    let dim = model.measurement.dim();
+    let (mut sockets, mut faces) = (Vec::new(), Vec::new());
+    for (s, label) in labels.iter().enumerate() {
+        let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == s && train.inputs[i].instrument == 0).collect();
+        let sq: f64 = rows
+            .iter()
+            .map(|&i| {
+                model.readings(x, &train.q[i], &train.inputs[i], &mut w, &mut y[..dim]);
+                (0..dim).map(|k| (y[k] - train.y[i * dim + k]).powi(2)).sum::<f64>()
+            })
+            .sum();
+        let scatter_mm = crate::units::to_mm((sq / rows.len().max(1) as f64).sqrt());
+        let c = model.station_placement(x, s).own;
+        match feature {
+            FeatureKind::Socket => {
+                sockets.push(SocketFit { label: label.clone(), rows: rows.len(), centre_mm: [c[0], c[1], c[2]].map(crate::units::to_mm), scatter_mm })
             }
-        })
-        .collect();
+            FeatureKind::Plane => {
+                let n = crate::measurement::plane::normal(c[0], c[1]).0;
+                faces.push(FaceFit { label: label.clone(), rows: rows.len(), normal: [n.x, n.y, n.z], offset_mm: crate::units::to_mm(c[2]), scatter_mm })
+            }
+        }
+    }
     let spacings = (0..model.spacings.len())
         .map(|k| {
             let sp = &model.spacings[k];
             SpacingFit { sockets: (labels[sp.a].clone(), labels[sp.b].clone()), stated_mm: sp.mm, fitted_mm: model.spacing_mm(x, k) }
         })
         .collect();
-    let ball = model.placement(x).tool;
+    let target = model.placement(x).tool;
+    let beside = (0..train.len()).filter(|&i| train.inputs[i].instrument == 1).count();
+    let cannot_see = cannot_see(model, x, train, feature, &labels, (fixed, loose), beside);
+    let beside_line = (beside > 0).then(|| {
+        format!(
+            "{beside} {} rows beside the artifact's: the arm's scale from them as well as from the spacings",
+            model.also.map_or("other", |m| m.def().describe())
+        )
+    });
+    Some(ArtifactReport {
+        beside: beside_line,
+        feature,
+        target_mm: [target.x, target.y, target.z].map(crate::units::to_mm),
+        sockets,
+        faces,
+        spacings,
+        cannot_see,
+    })
+}
+
+/// What the artifact's rows cannot determine, each a sentence ([`ArtifactReport::cannot_see`]):
+/// `held` the parameters left free and those held by the pull ([`loose`]).
+fn cannot_see(
+    model: &CalibModel,
+    x: &[f64],
+    train: &Samples,
+    feature: FeatureKind,
+    labels: &[String],
+    held: (&[String], &[String]),
+    beside: usize,
+) -> Vec<String> {
+    let (fixed, loose) = held;
+    let (many, spacing, moves) = match feature {
+        FeatureKind::Socket => ("sockets", "spacing", "every socket moves with it"),
+        FeatureKind::Plane => ("faces", "step", "every face moves with it"),
+    };
     let shortest = model.spacings.iter().map(|s| s.mm).fold(f64::INFINITY, f64::min);
     let placements: std::collections::BTreeSet<&str> = labels.iter().map(|l| l.rsplit_once('/').map_or("", |(p, _)| p)).collect();
-    let beside = (0..train.len()).filter(|&i| train.inputs[i].instrument == 1).count();
-    let mut cannot_see = vec![
-        "the base frame: every socket moves with it, so the arm is placed relative to its sockets, not to the robot's base (register a tracker, or touch points known in the base frame, to place it)".to_string(),
-    ];
+    let mut out = vec![format!(
+        "the base frame: {moves}, so the arm is placed relative to its {many}, not to the robot's base (register a tracker, or touch points known in the base frame, to place it)"
+    )];
     if beside == 0 {
-        cannot_see.push(format!(
-            "the arm's scale beyond the stated spacing: an error of e mm in the stated {shortest:.1} mm scales every length by e/{shortest:.1} (0.01 mm: {:.0} ppm, {:.3} mm at 500 mm); state the spacing as made and at the artifact's temperature (PLA grows about 68 ppm/K)",
+        out.push(format!(
+            "the arm's scale beyond the stated {spacing}: an error of e mm in the stated {shortest:.1} mm scales every length by e/{shortest:.1} (0.01 mm: {:.0} ppm, {:.3} mm at 500 mm); state it as made and at the artifact's temperature (PLA grows about 68 ppm/K, steel 12)",
             0.01 / shortest * 1e6,
             0.01 / shortest * 500.0
         ));
     }
     if let Some(d) = off_last_axis_mm(model, x, train).filter(|d| *d < BALL_OFF_AXIS_MM) {
-        cannot_see.push(format!(
-            "the last joint's axis: the ball sits {d:.1} mm from it, so turning that joint hardly moves the ball and the wrist's last link is seen as one point (held by the tolerances' pull); put the ball {BALL_OFF_AXIS_MM:.0} mm or more off the flange's axis (an offset stylus) to see it"
+        let what = if feature == FeatureKind::Socket { "ball" } else { "stylus" };
+        out.push(format!(
+            "the last joint's axis: the {what} sits {d:.1} mm from it, so turning that joint hardly moves the {what} and the wrist's last link is seen as one point (held by the tolerances' pull); put the {what} {BALL_OFF_AXIS_MM:.0} mm or more off the flange's axis (an offset stylus) to see it"
         ));
     }
     if placements.len() < 2 {
-        cannot_see.push("the arm away from this one placement of the artifact: place it at two or more places across the workspace".into());
+        out.push("the arm away from this one placement of the artifact: place it at two or more places across the workspace".into());
     }
     if !fixed.is_empty() {
-        cannot_see.push(format!("{} (held at nominal: the rows leave them free)", fixed.join(", ")));
+        out.push(format!("{} (held at nominal: the rows leave them free)", fixed.join(", ")));
     }
     if !loose.is_empty() {
-        cannot_see.push(format!(
+        out.push(format!(
             "{}: the rows determine them no better than their documented tolerance, and the pull toward the nominal holds them{}",
             loose.join(", "),
             if loose.iter().any(|l| l.starts_with("joint_1.theta")) {
-                " (joint 1's zero: a turn about the base's axis moves every socket with the arm)"
+                format!(" (joint 1's zero: a turn about the base's axis moves every {} with the arm)", &many[..many.len() - 1])
             } else {
-                ""
+                String::new()
             }
         ));
     }
-    let beside_line = (beside > 0).then(|| {
-        format!(
-            "{beside} {} rows beside the seated ones: the arm's scale from them as well as from the spacings",
-            model.also.map_or("other", |m| m.def().describe())
-        )
-    });
-    Some(ArtifactReport { beside: beside_line, ball_mm: [ball.x, ball.y, ball.z].map(crate::units::to_mm), sockets, spacings, cannot_see })
+    out
 }

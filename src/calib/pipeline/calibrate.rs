@@ -275,11 +275,11 @@ fn artifact_report(model: &CalibModel, x: &[f64], train: &Samples, parameters: &
 }
 
 /// Refuses a solver that reads the rows one by one (and never a spacing) for a model with
-/// residual blocks of its own (a ball in sockets).
+/// residual blocks of its own (a ball in sockets, a probe on faces).
 fn sees_the_blocks(model: &CalibModel, solver: &dyn Solver) -> Result<()> {
     if !model.spacings.is_empty() && solver.name() != Method::LM.name() {
         return Err(Error::Invalid(format!(
-            "a ball seated in sockets is calibrated by least squares over its rows and the sockets' spacings (--method lm); {} reads the rows one by one and never sees a spacing",
+            "an artifact's rows (a ball in sockets, a probe on faces) are calibrated by least squares over the rows and the stated spacings (--method lm); {} reads the rows one by one and never sees a spacing",
             solver.name()
         )));
     }

@@ -106,7 +106,19 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     };
     let mut others: [Vec<Vec<f64>>; 2] = [Vec::new(), Vec::new()];
     for s in 1..stations.len().max(1) {
-        others[0].push(values(&locate(&rows_of(SetupKind::Station, s), at(SetupKind::Station, s))?, SetupKind::Station));
+        let rows = rows_of(SetupKind::Station, s);
+        // A face found about the stylus the first one placed (the target is shared).
+        let about = {
+            let pts: Vec<_> = rows.iter().map(|&i| flanges[i].pos).collect();
+            let rots: Vec<_> = rows.iter().map(|&i| flanges[i].rot).collect();
+            let y: Vec<f64> = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
+            measurement.def().locate_about(&pts, &rots, &y, &first.tool)
+        };
+        let p = match about {
+            Some(own) => Placement { measurement, own, tool: first.tool },
+            None => locate(&rows, at(SetupKind::Station, s))?,
+        };
+        others[0].push(values(&p, SetupKind::Station));
     }
     for s in 1..labels[1].len().max(1) {
         let rows = rows_of(SetupKind::Mount, s);
@@ -124,8 +136,8 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     }
     let [st, mo] = others;
     let mut model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
-    if measurement == Measurement::Socket {
-        socket_blocks(&mut model, stations, opts)?;
+    if measurement.feature().is_some() {
+        feature_blocks(&mut model, stations, opts)?;
     }
     if let Some(p) = place_also(&model, train)? {
         model = model.with_also(&p);
@@ -170,16 +182,22 @@ fn not_located(measurement: Measurement, label: &str, rows: usize) -> Error {
             crate::measurement::socket::MIN_ROWS_PER_SOCKET,
             crate::measurement::socket::MIN_TURN_RAD.to_degrees()
         ),
+        Measurement::Plane | Measurement::Indicator => format!(
+            "cannot place the face{label} from the nominal arm: {rows} contact(s); a face and the stylus on the flange show only when the tool touches it tilted differently: touch it at least {} times, the tool turned by more than {:.0} deg between them",
+            crate::measurement::plane::MIN_ROWS_PER_FACE,
+            crate::measurement::socket::MIN_TURN_RAD.to_degrees()
+        ),
         _ => format!("cannot place the instrument ({what}){label} from the nominal arm: need at least 3 poses whose points are not on one line"),
     })
 }
 
-/// A ball in sockets' residual blocks: the stated spacings between the sockets of each
-/// placement (`stations`), and the arm pulled toward its nominal by the documented tolerances
-/// (the published objective's pull: a ball on the last axis leaves the wrist's links nearly
-/// free).
-fn socket_blocks(model: &mut CalibModel, stations: &[String], opts: &CalibOptions) -> Result<()> {
-    model.spacings = crate::calib::model::resolve_spacings(stations, &opts.spacings)?;
+/// An artifact's residual blocks: the stated spacings between the sockets (steps between the
+/// faces) of each placement (`stations`), and the arm pulled toward its nominal by the
+/// documented tolerances (the published objective's pull: a ball on the last axis leaves the
+/// wrist's links nearly free).
+fn feature_blocks(model: &mut CalibModel, stations: &[String], opts: &CalibOptions) -> Result<()> {
+    let kind = model.measurement.feature().unwrap_or(crate::measurement::FeatureKind::Socket);
+    model.spacings = crate::calib::model::resolve_spacings(stations, &opts.spacings, kind)?;
     let std = opts.tolerances.prior_std(model);
     model.pulls = (0..model.n_chain()).map(|k| crate::calib::model::Pull { k, to: model.nominal[k], std: std[k] }).collect();
     Ok(())
@@ -189,8 +207,8 @@ fn socket_blocks(model: &mut CalibModel, stations: &[String], opts: &CalibOption
 /// instrument's rows.
 fn refuse_cable_options(opts: &CalibOptions, measurement: Measurement) -> Result<()> {
     let what = measurement.def().describe();
-    if measurement != Measurement::Socket && !opts.spacings.is_empty() {
-        return Err(Error::Invalid(format!("--spacing-mm states the distance between an artifact's sockets; these rows hold a {what}")));
+    if measurement.feature().is_none() && !opts.spacings.is_empty() {
+        return Err(Error::Invalid(format!("--spacing-mm states the distance between an artifact's sockets or faces; these rows hold a {what}")));
     }
     if measurement != Measurement::Length {
         if opts.draw_wire_guess.is_some() {

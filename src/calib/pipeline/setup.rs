@@ -21,7 +21,7 @@ use crate::calib::fit::Samples;
 use crate::calib::model::{CalibModel, SetupKind};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::measurement::{Measurement, MAX_DIM};
+use crate::measurement::{FeatureKind, Measurement, MAX_DIM};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -85,9 +85,9 @@ fn labels_of(data: &Dataset, k: SetupKind) -> crate::dataset::Stations {
 
 /// A row's label of kind `k`.
 pub fn label_of(r: &crate::dataset::Row, k: SetupKind) -> Option<String> {
-    match (k, &r.socket) {
-        // A seated ball's station is its socket at its placement.
-        (SetupKind::Station, Some(s)) => Some(crate::dataset::socket_station(r.station.as_deref(), s)),
+    match (k, &r.feature) {
+        // A seated ball's station is its socket at its placement (a probe's, its face).
+        (SetupKind::Station, Some(f)) => Some(crate::dataset::feature_station(r.station.as_deref(), &f.label)),
         (SetupKind::Station, None) => r.station.clone(),
         (SetupKind::Mount, _) => r.mount.clone(),
     }
@@ -280,7 +280,7 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
         return None;
     }
     let def = model.measurement.def();
-    let seated_model = model.measurement == crate::measurement::Measurement::Socket;
+    let seated_model = model.measurement.feature().is_some();
     let parts = |kind: SetupKind| -> Vec<SetupPart> {
         if model.n_setups(kind) < 2 {
             return Vec::new();
@@ -309,7 +309,7 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
                 let mut rows = st.labels.iter().position(|l| *l == label).map(|k| st.rows(k)).unwrap_or_default();
                 // (A tracker's points beside seated rows stand at no socket.)
                 if seated_model {
-                    rows.retain(|&i| data.rows[i].socket.is_some());
+                    rows.retain(|&i| data.rows[i].feature.is_some());
                 }
                 let changed = found.iter().any(|(k, l)| *k == kind && *l == label) || (s == 0 && auto);
                 SetupPart {
@@ -325,7 +325,7 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
             })
             .collect()
     };
-    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount), seated: seated_model })
+    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount), feature: model.measurement.feature() })
 }
 
 /// How a station came to be.
@@ -372,7 +372,11 @@ impl SetupReport {
     /// relative to the first.
     pub fn lines(&self) -> Vec<String> {
         let mut out = Vec::new();
-        let stood = if self.seated { ("socket", "the ball was seated in") } else { ("station", "the instrument stood at") };
+        let stood = match self.feature {
+            Some(FeatureKind::Socket) => ("socket", "the ball was seated in"),
+            Some(FeatureKind::Plane) => ("face", "the probe touched"),
+            None => ("station", "the instrument stood at"),
+        };
         for (what, parts, verb) in [(stood.0, &self.stations, stood.1), ("mount", &self.mounts, "the target sat on")] {
             if parts.is_empty() {
                 continue;
@@ -406,7 +410,8 @@ pub struct SetupReport {
     /// Every mount of the target, in the order of its first row (none where it sat on one).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub mounts: Vec<SetupPart>,
-    /// Whether the stations are the sockets a ball was seated in.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub seated: bool,
+    /// The artifact's features the stations are (the sockets a ball was seated in, the faces a
+    /// probe touched), if they are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feature: Option<FeatureKind>,
 }
