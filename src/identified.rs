@@ -98,6 +98,7 @@ pub fn identified_scenario(r: &CalibResult, data: &Dataset, nominal: Option<&Rob
         glitches: None,
         workspace: None,
         sockets: None,
+        planes: None,
     };
     // An acquisition that moves one or two joints at a time is written as sweeps.
     if let Some((len, share)) = sweeps(data) {

@@ -28,6 +28,9 @@ pub enum Stream {
     /// A ball seated in an artifact's sockets: each seated configuration's orientation, seat
     /// and backlash flanks, one item per socket of each placement.
     Seating = 12,
+    /// A probe touching an artifact's faces: each contact's point, orientation, trigger and
+    /// backlash flanks, one item per face of each placement.
+    Touching = 13,
 }
 
 /// A seed for stream `s`, item `i` (SplitMix64 of the mixed inputs).

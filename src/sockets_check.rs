@@ -1,9 +1,10 @@
-//! A ball-in-socket calibration judged as the issue of record asks: on the twin, the ball seated
-//! in the artifact's sockets ([`crate::sim::artifact`]) and calibrated from those rows alone,
-//! then judged on a laser tracker's points of the same arm that no fit saw, after the tracker is
-//! registered on other points (the sockets never see the base frame, so a tracker must be placed
-//! before their arm can be compared with it). Beside it: the nominal arm registered the same
-//! way, and a tracker calibration of the same arm from as many rows as the sockets gave.
+//! An artifact's calibration judged as the issue of record asks: on the twin, the ball seated in
+//! the artifact's sockets ([`crate::sim::artifact`]) or the probe touching its faces
+//! ([`crate::sim::planes`]) and calibrated from those rows alone, then judged on a laser
+//! tracker's points of the same arm that no fit saw, after the tracker is registered on other
+//! points (an artifact never sees the base frame, so a tracker must be placed before its arm can
+//! be compared with it). Beside it: the nominal arm registered the same way, and a tracker
+//! calibration of the same arm from as many rows as the artifact gave.
 
 use crate::calib::fit::ReadingFit;
 use crate::calib::model::KnownSpacing;
@@ -35,22 +36,18 @@ pub struct SocketCheck {
     pub tracker_rows: (usize, usize),
 }
 
-/// The `[sockets]` scenario `s` at its seed: the sockets' data calibrated with `opts` (their
-/// stated spacings added: the artifact's designed distances, as a user states them), then
-/// judged on the scenario's tracker points (the same file without `[sockets]`, acquired
-/// quasi-statically).
+/// The `[sockets]` or `[planes]` scenario `s` at its seed: the artifact's rows calibrated with
+/// `opts` (their stated spacings or steps added: the artifact's designed distances, as a user
+/// states them), then judged on the scenario's tracker points (the same file without the
+/// artifact, acquired quasi-statically).
 pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<SocketCheck> {
-    let art = s.sockets.as_ref().ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets]", s.name)))?;
+    let art = crate::sim::generate::artifact_rows(s, robot).ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets] or [planes]", s.name)))??;
     if s.instruments.tracker.is_none() {
-        return Err(Error::Invalid(format!("scenario {} has no [tracker] to judge the sockets' calibration on", s.name)));
+        return Err(Error::Invalid(format!("scenario {} has no [tracker] to judge the artifact's calibration on", s.name)));
     }
-    let twin = crate::sim::generate::build_twin(s, robot);
-    let (seated, truth) = crate::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
-    let spacings: Vec<KnownSpacing> =
-        truth.designed_spacings_mm.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
-    let socket_opts = CalibOptions { spacings, ..opts.clone() };
-    let by_sockets = calibrate(&seated, None, &socket_opts)?;
-    let mut ts = Scenario { sockets: None, ..s.clone() };
+    let socket_opts = CalibOptions { spacings: art.spacings(), ..opts.clone() };
+    let by_sockets = calibrate(&art.dataset, None, &socket_opts)?;
+    let mut ts = Scenario { sockets: None, planes: None, ..s.clone() };
     ts.acquisition.model = AcquisitionModel::QuasiStatic;
     let tracker = crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset;
     let (train, test) = (tracker.train_indices(), tracker.test_indices());
@@ -175,7 +172,7 @@ pub fn mixed(s: &Scenario, robot: &Robot, opts: &CalibOptions, points: usize) ->
     let alone = check(s, robot, opts)?;
     let twin = crate::sim::generate::build_twin(s, robot);
     let (seated, truth) = crate::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
-    let mut ts = Scenario { sockets: None, ..s.clone() };
+    let mut ts = Scenario { sockets: None, planes: None, ..s.clone() };
     ts.acquisition.model = AcquisitionModel::QuasiStatic;
     let tracker = crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset;
     let beside: Vec<_> = tracker.rows.iter().filter(|r| r.split == Some(Split::Train)).take(points).cloned().collect();

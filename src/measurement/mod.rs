@@ -155,6 +155,13 @@ pub trait Instrument: Sync {
     fn locate_about(&self, _p: &[Vector3<f64>], _rot: &[Matrix3<f64>], _y: &[f64], _tool: &Vector3<f64>) -> Option<Vec<f64>> {
         None
     }
+    /// The target on the flange every station's rows agree on (each station's flange origins,
+    /// rotations and readings, as [`Self::locate`] takes them), where the instrument finds it
+    /// from all of them together (the stylus touching several faces); `None`: from the first
+    /// station's rows.
+    fn locate_target(&self, _stations: &[plane::FaceRows]) -> Option<Vector3<f64>> {
+        None
+    }
 }
 
 /// The kind of an artifact's feature a row names: what held the target still (a socket) or

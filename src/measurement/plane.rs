@@ -176,6 +176,49 @@ fn face_about(p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64], tool: &Vector
     Some(own_of(&n, d))
 }
 
+/// One face's rows as the locating functions take them: the flange's origins, rotations and the
+/// readings (m).
+pub type FaceRows = (Vec<Vector3<f64>>, Vec<Matrix3<f64>>, Vec<f64>);
+
+/// The target on the flange that every face's rows `faces` agree on, and its RMS misfit (m):
+/// from each face's own start ([`locate_face`]), by turns (each face given the target, the target
+/// given every face), the best of those starts.
+fn shared_target(faces: &[FaceRows]) -> Option<Vector3<f64>> {
+    let starts: Vec<Vector3<f64>> = faces.iter().filter_map(|(p, r, y)| locate_face(p, r, y).map(|f| f.2)).collect();
+    let mut best: Option<(f64, Vector3<f64>)> = None;
+    for start in starts {
+        let mut b = start;
+        let mut misfit = f64::INFINITY;
+        for _ in 0..30 {
+            let normals: Option<Vec<Vector3<f64>>> = faces.iter().map(|(p, r, y)| face_about(p, r, y, &b).map(|o| normal(o[0], o[1]).0)).collect();
+            let Some(normals) = normals else { break };
+            // The target and every face's offset, linear given the normals.
+            let (rows, k) = (faces.iter().map(|f| f.0.len()).sum::<usize>(), faces.len());
+            let mut a = DMatrix::zeros(rows, 3 + k);
+            let mut rhs = nalgebra::DVector::zeros(rows);
+            let mut i = 0;
+            for (f, ((p, rot, y), n)) in faces.iter().zip(&normals).enumerate() {
+                for ((pi, ri), yi) in p.iter().zip(rot).zip(y) {
+                    let g = ri.transpose() * n;
+                    a[(i, 0)] = g.x;
+                    a[(i, 1)] = g.y;
+                    a[(i, 2)] = g.z;
+                    a[(i, 3 + f)] = -1.0;
+                    rhs[i] = -yi - n.dot(pi);
+                    i += 1;
+                }
+            }
+            let Ok(z) = a.clone().svd(true, true).solve(&rhs, 1e-10) else { break };
+            b = Vector3::new(z[0], z[1], z[2]);
+            misfit = ((&a * &z - &rhs).norm_squared() / rows.max(1) as f64).sqrt();
+        }
+        if misfit.is_finite() && best.is_none_or(|(m, _)| misfit < m) {
+            best = Some((misfit, b));
+        }
+    }
+    best.map(|(_, b)| b)
+}
+
 /// A touch-trigger probe's contacts with a face: no reading.
 pub struct Plane;
 
@@ -216,6 +259,9 @@ macro_rules! face_instrument {
         }
         fn locate_about(&self, p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64], tool: &Vector3<f64>) -> Option<Vec<f64>> {
             face_about(p, rot, y, tool)
+        }
+        fn locate_target(&self, stations: &[FaceRows]) -> Option<Vector3<f64>> {
+            shared_target(stations)
         }
     };
 }

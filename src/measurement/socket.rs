@@ -74,6 +74,9 @@ impl Instrument for Socket {
     fn exact_grad_reading(&self) -> bool {
         true
     }
+    fn feature(&self) -> Option<super::FeatureKind> {
+        Some(super::FeatureKind::Socket)
+    }
     /// The socket and the ball's centre on the flange by the pivot fit: the point of the flange
     /// that stays still over the rows (least squares of `p_i + R_i·b = s`, linear in `b` and
     /// `s`). `None` with fewer than [`MIN_ROWS_PER_SOCKET`] rows or an orientation that barely

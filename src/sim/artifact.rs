@@ -183,12 +183,31 @@ pub struct SocketTruth {
 }
 
 /// Tries per seated configuration to find joint angles that reach it.
-const IK_STARTS: usize = 12;
+pub(crate) const IK_STARTS: usize = 12;
+
+/// The joint angles (rad) the encoders log with the arm's links at `q_link` (true parameters
+/// and scale `at`) held still by gravity and by `push` (N, base frame) on flange point `point`
+/// (the socket pushing back on the ball against the operator's preload, a face on the probe's
+/// trigger force): each joint deflected by its compliance from the backlash flank `sides` it
+/// rests on, its encoder reading the motor less its eccentricity.
+pub(crate) fn logged_angles(twin: &Twin, q_link: &[f64], at: (&[f64], f64), point: &Vector3<f64>, push: &Vector3<f64>, sides: &[f64]) -> Vec<f64> {
+    let n = q_link.len();
+    let (mut ws, mut jac) = (FkWork::new(&twin.chain), PointJacobian::new(&twin.chain));
+    let mut tau = vec![0.0; n];
+    twin.chain.forward(q_link, at.0, at.1, &mut ws);
+    twin.load.torques(&twin.chain, &ws, &mut jac, &mut tau);
+    twin.chain.point_jacobian(&ws, twin.chain.flange(), point, &mut jac);
+    for (j, tj) in tau.iter_mut().enumerate() {
+        *tj += jac.dq[j].dot(push);
+    }
+    let q_motor: Vec<f64> = (0..n).map(|j| q_link[j] - twin.transmission.as_ref().map_or(0.0, |tr| tr.deflection(j, tau[j], sides[j]).0)).collect();
+    q_motor.iter().enumerate().map(|(j, q)| q - twin.effects.motor_offset_rad(j, *q).unwrap_or(0.0)).collect()
+}
 
 /// The joint angles (rad) that put the flange at `target` (base frame), starting from `q0`,
 /// by damped least squares on the true arm at parameters `p` and length scale `scale`; `None`
 /// when it does not converge within the joint limits.
-fn reach(twin: &Twin, p: &[f64], scale: f64, target: &Frame, q0: Vec<f64>, limits: &[(f64, f64)]) -> Option<Vec<f64>> {
+pub(crate) fn reach(twin: &Twin, p: &[f64], scale: f64, target: &Frame, q0: Vec<f64>, limits: &[(f64, f64)]) -> Option<Vec<f64>> {
     let chain = &twin.chain;
     let n = chain.n_joints;
     let flange = chain.flange();
@@ -231,7 +250,7 @@ fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
 /// The flange's frame for the ball at `ball_at` (base) approaching along `approach` (unit,
 /// base: from the ball into the socket) turned by `spin` about it, the ball at `ball` on the
 /// flange along its z axis or anywhere.
-fn flange_for(ball_at: &Vector3<f64>, approach: &Vector3<f64>, spin: f64, ball: &Vector3<f64>) -> Frame {
+pub(crate) fn flange_for(ball_at: &Vector3<f64>, approach: &Vector3<f64>, spin: f64, ball: &Vector3<f64>) -> Frame {
     let helper = if approach.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
     let x0 = helper.cross(approach).normalize();
     let x = axis_rotation(approach, spin) * x0;
@@ -256,8 +275,6 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
     }
     let mut t = 0.0;
     let seat = Normal::new(0.0, crate::units::to_m(art.seat_std_mm).max(1e-300)).map_err(|e| Error::Invalid(e.to_string()))?;
-    let (mut ws, mut jac) = (FkWork::new(&twin.chain), PointJacobian::new(&twin.chain));
-    let mut tau = vec![0.0; n];
     for (pi, placement) in art.placements.iter().enumerate() {
         let frame = placement.frame();
         let plabel = format!("p{}", pi + 1);
@@ -306,18 +323,8 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
                     truth.unreachable += 1;
                     continue;
                 };
-                // The loads that hold the seated arm: gravity, and the socket pushing back on
-                // the ball against the operator's preload.
-                twin.chain.forward(&q_link, &p, scale, &mut ws);
-                twin.load.torques(&twin.chain, &ws, &mut jac, &mut tau);
-                twin.chain.point_jacobian(&ws, twin.chain.flange(), &ball, &mut jac);
                 let push = -approach * art.preload_n;
-                for (j, tj) in tau.iter_mut().enumerate() {
-                    *tj += jac.dq[j].dot(&push);
-                }
-                let q_motor: Vec<f64> = (0..n).map(|j| q_link[j] - twin.transmission.as_ref().map_or(0.0, |tr| tr.deflection(j, tau[j], sides[j]).0)).collect();
-                // The encoder reads the motor less its eccentricity.
-                let q_read: Vec<f64> = q_motor.iter().enumerate().map(|(j, q)| q - twin.effects.motor_offset_rad(j, *q).unwrap_or(0.0)).collect();
+                let q_read = logged_angles(twin, &q_link, (&p, scale), &ball, &push, &sides);
                 let split = if rng.random::<f64>() < art.test_fraction { Split::Test } else { Split::Train };
                 rows.push(Row {
                     q_deg: q_read.iter().map(|v| crate::units::round_decimals(v.to_degrees(), decimals)).collect(),

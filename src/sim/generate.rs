@@ -335,16 +335,77 @@ pub fn acquire_all(
     out
 }
 
-/// Refuses a `[sockets]` scenario: its acquisition is the ball seated in the sockets
-/// ([`crate::sim::artifact::seat`], what `twincal generate` runs), not the instrument's tour.
-pub fn refuse_sockets(s: &Scenario) -> Result<()> {
-    match s.sockets {
-        Some(_) => Err(Error::Invalid(format!(
-            "scenario {} seats a ball in sockets ([sockets]): its rows come from the seating (twincal generate writes them), not from the instrument's tour",
-            s.name
-        ))),
-        None => Ok(()),
+/// Refuses a scenario with an artifact (`[sockets]`, `[planes]`): its acquisition is the ball
+/// seated in the sockets or the probe touching the faces ([`artifact_rows`], what `twincal
+/// generate` runs), not the instrument's tour.
+pub fn refuse_artifact(s: &Scenario) -> Result<()> {
+    let what = if s.sockets.is_some() {
+        "seats a ball in sockets ([sockets])"
+    } else if s.planes.is_some() {
+        "touches a block's faces ([planes])"
+    } else {
+        return Ok(());
+    };
+    Err(Error::Invalid(format!("scenario {} {what}: its rows come from the artifact (twincal generate writes them), not from the instrument's tour", s.name)))
+}
+
+/// The rows a scenario's artifact gives and what a user states of it.
+pub struct ArtifactRows {
+    /// The rows: joint angles at each feature, labelled, in acquisition order.
+    pub dataset: crate::dataset::Dataset,
+    /// The truth, as written beside the dataset.
+    pub truth: serde_json::Value,
+    /// The file the truth is written to.
+    pub truth_file: &'static str,
+    /// The designed distances between features (sockets' spacings, faces' steps) a user
+    /// states, mm.
+    pub designed: Vec<(String, String, f64)>,
+    /// The same as made, at the artifact's temperature, mm.
+    pub made: Vec<(String, String, f64)>,
+    /// Configurations out of reach, redrawn.
+    pub unreachable: usize,
+    /// What the rows are, for messages ("a ball seated in 2 sockets").
+    pub what: String,
+}
+
+impl ArtifactRows {
+    /// The designed distances as `--spacing-mm` states them.
+    pub fn spacings(&self) -> Vec<crate::calib::model::KnownSpacing> {
+        self.designed.iter().map(|(a, b, d)| crate::calib::model::KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect()
     }
+}
+
+/// The rows of scenario `s`'s artifact (`[sockets]` or `[planes]`) on the twin of `robot`;
+/// `None` without one.
+pub fn artifact_rows(s: &Scenario, robot: &Robot) -> Option<Result<ArtifactRows>> {
+    let twin = build_twin(s, robot);
+    let decimals = s.sampling.written_decimals();
+    if let Some(art) = &s.sockets {
+        return Some(crate::sim::artifact::seat(&twin, robot, art, decimals, s.seed).map(|(dataset, t)| ArtifactRows {
+            truth: serde_json::to_value(&t).unwrap_or(serde_json::Value::Null),
+            truth_file: crate::sim::artifact::SOCKETS_TRUTH_FILE,
+            designed: t.designed_spacings_mm.clone(),
+            made: t.spacings_mm.clone(),
+            unreachable: t.unreachable,
+            what: format!("a ball seated in {} sockets at {} placements", art.layout_mm.len(), art.placements.len()),
+            dataset,
+        }));
+    }
+    let art = s.planes.as_ref()?;
+    Some(crate::sim::planes::touch(&twin, robot, art, decimals, s.seed).map(|(dataset, t)| ArtifactRows {
+        truth: serde_json::to_value(&t).unwrap_or(serde_json::Value::Null),
+        truth_file: crate::sim::planes::PLANES_TRUTH_FILE,
+        designed: t.designed_steps_mm.clone(),
+        made: t.steps_mm.clone(),
+        unreachable: t.unreachable,
+        what: format!(
+            "a {} touching {} faces at {} placements",
+            if art.indicator { "dial indicator" } else { "probe" },
+            art.faces.len(),
+            art.placements.len()
+        ),
+        dataset,
+    }))
 }
 
 /// Runs a scenario end to end. Poses are simulated in parallel; results do not depend on the
@@ -358,7 +419,7 @@ pub fn generate(s: &Scenario, robot: &Robot, progress: &dyn Progress) -> Result<
 /// sampled ones, read at the given times (s) where there are some (a replay of a measured
 /// acquisition, see `twincal replay`), else at the scenario's acquisition times.
 pub fn generate_at(s: &Scenario, robot: &Robot, poses: Vec<Vec<f64>>, given_times: Option<Vec<f64>>, progress: &dyn Progress) -> Result<Generated> {
-    refuse_sockets(s)?;
+    refuse_artifact(s)?;
     let twin = build_twin(s, robot);
     let home = vec![0.0; robot.dof()];
     // With given times the simulated tour waits at rest before each move to read at them (or

@@ -8,6 +8,7 @@
 //! dataset, never these settings.
 
 pub mod artifact;
+pub mod planes;
 pub mod effects;
 pub mod generate;
 pub mod instrument;

@@ -149,7 +149,7 @@ fn check_feasible(s: &Scenario, robot: &Robot, q: &[Vec<f64>]) -> Result<()> {
 /// Measures a pose list on the twin of `s`, in its order, every pose a training row (see the
 /// module docs for lists with payloads).
 pub fn generate_pose_list(s: &Scenario, robot: &Robot, list: PoseList, progress: &dyn Progress) -> Result<Generated> {
-    crate::sim::generate::refuse_sockets(s)?;
+    crate::sim::generate::refuse_artifact(s)?;
     check_feasible(s, robot, &list.q)?;
     let mut s = s.clone();
     s.sampling.poses = list.q.len();

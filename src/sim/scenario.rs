@@ -76,6 +76,11 @@ pub struct Scenario {
     /// ([`crate::sim::artifact`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sockets: Option<crate::sim::artifact::Sockets>,
+    /// A probe (or dial indicator) on the flange touching the faces of a block (`[planes]`):
+    /// `generate` writes the contacts' joint angles instead of the instrument's readings
+    /// ([`crate::sim::planes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub planes: Option<crate::sim::planes::Planes>,
 }
 
 /// Runs of consecutive disturbed readings (in acquisition order): `runs` runs of `rows` rows
@@ -395,6 +400,12 @@ impl Scenario {
         }
         if let Some(a) = &self.sockets {
             a.validate().map_err(err)?;
+        }
+        if let Some(a) = &self.planes {
+            a.validate().map_err(err)?;
+            if self.sockets.is_some() {
+                return Err(err("[sockets] and [planes]: one artifact per scenario".into()));
+            }
         }
         self.validate_geometry(robot).map_err(err)?;
         self.validate_sampling(robot).map_err(err)?;

@@ -28,6 +28,7 @@ pub mod plan;
 pub mod programs;
 pub mod real;
 pub mod replay;
+pub mod planes;
 pub mod sockets;
 pub mod stations;
 pub mod twin;

@@ -41,7 +41,7 @@ const VARIANTS: [(&str, &[(&str, &str)]); 3] = [
 ];
 
 /// The scenario `file` (its text edited by `edits`), its robot and the calibration's options.
-fn load_case(dir: &Path, file: &str, edits: &[(&str, &str)]) -> Result<(Scenario, twincal::robot::Robot, CalibOptions)> {
+pub(super) fn load_case(dir: &Path, file: &str, edits: &[(&str, &str)]) -> Result<(Scenario, twincal::robot::Robot, CalibOptions)> {
     let path = dir.join(format!("{file}.toml"));
     let mut text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
     for (from, to) in edits {

@@ -86,6 +86,7 @@ pub fn bench_command(a: &BenchArgs, quiet: bool) -> Result<()> {
         BenchTarget::PlanHidden => crate::bench::plan::hidden(seeds),
         BenchTarget::Stations => crate::bench::stations::bench_stations(seeds),
         BenchTarget::Sockets => crate::bench::sockets::bench_sockets(seeds),
+        BenchTarget::Planes => crate::bench::planes::bench_planes(seeds),
     }
 }
 
@@ -120,6 +121,7 @@ fn takes(what: BenchTarget) -> Takes {
         BenchTarget::PlanHidden => t(false, false, Some(10), "the IRB 120 tracker scenario with compliance hidden"),
         BenchTarget::Stations => t(false, false, Some(20), "IRB 120 point and UR10 pose tracker scenarios with the tracker moved"),
         BenchTarget::Sockets => t(false, false, Some(10), "the IRB 120 ball-in-socket scenario, judged on its tracker's points"),
+        BenchTarget::Planes => t(false, false, Some(10), "IRB 120, UR10 and WAM touch-probe scenarios, judged on their trackers' points"),
     }
 }
 

@@ -14,7 +14,7 @@ pub fn generate(scenario: Option<&Path>, out: &Path, rrd: Option<&Path>, seed: O
         outputs_named.push(("--rrd", p));
     }
     let (mut s, robot) = load_scenario(scenario)?;
-    if s.sockets.is_some() && poses.is_none() {
+    if (s.sockets.is_some() || s.planes.is_some()) && poses.is_none() {
         if let Some(seed) = seed {
             s.seed = seed;
         }
@@ -95,8 +95,9 @@ fn summary(g: &Generated, out: &Path, elapsed: f64, rrd: Option<&Path>) {
     }
 }
 
-/// `twincal generate` of a scenario with `[sockets]`: the ball seated in the artifact's sockets,
-/// dataset.csv (joint angles, socket, placement, t, split) and sockets.json (the truth).
+/// `twincal generate` of a scenario with an artifact (`[sockets]`, `[planes]`): the ball seated
+/// in the sockets or the probe touching the faces, dataset.csv (joint angles, socket or plane,
+/// placement, t, split; an indicator's reading) and the truth (sockets.json, planes.json).
 fn seat(
     s: &twincal::sim::scenario::Scenario,
     robot: &twincal::robot::Robot,
@@ -106,36 +107,34 @@ fn seat(
     quiet: bool,
 ) -> Result<()> {
     if rrd.is_some() {
-        return Err(Error::Invalid(
-            "--rrd records a tour of the instrument's readings; a [sockets] scenario's recording is not written yet (drop --rrd)".into(),
-        ));
+        return Err(Error::Invalid("--rrd records a tour of the instrument's readings; an artifact scenario's recording is not written yet (drop --rrd)".into()));
     }
-    let art = s.sockets.as_ref().expect("a [sockets] scenario");
     let dataset = out.join(twincal::dataset::DATASET_FILE);
-    let truth = out.join(twincal::sim::artifact::SOCKETS_TRUTH_FILE);
+    let truth_file = if s.sockets.is_some() { twincal::sim::artifact::SOCKETS_TRUTH_FILE } else { twincal::sim::planes::PLANES_TRUTH_FILE };
+    let truth = out.join(truth_file);
     check_outputs(&scenario_inputs(scenario, s), &[("--out", dataset.as_path()), ("--out", truth.as_path())])?;
     let t0 = Instant::now();
-    let twin = twincal::sim::generate::build_twin(s, robot);
-    let (data, t) = twincal::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
+    let a = twincal::sim::generate::artifact_rows(s, robot).expect("an artifact scenario")?;
+    let data = &a.dataset;
     let mut outputs = OutputSet::new();
     outputs.write(&dataset, data.to_csv_string().as_bytes())?;
-    outputs.write_json(&truth, &t)?;
+    outputs.write_json(&truth, &a.truth)?;
     outputs.commit()?;
     if !quiet {
         let test = data.rows.iter().filter(|r| r.split == Some(twincal::dataset::Split::Test)).count();
         eprintln!(
-            "scenario {} (seed {}): a ball seated {} times in {} sockets at {} placements ({} train / {test} test) in {:.2} s; {} configurations out of reach redrawn",
+            "scenario {} (seed {}): {}, {} rows ({} train / {test} test) in {:.2} s; {} configurations out of reach redrawn",
             s.name,
             s.seed,
+            a.what,
             data.rows.len(),
-            art.layout_mm.len(),
-            art.placements.len(),
             data.rows.len() - test,
             t0.elapsed().as_secs_f64(),
-            t.unreachable
+            a.unreachable
         );
-        for (a, b, d) in &t.designed_spacings_mm {
-            eprintln!("  spacing {a}:{b} designed {d:.3} mm (state it with calibrate --spacing-mm {a}:{b}={d})");
+        let word = if s.sockets.is_some() { "spacing" } else { "step" };
+        for (x, y, d) in &a.designed {
+            eprintln!("  {word} {x}:{y} designed {d:.3} mm (state it with calibrate --spacing-mm {x}:{y}={d})");
         }
         eprintln!("  wrote {} and {}", dataset.display(), truth.display());
     }

@@ -103,6 +103,10 @@ pub enum BenchTarget {
     /// alone, judged on unseen tracker points of the same arm beside the nominal arm and a
     /// tracker calibration from as many rows.
     Sockets,
+    /// A touch probe on a block's faces on the twin: calibrated from the contacts alone, judged
+    /// on unseen tracker points of the same arm beside the nominal arm and a tracker calibration
+    /// from as many rows.
+    Planes,
 }
 
 /// `--shard i/N --shard-out PART.jsonl` of `study hold` and `bench diagnose` (see

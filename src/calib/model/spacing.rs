@@ -17,8 +17,15 @@ pub struct Spacing {
     pub a: usize,
     /// The second socket's station.
     pub b: usize,
-    /// The distance between their centres as the artifact was made, mm.
+    /// The distance between their centres (two faces: between the faces) as the artifact was
+    /// made, mm.
     pub mm: f64,
+    /// Where a step between faces is taken (base frame, m): the point of the second face
+    /// nearest this one, measured from the first face along its normal. Near the artifact (the
+    /// second face's contacts' middle at the start), so that a lean of the faces' normals does
+    /// not trade for a step across the cell. Unused between sockets.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at: Option<[f64; 3]>,
 }
 
 /// A pull of one parameter toward its nominal value, one standard deviation `std` (internal
@@ -83,14 +90,31 @@ impl CalibModel {
     }
 
     /// The distance (mm) between the features of spacing `k` at `x`: two sockets' centres, or
-    /// two parallel faces' offsets (the step).
+    /// two parallel faces (the step, [`Self::step_m`]).
     pub fn spacing_mm(&self, x: &[f64], k: usize) -> f64 {
         let sp = &self.spacings[k];
         let ((a, _), (b, _)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
         match self.measurement.feature() {
-            Some(FeatureKind::Plane) => crate::units::to_mm((b.z - a.z).abs()),
+            Some(FeatureKind::Plane) => crate::units::to_mm(self.step_m(x, k).0.abs()),
             _ => crate::units::to_mm((a - b).norm()),
         }
+    }
+
+    /// The signed step of spacing `k` between two faces (m): the second face's point nearest
+    /// [`Spacing::at`], measured from the first face along its normal; and its derivatives with
+    /// respect to the faces' own parameters (first face's three, second's three).
+    fn step_m(&self, x: &[f64], k: usize) -> (f64, [f64; 6]) {
+        use crate::measurement::plane::normal;
+        let sp = &self.spacings[k];
+        let ((a, _), (b, _)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
+        let (na, daa, dab) = normal(a.x, a.y);
+        let (nb, dba, dbb) = normal(b.x, b.y);
+        let r = Vector3::from(sp.at.unwrap_or([0.0; 3]));
+        let lift = b.z - nb.dot(&r);
+        let pb = r + nb * lift;
+        let s = na.dot(&pb) - a.z;
+        let dpb = |dn: &Vector3<f64>| nb * (-dn.dot(&r)) + dn * lift;
+        (s, [daa.dot(&pb), dab.dot(&pb), -1.0, na.dot(&dpb(&dba)), na.dot(&dpb(&dbb)), na.dot(&nb)])
     }
 
     /// The spacings' residuals (mm: known minus modelled distance; a step's faces' lean from
@@ -126,9 +150,13 @@ impl CalibModel {
                 }
                 continue;
             }
-            let sign = if pb.z >= pa.z { 1.0 } else { -1.0 };
-            block[ca[2]] += crate::units::MM_PER_M * sign;
-            block[cb[2]] -= crate::units::MM_PER_M * sign;
+            // The step's residual is stated − |step|.
+            let (s, ds) = self.step_m(x, k);
+            let sign = if s >= 0.0 { 1.0 } else { -1.0 };
+            for i in 0..3 {
+                block[ca[i]] -= crate::units::MM_PER_M * sign * ds[i];
+                block[cb[i]] -= crate::units::MM_PER_M * sign * ds[3 + i];
+            }
             let (da, ca_b) = ((pb.x - pa.x).cos() * pa.y.cos(), (pb.x - pa.x).sin() * pa.y.sin());
             block[n + cb[0]] += PARALLEL_LEVER_MM * da;
             block[n + ca[0]] -= PARALLEL_LEVER_MM * da;
@@ -152,14 +180,15 @@ mod tests {
         let face = Placement { measurement: Measurement::Plane, own: vec![0.5, 0.6, 0.2], tool: Vector3::new(0.0, 0.0, 0.05) };
         let model = CalibModel::dh(&Robot::irb120(), &guess, true).with_placement(&face);
         let mut model = model.with_setups((vec!["p/a".into(), "p/b".into()], &[vec![0.52, 0.57, 0.226]]), (Vec::new(), &[]));
-        model.spacings = vec![Spacing { a: 0, b: 1, mm: 25.0 }];
+        model.spacings = vec![Spacing { a: 0, b: 1, mm: 25.0, at: Some([0.45, 0.12, 0.25]) }];
         let (x, n) = (model.nominal.clone(), model.n_params());
         assert_eq!(model.n_spacing_residuals(), 3);
         let mut jac = vec![0.0; 3 * n];
         model.spacing_jacobian(&x, &mut jac);
         let mut r0 = [0.0; 3];
         model.spacing_residuals(&x, &mut r0);
-        assert!((r0[0] - -1.0).abs() < 1e-9, "25 stated, 26 fitted: {r0:?}");
+        let step = model.spacing_mm(&x, 0);
+        assert!((r0[0] - (25.0 - step)).abs() < 1e-9 && step > 0.0, "25 stated, {step} fitted: {r0:?}");
         let h = 1e-7;
         for p in 0..n {
             let (mut a, mut b) = (x.clone(), x.clone());
@@ -182,7 +211,7 @@ mod tests {
         let model = CalibModel::dh(&Robot::irb120(), &guess, true).with_placement(&socket);
         let mut model = model.with_setups((vec!["p/a".into(), "p/b".into(), "p/c".into()], &[vec![0.45, 0.1, 0.2], vec![0.43, 0.14, 0.21]]), (Vec::new(), &[]));
         let x = model.nominal.clone();
-        model.spacings = vec![Spacing { a: 0, b: 1, mm: 50.01 }, Spacing { a: 1, b: 2, mm: 49.0 }];
+        model.spacings = vec![Spacing { a: 0, b: 1, mm: 50.01, at: None }, Spacing { a: 1, b: 2, mm: 49.0, at: None }];
         let n = model.n_params();
         let mut jac = vec![0.0; 2 * n];
         model.spacing_jacobian(&x, &mut jac);
@@ -312,7 +341,7 @@ pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing], kind: Feature
         let name = if p.is_empty() { String::new() } else { format!(" at placement {p}") };
         for k in known {
             match &k.sockets {
-                None if here.len() == 2 => out.push(Spacing { a: here[0], b: here[1], mm: k.mm }),
+                None if here.len() == 2 => out.push(Spacing { a: here[0], b: here[1], mm: k.mm, at: None }),
                 // A placement with one socket seated is a fixed point and no spacing.
                 None if here.len() < 2 => {}
                 None => {
@@ -327,7 +356,7 @@ pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing], kind: Feature
                 // A placement where one of the two was not seated carries no such spacing.
                 Some((a, b)) => {
                     if let (Some(ia), Some(ib)) = (at(a), at(b)) {
-                        out.push(Spacing { a: ia, b: ib, mm: k.mm });
+                        out.push(Spacing { a: ia, b: ib, mm: k.mm, at: None });
                     }
                 }
             }

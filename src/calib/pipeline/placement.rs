@@ -88,8 +88,27 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let at = |kind: SetupKind, s: usize| labels[usize::from(kind == SetupKind::Mount)].get(s).map_or(String::new(), |l| format!(" at {} {l}", kind.name()));
     // The first station and mount together: the rows of both.
     let first_rows: Vec<usize> = (0..train.len()).filter(own_row).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
+    let station_rows = |rows: &[usize]| -> crate::measurement::plane::FaceRows {
+        let pts = rows.iter().map(|&i| flanges[i].pos).collect();
+        let rots = rows.iter().map(|&i| flanges[i].rot).collect();
+        let y = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
+        (pts, rots, y)
+    };
+    // A target every station's rows agree on (a stylus touching several faces), where the
+    // instrument finds one.
+    let shared = if searched.is_none() {
+        let all: Vec<_> = (0..stations.len().max(1)).map(|s| station_rows(&rows_of(SetupKind::Station, s))).collect();
+        measurement.def().locate_target(&all)
+    } else {
+        None
+    };
+    let about = |s: usize, tool: &nalgebra::Vector3<f64>| -> Option<Placement> {
+        let (pts, rots, y) = station_rows(&rows_of(SetupKind::Station, s));
+        measurement.def().locate_about(&pts, &rots, &y, tool).map(|own| Placement { measurement, own, tool: *tool })
+    };
     let first = match (measurement, &opts.draw_wire_guess) {
         _ if searched.is_some() => searched.clone().expect("searched"),
+        _ if shared.is_some_and(|t| about(0, &t).is_some()) => shared.and_then(|t| about(0, &t)).expect("placed"),
         (Measurement::Length, Some(g)) => Placement::cable(g.exit_m.into(), g.offset_m, g.tool_m.into()),
         _ => {
             let rows = if first_rows.len() >= 3 { first_rows } else { rows_of(SetupKind::Station, 0) };
@@ -106,17 +125,10 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     };
     let mut others: [Vec<Vec<f64>>; 2] = [Vec::new(), Vec::new()];
     for s in 1..stations.len().max(1) {
-        let rows = rows_of(SetupKind::Station, s);
         // A face found about the stylus the first one placed (the target is shared).
-        let about = {
-            let pts: Vec<_> = rows.iter().map(|&i| flanges[i].pos).collect();
-            let rots: Vec<_> = rows.iter().map(|&i| flanges[i].rot).collect();
-            let y: Vec<f64> = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
-            measurement.def().locate_about(&pts, &rots, &y, &first.tool)
-        };
-        let p = match about {
-            Some(own) => Placement { measurement, own, tool: first.tool },
-            None => locate(&rows, at(SetupKind::Station, s))?,
+        let p = match about(s, &first.tool) {
+            Some(p) => p,
+            None => locate(&rows_of(SetupKind::Station, s), at(SetupKind::Station, s))?,
         };
         others[0].push(values(&p, SetupKind::Station));
     }
@@ -137,7 +149,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let [st, mo] = others;
     let mut model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
     if measurement.feature().is_some() {
-        feature_blocks(&mut model, stations, opts)?;
+        feature_blocks(&mut model, stations, opts, train)?;
     }
     if let Some(p) = place_also(&model, train)? {
         model = model.with_also(&p);
@@ -195,9 +207,18 @@ fn not_located(measurement: Measurement, label: &str, rows: usize) -> Error {
 /// faces) of each placement (`stations`), and the arm pulled toward its nominal by the
 /// documented tolerances (the published objective's pull: a ball on the last axis leaves the
 /// wrist's links nearly free).
-fn feature_blocks(model: &mut CalibModel, stations: &[String], opts: &CalibOptions) -> Result<()> {
+fn feature_blocks(model: &mut CalibModel, stations: &[String], opts: &CalibOptions, train: &Samples) -> Result<()> {
     let kind = model.measurement.feature().unwrap_or(crate::measurement::FeatureKind::Socket);
     model.spacings = crate::calib::model::resolve_spacings(stations, &opts.spacings, kind)?;
+    if kind == crate::measurement::FeatureKind::Plane {
+        // A step is taken at the middle of its second face's contacts as the start puts them.
+        let mut w = model.work();
+        for k in 0..model.spacings.len() {
+            let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == model.spacings[k].b && train.inputs[i].instrument == 0).collect();
+            let sum = rows.iter().map(|&i| model.tool_point(&model.nominal, &train.q[i], &mut w)).sum::<nalgebra::Vector3<f64>>();
+            model.spacings[k].at = Some((sum / rows.len().max(1) as f64).into());
+        }
+    }
     let std = opts.tolerances.prior_std(model);
     model.pulls = (0..model.n_chain()).map(|k| crate::calib::model::Pull { k, to: model.nominal[k], std: std[k] }).collect();
     Ok(())
