@@ -278,7 +278,7 @@ impl Dataset {
         let all = |f: fn(&Row) -> bool| !self.rows.is_empty() && self.rows.iter().all(f);
         let number = |f: &dyn Fn(&Row) -> Option<f64>| ColumnValues::Numbers(self.rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect());
         let reading_names: &[&str] = match self.rows.iter().find(|r| !r.reading_mm.is_empty()) {
-            Some(r) => Measurement::of_file_dim(r.reading_mm.len()).map_or(&[], |m| m.def().file_columns()),
+            Some(r) => r.measurement().map_or(&[], |m| m.def().file_columns()),
             None => &[],
         };
         let mut out: Vec<(String, ColumnValues)> = (0..self.n_joints()).map(|j| (format!("q{}", j + 1), number(&|r: &Row| r.q_deg.get(j).copied()))).collect();

@@ -77,8 +77,7 @@ impl Dataset {
     /// is a station of its own, labelled `placement/feature` ([`feature_station`]).
     pub fn stations(&self) -> Stations {
         if self.rows.iter().any(|r| r.feature.is_some()) {
-            let labels: Vec<Option<String>> =
-                self.rows.iter().map(|r| r.feature.as_ref().map(|f| feature_station(r.station.as_deref(), &f.label))).collect();
+            let labels: Vec<Option<String>> = self.rows.iter().map(|r| r.feature.as_ref().map(|f| feature_station(r.station.as_deref(), &f.label))).collect();
             return Stations::of_labels(labels.iter().map(|l| l.as_deref()));
         }
         Stations::of_labels(self.rows.iter().map(|r| r.station.as_deref()))

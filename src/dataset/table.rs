@@ -208,7 +208,10 @@ impl Layout {
         if named.len() > 1 {
             return Err(Error::data(
                 source,
-                format!("line 1: the header names sockets and faces (socket and plane columns); a file holds one artifact's kind of feature; header found: {}", found()),
+                format!(
+                    "line 1: the header names sockets and faces (socket and plane columns); a file holds one artifact's kind of feature; header found: {}",
+                    found()
+                ),
             ));
         }
         let feature = named.first().copied();
@@ -665,7 +668,7 @@ pub(super) fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Resu
         ));
     }
     // The lengths: every reading column but a pose's angles.
-    let measurement = rows.first().and_then(|r| Measurement::of_file_dim(r.reading_mm.len()));
+    let measurement = rows.first().and_then(|r| r.measurement());
     let lengths = measurement.map_or(0, |m| m.file_lengths());
     // A pose's angles (rx, ry, rz, degrees) in radians: every one within ±π, one spanning more
     // than the radians heuristic's span.
@@ -686,7 +689,8 @@ pub(super) fn check_units(rows: &[Row], source: &str, angles: AngleUnit) -> Resu
         }
     }
     let max_abs = rows.iter().flat_map(|r| r.reading_mm.iter().take(lengths)).fold(None, |m: Option<f64>, v| Some(m.map_or(v.abs(), |m| m.max(v.abs()))));
-    if let (Some(max), Some(m)) = (max_abs, measurement) {
+    // (A dial indicator reads millimetres of travel: small readings are its kind.)
+    if let (Some(max), Some(m)) = (max_abs, measurement.filter(|m| m.feature().is_none())) {
         if max < METRES_MAX_L {
             let cols = m.def().file_columns()[..lengths].join(", ");
             let msg = if m.dim() == 1 {

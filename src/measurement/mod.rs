@@ -222,7 +222,8 @@ pub enum Measurement {
 
 impl Measurement {
     /// Every measurement type.
-    pub const ALL: [Measurement; 6] = [Measurement::Length, Measurement::Point, Measurement::Pose, Measurement::Socket, Measurement::Plane, Measurement::Indicator];
+    pub const ALL: [Measurement; 6] =
+        [Measurement::Length, Measurement::Point, Measurement::Pose, Measurement::Socket, Measurement::Plane, Measurement::Indicator];
 
     /// The registry: the type's implementation.
     pub fn def(self) -> &'static dyn Instrument {

@@ -398,12 +398,7 @@ pub fn artifact_rows(s: &Scenario, robot: &Robot) -> Option<Result<ArtifactRows>
         designed: t.designed_steps_mm.clone(),
         made: t.steps_mm.clone(),
         unreachable: t.unreachable,
-        what: format!(
-            "a {} touching {} faces at {} placements",
-            if art.indicator { "dial indicator" } else { "probe" },
-            art.faces.len(),
-            art.placements.len()
-        ),
+        what: format!("a {} touching {} faces at {} placements", if art.indicator { "dial indicator" } else { "probe" }, art.faces.len(), art.placements.len()),
         dataset,
     }))
 }

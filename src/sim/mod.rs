@@ -8,10 +8,10 @@
 //! dataset, never these settings.
 
 pub mod artifact;
-pub mod planes;
 pub mod effects;
 pub mod generate;
 pub mod instrument;
+pub mod planes;
 pub mod pose_list;
 pub mod scenario;
 pub mod study;

@@ -153,7 +153,10 @@ impl Planes {
         }
         let v = [self.stylus_radius_mm, self.pretravel_um, self.lobing_um, self.trigger_std_um, self.force_n, self.travel_mm, self.resolution_mm, self.step_s];
         if v.iter().any(|x| !x.is_finite() || *x < 0.0) || self.step_s == 0.0 || !self.expansion_ppm_per_k.is_finite() || !self.temp_c.is_finite() {
-            return Err("[planes] radius, pre-travel, lobing, trigger scatter, force, travel, resolution and step_s must be finite and not negative (step_s positive)".into());
+            return Err(
+                "[planes] radius, pre-travel, lobing, trigger scatter, force, travel, resolution and step_s must be finite and not negative (step_s positive)"
+                    .into(),
+            );
         }
         Ok(())
     }
@@ -216,7 +219,8 @@ pub fn touch(twin: &Twin, robot: &Robot, art: &Planes, decimals: usize, seed: u6
             (a.clone(), b.clone(), crate::units::to_mm(nrm.dot(&(art.made_point_m(ib) - art.made_point_m(ia))).abs()))
         })
         .collect();
-    let mut truth = PlaneTruth { stylus_mm: art.stylus_mm, faces: Vec::new(), steps_mm: made_steps, designed_steps_mm: art.designed_steps_mm(), unreachable: 0 };
+    let mut truth =
+        PlaneTruth { stylus_mm: art.stylus_mm, faces: Vec::new(), steps_mm: made_steps, designed_steps_mm: art.designed_steps_mm(), unreachable: 0 };
     let unit = |sd: f64| Normal::new(0.0, sd.max(1e-300)).map_err(|e| Error::Invalid(e.to_string()));
     let trigger = unit(art.trigger_std_um * 1e-6)?;
     let (mut rows, mut t) = (Vec::new(), 0.0);

@@ -22,7 +22,7 @@ const CASES: [(&str, &str); 3] = [
 /// The probe's and the block's variants: (label, edit of the scenario's text). The scenarios'
 /// probe pre-travels 4 µm with 2 µm of lobing and a 0.5 µm trigger scatter; the block's high
 /// face was made 2 µm off and it is touched 1 K above the temperature it was made at.
-const VARIANTS: [(&str, &[(&str, &str)]); 2] = [
+const VARIANTS: [(&str, &[(&str, &str)]); 3] = [
     (
         "exact probe (no pre-travel, lobing or scatter), exact block at 20 °C",
         &[
@@ -33,7 +33,11 @@ const VARIANTS: [(&str, &[(&str, &str)]); 2] = [
             ("expansion_ppm_per_k = 12.0", "expansion_ppm_per_k = 0.0"),
         ],
     ),
-    ("as used: pre-travel 4 µm with 2 µm lobing, 0.5 µm trigger scatter; step made 2 µm long, steel 1 K warm", &[]),
+    (
+        "probe as used (pre-travel 4 µm with 2 µm lobing, 0.5 µm trigger scatter), exact block at 20 °C",
+        &[("made_error_mm = [0.0, 0.002, 0.0, 0.0]", "made_error_mm = [0.0, 0.0, 0.0, 0.0]"), ("expansion_ppm_per_k = 12.0", "expansion_ppm_per_k = 0.0")],
+    ),
+    ("probe as used; the step made 2 µm long (80 ppm of 25 mm), steel 1 K warm", &[]),
 ];
 
 /// Runs every case over `seeds` seeds and prints the table.

@@ -107,7 +107,9 @@ fn seat(
     quiet: bool,
 ) -> Result<()> {
     if rrd.is_some() {
-        return Err(Error::Invalid("--rrd records a tour of the instrument's readings; an artifact scenario's recording is not written yet (drop --rrd)".into()));
+        return Err(Error::Invalid(
+            "--rrd records a tour of the instrument's readings; an artifact scenario's recording is not written yet (drop --rrd)".into(),
+        ));
     }
     let dataset = out.join(twincal::dataset::DATASET_FILE);
     let truth_file = if s.sockets.is_some() { twincal::sim::artifact::SOCKETS_TRUTH_FILE } else { twincal::sim::planes::PLANES_TRUTH_FILE };

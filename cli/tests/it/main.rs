@@ -20,6 +20,7 @@ mod inputs;
 mod iso9283;
 mod measurement;
 mod plan;
+mod planes;
 mod pose;
 mod programs;
 mod realdata;

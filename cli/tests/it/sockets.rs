@@ -73,7 +73,7 @@ fn socket_files_are_byte_identical_and_read_as_tools_write_them() {
     for r in &data.rows {
         let folder = tool.join(r.station.as_ref().unwrap());
         std::fs::create_dir_all(&folder).unwrap();
-        let f = folder.join(format!("{}.csv", r.socket.as_ref().unwrap()));
+        let f = folder.join(format!("{}.csv", r.socket().unwrap()));
         let header = if f.exists() { String::new() } else { "q1,q2,q3,q4,q5,q6\n".into() };
         let line: Vec<String> = r.q_deg.iter().map(|d| format!("{:.12}", d.to_radians())).collect();
         let mut text = std::fs::read_to_string(&f).unwrap_or_default();
@@ -85,7 +85,7 @@ fn socket_files_are_byte_identical_and_read_as_tools_write_them() {
     assert_eq!(read.rows.len(), data.rows.len());
     assert_eq!(read.stations().labels, data.stations().labels);
     for (x, y) in read.rows.iter().zip(&data.rows) {
-        assert_eq!((&x.station, &x.socket), (&y.station, &y.socket));
+        assert_eq!((&x.station, &x.feature), (&y.station, &y.feature));
         assert!(x.q_deg.iter().zip(&y.q_deg).all(|(p, q)| (p - q).abs() < 1e-9), "{:?} vs {:?}", x.q_deg, y.q_deg);
     }
 }
@@ -111,15 +111,12 @@ fn what_socket_rows_cannot_determine_is_said() {
         assert!(err.contains(expect), "{extra:?}: expected '{expect}' in: {err}");
     };
     refused(&data, &[], "no known spacing between sockets");
-    let one = Dataset {
-        rows: data.rows.iter().filter(|r| r.socket.as_deref() == Some("A") && r.station.as_deref() == Some("p1")).cloned().collect(),
-        ..data.clone()
-    };
+    let one = Dataset { rows: data.rows.iter().filter(|r| r.socket() == Some("A") && r.station.as_deref() == Some("p1")).cloned().collect(), ..data.clone() };
     refused(&one, &["--spacing-mm", "A:B=50"], "seated in one socket only");
     let few: Vec<_> = data.rows.iter().enumerate().filter(|(i, _)| i % 30 < 2).map(|(_, r)| twincal::dataset::Row { split: None, ..r.clone() }).collect();
     refused(&Dataset { rows: few, ..data.clone() }, &["--spacing-mm", "A:B=50"], "cannot place the socket");
     refused(&data, &["--spacing-mm", "A:B=50", "--method", "ekf"], "never sees a spacing");
-    refused(&data, &["--spacing-mm", "A:Z=50"], "no stated spacing ties two seated sockets");
+    refused(&data, &["--spacing-mm", "A:Z=50"], "no stated spacing ties two sockets");
     // An artifact of two sockets: its spacing needs no names.
     let o = twincal(&["calibrate", "--data", out.to_str().unwrap(), "--spacing-mm", "50", "--out", dir.path().join("r.json").to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -94,8 +94,8 @@ fn tcp_and_user_frame_through_the_command_line() {
         rows: d
             .rows
             .iter()
-            .filter(|r| r.socket.as_deref() == Some("A"))
-            .map(|r| twincal::dataset::Row { socket: None, station: None, t_s: None, split: None, ..r.clone() })
+            .filter(|r| r.socket() == Some("A"))
+            .map(|r| twincal::dataset::Row { feature: None, station: None, t_s: None, split: None, ..r.clone() })
             .collect(),
         ..d.clone()
     };
@@ -108,8 +108,8 @@ fn tcp_and_user_frame_through_the_command_line() {
     let marks = Dataset {
         rows: ["A", "B", "C"]
             .iter()
-            .map(|m| d.rows.iter().find(|r| r.socket.as_deref() == Some(*m)).unwrap())
-            .map(|r| twincal::dataset::Row { socket: None, station: None, t_s: None, split: None, ..r.clone() })
+            .map(|m| d.rows.iter().find(|r| r.socket() == Some(*m)).unwrap())
+            .map(|r| twincal::dataset::Row { feature: None, station: None, t_s: None, split: None, ..r.clone() })
             .collect(),
         ..d.clone()
     };
