@@ -45,7 +45,8 @@ pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<SocketC
     if s.instruments.tracker.is_none() {
         return Err(Error::Invalid(format!("scenario {} has no [tracker] to judge the artifact's calibration on", s.name)));
     }
-    let socket_opts = CalibOptions { spacings: art.spacings(), ..opts.clone() };
+    let spacings = art.designed.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
+    let socket_opts = CalibOptions { spacings, ..opts.clone() };
     let by_sockets = calibrate(&art.dataset, None, &socket_opts)?;
     let mut ts = Scenario { sockets: None, planes: None, ..s.clone() };
     ts.acquisition.model = AcquisitionModel::QuasiStatic;

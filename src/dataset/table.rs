@@ -204,17 +204,7 @@ impl Layout {
                 pos[c.index()] = Some(i);
             }
         }
-        let named: Vec<FeatureKind> = FeatureKind::ALL.into_iter().filter(|k| pos[Column::Feature(*k).index()].is_some()).collect();
-        if named.len() > 1 {
-            return Err(Error::data(
-                source,
-                format!(
-                    "line 1: the header names sockets and faces (socket and plane columns); a file holds one artifact's kind of feature; header found: {}",
-                    found()
-                ),
-            ));
-        }
-        let feature = named.first().copied();
+        let feature = feature_named(&pos, source, &found())?;
         // The joints are q1..qN with N the highest joint named; at least one is needed.
         let joints = (0..MAX_JOINTS).rev().find(|&j| pos[Column::Q(j).index()].is_some()).map_or(1, |j| j + 1);
         let has = |m: &Measurement| present(m, &pos);
@@ -593,6 +583,21 @@ pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &
         )),
         _ => Ok(()),
     }
+}
+
+/// The kind of artifact's feature the header's columns (their positions `pos`) name, if any;
+/// an error for a header naming two kinds (`found`: the header).
+fn feature_named(pos: &[Option<usize>], source: &str, found: &str) -> Result<Option<FeatureKind>> {
+    let named: Vec<FeatureKind> = FeatureKind::ALL.into_iter().filter(|k| pos[Column::Feature(*k).index()].is_some()).collect();
+    if named.len() > 1 {
+        return Err(Error::data(
+            source,
+            format!(
+                "line 1: the header names sockets and faces (socket and plane columns); a file holds one artifact's kind of feature; header found: {found}"
+            ),
+        ));
+    }
+    Ok(named.first().copied())
 }
 
 /// Whether the header (its columns' positions `pos`) holds instrument `m`'s columns (an

@@ -368,13 +368,6 @@ pub struct ArtifactRows {
     pub what: String,
 }
 
-impl ArtifactRows {
-    /// The designed distances as `--spacing-mm` states them.
-    pub fn spacings(&self) -> Vec<crate::calib::model::KnownSpacing> {
-        self.designed.iter().map(|(a, b, d)| crate::calib::model::KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect()
-    }
-}
-
 /// The rows of scenario `s`'s artifact (`[sockets]` or `[planes]`) on the twin of `robot`;
 /// `None` without one.
 pub fn artifact_rows(s: &Scenario, robot: &Robot) -> Option<Result<ArtifactRows>> {

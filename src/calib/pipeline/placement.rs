@@ -43,18 +43,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let measurement = train.measurement;
     refuse_cable_options(opts, measurement)?;
     if measurement == Measurement::Length && !matches!(spec, ModelSpec::Nominal { .. }) {
-        if stations.len() > 1 || labels[1].len() > 1 {
-            return Err(Error::Invalid("the generic model searches one draw-wire set-up; these rows stand at several stations or mounts".into()));
-        }
-        if opts.draw_wire_guess.is_some() {
-            // The generic model's start is its search over arm topologies, which places the
-            // sensor for each candidate arm; a fixed guess with no arm around it (the old
-            // all-zero D-H chain) started fits far from any real robot.
-            return Err(Error::Invalid(
-                "--draw-wire-guess applies to a nominal model (irb120 or a URDF); the generic model places its sensor in its own search".into(),
-            ));
-        }
-        return super::generic::search(train, &search_settings(opts)).map(|s| (s.model, Some(s.report)));
+        return generic_cable(opts, train, labels);
     }
     // The arm: the nominal's, or the generic search's on the first station's and mount's rows
     // (whose placement it found with the arm).
@@ -88,12 +77,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let at = |kind: SetupKind, s: usize| labels[usize::from(kind == SetupKind::Mount)].get(s).map_or(String::new(), |l| format!(" at {} {l}", kind.name()));
     // The first station and mount together: the rows of both.
     let first_rows: Vec<usize> = (0..train.len()).filter(own_row).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
-    let station_rows = |rows: &[usize]| -> crate::measurement::plane::FaceRows {
-        let pts = rows.iter().map(|&i| flanges[i].pos).collect();
-        let rots = rows.iter().map(|&i| flanges[i].rot).collect();
-        let y = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
-        (pts, rots, y)
-    };
+    let station_rows = |rows: &[usize]| seen_from(&flanges, train, rows);
     // A target every station's rows agree on (a stylus touching several faces), where the
     // instrument finds one.
     let shared = if searched.is_none() {
@@ -115,14 +99,6 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
             locate(&rows, at(SetupKind::Station, 0))?
         }
     };
-    let values = |p: &Placement, kind: SetupKind| -> Vec<f64> {
-        let all = p.values();
-        let n = measurement.def().n_station();
-        match kind {
-            SetupKind::Station => all[..n].to_vec(),
-            SetupKind::Mount => all[n..].to_vec(),
-        }
-    };
     let mut others: [Vec<Vec<f64>>; 2] = [Vec::new(), Vec::new()];
     for s in 1..stations.len().max(1) {
         // A face found about the stylus the first one placed (the target is shared).
@@ -130,7 +106,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
             Some(p) => p,
             None => locate(&rows_of(SetupKind::Station, s), at(SetupKind::Station, s))?,
         };
-        others[0].push(values(&p, SetupKind::Station));
+        others[0].push(setup_values(&p, SetupKind::Station));
     }
     for s in 1..labels[1].len().max(1) {
         let rows = rows_of(SetupKind::Mount, s);
@@ -144,7 +120,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         } else {
             first.clone()
         };
-        others[1].push(values(&p, SetupKind::Mount));
+        others[1].push(setup_values(&p, SetupKind::Mount));
     }
     let [st, mo] = others;
     let mut model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
@@ -155,6 +131,41 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         model = model.with_also(&p);
     }
     Ok((align_placement(model, train, opts.rank_tol), report))
+}
+
+/// The values of placement `p` that a set-up of `kind` holds: where the instrument stands (a
+/// station), or the target and what goes with the arm (a mount).
+fn setup_values(p: &Placement, kind: SetupKind) -> Vec<f64> {
+    let (all, n) = (p.values(), p.measurement.def().n_station());
+    match kind {
+        SetupKind::Station => all[..n].to_vec(),
+        SetupKind::Mount => all[n..].to_vec(),
+    }
+}
+
+/// A draw-wire under the generic model: the search over arm topologies places the sensor with
+/// each candidate arm (one set-up, no guess of its placement).
+fn generic_cable(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Result<(CalibModel, Option<SearchReport>)> {
+    if labels[0].len() > 1 || labels[1].len() > 1 {
+        return Err(Error::Invalid("the generic model searches one draw-wire set-up; these rows stand at several stations or mounts".into()));
+    }
+    if opts.draw_wire_guess.is_some() {
+        // A fixed guess with no arm around it (the old all-zero D-H chain) started fits far
+        // from any real robot.
+        return Err(Error::Invalid(
+            "--draw-wire-guess applies to a nominal model (irb120 or a URDF); the generic model places its sensor in its own search".into(),
+        ));
+    }
+    super::generic::search(train, &search_settings(opts)).map(|s| (s.model, Some(s.report)))
+}
+
+/// Rows `rows` of `train` as an instrument's locating functions take them: the flange's origins
+/// and rotations (`flanges`, one per training row) and the readings.
+fn seen_from(flanges: &[crate::robot::kinematics::Frame], train: &Samples, rows: &[usize]) -> crate::measurement::plane::FaceRows {
+    let pts = rows.iter().map(|&i| flanges[i].pos).collect();
+    let rots = rows.iter().map(|&i| flanges[i].rot).collect();
+    let y = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
+    (pts, rots, y)
 }
 
 /// The second instrument of `train`'s rows that say so (a tracker's points beside seated rows),
