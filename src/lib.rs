@@ -17,6 +17,7 @@
 // Every public item carries its rustdoc (CI builds with -Dwarnings).
 #![warn(missing_docs)]
 
+pub mod artifact_check;
 pub mod calib;
 pub mod compensate;
 pub mod controller;
@@ -39,7 +40,6 @@ pub mod requests;
 pub mod robot;
 pub mod seed;
 pub mod sim;
-pub mod sockets_check;
 pub mod stats;
 pub mod tcp;
 pub mod units;

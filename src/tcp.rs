@@ -37,6 +37,73 @@ pub struct TcpFit {
     /// The smallest over the fixed points of the largest turn between two of its configurations,
     /// degrees.
     pub turn_deg: f64,
+    /// The tool's orientation on the flange, when two elongator configurations give it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<ToolOrientation>,
+}
+
+/// A tool frame's orientation on the flange from the elongator configurations of the 6-point
+/// routine (ABB's "TCP and Z, X"): from the last configuration at the fixed point the tool is moved
+/// without turning until the fixed point lies on the tool's +z axis, then on its +x axis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ToolOrientation {
+    /// The tool frame's orientation in the flange frame as a unit quaternion (w, x, y, z).
+    pub quaternion: [f64; 4],
+    /// The same as roll, pitch, yaw about the flange's x, y, z, degrees.
+    pub rpy_deg: [f64; 3],
+    /// How far the tool was moved for the z elongator, and for the x one, mm (a short move turns
+    /// the axis with the tip's error: by e / this).
+    pub levers_mm: [f64; 2],
+    /// The uncertainty of the axes' directions the tip's uncertainty gives, degrees.
+    pub axes_sd_deg: f64,
+}
+
+/// Largest turn (degrees) between the reference configuration and an elongator's: the tool is
+/// moved, not turned.
+pub const MAX_ELONGATOR_TURN_DEG: f64 = 0.5;
+
+/// The tool's orientation on the flange from the reference configuration `reference` (the tip at
+/// the fixed point) and the elongators `z` and `x` (the tool moved without turning until the
+/// fixed point lies on its +z, then its +x axis), the tip on the flange `tool` (m) known to
+/// `tip_sd_mm`.
+pub fn tool_orientation(reference: &Frame, z: &Frame, x: &Frame, tool: &Vector3<f64>, tip_sd_mm: f64) -> Result<ToolOrientation> {
+    let angle = |a: &Frame, b: &Frame| nalgebra::Rotation3::from_matrix_unchecked(a.rot.transpose() * b.rot).angle().to_degrees();
+    let at = reference.point(tool);
+    let mut axes = [Vector3::zeros(); 2];
+    let mut levers = [0.0; 2];
+    for (k, (f, name)) in [(z, "z"), (x, "x")].into_iter().enumerate() {
+        let turn = angle(reference, f);
+        if turn > MAX_ELONGATOR_TURN_DEG {
+            return Err(Error::Calibration(format!(
+                "the {name} elongator's configuration is turned {turn:.2} deg from the last one at the fixed point: move the tool along its {name} axis without turning it (at most {MAX_ELONGATOR_TURN_DEG} deg)"
+            )));
+        }
+        let d = at - f.point(tool);
+        levers[k] = crate::units::to_mm(d.norm());
+        if levers[k] < 10.0 {
+            return Err(Error::Calibration(format!(
+                "the {name} elongator moved the tip {:.2} mm from the fixed point: move it 10 mm or more (better 100 mm) along the tool's {name} axis",
+                levers[k]
+            )));
+        }
+        axes[k] = reference.rot.transpose() * (d / d.norm());
+    }
+    let [zf, xf] = axes;
+    let angle_zx = zf.dot(&xf).clamp(-1.0, 1.0).acos().to_degrees();
+    if (angle_zx - 90.0).abs() > 30.0 {
+        return Err(Error::Calibration(format!("the z and x elongators' directions are {angle_zx:.1} deg apart: they should be about 90 deg")));
+    }
+    let y = zf.cross(&xf).normalize();
+    let xo = y.cross(&zf);
+    let rot = nalgebra::Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[xo, y, zf]));
+    let q = nalgebra::UnitQuaternion::from_rotation_matrix(&rot);
+    let (roll, pitch, yaw) = rot.euler_angles();
+    Ok(ToolOrientation {
+        quaternion: [q.w, q.i, q.j, q.k],
+        rpy_deg: [roll, pitch, yaw].map(f64::to_degrees),
+        levers_mm: levers,
+        axes_sd_deg: (std::f64::consts::SQRT_2 * tip_sd_mm / levers[0].min(levers[1])).to_degrees(),
+    })
 }
 
 impl TcpFit {
@@ -53,6 +120,13 @@ impl TcpFit {
         for (l, p) in &self.points_mm {
             let name = if l.is_empty() { String::new() } else { format!(" {l}") };
             out.push(format!("fixed point{name} (base frame): ({:.3}, {:.3}, {:.3}) mm", p[0], p[1], p[2]));
+        }
+        if let Some(o) = &self.orientation {
+            let (q, r) = (o.quaternion, o.rpy_deg);
+            out.push(format!(
+                "tool orientation on the flange: quaternion ({:.7}, {:.7}, {:.7}, {:.7}), roll-pitch-yaw ({:.4}, {:.4}, {:.4}) deg; elongators {:.1} and {:.1} mm: the axes known to about {:.4} deg",
+                q[0], q[1], q[2], q[3], r[0], r[1], r[2], o.levers_mm[0], o.levers_mm[1], o.axes_sd_deg
+            ));
         }
         out
     }
@@ -111,6 +185,7 @@ pub fn tcp(flanges: &[Frame], point: &[usize], labels: &[String]) -> Result<TcpF
         rms_mm: (dist.iter().map(|d| d * d).sum::<f64>() / n as f64).sqrt() * mm,
         max_mm: dist.iter().fold(0.0, |a: f64, d| a.max(*d)) * mm,
         turn_deg: turn,
+        orientation: None,
     })
 }
 
@@ -222,6 +297,21 @@ mod tests {
         assert!(tcp(&f[..3], &[0; 3], &[]).is_err(), "three configurations cannot check the tip");
         let still = vec![f[0]; 5];
         assert!(tcp(&still, &[0; 5], &[]).unwrap_err().to_string().contains("turn"));
+    }
+
+    #[test]
+    fn the_six_point_routine_finds_the_tools_orientation() {
+        let (tool, at) = (Vector3::new(0.012, -0.004, 0.155), Vector3::new(0.45, 0.1, 0.2));
+        let f = flanges(&tool, &at, 4);
+        let tool_rot = Rotation3::from_euler_angles(0.1, -0.2, 0.7).into_inner();
+        // The tool moved without turning so the fixed point lies 80 mm along its +z, then +x.
+        let moved = |axis: Vector3<f64>| Frame { rot: f[3].rot, pos: f[3].pos - f[3].rot * tool_rot * axis * 0.08 };
+        let o = tool_orientation(&f[3], &moved(Vector3::z()), &moved(Vector3::x()), &tool, 0.01).unwrap();
+        let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(o.quaternion[0], o.quaternion[1], o.quaternion[2], o.quaternion[3]));
+        assert!((q.to_rotation_matrix().into_inner() - tool_rot).norm() < 1e-9, "{o:?}");
+        assert!((o.levers_mm[0] - 80.0).abs() < 1e-6 && o.axes_sd_deg > 0.0);
+        let turned = Frame { rot: f[0].rot, ..moved(Vector3::z()) };
+        assert!(tool_orientation(&f[3], &turned, &moved(Vector3::x()), &tool, 0.01).unwrap_err().to_string().contains("without turning"));
     }
 
     #[test]

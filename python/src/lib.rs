@@ -634,6 +634,26 @@ fn compensate(py: Python<'_>, options: &str) -> PyResult<String> {
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))
 }
 
+/// The N-point TCP, as `twincal tcp`; `options`: a JSON object of the job's fields (`data`,
+/// `angles`, `model` or `robot`, `orientation`, `out`). Returns the fit's JSON (the tool point,
+/// its uncertainty, the fixed points, the tips' scatter; with `orientation` the tool's
+/// orientation on the flange).
+#[pyfunction]
+fn tcp(py: Python<'_>, options: &str) -> PyResult<String> {
+    let job: jobs::TcpJob = request("tcp", options)?;
+    let fit = released(py, None, |_| job.run())?;
+    serde_json::to_string(&fit).map_err(|e| TwincalError::new_err(format!("cannot serialise the fit: {e}")))
+}
+
+/// The 3-point user frame, as `twincal user-frame`; `options`: a JSON object of the job's fields
+/// (`data`, `angles`, `tcp`, `model` or `robot`, `out`). Returns the frame's JSON.
+#[pyfunction]
+fn user_frame(py: Python<'_>, options: &str) -> PyResult<String> {
+    let job: jobs::UserFrameJob = request("user_frame", options)?;
+    let frame = released(py, None, |_| job.run())?;
+    serde_json::to_string(&frame).map_err(|e| TwincalError::new_err(format!("cannot serialise the frame: {e}")))
+}
+
 /// Writes a pose list as a measurement program, as `twincal program`; `options`: a JSON object
 /// of the job's fields (`poses`, `format`, `robot`, `name`, `hold_s`, `speed_fraction`, `out`).
 /// Returns the summary's JSON.
@@ -689,6 +709,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(reduce, m)?)?;
     m.add_function(wrap_pyfunction!(export, m)?)?;
+    m.add_function(wrap_pyfunction!(tcp, m)?)?;
+    m.add_function(wrap_pyfunction!(user_frame, m)?)?;
     m.add_function(wrap_pyfunction!(compensate, m)?)?;
     m.add_function(wrap_pyfunction!(iso9283, m)?)?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;

@@ -605,3 +605,34 @@ def test_a_ball_in_sockets_calibrates_as_the_command_line_does(tmp_path):
         twincal.calibrate(str(d))
     with pytest.raises(twincal.TwincalError, match="seats a ball"):
         twincal.generate(str(scenario))
+
+
+def test_the_tool_routines_agree_with_the_command_line(tmp_path):
+    """The N-point TCP and the 3-point user frame from Python equal the command line's on the
+    same configurations (a ball seated in one socket; three sockets' rows for the frame); a
+    wrong type is refused by name."""
+    d = tmp_path / "sockets"
+    run_cli("generate", "--scenario", ROOT / "scenarios" / "irb120_sockets.toml", "--out", d)
+    lines = (d / "dataset.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    q = [i for i, h in enumerate(header) if h.startswith("q")]
+    col = {h: i for i, h in enumerate(header)}
+    rows = [l.split(",") for l in lines[1:]]
+    at = lambda p, s: [r for r in rows if r[col["placement"]] == p and r[col["socket"]] == s]
+    write = lambda path, rs: path.write_text("\n".join([",".join(header[i] for i in q)] + [",".join(r[i] for i in q) for r in rs]) + "\n")
+    f = tmp_path / "tcp.csv"
+    write(f, at("p1", "A")[:8])
+    run_cli("tcp", "--data", f, "--out", tmp_path / "cli_tcp.json")
+    cli = json.loads((tmp_path / "cli_tcp.json").read_text())
+    py = twincal.tcp(f)
+    assert py == cli
+    assert py["rows"] == 8 and all(s > 0 for s in py["tool_sd_mm"])
+    uf = tmp_path / "frame.csv"
+    write(uf, [at("p1", "A")[0], at("p1", "B")[0], at("p2", "A")[0]])
+    run_cli("user-frame", "--data", uf, "--tcp", tmp_path / "cli_tcp.json", "--out", tmp_path / "cli_frame.json")
+    assert twincal.user_frame(uf, tmp_path / "cli_tcp.json") == json.loads((tmp_path / "cli_frame.json").read_text())
+    with pytest.raises(twincal.TwincalError, match="orientation must be True or False"):
+        twincal.tcp(f, orientation="yes")
+    # Eight configurations turned about the point: the last two are no elongators.
+    with pytest.raises(twincal.TwincalError, match="without turning"):
+        twincal.tcp(f, orientation=True)

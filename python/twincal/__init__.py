@@ -44,6 +44,8 @@ __all__ = [
     "compare",
     "reduce",
     "export",
+    "tcp",
+    "user_frame",
     "compensate",
     "iso9283",
     "plan",
@@ -534,6 +536,59 @@ def export(
     against = None if against is None else os.path.abspath(os.fspath(against))
     text = _native.export(os.fspath(model), os.fspath(out), _options({"format": format, "robot": robot, "against": against}))
     return json.loads(text)
+
+
+def _arm(model: Any, robot: Any) -> dict:
+    """The arm a tool routine reads the flange of: a calibration result or a nominal robot."""
+    if model is not None and not isinstance(model, (str, os.PathLike)):
+        raise TwincalError(f"model must be a result.json path, got {type(model).__name__}")
+    if not isinstance(robot, (str, os.PathLike)):
+        raise TwincalError(f"robot must be irb120 or a URDF path (a string or os.PathLike), got {type(robot).__name__}")
+    name = os.fspath(robot)
+    return {
+        "model": None if model is None else os.path.abspath(os.fspath(model)),
+        "robot": name if name == "irb120" else os.path.abspath(name),
+    }
+
+
+def tcp(
+    data: Union[str, os.PathLike],
+    *,
+    model: Optional[Union[str, os.PathLike]] = None,
+    robot: Union[str, os.PathLike] = "irb120",
+    angles: Optional[str] = None,
+    orientation: bool = False,
+    out: Optional[Union[str, os.PathLike]] = None,
+) -> dict:
+    """The N-point TCP, as ``twincal tcp``: the tool's tip on the flange from four or more
+    configurations (joint angles, ``data``) holding it at one fixed point (a ``socket`` column
+    names several), on ``model`` (a result.json) or the nominal ``robot``. Returns the fit: the
+    tool point and its standard uncertainty (mm), the fixed points, the tips' scatter; with
+    ``orientation`` the last two rows are the z and x elongators and the tool's orientation on
+    the flange is returned too. ``out`` writes the same as JSON."""
+    if not isinstance(orientation, bool):
+        raise TwincalError(f"orientation must be True or False, got {type(orientation).__name__}")
+    options = {"data": os.path.abspath(os.fspath(data)), "angles": angles, "orientation": orientation, **_arm(model, robot)}
+    options["out"] = None if out is None else os.path.abspath(os.fspath(out))
+    return json.loads(_native.tcp(_options(options)))
+
+
+def user_frame(
+    data: Union[str, os.PathLike],
+    tcp: Union[str, os.PathLike],
+    *,
+    model: Optional[Union[str, os.PathLike]] = None,
+    robot: Union[str, os.PathLike] = "irb120",
+    angles: Optional[str] = None,
+    out: Optional[Union[str, os.PathLike]] = None,
+) -> dict:
+    """The 3-point user frame, as ``twincal user-frame``: the tip at the frame's origin, at a
+    point on its +x axis and at a point on its xy plane (three rows of joint angles, ``data``, in
+    that order), the tool from ``tcp`` (a tcp result file). Returns the frame: origin (mm),
+    quaternion, roll-pitch-yaw (degrees) and how well its axes are known."""
+    options = {"data": os.path.abspath(os.fspath(data)), "tcp": os.path.abspath(os.fspath(tcp)), "angles": angles, **_arm(model, robot)}
+    options["out"] = None if out is None else os.path.abspath(os.fspath(out))
+    return json.loads(_native.user_frame(_options(options)))
 
 
 def compensate(

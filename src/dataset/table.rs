@@ -432,10 +432,10 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
     for raw in &table.rows {
         let line = raw.line;
         let q_deg = row_angles(&layout, &cells, raw, opts.angles)?;
-        let socket = Column::Feature(FeatureKind::Socket);
+        let socket = Column::Feature(layout.feature.unwrap_or(FeatureKind::Socket));
         let mixed = layout.measurement.is_some_and(|m| m.feature().is_none()) && layout.pos[socket.index()].is_some();
         let seated = mixed && label(layout.cell(raw, socket), socket, line, src)?.is_some();
-        let reading_mm = if seated { no_reading(&layout, &cells, raw)? } else { row_reading(&layout, &cells, raw, opts.euler)? };
+        let reading_mm = if seated { no_reading(&layout, &cells, raw, socket)? } else { row_reading(&layout, &cells, raw, opts.euler)? };
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
             check_time(t, last_t, line, src)?;
@@ -550,9 +550,11 @@ pub(super) fn row_reading(layout: &Layout, cells: &Cells, raw: &RawRow, euler: E
     Ok(reading_mm)
 }
 
-/// A seated row's reading cells beside a tracker's points: empty (it reads nothing).
-fn no_reading(layout: &Layout, cells: &Cells, raw: &RawRow) -> Result<Vec<f64>> {
+/// A seated row's (a contact's) reading cells beside a tracker's points: empty (it reads
+/// nothing). `feature`: the column naming the socket or face.
+fn no_reading(layout: &Layout, cells: &Cells, raw: &RawRow, feature: Column) -> Result<Vec<f64>> {
     let Some(m) = layout.measurement else { return Ok(Vec::new()) };
+    let what = if feature == Column::Feature(FeatureKind::Plane) { "a probe's contact with a face" } else { "a row seated in a socket" };
     for name in m.def().file_columns() {
         let c = Column::reading(name);
         if cells.number(layout.cell(raw, c), c, raw.line)?.is_some() {
@@ -560,7 +562,7 @@ fn no_reading(layout: &Layout, cells: &Cells, raw: &RawRow) -> Result<Vec<f64>> 
                 cells.source,
                 raw.line,
                 c,
-                "a row seated in a socket reads nothing: leave the tracker's columns empty on it (or its socket, if the tracker read it)",
+                format!("{what} reads nothing: leave the tracker's columns empty on it (or its {feature}, if the tracker read it)"),
             ));
         }
     }
@@ -613,6 +615,8 @@ fn present(m: &Measurement, pos: &[Option<usize>]) -> bool {
 
 /// Seated rows beside a tracker's points (sockets plus a few points, one fit): the header's
 /// instruments `complete` read as the points', the rows that name a socket reading nothing.
+/// (A face's contact reads one value, a point three: a model's rows are one width, so faces
+/// beside points are refused as two instruments.)
 fn seated_beside_points(complete: &mut Vec<Measurement>) {
     if complete.len() == 2 && complete.contains(&Measurement::Socket) && complete.contains(&Measurement::Point) {
         complete.retain(|m| *m == Measurement::Point);

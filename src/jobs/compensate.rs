@@ -206,6 +206,12 @@ impl CompensateJob {
     /// stated payload; and that payload (kg, mm) where the model has load-driven effects.
     fn loads(&self, r: &CalibResult, warnings: &mut Vec<String>) -> Result<(Option<crate::calib::effects::inputs::TorqueModel>, Option<Payload>)> {
         let loads = crate::requests::Loads { payload_kg: self.payload_kg, payload_com_mm: self.payload_com_mm.clone(), ..Default::default() }.resolve()?.joints;
+        if let Some(kind) = r.model.measurement.feature() {
+            warnings.push(format!(
+                "the model was calibrated from an artifact ({}s), which never sees the base frame: targets in the base frame are reached in the nominal one (the arm's mounting error is left); register the base frame, or give targets in a frame touched with the same tool (user-frame)",
+                kind.column()
+            ));
+        }
         let mut torque = r.torque_model.clone();
         match (&mut torque, &loads.payload) {
             (Some(tm), Some(p)) => tm.payload = Some((p.mass_kg, p.com_mm.map(crate::units::to_m))),

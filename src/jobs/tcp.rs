@@ -30,6 +30,12 @@ fn default_robot() -> String {
     "irb120".into()
 }
 
+impl Default for ArmChoice {
+    fn default() -> ArmChoice {
+        ArmChoice { model: None, robot: default_robot() }
+    }
+}
+
 impl ArmChoice {
     /// The files it reads, by option.
     fn inputs(&self) -> Vec<(&'static str, PathBuf)> {
@@ -88,7 +94,7 @@ fn write<T: Serialize>(out: &Option<PathBuf>, value: &T) -> Result<()> {
 }
 
 /// `twincal tcp`: the N-point TCP; Python's `twincal.tcp` arguments.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(deny_unknown_fields)]
 pub struct TcpJob {
@@ -108,6 +114,12 @@ pub struct TcpJob {
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
     pub out: Option<PathBuf>,
+    /// The tool's orientation too (the 6-point routine, ABB's "TCP and Z, X"): the file's last
+    /// two rows are the elongators, the tool moved without turning from the last configuration
+    /// at the fixed point until that point lies on the tool's +z axis, then on its +x axis.
+    #[cfg_attr(feature = "clap", arg(long))]
+    #[serde(default)]
+    pub orientation: bool,
 }
 
 impl TcpJob {
@@ -115,16 +127,33 @@ impl TcpJob {
     pub fn run(&self) -> Result<TcpFit> {
         check(vec![("--data", self.data.clone())], &self.arm, &self.out)?;
         let data = read_joints(&self.data, self.angles)?;
-        let flanges = self.arm.flanges(&data)?;
-        let points = crate::dataset::Stations::of_labels(data.rows.iter().map(|r| r.socket()));
-        let fit = crate::tcp::tcp(&flanges, &points.of_row, &points.labels)?;
+        let mut flanges = self.arm.flanges(&data)?;
+        let elongators = if self.orientation {
+            if flanges.len() < crate::tcp::MIN_TCP_ROWS + 2 {
+                return Err(Error::Calibration(format!(
+                    "--orientation reads the last two rows as the z and x elongators: {} rows leave fewer than {} at the fixed point",
+                    flanges.len(),
+                    crate::tcp::MIN_TCP_ROWS
+                )));
+            }
+            Some(flanges.split_off(flanges.len() - 2))
+        } else {
+            None
+        };
+        let points = crate::dataset::Stations::of_labels(data.rows[..flanges.len()].iter().map(|r| r.socket()));
+        let mut fit = crate::tcp::tcp(&flanges, &points.of_row, &points.labels)?;
+        if let Some(e) = elongators {
+            let tool = crate::units::to_m(Vector3::from(fit.tool_mm));
+            let sd = fit.tool_sd_mm.iter().map(|v| v * v).sum::<f64>().sqrt();
+            fit.orientation = Some(crate::tcp::tool_orientation(flanges.last().expect("rows at the fixed point"), &e[0], &e[1], &tool, sd)?);
+        }
         write(&self.out, &fit)?;
         Ok(fit)
     }
 }
 
 /// `twincal user-frame`: the 3-point user frame; Python's `twincal.user_frame` arguments.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(deny_unknown_fields)]
 pub struct UserFrameJob {

@@ -103,7 +103,7 @@ pub struct CalibrateRequest {
     /// the arm held at its nominal model; its held-out accuracy is what such a controller keeps.
     #[cfg_attr(feature = "clap", arg(long, conflicts_with = "placement_only"))]
     pub controller_subset: bool,
-    /// The artifact a ball was seated in.
+    /// The artifact a ball was seated in (a probe touched).
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub artifact: Artifact,

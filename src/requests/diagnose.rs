@@ -27,7 +27,7 @@ pub struct DiagnoseRequest {
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub loads: Loads,
-    /// The artifact a ball was seated in.
+    /// The artifact a ball was seated in (a probe touched).
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub artifact: Artifact,

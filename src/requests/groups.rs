@@ -280,9 +280,10 @@ mod tests {
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(default)]
 pub struct Artifact {
-    /// Known distance between sockets of the artifact a ball was seated in, mm: 50 for an
-    /// artifact of two sockets, A:B=50 between sockets A and B (repeat or comma-separate for
-    /// more); it holds on every placement of the artifact.
+    /// Known distance between sockets of the artifact a ball was seated in (the step between two
+    /// parallel faces a probe touched), mm: 50 for an artifact of two sockets, A:B=50 between
+    /// sockets (faces) A and B (repeat or comma-separate for more); it holds on every placement
+    /// of the artifact.
     #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', value_name = "[A:B=]MM"))]
     pub spacing_mm: Vec<crate::calib::model::KnownSpacing>,
 }

@@ -1,5 +1,5 @@
 //! `twincal bench planes`: a touch probe on a block's faces on the twin over seeds
-//! ([`twincal::sockets_check::check`]): calibrated from the contacts alone (the step between the
+//! ([`twincal::artifact_check::check`]): calibrated from the contacts alone (the step between the
 //! block's two parallel faces stated), judged on tracker points of the same arm no fit saw (the
 //! tracker registered on other points), beside the nominal arm and a tracker calibration from as
 //! many rows; and the time of the faces' calibration.
@@ -8,9 +8,9 @@ use super::compensate::mean_sd;
 use super::sockets::load_case;
 use std::path::Path;
 use std::time::Instant;
+use twincal::artifact_check::{check, ArtifactCheck};
 use twincal::error::Result;
 use twincal::sim::scenario::Scenario;
-use twincal::sockets_check::{check, SocketCheck};
 
 /// The cases: (label, scenario file).
 const CASES: [(&str, &str); 3] = [
@@ -49,7 +49,7 @@ pub fn bench_planes(seeds: u64) -> Result<()> {
     for ((label, file), (variant, edits)) in CASES.iter().flat_map(|c| VARIANTS.iter().map(move |v| (c, v))) {
         let (s0, robot, opts) = load_case(dir, file, edits)?;
         let mut times = Vec::new();
-        let checks: Vec<SocketCheck> = (1..=seeds)
+        let checks: Vec<ArtifactCheck> = (1..=seeds)
             .map(|seed| {
                 let t0 = Instant::now();
                 let c = check(&Scenario { seed, ..s0.clone() }, &robot, &opts);
@@ -57,18 +57,18 @@ pub fn bench_planes(seeds: u64) -> Result<()> {
                 c
             })
             .collect::<Result<_>>()?;
-        let col = |f: &dyn Fn(&SocketCheck) -> f64| {
+        let col = |f: &dyn Fn(&ArtifactCheck) -> f64| {
             let (m, sd) = mean_sd(&checks.iter().map(f).collect::<Vec<_>>());
             format!("{m:.4} ± {sd:.4}")
         };
-        let worst = checks.iter().map(|c| c.sockets_mm / c.tracker_mm).fold(0.0, f64::max);
+        let worst = checks.iter().map(|c| c.artifact_mm / c.tracker_mm).fold(0.0, f64::max);
         times.sort_by(f64::total_cmp);
         println!(
             "| {label} | {variant} | {} | {} | {} | {} | {} | {worst:.2} | {:.2} s |",
-            checks[0].socket_rows,
-            col(&|c| c.socket_test_rmse_mm),
+            checks[0].artifact_rows,
+            col(&|c| c.artifact_test_rmse_mm),
             col(&|c| c.nominal_mm),
-            col(&|c| c.sockets_mm),
+            col(&|c| c.artifact_mm),
             col(&|c| c.tracker_mm),
             times[times.len() / 2]
         );

@@ -1,15 +1,15 @@
 //! `twincal bench sockets`: a ball seated in an artifact's sockets on the twin over seeds
-//! ([`twincal::sockets_check`]): calibrated from the seated rows alone, judged on tracker points
+//! ([`twincal::artifact_check`]): calibrated from the seated rows alone, judged on tracker points
 //! of the same arm no fit saw (the tracker registered on other points), beside the nominal arm
 //! and a tracker calibration from as many rows; and the time of the sockets' calibration.
 
 use super::compensate::mean_sd;
 use std::path::Path;
 use std::time::Instant;
+use twincal::artifact_check::{check, held_out_placements, mixed, ArtifactCheck, MixedCheck, PlacementCheck};
 use twincal::calib::pipeline::{CalibOptions, Method, ModelSpec, Parametrisation};
 use twincal::error::{Error, Result};
 use twincal::sim::scenario::Scenario;
-use twincal::sockets_check::{check, held_out_placements, mixed, MixedCheck, PlacementCheck, SocketCheck};
 
 /// The cases: (label, scenario file).
 const CASES: [(&str, &str); 3] = [
@@ -65,7 +65,7 @@ pub fn bench_sockets(seeds: u64) -> Result<()> {
     for ((label, file), (variant, edits)) in CASES.iter().flat_map(|c| VARIANTS.iter().map(move |v| (c, v))) {
         let (s0, robot, opts) = load_case(dir, file, edits)?;
         let mut times = Vec::new();
-        let checks: Vec<SocketCheck> = (1..=seeds)
+        let checks: Vec<ArtifactCheck> = (1..=seeds)
             .map(|seed| {
                 let t0 = Instant::now();
                 let c = check(&Scenario { seed, ..s0.clone() }, &robot, &opts);
@@ -73,18 +73,18 @@ pub fn bench_sockets(seeds: u64) -> Result<()> {
                 c
             })
             .collect::<Result<_>>()?;
-        let col = |f: &dyn Fn(&SocketCheck) -> f64| {
+        let col = |f: &dyn Fn(&ArtifactCheck) -> f64| {
             let (m, sd) = mean_sd(&checks.iter().map(f).collect::<Vec<_>>());
             format!("{m:.4} ± {sd:.4}")
         };
-        let worst = checks.iter().map(|c| c.sockets_mm / c.tracker_mm).fold(0.0, f64::max);
+        let worst = checks.iter().map(|c| c.artifact_mm / c.tracker_mm).fold(0.0, f64::max);
         times.sort_by(f64::total_cmp);
         println!(
             "| {label} | {variant} | {} | {} | {} | {} | {} | {worst:.2} | {:.2} s |",
-            checks[0].socket_rows,
-            col(&|c| c.socket_test_rmse_mm),
+            checks[0].artifact_rows,
+            col(&|c| c.artifact_test_rmse_mm),
             col(&|c| c.nominal_mm),
-            col(&|c| c.sockets_mm),
+            col(&|c| c.artifact_mm),
             col(&|c| c.tracker_mm),
             times[times.len() / 2]
         );
@@ -109,7 +109,7 @@ fn beside(dir: &Path, seeds: u64) -> Result<()> {
             format!("{m:.4} ± {sd:.4}")
         };
         let off = all.iter().map(|c| (c.spacing_fitted_mm - c.spacing_made_mm).abs()).sum::<f64>() / all.len().max(1) as f64;
-        println!("| {} | {} | {} | {off:.4} |", label.split(',').next().unwrap_or(label), col(&|c| c.sockets_mm), col(&|c| c.mixed_mm));
+        println!("| {} | {} | {} | {off:.4} |", label.split(',').next().unwrap_or(label), col(&|c| c.artifact_mm), col(&|c| c.mixed_mm));
     }
     Ok(())
 }

@@ -70,6 +70,9 @@ fn calibrate_line(a: &DiagnoseJob, effects: &str, no_sensor_lag: bool) -> String
     if let Some(r) = a.request.floor.angle_resolution_deg {
         line += &format!(" --angle-resolution-deg {r}");
     }
+    if !a.request.artifact.spacing_mm.is_empty() {
+        line += &format!(" --spacing-mm {}", a.request.artifact.spacing_mm.iter().map(|k| k.to_string()).collect::<Vec<_>>().join(","));
+    }
     line
 }
 

@@ -44,12 +44,12 @@ fn a_probe_on_a_blocks_faces_calibrates_the_arm_judged_on_unseen_tracker_points(
     let (s_exact, robot) = scenario(&exact);
     let (s_real, _) = scenario(&|t| t);
     for seed in 1..=3u64 {
-        let c = twincal::sockets_check::check(&Scenario { seed, ..s_exact.clone() }, &robot, &lm(&robot)).unwrap();
-        assert!(c.sockets_mm <= 1.5 * c.tracker_mm, "seed {seed}: exact probe: faces {:.4} mm vs tracker {:.4} mm", c.sockets_mm, c.tracker_mm);
-        assert!(c.nominal_mm > 20.0 * c.sockets_mm, "seed {seed}: nominal {:.4} mm vs faces {:.4} mm", c.nominal_mm, c.sockets_mm);
-        let r = twincal::sockets_check::check(&Scenario { seed, ..s_real.clone() }, &robot, &lm(&robot)).unwrap();
-        assert!(r.nominal_mm > 10.0 * r.sockets_mm, "seed {seed}: nominal {:.4} mm vs faces {:.4} mm", r.nominal_mm, r.sockets_mm);
-        assert!(r.sockets_mm > 1.5 * c.sockets_mm, "seed {seed}: a step made wrong must show: {:.4} vs {:.4} mm", r.sockets_mm, c.sockets_mm);
+        let c = twincal::artifact_check::check(&Scenario { seed, ..s_exact.clone() }, &robot, &lm(&robot)).unwrap();
+        assert!(c.artifact_mm <= 1.5 * c.tracker_mm, "seed {seed}: exact probe: faces {:.4} mm vs tracker {:.4} mm", c.artifact_mm, c.tracker_mm);
+        assert!(c.nominal_mm > 20.0 * c.artifact_mm, "seed {seed}: nominal {:.4} mm vs faces {:.4} mm", c.nominal_mm, c.artifact_mm);
+        let r = twincal::artifact_check::check(&Scenario { seed, ..s_real.clone() }, &robot, &lm(&robot)).unwrap();
+        assert!(r.nominal_mm > 10.0 * r.artifact_mm, "seed {seed}: nominal {:.4} mm vs faces {:.4} mm", r.nominal_mm, r.artifact_mm);
+        assert!(r.artifact_mm > 1.5 * c.artifact_mm, "seed {seed}: a step made wrong must show: {:.4} vs {:.4} mm", r.artifact_mm, c.artifact_mm);
     }
 }
 

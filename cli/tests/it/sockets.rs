@@ -43,12 +43,12 @@ fn a_ball_in_sockets_calibrates_the_arm_judged_on_unseen_tracker_points() {
     let (s_exact, robot) = scenario(&exact);
     let (s_real, _) = scenario(&|t| t);
     for seed in 1..=3u64 {
-        let c = twincal::sockets_check::check(&Scenario { seed, ..s_exact.clone() }, &robot, &lm(&robot)).unwrap();
-        assert!(c.sockets_mm <= 1.5 * c.tracker_mm, "seed {seed}: exact artifact: sockets {:.4} mm vs tracker {:.4} mm", c.sockets_mm, c.tracker_mm);
-        assert!(c.nominal_mm > 20.0 * c.sockets_mm, "seed {seed}: nominal {:.4} mm vs sockets {:.4} mm", c.nominal_mm, c.sockets_mm);
-        let r = twincal::sockets_check::check(&Scenario { seed, ..s_real.clone() }, &robot, &lm(&robot)).unwrap();
-        assert!(r.nominal_mm > 4.0 * r.sockets_mm, "seed {seed}: nominal {:.4} mm vs sockets {:.4} mm", r.nominal_mm, r.sockets_mm);
-        assert!(r.sockets_mm > 2.0 * c.sockets_mm, "seed {seed}: a spacing made wrong must show: {:.4} vs {:.4} mm", r.sockets_mm, c.sockets_mm);
+        let c = twincal::artifact_check::check(&Scenario { seed, ..s_exact.clone() }, &robot, &lm(&robot)).unwrap();
+        assert!(c.artifact_mm <= 1.5 * c.tracker_mm, "seed {seed}: exact artifact: sockets {:.4} mm vs tracker {:.4} mm", c.artifact_mm, c.tracker_mm);
+        assert!(c.nominal_mm > 20.0 * c.artifact_mm, "seed {seed}: nominal {:.4} mm vs sockets {:.4} mm", c.nominal_mm, c.artifact_mm);
+        let r = twincal::artifact_check::check(&Scenario { seed, ..s_real.clone() }, &robot, &lm(&robot)).unwrap();
+        assert!(r.nominal_mm > 4.0 * r.artifact_mm, "seed {seed}: nominal {:.4} mm vs sockets {:.4} mm", r.nominal_mm, r.artifact_mm);
+        assert!(r.artifact_mm > 2.0 * c.artifact_mm, "seed {seed}: a spacing made wrong must show: {:.4} vs {:.4} mm", r.artifact_mm, c.artifact_mm);
     }
 }
 
@@ -94,7 +94,7 @@ fn socket_files_are_byte_identical_and_read_as_tools_write_them() {
 /// socket, too few or unturned seatings, a method that never sees a spacing; a seated row with
 /// a tracker's reading is refused.
 #[test]
-fn what_socket_rows_cannot_determine_is_said() {
+fn what_artifact_rows_cannot_determine_is_said() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("s");
     let sc = scenario_path();
@@ -143,8 +143,8 @@ fn what_socket_rows_cannot_determine_is_said() {
 fn sockets_and_a_few_tracker_points_fit_together() {
     let (s, robot) = scenario(&|t| t);
     for seed in [1u64, 2] {
-        let c = twincal::sockets_check::mixed(&Scenario { seed, ..s.clone() }, &robot, &lm(&robot), 20).unwrap();
-        assert!(c.mixed_mm < c.sockets_mm / 4.0 && c.mixed_mm < 0.02, "seed {seed}: {c:?}");
+        let c = twincal::artifact_check::mixed(&Scenario { seed, ..s.clone() }, &robot, &lm(&robot), 20).unwrap();
+        assert!(c.mixed_mm < c.artifact_mm / 4.0 && c.mixed_mm < 0.02, "seed {seed}: {c:?}");
         assert!((c.spacing_fitted_mm - c.spacing_made_mm).abs() < 0.008, "seed {seed}: {c:?}");
     }
     let dir = tempfile::tempdir().unwrap();

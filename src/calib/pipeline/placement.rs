@@ -175,7 +175,7 @@ fn place_also(model: &CalibModel, train: &Samples) -> Result<Option<Placement>> 
     if rows.is_empty() {
         return Ok(None);
     }
-    let m = if model.measurement == Measurement::Socket { Measurement::Point } else { model.measurement };
+    let m = if model.measurement.feature().is_some() { Measurement::Point } else { model.measurement };
     let q: Vec<Vec<f64>> = rows.iter().map(|&i| train.q[i].clone()).collect();
     let y: Vec<f64> = rows.iter().flat_map(|&i| train.row(i).iter().copied()).collect();
     let p = locate_on(model, &model.nominal, m, &q, &y)

@@ -19,18 +19,19 @@ use serde::Serialize;
 /// What one seed of [`check`] measured: the held-out tracker points' position error |Δp| (RMS
 /// over the points, mm) under each model.
 #[derive(Clone, Debug, Serialize)]
-pub struct SocketCheck {
+pub struct ArtifactCheck {
     /// The scenario's seed.
     pub seed: u64,
-    /// Seated rows the sockets' calibration trained on.
-    pub socket_rows: usize,
-    /// The socket rows' held-out RMSE (per coordinate of the ball's centre about its socket), mm.
-    pub socket_test_rmse_mm: f64,
+    /// The artifact's rows (seated, touched) its calibration trained on.
+    pub artifact_rows: usize,
+    /// The artifact's rows' held-out RMSE (per value: a ball's centre about its socket, a
+    /// stylus' depth below its face), mm.
+    pub artifact_test_rmse_mm: f64,
     /// The nominal arm, the tracker registered on its training points.
     pub nominal_mm: f64,
-    /// The arm the sockets calibrated, registered the same way.
-    pub sockets_mm: f64,
-    /// A tracker calibration of the same arm from as many training rows as the sockets had.
+    /// The arm the artifact calibrated, registered the same way.
+    pub artifact_mm: f64,
+    /// A tracker calibration of the same arm from as many training rows as the artifact had.
     pub tracker_mm: f64,
     /// Tracker points the registration and the tracker calibration may use, and the points judged.
     pub tracker_rows: (usize, usize),
@@ -40,14 +41,14 @@ pub struct SocketCheck {
 /// `opts` (their stated spacings or steps added: the artifact's designed distances, as a user
 /// states them), then judged on the scenario's tracker points (the same file without the
 /// artifact, acquired quasi-statically).
-pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<SocketCheck> {
+pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<ArtifactCheck> {
     let art = crate::sim::generate::artifact_rows(s, robot).ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets] or [planes]", s.name)))??;
     if s.instruments.tracker.is_none() {
         return Err(Error::Invalid(format!("scenario {} has no [tracker] to judge the artifact's calibration on", s.name)));
     }
     let spacings = art.designed.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
-    let socket_opts = CalibOptions { spacings, ..opts.clone() };
-    let by_sockets = calibrate(&art.dataset, None, &socket_opts)?;
+    let artifact_opts = CalibOptions { spacings, ..opts.clone() };
+    let by_artifact = calibrate(&art.dataset, None, &artifact_opts)?;
     let mut ts = Scenario { sockets: None, planes: None, ..s.clone() };
     ts.acquisition.model = AcquisitionModel::QuasiStatic;
     let tracker = crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset;
@@ -56,21 +57,21 @@ pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<SocketC
         let (model, xr) = crate::calib::pipeline::register::under_instrument(&r.model, x, &tracker, &train)?;
         Ok(position_rms(&ReadingFit { model: &model, data: &samples(&tracker, &test) }.residuals_mm(&xr)))
     };
-    let nominal_mm = judged(&by_sockets, &by_sockets.model.nominal)?;
-    let sockets_mm = judged(&by_sockets, &by_sockets.x)?;
+    let nominal_mm = judged(&by_artifact, &by_artifact.model.nominal)?;
+    let artifact_mm = judged(&by_artifact, &by_artifact.x)?;
     // The tracker's own calibration on as many training rows as the sockets had.
-    let n = by_sockets.provenance.n_train.min(train.len());
+    let n = by_artifact.provenance.n_train.min(train.len());
     let rows: Vec<_> =
         tracker.rows.iter().enumerate().filter(|(i, r)| r.split == Some(Split::Test) || train[..n].contains(i)).map(|(_, r)| r.clone()).collect();
     let fewer = Dataset { rows, source: format!("{} tracker", s.name) };
     let by_tracker = calibrate(&fewer, None, &CalibOptions { spacings: Vec::new(), ..opts.clone() })?;
     let tracker_mm = position_rms(&ReadingFit { model: &by_tracker.model, data: &samples(&tracker, &test) }.residuals_mm(&by_tracker.x));
-    Ok(SocketCheck {
+    Ok(ArtifactCheck {
         seed: s.seed,
-        socket_rows: by_sockets.provenance.n_train,
-        socket_test_rmse_mm: by_sockets.evaluation.metrics.test_after.as_ref().map_or(f64::NAN, |m| m.rmse),
+        artifact_rows: by_artifact.provenance.n_train,
+        artifact_test_rmse_mm: by_artifact.evaluation.metrics.test_after.as_ref().map_or(f64::NAN, |m| m.rmse),
         nominal_mm,
-        sockets_mm,
+        artifact_mm,
         tracker_mm,
         tracker_rows: (train.len(), test.len()),
     })
@@ -147,16 +148,16 @@ pub fn held_out_placements(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> 
 }
 
 /// Seated rows and a few tracker points of the same arm in one fit, judged on tracker points
-/// neither fit saw: what a handful of points beside the sockets adds.
+/// neither fit saw: what a handful of points beside the sockets (faces) adds.
 #[derive(Clone, Debug, Serialize)]
 pub struct MixedCheck {
     /// The scenario's seed.
     pub seed: u64,
-    /// Tracker points beside the seated rows.
+    /// Tracker points beside the artifact's rows.
     pub points: usize,
-    /// The sockets alone, judged as [`check`] judges them (|Δp| RMS, mm).
-    pub sockets_mm: f64,
-    /// The sockets and the points in one fit: the held-out tracker points' |Δp| RMS, mm.
+    /// The artifact alone, judged as [`check`] judges them (|Δp| RMS, mm).
+    pub artifact_mm: f64,
+    /// The artifact and the points in one fit: the held-out tracker points' |Δp| RMS, mm.
     pub mixed_mm: f64,
     /// The first placement's spacing as the mixed fit found it, and as the artifact was made
     /// (at its temperature), mm.
@@ -165,14 +166,13 @@ pub struct MixedCheck {
     pub spacing_made_mm: f64,
 }
 
-/// The `[sockets]` scenario `s` at its seed: its seated rows with the first `points` training
-/// points of its tracker (the same arm) in one file, calibrated with `opts` and judged on the
-/// tracker's test points; beside the sockets alone ([`check`]).
+/// The `[sockets]` or `[planes]` scenario `s` at its seed: its artifact's rows with the first
+/// `points` training points of its tracker (the same arm) in one file, calibrated with `opts`
+/// and judged on the tracker's test points; beside the artifact alone ([`check`]).
 pub fn mixed(s: &Scenario, robot: &Robot, opts: &CalibOptions, points: usize) -> Result<MixedCheck> {
-    let art = s.sockets.as_ref().ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets]", s.name)))?;
+    let art = crate::sim::generate::artifact_rows(s, robot).ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets] or [planes]", s.name)))??;
     let alone = check(s, robot, opts)?;
-    let twin = crate::sim::generate::build_twin(s, robot);
-    let (seated, truth) = crate::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
+    let seated = &art.dataset;
     let mut ts = Scenario { sockets: None, planes: None, ..s.clone() };
     ts.acquisition.model = AcquisitionModel::QuasiStatic;
     let tracker = crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset;
@@ -181,8 +181,7 @@ pub fn mixed(s: &Scenario, robot: &Robot, opts: &CalibOptions, points: usize) ->
     let train: Vec<_> = seated.rows.iter().map(|r| crate::dataset::Row { split: Some(Split::Train), ..r.clone() }).chain(beside).collect();
     let n_train = train.len();
     let both = Dataset { rows: train.into_iter().chain(judged).collect(), source: format!("{} sockets and points", s.name) };
-    let spacings: Vec<KnownSpacing> =
-        truth.designed_spacings_mm.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
+    let spacings: Vec<KnownSpacing> = art.designed.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
     let r = calibrate(&both, None, &CalibOptions { spacings, ..opts.clone() })?;
     let test: Vec<usize> = (n_train..both.rows.len()).collect();
     let mixed_mm = position_rms(&ReadingFit { model: &r.model, data: &samples(&both, &test) }.residuals_mm(&r.x));
@@ -190,9 +189,9 @@ pub fn mixed(s: &Scenario, robot: &Robot, opts: &CalibOptions, points: usize) ->
     Ok(MixedCheck {
         seed: s.seed,
         points,
-        sockets_mm: alone.sockets_mm,
+        artifact_mm: alone.artifact_mm,
         mixed_mm,
         spacing_fitted_mm: if r.model.spacings.is_empty() { f64::NAN } else { r.model.spacing_mm(&r.x, 0) },
-        spacing_made_mm: truth.spacings_mm.first().map_or(f64::NAN, |s| s.2),
+        spacing_made_mm: art.made.first().map_or(f64::NAN, |s| s.2),
     })
 }
