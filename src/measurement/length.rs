@@ -1,7 +1,6 @@
 //! The draw-wire sensor: the cable length from its exit point (base frame) to the tool point,
 //! plus a constant length offset.
 
-use super::Instrument;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// Names of the draw-wire's placement parameters, in parameter order.
@@ -14,12 +13,9 @@ pub const MAX_L_MM: f64 = 100_000.0;
 /// A draw-wire's cable length: |tool point − exit point| + length offset.
 pub struct Length;
 
-impl Instrument for Length {
+impl super::Block for Length {
     fn name(&self) -> &'static str {
         "length"
-    }
-    fn describe(&self) -> &'static str {
-        "draw-wire cable length"
     }
     fn columns(&self) -> &'static [&'static str] {
         &["L"]
@@ -41,12 +37,21 @@ impl Instrument for Length {
         dy_dp[0] = u;
         dy_down[..4].copy_from_slice(&[-u.x, -u.y, -u.z, 1.0]);
     }
+}
+
+impl super::FileRows for Length {
+    fn describe(&self) -> &'static str {
+        "draw-wire cable length"
+    }
     fn implausible(&self, _k: usize, l: f64) -> Option<String> {
         if l <= 0.0 {
             return Some(format!("cable length must be positive, found {l}"));
         }
         (l > MAX_L_MM).then(|| format!("cable length {} mm is implausible (no draw-wire sensor measures more than {MAX_L_MM} mm)", crate::error::shown(l)))
     }
+}
+
+impl super::Placing for Length {
     fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
         super::InstrumentFrame { origin: Vector3::new(own[0], own[1], own[2]), axes: None }
     }

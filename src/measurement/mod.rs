@@ -18,12 +18,16 @@
 //! offset) and the **target** on the flange (the tool point the cable is hooked to, or the
 //! reflector a tracker follows), which the chain carries to the base frame. An instrument reads
 //! one point of the flange (the target), or several rigidly attached to it (a pose reads its
-//! probe's origin and the tips of two of its axes: [`Instrument::targets`]), so every
-//! derivative is a point Jacobian of the chain. Derivatives are analytic; the tests below check
-//! every type against finite differences.
+//! probe's origin and the tips of two of its axes: [`Block::targets`]), so every derivative is a
+//! point Jacobian of the chain. Derivatives are analytic; the tests below check every type
+//! against finite differences.
 //!
-//! Adding a measurement type means one module implementing [`Instrument`] and its variant with
-//! its line in [`Measurement::def`]; the rows' residual vectors follow from [`Measurement::dim`].
+//! An [`Instrument`] is three parts: its residual block ([`Block`]: the reading of the target
+//! point(s) for its own unknowns, and the derivatives), its rows in files ([`FileRows`]: columns,
+//! plausibility, the artifact's feature they name) and its placing ([`Placing`]: its start from
+//! nominal flange frames, its frame). Adding a measurement type means one module implementing
+//! the three and its variant with its line in [`Measurement::def`]; the rows' residual vectors
+//! follow from [`Measurement::dim`].
 
 pub mod length;
 mod placement;
@@ -47,35 +51,19 @@ pub const MAX_OWN: usize = 12;
 /// Most points of the flange an instrument reads.
 pub const MAX_TARGETS: usize = 3;
 
-/// One measurement type: what an instrument reads of a target point.
-pub trait Instrument: Sync {
+/// An instrument's residual block: what the model reads of the target point(s) for the
+/// instrument's own unknowns (its placement), with the derivatives, row by row.
+pub trait Block: Sync {
     /// The name in result files and messages.
     fn name(&self) -> &'static str;
-    /// What the instrument is, for messages ("draw-wire cable length").
-    fn describe(&self) -> &'static str;
     /// The values of one reading as the model predicts them (millimetres in a dataset, metres
     /// inside), in reading order: their labels.
     fn columns(&self) -> &'static [&'static str];
-    /// The dataset columns of one reading, when they are not the values themselves (a pose's
-    /// Euler angles): [`Self::values_of_file`] turns them into the values.
-    fn file_columns(&self) -> &'static [&'static str] {
-        self.columns()
-    }
-    /// The reading values (mm) of a dataset row's reading columns `file` (in
-    /// [`Self::file_columns`] order; angles in degrees, intrinsic X-Y-Z as a loaded row holds
-    /// them).
-    fn values_of_file(&self, file: &[f64], out: &mut [f64]) {
-        out.copy_from_slice(file);
-    }
     /// The group of each reading value, when the values are not all alike (a pose's position
     /// and its axes, whose residuals have their own scales): robust screens judge each group
     /// on its own scale. Empty: one group.
     fn value_groups(&self) -> &'static [usize] {
         &[]
-    }
-    /// The trailing dataset columns that are angles (degrees; a pose's `rx, ry, rz`).
-    fn file_angles(&self) -> usize {
-        0
     }
     /// The number of points of the flange frame the reading depends on (one target; a pose's
     /// three).
@@ -114,20 +102,57 @@ pub trait Instrument: Sync {
     /// [`Self::reading`] with its derivatives: `dy_dp[i * n_targets + t]` is ∂y_i/∂p_t and
     /// `dy_down` (row-major, `dim × own.len()`) is ∂y/∂own.
     fn reading_grad(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]);
+    /// Whether [`Self::reading_grad`]'s readings equal [`Self::reading`]'s to the bit, so one
+    /// pass gives residuals and Jacobian alike.
+    fn exact_grad_reading(&self) -> bool {
+        false
+    }
+}
+
+/// How an instrument's rows are written: its dataset columns and their values, what is
+/// implausible in them, and the artifact's feature the rows name.
+pub trait FileRows: Block {
+    /// What the instrument is, for messages ("draw-wire cable length").
+    fn describe(&self) -> &'static str;
+    /// The dataset columns of one reading, when they are not the values themselves (a pose's
+    /// Euler angles): [`Self::values_of_file`] turns them into the values.
+    fn file_columns(&self) -> &'static [&'static str] {
+        self.columns()
+    }
+    /// The reading values (mm) of a dataset row's reading columns `file` (in
+    /// [`Self::file_columns`] order; angles in degrees, intrinsic X-Y-Z as a loaded row holds
+    /// them).
+    fn values_of_file(&self, file: &[f64], out: &mut [f64]) {
+        out.copy_from_slice(file);
+    }
+    /// The trailing dataset columns that are angles (degrees; a pose's `rx, ry, rz`).
+    fn file_angles(&self) -> usize {
+        0
+    }
     /// `None` when dataset column `k` of a reading ([`Self::file_columns`], mm or degrees) is
     /// plausible, else what is wrong with it ("cable length must be positive, found -3").
     fn implausible(&self, k: usize, v: f64) -> Option<String>;
+    /// A row's dataset columns (mm, angles in degrees in the convention `euler`) of the
+    /// model's values `v` (mm): the inverse of [`Self::values_of_file`].
+    fn file_of_values(&self, v: &[f64], _euler: Euler) -> Vec<f64> {
+        v.to_vec()
+    }
+    /// The artifact's feature its rows name (a socket, a face), when the instrument stands at
+    /// one: each feature of each placement is then a station of its own.
+    fn feature(&self) -> Option<FeatureKind> {
+        None
+    }
+}
+
+/// Where an instrument starts and how it is shown: its placement located from nominal flange
+/// frames, its frame, its panels.
+pub trait Placing: Sync {
     /// The instrument's own placement and the target on the flange, from the flange's origins
     /// `p` (base frame, m, as the nominal arm puts them), its rotations `rot` and the readings
     /// `y` (m, `dim` per row): the starting guess a calibration refines. An instrument that
     /// cannot tell its target from the data gives a zero one. `None` when the rows cannot place
     /// it.
     fn locate(&self, p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)>;
-    /// A row's dataset columns (mm, angles in degrees in the convention `euler`) of the
-    /// model's values `v` (mm): the inverse of [`Self::values_of_file`].
-    fn file_of_values(&self, v: &[f64], _euler: Euler) -> Vec<f64> {
-        v.to_vec()
-    }
     /// Where the instrument sits for its own placement parameters `own` (m, rad): its origin
     /// in the base frame and, for an instrument reading coordinates in a frame of its own, that
     /// frame's axes (columns, base frame).
@@ -139,16 +164,6 @@ pub trait Instrument: Sync {
     /// The titles of the report's panels of the instrument's placement: its lengths (mm) and
     /// its angles (degrees).
     fn panel_titles(&self) -> (&'static str, &'static str);
-    /// Whether [`Self::reading_grad`]'s readings equal [`Self::reading`]'s to the bit, so one
-    /// pass gives residuals and Jacobian alike.
-    fn exact_grad_reading(&self) -> bool {
-        false
-    }
-    /// The artifact's feature its rows name (a socket, a face), when the instrument stands at
-    /// one: each feature of each placement is then a station of its own.
-    fn feature(&self) -> Option<FeatureKind> {
-        None
-    }
     /// The instrument's own placement from the rows as [`Self::locate`] takes them, the target
     /// on the flange already known (`tool`, flange frame, m): a second face of an artifact
     /// touched by the stylus the first face placed. `None`: locate it as the first.
@@ -163,6 +178,12 @@ pub trait Instrument: Sync {
         None
     }
 }
+
+/// One measurement type: its residual block, its rows in files and its placement
+/// ([`Block`], [`FileRows`], [`Placing`]; every type implementing the three is one).
+pub trait Instrument: Block + FileRows + Placing {}
+
+impl<T: Block + FileRows + Placing> Instrument for T {}
 
 /// The kind of an artifact's feature a row names: what held the target still (a socket) or
 /// where it touched (a face). The rows' column of that name carries the feature's label.
@@ -188,7 +209,7 @@ impl FeatureKind {
     }
 }
 
-/// Where an instrument sits ([`Instrument::frame`]).
+/// Where an instrument sits ([`Placing::frame`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InstrumentFrame {
     /// Its origin (a cable's exit point, a tracker's origin), base frame, m.
@@ -258,7 +279,7 @@ impl Measurement {
     }
 
     /// The reading values (mm) the model reads of a row's dataset columns `file` (mm and
-    /// degrees): [`Instrument::values_of_file`] into a new vector.
+    /// degrees): [`FileRows::values_of_file`] into a new vector.
     pub fn values_of_file(self, file: &[f64]) -> Vec<f64> {
         let mut v = vec![0.0; self.dim()];
         self.def().values_of_file(file, &mut v);
@@ -272,12 +293,12 @@ impl Measurement {
         self.def().file_of_values(v, euler)
     }
 
-    /// The number of value groups ([`Instrument::value_groups`]): 1 when the values are alike.
+    /// The number of value groups ([`Block::value_groups`]): 1 when the values are alike.
     pub fn n_value_groups(self) -> usize {
         self.def().value_groups().iter().max().map_or(1, |g| g + 1)
     }
 
-    /// The values of group `g` ([`Instrument::value_groups`]; every value where they are
+    /// The values of group `g` ([`Block::value_groups`]; every value where they are
     /// alike) of row-major `values`, [`Self::dim`] a row: a pose's positions (group 0) or axes.
     pub fn group_values(self, values: &[f64], g: usize) -> Vec<f64> {
         let (dim, groups) = (self.dim(), self.def().value_groups());
@@ -301,13 +322,13 @@ impl Measurement {
         self.n_placement() - 3
     }
 
-    /// See [`Instrument::offset_index`].
+    /// See [`Block::offset_index`].
     pub fn offset_index(self) -> Option<usize> {
         self.def().offset_index()
     }
 
     /// The reading of one target point `p` (an instrument of one target: a draw-wire, a point
-    /// tracker). See [`Instrument::reading`].
+    /// tracker). See [`Block::reading`].
     pub fn reading(self, own: &[f64], p: &Vector3<f64>, y: &mut [f64]) {
         debug_assert_eq!(self.def().n_targets(), 1);
         self.def().reading(own, std::slice::from_ref(p), y)
@@ -326,7 +347,7 @@ impl Measurement {
         self.file_dim() == 0
     }
 
-    /// See [`Instrument::feature`].
+    /// See [`FileRows::feature`].
     pub fn feature(self) -> Option<FeatureKind> {
         self.def().feature()
     }

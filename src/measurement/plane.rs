@@ -17,7 +17,7 @@
 //! The normal is two angles about a pole no cell's face points along (the diagonal `(1,1,1)/√3`),
 //! so horizontal and vertical faces alike sit far from the parametrisation's singular points.
 
-use super::{FeatureKind, Instrument};
+use super::FeatureKind;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
 /// Names of the placement parameters: the face's normal (two angles) and offset, the target on
@@ -225,56 +225,71 @@ pub struct Plane;
 /// A dial indicator on the flange reading a face: its plunger's travel.
 pub struct Indicator;
 
-/// The parts both share: placement, reading, location.
+/// The residual block and the placing both share.
 macro_rules! face_instrument {
-    () => {
-        fn placement_names(&self) -> &'static [&'static str] {
-            &PLANE_PARAMS
+    ($t:ty) => {
+        impl super::Block for $t {
+            fn name(&self) -> &'static str {
+                <$t>::NAME
+            }
+            fn columns(&self) -> &'static [&'static str] {
+                <$t>::COLUMNS
+            }
+            fn placement_names(&self) -> &'static [&'static str] {
+                &PLANE_PARAMS
+            }
+            fn placement_is_angle(&self, k: usize) -> bool {
+                k < 2
+            }
+            fn reading(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64]) {
+                block(own, &p[0], y, None);
+            }
+            fn reading_grad(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]) {
+                block(own, &p[0], y, Some((dy_dp, dy_down)));
+            }
+            fn exact_grad_reading(&self) -> bool {
+                true
+            }
         }
-        fn placement_is_angle(&self, k: usize) -> bool {
-            k < 2
-        }
-        fn feature(&self) -> Option<FeatureKind> {
-            Some(FeatureKind::Plane)
-        }
-        fn reading(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64]) {
-            block(own, &p[0], y, None);
-        }
-        fn reading_grad(&self, own: &[f64], p: &[Vector3<f64>], y: &mut [f64], dy_dp: &mut [Vector3<f64>], dy_down: &mut [f64]) {
-            block(own, &p[0], y, Some((dy_dp, dy_down)));
-        }
-        fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
-            let n = normal(own[0], own[1]).0;
-            super::InstrumentFrame { origin: n * own[2], axes: None }
-        }
-        fn panel_titles(&self) -> (&'static str, &'static str) {
-            ("Faces and target (mm)", "Face normals (deg)")
-        }
-        fn exact_grad_reading(&self) -> bool {
-            true
-        }
-        fn locate(&self, p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)> {
-            let (n, d, b) = locate_face(p, rot, y)?;
-            Some((own_of(&n, d), b))
-        }
-        fn locate_about(&self, p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64], tool: &Vector3<f64>) -> Option<Vec<f64>> {
-            face_about(p, rot, y, tool)
-        }
-        fn locate_target(&self, stations: &[FaceRows]) -> Option<Vector3<f64>> {
-            shared_target(stations)
+
+        impl super::Placing for $t {
+            fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
+                let n = normal(own[0], own[1]).0;
+                super::InstrumentFrame { origin: n * own[2], axes: None }
+            }
+            fn panel_titles(&self) -> (&'static str, &'static str) {
+                ("Faces and target (mm)", "Face normals (deg)")
+            }
+            fn locate(&self, p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64]) -> Option<(Vec<f64>, Vector3<f64>)> {
+                let (n, d, b) = locate_face(p, rot, y)?;
+                Some((own_of(&n, d), b))
+            }
+            fn locate_about(&self, p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64], tool: &Vector3<f64>) -> Option<Vec<f64>> {
+                face_about(p, rot, y, tool)
+            }
+            fn locate_target(&self, stations: &[FaceRows]) -> Option<Vector3<f64>> {
+                shared_target(stations)
+            }
         }
     };
 }
 
-impl Instrument for Plane {
-    fn name(&self) -> &'static str {
-        "plane"
-    }
+impl Plane {
+    const NAME: &'static str = "plane";
+    const COLUMNS: &'static [&'static str] = &["depth"];
+}
+
+impl Indicator {
+    const NAME: &'static str = "indicator";
+    const COLUMNS: &'static [&'static str] = &["indicator"];
+}
+
+face_instrument!(Plane);
+face_instrument!(Indicator);
+
+impl super::FileRows for Plane {
     fn describe(&self) -> &'static str {
         "touch probe on a face"
-    }
-    fn columns(&self) -> &'static [&'static str] {
-        &["depth"]
     }
     fn file_columns(&self) -> &'static [&'static str] {
         &[]
@@ -288,23 +303,21 @@ impl Instrument for Plane {
     fn implausible(&self, _k: usize, _v: f64) -> Option<String> {
         None
     }
-    face_instrument!();
+    fn feature(&self) -> Option<FeatureKind> {
+        Some(FeatureKind::Plane)
+    }
 }
 
-impl Instrument for Indicator {
-    fn name(&self) -> &'static str {
-        "indicator"
-    }
+impl super::FileRows for Indicator {
     fn describe(&self) -> &'static str {
         "dial indicator on a face"
-    }
-    fn columns(&self) -> &'static [&'static str] {
-        &["indicator"]
     }
     fn implausible(&self, _k: usize, v: f64) -> Option<String> {
         (v.abs() > MAX_INDICATOR_MM).then(|| format!("indicator = {} mm is implausible (|value| > {MAX_INDICATOR_MM} mm)", crate::error::shown(v)))
     }
-    face_instrument!();
+    fn feature(&self) -> Option<FeatureKind> {
+        Some(FeatureKind::Plane)
+    }
 }
 
 #[cfg(test)]

@@ -3,7 +3,6 @@
 //! the robot's base frame to the tracker's, `y = R(a, b, c)·p + t` with `R = Rx(a)·Ry(b)·Rz(c)`;
 //! for data already expressed in the base frame it stays near the identity.
 
-use super::Instrument;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// Names of the tracker's placement parameters, in parameter order.
@@ -33,12 +32,9 @@ pub fn rotation(angles: &[f64]) -> (Matrix3<f64>, [Matrix3<f64>; 3]) {
     (rx * ry * rz, [drx * ry * rz, rx * dry * rz, rx * ry * drz])
 }
 
-impl Instrument for Point {
+impl super::Block for Point {
     fn name(&self) -> &'static str {
         "point"
-    }
-    fn describe(&self) -> &'static str {
-        "laser-tracker target position"
     }
     fn columns(&self) -> &'static [&'static str] {
         &["x", "y", "z"]
@@ -69,10 +65,23 @@ impl Instrument for Point {
             }
         }
     }
-    fn implausible(&self, k: usize, v: f64) -> Option<String> {
-        (v.abs() > MAX_COORD_MM)
-            .then(|| format!("tracker coordinate {} = {} mm is implausible (|value| > {MAX_COORD_MM} mm)", self.columns()[k], crate::error::shown(v)))
+    fn exact_grad_reading(&self) -> bool {
+        true
     }
+}
+
+impl super::FileRows for Point {
+    fn describe(&self) -> &'static str {
+        "laser-tracker target position"
+    }
+    fn implausible(&self, k: usize, v: f64) -> Option<String> {
+        (v.abs() > MAX_COORD_MM).then(|| {
+            format!("tracker coordinate {} = {} mm is implausible (|value| > {MAX_COORD_MM} mm)", super::Block::columns(self)[k], crate::error::shown(v))
+        })
+    }
+}
+
+impl super::Placing for Point {
     fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
         // A tracker reads y = R·p + t: its origin (y = 0) is −Rᵀt in the base frame and its
         // axes are the columns of Rᵀ.
@@ -81,9 +90,6 @@ impl Instrument for Point {
     }
     fn panel_titles(&self) -> (&'static str, &'static str) {
         ("Tracker and reflector (mm)", "Tracker rotation (deg)")
-    }
-    fn exact_grad_reading(&self) -> bool {
-        true
     }
     /// The rigid transform that best maps the nominal target points onto the readings
     /// (least squares, by the SVD of their cross-covariance).

@@ -21,7 +21,6 @@
 //! its x and y axes at the lever), and the tracker reads the origin and the two axis vectors.
 
 use super::point::{rotation, Point};
-use super::Instrument;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -216,18 +215,12 @@ pub fn reading_rotation(y: &[f64]) -> Option<Matrix3<f64>> {
 /// A 6-D probe's pose, read as its origin and two axis vectors at the lever.
 pub struct Pose;
 
-impl Instrument for Pose {
+impl super::Block for Pose {
     fn name(&self) -> &'static str {
         "pose"
     }
-    fn describe(&self) -> &'static str {
-        "laser-tracker 6-D probe pose"
-    }
     fn columns(&self) -> &'static [&'static str] {
         &["x", "y", "z", "ux", "uy", "uz", "vx", "vy", "vz"]
-    }
-    fn file_columns(&self) -> &'static [&'static str] {
-        &["x", "y", "z", "rx", "ry", "rz"]
     }
     fn placement_names(&self) -> &'static [&'static str] {
         &POSE_PARAMS
@@ -240,9 +233,6 @@ impl Instrument for Pose {
     }
     fn value_groups(&self) -> &'static [usize] {
         &[0, 0, 0, 1, 1, 1, 1, 1, 1]
-    }
-    fn file_angles(&self) -> usize {
-        3
     }
     fn n_targets(&self) -> usize {
         3
@@ -296,6 +286,18 @@ impl Instrument for Pose {
             }
         }
     }
+}
+
+impl super::FileRows for Pose {
+    fn describe(&self) -> &'static str {
+        "laser-tracker 6-D probe pose"
+    }
+    fn file_columns(&self) -> &'static [&'static str] {
+        &["x", "y", "z", "rx", "ry", "rz"]
+    }
+    fn file_angles(&self) -> usize {
+        3
+    }
     fn implausible(&self, k: usize, v: f64) -> Option<String> {
         if k < 3 {
             return Point.implausible(k, v);
@@ -320,6 +322,9 @@ impl Instrument for Pose {
         let angles = reading_rotation(v).map_or([f64::NAN; 3], |r| euler.angles(&r).map(f64::to_degrees));
         v[..3].iter().copied().chain(angles).collect()
     }
+}
+
+impl super::Placing for Pose {
     fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
         super::point::Point.frame(own)
     }
@@ -460,7 +465,7 @@ mod tests {
     #[test]
     fn a_file_pose_becomes_its_origin_and_two_axes_at_the_lever() {
         let mut out = [0.0; 9];
-        Pose.values_of_file(&[10.0, -20.0, 30.0, 0.0, 0.0, 90.0], &mut out);
+        super::super::FileRows::values_of_file(&Pose, &[10.0, -20.0, 30.0, 0.0, 0.0, 90.0], &mut out);
         let want = [10.0, -20.0, 30.0, 0.0, LEVER_MM, 0.0, -LEVER_MM, 0.0, 0.0];
         assert!(out.iter().zip(&want).all(|(a, b)| (a - b).abs() < 1e-12), "{out:?}");
         let r = reading_rotation(&out).unwrap();

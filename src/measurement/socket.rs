@@ -7,7 +7,6 @@
 //! placement are tied by their known spacing ([`crate::calib::model::Spacing`]), which alone
 //! gives the arm its scale; the base frame is never seen (every socket moves with it).
 
-use super::Instrument;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// Names of the placement parameters: the socket's centre (base frame) and the ball's centre
@@ -25,24 +24,12 @@ pub const MIN_TURN_RAD: f64 = 0.05;
 /// A ball seated in a socket.
 pub struct Socket;
 
-impl Instrument for Socket {
+impl super::Block for Socket {
     fn name(&self) -> &'static str {
         "socket"
     }
-    fn describe(&self) -> &'static str {
-        "ball seated in a socket"
-    }
     fn columns(&self) -> &'static [&'static str] {
         &["dx", "dy", "dz"]
-    }
-    fn file_columns(&self) -> &'static [&'static str] {
-        &[]
-    }
-    fn values_of_file(&self, _file: &[f64], out: &mut [f64]) {
-        out.iter_mut().for_each(|v| *v = 0.0);
-    }
-    fn file_of_values(&self, _v: &[f64], _euler: super::Euler) -> Vec<f64> {
-        Vec::new()
     }
     fn placement_names(&self) -> &'static [&'static str] {
         &SOCKET_PARAMS
@@ -62,20 +49,38 @@ impl Instrument for Socket {
             row.iter_mut().enumerate().for_each(|(k, v)| *v = if k == i { -1.0 } else { 0.0 });
         }
     }
+    fn exact_grad_reading(&self) -> bool {
+        true
+    }
+}
+
+impl super::FileRows for Socket {
+    fn describe(&self) -> &'static str {
+        "ball seated in a socket"
+    }
+    fn file_columns(&self) -> &'static [&'static str] {
+        &[]
+    }
+    fn values_of_file(&self, _file: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|v| *v = 0.0);
+    }
+    fn file_of_values(&self, _v: &[f64], _euler: super::Euler) -> Vec<f64> {
+        Vec::new()
+    }
     fn implausible(&self, _k: usize, _v: f64) -> Option<String> {
         None
     }
+    fn feature(&self) -> Option<super::FeatureKind> {
+        Some(super::FeatureKind::Socket)
+    }
+}
+
+impl super::Placing for Socket {
     fn frame(&self, own: &[f64]) -> super::InstrumentFrame {
         super::InstrumentFrame { origin: Vector3::new(own[0], own[1], own[2]), axes: None }
     }
     fn panel_titles(&self) -> (&'static str, &'static str) {
         ("Sockets and ball (mm)", "-")
-    }
-    fn exact_grad_reading(&self) -> bool {
-        true
-    }
-    fn feature(&self) -> Option<super::FeatureKind> {
-        Some(super::FeatureKind::Socket)
     }
     /// The socket and the ball's centre on the flange by the pivot fit: the point of the flange
     /// that stays still over the rows (least squares of `p_i + R_i·b = s`, linear in `b` and

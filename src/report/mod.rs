@@ -257,7 +257,7 @@ pub struct InstrumentPose {
 }
 
 impl InstrumentPose {
-    /// The pose of the instrument placed at `p` ([`Instrument::frame`](crate::measurement::Instrument::frame)).
+    /// The pose of the instrument placed at `p` ([`Placing::frame`](crate::measurement::Placing::frame)).
     pub fn of(p: &Placement) -> InstrumentPose {
         let f = p.measurement.def().frame(&p.own);
         InstrumentPose { measurement: p.measurement, origin_mm: mm3(&f.origin), axes: f.axes }

@@ -345,12 +345,12 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], ru
     Screen { runs: runs(&outliers), keep, outliers, steps: found, corrected, x, scale_mm: scale, median_mm: med, rule }
 }
 
-/// Residuals of values in other groups than the first ([`Instrument::value_groups`]: a pose's
+/// Residuals of values in other groups than the first ([`Block::value_groups`]: a pose's
 /// axes beside its position) put on the first group's robust scale, over the rows `keep`: each
 /// value's distance from its group's median, in its group's robust standard deviations, is the
 /// same after. A measurement of one group is left as it is.
 ///
-/// [`Instrument::value_groups`]: crate::measurement::Instrument::value_groups
+/// [`Block::value_groups`]: crate::measurement::Block::value_groups
 pub fn equalise_groups(r: &mut [f64], d: usize, groups: &[usize], keep: &[usize]) {
     if groups.iter().all(|g| *g == 0) {
         return;
@@ -371,9 +371,9 @@ pub fn equalise_groups(r: &mut [f64], d: usize, groups: &[usize], keep: &[usize]
 
 /// The robust scale ([`robust_scale`]: median and robust standard deviation) of each value
 /// group's residuals over the rows `rows` of `r` (`d` values a row; `groups` as
-/// [`Instrument::value_groups`] gives them, empty for one group), in group order.
+/// [`Block::value_groups`] gives them, empty for one group), in group order.
 ///
-/// [`Instrument::value_groups`]: crate::measurement::Instrument::value_groups
+/// [`Block::value_groups`]: crate::measurement::Block::value_groups
 pub fn group_scales(r: &[f64], d: usize, groups: &[usize], rows: &[usize]) -> Vec<(f64, f64)> {
     let group = |k: usize| groups.get(k).copied().unwrap_or(0);
     let n_groups = groups.iter().max().map_or(1, |g| g + 1);

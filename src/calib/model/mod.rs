@@ -135,7 +135,7 @@ pub struct CalibModel {
     /// The instrument's stations by label, in the order of their first rows, when it was
     /// re-stationed during the measurements (a tracker moved between sessions): the first stands
     /// where the placement parameters say, each other one has its own
-    /// [`n_station`](crate::measurement::Instrument::n_station) parameters after them
+    /// [`n_station`](crate::measurement::Block::n_station) parameters after them
     /// ([`Self::setup_block`]); the arm and the target's mount are shared. Empty: one station.
     /// A row says its station in [`RowInputs::station`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SetupKind {
-    /// The instrument's own place: the first [`n_station`](crate::measurement::Instrument::n_station)
+    /// The instrument's own place: the first [`n_station`](crate::measurement::Block::n_station)
     /// placement parameters.
     Station,
     /// The target's mount on the flange: the other placement parameters.
@@ -67,7 +67,7 @@ impl CalibModel {
             SetupKind::Mount => ns..self.measurement.n_placement(),
         }
     }
-    /// Parameters of one station beyond the first ([`Instrument::n_station`](crate::measurement::Instrument::n_station)).
+    /// Parameters of one station beyond the first ([`Block::n_station`](crate::measurement::Block::n_station)).
     pub fn n_station_params(&self) -> usize {
         self.setup_params(SetupKind::Station).len()
     }

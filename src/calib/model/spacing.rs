@@ -90,7 +90,7 @@ impl CalibModel {
     }
 
     /// The distance (mm) between the features of spacing `k` at `x`: two sockets' centres, or
-    /// two parallel faces (the step, [`Self::step_m`]).
+    /// two parallel faces (the step: the second face's point nearest [`Spacing::at`], from the first along its normal).
     pub fn spacing_mm(&self, x: &[f64], k: usize) -> f64 {
         let sp = &self.spacings[k];
         let ((a, _), (b, _)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));

@@ -26,7 +26,7 @@ pub fn build_model(spec: &ModelSpec, guess: &DrawWireGuess) -> CalibModel {
 /// The starting model: nominal geometry and a sensor guess (given, or multilaterated and
 /// aligned), or for the generic model a global search from broad bounds. Another instrument
 /// than the draw-wire (a tracker's points) is located from the nominal flange points
-/// ([`Instrument::locate`](crate::measurement::Instrument::locate)) and aligned the same way.
+/// ([`Placing::locate`](crate::measurement::Placing::locate)) and aligned the same way.
 /// With several stations or mounts (`labels`: the stations', then the mounts'; the rows'
 /// [`RowInputs`](crate::calib::effects::RowInputs) index them), each station is located from its
 /// own training rows, each mount of a 6-D probe from its rows at their most common station (a
@@ -184,7 +184,7 @@ fn place_also(model: &CalibModel, train: &Samples) -> Result<Option<Placement>> 
 }
 
 /// Instrument `m` placed from the flange frames of `model` at `x` at joint angles `q` and its
-/// readings `y` there ([`Instrument::locate`](crate::measurement::Instrument::locate)); `None`
+/// readings `y` there ([`Placing::locate`](crate::measurement::Placing::locate)); `None`
 /// when the rows cannot place it.
 pub fn locate_on(model: &CalibModel, x: &[f64], m: Measurement, q: &[Vec<f64>], y: &[f64]) -> Option<Placement> {
     let mut w = model.work();
