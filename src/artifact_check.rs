@@ -43,22 +43,13 @@ pub struct ArtifactCheck {
 /// artifact, acquired quasi-statically).
 pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<ArtifactCheck> {
     let art = crate::sim::generate::artifact_rows(s, robot).ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets] or [planes]", s.name)))??;
-    if s.instruments.tracker.is_none() {
-        return Err(Error::Invalid(format!("scenario {} has no [tracker] to judge the artifact's calibration on", s.name)));
-    }
+    let tracker = tracker_points(s, robot)?;
     let spacings = art.designed.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
     let artifact_opts = CalibOptions { spacings, ..opts.clone() };
     let by_artifact = calibrate(&art.dataset, None, &artifact_opts)?;
-    let mut ts = Scenario { sockets: None, planes: None, ..s.clone() };
-    ts.acquisition.model = AcquisitionModel::QuasiStatic;
-    let tracker = crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset;
     let (train, test) = (tracker.train_indices(), tracker.test_indices());
-    let judged = |r: &CalibResult, x: &[f64]| -> Result<f64> {
-        let (model, xr) = crate::calib::pipeline::register::under_instrument(&r.model, x, &tracker, &train)?;
-        Ok(position_rms(&ReadingFit { model: &model, data: &samples(&tracker, &test) }.residuals_mm(&xr)))
-    };
-    let nominal_mm = judged(&by_artifact, &by_artifact.model.nominal)?;
-    let artifact_mm = judged(&by_artifact, &by_artifact.x)?;
+    let nominal_mm = on_tracker(&by_artifact, &by_artifact.model.nominal, &tracker)?;
+    let artifact_mm = on_tracker(&by_artifact, &by_artifact.x, &tracker)?;
     // The tracker's own calibration on as many training rows as the sockets had.
     let n = by_artifact.provenance.n_train.min(train.len());
     let rows: Vec<_> =
@@ -75,6 +66,25 @@ pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<Artifac
         tracker_mm,
         tracker_rows: (train.len(), test.len()),
     })
+}
+
+/// The scenario's tracker points of the same arm (the file without its artifact, acquired
+/// quasi-statically).
+fn tracker_points(s: &Scenario, robot: &Robot) -> Result<Dataset> {
+    if s.instruments.tracker.is_none() {
+        return Err(Error::Invalid(format!("scenario {} has no [tracker] to judge the artifact's calibration on", s.name)));
+    }
+    let mut ts = Scenario { sockets: None, planes: None, ..s.clone() };
+    ts.acquisition.model = AcquisitionModel::QuasiStatic;
+    Ok(crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset)
+}
+
+/// The arm of `r` at `x` judged on `tracker`'s test points (|Δp| RMS, mm), the tracker
+/// registered on its training points (an artifact never sees the base frame).
+fn on_tracker(r: &CalibResult, x: &[f64], tracker: &Dataset) -> Result<f64> {
+    let (train, test) = (tracker.train_indices(), tracker.test_indices());
+    let (model, xr) = crate::calib::pipeline::register::under_instrument(&r.model, x, tracker, &train)?;
+    Ok(position_rms(&ReadingFit { model: &model, data: &samples(tracker, &test) }.residuals_mm(&xr)))
 }
 
 /// RMS over points of the position error |Δp| of residuals `r` (mm, x, y, z per point).
@@ -173,9 +183,7 @@ pub fn mixed(s: &Scenario, robot: &Robot, opts: &CalibOptions, points: usize) ->
     let art = crate::sim::generate::artifact_rows(s, robot).ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets] or [planes]", s.name)))??;
     let alone = check(s, robot, opts)?;
     let seated = &art.dataset;
-    let mut ts = Scenario { sockets: None, planes: None, ..s.clone() };
-    ts.acquisition.model = AcquisitionModel::QuasiStatic;
-    let tracker = crate::sim::generate::generate(&ts, robot, &crate::progress::Silent)?.dataset;
+    let tracker = tracker_points(s, robot)?;
     let beside: Vec<_> = tracker.rows.iter().filter(|r| r.split == Some(Split::Train)).take(points).cloned().collect();
     let judged: Vec<_> = tracker.rows.iter().filter(|r| r.split == Some(Split::Test)).cloned().collect();
     let train: Vec<_> = seated.rows.iter().map(|r| crate::dataset::Row { split: Some(Split::Train), ..r.clone() }).chain(beside).collect();

@@ -136,6 +136,27 @@ impl Default for PlanJob {
     }
 }
 
+/// An artifact's plan as the rows to record: each configuration's joint angles (degrees, as
+/// planned on the nominal arm: where to seat the ball or touch the face from), its placement and
+/// its feature (`features`: `placement/feature`, of kind `kind`).
+fn artifact_csv(p: &Plan, features: &[String], kind: crate::measurement::FeatureKind) -> String {
+    let rows = p
+        .poses_deg
+        .iter()
+        .zip(features)
+        .map(|(q, f)| {
+            let (placement, label) = f.rsplit_once('/').map_or((None, f.as_str()), |(a, b)| (Some(a.to_string()), b));
+            crate::dataset::Row {
+                q_deg: q.clone(),
+                station: placement,
+                feature: Some(crate::dataset::Feature { kind, label: label.to_string() }),
+                ..Default::default()
+            }
+        })
+        .collect();
+    crate::dataset::Dataset { rows, source: POSES_FILE.into() }.to_csv_string()
+}
+
 /// Most candidates a plan draws.
 pub const MAX_CANDIDATES: usize = 100_000;
 
@@ -236,6 +257,11 @@ impl PlanJob {
             payloads: self.payloads.clone(),
             ..PlanOptions::default()
         };
+        if self.program_format.is_some() && (s.sockets.is_some() || s.planes.is_some()) {
+            return Err(Error::Invalid(
+                "--program-format: an artifact's configurations are reached by seating the ball (touching the face) by hand; a program's joint moves would drive the tool into the artifact wherever the nominal arm errs".into(),
+            ));
+        }
         let mut p = plan(&s, &robot, &opts)?;
         if self.payload_kg.is_some() && !loaded {
             p.warnings.push("--payload-kg changes only what load-driven effects see, and none is planned: plan them with --effects compliance (or a --model with compliance)".into());
@@ -245,7 +271,11 @@ impl PlanJob {
             recordings.plan(&p, &s, &robot, &mut outputs, r)?;
         }
         let list = crate::sim::pose_list::PoseList { q: p.poses.clone(), payload_kg: p.payload_kg.clone() };
-        outputs.write(&poses_path, crate::sim::pose_list::pose_list_csv(&list, s.sampling.angle_decimals).as_bytes())?;
+        let csv = match &p.features {
+            Some(f) => artifact_csv(&p, f, if s.planes.is_some() { crate::measurement::FeatureKind::Plane } else { crate::measurement::FeatureKind::Socket }),
+            None => crate::sim::pose_list::pose_list_csv(&list, s.sampling.angle_decimals),
+        };
+        outputs.write(&poses_path, csv.as_bytes())?;
         if let Some(lang) = self.program_format {
             let tour = crate::controller::Tour {
                 name: PROGRAM_NAME.into(),

@@ -22,6 +22,7 @@
 //! The plan never sees the twin's true parameters: only the nominal arm, the instrument's
 //! placement as the engineer sets it up, and the cell.
 
+pub mod artifact;
 pub mod bound;
 pub mod design;
 pub mod tour;
@@ -113,6 +114,9 @@ pub struct Model {
     pub x: Vec<f64>,
     /// The static-torque model of the effect blocks (the links and the payload mounted).
     pub torque: Option<TorqueModel>,
+    /// The station of each candidate, where the model has several (an artifact's sockets or
+    /// faces, each a station); empty: every candidate at the first.
+    pub stations: Vec<usize>,
 }
 
 impl Model {
@@ -125,21 +129,21 @@ impl Model {
         let placement = crate::sim::instrument::placement(&s.draw_wire, &s.instruments);
         let mut model = build_model(&ModelSpec::nominal(robot.clone(), p), &zero).with_placement(&placement);
         if effects.is_empty() {
-            return Ok(Model { x: model.nominal.clone(), model, torque: None });
+            return Ok(Model { x: model.nominal.clone(), model, torque: None, stations: Vec::new() });
         }
         let exit = (s.instruments.active().is_none()).then(|| s.draw_wire.exit_point_m());
         let torque = TorqueModel::new(robot, loads, exit, s.draw_wire.tool_point_m());
         // The effects are configured on the candidates as a calibration configures them on its
         // data: a dataset of nominal readings at every candidate of a small Halton pool.
         let probe = candidates(s, robot, 200, s.seed)?.q;
-        let data = Model { x: model.nominal.clone(), model: model.clone(), torque: None }.dataset(&probe, None);
+        let data = Model { x: model.nominal.clone(), model: model.clone(), torque: None, stations: Vec::new() }.dataset(&probe, None);
         for &(kind, joint) in effects {
             let joints: Vec<Option<usize>> = if joint.is_none() && kind.per_joint() { (0..robot.dof()).map(Some).collect() } else { vec![joint] };
             for j in joints {
                 model.add_effect(block_for(&data, kind, j, true)?, time_span(&data));
             }
         }
-        Ok(Model { x: model.nominal.clone(), model, torque: Some(torque) })
+        Ok(Model { x: model.nominal.clone(), model, torque: Some(torque), stations: Vec::new() })
     }
 
     /// The model of a calibrated result (its chain in its parametrisation, its instrument's
@@ -164,7 +168,7 @@ impl Model {
         if let (Some(t), Some(p)) = (&mut torque, payload) {
             t.payload = Some((p.mass_kg, p.com_mm.map(crate::units::to_m)));
         }
-        Ok(Model { model: r.model.clone(), x: r.x.clone(), torque })
+        Ok(Model { model: r.model.clone(), x: r.x.clone(), torque, stations: Vec::new() })
     }
 
     /// The nominal model's readings at `q` as a dataset (mm, degrees), for configuring blocks
@@ -201,10 +205,12 @@ impl Model {
     /// What each pose carries besides its angles: the static torques (under the payload) of the
     /// load-driven effects.
     pub fn inputs(&self, q: &[Vec<f64>], payload_kg: Option<&[f64]>) -> Vec<RowInputs> {
-        match &self.torque {
+        let mut inputs = match &self.torque {
             Some(t) => row_inputs(&self.dataset(q, payload_kg), Some(t)),
             None => vec![RowInputs::default(); q.len()],
-        }
+        };
+        inputs.iter_mut().zip(&self.stations).for_each(|(i, s)| i.station = *s);
+        inputs
     }
 
     /// The Jacobian of the readings (mm) at the model's parameters `x` for poses `q` (with
@@ -455,6 +461,10 @@ pub struct Plan {
     pub unordered: tour::TourTime,
     /// Wall time of planning, s.
     pub seconds: f64,
+    /// For an artifact's plan, each pose's feature (`placement/socket`, `placement/face`), in
+    /// the tour's order: where to seat the ball or touch the probe.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub features: Option<Vec<String>>,
 }
 
 /// `n` distinct indices of `0..len`, seeded.
@@ -481,6 +491,9 @@ fn median_indices(pool: &Pool, sets: &[Vec<usize>]) -> Indices {
 
 /// Plans `opts.n` poses for scenario `s` on `robot` (see the module docs).
 pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
+    if s.sockets.is_some() || s.planes.is_some() {
+        return artifact::plan(s, robot, opts);
+    }
     let t0 = std::time::Instant::now();
     let crit = criterion(&opts.criterion)?;
     if opts.n == 0 || opts.candidates < opts.n {
@@ -567,5 +580,6 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         candidates: cands,
         design: d,
         seconds: t0.elapsed().as_secs_f64(),
+        features: None,
     })
 }

@@ -50,7 +50,7 @@ pub struct Scenario {
     pub effects: Effects,
     /// The draw-wire sensor, the file's `[sensor]` table (with another instrument: the tool
     /// point, the hold and the samples averaged).
-    #[serde(rename = "sensor")]
+    #[serde(rename = "sensor", alias = "draw_wire", default)]
     pub draw_wire: DrawWire,
     /// An instrument that reads instead of the cable (`[tracker]`), each under its own key.
     #[serde(flatten)]
@@ -295,13 +295,61 @@ impl Scenario {
     /// Parses a scenario from TOML text, without validating it; `origin` names the text in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Scenario> {
         let bad = |msg: String| Error::Scenario { path: origin.to_string(), msg };
-        let s: Scenario = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
+        let mut s: Scenario = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
         // A fixed-length array given more values reads its first ones and drops the rest
         // without a word: every array must keep its length through the scenario.
         let raw: toml::Table = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
+        s.resolve_target(raw.contains_key("sensor") || raw.contains_key("draw_wire")).map_err(bad)?;
         let kept = toml::Table::try_from(&s).map_err(|e| bad(e.to_string()))?;
         array_lengths(&toml::Value::Table(raw), &toml::Value::Table(kept), "").map_err(bad)?;
         Ok(s)
+    }
+
+    /// The target, hold and samples of a scenario without a draw-wire (`[sensor]` absent:
+    /// `sensor_given` false) from its `[acquisition]` table, into the one place every stage
+    /// reads them (the `[sensor]` table's); a draw-wire's scenario gives them in `[sensor]` only.
+    fn resolve_target(&mut self, sensor_given: bool) -> std::result::Result<(), String> {
+        let a = &mut self.acquisition;
+        let given: Vec<&str> =
+            [("tool_point_mm", a.tool_point_mm.is_some()), ("hold_s", a.hold_s.is_some()), ("samples", a.samples.is_some()), ("rate_hz", a.rate_hz.is_some())]
+                .into_iter()
+                .filter_map(|(k, g)| g.then_some(k))
+                .collect();
+        if sensor_given {
+            return match given.is_empty() {
+                true => Ok(()),
+                false => {
+                    Err(format!("acquisition.{} and [sensor] both given: with a draw-wire they are its table's; give them once", given.join(", acquisition.")))
+                }
+            };
+        }
+        let artifact = self.sockets.is_some() || self.planes.is_some();
+        if self.instruments.active().is_none() && !artifact {
+            return Err("no instrument: a scenario needs a [sensor] (draw-wire), a [tracker], [sockets] or [planes]".into());
+        }
+        let tool = match a.tool_point_mm {
+            Some(t) => t,
+            None if self.instruments.active().is_none() => [0.0; 3],
+            None => return Err("without a [sensor], the target the tracker reads is acquisition.tool_point_mm (flange frame, mm)".into()),
+        };
+        let d = DrawWire::default();
+        self.draw_wire = DrawWire {
+            tool_point_mm: tool,
+            hold_s: a.hold_s.take().unwrap_or(d.hold_s),
+            samples: a.samples.take().unwrap_or(d.samples),
+            rate_hz: a.rate_hz.take().unwrap_or(d.rate_hz),
+            ..d
+        };
+        a.tool_point_mm = None;
+        // The held-out rows are stratified over each pose's distance from the draw-wire's exit
+        // point; without one, from the instrument's origin (a tracker's).
+        if self.instruments.active().is_some() {
+            let p = crate::sim::instrument::placement(&self.draw_wire, &self.instruments);
+            self.draw_wire.exit_point_mm = crate::units::to_mm(p.measurement.def().frame(&p.own).origin).into();
+            // (No cable's range to keep the poses in.)
+            self.draw_wire.range_mm = [0.0, crate::measurement::length::MAX_L_MM];
+        }
+        Ok(())
     }
 
     /// Reads a scenario file, loads its robot (a URDF path relative to the file's folder) and

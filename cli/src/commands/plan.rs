@@ -31,6 +31,17 @@ pub fn plan(job: &twincal::jobs::PlanJob, quiet: bool) -> Result<()> {
         p.criterion,
         p.criterion_describe
     );
+    if let Some(features) = &p.features {
+        let mut counts: Vec<(&str, usize)> = Vec::new();
+        for f in features {
+            match counts.iter_mut().find(|(v, _)| v == f) {
+                Some((_, k)) => *k += 1,
+                None => counts.push((f, 1)),
+            }
+        }
+        let list: Vec<String> = counts.iter().map(|(f, k)| format!("{f} {k}")).collect();
+        eprintln!("  configurations per placement and feature, in the tour's order: {}", list.join(", "));
+    }
     if let Some(payloads) = &p.payload_kg {
         let mut counts: Vec<(f64, usize)> = Vec::new();
         for m in payloads {

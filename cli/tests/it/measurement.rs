@@ -773,3 +773,37 @@ fn every_instrument_writes_results_its_loader_reads() {
         assert!(o.status.success(), "{what}: predict refuses what diagnose wrote: {}", String::from_utf8_lossy(&o.stderr));
     }
 }
+
+/// A tracker's scenario needs no draw-wire: without its `[sensor]` table, the target, hold and
+/// samples in `[acquisition]`, it writes the same poses, times and readings as with it (its
+/// held-out rows stratified over the distance from the tracker instead of the cable's exit
+/// point); both at once, or no instrument at all, are refused by name.
+#[test]
+fn a_tracker_scenario_without_a_draw_wire_writes_the_same_dataset() {
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/irb120_tracker.toml"));
+    let text = std::fs::read_to_string(path).unwrap();
+    let (a, b) = (text.find("[sensor]").unwrap(), text.find("[tracker]").unwrap());
+    let without = format!("{}{}\n[acquisition]\ntool_point_mm = [62.0, 4.0, -3.0]\nsamples = 50\nhold_s = 2.0\nrate_hz = 1000.0\n", &text[..a], &text[b..]);
+    let rows = |t: &str| {
+        let s = twincal::sim::scenario::Scenario::from_toml(t, "irb120_tracker").unwrap();
+        let robot = s.load_robot(path.parent()).unwrap();
+        s.validate(&robot, "irb120_tracker").unwrap();
+        twincal::sim::generate::generate(&s, &robot, &twincal::progress::Silent).unwrap().dataset.rows
+    };
+    let (with, alone) = (rows(&text), rows(&without));
+    assert_eq!(with.len(), alone.len());
+    for (a, b) in with.iter().zip(&alone) {
+        assert_eq!((&a.q_deg, &a.reading_mm, a.t_s), (&b.q_deg, &b.reading_mm, b.t_s));
+    }
+    let tests = |r: &[twincal::dataset::Row]| r.iter().filter(|r| r.split == Some(twincal::dataset::Split::Test)).count();
+    assert_eq!(tests(&with), tests(&alone));
+    let both = format!("{text}\n[acquisition]\ntool_point_mm = [62.0, 4.0, -3.0]\n");
+    let e = twincal::sim::scenario::Scenario::from_toml(&both, "both").unwrap_err().to_string();
+    assert!(e.contains("acquisition.tool_point_mm and [sensor] both given"), "{e}");
+    let none = format!("{}{}", &text[..a], &text[text.find("[sampling]").unwrap()..]);
+    let e = twincal::sim::scenario::Scenario::from_toml(&none, "none").unwrap_err().to_string();
+    assert!(e.contains("no instrument"), "{e}");
+    let no_target = format!("{}{}", &text[..a], &text[b..]);
+    let e = twincal::sim::scenario::Scenario::from_toml(&no_target, "no_target").unwrap_err().to_string();
+    assert!(e.contains("acquisition.tool_point_mm"), "{e}");
+}

@@ -360,3 +360,41 @@ fn a_plan_and_a_pose_list_become_measurement_programs() {
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(same(&pose_rows(&k.join("same.mod")), &poses), "the pose list is left as it was");
 }
+
+/// An artifact's plan: the configurations to seat (touch) chosen among the artifact's own
+/// acquisition on the nominal arm, each with its placement and feature, placement after
+/// placement; better by its criterion than the median random set of as many; a measurement
+/// program for it refused by name.
+#[test]
+fn a_plan_for_an_artifact_names_each_configurations_placement_and_feature() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    for (file, column) in [("irb120_sockets.toml", "socket"), ("irb120_planes.toml", "plane")] {
+        let out = dir.path().join(file);
+        let sc = root.join("scenarios").join(file);
+        let o = twincal(&["plan", "--scenario", s(&sc), "--poses", "60", "--candidates", "600", "--out", s(&out), "--quiet"]);
+        assert!(o.status.success(), "{file}: {}", String::from_utf8_lossy(&o.stderr));
+        let csv = std::fs::read_to_string(out.join("poses.csv")).unwrap();
+        let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+        assert!(header.contains(&"placement") && header.contains(&column), "{file}: {header:?}");
+        let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+        assert_eq!(rows.len(), 60);
+        let p = header.iter().position(|h| *h == "placement").unwrap();
+        // Placement after placement: once left, a placement is not visited again.
+        let mut seen: Vec<&str> = Vec::new();
+        for r in &rows {
+            if seen.last() != Some(&r[p]) {
+                assert!(!seen.contains(&r[p]), "{file}: placement {} visited twice", r[p]);
+                seen.push(r[p]);
+            }
+        }
+        let plan: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("plan.json")).unwrap()).unwrap();
+        let (planned, random) = (plan["indices"]["i_prediction_variance"].as_f64().unwrap(), plan["random_median"]["i_prediction_variance"].as_f64().unwrap());
+        assert!(planned < random, "{file}: planned {planned} vs random {random}");
+        assert_eq!(plan["features"].as_array().unwrap().len(), 60);
+        let o =
+            twincal(&["plan", "--scenario", s(&sc), "--poses", "60", "--candidates", "600", "--out", s(&dir.path().join("p")), "--program-format", "rapid"]);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&o.stderr).contains("by hand"), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+}

@@ -120,6 +120,28 @@ impl std::fmt::Display for OutOfRange {
     }
 }
 
+impl Default for DrawWire {
+    /// No draw-wire: the target at the flange's origin, the acquisition's defaults (a scenario
+    /// without `[sensor]` reads with another instrument).
+    fn default() -> DrawWire {
+        DrawWire {
+            exit_point_mm: [0.0; 3],
+            tool_point_mm: [0.0; 3],
+            length_offset_mm: 0.0,
+            noise_std_mm: 0.0,
+            resolution_mm: 0.0,
+            linearity_pct_fs: 0.0,
+            range_mm: Self::default_range(),
+            tension_n: 0.0,
+            hold_s: Self::default_hold(),
+            samples: Self::default_samples(),
+            rate_hz: Self::default_rate(),
+            polynomial: None,
+            noise_t_dof: None,
+        }
+    }
+}
+
 impl DrawWire {
     fn default_range() -> [f64; 2] {
         [0.0, 2000.0]

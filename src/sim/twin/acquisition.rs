@@ -65,6 +65,20 @@ pub struct Acquisition {
     /// Poses per independently simulated chunk of the tour.
     #[serde(default = "Acquisition::default_chunk")]
     pub chunk_poses: usize,
+    /// The target on the flange every instrument reads (flange frame, mm: a tracker's
+    /// reflector), in a scenario without a draw-wire (`[sensor]`, whose `tool_point_mm` it is
+    /// otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_point_mm: Option<[f64; 3]>,
+    /// The hold at each pose, s, without a `[sensor]` (default 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hold_s: Option<f64>,
+    /// Raw samples averaged into a reading, without a `[sensor]` (default 50).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples: Option<usize>,
+    /// The instrument's sampling rate, Hz, without a `[sensor]` (default 1000).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_hz: Option<f64>,
 }
 
 /// Largest `acquisition.coarse_dt_s`, s.
@@ -81,6 +95,10 @@ impl Default for Acquisition {
             on_timeout: OnTimeout::default(),
             coarse_dt_s: Self::default_coarse_dt(),
             chunk_poses: Self::default_chunk(),
+            tool_point_mm: None,
+            hold_s: None,
+            samples: None,
+            rate_hz: None,
         }
     }
 }
