@@ -12,7 +12,7 @@ use twincal::error::{Error, Result};
 use twincal::sim::scenario::Scenario;
 
 /// The cases: (label, scenario file).
-const CASES: [(&str, &str); 3] = [
+const CASES: [Case; 3] = [
     ("IRB 120, two sockets 50 mm apart, three placements, 30 seatings per socket", "irb120_sockets"),
     ("UR10, the same plate and seatings", "ur10_sockets"),
     ("Barrett WAM (7 joints), the same plate and seatings", "wam_sockets"),
@@ -21,7 +21,7 @@ const CASES: [(&str, &str); 3] = [
 /// The artifact's variants: (label, edit of the scenario's text). The scenarios' artifact is
 /// printed in PLA with its second socket 0.01 mm off and seated 1 K above the temperature it
 /// was made at, the ball off-centre by 0.01 mm per coordinate.
-const VARIANTS: [(&str, &[(&str, &str)]); 3] = [
+const VARIANTS: [Variant; 3] = [
     (
         "exact (as designed, at 20 °C, seated dead centre)",
         &[
@@ -56,13 +56,15 @@ pub(super) fn load_case(dir: &Path, file: &str, edits: &[(&str, &str)]) -> Resul
     Ok((s, robot, opts))
 }
 
-/// Runs every case over `seeds` seeds and prints the table.
-pub fn bench_sockets(seeds: u64) -> Result<()> {
-    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios"));
-    println!("# A ball in sockets on the twin ({seeds} seeds): calibrated from the seated rows alone, judged on 100 tracker points no fit saw after registering the tracker on 200 others; |Δp| RMS over the points, mm, mean ± sd over seeds\n");
-    println!("| case | artifact | seated rows (train) | socket rows' test RMSE | nominal | sockets | tracker, as many rows | sockets / tracker (worst seed) | calibration time (median) |");
-    println!("|---|---|---|---|---|---|---|---|---|");
-    for ((label, file), (variant, edits)) in CASES.iter().flat_map(|c| VARIANTS.iter().map(move |v| (c, v))) {
+/// A case: its label and scenario file.
+pub(super) type Case = (&'static str, &'static str);
+/// A variant: its label and the edits of the scenario's text.
+pub(super) type Variant = (&'static str, &'static [(&'static str, &'static str)]);
+
+/// The table's rows: every case under every variant over `seeds` seeds ([`check`]), the
+/// artifact's arm against the nominal and a tracker calibration from as many rows.
+pub(super) fn rows(dir: &Path, seeds: u64, cases: &[Case], variants: &[Variant]) -> Result<()> {
+    for ((label, file), (variant, edits)) in cases.iter().flat_map(|c| variants.iter().map(move |v| (c, v))) {
         let (s0, robot, opts) = load_case(dir, file, edits)?;
         let mut times = Vec::new();
         let checks: Vec<ArtifactCheck> = (1..=seeds)
@@ -89,6 +91,16 @@ pub fn bench_sockets(seeds: u64) -> Result<()> {
             times[times.len() / 2]
         );
     }
+    Ok(())
+}
+
+/// Runs every case over `seeds` seeds and prints the table.
+pub fn bench_sockets(seeds: u64) -> Result<()> {
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios"));
+    println!("# A ball in sockets on the twin ({seeds} seeds): calibrated from the seated rows alone, judged on 100 tracker points no fit saw after registering the tracker on 200 others; |Δp| RMS over the points, mm, mean ± sd over seeds\n");
+    println!("| case | artifact | seated rows (train) | socket rows' test RMSE | nominal | sockets | tracker, as many rows | sockets / tracker (worst seed) | calibration time (median) |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    rows(dir, seeds, &CASES, &VARIANTS)?;
     beside(dir, seeds)?;
     held_out(dir, seeds)
 }

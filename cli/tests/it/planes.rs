@@ -2,30 +2,9 @@
 //! calibration from the contacts alone judged on a tracker's points of the same arm that no fit
 //! saw, and what such rows cannot determine said by name.
 
-use std::path::{Path, PathBuf};
-use std::process::Output;
-use twincal::calib::pipeline::{CalibOptions, Method, ModelSpec, Parametrisation};
+use crate::common::artifact::{lm, scenario, scenario_path, twincal};
 use twincal::dataset::Dataset;
 use twincal::sim::scenario::Scenario;
-
-fn twincal(args: &[&str]) -> Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).output().expect("runs")
-}
-
-fn scenario_path() -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/irb120_planes.toml")).to_path_buf()
-}
-
-fn scenario(edit: &dyn Fn(String) -> String) -> (Scenario, twincal::robot::Robot) {
-    let text = edit(std::fs::read_to_string(scenario_path()).unwrap());
-    let s = Scenario::from_toml(&text, "irb120_planes").unwrap();
-    let robot = s.load_robot(scenario_path().parent()).unwrap();
-    (s, robot)
-}
-
-fn lm(robot: &twincal::robot::Robot) -> CalibOptions {
-    CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: Parametrisation::Hayati }, Method::LM)
-}
 
 /// An exact probe on an exact block: the faces' arm predicts unseen tracker points as well as a
 /// tracker calibration of the same arm from as many rows (within 1.5x, three seeds). With the
@@ -41,8 +20,8 @@ fn a_probe_on_a_blocks_faces_calibrates_the_arm_judged_on_unseen_tracker_points(
             .replace("made_error_mm = [0.0, 0.002, 0.0, 0.0]", "made_error_mm = [0.0, 0.0, 0.0, 0.0]")
             .replace("expansion_ppm_per_k = 12.0", "expansion_ppm_per_k = 0.0")
     };
-    let (s_exact, robot) = scenario(&exact);
-    let (s_real, _) = scenario(&|t| t);
+    let (s_exact, robot) = scenario("irb120_planes", &exact);
+    let (s_real, _) = scenario("irb120_planes", &|t| t);
     for seed in 1..=3u64 {
         let c = twincal::artifact_check::check(&Scenario { seed, ..s_exact.clone() }, &robot, &lm(&robot)).unwrap();
         assert!(c.artifact_mm <= 1.5 * c.tracker_mm, "seed {seed}: exact probe: faces {:.4} mm vs tracker {:.4} mm", c.artifact_mm, c.tracker_mm);
@@ -60,7 +39,7 @@ fn a_probe_on_a_blocks_faces_calibrates_the_arm_judged_on_unseen_tracker_points(
 #[test]
 fn face_files_are_byte_identical_and_a_calibration_states_what_it_found() {
     let dir = tempfile::tempdir().unwrap();
-    let sc = scenario_path();
+    let sc = scenario_path("irb120_planes");
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
     for out in [&a, &b] {
         let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
@@ -114,7 +93,7 @@ fn face_files_are_byte_identical_and_a_calibration_states_what_it_found() {
 fn what_face_rows_cannot_determine_is_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("p");
-    let sc = scenario_path();
+    let sc = scenario_path("irb120_planes");
     assert!(twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]).status.success());
     let data = Dataset::load(&out).unwrap();
     let refused = |d: &Dataset, extra: &[&str], expect: &str| {

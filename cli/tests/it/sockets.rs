@@ -2,30 +2,10 @@
 //! seated rows alone judged on a tracker's points of the same arm that no fit saw, the files as
 //! tools write them, and what such rows cannot determine said by name.
 
-use std::path::{Path, PathBuf};
-use std::process::Output;
-use twincal::calib::pipeline::{CalibOptions, Method, ModelSpec, Parametrisation};
+use crate::common::artifact::{lm, scenario, scenario_path, twincal};
+use std::path::Path;
 use twincal::dataset::{Dataset, ReadOptions};
 use twincal::sim::scenario::Scenario;
-
-fn twincal(args: &[&str]) -> Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_twincal")).args(args).output().expect("runs")
-}
-
-fn scenario_path() -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/irb120_sockets.toml")).to_path_buf()
-}
-
-fn scenario(edit: &dyn Fn(String) -> String) -> (Scenario, twincal::robot::Robot) {
-    let text = edit(std::fs::read_to_string(scenario_path()).unwrap());
-    let s = Scenario::from_toml(&text, "irb120_sockets").unwrap();
-    let robot = s.load_robot(scenario_path().parent()).unwrap();
-    (s, robot)
-}
-
-fn lm(robot: &twincal::robot::Robot) -> CalibOptions {
-    CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot.clone()), parametrisation: Parametrisation::Hayati }, Method::LM)
-}
 
 /// An artifact made as designed, at the temperature it was made at, and a ball that seats
 /// exactly: the sockets' arm predicts unseen tracker points as well as a tracker calibration of
@@ -40,8 +20,8 @@ fn a_ball_in_sockets_calibrates_the_arm_judged_on_unseen_tracker_points() {
             .replace("expansion_ppm_per_k = 68.0", "expansion_ppm_per_k = 0.0")
             .replace("seat_std_mm = 0.01", "seat_std_mm = 0.0")
     };
-    let (s_exact, robot) = scenario(&exact);
-    let (s_real, _) = scenario(&|t| t);
+    let (s_exact, robot) = scenario("irb120_sockets", &exact);
+    let (s_real, _) = scenario("irb120_sockets", &|t| t);
     for seed in 1..=3u64 {
         let c = twincal::artifact_check::check(&Scenario { seed, ..s_exact.clone() }, &robot, &lm(&robot)).unwrap();
         assert!(c.artifact_mm <= 1.5 * c.tracker_mm, "seed {seed}: exact artifact: sockets {:.4} mm vs tracker {:.4} mm", c.artifact_mm, c.tracker_mm);
@@ -57,7 +37,7 @@ fn a_ball_in_sockets_calibrates_the_arm_judged_on_unseen_tracker_points() {
 #[test]
 fn socket_files_are_byte_identical_and_read_as_tools_write_them() {
     let dir = tempfile::tempdir().unwrap();
-    let sc = scenario_path();
+    let sc = scenario_path("irb120_sockets");
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
     for out in [&a, &b] {
         let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
@@ -97,7 +77,7 @@ fn socket_files_are_byte_identical_and_read_as_tools_write_them() {
 fn what_artifact_rows_cannot_determine_is_said() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("s");
-    let sc = scenario_path();
+    let sc = scenario_path("irb120_sockets");
     assert!(twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]).status.success());
     let data = Dataset::load(&out).unwrap();
     let refused = |d: &Dataset, extra: &[&str], expect: &str| {
@@ -141,7 +121,7 @@ fn what_artifact_rows_cannot_determine_is_said() {
 /// as stated. The file round-trips; a seated row with a tracker reading is refused.
 #[test]
 fn sockets_and_a_few_tracker_points_fit_together() {
-    let (s, robot) = scenario(&|t| t);
+    let (s, robot) = scenario("irb120_sockets", &|t| t);
     for seed in [1u64, 2] {
         let c = twincal::artifact_check::mixed(&Scenario { seed, ..s.clone() }, &robot, &lm(&robot), 20).unwrap();
         assert!(c.mixed_mm < c.artifact_mm / 4.0 && c.mixed_mm < 0.02, "seed {seed}: {c:?}");

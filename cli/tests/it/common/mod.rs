@@ -2,6 +2,8 @@
 //! the views of the layout (blueprint) sent with it.
 #![allow(dead_code)]
 
+pub mod artifact;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use twincal_viz::re_log_encoding::DecoderApp;
