@@ -185,6 +185,26 @@ pub trait Instrument: Block + FileRows + Placing {}
 
 impl<T: Block + FileRows + Placing> Instrument for T {}
 
+/// The [`FileRows`] of an instrument that reads nothing (a ball seated in a socket, a probe's
+/// contact with a face): no dataset column, every model value zero, nothing implausible.
+macro_rules! reads_nothing {
+    () => {
+        fn file_columns(&self) -> &'static [&'static str] {
+            &[]
+        }
+        fn values_of_file(&self, _file: &[f64], out: &mut [f64]) {
+            out.iter_mut().for_each(|v| *v = 0.0);
+        }
+        fn file_of_values(&self, _v: &[f64], _euler: $crate::measurement::Euler) -> Vec<f64> {
+            Vec::new()
+        }
+        fn implausible(&self, _k: usize, _v: f64) -> Option<String> {
+            None
+        }
+    };
+}
+pub(crate) use reads_nothing;
+
 /// The kind of an artifact's feature a row names: what held the target still (a socket) or
 /// where it touched (a face). The rows' column of that name carries the feature's label.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]

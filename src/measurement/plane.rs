@@ -291,18 +291,7 @@ impl super::FileRows for Plane {
     fn describe(&self) -> &'static str {
         "touch probe on a face"
     }
-    fn file_columns(&self) -> &'static [&'static str] {
-        &[]
-    }
-    fn values_of_file(&self, _file: &[f64], out: &mut [f64]) {
-        out.iter_mut().for_each(|v| *v = 0.0);
-    }
-    fn file_of_values(&self, _v: &[f64], _euler: super::Euler) -> Vec<f64> {
-        Vec::new()
-    }
-    fn implausible(&self, _k: usize, _v: f64) -> Option<String> {
-        None
-    }
+    super::reads_nothing!();
     fn feature(&self) -> Option<FeatureKind> {
         Some(FeatureKind::Plane)
     }

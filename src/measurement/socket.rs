@@ -58,18 +58,7 @@ impl super::FileRows for Socket {
     fn describe(&self) -> &'static str {
         "ball seated in a socket"
     }
-    fn file_columns(&self) -> &'static [&'static str] {
-        &[]
-    }
-    fn values_of_file(&self, _file: &[f64], out: &mut [f64]) {
-        out.iter_mut().for_each(|v| *v = 0.0);
-    }
-    fn file_of_values(&self, _v: &[f64], _euler: super::Euler) -> Vec<f64> {
-        Vec::new()
-    }
-    fn implausible(&self, _k: usize, _v: f64) -> Option<String> {
-        None
-    }
+    super::reads_nothing!();
     fn feature(&self) -> Option<super::FeatureKind> {
         Some(super::FeatureKind::Socket)
     }
