@@ -65,7 +65,12 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
     if data.rows.len() < opts.n {
         return Err(Error::Invalid(format!("{} candidate configurations for {} asked: ask for fewer", data.rows.len(), opts.n)));
     }
-    let designed = crate::sim::generate::artifact_rows(s, robot).map(|r| r.map(|r| r.designed)).transpose()?.unwrap_or_default();
+    // The distances the user states, as designed (the artifact's drawing, not as made).
+    let designed = match (&s.sockets, &s.planes) {
+        (Some(a), _) => a.designed_spacings_mm(),
+        (_, Some(a)) => a.designed_steps_mm(),
+        _ => Vec::new(),
+    };
     let copts = CalibOptions {
         spacings: designed.iter().map(|(a, b, d)| crate::calib::model::KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect(),
         ..CalibOptions::new(ModelSpec::nominal(robot.clone(), opts.parametrisation), Method::LM)

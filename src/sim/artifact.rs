@@ -142,6 +142,12 @@ impl Sockets {
         self.labels.get(k).cloned().unwrap_or_else(|| ((b'A' + (k % 26) as u8) as char).to_string())
     }
 
+    /// The designed distances from the first socket to each other one, mm: what a user states,
+    /// as (first, other, mm).
+    pub fn designed_spacings_mm(&self) -> Vec<(String, String, f64)> {
+        (1..self.layout_mm.len()).map(|k| (self.label(0), self.label(k), self.designed_spacing_mm(0, k))).collect()
+    }
+
     /// The designed distance between sockets `a` and `b`, mm: what a user states.
     pub fn designed_spacing_mm(&self, a: usize, b: usize) -> f64 {
         let (p, q) = (self.layout_mm[a], self.layout_mm[b]);
@@ -267,11 +273,11 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
     let limits = robot.limits();
     let ball = crate::units::to_m(Vector3::from(art.ball_mm));
     let mut rows = Vec::new();
-    let mut truth = SocketTruth { ball_mm: art.ball_mm, sockets_mm: Vec::new(), spacings_mm: Vec::new(), designed_spacings_mm: Vec::new(), unreachable: 0 };
+    let mut truth =
+        SocketTruth { ball_mm: art.ball_mm, sockets_mm: Vec::new(), spacings_mm: Vec::new(), designed_spacings_mm: art.designed_spacings_mm(), unreachable: 0 };
     for k in 1..art.layout_mm.len() {
         let grow = (art.made_m(k) - art.made_m(0)).norm();
         truth.spacings_mm.push((art.label(0), art.label(k), crate::units::to_mm(grow)));
-        truth.designed_spacings_mm.push((art.label(0), art.label(k), art.designed_spacing_mm(0, k)));
     }
     let mut t = 0.0;
     let seat = Normal::new(0.0, crate::units::to_m(art.seat_std_mm).max(1e-300)).map_err(|e| Error::Invalid(e.to_string()))?;

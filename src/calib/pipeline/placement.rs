@@ -77,22 +77,23 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     let at = |kind: SetupKind, s: usize| labels[usize::from(kind == SetupKind::Mount)].get(s).map_or(String::new(), |l| format!(" at {} {l}", kind.name()));
     // The first station and mount together: the rows of both.
     let first_rows: Vec<usize> = (0..train.len()).filter(own_row).filter(|i| train.inputs[*i].station == 0 && train.inputs[*i].mount == 0).collect();
-    let station_rows = |rows: &[usize]| seen_from(&flanges, train, rows);
-    // A target every station's rows agree on (a stylus touching several faces), where the
-    // instrument finds one.
-    let shared = if searched.is_none() {
-        let all: Vec<_> = (0..stations.len().max(1)).map(|s| station_rows(&rows_of(SetupKind::Station, s))).collect();
-        measurement.def().locate_target(&all)
-    } else {
-        None
-    };
+    // An artifact's features (each a station) share the target: where the instrument finds it
+    // from every station's rows together (a stylus touching several faces), each station is
+    // placed about it.
+    let artifact = searched.is_none() && measurement.feature().is_some();
+    let station_rows = |s: usize| seen_from(&flanges, train, &rows_of(SetupKind::Station, s));
+    let shared = artifact.then(|| measurement.def().locate_target(&(0..stations.len().max(1)).map(station_rows).collect::<Vec<_>>())).flatten();
     let about = |s: usize, tool: &nalgebra::Vector3<f64>| -> Option<Placement> {
-        let (pts, rots, y) = station_rows(&rows_of(SetupKind::Station, s));
+        if !artifact {
+            return None;
+        }
+        let (pts, rots, y) = station_rows(s);
         measurement.def().locate_about(&pts, &rots, &y, tool).map(|own| Placement { measurement, own, tool: *tool })
     };
+    let shared_first = shared.and_then(|t| about(0, &t));
     let first = match (measurement, &opts.draw_wire_guess) {
         _ if searched.is_some() => searched.clone().expect("searched"),
-        _ if shared.is_some_and(|t| about(0, &t).is_some()) => shared.and_then(|t| about(0, &t)).expect("placed"),
+        _ if shared_first.is_some() => shared_first.expect("placed"),
         (Measurement::Length, Some(g)) => Placement::cable(g.exit_m.into(), g.offset_m, g.tool_m.into()),
         _ => {
             let rows = if first_rows.len() >= 3 { first_rows } else { rows_of(SetupKind::Station, 0) };
