@@ -131,7 +131,7 @@ fn twin_torques(s: &Scenario, robot: &Robot) -> TorqueModel {
     let sn = &s.draw_wire;
     let cable = s.instruments.active().is_none();
     let loads = JointLoads { cable_tension_n: if cable { sn.tension_n } else { 0.0 }, ..Default::default() };
-    TorqueModel::new(robot, &loads, cable.then(|| sn.exit_point_m()), sn.tool_point_m())
+    TorqueModel::new(robot, &loads, cable.then(|| sn.exit_point_m()), sn.tool_point_m(), false)
 }
 
 /// RMS (mm per reading value) per unit size of the reading change a rigid fit cannot absorb,
@@ -366,7 +366,7 @@ pub fn hidden_payload_runs(seed: u64, factors: std::ops::Range<f64>) -> Result<(
         }
     };
     let loads = JointLoads { payload: Some(crate::robot::statics::Payload { mass_kg: 0.0, com_mm: PAYLOAD_COM_MM }), ..Default::default() };
-    let torque = TorqueModel::new(&robot, &loads, None, s.draw_wire.tool_point_m());
+    let torque = TorqueModel::new(&robot, &loads, None, s.draw_wire.tool_point_m(), false);
     let model = nominal_model(&s, &robot);
     let unabsorbed = |data: &Dataset, joint: usize| -> Result<f64> {
         unabsorbed_at(data, model.clone(), zero_samples(&model, data), &torque, EffectKind::Compliance, Some(joint), 0.0)

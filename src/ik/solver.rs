@@ -730,7 +730,7 @@ mod tests {
             assert!((fd - col).norm() < 1e-6, "joint {j}: {fd:?} vs {col:?}");
         }
         let loads = JointLoads { payload: Some(Payload { mass_kg: 3.0, com_mm: [40.0, 0.0, 60.0] }), ..JointLoads::default() };
-        let ik = IkModel::new(&m, &x, None, limits.clone()).with_loads(TorqueModel::new(&robot, &loads, None, probe.tool));
+        let ik = IkModel::new(&m, &x, None, limits.clone()).with_loads(TorqueModel::new(&robot, &loads, None, probe.tool, false));
         let o = IkOptions { tol_mm: 0.001, tol_deg: 0.001, max_iter: 100, ..IkOptions::default() };
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         for _ in 0..20 {

@@ -132,7 +132,7 @@ impl Model {
             return Ok(Model { x: model.nominal.clone(), model, torque: None, stations: Vec::new() });
         }
         let exit = (s.instruments.active().is_none()).then(|| s.draw_wire.exit_point_m());
-        let torque = TorqueModel::new(robot, loads, exit, s.draw_wire.tool_point_m());
+        let torque = TorqueModel::new(robot, loads, exit, s.draw_wire.tool_point_m(), false);
         // The effects are configured on the candidates as a calibration configures them on its
         // data: a dataset of nominal readings at every candidate of a small Halton pool.
         let probe = candidates(s, robot, 200, s.seed)?.q;

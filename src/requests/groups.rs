@@ -130,6 +130,10 @@ pub struct Loads {
     /// Draw-wire cable tension from the sensor's data sheet, N (0: ignored).
     #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0, allow_negative_numbers = true))]
     pub cable_tension_n: f64,
+    /// The force pressing the ball into its socket, or the probe onto a face, along the flange's z
+    /// axis, N (artifact data; 0: ignored). A hand pushes 10–30 N; a spring or magnet states its own.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0, allow_negative_numbers = true))]
+    pub preload_n: f64,
 }
 
 impl Loads {
@@ -140,6 +144,10 @@ impl Loads {
             return Err(Error::Invalid(format!("--cable-tension-n must be in [0, 1000] N, got {}", self.cable_tension_n)));
         }
         o.cable_tension_n = self.cable_tension_n;
+        if !(self.preload_n.is_finite() && (0.0..=crate::calib::effects::inputs::MAX_PRELOAD_N).contains(&self.preload_n)) {
+            return Err(Error::Invalid(format!("--preload-n must be in [0, {}] N, got {}", crate::calib::effects::inputs::MAX_PRELOAD_N, self.preload_n)));
+        }
+        o.preload_n = self.preload_n;
         match (self.payload_kg, &self.payload_com_mm) {
             (None, None) => {}
             (Some(m), com) => {

@@ -44,6 +44,18 @@ impl CableLoad {
     }
 }
 
+/// A force pressing the instrument's target against an artifact: the operator (or a spring, a
+/// magnet) holding the ball in its socket, a probe's trigger force on a face. It acts along the
+/// flange's z axis (the ball's stem, the probe's shank), the artifact pushing back towards the
+/// flange.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Push {
+    /// Where it acts, in the flange frame, m (the ball's or the stylus's centre).
+    pub point: Vector3<f64>,
+    /// Its size, N.
+    pub force_n: f64,
+}
+
 /// Everything that loads the joints of a resting arm.
 #[derive(Clone, Debug)]
 pub struct LoadModel {
@@ -55,6 +67,8 @@ pub struct LoadModel {
     pub payload: Option<(f64, Vector3<f64>)>,
     /// The cable pulling at the tool point, if any.
     pub cable: Option<CableLoad>,
+    /// The artifact pushing back on the instrument's target, if any.
+    pub push: Option<Push>,
 }
 
 impl LoadModel {
@@ -65,6 +79,7 @@ impl LoadModel {
             links: robot.links.iter().map(|l| (l.mass, l.com)).collect(),
             payload: payload.filter(|p| p.mass_kg > 0.0).map(|p| (p.mass_kg, crate::units::to_m(Vector3::from(p.com_mm)))),
             cable,
+            push: None,
         }
     }
 
@@ -92,6 +107,10 @@ impl LoadModel {
             let p = chain.frame(ws, flange).point(&c.tool_point);
             let force = c.force_at(&p);
             add(flange, &c.tool_point, Some(force), 0.0, jac);
+        }
+        if let Some(p) = &self.push {
+            let force = -chain.frame(ws, flange).rot.column(2) * p.force_n;
+            add(flange, &p.point, Some(force), 0.0, jac);
         }
     }
 }

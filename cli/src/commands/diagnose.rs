@@ -61,6 +61,9 @@ fn calibrate_line(a: &DiagnoseJob, effects: &str, no_sensor_lag: bool) -> String
     if a.request.loads.cable_tension_n != 0.0 {
         line += &format!(" --cable-tension-n {}", a.request.loads.cable_tension_n);
     }
+    if a.request.loads.preload_n != 0.0 {
+        line += &format!(" --preload-n {}", a.request.loads.preload_n);
+    }
     if !effects.is_empty() {
         line += &format!(" --effects {effects}");
     }

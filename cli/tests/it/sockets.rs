@@ -143,3 +143,49 @@ fn sockets_and_a_few_tracker_points_fit_together() {
     let e = Dataset::load(&f).unwrap_err().to_string();
     assert!(e.contains("reads nothing"), "{e}");
 }
+
+/// The operator's preload along the ball's stem loads the joints: with the force stated
+/// (`--preload-n`), `diagnose` names the joints' compliance from the seated rows alone, at the
+/// twin's sizes, and the held-out fit falls to that of an arm with no compliance; an arm as stiff
+/// as the twin's links under the same preload is left geometric (two seeds each). Tracker rows
+/// refuse the option by name.
+#[test]
+fn diagnose_names_compliance_under_the_socket_preload() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_string_lossy().into_owned();
+    let base = std::fs::read_to_string(scenario_path("irb120_sockets"))
+        .unwrap()
+        .replace("seat_std_mm = 0.01", "seat_std_mm = 0.003")
+        .replace("preload_n = 0.0", "preload_n = 30.0");
+    let compliant = base.replace("[sensor]", "[effects.compliance]\nstiffness_nm_per_rad = [1.5e5, 1.0e5, 8.0e4, 3.0e4, 3.0e4, 2.0e4]\n\n[sensor]");
+    let run = |text: &str, seed: u64, name: &str| -> serde_json::Value {
+        std::fs::write(p(&format!("{name}.toml")), text.replace("seed = 7", &format!("seed = {seed}"))).unwrap();
+        let g = twincal(&["generate", "--scenario", &p(&format!("{name}.toml")), "--out", &p(name), "--quiet"]);
+        assert!(g.status.success(), "{}", String::from_utf8_lossy(&g.stderr));
+        let d = twincal(&["diagnose", "--data", &p(name), "--spacing-mm", "50", "--preload-n", "30", "--out", &p(&format!("{name}.json")), "--quiet"]);
+        assert!(d.status.success(), "{}", String::from_utf8_lossy(&d.stderr));
+        serde_json::from_str(&std::fs::read_to_string(p(&format!("{name}.json"))).unwrap()).unwrap()
+    };
+    for seed in [1u64, 2] {
+        let stiff = run(&base, seed, &format!("stiff{seed}"));
+        assert_eq!(stiff["verdict"], "geometric_only", "seed {seed}: {}", stiff["causes"]);
+        let floor = stiff["final_heldout_rmse_mm"].as_f64().unwrap();
+        let d = run(&compliant, seed, &format!("compliant{seed}"));
+        let causes = d["causes"].as_array().unwrap();
+        assert!(causes.iter().all(|c| c["cause"] == "compliance"), "seed {seed}: {causes:?}");
+        // Compliance = 1/stiffness, urad/Nm.
+        for (joint, truth) in [(1, 1e6 / 1.5e5), (2, 1e6 / 1.0e5), (3, 1e6 / 8.0e4)] {
+            let c = causes.iter().find(|c| c["joint"] == joint).unwrap_or_else(|| panic!("seed {seed}: joint {joint} not named: {causes:?}"));
+            let m = c["magnitude"].as_f64().unwrap();
+            assert!((m - truth).abs() < 0.15 * truth, "seed {seed}: joint {joint}: {m:.2} urad/Nm against {truth:.2}");
+        }
+        let before = d["baseline"]["heldout_rmse_mm"].as_f64().unwrap();
+        let after = d["final_heldout_rmse_mm"].as_f64().unwrap();
+        assert!(before > 2.0 * after && after < 1.2 * floor, "seed {seed}: {before:.4} -> {after:.4} mm, stiff arm {floor:.4} mm");
+    }
+    let g = twincal(&["generate", "--scenario", scenario_path("irb120_tracker").to_str().unwrap(), "--out", &p("tracker"), "--quiet"]);
+    assert!(g.status.success());
+    let e = twincal(&["calibrate", "--data", &p("tracker"), "--preload-n", "20", "--out", &p("t.json")]);
+    assert_eq!(e.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&e.stderr).contains("--preload-n"), "{}", String::from_utf8_lossy(&e.stderr));
+}

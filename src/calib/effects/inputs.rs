@@ -11,7 +11,7 @@ use crate::calib::effects::{EffectBlock, EffectKind, RowInputs};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::robot::kinematics::{Chain, FkWork, PointJacobian};
-use crate::robot::statics::{approach_sides, CableLoad, LoadModel, Payload, GRAVITY};
+use crate::robot::statics::{approach_sides, CableLoad, LoadModel, Payload, Push, GRAVITY};
 use crate::robot::Robot;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -23,13 +23,16 @@ pub struct JointLoads {
     pub payload: Option<Payload>,
     /// Draw-wire spring tension, N (from the sensor's data sheet; 0 = ignore).
     pub cable_tension_n: f64,
+    /// The force pressing the instrument's target against an artifact along the flange's z axis
+    /// (a ball held in its socket, a probe on a face), N (0 = ignore).
+    pub preload_n: f64,
     /// Static torque above which the load, not the approach motion, decides the backlash flank.
     pub torque_threshold_nm: f64,
 }
 
 impl Default for JointLoads {
     fn default() -> Self {
-        JointLoads { payload: None, cable_tension_n: 0.0, torque_threshold_nm: 0.5 }
+        JointLoads { payload: None, cable_tension_n: 0.0, preload_n: 0.0, torque_threshold_nm: 0.5 }
     }
 }
 
@@ -64,6 +67,10 @@ pub struct TorqueModel {
     /// Cable exit point (base frame, m), tool point (flange frame, m) and tension (N); none
     /// without a tension or without a cable (another instrument).
     pub cable: Option<([f64; 3], [f64; 3], f64)>,
+    /// The artifact pushing back on the instrument's target: where it acts (flange frame, m) and
+    /// the preload (N); none without a preload or without an artifact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub push: Option<([f64; 3], f64)>,
     /// Static torque above which the load, not the approach motion, decides the backlash flank,
     /// N·m.
     pub torque_threshold_nm: f64,
@@ -74,7 +81,10 @@ impl TorqueModel {
     /// a cable's tension. A URDF without inertials and no payload gives zero torque everywhere,
     /// and a torque-driven effect is not identifiable from it.
     pub fn carries_torque(&self) -> bool {
-        self.links.iter().any(|(m, _)| *m > 0.0) || self.payload.is_some_and(|(m, _)| m > 0.0) || self.cable.is_some_and(|(_, _, f)| f > 0.0)
+        self.links.iter().any(|(m, _)| *m > 0.0)
+            || self.payload.is_some_and(|(m, _)| m > 0.0)
+            || self.cable.is_some_and(|(_, _, f)| f > 0.0)
+            || self.push.is_some_and(|(_, f)| f > 0.0)
     }
 }
 
@@ -84,12 +94,15 @@ pub const MAX_MASS_KG: f64 = 10_000.0;
 pub const MAX_LOAD_POINT_M: f64 = 100.0;
 /// Largest cable tension (N) a result file may hold: a draw-wire pulls a few newtons.
 pub const MAX_CABLE_TENSION_N: f64 = 1_000.0;
+/// Largest preload (N) on an artifact: a hand pushes tens of newtons.
+pub const MAX_PRELOAD_N: f64 = 1_000.0;
 
 impl TorqueModel {
     /// The torque model of `robot` (its link inertials) under `loads`; the cable's pull from exit
     /// point `exit_m` (base frame, m; `None`: no cable) to the tool point `tool_m` (flange frame,
-    /// m), when the tension is not zero.
-    pub fn new(robot: &Robot, loads: &JointLoads, exit_m: Option<Vector3<f64>>, tool_m: Vector3<f64>) -> TorqueModel {
+    /// m), when the tension is not zero; the preload on `tool_m` when the instrument reads an
+    /// artifact (`artifact`) and the preload is not zero.
+    pub fn new(robot: &Robot, loads: &JointLoads, exit_m: Option<Vector3<f64>>, tool_m: Vector3<f64>, artifact: bool) -> TorqueModel {
         let load = LoadModel::new(robot, loads.payload.as_ref(), None);
         TorqueModel {
             chain: robot.error_chain(),
@@ -97,6 +110,7 @@ impl TorqueModel {
             // A payload stated at zero mass still states where the rows' own payloads sit.
             payload: loads.payload.as_ref().map(|p| (p.mass_kg, p.com_mm.map(crate::units::to_m))),
             cable: exit_m.filter(|_| loads.cable_tension_n > 0.0).map(|e| ([e.x, e.y, e.z], [tool_m.x, tool_m.y, tool_m.z], loads.cable_tension_n)),
+            push: (artifact && loads.preload_n > 0.0).then_some(([tool_m.x, tool_m.y, tool_m.z], loads.preload_n)),
             torque_threshold_nm: loads.torque_threshold_nm,
         }
     }
@@ -125,6 +139,9 @@ impl TorqueModel {
         if let Some((_, _, f)) = self.cable.filter(|(e, t, f)| !(point_ok(e) && point_ok(t) && f.is_finite() && (0.0..=MAX_CABLE_TENSION_N).contains(f))) {
             return bad(format!("cable tension {} N or its points are out of range (tension in [0, {MAX_CABLE_TENSION_N}] N)", crate::error::shown(f)));
         }
+        if let Some((_, f)) = self.push.filter(|(p, f)| !(point_ok(p) && f.is_finite() && (0.0..=MAX_PRELOAD_N).contains(f))) {
+            return bad(format!("preload {} N or its point is out of range (preload in [0, {MAX_PRELOAD_N}] N)", crate::error::shown(f)));
+        }
         if !(self.torque_threshold_nm >= 0.0 && self.torque_threshold_nm <= MAX_LOAD_POINT_M * MAX_MASS_KG * 10.0) {
             return bad(format!("torque threshold {} N·m is out of range", crate::error::shown(self.torque_threshold_nm)));
         }
@@ -148,6 +165,7 @@ impl TorqueModel {
             links: self.links.iter().map(|(m, c)| (*m, Vector3::from(*c))).collect(),
             payload: payload.map(|(m, c)| (m, Vector3::from(c))),
             cable: self.cable.map(|(e, t, f)| CableLoad { exit_point: Vector3::from(e), tool_point: Vector3::from(t), tension: f }),
+            push: self.push.map(|(p, f)| Push { point: Vector3::from(p), force_n: f }),
         };
         let zero = vec![0.0; self.chain.n_params()];
         let mut ws = FkWork::new(&self.chain);

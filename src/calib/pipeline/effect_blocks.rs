@@ -32,7 +32,9 @@ pub fn add_effects(
 ) -> Result<(Option<crate::calib::effects::inputs::TorqueModel>, Vec<RowInputs>)> {
     let placement = model.placement(&model.nominal);
     let robot = opts.inertial_robot();
-    let torque = robot.map(|r| crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads.joints, placement.exit(), placement.tool));
+    let torque = robot.map(|r| {
+        crate::calib::effects::inputs::TorqueModel::new(r, &opts.loads.joints, placement.exit(), placement.tool, model.measurement.feature().is_some())
+    });
     let all = crate::calib::effects::inputs::row_inputs(data, torque.as_ref());
     // Rows with their own payload load the joints too.
     let has_torques = torque.as_ref().is_some_and(|t| t.carries_torque() || data.rows.iter().any(|r| r.payload_kg.is_some_and(|m| m > 0.0)));

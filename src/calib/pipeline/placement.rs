@@ -243,6 +243,9 @@ fn refuse_cable_options(opts: &CalibOptions, measurement: Measurement) -> Result
     if measurement.feature().is_none() && !opts.spacings.is_empty() {
         return Err(Error::Invalid(format!("--spacing-mm states the distance between an artifact's sockets or faces; these rows hold a {what}")));
     }
+    if measurement.feature().is_none() && opts.loads.joints.preload_n != 0.0 {
+        return Err(Error::Invalid(format!("--preload-n is the force pressing a ball into its socket or a probe onto a face; these rows hold a {what}")));
+    }
     if measurement != Measurement::Length {
         if opts.draw_wire_guess.is_some() {
             return Err(Error::Invalid(format!("--draw-wire-guess places a draw-wire; these rows hold a {what}, whose placement is found from the data")));
