@@ -2,8 +2,9 @@
 //! inline SVG plots, no scripts and no external resources, so it opens offline in any browser
 //! and prints as it shows.
 
+use super::artifact::ArtifactFigure;
 use super::histogram;
-use super::svg::{error_bars, esc, histograms, plot, Series};
+use super::svg::{error_bars, esc, histograms, plot, strips, Series};
 use super::verdict::Verdict;
 use super::{max_abs, CalibFigures, DiagnosisFigures, Feature, Group, Residual};
 use crate::calib::pipeline::CalibResult;
@@ -151,6 +152,72 @@ fn per_row_table(residuals: &[Residual], sets: &[(&str, Vec<bool>)]) -> String {
     s
 }
 
+/// Colours of an artifact's placements, in turn.
+const PLACEMENTS: [&str; 6] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"];
+
+/// The artifact's section: the target on the flange, each socket (face) with its rows'
+/// residuals after the fit, the stated spacings against the fitted ones, and what the rows
+/// cannot see.
+fn artifact_section(s: &mut String, a: &ArtifactFigure) {
+    let (feature, target) = a.words();
+    let t = a.target_mm;
+    let _ = writeln!(
+        s,
+        "<h2>The artifact: {} {feature}s</h2><p>The {target}'s centre on the flange as fitted: ({:.3}, {:.3}, {:.3}) mm.</p>",
+        a.features.len(),
+        t[0],
+        t[1],
+        t[2]
+    );
+    let place = if a.feature == crate::measurement::FeatureKind::Socket { "centre (mm)" } else { "normal" };
+    let _ = write!(s, "<table><tr><th>{feature}</th><th>rows</th><th>{place}</th><th>scatter of the fit's rows (mm)</th><th>largest, every row (µm)</th></tr>");
+    for f in &a.features {
+        let (v, d) = match f.normal {
+            Some(n) => (n, 4),
+            None => (f.at_mm, 3),
+        };
+        let largest = f.after_um.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>({:.d$}, {:.d$}, {:.d$})</td><td>{:.4}</td><td>{:.1}</td></tr>",
+            esc(&f.label),
+            f.rows.len(),
+            v[0],
+            v[1],
+            v[2],
+            f.scatter_mm,
+            largest
+        );
+    }
+    s.push_str("</table>\n");
+    if !a.spacings.is_empty() {
+        let what = if a.feature == crate::measurement::FeatureKind::Socket { "spacing" } else { "step" };
+        let _ = write!(s, "<table><tr><th>{what}</th><th>stated (mm)</th><th>fitted (mm)</th><th>fitted − stated (µm)</th></tr>");
+        for (i, j, stated, fitted) in &a.spacings {
+            let _ = write!(
+                s,
+                "<tr><td>{} – {}</td><td>{stated:.4}</td><td>{fitted:.4}</td><td>{:+.1}</td></tr>",
+                esc(&a.features[*i].label),
+                esc(&a.features[*j].label),
+                1e3 * (fitted - stated)
+            );
+        }
+        s.push_str("</table>\n");
+    }
+    let groups: Vec<(String, Vec<f64>)> = a.features.iter().map(|f| (f.label.clone(), f.after_um.clone())).collect();
+    let colors: Vec<String> = a.placement_numbers().iter().map(|k| PLACEMENTS[k % PLACEMENTS.len()].to_string()).collect();
+    s.push_str("<div class=\"figs\">");
+    s.push_str(&strips(&format!("Every row at its {feature} after the fit (colour: placement)"), a.residual_axis(), &groups, &colors));
+    s.push_str("</div>\n");
+    if !a.cannot_see.is_empty() {
+        s.push_str("<p>What these rows cannot see:</p><ul>");
+        for c in &a.cannot_see {
+            let _ = write!(s, "<li>{}</li>", esc(c));
+        }
+        s.push_str("</ul>\n");
+    }
+}
+
 /// The calibration page.
 pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verdict>) -> String {
     let mut s = head(&format!("twincal calibration: {}", f.title));
@@ -195,6 +262,9 @@ pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verd
     s.push_str("</p>\n");
     for w in &r.warnings {
         let _ = writeln!(s, "<p class=\"fail\">Warning: {}</p>", esc(w));
+    }
+    if let Some(a) = &f.artifact {
+        artifact_section(&mut s, a);
     }
     residual_sections(&mut s, meas, &residuals, &f.features, &f.train, ["before", "after"]);
     s.push_str("<h2>Convergence</h2><div class=\"figs\">");
@@ -331,6 +401,9 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
         None,
     ));
     s.push_str("</div>\n");
+    if let Some(a) = &f.artifact {
+        artifact_section(&mut s, a);
+    }
     let residuals = f.residuals();
     let all = vec![true; residuals.first().map_or(0, |r| r.after_mm.len())];
     residual_sections(&mut s, meas, &residuals, &f.features, &all, ["before", "with the causes"]);

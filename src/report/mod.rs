@@ -8,6 +8,7 @@
 //! figures from these structs; the pass/fail [`verdict`] judges a result against a user's
 //! accuracy limits.
 
+pub mod artifact;
 pub mod html;
 pub mod svg;
 pub mod ticks;
@@ -286,6 +287,8 @@ pub struct CalibFigures {
     pub instrument: InstrumentPose,
     /// The calibrated arm at the first row.
     pub arm: Option<ArmPose>,
+    /// The artifact the rows read, if any.
+    pub artifact: Option<artifact::ArtifactFigure>,
     /// The per-row quantities to plot residuals against.
     pub features: Vec<Feature>,
     /// Every free parameter's change from the starting point.
@@ -421,6 +424,7 @@ impl CalibFigures {
             test: held_out,
             measurement: r.model.measurement,
             before_mm,
+            artifact: r.artifact.as_ref().map(|a| artifact::ArtifactFigure::new(a, data, &after_mm, r.model.measurement.dim(), &tool_mm)),
             after_mm,
             tool_mm,
             instrument,
@@ -470,6 +474,8 @@ pub struct DiagnosisFigures {
     pub instrument: InstrumentPose,
     /// The final model's arm at the first row.
     pub arm: Option<ArmPose>,
+    /// The artifact the rows read, if any.
+    pub artifact: Option<artifact::ArtifactFigure>,
     /// The per-row quantities to plot residuals against.
     pub features: Vec<Feature>,
     /// Each effect block of the final model, with the residual it explains.
@@ -517,6 +523,7 @@ impl DiagnosisFigures {
             title: format!("diagnosis of {}", d.data),
             measurement: r.model.measurement,
             before_mm,
+            artifact: r.artifact.as_ref().map(|a| artifact::ArtifactFigure::new(a, data, &after_mm, r.model.measurement.dim(), &tool_mm)),
             after_mm,
             tool_mm,
             instrument,

@@ -193,6 +193,26 @@ pub fn error_bars(title: &str, y_label: &str, items: &[(String, f64, Option<f64>
     out
 }
 
+/// One strip of points per named group (a socket's or a face's rows), spread a little sideways
+/// so that equal values stay apart; `colors` per group.
+pub fn strips(title: &str, y_label: &str, groups: &[(String, Vec<f64>)], colors: &[String]) -> String {
+    let ys = groups.iter().flat_map(|g| g.1.iter().copied()).chain([0.0]);
+    let f = Frame { x: (-0.7, groups.len() as f64 - 0.3), y: padded_range(ys, 0.08).unwrap_or((-1.0, 1.0)) };
+    let mut out = open();
+    let names: Vec<String> = groups.iter().map(|g| g.0.clone()).collect();
+    f.draw(&mut out, title, "", y_label, Some(&names));
+    for (i, (_, values)) in groups.iter().enumerate() {
+        let color = colors.get(i % colors.len().max(1)).map_or("#1f77b4", |c| c.as_str());
+        for (k, v) in values.iter().enumerate().filter(|(_, v)| v.is_finite()) {
+            // A fixed spread by the row's place (golden-ratio steps), the same on every run.
+            let dx = ((k as f64 * 0.618_034).fract() - 0.5) * 0.5;
+            let _ = write!(out, r##"<circle cx="{:.1}" cy="{:.1}" r="2.2" fill="{color}" fill-opacity="0.7"/>"##, f.px(i as f64 + dx), f.py(*v));
+        }
+    }
+    out.push_str("</svg>");
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -209,5 +229,7 @@ mod tests {
         assert_eq!(h.matches("<rect").count(), 2, "frame and one non-empty bar");
         let e = error_bars("p", "mm", &[("j1.dx".into(), 0.1, Some(0.02), Some(0.12)), ("j2.dx".into(), -0.3, None, None)]);
         assert!(e.contains("j1.dx") && e.contains("truth-equivalent") && e.matches("<path").count() == 1);
+        let st = strips("s", "µm", &[("p1/A".into(), vec![1.0, 2.0, f64::NAN]), ("p1/B".into(), vec![3.0])], &["#123".into()]);
+        assert!(st.contains("p1/A") && st.contains("p1/B") && st.matches("<circle").count() == 3 && !st.contains("NaN"));
     }
 }

@@ -44,6 +44,7 @@ mod backend;
 #[path = "recorder.rs"]
 mod backend;
 
+pub mod artifact;
 mod jobs;
 pub mod layout;
 pub mod plan;

@@ -46,6 +46,9 @@ fn calibration_summary(r: &twincal::calib::pipeline::CalibResult, f: &CalibFigur
             max_abs(&first.after_mm)
         ));
     }
+    if let Some(a) = &f.artifact {
+        doc.push_str(&crate::artifact::summary(a));
+    }
     for w in &r.warnings {
         doc.push_str(&format!("\n\n**Warning:** {w}"));
     }
@@ -99,6 +102,9 @@ pub fn record_calibration(r: &twincal::calib::pipeline::CalibResult, f: &CalibFi
     rec.static_text("docs/summary", &doc);
     let field = Field { arm: f.arm.as_ref(), instrument: &f.instrument, tools: &f.tool_mm, residuals: &residuals, train: &f.train };
     before_after(&mut rec, &field, ["before", "after"]);
+    if let Some(a) = &f.artifact {
+        crate::artifact::draw(&mut rec, a, f.arm.as_ref().map(|a| a.tool_mm));
+    }
 
     // Final change of each parameter group with ±1σ and the truth-equivalent change.
     for g in Group::ALL {
@@ -142,7 +148,10 @@ pub fn record_calibration(r: &twincal::calib::pipeline::CalibResult, f: &CalibFi
                 Layout::Horizontal(
                     vec![
                         Layout::Vertical(vec![histogram_views(&residuals, "before", "before"), histogram_views(&residuals, "after", "after")], vec![]),
-                        Layout::Tabs(series),
+                        match &f.artifact {
+                            Some(a) => Layout::Tabs([vec![crate::artifact::view(a)], series].concat()),
+                            None => Layout::Tabs(series),
+                        },
                         Layout::Grid(finals, 4),
                     ],
                     vec![1.0, 1.3, 2.2],
@@ -206,6 +215,9 @@ fn diagnosis_summary(d: &twincal::diagnose::Diagnosis, f: &DiagnosisFigures, fir
             max_abs(&first.after_mm)
         ));
     }
+    if let Some(a) = &f.artifact {
+        doc.push_str(&crate::artifact::summary(a));
+    }
     doc
 }
 
@@ -249,6 +261,9 @@ pub fn record_diagnosis(d: &twincal::diagnose::Diagnosis, f: &DiagnosisFigures, 
     let train = vec![true; first.after_mm.len()];
     let field = Field { arm: f.arm.as_ref(), instrument: &f.instrument, tools: &f.tool_mm, residuals: &residuals, train: &train };
     before_after(&mut rec, &field, ["without causes", "with causes"]);
+    if let Some(a) = &f.artifact {
+        crate::artifact::draw(&mut rec, a, f.arm.as_ref().map(|a| a.tool_mm));
+    }
     for (k, c) in f.causes.iter().enumerate() {
         cause_evidence(&mut rec, k, c, &x_label, meas);
     }
@@ -271,7 +286,11 @@ pub fn record_diagnosis(d: &twincal::diagnose::Diagnosis, f: &DiagnosisFigures, 
                 Layout::Horizontal(vec![wb, wa, Layout::view(K::Text, "Diagnosis", "/docs")], vec![2.0, 2.0, 1.2]),
                 Layout::Horizontal(
                     vec![
-                        Layout::Grid(evidence, 2),
+                        match (&f.artifact, evidence.is_empty()) {
+                            (Some(a), true) => crate::artifact::view(a),
+                            (Some(a), false) => Layout::Tabs(vec![Layout::Grid(evidence, 2), crate::artifact::view(a)]),
+                            (None, _) => Layout::Grid(evidence, 2),
+                        },
                         Layout::Vertical(
                             vec![histogram_views(&residuals, "before", "without the causes"), histogram_views(&residuals, "after", "with the causes")],
                             vec![],

@@ -358,8 +358,12 @@ pub(super) fn colour_quantity(res: &Residual) -> String {
 
 /// The instrument as placed in the base frame, with its line to the target at `tool` (mm):
 /// the draw-wire's exit point and cable, or a laser tracker (its frame's axes and a head at its
-/// origin) and its line of sight to the reflector.
+/// origin) and its line of sight to the reflector; nothing for an artifact's rows.
 pub(super) fn draw_instrument(rec: &mut Recorder, inst: &InstrumentPose, tool: Option<[f64; 3]>) {
+    // An artifact is drawn from its own figure (super::artifact).
+    if inst.measurement.feature().is_some() {
+        return;
+    }
     let o = inst.origin_mm;
     match (inst.measurement, inst.axes) {
         (twincal::measurement::Measurement::Point | twincal::measurement::Measurement::Pose, Some(axes)) => {
@@ -378,6 +382,9 @@ pub(super) fn draw_instrument(rec: &mut Recorder, inst: &InstrumentPose, tool: O
 
 /// The instrument's line to the target at `tool` (mm): the tracker's line of sight, or the cable.
 pub(super) fn instrument_line(rec: &mut Recorder, inst: &InstrumentPose, tool: [f64; 3]) {
+    if inst.measurement.feature().is_some() {
+        return;
+    }
     match (inst.measurement, inst.axes) {
         (twincal::measurement::Measurement::Point | twincal::measurement::Measurement::Pose, Some(_)) => {
             rec.line_strips("world/line_of_sight", &[vec![inst.origin_mm, tool]], TRACKER, 2.0)

@@ -14,6 +14,9 @@ pub fn diagnose(a: &DiagnoseJob, quiet: bool) -> Result<()> {
     let report = &d.report;
     if !quiet {
         print_diagnosis(report);
+        if let Some(art) = &d.result.artifact {
+            art.lines().iter().for_each(|l| eprintln!("  {l}"));
+        }
         eprintln!(
             "  wrote {} and {}; the same model by calibrate: {}",
             a.out.display(),

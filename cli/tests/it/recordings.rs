@@ -244,3 +244,54 @@ fn generate_draws_a_tracker_and_its_line_of_sight() {
     }
     assert!(r.views.iter().any(|v| v.name.starts_with("Arm, tracker, tool points")), "{:#?}", r.views);
 }
+
+/// Artifact rows in the recordings and the HTML report: `calibrate` on socket rows draws each
+/// socket where the fit puts it (labelled with its scatter), the stated spacings and the ball at
+/// the arm's flange, and plots every row at its socket, with no cable nor tracker; its page lists
+/// the sockets, the spacings stated against fitted and what the rows cannot see. A probe's faces
+/// are drawn as faces, and `diagnose` on socket rows draws the same artifact.
+#[test]
+fn artifact_rows_draw_their_sockets_and_faces() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    let (data, res, rrd, html) = (dir.path().join("sock"), dir.path().join("r.json"), dir.path().join("c.rrd"), dir.path().join("c.html"));
+    assert!(twincal(&["generate", "--scenario", s(&root.join("scenarios/irb120_sockets.toml")), "--out", s(&data)]).status.success());
+    let o = twincal(&["calibrate", "--data", s(&data), "--spacing-mm", "50", "--out", s(&res), "--rrd", s(&rrd), "--report", s(&html)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = common::read(&rrd);
+    r.assert_no_empty_view();
+    for (e, c) in [
+        ("/world/artifact/sockets", "Points3D:labels"),
+        ("/world/artifact/spacings", "LineStrips3D:strips"),
+        ("/world/artifact/spacing_labels", "Points3D:labels"),
+        ("/world/artifact/ball", "Points3D:positions"),
+        ("/artifact_rows/0", "Points2D:positions"),
+        ("/artifact_rows/5", "Points2D:labels"),
+    ] {
+        assert!(r.holds(e, c, "static"), "calibrate: {e} lacks {c}: {:?}", r.entities.get(e));
+    }
+    assert!(!r.entities.keys().any(|e| e.starts_with("/world/instrument") || e == "/world/cable"), "no instrument beside the artifact is drawn");
+    assert!(r.views.iter().any(|v| v.name.starts_with("Every row at its socket")), "{:#?}", r.views);
+    let page = std::fs::read_to_string(&html).unwrap();
+    for want in ["The artifact: 6 sockets", "p3/B", "fitted − stated (µm)", "What these rows cannot see", "the base frame"] {
+        assert!(page.contains(want), "the page lacks {want:?}");
+    }
+    let (d_rrd, d_out) = (dir.path().join("d.rrd"), dir.path().join("d.json"));
+    let o =
+        twincal(&["diagnose", "--data", s(&data), "--spacing-mm", "50", "--out", s(&d_out), "--result", s(&dir.path().join("dr.json")), "--rrd", s(&d_rrd)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = common::read(&d_rrd);
+    r.assert_no_empty_view();
+    assert!(r.holds("/world/artifact/sockets", "Points3D:labels", "static") && r.holds("/artifact_rows/0", "Points2D:positions", "static"));
+    let (planes, p_rrd) = (dir.path().join("planes"), dir.path().join("p.rrd"));
+    assert!(twincal(&["generate", "--scenario", s(&root.join("scenarios/irb120_planes.toml")), "--out", s(&planes)]).status.success());
+    let o = twincal(&["calibrate", "--data", s(&planes), "--spacing-mm", "low:high=25", "--out", s(&dir.path().join("p.json")), "--rrd", s(&p_rrd)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = common::read(&p_rrd);
+    r.assert_no_empty_view();
+    for (e, c) in
+        [("/world/artifact/faces", "LineStrips3D:strips"), ("/world/artifact/normals", "LineStrips3D:strips"), ("/world/artifact/stylus", "Points3D:positions")]
+    {
+        assert!(r.holds(e, c, "static"), "planes: {e} lacks {c}: {:?}", r.entities.get(e));
+    }
+}

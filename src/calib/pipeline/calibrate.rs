@@ -221,7 +221,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     warnings.extend(leak_warning(data, &split, &test_residuals_mm, &test_outliers, noise_floor.total_mm));
     let truth_x = truth_stage(&model, &opts.model, truth, data, &split, &x0, &fixed);
     let (parameters, truth_comparison) = parameter_reports(&model, &x0, &x, &fixed, cov.as_ref(), truth_x.as_deref(), truth);
-    let artifact = artifact_report(&model, &x, &split.train, &parameters, opts);
+    let artifact = artifact_report(&model, &x, &split.train, &parameters, &opts.tolerances);
     let history_disp = history.x.iter().map(|xs| xs.iter().enumerate().map(|(k, v)| model.display(k, *v)).collect()).collect();
     Ok(CalibResult {
         schema_version: super::result::RESULT_SCHEMA_VERSION,
@@ -267,11 +267,17 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
 
 /// [`super::artifact::report`] of a result's `parameters` (held, and loose against the
 /// tolerances).
-fn artifact_report(model: &CalibModel, x: &[f64], train: &Samples, parameters: &[ParamReport], opts: &CalibOptions) -> Option<super::artifact::ArtifactReport> {
+fn artifact_report(
+    model: &CalibModel,
+    x: &[f64],
+    train: &Samples,
+    parameters: &[ParamReport],
+    tolerances: &crate::calib::model::tolerance::Tolerances,
+) -> Option<super::artifact::ArtifactReport> {
     let fixed: Vec<String> = parameters.iter().filter(|p| p.fixed).map(|p| p.name.clone()).collect();
     let params: Vec<(String, Option<f64>, String)> =
         parameters.iter().map(|p| (p.name.clone(), p.std_uncertainty.filter(|_| !p.fixed), p.unit.clone())).collect();
-    super::artifact::report(model, x, train, &fixed, &super::artifact::loose(model, &params, &opts.tolerances))
+    super::artifact::report(model, x, train, &fixed, &super::artifact::loose(model, &params, tolerances))
 }
 
 /// Refuses a solver that reads the rows one by one (and never a spacing) for a model with
@@ -476,6 +482,7 @@ pub fn result_of_fit(
     let repeatability = reading_repeatability(data);
     let noise_floor =
         floor_stage(&model, &x, data, rows, &FloorOptions { angle_step_deg, instrument_accuracy_mm, ..Default::default() }, repeatability.as_ref());
+    let artifact = artifact_report(&model, &x, rows, &parameters, &Default::default());
     Ok(CalibResult {
         schema_version: super::result::RESULT_SCHEMA_VERSION,
         provenance: Provenance {
@@ -507,7 +514,7 @@ pub fn result_of_fit(
         evaluation: Evaluation { metrics, truth_comparison: None, repeatability, noise_floor: Some(noise_floor) },
         warnings: Vec::new(),
         setup: super::setup::setup_report(&model, &x, data, super::options::StationSource::Declared, &[]),
-        artifact: None,
+        artifact,
         x,
         corrector: None,
         legacy_rbf: None,
