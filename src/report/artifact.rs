@@ -44,21 +44,18 @@ impl ArtifactFigure {
     /// The figure of result artifact `a` on `data`, whose rows have the residuals `after_mm`
     /// (`dim` values per row) and the modelled target points `tool_mm`.
     pub fn new(a: &ArtifactReport, data: &Dataset, after_mm: &[f64], dim: usize, tool_mm: &[[f64; 3]]) -> ArtifactFigure {
-        let fitted: Vec<(String, Option<[f64; 3]>, Option<[f64; 3]>, f64)> = match a.feature {
-            FeatureKind::Socket => a.sockets.iter().map(|s| (s.label.clone(), Some(s.centre_mm), None, s.scatter_mm)).collect(),
-            FeatureKind::Plane => a.faces.iter().map(|f| (f.label.clone(), None, Some(f.normal), f.scatter_mm)).collect(),
+        let feature = |label: &String, at: Option<[f64; 3]>, normal: Option<[f64; 3]>, scatter_mm: f64| FeatureRows {
+            label: label.clone(),
+            at_mm: at.unwrap_or([0.0; 3]),
+            normal,
+            rows: Vec::new(),
+            after_um: Vec::new(),
+            scatter_mm,
         };
-        let mut features: Vec<FeatureRows> = fitted
-            .iter()
-            .map(|(label, at, normal, scatter_mm)| FeatureRows {
-                label: label.clone(),
-                at_mm: at.unwrap_or([0.0; 3]),
-                normal: *normal,
-                rows: Vec::new(),
-                after_um: Vec::new(),
-                scatter_mm: *scatter_mm,
-            })
-            .collect();
+        let mut features: Vec<FeatureRows> = match a.feature {
+            FeatureKind::Socket => a.sockets.iter().map(|s| feature(&s.label, Some(s.centre_mm), None, s.scatter_mm)).collect(),
+            FeatureKind::Plane => a.faces.iter().map(|f| feature(&f.label, None, Some(f.normal), f.scatter_mm)).collect(),
+        };
         for (i, row) in data.rows.iter().enumerate() {
             let Some(f) = &row.feature else { continue };
             let label = crate::dataset::feature_station(row.station.as_deref(), &f.label);
