@@ -378,20 +378,15 @@ impl PyCalibration {
     /// Inverse kinematics on this model (geometry and corrector) for target points (n, 3), mm in
     /// the robot's base frame, as `twincal ik --targets`: per Jacobian, the joint angles
     /// (degrees), status, iterations and model residual of each target.
-    #[pyo3(signature = (targets, jacobian="hybrid", tol_mm=0.01, seed=0))]
-    fn ik<'py>(&self, py: Python<'py>, targets: PyReadonlyArray2<'py, f64>, jacobian: &str, tol_mm: f64, seed: u64) -> PyResult<Vec<IkRunPy>> {
-        use twincal::ik::solver::{IkOptions, JacobianKind};
+    #[pyo3(signature = (targets, jacobian=None, tol_mm=0.01, seed=0))]
+    fn ik<'py>(&self, py: Python<'py>, targets: PyReadonlyArray2<'py, f64>, jacobian: Option<&str>, tol_mm: f64, seed: u64) -> PyResult<Vec<IkRunPy>> {
+        use twincal::ik::solver::{IkOptions, JacobianChoice, JacobianKind};
         if targets.shape().len() != 2 || targets.shape()[1] != 3 {
             return Err(TwincalError::new_err(format!("targets must be an (n, 3) array of x, y, z in mm, got shape {:?}", targets.shape())));
         }
         twincal::ik::solver::check_tol_mm(tol_mm, "tol_mm").map_err(err)?;
-        let kinds: Vec<JacobianKind> = match jacobian.to_ascii_lowercase().as_str() {
-            "all" => JacobianKind::ALL.to_vec(),
-            s => vec![JacobianKind::ALL
-                .into_iter()
-                .find(|k| k.name() == s)
-                .ok_or_else(|| TwincalError::new_err(format!("unknown jacobian '{s}' (expected analytic, neural, hybrid or all)")))?],
-        };
+        let choice: JacobianChoice = jacobian.map(str::parse).transpose().map_err(err)?.unwrap_or_default();
+        let kinds: Vec<JacobianKind> = choice.kinds();
         let a = targets.as_array();
         let pts: Vec<nalgebra::Vector3<f64>> = a.rows().into_iter().map(|r| nalgebra::Vector3::new(r[0], r[1], r[2])).collect();
         let r = self.result();

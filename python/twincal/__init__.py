@@ -333,10 +333,11 @@ class Result:
             warnings.warn(warning, stacklevel=2)
         return values[:, 0] if values.shape[1] == 1 else values
 
-    def ik(self, targets: np.ndarray, *, jacobian: str = "hybrid", tol_mm: float = 0.01, seed: int = 0) -> dict:
+    def ik(self, targets: np.ndarray, *, jacobian: Optional[str] = None, tol_mm: float = 0.01, seed: int = 0) -> dict:
         """Inverse kinematics for target points (n, 3), mm in the robot's base frame, as
         ``twincal ik --targets``: ``{"q_deg", "status", "iterations", "residual_mm"}`` for one
-        Jacobian (analytic, neural, hybrid), or a dict of them by label for ``"all"``."""
+        Jacobian (analytic, neural, hybrid; default: the command line's, hybrid), or a dict of
+        them by label for ``"all"``."""
         t = np.ascontiguousarray(np.atleast_2d(_unmasked("targets", targets)))
         if t.ndim != 2 or t.shape[1] != 3:
             raise TwincalError(f"targets must be an (n, 3) array of x, y, z in mm (or one point of 3), got shape {t.shape}")
@@ -344,7 +345,7 @@ class Result:
             label: {"q_deg": q, "status": np.array(status, dtype=str), "iterations": np.array(iters), "residual_mm": res}
             for label, q, status, iters, res in self._native.ik(t, jacobian, tol_mm, _seed(seed))
         }
-        return runs if jacobian.lower() == "all" else next(iter(runs.values()))
+        return runs if len(runs) > 1 else next(iter(runs.values()))
 
     def save(self, out: Union[str, os.PathLike], *, urdf=None, rrd=None, report=None, scenario_out=None) -> None:
         """Write what ``twincal calibrate`` writes: result.json at ``out``, and the calibrated URDF,

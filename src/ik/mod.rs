@@ -5,5 +5,5 @@
 pub mod solver;
 pub mod validation;
 
-pub use solver::{rigid_fit, IkModel, IkOptions, IkSolution, IkStatus, IkWork, JacobianKind};
+pub use solver::{rigid_fit, IkModel, IkOptions, IkSolution, IkStatus, IkWork, JacobianChoice, JacobianKind};
 pub use validation::{ik_runs, random_targets, run_ik, table, IkRun, TwinCheck};

@@ -63,6 +63,48 @@ impl JacobianKind {
     }
 }
 
+/// Which Jacobians a request solves with: one of them, or all three side by side (the paper's
+/// comparison).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum JacobianChoice {
+    /// The chain's point Jacobian alone.
+    Analytic,
+    /// The correction's own gradient alone.
+    Neural,
+    /// The exact Jacobian of the corrected model (the method's own).
+    #[default]
+    Hybrid,
+    /// The three, each a run of its own.
+    All,
+}
+
+impl JacobianChoice {
+    /// The Jacobians to run.
+    pub fn kinds(self) -> Vec<JacobianKind> {
+        match self {
+            JacobianChoice::Analytic => vec![JacobianKind::Analytic],
+            JacobianChoice::Neural => vec![JacobianKind::Neural],
+            JacobianChoice::Hybrid => vec![JacobianKind::Hybrid],
+            JacobianChoice::All => JacobianKind::ALL.to_vec(),
+        }
+    }
+}
+
+impl std::str::FromStr for JacobianChoice {
+    type Err = crate::error::Error;
+    /// `analytic`, `neural`, `hybrid` or `all`, in any case.
+    fn from_str(s: &str) -> crate::error::Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "analytic" => Ok(JacobianChoice::Analytic),
+            "neural" => Ok(JacobianChoice::Neural),
+            "hybrid" => Ok(JacobianChoice::Hybrid),
+            "all" => Ok(JacobianChoice::All),
+            _ => Err(crate::error::Error::Invalid(format!("unknown jacobian '{s}' (expected analytic, neural, hybrid or all)"))),
+        }
+    }
+}
+
 /// What happened to one target.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]

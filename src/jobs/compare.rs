@@ -362,10 +362,9 @@ fn check_compare_request(a: &CompareRequest) -> Result<Vec<Method>> {
             methods.len()
         )));
     }
-    if let Some(f) = test_fraction {
-        if !(f > 0.0 && f < 1.0) {
-            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1) for compare (every seed is scored on held-out rows), got {f}")));
-        }
+    crate::requests::check_test_fraction(test_fraction)?;
+    if test_fraction == Some(0.0) {
+        return Err(Error::Invalid("--test-fraction 0 holds no row out, and compare scores every seed on held-out rows".into()));
     }
     crate::requests::check_effort(effort)?;
     Ok(methods)

@@ -152,7 +152,7 @@ fn diagnose_on_stations(
             data.stations().len()
         ));
     }
-    if let Some(f) = request.test_fraction {
+    if let Some(f) = request.test_fraction.filter(|f| *f > 0.0) {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
         let blocks = crate::dataset::blocks::detect(&data, request.floor.angle_resolution_deg).0;
         let (train, _) = crate::calib::pipeline::split_rows(&data, &blocks, Some(f), request.seed, request.split_by)?;

@@ -183,11 +183,7 @@ fn after_calibration(
 /// together or none. Returns the summary (replay.json).
 pub fn replay(a: &ReplayJob, progress: &dyn Progress, recordings: &dyn Recordings) -> Result<ReplaySummary> {
     let t0 = Instant::now();
-    if let Some(f) = a.request.test_fraction {
-        if !(f > 0.0 && f < 1.0) {
-            return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
-        }
-    }
+    crate::requests::check_test_fraction(a.request.test_fraction)?;
     let split_by = a.request.split_by;
     let (mut s, robot) = Scenario::load(&a.scenario)?;
     let (csv_path, json_path, twin_dir) = replay_outputs(a, &s)?;
@@ -372,6 +368,7 @@ fn twin_readings(g: &crate::sim::generate::Generated, m: Measurement, n: usize) 
 /// The rows the twin is judged on (None: every row), and how they were chosen.
 fn judged_rows(a: &ReplayRequest, data: &Dataset, split_by: crate::calib::pipeline::SplitBy) -> Result<(Option<Vec<usize>>, String)> {
     Ok(match a.test_fraction {
+        Some(f) if f == 0.0 => (None, "every row (--test-fraction 0)".into()),
         Some(f) => {
             let blocks = crate::dataset::blocks::detect(data, None).0;
             let (_, test) = crate::calib::pipeline::split_rows(data, &blocks, Some(f), a.seed, split_by)?;

@@ -1,7 +1,7 @@
 //! A calibration as a user asks for it: `twincal calibrate`'s options but `--data` and the
 //! files it writes, Python's `twincal.calibrate` keyword arguments.
 
-use super::groups::{Artifact, Loads, ModelChoice, Reading, Robust};
+use super::groups::{Artifact, Loads, ModelChoice, Reading, Robust, SetUp};
 use crate::calib::effects::EffectChoice;
 use crate::calib::model::DrawWireGuess;
 use crate::calib::pipeline::{CalibOptions, FreeParams, Method, SplitBy, SplitOptions, DEFAULT_EFFORT, DEFAULT_RANK_TOL};
@@ -24,6 +24,16 @@ pub fn check_effort(effort: f64) -> Result<()> {
     Ok(())
 }
 
+/// `--test-fraction`, checked by every command that takes it (calibrate, diagnose, compare,
+/// replay): in [0, 1), the share of rows (blocks) held out; 0 holds none out, whatever the
+/// data's split column says.
+pub fn check_test_fraction(f: Option<f64>) -> Result<()> {
+    match f {
+        Some(f) if !(0.0..1.0).contains(&f) => Err(Error::Invalid(format!("--test-fraction must be in [0, 1) (0: no row held out), got {f}"))),
+        _ => Ok(()),
+    }
+}
+
 /// The options of a calibration (the field docs are `twincal calibrate --help`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
@@ -33,6 +43,10 @@ pub struct CalibrateRequest {
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub reading: Reading,
+    /// Where the instrument stood.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    #[serde(flatten)]
+    pub setup: SetUp,
     /// The calibration method (any case).
     #[cfg_attr(feature = "clap", arg(long, value_enum, ignore_case = true, default_value_t = Method::default()))]
     pub method: Method,
@@ -113,6 +127,7 @@ impl Default for CalibrateRequest {
     fn default() -> Self {
         CalibrateRequest {
             reading: Reading::default(),
+            setup: SetUp::default(),
             method: Method::default(),
             model: ModelChoice::default(),
             test_fraction: None,
@@ -143,11 +158,7 @@ impl CalibrateRequest {
             return Err(Error::Invalid(format!("--rank-tol must be in (0, 1), got {}", a.rank_tol)));
         }
         check_effort(a.effort)?;
-        if let Some(f) = a.test_fraction {
-            if !(0.0..1.0).contains(&f) {
-                return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
-            }
-        }
+        check_test_fraction(a.test_fraction)?;
         let limits = [Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm }, Limit { flag: "--max-test-max-mm", value: a.max_test_max_mm }];
         for l in &limits {
             l.validate()?;
@@ -175,7 +186,7 @@ impl CalibrateRequest {
                 (false, true) => FreeParams::Controller,
                 (false, false) => FreeParams::All,
             },
-            stations: a.reading.stations,
+            stations: a.setup.stations,
             spacings: a.artifact.spacing_mm.clone(),
             ..CalibOptions::new(model, a.method)
         };

@@ -1,7 +1,7 @@
 //! A diagnosis as a user asks for it: `twincal diagnose`'s options but `--data` and the files it
 //! writes, Python's `twincal.diagnose` keyword arguments.
 
-use super::groups::{Artifact, Floor, Loads, ModelChoice, Reading};
+use super::groups::{Artifact, Floor, Loads, ModelChoice, Reading, SetUp};
 use crate::calib::effects::EffectChoice;
 use crate::calib::pipeline::SplitBy;
 use crate::dataset::ReadOptions;
@@ -19,6 +19,10 @@ pub struct DiagnoseRequest {
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
     pub reading: Reading,
+    /// Where the instrument stood.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    #[serde(flatten)]
+    pub setup: SetUp,
     /// The model fitted.
     #[cfg_attr(feature = "clap", command(flatten))]
     #[serde(flatten)]
@@ -65,6 +69,7 @@ impl Default for DiagnoseRequest {
     fn default() -> Self {
         DiagnoseRequest {
             reading: Reading::default(),
+            setup: SetUp::default(),
             artifact: Artifact::default(),
             model: ModelChoice::default(),
             loads: Loads::default(),
@@ -85,11 +90,7 @@ impl DiagnoseRequest {
     /// (reads no data; reads --robot's URDF).
     pub fn options(&self) -> Result<(DiagnoseOptions, Limit)> {
         let a = self;
-        if let Some(f) = a.test_fraction {
-            if !(f > 0.0 && f < 1.0) {
-                return Err(Error::Invalid(format!("--test-fraction must be in (0, 1), got {f}")));
-            }
-        }
+        super::calibrate::check_test_fraction(a.test_fraction)?;
         let limit = Limit { flag: "--max-test-rmse-mm", value: a.max_test_rmse_mm };
         limit.validate()?;
         if !(a.alpha > 0.0 && a.alpha < 0.5) {
@@ -107,7 +108,7 @@ impl DiagnoseRequest {
             seed: a.seed,
             floor: a.floor.resolve()?,
             candidates: a.candidates.iter().map(|c| c.pair()).collect(),
-            stations: a.reading.stations,
+            stations: a.setup.stations,
             spacings: a.artifact.spacing_mm.clone(),
             ..DiagnoseOptions::new(model)
         };

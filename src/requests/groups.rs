@@ -1,5 +1,5 @@
-//! The argument groups requests share: how a dataset's readings are read ([`Reading`]), the
-//! model fitted ([`ModelChoice`]), what loads the joints ([`Loads`]), the data's floor
+//! The argument groups requests share: how a dataset's readings are read ([`Reading`]), where
+//! the instrument stood ([`SetUp`]), the model fitted ([`ModelChoice`]), what loads the joints ([`Loads`]), the data's floor
 //! ([`Floor`]) and the robust screen ([`Robust`]); and the `KIND[:JOINT]` lists of effects.
 //! The field docs are the command line's `--help`.
 
@@ -34,12 +34,6 @@ pub struct Reading {
     /// (extrinsic; xyz is R = Rz(rz)·Ry(ry)·Rx(rx)); ZYX, ZYZ, ... likewise.
     #[cfg_attr(feature = "clap", arg(long, default_value_t = Euler::default()))]
     pub euler: Euler,
-    /// Where the instrument stood: auto (the station column where the file has one, then, for a
-    /// tracker, the change points a first fit finds: a re-stationed, re-registered or bumped
-    /// tracker), declared (the station column only), blocks (each declared block a station) or
-    /// one (one placement for every row). Each station is fitted a placement of its own.
-    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = StationSource::Auto))]
-    pub stations: StationSource,
 }
 
 impl Reading {
@@ -49,6 +43,20 @@ impl Reading {
     pub fn load_options(&self, require_length: bool) -> ReadOptions {
         ReadOptions { angles: self.angles, require_length, measurement: self.measurement, euler: self.euler }
     }
+}
+
+/// Where the instrument stood (`--stations`): for the commands that fit the instrument's
+/// placements (calibrate, diagnose) and nowhere else.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+#[serde(default)]
+pub struct SetUp {
+    /// Where the instrument stood: auto (the station column where the file has one, then, for a
+    /// tracker, the change points a first fit finds: a re-stationed, re-registered or bumped
+    /// tracker), declared (the station column only), blocks (each declared block a station) or
+    /// one (one placement for every row). Each station is fitted a placement of its own.
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = StationSource::Auto))]
+    pub stations: StationSource,
 }
 
 /// Which model a calibration fits (`--model`, `--params`).

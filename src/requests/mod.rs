@@ -16,7 +16,7 @@ mod diagnose;
 mod groups;
 mod json;
 
-pub use calibrate::{check_effort, CalibrateRequest, MAX_EFFORT, MIN_EFFORT};
+pub use calibrate::{check_effort, check_test_fraction, CalibrateRequest, MAX_EFFORT, MIN_EFFORT};
 pub use diagnose::DiagnoseRequest;
-pub use groups::{Floor, Loads, ModelChoice, Reading, Robust};
+pub use groups::{Floor, Loads, ModelChoice, Reading, Robust, SetUp};
 pub use json::from_json;

@@ -8,7 +8,7 @@ use twincal::calib::pipeline::CalibResult;
 use twincal::dataset::truth::TruthFile;
 use twincal::error::{Error, Result};
 pub use twincal::ik::solver::{check_tol_mm, MAX_TOL_MM};
-use twincal::ik::{ik_runs, random_targets, table, IkOptions, IkRun, IkStatus, JacobianKind, TwinCheck};
+use twincal::ik::{ik_runs, random_targets, table, IkOptions, IkRun, IkStatus, JacobianChoice, JacobianKind, TwinCheck};
 
 /// Reads target points (mm) from a CSV with columns x, y, z (header required; other columns
 /// ignored), by the dataset reader's rules ([`twincal::dataset::read_csv_columns`]: `;` or tab,
@@ -55,9 +55,10 @@ pub struct IkArgs {
     /// Do not validate on a twin even when a truth file is found.
     #[arg(long)]
     pub no_twin: bool,
-    /// analytic, neural, hybrid or all.
-    #[arg(long, default_value = "all")]
-    pub jacobian: String,
+    /// Which Jacobian the solver steps with: the method's own (hybrid), the chain's alone
+    /// (analytic), the correction's alone (neural), or all three side by side.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = JacobianChoice::default())]
+    pub jacobian: JacobianChoice,
     /// Model residual (mm) at which a target counts as solved.
     #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub tol_mm: f64,
@@ -139,13 +140,7 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
         }
     }
     check_tol_mm(a.tol_mm, "--tol-mm")?;
-    let kinds: Vec<JacobianKind> = match a.jacobian.to_ascii_lowercase().as_str() {
-        "all" => JacobianKind::ALL.to_vec(),
-        s => vec![JacobianKind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| Error::Invalid(format!("unknown --jacobian '{s}' (expected analytic, neural, hybrid or all)")))?],
-    };
+    let kinds: Vec<JacobianKind> = a.jacobian.kinds();
     let r = CalibResult::load(&a.model)?;
     warn_reference_state(&r);
     if a.twin.is_some() && a.no_twin {

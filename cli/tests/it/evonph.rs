@@ -71,7 +71,7 @@ fn ik_on_a_dsade_result_solves_reachable_targets_and_beats_the_nominal_on_the_tw
     let out = twincal(&["calibrate", "--data", dir.to_str().unwrap(), "--method", "dsade-gkan", "--effort", "0.1", "--out", result.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let csv = work.path().join("ik.csv");
-    let out = twincal(&["ik", "--model", result.to_str().unwrap(), "--random", "40", "--out", csv.to_str().unwrap()]);
+    let out = twincal(&["ik", "--model", result.to_str().unwrap(), "--random", "40", "--jacobian", "all", "--out", csv.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let table = String::from_utf8_lossy(&out.stdout).to_string();
     let row = |label: &str| -> Vec<String> {

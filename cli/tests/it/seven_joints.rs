@@ -198,3 +198,37 @@ fn a_seven_joint_arm_measured_by_a_laser_tracker() {
     let (size, sd) = (d["causes"][0]["magnitude"].as_f64().unwrap(), d["causes"][0]["uncertainty"].as_f64().unwrap());
     assert!((size - 50.0).abs() < 3.0 * sd + 0.5, "{size} ± {sd} against the truth 50");
 }
+
+/// Six-joint rows with the seven-joint arm's URDF (or the reverse) are refused by name before
+/// anything evaluates the arm at them, for every instrument and station source: a tracker's rows
+/// once reached the station search first and panicked in the forward kinematics.
+#[test]
+fn rows_of_another_joint_count_are_refused_by_name_for_every_instrument() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let urdf = root().join("urdf/wam.urdf");
+    for (name, scenario) in [("tracker", "irb120_tracker"), ("cable", "irb120_geometric"), ("sockets", "irb120_sockets")] {
+        let sc = root().join(format!("scenarios/{scenario}.toml"));
+        assert!(twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", &p(name)]).status.success());
+        for command in ["calibrate", "diagnose"] {
+            for stations in ["auto", "declared", "blocks", "one"] {
+                let o = twincal(&[
+                    command,
+                    "--data",
+                    &p(name),
+                    "--model",
+                    urdf.to_str().unwrap(),
+                    "--stations",
+                    stations,
+                    "--spacing-mm",
+                    "50",
+                    "--out",
+                    &p("out.json"),
+                ]);
+                let err = String::from_utf8_lossy(&o.stderr);
+                assert_eq!(o.status.code(), Some(2), "{command} {name} --stations {stations}: {err}");
+                assert!(err.contains("6 joint angles") && err.contains("7 joints") && !err.contains("panicked"), "{command} {name}: {err}");
+            }
+        }
+    }
+}

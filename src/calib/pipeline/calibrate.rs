@@ -123,6 +123,7 @@ fn held_fixed(model: &CalibModel, id: &Identifiability, free: FreeParams) -> Vec
 /// ([`setup::resolve`](super::setup::resolve)), the change points read from a first fit of
 /// every row.
 pub fn resolve_stations(data: &Dataset, opts: &CalibOptions) -> Result<(Option<Dataset>, super::setup::Found)> {
+    super::split::check_arm(data, opts)?;
     super::setup::resolve(data, opts, &|d: &Dataset| first_fit(d, opts))
 }
 

@@ -139,10 +139,10 @@ pub(super) fn distinct_configurations(data: &Dataset, rows: &[usize]) -> usize {
     keys.len()
 }
 
-/// Splits `data` into training and test samples (the dataset's split column, or
-/// `opts.test_fraction`); errors on rows beyond the robot's joint limits, or on fewer than 8
-/// training rows or 8 distinct training configurations.
-pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
+/// An error unless the rows fit the model's arm and the inertial one: as many joint angles as
+/// each has joints, every angle within the model's joint limits. Checked before anything
+/// evaluates the arm at the rows.
+pub fn check_arm(data: &Dataset, opts: &CalibOptions) -> Result<()> {
     if let Some(robot) = opts.model.robot() {
         data.require_joints(robot.dof(), &format!("the robot '{}'", robot.name))?;
         check_joint_limits(data, robot)?;
@@ -150,6 +150,14 @@ pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
     if let Some(robot) = opts.loads.inertial.as_ref() {
         data.require_joints(robot.dof(), &format!("the inertial robot '{}' (--robot)", robot.name))?;
     }
+    Ok(())
+}
+
+/// Splits `data` into training and test samples (the dataset's split column, or
+/// `opts.test_fraction`); errors on rows beyond the robot's joint limits, or on fewer than 8
+/// training rows or 8 distinct training configurations.
+pub fn split_stage(data: &Dataset, opts: &CalibOptions) -> Result<SplitData> {
+    check_arm(data, opts)?;
     let (blocks, angle_step_deg) = crate::dataset::blocks::detect(data, opts.floor.angle_step_deg);
     let (train_idx, test_idx) = split_rows(data, &blocks, opts.split.test_fraction, opts.seed, opts.split.by)?;
     if train_idx.len() < 8 {
