@@ -88,7 +88,8 @@ pub(super) fn prepare_rows(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     let dim = measurement.dim();
     // The calibration's stages on every row (no split: the diagnosis cross-validates), with
     // every row's inputs; the diagnosis screens the rows itself, inputs included.
-    let prepared = crate::calib::pipeline::prepare(data, &opts.baseline_options(), true)?;
+    let prepared =
+        crate::calib::pipeline::prepare(data, &opts.baseline_options(), crate::calib::methods::SolverNeeds { row_inputs: true, equal_weights: false })?;
     let base = prepared.model;
     let torque = prepared.split.torque_model;
     // Torques exist where something loads the joints: link masses (the nominal robot's or

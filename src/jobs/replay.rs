@@ -368,7 +368,7 @@ fn twin_readings(g: &crate::sim::generate::Generated, m: Measurement, n: usize) 
 /// The rows the twin is judged on (None: every row), and how they were chosen.
 fn judged_rows(a: &ReplayRequest, data: &Dataset, split_by: crate::calib::pipeline::SplitBy) -> Result<(Option<Vec<usize>>, String)> {
     Ok(match a.test_fraction {
-        Some(f) if f == 0.0 => (None, "every row (--test-fraction 0)".into()),
+        Some(f) if f <= 0.0 => (None, "every row (--test-fraction 0)".into()),
         Some(f) => {
             let blocks = crate::dataset::blocks::detect(data, None).0;
             let (_, test) = crate::calib::pipeline::split_rows(data, &blocks, Some(f), a.seed, split_by)?;

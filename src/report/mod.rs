@@ -419,7 +419,7 @@ impl CalibFigures {
             })
             .collect();
         Ok(CalibFigures {
-            title: format!("{} / {} on {}", r.provenance.method.name(), r.provenance.model_name, r.provenance.data),
+            title: format!("{} / {} on {}", r.provenance.method, r.provenance.model_name, r.provenance.data),
             train,
             test: held_out,
             measurement: r.model.measurement,

@@ -45,7 +45,7 @@ fn lm_speed(
     opts: &twincal::calib::pipeline::CalibOptions,
     repeat: usize,
 ) -> Result<LmSpeed> {
-    let prepared = twincal::calib::pipeline::prepare(ds, opts, false)?;
+    let prepared = twincal::calib::pipeline::prepare(ds, opts, opts.method.needs())?;
     let fit = ReadingFit { model: &prepared.model, data: &prepared.split.train };
     let lm = twincal::calib::methods::LmSolver::default().lm;
     let (mut lm_t, mut ev_t, mut whole_t, mut iterations, mut test_rmse) = (Vec::new(), Vec::new(), Vec::new(), 0, f64::NAN);

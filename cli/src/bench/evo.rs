@@ -52,7 +52,7 @@ fn prepare(ds: &Dataset, opts: &CalibOptions) -> Result<Prepared> {
         o.screen.outlier_k = 0.0;
         o
     };
-    let p = twincal::calib::pipeline::prepare(ds, &unscreened, false)?;
+    let p = twincal::calib::pipeline::prepare(ds, &unscreened, opts.method.needs())?;
     let (split, model, fixed) = (p.split, p.model, p.id.fixed_mask);
     let x0 = model.nominal.clone();
     let fit = ReadingFit { model: &model, data: &split.train };

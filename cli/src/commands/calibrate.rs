@@ -127,7 +127,7 @@ fn print_summary(r: &twincal::calib::pipeline::CalibResult) {
     let row = |label: &str, s: &twincal::stats::metrics::ErrorStats| format!("  {label:<14} {:>10.4} {:>10.4} {:>10.4}", s.rmse, s.std, s.max);
     eprintln!(
         "{} / {} on {} ({} train, {} test rows), {} iterations, {:.3} s",
-        r.provenance.method.name(),
+        r.provenance.method,
         r.provenance.model_name,
         r.provenance.data,
         r.provenance.n_train,

@@ -468,7 +468,7 @@ fn pso_ekf_awnn_cli_result_round_trips_and_is_reproducible() {
     let a = twincal::calib::pipeline::CalibResult::load(&out("a.json")).unwrap();
     let b = twincal::calib::pipeline::CalibResult::load(&out("b.json")).unwrap();
     assert_eq!(a.x, b.x, "same seed, same result");
-    assert_eq!(a.provenance.method.name(), "pso-ekf-awnn");
+    assert_eq!(a.provenance.method, "pso-ekf-awnn");
     assert!(matches!(&a.corrector, Some(twincal::calib::correctors::Corrector::Awnn(_))), "{:?}", a.corrector);
     // predict uses the stored network: its predictions are the result's own.
     let o = twincal(&["predict", "--model", out("a.json").to_str().unwrap(), "--data", dir.to_str().unwrap(), "--out", out("p.csv").to_str().unwrap()]);
@@ -607,4 +607,53 @@ fn a_method_ending_worse_than_nominal_warns_and_constant_lengths_are_refused() {
     let flat = Dataset { rows: ds.rows.iter().map(|row| Row { reading_mm: vec![512.5], ..row.clone() }).collect(), source: "flat".into() };
     let e = calibrate(&flat, None, &irb120(Method::LM, "hayati")).unwrap_err().to_string();
     assert!(e.contains("every row reads the same length (L = 512.5 mm)"), "{e}");
+}
+
+/// A solver of the user's own, used through the library: the result records its name (and
+/// reads back), and the rows are weighted as that solver asks, not as the options' method
+/// would: a solver that learns a corrector fits a tracker's rows with their `sx, sy, sz` at equal
+/// weights, the same solver that does not weights them.
+#[test]
+fn a_solver_of_the_users_own_runs_through_the_library() {
+    use twincal::calib::methods::{LmSolver, Problem, Solution, Solver};
+    use twincal::optim::Observer;
+    struct Mine {
+        corrector: bool,
+    }
+    impl Solver for Mine {
+        fn name(&self) -> &'static str {
+            "my-lm"
+        }
+        fn learns_corrector(&self) -> bool {
+            self.corrector
+        }
+        fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> twincal::error::Result<Solution> {
+            LmSolver::default().solve(p, obs)
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let sc = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/irb120_tracker.toml"));
+    assert!(twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", dir.path().join("d").to_str().unwrap()]).status.success());
+    let mut data = Dataset::load(&dir.path().join("d")).unwrap();
+    // The tracker's stated noise grows with distance: per-row standard deviations.
+    for (i, r) in data.rows.iter_mut().enumerate() {
+        r.std_mm = Some([0.01 + 0.0002 * (i % 50) as f64; 3]);
+    }
+    let robot = twincal::robot::Robot::irb120();
+    let opts = CalibOptions::new(ModelSpec::Nominal { robot: Box::new(robot), parametrisation: twincal::calib::pipeline::Parametrisation::Hayati }, Method::LM);
+    let lm = calibrate(&data, None, &opts).unwrap();
+    let mine = twincal::calib::pipeline::calibrate_with(&data, None, &opts, &Mine { corrector: false }).unwrap();
+    assert_eq!(mine.provenance.method, "my-lm");
+    assert!(lm.solve.weighting.is_some() && mine.solve.weighting.is_some());
+    assert!((mine.evaluation.metrics.test_after.unwrap().rmse - lm.evaluation.metrics.test_after.unwrap().rmse).abs() < 1e-9);
+    let path = dir.path().join("mine.json");
+    std::fs::write(&path, serde_json::to_string(&mine).unwrap()).unwrap();
+    assert_eq!(twincal::calib::pipeline::CalibResult::load(&path).unwrap().provenance.method, "my-lm");
+    let equal = twincal::calib::pipeline::calibrate_with(&data, None, &opts, &Mine { corrector: true }).unwrap();
+    assert!(equal.solve.weighting.is_none(), "a solver that learns a corrector fits with equal weights");
+    // A hand-edited method name that is no name is refused.
+    let text = std::fs::read_to_string(&path).unwrap().replace("\"my-lm\"", "\"my lm; rm\"");
+    std::fs::write(&path, text).unwrap();
+    let e = twincal::calib::pipeline::CalibResult::load(&path).unwrap_err().to_string();
+    assert!(e.contains("provenance.method"), "{e}");
 }

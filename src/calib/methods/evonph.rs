@@ -631,6 +631,9 @@ impl EvoNphSolver {
 }
 
 impl Solver for EvoNphSolver {
+    fn learns_corrector(&self) -> bool {
+        true
+    }
     fn name(&self) -> &'static str {
         self.variant.method_name()
     }

@@ -27,7 +27,7 @@ pub use pso::PsoSolver;
 use psoekf::{Ablation, PsoEkfAwnn};
 pub use rbf::RbfSolver;
 use serde::{Deserialize, Serialize};
-pub use solver::{Problem, Solution, Solver};
+pub use solver::{Problem, Solution, Solver, SolverNeeds};
 
 /// Which family a method belongs to: the core's baselines, Evo-NPH and its ablations, PSO-EKF-AWNN
 /// and its ablations.
@@ -42,7 +42,7 @@ pub enum Family {
 }
 
 /// One registered method: the name it is chosen and stored by, what it does (the `--method`
-/// help), its family, whether it learns a corrector of the residuals, and its solver with the
+/// help), its family, and its solver with the
 /// default settings at an effort (a multiple of the stochastic methods' default budgets).
 pub struct MethodDef {
     /// The name on the command line and in result.json.
@@ -51,16 +51,13 @@ pub struct MethodDef {
     pub help: &'static str,
     /// Its family.
     pub family: Family,
-    /// Whether it adds a learned corrector (such methods fit with equal weights, as their
-    /// correctors learn plain residuals).
-    pub learns_corrector: bool,
     /// The solver with its default settings at an effort.
     pub solver: fn(f64) -> Box<dyn Solver>,
 }
 
 /// A row of [`METHODS`].
-const fn row(name: &'static str, family: Family, learns_corrector: bool, solver: fn(f64) -> Box<dyn Solver>, help: &'static str) -> MethodDef {
-    MethodDef { name, help, family, learns_corrector, solver }
+const fn row(name: &'static str, family: Family, solver: fn(f64) -> Box<dyn Solver>, help: &'static str) -> MethodDef {
+    MethodDef { name, help, family, solver }
 }
 
 fn evo(variant: EvoVariant, effort: f64) -> Box<dyn Solver> {
@@ -74,73 +71,49 @@ fn awnn(variant: Ablation, effort: f64) -> Box<dyn Solver> {
 /// Every method, in the order `--help` lists them: the one table that `--method` parses, lists
 /// and documents (a new method is its file and its line here).
 pub const METHODS: &[MethodDef] = &[
-    row(LmSolver::NAME, Family::Baseline, false, |_| Box::new(LmSolver::default()), "Levenberg-Marquardt on the identifiable parameters"),
-    row(EkfSolver::NAME, Family::Baseline, false, |e| Box::new(EkfSolver { epochs: (20.0 * e).ceil() as usize }), "the extended Kalman filter"),
+    row(LmSolver::NAME, Family::Baseline, |_| Box::new(LmSolver::default()), "Levenberg-Marquardt on the identifiable parameters"),
+    row(EkfSolver::NAME, Family::Baseline, |e| Box::new(EkfSolver { epochs: (20.0 * e).ceil() as usize }), "the extended Kalman filter"),
     row(
         PfSolver::NAME,
         Family::Baseline,
-        false,
         |e| Box::new(PfSolver { particles: (4000.0 * e).max(100.0) as usize, ..Default::default() }),
         "the regularised particle filter",
     ),
     row(
         PsoSolver::NAME,
         Family::Baseline,
-        false,
         |e| Box::new(PsoSolver { iterations: (1500.0 * e).max(10.0) as usize, ..Default::default() }),
         "particle swarm optimisation",
     ),
-    row(RbfSolver::NAME, Family::Baseline, true, |_| Box::new(RbfSolver::default()), "LM geometry, then an RBF network on its residuals"),
-    row(EvoVariant::Full.method_name(), Family::EvoNph, true, |e| evo(EvoVariant::Full, e), "Evo-NPH: DS-ADE over the geometry and the GKAN's coefficients"),
-    row(EvoVariant::Sequential.method_name(), Family::EvoNph, true, |e| evo(EvoVariant::Sequential, e), "Evo-NPH ablation V1: LM geometry, then the GKAN"),
-    row(
-        EvoVariant::Mlp.method_name(),
-        Family::EvoNph,
-        true,
-        |e| evo(EvoVariant::Mlp, e),
-        "Evo-NPH ablation V2: a ReLU MLP of matched size instead of the GKAN",
-    ),
-    row(EvoVariant::SingleStrategy.method_name(), Family::EvoNph, true, |e| evo(EvoVariant::SingleStrategy, e), "Evo-NPH ablation V3: single-strategy DE"),
-    row(Ablation::Full.method_name(), Family::PsoEkfAwnn, true, |e| awnn(Ablation::Full, e), "PSO-EKF-AWNN: PSO-tuned EKF, then an adaptive wavelet network"),
+    row(RbfSolver::NAME, Family::Baseline, |_| Box::new(RbfSolver::default()), "LM geometry, then an RBF network on its residuals"),
+    row(EvoVariant::Full.method_name(), Family::EvoNph, |e| evo(EvoVariant::Full, e), "Evo-NPH: DS-ADE over the geometry and the GKAN's coefficients"),
+    row(EvoVariant::Sequential.method_name(), Family::EvoNph, |e| evo(EvoVariant::Sequential, e), "Evo-NPH ablation V1: LM geometry, then the GKAN"),
+    row(EvoVariant::Mlp.method_name(), Family::EvoNph, |e| evo(EvoVariant::Mlp, e), "Evo-NPH ablation V2: a ReLU MLP of matched size instead of the GKAN"),
+    row(EvoVariant::SingleStrategy.method_name(), Family::EvoNph, |e| evo(EvoVariant::SingleStrategy, e), "Evo-NPH ablation V3: single-strategy DE"),
+    row(Ablation::Full.method_name(), Family::PsoEkfAwnn, |e| awnn(Ablation::Full, e), "PSO-EKF-AWNN: PSO-tuned EKF, then an adaptive wavelet network"),
     row(
         Ablation::V1Symbolic.method_name(),
         Family::PsoEkfAwnn,
-        true,
         |e| awnn(Ablation::V1Symbolic, e),
         "PSO-EKF-AWNN ablation V1: symbolic EKF then LM, no network",
     ),
     row(
         Ablation::V2RandomInit.method_name(),
         Family::PsoEkfAwnn,
-        true,
         |e| awnn(Ablation::V2RandomInit, e),
         "PSO-EKF-AWNN ablation V2: hyperparameters drawn at random instead of by PSO",
     ),
-    row(
-        Ablation::V3Mlp.method_name(),
-        Family::PsoEkfAwnn,
-        true,
-        |e| awnn(Ablation::V3Mlp, e),
-        "PSO-EKF-AWNN ablation V3: a ReLU MLP instead of the wavelet network",
-    ),
+    row(Ablation::V3Mlp.method_name(), Family::PsoEkfAwnn, |e| awnn(Ablation::V3Mlp, e), "PSO-EKF-AWNN ablation V3: a ReLU MLP instead of the wavelet network"),
     row(
         Ablation::V4Morlet.method_name(),
         Family::PsoEkfAwnn,
-        true,
         |e| awnn(Ablation::V4Morlet, e),
         "PSO-EKF-AWNN ablation V4: Morlet instead of Mexican-hat wavelets",
     ),
-    row(
-        Ablation::V5Joint.method_name(),
-        Family::PsoEkfAwnn,
-        true,
-        |e| awnn(Ablation::V5Joint, e),
-        "PSO-EKF-AWNN ablation V5: geometry and network fitted jointly",
-    ),
+    row(Ablation::V5Joint.method_name(), Family::PsoEkfAwnn, |e| awnn(Ablation::V5Joint, e), "PSO-EKF-AWNN ablation V5: geometry and network fitted jointly"),
     row(
         Ablation::Extended.method_name(),
         Family::PsoEkfAwnn,
-        true,
         |e| awnn(Ablation::Extended, e),
         "PSO-EKF-AWNN extended: the network also sees temperature (or time) and backlash flanks, then network/LM alternations",
     ),
@@ -290,15 +263,14 @@ impl Method {
         self.0.help
     }
 
-    /// Whether the method adds a learned corrector of the residuals (rbf and the papers'
-    /// methods): they fit with equal weights, as their correctors learn plain residuals.
-    pub fn learns_corrector(self) -> bool {
-        self.0.learns_corrector
-    }
-
     /// The method with its default settings; `effort` scales the budget of the stochastic ones.
     pub fn solver(self, effort: f64) -> Box<dyn Solver> {
         (self.0.solver)(effort)
+    }
+
+    /// What its solver needs prepared ([`SolverNeeds::of`]).
+    pub fn needs(self) -> SolverNeeds {
+        SolverNeeds::of(self.solver(1.0).as_ref())
     }
 }
 

@@ -694,6 +694,9 @@ impl Cost for Fitness<'_, '_> {
 }
 
 impl Solver for PsoEkfAwnn {
+    fn learns_corrector(&self) -> bool {
+        true
+    }
     fn name(&self) -> &'static str {
         self.variant.method_name()
     }

@@ -31,6 +31,9 @@ impl RbfSolver {
 }
 
 impl Solver for RbfSolver {
+    fn learns_corrector(&self) -> bool {
+        true
+    }
     fn name(&self) -> &'static str {
         Self::NAME
     }

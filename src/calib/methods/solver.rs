@@ -48,7 +48,8 @@ pub struct Solution {
 
 /// A calibration method with its settings.
 pub trait Solver: Send + Sync {
-    /// The name the method is registered under ([`super::Method::parse`]).
+    /// Its name, recorded in the result (`provenance.method`): a registered method's is the name
+    /// [`super::Method::parse`] reads; a solver of the user's own names itself.
     fn name(&self) -> &'static str;
     /// Whether the method uses [`Problem::noise_mm`] (the pipeline then estimates it first).
     fn needs_noise(&self) -> bool {
@@ -60,6 +61,31 @@ pub trait Solver: Send + Sync {
     fn needs_row_inputs(&self) -> bool {
         false
     }
+    /// Whether the method adds a learned corrector of the residuals (rbf and the papers'
+    /// methods): the pipeline then fits with equal weights, as the corrector learns plain
+    /// residuals.
+    fn learns_corrector(&self) -> bool {
+        false
+    }
     /// Solves `p`, reporting progress to `obs`.
     fn solve(&self, p: &Problem, obs: &mut dyn Observer) -> Result<Solution>;
+}
+
+/// What the stages before the solve prepare for the solver that follows
+/// ([`crate::calib::pipeline::prepare`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolverNeeds {
+    /// Every row its inputs (and the split its torque model) even without effect blocks
+    /// ([`Solver::needs_row_inputs`]).
+    pub row_inputs: bool,
+    /// Equal weights for every row, whatever their standard deviations
+    /// ([`Solver::learns_corrector`]).
+    pub equal_weights: bool,
+}
+
+impl SolverNeeds {
+    /// What `solver` needs.
+    pub fn of(solver: &dyn Solver) -> SolverNeeds {
+        SolverNeeds { row_inputs: solver.needs_row_inputs(), equal_weights: solver.learns_corrector() }
+    }
 }

@@ -10,7 +10,7 @@ use crate::calib::fit::identify::identify;
 use crate::calib::fit::identify::Identifiability;
 use crate::calib::fit::robust::{Loss, Outlier};
 use crate::calib::fit::{ReadingFit, Samples};
-use crate::calib::methods::{Method, Solver};
+use crate::calib::methods::{Method, Solver, SolverNeeds};
 use crate::calib::methods::{Problem, Solution};
 use crate::calib::model::CalibModel;
 use crate::dataset::truth::TruthFile;
@@ -53,9 +53,9 @@ pub struct Prepared {
 }
 
 /// Stages "split", "placement", "outliers", "effects" and "identifiability" of a calibration
-/// with `opts`; `row_inputs` gives every row its inputs (and the split its torque model) even
-/// without effect blocks ([`Solver::needs_row_inputs`]).
-pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<Prepared> {
+/// with `opts`, for a solver that needs `needs`.
+pub fn prepare(data: &Dataset, opts: &CalibOptions, needs: SolverNeeds) -> Result<Prepared> {
+    let row_inputs = needs.row_inputs;
     let measurement = reading_measurement(data)?;
     let mut split = split_stage(data, opts)?;
     // The position columns (a pose's orientation may stay the same throughout, as on an ISO
@@ -85,7 +85,7 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, row_inputs: bool) -> Result<
     let (mut model, search) = crate::calib::pipeline::placement::place(opts, &split.train, [&data.stations().labels, &data.mounts().labels])?;
     // Stage "weighting": a tracker's per-row standard deviations weight the fit (and the screen).
     // (A learned corrector learns plain residuals: its methods fit with equal weights.)
-    let weighting = if opts.floor.row_std && !opts.method.learns_corrector() {
+    let weighting = if opts.floor.row_std && !needs.equal_weights {
         crate::calib::fit::weighting::training_weights(&model, data, &split.train_idx, &split.train, opts.rank_tol).map(|(w, info)| {
             split.train.w = Some(w);
             info
@@ -171,7 +171,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     // Stage "set-up": the instrument's stations (declared, declared blocks, change points).
     let (labelled, found) = resolve_stations(data, opts)?;
     let data = labelled.as_ref().unwrap_or(data);
-    let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting, search } = prepare(data, opts, solver.needs_row_inputs())?;
+    let Prepared { mut split, model, screen, test_rows_in_steps: test_in_steps, id, weighting, search } = prepare(data, opts, SolverNeeds::of(solver))?;
     sees_the_blocks(&model, solver)?;
     let mut warnings = setup_warnings(&model, data, screen.is_some(), opts);
     let x0 = model.nominal.clone();
@@ -230,7 +230,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
             twincal_version: env!("CARGO_PKG_VERSION").into(),
             data: data.source.clone(),
             data_sha256: None,
-            method: Method::parse(solver.name())?,
+            method: solver.name().into(),
             model_name: model.name.clone(),
             seed: opts.seed,
             n_train: split.train.len(),
@@ -490,7 +490,7 @@ pub fn result_of_fit(
             twincal_version: env!("CARGO_PKG_VERSION").into(),
             data: data.source.clone(),
             data_sha256: None,
-            method: Method::LM,
+            method: Method::LM.name().into(),
             model_name: model.name.clone(),
             seed,
             n_train: rows.len(),

@@ -6,7 +6,6 @@ use crate::calib::correctors::{Correct, Corrector, EffectCorrection};
 use crate::calib::effects::EffectBlock;
 use crate::calib::effects::RowInputs;
 use crate::calib::fit::robust::{Loss, Outlier, OutlierRun, ReadingStep};
-use crate::calib::methods::Method;
 use crate::calib::model::CalibModel;
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
@@ -101,8 +100,9 @@ pub struct Provenance {
     /// it validates against was generated with these very data.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub data_sha256: Option<String>,
-    /// The calibration method.
-    pub method: Method,
+    /// The calibration method's name: a registered method's ([`crate::calib::methods::Method`]), or a solver's of the
+    /// user's own.
+    pub method: String,
     /// Name of the calibrated model.
     pub model_name: String,
     /// Seed of the run (the split and a stochastic method).
@@ -589,10 +589,19 @@ fn check_parameter_report(r: &CalibResult) -> std::result::Result<(), String> {
     Ok(())
 }
 
+/// Longest method name a result file may hold.
+pub const MAX_METHOD_NAME: usize = 64;
+
 fn check_model(r: &CalibResult) -> std::result::Result<(), String> {
     let chain = &r.model.chain;
     chain.validate()?;
     let mut seen = std::collections::BTreeSet::new();
+    let m = &r.provenance.method;
+    if m.is_empty() || m.len() > MAX_METHOD_NAME || !m.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c)) {
+        return Err(format!(
+            "provenance.method {m:?} is not a method's name (letters, digits, '-', '_', '.'; at most {MAX_METHOD_NAME}) (edited result file?)"
+        ));
+    }
     if let Some(row) = r.provenance.test_rows.iter().find(|i| !seen.insert(**i)) {
         return Err(format!("provenance.test_rows names row {} twice: a calibration holds a row out once (edited result file?)", row + 1));
     }
