@@ -31,6 +31,7 @@ use crate::calib::correctors::Correct;
 use crate::calib::effects::inputs::TorqueModel;
 use crate::calib::pipeline::CalibResult;
 use crate::error::{Error, Result};
+use crate::ik::closed_form::{within_limits, ClosedForm};
 use crate::ik::{solver::check_tol_mm, IkModel, IkOptions, IkStatus, IkWork, JacobianKind};
 use crate::measurement::Euler;
 use nalgebra::{Matrix3, Vector3};
@@ -133,6 +134,62 @@ pub struct Compensator<'a> {
     calibrated: IkModel<'a>,
     nominal: IkModel<'a>,
     options: IkOptions,
+    /// Every solution of the nominal arm in closed form, where its geometry allows
+    /// ([`crate::ik::closed_form`]); else the nominal controller is read by numerical search.
+    closed: Option<NominalClosedForm>,
+}
+
+/// The nominal arm's closed form and its tool on the flange (the tool's pose in the flange
+/// frame: rotation, and translation in mm), which carries a tool target to a flange target.
+struct NominalClosedForm {
+    form: ClosedForm,
+    tool_rot: Matrix3<f64>,
+    tool_mm: Vector3<f64>,
+}
+
+/// Farthest (mm, and radians) the closed form's tool may lie from the nominal model's own at a
+/// check configuration for the closed form to read the nominal controller (the model is then
+/// plain geometry, with a fixed tool on the flange).
+const CLOSED_FORM_CHECK: f64 = 1e-7;
+
+impl NominalClosedForm {
+    /// The closed form of `nominal` where it has one and its tool is fixed on the flange
+    /// (checked at a few configurations).
+    fn of(nominal: &IkModel) -> Option<NominalClosedForm> {
+        let m = nominal.model;
+        if m.chain.n_joints != 6 {
+            return None;
+        }
+        let form = ClosedForm::of(&m.chain, &nominal.x[..m.n_chain()])?;
+        let (mut w, mut mw) = (nominal.work(), m.work());
+        let flange_and_tool = |q: &[f64], w: &mut IkWork, mw: &mut crate::calib::model::ModelWork| {
+            let f = m.flange_frame(nominal.x, q, mw);
+            let (p, r) = nominal.pose(q, w, None);
+            (f, p, r)
+        };
+        let (f0, p0, r0) = flange_and_tool(&[0.0; 6], &mut w, &mut mw);
+        let tool_rot = f0.rot.transpose() * r0;
+        let tool_mm = f0.rot.transpose() * (p0 - crate::units::to_mm(f0.pos));
+        let ok = [[0.3, -0.4, 0.5, 1.0, -0.7, 2.0], [-1.2, 0.2, -0.3, -2.0, 1.1, -0.5]].iter().all(|q| {
+            let (f, p, r) = flange_and_tool(q, &mut w, &mut mw);
+            let (tp, tr) = (crate::units::to_mm(f.pos) + f.rot * tool_mm, f.rot * tool_rot);
+            (tp - p).norm() < CLOSED_FORM_CHECK && (tr - r).norm() < CLOSED_FORM_CHECK
+        });
+        ok.then_some(NominalClosedForm { form, tool_rot, tool_mm })
+    }
+
+    /// Every solution (rad) that puts the tool at `p` (mm) turned `r`, each angle at every turn
+    /// within `limits`.
+    fn solutions(&self, p: &Vector3<f64>, r: &Matrix3<f64>, limits: &[(f64, f64)]) -> Vec<Vec<f64>> {
+        let rot = r * self.tool_rot.transpose();
+        let flange = crate::robot::kinematics::Frame { rot, pos: crate::units::to_m(p - rot * self.tool_mm) };
+        let (mut base, mut all) = (Vec::new(), Vec::new());
+        self.form.solve(&flange, &mut base);
+        for q in &base {
+            within_limits(q, limits, &mut all);
+        }
+        all.into_iter().map(|q| q.to_vec()).collect()
+    }
 }
 
 /// Random starts of [`Compensator::nominal_pose_nearest`] besides the present joints: enough to
@@ -147,6 +204,11 @@ const CONTINUATION_DEG: f64 = 45.0;
 /// found by restarts: beyond it the restart found another arm configuration, not the nominal
 /// command's.
 pub const BRANCH_DEG: f64 = 10.0;
+
+/// The largest change of any joint between `a` and `b` (rad).
+fn max_change(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
 
 /// Each angle of `q` (rad) moved by whole turns to the one nearest `reference` that stays within
 /// its joint's `limits`.
@@ -226,7 +288,8 @@ impl<'a> Compensator<'a> {
         }
         let nominal = IkModel::new(&r.model, x_nom, None, limits);
         let options = IkOptions { tol_mm, tol_deg, max_iter: 100, ..IkOptions::default() };
-        Ok(Compensator { calibrated, nominal, options })
+        let closed = NominalClosedForm::of(&nominal);
+        Ok(Compensator { calibrated, nominal, options, closed })
     }
 
     /// The rigid transform (rotation, translation) that best maps the points `truth` (mm)
@@ -379,6 +442,20 @@ impl<'a> Compensator<'a> {
         self.nominal.pose(q, wn, None)
     }
 
+    /// The nominal arm's solutions for the pose `p` (mm), `r`: every one within the joint limits
+    /// where the arm has a closed form, else the one a numerical search finds (if any).
+    pub fn nominal_pose_solutions(&self, p: &Vector3<f64>, r: &Matrix3<f64>, wn: &mut IkWork) -> Vec<Vec<f64>> {
+        match &self.closed {
+            Some(cf) => cf.solutions(p, r, &self.nominal.limits),
+            None => self.nominal_pose_command(p, r, &[], &|_| true, wn).into_iter().collect(),
+        }
+    }
+
+    /// Whether the nominal controller is read in closed form (every solution found).
+    pub fn closed_form(&self) -> bool {
+        self.closed.is_some()
+    }
+
     /// The nominal controller's command for the pose `p` (mm), `r`, where the controller chooses
     /// among the arm's solutions by what the program states (its configuration data, or the
     /// arm's last position): local solves from each of `starts` in turn, then one with random
@@ -392,6 +469,14 @@ impl<'a> Compensator<'a> {
         accept: &dyn Fn(&mut Vec<f64>) -> bool,
         wn: &mut IkWork,
     ) -> Option<Vec<f64>> {
+        if let Some(cf) = &self.closed {
+            // Every solution, nearest the first start first: the first the program accepts.
+            let mut all = cf.solutions(p, r, &self.nominal.limits);
+            if let Some(s0) = starts.first() {
+                all.sort_by(|a, b| max_change(a, s0).total_cmp(&max_change(b, s0)));
+            }
+            return all.into_iter().find_map(|mut q| accept(&mut q).then_some(q));
+        }
         let local = IkOptions { local: true, ..self.options.clone() };
         for start in starts {
             let mut s = self.nominal.solve_pose_from(p, r, Some(start), JacobianKind::Analytic, &local, wn);
@@ -411,6 +496,9 @@ impl<'a> Compensator<'a> {
     /// `previous`).
     pub fn nominal_pose_nearest(&self, p: &Vector3<f64>, r: &Matrix3<f64>, previous: &[f64], wn: &mut IkWork) -> Option<Vec<f64>> {
         use rand::SeedableRng;
+        if let Some(cf) = &self.closed {
+            return cf.solutions(p, r, &self.nominal.limits).into_iter().min_by(|a, b| max_change(a, previous).total_cmp(&max_change(b, previous)));
+        }
         let local = IkOptions { local: true, ..self.options.clone() };
         let distance = |q: &[f64]| q.iter().zip(previous).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         // The solution the arm continues to from where it stands, where the descent from there

@@ -279,7 +279,8 @@ impl CompensateJob {
         let reachable = solved.iter().filter(|s| s.status == Status::Reachable).count();
         let left = f.targets.iter().filter(|t| !matches!(t.outcome, filter::Outcome::Filtered | filter::Outcome::NothingToMove)).count();
         if left > 0 {
-            warnings.push(format!("{left} of {} targets left as written (see the outcome column of {})", f.targets.len(), self.report.display()));
+            warnings.push(format!("{left} of {} targets left as written (the outcome and reason columns of {})", f.targets.len(), self.report.display()));
+            warnings.extend(filter::left_lines(&f));
         }
         for n in &f.run_time {
             warnings.push(format!("{}:{}:{}: {} left as written: {}", n.file, n.line, n.column, n.target, n.reason));

@@ -21,15 +21,29 @@ const MOTIONS: [(&str, usize); 6] = [("PTP", 1), ("LIN", 1), ("CIRC", 2), ("SPTP
 
 /// The tool and base before the program selects any.
 const UNSET: &str = "(not selected)";
+/// What an external tool's name carries (an FDAT with `IPO_FRAME #TCP`).
+const EXTERNAL: &str = " (IPO_FRAME #TCP)";
 
 /// The program's state as it is read: the declared points, the frames' names, the FDATs.
 #[derive(Default)]
 struct State {
     declared: BTreeMap<String, usize>,
-    fdat: BTreeMap<String, (i64, i64)>,
+    fdat: BTreeMap<String, Fdat>,
     tool: String,
     base: String,
 }
+
+/// An FDAT's frame choice: the tool's and the base's numbers, and whether the tool is external
+/// (`IPO_FRAME #TCP`: the robot carries the part past a tool standing in the cell).
+#[derive(Clone, Copy, Debug)]
+struct Fdat {
+    tool: i64,
+    base: i64,
+    external: bool,
+}
+
+/// The data types of positions the filter reads.
+const POINT_TYPES: [&str; 5] = ["POS", "E6POS", "FRAME_POINT", "AXIS", "E6AXIS"];
 
 impl Reader for KrlReader {
     fn defaults(&self) -> (&'static str, &'static str) {
@@ -65,26 +79,49 @@ impl Reader for KrlReader {
     }
 }
 
-/// An aggregate `{X 1.0,Y 2,...}` at `open`: its fields (upper case) and their numbers.
-fn aggregate(name: &str, src: &str, m: &str, open: usize) -> Result<(BTreeMap<String, Num>, Range<usize>)> {
+/// An aggregate `{X 1.0,Y 2,...}` at `open`: its numeric fields (upper case) and their numbers,
+/// and its other fields (upper case) with their values' text (`IPO_FRAME #BASE`, `POINT2[] " "`,
+/// a nested aggregate). A field of a position or a frame (`X`, `A1`, `S`, ...) that is not one
+/// number, or a part that is no field at all, is an error naming it.
+fn aggregate(name: &str, src: &str, m: &str, open: usize) -> Result<(BTreeMap<String, Num>, BTreeMap<String, String>)> {
     let end = group_end(name, m, open)?;
-    let mut fields = BTreeMap::new();
+    let (mut fields, mut other) = (BTreeMap::new(), BTreeMap::new());
     for part in split_top(m, open + 1..end - 1) {
         let part = trim(m, part);
         if part.is_empty() {
             continue;
         }
-        let label: String = m[part.clone()].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
-        let nums = numbers_in(name, src, part.start + label.len()..part.end, b"")?;
-        match nums.as_slice() {
-            [n] if !label.is_empty() => {
-                fields.insert(label.to_ascii_uppercase(), n.clone());
+        let label: String = m[part.clone()].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '[' || *c == ']').collect();
+        let key = label.to_ascii_uppercase();
+        let not_a_field = || error_at(name, src, part.start, format!("'{}' is not a field and its value", &src[part.clone()]));
+        if label.is_empty() || !m[part.start + label.len()..part.end].starts_with(char::is_whitespace) {
+            return Err(not_a_field());
+        }
+        let value = part.start + label.len()..part.end;
+        if NUMERIC_FIELDS.contains(&key.as_str()) {
+            match numbers_in(name, src, value, b"")?.as_slice() {
+                [n] => fields.insert(key, n.clone()),
+                _ => return Err(error_at(name, src, part.start, format!("'{}': the field {key} takes one number", &src[part.clone()]))),
+            };
+            continue;
+        }
+        match numbers_in(name, src, value.clone(), b"") {
+            Ok(nums) if nums.len() == 1 => {
+                fields.insert(key, nums[0].clone());
             }
-            _ => return Err(error_at(name, src, part.start, format!("'{}' is not a field and its number", &src[part.clone()]))),
+            _ => {
+                other.insert(key, m[value].trim().to_string());
+            }
         }
     }
-    Ok((fields, open..end))
+    Ok((fields, other))
 }
+
+/// The fields of a position, a joint position or a frame: each one number.
+const NUMERIC_FIELDS: [&str; 26] = [
+    "X", "Y", "Z", "A", "B", "C", "S", "T", "A1", "A2", "A3", "A4", "A5", "A6", "E1", "E2", "E3", "E4", "E5", "E6", "TOOL_NO", "BASE_NO", "E7", "E8", "E9",
+    "E10",
+];
 
 /// A site's layout and numbers from an aggregate's fields, or why it is left.
 fn point(kind: &str, fields: &BTreeMap<String, Num>) -> Option<(Layout, Vec<Num>, Option<Left>)> {
@@ -130,26 +167,35 @@ fn data_line(name: &str, src: &str, m: &str, line: Range<usize>, file: usize, p:
     }
     let head: Vec<String> = s[..eq].split_whitespace().map(str::to_ascii_uppercase).collect();
     let head: Vec<&str> = head.iter().map(String::as_str).filter(|w| *w != "GLOBAL").collect();
-    let (fields, _) = aggregate(name, src, m, open)?;
+    // Only positions, frames and the frame choice (FDAT) are read; other data (PDAT, LDAT, LOAD,
+    // the machine's $config.dat structures) pass through untouched.
+    let read = || aggregate(name, src, m, open);
     match head.as_slice() {
         ["DECL", "FRAME", var] => {
+            let (fields, _) = read()?;
             p.frames.insert(var.to_string(), frame(&fields));
             p.tools.insert(var.to_string(), frame(&fields));
         }
         ["DECL", "FDAT", var] => {
+            let (fields, other) = read()?;
             let no = |k: &str| fields.get(k).map_or(0, |n| n.value.round() as i64);
-            st.fdat.insert(var.to_string(), (no("TOOL_NO"), no("BASE_NO")));
+            // IPO_FRAME #TCP: the tool stands in the cell and the robot carries the part.
+            let external = other.get("IPO_FRAME").is_some_and(|v| v.eq_ignore_ascii_case("#TCP"));
+            st.fdat.insert(var.to_string(), Fdat { tool: no("TOOL_NO"), base: no("BASE_NO"), external });
         }
-        ["DECL", kind, var] if file != usize::MAX => {
+        ["DECL", kind, var] if file != usize::MAX && POINT_TYPES.contains(kind) => {
+            let (fields, _) = read()?;
             if let Some((layout, nums, left)) = point(kind, &fields) {
                 st.declared.insert(var.to_string(), p.sites.len());
-                p.sites.push(Site { file, at: open, name: var.to_string(), layout, nums, uses: Vec::new(), left });
+                p.sites.push(Site::new(file, open, var, layout, nums, left));
             }
         }
         [data] if data.starts_with("TOOL_DATA[") => {
+            let (fields, _) = read()?;
             p.tools.insert(data.replace(' ', ""), frame(&fields));
         }
         [data] if data.starts_with("BASE_DATA[") => {
+            let (fields, _) = read()?;
             p.frames.insert(data.replace(' ', ""), frame(&fields));
         }
         _ => {}
@@ -182,15 +228,23 @@ fn code_line(name: &str, src: &str, m: &str, line: Range<usize>, file: usize, p:
         return Ok(());
     }
     if let Some(v) = compact.strip_prefix("FDAT_ACT=") {
-        if let Some((t, b)) = st.fdat.get(v) {
-            st.tool = format!("TOOL_DATA[{t}]");
-            st.base = format!("BASE_DATA[{b}]");
+        // The inline forms then call BAS(#PTP_PARAMS, ...) or BAS(#CP_PARAMS, ...), which select
+        // FDAT_ACT's tool and base.
+        if let Some(f) = st.fdat.get(v).copied() {
+            st.tool = format!("TOOL_DATA[{}]", f.tool);
+            if f.external {
+                st.tool += EXTERNAL;
+                p.tools.insert(st.tool.clone(), None);
+            }
+            st.base = format!("BASE_DATA[{}]", f.base);
         }
         return Ok(());
     }
     let word: String = up.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
     if let Some(&(_, n)) = MOTIONS.iter().find(|(w, _)| *w == word) {
-        return motion(&Source { name, text: src, mask: m, file }, line.start + word.len()..line.end, n, p, st);
+        // KRL reads S and T in a PTP motion only; a LIN or CIRC keeps the arm's branch.
+        let ptp = word.ends_with("PTP");
+        return motion(&Source { name, text: src, mask: m, file }, line.start + word.len()..line.end, (n, ptp), p, st);
     }
     if word.ends_with("_REL") && MOTIONS.iter().any(|(w, _)| word.starts_with(w)) {
         let (l, c) = text::line_col(src, line.start);
@@ -236,8 +290,9 @@ fn selected(f: &Source, v: &str, at: usize, p: &mut Parsed, tool: bool) -> Resul
     })
 }
 
-/// A motion's targets: a declared point's use, an inline aggregate's site, or a note.
-fn motion(f: &Source, args: Range<usize>, n: usize, p: &mut Parsed, st: &State) -> Result<()> {
+/// A motion's `n` targets (a PTP motion's read with their S and T: `ptp`): a declared point's
+/// use, an inline aggregate's site, or a note.
+fn motion(f: &Source, args: Range<usize>, (n, ptp): (usize, bool), p: &mut Parsed, st: &State) -> Result<()> {
     let (name, src, m, file) = (f.name, f.text, f.mask, f.file);
     // The targets end where the approximation (C_PTP, C_DIS, ...) or the spline's options begin.
     let text = &m[args.clone()];
@@ -248,14 +303,21 @@ fn motion(f: &Source, args: Range<usize>, n: usize, p: &mut Parsed, st: &State) 
         let t = m[r.clone()].trim().to_string();
         let up = t.to_ascii_uppercase();
         let use_ = (st.tool.clone(), st.base.clone());
-        if t.starts_with('{') {
+        let site = if t.starts_with('{') {
             let (fields, _) = aggregate(name, src, m, r.start)?;
             let kind = if fields.contains_key("A1") { "E6AXIS" } else { "E6POS" };
-            if let Some((layout, nums, left)) = point(kind, &fields) {
-                p.sites.push(Site { file, at: r.start, name: "inline".into(), layout, nums, uses: vec![use_], left });
-            }
-        } else if let Some(&k) = st.declared.get(&up) {
+            point(kind, &fields).map(|(layout, nums, left)| {
+                p.sites.push(Site::new(file, r.start, "inline", layout, nums, left));
+                p.sites.len() - 1
+            })
+        } else {
+            st.declared.get(&up).copied()
+        };
+        if let Some(k) = site {
             p.sites[k].uses.push(use_);
+            p.sites[k].config_ignored += usize::from(!ptp);
+        } else if t.starts_with('{') {
+            continue;
         } else {
             let (line, column) = text::line_col(src, r.start);
             let reason = if t.contains(':') {

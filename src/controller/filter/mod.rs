@@ -90,12 +90,32 @@ pub(crate) struct Site {
     pub uses: Vec<(String, String)>,
     /// Why it is left as written whatever it is moved with (assigned at run time), if so.
     pub left: Option<Left>,
+    /// How many of its uses ignore its configuration data (RAPID: a motion run with `ConfJ\Off`
+    /// or `ConfL\Off`; KRL: `S` and `T` in a `LIN` or `CIRC`, which keep the arm's branch).
+    pub config_ignored: usize,
 }
 
 impl Site {
+    /// A site with nothing used yet and nothing ignored.
+    pub(crate) fn new(file: usize, at: usize, name: &str, layout: Layout, nums: Vec<Num>, left: Option<Left>) -> Site {
+        Site { file, at, name: name.to_string(), layout, nums, uses: Vec::new(), left, config_ignored: 0 }
+    }
     /// Its numbers' values, in the layout's order.
     fn values(&self) -> Vec<f64> {
         self.nums.iter().map(|n| n.value).collect()
+    }
+    /// Whether the controller reads its configuration data: it states them and a motion that
+    /// moves to it reads them (or none moves to it).
+    fn reads_config(&self) -> bool {
+        self.layout.has_config() && (self.uses.is_empty() || self.config_ignored < self.uses.len())
+    }
+    /// The configuration data the controller reads, if any.
+    fn config(&self) -> Option<Vec<i64>> {
+        if self.reads_config() {
+            pose_config(self.layout, &self.values())
+        } else {
+            None
+        }
     }
 }
 
@@ -157,8 +177,9 @@ pub enum Outcome {
     /// Left as written, for this reason.
     Left(Left),
     /// The nominal model has no solution with the target's configuration data (the controller
-    /// would stop there): left as written.
-    NoNominalSolution,
+    /// would stop there): left as written; with the configuration data the nominal arm reaches
+    /// the target with, where it does.
+    NoNominalSolution(Option<String>),
     /// The calibrated model does not reach it (the status): left as written.
     NotReached(Status),
     /// The compensated command lies on another branch of the arm (its configuration data would
@@ -182,9 +203,28 @@ impl Outcome {
                     Left::JointTarget => "joint_target",
                 }
             ),
-            Outcome::NoNominalSolution => "no_nominal_solution".into(),
+            Outcome::NoNominalSolution(_) => "no_nominal_solution".into(),
             Outcome::NotReached(s) => format!("not_reached_{}", s.name()),
             Outcome::BranchChange => "branch_change".into(),
+        }
+    }
+
+    /// Why the target was left as written, in words (empty for a filtered one).
+    pub fn reason(&self) -> String {
+        match self {
+            Outcome::Filtered | Outcome::NothingToMove => String::new(),
+            Outcome::Left(Left::RunTime(why) | Left::Frames(why)) => why.clone(),
+            Outcome::Left(Left::Unused) => "no motion of the program moves to it, so its tool and frame are unknown".into(),
+            Outcome::Left(Left::Taught) => "named by --leave (taught on the robot)".into(),
+            Outcome::Left(Left::JointTarget) => "a joint target (--joint-targets filters them)".into(),
+            Outcome::NoNominalSolution(None) => "the nominal controller reaches it with no configuration within the joint limits".into(),
+            Outcome::NoNominalSolution(Some(other)) => {
+                format!("the nominal controller has no solution with its configuration data within the joint limits; it reaches the target with {other}")
+            }
+            Outcome::NotReached(s) => format!("the calibrated arm does not reach it ({})", s.name()),
+            Outcome::BranchChange => {
+                "the compensated command lies on another branch of the arm (shoulder, elbow or wrist), so its configuration data would change".into()
+            }
         }
     }
 }
@@ -296,7 +336,7 @@ pub fn filter_program(c: &Compensator, setup: &Setup, lang: Language, files: &[P
         let (l, col) = lines[site.file].at(site.at);
         let (outcome, new, compensated) = match (&plan.frames, result) {
             (Err(left), _) => (Outcome::Left(left.clone()), None, None),
-            (Ok(_), Solved::NoNominal) => (Outcome::NoNominalSolution, None, None),
+            (Ok(_), Solved::NoNominal(other)) => (Outcome::NoNominalSolution(other.clone()), None, None),
             (Ok(_), Solved::Done(k, values)) => judge(site, &k, values, c.tolerances(), setup),
             (Ok(_), Solved::Elsewhere(k)) => (Outcome::BranchChange, None, Some(*k)),
             (Ok(_), Solved::Skipped) => unreachable!("every planned site is solved"),
@@ -364,7 +404,7 @@ pub fn read_program(
             _ if s.layout.joints() && !v.is_empty() => Some(joints_of(s.layout, &v)),
             Ok(f) if !v.is_empty() => {
                 let (p, rot) = model_pose(setup, s.layout, &v, &f);
-                match pose_of(s.layout, &v).1 {
+                match s.config() {
                     Some(cfg) => {
                         let accept = |q: &mut Vec<f64>| branch::matches(s.layout, &cfg, q, c.limits(), setup);
                         c.nominal_pose_command(&p, &rot, &branch::seeds(s.layout, &cfg, c.limits()), &accept, &mut wn)
@@ -419,7 +459,7 @@ fn read_back(
     targets: &[TargetReport],
 ) -> Result<Vec<usize>> {
     let Arm { c, setup, o } = *arm;
-    let checked = |s: &Site, t: &TargetReport| t.outcome == Outcome::Filtered && !s.layout.has_config() && !s.layout.joints();
+    let checked = |s: &Site, t: &TargetReport| t.outcome == Outcome::Filtered && !s.reads_config() && !s.layout.joints();
     if !sites.iter().zip(targets).any(|(s, t)| checked(s, t)) {
         return Ok(Vec::new());
     }
@@ -470,8 +510,9 @@ fn plan(s: &Site, p: &Parsed, o: &FilterOptions) -> Plan {
 
 /// A site's solve.
 enum Solved {
-    /// The nominal controller finds no solution with the target's configuration.
-    NoNominal,
+    /// The nominal controller finds no solution with the target's configuration (the
+    /// configuration data it reaches the target with instead, where it does).
+    NoNominal(Option<String>),
     /// The compensation, and the filtered numbers of the site (in its layout's order).
     Done(Box<Compensated>, Vec<f64>),
     /// Left before solving.
@@ -490,7 +531,7 @@ fn solve_all(c: &Compensator, setup: &Setup, sites: &[Site], plans: &[Plan], o: 
         .map_init(
             || c.works(),
             |(wc, wn), (s, p)| match &p.frames {
-                Ok(f) if s.layout.has_config() || s.layout.joints() => solve_site(c, setup, s, f, None, wc, wn),
+                Ok(f) if s.reads_config() || s.layout.joints() => solve_site(c, setup, s, f, None, wc, wn),
                 _ => Solved::Skipped,
             },
         )
@@ -521,7 +562,7 @@ fn solve_all(c: &Compensator, setup: &Setup, sites: &[Site], plans: &[Plan], o: 
                         other => (other, None),
                     }
                 });
-                let first = tries.next().unwrap_or((Solved::NoNominal, None));
+                let first = tries.next().unwrap_or((Solved::NoNominal(None), None));
                 match first {
                     (Solved::Elsewhere(done), _) => match tries.next() {
                         Some((Solved::Done(d, v), read)) => (Solved::Done(d, v), read),
@@ -589,7 +630,7 @@ fn solve_site(
         let new = joint_values(s.layout, &k.command_q);
         return Solved::Done(Box::new(k), new);
     }
-    let config = pose_of(s.layout, &v).1;
+    let config = s.config();
     let (p, r) = model_pose(setup, s.layout, &v, &(*tool, *frame));
     let nominal = match (&config, previous) {
         (Some(cfg), _) => {
@@ -599,16 +640,38 @@ fn solve_site(
         (None, Some(q)) => c.nominal_pose_nearest(&p, &r, q, wn),
         (None, None) => c.nominal_pose_command(&p, &r, &[], &|_| true, wn),
     };
-    let Some(nominal_q) = nominal else { return Solved::NoNominal };
+    let Some(nominal_q) = nominal else {
+        // Which configuration data the target takes instead, said as the language writes them.
+        let mut other: Vec<String> = match config {
+            Some(_) => c.nominal_pose_solutions(&p, &r, wn).iter().map(|q| config_words(s.layout, &setup.config(s.layout, q))).collect(),
+            None => Vec::new(),
+        };
+        other.sort();
+        other.dedup();
+        return Solved::NoNominal((!other.is_empty()).then(|| other.join("; or ")));
+    };
     let k = c.compensate_commanded(&p, &r, nominal_q, wc, wn);
     let filtered = match &k.pose {
         Some(parts) => setup.program_pose(&Vector3::from(k.filtered_mm), &parts.filtered),
-        None => return Solved::NoNominal,
+        None => return Solved::NoNominal(None),
     };
     let in_frame = frame.inverse() * filtered * tool;
-    let cfg = config.map(|_| branch::config_of(s.layout, &setup.branch(&k.command_q), &k.command_q));
+    // Configuration data the controller ignores are kept as written.
+    let cfg = match config {
+        Some(_) => Some(branch::config_of(s.layout, &setup.branch(&k.command_q), &k.command_q)),
+        None => pose_config(s.layout, &v),
+    };
     let new = pose_values(s.layout, &in_frame, cfg.as_deref(), &v);
     Solved::Done(Box::new(k), new)
+}
+
+/// Configuration data as the language names them (`cf1 -1, cf4 0, cf6 1, cfx 2`; `S 2, T 35`).
+fn config_words(layout: Layout, cfg: &[i64]) -> String {
+    let names: &[&str] = match layout {
+        Layout::RapidPose => &["cf1", "cf4", "cf6", "cfx"],
+        _ => &["S", "T"],
+    };
+    names.iter().zip(cfg).map(|(n, v)| format!("{n} {v}")).collect::<Vec<_>>().join(", ")
 }
 
 /// Judges a solved site: not reached, a branch change, nothing to move (the calibrated model
@@ -618,8 +681,7 @@ fn judge(site: &Site, k: &Compensated, new: Vec<f64>, (tol_mm, tol_deg): (f64, f
     if k.status != Status::Reachable {
         return (Outcome::NotReached(k.status), None, Some(k.clone()));
     }
-    let old = site.values();
-    if let Some(cfg) = pose_config(site.layout, &old) {
+    if let Some(cfg) = site.config() {
         if !branch::agrees(site.layout, &cfg, &k.command_q, setup) {
             return (Outcome::BranchChange, Some(new), Some(k.clone()));
         }
@@ -766,16 +828,27 @@ fn pose_values(layout: Layout, pose: &Isometry3<f64>, config: Option<&[i64]>, ol
     out
 }
 
+/// The targets left as written, grouped by outcome and reason: one line per group naming them.
+pub fn left_lines(f: &Filtered) -> Vec<String> {
+    let mut groups: BTreeMap<(String, String), Vec<String>> = BTreeMap::new();
+    for t in f.targets.iter().filter(|t| !matches!(t.outcome, Outcome::Filtered | Outcome::NothingToMove)) {
+        groups.entry((t.outcome.name(), t.outcome.reason())).or_default().push(format!("{} ({}:{})", t.name, t.file, t.line));
+    }
+    groups.into_iter().map(|((name, reason), targets)| format!("{} left as written ({name}): {reason}: {}", targets.len(), targets.join(", "))).collect()
+}
+
 /// The filter's report as CSV: a line per target.
 pub fn report_csv(f: &Filtered) -> String {
     use std::fmt::Write;
-    let mut out = String::from("file,line,column,name,kind,tool,frame,outcome,config_before,config_after,residual_mm,residual_deg,nominal_error_mm,nominal_error_deg,moved_mm,moved_deg\n");
+    let mut out = String::from(
+        "file,line,column,name,kind,tool,frame,outcome,reason,config_before,config_after,residual_mm,residual_deg,nominal_error_mm,nominal_error_deg,moved_mm,moved_deg\n",
+    );
     let num = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
     for t in &f.targets {
         let k = t.compensated.as_ref();
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},\"{}\",\"{}\",{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},\"{}\",\"{}\",\"{}\",{},{},{},{},{},{}",
             t.file,
             t.line,
             t.column,
@@ -784,6 +857,7 @@ pub fn report_csv(f: &Filtered) -> String {
             t.tool,
             t.frame,
             t.outcome.name(),
+            t.outcome.reason().replace('"', "\"\""),
             t.config_before,
             t.config_after,
             num(k.map(|k| k.residual_mm)),

@@ -27,9 +27,9 @@ impl Reader for RapidReader {
     fn parse(&self, files: &[ProgramFile], frames: &[ProgramFile]) -> Result<Parsed> {
         let mut p = Parsed::default();
         let mut declared: BTreeMap<String, usize> = BTreeMap::new();
-        let masks: Vec<String> = files.iter().map(|f| text::mask(&f.text, b'!', b"\"")).collect();
+        let masks: Vec<String> = files.iter().map(|f| mask(&f.text)).collect();
         for f in frames {
-            let m = text::mask(&f.text, b'!', b"\"");
+            let m = mask(&f.text);
             for st in statements(&m) {
                 declaration(&f.name, &f.text, &m, st, usize::MAX, &mut p, &mut declared)?;
             }
@@ -40,13 +40,32 @@ impl Reader for RapidReader {
             }
         }
         for (i, f) in files.iter().enumerate() {
+            // Each module starts with the controller's default: configuration monitored.
+            let mut conf = Conf { joint: true, linear: true };
             for st in statements(&masks[i]) {
-                instruction(&f.name, &masks[i], st, i, &mut p, &declared)?;
+                instruction(&f.name, &masks[i], st, i, &mut p, &declared, &mut conf)?;
             }
         }
         Ok(p)
     }
 }
+
+/// RAPID text masked ([`text::mask`]: comments after `!`, strings), and the header block that
+/// ABB's tools write before the module (`%%%`, `VERSION:1`, `LANGUAGE:ENGLISH`, `%%%`) blanked.
+fn mask(src: &str) -> String {
+    let mut m = text::mask(src, b'!', b"\"");
+    let start = m.len() - m.trim_start_matches(|c: char| c.is_whitespace() || c == '\u{feff}').len();
+    if m[start..].starts_with(HEADER) {
+        let end = m[start + HEADER.len()..].find(HEADER).map_or(start, |k| start + HEADER.len() + k + HEADER.len());
+        // Byte for byte, so that offsets in the mask stay the text's.
+        let blank: String = m[start..end].bytes().map(|b| if b == b'\n' || b == b'\r' { b as char } else { ' ' }).collect();
+        m.replace_range(start..end, &blank);
+    }
+    m
+}
+
+/// The marker that opens and closes the header of a module saved by ABB's tools.
+const HEADER: &str = "%%%";
 
 /// Words that open or close a block on a line of their own (no semicolon ends them).
 const BLOCK_WORDS: [&str; 18] = [
@@ -131,7 +150,7 @@ fn declaration(name: &str, src: &str, m: &str, st: Range<usize>, file: usize, p:
                     if literal {
                         let nums = target_numbers(name, src, m, value, layout)?;
                         declared.insert(var.to_ascii_lowercase(), p.sites.len());
-                        p.sites.push(Site { file, at: st.start, name: var.to_string(), layout, nums, uses: Vec::new(), left: None });
+                        p.sites.push(Site::new(file, st.start, var, layout, nums, None));
                     }
                 }
                 "tooldata" if literal => {
@@ -223,12 +242,28 @@ fn pose(v: &[f64]) -> Isometry3<f64> {
     Isometry3::from_parts(Translation3::new(v[0], v[1], v[2]), UnitQuaternion::from_quaternion(Quaternion::new(v[3], v[4], v[5], v[6])))
 }
 
-/// A motion instruction: its targets' uses (a declared target: its tool and work object), its
-/// inline targets as sites, its computed targets as notes.
-fn instruction(name: &str, m: &str, st: Range<usize>, file: usize, p: &mut Parsed, declared: &BTreeMap<String, usize>) -> Result<()> {
+/// Whether the controller holds a motion to the configuration its target states (`ConfJ \On`,
+/// `ConfL \On`, the default) or takes the solution nearest the arm's (`\Off`).
+struct Conf {
+    /// `ConfJ`: joint motions (`MoveJ`).
+    joint: bool,
+    /// `ConfL`: linear and circular motions (`MoveL`, `MoveC`).
+    linear: bool,
+}
+
+/// A motion instruction: its targets' uses (a declared target: its tool and work object, and
+/// whether the configuration monitoring `conf` reads its configuration data), its inline
+/// targets as sites, its computed targets as notes; `ConfJ` and `ConfL` switch `conf`.
+fn instruction(name: &str, m: &str, st: Range<usize>, file: usize, p: &mut Parsed, declared: &BTreeMap<String, usize>, conf: &mut Conf) -> Result<()> {
     let s = &m[st.clone()];
     let word: String = s.chars().take_while(|c| c.is_ascii_alphanumeric()).collect();
+    if word.eq_ignore_ascii_case("ConfJ") || word.eq_ignore_ascii_case("ConfL") {
+        let on = !s[word.len()..].to_ascii_lowercase().contains("\\off");
+        *(if word.eq_ignore_ascii_case("ConfJ") { &mut conf.joint } else { &mut conf.linear }) = on;
+        return Ok(());
+    }
     let Some(&(_, n_targets, _)) = MOTIONS.iter().find(|(w, _, _)| w.eq_ignore_ascii_case(&word)) else { return Ok(()) };
+    let reads_config = if word.to_ascii_lowercase().starts_with("movej") { conf.joint } else { conf.linear };
     let args = st.start + word.len()..st.end;
     let (positional, wobj) = arguments(m, args);
     if positional.len() < n_targets + 3 {
@@ -244,11 +279,16 @@ fn instruction(name: &str, m: &str, st: Range<usize>, file: usize, p: &mut Parse
     for r in &positional[..n_targets] {
         let t = m[r.clone()].trim();
         let layout = if MOTIONS.iter().any(|(w, _, j)| *j && w.eq_ignore_ascii_case(&word)) { Layout::RapidJoints } else { Layout::RapidPose };
-        if t.starts_with('[') {
+        let site = if t.starts_with('[') {
             let nums = target_numbers(name, m, m, r.clone(), layout)?;
-            p.sites.push(Site { file, at: r.start, name: "inline".into(), layout, nums, uses: vec![(tool.clone(), frame.clone())], left: None });
-        } else if let Some(&k) = declared.get(&t.to_ascii_lowercase()) {
+            p.sites.push(Site::new(file, r.start, "inline", layout, nums, None));
+            Some(p.sites.len() - 1)
+        } else {
+            declared.get(&t.to_ascii_lowercase()).copied()
+        };
+        if let Some(k) = site {
             p.sites[k].uses.push((tool.clone(), frame.clone()));
+            p.sites[k].config_ignored += usize::from(!reads_config);
         } else {
             let (line, column) = text::line_col(m, r.start);
             let fname = t.split('(').next().unwrap_or("").trim();

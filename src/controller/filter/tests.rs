@@ -229,3 +229,83 @@ fn line_and_column_by_index_agree_with_the_scan() {
         assert_eq!(lines.at(at), text::line_col(t, at), "byte {at}");
     }
 }
+
+/// Modules as the controllers' own tools save them: a RAPID module with the `%%%` header keeps
+/// its first declaration (the tool); one written offline with `[0,0,0,0]` everywhere and run
+/// under `ConfJ\Off` / `ConfL\Off` is filtered, the configuration data left as written; a
+/// KRL data list with every field of its FDAT and PDAT lines, `FDAT_ACT` and `BAS(#PTP_PARAMS)`
+/// selecting the frames and a `$config.dat` with loads and `XHOME` reads as the plain one; S and
+/// T in a LIN are the arm's branch, not the target's; why a target is left is said.
+#[test]
+fn modules_in_the_forms_controllers_save_them() {
+    let (r, robot) = fixture();
+    let x_nom = nominal_x(r);
+    let c = compensator(r, &x_nom, 0.001, 0.001);
+    assert!(c.closed_form(), "the IRB 120's nominal controller is read in closed form");
+    let setup = Setup::new(r, &x_nom, Some(robot));
+    let prog = sample(&c, &setup, Language::Rapid, setup.probe_tool(), frame(), 6, 5);
+    let (files, _) = prog.write(Language::Rapid);
+    let plain = filter_program(&c, &setup, Language::Rapid, &files, &[], &FilterOptions::default()).unwrap();
+    let header = format!("%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\n{}", files[0].text);
+    let saved = vec![ProgramFile { name: files[0].name.clone(), text: header.clone() }];
+    let f = filter_program(&c, &setup, Language::Rapid, &saved, &[], &FilterOptions::default()).unwrap();
+    let outcomes = |f: &Filtered| f.targets.iter().map(|t| (t.name.clone(), t.outcome.name())).collect::<Vec<_>>();
+    assert_eq!(outcomes(&f), outcomes(&plain), "{}", report_csv(&f));
+    assert!(f.targets.iter().filter(|t| t.outcome == Outcome::Filtered).count() >= 5, "{}", report_csv(&f));
+    assert!(f.files[0].text.starts_with("%%%\r\n  VERSION:1\r\n"));
+
+    // Offline: every configuration [0,0,0,0], run with the monitoring off.
+    let mut text = files[0].text.clone();
+    for t in &prog.targets {
+        let cfg: Vec<String> = t.1.iter().map(|v| v.to_string()).collect();
+        text = text.replacen(&format!("[{}],[9E+09", cfg.join(",")), "[0,0,0,0],[9E+09", 1);
+    }
+    let off = text.replace("    PROC main()\r\n", "    PROC main()\r\n        ConfJ \\Off;\r\n        ConfL\\Off;\r\n");
+    let on = filter_program(&c, &setup, Language::Rapid, &[ProgramFile { name: "m.mod".into(), text }], &[], &FilterOptions::default()).unwrap();
+    let with_off = filter_program(&c, &setup, Language::Rapid, &[ProgramFile { name: "m.mod".into(), text: off }], &[], &FilterOptions::default()).unwrap();
+    let count = |f: &Filtered, o: &str| f.targets.iter().filter(|t| t.outcome.name() == o).count();
+    assert!(count(&on, "no_nominal_solution") > 0, "the monitoring on holds the arm to [0,0,0,0]: {}", report_csv(&on));
+    assert!(count(&with_off, "no_nominal_solution") == 0 && count(&with_off, "filtered") >= 5, "{}", report_csv(&with_off));
+    assert!(with_off.targets.iter().filter(|t| t.kind == "pose").all(|t| t.config_after == t.config_before), "{}", report_csv(&with_off));
+    let csv = report_csv(&on);
+    assert!(csv.lines().next().unwrap().contains(",outcome,reason,") && csv.contains("no solution with its configuration data"), "{csv}");
+    // Which quadrant disagrees: the data the nominal arm reaches the target with instead.
+    let t1 = on.targets.iter().find(|t| t.name == "twc_t1").unwrap();
+    let cfg: Vec<String> = prog.targets[0].1.iter().zip(["cf1", "cf4", "cf6", "cfx"]).map(|(v, n)| format!("{n} {v}")).collect();
+    let why = t1.outcome.reason();
+    assert!(why.contains("it reaches the target with ") && why.contains(&cfg.join(", ")), "{why}");
+
+    // KRL as KSS writes it.
+    let prog = sample(&c, &setup, Language::Krl, setup.probe_tool(), frame(), 6, 6);
+    let (files, frames) = prog.write(Language::Krl);
+    let plain = filter_program(&c, &setup, Language::Krl, &files, &frames, &FilterOptions::default()).unwrap();
+    let src = files[0].text.replace("  BAS(#TOOL,1)\n  BAS(#BASE,2)\n", "  FDAT_ACT=FP1\n  PDAT_ACT=PPDAT1\n  BAS(#PTP_PARAMS,100)\n");
+    let dat = files[1].text.replace(
+        "ENDDAT",
+        "  DECL FDAT FP1={TOOL_NO 1,BASE_NO 2,IPO_FRAME #BASE,POINT2[] \" \",TQ_STATE FALSE}\n  DECL PDAT PPDAT1={VEL 100.000,ACC 100.000,APO_DIST 100.000,APO_MODE #CDIS,GEAR_JERK 100.000,EXAX_IGN 0}\n  DECL LDAT LCPDAT1={VEL 2.0,ACC 100.0,APO_DIST 100.0,APO_FAC 50.0,AXIS_VEL 100.0,AXIS_ACC 100.0,ORI_TYP #VAR,CIRC_TYP #BASE,JERK_FAC 50.0,GEAR_JERK 100.0,EXAX_IGN 0,CB {AUX_PT {ORI #CONSIDER,E1 #INTERPOLATE,E2 #INTERPOLATE,E3 #IGNORE,E4 #IGNORE,E5 #IGNORE,E6 #IGNORE},TARGET_PT {ORI #INTERPOLATE,E1 #INTERPOLATE,E2 #INTERPOLATE,E3 #INTERPOLATE,E4 #INTERPOLATE,E5 #INTERPOLATE,E6 #INTERPOLATE}}}\nENDDAT",
+    );
+    let config = frames[0].text.replace(
+        "ENDDAT",
+        "  DECL E6AXIS XHOME={A1 0.0,A2 -90.0,A3 90.0,A4 0.0,A5 0.0,A6 0.0,E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}\n  LOAD_DATA[1]={M -1.0,CM {X 0.0,Y 0.0,Z 0.0,A 0.0,B 0.0,C 0.0},J {X 0.0,Y 0.0,Z 0.0}}\nENDDAT",
+    );
+    let kss = [
+        ProgramFile { name: files[0].name.clone(), text: src.replace("  PTP XTWC_T1", "  PTP XHOME\n  PTP XTWC_T1") },
+        ProgramFile { name: files[1].name.clone(), text: dat },
+    ];
+    let f = filter_program(&c, &setup, Language::Krl, &kss, &[ProgramFile { name: "$config.dat".into(), text: config }], &FilterOptions::default()).unwrap();
+    assert_eq!(outcomes(&f), outcomes(&plain), "{}", report_csv(&f));
+    assert!(f.run_time.iter().any(|n| n.target == "XHOME" && n.reason.contains("$config.dat")), "{:?}", f.run_time);
+    // IPO_FRAME #TCP: the tool stands in the cell; the targets moved with it are left, and why.
+    let ext = [kss[0].clone(), ProgramFile { name: kss[1].name.clone(), text: kss[1].text.replace("IPO_FRAME #BASE", "IPO_FRAME #TCP") }];
+    let f = filter_program(&c, &setup, Language::Krl, &ext, &frames, &FilterOptions::default()).unwrap();
+    assert!(
+        f.targets.iter().filter(|t| t.kind == "pose").all(|t| t.outcome.name() == "left_frames" && t.outcome.reason().contains("surroundings")),
+        "{}",
+        report_csv(&f)
+    );
+    // S and T in a LIN: the controller keeps the arm's branch, and so does the filter.
+    let lin = [ProgramFile { name: files[0].name.clone(), text: files[0].text.replace("  PTP XTWC_T", "  LIN XTWC_T") }, files[1].clone()];
+    let f = filter_program(&c, &setup, Language::Krl, &lin, &frames, &FilterOptions::default()).unwrap();
+    assert!(f.targets.iter().filter(|t| t.kind == "pose").all(|t| t.config_after == t.config_before), "{}", report_csv(&f));
+    assert!(f.targets.iter().filter(|t| t.outcome == Outcome::Filtered).count() >= 5, "{}", report_csv(&f));
+}

@@ -122,7 +122,7 @@ fn assignment(name: &str, src: &str, m: &str, line: Range<usize>, file: usize, p
     if opens_literal(m, value.start) {
         let (layout, nums) = literal(name, src, m, value.start)?;
         vars.insert(var.to_string(), p.sites.len());
-        p.sites.push(Site { file, at: value.start, name: var.to_string(), layout, nums, uses: Vec::new(), left: None });
+        p.sites.push(Site::new(file, value.start, var, layout, nums, None));
     }
     Ok(())
 }
@@ -147,7 +147,9 @@ fn motions(f: &Source, line: Range<usize>, p: &mut Parsed, vars: &BTreeMap<Strin
                 let use_ = (tool.to_string(), BASE.to_string());
                 if opens_literal(m, r.start) {
                     let (layout, nums) = literal(name, src, m, r.start)?;
-                    p.sites.push(Site { file, at: r.start, name: "inline".into(), layout, nums, uses: vec![use_], left: None });
+                    let mut site = Site::new(file, r.start, "inline", layout, nums, None);
+                    site.uses.push(use_);
+                    p.sites.push(site);
                 } else if let Some(&k) = vars.get(t.trim()) {
                     p.sites[k].uses.push(use_);
                 } else {
