@@ -307,6 +307,32 @@ pub fn calibration_page(r: &CalibResult, f: &CalibFigures, verdict: Option<&Verd
     s
 }
 
+/// The diagnosis's causes as a table (or the sentence that none improves the fit).
+fn causes_table(s: &mut String, d: &crate::diagnose::Diagnosis) {
+    s.push_str("<h2>Causes</h2>");
+    if d.causes.is_empty() {
+        s.push_str("<p>No effect improves the held-out fit significantly: the geometric model explains the data.</p>\n");
+    } else {
+        s.push_str("<table><tr><th>cause</th><th>joint</th><th>quantity</th><th>size</th><th>±1σ</th><th>unit</th><th>held-out RMSE before → after (mm)</th><th>p</th></tr>");
+        for c in &d.causes {
+            let _ = write!(
+                s,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{:.4} → {:.4}</td><td>{:.1e}</td></tr>",
+                esc(&c.cause),
+                c.joint.map(|j| j.to_string()).unwrap_or_else(|| "–".into()),
+                esc(&c.quantity),
+                c.magnitude,
+                c.uncertainty,
+                esc(&c.unit),
+                c.heldout_rmse_before_mm,
+                c.heldout_rmse_after_mm,
+                c.p_value
+            );
+        }
+        s.push_str("</table>\n");
+    }
+}
+
 /// The diagnosis page.
 pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verdict: Option<&Verdict>) -> String {
     let mut s = head(&format!("twincal {}", f.title));
@@ -342,28 +368,7 @@ pub fn diagnosis_page(d: &crate::diagnose::Diagnosis, f: &DiagnosisFigures, verd
         }
         s.push_str("</table>");
     }
-    s.push_str("<h2>Causes</h2>");
-    if d.causes.is_empty() {
-        s.push_str("<p>No effect improves the held-out fit significantly: the geometric model explains the data.</p>\n");
-    } else {
-        s.push_str("<table><tr><th>cause</th><th>joint</th><th>quantity</th><th>size</th><th>±1σ</th><th>unit</th><th>held-out RMSE before → after (mm)</th><th>p</th></tr>");
-        for c in &d.causes {
-            let _ = write!(
-                s,
-                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{:.4} → {:.4}</td><td>{:.1e}</td></tr>",
-                esc(&c.cause),
-                c.joint.map(|j| j.to_string()).unwrap_or_else(|| "–".into()),
-                esc(&c.quantity),
-                c.magnitude,
-                c.uncertainty,
-                esc(&c.unit),
-                c.heldout_rmse_before_mm,
-                c.heldout_rmse_after_mm,
-                c.p_value
-            );
-        }
-        s.push_str("</table>\n");
-    }
+    causes_table(&mut s, d);
     let top: Vec<String> = d.evidence.iter().take(6).map(|e| format!("{} (r = {:+.2})", esc(&e.feature), e.correlation)).collect();
     let _ = writeln!(s, "<p class=\"note\">Strongest correlations of the geometric model's residual: {}.</p>", top.join(", "));
     let x_label = if meas.dim() == 1 {
