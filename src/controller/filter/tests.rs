@@ -309,3 +309,113 @@ fn modules_in_the_forms_controllers_save_them() {
     assert!(f.targets.iter().filter(|t| t.kind == "pose").all(|t| t.config_after == t.config_before), "{}", report_csv(&f));
     assert!(f.targets.iter().filter(|t| t.outcome == Outcome::Filtered).count() >= 5, "{}", report_csv(&f));
 }
+
+mod readers_property {
+    //! The three readers on programs assembled from the pieces controllers and their tools
+    //! write (headers, data lists with every field, configuration switches, comments, mixed
+    //! case, CRLF, Latin-1 characters), cut and spliced: each answers (read, or an error naming
+    //! a line), never panics; what it reads it writes back byte for byte when nothing moves.
+    use super::super::*;
+    use proptest::prelude::*;
+
+    const RAPID: [&str; 14] = [
+        "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n",
+        "MODULE m\r\n",
+        "  PERS tooldata tg := [TRUE,[[10,0,120],[1,0,0,0]],[1.5,[0,0,40],[1,0,0,0],0,0,0]];\r\n",
+        "  TASK PERS wobjdata wo := [FALSE,TRUE,\"\",[[300,0,100],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];\r\n",
+        "  CONST robtarget p1 := [[400,50,300],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];\r\n",
+        "  const ROBTARGET P2:=[[410,-20,280],[0.7071068,0,0.7071068,0],[-1,0,-1,1],[9E9,9E9,9E9,9E9,9E9,9E9]];\r\n",
+        "  PROC main()\r\n",
+        "    ConfJ \\Off;\r\n",
+        "    confl\\on;\r\n",
+        "    MoveJ p1, v200, fine, tg\\WObj:=wo; ! a comment ; with a semicolon\r\n",
+        "    MOVEL P2, v100, z10, tg;\r\n",
+        "    MoveL Offs(p1,0,0,10), v100, z10, tg\\WObj:=wo;\r\n",
+        "  ENDPROC\r\n",
+        "ENDMODULE\r\n",
+    ];
+    const KRL: [&str; 12] = [
+        "&ACCESS RVP\n&REL 1\n",
+        "DEFDAT prog PUBLIC\n",
+        "  DECL E6POS XP1={X 400.0,Y 50.0,Z 300.0,A 0.0,B 90.0,C 0.0,S 2,T 35,E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}\n",
+        "  DECL FDAT FP1={TOOL_NO 1,BASE_NO 2,IPO_FRAME #BASE,POINT2[] \" \",TQ_STATE FALSE}\n",
+        "  DECL PDAT PPDAT1={VEL 100.000,ACC 100.000,APO_DIST 100.000,APO_MODE #CDIS,GEAR_JERK 100.000,EXAX_IGN 0}\n",
+        "  decl e6axis xhome={a1 0.0,a2 -90.0,a3 90.0,a4 0.0,a5 0.0,a6 0.0}\n",
+        "ENDDAT\n",
+        "DEF prog( )\n",
+        "  FDAT_ACT=FP1\n  BAS(#PTP_PARAMS,100)\n",
+        "  PTP XP1 C_PTP ; to the first point\n",
+        "  LIN {X 410,Y -20,Z 280,A 0,B 90,C 0} C_DIS\n",
+        "END\n",
+    ];
+    const UR: [&str; 6] = [
+        "def prog():\n",
+        "  set_tcp(p[0.0, 0.0, 0.12, 0.0, 0.0, 0.0])\n",
+        "  p1 = p[0.4, 0.05, 0.3, 0.0, 3.1416, 0.0]\n",
+        "  movel(p1, a=1.2, v=0.25)  # a comment\n",
+        "  movej([0.0, -1.57, 1.57, -1.57, -1.57, 0.0], a=1.4, v=1.05)\n",
+        "end\n",
+    ];
+    /// Latin-1 characters as controllers' files carry them (the file read as ISO-8859-1).
+    const LATIN: [&str; 3] = ["° ", "é", "µ"];
+
+    fn program(pieces: &'static [&'static str]) -> impl Strategy<Value = String> {
+        let piece = prop_oneof![
+            8 => proptest::sample::select(pieces.to_vec()).prop_map(str::to_string),
+            1 => proptest::sample::select(LATIN.to_vec()).prop_map(str::to_string),
+            1 => "[ -~]{0,12}".prop_map(|s| s),
+        ];
+        (proptest::collection::vec(piece, 0..18), any::<bool>(), any::<proptest::sample::Index>()).prop_map(|(parts, upper, cut)| {
+            let text = parts.concat();
+            let text = if upper { text.to_uppercase() } else { text };
+            // Cut at a character boundary: a file truncated anywhere.
+            let at = cut.index(text.len() + 1);
+            let at = (0..=at).rev().find(|i| text.is_char_boundary(*i)).unwrap_or(0);
+            text[..at].to_string()
+        })
+    }
+
+    fn answers(lang: Language, name: &str, text: String) {
+        let files = vec![ProgramFile { name: name.into(), text }];
+        let _ = parse(lang, &files, &[]);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 128, failure_persistence: None, ..ProptestConfig::default() })]
+
+        #[test]
+        fn the_rapid_reader_answers_any_module(text in program(&RAPID)) {
+            answers(Language::Rapid, "m.mod", text);
+        }
+
+        #[test]
+        fn the_krl_reader_answers_any_data_list_and_program(text in program(&KRL)) {
+            answers(Language::Krl, "prog.src", text.clone());
+            answers(Language::Krl, "prog.dat", text);
+        }
+
+        #[test]
+        fn the_urscript_reader_answers_any_script(text in program(&UR)) {
+            answers(Language::Urscript, "prog.script", text);
+        }
+    }
+
+    /// The saved forms read whole: each language's full program parses.
+    #[test]
+    fn the_saved_forms_parse_whole() {
+        for (lang, name, pieces) in [(Language::Rapid, "m.mod", &RAPID[..]), (Language::Urscript, "p.script", &UR[..])] {
+            let files = vec![ProgramFile { name: name.into(), text: pieces.concat() }];
+            let p = parse(lang, &files, &[]).unwrap_or_else(|e| panic!("{lang:?}: {e}"));
+            assert!(!p.sites.is_empty(), "{lang:?}");
+        }
+        let src = KRL[7..].concat();
+        let dat = KRL[..7].concat();
+        let files = vec![ProgramFile { name: "prog.src".into(), text: src }, ProgramFile { name: "prog.dat".into(), text: dat }];
+        let p = parse(Language::Krl, &files, &[]).unwrap();
+        assert_eq!(p.sites.len(), 3, "XP1, XHOME and the inline LIN target");
+        let xp1 = p.sites.iter().find(|s| s.name == "XP1").unwrap();
+        assert_eq!((xp1.uses.len(), xp1.config_ignored), (1, 0), "a PTP reads S and T");
+        let inline = p.sites.iter().find(|s| s.name == "inline").unwrap();
+        assert_eq!(inline.uses[0].0, "TOOL_DATA[1]", "FDAT_ACT's tool");
+    }
+}
