@@ -105,3 +105,35 @@ fn a_targets_file_is_points_poses_or_this_arms_joints() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The nominal controller of an arm with a closed form finds every solution of a pose: the
+/// configuration a pose was computed at is among them, for configurations across the joint
+/// ranges of the IRB 120 and the UR10 (their calibrations' nominal models).
+#[test]
+fn the_nominal_closed_form_finds_the_configuration_a_pose_came_from() {
+    use rand::{Rng, SeedableRng};
+    for name in ["irb120_tracker", "ur10_tracker"] {
+        let (s, robot) = scenario(name, "");
+        let g = crate::sim::generate::generate(&s, &robot, &crate::sim::generate::Silent).unwrap();
+        let r = crate::calib::pipeline::calibrate(&g.dataset, None, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM))
+            .unwrap();
+        let x_nom = super::nominal_x(&r);
+        let c = super::Compensator::new(&r, &x_nom, None, 0.001, 0.001).unwrap();
+        assert!(c.closed_form(), "{name}");
+        let limits = r.model.joint_limits();
+        let nominal = crate::ik::IkModel::new(&r.model, &x_nom, None, limits.clone());
+        let mut w = nominal.work();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut missed = Vec::new();
+        let mut probes: Vec<Vec<f64>> = vec![[5.47f64, 10.99, -75.59, 20.08, 77.65, 46.0].iter().map(|d| d.to_radians()).collect()];
+        probes.extend((0..300).map(|_| limits.iter().map(|(lo, hi)| lo + (hi - lo) * (0.05 + 0.9 * rng.random::<f64>())).collect::<Vec<f64>>()));
+        for q in &probes {
+            let (p, rot) = nominal.pose(q, &mut w, None);
+            let found = c.nominal_pose_solutions(&p, &rot, &mut w);
+            if !found.iter().any(|s| s.iter().zip(q).all(|(a, b)| (a - b).abs() < 1e-6)) {
+                missed.push((q.iter().map(|v| v.to_degrees()).collect::<Vec<_>>(), found.len()));
+            }
+        }
+        assert!(missed.is_empty(), "{name}: {} of {} missed: {:?}", missed.len(), probes.len(), &missed[..missed.len().min(3)]);
+    }
+}

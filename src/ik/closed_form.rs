@@ -52,6 +52,16 @@
 //! * UR's q6 undetermined (axis 6 parallel to axes 2, 3, 4): q6 = 0 and q4 takes the turn;
 //! * elbow stretched or folded (the two q3 coincide), and any solutions that coincide: returned
 //!   once ([`DUPLICATE_RAD`]).
+//!
+//! # Poses off the chain's poses
+//!
+//! Nothing above assumes the pose is one the chain takes at some configuration: a pose read on
+//! another model (a target taught on the true arm, read on the nominal one) is solved exactly
+//! wherever the chain reaches it. Near a singularity a small change of the pose can change the
+//! solutions a lot: within a few degrees of a stretched elbow the reach margin is a small
+//! fraction of a millimetre (a pose past it has no solution at all: the chain does not reach
+//! it), and near the wrist singularity (q5 ≈ 0) q4 and q6 trade, near the shoulder singularity
+//! q1 and q4, by far more than the pose moved.
 
 use crate::robot::kinematics::{axis_rotation, closest_points, Chain, FkWork, Frame, OpKind};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
@@ -676,6 +686,176 @@ mod tests {
             // Ten times the tolerance is another structure.
             let p: Vec<f64> = p.iter().map(|v| v * 1e2).collect();
             assert!(ClosedForm::of(&chain, &p).is_none(), "{name}");
+        }
+    }
+
+    /// Levenberg-Marquardt (adaptive damping) on the pose error from `q`, independent of the
+    /// closed form: the configuration it ends at (wrapped) and its pose error (m and rad, one norm).
+    fn levenberg_marquardt(cf: &ClosedForm, target: &Frame, mut q: [f64; 6], ws: &mut FkWork) -> ([f64; 6], f64) {
+        cf.chain.forward(&q, &cf.p, 1.0, ws);
+        let mut e = cf.pose_error(target, ws);
+        let mut lambda = 1e-6;
+        for _ in 0..1000 {
+            if e.norm() < 1e-14 {
+                break;
+            }
+            let j = cf.pose_jacobian(ws);
+            let jtj = j.transpose() * j;
+            let Some(dq) = (jtj + Matrix6::from_diagonal(&jtj.diagonal()) * lambda).cholesky().map(|c| c.solve(&(j.transpose() * e))) else { break };
+            let trial: [f64; 6] = std::array::from_fn(|k| q[k] + dq[k]);
+            cf.chain.forward(&trial, &cf.p, 1.0, ws);
+            let e_trial = cf.pose_error(target, ws);
+            if e_trial.norm() < e.norm() {
+                (q, e, lambda) = (trial, e_trial, (lambda / 3.0).max(1e-15));
+            } else if lambda > 1e12 {
+                break;
+            } else {
+                lambda *= 4.0;
+            }
+        }
+        (q.map(wrap), e.norm())
+    }
+
+    /// Largest position (m) and orientation (rad) perturbations of [`perturbed_sweep`].
+    const PERTURB_M: f64 = 5e-4;
+    const PERTURB_RAD: f64 = 1e-3;
+    /// σ_min(J) (m or rad per rad) at or below which a configuration is near a singularity.
+    const PERTURBED_SINGULAR: f64 = 1e-3;
+    /// σ_min(J) above which a configuration is clear of every singularity for the perturbations:
+    /// the first-order joint change |δx| / σ_min ≤ 1.1e-3 / 2e-2 stays within [`NEAR_RAD`], and
+    /// a stretched elbow's reach margin (second order) exceeds the 0.5 mm.
+    const CLEAR_OF_SINGULAR: f64 = 2e-2;
+    /// A solution within this of each joint of the configuration (rad) is its continuation.
+    const NEAR_RAD: f64 = 0.05;
+
+    /// What a sweep of perturbed poses found.
+    #[derive(Debug, Default)]
+    struct Perturbed {
+        /// Configurations with σ_min(J) ≤ [`PERTURBED_SINGULAR`], and in (it, [`CLEAR_OF_SINGULAR`]].
+        near_singular: usize,
+        close_to_singular: usize,
+        /// Perturbed poses with no solution: each beyond the arm's reach (the independent
+        /// Levenberg-Marquardt from the configuration and from random starts finds none either);
+        /// with σ_min(J) above [`PERTURBED_SINGULAR`], and at or below it.
+        beyond_reach: usize,
+        beyond_reach_near_singular: usize,
+        /// Poses with solutions but none within [`NEAR_RAD`] of the configuration (the nearest
+        /// solution is the independent solver's from the configuration): with σ_min(J) above
+        /// [`PERTURBED_SINGULAR`], and at or below it; none above [`CLEAR_OF_SINGULAR`].
+        moved: usize,
+        moved_near_singular: usize,
+        /// Largest σ_min(J) of a configuration beyond reach or moved.
+        worst_sigma: f64,
+        /// Least pose error the independent solver reached on a pose beyond reach (m and rad).
+        least_unreachable: f64,
+        /// Worst residuals of the returned solutions, m and rad.
+        worst_m: f64,
+        worst_rad: f64,
+        /// Largest joint change (rad) from a configuration clear of singularities to its nearest solution.
+        worst_change: f64,
+    }
+
+    /// Solves the poses of `n` random configurations within `limits`, each moved by up to
+    /// [`PERTURB_M`] and turned by up to [`PERTURB_RAD`] (random directions); panics on a
+    /// solution off the pose, a pose without solution that the independent solver reaches, a
+    /// solution it finds from the configuration that is not among the closed form's, and a
+    /// configuration clear of singularities without a solution near it.
+    fn perturbed_sweep(cf: &ClosedForm, chain: &Chain, p: &[f64], limits: &[(f64, f64)], n: usize, seed: u64) -> Perturbed {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (mut ws, mut sols) = (FkWork::new(chain), Vec::new());
+        let mut s = Perturbed { least_unreachable: f64::INFINITY, ..Perturbed::default() };
+        let unit = |rng: &mut ChaCha8Rng| loop {
+            let v = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+            if v.norm() <= 1.0 && v.norm() > 1e-3 {
+                return v.normalize();
+            }
+        };
+        for i in 0..n {
+            let q: [f64; 6] = std::array::from_fn(|j| rng.random_range(limits[j].0..limits[j].1));
+            let mut target = flange(chain, p, &q, &mut ws);
+            let sigma = cf.pose_jacobian(&ws).singular_values().min();
+            let (dm, dr) = (rng.random_range(0.0..PERTURB_M), rng.random_range(0.0..PERTURB_RAD));
+            target.pos += unit(&mut rng) * dm;
+            target.rot = rot(&unit(&mut rng), dr) * target.rot;
+            sols.clear();
+            cf.solve(&target, &mut sols);
+            assert!(sols.len() <= 8, "config {i}: {} solutions", sols.len());
+            for sol in &sols {
+                assert!(sol.iter().all(|a| *a > -PI && *a <= PI), "{sol:?} not wrapped");
+                let (em, er) = pose_distance(&flange(chain, p, sol, &mut ws), &target);
+                (s.worst_m, s.worst_rad) = (s.worst_m.max(em), s.worst_rad.max(er));
+            }
+            let singular = sigma <= PERTURBED_SINGULAR;
+            s.near_singular += usize::from(singular);
+            s.close_to_singular += usize::from(!singular && sigma <= CLEAR_OF_SINGULAR);
+            // The independent solver from the configuration: what it reaches is among the solutions.
+            let (local, residual) = levenberg_marquardt(cf, &target, q, &mut ws);
+            if residual < 1e-12 {
+                assert!(sols.iter().any(|x| same_angles(x, &local, 1e-6)), "config {i} {q:?}: {local:?} not among {sols:?}");
+            }
+            let change = |sol: &[f64; 6]| sol.iter().zip(&q).map(|(a, b)| wrap(a - b).abs()).fold(0.0, f64::max);
+            if sols.is_empty() {
+                // Beyond reach: no start of the independent solver reaches the pose either.
+                let least =
+                    (0..20).map(|_| levenberg_marquardt(cf, &target, std::array::from_fn(|_| rng.random_range(-PI..PI)), &mut ws).1).fold(residual, f64::min);
+                assert!(least > 1e-9, "config {i} {q:?} (σ_min {sigma:.2e}): no solution, but the pose is reached to {least:.1e}");
+                s.least_unreachable = s.least_unreachable.min(least);
+                s.worst_sigma = s.worst_sigma.max(sigma);
+                *if singular { &mut s.beyond_reach_near_singular } else { &mut s.beyond_reach } += 1;
+                assert!(sigma <= CLEAR_OF_SINGULAR, "config {i} {q:?} (σ_min {sigma:.2e}): no solution");
+                continue;
+            }
+            let nearest = sols.iter().map(change).fold(f64::INFINITY, f64::min);
+            if nearest > NEAR_RAD {
+                s.worst_sigma = s.worst_sigma.max(sigma);
+                *if singular { &mut s.moved_near_singular } else { &mut s.moved } += 1;
+                assert!(sigma <= CLEAR_OF_SINGULAR, "config {i} {q:?} (σ_min {sigma:.2e}): nearest solution {nearest:.3} rad away among {sols:?}");
+            }
+            if sigma > CLEAR_OF_SINGULAR {
+                s.worst_change = s.worst_change.max(nearest);
+            }
+        }
+        assert!(s.worst_m <= 1e-12 && s.worst_rad <= 1e-9, "{s:?}");
+        s
+    }
+
+    /// Poses near the chain's but not on it (a target taught on the true arm, read on the
+    /// nominal model: up to 0.5 mm and 1 mrad off): every solution reproduces the perturbed
+    /// pose, a pose without solution is beyond the arm's reach (at a nearly stretched elbow), no
+    /// solution an independent solver finds is missing, and away from singularities a solution
+    /// is near the configuration the pose came from.
+    #[test]
+    fn perturbed_poses_of_four_arms() {
+        for (k, name) in ["irb120", "kr6", "ur5", "ur10"].into_iter().enumerate() {
+            let robot = arm(name);
+            let chain = robot.error_chain();
+            let p = vec![0.0; chain.n_params()];
+            let cf = ClosedForm::of(&chain, &p).unwrap();
+            let t0 = std::time::Instant::now();
+            let s = perturbed_sweep(&cf, &chain, &p, &robot.limits(), N_CONFIGS, 40 + k as u64);
+            eprintln!("{name}: {N_CONFIGS} perturbed poses in {:.2} s (with the independent solver): {s:?}", t0.elapsed().as_secs_f64());
+            // Few near a singularity or beyond reach.
+            assert!(s.near_singular * 50 <= N_CONFIGS && (s.beyond_reach + s.moved) * 20 <= N_CONFIGS, "{name}: {s:?}");
+        }
+    }
+
+    /// The same for a chain whose structure holds only to the tolerance (the Gauss-Newton steps
+    /// finish every solution) and for the absolute D-H model (nonzero parameters).
+    #[test]
+    fn perturbed_poses_within_the_tolerance() {
+        use crate::calib::model::{CalibModel, DrawWireGuess};
+        let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        for name in ["irb120", "ur5"] {
+            let robot = arm(name);
+            let m = CalibModel::dh(&robot, &g, false);
+            let p = &m.nominal[..m.n_chain()];
+            let cf = ClosedForm::of(&m.chain, p).unwrap();
+            perturbed_sweep(&cf, &m.chain, p, &robot.limits(), 1000, 5);
+            let chain = robot.error_chain();
+            let p: Vec<f64> = (0..chain.n_params()).map(|i| 3e-10 * ((i as f64) * 1.3).sin()).collect();
+            let cf = ClosedForm::of(&chain, &p).unwrap();
+            let s = perturbed_sweep(&cf, &chain, &p, &robot.limits(), 1000, 6);
+            eprintln!("{name} within the tolerance: {s:?}");
         }
     }
 
