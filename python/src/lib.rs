@@ -358,7 +358,6 @@ impl PyCalibration {
             angles: angle_unit(angles)?,
             measurement: None,
             euler: euler.parse().map_err(|e: String| err(twincal::Error::Invalid(format!("--euler: {e}"))))?,
-            ..Default::default()
         };
         let opts = reading.load_options(false);
         let src = source(data)?;
