@@ -458,9 +458,10 @@ impl<'a> Compensator<'a> {
 
     /// The nominal controller's command for the pose `p` (mm), `r`, where the controller chooses
     /// among the arm's solutions by what the program states (its configuration data, or the
-    /// arm's last position): local solves from each of `starts` in turn, then one with random
-    /// restarts; the first converged answer `accept` takes (it may move angles by whole turns to
-    /// the ones the program states). `None` where none converges to an accepted answer.
+    /// arm's last position): where the arm has a closed form, every solution, nearest the first
+    /// start first; else local solves from each of `starts` in turn, then one with random
+    /// restarts; the first answer `accept` takes (it may move angles by whole turns to the ones
+    /// the program states). `None` where none is accepted.
     pub fn nominal_pose_command(
         &self,
         p: &Vector3<f64>,
@@ -490,7 +491,8 @@ impl<'a> Compensator<'a> {
 
     /// The nominal controller's command for the pose `p` (mm), `r` where the controller takes
     /// the arm's solution nearest its present joints `previous` (rad; a UR's `movej` and
-    /// `movel` to a pose): the descent from `previous` where it ends within
+    /// `movel` to a pose): where the arm has a closed form, the nearest of every solution; else
+    /// the descent from `previous` where it ends within
     /// `CONTINUATION_DEG` of it, else local solves from seeded random starts, the converged
     /// answer nearest `previous` (the largest joint difference, each angle at its turn nearest
     /// `previous`).
