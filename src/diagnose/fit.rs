@@ -97,6 +97,9 @@ pub(super) struct Ctx {
     /// Block of every selection row, where some block has more than one row.
     pub(super) groups: Option<Vec<usize>>,
     pub(super) rank_tol: f64,
+    /// Rolling-origin folds over the selection rows ([`super::forward`]): what causes that vary
+    /// with time are judged on besides `folds`; `None` where the runs are too short.
+    pub(super) forward: Option<super::forward::Forward>,
 }
 
 impl Ctx {
@@ -116,7 +119,10 @@ impl Ctx {
         let sel_groups = blocks.ids_of(&sel_idx.iter().map(|&i| keep[i]).collect::<Vec<_>>());
         let shared = blocks.any_shared();
         let (folds, other_folds, few_blocks) = block_folds(&sel_groups, opts.folds, shared);
-        let ctx = Ctx { folds, other_folds, groups: shared.then_some(sel_groups), data: kept.subset(&sel_idx), rank_tol: opts.rank_tol };
+        let data = kept.subset(&sel_idx);
+        let times: Vec<Option<f64>> = data.inputs.iter().map(|i| i.t_s).collect();
+        let forward = super::forward::Forward::over(&times, shared.then_some(&sel_groups[..]));
+        let ctx = Ctx { folds, other_folds, groups: shared.then_some(sel_groups), data, rank_tol: opts.rank_tol, forward };
         (ctx, kept.subset(&conf_idx), few_blocks)
     }
 
@@ -131,6 +137,22 @@ impl Ctx {
         let n_free = fixed.iter().filter(|f| !**f).count();
         let deff = self.groups.as_ref().map_or(1.0, |g| crate::stats::design_effect(&res, self.data.dim, g));
         Fitted { model, x, fixed, oof, rss, n_free, deff }
+    }
+
+    /// The residuals of the rows judged forward in time ([`super::forward::Forward::judged_rows`]),
+    /// each stretch predicted by a fit on every row before it; `None` without forward folds.
+    pub(super) fn forward_heldout(&self, model: &CalibModel, x: &[f64], fixed: &[bool]) -> Option<Vec<f64>> {
+        let forward = self.forward.as_ref()?;
+        let per_fold: Vec<Vec<f64>> = forward
+            .folds
+            .par_iter()
+            .map(|(train, judged)| {
+                let tr = self.data.subset(train);
+                let xf = LevenbergMarquardt::refit().minimize(&ReadingFit { model, data: &tr }, x, fixed, &mut NoObserver).x;
+                ReadingFit { model, data: &self.data.subset(judged).unweighted() }.residuals_mm(&xf)
+            })
+            .collect();
+        Some(per_fold.concat())
     }
 
     /// Held-out residual of every selection row: each fold predicted by a fit on the others.

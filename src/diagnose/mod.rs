@@ -20,6 +20,7 @@
 
 pub mod faults;
 mod fit;
+pub mod forward;
 pub mod hidden;
 mod options;
 mod pipeline;

@@ -255,6 +255,8 @@ pub(super) struct Selected {
     pub(super) unconfirmed: Vec<String>,
     pub(super) not_physical: Vec<String>,
     pub(super) below_floor: Vec<String>,
+    /// Refinements hard to tell from something else, and what was made of them (see [`Selection`]).
+    pub(super) questioned: Vec<String>,
     pub(super) other_rmse: Vec<f64>,
     pub(super) conf_rmse: Vec<f64>,
 }
@@ -275,7 +277,7 @@ pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
         "geometric baseline: held-out RMSE {rmse_blocked:.4} mm (blocked folds), {rmse_interleaved:.4} mm (interleaved); judged on {judged_on} folds"
     ));
     let pool = candidate_pool(&kept_rows, &kept.q, opts, p.has_torques)?;
-    let Selection { chain, steps, mut found } = select_causes(&ctx, &pool, &baseline, opts, time_span(&kept_rows), progress);
+    let Selection { chain, steps, mut found, questioned } = select_causes(&ctx, &pool, &baseline, opts, time_span(&kept_rows), progress);
     let (conf_rmse, mut confirmed, unconfirmed) = confirm_causes(&chain, &found, &confirmation, progress);
     let kept_groups = blocks.any_shared().then(|| blocks.ids_of(keep));
     // With the noise model re-estimated at each model, as the final fit will be: at the
@@ -308,6 +310,7 @@ pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
         unconfirmed,
         not_physical,
         below_floor,
+        questioned,
         other_rmse,
         conf_rmse,
     })
@@ -352,9 +355,9 @@ pub(super) fn final_stage(
     let groups = shared.then(|| blocks.ids_of(&final_keep));
     let (kept, noise_model) = final_whitening(kept, noise_model, &all, &current, data, &blocks, &final_keep);
     let FinalFit { id: final_id, x: final_x, train_rmse_mm: final_train_rmse_mm, covs } = final_fit(&current, &kept, groups.as_deref(), opts.rank_tol);
-    let unphysical = unphysical_causes(&current.model, &final_x, &found.iter().map(|f| f.0.clone()).collect::<Vec<EffectBlock>>());
+    let unphysical = unphysical_causes(&current.model, &final_x, &found.iter().map(|f| f.block.clone()).collect::<Vec<EffectBlock>>());
     let set_up = [fold_warning, crate::calib::effects::inputs::payload_warning(data, &opts.loads.joints), few_blocks];
-    let dropped = sel.not_physical.iter().chain(&sel.below_floor).cloned();
+    let dropped = sel.not_physical.iter().chain(&sel.below_floor).chain(&sel.questioned).cloned();
     let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
     warnings.extend(attributions(&found, &causes));
@@ -518,7 +521,7 @@ fn attributions(found: &[Found], causes: &[Cause]) -> Vec<String> {
     found
         .iter()
         .zip(causes)
-        .filter_map(|((b, ..), c)| {
+        .filter_map(|(Found { block: b, .. }, c)| {
             let size = crate::calib::effects::Size { quantity: c.quantity.clone(), value: c.magnitude, unit: c.unit.clone(), uncertainty: c.uncertainty };
             b.kind.def().attribution(b, &size)
         })

@@ -27,6 +27,11 @@ pub struct Candidate {
     pub joint: Option<usize>,
     /// Held-out RMSE of the model with this candidate added, mm.
     pub heldout_rmse_mm: f64,
+    /// For a cause that varies with time: the RMSE of the model with it on the rows judged
+    /// forward in time (each later stretch of every run predicted by a fit on the rows before
+    /// it, [`crate::diagnose::forward`]), mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forward_rmse_mm: Option<f64>,
     /// Bonferroni-corrected p-value of the F test of the nested fits.
     pub p_value: f64,
     /// False when a fitted parameter is beyond [`IMPLAUSIBLE`](crate::diagnose::IMPLAUSIBLE) times its plausible size: the
@@ -45,12 +50,40 @@ pub struct Candidate {
 pub struct Step {
     /// Held-out RMSE of the model before this step, mm.
     pub heldout_rmse_before_mm: f64,
+    /// The same on the rows judged forward in time, where a candidate varies with time, mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forward_rmse_before_mm: Option<f64>,
     /// Every candidate tried in this step.
     pub candidates: Vec<Candidate>,
     /// Label of the candidate kept (`backlash[j2]`); absent when none passed every test, which ends
     /// the selection.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kept: Option<String>,
+    /// What the kept candidate was chosen on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kept_on: Option<KeptOn>,
+}
+
+/// What a selection step chose its cause on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KeptOn {
+    /// The lowest held-out RMSE on the folds the diagnosis judges on.
+    Folds,
+    /// A cause that varies with time won on the folds; among its forms (and its rivals of that
+    /// kind) the one that predicts later rows best, each stretch of every run from the rows
+    /// before it.
+    ForwardInTime,
+}
+
+impl KeptOn {
+    /// In words, for the report.
+    pub fn describe(self) -> &'static str {
+        match self {
+            KeptOn::Folds => "on the held-out folds",
+            KeptOn::ForwardInTime => "forward in time (each later stretch of a run predicted from the rows before it)",
+        }
+    }
 }
 
 /// A cause found in the data.
@@ -83,6 +116,14 @@ pub struct Cause {
     pub confirmation_rmse_after_mm: f64,
     /// Bonferroni-corrected p-value of the F test that kept the cause in its selection step.
     pub p_value: f64,
+    /// For a cause that varies with time: the RMSE on the rows judged forward in time (each
+    /// later stretch of every run predicted from the rows before it) without and with it, mm;
+    /// it was chosen among its kind's forms on this.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forward_rmse_before_mm: Option<f64>,
+    /// See `forward_rmse_before_mm`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forward_rmse_after_mm: Option<f64>,
     /// Every parameter of the block (display units) with its standard uncertainty.
     pub parameters: Vec<(String, f64, f64)>,
 }
@@ -92,8 +133,12 @@ impl Cause {
     /// 0.0121 -> 0.0073 mm (p = 2.8e-25)`.
     pub fn summary(&self) -> String {
         let joint = self.joint.map(|j| format!(" joint {j}")).unwrap_or_default();
+        let forward = self
+            .forward_rmse_before_mm
+            .zip(self.forward_rmse_after_mm)
+            .map_or(String::new(), |(b, a)| format!("; forward in time {b:.4} -> {a:.4} mm (kept on this)"));
         format!(
-            "{}{joint}: {} {} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e})",
+            "{}{joint}: {} {} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e}){forward}",
             self.cause,
             self.quantity,
             crate::units::with_uncertainty(self.magnitude, self.uncertainty),

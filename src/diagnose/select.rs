@@ -102,7 +102,7 @@ pub(super) fn drop_below_floor(
                     )
                 })
                 .collect();
-            format!("{} left out of the model: on the held-out rows {} (the data's floor {:.4} mm)", found[i].0.label(), parts.join("; "), floor.total_mm)
+            format!("{} left out of the model: on the held-out rows {} (the data's floor {:.4} mm)", found[i].block.label(), parts.join("; "), floor.total_mm)
         })
         .collect();
     notes.iter().for_each(|n| progress(&format!("below the floor: {n}")));
@@ -117,7 +117,7 @@ pub(super) fn drop_below_floor(
 /// cause left out, saying why.
 pub(super) fn drop_not_physical(
     chain: &[Fitted],
-    found: &[(EffectBlock, f64, f64, f64)],
+    found: &[Found],
     kept: &dyn Fn(&Fitted) -> Samples,
     groups: Option<&[usize]>,
     opts: &DiagnoseOptions,
@@ -131,15 +131,15 @@ pub(super) fn drop_not_physical(
         let (x, fixed) = refit(&m.model, &kept, &m.x, opts.rank_tol);
         let covs = Covariances::of(&ReadingFit { model: &m.model, data: &kept }, &x, &fixed, groups);
         let Some((k, why)) = found[..*confirmed].iter().enumerate().find_map(|(k, f)| {
-            let b = m.model.effects.iter().position(|e| e == &f.0)?;
-            let size = covs.size(&f.0, &x, m.model.effect_params(b));
+            let b = m.model.effects.iter().position(|e| e == &f.block)?;
+            let size = covs.size(&f.block, &x, m.model.effect_params(b));
             let weak = (size.value.abs() < opts.min_size_sigmas * size.uncertainty)
                 .then(|| format!("its size {:.4} ± {:.4} {} is under {} of its uncertainties", size.value, size.uncertainty, size.unit, opts.min_size_sigmas));
             implausible_param(&m.model, &x, b).or(weak).map(|w| (k, w))
         }) else {
             break;
         };
-        let dropped: Vec<String> = found[k..*confirmed].iter().map(|f| f.0.label()).collect();
+        let dropped: Vec<String> = found[k..*confirmed].iter().map(|f| f.block.label()).collect();
         progress(&format!("not physical on every kept row: {why}; left out: {}", dropped.join(", ")));
         notes.push(format!("{} left out of the model: fitted on every kept row, {why}", dropped.join(", ")));
         *confirmed = k;
@@ -147,27 +147,43 @@ pub(super) fn drop_not_physical(
     notes
 }
 
-/// A cause kept by the forward selection: its block, the held-out RMSE before and after it (mm)
-/// and its p-value.
-pub(super) type Found = (EffectBlock, f64, f64, f64);
+/// A cause kept by the forward selection.
+#[derive(Clone, Debug)]
+pub(super) struct Found {
+    pub(super) block: EffectBlock,
+    /// Held-out RMSE before and after it on the folds selection judges on, mm.
+    pub(super) before: f64,
+    pub(super) after: f64,
+    /// Its p-value.
+    pub(super) p: f64,
+    /// For a cause that varies with time: the RMSE of the rows judged forward in time before
+    /// and after it, mm ([`super::forward`]), on which it was chosen among its rivals.
+    pub(super) forward: Option<(f64, f64)>,
+}
 
-/// The forward selection's outcome: the fitted model after each kept cause (the baseline
-/// first), every step's candidates, and the causes kept in order.
+/// The selection's outcome: the fitted model after each kept cause (the baseline first), every
+/// step's candidates, and the causes kept in order.
 pub(super) struct Selection {
     pub(super) chain: Vec<Fitted>,
     pub(super) steps: Vec<Step>,
     pub(super) found: Vec<Found>,
+    /// Refinements hard to tell from something else (a sensor lag longer than a third of a
+    /// run), one line each saying whether the later rows kept them.
+    pub(super) questioned: Vec<String>,
 }
 
 /// Forward selection over the candidate `pool`: at each step the candidate whose model predicts
 /// the held-out folds best is kept if it is plausible, has the sign physics allows, is sized
 /// beyond `opts.min_size_sigmas`, passes the Bonferroni-corrected gain test and gains at least
-/// `opts.min_gain`; the first step with none ends the selection.
+/// `opts.min_gain`; the first step with none ends the selection. A cause that varies with time
+/// must also gain that much on the rows judged forward in time ([`super::forward`]); where one
+/// wins the step, the forms of such causes compete on that forward gain.
 pub(super) fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, opts: &DiagnoseOptions, span: f64, progress: &dyn Fn(&str)) -> Selection {
     let mut current = baseline.clone();
     let mut chain = vec![baseline.clone()];
     let mut steps = Vec::new();
     let mut found: Vec<Found> = Vec::new();
+    let mut questioned = Vec::new();
     for _ in 0..opts.max_effects {
         // Each candidate is tried without its refinement (a thermal block's sensor lag), which
         // is tested apart once the block is kept.
@@ -176,59 +192,95 @@ pub(super) fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, 
             break;
         }
         let before = rms(&current.oof);
-        let results: Vec<(Candidate, Fitted)> = remaining
-            .par_iter()
-            .map(|b| {
-                let tc = Instant::now();
-                let (m, x0) = with_block(&current.model, &current.x, &b.unrefined(), span);
-                let f = ctx.evaluate(m, &x0);
-                let p = (gain_p_value(&current, &f, ctx.data.y.len()) * remaining.len() as f64).min(1.0);
-                let (size_sigmas, physical_sign) = size_check(&f, &ctx.data, ctx.groups.as_deref());
-                let c = Candidate {
-                    cause: b.kind.name().into(),
-                    joint: b.joint.map(|j| j + 1),
-                    heldout_rmse_mm: rms(&f.oof),
-                    p_value: p,
-                    plausible: plausible(&f),
-                    size_sigmas,
-                    physical_sign,
-                    seconds: tc.elapsed().as_secs_f64(),
-                };
-                (c, f)
-            })
-            .collect();
-        let best = results
-            .iter()
-            .enumerate()
-            .filter(|(_, (c, _))| {
-                c.plausible
-                    && c.physical_sign
-                    && c.size_sigmas >= opts.min_size_sigmas
-                    && c.p_value < opts.alpha
-                    && c.heldout_rmse_mm < (1.0 - opts.min_gain) * before
-            })
-            .min_by(|a, b| a.1 .0.heldout_rmse_mm.total_cmp(&b.1 .0.heldout_rmse_mm))
-            .map(|(i, _)| i);
+        let forward_before = remaining.iter().any(|b| b.varies_in_time()).then(|| forward_rmse(ctx, &current)).flatten();
+        let results: Vec<(Candidate, Fitted)> = remaining.par_iter().map(|b| try_candidate(ctx, &current, b, remaining.len(), span)).collect();
+        let passes = |(c, b): (&Candidate, &EffectBlock)| {
+            let forward_ok = !b.varies_in_time() || forward_before.zip(c.forward_rmse_mm).is_none_or(|(fb, fa)| fa < (1.0 - opts.min_gain) * fb);
+            c.plausible
+                && c.physical_sign
+                && c.size_sigmas >= opts.min_size_sigmas
+                && c.p_value < opts.alpha
+                && c.heldout_rmse_mm < (1.0 - opts.min_gain) * before
+                && forward_ok
+        };
+        let eligible: Vec<usize> = (0..results.len()).filter(|&i| passes((&results[i].0, remaining[i]))).collect();
+        let by = |key: fn(&Candidate) -> f64, among: &mut dyn Iterator<Item = usize>| among.min_by(|&a, &b| key(&results[a].0).total_cmp(&key(&results[b].0)));
+        let mut best = by(|c| c.heldout_rmse_mm, &mut eligible.iter().copied());
+        // A cause that varies with time won the step: its forms compete on what comes later.
+        let forward_pick = best.filter(|&i| remaining[i].varies_in_time() && forward_before.is_some());
+        if forward_pick.is_some() {
+            best = by(|c| c.forward_rmse_mm.unwrap_or(f64::INFINITY), &mut eligible.iter().copied().filter(|&i| remaining[i].varies_in_time()));
+        }
         let kept_label = best.map(|i| remaining[i].label());
-        steps.push(Step { heldout_rmse_before_mm: before, candidates: results.iter().map(|r| r.0.clone()).collect(), kept: kept_label.clone() });
+        let kept_on = best.map(|_| if forward_pick.is_some() { KeptOn::ForwardInTime } else { KeptOn::Folds });
+        steps.push(Step {
+            heldout_rmse_before_mm: before,
+            forward_rmse_before_mm: forward_before,
+            candidates: results.iter().map(|r| r.0.clone()).collect(),
+            kept: kept_label.clone(),
+            kept_on,
+        });
         let Some(i) = best else { break };
         let (c, f) = results.into_iter().nth(i).expect("index from the same list");
-        progress(&format!("kept {}: held-out RMSE {before:.4} -> {:.4} mm (p = {:.2e})", remaining[i].label(), c.heldout_rmse_mm, c.p_value));
-        let (block, f) = refined(ctx, &current, remaining[i], f, (opts.alpha, span), progress);
-        found.push((block, before, rms(&f.oof), c.p_value));
+        let forward_note = c.forward_rmse_mm.zip(forward_before).map_or(String::new(), |(a, b)| format!("; forward in time {b:.4} -> {a:.4} mm"));
+        progress(&format!("kept {}: held-out RMSE {before:.4} -> {:.4} mm (p = {:.2e}){forward_note}", remaining[i].label(), c.heldout_rmse_mm, c.p_value));
+        let (block, f, forward_after) = refined(ctx, &current, remaining[i], (f, c.forward_rmse_mm), (opts.alpha, span), &mut questioned, progress);
+        found.push(Found { block, before, after: rms(&f.oof), p: c.p_value, forward: forward_before.zip(forward_after) });
         chain.push(f.clone());
         current = f;
     }
-    Selection { chain, steps, found }
+    Selection { chain, steps, found, questioned }
 }
 
+/// The RMSE of `f`'s model on the rows judged forward in time, mm; `None` without forward folds.
+fn forward_rmse(ctx: &Ctx, f: &Fitted) -> Option<f64> {
+    ctx.forward_heldout(&f.model, &f.x, &f.fixed).map(|r| rms(&r))
+}
+
+/// One candidate `b` added to `current` and judged: on the folds, by the gain test (corrected
+/// for `n_candidates`), by its size and sign, and forward in time where it varies with time.
+fn try_candidate(ctx: &Ctx, current: &Fitted, b: &EffectBlock, n_candidates: usize, span: f64) -> (Candidate, Fitted) {
+    let tc = Instant::now();
+    let (m, x0) = with_block(&current.model, &current.x, &b.unrefined(), span);
+    let f = ctx.evaluate(m, &x0);
+    let p = (gain_p_value(current, &f, ctx.data.y.len()) * n_candidates as f64).min(1.0);
+    let (size_sigmas, physical_sign) = size_check(&f, &ctx.data, ctx.groups.as_deref());
+    let c = Candidate {
+        cause: b.kind.name().into(),
+        joint: b.joint.map(|j| j + 1),
+        heldout_rmse_mm: rms(&f.oof),
+        forward_rmse_mm: if b.varies_in_time() { forward_rmse(ctx, &f) } else { None },
+        p_value: p,
+        plausible: plausible(&f),
+        size_sigmas,
+        physical_sign,
+        seconds: tc.elapsed().as_secs_f64(),
+    };
+    (c, f)
+}
+
+/// A sensor lag longer than this share of the longest run is questioned: hard to tell from a
+/// slow drift over the run, it is kept only where it predicts the run's later rows better.
+pub const LAG_RUN_SHARE: f64 = 1.0 / 3.0;
+
 /// A kept block's refinement (`full`, of which `kept` fitted the unrefined form on `prev`'s
-/// model: a thermal block's sensor lag) tested against it: kept where the nested test at `alpha`
-/// favours it and the held-out RMSE falls. Returns the block kept and its fit.
-fn refined(ctx: &Ctx, prev: &Fitted, full: &EffectBlock, kept: Fitted, (alpha, span): (f64, f64), progress: &dyn Fn(&str)) -> (EffectBlock, Fitted) {
+/// model, with its forward RMSE: a thermal block's sensor lag) tested against it: kept where the
+/// nested test at `alpha` favours it, the held-out RMSE falls and the forward RMSE (where
+/// judged) falls too; a lag beyond [`LAG_RUN_SHARE`] of the longest run is said so in
+/// `questioned`, and dropped where no later rows judge it. Returns the block kept, its fit and
+/// its forward RMSE.
+fn refined(
+    ctx: &Ctx,
+    prev: &Fitted,
+    full: &EffectBlock,
+    (kept, kept_forward): (Fitted, Option<f64>),
+    (alpha, span): (f64, f64),
+    questioned: &mut Vec<String>,
+    progress: &dyn Fn(&str),
+) -> (EffectBlock, Fitted, Option<f64>) {
     let simple = full.unrefined();
     if *full == simple {
-        return (simple, kept);
+        return (simple, kept, kept_forward);
     }
     // From the kept fit: the refinement's parameters follow the block's own, the block last.
     let (m, mut x0) = with_block(&prev.model, &prev.x, full, span);
@@ -236,12 +288,42 @@ fn refined(ctx: &Ctx, prev: &Fitted, full: &EffectBlock, kept: Fitted, (alpha, s
     let f = ctx.evaluate(m, &x0);
     let p = gain_p_value(&kept, &f, ctx.data.y.len());
     let (before, after) = (rms(&kept.oof), rms(&f.oof));
-    if p < alpha && after < before {
-        progress(&format!("{} refined (its sensor lag): held-out RMSE {before:.4} -> {after:.4} mm (p = {p:.2e})", full.label()));
-        (full.clone(), f)
-    } else {
-        (simple, kept)
+    if !(p < alpha && after < before) {
+        return (simple, kept, kept_forward);
     }
+    let forward = forward_rmse(ctx, &f);
+    if let (Some(b), Some(a)) = (kept_forward, forward) {
+        if a >= b {
+            progress(&format!("{}'s sensor lag gains on the folds ({before:.4} -> {after:.4} mm) but not forward in time ({b:.4} -> {a:.4} mm): not kept", full.label()));
+            return (simple, kept, kept_forward);
+        }
+    }
+    // A lag as long as a third of a run is hard to tell from a slow drift over it: kept only
+    // where it predicts the later rows better (above), and said so.
+    let longest = ctx.forward.as_ref().map_or(0.0, |fw| fw.longest_run_s);
+    if let Some(lag) = lag_of(&f).filter(|l| longest > 0.0 && l.abs() > LAG_RUN_SHARE * longest) {
+        let judged = kept_forward.zip(forward).map(|(b, a)| format!("kept because it predicts the later rows better ({b:.4} -> {a:.4} mm)"));
+        let note = format!(
+            "{}'s sensor lag came out at {lag:.0} s, longer than a third of the longest run ({longest:.0} s), where a lag is hard to tell from a slow drift: {}",
+            full.label(),
+            judged.as_deref().unwrap_or("not kept (no later rows to judge it on)")
+        );
+        progress(&note);
+        questioned.push(note);
+        if judged.is_none() {
+            return (simple, kept, kept_forward);
+        }
+    }
+    progress(&format!("{} refined (its sensor lag): held-out RMSE {before:.4} -> {after:.4} mm (p = {p:.2e})", full.label()));
+    (full.clone(), f, forward.or(kept_forward))
+}
+
+/// The sensor lag (s) of the last block of `f`'s model, where it has one.
+fn lag_of(f: &Fitted) -> Option<f64> {
+    use crate::calib::effects::EffectUnit;
+    use crate::calib::model::Kind;
+    let b = f.model.effects.len().checked_sub(1)?;
+    f.model.effect_params(b).find(|&k| f.model.kinds[k] == Kind::Effect(EffectUnit::Lag)).map(|k| f.x[k])
 }
 
 /// Confirmation: each cause's model, fitted on the selection rows, must predict the
@@ -255,7 +337,7 @@ pub(super) fn confirm_causes(chain: &[Fitted], found: &[Found], confirmation: &S
         .map(|f| if confirmation.is_empty() { f64::NAN } else { rms(&ReadingFit { model: &f.model, data: &confirmation_mm }.residuals_mm(&f.x)) })
         .collect();
     let confirmed = (1..chain.len()).take_while(|&k| confirmation.is_empty() || conf_rmse[k] < conf_rmse[k - 1]).count();
-    let unconfirmed: Vec<String> = found[confirmed..].iter().map(|f| f.0.label()).collect();
+    let unconfirmed: Vec<String> = found[confirmed..].iter().map(|f| f.block.label()).collect();
     if !unconfirmed.is_empty() {
         progress(&format!("not confirmed on the {} confirmation rows: {}", confirmation.len(), unconfirmed.join(", ")));
     }
@@ -266,7 +348,7 @@ pub(super) fn confirm_causes(chain: &[Fitted], found: &[Found], confirmation: &S
 /// parameters, and the held-out and confirmation RMSE before and after it.
 pub(super) fn cause_reports(found: &[Found], model: &CalibModel, covs: &Covariances, final_x: &[f64], other_rmse: &[f64], conf_rmse: &[f64]) -> Vec<Cause> {
     let mut causes = Vec::new();
-    for (n, (block, before, after, p)) in found.iter().enumerate() {
+    for (n, Found { block, before, after, p, forward }) in found.iter().enumerate() {
         let b = model.effects.iter().position(|e| e == block).expect("kept block is in the model");
         let range = model.effect_params(b);
         let Size { quantity, value: mag, unit, uncertainty: unc } = covs.size(block, final_x, range.clone());
@@ -292,6 +374,8 @@ pub(super) fn cause_reports(found: &[Found], model: &CalibModel, covs: &Covarian
             confirmation_rmse_before_mm: conf_rmse[n],
             confirmation_rmse_after_mm: conf_rmse[n + 1],
             p_value: *p,
+            forward_rmse_before_mm: forward.map(|f| f.0),
+            forward_rmse_after_mm: forward.map(|f| f.1),
             parameters,
         });
     }

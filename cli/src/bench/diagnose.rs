@@ -153,7 +153,18 @@ pub struct DetectionItem {
     /// that is not there.
     #[serde(default)]
     pub extra: bool,
+    /// A warm-up diagnosed on the first [`FORWARD_SHARE`] of its rows in time, judged on the
+    /// rest: the RMSE per coordinate there of the diagnosed model and of the hidden cause's own
+    /// form calibrated on the same rows, mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forward_mm: Option<[f64; 2]>,
 }
+
+/// The share of a warm-up's rows (earliest first) its forward check diagnoses on.
+pub const FORWARD_SHARE: f64 = 0.7;
+/// The forward check's target: the diagnosed model's error on the later rows within this many
+/// times that of the hidden cause's own form.
+pub const FORWARD_TARGET: f64 = 1.2;
 
 impl crate::shard::Item for DetectionItem {
     fn check(&self) -> std::result::Result<(), String> {
@@ -211,6 +222,7 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
         within_3_sigma,
         extra: false,
         floor_mm,
+        forward_mm: None,
     };
     match variant {
         Variant::Hidden => {
@@ -288,18 +300,48 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             // As `diagnose` runs it: the tracker's set-up changes searched first (a warm-up must
             // not read as moves of the tracker).
             let request = twincal::requests::DiagnoseRequest::default();
-            let d = twincal::jobs::diagnose_loaded(&request, (opts, Default::default()), data, &|_| {})?;
+            let d = twincal::jobs::diagnose_loaded(&request, (opts.clone(), Default::default()), data.clone(), &|_| {})?;
             let (line, named, sized, within) = judge_hidden(70_000 + seed, &truth, &d.report);
             let moves = d.report.setup.as_ref().map_or(0, |s| s.stations.len().saturating_sub(1) + s.mounts.len().saturating_sub(1));
             let extra = d.report.causes.len() > 1;
-            let line = (!named || !within || extra || moves > 0).then(|| {
-                format!("{line} [warm-up, sensor lag {:.2} of the time constant, {sigma:.4} mm per coordinate; {moves} set-up changes found]", truth.factor)
+            let (forward, first_verdict) = forward_check(&request, &opts, &data)?;
+            let behind = forward[0] > FORWARD_TARGET * forward[1];
+            let line = (!named || !within || extra || moves > 0 || behind).then(|| {
+                format!(
+                    "{line} [warm-up, sensor lag {:.2} of the time constant, {sigma:.4} mm per coordinate; {moves} set-up changes found; on the first {:.0} % {first_verdict}, the rest at {:.4} mm against {:.4} mm by the hidden form]",
+                    truth.factor,
+                    100.0 * FORWARD_SHARE,
+                    forward[0],
+                    forward[1]
+                )
             });
+            let forward_mm = Some(forward);
             // The alarm: a set-up change found on a tracker that never moved.
-            Ok(DetectionItem { extra, ..item(line, named, sized, moves > 0, within, sigma) })
+            Ok(DetectionItem { extra, forward_mm, ..item(line, named, sized, moves > 0, within, sigma) })
         }
         Variant::Tracker(TrackerCase::Moved) => moved_item(80_000 + seed, opts, item),
     }
+}
+
+/// A warm-up's forward check: `diagnose` (as the command runs it) on the first
+/// [`FORWARD_SHARE`] of the rows in time, and the hidden cause's own form (the whole arm's
+/// thermal expansion with the sensor's lag) calibrated on the same rows; each model's RMSE per
+/// coordinate on the later rows, mm, and the diagnosis' verdict.
+fn forward_check(request: &twincal::requests::DiagnoseRequest, opts: &twincal::diagnose::DiagnoseOptions, data: &Dataset) -> Result<([f64; 2], String)> {
+    let cut = (FORWARD_SHARE * data.rows.len() as f64).round() as usize;
+    let part = |rows: &[twincal::dataset::Row]| Dataset { rows: rows.to_vec(), source: data.source.clone() };
+    let (first, later) = (part(&data.rows[..cut]), part(&data.rows[cut..]));
+    let d = twincal::jobs::diagnose_loaded(request, (opts.clone(), Default::default()), first.clone(), &|_| {})?;
+    let mut truth_form = opts.baseline_options();
+    truth_form.effects = vec![(twincal::calib::effects::EffectKind::Thermal, None)];
+    let truth = twincal::calib::pipeline::calibrate(&first, None, &truth_form)?;
+    let later_rmse = |r: &twincal::calib::pipeline::CalibResult| {
+        let m = r.model.measurement;
+        let measured: Vec<f64> = later.rows.iter().flat_map(|row| m.values_of_file(&row.reading_mm)).collect();
+        let e: Vec<f64> = r.predict_rows(&later).iter().zip(&measured).map(|(p, y)| y - p).collect();
+        twincal::stats::rms(&e)
+    };
+    Ok(([later_rmse(&d.result), later_rmse(&truth)], d.report.verdict))
 }
 
 /// A rigid arm's tracker data with the tracker moved once, diagnosed as the command runs it:
@@ -466,6 +508,21 @@ fn print_warm_up(runs: &[&DetectionItem]) {
     println!(
         "    {named} named first (target >= 95 %), {sized} sized within 3 sigma (target >= 95 %), {extra} name a cause not hidden, {alarm} find a set-up change that did not happen (target 0)"
     );
+    let ratios: Vec<f64> = runs.iter().filter_map(|i| i.forward_mm).map(|[d, t]| d / t).collect();
+    if !ratios.is_empty() {
+        let within = ratios.iter().filter(|r| **r <= FORWARD_TARGET).count();
+        let later: Vec<f64> = runs.iter().filter_map(|i| i.forward_mm).map(|[d, _]| d).collect();
+        let truth: Vec<f64> = runs.iter().filter_map(|i| i.forward_mm).map(|[_, t]| t).collect();
+        println!(
+            "    forward in time (diagnosed on the first {:.0} % of the rows, judged on the rest): {within}/{} within {FORWARD_TARGET}x the error of the hidden cause's own form calibrated on the same rows (median {:.4} against {:.4} mm per coordinate; ratio median {:.2}, worst {:.2})",
+            100.0 * FORWARD_SHARE,
+            ratios.len(),
+            median(&later),
+            median(&truth),
+            median(&ratios),
+            ratios.iter().copied().fold(0.0, f64::max)
+        );
+    }
 }
 
 /// The tracker categories' rates: false alarms on clean rows, the half-noise effect named.

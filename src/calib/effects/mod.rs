@@ -76,6 +76,11 @@ pub trait Effect: Sync {
     fn constant_on_still_joint(&self) -> bool {
         false
     }
+    /// Whether the effect changes over time (a warm-up, a drift with temperature): a diagnosis
+    /// then judges it on rows later than those it was fitted to ([`crate::diagnose::forward`]).
+    fn varies_in_time(&self) -> bool {
+        false
+    }
     /// Whether the fitted parameters have the sign physics allows.
     fn physical_sign(&self, _x: &[f64], _k: usize) -> bool {
         true
@@ -302,6 +307,10 @@ impl EffectBlock {
     /// Names and units of the block's parameters.
     pub fn params(&self) -> Vec<(String, EffectUnit)> {
         self.kind.def().params(self)
+    }
+    /// Whether the block changes over time ([`Effect::varies_in_time`]).
+    pub fn varies_in_time(&self) -> bool {
+        self.kind.def().varies_in_time()
     }
     /// Number of the block's parameters (allocates nothing).
     pub fn n_params(&self) -> usize {

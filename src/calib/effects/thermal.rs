@@ -33,6 +33,9 @@ impl Effect for Thermal {
     fn per_joint(&self) -> bool {
         false
     }
+    fn varies_in_time(&self) -> bool {
+        true
+    }
     fn joint_options(&self, n: usize) -> Vec<Option<usize>> {
         std::iter::once(None).chain((0..n).map(Some)).collect()
     }
