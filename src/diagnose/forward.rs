@@ -129,8 +129,8 @@ mod tests {
 
     #[test]
     fn a_block_stays_on_one_side_of_an_origin() {
-        let t: Vec<Option<f64>> = (0..200).map(|i| Some(i as f64)).collect();
-        let groups: Vec<usize> = (0..200).map(|i| i / 30).collect();
+        let t: Vec<Option<f64>> = (0..400).map(|i| Some(i as f64)).collect();
+        let groups: Vec<usize> = (0..400).map(|i| i / 15).collect();
         let f = Forward::over(&t, Some(&groups)).expect("folds");
         for (train, judged) in &f.folds {
             assert!(!judged.iter().any(|j| train.iter().any(|i| groups[*i] == groups[*j])));

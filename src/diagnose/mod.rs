@@ -24,6 +24,7 @@ pub mod forward;
 pub mod hidden;
 mod options;
 mod pipeline;
+pub mod remainder;
 mod report;
 mod screen;
 mod select;

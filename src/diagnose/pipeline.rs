@@ -361,6 +361,7 @@ pub(super) fn final_stage(
     let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
     warnings.extend(attributions(&found, &causes));
+    let fitted_x = final_x.clone();
     let fitted = crate::calib::pipeline::FittedModel {
         model: current.model.clone(),
         x0: base_start(&current.model, &x_base),
@@ -373,6 +374,11 @@ pub(super) fn final_stage(
     let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
     let (noise_floor_mm, noise_floor_source, current_oof) = (noise_floor.total_mm, floor_source_text(&noise_floor), rms(&current.oof));
     warnings.extend(leak_on_positions(&current.oof, measurement, ctx.groups.as_deref(), &noise_floor, shared));
+    // What remains: the final model's residual on every kept row it was fitted to (blocked
+    // folds' held-out residuals would hold the extrapolation across blocks as well).
+    let final_res = ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&fitted_x);
+    let remainder = super::remainder::characterise(&final_res, &kept, measurement, groups.as_deref(), &noise_floor);
+    let unexplained = unexplained_of(remainder.as_ref(), unexplained_note(&current, &ctx.data, &noise_floor, data));
     let (position_rms, judged_floor) = ((!noise_floor.by_group.is_empty()).then(|| rms(&measurement.group_values(&current.oof, 0))), noise_floor.of_group(0));
     let diagnosis = Diagnosis {
         schema_version: crate::output::SCHEMA_VERSION,
@@ -403,7 +409,8 @@ pub(super) fn final_stage(
         baseline: baseline_report(&base.name, &baseline, &sel.base_in, sel.rmse_blocked, sel.rmse_interleaved),
         evidence: sel.evidence,
         steps: sel.steps,
-        unexplained: result.evaluation.noise_floor.as_ref().and_then(|f| unexplained_note(&current, &ctx.data, f, data)),
+        unexplained,
+        remainder,
         verdict: String::new(),
         causes,
         final_heldout_rmse_mm: current_oof,
@@ -426,6 +433,26 @@ fn verdict_with(causes: &[Cause], unexplained: bool) -> String {
         (true, true) => "unexplained".into(),
         (true, false) => format!("{} + unexplained", verdict_of(causes)),
     }
+}
+
+/// What is unexplained, given what remains ([`super::remainder`]) and the note of a remainder far
+/// above a floor the data measure (`far`, [`unexplained_note`]): where the remainder holds
+/// structure, that structure (beside `far`); where it is white, `far` only when its apparent noise
+/// exceeds [`UNEXPLAINED_RATIO`] times what the instrument states; where it could not be
+/// characterised, `far`.
+pub(super) fn unexplained_of(remainder: Option<&super::remainder::Remainder>, far: Option<String>) -> Option<String> {
+    let Some(r) = remainder else { return far };
+    if !r.white {
+        let s: Vec<String> = r.structure().take(4).map(|t| format!("{} [{}] {:.0} % of its mean square", t.against, t.value, 100.0 * t.share)).collect();
+        let what = format!(
+            "what remains ({:.4} mm RMS over the positions) is not white: it follows {}, which no cause named explains",
+            r.apparent_position_mm,
+            s.join(", ")
+        );
+        return Some(far.map_or(what.clone(), |f| format!("{f}; {what}")));
+    }
+    far.filter(|_| r.noise_ratio().is_some_and(|k| k > UNEXPLAINED_RATIO))
+        .map(|f| format!("{f}; what remains is white, at {:.2}x the noise the instrument states", r.noise_ratio().unwrap_or(f64::NAN)))
 }
 
 /// The final fit's held-out residual where it stays above [`UNEXPLAINED_RATIO`] times a floor the

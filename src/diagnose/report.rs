@@ -264,15 +264,21 @@ pub struct Diagnosis {
     /// Causes in the order found; empty = `geometric_only`.
     pub causes: Vec<Cause>,
     /// `geometric_only`, or the causes kept joined by ` + ` (`backlash[j2] + thermal`);
-    /// `unexplained` (alone or after the causes) where the final held-out fit stays far above a
-    /// floor the data measure ([`Self::unexplained`]).
+    /// `unexplained` (alone or after the causes) where what remains holds structure, or is
+    /// white at several times the noise the instrument states ([`Self::unexplained`]).
     pub verdict: String,
-    /// Where the final held-out RMSE stays above [`UNEXPLAINED_RATIO`] times a floor the data
-    /// measure (repeatability, the rows' own standard deviations, a stated accuracy): how far,
-    /// and where the residual concentrates (stations, time, what it follows). `None` otherwise
-    /// (or where the floor is only a lower bound from logging resolutions).
+    /// Where what remains holds structure ([`Self::remainder`]), or is white but stays above
+    /// [`UNEXPLAINED_RATIO`] times a floor the data measure (repeatability, the rows' own
+    /// standard deviations, a stated accuracy): what it follows, how far, and where it
+    /// concentrates (stations, time). `None` otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unexplained: Option<String>,
+    /// What remains after the named causes ([`crate::diagnose::remainder`]): white or
+    /// structured (against the acquisition order, the stations, each joint, the temperature,
+    /// the target's place), and its apparent noise per value beside what the instrument states;
+    /// absent under 30 rows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub remainder: Option<crate::diagnose::remainder::Remainder>,
     /// Held-out RMSE of the model with every kept cause, on the folds selection judged on, mm.
     pub final_heldout_rmse_mm: f64,
     /// The same over a 6-D pose's position values alone (what its floor describes), mm; absent

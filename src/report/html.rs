@@ -313,11 +313,12 @@ fn causes_table(s: &mut String, d: &crate::diagnose::Diagnosis) {
     if d.causes.is_empty() {
         s.push_str("<p>No effect improves the held-out fit significantly: the geometric model explains the data.</p>\n");
     } else {
-        s.push_str("<table><tr><th>cause</th><th>joint</th><th>quantity</th><th>size</th><th>±1σ</th><th>unit</th><th>held-out RMSE before → after (mm)</th><th>p</th></tr>");
+        s.push_str("<table><tr><th>cause</th><th>joint</th><th>quantity</th><th>size</th><th>±1σ</th><th>unit</th><th>held-out RMSE before → after (mm)</th><th>forward in time before → after (mm)</th><th>p</th></tr>");
         for c in &d.causes {
+            let forward = c.forward_rmse_before_mm.zip(c.forward_rmse_after_mm).map_or("–".into(), |(b, a)| format!("{b:.4} → {a:.4} (kept on this)"));
             let _ = write!(
                 s,
-                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{:.4} → {:.4}</td><td>{:.1e}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{:.4} → {:.4}</td><td>{forward}</td><td>{:.1e}</td></tr>",
                 esc(&c.cause),
                 c.joint.map(|j| j.to_string()).unwrap_or_else(|| "–".into()),
                 esc(&c.quantity),
@@ -331,6 +332,30 @@ fn causes_table(s: &mut String, d: &crate::diagnose::Diagnosis) {
         }
         s.push_str("</table>\n");
     }
+    remainder_section(s, d);
+}
+
+/// What remains after the causes: white or structured, each regressor's test, the apparent noise
+/// beside what the instrument states.
+fn remainder_section(s: &mut String, d: &crate::diagnose::Diagnosis) {
+    let Some(r) = &d.remainder else { return };
+    let _ = writeln!(s, "<h2>What remains</h2><p>{}</p>", esc(&r.summary()));
+    if let Some(u) = &d.unexplained {
+        let _ = writeln!(s, "<p class=\"note\"><b>Unexplained:</b> {}</p>", esc(u));
+    }
+    s.push_str("<table><tr><th>binned by</th><th>value it shows most in</th><th>share of its mean square</th><th>p (corrected)</th><th>structure</th></tr>");
+    for t in &r.tests {
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{:.1} %</td><td>{:.1e}</td><td>{}</td></tr>",
+            esc(&t.against),
+            esc(&t.value),
+            100.0 * t.share,
+            t.p_value,
+            if t.structured { "yes" } else { "–" }
+        );
+    }
+    s.push_str("</table>\n");
 }
 
 /// The diagnosis page.

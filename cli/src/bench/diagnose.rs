@@ -158,6 +158,10 @@ pub struct DetectionItem {
     /// form calibrated on the same rows, mm.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub forward_mm: Option<[f64; 2]>,
+    /// A tracker item's remainder: [white at the instrument's noise after the named cause (not
+    /// unexplained), reported unexplained where a larger effect's kind was no candidate].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub remainder: Option<[bool; 2]>,
 }
 
 /// The share of a warm-up's rows (earliest first) its forward check diagnoses on.
@@ -223,6 +227,7 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
         extra: false,
         floor_mm,
         forward_mm: None,
+        remainder: None,
     };
     match variant {
         Variant::Hidden => {
@@ -269,8 +274,31 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
             let (d, _) = diagnose(&strip(&run_generate(&s, &robot, &Silent)?), &opts, &|_| {})?;
             let (line, named, sized, within) = judge_hidden(50_000 + seed, &truth[0], &d);
             let extra = d.causes.len() > 1;
-            let line = (!named || !within || extra).then(|| format!("{line} [tracker, {sigma:.4} mm per coordinate]"));
-            Ok(DetectionItem { extra, ..item(line, named, sized, false, within, sigma) })
+            let white = d.remainder.as_ref().is_some_and(|r| r.white) && d.unexplained.is_none();
+            // The same kind of effect, larger, where the diagnosis may not name its kind: what
+            // remains must be reported unexplained.
+            let (s2, robot2, truth2, _) = hidden_tracker(55_000 + seed, TRACKER_UNNAMED)?;
+            let without = twincal::diagnose::DiagnoseOptions {
+                // (A sensor's nonlinearity is a draw-wire's: no candidate for a tracker either.)
+                candidates: twincal::calib::effects::EffectKind::ALL
+                    .into_iter()
+                    .filter(|k| *k != truth2[0].cause && *k != twincal::calib::effects::EffectKind::Nonlinearity)
+                    .map(|k| (k, None))
+                    .collect(),
+                ..opts.clone()
+            };
+            let (d2, _) = diagnose(&strip(&run_generate(&s2, &robot2, &Silent)?), &without, &|_| {})?;
+            let structured = d2.unexplained.is_some();
+            let line = (!named || !within || extra || !white || !structured).then(|| {
+                format!(
+                    "{line} [tracker, {sigma:.4} mm per coordinate; what remains: {}; seed {} with {} not a candidate: {}]",
+                    d.remainder.as_ref().map_or("not characterised".into(), |r| r.summary()),
+                    55_000 + seed,
+                    truth2[0].cause.name(),
+                    d2.verdict
+                )
+            });
+            Ok(DetectionItem { extra, remainder: Some([white, structured]), ..item(line, named, sized, false, within, sigma) })
         }
         Variant::Tracker(TrackerCase::PayloadRuns) => {
             let (s, robot, list, truth, sigma) = twincal::diagnose::hidden::hidden_payload_runs(60_000 + seed, 1.0..2.0)?;
@@ -381,6 +409,9 @@ fn moved_item(
 /// The hidden tracker effects' size: what a rigid fit leaves of it, as multiples of one row's
 /// noise per coordinate.
 const TRACKER_HALF: std::ops::Range<f64> = 0.5..0.6;
+/// The size of the tracker effect whose kind is no candidate (its remainder must be reported
+/// unexplained), as multiples of one row's noise per coordinate.
+const TRACKER_UNNAMED: std::ops::Range<f64> = 2.0..3.0;
 
 /// The detection part's lines and rates, from every item in order (what `bench diagnose`
 /// prints, and `reduce` the same from the shards' parts).
@@ -549,6 +580,16 @@ fn print_tracker(clean: &[&DetectionItem], half: &[&DetectionItem]) {
             count(half, |i| i.within_3_sigma),
             half.len(),
             count(half, |i| i.extra),
+            half.len()
+        );
+        let with = |k: usize| half.iter().filter(|i| i.remainder.is_some_and(|r| r[k])).count();
+        println!(
+            "    what remains after the named cause: {}/{} white at the instrument's noise, not unexplained (target all); an effect at {}-{}x the noise whose kind is no candidate: {}/{} reported unexplained (target all)",
+            with(0),
+            half.len(),
+            TRACKER_UNNAMED.start,
+            TRACKER_UNNAMED.end,
+            with(1),
             half.len()
         );
     }

@@ -142,15 +142,14 @@ fn print_diagnosis(d: &twincal::diagnose::Diagnosis) {
         d.rows - d.outliers.len(),
         d.final_train_rmse_mm
     );
+    if let Some(r) = &d.remainder {
+        eprintln!("  what remains: {}", r.summary());
+    }
     let sources: Vec<String> = d.noise_floor.sources.iter().map(|s| format!("{} {:.4} mm", s.source, s.rms_mm)).collect();
     if sources.is_empty() {
         eprintln!("  what remains: no floor of the data is known (no repeated configurations, no logging step in the angles or the readings)");
     } else {
-        eprintln!(
-            "  what remains: the data's floor ({}) accounts for {:.0} % of the final held-out mean square",
-            sources.join(", "),
-            100.0 * d.floor_share_of_remaining
-        );
+        eprintln!("  the data's floor ({}) accounts for {:.0} % of the final held-out mean square", sources.join(", "), 100.0 * d.floor_share_of_remaining);
     }
     if let Some(c) = &d.comparison {
         eprintln!(
