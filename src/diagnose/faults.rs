@@ -60,10 +60,18 @@ pub const CLEAR_RATIO: f64 = 4.0;
 /// ... above which the runner-up no longer explains the rows too (robust standard deviations of the
 /// kept rows).
 pub const RUNNER_UP_SIGMAS: f64 = 2.0;
-/// ... or the runner-up has more free numbers than the named one and its BIC is at least this
-/// much worse (very strong evidence against it): a combined fault's two offsets fit a few rows
-/// of another joint's fault nearly as well, by their extra freedom alone.
-pub const STRONG_EVIDENCE_BIC: f64 = 10.0;
+/// An offset of a whole run within this many of the kept rows' robust standard deviations is
+/// taken for an error its rows share (a sweep's logging rounding), not a jump of the reading.
+pub const SHARED_SIGMAS: f64 = 3.0;
+/// A part of a combined fault is named instead of the whole where the χ² test of what it leaves
+/// of the run at the kept rows' noise has at least this p-value (the rows are like the kept
+/// rows with it alone).
+pub const PART_FIT_ALPHA: f64 = 0.01;
+/// ... or the runner-up has more free numbers than the named one and, weighed by what each
+/// explains in units of the kept rows' noise against its free numbers, its BIC is at least this
+/// much worse (strong evidence): seven numbers of an instrument refitted to a run of twenty rows
+/// fit them below the noise, by their freedom alone.
+pub const FREER_RIVAL_BIC: f64 = 6.0;
 /// Largest joint offset tried, degrees.
 pub const MAX_OFFSET_DEG: f64 = 20.0;
 
@@ -75,6 +83,23 @@ struct Hypothesis {
     reading: Option<f64>,
     params: usize,
     rss: f64,
+    /// What it leaves of the run around the run's mean, and that mean (mm): the part of the rss
+    /// a shared error of the run's rows may hold (0 and `rss` where the hypothesis fits the
+    /// reading's offset itself).
+    centred: f64,
+    mean: f64,
+}
+
+impl Hypothesis {
+    /// A hypothesis that leaves the run's residuals `r` with `params` free numbers.
+    fn leaving(cause: &'static str, joints: Vec<usize>, value: Option<f64>, params: usize, r: &[f64]) -> Hypothesis {
+        let (mean, centred) = less_offset(r);
+        Hypothesis { cause, joints, value, reading: None, params, rss: rss(r), centred, mean }
+    }
+    /// A hypothesis that fits the reading's offset besides (`reading`, mm), leaving `left` (mm²).
+    fn with_offset(cause: &'static str, joints: Vec<usize>, value: Option<f64>, reading: f64, params: usize, left: f64) -> Hypothesis {
+        Hypothesis { cause, joints, value, reading: Some(reading), params, rss: left, centred: left, mean: 0.0 }
+    }
 }
 
 /// What the run's residuals `r` leave after one reading offset: the offset (their mean) and
@@ -163,18 +188,18 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
     let nj = model.chain.n_joints;
     let mut out = Vec::new();
     let r = residuals(model, x, &run, &run.q);
-    out.push(Hypothesis { cause: "unexplained", joints: vec![], value: None, reading: None, params: 0, rss: rss(&r) });
+    out.push(Hypothesis::leaving("unexplained", vec![], None, 0, &r));
     // The reading jumped: one offset.
     let (mean, left) = less_offset(&r);
-    out.push(Hypothesis { cause: "reading_offset", joints: vec![], value: Some(mean), reading: None, params: 1, rss: left });
+    out.push(Hypothesis { reading: None, ..Hypothesis::with_offset("reading_offset", vec![], Some(mean), mean, 1, left) });
     // A joint fault whose rows read `q`, alone and with the reading's offset.
     let mut joint_fault = |cause: &'static str, joints: Vec<usize>, q: &[Vec<f64>]| {
         let r = residuals(model, x, &run, q);
         let (mean, left) = less_offset(&r);
         if let Some(combined) = with_reading(cause) {
-            out.push(Hypothesis { cause: combined, joints: joints.clone(), value: None, reading: Some(mean), params: 1, rss: left });
+            out.push(Hypothesis::with_offset(combined, joints.clone(), None, mean, 1, left));
         }
-        out.push(Hypothesis { cause, joints, value: None, reading: None, params: 0, rss: rss(&r) });
+        out.push(Hypothesis::leaving(cause, joints, None, 0, &r));
     };
     for j in 0..nj {
         let flipped: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { -v } else { *v }).collect()).collect();
@@ -195,12 +220,19 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
             joint_fault("joint_swap", vec![j + 1, k + 1], &swapped);
         }
     }
+    // An offset at the edge of the search is no fit of one (the run wants more than a joint's
+    // offset can give): not a hypothesis.
+    let inside = |d: f64| d.to_degrees().abs() < MAX_OFFSET_DEG - 0.1;
     for j in 0..nj {
-        let (d, c) = best_offset(model, x, &run, j, false);
-        out.push(Hypothesis { cause: "joint_offset", joints: vec![j + 1], value: Some(d.to_degrees()), reading: None, params: 1, rss: c });
+        let (d, _) = best_offset(model, x, &run, j, false);
+        if inside(d) {
+            out.push(Hypothesis::leaving("joint_offset", vec![j + 1], Some(d.to_degrees()), 1, &residuals(model, x, &run, &offset_joint(&run.q, j, d))));
+        }
         let (d, c) = best_offset(model, x, &run, j, true);
-        let mean = less_offset(&residuals(model, x, &run, &offset_joint(&run.q, j, d))).0;
-        out.push(Hypothesis { cause: "joint_offset+reading_offset", joints: vec![j + 1], value: Some(d.to_degrees()), reading: Some(mean), params: 2, rss: c });
+        if inside(d) {
+            let mean = less_offset(&residuals(model, x, &run, &offset_joint(&run.q, j, d))).0;
+            out.push(Hypothesis::with_offset("joint_offset+reading_offset", vec![j + 1], Some(d.to_degrees()), mean, 2, c));
+        }
     }
     // The instrument moved: its placement refitted on the run's rows.
     let placement = model.setup_range();
@@ -209,14 +241,7 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
         let plain = run.unweighted();
         let fit = ReadingFit { model, data: &plain };
         let xm = LevenbergMarquardt::budget(50).minimize(&fit, x, &fixed, &mut NoObserver).x;
-        out.push(Hypothesis {
-            cause: "instrument_moved",
-            joints: vec![],
-            value: None,
-            reading: None,
-            params: placement.len(),
-            rss: rss(&fit.residuals_mm(&xm)),
-        });
+        out.push(Hypothesis::leaving("instrument_moved", vec![], None, placement.len(), &fit.residuals_mm(&xm)));
     }
     out
 }
@@ -251,25 +276,56 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
             let rows: Vec<usize> = (first..=last).collect();
             let mut h = hypotheses(model, x, all, &rows);
             let n = (rows.len() * all.dim) as f64;
-            let bic = |h: &Hypothesis| n * (h.rss / n).max(1e-30).ln() + h.params as f64 * n.ln();
+            // The noise is known: the kept rows' scatter. A hypothesis is weighed by what it
+            // explains in units of that noise against its free numbers (a fit below the noise
+            // earns nothing more). The run's rows share errors (a sweep's logging rounding, up
+            // to the kept rows' scatter on every row alike): an offset of the whole run within
+            // [`SHARED_SIGMAS`] of that scatter is such a shared error, not a jump of the
+            // reading, so it costs no hypothesis anything and earns none a free number.
+            let shared = |h: &Hypothesis| h.reading.is_none() && h.mean.abs() <= SHARED_SIGMAS * scale_mm;
+            let bic = |h: &Hypothesis| {
+                if scale_mm > 0.0 {
+                    let left = if shared(h) { h.centred } else { h.rss };
+                    left / (scale_mm * scale_mm) + h.params as f64 * n.ln()
+                } else {
+                    n * (h.rss / n).max(1e-30).ln() + h.params as f64 * n.ln()
+                }
+            };
             h.sort_by(|a, b| bic(a).total_cmp(&bic(b)));
             let rms = |h: &Hypothesis| (h.rss / n).sqrt();
             let logged = h.iter().find(|h| h.cause == "unexplained").map_or(f64::NAN, rms);
             // A combined fault only where none of its parts alone leaves the rows like the kept
-            // rows: with a few rows, a joint's free offset beside a reading jump fits their noise.
-            let fits_alone = |o: &Hypothesis| o.cause != "unexplained" && rms(o) <= EXPLAINED_SIGMAS * scale_mm && nested_in(o, &h[0]);
+            // rows (with a few rows, a joint's free offset beside a reading jump fits their
+            // noise): a part is named where what it leaves is consistent with the kept rows'
+            // scatter (the χ² test at [`PART_FIT_ALPHA`]).
+            let like_kept = |o: &Hypothesis| {
+                let dof = (n - o.params as f64).max(1.0);
+                let left = if shared(o) { o.centred } else { o.rss };
+                scale_mm > 0.0 && crate::stats::f_survival(left / (scale_mm * scale_mm) / dof, dof, 1e9) >= PART_FIT_ALPHA
+            };
+            let fits_alone = |o: &Hypothesis| o.cause != "unexplained" && rms(o) <= EXPLAINED_SIGMAS * scale_mm && nested_in(o, &h[0]) && like_kept(o);
             let best = h.iter().find(|o| fits_alone(o)).unwrap_or(&h[0]);
             // The runner-up: the best hypothesis of another kind or other joints.
             let runner = h.iter().skip(1).find(|o| (o.cause != best.cause || o.joints != best.joints) && !nested_in(o, best) && !nested_in(best, o));
             let clear = runner.is_none_or(|o| {
-                (o.rss >= CLEAR_RATIO * best.rss && rms(o) > RUNNER_UP_SIGMAS * scale_mm) || (o.params > best.params && bic(o) - bic(best) >= STRONG_EVIDENCE_BIC)
+                (o.rss >= CLEAR_RATIO * best.rss && rms(o) > RUNNER_UP_SIGMAS * scale_mm) || (o.params > best.params && bic(o) - bic(best) >= FREER_RIVAL_BIC)
             });
             let fits = best.cause != "unexplained" && rms(best) <= EXPLAINED_SIGMAS * scale_mm;
             let explained = fits && clear;
             let (runner_up, runner_up_rms_mm) = runner.map_or((String::new(), f64::NAN), |o| (label(o), rms(o)));
+            let weighed = runner.filter(|o| o.params > best.params && o.rss < best.rss).map_or(String::new(), |o| {
+                format!(" with {} free numbers against {}: weighed by the kept rows' noise, its BIC is {:.1} worse", o.params, best.params, bic(o) - bic(best))
+            });
+            let shared_note = (shared(best) && best.mean.abs() > 0.5 * scale_mm).then(|| {
+                format!(
+                    "; the {:+.3} mm it leaves on every row alike is within {SHARED_SIGMAS} robust sd, an error the rows of one run share (a sweep's rounding), not a jump of the reading",
+                    best.mean
+                )
+            });
+            let weighed = weighed + shared_note.as_deref().unwrap_or("");
             let evidence = if explained {
                 format!(
-                    "{}: the run's rows {:.3} mm RMS as logged, {:.3} mm so corrected (kept rows' robust sd {:.3} mm); next best {} at {:.3} mm",
+                    "{}: the run's rows {:.3} mm RMS as logged, {:.3} mm so corrected (kept rows' robust sd {:.3} mm); next best {} at {:.3} mm{weighed}",
                     label(best),
                     logged,
                     rms(best),
