@@ -361,6 +361,17 @@ pub(super) fn final_stage(
     let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
     warnings.extend(attributions(&found, &causes));
+    warnings.extend(found.iter().filter_map(|f| {
+        let (b, a) = f.forward?;
+        (a >= b).then(|| {
+            format!(
+                "{} gains on the held-out folds ({:.4} -> {:.4} mm) but not on the later rows of each run, each predicted from the rows before them ({b:.4} -> {a:.4} mm): whether it holds tomorrow is in doubt",
+                f.block.label(),
+                f.before,
+                f.after
+            )
+        })
+    }));
     let fitted_x = final_x.clone();
     let fitted = crate::calib::pipeline::FittedModel {
         model: current.model.clone(),
@@ -417,6 +428,7 @@ pub(super) fn final_stage(
         final_heldout_rmse_position_mm: position_rms,
         final_train_rmse_mm,
         floor_share_of_remaining: (judged_floor / position_rms.unwrap_or(current_oof)).powi(2).min(1.0),
+        unseen: None,
         comparison: compare_with_rbf(&ctx, &baseline, &current, opts.seed),
         seconds: t0.elapsed().as_secs_f64(),
         effects_option: effects_option(&current.model),

@@ -116,9 +116,10 @@ pub struct Cause {
     pub confirmation_rmse_after_mm: f64,
     /// Bonferroni-corrected p-value of the F test that kept the cause in its selection step.
     pub p_value: f64,
-    /// For a cause that varies with time: the RMSE on the rows judged forward in time (each
-    /// later stretch of every run predicted from the rows before it) without and with it, mm;
-    /// it was chosen among its kind's forms on this.
+    /// The RMSE on the rows judged forward in time (each later stretch of every run predicted
+    /// from the rows before it, [`crate::diagnose::forward`]) without and with the cause, mm; a
+    /// cause that varies with time was chosen among its kind's forms on this. Absent where the
+    /// runs are too short for it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub forward_rmse_before_mm: Option<f64>,
     /// See `forward_rmse_before_mm`.
@@ -133,10 +134,8 @@ impl Cause {
     /// 0.0121 -> 0.0073 mm (p = 2.8e-25)`.
     pub fn summary(&self) -> String {
         let joint = self.joint.map(|j| format!(" joint {j}")).unwrap_or_default();
-        let forward = self
-            .forward_rmse_before_mm
-            .zip(self.forward_rmse_after_mm)
-            .map_or(String::new(), |(b, a)| format!("; forward in time {b:.4} -> {a:.4} mm (kept on this)"));
+        let forward =
+            self.forward_rmse_before_mm.zip(self.forward_rmse_after_mm).map_or(String::new(), |(b, a)| format!("; forward in time {b:.4} -> {a:.4} mm"));
         format!(
             "{}{joint}: {} {} {}; held-out RMSE {:.4} -> {:.4} mm (p = {:.1e}){forward}",
             self.cause,
@@ -164,6 +163,38 @@ pub struct Baseline {
     pub heldout_rmse_interleaved_mm: f64,
     /// RMSE on the selection rows it was fitted to, mm.
     pub train_rmse_mm: f64,
+}
+
+/// The rows `--test-fraction` kept back from the diagnosis, never seen by it: how the geometric
+/// model and the diagnosed model predict them.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Unseen {
+    /// How many rows.
+    pub rows: usize,
+    /// How they were drawn (`time`: the last rows, judged forward).
+    pub split_by: crate::calib::pipeline::SplitBy,
+    /// RMSE per value of the geometric model calibrated on the diagnosed rows, mm.
+    pub geometric_rmse_mm: f64,
+    /// RMSE per value of the diagnosed model (its causes included), mm.
+    pub final_rmse_mm: f64,
+}
+
+impl Unseen {
+    /// One line for the report.
+    pub fn line(&self) -> String {
+        let how = match self.split_by {
+            crate::calib::pipeline::SplitBy::Time => "the last rows in time",
+            crate::calib::pipeline::SplitBy::Blocks => "whole blocks",
+            crate::calib::pipeline::SplitBy::Rows => "rows stratified by the reading",
+        };
+        format!(
+            "on the {} rows held out and never seen ({how}): geometric model {:.4} mm, with the causes {:.4} mm per value ({:+.1} %)",
+            self.rows,
+            self.geometric_rmse_mm,
+            self.final_rmse_mm,
+            100.0 * (self.final_rmse_mm / self.geometric_rmse_mm - 1.0)
+        )
+    }
 }
 
 /// The physical extension against a data-driven compensator on the same rows.
@@ -291,6 +322,9 @@ pub struct Diagnosis {
     /// held-out²): what remains is named, not fitted.
     #[serde(default)]
     pub floor_share_of_remaining: f64,
+    /// The rows `--test-fraction` kept back: the geometric and the diagnosed model on them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unseen: Option<Unseen>,
     /// The physical extension against an RBF network on the geometric residuals; absent when the
     /// rows are too few for it.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -221,7 +221,13 @@ pub(super) fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, 
             kept_on,
         });
         let Some(i) = best else { break };
-        let (c, f) = results.into_iter().nth(i).expect("index from the same list");
+        let (mut c, f) = results.into_iter().nth(i).expect("index from the same list");
+        // Every kept cause is judged forward in time too (a time-varying one was chosen on it;
+        // another is reported with it, and warned of where it loses there).
+        let forward_before = forward_before.or_else(|| forward_rmse(ctx, &current));
+        if c.forward_rmse_mm.is_none() && forward_before.is_some() {
+            c.forward_rmse_mm = forward_rmse(ctx, &f);
+        }
         let forward_note = c.forward_rmse_mm.zip(forward_before).map_or(String::new(), |(a, b)| format!("; forward in time {b:.4} -> {a:.4} mm"));
         progress(&format!("kept {}: held-out RMSE {before:.4} -> {:.4} mm (p = {:.2e}){forward_note}", remaining[i].label(), c.heldout_rmse_mm, c.p_value));
         let (block, f, forward_after) = refined(ctx, &current, remaining[i], (f, c.forward_rmse_mm), (opts.alpha, span), &mut questioned, progress);
@@ -294,7 +300,10 @@ fn refined(
     let forward = forward_rmse(ctx, &f);
     if let (Some(b), Some(a)) = (kept_forward, forward) {
         if a >= b {
-            progress(&format!("{}'s sensor lag gains on the folds ({before:.4} -> {after:.4} mm) but not forward in time ({b:.4} -> {a:.4} mm): not kept", full.label()));
+            progress(&format!(
+                "{}'s sensor lag gains on the folds ({before:.4} -> {after:.4} mm) but not forward in time ({b:.4} -> {a:.4} mm): not kept",
+                full.label()
+            ));
             return (simple, kept, kept_forward);
         }
     }

@@ -123,8 +123,12 @@ pub fn diagnose_loaded(
         }
         other => other,
     };
+    let (data, test) = data;
     result.setup = crate::calib::pipeline::setup::setup_report(&result.model, &result.x, &data, opts.stations, &found);
     report.setup = result.setup.clone();
+    if let Some(test) = &test {
+        report.unseen = on_unseen_rows(&opts, &result, &data, test, request.split_by)?;
+    }
     let verdict = judge(&[(limit, "heldout_rmse_mm", Some(report.final_heldout_rmse_mm), "cross-validated held-out RMSE of the final model")]);
     Ok(Diagnosed { report, result, verdict, opts, data })
 }
@@ -133,6 +137,10 @@ pub fn diagnose_loaded(
 fn effects_list(m: &crate::calib::model::CalibModel) -> String {
     m.effects.iter().map(|b| b.label()).collect::<Vec<_>>().join(", ")
 }
+
+/// What [`diagnose_on_stations`] gives: the set-up changes, the diagnosis and its result, the
+/// rows it ran on and the rows `--test-fraction` kept back.
+type OnStations = (crate::calib::pipeline::setup::Found, (Diagnosis, CalibResult), (Dataset, Option<Dataset>));
 
 /// The diagnosis of `original` on its resolved stations (`resolved`: the relabelled rows, if
 /// any, and the set-up changes found), on the training rows of `--test-fraction` where given:
@@ -143,7 +151,7 @@ fn diagnose_on_stations(
     original: &Dataset,
     (labelled, found): (Option<Dataset>, crate::calib::pipeline::setup::Found),
     say: &(dyn Fn(&str) + Sync),
-) -> Result<(crate::calib::pipeline::setup::Found, (crate::diagnose::Diagnosis, crate::calib::pipeline::CalibResult), Dataset)> {
+) -> Result<OnStations> {
     let mut data = labelled.unwrap_or_else(|| original.clone());
     if !found.is_empty() {
         say(&format!(
@@ -152,15 +160,47 @@ fn diagnose_on_stations(
             data.stations().len()
         ));
     }
+    let mut unseen = None;
     if let Some(f) = request.test_fraction.filter(|f| *f > 0.0) {
         // The rows calibrate --test-fraction f --seed s trains on; the rest are never seen.
         let blocks = crate::dataset::blocks::detect(&data, request.floor.angle_resolution_deg).0;
-        let (train, _) = crate::calib::pipeline::split_rows(&data, &blocks, Some(f), request.seed, request.split_by)?;
-        let rows = train.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect();
-        data = Dataset { rows, source: format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()) };
+        let (train, test) = crate::calib::pipeline::split_rows(&data, &blocks, Some(f), request.seed, request.split_by)?;
+        let part = |idx: &[usize], what: String| Dataset {
+            rows: idx.iter().map(|&i| crate::dataset::Row { split: None, ..data.rows[i].clone() }).collect(),
+            source: what,
+        };
+        unseen = Some(part(&test, format!("{} (the {} test rows of --test-fraction {f})", data.source, test.len())));
+        data = part(&train, format!("{} (the {} training rows of --test-fraction {f})", data.source, train.len()));
     }
     let d = crate::diagnose::diagnose(&data, opts, say)?;
-    Ok((found, d, data))
+    Ok((found, d, (data, unseen)))
+}
+
+/// The geometric model (calibrated on the diagnosed rows `data` as the diagnosis' baseline is)
+/// and the diagnosed model `result` on the rows `--test-fraction` kept back (`test`, drawn `by`):
+/// their RMSE per value there, mm. `None` where the test rows read nothing to predict.
+fn on_unseen_rows(
+    opts: &DiagnoseOptions,
+    result: &CalibResult,
+    data: &Dataset,
+    test: &Dataset,
+    by: crate::calib::pipeline::SplitBy,
+) -> Result<Option<crate::diagnose::Unseen>> {
+    let m = result.model.measurement;
+    if m.is_constant() || test.rows.is_empty() {
+        return Ok(None);
+    }
+    let geometric = crate::calib::pipeline::calibrate(data, None, &opts.baseline_options())?;
+    let measured: Vec<f64> = test.rows.iter().flat_map(|r| m.values_of_file(&r.reading_mm)).collect();
+    let rmse = |r: &CalibResult| {
+        let e: Vec<f64> = r.predict_rows(test).iter().zip(&measured).map(|(p, y)| y - p).collect();
+        crate::stats::rms(&e)
+    };
+    let (geometric_rmse_mm, final_rmse_mm) = (rmse(&geometric), rmse(result));
+    if !(geometric_rmse_mm.is_finite() && final_rmse_mm.is_finite()) {
+        return Ok(None);
+    }
+    Ok(Some(crate::diagnose::Unseen { rows: test.rows.len(), split_by: by, geometric_rmse_mm, final_rmse_mm }))
 }
 
 /// Writes what `diagnose` writes of a diagnosis (`--out`, `--result`, and `--rrd`, `--report`,

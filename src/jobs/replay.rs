@@ -30,7 +30,7 @@ pub struct ReplayRequest {
     /// every row.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
     pub test_fraction: Option<f64>,
-    /// How --test-fraction draws its rows: blocks or rows (as `calibrate --split-by`).
+    /// How --test-fraction draws its rows: blocks, rows or time (as `calibrate --split-by`).
     #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = crate::calib::pipeline::SplitBy::default()))]
     pub split_by: crate::calib::pipeline::SplitBy,
     /// Seed of that split.

@@ -315,7 +315,7 @@ fn causes_table(s: &mut String, d: &crate::diagnose::Diagnosis) {
     } else {
         s.push_str("<table><tr><th>cause</th><th>joint</th><th>quantity</th><th>size</th><th>±1σ</th><th>unit</th><th>held-out RMSE before → after (mm)</th><th>forward in time before → after (mm)</th><th>p</th></tr>");
         for c in &d.causes {
-            let forward = c.forward_rmse_before_mm.zip(c.forward_rmse_after_mm).map_or("–".into(), |(b, a)| format!("{b:.4} → {a:.4} (kept on this)"));
+            let forward = c.forward_rmse_before_mm.zip(c.forward_rmse_after_mm).map_or("–".into(), |(b, a)| format!("{b:.4} → {a:.4}"));
             let _ = write!(
                 s,
                 "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{:.4} → {:.4}</td><td>{forward}</td><td>{:.1e}</td></tr>",

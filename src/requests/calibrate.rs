@@ -58,7 +58,8 @@ pub struct CalibrateRequest {
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
     pub test_fraction: Option<f64>,
     /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks:
-    /// test rows share no error with training rows) or rows (stratified by the reading).
+    /// test rows share no error with training rows), rows (stratified by the reading) or time
+    /// (the last rows: what varies with time judged on later rows).
     #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = SplitBy::default()))]
     pub split_by: SplitBy,
     /// Seed of the hold-out split and of the stochastic methods.

@@ -59,8 +59,8 @@ pub struct DiagnoseRequest {
     /// can measure the identified twin on them.
     #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
     pub test_fraction: Option<f64>,
-    /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks) or
-    /// rows (stratified by the reading).
+    /// How --test-fraction draws its rows: blocks (whole sweeps, pauses, declared blocks),
+    /// rows (stratified by the reading) or time (the last rows: a drift judged on later rows).
     #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = SplitBy::default()))]
     pub split_by: SplitBy,
 }

@@ -11,7 +11,8 @@
 //!   rows that are not outliers, mean ± sd, beside the angle-resolution floor.
 //!
 //! `twincal bench diagnose-ur10` ([`bench_diagnose_ur10`]) times `diagnose` on the UR10's
-//! 11 911-row series a against its 60 s target.
+//! 11 911-row series a against its 60 s target, and rows against seconds of the generic arm's
+//! diagnosis on its first 1 000 to 10 000 rows.
 
 use std::path::Path;
 use std::time::Instant;
@@ -105,6 +106,44 @@ pub fn bench_diagnose_ur10(runs: usize) -> Result<()> {
         found.first().map_or("nothing", String::as_str),
         if same { "" } else { " (the runs did not all find the same: see above)" }
     );
+    growth(&sorted, &data.display().to_string(), runs)
+}
+
+/// Rows of series a (sorted by t) diagnosed by [`growth`], and the targets of 2 000 and 10 000.
+pub const GROWTH_ROWS: [usize; 4] = [1_000, 2_000, 5_000, 10_000];
+/// See [`GROWTH_ROWS`]: the target for 2 000 and for 10 000 rows, s.
+pub const GROWTH_TARGETS_S: [(usize, f64); 2] = [(2_000, 20.0), (10_000, 90.0)];
+
+/// Rows against seconds: `diagnose --model generic6r` as the command runs it (the set-up's
+/// stations searched first) on the first [`GROWTH_ROWS`] rows of series a in time (`sorted`),
+/// read as the probe's 6-D poses; the median of `runs` each, seconds per 1 000 rows and the
+/// growth exponent between successive sizes (1: linear).
+fn growth(sorted: &str, source: &str, runs: usize) -> Result<()> {
+    println!("  rows against seconds: diagnose --model generic6r on the first rows of series a in time, 6-D poses, as the command runs it");
+    let pose = Dataset::from_csv_reader_with(sorted.as_bytes(), &format!("{source} (sorted by t)"), &Default::default())?;
+    let request = twincal::requests::DiagnoseRequest::default();
+    let opts = twincal::diagnose::DiagnoseOptions::new(ModelSpec::Generic);
+    let mut points: Vec<(usize, f64)> = Vec::new();
+    for n in GROWTH_ROWS.into_iter().filter(|n| *n <= pose.rows.len()) {
+        let part = Dataset { rows: pose.rows[..n].to_vec(), source: format!("{source} (first {n} rows in time)") };
+        let mut times = Vec::new();
+        let mut verdict = String::new();
+        for _ in 0..runs {
+            let t0 = Instant::now();
+            let d = twincal::jobs::diagnose_loaded(&request, (opts.clone(), Default::default()), part.clone(), &|_| {})?;
+            times.push(t0.elapsed().as_secs_f64());
+            verdict = d.report.verdict;
+        }
+        let med = median(&times);
+        let exponent =
+            points.last().map_or(String::new(), |&(m, t)| format!(", growth exponent {:.2} from {m} rows", (med / t).ln() / (n as f64 / m as f64).ln()));
+        let target = GROWTH_TARGETS_S
+            .iter()
+            .find(|(r, _)| *r == n)
+            .map_or(String::new(), |(_, s)| format!(" (target < {s:.0} s: {})", if med < *s { "met" } else { "missed" }));
+        println!("    {n:>6} rows: {med:.1} s median of {runs}{target}, {:.2} s per 1 000 rows{exponent}; {verdict}", 1000.0 * med / n as f64);
+        points.push((n, med));
+    }
     Ok(())
 }
 

@@ -151,6 +151,9 @@ fn print_diagnosis(d: &twincal::diagnose::Diagnosis) {
     } else {
         eprintln!("  the data's floor ({}) accounts for {:.0} % of the final held-out mean square", sources.join(", "), 100.0 * d.floor_share_of_remaining);
     }
+    if let Some(u) = &d.unseen {
+        eprintln!("  {}", u.line());
+    }
     if let Some(c) = &d.comparison {
         eprintln!(
             "  held-out RMSE geometric / physical extension / RBF compensator: {:.4} / {:.4} / {:.4} mm",

@@ -70,7 +70,8 @@ pub enum BenchTarget {
     /// methods over random splits with and without the outlier screen.
     Real,
     /// Diagnose on the UR10's 11 911-row series a (../shared/data, sorted by t): median wall
-    /// time of --repeat runs against the 60 s target, and what it named.
+    /// time of --repeat runs against the 60 s target, and what it named; then rows against
+    /// seconds of the generic arm on its first 1 000 to 10 000 rows (targets 20 s and 90 s)
     DiagnoseUr10,
     /// The joint angles' logging error as a noise model: lm, dsade-gkan and pso-ekf-awnn with
     /// and without it on realistic acquisitions (sweeps, 0.1° logging), true error and time.

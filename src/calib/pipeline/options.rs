@@ -281,6 +281,9 @@ pub enum SplitBy {
     /// Rows, stratified by the reading, whatever blocks they are in (as the papers split; rows
     /// of one sweep then sit on both sides).
     Rows,
+    /// The last rows of the acquisition (rows are in time order): trained on the earlier rows,
+    /// judged on the later, as a drift that has to hold tomorrow must be.
+    Time,
 }
 
 /// Where a calibration takes the instrument's stations from (`--stations`).

@@ -19,6 +19,10 @@ pub fn split_rows(data: &Dataset, blocks: &Blocks, test_fraction: Option<f64>, s
                 return Err(Error::Invalid(format!("--test-fraction must be in [0, 1), got {f}")));
             }
             let n_test = (f * n as f64).round() as usize;
+            // The later rows (a dataset's rows are in acquisition order, `t` non-decreasing).
+            if by == SplitBy::Time {
+                return Ok(((0..n - n_test).collect(), (n - n_test..n).collect()));
+            }
             // Rows that share a sweep (or a pause, a declared block) share its errors: the test
             // rows are then whole blocks, never rows of a block whose other rows train.
             if by == SplitBy::Blocks && blocks.any_shared() && n_test > 0 {
