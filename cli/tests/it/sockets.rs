@@ -162,7 +162,8 @@ fn diagnose_names_compliance_under_the_socket_preload() {
         std::fs::write(p(&format!("{name}.toml")), text.replace("seed = 7", &format!("seed = {seed}"))).unwrap();
         let g = twincal(&["generate", "--scenario", &p(&format!("{name}.toml")), "--out", &p(name), "--quiet"]);
         assert!(g.status.success(), "{}", String::from_utf8_lossy(&g.stderr));
-        let d = twincal(&["diagnose", "--data", &p(name), "--spacing-mm", "50", "--preload-n", "30", "--out", &p(&format!("{name}.json")), "--quiet"]);
+        let (out, result) = (p(&format!("{name}.json")), p(&format!("{name}_model.json")));
+        let d = twincal(&["diagnose", "--data", &p(name), "--spacing-mm", "50", "--preload-n", "30", "--out", &out, "--result", &result, "--quiet"]);
         assert!(d.status.success(), "{}", String::from_utf8_lossy(&d.stderr));
         serde_json::from_str(&std::fs::read_to_string(p(&format!("{name}.json"))).unwrap()).unwrap()
     };
