@@ -389,7 +389,8 @@ pub(super) fn final_stage(
     // folds' held-out residuals would hold the extrapolation across blocks as well).
     let final_res = ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&fitted_x);
     let remainder = super::remainder::characterise(&final_res, &kept, measurement, groups.as_deref(), &noise_floor);
-    let unexplained = unexplained_of(remainder.as_ref(), unexplained_note(&current, &ctx.data, &noise_floor, data));
+    let unexplained = unexplained_of(remainder.as_ref(), unexplained_note(&current, &ctx.data, &noise_floor, data), noise_floor.of_group(0));
+    let unexplained = join_notes(unexplained, unexplained_outliers(&outliers, &run_faults, data.rows.len()));
     let (position_rms, judged_floor) = ((!noise_floor.by_group.is_empty()).then(|| rms(&measurement.group_values(&current.oof, 0))), noise_floor.of_group(0));
     let diagnosis = Diagnosis {
         schema_version: crate::output::SCHEMA_VERSION,
@@ -447,14 +448,46 @@ fn verdict_with(causes: &[Cause], unexplained: bool) -> String {
     }
 }
 
+/// A structured remainder is unexplained only where it stays above this many times the data's
+/// floor (every source, the logging steps included): within it, structure is the floor's own.
+pub const STRUCTURE_ABOVE_FLOOR: f64 = 1.2;
+
+/// Outlier rows beyond this share of the rows that neither the causes nor a fault of their run
+/// explain are unexplained: the model leaves a part of the data out, not a glitch.
+pub const OUTLIER_SHARE: f64 = 0.05;
+
+/// The outlier rows kept out of the fits that no fault of their run explains (a run named
+/// `unexplained`, or a row alone), where they are more than [`OUTLIER_SHARE`] of `rows`.
+fn unexplained_outliers(outliers: &[crate::calib::fit::robust::Outlier], faults: &[super::faults::RunFault], rows: usize) -> Option<String> {
+    let named = |row: usize| faults.iter().any(|f| f.cause != "unexplained" && (f.first_row..=f.last_row).contains(&row));
+    let left = outliers.iter().filter(|o| !named(o.row)).count();
+    (left as f64 > OUTLIER_SHARE * rows as f64).then(|| {
+        format!(
+            "{left} rows ({:.0} %) were kept out as outliers that no cause named and no fault of their run explains: the model leaves a part of the data out",
+            100.0 * left as f64 / rows.max(1) as f64
+        )
+    })
+}
+
+/// Two notes as one (either may be absent).
+fn join_notes(a: Option<String>, b: Option<String>) -> Option<String> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+        (a, b) => a.or(b),
+    }
+}
+
 /// What is unexplained, given what remains ([`super::remainder`]) and the note of a remainder far
 /// above a floor the data measure (`far`, [`unexplained_note`]): where the remainder holds
-/// structure, that structure (beside `far`); where it is white, `far` only when its apparent noise
+/// structure above [`STRUCTURE_ABOVE_FLOOR`] times the data's floor `floor_mm`, that structure
+/// (beside `far`); where it is white, `far` only when its apparent noise
 /// exceeds [`UNEXPLAINED_RATIO`] times what the instrument states; where it could not be
 /// characterised, `far`.
-pub(super) fn unexplained_of(remainder: Option<&super::remainder::Remainder>, far: Option<String>) -> Option<String> {
+pub(super) fn unexplained_of(remainder: Option<&super::remainder::Remainder>, far: Option<String>, floor_mm: f64) -> Option<String> {
     let Some(r) = remainder else { return far };
-    if !r.white {
+    // Structure within the data's own floor (a sweep's shared rounding follows the joints that
+    // carry it) is no model's to explain.
+    if !r.white && r.apparent_position_mm > STRUCTURE_ABOVE_FLOOR * floor_mm {
         let s: Vec<String> = r.structure().take(4).map(|t| format!("{} [{}] {:.0} % of its mean square", t.against, t.value, 100.0 * t.share)).collect();
         let what = format!(
             "what remains ({:.4} mm RMS over the positions) is not white: it follows {}, which no cause named explains",

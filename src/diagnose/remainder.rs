@@ -5,9 +5,10 @@
 //! what the instrument states (the rows' `sx, sy, sz`, `--instrument-accuracy-mm`, repeats).
 //!
 //! Each test is a one-way analysis of variance of one value's residual over bins of one
-//! regressor (consecutive stretches for the acquisition order, quantile bins for a regressor,
-//! one group per station), its F statistic divided by the residual's design effect where rows
-//! share errors in blocks, Bonferroni-corrected over every test. A test counts as structure
+//! regressor (quantile bins; one group per station or backlash flank), Bonferroni-corrected over
+//! every test. Where rows share errors in blocks (a sweep's logging rounding), the units are the
+//! blocks (each its rows' mean residual and mean regressor), so that a shared error is one
+//! unit's noise and not a structure of the rows it spans. A test counts as structure
 //! where it is significant and its bins' means hold at least [`STRUCTURE_SHARE`] of that
 //! value's mean square (the adjusted share: what chance leaves to bins is taken off).
 
@@ -24,7 +25,7 @@ pub const STRUCTURE_SHARE: f64 = 0.05;
 pub const WHITENESS_ALPHA: f64 = 0.01;
 /// Fewest rows the remainder is characterised on.
 pub const MIN_ROWS: usize = 30;
-/// Rows per bin the tests aim at (bins: 4 to 10 for a regressor, to 20 for the order).
+/// Rows per bin the tests aim at (bins: 2 to 10 for a regressor, to 20 for the order).
 const ROWS_PER_BIN: usize = 30;
 
 /// One regressor's strongest dependence of the remainder (over the reading's values).
@@ -36,7 +37,7 @@ pub struct StructureTest {
     pub value: String,
     /// Share of that value's held-out mean square the bins' means hold (adjusted for chance).
     pub share: f64,
-    /// Bonferroni-corrected p-value of the F test (design effect taken into account).
+    /// Bonferroni-corrected p-value of the F test.
     pub p_value: f64,
     /// Significant and at least [`STRUCTURE_SHARE`].
     pub structured: bool,
@@ -63,6 +64,10 @@ pub struct Remainder {
     /// Where `stated_mm` comes from.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub stated_by: String,
+    /// What the tests counted: rows, or blocks of rows that share an error (each block's mean
+    /// residual one unit: its shared error is then one unit's noise).
+    #[serde(default)]
+    pub units: String,
 }
 
 impl Remainder {
@@ -88,7 +93,8 @@ impl Remainder {
         let against: Vec<&str> = self.tests.iter().map(|t| t.against.as_str()).collect();
         if self.white {
             format!(
-                "white (binned by {}: no dependence holds {:.0} % of a value's mean square): the instrument's apparent noise {} mm per value{stated}",
+                "white ({} binned by {}: no dependence holds {:.0} % of a value's mean square): the instrument's apparent noise {} mm per value{stated}",
+                self.units,
                 against.join(", "),
                 100.0 * STRUCTURE_SHARE,
                 noise.join(", ")
@@ -101,21 +107,23 @@ impl Remainder {
     }
 }
 
-/// One regressor: its name and how rows fall into bins.
+/// One regressor: its name, its value on every row, and whether the values are categories (a
+/// station, a backlash flank) rather than quantities to bin by quantiles.
 struct Regressor {
     name: String,
-    bins: Vec<usize>,
+    values: Vec<f64>,
+    categorical: bool,
 }
 
-/// Bin index of every row by quantiles of `v` (`k` bins; ties share a bin).
+/// Bin index of every unit by quantiles of `v` (`k` bins; ties share a bin).
 fn quantile_bins(v: &[f64], k: usize) -> Vec<usize> {
     let mut order: Vec<usize> = (0..v.len()).collect();
     order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
     let mut bins = vec![0; v.len()];
     for (r, &i) in order.iter().enumerate() {
-        bins[i] = r * k / v.len();
+        bins[i] = r * k / v.len().max(1);
     }
-    // Rows of equal value in one bin.
+    // Units of equal value in one bin.
     for w in order.windows(2) {
         if v[w[1]] == v[w[0]] {
             bins[w[1]] = bins[w[0]];
@@ -124,38 +132,96 @@ fn quantile_bins(v: &[f64], k: usize) -> Vec<usize> {
     bins
 }
 
+/// Bin index of every unit by category (values compared exactly).
+fn category_bins(v: &[f64]) -> Vec<usize> {
+    let mut seen: Vec<f64> = Vec::new();
+    v.iter()
+        .map(|x| {
+            seen.iter().position(|s| s == x).unwrap_or_else(|| {
+                seen.push(*x);
+                seen.len() - 1
+            })
+        })
+        .collect()
+}
+
 /// The regressors the remainder is tested against: the acquisition order (by `t` where every row
-/// has one), the station, each joint angle, the temperature and the reading's position values.
+/// has one), the station, each joint angle, each joint's torque and backlash flank (where the
+/// rows carry them), the temperature and the reading's position values. Those that do not vary
+/// are left out.
 fn regressors(data: &Samples, m: Measurement) -> Vec<Regressor> {
     let n = data.len();
-    let k = (n / ROWS_PER_BIN).clamp(4, 10);
     let mut out = Vec::new();
-    let times: Option<Vec<f64>> = data.inputs.iter().map(|i| i.t_s).collect();
-    let order = times.unwrap_or_else(|| (0..n).map(|i| i as f64).collect());
-    out.push(Regressor { name: "acquisition order".into(), bins: quantile_bins(&order, (n / ROWS_PER_BIN).clamp(4, 20)) });
-    let stations: Vec<usize> = data.inputs.iter().map(|i| i.station).collect();
-    if stations.iter().any(|s| *s != stations[0]) {
-        out.push(Regressor { name: "station".into(), bins: stations });
-    }
-    for j in 0..data.q.first().map_or(0, Vec::len) {
-        let q: Vec<f64> = data.q.iter().map(|q| q[j]).collect();
-        if q.iter().any(|v| *v != q[0]) {
-            out.push(Regressor { name: format!("q{}", j + 1), bins: quantile_bins(&q, k) });
+    let mut add = |name: String, values: Vec<f64>, categorical: bool| {
+        if values.iter().any(|v| *v != values[0]) {
+            out.push(Regressor { name, values, categorical });
         }
+    };
+    let times: Option<Vec<f64>> = data.inputs.iter().map(|i| i.t_s).collect();
+    add("acquisition order".into(), times.unwrap_or_else(|| (0..n).map(|i| i as f64).collect()), false);
+    add("station".into(), data.inputs.iter().map(|i| i.station as f64).collect(), true);
+    let nj = data.q.first().map_or(0, Vec::len);
+    for j in 0..nj {
+        add(format!("q{}", j + 1), data.q.iter().map(|q| q[j]).collect(), false);
     }
-    let temps: Option<Vec<f64>> = data.inputs.iter().map(|i| i.temp_c).collect();
-    if let Some(t) = temps.filter(|t| t.iter().any(|v| *v != t[0])) {
-        out.push(Regressor { name: "temp".into(), bins: quantile_bins(&t, k) });
+    // What loads each joint and the flank its gear sits on (where the rows carry them): a
+    // compliance or a backlash the model lacks follows these more than any one angle.
+    for j in 0..nj {
+        add(format!("torque_j{}", j + 1), data.inputs.iter().map(|i| i.torque(j)).collect(), false);
+        add(format!("backlash_side_j{}", j + 1), data.inputs.iter().map(|i| i.side(j).signum()).collect(), true);
+    }
+    if let Some(t) = data.inputs.iter().map(|i| i.temp_c).collect::<Option<Vec<f64>>>() {
+        add("temp".into(), t, false);
     }
     let d = data.dim;
     let groups = m.def().value_groups();
     for (c, name) in m.def().columns().iter().enumerate().take(d) {
         if groups.get(c).copied().unwrap_or(0) == 0 && d > 1 {
-            let y: Vec<f64> = (0..n).map(|i| data.y[i * d + c]).collect();
-            out.push(Regressor { name: format!("measured {name}"), bins: quantile_bins(&y, k) });
+            add(format!("measured {name}"), (0..n).map(|i| data.y[i * d + c]).collect(), false);
         }
     }
     out
+}
+
+/// The units the tests count: every row, or where rows share errors in blocks (`groups`) every
+/// block, its residual and its regressors the means of its rows (a category: its first row's).
+/// A block's shared error is then one unit's noise, not a structure of the rows it spans.
+struct Units {
+    /// Each unit's rows.
+    members: Vec<Vec<usize>>,
+}
+
+impl Units {
+    fn of(n: usize, groups: Option<&[usize]>) -> Units {
+        match groups.filter(|g| g.len() == n) {
+            Some(g) => {
+                let mut members: Vec<Vec<usize>> = vec![Vec::new(); g.iter().max().map_or(0, |m| m + 1)];
+                for (i, &b) in g.iter().enumerate() {
+                    members[b].push(i);
+                }
+                members.retain(|m| !m.is_empty());
+                Units { members }
+            }
+            None => Units { members: (0..n).map(|i| vec![i]).collect() },
+        }
+    }
+    fn len(&self) -> usize {
+        self.members.len()
+    }
+    /// The mean of `v` (one value per row) over each unit's rows.
+    fn mean(&self, v: &[f64]) -> Vec<f64> {
+        self.members.iter().map(|m| m.iter().map(|&i| v[i]).sum::<f64>() / m.len() as f64).collect()
+    }
+    /// Each unit's first row's value.
+    fn first(&self, v: &[f64]) -> Vec<f64> {
+        self.members.iter().map(|m| v[m[0]]).collect()
+    }
+    /// How many bins a quantity's quantiles make over the units: about [`ROWS_PER_BIN`] rows a
+    /// bin (5 blocks a bin where units are blocks), 2 to 10 (to 20 for the acquisition order).
+    fn bins(&self, blocks: bool, order: bool) -> usize {
+        let per = if blocks { 5 } else { ROWS_PER_BIN };
+        (self.len() / per).clamp(2, if order { 20 } else { 10 })
+    }
 }
 
 /// (F, numerator and denominator degrees of freedom, adjusted share) of a one-way analysis of
@@ -196,18 +262,27 @@ pub fn characterise(oof: &[f64], data: &Samples, m: Measurement, groups: Option<
     }
     let columns = m.def().columns();
     let value_groups = m.def().value_groups();
-    let deff = groups.map_or(1.0, |g| crate::stats::design_effect(oof, d, g)).max(1.0);
+    let shared = groups.is_some_and(|g| g.len() == n && (1..n).any(|i| g[i] == g[i - 1]));
+    let units = Units::of(n, if shared { groups } else { None });
+    if units.len() < 8 {
+        return None;
+    }
     let regs = regressors(data, m);
     let n_tests = (regs.len() * d).max(1) as f64;
-    let column = |c: usize| -> Vec<f64> { (0..n).map(|i| oof[i * d + c]).collect() };
-    let cols: Vec<Vec<f64>> = (0..d).map(column).collect();
+    let cols: Vec<Vec<f64>> = (0..d).map(|c| (0..n).map(|i| oof[i * d + c]).collect()).collect();
+    let unit_cols: Vec<Vec<f64>> = cols.iter().map(|c| units.mean(c)).collect();
     let tests: Vec<StructureTest> = regs
         .iter()
         .filter_map(|reg| {
+            let bins = if reg.categorical {
+                category_bins(&units.first(&reg.values))
+            } else {
+                quantile_bins(&units.mean(&reg.values), units.bins(shared, reg.name == "acquisition order"))
+            };
             (0..d)
                 .filter_map(|c| {
-                    let (f, d1, d2, share) = anova(&cols[c], &reg.bins)?;
-                    let p = (f_survival(f / deff, d1, d2) * n_tests).min(1.0);
+                    let (f, d1, d2, share) = anova(&unit_cols[c], &bins)?;
+                    let p = (f_survival(f, d1, d2) * n_tests).min(1.0);
                     let value = columns.get(c).copied().unwrap_or("value").to_string();
                     Some(StructureTest { against: reg.name.clone(), value, share, p_value: p, structured: p < WHITENESS_ALPHA && share >= STRUCTURE_SHARE })
                 })
@@ -230,6 +305,7 @@ pub fn characterise(oof: &[f64], data: &Samples, m: Measurement, groups: Option<
         apparent_position_mm: rms(&positions),
         stated_mm: stated,
         stated_by: if stated.is_some() { stated_by.join(" and ") } else { String::new() },
+        units: if shared { format!("{} blocks of rows that share an error", units.len()) } else { format!("{} rows", units.len()) },
     })
 }
 

@@ -143,7 +143,8 @@ fn print_diagnosis(d: &twincal::diagnose::Diagnosis) {
         d.final_train_rmse_mm
     );
     if let Some(r) = &d.remainder {
-        eprintln!("  what remains: {}", r.summary());
+        let within = (!r.white && d.unexplained.is_none()).then_some(" (within the data's floor: not unexplained)").unwrap_or_default();
+        eprintln!("  what remains: {}{within}", r.summary());
     }
     let sources: Vec<String> = d.noise_floor.sources.iter().map(|s| format!("{} {:.4} mm", s.source, s.rms_mm)).collect();
     if sources.is_empty() {
