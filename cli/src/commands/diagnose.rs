@@ -143,7 +143,7 @@ fn print_diagnosis(d: &twincal::diagnose::Diagnosis) {
         d.final_train_rmse_mm
     );
     if let Some(r) = &d.remainder {
-        let within = (!r.white && d.unexplained.is_none()).then_some(" (within the data's floor: not unexplained)").unwrap_or_default();
+        let within = if !r.white && d.unexplained.is_none() { " (within the data's floor: not unexplained)" } else { "" };
         eprintln!("  what remains: {}{within}", r.summary());
     }
     let sources: Vec<String> = d.noise_floor.sources.iter().map(|s| format!("{} {:.4} mm", s.source, s.rms_mm)).collect();
