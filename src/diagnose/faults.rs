@@ -313,16 +313,7 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
             let fits = best.cause != "unexplained" && rms(best) <= EXPLAINED_SIGMAS * scale_mm;
             let explained = fits && clear;
             let (runner_up, runner_up_rms_mm) = runner.map_or((String::new(), f64::NAN), |o| (label(o), rms(o)));
-            let weighed = runner.filter(|o| o.params > best.params && o.rss < best.rss).map_or(String::new(), |o| {
-                format!(" with {} free numbers against {}: weighed by the kept rows' noise, its BIC is {:.1} worse", o.params, best.params, bic(o) - bic(best))
-            });
-            let shared_note = (shared(best) && best.mean.abs() > 0.5 * scale_mm).then(|| {
-                format!(
-                    "; the {:+.3} mm it leaves on every row alike is within {SHARED_SIGMAS} robust sd, an error the rows of one run share (a sweep's rounding), not a jump of the reading",
-                    best.mean
-                )
-            });
-            let weighed = weighed + shared_note.as_deref().unwrap_or("");
+            let weighed = weighed_note(best, runner, &bic, shared(best), scale_mm);
             let evidence = if explained {
                 format!(
                     "{}: the run's rows {:.3} mm RMS as logged, {:.3} mm so corrected (kept rows' robust sd {:.3} mm); next best {} at {:.3} mm{weighed}",
@@ -375,6 +366,22 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
             }
         })
         .collect()
+}
+
+/// What the evidence line adds: how a freer runner-up that fits the rows closer is weighed
+/// (`bic`), and the offset the named hypothesis leaves on every row where it is the rows' shared
+/// error (`shared`).
+fn weighed_note(best: &Hypothesis, runner: Option<&Hypothesis>, bic: &dyn Fn(&Hypothesis) -> f64, shared: bool, scale_mm: f64) -> String {
+    let weighed = runner.filter(|o| o.params > best.params && o.rss < best.rss).map_or(String::new(), |o| {
+        format!(" with {} free numbers against {}: weighed by the kept rows' noise, its BIC is {:.1} worse", o.params, best.params, bic(o) - bic(best))
+    });
+    let shared_note = (shared && best.mean.abs() > 0.5 * scale_mm).then(|| {
+        format!(
+            "; the {:+.3} mm it leaves on every row alike is within {SHARED_SIGMAS} robust sd, an error the rows of one run share (a sweep's rounding), not a jump of the reading",
+            best.mean
+        )
+    });
+    weighed + shared_note.as_deref().unwrap_or("")
 }
 
 fn label(h: &Hypothesis) -> String {

@@ -316,6 +316,14 @@ pub(super) fn select_stage(data: &Dataset, opts: &DiagnoseOptions, progress: &dy
     })
 }
 
+impl Selected {
+    /// The lines of the causes the checks left out of the model, and of the refinements
+    /// questioned.
+    fn dropped(&self) -> impl Iterator<Item = String> + '_ {
+        self.not_physical.iter().chain(&self.below_floor).chain(&self.questioned).cloned()
+    }
+}
+
 /// The final stage: rows the causes explain rejoin, the model with its causes is refitted on
 /// every kept row with its own noise model, and the diagnosis and its result file are written
 /// from that one fit.
@@ -345,34 +353,21 @@ pub(super) fn final_stage(
         noise_model,
         ..
     } = p;
+    let dropped: Vec<String> = sel.dropped().collect();
     let Selected { kept, kept_rows, ctx, confirmation, few_blocks, baseline, current, found, .. } = sel;
     let shared = blocks.any_shared();
     // Rows first taken for outliers that the causes explain rejoin the final fit.
     let (kept, kept_rows, final_keep, explained) =
         rejoin_explained(&current, &all, data, (kept, kept_rows, keep), (&mut outliers, &mut outlier_runs), opts.screen.outlier_k, progress);
-    let mut explained_rows: Vec<usize> = explained.iter().map(|i| i + 1).chain(first_flagged).collect();
-    explained_rows.sort_unstable();
+    let explained_rows = sorted_rows(explained.iter().map(|i| i + 1).chain(first_flagged));
     let groups = shared.then(|| blocks.ids_of(&final_keep));
     let (kept, noise_model) = final_whitening(kept, noise_model, &all, &current, data, &blocks, &final_keep);
     let FinalFit { id: final_id, x: final_x, train_rmse_mm: final_train_rmse_mm, covs } = final_fit(&current, &kept, groups.as_deref(), opts.rank_tol);
     let unphysical = unphysical_causes(&current.model, &final_x, &found.iter().map(|f| f.block.clone()).collect::<Vec<EffectBlock>>());
-    let set_up = [fold_warning, crate::calib::effects::inputs::payload_warning(data, &opts.loads.joints), few_blocks];
-    let dropped = sel.not_physical.iter().chain(&sel.below_floor).chain(&sel.questioned).cloned();
-    let mut warnings: Vec<String> = set_up.into_iter().flatten().chain(dropped).chain(unphysical).collect();
+    let set_up = [fold_warning, crate::calib::effects::inputs::payload_warning(data, &opts.loads.joints), few_blocks].into_iter().flatten();
+    let mut warnings: Vec<String> = set_up.chain(dropped).chain(unphysical).collect();
     let causes = cause_reports(&found, &current.model, &covs, &final_x, &sel.other_rmse, &sel.conf_rmse);
-    warnings.extend(attributions(&found, &causes));
-    warnings.extend(found.iter().filter_map(|f| {
-        let (b, a) = f.forward?;
-        (a >= b).then(|| {
-            format!(
-                "{} gains on the held-out folds ({:.4} -> {:.4} mm) but not on the later rows of each run, each predicted from the rows before them ({b:.4} -> {a:.4} mm): whether it holds tomorrow is in doubt",
-                f.block.label(),
-                f.before,
-                f.after
-            )
-        })
-    }));
-    let fitted_x = final_x.clone();
+    warnings.extend(attributions(&found, &causes).into_iter().chain(losing_forward(&found)));
     let fitted = crate::calib::pipeline::FittedModel {
         model: current.model.clone(),
         x0: base_start(&current.model, &x_base),
@@ -385,12 +380,7 @@ pub(super) fn final_stage(
     let noise_floor = result.evaluation.noise_floor.clone().expect("result_of_fit sets the floor");
     let (noise_floor_mm, noise_floor_source, current_oof) = (noise_floor.total_mm, floor_source_text(&noise_floor), rms(&current.oof));
     warnings.extend(leak_on_positions(&current.oof, measurement, ctx.groups.as_deref(), &noise_floor, shared));
-    // What remains: the final model's residual on every kept row it was fitted to (blocked
-    // folds' held-out residuals would hold the extrapolation across blocks as well).
-    let final_res = ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(&fitted_x);
-    let remainder = super::remainder::characterise(&final_res, &kept, measurement, groups.as_deref(), &noise_floor);
-    let unexplained = unexplained_of(remainder.as_ref(), unexplained_note(&current, &ctx.data, &noise_floor, data), noise_floor.of_group(0));
-    let unexplained = join_notes(unexplained, unexplained_outliers(&outliers, &run_faults, data.rows.len()));
+    let (remainder, unexplained) = what_remains(&current, (&kept, &result.x), groups.as_deref(), &noise_floor, &ctx.data, data, (&outliers, &run_faults));
     let (position_rms, judged_floor) = ((!noise_floor.by_group.is_empty()).then(|| rms(&measurement.group_values(&current.oof, 0))), noise_floor.of_group(0));
     let diagnosis = Diagnosis {
         schema_version: crate::output::SCHEMA_VERSION,
@@ -446,6 +436,54 @@ fn verdict_with(causes: &[Cause], unexplained: bool) -> String {
         (true, true) => "unexplained".into(),
         (true, false) => format!("{} + unexplained", verdict_of(causes)),
     }
+}
+
+/// What remains of the final model (`current`'s blocks at `x`, fitted on `kept`, whose blocks
+/// are `groups`) characterised ([`super::remainder`]), and what is unexplained: a structured
+/// remainder above the floor, a white one far above what the instrument states (`current`'s
+/// held-out residuals on the selection rows `selection`), outlier rows no fault explains.
+fn what_remains(
+    current: &Fitted,
+    (kept, x): (&Samples, &[f64]),
+    groups: Option<&[usize]>,
+    floor: &crate::calib::fit::floor::NoiseFloor,
+    selection: &Samples,
+    data: &Dataset,
+    (outliers, faults): (&[crate::calib::fit::robust::Outlier], &[super::faults::RunFault]),
+) -> (Option<super::remainder::Remainder>, Option<String>) {
+    // The final model's residual on every kept row it was fitted to (blocked folds' held-out
+    // residuals would hold the extrapolation across blocks as well).
+    let res = ReadingFit { model: &current.model, data: &kept.unweighted() }.residuals_mm(x);
+    let remainder = super::remainder::characterise(&res, kept, current.model.measurement, groups, floor);
+    let far = unexplained_note(current, selection, floor, data);
+    let unexplained = join_notes(unexplained_of(remainder.as_ref(), far, floor.of_group(0)), unexplained_outliers(outliers, faults, data.rows.len()));
+    (remainder, unexplained)
+}
+
+/// Row numbers in ascending order.
+fn sorted_rows(rows: impl Iterator<Item = usize>) -> Vec<usize> {
+    let mut v: Vec<usize> = rows.collect();
+    v.sort_unstable();
+    v
+}
+
+/// A warning for each kept cause that gains on the held-out folds but loses on the rows judged
+/// forward in time.
+fn losing_forward(found: &[Found]) -> Vec<String> {
+    found
+        .iter()
+        .filter_map(|f| {
+            let (b, a) = f.forward?;
+            (a >= b).then(|| {
+                format!(
+                    "{} gains on the held-out folds ({:.4} -> {:.4} mm) but not on the later rows of each run, each predicted from the rows before them ({b:.4} -> {a:.4} mm): whether it holds tomorrow is in doubt",
+                    f.block.label(),
+                    f.before,
+                    f.after
+                )
+            })
+        })
+        .collect()
 }
 
 /// A structured remainder is unexplained only where it stays above this many times the data's
