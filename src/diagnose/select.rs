@@ -184,6 +184,8 @@ pub(super) fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, 
     let mut steps = Vec::new();
     let mut found: Vec<Found> = Vec::new();
     let mut questioned = Vec::new();
+    // The forward RMSE of `current`, once known (the kept candidate's, after each step).
+    let mut current_forward: Option<f64> = None;
     for _ in 0..opts.max_effects {
         // Each candidate is tried without its refinement (a thermal block's sensor lag), which
         // is tested apart once the block is kept.
@@ -192,7 +194,8 @@ pub(super) fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, 
             break;
         }
         let before = rms(&current.oof);
-        let forward_before = remaining.iter().any(|b| b.varies_in_time()).then(|| forward_rmse(ctx, &current)).flatten();
+        let forward_before =
+            if remaining.iter().any(|b| b.varies_in_time()) { current_forward.or_else(|| forward_rmse(ctx, &current)) } else { current_forward };
         let results: Vec<(Candidate, Fitted)> = remaining.par_iter().map(|b| try_candidate(ctx, &current, b, remaining.len(), span)).collect();
         let passes = |(c, b): (&Candidate, &EffectBlock)| {
             let forward_ok = !b.varies_in_time() || forward_before.zip(c.forward_rmse_mm).is_none_or(|(fb, fa)| fa < (1.0 - opts.min_gain) * fb);
@@ -232,6 +235,7 @@ pub(super) fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, 
         progress(&format!("kept {}: held-out RMSE {before:.4} -> {:.4} mm (p = {:.2e}){forward_note}", remaining[i].label(), c.heldout_rmse_mm, c.p_value));
         let (block, f, forward_after) = refined(ctx, &current, remaining[i], (f, c.forward_rmse_mm), (opts.alpha, span), &mut questioned, progress);
         found.push(Found { block, before, after: rms(&f.oof), p: c.p_value, forward: forward_before.zip(forward_after) });
+        current_forward = forward_after;
         chain.push(f.clone());
         current = f;
     }

@@ -191,12 +191,7 @@ fn on_unseen_rows(
         return Ok(None);
     }
     let geometric = crate::calib::pipeline::calibrate(data, None, &opts.baseline_options())?;
-    let measured: Vec<f64> = test.rows.iter().flat_map(|r| m.values_of_file(&r.reading_mm)).collect();
-    let rmse = |r: &CalibResult| {
-        let e: Vec<f64> = r.predict_rows(test).iter().zip(&measured).map(|(p, y)| y - p).collect();
-        crate::stats::rms(&e)
-    };
-    let (geometric_rmse_mm, final_rmse_mm) = (rmse(&geometric), rmse(result));
+    let (geometric_rmse_mm, final_rmse_mm) = (geometric.rmse_on(test), result.rmse_on(test));
     if !(geometric_rmse_mm.is_finite() && final_rmse_mm.is_finite()) {
         return Ok(None);
     }

@@ -379,20 +379,15 @@ pub fn detection_item(id: u64, seeds: u64) -> Result<DetectionItem> {
 /// thermal expansion with the sensor's lag) calibrated on the same rows; each model's RMSE per
 /// coordinate on the later rows, mm, and the diagnosis' verdict.
 fn forward_check(request: &twincal::requests::DiagnoseRequest, opts: &twincal::diagnose::DiagnoseOptions, data: &Dataset) -> Result<([f64; 2], String)> {
-    let cut = (FORWARD_SHARE * data.rows.len() as f64).round() as usize;
-    let part = |rows: &[twincal::dataset::Row]| Dataset { rows: rows.to_vec(), source: data.source.clone() };
-    let (first, later) = (part(&data.rows[..cut]), part(&data.rows[cut..]));
-    let d = twincal::jobs::diagnose_loaded(request, (opts.clone(), Default::default()), first.clone(), &|_| {})?;
+    // As `diagnose --test-fraction 0.3 --split-by time` runs it: the later rows never seen.
+    let forward =
+        twincal::requests::DiagnoseRequest { test_fraction: Some(1.0 - FORWARD_SHARE), split_by: twincal::calib::pipeline::SplitBy::Time, ..request.clone() };
+    let d = twincal::jobs::diagnose_loaded(&forward, (opts.clone(), Default::default()), data.clone(), &|_| {})?;
+    let later = Dataset { rows: data.rows[d.data.rows.len()..].to_vec(), source: data.source.clone() };
     let mut truth_form = opts.baseline_options();
     truth_form.effects = vec![(twincal::calib::effects::EffectKind::Thermal, None)];
-    let truth = twincal::calib::pipeline::calibrate(&first, None, &truth_form)?;
-    let later_rmse = |r: &twincal::calib::pipeline::CalibResult| {
-        let m = r.model.measurement;
-        let measured: Vec<f64> = later.rows.iter().flat_map(|row| m.values_of_file(&row.reading_mm)).collect();
-        let e: Vec<f64> = r.predict_rows(&later).iter().zip(&measured).map(|(p, y)| y - p).collect();
-        twincal::stats::rms(&e)
-    };
-    Ok(([later_rmse(&d.result), later_rmse(&truth)], d.report.verdict))
+    let truth = twincal::calib::pipeline::calibrate(&d.data, None, &truth_form)?;
+    Ok(([d.result.rmse_on(&later), truth.rmse_on(&later)], d.report.verdict))
 }
 
 /// A rigid arm's tracker data with the tracker moved once, diagnosed as the command runs it:

@@ -436,6 +436,15 @@ impl CalibResult {
         out
     }
 
+    /// RMSE per value (mm) of the model's readings of `data`'s rows against the readings they
+    /// hold ([`Self::predict_rows`]; NaN where a row reads nothing).
+    pub fn rmse_on(&self, data: &Dataset) -> f64 {
+        let m = self.model.measurement;
+        let measured: Vec<f64> = data.rows.iter().flat_map(|r| m.values_of_file(&r.reading_mm)).collect();
+        let e: Vec<f64> = self.predict_rows(data).iter().zip(&measured).map(|(p, y)| y - p).collect();
+        crate::stats::rms(&e)
+    }
+
     /// An error naming the data unless their readings (if any) are the model's measurement.
     pub fn require_measurement(&self, data: &Dataset) -> Result<()> {
         let m = self.model.measurement;
