@@ -225,9 +225,12 @@ pub(super) fn select_causes(ctx: &Ctx, pool: &[EffectBlock], baseline: &Fitted, 
         });
         let Some(i) = best else { break };
         let (mut c, f) = results.into_iter().nth(i).expect("index from the same list");
-        // Every kept cause is judged forward in time too (a time-varying one was chosen on it;
-        // another is reported with it, and warned of where it loses there).
-        let forward_before = forward_before.or_else(|| forward_rmse(ctx, &current));
+        // Every kept cause is judged forward in time too where the rows carry their time (a
+        // time-varying one was chosen on it; another is reported with it, and warned of where it
+        // loses there). Without `t` the later rows of an acquisition are another part of the
+        // workspace, which the folds already judge.
+        let timed = ctx.forward.as_ref().is_some_and(|f| f.timed);
+        let forward_before = forward_before.or_else(|| timed.then(|| forward_rmse(ctx, &current)).flatten());
         if c.forward_rmse_mm.is_none() && forward_before.is_some() {
             c.forward_rmse_mm = forward_rmse(ctx, &f);
         }
