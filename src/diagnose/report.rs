@@ -76,16 +76,6 @@ pub enum KeptOn {
     ForwardInTime,
 }
 
-impl KeptOn {
-    /// In words, for the report.
-    pub fn describe(self) -> &'static str {
-        match self {
-            KeptOn::Folds => "on the held-out folds",
-            KeptOn::ForwardInTime => "forward in time (each later stretch of a run predicted from the rows before it)",
-        }
-    }
-}
-
 /// A cause found in the data.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Cause {

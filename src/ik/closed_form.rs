@@ -666,15 +666,21 @@ mod tests {
         }
     }
 
+    /// The arm `name` and its absolute D-H calibration model (nonzero nominal parameters).
+    fn dh_model(name: &str) -> (Robot, crate::calib::model::CalibModel) {
+        use crate::calib::model::{CalibModel, DrawWireGuess};
+        let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
+        let robot = arm(name);
+        let m = CalibModel::dh(&robot, &g, false);
+        (robot, m)
+    }
+
     /// A model whose parameters are not zero (the absolute D-H model, its nominal values in `p`)
     /// and a chain whose structure holds only to the tolerance are solved exactly.
     #[test]
     fn nonzero_parameters_and_a_structure_within_the_tolerance() {
-        use crate::calib::model::{CalibModel, DrawWireGuess};
-        let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
         for name in ["irb120", "ur5"] {
-            let robot = arm(name);
-            let m = CalibModel::dh(&robot, &g, false);
+            let (robot, m) = dh_model(name);
             let p = &m.nominal[..m.n_chain()];
             let cf = ClosedForm::of(&m.chain, p).unwrap_or_else(|| panic!("{name}: D-H model has no closed form"));
             sweep(&cf, &m.chain, p, &robot.limits(), 500, 3);
@@ -843,11 +849,8 @@ mod tests {
     /// finish every solution) and for the absolute D-H model (nonzero parameters).
     #[test]
     fn perturbed_poses_within_the_tolerance() {
-        use crate::calib::model::{CalibModel, DrawWireGuess};
-        let g = DrawWireGuess { exit_m: [0.8, 0.3, 0.05], offset_m: 0.12, tool_m: [0.062, 0.004, -0.003] };
         for name in ["irb120", "ur5"] {
-            let robot = arm(name);
-            let m = CalibModel::dh(&robot, &g, false);
+            let (robot, m) = dh_model(name);
             let p = &m.nominal[..m.n_chain()];
             let cf = ClosedForm::of(&m.chain, p).unwrap();
             perturbed_sweep(&cf, &m.chain, p, &robot.limits(), 1000, 5);
