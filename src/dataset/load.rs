@@ -171,7 +171,9 @@ impl Dataset {
     /// header's columns; the instrument at the artifact's feature when rows name one); `None`
     /// for a dataset of poses without readings.
     pub fn measurement(&self) -> Option<Measurement> {
-        if let Some(r) = self.rows.iter().find(|r| r.feature.is_some()) {
+        // Sockets seated beside faces touched: the sockets' rows are the first instrument's.
+        let seated = self.rows.iter().find(|r| r.socket().is_some());
+        if let Some(r) = seated.or_else(|| self.rows.iter().find(|r| r.feature.is_some())) {
             return r.measurement();
         }
         self.rows.first()?.measurement()
@@ -304,9 +306,11 @@ impl Dataset {
             let name = if self.measurement().is_some_and(|m| m.feature().is_some()) { "placement" } else { "station" };
             out.push((name.into(), ColumnValues::Texts(self.rows.iter().map(|r| r.station.clone().unwrap_or_default()).collect())));
         }
-        if let Some(kind) = self.rows.iter().find_map(|r| r.feature.as_ref().map(|f| f.kind)) {
-            let labels = self.rows.iter().map(|r| r.feature.as_ref().map(|f| f.label.clone()).unwrap_or_default()).collect();
-            out.push((kind.column().into(), ColumnValues::Texts(labels)));
+        for kind in crate::measurement::FeatureKind::ALL {
+            if self.rows.iter().any(|r| r.feature.as_ref().is_some_and(|f| f.kind == kind)) {
+                let labels = self.rows.iter().map(|r| r.feature.as_ref().filter(|f| f.kind == kind).map(|f| f.label.clone()).unwrap_or_default()).collect();
+                out.push((kind.column().into(), ColumnValues::Texts(labels)));
+            }
         }
         if all(|r| r.mount.is_some()) {
             out.push(("mount".into(), ColumnValues::Texts(self.rows.iter().map(|r| r.mount.clone().unwrap_or_default()).collect())));

@@ -78,7 +78,23 @@ impl Dataset {
     pub fn stations(&self) -> Stations {
         if self.rows.iter().any(|r| r.feature.is_some()) {
             let labels: Vec<Option<String>> = self.rows.iter().map(|r| r.feature.as_ref().map(|f| feature_station(r.station.as_deref(), &f.label))).collect();
-            return Stations::of_labels(labels.iter().map(|l| l.as_deref()));
+            let mut out = Stations::of_labels(labels.iter().map(|l| l.as_deref()));
+            // Faces touched beside sockets seated: the sockets' stations first (the first
+            // instrument's placement is a socket's), each kind in the order of its first rows.
+            let is_face = |k: usize| {
+                self.rows[out.of_row.iter().position(|&s| s == k).unwrap_or(0)]
+                    .feature
+                    .as_ref()
+                    .is_some_and(|f| f.kind == crate::measurement::FeatureKind::Plane)
+            };
+            if self.rows.iter().any(|r| r.socket().is_some()) {
+                let order: Vec<usize> = (0..out.labels.len()).filter(|&k| !is_face(k)).chain((0..out.labels.len()).filter(|&k| is_face(k))).collect();
+                let mut new_of = vec![0; order.len()];
+                order.iter().enumerate().for_each(|(new, &old)| new_of[old] = new);
+                out.labels = order.iter().map(|&k| out.labels[k].clone()).collect();
+                out.of_row.iter_mut().for_each(|s| *s = new_of[*s]);
+            }
+            return out;
         }
         Stations::of_labels(self.rows.iter().map(|r| r.station.as_deref()))
     }

@@ -185,8 +185,13 @@ pub(super) struct Layout {
     pub(super) joints: usize,
     /// The instrument whose reading columns the header holds, if any.
     pub(super) measurement: Option<Measurement>,
-    /// The kind of artifact's feature the header's column names, if any.
+    /// The kind of artifact's feature the header's column names, if any (sockets, where the
+    /// header names sockets and faces).
     pub(super) feature: Option<FeatureKind>,
+    /// Faces touched beside sockets seated (one ball, one fit): the instrument of the rows that
+    /// name a face (a probe's contact, or a dial indicator's reading where the header has its
+    /// column); the rows that name a socket read nothing.
+    pub(super) faces_beside: Option<Measurement>,
 }
 
 impl Layout {
@@ -204,7 +209,7 @@ impl Layout {
                 pos[c.index()] = Some(i);
             }
         }
-        let feature = feature_named(&pos, source, &found())?;
+        let feature = feature_named(&pos);
         // The joints are q1..qN with N the highest joint named; at least one is needed.
         let joints = (0..MAX_JOINTS).rev().find(|&j| pos[Column::Q(j).index()].is_some()).map_or(1, |j| j + 1);
         let has = |m: &Measurement| present(m, &pos);
@@ -230,6 +235,7 @@ impl Layout {
             complete = vec![w];
         }
         seated_beside_points(&mut complete);
+        let faces_beside = faces_beside_sockets(&mut complete, source, &found())?;
         if complete.len() > 1 {
             let both = complete.iter().map(|m| format!("{} ({})", m.def().columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" and ");
             return Err(Error::data(source, format!("line 1: the header holds the readings of two instruments, {both}; keep one; header found: {}", found())));
@@ -281,7 +287,7 @@ impl Layout {
                 ));
             }
         }
-        Ok(Layout { pos, joints, measurement, feature })
+        Ok(Layout { pos, joints, measurement, feature, faces_beside })
     }
 
     pub(super) fn cell<'a>(&self, row: &'a RawRow, c: Column) -> Option<&'a Cell> {
@@ -435,7 +441,12 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
         let socket = Column::Feature(layout.feature.unwrap_or(FeatureKind::Socket));
         let mixed = layout.measurement.is_some_and(|m| m.feature().is_none()) && layout.pos[socket.index()].is_some();
         let seated = mixed && label(layout.cell(raw, socket), socket, line, src)?.is_some();
-        let reading_mm = if seated { no_reading(&layout, &cells, raw, socket)? } else { row_reading(&layout, &cells, raw, opts.euler)? };
+        let face = layout.faces_beside.map(|m| face_beside(&layout, &cells, raw, m)).transpose()?.flatten();
+        let reading_mm = match &face {
+            Some((_, reading)) => reading.clone(),
+            None if seated => no_reading(&layout, &cells, raw, socket)?,
+            None => row_reading(&layout, &cells, raw, opts.euler)?,
+        };
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
             check_time(t, last_t, line, src)?;
@@ -464,6 +475,8 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
         let [station, mount, feature] = [Column::Station, Column::Mount, feature_column].map(|c| match label(layout.cell(raw, c), c, line, src) {
             // Beside a tracker's points, a row without a socket is a point, at no placement.
             Ok(None) if mixed && (c == socket || (c == Column::Station && !seated)) => Ok(None),
+            // Beside faces, a row at a face names no socket.
+            Ok(None) if face.is_some() && c == feature_column => Ok(None),
             Ok(None) if layout.pos[c.index()].is_some() => {
                 let what = c.name();
                 Err(cell_error(src, line, c, format!("empty {what} label; when the file has a {what} column, every row must name its {what}")))
@@ -471,7 +484,10 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
             other => other,
         });
         let (station, mount) = (station?, mount?);
-        let feature = feature?.map(|label| Feature { kind: layout.feature.unwrap_or(FeatureKind::Socket), label });
+        let feature = match face {
+            Some((label, _)) => Some(Feature { kind: FeatureKind::Plane, label }),
+            None => feature?.map(|label| Feature { kind: layout.feature.unwrap_or(FeatureKind::Socket), label }),
+        };
         let payload_kg = cells.number(layout.cell(raw, Column::Payload), Column::Payload, line)?;
         if let Some(m) = payload_kg {
             check_bounds(m, (0.0, MAX_PAYLOAD_KG), "payload (kg)", line, Column::Payload, src)?;
@@ -507,6 +523,9 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
         }
     }
     check_units(&rows, src, opts.angles)?;
+    if layout.faces_beside.is_some() {
+        same_label_for_socket_and_face(&rows, src)?;
+    }
     Ok(Dataset { rows, source })
 }
 
@@ -569,6 +588,64 @@ fn no_reading(layout: &Layout, cells: &Cells, raw: &RawRow, feature: Column) -> 
     Ok(Vec::new())
 }
 
+/// A row's face and reading where faces stand beside sockets (`m`: the faces' instrument):
+/// `None` for a row seated in a socket (which reads nothing: an indicator's cell left empty),
+/// else the face's label and the reading (a probe's contact reads nothing). A row naming both
+/// a socket and a face, or neither, is an error.
+fn face_beside(layout: &Layout, cells: &Cells, raw: &RawRow, m: Measurement) -> Result<Option<(String, Vec<f64>)>> {
+    let (socket, plane) = (Column::Feature(FeatureKind::Socket), Column::Feature(FeatureKind::Plane));
+    let (line, src) = (raw.line, cells.source);
+    let (s, f) = (label(layout.cell(raw, socket), socket, line, src)?, label(layout.cell(raw, plane), plane, line, src)?);
+    let reading = |c: &str| -> Result<Option<f64>> {
+        let c = Column::reading(c);
+        cells.number(layout.cell(raw, c), c, line)
+    };
+    match (s, f) {
+        (Some(_), Some(_)) => Err(cell_error(src, line, plane, "the row names a socket and a face; a row is seated in a socket or touches a face, not both")),
+        (None, None) => {
+            Err(cell_error(src, line, socket, "the row names neither a socket nor a face; when the file has both columns, every row names one of them"))
+        }
+        (Some(_), None) => {
+            if let Some(c) = m.def().file_columns().iter().find(|c| reading(c).ok().flatten().is_some()) {
+                return Err(cell_error(src, line, c, "a row seated in a socket reads nothing: leave the indicator's column empty on it"));
+            }
+            Ok(None)
+        }
+        (None, Some(face)) => {
+            let mut values = Vec::new();
+            for (k, name) in m.def().file_columns().iter().enumerate() {
+                let c = Column::reading(name);
+                let v = cells.required(layout.cell(raw, c), c, line)?;
+                if let Some(why) = m.def().implausible(k, v) {
+                    return Err(cell_error(src, line, c, why));
+                }
+                values.push(v);
+            }
+            Ok(Some((face, values)))
+        }
+    }
+}
+
+/// An error where a socket and a face of one placement share a label (each is a station of
+/// its own, named `placement/label`).
+fn same_label_for_socket_and_face(rows: &[Row], src: &str) -> Result<()> {
+    let of = |kind: FeatureKind| -> std::collections::BTreeSet<(Option<&str>, &str)> {
+        rows.iter().filter_map(|r| r.feature.as_ref().filter(|f| f.kind == kind).map(|f| (r.station.as_deref(), f.label.as_str()))).collect()
+    };
+    let faces = of(FeatureKind::Plane);
+    match of(FeatureKind::Socket).into_iter().find(|k| faces.contains(k)) {
+        Some((p, l)) => Err(Error::data(
+            src,
+            format!(
+                "'{}' names a socket and a face{}: give the faces and the sockets labels of their own",
+                l,
+                p.map_or(String::new(), |p| format!(" at placement {p}"))
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// A row's time `t` (s): plausible, and not before the previous row's (`last`: its time, line).
 pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &str) -> Result<()> {
     check_bounds(t, (0.0, MAX_T_S), "time (s from the start of acquisition)", line, Column::T, src)?;
@@ -587,19 +664,31 @@ pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &
     }
 }
 
-/// The kind of artifact's feature the header's columns (their positions `pos`) name, if any;
-/// an error for a header naming two kinds (`found`: the header).
-fn feature_named(pos: &[Option<usize>], source: &str, found: &str) -> Result<Option<FeatureKind>> {
-    let named: Vec<FeatureKind> = FeatureKind::ALL.into_iter().filter(|k| pos[Column::Feature(*k).index()].is_some()).collect();
-    if named.len() > 1 {
+/// The kind of artifact's feature the header's columns (their positions `pos`) name, if any.
+fn feature_named(pos: &[Option<usize>]) -> Option<FeatureKind> {
+    // Sockets and faces both named: one ball seated in the sockets and touching the faces, each
+    // row at one of them (the sockets' kind is the file's; the faces stand beside them).
+    FeatureKind::ALL.into_iter().find(|k| pos[Column::Feature(*k).index()].is_some())
+}
+
+/// Faces touched beside sockets seated, one ball and one fit: where the header's instruments
+/// `complete` are a ball in sockets and a probe (or an indicator) on faces, the sockets' are the
+/// file's and the faces' instrument is returned. Sockets and faces beside a tracker's points
+/// (three instruments) are refused by name.
+fn faces_beside_sockets(complete: &mut Vec<Measurement>, source: &str, found: &str) -> Result<Option<Measurement>> {
+    let face = complete.iter().copied().find(|m| m.feature() == Some(FeatureKind::Plane));
+    let (true, Some(face)) = (complete.contains(&Measurement::Socket), face) else { return Ok(None) };
+    if complete.len() > 2 {
         return Err(Error::data(
             source,
             format!(
-                "line 1: the header names sockets and faces (socket and plane columns); a file holds one artifact's kind of feature; header found: {found}"
+                "line 1: the header holds three instruments ({}); one fit takes sockets beside faces, or sockets beside a tracker's points, not more; header found: {found}",
+                complete.iter().map(|m| m.def().describe()).collect::<Vec<_>>().join(", ")
             ),
         ));
     }
-    Ok(named.first().copied())
+    complete.retain(|m| *m == Measurement::Socket);
+    Ok(Some(face))
 }
 
 /// Whether the header (its columns' positions `pos`) holds instrument `m`'s columns (an

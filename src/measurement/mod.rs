@@ -376,6 +376,17 @@ impl Measurement {
     pub fn of_feature(kind: FeatureKind, file_dim: usize) -> Option<Measurement> {
         Self::ALL.into_iter().find(|m| m.feature() == Some(kind) && m.file_dim() == file_dim)
     }
+    /// Whether `other`'s rows beside this one's stand at stations of one list and read the same
+    /// target: an artifact's other kind of feature (faces touched by the ball that is seated in
+    /// the sockets), each feature a station whose own parameters are its instrument's (as many
+    /// for both: a socket's centre, a face's normal and offset).
+    pub fn shares_stations_with(self, other: Measurement) -> bool {
+        other != self
+            && other.feature().is_some()
+            && self.feature().is_some()
+            && other.def().n_station() == self.def().n_station()
+            && other.n_placement() == self.n_placement()
+    }
 }
 
 #[cfg(test)]

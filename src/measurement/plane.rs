@@ -121,6 +121,11 @@ fn locate_face(p: &[Vector3<f64>], rot: &[Matrix3<f64>], y: &[f64]) -> Option<(V
     }
     // (An indicator's readings are a column of their own, their coefficient the scale's.)
     let cols = if y.iter().any(|v| *v != 0.0) { 14 } else { 13 };
+    if rows < cols {
+        // Fewer contacts than the linear start's unknowns: no start from this face alone (a
+        // face of other contacts gives the stylus, and this one is placed about it).
+        return None;
+    }
     let mut a = DMatrix::zeros(rows, cols);
     for (i, (pi, ri)) in p.iter().zip(rot).enumerate() {
         for j in 0..3 {

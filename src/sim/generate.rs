@@ -353,10 +353,9 @@ pub fn refuse_artifact(s: &Scenario) -> Result<()> {
 pub struct ArtifactRows {
     /// The rows: joint angles at each feature, labelled, in acquisition order.
     pub dataset: crate::dataset::Dataset,
-    /// The truth, as written beside the dataset.
-    pub truth: serde_json::Value,
-    /// The file the truth is written to.
-    pub truth_file: &'static str,
+    /// The truth, as written beside the dataset: each file's name and its value (the sockets'
+    /// and the faces' where the ball is seated and touches both).
+    pub truths: Vec<(&'static str, serde_json::Value)>,
     /// The designed distances between features (sockets' spacings, faces' steps) a user
     /// states, mm.
     pub designed: Vec<(String, String, f64)>,
@@ -368,32 +367,69 @@ pub struct ArtifactRows {
     pub what: String,
 }
 
-/// The rows of scenario `s`'s artifact (`[sockets]` or `[planes]`) on the twin of `robot`;
-/// `None` without one.
+/// The rows of scenario `s`'s artifact on the twin of `robot`: the ball seated in the sockets
+/// (`[sockets]`), the probe on the faces (`[planes]`), or both in one acquisition (the same ball
+/// seated, then touching: the faces' rows after the sockets', their times after); `None`
+/// without one.
 pub fn artifact_rows(s: &Scenario, robot: &Robot) -> Option<Result<ArtifactRows>> {
     let twin = build_twin(s, robot);
     let decimals = s.sampling.written_decimals();
-    if let Some(art) = &s.sockets {
-        return Some(crate::sim::artifact::seat(&twin, robot, art, decimals, s.seed).map(|(dataset, t)| ArtifactRows {
-            truth: serde_json::to_value(&t).unwrap_or(serde_json::Value::Null),
-            truth_file: crate::sim::artifact::SOCKETS_TRUTH_FILE,
+    let seated = s.sockets.as_ref().map(|art| {
+        crate::sim::artifact::seat(&twin, robot, art, decimals, s.seed).map(|(dataset, t)| ArtifactRows {
+            truths: vec![(crate::sim::artifact::SOCKETS_TRUTH_FILE, serde_json::to_value(&t).unwrap_or(serde_json::Value::Null))],
             designed: t.designed_spacings_mm.clone(),
             made: t.spacings_mm.clone(),
             unreachable: t.unreachable,
             what: format!("a ball seated in {} sockets at {} placements", art.layout_mm.len(), art.placements.len()),
             dataset,
-        }));
+        })
+    });
+    let touched = s.planes.as_ref().map(|art| {
+        let seed = if s.sockets.is_some() { s.seed ^ FACES_BESIDE_SEED } else { s.seed };
+        crate::sim::planes::touch(&twin, robot, art, decimals, seed).map(|(dataset, t)| ArtifactRows {
+            truths: vec![(crate::sim::planes::PLANES_TRUTH_FILE, serde_json::to_value(&t).unwrap_or(serde_json::Value::Null))],
+            designed: t.designed_steps_mm.clone(),
+            made: t.steps_mm.clone(),
+            unreachable: t.unreachable,
+            what: format!(
+                "a {} touching {} faces at {} placements",
+                if art.indicator { "dial indicator" } else { "probe" },
+                art.faces.len(),
+                art.placements.len()
+            ),
+            dataset,
+        })
+    });
+    match (seated, touched) {
+        (Some(a), Some(b)) => {
+            let step = s.sockets.as_ref().map_or(0.0, |k| k.step_s);
+            Some(a.and_then(|a| b.map(|b| beside(a, b, step))))
+        }
+        (a, b) => a.or(b),
     }
-    let art = s.planes.as_ref()?;
-    Some(crate::sim::planes::touch(&twin, robot, art, decimals, s.seed).map(|(dataset, t)| ArtifactRows {
-        truth: serde_json::to_value(&t).unwrap_or(serde_json::Value::Null),
-        truth_file: crate::sim::planes::PLANES_TRUTH_FILE,
-        designed: t.designed_steps_mm.clone(),
-        made: t.steps_mm.clone(),
-        unreachable: t.unreachable,
-        what: format!("a {} touching {} faces at {} placements", if art.indicator { "dial indicator" } else { "probe" }, art.faces.len(), art.placements.len()),
-        dataset,
-    }))
+}
+
+/// What the faces' stream of the twin's randomness is apart from the sockets' where one ball is
+/// seated and touches both (the faces alone keep the scenario's seed).
+const FACES_BESIDE_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// Faces' rows `b` after seated rows `a`: one acquisition, the faces' times after the last seat
+/// (`step_s` later).
+fn beside(a: ArtifactRows, b: ArtifactRows, step_s: f64) -> ArtifactRows {
+    let last = a.dataset.rows.iter().filter_map(|r| r.t_s).fold(0.0, f64::max);
+    let mut rows = a.dataset.rows;
+    rows.extend(b.dataset.rows.into_iter().map(|mut r| {
+        r.t_s = r.t_s.map(|t| t + last + step_s);
+        r
+    }));
+    ArtifactRows {
+        dataset: crate::dataset::Dataset { rows, source: a.dataset.source },
+        truths: a.truths.into_iter().chain(b.truths).collect(),
+        designed: a.designed.into_iter().chain(b.designed).collect(),
+        made: a.made.into_iter().chain(b.made).collect(),
+        unreachable: a.unreachable + b.unreachable,
+        what: format!("{}, then {}", a.what, b.what.replacen("a ", "the same ball as a ", 1)),
+    }
 }
 
 /// Runs a scenario end to end. Poses are simulated in parallel; results do not depend on the

@@ -451,8 +451,11 @@ impl Scenario {
         }
         if let Some(a) = &self.planes {
             a.validate().map_err(err)?;
-            if self.sockets.is_some() {
-                return Err(err("[sockets] and [planes]: one artifact per scenario".into()));
+            if let Some(k) = self.sockets.as_ref().filter(|k| k.ball_mm != a.stylus_mm) {
+                return Err(err(format!(
+                    "[sockets] and [planes]: one ball is seated in the sockets and touches the faces; planes.stylus_mm {:?} must equal sockets.ball_mm {:?}",
+                    a.stylus_mm, k.ball_mm
+                )));
             }
         }
         self.validate_geometry(robot).map_err(err)?;

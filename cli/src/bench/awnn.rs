@@ -104,6 +104,7 @@ pub fn truth_view(r: &CalibResult, ds: &Dataset, truth: &TruthFile, opts: &Calib
         y: split.test_idx.iter().map(|&i| truth.poses[i].length_true_mm * 1e-3).collect(),
         dim: 1,
         measurement: twincal::measurement::Measurement::Length,
+        also: None,
         inputs: split.test_idx.iter().map(|&i| all[i].clone()).collect(),
         q: split.test.q.clone(),
         w: None,

@@ -102,7 +102,49 @@ pub fn bench_sockets(seeds: u64) -> Result<()> {
     println!("|---|---|---|---|---|---|---|---|---|");
     rows(dir, seeds, &CASES, &VARIANTS)?;
     beside(dir, seeds)?;
+    with_faces(dir, seeds)?;
     held_out(dir, seeds)
+}
+
+/// The printed plate and a steel block's faces touched by the same ball, in one fit, beside
+/// each alone (`irb120_sockets_planes`: the plate as made, the block's 25 mm step exact).
+fn with_faces(dir: &Path, seeds: u64) -> Result<()> {
+    println!("\n# Sockets and faces in one fit ({seeds} seeds; one ball seated in the printed plate as made, then touching a steel block's four faces at three places): held-out tracker points' |Δp| RMS, mm, mean ± sd over seeds\n");
+    println!("| arm | plate | rows (train) | nominal | sockets alone | faces alone | sockets + faces | tracker, as many rows as both |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let plates: [Variant; 2] = [
+        ("as made, stated as designed (spacing 0.01 mm long, 1 K warm)", &[]),
+        (
+            "exact (seated within 0.01 mm)",
+            &[
+                ("made_error_mm = [[0.0, 0.0], [0.01, 0.0]]", "made_error_mm = [[0.0, 0.0], [0.0, 0.0]]"),
+                ("expansion_ppm_per_k = 68.0", "expansion_ppm_per_k = 0.0"),
+            ],
+        ),
+    ];
+    for (plate, edits) in plates {
+        let (s0, robot, opts) = load_case(dir, "irb120_sockets_planes", edits)?;
+        let run = |f: &dyn Fn(Scenario) -> Scenario| -> Result<Vec<ArtifactCheck>> {
+            (1..=seeds).map(|seed| check(&f(Scenario { seed, ..s0.clone() }), &robot, &opts)).collect()
+        };
+        let sockets = run(&|s| Scenario { planes: None, ..s })?;
+        let faces = run(&|s| Scenario { sockets: None, ..s })?;
+        let both = run(&|s| s)?;
+        let col = |all: &[ArtifactCheck], f: &dyn Fn(&ArtifactCheck) -> f64| {
+            let (m, sd) = mean_sd(&all.iter().map(f).collect::<Vec<_>>());
+            format!("{m:.4} ± {sd:.4}")
+        };
+        println!(
+            "| IRB 120 | {plate} | {} | {} | {} | {} | {} | {} |",
+            both[0].artifact_rows,
+            col(&both, &|c| c.nominal_mm),
+            col(&sockets, &|c| c.artifact_mm),
+            col(&faces, &|c| c.artifact_mm),
+            col(&both, &|c| c.artifact_mm),
+            col(&both, &|c| c.tracker_mm)
+        );
+    }
+    Ok(())
 }
 
 /// Tracker points beside the seated rows, in one fit.

@@ -112,15 +112,24 @@ fn seat(
         ));
     }
     let dataset = out.join(twincal::dataset::DATASET_FILE);
-    let truth_file = if s.sockets.is_some() { twincal::sim::artifact::SOCKETS_TRUTH_FILE } else { twincal::sim::planes::PLANES_TRUTH_FILE };
-    let truth = out.join(truth_file);
-    check_outputs(&scenario_inputs(scenario, s), &[("--out", dataset.as_path()), ("--out", truth.as_path())])?;
+    let mut files = Vec::new();
+    if s.sockets.is_some() {
+        files.push(out.join(twincal::sim::artifact::SOCKETS_TRUTH_FILE));
+    }
+    if s.planes.is_some() {
+        files.push(out.join(twincal::sim::planes::PLANES_TRUTH_FILE));
+    }
+    let mut checked = vec![("--out", dataset.as_path())];
+    checked.extend(files.iter().map(|f| ("--out", f.as_path())));
+    check_outputs(&scenario_inputs(scenario, s), &checked)?;
     let t0 = Instant::now();
     let a = twincal::sim::generate::artifact_rows(s, robot).expect("an artifact scenario")?;
     let data = &a.dataset;
     let mut outputs = OutputSet::new();
     outputs.write(&dataset, data.to_csv_string().as_bytes())?;
-    outputs.write_json(&truth, &a.truth)?;
+    for (name, value) in &a.truths {
+        outputs.write_json(&out.join(name), value)?;
+    }
     outputs.commit()?;
     if !quiet {
         let test = data.rows.iter().filter(|r| r.split == Some(twincal::dataset::Split::Test)).count();
@@ -134,11 +143,13 @@ fn seat(
             t0.elapsed().as_secs_f64(),
             a.unreachable
         );
-        let word = if s.sockets.is_some() { "spacing" } else { "step" };
-        for (x, y, d) in &a.designed {
+        let n_spacings = s.sockets.as_ref().map_or(0, |k| k.designed_spacings_mm().len());
+        for (k, (x, y, d)) in a.designed.iter().enumerate() {
+            let word = if k < n_spacings { "spacing" } else { "step" };
             eprintln!("  {word} {x}:{y} designed {d:.3} mm (state it with calibrate --spacing-mm {x}:{y}={d})");
         }
-        eprintln!("  wrote {} and {}", dataset.display(), truth.display());
+        let wrote: Vec<String> = std::iter::once(&dataset).chain(&files).map(|p| p.display().to_string()).collect();
+        eprintln!("  wrote {}", wrote.join(" and "));
     }
     Ok(())
 }

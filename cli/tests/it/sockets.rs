@@ -190,3 +190,68 @@ fn diagnose_names_compliance_under_the_socket_preload() {
     assert_eq!(e.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&e.stderr).contains("--preload-n"), "{}", String::from_utf8_lossy(&e.stderr));
 }
+
+/// One ball seated in the sockets and touching a block's faces: both kinds of rows in one file
+/// and one fit (the faces are stations beside the sockets, each instrument weighted by its own
+/// scatter). The twin writes the same bytes for a seed; the fit states each socket and face and
+/// both kinds of distance; with an exact plate it predicts unseen tracker points better than
+/// either artifact alone. Rows naming both or neither, and a spacing naming a socket and a
+/// face, are refused by name.
+#[test]
+fn sockets_and_faces_fit_together() {
+    let exact = |t: String| {
+        t.replace("made_error_mm = [[0.0, 0.0], [0.01, 0.0]]", "made_error_mm = [[0.0, 0.0], [0.0, 0.0]]")
+            .replace("expansion_ppm_per_k = 68.0", "expansion_ppm_per_k = 0.0")
+    };
+    let (s, robot) = scenario("irb120_sockets_planes", &exact);
+    let s = Scenario { seed: 1, ..s };
+    let both = twincal::artifact_check::check(&s, &robot, &lm(&robot)).unwrap();
+    let sockets = twincal::artifact_check::check(&Scenario { planes: None, ..s.clone() }, &robot, &lm(&robot)).unwrap();
+    let faces = twincal::artifact_check::check(&Scenario { sockets: None, ..s.clone() }, &robot, &lm(&robot)).unwrap();
+    assert!(both.artifact_mm < sockets.artifact_mm && both.artifact_mm < faces.artifact_mm, "both {both:?}\nsockets {sockets:?}\nfaces {faces:?}");
+    assert!(both.nominal_mm > 20.0 * both.artifact_mm, "{both:?}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let sc = scenario_path("irb120_sockets_planes");
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    for out in [&a, &b] {
+        let o = twincal(&["generate", "--scenario", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    for f in ["dataset.csv", "sockets.json", "planes.json"] {
+        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f}");
+    }
+    let d = Dataset::load(&a).unwrap();
+    assert_eq!(d.measurement(), Some(twincal::measurement::Measurement::Socket));
+    assert_eq!(d.also_measurement(), Some(twincal::measurement::Measurement::Plane));
+    let back = dir.path().join("back.csv");
+    d.write_csv(&back).unwrap();
+    assert_eq!(Dataset::load(&back).unwrap().rows, d.rows);
+    let result = dir.path().join("result.json");
+    let o = twincal(&["calibrate", "--data", a.to_str().unwrap(), "--spacing-mm", "A:B=50", "--spacing-mm", "low:high=25", "--out", result.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stderr).to_string() + &String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}");
+    for want in ["socket p1/A", "face p1/low", "spacing p1/A-p1/B", "spacing p1/low-p1/high", "weighted by its own scatter"] {
+        assert!(text.contains(want), "'{want}' missing:\n{text}");
+    }
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
+    assert_eq!(r["artifact"]["sockets"].as_array().map(Vec::len), Some(6), "{}", r["artifact"]);
+    assert_eq!(r["artifact"]["faces"].as_array().map(Vec::len), Some(12), "{}", r["artifact"]);
+    let o = twincal(&["calibrate", "--data", a.to_str().unwrap(), "--spacing-mm", "A:low=3", "--out", dir.path().join("r2.json").to_str().unwrap()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.code() == Some(2) && e.contains("not two sockets nor two faces"), "{e}");
+
+    let f = dir.path().join("bad.csv");
+    let text = "q1,q2,q3,q4,q5,q6,placement,socket,plane\n10,20,30,40,50,60,p1,A,\n11,21,31,41,51,61,p1,,low\n";
+    std::fs::write(&f, text).unwrap();
+    assert_eq!(Dataset::load(&f).unwrap().also_measurement(), Some(twincal::measurement::Measurement::Plane));
+    std::fs::write(&f, text.replace("61,p1,,low", "61,p1,A,low")).unwrap();
+    let e = Dataset::load(&f).unwrap_err().to_string();
+    assert!(e.contains("names a socket and a face"), "{e}");
+    std::fs::write(&f, text.replace("61,p1,,low", "61,p1,,")).unwrap();
+    let e = Dataset::load(&f).unwrap_err().to_string();
+    assert!(e.contains("neither a socket nor a face"), "{e}");
+    std::fs::write(&f, text.replace("61,p1,,low", "61,p1,,A")).unwrap();
+    let e = Dataset::load(&f).unwrap_err().to_string();
+    assert!(e.contains("names a socket and a face"), "{e}");
+}

@@ -47,6 +47,9 @@ pub struct Samples {
     pub dim: usize,
     /// What read the rows.
     pub measurement: crate::measurement::Measurement,
+    /// What read the rows whose inputs say instrument 1 (a tracker's points or faces touched
+    /// beside seated rows), if any; a narrower one's rows hold zeros after their values.
+    pub also: Option<crate::measurement::Measurement>,
     /// What each row carries besides q and its reading (time, temperature, torques, backlash sides).
     pub inputs: Vec<RowInputs>,
     /// The square root of each value's weight in the fit, relative (about 1 for a typical
@@ -77,7 +80,19 @@ impl Samples {
         let dim = measurement.dim();
         debug_assert_eq!(q.len() * dim, y.len());
         let inputs = vec![RowInputs::default(); q.len()];
-        Samples { q, y, dim, measurement, inputs, w: None, gls: None }
+        Samples { q, y, dim, measurement, also: None, inputs, w: None, gls: None }
+    }
+    /// The values row `i` holds: its instrument's (a narrower second instrument's rows hold
+    /// zeros after them).
+    pub fn width(&self, i: usize) -> usize {
+        match (self.inputs.get(i).map(|inp| inp.instrument), self.also) {
+            (Some(1), Some(m)) => m.dim().min(self.dim),
+            _ => self.dim,
+        }
+    }
+    /// The instrument (0: the first, 1: the one beside it) that read row `i`.
+    pub fn instrument(&self, i: usize) -> usize {
+        self.inputs.get(i).map_or(0, |inp| inp.instrument.min(1))
     }
     /// The rows `idx`.
     pub fn subset(&self, idx: &[usize]) -> Samples {
@@ -86,6 +101,7 @@ impl Samples {
             y: idx.iter().flat_map(|&i| self.row(i).iter().copied()).collect(),
             dim: self.dim,
             measurement: self.measurement,
+            also: self.also,
             inputs: idx.iter().map(|&i| self.inputs[i].clone()).collect(),
             w: self.w.as_ref().map(|w| idx.iter().flat_map(|&i| w[i * self.dim..(i + 1) * self.dim].iter().copied()).collect()),
             gls: self.gls.as_ref().map(|g| g.subset(idx)),

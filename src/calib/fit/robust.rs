@@ -297,7 +297,10 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], ru
     // robust scale, and the row is out when any of them is. Reading steps are a cable encoder's.
     let d = data.dim.max(1);
     let steps = steps && d == 1;
-    let farthest = |r: &[f64], i: usize, med: f64| farthest_from(&r[i * d..(i + 1) * d], med);
+    // Each instrument on its own robust scale (a touch probe's micrometres beside a printed
+    // socket's seating), over the values its rows hold.
+    let farthest = |r: &[f64], i: usize, med: f64| farthest_from(&r[i * d..i * d + data.width(i)], med);
+    let mut by_instrument = [(f64::NAN, f64::NAN); 2];
     let mut keep: Vec<usize> = (0..n).collect();
     let mut x = x0.to_vec();
     let mut flagged: Vec<usize> = Vec::new();
@@ -310,9 +313,15 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], ru
         x = refit(&corrected.subset(&keep), &x);
         r = ReadingFit { model, data: &corrected }.residuals_mm(&x);
         equalise_groups(&mut r, d, groups, &keep);
-        let kept_r: Vec<f64> = keep.iter().flat_map(|&i| r[i * d..(i + 1) * d].iter().copied()).collect();
-        (med, scale) = robust_scale(&kept_r);
-        scale = scale.max(min_scale_mm);
+        for (g, stat) in by_instrument.iter_mut().enumerate() {
+            let kept_r: Vec<f64> = keep.iter().filter(|&&i| data.instrument(i) == g).flat_map(|&i| r[i * d..i * d + data.width(i)].iter().copied()).collect();
+            *stat = if kept_r.is_empty() { (f64::NAN, f64::NAN) } else { robust_scale(&kept_r) };
+            stat.1 = stat.1.max(min_scale_mm);
+        }
+        (med, scale) = by_instrument[0];
+        if by_instrument[0].1.is_nan() {
+            (med, scale) = by_instrument[1];
+        }
         if !(scale > 0.0) || k <= 0.0 {
             flagged.clear();
             break;
@@ -326,7 +335,8 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], ru
         } else {
             Vec::new()
         };
-        flagged = (0..n).filter(|&i| !((farthest(&r, i, med) - med).abs() <= k * scale)).collect();
+        let of = |i: usize| by_instrument[data.instrument(i)];
+        flagged = (0..n).filter(|&i| !((farthest(&r, i, of(i).0) - of(i).0).abs() <= k * of(i).1)).collect();
         let new_keep: Vec<usize> = (0..n).filter(|i| flagged.binary_search(i).is_err()).collect();
         let settled = new_keep == keep && new_steps == found;
         keep = new_keep;
@@ -338,6 +348,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], ru
     let outliers: Vec<Outlier> = flagged
         .iter()
         .map(|&i| {
+            let (med, scale) = by_instrument[data.instrument(i)];
             let v = farthest(&r, i, med);
             Outlier { row: rows[i] + 1, residual_mm: v, robust_z: (v - med) / scale }
         })

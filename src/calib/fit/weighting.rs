@@ -95,6 +95,37 @@ pub fn training_weights(model: &CalibModel, dataset: &Dataset, rows: &[usize], d
     weights(model.measurement, dataset, rows, &plain, &r)
 }
 
+/// Largest ratio of two instruments' weights: a noise-free twin's contacts must not outweigh
+/// every other row by orders of magnitude.
+pub const MAX_INSTRUMENT_WEIGHT_RATIO: f64 = 100.0;
+
+/// Weight factors (square roots of relative weights, one per model value, row-major) for rows
+/// read by two instruments (faces touched beside sockets seated, a tracker's points beside
+/// them): each instrument's rows weighted by the inverse of its own robust residual variance in
+/// a first robust fit ([`crate::calib::fit::robust::screen_fit`]), the first instrument's rows
+/// at 1; with each instrument's robust standard deviation (mm). `None` for rows of one
+/// instrument.
+pub fn instrument_weights(model: &CalibModel, data: &Samples, rank_tol: f64) -> Option<(Vec<f64>, [f64; 2])> {
+    data.also?;
+    if !(0..data.len()).any(|i| data.instrument(i) == 1) || !(0..data.len()).any(|i| data.instrument(i) == 0) {
+        return None;
+    }
+    let plain = data.unweighted();
+    let x = crate::calib::fit::robust::screen_fit(model, &plain, &model.nominal, rank_tol);
+    let r = ReadingFit { model, data: &plain }.residuals_mm(&x);
+    let d = data.dim;
+    let sd = [0, 1].map(|g| {
+        let v: Vec<f64> = (0..data.len()).filter(|&i| data.instrument(i) == g).flat_map(|i| r[i * d..i * d + data.width(i)].iter().copied()).collect();
+        crate::stats::robust_scale(&v).1
+    });
+    if !(sd[0] > 0.0 && sd[1] > 0.0) {
+        return None;
+    }
+    let ratio = (sd[0] / sd[1]).clamp(1.0 / MAX_INSTRUMENT_WEIGHT_RATIO, MAX_INSTRUMENT_WEIGHT_RATIO);
+    let w = (0..data.len()).flat_map(|i| std::iter::repeat_n(if data.instrument(i) == 1 { ratio } else { 1.0 }, d)).collect();
+    Some((w, sd))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -24,7 +24,7 @@ pub mod tolerance;
 pub use crate::measurement::Placement;
 pub use dh::{DhRow, DhTable, NEARLY_PARALLEL_RAD};
 pub use setup::SetupKind;
-pub use spacing::{resolve_spacings, KnownSpacing, Pull, Spacing, MAX_SPACING_MM, PULL_SCALE_MM};
+pub use spacing::{resolve_mixed_spacings, resolve_spacings, KnownSpacing, Pull, Spacing, MAX_SPACING_MM, PULL_SCALE_MM};
 
 use crate::calib::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::measurement::{Measurement, MAX_DIM, MAX_OWN, MAX_TARGETS};
@@ -260,6 +260,10 @@ impl CalibModel {
         assert!(self.effects.is_empty() && self.also.is_none(), "the second instrument is placed before effect blocks are added");
         let at = self.placement_range().end;
         let m = p.measurement;
+        if self.shares_stations_with(m) {
+            self.also = Some(m);
+            return self;
+        }
         let values: Vec<f64> = p.own.iter().chain(p.tool.iter()).copied().collect();
         for (k, v) in values.iter().enumerate().rev() {
             self.names.insert(at, format!("{}@{}", m.placement_names()[k], m.name()));
@@ -269,10 +273,38 @@ impl CalibModel {
         self.also = Some(m);
         self
     }
-    /// Indices of the second instrument's placement parameters (empty without one).
+    /// Indices of the second instrument's placement parameters (empty without one, and for one
+    /// that shares the first's stations and target: [`Self::shares_stations_with`]).
     pub fn also_range(&self) -> std::ops::Range<usize> {
         let at = self.placement_range().end;
-        at..at + self.also.map_or(0, |m| m.n_placement())
+        at..at + self.also.filter(|m| !self.shares_stations_with(*m)).map_or(0, |m| m.n_placement())
+    }
+    /// Whether instrument `m`'s rows beside the first's stand at stations of the same list and
+    /// read the same target: an artifact's other kind of feature (faces touched by the ball
+    /// that is seated in the sockets), each feature a station whose own parameters are `m`'s
+    /// (as many as the first's: a socket's centre, a face's normal and offset).
+    pub fn shares_stations_with(&self, m: Measurement) -> bool {
+        self.measurement.shares_stations_with(m)
+    }
+    /// Values per row: the widest instrument's. A narrower instrument's rows (a face's contact
+    /// beside seated rows) read their values first and zeros after.
+    pub fn width(&self) -> usize {
+        self.measurement.dim().max(self.also.map_or(0, |m| m.dim()))
+    }
+    /// The stations whose own parameters are the second instrument's (where it shares the
+    /// first's stations), from the rows' stations and instruments (`inputs`).
+    pub fn set_station_instruments(&mut self, inputs: &[RowInputs]) {
+        let Some(m) = self.also.filter(|m| self.shares_stations_with(*m)) else { return };
+        for s in 1..self.n_stations() {
+            if inputs.iter().any(|i| i.station == s && i.instrument == 1) {
+                let r = self.station_range(s);
+                let label = &self.stations[s];
+                for (k, c) in r.enumerate() {
+                    self.names[c] = format!("{}@{label}", m.placement_names()[k]);
+                    self.kinds[c] = if m.def().placement_is_angle(k) { Kind::Angle } else { Kind::Length };
+                }
+            }
+        }
     }
     /// The instrument that read a row.
     pub fn measurement_of(&self, inp: &RowInputs) -> Measurement {
@@ -387,7 +419,7 @@ impl CalibModel {
 
     /// [`Self::placed`] of a row (the second instrument's placement for a row it read).
     fn placed_of(&self, x: &[f64], inp: &RowInputs) -> Placed {
-        if let (1, Some(m)) = (inp.instrument, self.also) {
+        if let (1, Some(m)) = (inp.instrument, self.also.filter(|m| !self.shares_stations_with(*m))) {
             let r = self.also_range();
             let mut out = Placed { vals: [0.0; MAX_OWN + 3], cols: [0; MAX_OWN + 3], n_own: m.target_index() };
             out.vals[..r.len()].copy_from_slice(&x[r.clone()]);
@@ -449,6 +481,8 @@ impl CalibModel {
             let l = y[0];
             y[0] = l + self.reading_correction(x, l).0;
         }
+        let width = self.width().min(y.len()).max(m.dim());
+        y[m.dim()..width].iter_mut().for_each(|v| *v = 0.0);
     }
 
     /// The instrument's points of the flange frame (flange coordinates; the first is the
@@ -574,6 +608,11 @@ impl CalibModel {
             }
             y[0] = l + corr;
         }
+        // A narrower instrument's row reads zeros after its values, whatever the parameters.
+        let width = self.width().min(y.len()).max(dim);
+        y[dim..width].iter_mut().for_each(|v| *v = 0.0);
+        let end = (width * n).min(jac.len()).max(dim * n);
+        jac[dim * n..end].iter_mut().for_each(|v| *v = 0.0);
     }
 
     /// Predicted length (m) and its gradient with respect to the commanded joint angles (m/rad)
@@ -618,6 +657,10 @@ impl CalibModel {
             }
         }
         y[0] += corr;
+        let width = self.width().min(y.len()).max(dim);
+        y[dim..width].iter_mut().for_each(|v| *v = 0.0);
+        let end = (width * nj).min(g.len()).max(dim * nj);
+        g[dim * nj..end].iter_mut().for_each(|v| *v = 0.0);
     }
 
     /// Tool point (m, effects of the row applied) and its derivative with respect to each

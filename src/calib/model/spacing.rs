@@ -28,6 +28,22 @@ pub struct Spacing {
     pub at: Option<[f64; 3]>,
 }
 
+impl Spacing {
+    /// Whether it is a step between two faces (taken at [`Self::at`]) rather than a distance
+    /// between two sockets' centres.
+    pub fn is_step(&self) -> bool {
+        self.at.is_some()
+    }
+    /// Its residuals: a distance's one, a step's three (the step and the faces' lean).
+    fn residuals(&self) -> usize {
+        if self.is_step() {
+            3
+        } else {
+            1
+        }
+    }
+}
+
 /// A pull of one parameter toward its nominal value, one standard deviation `std` (internal
 /// units) apart: a prior from the documented tolerances, for rows that leave some directions of
 /// the arm nearly free (a ball on the last joint's axis sees no part of the wrist beyond one
@@ -62,15 +78,7 @@ impl CalibModel {
     /// The spacings' residuals: one per spacing between sockets (the distance), three per step
     /// between faces (the step and the faces' lean from parallel, two angles).
     pub fn n_spacing_residuals(&self) -> usize {
-        self.spacings.len() * self.spacing_rows()
-    }
-
-    /// Residuals per spacing ([`Self::n_spacing_residuals`]).
-    fn spacing_rows(&self) -> usize {
-        match self.measurement.feature() {
-            Some(FeatureKind::Plane) => 3,
-            _ => 1,
-        }
+        self.spacings.iter().map(Spacing::residuals).sum()
     }
 
     /// The pulls' residuals (mm) into `r`, one per pull.
@@ -94,9 +102,10 @@ impl CalibModel {
     pub fn spacing_mm(&self, x: &[f64], k: usize) -> f64 {
         let sp = &self.spacings[k];
         let ((a, _), (b, _)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
-        match self.measurement.feature() {
-            Some(FeatureKind::Plane) => crate::units::to_mm(self.step_m(x, k).0.abs()),
-            _ => crate::units::to_mm((a - b).norm()),
+        if sp.is_step() {
+            crate::units::to_mm(self.step_m(x, k).0.abs())
+        } else {
+            crate::units::to_mm((a - b).norm())
         }
     }
 
@@ -120,10 +129,13 @@ impl CalibModel {
     /// The spacings' residuals (mm: known minus modelled distance; a step's faces' lean from
     /// parallel after it) into `r`, [`Self::n_spacing_residuals`] of them.
     pub fn spacing_residuals(&self, x: &[f64], r: &mut [f64]) {
-        let rows = self.spacing_rows();
-        for (k, rk) in r.chunks_mut(rows).enumerate().take(self.spacings.len()) {
-            rk[0] = self.spacings[k].mm - self.spacing_mm(x, k);
-            if rows == 3 {
+        let mut at = 0;
+        for (k, sp) in self.spacings.iter().enumerate() {
+            // (A buffer of the rows' residuals alone has no room for them.)
+            let Some(rk) = r.get_mut(at..at + sp.residuals()) else { return };
+            at += sp.residuals();
+            rk[0] = sp.mm - self.spacing_mm(x, k);
+            if sp.is_step() {
                 let sp = &self.spacings[k];
                 let ((a, _), (b, _)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
                 rk[1] = PARALLEL_LEVER_MM * (b.x - a.x).sin() * a.y.cos();
@@ -136,12 +148,13 @@ impl CalibModel {
     /// row of [`Self::n_params`] per residual.
     pub fn spacing_jacobian(&self, x: &[f64], jac: &mut [f64]) {
         let n = self.n_params();
-        let rows = self.spacing_rows();
         jac.iter_mut().take(n * self.n_spacing_residuals()).for_each(|v| *v = 0.0);
+        let mut at = 0;
         for (k, sp) in self.spacings.iter().enumerate() {
-            let block = &mut jac[k * rows * n..(k + 1) * rows * n];
+            let block = &mut jac[at * n..(at + sp.residuals()) * n];
+            at += sp.residuals();
             let ((pa, ca), (pb, cb)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
-            if rows == 1 {
+            if !sp.is_step() {
                 let d = pa - pb;
                 let u = d / d.norm().max(1e-12);
                 for i in 0..3 {
@@ -232,6 +245,52 @@ mod tests {
             }
         }
     }
+}
+
+/// The spacings of the stated distances `known` where sockets and faces stand beside each other
+/// in one fit (`face[s]`: whether station `s` is a face; `labels`: the stations'): a distance
+/// naming two sockets, or naming none, ties sockets ([`resolve_spacings`]); one naming two
+/// faces is a step between them. Either kind alone fixes the arm's scale; none is an error.
+pub fn resolve_mixed_spacings(labels: &[String], face: &[bool], known: &[KnownSpacing]) -> crate::error::Result<Vec<Spacing>> {
+    let feature = |l: &str| l.rsplit_once('/').map_or(l, |(_, f)| f).to_string();
+    let of_kind = |want: bool| -> Vec<usize> { (0..labels.len()).filter(|&s| face.get(s).copied().unwrap_or(false) == want).collect() };
+    let all: Vec<(bool, String)> = (0..labels.len()).map(|s| (face.get(s).copied().unwrap_or(false), feature(&labels[s]))).collect();
+    for k in known {
+        if let Some((a, b)) = &k.sockets {
+            if ![false, true].iter().any(|w| all.contains(&(*w, a.clone())) && all.contains(&(*w, b.clone()))) {
+                return Err(crate::error::Error::Calibration(format!(
+                    "--spacing-mm {k}: {a} and {b} are not two sockets nor two faces of the rows (sockets and faces in the rows: {})",
+                    labels.join(", ")
+                )));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for (want, kind) in [(false, FeatureKind::Socket), (true, FeatureKind::Plane)] {
+        let idx = of_kind(want);
+        let names: Vec<String> = idx.iter().map(|&s| feature(&labels[s])).collect();
+        let mine: Vec<KnownSpacing> = known
+            .iter()
+            .filter(|k| match &k.sockets {
+                Some((a, b)) => names.contains(a) && names.contains(b),
+                None => !want,
+            })
+            .cloned()
+            .collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let sub: Vec<String> = idx.iter().map(|&s| labels[s].clone()).collect();
+        out.extend(resolve_spacings(&sub, &mine, kind)?.into_iter().map(|sp| Spacing { a: idx[sp.a], b: idx[sp.b], ..sp }));
+    }
+    if out.is_empty() {
+        return Err(crate::error::Error::Calibration(format!(
+            "no known spacing between sockets nor step between faces ties two features of one placement in the rows (stated: {}; in the rows: {}): without one nothing fixes the arm's scale; give --spacing-mm A:B=50 naming two sockets or two faces",
+            if known.is_empty() { "none".to_string() } else { known.iter().map(|k| k.to_string()).collect::<Vec<_>>().join(", ") },
+            labels.join(", ")
+        )));
+    }
+    Ok(out)
 }
 
 /// A known distance between two sockets of an artifact as a user states it (`--spacing-mm`):

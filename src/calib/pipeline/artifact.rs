@@ -137,20 +137,23 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String], 
     let labels: Vec<String> = if model.stations.is_empty() { vec![String::new()] } else { model.stations.clone() };
     let mut w = model.work();
     let mut y = [0.0; crate::measurement::MAX_DIM];
-    let dim = model.measurement.dim();
+    let dim = train.dim;
+    // Faces touched beside sockets seated stand at stations of the same list.
+    let shared = model.also.is_some_and(|m| model.shares_stations_with(m));
     let (mut sockets, mut faces) = (Vec::new(), Vec::new());
     for (s, label) in labels.iter().enumerate() {
-        let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == s && train.inputs[i].instrument == 0).collect();
+        let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == s && (shared || train.inputs[i].instrument == 0)).collect();
         let sq: f64 = rows
             .iter()
             .map(|&i| {
                 model.readings(x, &train.q[i], &train.inputs[i], &mut w, &mut y[..dim]);
-                (0..dim).map(|k| (y[k] - train.y[i * dim + k]).powi(2)).sum::<f64>()
+                (0..train.width(i)).map(|k| (y[k] - train.y[i * dim + k]).powi(2)).sum::<f64>()
             })
             .sum();
         let scatter_mm = crate::units::to_mm((sq / rows.len().max(1) as f64).sqrt());
         let c = model.station_placement(x, s).own;
-        match feature {
+        let face = shared && rows.iter().any(|&i| train.inputs[i].instrument == 1);
+        match if face { FeatureKind::Plane } else { feature } {
             FeatureKind::Socket => {
                 sockets.push(SocketFit { label: label.clone(), rows: rows.len(), centre_mm: [c[0], c[1], c[2]].map(crate::units::to_mm), scatter_mm })
             }
@@ -168,12 +171,17 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String], 
         .collect();
     let target = model.placement(x).tool;
     let beside = (0..train.len()).filter(|&i| train.inputs[i].instrument == 1).count();
-    let cannot_see = cannot_see(model, x, train, feature, &labels, (fixed, loose), beside);
-    let beside_line = (beside > 0).then(|| {
-        format!(
+    let cannot_see = cannot_see(model, x, train, feature, &labels, (fixed, loose), if shared { 0 } else { beside });
+    let beside_line = (beside > 0).then(|| match shared {
+        true => format!(
+            "{beside} rows of a {} beside the seated ones, the same ball: the faces are stations beside the sockets, each instrument weighted by its own scatter ({})",
+            model.also.map_or("other", |m| m.def().describe()),
+            instrument_scatter(model, x, train)
+        ),
+        false => format!(
             "{beside} {} rows beside the artifact's: the arm's scale from them as well as from the spacings",
             model.also.map_or("other", |m| m.def().describe())
-        )
+        ),
     });
     Some(ArtifactReport {
         beside: beside_line,
@@ -184,6 +192,18 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String], 
         spacings,
         cannot_see,
     })
+}
+
+/// Each instrument's robust residual spread at `x` on the rows `train` (values it holds), as
+/// "seated 0.0094 mm, faces 0.0004 mm".
+fn instrument_scatter(model: &CalibModel, x: &[f64], train: &Samples) -> String {
+    let r = crate::calib::fit::ReadingFit { model, data: &train.unweighted() }.residuals_mm(x);
+    let d = train.dim;
+    let sd = |g: usize| {
+        let v: Vec<f64> = (0..train.len()).filter(|&i| train.instrument(i) == g).flat_map(|i| r[i * d..i * d + train.width(i)].iter().copied()).collect();
+        crate::stats::robust_scale(&v).1
+    };
+    format!("robust sd: seated {:.4} mm, faces {:.4} mm", sd(0), sd(1))
 }
 
 /// What the artifact's rows cannot determine, each a sentence ([`ArtifactReport::cannot_see`]):

@@ -93,6 +93,12 @@ pub fn prepare(data: &Dataset, opts: &CalibOptions, needs: SolverNeeds) -> Resul
     } else {
         None
     };
+    // Two instruments (faces beside sockets, points beside them): each on its own noise.
+    if split.train.w.is_none() && !needs.equal_weights {
+        if let Some((w, _)) = crate::calib::fit::weighting::instrument_weights(&model, &split.train, opts.rank_tol) {
+            split.train.w = Some(w);
+        }
+    }
     // The effects asked for are in the model before the screen: a warm-up's drift or a backlash
     // band, screened against the geometry alone, would look like reading steps and outliers.
     effects_stage(&mut model, &mut split, data, opts, row_inputs)?;
@@ -215,7 +221,7 @@ pub fn calibrate_with(data: &Dataset, truth: Option<&TruthFile>, opts: &CalibOpt
     let mut metrics = metrics_stage(&plain_fit, &test_fit, &x0, &x, correct);
     warnings.extend(metric_warnings(solver.name(), &metrics, noise));
     let test_residuals_mm = residuals_with(&test_fit, &x, correct);
-    let test_outliers = test_outlier_stage(&plain_fit, &test_residuals_mm, &split.test_idx, &x, correct, opts.screen.outlier_k);
+    let test_outliers = test_outlier_stage(&plain_fit, &split.test, &test_residuals_mm, &split.test_idx, &x, correct, opts.screen.outlier_k);
     test_inlier_metrics(&mut metrics, &split, &test_residuals_mm, &test_outliers);
     let all_rows = samples(data, &(0..data.rows.len()).collect::<Vec<_>>());
     let noise_floor = floor_stage(&model, &x, data, &all_rows, &opts.floor, repeatability.as_ref());

@@ -71,8 +71,15 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         let (own, tool) = measurement.def().locate(&pts, &rots, &y).ok_or_else(|| not_located(measurement, &label, rows.len()))?;
         Ok(Placement { measurement, own, tool })
     };
-    // (The first instrument's rows: a second one beside it is placed after.)
-    let own_row = |i: &usize| train.inputs[*i].instrument == 0;
+    // (The first instrument's rows: a second one beside it is placed after, unless it stands
+    // at stations of the same list: faces touched by the ball seated in the sockets.)
+    let shared = train.also.filter(|a| measurement.shares_stations_with(*a));
+    let own_row = |i: &usize| train.inputs[*i].instrument == 0 || shared.is_some();
+    // The instrument of station `s`'s rows.
+    let instrument_at = |s: usize| match shared {
+        Some(a) if (0..train.len()).any(|i| train.inputs[i].station == s && train.inputs[i].instrument == 1) => a,
+        _ => measurement,
+    };
     let rows_of = |kind: SetupKind, s: usize| -> Vec<usize> { (0..train.len()).filter(own_row).filter(|i| kind.of(&train.inputs[*i]) == s).collect() };
     let at = |kind: SetupKind, s: usize| labels[usize::from(kind == SetupKind::Mount)].get(s).map_or(String::new(), |l| format!(" at {} {l}", kind.name()));
     // The first station and mount together: the rows of both.
@@ -81,16 +88,17 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     // from every station's rows together (a stylus touching several faces), each station is
     // placed about it.
     let artifact = searched.is_none() && measurement.feature().is_some();
-    let station_rows = |s: usize| seen_from(&flanges, train, &rows_of(SetupKind::Station, s));
-    let shared = artifact.then(|| measurement.def().locate_target(&(0..stations.len().max(1)).map(station_rows).collect::<Vec<_>>())).flatten();
+    let station_rows = |s: usize| seen_from(&flanges, train, &rows_of(SetupKind::Station, s), instrument_at(s).dim());
+    let target = artifact.then(|| measurement.def().locate_target(&(0..stations.len().max(1)).map(station_rows).collect::<Vec<_>>())).flatten();
     let about = |s: usize, tool: &nalgebra::Vector3<f64>| -> Option<Placement> {
         if !artifact {
             return None;
         }
         let (pts, rots, y) = station_rows(s);
-        measurement.def().locate_about(&pts, &rots, &y, tool).map(|own| Placement { measurement, own, tool: *tool })
+        let at = instrument_at(s);
+        at.def().locate_about(&pts, &rots, &y, tool).map(|own| Placement { measurement: at, own, tool: *tool })
     };
-    let shared_first = shared.and_then(|t| about(0, &t));
+    let shared_first = target.and_then(|t| about(0, &t));
     let first = match (measurement, &opts.draw_wire_guess) {
         _ if searched.is_some() => searched.clone().expect("searched"),
         _ if shared_first.is_some() => shared_first.expect("placed"),
@@ -125,6 +133,10 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     }
     let [st, mo] = others;
     let mut model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
+    if let Some(a) = shared {
+        model = model.with_also(&Placement { measurement: a, own: Vec::new(), tool: first.tool });
+        model.set_station_instruments(&train.inputs);
+    }
     if measurement.feature().is_some() {
         feature_blocks(&mut model, stations, opts, train)?;
     }
@@ -162,10 +174,10 @@ fn generic_cable(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -
 
 /// Rows `rows` of `train` as an instrument's locating functions take them: the flange's origins
 /// and rotations (`flanges`, one per training row) and the readings.
-fn seen_from(flanges: &[crate::robot::kinematics::Frame], train: &Samples, rows: &[usize]) -> crate::measurement::plane::FaceRows {
+fn seen_from(flanges: &[crate::robot::kinematics::Frame], train: &Samples, rows: &[usize], width: usize) -> crate::measurement::plane::FaceRows {
     let pts = rows.iter().map(|&i| flanges[i].pos).collect();
     let rots = rows.iter().map(|&i| flanges[i].rot).collect();
-    let y = rows.iter().flat_map(|&i| train.y[i * train.dim..(i + 1) * train.dim].iter().copied()).collect();
+    let y = rows.iter().flat_map(|&i| train.y[i * train.dim..i * train.dim + width].iter().copied()).collect();
     (pts, rots, y)
 }
 
@@ -173,10 +185,10 @@ fn seen_from(flanges: &[crate::robot::kinematics::Frame], train: &Samples, rows:
 /// placed from the nominal arm's flange on them; `None` without such rows.
 fn place_also(model: &CalibModel, train: &Samples) -> Result<Option<Placement>> {
     let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].instrument == 1).collect();
-    if rows.is_empty() {
+    if rows.is_empty() || model.also.is_some() {
         return Ok(None);
     }
-    let m = if model.measurement.feature().is_some() { Measurement::Point } else { model.measurement };
+    let m = train.also.unwrap_or(if model.measurement.feature().is_some() { Measurement::Point } else { model.measurement });
     let q: Vec<Vec<f64>> = rows.iter().map(|&i| train.q[i].clone()).collect();
     let y: Vec<f64> = rows.iter().flat_map(|&i| train.row(i).iter().copied()).collect();
     let p = locate_on(model, &model.nominal, m, &q, &y)
@@ -220,13 +232,27 @@ fn not_located(measurement: Measurement, label: &str, rows: usize) -> Error {
 /// documented tolerances (the published objective's pull: a ball on the last axis leaves the
 /// wrist's links nearly free).
 fn feature_blocks(model: &mut CalibModel, stations: &[String], opts: &CalibOptions, train: &Samples) -> Result<()> {
-    let kind = model.measurement.feature().unwrap_or(crate::measurement::FeatureKind::Socket);
-    model.spacings = crate::calib::model::resolve_spacings(stations, &opts.spacings, kind)?;
-    if kind == crate::measurement::FeatureKind::Plane {
+    use crate::measurement::FeatureKind;
+    let kind = model.measurement.feature().unwrap_or(FeatureKind::Socket);
+    // Faces beside sockets: which stations are faces (their rows read by the second instrument).
+    let shared = model.also.is_some_and(|a| model.shares_stations_with(a));
+    let face: Vec<bool> = (0..stations.len().max(1))
+        .map(|s| kind == FeatureKind::Plane || (shared && (0..train.len()).any(|i| train.inputs[i].station == s && train.inputs[i].instrument == 1)))
+        .collect();
+    model.spacings = if shared {
+        crate::calib::model::resolve_mixed_spacings(stations, &face, &opts.spacings)?
+    } else {
+        crate::calib::model::resolve_spacings(stations, &opts.spacings, kind)?
+    };
+    {
         // A step is taken at the middle of its second face's contacts as the start puts them.
         let mut w = model.work();
         for k in 0..model.spacings.len() {
-            let rows: Vec<usize> = (0..train.len()).filter(|&i| train.inputs[i].station == model.spacings[k].b && train.inputs[i].instrument == 0).collect();
+            if !face[model.spacings[k].b] {
+                continue;
+            }
+            let rows: Vec<usize> =
+                (0..train.len()).filter(|&i| train.inputs[i].station == model.spacings[k].b && (shared || train.inputs[i].instrument == 0)).collect();
             let sum = rows.iter().map(|&i| model.tool_point(&model.nominal, &train.q[i], &mut w)).sum::<nalgebra::Vector3<f64>>();
             model.spacings[k].at = Some((sum / rows.len().max(1) as f64).into());
         }

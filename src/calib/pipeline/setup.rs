@@ -325,7 +325,10 @@ pub fn setup_report(model: &CalibModel, x: &[f64], data: &Dataset, source: Stati
             })
             .collect()
     };
-    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount), feature: model.measurement.feature() })
+    // (Sockets and faces in one list are features, neither kind alone: the artifact's report
+    // says which is which.)
+    let feature = model.measurement.feature().filter(|_| !model.also.is_some_and(|m| model.shares_stations_with(m)));
+    Some(SetupReport { source, stations: parts(SetupKind::Station), mounts: parts(SetupKind::Mount), feature })
 }
 
 /// How a station came to be.
@@ -375,6 +378,7 @@ impl SetupReport {
         let stood = match self.feature {
             Some(FeatureKind::Socket) => ("socket", "the ball was seated in"),
             Some(FeatureKind::Plane) => ("face", "the probe touched"),
+            None if self.stations.iter().any(|s| s.label.contains('/')) => ("feature", "the ball stood at"),
             None => ("station", "the instrument stood at"),
         };
         for (what, parts, verb) in [(stood.0, &self.stations, stood.1), ("mount", &self.mounts, "the target sat on")] {
@@ -387,6 +391,12 @@ impl SetupReport {
                 (_, 0) => "found as change points in the residuals of a first fit".to_string(),
                 (f, d) => format!("{d} declared, {f} found as change points in the residuals of a first fit"),
             };
+            if what == "feature" {
+                // Sockets and faces: shifts between a socket's centre and a face's angles mean
+                // nothing; the artifact's report lists each.
+                out.push(format!("set-up: {verb} {} features ({how}), sockets and faces, each with its own placement, the arm shared", parts.len()));
+                continue;
+            }
             out.push(format!("set-up: {verb} {} {what}s ({how}), each with its own placement, the arm shared:", parts.len()));
             for (k, s) in parts.iter().enumerate() {
                 let at =

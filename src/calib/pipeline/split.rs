@@ -78,9 +78,13 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
     let rows = idx.iter().map(|&i| &data.rows[i]);
     let m = data.measurement();
     let dim = m.map_or(1, |m| m.dim());
+    // A narrower instrument's rows beside the first's (a face's contact beside seated rows)
+    // hold their values first and zeros after: the model reads zeros there too.
     let reading = |r: &crate::dataset::Row| -> Vec<f64> {
         match r.values_mm() {
-            Some(v) if v.len() == dim => v.iter().map(crate::units::to_m).collect(),
+            Some(v) if v.len() <= dim && (v.len() == dim || r.measurement() != m) => {
+                v.iter().map(crate::units::to_m).chain(std::iter::repeat(0.0)).take(dim).collect()
+            }
             _ => vec![f64::NAN; dim],
         }
     };
@@ -90,6 +94,7 @@ pub fn samples(data: &Dataset, idx: &[usize]) -> Samples {
         y: rows.clone().flat_map(reading).collect(),
         dim,
         measurement: m.unwrap_or_default(),
+        also: data.also_measurement(),
         inputs: idx
             .iter()
             .zip(rows)

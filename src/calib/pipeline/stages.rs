@@ -147,12 +147,28 @@ pub fn outlier_stage(
 /// Test rows beyond `k` robust standard deviations of the calibrated model's training
 /// residuals (around their median); none when `k` is 0. A row of several values (a point) is
 /// out when any of them is, and is reported by its farthest value.
-pub(super) fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[usize], x: &[f64], corrector: Option<&dyn Correct>, k: f64) -> Vec<Outlier> {
+pub(super) fn test_outlier_stage(
+    fit: &ReadingFit,
+    test: &Samples,
+    test_r: &[f64],
+    test_idx: &[usize],
+    x: &[f64],
+    corrector: Option<&dyn Correct>,
+    k: f64,
+) -> Vec<Outlier> {
     if k <= 0.0 || test_r.is_empty() {
         return Vec::new();
     }
     let r = residuals_with(fit, x, corrector);
     let d = fit.data.dim.max(1);
+    // Each instrument's rows on their own scale, over the values they hold.
+    let train = fit.data;
+    let by_instrument: Vec<(f64, f64)> = (0..2)
+        .map(|g| {
+            let v: Vec<f64> = (0..train.len()).filter(|&i| train.instrument(i) == g).flat_map(|i| r[i * d..i * d + train.width(i)].iter().copied()).collect();
+            crate::stats::robust_scale(&v)
+        })
+        .collect();
     // Each value against its group's scale (a pose's axes have their own), reported by the
     // value farthest out.
     let groups = fit.model.measurement.def().value_groups();
@@ -162,9 +178,11 @@ pub(super) fn test_outlier_stage(fit: &ReadingFit, test_r: &[f64], test_idx: &[u
     test_r
         .chunks(d)
         .zip(test_idx)
-        .filter_map(|(vs, &i)| {
-            let (med, scale) = stats[0];
+        .enumerate()
+        .filter_map(|(j, (vs, &i))| {
             if n_groups == 1 {
+                let (med, scale) = by_instrument[test.instrument(j)];
+                let vs = &vs[..test.width(j)];
                 let v = crate::calib::fit::robust::farthest_from(vs, med);
                 return (!((v - med).abs() <= k * scale)).then(|| Outlier { row: i + 1, residual_mm: v, robust_z: (v - med) / scale });
             }
