@@ -87,7 +87,7 @@ fn face_files_are_byte_identical_and_a_calibration_states_what_it_found() {
     assert!(after < before / 10.0, "indicator: held-out {before} -> {after} mm");
 }
 
-/// One face, no step, too few contacts, a file naming sockets and faces: each refused by name
+/// One face, no step, too few contacts, rows naming a socket and a face at once: each refused by name
 /// with exit code 2, never a silent fit.
 #[test]
 fn what_face_rows_cannot_determine_is_refused_by_name() {
@@ -127,5 +127,5 @@ fn what_face_rows_cannot_determine_is_refused_by_name() {
     std::fs::write(&f, both).unwrap();
     let o = twincal(&["calibrate", "--data", f.to_str().unwrap(), "--spacing-mm", "low:high=25", "--quiet"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("names sockets and faces"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("names a socket and a face"), "{}", String::from_utf8_lossy(&o.stderr));
 }
