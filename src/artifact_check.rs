@@ -42,9 +42,21 @@ pub struct ArtifactCheck {
 /// states them), then judged on the scenario's tracker points (the same file without the
 /// artifact, acquired quasi-statically).
 pub fn check(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> Result<ArtifactCheck> {
+    check_stated(s, robot, opts, &[])
+}
+
+/// [`check`] with the designed distances stated with standard uncertainties `sd_mm` (in the
+/// order the artifact lists them: the sockets' spacings, then the faces' steps; missing or
+/// `None`: none stated).
+pub fn check_stated(s: &Scenario, robot: &Robot, opts: &CalibOptions, sd_mm: &[Option<f64>]) -> Result<ArtifactCheck> {
     let art = crate::sim::generate::artifact_rows(s, robot).ok_or_else(|| Error::Invalid(format!("scenario {} has no [sockets] or [planes]", s.name)))??;
     let tracker = tracker_points(s, robot)?;
-    let spacings = art.designed.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
+    let spacings = art
+        .designed
+        .iter()
+        .enumerate()
+        .map(|(k, (a, b, d))| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d, std_mm: sd_mm.get(k).copied().flatten() })
+        .collect();
     let artifact_opts = CalibOptions { spacings, ..opts.clone() };
     let by_artifact = calibrate(&art.dataset, None, &artifact_opts)?;
     let (train, test) = (tracker.train_indices(), tracker.test_indices());
@@ -120,7 +132,7 @@ pub fn held_out_placements(s: &Scenario, robot: &Robot, opts: &CalibOptions) -> 
     let twin = crate::sim::generate::build_twin(s, robot);
     let (seated, truth) = crate::sim::artifact::seat(&twin, robot, art, s.sampling.written_decimals(), s.seed)?;
     let (a, b, stated) = truth.designed_spacings_mm.first().cloned().ok_or_else(|| Error::Invalid("the artifact needs two sockets".into()))?;
-    let spacings = vec![KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: stated }];
+    let spacings = vec![KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: stated, std_mm: None }];
     let placements: Vec<String> = (1..=art.placements.len()).map(|k| format!("p{k}")).collect();
     let mut out = Vec::new();
     for p in &placements {
@@ -189,7 +201,8 @@ pub fn mixed(s: &Scenario, robot: &Robot, opts: &CalibOptions, points: usize) ->
     let train: Vec<_> = seated.rows.iter().map(|r| crate::dataset::Row { split: Some(Split::Train), ..r.clone() }).chain(beside).collect();
     let n_train = train.len();
     let both = Dataset { rows: train.into_iter().chain(judged).collect(), source: format!("{} sockets and points", s.name) };
-    let spacings: Vec<KnownSpacing> = art.designed.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect();
+    let spacings: Vec<KnownSpacing> =
+        art.designed.iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d, std_mm: None }).collect();
     let r = calibrate(&both, None, &CalibOptions { spacings, ..opts.clone() })?;
     let test: Vec<usize> = (n_train..both.rows.len()).collect();
     let mixed_mm = position_rms(&ReadingFit { model: &r.model, data: &samples(&both, &test) }.residuals_mm(&r.x));

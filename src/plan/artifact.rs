@@ -72,7 +72,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         _ => Vec::new(),
     };
     let copts = CalibOptions {
-        spacings: designed.iter().map(|(a, b, d)| crate::calib::model::KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d }).collect(),
+        spacings: designed.iter().map(|(a, b, d)| crate::calib::model::KnownSpacing { sockets: Some((a.clone(), b.clone())), mm: *d, std_mm: None }).collect(),
         ..CalibOptions::new(ModelSpec::nominal(robot.clone(), opts.parametrisation), Method::LM)
     };
     let all = samples(&data, &(0..data.rows.len()).collect::<Vec<_>>());

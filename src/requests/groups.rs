@@ -298,8 +298,9 @@ mod tests {
 pub struct Artifact {
     /// Known distance between sockets of the artifact a ball was seated in (the step between two
     /// parallel faces a probe touched), mm: 50 for an artifact of two sockets, A:B=50 between
-    /// sockets (faces) A and B (repeat or comma-separate for more); it holds on every placement
+    /// sockets (faces) A and B (repeat or comma-separate for more), A:B=50±0.02 (or +-) with its
+    /// standard uncertainty as made (without one: held to 0.001 mm); it holds on every placement
     /// of the artifact.
-    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', value_name = "[A:B=]MM"))]
+    #[cfg_attr(feature = "clap", arg(long, value_delimiter = ',', value_name = "[A:B=]MM[±SD]"))]
     pub spacing_mm: Vec<crate::calib::model::KnownSpacing>,
 }

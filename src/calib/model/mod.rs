@@ -279,33 +279,6 @@ impl CalibModel {
         let at = self.placement_range().end;
         at..at + self.also.filter(|m| !self.shares_stations_with(*m)).map_or(0, |m| m.n_placement())
     }
-    /// Whether instrument `m`'s rows beside the first's stand at stations of the same list and
-    /// read the same target: an artifact's other kind of feature (faces touched by the ball
-    /// that is seated in the sockets), each feature a station whose own parameters are `m`'s
-    /// (as many as the first's: a socket's centre, a face's normal and offset).
-    pub fn shares_stations_with(&self, m: Measurement) -> bool {
-        self.measurement.shares_stations_with(m)
-    }
-    /// Values per row: the widest instrument's. A narrower instrument's rows (a face's contact
-    /// beside seated rows) read their values first and zeros after.
-    pub fn width(&self) -> usize {
-        self.measurement.dim().max(self.also.map_or(0, |m| m.dim()))
-    }
-    /// The stations whose own parameters are the second instrument's (where it shares the
-    /// first's stations), from the rows' stations and instruments (`inputs`).
-    pub fn set_station_instruments(&mut self, inputs: &[RowInputs]) {
-        let Some(m) = self.also.filter(|m| self.shares_stations_with(*m)) else { return };
-        for s in 1..self.n_stations() {
-            if inputs.iter().any(|i| i.station == s && i.instrument == 1) {
-                let r = self.station_range(s);
-                let label = &self.stations[s];
-                for (k, c) in r.enumerate() {
-                    self.names[c] = format!("{}@{label}", m.placement_names()[k]);
-                    self.kinds[c] = if m.def().placement_is_angle(k) { Kind::Angle } else { Kind::Length };
-                }
-            }
-        }
-    }
     /// The instrument that read a row.
     pub fn measurement_of(&self, inp: &RowInputs) -> Measurement {
         match (inp.instrument, self.also) {

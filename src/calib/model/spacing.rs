@@ -26,6 +26,9 @@ pub struct Spacing {
     /// not trade for a step across the cell. Unused between sockets.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub at: Option<[f64; 3]>,
+    /// Its standard uncertainty as stated, mm; `None`: [`SPACING_SD_MM`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub std_mm: Option<f64>,
 }
 
 impl Spacing {
@@ -33,6 +36,15 @@ impl Spacing {
     /// between two sockets' centres.
     pub fn is_step(&self) -> bool {
         self.at.is_some()
+    }
+    /// Its standard uncertainty, mm (as stated, else [`SPACING_SD_MM`]).
+    pub fn sd_mm(&self) -> f64 {
+        self.std_mm.unwrap_or(SPACING_SD_MM)
+    }
+    /// What one millimetre of its misfit weighs in its residual ([`SPACING_SD_MM`] per stated
+    /// standard uncertainty; 1 without one).
+    fn weight(&self) -> f64 {
+        SPACING_SD_MM / self.sd_mm()
     }
     /// Its residuals: a distance's one, a step's three (the step and the faces' lean).
     fn residuals(&self) -> usize {
@@ -134,7 +146,7 @@ impl CalibModel {
             // (A buffer of the rows' residuals alone has no room for them.)
             let Some(rk) = r.get_mut(at..at + sp.residuals()) else { return };
             at += sp.residuals();
-            rk[0] = sp.mm - self.spacing_mm(x, k);
+            rk[0] = sp.weight() * (sp.mm - self.spacing_mm(x, k));
             if sp.is_step() {
                 let sp = &self.spacings[k];
                 let ((a, _), (b, _)) = (self.feature_own(x, sp.a), self.feature_own(x, sp.b));
@@ -158,8 +170,8 @@ impl CalibModel {
                 let d = pa - pb;
                 let u = d / d.norm().max(1e-12);
                 for i in 0..3 {
-                    block[ca[i]] -= crate::units::MM_PER_M * u[i];
-                    block[cb[i]] += crate::units::MM_PER_M * u[i];
+                    block[ca[i]] -= sp.weight() * crate::units::MM_PER_M * u[i];
+                    block[cb[i]] += sp.weight() * crate::units::MM_PER_M * u[i];
                 }
                 continue;
             }
@@ -167,8 +179,8 @@ impl CalibModel {
             let (s, ds) = self.step_m(x, k);
             let sign = if s >= 0.0 { 1.0 } else { -1.0 };
             for i in 0..3 {
-                block[ca[i]] -= crate::units::MM_PER_M * sign * ds[i];
-                block[cb[i]] -= crate::units::MM_PER_M * sign * ds[3 + i];
+                block[ca[i]] -= sp.weight() * crate::units::MM_PER_M * sign * ds[i];
+                block[cb[i]] -= sp.weight() * crate::units::MM_PER_M * sign * ds[3 + i];
             }
             let (da, ca_b) = ((pb.x - pa.x).cos() * pa.y.cos(), (pb.x - pa.x).sin() * pa.y.sin());
             block[n + cb[0]] += PARALLEL_LEVER_MM * da;
@@ -193,7 +205,7 @@ mod tests {
         let face = Placement { measurement: Measurement::Plane, own: vec![0.5, 0.6, 0.2], tool: Vector3::new(0.0, 0.0, 0.05) };
         let model = CalibModel::dh(&Robot::irb120(), &guess, true).with_placement(&face);
         let mut model = model.with_setups((vec!["p/a".into(), "p/b".into()], &[vec![0.52, 0.57, 0.226]]), (Vec::new(), &[]));
-        model.spacings = vec![Spacing { a: 0, b: 1, mm: 25.0, at: Some([0.45, 0.12, 0.25]) }];
+        model.spacings = vec![Spacing { a: 0, b: 1, mm: 25.0, at: Some([0.45, 0.12, 0.25]), std_mm: Some(0.004) }];
         let (x, n) = (model.nominal.clone(), model.n_params());
         assert_eq!(model.n_spacing_residuals(), 3);
         let mut jac = vec![0.0; 3 * n];
@@ -201,7 +213,7 @@ mod tests {
         let mut r0 = [0.0; 3];
         model.spacing_residuals(&x, &mut r0);
         let step = model.spacing_mm(&x, 0);
-        assert!((r0[0] - (25.0 - step)).abs() < 1e-9 && step > 0.0, "25 stated, {step} fitted: {r0:?}");
+        assert!((r0[0] - 0.25 * (25.0 - step)).abs() < 1e-9 && step > 0.0, "25 stated, {step} fitted: {r0:?}");
         let h = 1e-7;
         for p in 0..n {
             let (mut a, mut b) = (x.clone(), x.clone());
@@ -224,7 +236,7 @@ mod tests {
         let model = CalibModel::dh(&Robot::irb120(), &guess, true).with_placement(&socket);
         let mut model = model.with_setups((vec!["p/a".into(), "p/b".into(), "p/c".into()], &[vec![0.45, 0.1, 0.2], vec![0.43, 0.14, 0.21]]), (Vec::new(), &[]));
         let x = model.nominal.clone();
-        model.spacings = vec![Spacing { a: 0, b: 1, mm: 50.01, at: None }, Spacing { a: 1, b: 2, mm: 49.0, at: None }];
+        model.spacings = vec![Spacing { a: 0, b: 1, mm: 50.01, at: None, std_mm: None }, Spacing { a: 1, b: 2, mm: 49.0, at: None, std_mm: Some(0.02) }];
         let n = model.n_params();
         let mut jac = vec![0.0; 2 * n];
         model.spacing_jacobian(&x, &mut jac);
@@ -294,8 +306,9 @@ pub fn resolve_mixed_spacings(labels: &[String], face: &[bool], known: &[KnownSp
 }
 
 /// A known distance between two sockets of an artifact as a user states it (`--spacing-mm`):
-/// `50` for an artifact of two sockets, `A:B=50` between the sockets labelled `A` and `B`; it
-/// holds on every placement of the artifact.
+/// `50` for an artifact of two sockets, `A:B=50` between the sockets labelled `A` and `B`, with
+/// its standard uncertainty after `±` (or `+-`) where the user knows it (`A:B=50±0.02`: a
+/// printed plate); it holds on every placement of the artifact.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "String", into = "String")]
 pub struct KnownSpacing {
@@ -303,7 +316,14 @@ pub struct KnownSpacing {
     pub sockets: Option<(String, String)>,
     /// The distance between their centres, mm.
     pub mm: f64,
+    /// Its standard uncertainty as made, mm; `None`: held to [`SPACING_SD_MM`].
+    pub std_mm: Option<f64>,
 }
+
+/// The standard uncertainty a stated distance is held to where none is given, mm: a distance
+/// one such step off weighs as a seated row's residual of the same size (as
+/// [`PULL_SCALE_MM`] weighs a pull).
+pub const SPACING_SD_MM: f64 = PULL_SCALE_MM;
 
 /// Largest spacing between two sockets an artifact may state, mm (a plate is no wider than a
 /// cell).
@@ -328,11 +348,25 @@ impl std::str::FromStr for KnownSpacing {
             }
             None => (None, s),
         };
+        let (value, std) = match value.split_once('±').or_else(|| value.split_once("+-")) {
+            Some((v, sd)) => (v, Some(sd)),
+            None => (value, None),
+        };
         let mm: f64 = value.trim().parse().map_err(|_| bad("the distance is not a number"))?;
         if !(mm > 0.0 && mm <= MAX_SPACING_MM) {
             return Err(bad(&format!("the distance must be in (0, {MAX_SPACING_MM}] mm")));
         }
-        Ok(KnownSpacing { sockets, mm })
+        let std_mm = match std {
+            Some(sd) => {
+                let sd: f64 = sd.trim().parse().map_err(|_| bad("the uncertainty after ± is not a number"))?;
+                if !(sd > 0.0 && sd < mm) {
+                    return Err(bad("the uncertainty after ± must be positive and below the distance"));
+                }
+                Some(sd)
+            }
+            None => None,
+        };
+        Ok(KnownSpacing { sockets, mm, std_mm })
     }
 }
 
@@ -351,9 +385,13 @@ impl From<KnownSpacing> for String {
 
 impl std::fmt::Display for KnownSpacing {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match &self.sockets {
-            Some((a, b)) => write!(f, "{a}:{b}={}", self.mm),
-            None => write!(f, "{}", self.mm),
+        if let Some((a, b)) = &self.sockets {
+            write!(f, "{a}:{b}=")?;
+        }
+        write!(f, "{}", self.mm)?;
+        match self.std_mm {
+            Some(sd) => write!(f, "±{sd}"),
+            None => Ok(()),
         }
     }
 }
@@ -400,7 +438,7 @@ pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing], kind: Feature
         let name = if p.is_empty() { String::new() } else { format!(" at placement {p}") };
         for k in known {
             match &k.sockets {
-                None if here.len() == 2 => out.push(Spacing { a: here[0], b: here[1], mm: k.mm, at: None }),
+                None if here.len() == 2 => out.push(Spacing { a: here[0], b: here[1], mm: k.mm, at: None, std_mm: k.std_mm }),
                 // A placement with one socket seated is a fixed point and no spacing.
                 None if here.len() < 2 => {}
                 None => {
@@ -415,7 +453,7 @@ pub fn resolve_spacings(labels: &[String], known: &[KnownSpacing], kind: Feature
                 // A placement where one of the two was not seated carries no such spacing.
                 Some((a, b)) => {
                     if let (Some(ia), Some(ib)) = (at(a), at(b)) {
-                        out.push(Spacing { a: ia, b: ib, mm: k.mm, at: None });
+                        out.push(Spacing { a: ia, b: ib, mm: k.mm, at: None, std_mm: k.std_mm });
                     }
                 }
             }

@@ -47,6 +47,9 @@ pub struct SpacingFit {
     pub stated_mm: f64,
     /// The distance between the fitted centres, mm.
     pub fitted_mm: f64,
+    /// The stated standard uncertainty, mm, where one was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub std_mm: Option<f64>,
 }
 
 /// The artifact's part of a calibration's result.
@@ -69,6 +72,10 @@ pub struct ArtifactReport {
     pub spacings: Vec<SpacingFit>,
     /// What rows of this kind cannot determine, each a sentence.
     pub cannot_see: Vec<String>,
+    /// Where the stated spacings between sockets and the stated steps between faces give the
+    /// arm scales apart beyond what their scatter explains: the sentence that says so.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disagreement: Option<String>,
 }
 
 impl ArtifactReport {
@@ -92,9 +99,11 @@ impl ArtifactReport {
             ));
         }
         for s in &self.spacings {
-            out.push(format!("  {spacing} {}-{}: stated {:.4} mm, fitted {:.4} mm", s.sockets.0, s.sockets.1, s.stated_mm, s.fitted_mm));
+            let sd = s.std_mm.map_or(String::new(), |sd| format!(" ± {sd:.4}"));
+            out.push(format!("  {spacing} {}-{}: stated {:.4}{sd} mm, fitted {:.4} mm", s.sockets.0, s.sockets.1, s.stated_mm, s.fitted_mm));
         }
         out.extend(self.cannot_see.iter().map(|c| format!("cannot see: {c}")));
+        out.extend(self.disagreement.iter().map(|d| format!("stated distances disagree: {d}")));
         out
     }
 }
@@ -166,7 +175,7 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String], 
     let spacings = (0..model.spacings.len())
         .map(|k| {
             let sp = &model.spacings[k];
-            SpacingFit { sockets: (labels[sp.a].clone(), labels[sp.b].clone()), stated_mm: sp.mm, fitted_mm: model.spacing_mm(x, k) }
+            SpacingFit { sockets: (labels[sp.a].clone(), labels[sp.b].clone()), stated_mm: sp.mm, fitted_mm: model.spacing_mm(x, k), std_mm: sp.std_mm }
         })
         .collect();
     let target = model.placement(x).tool;
@@ -189,8 +198,48 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String], 
         target_mm: [target.x, target.y, target.z].map(crate::units::to_mm),
         sockets,
         faces,
+        disagreement: disagreement(model, x),
         spacings,
         cannot_see,
+    })
+}
+
+/// Least disagreement (ppm) between the scales the spacings and the steps give that is said.
+pub const DISAGREE_PPM: f64 = 50.0;
+
+/// How many standard errors of their means the spacings' and the steps' relative misfits must
+/// lie apart to be said to disagree (with three placements a mean's error has two degrees of
+/// freedom).
+pub const DISAGREE_SE: f64 = 4.0;
+
+/// Where sockets' spacings and faces' steps stand in one fit: the sentence saying that the
+/// scale each kind gives (its mean relative misfit, fitted over stated) differs by more than
+/// [`DISAGREE_PPM`] and [`DISAGREE_SE`] standard errors; `None` where they agree or one kind is
+/// absent.
+fn disagreement(model: &CalibModel, x: &[f64]) -> Option<String> {
+    let of = |step: bool| -> Vec<f64> {
+        (0..model.spacings.len())
+            .filter(|&k| model.spacings[k].is_step() == step)
+            .map(|k| 1e6 * (model.spacing_mm(x, k) / model.spacings[k].mm - 1.0))
+            .collect()
+    };
+    let stats = |v: &[f64]| -> (f64, f64) {
+        let n = v.len() as f64;
+        let m = v.iter().sum::<f64>() / n;
+        let sd = if v.len() > 1 { (v.iter().map(|e| (e - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
+        (m, sd / n.sqrt())
+    };
+    let (s, f) = (of(false), of(true));
+    if s.is_empty() || f.is_empty() {
+        return None;
+    }
+    let ((ms, ses), (mf, sef)) = (stats(&s), stats(&f));
+    let gap = (ms - mf).abs();
+    (gap > DISAGREE_PPM && gap > DISAGREE_SE * (ses * ses + sef * sef).sqrt()).then(|| {
+        format!(
+            "the sockets' spacings come out {ms:+.0} ppm off their stated values and the faces' steps {mf:+.0} ppm ({gap:.0} ppm apart, {:.1} standard errors): one of them is not as stated, and the fit's scale lies between them; state each as made and at its temperature, with its uncertainty (--spacing-mm A:B=50±0.02 for a printed plate)",
+            gap / (ses * ses + sef * sef).sqrt().max(1e-9)
+        )
     })
 }
 

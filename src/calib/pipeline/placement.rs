@@ -75,11 +75,7 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
     // at stations of the same list: faces touched by the ball seated in the sockets.)
     let shared = train.also.filter(|a| measurement.shares_stations_with(*a));
     let own_row = |i: &usize| train.inputs[*i].instrument == 0 || shared.is_some();
-    // The instrument of station `s`'s rows.
-    let instrument_at = |s: usize| match shared {
-        Some(a) if (0..train.len()).any(|i| train.inputs[i].station == s && train.inputs[i].instrument == 1) => a,
-        _ => measurement,
-    };
+    let instrument_at = |s: usize| station_instrument(train, shared, s);
     let rows_of = |kind: SetupKind, s: usize| -> Vec<usize> { (0..train.len()).filter(own_row).filter(|i| kind.of(&train.inputs[*i]) == s).collect() };
     let at = |kind: SetupKind, s: usize| labels[usize::from(kind == SetupKind::Mount)].get(s).map_or(String::new(), |l| format!(" at {} {l}", kind.name()));
     // The first station and mount together: the rows of both.
@@ -132,18 +128,41 @@ pub fn place(opts: &CalibOptions, train: &Samples, labels: [&[String]; 2]) -> Re
         others[1].push(setup_values(&p, SetupKind::Mount));
     }
     let [st, mo] = others;
-    let mut model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
+    let model = m.with_placement(&first).with_setups((stations.to_vec(), &st), (labels[1].to_vec(), &mo));
+    Ok((beside_and_aligned(model, shared, &first, opts, train, stations)?, report))
+}
+
+/// The placed model with what stands beside its first instrument (faces at stations of its list
+/// sharing its target `first.tool`, or another instrument's placement), its artifact's blocks,
+/// aligned on the training rows.
+fn beside_and_aligned(
+    mut model: CalibModel,
+    shared: Option<Measurement>,
+    first: &Placement,
+    opts: &CalibOptions,
+    train: &Samples,
+    stations: &[String],
+) -> Result<CalibModel> {
     if let Some(a) = shared {
         model = model.with_also(&Placement { measurement: a, own: Vec::new(), tool: first.tool });
         model.set_station_instruments(&train.inputs);
     }
-    if measurement.feature().is_some() {
+    if model.measurement.feature().is_some() {
         feature_blocks(&mut model, stations, opts, train)?;
     }
     if let Some(p) = place_also(&model, train)? {
         model = model.with_also(&p);
     }
-    Ok((align_placement(model, train, opts.rank_tol), report))
+    Ok(align_placement(model, train, opts.rank_tol))
+}
+
+/// The instrument of station `s`'s rows of `train`: the second (`shared`, standing at stations
+/// of the first's list) where they say so, else the first.
+fn station_instrument(train: &Samples, shared: Option<Measurement>, s: usize) -> Measurement {
+    match shared {
+        Some(a) if (0..train.len()).any(|i| train.inputs[i].station == s && train.inputs[i].instrument == 1) => a,
+        _ => train.measurement,
+    }
 }
 
 /// The values of placement `p` that a set-up of `kind` holds: where the instrument stands (a
