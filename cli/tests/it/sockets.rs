@@ -194,8 +194,9 @@ fn diagnose_names_compliance_under_the_socket_preload() {
 /// One ball seated in the sockets and touching a block's faces: both kinds of rows in one file
 /// and one fit (the faces are stations beside the sockets, each instrument weighted by its own
 /// scatter). The twin writes the same bytes for a seed; the fit states each socket and face and
-/// both kinds of distance; with an exact plate it predicts unseen tracker points better than
-/// either artifact alone. Rows naming both or neither, and a spacing naming a socket and a
+/// both kinds of distance, and says where the plate's spacing (stated as designed, made long)
+/// and the block's step disagree, not once they are stated with their uncertainties; with an
+/// exact plate it predicts unseen tracker points better than either artifact alone. Rows naming both or neither, and a spacing naming a socket and a
 /// face, are refused by name.
 #[test]
 fn sockets_and_faces_fit_together() {
@@ -234,6 +235,20 @@ fn sockets_and_faces_fit_together() {
     for want in ["socket p1/A", "face p1/low", "spacing p1/A-p1/B", "spacing p1/low-p1/high", "weighted by its own scatter"] {
         assert!(text.contains(want), "'{want}' missing:\n{text}");
     }
+    // The plate as made (0.013 mm long) stated as designed beside the block's exact step: the
+    // two scales disagree and the report says so; stated with their uncertainties, they do not.
+    assert!(text.contains("stated distances disagree"), "{text}");
+    let o = twincal(&[
+        "calibrate",
+        "--data",
+        a.to_str().unwrap(),
+        "--spacing-mm",
+        "A:B=50±0.02,low:high=25±0.001",
+        "--out",
+        dir.path().join("sd.json").to_str().unwrap(),
+    ]);
+    let sd = String::from_utf8_lossy(&o.stderr).to_string() + &String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && !sd.contains("stated distances disagree") && sd.contains("stated 50.0000 ± 0.0200 mm"), "{sd}");
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
     assert_eq!(r["artifact"]["sockets"].as_array().map(Vec::len), Some(6), "{}", r["artifact"]);
     assert_eq!(r["artifact"]["faces"].as_array().map(Vec::len), Some(12), "{}", r["artifact"]);

@@ -24,7 +24,7 @@ pub mod tolerance;
 pub use crate::measurement::Placement;
 pub use dh::{DhRow, DhTable, NEARLY_PARALLEL_RAD};
 pub use setup::SetupKind;
-pub use spacing::{resolve_mixed_spacings, resolve_spacings, KnownSpacing, Pull, Spacing, MAX_SPACING_MM, PULL_SCALE_MM};
+pub use spacing::{resolve_mixed_spacings, resolve_spacings, KnownSpacing, Pull, Spacing, MAX_SPACING_MM, PULL_SCALE_MM, SPACING_SD_MM};
 
 use crate::calib::effects::{joint_and_scale_effects, legendre, EffectBlock, EffectKind, EffectState, EffectUnit, RowInputs};
 use crate::measurement::{Measurement, MAX_DIM, MAX_OWN, MAX_TARGETS};

@@ -230,6 +230,24 @@ mod tests {
     }
 
     #[test]
+    fn a_stated_uncertainty_is_read_written_and_weighs_the_residual() {
+        for text in ["A:B=50±0.02", "A:B=50+-0.02", " A : B = 50 ± 0.02 "] {
+            let k: KnownSpacing = text.parse().unwrap();
+            assert_eq!(k, KnownSpacing { sockets: Some(("A".into(), "B".into())), mm: 50.0, std_mm: Some(0.02) }, "{text}");
+            assert_eq!(k.to_string().parse::<KnownSpacing>().unwrap(), k);
+        }
+        assert_eq!("25".parse::<KnownSpacing>().unwrap().std_mm, None);
+        for bad in ["A:B=50±", "A:B=50±x", "A:B=50±0", "A:B=50±-1", "A:B=50±60"] {
+            let e = bad.parse::<KnownSpacing>().unwrap_err().to_string();
+            assert!(e.contains("uncertainty after ±"), "{bad}: {e}");
+        }
+        // One stated standard uncertainty off weighs as SPACING_SD_MM of residual.
+        let sp = Spacing { a: 0, b: 1, mm: 50.0, at: None, std_mm: Some(0.02) };
+        assert!((sp.weight() * 0.02 - SPACING_SD_MM).abs() < 1e-15);
+        assert_eq!(Spacing { std_mm: None, ..sp }.weight(), 1.0);
+    }
+
+    #[test]
     fn spacing_derivatives_match_finite_differences() {
         let guess = DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
         let socket = Placement { measurement: Measurement::Socket, own: vec![0.4, 0.1, 0.2], tool: Vector3::new(0.0, 0.0, 0.05) };

@@ -204,41 +204,47 @@ pub fn report(model: &CalibModel, x: &[f64], train: &Samples, fixed: &[String], 
     })
 }
 
-/// Least disagreement (ppm) between the scales the spacings and the steps give that is said.
-pub const DISAGREE_PPM: f64 = 50.0;
-
 /// How many standard errors of their means the spacings' and the steps' relative misfits must
 /// lie apart to be said to disagree (with three placements a mean's error has two degrees of
-/// freedom).
+/// freedom); they must also lie apart by [`DISAGREE_STATED`] times what the distances' stated
+/// uncertainties allow.
 pub const DISAGREE_SE: f64 = 4.0;
 
+/// See [`DISAGREE_SE`].
+pub const DISAGREE_STATED: f64 = 3.0;
+
 /// Where sockets' spacings and faces' steps stand in one fit: the sentence saying that the
-/// scale each kind gives (its mean relative misfit, fitted over stated) differs by more than
-/// [`DISAGREE_PPM`] and [`DISAGREE_SE`] standard errors; `None` where they agree or one kind is
-/// absent.
+/// scale each kind gives (its mean relative misfit, fitted over stated) differs beyond
+/// [`DISAGREE_SE`] standard errors and [`DISAGREE_STATED`] times the stated uncertainties
+/// (relative, each kind's mean; [`crate::calib::model::SPACING_SD_MM`] where none is stated);
+/// `None` where they agree or one kind is absent.
 fn disagreement(model: &CalibModel, x: &[f64]) -> Option<String> {
-    let of = |step: bool| -> Vec<f64> {
+    let of = |step: bool| -> Vec<(f64, f64)> {
         (0..model.spacings.len())
             .filter(|&k| model.spacings[k].is_step() == step)
-            .map(|k| 1e6 * (model.spacing_mm(x, k) / model.spacings[k].mm - 1.0))
+            .map(|k| {
+                let sp = &model.spacings[k];
+                (1e6 * (model.spacing_mm(x, k) / sp.mm - 1.0), 1e6 * sp.sd_mm() / sp.mm)
+            })
             .collect()
     };
-    let stats = |v: &[f64]| -> (f64, f64) {
+    let stats = |v: &[(f64, f64)]| -> (f64, f64, f64) {
         let n = v.len() as f64;
-        let m = v.iter().sum::<f64>() / n;
-        let sd = if v.len() > 1 { (v.iter().map(|e| (e - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
-        (m, sd / n.sqrt())
+        let m = v.iter().map(|e| e.0).sum::<f64>() / n;
+        let sd = if v.len() > 1 { (v.iter().map(|e| (e.0 - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
+        (m, sd / n.sqrt(), v.iter().map(|e| e.1).sum::<f64>() / n)
     };
     let (s, f) = (of(false), of(true));
     if s.is_empty() || f.is_empty() {
         return None;
     }
-    let ((ms, ses), (mf, sef)) = (stats(&s), stats(&f));
+    let ((ms, ses, us), (mf, sef, uf)) = (stats(&s), stats(&f));
     let gap = (ms - mf).abs();
-    (gap > DISAGREE_PPM && gap > DISAGREE_SE * (ses * ses + sef * sef).sqrt()).then(|| {
+    (gap > DISAGREE_STATED * (us * us + uf * uf).sqrt() && gap > DISAGREE_SE * (ses * ses + sef * sef).sqrt()).then(|| {
         format!(
-            "the sockets' spacings come out {ms:+.0} ppm off their stated values and the faces' steps {mf:+.0} ppm ({gap:.0} ppm apart, {:.1} standard errors): one of them is not as stated, and the fit's scale lies between them; state each as made and at its temperature, with its uncertainty (--spacing-mm A:B=50±0.02 for a printed plate)",
-            gap / (ses * ses + sef * sef).sqrt().max(1e-9)
+            "the sockets' spacings come out {ms:+.0} ppm off their stated values and the faces' steps {mf:+.0} ppm ({gap:.0} ppm apart, {:.1} standard errors; the stated uncertainties allow {:.0} ppm): one of them is not as stated, and the fit's scale lies between them; state each as made and at its temperature, with its uncertainty (--spacing-mm A:B=50±0.02 for a printed plate)",
+            gap / (ses * ses + sef * sef).sqrt().max(1e-9),
+            (us * us + uf * uf).sqrt()
         )
     })
 }
