@@ -106,18 +106,21 @@ pub fn bench_sockets(seeds: u64) -> Result<()> {
     held_out(dir, seeds)
 }
 
+/// A plate beside the block: its label, the edits of the scenario's text, and the stated
+/// uncertainties of the plate's spacing and the block's step (mm).
+type Plate = (&'static str, &'static [(&'static str, &'static str)], [Option<f64>; 2]);
+
 /// The printed plate and a steel block's faces touched by the same ball, in one fit, beside
 /// each alone (`irb120_sockets_planes`: the plate as made, the block's 25 mm step exact).
 fn with_faces(dir: &Path, seeds: u64) -> Result<()> {
     println!("\n# Sockets and faces in one fit ({seeds} seeds; one ball seated in the printed plate as made, then touching a steel block's four faces at three places): held-out tracker points' |Δp| RMS, mm, mean ± sd over seeds\n");
     println!("| arm | plate | rows (train) | nominal | sockets alone | faces alone | sockets + faces | tracker, as many rows as both |");
     println!("|---|---|---|---|---|---|---|---|");
-    let exact: &[(&str, &str)] = &[
+    let exact: &'static [(&str, &str)] = &[
         ("made_error_mm = [[0.0, 0.0], [0.01, 0.0]]", "made_error_mm = [[0.0, 0.0], [0.0, 0.0]]"),
         ("expansion_ppm_per_k = 68.0", "expansion_ppm_per_k = 0.0"),
     ];
-    // (label, edits, the stated uncertainties of the plate's spacing and the block's step)
-    let plates: [(&str, &[(&str, &str)], [Option<f64>; 2]); 3] = [
+    let plates: [Plate; 3] = [
         ("as made, stated as designed (spacing 0.01 mm long, 1 K warm)", &[], [None, None]),
         ("as made, stated as designed ± 0.02 mm, the block's step ± 0.001 mm", &[], [Some(0.02), Some(0.001)]),
         ("exact (seated within 0.01 mm)", exact, [None, None]),
