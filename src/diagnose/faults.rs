@@ -15,6 +15,111 @@ use crate::calib::model::CalibModel;
 use crate::optim::{LevenbergMarquardt, NoObserver};
 use serde::{Deserialize, Serialize};
 
+/// What a joint's reading did over a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JointFault {
+    /// It jumped by an offset and stayed.
+    Offset,
+    /// Its sign flipped.
+    Sign,
+    /// It stopped updating (the first row's value held).
+    Stale,
+    /// Two joints' columns traded places.
+    Swap,
+}
+
+/// What a run's rows show ([`RunFault::cause`]): a hypothesis named, or none (in files, its
+/// name: `joint_sign`, `joint_sign+reading_offset`, `reading_offset`, `ambiguous`, ...).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
+pub enum FaultKind {
+    /// A joint's reading fault, with the instrument's reading jumping at the same time or not.
+    Joint {
+        /// What the joint's reading did.
+        fault: JointFault,
+        /// Whether the instrument's reading jumped by an offset too.
+        with_reading: bool,
+    },
+    /// The instrument's reading jumped by an offset and stayed.
+    ReadingOffset,
+    /// The instrument moved (its placement refitted on the run).
+    InstrumentMoved,
+    /// Two hypotheses leave the rows like the kept rows: the rows cannot tell them apart.
+    Ambiguous,
+    /// No hypothesis leaves the rows like the kept rows (as a hypothesis: the rows as logged).
+    Unexplained,
+}
+
+impl FaultKind {
+    /// Every kind, in the order the names list them.
+    pub const ALL: [FaultKind; 12] = [
+        FaultKind::Joint { fault: JointFault::Offset, with_reading: false },
+        FaultKind::Joint { fault: JointFault::Sign, with_reading: false },
+        FaultKind::Joint { fault: JointFault::Stale, with_reading: false },
+        FaultKind::Joint { fault: JointFault::Swap, with_reading: false },
+        FaultKind::Joint { fault: JointFault::Offset, with_reading: true },
+        FaultKind::Joint { fault: JointFault::Sign, with_reading: true },
+        FaultKind::Joint { fault: JointFault::Stale, with_reading: true },
+        FaultKind::Joint { fault: JointFault::Swap, with_reading: true },
+        FaultKind::ReadingOffset,
+        FaultKind::InstrumentMoved,
+        FaultKind::Ambiguous,
+        FaultKind::Unexplained,
+    ];
+    /// Its name in files and messages.
+    pub fn name(self) -> &'static str {
+        use JointFault::*;
+        match self {
+            FaultKind::Joint { fault: Offset, with_reading: false } => "joint_offset",
+            FaultKind::Joint { fault: Sign, with_reading: false } => "joint_sign",
+            FaultKind::Joint { fault: Stale, with_reading: false } => "joint_stale",
+            FaultKind::Joint { fault: Swap, with_reading: false } => "joint_swap",
+            FaultKind::Joint { fault: Offset, with_reading: true } => "joint_offset+reading_offset",
+            FaultKind::Joint { fault: Sign, with_reading: true } => "joint_sign+reading_offset",
+            FaultKind::Joint { fault: Stale, with_reading: true } => "joint_stale+reading_offset",
+            FaultKind::Joint { fault: Swap, with_reading: true } => "joint_swap+reading_offset",
+            FaultKind::ReadingOffset => "reading_offset",
+            FaultKind::InstrumentMoved => "instrument_moved",
+            FaultKind::Ambiguous => "ambiguous",
+            FaultKind::Unexplained => "unexplained",
+        }
+    }
+    /// The same joint fault with the instrument's reading jumping too (`None` for a kind that
+    /// is no joint fault).
+    pub fn with_reading(self) -> Option<FaultKind> {
+        match self {
+            FaultKind::Joint { fault, .. } => Some(FaultKind::Joint { fault, with_reading: true }),
+            _ => None,
+        }
+    }
+    /// Whether it names a cause (neither `ambiguous` nor `unexplained`).
+    pub fn is_named(self) -> bool {
+        !matches!(self, FaultKind::Ambiguous | FaultKind::Unexplained)
+    }
+}
+
+impl std::fmt::Display for FaultKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl From<FaultKind> for String {
+    fn from(k: FaultKind) -> String {
+        k.name().to_string()
+    }
+}
+
+impl TryFrom<String> for FaultKind {
+    type Error = String;
+    fn try_from(s: String) -> std::result::Result<FaultKind, String> {
+        FaultKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown run fault '{s}' (one of {})", FaultKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")))
+    }
+}
+
 /// A named run fault: the hypothesis, its joints, its size, and how well it and its runner-up
 /// explain the run.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -28,7 +133,7 @@ pub struct RunFault {
     /// `reading_offset`; `ambiguous` when the best and the runner-up both leave the rows like
     /// the kept rows; `unexplained` when no hypothesis does. A combined cause competes with the
     /// others by its evidence against its extra freedom (BIC); its own parts are no rivals.
-    pub cause: String,
+    pub cause: FaultKind,
     /// The joints concerned, 1-based.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub joints: Vec<usize>,
@@ -76,7 +181,7 @@ pub const FREER_RIVAL_BIC: f64 = 6.0;
 pub const MAX_OFFSET_DEG: f64 = 20.0;
 
 struct Hypothesis {
-    cause: &'static str,
+    cause: FaultKind,
     joints: Vec<usize>,
     value: Option<f64>,
     /// The reading's offset (mm) a combined hypothesis adds to its joint fault.
@@ -92,12 +197,12 @@ struct Hypothesis {
 
 impl Hypothesis {
     /// A hypothesis that leaves the run's residuals `r` with `params` free numbers.
-    fn leaving(cause: &'static str, joints: Vec<usize>, value: Option<f64>, params: usize, r: &[f64]) -> Hypothesis {
+    fn leaving(cause: FaultKind, joints: Vec<usize>, value: Option<f64>, params: usize, r: &[f64]) -> Hypothesis {
         let (mean, centred) = less_offset(r);
         Hypothesis { cause, joints, value, reading: None, params, rss: rss(r), centred, mean }
     }
     /// A hypothesis that fits the reading's offset besides (`reading`, mm), leaving `left` (mm²).
-    fn with_offset(cause: &'static str, joints: Vec<usize>, value: Option<f64>, reading: f64, params: usize, left: f64) -> Hypothesis {
+    fn with_offset(cause: FaultKind, joints: Vec<usize>, value: Option<f64>, reading: f64, params: usize, left: f64) -> Hypothesis {
         Hypothesis { cause, joints, value, reading: Some(reading), params, rss: left, centred: left, mean: 0.0 }
     }
 }
@@ -109,18 +214,6 @@ fn less_offset(r: &[f64]) -> (f64, f64) {
     (mean, r.iter().map(|v| (v - mean).powi(2)).sum())
 }
 
-/// The cause a joint fault of kind `cause` has when the reading jumped too (`None` for a cause
-/// that is no joint fault).
-fn with_reading(cause: &str) -> Option<&'static str> {
-    match cause {
-        "joint_offset" => Some("joint_offset+reading_offset"),
-        "joint_sign" => Some("joint_sign+reading_offset"),
-        "joint_stale" => Some("joint_stale+reading_offset"),
-        "joint_swap" => Some("joint_swap+reading_offset"),
-        _ => None,
-    }
-}
-
 /// The run's joint angles `q` with joint `j` turned by `d` (rad).
 fn offset_joint(q: &[Vec<f64>], j: usize, d: f64) -> Vec<Vec<f64>> {
     q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { v + d } else { *v }).collect()).collect()
@@ -129,8 +222,10 @@ fn offset_joint(q: &[Vec<f64>], j: usize, d: f64) -> Vec<Vec<f64>> {
 /// Whether `a` is `b` with fewer freedoms (no fault at all, a single fault inside a combined
 /// one): not a rival explanation of the rows but a part of it.
 fn nested_in(a: &Hypothesis, b: &Hypothesis) -> bool {
-    a.cause == "unexplained"
-        || (b.reading.is_some() && a.reading.is_none() && (a.cause == "reading_offset" || (with_reading(a.cause) == Some(b.cause) && a.joints == b.joints)))
+    a.cause == FaultKind::Unexplained
+        || (b.reading.is_some()
+            && a.reading.is_none()
+            && (a.cause == FaultKind::ReadingOffset || (a.cause.with_reading() == Some(b.cause) && a.joints == b.joints)))
 }
 
 /// The run's residuals (mm, unweighted) with joint angles `q` (rad) for its rows.
@@ -188,24 +283,22 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
     let nj = model.chain.n_joints;
     let mut out = Vec::new();
     let r = residuals(model, x, &run, &run.q);
-    out.push(Hypothesis::leaving("unexplained", vec![], None, 0, &r));
+    out.push(Hypothesis::leaving(FaultKind::Unexplained, vec![], None, 0, &r));
     // The reading jumped: one offset.
     let (mean, left) = less_offset(&r);
-    out.push(Hypothesis { reading: None, ..Hypothesis::with_offset("reading_offset", vec![], Some(mean), mean, 1, left) });
+    out.push(Hypothesis { reading: None, ..Hypothesis::with_offset(FaultKind::ReadingOffset, vec![], Some(mean), mean, 1, left) });
     // A joint fault whose rows read `q`, alone and with the reading's offset.
-    let mut joint_fault = |cause: &'static str, joints: Vec<usize>, q: &[Vec<f64>]| {
+    let mut joint_fault = |fault: JointFault, joints: Vec<usize>, q: &[Vec<f64>]| {
         let r = residuals(model, x, &run, q);
         let (mean, left) = less_offset(&r);
-        if let Some(combined) = with_reading(cause) {
-            out.push(Hypothesis::with_offset(combined, joints.clone(), None, mean, 1, left));
-        }
-        out.push(Hypothesis::leaving(cause, joints, None, 0, &r));
+        out.push(Hypothesis::with_offset(FaultKind::Joint { fault, with_reading: true }, joints.clone(), None, mean, 1, left));
+        out.push(Hypothesis::leaving(FaultKind::Joint { fault, with_reading: false }, joints, None, 0, &r));
     };
     for j in 0..nj {
         let flipped: Vec<Vec<f64>> = run.q.iter().map(|q| q.iter().enumerate().map(|(k, v)| if k == j { -v } else { *v }).collect()).collect();
-        joint_fault("joint_sign", vec![j + 1], &flipped);
+        joint_fault(JointFault::Sign, vec![j + 1], &flipped);
         if let Some(q) = stale_angles(all, &run, rows, j, &|q| rss(&residuals(model, x, &run, q))) {
-            joint_fault("joint_stale", vec![j + 1], &q);
+            joint_fault(JointFault::Stale, vec![j + 1], &q);
         }
         for k in j + 1..nj {
             let swapped: Vec<Vec<f64>> = run
@@ -217,7 +310,7 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
                     q
                 })
                 .collect();
-            joint_fault("joint_swap", vec![j + 1, k + 1], &swapped);
+            joint_fault(JointFault::Swap, vec![j + 1, k + 1], &swapped);
         }
     }
     // An offset at the edge of the search is no fit of one (the run wants more than a joint's
@@ -226,12 +319,25 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
     for j in 0..nj {
         let (d, _) = best_offset(model, x, &run, j, false);
         if inside(d) {
-            out.push(Hypothesis::leaving("joint_offset", vec![j + 1], Some(d.to_degrees()), 1, &residuals(model, x, &run, &offset_joint(&run.q, j, d))));
+            out.push(Hypothesis::leaving(
+                FaultKind::Joint { fault: JointFault::Offset, with_reading: false },
+                vec![j + 1],
+                Some(d.to_degrees()),
+                1,
+                &residuals(model, x, &run, &offset_joint(&run.q, j, d)),
+            ));
         }
         let (d, c) = best_offset(model, x, &run, j, true);
         if inside(d) {
             let mean = less_offset(&residuals(model, x, &run, &offset_joint(&run.q, j, d))).0;
-            out.push(Hypothesis::with_offset("joint_offset+reading_offset", vec![j + 1], Some(d.to_degrees()), mean, 2, c));
+            out.push(Hypothesis::with_offset(
+                FaultKind::Joint { fault: JointFault::Offset, with_reading: true },
+                vec![j + 1],
+                Some(d.to_degrees()),
+                mean,
+                2,
+                c,
+            ));
         }
     }
     // The instrument moved: its placement refitted on the run's rows.
@@ -241,7 +347,7 @@ fn hypotheses(model: &CalibModel, x: &[f64], all: &Samples, rows: &[usize]) -> V
         let plain = run.unweighted();
         let fit = ReadingFit { model, data: &plain };
         let xm = LevenbergMarquardt::budget(50).minimize(&fit, x, &fixed, &mut NoObserver).x;
-        out.push(Hypothesis::leaving("instrument_moved", vec![], None, placement.len(), &fit.residuals_mm(&xm)));
+        out.push(Hypothesis::leaving(FaultKind::InstrumentMoved, vec![], None, placement.len(), &fit.residuals_mm(&xm)));
     }
     out
 }
@@ -293,7 +399,7 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
             };
             h.sort_by(|a, b| bic(a).total_cmp(&bic(b)));
             let rms = |h: &Hypothesis| (h.rss / n).sqrt();
-            let logged = h.iter().find(|h| h.cause == "unexplained").map_or(f64::NAN, rms);
+            let logged = h.iter().find(|h| h.cause == FaultKind::Unexplained).map_or(f64::NAN, rms);
             // A combined fault only where none of its parts alone leaves the rows like the kept
             // rows (with a few rows, a joint's free offset beside a reading jump fits their
             // noise): a part is named where what it leaves is consistent with the kept rows'
@@ -303,14 +409,14 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
                 let left = if shared(o) { o.centred } else { o.rss };
                 scale_mm > 0.0 && crate::stats::f_survival(left / (scale_mm * scale_mm) / dof, dof, 1e9) >= PART_FIT_ALPHA
             };
-            let fits_alone = |o: &Hypothesis| o.cause != "unexplained" && rms(o) <= EXPLAINED_SIGMAS * scale_mm && nested_in(o, &h[0]) && like_kept(o);
+            let fits_alone = |o: &Hypothesis| o.cause != FaultKind::Unexplained && rms(o) <= EXPLAINED_SIGMAS * scale_mm && nested_in(o, &h[0]) && like_kept(o);
             let best = h.iter().find(|o| fits_alone(o)).unwrap_or(&h[0]);
             // The runner-up: the best hypothesis of another kind or other joints.
             let runner = h.iter().skip(1).find(|o| (o.cause != best.cause || o.joints != best.joints) && !nested_in(o, best) && !nested_in(best, o));
             let clear = runner.is_none_or(|o| {
                 (o.rss >= CLEAR_RATIO * best.rss && rms(o) > RUNNER_UP_SIGMAS * scale_mm) || (o.params > best.params && bic(o) - bic(best) >= FREER_RIVAL_BIC)
             });
-            let fits = best.cause != "unexplained" && rms(best) <= EXPLAINED_SIGMAS * scale_mm;
+            let fits = best.cause != FaultKind::Unexplained && rms(best) <= EXPLAINED_SIGMAS * scale_mm;
             let explained = fits && clear;
             let (runner_up, runner_up_rms_mm) = runner.map_or((String::new(), f64::NAN), |o| (label(o), rms(o)));
             let weighed = weighed_note(best, runner, &bic, shared(best), scale_mm);
@@ -349,11 +455,11 @@ pub fn explain_runs(model: &CalibModel, x: &[f64], all: &Samples, runs: &[(usize
                 first_row: first + 1,
                 last_row: last + 1,
                 cause: if explained {
-                    best.cause.to_string()
+                    best.cause
                 } else if fits {
-                    "ambiguous".into()
+                    FaultKind::Ambiguous
                 } else {
-                    "unexplained".into()
+                    FaultKind::Unexplained
                 },
                 joints: if explained { best.joints.clone() } else { vec![] },
                 value: if explained { best.value } else { None },
@@ -387,8 +493,8 @@ fn weighed_note(best: &Hypothesis, runner: Option<&Hypothesis>, bic: &dyn Fn(&Hy
 fn label(h: &Hypothesis) -> String {
     let joints = h.joints.iter().map(|j| format!("j{j}")).collect::<Vec<_>>().join("<->");
     let mut value = match (h.cause, h.value) {
-        ("joint_offset" | "joint_offset+reading_offset", Some(v)) => format!(" {v:+.3} deg"),
-        ("reading_offset", Some(v)) => format!(" {v:+.3} mm"),
+        (FaultKind::Joint { fault: JointFault::Offset, .. }, Some(v)) => format!(" {v:+.3} deg"),
+        (FaultKind::ReadingOffset, Some(v)) => format!(" {v:+.3} mm"),
         _ => String::new(),
     };
     if let Some(r) = h.reading {
@@ -398,5 +504,24 @@ fn label(h: &Hypothesis) -> String {
         format!("{}{value}", h.cause)
     } else {
         format!("{} {joints}{value}", h.cause)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fault_kinds_are_written_by_their_names_and_read_back() {
+        for k in FaultKind::ALL {
+            let json = serde_json::to_string(&k).unwrap();
+            assert_eq!(json, format!("\"{}\"", k.name()));
+            assert_eq!(serde_json::from_str::<FaultKind>(&json).unwrap(), k);
+            assert_eq!(k.with_reading().is_some(), matches!(k, FaultKind::Joint { .. }), "{k}");
+        }
+        let names: std::collections::BTreeSet<&str> = FaultKind::ALL.iter().map(|k| k.name()).collect();
+        assert_eq!(names.len(), FaultKind::ALL.len());
+        let e = serde_json::from_str::<FaultKind>("\"joint_wobble\"").unwrap_err().to_string();
+        assert!(e.contains("unknown run fault 'joint_wobble'") && e.contains("joint_sign+reading_offset"), "{e}");
     }
 }

@@ -44,7 +44,7 @@ pub struct Hidden {
 impl Hidden {
     /// Whether a diagnosed cause names this effect: same kind, same joint.
     pub fn named_by(&self, c: &super::report::Cause) -> bool {
-        c.cause == self.cause.name() && c.joint == self.joint.map(|j| j + 1)
+        c.is(self.cause, self.joint)
     }
     /// Whether a diagnosed size is right: within 3 standard uncertainties or within 30 %.
     pub fn sized_by(&self, c: &super::report::Cause) -> bool {

@@ -500,7 +500,7 @@ pub const OUTLIER_SHARE: f64 = 0.05;
 /// The outlier rows kept out of the fits that no fault of their run explains (a run named
 /// `unexplained`, or a row alone), where they are more than [`OUTLIER_SHARE`] of `rows`.
 fn unexplained_outliers(outliers: &[crate::calib::fit::robust::Outlier], faults: &[super::faults::RunFault], rows: usize) -> Option<String> {
-    let named = |row: usize| faults.iter().any(|f| f.cause != "unexplained" && (f.first_row..=f.last_row).contains(&row));
+    let named = |row: usize| faults.iter().any(|f| f.cause != super::faults::FaultKind::Unexplained && (f.first_row..=f.last_row).contains(&row));
     let left = outliers.iter().filter(|o| !named(o.row)).count();
     (left as f64 > OUTLIER_SHARE * rows as f64).then(|| {
         format!(

@@ -1,6 +1,7 @@
 //! What a diagnosis reports (`diagnosed.json`): the evidence, the selection's steps, the causes
 //! with their sizes, the baseline and the final model's held-out error.
 
+use crate::calib::effects::EffectKind;
 pub use crate::calib::fit::gls::NoiseModel;
 pub use crate::calib::fit::robust::{Outlier, OutlierRun};
 use crate::dataset::blocks::Structure;
@@ -20,8 +21,8 @@ pub struct Evidence {
 /// One candidate in one selection step.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Candidate {
-    /// The cause's name (its effect kind, e.g. `compliance`).
-    pub cause: String,
+    /// The cause: its effect kind (`compliance` in files).
+    pub cause: EffectKind,
     /// Joint 1..N for a per-joint cause.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub joint: Option<usize>,
@@ -79,8 +80,8 @@ pub enum KeptOn {
 /// A cause found in the data.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Cause {
-    /// The cause's name (its effect kind, e.g. `compliance`).
-    pub cause: String,
+    /// The cause: its effect kind (`compliance` in files).
+    pub cause: EffectKind,
     /// Joint 1..N for per-joint effects.
     pub joint: Option<usize>,
     /// The cause's size from the final fit, in `unit`.
@@ -120,6 +121,18 @@ pub struct Cause {
 }
 
 impl Cause {
+    /// Whether it is the effect block of `kind` on `block_joint` (0-based, as effect blocks
+    /// number joints; the report's `joint` is 1-based).
+    pub fn is(&self, kind: EffectKind, block_joint: Option<usize>) -> bool {
+        self.cause == kind && self.joint == block_joint.map(|j| j + 1)
+    }
+    /// Its label, `compliance[j2]` (the joint 1-based), `thermal` for a whole-arm cause.
+    pub fn label(&self) -> String {
+        match self.joint {
+            Some(j) => format!("{}[j{j}]", self.cause),
+            None => self.cause.to_string(),
+        }
+    }
     /// One line: `compliance joint 2: compliance 9.66 ± 0.31 urad/Nm; held-out RMSE
     /// 0.0121 -> 0.0073 mm (p = 2.8e-25)`.
     pub fn summary(&self) -> String {

@@ -259,7 +259,7 @@ fn try_candidate(ctx: &Ctx, current: &Fitted, b: &EffectBlock, n_candidates: usi
     let p = (gain_p_value(current, &f, ctx.data.y.len()) * n_candidates as f64).min(1.0);
     let (size_sigmas, physical_sign) = size_check(&f, &ctx.data, ctx.groups.as_deref());
     let c = Candidate {
-        cause: b.kind.name().into(),
+        cause: b.kind,
         joint: b.joint.map(|j| j + 1),
         heldout_rmse_mm: rms(&f.oof),
         forward_rmse_mm: if b.varies_in_time() { forward_rmse(ctx, &f) } else { None },
@@ -377,7 +377,7 @@ pub(super) fn cause_reports(found: &[Found], model: &CalibModel, covs: &Covarian
             })
             .collect();
         causes.push(Cause {
-            cause: block.kind.name().into(),
+            cause: block.kind,
             joint: block.joint.map(|j| j + 1),
             magnitude: mag,
             unit,
@@ -416,14 +416,7 @@ pub(super) fn verdict_of(causes: &[Cause]) -> String {
     if causes.is_empty() {
         return "geometric_only".into();
     }
-    causes
-        .iter()
-        .map(|c| match c.joint {
-            Some(j) => format!("{}[j{j}]", c.cause),
-            None => c.cause.clone(),
-        })
-        .collect::<Vec<_>>()
-        .join(" + ")
+    causes.iter().map(Cause::label).collect::<Vec<_>>().join(" + ")
 }
 
 /// Held-out RMSE of the geometric model, the physical extension and an RBF compensator on the

@@ -248,8 +248,8 @@ fn effect_check(
     d.loads.joints = loads.clone();
     d.seed = s.seed;
     let (diag, _) = crate::diagnose::diagnose(&data, &d, &|_| {})?;
-    let named = diag.causes.iter().filter(|c| c.cause == kind.name()).map(|c| (c.joint.unwrap_or(0), c.magnitude, c.uncertainty)).collect();
-    let others = diag.causes.iter().filter(|c| c.cause != kind.name()).map(|c| c.joint.map_or(c.cause.clone(), |j| format!("{}[j{j}]", c.cause))).collect();
+    let named = diag.causes.iter().filter(|c| c.cause == kind).map(|c| (c.joint.unwrap_or(0), c.magnitude, c.uncertainty)).collect();
+    let others = diag.causes.iter().filter(|c| c.cause != kind).map(|c| c.label()).collect();
     let mut calib = CalibOptions::new(spec, Method::LM);
     calib.effects = vec![(kind, None)];
     calib.loads.joints = loads.clone();

@@ -319,7 +319,7 @@ fn causes_table(s: &mut String, d: &crate::diagnose::Diagnosis) {
             let _ = write!(
                 s,
                 "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{:.4} → {:.4}</td><td>{forward}</td><td>{:.1e}</td></tr>",
-                esc(&c.cause),
+                esc(c.cause.name()),
                 c.joint.map(|j| j.to_string()).unwrap_or_else(|| "–".into()),
                 esc(&c.quantity),
                 c.magnitude,

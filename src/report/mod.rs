@@ -507,12 +507,7 @@ impl DiagnosisFigures {
             }
             let without_mm = fit.residuals_mm(&x_without);
             let contribution_mm: Vec<f64> = without_mm.iter().zip(&after_mm).map(|(w, a)| w - a).collect();
-            let title = d
-                .causes
-                .iter()
-                .find(|c| c.cause == block.kind.name() && c.joint == block.joint.map(|j| j + 1))
-                .map(|c| c.summary())
-                .unwrap_or_else(|| block.label());
+            let title = d.causes.iter().find(|c| c.is(block.kind, block.joint)).map(|c| c.summary()).unwrap_or_else(|| block.label());
             causes.push(CauseEvidence { title, contribution_mm, without_mm, with_mm: after_mm.clone() });
         }
         let (tool_mm, instrument) = tool_points_and_instrument(r, &s);

@@ -78,14 +78,8 @@ pub fn bench_diagnose_ur10(runs: usize) -> Result<()> {
         let t0 = Instant::now();
         let (d, _) = diagnose(&ds, &opts, &|_| {})?;
         times.push(t0.elapsed().as_secs_f64());
-        let causes: Vec<String> = d
-            .causes
-            .iter()
-            .map(|c| {
-                let joint = c.joint.map(|j| format!("[j{j}]")).unwrap_or_default();
-                format!("{}{joint}: {} {:.2} ± {:.2} {}", c.cause, c.quantity, c.magnitude, c.uncertainty, c.unit)
-            })
-            .collect();
+        let causes: Vec<String> =
+            d.causes.iter().map(|c| format!("{}: {} {:.2} ± {:.2} {}", c.label(), c.quantity, c.magnitude, c.uncertainty, c.unit)).collect();
         let line = format!(
             "{}; held-out RMSE {:.4} -> {:.4} mm",
             if causes.is_empty() { d.verdict.clone() } else { causes.join(" + ") },

@@ -5,6 +5,7 @@
 #[cfg(feature = "rerun")]
 use crate::common;
 
+use twincal::calib::effects::EffectKind;
 use twincal::calib::pipeline::ModelSpec;
 use twincal::dataset::{Dataset, Row};
 use twincal::diagnose::hidden::{clean, hidden};
@@ -177,7 +178,7 @@ fn the_simulated_tour_shows_its_backlash() {
     opts.loads.joints.cable_tension_n = 6.0;
     let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
     let found: Vec<_> = d.causes.iter().map(|c| (&c.cause, c.joint, c.magnitude, c.uncertainty)).collect();
-    let c = d.causes.iter().find(|c| c.cause == "backlash" && c.joint == Some(2)).unwrap_or_else(|| panic!("no joint-2 backlash: {found:?}"));
+    let c = d.causes.iter().find(|c| c.cause == EffectKind::Backlash && c.joint == Some(2)).unwrap_or_else(|| panic!("no joint-2 backlash: {found:?}"));
     let e = (c.magnitude - truth_width).abs();
     assert!(e <= 3.0 * c.uncertainty || e <= 0.3 * truth_width, "width {} ± {} vs {truth_width}: {found:?}", c.magnitude, c.uncertainty);
     assert!(d.final_heldout_rmse_mm < 1.25 * d.final_train_rmse_mm && d.final_heldout_rmse_mm < 0.7 * d.baseline.heldout_rmse_mm, "{found:?}");
@@ -238,7 +239,7 @@ fn a_drift_behind_a_constant_temperature_column_is_named_over_time() {
     let data = Dataset { rows, source: "broken temperature sensor".into() };
     let opts = DiagnoseOptions::new(ModelSpec::parse("irb120", twincal::calib::pipeline::Parametrisation::Hayati).unwrap());
     let d = diagnose(&data, &opts, &|_| {}).unwrap().0;
-    assert!(d.causes.iter().any(|c| c.cause == "thermal" && c.joint.is_none()), "{}", d.verdict);
+    assert!(d.causes.iter().any(|c| c.cause == EffectKind::Thermal && c.joint.is_none()), "{}", d.verdict);
     // The model it writes runs on t: predict needs t, not temp.
     let (_, result) = diagnose(&data, &opts, &|_| {}).unwrap();
     assert!(result.columns_read().iter().all(|(c, _)| *c == "t"), "{:?}", result.columns_read());
@@ -336,12 +337,12 @@ fn joint_reading_faults_are_named_with_their_rows() {
         for f in &d.run_faults {
             let rows: Vec<usize> = (f.first_row - 1..f.last_row).collect();
             assert!(rows.iter().all(|r| g.truth.glitch_rows.contains(r)), "{name}: rows {}-{} are no hidden run", f.first_row, f.last_row);
-            assert!(["unexplained", "ambiguous", name].contains(&f.cause.as_str()), "{name}: rows {}-{} named {}", f.first_row, f.last_row, f.cause);
-            if f.cause == name {
+            assert!(["unexplained", "ambiguous", name].contains(&f.cause.name()), "{name}: rows {}-{} named {}", f.first_row, f.last_row, f.cause);
+            if f.cause.name() == name {
                 named += 1;
                 assert!(f.rms_corrected_mm < 0.1 * f.rms_as_logged_mm, "{f:?}");
             }
-            if f.cause == "joint_offset" {
+            if f.cause.name() == "joint_offset" {
                 let v = f.value.unwrap().abs();
                 assert!((0.95..1.55).contains(&v), "{f:?}");
             }
@@ -382,7 +383,7 @@ fn payload_runs_reveal_a_compliance_the_unloaded_arm_hides() {
         diagnose(&all, &DiagnoseOptions { loads: twincal::calib::pipeline::LoadOptions { joints: com, inertial: None }, ..opts.clone() }, &|_| {}).unwrap().0;
     let first = d.causes.first().unwrap_or_else(|| panic!("the payload runs: {}", d.verdict));
     eprintln!("payload runs: {} (truth {truth:.4} urad/Nm)", first.summary());
-    assert!(first.cause == "compliance" && first.joint == Some(3), "{}", d.verdict);
+    assert!(first.cause == EffectKind::Compliance && first.joint == Some(3), "{}", d.verdict);
     assert!((first.magnitude - truth).abs() < 3.0 * first.uncertainty, "{} vs {truth}", first.summary());
     let d = diagnose(&all, &opts, &|_| {}).unwrap().0;
     assert!(d.warnings.iter().any(|w| w.contains("no centre of mass is stated")), "{:?}", d.warnings);
@@ -403,7 +404,7 @@ fn a_joint_fault_with_a_reading_jump_is_named_as_both() {
     for f in &d.run_faults {
         eprintln!("rows {}-{}: {} ({})", f.first_row, f.last_row, f.cause, f.evidence);
     }
-    let named: Vec<_> = d.run_faults.iter().filter(|f| f.cause == "joint_offset+reading_offset").collect();
+    let named: Vec<_> = d.run_faults.iter().filter(|f| f.cause.name() == "joint_offset+reading_offset").collect();
     assert!(named.len() >= 2, "{:?}", d.run_faults);
     for f in named {
         let rows: Vec<usize> = (f.first_row - 1..f.last_row).collect();
@@ -452,7 +453,7 @@ fn a_warm_up_behind_a_lagging_sensor_is_sized_and_not_taken_for_moves() {
     let d = twincal::jobs::diagnose_loaded(&twincal::requests::DiagnoseRequest::default(), (opts, Default::default()), rows.clone(), &|_| {}).unwrap();
     let first = d.report.causes.first().unwrap_or_else(|| panic!("nothing named: {}", d.report.verdict));
     eprintln!("diagnose: {}", first.summary());
-    assert!(first.cause == "thermal" && first.joint.is_none(), "{}", d.report.verdict);
+    assert!(first.cause == EffectKind::Thermal && first.joint.is_none(), "{}", d.report.verdict);
     assert!((first.magnitude - 23.0).abs() < 3.0 * first.uncertainty, "{}", first.summary());
     assert!(d.report.setup.as_ref().is_none_or(|s| s.stations.len() <= 1 && s.mounts.len() <= 1), "set-up changes found: {:?}", d.report.setup);
     // A drift is kept on what comes later: chosen among the thermal forms forward in time, and

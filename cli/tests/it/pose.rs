@@ -204,7 +204,7 @@ fn a_small_effect_in_6d_poses_is_judged_on_the_positions_against_their_floor() {
     let [pos, ori] = d.noise_floor.by_group.as_slice() else { panic!("{:?}", d.noise_floor) };
     assert!(pos.measured && !ori.measured && pos.total_mm > 10.0 * ori.total_mm, "{:?}", d.noise_floor);
     let first = d.causes.first().unwrap_or_else(|| panic!("nothing named: {} {:?}", d.verdict, d.below_floor));
-    assert!(first.cause == "eccentricity" && first.joint == Some(2), "{}", d.verdict);
+    assert!(first.cause == twincal::calib::effects::EffectKind::Eccentricity && first.joint == Some(2), "{}", d.verdict);
     assert!(!d.warnings.iter().any(|w| w.contains("split leaks")), "{:?}", d.warnings);
     let p = d.final_heldout_rmse_position_mm.expect("the positions' held-out RMSE");
     assert!(p > d.final_heldout_rmse_mm && (p / pos.total_mm - 1.0).abs() < 0.15, "positions {p} against their floor {}", pos.total_mm);

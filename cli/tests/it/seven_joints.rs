@@ -64,7 +64,7 @@ fn a_hidden_compliance_on_a_seven_joint_arm_is_named_with_its_size() {
     let data = Dataset { rows: g.dataset.rows.iter().map(|r| Row { split: None, ..r.clone() }).collect(), source: s.name.clone() };
     let (d, _) = diagnose(&data, &DiagnoseOptions::new(wam()), &|_| {}).unwrap();
     let first = d.causes.first().unwrap_or_else(|| panic!("nothing named: {}", d.verdict));
-    assert_eq!((first.cause.as_str(), first.joint), ("compliance", Some(2)), "{:?}", d.causes);
+    assert_eq!((first.cause.name(), first.joint), ("compliance", Some(2)), "{:?}", d.causes);
     assert!((first.magnitude - 50.0).abs() < 3.0 * first.uncertainty, "{} ± {} vs 50 urad/Nm", first.magnitude, first.uncertainty);
     assert!(d.final_heldout_rmse_mm < 0.2 * first.heldout_rmse_before_mm);
 }

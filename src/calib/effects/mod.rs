@@ -154,6 +154,12 @@ pub enum EffectKind {
     Nonlinearity,
 }
 
+impl std::fmt::Display for EffectKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 impl EffectKind {
     /// Every kind, in the order selection and reports list them.
     pub const ALL: [EffectKind; 5] = [EffectKind::Compliance, EffectKind::Backlash, EffectKind::Thermal, EffectKind::Eccentricity, EffectKind::Nonlinearity];
