@@ -605,11 +605,11 @@ fn export(py: Python<'_>, model: PathBuf, out: PathBuf, options: &str) -> PyResu
     #[serde(deny_unknown_fields, default)]
     struct Options {
         format: Option<String>,
-        robot: Option<String>,
+        robot: Option<twincal::robot::RobotChoice>,
         against: Option<PathBuf>,
     }
     let o: Options = request("export", options)?;
-    let robot = o.robot.map(|r| if r == "irb120" { r } else { std::path::absolute(&r).map_or(r, |p| p.display().to_string()) });
+    let robot = o.robot.map(twincal::robot::RobotChoice::absolute);
     let job = jobs::ExportJob { model, out, format: o.format, robot, against: o.against };
     let summary = released(py, None, |_| job.run())?;
     serde_json::to_string(&summary).map_err(|e| TwincalError::new_err(format!("cannot serialise the summary: {e}")))

@@ -38,7 +38,7 @@ pub struct CompensateJob {
     /// flange frames (default: the model's base and flange frames are the controller's).
     #[cfg_attr(feature = "clap", arg(long, requires = "program"))]
     #[serde(default)]
-    pub robot: Option<String>,
+    pub robot: Option<crate::robot::RobotChoice>,
     /// Compensate the program's joint targets too (MoveAbsJ, E6AXIS, movej([...])): each is
     /// moved so that the calibrated arm puts the tool where the nominal one did.
     #[cfg_attr(feature = "clap", arg(long, requires = "program"))]
@@ -235,7 +235,7 @@ impl CompensateJob {
         let mut inputs: Vec<(&str, PathBuf)> = vec![("--model", self.model.clone())];
         inputs.extend(self.program.iter().map(|p| ("--program", p.clone())));
         inputs.extend(self.frames.iter().map(|p| ("--frames", p.clone())));
-        inputs.extend(self.robot.as_deref().and_then(crate::jobs::files::named_robot_input));
+        inputs.extend(self.robot.as_ref().and_then(crate::jobs::files::named_robot_input));
         let mut named: Vec<(&str, &std::path::Path)> = outputs.iter().map(|p| ("--filtered-dir", p.as_path())).collect();
         named.push(("--report", self.report.as_path()));
         check_outputs(&inputs, &named)?;
@@ -246,7 +246,7 @@ impl CompensateJob {
         let (files, encodings): (Vec<ProgramFile>, Vec<Encoding>) = self.program.iter().map(read).collect::<Result<Vec<_>>>()?.into_iter().unzip();
         let frames: Vec<ProgramFile> = self.frames.iter().map(|p| read(p).map(|(f, _)| f)).collect::<Result<_>>()?;
         let r = CalibResult::load(&self.model)?;
-        let robot = self.robot.as_deref().map(crate::jobs::files::named_robot).transpose()?;
+        let robot = self.robot.as_ref().map(crate::robot::RobotChoice::load).transpose()?;
         let mut warnings = Vec::new();
         if robot.is_none() {
             warnings.push(

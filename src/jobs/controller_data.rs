@@ -36,7 +36,7 @@ pub struct ControllerDataJob {
     /// (default: the model's flange and base frames are the controller's).
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
-    pub robot: Option<String>,
+    pub robot: Option<crate::robot::RobotChoice>,
     /// The file to write (.mod, .dat or .script); its stem names the module or data list.
     #[cfg_attr(feature = "clap", arg(long))]
     pub out: PathBuf,
@@ -117,7 +117,7 @@ impl ControllerDataJob {
     pub fn run(&self) -> Result<ControllerDataSummary> {
         let mut inputs = vec![("--model", self.model.clone())];
         inputs.extend(self.full.iter().map(|f| ("--full", f.clone())));
-        inputs.extend(self.robot.as_deref().and_then(crate::jobs::files::named_robot_input));
+        inputs.extend(self.robot.as_ref().and_then(crate::jobs::files::named_robot_input));
         check_outputs(&inputs, &[("--out", self.out.as_path())])?;
         if let Some(m) = self.tool_mass_kg.filter(|m| !(m.is_finite() && *m > 0.0 && *m <= crate::dataset::MAX_PAYLOAD_KG)) {
             return Err(Error::Invalid(format!("--tool-mass-kg must be in (0, {}] kg, got {m}", crate::dataset::MAX_PAYLOAD_KG)));
@@ -131,7 +131,7 @@ impl ControllerDataJob {
         let full = self.full.as_deref().map(CalibResult::load).transpose()?;
         let held_out = HeldOut::of(&r, full.as_ref())?;
         let mut data = ControllerData::of(&r)?;
-        if let Some(robot) = self.robot.as_deref().map(crate::jobs::files::named_robot).transpose()? {
+        if let Some(robot) = self.robot.as_ref().map(crate::robot::RobotChoice::load).transpose()? {
             let (base, tool0) = robot.controller_frames();
             data = data.in_controller_frames(&base, &tool0);
         }

@@ -29,7 +29,7 @@ pub struct ExportJob {
     /// has: the URDF's inertials, joint limits and continuous joints.
     #[cfg_attr(feature = "clap", arg(long))]
     #[serde(default)]
-    pub robot: Option<String>,
+    pub robot: Option<crate::robot::RobotChoice>,
     /// Another kinematics file of the same format (the maker's calibration: a UR's
     /// calibration.yaml) to compare with, joint by joint: how far each joint's frame, placed in
     /// its parent's, lies from the file's.
@@ -97,11 +97,11 @@ impl ExportJob {
             None => crate::export::format_of_path(&self.out)?,
         };
         let mut inputs: Vec<(&str, PathBuf)> = vec![("--model", self.model.clone())];
-        inputs.extend(self.robot.as_deref().and_then(super::files::named_robot_input));
+        inputs.extend(self.robot.as_ref().and_then(super::files::named_robot_input));
         inputs.extend(self.against.iter().map(|p| ("--against", p.clone())));
         check_outputs(&inputs, &[("--out", self.out.as_path())])?;
         let result = CalibResult::load(&self.model)?;
-        let nominal = self.robot.as_deref().map(super::files::named_robot).transpose()?;
+        let nominal = self.robot.as_ref().map(crate::robot::RobotChoice::load).transpose()?;
         if let Some(r) = &nominal {
             if r.dof() != result.model.chain.n_joints {
                 return Err(Error::Invalid(format!("--robot '{}' has {} joints, the model {}", r.name, r.dof(), result.model.chain.n_joints)));

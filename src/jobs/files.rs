@@ -12,18 +12,9 @@ use crate::sim::scenario::Scenario;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// The robot `--robot NAME` names: the embedded IRB 120 (`irb120`) or a URDF file.
-pub fn named_robot(name: &str) -> Result<crate::robot::Robot> {
-    match name {
-        "irb120" => Ok(crate::robot::Robot::irb120()),
-        path if path.ends_with(".urdf") => crate::robot::Robot::from_urdf_file(Path::new(path)),
-        other => Err(crate::error::Error::Invalid(format!("--robot '{other}': expected irb120 or a .urdf path"))),
-    }
-}
-
-/// `--robot NAME` as an input file, where it names one (not the embedded `irb120`).
-pub fn named_robot_input(name: &str) -> Option<(&'static str, PathBuf)> {
-    (name != "irb120").then(|| ("--robot", PathBuf::from(name)))
+/// `--robot` as an input file, where it names one (not the embedded arm).
+pub fn named_robot_input(robot: &crate::robot::RobotChoice) -> Option<(&'static str, PathBuf)> {
+    robot.file().map(|f| ("--robot", f.to_path_buf()))
 }
 
 /// The files a `--data` path reads: `DIR/dataset.csv` for a folder, the file otherwise (without

@@ -20,9 +20,9 @@ pub struct ProgramJob {
     #[cfg_attr(feature = "clap", arg(long, value_enum))]
     pub format: Language,
     /// The robot whose joint limits the poses must lie within: irb120 or a URDF path.
-    #[cfg_attr(feature = "clap", arg(long, default_value = "irb120"))]
-    #[serde(default = "default_robot")]
-    pub robot: String,
+    #[cfg_attr(feature = "clap", arg(long, default_value_t))]
+    #[serde(default)]
+    pub robot: crate::robot::RobotChoice,
     /// The program's name (a letter, then letters, digits and '_').
     #[cfg_attr(feature = "clap", arg(long, default_value = "twincal_tour"))]
     #[serde(default = "default_name")]
@@ -40,9 +40,6 @@ pub struct ProgramJob {
     pub out: PathBuf,
 }
 
-fn default_robot() -> String {
-    "irb120".into()
-}
 fn default_name() -> String {
     "twincal_tour".into()
 }
@@ -70,7 +67,7 @@ impl ProgramJob {
         if self.out.exists() && !self.out.is_dir() {
             return Err(Error::Invalid(format!("--out {} is a file; program writes a folder", self.out.display())));
         }
-        let robot = super::files::named_robot(&self.robot)?;
+        let robot = self.robot.load()?;
         let files: Vec<PathBuf> = self.format.file_names(&self.name).iter().map(|n| self.out.join(n)).collect();
         let mut inputs = vec![("--poses", self.poses.clone())];
         inputs.extend(super::files::named_robot_input(&self.robot));

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The arm the routines read the flange of: a calibration (`--model`) or a nominal robot.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct ArmChoice {
     /// A calibration result (result.json): its arm, geometry and joint offsets (the rows carry
@@ -21,19 +21,9 @@ pub struct ArmChoice {
     #[serde(default)]
     pub model: Option<PathBuf>,
     /// Without --model: the nominal robot, irb120 or a URDF path.
-    #[cfg_attr(feature = "clap", arg(long, default_value = "irb120"))]
-    #[serde(default = "default_robot")]
-    pub robot: String,
-}
-
-fn default_robot() -> String {
-    "irb120".into()
-}
-
-impl Default for ArmChoice {
-    fn default() -> ArmChoice {
-        ArmChoice { model: None, robot: default_robot() }
-    }
+    #[cfg_attr(feature = "clap", arg(long, default_value_t))]
+    #[serde(default)]
+    pub robot: crate::robot::RobotChoice,
 }
 
 impl ArmChoice {
@@ -52,7 +42,7 @@ impl ArmChoice {
                 (r.model, r.x)
             }
             None => {
-                let robot = super::files::named_robot(&self.robot)?;
+                let robot = self.robot.load()?;
                 let guess = crate::calib::model::DrawWireGuess { exit_m: [0.0; 3], offset_m: 0.0, tool_m: [0.0; 3] };
                 let m = crate::calib::model::CalibModel::dh(&robot, &guess, true);
                 let x = m.nominal.clone();

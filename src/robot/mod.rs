@@ -4,8 +4,11 @@
 //! Nothing here is specific to one robot: any URDF whose joints from the root link to the flange
 //! form a single serial chain of revolute joints (fixed joints may sit between them) loads the same way.
 
+pub mod choice;
 pub mod kinematics;
 pub mod statics;
+
+pub use choice::RobotChoice;
 
 use crate::error::{Error, Result};
 use kinematics::{Chain, ChainBuilder, Frame};
