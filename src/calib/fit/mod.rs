@@ -94,6 +94,11 @@ impl Samples {
     pub fn instrument(&self, i: usize) -> usize {
         self.inputs.get(i).map_or(0, |inp| inp.instrument.min(1))
     }
+    /// The values of `r` (one per reading value, row after row, as residuals come) that the
+    /// rows `rows` read by instrument `g` hold (a narrower instrument's zeros left out).
+    pub fn values_of(&self, r: &[f64], g: usize, rows: impl Iterator<Item = usize>) -> Vec<f64> {
+        rows.filter(|&i| self.instrument(i) == g).flat_map(|i| r[i * self.dim..i * self.dim + self.width(i)].iter().copied()).collect()
+    }
     /// The rows `idx`.
     pub fn subset(&self, idx: &[usize]) -> Samples {
         Samples {

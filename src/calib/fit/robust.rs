@@ -314,7 +314,7 @@ pub fn screen(model: &CalibModel, x0: &[f64], data: &Samples, rows: &[usize], ru
         r = ReadingFit { model, data: &corrected }.residuals_mm(&x);
         equalise_groups(&mut r, d, groups, &keep);
         for (g, stat) in by_instrument.iter_mut().enumerate() {
-            let kept_r: Vec<f64> = keep.iter().filter(|&&i| data.instrument(i) == g).flat_map(|&i| r[i * d..i * d + data.width(i)].iter().copied()).collect();
+            let kept_r = data.values_of(&r, g, keep.iter().copied());
             *stat = if kept_r.is_empty() { (f64::NAN, f64::NAN) } else { robust_scale(&kept_r) };
             stat.1 = stat.1.max(min_scale_mm);
         }

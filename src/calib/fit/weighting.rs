@@ -114,10 +114,7 @@ pub fn instrument_weights(model: &CalibModel, data: &Samples, rank_tol: f64) -> 
     let x = crate::calib::fit::robust::screen_fit(model, &plain, &model.nominal, rank_tol);
     let r = ReadingFit { model, data: &plain }.residuals_mm(&x);
     let d = data.dim;
-    let sd = [0, 1].map(|g| {
-        let v: Vec<f64> = (0..data.len()).filter(|&i| data.instrument(i) == g).flat_map(|i| r[i * d..i * d + data.width(i)].iter().copied()).collect();
-        crate::stats::robust_scale(&v).1
-    });
+    let sd = [0, 1].map(|g| crate::stats::robust_scale(&data.values_of(&r, g, 0..data.len())).1);
     if !(sd[0] > 0.0 && sd[1] > 0.0) {
         return None;
     }

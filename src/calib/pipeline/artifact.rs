@@ -253,11 +253,7 @@ fn disagreement(model: &CalibModel, x: &[f64]) -> Option<String> {
 /// "seated 0.0094 mm, faces 0.0004 mm".
 fn instrument_scatter(model: &CalibModel, x: &[f64], train: &Samples) -> String {
     let r = crate::calib::fit::ReadingFit { model, data: &train.unweighted() }.residuals_mm(x);
-    let d = train.dim;
-    let sd = |g: usize| {
-        let v: Vec<f64> = (0..train.len()).filter(|&i| train.instrument(i) == g).flat_map(|i| r[i * d..i * d + train.width(i)].iter().copied()).collect();
-        crate::stats::robust_scale(&v).1
-    };
+    let sd = |g: usize| crate::stats::robust_scale(&train.values_of(&r, g, 0..train.len())).1;
     format!("robust sd: seated {:.4} mm, faces {:.4} mm", sd(0), sd(1))
 }
 

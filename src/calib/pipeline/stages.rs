@@ -163,12 +163,7 @@ pub(super) fn test_outlier_stage(
     let d = fit.data.dim.max(1);
     // Each instrument's rows on their own scale, over the values they hold.
     let train = fit.data;
-    let by_instrument: Vec<(f64, f64)> = (0..2)
-        .map(|g| {
-            let v: Vec<f64> = (0..train.len()).filter(|&i| train.instrument(i) == g).flat_map(|i| r[i * d..i * d + train.width(i)].iter().copied()).collect();
-            crate::stats::robust_scale(&v)
-        })
-        .collect();
+    let by_instrument: Vec<(f64, f64)> = (0..2).map(|g| crate::stats::robust_scale(&train.values_of(&r, g, 0..train.len()))).collect();
     // Each value against its group's scale (a pose's axes have their own), reported by the
     // value farthest out.
     let groups = fit.model.measurement.def().value_groups();
