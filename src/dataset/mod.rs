@@ -55,6 +55,7 @@
 //! * **metres**: if every `L < 5` the lengths are taken to be metres (no draw-wire setup measures
 //!   under 5 mm everywhere); likewise a tracker's points when every coordinate is within ±5.
 
+mod beside;
 pub mod blocks;
 mod csv_io;
 mod load;

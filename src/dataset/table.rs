@@ -235,7 +235,7 @@ impl Layout {
             complete = vec![w];
         }
         seated_beside_points(&mut complete);
-        let faces_beside = faces_beside_sockets(&mut complete, source, &found())?;
+        let faces_beside = super::beside::faces_beside_sockets(&mut complete, source, &found())?;
         if complete.len() > 1 {
             let both = complete.iter().map(|m| format!("{} ({})", m.def().columns().join(", "), m.def().describe())).collect::<Vec<_>>().join(" and ");
             return Err(Error::data(source, format!("line 1: the header holds the readings of two instruments, {both}; keep one; header found: {}", found())));
@@ -441,12 +441,7 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
         let socket = Column::Feature(layout.feature.unwrap_or(FeatureKind::Socket));
         let mixed = layout.measurement.is_some_and(|m| m.feature().is_none()) && layout.pos[socket.index()].is_some();
         let seated = mixed && label(layout.cell(raw, socket), socket, line, src)?.is_some();
-        let face = layout.faces_beside.map(|m| face_beside(&layout, &cells, raw, m)).transpose()?.flatten();
-        let reading_mm = match &face {
-            Some((_, reading)) => reading.clone(),
-            None if seated => no_reading(&layout, &cells, raw, socket)?,
-            None => row_reading(&layout, &cells, raw, opts.euler)?,
-        };
+        let (face, reading_mm) = reading_at(&layout, &cells, raw, seated, opts.euler)?;
         let t_s = cells.number(layout.cell(raw, Column::T), Column::T, line)?;
         if let Some(t) = t_s {
             check_time(t, last_t, line, src)?;
@@ -484,10 +479,8 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
             other => other,
         });
         let (station, mount) = (station?, mount?);
-        let feature = match face {
-            Some((label, _)) => Some(Feature { kind: FeatureKind::Plane, label }),
-            None => feature?.map(|label| Feature { kind: layout.feature.unwrap_or(FeatureKind::Socket), label }),
-        };
+        let kind = if face.is_some() { FeatureKind::Plane } else { layout.feature.unwrap_or(FeatureKind::Socket) };
+        let feature = if face.is_some() { face } else { feature? }.map(|label| Feature { kind, label });
         let payload_kg = cells.number(layout.cell(raw, Column::Payload), Column::Payload, line)?;
         if let Some(m) = payload_kg {
             check_bounds(m, (0.0, MAX_PAYLOAD_KG), "payload (kg)", line, Column::Payload, src)?;
@@ -524,7 +517,7 @@ pub(super) fn from_table(table: RawTable, source: String, opts: &ReadOptions) ->
     }
     check_units(&rows, src, opts.angles)?;
     if layout.faces_beside.is_some() {
-        same_label_for_socket_and_face(&rows, src)?;
+        super::beside::same_label_for_socket_and_face(&rows, src)?;
     }
     Ok(Dataset { rows, source })
 }
@@ -588,6 +581,19 @@ fn no_reading(layout: &Layout, cells: &Cells, raw: &RawRow, feature: Column) -> 
     Ok(Vec::new())
 }
 
+/// A row's face (where it names one beside sockets) and its reading: a face's contact or
+/// indicator reading, a seated row's nothing (`seated`: a socket beside a tracker's points), or
+/// the instrument's columns.
+fn reading_at(layout: &Layout, cells: &Cells, raw: &RawRow, seated: bool, euler: Euler) -> Result<(Option<String>, Vec<f64>)> {
+    let face = layout.faces_beside.map(|m| face_beside(layout, cells, raw, m)).transpose()?.flatten();
+    let socket = Column::Feature(layout.feature.unwrap_or(FeatureKind::Socket));
+    match face {
+        Some((label, reading)) => Ok((Some(label), reading)),
+        None if seated => Ok((None, no_reading(layout, cells, raw, socket)?)),
+        None => Ok((None, row_reading(layout, cells, raw, euler)?)),
+    }
+}
+
 /// A row's face and reading where faces stand beside sockets (`m`: the faces' instrument):
 /// `None` for a row seated in a socket (which reads nothing: an indicator's cell left empty),
 /// else the face's label and the reading (a probe's contact reads nothing). A row naming both
@@ -626,26 +632,6 @@ fn face_beside(layout: &Layout, cells: &Cells, raw: &RawRow, m: Measurement) -> 
     }
 }
 
-/// An error where a socket and a face of one placement share a label (each is a station of
-/// its own, named `placement/label`).
-fn same_label_for_socket_and_face(rows: &[Row], src: &str) -> Result<()> {
-    let of = |kind: FeatureKind| -> std::collections::BTreeSet<(Option<&str>, &str)> {
-        rows.iter().filter_map(|r| r.feature.as_ref().filter(|f| f.kind == kind).map(|f| (r.station.as_deref(), f.label.as_str()))).collect()
-    };
-    let faces = of(FeatureKind::Plane);
-    match of(FeatureKind::Socket).into_iter().find(|k| faces.contains(k)) {
-        Some((p, l)) => Err(Error::data(
-            src,
-            format!(
-                "'{}' names a socket and a face{}: give the faces and the sockets labels of their own",
-                l,
-                p.map_or(String::new(), |p| format!(" at placement {p}"))
-            ),
-        )),
-        None => Ok(()),
-    }
-}
-
 /// A row's time `t` (s): plausible, and not before the previous row's (`last`: its time, line).
 pub(super) fn check_time(t: f64, last: Option<(f64, usize)>, line: usize, src: &str) -> Result<()> {
     check_bounds(t, (0.0, MAX_T_S), "time (s from the start of acquisition)", line, Column::T, src)?;
@@ -669,26 +655,6 @@ fn feature_named(pos: &[Option<usize>]) -> Option<FeatureKind> {
     // Sockets and faces both named: one ball seated in the sockets and touching the faces, each
     // row at one of them (the sockets' kind is the file's; the faces stand beside them).
     FeatureKind::ALL.into_iter().find(|k| pos[Column::Feature(*k).index()].is_some())
-}
-
-/// Faces touched beside sockets seated, one ball and one fit: where the header's instruments
-/// `complete` are a ball in sockets and a probe (or an indicator) on faces, the sockets' are the
-/// file's and the faces' instrument is returned. Sockets and faces beside a tracker's points
-/// (three instruments) are refused by name.
-fn faces_beside_sockets(complete: &mut Vec<Measurement>, source: &str, found: &str) -> Result<Option<Measurement>> {
-    let face = complete.iter().copied().find(|m| m.feature() == Some(FeatureKind::Plane));
-    let (true, Some(face)) = (complete.contains(&Measurement::Socket), face) else { return Ok(None) };
-    if complete.len() > 2 {
-        return Err(Error::data(
-            source,
-            format!(
-                "line 1: the header holds three instruments ({}); one fit takes sockets beside faces, or sockets beside a tracker's points, not more; header found: {found}",
-                complete.iter().map(|m| m.def().describe()).collect::<Vec<_>>().join(", ")
-            ),
-        ));
-    }
-    complete.retain(|m| *m == Measurement::Socket);
-    Ok(Some(face))
 }
 
 /// Whether the header (its columns' positions `pos`) holds instrument `m`'s columns (an
