@@ -613,12 +613,12 @@ fn print_tracker(clean: &[&DetectionItem], half: &[&DetectionItem]) {
     }
 }
 
-/// `twincal bench diagnose`: the 600-pose all-effects diagnosis timed (median of three, time per
-/// candidate), then `seeds` scenarios with one hidden effect (cause, joint and size from the
+/// `twincal bench diagnose`: the 600-pose all-effects diagnosis timed (median of `repeat` runs,
+/// time per candidate), then `seeds` scenarios with one hidden effect (cause, joint and size from the
 /// seed) and `seeds` clean ones: detection rate (cause and joint named first, size within its
 /// uncertainty band or 30 %) and false-alarm rate. With a shard, only its detection items
 /// (the timing is a single machine's and is left out).
-pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shard::Shard>, config: &DetectionConfig) -> Result<()> {
+pub fn bench_diagnose(seeds: u64, repeat: usize, bar: &dyn Progress, shard: Option<&crate::shard::Shard>, config: &DetectionConfig) -> Result<()> {
     use twincal::diagnose::diagnose;
     let ids = config.ids();
     if let Some(sh) = shard {
@@ -642,7 +642,7 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
     let mut per_candidate = Vec::new();
     let mut evaluated = 0;
     let mut verdict = String::new();
-    for _ in 0..3 {
+    for _ in 0..repeat {
         let t0 = Instant::now();
         let (d, _) = diagnose(&data, &opts, &|_| {})?;
         times.push(t0.elapsed().as_secs_f64());
@@ -659,7 +659,7 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
         median(&per_candidate) * 1e3
     );
     // 2. What the logging error's noise model costs: a realistic acquisition (sweeps, angles
-    // logged at 0.1°) diagnosed with and without it, median of three each.
+    // logged at 0.1°) diagnosed with and without it, median of `repeat` runs each.
     let (s, robot) = twincal::diagnose::hidden::realistic(20_001, 1)?;
     let data = strip(&run_generate(&s, &robot, &Silent)?);
     let timed = |choice: twincal::calib::fit::noise_model::NoiseChoice| -> Result<(f64, String)> {
@@ -670,7 +670,7 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
         };
         let mut t = Vec::new();
         let mut verdict = String::new();
-        for _ in 0..3 {
+        for _ in 0..repeat {
             let t0 = Instant::now();
             verdict = diagnose(&data, &opts, &|_| {})?.0.verdict;
             t.push(t0.elapsed().as_secs_f64());
@@ -679,7 +679,7 @@ pub fn bench_diagnose(seeds: u64, bar: &dyn Progress, shard: Option<&crate::shar
     };
     let ((on, v_on), (off, v_off)) = (timed(twincal::calib::fit::noise_model::NoiseChoice::Auto)?, timed(twincal::calib::fit::noise_model::NoiseChoice::Off)?);
     println!(
-        "  the logging noise model's cost: {} poses in sweeps, angles logged at 0.1 deg: {on:.2} s with it, {off:.2} s without (ratio {:.2}, medians of 3); found {v_on} / {v_off}",
+        "  the logging noise model's cost: {} poses in sweeps, angles logged at 0.1 deg: {on:.2} s with it, {off:.2} s without (ratio {:.2}, medians of {repeat}); found {v_on} / {v_off}",
         data.rows.len(),
         on / off
     );

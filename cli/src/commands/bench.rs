@@ -68,7 +68,7 @@ pub fn bench_command(a: &BenchArgs, quiet: bool) -> Result<()> {
         BenchTarget::Diagnose => {
             let config = crate::bench::diagnose::DetectionConfig::new(seeds, categories)?;
             let sh = crate::shard::from_options(shard.shard.as_deref(), shard.shard_out.as_deref(), false, "", &config, &[])?;
-            crate::bench::diagnose::bench_diagnose(seeds, progress(quiet).as_ref(), sh.as_ref(), &config)
+            crate::bench::diagnose::bench_diagnose(seeds, repeat, progress(quiet).as_ref(), sh.as_ref(), &config)
         }
         BenchTarget::Dsade => crate::bench::evo::bench_dsade(repeat, seeds),
         BenchTarget::Ik => crate::bench::evo::bench_ik(repeat),
@@ -105,7 +105,7 @@ fn takes(what: BenchTarget) -> Takes {
     match what {
         BenchTarget::Twin => t(true, false, None, "a scenario, the embedded one by default"),
         BenchTarget::Calib => t(false, true, Some(20), "the embedded irb120_geometric scenario"),
-        BenchTarget::Diagnose => t(false, false, Some(20), "hidden-effect scenarios over seeds"),
+        BenchTarget::Diagnose => t(false, false, Some(20), "hidden-effect scenarios over seeds; --repeat runs of the speed"),
         BenchTarget::Dsade => t(false, false, Some(30), "the embedded irb120_evo_nph scenario"),
         BenchTarget::Ik => t(false, false, None, "the embedded irb120_evo_nph scenario"),
         BenchTarget::Awnn => t(false, false, Some(5), "the embedded irb120_pso_ekf scenario"),

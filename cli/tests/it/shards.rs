@@ -192,9 +192,9 @@ fn a_hold_study_and_the_diagnosis_benchmark_shard_and_reduce_to_the_single_run()
     // bench diagnose: seed × (hidden, clean, six realistic acquisitions) are the items, here
     // the hidden and clean ones (the realistic ones are diagnosed in tests/diagnose.rs); the
     // sharded run leaves out the timing (one machine's) and prints the same detection lines and
-    // rates.
+    // rates (the unsharded run times its speed once: --repeat 1).
     let bench = ["bench", "diagnose", "--seeds", "1", "--categories", "hidden,clean"];
-    let single = stdout(&ok(twincal(&bench), "bench diagnose"));
+    let single = stdout(&ok(twincal(&[&bench[..], &["--repeat", "1"]].concat()), "bench diagnose"));
     let detection: Vec<String> = single.iter().skip_while(|l| !l.starts_with("    seed")).cloned().collect();
     assert!(detection.len() >= 3, "{single:?}");
     let parts: Vec<String> = (0..2).map(|i| p(&dir.path().join(format!("diag-{i}.jsonl")))).collect();
