@@ -22,6 +22,7 @@
 //! turn nearest its reference within the joint's limits (the nominal command's nearest zero,
 //! the compensated one's nearest the nominal), so that −12° is never written 348°.
 
+pub mod branches;
 pub mod verify;
 
 #[cfg(test)]

@@ -137,3 +137,70 @@ fn the_nominal_closed_form_finds_the_configuration_a_pose_came_from() {
         assert!(missed.is_empty(), "{name}: {} of {} missed: {:?}", missed.len(), probes.len(), &missed[..missed.len().min(3)]);
     }
 }
+
+/// Every solution of the calibrated arm for a pose (`Compensator::pose_solutions`, what `ik`
+/// answers pose targets with), on the IRB 120 and the UR10 calibrated on their trackers (no
+/// closed form of their own): away from singularities (`IkModel::pose_conditioning` above
+/// `NEAR_SINGULAR_MM_PER_RAD`), the configuration a pose came from is always among them to
+/// 1e-4 rad, and so is every solution that local descents from 60 random starts converge to; near
+/// one (solutions there are ill-conditioned, a joint's angle free to a degree or more), each pose
+/// still has a solution within `ik`'s default tolerances.
+#[test]
+fn every_solution_of_a_calibrated_pose_is_found() {
+    use crate::ik::{IkOptions, IkStatus, JacobianKind};
+    use rand::{Rng, SeedableRng};
+    for name in ["irb120_tracker", "ur10_tracker"] {
+        let (s, robot) = scenario(name, "");
+        let g = crate::sim::generate::generate(&s, &robot, &crate::sim::generate::Silent).unwrap();
+        let r = crate::calib::pipeline::calibrate(&g.dataset, None, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM))
+            .unwrap();
+        let x_nom = super::nominal_x(&r);
+        let c = super::Compensator::new(&r, &x_nom, None, 1e-4, 1e-4).unwrap();
+        // Near a singularity, `ik`'s default tolerances.
+        let at_defaults = super::Compensator::new(&r, &x_nom, None, 0.01, 0.001).unwrap();
+        let limits = r.model.joint_limits();
+        let calibrated = crate::ik::IkModel::new(&r.model, &r.x, None, limits.clone());
+        let (mut wc, mut wn) = c.works();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        // One solution per branch: the same modulo a turn.
+        let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| crate::ik::closed_form::wrap(x - y).abs() < 1e-4);
+        let (mut counts, mut missed, mut extra, mut singular) = (Vec::new(), Vec::new(), Vec::new(), 0);
+        for k in 0..120 {
+            let q: Vec<f64> = limits.iter().map(|(lo, hi)| lo + (hi - lo) * (0.05 + 0.9 * rng.random::<f64>())).collect();
+            let (p, rot) = c.predicted_pose(&q);
+            let all = c.pose_solutions(&p, &rot, JacobianKind::Analytic, &mut wc, &mut wn);
+            let found: Vec<Vec<f64>> = all.into_iter().filter(|s| s.status == IkStatus::Converged).map(|s| s.q).collect();
+            if calibrated.pose_conditioning(&q, &mut wc) < crate::ik::solver::NEAR_SINGULAR_MM_PER_RAD {
+                singular += 1;
+                let s = at_defaults.pose_solutions(&p, &rot, JacobianKind::Analytic, &mut wc, &mut wn);
+                assert!(s.iter().any(|s| s.status == IkStatus::Converged), "{name}: no solution near a singularity at {q:?}: {s:?}");
+                continue;
+            }
+            counts.push(found.len());
+            if !found.iter().any(|f| same(f, &q)) {
+                missed.push(q.iter().map(|v| v.to_degrees()).collect::<Vec<_>>());
+            }
+            if k % 4 == 0 {
+                for start in 0..60u64 {
+                    let o = IkOptions { local: true, tol_mm: 1e-4, tol_deg: 1e-4, max_iter: 200, seed: start, ..IkOptions::default() };
+                    let s = calibrated.solve_pose_from(&p, &rot, Some(&calibrated.random_q(&mut rng)), JacobianKind::Analytic, &o, &mut wc);
+                    if s.status == IkStatus::Converged && !found.iter().any(|f| same(f, &s.q)) {
+                        extra.push(s.q.iter().map(|v| v.to_degrees()).collect::<Vec<_>>());
+                    }
+                }
+            }
+        }
+        let mean = counts.iter().sum::<usize>() as f64 / counts.len() as f64;
+        eprintln!(
+            "{name}: {mean:.2} solutions per pose (most {}) on {} poses, {singular} near a singularity; the original missed {}, {} solutions found only by random starts",
+            counts.iter().max().unwrap(),
+            counts.len(),
+            missed.len(),
+            extra.len()
+        );
+        assert!(missed.is_empty(), "{name}: {missed:?}");
+        assert!(extra.is_empty(), "{name}: {:?}", &extra[..extra.len().min(3)]);
+        // At most the eight branches of a six-axis arm with a closed form, several within the limits.
+        assert!(mean >= 3.0 && counts.iter().all(|n| (1..=8).contains(n)) && counts.len() >= 100, "{name}: {counts:?}");
+    }
+}

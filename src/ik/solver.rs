@@ -487,6 +487,17 @@ impl<'a> IkModel<'a> {
         (p, r)
     }
 
+    /// How well the pose at `q` (rad) pins the joints down: the smallest singular value of the
+    /// pose Jacobian (the chain's, mm/rad; the orientation rows weighed by
+    /// [`crate::measurement::pose::LEVER_MM`] as the pose solve weighs them). Below
+    /// [`NEAR_SINGULAR_MM_PER_RAD`] the configuration is next to a singularity: a joint (or two
+    /// together) turns by a degree or more for a few hundredths of a mm.
+    pub fn pose_conditioning(&self, q: &[f64], w: &mut IkWork) -> f64 {
+        self.pose(q, w, Some(JacobianKind::Analytic));
+        let lever = crate::measurement::pose::LEVER_MM;
+        nalgebra::DMatrix::from_fn(6, q.len(), |i, k| if i < 3 { w.cols[k][i] } else { lever * w.rcols[k][i - 3] }).singular_values().min()
+    }
+
     /// Solves one pose target — the tool point `target` (mm) with the tool's orientation `rot`
     /// (base frame) — as [`Self::solve_from`] solves a point: damped least squares on the
     /// position error and the orientation error's rotation vector, weighted by
@@ -546,6 +557,9 @@ impl<'a> IkModel<'a> {
 fn gram<const D: usize>(cols: &[SVector<f64, D>]) -> SMatrix<f64, D, D> {
     cols.iter().fold(SMatrix::zeros(), |m, c| m + c * c.transpose())
 }
+
+/// Below this [`IkModel::pose_conditioning`] (mm/rad) a configuration is next to a singularity.
+pub const NEAR_SINGULAR_MM_PER_RAD: f64 = 5.0;
 
 /// Fewest random restarts of a pose solve ([`IkModel::solve_pose_from`]).
 pub const POSE_RESTARTS: usize = 24;

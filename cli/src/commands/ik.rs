@@ -41,8 +41,10 @@ pub struct IkArgs {
     /// A result.json written by `calibrate`.
     #[arg(long)]
     pub model: PathBuf,
-    /// CSV of target points with columns x,y,z in mm, in the robot's base frame (for a model
-    /// calibrated on a laser tracker's points too: ik solves for the tool point in the base).
+    /// CSV of targets in the robot's base frame: points (columns x,y,z in mm; for a model
+    /// calibrated on a laser tracker's points too, ik solves for the tool point in the base), or
+    /// poses (x,y,z with rx,ry,rz in degrees, --euler): every solution of the calibrated arm for
+    /// each pose, one row each.
     #[arg(long)]
     pub targets: Option<PathBuf>,
     /// N reachable targets: the true tool points of random configurations inside the
@@ -62,6 +64,14 @@ pub struct IkArgs {
     /// Model residual (mm) at which a target counts as solved.
     #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub tol_mm: f64,
+    /// Orientation residual (degrees) at which a pose target counts as solved.
+    #[arg(long, default_value_t = 0.001, allow_negative_numbers = true)]
+    pub tol_deg: f64,
+    /// The Euler convention of pose targets' rx, ry, rz: capitals for rotations about the
+    /// moving axes (intrinsic; XYZ is R = Rx(rx)·Ry(ry)·Rz(rz)), lower case for the fixed axes
+    /// (extrinsic; xyz is R = Rz(rz)·Ry(ry)·Rx(rx)).
+    #[arg(long, default_value_t = twincal::measurement::Euler::default())]
+    pub euler: twincal::measurement::Euler,
     #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     pub seed: u64,
     /// Per-target solutions.
@@ -168,6 +178,10 @@ pub fn ik(a: &IkArgs, quiet: bool) -> Result<()> {
     }
     twincal::output::check_outputs(&read, &[("--out", &a.out)])?;
     let check = twin_dir.as_deref().map(|d| TwinCheck::load(d, &r)).transpose()?;
+    if let Some(f) = a.targets.as_deref().filter(|f| super::ik_poses::holds_poses(f)) {
+        let request = super::ik_poses::PoseRequest { model: &a.model, tol_mm: a.tol_mm, tol_deg: a.tol_deg, euler: a.euler, out: &a.out };
+        return super::ik_poses::ik_poses(&request, f, &r, &kinds, check.as_ref(), quiet);
+    }
     let targets: Vec<Vector3<f64>> = match (&a.targets, a.random) {
         (Some(f), _) => read_targets(f)?,
         (None, Some(n)) => random_targets(&r, check.as_ref(), n, a.seed),

@@ -10,6 +10,7 @@ mod diagnose;
 mod export;
 mod generate;
 pub mod ik;
+mod ik_poses;
 mod plan;
 mod predict;
 mod program;

@@ -16,6 +16,7 @@ mod evonph;
 mod export;
 mod fuzz;
 mod generic;
+mod ik;
 mod inputs;
 mod iso9283;
 mod measurement;
