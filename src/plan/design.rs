@@ -372,6 +372,44 @@ pub fn design(pool: &Pool, n: usize, crit: &dyn Criterion, max_sweeps: usize) ->
     exchange(pool, greedy(pool, n), crit, max_sweeps)
 }
 
+/// `d` with no group `g` held by fewer than `min[g]` rows: the rows of every group (`group[c]`,
+/// candidate `c`'s) that `d` holds too few of are left out, and their places refilled one at a
+/// time by the candidate that raises log det M most among the groups it holds enough of (where
+/// it holds none, the group it holds most of). A placement needs its rows before
+/// a calibration can place it at all (a socket's ball turned about it three times, a face
+/// touched six times): a design that spends two rows on a socket spends them on nothing. The
+/// groups left out, with the rows they had.
+pub fn with_full_groups(pool: &Pool, d: &mut Design, group: &[usize], min: &[usize], crit: &dyn Criterion) -> Vec<(usize, usize)> {
+    let n = d.chosen.len();
+    let count = |chosen: &[usize], g: usize| chosen.iter().filter(|&&c| group[c] == g).count();
+    let mut groups: Vec<usize> = d.chosen.iter().map(|&c| group[c]).collect();
+    groups.sort_unstable();
+    groups.dedup();
+    let short: Vec<(usize, usize)> = groups.iter().map(|&g| (g, count(&d.chosen, g))).filter(|&(g, k)| k < min[g]).collect();
+    if short.is_empty() {
+        return short;
+    }
+    let mut full: Vec<usize> = groups.iter().copied().filter(|g| !short.iter().any(|(s, _)| s == g)).collect();
+    if full.is_empty() {
+        full.extend(groups.iter().copied().max_by_key(|&g| (count(&d.chosen, g), std::cmp::Reverse(g))));
+    }
+    d.chosen.retain(|&c| full.contains(&group[c]));
+    let mut taken = vec![false; pool.len()];
+    d.chosen.iter().for_each(|&c| taken[c] = true);
+    // Candidates of other groups are out of the running.
+    (0..pool.len()).filter(|&c| !full.contains(&group[c])).for_each(|c| taken[c] = true);
+    let mut m = pool.information(&d.chosen);
+    while d.chosen.len() < n {
+        crate::progress::check_stop();
+        let Some(c) = argmax(&gains(pool, &cholesky(&m), &taken)) else { break };
+        d.chosen.push(c);
+        taken[c] = true;
+        pool.add(&mut m, c, 1.0);
+    }
+    d.value = value_of(pool, &d.chosen, crit);
+    short
+}
+
 /// The greedy D-optimal start: `n` candidates added one at a time, each the one that raises
 /// log det M most.
 fn greedy(pool: &Pool, n: usize) -> Vec<usize> {

@@ -270,3 +270,21 @@ fn sockets_and_faces_fit_together() {
     let e = Dataset::load(&f).unwrap_err().to_string();
     assert!(e.contains("names a socket and a face"), "{e}");
 }
+
+/// A plan of few seatings (24 over two sockets at three placements) seats every socket it uses
+/// at least as often as a calibration needs to place it (3 turned configurations): the design
+/// had put 2 at one socket, which `calibrate` refuses; those went to the others, and the plan says
+/// so.
+#[test]
+fn a_plan_seats_every_socket_it_uses_often_enough_to_place_it() {
+    let (s, robot) = scenario("irb120_sockets", &|t| t);
+    let popts = twincal::plan::PlanOptions { n: 24, candidates: 600, seed: 1, ..Default::default() };
+    let plan = twincal::plan::artifact::plan(&s, &robot, &popts).unwrap();
+    let features = plan.features.as_ref().unwrap();
+    let mut counts: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+    features.iter().for_each(|f| *counts.entry(f.as_str()).or_default() += 1);
+    eprintln!("{counts:?}; {:?}", plan.warnings);
+    assert_eq!(features.len(), 24);
+    assert!(counts.values().all(|&k| k >= twincal::measurement::socket::MIN_ROWS_PER_SOCKET), "{counts:?}");
+    assert!(plan.warnings.iter().any(|w| w.contains("fewer rows than a calibration needs")), "{:?}", plan.warnings);
+}
