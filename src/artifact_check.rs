@@ -216,3 +216,95 @@ pub fn mixed(s: &Scenario, robot: &Robot, opts: &CalibOptions, points: usize) ->
         spacing_made_mm: art.made.first().map_or(f64::NAN, |s| s.2),
     })
 }
+
+/// An artifact's plan verified by seating on the twin: the planned seatings and random sets of
+/// as many, each made on the true arm, calibrated alone and judged on the tracker's points no fit
+/// saw (|Δp| RMS, mm).
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanCheck {
+    /// The scenario's seed (the true arm and the candidates).
+    pub seed: u64,
+    /// Seatings planned.
+    pub n: usize,
+    /// The arm calibrated on the planned seatings.
+    pub planned_mm: f64,
+    /// The arm calibrated on each random set of `n` of the plan's candidates.
+    pub random_mm: Vec<f64>,
+    /// Planned seatings the true arm could not make within its joint limits (skipped).
+    pub planned_skipped: usize,
+    /// The same over every random set.
+    pub random_skipped: usize,
+}
+
+/// The plan `opts` of the `[sockets]` scenario `s` verified by seating on the twin (the true arm
+/// of seed `opts.seed`): the planned seatings made as an operator makes them
+/// ([`crate::sim::artifact::seat_planned`]: the arm jogged to the planned joints, the ball pushed
+/// into its socket), and `random` random sets of as many of the plan's candidates made the same
+/// way ([`spread_set`]: as an engineer seats without a plan, as many in each socket); each
+/// calibrated with `copts` (the designed spacings stated) and judged on the tracker points
+/// ([`check`]'s).
+pub fn plan_check(s: &Scenario, robot: &Robot, opts: &crate::plan::PlanOptions, copts: &CalibOptions, random: usize) -> Result<PlanCheck> {
+    let art = s.sockets.as_ref().ok_or_else(|| Error::Invalid(format!("scenario {}: a plan is verified by seating on the twin for [sockets]", s.name)))?;
+    let plan = crate::plan::artifact::plan(s, robot, opts)?;
+    let candidates = crate::plan::artifact::nominal_candidates(s, robot, crate::plan::artifact::per_feature(s, opts.candidates)?, opts.seed)?;
+    let seating = |i: usize| -> Result<crate::sim::artifact::PlannedSeating> {
+        let row = &candidates.rows[i];
+        let pi = row.station.as_deref().and_then(|p| p.strip_prefix('p')).and_then(|p| p.parse::<usize>().ok()).map(|p| p - 1);
+        let k = row.feature.as_ref().and_then(|f| (0..art.layout_mm.len()).find(|&k| art.label(k) == f.label));
+        match (pi, k) {
+            (Some(pi), Some(k)) => Ok((pi, k, plan.candidates.q[i].clone())),
+            _ => Err(Error::Invalid(format!("candidate {} names no placement and socket of the artifact", i + 1))),
+        }
+    };
+    let truth = Scenario { seed: opts.seed, ..s.clone() };
+    let twin = crate::sim::generate::build_twin(&truth, robot);
+    let tracker = tracker_points(&truth, robot)?;
+    let spacings: Vec<KnownSpacing> =
+        art.designed_spacings_mm().into_iter().map(|(a, b, d)| KnownSpacing { sockets: Some((a, b)), mm: d, std_mm: None }).collect();
+    let copts = CalibOptions { spacings, ..copts.clone() };
+    let judged = |set: &[usize]| -> Result<(f64, usize)> {
+        let planned = set.iter().map(|&i| seating(i)).collect::<Result<Vec<_>>>()?;
+        let (data, skipped) = crate::sim::artifact::seat_planned(&twin, robot, art, truth.sampling.written_decimals(), truth.seed, &planned)?;
+        let r = calibrate(&data, None, &copts)?;
+        Ok((on_tracker(&r, &r.x, &tracker)?, skipped.len()))
+    };
+    let n = plan.design.chosen.len();
+    let (planned_mm, planned_skipped) = judged(&plan.design.chosen)?;
+    let random: Vec<(f64, usize)> = (0..random)
+        .map(|k| judged(&spread_set(&candidates, n, crate::seed::stream_seed(opts.seed, crate::seed::Stream::Plan, 3_000_000 + k as u64))))
+        .collect::<Result<_>>()?;
+    Ok(PlanCheck {
+        seed: opts.seed,
+        n,
+        planned_mm,
+        random_mm: random.iter().map(|r| r.0).collect(),
+        planned_skipped,
+        random_skipped: random.iter().map(|r| r.1).sum(),
+    })
+}
+
+/// `n` rows of `data` drawn at random as evenly over its stations (each socket or face at each
+/// placement) as `n` allows: each station's rows shuffled (seed `seed`), then taken a station at
+/// a time in turn.
+pub fn spread_set(data: &Dataset, n: usize, seed: u64) -> Vec<usize> {
+    use rand::seq::SliceRandom;
+    use rand::SeedableRng;
+    let mut groups: std::collections::BTreeMap<String, Vec<usize>> = std::collections::BTreeMap::new();
+    for (i, r) in data.rows.iter().enumerate() {
+        let label = crate::calib::pipeline::setup::label_of(r, crate::calib::model::SetupKind::Station).unwrap_or_default();
+        groups.entry(label).or_default().push(i);
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut groups: Vec<Vec<usize>> = groups.into_values().collect();
+    groups.iter_mut().for_each(|g| g.shuffle(&mut rng));
+    let mut out = Vec::with_capacity(n);
+    for k in 0.. {
+        let before = out.len();
+        out.extend(groups.iter().filter_map(|g| g.get(k)).take(n - out.len()));
+        if out.len() == n || out.len() == before {
+            break;
+        }
+    }
+    out.sort_unstable();
+    out
+}

@@ -26,3 +26,19 @@ pub fn legendre(v: f64) -> ([f64; 3], [f64; 3]) {
         [3.0 * v, 0.5 * (15.0 * v2 - 3.0), 0.125 * (140.0 * v2 * v - 60.0 * v)],
     )
 }
+
+/// The rotation vector (axis × angle, rad) of the rotation matrix `m`: the angle from its
+/// antisymmetric part and trace by atan2, so that a matrix a rounding error away from
+/// orthonormal near no turn at all gives a tiny vector, never NaN (an arccosine of a cosine a
+/// hair above one does); near a half turn, the rotation nearest `m`.
+pub fn rotation_vector(m: &nalgebra::Matrix3<f64>) -> nalgebra::Vector3<f64> {
+    let v = nalgebra::Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]) * 0.5;
+    let (sin, cos) = (v.norm(), ((m.trace() - 1.0) * 0.5).clamp(-1.0, 1.0));
+    if cos < -0.99 {
+        return nalgebra::Rotation3::from_matrix_eps(m, 1e-12, 100, nalgebra::Rotation3::identity()).scaled_axis();
+    }
+    if sin == 0.0 {
+        return nalgebra::Vector3::zeros();
+    }
+    v * (sin.atan2(cos) / sin)
+}

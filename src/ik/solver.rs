@@ -570,16 +570,7 @@ pub const POSE_RESTARTS: usize = 24;
 /// a cosine above one did and sent converged solves to restarts on other branches); near a half
 /// turn, the rotation nearest the product.
 pub fn turn(target: &Matrix3<f64>, r: &Matrix3<f64>) -> Vector3<f64> {
-    let m = target * r.transpose();
-    let v = Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]) * 0.5;
-    let (sin, cos) = (v.norm(), ((m.trace() - 1.0) * 0.5).clamp(-1.0, 1.0));
-    if cos < -0.99 {
-        return nalgebra::Rotation3::from_matrix_eps(&m, 1e-12, 100, nalgebra::Rotation3::identity()).scaled_axis();
-    }
-    if sin == 0.0 {
-        return Vector3::zeros();
-    }
-    v * (sin.atan2(cos) / sin)
+    crate::math::rotation_vector(&(target * r.transpose()))
 }
 
 /// A descent's error and Jacobian: target − model at q (D weighted coordinates), its columns.

@@ -47,7 +47,7 @@ pub fn per_feature(s: &Scenario, candidates: usize) -> Result<usize> {
 
 /// The scenario's artifact seated `per_feature` times per feature on the nominal arm, with seed
 /// `seed`: the candidates.
-fn nominal_candidates(s: &Scenario, robot: &Robot, per_feature: usize, seed: u64) -> Result<crate::dataset::Dataset> {
+pub(crate) fn nominal_candidates(s: &Scenario, robot: &Robot, per_feature: usize, seed: u64) -> Result<crate::dataset::Dataset> {
     let nominal = Scenario { geometry: Default::default(), effects: Default::default(), seed, ..with_per_feature(s, per_feature) };
     let rows = crate::sim::generate::artifact_rows(&nominal, robot).ok_or_else(|| Error::Invalid(format!("scenario {} has no artifact", s.name)))??;
     Ok(rows.dataset)

@@ -248,9 +248,10 @@ pub(crate) fn reach(twin: &Twin, p: &[f64], scale: f64, target: &Frame, q0: Vec<
     None
 }
 
-/// The rotation vector of `r` (axis times angle).
+/// The rotation vector of `r` (axis times angle; never NaN near no turn, where an arccosine of
+/// a cosine a rounding error above one had made every converged seating "unreachable").
 fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
-    nalgebra::Rotation3::from_matrix_unchecked(*r).scaled_axis()
+    crate::math::rotation_vector(r)
 }
 
 /// The flange's frame for the ball at `ball_at` (base) approaching along `approach` (unit,
@@ -347,4 +348,51 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
         }
     }
     Ok((Dataset { rows, source: "sockets".into() }, truth))
+}
+
+/// A planned seating: the placement and the socket (indices into the artifact's lists) and the
+/// joint angles (rad) the plan seats the ball from.
+pub type PlannedSeating = (usize, usize, Vec<f64>);
+
+/// Planned seatings made on the twin, as an operator makes them: the arm jogged to the planned
+/// joint angles, then the ball pushed into its socket (within the seating scatter) with the
+/// flange kept turned as it stands there; the encoders logged as [`seat`] logs them. One row per
+/// seating in the given order, but for those the arm cannot make within its limits (a planned
+/// configuration at a joint's limit that the true arm needs beyond it: the operator skips it),
+/// whose indices are returned beside; the scatter, the flanks and the time from `seed`.
+pub fn seat_planned(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u64, planned: &[PlannedSeating]) -> Result<(Dataset, Vec<usize>)> {
+    art.validate().map_err(Error::Invalid)?;
+    let (n, limits) = (robot.dof(), robot.limits());
+    let ball = crate::units::to_m(Vector3::from(art.ball_mm));
+    let seat = Normal::new(0.0, crate::units::to_m(art.seat_std_mm).max(1e-300)).map_err(|e| Error::Invalid(e.to_string()))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, Stream::Seating, 1 << 20));
+    let mut ws = FkWork::new(&twin.chain);
+    let (mut rows, mut skipped) = (Vec::with_capacity(planned.len()), Vec::new());
+    for (i, (pi, k, q)) in planned.iter().enumerate() {
+        let (Some(placement), true) = (art.placements.get(*pi), *k < art.layout_mm.len()) else {
+            return Err(Error::Invalid(format!("planned seating {}: no placement {} or socket {} on the artifact", i + 1, pi + 1, k + 1)));
+        };
+        let t = i as f64 * art.step_s;
+        let (p, scale) = twin.params_at(t);
+        let centre = placement.frame().point(&art.made_m(*k));
+        twin.chain.forward(q, &p, scale, &mut ws);
+        let rot = twin.chain.frame(&ws, twin.chain.flange()).rot;
+        let off = if art.seat_std_mm > 0.0 { Vector3::new(seat.sample(&mut rng), seat.sample(&mut rng), seat.sample(&mut rng)) } else { Vector3::zeros() };
+        let sides: Vec<f64> = (0..n).map(|_| if rng.random::<bool>() { 1.0 } else { -1.0 }).collect();
+        let target = Frame { rot, pos: centre + off - rot * ball };
+        let Some(q_link) = reach(twin, &p, scale, &target, q.clone(), &limits) else {
+            skipped.push(i);
+            continue;
+        };
+        let q_read = logged_angles(twin, &q_link, (&p, scale), &ball, &(-(rot * Vector3::z()) * art.preload_n), &sides);
+        rows.push(Row {
+            q_deg: q_read.iter().map(|v| crate::units::round_decimals(v.to_degrees(), decimals)).collect(),
+            t_s: Some(crate::units::round_decimals(t, crate::units::T_DECIMALS)),
+            split: Some(Split::Train),
+            station: Some(format!("p{}", pi + 1)),
+            feature: Some(crate::dataset::Feature::socket(art.label(*k))),
+            ..Default::default()
+        });
+    }
+    Ok((Dataset { rows, source: "planned seatings".into() }, skipped))
 }

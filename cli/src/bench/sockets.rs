@@ -6,7 +6,7 @@
 use super::compensate::mean_sd;
 use std::path::Path;
 use std::time::Instant;
-use twincal::artifact_check::{check, check_stated, held_out_placements, mixed, ArtifactCheck, MixedCheck, PlacementCheck};
+use twincal::artifact_check::{check, check_stated, held_out_placements, mixed, plan_check, ArtifactCheck, MixedCheck, PlacementCheck};
 use twincal::calib::pipeline::{CalibOptions, Method, ModelSpec, Parametrisation};
 use twincal::error::{Error, Result};
 use twincal::sim::scenario::Scenario;
@@ -103,7 +103,43 @@ pub fn bench_sockets(seeds: u64) -> Result<()> {
     rows(dir, seeds, &CASES, &VARIANTS)?;
     beside(dir, seeds)?;
     with_faces(dir, seeds)?;
-    held_out(dir, seeds)
+    held_out(dir, seeds)?;
+    planned(dir, seeds)
+}
+
+/// Seatings planned, then seated on the twin ([`plan_check`]), against random sets of as many.
+const PLANNED: usize = 24;
+/// Random sets per seed.
+const RANDOM_SETS: usize = 10;
+
+/// `plan` for the IRB 120's plate (the printed one as made) verified by seating on the twin: the
+/// planned seatings and random sets of as many from the same draws, each calibrated alone and
+/// judged on the tracker points.
+fn planned(dir: &Path, seeds: u64) -> Result<()> {
+    println!("\n# {PLANNED} seatings planned (`plan --scenario irb120_sockets.toml --poses {PLANNED}`) and seated on the twin ({seeds} seeds), against {RANDOM_SETS} random sets of {PLANNED} of its candidates seated the same way (as many in each socket): held-out tracker points' |Δp| RMS, mm\n");
+    println!("| seed | planned | random, median | random, best | random sets worse than the plan | seatings the true arm could not make (planned, random) |");
+    println!("|---|---|---|---|---|---|");
+    let (s0, robot, opts) = load_case(dir, "irb120_sockets", &[])?;
+    let mut ratios = Vec::new();
+    for seed in 1..=seeds {
+        let popts = twincal::plan::PlanOptions { n: PLANNED, candidates: 600, seed, ..Default::default() };
+        let c = plan_check(&s0, &robot, &popts, &opts, RANDOM_SETS)?;
+        let mut r = c.random_mm.clone();
+        r.sort_by(f64::total_cmp);
+        let median = twincal::stats::median(&r);
+        ratios.push(c.planned_mm / median);
+        println!(
+            "| {seed} | {:.4} | {median:.4} | {:.4} | {} of {} | {}, {} |",
+            c.planned_mm,
+            r[0],
+            r.iter().filter(|v| **v > c.planned_mm).count(),
+            r.len(),
+            c.planned_skipped,
+            c.random_skipped
+        );
+    }
+    println!("\nplanned / random median: median {:.2}, worst {:.2}", twincal::stats::median(&ratios), ratios.iter().copied().fold(0.0, f64::max));
+    Ok(())
 }
 
 /// A plate beside the block: its label, the edits of the scenario's text, and the stated
