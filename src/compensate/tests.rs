@@ -2,6 +2,16 @@ use super::verify::verify_seed;
 use crate::calib::pipeline::{CalibOptions, Method, ModelSpec, Parametrisation};
 use crate::sim::scenario::Scenario;
 
+/// The arm of scenario `name` calibrated on its twin's data (LM, Hayati), and its nominal vector.
+fn calibrated_on_its_twin(name: &str) -> (crate::calib::pipeline::CalibResult, Vec<f64>) {
+    let (s, robot) = scenario(name, "");
+    let g = crate::sim::generate::generate(&s, &robot, &crate::sim::generate::Silent).unwrap();
+    let r = crate::calib::pipeline::calibrate(&g.dataset, None, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM))
+        .unwrap();
+    let x_nom = super::nominal_x(&r);
+    (r, x_nom)
+}
+
 fn scenario(name: &str, extra: &str) -> (Scenario, crate::robot::Robot) {
     let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios")).join(format!("{name}.toml"));
     let text = std::fs::read_to_string(&path).unwrap().replacen("[sensor]", &format!("{extra}\n[sensor]"), 1);
@@ -113,11 +123,7 @@ fn a_targets_file_is_points_poses_or_this_arms_joints() {
 fn the_nominal_closed_form_finds_the_configuration_a_pose_came_from() {
     use rand::{Rng, SeedableRng};
     for name in ["irb120_tracker", "ur10_tracker"] {
-        let (s, robot) = scenario(name, "");
-        let g = crate::sim::generate::generate(&s, &robot, &crate::sim::generate::Silent).unwrap();
-        let r = crate::calib::pipeline::calibrate(&g.dataset, None, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM))
-            .unwrap();
-        let x_nom = super::nominal_x(&r);
+        let (r, x_nom) = calibrated_on_its_twin(name);
         let c = super::Compensator::new(&r, &x_nom, None, 0.001, 0.001).unwrap();
         assert!(c.closed_form(), "{name}");
         let limits = r.model.joint_limits();
@@ -150,11 +156,7 @@ fn every_solution_of_a_calibrated_pose_is_found() {
     use crate::ik::{IkOptions, IkStatus, JacobianKind};
     use rand::{Rng, SeedableRng};
     for name in ["irb120_tracker", "ur10_tracker"] {
-        let (s, robot) = scenario(name, "");
-        let g = crate::sim::generate::generate(&s, &robot, &crate::sim::generate::Silent).unwrap();
-        let r = crate::calib::pipeline::calibrate(&g.dataset, None, &CalibOptions::new(ModelSpec::nominal(robot.clone(), Parametrisation::Hayati), Method::LM))
-            .unwrap();
-        let x_nom = super::nominal_x(&r);
+        let (r, x_nom) = calibrated_on_its_twin(name);
         let c = super::Compensator::new(&r, &x_nom, None, 1e-4, 1e-4).unwrap();
         // Near a singularity, `ik`'s default tolerances.
         let at_defaults = super::Compensator::new(&r, &x_nom, None, 0.01, 0.001).unwrap();

@@ -82,18 +82,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
     let mut d = design::design(&prob.pool, opts.n, crit, opts.max_sweeps);
     let labels: Vec<String> =
         data.rows.iter().map(|r| crate::calib::pipeline::setup::label_of(r, crate::calib::model::SetupKind::Station).unwrap_or_default()).collect();
-    // Every socket (face) the plan seats in, seated as often as a calibration needs to place it.
-    let mut names: Vec<&String> = labels.iter().collect();
-    names.sort_unstable();
-    names.dedup();
-    let group: Vec<usize> = labels.iter().map(|l| names.binary_search(&l).expect("every label is listed")).collect();
-    let mut min = vec![crate::measurement::socket::MIN_ROWS_PER_SOCKET; names.len()];
-    for (row, &g) in data.rows.iter().zip(&group) {
-        if row.feature.as_ref().is_some_and(|f| f.kind == crate::measurement::FeatureKind::Plane) {
-            min[g] = crate::measurement::plane::MIN_ROWS_PER_FACE;
-        }
-    }
-    let short = design::with_full_groups(&prob.pool, &mut d, &group, &min, crit);
+    let short_note = full_features(&prob.pool, &mut d, &data, &labels, crit);
     // The tour: placement after placement (the artifact moved once each), each ordered.
     let motion = tour::Motion::new(robot, s.sampling.speed_fraction, s.acquisition.ramp_s, s.draw_wire.hold_s + s.draw_wire.window_s());
     let home = vec![0.0; robot.dof()];
@@ -118,13 +107,7 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
     };
     let sets: Vec<Vec<usize>> = (0..RANDOM_SETS).map(|k| random_set(all.len(), opts.n, stream_seed(opts.seed, Stream::Plan, 1 + k as u64))).collect();
     let mut warnings = Vec::new();
-    if !short.is_empty() {
-        let said: Vec<String> = short.iter().map(|(g, k)| format!("{} ({k} of {})", names[*g], min[*g])).collect();
-        warnings.push(format!(
-            "the design held fewer rows than a calibration needs to place a socket (face) at {}: those rows went to the others",
-            said.join(", ")
-        ));
-    }
+    warnings.extend(short_note);
     let used: std::collections::BTreeSet<&str> = toured.iter().filter_map(|&c| data.rows[c].station.as_deref()).collect();
     if used.len() < order.len() {
         warnings.push(format!(
@@ -158,5 +141,32 @@ pub fn plan(s: &Scenario, robot: &Robot, opts: &PlanOptions) -> Result<Plan> {
         candidates: Candidates { q: all.q.clone(), drawn: all.len(), refused: Default::default() },
         design: d,
         seconds: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// Every socket (face) the design `d` seats in seated as often as a calibration needs to place
+/// it ([`design::with_full_groups`], the candidates grouped by their `labels`); the warning
+/// naming those that were held too few, if any.
+fn full_features(
+    pool: &super::design::Pool,
+    d: &mut super::design::Design,
+    data: &crate::dataset::Dataset,
+    labels: &[String],
+    crit: &dyn super::design::Criterion,
+) -> Option<String> {
+    let mut names: Vec<&String> = labels.iter().collect();
+    names.sort_unstable();
+    names.dedup();
+    let group: Vec<usize> = labels.iter().map(|l| names.binary_search(&l).expect("every label is listed")).collect();
+    let mut min = vec![crate::measurement::socket::MIN_ROWS_PER_SOCKET; names.len()];
+    for (row, &g) in data.rows.iter().zip(&group) {
+        if row.feature.as_ref().is_some_and(|f| f.kind == crate::measurement::FeatureKind::Plane) {
+            min[g] = crate::measurement::plane::MIN_ROWS_PER_FACE;
+        }
+    }
+    let short = design::with_full_groups(pool, d, &group, &min, crit);
+    (!short.is_empty()).then(|| {
+        let said: Vec<String> = short.iter().map(|(g, k)| format!("{} ({k} of {})", names[*g], min[*g])).collect();
+        format!("the design held fewer rows than a calibration needs to place a socket (face) at {}: those rows went to the others", said.join(", "))
     })
 }
