@@ -240,6 +240,9 @@ fn load(src: Source, opts: &twincal::dataset::ReadOptions, truth: Option<&str>) 
 type Columns = Vec<(String, Py<PyAny>)>;
 /// One IK run for Python: label, q (n, N) degrees, status, iterations, residual (mm).
 type IkRunPy = (String, Py<PyAny>, Vec<String>, Vec<usize>, Py<PyAny>);
+/// One Jacobian's pose answers: label, target index per solution, joint angles, status, residual
+/// (mm), residual (degrees), conditioning (mm/rad).
+type IkPosesPy = (String, Vec<usize>, Py<PyAny>, Vec<String>, Py<PyAny>, Py<PyAny>, Py<PyAny>);
 
 /// A dataset's columns for Python: (name, float64 array or list of strings), in file order.
 fn columns_py(py: Python<'_>, ds: &Dataset) -> PyResult<Columns> {
@@ -400,6 +403,69 @@ impl PyCalibration {
                 let iterations = run.solutions.iter().map(|s| s.iterations).collect();
                 let residual = PyArray1::from_vec(py, run.solutions.iter().map(|s| s.residual_mm).collect()).into_any().unbind();
                 Ok((run.label, q, status, iterations, residual))
+            })
+            .collect()
+    }
+
+    /// Every solution of the calibrated arm for pose targets (n, 6): x, y, z (mm, base frame) and
+    /// rx, ry, rz (degrees, `euler`), as `twincal ik --targets` with orientation columns: per
+    /// Jacobian, one entry per solution (its target's index, 0-based), the joint angles
+    /// (degrees), status, model residuals (mm, degrees) and conditioning (mm/rad).
+    #[pyo3(signature = (targets, euler="XYZ", jacobian=None, tol_mm=0.01, tol_deg=0.001))]
+    fn ik_poses<'py>(
+        &self,
+        py: Python<'py>,
+        targets: PyReadonlyArray2<'py, f64>,
+        euler: &str,
+        jacobian: Option<&str>,
+        tol_mm: f64,
+        tol_deg: f64,
+    ) -> PyResult<Vec<IkPosesPy>> {
+        use twincal::ik::solver::JacobianChoice;
+        if targets.shape().len() != 2 || targets.shape()[1] != 6 {
+            return Err(TwincalError::new_err(format!(
+                "pose targets must be an (n, 6) array of x, y, z (mm) and rx, ry, rz (degrees), got shape {:?}",
+                targets.shape()
+            )));
+        }
+        let euler: twincal::measurement::Euler = euler.parse().map_err(|e: String| err(twincal::Error::Invalid(format!("euler: {e}"))))?;
+        let choice: JacobianChoice = jacobian.map(str::parse).transpose().map_err(err)?.unwrap_or_default();
+        let a = targets.as_array();
+        if let Some((i, row)) = a.rows().into_iter().enumerate().find(|(_, r)| r.iter().any(|v| !v.is_finite())) {
+            return Err(TwincalError::new_err(format!("pose target {} is not finite: {:?}", i + 1, row.to_vec())));
+        }
+        let poses: Vec<(nalgebra::Vector3<f64>, nalgebra::Matrix3<f64>)> =
+            a.rows().into_iter().map(|r| (nalgebra::Vector3::new(r[0], r[1], r[2]), euler.matrix([r[3], r[4], r[5]].map(f64::to_radians)))).collect();
+        let r = self.result();
+        let x_nom = twincal::compensate::nominal_x(r);
+        let c = twincal::compensate::Compensator::new(r, &x_nom, None, tol_mm, tol_deg).map_err(err)?;
+        let joints = r.model.chain.n_joints;
+        choice
+            .kinds()
+            .into_iter()
+            .map(|kind| {
+                let answers = py.detach(|| c.solve_poses(&poses, kind));
+                let rows: Vec<(usize, &twincal::ik::solver::PoseSolution, f64)> = answers
+                    .solutions
+                    .iter()
+                    .zip(&answers.conditioning)
+                    .enumerate()
+                    .flat_map(|(i, (ss, ks))| ss.iter().zip(ks).map(move |(s, k)| (i, s, *k)))
+                    .collect();
+                let q: Vec<f64> = rows.iter().flat_map(|(_, s, _)| s.q.iter().map(|v| v.to_degrees())).collect();
+                let q = PyArray1::from_vec(py, q).reshape([rows.len(), joints])?.into_any().unbind();
+                let column = |f: &dyn Fn(&(usize, &twincal::ik::solver::PoseSolution, f64)) -> f64| {
+                    PyArray1::from_vec(py, rows.iter().map(f).collect()).into_any().unbind()
+                };
+                Ok((
+                    format!("calibrated/{}", kind.name()),
+                    rows.iter().map(|(i, _, _)| *i).collect(),
+                    q,
+                    rows.iter().map(|(_, s, _)| s.status.name().to_string()).collect(),
+                    column(&|r| r.1.residual_mm),
+                    column(&|r| r.1.residual_deg),
+                    column(&|r| r.2),
+                ))
             })
             .collect()
     }

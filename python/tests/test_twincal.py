@@ -132,6 +132,29 @@ def test_ik_reaches_the_twins_true_tool_points(embedded):
     assert set(all_runs) == {"calibrated/analytic", "calibrated/neural", "calibrated/hybrid"}
 
 
+def test_ik_on_pose_targets_gives_the_command_lines_solutions(tmp_path):
+    """Pose targets (n, 6) get every solution of the calibrated arm, the same as ``twincal ik``
+    on the same poses; a pose with a NaN is refused by name."""
+    d = tmp_path / "tracker"
+    run_cli("generate", "--scenario", ROOT / "scenarios" / "irb120_tracker.toml", "--out", d)
+    run_cli("calibrate", "--data", d, "--out", tmp_path / "r.json")
+    poses = np.array([[400.0, 0.0, 500.0, 180.0, 0.0, 0.0], [450.0, 100.0, 450.0, 170.0, 10.0, 20.0], [300.0, -200.0, 600.0, 160.0, -20.0, 40.0]])
+    (tmp_path / "poses.csv").write_text("x,y,z,rx,ry,rz\n" + "\n".join(",".join(repr(float(v)) for v in p) for p in poses) + "\n")
+    run_cli("ik", "--model", tmp_path / "r.json", "--targets", tmp_path / "poses.csv", "--no-twin", "--out", tmp_path / "ik.csv")
+    lines = (tmp_path / "ik.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    rows = [dict(zip(head, l.split(","))) for l in lines[1:]]
+    sol = twincal.load_result(tmp_path / "r.json").ik(poses)
+    assert len(rows) == len(sol["status"]) >= 3
+    assert [int(r["target"]) - 1 for r in rows] == list(sol["target"])
+    assert [r["status"] for r in rows] == list(sol["status"])
+    cli_q = np.array([[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows])
+    assert np.allclose(cli_q, sol["q_deg"], atol=1e-6)
+    assert np.allclose([float(r["conditioning_mm_per_rad"]) for r in rows], sol["conditioning_mm_per_rad"], atol=1e-3)
+    with pytest.raises(twincal.TwincalError, match="pose target 2 is not finite"):
+        twincal.load_result(tmp_path / "r.json").ik(np.array([poses[0], [400.0, 0.0, np.nan, 180.0, 0.0, 0.0]]))
+
+
 def test_bad_input_raises_the_command_lines_message(embedded):
     _, data, truth = embedded
     bad = dict(data)

@@ -333,14 +333,39 @@ class Result:
             warnings.warn(warning, stacklevel=2)
         return values[:, 0] if values.shape[1] == 1 else values
 
-    def ik(self, targets: np.ndarray, *, jacobian: Optional[str] = None, tol_mm: float = 0.01, seed: int = 0) -> dict:
+    def ik(
+        self,
+        targets: np.ndarray,
+        *,
+        jacobian: Optional[str] = None,
+        tol_mm: float = 0.01,
+        seed: int = 0,
+        tol_deg: float = 0.001,
+        euler: str = "XYZ",
+    ) -> dict:
         """Inverse kinematics for target points (n, 3), mm in the robot's base frame, as
         ``twincal ik --targets``: ``{"q_deg", "status", "iterations", "residual_mm"}`` for one
         Jacobian (analytic, neural, hybrid; default: the command line's, hybrid), or a dict of
-        them by label for ``"all"``."""
+        them by label for ``"all"``. Pose targets (n, 6: x, y, z in mm, rx, ry, rz in degrees
+        in the convention ``euler``) get every solution of the calibrated arm, one entry each:
+        ``{"target" (0-based), "q_deg", "status", "residual_mm", "residual_deg",
+        "conditioning_mm_per_rad"}``."""
         t = np.ascontiguousarray(np.atleast_2d(_unmasked("targets", targets)))
+        if t.ndim == 2 and t.shape[1] == 6:
+            runs = {
+                label: {
+                    "target": np.array(target, dtype=int),
+                    "q_deg": q,
+                    "status": np.array(status, dtype=str),
+                    "residual_mm": res_mm,
+                    "residual_deg": res_deg,
+                    "conditioning_mm_per_rad": cond,
+                }
+                for label, target, q, status, res_mm, res_deg, cond in self._native.ik_poses(t, euler, jacobian, tol_mm, tol_deg)
+            }
+            return runs if len(runs) > 1 else next(iter(runs.values()))
         if t.ndim != 2 or t.shape[1] != 3:
-            raise TwincalError(f"targets must be an (n, 3) array of x, y, z in mm (or one point of 3), got shape {t.shape}")
+            raise TwincalError(f"targets must be an (n, 3) array of x, y, z in mm (or one point of 3), or (n, 6) poses with rx, ry, rz in degrees, got shape {t.shape}")
         runs = {
             label: {"q_deg": q, "status": np.array(status, dtype=str), "iterations": np.array(iters), "residual_mm": res}
             for label, q, status, iters, res in self._native.ik(t, jacobian, tol_mm, _seed(seed))

@@ -47,6 +47,11 @@ class Result:
     def ik(
         self, targets: npt.NDArray[np.float64], jacobian: Optional[str] = None, tol_mm: float = 0.01, seed: int = 0
     ) -> list[tuple[str, npt.NDArray[np.float64], list[str], list[int], npt.NDArray[np.float64]]]: ...
+    def ik_poses(
+        self, targets: npt.NDArray[np.float64], euler: str = "XYZ", jacobian: Optional[str] = None, tol_mm: float = 0.01, tol_deg: float = 0.001
+    ) -> list[
+        tuple[str, list[int], npt.NDArray[np.float64], list[str], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]
+    ]: ...
     def save(
         self, out: str, urdf: Optional[str] = None, rrd: Optional[str] = None, report: Optional[str] = None, scenario_out: Optional[str] = None
     ) -> None: ...

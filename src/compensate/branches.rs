@@ -45,6 +45,33 @@ impl Compensator<'_> {
         found
     }
 
+    /// [`Self::pose_solutions`] of every pose (`p` mm, `r`, base frame), in parallel (each
+    /// thread with its own workspaces), each solution with its conditioning
+    /// ([`Self::pose_conditioning`]), and each target's time.
+    pub fn solve_poses(&self, poses: &[(Vector3<f64>, Matrix3<f64>)], kind: JacobianKind) -> PoseAnswers {
+        use rayon::prelude::*;
+        let each: Vec<(Vec<PoseSolution>, Vec<f64>, f64)> = poses
+            .par_iter()
+            .map_init(
+                || self.works(),
+                |(wc, wn), (p, r)| {
+                    let t0 = std::time::Instant::now();
+                    let s = self.pose_solutions(p, r, kind, wc, wn);
+                    let seconds = t0.elapsed().as_secs_f64();
+                    let conditioning = s.iter().map(|s| self.pose_conditioning(&s.q, wc)).collect();
+                    (s, conditioning, seconds)
+                },
+            )
+            .collect();
+        let mut out = PoseAnswers { solutions: Vec::new(), conditioning: Vec::new(), seconds: Vec::new() };
+        for (s, k, t) in each {
+            out.solutions.push(s);
+            out.conditioning.push(k);
+            out.seconds.push(t);
+        }
+        out
+    }
+
     /// How well the calibrated arm's pose at `q` (rad) pins its joints down
     /// ([`crate::ik::IkModel::pose_conditioning`], mm/rad).
     pub fn pose_conditioning(&self, q: &[f64], wc: &mut IkWork) -> f64 {
@@ -75,6 +102,16 @@ impl Compensator<'_> {
         }
         starts
     }
+}
+
+/// Every pose target's answers ([`Compensator::solve_poses`]), in target order.
+pub struct PoseAnswers {
+    /// Each target's solutions ([`Compensator::pose_solutions`]).
+    pub solutions: Vec<Vec<PoseSolution>>,
+    /// Each solution's conditioning, mm/rad ([`crate::ik::IkModel::pose_conditioning`]).
+    pub conditioning: Vec<Vec<f64>>,
+    /// Each target's solve time, s.
+    pub seconds: Vec<f64>,
 }
 
 /// How far (mm) [`Compensator::pose_solutions`] also pulls a pose towards the base for the

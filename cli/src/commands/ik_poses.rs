@@ -4,9 +4,7 @@
 //! twin the true tool-point error of every solution.
 
 use nalgebra::{Matrix3, Vector3};
-use rayon::prelude::*;
 use std::path::Path;
-use std::time::Instant;
 use twincal::calib::pipeline::CalibResult;
 use twincal::compensate::{nominal_x, read_targets, Compensator, Target};
 use twincal::error::{Error, Result};
@@ -31,25 +29,7 @@ struct PoseRun {
 
 impl PoseRun {
     fn solve(c: &Compensator, kind: JacobianKind, poses: &[(Vector3<f64>, Matrix3<f64>)], check: Option<&TwinCheck>) -> PoseRun {
-        let timed: Vec<(Vec<PoseSolution>, Vec<f64>, f64)> = poses
-            .par_iter()
-            .map_init(
-                || c.works(),
-                |(wc, wn), (p, r)| {
-                    let t0 = Instant::now();
-                    let s = c.pose_solutions(p, r, kind, wc, wn);
-                    let seconds = t0.elapsed().as_secs_f64();
-                    let conditioning = s.iter().map(|s| c.pose_conditioning(&s.q, wc)).collect();
-                    (s, conditioning, seconds)
-                },
-            )
-            .collect();
-        let (mut solutions, mut conditioning, mut times) = (Vec::new(), Vec::new(), Vec::new());
-        for (s, k, t) in timed {
-            solutions.push(s);
-            conditioning.push(k);
-            times.push(t);
-        }
+        let twincal::compensate::branches::PoseAnswers { solutions, conditioning, seconds } = c.solve_poses(poses, kind);
         let true_error_mm = check.map(|tc| {
             solutions
                 .iter()
@@ -57,7 +37,7 @@ impl PoseRun {
                 .map(|(ss, (p, _))| ss.iter().map(|s| if s.status == IkStatus::Converged { (tc.true_point(&s.q) - p).norm() } else { f64::NAN }).collect())
                 .collect()
         });
-        PoseRun { label: format!("calibrated/{}", kind.name()), solutions, conditioning, true_error_mm, median_seconds: twincal::stats::median(&times) }
+        PoseRun { label: format!("calibrated/{}", kind.name()), solutions, conditioning, true_error_mm, median_seconds: twincal::stats::median(&seconds) }
     }
 
     fn converged(&self) -> impl Iterator<Item = &PoseSolution> {
