@@ -249,7 +249,7 @@ pub fn plan_check(s: &Scenario, robot: &Robot, opts: &crate::plan::PlanOptions, 
     let candidates = crate::plan::artifact::nominal_candidates(s, robot, crate::plan::artifact::per_feature(s, opts.candidates)?, opts.seed)?;
     let seating = |i: usize| -> Result<crate::sim::artifact::PlannedSeating> {
         let row = &candidates.rows[i];
-        let pi = row.station.as_deref().and_then(|p| p.strip_prefix('p')).and_then(|p| p.parse::<usize>().ok()).map(|p| p - 1);
+        let pi = row.station.as_deref().and_then(crate::sim::artifact::placement_index);
         let k = row.feature.as_ref().and_then(|f| (0..art.layout_mm.len()).find(|&k| art.label(k) == f.label));
         match (pi, k) {
             (Some(pi), Some(k)) => Ok((pi, k, plan.candidates.q[i].clone())),

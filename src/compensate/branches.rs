@@ -33,7 +33,7 @@ impl Compensator<'_> {
         for start in self.nominal_starts(p, r, wn) {
             let mut s = self.calibrated.solve_pose_from(p, r, Some(&start), kind, &local, wc);
             nearest_turns(&mut s.q, &start, &self.calibrated.limits);
-            if s.status == IkStatus::Converged && !found.iter().any(|f| f.q.iter().zip(&s.q).all(|(a, b)| wrap(a - b).abs() < SAME_SOLUTION_RAD)) {
+            if s.status == IkStatus::Converged && !found.iter().any(|f| within_turns(&f.q, &s.q, SAME_SOLUTION_RAD)) {
                 found.push(s);
             }
         }
@@ -89,7 +89,7 @@ impl Compensator<'_> {
         let mut starts: Vec<Vec<f64>> = Vec::new();
         let mut add = |mut q: Vec<f64>| {
             nearest_turns(&mut q, &zero, limits);
-            if !starts.iter().any(|s| s.iter().zip(&q).all(|(a, b)| wrap(a - b).abs() < NEW_START_RAD)) {
+            if !starts.iter().any(|s| within_turns(s, &q, NEW_START_RAD)) {
                 starts.push(q);
             }
         };
@@ -121,3 +121,8 @@ pub const PULL_MM: [f64; 2] = [0.5, 3.0];
 /// A start of the nominal arm farther than this from every other (rad, in some joint) is a
 /// branch of its own.
 pub const NEW_START_RAD: f64 = 0.05;
+
+/// Whether every joint of `a` lies within `tol` (rad) of `b`'s, modulo a turn.
+fn within_turns(a: &[f64], b: &[f64], tol: f64) -> bool {
+    a.iter().zip(b).all(|(x, y)| wrap(x - y).abs() < tol)
+}

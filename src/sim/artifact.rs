@@ -20,6 +20,17 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
+/// The label the twin gives its artifact's placement `i` (0-based) in a dataset's `placement`
+/// column: `p1`, `p2`, ...
+pub fn placement_label(i: usize) -> String {
+    format!("p{}", i + 1)
+}
+
+/// The placement (0-based) a label [`placement_label`] wrote names.
+pub fn placement_index(label: &str) -> Option<usize> {
+    label.strip_prefix('p')?.parse::<usize>().ok()?.checked_sub(1)
+}
+
 /// The file `generate` writes a socket dataset's truth to, beside dataset.csv.
 pub const SOCKETS_TRUTH_FILE: &str = "sockets.json";
 
@@ -284,7 +295,7 @@ pub fn seat(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, seed: u6
     let seat = Normal::new(0.0, crate::units::to_m(art.seat_std_mm).max(1e-300)).map_err(|e| Error::Invalid(e.to_string()))?;
     for (pi, placement) in art.placements.iter().enumerate() {
         let frame = placement.frame();
-        let plabel = format!("p{}", pi + 1);
+        let plabel = placement_label(pi);
         for k in 0..art.layout_mm.len() {
             let centre = frame.point(&art.made_m(k));
             let station = crate::dataset::feature_station(Some(&plabel), &art.label(k));
@@ -389,7 +400,7 @@ pub fn seat_planned(twin: &Twin, robot: &Robot, art: &Sockets, decimals: usize, 
             q_deg: q_read.iter().map(|v| crate::units::round_decimals(v.to_degrees(), decimals)).collect(),
             t_s: Some(crate::units::round_decimals(t, crate::units::T_DECIMALS)),
             split: Some(Split::Train),
-            station: Some(format!("p{}", pi + 1)),
+            station: Some(placement_label(*pi)),
             feature: Some(crate::dataset::Feature::socket(art.label(*k))),
             ..Default::default()
         });

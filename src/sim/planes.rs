@@ -226,7 +226,7 @@ pub fn touch(twin: &Twin, robot: &Robot, art: &Planes, decimals: usize, seed: u6
     let (mut rows, mut t) = (Vec::new(), 0.0);
     for (pi, placement) in art.placements.iter().enumerate() {
         let frame = placement.frame();
-        let plabel = format!("p{}", pi + 1);
+        let plabel = crate::sim::artifact::placement_label(pi);
         for (k, face) in art.faces.iter().enumerate() {
             let normal = frame.rot * face.unit_normal();
             let on = frame.point(&art.made_point_m(k));
